@@ -1,0 +1,27 @@
+"""Errors a user can cause and fix.
+
+Every ``NudgeError`` is printed by the command line as one ``Error: ...`` line and exits
+with status 1; anything else is a bug and shows a traceback.
+"""
+
+from __future__ import annotations
+
+
+class NudgeError(Exception):
+    """Base class of errors caused by the user's input, with a message saying how to fix it."""
+
+
+class ConfigError(NudgeError):
+    """An experiment file, analysis plan or ``--set`` override is invalid."""
+
+
+class DataError(NudgeError):
+    """An input table or log (metrics, calibration, questionnaires) is invalid."""
+
+
+class ProbabilityTableError(NudgeError, ValueError):
+    """A probability table is negative, mis-shaped, or has a row that does not sum to 1."""
+
+
+class RunFolderError(NudgeError):
+    """A run folder is missing, incomplete, or holds a different run."""

@@ -1,0 +1,224 @@
+"""The workspace, its discretisation, the robot's kinematics and the goal layouts.
+
+Conventions used everywhere in the toolkit:
+
+- continuous pose ``(x, y, theta)`` in world units and radians, ``theta`` in ``[0, 2 pi)``;
+- modes ``0 = x`` (Horizontal), ``1 = y`` (Vertical), ``2 = theta`` (Rotational);
+- the grid has ``N_CELLS_X x N_CELLS_Y`` cells, ``N_HEADINGS`` headings and ``N_MODES`` modes;
+  a discrete state ``(i, j, h, m)`` has the flat index ``((i * 10 + j) * 8 + h) * 3 + m``
+  (C order of an array shaped ``GRID_SHAPE``), the same order the study software used.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+X_MIN, X_MAX = 3.0, 45.0
+Y_MIN, Y_MAX = 2.0, 36.0
+ROBOT_RADIUS = 0.7
+GOAL_RADIUS = 0.7
+
+N_CELLS_X = 10
+N_CELLS_Y = 10
+N_HEADINGS = 8
+N_MODES = 3
+GRID_SHAPE = (N_CELLS_X, N_CELLS_Y, N_HEADINGS, N_MODES)
+N_STATES = N_CELLS_X * N_CELLS_Y * N_HEADINGS * N_MODES
+
+CELL_WIDTH = (X_MAX - X_MIN) / N_CELLS_X  # 4.2
+CELL_HEIGHT = (Y_MAX - Y_MIN) / N_CELLS_Y  # 3.4
+HEADING_STEP = 2.0 * np.pi / N_HEADINGS  # 45 degrees
+
+MODE_NAMES = ("x", "y", "theta")
+MODE_TITLES = ("Horizontal", "Vertical", "Rotational")
+
+# Start-corner regions and the goal region "diametrically opposite" each (cell index ranges,
+# inclusive), as the study's trial generator drew them.
+START_REGIONS: dict[str, tuple[tuple[int, int], tuple[int, int]]] = {
+    "tr": ((7, 8), (7, 8)),
+    "tl": ((0, 2), (7, 8)),
+    "bl": ((0, 2), (0, 2)),
+    "br": ((7, 8), (0, 2)),
+}
+GOAL_REGIONS: dict[str, tuple[tuple[int, int], tuple[int, int]]] = {
+    "tr": ((0, 5), (0, 3)),
+    "tl": ((4, 8), (0, 3)),
+    "bl": ((4, 8), (6, 8)),
+    "br": ((0, 5), (6, 8)),
+}
+CORNERS = ("tr", "tl", "bl", "br")
+#: Goals must be more than this many cells apart (orthogonal neighbours are forbidden).
+INTER_GOAL_MIN_CELLS = 1.0
+
+
+def wrap_angle(theta: np.ndarray | float) -> np.ndarray | float:
+    """Wrap angles into ``[0, 2 pi)``."""
+    return np.mod(theta, 2.0 * np.pi)
+
+
+def angle_difference(a: np.ndarray | float, b: np.ndarray | float) -> np.ndarray | float:
+    """Signed smallest difference ``a - b`` in ``[-pi, pi)``."""
+    return np.mod(np.asarray(a) - np.asarray(b) + np.pi, 2.0 * np.pi) - np.pi
+
+
+def cell_centre(i: np.ndarray | int, j: np.ndarray | int) -> np.ndarray:
+    """Continuous centre of cell ``(i, j)``.
+
+    Returns
+    -------
+    np.ndarray
+        ``(..., 2)`` array of ``(x, y)``.
+    """
+    x = X_MIN + CELL_WIDTH * np.asarray(i, dtype=float) + CELL_WIDTH / 2.0
+    y = Y_MIN + CELL_HEIGHT * np.asarray(j, dtype=float) + CELL_HEIGHT / 2.0
+    return np.stack(np.broadcast_arrays(x, y), axis=-1)
+
+
+def heading_angle(h: np.ndarray | int) -> np.ndarray | float:
+    """The continuous angle of heading index ``h`` (``h * 45 deg``)."""
+    return np.asarray(h) * HEADING_STEP
+
+
+def discretise(x: float, y: float, theta: float) -> tuple[int, int, int]:
+    """The cell and heading of a continuous pose: nearest cell centre, ``floor(theta / 45 deg)``."""
+    i = int(np.clip(np.floor((x - X_MIN) / CELL_WIDTH), 0, N_CELLS_X - 1))
+    j = int(np.clip(np.floor((y - Y_MIN) / CELL_HEIGHT), 0, N_CELLS_Y - 1))
+    h = int(np.floor(wrap_angle(theta) / HEADING_STEP)) % N_HEADINGS
+    return i, j, h
+
+
+def state_index(i: np.ndarray | int, j: np.ndarray | int, h: np.ndarray | int,
+                m: np.ndarray | int) -> np.ndarray | int:
+    """Flat index of the discrete state ``(i, j, h, m)`` (ints or broadcastable arrays)."""
+    return ((i * N_CELLS_Y + j) * N_HEADINGS + h) * N_MODES + m
+
+
+def state_coordinates(s: np.ndarray | int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Inverse of :func:`state_index`: ``(i, j, h, m)`` arrays for flat indices ``s``."""
+    return np.unravel_index(np.asarray(s), GRID_SHAPE)  # type: ignore[return-value]
+
+
+def all_state_coordinates() -> np.ndarray:
+    """``(S, 4)`` integer array of ``(i, j, h, m)`` for every flat state index, in order."""
+    return np.stack(np.unravel_index(np.arange(N_STATES), GRID_SHAPE), axis=-1)
+
+
+def clamp_position(x: float, y: float) -> tuple[float, float]:
+    """Keep a robot position inside the workspace shrunk by the robot radius (per axis)."""
+    x = min(max(x, X_MIN + ROBOT_RADIUS), X_MAX - ROBOT_RADIUS)
+    y = min(max(y, Y_MIN + ROBOT_RADIUS), Y_MAX - ROBOT_RADIUS)
+    return x, y
+
+
+def integrate_pose(pose: np.ndarray, velocity: np.ndarray, dt: float) -> np.ndarray:
+    """One Euler step of the point robot.
+
+    Parameters
+    ----------
+    pose
+        ``(3,)`` ``(x, y, theta)``.
+    velocity
+        ``(3,)`` ``(vx, vy, omega)`` in units/s and rad/s (positive omega is anticlockwise).
+    dt
+        Step length in seconds.
+
+    Returns
+    -------
+    np.ndarray
+        ``(3,)`` the new pose; the position slides along the workspace walls, theta wraps.
+    """
+    x, y = clamp_position(pose[0] + velocity[0] * dt, pose[1] + velocity[1] * dt)
+    return np.array([x, y, float(wrap_angle(pose[2] + velocity[2] * dt))])
+
+
+@dataclass(frozen=True)
+class Layout:
+    """One trial's world: where the robot starts and where the goals are.
+
+    Attributes
+    ----------
+    goal_cells
+        ``(G, 2)`` cell indices of the goals; goal 0 is the true goal.
+    goal_headings
+        ``(G,)`` heading indices of the goals.
+    start_cell, start_heading, start_mode
+        The robot's start: cell ``(i, j)``, heading index and mode index.
+    corner
+        The start corner (``tr``, ``tl``, ``bl``, ``br``).
+    """
+
+    goal_cells: np.ndarray
+    goal_headings: np.ndarray
+    start_cell: tuple[int, int]
+    start_heading: int
+    start_mode: int
+    corner: str
+
+    @property
+    def n_goals(self) -> int:
+        return int(self.goal_cells.shape[0])
+
+    @property
+    def goal_poses(self) -> np.ndarray:
+        """``(G, 3)`` continuous goal poses (cell centre, ``heading * 45 deg``)."""
+        xy = cell_centre(self.goal_cells[:, 0], self.goal_cells[:, 1])
+        return np.column_stack([xy, heading_angle(self.goal_headings)])
+
+    @property
+    def start_pose(self) -> np.ndarray:
+        """``(3,)`` continuous start pose."""
+        xy = cell_centre(*self.start_cell)
+        return np.array([xy[0], xy[1], float(heading_angle(self.start_heading))])
+
+
+def _region_cells(region: tuple[tuple[int, int], tuple[int, int]]) -> np.ndarray:
+    (x0, x1), (y0, y1) = region
+    xs, ys = np.meshgrid(np.arange(x0, x1 + 1), np.arange(y0, y1 + 1), indexing="ij")
+    return np.column_stack([xs.ravel(), ys.ravel()])
+
+
+def sample_layout(rng: np.random.Generator, corner: str, n_goals: int, start_mode: int) -> Layout:
+    """Draw one trial layout the way the study's generator did.
+
+    The start cell is uniform in the corner's region with a uniform heading; goals are drawn
+    one at a time, uniformly among the cells of the opposite region that are more than
+    ``INTER_GOAL_MIN_CELLS`` from every goal drawn before, each with a uniform heading.
+
+    Parameters
+    ----------
+    rng
+        Source of randomness.
+    corner
+        One of ``CORNERS``.
+    n_goals
+        Number of goals (goal 0 is the true one).
+    start_mode
+        Mode index the trial starts in.
+    """
+    if corner not in START_REGIONS:
+        raise ValueError(f"unknown corner {corner!r}; expected one of {CORNERS}")
+    starts = _region_cells(START_REGIONS[corner])
+    start = starts[rng.integers(len(starts))]
+    start_heading = int(rng.integers(N_HEADINGS))
+    candidates = _region_cells(GOAL_REGIONS[corner])
+    goals: list[np.ndarray] = []
+    for _ in range(n_goals):
+        if goals:
+            d = np.linalg.norm(candidates[:, None, :] - np.array(goals)[None, :, :], axis=-1)
+            valid = candidates[(d > INTER_GOAL_MIN_CELLS).all(axis=1)]
+        else:
+            valid = candidates
+        if len(valid) == 0:
+            raise ValueError(f"cannot place {n_goals} goals in the region opposite {corner}")
+        goals.append(valid[rng.integers(len(valid))])
+    headings = rng.integers(N_HEADINGS, size=n_goals)
+    return Layout(
+        goal_cells=np.array(goals, dtype=int),
+        goal_headings=np.asarray(headings, dtype=int),
+        start_cell=(int(start[0]), int(start[1])),
+        start_heading=start_heading,
+        start_mode=int(start_mode),
+        corner=corner,
+    )
