@@ -1,0 +1,388 @@
+"""Experiment files: pydantic models, preset lookup, ``--set`` overrides.
+
+An experiment file is TOML with the sections below; every key has a default, unknown keys
+fail with a "did you mean", and values are range-checked. Precedence: command-line flag >
+``--set section.key=value`` > file > defaults. The presets (``paper``, ``study-code``,
+``smoke``) live in the top-level ``experiments/`` folder and are shipped inside the wheel.
+"""
+
+from __future__ import annotations
+
+import difflib
+import tomllib
+from importlib import resources
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from nudgecli.errors import ConfigError
+
+PositiveFloat = Annotated[float, Field(gt=0)]
+Probability = Annotated[float, Field(ge=0, le=1)]
+
+
+class Section(BaseModel):
+    """Base of every section: unknown keys are errors, values are validated on assignment."""
+
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=True)
+
+
+def check_range(name: str, value: tuple[float, float], lo: float, hi: float) -> None:
+    """Raise ``ValueError`` unless ``lo <= value[0] <= value[1] <= hi``."""
+    if not (lo <= value[0] <= value[1] <= hi):
+        raise ValueError(f"{name} must be [low, high] with {lo} <= low <= high <= {hi}, got {list(value)}")
+
+
+class ExperimentMeta(Section):
+    """``[experiment]``: name and description of the experiment, and its default seed."""
+
+    name: str = "experiment"
+    description: str = ""
+    seed: int = Field(default=2022, ge=0)
+
+
+class StudySection(Section):
+    """``[study]``: the design of DESIGN.md section 2.7 and the trial's stopping rules."""
+
+    participants: int = Field(default=9, ge=1, le=10_000)
+    conditions: tuple[Literal["disambiguation", "control"], ...] = ("disambiguation", "control")
+    goal_counts: tuple[int, ...] = (3, 4)
+    corners: tuple[Literal["tr", "tl", "bl", "br"], ...] = ("tr", "tl", "bl", "br")
+    start_modes: tuple[Literal["x", "y", "theta"], ...] = ("x", "y", "theta")
+    blocks_per_condition: int = Field(default=3, ge=1)
+    rate_hz: PositiveFloat = 10.0
+    time_limit_s: PositiveFloat = 120.0
+    success_distance: PositiveFloat = 1.0
+    success_angle: PositiveFloat = 0.2
+    handover_idle_s: PositiveFloat = Field(
+        default=1.0, description="Idle time after the human's first input that hands the turn over.")
+
+    @model_validator(mode="after")
+    def _check(self) -> StudySection:
+        if len(set(self.conditions)) != len(self.conditions) or not self.conditions:
+            raise ValueError("conditions must be a non-empty list without repeats")
+        for g in self.goal_counts:
+            if not 2 <= g <= 8:
+                raise ValueError(f"goal_counts: {g} goals do not fit the goal regions; use 2 to 8")
+        if not self.goal_counts or not self.corners or not self.start_modes:
+            raise ValueError("goal_counts, corners and start_modes must not be empty")
+        trials = len(self.goal_counts) * len(self.corners) * len(self.start_modes)
+        if trials % self.blocks_per_condition:
+            raise ValueError(
+                f"blocks_per_condition={self.blocks_per_condition} does not divide the {trials} trials "
+                "of each condition")
+        return self
+
+    @property
+    def trials_per_condition(self) -> int:
+        return len(self.goal_counts) * len(self.corners) * len(self.start_modes)
+
+
+class InterfaceSection(Section):
+    """``[interface]``: the sip-and-puff driver's label bands and the human's command speeds."""
+
+    soft_threshold: Probability = 0.3
+    hard_threshold: Probability = 0.5
+    zero_threshold: Probability = 0.002
+    human_speed: PositiveFloat = 3.0
+    human_turn_rate: PositiveFloat = 1.95
+
+    @model_validator(mode="after")
+    def _check(self) -> InterfaceSection:
+        if not self.zero_threshold < self.soft_threshold <= self.hard_threshold:
+            raise ValueError("thresholds must satisfy zero_threshold < soft_threshold <= hard_threshold")
+        return self
+
+
+class ModelSection(Section):
+    """``[model]``: the human model the agent assumes (goal MDPs, epsilon-greedy policy, tables)."""
+
+    epsilon: Annotated[float, Field(ge=0, lt=1)] = 0.1
+    gamma: Annotated[float, Field(gt=0, lt=1)] = 0.96
+    move_reward: float = -10.0
+    mode_switch_reward: float = -100.0
+    bump_reward: float = -100.0
+    goal_reward: float = 100.0
+    tables: Literal["fitted", "default"] = Field(
+        default="fitted",
+        description="fitted: tables estimated from each participant's (simulated) calibration; "
+        "default: 0.8 one-hot + 0.2 uniform for everyone.")
+    default_table_noise: Probability = 0.2
+
+
+class InferenceSection(Section):
+    """``[inference]``: the goal-transition model, the study's forgetting and the confidence threshold."""
+
+    goal_stay: Annotated[float, Field(gt=0, le=1)] = Field(
+        default=1.0,
+        description="p(g_t = g_{t-1}); 1 is the identity of Eq. 7, else the rest is spread evenly.")
+    decay: bool = False
+    decay_delay: int = Field(default=10, ge=0)
+    decay_rate: Annotated[float, Field(ge=0)] = 0.008
+    decay_cap: int = Field(default=1000, ge=1)
+    kappa: Annotated[float, Field(gt=0, le=1)] = 0.65
+
+
+class DisambiguationSection(Section):
+    """``[disambiguation]``: D(s) = mi_weight * I(s) - distance_weight * R(s) and its search domain."""
+
+    estimator: Literal["exact", "monte_carlo"] = "exact"
+    samples: int = Field(default=250, ge=1)
+    weighting: Literal["belief", "unweighted"] = "belief"
+    mi_weight: Annotated[float, Field(ge=0)] = 1.0
+    distance_weight: Annotated[float, Field(ge=0)] = 1.0
+    distance: Literal["expected", "to_mean"] = "expected"
+    distance_unit: Literal["cells", "world"] = "cells"
+    window: Literal[3, 5] = 3
+    domain: Literal["window", "global"] = "window"
+    rotation_gate: Annotated[float, Field(ge=0)] | None = Field(
+        default=None, description="Drop theta-mode candidates farther than this from the mean goal.")
+
+
+class AssistanceSection(Section):
+    """``[assistance]``: blending during the human's turn and the autonomy's motion."""
+
+    rho1_factor: PositiveFloat = 1.1
+    rho2_factor: PositiveFloat = 1.2
+    rho3: Probability = 0.8
+    entropy_gate: bool = False
+    startup_delay_s: Annotated[float, Field(ge=0)] = 0.0
+    distance_weighting: bool = False
+    autonomy_speed: PositiveFloat = 5.0
+    autonomy_turn_rate: PositiveFloat = 1.5
+    arrival_tolerance: PositiveFloat = 0.1
+
+    @model_validator(mode="after")
+    def _check(self) -> AssistanceSection:
+        if self.rho2_factor <= self.rho1_factor:
+            raise ValueError("rho2_factor must be greater than rho1_factor")
+        return self
+
+
+class PopulationSection(Section):
+    """``[population]``: the ranges each simulated participant's true physiology is drawn from.
+
+    Every ``[low, high]`` pair is a uniform draw per participant. Pressure magnitudes are on
+    the device's scale ``[0, 1]`` (sip positive, puff negative in the stream).
+    """
+
+    soft_level: tuple[float, float] = (0.12, 0.24)
+    hard_level: tuple[float, float] = (0.62, 0.88)
+    soft_spread: tuple[float, float] = (0.03, 0.10)
+    hard_spread: tuple[float, float] = (0.06, 0.16)
+    mapping_error: tuple[float, float] = (0.0, 0.05)
+    epsilon: tuple[float, float] = (0.02, 0.15)
+    rest_s: tuple[float, float] = (0.3, 1.5)
+    operate_s: tuple[float, float] = (2.5, 5.0)
+    action_pause_s: tuple[float, float] = (0.1, 0.4)
+    hard_blow_s: tuple[float, float] = (0.3, 0.6)
+    reaction_s: tuple[float, float] = (0.3, 0.8)
+
+    @model_validator(mode="after")
+    def _check(self) -> PopulationSection:
+        for name, (lo, hi) in {
+            "soft_level": (0.0, 1.0), "hard_level": (0.0, 1.0), "soft_spread": (0.0, 1.0),
+            "hard_spread": (0.0, 1.0), "mapping_error": (0.0, 1.0), "epsilon": (0.0, 1.0),
+            "rest_s": (0.0, 60.0), "operate_s": (0.1, 120.0), "action_pause_s": (0.0, 10.0),
+            "hard_blow_s": (0.1, 5.0), "reaction_s": (0.0, 10.0),
+        }.items():
+            check_range(name, getattr(self, name), lo, hi)
+        return self
+
+
+class CalibrationSection(Section):
+    """``[calibration]``: the simulated Phases 1-2 (the study's prompting protocol)."""
+
+    mapping_blocks: int = Field(default=6, ge=1, description="Blocks of the 12 prompted actions.")
+    prompts_per_label: int = Field(default=12, ge=1)
+    prompt_s: PositiveFloat = 6.0
+    blank_s: PositiveFloat = 1.5
+    answer_timeout_s: PositiveFloat = 10.0
+
+
+class ExperimentConfig(Section):
+    """A whole experiment file."""
+
+    experiment: ExperimentMeta = ExperimentMeta()
+    study: StudySection = StudySection()
+    interface: InterfaceSection = InterfaceSection()
+    model: ModelSection = ModelSection()
+    inference: InferenceSection = InferenceSection()
+    disambiguation: DisambiguationSection = DisambiguationSection()
+    assistance: AssistanceSection = AssistanceSection()
+    population: PopulationSection = PopulationSection()
+    calibration: CalibrationSection = CalibrationSection()
+
+    def to_toml(self) -> str:
+        """The resolved experiment as TOML (every key, so a run folder documents itself)."""
+        return dump_toml(self.model_dump(mode="json", exclude_none=True))
+
+
+# --- presets, loading, overrides --------------------------------------------------------------
+
+def preset_dir(kind: Literal["experiments", "analysis"]) -> Path:
+    """The folder holding the shipped presets of ``kind`` (installed wheel or source tree)."""
+    try:
+        path = Path(str(resources.files(f"nudgecli.presets.{kind}")))
+        if path.is_dir() and any(path.glob("*.toml")):
+            return path
+    except ModuleNotFoundError:
+        pass
+    return Path(__file__).resolve().parents[1] / kind
+
+
+def list_presets(kind: Literal["experiments", "analysis"]) -> dict[str, Path]:
+    """Preset name -> file, sorted by name."""
+    return {p.stem: p for p in sorted(preset_dir(kind).glob("*.toml"))}
+
+
+def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) -> Path:
+    """A preset name or a TOML path -> an existing file, or a ``ConfigError`` with suggestions."""
+    candidate = Path(name_or_path)
+    if candidate.suffix == ".toml" or candidate.exists():
+        if not candidate.is_file():
+            raise ConfigError(f"{name_or_path}: no such file; give a preset name or a path to a .toml file")
+        return candidate
+    presets = list_presets(kind)
+    if name_or_path in presets:
+        return presets[name_or_path]
+    hint = difflib.get_close_matches(name_or_path, list(presets), n=1)
+    suggestion = f"did you mean {hint[0]!r}? " if hint else ""
+    what = "an experiment" if kind == "experiments" else "an analysis plan"
+    raise ConfigError(
+        f"{name_or_path!r} is neither {what} preset nor a file; {suggestion}"
+        f"presets: {', '.join(presets)} (see `nudge presets`)")
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    """Parse a TOML file, turning syntax errors into a ``ConfigError`` naming the file."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from exc
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: invalid TOML: {exc}") from exc
+
+
+def parse_override(text: str) -> tuple[list[str], Any]:
+    """``section.key=value`` -> (path, value); the value is read as a TOML literal, else a string."""
+    if "=" not in text:
+        raise ConfigError(f"--set {text!r}: expected section.key=value, e.g. --set study.participants=4")
+    key, raw = text.split("=", 1)
+    path = [p.strip() for p in key.strip().split(".") if p.strip()]
+    if len(path) < 2:
+        raise ConfigError(f"--set {text!r}: name the section and the key, e.g. disambiguation.window=5")
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()
+    return path, value
+
+
+def _apply(data: dict[str, Any], path: list[str], value: Any) -> None:
+    node = data
+    for part in path[:-1]:
+        child = node.setdefault(part, {})
+        if not isinstance(child, dict):
+            raise ConfigError(f"--set {'.'.join(path)}: {part!r} is not a section")
+        node = child
+    node[path[-1]] = value
+
+
+def _field_names(model: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
+    """The field names of the (nested) model at ``loc`` (for "did you mean")."""
+    current: Any = model
+    for part in loc:
+        field = current.model_fields.get(part) if isinstance(part, str) else None
+        annotation = field.annotation if field is not None else None
+        if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
+            break
+        current = annotation
+    return list(current.model_fields)
+
+
+def format_validation_error(exc: ValidationError, source: str, model: type[BaseModel]) -> str:
+    """One readable line naming the file, the field and the fix."""
+    first = exc.errors()[0]
+    loc = tuple(first["loc"])
+    where = ".".join(str(p) for p in loc) or "(top level)"
+    if first["type"] == "extra_forbidden":
+        names = _field_names(model, loc[:-1])
+        hint = difflib.get_close_matches(str(loc[-1]), names, n=1)
+        fix = f"did you mean {hint[0]!r}?" if hint else f"known keys: {', '.join(names)}"
+        return f"{source}: unknown key {where!r}; {fix}"
+    message = first["msg"].removeprefix("Value error, ")
+    value = first.get("input")
+    shown = "" if isinstance(value, dict) else f" (got {value!r})"
+    more = f" (and {len(exc.errors()) - 1} more problem(s))" if len(exc.errors()) > 1 else ""
+    return f"{source}: {where}: {message}{shown}{more}"
+
+
+def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = ()) -> ExperimentConfig:
+    """Read an experiment preset or file, apply ``--set`` overrides, validate.
+
+    Raises
+    ------
+    ConfigError
+        With one line naming the file (or ``--set``), the field and the fix.
+    """
+    path = resolve_preset(name_or_path, "experiments")
+    data = read_toml(path)
+    try:
+        ExperimentConfig.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(format_validation_error(exc, str(path), ExperimentConfig)) from None
+    for text in overrides:
+        key, value = parse_override(text)
+        _apply(data, key, value)
+        try:
+            ExperimentConfig.model_validate(data)
+        except ValidationError as exc:
+            raise ConfigError(format_validation_error(exc, f"--set {text}", ExperimentConfig)) from None
+    return ExperimentConfig.model_validate(data)
+
+
+def experiment_from_toml(text: str, source: str = "config.toml") -> ExperimentConfig:
+    """Validate an experiment given as TOML text (e.g. a run folder's ``config.toml``)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{source}: invalid TOML: {exc}") from exc
+    try:
+        return ExperimentConfig.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(format_validation_error(exc, source, ExperimentConfig)) from None
+
+
+def dump_toml(data: dict[str, Any]) -> str:
+    """A small TOML writer for nested dicts of scalars and lists (what our configs hold)."""
+    lines: list[str] = []
+    scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
+    for key, value in scalars.items():
+        lines.append(f"{key} = {_toml_value(value)}")
+    for key, value in data.items():
+        if isinstance(value, dict):
+            if lines:
+                lines.append("")
+            lines.append(f"[{key}]")
+            for k, v in value.items():
+                if isinstance(v, dict):
+                    raise ValueError("dump_toml supports two levels of nesting")
+                lines.append(f"{k} = {_toml_value(v)}")
+    return "\n".join(lines) + "\n"
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int | float):
+        return repr(value)
+    if isinstance(value, str):
+        escaped = value.replace("\\", "\\\\").replace('"', '\\"')
+        return f'"{escaped}"'
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise TypeError(f"cannot write {type(value).__name__} to TOML")
