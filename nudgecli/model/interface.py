@@ -93,6 +93,21 @@ def label_pressure(pressure: np.ndarray | float, soft_threshold: float = SOFT_TH
     return np.where(mag < zero_threshold, NO_INPUT, out).astype(int)
 
 
+def label_of_pressure(pressure: float, soft_threshold: float = SOFT_THRESHOLD_EARLY,
+                      hard_threshold: float = HARD_THRESHOLD_EARLY,
+                      zero_threshold: float = ZERO_THRESHOLD) -> int:
+    """The label code of one pressure sample; the scalar twin of :func:`label_pressure`."""
+    magnitude = abs(pressure)
+    if magnitude < zero_threshold:
+        return NO_INPUT
+    sip = pressure > 0
+    if magnitude <= soft_threshold:
+        return SOFT_SIP if sip else SOFT_PUFF
+    if magnitude > hard_threshold:
+        return HARD_SIP if sip else HARD_PUFF
+    return SIP_DEADBAND if sip else PUFF_DEADBAND
+
+
 def human_velocity(label: int, mode: int, speed: float = 3.0, turn_rate: float = 1.95) -> np.ndarray:
     """``Upsilon``: the robot command ``u_h`` of one measured label.
 

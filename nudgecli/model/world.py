@@ -11,6 +11,7 @@ Conventions used everywhere in the toolkit:
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,9 +84,10 @@ def heading_angle(h: np.ndarray | int) -> np.ndarray | float:
 
 def discretise(x: float, y: float, theta: float) -> tuple[int, int, int]:
     """The cell and heading of a continuous pose: nearest cell centre, ``floor(theta / 45 deg)``."""
-    i = int(np.clip(np.floor((x - X_MIN) / CELL_WIDTH), 0, N_CELLS_X - 1))
-    j = int(np.clip(np.floor((y - Y_MIN) / CELL_HEIGHT), 0, N_CELLS_Y - 1))
-    h = int(np.floor(wrap_angle(theta) / HEADING_STEP)) % N_HEADINGS
+    # plain floats: this runs every simulated step
+    i = min(max(math.floor((x - X_MIN) / CELL_WIDTH), 0), N_CELLS_X - 1)
+    j = min(max(math.floor((y - Y_MIN) / CELL_HEIGHT), 0), N_CELLS_Y - 1)
+    h = math.floor((theta % (2.0 * math.pi)) / HEADING_STEP) % N_HEADINGS
     return i, j, h
 
 
