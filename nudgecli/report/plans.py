@@ -1,0 +1,262 @@
+"""Analysis plans: which metrics, which definitions, which filters and which test settings.
+
+A plan is a TOML file. Two presets ship with the package (``analysis/paper.toml`` and
+``analysis/study-code.toml``, installed as ``nudgecli.presets.analysis``); any other plan is a
+path to a TOML file. Layout::
+
+    name = "paper"
+    description = "..."
+    conditions = ["disambiguation", "control"]   # preferred order (first = "a" of comparisons)
+
+    [metrics]
+    include = ["assistance_engagement", ...]      # default: all known metrics
+    engagement = "per_step"                       # or "per_turn" (study software)
+    strength = "per_step"                         # or "per_turn"
+    mode_switches = "any_turn"                    # or "human_turn"
+    success = "reached_goal"                      # or "last_inferred_goal"
+
+    [filters]                                     # metric = inclusive maximum; larger -> missing
+    mode_switches = 10
+
+    [stats]
+    kruskal_alpha = 0.05
+    posthoc = "conover"
+    p_adjust = "holm"
+    star_thresholds = [0.05, 0.01, 0.001]
+    star_comparison = "<"                         # or "<="
+    participant_aggregate = "median"
+
+    [bootstrap]
+    resamples = 2000
+    level = 0.95
+    seed = 0
+
+Unknown keys are refused with a "did you mean" suggestion naming the file and the key.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib.resources
+import itertools
+import tomllib
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+
+import nudgecli
+from nudgecli.errors import ConfigError
+from nudgecli.report.metrics import METRIC_NAMES
+
+#: The p-value adjustments ``statsmodels.stats.multitest.multipletests`` accepts, plus ``none``.
+P_ADJUST_METHODS = (
+    "none", "bonferroni", "sidak", "holm-sidak", "holm", "simes-hochberg", "hommel",
+    "fdr_bh", "fdr_by", "fdr_tsbh", "fdr_tsbky",
+)
+
+PRESET_PACKAGE = "nudgecli.presets.analysis"
+
+
+class _Section(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class MetricDefinitions(_Section):
+    """Which metrics to compute from a run folder, and which definition of each.
+
+    ``engagement``/``strength``: ``per_step`` is the paper (fraction of / mean over the human's
+    turn steps), ``per_turn`` the study software (mean over human turns of the per-turn value,
+    0 strength for turns without assistance). ``mode_switches``: ``any_turn`` counts every human
+    mode switch, ``human_turn`` only those inside the human's turns (the study software).
+    ``success``: ``reached_goal`` is the simulator's verdict, ``last_inferred_goal`` the study
+    software's proxy (the last inferred goal is the true goal).
+    """
+
+    include: tuple[str, ...] = METRIC_NAMES
+    engagement: Literal["per_step", "per_turn"] = "per_step"
+    strength: Literal["per_step", "per_turn"] = "per_step"
+    mode_switches: Literal["any_turn", "human_turn"] = "any_turn"
+    success: Literal["reached_goal", "last_inferred_goal"] = "reached_goal"
+
+    @field_validator("include")
+    @classmethod
+    def _known_metrics(cls, names: tuple[str, ...]) -> tuple[str, ...]:
+        for name in names:
+            if name not in METRIC_NAMES:
+                raise ValueError(f"unknown metric {name!r}{did_you_mean(name, METRIC_NAMES)}; "
+                                 f"known: {', '.join(METRIC_NAMES)}")
+        if not names:
+            raise ValueError("list at least one metric")
+        return names
+
+
+class StatsSettings(_Section):
+    """Settings of the trial-level and participant-level tests.
+
+    ``star_comparison`` is also the comparison of the Kruskal-Wallis gate (``p < alpha`` in the
+    paper, ``p <= alpha`` in the study software).
+    """
+
+    kruskal_alpha: float = Field(0.05, gt=0, lt=1)
+    posthoc: Literal["conover"] = "conover"
+    p_adjust: Literal[P_ADJUST_METHODS] = "holm"  # type: ignore[valid-type]
+    star_thresholds: tuple[float, ...] = (0.05, 0.01, 0.001)
+    star_comparison: Literal["<", "<="] = "<"
+    participant_aggregate: Literal["median", "mean"] = "median"
+
+    @field_validator("star_thresholds")
+    @classmethod
+    def _decreasing(cls, thresholds: tuple[float, ...]) -> tuple[float, ...]:
+        if not thresholds or any(not 0 < t < 1 for t in thresholds):
+            raise ValueError("give one or more thresholds between 0 and 1, e.g. [0.05, 0.01, 0.001]")
+        if any(b >= a for a, b in itertools.pairwise(thresholds)):
+            raise ValueError("thresholds must be strictly decreasing, e.g. [0.05, 0.01, 0.001]")
+        return thresholds
+
+
+class BootstrapSettings(_Section):
+    """The cluster bootstrap of the median difference (participants are resampled)."""
+
+    resamples: int = Field(2000, ge=100, le=1_000_000)
+    level: float = Field(0.95, gt=0, lt=1)
+    seed: int = Field(0, ge=0)
+
+
+class AnalysisPlan(_Section):
+    """A complete analysis plan (see the module docstring for the file layout)."""
+
+    name: str = "custom"
+    description: str = ""
+    conditions: tuple[str, ...] = ()
+    metrics: MetricDefinitions = MetricDefinitions()
+    filters: dict[str, float] = Field(default_factory=dict)
+    stats: StatsSettings = StatsSettings()
+    bootstrap: BootstrapSettings = BootstrapSettings()
+
+
+def did_you_mean(name: str, candidates: Any) -> str:
+    """``" (did you mean 'x'?)"`` for the closest candidate, or ``""`` when none is close."""
+    matches = difflib.get_close_matches(name, [str(c) for c in candidates], n=1, cutoff=0.6)
+    return f" (did you mean {matches[0]!r}?)" if matches else ""
+
+
+def _check_unknown_keys(model: type[BaseModel], data: dict[str, Any], source: str, prefix: str = "") -> None:
+    """Refuse keys the model does not know, recursively, with a suggestion."""
+    for key, value in data.items():
+        field = model.model_fields.get(key)
+        dotted = f"{prefix}{key}"
+        if field is None:
+            raise ConfigError(
+                f"{source}: unknown key {dotted!r}{did_you_mean(key, model.model_fields)}; "
+                f"valid keys{' in [' + prefix[:-1] + ']' if prefix else ''}: "
+                f"{', '.join(model.model_fields)}"
+            )
+        annotation = field.annotation
+        if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+            if not isinstance(value, dict):
+                raise ConfigError(f"{source}: {dotted!r} must be a table ([{dotted}]), got {value!r}")
+            _check_unknown_keys(annotation, value, source, prefix=f"{dotted}.")
+
+
+def plan_from_dict(data: dict[str, Any], source: str = "<plan>") -> AnalysisPlan:
+    """Validate a plan given as a dict (as read from TOML).
+
+    Parameters
+    ----------
+    data
+        The plan's keys and tables.
+    source
+        Where the plan came from, named in error messages.
+
+    Returns
+    -------
+    AnalysisPlan
+
+    Raises
+    ------
+    ConfigError
+        An unknown key (with a suggestion), a wrong type or a value out of range.
+    """
+    _check_unknown_keys(AnalysisPlan, data, source)
+    try:
+        return AnalysisPlan.model_validate(data)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(part) for part in first["loc"])
+        message = first["msg"].removeprefix("Value error, ")
+        raise ConfigError(f"{source}: {where}: {message} (got {first.get('input')!r})") from None
+
+
+def _preset_dir() -> Path | None:
+    """The folder holding the shipped plans (installed package, or the source tree's analysis/)."""
+    try:
+        resource = importlib.resources.files(PRESET_PACKAGE)
+        folder = Path(str(resource))
+        if folder.is_dir():
+            return folder
+    except (ModuleNotFoundError, TypeError):
+        pass
+    folder = Path(nudgecli.__file__).resolve().parents[1] / "analysis"
+    return folder if folder.is_dir() else None
+
+
+def plan_names() -> list[str]:
+    """The names of the shipped analysis plans (e.g. ``["paper", "study-code"]``)."""
+    folder = _preset_dir()
+    return sorted(p.stem for p in folder.glob("*.toml")) if folder else []
+
+
+def resolve_plan_path(plan: str | Path) -> Path:
+    """The TOML file of a plan given as a preset name or a path.
+
+    Raises
+    ------
+    ConfigError
+        Neither an existing file nor a known preset (with a suggestion).
+    """
+    candidate = Path(plan)
+    if candidate.is_file():
+        return candidate
+    text = str(plan)
+    looks_like_path = text.endswith(".toml") or "/" in text or "\\" in text
+    if not looks_like_path:
+        folder = _preset_dir()
+        if folder is not None and (folder / f"{text}.toml").is_file():
+            return folder / f"{text}.toml"
+    names = plan_names()
+    if looks_like_path:
+        raise ConfigError(f"analysis plan file {text!r} does not exist; give a TOML file or one of the "
+                          f"presets: {', '.join(names)}")
+    raise ConfigError(f"unknown analysis plan {text!r}{did_you_mean(text, names)}; presets: "
+                      f"{', '.join(names) or '(none found)'}, or give a path to a TOML file")
+
+
+def load_plan(plan: str | Path | AnalysisPlan) -> AnalysisPlan:
+    """Load and validate an analysis plan.
+
+    Parameters
+    ----------
+    plan
+        A preset name (``paper``, ``study-code``), a path to a TOML file, or a plan (returned as is).
+
+    Returns
+    -------
+    AnalysisPlan
+
+    Raises
+    ------
+    ConfigError
+        Unknown preset, missing file, TOML syntax error, unknown key, wrong type or range.
+    """
+    if isinstance(plan, AnalysisPlan):
+        return plan
+    path = resolve_plan_path(plan)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read the analysis plan: {exc}") from None
+    data.setdefault("name", path.stem)
+    return plan_from_dict(data, source=str(path))

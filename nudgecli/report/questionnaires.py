@@ -1,0 +1,211 @@
+"""NASA-TLX and Likert scores from a questionnaire table.
+
+Table format (CSV, one row per questionnaire response, e.g. one per participant and block):
+
+=========================== =============================================================
+column                      content
+=========================== =============================================================
+``participant``             participant id (required)
+``condition``               the condition the response is about (required)
+``block``                   the block after which it was answered (optional)
+``tlx_mental``,             the six NASA-TLX subscale ratings, 0..100 (all six or none):
+``tlx_physical``,           mental, physical, temporal, performance, effort, frustration
+``tlx_temporal``,
+``tlx_performance``,
+``tlx_effort``,
+``tlx_frustration``
+``tlx_pair_1`` ..           optional: the 15 pairwise comparisons, each naming the winning
+``tlx_pair_15``             subscale (``mental``, ``physical``, ... ; case-insensitive)
+``tlx_weight_<subscale>``   optional, instead of the pairs: the number of comparisons each
+                            subscale won (integers 0..5 summing to 15)
+``likert_<item>``           optional Likert items, integers 1..7 (1 strongly disagree,
+                            7 strongly agree)
+=========================== =============================================================
+
+An empty cell is a missing answer: that score is missing for that response. Scores:
+
+- ``tlx_raw``: the mean of the six subscale ratings (the paper's "raw TLX");
+- ``tlx_weighted``: ``sum(rating * wins) / 15`` (only with pairs or weights);
+- ``likert_<item>``: the item's rating.
+
+The scores get the same statistics as the trial metrics (:mod:`nudgecli.report.stats`), with
+responses in place of trials.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from nudgecli.errors import DataError
+
+TLX_SUBSCALES = ("mental", "physical", "temporal", "performance", "effort", "frustration")
+TLX_RATING_COLUMNS = tuple(f"tlx_{s}" for s in TLX_SUBSCALES)
+TLX_PAIR_COLUMNS = tuple(f"tlx_pair_{i}" for i in range(1, 16))
+TLX_WEIGHT_COLUMNS = tuple(f"tlx_weight_{s}" for s in TLX_SUBSCALES)
+TLX_COMPARISONS = 15
+LIKERT_PREFIX = "likert_"
+LIKERT_RANGE = (1, 7)
+TLX_RANGE = (0.0, 100.0)
+
+
+def read_questionnaires(path: str | Path) -> pd.DataFrame:
+    """Read a questionnaire CSV (see the module docstring) without interpreting it.
+
+    Raises
+    ------
+    DataError
+        The file is missing, empty or not CSV.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"questionnaire file {path} does not exist; give a CSV file with participant, "
+                        "condition and tlx_*/likert_* columns")
+    try:
+        table = pd.read_csv(path)
+    except pd.errors.EmptyDataError:
+        raise DataError(f"{path} is empty; it needs a header row and one row per response") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path} is not a readable CSV file: {exc}") from None
+    return table
+
+
+def _numeric_column(table: pd.DataFrame, column: str, source: str) -> pd.Series:
+    values = pd.to_numeric(table[column], errors="coerce")
+    bad = table[column].notna() & values.isna()
+    if bad.any():
+        row = int(np.flatnonzero(bad.to_numpy())[0])
+        raise DataError(f"{source}: column {column!r} must be numeric; row {row + 2} holds "
+                        f"{table[column].iloc[row]!r} (write a number or leave the cell empty)")
+    return values.astype(float)
+
+
+def _check_range(values: pd.Series, column: str, low: float, high: float, source: str,
+                 integer: bool = False) -> None:
+    outside = values.notna() & ((values < low) | (values > high))
+    if integer:
+        outside |= values.notna() & (values != np.round(values))
+    if outside.any():
+        row = int(np.flatnonzero(outside.to_numpy())[0])
+        kind = "integers" if integer else "values"
+        raise DataError(f"{source}: column {column!r} must hold {kind} from {low:g} to {high:g}; row "
+                        f"{row + 2} holds {values.iloc[row]!r}")
+
+
+def _pair_wins(table: pd.DataFrame, source: str) -> np.ndarray:
+    """``(rows, 6)`` wins per subscale from the 15 ``tlx_pair_*`` columns (NaN where unanswered)."""
+    wins = np.zeros((len(table), len(TLX_SUBSCALES)))
+    unanswered = np.zeros(len(table), dtype=bool)
+    for column in TLX_PAIR_COLUMNS:
+        raw = table[column]
+        names = raw.astype("string").str.strip().str.lower()
+        names = names.str.removesuffix(" demand").str.removesuffix("_demand")
+        missing = raw.isna().to_numpy() | (names == "").fillna(True).to_numpy()
+        valid = names.isin(TLX_SUBSCALES).fillna(False).to_numpy()
+        bad = ~missing & ~valid
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            raise DataError(f"{source}: column {column!r} row {row + 2} holds {raw.iloc[row]!r}; name "
+                            f"the winning subscale: {', '.join(TLX_SUBSCALES)}")
+        unanswered |= missing
+        for index, subscale in enumerate(TLX_SUBSCALES):
+            wins[:, index] += (names == subscale).fillna(False).to_numpy()
+    wins[unanswered] = np.nan
+    return wins
+
+
+def _weight_wins(table: pd.DataFrame, source: str) -> np.ndarray:
+    """``(rows, 6)`` wins per subscale from the ``tlx_weight_*`` columns."""
+    wins = np.column_stack([_numeric_column(table, c, source).to_numpy() for c in TLX_WEIGHT_COLUMNS])
+    for index, column in enumerate(TLX_WEIGHT_COLUMNS):
+        _check_range(pd.Series(wins[:, index]), column, 0, 5, source, integer=True)
+    totals = wins.sum(axis=1)
+    bad = np.isfinite(totals) & (totals != TLX_COMPARISONS)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise DataError(f"{source}: the tlx_weight_* columns of row {row + 2} sum to {totals[row]:g}; "
+                        f"the six weights are pairwise wins and must sum to {TLX_COMPARISONS}")
+    return wins
+
+
+def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table") -> pd.DataFrame:
+    """Validate a questionnaire table and compute its scores.
+
+    Parameters
+    ----------
+    table
+        The table as read (see the module docstring for its columns).
+    source
+        Its name (file path) for error messages.
+
+    Returns
+    -------
+    pd.DataFrame
+        One row per response: ``participant, condition`` (and ``block`` if given), then
+        ``tlx_raw`` and ``tlx_weighted`` (when TLX data are present) and each ``likert_*`` item.
+
+    Raises
+    ------
+    DataError
+        Missing id columns, an incomplete set of TLX subscales, pairs or weights, a value that
+        is not numeric or out of range, an unknown subscale name, weights not summing to 15,
+        or no score column at all.
+    """
+    if table.empty:
+        raise DataError(f"{source} has no rows; it needs one row per questionnaire response")
+    for column in ("participant", "condition"):
+        if column not in table.columns:
+            raise DataError(f"{source} has no {column!r} column; add it (one value per response row)")
+    ids = [c for c in ("participant", "condition", "block") if c in table.columns]
+    scores = table[ids].copy()
+    scores["condition"] = scores["condition"].astype(str)
+
+    rating_present = [c for c in TLX_RATING_COLUMNS if c in table.columns]
+    if rating_present and len(rating_present) < len(TLX_RATING_COLUMNS):
+        missing = [c for c in TLX_RATING_COLUMNS if c not in table.columns]
+        raise DataError(f"{source}: NASA-TLX needs all six subscales; missing column(s) {', '.join(missing)}")
+    pair_present = [c for c in TLX_PAIR_COLUMNS if c in table.columns]
+    weight_present = [c for c in TLX_WEIGHT_COLUMNS if c in table.columns]
+    if pair_present and weight_present:
+        raise DataError(f"{source} has both tlx_pair_* and tlx_weight_* columns; keep one of the two")
+    for present, expected, kind in ((pair_present, TLX_PAIR_COLUMNS, "pairwise comparison"),
+                                    (weight_present, TLX_WEIGHT_COLUMNS, "weight")):
+        if present and len(present) < len(expected):
+            missing = [c for c in expected if c not in table.columns]
+            raise DataError(f"{source}: incomplete TLX {kind} columns; missing {', '.join(missing)}")
+    if (pair_present or weight_present) and not rating_present:
+        raise DataError(f"{source}: TLX weights without the ratings; add the columns "
+                        f"{', '.join(TLX_RATING_COLUMNS)}")
+
+    if rating_present:
+        ratings = np.column_stack([_numeric_column(table, c, source).to_numpy() for c in TLX_RATING_COLUMNS])
+        for index, column in enumerate(TLX_RATING_COLUMNS):
+            _check_range(pd.Series(ratings[:, index]), column, *TLX_RANGE, source)
+        scores["tlx_raw"] = ratings.mean(axis=1)
+        if pair_present or weight_present:
+            wins = _pair_wins(table, source) if pair_present else _weight_wins(table, source)
+            too_many = np.nan_to_num(wins) > len(TLX_SUBSCALES) - 1
+            if too_many.any():
+                row, subscale = (int(i[0]) for i in np.nonzero(too_many))
+                raise DataError(f"{source}: row {row + 2}: {TLX_SUBSCALES[subscale]!r} wins "
+                                f"{wins[row, subscale]:g} of the 15 pairwise comparisons, but each subscale "
+                                f"is in only 5 pairs; check the tlx_pair_* columns")
+            scores["tlx_weighted"] = (ratings * wins).sum(axis=1) / TLX_COMPARISONS
+            scores.loc[np.isnan(wins).any(axis=1) | np.isnan(ratings).any(axis=1), "tlx_weighted"] = np.nan
+
+    likert_columns = [c for c in table.columns if str(c).startswith(LIKERT_PREFIX)]
+    for column in likert_columns:
+        values = _numeric_column(table, column, source)
+        _check_range(values, column, *LIKERT_RANGE, source, integer=True)
+        scores[column] = values
+    if not rating_present and not likert_columns:
+        raise DataError(f"{source} holds no scores; add the six columns {', '.join(TLX_RATING_COLUMNS)} "
+                        f"and/or Likert items named {LIKERT_PREFIX}<item>")
+    return scores.reset_index(drop=True)
+
+
+def score_columns(scores: pd.DataFrame) -> list[str]:
+    """The score columns of :func:`questionnaire_scores`' result (everything but the ids)."""
+    return [c for c in scores.columns if c not in ("participant", "condition", "block")]

@@ -1,0 +1,516 @@
+"""Statistics per metric with the conditions as groups (any number of conditions >= 2).
+
+Tidy tables in, tidy tables or plain dicts out (the style of pingouin). For each metric:
+
+- descriptives per condition: ``n``, ``mean``, ``median``, ``q1``, ``q3`` (linear quantiles);
+- Kruskal-Wallis over trials (``scipy.stats.kruskal``, tie-corrected H), as the paper;
+- Conover's pairwise post-hoc test (``scikit_posthocs.posthoc_conover``) with adjusted
+  (Holm by default) and unadjusted p;
+- stars ``*``, ``**``, ``***`` from the adjusted post-hoc p, only when Kruskal-Wallis is
+  significant; the comparison (``<`` as the paper, ``<=`` as the study software) is a setting;
+- because trials are nested in participants, a participant-level test on per-participant
+  medians: Wilcoxon signed-rank (two conditions) or Friedman (more); participants missing a
+  condition are dropped with a note;
+- an effect size on the participant medians: the matched-pairs rank-biserial correlation (two
+  conditions; positive when the first condition is larger), or Kendall's W (more);
+- a cluster-bootstrap percentile interval of the difference of the trial-level medians of each
+  pair of conditions: whole participants (with all their trials) are resampled with
+  replacement, ``rng = np.random.default_rng(seed)``, the same resamples for every metric.
+
+The result of :func:`compare_conditions` is the ``stats.json`` document (DESIGN section 5).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+import scikit_posthocs
+import scipy.stats
+
+#: Largest number of (resample x trial) cells the bootstrap holds in memory at once.
+_BOOTSTRAP_CHUNK_CELLS = 4_000_000
+
+
+@dataclass(frozen=True)
+class ComparisonOptions:
+    """Settings of :func:`compare_conditions` (an analysis plan's ``[stats]`` and ``[bootstrap]``).
+
+    Attributes
+    ----------
+    kruskal_alpha
+        Significance level of the Kruskal-Wallis gate for the stars.
+    p_adjust
+        Adjustment of the Conover p-values (a ``statsmodels`` ``multipletests`` method, or
+        ``"none"``).
+    star_thresholds
+        Strictly decreasing thresholds; one star per threshold met.
+    star_comparison
+        ``"<"`` (the paper) or ``"<="`` (the study software); also used for the gate.
+    participant_aggregate
+        How trials are summarised per participant and condition (``"median"`` or ``"mean"``).
+    bootstrap_resamples, bootstrap_level, seed
+        The cluster bootstrap.
+    """
+
+    kruskal_alpha: float = 0.05
+    p_adjust: str = "holm"
+    star_thresholds: tuple[float, ...] = (0.05, 0.01, 0.001)
+    star_comparison: Literal["<", "<="] = "<"
+    participant_aggregate: Literal["median", "mean"] = "median"
+    bootstrap_resamples: int = 2000
+    bootstrap_level: float = 0.95
+    seed: int = 0
+
+
+def order_conditions(values: Sequence[Any], preferred: Sequence[str] = ()) -> list[str]:
+    """The conditions present in ``values``: those in ``preferred`` first (in its order), the rest sorted."""
+    present = sorted({str(v) for v in values if not pd.isna(v)})
+    first = [c for c in preferred if c in present]
+    return first + [c for c in present if c not in first]
+
+
+def _numeric(series: pd.Series) -> pd.Series:
+    """A float Series (bool -> 0/1, nullable types -> NaN for missing)."""
+    return pd.Series(series.to_numpy(dtype=float, na_value=np.nan), index=series.index)
+
+
+def _tidy(data: pd.DataFrame, metric: str, conditions: Sequence[str], condition: str,
+          participant: str | None = None) -> pd.DataFrame:
+    """``condition``, ``value`` (and ``participant``) rows of the given conditions with a value."""
+    columns = {"condition": data[condition].astype(str), "value": _numeric(data[metric])}
+    if participant is not None:
+        columns["participant"] = data[participant]
+    tidy = pd.DataFrame(columns)
+    return tidy[tidy["condition"].isin(conditions) & tidy["value"].notna()].reset_index(drop=True)
+
+
+def pairs(conditions: Sequence[str]) -> list[tuple[str, str]]:
+    """All pairs ``(a, b)`` of conditions, ``a`` before ``b`` in the given order."""
+    return list(itertools.combinations(conditions, 2))
+
+
+def describe(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
+             condition: str = "condition") -> pd.DataFrame:
+    """Descriptives of one metric per condition.
+
+    Returns
+    -------
+    pd.DataFrame
+        One row per condition (in the given order): ``condition, n, mean, median, q1, q3``;
+        missing values are ignored, statistics of an empty condition are NaN.
+    """
+    tidy = _tidy(data, metric, conditions, condition)
+    grouped = tidy.groupby("condition")["value"]
+    table = pd.DataFrame({
+        "n": grouped.size(),
+        "mean": grouped.mean(),
+        "median": grouped.median(),
+        "q1": grouped.quantile(0.25),
+        "q3": grouped.quantile(0.75),
+    }).reindex(list(conditions))
+    table["n"] = table["n"].fillna(0).astype(int)
+    return table.rename_axis("condition").reset_index()
+
+
+def kruskal_wallis(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
+                   condition: str = "condition") -> dict[str, float]:
+    """Kruskal-Wallis H test over trials (tie-corrected, ``scipy.stats.kruskal``).
+
+    Returns
+    -------
+    dict
+        ``{"statistic": H, "p": p}``; both NaN when fewer than two conditions have values or
+        all values are equal.
+    """
+    tidy = _tidy(data, metric, conditions, condition)
+    groups = [tidy.loc[tidy["condition"] == c, "value"].to_numpy() for c in conditions]
+    groups = [g for g in groups if g.size]
+    if len(groups) < 2 or np.unique(np.concatenate(groups)).size < 2:
+        return {"statistic": math.nan, "p": math.nan}
+    result = scipy.stats.kruskal(*groups)
+    return {"statistic": float(result.statistic), "p": float(result.pvalue)}
+
+
+def conover(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adjust: str = "holm",
+            condition: str = "condition") -> pd.DataFrame:
+    """Conover's pairwise post-hoc test (``scikit_posthocs.posthoc_conover``).
+
+    Parameters
+    ----------
+    p_adjust
+        ``multipletests`` method for the adjusted p (``"none"`` for no adjustment).
+
+    Returns
+    -------
+    pd.DataFrame
+        One row per pair: ``a, b, p`` (adjusted), ``p_unadjusted``; NaN where a condition has
+        no values or all values are equal.
+    """
+    tidy = _tidy(data, metric, conditions, condition)
+    present = [c for c in conditions if (tidy["condition"] == c).any()]
+    rows = [{"a": a, "b": b, "p": math.nan, "p_unadjusted": math.nan} for a, b in pairs(conditions)]
+    if len(present) >= 2 and tidy["value"].nunique() >= 2:
+        adjust = None if p_adjust in ("none", "", None) else p_adjust
+        unadjusted = scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition")
+        adjusted = (unadjusted if adjust is None else
+                    scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition",
+                                                    p_adjust=adjust))
+        for row in rows:
+            if row["a"] in present and row["b"] in present:
+                row["p"] = float(adjusted.loc[row["a"], row["b"]])
+                row["p_unadjusted"] = float(unadjusted.loc[row["a"], row["b"]])
+    return pd.DataFrame(rows, columns=["a", "b", "p", "p_unadjusted"])
+
+
+def significance_stars(p: float, thresholds: Sequence[float] = (0.05, 0.01, 0.001),
+                       comparison: Literal["<", "<="] = "<") -> str:
+    """One ``*`` per threshold that ``p`` meets (``p < t`` or ``p <= t``); ``""`` for none or NaN."""
+    if p is None or not np.isfinite(p):
+        return ""
+    meets = (lambda t: p <= t) if comparison == "<=" else (lambda t: p < t)
+    return "*" * sum(1 for t in thresholds if meets(t))
+
+
+def is_significant(p: float, alpha: float, comparison: Literal["<", "<="] = "<") -> bool:
+    """Whether ``p`` is significant at ``alpha`` under the comparison (False for NaN)."""
+    return significance_stars(p, (alpha,), comparison) == "*"
+
+
+def participant_summaries(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
+                          participant: str = "participant", condition: str = "condition",
+                          aggregate: Literal["median", "mean"] = "median") -> tuple[pd.DataFrame, list[Any]]:
+    """Per-participant medians (or means) per condition, complete participants only.
+
+    Returns
+    -------
+    (pd.DataFrame, list)
+        A wide table (index participant, one column per condition in the given order) of the
+        participants with a value in every condition, and the participants dropped because
+        they miss a condition.
+    """
+    tidy = _tidy(data, metric, conditions, condition, participant)
+    wide = tidy.groupby(["participant", "condition"])["value"].agg(aggregate).unstack("condition")
+    wide = wide.reindex(columns=list(conditions))
+    complete = wide.notna().all(axis=1)
+    dropped = [_plain(p) for p in wide.index[~complete]]
+    return wide[complete], dropped
+
+
+def rank_biserial(x: np.ndarray, y: np.ndarray) -> float:
+    """Matched-pairs rank-biserial correlation of ``x - y`` (Kerby's simple difference formula).
+
+    ``r = (sum of ranks of positive differences - sum of ranks of negative differences) /
+    sum of all ranks``, ranks of ``|x - y|`` with zero differences dropped (as Wilcoxon's
+    ``zero_method="wilcox"``). +1 when every ``x`` exceeds its ``y``.
+
+    Parameters
+    ----------
+    x, y
+        ``(n,)`` paired values.
+
+    Returns
+    -------
+    float
+        In ``[-1, 1]``; 0 when every difference is zero, NaN for no pairs.
+    """
+    difference = np.asarray(x, dtype=float) - np.asarray(y, dtype=float)
+    if difference.size == 0:
+        return math.nan
+    difference = difference[difference != 0]
+    if difference.size == 0:
+        return 0.0
+    ranks = scipy.stats.rankdata(np.abs(difference))
+    return float((ranks[difference > 0].sum() - ranks[difference < 0].sum()) / ranks.sum())
+
+
+def kendalls_w(friedman_statistic: float, n_participants: int, n_conditions: int) -> float:
+    """Kendall's coefficient of concordance from Friedman's chi-square: ``W = chi2 / (n (k - 1))``."""
+    if n_participants < 1 or n_conditions < 2:
+        return math.nan
+    return float(friedman_statistic / (n_participants * (n_conditions - 1)))
+
+
+def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
+                           participant: str = "participant", condition: str = "condition",
+                           aggregate: Literal["median", "mean"] = "median",
+                           ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The paired test on per-participant summaries and its effect size.
+
+    Two conditions: Wilcoxon signed-rank (``scipy.stats.wilcoxon``, defaults: zero differences
+    dropped, exact p for small samples) and the matched-pairs rank-biserial correlation of
+    ``a - b``. More: Friedman (``scipy.stats.friedmanchisquare``) and Kendall's W.
+
+    Returns
+    -------
+    (dict, dict)
+        ``participant_level``: ``test, aggregate, statistic, p, n_participants,
+        dropped_participants, note``; ``effect_size``: ``name, value`` (and ``a, b`` for two
+        conditions).
+    """
+    wide, dropped = participant_summaries(data, metric, conditions, participant=participant,
+                                          condition=condition, aggregate=aggregate)
+    notes = []
+    if dropped:
+        notes.append(f"{len(dropped)} participant(s) without a value in every condition dropped: "
+                     f"{', '.join(map(str, dropped))}")
+    n = len(wide)
+    statistic = p = effect = math.nan
+    two = len(conditions) == 2
+    if two:
+        a, b = wide[conditions[0]].to_numpy(), wide[conditions[1]].to_numpy()
+        effect = rank_biserial(a, b)
+        if n == 0:
+            notes.append("no participant has values in both conditions")
+        elif np.all(a == b):
+            notes.append("every participant's difference is zero; the test is undefined")
+        else:
+            result = scipy.stats.wilcoxon(a, b)
+            statistic, p = float(result.statistic), float(result.pvalue)
+    else:
+        if n < 2:
+            notes.append("fewer than two participants have values in every condition")
+        else:
+            with warnings.catch_warnings(), np.errstate(invalid="ignore", divide="ignore"):
+                warnings.simplefilter("ignore", RuntimeWarning)
+                result = scipy.stats.friedmanchisquare(*(wide[c].to_numpy() for c in conditions))
+            statistic, p = float(result.statistic), float(result.pvalue)
+            if not np.isfinite(statistic):
+                notes.append("every participant ranks the conditions equally; the test is undefined")
+            effect = kendalls_w(statistic, n, len(conditions))
+    level = {
+        "test": "wilcoxon" if two else "friedman",
+        "aggregate": aggregate,
+        "statistic": statistic,
+        "p": p,
+        "n_participants": n,
+        "dropped_participants": dropped,
+        "note": "; ".join(notes) if notes else None,
+    }
+    if two:
+        effect_size = {"name": "rank_biserial", "value": effect, "a": conditions[0], "b": conditions[1]}
+    else:
+        effect_size = {"name": "kendall_w", "value": effect}
+    return level, effect_size
+
+
+def _weighted_medians(values: np.ndarray, owners: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """Medians of ``values`` replicated ``weights[r, owners]`` times, for every resample ``r``.
+
+    Parameters
+    ----------
+    values
+        ``(n,)`` sorted values.
+    owners
+        ``(n,)`` participant index of each value.
+    weights
+        ``(R, P)`` how many times each participant is in resample ``r``.
+
+    Returns
+    -------
+    np.ndarray
+        ``(R,)`` the median (mean of the two middle elements for an even count, as
+        ``np.median``); NaN where the resample holds no value.
+    """
+    n_resamples = weights.shape[0]
+    result = np.full(n_resamples, np.nan)
+    if values.size == 0:
+        return result
+    chunk = max(1, _BOOTSTRAP_CHUNK_CELLS // values.size)
+    for start in range(0, n_resamples, chunk):
+        w = weights[start:start + chunk][:, owners]
+        cumulative = np.cumsum(w, axis=1)
+        total = cumulative[:, -1]
+        lower = (total - 1) // 2
+        upper = total // 2
+        index_lower = np.minimum((cumulative <= lower[:, None]).sum(axis=1), values.size - 1)
+        index_upper = np.minimum((cumulative <= upper[:, None]).sum(axis=1), values.size - 1)
+        medians = (values[index_lower] + values[index_upper]) / 2.0
+        result[start:start + chunk] = np.where(total > 0, medians, np.nan)
+    return result
+
+
+def bootstrap_median_differences(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
+                                 resamples: int = 2000, level: float = 0.95, seed: int = 0,
+                                 participant: str = "participant",
+                                 condition: str = "condition") -> pd.DataFrame:
+    """Cluster-bootstrap percentile intervals of ``median(a) - median(b)`` for every pair.
+
+    The medians are over trials. Each resample draws the participants (those with a value of
+    the metric) with replacement, ``rng = np.random.default_rng(seed)``, and takes all their
+    trials, so the nesting of trials in participants is kept. Resamples in which a condition
+    has no trial are left out.
+
+    Returns
+    -------
+    pd.DataFrame
+        One row per pair: ``a, b, difference`` (observed), ``low, high``, ``valid_resamples``.
+    """
+    tidy = _tidy(data, metric, conditions, condition, participant)
+    codes, uniques = pd.factorize(tidy["participant"])
+    n_participants = len(uniques)
+    rows = []
+    medians: dict[str, np.ndarray] = {}
+    observed: dict[str, float] = {}
+    if n_participants:
+        rng = np.random.default_rng(seed)
+        draws = rng.integers(0, n_participants, size=(resamples, n_participants))
+        flat = (np.arange(resamples)[:, None] * n_participants + draws).ravel()
+        weights = np.bincount(flat, minlength=resamples * n_participants).reshape(resamples, n_participants)
+        for c in conditions:
+            mask = (tidy["condition"] == c).to_numpy()
+            values = tidy["value"].to_numpy()[mask]
+            owners = codes[mask]
+            order = np.argsort(values, kind="stable")
+            medians[c] = _weighted_medians(values[order], owners[order], weights)
+            observed[c] = float(np.median(values)) if values.size else math.nan
+    tail = (1.0 - level) / 2.0
+    for a, b in pairs(conditions):
+        low = high = difference = math.nan
+        valid = 0
+        if n_participants:
+            differences = medians[a] - medians[b]
+            differences = differences[np.isfinite(differences)]
+            valid = int(differences.size)
+            difference = observed[a] - observed[b]
+            if valid:
+                low, high = (float(q) for q in np.quantile(differences, [tail, 1.0 - tail]))
+        rows.append({"a": a, "b": b, "difference": difference, "low": low, "high": high,
+                     "valid_resamples": valid})
+    return pd.DataFrame(rows, columns=["a", "b", "difference", "low", "high", "valid_resamples"])
+
+
+def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
+                   options: ComparisonOptions = ComparisonOptions(), *,
+                   participant: str = "participant", condition: str = "condition") -> dict[str, Any]:
+    """All statistics of one metric: one entry of ``stats.json``'s ``metrics`` list.
+
+    Parameters
+    ----------
+    data
+        Tidy table, one row per trial (or questionnaire response), with ``participant``,
+        ``condition`` and the ``metric`` column (numeric or boolean; missing values ignored).
+    metric
+        The column to analyse.
+    conditions
+        The conditions to compare, in order (the first is ``a`` of the first pair).
+    options
+        Test settings.
+
+    Returns
+    -------
+    dict
+        ``metric, n, mean, median, q1, q3`` (each ``{condition: value}``), ``kruskal``,
+        ``conover`` (list of ``a, b, p, p_unadjusted``), ``p_adjust``, ``stars`` (list of
+        ``a, b, stars``), ``participant_level``, ``effect_size``, ``ci``.
+    """
+    table = describe(data, metric, conditions, condition=condition).set_index("condition")
+    kruskal = kruskal_wallis(data, metric, conditions, condition=condition)
+    posthoc = conover(data, metric, conditions, p_adjust=options.p_adjust, condition=condition)
+    significant = is_significant(kruskal["p"], options.kruskal_alpha, options.star_comparison)
+    stars = [{"a": row.a, "b": row.b,
+              "stars": significance_stars(row.p, options.star_thresholds, options.star_comparison)
+              if significant else ""} for row in posthoc.itertuples()]
+    level, effect = participant_level_test(data, metric, conditions, participant=participant,
+                                           condition=condition, aggregate=options.participant_aggregate)
+    intervals = bootstrap_median_differences(
+        data, metric, conditions, resamples=options.bootstrap_resamples, level=options.bootstrap_level,
+        seed=options.seed, participant=participant, condition=condition)
+    return {
+        "metric": metric,
+        **{column: {c: _plain(table.loc[c, column]) for c in conditions}
+           for column in ("n", "mean", "median", "q1", "q3")},
+        "kruskal": kruskal,
+        "conover": posthoc.to_dict("records"),
+        "p_adjust": options.p_adjust,
+        "stars": stars,
+        "participant_level": level,
+        "effect_size": effect,
+        "ci": {
+            "method": "cluster bootstrap over participants, percentile interval of the difference "
+                      "of trial medians (a - b)",
+            "level": options.bootstrap_level,
+            "resamples": options.bootstrap_resamples,
+            "seed": options.seed,
+            "pairs": intervals.to_dict("records"),
+        },
+    }
+
+
+def compare_conditions(data: pd.DataFrame, metrics: Sequence[str], conditions: Sequence[str],
+                       options: ComparisonOptions = ComparisonOptions(), *,
+                       participant: str = "participant", condition: str = "condition") -> dict[str, Any]:
+    """The ``stats.json`` document: every metric's statistics.
+
+    Returns
+    -------
+    dict
+        ``{"conditions": [...], "metrics": [analyze_metric(...) for each metric]}``. Values are
+        plain Python (NaN stays float NaN; :func:`json_ready` turns it into ``None``).
+    """
+    return {
+        "conditions": list(conditions),
+        "metrics": [analyze_metric(data, m, conditions, options, participant=participant,
+                                   condition=condition) for m in metrics],
+    }
+
+
+def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
+    """``stats.json`` as a tidy table: one row per metric x pair of conditions.
+
+    Returns
+    -------
+    pd.DataFrame
+        Columns ``metric, a, b, n_a, n_b, median_a, median_b, q1_a, q3_a, q1_b, q3_b,
+        kruskal_statistic, kruskal_p, conover_p, conover_p_unadjusted, p_adjust, stars,
+        participant_test, participant_statistic, participant_p, n_participants,
+        effect_size_name, effect_size, difference, ci_low, ci_high, ci_level``.
+    """
+    rows = []
+    for entry in stats["metrics"]:
+        posthoc = {(r["a"], r["b"]): r for r in entry["conover"]}
+        stars = {(r["a"], r["b"]): r["stars"] for r in entry["stars"]}
+        for interval in entry["ci"]["pairs"]:
+            a, b = interval["a"], interval["b"]
+            rows.append({
+                "metric": entry["metric"], "a": a, "b": b,
+                "n_a": entry["n"][a], "n_b": entry["n"][b],
+                "median_a": entry["median"][a], "median_b": entry["median"][b],
+                "q1_a": entry["q1"][a], "q3_a": entry["q3"][a],
+                "q1_b": entry["q1"][b], "q3_b": entry["q3"][b],
+                "kruskal_statistic": entry["kruskal"]["statistic"], "kruskal_p": entry["kruskal"]["p"],
+                "conover_p": posthoc[a, b]["p"], "conover_p_unadjusted": posthoc[a, b]["p_unadjusted"],
+                "p_adjust": entry["p_adjust"], "stars": stars[a, b],
+                "participant_test": entry["participant_level"]["test"],
+                "participant_statistic": entry["participant_level"]["statistic"],
+                "participant_p": entry["participant_level"]["p"],
+                "n_participants": entry["participant_level"]["n_participants"],
+                "effect_size_name": entry["effect_size"]["name"],
+                "effect_size": entry["effect_size"]["value"],
+                "difference": interval["difference"], "ci_low": interval["low"],
+                "ci_high": interval["high"], "ci_level": entry["ci"]["level"],
+            })
+    return pd.DataFrame(rows)
+
+
+def _plain(value: Any) -> Any:
+    """A numpy scalar as the Python scalar (for JSON)."""
+    return value.item() if hasattr(value, "item") else value
+
+
+def json_ready(value: Any) -> Any:
+    """A copy of ``value`` with numpy scalars made plain and NaN/inf made ``None`` (JSON null)."""
+    if isinstance(value, dict):
+        return {str(k): json_ready(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_ready(v) for v in value]
+    value = _plain(value)
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value

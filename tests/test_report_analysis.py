@@ -1,0 +1,228 @@
+"""`nudge analyze` end to end: run folders, metrics tables, plans, outputs and bad inputs."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from nudgecli.cli import main
+from nudgecli.errors import ConfigError
+from nudgecli.report.analysis import analyze
+from nudgecli.report.metrics import METRIC_NAMES
+from nudgecli.report.plans import load_plan, plan_names
+
+DATA = Path(__file__).parent / "data"
+METRICS_CSV = DATA / "metrics_two_conditions.csv"
+QUESTIONNAIRES_CSV = DATA / "questionnaires_two_conditions.csv"
+STATS_KEYS = ["metric", "n", "mean", "median", "q1", "q3", "kruskal", "conover", "p_adjust", "stars",
+              "participant_level", "effect_size", "ci"]
+
+
+def make_run(folder: Path, n_participants: int = 5, trials_per_condition: int = 4, seed: int = 1) -> Path:
+    """A small run folder in the DESIGN section 4 layout: one trials/steps part per participant.
+
+    Control trials are 2 s longer and have more mode switches, so the differences are clear.
+    """
+    rng = np.random.default_rng(seed)
+    (folder / "trials").mkdir(parents=True)
+    (folder / "steps").mkdir()
+    for participant in range(n_participants):
+        trial_rows, step_frames = [], []
+        for condition, extra in (("disambiguation", 0), ("control", 20)):
+            for k in range(trials_per_condition):
+                trial = len(trial_rows)
+                n = int(rng.integers(20, 40)) + extra
+                turn = np.where((np.arange(n) // 8) % 2 == 0, "human", "autonomy")
+                human = turn == "human"
+                alpha = np.where(human & (rng.random(n) < 0.5), 0.8, 0.0)
+                switch = rng.random(n) < (0.05 if extra == 0 else 0.2)
+                event = np.where(switch, "mode_switch_human", "")
+                human_turns = int((human & np.r_[True, turn[1:] != turn[:-1]]).sum())
+                trial_rows.append({
+                    "participant": participant, "condition": condition, "block": k // 2, "trial": trial,
+                    "layout": trial, "n_goals": 3, "true_goal": 0, "reached_goal": 0, "success": True,
+                    "timed_out": False, "duration_s": n * 0.1, "human_turns": human_turns,
+                    "autonomy_turns": human_turns - 1})
+                step_frames.append(pd.DataFrame({
+                    "participant": participant, "trial": trial, "step": np.arange(n), "t": np.arange(n) * 0.1,
+                    "turn": turn, "x": 10.0, "y": 10.0, "theta": 0.0, "mode": "x", "cell_x": 1, "cell_y": 2,
+                    "heading": 0, "phi_m": "", "u_h_x": 0.0, "u_h_y": 0.0, "u_h_theta": 0.0, "u_a_x": 0.0,
+                    "u_a_y": 0.0, "u_a_theta": 0.0, "alpha": alpha,
+                    "inferred_goal": rng.integers(-1, 3, n), "belief": [[1 / 3] * 3] * n, "entropy": 1.0,
+                    "event": event}))
+        pd.DataFrame(trial_rows).to_parquet(folder / "trials" / f"part-{participant:05d}.parquet")
+        pd.concat(step_frames).to_parquet(folder / "steps" / f"part-{participant:05d}.parquet")
+    return folder
+
+
+@pytest.fixture(scope="module")
+def run_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return make_run(tmp_path_factory.mktemp("analysis") / "run")
+
+
+def _invoke(*args: str):
+    return CliRunner().invoke(main, ["analyze", *args])
+
+
+def test_analyze_run_folder_writes_all_files(run_folder: Path, tmp_path: Path) -> None:
+    result = analyze(run_folder, out=tmp_path)
+    assert {p.name for p in result.files} == {"metrics.csv", "stats.json", "stats.csv", "summary.md"}
+    metrics = pd.read_csv(tmp_path / "metrics.csv")
+    assert len(metrics) == 5 * 8
+    assert list(metrics.columns) == ["participant", "condition", "block", "trial", *METRIC_NAMES]
+    stats = json.loads((tmp_path / "stats.json").read_text())
+    assert stats["conditions"] == ["disambiguation", "control"]
+    assert [m["metric"] for m in stats["metrics"]] == list(METRIC_NAMES)
+    for entry in stats["metrics"]:
+        assert list(entry) == STATS_KEYS
+        assert set(entry["median"]) == {"disambiguation", "control"}
+    completion = next(m for m in stats["metrics"] if m["metric"] == "completion_time")
+    assert completion["kruskal"]["p"] < 0.001 and completion["stars"][0]["stars"] == "***"
+    assert completion["effect_size"]["value"] == -1.0  # every participant slower in control
+    success = next(m for m in stats["metrics"] if m["metric"] == "success")
+    assert success["kruskal"]["p"] is None  # all trials succeeded: NaN written as null
+    table = pd.read_csv(tmp_path / "stats.csv")
+    assert len(table) == len(METRIC_NAMES) and {"conover_p", "stars", "ci_low"} <= set(table.columns)
+    summary = (tmp_path / "summary.md").read_text()
+    assert "## completion_time" in summary and "| disambiguation - control |" in summary
+    assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_study_code_plan_uses_its_definitions_and_filters(run_folder: Path, tmp_path: Path) -> None:
+    paper = analyze(run_folder, out=tmp_path / "paper")
+    study = analyze(run_folder, plan="study-code", out=tmp_path / "study")
+    assert not paper.metrics["assistance_engagement"].equals(study.metrics["assistance_engagement"])
+    assert (study.metrics["completion_time"].dropna() <= 100).all()
+    assert study.stats["metrics"][0]["p_adjust"] == "holm"
+
+
+def test_seed_makes_the_interval_reproducible(run_folder: Path, tmp_path: Path) -> None:
+    first = analyze(run_folder, out=tmp_path / "a", metrics=["human_effort"], seed=3)
+    again = analyze(run_folder, out=tmp_path / "b", metrics=["human_effort"], seed=3)
+    other = analyze(run_folder, out=tmp_path / "c", metrics=["human_effort"], seed=4)
+    assert first.stats == again.stats
+    assert first.stats["metrics"][0]["ci"] != other.stats["metrics"][0]["ci"]
+
+
+def test_cli_table_json_and_csv(run_folder: Path, tmp_path: Path) -> None:
+    result = _invoke(str(run_folder), "--out", str(tmp_path), "--metric", "mode_switches")
+    assert result.exit_code == 0, result.output
+    assert "mode_switches" in result.stdout and "KW p" in result.stdout
+    assert result.stderr.strip().splitlines()[-1] == str(tmp_path)
+    result = _invoke(str(run_folder), "--out", str(tmp_path), "--format", "json", "--metric", "human_turns")
+    assert result.exit_code == 0
+    document = json.loads(result.stdout)  # stdout holds only JSON
+    assert [m["metric"] for m in document["metrics"]] == ["human_turns"]
+    result = _invoke(str(run_folder), "--out", str(tmp_path), "--format", "csv")
+    assert result.exit_code == 0
+    assert result.stdout.splitlines()[0].startswith("metric,a,b,")
+
+
+def test_metrics_table_source_and_questionnaires(tmp_path: Path) -> None:
+    result = analyze(METRICS_CSV, out=tmp_path, questionnaires=QUESTIONNAIRES_CSV)
+    names = [m["metric"] for m in result.stats["metrics"]]
+    assert names == ["mode_switches", "completion_time", "success", "tlx_raw", "tlx_weighted", "likert_q3",
+                     "likert_q4"]
+    assert (tmp_path / "questionnaires.csv").is_file()
+    tlx = pd.read_csv(tmp_path / "questionnaires.csv")
+    raw = pd.read_csv(QUESTIONNAIRES_CSV)
+    subscales = [c for c in raw.columns if c.startswith("tlx_") and "pair" not in c]
+    assert np.allclose(tlx["tlx_raw"], raw[subscales].mean(axis=1))
+
+
+def test_metrics_table_in_its_own_folder_is_not_overwritten(tmp_path: Path) -> None:
+    table = tmp_path / "metrics.csv"
+    table.write_text(METRICS_CSV.read_text())
+    before = table.read_bytes()
+    result = analyze(table)
+    assert result.out == tmp_path and table.read_bytes() == before
+    assert (tmp_path / "stats.json").is_file()
+
+
+def test_three_conditions_from_a_parquet_table(tmp_path: Path) -> None:
+    rng = np.random.default_rng(2)
+    rows = [{"participant": p, "condition": c, "score": shift + rng.normal()}
+            for p in range(6) for c, shift in (("a", 0), ("b", 1), ("c", 3)) for _ in range(5)]
+    pd.DataFrame(rows).to_parquet(tmp_path / "three.parquet")
+    result = analyze(tmp_path / "three.parquet", out=tmp_path / "out")
+    entry = result.stats["metrics"][0]
+    assert result.stats["conditions"] == ["a", "b", "c"]
+    assert entry["participant_level"]["test"] == "friedman" and entry["effect_size"]["name"] == "kendall_w"
+    assert [(s["a"], s["b"]) for s in entry["stars"]] == [("a", "b"), ("a", "c"), ("b", "c")]
+    assert len(result.table) == 3
+
+
+def test_presets_load_and_unknown_plan_keys_are_refused(tmp_path: Path) -> None:
+    assert {"paper", "study-code"} <= set(plan_names())
+    assert load_plan("paper").stats.star_comparison == "<"
+    study = load_plan("study-code")
+    assert study.stats.star_comparison == "<="
+    assert study.filters == {"mode_switches": 10, "human_turns": 10, "completion_time": 100}
+    plan = tmp_path / "plan.toml"
+    plan.write_text('[stats]\nkruskal_alpah = 0.05\n')
+    expected = r"plan.toml: unknown key 'stats.kruskal_alpah' \(did you mean 'kruskal_alpha'\?\)"
+    with pytest.raises(ConfigError, match=expected):
+        load_plan(plan)
+    plan.write_text('[metrics]\ninclude = ["mode_switchs"]\n')
+    with pytest.raises(ConfigError, match="did you mean 'mode_switches'"):
+        load_plan(plan)
+
+
+def _bad_input_cases(tmp_path: Path) -> dict[str, tuple[list[str], str]]:
+    good = pd.read_csv(METRICS_CSV)
+    cases: dict[str, tuple[list[str], str]] = {}
+
+    def table(name: str, frame: pd.DataFrame) -> str:
+        path = tmp_path / name
+        frame.to_csv(path, index=False)
+        return str(path)
+
+    cases["no condition"] = ([table("a.csv", good.drop(columns="condition"))], "no 'condition' column")
+    cases["no participant"] = ([table("b.csv", good.drop(columns="participant"))], "no 'participant' column")
+    cases["non-numeric"] = ([table("c.csv", good.assign(completion_time="fast"))],
+                            "metric column 'completion_time' is not numeric")
+    cases["one condition"] = ([table("d.csv", good.assign(condition="control"))], "a single condition")
+    (tmp_path / "empty.csv").write_text("")
+    cases["empty file"] = ([str(tmp_path / "empty.csv")], "is empty")
+    (tmp_path / "header.csv").write_text("participant,condition,x\n")
+    cases["header only"] = ([str(tmp_path / "header.csv")], "has no rows")
+    (tmp_path / "notes.txt").write_text("hello")
+    cases["text file"] = ([str(tmp_path / "notes.txt")], "neither a run folder nor a metrics table")
+    (tmp_path / "plain").mkdir()
+    cases["plain folder"] = ([str(tmp_path / "plain")], "neither a run folder nor a metrics table")
+    cases["missing path"] = ([str(tmp_path / "nowhere")], "does not exist")
+    cases["unknown metric"] = ([str(METRICS_CSV), "--metric", "completion_tme"],
+                               "did you mean 'completion_time'")
+    (tmp_path / "fresh" / "trials").mkdir(parents=True)
+    (tmp_path / "fresh" / "manifest.json").write_text("{}")
+    cases["no trials yet"] = ([str(tmp_path / "fresh")], "run `nudge simulate")
+    cases["unknown plan"] = ([str(METRICS_CSV), "--plan", "papr"], "did you mean 'paper'")
+    cases["bad questionnaire"] = ([str(METRICS_CSV), "--questionnaires", str(METRICS_CSV)], "holds no scores")
+    return cases
+
+
+def test_bad_inputs_give_one_error_line_and_exit_code_1(tmp_path: Path) -> None:
+    for name, (args, message) in _bad_input_cases(tmp_path).items():
+        result = _invoke(*args, "--out", str(tmp_path / "out"))
+        assert result.exit_code == 1, (name, result.output, result.exception)
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("Error: "), (name, result.stderr)
+        assert message in lines[0], (name, lines[0])
+        assert result.stdout == "", name
+
+
+def test_nan_values_are_null_in_stats_json(tmp_path: Path) -> None:
+    frame = pd.read_csv(METRICS_CSV)
+    frame["empty_metric"] = math.nan
+    frame.to_csv(tmp_path / "with_nan.csv", index=False)
+    analyze(tmp_path / "with_nan.csv", out=tmp_path / "out", metrics=["empty_metric"])
+    text = (tmp_path / "out" / "stats.json").read_text()
+    assert "NaN" not in text
+    entry = json.loads(text)["metrics"][0]
+    assert entry["median"] == {"disambiguation": None, "control": None} and entry["n"]["control"] == 0

@@ -1,0 +1,129 @@
+"""Metric definitions on hand-built step logs whose answers can be counted by hand."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from nudgecli.errors import DataError
+from nudgecli.report.metrics import METRIC_NAMES, apply_filters, trial_metrics
+
+H, A = "human", "autonomy"
+
+# Trial 1, ten steps: human 0-4, autonomy 5-7, human 8-9. True goal 0.
+#   human steps: 0, 1, 2, 3, 4, 8, 9 (7 of 10 -> effort 0.7)
+#   assisted (human, alpha > 0, inferred 0): 1 (0.5), 4 (0.8), 8 (0.8); step 2 infers goal 1, step 5 is
+#   the autonomy's turn -> engagement 3/7, strength (0.5 + 0.8 + 0.8) / 3 = 0.7
+#   per turn: (2/5 + 1/2) / 2 = 0.45 and ((0.5 + 0.8) / 2 + 0.8) / 2 = 0.725
+#   human mode switches: step 2 (human turn), step 6 (autonomy turn), step 8 (human turn) -> 3 in
+#   any turn, 2 in human turns; mode_switch_autonomy and nudge do not count
+TRIAL_1 = {
+    "turn": [H, H, H, H, H, A, A, A, H, H],
+    "alpha": [0.0, 0.5, 0.5, 0.0, 0.8, 0.8, 0.0, 0.0, 0.8, 0.0],
+    "inferred_goal": [-1, 0, 1, 0, 0, 0, 0, 0, 0, 0],
+    "event": ["", "", "mode_switch_human", "", "", "nudge|mode_switch_autonomy",
+              "mode_switch_human|nudge", "", "handover|mode_switch_human", ""],
+}
+# Trial 2, seven steps: human 0-2 (no assistance), autonomy 3-4, human 5-6 (alpha 0.6; step 5 infers
+# goal 0, step 6 goal 2).
+#   engagement 1/5 = 0.2, strength 0.6; per turn (0 + 1/2) / 2 = 0.25 and (0 + 0.6) / 2 = 0.3
+#   last inferred goal: 2 -> study-code success False
+TRIAL_2 = {
+    "turn": [H, H, H, A, A, H, H],
+    "alpha": [0.0, 0.0, 0.0, 0.0, 0.0, 0.6, 0.6],
+    "inferred_goal": [-1, -1, 1, 1, 1, 0, 2],
+    "event": ["", "mode_switch_humanoid", "", "", "", "", ""],
+}
+
+
+def _steps(participant: int, trial: int, columns: dict[str, list]) -> pd.DataFrame:
+    n = len(columns["turn"])
+    return pd.DataFrame({"participant": participant, "trial": trial, "step": np.arange(n),
+                         "t": np.arange(n) * 0.1, **columns})
+
+
+def _log() -> tuple[pd.DataFrame, pd.DataFrame]:
+    trials = pd.DataFrame({
+        "participant": [1, 1, 1], "condition": ["disambiguation", "control", "control"],
+        "block": [0, 1, 1], "trial": [0, 1, 2], "true_goal": [0, 0, 0],
+        "success": [False, True, True], "duration_s": [1.0, 0.7, 3.0], "human_turns": [2, 2, 1],
+    })
+    steps = pd.concat([_steps(1, 0, TRIAL_1), _steps(1, 1, TRIAL_2)], ignore_index=True)
+    # trial 2 of the table has no steps; rows are shuffled to show order does not matter
+    return trials, steps.sample(frac=1.0, random_state=4).reset_index(drop=True)
+
+
+def test_paper_definitions_on_a_hand_counted_log() -> None:
+    trials, steps = _log()
+    metrics = trial_metrics(trials, steps)
+    assert list(metrics.columns) == ["participant", "condition", "block", "trial", *METRIC_NAMES]
+    first, second = metrics.iloc[0], metrics.iloc[1]
+    assert first["assistance_engagement"] == pytest.approx(3 / 7)
+    assert first["assistance_strength"] == pytest.approx(0.7)
+    assert first["mode_switches"] == 3
+    assert first["human_effort"] == pytest.approx(0.7)
+    assert first["completion_time"] == 1.0 and first["human_turns"] == 2 and not first["success"]
+    assert second["assistance_engagement"] == pytest.approx(0.2)
+    assert second["assistance_strength"] == pytest.approx(0.6)
+    assert second["mode_switches"] == 0  # "mode_switch_humanoid" is another event
+    assert second["human_effort"] == pytest.approx(5 / 7)
+    assert second["success"]
+
+
+def test_study_code_definitions_on_a_hand_counted_log() -> None:
+    trials, steps = _log()
+    metrics = trial_metrics(trials, steps, engagement="per_turn", strength="per_turn",
+                            mode_switches="human_turn", success="last_inferred_goal")
+    first, second = metrics.iloc[0], metrics.iloc[1]
+    assert first["assistance_engagement"] == pytest.approx(0.45)
+    assert first["assistance_strength"] == pytest.approx(0.725)
+    assert first["mode_switches"] == 2
+    assert bool(first["success"])  # last inferred goal (step 9) is goal 0
+    assert second["assistance_engagement"] == pytest.approx(0.25)
+    assert second["assistance_strength"] == pytest.approx(0.3)
+    assert not bool(second["success"])  # last inferred goal is 2
+
+
+def test_a_trial_without_steps_has_missing_step_metrics() -> None:
+    trials, steps = _log()
+    third = trial_metrics(trials, steps).iloc[2]
+    for name in ("assistance_engagement", "assistance_strength", "human_effort"):
+        assert math.isnan(third[name])
+    assert pd.isna(third["mode_switches"])
+    assert third["completion_time"] == 3.0 and third["human_turns"] == 1
+
+
+def test_strength_is_missing_without_assistance_and_equal_alphas_stay_equal() -> None:
+    trials = pd.DataFrame({"participant": [1, 1], "condition": ["a", "b"], "block": [0, 0], "trial": [0, 1],
+                           "true_goal": [0, 0], "success": [True, True], "duration_s": [0.3, 0.3],
+                           "human_turns": [1, 1]})
+    steps = pd.concat([
+        _steps(1, 0, {"turn": [H] * 3, "alpha": [0.0] * 3, "inferred_goal": [0] * 3, "event": [""] * 3}),
+        _steps(1, 1, {"turn": [H] * 3, "alpha": [0.8] * 3, "inferred_goal": [0] * 3, "event": [""] * 3}),
+    ])
+    metrics = trial_metrics(trials, steps)
+    assert math.isnan(metrics.loc[0, "assistance_strength"]) and metrics.loc[0, "assistance_engagement"] == 0
+    assert metrics.loc[1, "assistance_strength"] == 0.8  # exactly, not 0.8000000000000002
+
+
+def test_filters_act_on_their_own_metric_only() -> None:
+    trials, steps = _log()
+    metrics = trial_metrics(trials, steps)
+    filtered = apply_filters(metrics, {"mode_switches": 2, "completion_time": 0.9, "not_here": 1})
+    assert pd.isna(filtered.loc[0, "mode_switches"]) and filtered.loc[1, "mode_switches"] == 0
+    assert math.isnan(filtered.loc[0, "completion_time"]) and filtered.loc[1, "completion_time"] == 0.7
+    assert filtered.loc[0, "assistance_engagement"] == pytest.approx(3 / 7)
+    assert metrics.loc[0, "mode_switches"] == 3  # the input is untouched
+
+
+def test_missing_columns_and_duplicate_trials_are_refused() -> None:
+    trials, steps = _log()
+    with pytest.raises(DataError, match="step log lacks the column"):
+        trial_metrics(trials, steps.drop(columns="event"))
+    with pytest.raises(DataError, match="trial table lacks the column"):
+        trial_metrics(trials.drop(columns="true_goal"), steps)
+    with pytest.raises(DataError, match="more than once"):
+        trial_metrics(pd.concat([trials, trials.iloc[[0]]]), steps)

@@ -1,0 +1,88 @@
+"""NASA-TLX and Likert scores on hand cases, and the validation of questionnaire tables."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import pandas as pd
+import pytest
+
+from nudgecli.errors import DataError
+from nudgecli.report.questionnaires import TLX_SUBSCALES, questionnaire_scores, read_questionnaires
+
+RATINGS = {"mental": 80, "physical": 20, "temporal": 50, "performance": 30, "effort": 60, "frustration": 10}
+WINS = {"mental": 5, "physical": 0, "temporal": 3, "performance": 2, "effort": 4, "frustration": 1}
+RAW = 250 / 6                                     # (80 + 20 + 50 + 30 + 60 + 10) / 6
+WEIGHTED = (80 * 5 + 0 + 50 * 3 + 30 * 2 + 60 * 4 + 10 * 1) / 15   # 860 / 15
+
+
+def _row(**extra: object) -> dict[str, object]:
+    return {"participant": 1, "condition": "control", "block": 0,
+            **{f"tlx_{s}": v for s, v in RATINGS.items()}, **extra}
+
+
+def _pairs_for(wins: dict[str, int]) -> dict[str, str]:
+    """The 15 pairwise winners that give ``wins`` (the subscale with more wins beats the other)."""
+    order = sorted(TLX_SUBSCALES, key=lambda s: -wins[s])
+    return {f"tlx_pair_{i}": (a if order.index(a) < order.index(b) else b)
+            for i, (a, b) in enumerate(itertools.combinations(TLX_SUBSCALES, 2), start=1)}
+
+
+def test_raw_and_weighted_tlx_from_weights() -> None:
+    table = pd.DataFrame([_row(**{f"tlx_weight_{s}": w for s, w in WINS.items()})])
+    scores = questionnaire_scores(table)
+    assert scores.loc[0, "tlx_raw"] == pytest.approx(RAW)
+    assert scores.loc[0, "tlx_weighted"] == pytest.approx(WEIGHTED)
+
+
+def test_weighted_tlx_from_pairwise_winners() -> None:
+    pairs = {k: v.capitalize() + (" Demand" if v == "mental" else "") for k, v in _pairs_for(WINS).items()}
+    scores = questionnaire_scores(pd.DataFrame([_row(**pairs)]))
+    assert scores.loc[0, "tlx_weighted"] == pytest.approx(WEIGHTED)
+    assert scores.loc[0, "tlx_raw"] == pytest.approx(RAW)
+
+
+def test_likert_items_and_missing_answers() -> None:
+    table = pd.DataFrame([_row(likert_q3=7, likert_q4=1), _row(likert_q3=None, likert_q4=4)])
+    table.loc[1, "tlx_effort"] = None
+    scores = questionnaire_scores(table)
+    assert list(scores.columns) == ["participant", "condition", "block", "tlx_raw", "likert_q3", "likert_q4"]
+    assert scores["likert_q3"].tolist()[0] == 7 and math.isnan(scores.loc[1, "likert_q3"])
+    assert math.isnan(scores.loc[1, "tlx_raw"])
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    ({"tlx_mental": 120}, "'tlx_mental' must hold values from 0 to 100"),
+    ({"tlx_mental": "high"}, "'tlx_mental' must be numeric"),
+    ({"likert_q3": 8}, "'likert_q3' must hold integers from 1 to 7"),
+    ({"likert_q3": 2.5}, "'likert_q3' must hold integers"),
+    ({**{f"tlx_weight_{s}": w for s, w in WINS.items()}, "tlx_weight_mental": 4}, "sum to 14"),
+    ({**_pairs_for(WINS), "tlx_pair_3": "boredom"}, "name the winning subscale"),
+    ({**_pairs_for(WINS), **{f"tlx_pair_{i}": "mental" for i in range(1, 16)}}, "each subscale is in only 5"),
+    ({**_pairs_for(WINS), **{f"tlx_weight_{s}": w for s, w in WINS.items()}}, "keep one of the two"),
+])
+def test_invalid_values_are_refused(change: dict[str, object], message: str) -> None:
+    with pytest.raises(DataError, match=message):
+        questionnaire_scores(pd.DataFrame([_row(**change)]), source="q.csv")
+
+
+def test_invalid_tables_are_refused() -> None:
+    with pytest.raises(DataError, match="missing column\\(s\\) tlx_frustration"):
+        questionnaire_scores(pd.DataFrame([_row()]).drop(columns="tlx_frustration"))
+    with pytest.raises(DataError, match="no 'condition' column"):
+        questionnaire_scores(pd.DataFrame([_row()]).drop(columns="condition"))
+    with pytest.raises(DataError, match="missing tlx_pair_15"):
+        questionnaire_scores(pd.DataFrame([_row(**_pairs_for(WINS))]).drop(columns="tlx_pair_15"))
+    with pytest.raises(DataError, match="holds no scores"):
+        questionnaire_scores(pd.DataFrame({"participant": [1], "condition": ["a"]}))
+    with pytest.raises(DataError, match="has no rows"):
+        questionnaire_scores(pd.DataFrame(columns=["participant", "condition"]))
+
+
+def test_read_questionnaires_refuses_missing_and_empty_files(tmp_path) -> None:
+    with pytest.raises(DataError, match="does not exist"):
+        read_questionnaires(tmp_path / "nope.csv")
+    (tmp_path / "empty.csv").write_text("")
+    with pytest.raises(DataError, match="is empty"):
+        read_questionnaires(tmp_path / "empty.csv")

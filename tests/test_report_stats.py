@@ -1,0 +1,265 @@
+"""Statistics against textbook formulas and constructed data with known answers."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+import scipy.stats
+
+from nudgecli.report.stats import (
+    ComparisonOptions,
+    _weighted_medians,
+    analyze_metric,
+    bootstrap_median_differences,
+    compare_conditions,
+    conover,
+    describe,
+    is_significant,
+    json_ready,
+    kendalls_w,
+    kruskal_wallis,
+    order_conditions,
+    participant_level_test,
+    rank_biserial,
+    significance_stars,
+    stats_table,
+)
+
+# Groups with many ties (within and across groups).
+GROUPS = {
+    "a": [1, 2, 2, 3, 5, 5, 5, 8],
+    "b": [2, 3, 3, 4, 6, 7, 9, 9, 10],
+    "c": [1, 1, 4, 5, 6, 6, 11],
+}
+
+
+def _average_ranks(values: np.ndarray) -> np.ndarray:
+    """Ranks 1..N with tied values given the mean of the ranks they span (written out by hand)."""
+    order = np.argsort(values, kind="stable")
+    ranks = np.empty(len(values))
+    position = 0
+    while position < len(values):
+        end = position
+        while end + 1 < len(values) and values[order[end + 1]] == values[order[position]]:
+            end += 1
+        ranks[order[position:end + 1]] = (position + 1 + end + 1) / 2.0
+        position = end + 1
+    return ranks
+
+
+def textbook_kruskal_conover(groups: dict[str, list[float]]) -> tuple[float, float, dict, dict]:
+    """Kruskal-Wallis T and Conover's pairwise p from Conover, *Practical Nonparametric Statistics*,
+    3rd ed. (Wiley, 1999), section 5.2.
+
+    T = (1 / S^2) (sum_i R_i^2 / n_i - N (N + 1)^2 / 4), S^2 = (1 / (N - 1)) (sum of all R^2 -
+    N (N + 1)^2 / 4) (the tie-corrected statistic), p from chi-square with k - 1 df; the multiple
+    comparisons: t = |R_i / n_i - R_j / n_j| / sqrt(S^2 (N - 1 - T) / (N - k) (1 / n_i + 1 / n_j)),
+    two-sided p from Student's t with N - k df. Holm's step-down adjustment on top.
+    """
+    names = list(groups)
+    values = np.concatenate([np.asarray(groups[n], dtype=float) for n in names])
+    labels = np.concatenate([[n] * len(groups[n]) for n in names])
+    ranks = _average_ranks(values)
+    big_n, k = len(values), len(names)
+    rank_sums = {n: ranks[labels == n].sum() for n in names}
+    sizes = {n: int((labels == n).sum()) for n in names}
+    s2 = (np.sum(ranks**2) - big_n * (big_n + 1) ** 2 / 4) / (big_n - 1)
+    t_stat = (sum(rank_sums[n] ** 2 / sizes[n] for n in names) - big_n * (big_n + 1) ** 2 / 4) / s2
+    p_kw = scipy.stats.chi2.sf(t_stat, k - 1)
+    raw = {}
+    for a, b in itertools.combinations(names, 2):
+        difference = abs(rank_sums[a] / sizes[a] - rank_sums[b] / sizes[b])
+        scale = math.sqrt(s2 * (big_n - 1 - t_stat) / (big_n - k) * (1 / sizes[a] + 1 / sizes[b]))
+        raw[a, b] = 2 * scipy.stats.t.sf(difference / scale, big_n - k)
+    # Holm: sort ascending, multiply the i-th smallest (0-based) by m - i, running maximum, cap 1.
+    ordered = sorted(raw, key=raw.get)
+    holm, running = {}, 0.0
+    for i, pair in enumerate(ordered):
+        running = max(running, min(1.0, (len(raw) - i) * raw[pair]))
+        holm[pair] = running
+    return t_stat, p_kw, raw, holm
+
+
+def _tidy(groups: dict[str, list[float]]) -> pd.DataFrame:
+    rows = [{"participant": i % 3, "condition": name, "value": v}
+            for name, values in groups.items() for i, v in enumerate(values)]
+    return pd.DataFrame(rows)
+
+
+@pytest.mark.parametrize("names", [("a", "b"), ("a", "b", "c")])
+def test_kruskal_and_conover_match_the_textbook(names: tuple[str, ...]) -> None:
+    groups = {n: GROUPS[n] for n in names}
+    t_stat, p_kw, raw, holm = textbook_kruskal_conover(groups)
+    data = _tidy(groups)
+    kruskal = kruskal_wallis(data, "value", list(names))
+    assert kruskal["statistic"] == pytest.approx(t_stat, rel=1e-12)
+    assert kruskal["p"] == pytest.approx(p_kw, rel=1e-10)
+    table = conover(data, "value", list(names), p_adjust="holm")
+    assert [(r.a, r.b) for r in table.itertuples()] == list(itertools.combinations(names, 2))
+    for row in table.itertuples():
+        assert row.p_unadjusted == pytest.approx(raw[row.a, row.b], rel=1e-10)
+        assert row.p == pytest.approx(holm[row.a, row.b], rel=1e-10)
+
+
+def test_conover_without_adjustment_reports_raw_p_twice() -> None:
+    data = _tidy(GROUPS)
+    table = conover(data, "value", ["a", "b", "c"], p_adjust="none")
+    assert np.allclose(table["p"], table["p_unadjusted"])
+
+
+def test_degenerate_groups_give_nan_not_errors() -> None:
+    data = pd.DataFrame({"participant": [1, 1, 2, 2], "condition": ["a", "b", "a", "b"],
+                         "value": [3.0, 3.0, 3.0, 3.0]})
+    assert math.isnan(kruskal_wallis(data, "value", ["a", "b"])["p"])
+    assert conover(data, "value", ["a", "b"])["p"].isna().all()
+
+
+@pytest.mark.parametrize(("p", "comparison", "expected"), [
+    (0.2, "<", ""), (0.05, "<", ""), (0.05, "<=", "*"), (0.049, "<", "*"), (0.01, "<", "*"),
+    (0.01, "<=", "**"), (0.0099, "<", "**"), (0.001, "<", "**"), (0.001, "<=", "***"),
+    (1e-9, "<", "***"), (math.nan, "<", ""),
+])
+def test_stars(p: float, comparison: str, expected: str) -> None:
+    assert significance_stars(p, (0.05, 0.01, 0.001), comparison) == expected
+
+
+def test_stars_only_when_kruskal_wallis_is_significant() -> None:
+    data = _tidy({"a": list(range(10)), "b": list(range(20, 30))})
+    entry = analyze_metric(data, "value", ["a", "b"], ComparisonOptions(bootstrap_resamples=100))
+    assert entry["kruskal"]["p"] < 0.001 and entry["stars"] == [{"a": "a", "b": "b", "stars": "***"}]
+    gated = analyze_metric(data, "value", ["a", "b"], ComparisonOptions(kruskal_alpha=1e-20,
+                                                                     bootstrap_resamples=100))
+    assert gated["conover"][0]["p"] < 0.001 and gated["stars"][0]["stars"] == ""
+    assert is_significant(0.05, 0.05, "<=") and not is_significant(0.05, 0.05, "<")
+
+
+def test_describe_per_condition() -> None:
+    data = _tidy({"a": [1, 2, 3, 4, 100], "b": [5.0, 6.0]})
+    table = describe(data, "value", ["b", "a"]).set_index("condition")
+    assert list(table.index) == ["b", "a"]
+    assert table.loc["a", "n"] == 5 and table.loc["a", "median"] == 3
+    assert table.loc["a", "q1"] == 2 and table.loc["a", "q3"] == 4 and table.loc["a", "mean"] == 22
+
+
+def test_rank_biserial_hand_case() -> None:
+    # differences 1, -2, 3, 0: zero dropped, ranks of |d| 1, 2, 3 -> (1 + 3 - 2) / 6
+    assert rank_biserial(np.array([2, 0, 5, 4]), np.array([1, 2, 2, 4])) == pytest.approx(1 / 3)
+    assert rank_biserial(np.array([1.0]), np.array([1.0])) == 0.0
+    assert math.isnan(rank_biserial(np.array([]), np.array([])))
+
+
+def _shifted(n_participants: int = 8, shift: float = 2.0) -> pd.DataFrame:
+    """Every trial of condition a is its twin in b plus ``shift``; participants differ in level."""
+    rng = np.random.default_rng(3)
+    rows = []
+    for p in range(n_participants):
+        base = rng.normal(10, 3, size=5)
+        rows += [{"participant": p, "condition": "b", "value": v} for v in base]
+        rows += [{"participant": p, "condition": "a", "value": v + shift} for v in base]
+    return pd.DataFrame(rows)
+
+
+def test_constant_shift_gives_rank_biserial_one_and_exact_interval() -> None:
+    data = _shifted(shift=2.0)
+    level, effect = participant_level_test(data, "value", ["a", "b"])
+    assert level["test"] == "wilcoxon" and level["n_participants"] == 8
+    assert level["dropped_participants"] == []
+    assert effect == {"name": "rank_biserial", "value": 1.0, "a": "a", "b": "b"}
+    assert level["p"] == pytest.approx(2 / 2**8)  # exact two-sided signed-rank p, all 8 positive
+    reverse, _ = participant_level_test(data, "value", ["b", "a"])
+    assert reverse["p"] == pytest.approx(level["p"])
+    ci = bootstrap_median_differences(data, "value", ["a", "b"], resamples=500, seed=1)
+    row = ci.iloc[0]
+    assert row["difference"] == pytest.approx(2.0)
+    assert row["low"] == pytest.approx(2.0) and row["high"] == pytest.approx(2.0)
+
+
+def test_bootstrap_is_seeded_and_covers_the_true_shift() -> None:
+    rng = np.random.default_rng(11)
+    rows = []
+    for p in range(12):
+        level = rng.normal(0, 2)
+        for _ in range(6):
+            rows.append({"participant": p, "condition": "a", "value": level + 1.5 + rng.normal(0, 1)})
+            rows.append({"participant": p, "condition": "b", "value": level + rng.normal(0, 1)})
+    data = pd.DataFrame(rows)
+    first = bootstrap_median_differences(data, "value", ["a", "b"], resamples=1000, seed=5)
+    again = bootstrap_median_differences(data, "value", ["a", "b"], resamples=1000, seed=5)
+    other = bootstrap_median_differences(data, "value", ["a", "b"], resamples=1000, seed=6)
+    pd.testing.assert_frame_equal(first, again)
+    assert not first[["low", "high"]].equals(other[["low", "high"]])
+    row = first.iloc[0]
+    assert row["low"] < 1.5 < row["high"]
+    assert row["low"] <= row["difference"] <= row["high"]
+    assert row["valid_resamples"] == 1000
+
+
+def test_weighted_medians_equal_medians_of_replicated_samples() -> None:
+    rng = np.random.default_rng(0)
+    values = np.sort(rng.integers(0, 20, size=15).astype(float))
+    owners = rng.integers(0, 5, size=15)
+    weights = rng.integers(0, 3, size=(50, 5))
+    weights[0] = 0  # an empty resample
+    fast = _weighted_medians(values, owners, weights)
+    assert math.isnan(fast[0])
+    for r in range(1, 50):
+        replicated = np.repeat(values, weights[r, owners])
+        expected = np.median(replicated) if replicated.size else math.nan
+        assert fast[r] == pytest.approx(expected, nan_ok=True)
+
+
+def test_participants_missing_a_condition_are_dropped_with_a_note() -> None:
+    data = pd.concat([_shifted(n_participants=6),
+                      pd.DataFrame({"participant": [99], "condition": ["a"], "value": [1.0]})])
+    level, _ = participant_level_test(data, "value", ["a", "b"])
+    assert level["n_participants"] == 6 and level["dropped_participants"] == [99]
+    assert "99" in level["note"]
+
+
+def test_three_conditions_use_friedman_and_kendalls_w() -> None:
+    rows = []
+    for p in range(6):
+        for condition, offset in (("x", 0.0), ("y", 1.0), ("z", 2.0)):
+            rows += [{"participant": p, "condition": condition, "value": p + offset + t / 10}
+                     for t in range(3)]
+    data = pd.DataFrame(rows)
+    level, effect = participant_level_test(data, "value", ["x", "y", "z"])
+    medians = data.groupby(["participant", "condition"])["value"].median().unstack()
+    expected = scipy.stats.friedmanchisquare(medians["x"], medians["y"], medians["z"])
+    assert level["test"] == "friedman"
+    assert level["statistic"] == pytest.approx(expected.statistic)
+    assert level["p"] == pytest.approx(expected.pvalue)
+    assert effect["name"] == "kendall_w" and effect["value"] == pytest.approx(1.0)  # perfect agreement
+    assert kendalls_w(6.0, 6, 3) == pytest.approx(0.5)
+
+
+def test_stats_document_schema_and_tidy_table() -> None:
+    data = _tidy(GROUPS).rename(columns={"value": "score"})
+    data["other"] = data["score"] * 2
+    stats = json_ready(compare_conditions(data, ["score", "other"], ["a", "b", "c"],
+                                          ComparisonOptions(bootstrap_resamples=200)))
+    assert list(stats) == ["conditions", "metrics"] and stats["conditions"] == ["a", "b", "c"]
+    entry = stats["metrics"][0]
+    assert list(entry) == ["metric", "n", "mean", "median", "q1", "q3", "kruskal", "conover", "p_adjust",
+                           "stars", "participant_level", "effect_size", "ci"]
+    assert entry["n"] == {"a": 8, "b": 9, "c": 7}
+    assert set(entry["kruskal"]) == {"statistic", "p"}
+    assert all(set(r) == {"a", "b", "p", "p_unadjusted"} for r in entry["conover"])
+    assert len(entry["ci"]["pairs"]) == 3
+    table = stats_table(stats)
+    assert len(table) == 6 and list(table["metric"]) == ["score"] * 3 + ["other"] * 3
+
+
+def test_json_ready_turns_nan_into_null() -> None:
+    assert json_ready({"x": [math.nan, np.float64(1.5), np.int64(2)], "y": {1: math.inf}}) == {
+        "x": [None, 1.5, 2], "y": {"1": None}}
+
+
+def test_order_conditions_prefers_the_plan_order() -> None:
+    assert order_conditions(["control", "disambiguation", "x"], ["disambiguation", "control"]) == [
+        "disambiguation", "control", "x"]
+    assert order_conditions(["b", "a"]) == ["a", "b"]

@@ -1,0 +1,247 @@
+"""The turn-taking protocol (Algorithm 1) checked on its own step logs."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from nudgecli.config import load_experiment
+from nudgecli.model import assistance
+from nudgecli.model.disambiguation import DisambiguationModel, maximally_disambiguating_state
+from nudgecli.model.interface import default_distortion_table, default_mapping_table
+from nudgecli.model.mdp import solve_layout
+from nudgecli.model.world import MODE_NAMES, cell_centre, discretise, state_index
+from nudgecli.rng import generator
+from nudgecli.sim.participants import Participant, mapping_with_error
+from nudgecli.sim.protocol import ProtocolSettings, TrialSpec, run_trial
+from nudgecli.sim.study import build_layouts
+
+DT = 0.1
+
+
+def ideal_participant() -> Participant:
+    """Noise-free and epsilon-0: every blow lands in its band, the mapping is the true one."""
+    return Participant(index=0, seed_key="ideal", pressure_level=np.array([-0.8, 0.8, -0.15, 0.15]),
+                       pressure_spread=np.zeros(4), mapping=mapping_with_error(0.0), epsilon=0.0,
+                       rest_s=0.5, operate_s=3.0, action_pause_s=0.2, hard_blow_s=0.4, reaction_s=0.5)
+
+
+def noisy_participant() -> Participant:
+    return Participant(index=1, seed_key="noisy", pressure_level=np.array([-0.75, 0.7, -0.18, 0.24]),
+                       pressure_spread=np.array([0.12, 0.12, 0.07, 0.1]), mapping=mapping_with_error(0.05),
+                       epsilon=0.1, rest_s=0.8, operate_s=3.5, action_pause_s=0.3, hard_blow_s=0.5,
+                       reaction_s=0.5, onset_ramp_samples=1)
+
+
+@pytest.fixture(scope="module")
+def paper():
+    config = load_experiment("paper")
+    return config, ProtocolSettings.from_config(config), build_layouts(config, 11)
+
+
+def simulate(paper, layout_index: int, participant: Participant, seed: int = 0, condition: str | None = None):
+    _config, settings, layouts = paper
+    item = layouts[layout_index]
+    solved = solve_layout(item.layout.goal_cells, item.layout.goal_headings)
+    model = DisambiguationModel(item.layout.goal_cells, solved.p_a_given_sg, default_mapping_table(),
+                                default_distortion_table())
+    spec = TrialSpec(participant=participant.index, condition=condition or item.condition, block=0, trial=0,
+                     layout_index=item.index, layout=item.layout)
+    result = run_trial(spec, settings, solved, model, participant, generator(seed, "test", layout_index))
+    return result, pd.DataFrame(result.steps), item, model
+
+
+@pytest.mark.parametrize("layout_index", [0, 5, 13, 22, 30, 41])
+def test_ideal_participant_reaches_the_true_goal(paper, layout_index):
+    result, steps, _, _ = simulate(paper, layout_index, ideal_participant())
+    assert result.summary["success"], result.summary
+    assert result.summary["reached_goal"] == 0
+    assert not result.summary["timed_out"]
+    # it ends in the human's turn, as a trial must
+    assert steps["turn"].iloc[-1] == "human"
+    assert steps["turn"].iloc[0] == "human"
+
+
+@pytest.mark.parametrize("layout_index", [2, 9, 26, 40])
+def test_blending_arithmetic_in_the_human_turn(paper, layout_index):
+    _, steps, _, _ = simulate(paper, layout_index, noisy_participant(), seed=3)
+    nxt = steps.shift(-1)
+    human = steps[(steps["turn"] == "human") & nxt["step"].notna()]
+    u_h = human[["u_h_x", "u_h_y", "u_h_theta"]].to_numpy()
+    u_a = human[["u_a_x", "u_a_y", "u_a_theta"]].to_numpy()
+    alpha = human["alpha"].to_numpy()[:, None]
+    moving = np.abs(u_h).sum(axis=1) > 0
+    expected = np.where(moving[:, None], alpha * u_a + (1 - alpha) * u_h, 0.0)
+    dx = nxt.loc[human.index, "x"].to_numpy() - human["x"].to_numpy()
+    dy = nxt.loc[human.index, "y"].to_numpy() - human["y"].to_numpy()
+    dth = np.angle(np.exp(1j * (nxt.loc[human.index, "theta"].to_numpy() - human["theta"].to_numpy())))
+    # away from the walls, one step moves by u_f * dt exactly (Algorithm 1, lines 8-9)
+    inside = ((human["x"] > 5) & (human["x"] < 43) & (human["y"] > 4) & (human["y"] < 34)).to_numpy()
+    assert moving.sum() > 10 and (alpha[moving] > 0).sum() > 0, "the trial must exercise blending"
+    np.testing.assert_allclose(dx[inside], expected[inside, 0] * DT, atol=1e-12)
+    np.testing.assert_allclose(dy[inside], expected[inside, 1] * DT, atol=1e-12)
+    np.testing.assert_allclose(dth[inside], expected[inside, 2] * DT, atol=1e-12)
+
+
+def test_alpha_follows_the_paper_rule(paper):
+    _, steps, _, _ = simulate(paper, 7, noisy_participant(), seed=5)
+    human = steps[steps["turn"] == "human"]
+    for belief, alpha, inferred in zip(human["belief"], human["alpha"], human["inferred_goal"], strict=True):
+        b = np.asarray(belief)
+        assert inferred == int(np.argmax(b))
+        assert alpha == pytest.approx(assistance.blending_factor(b.max(), b.size), abs=1e-12)
+
+
+def turns(steps: pd.DataFrame) -> list[pd.DataFrame]:
+    change = (steps["turn"] != steps["turn"].shift()).cumsum()
+    return [group for _, group in steps.groupby(change, sort=True)]
+
+
+def test_belief_is_frozen_during_the_autonomy_turn(paper):
+    _, steps, _, _ = simulate(paper, 3, noisy_participant(), seed=1)
+    autonomy = [t for t in turns(steps) if t["turn"].iloc[0] == "autonomy"]
+    assert autonomy
+    for turn in autonomy:
+        beliefs = np.array(turn["belief"].tolist())
+        assert (beliefs == beliefs[0]).all()
+        assert (turn["phi_m"] == "").all()
+
+
+def test_handover_only_after_the_idle_time(paper):
+    _config, settings, _ = paper
+    _, steps, _, _ = simulate(paper, 12, noisy_participant(), seed=2)
+    blocks = turns(steps)
+    idle_needed = settings.handover_idle_steps
+    handed_over = 0
+    for human, autonomy in itertools.pairwise(blocks):
+        if human["turn"].iloc[0] != "human":
+            continue
+        handed_over += 1
+        assert autonomy["event"].iloc[0].startswith("handover_to_autonomy")
+        commands = (human[["u_h_x", "u_h_y", "u_h_theta"]].abs().sum(axis=1) > 0) | \
+            human["event"].str.contains("mode_switch_human")
+        # the last idle_needed + 1 steps of the turn carry no command: the idle time handed it over
+        assert not commands.iloc[-(idle_needed + 1):].any()
+        assert commands.any(), "a human turn hands over only after the human has given an input"
+    assert handed_over >= 1
+
+
+def test_control_step_goes_towards_the_tied_goals(paper):
+    _, steps, item, _ = simulate(paper, 30, noisy_participant(), seed=4, condition="control")
+    goals = item.layout.goal_poses
+    sizes = assistance.step_sizes(3)
+    checked = 0
+    for turn in turns(steps):
+        if turn["turn"].iloc[0] != "autonomy":
+            continue
+        start = turn[["x", "y"]].iloc[0].to_numpy()
+        belief = np.asarray(turn["belief"].iloc[0])
+        end_index = turn.index[-1] + 1
+        if end_index not in steps.index:
+            continue
+        end = steps.loc[end_index, ["x", "y"]].to_numpy(dtype=float)
+        target = assistance.control_target(belief, goals[:, :2])
+        direction = (target - start) / np.linalg.norm(target - start)
+        moved = end - start
+        # on the line towards the mean of the tied goals, by min(R, D / 2) with R from the window's steps
+        assert np.linalg.norm(moved - direction * np.dot(moved, direction)) < 0.11
+        distance = np.linalg.norm(target - start)
+        assert any(abs(np.linalg.norm(moved) - min(r, distance / 2)) <= 0.11 for r in sizes)
+        # heading and mode are kept
+        assert turn["mode"].nunique() == 1
+        assert steps.loc[end_index, "theta"] == pytest.approx(turn["theta"].iloc[0])
+        checked += 1
+    assert checked >= 1
+
+
+def test_nudge_goes_to_s_star_within_the_window(paper):
+    _config, settings, _layouts = paper
+    checked = 0
+    for layout_index, seed in ((0, 1), (4, 2), (8, 3), (16, 4)):
+        _, steps, item, model = simulate(paper, layout_index, noisy_participant(), seed=seed,
+                                         condition="disambiguation")
+        for turn in turns(steps):
+            first = turn.iloc[0]
+            if first["turn"] != "autonomy" or "nudge" not in first["event"]:
+                continue
+            belief = np.asarray(first["belief"])
+            i, j, h = discretise(first["x"], first["y"], first["theta"])
+            mode_before = steps.loc[turn.index[0] - 1, "mode"]
+            state = state_index(i, j, h, MODE_NAMES.index(mode_before))
+            choice = maximally_disambiguating_state(belief, model, state, settings.disambiguation,
+                                                    robot_position=np.array([first["x"], first["y"]]))
+            ci, cj, ch, cm = np.unravel_index(choice.state, (10, 10, 8, 3))
+            assert abs(ci - i) <= 1 and abs(cj - j) <= 1 and ch == h
+            assert not any((ci, cj) == tuple(c) for c in item.layout.goal_cells)
+            assert MODE_NAMES[cm] == first["mode"]  # switched instantly to s*'s mode
+            end_index = turn.index[-1] + 1
+            if end_index in steps.index:
+                end = steps.loc[end_index, ["x", "y"]].to_numpy(dtype=float)
+                assert np.linalg.norm(end - cell_centre(ci, cj)) <= settings.arrival_tolerance + 1e-9
+            checked += 1
+    assert checked >= 2
+
+
+def test_entropy_above_kappa_nudges_and_below_steps(paper):
+    _config, settings, _ = paper
+    _, steps, _, _ = simulate(paper, 1, noisy_participant(), seed=6, condition="disambiguation")
+    for turn in turns(steps):
+        first = turn.iloc[0]
+        if first["turn"] != "autonomy":
+            continue
+        if first["entropy"] > settings.kappa:
+            assert "nudge" in first["event"]
+        else:
+            assert "step" in first["event"]
+
+
+def test_trial_times_out_at_the_limit(paper):
+    _config, _, layouts = paper
+    short = load_experiment("paper", ["study.time_limit_s=3.0"])
+    settings = ProtocolSettings.from_config(short)
+    item = layouts[0]
+    solved = solve_layout(item.layout.goal_cells, item.layout.goal_headings)
+    model = DisambiguationModel(item.layout.goal_cells, solved.p_a_given_sg, default_mapping_table(),
+                                default_distortion_table())
+    spec = TrialSpec(0, item.condition, 0, 0, item.index, item.layout)
+    result = run_trial(spec, settings, solved, model, ideal_participant(), generator(0, "t"))
+    assert result.summary["timed_out"] and not result.summary["success"]
+    assert result.summary["duration_s"] == pytest.approx(3.0)
+    assert len(result.steps["step"]) == 30
+
+
+def poses_after_each_step(steps: pd.DataFrame, summary: dict) -> np.ndarray:
+    """``(N, 3)``: the pose at the end of every step (the next row's start, the summary's last)."""
+    poses = steps[["x", "y", "theta"]].to_numpy(dtype=float)
+    final = np.array([[summary["final_x"], summary["final_y"], summary["final_theta"]]])
+    return np.vstack([poses[1:], final])
+
+
+@pytest.mark.parametrize("layout_index", [6, 20, 33])
+def test_the_trial_ends_at_the_first_human_step_within_tolerance(paper, layout_index):
+    result, steps, item, _ = simulate(paper, layout_index, noisy_participant(), seed=8)
+    goals = item.layout.goal_poses
+    after = poses_after_each_step(steps, result.summary)
+    distance = np.hypot(after[:, None, 0] - goals[None, :, 0], after[:, None, 1] - goals[None, :, 1])
+    angle = np.abs(np.angle(np.exp(1j * (after[:, None, 2] - goals[None, :, 2]))))
+    within = ((distance <= 1.0) & (angle <= 0.2)).any(axis=1)
+    if result.summary["timed_out"]:
+        assert result.summary["reached_goal"] == -1
+        return
+    reached = result.summary["reached_goal"]
+    assert distance[-1, reached] <= 1.0 and angle[-1, reached] <= 0.2
+    assert result.summary["success"] == (reached == 0)
+    # no earlier human step (after the turn's first input) ended within the tolerance
+    human = (steps["turn"] == "human").to_numpy()
+    earlier = within[:-1] & human[:-1]
+    if earlier.any():
+        # only before the first input of that human turn (the rule needs an input first)
+        for k in np.flatnonzero(earlier):
+            turn_start = k
+            while turn_start > 0 and steps["turn"].iloc[turn_start - 1] == "human":
+                turn_start -= 1
+            assert (steps["phi_m"].iloc[turn_start:k + 1] == "").all()
+    assert result.summary["duration_s"] == pytest.approx(len(steps) * DT)

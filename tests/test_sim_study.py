@@ -1,0 +1,154 @@
+"""The study runner: design, determinism across executors, resume after SIGKILL, CLI errors."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from nudgecli.cli import main
+from nudgecli.config import load_experiment
+from nudgecli.sim.study import build_layouts, participant_schedule, run_study
+from nudgecli.store import RunFolder
+
+
+def read_tables(path: Path) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    run = RunFolder(path)
+    return run.read_trials(), run.read_steps(), pd.read_parquet(path / "participants.parquet")
+
+
+def assert_same_run(a: Path, b: Path) -> None:
+    for left, right in zip(read_tables(a), read_tables(b), strict=True):
+        pd.testing.assert_frame_equal(left, right, check_exact=True)
+    layouts = [pd.read_parquet(p / "layouts.parquet") for p in (a, b)]
+    pd.testing.assert_frame_equal(*layouts)
+
+
+def test_design_has_the_papers_structure():
+    config = load_experiment("paper")
+    layouts = build_layouts(config, 2022)
+    assert len(layouts) == 48
+    assert [lay.condition for lay in layouts[:24]] == ["disambiguation"] * 24
+    for lay in layouts:
+        cells = lay.layout.goal_cells
+        assert len(cells) == lay.n_goals
+        d = ((cells[:, None, :] - cells[None, :, :]) ** 2).sum(-1) ** 0.5
+        assert (d[~pd.DataFrame(d).eq(0).to_numpy()] > 1.0).all()  # goals more than one cell apart
+    starts = set()
+    for p in range(4):
+        schedule = participant_schedule(config, 2022, p, layouts)
+        assert len(schedule) == 48 and sorted(s.layout_index for s in schedule) == list(range(48))
+        blocks = [schedule[k].condition for k in range(0, 48, 8)]
+        # 6 blocks of 8, conditions alternating, the first condition balanced across participants
+        assert all(len({s.condition for s in schedule[k:k + 8]}) == 1 for k in range(0, 48, 8))
+        assert blocks in (["disambiguation", "control"] * 3, ["control", "disambiguation"] * 3)
+        starts.add(blocks[0])
+    assert starts == {"disambiguation", "control"}
+
+
+def test_same_seed_same_tables_serial_processes_and_dask(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    config = load_experiment("smoke")
+    run_study(config, tmp_path / "serial", participants=3, workers=1)
+    run_study(config, tmp_path / "two", participants=3, workers=2)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=":0") as cluster:
+        run_study(config, tmp_path / "dask", participants=3, scheduler=cluster.scheduler_address)
+    assert_same_run(tmp_path / "serial", tmp_path / "two")
+    assert_same_run(tmp_path / "serial", tmp_path / "dask")
+
+
+def test_a_different_seed_gives_different_tables(tmp_path):
+    config = load_experiment("smoke")
+    a = run_study(config, tmp_path / "a", seed=1, participants=1)
+    b = run_study(config, tmp_path / "b", seed=2, participants=1)
+    assert not a.trials.equals(b.trials)
+
+
+def test_tables_hold_no_wall_clock_values(tmp_path):
+    config = load_experiment("smoke")
+    run_study(config, tmp_path / "a", participants=1)
+    time.sleep(1.1)
+    run_study(config, tmp_path / "b", participants=1)
+    assert_same_run(tmp_path / "a", tmp_path / "b")
+    manifest = RunFolder(tmp_path / "a").read_manifest()
+    assert manifest["status"] == "complete" and "wall_s" in manifest and manifest["completed"] == [0]
+
+
+def test_resume_after_sigkill_equals_an_uninterrupted_run(tmp_path):
+    killed = tmp_path / "killed"
+    args = [sys.executable, "-m", "nudgecli.cli", "simulate", "smoke", "--participants", "10", "--out",
+            str(killed)]
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    proc = subprocess.Popen(args, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not list((killed / "participants").glob("part-*.parquet")):
+        time.sleep(0.005)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    done = RunFolder(killed).completed_participants()
+    assert 1 <= len(done) < 10, "the run must be interrupted part-way for this test to mean anything"
+    assert RunFolder(killed).read_manifest()["status"] == "running"
+    result = CliRunner().invoke(main, ["simulate", "smoke", "--participants", "10", "--out", str(killed),
+                                       "--resume"])
+    assert result.exit_code == 0, result.output
+    run_study(load_experiment("smoke"), tmp_path / "clean", participants=10)
+    assert_same_run(killed, tmp_path / "clean")
+
+
+def test_an_existing_run_is_refused_without_resume_or_force(tmp_path):
+    runner = CliRunner()
+    out = str(tmp_path / "r")
+    assert runner.invoke(main, ["simulate", "smoke", "--participants", "1", "--out", out]).exit_code == 0
+    again = runner.invoke(main, ["simulate", "smoke", "--participants", "1", "--out", out])
+    assert again.exit_code == 1 and "already holds a run" in again.output
+    other = runner.invoke(main, ["simulate", "smoke", "--participants", "1", "--seed", "9", "--out", out,
+                                 "--resume"])
+    assert other.exit_code == 1 and "different" in other.output
+    forced = runner.invoke(main, ["simulate", "smoke", "--participants", "1", "--seed", "9", "--out", out,
+                                  "--force"])
+    assert forced.exit_code == 0, forced.output
+    assert RunFolder(out).read_manifest()["seed"] == 9
+
+
+BAD = [
+    (["simulate", "nonexistent"], "neither an experiment preset nor a file"),
+    (["simulate", "smoke", "--participants", "0"], "--participants must be at least 1"),
+    (["simulate", "smoke", "--workers", "-1"], "--workers must be at least 1"),
+    (["simulate", "smoke", "--set", "study.participnts=3"], "did you mean 'participants'"),
+    (["simulate", "smoke", "--set", "study.participants=abc"], "valid integer"),
+    (["simulate", "smoke", "--set", "disambiguation.window=4"], "3 or 5"),
+    (["simulate", "smoke", "--set", "assistance.rho3=2"], "less than or equal to 1"),
+    (["simulate", "smoke", "--set", "nonsense"], "expected section.key=value"),
+]
+
+
+@pytest.mark.parametrize(("args", "message"), BAD)
+def test_bad_experiments_fail_with_one_error_line(tmp_path, args, message):
+    result = CliRunner().invoke(main, [*args, "--out", str(tmp_path / "never")])
+    assert result.exit_code == 1, result.output
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("Error: ") and message in lines[0], lines
+    assert "Traceback" not in result.output
+    assert not (tmp_path / "never").exists()
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ("[study]\nparticipants = 2\nwindow = 3\n", "unknown key 'study.window'"),
+    ("[study]\nparticipants = 'two'\n", "study.participants"),
+    ("[disambiguation]\nestimator = 'guess'\n", "'exact' or 'monte_carlo'"),
+    ("[study\n", "invalid TOML"),
+])
+def test_bad_experiment_files_name_the_file_and_field(tmp_path, text, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    result = CliRunner().invoke(main, ["simulate", str(path), "--out", str(tmp_path / "never")])
+    assert result.exit_code == 1
+    assert result.output.count("Error:") == 1 and str(path) in result.output and message in result.output
