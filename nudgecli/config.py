@@ -161,29 +161,70 @@ class AssistanceSection(Section):
 
 
 class PopulationSection(Section):
-    """``[population]``: the ranges each simulated participant's true physiology is drawn from.
+    """``[population]``: the ranges each simulated participant's true physiology and habits are drawn from.
 
-    Every ``[low, high]`` pair is a uniform draw per participant. Pressure magnitudes are on
-    the device's scale ``[0, 1]`` (sip positive, puff negative in the stream).
+    Every ``[low, high]`` pair is a uniform draw per participant (``onset_ramp_samples`` an integer
+    draw); ``reaction_log_sd`` is one value for everyone. Pressure levels are magnitudes on the
+    device's scale (sip positive, puff negative in the stream); a level above 1 means the person
+    blows harder than the sensor reads, so most samples saturate at 1 the way real hard blows do.
+    A blow's per-sample pressure is ``level + spread * z`` (after an onset ramp), clipped to [0, 1]
+    on the intended side.
+
+    Where the defaults come from -- the real pilot logs in ``shared/data/calibration/`` (recorded
+    with soft/hard thresholds 0.3/0.5). Per prompted label, the samples of each prompt window with
+    non-zero pressure, without each blow's first two and last sample (its ramps), fitted by the
+    censored-normal quantile fit of ``nudgecli.sim.participants.participant_from_log``
+    (magnitudes; "sat." = share of samples at the sensor's limit 1.0):
+
+    ===================  ===============================  ========================  ==============
+    field                andrewtest                       deepaktest                default range
+    ===================  ===============================  ========================  ==============
+    hard_puff_level      1.04 (61% sat.)                  0.60                      [0.55, 1.10]
+    hard_sip_level       1.10 (98% sat.)                  1.12 (100% sat.)          [0.80, 1.20]
+    soft_puff_level      0.088                            0.103                     [0.05, 0.16]
+    soft_sip_level       0.222 (31% of samples > 0.3:     1.08: never produced a    [0.05, 0.24]
+                         the 28% Soft Sip -> Hard Sip)    soft sip (outside the
+                                                          population; simulate him
+                                                          with participant_from_log)
+    hard_spread          0.196 (puff; sip saturated)      0.149 (puff)              [0.05, 0.20]
+    soft_spread          0.088 (puff), 0.153 (sip)        0.024 (puff)              [0.02, 0.15]
+    onset_ramp_samples   hard blows reach their level in 2-3 samples (+0.06 +0.69 +1.00;
+                         -0.28 -0.67 -0.95; -0.13 -0.33 -0.44), soft ones in 1-4    [1, 3]
+    reaction_s           blow onset median 1.44 s         1.32 s                    [0.9, 2.0]
+                         (key-press latency medians 1.43, 1.51, 1.50 s in the mapping sessions)
+    reaction_log_sd      blow onsets 0.31, 0.27; key presses 0.42 (10-90%: 0.9-2.8 s)  0.35
+    mapping_error        0/72 wrong (andrewtest), 0/72 (deepak), 3/24 (deepaktest)  [0.0, 0.12]
+    ===================  ==========================================================  ==============
+
+    The pooled spreads include the drift between prompts (the real pressure wanders within and
+    between blows; the model draws samples independently). No pilot data exist for the task-level
+    habits: ``epsilon`` brackets the study's 0.1; ``operate_s`` the paper's 3-4 s border
+    reminder; ``rest_s``, ``action_pause_s`` and ``hard_blow_s`` are short against the ~1 s idle
+    handover, and a mode-switch blow outlasts the onset ramp so it reaches the hard band.
     """
 
-    soft_level: tuple[float, float] = (0.12, 0.24)
-    hard_level: tuple[float, float] = (0.62, 0.88)
-    soft_spread: tuple[float, float] = (0.03, 0.10)
-    hard_spread: tuple[float, float] = (0.06, 0.16)
-    mapping_error: tuple[float, float] = (0.0, 0.05)
+    soft_puff_level: tuple[float, float] = (0.05, 0.16)
+    soft_sip_level: tuple[float, float] = (0.05, 0.24)
+    hard_puff_level: tuple[float, float] = (0.55, 1.10)
+    hard_sip_level: tuple[float, float] = (0.80, 1.20)
+    soft_spread: tuple[float, float] = (0.02, 0.15)
+    hard_spread: tuple[float, float] = (0.05, 0.20)
+    onset_ramp_samples: tuple[int, int] = (1, 3)
+    mapping_error: tuple[float, float] = (0.0, 0.12)
     epsilon: tuple[float, float] = (0.02, 0.15)
     rest_s: tuple[float, float] = (0.3, 1.5)
     operate_s: tuple[float, float] = (2.5, 5.0)
     action_pause_s: tuple[float, float] = (0.1, 0.4)
-    hard_blow_s: tuple[float, float] = (0.3, 0.6)
-    reaction_s: tuple[float, float] = (0.3, 0.8)
+    hard_blow_s: tuple[float, float] = (0.4, 0.8)
+    reaction_s: tuple[float, float] = (0.9, 2.0)
+    reaction_log_sd: Annotated[float, Field(ge=0, le=2)] = 0.35
 
     @model_validator(mode="after")
     def _check(self) -> PopulationSection:
         for name, (lo, hi) in {
-            "soft_level": (0.0, 1.0), "hard_level": (0.0, 1.0), "soft_spread": (0.0, 1.0),
-            "hard_spread": (0.0, 1.0), "mapping_error": (0.0, 1.0), "epsilon": (0.0, 1.0),
+            "soft_puff_level": (0.0, 1.5), "soft_sip_level": (0.0, 1.5), "hard_puff_level": (0.0, 1.5),
+            "hard_sip_level": (0.0, 1.5), "soft_spread": (0.0, 1.0), "hard_spread": (0.0, 1.0),
+            "onset_ramp_samples": (0, 20), "mapping_error": (0.0, 0.75), "epsilon": (0.0, 1.0),
             "rest_s": (0.0, 60.0), "operate_s": (0.1, 120.0), "action_pause_s": (0.0, 10.0),
             "hard_blow_s": (0.1, 5.0), "reaction_s": (0.0, 10.0),
         }.items():
@@ -192,13 +233,24 @@ class PopulationSection(Section):
 
 
 class CalibrationSection(Section):
-    """``[calibration]``: the simulated Phases 1-2 (the study's prompting protocol)."""
+    """``[calibration]``: the simulated Phases 1-2, following the study's prompting protocol.
+
+    ``p(phi_i | a)``: ``mapping_blocks`` blocks of the 12 action images in random order; an answer
+    clears the prompt ``answer_clear_s`` later (0.50-0.52 s in the pilot logs), no answer within
+    ``answer_timeout_s`` (the study's 10 s) clears it as missed, and blocks are separated by the
+    hard-puff refresher (``block_break_s``; 10-18 s in the logs). ``p(phi_m | phi_i)``:
+    ``prompts_per_label`` rounds of the 4 labels in random order, each shown ``prompt_s`` then
+    ``blank_s`` blank, with the stream labelled at ``rate_hz``.
+    """
 
     mapping_blocks: int = Field(default=6, ge=1, description="Blocks of the 12 prompted actions.")
     prompts_per_label: int = Field(default=12, ge=1)
     prompt_s: PositiveFloat = 6.0
     blank_s: PositiveFloat = 1.5
     answer_timeout_s: PositiveFloat = 10.0
+    answer_clear_s: Annotated[float, Field(ge=0)] = 0.5
+    block_break_s: Annotated[float, Field(ge=0)] = 10.0
+    rate_hz: PositiveFloat = 10.0
 
 
 class ExperimentConfig(Section):

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+from scipy.special import xlogy
 
 
 def predict_belief(belief: np.ndarray, goal_transition: np.ndarray | None = None) -> np.ndarray:
@@ -53,3 +56,104 @@ def bayes_update(belief: np.ndarray, likelihood: np.ndarray,
     if not total > 0.0:
         raise ValueError("the observation has zero probability under every goal")
     return unnormalised / total
+
+
+def normalised_entropy(belief: np.ndarray) -> np.ndarray | float:
+    """Shannon entropy of the belief divided by ``log |G|``: 0 when certain, 1 when uniform.
+
+    The ratio does not depend on the logarithm's base, so it equals the study's base-2 value.
+    Zero entries contribute 0 (``0 log 0 = 0``); a single goal has normalised entropy 0.
+
+    Parameters
+    ----------
+    belief
+        ``(..., G)`` beliefs (each normalised over the last axis).
+
+    Returns
+    -------
+    np.ndarray or float
+        ``(...)`` values in ``[0, 1]``.
+    """
+    b = np.asarray(belief, dtype=float)
+    n_goals = b.shape[-1]
+    if n_goals <= 1:
+        return np.zeros(b.shape[:-1]) if b.ndim > 1 else 0.0
+    entropy = -xlogy(b, b).sum(axis=-1)
+    result = np.clip(entropy / np.log(n_goals), 0.0, 1.0)
+    return float(result) if b.ndim == 1 else result
+
+
+@dataclass(frozen=True)
+class DecaySettings:
+    """The study's forgetting of the belief during input pauses (not in the paper).
+
+    Attributes
+    ----------
+    delay
+        Decay starts after more than this many consecutive empty samples.
+    rate
+        ``f_k = 1 - exp(-rate * min(k, cap))`` for the ``k``-th decaying sample (``k = 0, 1, ...``).
+    cap
+        Upper bound on ``k`` in the exponent.
+    """
+
+    delay: int = 10
+    rate: float = 0.008
+    cap: int = 1000
+
+
+@dataclass(frozen=True)
+class DecayCounters:
+    """The two counters of the decay, reset by any real observation.
+
+    Attributes
+    ----------
+    empty_samples
+        Consecutive samples without an observation so far.
+    decay_steps
+        Decaying samples so far (the ``k`` of the next one).
+    """
+
+    empty_samples: int = 0
+    decay_steps: int = 0
+
+
+def decay_weight(k: int | np.ndarray, rate: float = 0.008, cap: int = 1000) -> float | np.ndarray:
+    """Mixing weight towards uniform of the ``k``-th decaying sample: ``1 - exp(-rate min(k, cap))``."""
+    return -np.expm1(-rate * np.minimum(k, cap))
+
+
+def decay_on_empty_sample(belief: np.ndarray, counters: DecayCounters,
+                          settings: DecaySettings | None = None) -> tuple[np.ndarray, DecayCounters]:
+    """Apply one sample without an observation (no input or a deadband label).
+
+    The first ``settings.delay`` empty samples leave the belief unchanged; each further one mixes
+    ``b <- (1 - f) b + f U`` with ``f = decay_weight(k)``, ``k = 0, 1, 2, ...`` (so the first mix
+    has ``f = 0``). After ``n`` decaying samples the old belief keeps weight
+    ``exp(-rate n (n - 1) / 2)`` (below the cap). A real observation restarts both counters:
+    pass ``DecayCounters()`` afterwards.
+
+    Parameters
+    ----------
+    belief
+        ``(G,)`` current belief.
+    counters
+        The counters before this sample.
+    settings
+        Delay, rate and cap (study values when ``None``).
+
+    Returns
+    -------
+    belief : np.ndarray
+        ``(G,)`` the belief after this sample.
+    counters : DecayCounters
+        The counters after this sample.
+    """
+    settings = settings or DecaySettings()
+    b = np.asarray(belief, dtype=float)
+    empty = counters.empty_samples + 1
+    if empty <= settings.delay:
+        return b, DecayCounters(empty_samples=empty, decay_steps=counters.decay_steps)
+    f = decay_weight(counters.decay_steps, settings.rate, settings.cap)
+    mixed = (1.0 - f) * b + f / b.shape[-1]
+    return mixed, DecayCounters(empty_samples=empty, decay_steps=counters.decay_steps + 1)

@@ -260,6 +260,7 @@ class StudyRun:
     """What :func:`run_study` did."""
 
     path: Path
+    experiment: str
     mode: str
     participants: int
     computed: list[int]
@@ -343,7 +344,8 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
                      "wall_s": round(time.perf_counter() - started, 3),
                      "peak_rss_mb": round(peak_memory_mb(), 1)})
     folder.write_manifest(manifest)
-    return StudyRun(path=folder.path, mode=mode, participants=n, computed=todo, trials=folder.read_trials())
+    return StudyRun(path=folder.path, experiment=config.experiment.name, mode=mode, participants=n,
+                    computed=todo, trials=folder.read_trials())
 
 
 def _executor_name(workers: int, scheduler: str | None) -> str:

@@ -1,0 +1,300 @@
+"""Assistance: the blending factor alpha, the autonomy's velocity, blending, and the autonomy
+turn's targets (the nudge into s*, the step towards the inferred goal, the Control target).
+
+Paper Section 4 and Algorithm 1, with the study software's extras as options (DESIGN 2.6,
+study notes section 6).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from nudgecli.model.world import (
+    CELL_HEIGHT,
+    CELL_WIDTH,
+    angle_difference,
+    cell_centre,
+    heading_angle,
+    state_coordinates,
+)
+
+#: Autonomy speed (units/s) and turn rate (rad/s) of the study's potential fields.
+AUTONOMY_SPEED = 5.0
+AUTONOMY_TURN_RATE = 1.5
+
+# One cell along x, y and the diagonal; the study's list used the rounded diagonals
+# sqrt(4.2^2 + 3.4^2) = 5.40 and twice that, 10.81.
+_DIAGONAL = 5.40
+_DOUBLE_DIAGONAL = 10.81
+#: Step sizes R of the confident / Control autonomy turn for the 3 x 3 window.
+STEP_SIZES_3X3 = (CELL_WIDTH, CELL_HEIGHT, _DIAGONAL)
+#: The 5 x 5 window (the study) adds two-cell steps.
+STEP_SIZES_5X5 = (*STEP_SIZES_3X3, 2 * CELL_WIDTH, 2 * CELL_HEIGHT, _DOUBLE_DIAGONAL)
+
+
+def blending_factor(p_goal: float | np.ndarray, n_goals: int, rho1_factor: float = 1.1,
+                    rho2_factor: float = 1.2, rho3: float = 0.8) -> float | np.ndarray:
+    """The paper's piecewise-linear ``alpha(p(g'))`` (Section 4).
+
+    ``alpha = 0`` for ``p <= rho1``, ``rho3 (p - rho1) / (rho2 - rho1)`` for ``rho1 < p <= rho2``
+    and ``rho3`` above, with ``rho1 = rho1_factor / n_goals`` and ``rho2 = rho2_factor / n_goals``.
+
+    Parameters
+    ----------
+    p_goal
+        ``(...)`` belief of the inferred goal ``g'``.
+    n_goals
+        Number of goals.
+    rho1_factor, rho2_factor, rho3
+        The breakpoints' factors and the plateau.
+
+    Returns
+    -------
+    float or np.ndarray
+        ``(...)`` alpha in ``[0, rho3]``.
+    """
+    if n_goals < 1:
+        raise ValueError(f"n_goals must be at least 1, got {n_goals}")
+    rho1, rho2 = rho1_factor / n_goals, rho2_factor / n_goals
+    if not rho2 > rho1:
+        raise ValueError(f"rho2 ({rho2:g}) must exceed rho1 ({rho1:g})")
+    p = np.asarray(p_goal, dtype=float)
+    alpha = np.clip((p - rho1) / (rho2 - rho1), 0.0, 1.0) * rho3
+    return float(alpha) if alpha.ndim == 0 else alpha
+
+
+def distance_weight(distance: float | np.ndarray, knee: float = 35.0,
+                    drop: float = 0.4) -> float | np.ndarray:
+    """The study's distance weight on alpha: ``1 - drop d / knee`` up to the knee, then
+    ``(1 - drop) exp(-(d - knee))`` (continuous at the knee: 0.6 there by default).
+
+    Parameters
+    ----------
+    distance
+        ``(...)`` distance from the robot to ``g'`` in world units.
+
+    Returns
+    -------
+    float or np.ndarray
+        ``(...)`` weights in ``(0, 1]``.
+    """
+    d = np.asarray(distance, dtype=float)
+    near = 1.0 - drop * d / knee
+    far = (1.0 - drop) * np.exp(-np.maximum(d - knee, 0.0))
+    w = np.where(d <= knee, near, far)
+    return float(w) if w.ndim == 0 else w
+
+
+@dataclass(frozen=True)
+class BlendingSettings:
+    """How alpha is computed during the human's turn.
+
+    Attributes
+    ----------
+    rho1_factor, rho2_factor, rho3
+        The paper's piecewise-linear alpha.
+    entropy_gate
+        ``kappa``: alpha is 0 while the normalised entropy exceeds it; ``None`` disables.
+    startup_delay
+        Seconds after the human's first input of a turn during which alpha is 0.
+    distance_weighting
+        Multiply alpha by :func:`distance_weight` of the distance to ``g'``.
+    """
+
+    rho1_factor: float = 1.1
+    rho2_factor: float = 1.2
+    rho3: float = 0.8
+    entropy_gate: float | None = None
+    startup_delay: float = 0.0
+    distance_weighting: bool = False
+
+    @classmethod
+    def study(cls) -> BlendingSettings:
+        """The study software: kappa 0.65, 1 s start-up delay, distance weighting on."""
+        return cls(entropy_gate=0.65, startup_delay=1.0, distance_weighting=True)
+
+
+def assistance_alpha(p_goal: float, n_goals: int, normalised_entropy: float,
+                     seconds_since_first_input: float, distance_to_goal: float,
+                     settings: BlendingSettings | None = None) -> float:
+    """alpha with the optional study gates: the paper's alpha, zeroed while the belief is too
+    uncertain or the turn has just started, and optionally scaled by the distance weight.
+
+    Parameters
+    ----------
+    p_goal
+        Belief of the inferred goal ``g'``.
+    n_goals
+        Number of goals.
+    normalised_entropy
+        ``H(b) / log |G|``.
+    seconds_since_first_input
+        Time since the human's first input of the current turn.
+    distance_to_goal
+        Robot-to-``g'`` distance in world units.
+    settings
+        Paper behaviour (no gates) when ``None``.
+
+    Returns
+    -------
+    float
+    """
+    settings = settings or BlendingSettings()
+    if settings.entropy_gate is not None and normalised_entropy > settings.entropy_gate:
+        return 0.0
+    if seconds_since_first_input < settings.startup_delay:
+        return 0.0
+    alpha = float(blending_factor(p_goal, n_goals, settings.rho1_factor, settings.rho2_factor, settings.rho3))
+    if settings.distance_weighting:
+        alpha *= float(distance_weight(distance_to_goal))
+    return alpha
+
+
+def autonomy_velocity(pose: np.ndarray, target_pose: np.ndarray, speed: float = AUTONOMY_SPEED,
+                      turn_rate: float = AUTONOMY_TURN_RATE, dt: float = 0.01) -> np.ndarray:
+    """``u_a``: straight towards the target position at constant speed, bang-bang rotation.
+
+    The translation is ``speed`` along the line to the target, reduced to ``distance / dt`` when a
+    full-speed step of length ``dt`` would overshoot; the rotation is ``turn_rate`` in the shortest
+    direction (clockwise, i.e. negative, at exactly 180 degrees), reduced to ``|error| / dt`` near
+    alignment, and zero when aligned (the study's chatter removed).
+
+    Parameters
+    ----------
+    pose
+        ``(3,)`` current ``(x, y, theta)``.
+    target_pose
+        ``(3,)`` target ``(x, y, theta)``.
+    speed, turn_rate
+        Maximum translational (units/s) and angular (rad/s) speeds.
+    dt
+        The step the command will be applied for, in seconds.
+
+    Returns
+    -------
+    np.ndarray
+        ``(3,)`` ``(vx, vy, omega)``.
+    """
+    if dt <= 0:
+        raise ValueError(f"dt must be positive, got {dt}")
+    p = np.asarray(pose, dtype=float)
+    t = np.asarray(target_pose, dtype=float)
+    velocity = np.zeros(3)
+    offset = t[:2] - p[:2]
+    distance = float(np.hypot(offset[0], offset[1]))
+    if distance > 0.0:
+        velocity[:2] = offset / distance * min(speed, distance / dt)
+    error = float(angle_difference(t[2], p[2]))  # in [-pi, pi)
+    if error != 0.0:
+        velocity[2] = np.sign(error) * min(turn_rate, abs(error) / dt)
+    return velocity
+
+
+def blend(u_a: np.ndarray, u_h: np.ndarray, alpha: float) -> np.ndarray:
+    """``u_f = alpha u_a + (1 - alpha) u_h`` (Algorithm 1, line 8).
+
+    Parameters
+    ----------
+    u_a, u_h
+        ``(3,)`` autonomy and human commands.
+    alpha
+        Blending factor in ``[0, 1]``.
+
+    Returns
+    -------
+    np.ndarray
+        ``(3,)``.
+    """
+    return alpha * np.asarray(u_a, dtype=float) + (1.0 - alpha) * np.asarray(u_h, dtype=float)
+
+
+def step_sizes(window: int) -> tuple[float, ...]:
+    """The step sizes ``R`` drawn from for a window side (3 or 5)."""
+    if window == 3:
+        return STEP_SIZES_3X3
+    if window == 5:
+        return STEP_SIZES_5X5
+    raise ValueError(f"step sizes are defined for windows 3 and 5, got {window}")
+
+
+def draw_step_size(rng: np.random.Generator, window: int) -> float:
+    """One ``R`` drawn uniformly from :func:`step_sizes`."""
+    sizes = step_sizes(window)
+    return float(sizes[int(rng.integers(len(sizes)))])
+
+
+def step_target(position: np.ndarray, target_xy: np.ndarray, step: float) -> np.ndarray:
+    """The point ``R' = min(R, D / 2)`` along the line from ``position`` to ``target_xy``.
+
+    ``D`` is the distance to the target, so the autonomy never covers more than half of what is
+    left (the study's beta <= 0.5).
+
+    Parameters
+    ----------
+    position
+        ``(2,)`` robot position.
+    target_xy
+        ``(2,)`` where the line points.
+    step
+        ``R``.
+
+    Returns
+    -------
+    np.ndarray
+        ``(2,)`` the target point (``position`` itself when already at the target).
+    """
+    p = np.asarray(position, dtype=float)[:2]
+    offset = np.asarray(target_xy, dtype=float)[:2] - p
+    distance = float(np.hypot(offset[0], offset[1]))
+    if distance == 0.0:
+        return p.copy()
+    return p + offset * (min(step, distance / 2.0) / distance)
+
+
+def control_target(belief: np.ndarray, goal_positions: np.ndarray, atol: float = 1e-9) -> np.ndarray:
+    """The Control condition's target: the mean position of the goals tied for the highest belief.
+
+    With a uniform belief every goal is tied, so the target is the mean of all goals.
+
+    Parameters
+    ----------
+    belief
+        ``(G,)`` belief.
+    goal_positions
+        ``(G, 2)`` goal positions.
+    atol
+        Beliefs within ``atol`` of the maximum count as tied.
+
+    Returns
+    -------
+    np.ndarray
+        ``(2,)``.
+    """
+    b = np.asarray(belief, dtype=float)
+    goals = np.asarray(goal_positions, dtype=float)[:, :2]
+    if b.shape != (goals.shape[0],):
+        raise ValueError(f"belief shape {b.shape} does not match {goals.shape[0]} goals")
+    tied = b >= b.max() - atol
+    return goals[tied].mean(axis=0)
+
+
+def nudge_target(state: int) -> tuple[np.ndarray, int]:
+    """Where the autonomy drives for s*: the centre of its cell at its discrete heading, and its mode.
+
+    Parameters
+    ----------
+    state
+        Flat index of s*.
+
+    Returns
+    -------
+    pose : np.ndarray
+        ``(3,)`` ``(x, y, heading * 45 deg)``.
+    mode : int
+        The mode to switch to (instantly).
+    """
+    i, j, h, m = (int(v) for v in state_coordinates(int(state)))
+    xy = cell_centre(i, j)
+    return np.array([xy[0], xy[1], float(heading_angle(h))]), m

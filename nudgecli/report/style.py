@@ -1,0 +1,155 @@
+"""The shared look of the toolkit's figures: print sizes, fonts, colour-blind-safe colours.
+
+Everything here is applied through :func:`figure_style`, a context manager around
+:func:`matplotlib.rc_context`, so no drawing call leaves the global ``rcParams`` changed.
+Figures are built with :class:`matplotlib.figure.Figure` directly (never ``pyplot``), so no
+GUI backend, figure registry or ``plt.show`` is involved.
+
+Colours are the Okabe-Ito palette (safe for the common colour-vision deficiencies). Where a
+colour alone tells groups apart (grouped bars, lines), a second channel that survives grayscale
+printing (hatching, line style) is added by the drawing code.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Iterator, Sequence
+from typing import Any, cast
+
+import matplotlib as mpl
+
+#: Width of a two-column figure in a typical conference paper (inches).
+FULL_WIDTH_IN = 7.2
+#: Width of a one-column figure (inches).
+COLUMN_WIDTH_IN = 3.5
+
+#: Smallest font size used anywhere at the saved size (points).
+MIN_FONT_PT = 8.0
+BASE_FONT_PT = 8.5
+LABEL_FONT_PT = 8.5
+TICK_FONT_PT = 8.0
+LEGEND_FONT_PT = 8.0
+PANEL_LETTER_PT = 10.0
+STAR_FONT_PT = 10.0
+
+#: Okabe & Ito (2008) colour-blind-safe palette.
+OKABE_ITO: dict[str, str] = {
+    "orange": "#E69F00",
+    "sky_blue": "#56B4E9",
+    "bluish_green": "#009E73",
+    "yellow": "#F0E442",
+    "blue": "#0072B2",
+    "vermillion": "#D55E00",
+    "reddish_purple": "#CC79A7",
+    "black": "#000000",
+}
+
+#: Condition colours, in condition order (the first condition gets the first colour).
+CONDITION_COLOURS: tuple[str, ...] = (
+    OKABE_ITO["blue"],
+    OKABE_ITO["orange"],
+    OKABE_ITO["bluish_green"],
+    OKABE_ITO["reddish_purple"],
+    OKABE_ITO["sky_blue"],
+    OKABE_ITO["vermillion"],
+    OKABE_ITO["yellow"],
+)
+#: Hatches that tell conditions apart in grayscale (grouped bars), in condition order.
+CONDITION_HATCHES: tuple[str, ...] = ("", "////", "....", "xxxx", "\\\\\\\\", "++++", "oo")
+
+#: Goal colours: goal 0 (the true goal) red as in the paper, the others distinct.
+GOAL_COLOURS: tuple[str, ...] = (
+    OKABE_ITO["vermillion"],
+    OKABE_ITO["blue"],
+    OKABE_ITO["bluish_green"],
+    OKABE_ITO["reddish_purple"],
+    OKABE_ITO["sky_blue"],
+    OKABE_ITO["orange"],
+    OKABE_ITO["black"],
+)
+#: Goal line styles (a second channel for grayscale printing), goal 0 solid.
+GOAL_LINESTYLES: tuple[Any, ...] = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 2)), (0, (8, 2)))
+
+#: Who drove the robot: human black and solid, autonomy gray and dashed.
+HUMAN_COLOUR = "#000000"
+AUTONOMY_COLOUR = "#8C8C8C"
+HUMAN_TURN_SHADE = "#E3E3E3"
+
+#: Known condition display names; any other condition is shown in title case.
+CONDITION_DISPLAY_NAMES: dict[str, str] = {
+    "disambiguation": "Disambiguation",
+    "control": "Control",
+}
+
+RC: dict[str, Any] = {
+    "font.family": "DejaVu Sans",
+    "font.size": BASE_FONT_PT,
+    "axes.labelsize": LABEL_FONT_PT,
+    "axes.titlesize": LABEL_FONT_PT,
+    "axes.linewidth": 0.8,
+    "axes.spines.top": False,
+    "axes.spines.right": False,
+    "xtick.labelsize": TICK_FONT_PT,
+    "ytick.labelsize": TICK_FONT_PT,
+    "xtick.major.width": 0.8,
+    "ytick.major.width": 0.8,
+    "legend.fontsize": LEGEND_FONT_PT,
+    "legend.frameon": False,
+    "lines.linewidth": 1.2,
+    "hatch.linewidth": 0.6,
+    "pdf.fonttype": 42,
+    "ps.fonttype": 42,
+    "svg.fonttype": "none",
+    "svg.hashsalt": "nudge",
+    "savefig.dpi": 300,
+    "figure.dpi": 100,
+}
+
+
+@contextlib.contextmanager
+def figure_style(overrides: dict[str, Any] | None = None) -> Iterator[None]:
+    """Apply the toolkit's figure style for the duration of a ``with`` block.
+
+    Parameters
+    ----------
+    overrides
+        Extra ``rcParams`` applied on top of :data:`RC`.
+
+    Yields
+    ------
+    None
+        The global ``rcParams`` are restored on exit, also after an exception.
+    """
+    params = dict(RC)
+    if overrides:
+        params.update(overrides)
+    with mpl.rc_context(cast(Any, params)):
+        yield
+
+
+def condition_display_name(condition: str) -> str:
+    """The name shown for a condition: known names as in the paper, others in title case."""
+    key = str(condition).strip().lower()
+    if key in CONDITION_DISPLAY_NAMES:
+        return CONDITION_DISPLAY_NAMES[key]
+    return str(condition).replace("_", " ").replace("-", " ").title()
+
+
+def condition_colours(conditions: Sequence[str]) -> dict[str, str]:
+    """One colour per condition, by position in ``conditions`` (cycled after seven)."""
+    return {c: CONDITION_COLOURS[i % len(CONDITION_COLOURS)] for i, c in enumerate(conditions)}
+
+
+def condition_hatches(conditions: Sequence[str]) -> dict[str, str]:
+    """One hatch pattern per condition, by position in ``conditions`` (cycled after seven)."""
+    return {c: CONDITION_HATCHES[i % len(CONDITION_HATCHES)] for i, c in enumerate(conditions)}
+
+
+def goal_colour(goal: int) -> str:
+    """The colour of goal ``goal`` (goal 0, the true goal, is red)."""
+    return GOAL_COLOURS[goal % len(GOAL_COLOURS)]
+
+
+def goal_linestyle(goal: int) -> Any:
+    """The line style of goal ``goal`` (goal 0 solid)."""
+    return GOAL_LINESTYLES[goal % len(GOAL_LINESTYLES)]

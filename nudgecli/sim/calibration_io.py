@@ -1,0 +1,492 @@
+'''Calibration logs on disk: the study's export format, this toolkit's tidy format, and readers of both.
+
+Two sessions make one participant's calibration (paper Phases 1-2, DESIGN.md section 2.9):
+
+- the **mapping session** for ``p(phi_i | a)``: action images shown then cleared, and the keys the
+  participant pressed (``1`` Hard Puff, ``2`` Hard Sip, ``3`` Soft Puff, ``4`` Soft Sip);
+- the **distortion session** for ``p(phi_m | phi_i)``: interface actions prompted for a few seconds
+  then cleared, and the 10 Hz labelled pressure stream.
+
+Both formats are read into the same in-memory structures (:class:`MappingSession`,
+:class:`DistortionSession`), which the estimators in :mod:`nudgecli.sim.calibration` consume.
+
+Study export format (``shared/data/calibration/<pilot>/``), one CSV per ROS topic, times in the
+``rosbagTimestamp`` column (seconds since the recording started) and strings quoted the way the
+export wrote them (``"""Soft Sip"""`` is ``Soft Sip``, ``''`` is blank):
+
+- ``p_phi_given_a/_action_prompt.csv`` (``rosbagTimestamp``, ``command``),
+- ``p_phi_given_a/_user_response.csv`` (``rosbagTimestamp``, ``command`` in ``"1".."4"``),
+- ``p_phm_given_phi/_command_prompt.csv`` (``rosbagTimestamp``, ``command``),
+- ``p_phm_given_phi/_joy_sip_puff.csv`` (``rosbagTimestamp``, ``frame_id`` = label,
+  ``axes`` = ``[pressure]``).
+
+Tidy format (what simulated sessions are written as; plain CSV, a header row, times in seconds):
+
+- ``mapping_prompts.csv``: ``t, command`` -- an action image name when shown, an empty field when
+  cleared, ``hard_puff_training`` when cleared at a block boundary;
+- ``mapping_responses.csv``: ``t, key`` -- the key pressed, ``1..4``;
+- ``distortion_prompts.csv``: ``t, command`` -- an interface label when shown, empty when cleared;
+- ``distortion_stream.csv``: ``t, pressure, label`` -- the 10 Hz stream, ``label`` one of the
+  stream labels (``None``, the four interface labels, the two deadbands, ``input stopped``).
+
+The tidy files may sit directly in a folder or in ``p_phi_given_a/`` and ``p_phm_given_phi/``
+subfolders, like the study's files.
+
+Every problem with a file raises one :class:`~nudgecli.errors.DataError` line naming the file and
+the line (line 1 is the header) and saying what to fix.
+'''
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from nudgecli.errors import DataError
+from nudgecli.model.interface import INPUT_STOPPED_LABEL, LABELS, NO_INPUT, STREAM_LABELS
+
+#: The 12 action images of the mapping session, in the study's naming.
+ACTION_IMAGES = (
+    "up", "down", "left", "right", "clockwise", "counterclockwise",
+    "mode_switch_right_1", "mode_switch_right_2", "mode_switch_right_3",
+    "mode_switch_left_1", "mode_switch_left_2", "mode_switch_left_3",
+)
+#: The clearing row of the last prompt of a block (the start of the hard-puff refresher).
+BLOCK_BREAK_COMMAND = "hard_puff_training"
+#: Stream code of the driver's "input stopped" frames (ignored like no-input samples).
+INPUT_STOPPED = -2
+#: Stream label name -> code (interface labels 0..3, deadbands 4/5, no input -1, input stopped -2).
+STREAM_CODES = {**STREAM_LABELS, INPUT_STOPPED_LABEL: INPUT_STOPPED}
+#: Stream code -> label name written to tidy files.
+STREAM_NAMES = {code: name for name, code in STREAM_CODES.items()}
+
+STUDY_MAPPING_FOLDER = "p_phi_given_a"
+STUDY_DISTORTION_FOLDER = "p_phm_given_phi"
+STUDY_FILES = {
+    "mapping_prompts": "_action_prompt.csv",
+    "mapping_responses": "_user_response.csv",
+    "distortion_prompts": "_command_prompt.csv",
+    "distortion_stream": "_joy_sip_puff.csv",
+}
+TIDY_FILES = {
+    "mapping_prompts": "mapping_prompts.csv",
+    "mapping_responses": "mapping_responses.csv",
+    "distortion_prompts": "distortion_prompts.csv",
+    "distortion_stream": "distortion_stream.csv",
+}
+STUDY_TIME_COLUMN = "rosbagTimestamp"
+
+
+@dataclass(frozen=True)
+class MappingSession:
+    """One ``p(phi_i | a)`` session, whatever format it was read from.
+
+    Attributes
+    ----------
+    prompt_times
+        ``(P,)`` seconds, non-decreasing; rows alternate shown / cleared, so ``P`` is even.
+    prompt_commands
+        ``P`` strings: an action image (even rows), ``""`` or ``"hard_puff_training"`` (odd rows).
+    response_times
+        ``(R,)`` seconds, non-decreasing.
+    response_labels
+        ``(R,)`` interface label codes ``0..3`` (key ``k`` is label ``k - 1``).
+    files
+        Where the two logs came from (``prompts``, ``responses``).
+    """
+
+    prompt_times: np.ndarray
+    prompt_commands: tuple[str, ...]
+    response_times: np.ndarray
+    response_labels: np.ndarray
+    files: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def n_showings(self) -> int:
+        """Number of (shown, cleared) pairs."""
+        return len(self.prompt_commands) // 2
+
+
+@dataclass(frozen=True)
+class DistortionSession:
+    """One ``p(phi_m | phi_i)`` session, whatever format it was read from.
+
+    Attributes
+    ----------
+    prompt_times
+        ``(P,)`` seconds, non-decreasing; rows alternate prompt / blank, so ``P`` is even.
+    prompt_commands
+        ``P`` strings: an interface label (even rows) or ``""`` (odd rows).
+    stream_times
+        ``(N,)`` seconds of the labelled stream, non-decreasing.
+    stream_codes
+        ``(N,)`` codes: ``0..3`` labels, ``PUFF_DEADBAND``/``SIP_DEADBAND``, ``NO_INPUT``,
+        ``INPUT_STOPPED``.
+    stream_pressure
+        ``(N,)`` raw pressures (sip positive); ``nan`` where the log holds none.
+    files
+        Where the two logs came from (``prompts``, ``stream``).
+    """
+
+    prompt_times: np.ndarray
+    prompt_commands: tuple[str, ...]
+    stream_times: np.ndarray
+    stream_codes: np.ndarray
+    stream_pressure: np.ndarray
+    files: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def n_prompts(self) -> int:
+        """Number of (prompt, blank) pairs."""
+        return len(self.prompt_commands) // 2
+
+    @property
+    def prompt_labels(self) -> np.ndarray:
+        """``(n_prompts,)`` intended label code of each prompt."""
+        return np.array([LABELS.index(c) for c in self.prompt_commands[0::2]], dtype=int)
+
+
+# --- low-level parsing ------------------------------------------------------------------------
+
+def unquote(value: object) -> str:
+    """An exported string -> its text (``'"Soft Sip"'`` -> ``Soft Sip``, ``''`` -> ``""``).
+
+    pandas has already removed the CSV quoting (``\"\"\"Soft Sip\"\"\"`` is read as ``"Soft Sip"``);
+    this strips the remaining layer of ``"`` or ``'`` quotes.
+    """
+    if value is None or (isinstance(value, float) and np.isnan(value)):
+        return ""
+    text = str(value).strip()
+    while len(text) >= 2 and text[0] == text[-1] and text[0] in "\"'":
+        text = text[1:-1].strip()
+    return text
+
+
+def _read_csv(path: Path, columns: tuple[str, ...], what: str) -> pd.DataFrame:
+    """Read a CSV as strings, checking that it exists, is not empty and has ``columns``."""
+    if not path.is_file():
+        raise DataError(f"{path}: no such file; {what} needs it")
+    try:
+        frame = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=False)
+    except pd.errors.EmptyDataError:
+        raise DataError(f"{path}: the file is empty; expected a header with columns "
+                        f"{', '.join(columns)} and one row per message") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: not a readable CSV file ({str(exc).splitlines()[0]})") from None
+    frame.columns = [str(c).strip() for c in frame.columns]
+    missing = [c for c in columns if c not in frame.columns]
+    if missing:
+        raise DataError(f"{path}: missing column(s) {', '.join(missing)}; found {', '.join(frame.columns)}; "
+                        f"{what} needs {', '.join(columns)}")
+    if frame.empty:
+        raise DataError(f"{path}: the file has a header but no rows; record the session again")
+    return frame
+
+
+def _times(frame: pd.DataFrame, column: str, path: Path) -> np.ndarray:
+    """The time column as floats, checked to be finite and non-decreasing."""
+    raw = frame[column].to_numpy(dtype=object)
+    values = pd.to_numeric(pd.Series(raw).str.strip(), errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        row = int(bad[0])
+        raise DataError(f"{path}: line {row + 2}: {column} {raw[row]!r} is not a time in seconds")
+    back = np.flatnonzero(np.diff(values) < 0)
+    if back.size:
+        row = int(back[0]) + 1
+        raise DataError(f"{path}: line {row + 2}: time runs backwards ({column} {values[row]:g} after "
+                        f"{values[row - 1]:g}); rows must be in recording order")
+    return values
+
+
+def _check_alternation(commands: list[str], path: Path, shown: set[str], cleared: set[str],
+                       shown_what: str, cleared_what: str) -> None:
+    """Rows must alternate shown (even) / cleared (odd) and end with a clearing row."""
+    if not any(c in shown for c in commands):
+        raise DataError(f"{path}: no prompts: no row shows {shown_what}; record the session again")
+    for row, command in enumerate(commands):
+        allowed, what = (shown, shown_what) if row % 2 == 0 else (cleared, cleared_what)
+        if command not in allowed:
+            if row % 2 == 0 and command in cleared:
+                raise DataError(f"{path}: line {row + 2}: expected {what} (rows alternate shown / cleared), "
+                                f"got a clearing row {command!r}")
+            if row % 2 == 1 and command in shown:
+                raise DataError(f"{path}: line {row + 2}: {command!r} is shown before the previous prompt "
+                                "was cleared; rows must alternate shown / cleared")
+            raise DataError(f"{path}: line {row + 2}: unknown command {command!r}; expected {what}")
+    if len(commands) % 2:
+        raise DataError(f"{path}: line {len(commands) + 1}: the last prompt is never cleared; "
+                        "add its clearing row or drop the prompt")
+
+
+# --- readers ----------------------------------------------------------------------------------
+
+def _parse_prompts(frame: pd.DataFrame, path: Path, time_column: str,
+                   kind: str) -> tuple[np.ndarray, list[str]]:
+    times = _times(frame, time_column, path)
+    commands = [unquote(c) for c in frame["command"].to_numpy(dtype=object)]
+    if kind == "mapping":
+        _check_alternation(commands, path, set(ACTION_IMAGES), {"", BLOCK_BREAK_COMMAND},
+                           f"an action image ({', '.join(ACTION_IMAGES)})",
+                           f"a clearing row ('' or {BLOCK_BREAK_COMMAND})")
+    else:
+        _check_alternation(commands, path, set(LABELS), {""},
+                           f"an interface label ({', '.join(LABELS)})", "a blank row ('')")
+    return times, commands
+
+
+def _parse_responses(frame: pd.DataFrame, path: Path, time_column: str,
+                     key_column: str) -> tuple[np.ndarray, np.ndarray]:
+    times = _times(frame, time_column, path)
+    keys = [unquote(k) for k in frame[key_column].to_numpy(dtype=object)]
+    labels = np.empty(len(keys), dtype=int)
+    for row, key in enumerate(keys):
+        if key not in ("1", "2", "3", "4"):
+            raise DataError(f"{path}: line {row + 2}: unknown key {key!r}; answers are 1 Hard Puff, "
+                            "2 Hard Sip, 3 Soft Puff, 4 Soft Sip")
+        labels[row] = int(key) - 1
+    return times, labels
+
+
+def _parse_stream(frame: pd.DataFrame, path: Path, time_column: str, label_column: str,
+                  pressure_column: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    times = _times(frame, time_column, path)
+    names = [unquote(v) for v in frame[label_column].to_numpy(dtype=object)]
+    codes = np.empty(len(names), dtype=int)
+    for row, name in enumerate(names):
+        code = STREAM_CODES.get(name)
+        if code is None:
+            raise DataError(f"{path}: line {row + 2}: unknown label {name!r}; stream labels are "
+                            f"{', '.join(STREAM_CODES)}")
+        codes[row] = code
+    raw = pd.Series(frame[pressure_column].to_numpy(dtype=object)).astype(str).str.strip()
+    text = raw.str.strip("[]").str.split(",").str[0].str.strip()
+    pressure = pd.to_numeric(text, errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.isfinite(pressure) & (text != "").to_numpy())
+    if bad.size:
+        row = int(bad[0])
+        raise DataError(f"{path}: line {row + 2}: {pressure_column} {raw.iloc[row]!r} is not a pressure")
+    pressure = np.where(np.isfinite(pressure), pressure, np.nan)
+    return times, codes, pressure
+
+
+def _locate(folder: Path, names: dict[str, str], keys: tuple[str, str], subfolder: str) -> Path | None:
+    """The folder holding both files ``keys`` of a format: ``folder`` itself or its ``subfolder``."""
+    for candidate in (folder, folder / subfolder):
+        if all((candidate / names[k]).is_file() for k in keys):
+            return candidate
+    return None
+
+
+def _half_present(folder: Path, keys: tuple[str, str], subfolder: str) -> Path | None:
+    """A file of the pair that exists while its partner does not (to name it in the error)."""
+    for names in (STUDY_FILES, TIDY_FILES):
+        for candidate in (folder, folder / subfolder):
+            present = [candidate / names[k] for k in keys if (candidate / names[k]).is_file()]
+            if len(present) == 1:
+                return present[0]
+    return None
+
+
+def read_mapping_session(folder: str | Path) -> MappingSession | None:
+    """Read the ``p(phi_i | a)`` session in ``folder`` (study or tidy format), or ``None`` if absent.
+
+    Parameters
+    ----------
+    folder
+        A participant's calibration folder, its ``p_phi_given_a/`` subfolder, or a folder holding
+        the tidy ``mapping_prompts.csv`` and ``mapping_responses.csv``.
+
+    Raises
+    ------
+    DataError
+        When one file of the pair is missing or a file is malformed (one line naming file and line).
+    """
+    folder = Path(folder)
+    keys = ("mapping_prompts", "mapping_responses")
+    study = _locate(folder, STUDY_FILES, keys, STUDY_MAPPING_FOLDER)
+    tidy = _locate(folder, TIDY_FILES, keys, STUDY_MAPPING_FOLDER)
+    if study is None and tidy is None:
+        orphan = _half_present(folder, keys, STUDY_MAPPING_FOLDER)
+        if orphan is not None:
+            partner = "responses" if "prompt" in orphan.name else "prompts"
+            raise DataError(f"{orphan}: the mapping session's {partner} file is missing beside it")
+        return None
+    if study is not None:
+        prompts_path = study / STUDY_FILES["mapping_prompts"]
+        responses_path = study / STUDY_FILES["mapping_responses"]
+        time_column, key_column = STUDY_TIME_COLUMN, "command"
+    else:
+        assert tidy is not None
+        prompts_path = tidy / TIDY_FILES["mapping_prompts"]
+        responses_path = tidy / TIDY_FILES["mapping_responses"]
+        time_column, key_column = "t", "key"
+    what = "the p(phi_i | a) session"
+    prompts = _read_csv(prompts_path, (time_column, "command"), what)
+    prompt_times, commands = _parse_prompts(prompts, prompts_path, time_column, "mapping")
+    responses = _read_csv(responses_path, (time_column, key_column), what)
+    response_times, labels = _parse_responses(responses, responses_path, time_column, key_column)
+    return MappingSession(prompt_times, tuple(commands), response_times, labels,
+                          {"prompts": str(prompts_path), "responses": str(responses_path)})
+
+
+def read_distortion_session(folder: str | Path) -> DistortionSession | None:
+    """Read the ``p(phi_m | phi_i)`` session in ``folder`` (study or tidy format), or ``None`` if absent.
+
+    Parameters
+    ----------
+    folder
+        A participant's calibration folder, its ``p_phm_given_phi/`` subfolder, or a folder holding
+        the tidy ``distortion_prompts.csv`` and ``distortion_stream.csv``.
+
+    Raises
+    ------
+    DataError
+        When one file of the pair is missing or a file is malformed (one line naming file and line).
+    """
+    folder = Path(folder)
+    keys = ("distortion_prompts", "distortion_stream")
+    study = _locate(folder, STUDY_FILES, keys, STUDY_DISTORTION_FOLDER)
+    tidy = _locate(folder, TIDY_FILES, keys, STUDY_DISTORTION_FOLDER)
+    if study is None and tidy is None:
+        orphan = _half_present(folder, keys, STUDY_DISTORTION_FOLDER)
+        if orphan is not None:
+            partner = "stream" if "prompt" in orphan.name else "prompts"
+            raise DataError(f"{orphan}: the distortion session's {partner} file is missing beside it")
+        return None
+    what = "the p(phi_m | phi_i) session"
+    if study is not None:
+        prompts_path = study / STUDY_FILES["distortion_prompts"]
+        stream_path = study / STUDY_FILES["distortion_stream"]
+        time_column, label_column, pressure_column = STUDY_TIME_COLUMN, "frame_id", "axes"
+    else:
+        assert tidy is not None
+        prompts_path = tidy / TIDY_FILES["distortion_prompts"]
+        stream_path = tidy / TIDY_FILES["distortion_stream"]
+        time_column, label_column, pressure_column = "t", "label", "pressure"
+    prompts = _read_csv(prompts_path, (time_column, "command"), what)
+    prompt_times, commands = _parse_prompts(prompts, prompts_path, time_column, "distortion")
+    stream = _read_csv(stream_path, (time_column, label_column, pressure_column), what)
+    times, codes, pressure = _parse_stream(stream, stream_path, time_column, label_column, pressure_column)
+    return DistortionSession(prompt_times, tuple(commands), times, codes, pressure,
+                             {"prompts": str(prompts_path), "stream": str(stream_path)})
+
+
+def read_sessions(folder: str | Path) -> tuple[MappingSession | None, DistortionSession | None]:
+    """Both sessions of one participant's calibration folder; at least one must be present.
+
+    Raises
+    ------
+    DataError
+        If ``folder`` does not exist or holds neither session, or a log is malformed.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise DataError(f"{folder}: no such folder; give one participant's calibration folder "
+                        f"(with {STUDY_MAPPING_FOLDER}/ and/or {STUDY_DISTORTION_FOLDER}/)")
+    mapping = read_mapping_session(folder)
+    distortion = read_distortion_session(folder)
+    if mapping is None and distortion is None:
+        raise DataError(
+            f"{folder}: no calibration session found; expected {STUDY_MAPPING_FOLDER}/"
+            f"{STUDY_FILES['mapping_prompts']} + {STUDY_FILES['mapping_responses']} and/or "
+            f"{STUDY_DISTORTION_FOLDER}/{STUDY_FILES['distortion_prompts']} + "
+            f"{STUDY_FILES['distortion_stream']} (or the tidy {', '.join(TIDY_FILES.values())})")
+    return mapping, distortion
+
+
+# --- writers (tidy format) --------------------------------------------------------------------
+
+def _write_csv_atomic(frame: pd.DataFrame, path: Path) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    frame.to_csv(tmp, index=False)
+    tmp.replace(path)
+
+
+def mapping_session_frames(session: MappingSession) -> dict[str, pd.DataFrame]:
+    """The tidy tables of a mapping session: ``mapping_prompts`` (t, command), ``mapping_responses``
+    (t, key)."""
+    return {
+        "mapping_prompts": pd.DataFrame({"t": session.prompt_times,
+                                         "command": list(session.prompt_commands)}),
+        "mapping_responses": pd.DataFrame({"t": session.response_times, "key": session.response_labels + 1}),
+    }
+
+
+def distortion_session_frames(session: DistortionSession) -> dict[str, pd.DataFrame]:
+    """The tidy tables of a distortion session: ``distortion_prompts`` (t, command) and
+    ``distortion_stream`` (t, pressure, label)."""
+    return {
+        "distortion_prompts": pd.DataFrame({"t": session.prompt_times,
+                                            "command": list(session.prompt_commands)}),
+        "distortion_stream": pd.DataFrame({
+            "t": session.stream_times, "pressure": session.stream_pressure,
+            "label": [STREAM_NAMES[int(c)] for c in session.stream_codes]}),
+    }
+
+
+def write_sessions(folder: str | Path, mapping: MappingSession | None = None,
+                   distortion: DistortionSession | None = None) -> list[Path]:
+    """Write sessions in the tidy format into ``folder`` (created if needed); returns the files written.
+
+    Each file is written atomically (temporary file, then rename).
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    frames: dict[str, pd.DataFrame] = {}
+    if mapping is not None:
+        frames.update(mapping_session_frames(mapping))
+    if distortion is not None:
+        frames.update(distortion_session_frames(distortion))
+    written = []
+    for key, frame in frames.items():
+        path = folder / TIDY_FILES[key]
+        _write_csv_atomic(frame, path)
+        written.append(path)
+    return written
+
+
+def is_counted_code(codes: np.ndarray) -> np.ndarray:
+    """``(N,)`` bool: the stream codes the distortion estimator counts (labels and deadbands)."""
+    return (codes != NO_INPUT) & (codes != INPUT_STOPPED)
+
+
+def nearest_indices(times: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """Index of the time nearest each target, ties to the earlier one (what ``np.argmin`` picks).
+
+    Parameters
+    ----------
+    times
+        ``(N,)`` non-decreasing, ``N >= 1``.
+    targets
+        ``(K,)``.
+
+    Returns
+    -------
+    np.ndarray
+        ``(K,)`` integer indices into ``times``; among equal times, the first.
+    """
+    times = np.asarray(times, dtype=float)
+    targets = np.asarray(targets, dtype=float)
+    right = np.clip(np.searchsorted(times, targets, side="left"), 0, len(times) - 1)
+    left = np.clip(right - 1, 0, len(times) - 1)
+    take_left = np.abs(times[left] - targets) <= np.abs(times[right] - targets)
+    nearest = np.where(take_left, left, right)
+    return np.searchsorted(times, times[nearest], side="left")
+
+
+def distortion_windows(session: DistortionSession) -> tuple[np.ndarray, np.ndarray]:
+    """Each prompt's stream window ``[start, end)``: the samples nearest its start and its blank.
+
+    Returns
+    -------
+    tuple[np.ndarray, np.ndarray]
+        ``(n_prompts,)`` start indices and ``(n_prompts,)`` end indices (exclusive) into the stream.
+    """
+    if len(session.stream_times) == 0:
+        raise DataError(f"{session.files.get('stream', 'stream')}: the stream has no samples")
+    starts = nearest_indices(session.stream_times, session.prompt_times[0::2])
+    ends = nearest_indices(session.stream_times, session.prompt_times[1::2])
+    return starts, ends

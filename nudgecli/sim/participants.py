@@ -1,0 +1,613 @@
+"""Simulated participants: each one's true physiology and habits (DESIGN.md section 2.8).
+
+A :class:`Participant` is drawn from the ``[population]`` ranges (see
+:class:`nudgecli.config.PopulationSection` for the ranges and the pilot logs they come from), or
+estimated from a real person's calibration log (:func:`participant_from_log`).
+
+Pressure model (per 10 Hz sample of a blow with intended label ``phi_i``)::
+
+    magnitude_j = clip(f_j * (level[phi_i] + spread[phi_i] * z_j), 0, 1),   z_j ~ N(0, 1) iid
+    pressure_j  = sign(phi_i) * magnitude_j        (puff negative, sip positive)
+    f_j = (j + 1) / (k + 1) for the first k = onset_ramp_samples samples of the blow, else 1
+
+so a blow never crosses to the other side (a draw past zero reads as no input), hard blows
+saturate at 1 like the real sensor, and the onset ramp reproduces the ramp-through soft and
+deadband samples the pilot logs show at the start of hard blows. The driver's thresholds
+(:func:`nudgecli.model.interface.label_pressure`) turn pressures into labels, so soft-to-hard
+confusions, deadbands and unintended mode switches emerge from the physiology.
+
+Index conventions: labels ``F = 4`` (Hard Puff, Hard Sip, Soft Puff, Soft Sip), actions ``A = 4``,
+modes ``M = 3`` (see :mod:`nudgecli.model.interface`).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import MISSING, dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy.special import ndtr, ndtri
+
+from nudgecli.config import InterfaceSection, PopulationSection
+from nudgecli.errors import DataError
+from nudgecli.model.interface import (
+    HARD_PUFF,
+    HARD_SIP,
+    LABELS,
+    N_ACTIONS,
+    N_LABELS,
+    NO_INPUT,
+    PUFF_DEADBAND,
+    SIP_DEADBAND,
+    SOFT_PUFF,
+    SOFT_SIP,
+    TRUE_MAPPING,
+    ZERO_THRESHOLD,
+    label_pressure,
+)
+from nudgecli.model.world import N_MODES
+from nudgecli.rng import generator, seed_key
+from nudgecli.sim.calibration_io import DistortionSession, distortion_windows, read_distortion_session
+
+#: Sign of each intended label's pressure: puffs negative, sips positive.
+LABEL_SIGN = np.array([-1.0, 1.0, -1.0, 1.0])
+#: Whether each label is a hard one.
+LABEL_IS_HARD = np.array([True, True, False, False])
+#: Columns of :meth:`Participant.sample_code_probabilities`: the 4 labels, the 2 deadbands, no input.
+CODE_COLUMNS = (HARD_PUFF, HARD_SIP, SOFT_PUFF, SOFT_SIP, PUFF_DEADBAND, SIP_DEADBAND, NO_INPUT)
+#: Smallest spread a participant may have (keeps the normal CDF defined).
+MIN_SPREAD = 1e-4
+#: Samples dropped at the start and end of each blow when estimating a plateau from a log.
+LOG_ONSET_SAMPLES, LOG_RELEASE_SAMPLES = 2, 1
+#: Onset ramp given to a participant estimated from a log (the pilots' hard blows: 2-3 samples).
+LOG_RAMP_SAMPLES = 2
+#: Spread assumed when a label's samples are (nearly) all saturated, so no spread is observable.
+SATURATED_SPREAD = 0.05
+#: Fewest plateau samples a label needs for :func:`participant_from_log`.
+MIN_LOG_SAMPLES = 5
+
+Thresholds = InterfaceSection | tuple[float, float] | tuple[float, float, float]
+
+
+def threshold_triple(thresholds: Thresholds) -> tuple[float, float, float]:
+    """``(soft, hard, zero)`` from an ``InterfaceSection`` or a ``(soft, hard[, zero])`` tuple."""
+    if isinstance(thresholds, InterfaceSection):
+        return thresholds.soft_threshold, thresholds.hard_threshold, thresholds.zero_threshold
+    values = tuple(float(v) for v in thresholds)
+    if len(values) == 2:
+        return values[0], values[1], ZERO_THRESHOLD
+    if len(values) == 3:
+        return values[0], values[1], values[2]
+    raise ValueError(f"thresholds must be (soft, hard) or (soft, hard, zero), got {thresholds!r}")
+
+
+def ramp_fractions(n: int, ramp_samples: int) -> np.ndarray:
+    """``(n,)`` fraction of the level reached at each sample of a blow of ``n`` samples.
+
+    The first ``ramp_samples`` samples rise linearly, ``(j + 1) / (ramp_samples + 1)``; the rest are 1.
+    """
+    j = np.arange(n)
+    return np.where(j < ramp_samples, (j + 1.0) / (ramp_samples + 1.0), 1.0)
+
+
+def blow_pressures(levels: np.ndarray, spreads: np.ndarray, signs: np.ndarray, fractions: np.ndarray,
+                   normals: np.ndarray) -> np.ndarray:
+    """Signed pressures of blow samples (the module's pressure model, vectorised).
+
+    Parameters
+    ----------
+    levels, spreads
+        ``(N,)`` magnitude level and spread of each sample's intended label.
+    signs
+        ``(N,)`` ``-1`` for puffs, ``+1`` for sips.
+    fractions
+        ``(N,)`` onset-ramp fraction of each sample (1 on the plateau).
+    normals
+        ``(N,)`` standard normal draws.
+
+    Returns
+    -------
+    np.ndarray
+        ``(N,)`` pressures in ``[-1, 1]``.
+    """
+    magnitude = np.clip(fractions * (levels + spreads * normals), 0.0, 1.0)
+    return signs * magnitude
+
+
+@dataclass(frozen=True, eq=False)
+class Participant:
+    """One participant's true physiology and habits.
+
+    Attributes
+    ----------
+    index
+        Position in the study (0-based).
+    seed_key
+        The seed-tree branch it was drawn from (e.g. ``participant/3``), or its source log.
+    pressure_level
+        ``(F,)`` signed mean pressure per intended label (puff negative, sip positive); a
+        magnitude above 1 saturates the sensor.
+    pressure_spread
+        ``(F,)`` per-sample standard deviation per intended label.
+    mapping
+        ``(M, A, F)`` the participant's true ``p(phi_i | a, m)`` (their internal mapping).
+    epsilon
+        Task-level sub-optimality of their epsilon-greedy policy.
+    rest_s
+        Rest before the first input of a turn, seconds.
+    operate_s
+        How long they operate before handing the turn over, seconds.
+    action_pause_s
+        Pause between consecutive actions within a turn, seconds.
+    hard_blow_s
+        How long they hold a hard (mode-switch) blow, seconds.
+    reaction_s
+        Median delay between a calibration prompt and their response, seconds.
+    reaction_log_sd
+        Standard deviation of the log of the per-prompt delay (0: always ``reaction_s``).
+    onset_ramp_samples
+        Samples a blow takes to reach its level (see :func:`ramp_fractions`).
+    mapping_error
+        The error rate their ``mapping`` was built with (spread evenly over the wrong labels).
+    """
+
+    index: int
+    seed_key: str
+    pressure_level: np.ndarray
+    pressure_spread: np.ndarray
+    mapping: np.ndarray
+    epsilon: float
+    rest_s: float
+    operate_s: float
+    action_pause_s: float
+    hard_blow_s: float
+    reaction_s: float
+    reaction_log_sd: float = 0.0
+    onset_ramp_samples: int = 0
+    mapping_error: float = 0.0
+    _mapping_cdf: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        level = np.array(self.pressure_level, dtype=float)
+        spread = np.maximum(np.array(self.pressure_spread, dtype=float), MIN_SPREAD)
+        mapping = np.array(self.mapping, dtype=float)
+        if level.shape != (N_LABELS,) or spread.shape != (N_LABELS,):
+            raise ValueError(f"pressure_level and pressure_spread must have shape ({N_LABELS},)")
+        if mapping.shape != (N_MODES, N_ACTIONS, N_LABELS):
+            raise ValueError(f"mapping must have shape {(N_MODES, N_ACTIONS, N_LABELS)}, got {mapping.shape}")
+        if np.any(np.sign(level) != LABEL_SIGN):
+            raise ValueError("pressure_level must be negative for puffs and positive for sips")
+        cdf = np.cumsum(mapping, axis=-1)
+        cdf[..., -1] = 1.0
+        for name, value in (("pressure_level", level), ("pressure_spread", spread), ("mapping", mapping),
+                            ("_mapping_cdf", cdf)):
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "onset_ramp_samples", int(self.onset_ramp_samples))
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Participant):
+            return NotImplemented
+        return all(np.array_equal(getattr(self, f.name), getattr(other, f.name))
+                   for f in fields(self) if f.compare)
+
+    __hash__ = None  # type: ignore[assignment]
+
+    # --- behaviour ---------------------------------------------------------------------------
+
+    def intended_label(self, action: int, mode: int, rng: np.random.Generator) -> int:
+        """Draw ``phi_i ~ p(phi_i | a, m)`` from the participant's internal mapping (one uniform draw)."""
+        return int(np.searchsorted(self._mapping_cdf[mode, action], rng.random(), side="right"))
+
+    def pressures(self, label: int, n: int, rng: np.random.Generator, start: int = 0) -> np.ndarray:
+        """The pressures of holding ``label`` for ``n`` samples (one normal draw of size ``n``).
+
+        Parameters
+        ----------
+        label
+            Intended interface label ``0..3``.
+        n
+            Number of 10 Hz samples.
+        start
+            Position of the first of these samples within the blow: 0 starts a new blow with the
+            onset ramp; a caller producing a blow one sample at a time passes the number of
+            samples already held, so only the blow's first ``onset_ramp_samples`` are ramped.
+
+        Returns
+        -------
+        np.ndarray
+            ``(n,)`` signed pressures in ``[-1, 1]``.
+        """
+        fractions = ramp_fractions(start + n, self.onset_ramp_samples)[start:]
+        ones = np.ones(n)
+        return blow_pressures(abs(self.pressure_level[label]) * ones, self.pressure_spread[label] * ones,
+                              LABEL_SIGN[label] * ones, fractions, rng.standard_normal(n))
+
+    def sample_code_probabilities(self, thresholds: Thresholds, fraction: float = 1.0) -> np.ndarray:
+        """Per-sample probabilities of each stream code for a blow sample at ``fraction`` of the level.
+
+        Parameters
+        ----------
+        thresholds
+            The driver's label bands (an ``InterfaceSection`` or ``(soft, hard[, zero])``).
+        fraction
+            Onset-ramp fraction (1 on the plateau).
+
+        Returns
+        -------
+        np.ndarray
+            ``(F, 7)``: row = intended label, columns :data:`CODE_COLUMNS` (Hard Puff, Hard Sip,
+            Soft Puff, Soft Sip, puff deadband, sip deadband, no input); rows sum to 1. Exact under
+            the normal model (the magnitude is ``N(f level, f spread)`` clipped to ``[0, 1]``).
+        """
+        soft, hard, zero = threshold_triple(thresholds)
+        mean = fraction * np.abs(self.pressure_level)
+        sd = fraction * self.pressure_spread
+        below_zero = ndtr((zero - mean) / sd)
+        below_soft = np.maximum(ndtr((soft - mean) / sd), below_zero)
+        below_hard = np.maximum(ndtr((hard - mean) / sd), below_soft)
+        probs = np.zeros((N_LABELS, len(CODE_COLUMNS)))
+        for label in range(N_LABELS):
+            sip = LABEL_SIGN[label] > 0
+            columns = ((HARD_SIP, SOFT_SIP, SIP_DEADBAND) if sip else (HARD_PUFF, SOFT_PUFF, PUFF_DEADBAND))
+            hard_col, soft_col, dead_col = (CODE_COLUMNS.index(c) for c in columns)
+            probs[label, hard_col] = 1.0 - below_hard[label]
+            probs[label, soft_col] = below_soft[label] - below_zero[label]
+            probs[label, dead_col] = below_hard[label] - below_soft[label]
+            probs[label, -1] = below_zero[label]
+        return probs
+
+    def true_distortion(self, thresholds: Thresholds, hold_samples: int | None = None) -> np.ndarray:
+        """The ``p(phi_m | phi_i)`` this physiology implies, in the estimator's terms, unsmoothed.
+
+        For each intended label: the per-sample probability of each measured code (from the normal
+        CDF, :meth:`sample_code_probabilities`), averaged over the samples of a blow, conditioned on
+        the sample being counted (no-input samples dropped, as the estimator ignores them), with the
+        puff deadband added to Hard Puff and the sip deadband to Hard Sip. No ``+0.01`` smoothing.
+
+        With ``hold_samples=None`` this is the plateau (the limit of a long blow, no onset ramp).
+        With ``hold_samples=n`` the first ``onset_ramp_samples`` of an ``n``-sample blow are the
+        ramp, and the result is the ratio ``E[count of phi_m] / E[counted samples]`` over the blow,
+        which the estimator's average of per-prompt fractions approaches up to an ``O(1/n)`` ratio
+        bias. A label that never produces a counted sample gets a uniform row.
+
+        Returns
+        -------
+        np.ndarray
+            ``(F, F)``: row ``phi_i``, column ``phi_m``; rows sum to 1.
+        """
+        if hold_samples is None:
+            probs = self.sample_code_probabilities(thresholds, 1.0)
+        else:
+            if hold_samples < 1:
+                raise ValueError(f"hold_samples must be at least 1, got {hold_samples}")
+            fractions = ramp_fractions(hold_samples, self.onset_ramp_samples)
+            unique, counts = np.unique(fractions, return_counts=True)
+            probs = sum(c * self.sample_code_probabilities(thresholds, float(f))
+                        for f, c in zip(unique, counts, strict=True)) / hold_samples
+        counted = probs[:, :6]
+        merged = counted[:, :N_LABELS].copy()
+        merged[:, HARD_PUFF] += counted[:, CODE_COLUMNS.index(PUFF_DEADBAND)]
+        merged[:, HARD_SIP] += counted[:, CODE_COLUMNS.index(SIP_DEADBAND)]
+        totals = merged.sum(axis=1, keepdims=True)
+        uniform = np.full_like(merged, 1.0 / N_LABELS)
+        return np.where(totals > 0, merged / np.where(totals > 0, totals, 1.0), uniform)
+
+    # --- records -----------------------------------------------------------------------------
+
+    def to_record(self) -> dict[str, Any]:
+        """One row of the participants table: scalars, plus JSON strings for the arrays."""
+        record: dict[str, Any] = {}
+        for f in fields(self):
+            if not f.compare:
+                continue
+            value = getattr(self, f.name)
+            if isinstance(value, np.ndarray):
+                record[f.name] = json.dumps(value.tolist())
+            elif isinstance(value, str):
+                record[f.name] = value
+            elif isinstance(value, int | np.integer):
+                record[f.name] = int(value)
+            else:
+                record[f.name] = float(value)
+        return record
+
+    @classmethod
+    def from_record(cls, record: Mapping[str, Any]) -> Participant:
+        """Inverse of :meth:`to_record` (e.g. one row of a participants parquet table).
+
+        Raises
+        ------
+        DataError
+            If a field is missing or malformed.
+        """
+        values: dict[str, Any] = {}
+        for f in fields(cls):
+            if not f.compare:
+                continue
+            if f.name not in record:
+                if f.default is not MISSING:
+                    continue
+                raise DataError(f"participant record: missing field {f.name!r}")
+            raw = record[f.name]
+            try:
+                if f.name in ("pressure_level", "pressure_spread", "mapping"):
+                    values[f.name] = np.array(json.loads(raw), dtype=float)
+                elif f.name == "seed_key":
+                    values[f.name] = str(raw)
+                elif f.name in ("index", "onset_ramp_samples"):
+                    values[f.name] = int(raw)
+                else:
+                    values[f.name] = float(raw)
+            except (TypeError, ValueError) as exc:
+                raise DataError(f"participant record: field {f.name!r} is malformed ({exc})") from None
+        try:
+            return cls(**values)
+        except ValueError as exc:
+            raise DataError(f"participant record {values.get('index')}: {exc}") from None
+
+
+def participants_frame(participants: Sequence[Participant]) -> pd.DataFrame:
+    """The one-row-per-participant table (scalars and JSON strings), ready for parquet."""
+    return pd.DataFrame([p.to_record() for p in participants])
+
+
+def participants_from_frame(frame: pd.DataFrame) -> list[Participant]:
+    """Inverse of :func:`participants_frame`."""
+    return [Participant.from_record(row) for row in frame.to_dict(orient="records")]
+
+
+# --- drawing from the population ---------------------------------------------------------------
+
+def _uniform(rng: np.random.Generator, bounds: tuple[float, float]) -> float:
+    return float(rng.uniform(bounds[0], bounds[1]))
+
+
+def mapping_with_error(error_rate: float) -> np.ndarray:
+    """``(M, A, F)`` internal mapping: ``1 - error_rate`` on the true label, the rest spread evenly."""
+    off = error_rate / (N_LABELS - 1)
+    row_table = np.full((N_ACTIONS, N_LABELS), off)
+    row_table[np.arange(N_ACTIONS), TRUE_MAPPING] = 1.0 - error_rate
+    return np.broadcast_to(row_table, (N_MODES, N_ACTIONS, N_LABELS)).copy()
+
+
+def draw_participant(population: PopulationSection, index: int, rng: np.random.Generator,
+                     key: str | None = None) -> Participant:
+    """Draw one participant from the population ranges (a fixed sequence of draws from ``rng``)."""
+    level_bounds = {HARD_PUFF: population.hard_puff_level, HARD_SIP: population.hard_sip_level,
+                    SOFT_PUFF: population.soft_puff_level, SOFT_SIP: population.soft_sip_level}
+    magnitudes = np.array([_uniform(rng, level_bounds[label]) for label in range(N_LABELS)])
+    spread_bounds = [population.hard_spread if LABEL_IS_HARD[label] else population.soft_spread
+                     for label in range(N_LABELS)]
+    spreads = np.array([_uniform(rng, bounds) for bounds in spread_bounds])
+    error_rate = _uniform(rng, population.mapping_error)
+    lo, hi = population.onset_ramp_samples
+    ramp = int(rng.integers(lo, hi + 1))
+    return Participant(
+        index=index,
+        seed_key=key or seed_key("participant", index),
+        pressure_level=LABEL_SIGN * np.maximum(magnitudes, 2 * ZERO_THRESHOLD),
+        pressure_spread=spreads,
+        mapping=mapping_with_error(error_rate),
+        epsilon=_uniform(rng, population.epsilon),
+        rest_s=_uniform(rng, population.rest_s),
+        operate_s=_uniform(rng, population.operate_s),
+        action_pause_s=_uniform(rng, population.action_pause_s),
+        hard_blow_s=_uniform(rng, population.hard_blow_s),
+        reaction_s=_uniform(rng, population.reaction_s),
+        reaction_log_sd=population.reaction_log_sd,
+        onset_ramp_samples=ramp,
+        mapping_error=error_rate,
+    )
+
+
+def draw_participants(population: PopulationSection, n: int, seed: int) -> list[Participant]:
+    """``n`` participants, participant ``i`` drawn from ``generator(seed, "participant", i, "physiology")``.
+
+    Participant ``i`` is the same whatever ``n`` is, so studies of different sizes share participants.
+    """
+    if n < 0:
+        raise ValueError(f"n must be non-negative, got {n}")
+    return [draw_participant(population, i, generator(seed, "participant", i, "physiology"))
+            for i in range(n)]
+
+
+# --- estimating a real person's physiology from a log ------------------------------------------
+
+def censored_normal_fit(magnitudes: np.ndarray, ceiling: float = 1.0) -> tuple[float, float]:
+    """Robust level and spread of pressure magnitudes that saturate at ``ceiling``.
+
+    A normal-quantile fit: the empirical quantiles ``q_p`` of the samples are matched to
+    ``level + spread * Phi^-1(p)`` by least squares, using the quartiles ``p = 0.25, 0.5, 0.75``
+    that are below the ceiling (uncensored), or, when fewer than two are, the quantiles
+    ``p = 0.05, 0.10, ..., 0.95`` below it. Quantiles ignore the few ramp and release samples
+    (unlike a mean and standard deviation) and stay valid when many samples sit at the ceiling.
+    When fewer than two such quantiles exist (nearly all samples saturated) the spread is unknown:
+    it is set to ``SATURATED_SPREAD`` and the level to ``ceiling + spread * Phi^-1(s)``, with ``s``
+    the saturated fraction (capped at ``1 - 0.5/n``), i.e. the level that saturates that often.
+
+    Parameters
+    ----------
+    magnitudes
+        ``(N,)`` non-negative pressure magnitudes, ``N >= 2``.
+
+    Returns
+    -------
+    tuple[float, float]
+        ``(level, spread)``, spread at least ``MIN_SPREAD``.
+    """
+    x = np.sort(np.asarray(magnitudes, dtype=float))
+    n = len(x)
+    saturated = x >= ceiling - 1e-6
+    for probs in (np.array([0.25, 0.5, 0.75]), np.arange(1, 20) * 0.05):
+        quantiles = np.quantile(x, probs)
+        usable = quantiles < ceiling - 1e-6
+        if usable.sum() >= 2:
+            z = ndtri(probs[usable])
+            spread, level = np.polyfit(z, quantiles[usable], 1)
+            if spread > 0:
+                return float(level), float(max(spread, MIN_SPREAD))
+            return float(np.median(x)), float(max(1.4826 * np.median(np.abs(x - np.median(x))), MIN_SPREAD))
+    fraction = min(float(saturated.mean()), 1.0 - 0.5 / n)
+    return float(ceiling + SATURATED_SPREAD * ndtri(fraction)), SATURATED_SPREAD
+
+
+def log_plateau_samples(session: DistortionSession) -> tuple[list[np.ndarray], np.ndarray]:
+    """The plateau pressure magnitudes of each intended label, and each prompt's onset delay.
+
+    For each prompt window (the estimator's windows, :func:`nudgecli.sim.calibration_io.distortion_windows`)
+    the samples with non-zero pressure (``|p| >= ZERO_THRESHOLD``; "input stopped" frames excluded)
+    on the intended side are the blow; its first ``LOG_ONSET_SAMPLES`` and last
+    ``LOG_RELEASE_SAMPLES`` are the onset and release ramps and are dropped.
+
+    Returns
+    -------
+    tuple[list[np.ndarray], np.ndarray]
+        Per label a ``(n_label,)`` array of magnitudes; ``(n_prompts,)`` seconds from each prompt to
+        its first non-zero sample (``nan`` if none).
+    """
+    if np.all(np.isnan(session.stream_pressure)):
+        raise DataError(f"{session.files.get('stream', 'stream')}: the stream holds no pressures; "
+                        "participant_from_log needs the raw pressure of each sample")
+    starts, ends = distortion_windows(session)
+    labels = session.prompt_labels
+    prompt_times = session.prompt_times[0::2]
+    per_label: list[list[np.ndarray]] = [[] for _ in range(N_LABELS)]
+    onset = np.full(len(labels), np.nan)
+    pressure = np.nan_to_num(session.stream_pressure, nan=0.0)
+    for k, (start, end, label) in enumerate(zip(starts, ends, labels, strict=True)):
+        window = pressure[start:end]
+        active = np.abs(window) >= ZERO_THRESHOLD
+        if active.any():
+            onset[k] = session.stream_times[start + int(np.argmax(active))] - prompt_times[k]
+        blow = window[active & (np.sign(window) == LABEL_SIGN[label])]
+        plateau = blow[LOG_ONSET_SAMPLES:len(blow) - LOG_RELEASE_SAMPLES]
+        per_label[label].append(np.abs(plateau))
+    return [np.concatenate(chunks) if chunks else np.zeros(0) for chunks in per_label], onset
+
+
+def session_from_stream_frame(frame: pd.DataFrame) -> DistortionSession:
+    """A distortion session from one labelled stream table with the prompt of each sample.
+
+    Parameters
+    ----------
+    frame
+        Columns ``t`` (seconds, non-decreasing), ``pressure`` (sip positive) and ``intended``
+        (the prompted label shown at that sample, or ``""`` in a blank). Each run of consecutive
+        samples with the same label is one prompt; it ends at the next run's first sample.
+
+    Raises
+    ------
+    DataError
+        On missing columns, unknown labels, time running backwards or no prompt.
+    """
+    missing = [c for c in ("t", "pressure", "intended") if c not in frame.columns]
+    if missing:
+        raise DataError(f"stream frame: missing column(s) {', '.join(missing)}; "
+                        "expected t, pressure, intended")
+    times = frame["t"].to_numpy(dtype=float)
+    back = np.flatnonzero(np.diff(times) < 0)
+    if back.size:
+        raise DataError(f"stream frame: row {int(back[0]) + 1}: time runs backwards")
+    intended = ["" if pd.isna(v) else str(v) for v in frame["intended"]]
+    unknown = [(row, v) for row, v in enumerate(intended) if v and v not in LABELS]
+    if unknown:
+        raise DataError(f"stream frame: row {unknown[0][0]}: unknown intended label {unknown[0][1]!r}; "
+                        f"labels are {', '.join(LABELS)}")
+    pressure = frame["pressure"].to_numpy(dtype=float)
+    prompt_times: list[float] = []
+    commands: list[str] = []
+    row = 0
+    while row < len(intended):
+        end = row
+        while end < len(intended) and intended[end] == intended[row]:
+            end += 1
+        if intended[row]:
+            finish = times[end] if end < len(times) else times[-1] + 0.1
+            prompt_times += [times[row], finish]
+            commands += [intended[row], ""]
+        row = end
+    if not commands:
+        raise DataError("stream frame: no prompts; the intended column names no interface label")
+    codes = label_pressure(pressure)
+    return DistortionSession(np.array(prompt_times), tuple(commands), times, codes, pressure,
+                             {"stream": "stream frame"})
+
+
+def participant_from_log(source: str | Path | DistortionSession | pd.DataFrame, index: int = 0,
+                         template: Participant | None = None,
+                         population: PopulationSection | None = None) -> Participant:
+    """A participant with a real person's pressure physiology, estimated from a ``p(phi_m | phi_i)`` log.
+
+    Per intended label, the plateau samples of :func:`log_plateau_samples` give the level and
+    spread by :func:`censored_normal_fit` (robust quantile fit, valid under saturation at 1). The
+    reaction delay is the median of the prompts' onset delays and ``reaction_log_sd`` the robust
+    (MAD) standard deviation of their logs; the onset ramp is ``LOG_RAMP_SAMPLES`` (the pilots').
+    Everything else (mapping, epsilon, turn habits) comes from ``template`` if given, else from the
+    midpoints of the ``population`` ranges (default population if ``None``), with the true mapping
+    at the midpoint error rate.
+
+    Parameters
+    ----------
+    source
+        A participant's calibration folder (study or tidy format), its ``p_phm_given_phi/``
+        folder, a session read by :func:`nudgecli.sim.calibration_io.read_distortion_session`, or
+        a stream table with the prompt of each sample (:func:`session_from_stream_frame`).
+
+    Raises
+    ------
+    DataError
+        If there is no distortion session, it has no pressures, or a label has fewer than
+        ``MIN_LOG_SAMPLES`` plateau samples.
+    """
+    if isinstance(source, DistortionSession):
+        session = source
+        where = session.files.get("stream", "distortion session")
+    elif isinstance(source, pd.DataFrame):
+        session = session_from_stream_frame(source)
+        where = "stream frame"
+    else:
+        found = read_distortion_session(source)
+        if found is None:
+            raise DataError(f"{source}: no p(phi_m | phi_i) session (p_phm_given_phi/_command_prompt.csv + "
+                            "_joy_sip_puff.csv, or distortion_prompts.csv + distortion_stream.csv)")
+        session = found
+        where = str(source)
+    samples, onset = log_plateau_samples(session)
+    levels = np.zeros(N_LABELS)
+    spreads = np.zeros(N_LABELS)
+    for label in range(N_LABELS):
+        if len(samples[label]) < MIN_LOG_SAMPLES:
+            raise DataError(f"{where}: only {len(samples[label])} plateau samples of {LABELS[label]!r}; "
+                            f"at least {MIN_LOG_SAMPLES} are needed to estimate its pressure")
+        levels[label], spreads[label] = censored_normal_fit(samples[label])
+    delays = onset[np.isfinite(onset) & (onset > 0)]
+    pop = population or PopulationSection()
+
+    def midpoint(bounds: tuple[float, float]) -> float:
+        return 0.5 * (bounds[0] + bounds[1])
+
+    if delays.size:
+        reaction = float(np.median(delays))
+        log_delays = np.log(delays)
+        log_sd = float(1.4826 * np.median(np.abs(log_delays - np.median(log_delays))))
+    else:
+        reaction, log_sd = midpoint(pop.reaction_s), pop.reaction_log_sd
+    base: dict[str, Any]
+    if template is not None:
+        base = {f.name: getattr(template, f.name) for f in fields(template) if f.compare}
+    else:
+        error_rate = midpoint(pop.mapping_error)
+        base = {"mapping": mapping_with_error(error_rate), "mapping_error": error_rate,
+                "epsilon": midpoint(pop.epsilon), "rest_s": midpoint(pop.rest_s),
+                "operate_s": midpoint(pop.operate_s), "action_pause_s": midpoint(pop.action_pause_s),
+                "hard_blow_s": midpoint(pop.hard_blow_s)}
+    base.update(index=index, seed_key=f"log:{where}",
+                pressure_level=LABEL_SIGN * np.maximum(levels, 2 * ZERO_THRESHOLD),
+                pressure_spread=spreads, reaction_s=reaction, reaction_log_sd=log_sd,
+                onset_ramp_samples=LOG_RAMP_SAMPLES)
+    return Participant(**base)

@@ -1,0 +1,125 @@
+"""Assistance: alpha and its study gates, autonomy velocity, blending, step/control/nudge targets."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from nudgecli.model import assistance as ast
+from nudgecli.model.world import angle_difference, state_index
+
+
+@pytest.mark.parametrize(("p", "expected"), [
+    (0.0, 0.0),
+    (0.275, 0.0),  # rho1 = 1.1 / 4
+    (0.2875, 0.4),  # half-way up the ramp
+    (0.3, 0.8),  # rho2 = 1.2 / 4
+    (0.31, 0.8),
+    (1.0, 0.8),
+])
+def test_alpha_breakpoints_four_goals(p: float, expected: float) -> None:
+    assert ast.blending_factor(p, 4) == pytest.approx(expected, abs=1e-12)
+
+
+def test_alpha_three_goals_and_vectorised() -> None:
+    rho1, rho2 = 1.1 / 3, 1.2 / 3
+    values = ast.blending_factor(np.array([rho1, (rho1 + rho2) / 2, rho2, 0.9]), 3)
+    np.testing.assert_allclose(values, [0.0, 0.4, 0.8, 0.8], atol=1e-12)
+    with pytest.raises(ValueError):
+        ast.blending_factor(0.5, 3, rho1_factor=1.2, rho2_factor=1.1)
+
+
+def test_distance_weight() -> None:
+    assert ast.distance_weight(0.0) == 1.0
+    assert ast.distance_weight(17.5) == pytest.approx(0.8)
+    assert ast.distance_weight(35.0) == pytest.approx(0.6)
+    assert ast.distance_weight(36.0) == pytest.approx(0.6 * math.exp(-1.0))
+    assert ast.distance_weight(35.0 + 1e-9) == pytest.approx(0.6, abs=1e-8)  # continuous at the knee
+
+
+def test_assistance_alpha_gates() -> None:
+    study = ast.BlendingSettings.study()
+    assert (study.entropy_gate, study.startup_delay, study.distance_weighting) == (0.65, 1.0, True)
+    # uncertain belief or too early in the turn -> 0
+    assert ast.assistance_alpha(0.9, 4, 0.7, 5.0, 0.0, study) == 0.0
+    assert ast.assistance_alpha(0.9, 4, 0.3, 0.5, 0.0, study) == 0.0
+    assert ast.assistance_alpha(0.9, 4, 0.3, 1.0, 17.5, study) == pytest.approx(0.8 * 0.8)
+    # the paper: no gates
+    assert ast.assistance_alpha(0.9, 4, 0.99, 0.0, 100.0) == pytest.approx(0.8)
+
+
+@settings(max_examples=200, deadline=None)
+@given(x=st.floats(3, 45), y=st.floats(2, 36), theta=st.floats(0, 2 * math.pi - 1e-9),
+       tx=st.floats(3, 45), ty=st.floats(2, 36), ttheta=st.floats(0, 2 * math.pi - 1e-9),
+       dt=st.sampled_from([0.01, 0.05, 0.1, 1.0]))
+def test_autonomy_velocity_never_overshoots(x: float, y: float, theta: float, tx: float, ty: float,
+                                            ttheta: float, dt: float) -> None:
+    pose = np.array([x, y, theta])
+    target = np.array([tx, ty, ttheta])
+    v = ast.autonomy_velocity(pose, target, dt=dt)
+    assert math.hypot(v[0], v[1]) <= 5.0 + 1e-9
+    assert abs(v[2]) <= 1.5 + 1e-12
+    distance = math.hypot(tx - x, ty - y)
+    after = np.array([x, y]) + v[:2] * dt
+    # moves straight along the line and ends no farther than max(0, D - speed dt) from the target
+    assert math.hypot(tx - after[0], ty - after[1]) == pytest.approx(max(0.0, distance - 5.0 * dt), abs=1e-9)
+    error_before = float(angle_difference(ttheta, theta))
+    error_after = float(angle_difference(ttheta, theta + v[2] * dt))
+    assert abs(error_after) <= abs(error_before) + 1e-12
+    assert error_after * error_before >= -1e-18  # never turns past the target heading
+    if error_before == 0.0:
+        assert v[2] == 0.0
+
+
+def test_autonomy_velocity_examples() -> None:
+    v = ast.autonomy_velocity(np.array([10.0, 10.0, 0.0]), np.array([20.0, 10.0, 0.0]))
+    np.testing.assert_allclose(v, [5.0, 0.0, 0.0])
+    # shortest direction: target 90 deg anticlockwise -> positive omega; 90 deg clockwise -> negative
+    assert ast.autonomy_velocity(np.zeros(3), np.array([0.0, 0.0, math.pi / 2]))[2] == 1.5
+    assert ast.autonomy_velocity(np.zeros(3), np.array([0.0, 0.0, 3 * math.pi / 2]))[2] == -1.5
+    # near the target: slows to land exactly on it in one step
+    v = ast.autonomy_velocity(np.array([10.0, 10.0, 1.0]), np.array([10.02, 10.0, 1.001]), dt=0.01)
+    np.testing.assert_allclose(v, [2.0, 0.0, 0.1], atol=1e-9)
+    np.testing.assert_array_equal(ast.autonomy_velocity(np.array([1.0, 2.0, 3.0]), np.array([1.0, 2.0, 3.0])),
+                                  np.zeros(3))
+
+
+def test_blend() -> None:
+    np.testing.assert_allclose(ast.blend(np.array([5.0, 0.0, 1.0]), np.array([0.0, 3.0, 0.0]), 0.8),
+                               [4.0, 0.6, 0.8])
+
+
+def test_step_sizes() -> None:
+    assert ast.step_sizes(3) == pytest.approx((4.2, 3.4, 5.4))
+    assert ast.step_sizes(3)[2] == pytest.approx(math.hypot(4.2, 3.4), abs=0.01)
+    assert sorted(ast.step_sizes(5)) == pytest.approx(sorted([4.2, 3.4, 5.4, 8.4, 6.8, 10.81]))
+    rng = np.random.default_rng(0)
+    assert {ast.draw_step_size(rng, 5) for _ in range(200)} == set(ast.step_sizes(5))
+    with pytest.raises(ValueError):
+        ast.step_sizes(7)
+
+
+def test_step_target() -> None:
+    start, goal = np.array([0.0, 0.0]), np.array([30.0, 40.0])  # D = 50
+    np.testing.assert_allclose(ast.step_target(start, goal, 5.0), [3.0, 4.0])
+    np.testing.assert_allclose(ast.step_target(start, np.array([6.0, 8.0]), 8.4), [3.0, 4.0])  # D/2 = 5 < R
+    np.testing.assert_array_equal(ast.step_target(goal, goal, 4.2), goal)
+
+
+def test_control_target_ties() -> None:
+    goals = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 10.0]])
+    np.testing.assert_allclose(ast.control_target(np.array([0.4, 0.4, 0.2]), goals), [5.0, 0.0])
+    np.testing.assert_allclose(ast.control_target(np.full(3, 1 / 3), goals), [10 / 3, 10 / 3])
+    np.testing.assert_allclose(ast.control_target(np.array([0.5, 0.3, 0.2]), goals), [0.0, 0.0])
+    near_tie = np.array([0.4, 0.4 - 1e-12, 0.2 + 1e-12])
+    np.testing.assert_allclose(ast.control_target(near_tie, goals), [5.0, 0.0])
+
+
+def test_nudge_target() -> None:
+    pose, mode = ast.nudge_target(int(state_index(2, 7, 3, 1)))
+    np.testing.assert_allclose(pose, [3 + 4.2 * 2 + 2.1, 2 + 3.4 * 7 + 1.7, 3 * math.pi / 4])
+    assert mode == 1

@@ -1,0 +1,247 @@
+"""Goal MDPs: transitions, value iteration (golden case and optimality), tie-breaking, p(a | s, g)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from nudgecli.model import mdp
+from nudgecli.model.interface import MOVE_N, MOVE_P, TO_MODE_L, TO_MODE_R
+from nudgecli.model.world import N_HEADINGS, N_STATES, all_state_coordinates, state_index
+
+GOAL_CELLS = np.array([[3, 1], [1, 2], [0, 0], [5, 0]])
+GOAL_HEADINGS = np.array([6, 7, 3, 0])
+
+
+@pytest.fixture(scope="module")
+def transitions() -> mdp.GoalTransitions:
+    return mdp.build_transitions(GOAL_CELLS, GOAL_HEADINGS)
+
+
+@pytest.fixture(scope="module")
+def solved() -> tuple[np.ndarray, np.ndarray, int]:
+    tr = mdp.build_transitions(GOAL_CELLS, GOAL_HEADINGS)
+    return mdp.value_iteration(tr.next_state, tr.rewards())
+
+
+def brute_force_transition(g: int, i: int, j: int, h: int, m: int,
+                           a: int) -> tuple[tuple[int, int, int, int], str]:
+    """The MDP rules of the study written out state by state, independently of the vectorised code."""
+    own = (int(GOAL_CELLS[g, 0]), int(GOAL_CELLS[g, 1]))
+    others = {(int(x), int(y)) for k, (x, y) in enumerate(GOAL_CELLS) if k != g}
+    if (i, j) in others:
+        return (i, j, h, m), "inside_obstacle"
+    if (i, j) == own and h == GOAL_HEADINGS[g]:
+        return (i, j, h, m), "goal_absorbing"
+    if a == TO_MODE_R:
+        return (i, j, h, (m + 1) % 3), "mode_switch"
+    if a == TO_MODE_L:
+        return (i, j, h, (m - 1) % 3), "mode_switch"
+    step = 1 if a == MOVE_P else -1
+    ni, nj, nh = i, j, h
+    if m == 0:
+        ni += step
+    elif m == 1:
+        nj += step
+    else:
+        nh = (h - step) % 8  # move_p turns clockwise: heading index - 1
+    if not (0 <= ni < 10 and 0 <= nj < 10) or (ni, nj) in others:
+        return (i, j, h, m), "bump"
+    if (ni, nj) == own and nh == GOAL_HEADINGS[g]:
+        return (ni, nj, nh, m), "goal_entry"
+    return (ni, nj, nh, m), "move"
+
+
+def test_transitions_equal_the_rules_state_by_state(transitions: mdp.GoalTransitions) -> None:
+    coords = all_state_coordinates()
+    for g in range(len(GOAL_CELLS)):
+        for a in range(4):
+            for s in range(N_STATES):
+                (ni, nj, nh, nm), kind = brute_force_transition(g, *(int(v) for v in coords[s]), a)
+                assert transitions.next_state[g, a, s] == state_index(ni, nj, nh, nm)
+                assert mdp.OUTCOME_NAMES[transitions.outcome[g, a, s]] == kind
+
+
+def test_transition_examples(transitions: mdp.GoalTransitions) -> None:
+    nxt = transitions.next_state
+    # walls: leaving the grid in x or y stays put
+    assert nxt[0, MOVE_N, state_index(0, 5, 2, 0)] == state_index(0, 5, 2, 0)
+    assert nxt[0, MOVE_P, state_index(9, 5, 2, 0)] == state_index(9, 5, 2, 0)
+    assert nxt[0, MOVE_P, state_index(4, 9, 2, 1)] == state_index(4, 9, 2, 1)
+    # another goal's cell: goal 1 sits at (1, 2); in goal 0's MDP it is a wall, in goal 1's it is not
+    assert nxt[0, MOVE_P, state_index(0, 2, 5, 0)] == state_index(0, 2, 5, 0)
+    assert nxt[1, MOVE_P, state_index(0, 2, 5, 0)] == state_index(1, 2, 5, 0)
+    # headings wrap; move_p is clockwise (index - 1)
+    assert nxt[0, MOVE_P, state_index(7, 7, 0, 2)] == state_index(7, 7, 7, 2)
+    assert nxt[0, MOVE_N, state_index(7, 7, 7, 2)] == state_index(7, 7, 0, 2)
+    # modes cycle both ways
+    assert nxt[0, TO_MODE_R, state_index(7, 7, 3, 2)] == state_index(7, 7, 3, 0)
+    assert nxt[0, TO_MODE_L, state_index(7, 7, 3, 0)] == state_index(7, 7, 3, 2)
+    # rewards by kind
+    rewards = transitions.rewards()
+    assert rewards[0, MOVE_N, state_index(0, 5, 2, 0)] == -100.0
+    assert rewards[0, MOVE_P, state_index(7, 7, 0, 2)] == -10.0
+    assert rewards[0, TO_MODE_R, state_index(7, 7, 3, 2)] == -100.0
+    goal0 = state_index(3, 1, 6, 1)
+    assert rewards[0, MOVE_P, state_index(3, 1, 7, 2)] == 100.0  # the turn that completes the pose
+    assert np.all(nxt[0, :, goal0] == goal0) and np.all(rewards[0, :, goal0] == 100.0)
+    inside = state_index(1, 2, 4, 1)  # goal 1's cell in goal 0's MDP
+    assert np.all(nxt[0, :, inside] == inside) and np.all(rewards[0, :, inside] == 0.0)
+
+
+def test_custom_rewards_are_applied(transitions: mdp.GoalTransitions) -> None:
+    rewards = transitions.rewards(mdp.MDPRewards(move=-1.0, mode_switch=-2.0, bump=-3.0, goal=4.0,
+                                                 inside_obstacle=-5.0))
+    expected = np.array([-1.0, -2.0, -3.0, 4.0, 4.0, -5.0])[transitions.outcome]
+    np.testing.assert_array_equal(rewards, expected)
+
+
+def test_duplicate_or_bad_goals_are_rejected() -> None:
+    with pytest.raises(ValueError, match="share a cell"):
+        mdp.build_transitions(np.array([[1, 1], [1, 1]]), np.array([0, 4]))
+    with pytest.raises(ValueError, match="grid"):
+        mdp.build_transitions(np.array([[10, 1]]), np.array([0]))
+    with pytest.raises(ValueError, match="headings"):
+        mdp.build_transitions(np.array([[1, 1]]), np.array([8]))
+
+
+def corridor() -> tuple[np.ndarray, np.ndarray]:
+    """A 1-D corridor: state 0 is the goal (absorbing, +100 per step), states 1..4 lie in a row,
+    state 5 is an obstacle interior (self-loop, reward 0). Action 0 steps towards the goal (-10,
+    or +100 when it enters the goal), action 1 away (-10; at state 4 it bumps: stay, -100)."""
+    n = 6
+    nxt = np.zeros((1, 2, n), dtype=int)
+    rew = np.zeros((1, 2, n))
+    nxt[0, :, 0] = 0
+    rew[0, :, 0] = 100.0
+    for s in range(1, 5):
+        nxt[0, 0, s] = s - 1
+        rew[0, 0, s] = 100.0 if s == 1 else -10.0
+        nxt[0, 1, s] = s + 1 if s < 4 else s
+        rew[0, 1, s] = -10.0 if s < 4 else -100.0
+    nxt[0, :, 5] = 5
+    return nxt, rew
+
+
+def test_value_iteration_golden_corridor() -> None:
+    # Closed form. From V_0 = 0, after k sweeps V_k is the best k-step discounted return.
+    #   goal:         V_k(0) = 100 (1 - g^k) / (1 - g)
+    #   s in 1..4:    go towards the goal: s - 1 moves at -10, the entering move at +100, then the
+    #                 goal for the remaining k - s steps, so for k >= s
+    #                 V_k(s) = -10 (1 - g^(s-1)) / (1 - g) + 100 g^(s-1) + g^s V_(k-s)(0)
+    #   obstacle:     V_k(5) = 0.
+    # Sweep k changes the goal by 100 g^(k-1), every s <= 4 < k by g^s 100 g^(k-s-1) = 100 g^(k-1)
+    # too, and the obstacle by 0, so span(V_k - V_(k-1)) = 100 g^(k-1) and VI stops at the first
+    # k with 100 g^(k-1) < 0.01 (1 - g) / g (k = 305 for g = 0.96, as the study measured).
+    gamma = 0.96
+    threshold = 0.01 * (1 - gamma) / gamma
+    k = next(k for k in range(5, 10_000) if 100 * gamma ** (k - 1) < threshold)
+    values, q, iterations = mdp.value_iteration(*corridor(), gamma=gamma)
+    assert iterations == k == 305
+
+    def goal_value(steps: int) -> float:
+        return 100 * (1 - gamma ** steps) / (1 - gamma)
+
+    expected = [goal_value(k)]
+    for s in range(1, 5):
+        expected.append(-10 * (1 - gamma ** (s - 1)) / (1 - gamma) + 100 * gamma ** (s - 1)
+                        + gamma ** s * goal_value(k - s))
+    expected.append(0.0)
+    np.testing.assert_allclose(values[0], expected, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(values, q.max(axis=-1))
+    # towards the goal everywhere; the goal and the obstacle tie all actions -> action 0
+    np.testing.assert_array_equal(mdp.greedy_policy(q)[0], [0, 0, 0, 0, 0, 0])
+
+
+def test_goal_value_and_obstacle_value(solved: tuple[np.ndarray, np.ndarray, int]) -> None:
+    values, _, iterations = solved
+    assert 300 <= iterations <= 310  # the study measured 305-307
+    goal0 = state_index(3, 1, 6, 0)
+    assert values[0, goal0] == pytest.approx(2500.0, abs=0.02)  # 100 / (1 - 0.96), truncated
+    assert values[0, state_index(1, 2, 0, 0)] == 0.0  # inside goal 1's cell
+
+
+def _evaluate_policy(nxt: np.ndarray, rew: np.ndarray, policy: np.ndarray, gamma: float,
+                     sweeps: int = 1500) -> np.ndarray:
+    goals, states = np.indices(policy.shape)
+    next_pi = nxt[goals, policy, states]
+    reward_pi = rew[goals, policy, states]
+    v = np.zeros(policy.shape)
+    for _ in range(sweeps):  # gamma^1500 * 2500 < 1e-20
+        v = reward_pi + gamma * v[goals, next_pi]
+    return v
+
+
+def test_greedy_policy_is_optimal(transitions: mdp.GoalTransitions,
+                                  solved: tuple[np.ndarray, np.ndarray, int]) -> None:
+    values, q, iterations = solved
+    rewards = transitions.rewards()
+    policy = mdp.greedy_policy(q)
+    goals, states = np.indices(policy.shape)
+    # Bellman residual of the returned V under its greedy policy: since V = max Q(V_prev) it is
+    # gamma * (V - V_prev) at the next state, bounded by gamma * max |V - V_prev|.
+    previous = mdp.value_iteration(transitions.next_state, rewards, max_iterations=iterations - 1)[0]
+    last_change = np.abs(values - previous).max()
+    assert last_change < 1e-3
+    next_pi = transitions.next_state[goals, policy, states]
+    backed_up = rewards[goals, policy, states] + 0.96 * values[goals, next_pi]
+    assert np.abs(backed_up - values).max() <= 0.96 * last_change + 1e-9
+    # The greedy policy's own value equals the optimal value (VI run to a far tighter tolerance).
+    optimal = mdp.value_iteration(transitions.next_state, rewards, span_epsilon=1e-12)[0]
+    np.testing.assert_allclose(_evaluate_policy(transitions.next_state, rewards, policy, 0.96), optimal,
+                               atol=1e-6)
+    # solve_layout returns exactly the greedy policy of Q
+    layout = mdp.solve_layout(GOAL_CELLS, GOAL_HEADINGS)
+    np.testing.assert_array_equal(layout.policy, policy)
+    np.testing.assert_array_equal(layout.values, values)
+    assert layout.iterations == iterations
+
+
+def test_ties_break_by_action_order(solved: tuple[np.ndarray, np.ndarray, int]) -> None:
+    _, q, _ = solved
+    policy = mdp.greedy_policy(q)
+    gi, gj = GOAL_CELLS[0]
+    gh = int(GOAL_HEADINGS[0])
+    # In the goal's cell, theta mode, heading opposite the goal's: four turns either way tie.
+    opposite = state_index(gi, gj, (gh + 4) % N_HEADINGS, 2)
+    assert q[0, opposite, MOVE_P] == pytest.approx(q[0, opposite, MOVE_N], rel=1e-12)
+    assert policy[0, opposite] == MOVE_P
+    # Three turns clockwise (move_p, index - 1) beat five anticlockwise, and vice versa.
+    assert policy[0, state_index(gi, gj, (gh + 3) % N_HEADINGS, 2)] == MOVE_P
+    assert policy[0, state_index(gi, gj, (gh - 3) % N_HEADINGS, 2)] == MOVE_N
+    # Explicit ties on a hand-made Q table, including last-bit differences.
+    q_hand = np.array([[1.0, 1.0, 0.0, 0.0], [0.0, 2.0, 2.0 + 1e-13, 1.0], [0.0, 0.0, 0.0, 5.0]])
+    np.testing.assert_array_equal(mdp.greedy_policy(q_hand), [0, 1, 3])
+
+
+def test_action_likelihood() -> None:
+    policy = np.array([[0, 3, 2], [1, 1, 0]])
+    p = mdp.action_likelihood(policy, 0.1)
+    assert p.shape == (2, 3, 4)
+    np.testing.assert_allclose(p.sum(axis=-1), 1.0)
+    assert p[0, 1, 3] == pytest.approx(0.925) and p[0, 1, 0] == pytest.approx(0.025)
+    np.testing.assert_array_equal(p.argmax(axis=-1), policy)
+    with pytest.raises(ValueError):
+        mdp.action_likelihood(policy, 1.5)
+
+
+def test_solve_layout_human_model_matches_policy() -> None:
+    layout = mdp.solve_layout(GOAL_CELLS[:3], GOAL_HEADINGS[:3], gamma=0.9, epsilon=0.2)
+    assert layout.p_a_given_sg.shape == (3, N_STATES, 4)
+    expected = 0.8 * np.eye(4)[layout.policy] + 0.05
+    np.testing.assert_allclose(layout.p_a_given_sg, expected)
+    assert math.isfinite(layout.values.max())
+
+
+def test_value_iteration_rejects_bad_input() -> None:
+    nxt, rew = corridor()
+    with pytest.raises(ValueError):
+        mdp.value_iteration(nxt, rew[:, :1])
+    with pytest.raises(ValueError):
+        mdp.value_iteration(nxt, rew, gamma=1.0)
+    bad = nxt.copy()
+    bad[0, 0, 1] = 6
+    with pytest.raises(ValueError, match="indices"):
+        mdp.value_iteration(bad, rew)
