@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import difflib
 import tomllib
-from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -274,13 +273,14 @@ class ExperimentConfig(Section):
 # --- presets, loading, overrides --------------------------------------------------------------
 
 def preset_dir(kind: Literal["experiments", "analysis"]) -> Path:
-    """The folder holding the shipped presets of ``kind`` (installed wheel or source tree)."""
-    try:
-        path = Path(str(resources.files(f"nudgecli.presets.{kind}")))
-        if path.is_dir() and any(path.glob("*.toml")):
-            return path
-    except ModuleNotFoundError:
-        pass
+    """The folder holding the shipped presets of ``kind``.
+
+    Installed, they sit in ``nudgecli/presets/<kind>/`` (pyproject maps the top-level folders
+    there); in a source tree without an install, in the top-level ``<kind>/`` folder.
+    """
+    installed = Path(__file__).resolve().parent / "presets" / kind
+    if any(installed.glob("*.toml")):
+        return installed
     return Path(__file__).resolve().parents[1] / kind
 
 

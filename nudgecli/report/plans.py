@@ -37,7 +37,6 @@ Unknown keys are refused with a "did you mean" suggestion naming the file and th
 from __future__ import annotations
 
 import difflib
-import importlib.resources
 import itertools
 import tomllib
 from pathlib import Path
@@ -45,7 +44,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-import nudgecli
+from nudgecli.config import preset_dir
 from nudgecli.errors import ConfigError
 from nudgecli.report.metrics import METRIC_NAMES
 
@@ -55,7 +54,6 @@ P_ADJUST_METHODS = (
     "fdr_bh", "fdr_by", "fdr_tsbh", "fdr_tsbky",
 )
 
-PRESET_PACKAGE = "nudgecli.presets.analysis"
 
 
 class _Section(BaseModel):
@@ -189,15 +187,8 @@ def plan_from_dict(data: dict[str, Any], source: str = "<plan>") -> AnalysisPlan
 
 
 def _preset_dir() -> Path | None:
-    """The folder holding the shipped plans (installed package, or the source tree's analysis/)."""
-    try:
-        resource = importlib.resources.files(PRESET_PACKAGE)
-        folder = Path(str(resource))
-        if folder.is_dir():
-            return folder
-    except (ModuleNotFoundError, TypeError):
-        pass
-    folder = Path(nudgecli.__file__).resolve().parents[1] / "analysis"
+    """The folder of the shipped plans (installed wheel or source tree), or ``None``."""
+    folder = preset_dir("analysis")
     return folder if folder.is_dir() else None
 
 
