@@ -18,8 +18,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,6 +45,7 @@ from nudgecli.report.stats import (
     order_conditions,
     stats_table,
 )
+from nudgecli.store import write_text_atomic
 
 #: Columns of a metrics table that describe the trial rather than measure it.
 NON_METRIC_COLUMNS = (*ID_COLUMNS, "layout", "n_goals", "true_goal")
@@ -244,18 +243,8 @@ def _check_filters(plan: AnalysisPlan, available: Sequence[str]) -> None:
 
 
 def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (temporary file in the same folder, then ``os.replace``)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    descriptor, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(descriptor, "w", encoding="utf-8", newline="") as handle:
-            handle.write(text)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
+    """Write ``text`` to ``path`` atomically (see :func:`nudgecli.store.write_text_atomic`)."""
+    write_text_atomic(path, text)
 
 
 # --- formatting --------------------------------------------------------------------------------

@@ -12,9 +12,7 @@ one); the unweighted variant's ``N -> infinity`` limit is drawn as a dotted line
 
 from __future__ import annotations
 
-import contextlib
 import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -25,6 +23,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from nudgecli.report.style import FULL_WIDTH_IN, OKABE_ITO, PANEL_LETTER_PT, figure_style
+from nudgecli.store import atomic_path
 
 #: File stem of the figure.
 FIGURE_STEM = "validation"
@@ -136,30 +135,11 @@ def build_validation_figure(summary: dict[str, Any]) -> Figure:
     return fig
 
 
-def _current_umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-#: The process's umask, so saved figures get the usual permissions (not mkstemp's 0600).
-_UMASK = _current_umask()
-
-
 def _save_atomic(fig: Figure, path: Path, fmt: str) -> None:
-    """Save ``fig`` as ``fmt`` to a temporary file beside ``path``, then ``os.replace`` it."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    try:
-        os.chmod(tmp, 0o666 & ~_UMASK)
-        metadata = {"CreationDate": None} if fmt == "pdf" else {"Software": None} if fmt == "png" else None
-        with figure_style():
-            fig.savefig(tmp, format=fmt, metadata=metadata)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
+    """Save ``fig`` as ``fmt`` atomically (see :func:`nudgecli.store.atomic_path`)."""
+    metadata = {"CreationDate": None} if fmt == "pdf" else {"Software": None} if fmt == "png" else None
+    with atomic_path(path) as tmp, figure_style():
+        fig.savefig(tmp, format=fmt, metadata=metadata)
 
 
 def plot_validation(summary: dict[str, Any], out_dir: str | os.PathLike[str],

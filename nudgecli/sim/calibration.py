@@ -15,9 +15,6 @@
 
 from __future__ import annotations
 
-import json
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -55,6 +52,7 @@ from nudgecli.sim.calibration_io import (
     read_sessions,
 )
 from nudgecli.sim.participants import LABEL_SIGN, Participant, blow_pressures, participant_from_log
+from nudgecli.store import write_json_atomic
 
 #: Action image -> (mode, task action), the study's table (DESIGN.md section 2.9).
 IMAGE_TO_MODE_ACTION: dict[str, tuple[int, int]] = {
@@ -629,16 +627,7 @@ def _worst(confusions: list[tuple[float, str]], count: int = 3, floor: float = 0
 
 
 def write_profile(profile: dict[str, Any], path: str | Path) -> Path:
-    """Write a profile as JSON atomically (temporary file in the same folder, then ``os.replace``)."""
+    """Write a profile as JSON atomically; return its path."""
     target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    handle, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    try:
-        with os.fdopen(handle, "w", encoding="utf-8") as stream:
-            json.dump(profile, stream, indent=2)
-            stream.write("\n")
-        os.replace(tmp_name, target)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
+    write_json_atomic(target, profile)
     return target

@@ -46,6 +46,7 @@ import pandas as pd
 
 from nudgecli.errors import DataError
 from nudgecli.model.interface import INPUT_STOPPED_LABEL, LABELS, NO_INPUT, STREAM_LABELS
+from nudgecli.store import atomic_path
 
 #: The 12 action images of the mapping session, in the study's naming.
 ACTION_IMAGES = (
@@ -400,9 +401,8 @@ def read_sessions(folder: str | Path) -> tuple[MappingSession | None, Distortion
 # --- writers (tidy format) --------------------------------------------------------------------
 
 def _write_csv_atomic(frame: pd.DataFrame, path: Path) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    frame.to_csv(tmp, index=False)
-    tmp.replace(path)
+    with atomic_path(path) as tmp:
+        frame.to_csv(tmp, index=False)
 
 
 def mapping_session_frames(session: MappingSession) -> dict[str, pd.DataFrame]:

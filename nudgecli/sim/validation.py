@@ -82,14 +82,12 @@ compares the information term; the lambda = 1 match rate is reported beside it t
 
 from __future__ import annotations
 
-import contextlib
 import copy
 import csv
 import io
 import json
 import math
 import os
-import tempfile
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -112,6 +110,7 @@ from nudgecli.model.interface import (
 )
 from nudgecli.model.mdp import action_likelihood, greedy_policy, value_iteration
 from nudgecli.rng import generator
+from nudgecli.store import write_text_atomic
 
 #: Modes of the validation world: x (Horizontal) and y (Vertical).
 N_VALIDATION_MODES = 2
@@ -993,30 +992,9 @@ def run_validation(settings: ValidationSettings, mapping: np.ndarray | None = No
 # --- output --------------------------------------------------------------------------------
 
 
-def _current_umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
-
-
-#: The process's umask, so atomically written files get the usual permissions (not mkstemp's 0600).
-_UMASK = _current_umask()
-
-
 def _atomic_write_text(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same folder and ``os.replace``."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        os.chmod(tmp, 0o666 & ~_UMASK)
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
+    """Write ``text`` to ``path`` atomically (see :func:`nudgecli.store.write_text_atomic`)."""
+    write_text_atomic(path, text)
 
 
 def summary_json(result: ValidationResult) -> str:
