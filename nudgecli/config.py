@@ -217,6 +217,11 @@ class PopulationSection(Section):
     hard_blow_s: tuple[float, float] = (0.4, 0.8)
     reaction_s: tuple[float, float] = (0.9, 2.0)
     reaction_log_sd: Annotated[float, Field(ge=0, le=2)] = 0.35
+    physiology_logs: tuple[str, ...] = Field(
+        default=(),
+        description="Calibration folders with a p(phi_m | phi_i) session (study export or tidy format): "
+        "participant k takes the pressure physiology recorded in the k-th, the others are drawn; "
+        "habits are always drawn. Relative paths are relative to the working directory.")
 
     @model_validator(mode="after")
     def _check(self) -> PopulationSection:

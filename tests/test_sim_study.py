@@ -9,6 +9,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
@@ -152,3 +153,32 @@ def test_bad_experiment_files_name_the_file_and_field(tmp_path, text, message):
     result = CliRunner().invoke(main, ["simulate", str(path), "--out", str(tmp_path / "never")])
     assert result.exit_code == 1
     assert result.output.count("Error:") == 1 and str(path) in result.output and message in result.output
+
+
+CALIBRATION = Path(__file__).resolve().parents[2] / "shared" / "data" / "calibration"
+
+
+@pytest.mark.skipif(not CALIBRATION.is_dir(), reason="shared/data/calibration is not beside the repository")
+def test_a_study_can_use_a_real_persons_physiology(tmp_path):
+    from nudgecli.sim.participants import participant_from_log
+    from nudgecli.sim.study import study_participant
+
+    log = str(CALIBRATION / "andrewtest")
+    config = load_experiment("smoke", [f"population.physiology_logs=['{log}']"])
+    real = study_participant(config, 7, 0)
+    expected = participant_from_log(log, index=0)
+    np.testing.assert_array_equal(real.pressure_level, expected.pressure_level)
+    np.testing.assert_array_equal(real.pressure_spread, expected.pressure_spread)
+    drawn = study_participant(load_experiment("smoke"), 7, 0)
+    assert real.epsilon == drawn.epsilon and real.operate_s == drawn.operate_s  # habits still drawn
+    assert not np.array_equal(real.pressure_level, drawn.pressure_level)
+    run = run_study(config, tmp_path / "real", participants=2)
+    record = pd.read_parquet(tmp_path / "real" / "participants.parquet")
+    assert record["seed_key"].iloc[0].startswith("log:") and len(run.trials) == 16
+
+
+def test_a_missing_physiology_log_fails_before_the_run(tmp_path):
+    result = CliRunner().invoke(main, ["simulate", "smoke", "--set", "population.physiology_logs=['nowhere']",
+                                       "--out", str(tmp_path / "never")])
+    assert result.exit_code == 1 and result.output.startswith("Error: population.physiology_logs[0]")
+    assert not (tmp_path / "never").exists()

@@ -31,7 +31,7 @@ from nudgecli.model.mdp import MDPRewards, SolvedLayout, solve_layout
 from nudgecli.model.world import MODE_NAMES, Layout, sample_layout
 from nudgecli.rng import generator, seed_key
 from nudgecli.sim.calibration import fit_participant_tables
-from nudgecli.sim.participants import Participant, draw_participant
+from nudgecli.sim.participants import Participant, draw_participant, participant_from_log
 from nudgecli.sim.protocol import ProtocolSettings, TrialSpec, run_trial
 from nudgecli.store import RunFolder, library_versions, utc_now
 
@@ -168,13 +168,31 @@ def agent_tables(config: ExperimentConfig, participant: Participant,
     return fitted.mapping, fitted.distortion, fitted.provenance
 
 
+def study_participant(config: ExperimentConfig, seed: int, index: int) -> Participant:
+    """Participant ``index``: drawn from the population, with the pressure physiology of
+    ``population.physiology_logs[index]`` when the experiment names a real log for them."""
+    drawn = draw_participant(config.population, index, generator(seed, "participant", index, "physiology"),
+                             key=seed_key("participant", index))
+    logs = config.population.physiology_logs
+    if index < len(logs):
+        return participant_from_log(logs[index], index=index, template=drawn, population=config.population)
+    return drawn
+
+
+def check_physiology_logs(config: ExperimentConfig) -> None:
+    """Fail before a run starts if a ``population.physiology_logs`` folder cannot give a participant."""
+    for position, folder in enumerate(config.population.physiology_logs):
+        if not Path(folder).is_dir():
+            raise ConfigError(f"population.physiology_logs[{position}] = {folder!r}: no such folder; give a "
+                              "participant's calibration folder (with p_phm_given_phi/)")
+        participant_from_log(folder, index=position, population=config.population)
+
+
 def simulate_participant(plan: StudyPlan, participant_index: int) -> ParticipantResult:
     """Simulate every trial of one participant (a pure function of the plan and the index)."""
     start = time.perf_counter()
     config, seed = plan.config, plan.seed
-    participant = draw_participant(config.population, participant_index,
-                                   generator(seed, "participant", participant_index, "physiology"),
-                                   key=seed_key("participant", participant_index))
+    participant = study_participant(config, seed, participant_index)
     mapping, distortion, provenance = agent_tables(config, participant, seed)
     settings = ProtocolSettings.from_config(config)
     summaries: list[dict[str, Any]] = []
@@ -303,6 +321,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
         raise ConfigError(f"--participants must be at least 1, got {n}")
     if participants is not None:
         config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
+    check_physiology_logs(config)
     folder = RunFolder(out)
     mode = folder.prepare(config, seed, n, resume=resume, force=force)
     done = set(folder.completed_participants()) if mode == "resume" else set()
