@@ -68,8 +68,10 @@ def presets_command() -> None:
     for kind, title in (("experiments", "Experiments"), ("analysis", "Analysis plans")):
         click.echo(f"{title}:")
         for name, path in list_presets(kind).items():
-            description = read_toml(path).get("experiment" if kind == "experiments" else "plan", {})
-            text = description.get("description", "") if isinstance(description, dict) else ""
+            data = read_toml(path)
+            # experiments describe themselves in [experiment], plans at the top level
+            text = data.get("experiment", {}).get("description", "") if kind == "experiments" \
+                else data.get("description", "")
             click.echo(f"  {name:<12} {text}")
 
 # --- bench ---------------------------------------------------------------------------------
@@ -78,15 +80,23 @@ def presets_command() -> None:
 @main.command("bench")
 @click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
               show_default=True, help="What to print on stdout.")
+@click.option("--only", type=click.Choice(["model", "study", "all"]), default="all", show_default=True,
+              help="Which figures: the model's (a few seconds), the study's (about 10-15 s: plan, trials, "
+                   "the paper-scale study with 2 workers in a subprocess) or all.")
 @click.option("--repeats", type=click.IntRange(min=1), default=7, show_default=True,
               help="Batches of each fast measurement (the best is reported).")
 @click.option("--baseline-repeats", type=click.IntRange(min=1), default=3, show_default=True,
               help="Runs of each per-sample Monte-Carlo baseline, about 1 s each (the best is reported).")
-def bench_command(output_format: str, repeats: int, baseline_repeats: int) -> None:
+@click.option("--study-repeats", type=click.IntRange(min=1), default=3, show_default=True,
+              help="Runs of the study plan build and of one participant's trials, about 1 s each "
+                   "(the best is reported).")
+def bench_command(output_format: str, only: str, repeats: int, baseline_repeats: int,
+                  study_repeats: int) -> None:
     """Performance figures (DESIGN section 8), each against a baseline measured in the same run."""
-    from nudgecli.bench import BenchOptions, format_table, run_bench
+    from nudgecli.bench import BenchOptions, format_table, run_bench, select_figures
 
-    rows = run_bench(BenchOptions(repeats=repeats, baseline_repeats=baseline_repeats), progress=info)
+    options = BenchOptions(repeats=repeats, baseline_repeats=baseline_repeats, study_repeats=study_repeats)
+    rows = run_bench(options, figures=select_figures(only), progress=info)
     if output_format == "json":
         echo_json(rows)
     else:

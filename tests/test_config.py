@@ -1,0 +1,85 @@
+"""Experiment files: presets, round trips, precedence and validation."""
+
+from __future__ import annotations
+
+import pytest
+from click.testing import CliRunner
+
+from nudgecli.cli import main
+from nudgecli.config import (
+    ExperimentConfig,
+    experiment_from_toml,
+    list_presets,
+    load_experiment,
+    parse_override,
+)
+from nudgecli.errors import ConfigError
+
+
+def test_the_shipped_presets_are_listed():
+    assert set(list_presets("experiments")) == {"paper", "study-code", "smoke"}
+    assert set(list_presets("analysis")) == {"paper", "study-code"}
+    result = CliRunner().invoke(main, ["presets"])
+    assert result.exit_code == 0
+    for name in ("paper", "study-code", "smoke"):
+        assert f"  {name} " in result.output
+    assert "Kruskal-Wallis" in result.output  # the plans' descriptions are shown
+
+
+@pytest.mark.parametrize("name", ["paper", "study-code", "smoke"])
+def test_a_resolved_experiment_round_trips_through_toml(name):
+    config = load_experiment(name)
+    assert experiment_from_toml(config.to_toml()) == config
+
+
+def test_presets_hold_the_values_of_the_design():
+    paper, study = load_experiment("paper"), load_experiment("study-code")
+    assert (paper.disambiguation.window, study.disambiguation.window) == (3, 5)
+    assert (paper.disambiguation.estimator, study.disambiguation.estimator) == ("exact", "monte_carlo")
+    assert (study.disambiguation.mi_weight, study.disambiguation.distance_weight) == (0.5, 0.5)
+    assert study.disambiguation.rotation_gate == 12.0 and paper.disambiguation.rotation_gate is None
+    assert (paper.inference.decay, study.inference.decay) == (False, True)
+    assert (paper.interface.soft_threshold, study.interface.soft_threshold) == (0.3, 0.4)
+    assert study.assistance.startup_delay_s == 1.0 and study.assistance.distance_weighting
+    assert paper.model.epsilon == 0.1 and paper.model.gamma == 0.96 and paper.inference.kappa == 0.65
+    assert paper.study.participants == 9 and paper.study.trials_per_condition == 24
+
+
+def test_overrides_win_over_the_file_and_later_overrides_win():
+    config = load_experiment("paper", ["study.participants=4", "study.participants=5",
+                                       "disambiguation.distance=to_mean"])
+    assert config.study.participants == 5 and config.disambiguation.distance == "to_mean"
+
+
+def test_override_values_are_read_as_toml_literals():
+    assert parse_override("a.b=3") == (["a", "b"], 3)
+    assert parse_override("a.b=0.5") == (["a", "b"], 0.5)
+    assert parse_override("a.b=true") == (["a", "b"], True)
+    assert parse_override("a.b=word") == (["a", "b"], "word")
+    assert parse_override("a.b=[3, 4]") == (["a", "b"], [3, 4])
+
+
+def test_a_flag_wins_over_the_experiment(tmp_path):
+    result = CliRunner().invoke(main, ["simulate", "smoke", "--participants", "1", "--seed", "3",
+                                       "--out", str(tmp_path / "r")])
+    assert result.exit_code == 0, result.output
+    saved = experiment_from_toml((tmp_path / "r" / "config.toml").read_text())
+    assert saved.study.participants == 1
+
+
+@pytest.mark.parametrize(("override", "message"), [
+    ("study.goal_counts=[3, 9]", "goal_counts"),
+    ("study.blocks_per_condition=5", "does not divide"),
+    ("interface.soft_threshold=0.7", "zero_threshold < soft_threshold <= hard_threshold"),
+    ("assistance.rho2_factor=1.0", "rho2_factor must be greater"),
+    ("population.epsilon=[0.5, 0.1]", "epsilon must be [low, high]"),
+    ("study.conditions=['control', 'control']", "without repeats"),
+])
+def test_inconsistent_values_are_rejected_with_the_field(override, message):
+    with pytest.raises(ConfigError, match="--set") as info:
+        load_experiment("paper", [override])
+    assert message in str(info.value)
+
+
+def test_defaults_alone_are_a_valid_experiment():
+    assert ExperimentConfig().study.conditions == ("disambiguation", "control")
