@@ -8,17 +8,32 @@ same run). Timings use ``time.perf_counter``: fast calls are looped in batches a
 the best of a few runs is reported. The minimum is the usual estimate of a computation's own cost
 on a machine shared with other work (other processes only ever add time); both sides of a ratio
 use it, so the ratio is not flattered by load on one side.
+
+The figures come in two groups (``nudge bench --only model|study``): the model figures (a few
+seconds) and the study figures (``STUDY_FIGURES``, about 10-15 s at the paper scale), which
+simulate the study itself: the plan's value iteration, one participant's trials in this process,
+and the whole study with worker processes in a child Python process so that its peak memory is
+measured apart from this one's.
 """
 
 from __future__ import annotations
 
+import functools
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from nudgecli.config import load_experiment
 from nudgecli.model import interface, world
 from nudgecli.model.disambiguation import (
     Candidates,
@@ -30,8 +45,9 @@ from nudgecli.model.disambiguation import (
 )
 from nudgecli.model.mdp import build_transitions, solve_layout, value_iteration
 from nudgecli.rng import generator
+from nudgecli.sim.study import StudyPlan, simulate_participant
 
-COLUMNS = ("what", "time_s", "baseline_s", "ratio", "target", "ok", "note")
+COLUMNS = ("what", "time_s", "baseline_s", "ratio", "peak_mb", "target", "ok", "note")
 BENCH_SEED = 20220214
 MC_SAMPLES = 250
 
@@ -48,11 +64,27 @@ class BenchOptions:
         Runs of each slow per-sample Monte-Carlo baseline (the best is reported).
     mc_states
         States the full-grid Monte-Carlo baseline is timed on (then scaled to 2400).
+    study_experiment
+        Experiment preset or file the study figures simulate (``paper`` for DESIGN section 8).
+    study_participants
+        Participants of the whole-study figure (``None``: the experiment's own count).
+    study_workers
+        Worker processes of the whole-study figure.
+    study_repeats
+        Runs of the plan build and of the one-participant simulation (the best is reported).
     """
 
     repeats: int = 7
     baseline_repeats: int = 3
     mc_states: int = 75
+    study_experiment: str = "paper"
+    study_participants: int | None = None
+    study_workers: int = 2
+    study_repeats: int = 3
+
+
+Figure = Callable[[BenchOptions], dict[str, Any]]
+"""A figure: measures one thing and returns its row (the keys of ``COLUMNS``)."""
 
 
 def best_call_time(func: Callable[[], object], repeats: int = 7, min_duration: float = 0.05) -> float:
@@ -89,10 +121,10 @@ _WINDOW_STATE = int(world.state_index(6, 6, 3, 1))
 
 
 def _row(what: str, time_s: float, baseline_s: float | None, target: str, ok: bool,
-         note: str) -> dict[str, Any]:
+         note: str, peak_mb: float | None = None) -> dict[str, Any]:
     ratio = None if baseline_s is None else baseline_s / time_s
-    return {"what": what, "time_s": time_s, "baseline_s": baseline_s, "ratio": ratio, "target": target,
-            "ok": bool(ok), "note": note}
+    return {"what": what, "time_s": time_s, "baseline_s": baseline_s, "ratio": ratio, "peak_mb": peak_mb,
+            "target": target, "ok": bool(ok), "note": note}
 
 
 def figure_window(options: BenchOptions) -> dict[str, Any]:
@@ -155,11 +187,201 @@ def figure_value_iteration(options: BenchOptions) -> dict[str, Any]:
                 f"{solve * 1e3:.1f} ms; study: about 2 s per goal (not measured here)")
 
 
-FIGURES: list[Callable[[BenchOptions], dict[str, Any]]] = [
+# --- study figures ----------------------------------------------------------------------------
+
+TRIAL_SPEEDUP_TARGET = 1000.0
+STUDY_WALL_TARGET_S = 20.0
+STUDY_MEMORY_TARGET_MB = 1024.0
+VI_TARGET_PER_LAYOUT_S = 0.050
+
+# Run inside the child Python of ``figure_study``: the study through ``run_study`` (as
+# ``nudge simulate EXPERIMENT --workers W --out OUT`` does), progress on stderr, then one JSON line
+# with the wall time of run_study and ru_maxrss (KiB on Linux) of the child itself and of its
+# largest finished (reaped) child, i.e. the largest worker process.
+_STUDY_SCRIPT = """
+import json, resource, sys, time
+from pathlib import Path
+from nudgecli.config import load_experiment
+from nudgecli.sim.study import run_study
+
+experiment, out, workers, participants = sys.argv[1], Path(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
+config = load_experiment(experiment)
+last = [-1]
+
+def progress(done, total):
+    if done != last[0]:
+        last[0] = done
+        print(f"bench:   study {done}/{total} trials", file=sys.stderr, flush=True)
+
+start = time.perf_counter()
+run = run_study(config, out, participants=int(participants) if participants else None, workers=workers,
+                progress=progress)
+wall = time.perf_counter() - start
+print(json.dumps({"wall_s": wall, "trials": len(run.trials), "participants": run.participants,
+                  "seed": config.experiment.seed,
+                  "self_kib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss,
+                  "children_kib": resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss}))
+"""
+
+
+@functools.lru_cache(maxsize=1)
+def _study_plan(experiment: str, repeats: int) -> tuple[StudyPlan, float]:
+    """The experiment's study plan (at its own seed) and the best of ``repeats`` build times.
+
+    Cached so that the setup and the trial figures of one ``nudge bench`` build the plan once.
+    """
+    config = load_experiment(experiment)
+    best = float("inf")
+    plan: StudyPlan | None = None
+    for _ in range(max(1, repeats)):
+        start = time.perf_counter()
+        plan = StudyPlan.build(config, config.experiment.seed)
+        best = min(best, time.perf_counter() - start)
+    assert plan is not None
+    return plan, best
+
+
+def figure_study_setup(options: BenchOptions) -> dict[str, Any]:
+    """The study plan: every layout drawn and its goal MDPs solved (value iteration included).
+
+    The target is derived from DESIGN section 8: 50 ms per layout (its value-iteration target for
+    the 4 goals of one layout) times the study's layouts.
+    """
+    plan, elapsed = _study_plan(options.study_experiment, options.study_repeats)
+    n_layouts = len(plan.layouts)
+    target = VI_TARGET_PER_LAYOUT_S * n_layouts
+    return _row(f"study setup: {n_layouts} layouts' value iteration", elapsed, None,
+                f"<= {_format_seconds(target)} ({n_layouts} x 50 ms)", elapsed <= target,
+                f"StudyPlan.build of {options.study_experiment!r} (seed {plan.seed}): layouts drawn, "
+                f"solve_layout each (transitions, value iteration, policy, p(a|s,g)); "
+                f"{_format_seconds(elapsed / n_layouts)} per layout; "
+                f"best of {max(1, options.study_repeats)}; excluded from the trial figure")
+
+
+def figure_trials(options: BenchOptions) -> dict[str, Any]:
+    """One participant's trials in this process: simulated seconds per wall second.
+
+    ``baseline_s`` is the simulated time of the trials (what they take in real time, with a
+    person), ``time_s`` the wall time of ``simulate_participant`` (participant draw, calibration
+    fit and every trial; the plan is built beforehand), so ``ratio`` is the speed-up over real time.
+    """
+    plan, _ = _study_plan(options.study_experiment, options.study_repeats)
+    best = float("inf")
+    simulated = 0.0
+    n_trials = 0
+    for _ in range(max(1, options.study_repeats)):
+        start = time.perf_counter()
+        result = simulate_participant(plan, 0)
+        best = min(best, time.perf_counter() - start)
+        simulated = float(result.trials["duration_s"].sum())
+        n_trials = len(result.trials)
+    ratio = simulated / best
+    return _row("trials, simulated s per wall s", best, simulated, f">= {TRIAL_SPEEDUP_TARGET:,.0f}x",
+                ratio >= TRIAL_SPEEDUP_TARGET,
+                f"participant 0 of {options.study_experiment!r} (seed {plan.seed}), {n_trials} trials, "
+                f"{simulated:,.1f} s simulated; {_format_seconds(best / max(n_trials, 1))} per trial; "
+                f"baseline = simulated s (real time); best of {max(1, options.study_repeats)}")
+
+
+def _child_environment() -> dict[str, str]:
+    """This environment with the folder holding ``nudgecli`` first on ``PYTHONPATH``."""
+    env = dict(os.environ)
+    package_parent = str(Path(__file__).resolve().parent.parent)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (package_parent, env.get("PYTHONPATH")) if p)
+    return env
+
+
+def _available_cores() -> int:
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def figure_study(options: BenchOptions) -> dict[str, Any]:
+    """The whole study with worker processes, run in a child Python: wall time and peak memory.
+
+    The child runs ``run_study`` (what ``nudge simulate EXPERIMENT --workers W --out TMP`` runs)
+    into a temporary folder that is removed afterwards. ``time_s`` is the child's whole wall time
+    (interpreter start-up and imports included, as a user of ``nudge simulate`` waits), the note
+    gives ``run_study``'s own. The child reports ``ru_maxrss`` of itself (the
+    parent of the study: plan, result tables, Parquet writing) and of its largest worker.
+    ``peak_mb`` is the larger of the two, the peak of any single process. With forked workers the
+    processes' peaks need not coincide and their shared copy-on-write pages count in each, so the
+    memory in use at once lies between ``peak_mb`` and the upper bound ``self + workers x largest
+    worker`` given in the note; the row is ok only when that upper bound meets the target.
+    """
+    config = load_experiment(options.study_experiment)
+    n = config.study.participants if options.study_participants is None else options.study_participants
+    n_trials = n * len(config.study.conditions) * config.study.trials_per_condition
+    workers = max(1, options.study_workers)
+    folder = Path(tempfile.mkdtemp(prefix="nudge-bench-"))
+    try:
+        start = time.perf_counter()
+        completed = subprocess.run(
+            [sys.executable, "-c", _STUDY_SCRIPT, options.study_experiment, str(folder / "run"), str(workers),
+             "" if options.study_participants is None else str(options.study_participants)],
+            stdout=subprocess.PIPE, stderr=None, text=True, env=_child_environment(), check=False)
+        process_s = time.perf_counter() - start
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    if completed.returncode != 0:
+        raise RuntimeError(f"bench: the study subprocess failed with exit status {completed.returncode}")
+    report = json.loads(completed.stdout.strip().splitlines()[-1])
+    wall = float(report["wall_s"])
+    self_mb = report["self_kib"] / 1024.0
+    worker_mb = report["children_kib"] / 1024.0
+    used_workers = workers if n > 1 else 1
+    peak = max(self_mb, worker_mb)
+    upper = self_mb + (used_workers * worker_mb if used_workers > 1 else 0.0)
+    ok = process_s <= STUDY_WALL_TARGET_S and upper <= STUDY_MEMORY_TARGET_MB
+    return _row(f"{options.study_experiment}-scale study ({report['trials']} trials), {workers} workers",
+                process_s, None,
+                f"<= {STUDY_WALL_TARGET_S:.0f} s on 2 cores, <= {STUDY_MEMORY_TARGET_MB:.0f} MB", ok,
+                f"time: the child Python end to end (start-up, imports, run_study {wall:.2f} s) on "
+                f"{_available_cores()} cores; seed {report['seed']}, {report['participants']} participants, "
+                f"{n_trials} trials planned; peak_mb = max(study process {self_mb:.0f} MB, largest "
+                f"worker {worker_mb:.0f} MB); upper bound on memory at once (process + {used_workers} x "
+                f"worker, shared pages counted twice) {upper:.0f} MB", peak_mb=peak)
+
+
+STUDY_FIGURES: list[Figure] = [
+    figure_study_setup,
+    figure_trials,
+    figure_study,
+]
+
+FIGURES: list[Figure] = [
     figure_window,
     figure_grid,
     figure_value_iteration,
+    *STUDY_FIGURES,
 ]
+
+
+def select_figures(only: str = "all") -> list[Figure]:
+    """The figures of ``FIGURES`` in one group.
+
+    Parameters
+    ----------
+    only
+        ``study`` (the figures in ``STUDY_FIGURES``), ``model`` (the others) or ``all``.
+
+    Raises
+    ------
+    ValueError
+        For any other value.
+
+    Returns
+    -------
+    list
+        The figure functions, in ``FIGURES`` order (read at call time, so a patched list counts).
+    """
+    if only == "all":
+        return list(FIGURES)
+    if only not in ("model", "study"):
+        raise ValueError(f"only must be 'model', 'study' or 'all', got {only!r}")
+    study = only == "study"
+    return [figure for figure in FIGURES if (figure in STUDY_FIGURES) == study]
 
 
 def _time_once(func: Callable[[], object]) -> float:
@@ -169,7 +391,7 @@ def _time_once(func: Callable[[], object]) -> float:
 
 
 def run_bench(options: BenchOptions | None = None,
-              figures: list[Callable[[BenchOptions], dict[str, Any]]] | None = None,
+              figures: list[Figure] | None = None,
               progress: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
     """Measure every figure.
 
@@ -180,7 +402,8 @@ def run_bench(options: BenchOptions | None = None,
     figures
         The figure functions to run (``FIGURES`` when ``None``).
     progress
-        Called with the name of each figure before it runs (e.g. to log to stderr).
+        Called with the name of each figure before it runs (e.g. to log to stderr); the
+        whole-study figure's child process also logs its progress on stderr.
 
     Returns
     -------
@@ -207,11 +430,12 @@ def _format_seconds(seconds: float | None) -> str:
 
 
 def format_table(rows: list[dict[str, Any]]) -> str:
-    """A plain-text table of bench rows (columns what, time, baseline, ratio, target, ok), with
-    each row's note on the line below it."""
-    header = ("what", "time", "baseline", "ratio", "target", "ok")
+    """A plain-text table of bench rows (columns what, time, baseline, ratio, memory, target, ok),
+    with each row's note on the line below it."""
+    header = ("what", "time", "baseline", "ratio", "memory", "target", "ok")
     cells = [(row["what"], _format_seconds(row["time_s"]), _format_seconds(row["baseline_s"]),
-              "-" if row["ratio"] is None else f"{row['ratio']:,.0f}x", row["target"],
+              "-" if row["ratio"] is None else f"{row['ratio']:,.0f}x",
+              "-" if row.get("peak_mb") is None else f"{row['peak_mb']:,.0f} MB", row["target"],
               "yes" if row["ok"] else "NO") for row in rows]
     widths = [max(len(header[k]), *(len(c[k]) for c in cells)) for k in range(len(header))]
     lines = ["  ".join(h.ljust(w) for h, w in zip(header, widths, strict=True)).rstrip(),

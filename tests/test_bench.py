@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -24,13 +25,18 @@ def test_run_bench_rows_have_the_columns() -> None:
     assert vi["baseline_s"] is None and vi["ratio"] is None
     assert "305 sweeps" in vi["note"]
     table = bench.format_table(rows)
-    assert table.splitlines()[0].split() == ["what", "time", "baseline", "ratio", "target", "ok"]
+    assert table.splitlines()[0].split() == ["what", "time", "baseline", "ratio", "memory", "target", "ok"]
     assert "value iteration" in table
 
 
 def _fake_figure(options: bench.BenchOptions) -> dict[str, Any]:
-    return {"what": "fake", "time_s": 2e-5, "baseline_s": 0.5, "ratio": 25_000.0, "target": ">= 5000x",
-            "ok": True, "note": "a note"}
+    return {"what": "fake", "time_s": 2e-5, "baseline_s": 0.5, "ratio": 25_000.0, "peak_mb": None,
+            "target": ">= 5000x", "ok": True, "note": "a note"}
+
+
+def _fake_study_figure(options: bench.BenchOptions) -> dict[str, Any]:
+    return {"what": f"fake study of {options.study_experiment}", "time_s": 3.0, "baseline_s": None,
+            "ratio": None, "peak_mb": 200.0, "target": "<= 20 s", "ok": True, "note": ""}
 
 
 def test_bench_command_formats(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -47,7 +53,70 @@ def test_bench_command_formats(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def test_format_seconds_units() -> None:
-    rows = [{"what": "a", "time_s": 1.5, "baseline_s": 0.0025, "ratio": None, "target": "-", "ok": False,
-             "note": ""}]
+    rows = [{"what": "a", "time_s": 1.5, "baseline_s": 0.0025, "ratio": None, "peak_mb": 1234.4,
+             "target": "-", "ok": False, "note": ""}]
     line = bench.format_table(rows).splitlines()[2]
-    assert "1.50 s" in line and "2.50 ms" in line and "NO" in line
+    assert "1.50 s" in line and "2.50 ms" in line and "1,234 MB" in line and "NO" in line
+
+
+def _check_types(row: dict[str, Any]) -> None:
+    assert list(row) == list(bench.COLUMNS)
+    assert isinstance(row["what"], str) and isinstance(row["target"], str) and isinstance(row["note"], str)
+    assert isinstance(row["time_s"], float) and row["time_s"] > 0
+    for key in ("baseline_s", "ratio", "peak_mb"):
+        assert row[key] is None or isinstance(row[key], float)
+    assert isinstance(row["ok"], bool)
+
+
+def test_study_figures_on_the_smoke_preset(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    # smoke: 8 layouts, 8 trials per participant; one participant keeps the subprocess short
+    monkeypatch.setattr(bench.tempfile, "tempdir", str(tmp_path))  # where the study's run folder goes
+    options = bench.BenchOptions(study_experiment="smoke", study_participants=1, study_workers=2,
+                                 study_repeats=1)
+    logged: list[str] = []
+    rows = bench.run_bench(options, figures=bench.STUDY_FIGURES, progress=logged.append)
+    assert logged == ["bench: study_setup", "bench: trials", "bench: study"]
+    for row in rows:
+        _check_types(row)
+    setup, trials, study = rows
+    assert setup["what"] == "study setup: 8 layouts' value iteration"
+    assert setup["baseline_s"] is None and setup["ratio"] is None and setup["peak_mb"] is None
+    assert "(8 x 50 ms)" in setup["target"] and "'smoke' (seed 7)" in setup["note"]
+    assert trials["what"] == "trials, simulated s per wall s"
+    assert trials["baseline_s"] > 0
+    assert trials["ratio"] == pytest.approx(trials["baseline_s"] / trials["time_s"])
+    assert trials["target"] == ">= 1,000x" and "8 trials" in trials["note"]
+    assert study["what"] == "smoke-scale study (8 trials), 2 workers"
+    assert study["baseline_s"] is None and study["ratio"] is None
+    assert study["peak_mb"] is not None and study["peak_mb"] > 0
+    assert "1 participants" in study["note"] and "upper bound" in study["note"]
+    assert list(tmp_path.iterdir()) == []  # the study's temporary folder is removed
+    assert json.loads(json.dumps(rows)) == rows
+    table = bench.format_table(rows)
+    assert "smoke-scale study" in table and " MB " in table
+
+
+def test_select_figures_groups() -> None:
+    assert bench.select_figures("all") == bench.FIGURES
+    assert bench.select_figures("study") == bench.STUDY_FIGURES
+    model = bench.select_figures("model")
+    assert model == [bench.figure_window, bench.figure_grid, bench.figure_value_iteration]
+    assert not set(model) & set(bench.STUDY_FIGURES)
+    with pytest.raises(ValueError, match="only must be"):
+        bench.select_figures("everything")
+
+
+def test_bench_command_only(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(bench, "FIGURES", [_fake_figure, _fake_study_figure])
+    monkeypatch.setattr(bench, "STUDY_FIGURES", [_fake_study_figure])
+    runner = CliRunner()
+    for only, expected in (("model", ["fake"]), ("study", ["fake study of paper"]),
+                           ("all", ["fake", "fake study of paper"])):
+        result = runner.invoke(main, ["bench", "--format", "json", "--only", only])
+        assert result.exit_code == 0, result.output
+        assert [row["what"] for row in json.loads(result.stdout)] == expected
+    result = runner.invoke(main, ["bench", "--only", "study", "--study-repeats", "2"])
+    assert result.exit_code == 0, result.output
+    assert "200 MB" in result.stdout and "fake study of paper" in result.stdout
+    result = runner.invoke(main, ["bench", "--only", "nothing"])
+    assert result.exit_code == 2
