@@ -7,6 +7,7 @@ study notes section 6).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,7 +15,6 @@ import numpy as np
 from nudgecli.model.world import (
     CELL_HEIGHT,
     CELL_WIDTH,
-    angle_difference,
     cell_centre,
     heading_angle,
     state_coordinates,
@@ -179,17 +179,19 @@ def autonomy_velocity(pose: np.ndarray, target_pose: np.ndarray, speed: float = 
     """
     if dt <= 0:
         raise ValueError(f"dt must be positive, got {dt}")
-    p = np.asarray(pose, dtype=float)
-    t = np.asarray(target_pose, dtype=float)
-    velocity = np.zeros(3)
-    offset = t[:2] - p[:2]
-    distance = float(np.hypot(offset[0], offset[1]))
+    # scalar math: this runs on every simulated step
+    x, y, theta = (float(v) for v in pose)
+    tx, ty, ttheta = (float(v) for v in target_pose)
+    vx = vy = omega = 0.0
+    dx, dy = tx - x, ty - y
+    distance = math.hypot(dx, dy)
     if distance > 0.0:
-        velocity[:2] = offset / distance * min(speed, distance / dt)
-    error = float(angle_difference(t[2], p[2]))  # in [-pi, pi)
+        scale = min(speed, distance / dt) / distance
+        vx, vy = dx * scale, dy * scale
+    error = (ttheta - theta + math.pi) % (2.0 * math.pi) - math.pi  # angle_difference, in [-pi, pi)
     if error != 0.0:
-        velocity[2] = np.sign(error) * min(turn_rate, abs(error) / dt)
-    return velocity
+        omega = math.copysign(min(turn_rate, abs(error) / dt), error)
+    return np.array([vx, vy, omega])
 
 
 def blend(u_a: np.ndarray, u_h: np.ndarray, alpha: float) -> np.ndarray:

@@ -181,8 +181,22 @@ class _Trial:
     theta: float = 0.0
     mode: int = 0
     belief: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    # what depends on the belief only, recomputed when it changes (most steps leave it alone)
+    entropy: float = 1.0
+    leader: int = 0  # argmax of the belief, first on ties
+    ramp_alpha: float = 0.0  # alpha of the paper's piecewise-linear rule for p(leader)
     step: int = 0
+    goal_list: list[tuple[float, float, float]] = field(default_factory=list)
     columns: dict[str, list[Any]] = field(default_factory=lambda: {c: [] for c in STEP_COLUMNS})
+
+    def set_belief(self, belief: np.ndarray) -> None:
+        """Replace the belief and refresh what is derived from it."""
+        self.belief = belief
+        self.entropy = float(normalised_entropy(belief))
+        self.leader = int(np.argmax(belief))
+        s = self.settings
+        self.ramp_alpha = float(assistance.blending_factor(float(belief[self.leader]), belief.shape[0],
+                                                           s.rho1_factor, s.rho2_factor, s.rho3))
 
     @property
     def state(self) -> int:
@@ -228,7 +242,9 @@ def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout,
                 x=float(start[0]), y=float(start[1]), theta=float(start[2]), mode=layout.start_mode,
                 belief=np.full(n_goals, 1.0 / n_goals),
                 goal_state=int(state_index(int(layout.goal_cells[0, 0]), int(layout.goal_cells[0, 1]),
-                                           int(layout.goal_headings[0]), 0)))
+                                           int(layout.goal_headings[0]), 0)),
+                goal_list=[tuple(float(v) for v in pose) for pose in layout.goal_poses])
+    tr.set_belief(tr.belief)
     human_turns = autonomy_turns = nudges = human_switches = 0
     reached = -1
     while tr.step < settings.time_limit_steps:
@@ -346,10 +362,13 @@ def _human_turn(tr: _Trial) -> tuple[int, int]:
             initiated_at = tr.step
         # Bayesian update with the state the label was produced in (Eq. 7)
         if 0 <= measured < 4:
-            tr.belief = bayes_update(tr.belief, tr.model.likelihood[:, state, measured], tr.goal_transition)
+            likelihood = tr.model.likelihood[:, state, measured]
+            tr.set_belief(bayes_update(tr.belief, likelihood, tr.goal_transition))
             decay_counters = DecayCounters()
         elif s.decay is not None and initiated_at >= 0:
-            tr.belief, decay_counters = decay_on_empty_sample(tr.belief, decay_counters, s.decay)
+            decayed, decay_counters = decay_on_empty_sample(tr.belief, decay_counters, s.decay)
+            if decayed is not tr.belief:
+                tr.set_belief(decayed)
         # the command of the measured label
         u_h = np.zeros(3)
         commanded = False
@@ -364,8 +383,8 @@ def _human_turn(tr: _Trial) -> tuple[int, int]:
             events.append("mode_switch_human")
         idle = 0 if commanded or initiated_at < 0 else idle + 1
         # blending (Algorithm 1, lines 7-8)
-        entropy = float(normalised_entropy(tr.belief))
-        inferred, alpha = _inferred_goal_and_alpha(tr, entropy, initiated_at)
+        entropy = tr.entropy
+        inferred, alpha = _inferred_goal_and_alpha(tr, initiated_at)
         u_a = np.zeros(3)
         if inferred >= 0:
             u_a = assistance.autonomy_velocity(np.array([tr.x, tr.y, tr.theta]), tr.goal_poses[inferred],
@@ -441,13 +460,11 @@ def _nudge_towards_goal(tr: _Trial) -> int:
     return _move_action(tr.mode, errors[tr.mode])
 
 
-def _inferred_goal_and_alpha(tr: _Trial, entropy: float, initiated_at: int) -> tuple[int, float]:
+def _inferred_goal_and_alpha(tr: _Trial, initiated_at: int) -> tuple[int, float]:
     s = tr.settings
-    if s.entropy_gate and entropy > s.kappa:
+    if s.entropy_gate and tr.entropy > s.kappa:
         return -1, 0.0
-    inferred = int(np.argmax(tr.belief))
-    alpha = assistance.blending_factor(float(tr.belief[inferred]), tr.belief.shape[0], s.rho1_factor,
-                                       s.rho2_factor, s.rho3)
+    inferred, alpha = tr.leader, tr.ramp_alpha
     if s.startup_delay_steps and (initiated_at < 0 or tr.step - initiated_at < s.startup_delay_steps):
         alpha = 0.0
     if s.distance_weighting and alpha > 0.0:
@@ -457,11 +474,14 @@ def _inferred_goal_and_alpha(tr: _Trial, entropy: float, initiated_at: int) -> t
 
 
 def _goal_reached(tr: _Trial) -> int:
+    """The first goal whose pose is within the success tolerance, or -1 (scalar math: every step)."""
     s = tr.settings
-    d = np.hypot(tr.goal_poses[:, 0] - tr.x, tr.goal_poses[:, 1] - tr.y)
-    a = np.abs(angle_difference(tr.goal_poses[:, 2], tr.theta))
-    hit = np.flatnonzero((d <= s.success_distance) & (a <= s.success_angle))
-    return int(hit[0]) if hit.size else -1
+    for index, (gx, gy, gth) in enumerate(tr.goal_list):
+        if math.hypot(gx - tr.x, gy - tr.y) <= s.success_distance:
+            turn = (gth - tr.theta + math.pi) % (2.0 * math.pi) - math.pi
+            if abs(turn) <= s.success_angle:
+                return index
+    return -1
 
 
 # --- the autonomy's turn --------------------------------------------------------------------
@@ -470,7 +490,7 @@ def _autonomy_turn(tr: _Trial) -> int:
     """Run one autonomy turn; return 1 if it was a nudge to s*, else 0."""
     s, rng = tr.settings, tr.rng
     state = tr.state
-    entropy = float(normalised_entropy(tr.belief))
+    entropy = tr.entropy
     position = np.array([tr.x, tr.y])
     nudged = 0
     if tr.spec.condition == "disambiguation" and entropy > s.kappa:
