@@ -15,6 +15,7 @@ import numpy as np
 from nudgecli.model.world import (
     CELL_HEIGHT,
     CELL_WIDTH,
+    angle_difference,
     cell_centre,
     heading_angle,
     state_coordinates,
@@ -188,7 +189,7 @@ def autonomy_velocity(pose: np.ndarray, target_pose: np.ndarray, speed: float = 
     if distance > 0.0:
         scale = min(speed, distance / dt) / distance
         vx, vy = dx * scale, dy * scale
-    error = (ttheta - theta + math.pi) % (2.0 * math.pi) - math.pi  # angle_difference, in [-pi, pi)
+    error = float(angle_difference(ttheta, theta))  # in [-pi, pi)
     if error != 0.0:
         omega = math.copysign(min(turn_rate, abs(error) / dt), error)
     return np.array([vx, vy, omega])
