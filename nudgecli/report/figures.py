@@ -37,6 +37,7 @@ from matplotlib.figure import Figure
 from matplotlib.layout_engine import ConstrainedLayoutEngine
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
+from matplotlib.ticker import MaxNLocator
 
 from nudgecli.errors import ConfigError, DataError
 from nudgecli.model import world
@@ -82,19 +83,22 @@ class MetricSpec:
         y-axis label, with its unit.
     scale
         Factor from the stored value to the shown value (fractions shown as percent: 100).
+    integer
+        A count: y ticks only at whole numbers.
     """
 
     column: str
     label: str
     scale: float = 1.0
+    integer: bool = False
 
 
 METRIC_SPECS: dict[str, MetricSpec] = {
     "assistance_engagement": MetricSpec("assistance_engagement", "Assistance engagement (% of human turn)",
                                         100.0),
     "assistance_strength": MetricSpec("assistance_strength", "Strength of assistance (mean α)"),
-    "human_turns": MetricSpec("human_turns", "Human turns per trial"),
-    "mode_switches": MetricSpec("mode_switches", "Mode switches per trial"),
+    "human_turns": MetricSpec("human_turns", "Human turns per trial", integer=True),
+    "mode_switches": MetricSpec("mode_switches", "Mode switches per trial", integer=True),
     "human_effort": MetricSpec("human_effort", "Human effort (fraction of trial time)"),
     "completion_time": MetricSpec("completion_time", "Completion time (s)"),
 }
@@ -421,6 +425,8 @@ def metric_boxplot(ax: Axes, metrics: pd.DataFrame, metric: str, stats_entry: Ma
                             fontsize=TICK_FONT_PT)
     ax.set_xlim(-0.6, len(order) - 0.4)
     ax.set_ylabel(wrap_label(label if label is not None else spec.label))
+    if spec.integer:
+        ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax.tick_params(axis="x", length=0)
     ax.margins(y=0.05)
     ax.autoscale_view()

@@ -71,7 +71,8 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
     folder = Path(source)
     run = RunFolder(folder)
     if not folder.is_dir():
-        raise RunFolderError(f"{folder}: no such folder; give a run folder made by `nudge simulate`")
+        what = "a file, not a folder" if folder.exists() else "no such folder"
+        raise RunFolderError(f"{folder}: {what}; give a run folder made by `nudge simulate`")
     if not run.is_run() and not (folder / "metrics.csv").is_file():
         raise RunFolderError(f"{folder}: not a run folder (no manifest.json) and no metrics.csv; "
                              "run `nudge simulate` and `nudge analyze` first")

@@ -1,0 +1,398 @@
+"""`nudge plot` and `nudge run` on a real (smoke) run: every figure, its labels, its brackets, bad inputs.
+
+One smoke study is simulated and analysed in-process per module (``run_study`` + ``analyze``,
+about a second); tests that change a run work on a copy of it.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import shutil
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner, Result
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from nudgecli.cli import main
+from nudgecli.config import load_experiment
+from nudgecli.report import figures
+from nudgecli.report.analysis import analyze
+from nudgecli.report.figures import (
+    FIGURE3_METRICS,
+    FIGURE4_METRICS,
+    choose_figure5_trial,
+    figure_3,
+    figure_4,
+    figure_5,
+    layout_poses,
+    questionnaire_figure,
+    split_questionnaire_scores,
+    trajectory_figure,
+)
+from nudgecli.report.plotting import layouts_by_trial
+from nudgecli.report.style import condition_display_name, figure_style
+from nudgecli.sim.study import run_study
+from nudgecli.store import RunFolder
+
+QUESTIONNAIRES_CSV = Path(__file__).parent / "data" / "questionnaires_smoke_run.csv"
+CONDITIONS = ("disambiguation", "control")
+ALL_STEMS = {"fig3", "fig4", "fig5", "trajectory", "questionnaires"}
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+FILE_MAGIC = {"png": PNG_MAGIC, "pdf": b"%PDF", "svg": b"<?xml"}
+
+
+# --- the shared smoke run ------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def simulated_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The smoke study (2 participants x 8 trials), simulated but not analysed. Do not modify."""
+    run = run_study(load_experiment("smoke"), tmp_path_factory.mktemp("smoke") / "simulated")
+    return run.path
+
+
+@pytest.fixture(scope="module")
+def analysed_run(simulated_run: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A copy of the smoke run analysed with the paper plan and the questionnaire table."""
+    folder = tmp_path_factory.mktemp("smoke") / "analysed"
+    shutil.copytree(simulated_run, folder)
+    analyze(folder, plan="paper", questionnaires=QUESTIONNAIRES_CSV)
+    return folder
+
+
+@dataclass
+class RunData:
+    metrics: pd.DataFrame
+    stats: dict[str, Any]
+    trials: pd.DataFrame
+    steps: pd.DataFrame
+    layouts: dict[tuple[int, int], Any]
+    questionnaires: pd.DataFrame
+
+    def trial_steps(self, key: tuple[int, int]) -> pd.DataFrame:
+        return self.steps[(self.steps["participant"] == key[0]) & (self.steps["trial"] == key[1])]
+
+
+@pytest.fixture(scope="module")
+def run_data(analysed_run: Path) -> RunData:
+    run = RunFolder(analysed_run)
+    trials = run.read_trials()
+    return RunData(metrics=pd.read_csv(analysed_run / "metrics.csv"),
+                   stats=json.loads((analysed_run / "stats.json").read_text(encoding="utf-8")),
+                   trials=trials, steps=run.read_steps(),
+                   layouts=layouts_by_trial(trials, run.read_layouts()),
+                   questionnaires=pd.read_csv(analysed_run / "questionnaires.csv"))
+
+
+@pytest.fixture(scope="module")
+def default_plot(analysed_run: Path) -> Result:
+    """``nudge plot RUN`` with the default formats and folder."""
+    return CliRunner().invoke(main, ["plot", str(analysed_run)])
+
+
+def _copy_run(source: Path, target: Path) -> Path:
+    shutil.copytree(source, target)
+    return target
+
+
+def _plot(*args: str) -> Result:
+    return CliRunner().invoke(main, ["plot", *args])
+
+
+def _single_error_line(result: Result) -> str:
+    """The one ``Error:`` line of a failed command (asserts exit status 1 and nothing else printed)."""
+    assert result.exit_code == 1, (result.output, result.exception)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: "), result.stderr
+    assert result.stdout == ""
+    return lines[0]
+
+
+def _star_texts(ax: Axes) -> list[str]:
+    return sorted(t.get_text() for t in ax.texts if t.get_text() and set(t.get_text()) == {"*"})
+
+
+def _expected_stars(entry: dict[str, Any]) -> list[str]:
+    return sorted(row["stars"] for row in entry["stars"] if row["stars"])
+
+
+def _written_files(folder: Path) -> dict[str, set[str]]:
+    """``stem -> {suffixes}`` of the files in a folder (no hidden temporaries expected)."""
+    found: dict[str, set[str]] = {}
+    for path in folder.iterdir():
+        found.setdefault(path.stem, set()).add(path.suffix.lstrip("."))
+    return found
+
+
+def _assert_valid_files(paths: list[Path]) -> None:
+    for path in paths:
+        data = path.read_bytes()
+        assert data.startswith(FILE_MAGIC[path.suffix.lstrip(".")]), path
+        assert len(data) > 1000, path
+
+
+# --- `nudge plot` writes every figure -----------------------------------------------------------
+
+
+def test_plot_writes_every_figure_as_png_and_pdf_into_run_figures(default_plot: Result,
+                                                                   analysed_run: Path) -> None:
+    assert default_plot.exit_code == 0, (default_plot.output, default_plot.exception)
+    folder = analysed_run / "figures"
+    assert _written_files(folder) == {stem: {"png", "pdf"} for stem in ALL_STEMS}
+    _assert_valid_files(sorted(folder.iterdir()))
+
+
+def test_plot_lists_exactly_the_written_paths_on_stdout(default_plot: Result, analysed_run: Path) -> None:
+    listed = [Path(line) for line in default_plot.stdout.splitlines()]
+    assert len(listed) == len(set(listed)) == 2 * len(ALL_STEMS)
+    assert set(listed) == set((analysed_run / "figures").iterdir())
+
+
+def test_plot_out_elsewhere_with_svg_leaves_the_run_folder_alone(analysed_run: Path, tmp_path: Path) -> None:
+    run = _copy_run(analysed_run, tmp_path / "run")
+    shutil.rmtree(run / "figures", ignore_errors=True)
+    out = tmp_path / "elsewhere"
+    result = _plot(str(run), "--out", str(out), "--formats", "png,svg")
+    assert result.exit_code == 0, (result.output, result.exception)
+    assert _written_files(out) == {stem: {"png", "svg"} for stem in ALL_STEMS}
+    assert {Path(line) for line in result.stdout.splitlines()} == set(out.iterdir())
+    _assert_valid_files(sorted(out.iterdir()))
+    assert not (run / "figures").exists()
+
+
+def test_plot_trial_option_draws_that_trial_in_fig5_and_trajectory(analysed_run: Path, run_data: RunData,
+                                                                    tmp_path: Path,
+                                                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    default = choose_figure5_trial(run_data.steps, run_data.trials)
+    chosen = next(key for key in sorted(run_data.layouts) if key != default)
+    drawn: dict[str, tuple[set[tuple[int, int]], str | None]] = {}
+
+    def recording(name: str, original: Callable[..., Figure]) -> Callable[..., Figure]:
+        def wrapper(steps: pd.DataFrame, *args: Any, **kwargs: Any) -> Figure:
+            keys = set(zip(steps["participant"], steps["trial"], strict=True))
+            drawn[name] = ({(int(p), int(t)) for p, t in keys}, kwargs.get("title"))
+            return original(steps, *args, **kwargs)
+        return wrapper
+
+    monkeypatch.setattr(figures, "figure_5", recording("fig5", figures.figure_5))
+    monkeypatch.setattr(figures, "trajectory_figure", recording("trajectory", figures.trajectory_figure))
+    result = _plot(str(analysed_run), "--out", str(tmp_path), "--formats", "png",
+                   "--trial", f"{chosen[0]}:{chosen[1]}")
+    assert result.exit_code == 0, (result.output, result.exception)
+    condition = run_data.trials.set_index(["participant", "trial"]).loc[chosen, "condition"]
+    title = f"Participant {chosen[0]}, trial {chosen[1]} ({condition_display_name(condition)})"
+    assert drawn == {"fig5": ({chosen}, title), "trajectory": ({chosen}, title)}
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--trial", "0-3"], "expected PARTICIPANT:TRIAL"),
+    (["--trial", "one:two"], "expected PARTICIPANT:TRIAL"),
+    (["--trial", "1:2:3"], "expected PARTICIPANT:TRIAL"),
+    (["--trial", "7:0"], "no such trial"),
+    (["--trial", "0:99"], "no such trial"),
+    (["--formats", "png,gif"], "choose from png, pdf, svg"),
+    (["--formats", ","], "choose from png, pdf, svg"),
+], ids=["trial-dash", "trial-words", "trial-three-parts", "unknown-participant", "unknown-trial",
+        "format-gif", "format-empty"])
+def test_plot_bad_trial_or_formats_is_one_error_line_and_writes_nothing(
+        analysed_run: Path, tmp_path: Path, args: list[str], message: str) -> None:
+    out = tmp_path / "figures"
+    line = _single_error_line(_plot(str(analysed_run), "--out", str(out), *args))
+    assert message in line
+    assert not out.exists()
+
+
+# --- `nudge plot` on something that is not an analysed run --------------------------------------
+
+
+def test_plot_refuses_what_is_not_a_run_and_says_to_simulate(tmp_path: Path) -> None:
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "a_file.txt").write_text("not a run\n")
+    for name, what in (("empty", "not a run folder"), ("a_file.txt", "a file, not a folder"),
+                       ("missing", "no such folder")):
+        line = _single_error_line(_plot(str(tmp_path / name)))
+        assert what in line and "`nudge simulate`" in line, (name, line)
+    assert not (tmp_path / "empty" / "figures").exists()
+    assert not (tmp_path / "missing").exists()
+
+
+def test_plot_of_a_simulated_but_unanalysed_run_says_to_analyze(simulated_run: Path) -> None:
+    line = _single_error_line(_plot(str(simulated_run)))
+    assert f"`nudge analyze {simulated_run}`" in line
+    assert not (simulated_run / "figures").exists()
+
+
+def test_plot_with_plan_analyses_an_unanalysed_run_then_plots(simulated_run: Path, tmp_path: Path) -> None:
+    run = _copy_run(simulated_run, tmp_path / "run")
+    result = _plot(str(run), "--plan", "paper", "--formats", "png")
+    assert result.exit_code == 0, (result.output, result.exception)
+    stats = json.loads((run / "stats.json").read_text(encoding="utf-8"))
+    assert {e["metric"] for e in stats["metrics"]} >= set(FIGURE3_METRICS) | set(FIGURE4_METRICS)
+    assert (run / "metrics.csv").is_file()
+    assert _written_files(run / "figures") == {stem: {"png"} for stem in ALL_STEMS - {"questionnaires"}}
+
+
+# --- `nudge run` ---------------------------------------------------------------------------------
+
+
+def test_run_smoke_leaves_stats_summary_metrics_and_figures_and_prints_the_folder_last(
+        tmp_path: Path) -> None:
+    out = tmp_path / "smoke-run"
+    result = CliRunner().invoke(main, ["run", "smoke", "--out", str(out)])
+    assert result.exit_code == 0, (result.output, result.exception)
+    assert result.stdout.strip().splitlines()[-1] == str(out)
+    for name in ("stats.json", "summary.md", "metrics.csv"):
+        assert (out / name).stat().st_size > 0, name
+    assert json.loads((out / "stats.json").read_text(encoding="utf-8"))["conditions"] == list(CONDITIONS)
+    assert _written_files(out / "figures") == {stem: {"png", "pdf"}
+                                               for stem in ALL_STEMS - {"questionnaires"}}
+    _assert_valid_files(sorted((out / "figures").iterdir()))
+
+
+# --- the figures of the run: axes, labels, brackets -----------------------------------------------
+
+
+@pytest.mark.parametrize(("draw", "metric_names"), [(figure_3, FIGURE3_METRICS), (figure_4, FIGURE4_METRICS)],
+                         ids=["fig3", "fig4"])
+def test_box_plot_panels_have_letters_labels_and_condition_ticks(
+        run_data: RunData, draw: Callable[..., Figure], metric_names: tuple[str, ...]) -> None:
+    fig = draw(run_data.metrics, run_data.stats)
+    assert len(fig.axes) == len(metric_names)
+    names = [condition_display_name(c) for c in CONDITIONS]
+    for i, (ax, metric) in enumerate(zip(fig.axes, metric_names, strict=True)):
+        assert ax.get_title(loc="left") == f"({'abc'[i]})", metric
+        assert ax.get_ylabel().strip(), metric
+        ticks = [t.get_text() for t in ax.get_xticklabels()]
+        assert [t.split("\n")[0] for t in ticks] == names, metric
+        assert all("n = 8" in t for t in ticks), (metric, ticks)
+
+
+@pytest.mark.parametrize("metric", ["human_turns", "mode_switches"])
+def test_count_metrics_have_whole_number_ticks(run_data: RunData, metric: str) -> None:
+    draw, names = (figure_3, FIGURE3_METRICS) if metric in FIGURE3_METRICS else (figure_4, FIGURE4_METRICS)
+    fig = draw(run_data.metrics, run_data.stats)
+    ax = fig.axes[names.index(metric)]
+    with figure_style():  # as save_figure renders it: the tick count depends on the style's font size
+        FigureCanvasAgg(fig).draw()
+        low, high = ax.get_ylim()
+        shown = [t for t in ax.get_yticks() if low <= t <= high]
+    assert len(shown) >= 2 and all(float(t).is_integer() for t in shown), shown
+
+
+def _restarred(stats: dict[str, Any], stars: str | None) -> dict[str, Any]:
+    """A copy of ``stats`` with every comparison's stars set to ``stars`` (``None``: unchanged)."""
+    out = copy.deepcopy(stats)
+    if stars is not None:
+        for entry in out["metrics"]:
+            for row in entry["stars"]:
+                row["stars"] = stars
+    return out
+
+
+@pytest.mark.parametrize("stars", [None, "**", ""], ids=["as-analysed", "all-starred", "none-starred"])
+def test_box_plot_star_texts_match_the_stars_of_stats_json(run_data: RunData, stars: str | None) -> None:
+    stats = _restarred(run_data.stats, stars)
+    checked = 0
+    for draw, metric_names in ((figure_3, FIGURE3_METRICS), (figure_4, FIGURE4_METRICS)):
+        fig = draw(run_data.metrics, stats)
+        for entry in stats["metrics"]:
+            if entry["metric"] in metric_names:
+                ax = fig.axes[metric_names.index(entry["metric"])]
+                assert _star_texts(ax) == _expected_stars(entry), entry["metric"]
+                checked += 1
+    assert checked == len(FIGURE3_METRICS) + len(FIGURE4_METRICS)
+
+
+def _effort_stats(kruskal_p: float, conover_p: float, stars: str | None) -> dict[str, Any]:
+    """stats.json with one comparison of human effort (``stars`` None: no "stars" key at all)."""
+    entry: dict[str, Any] = {
+        "metric": "human_effort", "kruskal": {"statistic": 1.0, "p": kruskal_p},
+        "conover": [{"a": "disambiguation", "b": "control", "p": conover_p, "p_unadjusted": conover_p}],
+        "p_adjust": "holm"}
+    if stars is not None:
+        entry["stars"] = [{"a": "disambiguation", "b": "control", "stars": stars}]
+    return {"conditions": list(CONDITIONS), "metrics": [entry]}
+
+
+def _effort_axes(run_data: RunData, stats: dict[str, Any]) -> Axes:
+    return figure_4(run_data.metrics, stats).axes[FIGURE4_METRICS.index("human_effort")]
+
+
+@pytest.mark.parametrize("stars", ["", None], ids=["stars-empty", "stars-absent"])
+def test_no_bracket_when_conover_is_tiny_but_kruskal_wallis_is_not_significant(run_data: RunData,
+                                                                                 stars: str | None) -> None:
+    ax = _effort_axes(run_data, _effort_stats(kruskal_p=0.2, conover_p=1e-9, stars=stars))
+    assert _star_texts(ax) == []
+    assert not [line for line in ax.lines if len(line.get_xdata()) == 4]
+
+
+def test_bracket_follows_study_code_stars_at_p_exactly_005(run_data: RunData) -> None:
+    # The study code stars p <= .05; the paper's rule (p < .05) would give none at p = .05.
+    ax = _effort_axes(run_data, _effort_stats(kruskal_p=0.05, conover_p=0.05, stars="*"))
+    assert _star_texts(ax) == ["*"]
+    (bracket,) = [line for line in ax.lines if len(line.get_xdata()) == 4]
+    assert list(bracket.get_xdata()) == [0.0, 0.0, 1.0, 1.0]
+    effort = run_data.metrics["human_effort"].max()
+    assert min(bracket.get_ydata()) > effort
+
+
+def test_no_bracket_when_stats_json_gives_no_stars_even_if_p_is_tiny(run_data: RunData) -> None:
+    ax = _effort_axes(run_data, _effort_stats(kruskal_p=1e-6, conover_p=1e-6, stars=""))
+    assert _star_texts(ax) == []
+
+
+def test_fig5_and_trajectory_of_the_default_trial_are_labelled(run_data: RunData) -> None:
+    key = choose_figure5_trial(run_data.steps, run_data.trials)
+    steps, layout = run_data.trial_steps(key), run_data.layouts[key]
+    n_goals = layout_poses(layout)[0].shape[0]
+
+    fig5 = figure_5(steps, layout, title=f"Participant {key[0]}, trial {key[1]}")
+    (ax,) = fig5.axes
+    assert ax.get_xlabel() == "Time (s)" and ax.get_ylabel().strip()
+    assert ax.get_title(loc="left") == f"Participant {key[0]}, trial {key[1]}"
+    assert ax.get_ylim() == (0.0, 1.0)
+    labels = [t.get_text() for t in fig5.legends[0].get_texts()]
+    assert labels[:n_goals] == ["Goal 0 (true)", *(f"Goal {g}" for g in range(1, n_goals))]
+    assert {"Human turn", "Autonomy turn"} <= set(labels)
+
+    goals, start = layout_poses(layout)
+    trajectory = trajectory_figure(steps, goals, start, title="t")
+    (ax,) = trajectory.axes
+    assert ax.get_xlabel().strip() and ax.get_ylabel().strip()
+    assert trajectory.legends and trajectory.legends[0].get_texts()
+
+
+def test_questionnaire_figure_of_the_run_has_labelled_panels_and_stats_json_stars(run_data: RunData) -> None:
+    tlx, likert = split_questionnaire_scores(run_data.questionnaires)
+    fig = questionnaire_figure(tlx, likert, stats=run_data.stats)
+    assert len(fig.axes) == 2
+    by_name = {e["metric"]: e for e in run_data.stats["metrics"]}
+    for i, (ax, prefix) in enumerate(zip(fig.axes, ("tlx_", "likert_"), strict=True)):
+        assert ax.get_title(loc="left") == f"({'ab'[i]})"
+        assert ax.get_ylabel().strip()
+        assert all(t.get_text().strip() for t in ax.get_xticklabels())
+        expected = sorted(s for name, e in by_name.items() if name.startswith(prefix)
+                          for s in _expected_stars(e))
+        assert expected, f"the fixture's {prefix} scores should differ significantly"
+        assert _star_texts(ax) == expected
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert legend == [condition_display_name(c) for c in CONDITIONS]
+
+
+def test_star_text_sits_above_every_trial_dot(run_data: RunData) -> None:
+    stats = _restarred(run_data.stats, "*")
+    fig = figure_4(run_data.metrics, stats)
+    for ax in fig.axes:
+        (star,) = [t for t in ax.texts if t.get_text() == "*"]
+        dots_top = max(np.max(c.get_offsets()[:, 1]) for c in ax.collections if len(c.get_offsets()))
+        assert star.get_position()[1] > dots_top
+        assert star.get_position()[1] < ax.get_ylim()[1]
