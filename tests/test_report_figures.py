@@ -336,7 +336,7 @@ def test_trajectory_figure() -> None:
     texts = [t.get_text() for t in ax.texts]
     assert texts == ["g0 (true)", "g1", "g2"]
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
-    assert {"Human drove", "Autonomy drove", "Start", "True goal (g0)", "Nudge"} <= set(labels)
+    assert {"Human drove", "Autonomy drove", "Start", "g0 (true goal)", "g1", "g2", "Nudge"} <= set(labels)
     assert min(_all_font_sizes(fig)) >= MIN_FONT_PT
 
 

@@ -803,11 +803,13 @@ def trajectory_figure(steps: pd.DataFrame, goal_poses: np.ndarray, start_pose: n
         if title:
             ax.set_title(title, loc="left")
 
+        # one swatch per goal, in the colours the discs (and Fig. 5's lines) use
         handles: list[Any] = [
-            Line2D([], [], marker="o", markersize=8, color=goal_colour(0), markeredgecolor="black",
-                   markeredgewidth=0.6, linestyle="none", label="True goal (g0)"),
-            Line2D([], [], marker="o", markersize=8, color=goal_colour(1), markeredgecolor="black",
-                   markeredgewidth=0.6, linestyle="none", label="Other goals"),
+            Line2D([], [], marker="o", markersize=8, color=goal_colour(g), markeredgecolor="black",
+                   markeredgewidth=0.6, linestyle="none", label="g0 (true goal)" if g == 0 else f"g{g}")
+            for g in range(len(goal_poses))
+        ]
+        handles += [
             Line2D([], [], marker="*", markersize=11, color="black", linestyle="none", label="Start"),
             Line2D([], [], marker="X", markersize=7, color="black", linestyle="none", label="End"),
             Line2D([], [], color=HUMAN_COLOUR, linewidth=1.6, label="Human drove"),
@@ -818,8 +820,9 @@ def trajectory_figure(steps: pd.DataFrame, goal_poses: np.ndarray, start_pose: n
             handles.append(Line2D([], [], marker=marker, markersize=6, markerfacecolor="#B0B0B0",
                                   markeredgecolor="black", linestyle="none",
                                   label=f"Switch to {_MODE_NAMES[mode]}"))
+        # squares: no mode uses them, so the fill key cannot be read as the theta marker
         for fill, who in (("black", "  filled: by human"), ("white", "  open: by autonomy")):
-            handles.append(Line2D([], [], marker="o", markersize=6, markerfacecolor=fill,
+            handles.append(Line2D([], [], marker="s", markersize=6, markerfacecolor=fill,
                                   markeredgecolor="black", linestyle="none", label=who))
         if nudge.any():
             handles.append(Line2D([], [], marker="D", markersize=7, markerfacecolor="#CC79A7",
