@@ -92,7 +92,7 @@ def presets_command() -> None:
                    "(the best is reported).")
 def bench_command(output_format: str, only: str, repeats: int, baseline_repeats: int,
                   study_repeats: int) -> None:
-    """Performance figures (DESIGN section 8), each against a baseline measured in the same run."""
+    """Performance figures of the model and the study, each against a baseline measured in the same run."""
     from nudgecli.bench import BenchOptions, format_table, run_bench, select_figures
 
     options = BenchOptions(repeats=repeats, baseline_repeats=baseline_repeats, study_repeats=study_repeats)
@@ -229,7 +229,7 @@ def analyze_command(source: str, plan: str, out: str | None, output_format: str,
 
 # --- plot ----------------------------------------------------------------------------------
 
-@main.command("plot")
+@main.command("plot", short_help="Draw the paper's figures of an analysed run.")
 @click.argument("run", type=click.Path(path_type=str))
 @click.option("--plan", metavar="PLAN", default=None,
               help="Analyse RUN with this plan first (writes metrics.csv and stats.json), then plot.")
