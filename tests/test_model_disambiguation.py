@@ -373,3 +373,33 @@ def test_bad_action_model_is_rejected_with_its_row() -> None:
     with pytest.raises(ProbabilityTableError, match="shape"):
         dis.observation_likelihood(np.full((2, 5, 3), 1 / 3), default_mapping_table(),
                                    default_distortion_table())
+
+
+def test_observation_likelihood_with_explicit_modes_equals_a_loop():
+    # A state space other than the grid: 7 states whose modes are given, not s % 3.
+    rng = np.random.default_rng(12)
+    p_a = rng.dirichlet(np.ones(4), size=(3, 7))
+    mapping = rng.dirichlet(np.ones(4), size=(3, 4))
+    distortion = rng.dirichlet(np.ones(4), size=4)
+    modes = np.array([1, 1, 0, 2, 0, 1, 2])
+    fast = dis.observation_likelihood(p_a, mapping, distortion, modes=modes)
+    for g in range(3):
+        for s in range(7):
+            for f in range(4):
+                expected = sum(distortion[i, f] * mapping[modes[s], a, i] * p_a[g, s, a]
+                               for a in range(4) for i in range(4))
+                assert fast[g, s, f] == pytest.approx(expected, abs=1e-12)
+    grid_default = dis.observation_likelihood(p_a, mapping, distortion)
+    explicit = dis.observation_likelihood(p_a, mapping, distortion, modes=np.arange(7) % 3)
+    np.testing.assert_array_equal(grid_default, explicit)
+
+
+def test_mutual_information_of_a_batch_equals_one_query_at_a_time():
+    rng = np.random.default_rng(13)
+    beliefs = rng.dirichlet(np.ones(4), size=5)
+    likelihood = rng.dirichlet(np.ones(4), size=(5, 4, 6))
+    batched = dis.mutual_information(beliefs, likelihood)
+    assert batched.shape == (5, 6)
+    for q in range(5):
+        single = dis.mutual_information(beliefs[q], likelihood[q])
+        np.testing.assert_allclose(batched[q], single, rtol=1e-12)

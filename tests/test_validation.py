@@ -11,7 +11,11 @@ from click.testing import CliRunner
 
 from nudgecli.cli import main
 from nudgecli.errors import ConfigError
-from nudgecli.model.disambiguation import monte_carlo_mutual_information, mutual_information
+from nudgecli.model.disambiguation import (
+    monte_carlo_mutual_information,
+    mutual_information,
+    observation_likelihood,
+)
 from nudgecli.model.inference import bayes_update
 from nudgecli.model.interface import (
     HARD_PUFF,
@@ -36,8 +40,6 @@ from nudgecli.sim.validation import (
     solve_goal_policies,
     tolerant_argmax,
     unweighted_limit,
-    window_mutual_information,
-    world_likelihood,
     world_states,
 )
 
@@ -83,7 +85,7 @@ def test_batched_mutual_information_equals_the_model() -> None:
     world = sample_world(rng, 9, 6, 5)
     beliefs = rng.dirichlet(np.ones(9), size=3)
     lik = np.broadcast_to(world.likelihood, (3, *world.likelihood.shape))
-    batched = window_mutual_information(beliefs, lik)
+    batched = mutual_information(beliefs, lik)
     for q in range(3):
         np.testing.assert_allclose(batched[q], mutual_information(beliefs[q], world.likelihood),
                                    rtol=1e-12, atol=1e-15)
@@ -98,7 +100,7 @@ def test_the_two_criteria_can_disagree() -> None:
     p_a = 0.025 + 0.9 * np.eye(4)
     likelihood = np.stack([p_a[list(p)] @ obs for p in patterns], axis=1)  # (G, C, F)
     belief = np.array([0.4, 0.3, 0.15, 0.15])
-    info = window_mutual_information(belief, likelihood)
+    info = mutual_information(belief, likelihood)
     gap = expected_top_two_gap(belief, likelihood)
     assert info[1] > info[0]  # 0.2411 > 0.2266 nats
     assert gap[0] > gap[1]  # 0.3645 > 0.1986
@@ -153,7 +155,8 @@ def test_world_policy_and_likelihood() -> None:
     assert reward[0, state(2, 1, 0), MOVE_P] == 100.0  # the step into the goal
     assert int(np.argmax(default_mapping_table()[0, TO_MODE_R])) == HARD_PUFF
 
-    likelihood = world_likelihood(policy, modes, default_mapping_table()[:2], default_distortion_table())
+    likelihood = observation_likelihood(policy, default_mapping_table(), default_distortion_table(),
+                                        modes=modes)
     np.testing.assert_allclose(likelihood.sum(-1), 1.0)
     assert likelihood.shape == (2, cells.shape[0], 4)
     world = sample_world(generator(5, "test"), 2, width, height)

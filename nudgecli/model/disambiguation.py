@@ -45,22 +45,22 @@ def mutual_information(belief: np.ndarray, likelihood: np.ndarray,
     Parameters
     ----------
     belief
-        ``(G,)`` belief over goals.
+        ``(G,)`` belief over goals, or ``(..., G)`` for many queries at once.
     likelihood
-        ``(G, S, F)`` ``p(phi_m | g, s)``.
+        ``(G, S, F)`` ``p(phi_m | g, s)``, or ``(..., G, S, F)`` matching a batch of beliefs.
     goal_transition
         ``(G, G)`` row-stochastic, or ``None`` for the identity.
 
     Returns
     -------
     np.ndarray
-        ``(S,)`` mutual information per state, in nats.
+        ``(S,)`` mutual information per state, in nats (``(..., S)`` for a batch).
     """
     weights = predict_belief(belief, goal_transition)
     lik = np.asarray(likelihood, dtype=float)
-    marginal = np.einsum("g,gsf->sf", weights, lik)
+    marginal = np.einsum("...g,...gsf->...sf", weights, lik)
     # sum_g w_g sum_f L log L  -  sum_f p(f) log p(f): H(phi_m | s) - H(phi_m | g, s) form.
-    conditional = np.einsum("g,gsf->s", weights, xlogy(lik, lik))
+    conditional = np.einsum("...g,...gsf->...s", weights, xlogy(lik, lik))
     info = conditional - xlogy(marginal, marginal).sum(axis=-1)
     return np.maximum(info, 0.0)
 
@@ -81,10 +81,10 @@ def _check_action_likelihood(p_a_given_sg: np.ndarray, name: str = "p(a | s, g)"
 
 
 def observation_likelihood(p_a_given_sg: np.ndarray, mapping: np.ndarray,
-                           distortion: np.ndarray) -> np.ndarray:
+                           distortion: np.ndarray, modes: np.ndarray | None = None) -> np.ndarray:
     """``p(phi_m | g, s) = sum_a sum_phi_i p(phi_m | phi_i) p(phi_i | a, m(s)) p(a | s, g)``.
 
-    The mode of flat state ``s`` is ``m(s) = s % 3``.
+    The mode of flat state ``s`` is ``m(s) = s % 3`` on the toolkit's grid, or ``modes[s]``.
 
     Parameters
     ----------
@@ -94,6 +94,9 @@ def observation_likelihood(p_a_given_sg: np.ndarray, mapping: np.ndarray,
         ``(M, A, F)`` ``p(phi_i | a, m)``.
     distortion
         ``(F, F)`` ``p(phi_m | phi_i)`` (row intended, column measured).
+    modes
+        ``(S,)`` mode index of every state, for state spaces other than the 2400-state grid
+        (``None``: ``s % 3``).
 
     Returns
     -------
@@ -108,7 +111,9 @@ def observation_likelihood(p_a_given_sg: np.ndarray, mapping: np.ndarray,
     p_a = _check_action_likelihood(p_a_given_sg)
     measured_given_action = observation_model(validate_mapping_table(mapping),
                                               validate_distortion_table(distortion))  # (M, A, F)
-    modes = np.arange(p_a.shape[1]) % N_MODES
+    modes = np.arange(p_a.shape[1]) % N_MODES if modes is None else np.asarray(modes, dtype=int)
+    if modes.shape != (p_a.shape[1],):
+        raise ValueError(f"modes must have shape ({p_a.shape[1]},), got {modes.shape}")
     # (G, S, 1, A) @ (S, A, F) -> (G, S, 1, F)
     return (p_a[:, :, None, :] @ measured_given_action[modes])[:, :, 0, :]
 

@@ -94,10 +94,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.special import rel_entr, xlogy
+from scipy.special import rel_entr
 
 from nudgecli.errors import ConfigError
-from nudgecli.model.disambiguation import Weighting, monte_carlo_mutual_information
+from nudgecli.model.disambiguation import (
+    Weighting,
+    monte_carlo_mutual_information,
+    mutual_information,
+    observation_likelihood,
+)
 from nudgecli.model.interface import (
     MOVE_N,
     MOVE_P,
@@ -106,7 +111,6 @@ from nudgecli.model.interface import (
     TO_MODE_R,
     default_distortion_table,
     default_mapping_table,
-    observation_model,
 )
 from nudgecli.model.mdp import action_likelihood, greedy_policy, value_iteration
 from nudgecli.rng import generator
@@ -400,30 +404,6 @@ def solve_goal_policies(next_state: np.ndarray, reward: np.ndarray, epsilon: flo
     return action_likelihood(greedy_policy(q_values), epsilon)
 
 
-def world_likelihood(policy: np.ndarray, modes: np.ndarray, mapping: np.ndarray,
-                     distortion: np.ndarray) -> np.ndarray:
-    """``p(phi_m | g, s) = sum_a p(phi_m | a, m(s)) p(a | s, g)``.
-
-    Parameters
-    ----------
-    policy
-        ``(G, S, A)`` ``p(a | s, g)``.
-    modes
-        ``(S,)`` mode of every state (indexes the first axis of ``mapping``).
-    mapping
-        ``(M, A, F)`` ``p(phi_i | a, m)``.
-    distortion
-        ``(F, F)`` ``p(phi_m | phi_i)``.
-
-    Returns
-    -------
-    np.ndarray
-        ``(G, S, F)``.
-    """
-    per_state = observation_model(mapping, distortion)[modes]  # (S, A, F)
-    return np.einsum("gsa,saf->gsf", policy, per_state)
-
-
 def sample_world(rng: np.random.Generator, n_goals: int, width: int, height: int,
                  epsilon: float = 0.1, mapping: np.ndarray | None = None,
                  distortion: np.ndarray | None = None) -> ValidationWorld:
@@ -450,7 +430,7 @@ def sample_world(rng: np.random.Generator, n_goals: int, width: int, height: int
     cells, modes = world_states(width, height)
     next_state, reward = goal_transitions(width, height, goal_cells)
     policy = solve_goal_policies(next_state, reward, epsilon)
-    likelihood = world_likelihood(policy, modes, mapping[:N_VALIDATION_MODES], distortion)
+    likelihood = observation_likelihood(policy, mapping, distortion, modes=modes)
     on_goal = np.isin(cells[:, 0] * height + cells[:, 1], flat)
     return ValidationWorld(width=width, height=height, goal_cells=goal_cells, cells=cells, modes=modes,
                            on_goal=on_goal, policy=policy, likelihood=likelihood)
@@ -519,32 +499,6 @@ def expected_top_two_gap(belief: np.ndarray, likelihood: np.ndarray) -> np.ndarr
         raise ValueError("the gap between the two largest beliefs needs at least two goals")
     top = np.partition(joint, joint.shape[-3] - 2, axis=-3)[..., -2:, :, :]
     return (top[..., 1, :, :] - top[..., 0, :, :]).sum(axis=-1)
-
-
-def window_mutual_information(belief: np.ndarray, likelihood: np.ndarray) -> np.ndarray:
-    """Exact Eq. 13 mutual information for many beliefs at once (identity goal transition).
-
-    The same formula as :func:`nudgecli.model.disambiguation.mutual_information`
-    (``sum_g b_g sum_f L log L - sum_f p(f) log p(f)``, clipped at 0), batched over queries
-    that each have their own belief; the tests check the two agree.
-
-    Parameters
-    ----------
-    belief
-        ``(..., G)``.
-    likelihood
-        ``(..., G, C, F)``.
-
-    Returns
-    -------
-    np.ndarray
-        ``(..., C)`` in nats.
-    """
-    b = np.asarray(belief, dtype=float)
-    lik = np.asarray(likelihood, dtype=float)
-    marginal = np.einsum("...g,...gcf->...cf", b, lik)
-    conditional = np.einsum("...g,...gcf->...c", b, xlogy(lik, lik))
-    return np.maximum(conditional - xlogy(marginal, marginal).sum(axis=-1), 0.0)
 
 
 def expected_goal_distance(belief: np.ndarray, goal_cells: np.ndarray, cells: np.ndarray) -> np.ndarray:
@@ -815,7 +769,7 @@ def _simulate(settings: ValidationSettings, k: int, n_goals: int, n_mc: int, map
     safe = np.where(valid, cand, 0)
     lik = np.moveaxis(world.likelihood[:, safe, :], 0, 1)  # (Q, G, C, F)
 
-    info = window_mutual_information(beliefs, lik)  # (Q, C): D(s) with lambda = 0
+    info = mutual_information(beliefs, lik)  # (Q, C): D(s) with lambda = 0
     truth = expected_top_two_gap(beliefs, lik)  # (Q, C)
     distance = expected_goal_distance(beliefs, world.goal_cells, world.cells[safe])  # (Q, C)
     regularised = info - settings.regularisation * distance
