@@ -277,6 +277,12 @@ class ExperimentConfig(Section):
 
 # --- presets, loading, overrides --------------------------------------------------------------
 
+def did_you_mean(name: str, candidates: Any) -> str:
+    """``" (did you mean 'x'?)"`` for the closest candidate, or ``""`` when none is close."""
+    matches = difflib.get_close_matches(str(name), [str(c) for c in candidates], n=1, cutoff=0.6)
+    return f" (did you mean {matches[0]!r}?)" if matches else ""
+
+
 def preset_dir(kind: Literal["experiments", "analysis"]) -> Path:
     """The folder holding the shipped presets of ``kind``.
 
@@ -304,11 +310,9 @@ def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) 
     presets = list_presets(kind)
     if name_or_path in presets:
         return presets[name_or_path]
-    hint = difflib.get_close_matches(name_or_path, list(presets), n=1)
-    suggestion = f"did you mean {hint[0]!r}? " if hint else ""
     what = "an experiment" if kind == "experiments" else "an analysis plan"
     raise ConfigError(
-        f"{name_or_path!r} is neither {what} preset nor a file; {suggestion}"
+        f"{name_or_path!r} is neither {what} preset nor a file{did_you_mean(name_or_path, presets)}; "
         f"presets: {', '.join(presets)} (see `nudge presets`)")
 
 
@@ -368,9 +372,8 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
     where = ".".join(str(p) for p in loc) or "(top level)"
     if first["type"] == "extra_forbidden":
         names = _field_names(model, loc[:-1])
-        hint = difflib.get_close_matches(str(loc[-1]), names, n=1)
-        fix = f"did you mean {hint[0]!r}?" if hint else f"known keys: {', '.join(names)}"
-        return f"{source}: unknown key {where!r}; {fix}"
+        hint = did_you_mean(str(loc[-1]), names)
+        return f"{source}: unknown key {where!r}{hint or '; known keys: ' + ', '.join(names)}"
     message = first["msg"].removeprefix("Value error, ")
     value = first.get("input")
     shown = "" if isinstance(value, dict) else f" (got {value!r})"

@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 
+from nudgecli.config import did_you_mean
 from nudgecli.errors import ConfigError, DataError, RunFolderError
 from nudgecli.report.metrics import (
     ID_COLUMNS,
@@ -36,7 +37,7 @@ from nudgecli.report.metrics import (
     apply_filters,
     trial_metrics,
 )
-from nudgecli.report.plans import AnalysisPlan, did_you_mean, load_plan
+from nudgecli.report.plans import AnalysisPlan, load_plan
 from nudgecli.report.questionnaires import questionnaire_scores, read_questionnaires, score_columns
 from nudgecli.report.stats import (
     ComparisonOptions,

@@ -36,7 +36,6 @@ Unknown keys are refused with a "did you mean" suggestion naming the file and th
 
 from __future__ import annotations
 
-import difflib
 import itertools
 import tomllib
 from pathlib import Path
@@ -44,7 +43,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from nudgecli.config import preset_dir
+from nudgecli.config import did_you_mean, format_validation_error, preset_dir
 from nudgecli.errors import ConfigError
 from nudgecli.report.metrics import METRIC_NAMES
 
@@ -133,30 +132,6 @@ class AnalysisPlan(_Section):
     bootstrap: BootstrapSettings = BootstrapSettings()
 
 
-def did_you_mean(name: str, candidates: Any) -> str:
-    """``" (did you mean 'x'?)"`` for the closest candidate, or ``""`` when none is close."""
-    matches = difflib.get_close_matches(name, [str(c) for c in candidates], n=1, cutoff=0.6)
-    return f" (did you mean {matches[0]!r}?)" if matches else ""
-
-
-def _check_unknown_keys(model: type[BaseModel], data: dict[str, Any], source: str, prefix: str = "") -> None:
-    """Refuse keys the model does not know, recursively, with a suggestion."""
-    for key, value in data.items():
-        field = model.model_fields.get(key)
-        dotted = f"{prefix}{key}"
-        if field is None:
-            raise ConfigError(
-                f"{source}: unknown key {dotted!r}{did_you_mean(key, model.model_fields)}; "
-                f"valid keys{' in [' + prefix[:-1] + ']' if prefix else ''}: "
-                f"{', '.join(model.model_fields)}"
-            )
-        annotation = field.annotation
-        if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-            if not isinstance(value, dict):
-                raise ConfigError(f"{source}: {dotted!r} must be a table ([{dotted}]), got {value!r}")
-            _check_unknown_keys(annotation, value, source, prefix=f"{dotted}.")
-
-
 def plan_from_dict(data: dict[str, Any], source: str = "<plan>") -> AnalysisPlan:
     """Validate a plan given as a dict (as read from TOML).
 
@@ -176,14 +151,10 @@ def plan_from_dict(data: dict[str, Any], source: str = "<plan>") -> AnalysisPlan
     ConfigError
         An unknown key (with a suggestion), a wrong type or a value out of range.
     """
-    _check_unknown_keys(AnalysisPlan, data, source)
     try:
         return AnalysisPlan.model_validate(data)
     except ValidationError as exc:
-        first = exc.errors()[0]
-        where = ".".join(str(part) for part in first["loc"])
-        message = first["msg"].removeprefix("Value error, ")
-        raise ConfigError(f"{source}: {where}: {message} (got {first.get('input')!r})") from None
+        raise ConfigError(format_validation_error(exc, source, AnalysisPlan)) from None
 
 
 def _preset_dir() -> Path | None:
