@@ -132,11 +132,11 @@ def fit_command(calibration_dir: str, out: str | None) -> None:
 _SET_HELP = "Override one experiment field, e.g. --set disambiguation.window=5 (repeatable)."
 
 
-def _progress_bar(label: str) -> tuple[Any, Any]:
+def _progress_bar(label: str, unit: str = "trial") -> tuple[Any, Any]:
     """A tqdm bar on stderr (off when stderr is not a terminal) and its update callback."""
     from tqdm import tqdm
 
-    bar = tqdm(total=0, desc=label, unit="trial", file=sys.stderr, disable=None, leave=False)
+    bar = tqdm(total=0, desc=label, unit=unit, file=sys.stderr, disable=None, leave=False)
 
     def update(done: int, total: int) -> None:
         bar.total = total
@@ -320,7 +320,11 @@ def validate_command(simulations: int, min_goals: int, max_goals: int, states: i
     settings = ValidationSettings(simulations=simulations, min_goals=min_goals, max_goals=max_goals,
                                   states=states, seed=seed, mc_queries=mc_queries).check()
     start = time.perf_counter()
-    result = run_validation(settings)
+    bar, update = _progress_bar("validating", unit="simulation")
+    try:
+        result = run_validation(settings, progress=update)
+    finally:
+        bar.close()
     info(f"validation: {simulations} simulations in {time.perf_counter() - start:.1f} s")
     summary = result.summary()
     if out is not None:

@@ -88,7 +88,7 @@ import io
 import json
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -905,7 +905,8 @@ def _aggregate_convergence(
 
 
 def run_validation(settings: ValidationSettings, mapping: np.ndarray | None = None,
-                   distortion: np.ndarray | None = None) -> ValidationResult:
+                   distortion: np.ndarray | None = None,
+                   progress: Callable[[int, int], None] | None = None) -> ValidationResult:
     """Run the whole validation (see the module docstring for what one simulation is).
 
     Parameters
@@ -914,6 +915,8 @@ def run_validation(settings: ValidationSettings, mapping: np.ndarray | None = No
         Checked with :meth:`ValidationSettings.check` (``ConfigError`` when out of range).
     mapping, distortion
         ``(M, A, F)`` and ``(F, F)`` interface tables; the defaults (0.85 / 0.05) when ``None``.
+    progress
+        Called with (simulations done, simulations in all) after each simulation.
 
     Returns
     -------
@@ -937,6 +940,8 @@ def run_validation(settings: ValidationSettings, mapping: np.ndarray | None = No
         table, recs = _simulate(settings, k, int(n_goals), int(per_sim[k]), mapping, distortion)
         tables.append(table)
         records.extend(recs)
+        if progress:
+            progress(k + 1, settings.simulations)
     queries = {name: np.concatenate([t[name] for t in tables]) for name in QUERY_COLUMNS}
     convergence, limits = _aggregate_convergence(records, settings.mc_samples)
     return ValidationResult(settings=settings, queries=queries, convergence=convergence,
