@@ -329,6 +329,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     trials_per = len(plan.layouts)
     manifest = folder.read_manifest() if mode == "resume" else {
         "experiment": config.experiment.name,
+        "config": config.model_dump(mode="json"),
         "seed": seed,
         "participants": n,
         "trials_per_participant": trials_per,
