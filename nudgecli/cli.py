@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import click
 
@@ -65,7 +65,9 @@ def presets_command() -> None:
     """List the shipped experiments and analysis plans."""
     from nudgecli.config import list_presets, read_toml
 
-    for kind, title in (("experiments", "Experiments"), ("analysis", "Analysis plans")):
+    kinds: tuple[tuple[Literal["experiments", "analysis"], str], ...] = (
+        ("experiments", "Experiments"), ("analysis", "Analysis plans"))
+    for kind, title in kinds:
         click.echo(f"{title}:")
         for name, path in list_presets(kind).items():
             data = read_toml(path)

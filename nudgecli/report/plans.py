@@ -95,7 +95,7 @@ class StatsSettings(_Section):
     paper, ``p <= alpha`` in the study software).
     """
 
-    kruskal_alpha: float = Field(0.05, gt=0, lt=1)
+    kruskal_alpha: float = Field(default=0.05, gt=0, lt=1)
     posthoc: Literal["conover"] = "conover"
     p_adjust: Literal[P_ADJUST_METHODS] = "holm"  # type: ignore[valid-type]
     star_thresholds: tuple[float, ...] = (0.05, 0.01, 0.001)
@@ -115,9 +115,9 @@ class StatsSettings(_Section):
 class BootstrapSettings(_Section):
     """The cluster bootstrap of the median difference (participants are resampled)."""
 
-    resamples: int = Field(2000, ge=100, le=1_000_000)
-    level: float = Field(0.95, gt=0, lt=1)
-    seed: int = Field(0, ge=0)
+    resamples: int = Field(default=2000, ge=100, le=1_000_000)
+    level: float = Field(default=0.95, gt=0, lt=1)
+    seed: int = Field(default=0, ge=0)
 
 
 class AnalysisPlan(_Section):
@@ -126,10 +126,10 @@ class AnalysisPlan(_Section):
     name: str = "custom"
     description: str = ""
     conditions: tuple[str, ...] = ()
-    metrics: MetricDefinitions = MetricDefinitions()
+    metrics: MetricDefinitions = Field(default_factory=MetricDefinitions)
     filters: dict[str, float] = Field(default_factory=dict)
-    stats: StatsSettings = StatsSettings()
-    bootstrap: BootstrapSettings = BootstrapSettings()
+    stats: StatsSettings = Field(default_factory=StatsSettings)
+    bootstrap: BootstrapSettings = Field(default_factory=BootstrapSettings)
 
 
 def plan_from_dict(data: dict[str, Any], source: str = "<plan>") -> AnalysisPlan:

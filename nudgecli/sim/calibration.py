@@ -554,13 +554,14 @@ def fit_calibration_dir(calibration_dir: str | Path) -> CalibrationProfile:
         warnings.append(f"{folder}: no p(phi_m | phi_i) session; using the default table (0.85 / 0.05)")
     flagged = needs_more_training(mapping, distortion)
     provenance["needs_more_training"] = flagged
+    participant = folder.resolve().name
     profile = {
-        "participant": folder.resolve().name,
+        "participant": participant,
         "p_phi_given_a": mapping_table_to_dict(mapping),
         "p_phm_given_phi": distortion_table_to_dict(distortion),
         "provenance": provenance,
     }
-    summary = profile_summary(profile["participant"], mapping, distortion, provenance)
+    summary = profile_summary(participant, mapping, distortion, provenance)
     return CalibrationProfile(profile, summary, tuple(warnings))
 
 

@@ -243,7 +243,7 @@ def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout,
                 belief=np.full(n_goals, 1.0 / n_goals),
                 goal_state=int(state_index(int(layout.goal_cells[0, 0]), int(layout.goal_cells[0, 1]),
                                            int(layout.goal_headings[0]), 0)),
-                goal_list=[tuple(float(v) for v in pose) for pose in layout.goal_poses])
+                goal_list=[(float(x), float(y), float(t)) for x, y, t in layout.goal_poses])
     tr.set_belief(tr.belief)
     human_turns = autonomy_turns = nudges = human_switches = 0
     reached = -1
@@ -469,7 +469,7 @@ def _inferred_goal_and_alpha(tr: _Trial, initiated_at: int) -> tuple[int, float]
         alpha = 0.0
     if s.distance_weighting and alpha > 0.0:
         gx, gy = tr.goal_poses[inferred, :2]
-        alpha *= assistance.distance_weight(math.hypot(gx - tr.x, gy - tr.y))
+        alpha *= float(assistance.distance_weight(math.hypot(gx - tr.x, gy - tr.y)))
     return inferred, alpha
 
 

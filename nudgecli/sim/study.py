@@ -327,7 +327,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     done = set(folder.completed_participants()) if mode == "resume" else set()
     plan = StudyPlan.build(config, seed)
     trials_per = len(plan.layouts)
-    manifest = folder.read_manifest() if mode == "resume" else {
+    manifest: dict[str, Any] = folder.read_manifest() if mode == "resume" else {
         "experiment": config.experiment.name,
         "config": config.model_dump(mode="json"),
         "seed": seed,
