@@ -291,6 +291,24 @@ def _half_present(folder: Path, keys: tuple[str, str], subfolder: str) -> Path |
     return None
 
 
+def _find_session(folder: Path, keys: tuple[str, str], subfolder: str, session: str,
+                  second_file: str) -> tuple[Path | None, Path | None] | None:
+    """The folder of a session's file pair in study and in tidy format, ``None`` if it has neither.
+
+    A lone file of the pair is an error naming the missing partner (``prompts`` or
+    ``second_file``).
+    """
+    study = _locate(folder, STUDY_FILES, keys, subfolder)
+    tidy = _locate(folder, TIDY_FILES, keys, subfolder)
+    if study is None and tidy is None:
+        orphan = _half_present(folder, keys, subfolder)
+        if orphan is not None:
+            partner = second_file if "prompt" in orphan.name else "prompts"
+            raise DataError(f"{orphan}: the {session} session's {partner} file is missing beside it")
+        return None
+    return study, tidy
+
+
 def read_mapping_session(folder: str | Path) -> MappingSession | None:
     """Read the ``p(phi_i | a)`` session in ``folder`` (study or tidy format), or ``None`` if absent.
 
@@ -306,15 +324,11 @@ def read_mapping_session(folder: str | Path) -> MappingSession | None:
         When one file of the pair is missing or a file is malformed (one line naming file and line).
     """
     folder = Path(folder)
-    keys = ("mapping_prompts", "mapping_responses")
-    study = _locate(folder, STUDY_FILES, keys, STUDY_MAPPING_FOLDER)
-    tidy = _locate(folder, TIDY_FILES, keys, STUDY_MAPPING_FOLDER)
-    if study is None and tidy is None:
-        orphan = _half_present(folder, keys, STUDY_MAPPING_FOLDER)
-        if orphan is not None:
-            partner = "responses" if "prompt" in orphan.name else "prompts"
-            raise DataError(f"{orphan}: the mapping session's {partner} file is missing beside it")
+    found = _find_session(folder, ("mapping_prompts", "mapping_responses"), STUDY_MAPPING_FOLDER, "mapping",
+                          "responses")
+    if found is None:
         return None
+    study, tidy = found
     if study is not None:
         prompts_path = study / STUDY_FILES["mapping_prompts"]
         responses_path = study / STUDY_FILES["mapping_responses"]
@@ -348,15 +362,11 @@ def read_distortion_session(folder: str | Path) -> DistortionSession | None:
         When one file of the pair is missing or a file is malformed (one line naming file and line).
     """
     folder = Path(folder)
-    keys = ("distortion_prompts", "distortion_stream")
-    study = _locate(folder, STUDY_FILES, keys, STUDY_DISTORTION_FOLDER)
-    tidy = _locate(folder, TIDY_FILES, keys, STUDY_DISTORTION_FOLDER)
-    if study is None and tidy is None:
-        orphan = _half_present(folder, keys, STUDY_DISTORTION_FOLDER)
-        if orphan is not None:
-            partner = "stream" if "prompt" in orphan.name else "prompts"
-            raise DataError(f"{orphan}: the distortion session's {partner} file is missing beside it")
+    found = _find_session(folder, ("distortion_prompts", "distortion_stream"), STUDY_DISTORTION_FOLDER,
+                          "distortion", "stream")
+    if found is None:
         return None
+    study, tidy = found
     what = "the p(phi_m | phi_i) session"
     if study is not None:
         prompts_path = study / STUDY_FILES["distortion_prompts"]
