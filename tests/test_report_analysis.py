@@ -226,3 +226,13 @@ def test_nan_values_are_null_in_stats_json(tmp_path: Path) -> None:
     assert "NaN" not in text
     entry = json.loads(text)["metrics"][0]
     assert entry["median"] == {"disambiguation": None, "control": None} and entry["n"]["control"] == 0
+
+
+def test_a_run_kept_without_step_logs_points_to_its_metrics_table(tmp_path):
+    run = tmp_path / "kept"
+    run.mkdir()
+    (run / "manifest.json").write_text("{}")
+    (run / "metrics.csv").write_text("participant,condition,completion_time\n0,a,1\n0,b,2\n")
+    result = CliRunner().invoke(main, ["analyze", str(run)])
+    assert result.exit_code == 1
+    assert result.output.startswith("Error: ") and f"nudge analyze {run / 'metrics.csv'}" in result.output

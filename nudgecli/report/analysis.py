@@ -97,6 +97,10 @@ def _read_parts(folder: Path, table: str, columns: Sequence[str]) -> pd.DataFram
     parts = sorted((folder / table).glob("part-*.parquet"))
     if not parts:
         if table == "trials":
+            if (folder / "metrics.csv").is_file():
+                # e.g. a committed reference run: its step logs were left out, its metrics kept
+                raise RunFolderError(f"{folder} holds metrics but not the step logs they came from; "
+                                     f"analyse the table instead: `nudge analyze {folder / 'metrics.csv'}`")
             raise RunFolderError(f"{folder} has no trials yet (no trials/part-*.parquet); run "
                                  f"`nudge simulate EXPERIMENT --out {folder}` first")
         raise RunFolderError(f"{folder} has trials but no steps/part-*.parquet; finish the run with "
