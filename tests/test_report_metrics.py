@@ -127,3 +127,18 @@ def test_missing_columns_and_duplicate_trials_are_refused() -> None:
         trial_metrics(trials.drop(columns="true_goal"), steps)
     with pytest.raises(DataError, match="more than once"):
         trial_metrics(pd.concat([trials, trials.iloc[[0]]]), steps)
+
+
+def test_completion_time_of_successful_trials_only_follows_the_paper():
+    trials = pd.DataFrame({
+        "participant": [0, 0], "condition": ["a", "a"], "block": [0, 0], "trial": [0, 1],
+        "true_goal": [0, 0], "success": [True, False], "duration_s": [12.5, 30.0], "human_turns": [2, 3],
+    })
+    steps = pd.DataFrame({
+        "participant": [0, 0], "trial": [0, 1], "step": [0, 0], "turn": ["human", "human"],
+        "alpha": [0.0, 0.0], "inferred_goal": [0, 0], "event": ["", ""],
+    })
+    every = trial_metrics(trials, steps)
+    paper = trial_metrics(trials, steps, completion_time="successful_trials")
+    assert every["completion_time"].tolist() == [12.5, 30.0]
+    assert paper["completion_time"].iloc[0] == 12.5 and pd.isna(paper["completion_time"].iloc[1])

@@ -414,7 +414,7 @@ def _load_source(source: Path, plan: AnalysisPlan) -> tuple[pd.DataFrame, list[s
         definitions = plan.metrics
         metrics = trial_metrics(trials, steps, engagement=definitions.engagement,
                                 strength=definitions.strength, mode_switches=definitions.mode_switches,
-                                success=definitions.success)
+                                success=definitions.success, completion_time=definitions.completion_time)
         return metrics, list(definitions.include), source
     table = read_metrics_table(source)
     metric_columns = validate_metrics_table(table, str(source))

@@ -79,6 +79,7 @@ def trial_metrics(
     strength: Literal["per_step", "per_turn"] = "per_step",
     mode_switches: Literal["any_turn", "human_turn"] = "any_turn",
     success: Literal["reached_goal", "last_inferred_goal"] = "reached_goal",
+    completion_time: Literal["all_trials", "successful_trials"] = "all_trials",
 ) -> pd.DataFrame:
     """The metrics of every trial.
 
@@ -97,6 +98,9 @@ def trial_metrics(
         ``"any_turn"`` (every human mode switch) or ``"human_turn"`` (only inside human turns).
     success
         ``"reached_goal"`` (the trial table's verdict) or ``"last_inferred_goal"``.
+    completion_time
+        ``"all_trials"`` (the study software) or ``"successful_trials"`` (the paper: the time to
+        complete the task successfully; missing for the other trials, judged by ``success``).
 
     Returns
     -------
@@ -177,6 +181,8 @@ def trial_metrics(
         last_goal = _last_inferred_goal(s).reindex(key)
         reached = last_goal.to_numpy() == trials["true_goal"].to_numpy()
         out["success"] = pd.array(reached, dtype="boolean")
+    if completion_time == "successful_trials":
+        out["completion_time"] = out["completion_time"].where(out["success"].fillna(False).to_numpy(bool))
     return out.reset_index(drop=True)
 
 

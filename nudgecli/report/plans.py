@@ -67,7 +67,9 @@ class MetricDefinitions(_Section):
     0 strength for turns without assistance). ``mode_switches``: ``any_turn`` counts every human
     mode switch, ``human_turn`` only those inside the human's turns (the study software).
     ``success``: ``reached_goal`` is the simulator's verdict, ``last_inferred_goal`` the study
-    software's proxy (the last inferred goal is the true goal).
+    software's proxy (the last inferred goal is the true goal). ``completion_time``:
+    ``successful_trials`` follows the paper ("total time taken to complete the task
+    successfully"; other trials have no value), ``all_trials`` the study software.
     """
 
     include: tuple[str, ...] = METRIC_NAMES
@@ -75,6 +77,7 @@ class MetricDefinitions(_Section):
     strength: Literal["per_step", "per_turn"] = "per_step"
     mode_switches: Literal["any_turn", "human_turn"] = "any_turn"
     success: Literal["reached_goal", "last_inferred_goal"] = "reached_goal"
+    completion_time: Literal["all_trials", "successful_trials"] = "all_trials"
 
     @field_validator("include")
     @classmethod
