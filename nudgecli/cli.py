@@ -301,6 +301,8 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
 @click.option("--states", type=int, default=200, show_default=True,
               help="|S| = 2 modes x W x H cells (200: a 10 x 10 grid).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Master seed of the whole validation.")
+@click.option("--belief-concentration", type=float, default=1.0, show_default=True,
+              help="Query beliefs are Dirichlet(c): 1 spreads them evenly, large c makes them near uniform.")
 @click.option("--mc-queries", type=int, default=100, show_default=True,
               help="Queries of the Monte-Carlo convergence study (0 skips it).")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=str), default=None,
@@ -308,7 +310,8 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
 @click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
               show_default=True, help="What to print on stdout.")
 def validate_command(simulations: int, min_goals: int, max_goals: int, states: int, seed: int,
-                     mc_queries: int, out: str | None, output_format: str) -> None:
+                     belief_concentration: float, mc_queries: int, out: str | None,
+                     output_format: str) -> None:
     """The paper's simulation-based validation of D(s): its argmax vs a one-step ground truth."""
     import time
 
@@ -320,7 +323,8 @@ def validate_command(simulations: int, min_goals: int, max_goals: int, states: i
     )
 
     settings = ValidationSettings(simulations=simulations, min_goals=min_goals, max_goals=max_goals,
-                                  states=states, seed=seed, mc_queries=mc_queries).check()
+                                  states=states, seed=seed, mc_queries=mc_queries,
+                                  belief_concentration=belief_concentration).check()
     start = time.perf_counter()
     bar, update = _progress_bar("validating", unit="simulation")
     try:

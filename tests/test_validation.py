@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -277,6 +278,7 @@ def test_out_writes_json_csv_and_figures(tmp_path: Path) -> None:
     (["--max-goals", "60"], "--max-goals"),
     (["--seed", "-1"], "--seed"),
     (["--mc-queries", "-1"], "--mc-queries"),
+    (["--belief-concentration", "0"], "--belief-concentration"),
 ])
 def test_out_of_range_options_exit_1_with_one_error_line(args: list[str], option: str) -> None:
     result = CliRunner().invoke(main, ["validate", *args])
@@ -289,3 +291,14 @@ def test_out_of_range_options_exit_1_with_one_error_line(args: list[str], option
 def test_settings_check_raises_config_error() -> None:
     with pytest.raises(ConfigError, match="--max-goals"):
         ValidationSettings(min_goals=3, max_goals=2).check()
+
+
+def test_the_belief_concentration_changes_the_queries_and_is_reported() -> None:
+    base = ValidationSettings(simulations=2, min_goals=3, max_goals=4, states=72, mc_queries=0)
+    spread = run_validation(base)
+    near_uniform = run_validation(replace(base, belief_concentration=50.0))
+    assert spread.summary()["settings"]["belief"] == "Dirichlet(1) per query"
+    assert near_uniform.summary()["settings"]["belief"] == "Dirichlet(50) per query"
+    # other beliefs, other choices (the worlds are the same: they come from the same seed)
+    np.testing.assert_array_equal(spread.queries["state"], near_uniform.queries["state"])
+    assert not np.array_equal(spread.queries["metric_choice"], near_uniform.queries["metric_choice"])

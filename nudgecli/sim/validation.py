@@ -38,7 +38,8 @@ One simulation ``k`` (randomness from ``nudgecli.rng.generator(seed, "validation
    3 for each of 19..30.
 2. Draw the world above (goal cells), solve the goal MDPs, build the likelihood.
 3. Query every state that is not on a goal cell once (``|S| - 2 |G|`` queries). For each query
-   state ``s`` draw a belief ``b ~ Dirichlet(1, ..., 1)`` over the goals. The neighbourhood
+   state ``s`` draw a belief ``b ~ Dirichlet(c, ..., c)`` over the goals (``c = 1`` by default,
+   ``--belief-concentration``). The neighbourhood
    (the candidates) is the 3 x 3 window of cells centred on ``s``'s cell, clipped at the grid
    edges, without goal cells, in both modes: 2 to 18 candidates, ``s`` itself included.
 4. ``s*`` of the metric: the argmax over the candidates of D(s) = I(s) with lambda = 0 (the
@@ -162,6 +163,9 @@ class ValidationSettings:
         study; 0 skips it.
     mc_samples
         Sample counts per state of the convergence study.
+    belief_concentration
+        The query beliefs are ``Dirichlet(c, ..., c)``: 1 spreads them evenly over the simplex,
+        a large ``c`` makes them nearly uniform, a small one nearly certain.
     """
 
     simulations: int = 100
@@ -175,6 +179,7 @@ class ValidationSettings:
     tie_tolerance: float = 1e-9
     mc_queries: int = 100
     mc_samples: tuple[int, ...] = DEFAULT_MC_SAMPLES
+    belief_concentration: float = 1.0
 
     @property
     def grid_shape(self) -> tuple[int, int]:
@@ -230,6 +235,9 @@ class ValidationSettings:
             raise ConfigError(f"window half-width must be at least 1 (got {self.window})")
         if not 0.0 <= self.epsilon <= 1.0:
             raise ConfigError(f"epsilon must lie in [0, 1] (got {self.epsilon})")
+        if not self.belief_concentration > 0.0:
+            raise ConfigError(f"--belief-concentration must be positive (got {self.belief_concentration}); "
+                              "1 spreads beliefs evenly, larger values make them nearly uniform")
         if not self.tie_tolerance >= 0.0:
             raise ConfigError(f"tie tolerance must be non-negative (got {self.tie_tolerance})")
         if self.mc_queries < 0:
@@ -250,7 +258,8 @@ class ValidationSettings:
         data.update({
             "grid": [width, height], "modes": N_VALIDATION_MODES, "window_cells": 2 * self.window + 1,
             "discount": DISCOUNT, "goal_counts": "cyclic: min_goals + k mod (max_goals - min_goals + 1)",
-            "belief": "Dirichlet(1) per query", "metric": "I(s), Eq. 13 (D(s) with lambda = 0)",
+            "belief": f"Dirichlet({self.belief_concentration:g}) per query",
+            "metric": "I(s), Eq. 13 (D(s) with lambda = 0)",
             "ground_truth": "E[max1(b') - max2(b')] over one observation, exact",
             "mc_scheme": ("per state N samples g ~ b, a ~ p(a|s,g), phi_i ~ p(phi_i|a,m), "
                           "phi_m ~ p(phi_m|phi_i)"),
@@ -763,7 +772,7 @@ def _simulate(settings: ValidationSettings, k: int, n_goals: int, n_mc: int, map
     world = sample_world(rng, n_goals, width, height, settings.epsilon, mapping, distortion)
     queries = np.flatnonzero(~world.on_goal)
     n_queries = queries.size
-    beliefs = rng.dirichlet(np.ones(n_goals), size=n_queries)  # (Q, G)
+    beliefs = rng.dirichlet(np.full(n_goals, settings.belief_concentration), size=n_queries)  # (Q, G)
     cand = neighbourhoods(world, queries, settings.window)  # (Q, C)
     valid = cand >= 0
     safe = np.where(valid, cand, 0)
@@ -1006,7 +1015,7 @@ def format_summary(summary: dict[str, Any]) -> str:
     lines = [
         f"Validation of D(s): {summary['simulations']} simulations, |G| {s['min_goals']}..{s['max_goals']}, "
         f"|S| = {s['states']} ({s['grid'][0]} x {s['grid'][1]} cells x {s['modes']} modes), "
-        f"{s['window_cells']} x {s['window_cells']} window, seed {summary['seed']}",
+        f"{s['window_cells']} x {s['window_cells']} window, beliefs {s['belief']}, seed {summary['seed']}",
         f"queries {summary['queries']}: match {_fmt(summary['match_rate'])}; "
         f"near-ties {summary['near_ties']} (match {_fmt(summary['match_rate_near_ties'])}), "
         f"excluding them {_fmt(summary['match_rate_excluding_near_ties'])}; "
