@@ -261,6 +261,40 @@ def monte_carlo_mutual_information(
     np.ndarray
         ``(C,)`` estimates in nats.
     """
+    counts = monte_carlo_label_counts(belief, states, p_a_given_sg, mapping, distortion, rng, samples)
+    return mutual_information_from_counts(counts, _normalised_belief(belief), weighting)
+
+
+def monte_carlo_label_counts(
+        belief: np.ndarray, states: np.ndarray, p_a_given_sg: np.ndarray, mapping: np.ndarray,
+        distortion: np.ndarray, rng: np.random.Generator, samples: int = 250,
+        modes: np.ndarray | None = None) -> np.ndarray:
+    """The sampled label histograms behind the Monte-Carlo estimate (the study's scheme).
+
+    Per state, ``samples`` draws of ``g ~ b``, ``a ~ p(a | s, g)``, ``phi_i ~ p(phi_i | a, m(s))``,
+    ``phi_m ~ p(phi_m | phi_i)``. Both weightings of :func:`mutual_information_from_counts` can be
+    computed from the same counts.
+
+    Parameters
+    ----------
+    belief
+        ``(G,)`` belief (normalised here).
+    states
+        ``(C,)`` indices into the state axis of ``p_a_given_sg``.
+    p_a_given_sg, mapping, distortion
+        ``(G, S, A)``, ``(M, A, F)`` and ``(F, F)`` tables.
+    rng
+        Source of the ``(C, samples, 4)`` uniforms (one call).
+    samples
+        Samples per state.
+    modes
+        ``(C,)`` the mode of each of ``states`` (``None``: ``states % 3``, the toolkit's grid).
+
+    Returns
+    -------
+    np.ndarray
+        ``(C, G, F)`` float counts.
+    """
     b = _normalised_belief(belief)
     state_list = np.atleast_1d(np.asarray(states, dtype=int))
     n_states = state_list.size
@@ -270,17 +304,19 @@ def monte_carlo_mutual_information(
     cdf_intended = _choice_cdf(np.asarray(mapping, dtype=float))  # (M, A, F)
     cdf_measured = _choice_cdf(np.asarray(distortion, dtype=float))  # (F, F)
     n_labels = cdf_measured.shape[-1]
+    state_modes = state_list % N_MODES if modes is None else np.atleast_1d(np.asarray(modes, dtype=int))
+    if state_modes.shape != state_list.shape:
+        raise ValueError(f"modes must match states ({state_list.shape}), got {state_modes.shape}")
 
     uniforms = rng.random((n_states, samples, 4))
     column = np.arange(n_states)[:, None]
     goal = _inverse_cdf(cdf_goal, uniforms[..., 0])  # (C, N)
     action = _inverse_cdf(cdf_action[goal, column], uniforms[..., 1])
-    intended = _inverse_cdf(cdf_intended[(state_list % N_MODES)[:, None], action], uniforms[..., 2])
+    intended = _inverse_cdf(cdf_intended[state_modes[:, None], action], uniforms[..., 2])
     measured = _inverse_cdf(cdf_measured[intended], uniforms[..., 3])
     flat = (column * n_goals + goal) * n_labels + measured
     counts = np.bincount(flat.ravel(), minlength=n_states * n_goals * n_labels)
-    return mutual_information_from_counts(counts.reshape(n_states, n_goals, n_labels).astype(float),
-                                          b, weighting)
+    return counts.reshape(n_states, n_goals, n_labels).astype(float)
 
 
 # --- settings ----------------------------------------------------------------------------------

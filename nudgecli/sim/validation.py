@@ -83,7 +83,6 @@ compares the information term; the lambda = 1 match rate is reported beside it t
 
 from __future__ import annotations
 
-import copy
 import csv
 import io
 import json
@@ -100,8 +99,9 @@ from scipy.special import rel_entr
 from nudgecli.errors import ConfigError
 from nudgecli.model.disambiguation import (
     Weighting,
-    monte_carlo_mutual_information,
+    monte_carlo_label_counts,
     mutual_information,
+    mutual_information_from_counts,
     observation_likelihood,
 )
 from nudgecli.model.interface import (
@@ -606,13 +606,10 @@ def monte_carlo_estimates(rng: np.random.Generator, belief: np.ndarray, policy: 
                           n_samples: int) -> dict[str, np.ndarray]:
     """The study's per-sample Monte-Carlo estimate of ``I(s)``, both weightings from the same samples.
 
-    Calls :func:`nudgecli.model.disambiguation.monte_carlo_mutual_information` (per state,
+    One call of :func:`nudgecli.model.disambiguation.monte_carlo_label_counts` (per state,
     ``n_samples`` draws ``g ~ b``, ``a ~ p(a | s, g)``, ``phi_i ~ p(phi_i | a, m)``,
-    ``phi_m ~ p(phi_m | phi_i)``; KL of each sampled goal's label histogram to the pooled one,
-    averaged plainly or weighted by belief) once per weighting from the same generator state,
-    so both variants see identical samples; ``rng`` is then advanced past them. The model reads
-    the mode of a state as ``s % 3`` (its 2400-state world); the validation world's candidates are
-    therefore handed over re-indexed as ``3 c + m(c)``.
+    ``phi_m ~ p(phi_m | phi_i)``), then the KL of each sampled goal's label histogram to the
+    pooled one, averaged plainly or weighted by belief.
 
     Parameters
     ----------
@@ -625,7 +622,7 @@ def monte_carlo_estimates(rng: np.random.Generator, belief: np.ndarray, policy: 
     modes
         ``(C,)`` their modes (0 x, 1 y).
     mapping
-        ``(M, A, F)`` ``p(phi_i | a, m)`` with ``M >= 2``.
+        ``(M, A, F)`` ``p(phi_i | a, m)``.
     distortion
         ``(F, F)`` ``p(phi_m | phi_i)``.
     n_samples
@@ -636,18 +633,10 @@ def monte_carlo_estimates(rng: np.random.Generator, belief: np.ndarray, policy: 
     dict[str, np.ndarray]
         ``{"unweighted": (C,), "belief": (C,)}`` estimates in nats.
     """
-    n_goals, n_states, n_actions = policy.shape
-    stride = mapping.shape[0]
-    states = stride * np.arange(n_states) + np.asarray(modes)
-    p_a = np.full((n_goals, stride * n_states, n_actions), 1.0 / n_actions)
-    p_a[:, states] = policy
-    start = copy.deepcopy(rng.bit_generator.state)
-    estimates: dict[str, np.ndarray] = {}
-    for variant in MC_VARIANTS:
-        rng.bit_generator.state = copy.deepcopy(start)
-        estimates[variant] = monte_carlo_mutual_information(belief, states, p_a, mapping, distortion, rng,
-                                                            samples=n_samples, weighting=variant)
-    return estimates
+    counts = monte_carlo_label_counts(belief, np.arange(policy.shape[1]), policy, mapping, distortion, rng,
+                                      samples=n_samples, modes=modes)
+    weights = np.asarray(belief, dtype=float) / np.sum(belief)
+    return {variant: mutual_information_from_counts(counts, weights, variant) for variant in MC_VARIANTS}
 
 
 def unweighted_limit(belief: np.ndarray, likelihood: np.ndarray) -> np.ndarray:
