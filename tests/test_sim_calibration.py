@@ -343,3 +343,12 @@ def test_cli_fit_missing_session_falls_back_with_a_warning(tmp_path: Path) -> No
     np.testing.assert_allclose(distortion_table_from_dict(profile["p_phm_given_phi"]),
                                default_distortion_table())
     assert profile["provenance"]["p_phm_given_phi"]["source"].startswith("default")
+
+
+def test_fitting_a_folder_of_participants_names_them(tmp_path):
+    for name in ("p01", "p02"):
+        (tmp_path / name / "p_phi_given_a").mkdir(parents=True)
+    result = CliRunner().invoke(main, ["fit", str(tmp_path)])
+    assert result.exit_code == 1
+    assert result.output.count("Error:") == 1 and "p01, p02" in result.output
+    assert f"nudge fit {tmp_path / 'p01'}" in result.output

@@ -400,6 +400,12 @@ def read_sessions(folder: str | Path) -> tuple[MappingSession | None, Distortion
     mapping = read_mapping_session(folder)
     distortion = read_distortion_session(folder)
     if mapping is None and distortion is None:
+        participants = sorted(child.name for child in folder.iterdir() if child.is_dir() and (
+            (child / STUDY_MAPPING_FOLDER).is_dir() or (child / STUDY_DISTORTION_FOLDER).is_dir()))
+        if participants:
+            raise DataError(f"{folder}: holds the calibration folders of several participants "
+                            f"({', '.join(participants)}); fit one at a time, e.g. "
+                            f"`nudge fit {folder / participants[0]}`")
         raise DataError(
             f"{folder}: no calibration session found; expected {STUDY_MAPPING_FOLDER}/"
             f"{STUDY_FILES['mapping_prompts']} + {STUDY_FILES['mapping_responses']} and/or "
