@@ -8,6 +8,9 @@ A run folder (DESIGN.md section 4)::
     layouts.parquet        the trial layouts
     trials/part-NNNN.parquet, steps/part-NNNN.parquet, participants/part-NNNN.parquet
                            one set per participant, each written atomically: the checkpoints
+    calibration/participant-NNNN/
+                           the participant's simulated calibration logs (tidy format; they
+                           re-fit with `nudge fit` to the tables the agent used)
 
 Every file is written to a temporary name in the same folder and renamed into place, so a
 crash (even SIGKILL) leaves either the old file or the new one, never half of one. A
@@ -230,6 +233,16 @@ class RunFolder:
         for name in (MANIFEST, CONFIG, PARTICIPANTS, LAYOUTS, "metrics.csv", "stats.json", "stats.csv",
                      "summary.md"):
             (self.path / name).unlink(missing_ok=True)
+        calibration = self.path / "calibration"
+        if calibration.is_dir():
+            for log in calibration.glob("participant-*/*.csv"):
+                log.unlink()
+            for folder in calibration.glob("participant-*"):
+                folder.rmdir()
+
+    def calibration_dir(self, participant: int) -> Path:
+        """Where a participant's simulated calibration logs go."""
+        return self.path / "calibration" / f"participant-{participant:04d}"
 
     def write_manifest(self, manifest: dict[str, Any]) -> None:
         write_json_atomic(self.manifest_path, manifest)

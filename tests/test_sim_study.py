@@ -182,3 +182,22 @@ def test_a_missing_physiology_log_fails_before_the_run(tmp_path):
                                        "--out", str(tmp_path / "never")])
     assert result.exit_code == 1 and result.output.startswith("Error: population.physiology_logs[0]")
     assert not (tmp_path / "never").exists()
+
+
+def test_the_simulated_calibration_logs_refit_to_the_agents_tables(tmp_path):
+    import json
+
+    from nudgecli.model.interface import distortion_table_from_dict, mapping_table_from_dict
+
+    run_study(load_experiment("smoke"), tmp_path / "run", participants=1)
+    logs = tmp_path / "run" / "calibration" / "participant-0000"
+    assert sorted(p.name for p in logs.iterdir()) == ["distortion_prompts.csv", "distortion_stream.csv",
+                                                      "mapping_prompts.csv", "mapping_responses.csv"]
+    result = CliRunner().invoke(main, ["fit", str(logs), "--out", str(tmp_path / "profile.json")])
+    assert result.exit_code == 0, result.output
+    profile = json.loads((tmp_path / "profile.json").read_text())
+    record = pd.read_parquet(tmp_path / "run" / "participants.parquet").iloc[0]
+    np.testing.assert_allclose(mapping_table_from_dict(profile["p_phi_given_a"]),
+                               np.array(json.loads(record["agent_p_phi_given_a"])), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(distortion_table_from_dict(profile["p_phm_given_phi"]),
+                               np.array(json.loads(record["agent_p_phm_given_phi"])), rtol=0, atol=1e-12)

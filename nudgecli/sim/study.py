@@ -20,7 +20,6 @@ from multiprocessing import get_context
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
 from nudgecli.config import ExperimentConfig
@@ -30,7 +29,8 @@ from nudgecli.model.interface import default_distortion_table, default_mapping_t
 from nudgecli.model.mdp import MDPRewards, SolvedLayout, solve_layout
 from nudgecli.model.world import MODE_NAMES, Layout, sample_layout
 from nudgecli.rng import generator, seed_key
-from nudgecli.sim.calibration import fit_participant_tables
+from nudgecli.sim.calibration import FittedTables, fit_participant_tables
+from nudgecli.sim.calibration_io import DistortionSession, MappingSession, write_sessions
 from nudgecli.sim.participants import Participant, draw_participant, participant_from_log
 from nudgecli.sim.protocol import ProtocolSettings, TrialSpec, run_trial
 from nudgecli.store import RunFolder, library_versions, utc_now
@@ -155,17 +155,18 @@ class ParticipantResult:
     steps: pd.DataFrame
     record: pd.DataFrame
     wall_s: float
+    calibration: tuple[MappingSession, DistortionSession] | None = None
 
 
-def agent_tables(config: ExperimentConfig, participant: Participant,
-                 seed: int) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-    """The tables the agent uses for this participant: fitted from a simulated calibration, or defaults."""
+def agent_tables(config: ExperimentConfig, participant: Participant, seed: int) -> FittedTables:
+    """The tables the agent uses for this participant: fitted from a simulated calibration (whose
+    logs come along), or the defaults."""
     if config.model.tables == "default":
         noise = config.model.default_table_noise
-        return default_mapping_table(noise), default_distortion_table(noise), {"tables": "default"}
+        return FittedTables(default_mapping_table(noise), default_distortion_table(noise),
+                            {"tables": "default"})
     rng = generator(seed, "participant", participant.index, "calibration")
-    fitted = fit_participant_tables(participant, config.calibration, config.interface, rng)
-    return fitted.mapping, fitted.distortion, fitted.provenance
+    return fit_participant_tables(participant, config.calibration, config.interface, rng)
 
 
 def study_participant(config: ExperimentConfig, seed: int, index: int) -> Participant:
@@ -193,7 +194,8 @@ def simulate_participant(plan: StudyPlan, participant_index: int) -> Participant
     start = time.perf_counter()
     config, seed = plan.config, plan.seed
     participant = study_participant(config, seed, participant_index)
-    mapping, distortion, provenance = agent_tables(config, participant, seed)
+    fitted = agent_tables(config, participant, seed)
+    mapping, distortion = fitted.mapping, fitted.distortion
     settings = ProtocolSettings.from_config(config)
     summaries: list[dict[str, Any]] = []
     step_parts: list[pd.DataFrame] = []
@@ -212,7 +214,7 @@ def simulate_participant(plan: StudyPlan, participant_index: int) -> Participant
     record.update({
         "agent_p_phi_given_a": _json(mapping.tolist()),
         "agent_p_phm_given_phi": _json(distortion.tolist()),
-        "calibration": _json(provenance),
+        "calibration": _json(fitted.provenance),
     })
     return ParticipantResult(
         participant=participant_index,
@@ -220,6 +222,7 @@ def simulate_participant(plan: StudyPlan, participant_index: int) -> Participant
         steps=pd.concat(step_parts, ignore_index=True),
         record=pd.DataFrame([record]),
         wall_s=time.perf_counter() - start,
+        calibration=fitted.sessions,
     )
 
 
@@ -352,6 +355,8 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     else:
         results = _serial(plan, todo)
     for result in results:
+        if result.calibration is not None:
+            write_sessions(folder.calibration_dir(result.participant), *result.calibration)
         folder.write_participant_parts(result.participant, result.trials, result.steps, result.record)
         done.add(result.participant)
         manifest["completed"] = sorted(done)
