@@ -10,8 +10,8 @@ the participants run serially, on local processes or on a dask cluster, in any o
 from __future__ import annotations
 
 import json
+import math
 import os
-import resource
 import time
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -367,10 +367,15 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     folder.write_participants_table()
     manifest.update({"status": "complete", "finished": utc_now(),
                      "wall_s": round(time.perf_counter() - started, 3),
-                     "peak_rss_mb": round(peak_memory_mb(), 1)})
+                     "peak_rss_mb": _finite_or_none(round(peak_memory_mb(), 1))})
     folder.write_manifest(manifest)
     return StudyRun(path=folder.path, experiment=config.experiment.name, mode=mode, participants=n,
                     computed=todo, trials=folder.read_trials())
+
+
+def _finite_or_none(value: float) -> float | None:
+    """JSON has no NaN: an unknown measurement is ``null``."""
+    return value if math.isfinite(value) else None
 
 
 def _executor_name(workers: int, scheduler: str | None) -> str:
@@ -381,6 +386,10 @@ def _executor_name(workers: int, scheduler: str | None) -> str:
 
 def peak_memory_mb() -> float:
     """Peak resident memory of this process and its finished children, in MB (Linux ru_maxrss is KiB)."""
+    try:
+        import resource  # Unix only
+    except ImportError:  # pragma: no cover - Windows has no getrusage
+        return float("nan")
     own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
     return max(own, children) / 1024.0
