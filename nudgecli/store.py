@@ -24,17 +24,18 @@ import json
 import os
 import platform
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
+import pyarrow.parquet as pq
 
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
-from nudgecli.errors import RunFolderError
+from nudgecli.errors import DataError, RunFolderError
 
 MANIFEST = "manifest.json"
 CONFIG = "config.toml"
@@ -165,12 +166,51 @@ class RunFolder:
             done = found if done is None else done & found
         return sorted(done or set())
 
-    def read_table(self, kind: str) -> pd.DataFrame:
-        """All parts of ``kind`` (``trials``, ``steps`` or ``participants``) concatenated in order."""
+    def read_table(self, kind: str, columns: Sequence[str] | None = None) -> pd.DataFrame:
+        """All parts of ``kind`` (``trials``, ``steps`` or ``participants``) concatenated in order.
+
+        Parameters
+        ----------
+        kind
+            The table.
+        columns
+            Only these columns (every part must have them); ``None`` reads all.
+
+        Raises
+        ------
+        RunFolderError
+            No part yet (saying what to run).
+        DataError
+            A part is unreadable or lacks one of ``columns``.
+        """
         parts = sorted((self.path / kind).glob("part-*.parquet"))
         if not parts:
-            raise RunFolderError(f"{self.path}: no {kind} yet; run `nudge simulate` (or --resume) first")
-        return pd.concat([pd.read_parquet(p) for p in parts], ignore_index=True)
+            raise RunFolderError(self._no_parts_message(kind))
+        frames = []
+        for part in parts:
+            try:
+                names = pq.ParquetFile(part).schema_arrow.names
+            except Exception as exc:  # pyarrow raises several types for broken files
+                raise DataError(f"{part} is not a readable Parquet file ({exc}); re-run `nudge simulate "
+                                "--resume` to rewrite it") from None
+            missing = [c for c in columns or () if c not in names]
+            if missing:
+                raise DataError(f"{part} lacks the column(s) {', '.join(missing)}; it was written by "
+                                "another version of nudge: re-run `nudge simulate` with this version")
+            frames.append(pd.read_parquet(part, columns=list(columns) if columns is not None else None))
+        return pd.concat(frames, ignore_index=True)
+
+    def _no_parts_message(self, kind: str) -> str:
+        folder = self.path
+        if kind == "steps" and (folder / "trials").is_dir() and any((folder / "trials").glob("part-*")):
+            return (f"{folder} has trials but no steps/part-*.parquet; finish the run with "
+                    f"`nudge simulate EXPERIMENT --out {folder} --resume`")
+        if (folder / "metrics.csv").is_file():
+            # e.g. a committed reference run: its step logs were left out, its metrics kept
+            return (f"{folder} holds metrics but not the step logs they came from; "
+                    f"analyse the table instead: `nudge analyze {folder / 'metrics.csv'}`")
+        return (f"{folder} has no {kind} yet (no {kind}/part-*.parquet); run "
+                f"`nudge simulate EXPERIMENT --out {folder}` first")
 
     def read_trials(self) -> pd.DataFrame:
         return self.read_table("trials")

@@ -25,7 +25,6 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-import pyarrow.parquet as pq
 
 from nudgecli.config import did_you_mean
 from nudgecli.errors import ConfigError, DataError, RunFolderError
@@ -46,7 +45,7 @@ from nudgecli.report.stats import (
     order_conditions,
     stats_table,
 )
-from nudgecli.store import write_text_atomic
+from nudgecli.store import RunFolder, write_text_atomic
 
 #: Columns of a metrics table that describe the trial rather than measure it.
 NON_METRIC_COLUMNS = (*ID_COLUMNS, "layout", "n_goals", "true_goal")
@@ -93,33 +92,6 @@ def is_run_folder(path: Path) -> bool:
     return path.is_dir() and any((path / marker).exists() for marker in RUN_FOLDER_MARKERS)
 
 
-def _read_parts(folder: Path, table: str, columns: Sequence[str]) -> pd.DataFrame:
-    parts = sorted((folder / table).glob("part-*.parquet"))
-    if not parts:
-        if table == "trials":
-            if (folder / "metrics.csv").is_file():
-                # e.g. a committed reference run: its step logs were left out, its metrics kept
-                raise RunFolderError(f"{folder} holds metrics but not the step logs they came from; "
-                                     f"analyse the table instead: `nudge analyze {folder / 'metrics.csv'}`")
-            raise RunFolderError(f"{folder} has no trials yet (no trials/part-*.parquet); run "
-                                 f"`nudge simulate EXPERIMENT --out {folder}` first")
-        raise RunFolderError(f"{folder} has trials but no steps/part-*.parquet; finish the run with "
-                             f"`nudge simulate EXPERIMENT --out {folder} --resume`")
-    frames = []
-    for part in parts:
-        try:
-            names = pq.ParquetFile(part).schema_arrow.names
-        except Exception as exc:  # pyarrow raises several types for broken files
-            raise DataError(f"{part} is not a readable Parquet file ({exc}); re-run `nudge simulate "
-                            f"--resume` to rewrite it") from None
-        missing = [c for c in columns if c not in names]
-        if missing:
-            raise DataError(f"{part} lacks the column(s) {', '.join(missing)}; it was written by another "
-                            "version of nudge: re-run `nudge simulate` with this version")
-        frames.append(pd.read_parquet(part, columns=list(columns)))
-    return pd.concat(frames, ignore_index=True)
-
-
 def read_run(folder: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The trial table and step log of a run folder (only the columns the metrics use).
 
@@ -137,11 +109,12 @@ def read_run(folder: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
         A part is unreadable or lacks a column.
     """
     folder = Path(folder)
-    trials = _read_parts(folder, "trials", TRIAL_COLUMNS)
+    run = RunFolder(folder)
+    trials = run.read_table("trials", TRIAL_COLUMNS)
     if trials.empty:
         raise RunFolderError(f"{folder}: trials/part-*.parquet hold no trials yet; "
                              "run `nudge simulate` first")
-    steps = _read_parts(folder, "steps", STEP_COLUMNS)
+    steps = run.read_table("steps", STEP_COLUMNS)
     return trials, steps
 
 
