@@ -434,8 +434,7 @@ def _next_action(tr: _Trial, state: int) -> tuple[int, bool]:
 
 def _fine_action(tr: _Trial) -> int | None:
     """Inside the goal cell: the action that reduces a remaining error, or ``None`` if none is left."""
-    gx, gy, gth = tr.goal_poses[0]
-    errors = (gx - tr.x, gy - tr.y, float(angle_difference(gth, tr.theta)))
+    errors = _true_goal_errors(tr)
     needs = (abs(errors[0]) > FINE_POSITION_TOLERANCE, abs(errors[1]) > FINE_POSITION_TOLERANCE,
              abs(errors[2]) > FINE_HEADING_TOLERANCE)
     if not any(needs):
@@ -444,6 +443,12 @@ def _fine_action(tr: _Trial) -> int | None:
         return _move_action(tr.mode, errors[tr.mode])
     target = next(d for d in range(3) if needs[d])
     return interface.TO_MODE_R if (target - tr.mode) % 3 == 1 else interface.TO_MODE_L
+
+
+def _true_goal_errors(tr: _Trial) -> tuple[float, float, float]:
+    """What is left to the true goal's pose along x, y and the heading (signed, shortest turn)."""
+    gx, gy, gth = tr.goal_poses[0]
+    return gx - tr.x, gy - tr.y, float(angle_difference(gth, tr.theta))
 
 
 def _move_action(mode: int, error: float) -> int:
@@ -455,9 +460,7 @@ def _move_action(mode: int, error: float) -> int:
 
 def _nudge_towards_goal(tr: _Trial) -> int:
     """Already within tolerance: a short input towards the goal along the active axis."""
-    gx, gy, gth = tr.goal_poses[0]
-    errors = (gx - tr.x, gy - tr.y, float(angle_difference(gth, tr.theta)))
-    return _move_action(tr.mode, errors[tr.mode])
+    return _move_action(tr.mode, _true_goal_errors(tr)[tr.mode])
 
 
 def _inferred_goal_and_alpha(tr: _Trial, initiated_at: int) -> tuple[int, float]:
