@@ -345,12 +345,6 @@ def test_study_variant_scores(model: dis.DisambiguationModel) -> None:
         dis.maximally_disambiguating_state(belief, model, current, study)
 
 
-def test_first_argmax_ties() -> None:
-    assert dis.first_argmax(np.array([1.0, 3.0, 3.0, 2.0])) == 1
-    assert dis.first_argmax(np.array([1.0, 3.0 - 1e-14, 3.0])) == 1
-    assert dis.first_argmax(np.array([1.0, 2.9, 3.0])) == 2
-
-
 def test_settings_defaults_and_validation() -> None:
     paper = dis.DisambiguationSettings()
     assert (paper.estimator, paper.mi_weight, paper.distance_weight, paper.distance, paper.distance_unit,

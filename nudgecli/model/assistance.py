@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nudgecli.model.ties import tied_with_max
 from nudgecli.model.world import (
     CELL_HEIGHT,
     CELL_WIDTH,
@@ -279,8 +280,7 @@ def control_target(belief: np.ndarray, goal_positions: np.ndarray, atol: float =
     goals = np.asarray(goal_positions, dtype=float)[:, :2]
     if b.shape != (goals.shape[0],):
         raise ValueError(f"belief shape {b.shape} does not match {goals.shape[0]} goals")
-    tied = b >= b.max() - atol
-    return goals[tied].mean(axis=0)
+    return goals[tied_with_max(b, atol)].mean(axis=0)
 
 
 def nudge_target(state: int) -> tuple[np.ndarray, int]:

@@ -17,6 +17,7 @@ from nudgecli.model.interface import (
     validate_distortion_table,
     validate_mapping_table,
 )
+from nudgecli.model.ties import first_argmax
 from nudgecli.model.world import (
     CELL_HEIGHT,
     CELL_WIDTH,
@@ -31,7 +32,6 @@ from nudgecli.model.world import (
 )
 
 #: Relative tolerance under which two D(s) values count as tied (first candidate wins).
-DEFAULT_TIE_RTOL = 1e-9
 
 
 def mutual_information(belief: np.ndarray, likelihood: np.ndarray,
@@ -742,19 +742,6 @@ def disambiguation_scores(belief: np.ndarray, model: DisambiguationModel, candid
     return DisambiguationScores(information=information, distance=distance, score=score)
 
 
-def first_argmax(values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL) -> int:
-    """Index of the first value within ``rtol * max(1, |max|)`` of the maximum of ``(C,)`` values.
-
-    The tolerance makes "first on ties" hold for mathematically equal scores whose last bits
-    differ through summation order.
-    """
-    v = np.asarray(values, dtype=float)
-    if v.size == 0:
-        raise ValueError("no candidates to choose from")
-    best = float(v.max())
-    return int((v >= best - rtol * max(1.0, abs(best))).argmax())
-
-
 @dataclass(frozen=True)
 class DisambiguationChoice:
     """The maximally disambiguating state and how it was chosen.
@@ -815,6 +802,6 @@ def maximally_disambiguating_state(belief: np.ndarray, model: DisambiguationMode
     if candidates.states.size == 0:
         raise ValueError(f"no candidate state around state {current_state}")
     scores = disambiguation_scores(belief, model, candidates, settings, rng, goal_transition)
-    index = first_argmax(scores.score)
+    index = int(first_argmax(scores.score))
     return DisambiguationChoice(state=int(candidates.states[index]), index=index, candidates=candidates,
                                 scores=scores)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nudgecli.model.interface import MOVE_N, MOVE_P, N_ACTIONS, TO_MODE_L, TO_MODE_R
+from nudgecli.model.ties import DEFAULT_TIE_RTOL, first_argmax
 from nudgecli.model.world import (
     N_CELLS_X,
     N_CELLS_Y,
@@ -41,7 +42,6 @@ DEFAULT_SPAN_EPSILON = 0.01
 #: The human's sub-optimality ε of Eq. 1.
 DEFAULT_HUMAN_EPSILON = 0.1
 #: Relative tolerance under which two Q-values count as tied in :func:`greedy_policy`.
-DEFAULT_TIE_RTOL = 1e-9
 
 # Outcome kinds of a (state, action) pair; each kind has one reward (see MDPRewards.by_kind).
 OUTCOME_MOVE = 0  # a valid move to a non-goal state
@@ -290,10 +290,7 @@ def greedy_policy(q_values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL) -> np.nd
     np.ndarray
         ``(...)`` int action indices.
     """
-    q = np.asarray(q_values, dtype=float)
-    best = q.max(axis=-1, keepdims=True)
-    tied = q >= best - rtol * np.maximum(1.0, np.abs(best))
-    return np.argmax(tied, axis=-1)
+    return first_argmax(q_values, rtol)
 
 
 def action_likelihood(policy: np.ndarray, epsilon: float = DEFAULT_HUMAN_EPSILON,

@@ -56,6 +56,15 @@ from nudgecli.report.style import (
     goal_colour,
     goal_linestyle,
 )
+from nudgecli.steplog import (
+    AUTONOMY_TURN,
+    HUMAN_TURN,
+    MODE_SWITCH_AUTONOMY,
+    MODE_SWITCH_HUMAN,
+    NUDGE,
+    event_tokens,
+    has_event,
+)
 
 TrialKey = tuple[int, int]
 """A trial's identity: ``(participant, trial)``."""
@@ -200,11 +209,6 @@ def _jitter(seed: int, key: str, n: int) -> np.ndarray:
 
 def _panel_letter(ax: Axes, index: int) -> None:
     ax.set_title(f"({chr(ord('a') + index)})", loc="left", fontweight="bold", fontsize=PANEL_LETTER_PT)
-
-
-def _event_has(events: pd.Series, token: str) -> np.ndarray:
-    """Rows whose ``|``-joined event string contains the token ``token`` exactly."""
-    return np.array([token in str(e).split("|") if isinstance(e, str) else False for e in events], dtype=bool)
 
 
 def _runs(labels: np.ndarray) -> list[tuple[Any, int, int]]:
@@ -533,13 +537,13 @@ def figure_5(steps: pd.DataFrame, layout_or_goal_count: Any = None, *, title: st
     t = steps["t"].to_numpy(dtype=float)
     belief = belief_matrix(steps, _goal_count(layout_or_goal_count))
     turns = steps["turn"].astype(str).to_numpy()
-    nudges = t[_event_has(steps["event"], "nudge")] if "event" in steps.columns else np.empty(0)
+    nudges = t[has_event(steps["event"], NUDGE)] if "event" in steps.columns else np.empty(0)
     with figure_style():
         fig = Figure(figsize=figsize, layout="constrained")
         ax = fig.subplots()
         spans = _turn_spans(t, turns)
         for turn, start, end in spans:
-            if turn == "human":
+            if turn == HUMAN_TURN:
                 ax.axvspan(start, end, color=HUMAN_TURN_SHADE, linewidth=0, zorder=0)
         handles: list[Any] = []
         for g in range(belief.shape[1]):
@@ -588,7 +592,7 @@ def nudge_followup_changes(steps: pd.DataFrame, goal: int = 0) -> list[float]:
     if steps.empty or "event" not in steps.columns:
         return []
     steps = _sorted_steps(steps)
-    nudge_idx = np.flatnonzero(_event_has(steps["event"], "nudge"))
+    nudge_idx = np.flatnonzero(has_event(steps["event"], NUDGE))
     if nudge_idx.size == 0:
         return []
     p = belief_matrix(steps)
@@ -596,7 +600,7 @@ def nudge_followup_changes(steps: pd.DataFrame, goal: int = 0) -> list[float]:
         return []
     p = p[:, goal]
     human_runs = [(first, last) for turn, first, last in _runs(steps["turn"].astype(str).to_numpy())
-                  if turn == "human"]
+                  if turn == HUMAN_TURN]
     changes = []
     for k in nudge_idx:
         following = next(((f, la) for f, la in human_runs if f > k), None)
@@ -685,7 +689,7 @@ def choose_figure5_trial(steps_all: pd.DataFrame | Mapping[TrialKey, pd.DataFram
         if p.shape[1] == 0:
             continue
         for turn, first, last in _runs(df["turn"].astype(str).to_numpy()):
-            if turn != "human":
+            if turn != HUMAN_TURN:
                 continue
             change = p[last, 0] - (p[first - 1, 0] if first > 0 else p[first, 0])
             if np.isfinite(change) and (best is None or change > best[0]):
@@ -766,7 +770,7 @@ def trajectory_figure(steps: pd.DataFrame, goal_poses: np.ndarray, start_pose: n
         # Path, one segment per turn (each joined to the next turn's first point).
         for turn, first, last in _runs(turns):
             end = min(last + 1, len(x) - 1)
-            human = turn == "human"
+            human = turn == HUMAN_TURN
             ax.plot(x[first:end + 1], y[first:end + 1], color=HUMAN_COLOUR if human else AUTONOMY_COLOUR,
                     linestyle="-" if human else (0, (3, 1.5)), linewidth=1.6 if human else 1.8,
                     solid_capstyle="round", zorder=3)
@@ -777,13 +781,13 @@ def trajectory_figure(steps: pd.DataFrame, goal_poses: np.ndarray, start_pose: n
             for k in range(1, len(modes)):
                 if modes[k] == modes[k - 1]:
                     continue
-                tokens = str(events.iloc[k]).split("|")
-                by_autonomy = "mode_switch_autonomy" in tokens or (
-                    "mode_switch_human" not in tokens and turns[k] == "autonomy")
+                tokens = event_tokens(events.iloc[k])
+                by_autonomy = MODE_SWITCH_AUTONOMY in tokens or (
+                    MODE_SWITCH_HUMAN not in tokens and turns[k] == AUTONOMY_TURN)
                 ax.plot([x[k]], [y[k]], marker=_MODE_MARKERS.get(modes[k], "s"), markersize=6,
                         markerfacecolor="white" if by_autonomy else "black", markeredgecolor="black",
                         markeredgewidth=0.9, linestyle="none", zorder=7)
-        nudge = _event_has(events, "nudge")
+        nudge = has_event(events, NUDGE)
         if nudge.any():
             # Under the mode-change markers: the autonomy often switches mode as it starts a nudge.
             ax.plot(x[nudge], y[nudge], marker="D", markersize=10, markerfacecolor=to_rgba("#CC79A7", 0.85),

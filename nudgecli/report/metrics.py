@@ -38,6 +38,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.errors import DataError
+from nudgecli.steplog import HUMAN_TURN, MODE_SWITCH_HUMAN, count_event
 
 METRIC_NAMES = (
     "assistance_engagement",
@@ -57,9 +58,6 @@ STEP_COLUMNS = ("participant", "trial", "step", "turn", "alpha", "inferred_goal"
 #: The columns identifying a trial in the metrics table, before the metric columns.
 ID_COLUMNS = ("participant", "condition", "block", "trial")
 
-HUMAN_TURN = "human"
-HUMAN_MODE_SWITCH_EVENT = "mode_switch_human"
-EVENT_SEPARATOR = "|"
 _TRIAL_KEY = ["participant", "trial"]
 _DECIMALS = 12
 
@@ -212,11 +210,7 @@ def _human_mode_switches_per_step(s: pd.DataFrame, only_human_turns: bool) -> np
     np.ndarray
         ``(len(s),)`` integer counts aligned with the rows of ``s``.
     """
-    events = s["event"].fillna("").astype(str)
-    with_event = events[events != ""]
-    tokens = with_event.str.split(EVENT_SEPARATOR).explode().str.strip()
-    per_step = (tokens == HUMAN_MODE_SWITCH_EVENT).groupby(level=0).sum()
-    counts = per_step.reindex(s.index, fill_value=0).to_numpy(dtype=np.int64)
+    counts = count_event(s["event"], MODE_SWITCH_HUMAN).to_numpy(dtype=np.int64)
     if only_human_turns:
         counts = np.where(s["turn"].astype(str).to_numpy() == HUMAN_TURN, counts, 0)
     return counts

@@ -58,8 +58,24 @@ from nudgecli.model.world import (
     state_index,
 )
 from nudgecli.sim.participants import Participant
+from nudgecli.steplog import (
+    AUTONOMY_TURN as AUTONOMY,
+)
+from nudgecli.steplog import (
+    HANDOVER_TO_AUTONOMY,
+    HANDOVER_TO_HUMAN,
+    MODE_SWITCH_AUTONOMY,
+    MODE_SWITCH_HUMAN,
+    NUDGE,
+    STEP,
+    STEP_COLUMNS,
+    TRIAL_START,
+    join_events,
+)
+from nudgecli.steplog import (
+    HUMAN_TURN as HUMAN,
+)
 
-HUMAN, AUTONOMY = "human", "autonomy"
 _ZERO3 = np.zeros(3)
 #: Longest a participant holds one move before re-planning (e.g. pushing against a wall).
 MAX_HOLD_S = 3.0
@@ -154,13 +170,6 @@ class TrialResult:
 
     summary: dict[str, Any]
     steps: dict[str, list[Any]]
-
-
-STEP_COLUMNS = (
-    "participant", "trial", "step", "t", "turn", "x", "y", "theta", "mode", "cell_x", "cell_y",
-    "heading", "phi_i", "pressure", "phi_m", "u_h_x", "u_h_y", "u_h_theta", "u_a_x", "u_a_y",
-    "u_a_theta", "alpha", "inferred_goal", "belief", "entropy", "event",
-)
 
 
 @dataclass
@@ -306,7 +315,7 @@ def _human_turn(tr: _Trial) -> tuple[int, int]:
     blow_pos = 0
     blow_held = 0  # samples of the current blow so far (a continued soft blow keeps its level)
     decay_counters = DecayCounters()
-    event = "handover_to_human" if tr.step > 0 else "trial_start"
+    event = HANDOVER_TO_HUMAN if tr.step > 0 else TRIAL_START
     first = True
     while tr.step < s.time_limit_steps:
         events = [event] if first and event else []
@@ -380,7 +389,7 @@ def _human_turn(tr: _Trial) -> tuple[int, int]:
             locked = True
             switches += 1
             commanded = True
-            events.append("mode_switch_human")
+            events.append(MODE_SWITCH_HUMAN)
         idle = 0 if commanded or initiated_at < 0 else idle + 1
         # blending (Algorithm 1, lines 7-8)
         entropy = tr.entropy
@@ -501,10 +510,10 @@ def _autonomy_turn(tr: _Trial) -> int:
                                                 robot_position=position, rng=rng,
                                                 goal_transition=tr.goal_transition)
         target, m = assistance.nudge_target(choice.state)
-        events = ["nudge"]
+        events = [NUDGE]
         if m != tr.mode:
             tr.mode = m
-            events.append("mode_switch_autonomy")
+            events.append(MODE_SWITCH_AUTONOMY)
         nudged = 1
         inferred = -1
     else:
@@ -519,8 +528,8 @@ def _autonomy_turn(tr: _Trial) -> int:
             heading = tr.theta
         step_xy = assistance.step_target(position, goal_xy, radius)
         target = np.array([step_xy[0], step_xy[1], heading])
-        events = ["step"]
-    step_events = ["handover_to_autonomy", *events]
+        events = [STEP]
+    step_events = [HANDOVER_TO_AUTONOMY, *events]
     # the turn lasts at least one step and ends within arrival_tolerance of the target position
     while tr.step < s.time_limit_steps:
         if not step_events and math.hypot(target[0] - tr.x, target[1] - tr.y) <= s.arrival_tolerance:
@@ -575,7 +584,7 @@ def _record(tr: _Trial, turn: str, state: int, mode: int, intended: int, pressur
     c["inferred_goal"].append(inferred)
     c["belief"].append(tr.belief.tolist())
     c["entropy"].append(entropy)
-    c["event"].append("|".join(events))
+    c["event"].append(join_events(events))
 
 
 def _stream_label(code: int) -> str:

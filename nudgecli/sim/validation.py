@@ -114,6 +114,7 @@ from nudgecli.model.interface import (
     default_mapping_table,
 )
 from nudgecli.model.mdp import action_likelihood, greedy_policy, value_iteration
+from nudgecli.model.ties import first_argmax
 from nudgecli.rng import generator
 from nudgecli.store import write_text_atomic
 
@@ -537,7 +538,7 @@ def tolerant_argmax(values: np.ndarray, valid: np.ndarray | None = None,
     """First maximum with ties up to a relative tolerance, the top-two margin and the near-tie flag.
 
     The choice is the first candidate whose value is within ``tolerance * max(1, |max|)`` of the
-    maximum (the rule of :func:`nudgecli.model.disambiguation.first_argmax`), so candidates with
+    maximum (the rule of :func:`nudgecli.model.ties.first_argmax`), so candidates with
     identical likelihood columns (whose computed values may differ in the last bit) resolve to
     the same, lowest-index state under every criterion.
 
@@ -563,7 +564,7 @@ def tolerant_argmax(values: np.ndarray, valid: np.ndarray | None = None,
     masked = vals if valid is None else np.where(valid, vals, -np.inf)
     top = -np.sort(-masked, axis=1)[:, :2]
     slack = tolerance * np.maximum(1.0, np.abs(top[:, 0]))
-    best = np.argmax(masked >= (top[:, 0] - slack)[:, None], axis=1)
+    best = first_argmax(masked, tolerance)
     margin = top[:, 0] - top[:, 1]
     return best, margin, margin <= slack
 

@@ -1,0 +1,74 @@
+"""Maxima with ties: the one tie-tolerant argmax of the toolkit.
+
+Values that are mathematically equal can differ in their last bits through summation order
+(two goals with identical likelihood columns, turning by +180 or -180 degrees). Every "argmax,
+first on ties" and every "which entries are tied for the maximum" in the model goes through
+these functions, with one relative tolerance: an entry is tied with the maximum when it lies
+within ``rtol * max(1, |max|)`` of it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Relative tolerance within which two values count as tied.
+DEFAULT_TIE_RTOL = 1e-9
+
+
+def tied_with_max(values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL,
+                  valid: np.ndarray | None = None) -> np.ndarray:
+    """Which entries are tied for the maximum along the last axis.
+
+    Parameters
+    ----------
+    values
+        ``(..., C)`` values.
+    rtol
+        Relative tie tolerance.
+    valid
+        ``(..., C)`` mask of entries that may be chosen (``None``: all); invalid entries are never tied.
+
+    Returns
+    -------
+    np.ndarray
+        ``(..., C)`` bool; every row with a valid entry has at least one ``True``.
+    """
+    v = np.asarray(values, dtype=float)
+    if v.shape[-1] == 0:
+        raise ValueError("no candidates to choose from")
+    masked = v if valid is None else np.where(valid, v, -np.inf)
+    best = masked.max(axis=-1, keepdims=True)
+    slack = rtol * np.maximum(1.0, np.abs(best))
+    with np.errstate(invalid="ignore"):
+        return masked >= best - slack
+
+
+def first_argmax(values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL,
+                 valid: np.ndarray | None = None) -> np.ndarray:
+    """Index of the first entry tied for the maximum along the last axis.
+
+    Parameters
+    ----------
+    values
+        ``(..., C)`` values.
+    rtol
+        Relative tie tolerance.
+    valid
+        ``(..., C)`` mask of entries that may be chosen (``None``: all).
+
+    Returns
+    -------
+    np.ndarray
+        ``(...)`` int indices (a 0-d array for 1-d input; use ``int()``).
+    """
+    return np.argmax(tied_with_max(values, rtol, valid), axis=-1)
+
+
+def unique_argmax(values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL) -> int:
+    """Index of the maximum of ``(C,)`` values, or -1 when two or more entries are tied for it.
+
+    A rule blind to the order of the entries: permuting ``values`` permutes the answer, and a
+    tie never resolves in favour of an index.
+    """
+    tied = tied_with_max(values, rtol)
+    return int(np.argmax(tied)) if int(tied.sum()) == 1 else -1

@@ -1,0 +1,83 @@
+"""The step-log schema: the one definition of a run's ``steps`` table.
+
+The protocol writes it (:mod:`nudgecli.sim.protocol`), the metrics and the figures read it
+(:mod:`nudgecli.report.metrics`, :mod:`nudgecli.report.figures`), and a live session records it
+the same way. Column names, turn names, event names and the event separator live here only.
+
+One row per 10 Hz step (DESIGN section 4): the pose, cell and mode at the start of the step and
+what happened during it. ``event`` holds zero or more event names joined with
+:data:`EVENT_SEPARATOR`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import numpy as np
+import pandas as pd
+
+#: Turn names of the ``turn`` column.
+HUMAN_TURN = "human"
+AUTONOMY_TURN = "autonomy"
+TURNS = (HUMAN_TURN, AUTONOMY_TURN)
+
+#: Event names of the ``event`` column.
+TRIAL_START = "trial_start"
+HANDOVER_TO_HUMAN = "handover_to_human"
+HANDOVER_TO_AUTONOMY = "handover_to_autonomy"
+MODE_SWITCH_HUMAN = "mode_switch_human"
+MODE_SWITCH_AUTONOMY = "mode_switch_autonomy"
+NUDGE = "nudge"
+STEP = "step"
+EVENTS = (TRIAL_START, HANDOVER_TO_HUMAN, HANDOVER_TO_AUTONOMY, MODE_SWITCH_HUMAN,
+          MODE_SWITCH_AUTONOMY, NUDGE, STEP)
+
+#: Joins the events of one step.
+EVENT_SEPARATOR = "|"
+
+#: ``inferred_goal`` when the agent names no goal (leaders tied, or no blending target).
+NO_GOAL = -1
+
+#: The columns of the step log, in order.
+STEP_COLUMNS = (
+    "participant", "trial", "step", "t", "turn", "x", "y", "theta", "mode", "cell_x", "cell_y",
+    "heading", "phi_i", "pressure", "phi_m", "u_h_x", "u_h_y", "u_h_theta", "u_a_x", "u_a_y",
+    "u_a_theta", "alpha", "inferred_goal", "belief", "entropy", "event",
+)
+
+
+def join_events(events: Iterable[str]) -> str:
+    """The ``event`` cell of a step with these events (empty string for none)."""
+    return EVENT_SEPARATOR.join(events)
+
+
+def event_tokens(cell: object) -> list[str]:
+    """The event names in one ``event`` cell (a missing cell has none)."""
+    if not isinstance(cell, str) or not cell:
+        return []
+    return [token.strip() for token in cell.split(EVENT_SEPARATOR)]
+
+
+def has_event(events: pd.Series | Iterable[object], name: str) -> np.ndarray:
+    """``(N,)`` bool: which ``event`` cells contain the event ``name`` exactly.
+
+    Parameters
+    ----------
+    events
+        ``(N,)`` ``event`` cells (strings; missing values count as no event).
+    name
+        One event name, e.g. :data:`NUDGE`.
+    """
+    series = events if isinstance(events, pd.Series) else pd.Series(list(events), dtype=object)
+    if series.empty:
+        return np.zeros(0, dtype=bool)
+    text = series.where(series.map(lambda v: isinstance(v, str)), "").astype(str)
+    padded = EVENT_SEPARATOR + text.str.replace(" ", "", regex=False) + EVENT_SEPARATOR
+    return padded.str.contains(EVENT_SEPARATOR + name + EVENT_SEPARATOR, regex=False).to_numpy(dtype=bool)
+
+
+def count_event(events: pd.Series, name: str) -> pd.Series:
+    """Per row, how many times the event ``name`` occurs in its ``event`` cell (same index)."""
+    text = events.where(events.map(lambda v: isinstance(v, str)), "").astype(str)
+    tokens = text.str.split(EVENT_SEPARATOR).explode().str.strip()
+    return (tokens == name).groupby(level=0).sum().reindex(events.index, fill_value=0)

@@ -1,0 +1,49 @@
+"""The one tie-tolerant argmax (nudgecli.model.ties), against hand-worked cases and brute force."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+
+from nudgecli.model.ties import first_argmax, tied_with_max, unique_argmax
+
+
+def test_first_on_ties_within_the_tolerance() -> None:
+    assert int(first_argmax(np.array([1.0, 3.0, 3.0, 2.0]))) == 1
+    assert int(first_argmax(np.array([1.0, 3.0 - 1e-14, 3.0]))) == 1  # last-bit differences tie
+    assert int(first_argmax(np.array([1.0, 2.9, 3.0]))) == 2
+    # relative to max(1, |max|): at 1e6 a difference of 1e-4 is a tie, at 1 it is not
+    assert int(first_argmax(np.array([1e6 - 1e-4, 1e6]))) == 0
+    assert int(first_argmax(np.array([1.0 - 1e-4, 1.0]))) == 1
+
+
+def test_valid_mask_and_batches() -> None:
+    values = np.array([[5.0, 1.0, 5.0], [0.0, 2.0, 2.0]])
+    valid = np.array([[False, True, True], [True, True, True]])
+    np.testing.assert_array_equal(first_argmax(values, valid=valid), [2, 1])
+    np.testing.assert_array_equal(tied_with_max(values, valid=valid),
+                                  [[False, False, True], [False, True, True]])
+
+
+def test_unique_argmax_names_no_index_on_a_tie() -> None:
+    assert unique_argmax(np.array([0.4, 0.4, 0.2])) == -1
+    assert unique_argmax(np.array([0.2, 0.5, 0.3])) == 1
+    assert unique_argmax(np.array([1 / 3, 1 / 3, 1 / 3])) == -1
+
+
+@given(st.lists(st.integers(-5, 5), min_size=1, max_size=8), st.randoms(use_true_random=False))
+def test_matches_brute_force_and_permutes(ints: list[int], random) -> None:
+    values = np.array(ints, dtype=float)
+    # brute force: the lowest index holding the maximum (integers tie exactly)
+    best = max(ints)
+    assert int(first_argmax(values)) == ints.index(best)
+    expected_unique = ints.index(best) if ints.count(best) == 1 else -1
+    assert unique_argmax(values) == expected_unique
+    # a rule blind to order: permuting the values permutes the tied set and the unique winner
+    order = list(range(len(ints)))
+    random.shuffle(order)
+    permuted = values[order]
+    np.testing.assert_array_equal(tied_with_max(permuted), tied_with_max(values)[order])
+    if expected_unique >= 0:
+        assert order[unique_argmax(permuted)] == expected_unique
