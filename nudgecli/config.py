@@ -54,8 +54,6 @@ class StudySection(Section):
     time_limit_s: PositiveFloat = 120.0
     success_distance: PositiveFloat = 1.0
     success_angle: PositiveFloat = 0.2
-    handover_idle_s: PositiveFloat = Field(
-        default=1.0, description="Idle time after the human's first input that hands the turn over.")
 
     @model_validator(mode="after")
     def _check(self) -> StudySection:
@@ -121,6 +119,11 @@ class InferenceSection(Section):
     decay_rate: Annotated[float, Field(ge=0)] = 0.008
     decay_cap: int = Field(default=1000, ge=1)
     kappa: Annotated[float, Field(gt=0, le=1)] = 0.65
+    update: Literal["action", "sample"] = Field(
+        default="action",
+        description="action: one Bayesian update per task-level input event (a new blow, or a change of "
+        "measured label within a blow), as Algorithm 1 draws one a^t per update; sample: one update per "
+        "labelled 10 Hz sample (the study software).")
 
 
 class DisambiguationSection(Section):
@@ -215,6 +218,11 @@ class PopulationSection(Section):
     operate_s: tuple[float, float] = (2.5, 5.0)
     action_pause_s: tuple[float, float] = (0.1, 0.4)
     hard_blow_s: tuple[float, float] = (0.4, 0.8)
+    handover_idle_s: tuple[float, float] = Field(
+        default=(1.5, 2.0),
+        description="Idle time after the first input of a turn that hands the turn to the autonomy, drawn "
+        "per participant (the paper: 'not issuing any commands for ~1.5-2 s'); a live session uses the "
+        "middle of the range.")
     reaction_s: tuple[float, float] = (0.9, 2.0)
     reaction_log_sd: Annotated[float, Field(ge=0, le=2)] = 0.35
     physiology_logs: tuple[str, ...] = Field(
@@ -230,10 +238,51 @@ class PopulationSection(Section):
             "hard_sip_level": (0.0, 1.5), "soft_spread": (0.0, 1.0), "hard_spread": (0.0, 1.0),
             "onset_ramp_samples": (0, 20), "mapping_error": (0.0, 0.75), "epsilon": (0.0, 1.0),
             "rest_s": (0.0, 60.0), "operate_s": (0.1, 120.0), "action_pause_s": (0.0, 10.0),
-            "hard_blow_s": (0.1, 5.0), "reaction_s": (0.0, 10.0),
+            "hard_blow_s": (0.1, 5.0), "reaction_s": (0.0, 10.0), "handover_idle_s": (0.1, 30.0),
         }.items():
             check_range(name, getattr(self, name), lo, hi)
         return self
+
+
+class BehaviourSection(Section):
+    """``[behaviour]``: how the simulated person acts in their turn (:mod:`nudgecli.sim.behaviour`).
+
+    The participant's own habits (rest, operating time, pauses, handover idle time) are drawn
+    per participant from ``[population]``; these keys say how they decide.
+
+    - ``decisions``: ``events`` decides at what a person can see (the robot reached the next cell
+      centre along the commanded axis, the mode changed, a new turn began); ``grid`` re-plans
+      whenever the robot crosses into another discrete state (a boundary a person cannot see).
+    - ``lean_on_blending``: while blending carries the robot towards their goal (the last step
+      reduced the remaining error), a person whose policy says "switch mode" keeps their current
+      soft command instead (paper, Section 6: manual switches become unnecessary once blending
+      is active).
+    - ``release_when_dragged``: when blending moves the robot away from their goal, they let go
+      (blending acts only on a non-zero command, so the robot stops) and decide again with a new
+      blow.
+    - ``after_autonomy``: ``replan`` acts from the state and mode the autonomy left (its mode
+      change is kept unless the policy says otherwise); ``resume`` first repeats the task action
+      they were doing before the autonomy's turn, as a person who ignores it would.
+    - ``max_hold_s``: the longest one command is held before deciding again (pushing against a
+      wall, or blending that never lets the robot reach the next cell centre).
+    - ``fine_position_tolerance`` / ``fine_heading_tolerance``: the per-axis error (units) and
+      heading error (rad) a person accepts when fine positioning inside the goal's cell (inside
+      the success tolerance).
+    - ``*_jitter``: per-turn or per-action variation of the participant's habits: a duration ``d``
+      is drawn as ``d * U(1 - jitter, 1 + jitter)``.
+    """
+
+    decisions: Literal["events", "grid"] = "events"
+    lean_on_blending: bool = True
+    release_when_dragged: bool = True
+    after_autonomy: Literal["replan", "resume"] = "replan"
+    max_hold_s: PositiveFloat = 3.0
+    fine_position_tolerance: PositiveFloat = 0.5
+    fine_heading_tolerance: PositiveFloat = 0.15
+    rest_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.5
+    operate_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.3
+    pause_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.5
+    hard_blow_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.2
 
 
 class CalibrationSection(Section):
@@ -268,7 +317,16 @@ class ExperimentConfig(Section):
     disambiguation: DisambiguationSection = DisambiguationSection()
     assistance: AssistanceSection = AssistanceSection()
     population: PopulationSection = PopulationSection()
+    behaviour: BehaviourSection = BehaviourSection()
     calibration: CalibrationSection = CalibrationSection()
+
+    @model_validator(mode="after")
+    def _check_tolerances(self) -> ExperimentConfig:
+        if self.behaviour.fine_position_tolerance >= self.study.success_distance:
+            raise ValueError("behaviour.fine_position_tolerance must be below study.success_distance")
+        if self.behaviour.fine_heading_tolerance >= self.study.success_angle:
+            raise ValueError("behaviour.fine_heading_tolerance must be below study.success_angle")
+        return self
 
     def to_toml(self) -> str:
         """The resolved experiment as TOML (every key, so a run folder documents itself)."""

@@ -124,3 +124,20 @@ def test_nudge_target() -> None:
     pose, mode = ast.nudge_target(int(state_index(2, 7, 3, 1)))
     np.testing.assert_allclose(pose, [3 + 4.2 * 2 + 2.1, 2 + 3.4 * 7 + 1.7, 3 * math.pi / 4])
     assert mode == 1
+
+
+@given(st.floats(0.0, 1.0), st.integers(2, 8), st.floats(0.0, 1.0), st.floats(-5.0, 5.0),
+       st.floats(0.0, 80.0),
+       st.booleans(), st.booleans(), st.booleans())
+def test_assistance_alpha_is_the_ramp_with_the_gates(p, n, entropy, since, distance, gate, delay,
+                                                     weighting) -> None:
+    """The protocol's one alpha rule against its parts: blending_factor, the gates, distance_weight."""
+    settings = ast.BlendingSettings(entropy_gate=0.65 if gate else None, startup_delay=1.0 if delay else 0.0,
+                                    distance_weighting=weighting)
+    expected = float(ast.blending_factor(p, n))
+    if (gate and entropy > 0.65) or (delay and since < 1.0):
+        expected = 0.0
+    elif weighting:
+        expected *= float(ast.distance_weight(distance))
+    got = ast.assistance_alpha(p, n, entropy, since, distance, settings)
+    assert got == pytest.approx(expected, abs=1e-12)

@@ -133,7 +133,7 @@ def assistance_alpha(p_goal: float, n_goals: int, normalised_entropy: float,
     normalised_entropy
         ``H(b) / log |G|``.
     seconds_since_first_input
-        Time since the human's first input of the current turn.
+        Time since the human's first input of the current turn (``-inf`` before it).
     distance_to_goal
         Robot-to-``g'`` distance in world units.
     settings
@@ -146,15 +146,21 @@ def assistance_alpha(p_goal: float, n_goals: int, normalised_entropy: float,
     settings = settings or BlendingSettings()
     if settings.entropy_gate is not None and normalised_entropy > settings.entropy_gate:
         return 0.0
-    if seconds_since_first_input < settings.startup_delay:
+    if settings.startup_delay > 0 and seconds_since_first_input < settings.startup_delay:
         return 0.0
-    alpha = float(blending_factor(p_goal, n_goals, settings.rho1_factor, settings.rho2_factor, settings.rho3))
-    if settings.distance_weighting:
+    # scalar math (this runs on every simulated step); the same rules as blending_factor and
+    # distance_weight, which a test holds them to
+    rho1, rho2 = settings.rho1_factor / n_goals, settings.rho2_factor / n_goals
+    alpha = min(max((p_goal - rho1) / (rho2 - rho1), 0.0), 1.0) * settings.rho3
+    if settings.distance_weighting and alpha > 0.0:
         alpha *= float(distance_weight(distance_to_goal))
     return alpha
 
 
-def autonomy_velocity(pose: np.ndarray, target_pose: np.ndarray, speed: float = AUTONOMY_SPEED,
+Pose = np.ndarray | tuple[float, float, float]
+
+
+def autonomy_velocity(pose: Pose, target_pose: Pose, speed: float = AUTONOMY_SPEED,
                       turn_rate: float = AUTONOMY_TURN_RATE, dt: float = 0.01) -> np.ndarray:
     """``u_a``: straight towards the target position at constant speed, bang-bang rotation.
 

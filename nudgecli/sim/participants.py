@@ -153,6 +153,8 @@ class Participant:
         Samples a blow takes to reach its level (see :func:`ramp_fractions`).
     mapping_error
         The error rate their ``mapping`` was built with (spread evenly over the wrong labels).
+    handover_idle_s
+        Idle time after the first input of a turn with which they hand the turn over, seconds.
     """
 
     index: int
@@ -169,6 +171,7 @@ class Participant:
     reaction_log_sd: float = 0.0
     onset_ramp_samples: int = 0
     mapping_error: float = 0.0
+    handover_idle_s: float = 1.5
     _mapping_cdf: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -402,6 +405,7 @@ def draw_participant(population: PopulationSection, index: int, rng: np.random.G
         reaction_log_sd=population.reaction_log_sd,
         onset_ramp_samples=ramp,
         mapping_error=error_rate,
+        handover_idle_s=_uniform(rng, population.handover_idle_s),  # last: earlier draws keep their values
     )
 
 

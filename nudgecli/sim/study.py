@@ -96,7 +96,9 @@ def participant_schedule(config: ExperimentConfig, seed: int, participant: int,
 
     Each condition's trials are shuffled into ``blocks_per_condition`` blocks; the blocks of the
     conditions alternate, and the condition that starts rotates with the participant's index so
-    that the starting condition is balanced across participants.
+    that the starting condition is balanced across participants. Each trial's true goal is one
+    of its layout's goals, uniformly, drawn from the trial's own seed branch
+    (``participant/i/trial/t/true_goal``), so nothing can favour a goal by its index.
     """
     study = config.study
     rng = generator(seed, "participant", participant, "schedule")
@@ -116,8 +118,12 @@ def participant_schedule(config: ExperimentConfig, seed: int, participant: int,
     for b in range(n_blocks):
         for condition in conditions:
             for item in blocks_by_condition[condition][b]:
+                trial = len(specs)
+                true_goal = int(generator(seed, "participant", participant, "trial", trial, "true_goal")
+                                .integers(item.n_goals))
                 specs.append(TrialSpec(participant=participant, condition=condition, block=block_number,
-                                       trial=len(specs), layout_index=item.index, layout=item.layout))
+                                       trial=trial, layout_index=item.index, layout=item.layout,
+                                       true_goal=true_goal))
             block_number += 1
     return specs
 

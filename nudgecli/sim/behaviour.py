@@ -1,0 +1,406 @@
+"""The person's side of Algorithm 1 (lines 2-4) as a named state machine.
+
+A human turn is, for the person, three phases:
+
+- ``RESTING``: before the first command of the turn ("they may wait any amount of time before
+  issuing a first command", paper Section 5.1). The rest is drawn per turn around the
+  participant's habit.
+- ``OPERATING``: issuing commands. The person picks a task action ``a`` (epsilon-greedy on
+  their own goal's optimal policy), chooses ``phi_i ~ p(phi_i | a)`` once for it from their own
+  internal mapping, and holds it: a hard blow for their blow duration, a soft blow until the
+  next decision. Between two different blows they release for a short pause.
+- ``IDLE``: done with this turn (after operating for about their operating time): no input,
+  so the protocol hands the turn over once their handover idle time has passed.
+
+When a person decides is the behaviour setting ``decisions``:
+
+- ``events``: at what a person can see: the robot reached the next cell centre (or the next
+  multiple of 45 degrees) along the commanded axis, it moved the other way than the person
+  meant, the mode changed, a hard blow ended, a correction inside the goal's cell is done, or
+  the command has been held ``max_hold_s``;
+- ``grid``: whenever the robot enters another discrete state (the model's hidden grid).
+
+Two habits of people working with blending (paper Sections 6 and 7):
+
+- ``lean_on_blending``: when the policy says "switch mode" while the person holds a soft
+  command and the last step (moved by blending, i.e. also along an axis they do not command)
+  reduced the remaining error to their goal, they keep their command instead;
+- ``release_when_dragged``: when the last step, moved by blending, took the robot away from their
+  goal, they let go (the robot stops: blending only acts on a non-zero command) and decide
+  again with a new blow, whose first sample is new evidence for the agent;
+- ``after_autonomy``: ``replan`` acts from the state and mode the autonomy left; ``resume``
+  first repeats the task action they were doing before the autonomy's turn.
+
+:class:`SimulatedPerson` is one source of the protocol's input stream (intended label and
+pressure per 10 Hz step); a live person at a keyboard is another. Both feed the same protocol.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+from typing import Literal, Protocol
+
+import numpy as np
+
+from nudgecli.config import ExperimentConfig
+from nudgecli.model import interface
+from nudgecli.model.interface import HARD_PUFF, HARD_SIP, NO_INPUT, SOFT_PUFF, SOFT_SIP
+from nudgecli.model.world import (
+    CELL_HEIGHT,
+    CELL_WIDTH,
+    HEADING_STEP,
+    N_MODES,
+    X_MIN,
+    Y_MIN,
+    angle_difference,
+)
+from nudgecli.sim.participants import Participant
+
+#: Below this a change of position or angle is rounding, not motion.
+_MOTION_EPS = 1e-9
+
+
+class Phase(Enum):
+    """Where the person is in their turn."""
+
+    RESTING = "resting"
+    OPERATING = "operating"
+    IDLE = "idle"
+
+
+class RobotView(Protocol):
+    """What the person sees at the start of a step (the protocol's trial session provides it)."""
+
+    @property
+    def x(self) -> float: ...
+    @property
+    def y(self) -> float: ...
+    @property
+    def theta(self) -> float: ...
+    @property
+    def mode(self) -> int: ...
+    @property
+    def state(self) -> int: ...
+
+
+class InputSource(Protocol):
+    """A source of the human's input stream: a simulated person, or a live one."""
+
+    def start_turn(self, after_autonomy: bool) -> None:
+        """A human turn begins (``after_autonomy``: it follows an autonomy turn)."""
+
+    def next_input(self, view: RobotView) -> tuple[int, float]:
+        """``(intended label or NO_INPUT, signed pressure)`` for this 10 Hz step."""
+
+
+@dataclass(frozen=True)
+class BehaviourSettings:
+    """The ``[behaviour]`` keys in steps and plain numbers (read once per run)."""
+
+    dt: float
+    decisions: Literal["events", "grid"] = "events"
+    lean_on_blending: bool = True
+    release_when_dragged: bool = True
+    after_autonomy: Literal["replan", "resume"] = "replan"
+    max_hold_steps: int = 30
+    fine_position_tolerance: float = 0.5
+    fine_heading_tolerance: float = 0.15
+    rest_jitter: float = 0.5
+    operate_jitter: float = 0.3
+    pause_jitter: float = 0.5
+    hard_blow_jitter: float = 0.2
+
+    @classmethod
+    def from_config(cls, config: ExperimentConfig) -> BehaviourSettings:
+        b = config.behaviour
+        dt = 1.0 / config.study.rate_hz
+        return cls(dt=dt, decisions=b.decisions, lean_on_blending=b.lean_on_blending,
+                   release_when_dragged=b.release_when_dragged,
+                   after_autonomy=b.after_autonomy, max_hold_steps=max(1, round(b.max_hold_s / dt)),
+                   fine_position_tolerance=b.fine_position_tolerance,
+                   fine_heading_tolerance=b.fine_heading_tolerance, rest_jitter=b.rest_jitter,
+                   operate_jitter=b.operate_jitter, pause_jitter=b.pause_jitter,
+                   hard_blow_jitter=b.hard_blow_jitter)
+
+
+def move_action(mode: int, error: float) -> int:
+    """The move that reduces a signed error along the active axis.
+
+    ``move_p`` is +x / +y, and clockwise (a negative angle) in the theta mode.
+    """
+    if mode == 2:
+        return interface.MOVE_N if error > 0 else interface.MOVE_P
+    return interface.MOVE_P if error > 0 else interface.MOVE_N
+
+
+def next_centre(coordinate: float, direction: float, axis: int) -> float:
+    """The next visible mark along ``axis`` strictly beyond ``coordinate`` in ``direction``.
+
+    Marks are the cell centres along x (``X_MIN + w (k + 1/2)``) and y, and the multiples of
+    45 degrees for the heading (where goal headings lie). ``direction`` is the sign of the motion.
+    """
+    if axis == 2:
+        origin, width = 0.0, HEADING_STEP
+    else:
+        origin, width = ((X_MIN, CELL_WIDTH), (Y_MIN, CELL_HEIGHT))[axis]
+        origin += width / 2.0
+    u = (coordinate - origin) / width
+    k = math.floor(u + 1e-9) + 1 if direction > 0 else math.ceil(u - 1e-9) - 1
+    return origin + k * width
+
+
+def mark_reached(coordinate: float, target: float, direction: float, axis: int) -> bool:
+    """Whether ``coordinate`` has reached ``target`` moving in ``direction`` (angles unwrapped locally)."""
+    if axis == 2:
+        ahead = float(angle_difference(target, coordinate))
+        return ahead * direction <= 1e-9
+    return (target - coordinate) * direction <= 1e-9
+
+
+class SimulatedPerson:
+    """A simulated participant producing the input stream of their human turns.
+
+    Parameters
+    ----------
+    participant
+        Their physiology (pressures, internal mapping) and habits.
+    settings
+        How they decide (:class:`BehaviourSettings`).
+    policy
+        ``(S,)`` optimal task action per discrete state for *their* goal.
+    goal_pose
+        ``(3,)`` their goal's pose (they know it).
+    goal_cell
+        Flat index of their goal's discrete cell and heading (``state // N_MODES``).
+    rng
+        Their random stream.
+    """
+
+    def __init__(self, participant: Participant, settings: BehaviourSettings, policy: np.ndarray,
+                 goal_pose: np.ndarray, goal_cell: int, rng: np.random.Generator) -> None:
+        self.participant = participant
+        self.settings = settings
+        self.policy = policy
+        self.goal = (float(goal_pose[0]), float(goal_pose[1]), float(goal_pose[2]))
+        self.goal_cell = int(goal_cell)
+        self.rng = rng
+        self.phase = Phase.RESTING
+        self.rest_left = 0
+        self.operate_left = 0
+        self.pause_left = 0
+        self.held_label = NO_INPUT
+        self.held_action = -1
+        self.hold_left = 0
+        self.hold_fine = False
+        self.hold_mode = -1
+        self.hold_state = -1
+        self.hold_axis = -1
+        self.hold_target = 0.0
+        self.hold_direction = 0.0
+        self.blow = np.zeros(0)
+        self.blow_pos = 0
+        self.blow_held = 0
+        self.last_action = -1
+        self.resume_action = -1
+        self.previous_pose: tuple[float, float, float] | None = None
+        self.release = False  # the next action starts a new blow, whatever it is
+
+    # --- the turn ---------------------------------------------------------------------------
+
+    def start_turn(self, after_autonomy: bool) -> None:
+        """Rest first (drawn for this turn), then operate; resume the previous action if so inclined."""
+        s, p = self.settings, self.participant
+        self.phase = Phase.RESTING
+        self.rest_left = round(p.rest_s * self._jitter(s.rest_jitter) / s.dt)
+        self.operate_left = max(1, round(p.operate_s * self._jitter(s.operate_jitter) / s.dt))
+        self.pause_left = 0
+        self._release()
+        self.resume_action = self.last_action if after_autonomy and s.after_autonomy == "resume" else -1
+        self.previous_pose = None
+
+    def next_input(self, view: RobotView) -> tuple[int, float]:
+        """The intended label and the pressure of this step (``NO_INPUT, 0.0`` for none)."""
+        pose = (view.x, view.y, view.theta)
+        intended = self._intend(view)
+        self.previous_pose = pose
+        if intended == NO_INPUT:
+            self.blow_held = 0
+            return NO_INPUT, 0.0
+        pressure = float(self.blow[self.blow_pos])
+        self.blow_pos += 1
+        self.blow_held += 1
+        return intended, pressure
+
+    def _intend(self, view: RobotView) -> int:
+        if self.phase is Phase.RESTING:
+            if self.rest_left > 0:
+                self.rest_left -= 1
+                return NO_INPUT
+            self.phase = Phase.OPERATING
+        if self.phase is Phase.IDLE:
+            return NO_INPUT
+        # OPERATING: the operating time counts from the first step of operating
+        self.operate_left -= 1
+        if self.pause_left > 0:  # releasing between two blows
+            self.pause_left -= 1
+            return NO_INPUT
+        if self.held_label != NO_INPUT and self.hold_left > 0 and not self._decision_due(view):
+            return self._continue()
+        if self.operate_left < 0:
+            self.phase = Phase.IDLE
+            self._release()
+            return NO_INPUT
+        return self._decide(view)
+
+    def _continue(self) -> int:
+        self.hold_left -= 1
+        return self.held_label
+
+    # --- decisions --------------------------------------------------------------------------
+
+    def _decision_due(self, view: RobotView) -> bool:
+        """Whether the current hold ends at this step (the person decides again)."""
+        label = self.held_label
+        if label in (HARD_PUFF, HARD_SIP):
+            return False  # a mode-switch blow lasts its planned duration
+        if view.mode != self.hold_mode:
+            return True  # the mode changed (an unintended switch): a person notices
+        if self.hold_fine:
+            return not self._in_goal_cell(view) or self._fine_action(view) != self.held_action
+        if self.settings.decisions == "grid":
+            return view.state != self.hold_state
+        if self._moving_against_intent(view):
+            return True  # the robot goes the other way than they meant: a person sees it
+        if self.settings.release_when_dragged and self._blending_effect(view) < 0:
+            self.release = True  # blending drags the robot away from their goal: let go
+            return True
+        coordinate = (view.x, view.y, view.theta)[self.hold_axis]
+        return mark_reached(coordinate, self.hold_target, self.hold_direction, self.hold_axis)
+
+    def _moving_against_intent(self, view: RobotView) -> bool:
+        """The last step moved the robot along the commanded axis opposite to the direction of
+        the move they meant (e.g. a Soft Puff produced for ``move_n`` by their internal mapping)."""
+        if self.previous_pose is None or self.held_action not in (interface.MOVE_P, interface.MOVE_N):
+            return False
+        axis = self.hold_axis
+        before, now = self.previous_pose[axis], (view.x, view.y, view.theta)[axis]
+        moved = float(angle_difference(now, before)) if axis == 2 else now - before
+        meant = 1.0 if self.held_action == interface.MOVE_P else -1.0
+        if axis == 2:
+            meant = -meant  # move_p turns clockwise
+        return moved * meant < -_MOTION_EPS
+
+    def _decide(self, view: RobotView) -> int:
+        """Pick the next action and its label, and start holding it."""
+        s, p, rng = self.settings, self.participant, self.rng
+        keep = False
+        if self.resume_action >= 0:
+            action, fine = self.resume_action, False
+            self.resume_action = -1
+        else:
+            action, fine = self._policy_action(view)
+            keep = (s.lean_on_blending and action in (interface.TO_MODE_R, interface.TO_MODE_L)
+                    and self.held_label in (SOFT_PUFF, SOFT_SIP) and view.mode == self.hold_mode
+                    and self._blending_effect(view) > 0)
+        if keep:
+            label, action, fine = self.held_label, self.held_action, self.hold_fine
+        else:
+            label = p.intended_label(action, view.mode, rng)
+        continuing = (label == self.held_label and label in (SOFT_PUFF, SOFT_SIP)
+                      and view.mode == self.hold_mode and not self.release)
+        self.release = False
+        previous = self.held_label
+        self._start_hold(view, label, action, fine, continuing)
+        if not continuing and previous != NO_INPUT:
+            # a new blow after another one: release first, for at least this one sample (so the
+            # driver sees the end of a hard blow and accepts the next switch)
+            self.pause_left = max(1, round(p.action_pause_s * self._jitter(s.pause_jitter) / s.dt)) - 1
+            return NO_INPUT
+        return self._continue()
+
+    def _start_hold(self, view: RobotView, label: int, action: int, fine: bool, continuing: bool) -> None:
+        s, p = self.settings, self.participant
+        self.held_label, self.held_action, self.hold_fine = label, action, fine
+        self.hold_mode, self.hold_state = view.mode, view.state
+        self.last_action = action
+        if label in (HARD_PUFF, HARD_SIP):
+            self.hold_left = max(1, round(p.hard_blow_s * self._jitter(s.hard_blow_jitter) / s.dt))
+        else:
+            self.hold_left = s.max_hold_steps
+            velocity = interface.human_velocity(label, view.mode)
+            self.hold_axis = int(view.mode)
+            self.hold_direction = float(np.sign(velocity[self.hold_axis]))
+            coordinate = (view.x, view.y, view.theta)[self.hold_axis]
+            self.hold_target = next_centre(coordinate, self.hold_direction, self.hold_axis)
+        start = self.blow_held if continuing else 0
+        self.blow_held = start
+        self.blow = p.pressures(label, self.hold_left, self.rng, start=start)
+        self.blow_pos = 0
+
+    def _release(self) -> None:
+        self.held_label = NO_INPUT
+        self.held_action = -1
+        self.hold_left = 0
+        self.hold_fine = False
+        self.hold_mode = -1
+
+    def _policy_action(self, view: RobotView) -> tuple[int, bool]:
+        """Epsilon-greedy on their goal's policy, or fine positioning inside the goal's cell
+        (the MDP cannot see inside a cell)."""
+        if self.rng.random() < self.participant.epsilon:
+            return int(self.rng.integers(4)), False
+        if self._in_goal_cell(view):
+            fine = self._fine_action(view)
+            if fine is None:  # within tolerance: a short input towards the goal on the active axis
+                fine = move_action(view.mode, self._errors(view)[view.mode])
+            return fine, True
+        return int(self.policy[view.state]), False
+
+    def _in_goal_cell(self, view: RobotView) -> bool:
+        return view.state // N_MODES == self.goal_cell
+
+    def _errors(self, view: RobotView) -> tuple[float, float, float]:
+        """What is left to the goal along x, y and the heading (signed, shortest turn)."""
+        gx, gy, gth = self.goal
+        return gx - view.x, gy - view.y, float(angle_difference(gth, view.theta))
+
+    def _fine_action(self, view: RobotView) -> int | None:
+        """Inside the goal cell: the action that reduces a remaining error, or ``None`` if none is left."""
+        s = self.settings
+        errors = self._errors(view)
+        needs = (abs(errors[0]) > s.fine_position_tolerance, abs(errors[1]) > s.fine_position_tolerance,
+                 abs(errors[2]) > s.fine_heading_tolerance)
+        if not any(needs):
+            return None
+        if needs[view.mode]:
+            return move_action(view.mode, errors[view.mode])
+        target = next(d for d in range(3) if needs[d])
+        return interface.TO_MODE_R if (target - view.mode) % 3 == 1 else interface.TO_MODE_L
+
+    def _blending_effect(self, view: RobotView) -> int:
+        """What blending did in the last step, as the person sees it: ``+1`` it moved the robot
+        towards their goal, ``-1`` away from it, ``0`` no blending seen.
+
+        Blending is seen when the robot moved along an axis the person does not command; towards
+        or away is judged on the remaining position error, then (when that did not change) on
+        the heading error.
+        """
+        if self.previous_pose is None or self.hold_mode < 0:
+            return 0
+        before, now = self.previous_pose, (view.x, view.y, view.theta)
+        moved = (abs(now[0] - before[0]), abs(now[1] - before[1]),
+                 abs(float(angle_difference(now[2], before[2]))))
+        if not any(moved[axis] > _MOTION_EPS for axis in range(3) if axis != self.hold_mode):
+            return 0
+        gx, gy, gth = self.goal
+        change = math.hypot(gx - now[0], gy - now[1]) - math.hypot(gx - before[0], gy - before[1])
+        if abs(change) <= _MOTION_EPS:
+            change = abs(float(angle_difference(gth, now[2]))) - abs(float(angle_difference(gth, before[2])))
+        if abs(change) <= _MOTION_EPS:
+            return 0
+        return 1 if change < 0 else -1
+
+    def _jitter(self, jitter: float) -> float:
+        return float(self.rng.uniform(1.0 - jitter, 1.0 + jitter))
