@@ -238,3 +238,21 @@ def test_study_code_trials_run_every_gate_of_the_study_software(tmp_path) -> Non
                         assert after < before
                         checked["forgetting"] += 1
     assert all(v > 0 for v in checked.values()), checked
+
+
+def test_one_informative_observation_from_uniform_passes_rho2() -> None:
+    """Why strength of assistance is 0.8 almost always (README, 'What the simulation shows'):
+    from a uniform belief, one observation leaves p(g') either at 1/|G| (the goals agree on it)
+    or beyond rho2 = 1.2/|G|, never on the ramp (rho1, rho2], in every layout of the paper's
+    design, every state and every label (default tables, Eq. 7 by hand)."""
+    config = load_experiment("paper")
+    for item in build_layouts(config, 2022)[::6]:
+        n = item.n_goals
+        solved = solve_layout(item.layout.goal_cells, item.layout.goal_headings)
+        model = DisambiguationModel(item.layout.goal_cells, solved.p_a_given_sg, default_mapping_table(),
+                                    default_distortion_table())
+        posterior = model.likelihood / model.likelihood.sum(axis=0, keepdims=True)  # (G, S, F), uniform prior
+        leader = posterior.max(axis=0)
+        on_ramp = (leader > 1.1 / n + 1e-12) & (leader <= 1.2 / n)
+        assert not on_ramp.any()
+        assert (leader > 1.2 / n).any() and np.isclose(leader, 1 / n).any()
