@@ -110,17 +110,22 @@ def bench_command(output_format: str, only: str, repeats: int, baseline_repeats:
 @click.argument("calibration_dir", type=click.Path(file_okay=False))
 @click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
               help="Profile JSON to write [default: ./<folder name>.profile.json].")
-def fit_command(calibration_dir: str, out: str | None) -> None:
+@click.option("--variant", type=click.Choice(["auto", "pilot", "ciaa"]), default="auto", show_default=True,
+              help="Log format of the p(phi_m | phi_i) stream: pilot (fixed 10 Hz, neutral label 'None'), "
+                   "ciaa (the sibling study's event-driven stream, neutral label 'Zero Band'), or auto "
+                   "(detect from the neutral label, else from the message timing).")
+def fit_command(calibration_dir: str, out: str | None, variant: str) -> None:
     """Fit p(phi_i | a) and p(phi_m | phi_i) from one participant's calibration logs.
 
-    CALIBRATION_DIR holds p_phi_given_a/ and/or p_phm_given_phi/ (the study's export) or the
-    tidy files of a simulated session. A missing session falls back to the default table.
+    CALIBRATION_DIR holds p_phi_given_a/ and/or p_phm_given_phi/ (the study's export; the sibling
+    study's <id>_p_ui_given_a/ and <id>_p_um_given_ui/ too) or the tidy files of a simulated
+    session. A missing session falls back to the default table.
     """
 
     from nudgecli.sim.calibration import fit_calibration_dir, write_profile
 
     folder = Path(calibration_dir)
-    result = fit_calibration_dir(folder)
+    result = fit_calibration_dir(folder, variant)
     for warning in result.warnings:
         info(f"Warning: {warning}")
     click.echo(result.summary)

@@ -44,12 +44,16 @@ from nudgecli.model.interface import (
 from nudgecli.model.world import MODE_NAMES, N_MODES
 from nudgecli.sim.calibration_io import (
     ACTION_IMAGES,
+    AUTO_VARIANT,
     BLOCK_BREAK_COMMAND,
+    VARIANT_STREAMS,
     DistortionSession,
     MappingSession,
     distortion_windows,
     nearest_indices,
     read_sessions,
+    requeue_consistent,
+    silent_prompts,
 )
 from nudgecli.sim.participants import LABEL_SIGN, Participant, blow_pressures, participant_from_log
 from nudgecli.store import write_json_atomic
@@ -221,6 +225,16 @@ def estimate_distortion(session: DistortionSession, fallback: np.ndarray | None 
     prompt. The fractions are averaged over the prompts of each intended label that had at least
     one counted sample and renormalised; the puff deadband is added to Hard Puff and the sip
     deadband to Hard Sip; ``0.01`` is added to each of the four and the row renormalised.
+
+    The "samples" are the stream's messages, whatever the stream's variant. In the pilots' fixed
+    10 Hz stream a message is a time sample, so a fraction is a share of the prompt's time. In the
+    sibling study's event-driven stream (``session.event_driven``) a message is sent only while the
+    pressure changes, so a fraction is a share of the *changes*: a steady (e.g. saturated hard)
+    pressure adds nothing, and the ramps of a hard blow through the soft band and the deadband
+    weigh as much as its plateau; the study's own estimator counted them the same way, so its
+    tables carry this weighting and are not comparable with fixed-rate ones label for label.
+    A prompt that got no message (re-queued by the protocol, :func:`~nudgecli.sim.calibration_io.
+    silent_prompts`) has an empty or uncounted window and is not used; its repeat is.
 
     Parameters
     ----------
@@ -458,6 +472,10 @@ def _mapping_provenance(session: MappingSession, estimate: MappingEstimate) -> d
 def _distortion_provenance(session: DistortionSession, estimate: DistortionEstimate) -> dict[str, Any]:
     return {
         "files": dict(session.files),
+        "variant": session.variant,
+        "stream": VARIANT_STREAMS[session.variant],
+        "prompts_without_input": int(silent_prompts(session).sum()),
+        "requeue_consistent": requeue_consistent(session),
         "prompts": {label: int(n) for label, n in zip(LABELS, estimate.prompts, strict=True)},
         "prompts_used": {label: int(n) for label, n in zip(LABELS, estimate.prompts_used, strict=True)},
         "counted_samples": {label: int(n) for label, n in zip(LABELS, estimate.counted_samples, strict=True)},
@@ -509,13 +527,22 @@ def needs_more_training(mapping: np.ndarray, distortion: np.ndarray) -> dict[str
     }
 
 
-def fit_calibration_dir(calibration_dir: str | Path) -> CalibrationProfile:
+def fit_calibration_dir(calibration_dir: str | Path, variant: str = AUTO_VARIANT) -> CalibrationProfile:
     """Fit the tables of one participant's calibration folder (study or tidy format).
 
     Reads whichever sessions the folder holds; a missing session falls back to the default table
-    with a warning. When a pressure stream exists, the participant's pressure physiology is
-    estimated too (:func:`nudgecli.sim.participants.participant_from_log`) and recorded in the
-    provenance.
+    with a warning. When a fixed-rate pressure stream exists, the participant's pressure physiology
+    is estimated too (:func:`nudgecli.sim.participants.participant_from_log`) and recorded in the
+    provenance; an event-driven stream's messages are not samples of the blow (steady pressure
+    sends none), so no physiology is estimated from it.
+
+    Parameters
+    ----------
+    calibration_dir
+        One participant's folder.
+    variant
+        The distortion log's variant: ``"auto"`` (detect), ``"pilot"`` or ``"ciaa"``
+        (:data:`nudgecli.sim.calibration_io.LOG_VARIANTS`).
 
     Raises
     ------
@@ -523,7 +550,7 @@ def fit_calibration_dir(calibration_dir: str | Path) -> CalibrationProfile:
         If the folder does not exist, holds no session, or a log is malformed.
     """
     folder = Path(calibration_dir)
-    mapping_session, distortion_session = read_sessions(folder)
+    mapping_session, distortion_session = read_sessions(folder, variant)
     warnings: list[str] = []
     provenance: dict[str, Any] = {"tool": "nudge fit", "folder": str(folder)}
     if mapping_session is not None:
@@ -547,7 +574,18 @@ def fit_calibration_dir(calibration_dir: str | Path) -> CalibrationProfile:
             missing = ", ".join(distortion_estimate.rows_without_data)
             warnings.append(f"p(phi_m | phi_i): no counted input for {missing}; "
                             "those rows use the default table")
-        provenance["pressure_physiology"] = _physiology(distortion_session, warnings)
+        if not requeue_consistent(distortion_session):
+            silent = int(silent_prompts(distortion_session).sum())
+            warnings.append(f"p(phi_m | phi_i): {silent} prompt(s) got no input but the prompt log does "
+                            "not end with their repeats (the protocol shows such a prompt again at the end); "
+                            "the session may have been cut short")
+        if distortion_session.event_driven:
+            provenance["pressure_physiology"] = None
+            provenance["pressure_physiology_note"] = (
+                "not estimated: the event-driven stream sends messages only while the pressure changes, "
+                "so its pressures are not samples of the blow")
+        else:
+            provenance["pressure_physiology"] = _physiology(distortion_session, warnings)
     else:
         distortion = default_distortion_table()
         provenance["p_phm_given_phi"] = {"source": "default (no p_phm_given_phi session)"}
@@ -604,8 +642,10 @@ def profile_summary(participant: str, mapping: np.ndarray, distortion: np.ndarra
     if distortion_info.get("source") == "fitted":
         used = sum(distortion_info["prompts_used"].values())
         total = sum(distortion_info["prompts"].values())
+        unit = "messages" if distortion_info.get("variant") == "ciaa" else "samples"
         lines.append(f"p(phi_m | phi_i): fitted from {total} prompts ({used} with input, "
-                     f"{sum(distortion_info['counted_samples'].values())} counted samples)")
+                     f"{sum(distortion_info['counted_samples'].values())} counted {unit}; "
+                     f"{distortion_info.get('stream', 'fixed-rate stream')})")
     else:
         lines.append("p(phi_m | phi_i): default table (no session)")
     lines.append("  diagonal: " + ", ".join(f"{LABELS[i]} {distortion[i, i]:.3f}" for i in range(N_LABELS)))
