@@ -660,15 +660,18 @@ def silent_prompts(session: DistortionSession) -> np.ndarray:
 
 
 def requeue_consistent(session: DistortionSession) -> bool:
-    """Whether the prompt log follows the re-queue rule: it ends with one repeat of each silent prompt.
+    """Whether the prompt log follows the re-queue rule of the prompt-and-produce protocol.
 
-    The protocol appends each prompt without input (:func:`silent_prompts`) to the end of the
-    session, in the order they occurred (a repeat that again gets no input is appended again), so
-    the last ``k`` prompts of a complete session, ``k`` the number of silent prompts, have the
-    labels of the silent prompts in order. ``False`` means the session was cut short or the log is
-    not a prompt-and-produce session.
+    The protocol shows each label equally often (rounds of the four labels), then appends each
+    prompt without input (:func:`silent_prompts`) to the end of the session, in the order they
+    occurred (a repeat that again gets no input is appended again). So with ``k`` silent prompts,
+    the first ``n - k`` prompts hold each label equally often and the last ``k`` have the labels of
+    the silent prompts, in order. ``False`` means the session was cut short, or the log is not a
+    complete prompt-and-produce session.
     """
     silent = silent_prompts(session)
     labels = session.prompt_labels
     k = int(silent.sum())
-    return bool(np.array_equal(labels[len(labels) - k:], labels[silent])) if k else True
+    planned = np.bincount(labels[:len(labels) - k], minlength=len(LABELS))
+    balanced = bool(np.all(planned == planned[0]))
+    return balanced and bool(np.array_equal(labels[len(labels) - k:], labels[silent]))
