@@ -294,6 +294,74 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
     click.echo(str(run.path))
 
 
+# --- compare -------------------------------------------------------------------------------
+
+
+def _parse_matches(matches: tuple[str, ...]) -> dict[str, str]:
+    """``("none=no assistance", ...)`` -> ``{"none": "no assistance"}``."""
+    from nudgecli.errors import ConfigError
+
+    mapping: dict[str, str] = {}
+    for text in matches:
+        simulated, sep, real = text.partition("=")
+        if not sep or not simulated.strip() or not real.strip():
+            raise ConfigError(f"--match {text!r}: expected SIMULATED=REAL, e.g. --match none='no assistance'")
+        mapping[simulated.strip()] = real.strip()
+    return mapping
+
+
+@main.command("compare", short_help="Simulated people beside real people, metric by metric.")
+@click.argument("simulated", type=click.Path(path_type=str))
+@click.argument("real", type=click.Path(path_type=str))
+@click.option("--plan", metavar="PLAN", default="paper", show_default=True,
+              help="Analysis plan: the metric definitions of a run folder and the filters of both sources.")
+@click.option("--metric", "metric_names", multiple=True, metavar="NAME",
+              help="Compare only this metric (repeatable) [default: every metric both hold].")
+@click.option("--match", "matches", multiple=True, metavar="SIMULATED=REAL",
+              help="Pair a simulated condition with the real table's name for it (repeatable) "
+                   "[default: conditions with the same name].")
+@click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
+              show_default=True, help="What to print on stdout.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=str), default=None,
+              help="Folder for compare.csv, participant_medians.csv, compare.json and the figure.")
+@click.option("--formats", default="png,pdf", show_default=True,
+              help="Figure formats with --out: png, pdf, svg.")
+@click.option("--resamples", type=click.IntRange(min=0), default=2000, show_default=True,
+              help="Cluster-bootstrap resamples of the distances (0: no intervals).")
+@click.option("--level", type=click.FloatRange(0.5, 1.0, min_open=True, max_open=True), default=0.95,
+              show_default=True, help="Level of the bootstrap intervals.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Bootstrap seed.")
+def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[str, ...],
+                    matches: tuple[str, ...], output_format: str, out: str | None, formats: str,
+                    resamples: int, level: float, seed: int) -> None:
+    """Compare SIMULATED (a run folder or metrics table) with REAL (a metrics table of real trials).
+
+    For each metric and condition both hold: per-participant medians side by side, the real
+    people's range, pooled medians and quartiles, Kolmogorov-Smirnov and Wasserstein distances
+    with cluster-bootstrap intervals.
+    """
+    from nudgecli.report.compare import CompareOptions, compare_sources, format_comparison, write_comparison
+    from nudgecli.report.plotting import parse_formats
+
+    chosen_formats = parse_formats(formats)
+    result = compare_sources(simulated, real, plan=plan, metrics=list(metric_names) or None,
+                             condition_map=_parse_matches(matches),
+                             options=CompareOptions(resamples=resamples, level=level, seed=seed))
+    if output_format == "json":
+        echo_json(result.to_json())
+    elif output_format == "csv":
+        click.echo(result.table.to_csv(index=False), nl=False)
+    else:
+        click.echo(format_comparison(result))
+    if out is not None:
+        from nudgecli.report.compare_figure import plot_comparison
+
+        written = write_comparison(result, out)
+        written += plot_comparison(result.trials, result.table, result.medians, out, chosen_formats)
+        for path in written:
+            info(str(path))
+
+
 # --- validate ------------------------------------------------------------------------------
 
 
