@@ -86,7 +86,8 @@ def test_a_constant_shift_is_the_wasserstein_distance_and_ks_matches_scipy() -> 
 
 def test_separated_samples_have_ks_one_in_every_resample() -> None:
     simulated, real = synthetic(seed=2), synthetic(seed=3, shift=100.0, prefix="r")
-    row = compare_tables(simulated, real, ["completion_time"], ["none"], CompareOptions(resamples=300)).iloc[0]
+    options = CompareOptions(resamples=300)
+    row = compare_tables(simulated, real, ["completion_time"], ["none"], options).iloc[0]
     assert row["ks_statistic"] == row["ks_low"] == row["ks_high"] == 1.0
     assert 90 < row["wasserstein_low"] <= row["wasserstein"] * 1.1 and row["wasserstein_high"] < 110
 
@@ -125,9 +126,9 @@ def test_participant_medians_and_the_real_range_by_hand() -> None:
 def test_conditions_are_matched_by_name_or_by_map() -> None:
     simulated = pd.concat([synthetic(condition="none"), synthetic(condition="blend", seed=5)])
     real = synthetic(condition="no assistance", prefix="r")
-    with pytest.raises(DataError, match="no condition in common.*--match none=no assistance"):
+    with pytest.raises(DataError, match=r"no condition in common.*--match none=no assistance"):
         align_conditions(simulated, real)
-    sim, rl, shared = align_conditions(simulated, real, {"none": "no assistance"})
+    sim, _, shared = align_conditions(simulated, real, {"none": "no assistance"})
     assert shared == ["no assistance"] and len(sim) == 48 and set(sim["condition"]) == {"no assistance"}
     with pytest.raises(DataError, match="has no condition 'nnone' \\(did you mean 'none'\\?\\)"):
         align_conditions(simulated, real, {"nnone": "no assistance"})

@@ -171,7 +171,8 @@ def test_variant_detection_and_its_errors(tmp_path: Path) -> None:
 
 def test_an_unknown_label_in_a_ciaa_stream_lists_the_ciaa_labels(tmp_path: Path) -> None:
     stream = [*STREAM[:3], (1.01, "Medium Puff", -0.4), *STREAM[3:]]
-    with pytest.raises(DataError, match=r"line 5: unknown label 'Medium Puff'; stream labels are .*Zero Band") as err:
+    expected = r"line 5: unknown label 'Medium Puff'; stream labels are .*Zero Band"
+    with pytest.raises(DataError, match=expected) as err:
         read_distortion_session(write_ciaa_session(tmp_path / "u", stream=stream))
     assert "None" not in str(err.value).split("stream labels are")[1]
 
@@ -182,7 +183,8 @@ def test_cli_fit_variant_option(tmp_path: Path) -> None:
     result = runner.invoke(main, ["fit", str(folder), "--out", str(tmp_path / "p.json")])
     assert result.exit_code == 0, result.output
     assert "counted messages" in result.stdout and (tmp_path / "p.json").is_file()
-    result = runner.invoke(main, ["fit", str(folder), "--variant", "pilot", "--out", str(tmp_path / "q.json")])
+    result = runner.invoke(main, ["fit", str(folder), "--variant", "pilot",
+                                  "--out", str(tmp_path / "q.json")])
     assert result.exit_code == 1
     assert result.stderr.count("\n") == 1 and result.stderr.startswith("Error: ")
     assert "--variant ciaa" in result.stderr and not (tmp_path / "q.json").exists()
