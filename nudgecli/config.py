@@ -245,6 +245,13 @@ class CalibrationSection(Section):
     hard-puff refresher (``block_break_s``; 10-18 s in the logs). ``p(phi_m | phi_i)``:
     ``prompts_per_label`` rounds of the 4 labels in random order, each shown ``prompt_s`` then
     ``blank_s`` blank, with the stream labelled at ``rate_hz``.
+
+    ``stream`` is the device's label stream: ``fixed_rate`` (the pilots' logs: one labelled
+    sample per tick) or ``event_driven`` (the sibling study's logs: a message each time the
+    pressure, quantised in steps of ``event_step``, changes, none while it is steady, and
+    ``Zero Band`` + ``input stopped`` at the end of each blow; ``nudgecli.sim.calibration.
+    event_driven_stream``). The sibling study prompted 4 s with 1 s blank (``prompt_s = 4``,
+    ``blank_s = 1``).
     """
 
     mapping_blocks: int = Field(default=6, ge=1, description="Blocks of the 12 prompted actions.")
@@ -255,6 +262,10 @@ class CalibrationSection(Section):
     answer_clear_s: Annotated[float, Field(ge=0)] = 0.5
     block_break_s: Annotated[float, Field(ge=0)] = 10.0
     rate_hz: PositiveFloat = 10.0
+    stream: Literal["fixed_rate", "event_driven"] = "fixed_rate"
+    event_step: Annotated[float, Field(gt=0, le=0.1)] = Field(
+        default=0.0109, description="Pressure quantisation of the event-driven stream (the sibling study's "
+        "device stepped in about 0.0109).")
 
 
 class ExperimentConfig(Section):

@@ -46,6 +46,8 @@ from nudgecli.sim.calibration_io import (
     ACTION_IMAGES,
     AUTO_VARIANT,
     BLOCK_BREAK_COMMAND,
+    CIAA_VARIANT,
+    INPUT_STOPPED,
     VARIANT_STREAMS,
     DistortionSession,
     MappingSession,
@@ -332,6 +334,56 @@ def simulate_mapping_session(participant: Participant, calibration: CalibrationS
                           {"source": f"simulated {participant.seed_key}"})
 
 
+def event_driven_stream(times: np.ndarray, pressure: np.ndarray, interface: InterfaceSection,
+                        step: float = 0.0109) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The event-driven label stream a device sends for a pressure trace sampled at fixed ticks.
+
+    The device's pressure is quantised in ``step`` increments and it sends one message each time
+    the quantised value changes, none while it is steady. Between two ticks the pressure is taken
+    to move linearly, so it passes every quantisation level in between, one message each (at the
+    time of the crossing, labelled by its pressure); a saturated or constant stretch sends nothing.
+    When the pressure comes back to zero (a blow ends) the zero-level message is the neutral label
+    and an ``input stopped`` message follows it, 0.1 ms later, as the sibling study's driver did.
+
+    Parameters
+    ----------
+    times
+        ``(N,)`` tick times, increasing.
+    pressure
+        ``(N,)`` pressures at the ticks (sip positive).
+    interface
+        The label thresholds.
+    step
+        The quantisation step (the sibling study's device: about 0.0109, ``../shared/data/ciaa-task/
+        TASK.md`` section 5).
+
+    Returns
+    -------
+    tuple[np.ndarray, np.ndarray, np.ndarray]
+        ``(M,)`` message times, ``(M,)`` pressures and ``(M,)`` stream codes (labels, deadbands,
+        ``NO_INPUT`` for the zero level, ``INPUT_STOPPED``).
+    """
+    levels = np.round(np.asarray(pressure, dtype=float) / step).astype(np.int64)
+    times = np.asarray(times, dtype=float)
+    moves = np.diff(levels)
+    counts = np.abs(moves)
+    interval = np.repeat(np.arange(len(moves)), counts)
+    # position of each message within its interval: 1..count
+    offsets = np.arange(interval.size) - np.repeat(np.cumsum(counts) - counts, counts) + 1
+    direction = np.sign(moves)[interval]
+    message_level = levels[interval] + direction * offsets
+    fraction = offsets / counts[interval]
+    message_time = times[interval] + fraction * (times[interval + 1] - times[interval])
+    message_pressure = message_level * step
+    codes = label_pressure(message_pressure, interface.soft_threshold, interface.hard_threshold,
+                           interface.zero_threshold)
+    stops = np.flatnonzero(message_level == 0) + 1
+    message_time = np.insert(message_time, stops, message_time[stops - 1] + 1e-4)
+    message_pressure = np.insert(message_pressure, stops, 0.0)
+    codes = np.insert(codes, stops, INPUT_STOPPED)
+    return message_time, message_pressure, codes
+
+
 def _first_sample_at_or_after(t: np.ndarray, phase: float, rate: float) -> np.ndarray:
     """Index of the first stream sample (at ``phase + j / rate``) at or after each time ``t``."""
     return np.ceil(np.round((t - phase) * rate, 9)).astype(int)
@@ -351,6 +403,10 @@ def simulate_distortion_session(participant: Participant, calibration: Calibrati
 
     Draws, in order: the rounds' orders ``(R, 4)``, one normal per prompt (delays; again for
     repeated prompts), the stream phase, one normal per stream sample.
+
+    With ``calibration.stream = "event_driven"`` the ticks' pressures become the sibling study's
+    event-driven stream (:func:`event_driven_stream`, variant ``ciaa``); a prompt the participant
+    never blew in then gets no message at all, which is the study's re-queue test.
 
     Returns
     -------
@@ -396,8 +452,11 @@ def simulate_distortion_session(participant: Participant, calibration: Calibrati
                            interface.zero_threshold)
     prompt_times = np.column_stack([starts, blank_starts]).ravel()
     commands = tuple(c for label in labels for c in (LABELS[label], ""))
-    return DistortionSession(prompt_times, commands, times, codes, pressure,
-                             {"source": f"simulated {participant.seed_key}"})
+    source = {"source": f"simulated {participant.seed_key}"}
+    if calibration.stream == "event_driven":
+        times, pressure, codes = event_driven_stream(times, pressure, interface, calibration.event_step)
+        return DistortionSession(prompt_times, commands, times, codes, pressure, source, CIAA_VARIANT)
+    return DistortionSession(prompt_times, commands, times, codes, pressure, source)
 
 
 @dataclass(frozen=True)
