@@ -294,6 +294,48 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
     click.echo(str(run.path))
 
 
+# --- plot-population -----------------------------------------------------------------------
+
+
+@main.command("plot-population", short_help="Simulated participants' calibrations beside real people's.")
+@click.argument("experiment")
+@click.option("--participants", type=click.IntRange(min=1), default=100, show_default=True,
+              help="Simulated participants to calibrate.")
+@click.option("--seed", type=int, default=None, help="Master seed [default: the experiment's].")
+@click.option("--out", type=click.Path(file_okay=False, path_type=str), default=".", show_default=True,
+              help="Folder for population.csv and the figure population.<format>.")
+@click.option("--formats", default="png,pdf", show_default=True, help="Figure formats: png, pdf, svg.")
+@click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
+              show_default=True, help="What to print on stdout: the coverage table.")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
+def plot_population_command(experiment: str, participants: int, seed: int | None, out: str, formats: str,
+                            output_format: str, overrides: tuple[str, ...]) -> None:
+    """Calibrate EXPERIMENT's simulated participants and draw their fitted p(phi_m | phi_i) diagonals
+    beside the real people's (pilots: fixed 10 Hz stream; sibling study: event-driven stream)."""
+    from nudgecli.config import load_experiment
+    from nudgecli.report.plotting import parse_formats
+    from nudgecli.report.population_figure import plot_population
+    from nudgecli.sim.real_population import coverage_table, simulated_diagonals
+    from nudgecli.store import write_text_atomic
+
+    chosen = parse_formats(formats)
+    config = load_experiment(experiment, overrides)
+    master = config.experiment.seed if seed is None else seed
+    diagonals = simulated_diagonals(config, participants, master)
+    table = coverage_table(diagonals)
+    if output_format == "json":
+        echo_json(table.to_dict(orient="records"))
+    elif output_format == "csv":
+        click.echo(table.to_csv(index=False), nl=False)
+    else:
+        click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    folder = Path(out)
+    write_text_atomic(folder / "population.csv", diagonals.to_csv(index=False))
+    title = f"{config.experiment.name}: {participants} simulated participants (seed {master})"
+    for path in [folder / "population.csv", *plot_population(diagonals, folder, chosen, title)]:
+        info(str(path))
+
+
 # --- compare -------------------------------------------------------------------------------
 
 

@@ -158,13 +158,14 @@ def diagonal_image(population: PopulationSection, interface: InterfaceSection, s
 
 def soft_level_reaching(label: int, target: float, population: PopulationSection, interface: InterfaceSection,
                         stream: str = "event_driven", grid: float = 0.01, ceiling: float = 1.0) -> float:
-    """The smallest soft level (on a ``grid``) at which some member of the population reaches ``target``.
+    """The smallest soft level (on a ``grid``) at which a typical participant's diagonal reaches ``target``.
 
     For a soft label the diagonal falls as the level rises towards the soft threshold. This
     inverts :func:`expected_diagonal`: it returns the smallest level ``L`` (a multiple of ``grid``)
-    whose lowest diagonal over the population's soft spreads (both ends and the midpoint) and
-    onset ramps is at most ``target``, i.e. the upper end a level range needs for its image to
-    reach down to ``target``.
+    at which a participant with the middle of the population's soft spread range, and any of its
+    onset ramps, has a diagonal of at most ``target``. Used as the upper end of the level range,
+    it makes the lowest real diagonal a typical (not a corner) member of the population: with the
+    spread at its upper end the diagonal goes lower still.
 
     Raises
     ------
@@ -173,13 +174,11 @@ def soft_level_reaching(label: int, target: float, population: PopulationSection
     """
     if LABEL_IS_HARD[label]:
         raise ValueError(f"{LABELS[label]} is not a soft label")
-    spreads = (population.soft_spread[0], 0.5 * sum(population.soft_spread), population.soft_spread[1])
+    spread = 0.5 * sum(population.soft_spread)
     ramps = sorted(set(population.onset_ramp_samples))
     for step in range(1, round(ceiling / grid) + 1):
         level = round(step * grid, 10)
-        lowest = min(expected_diagonal(label, level, sd, interface, stream, rp)
-                     for sd in spreads for rp in ramps)
-        if lowest <= target:
+        if min(expected_diagonal(label, level, spread, interface, stream, rp) for rp in ramps) <= target:
             return level
     raise ValueError(f"no {LABELS[label]} level up to {ceiling} gives a diagonal of {target} or less")
 
@@ -213,3 +212,52 @@ def simulated_diagonals(config: ExperimentConfig, participants: int, seed: int) 
             rows += [{"participant": index, "stream": stream, "label": LABELS[k],
                       "diagonal": float(table[k, k])} for k in range(N_LABELS)]
     return pd.DataFrame(rows, columns=["participant", "stream", "label", "diagonal"])
+
+
+def real_diagonal_ranges() -> pd.DataFrame:
+    """The real people's diagonals per stream format and label, as ranges.
+
+    Returns
+    -------
+    pd.DataFrame
+        Columns ``stream``, ``label``, ``real_min``, ``real_max``, ``real_source``: the sibling
+        study's spans (event-driven) and the pilots' values (fixed-rate; min and max over the pilots).
+    """
+    rows = []
+    for label in LABELS:
+        low, high = SIBLING_DIAGONAL_SPANS[label]
+        rows.append({"stream": "event_driven", "label": label, "real_min": low, "real_max": high,
+                     "real_source": "9 sibling-study participants"})
+        values = [pilot[label] for pilot in PILOT_DIAGONALS.values()]
+        rows.append({"stream": "fixed_rate", "label": label, "real_min": min(values), "real_max": max(values),
+                     "real_source": f"{len(values)} pilots ({', '.join(PILOT_DIAGONALS)})"})
+    return pd.DataFrame(rows)
+
+
+def coverage_table(simulated: pd.DataFrame) -> pd.DataFrame:
+    """Simulated participants' fitted diagonals against the real people's, per stream and label.
+
+    Parameters
+    ----------
+    simulated
+        :func:`simulated_diagonals`'s result.
+
+    Returns
+    -------
+    pd.DataFrame
+        Columns ``stream``, ``label``, ``participants``, ``simulated_min``, ``simulated_median``,
+        ``simulated_max``, ``real_min``, ``real_max``, ``real_source``, ``covers_low`` and
+        ``covers_high`` (whether the simulated extremes reach the real ones) and ``real_inside``
+        (the share of simulated participants inside the real range).
+    """
+    grouped = simulated.groupby(["stream", "label"], sort=False)["diagonal"]
+    summary = grouped.agg(participants="size", simulated_min="min", simulated_median="median",
+                          simulated_max="max").reset_index()
+    inside = simulated.merge(real_diagonal_ranges(), on=["stream", "label"])
+    inside["inside"] = (inside["diagonal"] >= inside["real_min"]) & (inside["diagonal"] <= inside["real_max"])
+    share = inside.groupby(["stream", "label"], sort=False)["inside"].mean()
+    share = share.rename("real_inside").reset_index()
+    table = summary.merge(real_diagonal_ranges(), on=["stream", "label"]).merge(share, on=["stream", "label"])
+    table["covers_low"] = table["simulated_min"] <= table["real_min"]
+    table["covers_high"] = table["simulated_max"] >= table["real_max"]
+    return table
