@@ -241,8 +241,9 @@ class PopulationSection(Section):
     quantisation levels each way, (18 + 47) / 92 = 0.71, 0.69 after the smoothing), and about
     0.64 at the lowest (a level of 0.4 that rarely reaches hard). Lower real values need
     soft-band messages the model does not make: a hesitant, wavering onset or release, or drift
-    within a blow (the model draws each tick independently around one level and ramps linearly). So the hard ranges are left as the
-    pilots' logs give them, and the gap is reported rather than closed by an unphysical range.
+    within a blow (the model draws each tick independently around one level and ramps
+    linearly). So the hard ranges are left as the pilots' logs give them, and the gap is
+    reported rather than closed by an unphysical range.
     """
 
     soft_puff_level: tuple[float, float] = (0.05, 0.16)
