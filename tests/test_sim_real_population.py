@@ -157,3 +157,17 @@ def test_cli_plot_population(tmp_path: Path) -> None:
     result = runner.invoke(main, ["plot-population", "smoke", "--participants", "2", "--out", str(tmp_path),
                                   "--formats", "gif"])
     assert result.exit_code == 1 and result.stderr.startswith("Error: --formats 'gif'")
+
+
+def test_event_driven_tidy_logs_round_trip_as_the_ciaa_variant(tmp_path: Path) -> None:
+    from nudgecli.sim.calibration_io import read_distortion_session, write_sessions
+
+    calibration = CalibrationSection(prompt_s=4.0, blank_s=1.0, prompts_per_label=3, stream="event_driven")
+    session = simulate_distortion_session(_probe(SOFT_SIP, 0.25, 0.08, 2), calibration, INTERFACE,
+                                          generator(9, "tidy"))
+    write_sessions(tmp_path, distortion=session)
+    assert "Zero Band" in (tmp_path / "distortion_stream.csv").read_text()
+    again = read_distortion_session(tmp_path)
+    assert again is not None and again.variant == "ciaa"
+    np.testing.assert_array_equal(again.stream_codes, session.stream_codes)
+    np.testing.assert_allclose(estimate_distortion(again).table, estimate_distortion(session).table)
