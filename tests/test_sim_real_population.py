@@ -171,3 +171,18 @@ def test_event_driven_tidy_logs_round_trip_as_the_ciaa_variant(tmp_path: Path) -
     assert again is not None and again.variant == "ciaa"
     np.testing.assert_array_equal(again.stream_codes, session.stream_codes)
     np.testing.assert_allclose(estimate_distortion(again).table, estimate_distortion(session).table)
+
+
+def test_the_default_population_image_is_the_documented_one() -> None:
+    # the table in PopulationSection's docstring (rounded to 2 decimals)
+    documented = {
+        "fixed_rate": {"Hard Puff": (0.81, 0.97), "Hard Sip": (0.92, 0.97), "Soft Puff": (0.78, 0.97),
+                       "Soft Sip": (0.63, 0.97)},
+        "event_driven": {"Hard Puff": (0.69, 0.87), "Hard Sip": (0.69, 0.88), "Soft Puff": (0.81, 0.97),
+                         "Soft Sip": (0.66, 0.97)},
+    }
+    for stream, labels in documented.items():
+        image = diagonal_image(PopulationSection(), INTERFACE, stream).set_index("label")
+        for label, (low, high) in labels.items():
+            assert (round(image.loc[label, "low"], 2), round(image.loc[label, "high"], 2)) == (low, high), \
+                (stream, label)
