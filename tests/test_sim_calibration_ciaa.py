@@ -190,3 +190,10 @@ def test_cli_fit_variant_option(tmp_path: Path) -> None:
     assert "--variant ciaa" in result.stderr and not (tmp_path / "q.json").exists()
     result = runner.invoke(main, ["fit", str(folder), "--variant", "rosbag"])
     assert result.exit_code == 2
+
+
+def test_a_folder_of_several_sibling_participants_is_refused(tmp_path: Path) -> None:
+    for participant in ("001", "002"):
+        write_ciaa_session(tmp_path / f"{participant}_p_um_given_ui")
+    with pytest.raises(DataError, match=r"several participants \(001_p_um_given_ui, 002_p_um_given_ui\)"):
+        fit_calibration_dir(tmp_path)

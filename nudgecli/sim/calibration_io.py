@@ -392,8 +392,13 @@ def _candidates(folder: Path, subfolder: str) -> list[Path]:
     found = [folder, folder / subfolder]
     suffix = CIAA_SUBFOLDERS.get(subfolder)
     if suffix is not None and folder.is_dir():
-        found += sorted(child for child in folder.iterdir()
-                        if child.is_dir() and (child.name == suffix or child.name.endswith("_" + suffix)))
+        sibling = sorted(child for child in folder.iterdir()
+                         if child.is_dir() and (child.name == suffix or child.name.endswith("_" + suffix)))
+        if len(sibling) > 1:
+            names = ", ".join(child.name for child in sibling)
+            raise DataError(f"{folder}: holds the sibling study's session folders of several participants "
+                            f"({names}); fit one at a time, e.g. `nudge fit {sibling[0]}`")
+        found += sibling
     return found
 
 
