@@ -13,8 +13,10 @@ share and each condition they share (after ``condition_map`` renames simulated c
 - a cluster-bootstrap percentile interval of each distance: each resample draws the simulated
   participants and, independently, the real participants with replacement and takes all their
   trials (trials are nested in people, so the KS p-value, which assumes independent trials, is
-  optimistic; the interval is the honest uncertainty). The resamples come from
-  ``nudgecli.rng.generator(seed, "compare", source)``, the same for every metric.
+  optimistic; the interval is the honest uncertainty). Every participant of a source is drawn
+  from, so one without a value for a metric and condition adds nothing to that resample. The
+  resamples come from ``nudgecli.rng.generator(seed, "compare", source)``, the same for every
+  metric.
 
 A bootstrap distance is biased upwards (resampling adds noise to both ECDFs), so an interval can
 exclude the observed value when the two distributions are close; read it as "how large the
