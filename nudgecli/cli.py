@@ -110,17 +110,22 @@ def bench_command(output_format: str, only: str, repeats: int, baseline_repeats:
 @click.argument("calibration_dir", type=click.Path(file_okay=False))
 @click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
               help="Profile JSON to write [default: ./<folder name>.profile.json].")
-def fit_command(calibration_dir: str, out: str | None) -> None:
+@click.option("--variant", type=click.Choice(["auto", "pilot", "ciaa"]), default="auto", show_default=True,
+              help="Log format of the p(phi_m | phi_i) stream: pilot (fixed 10 Hz, neutral label 'None'), "
+                   "ciaa (the sibling study's event-driven stream, neutral label 'Zero Band'), or auto "
+                   "(detect from the neutral label, else from the message timing).")
+def fit_command(calibration_dir: str, out: str | None, variant: str) -> None:
     """Fit p(phi_i | a) and p(phi_m | phi_i) from one participant's calibration logs.
 
-    CALIBRATION_DIR holds p_phi_given_a/ and/or p_phm_given_phi/ (the study's export) or the
-    tidy files of a simulated session. A missing session falls back to the default table.
+    CALIBRATION_DIR holds p_phi_given_a/ and/or p_phm_given_phi/ (the study's export; the sibling
+    study's <id>_p_ui_given_a/ and <id>_p_um_given_ui/ too) or the tidy files of a simulated
+    session. A missing session falls back to the default table.
     """
 
     from nudgecli.sim.calibration import fit_calibration_dir, write_profile
 
     folder = Path(calibration_dir)
-    result = fit_calibration_dir(folder)
+    result = fit_calibration_dir(folder, variant)
     for warning in result.warnings:
         info(f"Warning: {warning}")
     click.echo(result.summary)
@@ -287,6 +292,116 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
     click.echo(f"Statistics: {run.path / 'stats.json'}, {run.path / 'summary.md'}")
     click.echo(f"Figures:    {len(written)} files in {run.path / 'figures'}")
     click.echo(str(run.path))
+
+
+# --- plot-population -----------------------------------------------------------------------
+
+
+@main.command("plot-population", short_help="Simulated participants' calibrations beside real people's.")
+@click.argument("experiment")
+@click.option("--participants", type=click.IntRange(min=1), default=100, show_default=True,
+              help="Simulated participants to calibrate.")
+@click.option("--seed", type=int, default=None, help="Master seed [default: the experiment's].")
+@click.option("--out", type=click.Path(file_okay=False, path_type=str), default=".", show_default=True,
+              help="Folder for population.csv and the figure population.<format>.")
+@click.option("--formats", default="png,pdf", show_default=True, help="Figure formats: png, pdf, svg.")
+@click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
+              show_default=True, help="What to print on stdout: the coverage table.")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
+def plot_population_command(experiment: str, participants: int, seed: int | None, out: str, formats: str,
+                            output_format: str, overrides: tuple[str, ...]) -> None:
+    """Calibrate EXPERIMENT's simulated participants and draw their fitted p(phi_m | phi_i) diagonals
+    beside the real people's (pilots: fixed 10 Hz stream; sibling study: event-driven stream)."""
+    from nudgecli.config import load_experiment
+    from nudgecli.report.plotting import parse_formats
+    from nudgecli.report.population_figure import plot_population
+    from nudgecli.sim.real_population import coverage_table, simulated_diagonals
+    from nudgecli.store import write_text_atomic
+
+    chosen = parse_formats(formats)
+    config = load_experiment(experiment, overrides)
+    master = config.experiment.seed if seed is None else seed
+    diagonals = simulated_diagonals(config, participants, master)
+    table = coverage_table(diagonals)
+    if output_format == "json":
+        echo_json(table.to_dict(orient="records"))
+    elif output_format == "csv":
+        click.echo(table.to_csv(index=False), nl=False)
+    else:
+        click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+    folder = Path(out)
+    write_text_atomic(folder / "population.csv", diagonals.to_csv(index=False))
+    title = f"{config.experiment.name}: {participants} simulated participants (seed {master})"
+    for path in [folder / "population.csv", *plot_population(diagonals, folder, chosen, title)]:
+        info(str(path))
+
+
+# --- compare -------------------------------------------------------------------------------
+
+
+def _parse_matches(matches: tuple[str, ...]) -> dict[str, str]:
+    """``("none=no assistance", ...)`` -> ``{"none": "no assistance"}``."""
+    from nudgecli.errors import ConfigError
+
+    mapping: dict[str, str] = {}
+    for text in matches:
+        simulated, sep, real = text.partition("=")
+        if not sep or not simulated.strip() or not real.strip():
+            raise ConfigError(f"--match {text!r}: expected SIMULATED=REAL, e.g. --match none='no assistance'")
+        mapping[simulated.strip()] = real.strip()
+    return mapping
+
+
+@main.command("compare", short_help="Simulated people beside real people, metric by metric.")
+@click.argument("simulated", type=click.Path(path_type=str))
+@click.argument("real", type=click.Path(path_type=str))
+@click.option("--plan", metavar="PLAN", default="paper", show_default=True,
+              help="Analysis plan: the metric definitions of a run folder and the filters of both sources.")
+@click.option("--metric", "metric_names", multiple=True, metavar="NAME",
+              help="Compare only this metric (repeatable) [default: every metric both hold].")
+@click.option("--match", "matches", multiple=True, metavar="SIMULATED=REAL",
+              help="Pair a simulated condition with the real table's name for it (repeatable) "
+                   "[default: conditions with the same name].")
+@click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
+              show_default=True, help="What to print on stdout.")
+@click.option("--out", type=click.Path(file_okay=False, path_type=str), default=None,
+              help="Folder for compare.csv, participant_medians.csv, compare.json and the figure.")
+@click.option("--formats", default="png,pdf", show_default=True,
+              help="Figure formats with --out: png, pdf, svg.")
+@click.option("--resamples", type=click.IntRange(min=0), default=2000, show_default=True,
+              help="Cluster-bootstrap resamples of the distances (0: no intervals).")
+@click.option("--level", type=click.FloatRange(0.5, 1.0, min_open=True, max_open=True), default=0.95,
+              show_default=True, help="Level of the bootstrap intervals.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Bootstrap seed.")
+def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[str, ...],
+                    matches: tuple[str, ...], output_format: str, out: str | None, formats: str,
+                    resamples: int, level: float, seed: int) -> None:
+    """Compare SIMULATED (a run folder or metrics table) with REAL (a metrics table of real trials).
+
+    For each metric and condition both hold: per-participant medians side by side, the real
+    people's range, pooled medians and quartiles, Kolmogorov-Smirnov and Wasserstein distances
+    with cluster-bootstrap intervals.
+    """
+    from nudgecli.report.compare import CompareOptions, compare_sources, format_comparison, write_comparison
+    from nudgecli.report.plotting import parse_formats
+
+    chosen_formats = parse_formats(formats)
+    result = compare_sources(simulated, real, plan=plan, metrics=list(metric_names) or None,
+                             condition_map=_parse_matches(matches),
+                             options=CompareOptions(resamples=resamples, level=level, seed=seed))
+    if output_format == "json":
+        echo_json(result.to_json())
+    elif output_format == "csv":
+        click.echo(result.table.to_csv(index=False), nl=False)
+    else:
+        click.echo(format_comparison(result))
+    if out is not None:
+        from nudgecli.report.compare_figure import plot_comparison
+
+        written = write_comparison(result, out)
+        written += plot_comparison(result.trials, result.table, result.medians, out, chosen_formats)
+        for path in written:
+            info(str(path))
 
 
 # --- validate ------------------------------------------------------------------------------

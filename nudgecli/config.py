@@ -203,6 +203,50 @@ class PopulationSection(Section):
     habits: ``epsilon`` brackets the study's 0.1; ``operate_s`` the paper's 3-4 s border
     reminder; ``rest_s``, ``action_pause_s`` and ``hard_blow_s`` are short against the ~1 s idle
     handover, and a mode-switch blow outlasts the onset ramp so it reaches the hard band.
+
+    Checked against twelve real people (issue 14; ``nudgecli.sim.real_population``,
+    ``nudge plot-population``). Their fitted ``p(phi_m | phi_i)`` diagonals: the pilots' (fixed
+    10 Hz stream, fitted by ``nudge fit``) Hard Puff 0.90-0.93, Hard Sip 0.95-0.97, Soft Puff
+    0.97, Soft Sip 0.70 and 0.01 (deepaktest, who never produced a soft sip); nine sibling-study
+    participants (event-driven stream, prompts 4 s + 1 s blank) Hard Puff 0.53-0.84, Hard Sip
+    0.54-0.78, Soft Puff 0.80-0.97, Soft Sip 0.31-0.97. A fixed-rate stream counts time and an
+    event-driven one counts pressure *changes* (a saturated blow is silent, its ramps through
+    the soft band and the deadband are not), so each real value is compared with the diagonal the
+    estimator converges to in its own format: ``expected_diagonal`` (exact label probabilities of
+    a 25-tick blow for 10 Hz; the expected message counts of the device's 0.0109 quantisation,
+    averaged over 400 seeded blows, for event-driven), over the corners and midpoints of each
+    label's (level, spread, ramp) box (``diagonal_image``). The image of these defaults:
+
+    ===========  ==================  ====================  ====================================
+    label        fixed 10 Hz         event-driven          against the real people
+    ===========  ==================  ====================  ====================================
+    Hard Puff    0.81-0.97           0.69-0.87             pilots covered; sibling 0.53-0.69 not
+    Hard Sip     0.92-0.97           0.69-0.88             pilots covered; sibling 0.54-0.69 not
+    Soft Puff    0.78-0.97           0.81-0.97             pilots covered; sibling 0.80 just not
+    Soft Sip     0.63-0.97           0.66-0.97             andrewtest covered; sibling 0.31-0.66
+                                                           and deepaktest not
+    ===========  ==================  ====================  ====================================
+
+    Soft labels: the diagonal falls as the soft level rises towards the soft threshold, so the
+    level's upper end is derived by inverting ``expected_diagonal``: the smallest level (0.01
+    grid) at which a participant with the middle soft spread (0.085) reaches the lowest sibling
+    diagonal in the event-driven format (``soft_level_reaching``): **Soft Sip 0.38** (for 0.31),
+    **Soft Puff 0.24** (for 0.80). The preset ``real-users`` uses ``soft_sip_level = [0.05,
+    0.38]`` and ``soft_puff_level = [0.05, 0.24]``; its image is Soft Sip 0.05-0.97 (10 Hz),
+    0.30-0.97 (event-driven) and Soft Puff 0.63-0.97 / 0.66-0.97, covering every real soft value
+    but deepaktest's 0.01 (a soft-sip level of 1.08, outside any "soft" range; simulate him with
+    ``physiology_logs``). These defaults stay as derived from the pilots' logs, so the ``paper``
+    and ``study-code`` presets and their reference results are unchanged.
+
+    Hard labels: no level or spread reaches the sibling study's lower hard diagonals. Under this
+    pressure model a blow that reaches the hard band gives at least about 0.69 in the event-driven
+    format (a clean saturated blow: its ramp up and down cross 27 soft, 18 deadband and 47 hard
+    quantisation levels each way, (18 + 47) / 92 = 0.71, 0.69 after the smoothing), and about
+    0.64 at the lowest (a level of 0.4 that rarely reaches hard). Lower real values need
+    soft-band messages the model does not make: a hesitant, wavering onset or release, or drift
+    within a blow (the model draws each tick independently around one level and ramps
+    linearly). So the hard ranges are left as the pilots' logs give them, and the gap is
+    reported rather than closed by an unphysical range.
     """
 
     soft_puff_level: tuple[float, float] = (0.05, 0.16)
@@ -294,6 +338,13 @@ class CalibrationSection(Section):
     hard-puff refresher (``block_break_s``; 10-18 s in the logs). ``p(phi_m | phi_i)``:
     ``prompts_per_label`` rounds of the 4 labels in random order, each shown ``prompt_s`` then
     ``blank_s`` blank, with the stream labelled at ``rate_hz``.
+
+    ``stream`` is the device's label stream: ``fixed_rate`` (the pilots' logs: one labelled
+    sample per tick) or ``event_driven`` (the sibling study's logs: a message each time the
+    pressure, quantised in steps of ``event_step``, changes, none while it is steady, and
+    ``Zero Band`` + ``input stopped`` at the end of each blow; ``nudgecli.sim.calibration.
+    event_driven_stream``). The sibling study prompted 4 s with 1 s blank (``prompt_s = 4``,
+    ``blank_s = 1``).
     """
 
     mapping_blocks: int = Field(default=6, ge=1, description="Blocks of the 12 prompted actions.")
@@ -304,6 +355,10 @@ class CalibrationSection(Section):
     answer_clear_s: Annotated[float, Field(ge=0)] = 0.5
     block_break_s: Annotated[float, Field(ge=0)] = 10.0
     rate_hz: PositiveFloat = 10.0
+    stream: Literal["fixed_rate", "event_driven"] = "fixed_rate"
+    event_step: Annotated[float, Field(gt=0, le=0.1)] = Field(
+        default=0.0109, description="Pressure quantisation of the event-driven stream (the sibling study's "
+        "device stepped in about 0.0109).")
 
 
 class ExperimentConfig(Section):

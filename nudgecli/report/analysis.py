@@ -155,17 +155,22 @@ def _as_boolean(series: pd.Series) -> pd.Series | None:
     return None
 
 
-def validate_metrics_table(table: pd.DataFrame, source: str) -> list[str]:
+def validate_metrics_table(table: pd.DataFrame, source: str, min_conditions: int = 2) -> list[str]:
     """Check a metrics table and return its metric columns.
 
     Boolean columns with blanks (``True``, ``False``, empty) are converted in place to nullable
     booleans.
 
+    Parameters
+    ----------
+    min_conditions
+        Fewest conditions the table must hold (2 to compare conditions; 1 for ``nudge compare``).
+
     Raises
     ------
     DataError
         A missing or incomplete ``participant``/``condition`` column, no metric column, a
-        non-numeric metric column, or fewer than two conditions.
+        non-numeric metric column, or fewer than ``min_conditions`` conditions.
     """
     for column in ("participant", "condition"):
         if column not in table.columns:
@@ -190,7 +195,7 @@ def validate_metrics_table(table: pd.DataFrame, source: str) -> list[str]:
             raise DataError(f"{source}: metric column {column!r} is not numeric{example}; make it numeric, "
                             "remove it, or pick the metrics with --metric")
     conditions = table["condition"].astype(str).unique()
-    if len(conditions) < 2:
+    if len(conditions) < min_conditions:
         raise DataError(f"{source}: column 'condition' holds a single condition ({conditions[0]!r}); "
                         "comparing needs at least two conditions")
     return metric_columns
@@ -375,8 +380,13 @@ def _options(plan: AnalysisPlan, seed: int | None) -> ComparisonOptions:
     )
 
 
-def _load_source(source: Path, plan: AnalysisPlan) -> tuple[pd.DataFrame, list[str], Path]:
-    """The metrics table, its metric columns and the default output folder of a source."""
+def load_source(source: Path, plan: AnalysisPlan,
+                min_conditions: int = 2) -> tuple[pd.DataFrame, list[str], Path]:
+    """The metrics table, its metric columns and the default output folder of a source.
+
+    A run folder's metrics are computed with ``plan``'s definitions; a table is validated
+    (:func:`validate_metrics_table`, at least ``min_conditions`` conditions).
+    """
     if not source.exists():
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
     if source.is_dir():
@@ -390,7 +400,7 @@ def _load_source(source: Path, plan: AnalysisPlan) -> tuple[pd.DataFrame, list[s
                                 success=definitions.success, completion_time=definitions.completion_time)
         return metrics, list(definitions.include), source
     table = read_metrics_table(source)
-    metric_columns = validate_metrics_table(table, str(source))
+    metric_columns = validate_metrics_table(table, str(source), min_conditions)
     return table, metric_columns, source.parent
 
 
@@ -427,7 +437,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
     """
     plan = load_plan(plan)
     source = Path(source)
-    table, available, default_out = _load_source(source, plan)
+    table, available, default_out = load_source(source, plan)
     _check_filters(plan, available)
 
     scores = None

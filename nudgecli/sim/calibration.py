@@ -44,12 +44,18 @@ from nudgecli.model.interface import (
 from nudgecli.model.world import MODE_NAMES, N_MODES
 from nudgecli.sim.calibration_io import (
     ACTION_IMAGES,
+    AUTO_VARIANT,
     BLOCK_BREAK_COMMAND,
+    CIAA_VARIANT,
+    INPUT_STOPPED,
+    VARIANT_STREAMS,
     DistortionSession,
     MappingSession,
     distortion_windows,
     nearest_indices,
     read_sessions,
+    requeue_consistent,
+    silent_prompts,
 )
 from nudgecli.sim.participants import LABEL_SIGN, Participant, blow_pressures, participant_from_log
 from nudgecli.store import write_json_atomic
@@ -222,6 +228,16 @@ def estimate_distortion(session: DistortionSession, fallback: np.ndarray | None 
     one counted sample and renormalised; the puff deadband is added to Hard Puff and the sip
     deadband to Hard Sip; ``0.01`` is added to each of the four and the row renormalised.
 
+    The "samples" are the stream's messages, whatever the stream's variant. In the pilots' fixed
+    10 Hz stream a message is a time sample, so a fraction is a share of the prompt's time. In the
+    sibling study's event-driven stream (``session.event_driven``) a message is sent only while the
+    pressure changes, so a fraction is a share of the *changes*: a steady (e.g. saturated hard)
+    pressure adds nothing, and the ramps of a hard blow through the soft band and the deadband
+    weigh as much as its plateau; the study's own estimator counted them the same way, so its
+    tables carry this weighting and are not comparable with fixed-rate ones label for label.
+    A prompt that got no message (re-queued by the protocol, :func:`~nudgecli.sim.calibration_io.
+    silent_prompts`) has an empty or uncounted window and is not used; its repeat is.
+
     Parameters
     ----------
     fallback
@@ -318,6 +334,56 @@ def simulate_mapping_session(participant: Participant, calibration: CalibrationS
                           {"source": f"simulated {participant.seed_key}"})
 
 
+def event_driven_stream(times: np.ndarray, pressure: np.ndarray, interface: InterfaceSection,
+                        step: float = 0.0109) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The event-driven label stream a device sends for a pressure trace sampled at fixed ticks.
+
+    The device's pressure is quantised in ``step`` increments and it sends one message each time
+    the quantised value changes, none while it is steady. Between two ticks the pressure is taken
+    to move linearly, so it passes every quantisation level in between, one message each (at the
+    time of the crossing, labelled by its pressure); a saturated or constant stretch sends nothing.
+    When the pressure comes back to zero (a blow ends) the zero-level message is the neutral label
+    and an ``input stopped`` message follows it, 0.1 ms later, as the sibling study's driver did.
+
+    Parameters
+    ----------
+    times
+        ``(N,)`` tick times, increasing.
+    pressure
+        ``(N,)`` pressures at the ticks (sip positive).
+    interface
+        The label thresholds.
+    step
+        The quantisation step (the sibling study's device: about 0.0109, ``../shared/data/ciaa-task/
+        TASK.md`` section 5).
+
+    Returns
+    -------
+    tuple[np.ndarray, np.ndarray, np.ndarray]
+        ``(M,)`` message times, ``(M,)`` pressures and ``(M,)`` stream codes (labels, deadbands,
+        ``NO_INPUT`` for the zero level, ``INPUT_STOPPED``).
+    """
+    levels = np.round(np.asarray(pressure, dtype=float) / step).astype(np.int64)
+    times = np.asarray(times, dtype=float)
+    moves = np.diff(levels)
+    counts = np.abs(moves)
+    interval = np.repeat(np.arange(len(moves)), counts)
+    # position of each message within its interval: 1..count
+    offsets = np.arange(interval.size) - np.repeat(np.cumsum(counts) - counts, counts) + 1
+    direction = np.sign(moves)[interval]
+    message_level = levels[interval] + direction * offsets
+    fraction = offsets / counts[interval]
+    message_time = times[interval] + fraction * (times[interval + 1] - times[interval])
+    message_pressure = message_level * step
+    codes = label_pressure(message_pressure, interface.soft_threshold, interface.hard_threshold,
+                           interface.zero_threshold)
+    stops = np.flatnonzero(message_level == 0) + 1
+    message_time = np.insert(message_time, stops, message_time[stops - 1] + 1e-4)
+    message_pressure = np.insert(message_pressure, stops, 0.0)
+    codes = np.insert(codes, stops, INPUT_STOPPED)
+    return message_time, message_pressure, codes
+
+
 def _first_sample_at_or_after(t: np.ndarray, phase: float, rate: float) -> np.ndarray:
     """Index of the first stream sample (at ``phase + j / rate``) at or after each time ``t``."""
     return np.ceil(np.round((t - phase) * rate, 9)).astype(int)
@@ -337,6 +403,10 @@ def simulate_distortion_session(participant: Participant, calibration: Calibrati
 
     Draws, in order: the rounds' orders ``(R, 4)``, one normal per prompt (delays; again for
     repeated prompts), the stream phase, one normal per stream sample.
+
+    With ``calibration.stream = "event_driven"`` the ticks' pressures become the sibling study's
+    event-driven stream (:func:`event_driven_stream`, variant ``ciaa``); a prompt the participant
+    never blew in then gets no message at all, which is the study's re-queue test.
 
     Returns
     -------
@@ -382,8 +452,11 @@ def simulate_distortion_session(participant: Participant, calibration: Calibrati
                            interface.zero_threshold)
     prompt_times = np.column_stack([starts, blank_starts]).ravel()
     commands = tuple(c for label in labels for c in (LABELS[label], ""))
-    return DistortionSession(prompt_times, commands, times, codes, pressure,
-                             {"source": f"simulated {participant.seed_key}"})
+    source = {"source": f"simulated {participant.seed_key}"}
+    if calibration.stream == "event_driven":
+        times, pressure, codes = event_driven_stream(times, pressure, interface, calibration.event_step)
+        return DistortionSession(prompt_times, commands, times, codes, pressure, source, CIAA_VARIANT)
+    return DistortionSession(prompt_times, commands, times, codes, pressure, source)
 
 
 @dataclass(frozen=True)
@@ -458,6 +531,10 @@ def _mapping_provenance(session: MappingSession, estimate: MappingEstimate) -> d
 def _distortion_provenance(session: DistortionSession, estimate: DistortionEstimate) -> dict[str, Any]:
     return {
         "files": dict(session.files),
+        "variant": session.variant,
+        "stream": VARIANT_STREAMS[session.variant],
+        "prompts_without_input": int(silent_prompts(session).sum()),
+        "requeue_consistent": requeue_consistent(session),
         "prompts": {label: int(n) for label, n in zip(LABELS, estimate.prompts, strict=True)},
         "prompts_used": {label: int(n) for label, n in zip(LABELS, estimate.prompts_used, strict=True)},
         "counted_samples": {label: int(n) for label, n in zip(LABELS, estimate.counted_samples, strict=True)},
@@ -509,13 +586,22 @@ def needs_more_training(mapping: np.ndarray, distortion: np.ndarray) -> dict[str
     }
 
 
-def fit_calibration_dir(calibration_dir: str | Path) -> CalibrationProfile:
+def fit_calibration_dir(calibration_dir: str | Path, variant: str = AUTO_VARIANT) -> CalibrationProfile:
     """Fit the tables of one participant's calibration folder (study or tidy format).
 
     Reads whichever sessions the folder holds; a missing session falls back to the default table
-    with a warning. When a pressure stream exists, the participant's pressure physiology is
-    estimated too (:func:`nudgecli.sim.participants.participant_from_log`) and recorded in the
-    provenance.
+    with a warning. When a fixed-rate pressure stream exists, the participant's pressure physiology
+    is estimated too (:func:`nudgecli.sim.participants.participant_from_log`) and recorded in the
+    provenance; an event-driven stream's messages are not samples of the blow (steady pressure
+    sends none), so no physiology is estimated from it.
+
+    Parameters
+    ----------
+    calibration_dir
+        One participant's folder.
+    variant
+        The distortion log's variant: ``"auto"`` (detect), ``"pilot"`` or ``"ciaa"``
+        (:data:`nudgecli.sim.calibration_io.LOG_VARIANTS`).
 
     Raises
     ------
@@ -523,7 +609,7 @@ def fit_calibration_dir(calibration_dir: str | Path) -> CalibrationProfile:
         If the folder does not exist, holds no session, or a log is malformed.
     """
     folder = Path(calibration_dir)
-    mapping_session, distortion_session = read_sessions(folder)
+    mapping_session, distortion_session = read_sessions(folder, variant)
     warnings: list[str] = []
     provenance: dict[str, Any] = {"tool": "nudge fit", "folder": str(folder)}
     if mapping_session is not None:
@@ -547,7 +633,18 @@ def fit_calibration_dir(calibration_dir: str | Path) -> CalibrationProfile:
             missing = ", ".join(distortion_estimate.rows_without_data)
             warnings.append(f"p(phi_m | phi_i): no counted input for {missing}; "
                             "those rows use the default table")
-        provenance["pressure_physiology"] = _physiology(distortion_session, warnings)
+        if not requeue_consistent(distortion_session):
+            silent = int(silent_prompts(distortion_session).sum())
+            warnings.append(f"p(phi_m | phi_i): {silent} prompt(s) got no input but the prompt log does "
+                            "not end with their repeats (the protocol shows such a prompt again at the end); "
+                            "the session may have been cut short")
+        if distortion_session.event_driven:
+            provenance["pressure_physiology"] = None
+            provenance["pressure_physiology_note"] = (
+                "not estimated: the event-driven stream sends messages only while the pressure changes, "
+                "so its pressures are not samples of the blow")
+        else:
+            provenance["pressure_physiology"] = _physiology(distortion_session, warnings)
     else:
         distortion = default_distortion_table()
         provenance["p_phm_given_phi"] = {"source": "default (no p_phm_given_phi session)"}
@@ -604,8 +701,10 @@ def profile_summary(participant: str, mapping: np.ndarray, distortion: np.ndarra
     if distortion_info.get("source") == "fitted":
         used = sum(distortion_info["prompts_used"].values())
         total = sum(distortion_info["prompts"].values())
+        unit = "messages" if distortion_info.get("variant") == "ciaa" else "samples"
         lines.append(f"p(phi_m | phi_i): fitted from {total} prompts ({used} with input, "
-                     f"{sum(distortion_info['counted_samples'].values())} counted samples)")
+                     f"{sum(distortion_info['counted_samples'].values())} counted {unit}; "
+                     f"{distortion_info.get('stream', 'fixed-rate stream')})")
     else:
         lines.append("p(phi_m | phi_i): default table (no session)")
     lines.append("  diagonal: " + ", ".join(f"{LABELS[i]} {distortion[i, i]:.3f}" for i in range(N_LABELS)))

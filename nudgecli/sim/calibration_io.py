@@ -32,6 +32,25 @@ Tidy format (what simulated sessions are written as; plain CSV, a header row, ti
 The tidy files may sit directly in a folder or in ``p_phi_given_a/`` and ``p_phm_given_phi/``
 subfolders, like the study's files.
 
+Two variants of the study export exist (:data:`LOG_VARIANTS`), told apart by :func:`detect_variant`:
+
+- ``pilot``: the pilots' logs above. The label stream is sampled at a fixed 10 Hz and its neutral
+  label is ``None``.
+- ``ciaa``: the sibling study's prompt-and-produce logs (2020, "Customized Handling of
+  Unintended Interface Operation in Assistive Robots", ``../shared/data/ciaa-task/TASK.md``). Same
+  file names and columns (its folders are named ``<id>_p_ui_given_a/`` and
+  ``<id>_p_um_given_ui/``, which are found too), but the neutral label is ``Zero Band``, and the
+  stream is **event-driven**: a message every few milliseconds while the pressure changes, none
+  while it is steady (e.g. saturated at 1 or held still), and one ``input stopped`` after the
+  ``Zero Band`` message that ends each blow. Prompts were shown 4 s with 1 s blank, and a prompt
+  that got no stream message at all (by the end of its blank) was shown again at the end of the
+  session. Its folders also hold ``_keyboard_entry.csv`` and ``_mode_switches.csv``, which are
+  not read.
+
+The variant is recorded on the :class:`DistortionSession`; the estimators treat both the same way
+(in an event-driven stream the "samples" they count are messages, see
+:func:`nudgecli.sim.calibration.estimate_distortion`).
+
 Every problem with a file raises one :class:`~nudgecli.errors.DataError` line naming the file and
 the line (line 1 is the header) and saying what to fix.
 '''
@@ -45,7 +64,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.errors import DataError
-from nudgecli.model.interface import INPUT_STOPPED_LABEL, LABELS, NO_INPUT, STREAM_LABELS
+from nudgecli.model.interface import INPUT_STOPPED_LABEL, LABELS, NO_INPUT, NO_INPUT_LABEL, STREAM_LABELS
 from nudgecli.store import atomic_path
 
 #: The 12 action images of the mapping session, in the study's naming.
@@ -58,13 +77,39 @@ ACTION_IMAGES = (
 BLOCK_BREAK_COMMAND = "hard_puff_training"
 #: Stream code of the driver's "input stopped" frames (ignored like no-input samples).
 INPUT_STOPPED = -2
-#: Stream label name -> code (interface labels 0..3, deadbands 4/5, no input -1, input stopped -2).
-STREAM_CODES = {**STREAM_LABELS, INPUT_STOPPED_LABEL: INPUT_STOPPED}
-#: Stream code -> label name written to tidy files.
-STREAM_NAMES = {code: name for name, code in STREAM_CODES.items()}
+#: The pilots' logs: a fixed-rate (10 Hz) stream whose neutral label is ``None``.
+PILOT_VARIANT = "pilot"
+#: The sibling study's logs: an event-driven stream whose neutral label is ``Zero Band``.
+CIAA_VARIANT = "ciaa"
+#: The log variants ``nudge fit`` reads (``--variant``), and ``auto`` to detect them.
+LOG_VARIANTS = (PILOT_VARIANT, CIAA_VARIANT)
+AUTO_VARIANT = "auto"
+#: The sibling study's neutral label (the pilots' is ``None``).
+ZERO_BAND_LABEL = "Zero Band"
+#: Each variant's neutral (no-input) label.
+NEUTRAL_LABELS = {PILOT_VARIANT: NO_INPUT_LABEL, CIAA_VARIANT: ZERO_BAND_LABEL}
+#: Each variant's stream, in words (for summaries and errors).
+VARIANT_STREAMS = {PILOT_VARIANT: "fixed-rate 10 Hz stream, neutral label 'None'",
+                   CIAA_VARIANT: "event-driven stream, neutral label 'Zero Band'"}
+#: A stream whose median gap between messages is below this is event-driven (10 Hz is 0.1 s;
+#: the sibling study's messages came every 2-7 ms while the pressure changed).
+EVENT_DRIVEN_MEDIAN_GAP_S = 0.05
+#: Stream label name -> code (interface labels 0..3, deadbands 4/5, no input -1, input stopped -2);
+#: both variants' neutral labels are no input.
+STREAM_CODES = {**STREAM_LABELS, ZERO_BAND_LABEL: NO_INPUT, INPUT_STOPPED_LABEL: INPUT_STOPPED}
+#: Stream code -> label name written to tidy files (the pilot variant's names).
+STREAM_NAMES = {code: name for name, code in {**STREAM_LABELS, INPUT_STOPPED_LABEL: INPUT_STOPPED}.items()}
+
+
+def stream_names(variant: str) -> dict[int, str]:
+    """Stream code -> label name in ``variant``'s spelling (its neutral label differs)."""
+    return {**STREAM_NAMES, NO_INPUT: NEUTRAL_LABELS[variant]}
 
 STUDY_MAPPING_FOLDER = "p_phi_given_a"
 STUDY_DISTORTION_FOLDER = "p_phm_given_phi"
+#: The sibling study's names of the two session folders (``<id>_p_ui_given_a`` etc.).
+CIAA_MAPPING_SUFFIX = "p_ui_given_a"
+CIAA_DISTORTION_SUFFIX = "p_um_given_ui"
 STUDY_FILES = {
     "mapping_prompts": "_action_prompt.csv",
     "mapping_responses": "_user_response.csv",
@@ -129,6 +174,9 @@ class DistortionSession:
         ``(N,)`` raw pressures (sip positive); ``nan`` where the log holds none.
     files
         Where the two logs came from (``prompts``, ``stream``).
+    variant
+        ``"pilot"`` (fixed-rate stream) or ``"ciaa"`` (event-driven stream), see
+        :data:`LOG_VARIANTS`.
     """
 
     prompt_times: np.ndarray
@@ -137,6 +185,12 @@ class DistortionSession:
     stream_codes: np.ndarray
     stream_pressure: np.ndarray
     files: dict[str, str] = field(default_factory=dict)
+    variant: str = PILOT_VARIANT
+
+    @property
+    def event_driven(self) -> bool:
+        """Whether the stream sends messages only while the pressure changes (the ``ciaa`` variant)."""
+        return self.variant == CIAA_VARIANT
 
     @property
     def n_prompts(self) -> int:
@@ -251,16 +305,71 @@ def _parse_responses(frame: pd.DataFrame, path: Path, time_column: str,
     return times, labels
 
 
+def detect_variant(labels: list[str], times: np.ndarray, path: Path | str,
+                   requested: str = AUTO_VARIANT) -> str:
+    """The log variant of a label stream (``"pilot"`` or ``"ciaa"``), checked against ``requested``.
+
+    The neutral label decides: ``None`` is the pilots' format, ``Zero Band`` the sibling study's.
+    A stream without any neutral label is told apart by its timing: a median gap between messages
+    below :data:`EVENT_DRIVEN_MEDIAN_GAP_S` is event-driven (``ciaa``), else fixed-rate (``pilot``).
+
+    Parameters
+    ----------
+    labels
+        ``N`` unquoted stream labels, in file order.
+    times
+        ``(N,)`` their times in seconds.
+    path
+        The stream file (for messages).
+    requested
+        ``"auto"`` to detect, or the variant the caller expects.
+
+    Raises
+    ------
+    DataError
+        When the stream mixes both neutral labels, or ``requested`` contradicts its neutral label
+        (naming the line and the option that fixes it).
+    """
+    if requested != AUTO_VARIANT and requested not in LOG_VARIANTS:
+        raise DataError(f"unknown log variant {requested!r}; choose auto, {', '.join(LOG_VARIANTS)}")
+    first_line = {variant: next((row + 2 for row, name in enumerate(labels) if name == neutral), None)
+                  for variant, neutral in NEUTRAL_LABELS.items()}
+    found = [variant for variant, line in first_line.items() if line is not None]
+    if len(found) == 2:
+        pilot_line, ciaa_line = first_line[PILOT_VARIANT], first_line[CIAA_VARIANT]
+        raise DataError(f"{path}: mixes the pilots' neutral label {NO_INPUT_LABEL!r} (line {pilot_line}) and "
+                        f"the sibling study's {ZERO_BAND_LABEL!r} (line {ciaa_line}); one stream holds one "
+                        "session of one format: split the file")
+    if found:
+        detected = found[0]
+        if requested not in (AUTO_VARIANT, detected):
+            line = first_line[detected]
+            raise DataError(f"{path}: line {line}: label {NEUTRAL_LABELS[detected]!r} belongs to the "
+                            f"{detected!r} log format ({VARIANT_STREAMS[detected]}), but --variant "
+                            f"{requested} was given; use --variant {detected} or auto")
+        return detected
+    if requested != AUTO_VARIANT:
+        return requested
+    gaps = np.diff(np.asarray(times, dtype=float))
+    if gaps.size and float(np.median(gaps)) < EVENT_DRIVEN_MEDIAN_GAP_S:
+        return CIAA_VARIANT
+    return PILOT_VARIANT
+
+
 def _parse_stream(frame: pd.DataFrame, path: Path, time_column: str, label_column: str,
-                  pressure_column: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                  pressure_column: str, variant: str = AUTO_VARIANT
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
     times = _times(frame, time_column, path)
     names = [unquote(v) for v in frame[label_column].to_numpy(dtype=object)]
+    detected = detect_variant(names, times, path, variant)
     codes = np.empty(len(names), dtype=int)
     for row, name in enumerate(names):
         code = STREAM_CODES.get(name)
         if code is None:
+            other = next(v for v in LOG_VARIANTS if v != detected)
+            known = [n for n in STREAM_CODES if n != NEUTRAL_LABELS[other]]
             raise DataError(f"{path}: line {row + 2}: unknown label {name!r}; stream labels are "
-                            f"{', '.join(STREAM_CODES)}")
+                            f"{', '.join(known)}")
         codes[row] = code
     raw = pd.Series(frame[pressure_column].to_numpy(dtype=object)).astype(str).str.strip()
     text = raw.str.strip("[]").str.split(",").str[0].str.strip()
@@ -270,12 +379,32 @@ def _parse_stream(frame: pd.DataFrame, path: Path, time_column: str, label_colum
         row = int(bad[0])
         raise DataError(f"{path}: line {row + 2}: {pressure_column} {raw.iloc[row]!r} is not a pressure")
     pressure = np.where(np.isfinite(pressure), pressure, np.nan)
-    return times, codes, pressure
+    return times, codes, pressure, detected
+
+
+#: The sibling study's folder suffix for each of our session subfolders.
+CIAA_SUBFOLDERS = {STUDY_MAPPING_FOLDER: CIAA_MAPPING_SUFFIX, STUDY_DISTORTION_FOLDER: CIAA_DISTORTION_SUFFIX}
+
+
+def _candidates(folder: Path, subfolder: str) -> list[Path]:
+    """Where a session's files may be: ``folder``, ``folder/subfolder``, or the sibling study's
+    ``folder/<id>_p_ui_given_a`` / ``folder/<id>_p_um_given_ui`` (sorted, first match wins)."""
+    found = [folder, folder / subfolder]
+    suffix = CIAA_SUBFOLDERS.get(subfolder)
+    if suffix is not None and folder.is_dir():
+        sibling = sorted(child for child in folder.iterdir()
+                         if child.is_dir() and (child.name == suffix or child.name.endswith("_" + suffix)))
+        if len(sibling) > 1:
+            names = ", ".join(child.name for child in sibling)
+            raise DataError(f"{folder}: holds the sibling study's session folders of several participants "
+                            f"({names}); fit one at a time, e.g. `nudge fit {sibling[0]}`")
+        found += sibling
+    return found
 
 
 def _locate(folder: Path, names: dict[str, str], keys: tuple[str, str], subfolder: str) -> Path | None:
-    """The folder holding both files ``keys`` of a format: ``folder`` itself or its ``subfolder``."""
-    for candidate in (folder, folder / subfolder):
+    """The folder holding both files ``keys`` of a format (see :func:`_candidates`)."""
+    for candidate in _candidates(folder, subfolder):
         if all((candidate / names[k]).is_file() for k in keys):
             return candidate
     return None
@@ -284,7 +413,7 @@ def _locate(folder: Path, names: dict[str, str], keys: tuple[str, str], subfolde
 def _half_present(folder: Path, keys: tuple[str, str], subfolder: str) -> Path | None:
     """A file of the pair that exists while its partner does not (to name it in the error)."""
     for names in (STUDY_FILES, TIDY_FILES):
-        for candidate in (folder, folder / subfolder):
+        for candidate in _candidates(folder, subfolder):
             present = [candidate / names[k] for k in keys if (candidate / names[k]).is_file()]
             if len(present) == 1:
                 return present[0]
@@ -347,14 +476,17 @@ def read_mapping_session(folder: str | Path) -> MappingSession | None:
                           {"prompts": str(prompts_path), "responses": str(responses_path)})
 
 
-def read_distortion_session(folder: str | Path) -> DistortionSession | None:
+def read_distortion_session(folder: str | Path, variant: str = AUTO_VARIANT) -> DistortionSession | None:
     """Read the ``p(phi_m | phi_i)`` session in ``folder`` (study or tidy format), or ``None`` if absent.
 
     Parameters
     ----------
     folder
-        A participant's calibration folder, its ``p_phm_given_phi/`` subfolder, or a folder holding
-        the tidy ``distortion_prompts.csv`` and ``distortion_stream.csv``.
+        A participant's calibration folder, its ``p_phm_given_phi/`` (or the sibling study's
+        ``<id>_p_um_given_ui/``) subfolder, or a folder holding the tidy ``distortion_prompts.csv``
+        and ``distortion_stream.csv``.
+    variant
+        ``"auto"`` (detect, :func:`detect_variant`), ``"pilot"`` or ``"ciaa"``.
 
     Raises
     ------
@@ -380,13 +512,17 @@ def read_distortion_session(folder: str | Path) -> DistortionSession | None:
     prompts = _read_csv(prompts_path, (time_column, "command"), what)
     prompt_times, commands = _parse_prompts(prompts, prompts_path, time_column, "distortion")
     stream = _read_csv(stream_path, (time_column, label_column, pressure_column), what)
-    times, codes, pressure = _parse_stream(stream, stream_path, time_column, label_column, pressure_column)
+    times, codes, pressure, detected = _parse_stream(stream, stream_path, time_column, label_column,
+                                                     pressure_column, variant)
     return DistortionSession(prompt_times, tuple(commands), times, codes, pressure,
-                             {"prompts": str(prompts_path), "stream": str(stream_path)})
+                             {"prompts": str(prompts_path), "stream": str(stream_path)}, detected)
 
 
-def read_sessions(folder: str | Path) -> tuple[MappingSession | None, DistortionSession | None]:
+def read_sessions(folder: str | Path, variant: str = AUTO_VARIANT
+                  ) -> tuple[MappingSession | None, DistortionSession | None]:
     """Both sessions of one participant's calibration folder; at least one must be present.
+
+    ``variant`` is the distortion stream's log variant (``"auto"``, ``"pilot"`` or ``"ciaa"``).
 
     Raises
     ------
@@ -398,7 +534,7 @@ def read_sessions(folder: str | Path) -> tuple[MappingSession | None, Distortion
         raise DataError(f"{folder}: no such folder; give one participant's calibration folder "
                         f"(with {STUDY_MAPPING_FOLDER}/ and/or {STUDY_DISTORTION_FOLDER}/)")
     mapping = read_mapping_session(folder)
-    distortion = read_distortion_session(folder)
+    distortion = read_distortion_session(folder, variant)
     if mapping is None and distortion is None:
         participants = sorted(child.name for child in folder.iterdir() if child.is_dir() and (
             (child / STUDY_MAPPING_FOLDER).is_dir() or (child / STUDY_DISTORTION_FOLDER).is_dir()))
@@ -410,7 +546,9 @@ def read_sessions(folder: str | Path) -> tuple[MappingSession | None, Distortion
             f"{folder}: no calibration session found; expected {STUDY_MAPPING_FOLDER}/"
             f"{STUDY_FILES['mapping_prompts']} + {STUDY_FILES['mapping_responses']} and/or "
             f"{STUDY_DISTORTION_FOLDER}/{STUDY_FILES['distortion_prompts']} + "
-            f"{STUDY_FILES['distortion_stream']} (or the tidy {', '.join(TIDY_FILES.values())})")
+            f"{STUDY_FILES['distortion_stream']}, the sibling study's <id>_{CIAA_MAPPING_SUFFIX}/ and/or "
+            f"<id>_{CIAA_DISTORTION_SUFFIX}/ with the same files, or the tidy "
+            f"{', '.join(TIDY_FILES.values())}")
     return mapping, distortion
 
 
@@ -439,7 +577,7 @@ def distortion_session_frames(session: DistortionSession) -> dict[str, pd.DataFr
                                             "command": list(session.prompt_commands)}),
         "distortion_stream": pd.DataFrame({
             "t": session.stream_times, "pressure": session.stream_pressure,
-            "label": [STREAM_NAMES[int(c)] for c in session.stream_codes]}),
+            "label": [stream_names(session.variant)[int(c)] for c in session.stream_codes]}),
     }
 
 
@@ -506,3 +644,39 @@ def distortion_windows(session: DistortionSession) -> tuple[np.ndarray, np.ndarr
     starts = nearest_indices(session.stream_times, session.prompt_times[0::2])
     ends = nearest_indices(session.stream_times, session.prompt_times[1::2])
     return starts, ends
+
+
+def silent_prompts(session: DistortionSession) -> np.ndarray:
+    """``(n_prompts,)`` bool: the prompts that got no input, which the protocol shows again.
+
+    Event-driven stream (``ciaa``): no stream message at all (of any label, ``Zero Band`` and
+    ``input stopped`` included) from the prompt's showing up to the next prompt's showing (the
+    last prompt: up to the end of the stream). This is the sibling study's re-queue test (after the
+    blank it compared the time of the last stream message with the prompt's time). Fixed-rate
+    stream (``pilot``): the stream never falls silent, so "no input" means no message other than
+    the neutral label in that interval (the rule of this toolkit's simulated sessions).
+    """
+    shown = session.prompt_times[0::2]
+    until = np.append(shown[1:], np.inf)
+    times = session.stream_times
+    if not session.event_driven:
+        times = times[session.stream_codes != NO_INPUT]
+    return np.searchsorted(times, shown, side="left") == np.searchsorted(times, until, side="left")
+
+
+def requeue_consistent(session: DistortionSession) -> bool:
+    """Whether the prompt log follows the re-queue rule of the prompt-and-produce protocol.
+
+    The protocol shows each label equally often (rounds of the four labels), then appends each
+    prompt without input (:func:`silent_prompts`) to the end of the session, in the order they
+    occurred (a repeat that again gets no input is appended again). So with ``k`` silent prompts,
+    the first ``n - k`` prompts hold each label equally often and the last ``k`` have the labels of
+    the silent prompts, in order. ``False`` means the session was cut short, or the log is not a
+    complete prompt-and-produce session.
+    """
+    silent = silent_prompts(session)
+    labels = session.prompt_labels
+    k = int(silent.sum())
+    planned = np.bincount(labels[:len(labels) - k], minlength=len(LABELS))
+    balanced = bool(np.all(planned == planned[0]))
+    return balanced and bool(np.array_equal(labels[len(labels) - k:], labels[silent]))

@@ -1,0 +1,484 @@
+"""``nudge compare``: simulated people beside real people, metric by metric.
+
+Both inputs are tidy metrics tables (one row per trial: ``participant``, ``condition``, metric
+columns), the simulated one usually computed from a run folder. For each metric the two tables
+share and each condition they share (after ``condition_map`` renames simulated conditions):
+
+- per-participant medians of each source (:func:`participant_medians`), and the real people's
+  range of them (min-max), with the share of simulated participants whose median lies inside it;
+- the pooled trial-level medians and quartiles (linear quantiles) of each source;
+- two-sample distances between the pooled trial distributions: Kolmogorov-Smirnov
+  (``scipy.stats.ks_2samp``: statistic and its p-value) and Wasserstein-1
+  (``scipy.stats.wasserstein_distance``, in the metric's unit);
+- a cluster-bootstrap percentile interval of each distance: each resample draws the simulated
+  participants and, independently, the real participants with replacement and takes all their
+  trials (trials are nested in people, so the KS p-value, which assumes independent trials, is
+  optimistic; the interval is the honest uncertainty). Every participant of a source is drawn
+  from, so one without a value for a metric and condition adds nothing to that resample. The
+  resamples come from ``nudgecli.rng.generator(seed, "compare", source)``, the same for every
+  metric.
+
+A bootstrap distance is biased upwards (resampling adds noise to both ECDFs), so an interval can
+exclude the observed value when the two distributions are close; read it as "how large the
+difference could be", not as a test.
+
+The functions above the "reading and writing" section take and return pandas DataFrames;
+:func:`compare_sources` reads the two inputs (through :func:`nudgecli.report.analysis.load_source`,
+so a run folder's metrics are the analysis plan's) and :func:`write_comparison` writes the result.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import scipy.stats
+
+from nudgecli.config import did_you_mean
+from nudgecli.errors import DataError
+from nudgecli.report.analysis import format_p, format_value, load_source
+from nudgecli.report.plans import AnalysisPlan, load_plan
+from nudgecli.report.stats import json_ready
+from nudgecli.rng import generator
+from nudgecli.store import write_text_atomic
+
+#: The two sources, in display order.
+SOURCES = ("simulated", "real")
+#: Largest number of (resample x trial) cells held in memory at once by the bootstrap.
+_CHUNK_CELLS = 4_000_000
+
+#: Columns of :func:`compare_tables`'s result, in order.
+COMPARISON_COLUMNS = (
+    "metric", "condition",
+    "n_simulated", "n_real", "participants_simulated", "participants_real",
+    "median_simulated", "q1_simulated", "q3_simulated",
+    "median_real", "q1_real", "q3_real",
+    "real_participant_min", "real_participant_max",
+    "simulated_participant_min", "simulated_participant_max", "simulated_inside_real_range",
+    "ks_statistic", "ks_p", "ks_low", "ks_high",
+    "wasserstein", "wasserstein_low", "wasserstein_high", "valid_resamples",
+)
+
+
+@dataclass(frozen=True)
+class CompareOptions:
+    """Settings of :func:`compare_tables`.
+
+    Attributes
+    ----------
+    resamples
+        Cluster-bootstrap resamples (0 skips the intervals).
+    level
+        Level of the percentile intervals.
+    seed
+        Master seed of the resamples.
+    """
+
+    resamples: int = 2000
+    level: float = 0.95
+    seed: int = 0
+
+
+def _numeric(series: pd.Series) -> pd.Series:
+    """A float Series (booleans -> 0/1, nullable types -> NaN for missing)."""
+    if pd.api.types.is_bool_dtype(series) or series.dtype == "boolean":
+        return series.astype("Float64").astype(float)
+    return pd.to_numeric(series, errors="coerce").astype(float)
+
+
+Aligned = tuple[pd.DataFrame, pd.DataFrame, list[str]]
+
+
+def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
+                     condition_map: Mapping[str, str] | None = None) -> Aligned:
+    """Rename the simulated conditions by ``condition_map`` and keep the conditions both tables hold.
+
+    Parameters
+    ----------
+    simulated, real
+        Metrics tables with a ``condition`` column.
+    condition_map
+        Simulated condition -> the real table's name for it (e.g. ``{"none": "no assistance"}``).
+
+    Returns
+    -------
+    tuple[pd.DataFrame, pd.DataFrame, list[str]]
+        Both tables restricted to the shared conditions (conditions as strings), and the shared
+        conditions in the real table's order of first appearance.
+
+    Raises
+    ------
+    DataError
+        A ``condition_map`` key that is not a simulated condition, or no shared condition.
+    """
+    simulated = simulated.assign(condition=simulated["condition"].astype(str))
+    real = real.assign(condition=real["condition"].astype(str))
+    sim_conditions = list(dict.fromkeys(simulated["condition"]))
+    real_conditions = list(dict.fromkeys(real["condition"]))
+    mapping = dict(condition_map or {})
+    for key in mapping:
+        if key not in sim_conditions:
+            raise DataError(f"--match {key}={mapping[key]}: the simulated table has no condition {key!r}"
+                            f"{did_you_mean(key, sim_conditions)}; its conditions: "
+                            f"{', '.join(sim_conditions)}")
+    simulated = simulated.assign(condition=simulated["condition"].map(lambda c: mapping.get(c, c)))
+    shared = [c for c in real_conditions if c in set(simulated["condition"])]
+    if not shared:
+        raise DataError(f"no condition in common: simulated {', '.join(sim_conditions)}; real "
+                        f"{', '.join(real_conditions)}; pair them with --match SIMULATED=REAL, e.g. "
+                        f"--match {sim_conditions[0]}={real_conditions[0]}")
+    return (simulated[simulated["condition"].isin(shared)], real[real["condition"].isin(shared)], shared)
+
+
+def shared_metrics(simulated_metrics: Sequence[str], real_metrics: Sequence[str],
+                   requested: Sequence[str] | None = None) -> list[str]:
+    """The metrics both tables hold (in the real table's order), or the ``requested`` ones.
+
+    Raises
+    ------
+    DataError
+        A requested metric missing from either table, or no metric in common.
+    """
+    common = [m for m in real_metrics if m in set(simulated_metrics)]
+    if requested:
+        for name in requested:
+            for source, names in (("simulated", simulated_metrics), ("real", real_metrics)):
+                if name not in names:
+                    raise DataError(f"--metric {name}: the {source} table has no metric {name!r}"
+                                    f"{did_you_mean(name, names)}; shared metrics: "
+                                    f"{', '.join(common) or 'none'}")
+        return list(dict.fromkeys(requested))
+    if not common:
+        raise DataError(f"no metric in common: simulated {', '.join(simulated_metrics)}; real "
+                        f"{', '.join(real_metrics)}; name the real table's columns like the simulated "
+                        "metrics (e.g. completion_time, success, mode_switches)")
+    return common
+
+
+def participant_medians(simulated: pd.DataFrame, real: pd.DataFrame, metrics: Sequence[str]) -> pd.DataFrame:
+    """Per-participant medians of each metric and condition, both sources in one tidy table.
+
+    Returns
+    -------
+    pd.DataFrame
+        Columns ``source`` (simulated, real), ``metric``, ``condition``, ``participant``
+        (as a string), ``n`` (trials with a value) and ``median``; participants without a value
+        of the metric in a condition are left out.
+    """
+    frames = []
+    for source, table in zip(SOURCES, (simulated, real), strict=True):
+        for metric in metrics:
+            tidy = pd.DataFrame({"condition": table["condition"].astype(str),
+                                 "participant": table["participant"].astype(str),
+                                 "value": _numeric(table[metric])}).dropna(subset=["value"])
+            grouped = tidy.groupby(["condition", "participant"], sort=True)["value"]
+            summary = grouped.agg(n="size", median="median").reset_index()
+            summary.insert(0, "metric", metric)
+            summary.insert(0, "source", source)
+            frames.append(summary)
+    columns = ["source", "metric", "condition", "participant", "n", "median"]
+    return pd.concat(frames, ignore_index=True)[columns] if frames else pd.DataFrame(columns=columns)
+
+
+def weighted_distances(values_a: np.ndarray, weights_a: np.ndarray, values_b: np.ndarray,
+                       weights_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Kolmogorov-Smirnov and Wasserstein-1 distances between weighted samples, many weightings at once.
+
+    With unit weights these are ``scipy.stats.ks_2samp(a, b).statistic`` and
+    ``scipy.stats.wasserstein_distance(a, b)``.
+
+    Parameters
+    ----------
+    values_a, values_b
+        ``(n_a,)`` and ``(n_b,)`` finite values.
+    weights_a, weights_b
+        ``(B, n_a)`` and ``(B, n_b)`` non-negative weights (e.g. how often each trial's participant
+        was drawn); rows with a zero total give ``nan``.
+
+    Returns
+    -------
+    tuple[np.ndarray, np.ndarray]
+        ``(B,)`` KS statistics (largest gap between the weighted ECDFs) and ``(B,)`` Wasserstein-1
+        distances (area between them).
+    """
+    values = np.concatenate([values_a, values_b])
+    order = np.argsort(values, kind="stable")
+    ordered = values[order]
+    # the last position of each run of equal values: the ECDFs are evaluated there
+    last = np.flatnonzero(np.append(ordered[1:] != ordered[:-1], True))
+    widths = np.diff(ordered[last])
+    n_a = len(values_a)
+    in_a = order < n_a
+    n_rows = weights_a.shape[0]
+    ks = np.empty(n_rows)
+    w1 = np.empty(n_rows)
+    step = max(1, _CHUNK_CELLS // max(len(values), 1))
+    for start in range(0, n_rows, step):
+        rows = slice(start, min(start + step, n_rows))
+        pooled = np.zeros((rows.stop - rows.start, len(values)))
+        pooled[:, in_a] = weights_a[rows][:, order[in_a]]
+        cdf_a = np.cumsum(pooled, axis=1)[:, last]
+        pooled[:] = 0.0
+        pooled[:, ~in_a] = weights_b[rows][:, order[~in_a] - n_a]
+        cdf_b = np.cumsum(pooled, axis=1)[:, last]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            gap = np.abs(cdf_a / cdf_a[:, -1:] - cdf_b / cdf_b[:, -1:])
+        ks[rows] = gap.max(axis=1)
+        w1[rows] = (gap[:, :-1] * widths).sum(axis=1)
+    return ks, w1
+
+
+def _resample_weights(participants: np.ndarray, resamples: int, seed: int, source: str) -> np.ndarray:
+    """``(resamples, P)``: how often each participant is drawn in each cluster resample."""
+    n = len(participants)
+    if n == 0 or resamples == 0:
+        return np.zeros((resamples, n))
+    draws = generator(seed, "compare", source).integers(0, n, size=(resamples, n))
+    flat = (np.arange(resamples)[:, None] * n + draws).ravel()
+    return np.bincount(flat, minlength=resamples * n).reshape(resamples, n).astype(float)
+
+
+def _extreme(values: np.ndarray, how: Callable[[np.ndarray], float]) -> float:
+    return float(how(values)) if values.size else math.nan
+
+
+def _quantiles(values: np.ndarray) -> tuple[float, float, float]:
+    if values.size == 0:
+        return math.nan, math.nan, math.nan
+    q1, median, q3 = np.quantile(values, [0.25, 0.5, 0.75])
+    return float(median), float(q1), float(q3)
+
+
+def compare_tables(simulated: pd.DataFrame, real: pd.DataFrame, metrics: Sequence[str],
+                   conditions: Sequence[str], options: CompareOptions = CompareOptions()) -> pd.DataFrame:
+    """The comparison of every metric and condition (see the module docstring).
+
+    Parameters
+    ----------
+    simulated, real
+        Metrics tables (``participant``, ``condition``, the ``metrics`` columns), conditions
+        already aligned (:func:`align_conditions`).
+    metrics, conditions
+        What to compare.
+
+    Returns
+    -------
+    pd.DataFrame
+        One row per (metric, condition), columns :data:`COMPARISON_COLUMNS`. Distances are
+        ``nan`` where a source has no value.
+    """
+    people = {source: np.array(sorted(table["participant"].astype(str).unique()))
+              for source, table in zip(SOURCES, (simulated, real), strict=True)}
+    weights = {source: _resample_weights(people[source], options.resamples, options.seed, source)
+               for source in SOURCES}
+    medians = participant_medians(simulated, real, metrics)
+    tail = (1.0 - options.level) / 2.0
+    rows = []
+    for metric in metrics:
+        for condition in conditions:
+            data = {}
+            for source, table in zip(SOURCES, (simulated, real), strict=True):
+                subset = table[table["condition"].astype(str) == condition]
+                values = _numeric(subset[metric]).to_numpy()
+                keep = np.isfinite(values)
+                owners = np.searchsorted(people[source], subset["participant"].astype(str).to_numpy()[keep])
+                data[source] = (values[keep], owners)
+            row: dict[str, object] = {"metric": metric, "condition": condition}
+            for source in SOURCES:
+                values, owners = data[source]
+                median, q1, q3 = _quantiles(values)
+                row.update({f"n_{source}": int(values.size),
+                            f"participants_{source}": int(np.unique(owners).size),
+                            f"median_{source}": median, f"q1_{source}": q1, f"q3_{source}": q3})
+            own = medians[(medians["metric"] == metric) & (medians["condition"] == condition)]
+            real_medians = own.loc[own["source"] == "real", "median"].to_numpy()
+            sim_medians = own.loc[own["source"] == "simulated", "median"].to_numpy()
+            low_real, high_real = _extreme(real_medians, np.min), _extreme(real_medians, np.max)
+            inside = (float(np.mean((sim_medians >= low_real) & (sim_medians <= high_real)))
+                      if sim_medians.size and real_medians.size else math.nan)
+            row.update({"real_participant_min": low_real, "real_participant_max": high_real,
+                        "simulated_participant_min": _extreme(sim_medians, np.min),
+                        "simulated_participant_max": _extreme(sim_medians, np.max),
+                        "simulated_inside_real_range": inside})
+            (sim_values, sim_owners), (real_values, real_owners) = data["simulated"], data["real"]
+            ks = ks_p = w1 = math.nan
+            ks_low = ks_high = w_low = w_high = math.nan
+            valid = 0
+            if sim_values.size and real_values.size:
+                test = scipy.stats.ks_2samp(sim_values, real_values)
+                ks, ks_p = float(test.statistic), float(test.pvalue)
+                w1 = float(scipy.stats.wasserstein_distance(sim_values, real_values))
+                if options.resamples:
+                    boot_ks, boot_w1 = weighted_distances(
+                        sim_values, weights["simulated"][:, sim_owners],
+                        real_values, weights["real"][:, real_owners])
+                    ok = np.isfinite(boot_ks) & np.isfinite(boot_w1)
+                    valid = int(ok.sum())
+                    if valid:
+                        ks_low, ks_high = (float(q) for q in np.quantile(boot_ks[ok], [tail, 1 - tail]))
+                        w_low, w_high = (float(q) for q in np.quantile(boot_w1[ok], [tail, 1 - tail]))
+            row.update({"ks_statistic": ks, "ks_p": ks_p, "ks_low": ks_low, "ks_high": ks_high,
+                        "wasserstein": w1, "wasserstein_low": w_low, "wasserstein_high": w_high,
+                        "valid_resamples": valid})
+            rows.append(row)
+    return pd.DataFrame(rows, columns=list(COMPARISON_COLUMNS))
+
+
+# --- reading and writing ------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Comparison:
+    """What :func:`compare_sources` computed.
+
+    Attributes
+    ----------
+    simulated, real
+        The two sources (paths as given).
+    metrics, conditions
+        What was compared.
+    table
+        :func:`compare_tables`'s result, one row per (metric, condition).
+    medians
+        :func:`participant_medians`'s result.
+    options
+        The bootstrap settings.
+    trials
+        The two aligned metrics tables (``{"simulated": ..., "real": ...}``), for the figure.
+    """
+
+    simulated: str
+    real: str
+    metrics: list[str]
+    conditions: list[str]
+    table: pd.DataFrame
+    medians: pd.DataFrame
+    options: CompareOptions
+    trials: dict[str, pd.DataFrame] = field(default_factory=dict, repr=False, compare=False)
+
+    def to_json(self) -> dict[str, object]:
+        """The JSON document of ``--format json`` and ``compare.json`` (NaN as ``None``)."""
+        return json_ready({
+            "simulated": self.simulated, "real": self.real,
+            "metrics": self.metrics, "conditions": self.conditions,
+            "bootstrap": {"resamples": self.options.resamples, "level": self.options.level,
+                          "seed": self.options.seed, "unit": "participants (cluster bootstrap)"},
+            "comparison": self.table.to_dict(orient="records"),
+            "participant_medians": self.medians.to_dict(orient="records"),
+        })
+
+
+def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | AnalysisPlan = "paper",
+                    metrics: Sequence[str] | None = None, condition_map: Mapping[str, str] | None = None,
+                    options: CompareOptions = CompareOptions()) -> Comparison:
+    """Read a simulated source (run folder or metrics table) and a real metrics table, and compare them.
+
+    Parameters
+    ----------
+    simulated
+        A run folder (its metrics computed with ``plan``) or a metrics table.
+    real
+        A metrics table of real trials (CSV or Parquet; one condition is enough).
+    plan
+        The analysis plan whose metric definitions and filters apply to both sources.
+    metrics
+        Only these metrics (default: every metric both hold).
+    condition_map
+        Simulated condition -> real condition name.
+
+    Raises
+    ------
+    DataError, RunFolderError, ConfigError
+        Unreadable sources, no shared metric or condition, an unknown metric.
+    """
+    from nudgecli.report.metrics import apply_filters
+
+    chosen = load_plan(plan)
+    sim_table, sim_metrics, _ = load_source(Path(simulated), chosen, min_conditions=1)
+    real_path = Path(real)
+    if real_path.is_dir():
+        raise DataError(f"{real_path} is a folder; REAL must be a metrics table of real trials (.csv or "
+                        ".parquet, one row per trial with participant, condition and metric columns)")
+    real_table, real_metrics, _ = load_source(real_path, chosen, min_conditions=1)
+    selected = shared_metrics(sim_metrics, real_metrics, metrics)
+    sim_table = apply_filters(sim_table, chosen.filters)
+    real_table = apply_filters(real_table, chosen.filters)
+    sim_table, real_table, conditions = align_conditions(sim_table, real_table, condition_map)
+    table = compare_tables(sim_table, real_table, selected, conditions, options)
+    medians = participant_medians(sim_table, real_table, selected)
+    return Comparison(str(simulated), str(real), selected, conditions, table, medians, options,
+                      {"simulated": sim_table, "real": real_table})
+
+
+def write_comparison(result: Comparison, out: str | Path) -> list[Path]:
+    """Write ``compare.csv``, ``participant_medians.csv`` and ``compare.json`` into ``out`` (atomically)."""
+    import json
+
+    folder = Path(out)
+    if folder.exists() and not folder.is_dir():
+        raise DataError(f"--out {folder} is a file; give a folder")
+    files = {
+        "compare.csv": result.table.to_csv(index=False),
+        "participant_medians.csv": result.medians.to_csv(index=False),
+        "compare.json": json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n",
+    }
+    written = []
+    for name, text in files.items():
+        write_text_atomic(folder / name, text)
+        written.append(folder / name)
+    return written
+
+
+def _interval(value: float, low: float, high: float) -> str:
+    return f"{format_value(value)} [{format_value(low)}, {format_value(high)}]"
+
+
+def _quartiles(row: Mapping[str, object], source: str) -> str:
+    return (f"{format_value(row[f'median_{source}'])} [{format_value(row[f'q1_{source}'])}, "
+            f"{format_value(row[f'q3_{source}'])}]")
+
+
+def format_comparison(result: Comparison) -> str:
+    """Plain-text tables: the distances per metric and condition, then the participants' medians."""
+    level = f"{result.options.level:.0%}"
+    header = ["metric", "condition", "n sim/real", "sim median [q1, q3]", "real median [q1, q3]",
+              "real people", "sim inside", "KS [" + level + "]", "KS p", "Wasserstein [" + level + "]"]
+    rows = []
+    for row in result.table.to_dict(orient="records"):
+        inside = row["simulated_inside_real_range"]
+        rows.append([
+            str(row["metric"]), str(row["condition"]), f"{row['n_simulated']}/{row['n_real']}",
+            _quartiles(row, "simulated"), _quartiles(row, "real"),
+            f"{format_value(row['real_participant_min'])} to {format_value(row['real_participant_max'])}",
+            "-" if not np.isfinite(inside) else f"{inside:.0%}",
+            _interval(row["ks_statistic"], row["ks_low"], row["ks_high"]),
+            format_p(row["ks_p"]),
+            _interval(row["wasserstein"], row["wasserstein_low"], row["wasserstein_high"]),
+        ])
+    lines = [_render(header, rows), ""]
+    lines.append("Per-participant medians (sorted):")
+    medians = result.medians
+    side = []
+    for metric in result.metrics:
+        for condition in result.conditions:
+            own = medians[(medians["metric"] == metric) & (medians["condition"] == condition)]
+            cells = [", ".join(format_value(v) for v in sorted(own.loc[own["source"] == source, "median"]))
+                     or "-" for source in SOURCES]
+            side.append([metric, condition, *cells])
+    lines.append(_render(["metric", "condition", "simulated", "real"], side))
+    lines.append("")
+    lines.append(f"KS p assumes independent trials (optimistic: trials are nested in people); the intervals "
+                 f"are {level} cluster-bootstrap percentiles over participants ({result.options.resamples} "
+                 f"resamples, seed {result.options.seed}).")
+    return "\n".join(lines)
+
+
+def _render(header: list[str], rows: list[list[str]]) -> str:
+    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+    lines = ["  ".join(cell.ljust(w) for cell, w in zip(header, widths, strict=True)).rstrip(),
+             "  ".join("-" * w for w in widths)]
+    lines += ["  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() for row in rows]
+    return "\n".join(lines)

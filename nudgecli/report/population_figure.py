@@ -1,0 +1,82 @@
+"""The figure of ``nudge plot-population``: simulated participants' fitted diagonals beside real people's.
+
+Two panels, one per stream format (the pilots' fixed 10 Hz stream; the sibling study's
+event-driven stream). In each, per intended label, every simulated participant's fitted
+``p(phi_m = phi_i | phi_i)`` is a dot (spread sideways so they do not hide each other), and the
+real people's values are drawn beside them: the sibling study's span as a gray bar, the pilots as
+black diamonds. Inputs are :func:`nudgecli.sim.real_population.simulated_diagonals` and
+:data:`~nudgecli.sim.real_population.PILOT_DIAGONALS` / ``SIBLING_DIAGONAL_SPANS``.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from nudgecli.model.interface import LABELS
+from nudgecli.report.compare_figure import save_figure_atomic
+from nudgecli.report.style import FULL_WIDTH_IN, OKABE_ITO, figure_style
+from nudgecli.sim.real_population import PILOT_DIAGONALS, SIBLING_DIAGONAL_SPANS
+
+#: File stem of the figure.
+FIGURE_STEM = "population"
+#: Panel titles per stream format.
+STREAM_TITLES = {
+    "fixed_rate": "fixed 10 Hz stream (pilots' protocol)",
+    "event_driven": "event-driven stream (sibling study's protocol)",
+}
+
+
+def build_population_figure(simulated: pd.DataFrame, title: str = "") -> Figure:
+    """The figure (see the module docstring).
+
+    Parameters
+    ----------
+    simulated
+        Columns ``participant``, ``stream``, ``label``, ``diagonal``.
+    title
+        A suptitle (e.g. the experiment and the number of participants).
+    """
+    with figure_style():
+        fig = Figure(figsize=(FULL_WIDTH_IN, 2.9), layout="constrained")
+        FigureCanvasAgg(fig)
+        axes = fig.subplots(1, 2, sharey=True)
+        for ax, (stream, panel_title) in zip(axes, STREAM_TITLES.items(), strict=True):
+            own = simulated[simulated["stream"] == stream]
+            for k, label in enumerate(LABELS):
+                values = own.loc[own["label"] == label, "diagonal"].to_numpy(dtype=float)
+                # a deterministic sideways spread: by rank, so equal values do not overlap
+                rank = np.argsort(np.argsort(values, kind="stable"))
+                offsets = (rank / max(len(values) - 1, 1) - 0.5) * 0.15
+                ax.scatter(k - 0.12 + offsets, values, s=7, color=OKABE_ITO["blue"], alpha=0.75,
+                           linewidths=0, label="simulated participants" if k == 0 else None)
+                if stream == "event_driven":
+                    low, high = SIBLING_DIAGONAL_SPANS[label]
+                    ax.bar(k + 0.22, high - low, bottom=low, width=0.14, color="#BDBDBD", edgecolor="#4D4D4D",
+                           linewidth=0.6, label="sibling study, 9 people (span)" if k == 0 else None)
+                else:
+                    pilots = [values_of[label] for values_of in PILOT_DIAGONALS.values()]
+                    ax.scatter(np.full(len(pilots), k + 0.22), pilots, s=16, marker="D",
+                               color=OKABE_ITO["black"], zorder=3,
+                               label="pilots (nudge fit of their logs)" if k == 0 else None)
+            ax.set_xticks(range(len(LABELS)), [label.replace(" ", "\n") for label in LABELS])
+            ax.set_xlim(-0.6, len(LABELS) - 0.4)
+            ax.set_ylim(-0.02, 1.02)
+            ax.set_title(panel_title, loc="left")
+            ax.legend(loc="lower left")
+        axes[0].set_ylabel(r"fitted $p(\phi_m = \phi_i \mid \phi_i)$")
+        if title:
+            fig.suptitle(title)
+    return fig
+
+
+def plot_population(simulated: pd.DataFrame, out_dir: str | os.PathLike[str],
+                    formats: Sequence[str] = ("png", "pdf"), title: str = "") -> list[Path]:
+    """Draw :func:`build_population_figure` and write ``population.<fmt>`` into ``out_dir``."""
+    return save_figure_atomic(build_population_figure(simulated, title), out_dir, FIGURE_STEM, formats)

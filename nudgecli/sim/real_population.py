@@ -1,0 +1,263 @@
+"""Real sip-and-puff users as the yardstick of the simulated population (issue 14, part 3).
+
+Twelve real people's prompt-and-produce calibrations are known: the three pilots' logs in
+``../shared/data/calibration/`` (a fixed 10 Hz stream) and nine participants of the sibling study
+(2020, CIAA; an event-driven stream, ``../shared/data/ciaa-task/TASK.md``). Their fitted
+``p(phi_m | phi_i)`` diagonals are the yardstick: a simulated participant calibrated the same way
+should produce a diagonal inside the real people's spread, and the population as a whole should
+cover it. The two stream formats weigh a blow differently (a fixed-rate stream counts time, an
+event-driven one counts pressure *changes*: a saturated hard blow is silent while its ramps
+through the soft band and the deadband are not), so each real value is compared with simulated
+participants calibrated in its own format.
+
+- :data:`SIBLING_DIAGONAL_SPANS`: the nine sibling-study participants' spans (event-driven).
+- :data:`PILOT_DIAGONALS`: the pilots' diagonals, fitted by ``nudge fit`` from their logs (10 Hz).
+- :func:`expected_diagonal`: the diagonal the estimator converges to for a physiology (exact label
+  probabilities for the fixed-rate stream; expected message counts, by a seeded Monte-Carlo
+  average over blows, for the event-driven one).
+- :func:`diagonal_image`: the range of :func:`expected_diagonal` over a population's ranges.
+- :func:`simulated_diagonals`: simulated participants' fitted diagonals (their calibration
+  simulated and fitted with the study's estimator), in both formats.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pandas as pd
+
+from nudgecli.config import CalibrationSection, ExperimentConfig, InterfaceSection, PopulationSection
+from nudgecli.model.interface import LABELS, N_LABELS
+from nudgecli.rng import generator
+from nudgecli.sim.calibration import (
+    estimate_distortion,
+    event_driven_stream,
+    merge_and_smooth,
+    simulate_distortion_session,
+    smooth_true_distortion,
+)
+from nudgecli.sim.participants import LABEL_IS_HARD, LABEL_SIGN, Participant, blow_pressures, ramp_fractions
+
+#: The stream formats: the pilots' fixed 10 Hz stream, the sibling study's event-driven one.
+STREAMS = ("fixed_rate", "event_driven")
+#: Fitted diagonal spans of nine sibling-study participants (event-driven stream; issue 14).
+#: Their p(phi_i | a) answers were all correct.
+SIBLING_DIAGONAL_SPANS: dict[str, tuple[float, float]] = {
+    "Hard Puff": (0.53, 0.84), "Hard Sip": (0.54, 0.78), "Soft Puff": (0.80, 0.97), "Soft Sip": (0.31, 0.97),
+}
+#: The pilots' fitted diagonals (``nudge fit ../shared/data/calibration/<pilot>``, fixed 10 Hz stream;
+#: ``deepak`` has no p(phi_m | phi_i) session). deepaktest never produced a soft sip (every Soft
+#: Sip prompt read Hard Sip: his soft-sip level is 1.08), which no range of a "soft" level covers.
+PILOT_DIAGONALS: dict[str, dict[str, float]] = {
+    "andrewtest": {"Hard Puff": 0.933, "Hard Sip": 0.954, "Soft Puff": 0.965, "Soft Sip": 0.698},
+    "deepaktest": {"Hard Puff": 0.903, "Hard Sip": 0.971, "Soft Puff": 0.971, "Soft Sip": 0.010},
+}
+#: The sibling study's prompt-and-produce protocol: 4 s prompts, 1 s blank, event-driven stream.
+SIBLING_PROMPT_S, SIBLING_BLANK_S = 4.0, 1.0
+#: Blows averaged by :func:`expected_diagonal` for the event-driven stream.
+EVENT_BLOWS = 400
+
+
+def sibling_calibration(calibration: CalibrationSection) -> CalibrationSection:
+    """``calibration`` with the sibling study's prompt timing and its event-driven stream."""
+    return calibration.model_copy(update={"prompt_s": SIBLING_PROMPT_S, "blank_s": SIBLING_BLANK_S,
+                                          "stream": "event_driven"})
+
+
+def _probe(label: int, level: float, spread: float, ramp: int) -> Participant:
+    """A participant whose ``label`` has ``level``/``spread`` (the other labels are irrelevant)."""
+    levels = np.array([0.9, 0.9, 0.1, 0.1])
+    spreads = np.full(N_LABELS, 0.05)
+    levels[label], spreads[label] = level, spread
+    return Participant(index=0, seed_key="probe", pressure_level=LABEL_SIGN * levels, pressure_spread=spreads,
+                       mapping=np.full((3, 4, N_LABELS), 0.25), epsilon=0.0, rest_s=0.0, operate_s=1.0,
+                       action_pause_s=0.0, hard_blow_s=0.5, reaction_s=1.0, onset_ramp_samples=ramp)
+
+
+def expected_diagonal(label: int, level: float, spread: float, interface: InterfaceSection,
+                      stream: str = "fixed_rate", ramp: int = 2, hold_samples: int = 25,
+                      event_step: float = 0.0109, seed: int = 0) -> float:
+    """The ``p(phi_m = phi_i | phi_i)`` the study's estimator converges to for one label's physiology.
+
+    Parameters
+    ----------
+    label
+        The intended label ``0..3``.
+    level, spread
+        Its pressure magnitude level and per-sample spread (the pressure model of
+        :mod:`nudgecli.sim.participants`).
+    interface
+        The label thresholds.
+    stream
+        ``"fixed_rate"``: exact, the ratio of expected counts over an ``hold_samples``-tick blow
+        with an onset ramp of ``ramp`` ticks (:meth:`Participant.true_distortion`), smoothed as
+        the estimator smooths. ``"event_driven"``: the ratio of the expected message counts of
+        such a blow (its ticks turned into messages by
+        :func:`nudgecli.sim.calibration.event_driven_stream`, the release back to zero included),
+        averaged over :data:`EVENT_BLOWS` blows drawn from ``generator(seed, "expected_diagonal")``.
+    hold_samples
+        Ticks of one blow (a 4 s prompt minus a ~1.5 s reaction at 10 Hz: 25).
+
+    Returns
+    -------
+    float
+        The diagonal entry, after the deadbands are merged into hard and the ``+0.01`` smoothing.
+    """
+    if stream == "fixed_rate":
+        truth = _probe(label, level, spread, ramp).true_distortion(interface, hold_samples)
+        return float(smooth_true_distortion(truth)[label, label])
+    if stream != "event_driven":
+        raise ValueError(f"stream must be one of {STREAMS}, got {stream!r}")
+    rng = generator(seed, "expected_diagonal")
+    fractions = np.tile(np.r_[ramp_fractions(hold_samples, ramp), 0.0], EVENT_BLOWS)  # each blow ends at zero
+    normals = rng.standard_normal(fractions.size)
+    blow = fractions > 0
+    pressure = np.zeros(fractions.size)
+    pressure[blow] = blow_pressures(np.full(blow.sum(), level), np.full(blow.sum(), spread),
+                                    np.full(blow.sum(), LABEL_SIGN[label]), fractions[blow], normals[blow])
+    pressure = np.r_[0.0, pressure]
+    _, _, codes = event_driven_stream(np.arange(pressure.size) * 0.1, pressure, interface, event_step)
+    counted = np.array([np.sum(codes == c) for c in (0, 1, 2, 3, 4, 5)], dtype=float)
+    if counted.sum() == 0:
+        return float("nan")
+    merged = merge_and_smooth((counted / counted.sum())[None, :])[0]
+    return float(merged[label])
+
+
+def diagonal_image(population: PopulationSection, interface: InterfaceSection, stream: str = "fixed_rate",
+                   hold_samples: int = 25, event_step: float = 0.0109) -> pd.DataFrame:
+    """The range of :func:`expected_diagonal` over a population's level, spread and ramp ranges.
+
+    Every corner of each label's (level, spread, ramp) box is evaluated, plus the midpoints of
+    level and spread (the diagonal is monotone in the level between thresholds, so the extremes
+    sit at the corners; the midpoints guard against a level range that straddles a threshold).
+
+    Returns
+    -------
+    pd.DataFrame
+        One row per label: ``label``, ``stream``, ``low``, ``high`` and the (level, spread, ramp)
+        of each extreme.
+    """
+    levels = {0: population.hard_puff_level, 1: population.hard_sip_level, 2: population.soft_puff_level,
+              3: population.soft_sip_level}
+    rows = []
+    for label in range(N_LABELS):
+        spread_range = population.hard_spread if LABEL_IS_HARD[label] else population.soft_spread
+        lo, hi = levels[label]
+        grid = itertools.product((lo, 0.5 * (lo + hi), hi),
+                                 (spread_range[0], 0.5 * sum(spread_range), spread_range[1]),
+                                 sorted(set(population.onset_ramp_samples)))
+        values = [(expected_diagonal(label, lv, sd, interface, stream, rp, hold_samples, event_step),
+                   lv, sd, rp) for lv, sd, rp in grid]
+        low, high = min(values), max(values)
+        rows.append({"label": LABELS[label], "stream": stream, "low": low[0], "high": high[0],
+                     "low_at": low[1:], "high_at": high[1:]})
+    return pd.DataFrame(rows)
+
+
+def soft_level_reaching(label: int, target: float, population: PopulationSection, interface: InterfaceSection,
+                        stream: str = "event_driven", grid: float = 0.01, ceiling: float = 1.0) -> float:
+    """The smallest soft level (on a ``grid``) at which a typical participant's diagonal reaches ``target``.
+
+    For a soft label the diagonal falls as the level rises towards the soft threshold. This
+    inverts :func:`expected_diagonal`: it returns the smallest level ``L`` (a multiple of ``grid``)
+    at which a participant with the middle of the population's soft spread range, and any of its
+    onset ramps, has a diagonal of at most ``target``. Used as the upper end of the level range,
+    it makes the lowest real diagonal a typical (not a corner) member of the population: with the
+    spread at its upper end the diagonal goes lower still.
+
+    Raises
+    ------
+    ValueError
+        If ``label`` is not a soft label, or no level up to ``ceiling`` reaches ``target``.
+    """
+    if LABEL_IS_HARD[label]:
+        raise ValueError(f"{LABELS[label]} is not a soft label")
+    spread = 0.5 * sum(population.soft_spread)
+    ramps = sorted(set(population.onset_ramp_samples))
+    for step in range(1, round(ceiling / grid) + 1):
+        level = round(step * grid, 10)
+        if min(expected_diagonal(label, level, spread, interface, stream, rp) for rp in ramps) <= target:
+            return level
+    raise ValueError(f"no {LABELS[label]} level up to {ceiling} gives a diagonal of {target} or less")
+
+
+def simulated_diagonals(config: ExperimentConfig, participants: int, seed: int) -> pd.DataFrame:
+    """Simulated participants' fitted diagonals, calibrated in both stream formats.
+
+    Participant ``i`` is the study's participant ``i`` (:func:`nudgecli.sim.study.study_participant`);
+    their distortion session is simulated with the experiment's calibration (fixed-rate) and with
+    the sibling study's (:func:`sibling_calibration`, event-driven), each from
+    ``generator(seed, "participant", i, "calibration", stream)``, and fitted with the study's
+    estimator (:func:`nudgecli.sim.calibration.estimate_distortion`).
+
+    Returns
+    -------
+    pd.DataFrame
+        Columns ``participant``, ``stream``, ``label``, ``diagonal``; one row per participant,
+        stream and label.
+    """
+    from nudgecli.sim.study import study_participant
+
+    calibrations = {"fixed_rate": config.calibration.model_copy(update={"stream": "fixed_rate"}),
+                    "event_driven": sibling_calibration(config.calibration)}
+    rows = []
+    for index in range(participants):
+        person = study_participant(config, seed, index)
+        for stream, calibration in calibrations.items():
+            rng = generator(seed, "participant", index, "calibration", stream)
+            session = simulate_distortion_session(person, calibration, config.interface, rng)
+            table = estimate_distortion(session).table
+            rows += [{"participant": index, "stream": stream, "label": LABELS[k],
+                      "diagonal": float(table[k, k])} for k in range(N_LABELS)]
+    return pd.DataFrame(rows, columns=["participant", "stream", "label", "diagonal"])
+
+
+def real_diagonal_ranges() -> pd.DataFrame:
+    """The real people's diagonals per stream format and label, as ranges.
+
+    Returns
+    -------
+    pd.DataFrame
+        Columns ``stream``, ``label``, ``real_min``, ``real_max``, ``real_source``: the sibling
+        study's spans (event-driven) and the pilots' values (fixed-rate; min and max over the pilots).
+    """
+    rows = []
+    for label in LABELS:
+        low, high = SIBLING_DIAGONAL_SPANS[label]
+        rows.append({"stream": "event_driven", "label": label, "real_min": low, "real_max": high,
+                     "real_source": "9 sibling-study participants"})
+        values = [pilot[label] for pilot in PILOT_DIAGONALS.values()]
+        rows.append({"stream": "fixed_rate", "label": label, "real_min": min(values), "real_max": max(values),
+                     "real_source": f"{len(values)} pilots ({', '.join(PILOT_DIAGONALS)})"})
+    return pd.DataFrame(rows)
+
+
+def coverage_table(simulated: pd.DataFrame) -> pd.DataFrame:
+    """Simulated participants' fitted diagonals against the real people's, per stream and label.
+
+    Parameters
+    ----------
+    simulated
+        :func:`simulated_diagonals`'s result.
+
+    Returns
+    -------
+    pd.DataFrame
+        Columns ``stream``, ``label``, ``participants``, ``simulated_min``, ``simulated_median``,
+        ``simulated_max``, ``real_min``, ``real_max``, ``real_source``, ``covers_low`` and
+        ``covers_high`` (whether the simulated extremes reach the real ones) and ``real_inside``
+        (the share of simulated participants inside the real range).
+    """
+    grouped = simulated.groupby(["stream", "label"], sort=False)["diagonal"]
+    summary = grouped.agg(participants="size", simulated_min="min", simulated_median="median",
+                          simulated_max="max").reset_index()
+    inside = simulated.merge(real_diagonal_ranges(), on=["stream", "label"])
+    inside["inside"] = (inside["diagonal"] >= inside["real_min"]) & (inside["diagonal"] <= inside["real_max"])
+    share = inside.groupby(["stream", "label"], sort=False)["inside"].mean()
+    share = share.rename("real_inside").reset_index()
+    table = summary.merge(real_diagonal_ranges(), on=["stream", "label"]).merge(share, on=["stream", "label"])
+    table["covers_low"] = table["simulated_min"] <= table["real_min"]
+    table["covers_high"] = table["simulated_max"] >= table["real_max"]
+    return table

@@ -1,0 +1,186 @@
+"""`nudge compare`: simulated against real metrics tables (issue 14, part 5)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import scipy.stats
+from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from nudgecli.cli import main
+from nudgecli.errors import DataError
+from nudgecli.report.compare import (
+    CompareOptions,
+    align_conditions,
+    compare_tables,
+    participant_medians,
+    shared_metrics,
+    weighted_distances,
+)
+
+
+def synthetic(n_participants: int = 6, trials: int = 8, shift: float = 0.0, seed: int = 0,
+              condition: str = "none", prefix: str = "p") -> pd.DataFrame:
+    """A metrics table: completion_time ~ 20 + 3 z (+ shift), success 0/1, mode_switches integers."""
+    rng = np.random.default_rng(seed)
+    n = n_participants * trials
+    return pd.DataFrame({
+        "participant": [f"{prefix}{i}" for i in range(n_participants) for _ in range(trials)],
+        "condition": condition,
+        "trial": np.tile(np.arange(trials), n_participants),
+        "completion_time": 20.0 + 3.0 * rng.standard_normal(n) + shift,
+        "success": rng.random(n) < 0.8,
+        "mode_switches": rng.integers(5, 12, n),
+    })
+
+
+@pytest.mark.filterwarnings("ignore:ks_2samp. Exact calculation unsuccessful")
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.integers(-5, 5), min_size=1, max_size=25),
+       st.lists(st.integers(-5, 5), min_size=1, max_size=25))
+def test_unit_weight_distances_equal_scipy(a: list[int], b: list[int]) -> None:
+    # integers make ties within and across the samples; scipy is the reference
+    va, vb = np.array(a, dtype=float), np.array(b, dtype=float)
+    ks, w1 = weighted_distances(va, np.ones((1, va.size)), vb, np.ones((1, vb.size)))
+    assert ks[0] == pytest.approx(scipy.stats.ks_2samp(va, vb).statistic, abs=1e-12)
+    assert w1[0] == pytest.approx(scipy.stats.wasserstein_distance(va, vb), abs=1e-12)
+
+
+def test_integer_weights_equal_repeated_samples() -> None:
+    # a cluster resample = each trial counted as often as its participant was drawn
+    rng = np.random.default_rng(3)
+    va, vb = rng.normal(size=13), rng.normal(0.5, 2.0, size=9)
+    wa, wb = rng.integers(0, 4, size=(5, 13)).astype(float), rng.integers(1, 3, size=(5, 9)).astype(float)
+    ks, w1 = weighted_distances(va, wa, vb, wb)
+    for row in range(5):
+        ra, rb = np.repeat(va, wa[row].astype(int)), np.repeat(vb, wb[row].astype(int))
+        assert ks[row] == pytest.approx(scipy.stats.ks_2samp(ra, rb).statistic, abs=1e-12)
+        assert w1[row] == pytest.approx(scipy.stats.wasserstein_distance(ra, rb), abs=1e-12)
+    # a row without weight in one sample has no distance
+    ks, w1 = weighted_distances(va, np.zeros((1, 13)), vb, np.ones((1, 9)))
+    assert np.isnan(ks[0]) and np.isnan(w1[0])
+
+
+def test_a_constant_shift_is_the_wasserstein_distance_and_ks_matches_scipy() -> None:
+    simulated = synthetic(seed=1)
+    real = simulated.assign(participant="r" + simulated["participant"],
+                            completion_time=simulated["completion_time"] + 2.5)
+    table = compare_tables(simulated, real, ["completion_time"], ["none"], CompareOptions(resamples=200))
+    row = table.iloc[0]
+    # the same sample moved by 2.5: W1 = 2.5 exactly (quantile functions differ by 2.5 everywhere)
+    assert row["wasserstein"] == pytest.approx(2.5, abs=1e-12)
+    expected = scipy.stats.ks_2samp(simulated["completion_time"], real["completion_time"])
+    assert row["ks_statistic"] == pytest.approx(expected.statistic)
+    assert row["ks_p"] == pytest.approx(expected.pvalue)
+    assert row["median_real"] - row["median_simulated"] == pytest.approx(2.5)
+    assert row["q1_real"] - row["q1_simulated"] == pytest.approx(2.5)
+    assert row["ks_low"] <= row["ks_high"] and row["wasserstein_low"] <= row["wasserstein_high"]
+    assert row["valid_resamples"] == 200
+
+
+def test_separated_samples_have_ks_one_in_every_resample() -> None:
+    simulated, real = synthetic(seed=2), synthetic(seed=3, shift=100.0, prefix="r")
+    options = CompareOptions(resamples=300)
+    row = compare_tables(simulated, real, ["completion_time"], ["none"], options).iloc[0]
+    assert row["ks_statistic"] == row["ks_low"] == row["ks_high"] == 1.0
+    assert 90 < row["wasserstein_low"] <= row["wasserstein"] * 1.1 and row["wasserstein_high"] < 110
+
+
+def test_identical_tables_are_at_distance_zero_and_bootstrap_is_seeded() -> None:
+    simulated = synthetic(seed=4)
+    real = simulated.assign(participant="r" + simulated["participant"])
+    options = CompareOptions(resamples=150, seed=7)
+    first = compare_tables(simulated, real, ["completion_time", "success"], ["none"], options)
+    assert (first["ks_statistic"] == 0).all() and (first["wasserstein"] == 0).all()
+    again = compare_tables(simulated, real, ["completion_time", "success"], ["none"], options)
+    pd.testing.assert_frame_equal(first, again)
+    other = compare_tables(simulated, real, ["completion_time", "success"], ["none"],
+                           CompareOptions(resamples=150, seed=8))
+    assert not np.allclose(first["wasserstein_high"], other["wasserstein_high"])
+
+
+def test_participant_medians_and_the_real_range_by_hand() -> None:
+    simulated = pd.DataFrame({"participant": [0, 0, 0, 1, 1, 2], "condition": "none",
+                              "completion_time": [10.0, 30.0, 20.0, 40.0, 41.0, 25.0]})
+    real = pd.DataFrame({"participant": ["a", "a", "b", "b", "b"], "condition": "none",
+                         "completion_time": [18.0, 22.0, 30.0, 31.0, np.nan]})
+    medians = participant_medians(simulated, real, ["completion_time"])
+    sim = medians[medians["source"] == "simulated"].set_index("participant")["median"]
+    assert sim.to_dict() == {"0": 20.0, "1": 40.5, "2": 25.0}
+    got = medians[medians["source"] == "real"].set_index("participant")
+    assert got["median"].to_dict() == {"a": 20.0, "b": 30.5} and got["n"].to_dict() == {"a": 2, "b": 2}
+    row = compare_tables(simulated, real, ["completion_time"], ["none"], CompareOptions(resamples=0)).iloc[0]
+    # real people's medians 20 and 30.5: simulated 20 and 25 inside, 40.5 outside -> 2/3
+    assert (row["real_participant_min"], row["real_participant_max"]) == (20.0, 30.5)
+    assert row["simulated_inside_real_range"] == pytest.approx(2 / 3)
+    assert (row["n_simulated"], row["n_real"], row["participants_real"]) == (6, 4, 2)
+    assert np.isnan(row["ks_low"]) and row["valid_resamples"] == 0
+
+
+def test_conditions_are_matched_by_name_or_by_map() -> None:
+    simulated = pd.concat([synthetic(condition="none"), synthetic(condition="blend", seed=5)])
+    real = synthetic(condition="no assistance", prefix="r")
+    with pytest.raises(DataError, match=r"no condition in common.*--match none=no assistance"):
+        align_conditions(simulated, real)
+    sim, _, shared = align_conditions(simulated, real, {"none": "no assistance"})
+    assert shared == ["no assistance"] and len(sim) == 48 and set(sim["condition"]) == {"no assistance"}
+    with pytest.raises(DataError, match="has no condition 'nnone' \\(did you mean 'none'\\?\\)"):
+        align_conditions(simulated, real, {"nnone": "no assistance"})
+
+
+def test_shared_metrics_and_their_errors() -> None:
+    assert shared_metrics(["a", "b", "c"], ["c", "x", "a"]) == ["c", "a"]
+    with pytest.raises(DataError, match="no metric in common"):
+        shared_metrics(["a"], ["b"])
+    with pytest.raises(DataError, match="the real table has no metric 'b'"):
+        shared_metrics(["a", "b"], ["a"], ["b"])
+
+
+def _write(tmp_path: Path) -> tuple[Path, Path]:
+    simulated = pd.concat([synthetic(condition="none"), synthetic(condition="blend", seed=5)])
+    real = synthetic(condition="none", shift=4.0, seed=9, prefix="r").drop(columns="mode_switches")
+    simulated.to_csv(tmp_path / "sim.csv", index=False)
+    real.to_csv(tmp_path / "real.csv", index=False)
+    return tmp_path / "sim.csv", tmp_path / "real.csv"
+
+
+def test_cli_compare_formats_and_files(tmp_path: Path) -> None:
+    sim, real = _write(tmp_path)
+    runner = CliRunner()
+    result = runner.invoke(main, ["compare", str(sim), str(real), "--resamples", "100"])
+    assert result.exit_code == 0, result.output
+    assert "completion_time" in result.stdout and "mode_switches" not in result.stdout
+    assert "Per-participant medians" in result.stdout
+    result = runner.invoke(main, ["compare", str(sim), str(real), "--resamples", "100", "--format", "json"])
+    document = json.loads(result.stdout)
+    assert document["metrics"] == ["completion_time", "success"] and document["conditions"] == ["none"]
+    assert {r["source"] for r in document["participant_medians"]} == {"simulated", "real"}
+    result = runner.invoke(main, ["compare", str(sim), str(real), "--resamples", "100", "--format", "csv",
+                                  "--metric", "completion_time", "--out", str(tmp_path / "out"),
+                                  "--formats", "png"])
+    assert result.exit_code == 0, result.output
+    table = pd.read_csv(pd.io.common.StringIO(result.stdout))
+    assert list(table["metric"]) == ["completion_time"]
+    for name in ("compare.csv", "participant_medians.csv", "compare.json", "compare.png"):
+        assert (tmp_path / "out" / name).is_file(), name
+
+
+def test_cli_compare_errors_are_one_line(tmp_path: Path) -> None:
+    sim, real = _write(tmp_path)
+    runner = CliRunner()
+    cases = [
+        ["compare", str(sim), str(real), "--match", "nnone=none"],
+        ["compare", str(sim), str(real), "--metric", "mode_switches"],
+        ["compare", str(sim), str(tmp_path)],
+        ["compare", str(sim), str(real), "--match", "none"],
+    ]
+    for args in cases:
+        result = runner.invoke(main, args)
+        assert result.exit_code == 1, (args, result.output)
+        assert result.stderr.startswith("Error: ") and result.stderr.count("\n") == 1, result.stderr
