@@ -183,8 +183,8 @@ class PopulationSection(Section):
     ===================  ===============================  ========================  ==============
     hard_puff_level      1.04 (61% sat.)                  0.60                      [0.55, 1.10]
     hard_sip_level       1.10 (98% sat.)                  1.12 (100% sat.)          [0.80, 1.20]
-    soft_puff_level      0.088                            0.103                     [0.05, 0.16]
-    soft_sip_level       0.222 (31% of samples > 0.3:     1.08: never produced a    [0.05, 0.24]
+    soft_puff_level      0.088                            0.103                     [0.05, 0.24] *
+    soft_sip_level       0.222 (31% of samples > 0.3:     1.08: never produced a    [0.05, 0.38] *
                          the 28% Soft Sip -> Hard Sip)    soft sip (outside the
                                                           population; simulate him
                                                           with participant_from_log)
@@ -197,6 +197,9 @@ class PopulationSection(Section):
     reaction_log_sd      blow onsets 0.31, 0.27; key presses 0.42 (10-90%: 0.9-2.8 s)  0.35
     mapping_error        0/72 wrong (andrewtest), 0/72 (deepak), 3/24 (deepaktest)  [0.0, 0.12]
     ===================  ==========================================================  ==============
+
+    (*) The pilots' logs alone gave [0.05, 0.16] and [0.05, 0.24]; the upper ends are widened to
+    cover twelve real people's calibrations (below).
 
     The pooled spreads include the drift between prompts (the real pressure wanders within and
     between blows; the model draws samples independently). No pilot data exist for the task-level
@@ -215,7 +218,8 @@ class PopulationSection(Section):
     estimator converges to in its own format: ``expected_diagonal`` (exact label probabilities of
     a 25-tick blow for 10 Hz; the expected message counts of the device's 0.0109 quantisation,
     averaged over 400 seeded blows, for event-driven), over the corners and midpoints of each
-    label's (level, spread, ramp) box (``diagonal_image``). The image of these defaults:
+    label's (level, spread, ramp) box (``diagonal_image``). The image of the pilots' ranges
+    (soft puff [0.05, 0.16], soft sip [0.05, 0.24]):
 
     ===========  ==================  ====================  ====================================
     label        fixed 10 Hz         event-driven          against the real people
@@ -231,12 +235,11 @@ class PopulationSection(Section):
     level's upper end is derived by inverting ``expected_diagonal``: the smallest level (0.01
     grid) at which a participant with the middle soft spread (0.085) reaches the lowest sibling
     diagonal in the event-driven format (``soft_level_reaching``): **Soft Sip 0.38** (for 0.31),
-    **Soft Puff 0.24** (for 0.80). The preset ``real-users`` uses ``soft_sip_level = [0.05,
-    0.38]`` and ``soft_puff_level = [0.05, 0.24]``; its image is Soft Sip 0.05-0.97 (10 Hz),
+    **Soft Puff 0.24** (for 0.80). The defaults therefore are ``soft_sip_level = [0.05, 0.38]``
+    and ``soft_puff_level = [0.05, 0.24]``; their image is Soft Sip 0.05-0.97 (10 Hz),
     0.30-0.97 (event-driven) and Soft Puff 0.63-0.97 / 0.66-0.97, covering every real soft value
     but deepaktest's 0.01 (a soft-sip level of 1.08, outside any "soft" range; simulate him with
-    ``physiology_logs``). These defaults stay as derived from the pilots' logs, so the ``paper``
-    and ``study-code`` presets and their reference results are unchanged.
+    ``physiology_logs``). The ``paper`` and ``study-code`` presets use these defaults.
 
     Hard labels: no level or spread reaches the sibling study's lower hard diagonals. Under this
     pressure model a blow that reaches the hard band gives at least about 0.69 in the event-driven
@@ -249,8 +252,8 @@ class PopulationSection(Section):
     reported rather than closed by an unphysical range.
     """
 
-    soft_puff_level: tuple[float, float] = (0.05, 0.16)
-    soft_sip_level: tuple[float, float] = (0.05, 0.24)
+    soft_puff_level: tuple[float, float] = (0.05, 0.24)
+    soft_sip_level: tuple[float, float] = (0.05, 0.38)
     hard_puff_level: tuple[float, float] = (0.55, 1.10)
     hard_sip_level: tuple[float, float] = (0.80, 1.20)
     soft_spread: tuple[float, float] = (0.02, 0.15)

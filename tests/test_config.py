@@ -17,7 +17,7 @@ from nudgecli.errors import ConfigError
 
 
 def test_the_shipped_presets_are_listed():
-    assert set(list_presets("experiments")) == {"paper", "study-code", "smoke", "real-users"}
+    assert set(list_presets("experiments")) == {"paper", "study-code", "smoke"}
     assert set(list_presets("analysis")) == {"paper", "study-code"}
     result = CliRunner().invoke(main, ["presets"])
     assert result.exit_code == 0

@@ -88,12 +88,12 @@ def test_simulated_event_driven_sessions_requeue_prompts_without_input() -> None
     assert requeue_consistent(session)
 
 
-def test_the_derivation_of_the_soft_ranges_and_the_real_users_preset() -> None:
+def test_the_derivation_of_the_soft_ranges_and_the_paper_preset() -> None:
     population = PopulationSection()
     sip = soft_level_reaching(SOFT_SIP, SIBLING_DIAGONAL_SPANS["Soft Sip"][0], population, INTERFACE)
     puff = soft_level_reaching(SOFT_PUFF, SIBLING_DIAGONAL_SPANS["Soft Puff"][0], population, INTERFACE)
     assert (sip, puff) == (0.38, 0.24)  # the values PopulationSection's docstring derives
-    preset = load_experiment("real-users").population
+    preset = load_experiment("paper").population
     assert preset.soft_sip_level == (0.05, sip) and preset.soft_puff_level == (0.05, puff)
     # one grid step lower does not reach the target: the inversion is tight
     lower = expected_diagonal(SOFT_SIP, sip - 0.01, 0.085, INTERFACE, "event_driven", ramp=1)
@@ -102,8 +102,8 @@ def test_the_derivation_of_the_soft_ranges_and_the_real_users_preset() -> None:
         soft_level_reaching(HARD_SIP, 0.5, population, INTERFACE)
 
 
-def test_the_real_users_image_covers_the_soft_values_but_not_the_low_hard_ones() -> None:
-    population = load_experiment("real-users").population
+def test_the_paper_population_image_covers_the_soft_values_but_not_the_low_hard_ones() -> None:
+    population = load_experiment("paper").population
     event = diagonal_image(population, INTERFACE, "event_driven").set_index("label")
     fixed = diagonal_image(population, INTERFACE, "fixed_rate").set_index("label")
     for label in ("Soft Puff", "Soft Sip"):
@@ -173,8 +173,10 @@ def test_event_driven_tidy_logs_round_trip_as_the_ciaa_variant(tmp_path: Path) -
     np.testing.assert_allclose(estimate_distortion(again).table, estimate_distortion(session).table)
 
 
-def test_the_default_population_image_is_the_documented_one() -> None:
-    # the table in PopulationSection's docstring (rounded to 2 decimals)
+def test_the_pilot_ranges_image_is_the_documented_one() -> None:
+    # the table in PopulationSection's docstring (rounded to 2 decimals): the ranges the pilots'
+    # logs alone gave, before the soft levels were widened
+    pilots = PopulationSection(soft_puff_level=(0.05, 0.16), soft_sip_level=(0.05, 0.24))
     documented = {
         "fixed_rate": {"Hard Puff": (0.81, 0.97), "Hard Sip": (0.92, 0.97), "Soft Puff": (0.78, 0.97),
                        "Soft Sip": (0.63, 0.97)},
@@ -182,7 +184,7 @@ def test_the_default_population_image_is_the_documented_one() -> None:
                          "Soft Sip": (0.66, 0.97)},
     }
     for stream, labels in documented.items():
-        image = diagonal_image(PopulationSection(), INTERFACE, stream).set_index("label")
+        image = diagonal_image(pilots, INTERFACE, stream).set_index("label")
         for label, (low, high) in labels.items():
             assert (round(image.loc[label, "low"], 2), round(image.loc[label, "high"], 2)) == (low, high), \
                 (stream, label)
