@@ -231,26 +231,34 @@ def analyze_command(source: str, plan: str, out: str | None, output_format: str,
 
 # --- plot ----------------------------------------------------------------------------------
 
-@main.command("plot", short_help="Draw the paper's figures of an analysed run.")
+@main.command("plot", short_help="Draw the figures of an analysed run or metrics table.")
 @click.argument("run", type=click.Path(path_type=str))
 @click.option("--plan", metavar="PLAN", default=None,
-              help="Analyse RUN with this plan first (writes metrics.csv and stats.json), then plot.")
+              help="Analyse RUN with this plan first (writes metrics.csv and stats.json), then plot "
+                   "[default: plot the existing analysis; item labels of the paper plan].")
 @click.option("--out", type=click.Path(file_okay=False, path_type=str), default=None,
-              help="Folder for the figures [default: RUN/figures].")
+              help="Folder for the figures [default: figures/ in the run or analysis folder].")
 @click.option("--formats", default="png,pdf", show_default=True, help="Comma-separated: png, pdf, svg.")
 @click.option("--trial", metavar="PARTICIPANT:TRIAL", default=None,
               help="The trial of Fig. 5 and the trajectory [default: the Disambiguation trial whose "
                    "true-goal belief rose most after a nudge].")
 def plot_command(run: str, plan: str | None, out: str | None, formats: str, trial: str | None) -> None:
-    """Draw the paper's figures (Fig. 3, 4, 5, a trajectory, questionnaires) of an analysed run."""
+    """Draw the figures of RUN: an analysed run folder, a metrics table or the table's analysis folder.
+
+    Fig. 3 and 4 where their metrics are present, one panel per other metric; Fig. 5 and a
+    trajectory for a run; questionnaires where analysed. stats.json must match the metrics.
+    """
+    from nudgecli.report.plans import load_plan
     from nudgecli.report.plotting import parse_formats, parse_trial, plot_folder
 
     chosen, trial_key = parse_formats(formats), parse_trial(trial)
+    analysis_plan = load_plan(plan or "paper")
     if plan is not None:
         from nudgecli.report.analysis import analyze
 
-        analyze(run, plan=plan)
-    for path in plot_folder(run, out, chosen, trial_key):
+        analyze(run, plan=analysis_plan)
+    for path in plot_folder(run, out, chosen, trial_key, star_rule=analysis_plan.comparison_options(),
+                            item_labels=analysis_plan.questionnaires.labels):
         click.echo(str(path))
 
 

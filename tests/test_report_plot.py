@@ -29,23 +29,23 @@ from nudgecli.report.analysis import analyze
 from nudgecli.report.figures import (
     FIGURE3_METRICS,
     FIGURE4_METRICS,
-    choose_figure5_trial,
     figure_3,
     figure_4,
     figure_5,
-    layout_poses,
     questionnaire_figure,
     split_questionnaire_scores,
     trajectory_figure,
 )
 from nudgecli.report.plotting import layouts_by_trial
+from nudgecli.report.trial_selection import choose_figure5_trial
 from nudgecli.report.style import condition_display_name, figure_style
 from nudgecli.sim.study import run_study
 from nudgecli.store import RunFolder
 
 QUESTIONNAIRES_CSV = Path(__file__).parent / "data" / "questionnaires_smoke_run.csv"
 CONDITIONS = ("disambiguation", "control")
-ALL_STEMS = {"fig3", "fig4", "fig5", "trajectory", "questionnaires"}
+#: fig3/fig4 hold six of the paper plan's metrics; `metrics` the remaining one (success).
+ALL_STEMS = {"fig3", "fig4", "metrics", "fig5", "trajectory", "questionnaires"}
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 FILE_MAGIC = {"png": PNG_MAGIC, "pdf": b"%PDF", "svg": b"<?xml"}
 
@@ -356,19 +356,20 @@ def test_no_bracket_when_stats_json_gives_no_stars_even_if_p_is_tiny(run_data: R
 def test_fig5_and_trajectory_of_the_default_trial_are_labelled(run_data: RunData) -> None:
     key = choose_figure5_trial(run_data.steps, run_data.trials)
     steps, layout = run_data.trial_steps(key), run_data.layouts[key]
-    n_goals = layout_poses(layout)[0].shape[0]
+    n_goals = layout.n_goals
+    true_goal = int(run_data.trials.set_index(["participant", "trial"]).loc[key, "true_goal"])
+    assert layout.true_goal == true_goal
 
-    fig5 = figure_5(steps, layout, title=f"Participant {key[0]}, trial {key[1]}")
+    fig5 = figure_5(steps, true_goal, n_goals, title=f"Participant {key[0]}, trial {key[1]}")
     (ax,) = fig5.axes
     assert ax.get_xlabel() == "Time (s)" and ax.get_ylabel().strip()
     assert ax.get_title(loc="left") == f"Participant {key[0]}, trial {key[1]}"
     assert ax.get_ylim() == (0.0, 1.0)
     labels = [t.get_text() for t in fig5.legends[0].get_texts()]
-    assert labels[:n_goals] == ["Goal 0 (true)", *(f"Goal {g}" for g in range(1, n_goals))]
+    assert labels[:n_goals] == [f"Goal {g}" + (" (true)" if g == true_goal else "") for g in range(n_goals)]
     assert {"Human turn", "Autonomy turn"} <= set(labels)
 
-    goals, start = layout_poses(layout)
-    trajectory = trajectory_figure(steps, goals, start, title="t")
+    trajectory = trajectory_figure(steps, layout, title="t")
     (ax,) = trajectory.axes
     assert ax.get_xlabel().strip() and ax.get_ylabel().strip()
     assert trajectory.legends and trajectory.legends[0].get_texts()

@@ -28,6 +28,7 @@ import pandas as pd
 
 from nudgecli.config import did_you_mean
 from nudgecli.errors import ConfigError, DataError, RunFolderError
+from nudgecli.report.checksum import CHECKSUM_KEY, metrics_checksum
 from nudgecli.report.metrics import (
     ID_COLUMNS,
     METRIC_NAMES,
@@ -363,16 +364,7 @@ def format_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_tr
 
 
 def _options(plan: AnalysisPlan, seed: int | None) -> ComparisonOptions:
-    return ComparisonOptions(
-        kruskal_alpha=plan.stats.kruskal_alpha,
-        p_adjust=plan.stats.p_adjust,
-        star_thresholds=tuple(plan.stats.star_thresholds),
-        star_comparison=plan.stats.star_comparison,
-        participant_aggregate=plan.stats.participant_aggregate,
-        bootstrap_resamples=plan.bootstrap.resamples,
-        bootstrap_level=plan.bootstrap.level,
-        seed=plan.bootstrap.seed if seed is None else seed,
-    )
+    return plan.comparison_options(seed)
 
 
 def _load_source(source: Path, plan: AnalysisPlan) -> tuple[pd.DataFrame, list[str], Path]:
@@ -451,6 +443,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
     stats = compare_conditions(filtered, trial_selected, conditions, options)
     if scores is not None and score_selected:
         stats["metrics"] += compare_conditions(scores, score_selected, conditions, options)["metrics"]
+    stats[CHECKSUM_KEY] = metrics_checksum(filtered, trial_selected, plan.filters)
     stats = json_ready(stats)
     tidy = stats_table(stats)
     summary = format_summary(stats, plan, source, n_trials=len(filtered),

@@ -31,6 +31,9 @@ path to a TOML file. Layout::
     level = 0.95
     seed = 0
 
+    [questionnaires.labels]                      # axis labels of questionnaire items (figures)
+    Q3 = "Q3: figured out my goal more easily"
+
 Unknown keys are refused with a "did you mean" suggestion naming the file and the key.
 """
 
@@ -46,6 +49,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from nudgecli.config import did_you_mean, format_validation_error, preset_dir
 from nudgecli.errors import ConfigError
 from nudgecli.report.metrics import METRIC_NAMES
+from nudgecli.report.stats import ComparisonOptions
 
 #: The p-value adjustments ``statsmodels.stats.multitest.multipletests`` accepts, plus ``none``.
 P_ADJUST_METHODS = (
@@ -123,6 +127,17 @@ class BootstrapSettings(_Section):
     seed: int = Field(default=0, ge=0)
 
 
+class QuestionnaireSettings(_Section):
+    """How questionnaire items are named in the figures.
+
+    ``labels`` maps an item (``Q3``, or its ``likert_q3`` column; matched case-insensitively
+    without the ``likert_``/``tlx_`` prefix) to its axis label: the study's wording of the
+    statement, which belongs to the study, not to the drawing code.
+    """
+
+    labels: dict[str, str] = Field(default_factory=dict)
+
+
 class AnalysisPlan(_Section):
     """A complete analysis plan (see the module docstring for the file layout)."""
 
@@ -133,6 +148,26 @@ class AnalysisPlan(_Section):
     filters: dict[str, float] = Field(default_factory=dict)
     stats: StatsSettings = Field(default_factory=StatsSettings)
     bootstrap: BootstrapSettings = Field(default_factory=BootstrapSettings)
+    questionnaires: QuestionnaireSettings = Field(default_factory=QuestionnaireSettings)
+
+    def comparison_options(self, seed: int | None = None) -> ComparisonOptions:
+        """The plan's ``[stats]`` and ``[bootstrap]`` as :class:`~nudgecli.report.stats.ComparisonOptions`.
+
+        Parameters
+        ----------
+        seed
+            Bootstrap seed; default the plan's.
+        """
+        return ComparisonOptions(
+            kruskal_alpha=self.stats.kruskal_alpha,
+            p_adjust=self.stats.p_adjust,
+            star_thresholds=tuple(self.stats.star_thresholds),
+            star_comparison=self.stats.star_comparison,
+            participant_aggregate=self.stats.participant_aggregate,
+            bootstrap_resamples=self.bootstrap.resamples,
+            bootstrap_level=self.bootstrap.level,
+            seed=self.bootstrap.seed if seed is None else seed,
+        )
 
 
 def plan_from_dict(data: dict[str, Any], source: str = "<plan>") -> AnalysisPlan:
