@@ -545,7 +545,8 @@ def test_bracket_positions_and_stars_follow_the_p_values(metrics3: pd.DataFrame)
 
 
 @pytest.mark.parametrize(("comparison", "stars"), [("<", "*"), ("<=", "**")])
-def test_bracket_stars_follow_the_plans_comparison(metrics2: pd.DataFrame, comparison: str, stars: str) -> None:
+def test_bracket_stars_follow_the_plans_comparison(metrics2: pd.DataFrame, comparison: str,
+                                                    stars: str) -> None:
     # A Conover p exactly at the .01 threshold: one star under "<", two under "<=". An omnibus p
     # exactly at alpha = .05: the gate (same comparison) closes under "<" and opens under "<=".
     stats = make_stats(DC, {"human_effort": {DC: 0.01}}, kruskal_p={"human_effort": 0.04}, with_stars=False)

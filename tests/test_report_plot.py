@@ -36,9 +36,9 @@ from nudgecli.report.figures import (
     split_questionnaire_scores,
     trajectory_figure,
 )
-from nudgecli.report.plotting import layouts_by_trial
-from nudgecli.report.trial_selection import choose_figure5_trial
+from nudgecli.report.plotting import analysis_folder_of_table, layouts_by_trial
 from nudgecli.report.style import condition_display_name, figure_style
+from nudgecli.report.trial_selection import choose_figure5_trial
 from nudgecli.sim.study import run_study
 from nudgecli.store import RunFolder
 
@@ -400,3 +400,100 @@ def test_star_text_sits_above_every_trial_dot(run_data: RunData) -> None:
         dots_top = max(np.max(c.get_offsets()[:, 1]) for c in ax.collections if len(c.get_offsets()))
         assert star.get_position()[1] > dots_top
         assert star.get_position()[1] < ax.get_ylim()[1]
+
+
+# --- `nudge plot` checks the statistics it draws ---------------------------------------------------
+
+
+def test_plot_refuses_stats_computed_from_other_metrics(analysed_run: Path, tmp_path: Path) -> None:
+    run = _copy_run(analysed_run, tmp_path / "run")
+    shutil.rmtree(run / "figures", ignore_errors=True)
+    metrics = pd.read_csv(run / "metrics.csv")
+    metrics.loc[0, "human_effort"] = metrics["human_effort"].iloc[0] + 0.25  # one trial changed
+    metrics.to_csv(run / "metrics.csv", index=False)
+    line = _single_error_line(_plot(str(run), "--formats", "png"))
+    assert f"{run / 'stats.json'} does not match {run / 'metrics.csv'}" in line
+    assert "`nudge analyze`" in line
+    assert not (run / "figures").exists()
+
+
+def test_plot_refuses_a_condition_without_data(analysed_run: Path, tmp_path: Path) -> None:
+    # A stale stats.json of a table whose control trials were since removed: not an empty box.
+    run = _copy_run(analysed_run, tmp_path / "run")
+    metrics = pd.read_csv(run / "metrics.csv")
+    metrics[metrics["condition"] == "disambiguation"].to_csv(run / "metrics.csv", index=False)
+    line = _single_error_line(_plot(str(run), "--formats", "png"))
+    assert "condition" in line or "does not match" in line
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ('{"conditions": ["disambiguation", "control"], "metrics": [', "not valid JSON"),
+    ("[1, 2]", "no `metrics` list"),
+    ('{"conditions": [], "metrics": []}', "no checksum"),
+], ids=["truncated", "not-an-object", "no-checksum"])
+def test_plot_of_a_broken_stats_json_is_one_error_line(analysed_run: Path, tmp_path: Path, text: str,
+                                                       message: str) -> None:
+    run = _copy_run(analysed_run, tmp_path / "run")
+    (run / "stats.json").write_text(text, encoding="utf-8")
+    line = _single_error_line(_plot(str(run), "--out", str(tmp_path / "f")))
+    assert message in line and str(run / "stats.json") in line
+    assert not (tmp_path / "f").exists()
+
+
+def test_a_hand_edited_p_value_is_refused_only_through_the_data_it_claims(analysed_run: Path,
+                                                                            tmp_path: Path) -> None:
+    # The checksum covers the metrics, not the p-values: re-analysing restores agreement.
+    run = _copy_run(analysed_run, tmp_path / "run")
+    metrics = pd.read_csv(run / "metrics.csv")
+    metrics.loc[3, "completion_time"] = 1e6
+    metrics.to_csv(run / "metrics.csv", index=False)
+    assert _plot(str(run), "--formats", "png").exit_code == 1
+    analyze(run / "metrics.csv", plan="paper", out=tmp_path / "again")
+    shutil.copy(tmp_path / "again" / "stats.json", run / "stats.json")
+    assert _plot(str(run), "--formats", "png").exit_code == 0
+
+
+# --- `nudge plot` on a real metrics table -------------------------------------------------------------
+
+
+def _real_table(tmp_path: Path, metrics: dict[str, Callable[[np.random.Generator, int], float]]) -> Path:
+    """A metrics table of 6 participants x 2 conditions x 5 trials with the given metric columns."""
+    rng = np.random.default_rng(7)
+    rows = [{"participant": p, "condition": c, "trial": t,
+             **{name: draw(rng, ci) for name, draw in metrics.items()}}
+            for p in range(6) for ci, c in enumerate(("assisted", "manual")) for t in range(5)]
+    path = tmp_path / "study.csv"
+    pd.DataFrame(rows).to_csv(path, index=False)
+    return path
+
+
+def test_plot_of_a_table_with_other_metrics_draws_one_panel_each(tmp_path: Path) -> None:
+    table = _real_table(tmp_path, {"workload": lambda r, c: float(r.normal(50 + 10 * c, 5)),
+                                   "errors": lambda r, c: float(r.integers(0, 4 + c))})
+    analyze(table, plan="paper")
+    folder = analysis_folder_of_table(table)
+    for source in (table, folder):  # the table itself, or the folder its analysis went to
+        out = tmp_path / f"figures-{source.name}"
+        result = _plot(str(source), "--out", str(out), "--formats", "png")
+        assert result.exit_code == 0, (result.output, result.exception)
+        assert _written_files(out) == {"metrics": {"png"}}
+    fig = figures.metrics_figure(pd.read_csv(table), json.loads((folder / "stats.json").read_text()),
+                                 ["workload", "errors"])
+    labels = [" ".join(ax.get_ylabel().split()) for ax in fig.axes if ax.get_visible()]
+    assert labels == ["Workload", "Errors"]
+
+
+def test_plot_of_a_table_with_the_papers_metrics_uses_the_papers_layout(run_data: RunData,
+                                                                         tmp_path: Path) -> None:
+    table = tmp_path / "real.csv"
+    run_data.metrics.drop(columns=["success"]).to_csv(table, index=False)
+    analyze(table, plan="paper")
+    result = _plot(str(table), "--formats", "png")
+    assert result.exit_code == 0, (result.output, result.exception)
+    assert _written_files(analysis_folder_of_table(table) / "figures") == {"fig3": {"png"}, "fig4": {"png"}}
+
+
+def test_plot_of_an_unanalysed_table_says_to_analyze(tmp_path: Path) -> None:
+    table = _real_table(tmp_path, {"workload": lambda r, c: float(r.normal(50, 5))})
+    line = _single_error_line(_plot(str(table)))
+    assert f"`nudge analyze {table}`" in line

@@ -78,7 +78,7 @@ METRIC_SPECS: dict[str, MetricSpec] = {
     "mode_switches": MetricSpec("mode_switches", "Mode switches per trial", integer=True),
     "human_effort": MetricSpec("human_effort", "Human effort (fraction of trial time)"),
     "completion_time": MetricSpec("completion_time", "Completion time (s)"),
-    "success": MetricSpec("success", "Success (fraction of trials)"),
+    "success": MetricSpec("success", "Success (1 = reached the true goal)"),
 }
 FIGURE3_METRICS = ("assistance_engagement", "assistance_strength", "human_turns")
 FIGURE4_METRICS = ("mode_switches", "human_effort", "completion_time")
@@ -250,7 +250,7 @@ def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metri
     Returns
     -------
     Figure
-        ``ceil(M / 3)`` rows of panels, 7.2 in wide, 2.6 in per row.
+        ``ceil(M / 3)`` rows of panels, 2.4 in wide per column (7.2 in for three), 2.6 in per row.
     """
     if not metric_names:
         raise DataError("metrics table: no metric to plot")
@@ -260,7 +260,8 @@ def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metri
     n_rows = math.ceil(len(metric_names) / METRIC_PANELS_PER_ROW)
     with figure_style():
         layout = ConstrainedLayoutEngine(w_pad=0.04, h_pad=0.03, wspace=0.06)
-        fig = Figure(figsize=(FULL_WIDTH_IN, METRIC_ROW_HEIGHT_IN * n_rows), layout=layout)
+        width = FULL_WIDTH_IN * (n_cols if n_rows == 1 else METRIC_PANELS_PER_ROW) / METRIC_PANELS_PER_ROW
+        fig = Figure(figsize=(width, METRIC_ROW_HEIGHT_IN * n_rows), layout=layout)
         axes = np.atleast_1d(fig.subplots(n_rows, METRIC_PANELS_PER_ROW if n_rows > 1 else n_cols)).ravel()
         for i, metric in enumerate(metric_names):
             metric_boxplot(metrics, metric, entries.get(metric), ax=axes[i], conditions=order, seed=seed,
