@@ -221,11 +221,6 @@ def _check_filters(plan: AnalysisPlan, available: Sequence[str]) -> None:
 # --- writing -----------------------------------------------------------------------------------
 
 
-def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (see :func:`nudgecli.store.write_text_atomic`)."""
-    write_text_atomic(path, text)
-
-
 # --- formatting --------------------------------------------------------------------------------
 
 
@@ -456,7 +451,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
     metrics_path = out_dir / "metrics.csv"
     metrics_columns = [c for c in filtered.columns if c in NON_METRIC_COLUMNS or c in available]
     if not (source.is_file() and metrics_path.resolve() == source.resolve()):
-        write_atomic(metrics_path, filtered[metrics_columns].to_csv(index=False))
+        write_text_atomic(metrics_path, filtered[metrics_columns].to_csv(index=False))
         written.append(metrics_path)
     outputs = {
         "stats.json": json.dumps(stats, indent=2, allow_nan=False) + "\n",
@@ -466,7 +461,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
     if scores is not None:
         outputs["questionnaires.csv"] = scores.to_csv(index=False)
     for name, text in outputs.items():
-        write_atomic(out_dir / name, text)
+        write_text_atomic(out_dir / name, text)
         written.append(out_dir / name)
     return AnalysisResult(out=out_dir, files=written, metrics=filtered, stats=stats, table=tidy,
                           summary=summary, questionnaires=scores)

@@ -45,7 +45,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.errors import DataError
-from nudgecli.model.interface import INPUT_STOPPED_LABEL, LABELS, NO_INPUT, STREAM_LABELS
+from nudgecli.model.interface import INPUT_STOPPED_LABEL, LABELS, STREAM_LABELS
 from nudgecli.store import atomic_path
 
 #: The 12 action images of the mapping session, in the study's naming.
@@ -462,11 +462,6 @@ def write_sessions(folder: str | Path, mapping: MappingSession | None = None,
         _write_csv_atomic(frame, path)
         written.append(path)
     return written
-
-
-def is_counted_code(codes: np.ndarray) -> np.ndarray:
-    """``(N,)`` bool: the stream codes the distortion estimator counts (labels and deadbands)."""
-    return (codes != NO_INPUT) & (codes != INPUT_STOPPED)
 
 
 def nearest_indices(times: np.ndarray, targets: np.ndarray) -> np.ndarray:
