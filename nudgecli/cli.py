@@ -300,6 +300,13 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
 # --- validate ------------------------------------------------------------------------------
 
 
+def _validation_readings() -> list[str]:
+    """The names of the validation's readings (for ``--reading``'s choices)."""
+    from nudgecli.sim.validation.readings import READINGS
+
+    return list(READINGS)
+
+
 @main.command("validate")
 @click.option("--simulations", type=int, default=100, show_default=True,
               help="Random worlds (each queries every state off the goals once).")
@@ -307,49 +314,69 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
 @click.option("--max-goals", type=int, default=30, show_default=True,
               help="Most goals |G|; |G| steps cyclically from --min-goals to --max-goals.")
 @click.option("--states", type=int, default=200, show_default=True,
-              help="|S| = 2 modes x W x H cells (200: a 10 x 10 grid).")
+              help="|S| = 2 modes x W x H cells of the two-mode world (200: a 10 x 10 grid).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Master seed of the whole validation.")
 @click.option("--belief-concentration", type=float, default=1.0, show_default=True,
               help="Query beliefs are Dirichlet(c): 1 spreads them evenly, large c makes them near uniform.")
 @click.option("--mc-queries", type=int, default=100, show_default=True,
               help="Queries of the Monte-Carlo convergence study (0 skips it).")
+@click.option("--reading", type=click.Choice(list(_validation_readings())), default="dirichlet",
+              show_default=True, help="Which reading of the paper's validation paragraph (see the README).")
+@click.option("--all-readings", is_flag=True,
+              help="Run every reading on the same worlds and print one row per reading, by |G|.")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=str), default=None,
-              help="Folder for validation.json, validation.csv (per query) and validation.png/.pdf.")
+              help="Folder for validation.json, validation.csv (per query) and validation.png/.pdf "
+                   "(readings.json with --all-readings).")
 @click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
               show_default=True, help="What to print on stdout.")
 def validate_command(simulations: int, min_goals: int, max_goals: int, states: int, seed: int,
-                     belief_concentration: float, mc_queries: int, out: str | None,
-                     output_format: str) -> None:
+                     belief_concentration: float, mc_queries: int, reading: str, all_readings: bool,
+                     out: str | None, output_format: str) -> None:
     """The paper's simulation-based validation of D(s): its argmax vs a one-step ground truth."""
     import time
+    from dataclasses import replace
 
-    from nudgecli.sim.validation import (
-        ValidationSettings,
-        format_summary,
-        run_validation,
-        save_validation,
-    )
+    from nudgecli.sim import validation
 
-    settings = ValidationSettings(simulations=simulations, min_goals=min_goals, max_goals=max_goals,
-                                  states=states, seed=seed, mc_queries=mc_queries,
-                                  belief_concentration=belief_concentration).check()
+    if all_readings and reading != "dirichlet":
+        raise click.UsageError("--reading and --all-readings exclude each other")
+    settings = validation.ValidationSettings(
+        simulations=simulations, min_goals=min_goals, max_goals=max_goals, states=states, seed=seed,
+        mc_queries=mc_queries, reading=reading, belief_concentration=belief_concentration)
+    names = list(validation.READINGS) if all_readings else [reading]
+    for name in names:
+        replace(settings, reading=name).check()
+    if out is not None:
+        validation.prepare_out(out)
     start = time.perf_counter()
     bar, update = _progress_bar("validating", unit="simulation")
     try:
-        result = run_validation(settings, progress=update)
+        if all_readings:
+            results = validation.run_all_readings(settings, names, progress=update)
+        else:
+            results = [validation.run_validation(settings, progress=update)]
     finally:
         bar.close()
-    info(f"validation: {simulations} simulations in {time.perf_counter() - start:.1f} s")
-    summary = result.summary()
-    if out is not None:
-        from nudgecli.report.validation_figure import plot_validation
-
-        save_validation(result, out)
-        plot_validation(summary, out)
-    if output_format == "json":
-        echo_json(summary)
+    info(f"validation: {simulations * len(names)} simulations in {time.perf_counter() - start:.1f} s")
+    if all_readings:
+        records = validation.readings_summary(results)
+        if out is not None:
+            validation.save_readings(results, out)
+        if output_format == "json":
+            echo_json(records)
+        else:
+            click.echo(validation.format_readings(records))
     else:
-        click.echo(format_summary(summary))
+        summary = results[0].summary()
+        if out is not None:
+            from nudgecli.report.validation_figure import plot_validation
+
+            validation.save_validation(results[0], out)
+            plot_validation(summary, out)
+        if output_format == "json":
+            echo_json(summary)
+        else:
+            click.echo(validation.format_summary(summary))
     if out is not None:
         info(str(out))
 
