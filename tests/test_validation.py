@@ -501,3 +501,20 @@ def test_validate_checks_the_out_folder_before_computing(tmp_path: Path) -> None
     result = CliRunner().invoke(main, ["validate", "--simulations", "1", "--out", str(blocker / "sub")])
     assert result.exit_code == 1
     assert result.stderr.startswith("Error: --out") and "validation:" not in result.stderr
+
+
+def test_validation_panels_draw_the_summarys_rates_on_given_axes() -> None:
+    from matplotlib.figure import Figure
+
+    from nudgecli.report.validation_figure import convergence_panel, match_rate_panel
+
+    summary = run_validation(replace(SMALL_SETTINGS, mc_queries=2, mc_samples=(10, 100))).summary()
+    fig = Figure()
+    left, right = fig.subplots(1, 2)
+    assert match_rate_panel(summary, ax=left) is left
+    match_line = next(line for line in left.lines if line.get_label() == "match")
+    expected = [100.0 * row["match_rate"] for row in summary["by_goals"].values()]
+    np.testing.assert_allclose(match_line.get_ydata(), expected)
+    np.testing.assert_array_equal(match_line.get_xdata(), [int(g) for g in summary["by_goals"]])
+    assert convergence_panel(summary, "mae", ax=right) is right
+    assert fig.get_axes() == [left, right]

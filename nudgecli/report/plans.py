@@ -40,13 +40,12 @@ Unknown keys are refused with a "did you mean" suggestion naming the file and th
 from __future__ import annotations
 
 import itertools
-import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from nudgecli.config import did_you_mean, format_validation_error, preset_dir
+from nudgecli.config import did_you_mean, format_validation_error, list_presets, read_toml, resolve_preset
 from nudgecli.errors import ConfigError
 from nudgecli.report.metrics import METRIC_NAMES
 from nudgecli.report.stats import ComparisonOptions
@@ -195,45 +194,16 @@ def plan_from_dict(data: dict[str, Any], source: str = "<plan>") -> AnalysisPlan
         raise ConfigError(format_validation_error(exc, source, AnalysisPlan)) from None
 
 
-def _preset_dir() -> Path | None:
-    """The folder of the shipped plans (installed wheel or source tree), or ``None``."""
-    folder = preset_dir("analysis")
-    return folder if folder.is_dir() else None
-
-
 def plan_names() -> list[str]:
     """The names of the shipped analysis plans (e.g. ``["paper", "study-code"]``)."""
-    folder = _preset_dir()
-    return sorted(p.stem for p in folder.glob("*.toml")) if folder else []
-
-
-def resolve_plan_path(plan: str | Path) -> Path:
-    """The TOML file of a plan given as a preset name or a path.
-
-    Raises
-    ------
-    ConfigError
-        Neither an existing file nor a known preset (with a suggestion).
-    """
-    candidate = Path(plan)
-    if candidate.is_file():
-        return candidate
-    text = str(plan)
-    looks_like_path = text.endswith(".toml") or "/" in text or "\\" in text
-    if not looks_like_path:
-        folder = _preset_dir()
-        if folder is not None and (folder / f"{text}.toml").is_file():
-            return folder / f"{text}.toml"
-    names = plan_names()
-    if looks_like_path:
-        raise ConfigError(f"analysis plan file {text!r} does not exist; give a TOML file or one of the "
-                          f"presets: {', '.join(names)}")
-    raise ConfigError(f"unknown analysis plan {text!r}{did_you_mean(text, names)}; presets: "
-                      f"{', '.join(names) or '(none found)'}, or give a path to a TOML file")
+    return list(list_presets("analysis"))
 
 
 def load_plan(plan: str | Path | AnalysisPlan) -> AnalysisPlan:
     """Load and validate an analysis plan.
+
+    The preset lookup is :func:`nudgecli.config.resolve_preset` (the one shared with experiment
+    files), the TOML reading :func:`nudgecli.config.read_toml`.
 
     Parameters
     ----------
@@ -251,12 +221,7 @@ def load_plan(plan: str | Path | AnalysisPlan) -> AnalysisPlan:
     """
     if isinstance(plan, AnalysisPlan):
         return plan
-    path = resolve_plan_path(plan)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read the analysis plan: {exc}") from None
+    path = resolve_preset(str(plan), "analysis")
+    data = read_toml(path)
     data.setdefault("name", path.stem)
     return plan_from_dict(data, source=str(path))
