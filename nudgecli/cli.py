@@ -236,26 +236,34 @@ def analyze_command(source: str, plan: str, out: str | None, output_format: str,
 
 # --- plot ----------------------------------------------------------------------------------
 
-@main.command("plot", short_help="Draw the paper's figures of an analysed run.")
+@main.command("plot", short_help="Draw the figures of an analysed run or metrics table.")
 @click.argument("run", type=click.Path(path_type=str))
 @click.option("--plan", metavar="PLAN", default=None,
-              help="Analyse RUN with this plan first (writes metrics.csv and stats.json), then plot.")
+              help="Analyse RUN with this plan first (writes metrics.csv and stats.json), then plot "
+                   "[default: plot the existing analysis; item labels of the paper plan].")
 @click.option("--out", type=click.Path(file_okay=False, path_type=str), default=None,
-              help="Folder for the figures [default: RUN/figures].")
+              help="Folder for the figures [default: figures/ in the run or analysis folder].")
 @click.option("--formats", default="png,pdf", show_default=True, help="Comma-separated: png, pdf, svg.")
 @click.option("--trial", metavar="PARTICIPANT:TRIAL", default=None,
               help="The trial of Fig. 5 and the trajectory [default: the Disambiguation trial whose "
                    "true-goal belief rose most after a nudge].")
 def plot_command(run: str, plan: str | None, out: str | None, formats: str, trial: str | None) -> None:
-    """Draw the paper's figures (Fig. 3, 4, 5, a trajectory, questionnaires) of an analysed run."""
+    """Draw the figures of RUN: an analysed run folder, a metrics table or the table's analysis folder.
+
+    Fig. 3 and 4 where their metrics are present, one panel per other metric; Fig. 5 and a
+    trajectory for a run; questionnaires where analysed. stats.json must match the metrics.
+    """
+    from nudgecli.report.plans import load_plan
     from nudgecli.report.plotting import parse_formats, parse_trial, plot_folder
 
     chosen, trial_key = parse_formats(formats), parse_trial(trial)
+    analysis_plan = load_plan(plan or "paper")
     if plan is not None:
         from nudgecli.report.analysis import analyze
 
-        analyze(run, plan=plan)
-    for path in plot_folder(run, out, chosen, trial_key):
+        analyze(run, plan=analysis_plan)
+    for path in plot_folder(run, out, chosen, trial_key, star_rule=analysis_plan.comparison_options(),
+                            item_labels=analysis_plan.questionnaires.labels):
         click.echo(str(path))
 
 
@@ -407,6 +415,13 @@ def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[st
 # --- validate ------------------------------------------------------------------------------
 
 
+def _validation_readings() -> list[str]:
+    """The names of the validation's readings (for ``--reading``'s choices)."""
+    from nudgecli.sim.validation.readings import READINGS
+
+    return list(READINGS)
+
+
 @main.command("validate")
 @click.option("--simulations", type=int, default=100, show_default=True,
               help="Random worlds (each queries every state off the goals once).")
@@ -414,49 +429,69 @@ def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[st
 @click.option("--max-goals", type=int, default=30, show_default=True,
               help="Most goals |G|; |G| steps cyclically from --min-goals to --max-goals.")
 @click.option("--states", type=int, default=200, show_default=True,
-              help="|S| = 2 modes x W x H cells (200: a 10 x 10 grid).")
+              help="|S| = 2 modes x W x H cells of the two-mode world (200: a 10 x 10 grid).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Master seed of the whole validation.")
 @click.option("--belief-concentration", type=float, default=1.0, show_default=True,
               help="Query beliefs are Dirichlet(c): 1 spreads them evenly, large c makes them near uniform.")
 @click.option("--mc-queries", type=int, default=100, show_default=True,
               help="Queries of the Monte-Carlo convergence study (0 skips it).")
+@click.option("--reading", type=click.Choice(list(_validation_readings())), default="dirichlet",
+              show_default=True, help="Which reading of the paper's validation paragraph (see the README).")
+@click.option("--all-readings", is_flag=True,
+              help="Run every reading on the same worlds and print one row per reading, by |G|.")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=str), default=None,
-              help="Folder for validation.json, validation.csv (per query) and validation.png/.pdf.")
+              help="Folder for validation.json, validation.csv (per query) and validation.png/.pdf "
+                   "(readings.json with --all-readings).")
 @click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
               show_default=True, help="What to print on stdout.")
 def validate_command(simulations: int, min_goals: int, max_goals: int, states: int, seed: int,
-                     belief_concentration: float, mc_queries: int, out: str | None,
-                     output_format: str) -> None:
+                     belief_concentration: float, mc_queries: int, reading: str, all_readings: bool,
+                     out: str | None, output_format: str) -> None:
     """The paper's simulation-based validation of D(s): its argmax vs a one-step ground truth."""
     import time
+    from dataclasses import replace
 
-    from nudgecli.sim.validation import (
-        ValidationSettings,
-        format_summary,
-        run_validation,
-        save_validation,
-    )
+    from nudgecli.sim import validation
 
-    settings = ValidationSettings(simulations=simulations, min_goals=min_goals, max_goals=max_goals,
-                                  states=states, seed=seed, mc_queries=mc_queries,
-                                  belief_concentration=belief_concentration).check()
+    if all_readings and reading != "dirichlet":
+        raise click.UsageError("--reading and --all-readings exclude each other")
+    settings = validation.ValidationSettings(
+        simulations=simulations, min_goals=min_goals, max_goals=max_goals, states=states, seed=seed,
+        mc_queries=mc_queries, reading=reading, belief_concentration=belief_concentration)
+    names = list(validation.READINGS) if all_readings else [reading]
+    for name in names:
+        replace(settings, reading=name).check()
+    if out is not None:
+        validation.prepare_out(out)
     start = time.perf_counter()
     bar, update = _progress_bar("validating", unit="simulation")
     try:
-        result = run_validation(settings, progress=update)
+        if all_readings:
+            results = validation.run_all_readings(settings, names, progress=update)
+        else:
+            results = [validation.run_validation(settings, progress=update)]
     finally:
         bar.close()
-    info(f"validation: {simulations} simulations in {time.perf_counter() - start:.1f} s")
-    summary = result.summary()
-    if out is not None:
-        from nudgecli.report.validation_figure import plot_validation
-
-        save_validation(result, out)
-        plot_validation(summary, out)
-    if output_format == "json":
-        echo_json(summary)
+    info(f"validation: {simulations * len(names)} simulations in {time.perf_counter() - start:.1f} s")
+    if all_readings:
+        records = validation.readings_summary(results)
+        if out is not None:
+            validation.save_readings(results, out)
+        if output_format == "json":
+            echo_json(records)
+        else:
+            click.echo(validation.format_readings(records))
     else:
-        click.echo(format_summary(summary))
+        summary = results[0].summary()
+        if out is not None:
+            from nudgecli.report.validation_figure import plot_validation
+
+            validation.save_validation(results[0], out)
+            plot_validation(summary, out)
+        if output_format == "json":
+            echo_json(summary)
+        else:
+            click.echo(validation.format_summary(summary))
     if out is not None:
         info(str(out))
 

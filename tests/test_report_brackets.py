@@ -11,7 +11,9 @@ from matplotlib.lines import Line2D
 from matplotlib.text import Text
 
 from nudgecli.errors import DataError
-from nudgecli.report.brackets import Bracket, assign_levels, brackets_from_stats, draw_brackets, stars_for_p
+from nudgecli.report import brackets as brackets_module
+from nudgecli.report.brackets import Bracket, assign_levels, brackets_from_stats, draw_brackets
+from nudgecli.report.stats import ComparisonOptions, significance_stars
 
 
 def _axes(n_groups: int = 3):
@@ -26,8 +28,23 @@ def _axes(n_groups: int = 3):
 
 @pytest.mark.parametrize(("p", "stars"), [(0.0009, "***"), (0.001, "**"), (0.0099, "**"), (0.01, "*"),
                                           (0.049, "*"), (0.05, ""), (0.7, ""), (float("nan"), "")])
-def test_stars_for_p_uses_strict_thresholds(p: float, stars: str) -> None:
-    assert stars_for_p(p) == stars
+def test_computed_stars_are_the_stats_modules_strict_by_default(p: float, stars: str) -> None:
+    entry = {"kruskal": {"p": 0.001}, "conover": [{"a": "a", "b": "b", "p": p}]}
+    assert [b.stars for b in brackets_from_stats(entry)] == [stars] == [significance_stars(p)]
+
+
+def test_stars_have_one_owner() -> None:
+    # brackets computes no stars of its own: it uses nudgecli.report.stats.
+    assert brackets_module.significance_stars is significance_stars
+    assert not hasattr(brackets_module, "STAR_THRESHOLDS") and not hasattr(brackets_module, "stars_for_p")
+
+
+def test_computed_stars_follow_the_plan_thresholds_and_comparison() -> None:
+    entry = {"kruskal": {"p": 0.02}, "conover": [{"a": "a", "b": "b", "p": 0.02}]}
+    loose = ComparisonOptions(star_thresholds=(0.1, 0.02), star_comparison="<=")
+    assert [b.stars for b in brackets_from_stats(entry, loose)] == ["**"]
+    strict = ComparisonOptions(star_thresholds=(0.1, 0.02), star_comparison="<")
+    assert [b.stars for b in brackets_from_stats(entry, strict)] == ["*"]
 
 
 def test_brackets_from_stats_prefers_given_stars_and_gates_on_kruskal() -> None:

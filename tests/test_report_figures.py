@@ -12,25 +12,26 @@ import pytest
 from matplotlib.figure import Figure
 
 from nudgecli.errors import ConfigError, DataError
-from nudgecli.model import world
 from nudgecli.report import figures
 from nudgecli.report.figures import (
     FIGURE3_METRICS,
     FIGURE4_METRICS,
     METRIC_SPECS,
-    choose_figure5_trial,
+    TrialLayout,
+    belief_trace,
     figure_3,
     figure_4,
     figure_5,
-    layout_poses,
     metric_boxplot,
-    nudge_followup_changes,
-    plot_run,
+    metrics_figure,
     questionnaire_figure,
     resolve_conditions,
     save_figure,
+    trajectory,
     trajectory_figure,
 )
+from nudgecli.report.plotting import FigureInputs, PlotPlan, write_figures
+from nudgecli.report.stats import ComparisonOptions, significance_stars
 from nudgecli.report.style import MIN_FONT_PT
 
 STAR_STRINGS = {"*", "**", "***"}
@@ -90,8 +91,9 @@ def make_stats(conditions: tuple[str, ...], significant: dict[str, dict[tuple[st
     return {"conditions": list(conditions), "metrics": metrics}
 
 
-def make_steps(participant: int = 0, trial: int = 0, n_goals: int = 3, jump: float = 0.4) -> pd.DataFrame:
-    """One trial at 10 Hz: human turn, autonomy turn with a nudge, human turn where goal 0 jumps."""
+def make_steps(participant: int = 0, trial: int = 0, n_goals: int = 3, jump: float = 0.4,
+               rising: int = 0) -> pd.DataFrame:
+    """One trial at 10 Hz: human turn, autonomy turn with a nudge, human turn where goal ``rising`` jumps."""
     plan = [("human", 30), ("autonomy", 15), ("human", 30), ("autonomy", 10), ("human", 25)]
     rows = []
     step = 0
@@ -117,8 +119,10 @@ def make_steps(participant: int = 0, trial: int = 0, n_goals: int = 3, jump: flo
                 p0 = min(0.95, p0 + 0.002)
             others = (1.0 - p0) / (n_goals - 1)
             spread = 0.01 if turn_index < 2 else 0.0
-            belief = [p0] + [others + spread * (g - 1) for g in range(1, n_goals)]
-            belief = list(np.asarray(belief) / np.sum(belief))
+            ranked = [p0] + [others + spread * (g - 1) for g in range(1, n_goals)]
+            ranked = list(np.asarray(ranked) / np.sum(ranked))
+            rest = iter(ranked[1:])
+            belief = [ranked[0] if g == rising else next(rest) for g in range(n_goals)]
             x -= 0.3 if turn == "human" else 0.15
             y -= 0.25
             th += 0.02
@@ -135,6 +139,7 @@ def make_steps(participant: int = 0, trial: int = 0, n_goals: int = 3, jump: flo
 
 GOALS = np.array([[10.0, 8.0, 0.0], [18.0, 6.0, np.pi / 2], [8.0, 15.0, np.pi]])
 START = np.array([40.0, 32.0, 0.0])
+LAYOUT = TrialLayout(GOALS, START, 0)
 
 
 @pytest.fixture(scope="module")
@@ -228,7 +233,7 @@ def test_jitter_is_deterministic(metrics2: pd.DataFrame) -> None:
     def dots(seed: int) -> dict[str, np.ndarray]:
         fig = Figure()
         ax = fig.subplots()
-        out = metric_boxplot(ax, metrics2, "completion_time", None, seed=seed)
+        out = metric_boxplot(metrics2, "completion_time", None, ax=ax, seed=seed)
         return {c: np.asarray(pc.get_offsets()) for c, pc in out.points.items()}
 
     first, second, other = dots(0), dots(0), dots(5)
@@ -243,11 +248,11 @@ def test_jitter_is_deterministic(metrics2: pd.DataFrame) -> None:
 def test_boxplot_drops_nan_and_scales_percent(metrics2: pd.DataFrame) -> None:
     fig = Figure()
     ax = fig.subplots()
-    out = metric_boxplot(ax, metrics2, "assistance_strength", None)
+    out = metric_boxplot(metrics2, "assistance_strength", None, ax=ax)
     expected_n = metrics2.groupby("condition")["assistance_strength"].count().to_dict()
     assert out.n == expected_n
     ax2 = Figure().subplots()
-    out2 = metric_boxplot(ax2, metrics2, "assistance_engagement", None)
+    out2 = metric_boxplot(metrics2, "assistance_engagement", None, ax=ax2)
     y = np.asarray(out2.points["control"].get_offsets())[:, 1]
     assert y.max() > 1.0  # shown in percent
 
@@ -265,12 +270,12 @@ def test_no_global_rcparams_leak(metrics2: pd.DataFrame, tmp_path: Path) -> None
     assert {k: v for k, v in after.items() if before.get(k) != v} == {}
 
 
-# --- Figure 5 and trial choice -------------------------------------------------------------------------
+# --- Figure 5 ---------------------------------------------------------------------------------------
 
 
 def test_figure5_lines_shading_and_nudges() -> None:
     steps = make_steps()
-    fig = figure_5(steps, 3, title="P0 T0")
+    fig = figure_5(steps, 0, 3, title="P0 T0")
     ax = fig.get_axes()[0]
     assert ax.get_xlabel() == "Time (s)"
     assert ax.get_ylabel() == "Goal probability"
@@ -287,41 +292,32 @@ def test_figure5_lines_shading_and_nudges() -> None:
     assert min(_all_font_sizes(fig)) >= MIN_FONT_PT
 
 
-def test_figure5_and_choice_from_parquet_roundtrip(tmp_path: Path) -> None:
-    steps = pd.concat([make_steps(0, 0, jump=0.2), make_steps(0, 1, jump=0.5)], ignore_index=True)
+def test_figure5_colours_the_trials_own_true_goal() -> None:
+    # Goal 2 is the true goal (and the one whose belief rises): it is red, solid, thick, labelled.
+    steps = make_steps(n_goals=4, rising=2)
+    out = belief_trace(steps, 2)
+    colours = [mpl.colors.to_hex(ln.get_color()) for ln in out.lines]
+    assert colours[2] == "#d55e00" and colours.count("#d55e00") == 1
+    assert len(set(colours)) == 4
+    assert out.lines[2].get_linestyle() == "-" and out.lines[2].get_linewidth() > out.lines[0].get_linewidth()
+    assert [ln.get_label() for ln in out.lines] == ["Goal 0", "Goal 1", "Goal 2 (true)", "Goal 3"]
+    # The drawn line of goal 2 is that goal's belief, not goal 0's.
+    np.testing.assert_allclose(out.lines[2].get_ydata(), [b[2] for b in steps["belief"]])
+    with pytest.raises(DataError, match="true goal 4"):
+        belief_trace(steps, 4)
+
+
+def test_figure5_from_parquet_roundtrip(tmp_path: Path) -> None:
+    steps = make_steps(0, 1, jump=0.5)
     steps.to_parquet(tmp_path / "steps.parquet")
     back = pd.read_parquet(tmp_path / "steps.parquet")
-    trials = pd.DataFrame({"participant": [0, 0], "trial": [0, 1], "condition": ["disambiguation"] * 2})
-    assert choose_figure5_trial(back, trials) == (0, 1)
-    fig = figure_5(back[back.trial == 1], GOALS)
+    fig = figure_5(back, 0, 3)
     assert len([ln for ln in fig.get_axes()[0].lines if len(ln.get_xdata()) > 2]) == 3
 
 
 def test_figure5_belief_length_mismatch() -> None:
     with pytest.raises(DataError, match="goals"):
-        figure_5(make_steps(n_goals=3), 4)
-
-
-def test_nudge_followup_changes() -> None:
-    changes = nudge_followup_changes(make_steps(jump=0.4))
-    assert len(changes) == 1
-    assert changes[0] == pytest.approx(0.4, abs=0.02)
-
-
-def test_choose_figure5_trial() -> None:
-    steps = pd.concat([make_steps(0, 0, jump=0.2), make_steps(0, 1, jump=0.5), make_steps(1, 2, jump=0.3),
-                       make_steps(1, 3, jump=0.6)], ignore_index=True)
-    trials = pd.DataFrame({"participant": [0, 0, 1, 1], "trial": [0, 1, 2, 3],
-                           "condition": ["disambiguation", "disambiguation", "disambiguation", "control"],
-                           "success": [True, True, True, True]})
-    assert choose_figure5_trial(steps, trials) == (0, 1)  # (1, 3) jumps more but is a Control trial
-    trials.loc[1, "success"] = False
-    assert choose_figure5_trial(steps, trials) == (1, 2)
-    mapping = {k: df for k, df in steps.groupby(["participant", "trial"])}
-    assert choose_figure5_trial(mapping, trials) == (1, 2)
-    # Without nudges: the largest human-turn rise of a Disambiguation trial.
-    no_nudge = steps.assign(event="")
-    assert choose_figure5_trial(no_nudge, trials.assign(success=True)) == (0, 1)
+        figure_5(make_steps(n_goals=3), 0, 4)
 
 
 # --- trajectory and questionnaires --------------------------------------------------------------------
@@ -329,7 +325,7 @@ def test_choose_figure5_trial() -> None:
 
 def test_trajectory_figure() -> None:
     steps = make_steps()
-    fig = trajectory_figure(steps, GOALS, START, title="P0 T0")
+    fig = trajectory_figure(steps, LAYOUT, title="P0 T0")
     ax = fig.get_axes()[0]
     assert ax.get_xlim() == (3.0, 45.0) and ax.get_ylim() == (2.0, 36.0)
     assert ax.get_xlabel().startswith("x") and ax.get_ylabel().startswith("y")
@@ -338,6 +334,53 @@ def test_trajectory_figure() -> None:
     labels = [t.get_text() for t in fig.legends[0].get_texts()]
     assert {"Human drove", "Autonomy drove", "Start", "g0 (true goal)", "g1", "g2", "Nudge"} <= set(labels)
     assert min(_all_font_sizes(fig)) >= MIN_FONT_PT
+
+
+def test_trajectory_marks_the_trials_own_true_goal() -> None:
+    out = trajectory(make_steps(), TrialLayout(GOALS, START, 1))
+    assert [t.get_text() for t in out.goal_labels] == ["g0", "g1 (true)", "g2"]
+    assert [mpl.colors.to_hex(d.get_color()) for d in out.goals][1] == "#d55e00"
+    assert mpl.colors.to_hex(out.goals[0].get_color()) != "#d55e00"
+
+
+def test_trajectory_colours_who_drove_and_fills_who_switched() -> None:
+    # Fixed expectations (DESIGN 6 / the legend): human black solid, autonomy gray dashed; a mode
+    # change is a filled marker when the human switched, an open one when the autonomy did.
+    steps = make_steps()
+    out = trajectory(steps, LAYOUT)
+    turns = [turn for turn, _ in steps.groupby((steps["turn"] != steps["turn"].shift()).cumsum())["turn"]
+             .first().items()]
+    assert [who for who, _ in out.path] == [steps["turn"].iloc[0], "autonomy", "human", "autonomy", "human"]
+    assert len(out.path) == len(turns)
+    for who, line in out.path:
+        colour, dashed = mpl.colors.to_hex(line.get_color()), line.get_linestyle() != "-"
+        assert (colour, dashed) == (("#000000", False) if who == "human" else ("#8c8c8c", True))
+    # make_steps: the autonomy switches at the start of its first turn (step 30), the human at
+    # step 10 of each human turn (turns start at steps 0, 45 and 85: steps 10, 55, 95).
+    expected = {30: "autonomy", 10: "human", 55: "human", 95: "human"}
+    drawn = {}
+    for who, marker in out.switches:
+        k = int(np.flatnonzero((steps["x"].to_numpy() == marker.get_xdata()[0])
+                               & (steps["y"].to_numpy() == marker.get_ydata()[0]))[0])
+        drawn[k] = (who, mpl.colors.to_hex(marker.get_markerfacecolor()))
+    assert drawn == {k: (who, "#000000" if who == "human" else "#ffffff") for k, who in expected.items()}
+    fills = {h.get_label().strip(): mpl.colors.to_hex(h.get_markerfacecolor()) for h in out.handles
+             if h.get_label().strip().startswith(("filled", "open"))}
+    assert fills == {"filled: by human": "#000000", "open: by autonomy": "#ffffff"}
+
+
+def test_every_drawing_function_composes_on_given_axes(metrics2: pd.DataFrame) -> None:
+    fig = Figure(figsize=(10, 8), layout="constrained")
+    a, b, c, d = fig.subplots(2, 2).ravel()
+    assert metric_boxplot(metrics2, "human_effort", ax=a).ax is a
+    assert belief_trace(make_steps(), 0, ax=b, legend=False).ax is b
+    assert trajectory(make_steps(), LAYOUT, ax=c, legend=False).ax is c
+    tlx = pd.DataFrame({"participant": [0, 0, 1, 1], "condition": ["disambiguation", "control"] * 2,
+                        "raw_tlx": [30.0, 35.0, 28.0, 40.0]})
+    figures.questionnaire_bars(tlx, "tlx", ax=d)
+    assert fig.get_axes() == [a, b, c, d]
+    assert all(ax.has_data() for ax in (a, b, c, d))
+    assert fig.legends == []
 
 
 def test_questionnaire_figure_long_and_wide() -> None:
@@ -377,13 +420,29 @@ def test_questionnaire_scores_table_is_split_and_labelled(tmp_path: Path) -> Non
     stats = make_stats(DC, {})
     stats["metrics"] = [{**stats["metrics"][0], "metric": "likert_q3",
                          "stars": {"disambiguation|control": "*"}}]
-    fig = questionnaire_figure(tlx, likert, conditions=list(DC), stats=stats)
+    fig = questionnaire_figure(tlx, likert, conditions=list(DC), stats=stats,
+                               item_labels={"Q3": "Q3: first", "q4": "Q4: second"})
     ax_tlx, ax_lik = fig.get_axes()
     assert [t.get_text() for t in ax_tlx.get_xticklabels()] == ["Raw TLX", "Weighted TLX"]
     assert [t.get_text().split("\n")[0] for t in ax_lik.get_xticklabels()] == ["Q3", "Q4"]
     assert _star_texts(ax_lik) == ["*"] and _star_texts(ax_tlx) == []
-    paths = plot_run(make_metrics(), None, None, None, tmp_path, ("png",), questionnaires=scores)
+    inputs = FigureInputs(metrics=make_metrics(), stats=make_stats(DC, {}), questionnaires=scores)
+    paths = write_figures(inputs, PlotPlan(tmp_path, ("png",)))
     assert [p.name for p in paths] == ["fig3.png", "fig4.png", "questionnaires.png"]
+
+
+def test_likert_wording_comes_from_the_plan() -> None:
+    from nudgecli.report.plans import load_plan
+
+    likert = pd.DataFrame([{"participant": p, "condition": c, "likert_q3": 4, "likert_q10": 5}
+                           for p in range(3) for c in DC])
+    labels = load_plan("study-code").questionnaires.labels
+    fig = questionnaire_figure(None, likert, item_labels=labels)
+    ticks = [t.get_text().split("\n", 1) for t in fig.get_axes()[0].get_xticklabels()]
+    assert [(code, " ".join(text.split())) for code, text in ticks] == [
+        ("Q3", "figured out my goal more easily"), ("Q10", "helped reduce unwanted mode switches")]
+    bare = questionnaire_figure(None, likert)
+    assert [t.get_text() for t in bare.get_axes()[0].get_xticklabels()] == ["q3", "q10"]
 
 
 # --- writing ----------------------------------------------------------------------------------------
@@ -404,15 +463,20 @@ def test_save_figure_atomic_and_formats(metrics2: pd.DataFrame, tmp_path: Path) 
     assert again[1].read_bytes() == paths[2].read_bytes()
 
 
-def test_layout_poses_accepts_world_layout() -> None:
-    layout = world.sample_layout(np.random.default_rng(2), "tr", 4, 0)
-    goals, start = layout_poses(layout)
-    assert goals.shape == (4, 3) and start is not None and start.shape == (3,)
-    np.testing.assert_allclose(goals, layout.goal_poses)
-    goals, start = layout_poses((GOALS, START))
-    np.testing.assert_allclose(goals, GOALS)
+def test_trial_layout_checks_shapes_and_true_goal() -> None:
     with pytest.raises(DataError, match="shape"):
-        layout_poses({"goal_poses": np.zeros((3, 2))})
+        TrialLayout(np.zeros((3, 2)), None, 0)
+    with pytest.raises(DataError, match="true goal 3"):
+        TrialLayout(GOALS, START, 3)
+
+
+def test_save_figure_uses_the_usual_permissions(metrics2: pd.DataFrame, tmp_path: Path) -> None:
+    # Files get 0666 minus the process's umask (as `touch` would), not a temporary file's 0600.
+    umask = os.umask(0o022)
+    os.umask(umask)
+    paths = save_figure(figure_4(metrics2, None), tmp_path, "fig4", ("png", "svg"))
+    assert [p.stat().st_mode & 0o777 for p in paths] == [0o666 & ~umask] * 2
+    assert 0o666 & ~umask != 0o600  # the test can tell the two apart under this umask
 
 
 def test_save_figure_cleans_up_on_failure(metrics2: pd.DataFrame, tmp_path: Path,
@@ -428,21 +492,74 @@ def test_save_figure_cleans_up_on_failure(metrics2: pd.DataFrame, tmp_path: Path
     assert os.listdir(tmp_path) == []
 
 
-def test_plot_run_writes_everything(metrics2: pd.DataFrame, tmp_path: Path) -> None:
+def test_write_figures_writes_everything(metrics2: pd.DataFrame, tmp_path: Path) -> None:
     stats = make_stats(("disambiguation", "control"), {"human_effort": {("disambiguation", "control"): 0.01}})
     trial_keys = list(metrics2.loc[metrics2.condition == "disambiguation", ["participant", "trial"]]
                       .itertuples(index=False, name=None))[:2]
-    steps = {k: make_steps(k[0], k[1], jump=0.1 + 0.3 * i) for i, k in enumerate(trial_keys)}
-    layouts = {k: {"goal_poses": GOALS, "start_pose": START} for k in trial_keys}
+    steps = pd.concat([make_steps(k[0], k[1], jump=0.1 + 0.3 * i) for i, k in enumerate(trial_keys)],
+                      ignore_index=True)
+    trials = metrics2.assign(true_goal=0)
+    layouts = {k: LAYOUT for k in trial_keys}
     tlx = pd.DataFrame({"participant": [0, 0, 1, 1], "condition": ["disambiguation", "control"] * 2,
-                        "raw_tlx": [30.0, 35.0, 28.0, 40.0]})
-    paths = plot_run(metrics2, stats, steps, layouts, tmp_path, ("png",), tlx=tlx)
+                        "tlx_raw": [30.0, 35.0, 28.0, 40.0]})
+    inputs = FigureInputs(metrics=metrics2, stats=stats, trials=trials, steps=steps, layouts=layouts,
+                          questionnaires=tlx)
+    paths = write_figures(inputs, PlotPlan(tmp_path, ("png",)))
     assert [p.name for p in paths] == ["fig3.png", "fig4.png", "fig5.png", "trajectory.png",
                                        "questionnaires.png"]
     assert all(p.exists() for p in paths)
     # Metrics-only source: only the box plots.
-    paths = plot_run(metrics2, stats, None, None, tmp_path / "m", ("pdf",))
+    paths = write_figures(FigureInputs(metrics=metrics2, stats=stats), PlotPlan(tmp_path / "m", ("pdf",)))
     assert [p.name for p in paths] == ["fig3.pdf", "fig4.pdf"]
     with pytest.raises(DataError, match="trial 999"):
-        plot_run(metrics2, stats, steps, layouts, tmp_path / "x", ("png",), trial=(0, 999))
+        write_figures(inputs, PlotPlan(tmp_path / "x", ("png",), trial=(0, 999)))
 
+
+def test_metrics_figure_has_one_panel_per_metric(metrics2: pd.DataFrame) -> None:
+    names = ["success", "completion_time", "human_turns", "mode_switches"]
+    fig = metrics_figure(metrics2, None, names)
+    visible = [ax for ax in fig.get_axes() if ax.get_visible()]
+    assert [" ".join(ax.get_ylabel().split()) for ax in visible] == [METRIC_SPECS[m].label for m in names]
+    assert [ax.get_title(loc="left") for ax in visible] == ["(a)", "(b)", "(c)", "(d)"]
+    assert tuple(fig.get_size_inches()) == pytest.approx((7.2, 5.2))
+
+
+# --- brackets follow the p-values and the plan's star rule ------------------------------------------
+
+
+def test_bracket_positions_and_stars_follow_the_p_values(metrics3: pd.DataFrame) -> None:
+    conds = ("disambiguation", "control", "full_state")
+    pairs = {("disambiguation", "control"): 0.2, ("control", "full_state"): 0.004,
+             ("disambiguation", "full_state"): 0.0004}
+    stats = make_stats(conds, {"completion_time": pairs}, with_stars=False)
+    out = metric_boxplot(metrics3, "completion_time", stats["metrics"][-1])
+    drawn = {}
+    for line, text in zip(out.brackets[::2], out.brackets[1::2], strict=True):
+        span = (min(line.get_xdata()), max(line.get_xdata()))
+        assert text.get_position()[0] == pytest.approx(sum(span) / 2)
+        drawn[span] = text.get_text()
+    pos = out.positions
+    expected = {tuple(sorted((pos[a], pos[b]))): significance_stars(p) for (a, b), p in pairs.items()
+                if significance_stars(p)}
+    assert drawn == expected == {(1.0, 2.0): "**", (0.0, 2.0): "***"}
+
+
+@pytest.mark.parametrize(("comparison", "stars"), [("<", "*"), ("<=", "**")])
+def test_bracket_stars_follow_the_plans_comparison(metrics2: pd.DataFrame, comparison: str,
+                                                    stars: str) -> None:
+    # A Conover p exactly at the .01 threshold: one star under "<", two under "<=". An omnibus p
+    # exactly at alpha = .05: the gate (same comparison) closes under "<" and opens under "<=".
+    stats = make_stats(DC, {"human_effort": {DC: 0.01}}, kruskal_p={"human_effort": 0.04}, with_stars=False)
+    rule = ComparisonOptions(star_comparison=comparison)  # type: ignore[arg-type]
+    out = metric_boxplot(metrics2, "human_effort", stats["metrics"][4], star_rule=rule)
+    assert [t.get_text() for t in out.brackets[1::2]] == [stars]
+    gate = make_stats(DC, {"human_effort": {DC: 0.001}}, kruskal_p={"human_effort": 0.05}, with_stars=False)
+    gated = metric_boxplot(metrics2, "human_effort", gate["metrics"][4], star_rule=rule).brackets
+    assert [t.get_text() for t in gated[1::2]] == ([] if comparison == "<" else ["***"])
+
+
+def test_box_colours_follow_the_condition_order(metrics2: pd.DataFrame) -> None:
+    for order in (["disambiguation", "control"], ["control", "disambiguation"]):
+        out = metric_boxplot(metrics2, "human_effort", conditions=order)
+        faces = [mpl.colors.to_hex(out.boxes[c].get_facecolor(), keep_alpha=False) for c in order]
+        assert faces == ["#0072b2", "#e69f00"]  # Okabe-Ito blue, then orange

@@ -29,23 +29,23 @@ from nudgecli.report.analysis import analyze
 from nudgecli.report.figures import (
     FIGURE3_METRICS,
     FIGURE4_METRICS,
-    choose_figure5_trial,
     figure_3,
     figure_4,
     figure_5,
-    layout_poses,
     questionnaire_figure,
     split_questionnaire_scores,
     trajectory_figure,
 )
-from nudgecli.report.plotting import layouts_by_trial
+from nudgecli.report.plotting import analysis_folder_of_table, layouts_by_trial
 from nudgecli.report.style import condition_display_name, figure_style
+from nudgecli.report.trial_selection import choose_figure5_trial
 from nudgecli.sim.study import run_study
 from nudgecli.store import RunFolder
 
 QUESTIONNAIRES_CSV = Path(__file__).parent / "data" / "questionnaires_smoke_run.csv"
 CONDITIONS = ("disambiguation", "control")
-ALL_STEMS = {"fig3", "fig4", "fig5", "trajectory", "questionnaires"}
+#: fig3/fig4 hold six of the paper plan's metrics; `metrics` the remaining one (success).
+ALL_STEMS = {"fig3", "fig4", "metrics", "fig5", "trajectory", "questionnaires"}
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 FILE_MAGIC = {"png": PNG_MAGIC, "pdf": b"%PDF", "svg": b"<?xml"}
 
@@ -356,19 +356,20 @@ def test_no_bracket_when_stats_json_gives_no_stars_even_if_p_is_tiny(run_data: R
 def test_fig5_and_trajectory_of_the_default_trial_are_labelled(run_data: RunData) -> None:
     key = choose_figure5_trial(run_data.steps, run_data.trials)
     steps, layout = run_data.trial_steps(key), run_data.layouts[key]
-    n_goals = layout_poses(layout)[0].shape[0]
+    n_goals = layout.n_goals
+    true_goal = int(run_data.trials.set_index(["participant", "trial"]).loc[key, "true_goal"])
+    assert layout.true_goal == true_goal
 
-    fig5 = figure_5(steps, layout, title=f"Participant {key[0]}, trial {key[1]}")
+    fig5 = figure_5(steps, true_goal, n_goals, title=f"Participant {key[0]}, trial {key[1]}")
     (ax,) = fig5.axes
     assert ax.get_xlabel() == "Time (s)" and ax.get_ylabel().strip()
     assert ax.get_title(loc="left") == f"Participant {key[0]}, trial {key[1]}"
     assert ax.get_ylim() == (0.0, 1.0)
     labels = [t.get_text() for t in fig5.legends[0].get_texts()]
-    assert labels[:n_goals] == ["Goal 0 (true)", *(f"Goal {g}" for g in range(1, n_goals))]
+    assert labels[:n_goals] == [f"Goal {g}" + (" (true)" if g == true_goal else "") for g in range(n_goals)]
     assert {"Human turn", "Autonomy turn"} <= set(labels)
 
-    goals, start = layout_poses(layout)
-    trajectory = trajectory_figure(steps, goals, start, title="t")
+    trajectory = trajectory_figure(steps, layout, title="t")
     (ax,) = trajectory.axes
     assert ax.get_xlabel().strip() and ax.get_ylabel().strip()
     assert trajectory.legends and trajectory.legends[0].get_texts()
@@ -399,3 +400,100 @@ def test_star_text_sits_above_every_trial_dot(run_data: RunData) -> None:
         dots_top = max(np.max(c.get_offsets()[:, 1]) for c in ax.collections if len(c.get_offsets()))
         assert star.get_position()[1] > dots_top
         assert star.get_position()[1] < ax.get_ylim()[1]
+
+
+# --- `nudge plot` checks the statistics it draws ---------------------------------------------------
+
+
+def test_plot_refuses_stats_computed_from_other_metrics(analysed_run: Path, tmp_path: Path) -> None:
+    run = _copy_run(analysed_run, tmp_path / "run")
+    shutil.rmtree(run / "figures", ignore_errors=True)
+    metrics = pd.read_csv(run / "metrics.csv")
+    metrics.loc[0, "human_effort"] = metrics["human_effort"].iloc[0] + 0.25  # one trial changed
+    metrics.to_csv(run / "metrics.csv", index=False)
+    line = _single_error_line(_plot(str(run), "--formats", "png"))
+    assert f"{run / 'stats.json'} does not match {run / 'metrics.csv'}" in line
+    assert "`nudge analyze`" in line
+    assert not (run / "figures").exists()
+
+
+def test_plot_refuses_a_condition_without_data(analysed_run: Path, tmp_path: Path) -> None:
+    # A stale stats.json of a table whose control trials were since removed: not an empty box.
+    run = _copy_run(analysed_run, tmp_path / "run")
+    metrics = pd.read_csv(run / "metrics.csv")
+    metrics[metrics["condition"] == "disambiguation"].to_csv(run / "metrics.csv", index=False)
+    line = _single_error_line(_plot(str(run), "--formats", "png"))
+    assert "condition" in line or "does not match" in line
+
+
+@pytest.mark.parametrize(("text", "message"), [
+    ('{"conditions": ["disambiguation", "control"], "metrics": [', "not valid JSON"),
+    ("[1, 2]", "no `metrics` list"),
+    ('{"conditions": [], "metrics": []}', "no checksum"),
+], ids=["truncated", "not-an-object", "no-checksum"])
+def test_plot_of_a_broken_stats_json_is_one_error_line(analysed_run: Path, tmp_path: Path, text: str,
+                                                       message: str) -> None:
+    run = _copy_run(analysed_run, tmp_path / "run")
+    (run / "stats.json").write_text(text, encoding="utf-8")
+    line = _single_error_line(_plot(str(run), "--out", str(tmp_path / "f")))
+    assert message in line and str(run / "stats.json") in line
+    assert not (tmp_path / "f").exists()
+
+
+def test_a_hand_edited_p_value_is_refused_only_through_the_data_it_claims(analysed_run: Path,
+                                                                            tmp_path: Path) -> None:
+    # The checksum covers the metrics, not the p-values: re-analysing restores agreement.
+    run = _copy_run(analysed_run, tmp_path / "run")
+    metrics = pd.read_csv(run / "metrics.csv")
+    metrics.loc[3, "completion_time"] = 1e6
+    metrics.to_csv(run / "metrics.csv", index=False)
+    assert _plot(str(run), "--formats", "png").exit_code == 1
+    analyze(run / "metrics.csv", plan="paper", out=tmp_path / "again")
+    shutil.copy(tmp_path / "again" / "stats.json", run / "stats.json")
+    assert _plot(str(run), "--formats", "png").exit_code == 0
+
+
+# --- `nudge plot` on a real metrics table -------------------------------------------------------------
+
+
+def _real_table(tmp_path: Path, metrics: dict[str, Callable[[np.random.Generator, int], float]]) -> Path:
+    """A metrics table of 6 participants x 2 conditions x 5 trials with the given metric columns."""
+    rng = np.random.default_rng(7)
+    rows = [{"participant": p, "condition": c, "trial": t,
+             **{name: draw(rng, ci) for name, draw in metrics.items()}}
+            for p in range(6) for ci, c in enumerate(("assisted", "manual")) for t in range(5)]
+    path = tmp_path / "study.csv"
+    pd.DataFrame(rows).to_csv(path, index=False)
+    return path
+
+
+def test_plot_of_a_table_with_other_metrics_draws_one_panel_each(tmp_path: Path) -> None:
+    table = _real_table(tmp_path, {"workload": lambda r, c: float(r.normal(50 + 10 * c, 5)),
+                                   "errors": lambda r, c: float(r.integers(0, 4 + c))})
+    analyze(table, plan="paper")
+    folder = analysis_folder_of_table(table)
+    for source in (table, folder):  # the table itself, or the folder its analysis went to
+        out = tmp_path / f"figures-{source.name}"
+        result = _plot(str(source), "--out", str(out), "--formats", "png")
+        assert result.exit_code == 0, (result.output, result.exception)
+        assert _written_files(out) == {"metrics": {"png"}}
+    fig = figures.metrics_figure(pd.read_csv(table), json.loads((folder / "stats.json").read_text()),
+                                 ["workload", "errors"])
+    labels = [" ".join(ax.get_ylabel().split()) for ax in fig.axes if ax.get_visible()]
+    assert labels == ["Workload", "Errors"]
+
+
+def test_plot_of_a_table_with_the_papers_metrics_uses_the_papers_layout(run_data: RunData,
+                                                                         tmp_path: Path) -> None:
+    table = tmp_path / "real.csv"
+    run_data.metrics.drop(columns=["success"]).to_csv(table, index=False)
+    analyze(table, plan="paper")
+    result = _plot(str(table), "--formats", "png")
+    assert result.exit_code == 0, (result.output, result.exception)
+    assert _written_files(analysis_folder_of_table(table) / "figures") == {"fig3": {"png"}, "fig4": {"png"}}
+
+
+def test_plot_of_an_unanalysed_table_says_to_analyze(tmp_path: Path) -> None:
+    table = _real_table(tmp_path, {"workload": lambda r, c: float(r.normal(50, 5))})
+    line = _single_error_line(_plot(str(table)))
+    assert f"`nudge analyze {table}`" in line

@@ -27,18 +27,27 @@ from nudgecli.model.interface import (
     default_mapping_table,
     observation_model,
 )
+from nudgecli.model.mdp import OUTCOME_GOAL_ABSORBING, OUTCOME_GOAL_ENTRY, OUTCOME_INSIDE_OBSTACLE
 from nudgecli.rng import generator
 from nudgecli.sim.validation import (
     QUERY_COLUMNS,
+    READINGS,
     ValidationSettings,
     distinct_margin,
+    expected_entropy_drop,
+    expected_goal_distance,
     expected_top_two_gap,
+    get_reading,
     goal_transitions,
     monte_carlo_estimates,
     neighbourhoods,
+    query_beliefs,
+    run_all_readings,
     run_validation,
+    sample_study_world,
     sample_world,
     solve_goal_policies,
+    study_queries,
     tolerant_argmax,
     unweighted_limit,
     world_states,
@@ -136,8 +145,9 @@ def test_world_policy_and_likelihood() -> None:
     width, height = 4, 3
     goals = np.array([[3, 1], [0, 0]])
     cells, modes = world_states(width, height)
-    next_state, reward = goal_transitions(width, height, goals)
-    policy = solve_goal_policies(next_state, reward, 0.1)
+    transitions = goal_transitions(width, height, goals)
+    next_state, reward = transitions.next_state, transitions.rewards()  # (G, A, S), the model's axes
+    policy = solve_goal_policies(transitions, 0.1)
     np.testing.assert_allclose(policy.sum(-1), 1.0)
     assert set(np.round(policy, 6).ravel()) == {0.925, 0.025}
 
@@ -151,9 +161,12 @@ def test_world_policy_and_likelihood() -> None:
     assert greedy[state(1, 0, 1)] == MOVE_P  # mode y below the goal's row: go up first
     assert greedy[state(3, 2, 1)] == MOVE_N  # mode y above it: go down
     # Goal 1's cell is an obstacle for goal 0: from (0, 1) in mode y, move_n would bump.
-    assert next_state[0, state(0, 1, 1), MOVE_N] == state(0, 1, 1)
-    assert reward[0, state(0, 1, 1), MOVE_N] == -100.0
-    assert reward[0, state(2, 1, 0), MOVE_P] == 100.0  # the step into the goal
+    assert next_state[0, MOVE_N, state(0, 1, 1)] == state(0, 1, 1)
+    assert reward[0, MOVE_N, state(0, 1, 1)] == -100.0
+    assert reward[0, MOVE_P, state(2, 1, 0)] == 100.0  # the step into the goal
+    assert transitions.outcome[0, MOVE_P, state(2, 1, 0)] == OUTCOME_GOAL_ENTRY
+    assert transitions.outcome[1, MOVE_P, state(3, 1, 0)] == OUTCOME_INSIDE_OBSTACLE  # goal 0 for goal 1
+    assert transitions.outcome[0, MOVE_P, state(3, 1, 1)] == OUTCOME_GOAL_ABSORBING
     assert int(np.argmax(default_mapping_table()[0, TO_MODE_R])) == HARD_PUFF
 
     likelihood = observation_likelihood(policy, default_mapping_table(), default_distortion_table(),
@@ -302,3 +315,206 @@ def test_the_belief_concentration_changes_the_queries_and_is_reported() -> None:
     # other beliefs, other choices (the worlds are the same: they come from the same seed)
     np.testing.assert_array_equal(spread.queries["state"], near_uniform.queries["state"])
     assert not np.array_equal(spread.queries["metric_choice"], near_uniform.queries["metric_choice"])
+
+
+# --- the readings side by side ------------------------------------------------------------------
+
+SMALL_SETTINGS = ValidationSettings(simulations=6, min_goals=3, max_goals=5, states=72, seed=0, mc_queries=0)
+
+
+def _brute_force_choices(settings: ValidationSettings) -> tuple[list[int], list[int]]:
+    """s* and the ground truth's choice of every query, by explicit loops (an independent
+    implementation: Bayes' rule per label, MI from its definition, first maximum by scanning)."""
+    metric_choices, truth_choices = [], []
+    for k, n_goals in enumerate(settings.goal_counts()):
+        rng = generator(settings.seed, "validation", k)
+        width, height = settings.grid_shape
+        world = sample_world(rng, int(n_goals), width, height)
+        queries = np.flatnonzero(~world.on_goal)
+        beliefs = rng.dirichlet(np.ones(int(n_goals)), size=queries.size)
+        for q, s in enumerate(queries):
+            ci, cj = world.cells[s]
+            candidates = [((i * height + j) * 2 + m)
+                          for i in range(ci - 1, ci + 2) for j in range(cj - 1, cj + 2) for m in range(2)
+                          if 0 <= i < width and 0 <= j < height and not world.on_goal[(i * height + j) * 2]]
+            b = beliefs[q]
+            info, gap = [], []
+            for c in candidates:
+                lik = world.likelihood[:, c, :]  # (G, F)
+                marginal = b @ lik
+                info.append(sum(b[g] * lik[g, f] * np.log(lik[g, f] / marginal[f])
+                                for g in range(len(b)) for f in range(4)))
+                total = 0.0
+                for f in range(4):
+                    post = np.sort(bayes_update(b, lik[:, f]))
+                    total += marginal[f] * (post[-1] - post[-2])
+                gap.append(total)
+
+            def first_max(values: list[float]) -> int:
+                top = max(values)
+                return next(i for i, v in enumerate(values) if v >= top - 1e-9 * max(1.0, abs(top)))
+
+            metric_choices.append(candidates[first_max(info)])
+            truth_choices.append(candidates[first_max(gap)])
+    return metric_choices, truth_choices
+
+
+def test_small_fixed_seed_match_rate_is_pinned_and_equals_brute_force() -> None:
+    result = run_validation(SMALL_SETTINGS)
+    metric, truth = _brute_force_choices(SMALL_SETTINGS)
+    assert result.queries["metric_choice"].tolist() == metric
+    assert result.queries["truth_choice"].tolist() == truth
+    matches = int(np.sum(np.asarray(metric) == np.asarray(truth)))
+    assert (matches, len(metric)) == (247, 384)  # pinned: 64.3 %
+    assert result.summary()["match_rate"] == pytest.approx(247 / 384)
+
+
+def test_expected_entropy_drop_is_the_mutual_information() -> None:
+    # H(b) - E[H(b')] with scipy's entropy on each posterior (an independent route) equals Eq. 13.
+    from scipy.stats import entropy
+
+    rng = generator(8, "test")
+    world = sample_world(rng, 5, 5, 4)
+    belief = rng.dirichlet(np.ones(5))
+    drop = expected_entropy_drop(belief, world.likelihood)
+    manual = []
+    for s in range(world.n_states):
+        marginal = belief @ world.likelihood[:, s, :]
+        posteriors = [bayes_update(belief, world.likelihood[:, s, f]) for f in range(4)]
+        manual.append(entropy(belief) - sum(marginal[f] * entropy(posteriors[f]) for f in range(4)))
+    np.testing.assert_allclose(drop, manual, atol=1e-12)
+    np.testing.assert_allclose(drop, mutual_information(belief, world.likelihood), atol=1e-12)
+
+
+def test_gap_under_the_true_goal_hand_computed() -> None:
+    # b = (0.6, 0.4); the state of test_ground_truth_hand_computed_two_goals_two_states:
+    # p(f | g0) = (0.9, 0.1), p(f | g1) = (0.1, 0.9); posterior gaps 0.50/0.58 and 0.30/0.42.
+    # Under the true goal g1 the labels come from (0.1, 0.9): 0.1 * 0.862069 + 0.9 * 0.714286.
+    belief = np.array([0.6, 0.4])
+    likelihood = np.array([[[0.9, 0.1]], [[0.1, 0.9]]])  # (G, C, F)
+    under_g1 = expected_top_two_gap(belief, likelihood, label_weights=likelihood[1])
+    np.testing.assert_allclose(under_g1, [0.1 * 0.50 / 0.58 + 0.9 * 0.30 / 0.42], rtol=1e-12)
+    marginal = belief @ likelihood.transpose(1, 0, 2)  # (C, F) p(f | s)
+    under_belief = expected_top_two_gap(belief, likelihood, label_weights=marginal)
+    np.testing.assert_allclose(under_belief, expected_top_two_gap(belief, likelihood), rtol=1e-12)
+
+
+def test_two_goal_beliefs_split_between_two_goals() -> None:
+    beliefs = query_beliefs(generator(1, "test"), get_reading("two-goal"), 6, 500, 1.0)
+    np.testing.assert_allclose(beliefs.sum(axis=1), 1.0)
+    top_two = np.sort(beliefs, axis=1)[:, -2:]
+    np.testing.assert_allclose(top_two.sum(axis=1), 0.99)
+    assert np.all(top_two[:, 1] >= 0.99 * 0.5) and np.all(top_two[:, 1] <= 0.99 * 0.75)
+    np.testing.assert_allclose(np.sort(beliefs, axis=1)[:, :-2], 0.01 / 4)
+    assert len({tuple(np.argsort(b)[-2:]) for b in beliefs}) > 20  # the pair varies
+    pair_only = query_beliefs(generator(1, "test"), get_reading("two-goal"), 2, 10, 1.0)
+    np.testing.assert_allclose(pair_only.sum(axis=1), 1.0)
+
+
+def test_expected_goal_distance_is_the_models_regulariser() -> None:
+    # Hand-computed: goals at cells (0, 0) and (3, 4); candidate (0, 4); b = (0.25, 0.75):
+    # 0.25 * 4 + 0.75 * 3 = 3.25 cells.
+    got = expected_goal_distance(np.array([[0.25, 0.75]]), np.array([[0, 0], [3, 4]]), np.array([[[0, 4]]]))
+    np.testing.assert_allclose(got, [[3.25]])
+
+
+@pytest.mark.parametrize(("reading", "pinned"), [
+    ("two-goal", (193, 384)), ("true-goal", (228, 384)), ("lambda-1", (86, 384)),
+    ("reaches-maximum", (295, 384)), ("entropy-drop", (384, 384)),
+])
+def test_each_reading_changes_what_it_says_and_is_pinned(reading: str, pinned: tuple[int, int]) -> None:
+    base = run_validation(SMALL_SETTINGS)
+    other = run_validation(replace(SMALL_SETTINGS, reading=reading))
+    q, b = other.queries, base.queries
+    assert (int(q["match"].sum()), q["match"].size) == pinned
+    np.testing.assert_array_equal(q["state"], b["state"])  # the same worlds
+    if reading == "reaches-maximum":  # same choices, a looser rule: every same-state match counts
+        np.testing.assert_array_equal(q["metric_choice"], b["metric_choice"])
+        np.testing.assert_array_equal(q["match"], b["truth_optimal"])
+        assert np.all(q["match"] >= b["match"])
+    if reading == "lambda-1":  # the metric is the regularised D(s) the default reports beside it
+        np.testing.assert_array_equal(q["metric_choice"], b["regularised_choice"])
+    if reading == "true-goal":  # same metric, another ground truth
+        np.testing.assert_array_equal(q["metric_choice"], b["metric_choice"])
+        assert not np.array_equal(q["truth_choice"], b["truth_choice"])
+    if reading == "entropy-drop":  # by construction: the ground truth is I(s) itself
+        np.testing.assert_array_equal(q["truth_choice"], q["metric_choice"])
+
+
+def test_three_mode_world_is_the_models() -> None:
+    from nudgecli.model.disambiguation import window_candidates
+    from nudgecli.model.mdp import solve_layout
+
+    rng = generator(9, "test")
+    world = sample_study_world(rng, 4, 0.1, default_mapping_table(), default_distortion_table())
+    assert world.likelihood.shape == (4, 2400, 4) and world.on_goal.sum() == 4 * 8 * 3
+    headings = generator(9, "test")
+    headings.choice(100, size=4, replace=False)
+    solved = solve_layout(world.goal_cells, headings.integers(0, 8, size=4))
+    np.testing.assert_array_equal(world.policy, solved.p_a_given_sg)
+    queries, cand = study_queries(rng, world)
+    assert queries.size == 96 and cand.shape == (96, 27)
+    for q in (0, 40, 95):
+        expected = window_candidates(int(queries[q]), world.goal_cells, 3).states
+        np.testing.assert_array_equal(cand[q][cand[q] >= 0], expected)
+    result = run_validation(ValidationSettings(simulations=3, min_goals=3, max_goals=5, seed=0, mc_queries=0,
+                                               reading="three-mode"))
+    assert (int(result.queries["match"].sum()), result.queries["match"].size) == (197, 288)
+
+
+def test_all_readings_share_worlds_and_equal_single_runs() -> None:
+    names = ["dirichlet", "two-goal", "three-mode"]
+    settings = replace(SMALL_SETTINGS, simulations=3)
+    together = run_all_readings(settings, names)
+    for name, result in zip(names, together, strict=True):
+        alone = run_validation(replace(settings, reading=name))
+        for column in QUERY_COLUMNS:
+            np.testing.assert_array_equal(result.queries[column], alone.queries[column])
+
+
+def test_cli_reading_and_all_readings(tmp_path: Path) -> None:
+    small = ["validate", "--simulations", "4", "--min-goals", "3", "--max-goals", "4", "--states", "72",
+             "--mc-queries", "0"]
+    one = CliRunner().invoke(main, [*small, "--reading", "two-goal", "--format", "json"])
+    assert one.exit_code == 0, one.output
+    assert json.loads(one.stdout)["settings"]["reading"]["name"] == "two-goal"
+    every = CliRunner().invoke(main, [*small, "--all-readings", "--out", str(tmp_path / "r")])
+    assert every.exit_code == 0, every.output
+    lines = every.stdout.splitlines()
+    header = lines[1].split()
+    assert header == ["reading", "match", "3", "4"]
+    rows = {line.split()[0]: line.split() for line in lines[2:2 + len(READINGS)]}
+    assert list(rows) == list(READINGS)
+    assert rows["entropy-drop"][1:] == ["100.0%", "100", "100"]
+    assert "by construction" in every.stdout
+    saved = json.loads((tmp_path / "r" / "readings.json").read_text())
+    assert [r["reading"]["name"] for r in saved] == list(READINGS)
+    both = CliRunner().invoke(main, [*small, "--all-readings", "--reading", "two-goal"])
+    assert both.exit_code == 2
+    unknown = CliRunner().invoke(main, [*small, "--reading", "dirichlett"])
+    assert unknown.exit_code == 2
+
+
+def test_validate_checks_the_out_folder_before_computing(tmp_path: Path) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    result = CliRunner().invoke(main, ["validate", "--simulations", "1", "--out", str(blocker / "sub")])
+    assert result.exit_code == 1
+    assert result.stderr.startswith("Error: --out") and "validation:" not in result.stderr
+
+
+def test_validation_panels_draw_the_summarys_rates_on_given_axes() -> None:
+    from matplotlib.figure import Figure
+
+    from nudgecli.report.validation_figure import convergence_panel, match_rate_panel
+
+    summary = run_validation(replace(SMALL_SETTINGS, mc_queries=2, mc_samples=(10, 100))).summary()
+    fig = Figure()
+    left, right = fig.subplots(1, 2)
+    assert match_rate_panel(summary, ax=left) is left
+    match_line = next(line for line in left.lines if line.get_label() == "match")
+    expected = [100.0 * row["match_rate"] for row in summary["by_goals"].values()]
+    np.testing.assert_allclose(match_line.get_ydata(), expected)
+    np.testing.assert_array_equal(match_line.get_xdata(), [int(g) for g in summary["by_goals"]])
+    assert convergence_panel(summary, "mae", ax=right) is right
+    assert fig.get_axes() == [left, right]

@@ -533,15 +533,6 @@ def global_candidates(goal_cells: np.ndarray, rotation_gate: float | None = None
                       positions=positions[keep])
 
 
-def candidate_set(current_state: int, goal_cells: np.ndarray, settings: DisambiguationSettings,
-                  robot_position: np.ndarray | None = None) -> Candidates:
-    """The candidates of ``settings.domain`` (see :func:`window_candidates`, :func:`global_candidates`)."""
-    if settings.domain == "global":
-        return global_candidates(goal_cells, settings.rotation_gate)
-    return window_candidates(current_state, goal_cells, settings.window, robot_position,
-                             settings.rotation_gate)
-
-
 # --- distance regulariser and D(s) --------------------------------------------------------------
 
 def _distance(weights: np.ndarray, goals: np.ndarray, positions: np.ndarray, kind: str) -> np.ndarray:
@@ -645,7 +636,8 @@ class DisambiguationModel:
 
     def candidates(self, current_state: int, settings: DisambiguationSettings,
                    robot_position: np.ndarray | None = None) -> Candidates:
-        """:func:`candidate_set` for this layout, with the window tables kept between calls."""
+        """The candidates of ``settings.domain`` for this layout (:func:`window_candidates` or
+        :func:`global_candidates`), with the window tables kept between calls."""
         if settings.domain == "global":
             return global_candidates(self.goal_cells, settings.rotation_gate)
         table = self._window_tables.get(settings.window)
@@ -710,7 +702,7 @@ def disambiguation_scores(belief: np.ndarray, model: DisambiguationModel, candid
     model
         The layout's :class:`DisambiguationModel`.
     candidates
-        From :func:`candidate_set` or :meth:`DisambiguationModel.candidates`.
+        From :meth:`DisambiguationModel.candidates` (or :func:`window_candidates`, :func:`global_candidates`).
     settings
         Paper defaults when ``None``.
     rng

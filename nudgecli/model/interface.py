@@ -43,8 +43,6 @@ N_ACTIONS = len(ACTIONS)
 
 #: The true mapping f: task action -> interface label, the same in every mode.
 TRUE_MAPPING = np.array([SOFT_PUFF, SOFT_SIP, HARD_PUFF, HARD_SIP])
-#: Label -> task action (the inverse of ``TRUE_MAPPING``).
-LABEL_TO_ACTION = np.argsort(TRUE_MAPPING)
 
 #: Default noise of both tables when nothing is fitted: 0.8 * one-hot + 0.2 * uniform.
 DEFAULT_TABLE_NOISE = 0.2

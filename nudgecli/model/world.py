@@ -19,7 +19,6 @@ import numpy as np
 X_MIN, X_MAX = 3.0, 45.0
 Y_MIN, Y_MAX = 2.0, 36.0
 ROBOT_RADIUS = 0.7
-GOAL_RADIUS = 0.7
 
 N_CELLS_X = 10
 N_CELLS_Y = 10
@@ -112,27 +111,6 @@ def clamp_position(x: float, y: float) -> tuple[float, float]:
     x = min(max(x, X_MIN + ROBOT_RADIUS), X_MAX - ROBOT_RADIUS)
     y = min(max(y, Y_MIN + ROBOT_RADIUS), Y_MAX - ROBOT_RADIUS)
     return x, y
-
-
-def integrate_pose(pose: np.ndarray, velocity: np.ndarray, dt: float) -> np.ndarray:
-    """One Euler step of the point robot.
-
-    Parameters
-    ----------
-    pose
-        ``(3,)`` ``(x, y, theta)``.
-    velocity
-        ``(3,)`` ``(vx, vy, omega)`` in units/s and rad/s (positive omega is anticlockwise).
-    dt
-        Step length in seconds.
-
-    Returns
-    -------
-    np.ndarray
-        ``(3,)`` the new pose; the position slides along the workspace walls, theta wraps.
-    """
-    x, y = clamp_position(pose[0] + velocity[0] * dt, pose[1] + velocity[1] * dt)
-    return np.array([x, y, float(wrap_angle(pose[2] + velocity[2] * dt))])
 
 
 @dataclass(frozen=True)

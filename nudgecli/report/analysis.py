@@ -28,6 +28,7 @@ import pandas as pd
 
 from nudgecli.config import did_you_mean
 from nudgecli.errors import ConfigError, DataError, RunFolderError
+from nudgecli.report.checksum import CHECKSUM_KEY, metrics_checksum
 from nudgecli.report.metrics import (
     ID_COLUMNS,
     METRIC_NAMES,
@@ -225,11 +226,6 @@ def _check_filters(plan: AnalysisPlan, available: Sequence[str]) -> None:
 # --- writing -----------------------------------------------------------------------------------
 
 
-def write_atomic(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` atomically (see :func:`nudgecli.store.write_text_atomic`)."""
-    write_text_atomic(path, text)
-
-
 # --- formatting --------------------------------------------------------------------------------
 
 
@@ -368,16 +364,7 @@ def format_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_tr
 
 
 def _options(plan: AnalysisPlan, seed: int | None) -> ComparisonOptions:
-    return ComparisonOptions(
-        kruskal_alpha=plan.stats.kruskal_alpha,
-        p_adjust=plan.stats.p_adjust,
-        star_thresholds=tuple(plan.stats.star_thresholds),
-        star_comparison=plan.stats.star_comparison,
-        participant_aggregate=plan.stats.participant_aggregate,
-        bootstrap_resamples=plan.bootstrap.resamples,
-        bootstrap_level=plan.bootstrap.level,
-        seed=plan.bootstrap.seed if seed is None else seed,
-    )
+    return plan.comparison_options(seed)
 
 
 def load_source(source: Path, plan: AnalysisPlan,
@@ -461,6 +448,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
     stats = compare_conditions(filtered, trial_selected, conditions, options)
     if scores is not None and score_selected:
         stats["metrics"] += compare_conditions(scores, score_selected, conditions, options)["metrics"]
+    stats[CHECKSUM_KEY] = metrics_checksum(filtered, trial_selected, plan.filters)
     stats = json_ready(stats)
     tidy = stats_table(stats)
     summary = format_summary(stats, plan, source, n_trials=len(filtered),
@@ -473,7 +461,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
     metrics_path = out_dir / "metrics.csv"
     metrics_columns = [c for c in filtered.columns if c in NON_METRIC_COLUMNS or c in available]
     if not (source.is_file() and metrics_path.resolve() == source.resolve()):
-        write_atomic(metrics_path, filtered[metrics_columns].to_csv(index=False))
+        write_text_atomic(metrics_path, filtered[metrics_columns].to_csv(index=False))
         written.append(metrics_path)
     outputs = {
         "stats.json": json.dumps(stats, indent=2, allow_nan=False) + "\n",
@@ -483,7 +471,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
     if scores is not None:
         outputs["questionnaires.csv"] = scores.to_csv(index=False)
     for name, text in outputs.items():
-        write_atomic(out_dir / name, text)
+        write_text_atomic(out_dir / name, text)
         written.append(out_dir / name)
     return AnalysisResult(out=out_dir, files=written, metrics=filtered, stats=stats, table=tidy,
                           summary=summary, questionnaires=scores)

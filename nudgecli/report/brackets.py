@@ -6,13 +6,14 @@ over the bar. Brackets whose spans overlap (or touch) are stacked on separate le
 narrowest lowest, so any number of pairwise comparisons of three or more conditions stay
 legible. The y-limits are raised so every bracket and its stars are inside the axes.
 
-The stars follow the paper: ``*`` p < .05, ``**`` p < .01, ``***`` p < .001, shown for a
-post-hoc comparison only when the omnibus (Kruskal-Wallis) test is significant.
+The stars are those of :mod:`nudgecli.report.stats` (their one owner): the ``stars`` that
+``stats.json`` holds for each comparison, or, for a statistics entry without them, the stars
+:func:`nudgecli.report.stats.significance_stars` gives under the analysis plan's thresholds and
+``<``/``<=`` comparison, shown only when the omnibus (Kruskal-Wallis) test is significant.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -25,12 +26,11 @@ from matplotlib.lines import Line2D
 from matplotlib.transforms import offset_copy
 
 from nudgecli.errors import DataError
+from nudgecli.report.stats import ComparisonOptions, is_significant, significance_stars
 from nudgecli.report.style import STAR_FONT_PT
 
-#: ``(threshold, stars)`` from the strictest; a p-value strictly below a threshold earns its stars.
-STAR_THRESHOLDS: tuple[tuple[float, str], ...] = ((0.001, "***"), (0.01, "**"), (0.05, "*"))
-#: Significance level of the omnibus test that gates the post-hoc stars.
-OMNIBUS_ALPHA = 0.05
+#: The paper's star rule (stars at p < .05/.01/.001, Kruskal-Wallis gate at .05).
+DEFAULT_STAR_RULE = ComparisonOptions()
 
 
 @dataclass(frozen=True)
@@ -53,42 +53,22 @@ class Bracket:
     stars: str
 
 
-def stars_for_p(p: float, thresholds: Sequence[tuple[float, str]] = STAR_THRESHOLDS) -> str:
-    """The stars a p-value earns (``""`` if none, also for NaN).
-
-    Parameters
-    ----------
-    p
-        A p-value.
-    thresholds
-        ``(threshold, stars)`` pairs; the first threshold that ``p`` is strictly below wins.
-    """
-    if p is None or not math.isfinite(float(p)):
-        return ""
-    for threshold, stars in sorted(thresholds, key=lambda item: item[0]):
-        if float(p) < threshold:
-            return stars
-    return ""
-
-
 def brackets_from_stats(stats_entry: Mapping[str, Any] | None,
-                        thresholds: Sequence[tuple[float, str]] = STAR_THRESHOLDS,
-                        omnibus_alpha: float = OMNIBUS_ALPHA) -> list[Bracket]:
+                        options: ComparisonOptions = DEFAULT_STAR_RULE) -> list[Bracket]:
     """The pairwise comparisons of one metric of ``stats.json`` as :class:`Bracket` s.
 
     The stars are taken from the entry's ``"stars"`` (the ``stats.json`` list of ``{"a", "b", "stars"}``,
-    or a mapping with keys ``"<a>|<b>"``, either order)
-    when it has the pair; otherwise they are computed from the Conover p-value with
-    ``thresholds``, and only when the Kruskal-Wallis p-value is below ``omnibus_alpha``.
+    or a mapping with keys ``"<a>|<b>"``, either order) when it has the pair; otherwise they are
+    :func:`nudgecli.report.stats.significance_stars` of the Conover p-value under ``options``
+    (thresholds and comparison), and only when the Kruskal-Wallis p-value is significant at
+    ``options.kruskal_alpha`` under the same comparison (:func:`nudgecli.report.stats.is_significant`).
 
     Parameters
     ----------
     stats_entry
         One element of ``stats["metrics"]`` (or ``None``: no comparisons).
-    thresholds
-        Star thresholds, see :func:`stars_for_p`.
-    omnibus_alpha
-        The Kruskal-Wallis p-value must be below this for computed stars.
+    options
+        The plan's star rule (``kruskal_alpha``, ``star_thresholds``, ``star_comparison``).
 
     Returns
     -------
@@ -98,9 +78,9 @@ def brackets_from_stats(stats_entry: Mapping[str, Any] | None,
     if not stats_entry:
         return []
     kruskal = stats_entry.get("kruskal") or {}
-    omnibus_p = kruskal.get("p", float("nan"))
-    omnibus_ok = (omnibus_p is not None and math.isfinite(float(omnibus_p))
-                  and float(omnibus_p) < omnibus_alpha)
+    omnibus_p = kruskal.get("p")
+    omnibus_ok = omnibus_p is not None and is_significant(float(omnibus_p), options.kruskal_alpha,
+                                                          options.star_comparison)
     given = _given_stars(stats_entry.get("stars"))
     brackets = []
     for row in stats_entry.get("conover") or []:
@@ -111,7 +91,8 @@ def brackets_from_stats(stats_entry: Mapping[str, Any] | None,
         if key in given or rev in given:
             stars = str(given.get(key, given.get(rev)) or "")
         else:
-            stars = stars_for_p(p, thresholds) if omnibus_ok else ""
+            stars = (significance_stars(p, options.star_thresholds, options.star_comparison)
+                     if omnibus_ok else "")
         brackets.append(Bracket(a=a, b=b, p=p, stars=stars))
     return brackets
 

@@ -20,8 +20,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from nudgecli.report.analysis import format_value
+from nudgecli.report.figures.output import save_figure
 from nudgecli.report.style import COLUMN_WIDTH_IN, FULL_WIDTH_IN, OKABE_ITO, figure_style
-from nudgecli.store import atomic_path
 
 #: File stem of the figure.
 FIGURE_STEM = "compare"
@@ -30,22 +30,6 @@ SOURCE_STYLE = {
     "simulated": {"color": OKABE_ITO["blue"], "linestyle": "-", "row": -0.09, "marker": "o"},
     "real": {"color": OKABE_ITO["vermillion"], "linestyle": "--", "row": -0.19, "marker": "D"},
 }
-_METADATA = {"png": {"Software": None}, "pdf": {"CreationDate": None, "Producer": None},
-             "svg": {"Date": None}}
-
-
-def save_figure_atomic(fig: Figure, out_dir: str | os.PathLike[str], stem: str,
-                       formats: Sequence[str] = ("png", "pdf")) -> list[Path]:
-    """Write ``fig`` as ``<stem>.<fmt>`` for each format into ``out_dir`` (created), each atomically."""
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    written = []
-    for fmt in formats:
-        path = out / f"{stem}.{fmt}"
-        with atomic_path(path) as tmp, figure_style():
-            fig.savefig(tmp, format=fmt, metadata=_METADATA.get(fmt))
-        written.append(path)
-    return written
 
 
 def _ecdf(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -115,4 +99,4 @@ def plot_comparison(trials: dict[str, pd.DataFrame], comparison: pd.DataFrame, m
                     out_dir: str | os.PathLike[str], formats: Sequence[str] = ("png", "pdf")) -> list[Path]:
     """Draw :func:`build_compare_figure` and write ``compare.<fmt>`` into ``out_dir``."""
     figure = build_compare_figure(trials, comparison, medians)
-    return save_figure_atomic(figure, out_dir, FIGURE_STEM, formats)
+    return save_figure(figure, out_dir, FIGURE_STEM, formats)

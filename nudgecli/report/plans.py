@@ -31,21 +31,24 @@ path to a TOML file. Layout::
     level = 0.95
     seed = 0
 
+    [questionnaires.labels]                      # axis labels of questionnaire items (figures)
+    Q3 = "Q3: figured out my goal more easily"
+
 Unknown keys are refused with a "did you mean" suggestion naming the file and the key.
 """
 
 from __future__ import annotations
 
 import itertools
-import tomllib
 from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from nudgecli.config import did_you_mean, format_validation_error, preset_dir
+from nudgecli.config import did_you_mean, format_validation_error, list_presets, read_toml, resolve_preset
 from nudgecli.errors import ConfigError
 from nudgecli.report.metrics import METRIC_NAMES
+from nudgecli.report.stats import ComparisonOptions
 
 #: The p-value adjustments ``statsmodels.stats.multitest.multipletests`` accepts, plus ``none``.
 P_ADJUST_METHODS = (
@@ -123,6 +126,17 @@ class BootstrapSettings(_Section):
     seed: int = Field(default=0, ge=0)
 
 
+class QuestionnaireSettings(_Section):
+    """How questionnaire items are named in the figures.
+
+    ``labels`` maps an item (``Q3``, or its ``likert_q3`` column; matched case-insensitively
+    without the ``likert_``/``tlx_`` prefix) to its axis label: the study's wording of the
+    statement, which belongs to the study, not to the drawing code.
+    """
+
+    labels: dict[str, str] = Field(default_factory=dict)
+
+
 class AnalysisPlan(_Section):
     """A complete analysis plan (see the module docstring for the file layout)."""
 
@@ -133,6 +147,26 @@ class AnalysisPlan(_Section):
     filters: dict[str, float] = Field(default_factory=dict)
     stats: StatsSettings = Field(default_factory=StatsSettings)
     bootstrap: BootstrapSettings = Field(default_factory=BootstrapSettings)
+    questionnaires: QuestionnaireSettings = Field(default_factory=QuestionnaireSettings)
+
+    def comparison_options(self, seed: int | None = None) -> ComparisonOptions:
+        """The plan's ``[stats]`` and ``[bootstrap]`` as :class:`~nudgecli.report.stats.ComparisonOptions`.
+
+        Parameters
+        ----------
+        seed
+            Bootstrap seed; default the plan's.
+        """
+        return ComparisonOptions(
+            kruskal_alpha=self.stats.kruskal_alpha,
+            p_adjust=self.stats.p_adjust,
+            star_thresholds=tuple(self.stats.star_thresholds),
+            star_comparison=self.stats.star_comparison,
+            participant_aggregate=self.stats.participant_aggregate,
+            bootstrap_resamples=self.bootstrap.resamples,
+            bootstrap_level=self.bootstrap.level,
+            seed=self.bootstrap.seed if seed is None else seed,
+        )
 
 
 def plan_from_dict(data: dict[str, Any], source: str = "<plan>") -> AnalysisPlan:
@@ -160,45 +194,16 @@ def plan_from_dict(data: dict[str, Any], source: str = "<plan>") -> AnalysisPlan
         raise ConfigError(format_validation_error(exc, source, AnalysisPlan)) from None
 
 
-def _preset_dir() -> Path | None:
-    """The folder of the shipped plans (installed wheel or source tree), or ``None``."""
-    folder = preset_dir("analysis")
-    return folder if folder.is_dir() else None
-
-
 def plan_names() -> list[str]:
     """The names of the shipped analysis plans (e.g. ``["paper", "study-code"]``)."""
-    folder = _preset_dir()
-    return sorted(p.stem for p in folder.glob("*.toml")) if folder else []
-
-
-def resolve_plan_path(plan: str | Path) -> Path:
-    """The TOML file of a plan given as a preset name or a path.
-
-    Raises
-    ------
-    ConfigError
-        Neither an existing file nor a known preset (with a suggestion).
-    """
-    candidate = Path(plan)
-    if candidate.is_file():
-        return candidate
-    text = str(plan)
-    looks_like_path = text.endswith(".toml") or "/" in text or "\\" in text
-    if not looks_like_path:
-        folder = _preset_dir()
-        if folder is not None and (folder / f"{text}.toml").is_file():
-            return folder / f"{text}.toml"
-    names = plan_names()
-    if looks_like_path:
-        raise ConfigError(f"analysis plan file {text!r} does not exist; give a TOML file or one of the "
-                          f"presets: {', '.join(names)}")
-    raise ConfigError(f"unknown analysis plan {text!r}{did_you_mean(text, names)}; presets: "
-                      f"{', '.join(names) or '(none found)'}, or give a path to a TOML file")
+    return list(list_presets("analysis"))
 
 
 def load_plan(plan: str | Path | AnalysisPlan) -> AnalysisPlan:
     """Load and validate an analysis plan.
+
+    The preset lookup is :func:`nudgecli.config.resolve_preset` (the one shared with experiment
+    files), the TOML reading :func:`nudgecli.config.read_toml`.
 
     Parameters
     ----------
@@ -216,12 +221,7 @@ def load_plan(plan: str | Path | AnalysisPlan) -> AnalysisPlan:
     """
     if isinstance(plan, AnalysisPlan):
         return plan
-    path = resolve_plan_path(plan)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read the analysis plan: {exc}") from None
+    path = resolve_preset(str(plan), "analysis")
+    data = read_toml(path)
     data.setdefault("name", path.stem)
     return plan_from_dict(data, source=str(path))

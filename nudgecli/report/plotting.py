@@ -1,37 +1,60 @@
-"""``nudge plot``: read what a run (or an analysed metrics table) holds and draw its figures.
+"""``nudge plot``: find what an analysed run or metrics table holds, check it, draw and write its figures.
 
-The drawing itself is :mod:`nudgecli.report.figures`; this module only finds the inputs:
-``metrics.csv`` and ``stats.json`` (from ``nudge analyze``), the step log, the trial table, the
-layouts (mapped to each participant's trials) and ``questionnaires.csv`` when present.
+The drawing is :mod:`nudgecli.report.figures`, the choice of Fig. 5's trial
+:mod:`nudgecli.report.trial_selection`; this module reads the inputs, checks that ``stats.json``
+was computed from the metrics it is about to draw (:mod:`nudgecli.report.checksum`), decides
+which figures the data allow (:func:`draw_figures`) and writes them (:func:`write_figures`).
+
+Sources:
+
+- a run folder analysed with ``nudge analyze``: ``metrics.csv``, ``stats.json``, the trial table,
+  the step log and the layouts (Fig. 5 and the trajectory), ``questionnaires.csv`` if present;
+- an analysed metrics table, given as the table itself or as its analysis folder (the folder
+  that holds its ``stats.json`` and ``metrics.csv``): box plots only.
+
+The paper's Fig. 3 and Fig. 4 are drawn where all three of their metrics are present; every
+other analysed metric of the table gets a panel of its own in ``metrics``.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 
-from nudgecli.errors import ConfigError, RunFolderError
+from nudgecli.errors import ConfigError, DataError, RunFolderError
 from nudgecli.report import figures
+from nudgecli.report.analysis import TABLE_SUFFIXES, read_metrics_table, validate_metrics_table
+from nudgecli.report.checksum import recorded_checksum, verify_metrics
+from nudgecli.report.figures import TrialLayout
+from nudgecli.report.metrics import apply_filters
+from nudgecli.report.stats import ComparisonOptions
+from nudgecli.report.style import condition_display_name
+from nudgecli.report.trial_selection import choose_figure5_trial
+from nudgecli.report.trial_steps import TrialKey
 from nudgecli.store import RunFolder
 
-FORMATS = ("png", "pdf", "svg")
+METRICS_FILE = "metrics.csv"
+STATS_FILE = "stats.json"
+QUESTIONNAIRES_FILE = "questionnaires.csv"
 
 
 def parse_formats(text: str) -> tuple[str, ...]:
     """``"png,pdf"`` -> ``("png", "pdf")``, or a ``ConfigError`` naming the bad format."""
-    chosen = tuple(f.strip().lower() for f in text.split(",") if f.strip())
-    bad = [f for f in chosen if f not in FORMATS]
-    if bad or not chosen:
-        raise ConfigError(f"--formats {text!r}: choose from {', '.join(FORMATS)} (comma-separated)")
-    return chosen
+    try:
+        return figures.check_formats(text.split(","))
+    except ConfigError:
+        raise ConfigError(f"--formats {text!r}: choose from {', '.join(figures.SUPPORTED_FORMATS)} "
+                          "(comma-separated)") from None
 
 
-def parse_trial(text: str | None) -> tuple[int, int] | None:
+def parse_trial(text: str | None) -> TrialKey | None:
     """``"PARTICIPANT:TRIAL"`` -> ``(participant, trial)``."""
     if text is None:
         return None
@@ -42,58 +65,313 @@ def parse_trial(text: str | None) -> tuple[int, int] | None:
     return participant, trial
 
 
-def layouts_by_trial(trials: pd.DataFrame, layouts: pd.DataFrame) -> dict[tuple[int, int], Any]:
-    """``(participant, trial) -> (goal_poses (G, 3), start_pose (3,))`` through ``trials.layout``."""
+def layouts_by_trial(trials: pd.DataFrame, layouts: pd.DataFrame) -> dict[TrialKey, TrialLayout]:
+    """``(participant, trial) -> TrialLayout`` through ``trials.layout``; the true goal is the trial's own.
+
+    Parameters
+    ----------
+    trials
+        The trials table (``participant``, ``trial``, ``layout``, ``true_goal``).
+    layouts
+        ``layouts.parquet`` (``layout``, ``goal_poses``, ``start_pose``).
+    """
     poses = {int(row.layout): (np.asarray(row.goal_poses, dtype=float).reshape(-1, 3),
                                np.asarray(row.start_pose, dtype=float))
              for row in layouts.itertuples()}
-    return {(int(p), int(t)): poses[int(lay)]
-            for p, t, lay in zip(trials["participant"], trials["trial"], trials["layout"], strict=True)}
+    out = {}
+    for p, t, lay, goal in zip(trials["participant"], trials["trial"], trials["layout"], trials["true_goal"],
+                               strict=True):
+        goals, start = poses[int(lay)]
+        out[(int(p), int(t))] = TrialLayout(goals, start, int(goal))
+    return out
 
 
-def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequence[str] = ("png", "pdf"),
-                trial: tuple[int, int] | None = None) -> list[Path]:
-    """Draw every figure the folder's data allow; return the files written.
+# --- what is drawn -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class FigureInputs:
+    """The data the figures are drawn from.
+
+    Attributes
+    ----------
+    metrics
+        One row per trial: ``condition`` and metric columns (checked against ``stats``).
+    stats
+        The ``stats.json`` document (condition order, brackets, which metrics were analysed).
+    trials, steps, layouts
+        A run's trials table, step log and ``(participant, trial) -> TrialLayout``; ``None`` for
+        a metrics table (no Fig. 5, no trajectory).
+    questionnaires
+        Questionnaire scores (``tlx_*``, ``likert_*`` columns), or ``None``.
+    """
+
+    metrics: pd.DataFrame
+    stats: Mapping[str, Any]
+    trials: pd.DataFrame | None = None
+    steps: pd.DataFrame | None = None
+    layouts: Mapping[TrialKey, TrialLayout] | None = None
+    questionnaires: pd.DataFrame | None = None
+
+
+@dataclass(frozen=True)
+class PlotPlan:
+    """How the figures are drawn and where they go.
+
+    Attributes
+    ----------
+    out_dir
+        Folder of the figures.
+    formats
+        File formats (``png``, ``pdf``, ``svg``).
+    trial
+        ``(participant, trial)`` of Fig. 5 and the trajectory; default
+        :func:`nudgecli.report.trial_selection.choose_figure5_trial`.
+    seed
+        Jitter seed of the box plots.
+    star_rule
+        The analysis plan's star rule (for statistics entries without stars).
+    item_labels
+        Axis labels of questionnaire items (the plan's ``[questionnaires] labels``).
+    """
+
+    out_dir: Path
+    formats: tuple[str, ...] = ("png", "pdf")
+    trial: TrialKey | None = None
+    seed: int = 0
+    star_rule: ComparisonOptions = field(default_factory=ComparisonOptions)
+    item_labels: Mapping[str, str] = field(default_factory=dict)
+
+
+def drawn_metrics(inputs: FigureInputs) -> list[str]:
+    """The analysed metrics the table has, in the order of ``stats.json``."""
+    names = [str(e.get("metric")) for e in inputs.stats.get("metrics") or []]
+    return [m for m in names if m in inputs.metrics.columns]
+
+
+def metric_figure_groups(metrics: Sequence[str]) -> dict[str, tuple[str, ...]]:
+    """``stem -> metrics`` of the box-plot figures: ``fig3``/``fig4`` where all their metrics are
+    present, ``metrics`` (one panel each) for every other metric."""
+    present = set(metrics)
+    groups: dict[str, tuple[str, ...]] = {}
+    for stem, names in (("fig3", figures.FIGURE3_METRICS), ("fig4", figures.FIGURE4_METRICS)):
+        if set(names) <= present:
+            groups[stem] = tuple(names)
+    taken = {m for names in groups.values() for m in names}
+    rest = tuple(m for m in metrics if m not in taken)
+    if rest:
+        groups["metrics"] = rest
+    return groups
+
+
+def _trial_title(trials: pd.DataFrame, key: TrialKey) -> str:
+    rows = trials.loc[(trials["participant"] == key[0]) & (trials["trial"] == key[1]), "condition"]
+    label = f"Participant {key[0]}, trial {key[1]}"
+    return label + (f" ({condition_display_name(str(rows.iloc[0]))})" if not rows.empty else "")
+
+
+def draw_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]:
+    """Every figure the inputs allow, by file stem (no files written).
+
+    Returns
+    -------
+    dict[str, Figure]
+        ``fig3``, ``fig4`` and/or ``metrics``; ``fig5`` and ``trajectory`` when the inputs hold
+        a run's steps; ``questionnaires`` when they hold questionnaire scores.
+
+    Raises
+    ------
+    DataError
+        The chosen trial has no steps, or the data are unusable.
+    """
+    out: dict[str, Figure] = {}
+    for stem, names in metric_figure_groups(drawn_metrics(inputs)).items():
+        out[stem] = figures.metrics_figure(inputs.metrics, inputs.stats, names, seed=plan.seed,
+                                           star_rule=plan.star_rule)
+    if inputs.steps is not None and inputs.trials is not None and len(inputs.steps):
+        key = plan.trial if plan.trial is not None else choose_figure5_trial(inputs.steps, inputs.trials)
+        steps = inputs.steps[(inputs.steps["participant"] == key[0]) & (inputs.steps["trial"] == key[1])]
+        if steps.empty:
+            raise DataError(f"no steps for participant {key[0]}, trial {key[1]}; pick a trial of the run "
+                            "(--trial PARTICIPANT:TRIAL)")
+        title = _trial_title(inputs.trials, key)
+        layout = (inputs.layouts or {}).get(key)
+        true_goal = layout.true_goal if layout is not None else int(
+            inputs.trials.loc[(inputs.trials["participant"] == key[0])
+                              & (inputs.trials["trial"] == key[1]), "true_goal"].iloc[0])
+        n_goals = layout.n_goals if layout is not None else None
+        out["fig5"] = figures.figure_5(steps, true_goal, n_goals, title=title)
+        if layout is not None:
+            out["trajectory"] = figures.trajectory_figure(steps, layout, title=title)
+    if inputs.questionnaires is not None:
+        tlx, likert = figures.split_questionnaire_scores(inputs.questionnaires)
+        if tlx is not None or likert is not None:
+            out["questionnaires"] = figures.questionnaire_figure(
+                tlx, likert, conditions=figures.resolve_conditions(inputs.metrics, inputs.stats),
+                stats=inputs.stats, item_labels=plan.item_labels, star_rule=plan.star_rule)
+    return out
+
+
+def write_figures(inputs: FigureInputs, plan: PlotPlan) -> list[Path]:
+    """Draw every figure (:func:`draw_figures`) and write each in every format; return the files."""
+    figures.check_formats(plan.formats)
+    written: list[Path] = []
+    for stem, fig in draw_figures(inputs, plan).items():
+        written += figures.save_figure(fig, plan.out_dir, stem, plan.formats)
+    return written
+
+
+# --- reading a source ----------------------------------------------------------------------------
+
+
+def read_stats(path: Path) -> dict[str, Any]:
+    """``stats.json`` as a dict, or a :class:`DataError` (unreadable, invalid JSON, wrong shape)."""
+    try:
+        stats = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise DataError(f"{path}: not valid JSON ({exc.msg} at line {exc.lineno}, column {exc.colno}); "
+                        "run `nudge analyze` on the source again") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: cannot be read ({exc}); run `nudge analyze` on the source again") from None
+    if not isinstance(stats, dict) or not isinstance(stats.get("metrics"), list):
+        raise DataError(f"{path}: not a statistics file of `nudge analyze` (no `metrics` list); "
+                        "run `nudge analyze` on the source again")
+    return stats
+
+
+def analysis_folder_of_table(table: Path) -> Path:
+    """The folder holding a table's ``stats.json``: ``<stem>-analysis/`` beside it, else its own folder.
+
+    Raises
+    ------
+    RunFolderError
+        Neither holds a ``stats.json``.
+    """
+    for folder in (table.parent / f"{table.stem}-analysis", table.parent):
+        if (folder / STATS_FILE).is_file():
+            return folder
+    raise RunFolderError(f"{table}: not analysed yet (no {STATS_FILE} beside it); "
+                         f"run `nudge analyze {table}` first")
+
+
+def _read_metrics_csv(path: Path) -> pd.DataFrame:
+    """``metrics.csv`` as ``nudge analyze`` wrote it, its floats read back exactly.
+
+    pandas 3 parses floats exactly by default; pandas 2 needs the round-trip parser for that
+    (its default may differ in the last bit, which the checksum would see).
+    """
+    exact = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
+    try:
+        table = pd.read_csv(path, **exact)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError, ValueError) as exc:
+        raise DataError(f"{path} cannot be read as a metrics table ({exc}); "
+                        "run `nudge analyze` again") from None
+    validate_metrics_table(table, str(path))
+    return table
+
+
+def read_inputs(source: str | Path) -> FigureInputs:
+    """The figure inputs of a source, with ``stats.json`` checked against the metrics.
 
     Parameters
     ----------
     source
-        A run folder analysed with ``nudge analyze``, or the ``--out`` folder of an analysed
-        metrics table (box plots only).
-    out
-        Where the figures go [default: ``SOURCE/figures``].
-    formats
-        File formats.
-    trial
-        ``(participant, trial)`` for Fig. 5 and the trajectory [default: chosen by
-        :func:`nudgecli.report.figures.choose_figure5_trial`].
+        An analysed run folder, an analysed metrics table (CSV/Parquet), or a table's analysis
+        folder.
+
+    Raises
+    ------
+    RunFolderError
+        Not a run folder, a table or an analysis folder, or not analysed yet.
+    DataError
+        Invalid ``stats.json``, or statistics computed from other metrics than those present.
     """
-    folder = Path(source)
+    path = Path(source)
+    if path.is_file():
+        if path.suffix.lower() not in TABLE_SUFFIXES:
+            raise RunFolderError(f"{path}: a file, not a folder, and not a metrics table (.csv/.parquet); "
+                                 "give a run folder made by `nudge simulate`, a metrics table or its "
+                                 "analysis folder")
+        folder = analysis_folder_of_table(path)
+        stats_path = folder / STATS_FILE
+        stats = read_stats(stats_path)
+        table = read_metrics_table(path)
+        validate_metrics_table(table, str(path))
+        metrics_name = str(path)
+    else:
+        folder = path
+        run = RunFolder(folder)
+        if not folder.is_dir():
+            raise RunFolderError(f"{folder}: no such folder or table; give a run folder made by "
+                                 "`nudge simulate`, a metrics table or its analysis folder")
+        if not (folder / METRICS_FILE).is_file() and not run.is_run():
+            raise RunFolderError(f"{folder}: not a run folder (no manifest.json) and no {METRICS_FILE}; "
+                                 "run `nudge simulate` and `nudge analyze` first, or give a metrics table")
+        if not (folder / METRICS_FILE).is_file() or not (folder / STATS_FILE).is_file():
+            raise RunFolderError(f"{folder}: no metrics yet; run `nudge analyze {folder}` first")
+        stats_path = folder / STATS_FILE
+        stats = read_stats(stats_path)
+        table = _read_metrics_csv(folder / METRICS_FILE)
+        metrics_name = str(folder / METRICS_FILE)
+    record = recorded_checksum(stats, str(stats_path))
+    table = apply_filters(table, record.get("filters") or {})
+    verify_metrics(stats, table, str(stats_path), metrics_name)
+
+    trials = steps = layouts = None
     run = RunFolder(folder)
-    if not folder.is_dir():
-        what = "a file, not a folder" if folder.exists() else "no such folder"
-        raise RunFolderError(f"{folder}: {what}; give a run folder made by `nudge simulate`")
-    if not run.is_run() and not (folder / "metrics.csv").is_file():
-        raise RunFolderError(f"{folder}: not a run folder (no manifest.json) and no metrics.csv; "
-                             "run `nudge simulate` and `nudge analyze` first")
-    if not (folder / "metrics.csv").is_file() or not (folder / "stats.json").is_file():
-        raise RunFolderError(f"{folder}: no metrics yet; run `nudge analyze {folder}` first")
-    metrics = pd.read_csv(folder / "metrics.csv")
-    stats = json.loads((folder / "stats.json").read_text(encoding="utf-8"))
-    steps = trials = layouts = None
     if run.is_run() and run.completed_participants():
         trials = run.read_trials()
         steps = run.read_steps()
         layouts = layouts_by_trial(trials, run.read_layouts())
-    if trial is not None and trials is not None:
-        known = set(zip(trials["participant"], trials["trial"], strict=True))
-        if trial not in known:
-            last_participant, last_trial = trials["participant"].max(), trials["trial"].max()
-            raise ConfigError(f"--trial {trial[0]}:{trial[1]}: no such trial in {folder} "
-                              f"(participants 0-{last_participant}, trials 0-{last_trial})")
     questionnaires = None
-    if (folder / "questionnaires.csv").is_file():
-        questionnaires = pd.read_csv(folder / "questionnaires.csv")
-    target = Path(out) if out is not None else folder / "figures"
-    return figures.plot_run(metrics, stats, steps, layouts, target, formats, trial, trials=trials,
-                            questionnaires=questionnaires, questionnaire_stats=stats)
+    if (folder / QUESTIONNAIRES_FILE).is_file():
+        questionnaires = pd.read_csv(folder / QUESTIONNAIRES_FILE)
+    return FigureInputs(metrics=table, stats=stats, trials=trials, steps=steps, layouts=layouts,
+                        questionnaires=questionnaires)
+
+
+def default_out(source: str | Path) -> Path:
+    """Where the figures of a source go by default: ``figures/`` in its (analysis) folder."""
+    path = Path(source)
+    folder = analysis_folder_of_table(path) if path.is_file() else path
+    return folder / "figures"
+
+
+def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequence[str] = ("png", "pdf"),
+                trial: TrialKey | None = None, *, star_rule: ComparisonOptions | None = None,
+                item_labels: Mapping[str, str] | None = None) -> list[Path]:
+    """Draw and write every figure a source's data allow; return the files written.
+
+    Parameters
+    ----------
+    source
+        A run folder analysed with ``nudge analyze``, an analysed metrics table, or its
+        analysis folder (box plots only).
+    out
+        Where the figures go [default: ``figures/`` in the run or analysis folder].
+    formats
+        File formats.
+    trial
+        ``(participant, trial)`` for Fig. 5 and the trajectory [default: chosen by
+        :func:`nudgecli.report.trial_selection.choose_figure5_trial`].
+    star_rule
+        The plan's star rule (for statistics entries without stars) [default: the paper's].
+    item_labels
+        Questionnaire item labels (the plan's ``[questionnaires] labels``).
+    """
+    inputs = read_inputs(source)
+    if trial is not None and inputs.trials is not None:
+        known = set(zip(inputs.trials["participant"], inputs.trials["trial"], strict=True))
+        if trial not in known:
+            last_participant, last_trial = inputs.trials["participant"].max(), inputs.trials["trial"].max()
+            raise ConfigError(f"--trial {trial[0]}:{trial[1]}: no such trial in {source} "
+                              f"(participants 0-{last_participant}, trials 0-{last_trial})")
+    plan = PlotPlan(out_dir=Path(out) if out is not None else default_out(source), formats=tuple(formats),
+                    trial=trial, star_rule=star_rule or ComparisonOptions(),
+                    item_labels=dict(item_labels or {}))
+    return write_figures(inputs, plan)
+
+
+__all__ = ["FigureInputs", "PlotPlan", "draw_figures", "drawn_metrics", "layouts_by_trial",
+           "metric_figure_groups", "parse_formats", "parse_trial", "plot_folder", "read_inputs", "read_stats",
+           "write_figures"]

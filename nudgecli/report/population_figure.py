@@ -20,7 +20,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from nudgecli.model.interface import LABELS
-from nudgecli.report.compare_figure import save_figure_atomic
+from nudgecli.report.figures.output import save_figure
 from nudgecli.report.style import FULL_WIDTH_IN, OKABE_ITO, figure_style
 from nudgecli.sim.real_population import PILOT_DIAGONALS, SIBLING_DIAGONAL_SPANS
 
@@ -79,4 +79,4 @@ def build_population_figure(simulated: pd.DataFrame, title: str = "") -> Figure:
 def plot_population(simulated: pd.DataFrame, out_dir: str | os.PathLike[str],
                     formats: Sequence[str] = ("png", "pdf"), title: str = "") -> list[Path]:
     """Draw :func:`build_population_figure` and write ``population.<fmt>`` into ``out_dir``."""
-    return save_figure_atomic(build_population_figure(simulated, title), out_dir, FIGURE_STEM, formats)
+    return save_figure(build_population_figure(simulated, title), out_dir, FIGURE_STEM, formats)

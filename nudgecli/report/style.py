@@ -57,7 +57,8 @@ CONDITION_COLOURS: tuple[str, ...] = (
 #: Hatches that tell conditions apart in grayscale (grouped bars), in condition order.
 CONDITION_HATCHES: tuple[str, ...] = ("", "////", "....", "xxxx", "\\\\\\\\", "++++", "oo")
 
-#: Goal colours: goal 0 (the true goal) red as in the paper, the others distinct.
+#: Goal colours: the first (red, as in the paper) for the true goal, the others for the other
+#: goals in index order (see :func:`goal_style`).
 GOAL_COLOURS: tuple[str, ...] = (
     OKABE_ITO["vermillion"],
     OKABE_ITO["blue"],
@@ -67,7 +68,7 @@ GOAL_COLOURS: tuple[str, ...] = (
     OKABE_ITO["orange"],
     OKABE_ITO["black"],
 )
-#: Goal line styles (a second channel for grayscale printing), goal 0 solid.
+#: Goal line styles (a second channel for grayscale printing), the true goal solid.
 GOAL_LINESTYLES: tuple[Any, ...] = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 2)), (0, (8, 2)))
 
 #: Who drove the robot: human black and solid, autonomy gray and dashed.
@@ -145,11 +146,23 @@ def condition_hatches(conditions: Sequence[str]) -> dict[str, str]:
     return {c: CONDITION_HATCHES[i % len(CONDITION_HATCHES)] for i, c in enumerate(conditions)}
 
 
-def goal_colour(goal: int) -> str:
-    """The colour of goal ``goal`` (goal 0, the true goal, is red)."""
-    return GOAL_COLOURS[goal % len(GOAL_COLOURS)]
+def goal_style(goal: int, true_goal: int) -> tuple[str, Any]:
+    """Colour and line style of goal ``goal`` in a trial whose true goal is ``true_goal``.
 
+    The true goal is red and solid (the paper's Fig. 5); the other goals take the next colours
+    and line styles in index order, so the same trial always gets the same styles.
 
-def goal_linestyle(goal: int) -> Any:
-    """The line style of goal ``goal`` (goal 0 solid)."""
-    return GOAL_LINESTYLES[goal % len(GOAL_LINESTYLES)]
+    Parameters
+    ----------
+    goal
+        Goal index.
+    true_goal
+        The trial's true goal index.
+
+    Returns
+    -------
+    tuple
+        ``(colour, linestyle)``.
+    """
+    slot = 0 if goal == true_goal else 1 + goal - (1 if goal > true_goal else 0)
+    return (GOAL_COLOURS[slot % len(GOAL_COLOURS)], GOAL_LINESTYLES[slot % len(GOAL_LINESTYLES)])

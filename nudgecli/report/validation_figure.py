@@ -22,8 +22,9 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from nudgecli.report.figures.common import axes_or_new
+from nudgecli.report.figures.output import save_figure
 from nudgecli.report.style import FULL_WIDTH_IN, OKABE_ITO, PANEL_LETTER_PT, figure_style
-from nudgecli.store import atomic_path
 
 #: File stem of the figure.
 FIGURE_STEM = "validation"
@@ -45,6 +46,27 @@ def _as_float(value: Any) -> float:
     return float("nan") if value is None else float(value)
 
 
+def match_rate_panel(summary: dict[str, Any], *, ax: Axes | None = None) -> Axes:
+    """The match rate of s* against the ground truth by |G| (and the variants reported beside it).
+
+    Parameters
+    ----------
+    summary
+        :meth:`nudgecli.sim.validation.ValidationResult.summary` (or a loaded validation.json).
+    ax
+        Axes to draw on; default a new 7.2 x 2.6 in figure's.
+
+    Returns
+    -------
+    Axes
+        The axes drawn on.
+    """
+    ax = axes_or_new(ax, (FULL_WIDTH_IN, 2.6))
+    with figure_style():
+        _draw_match(ax, summary)
+    return ax
+
+
 def _draw_match(ax: Axes, summary: dict[str, Any]) -> None:
     by_goals = summary["by_goals"]
     goals = np.array([int(k) for k in by_goals])
@@ -63,7 +85,8 @@ def _draw_match(ax: Axes, summary: dict[str, Any]) -> None:
     ax.set_ylabel("queries (%)")
     ax.set_ylim(0.0, 140.0)
     ax.set_yticks(np.arange(0.0, 101.0, 20.0))
-    ax.set_title(f"D(s) vs ground truth ({summary['queries']} queries, overall match "
+    reading = summary.get("reading", "dirichlet")
+    ax.set_title(f"D(s) vs ground truth, reading {reading} ({summary['queries']} queries, overall match "
                  f"{100.0 * _as_float(summary['match_rate']):.1f}%)", loc="left")
     ax.legend(loc="upper right", ncol=2)
 
@@ -76,6 +99,32 @@ def _variant_curves(summary: dict[str, Any], key: str) -> dict[str, tuple[np.nda
             curves[variant] = (np.array([r["n_samples"] for r in rows], dtype=float),
                                np.array([_as_float(r[key]) for r in rows]))
     return curves
+
+
+def convergence_panel(summary: dict[str, Any], key: str, *, percent: bool = False,
+                      ax: Axes | None = None) -> Axes:
+    """One measure of the Monte-Carlo convergence study against the sample count, per variant.
+
+    Parameters
+    ----------
+    summary
+        The validation summary (with ``convergence`` rows).
+    key
+        ``"mae"`` or ``"argmax_agreement"`` (a column of the convergence rows).
+    percent
+        Show the measure in percent.
+    ax
+        Axes to draw on; default a new 3.6 x 2.4 in figure's.
+
+    Returns
+    -------
+    Axes
+        The axes drawn on.
+    """
+    ax = axes_or_new(ax, (FULL_WIDTH_IN / 2, 2.4))
+    with figure_style():
+        _draw_convergence(ax, summary, key, percent)
+    return ax
 
 
 def _draw_convergence(ax: Axes, summary: dict[str, Any], key: str, percent: bool) -> None:
@@ -135,13 +184,6 @@ def build_validation_figure(summary: dict[str, Any]) -> Figure:
     return fig
 
 
-def _save_atomic(fig: Figure, path: Path, fmt: str) -> None:
-    """Save ``fig`` as ``fmt`` atomically (see :func:`nudgecli.store.atomic_path`)."""
-    metadata = {"CreationDate": None} if fmt == "pdf" else {"Software": None} if fmt == "png" else None
-    with atomic_path(path) as tmp, figure_style():
-        fig.savefig(tmp, format=fmt, metadata=metadata)
-
-
 def plot_validation(summary: dict[str, Any], out_dir: str | os.PathLike[str],
                     formats: Sequence[str] = ("png", "pdf")) -> list[Path]:
     """Write ``validation.<fmt>`` for each format into ``out_dir``, atomically.
@@ -160,12 +202,4 @@ def plot_validation(summary: dict[str, Any], out_dir: str | os.PathLike[str],
     list[Path]
         The files written.
     """
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    fig = build_validation_figure(summary)
-    written = []
-    for fmt in formats:
-        path = out / f"{FIGURE_STEM}.{fmt}"
-        _save_atomic(fig, path, fmt)
-        written.append(path)
-    return written
+    return save_figure(build_validation_figure(summary), out_dir, FIGURE_STEM, formats)

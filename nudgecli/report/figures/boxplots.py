@@ -1,0 +1,308 @@
+"""Box plots of per-trial metrics (the paper's Fig. 3 and Fig. 4, and any other metric table).
+
+Every trial is a dot, boxes show median and quartiles, and the significance brackets come from
+the toolkit's own Kruskal-Wallis / Conover p-values (``stats.json``, :mod:`nudgecli.report.brackets`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.collections import PathCollection
+from matplotlib.colors import to_rgba
+from matplotlib.figure import Figure
+from matplotlib.layout_engine import ConstrainedLayoutEngine
+from matplotlib.ticker import MaxNLocator
+
+from nudgecli.errors import DataError
+from nudgecli.report.brackets import DEFAULT_STAR_RULE, brackets_from_stats, draw_brackets
+from nudgecli.report.figures.common import (
+    axes_or_new,
+    jitter,
+    panel_letter,
+    resolve_conditions,
+    stats_by_metric,
+    wrap_label,
+)
+from nudgecli.report.stats import ComparisonOptions
+from nudgecli.report.style import (
+    FULL_WIDTH_IN,
+    TICK_FONT_PT,
+    condition_colours,
+    condition_display_name,
+    figure_style,
+)
+from nudgecli.report.trial_steps import require_columns
+
+METRIC_FIGSIZE = (FULL_WIDTH_IN, 2.6)
+#: Height of one row of panels of :func:`metrics_figure` (inches).
+METRIC_ROW_HEIGHT_IN = 2.6
+#: Panels per row of :func:`metrics_figure`.
+METRIC_PANELS_PER_ROW = 3
+BOX_WIDTH = 0.55
+
+
+@dataclass(frozen=True)
+class MetricSpec:
+    """How one metric column is shown.
+
+    Attributes
+    ----------
+    column
+        Column of the metrics table.
+    label
+        y-axis label, with its unit.
+    scale
+        Factor from the stored value to the shown value (fractions shown as percent: 100).
+    integer
+        A count: y ticks only at whole numbers.
+    """
+
+    column: str
+    label: str
+    scale: float = 1.0
+    integer: bool = False
+
+
+METRIC_SPECS: dict[str, MetricSpec] = {
+    "assistance_engagement": MetricSpec("assistance_engagement", "Assistance engagement (% of human turn)",
+                                        100.0),
+    "assistance_strength": MetricSpec("assistance_strength", "Strength of assistance (mean α)"),
+    "human_turns": MetricSpec("human_turns", "Human turns per trial", integer=True),
+    "mode_switches": MetricSpec("mode_switches", "Mode switches per trial", integer=True),
+    "human_effort": MetricSpec("human_effort", "Human effort (fraction of trial time)"),
+    "completion_time": MetricSpec("completion_time", "Completion time (s)"),
+    "success": MetricSpec("success", "Success (1 = reached the true goal)"),
+}
+FIGURE3_METRICS = ("assistance_engagement", "assistance_strength", "human_turns")
+FIGURE4_METRICS = ("mode_switches", "human_effort", "completion_time")
+
+
+def metric_spec(metric: str) -> MetricSpec:
+    """The known spec of ``metric``, else its name as the label."""
+    return METRIC_SPECS.get(metric, MetricSpec(metric, metric.replace("_", " ").capitalize()))
+
+
+@dataclass
+class BoxplotArtists:
+    """What :func:`metric_boxplot` drew.
+
+    Attributes
+    ----------
+    ax
+        The axes drawn on.
+    conditions
+        The conditions, left to right.
+    positions
+        x position of each condition.
+    boxes
+        The box patch of each condition that has data (its face colour is the condition's).
+    points
+        The trial dots of each condition (``get_offsets()`` gives their ``(x, y)``).
+    brackets
+        Significance bracket artists (lines and star texts).
+    n
+        Number of trials with a value, per condition.
+    """
+
+    ax: Axes
+    conditions: list[str]
+    positions: dict[str, float]
+    boxes: dict[str, Any] = field(default_factory=dict)
+    points: dict[str, PathCollection] = field(default_factory=dict)
+    brackets: list[Any] = field(default_factory=list)
+    n: dict[str, int] = field(default_factory=dict)
+
+
+def metric_boxplot(metrics: pd.DataFrame, metric: str, stats_entry: Mapping[str, Any] | None = None, *,
+                   ax: Axes | None = None, conditions: Sequence[str] | None = None, seed: int = 0,
+                   show_points: bool = True, show_n: bool = True, label: str | None = None,
+                   star_rule: ComparisonOptions = DEFAULT_STAR_RULE) -> BoxplotArtists:
+    """A box plot per condition with every trial as a jittered dot and significance brackets.
+
+    Boxes show the median and quartiles, whiskers reach the furthest trial within 1.5 IQR of
+    the box; no separate outlier markers are drawn because every trial is a dot. NaN values
+    (e.g. strength of assistance in a trial without assistance) are left out and the number
+    of trials drawn is printed under each condition.
+
+    Parameters
+    ----------
+    metrics
+        One row per trial with ``condition`` and the ``metric`` column.
+    metric
+        The metric column (a key of :data:`METRIC_SPECS` gets its label and unit scaling).
+    stats_entry
+        The metric's element of ``stats["metrics"]``; brackets are drawn for its significant
+        comparisons only. ``None``: no brackets.
+    ax
+        Axes to draw on; default a new figure's.
+    conditions
+        Conditions in drawing order; default :func:`~nudgecli.report.figures.common.resolve_conditions`.
+    seed
+        Seed of the horizontal jitter (the same seed gives the same dot positions).
+    show_points
+        Draw every trial as a dot.
+    show_n
+        Add ``n = ...`` under each condition name.
+    label
+        y-axis label; default from :data:`METRIC_SPECS`.
+    star_rule
+        The plan's star rule for entries without their own stars (see
+        :func:`nudgecli.report.brackets.brackets_from_stats`).
+
+    Returns
+    -------
+    BoxplotArtists
+        Axes, positions, boxes, dots and brackets drawn.
+    """
+    require_columns(metrics, ["condition", metric], "metrics table")
+    spec = metric_spec(metric)
+    order = resolve_conditions(metrics, None, conditions)
+    if len(order) == 0:
+        raise DataError("metrics table: no conditions to plot")
+    ax = axes_or_new(ax, (METRIC_FIGSIZE[0] / 3, METRIC_FIGSIZE[1]))
+    values = pd.to_numeric(metrics[metric], errors="coerce").astype(float) * spec.scale
+    condition_col = metrics["condition"].astype(str)
+    colours = condition_colours(order)
+    positions = {c: float(i) for i, c in enumerate(order)}
+    out = BoxplotArtists(ax=ax, conditions=list(order), positions=positions)
+
+    with figure_style():
+        data = []
+        for c in order:
+            v = values[condition_col == c].to_numpy()
+            v = v[np.isfinite(v)]
+            data.append(v)
+            out.n[c] = int(v.size)
+        drawable = [i for i, v in enumerate(data) if v.size]
+        if drawable:
+            bp = ax.boxplot([data[i] for i in drawable], positions=[positions[order[i]] for i in drawable],
+                            widths=BOX_WIDTH, patch_artist=True, showfliers=False, whis=1.5,
+                            medianprops={"color": "black", "linewidth": 1.8, "zorder": 4},
+                            whiskerprops={"color": "black", "linewidth": 0.9},
+                            capprops={"color": "black", "linewidth": 0.9},
+                            boxprops={"edgecolor": "black", "linewidth": 0.9}, manage_ticks=False, zorder=2)
+            for patch, i in zip(bp["boxes"], drawable, strict=True):
+                patch.set_facecolor(to_rgba(colours[order[i]], 0.45))
+                out.boxes[order[i]] = patch
+        if show_points:
+            for i, c in enumerate(order):
+                v = data[i]
+                if not v.size:
+                    continue
+                x = positions[c] + jitter(seed, c, v.size)
+                out.points[c] = ax.scatter(x, v, s=6, color="black", alpha=0.5, linewidths=0, zorder=3,
+                                           label=None)
+        ax.set_xticks([positions[c] for c in order])
+        names = [condition_display_name(c) for c in order]
+        if len(order) <= 2:
+            if show_n:
+                names = [f"{name}\n(n = {out.n[c]})" for name, c in zip(names, order, strict=True)]
+            ax.set_xticklabels(names)
+        else:
+            # Too narrow for horizontal names: rotate them, and keep the counts horizontal in a
+            # row of their own just under the axis.
+            ax.set_xticklabels(names, rotation=30, ha="right", rotation_mode="anchor")
+            if show_n and len(order) <= 4:
+                ax.tick_params(axis="x", pad=12)
+                for c in order:
+                    ax.annotate(f"n={out.n[c]}", (positions[c], 0.0), xycoords=("data", "axes fraction"),
+                                xytext=(0, -2), textcoords="offset points", ha="center", va="top",
+                                fontsize=TICK_FONT_PT)
+        ax.set_xlim(-0.6, len(order) - 0.4)
+        ax.set_ylabel(wrap_label(label if label is not None else spec.label))
+        if spec.integer:
+            ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+        ax.tick_params(axis="x", length=0)
+        ax.margins(y=0.05)
+        ax.autoscale_view()
+        out.brackets = draw_brackets(ax, positions, brackets_from_stats(stats_entry, star_rule))
+    return out
+
+
+def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metric_names: Sequence[str], *,
+                   conditions: Sequence[str] | None = None, seed: int = 0,
+                   star_rule: ComparisonOptions = DEFAULT_STAR_RULE) -> Figure:
+    """One box-plot panel per metric, lettered (a), (b), ..., up to three panels per row.
+
+    Parameters
+    ----------
+    metrics
+        One row per trial (``condition`` and the metric columns).
+    stats
+        ``stats.json`` dict; its significant Conover comparisons become brackets.
+    metric_names
+        The metric columns, in panel order (at least one).
+    conditions
+        Drawing order of the conditions; default
+        :func:`~nudgecli.report.figures.common.resolve_conditions`.
+    seed
+        Jitter seed.
+    star_rule
+        The plan's star rule (for statistics entries without stars).
+
+    Returns
+    -------
+    Figure
+        ``ceil(M / 3)`` rows of panels, 2.4 in wide per column (7.2 in for three), 2.6 in per row.
+    """
+    if not metric_names:
+        raise DataError("metrics table: no metric to plot")
+    order = resolve_conditions(metrics, stats, conditions)
+    entries = stats_by_metric(stats)
+    n_cols = min(len(metric_names), METRIC_PANELS_PER_ROW)
+    n_rows = math.ceil(len(metric_names) / METRIC_PANELS_PER_ROW)
+    with figure_style():
+        layout = ConstrainedLayoutEngine(w_pad=0.04, h_pad=0.03, wspace=0.06)
+        width = FULL_WIDTH_IN * (n_cols if n_rows == 1 else METRIC_PANELS_PER_ROW) / METRIC_PANELS_PER_ROW
+        fig = Figure(figsize=(width, METRIC_ROW_HEIGHT_IN * n_rows), layout=layout)
+        axes = np.atleast_1d(fig.subplots(n_rows, METRIC_PANELS_PER_ROW if n_rows > 1 else n_cols)).ravel()
+        for i, metric in enumerate(metric_names):
+            metric_boxplot(metrics, metric, entries.get(metric), ax=axes[i], conditions=order, seed=seed,
+                           star_rule=star_rule)
+            panel_letter(axes[i], i)
+        for ax in axes[len(metric_names):]:
+            ax.set_visible(False)
+    return fig
+
+
+def figure_3(metrics: pd.DataFrame, stats: Mapping[str, Any] | None = None, *,
+             conditions: Sequence[str] | None = None, seed: int = 0,
+             star_rule: ComparisonOptions = DEFAULT_STAR_RULE) -> Figure:
+    """Fig. 3: (a) assistance engagement, (b) strength of assistance, (c) human turns.
+
+    Parameters are those of :func:`metrics_figure` (without ``metric_names``).
+
+    Returns
+    -------
+    Figure
+        1 x 3 panels, 7.2 x 2.6 in.
+    """
+    return metrics_figure(metrics, stats, FIGURE3_METRICS, conditions=conditions, seed=seed,
+                          star_rule=star_rule)
+
+
+def figure_4(metrics: pd.DataFrame, stats: Mapping[str, Any] | None = None, *,
+             conditions: Sequence[str] | None = None, seed: int = 0,
+             star_rule: ComparisonOptions = DEFAULT_STAR_RULE) -> Figure:
+    """Fig. 4: (a) mode switches, (b) human effort, (c) completion time.
+
+    Parameters are those of :func:`metrics_figure` (without ``metric_names``).
+
+    Returns
+    -------
+    Figure
+        1 x 3 panels, 7.2 x 2.6 in.
+    """
+    return metrics_figure(metrics, stats, FIGURE4_METRICS, conditions=conditions, seed=seed,
+                          star_rule=star_rule)
+
+
+__all__ = ["FIGURE3_METRICS", "FIGURE4_METRICS", "METRIC_SPECS", "BoxplotArtists", "MetricSpec", "figure_3",
+           "figure_4", "metric_boxplot", "metric_spec", "metrics_figure"]

@@ -1,0 +1,283 @@
+"""Questionnaires (the paper's Fig. 6): NASA-TLX and Likert items, mean with SD per condition.
+
+The wording of the study's Likert items is not the figures' business: it is part of the
+analysis plan (``[questionnaires] labels``, :class:`nudgecli.report.plans.QuestionnaireSettings`)
+and reaches these functions as ``item_labels``.
+"""
+
+from __future__ import annotations
+
+import textwrap
+from collections.abc import Mapping, Sequence
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.colors import to_rgba
+from matplotlib.figure import Figure
+from matplotlib.patches import Patch
+
+from nudgecli.errors import DataError
+from nudgecli.report.brackets import DEFAULT_STAR_RULE, brackets_from_stats, draw_brackets
+from nudgecli.report.figures.common import axes_or_new, panel_letter, resolve_conditions, stats_by_metric
+from nudgecli.report.stats import ComparisonOptions
+from nudgecli.report.style import (
+    FULL_WIDTH_IN,
+    condition_colours,
+    condition_display_name,
+    condition_hatches,
+    figure_style,
+)
+from nudgecli.report.trial_steps import require_columns
+
+#: NASA-TLX scale names (column or ``scale`` values, without a ``tlx_`` prefix) and how they are
+#: shown; ``tlx_raw`` and ``tlx_weighted`` are the scores of
+#: :func:`nudgecli.report.questionnaires.questionnaire_scores`.
+TLX_SCALE_NAMES: dict[str, str] = {
+    "raw_tlx": "Raw TLX",
+    "weighted_tlx": "Weighted TLX",
+    "raw": "Raw TLX",
+    "weighted": "Weighted TLX",
+    "mental": "Mental",
+    "physical": "Physical",
+    "temporal": "Temporal",
+    "performance": "Performance",
+    "effort": "Effort",
+    "frustration": "Frustration",
+}
+_ID_COLUMNS = {"participant", "condition", "block", "trial", "id", "subject"}
+QUESTIONNAIRE_FIGSIZE = (FULL_WIDTH_IN, 3.0)
+Kind = Literal["tlx", "likert"]
+_COLUMNS: dict[str, tuple[str, str, str]] = {"tlx": ("scale", "score", "NASA-TLX table"),
+                                             "likert": ("item", "response", "Likert table")}
+
+
+def long_scores(df: pd.DataFrame, kind: Kind) -> pd.DataFrame:
+    """``condition, <name>, <value>`` rows from a long or a wide questionnaire table.
+
+    ``<name>, <value>`` are ``scale, score`` for the TLX and ``item, response`` for Likert.
+    """
+    name_col, value_col, what = _COLUMNS[kind]
+    require_columns(df, ["condition"], what)
+    if name_col in df.columns and value_col in df.columns:
+        out = df[["condition", name_col, value_col]].copy()
+    else:
+        value_cols = [c for c in df.columns if str(c).lower() not in _ID_COLUMNS
+                      and pd.api.types.is_numeric_dtype(df[c])]
+        if not value_cols:
+            raise DataError(f"{what}: no score columns (expected `{name_col}` and `{value_col}` columns, "
+                            "or one numeric column per scale/item)")
+        out = df.melt(id_vars=["condition"], value_vars=value_cols, var_name=name_col, value_name=value_col)
+    out[value_col] = pd.to_numeric(out[value_col], errors="coerce")
+    out[name_col] = out[name_col].astype(str)
+    out["condition"] = out["condition"].astype(str)
+    return out.dropna(subset=[value_col])
+
+
+def group_label(name: str, item_labels: Mapping[str, str] | None = None) -> str:
+    """How a questionnaire scale or item is named on the axis.
+
+    ``item_labels`` wins (exact name, then case-insensitively without a ``tlx_``/``likert_``
+    prefix); then the known TLX scales; otherwise the name without its prefix.
+    """
+    labels = dict(item_labels or {})
+    if name in labels:
+        return labels[name]
+    key = name.lower()
+    for prefix in ("tlx_", "likert_"):
+        if key.startswith(prefix):
+            key = key[len(prefix):]
+            break
+    folded = {k.lower(): v for k, v in labels.items()}
+    if key in folded:
+        return folded[key]
+    if key in TLX_SCALE_NAMES:
+        return TLX_SCALE_NAMES[key]
+    bare = name[len(name) - len(key):]
+    return bare.replace("_", " ") if not bare.isupper() else bare
+
+
+def split_questionnaire_scores(scores: pd.DataFrame) -> tuple[pd.DataFrame | None, pd.DataFrame | None]:
+    """Split a questionnaire scores table into its TLX and its Likert part.
+
+    Parameters
+    ----------
+    scores
+        The table of :func:`nudgecli.report.questionnaires.questionnaire_scores`:
+        ``participant, condition`` (``block``), ``tlx_*`` and ``likert_*`` columns.
+
+    Returns
+    -------
+    tuple
+        ``(tlx, likert)`` wide tables with the id columns, ``None`` for a part without columns.
+    """
+    require_columns(scores, ["condition"], "questionnaire scores")
+    ids = [c for c in scores.columns if str(c).lower() in _ID_COLUMNS]
+    tlx = [c for c in scores.columns if str(c).lower().startswith("tlx_")]
+    likert = [c for c in scores.columns if str(c).lower().startswith("likert_")]
+    return (scores[ids + tlx] if tlx else None, scores[ids + likert] if likert else None)
+
+
+def _wrap_group_label(label: str, width: int = 13) -> str:
+    """A group label on short lines; an item code (``Q3:``) gets a line of its own."""
+    code, sep, text = label.partition(": ")
+    if sep and len(code) <= 4:
+        return code + "\n" + "\n".join(textwrap.wrap(text, width))
+    return "\n".join(textwrap.wrap(label, width))
+
+
+def questionnaire_bars(df: pd.DataFrame, kind: Kind, *, ax: Axes | None = None,
+                       conditions: Sequence[str] | None = None, stats: Mapping[str, Any] | None = None,
+                       item_labels: Mapping[str, str] | None = None,
+                       star_rule: ComparisonOptions = DEFAULT_STAR_RULE) -> list[Any]:
+    """One questionnaire panel: bars of mean with SD error bars, a group per scale or item.
+
+    Likert responses on 1..7 are drawn from 1 (strongly disagree); responses on -3..+3 (the
+    study software's coding) from 0 (neutral).
+
+    Parameters
+    ----------
+    df
+        A long or wide TLX or Likert table (see :func:`long_scores`).
+    kind
+        ``"tlx"`` or ``"likert"``.
+    ax
+        Axes to draw on; default a new figure's.
+    conditions
+        Drawing order; default the table's.
+    stats
+        Statistics of the scores (``stats.json`` dict or ``name -> entry``) for brackets.
+    item_labels
+        Axis labels of scales/items (see :func:`group_label`).
+    star_rule
+        The plan's star rule for entries without stars.
+
+    Returns
+    -------
+    list
+        The bar containers (one per condition), then any bracket artists.
+    """
+    name_col, value_col, _ = _COLUMNS[kind]
+    scores = long_scores(df, kind)
+    order = resolve_conditions(scores, None, conditions)
+    ax = axes_or_new(ax, (FULL_WIDTH_IN / 2, QUESTIONNAIRE_FIGSIZE[1]))
+    by_name = stats_by_metric(stats)
+    groups = list(pd.unique(scores[name_col]))
+    labels = {g: _wrap_group_label(group_label(g, item_labels)) for g in groups}
+    coded = kind == "likert" and float(scores[value_col].min()) < 1.0
+    baseline = 1.0 if kind == "likert" and not coded else 0.0
+    n_cond = len(order)
+    width = 0.8 / n_cond
+    colours, hatches = condition_colours(order), condition_hatches(order)
+    summary = scores.groupby([name_col, "condition"])[value_col].agg(["mean", "std", "count"])
+    artists: list[Any] = []
+    tops: dict[str, float] = {}
+    with figure_style():
+        for j, c in enumerate(order):
+            xs, means, sds = [], [], []
+            for i, g in enumerate(groups):
+                if (g, c) not in summary.index:
+                    continue
+                row = summary.loc[(g, c)]
+                xs.append(i + (j - (n_cond - 1) / 2) * width)
+                means.append(float(row["mean"]))
+                sds.append(float(row["std"]) if row["count"] > 1 else 0.0)
+                tops[g] = max(tops.get(g, baseline), means[-1] + sds[-1])
+            if not xs:
+                continue
+            bars = ax.bar(xs, np.asarray(means) - baseline, width=width * 0.92, bottom=baseline,
+                          color=to_rgba(colours[c], 0.75), edgecolor="black", linewidth=0.7, hatch=hatches[c],
+                          label=condition_display_name(c), zorder=2)
+            ax.errorbar(xs, means, yerr=sds, fmt="none", ecolor="black", elinewidth=0.9, capsize=2.5,
+                        capthick=0.9, zorder=3)
+            artists.append(bars)
+        ax.set_xticks(range(len(groups)))
+        ax.set_xticklabels([labels[g] for g in groups])
+        ax.tick_params(axis="x", length=0)
+        ax.set_xlim(-0.5, len(groups) - 0.5)
+        if kind == "tlx":
+            ax.set_ylabel("NASA-TLX score (0-100)")
+            ax.set_ylim(0.0, max(ax.get_ylim()[1], 100.0))
+        else:
+            hi = ax.get_ylim()[1]
+            ax.set_ylim(-3.0 if coded else 1.0, max(hi, 3.0 if coded else 7.0))
+            ax.set_yticks(range(-3, 4) if coded else range(1, 8))
+            if coded:
+                ax.axhline(0.0, color="black", linewidth=0.8)
+            low, high = ("-3", "+3") if coded else ("1", "7")
+            ax.set_ylabel(f"Rating ({low} = strongly disagree,\n{high} = strongly agree)")
+        for i, g in enumerate(groups):
+            entry = by_name.get(g)
+            if entry:
+                positions = {c: i + (j - (n_cond - 1) / 2) * width for j, c in enumerate(order)}
+                artists.extend(draw_brackets(ax, positions, brackets_from_stats(entry, star_rule),
+                                             data_top=tops.get(g)))
+    return artists
+
+
+def questionnaire_figure(tlx_df: pd.DataFrame | None = None, likert_df: pd.DataFrame | None = None, *,
+                         conditions: Sequence[str] | None = None,
+                         stats: Mapping[str, Any] | None = None,
+                         item_labels: Mapping[str, str] | None = None,
+                         star_rule: ComparisonOptions = DEFAULT_STAR_RULE) -> Figure:
+    """Questionnaires: NASA-TLX and Likert items, mean with SD per condition (the paper's Fig. 6).
+
+    Tables may be long (``participant, condition, scale, score`` for the TLX and
+    ``participant, condition, item, response`` for Likert) or wide (one numeric column per
+    TLX scale or Likert item beside ``participant`` and ``condition``). Bars are the mean,
+    error bars one standard deviation (n - 1); conditions differ in colour and hatching.
+
+    Parameters
+    ----------
+    tlx_df
+        NASA-TLX scores (0-100), e.g. ``raw_tlx`` per participant and condition.
+    likert_df
+        Likert responses per participant, condition and item.
+    conditions
+        Drawing order; default the tables' conditions.
+    stats
+        Optional statistics of the scores: a ``stats.json`` dict whose metrics are named like
+        the scales/items, or ``name -> stats entry``; significant comparisons get brackets.
+    item_labels
+        Axis labels of scales/items: the analysis plan's ``[questionnaires] labels``.
+    star_rule
+        The plan's star rule for entries without stars.
+
+    Returns
+    -------
+    Figure
+        One panel per given table, full width.
+
+    Raises
+    ------
+    DataError
+        Neither table is given, or a table lacks ``condition`` or scores.
+    """
+    tables: list[tuple[Kind, pd.DataFrame]] = []
+    if tlx_df is not None:
+        tables.append(("tlx", tlx_df))
+    if likert_df is not None:
+        tables.append(("likert", likert_df))
+    if not tables:
+        raise DataError("questionnaires: give a NASA-TLX table, a Likert table or both")
+    longs = [long_scores(df, kind) for kind, df in tables]
+    order = resolve_conditions(pd.concat([df[["condition"]] for df in longs], ignore_index=True), None,
+                               conditions)
+    widths = [max(2, df.iloc[:, 1].nunique()) for df in longs]
+    with figure_style():
+        fig = Figure(figsize=QUESTIONNAIRE_FIGSIZE, layout="constrained")
+        axes = np.atleast_1d(fig.subplots(1, len(tables), width_ratios=widths))
+        for i, (ax, (kind, df)) in enumerate(zip(axes, tables, strict=True)):
+            questionnaire_bars(df, kind, ax=ax, conditions=order, stats=stats, item_labels=item_labels,
+                               star_rule=star_rule)
+            if len(tables) > 1:
+                panel_letter(ax, i)
+        fig.legend(handles=[Patch(facecolor=to_rgba(condition_colours(order)[c], 0.75), edgecolor="black",
+                                  hatch=condition_hatches(order)[c], label=condition_display_name(c))
+                            for c in order], loc="outside upper center", ncols=len(order))
+    return fig
+
+
+__all__ = ["TLX_SCALE_NAMES", "group_label", "long_scores", "questionnaire_bars", "questionnaire_figure",
+           "split_questionnaire_scores"]
