@@ -368,10 +368,12 @@ class ExperimentConfig(Section):
             # one step must not carry the robot across a snapping window (2 tolerances wide)
             w, rate = self.world, self.study.rate_hz
             if w.linear_speed / rate >= 2 * w.snap_tolerance:
-                raise ValueError(f"world.linear_speed / study.rate_hz = {w.linear_speed / rate:.3g} units per step "
+                raise ValueError(f"world.linear_speed / study.rate_hz = {w.linear_speed / rate:.3g} units "
+                                 "per step "
                                  f"would skip waypoints; keep it below 2 * world.snap_tolerance")
             if w.angular_speed / rate >= 2 * w.heading_tolerance:
-                raise ValueError(f"world.angular_speed / study.rate_hz = {w.angular_speed / rate:.3g} rad per step "
+                raise ValueError(f"world.angular_speed / study.rate_hz = {w.angular_speed / rate:.3g} rad "
+                                 "per step "
                                  f"would skip the goal heading; keep it below 2 * world.heading_tolerance")
             return self
         if self.behaviour.fine_position_tolerance >= self.study.success_distance:

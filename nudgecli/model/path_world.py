@@ -222,7 +222,8 @@ class PathWorld:
         location, turned = divmod(state // N_MODES, 2)
         return int(location), int(turned), 0
 
-    def move(self, x: float, y: float, theta: float, velocity: np.ndarray, dt: float) -> tuple[float, float, float]:
+    def move(self, x: float, y: float, theta: float, velocity: np.ndarray,
+             dt: float) -> tuple[float, float, float]:
         last = len(self.layout.waypoints) - 1
         if self.location < last:
             mode, direction = self.allowed

@@ -260,7 +260,8 @@ class World(Protocol):
     def cells(self, state: int) -> tuple[int, int, int]:
         """``(cell_x, cell_y, heading)`` of a discrete state, as the step log records them."""
 
-    def move(self, x: float, y: float, theta: float, velocity: np.ndarray, dt: float) -> tuple[float, float, float]:
+    def move(self, x: float, y: float, theta: float, velocity: np.ndarray,
+             dt: float) -> tuple[float, float, float]:
         """The pose after one step of ``velocity`` ``(3,)`` (units/s, rad/s anticlockwise) for ``dt`` s,
         under the world's constraints."""
 
@@ -316,7 +317,8 @@ class GridWorld:
         i, j = divmod(cell, N_CELLS_Y)
         return int(i), int(j), int(h)
 
-    def move(self, x: float, y: float, theta: float, velocity: np.ndarray, dt: float) -> tuple[float, float, float]:
+    def move(self, x: float, y: float, theta: float, velocity: np.ndarray,
+             dt: float) -> tuple[float, float, float]:
         x, y = clamp_position(x + float(velocity[0]) * dt, y + float(velocity[1]) * dt)
         return x, y, (theta + float(velocity[2]) * dt) % (2.0 * math.pi)
 

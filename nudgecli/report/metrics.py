@@ -71,7 +71,10 @@ METRIC_NAMES = (
 TRIAL_COLUMNS = ("participant", "condition", "block", "trial", "true_goal", "success", "duration_s",
                  "human_turns")
 #: The columns of the step log the metrics use.
-STEP_COLUMNS = ("participant", "trial", "step", "t", "turn", "phi_m", "alpha", "inferred_goal", "event")
+STEP_COLUMNS = ("participant", "trial", "step", "turn", "alpha", "inferred_goal", "event")
+#: The columns of the step log the input measures use (``first_input_latency``,
+#: ``active_input_fraction``); a log without them gets those two metrics missing.
+INPUT_STEP_COLUMNS = ("t", "phi_m")
 #: The columns identifying a trial in the metrics table, before the metric columns.
 ID_COLUMNS = ("participant", "condition", "block", "trial")
 
@@ -104,7 +107,8 @@ def trial_metrics(
         One row per trial with the columns :data:`TRIAL_COLUMNS`; ``(participant, trial)``
         identifies a trial.
     steps
-        One row per 10 Hz step with the columns :data:`STEP_COLUMNS` (any order of rows).
+        One row per 10 Hz step with the columns :data:`STEP_COLUMNS` (any order of rows), and
+        :data:`INPUT_STEP_COLUMNS` for the two input measures (missing without them).
         ``turn`` is ``"human"`` or ``"autonomy"``; ``inferred_goal`` is -1 when there is none;
         ``event`` holds event names joined with ``"|"`` (empty when none).
     engagement, strength
@@ -137,7 +141,9 @@ def trial_metrics(
                         "once; each trial must appear once")
 
     trial_goal = trials[[*_TRIAL_KEY, "true_goal"]]
-    s = steps[list(STEP_COLUMNS)].merge(trial_goal, on=_TRIAL_KEY, how="inner", validate="many_to_one")
+    has_input = all(c in steps.columns for c in INPUT_STEP_COLUMNS)
+    columns = [*STEP_COLUMNS, *INPUT_STEP_COLUMNS] if has_input else list(STEP_COLUMNS)
+    s = steps[columns].merge(trial_goal, on=_TRIAL_KEY, how="inner", validate="many_to_one")
     s = s.sort_values([*_TRIAL_KEY, "step"], kind="stable").reset_index(drop=True)
 
     alpha = s["alpha"].astype(float).fillna(0.0)
@@ -151,8 +157,10 @@ def trial_metrics(
         "assisted": assisted.astype(np.int64),
         "assisted_alpha": np.where(assisted, alpha.to_numpy(), 0.0),
         "switches": _human_mode_switches_per_step(s, only_human_turns=mode_switches == "human_turn"),
-        "active": (s["phi_m"].fillna("").astype(str) != "").to_numpy(np.int64),
-        "command_t": s["t"].astype(float).where(s["phi_m"].isin(LABELS)).to_numpy(),
+        "active": ((s["phi_m"].fillna("").astype(str) != "").to_numpy(np.int64) if has_input
+                   else np.zeros(len(s), dtype=np.int64)),
+        "command_t": (s["t"].astype(float).where(s["phi_m"].isin(LABELS)).to_numpy() if has_input
+                      else np.full(len(s), np.nan)),
     })
     per_trial = frame.groupby(_TRIAL_KEY, sort=False).agg(
         steps=("human", "size"),
@@ -204,6 +212,8 @@ def trial_metrics(
         out["success"] = pd.array(reached, dtype="boolean")
     out["first_input_latency"] = per_trial["first_command_t"].reindex(key).to_numpy(dtype=float)
     out["active_input_fraction"] = active_values.reindex(key).to_numpy(dtype=float)
+    if not has_input:
+        out["active_input_fraction"] = np.nan
     if completion_time == "successful_trials":
         out["completion_time"] = out["completion_time"].where(out["success"].fillna(False).to_numpy(bool))
     return out.reset_index(drop=True)

@@ -51,6 +51,41 @@ def layouts_by_trial(trials: pd.DataFrame, layouts: pd.DataFrame) -> dict[tuple[
             for p, t, lay in zip(trials["participant"], trials["trial"], trials["layout"], strict=True)}
 
 
+def representative_trial(trials: pd.DataFrame) -> tuple[int, int]:
+    """The default trial to draw in the path world: the successful trial (else any) whose duration is
+    the median one's (the lowest ``(participant, trial)`` among equals)."""
+    pool = trials[trials["success"].astype(bool)] if trials["success"].astype(bool).any() else trials
+    pool = pool.sort_values(["participant", "trial"], kind="stable")
+    durations = pool["duration_s"].to_numpy(float)
+    median = float(np.sort(durations)[(len(durations) - 1) // 2])
+    row = pool.iloc[int(np.flatnonzero(durations == median)[0])]
+    return int(row["participant"]), int(row["trial"])
+
+
+def plot_path_run(run: RunFolder, metrics: pd.DataFrame, stats: dict[str, Any], trials: pd.DataFrame,
+                  layouts: pd.DataFrame, out: Path, formats: Sequence[str],
+                  trial: tuple[int, int] | None) -> list[Path]:
+    """The figures of a CIAA path-world run: the measures and one trial's trajectory along the path."""
+    from nudgecli.report.path_figures import measures_figure, path_trajectory_figure
+
+    written = figures.save_figure(measures_figure(metrics, stats), out, "measures", formats)
+    key = trial if trial is not None else representative_trial(trials)
+    row = trials[(trials["participant"] == key[0]) & (trials["trial"] == key[1])].iloc[0]
+    layout = layouts[layouts["layout"] == int(row["layout"])].iloc[0]
+    steps = run.read_table("steps")
+    steps = steps[(steps["participant"] == key[0]) & (steps["trial"] == key[1])]
+    limit = float(run.read_config().study.time_limit_s)
+    outcome = "success" if bool(row["success"]) else "failure"
+    title = (f"Participant {key[0]}, trial {key[1]} (layout {int(row['layout'])}, {row['condition']}): "
+             f"{float(row['duration_s']):.1f} s, {int(row['human_mode_switches'])} mode switches, {outcome}")
+    fig = path_trajectory_figure(steps, np.asarray(layout["waypoints"], dtype=float).reshape(-1, 2),
+                                 int(layout["turn_waypoint"]),
+                                 np.asarray(layout["goal_poses"], dtype=float)[:3],
+                                 time_limit_s=limit, title=title)
+    written += figures.save_figure(fig, out, "trajectory", formats)
+    return written
+
+
 def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequence[str] = ("png", "pdf"),
                 trial: tuple[int, int] | None = None) -> list[Path]:
     """Draw every figure the folder's data allow; return the files written.
@@ -83,8 +118,12 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
     steps = trials = layouts = None
     if run.is_run() and run.completed_participants():
         trials = run.read_trials()
+        layout_table = run.read_layouts()
+        if "waypoints" in layout_table.columns:  # the CIAA path world
+            target = Path(out) if out is not None else folder / "figures"
+            return plot_path_run(run, metrics, stats, trials, layout_table, target, formats, trial)
         steps = run.read_steps()
-        layouts = layouts_by_trial(trials, run.read_layouts())
+        layouts = layouts_by_trial(trials, layout_table)
     if trial is not None and trials is not None:
         known = set(zip(trials["participant"], trials["trial"], strict=True))
         if trial not in known:

@@ -44,7 +44,8 @@ def load_task(path: str | Path | None = None) -> dict[str, Any]:
     """The task specification: the packaged copy of ``layouts.json``, or the file at ``path``."""
     try:
         if path is None:
-            text = resources.files("nudgecli.sim").joinpath("data", LAYOUTS_RESOURCE).read_text(encoding="utf-8")
+            packaged = resources.files("nudgecli.sim").joinpath("data", LAYOUTS_RESOURCE)
+            text = packaged.read_text(encoding="utf-8")
         else:
             text = Path(path).read_text(encoding="utf-8")
         data: dict[str, Any] = json.loads(text)

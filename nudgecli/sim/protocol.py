@@ -56,8 +56,8 @@ from nudgecli.model.inference import (
 )
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, LABELS, NO_INPUT, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.mdp import SolvedLayout
-from nudgecli.model.ties import unique_argmax
 from nudgecli.model.path_world import PathLayout
+from nudgecli.model.ties import unique_argmax
 from nudgecli.model.world import (
     MODE_NAMES,
     N_MODES,
@@ -118,6 +118,7 @@ class ProtocolSettings:
         study, itf, inf, dis, ass = (config.study, config.interface, config.inference,
                                      config.disambiguation, config.assistance)
         dt = 1.0 / study.rate_hz
+        path = config.world.kind == "ciaa"
         return cls(
             dt=dt,
             time_limit_steps=round(study.time_limit_s / dt),
@@ -127,8 +128,8 @@ class ProtocolSettings:
             hard_threshold=itf.hard_threshold,
             zero_threshold=itf.zero_threshold,
             # the CIAA path world's own (wall-clock) speeds replace the interface's
-            human_speed=config.world.linear_speed if config.world.kind == "ciaa" else itf.human_speed,
-            human_turn_rate=config.world.angular_speed if config.world.kind == "ciaa" else itf.human_turn_rate,
+            human_speed=config.world.linear_speed if path else itf.human_speed,
+            human_turn_rate=config.world.angular_speed if path else itf.human_turn_rate,
             kappa=inf.kappa,
             update=inf.update,
             decay=DecaySettings(inf.decay_delay, inf.decay_rate, inf.decay_cap) if inf.decay else None,

@@ -30,9 +30,9 @@ from nudgecli.model.mdp import MDPRewards, SolvedLayout, solve_layout
 from nudgecli.model.path_world import PathLayout, PathWorld, optimal_policy
 from nudgecli.model.world import MODE_NAMES, Layout, sample_layout
 from nudgecli.rng import generator, seed_key
-from nudgecli.sim.ciaa import packaged_task, subject_schedule, task_layouts
 from nudgecli.sim.calibration import FittedTables, fit_participant_tables
 from nudgecli.sim.calibration_io import DistortionSession, MappingSession, write_sessions
+from nudgecli.sim.ciaa import packaged_task, subject_schedule, task_layouts
 from nudgecli.sim.participants import Participant, draw_participant, participant_from_log
 from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSpec, run_trial, run_world_trial
 from nudgecli.store import RunFolder, library_versions, utc_now
@@ -158,7 +158,8 @@ def path_layouts_frame(paths: dict[int, PathLayout]) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def path_schedule(config: ExperimentConfig, participant: int, paths: dict[int, PathLayout]) -> list[TrialSpec]:
+def path_schedule(config: ExperimentConfig, participant: int,
+                  paths: dict[int, PathLayout]) -> list[TrialSpec]:
     """The participant's CIAA trials in their subject's order (:func:`nudgecli.sim.ciaa.subject_schedule`)."""
     return [TrialSpec(participant=participant, condition=item.condition, block=item.block, trial=trial,
                       layout_index=item.layout_index, layout=paths[item.layout_index], true_goal=0)
@@ -296,7 +297,8 @@ def _path_trial(plan: StudyPlan, spec: TrialSpec, settings: ProtocolSettings, pa
     w = plan.config.world
     world = PathWorld(plan.paths[spec.layout_index], snap_tolerance=w.snap_tolerance,
                       heading_tolerance=w.heading_tolerance, success_distance=w.success_distance)
-    return run_world_trial(spec, settings, world, plan.policies[spec.layout_index], -1, None, participant, rng)
+    policy = plan.policies[spec.layout_index]
+    return run_world_trial(spec, settings, world, policy, -1, None, participant, rng)
 
 
 def _json(value: Any) -> str:
