@@ -160,6 +160,16 @@ def test_rotation_only_at_the_turn_waypoint_towards_the_goal_heading():
     assert world.move(15.0, 5.0, theta, np.array([0, 1.6, 0]), 0.1) == pytest.approx((15.0, 5.16, HALF_PI))
 
 
+def test_the_location_waits_at_the_turn_waypoint_until_the_turn_is_done():
+    # a next waypoint within the snapping window of the turn waypoint (hand-built): not entered
+    # before the rotation is done (TASK.md section 4, step 1), entered on the step that finishes it
+    world = PathWorld(straight_layout(waypoints=np.array([[10.0, 5.0], [15.0, 5.0], [15.0, 5.05]])))
+    world.location = 1
+    assert world.move(15.0, 5.0, 0.0, np.zeros(3), 0.1) == (15.0, 5.0, 0.0) and world.location == 1
+    world.turned = True
+    assert world.move(15.0, 5.0, HALF_PI, np.zeros(3), 0.1) == (15.0, 5.05, HALF_PI) and world.location == 2
+
+
 def test_clockwise_turn_wraps_and_snaps_to_minus_half_pi():
     world = PathWorld(straight_layout(goal_theta=3 * HALF_PI))
     world.location = 1

@@ -171,6 +171,8 @@ def path_trajectory_figure(steps: pd.DataFrame, waypoints: np.ndarray, turn_wayp
             Line2D([], [], color=_MODE_COLOURS["theta"], linestyle="--", label="Heading turned"),
             Line2D([], [], marker="o", markersize=8, markerfacecolor="none", markeredgecolor="black",
                    linestyle="none", label="Turn waypoint"),
+            Line2D([], [], marker="o", markersize=8, color=goal_colour(0), markeredgecolor="black",
+                   linestyle="none", label="Goal (tick: heading)"),
             Line2D([], [], marker="*", markersize=10, color="black", linestyle="none", label="Start"),
             Line2D([], [], marker="X", markersize=7, color="black", linestyle="none", label="End"),
         ]
