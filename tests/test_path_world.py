@@ -304,8 +304,14 @@ def test_grid_world_is_the_module_functions(x, y, theta, mode, vx, vy, w, direct
     assert world.state(x, y, theta, mode) == state_index(*discretise(x, y, theta), mode)
     cx, cy = clamp_position(x + vx * 0.1, y + vy * 0.1)
     assert world.move(x, y, theta, np.array([vx, vy, w]), 0.1) == (cx, cy, (theta + w * 0.1) % (2 * math.pi))
+    # brute force: the nearest mark strictly beyond the coordinate among the enumerated centres
     coordinate = (x, y, theta)[axis]
-    assert world.next_mark(coordinate, direction, axis) == next_centre(coordinate, direction, axis)
+    origin, width = ((3.0 + 2.1, 4.2), (2.0 + 1.7, 3.4), (0.0, math.pi / 4))[axis]
+    marks = origin + width * np.arange(-20, 40)
+    beyond = marks[(marks - coordinate) * direction > 1e-9 * width]
+    expected = beyond.min() if direction > 0 else beyond.max()
+    assert world.next_mark(coordinate, direction, axis) == pytest.approx(expected, abs=1e-12)
+    assert next_centre(coordinate, direction, axis) == world.next_mark(coordinate, direction, axis)
     i, j, h = world.cells(world.state(x, y, theta, mode))
     assert (i, j, h) == discretise(x, y, theta)
     # brute force of the success rule: within 1.0 unit and 0.2 rad of a goal pose

@@ -332,14 +332,19 @@ class GridWorld:
         return -1
 
     def next_mark(self, coordinate: float, direction: float, axis: int) -> float:
-        """The next cell centre along x or y (``X_MIN + w (k + 1/2)``), or the next multiple of
-        45 degrees for the heading (where goal headings lie)."""
-        if axis == 2:
-            origin, width = 0.0, HEADING_STEP
-        else:
-            origin, width = ((X_MIN, CELL_WIDTH), (Y_MIN, CELL_HEIGHT))[axis]
-            origin += width / 2.0
-        return next_multiple(coordinate, direction, origin, width)
+        return grid_next_mark(coordinate, direction, axis)
+
+
+def grid_next_mark(coordinate: float, direction: float, axis: int) -> float:
+    """The grid world's next visible mark: the next cell centre along x or y
+    (``X_MIN + w (k + 1/2)``), or the next multiple of 45 degrees for the heading (where goal
+    headings lie), strictly beyond ``coordinate`` in ``direction`` (a sign)."""
+    if axis == 2:
+        origin, width = 0.0, HEADING_STEP
+    else:
+        origin, width = ((X_MIN, CELL_WIDTH), (Y_MIN, CELL_HEIGHT))[axis]
+        origin += width / 2.0
+    return next_multiple(coordinate, direction, origin, width)
 
 
 def next_multiple(coordinate: float, direction: float, origin: float, width: float) -> float:

@@ -48,14 +48,10 @@ from nudgecli.config import ExperimentConfig
 from nudgecli.model import interface
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, NO_INPUT, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.world import (
-    CELL_HEIGHT,
-    CELL_WIDTH,
-    HEADING_STEP,
     N_MODES,
-    X_MIN,
-    Y_MIN,
     World,
     angle_difference,
+    grid_next_mark,
 )
 from nudgecli.sim.participants import Participant
 
@@ -141,15 +137,9 @@ def next_centre(coordinate: float, direction: float, axis: int) -> float:
 
     Marks are the cell centres along x (``X_MIN + w (k + 1/2)``) and y, and the multiples of
     45 degrees for the heading (where goal headings lie). ``direction`` is the sign of the motion.
+    The grid world's marks (:func:`nudgecli.model.world.grid_next_mark`).
     """
-    if axis == 2:
-        origin, width = 0.0, HEADING_STEP
-    else:
-        origin, width = ((X_MIN, CELL_WIDTH), (Y_MIN, CELL_HEIGHT))[axis]
-        origin += width / 2.0
-    u = (coordinate - origin) / width
-    k = math.floor(u + 1e-9) + 1 if direction > 0 else math.ceil(u - 1e-9) - 1
-    return origin + k * width
+    return grid_next_mark(coordinate, direction, axis)
 
 
 def mark_reached(coordinate: float, target: float, direction: float, axis: int) -> bool:
