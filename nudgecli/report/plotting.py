@@ -115,24 +115,24 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
         raise RunFolderError(f"{folder}: no metrics yet; run `nudge analyze {folder}` first")
     metrics = pd.read_csv(folder / "metrics.csv")
     stats = json.loads((folder / "stats.json").read_text(encoding="utf-8"))
-    steps = trials = layouts = None
+    steps = trials = layouts = layout_table = None
     if run.is_run() and run.completed_participants():
         trials = run.read_trials()
         layout_table = run.read_layouts()
-        if "waypoints" in layout_table.columns:  # the CIAA path world
-            target = Path(out) if out is not None else folder / "figures"
-            return plot_path_run(run, metrics, stats, trials, layout_table, target, formats, trial)
-        steps = run.read_steps()
-        layouts = layouts_by_trial(trials, layout_table)
     if trial is not None and trials is not None:
         known = set(zip(trials["participant"], trials["trial"], strict=True))
         if trial not in known:
             last_participant, last_trial = trials["participant"].max(), trials["trial"].max()
             raise ConfigError(f"--trial {trial[0]}:{trial[1]}: no such trial in {folder} "
                               f"(participants 0-{last_participant}, trials 0-{last_trial})")
+    target = Path(out) if out is not None else folder / "figures"
+    if trials is not None and layout_table is not None:
+        if "waypoints" in layout_table.columns:  # the CIAA path world
+            return plot_path_run(run, metrics, stats, trials, layout_table, target, formats, trial)
+        steps = run.read_steps()
+        layouts = layouts_by_trial(trials, layout_table)
     questionnaires = None
     if (folder / "questionnaires.csv").is_file():
         questionnaires = pd.read_csv(folder / "questionnaires.csv")
-    target = Path(out) if out is not None else folder / "figures"
     return figures.plot_run(metrics, stats, steps, layouts, target, formats, trial, trials=trials,
                             questionnaires=questionnaires, questionnaire_stats=stats)
