@@ -205,8 +205,9 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
 
 @main.command("analyze")
 @click.argument("source", type=click.Path(path_type=str))
-@click.option("--plan", "plan", default="paper", show_default=True, metavar="PLAN",
-              help="Analysis plan: a preset (paper, study-code) or a TOML file.")
+@click.option("--plan", "plan", default=None, metavar="PLAN",
+              help="Analysis plan: a preset (paper, study-code, ciaa-teleop) or a TOML file [default: the "
+                   "plan named like the run's experiment, else paper].")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=str), default=None,
               help="Folder for metrics.csv, stats.json, stats.csv, summary.md [default: the run folder, "
                    "or the table's folder].")
@@ -218,7 +219,7 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
               help="Questionnaire CSV (NASA-TLX, Likert) analysed alongside.")
 @click.option("--seed", type=click.IntRange(min=0), default=None,
               help="Bootstrap seed [default: the plan's].")
-def analyze_command(source: str, plan: str, out: str | None, output_format: str,
+def analyze_command(source: str, plan: str | None, out: str | None, output_format: str,
                     metric_names: tuple[str, ...], questionnaires: str | None, seed: int | None) -> None:
     """Metrics and statistics of a run folder or a metrics table (CSV/Parquet, one row per trial)."""
     from nudgecli.report.analysis import analyze, format_table

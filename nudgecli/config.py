@@ -3,7 +3,7 @@
 An experiment file is TOML with the sections below; every key has a default, unknown keys
 fail with a "did you mean", and values are range-checked. Precedence: command-line flag >
 ``--set section.key=value`` > file > defaults. The presets (``paper``, ``study-code``,
-``smoke``) live in the top-level ``experiments/`` folder and are shipped inside the wheel.
+``smoke``, ``ciaa-teleop``) live in the top-level ``experiments/`` folder and are shipped inside the wheel.
 """
 
 from __future__ import annotations
@@ -364,6 +364,47 @@ class CalibrationSection(Section):
         "device stepped in about 0.0109).")
 
 
+class WorldSection(Section):
+    """``[world]``: which world the trials run in, and the CIAA path world's constants.
+
+    - ``kind``: ``grid`` is the paper's open workspace with its 10 x 10 x 8 x 3 grid (DESIGN.md
+      section 2.1; the ``[study]`` design of layouts, goals and blocks); ``ciaa`` is the
+      path-constrained teleoperation task of the sibling CIAA study (2020, "Customized Handling
+      of Unintended Interface Operation in Assistive Robots"; its ``TASK.md`` and
+      ``layouts.json``): one known goal, waypoints, one allowed mode and direction per leg, the
+      rotation at the turn waypoint only. In ``ciaa`` the layouts, their order and the
+      conditions come from the task file's ``subject_blocks`` (participant ``i`` runs as subject
+      ``i mod 10`` did), and ``[study]`` keeps ``rate_hz`` and ``time_limit_s`` (the study's 50 s).
+
+    The keys below apply to ``ciaa`` only; their defaults are TASK.md's values:
+
+    - ``ciaa_conditions``: the study's conditions whose blocks are run. Only ``no_assistance``
+      (no inference, no blending, no autonomy) is implemented: 12 trials per participant.
+    - ``linear_speed`` / ``angular_speed``: full speed of a soft command in wall-clock time,
+      1.6 units/s and 0.64 rad/s (TASK.md section 6: 3.9 units and 1.56 rad per simulated second,
+      with the simulator's loop running at about 41 steps of 0.01 s per wall-clock second).
+      They replace ``[interface]`` ``human_speed`` / ``human_turn_rate`` in this world.
+    - ``snap_tolerance``: the robot snaps onto the next waypoint within 0.1 units on both axes;
+      ``heading_tolerance``: onto the goal heading within 0.1 rad (section 4).
+    - ``success_distance``: a success ends within this Manhattan distance of the goal (0.1) and
+      within ``study.time_limit_s`` (section 7).
+    """
+
+    kind: Literal["grid", "ciaa"] = "grid"
+    ciaa_conditions: tuple[Literal["no_assistance"], ...] = ("no_assistance",)
+    linear_speed: PositiveFloat = 1.6
+    angular_speed: PositiveFloat = 0.64
+    snap_tolerance: PositiveFloat = 0.1
+    heading_tolerance: PositiveFloat = 0.1
+    success_distance: PositiveFloat = 0.1
+
+    @model_validator(mode="after")
+    def _check(self) -> WorldSection:
+        if not self.ciaa_conditions or len(set(self.ciaa_conditions)) != len(self.ciaa_conditions):
+            raise ValueError("ciaa_conditions must be a non-empty list without repeats")
+        return self
+
+
 class ExperimentConfig(Section):
     """A whole experiment file."""
 
@@ -377,9 +418,22 @@ class ExperimentConfig(Section):
     population: PopulationSection = PopulationSection()
     behaviour: BehaviourSection = BehaviourSection()
     calibration: CalibrationSection = CalibrationSection()
+    world: WorldSection = WorldSection()
 
     @model_validator(mode="after")
     def _check_tolerances(self) -> ExperimentConfig:
+        if self.world.kind == "ciaa":
+            # one step must not carry the robot across a snapping window (2 tolerances wide)
+            w, rate = self.world, self.study.rate_hz
+            if w.linear_speed / rate >= 2 * w.snap_tolerance:
+                raise ValueError(f"world.linear_speed / study.rate_hz = {w.linear_speed / rate:.3g} units "
+                                 "per step "
+                                 f"would skip waypoints; keep it below 2 * world.snap_tolerance")
+            if w.angular_speed / rate >= 2 * w.heading_tolerance:
+                raise ValueError(f"world.angular_speed / study.rate_hz = {w.angular_speed / rate:.3g} rad "
+                                 "per step "
+                                 f"would skip the goal heading; keep it below 2 * world.heading_tolerance")
+            return self
         if self.behaviour.fine_position_tolerance >= self.study.success_distance:
             raise ValueError("behaviour.fine_position_tolerance must be below study.success_distance")
         if self.behaviour.fine_heading_tolerance >= self.study.success_angle:

@@ -34,7 +34,7 @@ import pandas as pd
 import pyarrow.parquet as pq
 
 from nudgecli import __version__
-from nudgecli.config import ExperimentConfig
+from nudgecli.config import ExperimentConfig, experiment_from_toml
 from nudgecli.errors import DataError, RunFolderError
 
 MANIFEST = "manifest.json"
@@ -149,6 +149,13 @@ class RunFolder:
             return json.loads(self.manifest_path.read_text(encoding="utf-8"))
         except json.JSONDecodeError as exc:
             raise RunFolderError(f"{self.manifest_path}: unreadable manifest ({exc})") from exc
+
+    def read_config(self) -> ExperimentConfig:
+        """The resolved experiment the run was made with."""
+        path = self.path / CONFIG
+        if not path.is_file():
+            raise RunFolderError(f"{self.path}: no {CONFIG}; the run folder is incomplete")
+        return experiment_from_toml(path.read_text(encoding="utf-8"), str(path))
 
     def completed_participants(self) -> list[int]:
         """Participants whose three parts are all on disk."""

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -202,3 +203,130 @@ def sample_layout(rng: np.random.Generator, corner: str, n_goals: int, start_mod
         start_mode=int(start_mode),
         corner=corner,
     )
+
+
+# --- the world interface ------------------------------------------------------------------------
+
+class World(Protocol):
+    """One trial's world, as the trial session and the simulated person consult it.
+
+    Two implementations: :class:`GridWorld` (the paper's open workspace with its 10 x 10 x 8 x 3
+    grid) and :class:`nudgecli.model.path_world.PathWorld` (the CIAA path-constrained task). A
+    world is made per trial; it may keep per-trial state of its own (the path world's current
+    waypoint and whether the turn is done), updated only by :meth:`move`.
+    """
+
+    @property
+    def n_goals(self) -> int:
+        """Number of goals of the trial."""
+
+    @property
+    def goal_poses(self) -> np.ndarray:
+        """``(G, 3)`` the goals' poses."""
+
+    @property
+    def start_pose(self) -> np.ndarray:
+        """``(3,)`` the robot's start pose."""
+
+    @property
+    def start_mode(self) -> int:
+        """The mode the trial starts in."""
+
+    def state(self, x: float, y: float, theta: float, mode: int) -> int:
+        """The discrete state of a pose and mode (the index into policies and likelihoods)."""
+
+    def cells(self, state: int) -> tuple[int, int, int]:
+        """``(cell_x, cell_y, heading)`` of a discrete state, as the step log records them."""
+
+    def move(self, x: float, y: float, theta: float, velocity: np.ndarray,
+             dt: float) -> tuple[float, float, float]:
+        """The pose after one step of ``velocity`` ``(3,)`` (units/s, rad/s anticlockwise) for ``dt`` s,
+        under the world's constraints."""
+
+    def goal_reached(self, x: float, y: float, theta: float) -> int:
+        """The index of the goal whose success rule the pose meets, or -1."""
+
+    def next_mark(self, coordinate: float, direction: float, axis: int) -> float:
+        """The next mark a person can see along ``axis`` strictly beyond ``coordinate`` in ``direction``."""
+
+
+class GridWorld:
+    """The paper's world: the open workspace (clamped to its bounds), the grid's discrete states,
+    success within ``success_distance`` and ``success_angle`` of any goal pose, and the cell
+    centres (and multiples of 45 degrees) as the marks a person sees.
+
+    Parameters
+    ----------
+    layout
+        The trial's layout.
+    success_distance, success_angle
+        The success tolerance (units, rad).
+    """
+
+    def __init__(self, layout: Layout, success_distance: float, success_angle: float) -> None:
+        self.layout = layout
+        self.success_distance = success_distance
+        self.success_angle = success_angle
+        self._goal_poses = layout.goal_poses
+        self._goal_list = [(float(x), float(y), float(t)) for x, y, t in self._goal_poses]
+
+    @property
+    def n_goals(self) -> int:
+        return self.layout.n_goals
+
+    @property
+    def goal_poses(self) -> np.ndarray:
+        return self._goal_poses
+
+    @property
+    def start_pose(self) -> np.ndarray:
+        return self.layout.start_pose
+
+    @property
+    def start_mode(self) -> int:
+        return int(self.layout.start_mode)
+
+    def state(self, x: float, y: float, theta: float, mode: int) -> int:
+        i, j, h = discretise(x, y, theta)
+        return int(state_index(i, j, h, mode))
+
+    def cells(self, state: int) -> tuple[int, int, int]:
+        cell, h = divmod(state // N_MODES, N_HEADINGS)
+        i, j = divmod(cell, N_CELLS_Y)
+        return int(i), int(j), int(h)
+
+    def move(self, x: float, y: float, theta: float, velocity: np.ndarray,
+             dt: float) -> tuple[float, float, float]:
+        x, y = clamp_position(x + float(velocity[0]) * dt, y + float(velocity[1]) * dt)
+        return x, y, (theta + float(velocity[2]) * dt) % (2.0 * math.pi)
+
+    def goal_reached(self, x: float, y: float, theta: float) -> int:
+        # scalar math: this runs every step
+        for index, (gx, gy, gth) in enumerate(self._goal_list):
+            if math.hypot(gx - x, gy - y) <= self.success_distance:
+                turn = (gth - theta + math.pi) % (2.0 * math.pi) - math.pi
+                if abs(turn) <= self.success_angle:
+                    return index
+        return -1
+
+    def next_mark(self, coordinate: float, direction: float, axis: int) -> float:
+        return grid_next_mark(coordinate, direction, axis)
+
+
+def grid_next_mark(coordinate: float, direction: float, axis: int) -> float:
+    """The grid world's next visible mark: the next cell centre along x or y
+    (``X_MIN + w (k + 1/2)``), or the next multiple of 45 degrees for the heading (where goal
+    headings lie), strictly beyond ``coordinate`` in ``direction`` (a sign)."""
+    if axis == 2:
+        origin, width = 0.0, HEADING_STEP
+    else:
+        origin, width = ((X_MIN, CELL_WIDTH), (Y_MIN, CELL_HEIGHT))[axis]
+        origin += width / 2.0
+    return next_multiple(coordinate, direction, origin, width)
+
+
+def next_multiple(coordinate: float, direction: float, origin: float, width: float) -> float:
+    """The next point ``origin + k width`` strictly beyond ``coordinate`` in ``direction`` (a sign)."""
+    u = (coordinate - origin) / width
+    k = math.floor(u + 1e-9) + 1 if direction > 0 else math.ceil(u - 1e-9) - 1
+    return origin + k * width

@@ -26,11 +26,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from nudgecli.config import did_you_mean
+from nudgecli.config import did_you_mean, list_presets
 from nudgecli.errors import ConfigError, DataError, RunFolderError
 from nudgecli.report.checksum import CHECKSUM_KEY, metrics_checksum
 from nudgecli.report.metrics import (
     ID_COLUMNS,
+    INPUT_STEP_COLUMNS,
     METRIC_NAMES,
     STEP_COLUMNS,
     TRIAL_COLUMNS,
@@ -40,6 +41,7 @@ from nudgecli.report.metrics import (
 from nudgecli.report.plans import AnalysisPlan, load_plan
 from nudgecli.report.questionnaires import questionnaire_scores, read_questionnaires, score_columns
 from nudgecli.report.stats import (
+    SINGLE_CONDITION_NOTE,
     ComparisonOptions,
     compare_conditions,
     json_ready,
@@ -115,7 +117,7 @@ def read_run(folder: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
     if trials.empty:
         raise RunFolderError(f"{folder}: trials/part-*.parquet hold no trials yet; "
                              "run `nudge simulate` first")
-    steps = run.read_table("steps", STEP_COLUMNS)
+    steps = run.read_table("steps", [*STEP_COLUMNS, *INPUT_STEP_COLUMNS])
     return trials, steps
 
 
@@ -156,7 +158,7 @@ def _as_boolean(series: pd.Series) -> pd.Series | None:
     return None
 
 
-def validate_metrics_table(table: pd.DataFrame, source: str, min_conditions: int = 2) -> list[str]:
+def validate_metrics_table(table: pd.DataFrame, source: str, min_conditions: int = 1) -> list[str]:
     """Check a metrics table and return its metric columns.
 
     Boolean columns with blanks (``True``, ``False``, empty) are converted in place to nullable
@@ -171,7 +173,8 @@ def validate_metrics_table(table: pd.DataFrame, source: str, min_conditions: int
     ------
     DataError
         A missing or incomplete ``participant``/``condition`` column, no metric column, a
-        non-numeric metric column, or fewer than ``min_conditions`` conditions.
+        non-numeric metric column, or fewer than ``min_conditions`` conditions (a single
+        condition is analysed descriptively).
     """
     for column in ("participant", "condition"):
         if column not in table.columns:
@@ -283,6 +286,12 @@ def format_table(stats: dict[str, Any]) -> str:
     Columns: median [q1, q3] of both conditions, Kruskal-Wallis p, Conover p, stars, the
     participant-level p, the effect size and the median difference with its interval.
     """
+    if len(stats["conditions"]) == 1:
+        (c,) = stats["conditions"]
+        rows = [[entry["metric"], str(entry["n"][c]), _median_iqr(entry, c), format_value(entry["mean"][c])]
+                for entry in stats["metrics"]]
+        return _render(["metric", "n", f"{c} median [q1, q3]", "mean"], rows, markdown=False) + \
+            "\n(one condition: descriptive statistics only, no tests)"
     two = len(stats["conditions"]) == 2
     level = stats["metrics"][0]["ci"]["level"] if stats["metrics"] else 0.95
     if two:
@@ -316,6 +325,8 @@ def format_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_tr
     test = "Wilcoxon signed-rank" if len(conditions) == 2 else "Friedman"
     effect = "matched-pairs rank-biserial r of a - b" if len(conditions) == 2 else "Kendall's W"
     seed = stats["metrics"][0]["ci"]["seed"] if stats["metrics"] else plan.bootstrap.seed
+    if len(conditions) == 1:
+        return _descriptive_summary(stats, plan, source, n_trials, n_participants)
     lines = [
         "# Analysis summary",
         "",
@@ -360,6 +371,25 @@ def format_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_tr
     return "\n".join(lines) + "\n"
 
 
+def _descriptive_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_trials: int,
+                         n_participants: int) -> str:
+    """``summary.md`` of a single condition: the descriptives per metric and a note (no tests)."""
+    (condition,) = stats["conditions"]
+    lines = [
+        "# Analysis summary",
+        "",
+        f"- source: `{source}`",
+        f"- plan: {plan.name}; condition: {condition}; {n_trials} trials of {n_participants} participants",
+        f"- note: {SINGLE_CONDITION_NOTE} (the tests compare conditions)",
+        "",
+        _render(["metric", "n", "median [q1, q3]", "mean"],
+                [[e["metric"], str(e["n"][condition]), _median_iqr(e, condition),
+                  format_value(e["mean"][condition])]
+                 for e in stats["metrics"]], markdown=True),
+    ]
+    return "\n".join(lines) + "\n"
+
+
 # --- the analysis ------------------------------------------------------------------------------
 
 
@@ -368,7 +398,7 @@ def _options(plan: AnalysisPlan, seed: int | None) -> ComparisonOptions:
 
 
 def load_source(source: Path, plan: AnalysisPlan,
-                min_conditions: int = 2) -> tuple[pd.DataFrame, list[str], Path]:
+                min_conditions: int = 1) -> tuple[pd.DataFrame, list[str], Path]:
     """The metrics table, its metric columns and the default output folder of a source.
 
     A run folder's metrics are computed with ``plan``'s definitions; a table is validated
@@ -391,7 +421,21 @@ def load_source(source: Path, plan: AnalysisPlan,
     return table, metric_columns, source.parent
 
 
-def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: str | Path | None = None,
+def default_plan(source: str | Path) -> str:
+    """The plan preset named like the run folder's experiment (e.g. ``ciaa-teleop``), else ``paper``."""
+    folder = Path(source)
+    if folder.is_dir() and (folder / "manifest.json").is_file():
+        try:
+            experiment = str(RunFolder(folder).read_manifest().get("experiment", ""))
+        except (DataError, RunFolderError, OSError, ValueError):
+            return "paper"
+        if experiment in list_presets("analysis"):
+            return experiment
+    return "paper"
+
+
+def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = "paper",
+            out: str | Path | None = None,
             metrics: Sequence[str] | None = None, questionnaires: str | Path | None = None,
             seed: int | None = None) -> AnalysisResult:
     """Compute the metrics and statistics of a run or a metrics table and write them.
@@ -402,7 +446,8 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
         A run folder (``trials/`` and ``steps/`` Parquet parts) or a metrics table (CSV or
         Parquet, one row per trial with ``participant``, ``condition`` and metric columns).
     plan
-        An analysis plan: preset name (``paper``, ``study-code``), TOML path, or a plan.
+        An analysis plan: preset name (``paper``, ``study-code``, ``ciaa-teleop``), TOML path, or a
+        plan; ``None``: :func:`default_plan` of the source.
     out
         Output folder; default the run folder, or the table's folder.
     metrics
@@ -422,7 +467,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
     DataError, RunFolderError, ConfigError
         Invalid source, table, questionnaire table, metric name or plan (one clear message each).
     """
-    plan = load_plan(plan)
+    plan = load_plan(default_plan(source) if plan is None else plan)
     source = Path(source)
     table, available, default_out = load_source(source, plan)
     _check_filters(plan, available)

@@ -15,6 +15,20 @@ Definitions (the paper's, DESIGN section 5), per trial:
 - ``human_turns``: the number of human turns (``human_turns`` of the trial table);
 - ``success``: the trial ended at the true goal (``success`` of the trial table).
 
+The measures the team checks against real people's teleoperation (the CIAA task), defined from
+the step log the same way in every world:
+
+- ``first_input_latency``: seconds from the trial's start to the first step whose measured label
+  ``phi_m`` is a command (Hard/Soft Puff/Sip; deadbands and no input are not), i.e. the ``t`` of
+  that step; missing when the trial had no command;
+- ``active_input_fraction``: the fraction of the trial's steps with any measured input (a
+  non-empty ``phi_m``: the four labels and the two deadbands), i.e. of the time the person was
+  blowing or sipping. In the grid world this counts the whole trial, the autonomy's turns
+  (without input) included.
+
+Together with ``completion_time`` (``all_trials``), ``success`` and ``mode_switches`` these are
+the ``ciaa-teleop`` analysis plan.
+
 The study software's variants (study-software-notes section 7), chosen by keyword:
 
 - ``engagement="per_turn"`` / ``strength="per_turn"``: the per-turn fraction / per-turn mean
@@ -38,6 +52,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.errors import DataError
+from nudgecli.model.interface import LABELS
 from nudgecli.steplog import HUMAN_TURN, MODE_SWITCH_HUMAN, count_event
 
 METRIC_NAMES = (
@@ -48,6 +63,8 @@ METRIC_NAMES = (
     "completion_time",
     "human_turns",
     "success",
+    "first_input_latency",
+    "active_input_fraction",
 )
 
 #: The columns of the trial table the metrics use.
@@ -55,6 +72,9 @@ TRIAL_COLUMNS = ("participant", "condition", "block", "trial", "true_goal", "suc
                  "human_turns")
 #: The columns of the step log the metrics use.
 STEP_COLUMNS = ("participant", "trial", "step", "turn", "alpha", "inferred_goal", "event")
+#: The columns of the step log the input measures use (``first_input_latency``,
+#: ``active_input_fraction``); a log without them gets those two metrics missing.
+INPUT_STEP_COLUMNS = ("t", "phi_m")
 #: The columns identifying a trial in the metrics table, before the metric columns.
 ID_COLUMNS = ("participant", "condition", "block", "trial")
 
@@ -87,7 +107,8 @@ def trial_metrics(
         One row per trial with the columns :data:`TRIAL_COLUMNS`; ``(participant, trial)``
         identifies a trial.
     steps
-        One row per 10 Hz step with the columns :data:`STEP_COLUMNS` (any order of rows).
+        One row per 10 Hz step with the columns :data:`STEP_COLUMNS` (any order of rows), and
+        :data:`INPUT_STEP_COLUMNS` for the two input measures (missing without them).
         ``turn`` is ``"human"`` or ``"autonomy"``; ``inferred_goal`` is -1 when there is none;
         ``event`` holds event names joined with ``"|"`` (empty when none).
     engagement, strength
@@ -120,7 +141,9 @@ def trial_metrics(
                         "once; each trial must appear once")
 
     trial_goal = trials[[*_TRIAL_KEY, "true_goal"]]
-    s = steps[list(STEP_COLUMNS)].merge(trial_goal, on=_TRIAL_KEY, how="inner", validate="many_to_one")
+    has_input = all(c in steps.columns for c in INPUT_STEP_COLUMNS)
+    columns = [*STEP_COLUMNS, *INPUT_STEP_COLUMNS] if has_input else list(STEP_COLUMNS)
+    s = steps[columns].merge(trial_goal, on=_TRIAL_KEY, how="inner", validate="many_to_one")
     s = s.sort_values([*_TRIAL_KEY, "step"], kind="stable").reset_index(drop=True)
 
     alpha = s["alpha"].astype(float).fillna(0.0)
@@ -134,6 +157,10 @@ def trial_metrics(
         "assisted": assisted.astype(np.int64),
         "assisted_alpha": np.where(assisted, alpha.to_numpy(), 0.0),
         "switches": _human_mode_switches_per_step(s, only_human_turns=mode_switches == "human_turn"),
+        "active": ((s["phi_m"].fillna("").astype(str) != "").to_numpy(np.int64) if has_input
+                   else np.zeros(len(s), dtype=np.int64)),
+        "command_t": (s["t"].astype(float).where(s["phi_m"].isin(LABELS)).to_numpy() if has_input
+                      else np.full(len(s), np.nan)),
     })
     per_trial = frame.groupby(_TRIAL_KEY, sort=False).agg(
         steps=("human", "size"),
@@ -141,6 +168,8 @@ def trial_metrics(
         assisted_steps=("assisted", "sum"),
         assisted_alpha=("assisted_alpha", "sum"),
         switches=("switches", "sum"),
+        active_steps=("active", "sum"),
+        first_command_t=("command_t", "min"),
     )
 
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -157,12 +186,14 @@ def trial_metrics(
             if strength == "per_turn":
                 strength_values = per_turn["strength"]
         effort_values = per_trial["human_steps"] / per_trial["steps"]
+        active_values = per_trial["active_steps"] / per_trial["steps"]
 
     # Sums over steps divided by counts carry floating-point noise (0.8 * 3 / 3 != 0.8); rounding
     # to 12 decimals makes equal values equal again, so they rank as ties in the tests.
     engagement_values = engagement_values.round(_DECIMALS)
     strength_values = strength_values.round(_DECIMALS)
     effort_values = effort_values.round(_DECIMALS)
+    active_values = active_values.round(_DECIMALS)
 
     out = trials[list(ID_COLUMNS)].copy()
     key = pd.MultiIndex.from_frame(trials[_TRIAL_KEY])
@@ -179,6 +210,10 @@ def trial_metrics(
         last_goal = _last_inferred_goal(s).reindex(key)
         reached = last_goal.to_numpy() == trials["true_goal"].to_numpy()
         out["success"] = pd.array(reached, dtype="boolean")
+    out["first_input_latency"] = per_trial["first_command_t"].reindex(key).to_numpy(dtype=float)
+    out["active_input_fraction"] = active_values.reindex(key).to_numpy(dtype=float)
+    if not has_input:
+        out["active_input_fraction"] = np.nan
     if completion_time == "successful_trials":
         out["completion_time"] = out["completion_time"].where(out["success"].fillna(False).to_numpy(bool))
     return out.reset_index(drop=True)

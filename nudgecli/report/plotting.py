@@ -104,6 +104,8 @@ class FigureInputs:
         a metrics table (no Fig. 5, no trajectory).
     questionnaires
         Questionnaire scores (``tlx_*``, ``likert_*`` columns), or ``None``.
+    path_layouts, time_limit_s
+        A CIAA path-world run's layouts table (waypoints) and trial time limit; ``None`` otherwise.
     """
 
     metrics: pd.DataFrame
@@ -112,6 +114,8 @@ class FigureInputs:
     steps: pd.DataFrame | None = None
     layouts: Mapping[TrialKey, TrialLayout] | None = None
     questionnaires: pd.DataFrame | None = None
+    path_layouts: pd.DataFrame | None = None
+    time_limit_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -212,11 +216,45 @@ def draw_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]:
     return out
 
 
+def representative_trial(trials: pd.DataFrame) -> TrialKey:
+    """The default trial to draw in the path world: the successful trial (else any) whose duration is
+    the median one's (the lowest ``(participant, trial)`` among equals)."""
+    pool = trials[trials["success"].astype(bool)] if trials["success"].astype(bool).any() else trials
+    pool = pool.sort_values(["participant", "trial"], kind="stable")
+    durations = pool["duration_s"].to_numpy(float)
+    median = float(np.sort(durations)[(len(durations) - 1) // 2])
+    row = pool.iloc[int(np.flatnonzero(durations == median)[0])]
+    return int(row["participant"]), int(row["trial"])
+
+
+def draw_path_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]:
+    """The figures of a CIAA path-world run: the measures and one trial's trajectory along the path."""
+    from nudgecli.report.path_figures import measures_figure, path_trajectory_figure
+
+    assert inputs.trials is not None and inputs.steps is not None and inputs.path_layouts is not None
+    trials, layouts = inputs.trials, inputs.path_layouts
+    out = {"measures": measures_figure(inputs.metrics, dict(inputs.stats))}
+    key = plan.trial if plan.trial is not None else representative_trial(trials)
+    row = trials[(trials["participant"] == key[0]) & (trials["trial"] == key[1])].iloc[0]
+    layout = layouts[layouts["layout"] == int(row["layout"])].iloc[0]
+    steps = inputs.steps[(inputs.steps["participant"] == key[0]) & (inputs.steps["trial"] == key[1])]
+    outcome = "success" if bool(row["success"]) else "failure"
+    title = (f"Participant {key[0]}, trial {key[1]} (layout {int(row['layout'])}, {row['condition']}): "
+             f"{float(row['duration_s']):.1f} s, {int(row['human_mode_switches'])} mode switches, {outcome}")
+    out["trajectory"] = path_trajectory_figure(
+        steps, np.asarray(layout["waypoints"], dtype=float).reshape(-1, 2), int(layout["turn_waypoint"]),
+        np.asarray(layout["goal_poses"], dtype=float)[:3], time_limit_s=float(inputs.time_limit_s or 50.0),
+        title=title)
+    return out
+
+
 def write_figures(inputs: FigureInputs, plan: PlotPlan) -> list[Path]:
-    """Draw every figure (:func:`draw_figures`) and write each in every format; return the files."""
+    """Draw every figure (:func:`draw_figures`, or :func:`draw_path_figures` for a path-world run)
+    and write each in every format; return the files."""
     figures.check_formats(plan.formats)
     written: list[Path] = []
-    for stem, fig in draw_figures(inputs, plan).items():
+    drawn = draw_path_figures(inputs, plan) if inputs.path_layouts is not None else draw_figures(inputs, plan)
+    for stem, fig in drawn.items():
         written += figures.save_figure(fig, plan.out_dir, stem, plan.formats)
     return written
 
@@ -319,15 +357,22 @@ def read_inputs(source: str | Path) -> FigureInputs:
 
     trials = steps = layouts = None
     run = RunFolder(folder)
+    path_layouts = None
+    time_limit_s = None
     if run.is_run() and run.completed_participants():
         trials = run.read_trials()
         steps = run.read_steps()
-        layouts = layouts_by_trial(trials, run.read_layouts())
+        layout_table = run.read_layouts()
+        if "waypoints" in layout_table.columns:  # the CIAA path world
+            path_layouts = layout_table
+            time_limit_s = float(run.read_config().study.time_limit_s)
+        else:
+            layouts = layouts_by_trial(trials, layout_table)
     questionnaires = None
     if (folder / QUESTIONNAIRES_FILE).is_file():
         questionnaires = pd.read_csv(folder / QUESTIONNAIRES_FILE)
     return FigureInputs(metrics=table, stats=stats, trials=trials, steps=steps, layouts=layouts,
-                        questionnaires=questionnaires)
+                        questionnaires=questionnaires, path_layouts=path_layouts, time_limit_s=time_limit_s)
 
 
 def default_out(source: str | Path) -> Path:

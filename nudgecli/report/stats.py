@@ -411,6 +411,10 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
         ``a, b, stars``), ``participant_level``, ``effect_size``, ``ci``.
     """
     table = describe(data, metric, conditions, condition=condition).set_index("condition")
+    descriptives = {column: {c: _plain(table.loc[c, column]) for c in conditions}
+                    for column in ("n", "mean", "median", "q1", "q3")}
+    if len(conditions) < 2:
+        return _descriptive_entry(metric, descriptives, options)
     kruskal = kruskal_wallis(data, metric, conditions, condition=condition)
     posthoc = conover(data, metric, conditions, p_adjust=options.p_adjust, condition=condition)
     significant = is_significant(kruskal["p"], options.kruskal_alpha, options.star_comparison)
@@ -424,8 +428,7 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
         seed=options.seed, participant=participant, condition=condition)
     return {
         "metric": metric,
-        **{column: {c: _plain(table.loc[c, column]) for c in conditions}
-           for column in ("n", "mean", "median", "q1", "q3")},
+        **descriptives,
         "kruskal": kruskal,
         "conover": posthoc.to_dict("records"),
         "p_adjust": options.p_adjust,
@@ -443,10 +446,37 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
     }
 
 
+#: The note of a metric analysed with a single condition (nothing to compare).
+SINGLE_CONDITION_NOTE = "a single condition: descriptive statistics only, no tests"
+
+
+def _descriptive_entry(metric: str, descriptives: dict[str, Any],
+                       options: ComparisonOptions) -> dict[str, Any]:
+    """The ``stats.json`` entry of a metric with one condition: the descriptives, no test (the test
+    fields keep their keys, with missing values and :data:`SINGLE_CONDITION_NOTE`)."""
+    return {
+        "metric": metric,
+        **descriptives,
+        "kruskal": {"statistic": math.nan, "p": math.nan},
+        "conover": [],
+        "p_adjust": options.p_adjust,
+        "stars": [],
+        "participant_level": {"test": "none", "aggregate": options.participant_aggregate,
+                              "statistic": math.nan, "p": math.nan, "n_participants": 0,
+                              "dropped_participants": [], "note": SINGLE_CONDITION_NOTE},
+        "effect_size": {"name": "none", "value": math.nan},
+        "ci": {"method": "none", "level": options.bootstrap_level, "resamples": 0, "seed": options.seed,
+               "pairs": []},
+    }
+
+
 def compare_conditions(data: pd.DataFrame, metrics: Sequence[str], conditions: Sequence[str],
                        options: ComparisonOptions = ComparisonOptions(), *,
                        participant: str = "participant", condition: str = "condition") -> dict[str, Any]:
     """The ``stats.json`` document: every metric's statistics.
+
+    With a single condition every metric gets its descriptive statistics only (no test, no
+    interval; the participant-level ``note`` says so).
 
     Returns
     -------
@@ -474,6 +504,12 @@ def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
     """
     rows = []
     for entry in stats["metrics"]:
+        if len(stats["conditions"]) == 1:  # descriptives only
+            (a,) = stats["conditions"]
+            rows.append({"metric": entry["metric"], "a": a, "b": None, "n_a": entry["n"][a],
+                         "median_a": entry["median"][a], "q1_a": entry["q1"][a], "q3_a": entry["q3"][a],
+                         "participant_test": "none", "ci_level": entry["ci"]["level"]})
+            continue
         posthoc = {(r["a"], r["b"]): r for r in entry["conover"]}
         stars = {(r["a"], r["b"]): r["stars"] for r in entry["stars"]}
         for interval in entry["ci"]["pairs"]:

@@ -48,13 +48,10 @@ from nudgecli.config import ExperimentConfig
 from nudgecli.model import interface
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, NO_INPUT, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.world import (
-    CELL_HEIGHT,
-    CELL_WIDTH,
-    HEADING_STEP,
     N_MODES,
-    X_MIN,
-    Y_MIN,
+    World,
     angle_difference,
+    grid_next_mark,
 )
 from nudgecli.sim.participants import Participant
 
@@ -140,15 +137,9 @@ def next_centre(coordinate: float, direction: float, axis: int) -> float:
 
     Marks are the cell centres along x (``X_MIN + w (k + 1/2)``) and y, and the multiples of
     45 degrees for the heading (where goal headings lie). ``direction`` is the sign of the motion.
+    The grid world's marks (:func:`nudgecli.model.world.grid_next_mark`).
     """
-    if axis == 2:
-        origin, width = 0.0, HEADING_STEP
-    else:
-        origin, width = ((X_MIN, CELL_WIDTH), (Y_MIN, CELL_HEIGHT))[axis]
-        origin += width / 2.0
-    u = (coordinate - origin) / width
-    k = math.floor(u + 1e-9) + 1 if direction > 0 else math.ceil(u - 1e-9) - 1
-    return origin + k * width
+    return grid_next_mark(coordinate, direction, axis)
 
 
 def mark_reached(coordinate: float, target: float, direction: float, axis: int) -> bool:
@@ -176,11 +167,20 @@ class SimulatedPerson:
         Flat index of their goal's discrete cell and heading (``state // N_MODES``).
     rng
         Their random stream.
+    world
+        The trial's world, whose visible marks (:meth:`~nudgecli.model.world.World.next_mark`) end
+        a held move; ``None``: the grid's cell centres (:func:`next_centre`).
+    hands_over
+        Whether they end their turn by going idle after their operating time (``False`` where there
+        is no autonomy to hand over to: they operate until the trial ends).
     """
 
     def __init__(self, participant: Participant, settings: BehaviourSettings, policy: np.ndarray,
-                 goal_pose: np.ndarray, goal_cell: int, rng: np.random.Generator) -> None:
+                 goal_pose: np.ndarray, goal_cell: int, rng: np.random.Generator, *,
+                 world: World | None = None, hands_over: bool = True) -> None:
         self.participant = participant
+        self.next_mark = world.next_mark if world is not None else next_centre
+        self.hands_over = hands_over
         self.settings = settings
         self.policy = policy
         self.goal = (float(goal_pose[0]), float(goal_pose[1]), float(goal_pose[2]))
@@ -248,7 +248,7 @@ class SimulatedPerson:
             return NO_INPUT
         if self.held_label != NO_INPUT and self.hold_left > 0 and not self._decision_due(view):
             return self._continue()
-        if self.operate_left < 0:
+        if self.operate_left < 0 and self.hands_over:
             self.phase = Phase.IDLE
             self._release()
             return NO_INPUT
@@ -333,7 +333,7 @@ class SimulatedPerson:
             self.hold_axis = int(view.mode)
             self.hold_direction = float(np.sign(velocity[self.hold_axis]))
             coordinate = (view.x, view.y, view.theta)[self.hold_axis]
-            self.hold_target = next_centre(coordinate, self.hold_direction, self.hold_axis)
+            self.hold_target = self.next_mark(coordinate, self.hold_direction, self.hold_axis)
         start = self.blow_held if continuing else 0
         self.blow_held = start
         self.blow = p.pressures(label, self.hold_left, self.rng, start=start)

@@ -18,6 +18,11 @@ or a live one), one intended label and pressure per step. Every step of the huma
 4. the trial ends if the robot is within the success tolerance of any goal pose (once the
    human has given an input in this turn).
 
+The robot's kinematics, constraints, discrete states and success rule are the trial's world's
+(:class:`nudgecli.model.world.World`): the paper's grid world by default, or the CIAA path world.
+In an unassisted condition (``no_assistance``) there is no inference, no blending and no
+autonomy: the human's turn lasts the whole trial.
+
 The turn passes to the autonomy after the participant's handover idle time without a command.
 In the autonomy's turn the belief is frozen; the Disambiguation condition nudges to s* when the
 normalised entropy exceeds kappa and otherwise steps towards ``g'`` (towards the mean of the tied
@@ -51,15 +56,14 @@ from nudgecli.model.inference import (
 )
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, LABELS, NO_INPUT, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.mdp import SolvedLayout
+from nudgecli.model.path_world import PathLayout
 from nudgecli.model.ties import unique_argmax
 from nudgecli.model.world import (
     MODE_NAMES,
-    N_CELLS_Y,
-    N_HEADINGS,
     N_MODES,
+    GridWorld,
     Layout,
-    clamp_position,
-    discretise,
+    World,
     state_index,
 )
 from nudgecli.sim.behaviour import BehaviourSettings, InputSource, SimulatedPerson
@@ -80,6 +84,8 @@ from nudgecli.steplog import (
 )
 
 _ZERO3 = np.zeros(3)
+#: Conditions without inference, blending or autonomy (the CIAA study's "no assistance").
+UNASSISTED_CONDITIONS = frozenset({"no_assistance"})
 
 
 @dataclass(frozen=True)
@@ -112,6 +118,7 @@ class ProtocolSettings:
         study, itf, inf, dis, ass = (config.study, config.interface, config.inference,
                                      config.disambiguation, config.assistance)
         dt = 1.0 / study.rate_hz
+        path = config.world.kind == "ciaa"
         return cls(
             dt=dt,
             time_limit_steps=round(study.time_limit_s / dt),
@@ -120,8 +127,9 @@ class ProtocolSettings:
             soft_threshold=itf.soft_threshold,
             hard_threshold=itf.hard_threshold,
             zero_threshold=itf.zero_threshold,
-            human_speed=itf.human_speed,
-            human_turn_rate=itf.human_turn_rate,
+            # the CIAA path world's own (wall-clock) speeds replace the interface's
+            human_speed=config.world.linear_speed if path else itf.human_speed,
+            human_turn_rate=config.world.angular_speed if path else itf.human_turn_rate,
             kappa=inf.kappa,
             update=inf.update,
             decay=DecaySettings(inf.decay_delay, inf.decay_rate, inf.decay_cap) if inf.decay else None,
@@ -152,7 +160,7 @@ class TrialSpec:
     block: int
     trial: int
     layout_index: int
-    layout: Layout
+    layout: Layout | PathLayout
     true_goal: int = 0
 
 
@@ -187,16 +195,19 @@ class TrialSession:
     settings
         The protocol's knobs.
     model
-        The agent's model of this participant in this layout (fitted tables, ``p(phi_m | g, s)``).
+        The agent's model of this participant in this layout (fitted tables, ``p(phi_m | g, s)``);
+        ``None`` in an unassisted condition (no inference).
     handover_idle_steps
         Steps without a command (after the turn's first input) that hand the turn over.
     rng
         The agent's random stream (step sizes, Monte-Carlo D(s)).
+    world
+        The trial's world; ``None`` is the paper's grid world of ``spec.layout``.
     """
 
     spec: TrialSpec
     settings: ProtocolSettings
-    model: DisambiguationModel
+    model: DisambiguationModel | None
     handover_idle_steps: int
     rng: np.random.Generator
     x: float = 0.0
@@ -211,16 +222,25 @@ class TrialSession:
     nudges: int = 0
     human_switches: int = 0
     columns: dict[str, list[Any]] = field(default_factory=lambda: {c: [] for c in STEP_COLUMNS})
+    world: World | None = None
 
     def __post_init__(self) -> None:
-        layout = self.spec.layout
-        n_goals = layout.n_goals
+        if self.world is None:
+            layout = self.spec.layout
+            if not isinstance(layout, Layout):
+                raise TypeError("a trial on a path layout needs its world (world=PathWorld(...))")
+            self.world = GridWorld(layout, self.settings.success_distance, self.settings.success_angle)
+        world = self.world
+        self.assisted = self.spec.condition not in UNASSISTED_CONDITIONS
+        if self.assisted and self.model is None:
+            raise ValueError(f"condition {self.spec.condition!r} needs the agent's model")
+        n_goals = world.n_goals
         if not 0 <= self.spec.true_goal < n_goals:
             raise ValueError(f"true_goal {self.spec.true_goal} is not one of the layout's {n_goals} goals")
-        self.x, self.y, self.theta = (float(v) for v in layout.start_pose)
-        self.mode = int(layout.start_mode)
-        self.goal_poses = layout.goal_poses
-        self.goal_list = [(float(x), float(y), float(t)) for x, y, t in layout.goal_poses]
+        self.x, self.y, self.theta = (float(v) for v in world.start_pose)
+        self.mode = int(world.start_mode)
+        self.goal_poses = world.goal_poses
+        self.goal_list = [(float(x), float(y), float(t)) for x, y, t in self.goal_poses]
         self.goal_transition = goal_transition_matrix(n_goals, self.settings.goal_stay)
         self._set_belief(np.full(n_goals, 1.0 / n_goals))
         self._start_human_turn()
@@ -229,9 +249,9 @@ class TrialSession:
 
     @property
     def state(self) -> int:
-        """The current discrete state (cell, heading, mode)."""
-        i, j, h = discretise(self.x, self.y, self.theta)
-        return int(state_index(i, j, h, self.mode))
+        """The current discrete state (the world's: cell, heading and mode in the grid world)."""
+        assert self.world is not None
+        return self.world.state(self.x, self.y, self.theta, self.mode)
 
     @property
     def finished(self) -> bool:
@@ -275,7 +295,8 @@ class TrialSession:
         measured = interface.label_of_pressure(pressure, s.soft_threshold, s.hard_threshold, s.zero_threshold)
         if measured != NO_INPUT and self.initiated_at < 0:
             self.initiated_at = self.step
-        self._observe(measured, state)
+        if self.assisted:
+            self._observe(measured, state)
         u_h = _ZERO3
         commanded = False
         if measured == NO_INPUT:
@@ -290,7 +311,7 @@ class TrialSession:
             commanded = True
             events.append(MODE_SWITCH_HUMAN)
         self.idle = 0 if commanded or self.initiated_at < 0 else self.idle + 1
-        inferred, alpha = self._blending()
+        inferred, alpha = self._blending() if self.assisted else (NO_GOAL, 0.0)
         u_a = _ZERO3
         if inferred != NO_GOAL:
             u_a = assistance.autonomy_velocity((self.x, self.y, self.theta), self.goal_list[inferred],
@@ -304,12 +325,14 @@ class TrialSession:
             self.reached = self._goal_reached()
             if self.reached >= 0:
                 return
-        if self.initiated_at >= 0 and self.idle > self.handover_idle_steps and not self.finished:
+        if (self.assisted and self.initiated_at >= 0 and self.idle > self.handover_idle_steps
+                and not self.finished):
             self._start_autonomy_turn()
 
     def _observe(self, measured: int, state: int) -> None:
         """The Bayesian update (Eq. 7) with the state the label was produced in, or forgetting."""
         s = self.settings
+        assert self.model is not None
         if 0 <= measured < 4:
             new_event = s.update == "sample" or measured != self.blow_label
             self.blow_label = measured
@@ -338,20 +361,16 @@ class TrialSession:
         return self.leader, alpha
 
     def _goal_reached(self) -> int:
-        """The goal whose pose is within the success tolerance, or -1 (scalar math: every step)."""
-        s = self.settings
-        for index, (gx, gy, gth) in enumerate(self.goal_list):
-            if math.hypot(gx - self.x, gy - self.y) <= s.success_distance:
-                turn = (gth - self.theta + math.pi) % (2.0 * math.pi) - math.pi
-                if abs(turn) <= s.success_angle:
-                    return index
-        return -1
+        """The goal whose success rule the pose meets (the world's), or -1."""
+        assert self.world is not None
+        return self.world.goal_reached(self.x, self.y, self.theta)
 
     # --- the autonomy's turn ------------------------------------------------------------------
 
     def _start_autonomy_turn(self) -> None:
         """Choose the autonomy's target: a nudge to s*, or a bounded step (Algorithm 1, 10-15)."""
         s, rng = self.settings, self.rng
+        assert self.model is not None
         self.turn = AUTONOMY_TURN
         self.autonomy_turns += 1
         state = self.state
@@ -403,17 +422,15 @@ class TrialSession:
     # --- shared helpers -----------------------------------------------------------------------
 
     def _move(self, velocity: np.ndarray) -> None:
-        dt = self.settings.dt
-        self.x, self.y = clamp_position(self.x + float(velocity[0]) * dt, self.y + float(velocity[1]) * dt)
-        self.theta = (self.theta + float(velocity[2]) * dt) % (2.0 * math.pi)
-
+        assert self.world is not None
+        self.x, self.y, self.theta = self.world.move(self.x, self.y, self.theta, velocity, self.settings.dt)
 
     def _record(self, turn: str, state: int, mode: int, intended: int, pressure: float, measured: int,
                 u_h: np.ndarray, u_a: np.ndarray, alpha: float, inferred: int, events: list[str]) -> None:
         """Append one step: the pose, cell and mode at the start of the step, what happened in it."""
         c = self.columns
-        cell, h = divmod(state // N_MODES, N_HEADINGS)
-        i, j = divmod(cell, N_CELLS_Y)
+        assert self.world is not None
+        i, j, h = self.world.cells(state)
         c["participant"].append(self.spec.participant)
         c["trial"].append(self.spec.trial)
         c["step"].append(self.step)
@@ -510,14 +527,42 @@ def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout,
     -------
     TrialResult
     """
-    person_rng, agent_rng = rng.spawn(2)
     layout, goal = spec.layout, spec.true_goal
+    if not isinstance(layout, Layout):
+        raise TypeError("run_trial simulates the grid world; use run_world_trial for another world")
     goal_cell = int(state_index(int(layout.goal_cells[goal, 0]), int(layout.goal_cells[goal, 1]),
                                 int(layout.goal_headings[goal]), 0)) // N_MODES
-    person = SimulatedPerson(participant, settings.behaviour, solved.policy[goal], layout.goal_poses[goal],
-                             goal_cell, person_rng)
+    world = GridWorld(layout, settings.success_distance, settings.success_angle)
+    return run_world_trial(spec, settings, world, solved.policy[goal], goal_cell, model, participant, rng)
+
+
+def run_world_trial(spec: TrialSpec, settings: ProtocolSettings, world: World, policy: np.ndarray,
+                    goal_cell: int, model: DisambiguationModel | None, participant: Participant,
+                    rng: np.random.Generator) -> TrialResult:
+    """Simulate one trial in ``world`` with a simulated participant.
+
+    Parameters
+    ----------
+    spec, settings, model, participant, rng
+        As for :func:`run_trial` (``model`` is ``None`` in an unassisted condition).
+    world
+        The trial's world (made for this trial: it may keep per-trial state).
+    policy
+        ``(S,)`` the optimal task action per discrete state of ``world`` for the true goal.
+    goal_cell
+        The goal's discrete cell (``state // N_MODES``) for fine positioning, or -1 for none.
+
+    Returns
+    -------
+    TrialResult
+    """
+    person_rng, agent_rng = rng.spawn(2)
+    goal = spec.true_goal
+    assisted = spec.condition not in UNASSISTED_CONDITIONS
+    person = SimulatedPerson(participant, settings.behaviour, policy, world.goal_poses[goal], goal_cell,
+                             person_rng, world=world, hands_over=assisted)
     session = TrialSession(spec, settings, model, handover_steps(participant.handover_idle_s, settings.dt),
-                           agent_rng)
+                           agent_rng, world=world)
     return run_session(session, person)
 
 

@@ -27,12 +27,14 @@ from nudgecli.errors import ConfigError
 from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.interface import default_distortion_table, default_mapping_table
 from nudgecli.model.mdp import MDPRewards, SolvedLayout, solve_layout
+from nudgecli.model.path_world import PathLayout, PathWorld, optimal_policy
 from nudgecli.model.world import MODE_NAMES, Layout, sample_layout
 from nudgecli.rng import generator, seed_key
 from nudgecli.sim.calibration import FittedTables, fit_participant_tables
 from nudgecli.sim.calibration_io import DistortionSession, MappingSession, write_sessions
+from nudgecli.sim.ciaa import packaged_task, subject_schedule, task_layouts
 from nudgecli.sim.participants import Participant, draw_participant, participant_from_log
-from nudgecli.sim.protocol import ProtocolSettings, TrialSpec, run_trial
+from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSpec, run_trial, run_world_trial
 from nudgecli.store import RunFolder, library_versions, utc_now
 
 
@@ -137,19 +139,71 @@ def solve_layouts(config: ExperimentConfig, layouts: list[StudyLayout]) -> list[
             for item in layouts]
 
 
+def path_layouts_frame(paths: dict[int, PathLayout]) -> pd.DataFrame:
+    """``layouts.parquet`` of the CIAA world: one row per task layout with its path."""
+    rows = []
+    for index, lay in sorted(paths.items()):
+        rows.append({
+            "layout": index,
+            "condition": lay.condition,
+            "n_goals": 1,
+            "start_mode": MODE_NAMES[lay.start_mode],
+            "start_pose": lay.start_pose.tolist(),
+            "goal_poses": lay.goal_poses.ravel().tolist(),
+            "waypoints": lay.waypoints.ravel().tolist(),
+            "leg_modes": [MODE_NAMES[m] for m in lay.leg_modes],
+            "leg_directions": list(lay.leg_directions),
+            "turn_waypoint": lay.turn_waypoint,
+        })
+    return pd.DataFrame(rows)
+
+
+def path_schedule(config: ExperimentConfig, participant: int,
+                  paths: dict[int, PathLayout]) -> list[TrialSpec]:
+    """The participant's CIAA trials in their subject's order (:func:`nudgecli.sim.ciaa.subject_schedule`)."""
+    return [TrialSpec(participant=participant, condition=item.condition, block=item.block, trial=trial,
+                      layout_index=item.layout_index, layout=paths[item.layout_index], true_goal=0)
+            for trial, item in enumerate(subject_schedule(packaged_task(), participant,
+                                                          config.world.ciaa_conditions))]
+
+
 @dataclass(frozen=True)
 class StudyPlan:
-    """Everything a worker needs, computed once per study."""
+    """Everything a worker needs, computed once per study.
+
+    In the grid world: the shared layouts and their solved goal MDPs. In the CIAA world: the
+    task's path layouts (``paths``, by trial index) and their optimal command plans (``policies``).
+    """
 
     config: ExperimentConfig
     seed: int
     layouts: list[StudyLayout]
     solved: list[SolvedLayout]
+    paths: dict[int, PathLayout] | None = None
+    policies: dict[int, Any] | None = None
 
     @classmethod
     def build(cls, config: ExperimentConfig, seed: int) -> StudyPlan:
+        if config.world.kind == "ciaa":
+            paths = task_layouts(packaged_task())
+            return cls(config=config, seed=seed, layouts=[], solved=[], paths=paths,
+                       policies={k: optimal_policy(lay) for k, lay in paths.items()})
         layouts = build_layouts(config, seed)
         return cls(config=config, seed=seed, layouts=layouts, solved=solve_layouts(config, layouts))
+
+    def schedule(self, participant: int) -> list[TrialSpec]:
+        """Participant ``participant``'s trials in order."""
+        if self.paths is not None:
+            return path_schedule(self.config, participant, self.paths)
+        return participant_schedule(self.config, self.seed, participant, self.layouts)
+
+    def trials_per_participant(self) -> int:
+        """Trials of one participant (of participant 0 in the CIAA world, where all run 12 per condition)."""
+        return len(self.schedule(0)) if self.paths is not None else len(self.layouts)
+
+    def layouts_frame(self) -> pd.DataFrame:
+        """The run folder's ``layouts.parquet``."""
+        return path_layouts_frame(self.paths) if self.paths is not None else layouts_frame(self.layouts)
 
 
 @dataclass
@@ -206,14 +260,18 @@ def simulate_participant(plan: StudyPlan, participant_index: int) -> Participant
     summaries: list[dict[str, Any]] = []
     step_parts: list[pd.DataFrame] = []
     models: dict[int, DisambiguationModel] = {}
-    for spec in participant_schedule(config, seed, participant_index, plan.layouts):
-        solved = plan.solved[spec.layout_index]
-        model = models.get(spec.layout_index)
-        if model is None:
-            model = models[spec.layout_index] = DisambiguationModel(
-                spec.layout.goal_cells, solved.p_a_given_sg, mapping, distortion)
+    for spec in plan.schedule(participant_index):
         rng = generator(seed, "participant", participant_index, "trial", spec.trial)
-        result = run_trial(spec, settings, solved, model, participant, rng)
+        if plan.paths is not None:
+            result = _path_trial(plan, spec, settings, participant, rng)
+        else:
+            solved = plan.solved[spec.layout_index]
+            model = models.get(spec.layout_index)
+            if model is None:
+                assert isinstance(spec.layout, Layout)
+                model = models[spec.layout_index] = DisambiguationModel(
+                    spec.layout.goal_cells, solved.p_a_given_sg, mapping, distortion)
+            result = run_trial(spec, settings, solved, model, participant, rng)
         summaries.append(result.summary)
         step_parts.append(pd.DataFrame(result.steps))
     record = participant.to_record()
@@ -230,6 +288,17 @@ def simulate_participant(plan: StudyPlan, participant_index: int) -> Participant
         wall_s=time.perf_counter() - start,
         calibration=fitted.sessions,
     )
+
+
+def _path_trial(plan: StudyPlan, spec: TrialSpec, settings: ProtocolSettings, participant: Participant,
+                rng: Any) -> TrialResult:
+    """One CIAA trial: a fresh path world, the layout's optimal command plan, no agent model."""
+    assert plan.paths is not None and plan.policies is not None
+    w = plan.config.world
+    world = PathWorld(plan.paths[spec.layout_index], snap_tolerance=w.snap_tolerance,
+                      heading_tolerance=w.heading_tolerance, success_distance=w.success_distance)
+    policy = plan.policies[spec.layout_index]
+    return run_world_trial(spec, settings, world, policy, -1, None, participant, rng)
 
 
 def _json(value: Any) -> str:
@@ -335,7 +404,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     mode = folder.prepare(config, seed, n, resume=resume, force=force)
     done = set(folder.completed_participants()) if mode == "resume" else set()
     plan = StudyPlan.build(config, seed)
-    trials_per = len(plan.layouts)
+    trials_per = plan.trials_per_participant()
     manifest: dict[str, Any] = folder.read_manifest() if mode == "resume" else {
         "experiment": config.experiment.name,
         "config": config.model_dump(mode="json"),
@@ -348,7 +417,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     }
     manifest.update({"status": "running", "completed": sorted(done),
                      "executor": _executor_name(workers, scheduler)})
-    folder.write_layouts(layouts_frame(plan.layouts))
+    folder.write_layouts(plan.layouts_frame())
     folder.write_manifest(manifest)
     todo = [i for i in range(n) if i not in done]
     started = time.perf_counter()
