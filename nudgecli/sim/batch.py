@@ -1,0 +1,1002 @@
+"""Many studies as one task graph: replications, power and sweeps, on processes or dask.
+
+A batch is a list of design points (one for ``replicate`` and ``power``, many for ``sweep``),
+each run ``R`` times. Replication ``r`` of every point uses the same seed (common random numbers,
+:func:`replication_seed`), so differences between points are not seed noise. Two kinds of task
+make up the graph, all submitted to one executor:
+
+- a *participant task* ``(study, participant)``: simulate one participant of one study
+  (:func:`nudgecli.sim.study.simulate_participant`) and reduce their trials to the plan's
+  per-trial metrics (one row per trial). A study is ``(experiment, seed)``; tasks of points
+  whose experiments are equal are one task. A study with ``n`` participants holds the studies
+  with fewer: participant ``i``'s results do not depend on how many others there are, so a
+  power curve simulates each replication's largest study once and analyses its first ``n``;
+- an *analysis task* ``(study, n)``: the plan's statistics (:mod:`nudgecli.report.stats`, as
+  ``nudge analyze``) of the first ``n`` participants, submitted as soon as they are done.
+
+Layouts and their solved goal MDPs (the :class:`~nudgecli.sim.study.StudyPlan`) are built once
+per worker and kept in a small cache keyed by what they depend on (:func:`layout_key`), never
+once per task: the process pool sends each worker the tasks of the studies it already holds,
+and on dask each plan is one task whose result the scheduler moves to the workers that need it.
+Every result is written by this process as an atomic part file (``tasks/``, ``analyses/``), so
+``--resume`` finishes an interrupted batch without recomputing a finished task, and the tables
+assembled from the parts are the same for any executor and number of workers.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import math
+import os
+import signal
+import sys
+import time
+import traceback
+from collections import OrderedDict, deque
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from multiprocessing.connection import Connection, wait
+from pathlib import Path
+from typing import Any, Literal, TextIO
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+
+from nudgecli.config import ExperimentConfig
+from nudgecli.errors import ConfigError, RunFolderError
+from nudgecli.report.metrics import trial_metrics
+from nudgecli.report.plans import AnalysisPlan
+from nudgecli.report.replication import analyse_replication
+from nudgecli.rng import seed_sequence
+from nudgecli.sim.study import (
+    StudyPlan,
+    check_physiology_logs,
+    connect_scheduler,
+    die_with_parent,
+    process_context,
+    simulate_participant,
+)
+from nudgecli.store import library_versions, utc_now, write_json_atomic, write_parquet_atomic
+
+BATCH_MANIFEST = "batch.json"
+#: Participant tasks and analyses above which a batch needs ``--yes`` (``confirm=True``).
+MAX_TRIALS_WITHOUT_YES = 200_000
+#: Wall seconds per simulated trial on one core (``nudge bench``: one participant of ``paper``,
+#: 48 trials in about 0.4-0.7 s on the 2-core development machine) -- for the size estimate only.
+SECONDS_PER_TRIAL = 0.012
+#: Wall seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study).
+SECONDS_PER_ANALYSIS = 0.8
+#: Bytes on disk per trial (a metrics row in a part file) and per analysis (its JSON document).
+BYTES_PER_TRIAL = 120
+BYTES_PER_ANALYSIS = 16_000
+#: Study plans (layouts + solved MDPs, about 20 MB at the paper's 48 layouts) a worker keeps.
+PLAN_CACHE_SIZE = 4
+#: Jobs each pool worker holds at once (one running, one queued), so it never waits for the parent.
+POOL_DEPTH = 2
+
+
+# --- the batch ---------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Point:
+    """One design point: the swept values, its experiment and the participant counts analysed."""
+
+    index: int
+    parameters: dict[str, Any]
+    config: ExperimentConfig
+    participants: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Batch:
+    """A batch: points x replications, analysed with one plan.
+
+    Attributes
+    ----------
+    kind
+        ``replicate``, ``power`` or ``sweep`` (recorded in the manifest).
+    points
+        The design points.
+    replications
+        ``R``: studies per point.
+    seed
+        The master seed; replication ``r`` uses :func:`replication_seed` ``(seed, r)`` at every point.
+    plan
+        The analysis plan of every replication.
+    extra
+        JSON-ready facts recorded in the manifest and compared on ``--resume`` (e.g. the design).
+    """
+
+    kind: Literal["replicate", "power", "sweep"]
+    points: tuple[Point, ...]
+    replications: int
+    seed: int
+    plan: AnalysisPlan
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def describe(self) -> dict[str, Any]:
+        """What identifies the batch (a resumed batch must describe itself identically)."""
+        return {
+            "kind": self.kind,
+            "replications": self.replications,
+            "seed": self.seed,
+            "plan": self.plan.model_dump(mode="json"),
+            "points": [{"index": p.index, "parameters": p.parameters, "participants": list(p.participants),
+                        "study": study_key(p.config, 0)} for p in self.points],
+            **self.extra,
+        }
+
+
+def replication_seed(master_seed: int, replication: int) -> int:
+    """The seed of replication ``r``: its own branch of the master seed (63 bits)."""
+    state = seed_sequence(master_seed, "replication", replication).generate_state(1, dtype=np.uint64)
+    return int(state[0] >> np.uint64(1))
+
+
+def _normalised_toml(config: ExperimentConfig) -> str:
+    """The experiment without its participant count (participant ``i`` does not depend on it)."""
+    study = config.study.model_copy(update={"participants": 1})
+    return config.model_copy(update={"study": study}).to_toml()
+
+
+def study_key(config: ExperimentConfig, seed: int) -> str:
+    """A stable name of the study ``(experiment, seed)``, whatever its participant count."""
+    text = f"{_normalised_toml(config)}\nseed = {seed}\n"
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+#: Sections that neither draw nor solve layouts (the study's layouts depend on ``[study]`` and
+#: the seed, their MDPs on ``[model]``); every other section, present or future, is in the key.
+_NOT_LAYOUT_SECTIONS = ("experiment", "interface", "inference", "disambiguation", "assistance", "population",
+                        "calibration")
+
+
+def layout_key(config: ExperimentConfig, seed: int) -> str:
+    """What a study's layouts and their solved MDPs depend on, as a short hash."""
+    data = config.model_dump(mode="json", exclude=set(_NOT_LAYOUT_SECTIONS))
+    data["study"].pop("participants", None)
+    text = f"{sorted(data.items())!r}\nseed = {seed}"
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class Study:
+    """One study of the batch."""
+
+    key: str
+    config: ExperimentConfig
+    seed: int
+    participants: int
+    layouts: str
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """One analysis: the first ``participants`` of a study, for (point, replication)."""
+
+    key: str
+    study: str
+    participants: int
+
+
+@dataclass
+class Graph:
+    """The batch's tasks.
+
+    Attributes
+    ----------
+    studies
+        Study key -> study (each with the most participants any point needs of it).
+    analyses
+        Analysis key -> analysis.
+    entries
+        One row per (point, replication, participant count): ``point, replication, seed,
+        participants, study, analysis``.
+    """
+
+    studies: dict[str, Study]
+    analyses: dict[str, Analysis]
+    entries: pd.DataFrame
+
+    @property
+    def participant_tasks(self) -> int:
+        return sum(s.participants for s in self.studies.values())
+
+    @property
+    def trials(self) -> int:
+        return sum(s.participants * trials_per_participant(s.config) for s in self.studies.values())
+
+
+def trials_per_participant(config: ExperimentConfig) -> int:
+    """Trials each participant does (every layout of every condition once)."""
+    return len(config.study.conditions) * config.study.trials_per_condition
+
+
+def build_graph(batch: Batch) -> Graph:
+    """Every study and analysis of the batch, deduplicated (equal experiments share tasks)."""
+    studies: dict[str, Study] = {}
+    analyses: dict[str, Analysis] = {}
+    rows = []
+    for r in range(batch.replications):
+        seed = replication_seed(batch.seed, r)
+        for point in batch.points:
+            key = study_key(point.config, seed)
+            need = max(point.participants)
+            known = studies.get(key)
+            if known is None or known.participants < need:
+                config = point.config.model_copy(update={
+                    "study": point.config.study.model_copy(update={"participants": need})})
+                studies[key] = Study(key, config, seed, need, layout_key(point.config, seed))
+            for n in point.participants:
+                analysis = f"{key}-n{n:04d}"
+                analyses[analysis] = Analysis(analysis, key, n)
+                rows.append({"point": point.index, "replication": r, "seed": seed, "participants": n,
+                             "study": key, "analysis": analysis})
+    return Graph(studies, analyses, pd.DataFrame(rows))
+
+
+@dataclass(frozen=True)
+class SizeEstimate:
+    """How big a batch is, from the figures ``nudge bench`` measures (see the constants above)."""
+
+    studies: int
+    participant_tasks: int
+    analyses: int
+    trials: int
+    seconds: float
+    bytes: int
+    workers: int
+
+    def describe(self) -> str:
+        return (f"{self.studies} studies, {self.participant_tasks} participant tasks + {self.analyses} "
+                f"analyses, {self.trials:,} trials; about {_duration(self.seconds)} on {self.workers} "
+                f"worker(s) and {self.bytes / 1e6:.1f} MB on disk")
+
+
+def estimate(graph: Graph, workers: int) -> SizeEstimate:
+    """The size of the batch and its estimated wall time on ``workers`` and disk use."""
+    trials = graph.trials
+    seconds = (trials * SECONDS_PER_TRIAL + len(graph.analyses) * SECONDS_PER_ANALYSIS) / max(1, workers)
+    size = trials * BYTES_PER_TRIAL + len(graph.analyses) * BYTES_PER_ANALYSIS
+    return SizeEstimate(len(graph.studies), graph.participant_tasks, len(graph.analyses), trials, seconds, size,
+                        workers)
+
+
+# --- tasks (run in a worker) -------------------------------------------------------------------
+
+_PLANS: OrderedDict[str, StudyPlan] = OrderedDict()
+
+
+def cached_plan(config: ExperimentConfig, seed: int) -> StudyPlan:
+    """The study plan of ``(config, seed)`` from this process's cache, built on a miss.
+
+    Keyed by :func:`layout_key`: studies that differ only in settings that do not touch the
+    layouts (e.g. ``inference.kappa`` in a sweep) share one plan. Holds :data:`PLAN_CACHE_SIZE`
+    plans at most (least recently used dropped), so a worker's memory does not grow with the batch.
+    """
+    key = layout_key(config, seed)
+    plan = _PLANS.get(key)
+    if plan is None:
+        plan = StudyPlan.build(config, seed)
+        _PLANS[key] = plan
+        while len(_PLANS) > PLAN_CACHE_SIZE:
+            _PLANS.popitem(last=False)
+    else:
+        _PLANS.move_to_end(key)
+    return dataclasses.replace(plan, config=config)
+
+
+def participant_metrics(plan: StudyPlan, index: int, analysis: AnalysisPlan) -> pd.DataFrame:
+    """One participant's per-trial metrics under the analysis plan's definitions.
+
+    Returns
+    -------
+    pd.DataFrame
+        One row per trial: ``participant, condition, block, trial`` and the metrics of
+        :func:`nudgecli.report.metrics.trial_metrics`.
+    """
+    result = simulate_participant(plan, index)
+    definitions = analysis.metrics.model_dump(exclude={"include"})
+    return trial_metrics(result.trials, result.steps, **definitions)
+
+
+def build_plan(config: ExperimentConfig, seed: int) -> StudyPlan:
+    """A study plan (the dask task that builds it once for every worker)."""
+    return StudyPlan.build(config, seed)
+
+
+def run_participant_task(config: ExperimentConfig, seed: int, index: int, analysis: AnalysisPlan,
+                         plan: StudyPlan | None = None) -> pd.DataFrame:
+    """A participant task: with the given plan (dask) or this worker's cached one (processes)."""
+    chosen = cached_plan(config, seed) if plan is None else dataclasses.replace(plan, config=config)
+    return participant_metrics(chosen, index, analysis)
+
+
+@dataclass(frozen=True)
+class Job:
+    """A task as sent to an executor."""
+
+    key: str
+    kind: Literal["participant", "analysis"]
+    affinity: str
+    args: tuple[Any, ...]
+
+
+def execute(job: Job) -> Any:
+    """Run a job in this process."""
+    if job.kind == "participant":
+        return run_participant_task(*job.args)
+    return analyse_replication(*job.args)
+
+
+# --- executors ---------------------------------------------------------------------------------
+
+class WorkerError(RuntimeError):
+    """A task failed in a worker (the worker's traceback is the message)."""
+
+
+class SerialExecutor:
+    """Runs every job in this process, analyses first."""
+
+    def __init__(self) -> None:
+        self._queue: deque[Job] = deque()
+
+    def submit(self, job: Job) -> None:
+        (self._queue.appendleft if job.kind == "analysis" else self._queue.append)(job)
+
+    def next_result(self) -> tuple[Job, Any]:
+        job = self._queue.popleft()
+        return job, execute(job)
+
+    def close(self) -> None:
+        self._queue.clear()
+
+
+def _pool_worker(conn: Connection, parent_pid: int) -> None:
+    """A pool worker: receive jobs, send back ``(status, key, result)``; exit with the parent."""
+    die_with_parent(parent_pid)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    while True:
+        try:
+            job = conn.recv()
+        except (EOFError, OSError):
+            return
+        if job is None:
+            return
+        try:
+            result = execute(job)
+        except Exception:
+            conn.send(("error", job.key, traceback.format_exc()))
+            continue
+        conn.send(("ok", job.key, result))
+
+
+@dataclass
+class _Slot:
+    process: Any
+    conn: Connection
+    inflight: dict[str, Job] = field(default_factory=dict)
+    holds: OrderedDict[str, None] = field(default_factory=OrderedDict)
+
+
+class ProcessExecutor:
+    """Local worker processes with cache-aware dispatch.
+
+    Each worker holds up to :data:`POOL_DEPTH` jobs. An idle worker gets, in order: a waiting
+    analysis; a task of a study whose plan it already holds; else a task of the study held by
+    the fewest workers (so each plan is built by as few workers as the load allows). The
+    parent mirrors each worker's plan cache (same size, same least-recently-used order).
+    """
+
+    def __init__(self, workers: int) -> None:
+        context = process_context()
+        self._slots: list[_Slot] = []
+        self._analyses: deque[Job] = deque()
+        self._pending: OrderedDict[str, deque[Job]] = OrderedDict()
+        for _ in range(workers):
+            parent_end, child_end = context.Pipe(duplex=True)
+            process = context.Process(target=_pool_worker, args=(child_end, os.getpid()), daemon=True,
+                                      name="nudge-worker")
+            process.start()
+            child_end.close()
+            self._slots.append(_Slot(process, parent_end))
+
+    @property
+    def pids(self) -> list[int]:
+        return [slot.process.pid for slot in self._slots]
+
+    def submit(self, job: Job) -> None:
+        if job.kind == "analysis":
+            self._analyses.append(job)
+        else:
+            self._pending.setdefault(job.affinity, deque()).append(job)
+
+    def _pick(self, slot: _Slot) -> Job | None:
+        if self._analyses:
+            return self._analyses.popleft()
+        for key in reversed(slot.holds):
+            if self._pending.get(key):
+                return self._take(slot, key)
+        candidates = [key for key, jobs in self._pending.items() if jobs]
+        if not candidates:
+            return None
+        holders = {key: sum(key in s.holds for s in self._slots) for key in candidates}
+        key = min(candidates, key=lambda k: (holders[k], -len(self._pending[k])))
+        return self._take(slot, key)
+
+    def _take(self, slot: _Slot, key: str) -> Job:
+        job = self._pending[key].popleft()
+        if not self._pending[key]:
+            del self._pending[key]
+        slot.holds[key] = None
+        slot.holds.move_to_end(key)
+        while len(slot.holds) > PLAN_CACHE_SIZE:
+            slot.holds.popitem(last=False)
+        return job
+
+    def _fill(self) -> None:
+        for slot in self._slots:
+            while len(slot.inflight) < POOL_DEPTH:
+                job = self._pick(slot)
+                if job is None:
+                    return
+                slot.conn.send(job)
+                slot.inflight[job.key] = job
+
+    def next_result(self) -> tuple[Job, Any]:
+        self._fill()
+        busy = {slot.conn: slot for slot in self._slots if slot.inflight}
+        if not busy:
+            raise RuntimeError("no job to wait for")
+        conn = wait(list(busy))[0]
+        slot = busy[conn]  # type: ignore[index]
+        try:
+            status, key, payload = slot.conn.recv()
+        except (EOFError, OSError):
+            slot.process.join(timeout=1)
+            raise WorkerError(f"worker {slot.process.pid} died (exit code {slot.process.exitcode}) while "
+                              f"running {', '.join(slot.inflight)}") from None
+        job = slot.inflight.pop(key)
+        if status != "ok":
+            raise WorkerError(f"task {key} failed in a worker:\n{payload}")
+        return job, payload
+
+    def close(self) -> None:
+        for slot in self._slots:
+            try:
+                slot.conn.send(None)
+            except (OSError, ValueError):
+                pass
+        deadline = time.monotonic() + 5
+        for slot in self._slots:
+            slot.process.join(timeout=max(0.0, deadline - time.monotonic()))
+            if slot.process.is_alive():
+                slot.process.terminate()
+                slot.process.join(timeout=1)
+            slot.conn.close()
+
+
+class DaskExecutor:
+    """A dask.distributed cluster: one plan task per layout key, then the participant tasks."""
+
+    def __init__(self, client: Any) -> None:
+        from dask.distributed import as_completed
+
+        self._client = client
+        self._plans: dict[str, Any] = {}
+        self._jobs: dict[str, Job] = {}
+        self._done = as_completed()
+
+    def submit(self, job: Job) -> None:
+        client = self._client
+        if job.kind == "participant":
+            config, seed = job.args[0], job.args[1]
+            plan = self._plans.get(job.affinity)
+            if plan is None:
+                plan = self._plans[job.affinity] = client.submit(build_plan, config, seed,
+                                                                 key=f"nudge-plan-{job.affinity}")
+            future = client.submit(run_participant_task, *job.args, plan, key=f"nudge-{job.key}")
+        else:
+            future = client.submit(analyse_replication, *job.args, key=f"nudge-{job.key}")
+        self._jobs[future.key] = job
+        self._done.add(future)
+
+    def next_result(self) -> tuple[Job, Any]:
+        future = next(self._done)
+        job = self._jobs.pop(future.key)
+        try:
+            result = future.result()
+        except Exception as exc:
+            raise WorkerError(f"task {job.key} failed on the cluster: {exc!r}") from exc
+        future.release()
+        return job, result
+
+    def close(self) -> None:
+        for future in self._plans.values():
+            future.release()
+        self._client.close()
+
+
+Executor = SerialExecutor | ProcessExecutor | DaskExecutor
+
+
+# --- progress ----------------------------------------------------------------------------------
+
+class Progress:
+    """Progress on a stream: tasks done, rate and ETA, one line every ``interval`` seconds.
+
+    On a terminal the line is rewritten in place (every 0.5 s); otherwise (a log, CI) a new line
+    is written at most every ``interval`` seconds, and always for the last task.
+    """
+
+    def __init__(self, label: str, stream: TextIO | None = None, interval: float = 5.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.label = label
+        self.stream = stream if stream is not None else sys.stderr
+        self.clock = clock
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.interval = 0.5 if self.tty else interval
+        self.start = clock()
+        self.first_done: int | None = None
+        self.last = -math.inf
+
+    def line(self, done: int, total: int) -> str:
+        """``label: done/total tasks (pct), rate tasks/s, ETA ...`` (the rate counts this session only)."""
+        if self.first_done is None:
+            self.first_done = done
+        elapsed = self.clock() - self.start
+        new = done - self.first_done
+        rate = new / elapsed if elapsed > 0 and new > 0 else 0.0
+        eta = _duration((total - done) / rate) if rate > 0 else "unknown"
+        pct = 100.0 * done / total if total else 100.0
+        return f"{self.label}: {done}/{total} tasks ({pct:.0f}%), {rate:.2f} tasks/s, ETA {eta}"
+
+    def __call__(self, done: int, total: int) -> None:
+        text = self.line(done, total)
+        now = self.clock()
+        if done < total and now - self.last < self.interval:
+            return
+        self.last = now
+        if self.tty:
+            self.stream.write("\r" + text + ("\n" if done >= total else ""))
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 60:
+        return f"{seconds:.0f} s"
+    if seconds < 3600:
+        return f"{seconds / 60:.1f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+# --- the run -----------------------------------------------------------------------------------
+
+def task_part(folder: Path, study: str, participant: int) -> Path:
+    """The part file of a participant task."""
+    return folder / "tasks" / study / f"part-{participant:04d}.parquet"
+
+
+def analysis_part(folder: Path, analysis: str) -> Path:
+    """The part file of an analysis."""
+    return folder / "analyses" / f"{analysis}.json"
+
+
+def _readable_parquet(path: Path) -> bool:
+    if not path.is_file():
+        return False
+    try:
+        pq.ParquetFile(path)
+    except Exception:  # pyarrow raises several types for broken files
+        return False
+    return True
+
+
+def _readable_json(path: Path) -> bool:
+    if not path.is_file():
+        return False
+    try:
+        import json
+
+        json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return True
+
+
+def read_study_metrics(folder: Path, study: str, participants: int) -> pd.DataFrame:
+    """The per-trial metrics of a study's first ``participants``, in participant order."""
+    frames = [pd.read_parquet(task_part(folder, study, i)) for i in range(participants)]
+    return pd.concat(frames, ignore_index=True)
+
+
+def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool) -> str:
+    """Make ``folder`` ready for the batch; ``"new"`` or ``"resume"`` (same description required)."""
+    import json
+    import shutil
+
+    manifest = folder / BATCH_MANIFEST
+    if manifest.is_file():
+        try:
+            old = json.loads(manifest.read_text(encoding="utf-8"))
+        except ValueError as exc:
+            raise RunFolderError(f"{manifest}: unreadable ({exc}); use --force to start again") from None
+        if resume and not force:
+            if old.get("batch") != json.loads(json.dumps(description)):
+                raise RunFolderError(f"{folder}: holds a different batch (experiment, design, seed, "
+                                     "replications or plan); resume it with the same settings, or use --force")
+            return "resume"
+        if not force:
+            raise RunFolderError(f"{folder}: already holds a batch ({old.get('batch', {}).get('kind')}, "
+                                 f"{old.get('status')}); use --resume to finish it, --force to replace it, "
+                                 "or choose another --out")
+        for name in ("tasks", "analyses", "figures"):
+            shutil.rmtree(folder / name, ignore_errors=True)
+        manifest.unlink()
+    elif folder.exists() and any(folder.iterdir()):
+        if not force:
+            raise RunFolderError(f"{folder}: exists and is not empty; choose another --out or use --force")
+    elif resume:
+        raise RunFolderError(f"{folder}: nothing to resume (no batch there); drop --resume")
+    folder.mkdir(parents=True, exist_ok=True)
+    return "new"
+
+
+@dataclass
+class BatchRun:
+    """What :func:`run_batch` did: the folder, the graph, the analyses' stats documents."""
+
+    path: Path
+    mode: str
+    graph: Graph
+    estimate: SizeEstimate
+    stats: dict[str, dict[str, Any]]
+    computed: int
+
+
+def make_executor(workers: int, client: Any) -> Executor:
+    """The executor for ``--workers``/``--scheduler`` (a connected dask client wins)."""
+    if client is not None:
+        return DaskExecutor(client)
+    if workers > 1:
+        return ProcessExecutor(workers)
+    return SerialExecutor()
+
+
+def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | None = None,
+              resume: bool = False, force: bool = False, confirm: bool = False,
+              progress: Callable[[int, int], None] | None = None,
+              log: Callable[[str], None] | None = None) -> BatchRun:
+    """Run every task of the batch into the folder ``out``.
+
+    Parameters
+    ----------
+    batch
+        Points, replications, seed and plan.
+    out
+        The batch folder (``batch.json``, ``tasks/``, ``analyses/``).
+    workers
+        Local worker processes (1: in this process).
+    scheduler
+        A dask.distributed scheduler address; overrides ``workers``. Checked before the folder
+        is created.
+    resume, force
+        Finish the batch already in ``out`` / replace it.
+    confirm
+        Run a batch above :data:`MAX_TRIALS_WITHOUT_YES` trials (``--yes``).
+    progress
+        Called with (tasks done, tasks in all) after every task.
+    log
+        Called with lines for the user (the size estimate).
+
+    Returns
+    -------
+    BatchRun
+
+    Raises
+    ------
+    ConfigError
+        Bad workers, an unreachable scheduler, or a batch too large without ``confirm``.
+    RunFolderError
+        ``out`` holds something else (see :func:`prepare_folder`).
+    """
+    if workers < 1:
+        raise ConfigError(f"--workers must be at least 1, got {workers}")
+    for point in batch.points:
+        check_physiology_logs(point.config)
+    graph = build_graph(batch)
+    size = estimate(graph, workers)
+    if log is not None:
+        log(f"batch: {size.describe()}")
+    if size.trials > MAX_TRIALS_WITHOUT_YES and not confirm:
+        raise ConfigError(f"this batch simulates {size.trials:,} trials (more than "
+                          f"{MAX_TRIALS_WITHOUT_YES:,}; {size.describe()}); pass --yes to run it, or use "
+                          "fewer replications, participants or design points")
+    client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
+    folder = Path(out)
+    try:
+        mode = prepare_folder(folder, batch.describe(), resume=resume, force=force)
+    except BaseException:
+        if client is not None:
+            client.close()
+        raise
+    manifest: dict[str, Any] = {
+        "batch": batch.describe(),
+        "status": "running",
+        "executor": "dask" if client is not None else ("serial" if workers == 1 else f"processes:{workers}"),
+        "versions": library_versions(),
+        "created": utc_now(),
+        "studies": len(graph.studies),
+        "participant_tasks": graph.participant_tasks,
+        "analyses": len(graph.analyses),
+        "trials": graph.trials,
+    }
+    write_json_atomic(folder / BATCH_MANIFEST, manifest)
+    started = time.perf_counter()
+    computed = _run_graph(batch, graph, folder, make_executor(workers, client), progress)
+    stats = {key: _read_json(analysis_part(folder, key)) for key in sorted(graph.analyses)}
+    manifest.update({"status": "complete", "finished": utc_now(),
+                     "wall_s": round(time.perf_counter() - started, 3)})
+    write_json_atomic(folder / BATCH_MANIFEST, manifest)
+    return BatchRun(folder, mode, graph, size, stats, computed)
+
+
+def _read_json(path: Path) -> dict[str, Any]:
+    import json
+
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
+               progress: Callable[[int, int], None] | None) -> int:
+    """Submit every unfinished task, write each result as it comes; returns the tasks computed."""
+    remaining: dict[str, set[int]] = {}
+    for study in graph.studies.values():
+        remaining[study.key] = {i for i in range(study.participants)
+                                if not _readable_parquet(task_part(folder, study.key, i))}
+    waiting = [a for a in graph.analyses.values() if not _readable_json(analysis_part(folder, a.key))]
+    total = graph.participant_tasks + len(graph.analyses)
+    done = total - sum(len(v) for v in remaining.values()) - len(waiting)
+    metrics = list(batch.plan.metrics.include)
+    in_flight = 0
+
+    def ready(analysis: Analysis) -> bool:
+        return not any(i < analysis.participants for i in remaining[analysis.study])
+
+    def submit_ready() -> int:
+        nonlocal waiting
+        submitted = [a for a in waiting if ready(a)]
+        waiting = [a for a in waiting if not ready(a)]
+        for analysis in submitted:
+            data = read_study_metrics(folder, analysis.study, analysis.participants)
+            executor.submit(Job(analysis.key, "analysis", analysis.study, (data, batch.plan, metrics)))
+        return len(submitted)
+
+    try:
+        for study in graph.studies.values():
+            for i in sorted(remaining[study.key]):
+                executor.submit(Job(f"{study.key}-p{i:04d}", "participant", study.layouts,
+                                    (study.config, study.seed, i, batch.plan)))
+                in_flight += 1
+        in_flight += submit_ready()
+        if progress:
+            progress(done, total)
+        computed = 0
+        while in_flight:
+            job, result = executor.next_result()
+            in_flight -= 1
+            if job.kind == "participant":
+                study_name, index = job.key.rsplit("-p", 1)
+                write_parquet_atomic(task_part(folder, study_name, int(index)), result)
+                remaining[study_name].discard(int(index))
+                in_flight += submit_ready()
+            else:
+                write_json_atomic(analysis_part(folder, job.key), result)
+            done += 1
+            computed += 1
+            if progress:
+                progress(done, total)
+    finally:
+        executor.close()
+    return computed
+
+
+def point_table(batch: Batch) -> pd.DataFrame:
+    """One row per point: ``point`` and its swept parameters (values as they were given)."""
+    return pd.DataFrame([{"point": p.index, **p.parameters} for p in batch.points])
+
+
+def parameter_names(batch: Batch) -> list[str]:
+    """The swept parameters, in the design's order."""
+    names: list[str] = []
+    for point in batch.points:
+        names += [n for n in point.parameters if n not in names]
+    return names
+
+
+def single_point(config: ExperimentConfig, participants: Sequence[int]) -> tuple[Point, ...]:
+    """The one design point of ``replicate`` and ``power``."""
+    return (Point(index=0, parameters={}, config=config, participants=tuple(participants)),)
+
+
+def iter_entries(run: BatchRun) -> Iterator[tuple[dict[str, Any], dict[str, Any]]]:
+    """Each (point, replication, participant count) entry with its analysis' stats document."""
+    for row in run.graph.entries.to_dict("records"):
+        yield row, run.stats[row["analysis"]]
+
+
+# --- the commands: replicate, power, sweep ----------------------------------------------------
+
+@dataclass
+class BatchResult:
+    """What a command computed and wrote.
+
+    Attributes
+    ----------
+    run
+        The batch run.
+    rows
+        One row per replication, metric and pair of conditions (``replications.csv``).
+    summary
+        The command's main table (printed by the CLI).
+    tables
+        Every table written, by file stem.
+    files
+        Every file written.
+    """
+
+    run: BatchRun
+    rows: pd.DataFrame
+    summary: pd.DataFrame
+    tables: dict[str, pd.DataFrame]
+    files: list[Path]
+
+
+def _write_tables(folder: Path, tables: dict[str, pd.DataFrame]) -> list[Path]:
+    from nudgecli.store import write_text_atomic
+
+    written = []
+    for stem, table in tables.items():
+        path = folder / f"{stem}.csv"
+        write_text_atomic(path, table.to_csv(index=False))
+        written.append(path)
+    return written
+
+
+def _figures(folder: Path, figures: dict[str, Any]) -> list[Path]:
+    from nudgecli.report.replication import save
+
+    written: list[Path] = []
+    for stem, fig in figures.items():
+        written += save(fig, folder / "figures", stem)
+    return written
+
+
+def _load(experiment: str, overrides: Sequence[str], participants: int | None) -> ExperimentConfig:
+    from nudgecli.config import load_experiment
+
+    config = load_experiment(experiment, tuple(overrides))
+    if participants is not None:
+        if participants < 1:
+            raise ConfigError(f"--participants must be at least 1, got {participants}")
+        config = config.model_copy(update={"study": config.study.model_copy(update={"participants": participants})})
+    return config
+
+
+def _check(replications: int, seed: int | None) -> None:
+    if replications < 1:
+        raise ConfigError(f"--replications must be at least 1, got {replications}")
+    if seed is not None and seed < 0:
+        raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
+
+
+def replicate(experiment: str, replications: int, out: str | Path, *, seed: int | None = None,
+              plan: str | AnalysisPlan = "paper", participants: int | None = None,
+              overrides: Sequence[str] = (), **options: Any) -> BatchResult:
+    """``nudge replicate``: R independent studies of one experiment, each analysed with the plan.
+
+    Writes ``replications.csv`` (per replication), ``conditions.csv`` (tidy medians per
+    condition), ``summary.csv`` (per metric: significance rates, median p, pooled effects) and
+    ``figures/forest.png``. ``options`` go to :func:`run_batch`.
+    """
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.replication import condition_values, forest_figure, replication_rows, summarise
+
+    _check(replications, seed)
+    config = _load(experiment, overrides, participants)
+    chosen = load_plan(plan)
+    batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
+                  config.experiment.seed if seed is None else seed, chosen,
+                  {"experiment": config.experiment.name})
+    run = run_batch(batch, out, **options)
+    rows = replication_rows(run.graph.entries, run.stats, chosen)
+    summary = summarise(rows).drop(columns=["point"])
+    tables = {"replications": rows.drop(columns=["point"]),
+              "conditions": condition_values(run.graph.entries, run.stats).drop(columns=["point"]),
+              "summary": summary}
+    files = _write_tables(run.path, tables) + _figures(run.path, {"forest": forest_figure(rows, summarise(rows))})
+    return BatchResult(run, rows, summary, tables, files)
+
+
+def power(experiment: str, participant_counts: Sequence[int], replications: int, out: str | Path, *,
+          seed: int | None = None, plan: str | AnalysisPlan = "paper", overrides: Sequence[str] = (),
+          target: float = 0.8, **options: Any) -> BatchResult:
+    """``nudge power``: the power curve of every metric over participant counts.
+
+    Replication ``r`` simulates its largest study once; each count ``n`` analyses its first
+    ``n`` participants. Writes ``power.csv`` (per count, metric and level of test, with the
+    Clopper-Pearson interval), ``smallest_n.csv``, ``replications.csv`` and ``figures/power.png``.
+    """
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.replication import power_figure, power_table, replication_rows, smallest_n
+
+    _check(replications, seed)
+    counts = sorted(set(int(n) for n in participant_counts))
+    if not counts or counts[0] < 2:
+        raise ConfigError("--participants: give counts of at least 2, e.g. --participants 6,9,12,18,24")
+    if not 0 < target < 1:
+        raise ConfigError(f"--target must be between 0 and 1, got {target}")
+    config = _load(experiment, overrides, None)
+    chosen = load_plan(plan)
+    batch = Batch("power", single_point(config, counts), replications,
+                  config.experiment.seed if seed is None else seed, chosen, {"experiment": config.experiment.name})
+    run = run_batch(batch, out, **options)
+    rows = replication_rows(run.graph.entries, run.stats, chosen)
+    curves = power_table(rows)
+    smallest = smallest_n(curves, target)
+    tables = {"power": curves, "smallest_n": smallest, "replications": rows.drop(columns=["point"])}
+    files = _write_tables(run.path, tables) + _figures(run.path, {"power": power_figure(curves, target)})
+    return BatchResult(run, rows, curves, tables, files)
+
+
+def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, seed: int | None = None,
+          **options: Any) -> BatchResult:
+    """``nudge sweep``: every design point of a sweep file, R replications each with common seeds.
+
+    Writes ``sweep.csv`` (tidy: ``point, replication, seed, <parameters...>, condition, metric,
+    value``), ``replications.csv``, ``points.csv`` (per point and metric: the summary of
+    :func:`nudgecli.report.replication.summarise` with the parameters), for Sobol and Morris
+    designs ``sensitivity.csv``, and the figures ``figures/sweep.png`` (and ``sensitivity.png``).
+    """
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.replication import (
+        condition_values,
+        point_outputs,
+        replication_rows,
+        sensitivity,
+        sensitivity_figure,
+        summarise,
+        sweep_figure,
+    )
+    from nudgecli.sim.sweep import load_sweep
+
+    loaded = load_sweep(sweep_file)
+    spec = loaded.spec
+    count = spec.replications if replications is None else replications
+    _check(count, seed)
+    chosen = load_plan(spec.plan)
+    points = tuple(Point(p.index, p.parameters, p.config, (p.config.study.participants,)) for p in loaded.points)
+    batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen,
+                  {"design": spec.design.model_dump(mode="json"), "experiment": spec.experiment})
+    run = run_batch(batch, out, **options)
+    names = parameter_names(batch)
+    table = point_table(batch).astype(object)
+    for name in names:
+        table[name] = table[name].map(lambda v: v if isinstance(v, int | float | str | bool) else str(v))
+    rows = replication_rows(run.graph.entries, run.stats, chosen, table)
+    summary = summarise(rows).merge(table, on="point", how="left")
+    tidy = condition_values(run.graph.entries, run.stats, table)
+    tables = {"sweep": tidy, "replications": rows, "points": summary}
+    figures: dict[str, Any] = {"sweep": sweep_figure(rows, names)}
+    if loaded.problem is not None and loaded.samples is not None:
+        indices = sensitivity(spec.design.method, loaded.problem, loaded.samples, point_outputs(rows),
+                              levels=spec.design.levels, seed=spec.design.seed)
+        tables["sensitivity"] = indices
+        if not indices.empty:
+            figures["sensitivity"] = sensitivity_figure(indices)
+    files = _write_tables(run.path, tables) + _figures(run.path, figures)
+    return BatchResult(run, rows, tables.get("sensitivity", summary), tables, files)
