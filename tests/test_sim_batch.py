@@ -74,8 +74,10 @@ def test_layout_key_ignores_settings_that_do_not_touch_layouts():
     epsilon = load_experiment("smoke", ["model.epsilon=0.2"])
     goals = load_experiment("smoke", ["study.goal_counts=[5]"])
     assert layout_key(config, 1) == layout_key(kappa, 1)
-    assert len({layout_key(config, 1), layout_key(epsilon, 1), layout_key(goals, 1), layout_key(config, 2)}) == 4
-    assert replication_seed(9, 0) != replication_seed(9, 1) and replication_seed(9, 0) == replication_seed(9, 0)
+    keys = {layout_key(config, 1), layout_key(epsilon, 1), layout_key(goals, 1), layout_key(config, 2)}
+    assert len(keys) == 4
+    assert replication_seed(9, 0) != replication_seed(9, 1)
+    assert replication_seed(9, 0) == replication_seed(9, 0)
 
 
 # --- power ------------------------------------------------------------------------------------
@@ -134,7 +136,8 @@ def test_power_rises_with_n_and_matches_the_analytic_power_of_the_test():
     expected = {n: analytic_power(n, q) for n in counts}
     assert expected[6] == pytest.approx(q ** 6)  # n = 6: only all six positive reach p = 2/64 < .05
     for n in counts:
-        assert level.loc[n, "low"] <= expected[n] <= level.loc[n, "high"], (n, expected[n], level.loc[n].to_dict())
+        low, high = level.loc[n, "low"], level.loc[n, "high"]
+        assert low <= expected[n] <= high, (n, expected[n], low, high)
     assert level.loc[6, "power"] < level.loc[9, "power"] < level.loc[14, "power"]
     first = smallest_n(curve, target=0.6).set_index("level").loc["participant", "participants"]
     assert first == min(n for n in counts if level.loc[n, "power"] >= 0.6)
@@ -167,7 +170,7 @@ def test_sobol_indices_of_the_ishigami_function_through_the_sweep_machinery():
     outputs = pd.DataFrame({"point": np.arange(len(y)), "metric": "ishigami", "y": y})
     indices = sensitivity("sobol", problem, samples, outputs, seed=1).set_index(["parameter", "index"])
     for (name, index), value in analytic.items():
-        got, conf = indices.loc[(f"ishigami.{name}", index), "value"], indices.loc[(f"ishigami.{name}", index), "conf"]
+        got, conf = indices.loc[(f"ishigami.{name}", index), ["value", "conf"]]
         assert abs(got - value) <= max(2 * conf, 0.02), (name, index, got, conf, value)
 
 
@@ -195,9 +198,8 @@ def test_a_grid_sweep_file_gives_every_combination(tmp_path):
     path = tmp_path / "grid.toml"
     path.write_text(SWEEP + '"disambiguation.window" = [3, 5]\n')
     sweep = load_sweep(str(path))
-    assert [p.parameters for p in sweep.points] == [
-        {"inference.kappa": 0.6, "disambiguation.window": 3}, {"inference.kappa": 0.6, "disambiguation.window": 5},
-        {"inference.kappa": 0.7, "disambiguation.window": 3}, {"inference.kappa": 0.7, "disambiguation.window": 5}]
+    values = [(p.parameters["inference.kappa"], p.parameters["disambiguation.window"]) for p in sweep.points]
+    assert values == [(0.6, 3), (0.6, 5), (0.7, 3), (0.7, 5)]
     assert sweep.points[3].config.disambiguation.window == 5 and sweep.points[3].config.inference.kappa == 0.7
 
 
@@ -319,8 +321,8 @@ def _alive(pid: int) -> bool:
 ])
 def test_workers_exit_when_their_parent_is_killed(tmp_path, command):
     out = tmp_path / "run"
-    proc = subprocess.Popen([sys.executable, "-m", "nudgecli.cli", *command, "--workers", "2", "--out", str(out)],
-                            env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    args = [sys.executable, "-m", "nudgecli.cli", *command, "--workers", "2", "--out", str(out)]
+    proc = subprocess.Popen(args, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     deadline = time.monotonic() + 60
     workers: list[int] = []
     while time.monotonic() < deadline and len(workers) < 2:
@@ -376,6 +378,7 @@ def test_conover_of_two_conditions_is_adjusted_as_statsmodels_adjusts_one_test(m
     from nudgecli.report.stats import conover
 
     rng = np.random.default_rng(4)
-    data = pd.DataFrame({"condition": np.repeat(["a", "b"], 12), "value": rng.normal(size=24) + np.repeat([0, 1], 12)})
+    values = rng.normal(size=24) + np.repeat([0, 1], 12)
+    data = pd.DataFrame({"condition": np.repeat(["a", "b"], 12), "value": values})
     row = conover(data, "value", ["a", "b"], p_adjust=method).iloc[0]
     assert row["p"] == pytest.approx(multipletests([row["p_unadjusted"]], method=method)[1][0], rel=1e-12)

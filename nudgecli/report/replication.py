@@ -312,7 +312,7 @@ def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outpu
             from SALib.analyze import sobol
 
             result = sobol.analyze(problem, y, calc_second_order=False, conf_level=0.95, seed=seed)
-            indices = {"S1": ("S1", "S1_conf"), "ST": ("ST", "ST_conf")}
+            indices: dict[str, tuple[str, str | None]] = {"S1": ("S1", "S1_conf"), "ST": ("ST", "ST_conf")}
         else:
             from SALib.analyze import morris
 
@@ -422,7 +422,8 @@ def sensitivity_figure(indices: pd.DataFrame) -> Figure:
     metrics = list(dict.fromkeys(indices["metric"]))
     fig, axes = _grid(len(metrics))
     for ax, metric in zip(axes, metrics, strict=True):
-        group = indices[(indices["metric"] == metric) & indices["index"].isin(["S1", "ST", "mu_star", "sigma"])]
+        shown = indices["index"].isin(["S1", "ST", "mu_star", "sigma"])
+        group = indices[(indices["metric"] == metric) & shown]
         names = list(dict.fromkeys(group["parameter"]))
         kinds = list(dict.fromkeys(group["index"]))
         width = 0.8 / max(1, len(kinds))

@@ -25,6 +25,7 @@ assembled from the parts are the same for any executor and number of workers.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import math
@@ -260,8 +261,8 @@ def estimate(graph: Graph, workers: int) -> SizeEstimate:
     trials = graph.trials
     seconds = (trials * SECONDS_PER_TRIAL + len(graph.analyses) * SECONDS_PER_ANALYSIS) / max(1, workers)
     size = trials * BYTES_PER_TRIAL + len(graph.analyses) * BYTES_PER_ANALYSIS
-    return SizeEstimate(len(graph.studies), graph.participant_tasks, len(graph.analyses), trials, seconds, size,
-                        workers)
+    return SizeEstimate(len(graph.studies), graph.participant_tasks, len(graph.analyses), trials, seconds,
+                        size, workers)
 
 
 # --- tasks (run in a worker) -------------------------------------------------------------------
@@ -354,6 +355,15 @@ class SerialExecutor:
         self._queue.clear()
 
 
+def _peak_rss_kib() -> float | None:
+    """This process's peak resident memory in KiB (Linux ``ru_maxrss``), or None where unknown."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - Windows
+        return None
+    return float(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+
+
 def _pool_worker(conn: Connection, parent_pid: int) -> None:
     """A pool worker: receive jobs, send back ``(status, key, result)``; exit with the parent."""
     die_with_parent(parent_pid)
@@ -364,6 +374,7 @@ def _pool_worker(conn: Connection, parent_pid: int) -> None:
         except (EOFError, OSError):
             return
         if job is None:
+            conn.send(("bye", "", _peak_rss_kib()))
             return
         try:
             result = execute(job)
@@ -391,10 +402,12 @@ class ProcessExecutor:
     """
 
     def __init__(self, workers: int) -> None:
-        context = process_context()
+        context: Any = process_context()  # typeshed's BaseContext lacks Process
         self._slots: list[_Slot] = []
         self._analyses: deque[Job] = deque()
         self._pending: OrderedDict[str, deque[Job]] = OrderedDict()
+        #: The largest worker's peak resident memory in MB, known after :meth:`close`.
+        self.peak_rss_mb: float | None = None
         for _ in range(workers):
             parent_end, child_end = context.Pipe(duplex=True)
             process = context.Process(target=_pool_worker, args=(child_end, os.getpid()), daemon=True,
@@ -465,17 +478,30 @@ class ProcessExecutor:
 
     def close(self) -> None:
         for slot in self._slots:
-            try:
+            with contextlib.suppress(OSError, ValueError):
                 slot.conn.send(None)
-            except (OSError, ValueError):
-                pass
         deadline = time.monotonic() + 5
+        for slot in self._slots:
+            self._farewell(slot, deadline)
         for slot in self._slots:
             slot.process.join(timeout=max(0.0, deadline - time.monotonic()))
             if slot.process.is_alive():
                 slot.process.terminate()
                 slot.process.join(timeout=1)
             slot.conn.close()
+
+
+    def _farewell(self, slot: _Slot, deadline: float) -> None:
+        """Read a closing worker's last messages up to its farewell, which carries its peak memory."""
+        try:
+            while slot.conn.poll(max(0.0, deadline - time.monotonic())):
+                status, _, payload = slot.conn.recv()
+                if status == "bye":
+                    if payload is not None:
+                        self.peak_rss_mb = max(self.peak_rss_mb or 0.0, payload / 1024.0)
+                    return
+        except (EOFError, OSError):
+            return
 
 
 class DaskExecutor:
@@ -628,7 +654,8 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
         if resume and not force:
             if old.get("batch") != json.loads(json.dumps(description)):
                 raise RunFolderError(f"{folder}: holds a different batch (experiment, design, seed, "
-                                     "replications or plan); resume it with the same settings, or use --force")
+                                     "replications or plan); resume it with the same settings, or use "
+                                     "--force")
             return "resume"
         if not force:
             raise RunFolderError(f"{folder}: already holds a batch ({old.get('batch', {}).get('kind')}, "
@@ -656,6 +683,7 @@ class BatchRun:
     estimate: SizeEstimate
     stats: dict[str, dict[str, Any]]
     computed: int
+    worker_peak_mb: float | None = None
 
 
 def make_executor(workers: int, client: Any) -> Executor:
@@ -737,12 +765,15 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     }
     write_json_atomic(folder / BATCH_MANIFEST, manifest)
     started = time.perf_counter()
-    computed = _run_graph(batch, graph, folder, make_executor(workers, client), progress)
+    executor = make_executor(workers, client)
+    computed = _run_graph(batch, graph, folder, executor, progress)
     stats = {key: _read_json(analysis_part(folder, key)) for key in sorted(graph.analyses)}
+    peak = getattr(executor, "peak_rss_mb", None)
     manifest.update({"status": "complete", "finished": utc_now(),
-                     "wall_s": round(time.perf_counter() - started, 3)})
+                     "wall_s": round(time.perf_counter() - started, 3),
+                     "worker_peak_rss_mb": None if peak is None else round(peak, 1)})
     write_json_atomic(folder / BATCH_MANIFEST, manifest)
-    return BatchRun(folder, mode, graph, size, stats, computed)
+    return BatchRun(folder, mode, graph, size, stats, computed, peak)
 
 
 def _read_json(path: Path) -> dict[str, Any]:
@@ -883,7 +914,8 @@ def _load(experiment: str, overrides: Sequence[str], participants: int | None) -
     if participants is not None:
         if participants < 1:
             raise ConfigError(f"--participants must be at least 1, got {participants}")
-        config = config.model_copy(update={"study": config.study.model_copy(update={"participants": participants})})
+        study = config.study.model_copy(update={"participants": participants})
+        config = config.model_copy(update={"study": study})
     return config
 
 
@@ -918,7 +950,8 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     tables = {"replications": rows.drop(columns=["point"]),
               "conditions": condition_values(run.graph.entries, run.stats).drop(columns=["point"]),
               "summary": summary}
-    files = _write_tables(run.path, tables) + _figures(run.path, {"forest": forest_figure(rows, summarise(rows))})
+    figures = {"forest": forest_figure(rows, summarise(rows))}
+    files = _write_tables(run.path, tables) + _figures(run.path, figures)
     return BatchResult(run, rows, summary, tables, files)
 
 
@@ -943,7 +976,8 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     config = _load(experiment, overrides, None)
     chosen = load_plan(plan)
     batch = Batch("power", single_point(config, counts), replications,
-                  config.experiment.seed if seed is None else seed, chosen, {"experiment": config.experiment.name})
+                  config.experiment.seed if seed is None else seed, chosen,
+                  {"experiment": config.experiment.name})
     run = run_batch(batch, out, **options)
     rows = replication_rows(run.graph.entries, run.stats, chosen)
     curves = power_table(rows)
@@ -979,7 +1013,8 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     count = spec.replications if replications is None else replications
     _check(count, seed)
     chosen = load_plan(spec.plan)
-    points = tuple(Point(p.index, p.parameters, p.config, (p.config.study.participants,)) for p in loaded.points)
+    points = tuple(Point(p.index, p.parameters, p.config, (p.config.study.participants,))
+                   for p in loaded.points)
     batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen,
                   {"design": spec.design.model_dump(mode="json"), "experiment": spec.experiment})
     run = run_batch(batch, out, **options)

@@ -211,16 +211,19 @@ def salib_problem(spec: SweepFile) -> dict[str, Any]:
     """SALib's problem: one variable per parameter, a range's bounds or ``[0, k]`` for k values."""
     bounds = []
     for value in spec.parameters.values():
-        bounds.append([value.low, value.high] if isinstance(value, Range) else [0.0, float(len(value.values))])
+        if isinstance(value, Range):
+            bounds.append([value.low, value.high])
+        else:
+            bounds.append([0.0, float(len(value.values))])
     return {"num_vars": len(spec.parameters), "names": list(spec.parameters), "bounds": bounds}
 
 
 def map_sample(value: Range | Values, x: float) -> Any:
     """The parameter value of the design coordinate ``x`` (in the problem's units)."""
     if isinstance(value, Values):
-        return value.values[min(int(math.floor(x)), len(value.values) - 1)]
+        return value.values[min(math.floor(x), len(value.values) - 1)]
     if value.integer:
-        return int(min(math.floor(x), math.floor(value.high)))
+        return min(math.floor(x), math.floor(value.high))
     return float(x)
 
 
