@@ -253,12 +253,12 @@ def test_a_sweep_killed_with_sigkill_and_resumed_equals_an_uninterrupted_one(tmp
 # --- the run: size, progress, refusals --------------------------------------------------------
 
 def test_a_batch_above_the_size_limit_is_refused_without_yes(tmp_path, monkeypatch):
-    monkeypatch.setattr(batch_module, "MAX_TRIALS_WITHOUT_YES", 40)
+    monkeypatch.setattr(batch_module, "MAX_TRIALS_WITHOUT_YES", 10)
     out = tmp_path / "big"
-    refused = CliRunner().invoke(main, ["replicate", "smoke", "-R", "3", "--out", str(out)])
-    assert refused.exit_code == 1 and "48 trials" in refused.output and "--yes" in refused.output
+    refused = CliRunner().invoke(main, ["replicate", "smoke", "-R", "1", "--out", str(out)])
+    assert refused.exit_code == 1 and "16 trials" in refused.output and "--yes" in refused.output
     assert not out.exists()
-    accepted = CliRunner().invoke(main, ["replicate", "smoke", "-R", "3", "--out", str(out), "--yes",
+    accepted = CliRunner().invoke(main, ["replicate", "smoke", "-R", "1", "--out", str(out), "--yes",
                                          "--format", "csv"])
     assert accepted.exit_code == 0, accepted.output
     assert "participant_a_higher" in accepted.stdout
@@ -382,3 +382,15 @@ def test_conover_of_two_conditions_is_adjusted_as_statsmodels_adjusts_one_test(m
     data = pd.DataFrame({"condition": np.repeat(["a", "b"], 12), "value": values})
     row = conover(data, "value", ["a", "b"], p_adjust=method).iloc[0]
     assert row["p"] == pytest.approx(multipletests([row["p_unadjusted"]], method=method)[1][0], rel=1e-12)
+
+
+def test_bench_scale_figures_cover_every_core_count_and_dask():
+    from nudgecli.bench import BenchOptions, scale_figure, select_figures
+
+    names = [f.__name__ for f in select_figures("scale")]
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    for workload in ("study", "sweep"):
+        assert [n for n in names if n.startswith(f"figure_scale_{workload}_")] == [
+            *(f"figure_scale_{workload}_{w}" for w in range(1, cores + 1)), f"figure_scale_{workload}_dask"]
+    row = scale_figure("sweep", 1)(BenchOptions(scale_studies=2))
+    assert row["ratio"] == 1.0 and row["time_s"] > 0 and "2 smoke studies" in row["what"]

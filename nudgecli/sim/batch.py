@@ -35,7 +35,7 @@ import sys
 import time
 import traceback
 from collections import OrderedDict, deque
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from pathlib import Path
@@ -62,16 +62,18 @@ from nudgecli.sim.study import (
 from nudgecli.store import library_versions, utc_now, write_json_atomic, write_parquet_atomic
 
 BATCH_MANIFEST = "batch.json"
-#: Participant tasks and analyses above which a batch needs ``--yes`` (``confirm=True``).
+#: Simulated trials above which a batch needs ``--yes`` (``confirm=True``).
 MAX_TRIALS_WITHOUT_YES = 200_000
 #: Wall seconds per simulated trial on one core (``nudge bench``: one participant of ``paper``,
 #: 48 trials in about 0.4-0.7 s on the 2-core development machine) -- for the size estimate only.
 SECONDS_PER_TRIAL = 0.012
-#: Wall seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study).
-SECONDS_PER_ANALYSIS = 0.8
-#: Bytes on disk per trial (a metrics row in a part file) and per analysis (its JSON document).
-BYTES_PER_TRIAL = 120
-BYTES_PER_ANALYSIS = 16_000
+#: Wall seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.4 s).
+SECONDS_PER_ANALYSIS = 0.4
+#: Bytes on disk: a participant task's part file (about 7 KB of Parquet overhead and 60 bytes per
+#: trial, measured on ``smoke``) and an analysis (its JSON document, about 14 KB).
+BYTES_PER_TASK = 7_000
+BYTES_PER_TRIAL = 60
+BYTES_PER_ANALYSIS = 14_000
 #: Study plans (layouts + solved MDPs, about 20 MB at the paper's 48 layouts) a worker keeps.
 PLAN_CACHE_SIZE = 4
 #: Jobs each pool worker holds at once (one running, one queued), so it never waits for the parent.
@@ -260,7 +262,8 @@ def estimate(graph: Graph, workers: int) -> SizeEstimate:
     """The size of the batch and its estimated wall time on ``workers`` and disk use."""
     trials = graph.trials
     seconds = (trials * SECONDS_PER_TRIAL + len(graph.analyses) * SECONDS_PER_ANALYSIS) / max(1, workers)
-    size = trials * BYTES_PER_TRIAL + len(graph.analyses) * BYTES_PER_ANALYSIS
+    size = (graph.participant_tasks * BYTES_PER_TASK + trials * BYTES_PER_TRIAL
+            + len(graph.analyses) * BYTES_PER_ANALYSIS)
     return SizeEstimate(len(graph.studies), graph.participant_tasks, len(graph.analyses), trials, seconds,
                         size, workers)
 
@@ -853,11 +856,6 @@ def single_point(config: ExperimentConfig, participants: Sequence[int]) -> tuple
     """The one design point of ``replicate`` and ``power``."""
     return (Point(index=0, parameters={}, config=config, participants=tuple(participants)),)
 
-
-def iter_entries(run: BatchRun) -> Iterator[tuple[dict[str, Any], dict[str, Any]]]:
-    """Each (point, replication, participant count) entry with its analysis' stats document."""
-    for row in run.graph.entries.to_dict("records"):
-        yield row, run.stats[row["analysis"]]
 
 
 # --- the commands: replicate, power, sweep ----------------------------------------------------
