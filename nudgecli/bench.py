@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -390,6 +391,18 @@ def _scale_batch(workload: str, options: BenchOptions) -> Any:
 
 
 _SCALE_PEAKS: dict[tuple[str, int], float | None] = {}
+#: (CPU seconds of this process, CPU seconds of the finished workers) of each timed run.
+_SCALE_CPU: dict[tuple[str, int], tuple[float, float]] = {}
+
+
+def _children_cpu_s() -> float:
+    """CPU seconds of this process's reaped children (0 where unknown)."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - Windows
+        return 0.0
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def _time_batch(workload: str, options: BenchOptions, workers: int = 1,
@@ -400,10 +413,12 @@ def _time_batch(workload: str, options: BenchOptions, workers: int = 1,
     batch = _scale_batch(workload, options)
     folder = Path(tempfile.mkdtemp(prefix="nudge-bench-scale-"))
     try:
-        start = time.perf_counter()
+        children = _children_cpu_s()
+        start, own = time.perf_counter(), time.process_time()
         run = run_batch(batch, folder / "batch", workers=workers, scheduler=scheduler, confirm=True)
         elapsed = time.perf_counter() - start
         _SCALE_PEAKS[(workload, workers)] = run.worker_peak_mb
+        _SCALE_CPU[(workload, workers)] = (time.process_time() - own, _children_cpu_s() - children)
         return elapsed
     finally:
         shutil.rmtree(folder, ignore_errors=True)
@@ -433,6 +448,9 @@ def scale_figure(workload: str, workers: int) -> Figure:
         efficiency = serial / (workers * elapsed)
         karp_flatt = (1 / (serial / elapsed) - 1 / workers) / (1 - 1 / workers) if workers > 1 else 0.0
         target = SCALE_EFFICIENCY_TARGET[workload]
+        parent_cpu, worker_cpu = _SCALE_CPU.get((workload, workers), (math.nan, math.nan))
+        cpu = (f"; CPU: this process {parent_cpu:.2f} s, workers {worker_cpu:.2f} s (serial share "
+               f"{parent_cpu / (parent_cpu + worker_cpu):.1%})" if workers > 1 else "")
         peak = _SCALE_PEAKS.get((workload, workers)) if workers > 1 else None
         ok = efficiency >= target and (peak is None or peak <= WORKER_MEMORY_TARGET_MB)
         return _row(f"scale: {_workload_text(workload, options)}, {workers} worker(s)", elapsed, serial,
@@ -440,7 +458,7 @@ def scale_figure(workload: str, workers: int) -> Figure:
                     f"{WORKER_MEMORY_TARGET_MB:.0f} MB", ok,
                     f"parallel efficiency {efficiency:.0%}; serial fraction (Karp-Flatt) {karp_flatt:.1%}; "
                     f"ratio = speed-up over 1 worker; {_available_cores()} cores; memory: the largest "
-                    "worker's peak RSS", peak_mb=peak)
+                    f"worker's peak RSS{cpu}", peak_mb=peak)
 
     figure.__name__ = f"figure_scale_{workload}_{workers}"
     return figure

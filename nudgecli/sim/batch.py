@@ -17,7 +17,7 @@ make up the graph, all submitted to one executor:
 Layouts and their solved goal MDPs (the :class:`~nudgecli.sim.study.StudyPlan`) are built once
 per worker and kept in a small cache keyed by what they depend on (:func:`layout_key`), never
 once per task: the process pool sends each worker the tasks of the studies it already holds,
-and on dask each plan is one task whose result the scheduler moves to the workers that need it.
+and on dask the tasks of a study are hinted to one worker (work stealing may still move them).
 Every result is written by this process as an atomic part file (``tasks/``, ``analyses/``), so
 ``--resume`` finishes an interrupted batch without recomputing a finished task, and the tables
 assembled from the parts are the same for any executor and number of workers.
@@ -32,6 +32,7 @@ import math
 import os
 import signal
 import sys
+import threading
 import time
 import traceback
 from collections import OrderedDict, deque
@@ -58,6 +59,7 @@ from nudgecli.sim.study import (
     die_with_parent,
     process_context,
     simulate_participant,
+    tune_allocator,
 )
 from nudgecli.store import library_versions, utc_now, write_json_atomic, write_parquet_atomic
 
@@ -271,6 +273,7 @@ def estimate(graph: Graph, workers: int) -> SizeEstimate:
 # --- tasks (run in a worker) -------------------------------------------------------------------
 
 _PLANS: OrderedDict[str, StudyPlan] = OrderedDict()
+_PLANS_LOCK = threading.Lock()
 
 
 def cached_plan(config: ExperimentConfig, seed: int) -> StudyPlan:
@@ -281,14 +284,15 @@ def cached_plan(config: ExperimentConfig, seed: int) -> StudyPlan:
     plans at most (least recently used dropped), so a worker's memory does not grow with the batch.
     """
     key = layout_key(config, seed)
-    plan = _PLANS.get(key)
-    if plan is None:
-        plan = StudyPlan.build(config, seed)
-        _PLANS[key] = plan
-        while len(_PLANS) > PLAN_CACHE_SIZE:
-            _PLANS.popitem(last=False)
-    else:
-        _PLANS.move_to_end(key)
+    with _PLANS_LOCK:  # a dask worker may run tasks in several threads
+        plan = _PLANS.get(key)
+        if plan is None:
+            plan = StudyPlan.build(config, seed)
+            _PLANS[key] = plan
+            while len(_PLANS) > PLAN_CACHE_SIZE:
+                _PLANS.popitem(last=False)
+        else:
+            _PLANS.move_to_end(key)
     return dataclasses.replace(plan, config=config)
 
 
@@ -306,16 +310,17 @@ def participant_metrics(plan: StudyPlan, index: int, analysis: AnalysisPlan) -> 
     return trial_metrics(result.trials, result.steps, **definitions)
 
 
-def build_plan(config: ExperimentConfig, seed: int) -> StudyPlan:
-    """A study plan (the dask task that builds it once for every worker)."""
-    return StudyPlan.build(config, seed)
+def run_participant_task(config: ExperimentConfig, seed: int, index: int,
+                         analysis: AnalysisPlan) -> pd.DataFrame:
+    """A participant task, with this worker's cached plan of the study."""
+    tune_allocator()
+    return participant_metrics(cached_plan(config, seed), index, analysis)
 
 
-def run_participant_task(config: ExperimentConfig, seed: int, index: int, analysis: AnalysisPlan,
-                         plan: StudyPlan | None = None) -> pd.DataFrame:
-    """A participant task: with the given plan (dask) or this worker's cached one (processes)."""
-    chosen = cached_plan(config, seed) if plan is None else dataclasses.replace(plan, config=config)
-    return participant_metrics(chosen, index, analysis)
+def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str]) -> dict[str, Any]:
+    """An analysis task: the replication's statistics (:func:`analyse_replication`)."""
+    tune_allocator()
+    return analyse_replication(metrics, analysis, names)
 
 
 @dataclass(frozen=True)
@@ -332,7 +337,7 @@ def execute(job: Job) -> Any:
     """Run a job in this process."""
     if job.kind == "participant":
         return run_participant_task(*job.args)
-    return analyse_replication(*job.args)
+    return run_analysis_task(*job.args)
 
 
 # --- executors ---------------------------------------------------------------------------------
@@ -508,27 +513,37 @@ class ProcessExecutor:
 
 
 class DaskExecutor:
-    """A dask.distributed cluster: one plan task per layout key, then the participant tasks."""
+    """A dask.distributed cluster.
+
+    Each worker builds the plans it needs into its own cache (:func:`cached_plan`), as a pool
+    worker does. The tasks of one study are hinted to one worker (round robin over the workers
+    in the order the studies come), with loose restrictions, so dask's work stealing still moves
+    them to idle workers; analyses go wherever the scheduler puts them.
+    """
 
     def __init__(self, client: Any) -> None:
         from dask.distributed import as_completed
 
         self._client = client
-        self._plans: dict[str, Any] = {}
+        self._workers = sorted(client.scheduler_info().get("workers", {}))
+        self._hints: dict[str, str] = {}
         self._jobs: dict[str, Job] = {}
         self._done = as_completed()
+
+    def _hint(self, affinity: str) -> list[str] | None:
+        if not self._workers:
+            return None
+        if affinity not in self._hints:
+            self._hints[affinity] = self._workers[len(self._hints) % len(self._workers)]
+        return [self._hints[affinity]]
 
     def submit(self, job: Job) -> None:
         client = self._client
         if job.kind == "participant":
-            config, seed = job.args[0], job.args[1]
-            plan = self._plans.get(job.affinity)
-            if plan is None:
-                plan = self._plans[job.affinity] = client.submit(build_plan, config, seed,
-                                                                 key=f"nudge-plan-{job.affinity}")
-            future = client.submit(run_participant_task, *job.args, plan, key=f"nudge-{job.key}")
+            future = client.submit(run_participant_task, *job.args, key=f"nudge-{job.key}",
+                                   workers=self._hint(job.affinity), allow_other_workers=True, pure=False)
         else:
-            future = client.submit(analyse_replication, *job.args, key=f"nudge-{job.key}")
+            future = client.submit(run_analysis_task, *job.args, key=f"nudge-{job.key}", pure=False)
         self._jobs[future.key] = job
         self._done.add(future)
 
@@ -543,8 +558,6 @@ class DaskExecutor:
         return job, result
 
     def close(self) -> None:
-        for future in self._plans.values():
-            future.release()
         self._client.close()
 
 

@@ -273,6 +273,40 @@ def die_with_parent(parent_pid: int) -> None:
     threading.Thread(target=watch, name="nudge-parent-watch", daemon=True).start()
 
 
+_M_TRIM_THRESHOLD = -1
+_M_MMAP_THRESHOLD = -3
+_ALLOCATOR_TUNED = False
+
+
+def tune_allocator() -> None:
+    """Undo a tiny ``MALLOC_TRIM_THRESHOLD_`` in this process (once; glibc only).
+
+    dask's nanny starts its workers with ``MALLOC_TRIM_THRESHOLD_=65536``, which also fixes glibc's
+    mmap threshold at 128 KiB: every large numpy temporary is then mapped and unmapped anew, and
+    the layout solving and trials run 2.5-3.5 times slower than in a plain process (measured on
+    the paper preset's plan). Where that variable is set, this raises the mmap threshold to 32 MB
+    and the trim threshold to 64 MB, so freed memory above 64 MB is still returned to the system.
+    """
+    global _ALLOCATOR_TUNED
+    if _ALLOCATOR_TUNED or "MALLOC_TRIM_THRESHOLD_" not in os.environ or not sys.platform.startswith("linux"):
+        return
+    _ALLOCATOR_TUNED = True
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None)
+        libc.mallopt(_M_MMAP_THRESHOLD, 32 * 1024 * 1024)
+        libc.mallopt(_M_TRIM_THRESHOLD, 64 * 1024 * 1024)
+    except (OSError, AttributeError):  # pragma: no cover - not glibc
+        pass
+
+
+def simulate_on_worker(plan: StudyPlan, participant_index: int) -> ParticipantResult:
+    """:func:`simulate_participant` as a dask task (with :func:`tune_allocator` first)."""
+    tune_allocator()
+    return simulate_participant(plan, participant_index)
+
+
 def _init_worker(plan: StudyPlan, parent_pid: int) -> None:
     global _WORKER_PLAN
     die_with_parent(parent_pid)
@@ -327,7 +361,7 @@ def _dask(plan: StudyPlan, todo: list[int], client: Any) -> Iterator[Participant
 
     with client:
         shared = client.scatter(plan, broadcast=True)
-        futures = [client.submit(simulate_participant, shared, index, pure=False) for index in todo]
+        futures = [client.submit(simulate_on_worker, shared, index, pure=False) for index in todo]
         for future in dask_completed(futures):
             yield future.result()
 
