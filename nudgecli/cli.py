@@ -321,7 +321,7 @@ def _batch_options(func: Any) -> Any:
 
 def _run_batch_command(label: str, run: Any, out: str | None, default_name: str, output_format: str,
                        **kwargs: Any) -> None:
-    from nudgecli.sim.batch import Progress
+    from nudgecli.sim.executors import Progress
     from nudgecli.store import default_run_dir
 
     target = Path(out) if out else default_run_dir(default_name)

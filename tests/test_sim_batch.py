@@ -29,7 +29,8 @@ from nudgecli.report.replication import (
     smallest_n,
 )
 from nudgecli.sim import batch as batch_module
-from nudgecli.sim.batch import Progress, layout_key, replicate, replication_seed
+from nudgecli.sim.batch import layout_key, replicate, replication_seed
+from nudgecli.sim.executors import Progress
 from nudgecli.sim.study import StudyPlan, simulate_participant
 from nudgecli.sim.sweep import Design, Range, SweepFile, design_values, load_sweep
 

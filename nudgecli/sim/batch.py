@@ -20,27 +20,21 @@ once per task: the process pool sends each worker the tasks of the studies it al
 and on dask the tasks of a study are hinted to one worker (work stealing may still move them).
 Every result is written by this process as an atomic part file (``tasks/``, ``analyses/``), so
 ``--resume`` finishes an interrupted batch without recomputing a finished task, and the tables
-assembled from the parts are the same for any executor and number of workers.
+assembled from the parts are the same for any executor and number of workers. The executors
+themselves are in :mod:`nudgecli.sim.executors`.
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import hashlib
-import math
-import os
-import signal
-import sys
 import threading
 import time
-import traceback
-from collections import OrderedDict, deque
+from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from multiprocessing.connection import Connection, wait
 from pathlib import Path
-from typing import Any, Literal, TextIO
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
@@ -52,12 +46,11 @@ from nudgecli.report.metrics import trial_metrics
 from nudgecli.report.plans import AnalysisPlan
 from nudgecli.report.replication import analyse_replication
 from nudgecli.rng import seed_sequence
+from nudgecli.sim.executors import HELD_AFFINITIES, Executor, Job, format_duration, make_executor
 from nudgecli.sim.study import (
     StudyPlan,
     check_physiology_logs,
     connect_scheduler,
-    die_with_parent,
-    process_context,
     simulate_participant,
     tune_allocator,
 )
@@ -76,10 +69,9 @@ SECONDS_PER_ANALYSIS = 0.4
 BYTES_PER_TASK = 7_000
 BYTES_PER_TRIAL = 60
 BYTES_PER_ANALYSIS = 14_000
-#: Study plans (layouts + solved MDPs, about 20 MB at the paper's 48 layouts) a worker keeps.
-PLAN_CACHE_SIZE = 4
-#: Jobs each pool worker holds at once (one running, one queued), so it never waits for the parent.
-POOL_DEPTH = 2
+#: Study plans (layouts + solved MDPs, about 20 MB at the paper's 48 layouts) a worker keeps; the
+#: process pool's dispatch mirrors this cache.
+PLAN_CACHE_SIZE = HELD_AFFINITIES
 
 
 # --- the batch ---------------------------------------------------------------------------------
@@ -256,7 +248,7 @@ class SizeEstimate:
 
     def describe(self) -> str:
         return (f"{self.studies} studies, {self.participant_tasks} participant tasks + {self.analyses} "
-                f"analyses, {self.trials:,} trials; about {_duration(self.seconds)} on {self.workers} "
+                f"analyses, {self.trials:,} trials; about {format_duration(self.seconds)} on {self.workers} "
                 f"worker(s) and {self.bytes / 1e6:.1f} MB on disk")
 
 
@@ -321,299 +313,6 @@ def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequ
     """An analysis task: the replication's statistics (:func:`analyse_replication`)."""
     tune_allocator()
     return analyse_replication(metrics, analysis, names)
-
-
-@dataclass(frozen=True)
-class Job:
-    """A task as sent to an executor."""
-
-    key: str
-    kind: Literal["participant", "analysis"]
-    affinity: str
-    args: tuple[Any, ...]
-
-
-def execute(job: Job) -> Any:
-    """Run a job in this process."""
-    if job.kind == "participant":
-        return run_participant_task(*job.args)
-    return run_analysis_task(*job.args)
-
-
-# --- executors ---------------------------------------------------------------------------------
-
-class WorkerError(RuntimeError):
-    """A task failed in a worker (the worker's traceback is the message)."""
-
-
-class SerialExecutor:
-    """Runs every job in this process, analyses first."""
-
-    def __init__(self) -> None:
-        self._queue: deque[Job] = deque()
-
-    def submit(self, job: Job) -> None:
-        (self._queue.appendleft if job.kind == "analysis" else self._queue.append)(job)
-
-    def next_result(self) -> tuple[Job, Any]:
-        job = self._queue.popleft()
-        return job, execute(job)
-
-    def close(self) -> None:
-        self._queue.clear()
-
-
-def _peak_rss_kib() -> float | None:
-    """This process's peak resident memory in KiB (Linux ``ru_maxrss``), or None where unknown."""
-    try:
-        import resource
-    except ImportError:  # pragma: no cover - Windows
-        return None
-    return float(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
-
-
-def _pool_worker(conn: Connection, parent_pid: int) -> None:
-    """A pool worker: receive jobs, send back ``(status, key, result)``; exit with the parent."""
-    die_with_parent(parent_pid)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
-    while True:
-        try:
-            job = conn.recv()
-        except (EOFError, OSError):
-            return
-        if job is None:
-            conn.send(("bye", "", _peak_rss_kib()))
-            return
-        try:
-            result = execute(job)
-        except Exception:
-            conn.send(("error", job.key, traceback.format_exc()))
-            continue
-        conn.send(("ok", job.key, result))
-
-
-@dataclass
-class _Slot:
-    process: Any
-    conn: Connection
-    inflight: dict[str, Job] = field(default_factory=dict)
-    holds: OrderedDict[str, None] = field(default_factory=OrderedDict)
-
-
-class ProcessExecutor:
-    """Local worker processes with cache-aware dispatch.
-
-    Each worker holds up to :data:`POOL_DEPTH` jobs. An idle worker gets, in order: a waiting
-    analysis; a task of a study whose plan it already holds; else a task of the study held by
-    the fewest workers (so each plan is built by as few workers as the load allows). The
-    parent mirrors each worker's plan cache (same size, same least-recently-used order).
-    """
-
-    def __init__(self, workers: int) -> None:
-        context: Any = process_context()  # typeshed's BaseContext lacks Process
-        self._slots: list[_Slot] = []
-        self._analyses: deque[Job] = deque()
-        self._pending: OrderedDict[str, deque[Job]] = OrderedDict()
-        #: The largest worker's peak resident memory in MB, known after :meth:`close`.
-        self.peak_rss_mb: float | None = None
-        for _ in range(workers):
-            parent_end, child_end = context.Pipe(duplex=True)
-            process = context.Process(target=_pool_worker, args=(child_end, os.getpid()), daemon=True,
-                                      name="nudge-worker")
-            process.start()
-            child_end.close()
-            self._slots.append(_Slot(process, parent_end))
-
-    @property
-    def pids(self) -> list[int]:
-        return [slot.process.pid for slot in self._slots]
-
-    def submit(self, job: Job) -> None:
-        if job.kind == "analysis":
-            self._analyses.append(job)
-        else:
-            self._pending.setdefault(job.affinity, deque()).append(job)
-
-    def _pick(self, slot: _Slot) -> Job | None:
-        if self._analyses:
-            return self._analyses.popleft()
-        for key in reversed(slot.holds):
-            if self._pending.get(key):
-                return self._take(slot, key)
-        candidates = [key for key, jobs in self._pending.items() if jobs]
-        if not candidates:
-            return None
-        holders = {key: sum(key in s.holds for s in self._slots) for key in candidates}
-        key = min(candidates, key=lambda k: (holders[k], -len(self._pending[k])))
-        return self._take(slot, key)
-
-    def _take(self, slot: _Slot, key: str) -> Job:
-        job = self._pending[key].popleft()
-        if not self._pending[key]:
-            del self._pending[key]
-        slot.holds[key] = None
-        slot.holds.move_to_end(key)
-        while len(slot.holds) > PLAN_CACHE_SIZE:
-            slot.holds.popitem(last=False)
-        return job
-
-    def _fill(self) -> None:
-        for slot in self._slots:
-            while len(slot.inflight) < POOL_DEPTH:
-                job = self._pick(slot)
-                if job is None:
-                    return
-                slot.conn.send(job)
-                slot.inflight[job.key] = job
-
-    def next_result(self) -> tuple[Job, Any]:
-        self._fill()
-        busy = {slot.conn: slot for slot in self._slots if slot.inflight}
-        if not busy:
-            raise RuntimeError("no job to wait for")
-        conn = wait(list(busy))[0]
-        slot = busy[conn]  # type: ignore[index]
-        try:
-            status, key, payload = slot.conn.recv()
-        except (EOFError, OSError):
-            slot.process.join(timeout=1)
-            raise WorkerError(f"worker {slot.process.pid} died (exit code {slot.process.exitcode}) while "
-                              f"running {', '.join(slot.inflight)}") from None
-        job = slot.inflight.pop(key)
-        if status != "ok":
-            raise WorkerError(f"task {key} failed in a worker:\n{payload}")
-        return job, payload
-
-    def close(self) -> None:
-        for slot in self._slots:
-            with contextlib.suppress(OSError, ValueError):
-                slot.conn.send(None)
-        deadline = time.monotonic() + 5
-        for slot in self._slots:
-            self._farewell(slot, deadline)
-        for slot in self._slots:
-            slot.process.join(timeout=max(0.0, deadline - time.monotonic()))
-            if slot.process.is_alive():
-                slot.process.terminate()
-                slot.process.join(timeout=1)
-            slot.conn.close()
-
-
-    def _farewell(self, slot: _Slot, deadline: float) -> None:
-        """Read a closing worker's last messages up to its farewell, which carries its peak memory."""
-        try:
-            while slot.conn.poll(max(0.0, deadline - time.monotonic())):
-                status, _, payload = slot.conn.recv()
-                if status == "bye":
-                    if payload is not None:
-                        self.peak_rss_mb = max(self.peak_rss_mb or 0.0, payload / 1024.0)
-                    return
-        except (EOFError, OSError):
-            return
-
-
-class DaskExecutor:
-    """A dask.distributed cluster.
-
-    Each worker builds the plans it needs into its own cache (:func:`cached_plan`), as a pool
-    worker does. The tasks of one study are hinted to one worker (round robin over the workers
-    in the order the studies come), with loose restrictions, so dask's work stealing still moves
-    them to idle workers; analyses go wherever the scheduler puts them.
-    """
-
-    def __init__(self, client: Any) -> None:
-        from dask.distributed import as_completed
-
-        self._client = client
-        self._workers = sorted(client.scheduler_info().get("workers", {}))
-        self._hints: dict[str, str] = {}
-        self._jobs: dict[str, Job] = {}
-        self._done = as_completed()
-
-    def _hint(self, affinity: str) -> list[str] | None:
-        if not self._workers:
-            return None
-        if affinity not in self._hints:
-            self._hints[affinity] = self._workers[len(self._hints) % len(self._workers)]
-        return [self._hints[affinity]]
-
-    def submit(self, job: Job) -> None:
-        client = self._client
-        if job.kind == "participant":
-            future = client.submit(run_participant_task, *job.args, key=f"nudge-{job.key}",
-                                   workers=self._hint(job.affinity), allow_other_workers=True, pure=False)
-        else:
-            future = client.submit(run_analysis_task, *job.args, key=f"nudge-{job.key}", pure=False)
-        self._jobs[future.key] = job
-        self._done.add(future)
-
-    def next_result(self) -> tuple[Job, Any]:
-        future = next(self._done)
-        job = self._jobs.pop(future.key)
-        try:
-            result = future.result()
-        except Exception as exc:
-            raise WorkerError(f"task {job.key} failed on the cluster: {exc!r}") from exc
-        future.release()
-        return job, result
-
-    def close(self) -> None:
-        self._client.close()
-
-
-Executor = SerialExecutor | ProcessExecutor | DaskExecutor
-
-
-# --- progress ----------------------------------------------------------------------------------
-
-class Progress:
-    """Progress on a stream: tasks done, rate and ETA, one line every ``interval`` seconds.
-
-    On a terminal the line is rewritten in place (every 0.5 s); otherwise (a log, CI) a new line
-    is written at most every ``interval`` seconds, and always for the last task.
-    """
-
-    def __init__(self, label: str, stream: TextIO | None = None, interval: float = 5.0,
-                 clock: Callable[[], float] = time.monotonic) -> None:
-        self.label = label
-        self.stream = stream if stream is not None else sys.stderr
-        self.clock = clock
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.interval = 0.5 if self.tty else interval
-        self.start = clock()
-        self.first_done: int | None = None
-        self.last = -math.inf
-
-    def line(self, done: int, total: int) -> str:
-        """``label: done/total tasks (pct), rate tasks/s, ETA ...`` (the rate counts this session only)."""
-        if self.first_done is None:
-            self.first_done = done
-        elapsed = self.clock() - self.start
-        new = done - self.first_done
-        rate = new / elapsed if elapsed > 0 and new > 0 else 0.0
-        eta = _duration((total - done) / rate) if rate > 0 else "unknown"
-        pct = 100.0 * done / total if total else 100.0
-        return f"{self.label}: {done}/{total} tasks ({pct:.0f}%), {rate:.2f} tasks/s, ETA {eta}"
-
-    def __call__(self, done: int, total: int) -> None:
-        text = self.line(done, total)
-        now = self.clock()
-        if done < total and now - self.last < self.interval:
-            return
-        self.last = now
-        if self.tty:
-            self.stream.write("\r" + text + ("\n" if done >= total else ""))
-        else:
-            self.stream.write(text + "\n")
-        self.stream.flush()
-
-
-def _duration(seconds: float) -> str:
-    if seconds < 60:
-        return f"{seconds:.0f} s"
-    if seconds < 3600:
-        return f"{seconds / 60:.1f} min"
-    return f"{seconds / 3600:.1f} h"
 
 
 # --- the run -----------------------------------------------------------------------------------
@@ -700,15 +399,6 @@ class BatchRun:
     stats: dict[str, dict[str, Any]]
     computed: int
     worker_peak_mb: float | None = None
-
-
-def make_executor(workers: int, client: Any) -> Executor:
-    """The executor for ``--workers``/``--scheduler`` (a connected dask client wins)."""
-    if client is not None:
-        return DaskExecutor(client)
-    if workers > 1:
-        return ProcessExecutor(workers)
-    return SerialExecutor()
 
 
 def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | None = None,
@@ -820,14 +510,14 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
         waiting = [a for a in waiting if not ready(a)]
         for analysis in submitted:
             data = read_study_metrics(folder, analysis.study, analysis.participants)
-            executor.submit(Job(analysis.key, "analysis", analysis.study, (data, batch.plan, metrics)))
+            executor.submit(Job(analysis.key, run_analysis_task, (data, batch.plan, metrics)))
         return len(submitted)
 
     try:
         for study in graph.studies.values():
             for i in sorted(remaining[study.key]):
-                executor.submit(Job(f"{study.key}-p{i:04d}", "participant", study.layouts,
-                                    (study.config, study.seed, i, batch.plan)))
+                executor.submit(Job(f"{study.key}-p{i:04d}", run_participant_task,
+                                    (study.config, study.seed, i, batch.plan), affinity=study.layouts))
                 in_flight += 1
         in_flight += submit_ready()
         if progress:
@@ -836,7 +526,7 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
         while in_flight:
             job, result = executor.next_result()
             in_flight -= 1
-            if job.kind == "participant":
+            if job.affinity is not None:  # a participant task
                 study_name, index = job.key.rsplit("-p", 1)
                 write_parquet_atomic(task_part(folder, study_name, int(index)), result)
                 remaining[study_name].discard(int(index))
