@@ -30,6 +30,7 @@ import numpy as np
 import pandas as pd
 import scipy.stats
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from nudgecli.report.metrics import apply_filters
 from nudgecli.report.plans import AnalysisPlan
@@ -384,6 +385,7 @@ def power_figure(power: pd.DataFrame, target: float = POWER_TARGET) -> Figure:
         ax.set_ylim(-0.02, 1.02)
         ax.set_xlabel("participants", fontsize=8)
         ax.set_ylabel("power", fontsize=8)
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
     if axes:
         axes[0].legend(fontsize=6, loc="best")
     return fig
