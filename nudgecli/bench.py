@@ -9,8 +9,10 @@ the best of a few runs is reported. The minimum is the usual estimate of a compu
 on a machine shared with other work (other processes only ever add time); both sides of a ratio
 use it, so the ratio is not flattered by load on one side.
 
-The figures come in two groups (``nudge bench --only model|study``): the model figures (a few
-seconds) and the study figures (``STUDY_FIGURES``, about 10-15 s at the paper scale), which
+The figures come in groups (``nudge bench --only model|study|scale``): the model figures (a few
+seconds), the scale figures (batches of studies on 1..cores workers and on a local dask cluster:
+parallel efficiency and serial fraction; not part of ``all``) and the study figures
+(``STUDY_FIGURES``, about 10-15 s at the paper scale), which
 simulate the study itself: the plan's value iteration, one participant's trials in this process,
 and the whole study with worker processes in a child Python process so that its peak memory is
 measured apart from this one's.
@@ -20,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -72,6 +75,9 @@ class BenchOptions:
         Worker processes of the whole-study figure.
     study_repeats
         Runs of the plan build and of the one-participant simulation (the best is reported).
+    scale_participants, scale_studies
+        The scale figures' workloads: one study of this many participants, and this many
+        ``smoke`` studies (``nudge bench --only scale``).
     """
 
     repeats: int = 7
@@ -81,6 +87,8 @@ class BenchOptions:
     study_participants: int | None = None
     study_workers: int = 2
     study_repeats: int = 3
+    scale_participants: int = 16
+    scale_studies: int = 24
 
 
 Figure = Callable[[BenchOptions], dict[str, Any]]
@@ -358,6 +366,151 @@ FIGURES: list[Figure] = [
 ]
 
 
+# --- scale figures (``nudge bench --only scale``) ----------------------------------------------
+
+SCALE_EFFICIENCY_TARGET = {"study": 0.80, "sweep": 0.90}
+DASK_RATIO_TARGET = 1.25
+WORKER_MEMORY_TARGET_MB = 300.0
+_SCALE_TIMES: dict[tuple[str, str], float] = {}
+
+
+def _scale_batch(workload: str, options: BenchOptions) -> Any:
+    """The batch of a scale workload: one ``paper`` study of ``scale_participants`` participants
+    (``study``), or ``scale_studies`` replications of ``smoke`` (``sweep``: many small studies)."""
+    from nudgecli.report.plans import load_plan
+    from nudgecli.sim.batch import Batch, single_point
+
+    if workload == "study":
+        config = load_experiment(options.study_experiment)
+        n = options.scale_participants
+        config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
+        return Batch("replicate", single_point(config, (n,)), 1, BENCH_SEED, load_plan("paper"))
+    config = load_experiment("smoke")
+    return Batch("replicate", single_point(config, (config.study.participants,)), options.scale_studies,
+                 BENCH_SEED, load_plan("paper"))
+
+
+_SCALE_PEAKS: dict[tuple[str, int], float | None] = {}
+#: (CPU seconds of this process, CPU seconds of the finished workers) of each timed run.
+_SCALE_CPU: dict[tuple[str, int], tuple[float, float]] = {}
+
+
+def _children_cpu_s() -> float:
+    """CPU seconds of this process's reaped children (0 where unknown)."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - Windows
+        return 0.0
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _time_batch(workload: str, options: BenchOptions, workers: int = 1,
+                scheduler: str | None = None) -> float:
+    """Wall seconds of the workload (the largest worker's peak memory goes to ``_SCALE_PEAKS``)."""
+    from nudgecli.sim.batch import run_batch
+
+    batch = _scale_batch(workload, options)
+    folder = Path(tempfile.mkdtemp(prefix="nudge-bench-scale-"))
+    try:
+        children = _children_cpu_s()
+        start, own = time.perf_counter(), time.process_time()
+        run = run_batch(batch, folder / "batch", workers=workers, scheduler=scheduler, confirm=True)
+        elapsed = time.perf_counter() - start
+        _SCALE_PEAKS[(workload, workers)] = run.worker_peak_mb
+        _SCALE_CPU[(workload, workers)] = (time.process_time() - own, _children_cpu_s() - children)
+        return elapsed
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _serial_time(workload: str, options: BenchOptions) -> float:
+    key = (workload, repr(options))
+    if key not in _SCALE_TIMES:
+        _SCALE_TIMES[key] = _time_batch(workload, options, workers=1)
+    return _SCALE_TIMES[key]
+
+
+def _workload_text(workload: str, options: BenchOptions) -> str:
+    if workload == "study":
+        return f"one {options.study_experiment} study of {options.scale_participants} participants"
+    return f"{options.scale_studies} smoke studies"
+
+
+def scale_figure(workload: str, workers: int) -> Figure:
+    """A figure: the workload on ``workers`` local processes, its parallel efficiency and serial fraction."""
+
+    def figure(options: BenchOptions) -> dict[str, Any]:
+        serial = _serial_time(workload, options)
+        elapsed = serial if workers == 1 else _time_batch(workload, options, workers=workers)
+        if workers > 1:
+            _SCALE_TIMES[(workload + f":{workers}", repr(options))] = elapsed
+        efficiency = serial / (workers * elapsed)
+        karp_flatt = (1 / (serial / elapsed) - 1 / workers) / (1 - 1 / workers) if workers > 1 else 0.0
+        target = SCALE_EFFICIENCY_TARGET[workload]
+        parent_cpu, worker_cpu = _SCALE_CPU.get((workload, workers), (math.nan, math.nan))
+        cpu = (f"; CPU: this process {parent_cpu:.2f} s, workers {worker_cpu:.2f} s (serial share "
+               f"{parent_cpu / (parent_cpu + worker_cpu):.1%})" if workers > 1 else "")
+        peak = _SCALE_PEAKS.get((workload, workers)) if workers > 1 else None
+        ok = efficiency >= target and (peak is None or peak <= WORKER_MEMORY_TARGET_MB)
+        return _row(f"scale: {_workload_text(workload, options)}, {workers} worker(s)", elapsed, serial,
+                    f"efficiency >= {target:.0%} (16-core target); worker <= "
+                    f"{WORKER_MEMORY_TARGET_MB:.0f} MB", ok,
+                    f"parallel efficiency {efficiency:.0%}; serial fraction (Karp-Flatt) {karp_flatt:.1%}; "
+                    f"ratio = speed-up over 1 worker; {_available_cores()} cores; memory: the largest "
+                    f"worker's peak RSS{cpu}", peak_mb=peak)
+
+    figure.__name__ = f"figure_scale_{workload}_{workers}"
+    return figure
+
+
+def scale_dask_figure(workload: str) -> Figure:
+    """A figure: the workload on a local dask cluster of single-thread worker processes, one per core,
+    against the process pool on the same cores."""
+
+    def figure(options: BenchOptions) -> dict[str, Any]:
+        try:
+            from dask.distributed import LocalCluster
+        except ImportError:  # pragma: no cover - the optional extra
+            return _row(f"scale: {_workload_text(workload, options)}, dask", float("nan"), None,
+                        f"<= {DASK_RATIO_TARGET}x the process pool", False,
+                        "dask.distributed is not installed (pip install 'nudgecli[cluster]')")
+        cores = _available_cores()
+        from dask.distributed import Client
+
+        with LocalCluster(n_workers=cores, threads_per_worker=1, processes=True, dashboard_address=":0",
+                          silence_logs=40) as cluster, Client(cluster) as client:
+            client.run(_import_batch)  # start-up (imports in every worker) is not part of the figure
+            elapsed = _time_batch(workload, options, scheduler=cluster.scheduler_address)
+        pool = _SCALE_TIMES.get((workload + f":{cores}", repr(options)))
+        if pool is None:
+            pool = (_time_batch(workload, options, workers=cores) if cores > 1
+                    else _serial_time(workload, options))
+        ratio = elapsed / pool
+        serial = _serial_time(workload, options)
+        return _row(f"scale: {_workload_text(workload, options)}, dask ({cores} workers)", elapsed, pool,
+                    f"<= {DASK_RATIO_TARGET}x the process pool", ratio <= DASK_RATIO_TARGET,
+                    f"dask / process pool on {cores} cores = {ratio:.2f}x (ratio column: pool / dask); "
+                    f"parallel efficiency {serial / (cores * elapsed):.0%}; cluster start-up and the "
+                    "workers' imports excluded")
+
+    figure.__name__ = f"figure_scale_{workload}_dask"
+    return figure
+
+
+def _import_batch() -> None:
+    import nudgecli.sim.batch  # noqa: F401
+
+
+def scale_figures() -> list[Figure]:
+    """Both workloads on 1..cores local workers, then on a local dask cluster."""
+    figures: list[Figure] = []
+    for workload in ("study", "sweep"):
+        figures += [scale_figure(workload, w) for w in range(1, _available_cores() + 1)]
+        figures.append(scale_dask_figure(workload))
+    return figures
+
+
 def select_figures(only: str = "all") -> list[Figure]:
     """The figures of ``FIGURES`` in one group.
 
@@ -378,8 +531,10 @@ def select_figures(only: str = "all") -> list[Figure]:
     """
     if only == "all":
         return list(FIGURES)
+    if only == "scale":
+        return scale_figures()
     if only not in ("model", "study"):
-        raise ValueError(f"only must be 'model', 'study' or 'all', got {only!r}")
+        raise ValueError(f"only must be 'model', 'study', 'scale' or 'all', got {only!r}")
     study = only == "study"
     return [figure for figure in FIGURES if (figure in STUDY_FIGURES) == study]
 

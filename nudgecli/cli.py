@@ -82,9 +82,16 @@ def presets_command() -> None:
 @main.command("bench")
 @click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
               show_default=True, help="What to print on stdout.")
-@click.option("--only", type=click.Choice(["model", "study", "all"]), default="all", show_default=True,
+@click.option("--only", type=click.Choice(["model", "study", "scale", "all"]), default="all",
+              show_default=True,
               help="Which figures: the model's (a few seconds), the study's (about 10-15 s: plan, trials, "
-                   "the paper-scale study with 2 workers in a subprocess) or all.")
+                   "the paper-scale study with 2 workers in a subprocess), both (all), or the scale "
+                   "figures (about a minute on 2 cores: batches on 1..cores workers and on a local dask "
+                   "cluster, with parallel efficiency and serial fraction).")
+@click.option("--scale-participants", type=click.IntRange(min=2), default=16, show_default=True,
+              help="Scale figures: participants of the one-study workload (paper preset).")
+@click.option("--scale-studies", type=click.IntRange(min=2), default=24, show_default=True,
+              help="Scale figures: studies of the many-studies workload (smoke preset).")
 @click.option("--repeats", type=click.IntRange(min=1), default=7, show_default=True,
               help="Batches of each fast measurement (the best is reported).")
 @click.option("--baseline-repeats", type=click.IntRange(min=1), default=3, show_default=True,
@@ -92,12 +99,13 @@ def presets_command() -> None:
 @click.option("--study-repeats", type=click.IntRange(min=1), default=3, show_default=True,
               help="Runs of the study plan build and of one participant's trials, about 1 s each "
                    "(the best is reported).")
-def bench_command(output_format: str, only: str, repeats: int, baseline_repeats: int,
-                  study_repeats: int) -> None:
+def bench_command(output_format: str, only: str, scale_participants: int, scale_studies: int, repeats: int,
+                  baseline_repeats: int, study_repeats: int) -> None:
     """Performance figures of the model and the study, each against a baseline measured in the same run."""
     from nudgecli.bench import BenchOptions, format_table, run_bench, select_figures
 
-    options = BenchOptions(repeats=repeats, baseline_repeats=baseline_repeats, study_repeats=study_repeats)
+    options = BenchOptions(repeats=repeats, baseline_repeats=baseline_repeats, study_repeats=study_repeats,
+                           scale_participants=scale_participants, scale_studies=scale_studies)
     rows = run_bench(options, figures=select_figures(only), progress=info)
     if output_format == "json":
         echo_json(rows)
@@ -411,6 +419,119 @@ def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[st
         written += plot_comparison(result.trials, result.table, result.medians, out, chosen_formats)
         for path in written:
             info(str(path))
+
+
+# --- replicate / power / sweep -------------------------------------------------------------
+
+def _batch_options(func: Any) -> Any:
+    """The options every batch command shares (executor, output folder, resume, size check)."""
+    options = [
+        click.option("--out", type=click.Path(file_okay=False),
+                     help="Batch folder [default: results/<experiment>-<command>-<UTC time>]."),
+        click.option("--workers", type=int, default=1, show_default=True, help="Local worker processes."),
+        click.option("--scheduler", envvar="DASK_SCHEDULER_ADDRESS",
+                     help="dask.distributed scheduler address (or DASK_SCHEDULER_ADDRESS); needs "
+                          "nudgecli[cluster]."),
+        click.option("--resume", is_flag=True, help="Finish an interrupted batch in --out (same settings)."),
+        click.option("--force", is_flag=True, help="Replace a batch that already is in --out."),
+        click.option("--yes", is_flag=True, help="Run a batch above the size limit (see the README)."),
+        click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]),
+                     default="table", show_default=True, help="What to print on stdout."),
+    ]
+    for option in reversed(options):
+        func = option(func)
+    return func
+
+
+def _run_batch_command(label: str, run: Any, out: str | None, default_name: str, output_format: str,
+                       **kwargs: Any) -> None:
+    from nudgecli.sim.executors import Progress
+    from nudgecli.store import default_run_dir
+
+    target = Path(out) if out else default_run_dir(default_name)
+    result = run(out=target, progress=Progress(label), log=info, **kwargs)
+    table = result.summary
+    if output_format == "json":
+        echo_json(json.loads(table.to_json(orient="records")))
+    elif output_format == "csv":
+        click.echo(table.to_csv(index=False), nl=False)
+    else:
+        click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
+    info(f"Batch folder: {result.run.path} ({result.run.computed} tasks computed now)")
+    click.echo(str(result.run.path))
+
+
+def _experiment_name(experiment: str) -> str:
+    return Path(experiment).stem if experiment.endswith(".toml") else experiment
+
+
+@main.command("replicate")
+@click.argument("experiment")
+@click.option("--replications", "-R", type=int, required=True,
+              help="Independent studies (each its own seed).")
+@click.option("--seed", type=int, help="Master seed of the replications [default: the experiment's].")
+@click.option("--plan", default="paper", show_default=True, metavar="PLAN",
+              help="Analysis plan of each study.")
+@click.option("--participants", type=int, help="Participants per study [default: the experiment's].")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
+@_batch_options
+def replicate_command(experiment: str, replications: int, seed: int | None, plan: str,
+                      participants: int | None, overrides: tuple[str, ...], out: str | None, workers: int,
+                      scheduler: str | None, resume: bool, force: bool, yes: bool,
+                      output_format: str) -> None:
+    """R independent studies of EXPERIMENT: how often each difference is significant, the pooled effect."""
+    from nudgecli.sim.batch import replicate
+
+    _run_batch_command("replicate", replicate, out, f"{_experiment_name(experiment)}-replicate",
+                       output_format,
+                       experiment=experiment, replications=replications, seed=seed, plan=plan,
+                       participants=participants, overrides=overrides, workers=workers, scheduler=scheduler,
+                       resume=resume, force=force, confirm=yes)
+
+
+def _counts(text: str) -> list[int]:
+    try:
+        return [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise click.BadParameter(f"{text!r}: give comma-separated integers, e.g. 6,9,12,18,24") from None
+
+
+@main.command("power")
+@click.argument("experiment")
+@click.option("--participants", "counts", required=True, metavar="N,N,...",
+              help="Participant counts, e.g. 6,9,12,18,24.")
+@click.option("--replications", "-R", type=int, required=True, help="Studies per count.")
+@click.option("--seed", type=int, help="Master seed of the replications [default: the experiment's].")
+@click.option("--plan", default="paper", show_default=True, metavar="PLAN",
+              help="Analysis plan of each study.")
+@click.option("--target", type=float, default=0.8, show_default=True, help="The power to reach.")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
+@_batch_options
+def power_command(experiment: str, counts: str, replications: int, seed: int | None, plan: str, target: float,
+                  overrides: tuple[str, ...], out: str | None, workers: int, scheduler: str | None,
+                  resume: bool, force: bool, yes: bool, output_format: str) -> None:
+    """Power curves: the chance of a significant difference in the paper's direction per participant count."""
+    from nudgecli.sim.batch import power
+
+    _run_batch_command("power", power, out, f"{_experiment_name(experiment)}-power", output_format,
+                       experiment=experiment, participant_counts=_counts(counts), replications=replications,
+                       seed=seed, plan=plan, overrides=overrides, target=target, workers=workers,
+                       scheduler=scheduler, resume=resume, force=force, confirm=yes)
+
+
+@main.command("sweep")
+@click.argument("sweep_file")
+@click.option("--replications", "-R", type=int, help="Studies per design point [default: the file's].")
+@click.option("--seed", type=int, help="Master seed of the replications [default: the file's].")
+@_batch_options
+def sweep_command(sweep_file: str, replications: int | None, seed: int | None, out: str | None, workers: int,
+                  scheduler: str | None, resume: bool, force: bool, yes: bool, output_format: str) -> None:
+    """Run a sweep file (grid, Sobol or Morris design over experiment keys); see the README for the format."""
+    from nudgecli.sim.batch import sweep
+
+    _run_batch_command("sweep", sweep, out, f"{_experiment_name(sweep_file)}-sweep", output_format,
+                       sweep_file=sweep_file, replications=replications, seed=seed, workers=workers,
+                       scheduler=scheduler, resume=resume, force=force, confirm=yes)
 
 
 # --- validate ------------------------------------------------------------------------------

@@ -393,7 +393,8 @@ def _descriptive_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path
 # --- the analysis ------------------------------------------------------------------------------
 
 
-def _options(plan: AnalysisPlan, seed: int | None) -> ComparisonOptions:
+def comparison_options(plan: AnalysisPlan, seed: int | None = None) -> ComparisonOptions:
+    """The statistics settings of a plan (its [stats] and [bootstrap]; ``seed`` overrides the bootstrap's)."""
     return plan.comparison_options(seed)
 
 
@@ -489,7 +490,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = "paper"
 
     filtered = apply_filters(table, plan.filters)
     conditions = order_conditions(filtered["condition"].astype(str), plan.conditions)
-    options = _options(plan, seed)
+    options = comparison_options(plan, seed)
     stats = compare_conditions(filtered, trial_selected, conditions, options)
     if scores is not None and score_selected:
         stats["metrics"] += compare_conditions(scores, score_selected, conditions, options)["metrics"]

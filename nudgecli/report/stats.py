@@ -34,6 +34,9 @@ import pandas as pd
 import scikit_posthocs
 import scipy.stats
 
+#: Adjustments that leave a single p-value unchanged (``multipletests`` with one test).
+_IDENTITY_ON_ONE_TEST = frozenset({"bonferroni", "sidak", "holm-sidak", "holm", "simes-hochberg", "hommel",
+                                   "fdr_bh", "fdr_by"})
 #: Largest number of (resample x trial) cells the bootstrap holds in memory at once.
 _BOOTSTRAP_CHUNK_CELLS = 4_000_000
 
@@ -158,6 +161,9 @@ def conover(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adj
     rows = [{"a": a, "b": b, "p": math.nan, "p_unadjusted": math.nan} for a, b in pairs(conditions)]
     if len(present) >= 2 and tidy["value"].nunique() >= 2:
         adjust = None if p_adjust in ("none", "", None) else p_adjust
+        if len(present) == 2 and adjust in _IDENTITY_ON_ONE_TEST:
+            adjust = None  # one comparison: these adjustments return p itself (and statsmodels' Holm
+            # runs gc.collect() on every call, which dominated the analysis of many replications)
         unadjusted = scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition")
         adjusted = (unadjusted if adjust is None else
                     scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition",

@@ -1,0 +1,448 @@
+"""Summaries over replications: significance rates, pooled effects, power curves, sensitivity indices.
+
+Each replication is analysed exactly as ``nudge analyze`` analyses a run
+(:func:`analyse_replication`: the plan's filters, then :func:`nudgecli.report.stats.compare_conditions`:
+trial-level Kruskal-Wallis and Conover, participant-level Wilcoxon with the rank-biserial effect
+size, the bootstrap interval of the median difference). This module only counts and pools those
+results:
+
+- a replication is *significant at the trial level* when Kruskal-Wallis and the Conover p of
+  the pair are both significant at the plan's ``kruskal_alpha`` (with its comparison, as the
+  stars), *at the participant level* when the paired test's p is; its *direction* is the sign of
+  ``a - b`` (trial level: the difference of medians, or of means where the medians tie;
+  participant level: the rank-biserial r);
+- pooled effect sizes are the mean over replications with the 2.5 and 97.5 percentiles of the
+  replications' values (where 95 % of replications of this study land);
+- power is the fraction of replications significant in the paper's direction (either
+  direction for a metric where the paper reports none) with a Clopper-Pearson 95 % interval;
+- sensitivity indices are SALib's (Sobol first and total order, Morris mu*, sigma) of the
+  replication-mean difference of medians at each design point, with SALib's 95 % intervals.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import scipy.stats
+from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
+
+from nudgecli.report.metrics import apply_filters
+from nudgecli.report.plans import AnalysisPlan
+from nudgecli.report.stats import (
+    compare_conditions,
+    is_significant,
+    json_ready,
+    order_conditions,
+    stats_table,
+)
+
+#: The direction of Disambiguation - Control the paper reports (Section 6, Fig. 3 and 4): +1 higher
+#: under Disambiguation, -1 lower; ``None`` where it reports no significant difference
+#: (engagement, "no statistically significant difference") or no test (success: 93.05 % vs 90.2 %).
+PAPER_DIRECTIONS: dict[str, int | None] = {
+    "assistance_engagement": None,
+    "assistance_strength": +1,   # "higher for Disambiguation ... (p < 0.01)"
+    "mode_switches": -1,         # "statistically significant decrease in the number of mode switches"
+    "human_effort": -1,          # "statistically significant decrease in the amount of time ... operating"
+    "completion_time": -1,       # "task completion time is lower under the Disambiguation condition"
+    "human_turns": -1,           # "subjects perform fewer turns under the Disambiguation condition"
+    "success": None,
+}
+PAPER_PAIR = ("disambiguation", "control")
+POWER_TARGET = 0.8
+
+
+def analyse_replication(metrics: pd.DataFrame, plan: AnalysisPlan, names: Sequence[str]) -> dict[str, Any]:
+    """The ``stats.json`` document of one replication (as ``nudge analyze`` computes it).
+
+    Parameters
+    ----------
+    metrics
+        One row per trial: ``participant, condition`` and the metric columns.
+    plan
+        The analysis plan (filters, tests, bootstrap).
+    names
+        The metrics to analyse.
+    """
+    from nudgecli.report.analysis import comparison_options
+
+    filtered = apply_filters(metrics, plan.filters)
+    conditions = order_conditions(filtered["condition"].astype(str), plan.conditions)
+    return json_ready(compare_conditions(filtered, list(names), conditions, comparison_options(plan, None)))
+
+
+def _sign(value: float | None) -> int:
+    if value is None or not math.isfinite(value) or value == 0:
+        return 0
+    return 1 if value > 0 else -1
+
+
+def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]], plan: AnalysisPlan,
+                     points: pd.DataFrame | None = None) -> pd.DataFrame:
+    """One row per (entry, metric, pair of conditions): the replication's tests and their verdicts.
+
+    Parameters
+    ----------
+    entries
+        One row per (point, replication, participant count): ``point, replication, seed,
+        participants, analysis``.
+    stats
+        Analysis key -> the replication's stats document (:func:`analyse_replication`).
+    plan
+        Gives the significance level and comparison.
+    points
+        Optional ``point`` + parameter columns, merged in after ``seed``.
+
+    Returns
+    -------
+    pd.DataFrame
+        ``point, replication, seed, [parameters...], participants, metric, a, b, median_a,
+        median_b, difference, ci_low, ci_high, kruskal_p, conover_p, participant_p,
+        effect_size_name, effect_size, trial_significant, trial_direction,
+        participant_significant, participant_direction``.
+    """
+    alpha, comparison = plan.stats.kruskal_alpha, plan.stats.star_comparison
+    rows = []
+    for entry in entries.to_dict("records"):
+        document = stats[entry["analysis"]]
+        means = {m["metric"]: m["mean"] for m in document["metrics"]}
+        for row in stats_table(document).to_dict("records"):
+            a, b = row["a"], row["b"]
+            trial_sign = _sign(_difference(row["median_a"], row["median_b"]))
+            if trial_sign == 0:
+                trial_sign = _sign(_difference(means[row["metric"]][a], means[row["metric"]][b]))
+            rows.append({
+                "point": entry["point"], "replication": entry["replication"], "seed": entry["seed"],
+                "participants": entry["participants"], "metric": row["metric"], "a": a, "b": b,
+                "median_a": row["median_a"], "median_b": row["median_b"], "difference": row["difference"],
+                "ci_low": row["ci_low"], "ci_high": row["ci_high"], "kruskal_p": row["kruskal_p"],
+                "conover_p": row["conover_p"], "participant_p": row["participant_p"],
+                "effect_size_name": row["effect_size_name"], "effect_size": row["effect_size"],
+                "trial_significant": is_significant(_nan(row["kruskal_p"]), alpha, comparison)
+                and is_significant(_nan(row["conover_p"]), alpha, comparison),
+                "trial_direction": trial_sign,
+                "participant_significant": is_significant(_nan(row["participant_p"]), alpha, comparison),
+                "participant_direction": _sign(row["effect_size"]),
+            })
+    table = pd.DataFrame(rows)
+    if points is not None and len(points.columns) > 1 and not table.empty:
+        table = table.merge(points, on="point", how="left")
+        front = ["point", "replication", "seed", *[c for c in points.columns if c != "point"]]
+        table = table[front + [c for c in table.columns if c not in front]]
+    return table
+
+
+def _nan(value: Any) -> float:
+    return math.nan if value is None else float(value)
+
+
+def _difference(a: Any, b: Any) -> float | None:
+    return None if a is None or b is None else float(a) - float(b)
+
+
+def condition_values(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
+                     points: pd.DataFrame | None = None) -> pd.DataFrame:
+    """The tidy table ``point, replication, seed, <parameters...>, participants, condition, metric,
+    value``: each replication's median of the metric over the condition's trials."""
+    rows = []
+    for entry in entries.to_dict("records"):
+        document = stats[entry["analysis"]]
+        for metric in document["metrics"]:
+            for condition in document["conditions"]:
+                rows.append({"point": entry["point"], "replication": entry["replication"],
+                             "seed": entry["seed"], "participants": entry["participants"],
+                             "condition": condition, "metric": metric["metric"],
+                             "value": metric["median"][condition]})
+    table = pd.DataFrame(rows)
+    if points is not None and len(points.columns) > 1 and not table.empty:
+        table = table.merge(points, on="point", how="left")
+        front = ["point", "replication", "seed", *[c for c in points.columns if c != "point"]]
+        table = table[front + [c for c in table.columns if c not in front]]
+    return table
+
+
+def _percentiles(values: pd.Series) -> tuple[float, float, float]:
+    finite = values.dropna().astype(float)
+    if finite.empty:
+        return math.nan, math.nan, math.nan
+    return float(finite.mean()), float(np.percentile(finite, 2.5)), float(np.percentile(finite, 97.5))
+
+
+def summarise(rows: pd.DataFrame) -> pd.DataFrame:
+    """Per (point, participants, metric, pair): rates of significance in each direction, median p,
+    pooled effect sizes.
+
+    Returns
+    -------
+    pd.DataFrame
+        ``point, participants, metric, a, b, replications, trial_a_higher, trial_a_lower,
+        participant_a_higher, participant_a_lower`` (fractions of replications),
+        ``median_kruskal_p, median_conover_p, median_participant_p``, ``effect_size`` (mean r)
+        with ``effect_size_low/high`` (2.5/97.5 percentiles over replications) and ``difference``
+        (mean difference of medians) with ``difference_low/high``.
+    """
+    out = []
+    for (point, n, metric, a, b), group in rows.groupby(["point", "participants", "metric", "a", "b"],
+                                                        sort=False):
+        trial = group["trial_significant"].astype(bool)
+        level = group["participant_significant"].astype(bool)
+        effect, effect_low, effect_high = _percentiles(group["effect_size"])
+        diff, diff_low, diff_high = _percentiles(group["difference"])
+        out.append({
+            "point": point, "participants": n, "metric": metric, "a": a, "b": b, "replications": len(group),
+            "trial_a_higher": float((trial & (group["trial_direction"] > 0)).mean()),
+            "trial_a_lower": float((trial & (group["trial_direction"] < 0)).mean()),
+            "participant_a_higher": float((level & (group["participant_direction"] > 0)).mean()),
+            "participant_a_lower": float((level & (group["participant_direction"] < 0)).mean()),
+            "median_kruskal_p": float(group["kruskal_p"].astype(float).median()),
+            "median_conover_p": float(group["conover_p"].astype(float).median()),
+            "median_participant_p": float(group["participant_p"].astype(float).median()),
+            "effect_size_name": group["effect_size_name"].iloc[0],
+            "effect_size": effect, "effect_size_low": effect_low, "effect_size_high": effect_high,
+            "difference": diff, "difference_low": diff_low, "difference_high": diff_high,
+        })
+    return pd.DataFrame(out)
+
+
+def clopper_pearson(successes: int, trials: int, level: float = 0.95) -> tuple[float, float]:
+    """The exact (Clopper-Pearson) binomial interval of ``successes / trials``."""
+    if trials == 0:
+        return math.nan, math.nan
+    interval = scipy.stats.binomtest(successes, trials).proportion_ci(confidence_level=level, method="exact")
+    return float(interval.low), float(interval.high)
+
+
+def paper_direction(metric: str, a: str, b: str) -> int | None:
+    """The paper's sign of ``a - b`` for the metric (``None``: either direction counts)."""
+    sign = PAPER_DIRECTIONS.get(metric)
+    if sign is None:
+        return None
+    if (a, b) == PAPER_PAIR:
+        return sign
+    if (b, a) == PAPER_PAIR:
+        return -sign
+    return None
+
+
+def power_table(rows: pd.DataFrame, directions: Mapping[str, int | None] | None = None) -> pd.DataFrame:
+    """The power curve of every metric at both levels of test.
+
+    Parameters
+    ----------
+    rows
+        :func:`replication_rows` (one point, several participant counts).
+    directions
+        Metric -> required sign of ``a - b`` (``None``: either); default the paper's
+        (:func:`paper_direction`).
+
+    Returns
+    -------
+    pd.DataFrame
+        ``participants, metric, a, b, level (trial|participant), direction, replications,
+        significant, power, low, high`` with the Clopper-Pearson 95 % interval.
+    """
+    out = []
+    for (n, metric, a, b), group in rows.groupby(["participants", "metric", "a", "b"], sort=True):
+        wanted = directions.get(metric) if directions is not None else paper_direction(metric, a, b)
+        for level in ("trial", "participant"):
+            significant = group[f"{level}_significant"].astype(bool)
+            if wanted is not None:
+                significant &= group[f"{level}_direction"] == wanted
+            k, total = int(significant.sum()), len(group)
+            low, high = clopper_pearson(k, total)
+            out.append({"participants": int(n), "metric": metric, "a": a, "b": b, "level": level,
+                        "direction": {None: "either", 1: "a > b", -1: "a < b"}[wanted],
+                        "replications": total, "significant": k, "power": k / total, "low": low,
+                        "high": high})
+    return pd.DataFrame(out)
+
+
+def smallest_n(power: pd.DataFrame, target: float = POWER_TARGET) -> pd.DataFrame:
+    """Per metric and level: the smallest participant count whose power reaches ``target``
+    (``None``: not reached at any count tried)."""
+    out = []
+    for (metric, level), group in power.groupby(["metric", "level"], sort=False):
+        reached = group.loc[group["power"] >= target, "participants"]
+        out.append({"metric": metric, "level": level,
+                    "participants": int(reached.min()) if len(reached) else None})
+    return pd.DataFrame(out)
+
+
+# --- sensitivity -------------------------------------------------------------------------------
+
+def point_outputs(rows: pd.DataFrame, value: str = "difference") -> pd.DataFrame:
+    """Per (point, metric): the mean over replications of ``value`` (the model output Y)."""
+    return (rows.groupby(["point", "metric"], sort=True)[value].mean().rename("y").reset_index())
+
+
+def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outputs: pd.DataFrame,
+                levels: int = 4, seed: int = 0) -> pd.DataFrame:
+    """Sensitivity indices of each output, with SALib's 95 % intervals.
+
+    Parameters
+    ----------
+    method
+        ``sobol`` (first order S1 and total order ST) or ``morris`` (mu*, sigma, mu).
+    problem
+        SALib's problem (``names``, ``bounds``, ``num_vars``).
+    samples
+        ``(n_points, D)`` the design in the problem's units, in point order.
+    outputs
+        ``point, metric, y`` (:func:`point_outputs`): one output per metric and point.
+    levels, seed
+        Morris grid levels; the seed of SALib's bootstrap of the intervals.
+
+    Returns
+    -------
+    pd.DataFrame
+        ``metric, parameter, index, value, conf`` (``index``: S1, ST or mu_star, sigma, mu); a
+        metric whose output is missing at some point is left out.
+    """
+    out = []
+    for metric, group in outputs.groupby("metric", sort=False):
+        y = group.sort_values("point")["y"].to_numpy(dtype=float)
+        if y.size != samples.shape[0] or not np.all(np.isfinite(y)):
+            continue
+        if method == "sobol":
+            from SALib.analyze import sobol
+
+            result = sobol.analyze(problem, y, calc_second_order=False, conf_level=0.95, seed=seed)
+            indices: dict[str, tuple[str, str | None]] = {"S1": ("S1", "S1_conf"), "ST": ("ST", "ST_conf")}
+        else:
+            from SALib.analyze import morris
+
+            result = morris.analyze(problem, samples, y, num_levels=levels, conf_level=0.95, seed=seed)
+            indices = {"mu_star": ("mu_star", "mu_star_conf"), "sigma": ("sigma", None), "mu": ("mu", None)}
+        for k, name in enumerate(problem["names"]):
+            for index, (key, conf) in indices.items():
+                out.append({"metric": metric, "parameter": name, "index": index,
+                            "value": float(np.asarray(result[key])[k]),
+                            "conf": float(np.asarray(result[conf])[k]) if conf else math.nan})
+    return pd.DataFrame(out, columns=["metric", "parameter", "index", "value", "conf"])
+
+
+# --- figures -----------------------------------------------------------------------------------
+
+def _grid(n: int, width: float = 3.4, height: float = 2.6) -> tuple[Figure, list[Any]]:
+    cols = min(3, max(1, n))
+    rows_ = max(1, math.ceil(n / cols))
+    fig = Figure(figsize=(width * cols, height * rows_), layout="constrained")
+    axes = fig.subplots(rows_, cols, squeeze=False).ravel().tolist()
+    for ax in axes[n:]:
+        ax.set_visible(False)
+    return fig, axes[:n]
+
+
+def forest_figure(rows: pd.DataFrame, summary: pd.DataFrame) -> Figure:
+    """Per metric: every replication's difference of medians with its bootstrap interval, coloured
+    by participant-level significance, and the pooled mean with its 95 % range over replications."""
+    metrics = list(dict.fromkeys(rows["metric"]))
+    fig, axes = _grid(len(metrics), height=max(2.4, 0.18 * rows["replication"].nunique() + 1.2))
+    colours = {True: "#c0392b", False: "#7f8c8d"}
+    for ax, metric in zip(axes, metrics, strict=True):
+        group = rows[rows["metric"] == metric].sort_values("replication")
+        y = np.arange(len(group))
+        for significant in (False, True):
+            mask = group["participant_significant"].astype(bool).to_numpy() == significant
+            sub = group[mask]
+            diff = sub["difference"].astype(float).to_numpy()
+            err = np.vstack([diff - sub["ci_low"].astype(float).to_numpy(),
+                             sub["ci_high"].astype(float).to_numpy() - diff])
+            ax.errorbar(diff, y[mask], xerr=np.abs(err), fmt="o", ms=3, lw=0.8, color=colours[significant],
+                        label="significant (participant level)" if significant else "not significant")
+        pooled = summary[summary["metric"] == metric].iloc[0]
+        ax.axvspan(pooled["difference_low"], pooled["difference_high"], color="#3498db", alpha=0.15)
+        ax.axvline(pooled["difference"], color="#2c3e50", lw=1.2)
+        ax.axvline(0, color="black", lw=0.6, ls=":")
+        ax.set_title(metric, fontsize=9)
+        ax.set_xlabel(f"{pooled['a']} - {pooled['b']} (difference of medians)", fontsize=8)
+        ax.set_yticks(y, [str(r) for r in group["replication"]], fontsize=6)
+        ax.set_ylabel("replication", fontsize=8)
+    if axes:
+        axes[0].legend(fontsize=6, loc="best")
+    return fig
+
+
+def power_figure(power: pd.DataFrame, target: float = POWER_TARGET) -> Figure:
+    """Power against participants per metric: participant level solid, trial level dashed, with
+    the Clopper-Pearson band, and the target line."""
+    metrics = list(dict.fromkeys(power["metric"]))
+    fig, axes = _grid(len(metrics))
+    for ax, metric in zip(axes, metrics, strict=True):
+        for level, style in (("participant", "-"), ("trial", "--")):
+            group = power[(power["metric"] == metric) & (power["level"] == level)].sort_values("participants")
+            ax.plot(group["participants"], group["power"], style, marker="o", ms=3, label=f"{level} level")
+            ax.fill_between(group["participants"], group["low"], group["high"], alpha=0.15)
+        ax.axhline(target, color="black", lw=0.6, ls=":")
+        direction = power.loc[power["metric"] == metric, "direction"].iloc[0]
+        ax.set_title(f"{metric} ({direction})", fontsize=9)
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_xlabel("participants", fontsize=8)
+        ax.set_ylabel("power", fontsize=8)
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    if axes:
+        axes[0].legend(fontsize=6, loc="best")
+    return fig
+
+
+def sweep_figure(rows: pd.DataFrame, parameters: Sequence[str]) -> Figure:
+    """Each metric's difference of medians against each swept parameter: the mean over
+    replications per value with the 2.5-97.5 % band over replications (numeric parameters), or
+    points with bars (other values)."""
+    metrics = list(dict.fromkeys(rows["metric"]))
+    fig = Figure(figsize=(3.0 * len(parameters), 2.3 * len(metrics)), layout="constrained")
+    axes = fig.subplots(len(metrics), len(parameters), squeeze=False)
+    for i, metric in enumerate(metrics):
+        group = rows[rows["metric"] == metric]
+        for j, name in enumerate(parameters):
+            ax = axes[i][j]
+            keys = group[name].map(lambda v: v if isinstance(v, int | float) else str(v))
+            stats = group.assign(_x=keys).groupby("_x")["difference"].agg(
+                mean="mean", low=lambda v: np.nanpercentile(v, 2.5) if v.notna().any() else np.nan,
+                high=lambda v: np.nanpercentile(v, 97.5) if v.notna().any() else np.nan).reset_index()
+            numeric = pd.api.types.is_numeric_dtype(stats["_x"])
+            x = stats["_x"].to_numpy() if numeric else np.arange(len(stats))
+            ax.plot(x, stats["mean"], marker="o", ms=3)
+            ax.fill_between(x, stats["low"].astype(float), stats["high"].astype(float), alpha=0.2)
+            ax.axhline(0, color="black", lw=0.5, ls=":")
+            if not numeric:
+                ax.set_xticks(x, [str(v) for v in stats["_x"]], fontsize=6)
+            ax.set_xlabel(name, fontsize=8)
+            if j == 0:
+                ax.set_ylabel(f"{metric}\n(a - b)", fontsize=7)
+    return fig
+
+
+def sensitivity_figure(indices: pd.DataFrame) -> Figure:
+    """Bars of the sensitivity indices per metric (with their 95 % intervals)."""
+    metrics = list(dict.fromkeys(indices["metric"]))
+    fig, axes = _grid(len(metrics))
+    for ax, metric in zip(axes, metrics, strict=True):
+        shown = indices["index"].isin(["S1", "ST", "mu_star", "sigma"])
+        group = indices[(indices["metric"] == metric) & shown]
+        names = list(dict.fromkeys(group["parameter"]))
+        kinds = list(dict.fromkeys(group["index"]))
+        width = 0.8 / max(1, len(kinds))
+        for k, kind in enumerate(kinds):
+            sub = group[group["index"] == kind].set_index("parameter").reindex(names)
+            conf = sub["conf"].fillna(0).to_numpy()
+            ax.bar(np.arange(len(names)) + k * width, sub["value"], width, yerr=conf, label=kind, capsize=2)
+        ax.set_xticks(np.arange(len(names)) + width * (len(kinds) - 1) / 2, names, rotation=30, ha="right",
+                      fontsize=6)
+        ax.set_title(metric, fontsize=9)
+    if axes:
+        axes[0].legend(fontsize=6)
+    return fig
+
+
+def save(fig: Figure, out: Path, stem: str, formats: Sequence[str] = ("png",)) -> list[Path]:
+    """Write a figure atomically (:func:`nudgecli.report.figures.save_figure`)."""
+    from nudgecli.report.figures import save_figure
+
+    return save_figure(fig, out, stem, formats)

@@ -1,0 +1,738 @@
+"""Many studies as one task graph: replications, power and sweeps, on processes or dask.
+
+A batch is a list of design points (one for ``replicate`` and ``power``, many for ``sweep``),
+each run ``R`` times. Replication ``r`` of every point uses the same seed (common random numbers,
+:func:`replication_seed`), so differences between points are not seed noise. Two kinds of task
+make up the graph, all submitted to one executor:
+
+- a *participant task* ``(study, participant)``: simulate one participant of one study
+  (:func:`nudgecli.sim.study.simulate_participant`) and reduce their trials to the plan's
+  per-trial metrics (one row per trial). A study is ``(experiment, seed)``; tasks of points
+  whose experiments are equal are one task. A study with ``n`` participants holds the studies
+  with fewer: participant ``i``'s results do not depend on how many others there are, so a
+  power curve simulates each replication's largest study once and analyses its first ``n``;
+- an *analysis task* ``(study, n)``: the plan's statistics (:mod:`nudgecli.report.stats`, as
+  ``nudge analyze``) of the first ``n`` participants, submitted as soon as they are done.
+
+Layouts and their solved goal MDPs (the :class:`~nudgecli.sim.study.StudyPlan`) are built once
+per worker and kept in a small cache keyed by what they depend on (:func:`layout_key`), never
+once per task: the process pool sends each worker the tasks of the studies it already holds,
+and on dask the tasks of a study are hinted to one worker (work stealing may still move them).
+Every result is written by this process as an atomic part file (``tasks/``, ``analyses/``), so
+``--resume`` finishes an interrupted batch without recomputing a finished task, and the tables
+assembled from the parts are the same for any executor and number of workers. The executors
+themselves are in :mod:`nudgecli.sim.executors`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import threading
+import time
+from collections import OrderedDict
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
+
+from nudgecli.config import ExperimentConfig
+from nudgecli.errors import ConfigError, RunFolderError
+from nudgecli.report.metrics import trial_metrics
+from nudgecli.report.plans import AnalysisPlan
+from nudgecli.report.replication import analyse_replication
+from nudgecli.rng import seed_sequence
+from nudgecli.sim.executors import HELD_AFFINITIES, Executor, Job, format_duration, make_executor
+from nudgecli.sim.study import (
+    StudyPlan,
+    check_physiology_logs,
+    connect_scheduler,
+    simulate_participant,
+    tune_allocator,
+)
+from nudgecli.store import library_versions, utc_now, write_json_atomic, write_parquet_atomic
+
+BATCH_MANIFEST = "batch.json"
+#: Simulated trials above which a batch needs ``--yes`` (``confirm=True``).
+MAX_TRIALS_WITHOUT_YES = 200_000
+#: Wall seconds per simulated trial on one core (``nudge bench``: one participant of ``paper``,
+#: 48 trials in about 0.4-0.7 s on the 2-core development machine) -- for the size estimate only.
+SECONDS_PER_TRIAL = 0.012
+#: Wall seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.4 s).
+SECONDS_PER_ANALYSIS = 0.4
+#: Bytes on disk: a participant task's part file (about 7 KB of Parquet overhead and 60 bytes per
+#: trial, measured on ``smoke``) and an analysis (its JSON document, about 14 KB).
+BYTES_PER_TASK = 7_000
+BYTES_PER_TRIAL = 60
+BYTES_PER_ANALYSIS = 14_000
+#: Study plans (layouts + solved MDPs, about 20 MB at the paper's 48 layouts) a worker keeps; the
+#: process pool's dispatch mirrors this cache.
+PLAN_CACHE_SIZE = HELD_AFFINITIES
+
+
+# --- the batch ---------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Point:
+    """One design point: the swept values, its experiment and the participant counts analysed."""
+
+    index: int
+    parameters: dict[str, Any]
+    config: ExperimentConfig
+    participants: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Batch:
+    """A batch: points x replications, analysed with one plan.
+
+    Attributes
+    ----------
+    kind
+        ``replicate``, ``power`` or ``sweep`` (recorded in the manifest).
+    points
+        The design points.
+    replications
+        ``R``: studies per point.
+    seed
+        The master seed; replication ``r`` uses :func:`replication_seed` ``(seed, r)`` at every point.
+    plan
+        The analysis plan of every replication.
+    extra
+        JSON-ready facts recorded in the manifest and compared on ``--resume`` (e.g. the design).
+    """
+
+    kind: Literal["replicate", "power", "sweep"]
+    points: tuple[Point, ...]
+    replications: int
+    seed: int
+    plan: AnalysisPlan
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def describe(self) -> dict[str, Any]:
+        """What identifies the batch (a resumed batch must describe itself identically)."""
+        return {
+            "kind": self.kind,
+            "replications": self.replications,
+            "seed": self.seed,
+            "plan": self.plan.model_dump(mode="json"),
+            "points": [{"index": p.index, "parameters": p.parameters, "participants": list(p.participants),
+                        "study": study_key(p.config, 0)} for p in self.points],
+            **self.extra,
+        }
+
+
+def replication_seed(master_seed: int, replication: int) -> int:
+    """The seed of replication ``r``: its own branch of the master seed (63 bits)."""
+    state = seed_sequence(master_seed, "replication", replication).generate_state(1, dtype=np.uint64)
+    return int(state[0] >> np.uint64(1))
+
+
+def _normalised_toml(config: ExperimentConfig) -> str:
+    """The experiment without its participant count (participant ``i`` does not depend on it)."""
+    study = config.study.model_copy(update={"participants": 1})
+    return config.model_copy(update={"study": study}).to_toml()
+
+
+def study_key(config: ExperimentConfig, seed: int) -> str:
+    """A stable name of the study ``(experiment, seed)``, whatever its participant count."""
+    text = f"{_normalised_toml(config)}\nseed = {seed}\n"
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+#: Sections that neither draw nor solve layouts (the study's layouts depend on ``[study]`` and
+#: the seed, their MDPs on ``[model]``); every other section, present or future, is in the key.
+_NOT_LAYOUT_SECTIONS = ("experiment", "interface", "inference", "disambiguation", "assistance", "population",
+                        "calibration")
+
+
+def layout_key(config: ExperimentConfig, seed: int) -> str:
+    """What a study's layouts and their solved MDPs depend on, as a short hash."""
+    data = config.model_dump(mode="json", exclude=set(_NOT_LAYOUT_SECTIONS))
+    data["study"].pop("participants", None)
+    text = f"{sorted(data.items())!r}\nseed = {seed}"
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class Study:
+    """One study of the batch."""
+
+    key: str
+    config: ExperimentConfig
+    seed: int
+    participants: int
+    layouts: str
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """One analysis: the first ``participants`` of a study, for (point, replication)."""
+
+    key: str
+    study: str
+    participants: int
+
+
+@dataclass
+class Graph:
+    """The batch's tasks.
+
+    Attributes
+    ----------
+    studies
+        Study key -> study (each with the most participants any point needs of it).
+    analyses
+        Analysis key -> analysis.
+    entries
+        One row per (point, replication, participant count): ``point, replication, seed,
+        participants, study, analysis``.
+    """
+
+    studies: dict[str, Study]
+    analyses: dict[str, Analysis]
+    entries: pd.DataFrame
+
+    @property
+    def participant_tasks(self) -> int:
+        return sum(s.participants for s in self.studies.values())
+
+    @property
+    def trials(self) -> int:
+        return sum(s.participants * trials_per_participant(s.config) for s in self.studies.values())
+
+
+def trials_per_participant(config: ExperimentConfig) -> int:
+    """Trials each participant does (every layout of every condition once)."""
+    return len(config.study.conditions) * config.study.trials_per_condition
+
+
+def build_graph(batch: Batch) -> Graph:
+    """Every study and analysis of the batch, deduplicated (equal experiments share tasks)."""
+    studies: dict[str, Study] = {}
+    analyses: dict[str, Analysis] = {}
+    rows = []
+    for r in range(batch.replications):
+        seed = replication_seed(batch.seed, r)
+        for point in batch.points:
+            key = study_key(point.config, seed)
+            need = max(point.participants)
+            known = studies.get(key)
+            if known is None or known.participants < need:
+                config = point.config.model_copy(update={
+                    "study": point.config.study.model_copy(update={"participants": need})})
+                studies[key] = Study(key, config, seed, need, layout_key(point.config, seed))
+            for n in point.participants:
+                analysis = f"{key}-n{n:04d}"
+                analyses[analysis] = Analysis(analysis, key, n)
+                rows.append({"point": point.index, "replication": r, "seed": seed, "participants": n,
+                             "study": key, "analysis": analysis})
+    return Graph(studies, analyses, pd.DataFrame(rows))
+
+
+@dataclass(frozen=True)
+class SizeEstimate:
+    """How big a batch is, from the figures ``nudge bench`` measures (see the constants above)."""
+
+    studies: int
+    participant_tasks: int
+    analyses: int
+    trials: int
+    seconds: float
+    bytes: int
+    workers: int
+
+    def describe(self) -> str:
+        return (f"{self.studies} studies, {self.participant_tasks} participant tasks + {self.analyses} "
+                f"analyses, {self.trials:,} trials; about {format_duration(self.seconds)} on {self.workers} "
+                f"worker(s) and {self.bytes / 1e6:.1f} MB on disk")
+
+
+def estimate(graph: Graph, workers: int) -> SizeEstimate:
+    """The size of the batch and its estimated wall time on ``workers`` and disk use."""
+    trials = graph.trials
+    seconds = (trials * SECONDS_PER_TRIAL + len(graph.analyses) * SECONDS_PER_ANALYSIS) / max(1, workers)
+    size = (graph.participant_tasks * BYTES_PER_TASK + trials * BYTES_PER_TRIAL
+            + len(graph.analyses) * BYTES_PER_ANALYSIS)
+    return SizeEstimate(len(graph.studies), graph.participant_tasks, len(graph.analyses), trials, seconds,
+                        size, workers)
+
+
+# --- tasks (run in a worker) -------------------------------------------------------------------
+
+_PLANS: OrderedDict[str, StudyPlan] = OrderedDict()
+_PLANS_LOCK = threading.Lock()
+
+
+def cached_plan(config: ExperimentConfig, seed: int) -> StudyPlan:
+    """The study plan of ``(config, seed)`` from this process's cache, built on a miss.
+
+    Keyed by :func:`layout_key`: studies that differ only in settings that do not touch the
+    layouts (e.g. ``inference.kappa`` in a sweep) share one plan. Holds :data:`PLAN_CACHE_SIZE`
+    plans at most (least recently used dropped), so a worker's memory does not grow with the batch.
+    """
+    key = layout_key(config, seed)
+    with _PLANS_LOCK:  # a dask worker may run tasks in several threads
+        plan = _PLANS.get(key)
+        if plan is None:
+            plan = StudyPlan.build(config, seed)
+            _PLANS[key] = plan
+            while len(_PLANS) > PLAN_CACHE_SIZE:
+                _PLANS.popitem(last=False)
+        else:
+            _PLANS.move_to_end(key)
+    return dataclasses.replace(plan, config=config)
+
+
+def participant_metrics(plan: StudyPlan, index: int, analysis: AnalysisPlan) -> pd.DataFrame:
+    """One participant's per-trial metrics under the analysis plan's definitions.
+
+    Returns
+    -------
+    pd.DataFrame
+        One row per trial: ``participant, condition, block, trial`` and the metrics of
+        :func:`nudgecli.report.metrics.trial_metrics`.
+    """
+    result = simulate_participant(plan, index)
+    definitions = analysis.metrics.model_dump(exclude={"include"})
+    return trial_metrics(result.trials, result.steps, **definitions)
+
+
+def run_participant_task(config: ExperimentConfig, seed: int, index: int,
+                         analysis: AnalysisPlan) -> pd.DataFrame:
+    """A participant task, with this worker's cached plan of the study."""
+    tune_allocator()
+    return participant_metrics(cached_plan(config, seed), index, analysis)
+
+
+def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str]) -> dict[str, Any]:
+    """An analysis task: the replication's statistics (:func:`analyse_replication`)."""
+    tune_allocator()
+    return analyse_replication(metrics, analysis, names)
+
+
+# --- the run -----------------------------------------------------------------------------------
+
+def task_part(folder: Path, study: str, participant: int) -> Path:
+    """The part file of a participant task."""
+    return folder / "tasks" / study / f"part-{participant:04d}.parquet"
+
+
+def analysis_part(folder: Path, analysis: str) -> Path:
+    """The part file of an analysis."""
+    return folder / "analyses" / f"{analysis}.json"
+
+
+def _readable_parquet(path: Path) -> bool:
+    if not path.is_file():
+        return False
+    try:
+        pq.ParquetFile(path)
+    except Exception:  # pyarrow raises several types for broken files
+        return False
+    return True
+
+
+def _readable_json(path: Path) -> bool:
+    if not path.is_file():
+        return False
+    try:
+        import json
+
+        json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return True
+
+
+def read_study_metrics(folder: Path, study: str, participants: int) -> pd.DataFrame:
+    """The per-trial metrics of a study's first ``participants``, in participant order."""
+    frames = [pd.read_parquet(task_part(folder, study, i)) for i in range(participants)]
+    return pd.concat(frames, ignore_index=True)
+
+
+def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool) -> str:
+    """Make ``folder`` ready for the batch; ``"new"`` or ``"resume"`` (same description required)."""
+    import json
+    import shutil
+
+    manifest = folder / BATCH_MANIFEST
+    if manifest.is_file():
+        try:
+            old = json.loads(manifest.read_text(encoding="utf-8"))
+        except ValueError as exc:
+            raise RunFolderError(f"{manifest}: unreadable ({exc}); use --force to start again") from None
+        if resume and not force:
+            if old.get("batch") != json.loads(json.dumps(description)):
+                raise RunFolderError(f"{folder}: holds a different batch (experiment, design, seed, "
+                                     "replications or plan); resume it with the same settings, or use "
+                                     "--force")
+            return "resume"
+        if not force:
+            raise RunFolderError(f"{folder}: already holds a batch ({old.get('batch', {}).get('kind')}, "
+                                 f"{old.get('status')}); use --resume to finish it, --force to replace it, "
+                                 "or choose another --out")
+        for name in ("tasks", "analyses", "figures"):
+            shutil.rmtree(folder / name, ignore_errors=True)
+        manifest.unlink()
+    elif folder.exists() and any(folder.iterdir()):
+        if not force:
+            raise RunFolderError(f"{folder}: exists and is not empty; choose another --out or use --force")
+    elif resume:
+        raise RunFolderError(f"{folder}: nothing to resume (no batch there); drop --resume")
+    folder.mkdir(parents=True, exist_ok=True)
+    return "new"
+
+
+@dataclass
+class BatchRun:
+    """What :func:`run_batch` did: the folder, the graph, the analyses' stats documents."""
+
+    path: Path
+    mode: str
+    graph: Graph
+    estimate: SizeEstimate
+    stats: dict[str, dict[str, Any]]
+    computed: int
+    worker_peak_mb: float | None = None
+
+
+def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | None = None,
+              resume: bool = False, force: bool = False, confirm: bool = False,
+              progress: Callable[[int, int], None] | None = None,
+              log: Callable[[str], None] | None = None) -> BatchRun:
+    """Run every task of the batch into the folder ``out``.
+
+    Parameters
+    ----------
+    batch
+        Points, replications, seed and plan.
+    out
+        The batch folder (``batch.json``, ``tasks/``, ``analyses/``).
+    workers
+        Local worker processes (1: in this process).
+    scheduler
+        A dask.distributed scheduler address; overrides ``workers``. Checked before the folder
+        is created.
+    resume, force
+        Finish the batch already in ``out`` / replace it.
+    confirm
+        Run a batch above :data:`MAX_TRIALS_WITHOUT_YES` trials (``--yes``).
+    progress
+        Called with (tasks done, tasks in all) after every task.
+    log
+        Called with lines for the user (the size estimate).
+
+    Returns
+    -------
+    BatchRun
+
+    Raises
+    ------
+    ConfigError
+        Bad workers, an unreachable scheduler, or a batch too large without ``confirm``.
+    RunFolderError
+        ``out`` holds something else (see :func:`prepare_folder`).
+    """
+    if workers < 1:
+        raise ConfigError(f"--workers must be at least 1, got {workers}")
+    for point in batch.points:
+        check_physiology_logs(point.config)
+    graph = build_graph(batch)
+    size = estimate(graph, workers)
+    if log is not None:
+        log(f"batch: {size.describe()}")
+    if size.trials > MAX_TRIALS_WITHOUT_YES and not confirm:
+        raise ConfigError(f"this batch simulates {size.trials:,} trials (more than "
+                          f"{MAX_TRIALS_WITHOUT_YES:,}; {size.describe()}); pass --yes to run it, or use "
+                          "fewer replications, participants or design points")
+    client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
+    folder = Path(out)
+    try:
+        mode = prepare_folder(folder, batch.describe(), resume=resume, force=force)
+    except BaseException:
+        if client is not None:
+            client.close()
+        raise
+    manifest: dict[str, Any] = {
+        "batch": batch.describe(),
+        "status": "running",
+        "executor": "dask" if client is not None else ("serial" if workers == 1 else f"processes:{workers}"),
+        "versions": library_versions(),
+        "created": utc_now(),
+        "studies": len(graph.studies),
+        "participant_tasks": graph.participant_tasks,
+        "analyses": len(graph.analyses),
+        "trials": graph.trials,
+    }
+    write_json_atomic(folder / BATCH_MANIFEST, manifest)
+    started = time.perf_counter()
+    executor = make_executor(workers, client)
+    computed = _run_graph(batch, graph, folder, executor, progress)
+    stats = {key: _read_json(analysis_part(folder, key)) for key in sorted(graph.analyses)}
+    peak = getattr(executor, "peak_rss_mb", None)
+    manifest.update({"status": "complete", "finished": utc_now(),
+                     "wall_s": round(time.perf_counter() - started, 3),
+                     "worker_peak_rss_mb": None if peak is None else round(peak, 1)})
+    write_json_atomic(folder / BATCH_MANIFEST, manifest)
+    return BatchRun(folder, mode, graph, size, stats, computed, peak)
+
+
+def _read_json(path: Path) -> dict[str, Any]:
+    import json
+
+    return json.loads(path.read_text(encoding="utf-8"))
+
+
+def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
+               progress: Callable[[int, int], None] | None) -> int:
+    """Submit every unfinished task, write each result as it comes; returns the tasks computed."""
+    remaining: dict[str, set[int]] = {}
+    for study in graph.studies.values():
+        remaining[study.key] = {i for i in range(study.participants)
+                                if not _readable_parquet(task_part(folder, study.key, i))}
+    waiting = [a for a in graph.analyses.values() if not _readable_json(analysis_part(folder, a.key))]
+    total = graph.participant_tasks + len(graph.analyses)
+    done = total - sum(len(v) for v in remaining.values()) - len(waiting)
+    metrics = list(batch.plan.metrics.include)
+    in_flight = 0
+
+    def ready(analysis: Analysis) -> bool:
+        return not any(i < analysis.participants for i in remaining[analysis.study])
+
+    def submit_ready() -> int:
+        nonlocal waiting
+        submitted = [a for a in waiting if ready(a)]
+        waiting = [a for a in waiting if not ready(a)]
+        for analysis in submitted:
+            data = read_study_metrics(folder, analysis.study, analysis.participants)
+            executor.submit(Job(analysis.key, run_analysis_task, (data, batch.plan, metrics)))
+        return len(submitted)
+
+    try:
+        for study in graph.studies.values():
+            for i in sorted(remaining[study.key]):
+                executor.submit(Job(f"{study.key}-p{i:04d}", run_participant_task,
+                                    (study.config, study.seed, i, batch.plan), affinity=study.layouts))
+                in_flight += 1
+        in_flight += submit_ready()
+        if progress:
+            progress(done, total)
+        computed = 0
+        while in_flight:
+            job, result = executor.next_result()
+            in_flight -= 1
+            if job.affinity is not None:  # a participant task
+                study_name, index = job.key.rsplit("-p", 1)
+                write_parquet_atomic(task_part(folder, study_name, int(index)), result)
+                remaining[study_name].discard(int(index))
+                in_flight += submit_ready()
+            else:
+                write_json_atomic(analysis_part(folder, job.key), result)
+            done += 1
+            computed += 1
+            if progress:
+                progress(done, total)
+    finally:
+        executor.close()
+    return computed
+
+
+def point_table(batch: Batch) -> pd.DataFrame:
+    """One row per point: ``point`` and its swept parameters (values as they were given)."""
+    return pd.DataFrame([{"point": p.index, **p.parameters} for p in batch.points])
+
+
+def parameter_names(batch: Batch) -> list[str]:
+    """The swept parameters, in the design's order."""
+    names: list[str] = []
+    for point in batch.points:
+        names += [n for n in point.parameters if n not in names]
+    return names
+
+
+def single_point(config: ExperimentConfig, participants: Sequence[int]) -> tuple[Point, ...]:
+    """The one design point of ``replicate`` and ``power``."""
+    return (Point(index=0, parameters={}, config=config, participants=tuple(participants)),)
+
+
+
+# --- the commands: replicate, power, sweep ----------------------------------------------------
+
+@dataclass
+class BatchResult:
+    """What a command computed and wrote.
+
+    Attributes
+    ----------
+    run
+        The batch run.
+    rows
+        One row per replication, metric and pair of conditions (``replications.csv``).
+    summary
+        The command's main table (printed by the CLI).
+    tables
+        Every table written, by file stem.
+    files
+        Every file written.
+    """
+
+    run: BatchRun
+    rows: pd.DataFrame
+    summary: pd.DataFrame
+    tables: dict[str, pd.DataFrame]
+    files: list[Path]
+
+
+def _write_tables(folder: Path, tables: dict[str, pd.DataFrame]) -> list[Path]:
+    from nudgecli.store import write_text_atomic
+
+    written = []
+    for stem, table in tables.items():
+        path = folder / f"{stem}.csv"
+        write_text_atomic(path, table.to_csv(index=False))
+        written.append(path)
+    return written
+
+
+def _figures(folder: Path, figures: dict[str, Any]) -> list[Path]:
+    from nudgecli.report.replication import save
+
+    written: list[Path] = []
+    for stem, fig in figures.items():
+        written += save(fig, folder / "figures", stem)
+    return written
+
+
+def _load(experiment: str, overrides: Sequence[str], participants: int | None) -> ExperimentConfig:
+    from nudgecli.config import load_experiment
+
+    config = load_experiment(experiment, tuple(overrides))
+    if participants is not None:
+        if participants < 1:
+            raise ConfigError(f"--participants must be at least 1, got {participants}")
+        study = config.study.model_copy(update={"participants": participants})
+        config = config.model_copy(update={"study": study})
+    return config
+
+
+def _check(replications: int, seed: int | None) -> None:
+    if replications < 1:
+        raise ConfigError(f"--replications must be at least 1, got {replications}")
+    if seed is not None and seed < 0:
+        raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
+
+
+def replicate(experiment: str, replications: int, out: str | Path, *, seed: int | None = None,
+              plan: str | AnalysisPlan = "paper", participants: int | None = None,
+              overrides: Sequence[str] = (), **options: Any) -> BatchResult:
+    """``nudge replicate``: R independent studies of one experiment, each analysed with the plan.
+
+    Writes ``replications.csv`` (per replication), ``conditions.csv`` (tidy medians per
+    condition), ``summary.csv`` (per metric: significance rates, median p, pooled effects) and
+    ``figures/forest.png``. ``options`` go to :func:`run_batch`.
+    """
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.replication import condition_values, forest_figure, replication_rows, summarise
+
+    _check(replications, seed)
+    config = _load(experiment, overrides, participants)
+    chosen = load_plan(plan)
+    batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
+                  config.experiment.seed if seed is None else seed, chosen,
+                  {"experiment": config.experiment.name})
+    run = run_batch(batch, out, **options)
+    rows = replication_rows(run.graph.entries, run.stats, chosen)
+    summary = summarise(rows).drop(columns=["point"])
+    tables = {"replications": rows.drop(columns=["point"]),
+              "conditions": condition_values(run.graph.entries, run.stats).drop(columns=["point"]),
+              "summary": summary}
+    figures = {"forest": forest_figure(rows, summarise(rows))}
+    files = _write_tables(run.path, tables) + _figures(run.path, figures)
+    return BatchResult(run, rows, summary, tables, files)
+
+
+def power(experiment: str, participant_counts: Sequence[int], replications: int, out: str | Path, *,
+          seed: int | None = None, plan: str | AnalysisPlan = "paper", overrides: Sequence[str] = (),
+          target: float = 0.8, **options: Any) -> BatchResult:
+    """``nudge power``: the power curve of every metric over participant counts.
+
+    Replication ``r`` simulates its largest study once; each count ``n`` analyses its first
+    ``n`` participants. Writes ``power.csv`` (per count, metric and level of test, with the
+    Clopper-Pearson interval), ``smallest_n.csv``, ``replications.csv`` and ``figures/power.png``.
+    """
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.replication import power_figure, power_table, replication_rows, smallest_n
+
+    _check(replications, seed)
+    counts = sorted(set(int(n) for n in participant_counts))
+    if not counts or counts[0] < 2:
+        raise ConfigError("--participants: give counts of at least 2, e.g. --participants 6,9,12,18,24")
+    if not 0 < target < 1:
+        raise ConfigError(f"--target must be between 0 and 1, got {target}")
+    config = _load(experiment, overrides, None)
+    chosen = load_plan(plan)
+    batch = Batch("power", single_point(config, counts), replications,
+                  config.experiment.seed if seed is None else seed, chosen,
+                  {"experiment": config.experiment.name})
+    run = run_batch(batch, out, **options)
+    rows = replication_rows(run.graph.entries, run.stats, chosen)
+    curves = power_table(rows)
+    smallest = smallest_n(curves, target)
+    tables = {"power": curves, "smallest_n": smallest, "replications": rows.drop(columns=["point"])}
+    files = _write_tables(run.path, tables) + _figures(run.path, {"power": power_figure(curves, target)})
+    return BatchResult(run, rows, curves, tables, files)
+
+
+def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, seed: int | None = None,
+          **options: Any) -> BatchResult:
+    """``nudge sweep``: every design point of a sweep file, R replications each with common seeds.
+
+    Writes ``sweep.csv`` (tidy: ``point, replication, seed, <parameters...>, condition, metric,
+    value``), ``replications.csv``, ``points.csv`` (per point and metric: the summary of
+    :func:`nudgecli.report.replication.summarise` with the parameters), for Sobol and Morris
+    designs ``sensitivity.csv``, and the figures ``figures/sweep.png`` (and ``sensitivity.png``).
+    """
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.replication import (
+        condition_values,
+        point_outputs,
+        replication_rows,
+        sensitivity,
+        sensitivity_figure,
+        summarise,
+        sweep_figure,
+    )
+    from nudgecli.sim.sweep import load_sweep
+
+    loaded = load_sweep(sweep_file)
+    spec = loaded.spec
+    count = spec.replications if replications is None else replications
+    _check(count, seed)
+    chosen = load_plan(spec.plan)
+    points = tuple(Point(p.index, p.parameters, p.config, (p.config.study.participants,))
+                   for p in loaded.points)
+    batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen,
+                  {"design": spec.design.model_dump(mode="json"), "experiment": spec.experiment})
+    run = run_batch(batch, out, **options)
+    names = parameter_names(batch)
+    table = point_table(batch).astype(object)
+    for name in names:
+        table[name] = table[name].map(lambda v: v if isinstance(v, int | float | str | bool) else str(v))
+    rows = replication_rows(run.graph.entries, run.stats, chosen, table)
+    summary = summarise(rows).merge(table, on="point", how="left")
+    tidy = condition_values(run.graph.entries, run.stats, table)
+    tables = {"sweep": tidy, "replications": rows, "points": summary}
+    figures: dict[str, Any] = {"sweep": sweep_figure(rows, names)}
+    if loaded.problem is not None and loaded.samples is not None:
+        indices = sensitivity(spec.design.method, loaded.problem, loaded.samples, point_outputs(rows),
+                              levels=spec.design.levels, seed=spec.design.seed)
+        tables["sensitivity"] = indices
+        if not indices.empty:
+            figures["sensitivity"] = sensitivity_figure(indices)
+    files = _write_tables(run.path, tables) + _figures(run.path, figures)
+    return BatchResult(run, rows, tables.get("sensitivity", summary), tables, files)

@@ -1,0 +1,337 @@
+"""Executors of a batch's tasks: in this process, on local worker processes, or on dask.
+
+All three take :class:`Job` objects with :meth:`submit` and give back ``(job, result)`` pairs, in
+the order they finish, with :meth:`next_result`; :meth:`close` ends them. The process pool is
+this package's own (not ``concurrent.futures``), so that it can send each worker the tasks whose
+data it already holds: a worker gets, in order, a task without affinity, a task of an affinity
+it has served recently, else a task of the affinity the fewest workers hold. Its workers exit
+when the parent dies (:func:`nudgecli.sim.study.die_with_parent`) and report their peak memory
+when they close. :class:`Progress` prints a batch's progress on stderr.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import signal
+import sys
+import time
+import traceback
+from collections import OrderedDict, deque
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from multiprocessing.connection import Connection, wait
+from typing import Any, TextIO
+
+from nudgecli.sim.study import die_with_parent, process_context
+
+#: Plans (affinities) a worker is assumed to hold: the size of its plan cache.
+HELD_AFFINITIES = 4
+#: Jobs each pool worker holds at once (one running, one queued), so it never waits for the parent.
+POOL_DEPTH = 2
+
+
+@dataclass(frozen=True)
+class Job:
+    """A task as sent to an executor: ``func(*args)``, named ``key``.
+
+    ``func`` must be a module-level function (it is pickled to process and dask workers).
+    ``affinity`` names what the task shares with others (for a participant task, the study's
+    layouts): executors keep tasks of equal affinity together. ``None`` marks a task that may
+    run anywhere and goes first (an analysis, which finishes a replication).
+    """
+
+    key: str
+    func: Callable[..., Any]
+    args: tuple[Any, ...]
+    affinity: str | None = None
+
+
+def execute(job: Job) -> Any:
+    """Run a job in this process."""
+    return job.func(*job.args)
+
+
+class WorkerError(RuntimeError):
+    """A task failed in a worker (the worker's traceback is the message)."""
+
+
+class SerialExecutor:
+    """Runs every job in this process, jobs without affinity first."""
+
+    def __init__(self) -> None:
+        self._queue: deque[Job] = deque()
+
+    def submit(self, job: Job) -> None:
+        (self._queue.appendleft if job.affinity is None else self._queue.append)(job)
+
+    def next_result(self) -> tuple[Job, Any]:
+        job = self._queue.popleft()
+        return job, execute(job)
+
+    def close(self) -> None:
+        self._queue.clear()
+
+
+def _peak_rss_kib() -> float | None:
+    """This process's peak resident memory in KiB (Linux ``ru_maxrss``), or None where unknown."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - Windows
+        return None
+    return float(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+
+
+def _pool_worker(conn: Connection, parent_pid: int) -> None:
+    """A pool worker: receive jobs, send back ``(status, key, result)``; exit with the parent."""
+    die_with_parent(parent_pid)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    while True:
+        try:
+            job = conn.recv()
+        except (EOFError, OSError):
+            return
+        if job is None:
+            conn.send(("bye", "", _peak_rss_kib()))
+            return
+        try:
+            result = execute(job)
+        except Exception:
+            conn.send(("error", job.key, traceback.format_exc()))
+            continue
+        conn.send(("ok", job.key, result))
+
+
+@dataclass
+class _Slot:
+    process: Any
+    conn: Connection
+    inflight: dict[str, Job] = field(default_factory=dict)
+    holds: OrderedDict[str, None] = field(default_factory=OrderedDict)
+
+
+class ProcessExecutor:
+    """Local worker processes with cache-aware dispatch.
+
+    Each worker holds up to :data:`POOL_DEPTH` jobs. An idle worker gets, in order: a waiting
+    job without affinity; a job of an affinity it served recently (whose plan it holds); else a
+    job of the affinity held by the fewest workers (so each plan is built by as few workers as
+    the load allows). The parent mirrors each worker's plan cache (:data:`HELD_AFFINITIES`, the
+    same least-recently-used order).
+    """
+
+    def __init__(self, workers: int) -> None:
+        context: Any = process_context()  # typeshed's BaseContext lacks Process
+        self._slots: list[_Slot] = []
+        self._free: deque[Job] = deque()
+        self._pending: OrderedDict[str, deque[Job]] = OrderedDict()
+        #: The largest worker's peak resident memory in MB, known after :meth:`close`.
+        self.peak_rss_mb: float | None = None
+        for _ in range(workers):
+            parent_end, child_end = context.Pipe(duplex=True)
+            process = context.Process(target=_pool_worker, args=(child_end, os.getpid()), daemon=True,
+                                      name="nudge-worker")
+            process.start()
+            child_end.close()
+            self._slots.append(_Slot(process, parent_end))
+
+    @property
+    def pids(self) -> list[int]:
+        return [slot.process.pid for slot in self._slots]
+
+    def submit(self, job: Job) -> None:
+        if job.affinity is None:
+            self._free.append(job)
+        else:
+            self._pending.setdefault(job.affinity, deque()).append(job)
+
+    def _pick(self, slot: _Slot) -> Job | None:
+        if self._free:
+            return self._free.popleft()
+        for key in reversed(slot.holds):
+            if self._pending.get(key):
+                return self._take(slot, key)
+        candidates = [key for key, jobs in self._pending.items() if jobs]
+        if not candidates:
+            return None
+        holders = {key: sum(key in s.holds for s in self._slots) for key in candidates}
+        key = min(candidates, key=lambda k: (holders[k], -len(self._pending[k])))
+        return self._take(slot, key)
+
+    def _take(self, slot: _Slot, key: str) -> Job:
+        job = self._pending[key].popleft()
+        if not self._pending[key]:
+            del self._pending[key]
+        slot.holds[key] = None
+        slot.holds.move_to_end(key)
+        while len(slot.holds) > HELD_AFFINITIES:
+            slot.holds.popitem(last=False)
+        return job
+
+    def _fill(self) -> None:
+        for slot in self._slots:
+            while len(slot.inflight) < POOL_DEPTH:
+                job = self._pick(slot)
+                if job is None:
+                    return
+                slot.conn.send(job)
+                slot.inflight[job.key] = job
+
+    def next_result(self) -> tuple[Job, Any]:
+        self._fill()
+        busy = {slot.conn: slot for slot in self._slots if slot.inflight}
+        if not busy:
+            raise RuntimeError("no job to wait for")
+        conn = wait(list(busy))[0]
+        slot = busy[conn]  # type: ignore[index]
+        try:
+            status, key, payload = slot.conn.recv()
+        except (EOFError, OSError):
+            slot.process.join(timeout=1)
+            raise WorkerError(f"worker {slot.process.pid} died (exit code {slot.process.exitcode}) while "
+                              f"running {', '.join(slot.inflight)}") from None
+        job = slot.inflight.pop(key)
+        if status != "ok":
+            raise WorkerError(f"task {key} failed in a worker:\n{payload}")
+        return job, payload
+
+    def close(self) -> None:
+        for slot in self._slots:
+            with contextlib.suppress(OSError, ValueError):
+                slot.conn.send(None)
+        deadline = time.monotonic() + 5
+        for slot in self._slots:
+            self._farewell(slot, deadline)
+        for slot in self._slots:
+            slot.process.join(timeout=max(0.0, deadline - time.monotonic()))
+            if slot.process.is_alive():
+                slot.process.terminate()
+                slot.process.join(timeout=1)
+            slot.conn.close()
+
+
+    def _farewell(self, slot: _Slot, deadline: float) -> None:
+        """Read a closing worker's last messages up to its farewell, which carries its peak memory."""
+        try:
+            while slot.conn.poll(max(0.0, deadline - time.monotonic())):
+                status, _, payload = slot.conn.recv()
+                if status == "bye":
+                    if payload is not None:
+                        self.peak_rss_mb = max(self.peak_rss_mb or 0.0, payload / 1024.0)
+                    return
+        except (EOFError, OSError):
+            return
+
+
+class DaskExecutor:
+    """A dask.distributed cluster.
+
+    Jobs of one affinity are hinted to one worker (round robin over the workers in the order
+    the affinities come), with loose restrictions, so dask's work stealing still moves them to
+    idle workers; jobs without affinity go wherever the scheduler puts them.
+    """
+
+    def __init__(self, client: Any) -> None:
+        from dask.distributed import as_completed
+
+        self._client = client
+        self._workers = sorted(client.scheduler_info().get("workers", {}))
+        self._hints: dict[str, str] = {}
+        self._jobs: dict[str, Job] = {}
+        self._done = as_completed()
+
+    def _hint(self, affinity: str) -> list[str] | None:
+        if not self._workers:
+            return None
+        if affinity not in self._hints:
+            self._hints[affinity] = self._workers[len(self._hints) % len(self._workers)]
+        return [self._hints[affinity]]
+
+    def submit(self, job: Job) -> None:
+        client = self._client
+        if job.affinity is not None:
+            future = client.submit(job.func, *job.args, key=f"nudge-{job.key}",
+                                   workers=self._hint(job.affinity), allow_other_workers=True, pure=False)
+        else:
+            future = client.submit(job.func, *job.args, key=f"nudge-{job.key}", pure=False)
+        self._jobs[future.key] = job
+        self._done.add(future)
+
+    def next_result(self) -> tuple[Job, Any]:
+        future = next(self._done)
+        job = self._jobs.pop(future.key)
+        try:
+            result = future.result()
+        except Exception as exc:
+            raise WorkerError(f"task {job.key} failed on the cluster: {exc!r}") from exc
+        future.release()
+        return job, result
+
+    def close(self) -> None:
+        self._client.close()
+
+
+Executor = SerialExecutor | ProcessExecutor | DaskExecutor
+
+
+# --- progress ----------------------------------------------------------------------------------
+
+class Progress:
+    """Progress on a stream: tasks done, rate and ETA, one line every ``interval`` seconds.
+
+    On a terminal the line is rewritten in place (every 0.5 s); otherwise (a log, CI) a new line
+    is written at most every ``interval`` seconds, and always for the last task.
+    """
+
+    def __init__(self, label: str, stream: TextIO | None = None, interval: float = 5.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.label = label
+        self.stream = stream if stream is not None else sys.stderr
+        self.clock = clock
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.interval = 0.5 if self.tty else interval
+        self.start = clock()
+        self.first_done: int | None = None
+        self.last = -math.inf
+
+    def line(self, done: int, total: int) -> str:
+        """``label: done/total tasks (pct), rate tasks/s, ETA ...`` (the rate counts this session only)."""
+        if self.first_done is None:
+            self.first_done = done
+        elapsed = self.clock() - self.start
+        new = done - self.first_done
+        rate = new / elapsed if elapsed > 0 and new > 0 else 0.0
+        eta = format_duration((total - done) / rate) if rate > 0 else "unknown"
+        pct = 100.0 * done / total if total else 100.0
+        return f"{self.label}: {done}/{total} tasks ({pct:.0f}%), {rate:.2f} tasks/s, ETA {eta}"
+
+    def __call__(self, done: int, total: int) -> None:
+        text = self.line(done, total)
+        now = self.clock()
+        if done < total and now - self.last < self.interval:
+            return
+        self.last = now
+        if self.tty:
+            self.stream.write("\r" + text + ("\n" if done >= total else ""))
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+
+
+def format_duration(seconds: float) -> str:
+    """Seconds as "42 s", "3.5 min" or "1.2 h"."""
+    if seconds < 60:
+        return f"{seconds:.0f} s"
+    if seconds < 3600:
+        return f"{seconds / 60:.1f} min"
+    return f"{seconds / 3600:.1f} h"
+
+
+def make_executor(workers: int, client: Any) -> Executor:
+    """The executor for ``--workers``/``--scheduler`` (a connected dask client wins)."""
+    if client is not None:
+        return DaskExecutor(client)
+    if workers > 1:
+        return ProcessExecutor(workers)
+    return SerialExecutor()

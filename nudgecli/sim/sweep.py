@@ -1,0 +1,254 @@
+"""Sweep files: which experiment keys vary, and the design points (grid, Sobol or Morris via SALib).
+
+A sweep file is TOML::
+
+    experiment = "smoke"          # preset or path (relative paths: to the sweep file's folder)
+    replications = 4              # studies per design point, the same seeds at every point
+    seed = 11                     # master seed of the replications' seeds
+    plan = "paper"                # analysis plan (preset or path); default "paper"
+    set = ["study.participants=4"]    # fixed overrides applied at every point (optional)
+
+    [design]
+    method = "sobol"              # "grid", "sobol" or "morris"
+    samples = 8                   # sobol: base samples N (N (D + 2) points); morris: trajectories
+    levels = 4                    # morris: grid levels
+    seed = 0                      # the design's own seed (Sobol scrambling, Morris trajectories)
+
+    [parameters]                  # experiment keys (section.key)
+    "inference.kappa" = { low = 0.5, high = 0.8 }            # a range (sobol, morris)
+    "study.handover_idle_s" = { low = 1, high = 3, integer = true }
+    "disambiguation.window" = { values = [3, 5] }            # a set of values (any design)
+    "model.epsilon" = [0.05, 0.1, 0.2]                       # shorthand for { values = [...] }
+
+A grid takes every combination of the parameters' values (ranges are refused). Sobol and Morris
+designs sample the unit hypercube with SALib: a range maps linearly (an integer range takes the
+floor, so each integer gets an equal share); a set of ``k`` values is the range ``[0, k)`` and
+takes the value at the floor. Every point is validated as an experiment before anything runs.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from nudgecli.config import ExperimentConfig, format_validation_error, load_experiment, preset_dir
+from nudgecli.errors import ConfigError
+
+#: Where the shipped example sweeps live (beside the experiment presets, in their own folder so
+#: that ``nudge presets`` does not list them as experiments).
+SWEEP_FOLDER = "sweeps"
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Range(_Model):
+    """A continuous (or integer) range to sample."""
+
+    low: float
+    high: float
+    integer: bool = False
+
+    @model_validator(mode="after")
+    def _check(self) -> Range:
+        if not self.low < self.high:
+            raise ValueError(f"low must be below high, got low={self.low:g}, high={self.high:g}")
+        return self
+
+
+class Values(_Model):
+    """An explicit set of values."""
+
+    values: list[Any] = Field(min_length=1)
+
+
+class Design(_Model):
+    """``[design]``."""
+
+    method: Literal["grid", "sobol", "morris"] = "grid"
+    samples: int = Field(default=8, ge=1, le=100_000)
+    levels: int = Field(default=4, ge=2, le=100)
+    seed: int = Field(default=0, ge=0)
+
+
+class SweepFile(_Model):
+    """A whole sweep file (see the module docstring)."""
+
+    experiment: str
+    replications: int = Field(default=4, ge=1, le=100_000)
+    seed: int = Field(default=0, ge=0)
+    plan: str = "paper"
+    set: list[str] = Field(default_factory=list)
+    design: Design = Field(default_factory=Design)
+    parameters: dict[str, Range | Values]
+
+    @model_validator(mode="before")
+    @classmethod
+    def _shorthand(cls, data: Any) -> Any:
+        if isinstance(data, dict) and isinstance(data.get("parameters"), dict):
+            data = dict(data)
+            data["parameters"] = {k: {"values": v} if isinstance(v, list) else v
+                                  for k, v in data["parameters"].items()}
+        return data
+
+    @model_validator(mode="after")
+    def _check(self) -> SweepFile:
+        if not self.parameters:
+            raise ValueError("name at least one parameter under [parameters]")
+        for key in self.parameters:
+            if key.count(".") != 1:
+                raise ValueError(f"parameter {key!r}: write it as section.key, e.g. inference.kappa")
+        if self.design.method == "grid":
+            ranges = [k for k, v in self.parameters.items() if isinstance(v, Range)]
+            if ranges:
+                raise ValueError(f"a grid needs values, not ranges ({', '.join(ranges)}); list the values "
+                                 "or use method = \"sobol\" or \"morris\"")
+        return self
+
+
+@dataclass(frozen=True)
+class DesignPoint:
+    """One point of a design: its index, the swept values and the experiment they give."""
+
+    index: int
+    parameters: dict[str, Any]
+    config: ExperimentConfig
+
+
+@dataclass
+class Sweep:
+    """A loaded sweep: the file, its design points and (sampled designs) the SALib problem.
+
+    Attributes
+    ----------
+    source
+        The sweep file.
+    spec
+        Its validated content.
+    points
+        The design points, in design order.
+    problem
+        SALib's problem (``names``, ``bounds``, ``num_vars``); ``None`` for a grid.
+    samples
+        ``(n_points, D)`` the design in the problem's units (what SALib's analysers take);
+        ``None`` for a grid.
+    """
+
+    source: Path
+    spec: SweepFile
+    points: list[DesignPoint]
+    problem: dict[str, Any] | None = None
+    samples: np.ndarray | None = field(default=None, repr=False)
+
+    @property
+    def names(self) -> list[str]:
+        return list(self.spec.parameters)
+
+
+def resolve_sweep(name_or_path: str) -> Path:
+    """A sweep file path, or the shipped sweep of that name (``experiments/sweeps/NAME.toml``)."""
+    candidate = Path(name_or_path)
+    if candidate.is_file():
+        return candidate
+    shipped = preset_dir("experiments") / SWEEP_FOLDER
+    names = sorted(p.stem for p in shipped.glob("*.toml")) if shipped.is_dir() else []
+    if name_or_path in names:
+        return shipped / f"{name_or_path}.toml"
+    raise ConfigError(f"sweep file {name_or_path!r} does not exist; give a .toml sweep file"
+                      + (f" or one of the shipped sweeps: {', '.join(names)}" if names else ""))
+
+
+def load_sweep(name_or_path: str) -> Sweep:
+    """Read a sweep file, build its design and validate every point's experiment.
+
+    Raises
+    ------
+    ConfigError
+        Syntax, unknown key, bad range, an unknown experiment, or a point whose experiment is
+        invalid (naming the file, the parameter and the value).
+    """
+    path = resolve_sweep(name_or_path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read the sweep file: {exc}") from None
+    try:
+        spec = SweepFile.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(format_validation_error(exc, str(path), SweepFile)) from None
+    experiment = spec.experiment
+    beside = path.parent / experiment
+    if experiment.endswith(".toml") and beside.is_file():
+        experiment = str(beside)
+    base = load_experiment(experiment, spec.set)  # fails early on a bad experiment or --set
+    del base
+    values, problem, samples = design_values(spec)
+    points = []
+    for index, assignment in enumerate(values):
+        overrides = [*spec.set, *(f"{k}={json.dumps(v)}" for k, v in assignment.items())]
+        try:
+            config = load_experiment(experiment, overrides)
+        except ConfigError as exc:
+            shown = ", ".join(f"{k}={v!r}" for k, v in assignment.items())
+            raise ConfigError(f"{path}: design point {index} ({shown}) is not a valid experiment: "
+                              f"{exc}") from None
+        points.append(DesignPoint(index=index, parameters=assignment, config=config))
+    return Sweep(source=path, spec=spec, points=points, problem=problem, samples=samples)
+
+
+def salib_problem(spec: SweepFile) -> dict[str, Any]:
+    """SALib's problem: one variable per parameter, a range's bounds or ``[0, k]`` for k values."""
+    bounds = []
+    for value in spec.parameters.values():
+        if isinstance(value, Range):
+            bounds.append([value.low, value.high])
+        else:
+            bounds.append([0.0, float(len(value.values))])
+    return {"num_vars": len(spec.parameters), "names": list(spec.parameters), "bounds": bounds}
+
+
+def map_sample(value: Range | Values, x: float) -> Any:
+    """The parameter value of the design coordinate ``x`` (in the problem's units)."""
+    if isinstance(value, Values):
+        return value.values[min(math.floor(x), len(value.values) - 1)]
+    if value.integer:
+        return min(math.floor(x), math.floor(value.high))
+    return float(x)
+
+
+def design_values(spec: SweepFile) -> tuple[list[dict[str, Any]], dict[str, Any] | None, np.ndarray | None]:
+    """The design: every point's parameter values, SALib's problem and the ``(n, D)`` samples.
+
+    A grid has no problem or samples. Sobol uses Saltelli's scheme without second-order terms
+    (``N (D + 2)`` points, scrambled with the design seed); Morris ``N`` trajectories of
+    ``D + 1`` points on a ``levels`` grid.
+    """
+    names = list(spec.parameters)
+    if spec.design.method == "grid":
+        choices = [spec.parameters[n].values for n in names]  # type: ignore[union-attr]
+        return [dict(zip(names, combo, strict=True)) for combo in itertools.product(*choices)], None, None
+    problem = salib_problem(spec)
+    if spec.design.method == "sobol":
+        from SALib.sample import sobol
+
+        samples = sobol.sample(problem, spec.design.samples, calc_second_order=False, scramble=True,
+                               seed=spec.design.seed)
+    else:
+        from SALib.sample import morris
+
+        samples = morris.sample(problem, spec.design.samples, num_levels=spec.design.levels,
+                                seed=spec.design.seed)
+    values = [{n: map_sample(spec.parameters[n], float(x)) for n, x in zip(names, row, strict=True)}
+              for row in samples]
+    return values, problem, np.asarray(samples, dtype=float)

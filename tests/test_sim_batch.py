@@ -1,0 +1,395 @@
+"""Many studies at once: replicate/power/sweep, executors, resume after SIGKILL, orphan workers."""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from nudgecli.cli import main
+from nudgecli.config import list_presets, load_experiment
+from nudgecli.errors import ConfigError
+from nudgecli.report.plans import AnalysisPlan
+from nudgecli.report.replication import (
+    analyse_replication,
+    point_outputs,
+    power_table,
+    replication_rows,
+    sensitivity,
+    smallest_n,
+)
+from nudgecli.sim import batch as batch_module
+from nudgecli.sim.batch import layout_key, replicate, replication_seed
+from nudgecli.sim.executors import Progress
+from nudgecli.sim.study import StudyPlan, simulate_participant
+from nudgecli.sim.sweep import Design, Range, SweepFile, design_values, load_sweep
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+TABLES = ("replications", "conditions", "summary")
+
+
+def assert_same_tables(a, b) -> None:
+    for name in TABLES:
+        pd.testing.assert_frame_equal(a.tables[name], b.tables[name], check_exact=True)
+
+
+def test_replicate_is_identical_with_1_and_2_workers_and_dask(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    serial = replicate("smoke", 3, tmp_path / "serial", seed=5)
+    two = replicate("smoke", 3, tmp_path / "two", seed=5, workers=2)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=":0") as cluster:
+        on_dask = replicate("smoke", 3, tmp_path / "dask", seed=5, scheduler=cluster.scheduler_address)
+    assert_same_tables(serial, two)
+    assert_same_tables(serial, on_dask)
+    rows = serial.tables["replications"]
+    # three independent studies: their seeds and their results differ
+    assert rows["seed"].nunique() == 3
+    assert rows.groupby("replication")["median_a"].apply(tuple).nunique() == 3
+    assert (tmp_path / "serial" / "figures" / "forest.png").is_file()
+
+
+def test_a_participant_does_not_depend_on_how_many_others_there_are():
+    # power analyses the first n participants of each replication's largest study: this must hold
+    config = load_experiment("smoke")
+    bigger = config.model_copy(update={"study": config.study.model_copy(update={"participants": 7})})
+    a = simulate_participant(StudyPlan.build(config, 3), 1)
+    b = simulate_participant(StudyPlan.build(bigger, 3), 1)
+    pd.testing.assert_frame_equal(a.trials, b.trials, check_exact=True)
+
+
+def test_layout_key_ignores_settings_that_do_not_touch_layouts():
+    config = load_experiment("smoke")
+    kappa = load_experiment("smoke", ["inference.kappa=0.8"])
+    epsilon = load_experiment("smoke", ["model.epsilon=0.2"])
+    goals = load_experiment("smoke", ["study.goal_counts=[5]"])
+    assert layout_key(config, 1) == layout_key(kappa, 1)
+    keys = {layout_key(config, 1), layout_key(epsilon, 1), layout_key(goals, 1), layout_key(config, 2)}
+    assert len(keys) == 4
+    assert replication_seed(9, 0) != replication_seed(9, 1)
+    assert replication_seed(9, 0) == replication_seed(9, 0)
+
+
+# --- power ------------------------------------------------------------------------------------
+
+def signed_rank_distribution(n: int, q: float) -> np.ndarray:
+    """P(T+ = t), t = 0..n(n+1)/2, when rank k (1..n) is positive with probability q, independently.
+
+    The exact distribution of Wilcoxon's signed-rank statistic for differences whose signs are
+    independent of their magnitudes (by convolution, rank by rank); q = 1/2 is the null.
+    """
+    dist = np.zeros(n * (n + 1) // 2 + 1)
+    dist[0] = 1.0
+    for k in range(1, n + 1):
+        shifted = np.zeros_like(dist)
+        shifted[k:] = dist[:-k]
+        dist = (1 - q) * dist + q * shifted
+    return dist
+
+
+def analytic_power(n: int, q: float, alpha: float = 0.05) -> float:
+    """Power of the exact two-sided signed-rank test at alpha, counting only rejections with T+ > T-."""
+    null = signed_rank_distribution(n, 0.5)
+    upper = np.cumsum(null[::-1])[::-1]  # P0(T+ >= t)
+    lower = np.cumsum(null)  # P0(T+ <= t)
+    t = np.arange(null.size)
+    p = np.minimum(1.0, 2 * np.minimum(upper, lower))
+    reject = (p < alpha) & (t > n * (n + 1) / 4)
+    return float(signed_rank_distribution(n, q)[reject].sum())
+
+
+def synthetic_study(rng: np.random.Generator, n: int, q: float) -> pd.DataFrame:
+    """n participants, one trial per condition; a - b = sign * magnitude, sign + with probability q."""
+    sign = np.where(rng.random(n) < q, 1.0, -1.0)
+    magnitude = rng.uniform(0.5, 1.5, n)
+    base = rng.normal(10.0, 1.0, n)
+    return pd.DataFrame({
+        "participant": np.repeat(np.arange(n), 2),
+        "condition": np.tile(["a", "b"], n),
+        "value": np.column_stack([base + sign * magnitude, base]).ravel(),
+    })
+
+
+def test_power_rises_with_n_and_matches_the_analytic_power_of_the_test():
+    q, replications, counts = 0.85, 60, (6, 9, 14)
+    plan = AnalysisPlan(conditions=("a", "b"), bootstrap={"resamples": 100})
+    rng = np.random.default_rng(20240611)
+    entries, stats = [], {}
+    for n in counts:
+        for r in range(replications):
+            key = f"n{n}-r{r}"
+            stats[key] = analyse_replication(synthetic_study(rng, n, q), plan, ["value"])
+            entries.append({"point": 0, "replication": r, "seed": r, "participants": n, "analysis": key})
+    rows = replication_rows(pd.DataFrame(entries), stats, plan)
+    curve = power_table(rows, {"value": +1})
+    level = curve[curve["level"] == "participant"].set_index("participants")
+    expected = {n: analytic_power(n, q) for n in counts}
+    assert expected[6] == pytest.approx(q ** 6)  # n = 6: only all six positive reach p = 2/64 < .05
+    for n in counts:
+        low, high = level.loc[n, "low"], level.loc[n, "high"]
+        assert low <= expected[n] <= high, (n, expected[n], low, high)
+    assert level.loc[6, "power"] < level.loc[9, "power"] < level.loc[14, "power"]
+    first = smallest_n(curve, target=0.6).set_index("level").loc["participant", "participants"]
+    assert first == min(n for n in counts if level.loc[n, "power"] >= 0.6)
+    assert smallest_n(curve, target=0.99).set_index("level").loc["participant", "participants"] is None
+
+
+# --- sensitivity --------------------------------------------------------------------------------
+
+def test_sobol_indices_of_the_ishigami_function_through_the_sweep_machinery():
+    # Ishigami & Homma (1990); the analytic indices for a = 7, b = 0.1 as tabulated in Saltelli et
+    # al., "Global Sensitivity Analysis: The Primer" (2008), and in SALib's documentation:
+    # S1 = 0.3139, S2 = 0.4424, S3 = 0; ST1 = 0.5576, ST2 = 0.4424, ST3 = 0.2437. Recomputed below
+    # from the variance decomposition V1 = (1 + b pi^4 / 5)^2 / 2, V2 = a^2 / 8, V13 = 8 b^2 pi^8 / 225.
+    a, b = 7.0, 0.1
+    v1, v2, v13 = (1 + b * math.pi ** 4 / 5) ** 2 / 2, a ** 2 / 8, 8 * b ** 2 * math.pi ** 8 / 225
+    total = v1 + v2 + v13
+    analytic = {("x1", "S1"): v1 / total, ("x2", "S1"): v2 / total, ("x3", "S1"): 0.0,
+                ("x1", "ST"): (v1 + v13) / total, ("x2", "ST"): v2 / total, ("x3", "ST"): v13 / total}
+    tabulated = {("x1", "S1"): 0.3139, ("x2", "S1"): 0.4424, ("x3", "S1"): 0.0,
+                 ("x1", "ST"): 0.5576, ("x2", "ST"): 0.4424, ("x3", "ST"): 0.2437}
+    for key, value in tabulated.items():
+        assert analytic[key] == pytest.approx(value, abs=1e-4)
+
+    spec = SweepFile(experiment="unused", design=Design(method="sobol", samples=4096, seed=3),
+                     parameters={f"ishigami.x{k}": Range(low=-math.pi, high=math.pi) for k in (1, 2, 3)})
+    points, problem, samples = design_values(spec)
+    assert problem is not None and samples is not None and len(points) == 4096 * 5
+    x = np.array([[p[f"ishigami.x{k}"] for k in (1, 2, 3)] for p in points])
+    y = np.sin(x[:, 0]) + a * np.sin(x[:, 1]) ** 2 + b * x[:, 2] ** 4 * np.sin(x[:, 0])
+    outputs = pd.DataFrame({"point": np.arange(len(y)), "metric": "ishigami", "y": y})
+    indices = sensitivity("sobol", problem, samples, outputs, seed=1).set_index(["parameter", "index"])
+    for (name, index), value in analytic.items():
+        got, conf = indices.loc[(f"ishigami.{name}", index), ["value", "conf"]]
+        assert abs(got - value) <= max(2 * conf, 0.02), (name, index, got, conf, value)
+
+
+def test_point_outputs_average_the_replications_of_each_point():
+    rows = pd.DataFrame({"point": [0, 0, 1, 1], "metric": "m", "difference": [1.0, 3.0, -2.0, 0.0]})
+    assert point_outputs(rows)["y"].tolist() == [2.0, -1.0]
+
+
+# --- sweep files ------------------------------------------------------------------------------
+
+SWEEP = """
+experiment = "smoke"
+replications = 2
+seed = 3
+
+[design]
+method = "grid"
+
+[parameters]
+"inference.kappa" = [0.6, 0.7]
+"""
+
+
+def test_a_grid_sweep_file_gives_every_combination(tmp_path):
+    path = tmp_path / "grid.toml"
+    path.write_text(SWEEP + '"disambiguation.window" = [3, 5]\n')
+    sweep = load_sweep(str(path))
+    values = [(p.parameters["inference.kappa"], p.parameters["disambiguation.window"]) for p in sweep.points]
+    assert values == [(0.6, 3), (0.6, 5), (0.7, 3), (0.7, 5)]
+    assert sweep.points[3].config.disambiguation.window == 5 and sweep.points[3].config.inference.kappa == 0.7
+
+
+@pytest.mark.parametrize(("extra", "message"), [
+    ('"inference.kapa" = [0.6]\n', "inference.kapa"),
+    ('"disambiguation.window" = [4]\n', "design point"),
+    ('"model.epsilon" = { low = 0.1, high = 0.2 }\n', "a grid needs values"),
+])
+def test_bad_sweep_files_fail_with_one_error_line(tmp_path, extra, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(SWEEP + extra)
+    result = CliRunner().invoke(main, ["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 1 and message in result.output and "Traceback" not in result.output
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_shipped_sweep_loads_and_is_not_listed_as_an_experiment():
+    assert "example" not in list_presets("experiments")
+    sweep = load_sweep("example")
+    assert sweep.spec.design.method == "sobol" and len(sweep.points) == 4 * (5 + 2)
+    assert {tuple(p.config.study.goal_counts) for p in sweep.points} <= {(3, 4), (5, 6)}
+
+
+def test_a_sweep_killed_with_sigkill_and_resumed_equals_an_uninterrupted_one(tmp_path):
+    path = tmp_path / "grid.toml"
+    path.write_text(SWEEP)
+    killed = tmp_path / "killed"
+    proc = subprocess.Popen([sys.executable, "-m", "nudgecli.cli", "sweep", str(path), "--out", str(killed)],
+                            env=ENV, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and not list((killed / "tasks").glob("*/part-*.parquet")):
+        time.sleep(0.005)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    finished = len(list((killed / "tasks").glob("*/part-*.parquet")))
+    assert 1 <= finished < 8, "the sweep must be interrupted part-way for this test to mean anything"
+    resumed = CliRunner().invoke(main, ["sweep", str(path), "--out", str(killed), "--resume"])
+    assert resumed.exit_code == 0, resumed.output
+    clean = CliRunner().invoke(main, ["sweep", str(path), "--out", str(tmp_path / "clean")])
+    assert clean.exit_code == 0, clean.output
+    for name in ("sweep.csv", "replications.csv", "points.csv"):
+        left, right = (pd.read_csv(folder / name) for folder in (killed, tmp_path / "clean"))
+        pd.testing.assert_frame_equal(left, right, check_exact=True)
+    tidy = pd.read_csv(killed / "sweep.csv")
+    assert list(tidy.columns[:4]) == ["point", "replication", "seed", "inference.kappa"]
+    assert list(tidy.columns[-3:]) == ["condition", "metric", "value"]
+    # common random numbers: every point uses the same seeds
+    assert tidy.groupby("point")["seed"].apply(lambda s: tuple(sorted(set(s)))).nunique() == 1
+
+
+# --- the run: size, progress, refusals --------------------------------------------------------
+
+def test_a_batch_above_the_size_limit_is_refused_without_yes(tmp_path, monkeypatch):
+    monkeypatch.setattr(batch_module, "MAX_TRIALS_WITHOUT_YES", 10)
+    out = tmp_path / "big"
+    refused = CliRunner().invoke(main, ["replicate", "smoke", "-R", "1", "--out", str(out)])
+    assert refused.exit_code == 1 and "16 trials" in refused.output and "--yes" in refused.output
+    assert not out.exists()
+    accepted = CliRunner().invoke(main, ["replicate", "smoke", "-R", "1", "--out", str(out), "--yes",
+                                         "--format", "csv"])
+    assert accepted.exit_code == 0, accepted.output
+    assert "participant_a_higher" in accepted.stdout
+
+
+def test_progress_prints_rate_and_eta_every_few_seconds_when_not_a_terminal():
+    now = [0.0]
+    stream = io.StringIO()
+    progress = Progress("sweep", stream=stream, interval=5.0, clock=lambda: now[0])
+    for done in range(0, 11):
+        progress(done, 10)
+        now[0] += 1.0
+    lines = stream.getvalue().splitlines()
+    assert lines[0] == "sweep: 0/10 tasks (0%), 0.00 tasks/s, ETA unknown"
+    assert lines[1] == "sweep: 5/10 tasks (50%), 1.00 tasks/s, ETA 5 s"
+    assert lines[-1] == "sweep: 10/10 tasks (100%), 1.00 tasks/s, ETA 0 s"
+    assert len(lines) == 3
+
+
+def test_a_bad_scheduler_address_is_refused_before_the_folder_is_created(tmp_path, monkeypatch):
+    pytest.importorskip("dask.distributed")
+    monkeypatch.setattr("nudgecli.sim.study.SCHEDULER_TIMEOUT_S", 0.5)
+    for args in (["simulate", "smoke", "--scheduler", "nonsense"],
+                 ["simulate", "smoke", "--scheduler", "tcp://127.0.0.1:9"],
+                 ["replicate", "smoke", "-R", "1", "--scheduler", "tcp://127.0.0.1:9"]):
+        out = tmp_path / "run"
+        result = CliRunner().invoke(main, [*args, "--out", str(out)])
+        assert result.exit_code == 1 and "cannot connect" in result.output, result.output
+        assert not out.exists()
+
+
+def test_resume_refuses_a_different_batch(tmp_path):
+    out = str(tmp_path / "b")
+    assert CliRunner().invoke(main, ["replicate", "smoke", "-R", "1", "--out", out]).exit_code == 0
+    again = CliRunner().invoke(main, ["replicate", "smoke", "-R", "2", "--out", out, "--resume"])
+    assert again.exit_code == 1 and "different batch" in again.output
+    same = CliRunner().invoke(main, ["replicate", "smoke", "-R", "1", "--out", out, "--resume"])
+    assert same.exit_code == 0 and "0 tasks computed now" in same.output
+
+
+# --- orphans ----------------------------------------------------------------------------------
+
+def _children(pid: int) -> list[int]:
+    path = Path(f"/proc/{pid}/task/{pid}/children")
+    return [int(p) for p in path.read_text().split()] if path.exists() else []
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads the process tree from /proc")
+@pytest.mark.parametrize("command", [
+    ["simulate", "smoke", "--participants", "60"],
+    ["replicate", "smoke", "-R", "30"],
+])
+def test_workers_exit_when_their_parent_is_killed(tmp_path, command):
+    out = tmp_path / "run"
+    args = [sys.executable, "-m", "nudgecli.cli", *command, "--workers", "2", "--out", str(out)]
+    proc = subprocess.Popen(args, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 60
+    workers: list[int] = []
+    while time.monotonic() < deadline and len(workers) < 2:
+        time.sleep(0.05)
+        workers = [c for c in _children(proc.pid)
+                   if "resource_tracker" not in Path(f"/proc/{c}/cmdline").read_text(errors="replace")]
+    assert len(workers) >= 2, "the workers must have started for this test to mean anything"
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    deadline = time.monotonic() + 5
+    while time.monotonic() < deadline and any(_alive(w) for w in workers):
+        time.sleep(0.05)
+    leftover = [w for w in workers if _alive(w)]
+    for pid in leftover:  # clean up before failing
+        os.kill(pid, signal.SIGKILL)
+    assert not leftover, f"workers {leftover} outlived their parent"
+    # nobody holds the caller's pipes any more: reading them ends (TimeoutExpired otherwise)
+    proc.communicate(timeout=10)
+
+
+def test_replicate_and_power_commands_print_their_tables(tmp_path):
+    result = CliRunner().invoke(main, ["power", "smoke", "--participants", "2,3", "-R", "2", "--out",
+                                       str(tmp_path / "p"), "--format", "json"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "p" / "power.csv").is_file() and (tmp_path / "p" / "figures" / "power.png").is_file()
+    power = pd.read_csv(tmp_path / "p" / "power.csv")
+    assert sorted(power["participants"].unique()) == [2, 3]
+    assert set(power["level"]) == {"trial", "participant"}
+    # 2 replications x largest study (3 participants), analysed at 2 and 3: 6 participant tasks + 4 analyses
+    manifest = (tmp_path / "p" / "batch.json").read_text()
+    assert '"participant_tasks": 6' in manifest and '"analyses": 4' in manifest
+
+
+def test_size_estimate_counts_tasks_and_trials():
+    config = load_experiment("smoke")
+    batch = batch_module.Batch("power", batch_module.single_point(config, (2, 4)), 3, 1,
+                               AnalysisPlan())
+    graph = batch_module.build_graph(batch)
+    size = batch_module.estimate(graph, workers=2)
+    assert (size.studies, size.participant_tasks, size.analyses, size.trials) == (3, 12, 6, 12 * 8)
+    with pytest.raises(ConfigError, match="--workers"):
+        batch_module.run_batch(batch, "unused", workers=0)
+
+
+@pytest.mark.parametrize("method", ["bonferroni", "sidak", "holm-sidak", "holm", "simes-hochberg", "hommel",
+                                    "fdr_bh", "fdr_by"])
+def test_conover_of_two_conditions_is_adjusted_as_statsmodels_adjusts_one_test(method):
+    # the shortcut for two conditions (no call to multipletests) must give what multipletests gives
+    from statsmodels.stats.multitest import multipletests
+
+    from nudgecli.report.stats import conover
+
+    rng = np.random.default_rng(4)
+    values = rng.normal(size=24) + np.repeat([0, 1], 12)
+    data = pd.DataFrame({"condition": np.repeat(["a", "b"], 12), "value": values})
+    row = conover(data, "value", ["a", "b"], p_adjust=method).iloc[0]
+    assert row["p"] == pytest.approx(multipletests([row["p_unadjusted"]], method=method)[1][0], rel=1e-12)
+
+
+def test_bench_scale_figures_cover_every_core_count_and_dask():
+    from nudgecli.bench import BenchOptions, scale_figure, select_figures
+
+    names = [f.__name__ for f in select_figures("scale")]
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    for workload in ("study", "sweep"):
+        assert [n for n in names if n.startswith(f"figure_scale_{workload}_")] == [
+            *(f"figure_scale_{workload}_{w}" for w in range(1, cores + 1)), f"figure_scale_{workload}_dask"]
+    row = scale_figure("sweep", 1)(BenchOptions(scale_studies=2))
+    assert row["ratio"] == 1.0 and row["time_s"] > 0 and "2 smoke studies" in row["what"]
