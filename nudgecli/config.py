@@ -300,6 +300,12 @@ def list_presets(kind: Literal["experiments", "analysis"]) -> dict[str, Path]:
     return {p.stem: p for p in sorted(preset_dir(kind).glob("*.toml"))}
 
 
+def default_plan_name(experiment: str) -> str:
+    """The analysis plan a run of ``experiment`` is analysed with by default: the plan preset of
+    the same name (``study-code``), else ``paper``."""
+    return experiment if experiment in list_presets("analysis") else "paper"
+
+
 def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) -> Path:
     """A preset name or a TOML path -> an existing file, or a ``ConfigError`` with suggestions."""
     candidate = Path(name_or_path)

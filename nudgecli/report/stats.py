@@ -300,38 +300,69 @@ def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence
     return level, effect_size
 
 
+def _block_size(n_values: int, n_participants: int) -> int:
+    """Values per block of :func:`_weighted_medians`: balances the (R x P) @ (P x B) count product
+    against the (R x block) search inside one block (about ``sqrt(n P / 64)``, at least 64)."""
+    return max(64, math.isqrt(max(1, n_values * max(1, n_participants) // 64)))
+
+
 def _weighted_medians(values: np.ndarray, owners: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """Medians of ``values`` replicated ``weights[r, owners]`` times, for every resample ``r``.
+
+    Definition: resample ``r`` is the multiset holding each value ``weights[r, owner]`` times
+    (participant ``p`` drawn ``k`` times brings all its values ``k`` times); its median is its
+    element of rank ``(N - 1) // 2`` when ``N`` is odd and the mean of the elements of ranks
+    ``N // 2 - 1`` and ``N // 2`` when even (``np.median`` of the replicated values; ``N`` the
+    resample's size).
+
+    Computed without replicating: the sorted values are cut into blocks; a matrix product of
+    the weights with each participant's cumulative count per block gives every resample's
+    cumulative size at each block end, which locates the block holding each wanted rank; a
+    cumulative sum of the weights inside that block locates the element. Cost about
+    ``R (P B + 2 n / B)`` instead of ``R n``.
 
     Parameters
     ----------
     values
         ``(n,)`` sorted values.
     owners
-        ``(n,)`` participant index of each value.
+        ``(n,)`` participant index (0 .. P - 1) of each value.
     weights
-        ``(R, P)`` how many times each participant is in resample ``r``.
+        ``(R, P)`` how many times each participant is in resample ``r`` (non-negative integers).
 
     Returns
     -------
     np.ndarray
-        ``(R,)`` the median (mean of the two middle elements for an even count, as
-        ``np.median``); NaN where the resample holds no value.
+        ``(R,)`` the medians; NaN where the resample holds no value.
     """
-    n_resamples = weights.shape[0]
+    n_resamples, n_participants = weights.shape
     result = np.full(n_resamples, np.nan)
-    if values.size == 0:
+    n = values.size
+    if n == 0:
         return result
-    chunk = max(1, _BOOTSTRAP_CHUNK_CELLS // values.size)
+    block = min(n, _block_size(n, n_participants))
+    n_blocks = -(-n // block)
+    block_of = np.arange(n) // block
+    counts = np.bincount(owners * n_blocks + block_of, minlength=n_participants * n_blocks)
+    cumulative = np.cumsum(counts.reshape(n_participants, n_blocks), axis=1).astype(np.float64)
+    chunk = max(1, _BOOTSTRAP_CHUNK_CELLS // block)
+    offsets = np.arange(block)
     for start in range(0, n_resamples, chunk):
-        w = weights[start:start + chunk][:, owners]
-        cumulative = np.cumsum(w, axis=1)
-        total = cumulative[:, -1]
-        lower = (total - 1) // 2
-        upper = total // 2
-        index_lower = np.minimum((cumulative <= lower[:, None]).sum(axis=1), values.size - 1)
-        index_upper = np.minimum((cumulative <= upper[:, None]).sum(axis=1), values.size - 1)
-        medians = (values[index_lower] + values[index_upper]) / 2.0
+        w = weights[start:start + chunk]
+        rows = np.arange(w.shape[0])
+        ends = w.astype(np.float64) @ cumulative  # (r, B): resample size up to each block's end
+        total = ends[:, -1].astype(np.int64)
+        picked = []
+        for rank in ((total - 1) // 2, total // 2):
+            rank = np.maximum(rank, 0)
+            b = np.minimum((ends <= rank[:, None]).sum(axis=1), n_blocks - 1)
+            before = np.where(b > 0, ends[rows, np.maximum(b - 1, 0)], 0.0).astype(np.int64)
+            index = b[:, None] * block + offsets[None, :]  # (r, block) positions in the block
+            inside = index < n
+            gathered = np.where(inside, w[rows[:, None], owners[np.minimum(index, n - 1)]], 0)
+            within = (np.cumsum(gathered, axis=1) <= (rank - before)[:, None]).sum(axis=1)
+            picked.append(values[np.minimum(b * block + within, n - 1)])
+        medians = (picked[0] + picked[1]) / 2.0
         result[start:start + chunk] = np.where(total > 0, medians, np.nan)
     return result
 
@@ -343,9 +374,12 @@ def bootstrap_median_differences(data: pd.DataFrame, metric: str, conditions: Se
     """Cluster-bootstrap percentile intervals of ``median(a) - median(b)`` for every pair.
 
     The medians are over trials. Each resample draws the participants (those with a value of
-    the metric) with replacement, ``rng = np.random.default_rng(seed)``, and takes all their
-    trials, so the nesting of trials in participants is kept. Resamples in which a condition
-    has no trial are left out.
+    the metric) with replacement, and takes all their trials, so the nesting of trials in
+    participants is kept. The draws: ``rng = np.random.default_rng(seed)``, then
+    ``rng.integers(0, P, size=(resamples, P))`` (row ``r`` lists resample ``r``'s participants,
+    as codes in order of first appearance in the table); each resample's median is
+    ``np.median`` of its replicated trials (:func:`_weighted_medians` computes it without
+    replicating). Resamples in which a condition has no trial are left out.
 
     Returns
     -------
