@@ -1,14 +1,17 @@
 """The ``nudge`` command line: parse, call one function, print. No model logic here.
 
 stdout carries results (tables, JSON); logs and progress go to stderr. A ``NudgeError``
-prints one ``Error: ...`` line and exits 1 (``--debug`` shows the traceback); click usage
-errors exit 2.
+prints one ``Error: ...`` line and exits 1 (``--debug`` shows the traceback), and so does an
+``OSError`` (naming the path and the cause); click usage errors exit 2; Ctrl-C exits 130 and
+says how to resume.
 """
 
 from __future__ import annotations
 
 import json
+import shlex
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal
 
@@ -17,9 +20,22 @@ import click
 from nudgecli import __version__
 from nudgecli.errors import NudgeError
 
+#: ``ctx.meta`` key of a callable returning what to tell the user after Ctrl-C (how to resume).
+INTERRUPT_HINT = "nudge.interrupt_hint"
+#: Exit status after Ctrl-C (128 + SIGINT, as shells report it).
+EXIT_INTERRUPTED = 130
+
+
+def os_error_message(exc: OSError) -> str:
+    """One line for an ``OSError``: the path(s) and the cause."""
+    cause = exc.strerror or str(exc) or type(exc).__name__
+    paths = [str(p) for p in (exc.filename, exc.filename2) if p is not None]
+    return f"{' -> '.join(paths)}: {cause}" if paths else cause
+
 
 class NudgeGroup(click.Group):
-    """A click group that turns ``NudgeError`` into one ``Error:`` line and exit status 1."""
+    """A click group that turns ``NudgeError`` and ``OSError`` into one ``Error:`` line and exit
+    status 1, and Ctrl-C into exit status 130 with a line on how to resume."""
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
@@ -29,6 +45,16 @@ class NudgeGroup(click.Group):
                 raise
             click.echo(f"Error: {exc}", err=True)
             ctx.exit(1)
+        except OSError as exc:
+            if ctx.meta.get("nudge.debug"):
+                raise
+            click.echo(f"Error: {os_error_message(exc)}", err=True)
+            ctx.exit(1)
+        except KeyboardInterrupt:
+            hint: Callable[[], str] | None = ctx.meta.get(INTERRUPT_HINT)
+            message = hint() if hint is not None else "nothing half-written was left; run the command again"
+            click.echo(f"\nInterrupted: {message}", err=True)
+            ctx.exit(EXIT_INTERRUPTED)
 
 
 @click.group(cls=NudgeGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -118,14 +144,16 @@ def fit_command(calibration_dir: str, out: str | None) -> None:
     """
 
     from nudgecli.sim.calibration import fit_calibration_dir, write_profile
+    from nudgecli.store import check_writable
 
     folder = Path(calibration_dir)
+    target = Path(out) if out is not None else Path.cwd() / f"{folder.resolve().name}.profile.json"
+    check_writable(target.parent)
     result = fit_calibration_dir(folder)
     for warning in result.warnings:
         info(f"Warning: {warning}")
-    click.echo(result.summary)
-    target = Path(out) if out is not None else Path.cwd() / f"{folder.resolve().name}.profile.json"
     write_profile(result.profile, target)
+    click.echo(result.summary)
     info(str(target))
 
 
@@ -148,8 +176,43 @@ def _progress_bar(label: str, unit: str = "trial") -> tuple[Any, Any]:
     return bar, update
 
 
+def resume_command(experiment: str, target: Path, seed: int | None, participants: int | None, workers: int,
+                   overrides: tuple[str, ...], command: str = "simulate") -> str:
+    """The exact command line that resumes an interrupted ``nudge simulate`` (or ``run``) into ``target``."""
+    parts = ["nudge", command, experiment, "--out", str(target)]
+    if seed is not None:
+        parts += ["--seed", str(seed)]
+    if participants is not None:
+        parts += ["--participants", str(participants)]
+    if workers != 1:
+        parts += ["--workers", str(workers)]
+    for override in overrides:
+        parts += ["--set", override]
+    return " ".join(shlex.quote(p) for p in [*parts, "--resume"])
+
+
+def _interrupt_hint(target: Path, commands: list[str]) -> Callable[[], str]:
+    """What to say after Ctrl-C of a simulation into ``target`` (an empty folder made for it is removed)."""
+
+    def hint() -> str:
+        from nudgecli.store import RunFolder
+
+        run = RunFolder(target)
+        if run.is_run():
+            done = len(run.completed_participants())
+            alternatives = "".join(f" (or, to analyse and plot too: {c})" for c in commands[1:])
+            return (f"{target} keeps its {done} finished participant(s); resume with: "
+                    f"{commands[0]}{alternatives}")
+        if target.is_dir() and not any(target.iterdir()):
+            target.rmdir()
+        return "nothing was simulated yet; run the command again"
+
+    return hint
+
+
 def _simulate(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
-              scheduler: str | None, resume: bool, force: bool, overrides: tuple[str, ...]) -> Any:
+              scheduler: str | None, resume: bool, force: bool, overrides: tuple[str, ...],
+              plan: str | None = None, command: str = "simulate") -> Any:
 
     from nudgecli.config import load_experiment
     from nudgecli.sim.study import run_study
@@ -157,10 +220,14 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
 
     config = load_experiment(experiment, overrides)
     target = Path(out) if out else default_run_dir(config.experiment.name)
+    commands = [resume_command(experiment, target, seed, participants, workers, overrides)]
+    if command != "simulate":
+        commands.append(resume_command(experiment, target, seed, participants, workers, overrides, command))
+    click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, commands)
     bar, update = _progress_bar("simulating")
     try:
         return run_study(config, target, seed=seed, participants=participants, workers=workers,
-                         scheduler=scheduler, resume=resume, force=force, progress=update)
+                         scheduler=scheduler, resume=resume, force=force, progress=update, plan=plan)
     finally:
         bar.close()
 
@@ -200,11 +267,12 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
 
 @main.command("analyze")
 @click.argument("source", type=click.Path(path_type=str))
-@click.option("--plan", "plan", default="paper", show_default=True, metavar="PLAN",
-              help="Analysis plan: a preset (paper, study-code) or a TOML file.")
+@click.option("--plan", "plan", default=None, metavar="PLAN",
+              help="Analysis plan: a preset (paper, study-code) or a TOML file [default: the plan recorded "
+                   "in the run folder, else paper].")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=str), default=None,
-              help="Folder for metrics.csv, stats.json, stats.csv, summary.md [default: the run folder, "
-                   "or the table's folder].")
+              help="Folder for stats.json, stats.csv, summary.md (and metrics.csv) [default: the run folder, "
+                   "or <table>-analysis/ beside the table].")
 @click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="What to print on stdout.")
 @click.option("--metric", "metric_names", multiple=True, metavar="NAME",
@@ -213,13 +281,25 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
               help="Questionnaire CSV (NASA-TLX, Likert) analysed alongside.")
 @click.option("--seed", type=click.IntRange(min=0), default=None,
               help="Bootstrap seed [default: the plan's].")
-def analyze_command(source: str, plan: str, out: str | None, output_format: str,
-                    metric_names: tuple[str, ...], questionnaires: str | None, seed: int | None) -> None:
+@click.option("--bootstrap", "bootstrap", type=click.IntRange(min=1), default=None, metavar="N",
+              help="Bootstrap resamples of the intervals [default: the plan's].")
+@click.option("--drop-duplicates", is_flag=True,
+              help="Keep the first of repeated trial rows of a table instead of refusing them.")
+def analyze_command(source: str, plan: str | None, out: str | None, output_format: str,
+                    metric_names: tuple[str, ...], questionnaires: str | None, seed: int | None,
+                    bootstrap: int | None, drop_duplicates: bool) -> None:
     """Metrics and statistics of a run folder or a metrics table (CSV/Parquet, one row per trial)."""
     from nudgecli.report.analysis import analyze, format_table
 
-    result = analyze(source, plan=plan, out=out, metrics=list(metric_names) or None,
-                     questionnaires=questionnaires, seed=seed)
+    bar, update = _progress_bar("analysing", unit="metric")
+    try:
+        result = analyze(source, plan=plan, out=out, metrics=list(metric_names) or None,
+                         questionnaires=questionnaires, seed=seed, bootstrap=bootstrap,
+                         drop_duplicates=drop_duplicates, progress=update)
+    finally:
+        bar.close()
+    for note in result.notes:
+        info(f"Note: {note}")
     if output_format == "json":
         echo_json(result.stats)
     elif output_format == "csv":
@@ -244,14 +324,24 @@ def analyze_command(source: str, plan: str, out: str | None, output_format: str,
 def plot_command(run: str, plan: str | None, out: str | None, formats: str, trial: str | None) -> None:
     """Draw the paper's figures (Fig. 3, 4, 5, a trajectory, questionnaires) of an analysed run."""
     from nudgecli.report.plotting import parse_formats, parse_trial, plot_folder
+    from nudgecli.store import run_lock
 
     chosen, trial_key = parse_formats(formats), parse_trial(trial)
-    if plan is not None:
-        from nudgecli.report.analysis import analyze
+    with _lock_if_folder(run, run_lock):
+        if plan is not None:
+            from nudgecli.report.analysis import analyze
 
-        analyze(run, plan=plan)
-    for path in plot_folder(run, out, chosen, trial_key):
+            analyze(run, plan=plan)
+        written = plot_folder(run, out, chosen, trial_key)
+    for path in written:
         click.echo(str(path))
+
+
+def _lock_if_folder(path: str, run_lock: Any) -> Any:
+    """The run folder's lock when ``path`` is an existing folder, else nothing to hold."""
+    import contextlib
+
+    return run_lock(path) if Path(path).is_dir() else contextlib.nullcontext()
 
 
 # --- run -----------------------------------------------------------------------------------
@@ -271,18 +361,25 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
 def run_command(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
                 plan: str | None, resume: bool, force: bool, overrides: tuple[str, ...]) -> None:
     """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
-    from nudgecli.config import list_presets
+    from nudgecli.config import default_plan_name
     from nudgecli.report.analysis import analyze, format_table
     from nudgecli.report.plotting import plot_folder
+    from nudgecli.store import run_lock
 
-    run = _simulate(experiment, out, seed, participants, workers, None, resume, force, overrides)
+    if plan is not None and Path(plan).suffix.lower() == ".toml":
+        plan = str(Path(plan).resolve())
+    run = _simulate(experiment, out, seed, participants, workers, None, resume, force, overrides,
+                    plan=plan, command="run")
     _print_study_summary(run)
-    chosen_plan = plan or (run.experiment if run.experiment in list_presets("analysis") else "paper")
+    chosen_plan = plan or default_plan_name(run.experiment)
     info(f"analysing with the {chosen_plan!r} plan")
-    result = analyze(run.path, plan=chosen_plan)
-    click.echo("")
-    click.echo(format_table(result.stats))
-    written = plot_folder(run.path)
+    with run_lock(run.path):
+        result = analyze(run.path, plan=chosen_plan)
+        for note in result.notes:
+            info(f"Note: {note}")
+        click.echo("")
+        click.echo(format_table(result.stats))
+        written = plot_folder(run.path)
     click.echo("")
     click.echo(f"Statistics: {run.path / 'stats.json'}, {run.path / 'summary.md'}")
     click.echo(f"Figures:    {len(written)} files in {run.path / 'figures'}")
@@ -321,10 +418,15 @@ def validate_command(simulations: int, min_goals: int, max_goals: int, states: i
         run_validation,
         save_validation,
     )
+    from nudgecli.store import check_writable
 
     settings = ValidationSettings(simulations=simulations, min_goals=min_goals, max_goals=max_goals,
                                   states=states, seed=seed, mc_queries=mc_queries,
                                   belief_concentration=belief_concentration).check()
+    if out is not None:
+        if Path(out).exists() and not Path(out).is_dir():
+            raise click.BadParameter(f"{out} is a file; give a folder", param_hint="--out")
+        check_writable(out)  # fail before the computation, not after it
     start = time.perf_counter()
     bar, update = _progress_bar("validating", unit="simulation")
     try:

@@ -8,17 +8,31 @@ The source is either
   metric columns (real study data). Every other column is a metric and must be numeric
   (booleans count as 0/1), except ``block``, ``trial``, ``layout``, ``n_goals`` and ``true_goal``.
 
+A run folder must be complete: every participant its manifest promises has readable parts,
+and the run finished (otherwise the error names what is missing and the ``nudge simulate ...
+--resume`` command that restores it). Without ``--plan`` it is analysed with the plan recorded
+in its manifest. A metrics table is checked before analysis: duplicate trials (same
+participant, condition, block and trial) are an error unless ``drop_duplicates``, infinite
+values are an error naming rows and columns, condition labels that differ only by case or
+surrounding spaces are an error with a "did you mean"; a CSV's delimiter is sniffed.
+
 The plan's filters apply, then the statistics (:mod:`nudgecli.report.stats`). Written
-atomically (temporary file in the same folder, then ``os.replace``) to the run folder, the
-table's folder, or ``out``: ``metrics.csv``, ``stats.json``, ``stats.csv``, ``summary.md`` and,
-with questionnaires, ``questionnaires.csv``.
+atomically (temporary file in the same folder, then ``os.replace``), while holding the folder's
+lock (:func:`nudgecli.store.run_lock`), to the run folder, ``<table>-analysis/`` beside a table
+(``study.csv`` gives ``study-analysis/``), or ``out``: ``stats.json``, ``stats.csv``,
+``summary.md``, ``metrics.csv`` (for a run folder, or a table the analysis changed; a table
+analysed as it is is not copied: ``stats.json``'s ``metrics_table`` names the table the
+statistics came from) and, with questionnaires, ``questionnaires.csv``.
 """
 
 from __future__ import annotations
 
+import contextlib
+import csv
 import json
 import math
-from collections.abc import Sequence
+import os
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -26,8 +40,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from nudgecli.config import did_you_mean
+from nudgecli.config import default_plan_name, did_you_mean
 from nudgecli.errors import ConfigError, DataError, RunFolderError
+from nudgecli.errors import WriteError as NudgeWriteError
 from nudgecli.report.metrics import (
     ID_COLUMNS,
     METRIC_NAMES,
@@ -45,12 +60,16 @@ from nudgecli.report.stats import (
     order_conditions,
     stats_table,
 )
-from nudgecli.store import RunFolder, write_text_atomic
+from nudgecli.store import RunFolder, run_lock, write_text_atomic
 
 #: Columns of a metrics table that describe the trial rather than measure it.
 NON_METRIC_COLUMNS = (*ID_COLUMNS, "layout", "n_goals", "true_goal")
 TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
 RUN_FOLDER_MARKERS = ("trials", "steps", "manifest.json", "config.toml")
+#: The columns that identify one trial of a metrics table (those present are used).
+TRIAL_KEY = ("participant", "condition", "block", "trial")
+#: How many rows or pairs an error message lists.
+_SHOWN = 5
 
 
 @dataclass
@@ -73,6 +92,9 @@ class AnalysisResult:
         ``summary.md``.
     questionnaires
         The questionnaire scores, if a questionnaire table was given.
+    notes
+        What was excluded or changed (duplicates dropped, participants left out of a test),
+        one line each, for stderr.
     """
 
     out: Path
@@ -82,6 +104,7 @@ class AnalysisResult:
     table: pd.DataFrame
     summary: str
     questionnaires: pd.DataFrame | None = field(default=None)
+    notes: list[str] = field(default_factory=list)
 
 
 # --- reading -----------------------------------------------------------------------------------
@@ -104,12 +127,19 @@ def read_run(folder: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
     Raises
     ------
     RunFolderError
-        No trial parts yet, or no step parts.
+        No trial parts yet, or no step parts, or (with a manifest) parts missing or unreadable or
+        the run unfinished.
     DataError
         A part is unreadable or lacks a column.
     """
     folder = Path(folder)
     run = RunFolder(folder)
+    if run.is_run():
+        manifest = run.read_manifest()
+        kept_metrics_only = (folder / "metrics.csv").is_file() and \
+            not any((folder / "steps").glob("part-*.parquet"))
+        if "participants" in manifest and not kept_metrics_only:
+            run.check_complete()
     trials = run.read_table("trials", TRIAL_COLUMNS)
     if trials.empty:
         raise RunFolderError(f"{folder}: trials/part-*.parquet hold no trials yet; "
@@ -132,7 +162,7 @@ def read_metrics_table(path: str | Path) -> pd.DataFrame:
         raise DataError(f"{path} is neither a run folder nor a metrics table; give a run folder (with "
                         "trials/ and steps/) or a .csv/.parquet table with one row per trial")
     try:
-        table = pd.read_csv(path) if suffix == ".csv" else pd.read_parquet(path)
+        table = pd.read_csv(path, sep=sniff_delimiter(path)) if suffix == ".csv" else pd.read_parquet(path)
     except pd.errors.EmptyDataError:
         raise DataError(f"{path} is empty; a metrics table needs a header (participant, condition, "
                         "metrics) and one row per trial") from None
@@ -141,6 +171,85 @@ def read_metrics_table(path: str | Path) -> pd.DataFrame:
     if table.empty:
         raise DataError(f"{path} has no rows; a metrics table needs one row per trial")
     return table
+
+
+def sniff_delimiter(path: Path, sample_bytes: int = 65536) -> str:
+    """The field separator of a CSV file (``,``, ``;``, tab or ``|``), from its first 64 KiB.
+
+    ``csv.Sniffer`` decides; a file it cannot decide (one column) is read with ``,``.
+    """
+    try:
+        with open(path, encoding="utf-8", errors="replace", newline="") as handle:
+            sample = handle.read(sample_bytes)
+    except OSError:
+        return ","  # pandas reports the problem when it reads the file
+    lines = sample.splitlines()
+    if len(sample) == sample_bytes and len(lines) > 1:
+        sample = "\n".join(lines[:-1])  # the last line may be cut
+    try:
+        return csv.Sniffer().sniff(sample, delimiters=",;\t|").delimiter
+    except csv.Error:
+        return ","
+
+
+def _rows(positions: Sequence[int], first_row: int) -> str:
+    """Row numbers for a message: the first few, then how many more."""
+    shown = ", ".join(str(int(i) + first_row) for i in positions[:_SHOWN])
+    more = f" and {len(positions) - _SHOWN} more" if len(positions) > _SHOWN else ""
+    return shown + more
+
+
+def check_condition_labels(table: pd.DataFrame, source: str) -> None:
+    """Refuse condition labels that differ only by case or surrounding spaces (``Control``, ``control ``).
+
+    Raises
+    ------
+    DataError
+        Naming the near-identical labels and the most frequent spelling as the one meant.
+    """
+    labels = table["condition"].astype(str)
+    counts = labels.value_counts()
+    groups: dict[str, list[str]] = {}
+    for label in counts.index:
+        groups.setdefault(label.strip().casefold(), []).append(label)
+    for spellings in groups.values():
+        if len(spellings) > 1:
+            listed = ", ".join(repr(label) for label in spellings)
+            raise DataError(f"{source}: condition labels {listed} differ only by case or surrounding spaces "
+                            f"(did you mean {spellings[0]!r}?); spell each condition one way")
+
+
+def find_duplicate_trials(table: pd.DataFrame) -> tuple[list[str], np.ndarray]:
+    """The trial key columns present and a mask of rows repeating an earlier row's key.
+
+    Returns
+    -------
+    (list of str, np.ndarray)
+        The key columns used (``participant``, ``condition`` and whichever of ``block``,
+        ``trial`` exist) and ``(n_rows,)`` booleans, True for each repeat after the first. No
+        ``trial`` column: no key, nothing is a duplicate.
+    """
+    if "trial" not in table.columns:
+        return [], np.zeros(len(table), dtype=bool)
+    key = [c for c in TRIAL_KEY if c in table.columns]
+    return key, table.duplicated(subset=key, keep="first").to_numpy()
+
+
+def _check_finite(table: pd.DataFrame, metric_columns: Sequence[str], source: str, first_row: int) -> None:
+    """Refuse infinite values in metric columns (missing values are allowed: they are left out)."""
+    bad: list[str] = []
+    positions: set[int] = set()
+    for column in metric_columns:
+        if pd.api.types.is_bool_dtype(table[column]):
+            continue
+        values = table[column].to_numpy(dtype=float, na_value=np.nan)
+        infinite = np.flatnonzero(np.isinf(values))
+        if infinite.size:
+            bad.append(f"{column!r} (rows {_rows(list(infinite), first_row)})")
+            positions.update(int(i) for i in infinite)
+    if bad:
+        raise DataError(f"{source}: infinite values in {len(positions)} row(s): {'; '.join(bad)}; "
+                        "replace them with a number or leave the cell empty (a missing value)")
 
 
 def _is_numeric(series: pd.Series) -> bool:
@@ -155,17 +264,27 @@ def _as_boolean(series: pd.Series) -> pd.Series | None:
     return None
 
 
-def validate_metrics_table(table: pd.DataFrame, source: str) -> list[str]:
+def validate_metrics_table(table: pd.DataFrame, source: str, first_row: int = 2) -> list[str]:
     """Check a metrics table and return its metric columns.
 
     Boolean columns with blanks (``True``, ``False``, empty) are converted in place to nullable
     booleans.
 
+    Parameters
+    ----------
+    table
+        The table as read.
+    source
+        Its name in messages.
+    first_row
+        The row number messages give the table's first row (2 for a CSV: line 1 is the header).
+
     Raises
     ------
     DataError
         A missing or incomplete ``participant``/``condition`` column, no metric column, a
-        non-numeric metric column, or fewer than two conditions.
+        non-numeric metric column, an infinite value, condition labels differing only by case or
+        surrounding spaces, or fewer than two conditions.
     """
     for column in ("participant", "condition"):
         if column not in table.columns:
@@ -175,8 +294,8 @@ def validate_metrics_table(table: pd.DataFrame, source: str) -> list[str]:
         empty = table[column].isna()
         if empty.any():
             row = int(empty.to_numpy().nonzero()[0][0])
-            raise DataError(f"{source}: column {column!r} is empty in row {row + 2}; fill it in or "
-                            "remove the row")
+            raise DataError(f"{source}: column {column!r} is empty in row {row + first_row}; fill it in "
+                            "or remove the row")
     metric_columns = [str(c) for c in table.columns if c not in NON_METRIC_COLUMNS]
     if not metric_columns:
         raise DataError(f"{source} has no metric columns; add one numeric column per metric "
@@ -189,6 +308,8 @@ def validate_metrics_table(table: pd.DataFrame, source: str) -> list[str]:
             example = f" (e.g. {values.iloc[0]!r})" if len(values) else ""
             raise DataError(f"{source}: metric column {column!r} is not numeric{example}; make it numeric, "
                             "remove it, or pick the metrics with --metric")
+    _check_finite(table, metric_columns, source, first_row)
+    check_condition_labels(table, source)
     conditions = table["condition"].astype(str).unique()
     if len(conditions) < 2:
         raise DataError(f"{source}: column 'condition' holds a single condition ({conditions[0]!r}); "
@@ -315,6 +436,7 @@ def format_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_tr
     test = "Wilcoxon signed-rank" if len(conditions) == 2 else "Friedman"
     effect = "matched-pairs rank-biserial r of a - b" if len(conditions) == 2 else "Kendall's W"
     seed = stats["metrics"][0]["ci"]["seed"] if stats["metrics"] else plan.bootstrap.seed
+    resamples = stats["metrics"][0]["ci"]["resamples"] if stats["metrics"] else plan.bootstrap.resamples
     lines = [
         "# Analysis summary",
         "",
@@ -327,7 +449,7 @@ def format_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_tr
         f"- participant level: {test} on per-participant {settings.participant_aggregate}s; "
         f"effect size: {effect}",
         f"- interval: {plan.bootstrap.level:.0%} cluster bootstrap over participants of the difference of "
-        f"trial medians ({plan.bootstrap.resamples} resamples, seed {seed})",
+        f"trial medians ({resamples} resamples, seed {seed})",
     ]
     for entry in stats["metrics"]:
         kruskal, level = entry["kruskal"], entry["participant_level"]
@@ -362,21 +484,46 @@ def format_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_tr
 # --- the analysis ------------------------------------------------------------------------------
 
 
-def _options(plan: AnalysisPlan, seed: int | None) -> ComparisonOptions:
+def _options(plan: AnalysisPlan, seed: int | None, bootstrap: int | None = None) -> ComparisonOptions:
     return ComparisonOptions(
         kruskal_alpha=plan.stats.kruskal_alpha,
         p_adjust=plan.stats.p_adjust,
         star_thresholds=tuple(plan.stats.star_thresholds),
         star_comparison=plan.stats.star_comparison,
         participant_aggregate=plan.stats.participant_aggregate,
-        bootstrap_resamples=plan.bootstrap.resamples,
+        bootstrap_resamples=plan.bootstrap.resamples if bootstrap is None else bootstrap,
         bootstrap_level=plan.bootstrap.level,
         seed=plan.bootstrap.seed if seed is None else seed,
     )
 
 
+def analysis_folder(table: Path) -> Path:
+    """The default output folder of a metrics table: ``study.csv`` -> ``study-analysis/`` beside it."""
+    return table.with_name(f"{table.stem}-analysis")
+
+
+def _load_table(source: Path, drop_duplicates: bool,
+                notes: list[str]) -> tuple[pd.DataFrame, list[str], bool]:
+    """A checked metrics table, its metric columns, and whether duplicates were dropped."""
+    table = read_metrics_table(source)
+    first_row = 2 if source.suffix.lower() == ".csv" else 1
+    metric_columns = validate_metrics_table(table, str(source), first_row)
+    key, repeats = find_duplicate_trials(table)
+    if repeats.any():
+        positions = np.flatnonzero(repeats)
+        if not drop_duplicates:
+            raise DataError(f"{source}: {positions.size} duplicate trial row(s) (same {', '.join(key)} as an "
+                            f"earlier row): rows {_rows(list(positions), first_row)}; remove them, or pass "
+                            "--drop-duplicates to keep the first of each")
+        table = table.loc[~repeats].reset_index(drop=True)
+        notes.append(f"{source}: dropped {positions.size} duplicate trial row(s) (same {', '.join(key)}; the "
+                     f"first of each kept): rows {_rows(list(positions), first_row)}")
+        return table, metric_columns, True
+    return table, metric_columns, False
+
+
 def _load_source(source: Path, plan: AnalysisPlan) -> tuple[pd.DataFrame, list[str], Path]:
-    """The metrics table, its metric columns and the default output folder of a source."""
+    """The metrics of a run folder, its metric columns and its default output folder."""
     if not source.exists():
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
     if source.is_dir():
@@ -389,14 +536,30 @@ def _load_source(source: Path, plan: AnalysisPlan) -> tuple[pd.DataFrame, list[s
                                 strength=definitions.strength, mode_switches=definitions.mode_switches,
                                 success=definitions.success, completion_time=definitions.completion_time)
         return metrics, list(definitions.include), source
-    table = read_metrics_table(source)
-    metric_columns = validate_metrics_table(table, str(source))
-    return table, metric_columns, source.parent
+    raise AssertionError("_load_source takes run folders; tables go through _load_table")  # pragma: no cover
 
 
-def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: str | Path | None = None,
+def _plan_label(plan: str | Path | AnalysisPlan, loaded: AnalysisPlan) -> str:
+    """How a plan is recorded in a manifest: a preset's name, or a plan file's absolute path."""
+    if isinstance(plan, str | Path) and Path(plan).suffix.lower() == ".toml":
+        return str(Path(plan).resolve())
+    return loaded.name
+
+
+def _excluded_notes(stats: dict[str, Any]) -> list[str]:
+    """The participant-level tests' exclusions, one line per distinct note with its metrics."""
+    by_note: dict[str, list[str]] = {}
+    for entry in stats["metrics"]:
+        note = entry["participant_level"].get("note")
+        if note:
+            by_note.setdefault(note, []).append(entry["metric"])
+    return [f"participant-level test of {', '.join(names)}: {note}" for note, names in by_note.items()]
+
+
+def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, out: str | Path | None = None,
             metrics: Sequence[str] | None = None, questionnaires: str | Path | None = None,
-            seed: int | None = None) -> AnalysisResult:
+            seed: int | None = None, *, bootstrap: int | None = None, drop_duplicates: bool = False,
+            progress: Callable[[int, int], None] | None = None) -> AnalysisResult:
     """Compute the metrics and statistics of a run or a metrics table and write them.
 
     Parameters
@@ -406,8 +569,10 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
         Parquet, one row per trial with ``participant``, ``condition`` and metric columns).
     plan
         An analysis plan: preset name (``paper``, ``study-code``), TOML path, or a plan.
+        Default: the plan recorded in a run folder's manifest (recorded there now if missing),
+        else ``paper``.
     out
-        Output folder; default the run folder, or the table's folder.
+        Output folder; default the run folder, or ``<table>-analysis/`` beside a table.
     metrics
         Only these metrics (trial metrics or questionnaire scores), in this order; default all
         of the plan's (run folder) or of the table's columns, then every questionnaire score.
@@ -415,6 +580,12 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
         A questionnaire CSV (:mod:`nudgecli.report.questionnaires`) analysed alongside.
     seed
         Bootstrap seed; default the plan's.
+    bootstrap
+        Bootstrap resamples; default the plan's.
+    drop_duplicates
+        Drop repeated trial rows of a metrics table (keeping the first) instead of refusing them.
+    progress
+        Called with (metrics done, metrics in all) as the statistics proceed.
 
     Returns
     -------
@@ -424,10 +595,58 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
     ------
     DataError, RunFolderError, ConfigError
         Invalid source, table, questionnaire table, metric name or plan (one clear message each).
+    LockError
+        Another command is writing the run folder or the output folder.
+    WriteError
+        The output folder cannot be written.
     """
-    plan = load_plan(plan)
     source = Path(source)
-    table, available, default_out = _load_source(source, plan)
+    if not source.exists():
+        raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
+    if bootstrap is not None and bootstrap < 1:
+        raise ConfigError(f"--bootstrap must be at least 1, got {bootstrap}")
+    out_dir = Path(out) if out is not None else (source if source.is_dir() else analysis_folder(source))
+    if out_dir.exists() and not out_dir.is_dir():
+        raise DataError(f"--out {out_dir} is a file; give a folder")
+    with contextlib.ExitStack() as locks:
+        source_locked = False
+        if source.is_dir() and is_run_folder(source):
+            try:
+                locks.enter_context(run_lock(source))
+                source_locked = True
+            except NudgeWriteError:
+                if out_dir.resolve() == source.resolve():
+                    raise
+                # a read-only run folder analysed elsewhere: nobody can be writing it
+        locks.enter_context(run_lock(out_dir))
+        return _analyze_locked(source, plan, out_dir, metrics, questionnaires, seed, bootstrap,
+                               drop_duplicates, progress, source_locked)
+    raise AssertionError("unreachable")  # pragma: no cover - for type checkers
+
+
+def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, out_dir: Path,
+                    metrics: Sequence[str] | None, questionnaires: str | Path | None, seed: int | None,
+                    bootstrap: int | None, drop_duplicates: bool,
+                    progress: Callable[[int, int], None] | None, source_locked: bool) -> AnalysisResult:
+    """:func:`analyze` once the folders' locks are held."""
+    notes: list[str] = []
+    run = RunFolder(source) if source.is_dir() else None
+    manifest = run.read_manifest() if run is not None and run.is_run() else None
+    if plan_arg is None:
+        recorded = manifest.get("plan") if manifest else None
+        fallback = default_plan_name(str(manifest.get("experiment", ""))) if manifest else "paper"
+        plan_arg = recorded or fallback
+    plan = load_plan(plan_arg)
+    changed = False
+    if source.is_dir():
+        table, available, _ = _load_source(source, plan)
+        changed = True
+        if run is not None and manifest is not None and "participants" in manifest and \
+                "plan" not in manifest and source_locked:
+            manifest["plan"] = _plan_label(plan_arg, plan)
+            run.write_manifest(manifest)
+    else:
+        table, available, changed = _load_table(source, drop_duplicates, notes)
     _check_filters(plan, available)
 
     scores = None
@@ -445,24 +664,38 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
     trial_selected = [m for m in selected if m in available]
     score_selected = [m for m in selected if m in score_names]
 
-    filtered = apply_filters(table, plan.filters)
-    conditions = order_conditions(filtered["condition"].astype(str), plan.conditions)
-    options = _options(plan, seed)
-    stats = compare_conditions(filtered, trial_selected, conditions, options)
+    if any(name in table.columns for name in plan.filters):
+        filtered = apply_filters(table, plan.filters)
+        changed = changed or not filtered.equals(table)
+    else:
+        filtered = table  # nothing to filter: no copy of a large table
+    if filtered["condition"].dtype != "category":
+        filtered["condition"] = filtered["condition"].astype(str).astype("category")
+    conditions = order_conditions(filtered["condition"].cat.categories, plan.conditions)
+    options = _options(plan, seed, bootstrap)
+    total = len(trial_selected) + (len(score_selected) if scores is not None else 0)
+    entries = []
+    for done, name in enumerate(trial_selected):
+        if progress:
+            progress(done, total)
+        entries += compare_conditions(filtered, [name], conditions, options)["metrics"]
+    stats: dict[str, Any] = {"conditions": list(conditions), "metrics": entries}
     if scores is not None and score_selected:
         stats["metrics"] += compare_conditions(scores, score_selected, conditions, options)["metrics"]
+    if progress:
+        progress(total, total)
+    metrics_path = out_dir / "metrics.csv"
+    stats["metrics_table"] = ("metrics.csv" if changed else
+                              os.path.relpath(source.resolve(), out_dir.resolve()))
     stats = json_ready(stats)
+    notes += _excluded_notes(stats)
     tidy = stats_table(stats)
     summary = format_summary(stats, plan, source, n_trials=len(filtered),
                              n_participants=filtered["participant"].nunique())
 
-    out_dir = Path(out) if out is not None else default_out
-    if out_dir.exists() and not out_dir.is_dir():
-        raise DataError(f"--out {out_dir} is a file; give a folder")
     written: list[Path] = []
-    metrics_path = out_dir / "metrics.csv"
     metrics_columns = [c for c in filtered.columns if c in NON_METRIC_COLUMNS or c in available]
-    if not (source.is_file() and metrics_path.resolve() == source.resolve()):
+    if changed:
         write_atomic(metrics_path, filtered[metrics_columns].to_csv(index=False))
         written.append(metrics_path)
     outputs = {
@@ -476,4 +709,4 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan = "paper", out: 
         write_atomic(out_dir / name, text)
         written.append(out_dir / name)
     return AnalysisResult(out=out_dir, files=written, metrics=filtered, stats=stats, table=tidy,
-                          summary=summary, questionnaires=scores)
+                          summary=summary, questionnaires=scores, notes=notes)
