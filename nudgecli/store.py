@@ -522,6 +522,7 @@ class RunFolder:
         if self.is_run():
             manifest = self.read_manifest()
             if resume and not force:
+                self._remove_temporaries()
                 config_path = self.path / CONFIG
                 old = config_path.read_text(encoding="utf-8") if config_path.is_file() else ""
                 if old != config_text or manifest.get("seed") != seed or \
@@ -536,6 +537,9 @@ class RunFolder:
                     f"{self.path}: already holds a run ({manifest.get('experiment')}, {state}); "
                     "use --resume to finish it, --force to replace it, or choose another --out")
             self._clear()
+        elif resume and not force and self._only_a_start(config_text):
+            self._remove_temporaries()  # killed before its manifest: start it afresh
+            return "new"
         elif self.path.exists() and any(p.name != LOCK for p in self.path.iterdir()):
             if not force:
                 raise RunFolderError(
@@ -546,8 +550,26 @@ class RunFolder:
         write_text_atomic(self.path / CONFIG, config_text)
         return "new"
 
+    def _only_a_start(self, config_text: str) -> bool:
+        """Whether the folder holds only the start of this very run (its config.toml, perhaps its
+        layouts), left by a run killed before it wrote its manifest."""
+        config_path = self.path / CONFIG
+        if not config_path.is_file() or config_path.read_text(encoding="utf-8") != config_text:
+            return False
+        allowed = {CONFIG, LAYOUTS, LOCK}
+        return all(p.name in allowed or p.name.endswith(".tmp") for p in self.path.iterdir())
+
+    def _remove_temporaries(self) -> None:
+        """Remove the temporary files of an interrupted writer (``.name.XXXX.tmp``; the lock is held)."""
+        calibration = sorted((self.path / "calibration").glob("participant-*"))
+        for folder in (self.path, *(self.path / kind for kind in PART_KINDS), *calibration):
+            if folder.is_dir():
+                for tmp in folder.glob(".*.tmp"):
+                    tmp.unlink(missing_ok=True)
+
     def _clear(self) -> None:
         """Remove what a run writes (only the run's own files and folders)."""
+        self._remove_temporaries()
         for kind in PART_KINDS:
             folder = self.path / kind
             if folder.is_dir():
@@ -586,8 +608,12 @@ class RunFolder:
         with atomic_path(self.path / "participants" / name) as record_tmp, \
                 atomic_path(self.path / "steps" / name) as steps_tmp, \
                 atomic_path(self.path / "trials" / name) as trials_tmp:
-            for frame, tmp in ((trials, trials_tmp), (steps, steps_tmp), (record, record_tmp)):
-                frame.to_parquet(tmp, index=False)
+            for kind, frame, tmp in (("trials", trials, trials_tmp), ("steps", steps, steps_tmp),
+                                     ("participants", record, record_tmp)):
+                try:
+                    frame.to_parquet(tmp, index=False)
+                except OSError as exc:
+                    raise write_error(self.part_path(kind, participant), exc) from exc
 
     def write_participants_table(self) -> None:
         """Combine the participants' parts into ``participants.parquet``."""
