@@ -108,9 +108,12 @@ def presets_command() -> None:
 @main.command("bench")
 @click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
               show_default=True, help="What to print on stdout.")
-@click.option("--only", type=click.Choice(["model", "study", "all"]), default="all", show_default=True,
+@click.option("--only", type=click.Choice(["model", "study", "analyze", "all"]), default="all",
+              show_default=True,
               help="Which figures: the model's (a few seconds), the study's (about 10-15 s: plan, trials, "
-                   "the paper-scale study with 2 workers in a subprocess) or all.")
+                   "the paper-scale study with 2 workers in a subprocess), all (model and study), or "
+                   "analyze (`nudge analyze` of a 3.5 M-row table in a subprocess, about a minute; "
+                   "only when asked).")
 @click.option("--repeats", type=click.IntRange(min=1), default=7, show_default=True,
               help="Batches of each fast measurement (the best is reported).")
 @click.option("--baseline-repeats", type=click.IntRange(min=1), default=3, show_default=True,

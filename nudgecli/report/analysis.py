@@ -162,7 +162,11 @@ def read_metrics_table(path: str | Path) -> pd.DataFrame:
         raise DataError(f"{path} is neither a run folder nor a metrics table; give a run folder (with "
                         "trials/ and steps/) or a .csv/.parquet table with one row per trial")
     try:
-        table = pd.read_csv(path, sep=sniff_delimiter(path)) if suffix == ".csv" else pd.read_parquet(path)
+        if suffix == ".csv":
+            # conditions as categories: a large table's labels are not copied into millions of strings
+            table = pd.read_csv(path, sep=sniff_delimiter(path), dtype={"condition": "category"})
+        else:
+            table = pd.read_parquet(path)
     except pd.errors.EmptyDataError:
         raise DataError(f"{path} is empty; a metrics table needs a header (participant, condition, "
                         "metrics) and one row per trial") from None
@@ -207,10 +211,9 @@ def check_condition_labels(table: pd.DataFrame, source: str) -> None:
     DataError
         Naming the near-identical labels and the most frequent spelling as the one meant.
     """
-    labels = table["condition"].astype(str)
-    counts = labels.value_counts()
+    counts = table["condition"].value_counts()  # most frequent first
     groups: dict[str, list[str]] = {}
-    for label in counts.index:
+    for label in (str(value) for value, count in counts.items() if count > 0):
         groups.setdefault(label.strip().casefold(), []).append(label)
     for spellings in groups.values():
         if len(spellings) > 1:
@@ -310,7 +313,7 @@ def validate_metrics_table(table: pd.DataFrame, source: str, first_row: int = 2)
                             "remove it, or pick the metrics with --metric")
     _check_finite(table, metric_columns, source, first_row)
     check_condition_labels(table, source)
-    conditions = table["condition"].astype(str).unique()
+    conditions = sorted({str(value) for value in table["condition"].dropna().unique()})
     if len(conditions) < 2:
         raise DataError(f"{source}: column 'condition' holds a single condition ({conditions[0]!r}); "
                         "comparing needs at least two conditions")

@@ -35,7 +35,7 @@ import scikit_posthocs
 import scipy.stats
 
 #: Largest number of (resample x trial) cells the bootstrap holds in memory at once.
-_BOOTSTRAP_CHUNK_CELLS = 4_000_000
+_BOOTSTRAP_CHUNK_CELLS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -84,7 +84,12 @@ def _numeric(series: pd.Series) -> pd.Series:
 def _tidy(data: pd.DataFrame, metric: str, conditions: Sequence[str], condition: str,
           participant: str | None = None) -> pd.DataFrame:
     """``condition``, ``value`` (and ``participant``) rows of the given conditions with a value."""
-    columns = {"condition": data[condition].astype(str), "value": _numeric(data[metric])}
+    labels = data[condition]
+    if isinstance(labels.dtype, pd.CategoricalDtype):  # fast path for large tables: no string copies
+        labels = labels.cat.rename_categories([str(c) for c in labels.cat.categories])
+    else:
+        labels = labels.astype(str)
+    columns = {"condition": labels, "value": _numeric(data[metric])}
     if participant is not None:
         columns["participant"] = data[participant]
     tidy = pd.DataFrame(columns)
@@ -107,7 +112,7 @@ def describe(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
         missing values are ignored, statistics of an empty condition are NaN.
     """
     tidy = _tidy(data, metric, conditions, condition)
-    grouped = tidy.groupby("condition")["value"]
+    grouped = tidy.groupby("condition", observed=True)["value"]
     table = pd.DataFrame({
         "n": grouped.size(),
         "mean": grouped.mean(),
@@ -158,10 +163,17 @@ def conover(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adj
     rows = [{"a": a, "b": b, "p": math.nan, "p_unadjusted": math.nan} for a, b in pairs(conditions)]
     if len(present) >= 2 and tidy["value"].nunique() >= 2:
         adjust = None if p_adjust in ("none", "", None) else p_adjust
-        unadjusted = scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition")
-        adjusted = (unadjusted if adjust is None else
-                    scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition",
-                                                    p_adjust=adjust))
+        unadjusted = scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition", sort=False)
+        adjusted = unadjusted
+        if adjust is not None:
+            # what posthoc_conover(p_adjust=adjust) does, without ranking the data a second time
+            from statsmodels.stats.multitest import multipletests
+
+            upper = np.triu_indices(len(unadjusted), 1)
+            matrix = unadjusted.to_numpy(copy=True)
+            matrix[upper] = multipletests(matrix[upper], method=adjust)[1]
+            matrix.T[upper] = matrix[upper]
+            adjusted = pd.DataFrame(matrix, index=unadjusted.index, columns=unadjusted.columns)
         for row in rows:
             if row["a"] in present and row["b"] in present:
                 row["p"] = float(adjusted.loc[row["a"], row["b"]])
@@ -196,7 +208,8 @@ def participant_summaries(data: pd.DataFrame, metric: str, conditions: Sequence[
         they miss a condition.
     """
     tidy = _tidy(data, metric, conditions, condition, participant)
-    wide = tidy.groupby(["participant", "condition"])["value"].agg(aggregate).unstack("condition")
+    grouped = tidy.groupby(["participant", "condition"], observed=True)["value"]
+    wide = grouped.agg(aggregate).unstack("condition")
     wide = wide.reindex(columns=list(conditions))
     complete = wide.notna().all(axis=1)
     dropped = [_plain(p) for p in wide.index[~complete]]
@@ -302,8 +315,9 @@ def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence
 
 def _block_size(n_values: int, n_participants: int) -> int:
     """Values per block of :func:`_weighted_medians`: balances the (R x P) @ (P x B) count product
-    against the (R x block) search inside one block (about ``sqrt(n P / 64)``, at least 64)."""
-    return max(64, math.isqrt(max(1, n_values * max(1, n_participants) // 64)))
+    against the (R x block) search inside one block (about ``sqrt(n P / 768)``, at least 64; the
+    constant measured on 2 cores for 50 to 10 000 participants)."""
+    return max(64, math.isqrt(max(1, n_values * max(1, n_participants) // 768)))
 
 
 def _weighted_medians(values: np.ndarray, owners: np.ndarray, weights: np.ndarray) -> np.ndarray:
