@@ -235,7 +235,22 @@ def find_duplicate_trials(table: pd.DataFrame) -> tuple[list[str], np.ndarray]:
     if "trial" not in table.columns:
         return [], np.zeros(len(table), dtype=bool)
     key = [c for c in TRIAL_KEY if c in table.columns]
-    return key, table.duplicated(subset=key, keep="first").to_numpy()
+    combined = np.zeros(len(table), dtype=np.int64)
+    span = 1
+    for column in key:  # one int64 code per row: far less memory than DataFrame.duplicated on a large table
+        column_codes, uniques = pd.factorize(table[column], use_na_sentinel=False)
+        size = max(1, len(uniques))
+        span *= size
+        if span >= 2**62:  # the combined code would overflow: let pandas hash the rows
+            return key, table.duplicated(subset=key, keep="first").to_numpy()
+        combined *= size
+        combined += column_codes
+        del column_codes
+    order = np.argsort(combined, kind="stable")  # equal keys stay in row order: the first is kept
+    ordered = combined[order]
+    repeats = np.zeros(len(table), dtype=bool)
+    repeats[order[1:][ordered[1:] == ordered[:-1]]] = True
+    return key, repeats
 
 
 def _check_finite(table: pd.DataFrame, metric_columns: Sequence[str], source: str, first_row: int) -> None:

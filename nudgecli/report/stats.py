@@ -93,7 +93,10 @@ def _tidy(data: pd.DataFrame, metric: str, conditions: Sequence[str], condition:
     if participant is not None:
         columns["participant"] = data[participant]
     tidy = pd.DataFrame(columns)
-    return tidy[tidy["condition"].isin(conditions) & tidy["value"].notna()].reset_index(drop=True)
+    keep = (tidy["condition"].isin(conditions) & tidy["value"].notna()).to_numpy()
+    if keep.all():  # the usual case: no copy of a large table
+        return tidy.reset_index(drop=True)
+    return tidy[keep].reset_index(drop=True)
 
 
 def pairs(conditions: Sequence[str]) -> list[tuple[str, str]]:
