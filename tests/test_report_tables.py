@@ -153,13 +153,14 @@ def test_the_bootstrap_equals_its_definition_with_small_blocks(monkeypatch):
     assert list(zip(fast["low"], fast["high"], strict=True)) == expected
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=80, deadline=None)
 @given(st.integers(1, 8), st.integers(0, 40), st.integers(1, 12), st.integers(1, 9), st.integers(1, 50),
-       st.integers(0, 2**32 - 1))
+       st.integers(0, 2**32 - 1), st.booleans())
 def test_weighted_medians_equal_replicated_medians_for_any_blocks(participants, n, resamples, block, chunk,
-                                                                   seed):
+                                                                   seed, ties):
     rng = np.random.default_rng(seed)
-    values = np.sort(rng.integers(0, 6, n).astype(float))
+    # few distinct values (one block per value) or all distinct (blocks of `block` values)
+    values = np.sort(rng.integers(0, 6, n).astype(float) if ties else rng.normal(size=n))
     owners = rng.integers(0, participants, n)
     weights = rng.integers(0, 3, size=(resamples, participants))
     original = stats_module._block_size, stats_module._BOOTSTRAP_CHUNK_CELLS

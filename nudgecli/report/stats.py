@@ -336,7 +336,9 @@ def _weighted_medians(values: np.ndarray, owners: np.ndarray, weights: np.ndarra
     the weights with each participant's cumulative count per block gives every resample's
     cumulative size at each block end, which locates the block holding each wanted rank; a
     cumulative sum of the weights inside that block locates the element. Cost about
-    ``R (P B + 2 n / B)`` instead of ``R n``.
+    ``R (P B + 2 n / B)`` instead of ``R n``. When the values take fewer distinct values than
+    there would be blocks (counts, booleans, rounded measurements), each distinct value is a
+    block and the block is the answer: cost ``R P U`` for ``U`` distinct values.
 
     Parameters
     ----------
@@ -359,10 +361,19 @@ def _weighted_medians(values: np.ndarray, owners: np.ndarray, weights: np.ndarra
         return result
     block = min(n, _block_size(n, n_participants))
     n_blocks = -(-n // block)
-    block_of = np.arange(n) // block
+    new_value = np.r_[True, values[1:] != values[:-1]]
+    distinct: np.ndarray | None = None
+    if np.count_nonzero(new_value) <= n_blocks:  # one block per distinct value
+        distinct = values[new_value]
+        n_blocks = distinct.size
+        block_of = np.cumsum(new_value) - 1
+    else:
+        block_of = np.arange(n) // block
+    del new_value
     counts = np.bincount(owners * n_blocks + block_of, minlength=n_participants * n_blocks)
     cumulative = np.cumsum(counts.reshape(n_participants, n_blocks), axis=1).astype(np.float64)
-    chunk = max(1, _BOOTSTRAP_CHUNK_CELLS // block)
+    del counts, block_of
+    chunk = max(1, _BOOTSTRAP_CHUNK_CELLS // max(block, n_blocks))
     offsets = np.arange(block)
     for start in range(0, n_resamples, chunk):
         w = weights[start:start + chunk]
@@ -373,6 +384,9 @@ def _weighted_medians(values: np.ndarray, owners: np.ndarray, weights: np.ndarra
         for rank in ((total - 1) // 2, total // 2):
             rank = np.maximum(rank, 0)
             b = np.minimum((ends <= rank[:, None]).sum(axis=1), n_blocks - 1)
+            if distinct is not None:
+                picked.append(distinct[b])
+                continue
             before = np.where(b > 0, ends[rows, np.maximum(b - 1, 0)], 0.0).astype(np.int64)
             index = b[:, None] * block + offsets[None, :]  # (r, block) positions in the block
             inside = index < n
