@@ -190,3 +190,14 @@ def test_analyze_uses_the_plan_recorded_in_the_manifest(tmp_path):
     (run / "manifest.json").write_text(json.dumps(manifest))
     assert "- plan: paper;" in analyze(run).summary  # smoke has no plan of its own
     assert json.loads((run / "manifest.json").read_text())["plan"] == "paper"
+
+
+def test_plot_finds_the_table_an_analysis_folder_did_not_copy(tmp_path):
+    from nudgecli.bench import synthetic_metrics_table
+
+    source = write(tmp_path / "full.csv", synthetic_metrics_table(400, 6))
+    result = analyze(source, bootstrap=50)
+    assert not (result.out / "metrics.csv").exists()
+    plotted = CliRunner().invoke(main, ["plot", str(result.out), "--formats", "png"])
+    assert plotted.exit_code == 0, plotted.output
+    assert (result.out / "figures" / "fig3.png").is_file()

@@ -533,6 +533,29 @@ def _options(plan: AnalysisPlan, seed: int | None, bootstrap: int | None = None)
     )
 
 
+def analysed_metrics_path(folder: str | Path) -> Path | None:
+    """The metrics table an analysis folder's statistics came from: its ``metrics.csv``, else the
+    table ``stats.json``'s ``metrics_table`` names (a table analysed as it is is not copied);
+    ``None`` when there is neither."""
+    folder = Path(folder)
+    if (folder / "metrics.csv").is_file():
+        return folder / "metrics.csv"
+    try:
+        named = json.loads((folder / "stats.json").read_text(encoding="utf-8")).get("metrics_table")
+    except (OSError, ValueError, AttributeError):
+        return None
+    path = folder / named if isinstance(named, str) else None
+    return path if path is not None and path.is_file() else None
+
+
+def read_analysed_metrics(path: str | Path) -> pd.DataFrame:
+    """Read the table :func:`analysed_metrics_path` names, conditions as plain strings."""
+    path = Path(path)
+    table = pd.read_csv(path) if path.name == "metrics.csv" else read_metrics_table(path)
+    table["condition"] = table["condition"].astype(str)
+    return table
+
+
 def analysis_folder(table: Path) -> Path:
     """The default output folder of a metrics table: ``study.csv`` -> ``study-analysis/`` beside it."""
     return table.with_name(f"{table.stem}-analysis")

@@ -73,12 +73,15 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
     if not folder.is_dir():
         what = "a file, not a folder" if folder.exists() else "no such folder"
         raise RunFolderError(f"{folder}: {what}; give a run folder made by `nudge simulate`")
-    if not run.is_run() and not (folder / "metrics.csv").is_file():
+    from nudgecli.report.analysis import analysed_metrics_path, read_analysed_metrics
+
+    metrics_path = analysed_metrics_path(folder)
+    if not run.is_run() and metrics_path is None:
         raise RunFolderError(f"{folder}: not a run folder (no manifest.json) and no metrics.csv; "
                              "run `nudge simulate` and `nudge analyze` first")
-    if not (folder / "metrics.csv").is_file() or not (folder / "stats.json").is_file():
+    if metrics_path is None or not (folder / "stats.json").is_file():
         raise RunFolderError(f"{folder}: no metrics yet; run `nudge analyze {folder}` first")
-    metrics = pd.read_csv(folder / "metrics.csv")
+    metrics = read_analysed_metrics(metrics_path)
     stats = json.loads((folder / "stats.json").read_text(encoding="utf-8"))
     steps = trials = layouts = None
     if run.is_run() and run.completed_participants():
