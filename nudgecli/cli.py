@@ -195,7 +195,7 @@ def resume_command(experiment: str, target: Path, seed: int | None, participants
 
 
 def _interrupt_hint(target: Path, commands: list[str]) -> Callable[[], str]:
-    """What to say after Ctrl-C of a simulation into ``target`` (an empty folder made for it is removed)."""
+    """What to say after Ctrl-C of a simulation into ``target``."""
 
     def hint() -> str:
         from nudgecli.store import RunFolder
@@ -206,8 +206,6 @@ def _interrupt_hint(target: Path, commands: list[str]) -> Callable[[], str]:
             alternatives = "".join(f" (or, to analyse and plot too: {c})" for c in commands[1:])
             return (f"{target} keeps its {done} finished participant(s); resume with: "
                     f"{commands[0]}{alternatives}")
-        if target.is_dir() and not any(target.iterdir()):
-            target.rmdir()
         return "nothing was simulated yet; run the command again"
 
     return hint
@@ -231,6 +229,10 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
     try:
         return run_study(config, target, seed=seed, participants=participants, workers=workers,
                          scheduler=scheduler, resume=resume, force=force, progress=update, plan=plan)
+    except BaseException:
+        if not out and target.is_dir() and not any(target.iterdir()):
+            target.rmdir()  # the default folder made for this run, still empty: leave nothing behind
+        raise
     finally:
         bar.close()
 

@@ -360,3 +360,10 @@ def test_ctrl_c_elsewhere_exits_130(tmp_path, monkeypatch):
     result = CliRunner().invoke(main, ["run", "smoke", "--out", str(tmp_path / "never")])
     assert result.exit_code == 130 and "nothing was simulated yet" in result.output
     assert not (tmp_path / "never").exists() or not any((tmp_path / "never").iterdir())
+
+
+def test_a_refused_run_leaves_no_empty_default_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    result = invoke(["simulate", "smoke", "--workers", "0"])
+    assert result.exit_code == 1 and "--workers must be at least 1" in result.output
+    assert not (tmp_path / "results").exists() or not any((tmp_path / "results").iterdir())
