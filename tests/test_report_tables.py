@@ -44,6 +44,7 @@ def test_duplicate_trials_are_an_error_or_dropped_with_a_count(tmp_path, table):
     source = write(tmp_path / "study.csv", doubled)
     with pytest.raises(DataError, match=r"2 duplicate trial row\(s\).*rows 50, 51.*--drop-duplicates"):
         analyze(source)
+    assert not (tmp_path / "study-analysis").exists()  # a refused table leaves no empty folder
     result = CliRunner().invoke(main, ["analyze", str(source), "--drop-duplicates", "--format", "json"])
     assert result.exit_code == 0, result.output
     assert "dropped 2 duplicate trial row(s)" in result.stderr

@@ -667,6 +667,21 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
     out_dir = Path(out) if out is not None else (source if source.is_dir() else analysis_folder(source))
     if out_dir.exists() and not out_dir.is_dir():
         raise DataError(f"--out {out_dir} is a file; give a folder")
+    made_out = not out_dir.exists()
+    try:
+        return _analyze_with_locks(source, plan, out_dir, metrics, questionnaires, seed, bootstrap,
+                                   drop_duplicates, progress)
+    except BaseException:
+        if made_out and out_dir.is_dir() and not any(out_dir.iterdir()):
+            out_dir.rmdir()  # made only for this analysis, which failed: leave nothing behind
+        raise
+
+
+def _analyze_with_locks(source: Path, plan: str | Path | AnalysisPlan | None, out_dir: Path,
+                        metrics: Sequence[str] | None, questionnaires: str | Path | None, seed: int | None,
+                        bootstrap: int | None, drop_duplicates: bool,
+                        progress: Callable[[int, int], None] | None) -> AnalysisResult:
+    """:func:`analyze` with the run folder's and the output folder's locks held."""
     with contextlib.ExitStack() as locks:
         source_locked = False
         if source.is_dir() and is_run_folder(source):
