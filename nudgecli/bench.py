@@ -15,7 +15,8 @@ parallel efficiency and serial fraction; not part of ``all``) and the study figu
 (``STUDY_FIGURES``, about 10-15 s at the paper scale), which
 simulate the study itself: the plan's value iteration, one participant's trials in this process,
 and the whole study with worker processes in a child Python process so that its peak memory is
-measured apart from this one's.
+measured apart from this one's. A third group runs only when asked (``--only analyze``,
+``ANALYZE_FIGURES``, a minute or so): ``nudge analyze`` of a large synthetic metrics table.
 """
 
 from __future__ import annotations
@@ -78,6 +79,8 @@ class BenchOptions:
     scale_participants, scale_studies
         The scale figures' workloads: one study of this many participants, and this many
         ``smoke`` studies (``nudge bench --only scale``).
+    analyze_rows, analyze_participants
+        Size of the synthetic metrics table of the analyze figure (DESIGN section 8: 3.5 M rows).
     """
 
     repeats: int = 7
@@ -89,6 +92,8 @@ class BenchOptions:
     study_repeats: int = 3
     scale_participants: int = 16
     scale_studies: int = 24
+    analyze_rows: int = 3_500_000
+    analyze_participants: int = 1000
 
 
 Figure = Callable[[BenchOptions], dict[str, Any]]
@@ -352,6 +357,106 @@ def figure_study(options: BenchOptions) -> dict[str, Any]:
                 f"worker, shared pages counted twice) {upper:.0f} MB", peak_mb=peak)
 
 
+ANALYZE_WALL_TARGET_S = 60.0
+ANALYZE_MEMORY_TARGET_MB = 1024.0
+
+_ANALYZE_SCRIPT = """
+import json, resource, sys, time
+from nudgecli.cli import main
+
+start = time.perf_counter()
+main(["analyze", sys.argv[1], "--out", sys.argv[2], "--format", "json"], standalone_mode=False)
+wall = time.perf_counter() - start
+peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+try:  # Linux: this program's own high-water mark; ru_maxrss also counts the parent's pages at fork
+    with open("/proc/self/status") as status:
+        peak = next(int(line.split()[1]) for line in status if line.startswith("VmHWM:"))
+except (OSError, StopIteration):
+    pass
+print()
+print(json.dumps({"wall_s": wall, "self_kib": peak}))
+"""
+
+
+def synthetic_metrics_table(rows: int, participants: int, seed: int = BENCH_SEED) -> Any:
+    """A metrics table like a large real study's: the paper's seven metrics, two conditions.
+
+    Participant ``p`` has ``rows / participants`` trials (half per condition, the remainder
+    spread over the first participants), a participant level and a condition effect; the
+    metrics have the types and ranges of real ones (fractions, counts, seconds, booleans).
+
+    Returns
+    -------
+    pd.DataFrame
+        ``rows`` rows: ``participant, condition, block, trial`` and the seven metrics.
+    """
+    import pandas as pd
+
+    rng = np.random.default_rng(seed)
+    participant = np.sort(np.arange(rows) % participants)
+    trial = np.arange(rows) - np.searchsorted(participant, participant)
+    control = (trial % 2).astype(bool)
+    level = rng.normal(0.0, 1.0, participants)[participant]
+    effect = np.where(control, 0.3, 0.0)
+    completion = np.exp(3.0 + 0.2 * level + effect + rng.normal(0.0, 0.4, rows)).round(1)
+    return pd.DataFrame({
+        "participant": participant,
+        "condition": np.where(control, "control", "disambiguation"),
+        "block": trial // 8,
+        "trial": trial,
+        "assistance_engagement": np.clip(0.4 - 0.1 * effect + rng.normal(0.0, 0.15, rows), 0, 1).round(4),
+        "assistance_strength": np.clip(0.6 + rng.normal(0.0, 0.1, rows), 0, 1).round(4),
+        "mode_switches": rng.poisson(np.exp(1.0 + 0.2 * level + effect)),
+        "human_effort": np.clip(0.5 + 0.1 * effect + rng.normal(0.0, 0.1, rows), 0, 1).round(4),
+        "completion_time": completion,
+        "human_turns": 1 + rng.poisson(2.0 + effect),
+        "success": rng.random(rows) < 0.9 - 0.1 * effect,
+    })
+
+
+def figure_analyze(options: BenchOptions) -> dict[str, Any]:
+    """``nudge analyze`` of a large synthetic metrics table (CSV), in a child Python.
+
+    The table (:func:`synthetic_metrics_table`) is written to a temporary folder, which is
+    removed afterwards; the child runs the command as a user would (reading the CSV, checking
+    it, every paper metric's statistics with the default 2000 bootstrap resamples, writing the
+    results) and reports its own peak resident memory. ``time_s`` is the child's whole wall time
+    (start-up included).
+    """
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    table = synthetic_metrics_table(options.analyze_rows, options.analyze_participants)
+    folder = Path(tempfile.mkdtemp(prefix="nudge-bench-"))
+    try:
+        source = folder / "study.csv"
+        pacsv.write_csv(pa.Table.from_pandas(table, preserve_index=False), source)
+        size_mb = source.stat().st_size / 1e6
+        del table
+        start = time.perf_counter()
+        completed = subprocess.run([sys.executable, "-c", _ANALYZE_SCRIPT, str(source), str(folder / "out")],
+                                   stdout=subprocess.PIPE, stderr=None, text=True, env=_child_environment(),
+                                   check=False)
+        process_s = time.perf_counter() - start
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    if completed.returncode != 0:
+        raise RuntimeError(f"bench: the analyze subprocess failed with exit status {completed.returncode}")
+    report = json.loads(completed.stdout.strip().splitlines()[-1])
+    peak = report["self_kib"] / 1024.0
+    ok = process_s <= ANALYZE_WALL_TARGET_S and peak <= ANALYZE_MEMORY_TARGET_MB
+    return _row(f"analyze, {options.analyze_rows:,}-row metrics table", process_s, None,
+                f"<= {ANALYZE_WALL_TARGET_S:.0f} s on 2 cores, <= {ANALYZE_MEMORY_TARGET_MB:.0f} MB", ok,
+                f"time: the child Python end to end (start-up, imports, analyze {report['wall_s']:.2f} s) on "
+                f"{_available_cores()} cores; {options.analyze_participants} participants, 2 conditions, "
+                f"7 metrics, CSV of {size_mb:,.0f} MB, 2000 bootstrap resamples (paper plan); "
+                "peak_mb = the analyze process's peak resident memory (VmHWM)", peak_mb=peak)
+
+
+ANALYZE_FIGURES: list[Figure] = [
+    figure_analyze,
+]
+
 STUDY_FIGURES: list[Figure] = [
     figure_study_setup,
     figure_trials,
@@ -512,12 +617,14 @@ def scale_figures() -> list[Figure]:
 
 
 def select_figures(only: str = "all") -> list[Figure]:
-    """The figures of ``FIGURES`` in one group.
+    """The figures of one group.
 
     Parameters
     ----------
     only
-        ``study`` (the figures in ``STUDY_FIGURES``), ``model`` (the others) or ``all``.
+        ``study`` (the figures in ``STUDY_FIGURES``), ``model`` (the others of ``FIGURES``),
+        ``all`` (``FIGURES``) or ``analyze`` (``ANALYZE_FIGURES``, not part of ``all``: it takes
+        about a minute).
 
     Raises
     ------
@@ -533,8 +640,10 @@ def select_figures(only: str = "all") -> list[Figure]:
         return list(FIGURES)
     if only == "scale":
         return scale_figures()
+    if only == "analyze":
+        return list(ANALYZE_FIGURES)
     if only not in ("model", "study"):
-        raise ValueError(f"only must be 'model', 'study', 'scale' or 'all', got {only!r}")
+        raise ValueError(f"only must be 'model', 'study', 'scale', 'analyze' or 'all', got {only!r}")
     study = only == "study"
     return [figure for figure in FIGURES if (figure in STUDY_FIGURES) == study]
 

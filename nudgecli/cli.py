@@ -1,14 +1,17 @@
 """The ``nudge`` command line: parse, call one function, print. No model logic here.
 
 stdout carries results (tables, JSON); logs and progress go to stderr. A ``NudgeError``
-prints one ``Error: ...`` line and exits 1 (``--debug`` shows the traceback); click usage
-errors exit 2.
+prints one ``Error: ...`` line and exits 1 (``--debug`` shows the traceback), and so does an
+``OSError`` (naming the path and the cause); click usage errors exit 2; Ctrl-C exits 130 and
+says how to resume.
 """
 
 from __future__ import annotations
 
 import json
+import shlex
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Literal
 
@@ -17,9 +20,22 @@ import click
 from nudgecli import __version__
 from nudgecli.errors import NudgeError
 
+#: ``ctx.meta`` key of a callable returning what to tell the user after Ctrl-C (how to resume).
+INTERRUPT_HINT = "nudge.interrupt_hint"
+#: Exit status after Ctrl-C (128 + SIGINT, as shells report it).
+EXIT_INTERRUPTED = 130
+
+
+def os_error_message(exc: OSError) -> str:
+    """One line for an ``OSError``: the path(s) and the cause."""
+    cause = exc.strerror or str(exc) or type(exc).__name__
+    paths = [str(p) for p in (exc.filename, exc.filename2) if p is not None]
+    return f"{' -> '.join(paths)}: {cause}" if paths else cause
+
 
 class NudgeGroup(click.Group):
-    """A click group that turns ``NudgeError`` into one ``Error:`` line and exit status 1."""
+    """A click group that turns ``NudgeError`` and ``OSError`` into one ``Error:`` line and exit
+    status 1, and Ctrl-C into exit status 130 with a line on how to resume."""
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
@@ -29,6 +45,16 @@ class NudgeGroup(click.Group):
                 raise
             click.echo(f"Error: {exc}", err=True)
             ctx.exit(1)
+        except OSError as exc:
+            if ctx.meta.get("nudge.debug"):
+                raise
+            click.echo(f"Error: {os_error_message(exc)}", err=True)
+            ctx.exit(1)
+        except KeyboardInterrupt:
+            hint: Callable[[], str] | None = ctx.meta.get(INTERRUPT_HINT)
+            message = hint() if hint is not None else "nothing half-written was left; run the command again"
+            click.echo(f"\nInterrupted: {message}", err=True)
+            ctx.exit(EXIT_INTERRUPTED)
 
 
 @click.group(cls=NudgeGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -82,12 +108,13 @@ def presets_command() -> None:
 @main.command("bench")
 @click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
               show_default=True, help="What to print on stdout.")
-@click.option("--only", type=click.Choice(["model", "study", "scale", "all"]), default="all",
+@click.option("--only", type=click.Choice(["model", "study", "scale", "analyze", "all"]), default="all",
               show_default=True,
               help="Which figures: the model's (a few seconds), the study's (about 10-15 s: plan, trials, "
-                   "the paper-scale study with 2 workers in a subprocess), both (all), or the scale "
-                   "figures (about a minute on 2 cores: batches on 1..cores workers and on a local dask "
-                   "cluster, with parallel efficiency and serial fraction).")
+                   "the paper-scale study with 2 workers in a subprocess), both (all); only when asked: "
+                   "the scale figures (about a minute on 2 cores: batches on 1..cores workers and on a "
+                   "local dask cluster, with parallel efficiency and serial fraction) or analyze "
+                   "(`nudge analyze` of a 3.5 M-row table in a subprocess, about a minute).")
 @click.option("--scale-participants", type=click.IntRange(min=2), default=16, show_default=True,
               help="Scale figures: participants of the one-study workload (paper preset).")
 @click.option("--scale-studies", type=click.IntRange(min=2), default=24, show_default=True,
@@ -131,14 +158,16 @@ def fit_command(calibration_dir: str, out: str | None, variant: str) -> None:
     """
 
     from nudgecli.sim.calibration import fit_calibration_dir, write_profile
+    from nudgecli.store import check_writable
 
     folder = Path(calibration_dir)
+    target = Path(out) if out is not None else Path.cwd() / f"{folder.resolve().name}.profile.json"
+    check_writable(target.parent)
     result = fit_calibration_dir(folder, variant)
     for warning in result.warnings:
         info(f"Warning: {warning}")
-    click.echo(result.summary)
-    target = Path(out) if out is not None else Path.cwd() / f"{folder.resolve().name}.profile.json"
     write_profile(result.profile, target)
+    click.echo(result.summary)
     info(str(target))
 
 
@@ -161,8 +190,41 @@ def _progress_bar(label: str, unit: str = "trial") -> tuple[Any, Any]:
     return bar, update
 
 
+def resume_command(experiment: str, target: Path, seed: int | None, participants: int | None, workers: int,
+                   overrides: tuple[str, ...], command: str = "simulate") -> str:
+    """The exact command line that resumes an interrupted ``nudge simulate`` (or ``run``) into ``target``."""
+    parts = ["nudge", command, experiment, "--out", str(target)]
+    if seed is not None:
+        parts += ["--seed", str(seed)]
+    if participants is not None:
+        parts += ["--participants", str(participants)]
+    if workers != 1:
+        parts += ["--workers", str(workers)]
+    for override in overrides:
+        parts += ["--set", override]
+    return " ".join(shlex.quote(p) for p in [*parts, "--resume"])
+
+
+def _interrupt_hint(target: Path, commands: list[str]) -> Callable[[], str]:
+    """What to say after Ctrl-C of a simulation into ``target``."""
+
+    def hint() -> str:
+        from nudgecli.store import RunFolder
+
+        run = RunFolder(target)
+        if run.is_run():
+            done = len(run.completed_participants())
+            alternatives = "".join(f" (or, to analyse and plot too: {c})" for c in commands[1:])
+            return (f"{target} keeps its {done} finished participant(s); resume with: "
+                    f"{commands[0]}{alternatives}")
+        return "nothing was simulated yet; run the command again"
+
+    return hint
+
+
 def _simulate(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
-              scheduler: str | None, resume: bool, force: bool, overrides: tuple[str, ...]) -> Any:
+              scheduler: str | None, resume: bool, force: bool, overrides: tuple[str, ...],
+              plan: str | None = None, command: str = "simulate") -> Any:
 
     from nudgecli.config import load_experiment
     from nudgecli.sim.study import run_study
@@ -170,10 +232,18 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
 
     config = load_experiment(experiment, overrides)
     target = Path(out) if out else default_run_dir(config.experiment.name)
+    commands = [resume_command(experiment, target, seed, participants, workers, overrides)]
+    if command != "simulate":
+        commands.append(resume_command(experiment, target, seed, participants, workers, overrides, command))
+    click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, commands)
     bar, update = _progress_bar("simulating")
     try:
         return run_study(config, target, seed=seed, participants=participants, workers=workers,
-                         scheduler=scheduler, resume=resume, force=force, progress=update)
+                         scheduler=scheduler, resume=resume, force=force, progress=update, plan=plan)
+    except BaseException:
+        if not out and target.is_dir() and not any(target.iterdir()):
+            target.rmdir()  # the default folder made for this run, still empty: leave nothing behind
+        raise
     finally:
         bar.close()
 
@@ -215,10 +285,11 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
 @click.argument("source", type=click.Path(path_type=str))
 @click.option("--plan", "plan", default=None, metavar="PLAN",
               help="Analysis plan: a preset (paper, study-code, ciaa-teleop) or a TOML file [default: the "
-                   "plan named like the run's experiment, else paper].")
+                   "plan recorded in the run folder, else the plan named like the run's experiment, else "
+                   "paper].")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=str), default=None,
-              help="Folder for metrics.csv, stats.json, stats.csv, summary.md [default: the run folder, "
-                   "or the table's folder].")
+              help="Folder for stats.json, stats.csv, summary.md (and metrics.csv) [default: the run folder, "
+                   "or <table>-analysis/ beside the table].")
 @click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="What to print on stdout.")
 @click.option("--metric", "metric_names", multiple=True, metavar="NAME",
@@ -227,13 +298,25 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
               help="Questionnaire CSV (NASA-TLX, Likert) analysed alongside.")
 @click.option("--seed", type=click.IntRange(min=0), default=None,
               help="Bootstrap seed [default: the plan's].")
+@click.option("--bootstrap", "bootstrap", type=click.IntRange(min=1), default=None, metavar="N",
+              help="Bootstrap resamples of the intervals [default: the plan's].")
+@click.option("--drop-duplicates", is_flag=True,
+              help="Keep the first of repeated trial rows of a table instead of refusing them.")
 def analyze_command(source: str, plan: str | None, out: str | None, output_format: str,
-                    metric_names: tuple[str, ...], questionnaires: str | None, seed: int | None) -> None:
+                    metric_names: tuple[str, ...], questionnaires: str | None, seed: int | None,
+                    bootstrap: int | None, drop_duplicates: bool) -> None:
     """Metrics and statistics of a run folder or a metrics table (CSV/Parquet, one row per trial)."""
     from nudgecli.report.analysis import analyze, format_table
 
-    result = analyze(source, plan=plan, out=out, metrics=list(metric_names) or None,
-                     questionnaires=questionnaires, seed=seed)
+    bar, update = _progress_bar("analysing", unit="metric")
+    try:
+        result = analyze(source, plan=plan, out=out, metrics=list(metric_names) or None,
+                         questionnaires=questionnaires, seed=seed, bootstrap=bootstrap,
+                         drop_duplicates=drop_duplicates, progress=update)
+    finally:
+        bar.close()
+    for note in result.notes:
+        info(f"Note: {note}")
     if output_format == "json":
         echo_json(result.stats)
     elif output_format == "csv":
@@ -264,16 +347,26 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
     """
     from nudgecli.report.plans import load_plan
     from nudgecli.report.plotting import parse_formats, parse_trial, plot_folder
+    from nudgecli.store import run_lock
 
     chosen, trial_key = parse_formats(formats), parse_trial(trial)
     analysis_plan = load_plan(plan or "paper")
-    if plan is not None:
-        from nudgecli.report.analysis import analyze
+    with _lock_if_folder(run, run_lock):
+        if plan is not None:
+            from nudgecli.report.analysis import analyze
 
-        analyze(run, plan=analysis_plan)
-    for path in plot_folder(run, out, chosen, trial_key, star_rule=analysis_plan.comparison_options(),
-                            item_labels=analysis_plan.questionnaires.labels):
+            analyze(run, plan=analysis_plan)
+        written = plot_folder(run, out, chosen, trial_key, star_rule=analysis_plan.comparison_options(),
+                              item_labels=analysis_plan.questionnaires.labels)
+    for path in written:
         click.echo(str(path))
+
+
+def _lock_if_folder(path: str, run_lock: Any) -> Any:
+    """The run folder's lock when ``path`` is an existing folder, else nothing to hold."""
+    import contextlib
+
+    return run_lock(path) if Path(path).is_dir() else contextlib.nullcontext()
 
 
 # --- run -----------------------------------------------------------------------------------
@@ -293,18 +386,25 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
 def run_command(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
                 plan: str | None, resume: bool, force: bool, overrides: tuple[str, ...]) -> None:
     """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
-    from nudgecli.config import list_presets
+    from nudgecli.config import default_plan_name
     from nudgecli.report.analysis import analyze, format_table
     from nudgecli.report.plotting import plot_folder
+    from nudgecli.store import run_lock
 
-    run = _simulate(experiment, out, seed, participants, workers, None, resume, force, overrides)
+    if plan is not None and Path(plan).suffix.lower() == ".toml":
+        plan = str(Path(plan).resolve())
+    run = _simulate(experiment, out, seed, participants, workers, None, resume, force, overrides,
+                    plan=plan, command="run")
     _print_study_summary(run)
-    chosen_plan = plan or (run.experiment if run.experiment in list_presets("analysis") else "paper")
+    chosen_plan = plan or default_plan_name(run.experiment)
     info(f"analysing with the {chosen_plan!r} plan")
-    result = analyze(run.path, plan=chosen_plan)
-    click.echo("")
-    click.echo(format_table(result.stats))
-    written = plot_folder(run.path)
+    with run_lock(run.path):
+        result = analyze(run.path, plan=chosen_plan)
+        for note in result.notes:
+            info(f"Note: {note}")
+        click.echo("")
+        click.echo(format_table(result.stats))
+        written = plot_folder(run.path)
     click.echo("")
     click.echo(f"Statistics: {run.path / 'stats.json'}, {run.path / 'summary.md'}")
     click.echo(f"Figures:    {len(written)} files in {run.path / 'figures'}")

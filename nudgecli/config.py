@@ -27,10 +27,23 @@ class Section(BaseModel):
     model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=True)
 
 
+def plain(value: Any) -> Any:
+    """``value`` with numpy scalars and arrays made plain Python (lists, tuples, dicts recursively),
+    so a message shows ``150.0``, not ``np.float64(150.0)``."""
+    if isinstance(value, dict):
+        return {plain(k): plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return type(value)(plain(v) for v in value)
+    if hasattr(value, "tolist") and not isinstance(value, str | bytes):
+        return value.tolist()
+    return value
+
+
 def check_range(name: str, value: tuple[float, float], lo: float, hi: float) -> None:
     """Raise ``ValueError`` unless ``lo <= value[0] <= value[1] <= hi``."""
     if not (lo <= value[0] <= value[1] <= hi):
-        raise ValueError(f"{name} must be [low, high] with {lo} <= low <= high <= {hi}, got {list(value)}")
+        raise ValueError(f"{name} must be [low, high] with {plain(lo)} <= low <= high <= {plain(hi)}, "
+                         f"got {list(plain(tuple(value)))}")
 
 
 class ExperimentMeta(Section):
@@ -470,6 +483,12 @@ def list_presets(kind: Literal["experiments", "analysis"]) -> dict[str, Path]:
     return {p.stem: p for p in sorted(preset_dir(kind).glob("*.toml"))}
 
 
+def default_plan_name(experiment: str) -> str:
+    """The analysis plan a run of ``experiment`` is analysed with by default: the plan preset of
+    the same name (``study-code``), else ``paper``."""
+    return experiment if experiment in list_presets("analysis") else "paper"
+
+
 def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) -> Path:
     """A preset name or a TOML path -> an existing file, or a ``ConfigError`` with suggestions."""
     candidate = Path(name_or_path)
@@ -546,7 +565,7 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
         return f"{source}: unknown key {where!r}{hint or '; known keys: ' + ', '.join(names)}"
     message = first["msg"].removeprefix("Value error, ")
     value = first.get("input")
-    shown = "" if isinstance(value, dict) else f" (got {value!r})"
+    shown = "" if isinstance(value, dict) else f" (got {plain(value)!r})"
     more = f" (and {len(exc.errors()) - 1} more problem(s))" if len(exc.errors()) > 1 else ""
     return f"{source}: {where}: {message}{shown}{more}"
 

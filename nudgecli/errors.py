@@ -25,3 +25,11 @@ class ProbabilityTableError(NudgeError, ValueError):
 
 class RunFolderError(NudgeError):
     """A run folder is missing, incomplete, or holds a different run."""
+
+
+class WriteError(NudgeError):
+    """A file could not be written (read-only folder, full disk, ...): names the path and the cause."""
+
+
+class LockError(RunFolderError):
+    """A run folder is being written by another command (its lock names the holder)."""

@@ -13,8 +13,15 @@ A run folder (DESIGN.md section 4)::
                            re-fit with `nudge fit` to the tables the agent used)
 
 Every file is written to a temporary name in the same folder and renamed into place, so a
-crash (even SIGKILL) leaves either the old file or the new one, never half of one. A
-participant counts as done only when its three parts exist; ``--resume`` recomputes the others.
+crash (even SIGKILL) leaves either the old file or the new one, never half of one; an
+``OSError`` while writing (read-only folder, full disk) becomes a :class:`WriteError` naming the
+path and the cause. A participant counts as done only when its three parts exist and are
+readable Parquet files; ``--resume`` recomputes the others.
+
+While a command writes a run folder it holds the folder's lock (:func:`run_lock`, the file
+``.nudge.lock`` with the holder's pid, host and command): a second writer is refused with a
+:class:`LockError` naming the holder; a lock left behind by a process of this host that no longer
+runs is taken over with a warning on stderr.
 """
 
 from __future__ import annotations
@@ -23,6 +30,8 @@ import contextlib
 import json
 import os
 import platform
+import socket
+import sys
 import tempfile
 from collections.abc import Iterator, Sequence
 from datetime import UTC, datetime
@@ -35,12 +44,13 @@ import pyarrow.parquet as pq
 
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
-from nudgecli.errors import DataError, RunFolderError
+from nudgecli.errors import DataError, LockError, RunFolderError, WriteError
 
 MANIFEST = "manifest.json"
 CONFIG = "config.toml"
 PARTICIPANTS = "participants.parquet"
 LAYOUTS = "layouts.parquet"
+LOCK = ".nudge.lock"
 PART_KINDS = ("trials", "steps", "participants")
 _LIBRARIES = ("numpy", "scipy", "pandas", "pyarrow", "pydantic", "click", "matplotlib", "scikit-posthocs")
 
@@ -63,9 +73,12 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     Every file the toolkit writes goes through here.
     """
     target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    os.close(fd)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+        os.close(fd)
+    except OSError as exc:
+        raise write_error(target, exc) from exc
     tmp_path = Path(tmp)
     try:
         os.chmod(tmp_path, 0o666 & ~_UMASK)
@@ -73,8 +86,187 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         with open(tmp_path, "rb") as handle:
             os.fsync(handle.fileno())
         os.replace(tmp_path, target)
+    except OSError as exc:
+        raise write_error(target, exc) from exc
     finally:
-        tmp_path.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):
+            tmp_path.unlink(missing_ok=True)
+
+
+def write_error(path: str | Path, exc: OSError) -> WriteError:
+    """The :class:`WriteError` of an ``OSError`` raised while writing ``path``: the path and the cause."""
+    cause = exc.strerror or str(exc) or type(exc).__name__
+    return WriteError(f"cannot write {path}: {cause}; check that the folder exists, is writable and "
+                      "has free space")
+
+
+def check_writable(folder: str | Path) -> None:
+    """Fail now, before any work, if a file cannot be created in ``folder`` (made if missing).
+
+    Raises
+    ------
+    WriteError
+        The folder cannot be made or written (read-only, full, not a folder).
+    """
+    with atomic_path(Path(folder) / ".nudge-write-check") as tmp:
+        tmp.write_bytes(b"")
+    with contextlib.suppress(OSError):
+        (Path(folder) / ".nudge-write-check").unlink()
+
+
+# --- the run-folder lock ---------------------------------------------------------------------
+
+#: Locks this process holds: resolved folder -> (open lock file, depth); re-entrant per folder.
+_HELD: dict[Path, list[Any]] = {}
+
+
+def _pid_alive(pid: int) -> bool:
+    """Whether a process ``pid`` runs on this host."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # it exists, owned by someone else
+        return True
+    except OSError:  # pragma: no cover - e.g. Windows without the process
+        return False
+    return True
+
+
+def _read_holder(path: Path) -> dict[str, Any]:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8") or "{}")
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _describe_holder(holder: dict[str, Any]) -> str:
+    what = holder.get("command") or "a nudge command"
+    return (f"`{what}` (pid {holder.get('pid', '?')} on host {holder.get('host', '?')}, "
+            f"since {holder.get('since', '?')})")
+
+
+def _try_lock(handle: Any) -> bool | None:
+    """Take an exclusive, non-blocking OS lock on an open file.
+
+    Returns
+    -------
+    bool or None
+        True when taken, False when another process holds it, None where the platform has no
+        ``flock`` (then the holder's pid is the only sign of a live holder).
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        return None
+    try:
+        fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return False
+    return True
+
+
+@contextlib.contextmanager
+def run_lock(folder: str | Path, command: str | None = None) -> Iterator[Path]:
+    """Hold the lock of the run folder ``folder`` (made if missing) for the block.
+
+    The lock is the file ``folder/.nudge.lock``, locked with ``flock`` while held (so the OS
+    releases it when the holder dies, even by SIGKILL) and holding the owner's pid, host,
+    command and start time. Re-entrant within one process (``nudge run`` holds it across
+    simulate, analyze and plot). The file is removed when the block ends.
+
+    Parameters
+    ----------
+    folder
+        The run folder (or analysis folder) about to be written.
+    command
+        What holds it, for the message another writer gets (default: this process's command line).
+
+    Raises
+    ------
+    LockError
+        Another process holds the lock (the message names it), or a lock file of another host
+        that cannot be verified.
+    WriteError
+        The folder cannot be made or the lock file written.
+    """
+    path = Path(folder)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise write_error(path, exc) from exc
+    key = path.resolve()
+    if key in _HELD:
+        _HELD[key][1] += 1
+        try:
+            yield path
+        finally:
+            _HELD[key][1] -= 1
+        return
+    lock_path = path / LOCK
+    handle = _acquire(lock_path, command)
+    _HELD[key] = [handle, 1]
+    try:
+        yield path
+    finally:
+        del _HELD[key]
+        with contextlib.suppress(OSError):
+            lock_path.unlink()
+        handle.close()
+
+
+def _acquire(lock_path: Path, command: str | None) -> Any:
+    """Open, lock and fill in ``lock_path``; the open file (closing it releases the lock)."""
+    host = socket.gethostname()
+    for _ in range(20):
+        try:
+            handle = open(lock_path, "a+", encoding="utf-8")  # noqa: SIM115 - held until release
+        except OSError as exc:
+            raise write_error(lock_path, exc) from exc
+        locked = _try_lock(handle)
+        if locked is False:
+            holder = _read_holder(lock_path)
+            handle.close()
+            raise LockError(f"{lock_path.parent}: in use by {_describe_holder(holder)}; wait for it to "
+                            "finish or choose another --out")
+        try:
+            same_file = os.fstat(handle.fileno()).st_ino == os.stat(lock_path).st_ino
+        except FileNotFoundError:
+            same_file = False
+        if not same_file:  # the previous holder removed the file between our open and our lock
+            handle.close()
+            continue
+        holder = _read_holder(lock_path)
+        if holder:
+            pid = int(holder.get("pid", -1))
+            if holder.get("host") != host:
+                handle.close()
+                raise LockError(
+                    f"{lock_path.parent}: locked by {_describe_holder(holder)}, another host, which cannot "
+                    f"be checked from here; if no nudge command runs there any more, delete {lock_path}")
+            if locked is None and pid != os.getpid() and _pid_alive(pid):  # pragma: no cover - no flock
+                handle.close()
+                raise LockError(f"{lock_path.parent}: in use by {_describe_holder(holder)}; wait for it "
+                                "to finish or choose another --out")
+            state = "no longer running" if not _pid_alive(pid) else "no longer holding it"
+            print(f"Warning: {lock_path.parent}: taking over the stale lock of {_describe_holder(holder)}, "
+                  f"{state}", file=sys.stderr)
+        record = {"pid": os.getpid(), "host": host, "command": command or " ".join(
+            [Path(sys.argv[0]).name, *sys.argv[1:]]), "since": utc_now()}
+        try:
+            handle.seek(0)
+            handle.truncate()
+            handle.write(json.dumps(record) + "\n")
+            handle.flush()
+            os.fsync(handle.fileno())
+        except OSError as exc:
+            handle.close()
+            raise write_error(lock_path, exc) from exc
+        return handle
+    raise LockError(f"{lock_path.parent}: could not take the lock (it changed hands repeatedly); try again")
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:
@@ -109,9 +301,41 @@ def utc_now() -> str:
 
 
 def default_run_dir(experiment: str, root: Path | None = None) -> Path:
-    """``results/<experiment>-<UTC timestamp>/`` under the current directory (or ``root``)."""
+    """A new, empty ``results/<experiment>-<UTC timestamp>/`` under the current directory (or ``root``).
+
+    The folder is created here (``mkdir`` fails if it exists), so two runs started in the same
+    second get different folders: the second gets ``...Z-2``, the third ``...Z-3``, and so on.
+
+    Raises
+    ------
+    WriteError
+        The results folder cannot be created.
+    """
     stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
-    return (root or Path("results")) / f"{experiment}-{stamp}"
+    base = (root or Path("results")) / f"{experiment}-{stamp}"
+    try:
+        base.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise write_error(base.parent, exc) from exc
+    for attempt in range(1, 10_000):
+        candidate = base if attempt == 1 else base.with_name(f"{base.name}-{attempt}")
+        try:
+            candidate.mkdir()
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise write_error(candidate, exc) from exc
+        return candidate
+    raise RunFolderError(f"{base.parent}: too many runs named {base.name}; choose --out")
+
+
+def _readable(part: Path) -> bool:
+    """Whether ``part`` is a Parquet file whose footer parses (a truncated file's does not)."""
+    try:
+        pq.ParquetFile(part).close()
+    except Exception:  # pyarrow raises several types for broken files
+        return False
+    return True
 
 
 def part_name(participant: int) -> str:
@@ -157,14 +381,72 @@ class RunFolder:
             raise RunFolderError(f"{self.path}: no {CONFIG}; the run folder is incomplete")
         return experiment_from_toml(path.read_text(encoding="utf-8"), str(path))
 
+    def part_path(self, kind: str, participant: int) -> Path:
+        """Where participant ``participant``'s part of ``kind`` lives."""
+        return self.path / kind / part_name(participant)
+
     def completed_participants(self) -> list[int]:
-        """Participants whose three parts are all on disk."""
+        """Participants whose three parts are all on disk and readable (a Parquet footer that parses)."""
         done: set[int] | None = None
         for kind in PART_KINDS:
             folder = self.path / kind
-            found = {int(p.stem.split("-")[1]) for p in folder.glob("part-*.parquet")}
+            found = {int(p.stem.split("-")[1]) for p in folder.glob("part-*.parquet") if _readable(p)}
             done = found if done is None else done & found
         return sorted(done or set())
+
+    def missing_parts(self, participants: int) -> dict[int, list[str]]:
+        """Participant -> the parts (``trials/part-0003.parquet``, ...) missing or unreadable.
+
+        Parameters
+        ----------
+        participants
+            How many participants the run has (0 .. participants - 1 are expected).
+        """
+        missing: dict[int, list[str]] = {}
+        for index in range(participants):
+            for kind in PART_KINDS:
+                part = self.part_path(kind, index)
+                if not part.is_file():
+                    missing.setdefault(index, []).append(f"{kind}/{part.name} (missing)")
+                elif not _readable(part):
+                    missing.setdefault(index, []).append(f"{kind}/{part.name} (unreadable)")
+        return missing
+
+    def resume_command(self, manifest: dict[str, Any] | None = None) -> str:
+        """The command that finishes or repairs this run (``nudge simulate ... --resume``)."""
+        import shlex
+
+        manifest = manifest if manifest is not None else self.read_manifest()
+        parts = ["nudge", "simulate", str(self.path / CONFIG), "--out", str(self.path)]
+        if "seed" in manifest:
+            parts += ["--seed", str(manifest["seed"])]
+        if "participants" in manifest:
+            parts += ["--participants", str(manifest["participants"])]
+        return " ".join(shlex.quote(p) for p in [*parts, "--resume"])
+
+    def check_complete(self) -> dict[str, Any]:
+        """The manifest of a complete run: every participant's parts present and readable.
+
+        Raises
+        ------
+        RunFolderError
+            The run is still running or was interrupted, or parts are missing or unreadable:
+            names them and the command that restores them.
+        """
+        manifest = self.read_manifest()
+        participants = int(manifest.get("participants", 0))
+        missing = self.missing_parts(participants)
+        fix = self.resume_command(manifest)
+        if missing:
+            listed = "; ".join(f"participant {p}: {', '.join(parts)}"
+                               for p, parts in sorted(missing.items())[:5])
+            more = f" and {len(missing) - 5} more participants" if len(missing) > 5 else ""
+            raise RunFolderError(f"{self.path} is incomplete: {listed}{more}; restore with `{fix}`")
+        if manifest.get("status") != "complete":
+            state = manifest.get("status", "not finished")
+            raise RunFolderError(f"{self.path}: the run is {state} (all parts are there but it did not "
+                                 f"finish); finish it with `{fix}`")
+        return manifest
 
     def read_table(self, kind: str, columns: Sequence[str] | None = None) -> pd.DataFrame:
         """All parts of ``kind`` (``trials``, ``steps`` or ``participants``) concatenated in order.
@@ -191,8 +473,10 @@ class RunFolder:
             try:
                 names = pq.ParquetFile(part).schema_arrow.names
             except Exception as exc:  # pyarrow raises several types for broken files
-                raise DataError(f"{part} is not a readable Parquet file ({exc}); re-run `nudge simulate "
-                                "--resume` to rewrite it") from None
+                fix = (f"`{self.resume_command()}`" if self.is_run() else "`nudge simulate EXPERIMENT --out "
+                       f"{self.path} --resume`")
+                raise DataError(f"{part} is not a readable Parquet file ({exc}); rewrite it with "
+                                f"{fix}") from None
             missing = [c for c in columns or () if c not in names]
             if missing:
                 raise DataError(f"{part} lacks the column(s) {', '.join(missing)}; it was written by "
@@ -238,6 +522,7 @@ class RunFolder:
         if self.is_run():
             manifest = self.read_manifest()
             if resume and not force:
+                self._remove_temporaries()
                 config_path = self.path / CONFIG
                 old = config_path.read_text(encoding="utf-8") if config_path.is_file() else ""
                 if old != config_text or manifest.get("seed") != seed or \
@@ -252,19 +537,39 @@ class RunFolder:
                     f"{self.path}: already holds a run ({manifest.get('experiment')}, {state}); "
                     "use --resume to finish it, --force to replace it, or choose another --out")
             self._clear()
-        elif self.path.exists() and any(self.path.iterdir()):
+        elif resume and not force and self._only_a_start(config_text):
+            self._remove_temporaries()  # killed before its manifest: start it afresh
+            return "new"
+        elif self.path.exists() and any(p.name != LOCK for p in self.path.iterdir()):
             if not force:
                 raise RunFolderError(
                     f"{self.path}: exists and is not empty; choose another --out or use --force")
             self._clear()
         elif resume:
             raise RunFolderError(f"{self.path}: nothing to resume (no run there); drop --resume")
-        self.path.mkdir(parents=True, exist_ok=True)
         write_text_atomic(self.path / CONFIG, config_text)
         return "new"
 
+    def _only_a_start(self, config_text: str) -> bool:
+        """Whether the folder holds only the start of this very run (its config.toml, perhaps its
+        layouts), left by a run killed before it wrote its manifest."""
+        config_path = self.path / CONFIG
+        if not config_path.is_file() or config_path.read_text(encoding="utf-8") != config_text:
+            return False
+        allowed = {CONFIG, LAYOUTS, LOCK}
+        return all(p.name in allowed or p.name.endswith(".tmp") for p in self.path.iterdir())
+
+    def _remove_temporaries(self) -> None:
+        """Remove the temporary files of an interrupted writer (``.name.XXXX.tmp``; the lock is held)."""
+        calibration = sorted((self.path / "calibration").glob("participant-*"))
+        for folder in (self.path, *(self.path / kind for kind in PART_KINDS), *calibration):
+            if folder.is_dir():
+                for tmp in folder.glob(".*.tmp"):
+                    tmp.unlink(missing_ok=True)
+
     def _clear(self) -> None:
         """Remove what a run writes (only the run's own files and folders)."""
+        self._remove_temporaries()
         for kind in PART_KINDS:
             folder = self.path / kind
             if folder.is_dir():
@@ -292,10 +597,23 @@ class RunFolder:
 
     def write_participant_parts(self, participant: int, trials: pd.DataFrame, steps: pd.DataFrame,
                                 record: pd.DataFrame) -> None:
-        """Write one participant's checkpoint; the participants part last marks it complete."""
-        write_parquet_atomic(self.path / "trials" / part_name(participant), trials)
-        write_parquet_atomic(self.path / "steps" / part_name(participant), steps)
-        write_parquet_atomic(self.path / "participants" / part_name(participant), record)
+        """Write one participant's checkpoint; the participants part last marks it complete.
+
+        All three are written to temporary files first and renamed into place only when all
+        three are on disk, so a write error (full disk) leaves none of them; a crash between
+        the renames leaves the participant incomplete (no participants part), and
+        ``--resume`` recomputes it.
+        """
+        name = part_name(participant)
+        with atomic_path(self.path / "participants" / name) as record_tmp, \
+                atomic_path(self.path / "steps" / name) as steps_tmp, \
+                atomic_path(self.path / "trials" / name) as trials_tmp:
+            for kind, frame, tmp in (("trials", trials, trials_tmp), ("steps", steps, steps_tmp),
+                                     ("participants", record, record_tmp)):
+                try:
+                    frame.to_parquet(tmp, index=False)
+                except OSError as exc:
+                    raise write_error(self.part_path(kind, participant), exc) from exc
 
     def write_participants_table(self) -> None:
         """Combine the participants' parts into ``participants.parquet``."""

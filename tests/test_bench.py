@@ -120,3 +120,12 @@ def test_bench_command_only(monkeypatch: pytest.MonkeyPatch) -> None:
     assert "200 MB" in result.stdout and "fake study of paper" in result.stdout
     result = runner.invoke(main, ["bench", "--only", "nothing"])
     assert result.exit_code == 2
+
+
+def test_the_analyze_figure_is_its_own_group_and_runs_on_a_small_table() -> None:
+    assert bench.select_figures("analyze") == [bench.figure_analyze]
+    assert bench.figure_analyze not in bench.select_figures("all")
+    table = bench.synthetic_metrics_table(1000, 10)
+    assert len(table) == 1000 and table.groupby(["participant", "condition"]).size().eq(50).all()
+    row = bench.figure_analyze(bench.BenchOptions(analyze_rows=1000, analyze_participants=10))
+    assert set(row) == set(bench.COLUMNS) and row["peak_mb"] > 0 and "1,000-row" in row["what"]

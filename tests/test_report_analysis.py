@@ -141,8 +141,8 @@ def test_metrics_table_in_its_own_folder_is_not_overwritten(tmp_path: Path) -> N
     table.write_text(METRICS_CSV.read_text())
     before = table.read_bytes()
     result = analyze(table)
-    assert result.out == tmp_path and table.read_bytes() == before
-    assert (tmp_path / "stats.json").is_file()
+    assert result.out == tmp_path / "metrics-analysis" and table.read_bytes() == before
+    assert (result.out / "stats.json").is_file()
 
 
 def test_three_conditions_from_a_parquet_table(tmp_path: Path) -> None:

@@ -500,7 +500,9 @@ def test_validate_checks_the_out_folder_before_computing(tmp_path: Path) -> None
     blocker.write_text("x")
     result = CliRunner().invoke(main, ["validate", "--simulations", "1", "--out", str(blocker / "sub")])
     assert result.exit_code == 1
-    assert result.stderr.startswith("Error: --out") and "validation:" not in result.stderr
+    # one Error: line naming the path and the cause, before any simulation ran
+    assert result.stderr.startswith("Error: ") and str(blocker) in result.stderr
+    assert "Not a directory" in result.stderr and "validation:" not in result.stderr
 
 
 def test_validation_panels_draw_the_summarys_rates_on_given_axes() -> None:

@@ -8,26 +8,41 @@ The source is either
   metric columns (real study data). Every other column is a metric and must be numeric
   (booleans count as 0/1), except ``block``, ``trial``, ``layout``, ``n_goals`` and ``true_goal``.
 
+A run folder must be complete: every participant its manifest promises has readable parts,
+and the run finished (otherwise the error names what is missing and the ``nudge simulate ...
+--resume`` command that restores it). Without ``--plan`` it is analysed with the plan recorded
+in its manifest. A metrics table is checked before analysis: duplicate trials (same
+participant, condition, block and trial) are an error unless ``drop_duplicates``, infinite
+values are an error naming rows and columns, condition labels that differ only by case or
+surrounding spaces are an error with a "did you mean"; a CSV's delimiter is sniffed.
+
 The plan's filters apply, then the statistics (:mod:`nudgecli.report.stats`). Written
-atomically (temporary file in the same folder, then ``os.replace``) to the run folder, the
-table's folder, or ``out``: ``metrics.csv``, ``stats.json``, ``stats.csv``, ``summary.md`` and,
-with questionnaires, ``questionnaires.csv``.
+atomically (temporary file in the same folder, then ``os.replace``), while holding the folder's
+lock (:func:`nudgecli.store.run_lock`), to the run folder, ``<table>-analysis/`` beside a table
+(``study.csv`` gives ``study-analysis/``), or ``out``: ``stats.json``, ``stats.csv``,
+``summary.md``, ``metrics.csv`` (for a run folder, or a table the analysis changed; a table
+analysed as it is is not copied: ``stats.json``'s ``metrics_table`` names the table the
+statistics came from) and, with questionnaires, ``questionnaires.csv``.
 """
 
 from __future__ import annotations
 
+import contextlib
+import csv
 import json
 import math
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from nudgecli.config import did_you_mean, list_presets
+from nudgecli.config import default_plan_name, did_you_mean
 from nudgecli.errors import ConfigError, DataError, RunFolderError
+from nudgecli.errors import WriteError as NudgeWriteError
 from nudgecli.report.checksum import CHECKSUM_KEY, metrics_checksum
 from nudgecli.report.metrics import (
     ID_COLUMNS,
@@ -48,12 +63,16 @@ from nudgecli.report.stats import (
     order_conditions,
     stats_table,
 )
-from nudgecli.store import RunFolder, write_text_atomic
+from nudgecli.store import RunFolder, run_lock, write_text_atomic
 
 #: Columns of a metrics table that describe the trial rather than measure it.
 NON_METRIC_COLUMNS = (*ID_COLUMNS, "layout", "n_goals", "true_goal")
 TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
 RUN_FOLDER_MARKERS = ("trials", "steps", "manifest.json", "config.toml")
+#: The columns that identify one trial of a metrics table (those present are used).
+TRIAL_KEY = ("participant", "condition", "block", "trial")
+#: How many rows or pairs an error message lists.
+_SHOWN = 5
 
 
 @dataclass
@@ -76,6 +95,9 @@ class AnalysisResult:
         ``summary.md``.
     questionnaires
         The questionnaire scores, if a questionnaire table was given.
+    notes
+        What was excluded or changed (duplicates dropped, participants left out of a test),
+        one line each, for stderr.
     """
 
     out: Path
@@ -85,6 +107,7 @@ class AnalysisResult:
     table: pd.DataFrame
     summary: str
     questionnaires: pd.DataFrame | None = field(default=None)
+    notes: list[str] = field(default_factory=list)
 
 
 # --- reading -----------------------------------------------------------------------------------
@@ -107,12 +130,19 @@ def read_run(folder: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
     Raises
     ------
     RunFolderError
-        No trial parts yet, or no step parts.
+        No trial parts yet, or no step parts, or (with a manifest) parts missing or unreadable or
+        the run unfinished.
     DataError
         A part is unreadable or lacks a column.
     """
     folder = Path(folder)
     run = RunFolder(folder)
+    if run.is_run():
+        manifest = run.read_manifest()
+        kept_metrics_only = (folder / "metrics.csv").is_file() and \
+            not any((folder / "steps").glob("part-*.parquet"))
+        if "participants" in manifest and not kept_metrics_only:
+            run.check_complete()
     trials = run.read_table("trials", TRIAL_COLUMNS)
     if trials.empty:
         raise RunFolderError(f"{folder}: trials/part-*.parquet hold no trials yet; "
@@ -135,7 +165,11 @@ def read_metrics_table(path: str | Path) -> pd.DataFrame:
         raise DataError(f"{path} is neither a run folder nor a metrics table; give a run folder (with "
                         "trials/ and steps/) or a .csv/.parquet table with one row per trial")
     try:
-        table = pd.read_csv(path) if suffix == ".csv" else pd.read_parquet(path)
+        if suffix == ".csv":
+            # conditions as categories: a large table's labels are not copied into millions of strings
+            table = pd.read_csv(path, sep=sniff_delimiter(path), dtype={"condition": "category"})
+        else:
+            table = pd.read_parquet(path)
     except pd.errors.EmptyDataError:
         raise DataError(f"{path} is empty; a metrics table needs a header (participant, condition, "
                         "metrics) and one row per trial") from None
@@ -143,7 +177,118 @@ def read_metrics_table(path: str | Path) -> pd.DataFrame:
         raise DataError(f"{path} cannot be read as a {suffix[1:]} table: {exc}") from None
     if table.empty:
         raise DataError(f"{path} has no rows; a metrics table needs one row per trial")
+    release_free_memory()
     return table
+
+
+def release_free_memory() -> None:
+    """Hand the heap that parsing freed back to the operating system (glibc only; else nothing).
+
+    The CSV parser makes and frees millions of small objects (one per label cell); glibc keeps
+    that memory in the process unless asked, which for a table of millions of rows is a few
+    hundred MB of resident memory that nothing uses.
+    """
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    if name is None:  # pragma: no cover - not a C library ctypes can find
+        return
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(name).malloc_trim(0)
+
+
+def sniff_delimiter(path: Path, sample_bytes: int = 65536) -> str:
+    """The field separator of a CSV file (``,``, ``;``, tab or ``|``), from its first 64 KiB.
+
+    ``csv.Sniffer`` decides; a file it cannot decide (one column) is read with ``,``.
+    """
+    try:
+        with open(path, encoding="utf-8", errors="replace", newline="") as handle:
+            sample = handle.read(sample_bytes)
+    except OSError:
+        return ","  # pandas reports the problem when it reads the file
+    lines = sample.splitlines()
+    if len(sample) == sample_bytes and len(lines) > 1:
+        sample = "\n".join(lines[:-1])  # the last line may be cut
+    try:
+        return csv.Sniffer().sniff(sample, delimiters=",;\t|").delimiter
+    except csv.Error:
+        return ","
+
+
+def _rows(positions: Sequence[int], first_row: int) -> str:
+    """Row numbers for a message: the first few, then how many more."""
+    shown = ", ".join(str(int(i) + first_row) for i in positions[:_SHOWN])
+    more = f" and {len(positions) - _SHOWN} more" if len(positions) > _SHOWN else ""
+    return shown + more
+
+
+def check_condition_labels(table: pd.DataFrame, source: str) -> None:
+    """Refuse condition labels that differ only by case or surrounding spaces (``Control``, ``control ``).
+
+    Raises
+    ------
+    DataError
+        Naming the near-identical labels and the most frequent spelling as the one meant.
+    """
+    counts = table["condition"].value_counts()  # most frequent first
+    groups: dict[str, list[str]] = {}
+    for label in (str(value) for value, count in counts.items() if count > 0):
+        groups.setdefault(label.strip().casefold(), []).append(label)
+    for spellings in groups.values():
+        if len(spellings) > 1:
+            listed = ", ".join(repr(label) for label in spellings)
+            raise DataError(f"{source}: condition labels {listed} differ only by case or surrounding spaces "
+                            f"(did you mean {spellings[0]!r}?); spell each condition one way")
+
+
+def find_duplicate_trials(table: pd.DataFrame) -> tuple[list[str], np.ndarray]:
+    """The trial key columns present and a mask of rows repeating an earlier row's key.
+
+    Returns
+    -------
+    (list of str, np.ndarray)
+        The key columns used (``participant``, ``condition`` and whichever of ``block``,
+        ``trial`` exist) and ``(n_rows,)`` booleans, True for each repeat after the first. No
+        ``trial`` column: no key, nothing is a duplicate.
+    """
+    if "trial" not in table.columns:
+        return [], np.zeros(len(table), dtype=bool)
+    key = [c for c in TRIAL_KEY if c in table.columns]
+    combined = np.zeros(len(table), dtype=np.int64)
+    span = 1
+    for column in key:  # one int64 code per row: far less memory than DataFrame.duplicated on a large table
+        column_codes, uniques = pd.factorize(table[column], use_na_sentinel=False)
+        size = max(1, len(uniques))
+        span *= size
+        if span >= 2**62:  # the combined code would overflow: let pandas hash the rows
+            return key, table.duplicated(subset=key, keep="first").to_numpy()
+        combined *= size
+        combined += column_codes
+        del column_codes
+    order = np.argsort(combined, kind="stable")  # equal keys stay in row order: the first is kept
+    ordered = combined[order]
+    repeats = np.zeros(len(table), dtype=bool)
+    repeats[order[1:][ordered[1:] == ordered[:-1]]] = True
+    return key, repeats
+
+
+def _check_finite(table: pd.DataFrame, metric_columns: Sequence[str], source: str, first_row: int) -> None:
+    """Refuse infinite values in metric columns (missing values are allowed: they are left out)."""
+    bad: list[str] = []
+    positions: set[int] = set()
+    for column in metric_columns:
+        if pd.api.types.is_bool_dtype(table[column]):
+            continue
+        values = table[column].to_numpy(dtype=float, na_value=np.nan)
+        infinite = np.flatnonzero(np.isinf(values))
+        if infinite.size:
+            bad.append(f"{column!r} (rows {_rows(list(infinite), first_row)})")
+            positions.update(int(i) for i in infinite)
+    if bad:
+        raise DataError(f"{source}: infinite values in {len(positions)} row(s): {'; '.join(bad)}; "
+                        "replace them with a number or leave the cell empty (a missing value)")
 
 
 def _is_numeric(series: pd.Series) -> bool:
@@ -158,7 +303,8 @@ def _as_boolean(series: pd.Series) -> pd.Series | None:
     return None
 
 
-def validate_metrics_table(table: pd.DataFrame, source: str, min_conditions: int = 1) -> list[str]:
+def validate_metrics_table(table: pd.DataFrame, source: str, first_row: int = 2,
+                           min_conditions: int = 1) -> list[str]:
     """Check a metrics table and return its metric columns.
 
     Boolean columns with blanks (``True``, ``False``, empty) are converted in place to nullable
@@ -166,15 +312,22 @@ def validate_metrics_table(table: pd.DataFrame, source: str, min_conditions: int
 
     Parameters
     ----------
+    table
+        The table as read.
+    source
+        Its name in messages.
+    first_row
+        The row number messages give the table's first row (2 for a CSV: line 1 is the header).
     min_conditions
-        Fewest conditions the table must hold (2 to compare conditions; 1 for ``nudge compare``).
+        Fewest conditions the table must hold.
 
     Raises
     ------
     DataError
         A missing or incomplete ``participant``/``condition`` column, no metric column, a
-        non-numeric metric column, or fewer than ``min_conditions`` conditions (a single
-        condition is analysed descriptively).
+        non-numeric metric column, an infinite value, condition labels differing only by case or
+        surrounding spaces, or fewer than ``min_conditions`` conditions (a single condition is
+        analysed descriptively).
     """
     for column in ("participant", "condition"):
         if column not in table.columns:
@@ -184,8 +337,8 @@ def validate_metrics_table(table: pd.DataFrame, source: str, min_conditions: int
         empty = table[column].isna()
         if empty.any():
             row = int(empty.to_numpy().nonzero()[0][0])
-            raise DataError(f"{source}: column {column!r} is empty in row {row + 2}; fill it in or "
-                            "remove the row")
+            raise DataError(f"{source}: column {column!r} is empty in row {row + first_row}; fill it in "
+                            "or remove the row")
     metric_columns = [str(c) for c in table.columns if c not in NON_METRIC_COLUMNS]
     if not metric_columns:
         raise DataError(f"{source} has no metric columns; add one numeric column per metric "
@@ -198,10 +351,12 @@ def validate_metrics_table(table: pd.DataFrame, source: str, min_conditions: int
             example = f" (e.g. {values.iloc[0]!r})" if len(values) else ""
             raise DataError(f"{source}: metric column {column!r} is not numeric{example}; make it numeric, "
                             "remove it, or pick the metrics with --metric")
-    conditions = table["condition"].astype(str).unique()
+    _check_finite(table, metric_columns, source, first_row)
+    check_condition_labels(table, source)
+    conditions = sorted({str(value) for value in table["condition"].dropna().unique()})
     if len(conditions) < min_conditions:
-        raise DataError(f"{source}: column 'condition' holds a single condition ({conditions[0]!r}); "
-                        "comparing needs at least two conditions")
+        raise DataError(f"{source}: column 'condition' holds {len(conditions)} condition(s); "
+                        f"this needs at least {min_conditions}")
     return metric_columns
 
 
@@ -327,6 +482,7 @@ def format_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_tr
     seed = stats["metrics"][0]["ci"]["seed"] if stats["metrics"] else plan.bootstrap.seed
     if len(conditions) == 1:
         return _descriptive_summary(stats, plan, source, n_trials, n_participants)
+    resamples = stats["metrics"][0]["ci"]["resamples"] if stats["metrics"] else plan.bootstrap.resamples
     lines = [
         "# Analysis summary",
         "",
@@ -339,7 +495,7 @@ def format_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_tr
         f"- participant level: {test} on per-participant {settings.participant_aggregate}s; "
         f"effect size: {effect}",
         f"- interval: {plan.bootstrap.level:.0%} cluster bootstrap over participants of the difference of "
-        f"trial medians ({plan.bootstrap.resamples} resamples, seed {seed})",
+        f"trial medians ({resamples} resamples, seed {seed})",
     ]
     for entry in stats["metrics"]:
         kruskal, level = entry["kruskal"], entry["participant_level"]
@@ -393,18 +549,64 @@ def _descriptive_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path
 # --- the analysis ------------------------------------------------------------------------------
 
 
-def comparison_options(plan: AnalysisPlan, seed: int | None = None) -> ComparisonOptions:
-    """The statistics settings of a plan (its [stats] and [bootstrap]; ``seed`` overrides the bootstrap's)."""
-    return plan.comparison_options(seed)
+def comparison_options(plan: AnalysisPlan, seed: int | None = None,
+                       bootstrap: int | None = None) -> ComparisonOptions:
+    """The statistics settings of a plan (its [stats] and [bootstrap]); ``seed`` and ``bootstrap``
+    (the number of resamples) override the plan's."""
+    options = plan.comparison_options(seed)
+    return options if bootstrap is None else replace(options, bootstrap_resamples=bootstrap)
 
 
-def load_source(source: Path, plan: AnalysisPlan,
-                min_conditions: int = 1) -> tuple[pd.DataFrame, list[str], Path]:
-    """The metrics table, its metric columns and the default output folder of a source.
+def analysed_metrics_path(folder: str | Path) -> Path | None:
+    """The metrics table an analysis folder's statistics came from: its ``metrics.csv``, else the
+    table ``stats.json``'s ``metrics_table`` names (a table analysed as it is is not copied);
+    ``None`` when there is neither."""
+    folder = Path(folder)
+    if (folder / "metrics.csv").is_file():
+        return folder / "metrics.csv"
+    try:
+        named = json.loads((folder / "stats.json").read_text(encoding="utf-8")).get("metrics_table")
+    except (OSError, ValueError, AttributeError):
+        return None
+    path = folder / named if isinstance(named, str) else None
+    return path if path is not None and path.is_file() else None
 
-    A run folder's metrics are computed with ``plan``'s definitions; a table is validated
-    (:func:`validate_metrics_table`, at least ``min_conditions`` conditions).
-    """
+
+def read_analysed_metrics(path: str | Path) -> pd.DataFrame:
+    """Read the table :func:`analysed_metrics_path` names, conditions as plain strings."""
+    path = Path(path)
+    table = pd.read_csv(path) if path.name == "metrics.csv" else read_metrics_table(path)
+    table["condition"] = table["condition"].astype(str)
+    return table
+
+
+def analysis_folder(table: Path) -> Path:
+    """The default output folder of a metrics table: ``study.csv`` -> ``study-analysis/`` beside it."""
+    return table.with_name(f"{table.stem}-analysis")
+
+
+def _load_table(source: Path, drop_duplicates: bool,
+                notes: list[str]) -> tuple[pd.DataFrame, list[str], bool]:
+    """A checked metrics table, its metric columns, and whether duplicates were dropped."""
+    table = read_metrics_table(source)
+    first_row = 2 if source.suffix.lower() == ".csv" else 1
+    metric_columns = validate_metrics_table(table, str(source), first_row)
+    key, repeats = find_duplicate_trials(table)
+    if repeats.any():
+        positions = np.flatnonzero(repeats)
+        if not drop_duplicates:
+            raise DataError(f"{source}: {positions.size} duplicate trial row(s) (same {', '.join(key)} as an "
+                            f"earlier row): rows {_rows(list(positions), first_row)}; remove them, or pass "
+                            "--drop-duplicates to keep the first of each")
+        table = table.loc[~repeats].reset_index(drop=True)
+        notes.append(f"{source}: dropped {positions.size} duplicate trial row(s) (same {', '.join(key)}; the "
+                     f"first of each kept): rows {_rows(list(positions), first_row)}")
+        return table, metric_columns, True
+    return table, metric_columns, False
+
+
+def _load_source(source: Path, plan: AnalysisPlan) -> tuple[pd.DataFrame, list[str], Path]:
+    """The metrics of a run folder, its metric columns and its default output folder."""
     if not source.exists():
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
     if source.is_dir():
@@ -417,28 +619,47 @@ def load_source(source: Path, plan: AnalysisPlan,
                                 strength=definitions.strength, mode_switches=definitions.mode_switches,
                                 success=definitions.success, completion_time=definitions.completion_time)
         return metrics, list(definitions.include), source
+    raise AssertionError("_load_source takes run folders; tables go through _load_table")  # pragma: no cover
+
+
+def load_source(source: Path, plan: AnalysisPlan,
+                min_conditions: int = 1) -> tuple[pd.DataFrame, list[str], Path]:
+    """The metrics table, its metric columns and the default output folder of a source.
+
+    A run folder's metrics are computed with ``plan``'s definitions; a table is read and checked
+    (:func:`validate_metrics_table`, at least ``min_conditions`` conditions).
+    """
+    if not source.exists():
+        raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
+    if source.is_dir():
+        return _load_source(source, plan)
     table = read_metrics_table(source)
-    metric_columns = validate_metrics_table(table, str(source), min_conditions)
-    return table, metric_columns, source.parent
+    first_row = 2 if source.suffix.lower() == ".csv" else 1
+    metric_columns = validate_metrics_table(table, str(source), first_row, min_conditions)
+    return table, metric_columns, analysis_folder(source)
 
 
-def default_plan(source: str | Path) -> str:
-    """The plan preset named like the run folder's experiment (e.g. ``ciaa-teleop``), else ``paper``."""
-    folder = Path(source)
-    if folder.is_dir() and (folder / "manifest.json").is_file():
-        try:
-            experiment = str(RunFolder(folder).read_manifest().get("experiment", ""))
-        except (DataError, RunFolderError, OSError, ValueError):
-            return "paper"
-        if experiment in list_presets("analysis"):
-            return experiment
-    return "paper"
+def _plan_label(plan: str | Path | AnalysisPlan, loaded: AnalysisPlan) -> str:
+    """How a plan is recorded in a manifest: a preset's name, or a plan file's absolute path."""
+    if isinstance(plan, str | Path) and Path(plan).suffix.lower() == ".toml":
+        return str(Path(plan).resolve())
+    return loaded.name
 
 
-def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = "paper",
-            out: str | Path | None = None,
+def _excluded_notes(stats: dict[str, Any]) -> list[str]:
+    """The participant-level tests' exclusions, one line per distinct note with its metrics."""
+    by_note: dict[str, list[str]] = {}
+    for entry in stats["metrics"]:
+        note = entry["participant_level"].get("note")
+        if note:
+            by_note.setdefault(note, []).append(entry["metric"])
+    return [f"participant-level test of {', '.join(names)}: {note}" for note, names in by_note.items()]
+
+
+def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, out: str | Path | None = None,
             metrics: Sequence[str] | None = None, questionnaires: str | Path | None = None,
-            seed: int | None = None) -> AnalysisResult:
+            seed: int | None = None, *, bootstrap: int | None = None, drop_duplicates: bool = False,
+            progress: Callable[[int, int], None] | None = None) -> AnalysisResult:
     """Compute the metrics and statistics of a run or a metrics table and write them.
 
     Parameters
@@ -447,10 +668,11 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = "paper"
         A run folder (``trials/`` and ``steps/`` Parquet parts) or a metrics table (CSV or
         Parquet, one row per trial with ``participant``, ``condition`` and metric columns).
     plan
-        An analysis plan: preset name (``paper``, ``study-code``, ``ciaa-teleop``), TOML path, or a
-        plan; ``None``: :func:`default_plan` of the source.
+        An analysis plan: preset name (``paper``, ``study-code``), TOML path, or a plan.
+        Default: the plan recorded in a run folder's manifest (recorded there now if missing),
+        else ``paper``.
     out
-        Output folder; default the run folder, or the table's folder.
+        Output folder; default the run folder, or ``<table>-analysis/`` beside a table.
     metrics
         Only these metrics (trial metrics or questionnaire scores), in this order; default all
         of the plan's (run folder) or of the table's columns, then every questionnaire score.
@@ -458,6 +680,12 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = "paper"
         A questionnaire CSV (:mod:`nudgecli.report.questionnaires`) analysed alongside.
     seed
         Bootstrap seed; default the plan's.
+    bootstrap
+        Bootstrap resamples; default the plan's.
+    drop_duplicates
+        Drop repeated trial rows of a metrics table (keeping the first) instead of refusing them.
+    progress
+        Called with (metrics done, metrics in all) as the statistics proceed.
 
     Returns
     -------
@@ -467,10 +695,73 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = "paper"
     ------
     DataError, RunFolderError, ConfigError
         Invalid source, table, questionnaire table, metric name or plan (one clear message each).
+    LockError
+        Another command is writing the run folder or the output folder.
+    WriteError
+        The output folder cannot be written.
     """
-    plan = load_plan(default_plan(source) if plan is None else plan)
     source = Path(source)
-    table, available, default_out = load_source(source, plan)
+    if not source.exists():
+        raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
+    if bootstrap is not None and bootstrap < 1:
+        raise ConfigError(f"--bootstrap must be at least 1, got {bootstrap}")
+    out_dir = Path(out) if out is not None else (source if source.is_dir() else analysis_folder(source))
+    if out_dir.exists() and not out_dir.is_dir():
+        raise DataError(f"--out {out_dir} is a file; give a folder")
+    made_out = not out_dir.exists()
+    try:
+        return _analyze_with_locks(source, plan, out_dir, metrics, questionnaires, seed, bootstrap,
+                                   drop_duplicates, progress)
+    except BaseException:
+        if made_out and out_dir.is_dir() and not any(out_dir.iterdir()):
+            out_dir.rmdir()  # made only for this analysis, which failed: leave nothing behind
+        raise
+
+
+def _analyze_with_locks(source: Path, plan: str | Path | AnalysisPlan | None, out_dir: Path,
+                        metrics: Sequence[str] | None, questionnaires: str | Path | None, seed: int | None,
+                        bootstrap: int | None, drop_duplicates: bool,
+                        progress: Callable[[int, int], None] | None) -> AnalysisResult:
+    """:func:`analyze` with the run folder's and the output folder's locks held."""
+    with contextlib.ExitStack() as locks:
+        source_locked = False
+        if source.is_dir() and is_run_folder(source):
+            try:
+                locks.enter_context(run_lock(source))
+                source_locked = True
+            except NudgeWriteError:
+                if out_dir.resolve() == source.resolve():
+                    raise
+                # a read-only run folder analysed elsewhere: nobody can be writing it
+        locks.enter_context(run_lock(out_dir))
+        return _analyze_locked(source, plan, out_dir, metrics, questionnaires, seed, bootstrap,
+                               drop_duplicates, progress, source_locked)
+    raise AssertionError("unreachable")  # pragma: no cover - for type checkers
+
+
+def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, out_dir: Path,
+                    metrics: Sequence[str] | None, questionnaires: str | Path | None, seed: int | None,
+                    bootstrap: int | None, drop_duplicates: bool,
+                    progress: Callable[[int, int], None] | None, source_locked: bool) -> AnalysisResult:
+    """:func:`analyze` once the folders' locks are held."""
+    notes: list[str] = []
+    run = RunFolder(source) if source.is_dir() else None
+    manifest = run.read_manifest() if run is not None and run.is_run() else None
+    if plan_arg is None:
+        recorded = manifest.get("plan") if manifest else None
+        fallback = default_plan_name(str(manifest.get("experiment", ""))) if manifest else "paper"
+        plan_arg = recorded or fallback
+    plan = load_plan(plan_arg)
+    changed = False
+    if source.is_dir():
+        table, available, _ = _load_source(source, plan)
+        changed = True
+        if run is not None and manifest is not None and "participants" in manifest and \
+                "plan" not in manifest and source_locked:
+            manifest["plan"] = _plan_label(plan_arg, plan)
+            run.write_manifest(manifest)
+    else:
+        table, available, changed = _load_table(source, drop_duplicates, notes)
     _check_filters(plan, available)
 
     scores = None
@@ -488,25 +779,39 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = "paper"
     trial_selected = [m for m in selected if m in available]
     score_selected = [m for m in selected if m in score_names]
 
-    filtered = apply_filters(table, plan.filters)
-    conditions = order_conditions(filtered["condition"].astype(str), plan.conditions)
-    options = comparison_options(plan, seed)
-    stats = compare_conditions(filtered, trial_selected, conditions, options)
+    if any(name in table.columns for name in plan.filters):
+        filtered = apply_filters(table, plan.filters)
+        changed = changed or not filtered.equals(table)
+    else:
+        filtered = table  # nothing to filter: no copy of a large table
+    if filtered["condition"].dtype != "category":
+        filtered["condition"] = filtered["condition"].astype(str).astype("category")
+    conditions = order_conditions(filtered["condition"].cat.categories, plan.conditions)
+    options = comparison_options(plan, seed, bootstrap)
+    total = len(trial_selected) + (len(score_selected) if scores is not None else 0)
+    entries = []
+    for done, name in enumerate(trial_selected):
+        if progress:
+            progress(done, total)
+        entries += compare_conditions(filtered, [name], conditions, options)["metrics"]
+    stats: dict[str, Any] = {"conditions": list(conditions), "metrics": entries}
     if scores is not None and score_selected:
         stats["metrics"] += compare_conditions(scores, score_selected, conditions, options)["metrics"]
+    if progress:
+        progress(total, total)
+    metrics_path = out_dir / "metrics.csv"
+    stats["metrics_table"] = ("metrics.csv" if changed else
+                              os.path.relpath(source.resolve(), out_dir.resolve()))
     stats[CHECKSUM_KEY] = metrics_checksum(filtered, trial_selected, plan.filters)
     stats = json_ready(stats)
+    notes += _excluded_notes(stats)
     tidy = stats_table(stats)
     summary = format_summary(stats, plan, source, n_trials=len(filtered),
                              n_participants=filtered["participant"].nunique())
 
-    out_dir = Path(out) if out is not None else default_out
-    if out_dir.exists() and not out_dir.is_dir():
-        raise DataError(f"--out {out_dir} is a file; give a folder")
     written: list[Path] = []
-    metrics_path = out_dir / "metrics.csv"
     metrics_columns = [c for c in filtered.columns if c in NON_METRIC_COLUMNS or c in available]
-    if not (source.is_file() and metrics_path.resolve() == source.resolve()):
+    if changed:
         write_text_atomic(metrics_path, filtered[metrics_columns].to_csv(index=False))
         written.append(metrics_path)
     outputs = {
@@ -520,4 +825,4 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = "paper"
         write_text_atomic(out_dir / name, text)
         written.append(out_dir / name)
     return AnalysisResult(out=out_dir, files=written, metrics=filtered, stats=stats, table=tidy,
-                          summary=summary, questionnaires=scores)
+                          summary=summary, questionnaires=scores, notes=notes)

@@ -30,7 +30,12 @@ from matplotlib.figure import Figure
 
 from nudgecli.errors import ConfigError, DataError, RunFolderError
 from nudgecli.report import figures
-from nudgecli.report.analysis import TABLE_SUFFIXES, read_metrics_table, validate_metrics_table
+from nudgecli.report.analysis import (
+    TABLE_SUFFIXES,
+    analysed_metrics_path,
+    read_metrics_table,
+    validate_metrics_table,
+)
 from nudgecli.report.checksum import recorded_checksum, verify_metrics
 from nudgecli.report.figures import TrialLayout
 from nudgecli.report.metrics import apply_filters
@@ -342,15 +347,21 @@ def read_inputs(source: str | Path) -> FigureInputs:
         if not folder.is_dir():
             raise RunFolderError(f"{folder}: no such folder or table; give a run folder made by "
                                  "`nudge simulate`, a metrics table or its analysis folder")
-        if not (folder / METRICS_FILE).is_file() and not run.is_run():
+        # an analysis folder holds metrics.csv, or its stats.json names the table it analysed
+        metrics_path = analysed_metrics_path(folder)
+        if metrics_path is None and not run.is_run():
             raise RunFolderError(f"{folder}: not a run folder (no manifest.json) and no {METRICS_FILE}; "
                                  "run `nudge simulate` and `nudge analyze` first, or give a metrics table")
-        if not (folder / METRICS_FILE).is_file() or not (folder / STATS_FILE).is_file():
+        if metrics_path is None or not (folder / STATS_FILE).is_file():
             raise RunFolderError(f"{folder}: no metrics yet; run `nudge analyze {folder}` first")
         stats_path = folder / STATS_FILE
         stats = read_stats(stats_path)
-        table = _read_metrics_csv(folder / METRICS_FILE)
-        metrics_name = str(folder / METRICS_FILE)
+        if metrics_path.name == METRICS_FILE:
+            table = _read_metrics_csv(metrics_path)
+        else:
+            table = read_metrics_table(metrics_path)
+            validate_metrics_table(table, str(metrics_path))
+        metrics_name = str(metrics_path)
     record = recorded_checksum(stats, str(stats_path))
     table = apply_filters(table, record.get("filters") or {})
     verify_metrics(stats, table, str(stats_path), metrics_name)

@@ -644,6 +644,9 @@ def fit_calibration_dir(calibration_dir: str | Path, variant: str = AUTO_VARIANT
                 "not estimated: the event-driven stream sends messages only while the pressure changes, "
                 "so its pressures are not samples of the blow")
         else:
+            shortfall = stream_shortfall(distortion_session)
+            if shortfall is not None:
+                warnings.append(shortfall)
             provenance["pressure_physiology"] = _physiology(distortion_session, warnings)
     else:
         distortion = default_distortion_table()
@@ -660,6 +663,41 @@ def fit_calibration_dir(calibration_dir: str | Path, variant: str = AUTO_VARIANT
     }
     summary = profile_summary(participant, mapping, distortion, provenance)
     return CalibrationProfile(profile, summary, tuple(warnings))
+
+
+#: A stream with fewer than this fraction of the samples its rate implies over the prompts is reported.
+STREAM_COVERAGE = 0.9
+
+
+def stream_shortfall(session: DistortionSession) -> str | None:
+    """A warning when the label stream holds fewer samples during the prompts than its rate implies.
+
+    The rate is the stream's own (the median interval between samples: 10 Hz in simulated logs,
+    about 15 Hz in the pilot logs); over the span from the first prompt to the last blank it
+    implies ``span / interval`` samples. A stream cut short (a truncated file, a recording that
+    stopped) or with long gaps holds fewer, and the prompts it misses add nothing to the fit.
+
+    Returns
+    -------
+    str or None
+        The warning, or ``None`` when the stream covers the prompts (or is too short to tell).
+    """
+    times = session.stream_times
+    if times.size < 2 or session.prompt_times.size < 2:
+        return None
+    interval = float(np.median(np.diff(times)))
+    first, last = float(session.prompt_times[0]), float(session.prompt_times[-1])
+    if interval <= 0 or last <= first:
+        return None
+    expected = int((last - first) / interval)
+    inside = int(np.count_nonzero((times >= first) & (times <= last)))
+    if inside >= STREAM_COVERAGE * expected:
+        return None
+    where = session.files.get("stream", "the label stream")
+    return (f"{where}: {inside} samples during the prompts ({last - first:.1f} s), fewer than the "
+            f"{expected} its own rate ({1 / interval:.1f} Hz) implies; the stream looks truncated or has "
+            f"gaps (it ends at {float(times[-1]):.1f} s, the last prompt at {last:.1f} s), so prompts "
+            "without samples add nothing to p(phi_m | phi_i)")
 
 
 def _physiology(session: DistortionSession, warnings: list[str]) -> dict[str, Any] | None:

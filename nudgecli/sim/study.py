@@ -26,7 +26,7 @@ from typing import Any
 
 import pandas as pd
 
-from nudgecli.config import ExperimentConfig
+from nudgecli.config import ExperimentConfig, default_plan_name
 from nudgecli.errors import ConfigError
 from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.interface import default_distortion_table, default_mapping_table
@@ -39,7 +39,7 @@ from nudgecli.sim.calibration_io import DistortionSession, MappingSession, write
 from nudgecli.sim.ciaa import packaged_task, subject_schedule, task_layouts
 from nudgecli.sim.participants import Participant, draw_participant, participant_from_log
 from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSpec, run_trial, run_world_trial
-from nudgecli.store import RunFolder, library_versions, utc_now
+from nudgecli.store import RunFolder, library_versions, run_lock, utc_now
 
 
 @dataclass(frozen=True)
@@ -455,7 +455,7 @@ class StudyRun:
 
 def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, participants: int | None = None,
               workers: int = 1, scheduler: str | None = None, resume: bool = False, force: bool = False,
-              progress: Callable[[int, int], None] | None = None) -> StudyRun:
+              progress: Callable[[int, int], None] | None = None, plan: str | None = None) -> StudyRun:
     """Simulate a study into the run folder ``out``.
 
     Parameters
@@ -474,10 +474,18 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
         See :meth:`RunFolder.prepare`.
     progress
         Called with (trials done, trials in all) as participants complete.
+    plan
+        The analysis plan recorded in the manifest for ``nudge analyze`` (default: the plan
+        preset named like the experiment, else ``paper``).
 
     Returns
     -------
     StudyRun
+
+    Raises
+    ------
+    LockError
+        Another command is writing ``out`` (the run folder is locked for the whole run).
     """
     if workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {workers}")
@@ -491,13 +499,21 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
         config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
     check_physiology_logs(config)
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
-    folder = RunFolder(out)
     try:
-        mode = folder.prepare(config, seed, n, resume=resume, force=force)
+        with run_lock(out):
+            return _run_locked(RunFolder(out), config, seed, n, workers, scheduler, client, resume, force,
+                               progress, plan)
     except BaseException:
         if client is not None:
             client.close()
         raise
+
+
+def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, workers: int,
+                scheduler: str | None, client: Any, resume: bool, force: bool,
+                progress: Callable[[int, int], None] | None, plan_name: str | None) -> StudyRun:
+    """:func:`run_study` once the folder's lock is held (``client``: the connected dask client, or None)."""
+    mode = folder.prepare(config, seed, n, resume=resume, force=force)
     done = set(folder.completed_participants()) if mode == "resume" else set()
     plan = StudyPlan.build(config, seed)
     trials_per = plan.trials_per_participant()
@@ -513,6 +529,8 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     }
     manifest.update({"status": "running", "completed": sorted(done),
                      "executor": _executor_name(workers, scheduler)})
+    if plan_name is not None or "plan" not in manifest:
+        manifest["plan"] = plan_name or default_plan_name(config.experiment.name)
     folder.write_layouts(plan.layouts_frame())
     folder.write_manifest(manifest)
     todo = [i for i in range(n) if i not in done]

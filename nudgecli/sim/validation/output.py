@@ -12,7 +12,7 @@ from typing import Any
 
 from nudgecli.errors import ConfigError
 from nudgecli.sim.validation.runner import QUERY_COLUMNS, ValidationResult
-from nudgecli.store import write_text_atomic
+from nudgecli.store import check_writable, write_text_atomic
 
 
 def summary_json(result: ValidationResult) -> str:
@@ -36,18 +36,14 @@ def prepare_out(out_dir: str | os.PathLike[str]) -> Path:
     Raises
     ------
     ConfigError
-        The folder cannot be created, is a file, or cannot be written.
+        The path is a file.
+    WriteError
+        The folder cannot be created or written (one ``Error:`` line naming the path and cause).
     """
     out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ConfigError(
-            f"--out {out}: cannot create the folder ({exc.strerror}); choose another path") from exc
-    if not out.is_dir():
+    if out.exists() and not out.is_dir():
         raise ConfigError(f"--out {out} is not a folder; choose a folder path")
-    if not os.access(out, os.W_OK | os.X_OK):
-        raise ConfigError(f"--out {out}: the folder is not writable; choose another path")
+    check_writable(out)  # a file is made and removed: read-only or full folders fail here, before any work
     return out
 
 
