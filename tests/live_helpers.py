@@ -24,8 +24,14 @@ TWO_TRIALS = (
 DEFAULT_TABLES = ("model.tables=default",)
 
 ANSWERS = {
-    **{f"tlx_{k}": v for k, v in zip(("mental", "physical", "temporal", "performance", "effort", "frustration"),
-                                      (35, 10, 40, 20, 45, 30), strict=True)},
+    **{
+        f"tlx_{k}": v
+        for k, v in zip(
+            ("mental", "physical", "temporal", "performance", "effort", "frustration"),
+            (35, 10, 40, 20, 45, 30),
+            strict=True,
+        )
+    },
     **{f"likert_{q}": v for q, v in zip(("q3", "q4", "q7", "q10"), (6, 5, 4, 3), strict=True)},
 }
 

@@ -10,7 +10,6 @@ import signal
 import socket
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -18,19 +17,19 @@ import pytest
 
 pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip install '.[study]'")
 
-from aiohttp.test_utils import TestClient, TestServer  # noqa: E402
-from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS, as_samples, recorded_stream, transition  # noqa: E402
+from aiohttp.test_utils import TestClient, TestServer
+from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS, as_samples, recorded_stream, transition
 
-from nudgecli.live.app import build_session  # noqa: E402
-from nudgecli.live.server import SteppedClock, create_app  # noqa: E402
-from nudgecli.live.session import LiveSession, live_handover_idle_s  # noqa: E402
-from nudgecli.model.disambiguation import DisambiguationModel  # noqa: E402
-from nudgecli.model.interface import default_distortion_table, default_mapping_table  # noqa: E402
-from nudgecli.report.analysis import analyze  # noqa: E402
-from nudgecli.rng import generator  # noqa: E402
-from nudgecli.sim.protocol import ProtocolSettings, TrialSession, handover_steps  # noqa: E402
-from nudgecli.sim.study import StudyPlan, participant_schedule  # noqa: E402
-from nudgecli.steplog import HUMAN_TURN  # noqa: E402
+from nudgecli.live.app import build_session
+from nudgecli.live.server import SteppedClock, create_app
+from nudgecli.live.session import LiveSession, live_handover_idle_s
+from nudgecli.model.disambiguation import DisambiguationModel
+from nudgecli.model.interface import default_distortion_table, default_mapping_table
+from nudgecli.report.analysis import analyze
+from nudgecli.rng import generator
+from nudgecli.sim.protocol import ProtocolSettings, TrialSession, handover_steps
+from nudgecli.sim.study import StudyPlan, participant_schedule
+from nudgecli.steplog import HUMAN_TURN
 
 
 class PageClient:
@@ -76,7 +75,9 @@ async def _play_trials(session: LiveSession, streams: list[list], stop_in_trial:
             if page.state["phase"] == "questionnaire":
                 await page.send({"type": "questionnaire", "answers": ANSWERS})
             assert page.state["phase"] == "ready" and page.state["ready_for"] == "evaluation"
-            await page.send({"type": "key", "key": " ", "down": True}, {"type": "key", "key": " ", "down": False})
+            await page.send(
+                {"type": "key", "key": " ", "down": True}, {"type": "key", "key": " ", "down": False}
+            )
             current, k = ("none", 0), 0
             while page.state["phase"] == "trial":
                 if number == stop_in_trial and k == 25:
@@ -99,8 +100,12 @@ def _direct_steps(session: LiveSession, streams: list[list]) -> tuple[pd.DataFra
     noise = config.model.default_table_noise
     steps, trials = [], []
     for spec, stream in zip(participant_schedule(config, seed, index, plan.layouts), streams, strict=True):
-        model = DisambiguationModel(spec.layout.goal_cells, plan.solved[spec.layout_index].p_a_given_sg,
-                                    default_mapping_table(noise), default_distortion_table(noise))
+        model = DisambiguationModel(
+            spec.layout.goal_cells,
+            plan.solved[spec.layout_index].p_a_given_sg,
+            default_mapping_table(noise),
+            default_distortion_table(noise),
+        )
         agent_rng = generator(seed, "participant", index, "trial", spec.trial).spawn(2)[1]
         trial = TrialSession(spec, settings, model, handover, agent_rng)
         samples = iter(as_samples(stream, config.interface))
@@ -133,7 +138,9 @@ def test_server_replays_a_recorded_stream_exactly(tmp_path):
     pd.testing.assert_frame_equal(steps, expected_steps)
     pd.testing.assert_frame_equal(trials, expected_trials)
     manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
-    assert manifest["executor"] == "live" and manifest["completed"] == [3] and manifest["status"] == "complete"
+    assert (
+        manifest["executor"] == "live" and manifest["completed"] == [3] and manifest["status"] == "complete"
+    )
     assert manifest["live"]["3"]["completed_trials"] == [0, 1]
     assert manifest["live"]["3"]["questionnaire_blocks"] == [0, 1]
     questionnaires = pd.read_csv(tmp_path / "run" / "questionnaires.csv")
@@ -209,10 +216,27 @@ async def _play_until_killed(port: int, process: subprocess.Popen) -> None:
 def test_a_killed_session_resumes_at_the_trial_it_was_in(tmp_path):
     out, port = tmp_path / "run", _free_port()
     sets = [arg for item in (*TWO_TRIALS, *DEFAULT_TABLES, "study.time_limit_s=2") for arg in ("--set", item)]
-    command = [sys.executable, "-m", "nudgecli.cli", "study", "paper", "--participant", "P02", "--port", str(port),
-               "--out", str(out), *sets]
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    command = [
+        sys.executable,
+        "-m",
+        "nudgecli.cli",
+        "study",
+        "paper",
+        "--participant",
+        "P02",
+        "--port",
+        str(port),
+        "--out",
+        str(out),
+        *sets,
+    ]
+    process = subprocess.Popen(
+        command,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
     try:
         asyncio.run(_play_until_killed(port, process))
     finally:
