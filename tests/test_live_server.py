@@ -67,8 +67,9 @@ async def _play_trials(session: LiveSession, streams: list[list], stop_in_trial:
     clock = SteppedClock(session.settings.dt)
     async with TestClient(TestServer(create_app(session, clock))) as client:
         page = PageClient(await client.ws_connect("/ws"), clock)
-        await page.receive_until(lambda m: m["type"] == "state")
-        await page.send({"type": "start"})
+        page.ticks = (await page.receive_until(lambda m: m["type"] == "state"))["tick"]
+        if page.state["phase"] == "welcome":
+            await page.send({"type": "start"})
         if page.state["phase"] == "ready" and page.state["ready_for"] != "evaluation":
             await page.send({"type": "skip"})
         for number, stream in enumerate(streams):
@@ -258,3 +259,14 @@ def test_a_killed_session_resumes_at_the_trial_it_was_in(tmp_path):
     pd.testing.assert_frame_equal(trials.iloc[:1], trials_before)
     pd.testing.assert_frame_equal(steps[steps["trial"] == 0].reset_index(drop=True), steps_before)
     assert json.loads((out / "manifest.json").read_text())["status"] == "complete"
+
+
+def test_a_closed_tab_abandons_the_running_trial_which_then_runs_again_from_its_start(tmp_path):
+    session = build_session("paper", "P05", tmp_path / "run", overrides=TWO_TRIALS + DEFAULT_TABLES)
+    streams = _streams(11, 2, 60)
+    asyncio.run(_play_trials(session, streams, stop_in_trial=1))  # the page closes during trial 1
+    assert session.phase == "ready" and session.next_trial is not None and session.next_trial.trial == 1
+    asyncio.run(_play_trials(session, streams[1:]))  # a new page: trial 1 again, with its own stream
+    steps = pd.read_parquet(tmp_path / "run" / "steps" / "part-0005.parquet")
+    expected_steps, _ = _direct_steps(session, streams)
+    pd.testing.assert_frame_equal(steps, expected_steps)

@@ -4,6 +4,8 @@ aiohttp serves ``static/`` (plain HTML and JavaScript, no build step) and one we
 ``/ws``. The page sends input events (keys down and up, the gamepad axis) and commands; the server
 passes them to the :class:`~nudgecli.live.session.LiveSession` as they arrive, advances the session
 once per protocol step on its own clock, and sends every connected page the state after each step.
+While no page is connected the session does not advance; a trial whose last page closed is
+abandoned (not recorded) and runs again from its start.
 The server binds to 127.0.0.1 only: a study session is local.
 """
 
@@ -106,6 +108,8 @@ async def _ticker(app: web.Application) -> None:
     session, clock = app[SESSION_KEY], app[CLOCK_KEY]
     while True:
         await clock.wait()
+        if not app[SOCKETS_KEY].open:
+            continue  # no page: the session waits (a trial left mid-way was abandoned)
         session.tick(clock.now())
         await _broadcast(app, session.view())
 
@@ -149,7 +153,8 @@ async def _websocket(request: web.Request) -> web.WebSocketResponse:
                 await _broadcast(app, session.view())
     finally:
         app[SOCKETS_KEY].open.discard(ws)
-        session.handle({"type": "blur"}, clock.now())  # a closed tab holds no key
+        # a closed tab holds no key; with no page left, the running trial is abandoned
+        session.handle({"type": "disconnect" if not app[SOCKETS_KEY].open else "blur"}, clock.now())
     return ws
 
 

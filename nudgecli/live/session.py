@@ -247,7 +247,9 @@ class LiveSession:
         Messages: ``{"type": "key", "key": "1", "down": true}``, ``{"type": "axis", "value": -0.2}``
         (``null``: no gamepad), ``{"type": "start"}`` (as Space), ``{"type": "skip"}`` (skip the
         practice), ``{"type": "questionnaire", "answers": {...}}``, ``{"type": "blur"}`` (the page
-        lost focus: keys up), ``{"type": "ping"}``.
+        lost focus: keys up), ``{"type": "ping"}``; and from the server ``{"type": "disconnect"}``
+        (the last page closed: the running trial is abandoned, unrecorded, and starts again from
+        its beginning on the next Space).
         """
         kind = message.get("type")
         if kind == "key":
@@ -272,6 +274,9 @@ class LiveSession:
                 return {"type": "error", "message": error}
         elif kind == "blur":
             self.input.release_all()
+        elif kind == "disconnect":
+            self.input.release_all()
+            self._abandon_trial()
         elif kind == "ping":
             return {"type": "pong", "tick": self.tick_count}
         return None
@@ -444,6 +449,14 @@ class LiveSession:
                 self._end_practice()
                 return
         self._advance()
+
+    def _abandon_trial(self) -> None:
+        """Drop the running trial (nothing of it is recorded); it starts again from the beginning."""
+        if self.phase == "trial" and self.trial is not None:
+            self.ready_for = self.trial.kind
+            self.trial = None
+            self.phase = "ready"
+            self.last_outcome = {"kind": self.ready_for, "abandoned": True}
 
     def _end_practice(self) -> None:
         self.entry["familiarised"] = True

@@ -114,8 +114,11 @@ function renderReady() {
   document.getElementById("ready-help").textContent = PRACTICE_HELP[next] || "";
   document.getElementById("skip").style.display = next === "evaluation" ? "none" : "inline-block";
   const o = state.last_outcome;
-  document.getElementById("ready-outcome").textContent = o ?
-    (o.success ? `Goal reached in ${o.duration_s.toFixed(1)} s.` : (o.timed_out ? "Time is up." : "That was not the red goal.")) : "";
+  let outcome = "";
+  if (o && o.abandoned) outcome = "The page was closed during the trial: it starts again from the beginning.";
+  else if (o) outcome = o.success ? `Goal reached in ${o.duration_s.toFixed(1)} s.` :
+    (o.timed_out ? "Time is up." : "That was not the red goal.");
+  document.getElementById("ready-outcome").textContent = outcome;
 }
 
 function renderTrial() {
