@@ -151,3 +151,55 @@ def test_distortion_recorder_repeats_a_prompt_without_input_and_fits_the_study_t
     table = estimate_distortion(read).table
     # each counted prompt is all its own label: (1 + 0.01) / (1 + 4 x 0.01) on the diagonal (DESIGN 2.9)
     assert np.allclose(table, (np.eye(4) + 0.01) / 1.04)
+
+
+def test_questionnaire_rows_are_checked_against_the_analysis_format():
+    from live_helpers import ANSWERS
+
+    from nudgecli.live.questionnaire import questionnaire_form, questionnaire_row
+    from nudgecli.report.questionnaires import TLX_RATING_COLUMNS
+
+    form = questionnaire_form()
+    assert [item["name"] for item in form["tlx"]] == list(TLX_RATING_COLUMNS)
+    assert [item["name"] for item in form["likert"]] == ["likert_q3", "likert_q4", "likert_q7", "likert_q10"]
+    assert questionnaire_row(ANSWERS) == ANSWERS
+    assert "performance" in questionnaire_row({**ANSWERS, "tlx_performance": 101})
+    assert "every statement" in questionnaire_row({**ANSWERS, "likert_q7": None})
+    assert "every statement" in questionnaire_row({**ANSWERS, "likert_q7": 4.5})
+
+
+def test_a_session_refuses_an_incomplete_questionnaire_and_records_a_complete_one(tmp_path):
+    from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS
+
+    from nudgecli.live.app import build_session
+    from nudgecli.report.questionnaires import questionnaire_scores, read_questionnaires
+
+    session = build_session("paper", "P04", tmp_path, overrides=TWO_TRIALS + DEFAULT_TABLES)
+    for message in ({"type": "start"}, {"type": "skip"}, {"type": "start"}):
+        session.handle(message, 0.0)
+    assert session.phase == "trial"
+    while session.phase == "trial":
+        session.tick(0.0)  # no input at all: the trial runs to its time limit
+    assert session.phase == "questionnaire"
+    reply = session.handle({"type": "questionnaire", "answers": {**ANSWERS, "likert_q3": None}}, 0.0)
+    assert reply is not None and reply["type"] == "error" and not (tmp_path / "questionnaires.csv").exists()
+    assert session.handle({"type": "questionnaire", "answers": ANSWERS}, 0.0) is None
+    table = read_questionnaires(tmp_path / "questionnaires.csv")
+    assert list(table["participant"]) == [4] and list(table["block"]) == [0]
+    assert table["condition"].iloc[0] == session.schedule[0].condition
+    scores = questionnaire_scores(table, str(tmp_path / "questionnaires.csv"))
+    assert scores["tlx_raw"].iloc[0] == pytest.approx((35 + 10 + 40 + 20 + 45 + 30) / 6)
+    assert session.phase == "ready"
+
+
+def test_condition_order_sets_the_first_block_and_keeps_the_blocks():
+    from nudgecli.sim.study import build_layouts, participant_schedule
+
+    config = load_experiment("paper")
+    layouts = build_layouts(config, 5)
+    default = participant_schedule(config, 5, 0, layouts)
+    flipped = participant_schedule(config, 5, 0, layouts, first_condition="control")
+    assert default[0].condition == "disambiguation" and flipped[0].condition == "control"
+    blocks = {(s.condition, s.layout_index) for s in default}
+    assert {(s.condition, s.layout_index) for s in flipped} == blocks
+    assert participant_schedule(config, 5, 0, layouts, first_condition="disambiguation") == default

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
 import re
 import time
 from dataclasses import dataclass
@@ -37,6 +36,7 @@ from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError
 from nudgecli.live.calibration import DistortionRecorder, MappingRecorder, action_prompt_text
 from nudgecli.live.input import KEY_LABELS, LiveInput
+from nudgecli.live.questionnaire import questionnaire_form, questionnaire_row
 from nudgecli.live.records import LiveFolder
 from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.interface import LABELS, default_distortion_table, default_mapping_table
@@ -53,7 +53,6 @@ from nudgecli.model.world import (
     Y_MIN,
     sample_layout,
 )
-from nudgecli.report.questionnaires import LIKERT_RANGE, TLX_RANGE, TLX_RATING_COLUMNS, TLX_SUBSCALES
 from nudgecli.rng import generator, seed_key
 from nudgecli.sim.calibration import estimate_distortion, estimate_mapping
 from nudgecli.sim.calibration_io import read_sessions, write_sessions
@@ -66,34 +65,6 @@ PRACTICE = ("teleoperation", "blending", "turn-taking")
 #: Seconds after the turn's first input over which the page's border turns from blue to red
 #: (the paper: 3-4 s; the study software: 200 loop iterations).
 BORDER_S = 3.5
-#: The study's post-block Likert items (study-software-notes, post_task_likert_analysis.py).
-LIKERT_ITEMS = {
-    "q3": "After the assistant's turn, it was able to figure out where I wanted to go much more easily.",
-    "q4": "The assistant helped me move the robot towards the desired goal more effectively after its turn.",
-    "q7": "The assistant's help let me complete the task more efficiently.",
-    "q10": "The assistant's help reduced unwanted mode switches.",
-}
-#: NASA-TLX questions and the words at the two ends of each scale (0 and 100).
-TLX_QUESTIONS = {
-    "mental": ("How mentally demanding was the task?", "very low", "very high"),
-    "physical": ("How physically demanding was the task?", "very low", "very high"),
-    "temporal": ("How hurried or rushed was the pace of the task?", "very low", "very high"),
-    "performance": (
-        "How successful were you in accomplishing what you were asked to do?",
-        "perfect",
-        "failure",
-    ),
-    "effort": (
-        "How hard did you have to work to accomplish your level of performance?",
-        "very low",
-        "very high",
-    ),
-    "frustration": (
-        "How insecure, discouraged, irritated, stressed, and annoyed were you?",
-        "very low",
-        "very high",
-    ),
-}
 
 
 def participant_index(participant_id: str) -> int:
@@ -471,18 +442,10 @@ class LiveSession:
         if block is None:
             return "no questionnaire is due"
         condition = next(spec.condition for spec in self.schedule if spec.block == block)
-        row: dict[str, Any] = {"participant": self.index, "condition": condition, "block": block}
-        for subscale, column in zip(TLX_SUBSCALES, TLX_RATING_COLUMNS, strict=True):
-            value = _number(answers.get(column))
-            if value is None or not TLX_RANGE[0] <= value <= TLX_RANGE[1]:
-                return f"rate '{subscale}' from {TLX_RANGE[0]:g} to {TLX_RANGE[1]:g}"
-            row[column] = value
-        for item in LIKERT_ITEMS:
-            column = f"likert_{item}"
-            value = _number(answers.get(column))
-            if value is None or value != int(value) or not LIKERT_RANGE[0] <= value <= LIKERT_RANGE[1]:
-                return f"answer every statement ({LIKERT_RANGE[0]}-{LIKERT_RANGE[1]})"
-            row[column] = int(value)
+        row = questionnaire_row(answers)
+        if isinstance(row, str):
+            return row
+        row = {"participant": self.index, "condition": condition, "block": block, **row}
         self.folder.write_questionnaire(self.index, row)
         self._advance()
         return None
@@ -541,16 +504,7 @@ class LiveSession:
         elif self.phase == "trial" and self.trial is not None:
             out["trial"] = self._trial_view(self.trial)
         elif self.phase == "questionnaire":
-            out["questionnaire"] = {
-                "block": self._pending_questionnaire(),
-                "tlx": [
-                    {"name": f"tlx_{k}", "subscale": k, "question": q, "low": low, "high": high}
-                    for k, (q, low, high) in TLX_QUESTIONS.items()
-                ],
-                "likert": [{"name": f"likert_{k}", "statement": s} for k, s in LIKERT_ITEMS.items()],
-                "tlx_range": list(TLX_RANGE),
-                "likert_range": list(LIKERT_RANGE),
-            }
+            out["questionnaire"] = {"block": self._pending_questionnaire(), **questionnaire_form()}
         return out
 
     def _trial_view(self, running: RunningTrial) -> dict[str, Any]:
@@ -581,14 +535,6 @@ class LiveSession:
                 "goal_radius": GOAL_RADIUS,
             },
         }
-
-
-def _number(value: Any) -> float | None:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        return None
-    return number if math.isfinite(number) else None
 
 
 def _condition_order(schedule: list[TrialSpec]) -> list[str]:
