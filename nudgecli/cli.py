@@ -370,8 +370,10 @@ def study_command(experiment: str, participant_id: str, port: int, out: str | No
     """Run one participant's session in a browser page served on 127.0.0.1 (needs nudgecli[study])."""
     from nudgecli.live.app import run_live_study
 
-    run_live_study(experiment, participant_id, port=port, out=out, condition_order=condition_order,
-                   seed=seed, resume=resume, overrides=overrides, announce=click.echo, log=info)
+    session = run_live_study(experiment, participant_id, port=port, out=out, condition_order=condition_order,
+                             seed=seed, resume=resume, overrides=overrides, announce=click.echo, log=info)
+    if session.phase != "done":
+        sys.exit(130)  # interrupted (Ctrl-C) before the participant finished
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -22,6 +22,12 @@ def first_condition(config: ExperimentConfig, condition_order: str | None) -> st
             f"--condition-order {condition_order!r}: name each condition of the experiment once, "
             f"e.g. {','.join(known)}"
         )
+    shift = known.index(names[0])
+    if names != known[shift:] + known[:shift]:
+        raise ConfigError(
+            f"--condition-order {condition_order!r}: blocks alternate in the experiment's order "
+            f"({','.join(known)}); give a rotation of it"
+        )
     return names[0]
 
 
@@ -61,8 +67,9 @@ def run_live_study(
     overrides: Sequence[str] = (),
     announce: Callable[[str], None] = print,
     log: Callable[[str], None] = print,
-) -> Path:
-    """Build the session and serve it on 127.0.0.1 until Ctrl-C; returns the run folder."""
+) -> LiveSession:
+    """Build the session and serve it on 127.0.0.1 until Ctrl-C; returns the session (its ``phase``
+    is ``"done"`` when the participant finished)."""
     try:
         from nudgecli.live.server import serve
     except ImportError as exc:
@@ -72,7 +79,7 @@ def run_live_study(
     session = build_session(experiment, participant_id, out, condition_order, seed, resume, overrides)
     log(
         f"participant {participant_id} (index {session.index}), {len(session.schedule)} trials, "
-        f"conditions {' then '.join(session.entry['condition_order'])}; run folder {session.folder.path}"
+        f"condition order {', '.join(session.entry['condition_order'])}; run folder {session.folder.path}"
     )
     log("open the address below in a browser; Ctrl-C ends the server (resume later with --resume)")
     try:
@@ -81,5 +88,11 @@ def run_live_study(
         raise ConfigError(
             f"--port {port}: cannot listen on 127.0.0.1:{port} ({exc.strerror}); choose another --port"
         ) from None
+    if session.phase != "done":
+        log(
+            f"stopped before the end of the session; continue at the next trial with: "
+            f"nudge study {experiment} --participant {participant_id} --out {session.folder.path} --resume "
+            "(same --set and --seed)"
+        )
     log(f"run folder: {session.folder.path}")
-    return session.folder.path
+    return session

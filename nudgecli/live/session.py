@@ -538,8 +538,5 @@ class LiveSession:
 
 
 def _condition_order(schedule: list[TrialSpec]) -> list[str]:
-    order: list[str] = []
-    for spec in schedule:
-        if not order or order[-1] != spec.condition:
-            order.append(spec.condition)
-    return order
+    """The conditions in the order the participant meets them (their blocks alternate in this order)."""
+    return list(dict.fromkeys(spec.condition for spec in schedule))
