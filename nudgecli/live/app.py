@@ -16,7 +16,7 @@ def first_condition(config: ExperimentConfig, condition_order: str | None) -> st
     if condition_order is None:
         return None
     names = [name.strip() for name in condition_order.split(",") if name.strip()]
-    known = list(config.study.conditions)
+    known = [str(c) for c in config.study.conditions]
     if sorted(names) != sorted(known):
         raise ConfigError(
             f"--condition-order {condition_order!r}: name each condition of the experiment once, "
