@@ -203,3 +203,19 @@ def test_condition_order_sets_the_first_block_and_keeps_the_blocks():
     blocks = {(s.condition, s.layout_index) for s in default}
     assert {(s.condition, s.layout_index) for s in flipped} == blocks
     assert participant_schedule(config, 5, 0, layouts, first_condition="disambiguation") == default
+
+
+def test_study_command_mistakes_are_one_error_line(tmp_path):
+    from click.testing import CliRunner
+
+    from nudgecli.cli import main
+
+    runner = CliRunner()
+    for args, words in (
+        (["--participant", "alice"], "ending in the participant's number"),
+        (["--participant", "P1", "--condition-order", "control"], "name each condition"),
+        (["--participant", "P1", "--set", "calibration.rate_hz=20"], "must equal study.rate_hz"),
+    ):
+        result = runner.invoke(main, ["study", "paper", "--out", str(tmp_path / "run"), *args])
+        assert result.exit_code == 1 and result.output.startswith("Error: ") and words in result.output
+        assert result.output.count("\n") == 1
