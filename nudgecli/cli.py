@@ -718,5 +718,35 @@ def validate_command(simulations: int, min_goals: int, max_goals: int, states: i
         info(str(out))
 
 
+# --- study (a person in the loop) ---------------------------------------------------------
+
+
+@main.command("study")
+@click.argument("experiment")
+@click.option("--participant", "participant_id", required=True, metavar="ID",
+              help="Participant ID ending in their number, e.g. P01 (the number seeds their schedule).")
+@click.option("--port", type=click.IntRange(1, 65535), default=8765, show_default=True,
+              help="Port on 127.0.0.1.")
+@click.option("--out", type=click.Path(file_okay=False),
+              help="Run folder, shared by the participants of one study "
+                   "[default: results/<experiment>-live].")
+@click.option("--condition-order", metavar="A,B",
+              help="The order of the conditions' blocks, e.g. control,disambiguation [default: rotates "
+                   "with the participant's number, as in the experiment].")
+@click.option("--seed", type=int, help="Master seed [default: the experiment's].")
+@click.option("--resume", is_flag=True, help="Continue this participant's session at their next trial.")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
+def study_command(experiment: str, participant_id: str, port: int, out: str | None,
+                  condition_order: str | None, seed: int | None, resume: bool,
+                  overrides: tuple[str, ...]) -> None:
+    """Run one participant's session in a browser page served on 127.0.0.1 (needs nudgecli[study])."""
+    from nudgecli.live.app import run_live_study
+
+    session = run_live_study(experiment, participant_id, port=port, out=out, condition_order=condition_order,
+                             seed=seed, resume=resume, overrides=overrides, announce=click.echo, log=info)
+    if session.phase != "done":
+        sys.exit(130)  # interrupted (Ctrl-C) before the participant finished
+
+
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())

@@ -434,6 +434,8 @@ class RunFolder:
             names them and the command that restores them.
         """
         manifest = self.read_manifest()
+        if manifest.get("executor") == "live":
+            return self._check_live(manifest)
         participants = int(manifest.get("participants", 0))
         missing = self.missing_parts(participants)
         fix = self.resume_command(manifest)
@@ -446,6 +448,30 @@ class RunFolder:
             state = manifest.get("status", "not finished")
             raise RunFolderError(f"{self.path}: the run is {state} (all parts are there but it did not "
                                  f"finish); finish it with `{fix}`")
+        return manifest
+
+    def _check_live(self, manifest: dict[str, Any]) -> dict[str, Any]:
+        """:meth:`check_complete` of a ``nudge study`` folder: every participant with recorded
+        trials has readable trials and steps parts (rewritten after each trial), and a finished
+        one its participants part; a session still under way is analysed as far as it got."""
+        missing: dict[int, list[str]] = {}
+        for key, entry in (manifest.get("live") or {}).items():
+            index = int(key)
+            kinds = [kind for kind in PART_KINDS
+                     if kind != "participants" or entry.get("status") == "complete"]
+            if not entry.get("completed_trials"):
+                kinds = [kind for kind in kinds if kind == "participants"]
+            for kind in kinds:
+                part = self.part_path(kind, index)
+                if not part.is_file():
+                    missing.setdefault(index, []).append(f"{kind}/{part.name} (missing)")
+                elif not _readable(part):
+                    missing.setdefault(index, []).append(f"{kind}/{part.name} (unreadable)")
+        if missing:
+            listed = "; ".join(f"participant {p}: {', '.join(parts)}" for p, parts in sorted(missing.items()))
+            raise RunFolderError(f"{self.path} is incomplete: {listed}; a live session rewrites these after "
+                                 "each trial: continue the participant's session with `nudge study "
+                                 f"{self.path / CONFIG} --participant ID --out {self.path} --resume`")
         return manifest
 
     def read_table(self, kind: str, columns: Sequence[str] | None = None) -> pd.DataFrame:

@@ -20,6 +20,7 @@ import numpy as np
 X_MIN, X_MAX = 3.0, 45.0
 Y_MIN, Y_MAX = 2.0, 36.0
 ROBOT_RADIUS = 0.7
+GOAL_RADIUS = 0.7
 
 N_CELLS_X = 10
 N_CELLS_Y = 10

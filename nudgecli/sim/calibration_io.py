@@ -602,6 +602,11 @@ def write_sessions(folder: str | Path, mapping: MappingSession | None = None,
     return written
 
 
+def is_counted_code(codes: np.ndarray) -> np.ndarray:
+    """``(N,)`` bool: the stream codes the distortion estimator counts (labels and deadbands)."""
+    return (codes != NO_INPUT) & (codes != INPUT_STOPPED)
+
+
 def nearest_indices(times: np.ndarray, targets: np.ndarray) -> np.ndarray:
     """Index of the time nearest each target, ties to the earlier one (what ``np.argmin`` picks).
 

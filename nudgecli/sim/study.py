@@ -97,7 +97,7 @@ def layouts_frame(layouts: Iterable[StudyLayout]) -> pd.DataFrame:
 
 
 def participant_schedule(config: ExperimentConfig, seed: int, participant: int,
-                         layouts: list[StudyLayout]) -> list[TrialSpec]:
+                         layouts: list[StudyLayout], first_condition: str | None = None) -> list[TrialSpec]:
     """The participant's trials in the order they do them.
 
     Each condition's trials are shuffled into ``blocks_per_condition`` blocks; the blocks of the
@@ -105,6 +105,8 @@ def participant_schedule(config: ExperimentConfig, seed: int, participant: int,
     that the starting condition is balanced across participants. Each trial's true goal is one
     of its layout's goals, uniformly, drawn from the trial's own seed branch
     (``participant/i/trial/t/true_goal``), so nothing can favour a goal by its index.
+    ``first_condition`` (a live session's ``--condition-order``) starts with that condition
+    instead of the rotation; the blocks and true goals stay those of the participant's seed.
     """
     study = config.study
     rng = generator(seed, "participant", participant, "schedule")
@@ -117,7 +119,8 @@ def participant_schedule(config: ExperimentConfig, seed: int, participant: int,
         blocks_by_condition[condition] = [[mine[k] for k in order[b * size:(b + 1) * size]]
                                           for b in range(n_blocks)]
     conditions = list(study.conditions)
-    shift = participant % len(conditions)
+    shift = participant % len(conditions) if first_condition is None else \
+        [str(c) for c in conditions].index(first_condition)
     conditions = conditions[shift:] + conditions[:shift]
     specs: list[TrialSpec] = []
     block_number = 0

@@ -1,0 +1,98 @@
+"""``nudge study``: set up one participant's live session and serve it."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from nudgecli.config import ExperimentConfig, load_experiment
+from nudgecli.errors import ConfigError
+from nudgecli.live.records import LiveFolder
+from nudgecli.live.session import LiveSession
+
+
+def first_condition(config: ExperimentConfig, condition_order: str | None) -> str | None:
+    """The first condition of ``--condition-order A,B`` (checked against the experiment), or ``None``."""
+    if condition_order is None:
+        return None
+    names = [name.strip() for name in condition_order.split(",") if name.strip()]
+    known = [str(c) for c in config.study.conditions]
+    if sorted(names) != sorted(known):
+        raise ConfigError(
+            f"--condition-order {condition_order!r}: name each condition of the experiment once, "
+            f"e.g. {','.join(known)}"
+        )
+    shift = known.index(names[0])
+    if names != known[shift:] + known[:shift]:
+        raise ConfigError(
+            f"--condition-order {condition_order!r}: blocks alternate in the experiment's order "
+            f"({','.join(known)}); give a rotation of it"
+        )
+    return names[0]
+
+
+def build_session(
+    experiment: str,
+    participant_id: str,
+    out: str | Path | None = None,
+    condition_order: str | None = None,
+    seed: int | None = None,
+    resume: bool = False,
+    overrides: Sequence[str] = (),
+) -> LiveSession:
+    """The participant's session, its run folder opened (created, joined or resumed)."""
+    config = load_experiment(experiment, tuple(overrides))
+    seed = config.experiment.seed if seed is None else seed
+    if seed < 0:
+        raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
+    target = Path(out) if out else Path("results") / f"{config.experiment.name}-live"
+    return LiveSession(
+        config,
+        seed,
+        participant_id,
+        LiveFolder(target),
+        first_condition=first_condition(config, condition_order),
+        resume=resume,
+    )
+
+
+def run_live_study(
+    experiment: str,
+    participant_id: str,
+    port: int = 8765,
+    out: str | None = None,
+    condition_order: str | None = None,
+    seed: int | None = None,
+    resume: bool = False,
+    overrides: Sequence[str] = (),
+    announce: Callable[[str], None] = print,
+    log: Callable[[str], None] = print,
+) -> LiveSession:
+    """Build the session and serve it on 127.0.0.1 until Ctrl-C; returns the session (its ``phase``
+    is ``"done"`` when the participant finished)."""
+    try:
+        from nudgecli.live.server import serve
+    except ImportError as exc:
+        raise ConfigError(
+            f"nudge study needs the web server extra ({exc.name} is missing): pip install 'nudgecli[study]'"
+        ) from None
+    session = build_session(experiment, participant_id, out, condition_order, seed, resume, overrides)
+    log(
+        f"participant {participant_id} (index {session.index}), {len(session.schedule)} trials, "
+        f"condition order {', '.join(session.entry['condition_order'])}; run folder {session.folder.path}"
+    )
+    log("open the address below in a browser; Ctrl-C ends the server (resume later with --resume)")
+    try:
+        serve(session, port, announce=announce)
+    except OSError as exc:
+        raise ConfigError(
+            f"--port {port}: cannot listen on 127.0.0.1:{port} ({exc.strerror}); choose another --port"
+        ) from None
+    if session.phase != "done":
+        log(
+            f"stopped before the end of the session; continue at the next trial with: "
+            f"nudge study {experiment} --participant {participant_id} --out {session.folder.path} --resume "
+            "(same --set and --seed)"
+        )
+    log(f"run folder: {session.folder.path}")
+    return session

@@ -1,0 +1,92 @@
+"""The questionnaire after each block: NASA-TLX and the study's Likert items, as the page asks them
+and as the rows of ``questionnaires.csv`` that ``nudge analyze --questionnaires`` reads
+(:mod:`nudgecli.report.questionnaires` owns that format and its ranges)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from nudgecli.report.questionnaires import (
+    LIKERT_PREFIX,
+    LIKERT_RANGE,
+    TLX_RANGE,
+    TLX_RATING_COLUMNS,
+    TLX_SUBSCALES,
+)
+
+#: The study's post-block Likert items (study-software-notes, post_task_likert_analysis.py).
+LIKERT_ITEMS = {
+    "q3": "After the assistant's turn, it was able to figure out where I wanted to go much more easily.",
+    "q4": "The assistant helped me move the robot towards the desired goal more effectively after its turn.",
+    "q7": "The assistant's help let me complete the task more efficiently.",
+    "q10": "The assistant's help reduced unwanted mode switches.",
+}
+#: NASA-TLX questions and the words at the two ends of each scale (0 and 100).
+TLX_QUESTIONS = {
+    "mental": ("How mentally demanding was the task?", "very low", "very high"),
+    "physical": ("How physically demanding was the task?", "very low", "very high"),
+    "temporal": ("How hurried or rushed was the pace of the task?", "very low", "very high"),
+    "performance": (
+        "How successful were you in accomplishing what you were asked to do?",
+        "perfect",
+        "failure",
+    ),
+    "effort": (
+        "How hard did you have to work to accomplish your level of performance?",
+        "very low",
+        "very high",
+    ),
+    "frustration": (
+        "How insecure, discouraged, irritated, stressed, and annoyed were you?",
+        "very low",
+        "very high",
+    ),
+}
+
+
+def questionnaire_form() -> dict[str, Any]:
+    """What the page shows: the TLX scales (0-100) and the Likert statements (1-7)."""
+    return {
+        "tlx": [
+            {
+                "name": column,
+                "subscale": subscale,
+                "question": TLX_QUESTIONS[subscale][0],
+                "low": TLX_QUESTIONS[subscale][1],
+                "high": TLX_QUESTIONS[subscale][2],
+            }
+            for subscale, column in zip(TLX_SUBSCALES, TLX_RATING_COLUMNS, strict=True)
+        ],
+        "likert": [{"name": f"{LIKERT_PREFIX}{k}", "statement": s} for k, s in LIKERT_ITEMS.items()],
+        "tlx_range": list(TLX_RANGE),
+        "likert_range": list(LIKERT_RANGE),
+    }
+
+
+def questionnaire_row(answers: dict[str, Any]) -> dict[str, Any] | str:
+    """The answers as ``tlx_*`` and ``likert_*`` cells, or a message for the page saying what is missing.
+
+    Every TLX rating must be a number in 0-100 and every Likert answer an integer in 1-7.
+    """
+    row: dict[str, Any] = {}
+    for subscale, column in zip(TLX_SUBSCALES, TLX_RATING_COLUMNS, strict=True):
+        value = _number(answers.get(column))
+        if value is None or not TLX_RANGE[0] <= value <= TLX_RANGE[1]:
+            return f"rate '{subscale}' from {TLX_RANGE[0]:g} to {TLX_RANGE[1]:g}"
+        row[column] = value
+    for item in LIKERT_ITEMS:
+        column = f"{LIKERT_PREFIX}{item}"
+        value = _number(answers.get(column))
+        if value is None or value != int(value) or not LIKERT_RANGE[0] <= value <= LIKERT_RANGE[1]:
+            return f"answer every statement ({LIKERT_RANGE[0]}-{LIKERT_RANGE[1]})"
+        row[column] = int(value)
+    return row
+
+
+def _number(value: Any) -> float | None:
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return None
+    return number if math.isfinite(number) else None

@@ -1,0 +1,211 @@
+// nudge study: the page. It only draws the state the server sends and forwards input events;
+// the protocol (10 Hz sampling, labelling, inference, blending, the autonomy) runs on the server.
+"use strict";
+
+const params = new URLSearchParams(location.search);
+const AXIS = Number(params.get("axis") || 0);      // which gamepad axis is the pressure
+const AXIS_SIGN = params.get("invert") ? -1 : 1;   // sip positive, puff negative
+const INPUT_KEYS = new Set(["1", "2", "3", "4", " "]);
+
+let ws = null;
+let state = null;
+let lastAxis = undefined;
+
+function send(message) {
+  if (ws && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(message));
+}
+
+function connect() {
+  ws = new WebSocket(`ws://${location.host}/ws`);
+  const badge = document.getElementById("connection");
+  ws.onopen = () => { badge.textContent = "connected"; badge.className = "online"; lastAxis = undefined; };
+  ws.onclose = () => {
+    badge.textContent = "disconnected: reconnecting…"; badge.className = "offline";
+    setTimeout(connect, 1000);
+  };
+  ws.onmessage = (event) => {
+    const message = JSON.parse(event.data);
+    if (message.type === "state") { state = message; render(); }
+    else if (message.type === "error") document.getElementById("q-error").textContent = message.message;
+  };
+}
+
+// --- input: keys held down, and a gamepad axis -------------------------------------------------
+
+document.addEventListener("keydown", (e) => {
+  if (!INPUT_KEYS.has(e.key) || isTyping(e)) return;
+  e.preventDefault();
+  if (e.repeat) return;  // the key is still down: the server already knows
+  send({ type: "key", key: e.key, down: true });
+});
+document.addEventListener("keyup", (e) => {
+  if (!INPUT_KEYS.has(e.key) || isTyping(e)) return;
+  e.preventDefault();
+  send({ type: "key", key: e.key, down: false });
+});
+window.addEventListener("blur", () => send({ type: "blur" }));
+
+function isTyping(e) {
+  return e.target && (e.target.tagName === "INPUT" && e.target.type === "text");
+}
+
+function pollGamepad() {
+  const pads = navigator.getGamepads ? navigator.getGamepads() : [];
+  const pad = Array.from(pads || []).find((p) => p && p.connected);
+  const value = pad && pad.axes.length > AXIS ? AXIS_SIGN * pad.axes[AXIS] : null;
+  const changed = value === null ? lastAxis !== null : (lastAxis === null || lastAxis === undefined ||
+    Math.abs(value - lastAxis) > 0.0005);
+  if (changed) { send({ type: "axis", value: value }); lastAxis = value; }
+  requestAnimationFrame(pollGamepad);
+}
+
+document.getElementById("skip").addEventListener("click", () => send({ type: "skip" }));
+
+// --- drawing -----------------------------------------------------------------------------------
+
+function show(id) {
+  for (const screen of document.querySelectorAll(".screen")) screen.classList.toggle("active", screen.id === id);
+}
+
+function render() {
+  document.getElementById("participant").textContent = `Participant ${state.participant}`;
+  document.getElementById("progress").textContent = `Trials ${state.trials_done} / ${state.trials_total}`;
+  const phase = state.phase;
+  if (phase === "welcome") show("welcome");
+  else if (phase === "mapping" || phase === "distortion") renderCalibration();
+  else if (phase === "ready") renderReady();
+  else if (phase === "trial") renderTrial();
+  else if (phase === "questionnaire") renderQuestionnaire();
+  else if (phase === "done") show("done");
+}
+
+function renderCalibration() {
+  show("calibration");
+  const c = state.calibration;
+  const title = document.getElementById("cal-title");
+  const help = document.getElementById("cal-help");
+  const prompt = document.getElementById("cal-prompt");
+  if (c.part === 1) {
+    title.textContent = "Calibration 1 of 2: which input would you use?";
+    help.textContent = "For each action, press the key of the sip or puff you would use for it: " +
+      "1 Hard Puff, 2 Hard Sip, 3 Soft Puff, 4 Soft Sip.";
+    prompt.textContent = c.break ? "Short break…" : (c.prompt || "");
+  } else {
+    title.textContent = "Calibration 2 of 2: produce the input";
+    help.textContent = "When an input is shown, produce it and hold it until it disappears.";
+    prompt.textContent = c.prompt || "";
+  }
+  document.getElementById("cal-progress").textContent = `${c.done} / ${c.total}`;
+}
+
+const PRACTICE_HELP = {
+  teleoperation: "Practice 1 of 3: drive the robot yourself to the red goal (position and heading).",
+  blending: "Practice 2 of 3: the assistant now adds its own motion to yours while you give a command.",
+  "turn-taking": "Practice 3 of 3: stop giving commands for about two seconds to hand the robot to the " +
+    "assistant; it moves, then hands it back to you.",
+  evaluation: "Drive the robot to the red goal. Hand over to the assistant by pausing for about two seconds.",
+};
+
+function renderReady() {
+  show("ready");
+  const next = state.ready_for;
+  document.getElementById("ready-title").textContent =
+    next === "evaluation" ? `Trial ${state.trials_done + 1} of ${state.trials_total}` : "Practice";
+  document.getElementById("ready-help").textContent = PRACTICE_HELP[next] || "";
+  document.getElementById("skip").style.display = next === "evaluation" ? "none" : "inline-block";
+  const o = state.last_outcome;
+  let outcome = "";
+  if (o && o.abandoned) outcome = "The page was closed during the trial: it starts again from the beginning.";
+  else if (o) outcome = o.success ? `Goal reached in ${o.duration_s.toFixed(1)} s.` :
+    (o.timed_out ? "Time is up." : "That was not the red goal.");
+  document.getElementById("ready-outcome").textContent = outcome;
+}
+
+function renderTrial() {
+  show("trial");
+  const t = state.trial;
+  document.getElementById("turn").textContent = t.autonomy ? "Assistant's turn" : "Your turn";
+  for (const span of document.querySelectorAll(".modes span")) span.classList.toggle("active", span.dataset.mode === t.mode);
+  document.getElementById("clock").textContent = `${t.t.toFixed(1)} s / ${t.time_limit_s} s`;
+  const canvas = document.getElementById("world");
+  canvas.style.borderColor = t.autonomy ? "#999" : borderColour(t.border);
+  draw(canvas, t);
+}
+
+function borderColour(fraction) {  // blue -> red as the human turn goes on
+  const f = Math.max(0, Math.min(1, fraction || 0));
+  return `rgb(${Math.round(34 + f * (204 - 34))}, ${Math.round(68 * (1 - f))}, ${Math.round(204 * (1 - f))})`;
+}
+
+function draw(canvas, t) {
+  const g = canvas.getContext("2d");
+  const [x0, x1] = t.world.x, [y0, y1] = t.world.y;
+  const scale = Math.min(canvas.width / (x1 - x0), canvas.height / (y1 - y0));
+  const px = (x) => (x - x0) * scale;
+  const py = (y) => canvas.height - (y - y0) * scale;
+  g.clearRect(0, 0, canvas.width, canvas.height);
+  g.strokeStyle = "#eee"; g.lineWidth = 1;
+  const [nx, ny] = t.world.cells;
+  for (let i = 0; i <= nx; i++) { const x = px(x0 + i * (x1 - x0) / nx); g.beginPath(); g.moveTo(x, 0); g.lineTo(x, canvas.height); g.stroke(); }
+  for (let j = 0; j <= ny; j++) { const y = py(y0 + j * (y1 - y0) / ny); g.beginPath(); g.moveTo(0, y); g.lineTo(canvas.width, y); g.stroke(); }
+  t.goals.forEach((goal, k) => {
+    const colour = k === t.true_goal ? "#d22" : "#999";
+    pose(g, px(goal[0]), py(goal[1]), goal[2], t.world.goal_radius * scale * 1.6, colour, false);
+  });
+  pose(g, px(t.x), py(t.y), t.theta, t.world.robot_radius * scale * 1.6, "#222", true);
+}
+
+function pose(g, x, y, theta, radius, colour, filled) {
+  g.beginPath(); g.arc(x, y, radius, 0, 2 * Math.PI);
+  g.lineWidth = 3; g.strokeStyle = colour; g.fillStyle = colour;
+  if (filled) g.fill(); else g.stroke();
+  g.beginPath(); g.moveTo(x, y);
+  g.lineTo(x + 2.2 * radius * Math.cos(theta), y - 2.2 * radius * Math.sin(theta));
+  g.lineWidth = 4; g.stroke();
+}
+
+let formBlock = null;
+
+function renderQuestionnaire() {
+  show("questionnaire");
+  const q = state.questionnaire;
+  if (formBlock === q.block) return;  // keep what the person has entered
+  formBlock = q.block;
+  const form = document.getElementById("q-form");
+  form.innerHTML = "";
+  document.getElementById("q-error").textContent = "";
+  for (const item of q.tlx) {
+    const div = document.createElement("div"); div.className = "item";
+    div.innerHTML = `<label for="${item.name}">${item.question} <output id="${item.name}-out">50</output></label>` +
+      `<span class="small">${item.low}</span> <input type="range" id="${item.name}" name="${item.name}" min="${q.tlx_range[0]}" ` +
+      `max="${q.tlx_range[1]}" step="5" value="50"> <span class="small">${item.high}</span>`;
+    form.appendChild(div);
+    const input = div.querySelector("input");
+    input.addEventListener("input", () => { div.querySelector("output").textContent = input.value; });
+  }
+  for (const item of q.likert) {
+    const div = document.createElement("div"); div.className = "item likert";
+    let html = `<p>${item.statement}</p><span class="small">strongly disagree</span> `;
+    for (let v = q.likert_range[0]; v <= q.likert_range[1]; v++) {
+      html += `<label><input type="radio" name="${item.name}" value="${v}"> ${v}</label>`;
+    }
+    div.innerHTML = html + ` <span class="small">strongly agree</span>`;
+    form.appendChild(div);
+  }
+  const submit = document.createElement("button");
+  submit.type = "submit"; submit.id = "q-submit"; submit.textContent = "Submit";
+  form.appendChild(submit);
+  form.onsubmit = (e) => {
+    e.preventDefault();
+    const answers = {};
+    for (const item of q.tlx) answers[item.name] = Number(form.elements[item.name].value);
+    for (const item of q.likert) {
+      const checked = form.querySelector(`input[name="${item.name}"]:checked`);
+      answers[item.name] = checked ? Number(checked.value) : null;
+    }
+    send({ type: "questionnaire", answers: answers });
+  };
+}
+
+connect();
+requestAnimationFrame(pollGamepad);
