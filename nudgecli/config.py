@@ -164,6 +164,10 @@ class AssistanceSection(Section):
     entropy_gate: bool = False
     startup_delay_s: Annotated[float, Field(ge=0)] = 0.0
     distance_weighting: bool = False
+    distance_knee: PositiveFloat = Field(
+        default=35.0, description="Distance weight: 1 - drop d / knee up to the knee (world units), then "
+        "(1 - drop) exp(-(d - knee)) (the study software's values).")
+    distance_drop: Annotated[float, Field(ge=0, lt=1)] = 0.4
     autonomy_speed: PositiveFloat = 5.0
     autonomy_turn_rate: PositiveFloat = 1.5
     arrival_tolerance: PositiveFloat = 0.1

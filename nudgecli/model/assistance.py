@@ -103,6 +103,8 @@ class BlendingSettings:
         Seconds after the human's first input of a turn during which alpha is 0.
     distance_weighting
         Multiply alpha by :func:`distance_weight` of the distance to ``g'``.
+    distance_knee, distance_drop
+        The distance weight's knee (world units) and its drop at the knee (study: 35 and 0.4).
     """
 
     rho1_factor: float = 1.1
@@ -111,6 +113,8 @@ class BlendingSettings:
     entropy_gate: float | None = None
     startup_delay: float = 0.0
     distance_weighting: bool = False
+    distance_knee: float = 35.0
+    distance_drop: float = 0.4
 
     @classmethod
     def study(cls) -> BlendingSettings:
@@ -153,7 +157,7 @@ def assistance_alpha(p_goal: float, n_goals: int, normalised_entropy: float,
     rho1, rho2 = settings.rho1_factor / n_goals, settings.rho2_factor / n_goals
     alpha = min(max((p_goal - rho1) / (rho2 - rho1), 0.0), 1.0) * settings.rho3
     if settings.distance_weighting and alpha > 0.0:
-        alpha *= float(distance_weight(distance_to_goal))
+        alpha *= float(distance_weight(distance_to_goal, settings.distance_knee, settings.distance_drop))
     return alpha
 
 

@@ -137,7 +137,8 @@ class ProtocolSettings:
             blending=BlendingSettings(
                 rho1_factor=ass.rho1_factor, rho2_factor=ass.rho2_factor, rho3=ass.rho3,
                 entropy_gate=inf.kappa if ass.entropy_gate else None, startup_delay=ass.startup_delay_s,
-                distance_weighting=ass.distance_weighting),
+                distance_weighting=ass.distance_weighting, distance_knee=ass.distance_knee,
+                distance_drop=ass.distance_drop),
             autonomy_speed=ass.autonomy_speed,
             autonomy_turn_rate=ass.autonomy_turn_rate,
             arrival_tolerance=ass.arrival_tolerance,
