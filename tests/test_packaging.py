@@ -11,5 +11,6 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def test_every_subpackage_of_nudgecli_is_shipped() -> None:
     listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
-    found = {".".join(init.parent.relative_to(ROOT).parts) for init in (ROOT / "nudgecli").rglob("__init__.py")}
+    inits = (ROOT / "nudgecli").rglob("__init__.py")
+    found = {".".join(init.parent.relative_to(ROOT).parts) for init in inits}
     assert found - listed == set(), "add these to [tool.setuptools] packages in pyproject.toml"
