@@ -36,6 +36,7 @@ from nudgecli.report.metrics import apply_filters
 from nudgecli.report.plans import AnalysisPlan
 from nudgecli.report.stats import (
     compare_conditions,
+    condition_table,
     is_significant,
     json_ready,
     order_conditions,
@@ -111,12 +112,11 @@ def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
     rows = []
     for entry in entries.to_dict("records"):
         document = stats[entry["analysis"]]
-        means = {m["metric"]: m["mean"] for m in document["metrics"]}
         for row in stats_table(document).to_dict("records"):
             a, b = row["a"], row["b"]
             trial_sign = _sign(_difference(row["median_a"], row["median_b"]))
             if trial_sign == 0:
-                trial_sign = _sign(_difference(means[row["metric"]][a], means[row["metric"]][b]))
+                trial_sign = _sign(_difference(row["mean_a"], row["mean_b"]))
             rows.append({
                 "point": entry["point"], "replication": entry["replication"], "seed": entry["seed"],
                 "participants": entry["participants"], "metric": row["metric"], "a": a, "b": b,
@@ -152,13 +152,10 @@ def condition_values(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
     value``: each replication's median of the metric over the condition's trials."""
     rows = []
     for entry in entries.to_dict("records"):
-        document = stats[entry["analysis"]]
-        for metric in document["metrics"]:
-            for condition in document["conditions"]:
-                rows.append({"point": entry["point"], "replication": entry["replication"],
-                             "seed": entry["seed"], "participants": entry["participants"],
-                             "condition": condition, "metric": metric["metric"],
-                             "value": metric["median"][condition]})
+        for row in condition_table(stats_table(stats[entry["analysis"]])).to_dict("records"):
+            rows.append({"point": entry["point"], "replication": entry["replication"],
+                         "seed": entry["seed"], "participants": entry["participants"],
+                         "condition": row["condition"], "metric": row["metric"], "value": row["median"]})
     table = pd.DataFrame(rows)
     if points is not None and len(points.columns) > 1 and not table.empty:
         table = table.merge(points, on="point", how="left")
