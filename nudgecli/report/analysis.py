@@ -65,12 +65,11 @@ from nudgecli.report.stats import (
     stats_csv,
     stats_table,
 )
-from nudgecli.store import RunFolder, run_lock, write_text_atomic
+from nudgecli.store import RunFolder, is_run_folder, run_lock, write_text_atomic
 
 #: Columns of a metrics table that describe the trial rather than measure it.
 NON_METRIC_COLUMNS = (*ID_COLUMNS, "layout", "n_goals", "true_goal")
 TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
-RUN_FOLDER_MARKERS = ("trials", "steps", "manifest.json", "config.toml")
 #: The columns that identify one trial of a metrics table (those present are used).
 TRIAL_KEY = ("participant", "condition", "block", "trial")
 #: How many rows or pairs an error message lists.
@@ -113,11 +112,6 @@ class AnalysisResult:
 
 
 # --- reading -----------------------------------------------------------------------------------
-
-
-def is_run_folder(path: Path) -> bool:
-    """Whether ``path`` is a folder that looks like a run folder (trials/, steps/ or a manifest)."""
-    return path.is_dir() and any((path / marker).exists() for marker in RUN_FOLDER_MARKERS)
 
 
 def read_run(folder: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -735,7 +729,7 @@ def _analyze_with_locks(source: Path, plan: str | Path | AnalysisPlan | None, ou
     """:func:`analyze` with the run folder's and the output folder's locks held."""
     with contextlib.ExitStack() as locks:
         source_locked = False
-        if source.is_dir() and is_run_folder(source):
+        if is_run_folder(source):
             try:
                 locks.enter_context(run_lock(source))
                 source_locked = True
