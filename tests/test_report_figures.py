@@ -563,3 +563,30 @@ def test_box_colours_follow_the_condition_order(metrics2: pd.DataFrame) -> None:
         out = metric_boxplot(metrics2, "human_effort", conditions=order)
         faces = [mpl.colors.to_hex(out.boxes[c].get_facecolor(), keep_alpha=False) for c in order]
         assert faces == ["#0072b2", "#e69f00"]  # Okabe-Ito blue, then orange
+
+
+def test_replication_panels_compose_and_colour_by_significance() -> None:
+    from matplotlib.colors import to_hex
+
+    from nudgecli.report.figures.replication import FOREST_COLOURS, forest_figure, forest_panel, power_panel
+
+    rows = pd.DataFrame({"metric": "m", "replication": [0, 1, 2], "difference": [1.0, -2.0, 3.0],
+                         "ci_low": [0.5, -3.0, 2.0], "ci_high": [1.5, -1.0, 4.0],
+                         "participant_significant": [True, False, True]})
+    pooled = pd.Series({"metric": "m", "a": "x", "b": "y", "difference": 0.7, "difference_low": -1.0,
+                        "difference_high": 2.5})
+    fig = Figure()
+    ax = fig.subplots()
+    assert forest_panel(rows, pooled, ax=ax) is ax  # draws on the axes it is given
+    by_colour = {to_hex(line.get_color()): sorted(line.get_ydata())
+                 for line in ax.lines if line.get_marker() == "o"}
+    # the significant replications (0 and 2) in the significant colour, replication 1 in the other
+    assert by_colour == {FOREST_COLOURS[True]: [0, 2], FOREST_COLOURS[False]: [1]}
+    assert [line.get_xdata()[0] for line in ax.lines if line.get_linewidth() == 1.2] == [0.7]  # pooled mean
+    assert forest_figure(rows, pd.DataFrame([pooled])).axes[0].get_title() == "m"
+    power = pd.DataFrame({"metric": "m", "direction": "+", "level": ["participant", "trial"] * 2,
+                          "participants": [4, 4, 8, 8], "power": [0.2, 0.1, 0.9, 0.6],
+                          "low": [0.1, 0.0, 0.8, 0.5], "high": [0.3, 0.2, 1.0, 0.7]})
+    drawn = power_panel(power, 0.8)
+    solid = [line for line in drawn.lines if line.get_linestyle() == "-" and line.get_marker() == "o"]
+    assert [list(line.get_ydata()) for line in solid] == [[0.2, 0.9]]  # participant level solid
