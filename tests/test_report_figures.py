@@ -590,3 +590,27 @@ def test_replication_panels_compose_and_colour_by_significance() -> None:
     drawn = power_panel(power, 0.8)
     solid = [line for line in drawn.lines if line.get_linestyle() == "-" and line.get_marker() == "o"]
     assert [list(line.get_ydata()) for line in solid] == [[0.2, 0.9]]  # participant level solid
+
+
+def test_path_panels_compose_and_mark_each_switch_with_the_new_mode() -> None:
+    from matplotlib.colors import to_hex
+
+    from nudgecli.report.path_figures import _MODE_COLOURS, _MODE_MARKERS, path_panel, progress_panel
+
+    n = 9
+    steps = pd.DataFrame({"step": np.arange(n), "t": np.arange(n) / 10, "x": np.linspace(3, 11, n),
+                          "y": np.full(n, 5.0), "theta": np.zeros(n),
+                          "mode": ["x"] * 3 + ["y"] * 3 + ["theta"] * 3,
+                          "event": ["", "", "mode_switch_human", "", "", "mode_switch_human", "", "", ""]})
+    waypoints = np.array([[3.0, 5.0], [11.0, 5.0]])
+    fig = Figure()
+    ax, bx = fig.subplots(1, 2)
+    assert path_panel(steps, waypoints, 1, np.array([11.0, 5.0, 0.0]), ax=ax) is ax
+    switches = [(line.get_xdata()[0], line.get_marker(), to_hex(line.get_markerfacecolor()))
+                for line in ax.lines if line.get_zorder() == 7]
+    # the switch at step 2 leads into y, the one at step 5 into theta (x of those steps: 5, 8)
+    assert switches == [(5.0, _MODE_MARKERS["y"], _MODE_COLOURS["y"].lower()),
+                        (8.0, _MODE_MARKERS["theta"], _MODE_COLOURS["theta"].lower())]
+    assert progress_panel(steps, waypoints, time_limit_s=3.0, ax=bx) is bx
+    assert [line.get_xdata()[0] for line in bx.lines if line.get_linestyle() == "-."] == [3.0]  # time limit
+    assert list(bx.lines[0].get_ydata()) == pytest.approx(np.linspace(0, 8, n))  # distance along the path
