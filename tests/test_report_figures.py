@@ -614,3 +614,33 @@ def test_path_panels_compose_and_mark_each_switch_with_the_new_mode() -> None:
     assert progress_panel(steps, waypoints, time_limit_s=3.0, ax=bx) is bx
     assert [line.get_xdata()[0] for line in bx.lines if line.get_linestyle() == "-."] == [3.0]  # time limit
     assert list(bx.lines[0].get_ydata()) == pytest.approx(np.linspace(0, 8, n))  # distance along the path
+
+
+def test_compare_and_population_panels_compose() -> None:
+    from matplotlib.colors import to_hex
+
+    from nudgecli.model.interface import LABELS
+    from nudgecli.report.compare import participant_medians
+    from nudgecli.report.compare_figure import SOURCE_STYLE, compare_panel
+    from nudgecli.report.population_figure import population_panel
+    from nudgecli.sim.real_population import PILOT_DIAGONALS
+
+    sim = pd.DataFrame({"participant": [1, 1, 2, 2], "condition": "A", "m": [1.0, 2.0, 3.0, 4.0]})
+    real = pd.DataFrame({"participant": [7, 7, 8], "condition": "A", "m": [5.0, 6.0, 7.0]})
+    fig = Figure()
+    ax, bx = fig.subplots(1, 2)
+    assert compare_panel({"simulated": sim, "real": real}, participant_medians(sim, real, ["m"]), "m", "A",
+                         ax=ax) is ax
+    steps = {line.get_linestyle(): (to_hex(line.get_color()), list(line.get_xdata())) for line in ax.lines
+             if len(line.get_xdata()) > 2}
+    # each source's ECDF in its own colour and line style, over its own trials
+    assert steps == {"-": (to_hex(SOURCE_STYLE["simulated"]["color"]), [1.0, 1.0, 2.0, 3.0, 4.0]),
+                     "--": (to_hex(SOURCE_STYLE["real"]["color"]), [5.0, 5.0, 6.0, 7.0])}
+    dots = [c.get_offsets() for c in ax.collections]
+    assert [list(d[:, 0]) for d in dots] == [[1.5, 3.5], [5.5, 7.0]]  # participants' medians
+    simulated = pd.DataFrame([{"participant": 0, "stream": "fixed_rate", "label": label, "diagonal": 0.5}
+                              for label in LABELS])
+    assert population_panel(simulated, "fixed_rate", ax=bx) is bx
+    diamonds = [c for c in bx.collections if len(c.get_offsets()) == len(PILOT_DIAGONALS)]
+    first = LABELS[0]
+    assert sorted(diamonds[0].get_offsets()[:, 1]) == sorted(v[first] for v in PILOT_DIAGONALS.values())
