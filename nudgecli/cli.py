@@ -322,7 +322,7 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
     elif output_format == "csv":
         click.echo(result.table.to_csv(index=False), nl=False)
     else:
-        click.echo(format_table(result.stats))
+        click.echo(format_table(result.table, result.stats["conditions"]))
     info(str(result.out))
 
 
@@ -403,7 +403,7 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
         for note in result.notes:
             info(f"Note: {note}")
         click.echo("")
-        click.echo(format_table(result.stats))
+        click.echo(format_table(result.table, result.stats["conditions"]))
         written = plot_folder(run.path)
     click.echo("")
     click.echo(f"Statistics: {run.path / 'stats.json'}, {run.path / 'summary.md'}")

@@ -343,6 +343,22 @@ def part_name(participant: int) -> str:
     return f"part-{participant:04d}.parquet"
 
 
+#: What marks a folder as a run folder, any one of them: the tables' folders, the manifest, the
+#: resolved experiment.
+RUN_FOLDER_MARKERS = ("trials", "steps", MANIFEST, CONFIG)
+
+
+def is_run_folder(path: str | Path) -> bool:
+    """Whether ``path`` is a folder that holds (part of) a run: one of :data:`RUN_FOLDER_MARKERS`.
+
+    The one test of "is this a run folder" (``nudge analyze`` tells a run folder from a metrics
+    table with it). :meth:`RunFolder.is_run` asks the narrower question whether the run has a
+    manifest to read.
+    """
+    path = Path(path)
+    return path.is_dir() and any((path / marker).exists() for marker in RUN_FOLDER_MARKERS)
+
+
 class RunFolder:
     """A run folder on disk.
 
@@ -362,7 +378,8 @@ class RunFolder:
         return self.path / MANIFEST
 
     def is_run(self) -> bool:
-        """Whether the folder holds a run (it has a manifest)."""
+        """Whether the folder holds a run with a manifest (:func:`is_run_folder` is the looser test
+        of a folder with any part of a run)."""
         return self.manifest_path.is_file()
 
     def read_manifest(self) -> dict[str, Any]:

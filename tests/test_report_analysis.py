@@ -235,3 +235,18 @@ def test_a_run_kept_without_step_logs_points_to_its_metrics_table(tmp_path):
     result = CliRunner().invoke(main, ["analyze", str(run)])
     assert result.exit_code == 1
     assert result.output.startswith("Error: ") and f"nudge analyze {run / 'metrics.csv'}" in result.output
+
+
+@pytest.mark.parametrize("marker", ["trials", "steps", "manifest.json", "config.toml", None])
+def test_is_run_folder_is_one_marker_of_a_run(tmp_path: Path, marker: str | None) -> None:
+    from nudgecli.store import RunFolder, is_run_folder
+
+    folder = tmp_path / "run"
+    folder.mkdir()
+    if marker in ("trials", "steps"):
+        (folder / marker).mkdir()
+    elif marker is not None:
+        (folder / marker).write_text("{}")
+    assert is_run_folder(folder) is (marker is not None)
+    assert RunFolder(folder).is_run() is (marker == "manifest.json")  # the narrower test: a manifest
+    assert not is_run_folder(folder / "missing") and not is_run_folder(tmp_path / "file.csv")

@@ -563,3 +563,84 @@ def test_box_colours_follow_the_condition_order(metrics2: pd.DataFrame) -> None:
         out = metric_boxplot(metrics2, "human_effort", conditions=order)
         faces = [mpl.colors.to_hex(out.boxes[c].get_facecolor(), keep_alpha=False) for c in order]
         assert faces == ["#0072b2", "#e69f00"]  # Okabe-Ito blue, then orange
+
+
+def test_replication_panels_compose_and_colour_by_significance() -> None:
+    from matplotlib.colors import to_hex
+
+    from nudgecli.report.figures.replication import FOREST_COLOURS, forest_figure, forest_panel, power_panel
+
+    rows = pd.DataFrame({"metric": "m", "replication": [0, 1, 2], "difference": [1.0, -2.0, 3.0],
+                         "ci_low": [0.5, -3.0, 2.0], "ci_high": [1.5, -1.0, 4.0],
+                         "participant_significant": [True, False, True]})
+    pooled = pd.Series({"metric": "m", "a": "x", "b": "y", "difference": 0.7, "difference_low": -1.0,
+                        "difference_high": 2.5})
+    fig = Figure()
+    ax = fig.subplots()
+    assert forest_panel(rows, pooled, ax=ax) is ax  # draws on the axes it is given
+    by_colour = {to_hex(line.get_color()): sorted(line.get_ydata())
+                 for line in ax.lines if line.get_marker() == "o"}
+    # the significant replications (0 and 2) in the significant colour, replication 1 in the other
+    assert by_colour == {FOREST_COLOURS[True]: [0, 2], FOREST_COLOURS[False]: [1]}
+    assert [line.get_xdata()[0] for line in ax.lines if line.get_linewidth() == 1.2] == [0.7]  # pooled mean
+    assert forest_figure(rows, pd.DataFrame([pooled])).axes[0].get_title() == "m"
+    power = pd.DataFrame({"metric": "m", "direction": "+", "level": ["participant", "trial"] * 2,
+                          "participants": [4, 4, 8, 8], "power": [0.2, 0.1, 0.9, 0.6],
+                          "low": [0.1, 0.0, 0.8, 0.5], "high": [0.3, 0.2, 1.0, 0.7]})
+    drawn = power_panel(power, 0.8)
+    solid = [line for line in drawn.lines if line.get_linestyle() == "-" and line.get_marker() == "o"]
+    assert [list(line.get_ydata()) for line in solid] == [[0.2, 0.9]]  # participant level solid
+
+
+def test_path_panels_compose_and_mark_each_switch_with_the_new_mode() -> None:
+    from matplotlib.colors import to_hex
+
+    from nudgecli.report.path_figures import _MODE_COLOURS, _MODE_MARKERS, path_panel, progress_panel
+
+    n = 9
+    steps = pd.DataFrame({"step": np.arange(n), "t": np.arange(n) / 10, "x": np.linspace(3, 11, n),
+                          "y": np.full(n, 5.0), "theta": np.zeros(n),
+                          "mode": ["x"] * 3 + ["y"] * 3 + ["theta"] * 3,
+                          "event": ["", "", "mode_switch_human", "", "", "mode_switch_human", "", "", ""]})
+    waypoints = np.array([[3.0, 5.0], [11.0, 5.0]])
+    fig = Figure()
+    ax, bx = fig.subplots(1, 2)
+    assert path_panel(steps, waypoints, 1, np.array([11.0, 5.0, 0.0]), ax=ax) is ax
+    switches = [(line.get_xdata()[0], line.get_marker(), to_hex(line.get_markerfacecolor()))
+                for line in ax.lines if line.get_zorder() == 7]
+    # the switch at step 2 leads into y, the one at step 5 into theta (x of those steps: 5, 8)
+    assert switches == [(5.0, _MODE_MARKERS["y"], _MODE_COLOURS["y"].lower()),
+                        (8.0, _MODE_MARKERS["theta"], _MODE_COLOURS["theta"].lower())]
+    assert progress_panel(steps, waypoints, time_limit_s=3.0, ax=bx) is bx
+    assert [line.get_xdata()[0] for line in bx.lines if line.get_linestyle() == "-."] == [3.0]  # time limit
+    assert list(bx.lines[0].get_ydata()) == pytest.approx(np.linspace(0, 8, n))  # distance along the path
+
+
+def test_compare_and_population_panels_compose() -> None:
+    from matplotlib.colors import to_hex
+
+    from nudgecli.model.interface import LABELS
+    from nudgecli.report.compare import participant_medians
+    from nudgecli.report.compare_figure import SOURCE_STYLE, compare_panel
+    from nudgecli.report.population_figure import population_panel
+    from nudgecli.sim.real_population import PILOT_DIAGONALS
+
+    sim = pd.DataFrame({"participant": [1, 1, 2, 2], "condition": "A", "m": [1.0, 2.0, 3.0, 4.0]})
+    real = pd.DataFrame({"participant": [7, 7, 8], "condition": "A", "m": [5.0, 6.0, 7.0]})
+    fig = Figure()
+    ax, bx = fig.subplots(1, 2)
+    assert compare_panel({"simulated": sim, "real": real}, participant_medians(sim, real, ["m"]), "m", "A",
+                         ax=ax) is ax
+    steps = {line.get_linestyle(): (to_hex(line.get_color()), list(line.get_xdata())) for line in ax.lines
+             if len(line.get_xdata()) > 2}
+    # each source's ECDF in its own colour and line style, over its own trials
+    assert steps == {"-": (to_hex(SOURCE_STYLE["simulated"]["color"]), [1.0, 1.0, 2.0, 3.0, 4.0]),
+                     "--": (to_hex(SOURCE_STYLE["real"]["color"]), [5.0, 5.0, 6.0, 7.0])}
+    dots = [c.get_offsets() for c in ax.collections]
+    assert [list(d[:, 0]) for d in dots] == [[1.5, 3.5], [5.5, 7.0]]  # participants' medians
+    simulated = pd.DataFrame([{"participant": 0, "stream": "fixed_rate", "label": label, "diagonal": 0.5}
+                              for label in LABELS])
+    assert population_panel(simulated, "fixed_rate", ax=bx) is bx
+    diamonds = [c for c in bx.collections if len(c.get_offsets()) == len(PILOT_DIAGONALS)]
+    first = LABELS[0]
+    assert sorted(diamonds[0].get_offsets()[:, 1]) == sorted(v[first] for v in PILOT_DIAGONALS.values())

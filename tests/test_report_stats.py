@@ -4,18 +4,21 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 
 import numpy as np
 import pandas as pd
 import pytest
 import scipy.stats
 
+from nudgecli.report.analysis import format_p, format_table, format_value
 from nudgecli.report.stats import (
     ComparisonOptions,
     _weighted_medians,
     analyze_metric,
     bootstrap_median_differences,
     compare_conditions,
+    condition_table,
     conover,
     describe,
     is_significant,
@@ -263,3 +266,86 @@ def test_order_conditions_prefers_the_plan_order() -> None:
     assert order_conditions(["control", "disambiguation", "x"], ["disambiguation", "control"]) == [
         "disambiguation", "control", "x"]
     assert order_conditions(["b", "a"]) == ["a", "b"]
+
+
+def _printed_rows(text: str) -> tuple[list[str], list[list[str]]]:
+    """Header and cells of :func:`format_table`'s text, cut at the columns its dash line marks."""
+    lines = text.splitlines()
+    starts = [m.start() for m in re.finditer(r"-+", lines[1])]
+    bounds = [*starts[1:], None]
+
+    def cut(line: str) -> list[str]:
+        return [line[s:e].strip() for s, e in zip(starts, bounds, strict=True)]
+
+    body = [line for line in lines[2:] if not line.startswith("(")]
+    return cut(lines[0]), [cut(line) for line in body]
+
+
+def _same(x: object, y: object) -> bool:
+    """Equal, with missing (None or NaN) equal to missing."""
+    def missing(v: object) -> bool:
+        return v is None or (isinstance(v, float) and math.isnan(v))
+    return (missing(x) and missing(y)) or x == y
+
+
+@pytest.mark.parametrize("conditions", [["a"], ["a", "b"], ["a", "b", "c"]])
+def test_tidy_table_round_trips_every_number_of_the_printed_table(conditions: list[str]) -> None:
+    data = _tidy({c: GROUPS[c] for c in conditions}).rename(columns={"value": "score"})
+    data["half"] = data["score"] / 2
+    data["first_only"] = np.where(data["condition"] == conditions[0], data["score"], np.nan)
+    metrics = ["score", "half", "first_only"]
+    stats = json_ready(compare_conditions(data, metrics, conditions,
+                                          ComparisonOptions(bootstrap_resamples=100)))
+    table = stats_table(stats)
+    header, rows = _printed_rows(format_table(table, conditions))
+    # every printed cell from stats.json indexed here by hand, and the same value in the tidy table
+    entries = {e["metric"]: e for e in stats["metrics"]}
+    if len(conditions) == 1:
+        assert header == ["metric", "n", "a median [q1, q3]", "mean"]
+        assert [r[0] for r in rows] == metrics
+        for row, tidy in zip(rows, table.to_dict("records"), strict=True):
+            e = entries[row[0]]
+            assert row[1] == str(e["n"]["a"]) and tidy["n_a"] == e["n"]["a"]
+            assert row[2] == (f"{format_value(e['median']['a'])} [{format_value(e['q1']['a'])}, "
+                              f"{format_value(e['q3']['a'])}]")
+            assert row[3] == format_value(e["mean"]["a"])
+            for key in ("median", "q1", "q3", "mean"):
+                assert _same(tidy[f"{key}_a"], e[key]["a"])
+        return
+    expected_pairs = [(e["metric"], p["a"], p["b"]) for e in stats["metrics"] for p in e["ci"]["pairs"]]
+    n_pairs = len(conditions) * (len(conditions) - 1) // 2
+    assert len(rows) == len(table) == len(expected_pairs) == len(metrics) * n_pairs
+    offset = 0 if len(conditions) == 2 else 1
+    for row, tidy, (metric, a, b) in zip(rows, table.to_dict("records"), expected_pairs, strict=True):
+        e = entries[metric]
+        assert row[0] == metric and (offset == 0 or row[1] == f"{a} vs {b}")
+        assert (tidy["metric"], tidy["a"], tidy["b"]) == (metric, a, b)
+        for column, side in ((1, a), (2, b)):
+            assert row[offset + column] == (f"{format_value(e['median'][side])} "
+                                            f"[{format_value(e['q1'][side])}, {format_value(e['q3'][side])}]")
+        conover_p = next(r["p"] for r in e["conover"] if (r["a"], r["b"]) == (a, b))
+        stars = next(r["stars"] for r in e["stars"] if (r["a"], r["b"]) == (a, b))
+        pair = next(p for p in e["ci"]["pairs"] if (p["a"], p["b"]) == (a, b))
+        symbol = "r" if len(conditions) == 2 else "W"
+        assert row[offset + 3:] == [
+            format_p(e["kruskal"]["p"]), format_p(conover_p), stars or "ns",
+            format_p(e["participant_level"]["p"]),
+            f"{symbol}={format_value(e['effect_size']['value'])}",
+            f"{format_value(pair['difference'])} [{format_value(pair['low'])}, {format_value(pair['high'])}]"]
+        # the tidy table holds the same numbers, not only the same text
+        for key, value in [("median_a", e["median"][a]), ("q1_a", e["q1"][a]), ("q3_a", e["q3"][a]),
+                           ("median_b", e["median"][b]), ("q1_b", e["q1"][b]), ("q3_b", e["q3"][b]),
+                           ("kruskal_p", e["kruskal"]["p"]), ("conover_p", conover_p), ("stars", stars),
+                           ("participant_p", e["participant_level"]["p"]),
+                           ("effect_size", e["effect_size"]["value"]), ("difference", pair["difference"]),
+                           ("ci_low", pair["low"]), ("ci_high", pair["high"]),
+                           ("ci_level", e["ci"]["level"])]:
+            assert _same(tidy[key], value), key
+    assert header[-1] == f"a-b [{stats['metrics'][0]['ci']['level']:.0%} CI]"
+    # summary.md's per-condition rows: every condition of every metric, in stats.json's order
+    per_condition = condition_table(table)
+    assert list(zip(per_condition["metric"], per_condition["condition"], strict=True)) == [
+        (m, c) for m in metrics for c in conditions]
+    for row in per_condition.to_dict("records"):
+        for key in ("n", "median", "q1", "q3", "mean"):
+            assert _same(row[key], entries[row["metric"]][key][row["condition"]]), key

@@ -59,16 +59,17 @@ from nudgecli.report.stats import (
     SINGLE_CONDITION_NOTE,
     ComparisonOptions,
     compare_conditions,
+    condition_table,
     json_ready,
     order_conditions,
+    stats_csv,
     stats_table,
 )
-from nudgecli.store import RunFolder, run_lock, write_text_atomic
+from nudgecli.store import RunFolder, is_run_folder, run_lock, write_text_atomic
 
 #: Columns of a metrics table that describe the trial rather than measure it.
 NON_METRIC_COLUMNS = (*ID_COLUMNS, "layout", "n_goals", "true_goal")
 TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
-RUN_FOLDER_MARKERS = ("trials", "steps", "manifest.json", "config.toml")
 #: The columns that identify one trial of a metrics table (those present are used).
 TRIAL_KEY = ("participant", "condition", "block", "trial")
 #: How many rows or pairs an error message lists.
@@ -111,11 +112,6 @@ class AnalysisResult:
 
 
 # --- reading -----------------------------------------------------------------------------------
-
-
-def is_run_folder(path: Path) -> bool:
-    """Whether ``path`` is a folder that looks like a run folder (trials/, steps/ or a manifest)."""
-    return path.is_dir() and any((path / marker).exists() for marker in RUN_FOLDER_MARKERS)
 
 
 def read_run(folder: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -407,20 +403,17 @@ def format_p(p: float | None) -> str:
     return "<0.001" if p < 0.001 else f"{p:.3f}"
 
 
-def _median_iqr(entry: dict[str, Any], condition: str) -> str:
-    return (f"{format_value(entry['median'][condition])} [{format_value(entry['q1'][condition])}, "
-            f"{format_value(entry['q3'][condition])}]")
+def _median_iqr(median: Any, q1: Any, q3: Any) -> str:
+    return f"{format_value(median)} [{format_value(q1)}, {format_value(q3)}]"
 
 
-def _effect(entry: dict[str, Any]) -> str:
-    effect = entry["effect_size"]
-    symbol = "r" if effect["name"] == "rank_biserial" else "W"
-    return f"{symbol}={format_value(effect['value'])}"
+def _effect(name: str, value: Any) -> str:
+    symbol = "r" if name == "rank_biserial" else "W"
+    return f"{symbol}={format_value(value)}"
 
 
-def _interval(pair: dict[str, Any]) -> str:
-    return (f"{format_value(pair['difference'])} [{format_value(pair['low'])}, "
-            f"{format_value(pair['high'])}]")
+def _interval(difference: Any, low: Any, high: Any) -> str:
+    return f"{format_value(difference)} [{format_value(low)}, {format_value(high)}]"
 
 
 def _render(header: list[str], rows: list[list[str]], markdown: bool) -> str:
@@ -435,54 +428,67 @@ def _render(header: list[str], rows: list[list[str]], markdown: bool) -> str:
     return "\n".join(lines)
 
 
-def format_table(stats: dict[str, Any]) -> str:
-    """A plain-text table of ``stats.json``: one row per metric x pair of conditions.
+def _descriptive_rows(table: pd.DataFrame, first: str) -> list[list[str]]:
+    """Rows ``first, n, median [q1, q3], mean`` of :func:`~nudgecli.report.stats.condition_table`'s
+    table; ``first`` names the column that opens each row (``metric`` or ``condition``)."""
+    return [[str(row[first]), str(int(row["n"])), _median_iqr(row["median"], row["q1"], row["q3"]),
+             format_value(row["mean"])] for row in table.to_dict("records")]
+
+
+def format_table(table: pd.DataFrame, conditions: Sequence[str]) -> str:
+    """A plain-text table of the statistics: one row per metric x pair of conditions.
+
+    Parameters
+    ----------
+    table
+        :func:`~nudgecli.report.stats.stats_table`'s tidy table of ``stats.json``.
+    conditions
+        ``stats.json``'s conditions, in order.
 
     Columns: median [q1, q3] of both conditions, Kruskal-Wallis p, Conover p, stars, the
     participant-level p, the effect size and the median difference with its interval.
     """
-    if len(stats["conditions"]) == 1:
-        (c,) = stats["conditions"]
-        rows = [[entry["metric"], str(entry["n"][c]), _median_iqr(entry, c), format_value(entry["mean"][c])]
-                for entry in stats["metrics"]]
+    if len(conditions) == 1:
+        (c,) = conditions
+        rows = _descriptive_rows(condition_table(table), "metric")
         return _render(["metric", "n", f"{c} median [q1, q3]", "mean"], rows, markdown=False) + \
             "\n(one condition: descriptive statistics only, no tests)"
-    two = len(stats["conditions"]) == 2
-    level = stats["metrics"][0]["ci"]["level"] if stats["metrics"] else 0.95
+    two = len(conditions) == 2
+    level = table["ci_level"].iloc[0] if len(table) else 0.95
     if two:
-        a, b = stats["conditions"]
+        a, b = conditions
         header = ["metric", f"{a} median [q1, q3]", f"{b} median [q1, q3]"]
     else:
         header = ["metric", "comparison", "a median [q1, q3]", "b median [q1, q3]"]
     header += ["KW p", "Conover p", "stars", "participant p", "effect", f"a-b [{level:.0%} CI]"]
     rows = []
-    for entry in stats["metrics"]:
-        posthoc = {(r["a"], r["b"]): r for r in entry["conover"]}
-        stars = {(r["a"], r["b"]): r["stars"] for r in entry["stars"]}
-        for pair in entry["ci"]["pairs"]:
-            a, b = pair["a"], pair["b"]
-            row = [entry["metric"]] + ([] if two else [f"{a} vs {b}"])
-            row += [_median_iqr(entry, a), _median_iqr(entry, b), format_p(entry["kruskal"]["p"]),
-                    format_p(posthoc[a, b]["p"]), stars[a, b] or "ns",
-                    format_p(entry["participant_level"]["p"]),
-                    _effect(entry), _interval(pair)]
-            rows.append(row)
+    for r in table.to_dict("records"):
+        row = [r["metric"]] + ([] if two else [f"{r['a']} vs {r['b']}"])
+        row += [_median_iqr(r["median_a"], r["q1_a"], r["q3_a"]),
+                _median_iqr(r["median_b"], r["q1_b"], r["q3_b"]), format_p(r["kruskal_p"]),
+                format_p(r["conover_p"]), r["stars"] or "ns", format_p(r["participant_p"]),
+                _effect(r["effect_size_name"], r["effect_size"]),
+                _interval(r["difference"], r["ci_low"], r["ci_high"])]
+        rows.append(row)
     return _render(header, rows, markdown=False)
 
 
-def format_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_trials: int,
-                   n_participants: int) -> str:
-    """``summary.md``: the settings, then per metric a line of tests and two markdown tables."""
+def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: AnalysisPlan, source: Path,
+                   n_trials: int, n_participants: int) -> str:
+    """``summary.md``: the settings, then per metric a line of tests and two markdown tables.
+
+    ``table`` is :func:`~nudgecli.report.stats.stats_table`'s tidy table of ``stats.json``,
+    ``conditions`` its conditions in order.
+    """
     settings = plan.stats
     comparison = settings.star_comparison
     thresholds = ", ".join(f"{t:g}" for t in settings.star_thresholds)
-    conditions = stats["conditions"]
     test = "Wilcoxon signed-rank" if len(conditions) == 2 else "Friedman"
     effect = "matched-pairs rank-biserial r of a - b" if len(conditions) == 2 else "Kendall's W"
-    seed = stats["metrics"][0]["ci"]["seed"] if stats["metrics"] else plan.bootstrap.seed
+    seed = table["ci_seed"].iloc[0] if len(table) else plan.bootstrap.seed
     if len(conditions) == 1:
-        return _descriptive_summary(stats, plan, source, n_trials, n_participants)
-    resamples = stats["metrics"][0]["ci"]["resamples"] if stats["metrics"] else plan.bootstrap.resamples
+        return _descriptive_summary(table, conditions, plan, source, n_trials, n_participants)
+    resamples = table["ci_resamples"].iloc[0] if len(table) else plan.bootstrap.resamples
     lines = [
         "# Analysis summary",
         "",
@@ -497,40 +503,39 @@ def format_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_tr
         f"- interval: {plan.bootstrap.level:.0%} cluster bootstrap over participants of the difference of "
         f"trial medians ({resamples} resamples, seed {seed})",
     ]
-    for entry in stats["metrics"]:
-        kruskal, level = entry["kruskal"], entry["participant_level"]
+    descriptives = condition_table(table)
+    for metric, pairs_of_metric in table.groupby("metric", sort=False):
+        first = pairs_of_metric.iloc[0]
         lines += [
             "",
-            f"## {entry['metric']}",
+            f"## {metric}",
             "",
-            f"Kruskal-Wallis H = {format_value(kruskal['statistic'])}, p = {format_p(kruskal['p'])}. "
-            f"Participant level ({level['test']}, {level['n_participants']} participants): "
-            f"statistic = {format_value(level['statistic'])}, p = {format_p(level['p'])}. "
-            f"Effect size: {_effect(entry)}.",
+            f"Kruskal-Wallis H = {format_value(first['kruskal_statistic'])}, "
+            f"p = {format_p(first['kruskal_p'])}. "
+            f"Participant level ({first['participant_test']}, {int(first['n_participants'])} participants): "
+            f"statistic = {format_value(first['participant_statistic'])}, "
+            f"p = {format_p(first['participant_p'])}. "
+            f"Effect size: {_effect(first['effect_size_name'], first['effect_size'])}.",
         ]
-        if level["note"]:
-            lines += ["", f"Note: {level['note']}."]
+        if first["participant_note"]:
+            lines += ["", f"Note: {first['participant_note']}."]
+        lines += ["", _render(["condition", "n", "median [q1, q3]", "mean"],
+                              _descriptive_rows(descriptives[descriptives["metric"] == metric], "condition"),
+                              markdown=True)]
+        rows = [[f"{r['a']} - {r['b']}", format_p(r["conover_p"]), format_p(r["conover_p_unadjusted"]),
+                 r["stars"] or "ns", format_value(r["difference"]),
+                 f"[{format_value(r['ci_low'])}, {format_value(r['ci_high'])}]"]
+                for r in pairs_of_metric.to_dict("records")]
         lines += ["", _render(
-            ["condition", "n", "median [q1, q3]", "mean"],
-            [[c, str(entry["n"][c]), _median_iqr(entry, c), format_value(entry["mean"][c])]
-             for c in conditions],
-            markdown=True)]
-        posthoc = {(r["a"], r["b"]): r for r in entry["conover"]}
-        stars = {(r["a"], r["b"]): r["stars"] for r in entry["stars"]}
-        rows = [[f"{p['a']} - {p['b']}", format_p(posthoc[p["a"], p["b"]]["p"]),
-                 format_p(posthoc[p["a"], p["b"]]["p_unadjusted"]), stars[p["a"], p["b"]] or "ns",
-                 format_value(p["difference"]), f"[{format_value(p['low'])}, {format_value(p['high'])}]"]
-                for p in entry["ci"]["pairs"]]
-        lines += ["", _render(
-            ["comparison", f"Conover p ({entry['p_adjust']})", "p unadjusted", "stars",
-             "difference of medians", f"{entry['ci']['level']:.0%} CI"], rows, markdown=True)]
+            ["comparison", f"Conover p ({first['p_adjust']})", "p unadjusted", "stars",
+             "difference of medians", f"{first['ci_level']:.0%} CI"], rows, markdown=True)]
     return "\n".join(lines) + "\n"
 
 
-def _descriptive_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path, n_trials: int,
-                         n_participants: int) -> str:
+def _descriptive_summary(table: pd.DataFrame, conditions: Sequence[str], plan: AnalysisPlan, source: Path,
+                         n_trials: int, n_participants: int) -> str:
     """``summary.md`` of a single condition: the descriptives per metric and a note (no tests)."""
-    (condition,) = stats["conditions"]
+    (condition,) = conditions
     lines = [
         "# Analysis summary",
         "",
@@ -539,9 +544,7 @@ def _descriptive_summary(stats: dict[str, Any], plan: AnalysisPlan, source: Path
         f"- note: {SINGLE_CONDITION_NOTE} (the tests compare conditions)",
         "",
         _render(["metric", "n", "median [q1, q3]", "mean"],
-                [[e["metric"], str(e["n"][condition]), _median_iqr(e, condition),
-                  format_value(e["mean"][condition])]
-                 for e in stats["metrics"]], markdown=True),
+                _descriptive_rows(condition_table(table), "metric"), markdown=True),
     ]
     return "\n".join(lines) + "\n"
 
@@ -646,13 +649,14 @@ def _plan_label(plan: str | Path | AnalysisPlan, loaded: AnalysisPlan) -> str:
     return loaded.name
 
 
-def _excluded_notes(stats: dict[str, Any]) -> list[str]:
-    """The participant-level tests' exclusions, one line per distinct note with its metrics."""
+def _excluded_notes(table: pd.DataFrame) -> list[str]:
+    """The participant-level tests' exclusions, one line per distinct note with its metrics
+    (``table``: :func:`~nudgecli.report.stats.stats_table`'s)."""
     by_note: dict[str, list[str]] = {}
-    for entry in stats["metrics"]:
-        note = entry["participant_level"].get("note")
+    for row in table.drop_duplicates("metric").to_dict("records"):
+        note = row["participant_note"]
         if note:
-            by_note.setdefault(note, []).append(entry["metric"])
+            by_note.setdefault(note, []).append(row["metric"])
     return [f"participant-level test of {', '.join(names)}: {note}" for note, names in by_note.items()]
 
 
@@ -725,7 +729,7 @@ def _analyze_with_locks(source: Path, plan: str | Path | AnalysisPlan | None, ou
     """:func:`analyze` with the run folder's and the output folder's locks held."""
     with contextlib.ExitStack() as locks:
         source_locked = False
-        if source.is_dir() and is_run_folder(source):
+        if is_run_folder(source):
             try:
                 locks.enter_context(run_lock(source))
                 source_locked = True
@@ -804,9 +808,9 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
                               os.path.relpath(source.resolve(), out_dir.resolve()))
     stats[CHECKSUM_KEY] = metrics_checksum(filtered, trial_selected, plan.filters)
     stats = json_ready(stats)
-    notes += _excluded_notes(stats)
     tidy = stats_table(stats)
-    summary = format_summary(stats, plan, source, n_trials=len(filtered),
+    notes += _excluded_notes(tidy)
+    summary = format_summary(tidy, stats["conditions"], plan, source, n_trials=len(filtered),
                              n_participants=filtered["participant"].nunique())
 
     written: list[Path] = []
@@ -816,7 +820,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         written.append(metrics_path)
     outputs = {
         "stats.json": json.dumps(stats, indent=2, allow_nan=False) + "\n",
-        "stats.csv": tidy.to_csv(index=False),
+        "stats.csv": stats_csv(tidy),
         "summary.md": summary,
     }
     if scores is not None:

@@ -13,9 +13,11 @@ import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
+from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
@@ -26,7 +28,7 @@ from nudgecli.report.style import COLUMN_WIDTH_IN, FULL_WIDTH_IN, OKABE_ITO, fig
 #: File stem of the figure.
 FIGURE_STEM = "compare"
 #: Colour, line style and dot row (y position below the ECDF) of each source.
-SOURCE_STYLE = {
+SOURCE_STYLE: dict[str, dict[str, Any]] = {
     "simulated": {"color": OKABE_ITO["blue"], "linestyle": "-", "row": -0.09, "marker": "o"},
     "real": {"color": OKABE_ITO["vermillion"], "linestyle": "--", "row": -0.19, "marker": "D"},
 }
@@ -38,9 +40,61 @@ def _ecdf(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ordered, np.arange(1, ordered.size + 1) / ordered.size
 
 
+def compare_panel(trials: dict[str, pd.DataFrame], medians: pd.DataFrame, metric: str, condition: str,
+                  comparison: pd.DataFrame | None = None, *, title: str = "", ax: Axes | None = None) -> Axes:
+    """One metric and condition: each source's ECDF of the trials and its participants' medians
+    as dots under it; the KS statistic and Wasserstein distance in the title.
+
+    Parameters
+    ----------
+    trials
+        ``{"simulated": table, "real": table}``: metrics tables (``condition`` and metric columns).
+    medians
+        :func:`nudgecli.report.compare.participant_medians`'s result.
+    metric, condition
+        The panel's metric and condition.
+    comparison
+        :func:`nudgecli.report.compare.compare_tables`'s result (its row of this metric and
+        condition gives the distances in the title), or ``None``.
+    title
+        The title before the distances (the condition when the figure has several).
+    ax
+        Axes to draw on; default a new figure's.
+    """
+    if ax is None:
+        ax = Figure(figsize=(COLUMN_WIDTH_IN, 2.3), layout="constrained").subplots()
+    for source, style in SOURCE_STYLE.items():
+        table = trials[source]
+        subset = table[table["condition"].astype(str) == condition]
+        values = pd.to_numeric(subset[metric].astype("Float64"), errors="coerce").to_numpy(
+            dtype=float, na_value=np.nan)
+        values = values[np.isfinite(values)]
+        if values.size:
+            x, y = _ecdf(values)
+            ax.step(np.r_[x[0], x], np.r_[0.0, y], where="post", color=style["color"],
+                    linestyle=style["linestyle"], label=f"{source} trials (ECDF)")
+        own = medians[(medians["source"] == source) & (medians["metric"] == metric)
+                      & (medians["condition"] == condition)]["median"].to_numpy(dtype=float)
+        ax.scatter(own, np.full(own.size, style["row"]), s=10, color=style["color"],
+                   marker=style["marker"], edgecolors="white", linewidths=0.3, zorder=3,
+                   label=f"{source} participants' medians")
+    ax.axhline(0.0, color="#8C8C8C", linewidth=0.5)
+    ax.set_ylim(-0.27, 1.03)
+    ax.set_yticks([0.0, 0.5, 1.0])
+    ax.set_xlabel(metric.replace("_", " "))
+    row = (comparison[(comparison["metric"] == metric) & (comparison["condition"] == condition)]
+           if comparison is not None else pd.DataFrame())
+    if not row.empty:
+        ks, w1 = float(row["ks_statistic"].iloc[0]), float(row["wasserstein"].iloc[0])
+        if math.isfinite(ks):
+            title = f"{title + ': ' if title else ''}KS {ks:.2f}, W {format_value(w1)}"
+    ax.set_title(title, loc="left")
+    return ax
+
+
 def build_compare_figure(trials: dict[str, pd.DataFrame], comparison: pd.DataFrame,
                          medians: pd.DataFrame) -> Figure:
-    """The comparison figure.
+    """The comparison figure: :func:`compare_panel` per metric (rows) and condition (columns).
 
     Parameters
     ----------
@@ -61,35 +115,10 @@ def build_compare_figure(trials: dict[str, pd.DataFrame], comparison: pd.DataFra
         axes = np.atleast_2d(fig.subplots(n_rows, n_cols, squeeze=False))
         for i, metric in enumerate(metrics):
             for j, condition in enumerate(conditions):
-                ax = axes[i, j]
-                row = comparison[(comparison["metric"] == metric) & (comparison["condition"] == condition)]
-                for source, style in SOURCE_STYLE.items():
-                    table = trials[source]
-                    subset = table[table["condition"].astype(str) == condition]
-                    values = pd.to_numeric(subset[metric].astype("Float64"), errors="coerce").to_numpy(
-                        dtype=float, na_value=np.nan)
-                    values = values[np.isfinite(values)]
-                    if values.size:
-                        x, y = _ecdf(values)
-                        ax.step(np.r_[x[0], x], np.r_[0.0, y], where="post", color=style["color"],
-                                linestyle=style["linestyle"], label=f"{source} trials (ECDF)")
-                    own = medians[(medians["source"] == source) & (medians["metric"] == metric)
-                                  & (medians["condition"] == condition)]["median"].to_numpy(dtype=float)
-                    ax.scatter(own, np.full(own.size, style["row"]), s=10, color=style["color"],
-                               marker=style["marker"], edgecolors="white", linewidths=0.3, zorder=3,
-                               label=f"{source} participants' medians")
-                ax.axhline(0.0, color="#8C8C8C", linewidth=0.5)
-                ax.set_ylim(-0.27, 1.03)
-                ax.set_yticks([0.0, 0.5, 1.0])
-                ax.set_xlabel(metric.replace("_", " "))
+                ax = compare_panel(trials, medians, metric, condition, comparison,
+                                   title=condition if n_cols > 1 else "", ax=axes[i, j])
                 if j == 0:
                     ax.set_ylabel("share of trials")
-                title = condition if n_cols > 1 else ""
-                if not row.empty:
-                    ks, w1 = float(row["ks_statistic"].iloc[0]), float(row["wasserstein"].iloc[0])
-                    if math.isfinite(ks):
-                        title = f"{title + ': ' if title else ''}KS {ks:.2f}, W {format_value(w1)}"
-                ax.set_title(title, loc="left")
         handles, labels = axes[0, 0].get_legend_handles_labels()
         fig.legend(handles, labels, loc="outside lower center", ncol=2)
     return fig

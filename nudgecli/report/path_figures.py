@@ -13,10 +13,12 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import pandas as pd
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.layout_engine import ConstrainedLayoutEngine
 from matplotlib.lines import Line2D
@@ -69,10 +71,151 @@ def path_progress(x: np.ndarray, y: np.ndarray, waypoints: np.ndarray) -> np.nda
     return before[best] + u[np.arange(len(x)), best] * lengths[best]
 
 
+@dataclass(frozen=True)
+class _Trial:
+    """One trial's steps as arrays (``(T,)`` each), in step order."""
+
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    turned: np.ndarray
+    modes: np.ndarray
+    switches: np.ndarray
+
+
+def _trial(steps: pd.DataFrame) -> _Trial:
+    """The arrays a trial's panels draw; a ``DataError`` when a column is missing or no step."""
+    for column in ("t", "x", "y", "theta", "mode"):
+        if column not in steps.columns:
+            raise DataError(f"steps table: no {column!r} column; re-run `nudge simulate`")
+    if steps.empty:
+        raise DataError("steps table: the trial has no steps")
+    steps = steps.sort_values("step", kind="stable") if "step" in steps.columns else steps
+    theta = steps["theta"].to_numpy(float)
+    events = steps["event"] if "event" in steps.columns else pd.Series([""] * len(steps))
+    return _Trial(t=steps["t"].to_numpy(float), x=steps["x"].to_numpy(float), y=steps["y"].to_numpy(float),
+                  turned=np.abs((theta + np.pi) % (2 * np.pi) - np.pi),
+                  modes=steps["mode"].astype(str).to_numpy(),
+                  switches=np.asarray(has_event(events, MODE_SWITCH_HUMAN), dtype=bool))
+
+
+def _axes(ax: Axes | None) -> Axes:
+    """``ax``, or the axes of a new figure (half of :data:`PATH_TRAJECTORY_FIGSIZE`)."""
+    if ax is not None:
+        return ax
+    size = (PATH_TRAJECTORY_FIGSIZE[0] / 2, PATH_TRAJECTORY_FIGSIZE[1])
+    axes: Axes = Figure(figsize=size, layout="constrained").subplots()
+    return axes
+
+
+def path_panel(steps: pd.DataFrame, waypoints: np.ndarray, turn_waypoint: int, goal_pose: np.ndarray, *,
+               ax: Axes | None = None) -> Axes:
+    """Panel (a): the world, the corridor and waypoints (the turn waypoint ringed), the goal with
+    its heading, the robot's track, a marker per mode switch (shape and fill: the new mode), start
+    and end.
+
+    Parameters
+    ----------
+    steps
+        The trial's steps: ``step``, ``t``, ``x``, ``y``, ``theta``, ``mode``, ``event``.
+    waypoints
+        ``(W, 2)`` the path.
+    turn_waypoint
+        Index of the turn waypoint.
+    goal_pose
+        ``(3,)`` the goal pose.
+    ax
+        Axes to draw on; default a new figure's.
+    """
+    trial, ax = _trial(steps), _axes(ax)
+    waypoints = np.asarray(waypoints, dtype=float).reshape(-1, 2)
+    x, y, modes = trial.x, trial.y, trial.modes
+    gx, gy, gth = (float(v) for v in goal_pose)
+    ax.plot(waypoints[:, 0], waypoints[:, 1], color="#DDDDDD", linewidth=2 * CORRIDOR_HALF_WIDTH * 6,
+            solid_capstyle="round", solid_joinstyle="round", zorder=0)
+    ax.plot(waypoints[:, 0], waypoints[:, 1], color="#999999", linewidth=0.8, linestyle=":", zorder=1)
+    ax.plot(waypoints[:, 0], waypoints[:, 1], marker="o", markersize=3, color="#666666", linestyle="none",
+            zorder=2)
+    tx, ty = waypoints[turn_waypoint]
+    ax.plot([tx], [ty], marker="o", markersize=11, markerfacecolor="none", markeredgecolor="black",
+            markeredgewidth=1.0, linestyle="none", zorder=5)
+    tick = 1.4
+    ax.plot([gx, gx + tick * np.cos(gth)], [gy, gy + tick * np.sin(gth)], color=goal_style(0, 0)[0],
+            linewidth=2.0, zorder=4)
+    ax.plot([gx], [gy], marker="o", markersize=10, color=goal_style(0, 0)[0], markeredgecolor="black",
+            markeredgewidth=0.6, linestyle="none", zorder=4)
+    ax.plot(x, y, color=HUMAN_COLOUR, linewidth=1.4, zorder=3)
+    for k in np.flatnonzero(trial.switches):
+        new_mode = str(modes[min(int(k) + 1, len(modes) - 1)])
+        ax.plot([x[k]], [y[k]], marker=_MODE_MARKERS.get(new_mode, "s"), markersize=6,
+                markerfacecolor=_MODE_COLOURS.get(new_mode, "white"), markeredgecolor="black",
+                markeredgewidth=0.7, linestyle="none", zorder=7)
+    ax.plot([x[0]], [y[0]], marker="*", markersize=12, color="black", markeredgecolor="white",
+            linestyle="none", zorder=8)
+    ax.plot([x[-1]], [y[-1]], marker="X", markersize=7, color="black", markeredgecolor="white",
+            linestyle="none", zorder=8)
+    ax.set_xlim(0, WORLD_SIZE[0])
+    ax.set_ylim(0, WORLD_SIZE[1])
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (world units)")
+    ax.set_ylabel("y (world units)")
+    return ax
+
+
+def progress_panel(steps: pd.DataFrame, waypoints: np.ndarray, *, time_limit_s: float | None = None,
+                   ax: Axes | None = None) -> Axes:
+    """Panel (b): distance along the path over time, the heading turned on a second axis, the mode
+    as a band under the curves, a line per mode switch and the time limit.
+
+    Parameters
+    ----------
+    steps
+        The trial's steps (as :func:`path_panel`).
+    waypoints
+        ``(W, 2)`` the path.
+    time_limit_s
+        The trial's time limit (a line), or ``None``.
+    ax
+        Axes to draw on (the heading's axis is its twin); default a new figure's.
+
+    Returns
+    -------
+    Axes
+        ``ax`` (the progress axis).
+    """
+    trial, progress_ax = _trial(steps), _axes(ax)
+    waypoints = np.asarray(waypoints, dtype=float).reshape(-1, 2)
+    t, modes = trial.t, trial.modes
+    along = path_progress(trial.x, trial.y, waypoints)
+    progress_ax.plot(t, along, color=HUMAN_COLOUR, linewidth=1.3, label="along the path")
+    progress_ax.set_xlabel("time (s)")
+    progress_ax.set_ylabel("distance along the path (units)")
+    total = float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum())
+    progress_ax.set_ylim(-0.12 * total, 1.05 * total)
+    turn_ax = progress_ax.twinx()
+    turn_ax.plot(t, np.degrees(trial.turned), color=_MODE_COLOURS["theta"], linewidth=1.1, linestyle="--",
+                 label="heading turned")
+    turn_ax.set_ylim(-0.12 * 90, 1.05 * 90)
+    turn_ax.set_ylabel("heading turned (deg)")
+    # the mode as a band under the curves
+    band = -0.07 * total
+    for mode, colour in _MODE_COLOURS.items():
+        mask = modes == mode
+        if mask.any():
+            progress_ax.scatter(t[mask], np.full(mask.sum(), band), marker="|", s=14, color=colour,
+                                linewidths=1.0)
+    for k in np.flatnonzero(trial.switches):
+        progress_ax.axvline(t[k], color="#BBBBBB", linewidth=0.6, zorder=0)
+    if time_limit_s is not None:
+        progress_ax.axvline(time_limit_s, color="#D55E00", linewidth=1.0, linestyle="-.")
+    return progress_ax
+
+
 def path_trajectory_figure(steps: pd.DataFrame, waypoints: np.ndarray, turn_waypoint: int,
                            goal_pose: np.ndarray, *, time_limit_s: float | None = None,
                            title: str | None = None) -> Figure:
-    """One trial of the path world (see the module docstring).
+    """One trial of the path world (see the module docstring): :func:`path_panel` beside
+    :func:`progress_panel`, with the legend.
 
     Parameters
     ----------
@@ -89,77 +232,13 @@ def path_trajectory_figure(steps: pd.DataFrame, waypoints: np.ndarray, turn_wayp
     title
         Optional title.
     """
-    for column in ("t", "x", "y", "theta", "mode"):
-        if column not in steps.columns:
-            raise DataError(f"steps table: no {column!r} column; re-run `nudge simulate`")
-    if steps.empty:
-        raise DataError("steps table: the trial has no steps")
-    steps = steps.sort_values("step", kind="stable") if "step" in steps.columns else steps
-    waypoints = np.asarray(waypoints, dtype=float).reshape(-1, 2)
-    x, y = steps["x"].to_numpy(float), steps["y"].to_numpy(float)
-    t = steps["t"].to_numpy(float)
-    theta = steps["theta"].to_numpy(float)
-    turned = np.abs((theta + np.pi) % (2 * np.pi) - np.pi)
-    modes = steps["mode"].astype(str).to_numpy()
-    events = steps["event"] if "event" in steps.columns else pd.Series([""] * len(steps))
-    switches = np.asarray(has_event(events, MODE_SWITCH_HUMAN), dtype=bool)
-    gx, gy, gth = (float(v) for v in goal_pose)
-
+    _trial(steps)  # a DataError before any drawing
     with figure_style():
         fig = Figure(figsize=PATH_TRAJECTORY_FIGSIZE, layout="constrained")
         ax, progress_ax = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.1, 1.0]})
-        ax.plot(waypoints[:, 0], waypoints[:, 1], color="#DDDDDD", linewidth=2 * CORRIDOR_HALF_WIDTH * 6,
-                solid_capstyle="round", solid_joinstyle="round", zorder=0)
-        ax.plot(waypoints[:, 0], waypoints[:, 1], color="#999999", linewidth=0.8, linestyle=":", zorder=1)
-        ax.plot(waypoints[:, 0], waypoints[:, 1], marker="o", markersize=3, color="#666666", linestyle="none",
-                zorder=2)
-        tx, ty = waypoints[turn_waypoint]
-        ax.plot([tx], [ty], marker="o", markersize=11, markerfacecolor="none", markeredgecolor="black",
-                markeredgewidth=1.0, linestyle="none", zorder=5)
-        tick = 1.4
-        ax.plot([gx, gx + tick * np.cos(gth)], [gy, gy + tick * np.sin(gth)], color=goal_style(0, 0)[0],
-                linewidth=2.0, zorder=4)
-        ax.plot([gx], [gy], marker="o", markersize=10, color=goal_style(0, 0)[0], markeredgecolor="black",
-                markeredgewidth=0.6, linestyle="none", zorder=4)
-        ax.plot(x, y, color=HUMAN_COLOUR, linewidth=1.4, zorder=3)
-        for k in np.flatnonzero(switches):
-            new_mode = modes[min(k + 1, len(modes) - 1)]
-            ax.plot([x[k]], [y[k]], marker=_MODE_MARKERS.get(new_mode, "s"), markersize=6,
-                    markerfacecolor=_MODE_COLOURS.get(new_mode, "white"), markeredgecolor="black",
-                    markeredgewidth=0.7, linestyle="none", zorder=7)
-        ax.plot([x[0]], [y[0]], marker="*", markersize=12, color="black", markeredgecolor="white",
-                linestyle="none", zorder=8)
-        ax.plot([x[-1]], [y[-1]], marker="X", markersize=7, color="black", markeredgecolor="white",
-                linestyle="none", zorder=8)
-        ax.set_xlim(0, WORLD_SIZE[0])
-        ax.set_ylim(0, WORLD_SIZE[1])
-        ax.set_aspect("equal")
-        ax.set_xlabel("x (world units)")
-        ax.set_ylabel("y (world units)")
+        path_panel(steps, waypoints, turn_waypoint, goal_pose, ax=ax)
         panel_letter(ax, 0)
-
-        along = path_progress(x, y, waypoints)
-        progress_ax.plot(t, along, color=HUMAN_COLOUR, linewidth=1.3, label="along the path")
-        progress_ax.set_xlabel("time (s)")
-        progress_ax.set_ylabel("distance along the path (units)")
-        total = float(np.linalg.norm(np.diff(waypoints, axis=0), axis=1).sum())
-        progress_ax.set_ylim(-0.12 * total, 1.05 * total)
-        turn_ax = progress_ax.twinx()
-        turn_ax.plot(t, np.degrees(turned), color=_MODE_COLOURS["theta"], linewidth=1.1, linestyle="--",
-                     label="heading turned")
-        turn_ax.set_ylim(-0.12 * 90, 1.05 * 90)
-        turn_ax.set_ylabel("heading turned (deg)")
-        # the mode as a band under the curves
-        band = -0.07 * total
-        for mode, colour in _MODE_COLOURS.items():
-            mask = modes == mode
-            if mask.any():
-                progress_ax.scatter(t[mask], np.full(mask.sum(), band), marker="|", s=14, color=colour,
-                                    linewidths=1.0)
-        for k in np.flatnonzero(switches):
-            progress_ax.axvline(t[k], color="#BBBBBB", linewidth=0.6, zorder=0)
-        if time_limit_s is not None:
-            progress_ax.axvline(time_limit_s, color="#D55E00", linewidth=1.0, linestyle="-.")
+        progress_panel(steps, waypoints, time_limit_s=time_limit_s, ax=progress_ax)
         panel_letter(progress_ax, 1)
         handles: list[Any] = [
             Line2D([], [], color=HUMAN_COLOUR, linewidth=1.3, label="Robot (along the path)"),

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
@@ -33,8 +34,49 @@ STREAM_TITLES = {
 }
 
 
+def population_panel(simulated: pd.DataFrame, stream: str, *, ax: Axes | None = None) -> Axes:
+    """One stream format: per intended label the simulated participants' fitted diagonals (dots,
+    spread sideways by rank) and the real people's beside them (the sibling study's span as a bar
+    for the event-driven stream, the pilots as diamonds for the fixed-rate one).
+
+    Parameters
+    ----------
+    simulated
+        Columns ``participant``, ``stream``, ``label``, ``diagonal``.
+    stream
+        A key of :data:`STREAM_TITLES`.
+    ax
+        Axes to draw on; default a new figure's.
+    """
+    if ax is None:
+        ax = Figure(figsize=(FULL_WIDTH_IN / 2, 2.9), layout="constrained").subplots()
+    own = simulated[simulated["stream"] == stream]
+    for k, label in enumerate(LABELS):
+        values = own.loc[own["label"] == label, "diagonal"].to_numpy(dtype=float)
+        # a deterministic sideways spread: by rank, so equal values do not overlap
+        rank = np.argsort(np.argsort(values, kind="stable"))
+        offsets = (rank / max(len(values) - 1, 1) - 0.5) * 0.15
+        ax.scatter(k - 0.12 + offsets, values, s=7, color=OKABE_ITO["blue"], alpha=0.75,
+                   linewidths=0, label="simulated participants" if k == 0 else None)
+        if stream == "event_driven":
+            low, high = SIBLING_DIAGONAL_SPANS[label]
+            ax.bar(k + 0.22, high - low, bottom=low, width=0.14, color="#BDBDBD", edgecolor="#4D4D4D",
+                   linewidth=0.6, label="sibling study, 9 people (span)" if k == 0 else None)
+        else:
+            pilots = [values_of[label] for values_of in PILOT_DIAGONALS.values()]
+            ax.scatter(np.full(len(pilots), k + 0.22), pilots, s=16, marker="D",
+                       color=OKABE_ITO["black"], zorder=3,
+                       label="pilots (nudge fit of their logs)" if k == 0 else None)
+    ax.set_xticks(range(len(LABELS)), [label.replace(" ", "\n") for label in LABELS])
+    ax.set_xlim(-0.6, len(LABELS) - 0.4)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_title(STREAM_TITLES[stream], loc="left")
+    ax.legend(loc="lower left")
+    return ax
+
+
 def build_population_figure(simulated: pd.DataFrame, title: str = "") -> Figure:
-    """The figure (see the module docstring).
+    """The figure (see the module docstring): :func:`population_panel` per stream format.
 
     Parameters
     ----------
@@ -47,29 +89,8 @@ def build_population_figure(simulated: pd.DataFrame, title: str = "") -> Figure:
         fig = Figure(figsize=(FULL_WIDTH_IN, 2.9), layout="constrained")
         FigureCanvasAgg(fig)
         axes = fig.subplots(1, 2, sharey=True)
-        for ax, (stream, panel_title) in zip(axes, STREAM_TITLES.items(), strict=True):
-            own = simulated[simulated["stream"] == stream]
-            for k, label in enumerate(LABELS):
-                values = own.loc[own["label"] == label, "diagonal"].to_numpy(dtype=float)
-                # a deterministic sideways spread: by rank, so equal values do not overlap
-                rank = np.argsort(np.argsort(values, kind="stable"))
-                offsets = (rank / max(len(values) - 1, 1) - 0.5) * 0.15
-                ax.scatter(k - 0.12 + offsets, values, s=7, color=OKABE_ITO["blue"], alpha=0.75,
-                           linewidths=0, label="simulated participants" if k == 0 else None)
-                if stream == "event_driven":
-                    low, high = SIBLING_DIAGONAL_SPANS[label]
-                    ax.bar(k + 0.22, high - low, bottom=low, width=0.14, color="#BDBDBD", edgecolor="#4D4D4D",
-                           linewidth=0.6, label="sibling study, 9 people (span)" if k == 0 else None)
-                else:
-                    pilots = [values_of[label] for values_of in PILOT_DIAGONALS.values()]
-                    ax.scatter(np.full(len(pilots), k + 0.22), pilots, s=16, marker="D",
-                               color=OKABE_ITO["black"], zorder=3,
-                               label="pilots (nudge fit of their logs)" if k == 0 else None)
-            ax.set_xticks(range(len(LABELS)), [label.replace(" ", "\n") for label in LABELS])
-            ax.set_xlim(-0.6, len(LABELS) - 0.4)
-            ax.set_ylim(-0.02, 1.02)
-            ax.set_title(panel_title, loc="left")
-            ax.legend(loc="lower left")
+        for ax, stream in zip(axes, STREAM_TITLES, strict=True):
+            population_panel(simulated, stream, ax=ax)
         axes[0].set_ylabel(r"fitted $p(\phi_m = \phi_i \mid \phi_i)$")
         if title:
             fig.suptitle(title)

@@ -17,25 +17,25 @@ results:
   direction for a metric where the paper reports none) with a Clopper-Pearson 95 % interval;
 - sensitivity indices are SALib's (Sobol first and total order, Morris mu*, sigma) of the
   replication-mean difference of medians at each design point, with SALib's 95 % intervals.
+
+Their figures are :mod:`nudgecli.report.figures.replication`'s.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 import scipy.stats
-from matplotlib.figure import Figure
-from matplotlib.ticker import MaxNLocator
 
 from nudgecli.report.metrics import apply_filters
 from nudgecli.report.plans import AnalysisPlan
 from nudgecli.report.stats import (
     compare_conditions,
+    condition_table,
     is_significant,
     json_ready,
     order_conditions,
@@ -111,12 +111,11 @@ def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
     rows = []
     for entry in entries.to_dict("records"):
         document = stats[entry["analysis"]]
-        means = {m["metric"]: m["mean"] for m in document["metrics"]}
         for row in stats_table(document).to_dict("records"):
             a, b = row["a"], row["b"]
             trial_sign = _sign(_difference(row["median_a"], row["median_b"]))
             if trial_sign == 0:
-                trial_sign = _sign(_difference(means[row["metric"]][a], means[row["metric"]][b]))
+                trial_sign = _sign(_difference(row["mean_a"], row["mean_b"]))
             rows.append({
                 "point": entry["point"], "replication": entry["replication"], "seed": entry["seed"],
                 "participants": entry["participants"], "metric": row["metric"], "a": a, "b": b,
@@ -152,13 +151,10 @@ def condition_values(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
     value``: each replication's median of the metric over the condition's trials."""
     rows = []
     for entry in entries.to_dict("records"):
-        document = stats[entry["analysis"]]
-        for metric in document["metrics"]:
-            for condition in document["conditions"]:
-                rows.append({"point": entry["point"], "replication": entry["replication"],
-                             "seed": entry["seed"], "participants": entry["participants"],
-                             "condition": condition, "metric": metric["metric"],
-                             "value": metric["median"][condition]})
+        for row in condition_table(stats_table(stats[entry["analysis"]])).to_dict("records"):
+            rows.append({"point": entry["point"], "replication": entry["replication"],
+                         "seed": entry["seed"], "participants": entry["participants"],
+                         "condition": row["condition"], "metric": row["metric"], "value": row["median"]})
     table = pd.DataFrame(rows)
     if points is not None and len(points.columns) > 1 and not table.empty:
         table = table.merge(points, on="point", how="left")
@@ -325,124 +321,3 @@ def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outpu
                             "value": float(np.asarray(result[key])[k]),
                             "conf": float(np.asarray(result[conf])[k]) if conf else math.nan})
     return pd.DataFrame(out, columns=["metric", "parameter", "index", "value", "conf"])
-
-
-# --- figures -----------------------------------------------------------------------------------
-
-def _grid(n: int, width: float = 3.4, height: float = 2.6) -> tuple[Figure, list[Any]]:
-    cols = min(3, max(1, n))
-    rows_ = max(1, math.ceil(n / cols))
-    fig = Figure(figsize=(width * cols, height * rows_), layout="constrained")
-    axes = fig.subplots(rows_, cols, squeeze=False).ravel().tolist()
-    for ax in axes[n:]:
-        ax.set_visible(False)
-    return fig, axes[:n]
-
-
-def forest_figure(rows: pd.DataFrame, summary: pd.DataFrame) -> Figure:
-    """Per metric: every replication's difference of medians with its bootstrap interval, coloured
-    by participant-level significance, and the pooled mean with its 95 % range over replications."""
-    metrics = list(dict.fromkeys(rows["metric"]))
-    fig, axes = _grid(len(metrics), height=max(2.4, 0.18 * rows["replication"].nunique() + 1.2))
-    colours = {True: "#c0392b", False: "#7f8c8d"}
-    for ax, metric in zip(axes, metrics, strict=True):
-        group = rows[rows["metric"] == metric].sort_values("replication")
-        y = np.arange(len(group))
-        for significant in (False, True):
-            mask = group["participant_significant"].astype(bool).to_numpy() == significant
-            sub = group[mask]
-            diff = sub["difference"].astype(float).to_numpy()
-            err = np.vstack([diff - sub["ci_low"].astype(float).to_numpy(),
-                             sub["ci_high"].astype(float).to_numpy() - diff])
-            ax.errorbar(diff, y[mask], xerr=np.abs(err), fmt="o", ms=3, lw=0.8, color=colours[significant],
-                        label="significant (participant level)" if significant else "not significant")
-        pooled = summary[summary["metric"] == metric].iloc[0]
-        ax.axvspan(pooled["difference_low"], pooled["difference_high"], color="#3498db", alpha=0.15)
-        ax.axvline(pooled["difference"], color="#2c3e50", lw=1.2)
-        ax.axvline(0, color="black", lw=0.6, ls=":")
-        ax.set_title(metric, fontsize=9)
-        ax.set_xlabel(f"{pooled['a']} - {pooled['b']} (difference of medians)", fontsize=8)
-        ax.set_yticks(y, [str(r) for r in group["replication"]], fontsize=6)
-        ax.set_ylabel("replication", fontsize=8)
-    if axes:
-        axes[0].legend(fontsize=6, loc="best")
-    return fig
-
-
-def power_figure(power: pd.DataFrame, target: float = POWER_TARGET) -> Figure:
-    """Power against participants per metric: participant level solid, trial level dashed, with
-    the Clopper-Pearson band, and the target line."""
-    metrics = list(dict.fromkeys(power["metric"]))
-    fig, axes = _grid(len(metrics))
-    for ax, metric in zip(axes, metrics, strict=True):
-        for level, style in (("participant", "-"), ("trial", "--")):
-            group = power[(power["metric"] == metric) & (power["level"] == level)].sort_values("participants")
-            ax.plot(group["participants"], group["power"], style, marker="o", ms=3, label=f"{level} level")
-            ax.fill_between(group["participants"], group["low"], group["high"], alpha=0.15)
-        ax.axhline(target, color="black", lw=0.6, ls=":")
-        direction = power.loc[power["metric"] == metric, "direction"].iloc[0]
-        ax.set_title(f"{metric} ({direction})", fontsize=9)
-        ax.set_ylim(-0.02, 1.02)
-        ax.set_xlabel("participants", fontsize=8)
-        ax.set_ylabel("power", fontsize=8)
-        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-    if axes:
-        axes[0].legend(fontsize=6, loc="best")
-    return fig
-
-
-def sweep_figure(rows: pd.DataFrame, parameters: Sequence[str]) -> Figure:
-    """Each metric's difference of medians against each swept parameter: the mean over
-    replications per value with the 2.5-97.5 % band over replications (numeric parameters), or
-    points with bars (other values)."""
-    metrics = list(dict.fromkeys(rows["metric"]))
-    fig = Figure(figsize=(3.0 * len(parameters), 2.3 * len(metrics)), layout="constrained")
-    axes = fig.subplots(len(metrics), len(parameters), squeeze=False)
-    for i, metric in enumerate(metrics):
-        group = rows[rows["metric"] == metric]
-        for j, name in enumerate(parameters):
-            ax = axes[i][j]
-            keys = group[name].map(lambda v: v if isinstance(v, int | float) else str(v))
-            stats = group.assign(_x=keys).groupby("_x")["difference"].agg(
-                mean="mean", low=lambda v: np.nanpercentile(v, 2.5) if v.notna().any() else np.nan,
-                high=lambda v: np.nanpercentile(v, 97.5) if v.notna().any() else np.nan).reset_index()
-            numeric = pd.api.types.is_numeric_dtype(stats["_x"])
-            x = stats["_x"].to_numpy() if numeric else np.arange(len(stats))
-            ax.plot(x, stats["mean"], marker="o", ms=3)
-            ax.fill_between(x, stats["low"].astype(float), stats["high"].astype(float), alpha=0.2)
-            ax.axhline(0, color="black", lw=0.5, ls=":")
-            if not numeric:
-                ax.set_xticks(x, [str(v) for v in stats["_x"]], fontsize=6)
-            ax.set_xlabel(name, fontsize=8)
-            if j == 0:
-                ax.set_ylabel(f"{metric}\n(a - b)", fontsize=7)
-    return fig
-
-
-def sensitivity_figure(indices: pd.DataFrame) -> Figure:
-    """Bars of the sensitivity indices per metric (with their 95 % intervals)."""
-    metrics = list(dict.fromkeys(indices["metric"]))
-    fig, axes = _grid(len(metrics))
-    for ax, metric in zip(axes, metrics, strict=True):
-        shown = indices["index"].isin(["S1", "ST", "mu_star", "sigma"])
-        group = indices[(indices["metric"] == metric) & shown]
-        names = list(dict.fromkeys(group["parameter"]))
-        kinds = list(dict.fromkeys(group["index"]))
-        width = 0.8 / max(1, len(kinds))
-        for k, kind in enumerate(kinds):
-            sub = group[group["index"] == kind].set_index("parameter").reindex(names)
-            conf = sub["conf"].fillna(0).to_numpy()
-            ax.bar(np.arange(len(names)) + k * width, sub["value"], width, yerr=conf, label=kind, capsize=2)
-        ax.set_xticks(np.arange(len(names)) + width * (len(kinds) - 1) / 2, names, rotation=30, ha="right",
-                      fontsize=6)
-        ax.set_title(metric, fontsize=9)
-    if axes:
-        axes[0].legend(fontsize=6)
-    return fig
-
-
-def save(fig: Figure, out: Path, stem: str, formats: Sequence[str] = ("png",)) -> list[Path]:
-    """Write a figure atomically (:func:`nudgecli.report.figures.save_figure`)."""
-    from nudgecli.report.figures import save_figure
-
-    return save_figure(fig, out, stem, formats)

@@ -562,28 +562,45 @@ def compare_conditions(data: pd.DataFrame, metrics: Sequence[str], conditions: S
     }
 
 
+#: The columns of ``stats.csv``, in order (a subset of :func:`stats_table`'s; a table of a single
+#: condition has only those of them that it holds).
+STATS_CSV_COLUMNS = (
+    "metric", "a", "b", "n_a", "n_b", "median_a", "median_b", "q1_a", "q3_a", "q1_b", "q3_b",
+    "kruskal_statistic", "kruskal_p", "conover_p", "conover_p_unadjusted", "p_adjust", "stars",
+    "participant_test", "participant_statistic", "participant_p", "n_participants",
+    "effect_size_name", "effect_size", "difference", "ci_low", "ci_high", "ci_level",
+)
+
+
 def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
     """``stats.json`` as a tidy table: one row per metric x pair of conditions.
+
+    The one reader of ``stats.json``'s ``metrics`` for the formatters (the printed table,
+    ``summary.md``, ``stats.csv``) and the replication summaries: they take this table.
 
     Returns
     -------
     pd.DataFrame
-        Columns ``metric, a, b, n_a, n_b, median_a, median_b, q1_a, q3_a, q1_b, q3_b,
-        kruskal_statistic, kruskal_p, conover_p, conover_p_unadjusted, p_adjust, stars,
-        participant_test, participant_statistic, participant_p, n_participants,
-        effect_size_name, effect_size, difference, ci_low, ci_high, ci_level``.
+        Columns :data:`STATS_CSV_COLUMNS`, then ``mean_a, mean_b, participant_note, ci_seed,
+        ci_resamples``. With a single condition, one row per metric with ``b`` ``None`` and only
+        ``metric, a, b, n_a, median_a, q1_a, q3_a, participant_test, ci_level, mean_a,
+        participant_note, ci_seed, ci_resamples``.
     """
     rows = []
     for entry in stats["metrics"]:
+        ci, level = entry["ci"], entry["participant_level"]
+        extra = {"participant_note": level.get("note") or "", "ci_seed": ci.get("seed"),
+                 "ci_resamples": ci.get("resamples")}
         if len(stats["conditions"]) == 1:  # descriptives only
             (a,) = stats["conditions"]
             rows.append({"metric": entry["metric"], "a": a, "b": None, "n_a": entry["n"][a],
                          "median_a": entry["median"][a], "q1_a": entry["q1"][a], "q3_a": entry["q3"][a],
-                         "participant_test": "none", "ci_level": entry["ci"]["level"]})
+                         "participant_test": "none", "ci_level": ci["level"], "mean_a": entry["mean"][a],
+                         **extra})
             continue
         posthoc = {(r["a"], r["b"]): r for r in entry["conover"]}
         stars = {(r["a"], r["b"]): r["stars"] for r in entry["stars"]}
-        for interval in entry["ci"]["pairs"]:
+        for interval in ci["pairs"]:
             a, b = interval["a"], interval["b"]
             rows.append({
                 "metric": entry["metric"], "a": a, "b": b,
@@ -594,16 +611,55 @@ def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
                 "kruskal_statistic": entry["kruskal"]["statistic"], "kruskal_p": entry["kruskal"]["p"],
                 "conover_p": posthoc[a, b]["p"], "conover_p_unadjusted": posthoc[a, b]["p_unadjusted"],
                 "p_adjust": entry["p_adjust"], "stars": stars[a, b],
-                "participant_test": entry["participant_level"]["test"],
-                "participant_statistic": entry["participant_level"]["statistic"],
-                "participant_p": entry["participant_level"]["p"],
-                "n_participants": entry["participant_level"]["n_participants"],
+                "participant_test": level["test"],
+                "participant_statistic": level["statistic"],
+                "participant_p": level["p"],
+                "n_participants": level["n_participants"],
                 "effect_size_name": entry["effect_size"]["name"],
                 "effect_size": entry["effect_size"]["value"],
                 "difference": interval["difference"], "ci_low": interval["low"],
-                "ci_high": interval["high"], "ci_level": entry["ci"]["level"],
+                "ci_high": interval["high"], "ci_level": ci["level"],
+                "mean_a": entry["mean"][a], "mean_b": entry["mean"][b],
+                **extra,
             })
     return pd.DataFrame(rows)
+
+
+def condition_table(table: pd.DataFrame) -> pd.DataFrame:
+    """The descriptives of :func:`stats_table`'s table per metric x condition.
+
+    Parameters
+    ----------
+    table
+        :func:`stats_table`'s table.
+
+    Returns
+    -------
+    pd.DataFrame
+        ``metric, condition, n, median, q1, q3, mean``: one row per metric and condition, metrics
+        in the table's order, conditions in order of first appearance (the ``stats.json`` order:
+        every condition is ``a`` or ``b`` of some pair, and the pairs follow that order).
+    """
+    columns = ["metric", "condition", "n", "median", "q1", "q3", "mean"]
+    sides = []
+    for side in ("a", "b"):
+        if f"n_{side}" not in table:
+            continue
+        part = table[["metric", side, f"n_{side}", f"median_{side}", f"q1_{side}", f"q3_{side}",
+                      f"mean_{side}"]].copy()
+        part.columns = columns
+        part["_row"], part["_side"] = np.arange(len(table)), side
+        sides.append(part)
+    if not sides:
+        return pd.DataFrame(columns=columns)
+    stacked = pd.concat(sides).sort_values(["_row", "_side"], kind="stable")
+    stacked = stacked.drop_duplicates(["metric", "condition"])
+    return stacked[columns].reset_index(drop=True)
+
+
+def stats_csv(table: pd.DataFrame) -> str:
+    """``stats.csv``: :func:`stats_table`'s table, columns :data:`STATS_CSV_COLUMNS` only."""
+    return table[[c for c in STATS_CSV_COLUMNS if c in table.columns]].to_csv(index=False)
 
 
 def _plain(value: Any) -> Any:

@@ -600,11 +600,11 @@ def _write_tables(folder: Path, tables: dict[str, pd.DataFrame]) -> list[Path]:
 
 
 def _figures(folder: Path, figures: dict[str, Any]) -> list[Path]:
-    from nudgecli.report.replication import save
+    from nudgecli.report.figures.output import save_figure
 
     written: list[Path] = []
     for stem, fig in figures.items():
-        written += save(fig, folder / "figures", stem)
+        written += save_figure(fig, folder / "figures", stem, ("png",))
     return written
 
 
@@ -636,8 +636,9 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     condition), ``summary.csv`` (per metric: significance rates, median p, pooled effects) and
     ``figures/forest.png``. ``options`` go to :func:`run_batch`.
     """
+    from nudgecli.report.figures.replication import forest_figure
     from nudgecli.report.plans import load_plan
-    from nudgecli.report.replication import condition_values, forest_figure, replication_rows, summarise
+    from nudgecli.report.replication import condition_values, replication_rows, summarise
 
     _check(replications, seed)
     config = _load(experiment, overrides, participants)
@@ -665,8 +666,9 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     ``n`` participants. Writes ``power.csv`` (per count, metric and level of test, with the
     Clopper-Pearson interval), ``smallest_n.csv``, ``replications.csv`` and ``figures/power.png``.
     """
+    from nudgecli.report.figures.replication import power_figure
     from nudgecli.report.plans import load_plan
-    from nudgecli.report.replication import power_figure, power_table, replication_rows, smallest_n
+    from nudgecli.report.replication import power_table, replication_rows, smallest_n
 
     _check(replications, seed)
     counts = sorted(set(int(n) for n in participant_counts))
@@ -697,15 +699,14 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     :func:`nudgecli.report.replication.summarise` with the parameters), for Sobol and Morris
     designs ``sensitivity.csv``, and the figures ``figures/sweep.png`` (and ``sensitivity.png``).
     """
+    from nudgecli.report.figures.replication import sensitivity_figure, sweep_figure
     from nudgecli.report.plans import load_plan
     from nudgecli.report.replication import (
         condition_values,
         point_outputs,
         replication_rows,
         sensitivity,
-        sensitivity_figure,
         summarise,
-        sweep_figure,
     )
     from nudgecli.sim.sweep import load_sweep
 

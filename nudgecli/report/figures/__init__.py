@@ -4,6 +4,7 @@
 - :mod:`~nudgecli.report.figures.beliefs`: the goal probabilities of one trial (Fig. 5);
 - :mod:`~nudgecli.report.figures.trajectories`: one trial's path through the workspace;
 - :mod:`~nudgecli.report.figures.questionnaires`: NASA-TLX and Likert (Fig. 6);
+- :mod:`~nudgecli.report.figures.replication`: replications, power curves, sweeps, sensitivity;
 - :mod:`~nudgecli.report.figures.output`: writing them.
 
 Every drawing function takes ``ax=None`` so figures compose. Which trial Fig. 5 shows is chosen

@@ -1,0 +1,211 @@
+"""The figures of ``nudge replicate``, ``nudge power`` and ``nudge sweep``: drawing only.
+
+Each takes the tidy tables of :mod:`nudgecli.report.replication` (which computes them) and returns
+a :class:`~matplotlib.figure.Figure` with one panel per metric; each panel is its own function
+taking ``ax=None`` (a new figure's axes when ``None``) so the panels compose. Writing them is
+:func:`nudgecli.report.figures.output.save_figure`'s job.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
+
+from nudgecli.report.replication import POWER_TARGET
+
+#: Colours of a replication's interval by participant-level significance.
+FOREST_COLOURS = {True: "#c0392b", False: "#7f8c8d"}
+
+
+def _axes(ax: Axes | None) -> Axes:
+    """``ax``, or the axes of a new single-panel figure."""
+    if ax is not None:
+        return ax
+    axes: Axes = Figure(figsize=(3.4, 2.6), layout="constrained").subplots()
+    return axes
+
+
+def _grid(n: int, width: float = 3.4, height: float = 2.6) -> tuple[Figure, list[Any]]:
+    cols = min(3, max(1, n))
+    rows_ = max(1, math.ceil(n / cols))
+    fig = Figure(figsize=(width * cols, height * rows_), layout="constrained")
+    axes = fig.subplots(rows_, cols, squeeze=False).ravel().tolist()
+    for ax in axes[n:]:
+        ax.set_visible(False)
+    return fig, axes[:n]
+
+
+def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = None) -> Axes:
+    """One metric's forest plot: every replication's difference of medians with its bootstrap
+    interval, coloured by participant-level significance, and the pooled mean with its range.
+
+    Parameters
+    ----------
+    group
+        The metric's rows of :func:`~nudgecli.report.replication.replication_rows`.
+    pooled
+        The metric's row of :func:`~nudgecli.report.replication.summarise`.
+    ax
+        Axes to draw on; default a new figure's.
+    """
+    ax = _axes(ax)
+    group = group.sort_values("replication")
+    y = np.arange(len(group))
+    for significant in (False, True):
+        mask = group["participant_significant"].astype(bool).to_numpy() == significant
+        sub = group[mask]
+        diff = sub["difference"].astype(float).to_numpy()
+        err = np.vstack([diff - sub["ci_low"].astype(float).to_numpy(),
+                         sub["ci_high"].astype(float).to_numpy() - diff])
+        ax.errorbar(diff, y[mask], xerr=np.abs(err), fmt="o", ms=3, lw=0.8, color=FOREST_COLOURS[significant],
+                    label="significant (participant level)" if significant else "not significant")
+    ax.axvspan(pooled["difference_low"], pooled["difference_high"], color="#3498db", alpha=0.15)
+    ax.axvline(pooled["difference"], color="#2c3e50", lw=1.2)
+    ax.axvline(0, color="black", lw=0.6, ls=":")
+    ax.set_title(str(pooled["metric"]), fontsize=9)
+    ax.set_xlabel(f"{pooled['a']} - {pooled['b']} (difference of medians)", fontsize=8)
+    ax.set_yticks(y, [str(r) for r in group["replication"]], fontsize=6)
+    ax.set_ylabel("replication", fontsize=8)
+    return ax
+
+
+def forest_figure(rows: pd.DataFrame, summary: pd.DataFrame) -> Figure:
+    """:func:`forest_panel` per metric (``rows``: :func:`~nudgecli.report.replication.replication_rows`,
+    ``summary``: :func:`~nudgecli.report.replication.summarise`)."""
+    metrics = list(dict.fromkeys(rows["metric"]))
+    fig, axes = _grid(len(metrics), height=max(2.4, 0.18 * rows["replication"].nunique() + 1.2))
+    for ax, metric in zip(axes, metrics, strict=True):
+        forest_panel(rows[rows["metric"] == metric], summary[summary["metric"] == metric].iloc[0], ax=ax)
+    if axes:
+        axes[0].legend(fontsize=6, loc="best")
+    return fig
+
+
+def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes | None = None) -> Axes:
+    """One metric's power against participants: participant level solid, trial level dashed,
+    with the Clopper-Pearson band, and the target line.
+
+    Parameters
+    ----------
+    power
+        The metric's rows of :func:`~nudgecli.report.replication.power_table`.
+    target
+        The target power (a dotted line).
+    ax
+        Axes to draw on; default a new figure's.
+    """
+    ax = _axes(ax)
+    for level, style in (("participant", "-"), ("trial", "--")):
+        group = power[power["level"] == level].sort_values("participants")
+        ax.plot(group["participants"], group["power"], style, marker="o", ms=3, label=f"{level} level")
+        ax.fill_between(group["participants"], group["low"], group["high"], alpha=0.15)
+    ax.axhline(target, color="black", lw=0.6, ls=":")
+    ax.set_title(f"{power['metric'].iloc[0]} ({power['direction'].iloc[0]})", fontsize=9)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlabel("participants", fontsize=8)
+    ax.set_ylabel("power", fontsize=8)
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    return ax
+
+
+def power_figure(power: pd.DataFrame, target: float = POWER_TARGET) -> Figure:
+    """:func:`power_panel` per metric of :func:`~nudgecli.report.replication.power_table`'s table."""
+    metrics = list(dict.fromkeys(power["metric"]))
+    fig, axes = _grid(len(metrics))
+    for ax, metric in zip(axes, metrics, strict=True):
+        power_panel(power[power["metric"] == metric], target, ax=ax)
+    if axes:
+        axes[0].legend(fontsize=6, loc="best")
+    return fig
+
+
+def sweep_panel(group: pd.DataFrame, name: str, *, ax: Axes | None = None) -> Axes:
+    """One metric's difference of medians against one swept parameter: the mean over replications
+    per value with the 2.5-97.5 % band over replications (numeric parameters), or points with bars
+    (other values).
+
+    Parameters
+    ----------
+    group
+        The metric's rows of :func:`~nudgecli.report.replication.replication_rows` with the
+        parameter columns.
+    name
+        The parameter.
+    ax
+        Axes to draw on; default a new figure's.
+    """
+    ax = _axes(ax)
+    keys = group[name].map(lambda v: v if isinstance(v, int | float) else str(v))
+    stats = group.assign(_x=keys).groupby("_x")["difference"].agg(
+        mean="mean", low=lambda v: np.nanpercentile(v, 2.5) if v.notna().any() else np.nan,
+        high=lambda v: np.nanpercentile(v, 97.5) if v.notna().any() else np.nan).reset_index()
+    numeric = pd.api.types.is_numeric_dtype(stats["_x"])
+    x = stats["_x"].to_numpy() if numeric else np.arange(len(stats))
+    ax.plot(x, stats["mean"], marker="o", ms=3)
+    ax.fill_between(x, stats["low"].astype(float), stats["high"].astype(float), alpha=0.2)
+    ax.axhline(0, color="black", lw=0.5, ls=":")
+    if not numeric:
+        ax.set_xticks(x, [str(v) for v in stats["_x"]], fontsize=6)
+    ax.set_xlabel(name, fontsize=8)
+    return ax
+
+
+def sweep_figure(rows: pd.DataFrame, parameters: Sequence[str]) -> Figure:
+    """:func:`sweep_panel` per metric (rows) and swept parameter (columns)."""
+    metrics = list(dict.fromkeys(rows["metric"]))
+    fig = Figure(figsize=(3.0 * len(parameters), 2.3 * len(metrics)), layout="constrained")
+    axes = fig.subplots(len(metrics), len(parameters), squeeze=False)
+    for i, metric in enumerate(metrics):
+        group = rows[rows["metric"] == metric]
+        for j, name in enumerate(parameters):
+            sweep_panel(group, name, ax=axes[i][j])
+            if j == 0:
+                axes[i][j].set_ylabel(f"{metric}\n(a - b)", fontsize=7)
+    return fig
+
+
+def sensitivity_panel(indices: pd.DataFrame, *, ax: Axes | None = None) -> Axes:
+    """Bars of one metric's sensitivity indices (S1, ST, mu*, sigma) with their 95 % intervals.
+
+    Parameters
+    ----------
+    indices
+        The metric's rows of :func:`~nudgecli.report.replication.sensitivity`.
+    ax
+        Axes to draw on; default a new figure's.
+    """
+    ax = _axes(ax)
+    group = indices[indices["index"].isin(["S1", "ST", "mu_star", "sigma"])]
+    names = list(dict.fromkeys(group["parameter"]))
+    kinds = list(dict.fromkeys(group["index"]))
+    width = 0.8 / max(1, len(kinds))
+    for k, kind in enumerate(kinds):
+        sub = group[group["index"] == kind].set_index("parameter").reindex(names)
+        conf = sub["conf"].fillna(0).to_numpy()
+        ax.bar(np.arange(len(names)) + k * width, sub["value"], width, yerr=conf, label=kind, capsize=2)
+    ax.set_xticks(np.arange(len(names)) + width * (len(kinds) - 1) / 2, names, rotation=30, ha="right",
+                  fontsize=6)
+    ax.set_title(str(indices["metric"].iloc[0]), fontsize=9)
+    return ax
+
+
+def sensitivity_figure(indices: pd.DataFrame) -> Figure:
+    """:func:`sensitivity_panel` per metric of :func:`~nudgecli.report.replication.sensitivity`'s table."""
+    metrics = list(dict.fromkeys(indices["metric"]))
+    fig, axes = _grid(len(metrics))
+    for ax, metric in zip(axes, metrics, strict=True):
+        sensitivity_panel(indices[indices["metric"] == metric], ax=ax)
+    if axes:
+        axes[0].legend(fontsize=6)
+    return fig
+
+
+__all__ = ["FOREST_COLOURS", "forest_figure", "forest_panel", "power_figure", "power_panel",
+           "sensitivity_figure", "sensitivity_panel", "sweep_figure", "sweep_panel"]
