@@ -33,7 +33,7 @@ import platform
 import socket
 import sys
 import tempfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
@@ -419,9 +419,13 @@ class RunFolder:
         participants
             How many participants the run has (0 .. participants - 1 are expected).
         """
+        return self._unusable_parts({index: PART_KINDS for index in range(participants)})
+
+    def _unusable_parts(self, expected: Mapping[int, Sequence[str]]) -> dict[int, list[str]]:
+        """Participant -> those of its expected part kinds that are missing or unreadable."""
         missing: dict[int, list[str]] = {}
-        for index in range(participants):
-            for kind in PART_KINDS:
+        for index, kinds in expected.items():
+            for kind in kinds:
                 part = self.part_path(kind, index)
                 if not part.is_file():
                     missing.setdefault(index, []).append(f"{kind}/{part.name} (missing)")
@@ -471,19 +475,14 @@ class RunFolder:
         """:meth:`check_complete` of a ``nudge study`` folder: every participant with recorded
         trials has readable trials and steps parts (rewritten after each trial), and a finished
         one its participants part; a session still under way is analysed as far as it got."""
-        missing: dict[int, list[str]] = {}
+        expected: dict[int, list[str]] = {}
         for key, entry in (manifest.get("live") or {}).items():
-            index = int(key)
             kinds = [kind for kind in PART_KINDS
                      if kind != "participants" or entry.get("status") == "complete"]
             if not entry.get("completed_trials"):
                 kinds = [kind for kind in kinds if kind == "participants"]
-            for kind in kinds:
-                part = self.part_path(kind, index)
-                if not part.is_file():
-                    missing.setdefault(index, []).append(f"{kind}/{part.name} (missing)")
-                elif not _readable(part):
-                    missing.setdefault(index, []).append(f"{kind}/{part.name} (unreadable)")
+            expected[int(key)] = kinds
+        missing = self._unusable_parts(expected)
         if missing:
             listed = "; ".join(f"participant {p}: {', '.join(parts)}" for p, parts in sorted(missing.items()))
             raise RunFolderError(f"{self.path} is incomplete: {listed}; a live session rewrites these after "

@@ -129,7 +129,11 @@ def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
                 "participant_significant": is_significant(_nan(row["participant_p"]), alpha, comparison),
                 "participant_direction": _sign(row["effect_size"]),
             })
-    table = pd.DataFrame(rows)
+    return _with_point_parameters(pd.DataFrame(rows), points)
+
+
+def _with_point_parameters(table: pd.DataFrame, points: pd.DataFrame | None) -> pd.DataFrame:
+    """``table`` with each design point's parameter columns after ``point, replication, seed``."""
     if points is not None and len(points.columns) > 1 and not table.empty:
         table = table.merge(points, on="point", how="left")
         front = ["point", "replication", "seed", *[c for c in points.columns if c != "point"]]
@@ -155,12 +159,7 @@ def condition_values(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
             rows.append({"point": entry["point"], "replication": entry["replication"],
                          "seed": entry["seed"], "participants": entry["participants"],
                          "condition": row["condition"], "metric": row["metric"], "value": row["median"]})
-    table = pd.DataFrame(rows)
-    if points is not None and len(points.columns) > 1 and not table.empty:
-        table = table.merge(points, on="point", how="left")
-        front = ["point", "replication", "seed", *[c for c in points.columns if c != "point"]]
-        table = table[front + [c for c in table.columns if c not in front]]
-    return table
+    return _with_point_parameters(pd.DataFrame(rows), points)
 
 
 def _percentiles(values: pd.Series) -> tuple[float, float, float]:
