@@ -58,26 +58,27 @@ def event_tokens(cell: object) -> list[str]:
     return [token.strip() for token in cell.split(EVENT_SEPARATOR)]
 
 
-def has_event(events: pd.Series | Iterable[object], name: str) -> np.ndarray:
-    """``(N,)`` bool: which ``event`` cells contain the event ``name`` exactly.
+def count_event(events: pd.Series | Iterable[object], name: str) -> pd.Series:
+    """Per row, how many times the event ``name`` occurs in its ``event`` cell (missing cells: none).
 
     Parameters
     ----------
     events
-        ``(N,)`` ``event`` cells (strings; missing values count as no event).
+        ``(N,)`` ``event`` cells.
     name
-        One event name, e.g. :data:`NUDGE`.
+        One event name, e.g. :data:`MODE_SWITCH_HUMAN`.
+
+    Returns
+    -------
+    pd.Series
+        ``(N,)`` counts, with the index of ``events`` (a fresh range index for a plain iterable).
     """
     series = events if isinstance(events, pd.Series) else pd.Series(list(events), dtype=object)
-    if series.empty:
-        return np.zeros(0, dtype=bool)
     text = series.where(series.map(lambda v: isinstance(v, str)), "").astype(str)
-    padded = EVENT_SEPARATOR + text.str.replace(" ", "", regex=False) + EVENT_SEPARATOR
-    return padded.str.contains(EVENT_SEPARATOR + name + EVENT_SEPARATOR, regex=False).to_numpy(dtype=bool)
-
-
-def count_event(events: pd.Series, name: str) -> pd.Series:
-    """Per row, how many times the event ``name`` occurs in its ``event`` cell (same index)."""
-    text = events.where(events.map(lambda v: isinstance(v, str)), "").astype(str)
     tokens = text.str.split(EVENT_SEPARATOR).explode().str.strip()
-    return (tokens == name).groupby(level=0).sum().reindex(events.index, fill_value=0)
+    return (tokens == name).groupby(level=0).sum().reindex(series.index, fill_value=0)
+
+
+def has_event(events: pd.Series | Iterable[object], name: str) -> np.ndarray:
+    """``(N,)`` bool: which ``event`` cells contain the event ``name`` exactly."""
+    return (count_event(events, name) > 0).to_numpy(dtype=bool)

@@ -602,7 +602,10 @@ class RunFolder:
         return all(p.name in allowed or p.name.endswith(".tmp") for p in self.path.iterdir())
 
     def _remove_temporaries(self) -> None:
-        """Remove the temporary files of an interrupted writer (``.name.XXXX.tmp``; the lock is held)."""
+        """Remove the temporary files of an interrupted writer (``.<name>.<random>.tmp``).
+
+        The lock is held, so no live writer owns them.
+        """
         calibration = sorted((self.path / "calibration").glob("participant-*"))
         for folder in (self.path, *(self.path / kind for kind in PART_KINDS), *calibration):
             if folder.is_dir():

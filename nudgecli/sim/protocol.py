@@ -317,7 +317,8 @@ class TrialSession:
         if inferred != NO_GOAL:
             u_a = assistance.autonomy_velocity((self.x, self.y, self.theta), self.goal_list[inferred],
                                                s.autonomy_speed, s.autonomy_turn_rate, s.dt)
-        u_f = assistance.blend(u_a, u_h, alpha) if commanded and u_h is not _ZERO3 else u_h
+        # blending acts only on a motion command (a mode switch or no input leaves the robot still)
+        u_f = assistance.blend(u_a, u_h, alpha) if u_h is not _ZERO3 else u_h
         self._record(HUMAN_TURN, state, mode_before, intended, pressure, measured, u_h, u_a, alpha, inferred,
                      events)
         self._move(u_f)
