@@ -187,7 +187,8 @@ class PopulationSection(Section):
     device's scale (sip positive, puff negative in the stream); a level above 1 means the person
     blows harder than the sensor reads, so most samples saturate at 1 the way real hard blows do.
     A blow's per-sample pressure is ``level + spread * z`` (after an onset ramp), clipped to [0, 1]
-    on the intended side.
+    on the intended side; ``z`` is N(0, 1) at every sample and drifts within a blow with lag-1
+    correlation ``drift_correlation`` (``nudgecli.sim.participants``).
 
     Where the defaults come from -- the real pilot logs in ``shared/data/calibration/`` (recorded
     with soft/hard thresholds 0.3/0.5). Per prompted label, the samples of each prompt window with
@@ -199,14 +200,17 @@ class PopulationSection(Section):
     field                andrewtest                       deepaktest                default range
     ===================  ===============================  ========================  ==============
     hard_puff_level      1.04 (61% sat.)                  0.60                      [0.55, 1.10]
-    hard_sip_level       1.10 (98% sat.)                  1.12 (100% sat.)          [0.80, 1.20]
-    soft_puff_level      0.088                            0.103                     [0.05, 0.24] *
-    soft_sip_level       0.222 (31% of samples > 0.3:     1.08: never produced a    [0.05, 0.38] *
+    hard_sip_level       1.10 (98% sat.)                  1.12 (100% sat.)          [0.60, 1.20] *
+    soft_puff_level      0.088                            0.103                     [0.05, 0.17] *
+    soft_sip_level       0.222 (31% of samples > 0.3:     1.08: never produced a    [0.05, 0.47] *
                          the 28% Soft Sip -> Hard Sip)    soft sip (outside the
                                                           population; simulate him
                                                           with participant_from_log)
     hard_spread          0.196 (puff; sip saturated)      0.149 (puff)              [0.05, 0.20]
     soft_spread          0.088 (puff), 0.153 (sip)        0.024 (puff)              [0.02, 0.15]
+    drift_correlation    0.94 pooled; per label 0.85      0.99 pooled; per label    [0.85, 0.99]
+                         (Hard Puff), 0.94 (Soft Puff),   0.99 (Hard Puff), 0.97
+                         0.98 (Soft Sip)                  (Soft Puff)
     onset_ramp_samples   hard blows reach their level in 2-3 samples (+0.06 +0.69 +1.00;
                          -0.28 -0.67 -0.95; -0.13 -0.33 -0.44), soft ones in 1-4    [1, 3]
     reaction_s           blow onset median 1.44 s         1.32 s                    [0.9, 2.0]
@@ -215,14 +219,17 @@ class PopulationSection(Section):
     mapping_error        0/72 wrong (andrewtest), 0/72 (deepak), 3/24 (deepaktest)  [0.0, 0.12]
     ===================  ==========================================================  ==============
 
-    (*) The pilots' logs alone gave [0.05, 0.16] and [0.05, 0.24]; the upper ends are widened to
-    cover twelve real people's calibrations (below).
+    (*) The pilots' logs alone give [0.80, 1.20], [0.05, 0.16] and [0.05, 0.24]; these ends are
+    moved to cover twelve real people's calibrations (below).
 
-    The pooled spreads include the drift between prompts (the real pressure wanders within and
-    between blows; the model draws samples independently). No pilot data exist for the task-level
-    habits: ``epsilon`` brackets the study's 0.1; ``operate_s`` the paper's 3-4 s border
-    reminder; ``rest_s``, ``action_pause_s`` and ``hard_blow_s`` are short against the ~1 s idle
-    handover, and a mode-switch blow outlasts the onset ramp so it reaches the hard band.
+    ``drift_correlation`` is ``log_drift_correlation``: the lag-1 correlation of the plateau
+    samples' deviations from their label's fitted level, over consecutive pairs of one blow that
+    are both unsaturated. The real pressure wanders slowly: from one 10 Hz tick to the next it
+    moves 0.01-0.05 on average, three to six times less than independent draws with the same
+    spread would. No pilot data exist for the task-level habits: ``epsilon`` brackets the study's
+    0.1; ``operate_s`` the paper's 3-4 s border reminder; ``rest_s``, ``action_pause_s`` and
+    ``hard_blow_s`` are short against the ~1 s idle handover, and a mode-switch blow outlasts the
+    onset ramp so it reaches the hard band.
 
     Checked against twelve real people (issue 14; ``nudgecli.sim.real_population``,
     ``nudge plot-population``). Their fitted ``p(phi_m | phi_i)`` diagonals: the pilots' (fixed
@@ -230,49 +237,45 @@ class PopulationSection(Section):
     0.97, Soft Sip 0.70 and 0.01 (deepaktest, who never produced a soft sip); nine sibling-study
     participants (event-driven stream, prompts 4 s + 1 s blank) Hard Puff 0.53-0.84, Hard Sip
     0.54-0.78, Soft Puff 0.80-0.97, Soft Sip 0.31-0.97. A fixed-rate stream counts time and an
-    event-driven one counts pressure *changes* (a saturated blow is silent, its ramps through
-    the soft band and the deadband are not), so each real value is compared with the diagonal the
-    estimator converges to in its own format: ``expected_diagonal`` (exact label probabilities of
-    a 25-tick blow for 10 Hz; the expected message counts of the device's 0.0109 quantisation,
+    event-driven one counts pressure *changes*: a saturated blow is silent, its ramps through the
+    soft band and the deadband are not, and a slowly drifting plateau changes little. So each
+    real value is compared with the diagonal the estimator converges to in its own format:
+    ``expected_diagonal`` (exact label probabilities of a 25-tick blow for 10 Hz, which do not
+    depend on the drift; the expected message counts of the device's 0.0109 quantisation,
     averaged over 400 seeded blows, for event-driven), over the corners and midpoints of each
-    label's (level, spread, ramp) box (``diagonal_image``). The image of the pilots' ranges
-    (soft puff [0.05, 0.16], soft sip [0.05, 0.24]):
+    label's (level, spread, ramp, drift) box (``diagonal_image``).
+
+    The derivation (``level_range_covering``): where the image of the pilots' ranges misses the
+    lowest sibling diagonal, the level range is extended by the least amount (0.01 grid) at which
+    a participant of the population reaches it (``lowest_diagonal``: over the ends of the spread
+    and drift ranges and the ramps). A soft label's diagonal falls as its level rises towards
+    the soft threshold, so its upper end is raised: **Soft Sip 0.47** (for 0.31), **Soft Puff
+    0.17** (for 0.80). A hard label's falls as its level drops towards the hard threshold (an
+    unsaturated, slowly drifting blow spends most of its changes on the way up and down through
+    the soft band), so its lower end is lowered: **Hard Sip 0.60** (for 0.54); Hard Puff's 0.55
+    reaches 0.53 already. The image of the defaults:
 
     ===========  ==================  ====================  ====================================
     label        fixed 10 Hz         event-driven          against the real people
     ===========  ==================  ====================  ====================================
-    Hard Puff    0.81-0.97           0.69-0.87             pilots covered; sibling 0.53-0.69 not
-    Hard Sip     0.92-0.97           0.69-0.88             pilots covered; sibling 0.54-0.69 not
-    Soft Puff    0.78-0.97           0.81-0.97             pilots covered; sibling 0.80 just not
-    Soft Sip     0.63-0.97           0.66-0.97             andrewtest covered; sibling 0.31-0.66
-                                                           and deepaktest not
+    Hard Puff    0.81-0.97           0.50-0.79             pilots covered; sibling 0.79-0.84 not
+    Hard Sip     0.85-0.97           0.54-0.79             all covered
+    Soft Puff    0.77-0.97           0.79-0.97             all covered
+    Soft Sip     0.05-0.97           0.30-0.97             all covered but deepaktest's 0.01
     ===========  ==================  ====================  ====================================
 
-    Soft labels: the diagonal falls as the soft level rises towards the soft threshold, so the
-    level's upper end is derived by inverting ``expected_diagonal``: the smallest level (0.01
-    grid) at which a participant with the middle soft spread (0.085) reaches the lowest sibling
-    diagonal in the event-driven format (``soft_level_reaching``): **Soft Sip 0.38** (for 0.31),
-    **Soft Puff 0.24** (for 0.80). The defaults therefore are ``soft_sip_level = [0.05, 0.38]``
-    and ``soft_puff_level = [0.05, 0.24]``; their image is Soft Sip 0.05-0.97 (10 Hz),
-    0.30-0.97 (event-driven) and Soft Puff 0.63-0.97 / 0.66-0.97, covering every real soft value
-    but deepaktest's 0.01 (a soft-sip level of 1.08, outside any "soft" range; simulate him with
-    ``physiology_logs``). The ``paper`` and ``study-code`` presets use these defaults.
-
-    Hard labels: no level or spread reaches the sibling study's lower hard diagonals. Under this
-    pressure model a blow that reaches the hard band gives at least about 0.69 in the event-driven
-    format (a clean saturated blow: its ramp up and down cross 27 soft, 18 deadband and 47 hard
-    quantisation levels each way, (18 + 47) / 92 = 0.71, 0.69 after the smoothing), and about
-    0.64 at the lowest (a level of 0.4 that rarely reaches hard). Lower real values need
-    soft-band messages the model does not make: a hesitant, wavering onset or release, or drift
-    within a blow (the model draws each tick independently around one level and ramps
-    linearly). So the hard ranges are left as the pilots' logs give them, and the gap is
-    reported rather than closed by an unphysical range.
+    The top of the sibling study's Hard Puff span (0.84) needs more pressure change on an
+    unsaturated plateau than the pilots' drift allows (with independent samples the image would
+    reach 0.87); deepaktest's soft-sip level of 1.08 lies outside any "soft" range (simulate him
+    with ``physiology_logs``). The ``paper`` and ``study-code`` presets use these defaults.
+    Drawing each level uniformly over a range whose end is set by the most extreme real person
+    is an assumption: it makes such people more common than they may be.
     """
 
-    soft_puff_level: tuple[float, float] = (0.05, 0.24)
-    soft_sip_level: tuple[float, float] = (0.05, 0.38)
+    soft_puff_level: tuple[float, float] = (0.05, 0.17)
+    soft_sip_level: tuple[float, float] = (0.05, 0.47)
     hard_puff_level: tuple[float, float] = (0.55, 1.10)
-    hard_sip_level: tuple[float, float] = (0.80, 1.20)
+    hard_sip_level: tuple[float, float] = (0.60, 1.20)
     soft_spread: tuple[float, float] = (0.02, 0.15)
     hard_spread: tuple[float, float] = (0.05, 0.20)
     onset_ramp_samples: tuple[int, int] = (1, 3)
@@ -289,6 +292,11 @@ class PopulationSection(Section):
         "middle of the range.")
     reaction_s: tuple[float, float] = (0.9, 2.0)
     reaction_log_sd: Annotated[float, Field(ge=0, le=2)] = 0.35
+    drift_correlation: tuple[float, float] = Field(
+        default=(0.85, 0.99),
+        description="Lag-1 correlation, from one 10 Hz sample to the next within a blow, of the pressure's "
+        "deviation from its level (0: independent samples). Does not change the per-sample label "
+        "probabilities; it sets how often the pressure changes, which an event-driven device counts.")
     physiology_logs: tuple[str, ...] = Field(
         default=(),
         description="Calibration folders with a p(phi_m | phi_i) session (study export or tidy format): "
@@ -303,6 +311,7 @@ class PopulationSection(Section):
             "onset_ramp_samples": (0, 20), "mapping_error": (0.0, 0.75), "epsilon": (0.0, 1.0),
             "rest_s": (0.0, 60.0), "operate_s": (0.1, 120.0), "action_pause_s": (0.0, 10.0),
             "hard_blow_s": (0.1, 5.0), "reaction_s": (0.0, 10.0), "handover_idle_s": (0.1, 30.0),
+            "drift_correlation": (0.0, 0.99),
         }.items():
             check_range(name, getattr(self, name), lo, hi)
         return self

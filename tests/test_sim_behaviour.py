@@ -219,3 +219,30 @@ def test_two_hard_blows_are_separated_by_a_release() -> None:
     first_release = labels.index(NO_INPUT)
     assert labels[:first_release] == [HARD_PUFF] * 3  # 0.3 s blow
     assert labels[first_release + 1] == HARD_PUFF
+
+
+def test_a_held_soft_blow_drifts_on_across_decisions() -> None:
+    """A soft command held through several decisions is one blow: its pressure drifts on from the
+    last sample (lag-1 correlation 0.99), it does not jump to a fresh draw at each cell centre."""
+    person = person_with()
+    person.participant = replace(person.participant, pressure_spread=np.full(4, 0.02), drift_correlation=0.99)
+    person.start_turn(after_autonomy=False)
+    view = View(13.5, 7.1, 0.0, 0)
+    pressures = []
+    decisions = 0
+    original = person._decide
+
+    def count(view: View) -> int:
+        nonlocal decisions
+        decisions += 1
+        return original(view)
+
+    person._decide = count  # type: ignore[method-assign]
+    for _ in range(80):
+        label, pressure = person.next_input(view)
+        assert label == SOFT_PUFF
+        pressures.append(pressure)
+        view.x += SPEED * DT
+    assert decisions >= 5  # a decision at every cell centre, each continuing the same blow
+    # within the blow a step moves 0.02 * sqrt(2 * 0.01) = 0.0028 (sd); a fresh draw would move ~0.028
+    assert np.max(np.abs(np.diff(pressures))) < 0.015

@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from nudgecli.config import CalibrationSection, InterfaceSection, PopulationSection
 from nudgecli.errors import DataError
@@ -28,8 +30,11 @@ from nudgecli.sim.calibration import simulate_distortion_session
 from nudgecli.sim.participants import (
     LABEL_SIGN,
     Participant,
+    blows_drift_normals,
     censored_normal_fit,
     draw_participants,
+    drift_normals,
+    log_drift_correlation,
     mapping_with_error,
     participant_from_log,
     participants_frame,
@@ -220,3 +225,108 @@ def test_participant_from_log_recovers_a_simulated_physiology() -> None:
         np.testing.assert_array_equal(estimated.mapping, truth.mapping)
     with pytest.raises(DataError, match="missing column"):
         participant_from_log(frame.drop(columns="intended"))
+
+
+# --- drift within a blow ------------------------------------------------------------------------
+
+@settings(max_examples=60, deadline=None)
+@given(rho=st.floats(0.0, 0.99), n=st.integers(1, 40), seed=st.integers(0, 2**16),
+       previous=st.one_of(st.none(), st.floats(-4.0, 4.0)))
+def test_drift_normals_is_the_ar1_recursion(rho: float, n: int, seed: int, previous: float | None) -> None:
+    e = np.random.default_rng(seed).standard_normal(n)
+    expected = np.empty(n)
+    scale = np.sqrt(1.0 - rho**2)
+    for j in range(n):  # the recursion written out, sample by sample
+        before = previous if j == 0 else expected[j - 1]
+        expected[j] = e[j] if before is None else rho * before + scale * e[j]
+    np.testing.assert_allclose(drift_normals(e, rho, previous), expected, rtol=1e-12, atol=1e-12)
+
+
+def test_zero_drift_leaves_the_innovations_unchanged_bit_for_bit() -> None:
+    e = np.random.default_rng(1).standard_normal(50)
+    assert np.array_equal(drift_normals(e, 0.0), e)
+    assert np.array_equal(blows_drift_normals(e, np.array([20, 30]), 0.0), e)
+
+
+def test_drift_keeps_standard_normal_samples_with_correlation_rho_to_the_k() -> None:
+    rho, blows, n = 0.9, 20000, 8
+    e = np.random.default_rng(2).standard_normal((blows, n))
+    z = blows_drift_normals(e.ravel(), np.full(blows, n), rho).reshape(blows, n)
+    # every position of the blow is N(0, 1): mean 0, variance 1 (standard errors ~0.007 and ~0.01)
+    np.testing.assert_allclose(z.mean(axis=0), 0.0, atol=0.03)
+    np.testing.assert_allclose(z.var(axis=0), 1.0, atol=0.04)
+    for lag in (1, 3):
+        corr = np.mean(z[:, :-lag] * z[:, lag:])
+        assert corr == pytest.approx(rho**lag, abs=0.02), lag
+
+
+def test_blows_drift_normals_start_every_blow_afresh() -> None:
+    e = np.random.default_rng(3).standard_normal(12)
+    lengths = np.array([5, 0, 4, 3])
+    z = blows_drift_normals(e, lengths, 0.8)
+    np.testing.assert_array_equal(z[[0, 5, 9]], e[[0, 5, 9]])  # each blow's first deviation is its draw
+    np.testing.assert_allclose(z[5:9], drift_normals(e[5:9], 0.8))
+    with pytest.raises(ValueError, match="add up to 11"):
+        blows_drift_normals(e, np.array([5, 6]), 0.8)
+
+
+def test_log_drift_correlation_by_hand() -> None:
+    levels, spreads = np.array([0.8, 0.9, 0.1, 0.2]), np.array([0.1, 0.1, 0.05, 0.1])
+    blows = [[np.array([0.9, 1.0, 0.7, 0.6])], [], [], [np.array([0.3, 0.1, 0.2]), np.array([0.4])]]
+    # deviations: Hard Puff 1, (saturated), -1, -2 -> the one unsaturated pair (-1, -2);
+    # Soft Sip 1, -1, 0 -> pairs (1, -1), (-1, 0); the 1-sample blow has no pair
+    products, squares = (-1 * -2) + (1 * -1) + (-1 * 0), 1 + 1 + 1
+    import nudgecli.sim.participants as participants_module
+
+    assert log_drift_correlation(blows, levels, spreads) is None  # 3 pairs < MIN_DRIFT_PAIRS
+    original = participants_module.MIN_DRIFT_PAIRS
+    try:
+        participants_module.MIN_DRIFT_PAIRS = 3
+        assert log_drift_correlation(blows, levels, spreads) == pytest.approx(products / squares)
+        # a negative estimate is clipped to 0
+        flipped = [[], [], [], [np.array([0.3, 0.1, 0.3, 0.1])]]
+        assert log_drift_correlation(flipped, levels, spreads) == 0.0
+    finally:
+        participants_module.MIN_DRIFT_PAIRS = original
+
+
+def test_participant_from_log_recovers_the_drift() -> None:
+    from dataclasses import replace
+
+    truth = replace(make_participant(ramp=2), drift_correlation=0.9)
+    session = simulate_distortion_session(truth, CalibrationSection(prompts_per_label=40),
+                                          InterfaceSection(), generator(8, "drift"))
+    estimated = participant_from_log(session, template=truth)
+    # ~4 x 40 blows of ~20 plateau samples: the lag-1 estimate's standard error is about 0.01
+    assert estimated.drift_correlation == pytest.approx(0.9, abs=0.04)
+    session = simulate_distortion_session(replace(truth, drift_correlation=0.0),
+                                          CalibrationSection(prompts_per_label=40), InterfaceSection(),
+                                          generator(8, "drift"))
+    independent = participant_from_log(session, template=truth)
+    assert independent.drift_correlation < 0.1
+
+
+@needs_shared
+def test_the_pilots_pressure_drifts() -> None:
+    # PopulationSection's docstring: pooled lag-1 correlations 0.94 (andrewtest), 0.99 (deepaktest)
+    found = {name: participant_from_log(SHARED_CALIBRATION / name).drift_correlation
+             for name in ("andrewtest", "deepaktest")}
+    assert round(found["andrewtest"], 2) == 0.94 and found["deepaktest"] == 0.99
+
+
+def test_drawn_drift_lies_in_its_range_and_comes_last() -> None:
+    population = PopulationSection(drift_correlation=(0.3, 0.4))
+    drawn = draw_participants(population, 20, seed=4)
+    assert all(0.3 <= p.drift_correlation <= 0.4 for p in drawn)
+    # drawn after every other field: the rest of each participant does not depend on it
+    other = draw_participants(PopulationSection(drift_correlation=(0.6, 0.7)), 20, seed=4)
+    for a, b in zip(drawn, other, strict=True):
+        assert replace_drift(a, 0.0) == replace_drift(b, 0.0)
+    with pytest.raises(ValueError, match="drift_correlation"):
+        replace_drift(drawn[0], 1.0)
+
+
+def replace_drift(participant: Participant, value: float) -> Participant:
+    from dataclasses import replace
+
+    return replace(participant, drift_correlation=value)

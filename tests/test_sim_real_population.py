@@ -30,7 +30,8 @@ from nudgecli.sim.real_population import (
     coverage_table,
     diagonal_image,
     expected_diagonal,
-    soft_level_reaching,
+    level_range_covering,
+    lowest_diagonal,
 )
 
 INTERFACE = InterfaceSection()  # thresholds 0.3 / 0.5, the sibling study's and the pilots'
@@ -88,36 +89,77 @@ def test_simulated_event_driven_sessions_requeue_prompts_without_input() -> None
     assert requeue_consistent(session)
 
 
-def test_the_derivation_of_the_soft_ranges_and_the_paper_preset() -> None:
-    population = PopulationSection()
-    sip = soft_level_reaching(SOFT_SIP, SIBLING_DIAGONAL_SPANS["Soft Sip"][0], population, INTERFACE)
-    puff = soft_level_reaching(SOFT_PUFF, SIBLING_DIAGONAL_SPANS["Soft Puff"][0], population, INTERFACE)
-    assert (sip, puff) == (0.38, 0.24)  # the values PopulationSection's docstring derives
+#: The level ranges the pilots' logs alone give (PopulationSection's docstring).
+PILOT_RANGES = {"hard_puff_level": (0.55, 1.10), "hard_sip_level": (0.80, 1.20),
+                "soft_puff_level": (0.05, 0.16), "soft_sip_level": (0.05, 0.24)}
+LEVEL_FIELDS = ("hard_puff_level", "hard_sip_level", "soft_puff_level", "soft_sip_level")
+
+
+def test_the_derivation_of_the_level_ranges_and_the_paper_preset() -> None:
+    pilots = PopulationSection(**PILOT_RANGES)
+    derived = {field: level_range_covering(label, SIBLING_DIAGONAL_SPANS[LABELS[label]][0], pilots, INTERFACE)
+               for label, field in enumerate(LEVEL_FIELDS)}
+    # the values PopulationSection's docstring derives: only the ends that miss move
+    assert derived == {"hard_puff_level": (0.55, 1.10), "hard_sip_level": (0.60, 1.20),
+                       "soft_puff_level": (0.05, 0.17), "soft_sip_level": (0.05, 0.47)}
     preset = load_experiment("paper").population
-    assert preset.soft_sip_level == (0.05, sip) and preset.soft_puff_level == (0.05, puff)
-    # one grid step lower does not reach the target: the inversion is tight
-    lower = expected_diagonal(SOFT_SIP, sip - 0.01, 0.085, INTERFACE, "event_driven", ramp=1)
-    assert lower > SIBLING_DIAGONAL_SPANS["Soft Sip"][0]
-    with pytest.raises(ValueError, match="not a soft label"):
-        soft_level_reaching(HARD_SIP, 0.5, population, INTERFACE)
+    assert {field: getattr(preset, field) for field in LEVEL_FIELDS} == derived
+    # tight: one grid step less does not reach the lowest real value
+    for label, field in enumerate(LEVEL_FIELDS):
+        target = SIBLING_DIAGONAL_SPANS[LABELS[label]][0]
+        lo, hi = derived[field]
+        if (lo, hi) == PILOT_RANGES[field]:
+            continue
+        short = lo + 0.01 if label in (0, 1) else hi - 0.01
+        assert lowest_diagonal(label, short, pilots, INTERFACE) > target, field
+        assert lowest_diagonal(label, lo if label in (0, 1) else hi, pilots, INTERFACE) <= target, field
+    with pytest.raises(ValueError, match="no Soft Sip level"):
+        level_range_covering(SOFT_SIP, 0.0, pilots, INTERFACE)
 
 
-def test_the_paper_population_image_covers_the_soft_values_but_not_the_low_hard_ones() -> None:
+def test_the_default_population_image_is_the_documented_one() -> None:
+    # the image table in PopulationSection's docstring (rounded to 2 decimals)
     population = load_experiment("paper").population
-    event = diagonal_image(population, INTERFACE, "event_driven").set_index("label")
-    fixed = diagonal_image(population, INTERFACE, "fixed_rate").set_index("label")
-    for label in ("Soft Puff", "Soft Sip"):
-        low, high = SIBLING_DIAGONAL_SPANS[label]
-        assert event.loc[label, "low"] <= low and event.loc[label, "high"] >= high
+    documented = {
+        "fixed_rate": {"Hard Puff": (0.81, 0.97), "Hard Sip": (0.85, 0.97), "Soft Puff": (0.77, 0.97),
+                       "Soft Sip": (0.05, 0.97)},
+        "event_driven": {"Hard Puff": (0.50, 0.79), "Hard Sip": (0.54, 0.79), "Soft Puff": (0.79, 0.97),
+                         "Soft Sip": (0.30, 0.97)},
+    }
+    images = {}
+    for stream, labels in documented.items():
+        images[stream] = diagonal_image(population, INTERFACE, stream).set_index("label")
+        for label, (low, high) in labels.items():
+            image = images[stream].loc[label]
+            assert (round(image["low"], 2), round(image["high"], 2)) == (low, high), (stream, label)
+    event, fixed = images["event_driven"], images["fixed_rate"]
+    for label, (low, high) in SIBLING_DIAGONAL_SPANS.items():
+        assert event.loc[label, "low"] <= low, label
+        if label != "Hard Puff":  # the documented gap: the top of the sibling study's hard-puff span
+            assert event.loc[label, "high"] >= high, label
+    assert event.loc["Hard Puff", "high"] < SIBLING_DIAGONAL_SPANS["Hard Puff"][1]
     for pilot, values in PILOT_DIAGONALS.items():
         for label, value in values.items():
             if (pilot, label) == ("deepaktest", "Soft Sip"):
                 assert fixed.loc[label, "low"] > value  # a soft-sip level of 1.08: outside by design
                 continue
             assert fixed.loc[label, "low"] <= value <= fixed.loc[label, "high"] + 1e-3, (pilot, label)
-    for label in ("Hard Puff", "Hard Sip"):  # the documented gap of the pressure model
-        assert event.loc[label, "low"] > SIBLING_DIAGONAL_SPANS[label][0] + 0.1
-        assert event.loc[label, "high"] >= SIBLING_DIAGONAL_SPANS[label][1]
+
+
+def test_without_drift_the_low_hard_diagonals_are_out_of_reach() -> None:
+    # independent samples (the model before the drift): a blow that reaches the hard band gives
+    # at least about 0.69 in the event-driven format, whatever its level
+    independent = PopulationSection(**PILOT_RANGES, drift_correlation=(0.0, 0.0))
+    event = diagonal_image(independent, INTERFACE, "event_driven").set_index("label")
+    documented = {"Hard Puff": (0.69, 0.87), "Hard Sip": (0.69, 0.88), "Soft Puff": (0.81, 0.97),
+                  "Soft Sip": (0.66, 0.97)}
+    for label, (low, high) in documented.items():
+        assert (round(event.loc[label, "low"], 2), round(event.loc[label, "high"], 2)) == (low, high), label
+    # the fixed-rate image does not depend on the drift at all
+    drifting = PopulationSection(**PILOT_RANGES)
+    pd.testing.assert_frame_equal(
+        diagonal_image(independent, INTERFACE, "fixed_rate").drop(columns=["low_at", "high_at"]),
+        diagonal_image(drifting, INTERFACE, "fixed_rate").drop(columns=["low_at", "high_at"]))
 
 
 @pytest.mark.skipif(not SHARED_CALIBRATION.is_dir(),
@@ -171,20 +213,3 @@ def test_event_driven_tidy_logs_round_trip_as_the_ciaa_variant(tmp_path: Path) -
     assert again is not None and again.variant == "ciaa"
     np.testing.assert_array_equal(again.stream_codes, session.stream_codes)
     np.testing.assert_allclose(estimate_distortion(again).table, estimate_distortion(session).table)
-
-
-def test_the_pilot_ranges_image_is_the_documented_one() -> None:
-    # the table in PopulationSection's docstring (rounded to 2 decimals): the ranges the pilots'
-    # logs alone gave, before the soft levels were widened
-    pilots = PopulationSection(soft_puff_level=(0.05, 0.16), soft_sip_level=(0.05, 0.24))
-    documented = {
-        "fixed_rate": {"Hard Puff": (0.81, 0.97), "Hard Sip": (0.92, 0.97), "Soft Puff": (0.78, 0.97),
-                       "Soft Sip": (0.63, 0.97)},
-        "event_driven": {"Hard Puff": (0.69, 0.87), "Hard Sip": (0.69, 0.88), "Soft Puff": (0.81, 0.97),
-                         "Soft Sip": (0.66, 0.97)},
-    }
-    for stream, labels in documented.items():
-        image = diagonal_image(pilots, INTERFACE, stream).set_index("label")
-        for label, (low, high) in labels.items():
-            assert (round(image.loc[label, "low"], 2), round(image.loc[label, "high"], 2)) == (low, high), \
-                (stream, label)

@@ -200,8 +200,10 @@ class SimulatedPerson:
         self.hold_target = 0.0
         self.hold_direction = 0.0
         self.blow = np.zeros(0)
+        self.blow_normals = np.zeros(0)
         self.blow_pos = 0
         self.blow_held = 0
+        self.last_normal = 0.0  # the deviation of the blow's last sample, where a held blow drifts on from
         self.last_action = -1
         self.resume_action = -1
         self.previous_pose: tuple[float, float, float] | None = None
@@ -229,6 +231,7 @@ class SimulatedPerson:
             self.blow_held = 0
             return NO_INPUT, 0.0
         pressure = float(self.blow[self.blow_pos])
+        self.last_normal = float(self.blow_normals[self.blow_pos])
         self.blow_pos += 1
         self.blow_held += 1
         return intended, pressure
@@ -336,7 +339,9 @@ class SimulatedPerson:
             self.hold_target = self.next_mark(coordinate, self.hold_direction, self.hold_axis)
         start = self.blow_held if continuing else 0
         self.blow_held = start
-        self.blow = p.pressures(label, self.hold_left, self.rng, start=start)
+        self.blow_normals = p.drift_normals(self.hold_left, self.rng,
+                                            previous=self.last_normal if start > 0 else None)
+        self.blow = p.pressures_from_normals(label, self.blow_normals, start=start)
         self.blow_pos = 0
 
     def _release(self) -> None:

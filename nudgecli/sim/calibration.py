@@ -57,7 +57,13 @@ from nudgecli.sim.calibration_io import (
     requeue_consistent,
     silent_prompts,
 )
-from nudgecli.sim.participants import LABEL_SIGN, Participant, blow_pressures, participant_from_log
+from nudgecli.sim.participants import (
+    LABEL_SIGN,
+    Participant,
+    blow_pressures,
+    blows_drift_normals,
+    participant_from_log,
+)
 from nudgecli.store import write_json_atomic
 
 #: Action image -> (mode, task action), the study's table (DESIGN.md section 2.9).
@@ -397,9 +403,9 @@ def simulate_distortion_session(participant: Participant, calibration: Calibrati
     shown ``prompt_s`` and followed by ``blank_s`` blank. The participant starts blowing the
     prompted label a log-normal reaction delay after the prompt and blows until it is cleared
     (resting in the blank). The stream is sampled at ``rate_hz`` from a random phase; a blow's
-    samples follow the participant's pressure model (onset ramp, level, spread; one normal draw
-    for the whole stream) and are labelled by the interface thresholds. As in the study, a prompt
-    that got no input (the delay outlasted it) is appended again at the end.
+    samples follow the participant's pressure model (onset ramp, level, spread, drift within each
+    blow; one normal draw for the whole stream) and are labelled by the interface thresholds. As
+    in the study, a prompt that got no input (the delay outlasted it) is appended again at the end.
 
     Draws, in order: the rounds' orders ``(R, 4)``, one normal per prompt (delays; again for
     repeated prompts), the stream phase, one normal per stream sample.
@@ -444,10 +450,11 @@ def simulate_distortion_session(participant: Participant, calibration: Calibrati
     ramp = participant.onset_ramp_samples
     fractions = np.where(position < ramp, (position + 1.0) / (ramp + 1.0), 1.0)
     normals = rng.standard_normal(n_samples)
+    deviations = blows_drift_normals(normals[sample_index], lengths, participant.drift_correlation)
     pressure = np.zeros(n_samples)
     pressure[sample_index] = blow_pressures(np.abs(participant.pressure_level[sample_label]),
                                             participant.pressure_spread[sample_label],
-                                            LABEL_SIGN[sample_label], fractions, normals[sample_index])
+                                            LABEL_SIGN[sample_label], fractions, deviations)
     codes = label_pressure(pressure, interface.soft_threshold, interface.hard_threshold,
                            interface.zero_threshold)
     prompt_times = np.column_stack([starts, blank_starts]).ravel()

@@ -6,13 +6,20 @@ estimated from a real person's calibration log (:func:`participant_from_log`).
 
 Pressure model (per 10 Hz sample of a blow with intended label ``phi_i``)::
 
-    magnitude_j = clip(f_j * (level[phi_i] + spread[phi_i] * z_j), 0, 1),   z_j ~ N(0, 1) iid
+    magnitude_j = clip(f_j * (level[phi_i] + spread[phi_i] * z_j), 0, 1)
     pressure_j  = sign(phi_i) * magnitude_j        (puff negative, sip positive)
     f_j = (j + 1) / (k + 1) for the first k = onset_ramp_samples samples of the blow, else 1
+    z_0 = e_0,  z_j = rho * z_{j-1} + sqrt(1 - rho^2) * e_j,   e_j ~ N(0, 1) iid
 
 so a blow never crosses to the other side (a draw past zero reads as no input), hard blows
 saturate at 1 like the real sensor, and the onset ramp reproduces the ramp-through soft and
-deadband samples the pilot logs show at the start of hard blows. The driver's thresholds
+deadband samples the pilot logs show at the start of hard blows. The deviations ``z`` drift
+within a blow (an AR(1) process with lag-1 correlation ``rho = drift_correlation``, one per
+participant; :func:`drift_normals`): real pressure wanders slowly (the pilots' plateaus have
+lag-1 correlations of 0.75-0.98 at 10 Hz), it does not jump independently from tick to tick.
+Each sample's marginal is still ``N(0, 1)``, so the per-sample label probabilities, and with them
+the fixed-rate calibration tables, do not depend on ``rho``; what depends on it is how often
+the pressure *changes*, which is what an event-driven device counts. The driver's thresholds
 (:func:`nudgecli.model.interface.label_pressure`) turn pressures into labels, so soft-to-hard
 confusions, deadbands and unintended mode switches emerge from the physiology.
 
@@ -22,6 +29,7 @@ modes ``M = 3`` (see :mod:`nudgecli.model.interface`).
 
 from __future__ import annotations
 
+import itertools
 import json
 from collections.abc import Mapping, Sequence
 from dataclasses import MISSING, dataclass, field, fields
@@ -30,6 +38,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from scipy.signal import lfilter
 from scipy.special import ndtr, ndtri
 
 from nudgecli.config import InterfaceSection, PopulationSection
@@ -69,6 +78,10 @@ LOG_RAMP_SAMPLES = 2
 SATURATED_SPREAD = 0.05
 #: Fewest plateau samples a label needs for :func:`participant_from_log`.
 MIN_LOG_SAMPLES = 5
+#: Fewest pairs of consecutive unsaturated plateau samples to estimate a log's drift correlation.
+MIN_DRIFT_PAIRS = 20
+#: Largest drift correlation (1 would freeze the pressure for the whole blow).
+MAX_DRIFT_CORRELATION = 0.99
 
 Thresholds = InterfaceSection | tuple[float, float] | tuple[float, float, float]
 
@@ -94,6 +107,50 @@ def ramp_fractions(n: int, ramp_samples: int) -> np.ndarray:
     return np.where(j < ramp_samples, (j + 1.0) / (ramp_samples + 1.0), 1.0)
 
 
+def drift_normals(innovations: np.ndarray, correlation: float, previous: float | None = None) -> np.ndarray:
+    """The standard normal deviations of one blow's samples: an AR(1) drift with stationary marginals.
+
+    ``z_0 = e_0`` (or ``rho * previous + sqrt(1 - rho^2) * e_0`` when the blow continues from a
+    sample whose deviation was ``previous``) and ``z_j = rho * z_{j-1} + sqrt(1 - rho^2) * e_j``,
+    so every ``z_j`` is ``N(0, 1)`` and ``corr(z_j, z_{j+k}) = rho^k``. With ``rho = 0`` the
+    result is ``innovations`` itself.
+
+    Parameters
+    ----------
+    innovations
+        ``(n,)`` independent standard normal draws ``e``.
+    correlation
+        ``rho`` in ``[0, 1)``.
+    previous
+        The deviation of the sample just before this stretch of the same blow, or ``None`` for a
+        new blow.
+
+    Returns
+    -------
+    np.ndarray
+        ``(n,)`` deviations ``z``.
+    """
+    e = np.asarray(innovations, dtype=float)
+    if e.size == 0:
+        return e.copy()
+    rho = float(correlation)
+    scale = np.sqrt(1.0 - rho * rho)
+    first = e[0] if previous is None else rho * previous + scale * e[0]
+    rest = lfilter([scale], [1.0, -rho], e[1:], zi=[rho * first])[0] if e.size > 1 else np.zeros(0)
+    return np.r_[first, rest]
+
+
+def blows_drift_normals(innovations: np.ndarray, lengths: np.ndarray, correlation: float) -> np.ndarray:
+    """:func:`drift_normals` of consecutive blows: ``(sum(lengths),)`` innovations, a new blow per length."""
+    bounds = np.r_[0, np.cumsum(lengths)]
+    if bounds[-1] != len(innovations):
+        raise ValueError(f"lengths add up to {bounds[-1]}, not to the {len(innovations)} innovations")
+    if correlation == 0.0:
+        return np.asarray(innovations, dtype=float).copy()
+    return np.concatenate([np.zeros(0)] + [drift_normals(innovations[a:b], correlation)
+                                            for a, b in itertools.pairwise(bounds) if b > a])
+
+
 def blow_pressures(levels: np.ndarray, spreads: np.ndarray, signs: np.ndarray, fractions: np.ndarray,
                    normals: np.ndarray) -> np.ndarray:
     """Signed pressures of blow samples (the module's pressure model, vectorised).
@@ -107,7 +164,7 @@ def blow_pressures(levels: np.ndarray, spreads: np.ndarray, signs: np.ndarray, f
     fractions
         ``(N,)`` onset-ramp fraction of each sample (1 on the plateau).
     normals
-        ``(N,)`` standard normal draws.
+        ``(N,)`` standard normal deviations (:func:`drift_normals`).
 
     Returns
     -------
@@ -155,6 +212,9 @@ class Participant:
         The error rate their ``mapping`` was built with (spread evenly over the wrong labels).
     handover_idle_s
         Idle time after the first input of a turn with which they hand the turn over, seconds.
+    drift_correlation
+        Lag-1 correlation of their pressure's deviations from tick to tick within a blow
+        (:func:`drift_normals`; 0: independent samples).
     """
 
     index: int
@@ -172,6 +232,7 @@ class Participant:
     onset_ramp_samples: int = 0
     mapping_error: float = 0.0
     handover_idle_s: float = 1.5
+    drift_correlation: float = 0.0
     _mapping_cdf: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -191,6 +252,9 @@ class Participant:
             value.setflags(write=False)
             object.__setattr__(self, name, value)
         object.__setattr__(self, "onset_ramp_samples", int(self.onset_ramp_samples))
+        if not 0.0 <= self.drift_correlation <= MAX_DRIFT_CORRELATION:
+            raise ValueError(f"drift_correlation must lie in [0, {MAX_DRIFT_CORRELATION}], "
+                             f"got {self.drift_correlation}")
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Participant):
@@ -206,29 +270,49 @@ class Participant:
         """Draw ``phi_i ~ p(phi_i | a, m)`` from the participant's internal mapping (one uniform draw)."""
         return int(np.searchsorted(self._mapping_cdf[mode, action], rng.random(), side="right"))
 
-    def pressures(self, label: int, n: int, rng: np.random.Generator, start: int = 0) -> np.ndarray:
-        """The pressures of holding ``label`` for ``n`` samples (one normal draw of size ``n``).
+    def drift_normals(self, n: int, rng: np.random.Generator, previous: float | None = None) -> np.ndarray:
+        """``(n,)`` deviations of ``n`` samples of a blow (one normal draw of size ``n``; module function).
+
+        ``previous`` is the deviation of the blow's sample before these, or ``None`` for a new blow.
+        """
+        return drift_normals(rng.standard_normal(n), self.drift_correlation, previous)
+
+    def pressures_from_normals(self, label: int, normals: np.ndarray, start: int = 0) -> np.ndarray:
+        """The pressures of holding ``label`` with the given deviations (:meth:`drift_normals`).
 
         Parameters
         ----------
         label
             Intended interface label ``0..3``.
-        n
-            Number of 10 Hz samples.
+        normals
+            ``(n,)`` the samples' deviations.
         start
             Position of the first of these samples within the blow: 0 starts a new blow with the
-            onset ramp; a caller producing a blow one sample at a time passes the number of
-            samples already held, so only the blow's first ``onset_ramp_samples`` are ramped.
+            onset ramp; a caller producing a blow in pieces passes the number of samples already
+            held, so only the blow's first ``onset_ramp_samples`` are ramped.
 
         Returns
         -------
         np.ndarray
             ``(n,)`` signed pressures in ``[-1, 1]``.
         """
+        n = len(normals)
         fractions = ramp_fractions(start + n, self.onset_ramp_samples)[start:]
         ones = np.ones(n)
         return blow_pressures(abs(self.pressure_level[label]) * ones, self.pressure_spread[label] * ones,
-                              LABEL_SIGN[label] * ones, fractions, rng.standard_normal(n))
+                              LABEL_SIGN[label] * ones, fractions, normals)
+
+    def pressures(self, label: int, n: int, rng: np.random.Generator, start: int = 0) -> np.ndarray:
+        """The pressures of a new blow of ``label`` held ``n`` samples (one normal draw of size ``n``).
+
+        A shorthand for :meth:`pressures_from_normals` of :meth:`drift_normals`; ``start`` as there.
+
+        Returns
+        -------
+        np.ndarray
+            ``(n,)`` signed pressures in ``[-1, 1]``.
+        """
+        return self.pressures_from_normals(label, self.drift_normals(n, rng), start)
 
     def sample_code_probabilities(self, thresholds: Thresholds, fraction: float = 1.0) -> np.ndarray:
         """Per-sample probabilities of each stream code for a blow sample at ``fraction`` of the level.
@@ -405,7 +489,9 @@ def draw_participant(population: PopulationSection, index: int, rng: np.random.G
         reaction_log_sd=population.reaction_log_sd,
         onset_ramp_samples=ramp,
         mapping_error=error_rate,
-        handover_idle_s=_uniform(rng, population.handover_idle_s),  # last: earlier draws keep their values
+        handover_idle_s=_uniform(rng, population.handover_idle_s),
+        # last: the earlier draws keep the values they had before these fields existed
+        drift_correlation=_uniform(rng, population.drift_correlation),
     )
 
 
@@ -460,8 +546,8 @@ def censored_normal_fit(magnitudes: np.ndarray, ceiling: float = 1.0) -> tuple[f
     return float(ceiling + SATURATED_SPREAD * ndtri(fraction)), SATURATED_SPREAD
 
 
-def log_plateau_samples(session: DistortionSession) -> tuple[list[np.ndarray], np.ndarray]:
-    """The plateau pressure magnitudes of each intended label, and each prompt's onset delay.
+def log_plateau_samples(session: DistortionSession) -> tuple[list[list[np.ndarray]], np.ndarray]:
+    """The plateau pressure magnitudes of each intended label's blows, and each prompt's onset delay.
 
     For each prompt window (the estimator's windows, :func:`nudgecli.sim.calibration_io.distortion_windows`)
     the samples with non-zero pressure (``|p| >= ZERO_THRESHOLD``; "input stopped" frames excluded)
@@ -470,9 +556,9 @@ def log_plateau_samples(session: DistortionSession) -> tuple[list[np.ndarray], n
 
     Returns
     -------
-    tuple[list[np.ndarray], np.ndarray]
-        Per label a ``(n_label,)`` array of magnitudes; ``(n_prompts,)`` seconds from each prompt to
-        its first non-zero sample (``nan`` if none).
+    tuple[list[list[np.ndarray]], np.ndarray]
+        Per label, one array of plateau magnitudes per prompt (in stream order); ``(n_prompts,)``
+        seconds from each prompt to its first non-zero sample (``nan`` if none).
     """
     if np.all(np.isnan(session.stream_pressure)):
         raise DataError(f"{session.files.get('stream', 'stream')}: the stream holds no pressures; "
@@ -491,7 +577,41 @@ def log_plateau_samples(session: DistortionSession) -> tuple[list[np.ndarray], n
         blow = window[active & (np.sign(window) == LABEL_SIGN[label])]
         plateau = blow[LOG_ONSET_SAMPLES:len(blow) - LOG_RELEASE_SAMPLES]
         per_label[label].append(np.abs(plateau))
-    return [np.concatenate(chunks) if chunks else np.zeros(0) for chunks in per_label], onset
+    return per_label, onset
+
+
+def log_drift_correlation(blows: Sequence[Sequence[np.ndarray]], levels: np.ndarray, spreads: np.ndarray,
+                          ceiling: float = 1.0) -> float | None:
+    """The lag-1 correlation of a log's pressure deviations within blows (the model's ``drift_correlation``).
+
+    Each plateau sample's deviation is ``(magnitude - level) / spread`` with its label's fitted
+    level and spread; over every pair of consecutive samples of one blow that are both below the
+    ceiling (a saturated sample hides its deviation), ``rho = sum(x_j x_{j+1}) / sum(x_j^2)``,
+    clipped to ``[0, MAX_DRIFT_CORRELATION]``.
+
+    Parameters
+    ----------
+    blows
+        Per label, the plateau magnitudes of each blow (:func:`log_plateau_samples`).
+    levels, spreads
+        ``(F,)`` each label's fitted level and spread.
+
+    Returns
+    -------
+    float or None
+        The correlation, or ``None`` with fewer than ``MIN_DRIFT_PAIRS`` usable pairs.
+    """
+    products, squares, pairs = 0.0, 0.0, 0
+    for label, label_blows in enumerate(blows):
+        for blow in label_blows:
+            deviation = (np.asarray(blow, dtype=float) - levels[label]) / spreads[label]
+            usable = (blow[:-1] < ceiling - 1e-6) & (blow[1:] < ceiling - 1e-6)
+            products += float(np.sum(deviation[:-1][usable] * deviation[1:][usable]))
+            squares += float(np.sum(deviation[:-1][usable] ** 2))
+            pairs += int(usable.sum())
+    if pairs < MIN_DRIFT_PAIRS or squares <= 0:
+        return None
+    return float(np.clip(products / squares, 0.0, MAX_DRIFT_CORRELATION))
 
 
 def session_from_stream_frame(frame: pd.DataFrame) -> DistortionSession:
@@ -550,7 +670,9 @@ def participant_from_log(source: str | Path | DistortionSession | pd.DataFrame, 
     Per intended label, the plateau samples of :func:`log_plateau_samples` give the level and
     spread by :func:`censored_normal_fit` (robust quantile fit, valid under saturation at 1). The
     reaction delay is the median of the prompts' onset delays and ``reaction_log_sd`` the robust
-    (MAD) standard deviation of their logs; the onset ramp is ``LOG_RAMP_SAMPLES`` (the pilots').
+    (MAD) standard deviation of their logs; the onset ramp is ``LOG_RAMP_SAMPLES`` (the pilots');
+    the drift correlation is :func:`log_drift_correlation` (the population's midpoint when the log
+    has too few unsaturated pairs).
     Everything else (mapping, epsilon, turn habits) comes from ``template`` if given, else from the
     midpoints of the ``population`` ranges (default population if ``None``), with the true mapping
     at the midpoint error rate.
@@ -581,7 +703,8 @@ def participant_from_log(source: str | Path | DistortionSession | pd.DataFrame, 
                             "_joy_sip_puff.csv, or distortion_prompts.csv + distortion_stream.csv)")
         session = found
         where = str(source)
-    samples, onset = log_plateau_samples(session)
+    blows, onset = log_plateau_samples(session)
+    samples = [np.concatenate(label_blows) if label_blows else np.zeros(0) for label_blows in blows]
     levels = np.zeros(N_LABELS)
     spreads = np.zeros(N_LABELS)
     for label in range(N_LABELS):
@@ -591,6 +714,7 @@ def participant_from_log(source: str | Path | DistortionSession | pd.DataFrame, 
         levels[label], spreads[label] = censored_normal_fit(samples[label])
     delays = onset[np.isfinite(onset) & (onset > 0)]
     pop = population or PopulationSection()
+    drift = log_drift_correlation(blows, levels, spreads)
 
     def midpoint(bounds: tuple[float, float]) -> float:
         return 0.5 * (bounds[0] + bounds[1])
@@ -613,5 +737,6 @@ def participant_from_log(source: str | Path | DistortionSession | pd.DataFrame, 
     base.update(index=index, seed_key=f"log:{where}",
                 pressure_level=LABEL_SIGN * np.maximum(levels, 2 * ZERO_THRESHOLD),
                 pressure_spread=spreads, reaction_s=reaction, reaction_log_sd=log_sd,
-                onset_ramp_samples=LOG_RAMP_SAMPLES)
+                onset_ramp_samples=LOG_RAMP_SAMPLES,
+                drift_correlation=midpoint(pop.drift_correlation) if drift is None else drift)
     return Participant(**base)

@@ -37,7 +37,14 @@ from nudgecli.sim.calibration import (
     simulate_distortion_session,
     smooth_true_distortion,
 )
-from nudgecli.sim.participants import LABEL_IS_HARD, LABEL_SIGN, Participant, blow_pressures, ramp_fractions
+from nudgecli.sim.participants import (
+    LABEL_IS_HARD,
+    LABEL_SIGN,
+    Participant,
+    blow_pressures,
+    blows_drift_normals,
+    ramp_fractions,
+)
 
 #: The stream formats: the pilots' fixed 10 Hz stream, the sibling study's event-driven one.
 STREAMS = ("fixed_rate", "event_driven")
@@ -65,19 +72,20 @@ def sibling_calibration(calibration: CalibrationSection) -> CalibrationSection:
                                           "stream": "event_driven"})
 
 
-def _probe(label: int, level: float, spread: float, ramp: int) -> Participant:
+def _probe(label: int, level: float, spread: float, ramp: int, correlation: float = 0.0) -> Participant:
     """A participant whose ``label`` has ``level``/``spread`` (the other labels are irrelevant)."""
     levels = np.array([0.9, 0.9, 0.1, 0.1])
     spreads = np.full(N_LABELS, 0.05)
     levels[label], spreads[label] = level, spread
     return Participant(index=0, seed_key="probe", pressure_level=LABEL_SIGN * levels, pressure_spread=spreads,
                        mapping=np.full((3, 4, N_LABELS), 0.25), epsilon=0.0, rest_s=0.0, operate_s=1.0,
-                       action_pause_s=0.0, hard_blow_s=0.5, reaction_s=1.0, onset_ramp_samples=ramp)
+                       action_pause_s=0.0, hard_blow_s=0.5, reaction_s=1.0, onset_ramp_samples=ramp,
+                       drift_correlation=correlation)
 
 
 def expected_diagonal(label: int, level: float, spread: float, interface: InterfaceSection,
                       stream: str = "fixed_rate", ramp: int = 2, hold_samples: int = 25,
-                      event_step: float = 0.0109, seed: int = 0) -> float:
+                      event_step: float = 0.0109, seed: int = 0, correlation: float = 0.0) -> float:
     """The ``p(phi_m = phi_i | phi_i)`` the study's estimator converges to for one label's physiology.
 
     Parameters
@@ -98,6 +106,9 @@ def expected_diagonal(label: int, level: float, spread: float, interface: Interf
         averaged over :data:`EVENT_BLOWS` blows drawn from ``generator(seed, "expected_diagonal")``.
     hold_samples
         Ticks of one blow (a 4 s prompt minus a ~1.5 s reaction at 10 Hz: 25).
+    correlation
+        The drift correlation within a blow (``Participant.drift_correlation``). The fixed-rate
+        diagonal does not depend on it (each tick's label probabilities do not).
 
     Returns
     -------
@@ -113,9 +124,10 @@ def expected_diagonal(label: int, level: float, spread: float, interface: Interf
     fractions = np.tile(np.r_[ramp_fractions(hold_samples, ramp), 0.0], EVENT_BLOWS)  # each blow ends at zero
     normals = rng.standard_normal(fractions.size)
     blow = fractions > 0
+    deviations = blows_drift_normals(normals[blow], np.full(EVENT_BLOWS, hold_samples), correlation)
     pressure = np.zeros(fractions.size)
     pressure[blow] = blow_pressures(np.full(blow.sum(), level), np.full(blow.sum(), spread),
-                                    np.full(blow.sum(), LABEL_SIGN[label]), fractions[blow], normals[blow])
+                                    np.full(blow.sum(), LABEL_SIGN[label]), fractions[blow], deviations)
     pressure = np.r_[0.0, pressure]
     _, _, codes = event_driven_stream(np.arange(pressure.size) * 0.1, pressure, interface, event_step)
     counted = np.array([np.sum(codes == c) for c in (0, 1, 2, 3, 4, 5)], dtype=float)
@@ -127,17 +139,19 @@ def expected_diagonal(label: int, level: float, spread: float, interface: Interf
 
 def diagonal_image(population: PopulationSection, interface: InterfaceSection, stream: str = "fixed_rate",
                    hold_samples: int = 25, event_step: float = 0.0109) -> pd.DataFrame:
-    """The range of :func:`expected_diagonal` over a population's level, spread and ramp ranges.
+    """The range of :func:`expected_diagonal` over a population's level, spread, ramp and drift ranges.
 
-    Every corner of each label's (level, spread, ramp) box is evaluated, plus the midpoints of
-    level and spread (the diagonal is monotone in the level between thresholds, so the extremes
-    sit at the corners; the midpoints guard against a level range that straddles a threshold).
+    Every corner of each label's (level, spread, ramp, drift correlation) box is evaluated, plus
+    the midpoints of level, spread and drift (the diagonal is monotone in the level between
+    thresholds, so the extremes sit at the corners; the midpoints guard against a level range
+    that straddles a threshold). The fixed-rate diagonal does not depend on the drift, so it is
+    evaluated at the drift range's lower end only.
 
     Returns
     -------
     pd.DataFrame
-        One row per label: ``label``, ``stream``, ``low``, ``high`` and the (level, spread, ramp)
-        of each extreme.
+        One row per label: ``label``, ``stream``, ``low``, ``high`` and the (level, spread, ramp,
+        drift correlation) of each extreme.
     """
     levels = {0: population.hard_puff_level, 1: population.hard_sip_level, 2: population.soft_puff_level,
               3: population.soft_sip_level}
@@ -145,42 +159,72 @@ def diagonal_image(population: PopulationSection, interface: InterfaceSection, s
     for label in range(N_LABELS):
         spread_range = population.hard_spread if LABEL_IS_HARD[label] else population.soft_spread
         lo, hi = levels[label]
+        drift_lo, drift_hi = population.drift_correlation
+        drifts = ((drift_lo, 0.5 * (drift_lo + drift_hi), drift_hi) if stream == "event_driven"
+                  else (drift_lo,))
         grid = itertools.product((lo, 0.5 * (lo + hi), hi),
                                  (spread_range[0], 0.5 * sum(spread_range), spread_range[1]),
-                                 sorted(set(population.onset_ramp_samples)))
-        values = [(expected_diagonal(label, lv, sd, interface, stream, rp, hold_samples, event_step),
-                   lv, sd, rp) for lv, sd, rp in grid]
+                                 sorted(set(population.onset_ramp_samples)), drifts)
+        values = [(expected_diagonal(label, lv, sd, interface, stream, rp, hold_samples, event_step,
+                                     correlation=rho), lv, sd, rp, rho) for lv, sd, rp, rho in grid]
         low, high = min(values), max(values)
         rows.append({"label": LABELS[label], "stream": stream, "low": low[0], "high": high[0],
                      "low_at": low[1:], "high_at": high[1:]})
     return pd.DataFrame(rows)
 
 
-def soft_level_reaching(label: int, target: float, population: PopulationSection, interface: InterfaceSection,
-                        stream: str = "event_driven", grid: float = 0.01, ceiling: float = 1.0) -> float:
-    """The smallest soft level (on a ``grid``) at which a typical participant's diagonal reaches ``target``.
+def lowest_diagonal(label: int, level: float, population: PopulationSection, interface: InterfaceSection,
+                    stream: str = "event_driven") -> float:
+    """The lowest :func:`expected_diagonal` at ``level`` over the population's other ranges.
 
-    For a soft label the diagonal falls as the level rises towards the soft threshold. This
-    inverts :func:`expected_diagonal`: it returns the smallest level ``L`` (a multiple of ``grid``)
-    at which a participant with the middle of the population's soft spread range, and any of its
-    onset ramps, has a diagonal of at most ``target``. Used as the upper end of the level range,
-    it makes the lowest real diagonal a typical (not a corner) member of the population: with the
-    spread at its upper end the diagonal goes lower still.
+    The minimum over the ends of the label's spread range, the onset ramps and the ends of the
+    drift-correlation range (the diagonal is monotone in each at a fixed level).
+    """
+    spread_range = population.hard_spread if LABEL_IS_HARD[label] else population.soft_spread
+    grid = itertools.product(spread_range, sorted(set(population.onset_ramp_samples)),
+                             population.drift_correlation)
+    return min(expected_diagonal(label, level, spread, interface, stream, ramp, correlation=rho)
+               for spread, ramp, rho in grid)
+
+
+def level_range_covering(label: int, target: float, population: PopulationSection,
+                         interface: InterfaceSection,
+                         stream: str = "event_driven", grid: float = 0.01) -> tuple[float, float]:
+    """The narrowest extension of a label's level range whose participants reach a diagonal of ``target``.
+
+    For a soft label the diagonal falls as the level rises towards the soft threshold, so the
+    range's upper end is raised; for a hard label it falls as the level drops towards the hard
+    threshold (a saturated blow is silent in an event-driven stream, an unsaturated one near the
+    threshold spends its changes in the soft band and the deadband), so the lower end is lowered.
+    The new end is the first level on a ``grid`` (stepping outwards from the present end) at
+    which :func:`lowest_diagonal` is at most ``target``; a range that reaches ``target`` already
+    is returned as it is.
+
+    Returns
+    -------
+    tuple[float, float]
+        The label's level range.
 
     Raises
     ------
     ValueError
-        If ``label`` is not a soft label, or no level up to ``ceiling`` reaches ``target``.
+        If no level between the range and the threshold side's limit (1.5 for soft, 0 for hard)
+        reaches ``target``.
     """
-    if LABEL_IS_HARD[label]:
-        raise ValueError(f"{LABELS[label]} is not a soft label")
-    spread = 0.5 * sum(population.soft_spread)
-    ramps = sorted(set(population.onset_ramp_samples))
-    for step in range(1, round(ceiling / grid) + 1):
-        level = round(step * grid, 10)
-        if min(expected_diagonal(label, level, spread, interface, stream, rp) for rp in ramps) <= target:
-            return level
-    raise ValueError(f"no {LABELS[label]} level up to {ceiling} gives a diagonal of {target} or less")
+    bounds = {0: population.hard_puff_level, 1: population.hard_sip_level, 2: population.soft_puff_level,
+              3: population.soft_sip_level}[label]
+    lo, hi = bounds
+    end = hi if not LABEL_IS_HARD[label] else lo
+    direction = -1 if LABEL_IS_HARD[label] else 1
+    limit = 0.0 if LABEL_IS_HARD[label] else 1.5
+    step = 0
+    while True:
+        level = round(end + direction * step * grid, 10)
+        if (level - limit) * direction > 0:
+            raise ValueError(f"no {LABELS[label]} level beyond {end} gives a diagonal of {target} or less")
+        if lowest_diagonal(label, level, population, interface, stream) <= target:
+            return (level, hi) if LABEL_IS_HARD[label] else (lo, level)
+        step += 1
 
 
 def simulated_diagonals(config: ExperimentConfig, participants: int, seed: int) -> pd.DataFrame:
