@@ -25,8 +25,10 @@ from nudgecli.sim.calibration import estimate_distortion, event_driven_stream, s
 from nudgecli.sim.calibration_io import INPUT_STOPPED, requeue_consistent, silent_prompts
 from nudgecli.sim.real_population import (
     PILOT_DIAGONALS,
+    PILOT_EVENT_DIAGONALS,
     SIBLING_DIAGONAL_SPANS,
     _probe,
+    as_event_driven,
     coverage_table,
     diagonal_image,
     expected_diagonal,
@@ -213,3 +215,46 @@ def test_event_driven_tidy_logs_round_trip_as_the_ciaa_variant(tmp_path: Path) -
     assert again is not None and again.variant == "ciaa"
     np.testing.assert_array_equal(again.stream_codes, session.stream_codes)
     np.testing.assert_allclose(estimate_distortion(again).table, estimate_distortion(session).table)
+
+
+@pytest.mark.skipif(not SHARED_CALIBRATION.is_dir(),
+                    reason="the pilots' logs (../shared/data/calibration) are absent")
+def test_the_pilots_blows_counted_as_events_and_the_drifting_model_agree() -> None:
+    from nudgecli.sim.calibration_io import read_distortion_session
+    from nudgecli.sim.participants import participant_from_log
+
+    for pilot, values in PILOT_EVENT_DIAGONALS.items():
+        session = read_distortion_session(SHARED_CALIBRATION / pilot)
+        assert session is not None
+        converted = as_event_driven(session, INTERFACE)
+        assert converted.event_driven and converted.variant == "ciaa"
+        table = estimate_distortion(converted).table
+        for k, label in enumerate(LABELS):
+            assert table[k, k] == pytest.approx(values[label], abs=5e-4), (pilot, label)
+        # the model of this pilot (level, spread and drift estimated from the same log, never
+        # fitted to these values) predicts the hard-puff value; independent samples do not
+        person = participant_from_log(SHARED_CALIBRATION / pilot)
+        level, spread = abs(person.pressure_level[0]), person.pressure_spread[0]
+        drifting = expected_diagonal(0, level, spread, INTERFACE, "event_driven", ramp=2,
+                                     correlation=person.drift_correlation)
+        independent = expected_diagonal(0, level, spread, INTERFACE, "event_driven", ramp=2)
+        assert drifting == pytest.approx(values["Hard Puff"], abs=0.03), pilot
+        assert independent - values["Hard Puff"] > 0.09, pilot
+        with pytest.raises(ValueError, match="event-driven already"):
+            as_event_driven(converted, INTERFACE)
+
+
+def test_as_event_driven_counts_a_hand_made_session() -> None:
+    from nudgecli.sim.calibration_io import DistortionSession
+
+    # one Hard Sip prompt: 0, 0.05, 1.0, 1.0, 0 at 10 Hz -> levels 0, 5, 92, 92, 0 (step 0.0109)
+    times = np.arange(5) * 0.1 + 1.0
+    pressure = np.array([0.0, 0.05, 1.0, 1.0, 0.0])
+    session = DistortionSession(np.array([0.95, 1.6]), ("Hard Sip", ""), times,
+                                np.full(5, NO_INPUT), pressure, {"stream": "hand"})
+    converted = as_event_driven(session, INTERFACE)
+    # up 1..92 and down 91..1 (then the zero level and input stopped): 27 soft each way, the rest
+    # deadband or hard
+    assert np.sum(converted.stream_codes == SOFT_SIP) == 54
+    assert np.sum(np.isin(converted.stream_codes, [SIP_DEADBAND, HARD_SIP])) == 92 + 91 - 54
+    assert converted.stream_codes[-1] == INPUT_STOPPED

@@ -4,8 +4,10 @@ Two panels, one per stream format (the pilots' fixed 10 Hz stream; the sibling s
 event-driven stream). In each, per intended label, every simulated participant's fitted
 ``p(phi_m = phi_i | phi_i)`` is a dot (spread sideways so they do not hide each other), and the
 real people's values are drawn beside them: the sibling study's span as a gray bar, the pilots as
-black diamonds. Inputs are :func:`nudgecli.sim.real_population.simulated_diagonals` and
-:data:`~nudgecli.sim.real_population.PILOT_DIAGONALS` / ``SIBLING_DIAGONAL_SPANS``.
+black diamonds (in the event-driven panel: their own blows as that device would count them).
+Inputs are :func:`nudgecli.sim.real_population.simulated_diagonals` and
+:data:`~nudgecli.sim.real_population.PILOT_DIAGONALS` / ``PILOT_EVENT_DIAGONALS`` /
+``SIBLING_DIAGONAL_SPANS``.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ from matplotlib.figure import Figure
 from nudgecli.model.interface import LABELS
 from nudgecli.report.figures.output import save_figure
 from nudgecli.report.style import FULL_WIDTH_IN, OKABE_ITO, figure_style
-from nudgecli.sim.real_population import PILOT_DIAGONALS, SIBLING_DIAGONAL_SPANS
+from nudgecli.sim.real_population import PILOT_DIAGONALS, PILOT_EVENT_DIAGONALS, SIBLING_DIAGONAL_SPANS
 
 #: File stem of the figure.
 FIGURE_STEM = "population"
@@ -36,8 +38,8 @@ STREAM_TITLES = {
 
 def population_panel(simulated: pd.DataFrame, stream: str, *, ax: Axes | None = None) -> Axes:
     """One stream format: per intended label the simulated participants' fitted diagonals (dots,
-    spread sideways by rank) and the real people's beside them (the sibling study's span as a bar
-    for the event-driven stream, the pilots as diamonds for the fixed-rate one).
+    spread sideways by rank) and the real people's beside them (the pilots as diamonds; for the
+    event-driven stream also the sibling study's span as a bar).
 
     Parameters
     ----------
@@ -58,15 +60,15 @@ def population_panel(simulated: pd.DataFrame, stream: str, *, ax: Axes | None = 
         offsets = (rank / max(len(values) - 1, 1) - 0.5) * 0.15
         ax.scatter(k - 0.12 + offsets, values, s=7, color=OKABE_ITO["blue"], alpha=0.75,
                    linewidths=0, label="simulated participants" if k == 0 else None)
+        pilot_values = PILOT_DIAGONALS if stream == "fixed_rate" else PILOT_EVENT_DIAGONALS
         if stream == "event_driven":
             low, high = SIBLING_DIAGONAL_SPANS[label]
             ax.bar(k + 0.22, high - low, bottom=low, width=0.14, color="#BDBDBD", edgecolor="#4D4D4D",
                    linewidth=0.6, label="sibling study, 9 people (span)" if k == 0 else None)
-        else:
-            pilots = [values_of[label] for values_of in PILOT_DIAGONALS.values()]
-            ax.scatter(np.full(len(pilots), k + 0.22), pilots, s=16, marker="D",
-                       color=OKABE_ITO["black"], zorder=3,
-                       label="pilots (nudge fit of their logs)" if k == 0 else None)
+        pilots = [values_of[label] for values_of in pilot_values.values()]
+        ax.scatter(np.full(len(pilots), k + 0.22), pilots, s=16, marker="D", color=OKABE_ITO["black"],
+                   zorder=3, label=(("pilots (nudge fit of their logs)" if stream == "fixed_rate"
+                                     else "pilots' blows, counted as this device would") if k == 0 else None))
     ax.set_xticks(range(len(LABELS)), [label.replace(" ", "\n") for label in LABELS])
     ax.set_xlim(-0.6, len(LABELS) - 0.4)
     ax.set_ylim(-0.02, 1.02)

@@ -12,6 +12,8 @@ participants calibrated in its own format.
 
 - :data:`SIBLING_DIAGONAL_SPANS`: the nine sibling-study participants' spans (event-driven).
 - :data:`PILOT_DIAGONALS`: the pilots' diagonals, fitted by ``nudge fit`` from their logs (10 Hz).
+- :data:`PILOT_EVENT_DIAGONALS`: the same real blows counted as the event-driven device would
+  (:func:`as_event_driven`).
 - :func:`expected_diagonal`: the diagonal the estimator converges to for a physiology (exact label
   probabilities for the fixed-rate stream; expected message counts, by a seeded Monte-Carlo
   average over blows, for the event-driven one).
@@ -37,6 +39,7 @@ from nudgecli.sim.calibration import (
     simulate_distortion_session,
     smooth_true_distortion,
 )
+from nudgecli.sim.calibration_io import CIAA_VARIANT, DistortionSession
 from nudgecli.sim.participants import (
     LABEL_IS_HARD,
     LABEL_SIGN,
@@ -60,10 +63,41 @@ PILOT_DIAGONALS: dict[str, dict[str, float]] = {
     "andrewtest": {"Hard Puff": 0.933, "Hard Sip": 0.954, "Soft Puff": 0.965, "Soft Sip": 0.698},
     "deepaktest": {"Hard Puff": 0.903, "Hard Sip": 0.971, "Soft Puff": 0.971, "Soft Sip": 0.010},
 }
+#: The pilots' own 10 Hz pressure traces turned into the sibling study's event-driven stream
+#: (:func:`as_event_driven`) and fitted with the study's estimator: how the same real blows count
+#: in that format. A check of the pressure model's drift, which was estimated from the same logs
+#: but never fitted to these values.
+PILOT_EVENT_DIAGONALS: dict[str, dict[str, float]] = {
+    "andrewtest": {"Hard Puff": 0.713, "Hard Sip": 0.695, "Soft Puff": 0.965, "Soft Sip": 0.721},
+    "deepaktest": {"Hard Puff": 0.608, "Hard Sip": 0.687, "Soft Puff": 0.971, "Soft Sip": 0.282},
+}
 #: The sibling study's prompt-and-produce protocol: 4 s prompts, 1 s blank, event-driven stream.
 SIBLING_PROMPT_S, SIBLING_BLANK_S = 4.0, 1.0
 #: Blows averaged by :func:`expected_diagonal` for the event-driven stream.
 EVENT_BLOWS = 400
+
+
+def as_event_driven(session: DistortionSession, interface: InterfaceSection,
+                    event_step: float = 0.0109) -> DistortionSession:
+    """A fixed-rate distortion session's pressures as the sibling study's event-driven stream.
+
+    The session's pressure samples (missing ones read as zero) go through
+    :func:`nudgecli.sim.calibration.event_driven_stream`, so the result holds the messages the
+    sibling study's device would have sent for the same blows (with the pressure taken to move
+    linearly between samples); the prompts are kept.
+
+    Raises
+    ------
+    ValueError
+        If the session is event-driven already.
+    """
+    if session.event_driven:
+        raise ValueError("the session is event-driven already")
+    pressure = np.nan_to_num(session.stream_pressure, nan=0.0)
+    times, pressures, codes = event_driven_stream(session.stream_times, pressure, interface, event_step)
+    files = {**session.files, "stream": f"{session.files.get('stream', 'stream')} (as event-driven)"}
+    return DistortionSession(session.prompt_times, session.prompt_commands, times, codes, pressures, files,
+                             CIAA_VARIANT)
 
 
 def sibling_calibration(calibration: CalibrationSection) -> CalibrationSection:
