@@ -31,7 +31,9 @@ from nudgecli.sim.real_population import (
     as_event_driven,
     coverage_table,
     diagonal_image,
+    drift_range_covering,
     expected_diagonal,
+    highest_diagonal,
     level_range_covering,
     lowest_diagonal,
 )
@@ -94,18 +96,29 @@ def test_simulated_event_driven_sessions_requeue_prompts_without_input() -> None
 #: The level ranges the pilots' logs alone give (PopulationSection's docstring).
 PILOT_RANGES = {"hard_puff_level": (0.55, 1.10), "hard_sip_level": (0.80, 1.20),
                 "soft_puff_level": (0.05, 0.16), "soft_sip_level": (0.05, 0.24)}
+#: The pilots' two drift estimates.
+PILOT_DRIFT = (0.94, 0.99)
 LEVEL_FIELDS = ("hard_puff_level", "hard_sip_level", "soft_puff_level", "soft_sip_level")
 
 
-def test_the_derivation_of_the_level_ranges_and_the_paper_preset() -> None:
-    pilots = PopulationSection(**PILOT_RANGES)
+def test_the_derivation_of_the_ranges_and_the_paper_preset() -> None:
+    pilots = PopulationSection(**PILOT_RANGES, drift_correlation=PILOT_DRIFT)
+    # 1: the drift's lower end, for the top of the hard spans
+    tops = {0: SIBLING_DIAGONAL_SPANS["Hard Puff"][1], 1: SIBLING_DIAGONAL_SPANS["Hard Sip"][1]}
+    drift = drift_range_covering(tops, pilots, INTERFACE)
+    assert drift == (0.56, 0.99)  # the value PopulationSection's docstring derives
+    reached, short = (highest_diagonal(0, rho, pilots, INTERFACE) for rho in (0.56, 0.57))
+    assert reached >= tops[0] > short
+    assert drift_range_covering({0: 0.5}, pilots, INTERFACE) == PILOT_DRIFT  # reached already: unchanged
+    # 2: the level ranges, for the bottom of every span, with that drift range
+    pilots = pilots.model_copy(update={"drift_correlation": drift})
     derived = {field: level_range_covering(label, SIBLING_DIAGONAL_SPANS[LABELS[label]][0], pilots, INTERFACE)
                for label, field in enumerate(LEVEL_FIELDS)}
-    # the values PopulationSection's docstring derives: only the ends that miss move
     assert derived == {"hard_puff_level": (0.55, 1.10), "hard_sip_level": (0.60, 1.20),
-                       "soft_puff_level": (0.05, 0.17), "soft_sip_level": (0.05, 0.47)}
+                       "soft_puff_level": (0.05, 0.17), "soft_sip_level": (0.05, 0.42)}
     preset = load_experiment("paper").population
     assert {field: getattr(preset, field) for field in LEVEL_FIELDS} == derived
+    assert preset.drift_correlation == drift
     # tight: one grid step less does not reach the lowest real value
     for label, field in enumerate(LEVEL_FIELDS):
         target = SIBLING_DIAGONAL_SPANS[LABELS[label]][0]
@@ -125,7 +138,7 @@ def test_the_default_population_image_is_the_documented_one() -> None:
     documented = {
         "fixed_rate": {"Hard Puff": (0.81, 0.97), "Hard Sip": (0.85, 0.97), "Soft Puff": (0.77, 0.97),
                        "Soft Sip": (0.05, 0.97)},
-        "event_driven": {"Hard Puff": (0.50, 0.79), "Hard Sip": (0.54, 0.79), "Soft Puff": (0.79, 0.97),
+        "event_driven": {"Hard Puff": (0.50, 0.84), "Hard Sip": (0.54, 0.83), "Soft Puff": (0.79, 0.97),
                          "Soft Sip": (0.30, 0.97)},
     }
     images = {}
@@ -136,10 +149,7 @@ def test_the_default_population_image_is_the_documented_one() -> None:
             assert (round(image["low"], 2), round(image["high"], 2)) == (low, high), (stream, label)
     event, fixed = images["event_driven"], images["fixed_rate"]
     for label, (low, high) in SIBLING_DIAGONAL_SPANS.items():
-        assert event.loc[label, "low"] <= low, label
-        if label != "Hard Puff":  # the documented gap: the top of the sibling study's hard-puff span
-            assert event.loc[label, "high"] >= high, label
-    assert event.loc["Hard Puff", "high"] < SIBLING_DIAGONAL_SPANS["Hard Puff"][1]
+        assert event.loc[label, "low"] <= low and event.loc[label, "high"] >= high, label
     for pilot, values in PILOT_DIAGONALS.items():
         for label, value in values.items():
             if (pilot, label) == ("deepaktest", "Soft Sip"):
@@ -158,7 +168,7 @@ def test_without_drift_the_low_hard_diagonals_are_out_of_reach() -> None:
     for label, (low, high) in documented.items():
         assert (round(event.loc[label, "low"], 2), round(event.loc[label, "high"], 2)) == (low, high), label
     # the fixed-rate image does not depend on the drift at all
-    drifting = PopulationSection(**PILOT_RANGES)
+    drifting = PopulationSection(**PILOT_RANGES, drift_correlation=PILOT_DRIFT)
     pd.testing.assert_frame_equal(
         diagonal_image(independent, INTERFACE, "fixed_rate").drop(columns=["low_at", "high_at"]),
         diagonal_image(drifting, INTERFACE, "fixed_rate").drop(columns=["low_at", "high_at"]))

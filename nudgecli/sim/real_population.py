@@ -261,6 +261,55 @@ def level_range_covering(label: int, target: float, population: PopulationSectio
         step += 1
 
 
+def highest_diagonal(label: int, correlation: float, population: PopulationSection,
+                     interface: InterfaceSection, stream: str = "event_driven") -> float:
+    """The highest :func:`expected_diagonal` at a drift ``correlation`` over the other ranges.
+
+    The maximum over the label's level range (its ends and midpoint, as :func:`diagonal_image`),
+    the ends of its spread range and the onset ramps.
+    """
+    levels = {0: population.hard_puff_level, 1: population.hard_sip_level, 2: population.soft_puff_level,
+              3: population.soft_sip_level}[label]
+    spread_range = population.hard_spread if LABEL_IS_HARD[label] else population.soft_spread
+    grid = itertools.product((levels[0], 0.5 * sum(levels), levels[1]), spread_range,
+                             sorted(set(population.onset_ramp_samples)))
+    return max(expected_diagonal(label, level, spread, interface, stream, ramp, correlation=correlation)
+               for level, spread, ramp in grid)
+
+
+def drift_range_covering(targets: dict[int, float], population: PopulationSection,
+                         interface: InterfaceSection, stream: str = "event_driven",
+                         grid: float = 0.01) -> tuple[float, float]:
+    """The narrowest extension of the drift range whose participants reach the highest real diagonals.
+
+    Less drift means more pressure changes on an unsaturated plateau, where a hard blow's
+    changes count as hard, so a hard label's highest diagonal rises as the drift falls. The
+    range's lower end is lowered, on a ``grid``, to the first value at which
+    :func:`highest_diagonal` reaches every label's target; a range that reaches them already
+    is returned as it is.
+
+    Parameters
+    ----------
+    targets
+        Label index -> the highest real diagonal to reach.
+
+    Raises
+    ------
+    ValueError
+        If even independent samples (drift 0) do not reach a target.
+    """
+    lo, hi = population.drift_correlation
+    step = 0
+    while True:
+        rho = round(lo - step * grid, 10)
+        if rho < 0:
+            raise ValueError(f"no drift correlation down to 0 reaches {targets}")
+        if all(highest_diagonal(label, rho, population, interface, stream) >= target
+               for label, target in targets.items()):
+            return rho, hi
+        step += 1
+
+
 def simulated_diagonals(config: ExperimentConfig, participants: int, seed: int) -> pd.DataFrame:
     """Simulated participants' fitted diagonals, calibrated in both stream formats.
 
