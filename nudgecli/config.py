@@ -350,8 +350,12 @@ class BehaviourSection(Section):
     - ``after_autonomy``: ``replan`` acts from the state and mode the autonomy left (its mode
       change is kept unless the policy says otherwise); ``resume`` first repeats the task action
       they were doing before the autonomy's turn, as a person who ignores it would.
-    - ``max_hold_s``: the longest one command is held before deciding again (pushing against a
-      wall, or blending that never lets the robot reach the next cell centre).
+    - ``stall_s``: how long the robot may stand still under a held soft command before the person
+      notices, lets go and decides again with a new blow (a deadband reading, a dip to no input,
+      a move the world does not allow, a wall); 0: never, the command is held to ``max_hold_s``.
+      No data pin it: one second is a person's visual reaction with room to spare.
+    - ``max_hold_s``: the longest one command is held before deciding again (blending that never
+      lets the robot reach the next cell centre).
     - ``fine_position_tolerance`` / ``fine_heading_tolerance``: the per-axis error (units) and
       heading error (rad) a person accepts when fine positioning inside the goal's cell (inside
       the success tolerance).
@@ -363,6 +367,7 @@ class BehaviourSection(Section):
     lean_on_blending: bool = True
     release_when_dragged: bool = True
     after_autonomy: Literal["replan", "resume"] = "replan"
+    stall_s: Annotated[float, Field(ge=0)] = 1.0
     max_hold_s: PositiveFloat = 3.0
     fine_position_tolerance: PositiveFloat = 0.5
     fine_heading_tolerance: PositiveFloat = 0.15

@@ -246,3 +246,30 @@ def test_a_held_soft_blow_drifts_on_across_decisions() -> None:
     assert decisions >= 5  # a decision at every cell centre, each continuing the same blow
     # within the blow a step moves 0.02 * sqrt(2 * 0.01) = 0.0028 (sd); a fresh draw would move ~0.028
     assert np.max(np.abs(np.diff(pressures))) < 0.015
+
+
+@pytest.mark.parametrize("stall_steps", [0, 10])
+def test_a_robot_that_stands_still_is_noticed_after_the_stall_time(stall_steps: int) -> None:
+    """A soft command under which the robot does not move (a wall, a disallowed direction, a
+    deadband reading) is let go after ``stall_steps`` still steps and tried again with a new blow;
+    with 0 it is held for ``max_hold_s``."""
+    settings = BehaviourSettings(dt=DT, rest_jitter=0.0, operate_jitter=0.0, pause_jitter=0.0,
+                                 hard_blow_jitter=0.0, stall_steps=stall_steps, max_hold_steps=30)
+    person = person_with(settings=settings, pause_s=0.2)
+    person.start_turn(after_autonomy=False)
+    view = View(13.5, 7.1, 0.0, 0)  # never moved by the test: the robot stands still
+    labels = [person.next_input(view)[0] for _ in range(40)]
+    if stall_steps:
+        # steps 1..10 see a robot that did not move: the hold ends at step 10 (1 s of standing still)
+        assert labels[:10] == [SOFT_PUFF] * 10
+        assert labels[10:12] == [NO_INPUT] * 2 and labels[12] == SOFT_PUFF  # a 0.2 s release, a new blow
+    else:
+        assert labels == [SOFT_PUFF] * 40  # re-decided at max_hold_s, and the same blow goes on
+
+
+def test_the_stall_time_is_an_experiment_key() -> None:
+    from nudgecli.config import load_experiment
+
+    assert BehaviourSettings.from_config(load_experiment("paper")).stall_steps == 10  # 1 s at 10 Hz
+    off = load_experiment("paper", ["behaviour.stall_s=0"])
+    assert BehaviourSettings.from_config(off).stall_steps == 0

@@ -101,6 +101,7 @@ class BehaviourSettings:
     lean_on_blending: bool = True
     release_when_dragged: bool = True
     after_autonomy: Literal["replan", "resume"] = "replan"
+    stall_steps: int = 0
     max_hold_steps: int = 30
     fine_position_tolerance: float = 0.5
     fine_heading_tolerance: float = 0.15
@@ -115,7 +116,8 @@ class BehaviourSettings:
         dt = 1.0 / config.study.rate_hz
         return cls(dt=dt, decisions=b.decisions, lean_on_blending=b.lean_on_blending,
                    release_when_dragged=b.release_when_dragged,
-                   after_autonomy=b.after_autonomy, max_hold_steps=max(1, round(b.max_hold_s / dt)),
+                   after_autonomy=b.after_autonomy, stall_steps=round(b.stall_s / dt),
+                   max_hold_steps=max(1, round(b.max_hold_s / dt)),
                    fine_position_tolerance=b.fine_position_tolerance,
                    fine_heading_tolerance=b.fine_heading_tolerance, rest_jitter=b.rest_jitter,
                    operate_jitter=b.operate_jitter, pause_jitter=b.pause_jitter,
@@ -204,6 +206,7 @@ class SimulatedPerson:
         self.blow_pos = 0
         self.blow_held = 0
         self.last_normal = 0.0  # the deviation of the blow's last sample, where a held blow drifts on from
+        self.still_steps = 0  # steps the robot has stood still under the current soft hold
         self.last_action = -1
         self.resume_action = -1
         self.previous_pose: tuple[float, float, float] | None = None
@@ -270,6 +273,9 @@ class SimulatedPerson:
             return False  # a mode-switch blow lasts its planned duration
         if view.mode != self.hold_mode:
             return True  # the mode changed (an unintended switch): a person notices
+        if self._stalled(view):
+            self.release = True  # the robot stands still under their command: let go, try again
+            return True
         if self.hold_fine:
             return not self._in_goal_cell(view) or self._fine_action(view) != self.held_action
         if self.settings.decisions == "grid":
@@ -281,6 +287,15 @@ class SimulatedPerson:
             return True
         coordinate = (view.x, view.y, view.theta)[self.hold_axis]
         return mark_reached(coordinate, self.hold_target, self.hold_direction, self.hold_axis)
+
+    def _stalled(self, view: RobotView) -> bool:
+        """Whether the robot has now stood still for ``stall_steps`` steps of this soft hold."""
+        if self.settings.stall_steps <= 0 or self.previous_pose is None:
+            return False
+        pose = (view.x, view.y, view.theta)
+        still = all(abs(a - b) <= _MOTION_EPS for a, b in zip(pose, self.previous_pose, strict=True))
+        self.still_steps = self.still_steps + 1 if still else 0
+        return self.still_steps >= self.settings.stall_steps
 
     def _moving_against_intent(self, view: RobotView) -> bool:
         """The last step moved the robot along the commanded axis opposite to the direction of
@@ -328,6 +343,7 @@ class SimulatedPerson:
         self.held_label, self.held_action, self.hold_fine = label, action, fine
         self.hold_mode, self.hold_state = view.mode, view.state
         self.last_action = action
+        self.still_steps = 0
         if label in (HARD_PUFF, HARD_SIP):
             self.hold_left = max(1, round(p.hard_blow_s * self._jitter(s.hard_blow_jitter) / s.dt))
         else:
