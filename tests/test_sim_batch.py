@@ -48,7 +48,8 @@ def test_replicate_is_identical_with_1_and_2_workers_and_dask(tmp_path):
     distributed = pytest.importorskip("dask.distributed")
     serial = replicate("smoke", 3, tmp_path / "serial", seed=5)
     two = replicate("smoke", 3, tmp_path / "two", seed=5, workers=2)
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+    # two workers: each 2-participant study's layouts go to layout tasks and its plan to every worker
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=":0") as cluster:
         on_dask = replicate("smoke", 3, tmp_path / "dask", seed=5, scheduler=cluster.scheduler_address)
     assert_same_tables(serial, two)
@@ -58,6 +59,63 @@ def test_replicate_is_identical_with_1_and_2_workers_and_dask(tmp_path):
     assert rows["seed"].nunique() == 3
     assert rows.groupby("replication")["median_a"].apply(tuple).nunique() == 3
     assert (tmp_path / "serial" / "figures" / "forest.png").is_file()
+
+
+def test_layout_chunks_cover_the_layouts_in_order() -> None:
+    assert batch_module.layout_chunks(48, 16) == [(3 * k, 3 * k + 3) for k in range(16)]
+    assert batch_module.layout_chunks(10, 4) == [(0, 2), (2, 5), (5, 8), (8, 10)]
+    assert batch_module.layout_chunks(3, 8) == [(0, 1), (1, 2), (2, 3)]
+    assert batch_module.layout_chunks(5, 1) == [(0, 5)]
+
+
+def test_a_plan_assembled_from_layout_tasks_equals_the_built_one() -> None:
+    config = load_experiment("paper")
+    chunks = [batch_module.solve_layout_chunk(config, 11, a, b) for a, b in batch_module.layout_chunks(48, 5)]
+    built = StudyPlan.build(config, 11)
+    # assembled here from chunks, and by `nudge simulate --workers 3` in three processes
+    for assembled in (StudyPlan.assemble(config, 11, chunks), StudyPlan.build_on(config, 11, 3)):
+        assert len(assembled.solved) == len(built.solved) == 48
+        for mine, theirs in zip(assembled.solved, built.solved, strict=True):
+            for name in ("policy", "values", "p_a_given_sg"):
+                np.testing.assert_array_equal(getattr(mine, name), getattr(theirs, name))
+        pd.testing.assert_frame_equal(simulate_participant(assembled, 0).trials,
+                                      simulate_participant(built, 0).trials, check_exact=True)
+
+
+def test_a_study_as_big_as_the_pool_has_its_layouts_solved_once_and_sent(tmp_path, monkeypatch):
+    """With as many participants as workers, a study's layouts are solved in layout tasks (one
+    chunk per worker), its plan is broadcast before its participant tasks, and no worker builds
+    the plan itself; the tables equal a serial run's."""
+    from nudgecli.sim.executors import SerialExecutor
+
+    events: list[tuple[str, str]] = []
+
+    class TwoWorkers(SerialExecutor):
+        workers = 2
+
+        def submit(self, job):
+            events.append(("submit", job.func.__name__))
+            super().submit(job)
+
+        def broadcast(self, job):
+            events.append(("broadcast", job.func.__name__))
+            super().broadcast(job)
+
+    serial = replicate("smoke", 2, tmp_path / "serial", seed=5)
+    batch_module._PLANS.clear()
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("a worker built a plan that was to be sent to it")
+
+    monkeypatch.setattr(batch_module, "make_executor", lambda workers, client: TwoWorkers())
+    monkeypatch.setattr(batch_module.StudyPlan, "build", no_build)
+    shared = replicate("smoke", 2, tmp_path / "shared", seed=5)
+    assert_same_tables(serial, shared)
+    names = [name for _, name in events]
+    assert names.count("install_plan") == 2  # one broadcast per study
+    assert names.count("solve_layout_chunk") == 2 * 2  # two chunks per study, one per worker
+    first_participant = names.index("run_participant_task")
+    assert names.index("install_plan") < first_participant
 
 
 def test_a_participant_does_not_depend_on_how_many_others_there_are():

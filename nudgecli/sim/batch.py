@@ -14,10 +14,14 @@ make up the graph, all submitted to one executor:
 - an *analysis task* ``(study, n)``: the plan's statistics (:mod:`nudgecli.report.stats`, as
   ``nudge analyze``) of the first ``n`` participants, submitted as soon as they are done.
 
-Layouts and their solved goal MDPs (the :class:`~nudgecli.sim.study.StudyPlan`) are built once
-per worker and kept in a small cache keyed by what they depend on (:func:`layout_key`), never
-once per task: the process pool sends each worker the tasks of the studies it already holds,
-and on dask the tasks of a study are hinted to one worker (work stealing may still move them).
+Layouts and their solved goal MDPs (the :class:`~nudgecli.sim.study.StudyPlan`) are kept in a
+small cache in each worker, keyed by what they depend on (:func:`layout_key`), never built once
+per task: the process pool sends each worker the tasks of the studies it already holds, and on
+dask the tasks of a study are hinted to one worker (work stealing may still move them). A study
+with at least as many unfinished participants as there are workers would have every worker
+solve all its layouts at the start; its layouts are solved once instead, in chunks spread over
+the workers (*layout tasks*, :func:`nudgecli.sim.study.solve_layout_chunk`), and the assembled
+plan is sent to every worker (:func:`install_plan`) before its participant tasks.
 Every result is written by this process as an atomic part file (``tasks/``, ``analyses/``), so
 ``--resume`` finishes an interrupted batch without recomputing a finished task, and the tables
 assembled from the parts are the same for any executor and number of workers. The executors
@@ -42,6 +46,7 @@ import pyarrow.parquet as pq
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError, RunFolderError
+from nudgecli.model.mdp import SolvedLayout
 from nudgecli.report.metrics import trial_metrics
 from nudgecli.report.plans import AnalysisPlan
 from nudgecli.report.replication import analyse_replication
@@ -49,9 +54,12 @@ from nudgecli.rng import seed_sequence
 from nudgecli.sim.executors import HELD_AFFINITIES, Executor, Job, format_duration, make_executor
 from nudgecli.sim.study import (
     StudyPlan,
+    build_layouts,
     check_physiology_logs,
     connect_scheduler,
+    layout_chunks,
     simulate_participant,
+    solve_layout_chunk,
     tune_allocator,
 )
 from nudgecli.store import library_versions, utc_now, write_json_atomic, write_parquet_atomic
@@ -288,6 +296,19 @@ def cached_plan(config: ExperimentConfig, seed: int) -> StudyPlan:
     return dataclasses.replace(plan, config=config)
 
 
+def _keep_plan(key: str, plan: StudyPlan) -> None:
+    with _PLANS_LOCK:
+        _PLANS[key] = plan
+        _PLANS.move_to_end(key)
+        while len(_PLANS) > PLAN_CACHE_SIZE:
+            _PLANS.popitem(last=False)
+
+
+def install_plan(plan: StudyPlan) -> None:
+    """Put a study's plan, built elsewhere, into this process's cache (:func:`cached_plan` finds it)."""
+    _keep_plan(layout_key(plan.config, plan.seed), plan)
+
+
 def participant_metrics(plan: StudyPlan, index: int, analysis: AnalysisPlan) -> pd.DataFrame:
     """One participant's per-trial metrics under the analysis plan's definitions.
 
@@ -513,11 +534,26 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
             executor.submit(Job(analysis.key, run_analysis_task, (data, batch.plan, metrics)))
         return len(submitted)
 
+    def submit_participants(study: Study) -> int:
+        for i in sorted(remaining[study.key]):
+            executor.submit(Job(f"{study.key}-p{i:04d}", run_participant_task,
+                                (study.config, study.seed, i, batch.plan), affinity=study.layouts))
+        return len(remaining[study.key])
+
+    # layout tasks: job key -> (study, chunk); a study's finished chunks by index
+    layout_jobs: dict[str, tuple[str, int]] = {}
+    solved: dict[str, dict[int, list[SolvedLayout]]] = {}
     try:
         for study in graph.studies.values():
-            for i in sorted(remaining[study.key]):
-                executor.submit(Job(f"{study.key}-p{i:04d}", run_participant_task,
-                                    (study.config, study.seed, i, batch.plan), affinity=study.layouts))
+            if not shares_plan(study, len(remaining[study.key]), executor.workers):
+                in_flight += submit_participants(study)
+                continue
+            solved[study.key] = {}
+            chunks = layout_chunks(len(build_layouts(study.config, study.seed)), executor.workers)
+            for c, (start, stop) in enumerate(chunks):
+                key = f"{study.key}-layouts{c:03d}"
+                layout_jobs[key] = (study.key, c)
+                executor.submit(Job(key, solve_layout_chunk, (study.config, study.seed, start, stop)))
                 in_flight += 1
         in_flight += submit_ready()
         if progress:
@@ -526,6 +562,17 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
         while in_flight:
             job, result = executor.next_result()
             in_flight -= 1
+            if job.key in layout_jobs:  # a layout task: not a part of the batch's tables
+                study_key, chunk = layout_jobs.pop(job.key)
+                solved[study_key][chunk] = result
+                if not any(owner == study_key for owner, _ in layout_jobs.values()):
+                    study = graph.studies[study_key]
+                    parts = solved.pop(study_key)
+                    plan = StudyPlan.assemble(study.config, study.seed, [parts[c] for c in sorted(parts)])
+                    executor.broadcast(Job(f"{study_key}-plan", install_plan, (plan,),
+                                           affinity=study.layouts))
+                    in_flight += submit_participants(study)
+                continue
             if job.affinity is not None:  # a participant task
                 study_name, index = job.key.rsplit("-p", 1)
                 write_parquet_atomic(task_part(folder, study_name, int(index)), result)
@@ -540,6 +587,16 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
     finally:
         executor.close()
     return computed
+
+
+def shares_plan(study: Study, unfinished: int, workers: int) -> bool:
+    """Whether the study's layouts are solved in layout tasks and its plan sent to every worker.
+
+    Only where several workers would otherwise each solve all of them: a grid-world study
+    (the CIAA world has no MDPs to solve) with at least as many unfinished participant tasks as
+    there are workers, on more than one worker.
+    """
+    return workers > 1 and unfinished >= workers and study.config.world.kind != "ciaa"
 
 
 def point_table(batch: Batch) -> pd.DataFrame:

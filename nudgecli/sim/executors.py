@@ -1,7 +1,9 @@
 """Executors of a batch's tasks: in this process, on local worker processes, or on dask.
 
 All three take :class:`Job` objects with :meth:`submit` and give back ``(job, result)`` pairs, in
-the order they finish, with :meth:`next_result`; :meth:`close` ends them. The process pool is
+the order they finish, with :meth:`next_result`; :meth:`broadcast` runs a job once in every
+worker (to hand each the data a study's tasks share) before the jobs submitted after it, and its
+result is dropped; :meth:`close` ends them. ``workers`` is how many run at once. The process pool is
 this package's own (not ``concurrent.futures``), so that it can send each worker the tasks whose
 data it already holds: a worker gets, in order, a task without affinity, a task of an affinity
 it has served recently, else a task of the affinity the fewest workers hold. Its workers exit
@@ -14,8 +16,11 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import pickle
+import shutil
 import signal
 import sys
+import tempfile
 import time
 import traceback
 from collections import OrderedDict, deque
@@ -53,6 +58,13 @@ def execute(job: Job) -> Any:
     return job.func(*job.args)
 
 
+def run_pickled_job(path: str) -> Any:
+    """Run the job pickled in the file ``path`` (a broadcast job of the process pool)."""
+    with open(path, "rb") as handle:
+        job = pickle.load(handle)
+    return execute(job)
+
+
 class WorkerError(RuntimeError):
     """A task failed in a worker (the worker's traceback is the message)."""
 
@@ -60,11 +72,16 @@ class WorkerError(RuntimeError):
 class SerialExecutor:
     """Runs every job in this process, jobs without affinity first."""
 
+    workers = 1
+
     def __init__(self) -> None:
         self._queue: deque[Job] = deque()
 
     def submit(self, job: Job) -> None:
         (self._queue.appendleft if job.affinity is None else self._queue.append)(job)
+
+    def broadcast(self, job: Job) -> None:
+        execute(job)
 
     def next_result(self) -> tuple[Job, Any]:
         job = self._queue.popleft()
@@ -126,6 +143,9 @@ class ProcessExecutor:
         self._slots: list[_Slot] = []
         self._free: deque[Job] = deque()
         self._pending: OrderedDict[str, deque[Job]] = OrderedDict()
+        #: broadcast jobs (whose results are dropped): key -> [file, workers yet to run it]
+        self._broadcast: dict[str, list[Any]] = {}
+        self._spool: str | None = None  # where broadcast jobs wait for the workers to read them
         #: The largest worker's peak resident memory in MB, known after :meth:`close`.
         self.peak_rss_mb: float | None = None
         for _ in range(workers):
@@ -139,6 +159,34 @@ class ProcessExecutor:
     @property
     def pids(self) -> list[int]:
         return [slot.process.pid for slot in self._slots]
+
+    @property
+    def workers(self) -> int:
+        return len(self._slots)
+
+    def broadcast(self, job: Job) -> None:
+        """Send ``job`` to every worker now, ahead of any job dispatched later; a worker then counts
+        as holding its affinity.
+
+        The job is pickled once into a file and the workers get its path: a large job (a study's
+        plan) written into a pipe would block the parent while the worker, busy with its current
+        job, could block in turn sending that job's result back.
+        """
+        if self._spool is None:
+            self._spool = tempfile.mkdtemp(prefix="nudge-broadcast-")
+        path = os.path.join(self._spool, f"{len(self._broadcast):06d}.pickle")
+        with open(path, "wb") as handle:
+            pickle.dump(job, handle, protocol=pickle.HIGHEST_PROTOCOL)
+        self._broadcast[job.key] = [path, len(self._slots)]
+        small = Job(job.key, run_pickled_job, (path,), job.affinity)
+        for slot in self._slots:
+            slot.conn.send(small)
+            slot.inflight[job.key] = small
+            if job.affinity is not None:
+                slot.holds[job.affinity] = None
+                slot.holds.move_to_end(job.affinity)
+                while len(slot.holds) > HELD_AFFINITIES:
+                    slot.holds.popitem(last=False)
 
     def submit(self, job: Job) -> None:
         if job.affinity is None:
@@ -179,22 +227,28 @@ class ProcessExecutor:
                 slot.inflight[job.key] = job
 
     def next_result(self) -> tuple[Job, Any]:
-        self._fill()
-        busy = {slot.conn: slot for slot in self._slots if slot.inflight}
-        if not busy:
-            raise RuntimeError("no job to wait for")
-        conn = wait(list(busy))[0]
-        slot = busy[conn]  # type: ignore[index]
-        try:
-            status, key, payload = slot.conn.recv()
-        except (EOFError, OSError):
-            slot.process.join(timeout=1)
-            raise WorkerError(f"worker {slot.process.pid} died (exit code {slot.process.exitcode}) while "
-                              f"running {', '.join(slot.inflight)}") from None
-        job = slot.inflight.pop(key)
-        if status != "ok":
-            raise WorkerError(f"task {key} failed in a worker:\n{payload}")
-        return job, payload
+        while True:
+            self._fill()
+            busy = {slot.conn: slot for slot in self._slots if slot.inflight}
+            if not busy:
+                raise RuntimeError("no job to wait for")
+            conn = wait(list(busy))[0]
+            slot = busy[conn]  # type: ignore[index]
+            try:
+                status, key, payload = slot.conn.recv()
+            except (EOFError, OSError):
+                slot.process.join(timeout=1)
+                raise WorkerError(f"worker {slot.process.pid} died (exit code {slot.process.exitcode}) "
+                                  f"while running {', '.join(slot.inflight)}") from None
+            job = slot.inflight.pop(key)
+            if status != "ok":
+                raise WorkerError(f"task {key} failed in a worker:\n{payload}")
+            if key not in self._broadcast:
+                return job, payload
+            self._broadcast[key][1] -= 1
+            if self._broadcast[key][1] == 0:  # every worker has it: its file can go
+                with contextlib.suppress(OSError):
+                    os.remove(self._broadcast.pop(key)[0])
 
     def close(self) -> None:
         for slot in self._slots:
@@ -209,6 +263,9 @@ class ProcessExecutor:
                 slot.process.terminate()
                 slot.process.join(timeout=1)
             slot.conn.close()
+        if self._spool is not None:
+            shutil.rmtree(self._spool, ignore_errors=True)
+            self._spool = None
 
 
     def _farewell(self, slot: _Slot, deadline: float) -> None:
@@ -237,6 +294,8 @@ class DaskExecutor:
 
         self._client = client
         self._workers = sorted(client.scheduler_info().get("workers", {}))
+        #: Workers at the start (at least 1); the cluster may grow or shrink later.
+        self.workers = max(1, len(self._workers))
         self._hints: dict[str, str] = {}
         self._jobs: dict[str, Job] = {}
         self._done = as_completed()
@@ -257,6 +316,10 @@ class DaskExecutor:
             future = client.submit(job.func, *job.args, key=f"nudge-{job.key}", pure=False)
         self._jobs[future.key] = job
         self._done.add(future)
+
+    def broadcast(self, job: Job) -> None:
+        """Run ``job`` in every worker now (``Client.run``); a worker that joins later does not get it."""
+        self._client.run(job.func, *job.args)
 
     def next_result(self) -> tuple[Job, Any]:
         future = next(self._done)

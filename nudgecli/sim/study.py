@@ -9,6 +9,7 @@ the participants run serially, on local processes or on a dask cluster, in any o
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 import os
@@ -16,7 +17,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from multiprocessing import get_context
@@ -146,6 +147,23 @@ def solve_layouts(config: ExperimentConfig, layouts: list[StudyLayout]) -> list[
             for item in layouts]
 
 
+def layout_chunks(n_layouts: int, parts: int) -> list[tuple[int, int]]:
+    """``range(n_layouts)`` as at most ``parts`` contiguous ``(start, stop)`` chunks of near-equal size."""
+    parts = max(1, min(parts, n_layouts))
+    edges = [round(k * n_layouts / parts) for k in range(parts + 1)]
+    return [(a, b) for a, b in itertools.pairwise(edges) if b > a]
+
+
+def solve_layout_chunk(config: ExperimentConfig, seed: int, start: int, stop: int) -> list[SolvedLayout]:
+    """The study's layouts ``start:stop`` solved: one piece of a plan built in parallel."""
+    tune_allocator()
+    return solve_layouts(config, build_layouts(config, seed)[start:stop])
+
+
+def _solve_chunk(args: tuple[ExperimentConfig, int, int, int]) -> list[SolvedLayout]:
+    return solve_layout_chunk(*args)
+
+
 def path_layouts_frame(paths: dict[int, PathLayout]) -> pd.DataFrame:
     """``layouts.parquet`` of the CIAA world: one row per task layout with its path."""
     rows = []
@@ -197,6 +215,26 @@ class StudyPlan:
                        policies={k: optimal_policy(lay) for k, lay in paths.items()})
         layouts = build_layouts(config, seed)
         return cls(config=config, seed=seed, layouts=layouts, solved=solve_layouts(config, layouts))
+
+    @classmethod
+    def assemble(cls, config: ExperimentConfig, seed: int, chunks: Sequence[list[SolvedLayout]]) -> StudyPlan:
+        """The grid world's plan from :func:`solve_layout_chunk` results in chunk order (as :meth:`build`)."""
+        return cls(config=config, seed=seed, layouts=build_layouts(config, seed),
+                   solved=[solved for chunk in chunks for solved in chunk])
+
+    @classmethod
+    def build_on(cls, config: ExperimentConfig, seed: int, workers: int) -> StudyPlan:
+        """:meth:`build`, with the grid world's layouts solved by ``workers`` short-lived processes.
+
+        So a study on many workers does not wait for one process to solve every layout first.
+        """
+        if workers <= 1 or config.world.kind == "ciaa":
+            return cls.build(config, seed)
+        chunks = layout_chunks(len(build_layouts(config, seed)), workers)
+        with ProcessPoolExecutor(max_workers=len(chunks), mp_context=process_context(),
+                                 initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
+            solved = list(pool.map(_solve_chunk, [(config, seed, a, b) for a, b in chunks]))
+        return cls.assemble(config, seed, solved)
 
     def schedule(self, participant: int) -> list[TrialSpec]:
         """Participant ``participant``'s trials in order."""
@@ -518,7 +556,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     """:func:`run_study` once the folder's lock is held (``client``: the connected dask client, or None)."""
     mode = folder.prepare(config, seed, n, resume=resume, force=force)
     done = set(folder.completed_participants()) if mode == "resume" else set()
-    plan = StudyPlan.build(config, seed)
+    plan = StudyPlan.build_on(config, seed, workers if scheduler is None else 1)
     trials_per = plan.trials_per_participant()
     manifest: dict[str, Any] = folder.read_manifest() if mode == "resume" else {
         "experiment": config.experiment.name,
