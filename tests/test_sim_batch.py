@@ -48,8 +48,7 @@ def test_replicate_is_identical_with_1_and_2_workers_and_dask(tmp_path):
     distributed = pytest.importorskip("dask.distributed")
     serial = replicate("smoke", 3, tmp_path / "serial", seed=5)
     two = replicate("smoke", 3, tmp_path / "two", seed=5, workers=2)
-    # two workers: each 2-participant study's layouts go to layout tasks and its plan to every worker
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
                                   dashboard_address=":0") as cluster:
         on_dask = replicate("smoke", 3, tmp_path / "dask", seed=5, scheduler=cluster.scheduler_address)
     assert_same_tables(serial, two)
@@ -59,6 +58,27 @@ def test_replicate_is_identical_with_1_and_2_workers_and_dask(tmp_path):
     assert rows["seed"].nunique() == 3
     assert rows.groupby("replication")["median_a"].apply(tuple).nunique() == 3
     assert (tmp_path / "serial" / "figures" / "forest.png").is_file()
+
+
+def test_a_broadcast_never_reuses_the_file_of_one_still_being_read() -> None:
+    import pickle
+
+    from nudgecli.sim.executors import Job, ProcessExecutor
+
+    executor = ProcessExecutor(1)
+    try:
+        executor.broadcast(Job("a", int, ("1",)))
+        executor.broadcast(Job("b", int, ("2",)))
+        # "a" has come back from every worker (what next_result does then); "b" has not
+        os.remove(executor._broadcast.pop("a")[0])
+        executor.broadcast(Job("c", int, ("3",)))
+        files = {key: entry[0] for key, entry in executor._broadcast.items()}
+        assert files["b"] != files["c"]
+        for key, path in files.items():
+            with open(path, "rb") as handle:
+                assert pickle.load(handle).key == key
+    finally:
+        executor.close()
 
 
 def test_layout_chunks_cover_the_layouts_in_order() -> None:
@@ -83,9 +103,9 @@ def test_a_plan_assembled_from_layout_tasks_equals_the_built_one() -> None:
 
 
 def test_a_study_as_big_as_the_pool_has_its_layouts_solved_once_and_sent(tmp_path, monkeypatch):
-    """With as many participants as workers, a study's layouts are solved in layout tasks (one
-    chunk per worker), its plan is broadcast before its participant tasks, and no worker builds
-    the plan itself; the tables equal a serial run's."""
+    """A lone study with as many participants as workers has its layouts solved in layout tasks
+    (one chunk per worker), its plan broadcast before its participant tasks, and no worker
+    builds the plan itself; the tables equal a serial run's, on processes and on dask."""
     from nudgecli.sim.executors import SerialExecutor
 
     events: list[tuple[str, str]] = []
@@ -101,7 +121,7 @@ def test_a_study_as_big_as_the_pool_has_its_layouts_solved_once_and_sent(tmp_pat
             events.append(("broadcast", job.func.__name__))
             super().broadcast(job)
 
-    serial = replicate("smoke", 2, tmp_path / "serial", seed=5)
+    serial = replicate("smoke", 1, tmp_path / "serial", seed=5)
     batch_module._PLANS.clear()
 
     def no_build(*args, **kwargs):
@@ -109,13 +129,26 @@ def test_a_study_as_big_as_the_pool_has_its_layouts_solved_once_and_sent(tmp_pat
 
     monkeypatch.setattr(batch_module, "make_executor", lambda workers, client: TwoWorkers())
     monkeypatch.setattr(batch_module.StudyPlan, "build", no_build)
-    shared = replicate("smoke", 2, tmp_path / "shared", seed=5)
+    shared = replicate("smoke", 1, tmp_path / "shared", seed=5)
     assert_same_tables(serial, shared)
     names = [name for _, name in events]
-    assert names.count("install_plan") == 2  # one broadcast per study
-    assert names.count("solve_layout_chunk") == 2 * 2  # two chunks per study, one per worker
-    first_participant = names.index("run_participant_task")
-    assert names.index("install_plan") < first_participant
+    assert names.count("install_plan") == 1
+    assert names.count("solve_layout_chunk") == 2  # one chunk per worker
+    assert names.index("install_plan") < names.index("run_participant_task")
+    # two studies for two workers: each keeps its own worker, no plan is sent
+    events.clear()
+    monkeypatch.undo()
+    monkeypatch.setattr(batch_module, "make_executor", lambda workers, client: TwoWorkers())
+    replicate("smoke", 2, tmp_path / "two-studies", seed=5)
+    assert "install_plan" not in [name for _, name in events]
+    monkeypatch.undo()
+    distributed = pytest.importorskip("dask.distributed")
+    batch_module._PLANS.clear()
+    monkeypatch.setattr(batch_module.StudyPlan, "build", no_build)  # the workers share this process
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=":0") as cluster:
+        on_dask = replicate("smoke", 1, tmp_path / "dask", seed=5, scheduler=cluster.scheduler_address)
+    assert_same_tables(serial, on_dask)
 
 
 def test_a_participant_does_not_depend_on_how_many_others_there_are():

@@ -17,9 +17,10 @@ make up the graph, all submitted to one executor:
 Layouts and their solved goal MDPs (the :class:`~nudgecli.sim.study.StudyPlan`) are kept in a
 small cache in each worker, keyed by what they depend on (:func:`layout_key`), never built once
 per task: the process pool sends each worker the tasks of the studies it already holds, and on
-dask the tasks of a study are hinted to one worker (work stealing may still move them). A study
-with at least as many unfinished participants as there are workers would have every worker
-solve all its layouts at the start; its layouts are solved once instead, in chunks spread over
+dask the tasks of a study are hinted to one worker (work stealing may still move them). In a
+batch of fewer studies than workers, a study with at least as many unfinished participants as
+there are workers would have every worker solve all its layouts at the start; its layouts are
+solved once instead, in chunks spread over
 the workers (*layout tasks*, :func:`nudgecli.sim.study.solve_layout_chunk`), and the assembled
 plan is sent to every worker (:func:`install_plan`) before its participant tasks.
 Every result is written by this process as an atomic part file (``tasks/``, ``analyses/``), so
@@ -543,9 +544,10 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
     # layout tasks: job key -> (study, chunk); a study's finished chunks by index
     layout_jobs: dict[str, tuple[str, int]] = {}
     solved: dict[str, dict[int, list[SolvedLayout]]] = {}
+    busy = sum(1 for study in graph.studies.values() if remaining[study.key])
     try:
         for study in graph.studies.values():
-            if not shares_plan(study, len(remaining[study.key]), executor.workers):
+            if not shares_plan(study, len(remaining[study.key]), busy, executor.workers):
                 in_flight += submit_participants(study)
                 continue
             solved[study.key] = {}
@@ -589,14 +591,17 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
     return computed
 
 
-def shares_plan(study: Study, unfinished: int, workers: int) -> bool:
+def shares_plan(study: Study, unfinished: int, studies: int, workers: int) -> bool:
     """Whether the study's layouts are solved in layout tasks and its plan sent to every worker.
 
-    Only where several workers would otherwise each solve all of them: a grid-world study
-    (the CIAA world has no MDPs to solve) with at least as many unfinished participant tasks as
-    there are workers, on more than one worker.
+    Only where several workers would otherwise each solve all of them: a grid-world study (the
+    CIAA world has no MDPs to solve) with at least as many unfinished participant tasks as there
+    are workers, in a batch of fewer ``studies`` (with work left) than workers, so that the
+    study's tasks spread over most of them. With as many studies as workers, each study stays
+    on one or two workers (the pool sends a study's tasks to the workers that hold its plan),
+    and sending every plan to every worker would cost more than it saves.
     """
-    return workers > 1 and unfinished >= workers and study.config.world.kind != "ciaa"
+    return workers > 1 and unfinished >= workers and studies < workers and study.config.world.kind != "ciaa"
 
 
 def point_table(batch: Batch) -> pd.DataFrame:

@@ -146,6 +146,7 @@ class ProcessExecutor:
         #: broadcast jobs (whose results are dropped): key -> [file, workers yet to run it]
         self._broadcast: dict[str, list[Any]] = {}
         self._spool: str | None = None  # where broadcast jobs wait for the workers to read them
+        self._broadcasts = 0
         #: The largest worker's peak resident memory in MB, known after :meth:`close`.
         self.peak_rss_mb: float | None = None
         for _ in range(workers):
@@ -174,7 +175,8 @@ class ProcessExecutor:
         """
         if self._spool is None:
             self._spool = tempfile.mkdtemp(prefix="nudge-broadcast-")
-        path = os.path.join(self._spool, f"{len(self._broadcast):06d}.pickle")
+        self._broadcasts += 1  # a new name each time: an earlier file may still be being read
+        path = os.path.join(self._spool, f"{self._broadcasts:06d}.pickle")
         with open(path, "wb") as handle:
             pickle.dump(job, handle, protocol=pickle.HIGHEST_PROTOCOL)
         self._broadcast[job.key] = [path, len(self._slots)]
