@@ -223,14 +223,20 @@ class StudyPlan:
                    solved=[solved for chunk in chunks for solved in chunk])
 
     @classmethod
-    def build_on(cls, config: ExperimentConfig, seed: int, workers: int) -> StudyPlan:
-        """:meth:`build`, with the grid world's layouts solved by ``workers`` short-lived processes.
+    def build_on(cls, config: ExperimentConfig, seed: int, workers: int, client: Any = None) -> StudyPlan:
+        """:meth:`build`, with the grid world's layouts solved by ``workers`` short-lived processes,
+        or, given a dask ``client``, by the cluster's workers.
 
         So a study on many workers does not wait for one process to solve every layout first.
         """
+        if client is not None:
+            workers = max(1, len(client.scheduler_info().get("workers", {})))
         if workers <= 1 or config.world.kind == "ciaa":
             return cls.build(config, seed)
         chunks = layout_chunks(len(build_layouts(config, seed)), workers)
+        if client is not None:
+            futures = [client.submit(solve_layout_chunk, config, seed, a, b, pure=False) for a, b in chunks]
+            return cls.assemble(config, seed, client.gather(futures))
         with ProcessPoolExecutor(max_workers=len(chunks), mp_context=process_context(),
                                  initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
             solved = list(pool.map(_solve_chunk, [(config, seed, a, b) for a, b in chunks]))
@@ -556,7 +562,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     """:func:`run_study` once the folder's lock is held (``client``: the connected dask client, or None)."""
     mode = folder.prepare(config, seed, n, resume=resume, force=force)
     done = set(folder.completed_participants()) if mode == "resume" else set()
-    plan = StudyPlan.build_on(config, seed, workers if scheduler is None else 1)
+    plan = StudyPlan.build_on(config, seed, workers, client)
     trials_per = plan.trials_per_participant()
     manifest: dict[str, Any] = folder.read_manifest() if mode == "resume" else {
         "experiment": config.experiment.name,
