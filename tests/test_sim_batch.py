@@ -60,6 +60,24 @@ def test_replicate_is_identical_with_1_and_2_workers_and_dask(tmp_path):
     assert (tmp_path / "serial" / "figures" / "forest.png").is_file()
 
 
+def test_a_large_job_and_a_large_result_do_not_block_each_other() -> None:
+    # a 2 MB result coming back while a 2 MB job goes out: through the pipe both ends would wait
+    # for ever (run in a child Python, so a regression fails here instead of hanging the suite)
+    script = (
+        "from nudgecli.sim.executors import Job, ProcessExecutor\n"
+        "if __name__ == '__main__':\n"
+        "    ex = ProcessExecutor(1)\n"
+        "    ex.submit(Job('a', bytes, (2_000_000,)))\n"
+        "    ex.submit(Job('b', len, (b'y' * 2_000_000,)))\n"
+        "    results = {job.key: value for job, value in (ex.next_result(), ex.next_result())}\n"
+        "    ex.close()\n"
+        "    print(len(results['a']), results['b'])\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], env=ENV, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["2000000", "2000000"]
+
+
 def test_a_broadcast_never_reuses_the_file_of_one_still_being_read() -> None:
     import pickle
 

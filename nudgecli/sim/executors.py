@@ -35,6 +35,10 @@ from nudgecli.sim.study import die_with_parent, process_context
 HELD_AFFINITIES = 4
 #: Jobs each pool worker holds at once (one running, one queued), so it never waits for the parent.
 POOL_DEPTH = 2
+#: A pickled job larger than this goes to a pool worker through a file, not the pipe: a pipe holds
+#: 64 KiB on Linux, and a parent blocked writing a large job to a worker that is itself blocked
+#: writing a large result back would wait for ever.
+PIPE_JOB_BYTES = 32 * 1024
 
 
 @dataclass(frozen=True)
@@ -145,8 +149,9 @@ class ProcessExecutor:
         self._pending: OrderedDict[str, deque[Job]] = OrderedDict()
         #: broadcast jobs (whose results are dropped): key -> [file, workers yet to run it]
         self._broadcast: dict[str, list[Any]] = {}
-        self._spool: str | None = None  # where broadcast jobs wait for the workers to read them
-        self._broadcasts = 0
+        self._spool: str | None = None  # where large and broadcast jobs wait for the workers to read them
+        self._spooled_count = 0
+        self._spooled: dict[str, str] = {}  # key -> file of a large job in flight
         #: The largest worker's peak resident memory in MB, known after :meth:`close`.
         self.peak_rss_mb: float | None = None
         for _ in range(workers):
@@ -169,16 +174,10 @@ class ProcessExecutor:
         """Send ``job`` to every worker now, ahead of any job dispatched later; a worker then counts
         as holding its affinity.
 
-        The job is pickled once into a file and the workers get its path: a large job (a study's
-        plan) written into a pipe would block the parent while the worker, busy with its current
-        job, could block in turn sending that job's result back.
+        The job is pickled once into a file and the workers get its path (see
+        :data:`PIPE_JOB_BYTES`; a study's plan is about 19 MB).
         """
-        if self._spool is None:
-            self._spool = tempfile.mkdtemp(prefix="nudge-broadcast-")
-        self._broadcasts += 1  # a new name each time: an earlier file may still be being read
-        path = os.path.join(self._spool, f"{self._broadcasts:06d}.pickle")
-        with open(path, "wb") as handle:
-            pickle.dump(job, handle, protocol=pickle.HIGHEST_PROTOCOL)
+        path = self._spool_file(pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL))
         self._broadcast[job.key] = [path, len(self._slots)]
         small = Job(job.key, run_pickled_job, (path,), job.affinity)
         for slot in self._slots:
@@ -225,8 +224,24 @@ class ProcessExecutor:
                 job = self._pick(slot)
                 if job is None:
                     return
-                slot.conn.send(job)
+                data = pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL)
+                if len(data) <= PIPE_JOB_BYTES:
+                    slot.conn.send_bytes(data)
+                else:
+                    path = self._spool_file(data)
+                    self._spooled[job.key] = path
+                    slot.conn.send(Job(job.key, run_pickled_job, (path,), job.affinity))
                 slot.inflight[job.key] = job
+
+    def _spool_file(self, data: bytes) -> str:
+        """Write a pickled job to a new file of this executor's spool folder; its path."""
+        if self._spool is None:
+            self._spool = tempfile.mkdtemp(prefix="nudge-jobs-")
+        self._spooled_count += 1  # a new name each time: an earlier file may still be being read
+        path = os.path.join(self._spool, f"{self._spooled_count:06d}.pickle")
+        with open(path, "wb") as handle:
+            handle.write(data)
+        return path
 
     def next_result(self) -> tuple[Job, Any]:
         while True:
@@ -243,6 +258,9 @@ class ProcessExecutor:
                 raise WorkerError(f"worker {slot.process.pid} died (exit code {slot.process.exitcode}) "
                                   f"while running {', '.join(slot.inflight)}") from None
             job = slot.inflight.pop(key)
+            if key in self._spooled:
+                with contextlib.suppress(OSError):
+                    os.remove(self._spooled.pop(key))
             if status != "ok":
                 raise WorkerError(f"task {key} failed in a worker:\n{payload}")
             if key not in self._broadcast:
