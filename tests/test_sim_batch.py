@@ -87,10 +87,11 @@ def test_a_broadcast_never_reuses_the_file_of_one_still_being_read() -> None:
     try:
         executor.broadcast(Job("a", int, ("1",)))
         executor.broadcast(Job("b", int, ("2",)))
-        # "a" has come back from every worker (what next_result does then); "b" has not
-        os.remove(executor._broadcast.pop("a")[0])
+        # "a" has come back from its one worker (next_result's bookkeeping); "b" has not
+        executor._read_by_one("a")
+        assert "a" not in executor._spooled and "a" not in executor._broadcast
         executor.broadcast(Job("c", int, ("3",)))
-        files = {key: entry[0] for key, entry in executor._broadcast.items()}
+        files = {key: entry[0] for key, entry in executor._spooled.items()}
         assert files["b"] != files["c"]
         for key, path in files.items():
             with open(path, "rb") as handle:

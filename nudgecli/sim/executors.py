@@ -63,7 +63,7 @@ def execute(job: Job) -> Any:
 
 
 def run_pickled_job(path: str) -> Any:
-    """Run the job pickled in the file ``path`` (a broadcast job of the process pool)."""
+    """Run the job pickled in the file ``path`` (a large or broadcast job of the process pool)."""
     with open(path, "rb") as handle:
         job = pickle.load(handle)
     return execute(job)
@@ -147,11 +147,11 @@ class ProcessExecutor:
         self._slots: list[_Slot] = []
         self._free: deque[Job] = deque()
         self._pending: OrderedDict[str, deque[Job]] = OrderedDict()
-        #: broadcast jobs (whose results are dropped): key -> [file, workers yet to run it]
-        self._broadcast: dict[str, list[Any]] = {}
+        self._broadcast: set[str] = set()  # keys of broadcast jobs in flight (their results are dropped)
         self._spool: str | None = None  # where large and broadcast jobs wait for the workers to read them
         self._spooled_count = 0
-        self._spooled: dict[str, str] = {}  # key -> file of a large job in flight
+        #: jobs in the spool: key -> [file, workers yet to finish it]
+        self._spooled: dict[str, list[Any]] = {}
         #: The largest worker's peak resident memory in MB, known after :meth:`close`.
         self.peak_rss_mb: float | None = None
         for _ in range(workers):
@@ -177,17 +177,13 @@ class ProcessExecutor:
         The job is pickled once into a file and the workers get its path (see
         :data:`PIPE_JOB_BYTES`; a study's plan is about 19 MB).
         """
-        path = self._spool_file(pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL))
-        self._broadcast[job.key] = [path, len(self._slots)]
-        small = Job(job.key, run_pickled_job, (path,), job.affinity)
+        small = self._spooled_job(job, pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL), len(self._slots))
+        self._broadcast.add(job.key)
         for slot in self._slots:
             slot.conn.send(small)
             slot.inflight[job.key] = small
             if job.affinity is not None:
-                slot.holds[job.affinity] = None
-                slot.holds.move_to_end(job.affinity)
-                while len(slot.holds) > HELD_AFFINITIES:
-                    slot.holds.popitem(last=False)
+                self._hold(slot, job.affinity)
 
     def submit(self, job: Job) -> None:
         if job.affinity is None:
@@ -212,11 +208,17 @@ class ProcessExecutor:
         job = self._pending[key].popleft()
         if not self._pending[key]:
             del self._pending[key]
+        self._hold(slot, key)
+        return job
+
+    @staticmethod
+    def _hold(slot: _Slot, key: str) -> None:
+        """Mirror the worker's plan cache: ``key`` is its most recent plan (the oldest beyond
+        :data:`HELD_AFFINITIES` dropped)."""
         slot.holds[key] = None
         slot.holds.move_to_end(key)
         while len(slot.holds) > HELD_AFFINITIES:
             slot.holds.popitem(last=False)
-        return job
 
     def _fill(self) -> None:
         for slot in self._slots:
@@ -228,20 +230,32 @@ class ProcessExecutor:
                 if len(data) <= PIPE_JOB_BYTES:
                     slot.conn.send_bytes(data)
                 else:
-                    path = self._spool_file(data)
-                    self._spooled[job.key] = path
-                    slot.conn.send(Job(job.key, run_pickled_job, (path,), job.affinity))
+                    slot.conn.send(self._spooled_job(job, data, 1))
                 slot.inflight[job.key] = job
 
-    def _spool_file(self, data: bytes) -> str:
-        """Write a pickled job to a new file of this executor's spool folder; its path."""
+    def _spooled_job(self, job: Job, data: bytes, readers: int) -> Job:
+        """Write ``job`` (pickled: ``data``) to a new file of the spool folder, to be read by
+        ``readers`` workers (then removed); the small job that runs it from there."""
         if self._spool is None:
             self._spool = tempfile.mkdtemp(prefix="nudge-jobs-")
         self._spooled_count += 1  # a new name each time: an earlier file may still be being read
         path = os.path.join(self._spool, f"{self._spooled_count:06d}.pickle")
         with open(path, "wb") as handle:
             handle.write(data)
-        return path
+        self._spooled[job.key] = [path, readers]
+        return Job(job.key, run_pickled_job, (path,), job.affinity)
+
+    def _read_by_one(self, key: str) -> None:
+        """One worker is done with the job ``key``: remove its spool file once all its readers are."""
+        entry = self._spooled.get(key)
+        if entry is None:
+            return
+        entry[1] -= 1
+        if entry[1] == 0:
+            del self._spooled[key]
+            self._broadcast.discard(key)
+            with contextlib.suppress(OSError):
+                os.remove(entry[0])
 
     def next_result(self) -> tuple[Job, Any]:
         while True:
@@ -258,17 +272,12 @@ class ProcessExecutor:
                 raise WorkerError(f"worker {slot.process.pid} died (exit code {slot.process.exitcode}) "
                                   f"while running {', '.join(slot.inflight)}") from None
             job = slot.inflight.pop(key)
-            if key in self._spooled:
-                with contextlib.suppress(OSError):
-                    os.remove(self._spooled.pop(key))
+            broadcast = key in self._broadcast
+            self._read_by_one(key)
             if status != "ok":
                 raise WorkerError(f"task {key} failed in a worker:\n{payload}")
-            if key not in self._broadcast:
+            if not broadcast:
                 return job, payload
-            self._broadcast[key][1] -= 1
-            if self._broadcast[key][1] == 0:  # every worker has it: its file can go
-                with contextlib.suppress(OSError):
-                    os.remove(self._broadcast.pop(key)[0])
 
     def close(self) -> None:
         for slot in self._slots:
