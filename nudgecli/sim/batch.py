@@ -289,25 +289,23 @@ def cached_plan(config: ExperimentConfig, seed: int) -> StudyPlan:
         plan = _PLANS.get(key)
         if plan is None:
             plan = StudyPlan.build(config, seed)
-            _PLANS[key] = plan
-            while len(_PLANS) > PLAN_CACHE_SIZE:
-                _PLANS.popitem(last=False)
-        else:
-            _PLANS.move_to_end(key)
+        _remember_plan(key, plan)
     return dataclasses.replace(plan, config=config)
 
 
-def _keep_plan(key: str, plan: StudyPlan) -> None:
-    with _PLANS_LOCK:
-        _PLANS[key] = plan
-        _PLANS.move_to_end(key)
-        while len(_PLANS) > PLAN_CACHE_SIZE:
-            _PLANS.popitem(last=False)
+def _remember_plan(key: str, plan: StudyPlan) -> None:
+    """Make ``plan`` the cache's most recent (dropping the oldest beyond ``PLAN_CACHE_SIZE``); the
+    caller holds ``_PLANS_LOCK``."""
+    _PLANS[key] = plan
+    _PLANS.move_to_end(key)
+    while len(_PLANS) > PLAN_CACHE_SIZE:
+        _PLANS.popitem(last=False)
 
 
 def install_plan(plan: StudyPlan) -> None:
     """Put a study's plan, built elsewhere, into this process's cache (:func:`cached_plan` finds it)."""
-    _keep_plan(layout_key(plan.config, plan.seed), plan)
+    with _PLANS_LOCK:
+        _remember_plan(layout_key(plan.config, plan.seed), plan)
 
 
 def participant_metrics(plan: StudyPlan, index: int, analysis: AnalysisPlan) -> pd.DataFrame:
