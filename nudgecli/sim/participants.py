@@ -462,15 +462,22 @@ def mapping_with_error(error_rate: float) -> np.ndarray:
     return np.broadcast_to(row_table, (N_MODES, N_ACTIONS, N_LABELS)).copy()
 
 
+def level_range(population: PopulationSection, label: int) -> tuple[float, float]:
+    """The population's range of the pressure level of intended ``label``."""
+    return {HARD_PUFF: population.hard_puff_level, HARD_SIP: population.hard_sip_level,
+            SOFT_PUFF: population.soft_puff_level, SOFT_SIP: population.soft_sip_level}[label]
+
+
+def spread_range(population: PopulationSection, label: int) -> tuple[float, float]:
+    """The population's range of the per-sample spread of intended ``label`` (hard or soft)."""
+    return population.hard_spread if LABEL_IS_HARD[label] else population.soft_spread
+
+
 def draw_participant(population: PopulationSection, index: int, rng: np.random.Generator,
                      key: str | None = None) -> Participant:
     """Draw one participant from the population ranges (a fixed sequence of draws from ``rng``)."""
-    level_bounds = {HARD_PUFF: population.hard_puff_level, HARD_SIP: population.hard_sip_level,
-                    SOFT_PUFF: population.soft_puff_level, SOFT_SIP: population.soft_sip_level}
-    magnitudes = np.array([_uniform(rng, level_bounds[label]) for label in range(N_LABELS)])
-    spread_bounds = [population.hard_spread if LABEL_IS_HARD[label] else population.soft_spread
-                     for label in range(N_LABELS)]
-    spreads = np.array([_uniform(rng, bounds) for bounds in spread_bounds])
+    magnitudes = np.array([_uniform(rng, level_range(population, label)) for label in range(N_LABELS)])
+    spreads = np.array([_uniform(rng, spread_range(population, label)) for label in range(N_LABELS)])
     error_rate = _uniform(rng, population.mapping_error)
     lo, hi = population.onset_ramp_samples
     ramp = int(rng.integers(lo, hi + 1))

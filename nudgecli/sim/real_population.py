@@ -46,7 +46,9 @@ from nudgecli.sim.participants import (
     Participant,
     blow_pressures,
     blows_drift_normals,
+    level_range,
     ramp_fractions,
+    spread_range,
 )
 
 #: The stream formats: the pilots' fixed 10 Hz stream, the sibling study's event-driven one.
@@ -187,17 +189,15 @@ def diagonal_image(population: PopulationSection, interface: InterfaceSection, s
         One row per label: ``label``, ``stream``, ``low``, ``high`` and the (level, spread, ramp,
         drift correlation) of each extreme.
     """
-    levels = {0: population.hard_puff_level, 1: population.hard_sip_level, 2: population.soft_puff_level,
-              3: population.soft_sip_level}
     rows = []
     for label in range(N_LABELS):
-        spread_range = population.hard_spread if LABEL_IS_HARD[label] else population.soft_spread
-        lo, hi = levels[label]
+        spreads = spread_range(population, label)
+        lo, hi = level_range(population, label)
         drift_lo, drift_hi = population.drift_correlation
         drifts = ((drift_lo, 0.5 * (drift_lo + drift_hi), drift_hi) if stream == "event_driven"
                   else (drift_lo,))
         grid = itertools.product((lo, 0.5 * (lo + hi), hi),
-                                 (spread_range[0], 0.5 * sum(spread_range), spread_range[1]),
+                                 (spreads[0], 0.5 * sum(spreads), spreads[1]),
                                  sorted(set(population.onset_ramp_samples)), drifts)
         values = [(expected_diagonal(label, lv, sd, interface, stream, rp, hold_samples, event_step,
                                      correlation=rho), lv, sd, rp, rho) for lv, sd, rp, rho in grid]
@@ -214,8 +214,7 @@ def lowest_diagonal(label: int, level: float, population: PopulationSection, int
     The minimum over the ends of the label's spread range, the onset ramps and the ends of the
     drift-correlation range (the diagonal is monotone in each at a fixed level).
     """
-    spread_range = population.hard_spread if LABEL_IS_HARD[label] else population.soft_spread
-    grid = itertools.product(spread_range, sorted(set(population.onset_ramp_samples)),
+    grid = itertools.product(spread_range(population, label), sorted(set(population.onset_ramp_samples)),
                              population.drift_correlation)
     return min(expected_diagonal(label, level, spread, interface, stream, ramp, correlation=rho)
                for spread, ramp, rho in grid)
@@ -245,9 +244,7 @@ def level_range_covering(label: int, target: float, population: PopulationSectio
         If no level between the range and the threshold side's limit (1.5 for soft, 0 for hard)
         reaches ``target``.
     """
-    bounds = {0: population.hard_puff_level, 1: population.hard_sip_level, 2: population.soft_puff_level,
-              3: population.soft_sip_level}[label]
-    lo, hi = bounds
+    lo, hi = level_range(population, label)
     end = hi if not LABEL_IS_HARD[label] else lo
     direction = -1 if LABEL_IS_HARD[label] else 1
     limit = 0.0 if LABEL_IS_HARD[label] else 1.5
@@ -268,10 +265,8 @@ def highest_diagonal(label: int, correlation: float, population: PopulationSecti
     The maximum over the label's level range (its ends and midpoint, as :func:`diagonal_image`),
     the ends of its spread range and the onset ramps.
     """
-    levels = {0: population.hard_puff_level, 1: population.hard_sip_level, 2: population.soft_puff_level,
-              3: population.soft_sip_level}[label]
-    spread_range = population.hard_spread if LABEL_IS_HARD[label] else population.soft_spread
-    grid = itertools.product((levels[0], 0.5 * sum(levels), levels[1]), spread_range,
+    levels = level_range(population, label)
+    grid = itertools.product((levels[0], 0.5 * sum(levels), levels[1]), spread_range(population, label),
                              sorted(set(population.onset_ramp_samples)))
     return max(expected_diagonal(label, level, spread, interface, stream, ramp, correlation=correlation)
                for level, spread, ramp in grid)
