@@ -63,6 +63,7 @@ from nudgecli.sim.participants import (
     blow_pressures,
     blows_drift_normals,
     participant_from_log,
+    ramp_fraction_at,
 )
 from nudgecli.store import write_json_atomic
 
@@ -447,8 +448,7 @@ def simulate_distortion_session(participant: Participant, calibration: Calibrati
     sample_index = np.concatenate([np.arange(f, f + n) for f, n in zip(first, lengths, strict=True)])
     sample_label = np.repeat(labels, lengths)
     position = np.concatenate([np.arange(n) for n in lengths])
-    ramp = participant.onset_ramp_samples
-    fractions = np.where(position < ramp, (position + 1.0) / (ramp + 1.0), 1.0)
+    fractions = ramp_fraction_at(position, participant.onset_ramp_samples)
     normals = rng.standard_normal(n_samples)
     deviations = blows_drift_normals(normals[sample_index], lengths, participant.drift_correlation)
     pressure = np.zeros(n_samples)

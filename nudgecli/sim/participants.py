@@ -103,8 +103,12 @@ def ramp_fractions(n: int, ramp_samples: int) -> np.ndarray:
 
     The first ``ramp_samples`` samples rise linearly, ``(j + 1) / (ramp_samples + 1)``; the rest are 1.
     """
-    j = np.arange(n)
-    return np.where(j < ramp_samples, (j + 1.0) / (ramp_samples + 1.0), 1.0)
+    return ramp_fraction_at(np.arange(n), ramp_samples)
+
+
+def ramp_fraction_at(position: np.ndarray, ramp_samples: int) -> np.ndarray:
+    """The onset-ramp fraction of samples at ``position`` (``(N,)``, 0: a blow's first sample)."""
+    return np.where(position < ramp_samples, (position + 1.0) / (ramp_samples + 1.0), 1.0)
 
 
 def drift_normals(innovations: np.ndarray, correlation: float, previous: float | None = None) -> np.ndarray:
