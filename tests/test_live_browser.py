@@ -85,8 +85,11 @@ def _calibrate(page) -> None:
             page.wait_for_timeout(50)
     assert answered >= 12
     held = None
-    while _state(page)["phase"] == "distortion":
-        prompt = _state(page)["calibration"]["prompt"]
+    while True:
+        state = _state(page)  # one reading: the phase may end between two
+        if state["phase"] != "distortion":
+            break
+        prompt = state["calibration"]["prompt"]
         key = LABEL_KEYS.get(prompt) if prompt else None
         if key != held:
             if held:
