@@ -311,6 +311,36 @@ class PopulationSection(Section):
         description="Lag-1 correlation, from one 10 Hz sample to the next within a blow, of the pressure's "
         "deviation from its level (0: independent samples). Does not change the per-sample label "
         "probabilities; it sets how often the pressure changes, which an event-driven device counts.")
+    planning_s: tuple[float, float] = Field(
+        default=(1.32, 2.75),
+        description="Looking at the layout and the mode before a trial's first command, s (behaviour.planning). "
+        "From the pilots' prompt -> blow onset medians (1.32, 1.45 s), the upper end extended to the "
+        "real people's highest first-command latency (HABITS.md: 1.80-2.75 s).")
+    event_reaction_s: tuple[float, float] = Field(
+        default=(0.50, 1.70),
+        description="Median delay from a visible event (the robot stopped, the mode changed, the turn came "
+        "back, a surprise) to acting on it, s (behaviour.event_reactions). From the pilots' 1.32-1.45 s, "
+        "extended to cover the real reactions (HABITS.md: stop -> switch 0.59-1.80, switch -> motion "
+        "0.83-1.59, each a reaction plus a ramp of about 0.1 s).")
+    event_reaction_log_sd: tuple[float, float] = Field(
+        default=(0.27, 0.42),
+        description="Per-person log-sd of those delays: the tail of their pauses (behaviour.pause_tail). The "
+        "pilots' blow onsets (0.27, 0.31) and key presses (0.42).")
+    hold_on_s: tuple[float, float] = Field(
+        default=(0.10, 0.32),
+        description="Blowing on after the robot stopped under a soft command, s (behaviour.hold_on). The "
+        "pilot still blowing when a prompt cleared released after a median 0.32 s; the lower end extended "
+        "to the real people's 0.1 s per stop (HABITS.md).")
+    hard_peak_s: tuple[float, float] = Field(
+        default=(0.10, 0.30),
+        description="A mode-switch pulse's time at its peak, s (behaviour.hard_pulses). The pilots held "
+        "prompted hard blows for seconds, so nothing there: the real time in the hard band per excursion "
+        "(HABITS.md: 0.10-0.30 s).")
+    offset_ramp_samples: tuple[int, int] = Field(
+        default=(0, 2),
+        description="Samples a hard pulse takes to fall from its peak. The pilots' hard blows fell in a median "
+        "1 (andrewtest) and 0 (deepaktest) samples; the upper end extended to 2 so a pulse (onset 1-3 + peak "
+        "+ offset) reaches the real people's longest hard blows (HABITS.md: 0.30-0.80 s whole).")
     physiology_logs: tuple[str, ...] = Field(
         default=(),
         description="Calibration folders with a p(phi_m | phi_i) session (study export or tidy format): "
@@ -325,7 +355,9 @@ class PopulationSection(Section):
             "onset_ramp_samples": (0, 20), "mapping_error": (0.0, 0.75), "epsilon": (0.0, 1.0),
             "rest_s": (0.0, 60.0), "operate_s": (0.1, 120.0), "action_pause_s": (0.0, 10.0),
             "hard_blow_s": (0.1, 5.0), "reaction_s": (0.0, 10.0), "handover_idle_s": (0.1, 30.0),
-            "drift_correlation": (0.0, 0.99),
+            "drift_correlation": (0.0, 0.99), "planning_s": (0.0, 60.0), "event_reaction_s": (0.0, 10.0),
+            "event_reaction_log_sd": (0.0, 2.0), "hold_on_s": (0.0, 5.0), "hard_peak_s": (0.0, 5.0),
+            "offset_ramp_samples": (0, 20),
         }.items():
             check_range(name, getattr(self, name), lo, hi)
         return self
@@ -361,6 +393,30 @@ class BehaviourSection(Section):
       the success tolerance).
     - ``*_jitter``: per-turn or per-action variation of the participant's habits: a duration ``d``
       is drawn as ``d * U(1 - jitter, 1 + jitter)``.
+
+    The operating habits measured from real sip-and-puff users (``shared/data/ciaa-task/HABITS.md``;
+    ``nudge habits``), each one key; ``false`` restores the earlier person:
+
+    - ``event_reactions``: a visible event (the robot stopped at a mark where the plan changes, the
+      mode changed, a hard pulse that switched nothing ended, the turn came back from the autonomy,
+      the robot stood still for ``stall_s``) is acted on after a reaction delay drawn per event
+      from the person's own log-normal (``population.event_reaction_s``); the next blow starts
+      then, or after their release pause if that ends later. ``false``: the same step, and turns
+      after the autonomy start after ``rest_s``.
+    - ``planning``: before a trial's first command the person looks at the layout and the mode for
+      their ``planning_s`` (``planning_jitter`` per trial); ``false``: ``rest_s``.
+    - ``hard_pulses``: a mode switch is a short pulse: their onset ramp, ``hard_peak_s`` at the
+      level, their offset ramp, then a full release; ``false``: a plateau of ``hard_blow_s`` with no
+      offset ramp.
+    - ``hold_on``: when the robot stops under their soft command at a mark where the plan changes
+      (a waypoint of a path), they keep blowing for ``hold_on_s`` (``hold_on_jitter`` per stop)
+      before they let go; ``false``: they let go in the step it stops.
+    - ``pause_tail``: reaction delays spread log-normally with the person's own
+      ``event_reaction_log_sd`` (a long tail of pauses that differs by person); ``false``: always
+      their median.
+    - ``notice_mode_errors``: an unintended mode switch or a motion the other way than meant under a
+      soft blow is noticed after a reaction delay (the blow goes on until then), then corrected by
+      their own plan; ``false``: noticed in the same step.
     """
 
     decisions: Literal["events", "grid"] = "events"
@@ -375,6 +431,14 @@ class BehaviourSection(Section):
     operate_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.3
     pause_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.5
     hard_blow_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.2
+    event_reactions: bool = True
+    planning: bool = True
+    hard_pulses: bool = True
+    hold_on: bool = True
+    pause_tail: bool = True
+    notice_mode_errors: bool = True
+    planning_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.2
+    hold_on_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.5
 
 
 class CalibrationSection(Section):

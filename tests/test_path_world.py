@@ -274,7 +274,8 @@ def ideal_participant() -> Participant:
     """Noise-free and epsilon 0; no onset ramp, so a hard blow is hard from its first sample."""
     return Participant(index=0, seed_key="ideal", pressure_level=np.array([-0.8, 0.8, -0.15, 0.15]),
                        pressure_spread=np.zeros(4), mapping=mapping_with_error(0.0), epsilon=0.0,
-                       rest_s=0.5, operate_s=3.0, action_pause_s=0.2, hard_blow_s=0.4, reaction_s=0.5)
+                       rest_s=0.5, operate_s=3.0, action_pause_s=0.2, hard_blow_s=0.4, reaction_s=0.5,
+                       planning_s=0.5, event_reaction_s=0.3, event_reaction_log_sd=0.0, hold_on_s=0.1)
 
 
 def test_an_ideal_participant_completes_every_layout_with_the_minimum_switches(ciaa):

@@ -240,6 +240,12 @@ class PathWorld:
                 theta, self.turned = self.layout.goal_theta, True
         return x, y, theta
 
+    def holds_still(self, x: float, y: float, theta: float, velocity: np.ndarray) -> bool:
+        if self.location >= len(self.layout.waypoints) - 1:
+            return True
+        mode, direction = self.allowed
+        return not float(velocity[mode]) * direction > 0  # masked: another mode, or the wrong way
+
     def _snap_location(self, x: float, y: float) -> tuple[float, float]:
         if self.location == self.layout.turn_waypoint and not self.turned:
             return x, y  # the next leg is entered only after the rotation

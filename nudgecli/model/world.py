@@ -250,6 +250,14 @@ class World(Protocol):
     def next_mark(self, coordinate: float, direction: float, axis: int) -> float:
         """The next mark a person can see along ``axis`` strictly beyond ``coordinate`` in ``direction``."""
 
+    def holds_still(self, x: float, y: float, theta: float, velocity: np.ndarray) -> bool:
+        """Whether a command of ``velocity`` ``(3,)`` leaves the robot at ``(x, y, theta)`` (a wall, a
+        direction the world does not allow); asks without moving anything."""
+
+
+#: A step short enough that a probe of the workspace's bounds moves the robot by a rounding's width.
+_PROBE_DT = 1e-6
+
 
 class GridWorld:
     """The paper's world: the open workspace (clamped to its bounds), the grid's discrete states,
@@ -312,6 +320,12 @@ class GridWorld:
 
     def next_mark(self, coordinate: float, direction: float, axis: int) -> float:
         return grid_next_mark(coordinate, direction, axis)
+
+    def holds_still(self, x: float, y: float, theta: float, velocity: np.ndarray) -> bool:
+        # only the workspace's bounds stop the robot; a turn always turns
+        if abs(float(velocity[2])) > 0.0:
+            return False
+        return clamp_position(x + float(velocity[0]) * _PROBE_DT, y + float(velocity[1]) * _PROBE_DT) == (x, y)
 
 
 def grid_next_mark(coordinate: float, direction: float, axis: int) -> float:

@@ -109,6 +109,14 @@ class BehaviourSettings:
     operate_jitter: float = 0.3
     pause_jitter: float = 0.5
     hard_blow_jitter: float = 0.2
+    event_reactions: bool = False
+    planning: bool = False
+    hard_pulses: bool = False
+    hold_on: bool = False
+    pause_tail: bool = False
+    notice_mode_errors: bool = False
+    planning_jitter: float = 0.2
+    hold_on_jitter: float = 0.5
 
     @classmethod
     def from_config(cls, config: ExperimentConfig) -> BehaviourSettings:
@@ -121,7 +129,10 @@ class BehaviourSettings:
                    fine_position_tolerance=b.fine_position_tolerance,
                    fine_heading_tolerance=b.fine_heading_tolerance, rest_jitter=b.rest_jitter,
                    operate_jitter=b.operate_jitter, pause_jitter=b.pause_jitter,
-                   hard_blow_jitter=b.hard_blow_jitter)
+                   hard_blow_jitter=b.hard_blow_jitter, event_reactions=b.event_reactions,
+                   planning=b.planning, hard_pulses=b.hard_pulses, hold_on=b.hold_on,
+                   pause_tail=b.pause_tail, notice_mode_errors=b.notice_mode_errors,
+                   planning_jitter=b.planning_jitter, hold_on_jitter=b.hold_on_jitter)
 
 
 def move_action(mode: int, error: float) -> int:
@@ -181,6 +192,7 @@ class SimulatedPerson:
                  goal_pose: np.ndarray, goal_cell: int, rng: np.random.Generator, *,
                  world: World | None = None, hands_over: bool = True) -> None:
         self.participant = participant
+        self.world = world
         self.next_mark = world.next_mark if world is not None else next_centre
         self.hands_over = hands_over
         self.settings = settings
@@ -211,6 +223,14 @@ class SimulatedPerson:
         self.resume_action = -1
         self.previous_pose: tuple[float, float, float] | None = None
         self.release = False  # the next action starts a new blow, whatever it is
+        # the operating habits (BehaviourSettings.event_reactions ... notice_mode_errors)
+        self.clock = 0  # steps of input given in this trial (the person's own sense of time)
+        self.react_at = -1  # step at which they act on the last visible event (-1: none pending)
+        self.notice_at = -1  # step at which they notice a surprise under their soft blow (-1: none)
+        self.hold_on_left = -1  # steps they blow on after the robot stopped at a mark (-1: not now)
+        self.seen_mode = -1  # the mode they last saw
+        self.switched = False  # the mode changed during the current hard blow
+        self.planned = False  # the trial's first turn has begun
 
     # --- the turn ---------------------------------------------------------------------------
 
@@ -218,7 +238,16 @@ class SimulatedPerson:
         """Rest first (drawn for this turn), then operate; resume the previous action if so inclined."""
         s, p = self.settings, self.participant
         self.phase = Phase.RESTING
-        self.rest_left = round(p.rest_s * self._jitter(s.rest_jitter) / s.dt)
+        if not self.planned and s.planning:
+            # the trial's start: they look at the layout and the mode before the first command
+            self.rest_left = round(p.planning_s * self._jitter(s.planning_jitter) / s.dt)
+        elif self.planned and after_autonomy and s.event_reactions:
+            self.rest_left = round(self._reaction() / s.dt)  # the turn came back: a visible event
+        else:
+            self.rest_left = round(p.rest_s * self._jitter(s.rest_jitter) / s.dt)
+        self.planned = True
+        self.react_at = self.notice_at = self.hold_on_left = -1
+        self.seen_mode = -1
         self.operate_left = max(1, round(p.operate_s * self._jitter(s.operate_jitter) / s.dt))
         self.pause_left = 0
         self._release()
@@ -230,6 +259,8 @@ class SimulatedPerson:
         pose = (view.x, view.y, view.theta)
         intended = self._intend(view)
         self.previous_pose = pose
+        self.seen_mode = view.mode
+        self.clock += 1
         if intended == NO_INPUT:
             self.blow_held = 0
             return NO_INPUT, 0.0
@@ -249,11 +280,20 @@ class SimulatedPerson:
             return NO_INPUT
         # OPERATING: the operating time counts from the first step of operating
         self.operate_left -= 1
+        self._see_mode(view)
         if self.pause_left > 0:  # releasing between two blows
             self.pause_left -= 1
             return NO_INPUT
-        if self.held_label != NO_INPUT and self.hold_left > 0 and not self._decision_due(view):
+        if self.hold_on_left > 0:  # the robot stopped at a mark: blowing on a little
+            self.hold_on_left -= 1
+            if self.hold_on_left > 0 and self.hold_left > 0:
+                return self._continue()
+            self.hold_on_left = -1
+            self.release = True  # then they let go and act on what they saw
+        elif self.held_label != NO_INPUT and self.hold_left > 0 and not self._decision_due(view):
             return self._continue()
+        if self.held_label in (HARD_PUFF, HARD_SIP) and not self.switched and self.settings.event_reactions:
+            self._saw_event()  # a mode-switch blow ended and the mode did not change: a visible event
         if self.operate_left < 0 and self.hands_over:
             self.phase = Phase.IDLE
             self._release()
@@ -264,6 +304,47 @@ class SimulatedPerson:
         self.hold_left -= 1
         return self.held_label
 
+    # --- what they see and when they act on it ----------------------------------------------
+
+    def _reaction(self) -> float:
+        """One reaction delay, s: drawn from their log-normal, or their median without the tail."""
+        p = self.participant
+        return p.event_reaction(self.rng) if self.settings.pause_tail else p.event_reaction_s
+
+    def _saw_event(self) -> None:
+        """A visible event now: they act on it after a reaction delay (the next blow starts then)."""
+        self.react_at = self.clock + round(self._reaction() / self.settings.dt)
+
+    def _see_mode(self, view: RobotView) -> None:
+        """The mode display changed since the last step: an event (their own switch, or a surprise)."""
+        if self.seen_mode < 0 or view.mode == self.seen_mode or not self.settings.event_reactions:
+            return
+        if self.held_label in (HARD_PUFF, HARD_SIP):
+            self.switched = True
+        self._saw_event()
+
+    def _surprise_noticed(self) -> bool:
+        """Something went wrong under their soft blow: noticed now, or after their reaction delay."""
+        if not self.settings.notice_mode_errors:
+            return True
+        if self.notice_at < 0:  # seen now (or when the mode display changed): they act after reacting
+            self.notice_at = (self.react_at if self.react_at >= 0
+                              else self.clock + round(self._reaction() / self.settings.dt))
+        if self.clock < self.notice_at:
+            return False
+        self.release = True  # they let go and correct it by their own plan
+        self.react_at = -1  # the reaction is spent: the correction follows their release pause
+        return True
+
+    def _robot_stops(self, view: RobotView) -> bool:
+        """Whether their held soft command leaves the robot standing where it is now (a waypoint
+        where the path turns, a wall): the world's own rule, as the person sees it next step."""
+        if self.world is None:
+            return False
+        velocity = interface.human_velocity(self.held_label, view.mode)
+        x, y, theta = view.x, view.y, view.theta
+        return self.world.holds_still(x, y, theta, velocity)
+
     # --- decisions --------------------------------------------------------------------------
 
     def _decision_due(self, view: RobotView) -> bool:
@@ -272,21 +353,34 @@ class SimulatedPerson:
         if label in (HARD_PUFF, HARD_SIP):
             return False  # a mode-switch blow lasts its planned duration
         if view.mode != self.hold_mode:
-            return True  # the mode changed (an unintended switch): a person notices
+            return self._surprise_noticed()  # the mode changed under their blow (an unintended switch)
+        if self.notice_at >= 0:
+            return self._surprise_noticed()  # a surprise seen earlier, not yet acted on
         if self._stalled(view):
             self.release = True  # the robot stands still under their command: let go, try again
+            if self.settings.event_reactions:
+                self._saw_event()
             return True
         if self.hold_fine:
             return not self._in_goal_cell(view) or self._fine_action(view) != self.held_action
         if self.settings.decisions == "grid":
             return view.state != self.hold_state
         if self._moving_against_intent(view):
-            return True  # the robot goes the other way than they meant: a person sees it
+            return self._surprise_noticed()  # the robot goes the other way than they meant
         if self.settings.release_when_dragged and self._blending_effect(view) < 0:
             self.release = True  # blending drags the robot away from their goal: let go
             return True
         coordinate = (view.x, view.y, view.theta)[self.hold_axis]
-        return mark_reached(coordinate, self.hold_target, self.hold_direction, self.hold_axis)
+        if not mark_reached(coordinate, self.hold_target, self.hold_direction, self.hold_axis):
+            return False
+        if self.settings.hold_on and self._robot_stops(view):
+            # the robot stops here under their blow: they see it stop and blow on a little first
+            s = self.settings
+            self.hold_on_left = max(1, round(self.participant.hold_on_s * self._jitter(s.hold_on_jitter) / s.dt))
+            if s.event_reactions:
+                self._saw_event()
+            return False
+        return True
 
     def _stalled(self, view: RobotView) -> bool:
         """Whether the robot has now stood still for ``stall_steps`` steps of this soft hold."""
@@ -330,12 +424,21 @@ class SimulatedPerson:
                       and view.mode == self.hold_mode and not self.release)
         self.release = False
         previous = self.held_label
+        if (s.event_reactions and not continuing and previous in (SOFT_PUFF, SOFT_SIP) and self.react_at < 0
+                and not self.hold_fine):
+            self._saw_event()  # the robot reached the mark where their plan changes: they let go here
         self._start_hold(view, label, action, fine, continuing)
         if not continuing and previous != NO_INPUT:
             # a new blow after another one: release first, for at least this one sample (so the
-            # driver sees the end of a hard blow and accepts the next switch)
-            self.pause_left = max(1, round(p.action_pause_s * self._jitter(s.pause_jitter) / s.dt)) - 1
+            # driver sees the end of a hard blow and accepts the next switch), and, where they saw
+            # something happen, until they have reacted to it
+            pause = max(1, round(p.action_pause_s * self._jitter(s.pause_jitter) / s.dt))
+            if self.react_at >= 0:
+                pause = max(pause, self.react_at - self.clock)
+            self.react_at = -1
+            self.pause_left = pause - 1
             return NO_INPUT
+        self.react_at = -1
         return self._continue()
 
     def _start_hold(self, view: RobotView, label: int, action: int, fine: bool, continuing: bool) -> None:
@@ -344,6 +447,17 @@ class SimulatedPerson:
         self.hold_mode, self.hold_state = view.mode, view.state
         self.last_action = action
         self.still_steps = 0
+        self.notice_at = self.hold_on_left = -1
+        self.switched = False
+        if label in (HARD_PUFF, HARD_SIP) and s.hard_pulses:
+            # a short pulse: onset ramp, peak, offset ramp, then a full release
+            peak = max(1, round(p.hard_peak_s * self._jitter(s.hard_blow_jitter) / s.dt))
+            self.hold_left = p.onset_ramp_samples + peak + p.offset_ramp_samples
+            self.blow_held = 0
+            self.blow_normals = p.drift_normals(self.hold_left, self.rng)
+            self.blow = p.pulse_pressures(label, self.blow_normals, peak)
+            self.blow_pos = 0
+            return
         if label in (HARD_PUFF, HARD_SIP):
             self.hold_left = max(1, round(p.hard_blow_s * self._jitter(s.hard_blow_jitter) / s.dt))
         else:

@@ -62,6 +62,7 @@ from nudgecli.sim.participants import (
     Participant,
     blow_pressures,
     blows_drift_normals,
+    lognormal_delays,
     participant_from_log,
     ramp_fraction_at,
 )
@@ -289,7 +290,7 @@ def smooth_true_mapping(mapping: np.ndarray, smoothing: float = MAPPING_SMOOTHIN
 
 def _reaction_delays(participant: Participant, n: int, rng: np.random.Generator) -> np.ndarray:
     """``(n,)`` per-prompt delays ``reaction_s * exp(reaction_log_sd * z)``: log-normal around the median."""
-    return participant.reaction_s * np.exp(participant.reaction_log_sd * rng.standard_normal(n))
+    return lognormal_delays(participant.reaction_s, participant.reaction_log_sd, n, rng)
 
 
 def simulate_mapping_session(participant: Participant, calibration: CalibrationSection,

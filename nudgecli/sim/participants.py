@@ -111,6 +111,26 @@ def ramp_fraction_at(position: np.ndarray, ramp_samples: int) -> np.ndarray:
     return np.where(position < ramp_samples, (position + 1.0) / (ramp_samples + 1.0), 1.0)
 
 
+def pulse_fractions(onset_samples: int, peak_samples: int, offset_samples: int) -> np.ndarray:
+    """``(onset + peak + offset,)`` fraction of the level at each sample of a short hard pulse.
+
+    The onset rises as a blow's (``(j + 1) / (onset + 1)``, :func:`ramp_fractions`), the peak holds
+    the level, and the offset falls symmetrically (``(offset - j) / (offset + 1)``), so the last
+    sample is still above zero and the release that follows is a full one.
+    """
+    onset = ramp_fractions(onset_samples, onset_samples)
+    offset = (offset_samples - np.arange(offset_samples)) / (offset_samples + 1.0)
+    return np.concatenate([onset, np.ones(peak_samples), offset])
+
+
+def lognormal_delays(median: float, log_sd: float, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``(n,)`` delays ``median * exp(log_sd * z)``, ``z ~ N(0, 1)``: log-normal around ``median``.
+
+    The one delay law of a person's reactions, in calibration prompts and in the task.
+    """
+    return median * np.exp(log_sd * rng.standard_normal(n))
+
+
 def drift_normals(innovations: np.ndarray, correlation: float, previous: float | None = None) -> np.ndarray:
     """The standard normal deviations of one blow's samples: an AR(1) drift with stationary marginals.
 
@@ -219,6 +239,20 @@ class Participant:
     drift_correlation
         Lag-1 correlation of their pressure's deviations from tick to tick within a blow
         (:func:`drift_normals`; 0: independent samples).
+    planning_s
+        Time spent looking at the layout and the mode before a trial's first command, seconds.
+    event_reaction_s
+        Median delay from something they see (the robot stopped at a mark, the mode changed, the
+        turn handed back, a surprise) to acting on it, seconds.
+    event_reaction_log_sd
+        Standard deviation of the log of that delay (:func:`lognormal_delays`): how long the
+        tail of their pauses is.
+    hold_on_s
+        How long they keep blowing after the robot stopped under their soft command, seconds.
+    hard_peak_s
+        How long a mode-switch pulse stays at its peak, between its onset and offset ramps, seconds.
+    offset_ramp_samples
+        Samples a hard pulse takes to fall from its peak (see :func:`pulse_fractions`).
     """
 
     index: int
@@ -237,6 +271,12 @@ class Participant:
     mapping_error: float = 0.0
     handover_idle_s: float = 1.5
     drift_correlation: float = 0.0
+    planning_s: float = 2.0
+    event_reaction_s: float = 1.0
+    event_reaction_log_sd: float = 0.35
+    hold_on_s: float = 0.2
+    hard_peak_s: float = 0.2
+    offset_ramp_samples: int = 1
     _mapping_cdf: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -256,6 +296,7 @@ class Participant:
             value.setflags(write=False)
             object.__setattr__(self, name, value)
         object.__setattr__(self, "onset_ramp_samples", int(self.onset_ramp_samples))
+        object.__setattr__(self, "offset_ramp_samples", int(self.offset_ramp_samples))
         if not 0.0 <= self.drift_correlation <= MAX_DRIFT_CORRELATION:
             raise ValueError(f"drift_correlation must lie in [0, {MAX_DRIFT_CORRELATION}], "
                              f"got {self.drift_correlation}")
@@ -305,6 +346,21 @@ class Participant:
         ones = np.ones(n)
         return blow_pressures(abs(self.pressure_level[label]) * ones, self.pressure_spread[label] * ones,
                               LABEL_SIGN[label] * ones, fractions, normals)
+
+    def pulse_pressures(self, label: int, normals: np.ndarray, peak_samples: int) -> np.ndarray:
+        """The pressures of a short hard pulse of ``label``: the person's onset ramp, ``peak_samples``
+        at the level, and their offset ramp (:func:`pulse_fractions`); ``normals`` holds one
+        deviation per sample (``onset_ramp_samples + peak_samples + offset_ramp_samples``)."""
+        fractions = pulse_fractions(self.onset_ramp_samples, peak_samples, self.offset_ramp_samples)
+        if len(normals) != len(fractions):
+            raise ValueError(f"a pulse of {len(fractions)} samples needs as many deviations, got {len(normals)}")
+        ones = np.ones(len(fractions))
+        return blow_pressures(abs(self.pressure_level[label]) * ones, self.pressure_spread[label] * ones,
+                              LABEL_SIGN[label] * ones, fractions, normals)
+
+    def event_reaction(self, rng: np.random.Generator) -> float:
+        """One reaction delay to something they see, seconds (:func:`lognormal_delays`)."""
+        return float(lognormal_delays(self.event_reaction_s, self.event_reaction_log_sd, 1, rng)[0])
 
     def pressures(self, label: int, n: int, rng: np.random.Generator, start: int = 0) -> np.ndarray:
         """The pressures of a new blow of ``label`` held ``n`` samples (one normal draw of size ``n``).
@@ -430,7 +486,7 @@ class Participant:
                     values[f.name] = np.array(json.loads(raw), dtype=float)
                 elif f.name == "seed_key":
                     values[f.name] = str(raw)
-                elif f.name in ("index", "onset_ramp_samples"):
+                elif f.name in ("index", "onset_ramp_samples", "offset_ramp_samples"):
                     values[f.name] = int(raw)
                 else:
                     values[f.name] = float(raw)
@@ -503,6 +559,14 @@ def draw_participant(population: PopulationSection, index: int, rng: np.random.G
         handover_idle_s=_uniform(rng, population.handover_idle_s),
         # last: the earlier draws keep the values they had before these fields existed
         drift_correlation=_uniform(rng, population.drift_correlation),
+        # the operating habits of issue 19, after the fields above so those keep their draws
+        planning_s=_uniform(rng, population.planning_s),
+        event_reaction_s=_uniform(rng, population.event_reaction_s),
+        event_reaction_log_sd=_uniform(rng, population.event_reaction_log_sd),
+        hold_on_s=_uniform(rng, population.hold_on_s),
+        hard_peak_s=_uniform(rng, population.hard_peak_s),
+        offset_ramp_samples=int(rng.integers(population.offset_ramp_samples[0],
+                                             population.offset_ramp_samples[1] + 1)),
     )
 
 
