@@ -317,7 +317,7 @@ class PopulationSection(Section):
         "From the pilots' prompt -> blow onset medians (1.32, 1.45 s), the upper end extended to the "
         "real people's highest first-command latency (HABITS.md: 1.80-2.75 s).")
     event_reaction_s: tuple[float, float] = Field(
-        default=(0.50, 1.70),
+        default=(0.49, 1.70),
         description="Median delay from a visible event (the robot stopped, the mode changed, the turn came "
         "back, a surprise) to acting on it, s (behaviour.event_reactions). From the pilots' 1.32-1.45 s, "
         "extended to cover the real reactions (HABITS.md: stop -> switch 0.59-1.80, switch -> motion "
