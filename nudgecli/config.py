@@ -313,7 +313,8 @@ class PopulationSection(Section):
         "probabilities; it sets how often the pressure changes, which an event-driven device counts.")
     planning_s: tuple[float, float] = Field(
         default=(1.32, 2.75),
-        description="Looking at the layout and the mode before a trial's first command, s (behaviour.planning). "
+        description="Looking at the layout and the mode before a trial's first command, s "
+        "(behaviour.planning). "
         "From the pilots' prompt -> blow onset medians (1.32, 1.45 s), the upper end extended to the "
         "real people's highest first-command latency (HABITS.md: 1.80-2.75 s).")
     event_reaction_s: tuple[float, float] = Field(
@@ -338,7 +339,8 @@ class PopulationSection(Section):
         "(HABITS.md: 0.10-0.30 s).")
     offset_ramp_samples: tuple[int, int] = Field(
         default=(0, 2),
-        description="Samples a hard pulse takes to fall from its peak. The pilots' hard blows fell in a median "
+        description="Samples a hard pulse takes to fall from its peak. The pilots' hard blows fell in a "
+        "median "
         "1 (andrewtest) and 0 (deepaktest) samples; the upper end extended to 2 so a pulse (onset 1-3 + peak "
         "+ offset) reaches the real people's longest hard blows (HABITS.md: 0.30-0.80 s whole).")
     physiology_logs: tuple[str, ...] = Field(

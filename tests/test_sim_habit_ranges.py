@@ -57,7 +57,8 @@ def test_the_least_covering_extension(start: tuple[float, float], real: tuple[fl
     assert lo + offset <= real[0] + 1e-9 and hi + offset >= real[1] - 1e-9
 
 
-@pytest.mark.skipif(not CALIBRATION.is_dir(), reason="the pilots' logs (../shared/data/calibration) are absent")
+@pytest.mark.skipif(not CALIBRATION.is_dir(),
+                    reason="the pilots' logs (../shared/data/calibration) are absent")
 def test_the_shipped_ranges_are_the_derivation_from_the_pilots_and_habits() -> None:
     pilots = [read_distortion_session(CALIBRATION / name) for name in ("andrewtest", "deepaktest")]
     derived = derived_timing_ranges([p for p in pilots if p is not None])

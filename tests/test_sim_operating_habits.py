@@ -78,7 +78,8 @@ def exact_participant(**habits: float) -> Participant:
 
 
 def settings_with(**switches: bool) -> BehaviourSettings:
-    return BehaviourSettings(dt=DT, rest_jitter=0.0, operate_jitter=0.0, pause_jitter=0.0, hard_blow_jitter=0.0,
+    return BehaviourSettings(dt=DT, rest_jitter=0.0, operate_jitter=0.0, pause_jitter=0.0,
+                             hard_blow_jitter=0.0,
                              planning_jitter=0.0, hold_on_jitter=0.0, **{**ALL_ON, **switches})
 
 
@@ -86,7 +87,8 @@ def person(policy: np.ndarray, participant: Participant, settings: BehaviourSett
            seed: int = 0) -> SimulatedPerson:
     goal = (40.0, 30.0, 0.0)
     i, j, h = discretise(*goal)
-    return SimulatedPerson(participant, settings, policy, np.array(goal), int(state_index(i, j, h, 0)) // N_MODES,
+    goal_cell = int(state_index(i, j, h, 0)) // N_MODES
+    return SimulatedPerson(participant, settings, policy, np.array(goal), goal_cell,
                            np.random.default_rng(seed), world=world)  # type: ignore[arg-type]
 
 
@@ -167,7 +169,7 @@ def test_the_next_blow_after_a_mode_switch_waits_for_the_reaction(reactions: boo
 def test_reaction_delays_follow_the_persons_log_normal() -> None:
     rng = np.random.default_rng(5)
     delays = lognormal_delays(0.9, 0.4, 20000, rng)
-    shape, loc, scale = stats.lognorm.fit(delays, floc=0)  # scipy: s is the log-sd, scale the median
+    shape, _, scale = stats.lognorm.fit(delays, floc=0)  # scipy: s is the log-sd, scale the median
     assert scale == pytest.approx(0.9, rel=0.02)
     assert shape == pytest.approx(0.4, rel=0.03)
     p = exact_participant(event_reaction_s=0.9, event_reaction_log_sd=0.4)

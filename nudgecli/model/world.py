@@ -325,7 +325,8 @@ class GridWorld:
         # only the workspace's bounds stop the robot; a turn always turns
         if abs(float(velocity[2])) > 0.0:
             return False
-        return clamp_position(x + float(velocity[0]) * _PROBE_DT, y + float(velocity[1]) * _PROBE_DT) == (x, y)
+        probe = clamp_position(x + float(velocity[0]) * _PROBE_DT, y + float(velocity[1]) * _PROBE_DT)
+        return probe == (x, y)
 
 
 def grid_next_mark(coordinate: float, direction: float, axis: int) -> float:

@@ -376,7 +376,8 @@ class SimulatedPerson:
         if self.settings.hold_on and self._robot_stops(view):
             # the robot stops here under their blow: they see it stop and blow on a little first
             s = self.settings
-            self.hold_on_left = max(1, round(self.participant.hold_on_s * self._jitter(s.hold_on_jitter) / s.dt))
+            hold_on_s = self.participant.hold_on_s * self._jitter(s.hold_on_jitter)
+            self.hold_on_left = max(1, round(hold_on_s / s.dt))
             if s.event_reactions:
                 self._saw_event()
             return False

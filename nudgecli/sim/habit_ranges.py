@@ -48,7 +48,8 @@ HABIT_OFFSETS_S: dict[str, float] = {
 PLATEAU_FRACTION = 0.8
 
 
-def covering_range(start: tuple[float, float], real: tuple[float, float], offset: float = 0.0) -> tuple[float, float]:
+def covering_range(start: tuple[float, float], real: tuple[float, float],
+                   offset: float = 0.0) -> tuple[float, float]:
     """The least extension of ``start`` whose image ``[lo + offset, hi + offset]`` covers ``real``.
 
     >>> covering_range((1.32, 1.45), (1.80, 2.75))

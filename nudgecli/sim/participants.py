@@ -353,7 +353,8 @@ class Participant:
         deviation per sample (``onset_ramp_samples + peak_samples + offset_ramp_samples``)."""
         fractions = pulse_fractions(self.onset_ramp_samples, peak_samples, self.offset_ramp_samples)
         if len(normals) != len(fractions):
-            raise ValueError(f"a pulse of {len(fractions)} samples needs as many deviations, got {len(normals)}")
+            raise ValueError(f"a pulse of {len(fractions)} samples needs as many deviations, "
+                             f"got {len(normals)}")
         ones = np.ones(len(fractions))
         return blow_pressures(abs(self.pressure_level[label]) * ones, self.pressure_spread[label] * ones,
                               LABEL_SIGN[label] * ones, fractions, normals)
