@@ -14,3 +14,10 @@ def test_every_subpackage_of_nudgecli_is_shipped() -> None:
     inits = (ROOT / "nudgecli").rglob("__init__.py")
     found = {".".join(init.parent.relative_to(ROOT).parts) for init in inits}
     assert found - listed == set(), "add these to [tool.setuptools] packages in pyproject.toml"
+
+
+def test_the_package_marks_itself_typed() -> None:
+    # PEP 561: without py.typed in the wheel, mypy ignores nudgecli's hints in users' code
+    data = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["package-data"]
+    assert "py.typed" in data.get("nudgecli", [])
+    assert (ROOT / "nudgecli" / "py.typed").is_file()
