@@ -8,14 +8,13 @@ fail with a "did you mean", and values are range-checked. Precedence: command-li
 
 from __future__ import annotations
 
-import difflib
 import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from nudgecli.errors import ConfigError
+from nudgecli.errors import ConfigError, did_you_mean
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 Probability = Annotated[float, Field(ge=0, le=1)]
@@ -557,12 +556,6 @@ class ExperimentConfig(Section):
 
 
 # --- presets, loading, overrides --------------------------------------------------------------
-
-def did_you_mean(name: str, candidates: Any) -> str:
-    """``" (did you mean 'x'?)"`` for the closest candidate, or ``""`` when none is close."""
-    matches = difflib.get_close_matches(str(name), [str(c) for c in candidates], n=1, cutoff=0.6)
-    return f" (did you mean {matches[0]!r}?)" if matches else ""
-
 
 def preset_dir(kind: Literal["experiments", "analysis"]) -> Path:
     """The folder holding the shipped presets of ``kind``.

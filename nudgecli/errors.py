@@ -6,6 +6,9 @@ with status 1; anything else is a bug and shows a traceback.
 
 from __future__ import annotations
 
+import difflib
+from collections.abc import Iterable
+
 
 class NudgeError(Exception):
     """Base class of errors caused by the user's input, with a message saying how to fix it."""
@@ -33,3 +36,9 @@ class WriteError(NudgeError):
 
 class LockError(RunFolderError):
     """A run folder is being written by another command (its lock names the holder)."""
+
+
+def did_you_mean(name: str, candidates: Iterable[object]) -> str:
+    """``" (did you mean 'x'?)"`` for the closest candidate, or ``""`` when none is close."""
+    matches = difflib.get_close_matches(str(name), [str(c) for c in candidates], n=1, cutoff=0.6)
+    return f" (did you mean {matches[0]!r}?)" if matches else ""

@@ -40,8 +40,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from nudgecli.config import default_plan_name, did_you_mean
-from nudgecli.errors import ConfigError, DataError, RunFolderError
+from nudgecli.config import default_plan_name
+from nudgecli.errors import ConfigError, DataError, RunFolderError, did_you_mean
 from nudgecli.errors import WriteError as NudgeWriteError
 from nudgecli.report.checksum import CHECKSUM_KEY, metrics_checksum
 from nudgecli.report.metrics import (

@@ -38,8 +38,7 @@ import numpy as np
 import pandas as pd
 import scipy.stats
 
-from nudgecli.config import did_you_mean
-from nudgecli.errors import DataError
+from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.analysis import format_p, format_value, load_source
 from nudgecli.report.plans import AnalysisPlan, load_plan
 from nudgecli.report.stats import json_ready

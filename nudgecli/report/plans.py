@@ -45,8 +45,8 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from nudgecli.config import did_you_mean, format_validation_error, list_presets, read_toml, resolve_preset
-from nudgecli.errors import ConfigError
+from nudgecli.config import format_validation_error, list_presets, read_toml, resolve_preset
+from nudgecli.errors import ConfigError, did_you_mean
 from nudgecli.report.metrics import METRIC_NAMES
 from nudgecli.report.stats import ComparisonOptions
 

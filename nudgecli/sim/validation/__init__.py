@@ -9,54 +9,62 @@
 - :mod:`~nudgecli.sim.validation.output`: files and printed tables.
 """
 
-from nudgecli.sim.validation.criteria import (
-    distinct_margin,
-    expected_entropy_drop,
-    expected_goal_distance,
-    expected_top_two_gap,
-    tolerant_argmax,
-    unweighted_limit,
-)
-from nudgecli.sim.validation.output import (
-    format_readings,
-    format_summary,
-    prepare_out,
-    queries_csv,
-    readings_summary,
-    save_readings,
-    save_validation,
-    summary_json,
-)
-from nudgecli.sim.validation.readings import READINGS, Reading, get_reading
-from nudgecli.sim.validation.runner import (
-    DEFAULT_MC_SAMPLES,
-    MAX_MC_SAMPLES,
-    MC_VARIANTS,
-    QUERY_COLUMNS,
-    ValidationResult,
-    ValidationSettings,
-    monte_carlo_estimates,
-    query_beliefs,
-    run_all_readings,
-    run_validation,
-)
-from nudgecli.sim.validation.world import (
-    ValidationWorld,
-    goal_transitions,
-    neighbourhoods,
-    sample_study_world,
-    sample_world,
-    solve_goal_policies,
-    study_queries,
-    world_states,
-)
+from __future__ import annotations
 
-__all__ = [
-    "DEFAULT_MC_SAMPLES", "MAX_MC_SAMPLES", "MC_VARIANTS", "QUERY_COLUMNS", "READINGS", "Reading",
-    "ValidationResult", "ValidationSettings", "ValidationWorld", "distinct_margin", "expected_entropy_drop",
-    "expected_goal_distance", "expected_top_two_gap", "format_readings", "format_summary", "get_reading",
-    "goal_transitions", "monte_carlo_estimates", "neighbourhoods", "prepare_out", "queries_csv",
-    "query_beliefs", "readings_summary", "run_all_readings", "run_validation", "sample_study_world",
-    "sample_world", "save_readings", "save_validation", "solve_goal_policies", "study_queries",
-    "summary_json", "tolerant_argmax", "unweighted_limit", "world_states",
-]
+import importlib
+from typing import Any
+
+# Submodules load on first use (PEP 562), so `nudge --help` and `--reading`'s choices do not
+# pay for the whole validation (scipy, pandas) at start-up.
+_HOME: dict[str, str] = {
+    "DEFAULT_MC_SAMPLES": "runner",
+    "MAX_MC_SAMPLES": "runner",
+    "MC_VARIANTS": "runner",
+    "QUERY_COLUMNS": "runner",
+    "READINGS": "readings",
+    "Reading": "readings",
+    "ValidationResult": "runner",
+    "ValidationSettings": "runner",
+    "ValidationWorld": "world",
+    "distinct_margin": "criteria",
+    "expected_entropy_drop": "criteria",
+    "expected_goal_distance": "criteria",
+    "expected_top_two_gap": "criteria",
+    "format_readings": "output",
+    "format_summary": "output",
+    "get_reading": "readings",
+    "goal_transitions": "world",
+    "monte_carlo_estimates": "runner",
+    "neighbourhoods": "world",
+    "prepare_out": "output",
+    "queries_csv": "output",
+    "query_beliefs": "runner",
+    "readings_summary": "output",
+    "run_all_readings": "runner",
+    "run_validation": "runner",
+    "sample_study_world": "world",
+    "sample_world": "world",
+    "save_readings": "output",
+    "save_validation": "output",
+    "solve_goal_policies": "world",
+    "study_queries": "world",
+    "summary_json": "output",
+    "tolerant_argmax": "criteria",
+    "unweighted_limit": "criteria",
+    "world_states": "world",
+}
+
+__all__ = sorted(_HOME)
+
+
+def __getattr__(name: str) -> Any:
+    """The public name ``name``, imported from its submodule on first access."""
+    if name not in _HOME:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{_HOME[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_HOME))

@@ -15,8 +15,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any, Literal
 
-from nudgecli.config import did_you_mean
-from nudgecli.errors import ConfigError
+from nudgecli.errors import ConfigError, did_you_mean
 
 World = Literal["two-mode", "three-mode"]
 Belief = Literal["dirichlet", "two-goal"]
