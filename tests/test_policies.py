@@ -15,7 +15,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nudgecli.cli import main
-from nudgecli.config import experiment_from_toml, load_experiment
+from nudgecli.config import default_plan_name, experiment_from_toml, load_experiment
 from nudgecli.model import assistance, policies
 from nudgecli.model.disambiguation import DisambiguationModel, mode_candidates
 from nudgecli.model.interface import SOFT_PUFF, default_distortion_table, default_mapping_table
@@ -30,6 +30,7 @@ from nudgecli.model.world import (
     sample_layout,
     state_index,
 )
+from nudgecli.report.plans import load_plan
 from nudgecli.rng import generator
 from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec
 from nudgecli.sim.study import StudyPlan, build_layouts, participant_schedule, run_study, simulate_participant
@@ -339,3 +340,9 @@ def test_the_manifest_records_every_participants_condition_order(tmp_path: Path)
     for participant in (0, 1):
         seen = list(dict.fromkeys(trials.loc[trials["participant"] == participant, "condition"]))
         assert seen == record["participant_orders"][str(participant)]
+
+
+def test_the_baselines_plan_orders_the_experiments_conditions():
+    plan = load_plan("baselines")
+    assert plan.conditions == load_experiment("baselines").study.conditions
+    assert default_plan_name("baselines") == "baselines"
