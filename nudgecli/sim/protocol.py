@@ -69,7 +69,7 @@ from nudgecli.model.inference import (
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, LABELS, NO_INPUT, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.model.path_world import PathLayout
-from nudgecli.model.ties import first_argmax, unique_argmax
+from nudgecli.model.ties import tied_with_max, unique_argmax
 from nudgecli.model.world import (
     MODE_NAMES,
     N_MODES,
@@ -471,11 +471,10 @@ class TrialSession:
             else:
                 score = policies.weighted_pairwise_kl(weights, likelihood)
         modes = candidates.states % N_MODES
-        best = int(first_argmax(score))
-        current = np.flatnonzero(modes == self.mode)
-        if current.size and score[current[0]] >= score[best]:
+        tied = tied_with_max(score)
+        if tied[modes == self.mode].any():
             return self.mode
-        return int(modes[best])
+        return int(modes[int(np.argmax(tied))])  # the first of the tied modes
 
     def autonomy_step(self) -> None:
         """One 10 Hz step of the autonomy's turn (at least one step; it ends at the target)."""
