@@ -241,7 +241,9 @@ class ModeSwitchSection(Section):
     ``criterion`` ranks the states that differ from the current one in mode alone: ``disamb`` by
     D(s) of ``[disambiguation]`` (Eq. 15), ``entropy`` by the expected entropy of the belief after
     the next measured label (lowest wins), ``kl`` by the belief-weighted KL divergence between the
-    goals' label distributions (highest wins).
+    goals' label distributions (highest wins). With the exact estimator ``entropy`` picks the mode
+    ``disamb`` picks: ``I(s) = H(b) - E H(b')`` and ``R(s)`` is the same for every mode-only
+    state; they part with the Monte-Carlo estimator. ``kl`` is a different ranking.
     """
 
     criterion: Literal["disamb", "entropy", "kl"] = "disamb"
