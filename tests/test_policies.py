@@ -320,12 +320,17 @@ def test_the_baselines_preset_runs_the_papers_48_layouts_under_six_conditions():
         assert sorted(s.layout_index for s in schedule if s.condition == condition) == list(range(48))
 
 
-def test_baselines_tables_are_identical_with_one_and_two_workers(tmp_path):
+def test_baselines_tables_are_identical_with_one_and_two_workers_and_dask(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
     config = load_experiment("baselines", ["study.blocks_per_condition=1", "study.corners=['tr']",
                                            "study.start_modes=['x']", "study.goal_counts=[3]"])
     run_study(config, tmp_path / "one", participants=2, workers=1)
     run_study(config, tmp_path / "two", participants=2, workers=2)
     assert_same_run(tmp_path / "one", tmp_path / "two")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=":0") as cluster:
+        run_study(config, tmp_path / "dask", participants=2, scheduler=cluster.scheduler_address)
+    assert_same_run(tmp_path / "one", tmp_path / "dask")
     trials = pd.read_parquet(tmp_path / "one" / "trials")
     assert set(trials["condition"]) == set(config.study.conditions)
 
