@@ -626,8 +626,10 @@ class ExperimentConfig(Section):
             if field_name is not None and getattr(self, field_name) is None:
                 example = {"blending": 'gate = "gap"', "mode-switch": 'criterion = "disamb"',
                            "hindsight": "gain = 1.0"}[condition]
+                key, value = example.split(" = ")
                 raise ValueError(f"study.conditions lists {condition!r} but there is no [{condition}] "
-                                 f"section with its settings; add one, e.g. [{condition}] {example}")
+                                 f"section with its settings; add one, e.g. [{condition}] {example} (or "
+                                 f"--set {condition}.{key}={value.strip(chr(34))} before the conditions)")
         return self
 
     @model_validator(mode="after")
