@@ -12,7 +12,7 @@ import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from nudgecli.errors import ConfigError, did_you_mean
 
@@ -53,11 +53,34 @@ class ExperimentMeta(Section):
     seed: int = Field(default=2022, ge=0)
 
 
+#: The assistance policies a ``[study] conditions`` list may name (``nudgecli.sim.policies``).
+CONDITION_NAMES = ("disambiguation", "control", "teleoperation", "blending", "mode-switch", "hindsight")
+#: Conditions that need their own settings section (``[blending]``, ``[mode-switch]``,
+#: ``[hindsight]``); ``disambiguation`` and ``control`` use ``[disambiguation]`` and
+#: ``[assistance]``, which every experiment has, and ``teleoperation`` has no settings.
+CONDITION_SECTIONS = {"blending": "blending", "mode-switch": "mode_switch", "hindsight": "hindsight"}
+
+
 class StudySection(Section):
-    """``[study]``: the design of DESIGN.md section 2.7 and the trial's stopping rules."""
+    """``[study]``: the design of DESIGN.md section 2.7 and the trial's stopping rules.
+
+    ``conditions`` lists two or more of :data:`CONDITION_NAMES`. ``counterbalancing`` orders the
+    conditions per participant (``nudgecli.sim.counterbalance``): ``williams`` is one balanced
+    Latin square (Williams design: every condition precedes every other once), which exists for
+    an even number of conditions only; ``williams-pair`` is the Williams square and its mirror
+    (2k orders), which balances an odd number too; ``rotation`` is the cyclic rotation. With two
+    conditions all three give the same two orders. Participant ``i`` takes order ``i`` mod the
+    number of orders, so a participant count that is not a multiple of it leaves the design
+    unbalanced (recorded in the manifest, not refused: the paper's 9 participants did so).
+    ``shared_layouts``: 0 draws each condition its own layouts (the paper); ``n > 0`` has every
+    condition run the same ``n`` sets of the design's layouts, the ones a study of ``n``
+    conditions draws (``2``: the paper's 48 layouts).
+    """
 
     participants: int = Field(default=9, ge=1, le=10_000)
-    conditions: tuple[Literal["disambiguation", "control"], ...] = ("disambiguation", "control")
+    conditions: tuple[str, ...] = ("disambiguation", "control")
+    counterbalancing: Literal["williams", "williams-pair", "rotation"] = "williams"
+    shared_layouts: int = Field(default=0, ge=0, le=100)
     goal_counts: tuple[int, ...] = (3, 4)
     corners: tuple[Literal["tr", "tl", "bl", "br"], ...] = ("tr", "tl", "bl", "br")
     start_modes: tuple[Literal["x", "y", "theta"], ...] = ("x", "y", "theta")
@@ -67,16 +90,33 @@ class StudySection(Section):
     success_distance: PositiveFloat = 1.0
     success_angle: PositiveFloat = 0.2
 
+    @field_validator("conditions")
+    @classmethod
+    def _known_conditions(cls, conditions: tuple[str, ...]) -> tuple[str, ...]:
+        for name in conditions:
+            if name not in CONDITION_NAMES:
+                raise ValueError(f"unknown condition {name!r}{did_you_mean(name, CONDITION_NAMES)}; "
+                                 f"known: {', '.join(CONDITION_NAMES)}")
+        if len(conditions) == 1:
+            raise ValueError(f"only one condition ({conditions[0]!r}); a study compares two or more, "
+                             "e.g. conditions = [\"disambiguation\", \"control\"]")
+        return conditions
+
     @model_validator(mode="after")
     def _check(self) -> StudySection:
         if len(set(self.conditions)) != len(self.conditions) or not self.conditions:
             raise ValueError("conditions must be a non-empty list without repeats")
+        if self.counterbalancing == "williams" and len(self.conditions) % 2:
+            k = len(self.conditions)
+            raise ValueError(f"counterbalancing = 'williams' cannot balance {k} conditions "
+                             "(one Williams square needs an even count); use 'williams-pair' (the square and "
+                             "its mirror) or list an even number of conditions")
         for g in self.goal_counts:
             if not 2 <= g <= 8:
                 raise ValueError(f"goal_counts: {g} goals do not fit the goal regions; use 2 to 8")
         if not self.goal_counts or not self.corners or not self.start_modes:
             raise ValueError("goal_counts, corners and start_modes must not be empty")
-        trials = len(self.goal_counts) * len(self.corners) * len(self.start_modes)
+        trials = self.trials_per_condition
         if trials % self.blocks_per_condition:
             raise ValueError(
                 f"blocks_per_condition={self.blocks_per_condition} does not divide the {trials} trials "
@@ -85,7 +125,8 @@ class StudySection(Section):
 
     @property
     def trials_per_condition(self) -> int:
-        return len(self.goal_counts) * len(self.corners) * len(self.start_modes)
+        design = len(self.goal_counts) * len(self.corners) * len(self.start_modes)
+        return design * max(1, self.shared_layouts)
 
 
 class InterfaceSection(Section):
@@ -152,6 +193,9 @@ class DisambiguationSection(Section):
     domain: Literal["window", "global"] = "window"
     rotation_gate: Annotated[float, Field(ge=0)] | None = Field(
         default=None, description="Drop theta-mode candidates farther than this from the mean goal.")
+    scope: Literal["domain", "mode-only"] = Field(
+        default="domain", description="domain: the states of `domain`; mode-only: the states that differ "
+        "from the current one in mode alone (the mode-switch policy always uses these).")
 
 
 class AssistanceSection(Section):
@@ -176,6 +220,42 @@ class AssistanceSection(Section):
         if self.rho2_factor <= self.rho1_factor:
             raise ValueError("rho2_factor must be greater than rho1_factor")
         return self
+
+
+class BlendingPolicySection(Section):
+    """``[blending]``: the ``blending`` condition, policy blending without turn-taking.
+
+    alpha is the paper's piecewise rule of ``[assistance]`` (``rho1_factor``, ``rho2_factor``,
+    ``rho3`` and its gates); ``gate = "gap"`` also zeroes it unless the two highest beliefs differ
+    by more than ``gap`` (the open hindsight-optimisation code's confidence gate, 0.4).
+    """
+
+    gate: Literal["none", "gap"] = "none"
+    gap: Annotated[float, Field(ge=0, lt=1)] = 0.4
+
+
+class ModeSwitchSection(Section):
+    """``[mode-switch]``: the ``mode-switch`` condition (the autonomy's turn only changes the mode).
+
+    ``criterion`` ranks the states that differ from the current one in mode alone: ``disamb`` by
+    D(s) of ``[disambiguation]`` (Eq. 15), ``entropy`` by the expected entropy of the belief after
+    the next measured label (lowest wins), ``kl`` by the belief-weighted KL divergence between the
+    goals' label distributions (highest wins). With the exact estimator ``entropy`` picks the mode
+    ``disamb`` picks: ``I(s) = H(b) - E H(b')`` and ``R(s)`` is the same for every mode-only
+    state; they part with the Monte-Carlo estimator. ``kl`` is a different ranking.
+    """
+
+    criterion: Literal["disamb", "entropy", "kl"] = "disamb"
+
+
+class HindsightSection(Section):
+    """``[hindsight]``: the ``hindsight`` condition (first-order hindsight optimisation).
+
+    ``gain`` scales the belief-weighted sum of the per-goal autonomous commands added to the
+    person's command every step (1: the sum itself).
+    """
+
+    gain: Annotated[float, Field(ge=0)] = 1.0
 
 
 class PopulationSection(Section):
@@ -529,6 +609,27 @@ class ExperimentConfig(Section):
     behaviour: BehaviourSection = BehaviourSection()
     calibration: CalibrationSection = CalibrationSection()
     world: WorldSection = WorldSection()
+    # the policies' own sections: absent unless the experiment lists their condition
+    blending: BlendingPolicySection | None = None
+    mode_switch: ModeSwitchSection | None = Field(default=None, alias="mode-switch")
+    hindsight: HindsightSection | None = None
+
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=True, populate_by_name=True)
+
+    @model_validator(mode="after")
+    def _check_policy_sections(self) -> ExperimentConfig:
+        if self.world.kind != "grid":
+            return self
+        for condition in self.study.conditions:
+            field_name = CONDITION_SECTIONS.get(condition)
+            if field_name is not None and getattr(self, field_name) is None:
+                example = {"blending": 'gate = "gap"', "mode-switch": 'criterion = "disamb"',
+                           "hindsight": "gain = 1.0"}[condition]
+                key, value = example.split(" = ")
+                raise ValueError(f"study.conditions lists {condition!r} but there is no [{condition}] "
+                                 f"section with its settings; add one, e.g. [{condition}] {example} (or "
+                                 f"--set {condition}.{key}={value.strip(chr(34))} before the conditions)")
+        return self
 
     @model_validator(mode="after")
     def _check_tolerances(self) -> ExperimentConfig:
@@ -552,7 +653,7 @@ class ExperimentConfig(Section):
 
     def to_toml(self) -> str:
         """The resolved experiment as TOML (every key, so a run folder documents itself)."""
-        return dump_toml(self.model_dump(mode="json", exclude_none=True))
+        return dump_toml(self.model_dump(mode="json", exclude_none=True, by_alias=True))
 
 
 # --- presets, loading, overrides --------------------------------------------------------------
@@ -642,14 +743,14 @@ def _field_names(model: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
         if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
             break
         current = annotation
-    return list(current.model_fields)
+    return [field.alias or name for name, field in current.model_fields.items()]
 
 
 def format_validation_error(exc: ValidationError, source: str, model: type[BaseModel]) -> str:
     """One readable line naming the file, the field and the fix."""
     first = exc.errors()[0]
     loc = tuple(first["loc"])
-    where = ".".join(str(p) for p in loc) or "(top level)"
+    where = ".".join(str(p) for p in loc)
     if first["type"] == "extra_forbidden":
         names = _field_names(model, loc[:-1])
         hint = did_you_mean(str(loc[-1]), names)
@@ -658,7 +759,7 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
     value = first.get("input")
     shown = "" if isinstance(value, dict) else f" (got {plain(value)!r})"
     more = f" (and {len(exc.errors()) - 1} more problem(s))" if len(exc.errors()) > 1 else ""
-    return f"{source}: {where}: {message}{shown}{more}"
+    return f"{source}: {where + ': ' if where else ''}{message}{shown}{more}"
 
 
 def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = ()) -> ExperimentConfig:

@@ -29,8 +29,10 @@ MODE_SWITCH_HUMAN = "mode_switch_human"
 MODE_SWITCH_AUTONOMY = "mode_switch_autonomy"
 NUDGE = "nudge"
 STEP = "step"
+#: The mode-switch policy's turn chose a mode (with MODE_SWITCH_AUTONOMY when it changed it).
+MODE_SELECT = "mode_select"
 EVENTS = (TRIAL_START, HANDOVER_TO_HUMAN, HANDOVER_TO_AUTONOMY, MODE_SWITCH_HUMAN,
-          MODE_SWITCH_AUTONOMY, NUDGE, STEP)
+          MODE_SWITCH_AUTONOMY, NUDGE, STEP, MODE_SELECT)
 
 #: Joins the events of one step.
 EVENT_SEPARATOR = "|"

@@ -17,8 +17,8 @@ from nudgecli.errors import ConfigError
 
 
 def test_the_shipped_presets_are_listed():
-    assert set(list_presets("experiments")) == {"paper", "study-code", "smoke", "ciaa-teleop"}
-    assert set(list_presets("analysis")) == {"paper", "study-code", "ciaa-teleop"}
+    assert set(list_presets("experiments")) == {"paper", "study-code", "smoke", "ciaa-teleop", "baselines"}
+    assert set(list_presets("analysis")) == {"paper", "study-code", "ciaa-teleop", "baselines"}
     result = CliRunner().invoke(main, ["presets"])
     assert result.exit_code == 0
     for name in ("paper", "study-code", "smoke"):
@@ -26,7 +26,7 @@ def test_the_shipped_presets_are_listed():
     assert "Kruskal-Wallis" in result.output  # the plans' descriptions are shown
 
 
-@pytest.mark.parametrize("name", ["paper", "study-code", "smoke", "ciaa-teleop"])
+@pytest.mark.parametrize("name", ["paper", "study-code", "smoke", "ciaa-teleop", "baselines"])
 def test_a_resolved_experiment_round_trips_through_toml(name):
     config = load_experiment(name)
     assert experiment_from_toml(config.to_toml()) == config

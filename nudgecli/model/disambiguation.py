@@ -29,6 +29,8 @@ from nudgecli.model.world import (
     Y_MIN,
     all_state_coordinates,
     cell_centre,
+    state_coordinates,
+    state_index,
 )
 
 #: Relative tolerance under which two D(s) values count as tied (first candidate wins).
@@ -353,6 +355,9 @@ class DisambiguationSettings:
     rotation_gate
         Drop theta-mode candidates farther than this (world units) from the unweighted mean goal
         position; ``None`` keeps them all.
+    scope
+        ``"domain"``: the states of ``domain``; ``"mode-only"``: the states that differ from the
+        current one in mode alone (:func:`mode_candidates`; the mode-switch policy's).
     """
 
     estimator: Literal["exact", "monte_carlo"] = "exact"
@@ -365,11 +370,12 @@ class DisambiguationSettings:
     window: int = 3
     domain: Literal["window", "global"] = "window"
     rotation_gate: float | None = None
+    scope: Literal["domain", "mode-only"] = "domain"
 
     def __post_init__(self) -> None:
         choices = {"estimator": ("exact", "monte_carlo"), "weighting": ("unweighted", "belief"),
                    "distance": ("expected", "to_mean"), "distance_unit": ("cells", "world"),
-                   "domain": ("window", "global")}
+                   "domain": ("window", "global"), "scope": ("domain", "mode-only")}
         for field_name, allowed in choices.items():
             if getattr(self, field_name) not in allowed:
                 raise ValueError(f"{field_name} must be one of {allowed}, got {getattr(self, field_name)!r}")
@@ -508,6 +514,28 @@ def window_candidates(current_state: int, goal_cells: np.ndarray, window: int = 
     return _WindowTable(goal_cells, int(window)).candidates(current_state, robot_position, rotation_gate)
 
 
+def mode_candidates(current_state: int, robot_position: np.ndarray | None = None) -> Candidates:
+    """The states that differ from ``current_state`` in mode alone: its cell and heading, every
+    mode, in mode order (the current state included: keeping the mode is a choice too).
+
+    Parameters
+    ----------
+    current_state
+        Flat index of the robot's discrete state.
+    robot_position
+        ``(2,)`` continuous robot position (every candidate's); ``None`` uses the cell's centre.
+
+    Returns
+    -------
+    Candidates
+    """
+    i, j, h, _ = (int(v) for v in state_coordinates(int(current_state)))
+    modes = np.arange(N_MODES)
+    position = cell_centre(i, j) if robot_position is None else np.asarray(robot_position, dtype=float)[:2]
+    return Candidates(states=np.asarray(state_index(i, j, h, modes), dtype=np.int64),
+                      cells=np.tile([i, j], (N_MODES, 1)), positions=np.tile(position, (N_MODES, 1)))
+
+
 def global_candidates(goal_cells: np.ndarray, rotation_gate: float | None = None) -> Candidates:
     """Every state whose cell is not a goal cell (all headings and modes), in flat-index order.
 
@@ -637,7 +665,10 @@ class DisambiguationModel:
     def candidates(self, current_state: int, settings: DisambiguationSettings,
                    robot_position: np.ndarray | None = None) -> Candidates:
         """The candidates of ``settings.domain`` for this layout (:func:`window_candidates` or
-        :func:`global_candidates`), with the window tables kept between calls."""
+        :func:`global_candidates`, or :func:`mode_candidates` for the mode-only scope), with the
+        window tables kept between calls."""
+        if settings.scope == "mode-only":
+            return mode_candidates(current_state, robot_position)
         if settings.domain == "global":
             return global_candidates(self.goal_cells, settings.rotation_gate)
         table = self._window_tables.get(settings.window)

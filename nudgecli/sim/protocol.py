@@ -20,31 +20,42 @@ or a live one), one intended label and pressure per step. Every step of the huma
 
 The robot's kinematics, constraints, discrete states and success rule are the trial's world's
 (:class:`nudgecli.model.world.World`): the paper's grid world by default, or the CIAA path world.
-In an unassisted condition (``no_assistance``) there is no inference, no blending and no
-autonomy: the human's turn lasts the whole trial.
+
+The trial's condition names its policy (:mod:`nudgecli.model.policies`). In ``teleoperation``
+(the CIAA study's ``no_assistance``) there is no inference, no blending and no autonomy: the
+human's turn lasts the whole trial. ``blending`` and ``hindsight`` have no turn-taking either:
+the human's turn lasts the whole trial, with the belief updated as above; ``blending`` blends
+as in step 3 (optionally gated by the confidence gap), ``hindsight`` adds the belief-weighted
+sum of the per-goal autonomous commands to the human's command every step (the step log's
+``u_a`` is that sum, ``alpha`` 0, ``inferred_goal`` the unique leader). ``mode-switch`` takes
+turns as the paper does, and in its turn the autonomy only selects the mode (below).
 
 The turn passes to the autonomy after the participant's handover idle time without a command.
 In the autonomy's turn the belief is frozen; the Disambiguation condition nudges to s* when the
 normalised entropy exceeds kappa and otherwise steps towards ``g'`` (towards the mean of the tied
 goals, heading kept, when the leaders are tied); the Control condition steps towards the mean of
 the goals tied for the highest belief. The autonomy drives at its own speeds until it is within
-``arrival_tolerance`` of its target position, then hands back.
+``arrival_tolerance`` of its target position, then hands back. In ``mode-switch`` the autonomy's
+turn is one step that switches to the mode ranked best by ``[mode-switch] criterion`` over the
+states differing from the current one in mode alone (event ``mode_select``, with
+``mode_switch_autonomy`` when the mode changes) and never moves the robot.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from nudgecli.config import ExperimentConfig
-from nudgecli.model import assistance, interface
+from nudgecli.model import assistance, interface, policies
 from nudgecli.model.assistance import BlendingSettings
 from nudgecli.model.disambiguation import (
     DisambiguationModel,
     DisambiguationSettings,
+    disambiguation_scores,
     maximally_disambiguating_state,
 )
 from nudgecli.model.inference import (
@@ -53,11 +64,12 @@ from nudgecli.model.inference import (
     bayes_update,
     decay_on_empty_sample,
     normalised_entropy,
+    predict_belief,
 )
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, LABELS, NO_INPUT, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.model.path_world import PathLayout
-from nudgecli.model.ties import unique_argmax
+from nudgecli.model.ties import tied_with_max, unique_argmax
 from nudgecli.model.world import (
     MODE_NAMES,
     N_MODES,
@@ -73,6 +85,7 @@ from nudgecli.steplog import (
     HANDOVER_TO_AUTONOMY,
     HANDOVER_TO_HUMAN,
     HUMAN_TURN,
+    MODE_SELECT,
     MODE_SWITCH_AUTONOMY,
     MODE_SWITCH_HUMAN,
     NO_GOAL,
@@ -84,8 +97,6 @@ from nudgecli.steplog import (
 )
 
 _ZERO3 = np.zeros(3)
-#: Conditions without inference, blending or autonomy (the CIAA study's "no assistance").
-UNASSISTED_CONDITIONS = frozenset({"no_assistance"})
 
 
 @dataclass(frozen=True)
@@ -112,6 +123,9 @@ class ProtocolSettings:
     disambiguation: DisambiguationSettings
     window: int
     behaviour: BehaviourSettings
+    blending_gap: float | None = None
+    mode_criterion: str = "disamb"
+    hindsight_gain: float = 1.0
 
     @classmethod
     def from_config(cls, config: ExperimentConfig) -> ProtocolSettings:
@@ -146,9 +160,13 @@ class ProtocolSettings:
                 estimator=dis.estimator, samples=dis.samples, weighting=dis.weighting,
                 mi_weight=dis.mi_weight, distance_weight=dis.distance_weight, distance=dis.distance,
                 distance_unit=dis.distance_unit, window=dis.window, domain=dis.domain,
-                rotation_gate=dis.rotation_gate),
+                rotation_gate=dis.rotation_gate, scope=dis.scope),
             window=dis.window,
             behaviour=BehaviourSettings.from_config(config),
+            blending_gap=(config.blending.gap if config.blending is not None and config.blending.gate == "gap"
+                          else None),
+            mode_criterion=config.mode_switch.criterion if config.mode_switch is not None else "disamb",
+            hindsight_gain=config.hindsight.gain if config.hindsight is not None else 1.0,
         )
 
 
@@ -232,7 +250,10 @@ class TrialSession:
                 raise TypeError("a trial on a path layout needs its world (world=PathWorld(...))")
             self.world = GridWorld(layout, self.settings.success_distance, self.settings.success_angle)
         world = self.world
-        self.assisted = self.spec.condition not in UNASSISTED_CONDITIONS
+        self.policy = policies.policy_of(self.spec.condition)
+        self.assisted = self.policy not in policies.UNASSISTED
+        self.turn_taking = self.policy in policies.TURN_TAKING
+        self.blends = self.policy in policies.BLENDING
         if self.assisted and self.model is None:
             raise ValueError(f"condition {self.spec.condition!r} needs the agent's model")
         n_goals = world.n_goals
@@ -312,13 +333,18 @@ class TrialSession:
             commanded = True
             events.append(MODE_SWITCH_HUMAN)
         self.idle = 0 if commanded or self.initiated_at < 0 else self.idle + 1
-        inferred, alpha = self._blending() if self.assisted else (NO_GOAL, 0.0)
-        u_a = _ZERO3
-        if inferred != NO_GOAL:
-            u_a = assistance.autonomy_velocity((self.x, self.y, self.theta), self.goal_list[inferred],
-                                               s.autonomy_speed, s.autonomy_turn_rate, s.dt)
-        # blending acts only on a motion command (a mode switch or no input leaves the robot still)
-        u_f = assistance.blend(u_a, u_h, alpha) if u_h is not _ZERO3 else u_h
+        if self.policy == "hindsight":
+            inferred, alpha = self.leader, 0.0
+            u_a = self._hindsight_assistance()
+            u_f = u_h + u_a  # every step, with or without a command (first-order hindsight optimisation)
+        else:
+            inferred, alpha = self._blending() if self.blends else (NO_GOAL, 0.0)
+            u_a = _ZERO3
+            if inferred != NO_GOAL:
+                u_a = assistance.autonomy_velocity((self.x, self.y, self.theta), self.goal_list[inferred],
+                                                   s.autonomy_speed, s.autonomy_turn_rate, s.dt)
+            # blending acts only on a motion command (a mode switch or no input leaves the robot still)
+            u_f = assistance.blend(u_a, u_h, alpha) if u_h is not _ZERO3 else u_h
         self._record(HUMAN_TURN, state, mode_before, intended, pressure, measured, u_h, u_a, alpha, inferred,
                      events)
         self._move(u_f)
@@ -327,7 +353,7 @@ class TrialSession:
             self.reached = self._goal_reached()
             if self.reached >= 0:
                 return
-        if (self.assisted and self.initiated_at >= 0 and self.idle > self.handover_idle_steps
+        if (self.turn_taking and self.initiated_at >= 0 and self.idle > self.handover_idle_steps
                 and not self.finished):
             self._start_autonomy_turn()
 
@@ -360,7 +386,17 @@ class TrialSession:
                        else -math.inf)
         alpha = assistance.assistance_alpha(self.leader_probability, len(self.goal_list), self.entropy,
                                             since_first, math.hypot(gx - self.x, gy - self.y), s)
+        if self.policy == "blending" and self.settings.blending_gap is not None:
+            alpha = policies.gap_gated_alpha(alpha, self.belief, self.settings.blending_gap)
         return self.leader, alpha
+
+    def _hindsight_assistance(self) -> np.ndarray:
+        """``sum_g b_g u_a^g`` (scaled by the gain): the hindsight policy's added command."""
+        s = self.settings
+        pose = (self.x, self.y, self.theta)
+        commands = np.array([assistance.autonomy_velocity(pose, goal, s.autonomy_speed, s.autonomy_turn_rate,
+                                                          s.dt) for goal in self.goal_list])
+        return policies.hindsight_assistance(self.belief, commands, s.hindsight_gain)
 
     def _goal_reached(self) -> int:
         """The goal whose success rule the pose meets (the world's), or -1."""
@@ -377,7 +413,18 @@ class TrialSession:
         self.autonomy_turns += 1
         state = self.state
         position = np.array([self.x, self.y])
-        disambiguation = self.spec.condition == "disambiguation"
+        disambiguation = self.policy == "disambiguation"
+        if self.policy == "mode-switch":
+            events = [MODE_SELECT]
+            mode = self._select_mode(state, position)
+            if mode != self.mode:
+                self.mode = mode
+                events.append(MODE_SWITCH_AUTONOMY)
+            # a target at the robot's own pose: the turn moves nothing and ends after its one step
+            self.autonomy_target = np.array([self.x, self.y, self.theta])
+            self.autonomy_inferred = NO_GOAL
+            self.pending_events = [HANDOVER_TO_AUTONOMY, *events]
+            return
         if disambiguation and self.entropy > s.kappa:
             choice = maximally_disambiguating_state(self.belief, self.model, state, s.disambiguation,
                                                     robot_position=position, rng=rng,
@@ -405,6 +452,30 @@ class TrialSession:
         self.autonomy_inferred = inferred
         self.pending_events = [HANDOVER_TO_AUTONOMY, *events]
 
+    def _select_mode(self, state: int, position: np.ndarray) -> int:
+        """The mode whose next inputs disambiguate most, by ``mode_criterion``, over the states that
+        differ from ``state`` in mode alone; the current mode wins ties (no needless switch)."""
+        s = self.settings
+        assert self.model is not None
+        mode_only = replace(s.disambiguation, scope="mode-only")
+        candidates = self.model.candidates(state, mode_only, position)
+        if s.mode_criterion == "disamb":  # D(s), Eq. 15, over the mode-only states
+            score = disambiguation_scores(self.belief, self.model, candidates, mode_only, self.rng,
+                                          self.goal_transition).score
+        else:
+            weights = (self.belief if self.goal_transition is None
+                       else predict_belief(self.belief, self.goal_transition))
+            likelihood = self.model.likelihood[:, candidates.states, :].transpose(1, 0, 2)  # (C, G, F)
+            if s.mode_criterion == "entropy":  # the lowest expected posterior entropy wins
+                score = -policies.expected_posterior_entropy(weights, likelihood)
+            else:
+                score = policies.weighted_pairwise_kl(weights, likelihood)
+        modes = candidates.states % N_MODES
+        tied = tied_with_max(score)
+        if tied[modes == self.mode].any():
+            return self.mode
+        return int(modes[int(np.argmax(tied))])  # the first of the tied modes
+
     def autonomy_step(self) -> None:
         """One 10 Hz step of the autonomy's turn (at least one step; it ends at the target)."""
         if self.turn != AUTONOMY_TURN or self.finished:
@@ -412,8 +483,11 @@ class TrialSession:
         s = self.settings
         target = self.autonomy_target
         events, self.pending_events = self.pending_events, []
-        u_a = assistance.autonomy_velocity((self.x, self.y, self.theta), target, s.autonomy_speed,
-                                           s.autonomy_turn_rate, s.dt)
+        if self.policy == "mode-switch":  # the mode-switch autonomy never moves the robot
+            u_a = _ZERO3
+        else:
+            u_a = assistance.autonomy_velocity((self.x, self.y, self.theta), target, s.autonomy_speed,
+                                               s.autonomy_turn_rate, s.dt)
         self._record(AUTONOMY_TURN, self.state, self.mode, NO_INPUT, 0.0, NO_INPUT, _ZERO3, u_a, 0.0,
                      self.autonomy_inferred, events)
         self._move(u_a)
@@ -560,9 +634,10 @@ def run_world_trial(spec: TrialSpec, settings: ProtocolSettings, world: World, p
     """
     person_rng, agent_rng = rng.spawn(2)
     goal = spec.true_goal
-    assisted = spec.condition not in UNASSISTED_CONDITIONS
+    # the person hands the turn over only where there is an autonomy's turn to hand it to
+    hands_over = policies.policy_of(spec.condition) in policies.TURN_TAKING
     person = SimulatedPerson(participant, settings.behaviour, policy, world.goal_poses[goal], goal_cell,
-                             person_rng, world=world, hands_over=assisted)
+                             person_rng, world=world, hands_over=hands_over)
     session = TrialSession(spec, settings, model, handover_steps(participant.handover_idle_s, settings.dt),
                            agent_rng, world=world)
     return run_session(session, person)

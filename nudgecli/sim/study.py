@@ -38,9 +38,13 @@ from nudgecli.rng import generator, seed_key
 from nudgecli.sim.calibration import FittedTables, fit_participant_tables
 from nudgecli.sim.calibration_io import DistortionSession, MappingSession, write_sessions
 from nudgecli.sim.ciaa import packaged_task, subject_schedule, task_layouts
+from nudgecli.sim.counterbalance import design_record, participant_order
 from nudgecli.sim.participants import Participant, draw_participant, participant_from_log
 from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSpec, run_trial, run_world_trial
 from nudgecli.store import RunFolder, library_versions, run_lock, utc_now
+
+#: The ``condition`` of a layout every condition runs (``[study] shared_layouts``).
+SHARED = "shared"
 
 
 @dataclass(frozen=True)
@@ -60,11 +64,15 @@ def build_layouts(config: ExperimentConfig, seed: int) -> list[StudyLayout]:
 
     Layout ``k`` is drawn from ``generator(seed, "layout", k)``; all participants share them.
     The conditions get independently drawn layouts, as in the study (its trials 0-23 were
-    Disambiguation and 24-47 Control).
+    Disambiguation and 24-47 Control). With ``[study] shared_layouts = n`` the first ``n`` sets
+    are drawn the same way and every condition runs all of them (their ``condition`` is
+    :data:`SHARED`); ``n = 2`` with the paper's seed and design gives the paper's 48 layouts.
     """
     study = config.study
     layouts: list[StudyLayout] = []
-    for condition in study.conditions:
+    # shared layouts: the draws of a study of `shared_layouts` conditions, run by every condition
+    owners = [SHARED] * study.shared_layouts if study.shared_layouts else list(study.conditions)
+    for condition in owners:
         for n_goals in study.goal_counts:
             for corner in study.corners:
                 for mode_name in study.start_modes:
@@ -102,27 +110,27 @@ def participant_schedule(config: ExperimentConfig, seed: int, participant: int,
     """The participant's trials in the order they do them.
 
     Each condition's trials are shuffled into ``blocks_per_condition`` blocks; the blocks of the
-    conditions alternate, and the condition that starts rotates with the participant's index so
-    that the starting condition is balanced across participants. Each trial's true goal is one
+    conditions alternate in the participant's condition order, the row ``participant`` mod the
+    number of orders of the ``[study] counterbalancing`` design (a Williams square by default,
+    :mod:`nudgecli.sim.counterbalance`; with two conditions the start rotates with the index, as
+    in the paper). Each trial's true goal is one
     of its layout's goals, uniformly, drawn from the trial's own seed branch
     (``participant/i/trial/t/true_goal``), so nothing can favour a goal by its index.
-    ``first_condition`` (a live session's ``--condition-order``) starts with that condition
-    instead of the rotation; the blocks and true goals stay those of the participant's seed.
+    ``first_condition`` (a live session's ``--condition-order``) takes the design's first order
+    that starts with that condition; the blocks and true goals stay those of the participant's seed.
     """
     study = config.study
     rng = generator(seed, "participant", participant, "schedule")
     n_blocks = study.blocks_per_condition
     blocks_by_condition: dict[str, list[list[StudyLayout]]] = {}
     for condition in study.conditions:
-        mine = [lay for lay in layouts if lay.condition == condition]
+        mine = [lay for lay in layouts if lay.condition in (condition, SHARED)]
         order = rng.permutation(len(mine))
         size = len(mine) // n_blocks
         blocks_by_condition[condition] = [[mine[k] for k in order[b * size:(b + 1) * size]]
                                           for b in range(n_blocks)]
-    conditions = list(study.conditions)
-    shift = participant % len(conditions) if first_condition is None else \
-        [str(c) for c in conditions].index(first_condition)
-    conditions = conditions[shift:] + conditions[:shift]
+    conditions = participant_order([str(c) for c in study.conditions], study.counterbalancing, participant,
+                                   first_condition)
     specs: list[TrialSpec] = []
     block_number = 0
     for b in range(n_blocks):
@@ -574,6 +582,9 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
         "created": utc_now(),
         "timings_s": {},
     }
+    if plan.paths is None:  # the CIAA world takes its subjects' block orders from the task file
+        manifest["counterbalancing"] = design_record(list(config.study.conditions),
+                                                     config.study.counterbalancing, n)
     manifest.update({"status": "running", "completed": sorted(done),
                      "executor": _executor_name(workers, scheduler)})
     if plan_name is not None or "plan" not in manifest:

@@ -1,0 +1,157 @@
+"""The assistance policies a study's conditions name, and the equations of the prior-work ones.
+
+Every condition is a policy run by the same protocol (:mod:`nudgecli.sim.protocol`), world and
+simulated people; the policies differ in what the autonomy does:
+
+============== ============ =========== ===================================================
+policy         inference    turn-taking what the autonomy does
+============== ============ =========== ===================================================
+disambiguation Eq. 7        yes         blends in the human's turn; nudges to s* (Eq. 16)
+control        Eq. 7        yes         blends; steps towards the mean of the tied leaders
+teleoperation  none         no          nothing (the person's turn is the whole trial)
+blending       Eq. 7        no          blends towards g' (Dragan & Srinivasa, 2013)
+mode-switch    Eq. 7        yes         blends; in its turn changes the mode only
+                                        (Gopinath & Argall, 2017)
+hindsight      Eq. 7        no          adds sum_g b_g u_a^g to the person's command
+                                        (Javdani et al., 2015/2018, first order)
+============== ============ =========== ===================================================
+
+The CIAA study's ``no_assistance`` condition is the teleoperation policy under the study's name.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import numpy as np
+from scipy.special import rel_entr, xlogy
+
+#: Every policy, by condition name.
+POLICIES = ("disambiguation", "control", "teleoperation", "blending", "mode-switch", "hindsight")
+#: Condition names of other studies that are one of :data:`POLICIES` under another name.
+POLICY_ALIASES = {"no_assistance": "teleoperation"}
+#: Policies with the paper's turn-taking (the person hands the turn over when idle).
+TURN_TAKING = frozenset({"disambiguation", "control", "mode-switch"})
+#: Policies without inference or any autonomous command.
+UNASSISTED = frozenset({"teleoperation"})
+#: Policies that blend during the human's turn with the paper's alpha (Algorithm 1, line 8).
+BLENDING = frozenset({"disambiguation", "control", "mode-switch", "blending"})
+
+ModeCriterion = Literal["disamb", "entropy", "kl"]
+
+
+def policy_of(condition: str) -> str:
+    """The policy a condition runs (``no_assistance`` is ``teleoperation``).
+
+    Raises
+    ------
+    ValueError
+        The condition names no policy.
+    """
+    policy = POLICY_ALIASES.get(condition, condition)
+    if policy not in POLICIES:
+        raise ValueError(f"condition {condition!r} is none of the policies {', '.join(POLICIES)}")
+    return policy
+
+
+def confidence_gap(belief: np.ndarray) -> float:
+    """``p1 - p2``: the highest belief minus the second highest (a single goal's belief is its gap)."""
+    b = np.asarray(belief, dtype=float)
+    if b.size < 2:
+        return float(b.max()) if b.size else 0.0
+    top2 = np.partition(b, b.size - 2)[-2:]
+    return float(top2[1] - top2[0])
+
+
+def gap_gated_alpha(alpha: float, belief: np.ndarray, gap: float) -> float:
+    """alpha, or 0 unless the confidence gap ``p1 - p2`` exceeds ``gap``.
+
+    The arbitration gate of the open hindsight-optimisation code (assist only when the most
+    likely goal leads the second by more than 0.4), applied to policy blending's alpha
+    (Dragan & Srinivasa 2013, Eq. 1: ``u = alpha u_r + (1 - alpha) u_h``, alpha a function of the
+    prediction's confidence).
+    """
+    return alpha if confidence_gap(belief) > gap else 0.0
+
+
+def hindsight_assistance(belief: np.ndarray, goal_commands: np.ndarray, gain: float = 1.0) -> np.ndarray:
+    """The first-order hindsight-optimisation assistance: ``gain * sum_g b_g u_a^g``.
+
+    Javdani et al. (2015, RSS; 2018, IJRR) choose the robot action maximising the belief-weighted
+    sum of the per-goal action values, ``argmax_a sum_g b(g) Q_g(x, u, a)`` (the hindsight
+    approximation of the POMDP's value); linearised around the user's input (their first-order
+    approximation) the assistance is the belief-weighted sum of the per-goal autonomous
+    commands, added to the user's command.
+
+    Parameters
+    ----------
+    belief
+        ``(G,)`` belief over goals (Eq. 7 here, in place of their max-ent IOC predictor).
+    goal_commands
+        ``(G, 3)`` the autonomous command ``u_a^g`` towards each goal.
+    gain
+        Scale of the sum (1: the sum itself).
+
+    Returns
+    -------
+    np.ndarray
+        ``(3,)``.
+    """
+    b = np.asarray(belief, dtype=float)
+    commands = np.asarray(goal_commands, dtype=float).reshape(b.size, -1)
+    return gain * (b @ commands)
+
+
+def hindsight_command(u_h: np.ndarray, belief: np.ndarray, goal_commands: np.ndarray,
+                      gain: float = 1.0) -> np.ndarray:
+    """``u_f = u_h + gain * sum_g b_g u_a^g`` (:func:`hindsight_assistance` added to the person's)."""
+    return np.asarray(u_h, dtype=float) + hindsight_assistance(belief, goal_commands, gain)
+
+
+def expected_posterior_entropy(weights: np.ndarray, likelihood: np.ndarray) -> np.ndarray:
+    """``E_{phi ~ p(phi | s)} H(b'(. | phi, s))`` per candidate state, in nats.
+
+    Parameters
+    ----------
+    weights
+        ``(G,)`` normalised belief.
+    likelihood
+        ``(C, G, F)`` ``p(phi_m | g, s)`` at each candidate state.
+
+    Returns
+    -------
+    np.ndarray
+        ``(C,)``.
+    """
+    joint = np.asarray(weights, dtype=float)[None, :, None] * np.asarray(likelihood, dtype=float)  # (C, G, F)
+    marginal = joint.sum(axis=1, keepdims=True)  # (C, 1, F)
+    # sum_f p(f) H(b'|f) = -sum_{g,f} p(g, f) log p(g | f)
+    posterior = np.divide(joint, marginal, out=np.zeros_like(joint), where=marginal > 0)
+    return -xlogy(joint, posterior).sum(axis=(1, 2))
+
+
+def weighted_pairwise_kl(weights: np.ndarray, likelihood: np.ndarray) -> np.ndarray:
+    """``sum_{g != g'} b_g b_g' KL(p(. | g, s) || p(. | g', s))`` per candidate state, in nats.
+
+    How far apart the goals' label distributions are at ``s``: the larger, the more the next
+    label separates the goals the belief still holds.
+
+    Parameters
+    ----------
+    weights
+        ``(G,)`` normalised belief.
+    likelihood
+        ``(C, G, F)`` ``p(phi_m | g, s)``.
+
+    Returns
+    -------
+    np.ndarray
+        ``(C,)`` (``inf`` where a goal gives a label another goal never gives).
+    """
+    p = np.asarray(likelihood, dtype=float)
+    w = np.asarray(weights, dtype=float)
+    divergence = rel_entr(p[:, :, None, :], p[:, None, :, :]).sum(axis=-1)  # (C, G, G); diagonal 0
+    pair_weights = np.outer(w, w)
+    with np.errstate(invalid="ignore"):  # inf * 0 for a goal without belief: that pair counts 0
+        terms = np.where(pair_weights > 0, divergence * pair_weights, 0.0)
+    return terms.sum(axis=(1, 2))

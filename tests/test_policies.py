@@ -1,0 +1,353 @@
+"""Conditions as named policies: each policy's defining rule, the mode-selection criteria against
+brute force, the policies' bad input, and the baselines preset's determinism across workers."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from nudgecli.cli import main
+from nudgecli.config import default_plan_name, experiment_from_toml, load_experiment
+from nudgecli.model import assistance, policies
+from nudgecli.model.disambiguation import DisambiguationModel, mode_candidates
+from nudgecli.model.interface import SOFT_PUFF, default_distortion_table, default_mapping_table
+from nudgecli.model.mdp import solve_layout
+from nudgecli.model.world import (
+    N_CELLS_X,
+    N_CELLS_Y,
+    N_HEADINGS,
+    N_MODES,
+    GridWorld,
+    cell_centre,
+    sample_layout,
+    state_index,
+)
+from nudgecli.report.plans import load_plan
+from nudgecli.rng import generator
+from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec
+from nudgecli.sim.study import StudyPlan, build_layouts, participant_schedule, run_study, simulate_participant
+from nudgecli.steplog import AUTONOMY_TURN, HUMAN_TURN, MODE_SELECT, MODE_SWITCH_AUTONOMY, has_event
+from tests.test_sim_study import assert_same_run
+
+SIX = '["disambiguation", "control", "teleoperation", "blending", "mode-switch", "hindsight"]'
+POLICY_TOML = f"""
+[experiment]
+name = "policies"
+seed = 11
+[study]
+participants = 1
+conditions = {SIX}
+goal_counts = [3, 4]
+corners = ["tr", "bl"]
+start_modes = ["x", "theta"]
+blocks_per_condition = 1
+shared_layouts = 1
+time_limit_s = 60.0
+[blending]
+gate = "gap"
+gap = 0.4
+[mode-switch]
+criterion = "disamb"
+[hindsight]
+gain = 1.0
+"""
+
+
+@pytest.fixture(scope="module")
+def policy_steps() -> pd.DataFrame:
+    """One participant's 48 trials (8 shared layouts x 6 conditions), steps with their condition."""
+    config = experiment_from_toml(POLICY_TOML)
+    result = simulate_participant(StudyPlan.build(config, 11), 0)
+    steps = result.steps.merge(result.trials[["trial", "condition", "n_goals"]], on="trial")
+    return steps.sort_values(["trial", "step"]).reset_index(drop=True)
+
+
+def of(steps: pd.DataFrame, condition: str) -> pd.DataFrame:
+    return steps[steps["condition"] == condition]
+
+
+# --- mode-switch ----------------------------------------------------------------------------------
+
+def test_mode_switch_never_moves_the_robot_in_its_turn(policy_steps):
+    steps = policy_steps
+    following = steps.groupby("trial")[["x", "y", "theta"]].shift(-1)
+    turn = of(steps, "mode-switch")
+    autonomy = turn[turn["turn"] == AUTONOMY_TURN]
+    assert len(autonomy) > 5 and has_event(autonomy["event"], MODE_SWITCH_AUTONOMY).sum() > 0
+    assert has_event(autonomy["event"], MODE_SELECT).all()
+    assert (autonomy[["u_a_x", "u_a_y", "u_a_theta"]].to_numpy() == 0).all()
+    after = following.loc[autonomy.index].dropna()
+    np.testing.assert_array_equal(after.to_numpy(), autonomy.loc[after.index, ["x", "y", "theta"]].to_numpy())
+    # the other turn-taking conditions do move in theirs: the check above can see motion
+    control = of(steps, "control")
+    assert (control.loc[control["turn"] == AUTONOMY_TURN, ["u_a_x", "u_a_y"]].abs().to_numpy() > 0).any()
+
+
+def _layout_model(seed: int, n_goals: int = 3) -> tuple[object, DisambiguationModel]:
+    layout = sample_layout(generator(seed, "layout", 0), "tr", n_goals, 0)
+    solved = solve_layout(layout.goal_cells, layout.goal_headings)
+    # noisier tables than the defaults, so the label distributions differ between states
+    model = DisambiguationModel(layout.goal_cells, solved.p_a_given_sg, default_mapping_table(0.3),
+                                default_distortion_table(0.3))
+    return layout, model
+
+
+def _spec(condition: str, layout: object) -> TrialSpec:
+    return TrialSpec(participant=0, condition=condition, block=0, trial=0, layout_index=0, layout=layout)
+
+
+def _brute_force_scores(criterion: str, belief: np.ndarray, likelihood: np.ndarray) -> np.ndarray:
+    """Per candidate (rows of ``likelihood``: (C, G, F)), higher is better, by explicit loops."""
+    scores = []
+    for p in likelihood:
+        n_goals, n_labels = p.shape
+        if criterion == "kl":
+            total = 0.0
+            for g in range(n_goals):
+                for h in range(n_goals):
+                    total += belief[g] * belief[h] * sum(
+                        p[g, f] * math.log(p[g, f] / p[h, f]) for f in range(n_labels) if p[g, f] > 0)
+            scores.append(total)
+            continue
+        expected_entropy = 0.0
+        prior_entropy = -sum(b * math.log(b) for b in belief if b > 0)
+        for f in range(n_labels):
+            marginal = sum(belief[g] * p[g, f] for g in range(n_goals))
+            if marginal == 0:
+                continue
+            posterior = [belief[g] * p[g, f] / marginal for g in range(n_goals)]
+            expected_entropy += marginal * -sum(q * math.log(q) for q in posterior if q > 0)
+        # disamb: I(s) = H(b) - E H(b'); the distance term is the same for every mode-only state
+        scores.append(-expected_entropy if criterion == "entropy" else prior_entropy - expected_entropy)
+    return np.array(scores)
+
+
+@pytest.mark.parametrize("criterion", ["disamb", "entropy", "kl"])
+def test_mode_switch_selects_the_mode_its_criterion_ranks_best(criterion):
+    config = experiment_from_toml(POLICY_TOML.replace('criterion = "disamb"', f'criterion = "{criterion}"'))
+    settings_ = ProtocolSettings.from_config(config)
+    layout, model = _layout_model(3)
+    rng = np.random.default_rng(0)
+    switched = 0
+    for _ in range(40):
+        i, j = int(rng.integers(N_CELLS_X)), int(rng.integers(N_CELLS_Y))
+        h, m = int(rng.integers(N_HEADINGS)), int(rng.integers(N_MODES))
+        session = TrialSession(_spec("mode-switch", layout), settings_, model, 10, np.random.default_rng(1))
+        session.x, session.y = (float(v) for v in cell_centre(i, j))
+        session.theta, session.mode = h * math.pi / 4, m
+        assert session.state == state_index(i, j, h, m)
+        belief = rng.dirichlet(np.ones(3))
+        session._set_belief(belief)
+        session._start_autonomy_turn()
+        states = [int(state_index(i, j, h, mode)) for mode in range(N_MODES)]
+        scores = _brute_force_scores(criterion, belief, model.likelihood[:, states, :].transpose(1, 0, 2))
+        best = scores.max()
+        expected = m if math.isclose(scores[m], best, rel_tol=1e-9, abs_tol=1e-12) else int(np.argmax(scores))
+        assert session.mode == expected, (criterion, scores, m)
+        switched += expected != m
+    assert switched >= 5  # the criterion did choose another mode, often
+
+
+def test_mode_only_candidates_are_the_states_that_differ_in_mode_alone():
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        i, j, h, m = (int(rng.integers(n)) for n in (N_CELLS_X, N_CELLS_Y, N_HEADINGS, N_MODES))
+        current = int(state_index(i, j, h, m))
+        brute = [s for s in range(N_CELLS_X * N_CELLS_Y * N_HEADINGS * N_MODES)
+                 if s // N_MODES == current // N_MODES]
+        assert mode_candidates(current).states.tolist() == brute
+
+
+@given(st.lists(st.floats(0.01, 1.0), min_size=2, max_size=5), st.integers(0, 2**32 - 1))
+@settings(max_examples=40, deadline=None)
+def test_entropy_and_kl_criteria_equal_their_definitions(weights, seed):
+    belief = np.array(weights) / sum(weights)
+    likelihood = np.random.default_rng(seed).dirichlet(np.ones(4), size=(3, belief.size))
+    np.testing.assert_allclose(-policies.expected_posterior_entropy(belief, likelihood),
+                               _brute_force_scores("entropy", belief, likelihood), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(policies.weighted_pairwise_kl(belief, likelihood),
+                               _brute_force_scores("kl", belief, likelihood), rtol=1e-9, atol=1e-12)
+
+
+# --- hindsight ------------------------------------------------------------------------------------
+
+@given(st.integers(0, 3), st.lists(st.floats(-5, 5), min_size=15, max_size=15),
+       st.lists(st.floats(0.01, 1.0), min_size=4, max_size=4))
+@settings(max_examples=60, deadline=None)
+def test_hindsight_adds_the_belief_weighted_sum_of_the_goal_commands(goal, numbers, weights):
+    commands = np.array(numbers[:12]).reshape(4, 3)
+    u_h = np.array(numbers[12:])
+    one_hot = np.eye(4)[goal]
+    np.testing.assert_allclose(policies.hindsight_command(u_h, one_hot, commands), u_h + commands[goal])
+    belief = np.array(weights) / sum(weights)
+    loop = u_h + sum(belief[g] * commands[g] for g in range(4))
+    np.testing.assert_allclose(policies.hindsight_command(u_h, belief, commands), loop, atol=1e-12)
+
+
+def test_hindsight_with_a_one_hot_belief_moves_by_that_goals_command_plus_the_persons():
+    config = experiment_from_toml(POLICY_TOML)
+    settings_ = ProtocolSettings.from_config(config)
+    layout, model = _layout_model(5)
+    for goal in range(3):
+        session = TrialSession(_spec("hindsight", layout), settings_, model, 10, np.random.default_rng(2))
+        session._set_belief(np.eye(3)[goal])
+        pose = (session.x, session.y, session.theta)
+        session.human_step(SOFT_PUFF, -0.2)  # a soft puff: the person's command in the start mode
+        row = {c: v[-1] for c, v in session.columns.items()}
+        u_h = np.array([row["u_h_x"], row["u_h_y"], row["u_h_theta"]])
+        u_a = np.array([row["u_a_x"], row["u_a_y"], row["u_a_theta"]])
+        goal_command = assistance.autonomy_velocity(pose, layout.goal_poses[goal], settings_.autonomy_speed,
+                                                    settings_.autonomy_turn_rate, settings_.dt)
+        assert np.abs(u_h).sum() > 0 and np.abs(goal_command).sum() > 0
+        np.testing.assert_array_equal(u_a, goal_command)
+        expected = GridWorld(layout, 1.0, 0.2).move(*pose, u_h + goal_command, settings_.dt)
+        np.testing.assert_allclose((session.x, session.y, session.theta), expected, atol=1e-12)
+        assert row["turn"] == HUMAN_TURN and row["alpha"] == 0.0
+
+
+# --- blending -------------------------------------------------------------------------------------
+
+@given(st.lists(st.floats(0.0, 1.0), min_size=2, max_size=6).filter(lambda w: sum(w) > 0),
+       st.floats(0.0, 1.0), st.floats(0.0, 0.99))
+@settings(max_examples=80, deadline=None)
+def test_the_gap_gate_passes_alpha_only_above_the_gap(weights, alpha, gap):
+    belief = np.array(weights) / sum(weights)
+    top = sorted(belief, reverse=True)
+    expected = alpha if top[0] - top[1] > gap else 0.0
+    assert policies.gap_gated_alpha(alpha, belief, gap) == expected
+
+
+def test_blending_with_the_gap_gate_gives_alpha_0_when_p1_minus_p2_is_at_most_the_gap(policy_steps):
+    rows = of(policy_steps, "blending")
+    beliefs = [sorted(b, reverse=True) for b in rows["belief"]]
+    gap = np.array([b[0] - b[1] for b in beliefs])
+    p1 = np.array([b[0] for b in beliefs])
+    alpha = rows["alpha"].to_numpy()
+    closed = gap <= 0.4
+    assert (alpha[closed] == 0).all()
+    # the gate mattered: the paper's rule alone would have assisted some of those steps
+    ungated = p1 > 1.1 / rows["n_goals"].to_numpy()
+    assert (closed & ungated).sum() > 0 and (alpha > 0).any()
+    assert (rows["turn"] == HUMAN_TURN).all()
+
+
+def test_the_gap_gate_is_read_from_the_blending_section():
+    config = experiment_from_toml(POLICY_TOML.replace('gate = "gap"', 'gate = "none"'))
+    assert ProtocolSettings.from_config(config).blending_gap is None
+    assert ProtocolSettings.from_config(experiment_from_toml(POLICY_TOML)).blending_gap == 0.4
+
+
+# --- teleoperation and the turn structure ----------------------------------------------------------
+
+def test_teleoperation_never_infers_blends_or_moves_autonomously(policy_steps):
+    rows = of(policy_steps, "teleoperation")
+    assert (rows["phi_m"] != "").sum() > 50  # the person gave input ...
+    uniform = np.array([np.allclose(b, 1.0 / len(b)) for b in rows["belief"]])
+    assert uniform.all()  # ... and no belief update ever followed
+    assert (rows["turn"] == HUMAN_TURN).all() and (rows["alpha"] == 0).all()
+    assert (rows["inferred_goal"] == -1).all()
+    assert (rows[["u_a_x", "u_a_y", "u_a_theta"]].to_numpy() == 0).all()
+
+
+@pytest.mark.parametrize("condition", ["blending", "hindsight"])
+def test_policies_without_turn_taking_have_one_human_turn(policy_steps, condition):
+    rows = of(policy_steps, condition)
+    assert (rows["turn"] == HUMAN_TURN).all()
+    assert not np.array([np.allclose(b, 1.0 / len(b)) for b in rows["belief"]]).all()  # they infer
+
+
+def test_no_assistance_is_the_teleoperation_policy():
+    assert policies.policy_of("no_assistance") == "teleoperation"
+    with pytest.raises(ValueError, match="none of the policies"):
+        policies.policy_of("shouting")
+
+
+# --- bad input ------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize(("study", "extra", "message"), [
+    ('["disambiguation", "blendng"]', "", "unknown condition 'blendng' (did you mean 'blending'?)"),
+    ('["disambiguation", "hindsight"]', "", "no [hindsight] section"),
+    ('["disambiguation", "mode-switch"]', "", "no [mode-switch] section"),
+    ('["disambiguation"]', "", "only one condition"),
+    ('["disambiguation", "control", "teleoperation"]', "", "cannot balance 3 conditions"),
+])
+def test_bad_conditions_fail_with_one_error_line_and_no_folder(tmp_path, study, extra, message):
+    path = tmp_path / "bad.toml"
+    path.write_text(f"[study]\nparticipants = 1\nconditions = {study}\n{extra}")
+    out = tmp_path / "never"
+    result = CliRunner().invoke(main, ["simulate", str(path), "--out", str(out)])
+    assert result.exit_code == 1, result.output
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("Error: ") and message in lines[0], lines
+    assert str(path) in lines[0] and not out.exists()
+
+
+def test_an_odd_count_is_balanced_by_the_pair_of_squares():
+    config = experiment_from_toml('[study]\nconditions = ["disambiguation", "control", "teleoperation"]\n'
+                                  'counterbalancing = "williams-pair"\n')
+    assert config.study.counterbalancing == "williams-pair"
+
+
+def test_a_policy_section_round_trips_through_the_run_folders_toml():
+    config = experiment_from_toml(POLICY_TOML.replace('criterion = "disamb"', 'criterion = "kl"'))
+    text = config.to_toml()
+    assert "[mode-switch]" in text and 'criterion = "kl"' in text
+    assert experiment_from_toml(text) == config
+
+
+# --- the baselines preset ------------------------------------------------------------------------
+
+def test_the_baselines_preset_runs_the_papers_48_layouts_under_six_conditions():
+    config = load_experiment("baselines")
+    paper = load_experiment("paper")
+    assert config.study.conditions == tuple(SIX.strip("[]").replace('"', "").split(", "))
+    layouts, paper_layouts = build_layouts(config, 2022), build_layouts(paper, 2022)
+    assert len(layouts) == 48
+    for ours, theirs in zip(layouts, paper_layouts, strict=True):
+        np.testing.assert_array_equal(ours.layout.goal_cells, theirs.layout.goal_cells)
+        np.testing.assert_array_equal(ours.layout.start_pose, theirs.layout.start_pose)
+    schedule = participant_schedule(config, 2022, 0, layouts)
+    assert len(schedule) == 6 * 48
+    for condition in config.study.conditions:
+        assert sorted(s.layout_index for s in schedule if s.condition == condition) == list(range(48))
+
+
+def test_baselines_tables_are_identical_with_one_and_two_workers_and_dask(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    config = load_experiment("baselines", ["study.blocks_per_condition=1", "study.corners=['tr']",
+                                           "study.start_modes=['x']", "study.goal_counts=[3]"])
+    run_study(config, tmp_path / "one", participants=2, workers=1)
+    run_study(config, tmp_path / "two", participants=2, workers=2)
+    assert_same_run(tmp_path / "one", tmp_path / "two")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
+                                  dashboard_address=":0") as cluster:
+        run_study(config, tmp_path / "dask", participants=2, scheduler=cluster.scheduler_address)
+    assert_same_run(tmp_path / "one", tmp_path / "dask")
+    trials = pd.read_parquet(tmp_path / "one" / "trials")
+    assert set(trials["condition"]) == set(config.study.conditions)
+
+
+def test_the_manifest_records_every_participants_condition_order(tmp_path: Path):
+    config = experiment_from_toml(POLICY_TOML)
+    run = run_study(config, tmp_path / "run", participants=2)
+    manifest = json.loads((run.path / "manifest.json").read_text())
+    record = manifest["counterbalancing"]
+    assert record["design"] == "williams" and len(record["orders"]) == 6
+    trials = pd.read_parquet(run.path / "trials")
+    for participant in (0, 1):
+        seen = list(dict.fromkeys(trials.loc[trials["participant"] == participant, "condition"]))
+        assert seen == record["participant_orders"][str(participant)]
+
+
+def test_the_baselines_plan_orders_the_experiments_conditions():
+    plan = load_plan("baselines")
+    assert plan.conditions == load_experiment("baselines").study.conditions
+    assert default_plan_name("baselines") == "baselines"
