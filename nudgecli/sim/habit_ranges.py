@@ -24,16 +24,16 @@ from __future__ import annotations
 import numpy as np
 
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, LABELS, ZERO_THRESHOLD
+from nudgecli.reference import people_ranges
 from nudgecli.sim.calibration_io import DistortionSession
 
-#: Real people's ranges of per-person medians (HABITS.md, the ten sibling-study users), seconds.
+#: Real people's ranges of per-person medians (HABITS.md, the ten sibling-study users), seconds: read
+#: from the packaged reference (:mod:`nudgecli.reference`), the one owner of HABITS.md's numbers.
+#: ``hold_on_per_stop`` is HABITS.md's words ("about 0.1-0.3 s each time"), not its table.
 REAL_HABIT_RANGES: dict[str, tuple[float, float]] = {
-    "first_command_latency": (1.80, 2.75),
-    "reaction_stop_to_switch": (0.59, 1.80),
-    "reaction_switch_to_motion": (0.83, 1.59),
-    "hard_band_per_excursion": (0.10, 0.30),
-    "hard_blow_whole": (0.30, 0.80),
-    "hold_on_per_stop": (0.10, 0.30),  # HABITS.md's words: "about 0.1-0.3 s each time"
+    name: bounds for name, bounds in people_ranges("ciaa-people").items()
+    if name in ("first_command_latency", "reaction_stop_to_switch", "reaction_switch_to_motion",
+                "hard_band_per_excursion", "hard_blow_whole", "hold_on_per_stop")
 }
 #: How long after its parameter each habit is measured (the model's mechanics, at 10 Hz): the
 #: first command cell is the blow's first sample (0); a switch is seen the step after it and the
