@@ -453,6 +453,33 @@ def plot_population_command(experiment: str, participants: int, seed: int | None
         info(str(path))
 
 
+# --- habits --------------------------------------------------------------------------------
+
+
+@main.command("habits", short_help="Operating habits (HABITS.md definitions) of a run or a real log.")
+@click.argument("source", type=click.Path(path_type=str))
+@click.option("--by", type=click.Choice(["participant", "trial"]), default="participant", show_default=True,
+              help="The units listed beside the pooled figures.")
+@click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
+              show_default=True, help="What to print on stdout.")
+@click.option("--compare", "compare", metavar="FILE|ciaa-people", default=None,
+              help="A reference printed beside: ciaa-people (the ten real users of HABITS.md, shipped with "
+                   "nudge) or a JSON of the shape of --format json.")
+def habits_command(source: str, by: str, output_format: str, compare: str | None) -> None:
+    """The operating habits of SOURCE, per participant and pooled: a run folder (nudge simulate, run or
+    study) or a real log (CSV: t, trial, label, x, y, theta, mode_switch; participant and layout
+    optional), read in 10 Hz cells as HABITS.md defines them."""
+    from nudgecli.report.habits import format_habits, habits_csv, habits_of
+
+    result = habits_of(source, by=by, compare=compare)
+    if output_format == "json":
+        echo_json(result.to_json())
+    elif output_format == "csv":
+        click.echo(habits_csv(result), nl=False)
+    else:
+        click.echo(format_habits(result))
+
+
 # --- compare -------------------------------------------------------------------------------
 
 
