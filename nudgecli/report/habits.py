@@ -620,13 +620,19 @@ def habits_of(source: str | Path, by: str = "participant", compare: str | None =
     """
     reference = load_reference(compare) if compare is not None else None
     cells, rate, kind = source_cells(source)
-    events = measure_habits(cells, rate)
+    return summarise_habits(measure_habits(cells, rate), str(source), kind, by, reference)
+
+
+def summarise_habits(events: pd.DataFrame, source: str, kind: str = "run", by: str = "participant",
+                     reference: dict[str, Any] | None = None) -> HabitsResult:
+    """The :class:`HabitsResult` of measured events (:func:`measure_habits`), e.g. of several runs'
+    cells measured together."""
     people = _summarise(events, ["participant"])
     units = people if by == "participant" else _summarise(events, ["participant", "trial"])
     pooled = _summarise(events, [])
     spread = people.groupby("habit")["median"].agg(people_min="min", people_max="max", participants="size")
     pooled = pooled.join(spread, on="habit")
-    return HabitsResult(str(source), kind, by, events, pooled, units, people, reference)
+    return HabitsResult(source, kind, by, events, pooled, units, people, reference)
 
 
 def _fmt(value: Any, digits: int = 2) -> str:
