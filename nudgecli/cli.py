@@ -420,7 +420,7 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
               help="Simulated participants to calibrate.")
 @click.option("--seed", type=int, default=None, help="Master seed [default: the experiment's].")
 @click.option("--out", type=click.Path(file_okay=False, path_type=str), default=".", show_default=True,
-              help="Folder for population.csv and the figure population.<format>.")
+              help="Folder for population.csv, population_habits.csv and the figure population.<format>.")
 @click.option("--formats", default="png,pdf", show_default=True, help="Figure formats: png, pdf, svg.")
 @click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="What to print on stdout: the coverage table.")
@@ -428,17 +428,19 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
 def plot_population_command(experiment: str, participants: int, seed: int | None, out: str, formats: str,
                             output_format: str, overrides: tuple[str, ...]) -> None:
     """Calibrate EXPERIMENT's simulated participants and draw their fitted p(phi_m | phi_i) diagonals
-    beside the real people's (pilots: fixed 10 Hz stream; sibling study: event-driven stream)."""
+    beside the real people's (pilots: fixed 10 Hz stream; sibling study: event-driven stream), and
+    their drawn timing habits beside the ten real users' ranges (HABITS.md)."""
     from nudgecli.config import load_experiment
     from nudgecli.report.plotting import parse_formats
     from nudgecli.report.population_figure import plot_population
-    from nudgecli.sim.real_population import coverage_table, simulated_diagonals
+    from nudgecli.sim.real_population import coverage_table, simulated_diagonals, simulated_habits
     from nudgecli.store import write_text_atomic
 
     chosen = parse_formats(formats)
     config = load_experiment(experiment, overrides)
     master = config.experiment.seed if seed is None else seed
     diagonals = simulated_diagonals(config, participants, master)
+    habits = simulated_habits(config, participants, master)
     table = coverage_table(diagonals)
     if output_format == "json":
         echo_json(table.to_dict(orient="records"))
@@ -448,8 +450,10 @@ def plot_population_command(experiment: str, participants: int, seed: int | None
         click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     folder = Path(out)
     write_text_atomic(folder / "population.csv", diagonals.to_csv(index=False))
+    write_text_atomic(folder / "population_habits.csv", habits.to_csv(index=False))
     title = f"{config.experiment.name}: {participants} simulated participants (seed {master})"
-    for path in [folder / "population.csv", *plot_population(diagonals, folder, chosen, title)]:
+    for path in [folder / "population.csv", folder / "population_habits.csv",
+                 *plot_population(diagonals, folder, chosen, title, habits)]:
         info(str(path))
 
 

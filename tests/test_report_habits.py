@@ -345,3 +345,44 @@ def test_a_run_with_an_empty_trial(ciaa_run: Path, tmp_path: Path) -> None:
 def test_an_unknown_reference(ciaa_run: Path) -> None:
     result = CliRunner().invoke(main, ["habits", str(ciaa_run), "--compare", "ciaa-robots"])
     assert result.exit_code == 1 and "neither a packaged reference" in result.stderr
+
+
+# --- the habits panel of `nudge plot-population` ---------------------------------------------------
+
+
+def test_drawn_habits_are_the_parameters_plus_their_offsets() -> None:
+    from nudgecli.config import load_experiment
+    from nudgecli.sim.real_population import simulated_habits
+    from nudgecli.sim.study import study_participant
+
+    config = load_experiment("ciaa-teleop")
+    habits = simulated_habits(config, 3, 11).set_index(["participant", "habit"])["value"]
+    person = study_participant(config, 11, 2)
+    assert habits[(2, "first_command_latency")] == pytest.approx(person.planning_s, abs=1e-6)
+    assert habits[(2, "reaction_stop_to_switch")] == pytest.approx(person.event_reaction_s + 0.1, abs=1e-6)
+    assert habits[(2, "reaction_switch_to_motion")] == pytest.approx(person.event_reaction_s + 0.1, abs=1e-6)
+    assert habits[(2, "hard_band_per_excursion")] == pytest.approx(person.hard_peak_s, abs=1e-6)
+    assert habits[(2, "hold_on_per_stop")] == pytest.approx(person.hold_on_s, abs=1e-6)
+
+
+def test_the_habits_panel_draws_each_person_beside_the_real_range() -> None:
+    from matplotlib.collections import PathCollection
+    from matplotlib.patches import Rectangle
+
+    from nudgecli.report.population_figure import HABIT_TITLES, build_population_figure, habits_panel
+
+    habits = pd.DataFrame([{"participant": p, "habit": h, "value": 0.5 + 0.1 * p}
+                           for p in range(4) for h in HABIT_TITLES])
+    ax = habits_panel(habits)
+    dots = [c for c in ax.collections if isinstance(c, PathCollection)]
+    assert len(dots) == len(HABIT_TITLES) and all(len(c.get_offsets()) == 4 for c in dots)
+    np.testing.assert_allclose(sorted(dots[1].get_offsets()[:, 1]), [0.5, 0.6, 0.7, 0.8])
+    bars = [p for p in ax.patches if isinstance(p, Rectangle)]
+    spans = [(b.get_y(), b.get_y() + b.get_height()) for b in bars]
+    ranges = people_ranges()
+    np.testing.assert_allclose(spans, [ranges[h] for h in HABIT_TITLES])
+    diagonals = pd.DataFrame([{"participant": 0, "stream": s, "label": label, "diagonal": 0.9}
+                              for s in ("fixed_rate", "event_driven")
+                              for label in ("Hard Puff", "Hard Sip", "Soft Puff", "Soft Sip")])
+    assert len(build_population_figure(diagonals).axes) == 2
+    assert len(build_population_figure(diagonals, habits=habits).axes) == 3
