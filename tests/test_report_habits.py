@@ -52,13 +52,13 @@ def write_log(tmp_path: Path, body: str, name: str = "log.csv") -> Path:
 # --- known answers -------------------------------------------------------------------------------
 
 
-def test_a_first_command_at_exactly_2_3_s_of_a_real_log(tmp_path: Path) -> None:
-    # the trial starts at t = 100 s: 102.3 - 100.0 is 2.2999999999999972 in binary floating point
-    log = write_log(tmp_path, "100.0,1,Zero Band,22.5,5,0,0,6\n"
-                              "101.0,1,Soft-Hard Puff Deadband,22.5,5,0,0,6\n"  # not a command
-                              "101.1,1,Zero Band,22.5,5,0,0,6\n"
-                              "102.3,1,Soft Puff,22.5,5,0,0,6\n"
-                              "103.0,1,input stopped,22.5,5,0,0,6\n")
+@pytest.mark.parametrize("start", [0.0, 100.0, 1.89])
+def test_a_first_command_at_exactly_2_3_s_of_a_real_log(tmp_path: Path, start: float) -> None:
+    # in binary floating point 102.3 - 100.0 is 2.2999999999999972 and 4.19 - 1.89 is
+    # 2.3000000000000007, past the cell read at 23 * 0.1 = 2.3000000000000003
+    rows = [(0.0, "Zero Band"), (1.0, "Soft-Hard Puff Deadband"), (1.1, "Zero Band"), (2.3, "Soft Puff"),
+            (3.0, "input stopped")]  # the deadband is not a command
+    log = write_log(tmp_path, "".join(f"{start + t:.2f},1,{label},22.5,5,0,0,6\n" for t, label in rows))
     events = habits_of(log).events
     assert values(events, "first_command_latency") == [2.3]
 
@@ -74,7 +74,7 @@ def test_a_blow_with_a_known_gap() -> None:
 @pytest.mark.parametrize(("rate_hz", "gap_cells", "blows"), [
     (10.0, 2, 1),  # 0.2 s: merged
     (10.0, 3, 2),  # 0.3 s: split
-    (20.0, 5, 1),  # exactly 0.25 s: merged (5 x 0.05 is 0.25000000000000006 in floating point)
+    (20.0, 5, 1),  # exactly 0.25 s: merged
     (20.0, 6, 2),  # 0.3 s: split
 ])
 def test_the_merge_rule_at_0_25_s(rate_hz: float, gap_cells: int, blows: int) -> None:
@@ -107,8 +107,8 @@ def test_a_stop_at_a_waypoint_then_a_switch_1_s_later_in_a_real_log(tmp_path: Pa
                               "1.0,1,Soft Sip,22.5,5,0,,6\n"
                               "1.5,1,Soft Sip,15.0,5,0,,6\n"  # arrives: cell 1.4-1.5 moves
                               "1.7,1,Zero Band,15.0,5,0,,6\n"  # held on 0.2 s after the stop
-                              "2.5,1,Hard Puff,15.0,5,0,y,6\n"  # the switch, 1.0 s after the stop
-                              "2.7,1,input stopped,15.0,5,0,,6\n"
+                              "2.45,1,Hard Puff,15.0,5,0,y,6\n"  # the switch, seen in the cell read at 2.5:
+                              "2.7,1,input stopped,15.0,5,0,,6\n"  # 1.0 s after the stop
                               "3.6,1,Soft Puff,15.0,5,0,,6\n"
                               "3.8,1,Soft Puff,15.0,5.3,0,,6\n"  # moves again: cell 3.7-3.8
                               "4.0,1,Zero Band,15.0,5.3,0,,6\n")
