@@ -386,3 +386,33 @@ def test_the_habits_panel_draws_each_person_beside_the_real_range() -> None:
                               for label in ("Hard Puff", "Hard Sip", "Soft Puff", "Soft Sip")])
     assert len(build_population_figure(diagonals).axes) == 2
     assert len(build_population_figure(diagonals, habits=habits).axes) == 3
+
+
+def test_the_summaries_and_the_comparison_of_known_events() -> None:
+    from nudgecli.report.habits import summarise_habits
+
+    pauses = {"a": [0.4, 1.2, 0.6], "b": [2.5, 0.3]}
+    events = pd.DataFrame([{"participant": p, "trial": 0, "habit": habit, "value": value}
+                           for p, values_of in pauses.items() for v in values_of
+                           for habit, value in (("pause_between_blows", v),
+                                                ("share_pauses_over_1s", float(v > 1)),
+                                                ("share_pauses_over_2s", float(v > 2)))])
+    reference = {"name": "made-up", "habits": {
+        "pause_between_blows": {"pooled": {"median": 0.6}, "people": [0.5, 1.0]},
+        "share_pauses_over_1s": {"pooled": {"median": 0.2}, "people": [0.5, 0.6]}}}
+    result = summarise_habits(events, "made-up events", reference=reference)
+    pooled = result.pooled.set_index("habit")
+    assert pooled.loc["pause_between_blows", "median"] == pytest.approx(0.6)
+    assert pooled.loc["pause_between_blows", ["q25", "q75"]].tolist() == pytest.approx([0.4, 1.2])
+    assert pooled.loc["share_pauses_over_1s", "median"] == pytest.approx(2 / 5)  # a share, not a median
+    assert pooled.loc["share_pauses_over_2s", "median"] == pytest.approx(1 / 5)
+    people = result.people.set_index(["participant", "habit"])["median"]
+    assert people[("a", "share_pauses_over_1s")] == pytest.approx(1 / 3)
+    assert people[("b", "pause_between_blows")] == pytest.approx(1.4)
+    spread = pooled.loc["pause_between_blows", ["people_min", "people_max"]].tolist()
+    assert spread == pytest.approx([0.6, 1.4])
+    compared = result.comparison().set_index("habit")
+    assert bool(compared.loc["pause_between_blows", "inside"]) is True
+    assert compared.loc["pause_between_blows", "people_inside"] == pytest.approx(0.5)  # 0.6 in, 1.4 out
+    assert bool(compared.loc["share_pauses_over_1s", "inside"]) is False  # 0.4 below 0.5
+    assert compared.loc["share_pauses_over_1s", "people_inside"] == pytest.approx(0.5)  # 0.33 out, 0.5 in
