@@ -485,6 +485,8 @@ def _summarise(events: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
         means = grouped.mean().to_numpy()
         table.loc[share, "median"] = means[share]
         table.loc[share, ["q25", "q75"]] = np.nan
+    # interpolated quartiles of 0.1 s cells: round away the binary float noise (0.8500000000000001)
+    table[["median", "q25", "q75"]] = table[["median", "q25", "q75"]].round(6)
     order = {key: i for i, key in enumerate(HABIT_KEYS)}
     table["_order"] = table["habit"].map(order)
     return table.sort_values([*keys, "_order"], kind="stable").drop(columns="_order").reset_index(drop=True)
