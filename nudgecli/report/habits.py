@@ -24,7 +24,7 @@ from __future__ import annotations
 import itertools
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -250,8 +250,9 @@ _STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "cell_x", "cell_y", 
 _TRIAL_COLUMNS = ["participant", "trial", "layout", "final_x", "final_y", "final_theta"]
 
 
-def _label_kinds(labels: pd.Series, where: str) -> np.ndarray:
-    """``(N,)`` cell kinds of label names; an unknown name is a :class:`DataError` naming its row."""
+def _label_kinds(labels: pd.Series, where: str | Callable[[int], str]) -> np.ndarray:
+    """``(N,)`` cell kinds of label names; an unknown name is a :class:`DataError` naming its row
+    (``where``: the file, or the name of a row by its index)."""
     text = labels.fillna("").astype(str).str.strip()
     kinds = text.map(LABEL_KINDS)
     unknown = kinds.isna().to_numpy()
@@ -400,7 +401,7 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
             raise DataError(f"{row_name(i)}: {column} {frame[column].iloc[i]!r} is not a number; every row "
                             f"needs its time and the robot's pose")
         numbers[column] = values.to_numpy(dtype=float)
-    kinds = _label_kinds(frame["label"], row_name)  # type: ignore[arg-type]
+    kinds = _label_kinds(frame["label"], row_name)
     participant = frame["participant"].str.strip() if "participant" in frame.columns else \
         pd.Series(path.stem, index=frame.index)
     trial = frame["trial"].str.strip()
@@ -412,12 +413,12 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
     group = (participant + "\x00" + trial).to_numpy()
     new_trial = np.concatenate(([True], group[1:] != group[:-1]))
     seen: set[str] = set()
-    for i in np.flatnonzero(new_trial):
-        if group[i] in seen:
-            raise DataError(f"{row_name(int(i))}: trial {trial.iloc[i]!r} of participant "
-                            f"{participant.iloc[i]!r} continues after other rows; write each trial's rows "
-                            "together, in time order")
-        seen.add(group[i])
+    for first_row in np.flatnonzero(new_trial).tolist():
+        if group[first_row] in seen:
+            raise DataError(f"{row_name(first_row)}: trial {trial.iloc[first_row]!r} of participant "
+                            f"{participant.iloc[first_row]!r} continues after other rows; write each trial's "
+                            "rows together, in time order")
+        seen.add(group[first_row])
     back = np.flatnonzero(~new_trial[1:] & (np.diff(time) < 0)) + 1
     if back.size:
         i = int(back[0])
