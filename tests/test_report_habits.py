@@ -139,6 +139,35 @@ def test_a_second_switch_before_the_motion_voids_the_first_reaction() -> None:
     assert values(events, "reaction_switch_to_motion") == [0.3]
 
 
+@pytest.mark.parametrize(("moving_cell", "back_to", "expected"), [
+    (None, 0, [0.5]),  # x -> y, then straight back y -> x 0.5 s later
+    (4, 0, []),  # the robot moved between: not undone
+    (None, 2, []),  # y -> theta: on, not back
+])
+def test_an_undone_switch(moving_cell: int | None, back_to: int, expected: list[float]) -> None:
+    moving = [i == moving_cell for i in range(10)]
+    kinds = [NEUTRAL, HARD, NEUTRAL, NEUTRAL, SOFT, NEUTRAL, HARD, NEUTRAL, NEUTRAL, NEUTRAL]
+    cells = cells_of(kinds, moving, switch=[1, 6])  # no motion at all in two cases: nothing to react to
+    cells["switch_from"] = [-1, 0, -1, -1, -1, -1, 1, -1, -1, -1]
+    cells["switch_to"] = [-1, 1, -1, -1, -1, -1, back_to, -1, -1, -1]
+    assert values(measure_habits(cells), "undone_switch") == expected
+
+
+def test_an_undone_switch_in_a_real_log_starts_from_the_layouts_start_mode(tmp_path: Path) -> None:
+    """Layout 6 starts in mode theta: theta -> y, then back to theta 0.8 s later; then y and x
+    (where they went unknown for the last), so no more undone switches."""
+    log = write_log(tmp_path, "0.0,1,Zero Band,22.5,5,0,,6\n"
+                              "1.0,1,Hard Puff,22.5,5,0,y,6\n"
+                              "1.2,1,Zero Band,22.5,5,0,,6\n"
+                              "1.8,1,Hard Sip,22.5,5,0,theta,6\n"
+                              "2.0,1,Zero Band,22.5,5,0,,6\n"
+                              "2.5,1,Hard Puff,22.5,5,0,x,6\n"
+                              "2.7,1,Zero Band,22.5,5,0,,6\n"
+                              "3.5,1,Hard Sip,22.5,5,0,1,6\n"
+                              "4.0,1,Zero Band,22.5,5,0,,6\n")
+    assert values(habits_of(log).events, "undone_switch") == [0.8]
+
+
 # --- the vectorised measurement against a plain loop over a simulated run -----------------------------
 
 
@@ -195,6 +224,11 @@ def loop_habits(cells: pd.DataFrame, dt: float = 0.1) -> dict[str, list[float]]:
                 if nxt is not None and switch[nxt] and not moving[nxt]:
                     out.setdefault("reaction_stop_to_switch", []).append((nxt - c - 1) * dt)
             if switch[c]:
+                back = next((d for d in range(c + 1, n) if switch[d]), None)
+                if back is not None and trial["switch_from"].iloc[c] >= 0 and \
+                        trial["switch_to"].iloc[back] == trial["switch_from"].iloc[c] and \
+                        not any(moving[d] for d in range(c + 1, back)):
+                    out.setdefault("undone_switch", []).append((back - c) * dt)
                 starts = [d for d in range(c + 1, n) if moving[d] and not moving[d - 1]]
                 if starts and not any(switch[d] for d in range(c + 1, starts[0])):
                     out.setdefault("reaction_switch_to_motion", []).append((starts[0] - c) * dt)
@@ -219,7 +253,8 @@ def test_the_measurement_equals_a_plain_loop_on_a_simulated_run(ciaa_run: Path) 
         got = sorted(values(events, habit))
         np.testing.assert_allclose(got, sorted(loop_values), atol=1e-6, err_msg=habit)
     # the run has each kind of event
-    assert {"reaction_stop_to_switch", "reaction_switch_to_motion", "hold_on_per_trial"} <= set(expected)
+    assert {"reaction_stop_to_switch", "reaction_switch_to_motion", "hold_on_per_trial",
+            "undone_switch"} <= set(expected)
 
 
 def test_moving_cells_and_waypoint_stops_of_a_run_are_read_from_its_poses(ciaa_run: Path) -> None:

@@ -34,7 +34,7 @@ import pandas as pd
 
 from nudgecli.errors import DataError, RunFolderError
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, PUFF_DEADBAND, SIP_DEADBAND, SOFT_PUFF, SOFT_SIP
-from nudgecli.model.world import angle_difference
+from nudgecli.model.world import MODE_NAMES, angle_difference
 from nudgecli.reference import PACKAGED_REFERENCES, packaged_reference
 from nudgecli.sim.calibration_io import STREAM_CODES
 from nudgecli.steplog import MODE_SWITCH_HUMAN, has_event
@@ -84,6 +84,7 @@ HABITS = (
     Habit("reaction_switch_to_motion", "mode switch -> robot moves again (s)", "switch>move"),
     Habit("hold_on_per_trial", "holding on after the robot stopped (s per trial)", "hold_on"),
     Habit("soft_blow_never_moving", "a soft blow that never moves the robot (s)", "soft_still"),
+    Habit("undone_switch", "an undone switch: switch -> the switch back (s)", "undone"),
 )
 HABIT_KEYS = tuple(h.key for h in HABITS)
 _BY_KEY = {h.key: h for h in HABITS}
@@ -91,8 +92,12 @@ _BY_KEY = {h.key: h for h in HABITS}
 #: The columns of the cell table :func:`measure_habits` reads (one row per cell, trials contiguous
 #: and in time order): ``kind`` (:data:`NEUTRAL` ...), ``moving``, ``switch`` (a mode switch fired
 #: in the cell), ``at_waypoint`` (after this cell the robot stands at a waypoint; read at the last
-#: cell of a motion run) and ``waypoints_known`` (False where a real log names no layout).
+#: cell of a motion run) and ``waypoints_known`` (False where a real log names no layout); optional
+#: ``switch_from`` / ``switch_to``: a switch cell's mode before and after (0 x, 1 y, 2 theta; -1 unknown).
 CELL_COLUMNS = ("participant", "trial", "kind", "moving", "switch", "at_waypoint", "waypoints_known")
+#: Mode words of a real log's ``mode_switch`` column (the mode switched to) -> mode index.
+MODE_WORDS = {"x": 0, "horizontal": 0, "y": 1, "vertical": 1, "t": 2, "theta": 2, "rotation": 2,
+              "rotational": 2}
 #: Columns of the event table: one row per measured event.
 EVENT_COLUMNS = ("participant", "trial", "habit", "value")
 
@@ -136,6 +141,8 @@ def _merged_blows(kind: np.ndarray, new_trial: np.ndarray, gap_cells: int) -> tu
 
 def _next_at_or_after(sorted_index: np.ndarray, positions: np.ndarray) -> np.ndarray:
     """Per position, the first entry of ``sorted_index`` at or after it (``-1`` where none)."""
+    if len(sorted_index) == 0:
+        return np.full(len(positions), -1)
     at = np.searchsorted(sorted_index, positions, side="left")
     found = at < len(sorted_index)
     return np.where(found, sorted_index[np.minimum(at, len(sorted_index) - 1)], -1)
@@ -239,6 +246,16 @@ def measure_habits(cells: pd.DataFrame, rate_hz: float = HABIT_RATE_HZ,
     ok &= (switch_after < 0) | (switch_after >= motion_after)  # no switch strictly between
     add("reaction_switch_to_motion", switches[ok], (motion_after[ok] - switches[ok]) * dt)
 
+    # undone switches: a -> b, then straight back b -> a with no motion between
+    unknown = np.full(n, -1)
+    came_from = cells["switch_from"].to_numpy(dtype=int) if "switch_from" in cells else unknown
+    went_to = cells["switch_to"].to_numpy(dtype=int) if "switch_to" in cells else unknown
+    first_switch, second_switch = switches[:-1], switches[1:]
+    undone = (trial_id[first_switch] == trial_id[second_switch]) & (came_from[first_switch] >= 0) & \
+        (went_to[second_switch] == came_from[first_switch]) & \
+        ~_any_in(moving, first_switch + 1, second_switch)
+    add("undone_switch", first_switch[undone], (second_switch[undone] - first_switch[undone]) * dt)
+
     if not frames:
         return pd.DataFrame(columns=list(EVENT_COLUMNS))
     return pd.concat(frames, ignore_index=True)
@@ -246,7 +263,8 @@ def measure_habits(cells: pd.DataFrame, rate_hz: float = HABIT_RATE_HZ,
 
 # --- sources: a run folder ---------------------------------------------------------------------
 
-_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "cell_x", "cell_y", "heading", "phi_m", "event"]
+_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "mode", "cell_x", "cell_y", "heading", "phi_m",
+                 "event"]
 _TRIAL_COLUMNS = ["participant", "trial", "layout", "final_x", "final_y", "final_theta"]
 
 
@@ -337,11 +355,15 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
         marker[run_starts] = run_starts
         began = np.maximum.accumulate(marker) if n else marker
         at_waypoint = moving & (state_after != state[np.maximum(began, 0)]).any(axis=1)
+    mode = steps["mode"].map({name: index for index, name in enumerate(MODE_NAMES)}).fillna(-1)
+    mode = mode.to_numpy(dtype=int)
+    mode_after = np.roll(mode, -1)
+    mode_after[last] = -1  # a switch in a trial's last step: where it went is not logged
     cells = pd.DataFrame({
         "participant": steps["participant"], "trial": steps["trial"],
         "kind": _label_kinds(steps["phi_m"], str(run.path / "steps")),
         "moving": moving, "switch": has_event(steps["event"], MODE_SWITCH_HUMAN),
-        "at_waypoint": at_waypoint, "waypoints_known": True,
+        "at_waypoint": at_waypoint, "waypoints_known": True, "switch_from": mode, "switch_to": mode_after,
     })
     return cells, float(config.study.rate_hz)
 
@@ -360,7 +382,8 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
     Columns: ``t`` (or ``time``, seconds), ``trial``, ``label`` (an interface label, a deadband,
     or a neutral one: empty, ``Zero Band``, ``input stopped``, ``None``), ``x``, ``y``, ``theta``
     (the robot's pose after the row), ``mode_switch`` (non-empty and not ``0``/``false``: a mode
-    switch fired at this time); optional ``participant`` (default: the file's name) and ``layout``
+    switch fired at this time; a mode word, ``x``/``y``/``theta``, says where it went, which undone
+    switches need); optional ``participant`` (default: the file's name) and ``layout``
     (the CIAA task's trial index, whose waypoints mark the stops; without it stops at a waypoint
     are not measured). Each row holds the whole state from its time on, so an event-driven log
     (a row per change) and a sampled one read alike. A trial starts at its first row; its cells
@@ -405,7 +428,9 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
     participant = frame["participant"].str.strip() if "participant" in frame.columns else \
         pd.Series(path.stem, index=frame.index)
     trial = frame["trial"].str.strip()
-    switch = ~frame["mode_switch"].str.strip().str.lower().isin(_FALSE_WORDS)
+    switch_word = frame["mode_switch"].str.strip().str.lower()
+    switch = ~switch_word.isin(_FALSE_WORDS)
+    switch_to = switch_word.map(MODE_WORDS).fillna(-1).to_numpy(dtype=int)
     layout = None
     if "layout" in frame.columns:
         layout = pd.to_numeric(frame["layout"].str.strip(), errors="coerce")
@@ -426,7 +451,9 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
                         f"{time[i - 1]:g} s; sort each trial's rows by time")
     from nudgecli.sim.ciaa import packaged_task, task_layouts
 
-    all_waypoints = {index: lay.waypoints for index, lay in task_layouts(packaged_task()).items()}
+    task = task_layouts(packaged_task())
+    all_waypoints = {index: lay.waypoints for index, lay in task.items()}
+    start_modes = {index: lay.start_mode for index, lay in task.items()}
     dt = 1.0 / rate_hz
     firsts = np.flatnonzero(new_trial)
     bounds = np.append(firsts, len(frame))
@@ -441,10 +468,13 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
         grid = np.arange(reads) * dt
         held = lo + np.searchsorted(rel, grid + TIME_SLACK, side="right") - 1  # zero-order hold
         pose = np.column_stack([numbers[c][held] for c in ("x", "y", "theta")])
-        fired = np.ceil(rel[switch.to_numpy()[lo:hi]] / dt - TIME_SLACK).astype(int)
+        rows = lo + np.flatnonzero(switch.to_numpy()[lo:hi])
+        fired = np.ceil(rel[rows - lo] / dt - TIME_SLACK).astype(int)
+        inside = fired < reads - 1
         cell_switch = np.zeros(reads - 1, dtype=bool)
-        cell_switch[fired[fired < reads - 1]] = True
+        cell_switch[fired[inside]] = True
         known = False
+        start_mode = -1
         at_waypoint = np.zeros(reads - 1, dtype=bool)
         if layout is not None:
             index = layout.iloc[lo]
@@ -452,11 +482,18 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
                 raise DataError(f"{row_name(int(lo))}: layout {frame['layout'].iloc[lo]!r} is not a trial "
                                 f"index of the CIAA task (0-{max(all_waypoints)})")
             known = True
+            start_mode = start_modes[int(index)]
             at_waypoint = _at_waypoints(pose[1:, :2], np.full(reads - 1, int(index)), all_waypoints)
+        # each switch comes from where the one before it went (the first: the layout's start mode)
+        went_to = switch_to[rows]
+        came_from = np.concatenate(([start_mode], went_to[:-1]))
+        cell_from, cell_to = np.full(reads - 1, -1), np.full(reads - 1, -1)
+        cell_from[fired[inside]] = came_from[inside]
+        cell_to[fired[inside]] = went_to[inside]
         pieces.append(pd.DataFrame({
             "participant": participant.iloc[lo], "trial": trial.iloc[lo], "kind": kinds[held[:-1]],
             "moving": _moving(pose[:-1], pose[1:]), "switch": cell_switch, "at_waypoint": at_waypoint,
-            "waypoints_known": known}))
+            "waypoints_known": known, "switch_from": cell_from, "switch_to": cell_to}))
     return pd.concat(pieces, ignore_index=True)
 
 
