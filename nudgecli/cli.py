@@ -420,7 +420,7 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
               help="Simulated participants to calibrate.")
 @click.option("--seed", type=int, default=None, help="Master seed [default: the experiment's].")
 @click.option("--out", type=click.Path(file_okay=False, path_type=str), default=".", show_default=True,
-              help="Folder for population.csv and the figure population.<format>.")
+              help="Folder for population.csv, population_habits.csv and the figure population.<format>.")
 @click.option("--formats", default="png,pdf", show_default=True, help="Figure formats: png, pdf, svg.")
 @click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="What to print on stdout: the coverage table.")
@@ -428,17 +428,19 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
 def plot_population_command(experiment: str, participants: int, seed: int | None, out: str, formats: str,
                             output_format: str, overrides: tuple[str, ...]) -> None:
     """Calibrate EXPERIMENT's simulated participants and draw their fitted p(phi_m | phi_i) diagonals
-    beside the real people's (pilots: fixed 10 Hz stream; sibling study: event-driven stream)."""
+    beside the real people's (pilots: fixed 10 Hz stream; sibling study: event-driven stream), and
+    their drawn timing habits beside the ten real users' ranges (HABITS.md)."""
     from nudgecli.config import load_experiment
     from nudgecli.report.plotting import parse_formats
     from nudgecli.report.population_figure import plot_population
-    from nudgecli.sim.real_population import coverage_table, simulated_diagonals
+    from nudgecli.sim.real_population import coverage_table, simulated_diagonals, simulated_habits
     from nudgecli.store import write_text_atomic
 
     chosen = parse_formats(formats)
     config = load_experiment(experiment, overrides)
     master = config.experiment.seed if seed is None else seed
     diagonals = simulated_diagonals(config, participants, master)
+    habits = simulated_habits(config, participants, master)
     table = coverage_table(diagonals)
     if output_format == "json":
         echo_json(table.to_dict(orient="records"))
@@ -448,9 +450,38 @@ def plot_population_command(experiment: str, participants: int, seed: int | None
         click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
     folder = Path(out)
     write_text_atomic(folder / "population.csv", diagonals.to_csv(index=False))
+    write_text_atomic(folder / "population_habits.csv", habits.to_csv(index=False))
     title = f"{config.experiment.name}: {participants} simulated participants (seed {master})"
-    for path in [folder / "population.csv", *plot_population(diagonals, folder, chosen, title)]:
+    for path in [folder / "population.csv", folder / "population_habits.csv",
+                 *plot_population(diagonals, folder, chosen, title, habits)]:
         info(str(path))
+
+
+# --- habits --------------------------------------------------------------------------------
+
+
+@main.command("habits", short_help="Operating habits (HABITS.md definitions) of a run or a real log.")
+@click.argument("source", type=click.Path(path_type=str))
+@click.option("--by", type=click.Choice(["participant", "trial"]), default="participant", show_default=True,
+              help="The units listed beside the pooled figures.")
+@click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
+              show_default=True, help="What to print on stdout.")
+@click.option("--compare", "compare", metavar="FILE|ciaa-people", default=None,
+              help="A reference printed beside: ciaa-people (the ten real users of HABITS.md, shipped with "
+                   "nudge) or a JSON of the shape of --format json.")
+def habits_command(source: str, by: str, output_format: str, compare: str | None) -> None:
+    """The operating habits of SOURCE, per participant and pooled: a run folder (nudge simulate, run or
+    study) or a real log (CSV: t, trial, label, x, y, theta, mode_switch; participant and layout
+    optional), read in 10 Hz cells as HABITS.md defines them."""
+    from nudgecli.report.habits import format_habits, habits_csv, habits_of
+
+    result = habits_of(source, by=by, compare=compare)
+    if output_format == "json":
+        echo_json(result.to_json())
+    elif output_format == "csv":
+        click.echo(habits_csv(result), nl=False)
+    else:
+        click.echo(format_habits(result))
 
 
 # --- compare -------------------------------------------------------------------------------

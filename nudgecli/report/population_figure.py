@@ -8,6 +8,11 @@ black diamonds (in the event-driven panel: their own blows as that device would 
 Inputs are :func:`nudgecli.sim.real_population.simulated_diagonals` and
 :data:`~nudgecli.sim.real_population.PILOT_DIAGONALS` / ``PILOT_EVENT_DIAGONALS`` /
 ``SIBLING_DIAGONAL_SPANS``.
+
+Below them, given the participants' drawn timing habits
+(:func:`nudgecli.sim.real_population.simulated_habits`), a habits panel: per habit every simulated
+person's value (dots) beside the range of the ten real people's medians of HABITS.md (gray bars;
+the packaged reference ``ciaa-people``).
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from nudgecli.model.interface import LABELS
+from nudgecli.reference import people_ranges
 from nudgecli.report.figures.output import save_figure
 from nudgecli.report.style import FULL_WIDTH_IN, OKABE_ITO, figure_style
 from nudgecli.sim.real_population import PILOT_DIAGONALS, PILOT_EVENT_DIAGONALS, SIBLING_DIAGONAL_SPANS
@@ -77,7 +83,50 @@ def population_panel(simulated: pd.DataFrame, stream: str, *, ax: Axes | None = 
     return ax
 
 
-def build_population_figure(simulated: pd.DataFrame, title: str = "") -> Figure:
+#: The habits panel's habits and their tick labels.
+HABIT_TITLES = {
+    "first_command_latency": "first\ncommand",
+    "reaction_stop_to_switch": "stop at waypoint\n-> switch",
+    "reaction_switch_to_motion": "switch\n-> moves",
+    "hard_band_per_excursion": "hard band per\nexcursion",
+    "hold_on_per_stop": "hold-on\nper stop",
+}
+
+
+def habits_panel(habits: pd.DataFrame, *, ax: Axes | None = None) -> Axes:
+    """Per habit the simulated people's values (dots, spread sideways by rank) beside the range of
+    the ten real people's medians (HABITS.md; a gray bar).
+
+    Parameters
+    ----------
+    habits
+        Columns ``participant``, ``habit``, ``value`` (seconds).
+    ax
+        Axes to draw on; default a new figure's.
+    """
+    if ax is None:
+        ax = Figure(figsize=(FULL_WIDTH_IN, 2.7), layout="constrained").subplots()
+    real = people_ranges("ciaa-people")
+    for k, habit in enumerate(HABIT_TITLES):
+        values = habits.loc[habits["habit"] == habit, "value"].to_numpy(dtype=float)
+        rank = np.argsort(np.argsort(values, kind="stable"))
+        offsets = (rank / max(len(values) - 1, 1) - 0.5) * 0.25
+        ax.scatter(k - 0.15 + offsets, values, s=7, color=OKABE_ITO["blue"], alpha=0.75, linewidths=0,
+                   label="simulated participants (drawn parameter + mechanical offset)" if k == 0 else None)
+        low, high = real[habit]
+        ax.bar(k + 0.22, high - low, bottom=low, width=0.14, color="#BDBDBD", edgecolor="#4D4D4D",
+               linewidth=0.6, label="10 real users, range of their medians (HABITS.md)" if k == 0 else None)
+    ax.set_xticks(range(len(HABIT_TITLES)), list(HABIT_TITLES.values()))
+    ax.set_xlim(-0.6, len(HABIT_TITLES) - 0.4)
+    ax.set_ylim(bottom=0.0)
+    ax.set_ylabel("seconds")
+    ax.set_title("operating habits (sibling study's task, no assistance)", loc="left")
+    ax.legend(loc="upper right")
+    return ax
+
+
+def build_population_figure(simulated: pd.DataFrame, title: str = "",
+                            habits: pd.DataFrame | None = None) -> Figure:
     """The figure (see the module docstring): :func:`population_panel` per stream format.
 
     Parameters
@@ -86,11 +135,19 @@ def build_population_figure(simulated: pd.DataFrame, title: str = "") -> Figure:
         Columns ``participant``, ``stream``, ``label``, ``diagonal``.
     title
         A suptitle (e.g. the experiment and the number of participants).
+    habits
+        Columns ``participant``, ``habit``, ``value``: adds :func:`habits_panel` below.
     """
     with figure_style():
-        fig = Figure(figsize=(FULL_WIDTH_IN, 2.9), layout="constrained")
+        fig = Figure(figsize=(FULL_WIDTH_IN, 2.9 if habits is None else 5.8), layout="constrained")
         FigureCanvasAgg(fig)
-        axes = fig.subplots(1, 2, sharey=True)
+        if habits is None:
+            axes = fig.subplots(1, 2, sharey=True)
+        else:
+            mosaic = fig.subplot_mosaic([["fixed_rate", "event_driven"], ["habits", "habits"]])
+            axes = [mosaic["fixed_rate"], mosaic["event_driven"]]
+            axes[1].sharey(axes[0])
+            habits_panel(habits, ax=mosaic["habits"])
         for ax, stream in zip(axes, STREAM_TITLES, strict=True):
             population_panel(simulated, stream, ax=ax)
         axes[0].set_ylabel(r"fitted $p(\phi_m = \phi_i \mid \phi_i)$")
@@ -100,6 +157,7 @@ def build_population_figure(simulated: pd.DataFrame, title: str = "") -> Figure:
 
 
 def plot_population(simulated: pd.DataFrame, out_dir: str | os.PathLike[str],
-                    formats: Sequence[str] = ("png", "pdf"), title: str = "") -> list[Path]:
+                    formats: Sequence[str] = ("png", "pdf"), title: str = "",
+                    habits: pd.DataFrame | None = None) -> list[Path]:
     """Draw :func:`build_population_figure` and write ``population.<fmt>`` into ``out_dir``."""
-    return save_figure(build_population_figure(simulated, title), out_dir, FIGURE_STEM, formats)
+    return save_figure(build_population_figure(simulated, title, habits), out_dir, FIGURE_STEM, formats)

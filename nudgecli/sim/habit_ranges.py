@@ -21,19 +21,23 @@ What the pilots' logs say (their ``p(phi_m | phi_i)`` sessions, prompts of 6 s):
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+import pandas as pd
 
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, LABELS, ZERO_THRESHOLD
+from nudgecli.reference import people_ranges
 from nudgecli.sim.calibration_io import DistortionSession
+from nudgecli.sim.participants import Participant
 
-#: Real people's ranges of per-person medians (HABITS.md, the ten sibling-study users), seconds.
+#: Real people's ranges of per-person medians (HABITS.md, the ten sibling-study users), seconds: read
+#: from the packaged reference (:mod:`nudgecli.reference`), the one owner of HABITS.md's numbers.
+#: ``hold_on_per_stop`` is HABITS.md's words ("about 0.1-0.3 s each time"), not its table.
 REAL_HABIT_RANGES: dict[str, tuple[float, float]] = {
-    "first_command_latency": (1.80, 2.75),
-    "reaction_stop_to_switch": (0.59, 1.80),
-    "reaction_switch_to_motion": (0.83, 1.59),
-    "hard_band_per_excursion": (0.10, 0.30),
-    "hard_blow_whole": (0.30, 0.80),
-    "hold_on_per_stop": (0.10, 0.30),  # HABITS.md's words: "about 0.1-0.3 s each time"
+    name: bounds for name, bounds in people_ranges("ciaa-people").items()
+    if name in ("first_command_latency", "reaction_stop_to_switch", "reaction_switch_to_motion",
+                "hard_band_per_excursion", "hard_blow_whole", "hold_on_per_stop")
 }
 #: How long after its parameter each habit is measured (the model's mechanics, at 10 Hz): the
 #: first command cell is the blow's first sample (0); a switch is seen the step after it and the
@@ -145,3 +149,29 @@ def derived_timing_ranges(pilots: list[DistortionSession]) -> dict[str, tuple[fl
     offset = (min(offsets), max(max(offsets), needed))
     return {"planning_s": planning, "event_reaction_s": reaction, "hold_on_s": hold_on, "hard_peak_s": peak,
             "offset_ramp_samples": offset}
+
+
+#: The drawn parameter behind each real habit (``nudge plot-population``'s habits panel): the
+#: habit is measured the parameter plus :data:`HABIT_OFFSETS_S` later.
+HABIT_PARAMETERS: dict[str, str] = {
+    "first_command_latency": "planning_s",
+    "reaction_stop_to_switch": "event_reaction_s",
+    "reaction_switch_to_motion": "event_reaction_s",
+    "hard_band_per_excursion": "hard_peak_s",
+    "hold_on_per_stop": "hold_on_s",
+}
+
+
+def drawn_habits(people: Sequence[Participant]) -> pd.DataFrame:
+    """Each person's habits as their drawn parameters set them (parameter + mechanical offset).
+
+    Returns
+    -------
+    pd.DataFrame
+        Columns ``participant``, ``habit``, ``parameter``, ``value`` (seconds); one row per person
+        and habit of :data:`HABIT_PARAMETERS`.
+    """
+    rows = [{"participant": person.index, "habit": habit, "parameter": parameter,
+             "value": round(float(getattr(person, parameter)) + HABIT_OFFSETS_S.get(habit, 0.0), 6)}
+            for person in people for habit, parameter in HABIT_PARAMETERS.items()]
+    return pd.DataFrame(rows, columns=["participant", "habit", "parameter", "value"])

@@ -336,6 +336,15 @@ def simulated_diagonals(config: ExperimentConfig, participants: int, seed: int) 
     return pd.DataFrame(rows, columns=["participant", "stream", "label", "diagonal"])
 
 
+def simulated_habits(config: ExperimentConfig, participants: int, seed: int) -> pd.DataFrame:
+    """The study's participants' timing habits as their drawn parameters set them
+    (:func:`nudgecli.sim.habit_ranges.drawn_habits`; participant ``i`` as in :func:`simulated_diagonals`)."""
+    from nudgecli.sim.habit_ranges import drawn_habits
+    from nudgecli.sim.study import study_participant
+
+    return drawn_habits([study_participant(config, seed, index) for index in range(participants)])
+
+
 def real_diagonal_ranges() -> pd.DataFrame:
     """The real people's diagonals per stream format and label, as ranges.
 

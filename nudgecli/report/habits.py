@@ -1,0 +1,725 @@
+"""Operating habits (``nudge habits``): how people operate the interface, as HABITS.md defines them.
+
+The definitions are those of ``shared/data/ciaa-task/HABITS.md`` (the sibling study's ten real
+sip-and-puff users), in the toolkit's 10 Hz view:
+
+- every trial is a sequence of cells of ``1 / rate`` seconds; a simulated or live run's steps are
+  its cells, a real log's label and pose are held between its rows (zero-order hold) and read at
+  ``t = 0, 0.1, 0.2 ...`` s from the trial's first row;
+- a **neutral** cell has no input (Zero Band, input stopped, the toolkit's empty label), a
+  **command** cell a Soft or Hard Puff or Sip; deadband cells are neither;
+- a **blow** is a run of non-neutral cells, merged across neutral gaps of at most
+  :data:`MERGE_GAP_S` (one or two cells at 10 Hz); a **hard blow** holds at least one Hard cell;
+- a **moving** cell is one across which the robot's pose changed;
+- a motion run **ends at a waypoint** when its last pose is one of the world's waypoints (the CIAA
+  world's path, or a real log's layout), or, in the paper's grid world, when the robot arrived in
+  another cell than the one the run began in.
+
+The habits (:data:`HABITS`) are measured per event and summarised per participant (or trial) and
+pooled; ``people`` is the range of the participants' own medians, as HABITS.md gives it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from nudgecli.errors import DataError, RunFolderError
+from nudgecli.model.interface import HARD_PUFF, HARD_SIP, PUFF_DEADBAND, SIP_DEADBAND, SOFT_PUFF, SOFT_SIP
+from nudgecli.model.world import MODE_NAMES, angle_difference
+from nudgecli.reference import PACKAGED_REFERENCES, packaged_reference
+from nudgecli.sim.calibration_io import STREAM_CODES
+from nudgecli.steplog import MODE_SWITCH_HUMAN, has_event
+from nudgecli.store import RunFolder, is_run_folder
+
+#: The rate of HABITS.md's cells (a real log is resampled to it).
+HABIT_RATE_HZ = 10.0
+#: Blows are merged across neutral gaps of at most this long (HABITS.md).
+MERGE_GAP_S = 0.25
+#: Float slack of time comparisons (cell edges are multiples of 0.1 s in binary floating point).
+TIME_SLACK = 1e-9
+#: A pose closer than this to a waypoint (units) stands on it: the worlds snap onto waypoints
+#: exactly, so this only absorbs the rounding of a written log.
+WAYPOINT_TOLERANCE = 1e-3
+#: Pose changes below this (units, rad) are no motion: float noise of a written log.
+POSE_TOLERANCE = 1e-9
+
+#: Cell kinds.
+NEUTRAL, DEADBAND, SOFT, HARD = 0, 1, 2, 3
+_KIND_OF_CODE = {HARD_PUFF: HARD, HARD_SIP: HARD, SOFT_PUFF: SOFT, SOFT_SIP: SOFT, PUFF_DEADBAND: DEADBAND,
+                 SIP_DEADBAND: DEADBAND}
+#: Label name -> cell kind: the interface labels, deadbands, and every neutral spelling (the
+#: toolkit's empty label, the pilots' ``None``, the sibling study's ``Zero Band`` and ``input stopped``).
+LABEL_KINDS = {"": NEUTRAL, **{name: _KIND_OF_CODE.get(code, NEUTRAL) for name, code in STREAM_CODES.items()}}
+
+
+@dataclass(frozen=True)
+class Habit:
+    """One habit: its key, its words, and whether it summarises as a median or a share."""
+
+    key: str
+    label: str
+    short: str
+    share: bool = False
+
+
+#: The habits measured, in HABITS.md's order (keys as in the packaged reference ``ciaa-people``).
+HABITS = (
+    Habit("first_command_latency", "first-command latency (s)", "first_cmd"),
+    Habit("pause_between_blows", "pause between blows (s)", "pause"),
+    Habit("share_pauses_over_1s", "share of pauses > 1 s", "pause>1s", share=True),
+    Habit("share_pauses_over_2s", "share of pauses > 2 s", "pause>2s", share=True),
+    Habit("hard_blow_whole", "hard blow, whole (s)", "hard_blow"),
+    Habit("hard_band_per_excursion", "time in the hard band per excursion (s)", "hard_band"),
+    Habit("soft_blow", "soft blow (s)", "soft_blow"),
+    Habit("reaction_stop_to_switch", "robot stops at a waypoint -> next switch (s)", "stop>switch"),
+    Habit("reaction_switch_to_motion", "mode switch -> robot moves again (s)", "switch>move"),
+    Habit("hold_on_per_trial", "holding on after the robot stopped (s per trial)", "hold_on"),
+    Habit("soft_blow_never_moving", "a soft blow that never moves the robot (s)", "soft_still"),
+    Habit("undone_switch", "an undone switch: switch -> the switch back (s)", "undone"),
+)
+HABIT_KEYS = tuple(h.key for h in HABITS)
+_BY_KEY = {h.key: h for h in HABITS}
+
+#: The columns of the cell table :func:`measure_habits` reads (one row per cell, trials contiguous
+#: and in time order): ``kind`` (:data:`NEUTRAL` ...), ``moving``, ``switch`` (a mode switch fired
+#: in the cell), ``at_waypoint`` (after this cell the robot stands at a waypoint; read at the last
+#: cell of a motion run) and ``waypoints_known`` (False where a real log names no layout); optional
+#: ``switch_from`` / ``switch_to``: a switch cell's mode before and after (0 x, 1 y, 2 theta; -1 unknown).
+CELL_COLUMNS = ("participant", "trial", "kind", "moving", "switch", "at_waypoint", "waypoints_known")
+#: Mode words of a real log's ``mode_switch`` column (the mode switched to) -> mode index.
+MODE_WORDS = {"x": 0, "horizontal": 0, "y": 1, "vertical": 1, "t": 2, "theta": 2, "rotation": 2,
+              "rotational": 2}
+#: Columns of the event table: one row per measured event.
+EVENT_COLUMNS = ("participant", "trial", "habit", "value")
+
+
+# --- runs of cells -----------------------------------------------------------------------------
+
+
+def _runs(mask: np.ndarray, new_trial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and end (exclusive) indices of the runs of True in ``mask`` that do not cross a trial.
+
+    ``new_trial[i]`` is True where cell ``i`` is its trial's first.
+    """
+    mask = np.asarray(mask, dtype=bool)
+    before = np.concatenate(([False], mask[:-1])) & ~new_trial
+    after = np.concatenate((mask[1:], [False])) & ~np.concatenate((new_trial[1:], [True]))
+    return np.flatnonzero(mask & ~before), np.flatnonzero(mask & ~after) + 1
+
+
+def _any_in(mask: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
+    """Per run ``[start, end)``: whether ``mask`` holds a True in it."""
+    total = np.concatenate(([0], np.cumsum(mask, dtype=np.int64)))
+    return (total[ends] - total[starts]) > 0
+
+
+def _merged_blows(kind: np.ndarray, new_trial: np.ndarray, gap_cells: int) -> tuple[np.ndarray, np.ndarray]:
+    """Blows: runs of non-neutral cells after filling neutral gaps of at most ``gap_cells`` cells that
+    lie between two non-neutral cells of the same trial."""
+    active = kind != NEUTRAL
+    gap_starts, gap_ends = _runs(~active, new_trial)
+    # a gap is inside a trial's input when a non-neutral cell of the same trial precedes and follows it
+    inside = ~new_trial[gap_starts] & (gap_ends < len(kind))
+    inside[inside] &= ~new_trial[gap_ends[inside]]
+    fill = inside & (gap_ends - gap_starts <= gap_cells)
+    filled = active.copy()
+    cover = np.zeros(len(kind) + 1, dtype=np.int64)
+    np.add.at(cover, gap_starts[fill], 1)
+    np.add.at(cover, gap_ends[fill], -1)
+    filled |= np.cumsum(cover[:-1]) > 0
+    return _runs(filled, new_trial)
+
+
+def _next_at_or_after(sorted_index: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """Per position, the first entry of ``sorted_index`` at or after it (``-1`` where none)."""
+    if len(sorted_index) == 0:
+        return np.full(len(positions), -1)
+    at = np.searchsorted(sorted_index, positions, side="left")
+    found = at < len(sorted_index)
+    return np.where(found, sorted_index[np.minimum(at, len(sorted_index) - 1)], -1)
+
+
+# --- measuring ---------------------------------------------------------------------------------
+
+
+def gap_cells_of(rate_hz: float, merge_gap_s: float = MERGE_GAP_S) -> int:
+    """How many neutral cells a merged gap may hold: ``n / rate <= merge_gap_s`` (2 at 10 Hz)."""
+    return math.floor(merge_gap_s * rate_hz + TIME_SLACK)
+
+
+def measure_habits(cells: pd.DataFrame, rate_hz: float = HABIT_RATE_HZ,
+                   merge_gap_s: float = MERGE_GAP_S) -> pd.DataFrame:
+    """Every habit event of every trial.
+
+    Parameters
+    ----------
+    cells
+        ``(N,)`` cells with :data:`CELL_COLUMNS`, each trial's cells contiguous and in time order.
+    rate_hz
+        Cells per second.
+    merge_gap_s
+        Blows are merged across neutral gaps of at most this long.
+
+    Returns
+    -------
+    pd.DataFrame
+        :data:`EVENT_COLUMNS`: one row per event, values in seconds (a share habit: 1.0 or 0.0 per
+        pause), rounded to the microsecond.
+    """
+    dt = 1.0 / rate_hz
+    n = len(cells)
+    participant = cells["participant"].to_numpy()
+    trial = cells["trial"].to_numpy()
+    kind = cells["kind"].to_numpy(dtype=np.int8)
+    moving = cells["moving"].to_numpy(dtype=bool)
+    switch = cells["switch"].to_numpy(dtype=bool)
+    at_waypoint = cells["at_waypoint"].to_numpy(dtype=bool)
+    known = cells["waypoints_known"].to_numpy(dtype=bool)
+    new_trial = np.ones(n, dtype=bool)
+    if n:
+        new_trial[1:] = (participant[1:] != participant[:-1]) | (trial[1:] != trial[:-1])
+    trial_id = np.cumsum(new_trial) - 1
+    trial_first = np.flatnonzero(new_trial)
+    cell_index = np.arange(n) - trial_first[trial_id]
+    frames: list[pd.DataFrame] = []
+
+    def add(habit: str, where: np.ndarray, values: np.ndarray) -> None:
+        frames.append(pd.DataFrame({"participant": participant[where], "trial": trial[where],
+                                    "habit": habit, "value": np.round(np.asarray(values, float), 6)}))
+
+    # first command: the trial's first Soft or Hard cell
+    command = np.flatnonzero(kind >= SOFT)
+    first = command[np.unique(trial_id[command], return_index=True)[1]]
+    add("first_command_latency", first, cell_index[first] * dt)
+
+    # blows, and the pauses between consecutive blows of one trial
+    starts, ends = _merged_blows(kind, new_trial, gap_cells_of(rate_hz, merge_gap_s))
+    same = trial_id[starts[1:]] == trial_id[starts[:-1]]
+    pause = (starts[1:] - ends[:-1])[same] * dt
+    add("pause_between_blows", starts[1:][same], pause)
+    add("share_pauses_over_1s", starts[1:][same], np.round(pause, 6) > 1.0)
+    add("share_pauses_over_2s", starts[1:][same], np.round(pause, 6) > 2.0)
+    hard_blow = _any_in(kind == HARD, starts, ends)
+    duration = (ends - starts) * dt
+    add("hard_blow_whole", starts[hard_blow], duration[hard_blow])
+    add("soft_blow", starts[~hard_blow], duration[~hard_blow])
+
+    hard_starts, hard_ends = _runs(kind == HARD, new_trial)
+    add("hard_band_per_excursion", hard_starts, (hard_ends - hard_starts) * dt)
+
+    # soft blows and motion: the robot's last moving cell inside the blow
+    moved = _any_in(moving, starts, ends)
+    last_moving = np.maximum.accumulate(np.where(moving, np.arange(n), -1)) if n else np.zeros(0, int)
+    soft_moved = ~hard_blow & moved
+    hold = (ends[soft_moved] - 1 - last_moving[ends[soft_moved] - 1]) * dt
+    per_trial = pd.Series(hold).groupby(trial_id[starts[soft_moved]]).sum()
+    add("hold_on_per_trial", trial_first[per_trial.index.to_numpy(dtype=int)], per_trial.to_numpy())
+    still = ~hard_blow & ~moved
+    add("soft_blow_never_moving", starts[still], duration[still])
+
+    # reactions: motion runs, switches
+    run_starts, run_ends = _runs(moving, new_trial)
+    switches = np.flatnonzero(switch)
+    # the next motion run of the same trial (n: none)
+    next_run = np.full(len(run_starts), n)
+    same_trial = trial_id[run_starts[1:]] == trial_id[run_starts[:-1]]
+    next_run[:-1][same_trial] = run_starts[1:][same_trial]
+    stop_switch = _next_at_or_after(switches, run_ends)
+    stop_ok = (at_waypoint[run_ends - 1] & known[run_ends - 1] & (stop_switch >= 0))
+    stop_ok[stop_ok] &= (trial_id[stop_switch[stop_ok]] == trial_id[run_starts[stop_ok]]) & \
+        (stop_switch[stop_ok] < next_run[stop_ok])
+    add("reaction_stop_to_switch", run_ends[stop_ok], (stop_switch[stop_ok] - run_ends[stop_ok]) * dt)
+
+    motion_after = _next_at_or_after(run_starts, switches + 1)
+    switch_after = _next_at_or_after(switches, switches + 1)
+    ok = motion_after >= 0
+    ok[ok] &= trial_id[motion_after[ok]] == trial_id[switches[ok]]
+    ok &= (switch_after < 0) | (switch_after >= motion_after)  # no switch strictly between
+    add("reaction_switch_to_motion", switches[ok], (motion_after[ok] - switches[ok]) * dt)
+
+    # undone switches: a -> b, then straight back b -> a with no motion between
+    unknown = np.full(n, -1)
+    came_from = cells["switch_from"].to_numpy(dtype=int) if "switch_from" in cells else unknown
+    went_to = cells["switch_to"].to_numpy(dtype=int) if "switch_to" in cells else unknown
+    first_switch, second_switch = switches[:-1], switches[1:]
+    undone = (trial_id[first_switch] == trial_id[second_switch]) & (came_from[first_switch] >= 0) & \
+        (went_to[second_switch] == came_from[first_switch]) & \
+        ~_any_in(moving, first_switch + 1, second_switch)
+    add("undone_switch", first_switch[undone], (second_switch[undone] - first_switch[undone]) * dt)
+
+    if not frames:
+        return pd.DataFrame(columns=list(EVENT_COLUMNS))
+    return pd.concat(frames, ignore_index=True)
+
+
+# --- sources: a run folder ---------------------------------------------------------------------
+
+_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "mode", "cell_x", "cell_y", "heading", "phi_m",
+                 "event"]
+_TRIAL_COLUMNS = ["participant", "trial", "layout", "final_x", "final_y", "final_theta"]
+
+
+def _label_kinds(labels: pd.Series, where: str | Callable[[int], str]) -> np.ndarray:
+    """``(N,)`` cell kinds of label names; an unknown name is a :class:`DataError` naming its row
+    (``where``: the file, or the name of a row by its index)."""
+    text = labels.fillna("").astype(str).str.strip()
+    kinds = text.map(LABEL_KINDS)
+    unknown = kinds.isna().to_numpy()
+    if unknown.any():
+        row = int(np.flatnonzero(unknown)[0])
+        known = ", ".join(repr(k) for k in LABEL_KINDS)
+        raise DataError(f"{where(row) if callable(where) else where}: unknown label {text.iloc[row]!r}; "
+                        f"labels are {known}")
+    return kinds.to_numpy(dtype=np.int8)
+
+
+def _moving(pose: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """``(N,)`` whether the pose changed across each cell (``pose``, ``after``: ``(N, 3)``)."""
+    shift = np.abs(after[:, :2] - pose[:, :2]).max(axis=1)
+    turn = np.abs(angle_difference(after[:, 2], pose[:, 2]))
+    return (shift > POSE_TOLERANCE) | (turn > POSE_TOLERANCE)
+
+
+def _at_waypoints(position: np.ndarray, layouts: np.ndarray,
+                  waypoints: Mapping[int, np.ndarray]) -> np.ndarray:
+    """``(N,)`` whether each position ``(N, 2)`` lies on a waypoint of its layout ``(N,)``."""
+    at = np.zeros(len(position), dtype=bool)
+    for layout in np.unique(layouts):
+        rows = layouts == layout
+        points = waypoints[int(layout)]
+        gap = np.abs(position[rows, None, :] - points[None, :, :]).max(axis=2)
+        at[rows] = (gap <= WAYPOINT_TOLERANCE).any(axis=1)
+    return at
+
+
+def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
+    """The cells of a run folder (``nudge simulate`` / ``run`` / ``study``): its steps.
+
+    The pose after a step is the next step's, or the trial's final pose; a switch is the person's
+    (``mode_switch_human``); a motion run ends at a waypoint when its last pose is one of the
+    CIAA layout's waypoints, or in the grid world when the robot's cell and heading differ from
+    where the run began.
+
+    Returns
+    -------
+    tuple
+        The cell table (:data:`CELL_COLUMNS`) and the run's rate (cells per second).
+    """
+    run = RunFolder(folder)
+    if not is_run_folder(folder):
+        raise RunFolderError(f"{folder}: not a run folder (no manifest.json, steps/ or trials/); give a "
+                             "folder written by `nudge simulate`, `nudge run` or `nudge study`, or a CSV log")
+    run.check_complete()
+    config = run.read_config()
+    steps = run.read_table("steps", columns=_STEP_COLUMNS)
+    trials = run.read_table("trials", columns=_TRIAL_COLUMNS)
+    steps = steps.sort_values(["participant", "trial"], kind="stable").reset_index(drop=True)
+    key = ["participant", "trial"]
+    sizes = steps.groupby(key, sort=False).size()
+    empty = trials.set_index(key).index.difference(sizes.index)
+    if len(empty):
+        participant, trial = empty[0]
+        raise DataError(f"{run.path / 'steps'}: trial {trial} of participant {participant} has no steps; "
+                        f"re-simulate the run (`{run.resume_command()}` after removing its parts)")
+    final = steps[key].merge(trials, on=key, how="left")
+    n = len(steps)
+    last = np.ones(n, dtype=bool)
+    last[:-1] = (steps["participant"].to_numpy()[1:] != steps["participant"].to_numpy()[:-1]) | \
+        (steps["trial"].to_numpy()[1:] != steps["trial"].to_numpy()[:-1])
+    pose = steps[["x", "y", "theta"]].to_numpy(dtype=float)
+    after = np.roll(pose, -1, axis=0)
+    after[last] = final.loc[last, ["final_x", "final_y", "final_theta"]].to_numpy(dtype=float)
+    moving = _moving(pose, after)
+    if config.world.kind == "ciaa":
+        layouts = run.read_layouts()
+        waypoints = {int(row.layout): np.asarray(row.waypoints, dtype=float).reshape(-1, 2)
+                     for row in layouts.itertuples()}
+        at_waypoint = _at_waypoints(after[:, :2], final["layout"].to_numpy(dtype=int), waypoints)
+    else:
+        # the grid world has no waypoints: a stop counts where the robot arrived in another cell
+        state = steps[["cell_x", "cell_y", "heading"]].to_numpy(dtype=np.int64)
+        state_after = np.roll(state, -1, axis=0)
+        state_after[last] = -1  # the trial ended: no switch can follow
+        new_trial = np.concatenate(([True], last[:-1]))
+        run_starts, _ = _runs(moving, new_trial)
+        marker = np.full(n, -1)
+        marker[run_starts] = run_starts
+        began = np.maximum.accumulate(marker) if n else marker
+        at_waypoint = moving & (state_after != state[np.maximum(began, 0)]).any(axis=1)
+    mode = steps["mode"].map({name: index for index, name in enumerate(MODE_NAMES)}).fillna(-1)
+    mode = mode.to_numpy(dtype=int)
+    mode_after = np.roll(mode, -1)
+    mode_after[last] = -1  # a switch in a trial's last step: where it went is not logged
+    cells = pd.DataFrame({
+        "participant": steps["participant"], "trial": steps["trial"],
+        "kind": _label_kinds(steps["phi_m"], str(run.path / "steps")),
+        "moving": moving, "switch": has_event(steps["event"], MODE_SWITCH_HUMAN),
+        "at_waypoint": at_waypoint, "waypoints_known": True, "switch_from": mode, "switch_to": mode_after,
+    })
+    return cells, float(config.study.rate_hz)
+
+
+# --- sources: a real log -----------------------------------------------------------------------
+
+#: The columns of a real log (CSV): required, and optional with what they give.
+LOG_REQUIRED = ("trial", "label", "x", "y", "theta", "mode_switch")
+LOG_TIME_NAMES = ("t", "time")
+_FALSE_WORDS = {"", "0", "0.0", "false", "no", "none", "nan"}
+
+
+def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataFrame:
+    """The cells of a real log: a CSV of time-stamped labelled samples, resampled by zero-order hold.
+
+    Columns: ``t`` (or ``time``, seconds), ``trial``, ``label`` (an interface label, a deadband,
+    or a neutral one: empty, ``Zero Band``, ``input stopped``, ``None``), ``x``, ``y``, ``theta``
+    (the robot's pose after the row), ``mode_switch`` (non-empty and not ``0``/``false``: a mode
+    switch fired at this time; a mode word, ``x``/``y``/``theta``, says where it went, which undone
+    switches need); optional ``participant`` (default: the file's name) and ``layout``
+    (the CIAA task's trial index, whose waypoints mark the stops; without it stops at a waypoint
+    are not measured). Each row holds the whole state from its time on, so an event-driven log
+    (a row per change) and a sampled one read alike. A trial starts at its first row; its cells
+    are read at ``t0, t0 + 0.1, ...`` up to its last row; a switch belongs to the first cell read
+    at or after it.
+
+    Raises
+    ------
+    DataError
+        No time stamps or labels, an unknown label, a time that is not a number or goes back, a
+        pose missing, or a trial shorter than one cell: naming the file and the row.
+    """
+    path = Path(path)
+    try:
+        frame = pd.read_csv(path, dtype=str, keep_default_na=False)
+    except (UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+        raise DataError(f"{path}: not a readable CSV log ({exc})") from None
+    frame.columns = [str(c).strip() for c in frame.columns]
+    time_column = next((c for c in LOG_TIME_NAMES if c in frame.columns), None)
+    needed = ["t (or time)"] if time_column is None else []
+    needed += [c for c in LOG_REQUIRED if c not in frame.columns]
+    if needed:
+        raise DataError(f"{path}: no {', '.join(needed)} column(s); a real log needs t, trial, label, x, "
+                        "y, theta and mode_switch (participant and layout optional), one row per sample or "
+                        "event")
+    if frame.empty:
+        raise DataError(f"{path}: no rows; a real log needs at least two samples per trial")
+
+    def row_name(i: int) -> str:
+        return f"{path}, row {i + 2}"  # the header is line 1
+
+    numbers = {}
+    for column in (time_column, "x", "y", "theta"):
+        values = pd.to_numeric(frame[column].str.strip(), errors="coerce")
+        bad = values.isna() | ~np.isfinite(values.to_numpy(dtype=float))
+        if bad.any():
+            i = int(np.flatnonzero(bad.to_numpy())[0])
+            raise DataError(f"{row_name(i)}: {column} {frame[column].iloc[i]!r} is not a number; every row "
+                            f"needs its time and the robot's pose")
+        numbers[column] = values.to_numpy(dtype=float)
+    kinds = _label_kinds(frame["label"], row_name)
+    participant = frame["participant"].str.strip() if "participant" in frame.columns else \
+        pd.Series(path.stem, index=frame.index)
+    trial = frame["trial"].str.strip()
+    switch_word = frame["mode_switch"].str.strip().str.lower()
+    switch = ~switch_word.isin(_FALSE_WORDS)
+    switch_to = switch_word.map(MODE_WORDS).fillna(-1).to_numpy(dtype=int)
+    layout = None
+    if "layout" in frame.columns:
+        layout = pd.to_numeric(frame["layout"].str.strip(), errors="coerce")
+    time = numbers[time_column]
+    group = (participant + "\x00" + trial).to_numpy()
+    new_trial = np.concatenate(([True], group[1:] != group[:-1]))
+    seen: set[str] = set()
+    for first_row in np.flatnonzero(new_trial).tolist():
+        if group[first_row] in seen:
+            raise DataError(f"{row_name(first_row)}: trial {trial.iloc[first_row]!r} of participant "
+                            f"{participant.iloc[first_row]!r} continues after other rows; write each trial's "
+                            "rows together, in time order")
+        seen.add(group[first_row])
+    back = np.flatnonzero(~new_trial[1:] & (np.diff(time) < 0)) + 1
+    if back.size:
+        i = int(back[0])
+        raise DataError(f"{row_name(i)}: time {time[i]:g} s comes before the previous row's "
+                        f"{time[i - 1]:g} s; sort each trial's rows by time")
+    from nudgecli.sim.ciaa import packaged_task, task_layouts
+
+    task = task_layouts(packaged_task())
+    all_waypoints = {index: lay.waypoints for index, lay in task.items()}
+    start_modes = {index: lay.start_mode for index, lay in task.items()}
+    dt = 1.0 / rate_hz
+    firsts = np.flatnonzero(new_trial)
+    bounds = np.append(firsts, len(frame))
+    pieces = []
+    for lo, hi in itertools.pairwise(bounds):
+        rel = time[lo:hi] - time[lo]
+        reads = math.floor(rel[-1] / dt + TIME_SLACK) + 1
+        if reads < 2:
+            raise DataError(f"{path}, rows {lo + 2}-{hi + 1}: trial {trial.iloc[lo]!r} of participant "
+                            f"{participant.iloc[lo]!r} lasts {rel[-1]:g} s, less than one {dt:g} s cell; "
+                            "give each trial from its start to its end")
+        grid = np.arange(reads) * dt
+        held = lo + np.searchsorted(rel, grid + TIME_SLACK, side="right") - 1  # zero-order hold
+        pose = np.column_stack([numbers[c][held] for c in ("x", "y", "theta")])
+        rows = lo + np.flatnonzero(switch.to_numpy()[lo:hi])
+        fired = np.ceil(rel[rows - lo] / dt - TIME_SLACK).astype(int)
+        inside = fired < reads - 1
+        cell_switch = np.zeros(reads - 1, dtype=bool)
+        cell_switch[fired[inside]] = True
+        known = False
+        start_mode = -1
+        at_waypoint = np.zeros(reads - 1, dtype=bool)
+        if layout is not None:
+            index = layout.iloc[lo]
+            if pd.isna(index) or int(index) not in all_waypoints:
+                raise DataError(f"{row_name(int(lo))}: layout {frame['layout'].iloc[lo]!r} is not a trial "
+                                f"index of the CIAA task (0-{max(all_waypoints)})")
+            known = True
+            start_mode = start_modes[int(index)]
+            at_waypoint = _at_waypoints(pose[1:, :2], np.full(reads - 1, int(index)), all_waypoints)
+        # each switch comes from where the one before it went (the first: the layout's start mode)
+        went_to = switch_to[rows]
+        came_from = np.concatenate(([start_mode], went_to[:-1]))
+        cell_from, cell_to = np.full(reads - 1, -1), np.full(reads - 1, -1)
+        cell_from[fired[inside]] = came_from[inside]
+        cell_to[fired[inside]] = went_to[inside]
+        pieces.append(pd.DataFrame({
+            "participant": participant.iloc[lo], "trial": trial.iloc[lo], "kind": kinds[held[:-1]],
+            "moving": _moving(pose[:-1], pose[1:]), "switch": cell_switch, "at_waypoint": at_waypoint,
+            "waypoints_known": known, "switch_from": cell_from, "switch_to": cell_to}))
+    return pd.concat(pieces, ignore_index=True)
+
+
+def source_cells(source: str | Path) -> tuple[pd.DataFrame, float, str]:
+    """The cells of ``source`` (a run folder, or a real log's CSV), its rate and its kind
+    (``run`` or ``log``)."""
+    path = Path(source)
+    if path.is_dir():
+        cells, rate = run_folder_cells(path)
+        return cells, rate, "run"
+    if not path.exists():
+        raise DataError(f"{path}: no such file or folder; give a run folder or a real log (CSV)")
+    return read_log_cells(path), HABIT_RATE_HZ, "log"
+
+
+# --- summaries ---------------------------------------------------------------------------------
+
+
+def _summarise(events: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
+    """Per group of ``keys`` and habit: ``n``, ``median`` (a share habit: the share), ``q25``, ``q75``."""
+    grouped = events.groupby([*keys, "habit"], sort=False)["value"]
+    table = grouped.agg(n="size", median="median").reset_index()
+    table["q25"] = grouped.quantile(0.25).to_numpy()
+    table["q75"] = grouped.quantile(0.75).to_numpy()
+    share = table["habit"].map(lambda h: _BY_KEY[h].share).to_numpy(dtype=bool)
+    if share.any():
+        means = grouped.mean().to_numpy()
+        table.loc[share, "median"] = means[share]
+        table.loc[share, ["q25", "q75"]] = np.nan
+    # interpolated quartiles of 0.1 s cells: round away the binary float noise (0.8500000000000001)
+    table[["median", "q25", "q75"]] = table[["median", "q25", "q75"]].round(6)
+    order = {key: i for i, key in enumerate(HABIT_KEYS)}
+    table["_order"] = table["habit"].map(order)
+    return table.sort_values([*keys, "_order"], kind="stable").drop(columns="_order").reset_index(drop=True)
+
+
+@dataclass
+class HabitsResult:
+    """The habits of one source.
+
+    Attributes
+    ----------
+    source
+        What was measured (path).
+    kind
+        ``run`` or ``log``.
+    by
+        ``participant`` or ``trial``: the units of :attr:`units`.
+    events
+        :data:`EVENT_COLUMNS`, one row per event.
+    pooled
+        Per habit: ``habit``, ``n``, ``median``, ``q25``, ``q75`` over all events, ``people_min`` /
+        ``people_max`` (the range of the participants' medians) and ``participants`` (how many have one).
+    units
+        Per participant (and trial) and habit: ``n``, ``median``, ``q25``, ``q75``.
+    people
+        Per participant and habit: ``n``, ``median``, ``q25``, ``q75`` (whatever ``by``).
+    reference
+        The ``--compare`` reference's name and habits (``None`` without one).
+    """
+
+    source: str
+    kind: str
+    by: str
+    events: pd.DataFrame
+    pooled: pd.DataFrame
+    units: pd.DataFrame
+    people: pd.DataFrame
+    reference: dict[str, Any] | None = None
+
+    def comparison(self) -> pd.DataFrame:
+        """Per habit both have: the measured pooled median and people's range beside the reference's,
+        whether the pooled median lies inside the reference's people range (``inside``) and the share
+        of participants whose own median does (``people_inside``)."""
+        if self.reference is None:
+            return pd.DataFrame()
+        rows = []
+        for habit in HABITS:
+            entry = self.reference["habits"].get(habit.key)
+            measured = self.pooled[self.pooled["habit"] == habit.key]
+            if entry is None or measured.empty:
+                continue
+            lo, hi = (float(v) for v in entry["people"])
+            median = float(measured["median"].iloc[0])
+            own = self.people.loc[self.people["habit"] == habit.key, "median"].to_numpy(dtype=float)
+            rows.append({"habit": habit.key, "median": median,
+                         "people_min": float(measured["people_min"].iloc[0]),
+                         "people_max": float(measured["people_max"].iloc[0]),
+                         "reference_median": float(entry["pooled"]["median"]), "reference_min": lo,
+                         "reference_max": hi, "inside": bool(lo - TIME_SLACK <= median <= hi + TIME_SLACK),
+                         "people_inside": float(np.mean((own >= lo - TIME_SLACK)
+                                                        & (own <= hi + TIME_SLACK)))})
+        return pd.DataFrame(rows)
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON of ``--format json`` (the shape ``--compare FILE`` reads back)."""
+        habits: dict[str, Any] = {}
+        for row in self.pooled.itertuples():
+            habit = _BY_KEY[str(row.habit)]
+            pooled = {"median": _num(row.median), "q25": _num(row.q25), "q75": _num(row.q75),
+                      "n": int(row.n)}
+            habits[habit.key] = {"label": habit.label, "unit": "share" if habit.share else "s",
+                                 "pooled": pooled,
+                                 "people": [_num(row.people_min), _num(row.people_max)],
+                                 "participants": int(row.participants)}
+        data: dict[str, Any] = {"source": self.source, "kind": self.kind, "by": self.by, "habits": habits,
+                                "units": [{k: _num(v) for k, v in record.items()}
+                                          for record in self.units.to_dict(orient="records")]}
+        if self.reference is not None:
+            data["compare"] = {"reference": self.reference.get("name", ""),
+                               "habits": self.comparison().to_dict(orient="records")}
+        return data
+
+
+def _num(value: Any) -> Any:
+    """A JSON-ready scalar (NaN -> None, numpy -> Python)."""
+    if isinstance(value, (float, np.floating)):
+        return None if math.isnan(value) else float(value)
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
+def load_reference(name_or_path: str) -> dict[str, Any]:
+    """A ``--compare`` reference: a packaged name (``ciaa-people``) or a JSON file of the same shape
+    (e.g. another source's ``nudge habits --format json``)."""
+    if name_or_path in PACKAGED_REFERENCES:
+        return packaged_reference(name_or_path)
+    path = Path(name_or_path)
+    if not path.is_file():
+        raise DataError(f"--compare {name_or_path}: neither a packaged reference "
+                        f"({', '.join(PACKAGED_REFERENCES)}) nor a JSON file")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: not a JSON reference ({exc})") from None
+    habits = data.get("habits") if isinstance(data, dict) else None
+    if not isinstance(habits, dict):
+        raise DataError(f"{path}: no 'habits' object; a reference has the shape of "
+                        "`nudge habits --format json`")
+    for key, entry in habits.items():
+        try:
+            float(entry["pooled"]["median"])
+            [float(v) for v in entry["people"][:2]]
+            if len(entry["people"]) != 2:
+                raise ValueError
+        except (KeyError, TypeError, ValueError):
+            raise DataError(f"{path}: habit {key!r} needs pooled.median and people [min, max] as "
+                            "numbers") from None
+    return {"name": str(data.get("name", path.name)), **data}
+
+
+def habits_of(source: str | Path, by: str = "participant", compare: str | None = None) -> HabitsResult:
+    """Measure the operating habits of ``source`` (a run folder or a real log's CSV).
+
+    Parameters
+    ----------
+    source
+        A run folder, or a CSV log (:func:`read_log_cells`).
+    by
+        ``participant`` or ``trial``: the units listed beside the pooled figures.
+    compare
+        A reference to print beside them (:func:`load_reference`), or ``None``.
+    """
+    reference = load_reference(compare) if compare is not None else None
+    cells, rate, kind = source_cells(source)
+    return summarise_habits(measure_habits(cells, rate), str(source), kind, by, reference)
+
+
+def summarise_habits(events: pd.DataFrame, source: str, kind: str = "run", by: str = "participant",
+                     reference: dict[str, Any] | None = None) -> HabitsResult:
+    """The :class:`HabitsResult` of measured events (:func:`measure_habits`), e.g. of several runs'
+    cells measured together."""
+    people = _summarise(events, ["participant"])
+    units = people if by == "participant" else _summarise(events, ["participant", "trial"])
+    pooled = _summarise(events, [])
+    spread = people.groupby("habit")["median"].agg(people_min="min", people_max="max", participants="size")
+    pooled = pooled.join(spread, on="habit")
+    return HabitsResult(source, kind, by, events, pooled, units, people, reference)
+
+
+def _fmt(value: Any, digits: int = 2) -> str:
+    return "-" if value is None or (isinstance(value, float) and math.isnan(value)) else f"{value:.{digits}f}"
+
+
+def format_habits(result: HabitsResult) -> str:
+    """The table of ``--format table``: pooled habits (with the reference beside them), then the units'
+    medians, one row per participant (or trial)."""
+    comparison = result.comparison().set_index("habit") if result.reference is not None else None
+    count = result.people["participant"].nunique()
+    lines = [f"Operating habits of {result.source} (HABITS.md definitions, {count} participants)", ""]
+    header = f"{'habit':<50} {'n':>6} {'median [q25, q75]':>20} {'people':>12}"
+    if comparison is not None and result.reference is not None:
+        name = str(result.reference.get("name", "reference")) + " median"
+        header += f"   {name:>22} {'people':>12} inside people_in"
+    lines.append(header)
+    for row in result.pooled.itertuples():
+        habit = _BY_KEY[str(row.habit)]
+        quartiles = "" if habit.share else f" [{_fmt(row.q25)}, {_fmt(row.q75)}]"
+        line = (f"{habit.label:<50} {int(row.n):>6} {_fmt(row.median) + quartiles:>20} "
+                f"{_fmt(row.people_min) + '-' + _fmt(row.people_max):>12}")
+        if comparison is not None and habit.key in comparison.index:
+            ref = comparison.loc[habit.key]
+            line += (f"   {_fmt(ref['reference_median']):>22} "
+                     f"{_fmt(ref['reference_min']) + '-' + _fmt(ref['reference_max']):>12} "
+                     f"{'yes' if ref['inside'] else 'no':>6} {ref['people_inside']:>8.0%}")
+        lines.append(line)
+    keys = ["participant"] if result.by == "participant" else ["participant", "trial"]
+    wide = result.units.pivot_table(index=keys, columns="habit", values="median", sort=False)
+    wide = wide[[h.key for h in HABITS if h.key in wide.columns]]
+    wide.columns = [_BY_KEY[c].short for c in wide.columns]
+    lines += ["", f"Medians per {result.by} (shares for pause>1s, pause>2s):",
+              wide.to_string(float_format=lambda v: f"{v:.2f}", na_rep="-")]
+    return "\n".join(lines)
+
+
+def habits_csv(result: HabitsResult) -> str:
+    """The CSV of ``--format csv``: pooled rows (scope ``pooled``) then the units' rows."""
+    pooled = result.pooled.assign(scope="pooled")
+    units = result.units.assign(scope=result.by)
+    table = pd.concat([pooled, units], ignore_index=True)
+    columns = ["scope", "participant", *(["trial"] if result.by == "trial" else []), "habit", "n", "median",
+               "q25", "q75", "people_min", "people_max"]
+    if result.reference is not None:
+        ref = result.comparison()[["habit", "reference_median", "reference_min", "reference_max", "inside",
+                                   "people_inside"]]
+        table = table.merge(ref.assign(scope="pooled"), on=["scope", "habit"], how="left")
+        columns += list(ref.columns[1:])
+    return table.reindex(columns=columns).to_csv(index=False)
