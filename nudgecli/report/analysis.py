@@ -114,8 +114,13 @@ class AnalysisResult:
 # --- reading -----------------------------------------------------------------------------------
 
 
-def read_run(folder: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+def read_run(folder: str | Path, notes: list[str] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The trial table and step log of a run folder (only the columns the metrics use).
+
+    With a manifest, exactly the parts of the participants it promises are read, each verified
+    against the SHA-256 the manifest recorded (:meth:`nudgecli.store.RunFolder.read_table`);
+    stray parts and parts without a recorded checksum (an older nudge's run, still read) are
+    reported in ``notes``.
 
     Returns
     -------
@@ -139,6 +144,8 @@ def read_run(folder: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
             not any((folder / "steps").glob("part-*.parquet"))
         if "participants" in manifest and not kept_metrics_only:
             run.check_complete()
+            if notes is not None:
+                notes += run.integrity_notes(manifest)
     trials = run.read_table("trials", TRIAL_COLUMNS)
     if trials.empty:
         raise RunFolderError(f"{folder}: trials/part-*.parquet hold no trials yet; "
@@ -588,35 +595,50 @@ def analysis_folder(table: Path) -> Path:
     return table.with_name(f"{table.stem}-analysis")
 
 
+def drop_or_refuse_duplicates(table: pd.DataFrame, source: Path, first_row: int, drop_duplicates: bool,
+                              notes: list[str]) -> tuple[pd.DataFrame, bool]:
+    """``table`` without repeated trial rows (:func:`find_duplicate_trials`), and whether any were
+    dropped: the one check of duplicated trials, for ``analyze`` and ``compare`` alike.
+
+    Raises
+    ------
+    DataError
+        Repeated trial rows and not ``drop_duplicates`` (naming the rows and the flag).
+    """
+    key, repeats = find_duplicate_trials(table)
+    if not repeats.any():
+        return table, False
+    positions = np.flatnonzero(repeats)
+    if not drop_duplicates:
+        raise DataError(f"{source}: {positions.size} duplicate trial row(s) (same {', '.join(key)} as an "
+                        f"earlier row): rows {_rows(list(positions), first_row)}; remove them, or pass "
+                        "--drop-duplicates to keep the first of each")
+    notes.append(f"{source}: dropped {positions.size} duplicate trial row(s) (same {', '.join(key)}; the "
+                 f"first of each kept): rows {_rows(list(positions), first_row)}")
+    return table.loc[~repeats].reset_index(drop=True), True
+
+
 def _load_table(source: Path, drop_duplicates: bool,
                 notes: list[str]) -> tuple[pd.DataFrame, list[str], bool]:
     """A checked metrics table, its metric columns, and whether duplicates were dropped."""
     table = read_metrics_table(source)
     first_row = 2 if source.suffix.lower() == ".csv" else 1
     metric_columns = validate_metrics_table(table, str(source), first_row)
-    key, repeats = find_duplicate_trials(table)
-    if repeats.any():
-        positions = np.flatnonzero(repeats)
-        if not drop_duplicates:
-            raise DataError(f"{source}: {positions.size} duplicate trial row(s) (same {', '.join(key)} as an "
-                            f"earlier row): rows {_rows(list(positions), first_row)}; remove them, or pass "
-                            "--drop-duplicates to keep the first of each")
-        table = table.loc[~repeats].reset_index(drop=True)
-        notes.append(f"{source}: dropped {positions.size} duplicate trial row(s) (same {', '.join(key)}; the "
-                     f"first of each kept): rows {_rows(list(positions), first_row)}")
-        return table, metric_columns, True
-    return table, metric_columns, False
+    table, dropped = drop_or_refuse_duplicates(table, source, first_row, drop_duplicates, notes)
+    return table, metric_columns, dropped
 
 
-def _load_source(source: Path, plan: AnalysisPlan) -> tuple[pd.DataFrame, list[str], Path]:
-    """The metrics of a run folder, its metric columns and its default output folder."""
+def _load_source(source: Path, plan: AnalysisPlan,
+                 notes: list[str] | None = None) -> tuple[pd.DataFrame, list[str], Path]:
+    """The metrics of a run folder, its metric columns and its default output folder (``notes``:
+    :func:`read_run`'s)."""
     if not source.exists():
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
     if source.is_dir():
         if not is_run_folder(source):
             raise DataError(f"{source} is neither a run folder nor a metrics table: it has no trials/ or "
                             "steps/; give a folder made by `nudge simulate` or a .csv/.parquet table")
-        trials, steps = read_run(source)
+        trials, steps = read_run(source, notes)
         definitions = plan.metrics
         metrics = trial_metrics(trials, steps, engagement=definitions.engagement,
                                 strength=definitions.strength, mode_switches=definitions.mode_switches,
@@ -625,20 +647,24 @@ def _load_source(source: Path, plan: AnalysisPlan) -> tuple[pd.DataFrame, list[s
     raise AssertionError("_load_source takes run folders; tables go through _load_table")  # pragma: no cover
 
 
-def load_source(source: Path, plan: AnalysisPlan,
-                min_conditions: int = 1) -> tuple[pd.DataFrame, list[str], Path]:
+def load_source(source: Path, plan: AnalysisPlan, min_conditions: int = 1, *, drop_duplicates: bool = False,
+                notes: list[str] | None = None) -> tuple[pd.DataFrame, list[str], Path]:
     """The metrics table, its metric columns and the default output folder of a source.
 
     A run folder's metrics are computed with ``plan``'s definitions; a table is read and checked
-    (:func:`validate_metrics_table`, at least ``min_conditions`` conditions).
+    as ``nudge analyze`` checks it (:func:`validate_metrics_table`, at least ``min_conditions``
+    conditions; repeated trial rows refused, or dropped with ``drop_duplicates``:
+    :func:`drop_or_refuse_duplicates`). What was left out goes to ``notes``.
     """
+    notes = [] if notes is None else notes
     if not source.exists():
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
     if source.is_dir():
-        return _load_source(source, plan)
+        return _load_source(source, plan, notes)
     table = read_metrics_table(source)
     first_row = 2 if source.suffix.lower() == ".csv" else 1
     metric_columns = validate_metrics_table(table, str(source), first_row, min_conditions)
+    table, _ = drop_or_refuse_duplicates(table, source, first_row, drop_duplicates, notes)
     return table, metric_columns, analysis_folder(source)
 
 
@@ -758,7 +784,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     plan = load_plan(plan_arg)
     changed = False
     if source.is_dir():
-        table, available, _ = _load_source(source, plan)
+        table, available, _ = _load_source(source, plan, notes)
         changed = True
         if run is not None and manifest is not None and "participants" in manifest and \
                 "plan" not in manifest and source_locked:
