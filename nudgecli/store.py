@@ -703,7 +703,7 @@ class RunFolder:
                     shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                           if len(differences) > 8 else "")
                     raise RunFolderError(
-                        f"{self.path}: cannot resume with other settings than the run started with ({shown}); "
+                        f"{self.path}: cannot resume with settings different from those the run started with ({shown}); "
                         f"resume it with its own: `{self.resume_command(manifest)}`, or use --force to "
                         "replace it")
                 self._remove_temporaries()

@@ -791,7 +791,7 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     figures: dict[str, Any] = {"sweep": sweep_figure(rows, names)}
     if loaded.problem is not None and loaded.samples is not None:
         indices = sensitivity(spec.design.method, loaded.problem, loaded.samples, point_outputs(rows),
-                              levels=spec.design.levels, seed=spec.design.seed)
+                              levels=spec.design.levels, seed=batch.seed)
         tables["sensitivity"] = indices
         if not indices.empty:
             figures["sensitivity"] = sensitivity_figure(indices)
