@@ -150,7 +150,7 @@ def _holder_pid(holder: dict[str, Any]) -> int:
     or hand-edited lock file is then taken over like a dead holder's)."""
     try:
         return int(holder.get("pid", -1))
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         return -1
 
 
@@ -703,9 +703,9 @@ class RunFolder:
                     shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                           if len(differences) > 8 else "")
                     raise RunFolderError(
-                        f"{self.path}: cannot resume with settings different from those the run started with ({shown}); "
-                        f"resume it with its own: `{self.resume_command(manifest)}`, or use --force to "
-                        "replace it")
+                        f"{self.path}: cannot resume with settings different from those the run started "
+                        f"with ({shown}); resume it with its own: `{self.resume_command(manifest)}`, or use "
+                        "--force to replace it")
                 self._remove_temporaries()
                 config_path = self.path / CONFIG
                 if not config_path.is_file() or config_path.read_text(encoding="utf-8") != config_text:

@@ -39,6 +39,8 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
 
 from nudgecli.config import default_plan_name, did_you_mean
 from nudgecli.errors import ConfigError, DataError, RunFolderError
@@ -169,19 +171,48 @@ def read_metrics_table(path: str | Path) -> pd.DataFrame:
                         "trials/ and steps/) or a .csv/.parquet table with one row per trial")
     try:
         if suffix == ".csv":
+            delimiter = sniff_delimiter(path)
+            check_unique_columns(_csv_header(path, delimiter), path)
             # conditions as categories: a large table's labels are not copied into millions of strings
-            table = pd.read_csv(path, sep=sniff_delimiter(path), dtype={"condition": "category"})
+            table = pd.read_csv(path, sep=delimiter, dtype={"condition": "category"})
         else:
+            check_unique_columns(pq.read_schema(path).names, path)
             table = pd.read_parquet(path)
     except pd.errors.EmptyDataError:
         raise DataError(f"{path} is empty; a metrics table needs a header (participant, condition, "
                         "metrics) and one row per trial") from None
-    except (pd.errors.ParserError, UnicodeDecodeError, OSError, ValueError) as exc:
+    except (pd.errors.ParserError, UnicodeDecodeError, OSError, ValueError, pa.ArrowException) as exc:
         raise DataError(f"{path} cannot be read as a {suffix[1:]} table: {exc}") from None
     if table.empty:
         raise DataError(f"{path} has no rows; a metrics table needs one row per trial")
     release_free_memory()
     return table
+
+
+def _csv_header(path: Path, delimiter: str) -> list[str]:
+    """The column names of a CSV file's first line, as written."""
+    with open(path, encoding="utf-8-sig", errors="replace", newline="") as handle:
+        return next(csv.reader(handle, delimiter=delimiter), [])
+
+
+def check_unique_columns(names: Sequence[str], source: str | Path) -> None:
+    """Refuse a table in which two columns share a name (pandas would rename the second
+    ``name.1`` and analyse it as a metric of its own).
+
+    Raises
+    ------
+    DataError
+        Naming the column and its positions (1-based).
+    """
+    positions: dict[str, list[int]] = {}
+    for position, name in enumerate(names, start=1):
+        positions.setdefault(str(name), []).append(position)
+    repeated = {name: where for name, where in positions.items() if len(where) > 1}
+    if repeated:
+        listed = "; ".join(f"{name!r} (columns {', '.join(map(str, where[:-1]))} and {where[-1]})"
+                           for name, where in repeated.items())
+        raise DataError(f"{source}: more than one column of one name: {listed}; rename or remove the "
+                        "repeats so that each column has its own name")
 
 
 def release_free_memory() -> None:
@@ -294,6 +325,18 @@ def _check_finite(table: pd.DataFrame, metric_columns: Sequence[str], source: st
                         "replace them with a number or leave the cell empty (a missing value)")
 
 
+def _first_non_number(series: pd.Series, first_row: int) -> str:
+    """`` (row R holds 'VALUE')``: the first cell of a non-numeric column that is not a number
+    (a blank is a missing value, not the culprit); empty if none can be singled out."""
+    present = series.notna().to_numpy()
+    numbers = pd.to_numeric(series, errors="coerce").notna().to_numpy()
+    culprits = np.flatnonzero(present & ~numbers)
+    if not culprits.size:
+        return ""
+    more = f", and {culprits.size - 1} more cell(s)" if culprits.size > 1 else ""
+    return f" (row {int(culprits[0]) + first_row} holds {series.iloc[int(culprits[0])]!r}{more})"
+
+
 def _is_numeric(series: pd.Series) -> bool:
     return pd.api.types.is_bool_dtype(series) or pd.api.types.is_numeric_dtype(series)
 
@@ -350,9 +393,8 @@ def validate_metrics_table(table: pd.DataFrame, source: str, first_row: int = 2,
         if table[column].dtype == object and (converted := _as_boolean(table[column])) is not None:
             table[column] = converted
         if not _is_numeric(table[column]):
-            values = table[column].dropna()
-            example = f" (e.g. {values.iloc[0]!r})" if len(values) else ""
-            raise DataError(f"{source}: metric column {column!r} is not numeric{example}; make it numeric, "
+            culprit = _first_non_number(table[column], first_row)
+            raise DataError(f"{source}: metric column {column!r} is not numeric{culprit}; make it numeric, "
                             "remove it, or pick the metrics with --metric")
     _check_finite(table, metric_columns, source, first_row)
     check_condition_labels(table, source)

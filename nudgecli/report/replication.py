@@ -33,7 +33,6 @@ import pandas as pd
 import scipy.stats
 
 from nudgecli.report.metrics import apply_filters
-from nudgecli.rng import generator
 from nudgecli.report.plans import AnalysisPlan
 from nudgecli.report.stats import (
     compare_conditions,
@@ -43,6 +42,7 @@ from nudgecli.report.stats import (
     order_conditions,
     stats_table,
 )
+from nudgecli.rng import generator
 
 #: The direction of Disambiguation - Control the paper reports (Section 6, Fig. 3 and 4): +1 higher
 #: under Disambiguation, -1 lower; ``None`` where it reports no significant difference
