@@ -2,7 +2,8 @@
 
 A run folder (DESIGN.md section 4)::
 
-    manifest.json          experiment, seed, versions, status, per-participant completion, timings
+    manifest.json          experiment, seed, versions, status, per-participant completion, timings,
+                           the SHA-256 of every part
     config.toml            the resolved experiment
     participants.parquet   one row per participant (written when the run completes)
     layouts.parquet        the trial layouts
@@ -16,7 +17,9 @@ Every file is written to a temporary name in the same folder and renamed into pl
 crash (even SIGKILL) leaves either the old file or the new one, never half of one; an
 ``OSError`` while writing (read-only folder, full disk) becomes a :class:`WriteError` naming the
 path and the cause. A participant counts as done only when its three parts exist and are
-readable Parquet files; ``--resume`` recomputes the others.
+readable Parquet files; ``--resume`` recomputes the others, and those whose SHA-256 differs from
+the one the manifest recorded when they were written. Readers take exactly the parts of the
+participants the manifest promises and verify them against it.
 
 While a command writes a run folder it holds the folder's lock (:func:`run_lock`, the file
 ``.nudge.lock`` with the holder's pid, host and command): a second writer is refused with a
@@ -379,7 +382,7 @@ def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, An
     """
     old, new = _flatten(recorded), _flatten(json.loads(json.dumps(current)))
     return [f"{key}: {_shown(old.get(key, _ABSENT))} in the manifest, {_shown(new.get(key, _ABSENT))} now"
-            for key in sorted(old.keys() | new.keys(), key=lambda k: (k.split(".")[0], k))
+            for key in sorted(old.keys() | new.keys())
             if old.get(key, _ABSENT) != new.get(key, _ABSENT)]
 
 
@@ -477,14 +480,35 @@ class RunFolder:
         return [f"{kind}/{part.name}" for kind in PART_KINDS
                 for part in sorted((self.path / kind).glob("part-*.parquet")) if part.name not in names]
 
+    def recorded_checksums(self, manifest: Mapping[str, Any]) -> dict[int, dict[str, str]]:
+        """The manifest's ``checksums``: participant -> part kind -> SHA-256 (hex); empty for a
+        manifest of an older nudge.
+
+        Raises
+        ------
+        RunFolderError
+            The entry is not of that shape (a damaged or edited manifest).
+        """
+        recorded = manifest.get("checksums") or {}
+        try:
+            sums = {int(key): dict(value) for key, value in recorded.items()}
+            if all(kind in PART_KINDS and isinstance(digest, str)
+                   for value in sums.values() for kind, digest in value.items()):
+                return sums
+        except (AttributeError, TypeError, ValueError):
+            pass
+        raise RunFolderError(f"{self.manifest_path}: 'checksums' is damaged (expected participant -> "
+                             f"{{{', '.join(PART_KINDS)}}} -> SHA-256); restore the manifest, or simulate "
+                             "the run again with --force")
+
     def changed_parts(self, manifest: Mapping[str, Any]) -> dict[int, list[str]]:
         """Participant -> its parts on disk whose SHA-256 differs from the one the manifest recorded."""
         changed: dict[int, list[str]] = {}
-        for key, sums in (manifest.get("checksums") or {}).items():
-            for kind, recorded in (sums or {}).items():
-                part = self.part_path(kind, int(key))
+        for participant, sums in self.recorded_checksums(manifest).items():
+            for kind, recorded in sums.items():
+                part = self.part_path(kind, participant)
                 if part.is_file() and file_sha256(part) != recorded:
-                    changed.setdefault(int(key), []).append(f"{kind}/{part.name}")
+                    changed.setdefault(participant, []).append(f"{kind}/{part.name}")
         return changed
 
     def integrity_notes(self, manifest: Mapping[str, Any]) -> list[str]:
@@ -497,8 +521,8 @@ class RunFolder:
             notes.append(f"{self.path}: left out {len(strays)} part(s) not in the manifest: {shown}; they do "
                          "not belong to this run (remove them)")
         expected = self.manifest_participants(manifest) or []
-        sums = manifest.get("checksums") or {}
-        unverified = [index for index in expected if str(index) not in sums]
+        sums = self.recorded_checksums(manifest)
+        unverified = [index for index in expected if index not in sums]
         if unverified and manifest.get("executor") != "live":
             notes.append(f"{self.path}: the manifest records no SHA-256 of the parts of {len(unverified)} "
                          "participant(s) (written by an older nudge); they were read unverified")
@@ -633,14 +657,14 @@ class RunFolder:
             parts = [part for index in expected if (part := self.part_path(kind, index)).is_file()]
         if not parts:
             raise RunFolderError(self._no_parts_message(kind))
-        sums = (manifest or {}).get("checksums") or {}
+        sums = self.recorded_checksums(manifest) if manifest is not None else {}
         frames = []
         for part in parts:
             try:
                 data = part.read_bytes()
             except OSError as exc:
                 raise DataError(f"{part}: cannot be read ({exc.strerror or exc})") from None
-            recorded = (sums.get(str(int(part.stem.split("-")[1]))) or {}).get(kind)
+            recorded = sums.get(int(part.stem.split("-")[1]), {}).get(kind)
             if recorded is not None and hashlib.sha256(data).hexdigest() != recorded:
                 raise RunFolderError(
                     f"{self.path}: {kind}/{part.name} changed since it was written (its SHA-256 differs "

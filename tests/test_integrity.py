@@ -401,3 +401,12 @@ def test_a_table_with_two_columns_of_one_name_is_refused(tmp_path):
         line = one_error_line(invoke(args).output)
         assert "'completion_time'" in line and "columns 3 and 4" in line
     assert not (tmp_path / "study-analysis").exists()
+
+
+@pytest.mark.parametrize("damage", [[1, 2], {"zero": {}}, {"0": {"trials": 5}}, {"0": {"layouts": "ab"}}])
+def test_a_damaged_checksums_entry_is_one_error_line(tmp_path, smoke_run, damage):
+    run = copy_run(smoke_run, tmp_path / "run")
+    manifest = json.loads((run / "manifest.json").read_text())
+    manifest["checksums"] = damage
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    assert "'checksums' is damaged" in one_error_line(invoke(["analyze", str(run)]).output)
