@@ -49,7 +49,7 @@ import pyarrow.parquet as pq
 
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
-from nudgecli.errors import DataError, LockError, RunFolderError, WriteError
+from nudgecli.errors import DataError, LockError, NudgeError, RunFolderError, WriteError
 
 MANIFEST = "manifest.json"
 CONFIG = "config.toml"
@@ -728,8 +728,8 @@ class RunFolder:
                                                           if len(differences) > 8 else "")
                     raise RunFolderError(
                         f"{self.path}: cannot resume with settings different from those the run started "
-                        f"with ({shown}); resume it with its own: `{self.resume_command(manifest)}`, or use "
-                        "--force to replace it")
+                        f"with ({shown}); {self._edited_config_hint(manifest)}resume it with its own: "
+                        f"`{self.resume_command(manifest)}`, or use --force to replace it")
                 self._remove_temporaries()
                 config_path = self.path / CONFIG
                 if not config_path.is_file() or config_path.read_text(encoding="utf-8") != config_text:
@@ -782,6 +782,21 @@ class RunFolder:
             shown = "(absent)" if recorded_version is _ABSENT else str(recorded_version)
             differences.append(f"nudgecli version: {shown} in the manifest, {__version__} now")
         return differences
+
+    def _edited_config_hint(self, manifest: Mapping[str, Any]) -> str:
+        """``put back ...; `` when the run's ``config.toml`` no longer holds the experiment its
+        manifest recorded (edited after the run started), else nothing."""
+        path = self.path / CONFIG
+        recorded = manifest.get("config")
+        if not isinstance(recorded, Mapping) or not path.is_file():
+            return ""
+        try:
+            on_disk = experiment_from_toml(path.read_text(encoding="utf-8"), str(path))
+        except (NudgeError, OSError, ValueError):
+            return f"{path} no longer holds the run's experiment: put back the manifest's values, then "
+        if experiment_differences(recorded, on_disk.model_dump(mode="json")):
+            return f"{path} was edited after the run started: put back the manifest's values, then "
+        return ""
 
     def _only_a_start(self, config_text: str) -> bool:
         """Whether the folder holds only the start of this very run (its config.toml, perhaps its

@@ -78,6 +78,7 @@ def test_resume_with_an_edited_config_toml_is_refused_naming_the_key(tmp_path, s
     assert result.exit_code == 1
     line = one_error_line(result.output)
     assert "inference.kappa: 0.65 in the manifest, 0.95 now" in line
+    assert f"{config} was edited after the run started: put back the manifest's values" in line
     after = {p: p.read_bytes() for p in run.rglob("*") if p.is_file() and p.name != ".nudge.lock"}
     assert after == {p: b for p, b in before.items() if p.name != ".nudge.lock"}
 
