@@ -521,9 +521,11 @@ def _parse_matches(matches: tuple[str, ...]) -> dict[str, str]:
 @click.option("--level", type=click.FloatRange(0.5, 1.0, min_open=True, max_open=True), default=0.95,
               show_default=True, help="Level of the bootstrap intervals.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Bootstrap seed.")
+@click.option("--drop-duplicates", is_flag=True,
+              help="Keep the first of repeated trial rows of a table instead of refusing them.")
 def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[str, ...],
                     matches: tuple[str, ...], output_format: str, out: str | None, formats: str,
-                    resamples: int, level: float, seed: int) -> None:
+                    resamples: int, level: float, seed: int, drop_duplicates: bool) -> None:
     """Compare SIMULATED (a run folder or metrics table) with REAL (a metrics table of real trials).
 
     For each metric and condition both hold: per-participant medians side by side, the real
@@ -534,9 +536,13 @@ def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[st
     from nudgecli.report.plotting import parse_formats
 
     chosen_formats = parse_formats(formats)
+    notes: list[str] = []
     result = compare_sources(simulated, real, plan=plan, metrics=list(metric_names) or None,
                              condition_map=_parse_matches(matches),
-                             options=CompareOptions(resamples=resamples, level=level, seed=seed))
+                             options=CompareOptions(resamples=resamples, level=level, seed=seed),
+                             drop_duplicates=drop_duplicates, notes=notes)
+    for note in notes:
+        info(f"Note: {note}")
     if output_format == "json":
         echo_json(result.to_json())
     elif output_format == "csv":

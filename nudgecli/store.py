@@ -2,7 +2,8 @@
 
 A run folder (DESIGN.md section 4)::
 
-    manifest.json          experiment, seed, versions, status, per-participant completion, timings
+    manifest.json          experiment, seed, versions, status, per-participant completion, timings,
+                           the SHA-256 of every part
     config.toml            the resolved experiment
     participants.parquet   one row per participant (written when the run completes)
     layouts.parquet        the trial layouts
@@ -16,7 +17,9 @@ Every file is written to a temporary name in the same folder and renamed into pl
 crash (even SIGKILL) leaves either the old file or the new one, never half of one; an
 ``OSError`` while writing (read-only folder, full disk) becomes a :class:`WriteError` naming the
 path and the cause. A participant counts as done only when its three parts exist and are
-readable Parquet files; ``--resume`` recomputes the others.
+readable Parquet files; ``--resume`` recomputes the others, and those whose SHA-256 differs from
+the one the manifest recorded when they were written. Readers take exactly the parts of the
+participants the manifest promises and verify them against it.
 
 While a command writes a run folder it holds the folder's lock (:func:`run_lock`, the file
 ``.nudge.lock`` with the holder's pid, host and command): a second writer is refused with a
@@ -27,6 +30,8 @@ runs is taken over with a warning on stderr.
 from __future__ import annotations
 
 import contextlib
+import hashlib
+import io
 import json
 import os
 import platform
@@ -44,7 +49,7 @@ import pyarrow.parquet as pq
 
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
-from nudgecli.errors import DataError, LockError, RunFolderError, WriteError
+from nudgecli.errors import DataError, LockError, NudgeError, RunFolderError, WriteError
 
 MANIFEST = "manifest.json"
 CONFIG = "config.toml"
@@ -141,6 +146,15 @@ def _read_holder(path: Path) -> dict[str, Any]:
     except (OSError, ValueError):
         return {}
     return data if isinstance(data, dict) else {}
+
+
+def _holder_pid(holder: dict[str, Any]) -> int:
+    """The pid a lock file names; -1 (no process) when it names none or not a number (a damaged
+    or hand-edited lock file is then taken over like a dead holder's)."""
+    try:
+        return int(holder.get("pid", -1))
+    except (TypeError, ValueError, OverflowError):
+        return -1
 
 
 def _describe_holder(holder: dict[str, Any]) -> str:
@@ -241,7 +255,7 @@ def _acquire(lock_path: Path, command: str | None) -> Any:
             continue
         holder = _read_holder(lock_path)
         if holder:
-            pid = int(holder.get("pid", -1))
+            pid = _holder_pid(holder)
             if holder.get("host") != host:
                 handle.close()
                 raise LockError(
@@ -329,6 +343,49 @@ def default_run_dir(experiment: str, root: Path | None = None) -> Path:
     raise RunFolderError(f"{base.parent}: too many runs named {base.name}; choose --out")
 
 
+def file_sha256(path: str | Path) -> str:
+    """The SHA-256 of a file's bytes, as hex (read in 1 MiB blocks)."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def _flatten(data: Any, prefix: str = "") -> dict[str, Any]:
+    """A nested mapping as ``{"section.key": value}`` (lists stay whole)."""
+    if not isinstance(data, Mapping):
+        return {prefix: data}
+    flat: dict[str, Any] = {}
+    for key, value in data.items():
+        flat.update(_flatten(value, f"{prefix}.{key}" if prefix else str(key)))
+    return flat
+
+
+def _shown(value: Any) -> str:
+    """A value as the user wrote it in TOML or on the command line (JSON spelling)."""
+    return "(absent)" if value is _ABSENT else json.dumps(value)
+
+
+_ABSENT = object()
+
+
+def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -> list[str]:
+    """``key: OLD in the manifest, NEW now`` for every key of two resolved experiments that differs.
+
+    Parameters
+    ----------
+    recorded
+        The experiment the manifest recorded (``manifest["config"]``).
+    current
+        The experiment now (``ExperimentConfig.model_dump(mode="json")``).
+    """
+    old, new = _flatten(recorded), _flatten(json.loads(json.dumps(current)))
+    return [f"{key}: {_shown(old.get(key, _ABSENT))} in the manifest, {_shown(new.get(key, _ABSENT))} now"
+            for key in sorted(old.keys() | new.keys())
+            if old.get(key, _ABSENT) != new.get(key, _ABSENT)]
+
+
 def _readable(part: Path) -> bool:
     """Whether ``part`` is a Parquet file whose footer parses (a truncated file's does not)."""
     try:
@@ -390,6 +447,86 @@ class RunFolder:
             return json.loads(self.manifest_path.read_text(encoding="utf-8"))
         except json.JSONDecodeError as exc:
             raise RunFolderError(f"{self.manifest_path}: unreadable manifest ({exc})") from exc
+
+    def participant_count(self, manifest: Mapping[str, Any]) -> int:
+        """The manifest's ``participants``: a whole number, or a ``RunFolderError`` naming the value."""
+        value = manifest.get("participants", 0)
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise RunFolderError(f"{self.manifest_path}: participants = {json.dumps(value)} is not a whole "
+                                 "number of participants; the manifest is damaged: restore it, or simulate "
+                                 "the run again with --force")
+        return value
+
+    def manifest_participants(self, manifest: Mapping[str, Any]) -> list[int] | None:
+        """The participants whose parts the manifest promises (a ``nudge study`` folder: those its
+        ``live`` entries name), or ``None`` for a manifest that names no participant count."""
+        if manifest.get("executor") == "live":
+            try:
+                return sorted(int(key) for key in (manifest.get("live") or {}))
+            except (TypeError, ValueError):
+                raise RunFolderError(f"{self.manifest_path}: a participant of 'live' is not a number; "
+                                     "the manifest is damaged") from None
+        if "participants" not in manifest:
+            return None
+        return list(range(self.participant_count(manifest)))
+
+    def stray_parts(self, manifest: Mapping[str, Any]) -> list[str]:
+        """Parts on disk of participants the manifest does not promise (``trials/part-0007.parquet``):
+        copied in from another run, left by an earlier run with more participants; never read."""
+        expected = self.manifest_participants(manifest)
+        if expected is None:
+            return []
+        names = {part_name(index) for index in expected}
+        return [f"{kind}/{part.name}" for kind in PART_KINDS
+                for part in sorted((self.path / kind).glob("part-*.parquet")) if part.name not in names]
+
+    def recorded_checksums(self, manifest: Mapping[str, Any]) -> dict[int, dict[str, str]]:
+        """The manifest's ``checksums``: participant -> part kind -> SHA-256 (hex); empty for a
+        manifest of an older nudge.
+
+        Raises
+        ------
+        RunFolderError
+            The entry is not of that shape (a damaged or edited manifest).
+        """
+        recorded = manifest.get("checksums") or {}
+        try:
+            sums = {int(key): dict(value) for key, value in recorded.items()}
+            if all(kind in PART_KINDS and isinstance(digest, str)
+                   for value in sums.values() for kind, digest in value.items()):
+                return sums
+        except (AttributeError, TypeError, ValueError):
+            pass
+        raise RunFolderError(f"{self.manifest_path}: 'checksums' is damaged (expected participant -> "
+                             f"{{{', '.join(PART_KINDS)}}} -> SHA-256); restore the manifest, or simulate "
+                             "the run again with --force")
+
+    def changed_parts(self, manifest: Mapping[str, Any]) -> dict[int, list[str]]:
+        """Participant -> its parts on disk whose SHA-256 differs from the one the manifest recorded."""
+        changed: dict[int, list[str]] = {}
+        for participant, sums in self.recorded_checksums(manifest).items():
+            for kind, recorded in sums.items():
+                part = self.part_path(kind, participant)
+                if part.is_file() and file_sha256(part) != recorded:
+                    changed.setdefault(participant, []).append(f"{kind}/{part.name}")
+        return changed
+
+    def integrity_notes(self, manifest: Mapping[str, Any]) -> list[str]:
+        """What a reader of the run should be told: stray parts left out, parts without a recorded
+        SHA-256 (a manifest of an older nudge, or a ``nudge study`` folder) that were not verified."""
+        notes = []
+        strays = self.stray_parts(manifest)
+        if strays:
+            shown = ", ".join(strays[:6]) + (f" and {len(strays) - 6} more" if len(strays) > 6 else "")
+            notes.append(f"{self.path}: left out {len(strays)} part(s) not in the manifest: {shown}; they do "
+                         "not belong to this run (remove them)")
+        expected = self.manifest_participants(manifest) or []
+        sums = self.recorded_checksums(manifest)
+        unverified = [index for index in expected if index not in sums]
+        if unverified and manifest.get("executor") != "live":
+            notes.append(f"{self.path}: the manifest records no SHA-256 of the parts of {len(unverified)} "
+                         "participant(s) (written by an older nudge); they were read unverified")
+        return notes
 
     def read_config(self) -> ExperimentConfig:
         """The resolved experiment the run was made with."""
@@ -457,7 +594,7 @@ class RunFolder:
         manifest = self.read_manifest()
         if manifest.get("executor") == "live":
             return self._check_live(manifest)
-        participants = int(manifest.get("participants", 0))
+        participants = self.participant_count(manifest)
         missing = self.missing_parts(participants)
         fix = self.resume_command(manifest)
         if missing:
@@ -491,7 +628,11 @@ class RunFolder:
         return manifest
 
     def read_table(self, kind: str, columns: Sequence[str] | None = None) -> pd.DataFrame:
-        """All parts of ``kind`` (``trials``, ``steps`` or ``participants``) concatenated in order.
+        """The parts of ``kind`` (``trials``, ``steps`` or ``participants``) concatenated in order.
+
+        With a manifest, exactly the parts of the participants it promises are read (strays are
+        left out: :meth:`stray_parts`), and each part whose SHA-256 the manifest recorded is
+        verified against it; without one, every part on disk.
 
         Parameters
         ----------
@@ -503,17 +644,33 @@ class RunFolder:
         Raises
         ------
         RunFolderError
-            No part yet (saying what to run).
+            No part yet (saying what to run), or a part changed since it was written (naming it
+            and the command that restores it).
         DataError
             A part is unreadable or lacks one of ``columns``.
         """
-        parts = sorted((self.path / kind).glob("part-*.parquet"))
+        manifest = self.read_manifest() if self.is_run() else None
+        expected = self.manifest_participants(manifest) if manifest is not None else None
+        if expected is None:
+            parts = sorted((self.path / kind).glob("part-*.parquet"))
+        else:
+            parts = [part for index in expected if (part := self.part_path(kind, index)).is_file()]
         if not parts:
             raise RunFolderError(self._no_parts_message(kind))
+        sums = self.recorded_checksums(manifest) if manifest is not None else {}
         frames = []
         for part in parts:
             try:
-                names = pq.ParquetFile(part).schema_arrow.names
+                data = part.read_bytes()
+            except OSError as exc:
+                raise DataError(f"{part}: cannot be read ({exc.strerror or exc})") from None
+            recorded = sums.get(int(part.stem.split("-")[1]), {}).get(kind)
+            if recorded is not None and hashlib.sha256(data).hexdigest() != recorded:
+                raise RunFolderError(
+                    f"{self.path}: {kind}/{part.name} changed since it was written (its SHA-256 differs "
+                    f"from the one in the manifest); restore it with `{self.resume_command(manifest)}`")
+            try:
+                names = pq.ParquetFile(io.BytesIO(data)).schema_arrow.names
             except Exception as exc:  # pyarrow raises several types for broken files
                 fix = (f"`{self.resume_command()}`" if self.is_run() else "`nudge simulate EXPERIMENT --out "
                        f"{self.path} --resume`")
@@ -523,7 +680,8 @@ class RunFolder:
             if missing:
                 raise DataError(f"{part} lacks the column(s) {', '.join(missing)}; it was written by "
                                 "another version of nudge: re-run `nudge simulate` with this version")
-            frames.append(pd.read_parquet(part, columns=list(columns) if columns is not None else None))
+            frames.append(pd.read_parquet(io.BytesIO(data), columns=list(columns) if columns is not None
+                                          else None))
         return pd.concat(frames, ignore_index=True)
 
     def _no_parts_message(self, kind: str) -> str:
@@ -564,14 +722,21 @@ class RunFolder:
         if self.is_run():
             manifest = self.read_manifest()
             if resume and not force:
+                differences = self.resume_differences(manifest, config, seed, participants)
+                if differences:
+                    shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
+                                                          if len(differences) > 8 else "")
+                    raise RunFolderError(
+                        f"{self.path}: cannot resume with settings different from those the run started "
+                        f"with ({shown}); {self._edited_config_hint(manifest)}resume it with its own: "
+                        f"`{self.resume_command(manifest)}`, or use --force to replace it")
                 self._remove_temporaries()
                 config_path = self.path / CONFIG
-                old = config_path.read_text(encoding="utf-8") if config_path.is_file() else ""
-                if old != config_text or manifest.get("seed") != seed or \
-                        manifest.get("participants") != participants:
-                    raise RunFolderError(
-                        f"{self.path}: holds a run with a different experiment, seed or participant count; "
-                        "resume it with the same settings, or use --force to replace it")
+                if not config_path.is_file() or config_path.read_text(encoding="utf-8") != config_text:
+                    # the manifest's experiment is the run's: put back an edited or lost config.toml
+                    print(f"Warning: {config_path} differed from the experiment in the manifest; "
+                          "rewritten from it", file=sys.stderr)
+                    write_text_atomic(config_path, config_text)
                 return "resume"
             if not force:
                 state = manifest.get("status", "unknown")
@@ -591,6 +756,47 @@ class RunFolder:
             raise RunFolderError(f"{self.path}: nothing to resume (no run there); drop --resume")
         write_text_atomic(self.path / CONFIG, config_text)
         return "new"
+
+    def resume_differences(self, manifest: Mapping[str, Any], config: ExperimentConfig, seed: int,
+                           participants: int) -> list[str]:
+        """What differs between the run the manifest recorded and a resume of it with ``config``,
+        ``seed`` and ``participants`` by this nudge: ``key: OLD in the manifest, NEW now`` each.
+
+        The resolved experiment is compared key by key (a manifest without one: the run's
+        ``config.toml``), then the seed, the participant count and nudgecli's version.
+        """
+        if isinstance(manifest.get("config"), Mapping):
+            differences = experiment_differences(manifest["config"], config.model_dump(mode="json"))
+        else:  # a manifest of an older nudge: the run's config.toml is the record
+            config_path = self.path / CONFIG
+            old = config_path.read_text(encoding="utf-8") if config_path.is_file() else ""
+            differences = [] if old == config.to_toml() else [f"{CONFIG}: differs from the experiment now"]
+        if manifest.get("seed") != seed:
+            differences.append(f"seed: {_shown(manifest.get('seed', _ABSENT))} in the manifest, {seed} now")
+        if manifest.get("participants") != participants and \
+                not any(d.startswith("study.participants:") for d in differences):
+            differences.append(f"participants: {_shown(manifest.get('participants', _ABSENT))} in the "
+                               f"manifest, {participants} now")
+        recorded_version = (manifest.get("versions") or {}).get("nudgecli", _ABSENT)
+        if recorded_version != __version__:
+            shown = "(absent)" if recorded_version is _ABSENT else str(recorded_version)
+            differences.append(f"nudgecli version: {shown} in the manifest, {__version__} now")
+        return differences
+
+    def _edited_config_hint(self, manifest: Mapping[str, Any]) -> str:
+        """``put back ...; `` when the run's ``config.toml`` no longer holds the experiment its
+        manifest recorded (edited after the run started), else nothing."""
+        path = self.path / CONFIG
+        recorded = manifest.get("config")
+        if not isinstance(recorded, Mapping) or not path.is_file():
+            return ""
+        try:
+            on_disk = experiment_from_toml(path.read_text(encoding="utf-8"), str(path))
+        except (NudgeError, OSError, ValueError):
+            return f"{path} no longer holds the run's experiment: put back the manifest's values, then "
+        if experiment_differences(recorded, on_disk.model_dump(mode="json")):
+            return f"{path} was edited after the run started: put back the manifest's values, then "
+        return ""
 
     def _only_a_start(self, config_text: str) -> bool:
         """Whether the folder holds only the start of this very run (its config.toml, perhaps its
@@ -641,8 +847,10 @@ class RunFolder:
         write_parquet_atomic(self.path / LAYOUTS, layouts)
 
     def write_participant_parts(self, participant: int, trials: pd.DataFrame, steps: pd.DataFrame,
-                                record: pd.DataFrame) -> None:
+                                record: pd.DataFrame) -> dict[str, str]:
         """Write one participant's checkpoint; the participants part last marks it complete.
+
+        Returns the SHA-256 of each part written (kind -> hex), for the manifest.
 
         All three are written to temporary files first and renamed into place only when all
         three are on disk, so a write error (full disk) leaves none of them; a crash between
@@ -650,6 +858,7 @@ class RunFolder:
         ``--resume`` recomputes it.
         """
         name = part_name(participant)
+        sums: dict[str, str] = {}
         with atomic_path(self.path / "participants" / name) as record_tmp, \
                 atomic_path(self.path / "steps" / name) as steps_tmp, \
                 atomic_path(self.path / "trials" / name) as trials_tmp:
@@ -657,8 +866,10 @@ class RunFolder:
                                      ("participants", record, record_tmp)):
                 try:
                     frame.to_parquet(tmp, index=False)
+                    sums[kind] = file_sha256(tmp)
                 except OSError as exc:
                     raise write_error(self.part_path(kind, participant), exc) from exc
+        return sums
 
     def write_participants_table(self) -> None:
         """Combine the participants' parts into ``participants.parquet``."""

@@ -39,6 +39,8 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
 
 from nudgecli.config import default_plan_name
 from nudgecli.errors import ConfigError, DataError, RunFolderError, did_you_mean
@@ -114,8 +116,13 @@ class AnalysisResult:
 # --- reading -----------------------------------------------------------------------------------
 
 
-def read_run(folder: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+def read_run(folder: str | Path, notes: list[str] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
     """The trial table and step log of a run folder (only the columns the metrics use).
+
+    With a manifest, exactly the parts of the participants it promises are read, each verified
+    against the SHA-256 the manifest recorded (:meth:`nudgecli.store.RunFolder.read_table`);
+    stray parts and parts without a recorded checksum (an older nudge's run, still read) are
+    reported in ``notes``.
 
     Returns
     -------
@@ -139,6 +146,8 @@ def read_run(folder: str | Path) -> tuple[pd.DataFrame, pd.DataFrame]:
             not any((folder / "steps").glob("part-*.parquet"))
         if "participants" in manifest and not kept_metrics_only:
             run.check_complete()
+            if notes is not None:
+                notes += run.integrity_notes(manifest)
     trials = run.read_table("trials", TRIAL_COLUMNS)
     if trials.empty:
         raise RunFolderError(f"{folder}: trials/part-*.parquet hold no trials yet; "
@@ -162,19 +171,48 @@ def read_metrics_table(path: str | Path) -> pd.DataFrame:
                         "trials/ and steps/) or a .csv/.parquet table with one row per trial")
     try:
         if suffix == ".csv":
+            delimiter = sniff_delimiter(path)
+            check_unique_columns(_csv_header(path, delimiter), path)
             # conditions as categories: a large table's labels are not copied into millions of strings
-            table = pd.read_csv(path, sep=sniff_delimiter(path), dtype={"condition": "category"})
+            table = pd.read_csv(path, sep=delimiter, dtype={"condition": "category"})
         else:
+            check_unique_columns(pq.read_schema(path).names, path)
             table = pd.read_parquet(path)
     except pd.errors.EmptyDataError:
         raise DataError(f"{path} is empty; a metrics table needs a header (participant, condition, "
                         "metrics) and one row per trial") from None
-    except (pd.errors.ParserError, UnicodeDecodeError, OSError, ValueError) as exc:
+    except (pd.errors.ParserError, UnicodeDecodeError, OSError, ValueError, pa.ArrowException) as exc:
         raise DataError(f"{path} cannot be read as a {suffix[1:]} table: {exc}") from None
     if table.empty:
         raise DataError(f"{path} has no rows; a metrics table needs one row per trial")
     release_free_memory()
     return table
+
+
+def _csv_header(path: Path, delimiter: str) -> list[str]:
+    """The column names of a CSV file's first line, as written."""
+    with open(path, encoding="utf-8-sig", errors="replace", newline="") as handle:
+        return next(csv.reader(handle, delimiter=delimiter), [])
+
+
+def check_unique_columns(names: Sequence[str], source: str | Path) -> None:
+    """Refuse a table in which two columns share a name (pandas would rename the second
+    ``name.1`` and analyse it as a metric of its own).
+
+    Raises
+    ------
+    DataError
+        Naming the column and its positions (1-based).
+    """
+    positions: dict[str, list[int]] = {}
+    for position, name in enumerate(names, start=1):
+        positions.setdefault(str(name), []).append(position)
+    repeated = {name: where for name, where in positions.items() if len(where) > 1}
+    if repeated:
+        listed = "; ".join(f"{name!r} (columns {', '.join(map(str, where[:-1]))} and {where[-1]})"
+                           for name, where in repeated.items())
+        raise DataError(f"{source}: more than one column of one name: {listed}; rename or remove the "
+                        "repeats so that each column has its own name")
 
 
 def release_free_memory() -> None:
@@ -287,6 +325,18 @@ def _check_finite(table: pd.DataFrame, metric_columns: Sequence[str], source: st
                         "replace them with a number or leave the cell empty (a missing value)")
 
 
+def _first_non_number(series: pd.Series, first_row: int) -> str:
+    """`` (row R holds 'VALUE')``: the first cell of a non-numeric column that is not a number
+    (a blank is a missing value, not the culprit); empty if none can be singled out."""
+    present = series.notna().to_numpy()
+    numbers = pd.to_numeric(series, errors="coerce").notna().to_numpy()
+    culprits = np.flatnonzero(present & ~numbers)
+    if not culprits.size:
+        return ""
+    more = f", and {culprits.size - 1} more cell(s)" if culprits.size > 1 else ""
+    return f" (row {int(culprits[0]) + first_row} holds {series.iloc[int(culprits[0])]!r}{more})"
+
+
 def _is_numeric(series: pd.Series) -> bool:
     return pd.api.types.is_bool_dtype(series) or pd.api.types.is_numeric_dtype(series)
 
@@ -343,9 +393,8 @@ def validate_metrics_table(table: pd.DataFrame, source: str, first_row: int = 2,
         if table[column].dtype == object and (converted := _as_boolean(table[column])) is not None:
             table[column] = converted
         if not _is_numeric(table[column]):
-            values = table[column].dropna()
-            example = f" (e.g. {values.iloc[0]!r})" if len(values) else ""
-            raise DataError(f"{source}: metric column {column!r} is not numeric{example}; make it numeric, "
+            culprit = _first_non_number(table[column], first_row)
+            raise DataError(f"{source}: metric column {column!r} is not numeric{culprit}; make it numeric, "
                             "remove it, or pick the metrics with --metric")
     _check_finite(table, metric_columns, source, first_row)
     check_condition_labels(table, source)
@@ -588,35 +637,50 @@ def analysis_folder(table: Path) -> Path:
     return table.with_name(f"{table.stem}-analysis")
 
 
+def drop_or_refuse_duplicates(table: pd.DataFrame, source: Path, first_row: int, drop_duplicates: bool,
+                              notes: list[str]) -> tuple[pd.DataFrame, bool]:
+    """``table`` without repeated trial rows (:func:`find_duplicate_trials`), and whether any were
+    dropped: the one check of duplicated trials, for ``analyze`` and ``compare`` alike.
+
+    Raises
+    ------
+    DataError
+        Repeated trial rows and not ``drop_duplicates`` (naming the rows and the flag).
+    """
+    key, repeats = find_duplicate_trials(table)
+    if not repeats.any():
+        return table, False
+    positions = np.flatnonzero(repeats)
+    if not drop_duplicates:
+        raise DataError(f"{source}: {positions.size} duplicate trial row(s) (same {', '.join(key)} as an "
+                        f"earlier row): rows {_rows(list(positions), first_row)}; remove them, or pass "
+                        "--drop-duplicates to keep the first of each")
+    notes.append(f"{source}: dropped {positions.size} duplicate trial row(s) (same {', '.join(key)}; the "
+                 f"first of each kept): rows {_rows(list(positions), first_row)}")
+    return table.loc[~repeats].reset_index(drop=True), True
+
+
 def _load_table(source: Path, drop_duplicates: bool,
                 notes: list[str]) -> tuple[pd.DataFrame, list[str], bool]:
     """A checked metrics table, its metric columns, and whether duplicates were dropped."""
     table = read_metrics_table(source)
     first_row = 2 if source.suffix.lower() == ".csv" else 1
     metric_columns = validate_metrics_table(table, str(source), first_row)
-    key, repeats = find_duplicate_trials(table)
-    if repeats.any():
-        positions = np.flatnonzero(repeats)
-        if not drop_duplicates:
-            raise DataError(f"{source}: {positions.size} duplicate trial row(s) (same {', '.join(key)} as an "
-                            f"earlier row): rows {_rows(list(positions), first_row)}; remove them, or pass "
-                            "--drop-duplicates to keep the first of each")
-        table = table.loc[~repeats].reset_index(drop=True)
-        notes.append(f"{source}: dropped {positions.size} duplicate trial row(s) (same {', '.join(key)}; the "
-                     f"first of each kept): rows {_rows(list(positions), first_row)}")
-        return table, metric_columns, True
-    return table, metric_columns, False
+    table, dropped = drop_or_refuse_duplicates(table, source, first_row, drop_duplicates, notes)
+    return table, metric_columns, dropped
 
 
-def _load_source(source: Path, plan: AnalysisPlan) -> tuple[pd.DataFrame, list[str], Path]:
-    """The metrics of a run folder, its metric columns and its default output folder."""
+def _load_source(source: Path, plan: AnalysisPlan,
+                 notes: list[str] | None = None) -> tuple[pd.DataFrame, list[str], Path]:
+    """The metrics of a run folder, its metric columns and its default output folder (``notes``:
+    :func:`read_run`'s)."""
     if not source.exists():
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
     if source.is_dir():
         if not is_run_folder(source):
             raise DataError(f"{source} is neither a run folder nor a metrics table: it has no trials/ or "
                             "steps/; give a folder made by `nudge simulate` or a .csv/.parquet table")
-        trials, steps = read_run(source)
+        trials, steps = read_run(source, notes)
         definitions = plan.metrics
         metrics = trial_metrics(trials, steps, engagement=definitions.engagement,
                                 strength=definitions.strength, mode_switches=definitions.mode_switches,
@@ -625,20 +689,24 @@ def _load_source(source: Path, plan: AnalysisPlan) -> tuple[pd.DataFrame, list[s
     raise AssertionError("_load_source takes run folders; tables go through _load_table")  # pragma: no cover
 
 
-def load_source(source: Path, plan: AnalysisPlan,
-                min_conditions: int = 1) -> tuple[pd.DataFrame, list[str], Path]:
+def load_source(source: Path, plan: AnalysisPlan, min_conditions: int = 1, *, drop_duplicates: bool = False,
+                notes: list[str] | None = None) -> tuple[pd.DataFrame, list[str], Path]:
     """The metrics table, its metric columns and the default output folder of a source.
 
     A run folder's metrics are computed with ``plan``'s definitions; a table is read and checked
-    (:func:`validate_metrics_table`, at least ``min_conditions`` conditions).
+    as ``nudge analyze`` checks it (:func:`validate_metrics_table`, at least ``min_conditions``
+    conditions; repeated trial rows refused, or dropped with ``drop_duplicates``:
+    :func:`drop_or_refuse_duplicates`). What was left out goes to ``notes``.
     """
+    notes = [] if notes is None else notes
     if not source.exists():
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
     if source.is_dir():
-        return _load_source(source, plan)
+        return _load_source(source, plan, notes)
     table = read_metrics_table(source)
     first_row = 2 if source.suffix.lower() == ".csv" else 1
     metric_columns = validate_metrics_table(table, str(source), first_row, min_conditions)
+    table, _ = drop_or_refuse_duplicates(table, source, first_row, drop_duplicates, notes)
     return table, metric_columns, analysis_folder(source)
 
 
@@ -758,7 +826,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     plan = load_plan(plan_arg)
     changed = False
     if source.is_dir():
-        table, available, _ = _load_source(source, plan)
+        table, available, _ = _load_source(source, plan, notes)
         changed = True
         if run is not None and manifest is not None and "participants" in manifest and \
                 "plan" not in manifest and source_locked:

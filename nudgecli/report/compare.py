@@ -372,7 +372,8 @@ class Comparison:
 
 def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | AnalysisPlan = "paper",
                     metrics: Sequence[str] | None = None, condition_map: Mapping[str, str] | None = None,
-                    options: CompareOptions = CompareOptions()) -> Comparison:
+                    options: CompareOptions = CompareOptions(), *, drop_duplicates: bool = False,
+                    notes: list[str] | None = None) -> Comparison:
     """Read a simulated source (run folder or metrics table) and a real metrics table, and compare them.
 
     Parameters
@@ -387,6 +388,11 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
         Only these metrics (default: every metric both hold).
     condition_map
         Simulated condition -> real condition name.
+    drop_duplicates
+        Keep the first of repeated trial rows of a table instead of refusing them (as
+        ``nudge analyze --drop-duplicates``).
+    notes
+        Receives what was left out (duplicates dropped, stray parts of a run folder), a line each.
 
     Raises
     ------
@@ -396,12 +402,14 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
     from nudgecli.report.metrics import apply_filters
 
     chosen = load_plan(plan)
-    sim_table, sim_metrics, _ = load_source(Path(simulated), chosen, min_conditions=1)
+    sim_table, sim_metrics, _ = load_source(Path(simulated), chosen, min_conditions=1,
+                                            drop_duplicates=drop_duplicates, notes=notes)
     real_path = Path(real)
     if real_path.is_dir():
         raise DataError(f"{real_path} is a folder; REAL must be a metrics table of real trials (.csv or "
                         ".parquet, one row per trial with participant, condition and metric columns)")
-    real_table, real_metrics, _ = load_source(real_path, chosen, min_conditions=1)
+    real_table, real_metrics, _ = load_source(real_path, chosen, min_conditions=1,
+                                              drop_duplicates=drop_duplicates, notes=notes)
     selected = shared_metrics(sim_metrics, real_metrics, metrics)
     sim_table = apply_filters(sim_table, chosen.filters)
     real_table = apply_filters(real_table, chosen.filters)

@@ -24,6 +24,7 @@ Their figures are :mod:`nudgecli.report.figures.replication`'s.
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -41,6 +42,7 @@ from nudgecli.report.stats import (
     order_conditions,
     stats_table,
 )
+from nudgecli.rng import generator
 
 #: The direction of Disambiguation - Control the paper reports (Section 6, Fig. 3 and 4): +1 higher
 #: under Disambiguation, -1 lower; ``None`` where it reports no significant difference
@@ -290,8 +292,12 @@ def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outpu
         ``(n_points, D)`` the design in the problem's units, in point order.
     outputs
         ``point, metric, y`` (:func:`point_outputs`): one output per metric and point.
-    levels, seed
-        Morris grid levels; the seed of SALib's bootstrap of the intervals.
+    levels
+        Morris grid levels.
+    seed
+        The master seed of SALib's bootstrap of the intervals (the batch's): each metric's
+        bootstrap draws from its own branch ``generator(seed, "sensitivity", metric)``, so equal
+        seeds give equal intervals (SALib itself takes a seed of 0 for "unseeded").
 
     Returns
     -------
@@ -304,16 +310,23 @@ def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outpu
         y = group.sort_values("point")["y"].to_numpy(dtype=float)
         if y.size != samples.shape[0] or not np.all(np.isfinite(y)):
             continue
-        if method == "sobol":
-            from SALib.analyze import sobol
+        rng = generator(seed, "sensitivity", str(metric))
+        # SALib warns (on stderr, mid-output) about degenerate outputs, e.g. a metric constant over
+        # the design divides by its zero spread; its indices are then NaN, which the table shows
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")
+            if method == "sobol":
+                from SALib.analyze import sobol
 
-            result = sobol.analyze(problem, y, calc_second_order=False, conf_level=0.95, seed=seed)
-            indices: dict[str, tuple[str, str | None]] = {"S1": ("S1", "S1_conf"), "ST": ("ST", "ST_conf")}
-        else:
-            from SALib.analyze import morris
+                result = sobol.analyze(problem, y, calc_second_order=False, conf_level=0.95, seed=rng)
+                indices: dict[str, tuple[str, str | None]] = {"S1": ("S1", "S1_conf"),
+                                                              "ST": ("ST", "ST_conf")}
+            else:
+                from SALib.analyze import morris
 
-            result = morris.analyze(problem, samples, y, num_levels=levels, conf_level=0.95, seed=seed)
-            indices = {"mu_star": ("mu_star", "mu_star_conf"), "sigma": ("sigma", None), "mu": ("mu", None)}
+                result = morris.analyze(problem, samples, y, num_levels=levels, conf_level=0.95, seed=rng)
+                indices = {"mu_star": ("mu_star", "mu_star_conf"), "sigma": ("sigma", None),
+                           "mu": ("mu", None)}
         for k, name in enumerate(problem["names"]):
             for index, (key, conf) in indices.items():
                 out.append({"metric": metric, "parameter": name, "index": index,

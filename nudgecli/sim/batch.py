@@ -358,15 +358,19 @@ def _readable_parquet(path: Path) -> bool:
 
 
 def _readable_json(path: Path) -> bool:
+    """Whether ``path`` holds an analysis's stats document: a JSON object with a list of
+    ``conditions`` and of ``metrics`` (anything else, e.g. a damaged or edited file, is
+    recomputed by ``--resume``)."""
     if not path.is_file():
         return False
     try:
         import json
 
-        json.loads(path.read_text(encoding="utf-8"))
+        document = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return False
-    return True
+    return isinstance(document, dict) and isinstance(document.get("conditions"), list) and \
+        isinstance(document.get("metrics"), list) and all(isinstance(m, dict) for m in document["metrics"])
 
 
 def read_study_metrics(folder: Path, study: str, participants: int) -> pd.DataFrame:
@@ -791,7 +795,7 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     figures: dict[str, Any] = {"sweep": sweep_figure(rows, names)}
     if loaded.problem is not None and loaded.samples is not None:
         indices = sensitivity(spec.design.method, loaded.problem, loaded.samples, point_outputs(rows),
-                              levels=spec.design.levels, seed=spec.design.seed)
+                              levels=spec.design.levels, seed=batch.seed)
         tables["sensitivity"] = indices
         if not indices.empty:
             figures["sensitivity"] = sensitivity_figure(indices)

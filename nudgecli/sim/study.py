@@ -553,6 +553,10 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     if participants is not None:
         config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
     check_physiology_logs(config)
+    if plan is not None:  # a plan that cannot load is refused before anything is simulated or written
+        from nudgecli.report.plans import load_plan
+
+        load_plan(plan)
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
     try:
         with run_lock(out):
@@ -569,7 +573,14 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                 progress: Callable[[int, int], None] | None, plan_name: str | None) -> StudyRun:
     """:func:`run_study` once the folder's lock is held (``client``: the connected dask client, or None)."""
     mode = folder.prepare(config, seed, n, resume=resume, force=force)
-    done = set(folder.completed_participants()) if mode == "resume" else set()
+    done = set(folder.completed_participants()) & set(range(n)) if mode == "resume" else set()
+    if mode == "resume":
+        changed = folder.changed_parts(folder.read_manifest())
+        if changed:  # not what was written: recompute them (a participant is a pure function of the seed)
+            listed = ", ".join(part for parts in changed.values() for part in parts)
+            print(f"Warning: {folder.path}: {listed} changed since written (SHA-256 differs from the "
+                  "manifest's); simulating again", file=sys.stderr)
+            done -= set(changed)
     plan = StudyPlan.build_on(config, seed, workers, client)
     trials_per = plan.trials_per_participant()
     manifest: dict[str, Any] = folder.read_manifest() if mode == "resume" else {
@@ -604,7 +615,8 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     for result in results:
         if result.calibration is not None:
             write_sessions(folder.calibration_dir(result.participant), *result.calibration)
-        folder.write_participant_parts(result.participant, result.trials, result.steps, result.record)
+        sums = folder.write_participant_parts(result.participant, result.trials, result.steps, result.record)
+        manifest.setdefault("checksums", {})[str(result.participant)] = sums
         done.add(result.participant)
         manifest["completed"] = sorted(done)
         manifest["timings_s"][str(result.participant)] = round(result.wall_s, 3)

@@ -16,7 +16,7 @@ A sweep file is TOML::
 
     [parameters]                  # experiment keys (section.key)
     "inference.kappa" = { low = 0.5, high = 0.8 }            # a range (sobol, morris)
-    "study.handover_idle_s" = { low = 1, high = 3, integer = true }
+    "study.participants" = { low = 4, high = 9, integer = true }
     "disambiguation.window" = { values = [3, 5] }            # a set of values (any design)
     "model.epsilon" = [0.05, 0.1, 0.2]                       # shorthand for { values = [...] }
 

@@ -173,8 +173,9 @@ class ValidationSettings:
                 + (" or more --states" if reading.world == "two-mode" else ""))
         if not 0.0 <= self.epsilon <= 1.0:
             raise ConfigError(f"epsilon must lie in [0, 1] (got {self.epsilon})")
-        if not self.belief_concentration > 0.0:
-            raise ConfigError(f"--belief-concentration must be positive (got {self.belief_concentration}); "
+        if not (math.isfinite(self.belief_concentration) and self.belief_concentration > 0.0):
+            raise ConfigError(f"--belief-concentration must be a positive, finite number (got "
+                              f"{self.belief_concentration}); "
                               "1 spreads beliefs evenly, larger values make them nearly uniform")
         if not self.tie_tolerance >= 0.0:
             raise ConfigError(f"tie tolerance must be non-negative (got {self.tie_tolerance})")

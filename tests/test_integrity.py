@@ -1,0 +1,413 @@
+"""Nothing silently wrong: resume refuses a changed experiment, analyze reads exactly the
+manifest's parts and verifies their SHA-256, compare refuses duplicated trials, a sweep is
+reproducible file for file, replication seeds and the bootstrap interval's level are pinned, and
+a bad plan or input is one ``Error:`` line before anything is written (issue 21)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from nudgecli.cli import main
+from nudgecli.config import load_experiment
+from nudgecli.errors import RunFolderError
+from nudgecli.report.analysis import analyze
+from nudgecli.sim.study import run_study
+from nudgecli.store import RunFolder
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def one_error_line(output: str) -> str:
+    lines = [line for line in output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("Error: "), output
+    assert "Traceback" not in output
+    return lines[0]
+
+
+def invoke(args: list[str]):
+    return CliRunner().invoke(main, args)
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A finished smoke run of 2 participants (copied by the tests that damage it)."""
+    out = tmp_path_factory.mktemp("integrity") / "run"
+    run_study(load_experiment("smoke"), out, participants=2)
+    return out
+
+
+def copy_run(source: Path, target: Path) -> Path:
+    shutil.copytree(source, target)
+    return target
+
+
+def partial_run(tmp_path: Path, smoke_run: Path) -> Path:
+    """A copy of the smoke run as if killed after participant 0: participant 1's parts gone."""
+    run = copy_run(smoke_run, tmp_path / "run")
+    for kind in ("trials", "steps", "participants"):
+        (run / kind / "part-0001.parquet").unlink()
+    manifest = json.loads((run / "manifest.json").read_text())
+    manifest.update({"status": "running", "completed": [0]})
+    manifest.get("checksums", {}).pop("1", None)
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    return run
+
+
+# --- 1, 2: resume compares the resolved experiment, seed, participants, version ----------------
+
+def test_resume_with_an_edited_config_toml_is_refused_naming_the_key(tmp_path, smoke_run):
+    run = partial_run(tmp_path, smoke_run)
+    config = run / "config.toml"
+    text = config.read_text()
+    assert "kappa = 0.65" in text
+    config.write_text(text.replace("kappa = 0.65", "kappa = 0.95"))
+    before = {p: p.read_bytes() for p in run.rglob("*") if p.is_file()}
+    result = invoke(["simulate", str(config), "--out", str(run), "--participants", "2", "--seed",
+                     str(json.loads((run / "manifest.json").read_text())["seed"]), "--resume"])
+    assert result.exit_code == 1
+    line = one_error_line(result.output)
+    assert "inference.kappa: 0.65 in the manifest, 0.95 now" in line
+    assert f"{config} was edited after the run started: put back the manifest's values" in line
+    after = {p: p.read_bytes() for p in run.rglob("*") if p.is_file() and p.name != ".nudge.lock"}
+    assert after == {p: b for p, b in before.items() if p.name != ".nudge.lock"}
+
+
+def test_resume_with_another_participant_count_is_refused(tmp_path, smoke_run):
+    run = partial_run(tmp_path, smoke_run)
+    with pytest.raises(RunFolderError, match=r"participants: 2 in the manifest, 3 now"):
+        run_study(load_experiment("smoke"), run, participants=3, resume=True)
+    assert not (run / "trials" / "part-0002.parquet").exists()
+
+
+def test_resume_with_another_seed_or_version_is_refused(tmp_path, smoke_run, monkeypatch):
+    run = partial_run(tmp_path, smoke_run)
+    seed = json.loads((run / "manifest.json").read_text())["seed"]
+    with pytest.raises(RunFolderError, match=rf"seed: {seed} in the manifest, {seed + 1} now"):
+        run_study(load_experiment("smoke"), run, participants=2, seed=seed + 1, resume=True)
+    import nudgecli.store as store
+
+    monkeypatch.setattr(store, "__version__", "99.0")
+    with pytest.raises(RunFolderError, match=r"nudgecli version: .* in the manifest, 99.0 now"):
+        run_study(load_experiment("smoke"), run, participants=2, resume=True)
+
+
+def test_resume_with_the_same_settings_finishes_the_run(tmp_path, smoke_run):
+    run = partial_run(tmp_path, smoke_run)
+    done = run_study(load_experiment("smoke"), run, participants=2, resume=True)
+    assert done.computed == [1]
+    pd.testing.assert_frame_equal(RunFolder(run).read_trials(), RunFolder(smoke_run).read_trials())
+
+
+# --- 3: exactly the manifest's parts ------------------------------------------------------------
+
+def test_analyze_reads_only_the_manifests_participants_and_names_a_stray(tmp_path, smoke_run):
+    run = copy_run(smoke_run, tmp_path / "run")
+    reference = analyze(copy_run(smoke_run, tmp_path / "reference"))
+    for kind in ("trials", "steps", "participants"):
+        shutil.copy(run / kind / "part-0001.parquet", run / kind / "part-0007.parquet")
+    result = analyze(run)
+    assert sorted(result.metrics["participant"].unique()) == [0, 1]
+    pd.testing.assert_frame_equal(result.metrics, reference.metrics)
+    assert any("part-0007.parquet" in note and "not in the manifest" in note for note in result.notes)
+
+
+# --- 4: SHA-256 of every part ---------------------------------------------------------------------
+
+def test_the_manifest_records_the_sha256_of_every_part(smoke_run):
+    manifest = json.loads((smoke_run / "manifest.json").read_text())
+    for participant in ("0", "1"):
+        for kind in ("trials", "steps", "participants"):
+            part = smoke_run / kind / f"part-000{participant}.parquet"
+            assert manifest["checksums"][participant][kind] == hashlib.sha256(part.read_bytes()).hexdigest()
+
+
+def _flip_a_byte(part: Path) -> None:
+    """Change one byte of the Parquet data, keeping the footer readable."""
+    data = bytearray(part.read_bytes())
+    data[len(data) // 3] ^= 0x01
+    part.write_bytes(bytes(data))
+
+
+def test_analyze_plot_and_resume_name_a_changed_part(tmp_path, smoke_run):
+    run = copy_run(smoke_run, tmp_path / "run")
+    invoke(["analyze", str(run)])
+    _flip_a_byte(run / "steps" / "part-0001.parquet")
+    for args in (["analyze", str(run)], ["plot", str(run), "--out", str(tmp_path / "figures")]):
+        result = invoke(args)
+        assert result.exit_code == 1, result.output
+        line = one_error_line(result.output)
+        assert "steps/part-0001.parquet" in line and "SHA-256" in line and "--resume" in line
+    # resume recomputes the changed part (a participant is a pure function of the seed)
+    done = run_study(load_experiment("smoke"), run, participants=2, resume=True)
+    assert done.computed == [1]
+    assert (run / "steps" / "part-0001.parquet").read_bytes() == \
+        (smoke_run / "steps" / "part-0001.parquet").read_bytes()
+    analyze(run)
+
+
+def test_a_manifest_without_checksums_is_analysed_with_a_note(tmp_path, smoke_run):
+    run = copy_run(smoke_run, tmp_path / "run")
+    manifest = json.loads((run / "manifest.json").read_text())
+    del manifest["checksums"]
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    result = analyze(run)
+    assert any("no SHA-256" in note for note in result.notes)
+
+
+def test_a_manifest_with_a_non_numeric_participant_count_is_one_error_line(tmp_path, smoke_run):
+    run = copy_run(smoke_run, tmp_path / "run")
+    manifest = json.loads((run / "manifest.json").read_text())
+    manifest["participants"] = "eight"
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    line = one_error_line(invoke(["analyze", str(run)]).output)
+    assert 'participants = "eight"' in line and "manifest.json" in line
+
+
+# --- 8c: the plan is checked before anything runs ------------------------------------------------
+
+def test_run_with_an_unknown_plan_writes_nothing(tmp_path):
+    out = tmp_path / "run"
+    result = invoke(["run", "smoke", "--participants", "2", "--out", str(out), "--plan", "bogus"])
+    assert result.exit_code == 1
+    assert "bogus" in one_error_line(result.output)
+    assert not out.exists() or not any(out.iterdir())
+
+
+# --- 5: compare refuses duplicated trial rows as analyze does ------------------------------------
+
+def test_compare_refuses_duplicated_trial_rows_like_analyze(tmp_path, smoke_run):
+    metrics = analyze(copy_run(smoke_run, tmp_path / "run")).metrics
+    real = tmp_path / "real.csv"
+    doubled = pd.concat([metrics, metrics.iloc[[3]]], ignore_index=True)
+    doubled.to_csv(real, index=False)
+    expected_row = len(metrics) + 2  # the CSV's line of the repeat (line 1 is the header)
+    for args in (["compare", str(tmp_path / "run"), str(real)], ["analyze", str(real)]):
+        line = one_error_line(invoke(args).output)
+        assert "1 duplicate trial row(s)" in line and f"rows {expected_row}" in line, line
+    # the same table as the simulated side
+    line = one_error_line(invoke(["compare", str(real), str(real)]).output)
+    assert "duplicate trial row" in line
+    kept = invoke(["compare", str(tmp_path / "run"), str(real), "--drop-duplicates", "--resamples", "0",
+                   "--format", "json"])
+    assert kept.exit_code == 0, kept.output
+    assert "Note: " in kept.output and "dropped 1 duplicate" in kept.output
+
+
+# --- 6: a sweep is reproducible file for file; SALib says nothing on stderr ----------------------
+
+SMALL_SWEEP = """\
+experiment = "smoke"
+replications = 1
+seed = 0
+plan = "paper"
+set = ["study.participants=2"]
+
+[design]
+method = "sobol"
+samples = 2
+seed = 0
+
+[parameters]
+"disambiguation.window" = { values = [3, 5] }
+"inference.kappa" = { values = [0.6, 0.75] }
+"""
+
+#: batch.json's fields that record when and how fast, not what
+_TIMING_FIELDS = ("created", "finished", "wall_s", "worker_peak_rss_mb")
+
+
+def test_a_sweep_run_twice_gives_the_same_files_and_salib_warns_nothing(tmp_path):
+    sweep_file = tmp_path / "sweep.toml"
+    sweep_file.write_text(SMALL_SWEEP)
+    # the first in a process of its own: pytest records warnings, so only a real stderr shows them
+    child = subprocess.run([sys.executable, "-m", "nudgecli.cli", "sweep", str(sweep_file), "--out",
+                            str(tmp_path / "a")], capture_output=True, text=True, cwd=ROOT,
+                           env={**os.environ, "PYTHONPATH": str(ROOT)}, timeout=300)
+    assert child.returncode == 0, child.stderr
+    assert "warn" not in child.stderr.lower(), child.stderr
+    result = CliRunner().invoke(main, ["sweep", str(sweep_file), "--out", str(tmp_path / "b")])
+    assert result.exit_code == 0, result.output
+    outputs = [tmp_path / "a", tmp_path / "b"]
+    first, second = outputs
+    files = sorted(p.relative_to(first) for p in first.rglob("*") if p.is_file())
+    assert Path("sensitivity.csv") in files and Path("figures/sensitivity.png") in files
+    assert files == sorted(p.relative_to(second) for p in second.rglob("*") if p.is_file())
+    for name in files:
+        if name == Path("batch.json"):
+            left, right = (json.loads((folder / name).read_text()) for folder in outputs)
+            for document in (left, right):
+                for key in _TIMING_FIELDS:
+                    document.pop(key)
+            assert left == right
+        else:
+            assert (first / name).read_bytes() == (second / name).read_bytes(), name
+
+
+def test_the_readme_sweep_file_example_loads(tmp_path):
+    from nudgecli.sim.sweep import load_sweep
+
+    readme = (ROOT / "README.md").read_text()
+    start = readme.index("A sweep file:")
+    block = readme[readme.index("```toml\n", start) + len("```toml\n"):]
+    block = block[:block.index("```")]
+    sweep_file = tmp_path / "sweep.toml"
+    sweep_file.write_text(block)
+    loaded = load_sweep(str(sweep_file))
+    assert loaded.spec.design.method == "sobol" and len(loaded.points) > 0
+
+
+# --- 7: replication seeds ----------------------------------------------------------------------------
+
+def _independent_replication_seed(master: int, replication: int) -> int:
+    """Replication r's seed derived by hand: SeedSequence(master, spawn_key=(sha256("replication")'s
+    first 4 bytes little-endian, r)), its first 64-bit word, the top 63 bits."""
+    word = int.from_bytes(hashlib.sha256(b"replication").digest()[:4], "little")
+    state = np.random.SeedSequence(entropy=master, spawn_key=(word, replication)).generate_state(
+        1, dtype=np.uint64)
+    return int(state[0]) >> 1
+
+
+def test_replication_seeds_are_pinned():
+    from nudgecli.sim.batch import replication_seed
+
+    # known values: changing how replication r's seed is derived changes every batch's results
+    assert [replication_seed(0, r) for r in range(3)] == [
+        5680765575968178681, 9047310466983199066, 7246022461404314051]
+    assert [replication_seed(2022, r) for r in (0, 1, 19)] == [
+        2939163322461918595, 267096466384655483, 8362738465882206593]
+    for master, replication in ((0, 0), (11, 3), (2022, 19), (2**40, 7)):
+        assert replication_seed(master, replication) == _independent_replication_seed(master, replication)
+
+
+def test_a_batch_runs_replication_r_with_its_pinned_seed(tmp_path):
+    from nudgecli.sim.batch import replicate
+
+    result = replicate("smoke", 2, tmp_path / "batch", seed=5, participants=2)
+    seeds = sorted(set(result.rows[["replication", "seed"]].itertuples(index=False, name=None)))
+    assert seeds == [(0, _independent_replication_seed(5, 0)), (1, _independent_replication_seed(5, 1))]
+
+
+# --- 8: the bootstrap interval's level -------------------------------------------------------------
+
+def test_the_bootstrap_interval_is_the_levels_percentiles_of_brute_force_resamples():
+    from nudgecli.report.stats import bootstrap_median_differences
+
+    rng = np.random.default_rng(3)
+    rows = [{"participant": p, "condition": c, "value": float(rng.integers(0, 20))}
+            for p in range(6) for c in ("a", "b") for _ in range(int(rng.integers(1, 4)))]
+    data = pd.DataFrame(rows)
+    resamples, level, seed = 300, 0.8, 12
+    result = bootstrap_median_differences(data, "value", ["a", "b"], resamples=resamples, level=level,
+                                          seed=seed).iloc[0]
+    # by hand: the documented draws, every resample's trials replicated, np.median, percentiles
+    codes, _ = pd.factorize(data["participant"])
+    draws = np.random.default_rng(seed).integers(0, 6, size=(resamples, 6))
+    differences = []
+    for drawn in draws:
+        picked = pd.concat([data[codes == p] for p in drawn])
+        differences.append(np.median(picked.loc[picked["condition"] == "a", "value"])
+                           - np.median(picked.loc[picked["condition"] == "b", "value"]))
+    low, high = np.quantile(differences, [0.1, 0.9])
+    assert (result["low"], result["high"]) == (low, high)
+    assert result["valid_resamples"] == resamples
+
+
+@pytest.mark.parametrize("level", [0.5, 0.9])
+def test_the_bootstrap_interval_covers_a_known_median_difference_at_its_level(level):
+    from nudgecli.report.stats import bootstrap_median_differences
+
+    datasets, participants, shift = 300, 30, 1.0
+    covered = 0
+    for k in range(datasets):
+        rng = np.random.default_rng([7, k])
+        data = pd.DataFrame({
+            "participant": np.r_[np.arange(participants), np.arange(participants)],
+            "condition": ["a"] * participants + ["b"] * participants,
+            # normal a and b: the population medians differ by `shift`
+            "value": np.r_[rng.normal(shift, 1.0, participants), rng.normal(0.0, 1.0, participants)],
+        })
+        interval = bootstrap_median_differences(data, "value", ["a", "b"], resamples=400, level=level,
+                                                seed=k).iloc[0]
+        covered += interval["low"] <= shift <= interval["high"]
+    # binomial standard error at 300 datasets: 0.029 at level 0.5, 0.017 at 0.9; 3.5 of them allowed
+    tolerance = 3.5 * np.sqrt(level * (1 - level) / datasets)
+    assert abs(covered / datasets - level) < tolerance
+
+
+# --- 23: smaller faults, each one Error: line (or handled) --------------------------------------------
+
+@pytest.mark.parametrize("pid", ['"abc"', "null", "[1]", "1.5e400"])
+def test_a_lock_file_with_a_non_numeric_pid_is_taken_over(tmp_path, smoke_run, pid):
+    import socket
+
+    run = copy_run(smoke_run, tmp_path / "run")
+    (run / ".nudge.lock").write_text(f'{{"pid": {pid}, "host": "{socket.gethostname()}", '
+                                     '"command": "nudge simulate smoke"}\n')
+    result = invoke(["analyze", str(run)])
+    assert result.exit_code == 0, result.output
+    assert "taking over the stale lock" in result.stderr and "Traceback" not in result.output
+    assert not (run / ".nudge.lock").exists()
+
+
+@pytest.mark.parametrize("content", ["[1, 2]", '{"conditions": ["a"]}', '"text"', '{"metrics": 3}'])
+def test_a_batch_analysis_of_the_wrong_shape_is_recomputed_on_resume(tmp_path, content):
+    from nudgecli.sim.batch import replicate
+
+    first = replicate("smoke", 1, tmp_path / "a", seed=3, participants=2)
+    (analysis,) = sorted((tmp_path / "a" / "analyses").glob("*.json"))
+    good = analysis.read_text()
+    analysis.write_text(content)
+    again = replicate("smoke", 1, tmp_path / "a", seed=3, participants=2, resume=True)
+    assert again.run.computed == 1  # the analysis, not the participants
+    assert analysis.read_text() == good
+    pd.testing.assert_frame_equal(again.rows, first.rows)
+
+
+@pytest.mark.parametrize("value", ["inf", "-inf", "nan"])
+def test_validate_refuses_a_non_finite_belief_concentration(value):
+    result = invoke(["validate", "--simulations", "2", "--max-goals", "4", "--mc-queries", "0",
+                     "--belief-concentration", value])
+    assert result.exit_code == 1
+    assert "--belief-concentration" in one_error_line(result.output)
+
+
+def test_a_non_numeric_cell_is_named_by_its_value_and_row(tmp_path):
+    table = tmp_path / "study.csv"
+    lines = ["participant,condition,completion_time"] + \
+        [f"{p},{c},{10 + p}.5" for p in range(4) for c in ("disambiguation", "control")]
+    assert lines[6] == "2,control,12.5"
+    lines[6] = "2,control,12x5"  # line 7 of the file
+    table.write_text("\n".join(lines) + "\n")
+    line = one_error_line(invoke(["analyze", str(table)]).output)
+    assert "'12x5'" in line and "row 7" in line and "completion_time" in line
+
+
+def test_a_table_with_two_columns_of_one_name_is_refused(tmp_path):
+    table = tmp_path / "study.csv"
+    lines = ["participant,condition,completion_time,completion_time"] + \
+        [f"{p},{c},{10 + p},{20 + p}" for p in range(4) for c in ("disambiguation", "control")]
+    table.write_text("\n".join(lines) + "\n")
+    for args in (["analyze", str(table)], ["compare", str(table), str(table)]):
+        line = one_error_line(invoke(args).output)
+        assert "'completion_time'" in line and "columns 3 and 4" in line
+    assert not (tmp_path / "study-analysis").exists()
+
+
+@pytest.mark.parametrize("damage", [[1, 2], {"zero": {}}, {"0": {"trials": 5}}, {"0": {"layouts": "ab"}}])
+def test_a_damaged_checksums_entry_is_one_error_line(tmp_path, smoke_run, damage):
+    run = copy_run(smoke_run, tmp_path / "run")
+    manifest = json.loads((run / "manifest.json").read_text())
+    manifest["checksums"] = damage
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    assert "'checksums' is damaged" in one_error_line(invoke(["analyze", str(run)]).output)
