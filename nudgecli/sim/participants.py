@@ -38,7 +38,6 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy.signal import lfilter
 from scipy.special import ndtr, ndtri
 
 from nudgecli.config import InterfaceSection, PopulationSection
@@ -160,8 +159,16 @@ def drift_normals(innovations: np.ndarray, correlation: float, previous: float |
     rho = float(correlation)
     scale = np.sqrt(1.0 - rho * rho)
     first = e[0] if previous is None else rho * previous + scale * e[0]
-    rest = lfilter([scale], [1.0, -rho], e[1:], zi=[rho * first])[0] if e.size > 1 else np.zeros(0)
-    return np.r_[first, rest]
+    # The recursion z_t = rho z_{t-1} + scale e_t, step by step: blows are tens of samples, where a
+    # plain loop beats scipy.signal.lfilter's call overhead and spares every worker importing
+    # scipy.signal (over a second). The same operations as lfilter's direct form, so the values
+    # are bit-identical to it (tests/test_sim_participants.py checks).
+    out = np.empty(e.size)
+    out[0] = last = float(first)
+    for t, innovation in enumerate(e[1:].tolist(), start=1):
+        last = scale * innovation + rho * last
+        out[t] = last
+    return out
 
 
 def blows_drift_normals(innovations: np.ndarray, lengths: np.ndarray, correlation: float) -> np.ndarray:

@@ -205,7 +205,8 @@ class TrialSession:
 
     Advance it with :meth:`human_step` (one 10 Hz sample of the human's input) while
     ``turn == "human"`` and :meth:`autonomy_step` while ``turn == "autonomy"``, until
-    ``finished``. Every step appends one row to ``columns`` (the :mod:`nudgecli.steplog` schema).
+    ``finished``. Every step appends one raw row to ``rows``; :attr:`columns` gives them in the
+    :mod:`nudgecli.steplog` schema.
 
     Parameters
     ----------
@@ -240,7 +241,7 @@ class TrialSession:
     autonomy_turns: int = 0
     nudges: int = 0
     human_switches: int = 0
-    columns: dict[str, list[Any]] = field(default_factory=lambda: {c: [] for c in STEP_COLUMNS})
+    rows: list[tuple[Any, ...]] = field(default_factory=list)
     world: World | None = None
 
     def __post_init__(self) -> None:
@@ -503,36 +504,57 @@ class TrialSession:
 
     def _record(self, turn: str, state: int, mode: int, intended: int, pressure: float, measured: int,
                 u_h: np.ndarray, u_a: np.ndarray, alpha: float, inferred: int, events: list[str]) -> None:
-        """Append one step: the pose, cell and mode at the start of the step, what happened in it."""
-        c = self.columns
+        """Append one step: the pose, cell and mode at the start of the step, what happened in it.
+
+        The row is kept raw (a tuple; the belief array is never changed in place, only replaced)
+        and put into the schema's columns once, by :attr:`columns`: per-step formatting was a
+        fifth of the trial loop.
+        """
+        self.rows.append((self.step, turn, self.x, self.y, self.theta, mode, state, intended, pressure,
+                          measured, u_h, u_a, alpha, inferred, self.belief, self.entropy, events))
+
+    @property
+    def columns(self) -> dict[str, list[Any]]:
+        """The steps so far as the step log's columns (:data:`~nudgecli.steplog.STEP_COLUMNS`)."""
         assert self.world is not None
-        i, j, h = self.world.cells(state)
-        c["participant"].append(self.spec.participant)
-        c["trial"].append(self.spec.trial)
-        c["step"].append(self.step)
-        c["t"].append(round(self.step * self.settings.dt, 10))
-        c["turn"].append(turn)
-        c["x"].append(self.x)
-        c["y"].append(self.y)
-        c["theta"].append(self.theta)
-        c["mode"].append(MODE_NAMES[mode])
-        c["cell_x"].append(int(i))
-        c["cell_y"].append(int(j))
-        c["heading"].append(int(h))
-        c["phi_i"].append(LABELS[intended] if intended >= 0 else "")
-        c["pressure"].append(pressure)
-        c["phi_m"].append(_stream_label(measured))
-        c["u_h_x"].append(float(u_h[0]))
-        c["u_h_y"].append(float(u_h[1]))
-        c["u_h_theta"].append(float(u_h[2]))
-        c["u_a_x"].append(float(u_a[0]))
-        c["u_a_y"].append(float(u_a[1]))
-        c["u_a_theta"].append(float(u_a[2]))
-        c["alpha"].append(alpha)
-        c["inferred_goal"].append(inferred)
-        c["belief"].append(self.belief.tolist())
-        c["entropy"].append(self.entropy)
-        c["event"].append(join_events(events))
+        if not self.rows:
+            return {c: [] for c in STEP_COLUMNS}
+        (steps, turns, xs, ys, thetas, modes, states, intended, pressures, measured, u_h, u_a, alphas,
+         inferred, beliefs, entropies, events) = (list(column) for column in zip(*self.rows, strict=True))
+        n, dt, cells = len(steps), self.settings.dt, self.world.cells
+        cell_x, cell_y, headings = zip(*(cells(state) for state in states), strict=True)
+        human = np.array(u_h, dtype=float).reshape(n, 3).T.tolist()
+        autonomy = np.array(u_a, dtype=float).reshape(n, 3).T.tolist()
+        columns: dict[str, list[Any]] = {
+            "participant": [self.spec.participant] * n,
+            "trial": [self.spec.trial] * n,
+            "step": steps,
+            "t": [round(step * dt, 10) for step in steps],
+            "turn": turns,
+            "x": xs,
+            "y": ys,
+            "theta": thetas,
+            "mode": [MODE_NAMES[m] for m in modes],
+            "cell_x": list(cell_x),
+            "cell_y": list(cell_y),
+            "heading": list(headings),
+            "phi_i": [LABELS[i] if i >= 0 else "" for i in intended],
+            "pressure": pressures,
+            "phi_m": [_stream_label(m) for m in measured],
+            "u_h_x": human[0],
+            "u_h_y": human[1],
+            "u_h_theta": human[2],
+            "u_a_x": autonomy[0],
+            "u_a_y": autonomy[1],
+            "u_a_theta": autonomy[2],
+            "alpha": alphas,
+            "inferred_goal": inferred,
+            "belief": [belief.tolist() for belief in beliefs],
+            "entropy": entropies,
+            "event": [join_events(e) for e in events],
+        }
+        assert tuple(columns) == STEP_COLUMNS
+        return columns
 
     # --- the trial's end ----------------------------------------------------------------------
 
