@@ -39,14 +39,14 @@ import numpy as np
 
 from nudgecli.config import load_experiment
 from nudgecli.model import interface, world
+from nudgecli.model.candidates import Candidates
 from nudgecli.model.disambiguation import (
-    Candidates,
     DisambiguationModel,
     DisambiguationSettings,
     disambiguation_scores,
     maximally_disambiguating_state,
-    monte_carlo_mutual_information_per_sample,
 )
+from nudgecli.model.information import monte_carlo_mutual_information_per_sample
 from nudgecli.model.mdp import build_transitions, solve_layout, value_iteration
 from nudgecli.rng import generator
 from nudgecli.sim.study import StudyPlan, simulate_participant

@@ -11,7 +11,9 @@ from hypothesis import strategies as st
 from scipy.special import rel_entr
 
 from nudgecli.errors import ProbabilityTableError
+from nudgecli.model import candidates as cand
 from nudgecli.model import disambiguation as dis
+from nudgecli.model import information as mi
 from nudgecli.model.interface import default_distortion_table, default_mapping_table
 from nudgecli.model.mdp import action_likelihood, solve_layout
 from nudgecli.model.world import (
@@ -119,16 +121,16 @@ def test_mutual_information_equals_brute_force(seed: int) -> None:
     lik = random_likelihood(rng, n_goals, 7, zero_fraction=0.3)
     belief = rng.dirichlet(np.ones(n_goals))
     transition = rng.dirichlet(np.ones(n_goals), size=n_goals)
-    np.testing.assert_allclose(dis.mutual_information(belief, lik), brute_force_mi(belief, lik, None),
+    np.testing.assert_allclose(mi.mutual_information(belief, lik), brute_force_mi(belief, lik, None),
                                rtol=0, atol=1e-9)
-    np.testing.assert_allclose(dis.mutual_information(belief, lik, transition),
+    np.testing.assert_allclose(mi.mutual_information(belief, lik, transition),
                                brute_force_mi(belief, lik, transition), rtol=0, atol=1e-9)
 
 
 def test_mutual_information_of_a_certain_belief_is_zero() -> None:
     lik = random_likelihood(np.random.default_rng(3), 4, 5, zero_fraction=0.4)
     certain = np.array([0.0, 0.0, 1.0, 0.0])
-    np.testing.assert_allclose(dis.mutual_information(certain, lik), 0.0, atol=1e-15)
+    np.testing.assert_allclose(mi.mutual_information(certain, lik), 0.0, atol=1e-15)
     np.testing.assert_allclose(brute_force_mi(certain, lik, None), 0.0, atol=1e-15)
 
 
@@ -136,7 +138,7 @@ def test_model_fast_path_equals_public_function(model: dis.DisambiguationModel) 
     belief = np.array([0.1, 0.2, 0.3, 0.4])
     states = np.arange(0, N_STATES, 7)
     np.testing.assert_allclose(model.mutual_information(belief, states),
-                               dis.mutual_information(belief, model.likelihood[:, states]),
+                               mi.mutual_information(belief, model.likelihood[:, states]),
                                rtol=0, atol=1e-12)
 
 
@@ -148,12 +150,12 @@ def test_mutual_information_bounds_and_goal_permutation(seed: int, n_goals: int,
     rng = np.random.default_rng(seed)
     lik = random_likelihood(rng, n_goals, 6, zero_fraction)
     belief = np.eye(n_goals)[rng.integers(n_goals)] if certain else rng.dirichlet(np.ones(n_goals))
-    info = dis.mutual_information(belief, lik)
+    info = mi.mutual_information(belief, lik)
     entropy = -sum(p * math.log(p) for p in belief if p > 0)
     assert np.all(info >= 0)
     assert np.all(info <= min(entropy, math.log(4)) + 1e-12)
     perm = rng.permutation(n_goals)
-    np.testing.assert_allclose(dis.mutual_information(belief[perm], lik[perm]), info, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(mi.mutual_information(belief[perm], lik[perm]), info, rtol=0, atol=1e-12)
 
 
 # --- Monte-Carlo estimate ------------------------------------------------------------------------
@@ -164,9 +166,9 @@ def test_vectorised_monte_carlo_reproduces_the_per_sample_loop(weighting: str) -
     p_a, mapping, distortion = random_tables(rng, 4, 30)
     belief = np.array([0.5, 0.3, 0.15, 0.05])
     states = np.array([0, 4, 17, 29, 8])
-    slow = dis.monte_carlo_mutual_information_per_sample(belief, states, p_a, mapping, distortion,
+    slow = mi.monte_carlo_mutual_information_per_sample(belief, states, p_a, mapping, distortion,
                                                          np.random.default_rng(5), 60, weighting)
-    fast = dis.monte_carlo_mutual_information(belief, states, p_a, mapping, distortion,
+    fast = mi.monte_carlo_mutual_information(belief, states, p_a, mapping, distortion,
                                               np.random.default_rng(5), 60, weighting)
     np.testing.assert_array_equal(fast, slow)
 
@@ -178,11 +180,11 @@ def test_belief_weighted_monte_carlo_converges_to_exact() -> None:
     mapping, distortion = default_mapping_table(), default_distortion_table()
     belief = np.array([0.5, 0.3, 0.2])
     states = np.arange(12)
-    exact = dis.mutual_information(belief, dis.observation_likelihood(p_a, mapping, distortion))
+    exact = mi.mutual_information(belief, dis.observation_likelihood(p_a, mapping, distortion))
     assert exact.max() > 0.2  # informative states, so the check has teeth
 
     def mean_error(samples: int) -> float:
-        est = dis.monte_carlo_mutual_information(belief, states, p_a, mapping, distortion,
+        est = mi.monte_carlo_mutual_information(belief, states, p_a, mapping, distortion,
                                                  np.random.default_rng(7), samples, "belief")
         return float(np.abs(est - exact).mean())
 
@@ -200,22 +202,22 @@ def test_mutual_information_from_counts_hand_cases() -> None:
     # two goals with disjoint labels: pooled (1/2, 1/2); each KL = log 2
     counts = np.array([[[2, 0, 0, 0], [0, 2, 0, 0]]], dtype=float)
     belief = np.array([0.9, 0.1])
-    assert dis.mutual_information_from_counts(counts, belief, "unweighted")[0] == pytest.approx(math.log(2))
-    assert dis.mutual_information_from_counts(counts, belief, "belief")[0] == pytest.approx(math.log(2))
+    assert mi.mutual_information_from_counts(counts, belief, "unweighted")[0] == pytest.approx(math.log(2))
+    assert mi.mutual_information_from_counts(counts, belief, "belief")[0] == pytest.approx(math.log(2))
     # a goal that was never sampled is left out of the unweighted mean
     counts = np.array([[[3, 1, 0, 0], [1, 3, 0, 0], [0, 0, 0, 0]]], dtype=float)
     kl = 0.75 * math.log(0.75 / 0.5) + 0.25 * math.log(0.25 / 0.5)
-    assert dis.mutual_information_from_counts(counts, np.ones(3), "unweighted")[0] == pytest.approx(kl)
+    assert mi.mutual_information_from_counts(counts, np.ones(3), "unweighted")[0] == pytest.approx(kl)
     belief = np.array([0.5, 0.3, 0.2])
-    assert dis.mutual_information_from_counts(counts, belief, "belief")[0] == pytest.approx(0.8 * kl)
+    assert mi.mutual_information_from_counts(counts, belief, "belief")[0] == pytest.approx(0.8 * kl)
     # the definition with scipy's rel_entr on an uneven case
     counts = np.array([[[5, 2, 1, 0], [0, 1, 1, 6], [2, 2, 2, 2]]], dtype=float)
     pooled = counts[0].sum(axis=0) / counts.sum()
     kls = [rel_entr(row / row.sum(), pooled).sum() for row in counts[0]]
-    estimate = dis.mutual_information_from_counts(counts, np.ones(3), "unweighted")[0]
+    estimate = mi.mutual_information_from_counts(counts, np.ones(3), "unweighted")[0]
     assert estimate == pytest.approx(np.mean(kls))
     with pytest.raises(ValueError, match="weighting"):
-        dis.mutual_information_from_counts(counts, np.ones(3), "median")  # type: ignore[arg-type]
+        mi.mutual_information_from_counts(counts, np.ones(3), "median")  # type: ignore[arg-type]
 
 
 # --- candidate domains --------------------------------------------------------------------------
@@ -238,7 +240,7 @@ def brute_force_window(current: int, goal_cells: np.ndarray, window: int) -> lis
 @pytest.mark.parametrize("cell", [(0, 0), (9, 9), (2, 1), (4, 1), (6, 6), (0, 5)])
 def test_window_candidates_equal_brute_force(window: int, cell: tuple[int, int]) -> None:
     current = int(state_index(cell[0], cell[1], 5, 2))
-    cands = dis.window_candidates(current, GOAL_CELLS, window)
+    cands = cand.window_candidates(current, GOAL_CELLS, window)
     assert cands.states.tolist() == brute_force_window(current, GOAL_CELLS, window)
     coords = np.array([state_coordinates(s) for s in cands.states]).reshape(-1, 4)
     np.testing.assert_array_equal(cands.cells, coords[:, :2])
@@ -248,8 +250,8 @@ def test_window_candidates_equal_brute_force(window: int, cell: tuple[int, int])
 def test_rotation_gate_drops_far_theta_candidates() -> None:
     current = int(state_index(6, 6, 2, 0))
     robot = np.array([31.0, 24.5])
-    gated = dis.window_candidates(current, GOAL_CELLS, 5, robot_position=robot, rotation_gate=12.0)
-    full = dis.window_candidates(current, GOAL_CELLS, 5, robot_position=robot)
+    gated = cand.window_candidates(current, GOAL_CELLS, 5, robot_position=robot, rotation_gate=12.0)
+    full = cand.window_candidates(current, GOAL_CELLS, 5, robot_position=robot)
     mean_goal = cell_centre(GOAL_CELLS[:, 0], GOAL_CELLS[:, 1]).mean(axis=0)
     expected = [s for s, pos in zip(full.states, full.positions, strict=True)
                 if s % 3 != 2 or np.linalg.norm(pos - mean_goal) <= 12.0]
@@ -261,7 +263,7 @@ def test_rotation_gate_drops_far_theta_candidates() -> None:
 
 
 def test_global_candidates_exclude_goal_cells() -> None:
-    cands = dis.global_candidates(GOAL_CELLS)
+    cands = cand.global_candidates(GOAL_CELLS)
     assert cands.states.size == N_STATES - len(GOAL_CELLS) * 24
     assert not set(map(tuple, cands.cells.tolist())) & set(map(tuple, GOAL_CELLS.tolist()))
 
@@ -314,7 +316,7 @@ def test_scores_combine_the_terms(model: dis.DisambiguationModel) -> None:
     settings_ = dis.DisambiguationSettings(mi_weight=0.7, distance_weight=0.2, window=5)
     cands = model.candidates(current, settings_)
     scores = dis.disambiguation_scores(belief, model, cands, settings_)
-    info = dis.mutual_information(belief, model.likelihood[:, cands.states])
+    info = mi.mutual_information(belief, model.likelihood[:, cands.states])
     dist = [sum(belief[g] * math.dist(GOAL_CELLS[g], c) for g in range(4)) for c in cands.cells]
     np.testing.assert_allclose(scores.information, info, atol=1e-12)
     np.testing.assert_allclose(scores.distance, dist, atol=1e-12)
@@ -336,7 +338,7 @@ def test_study_variant_scores(model: dis.DisambiguationModel) -> None:
     mean = belief @ goals_world
     np.testing.assert_allclose(choice.scores.distance,
                                np.linalg.norm(choice.candidates.positions - mean, axis=1), atol=1e-12)
-    expected_mi = dis.monte_carlo_mutual_information(belief, choice.candidates.states, model.p_a_given_sg,
+    expected_mi = mi.monte_carlo_mutual_information(belief, choice.candidates.states, model.p_a_given_sg,
                                                      model.mapping, model.distortion,
                                                      np.random.default_rng(0), 250, "unweighted")
     np.testing.assert_array_equal(choice.scores.information, expected_mi)
@@ -392,8 +394,8 @@ def test_mutual_information_of_a_batch_equals_one_query_at_a_time():
     rng = np.random.default_rng(13)
     beliefs = rng.dirichlet(np.ones(4), size=5)
     likelihood = rng.dirichlet(np.ones(4), size=(5, 4, 6))
-    batched = dis.mutual_information(beliefs, likelihood)
+    batched = mi.mutual_information(beliefs, likelihood)
     assert batched.shape == (5, 6)
     for q in range(5):
-        single = dis.mutual_information(beliefs[q], likelihood[q])
+        single = mi.mutual_information(beliefs[q], likelihood[q])
         np.testing.assert_allclose(batched[q], single, rtol=1e-12)

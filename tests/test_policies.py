@@ -17,7 +17,8 @@ from hypothesis import strategies as st
 from nudgecli.cli import main
 from nudgecli.config import default_plan_name, experiment_from_toml, load_experiment
 from nudgecli.model import assistance, policies
-from nudgecli.model.disambiguation import DisambiguationModel, mode_candidates
+from nudgecli.model.candidates import mode_candidates
+from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.interface import SOFT_PUFF, default_distortion_table, default_mapping_table
 from nudgecli.model.mdp import solve_layout
 from nudgecli.model.world import (

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nudgecli.model import world
-from nudgecli.model.disambiguation import window_candidates
+from nudgecli.model.candidates import window_candidates
 from nudgecli.report.brackets import assign_levels
 from nudgecli.report.stats import rank_biserial
 from nudgecli.sim.calibration_io import nearest_indices

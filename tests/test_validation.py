@@ -12,12 +12,9 @@ from click.testing import CliRunner
 
 from nudgecli.cli import main
 from nudgecli.errors import ConfigError
-from nudgecli.model.disambiguation import (
-    monte_carlo_mutual_information,
-    mutual_information,
-    observation_likelihood,
-)
+from nudgecli.model.disambiguation import observation_likelihood
 from nudgecli.model.inference import bayes_update
+from nudgecli.model.information import monte_carlo_mutual_information, mutual_information
 from nudgecli.model.interface import (
     HARD_PUFF,
     MOVE_N,
@@ -442,7 +439,7 @@ def test_each_reading_changes_what_it_says_and_is_pinned(reading: str, pinned: t
 
 
 def test_three_mode_world_is_the_models() -> None:
-    from nudgecli.model.disambiguation import window_candidates
+    from nudgecli.model.candidates import window_candidates
     from nudgecli.model.mdp import solve_layout
 
     rng = generator(9, "test")

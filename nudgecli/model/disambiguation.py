@@ -1,5 +1,6 @@
-"""The disambiguation metric: p(phi_m | g, s), mutual information (Eq. 13, exact or Monte Carlo),
-the distance regulariser, D(s) (Eq. 15), the candidate domains and s* (Eq. 16)."""
+"""The disambiguation metric: p(phi_m | g, s), the distance regulariser, D(s) (Eq. 15) and s*
+(Eq. 16), with the settings that choose how they are computed. Mutual information (Eq. 13) is
+in :mod:`nudgecli.model.information`, the candidate domains in :mod:`nudgecli.model.candidates`."""
 
 from __future__ import annotations
 
@@ -7,10 +8,12 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
-from scipy.special import rel_entr, xlogy
+from scipy.special import xlogy
 
 from nudgecli.errors import ProbabilityTableError
+from nudgecli.model.candidates import Candidates, WindowTable, global_candidates, mode_candidates
 from nudgecli.model.inference import predict_belief
+from nudgecli.model.information import Weighting, monte_carlo_mutual_information, normalised_belief
 from nudgecli.model.interface import (
     N_ACTIONS,
     observation_model,
@@ -18,54 +21,7 @@ from nudgecli.model.interface import (
     validate_mapping_table,
 )
 from nudgecli.model.ties import first_argmax
-from nudgecli.model.world import (
-    CELL_HEIGHT,
-    CELL_WIDTH,
-    N_CELLS_X,
-    N_CELLS_Y,
-    N_HEADINGS,
-    N_MODES,
-    X_MIN,
-    Y_MIN,
-    all_state_coordinates,
-    cell_centre,
-    state_coordinates,
-    state_index,
-)
-
-#: Relative tolerance under which two D(s) values count as tied (first candidate wins).
-
-
-def mutual_information(belief: np.ndarray, likelihood: np.ndarray,
-                       goal_transition: np.ndarray | None = None) -> np.ndarray:
-    """Exact conditional mutual information ``I(phi_m; g | s)`` of Eq. 13, in nats.
-
-    ``I(s) = sum_g w_g sum_f p(f | g, s) log(p(f | g, s) / p(f | s))`` with
-    ``w = belief @ goal_transition`` and ``p(f | s) = sum_g w_g p(f | g, s)``; terms with
-    ``p(f | g, s) = 0`` contribute 0.
-
-    Parameters
-    ----------
-    belief
-        ``(G,)`` belief over goals, or ``(..., G)`` for many queries at once.
-    likelihood
-        ``(G, S, F)`` ``p(phi_m | g, s)``, or ``(..., G, S, F)`` matching a batch of beliefs.
-    goal_transition
-        ``(G, G)`` row-stochastic, or ``None`` for the identity.
-
-    Returns
-    -------
-    np.ndarray
-        ``(S,)`` mutual information per state, in nats (``(..., S)`` for a batch).
-    """
-    weights = predict_belief(belief, goal_transition)
-    lik = np.asarray(likelihood, dtype=float)
-    marginal = np.einsum("...g,...gsf->...sf", weights, lik)
-    # sum_g w_g sum_f L log L  -  sum_f p(f) log p(f): H(phi_m | s) - H(phi_m | g, s) form.
-    conditional = np.einsum("...g,...gsf->...s", weights, xlogy(lik, lik))
-    info = conditional - xlogy(marginal, marginal).sum(axis=-1)
-    return np.maximum(info, 0.0)
-
+from nudgecli.model.world import N_MODES, cell_centre
 
 # --- observation model ------------------------------------------------------------------------
 
@@ -118,207 +74,6 @@ def observation_likelihood(p_a_given_sg: np.ndarray, mapping: np.ndarray,
         raise ValueError(f"modes must have shape ({p_a.shape[1]},), got {modes.shape}")
     # (G, S, 1, A) @ (S, A, F) -> (G, S, 1, F)
     return (p_a[:, :, None, :] @ measured_given_action[modes])[:, :, 0, :]
-
-
-# --- Monte-Carlo estimate (the study's scheme) ------------------------------------------------
-
-Weighting = Literal["unweighted", "belief"]
-
-
-def _normalised_belief(belief: np.ndarray) -> np.ndarray:
-    b = np.asarray(belief, dtype=float)
-    total = b.sum()
-    # One sum and one min check everything (a NaN or inf makes the total non-finite).
-    if b.ndim != 1 or b.size == 0 or not (np.isfinite(total) and total > 0) or b.min() < 0:
-        raise ValueError(f"belief must be a non-negative (G,) vector with positive mass, got {b}")
-    return b / total
-
-
-def mutual_information_from_counts(counts: np.ndarray, belief: np.ndarray,
-                                   weighting: Weighting = "unweighted") -> np.ndarray:
-    """The study's MI estimate from sampled label histograms.
-
-    With ``n_g`` the samples of goal ``g`` and ``N`` all samples of a state, the empirical
-    ``p^(f | g, s) = counts[g, f] / n_g`` is compared with the pooled ``p^(f | s) = sum_g
-    counts[g, f] / N`` by ``KL_g = sum_f rel_entr(p^(f | g, s), p^(f | s))``. ``"unweighted"`` is
-    the study's plain mean of ``KL_g`` over the goals with ``n_g > 0`` (the belief enters only
-    through how often each goal was sampled); ``"belief"`` is ``sum_g b_g KL_g`` over those goals,
-    which converges to Eq. 13 as the samples grow. Histograms are float64 (the study's float32
-    differs in the 7th digit).
-
-    Parameters
-    ----------
-    counts
-        ``(C, G, F)`` label counts per candidate state and sampled goal.
-    belief
-        ``(G,)`` belief (normalised here), used by ``"belief"`` weighting.
-    weighting
-        ``"unweighted"`` or ``"belief"``.
-
-    Returns
-    -------
-    np.ndarray
-        ``(C,)`` estimates in nats.
-    """
-    counts = np.asarray(counts, dtype=float)
-    per_goal = counts.sum(axis=-1)  # (C, G)
-    pooled = counts.sum(axis=-2)  # (C, F)
-    pooled = pooled / pooled.sum(axis=-1, keepdims=True)
-    appeared = per_goal > 0
-    empirical = counts / np.where(appeared, per_goal, 1.0)[..., None]
-    kl = rel_entr(empirical, pooled[:, None, :]).sum(axis=-1)  # (C, G); 0 for absent goals
-    if weighting == "unweighted":
-        return kl.sum(axis=-1) / appeared.sum(axis=-1)
-    if weighting == "belief":
-        return (kl * _normalised_belief(belief)).sum(axis=-1)
-    raise ValueError(f"weighting must be 'unweighted' or 'belief', got {weighting!r}")
-
-
-def monte_carlo_mutual_information_per_sample(
-        belief: np.ndarray, states: np.ndarray, p_a_given_sg: np.ndarray, mapping: np.ndarray,
-        distortion: np.ndarray, rng: np.random.Generator, samples: int = 250,
-        weighting: Weighting = "unweighted") -> np.ndarray:
-    """The study's per-sample Monte-Carlo MI estimate, one Python iteration per sample.
-
-    For each state, ``samples`` one-step draws ``g ~ b``, ``a ~ p(a | s, g)``, ``phi_i ~ p(phi_i |
-    a, m(s))``, ``phi_m ~ p(phi_m | phi_i)`` (each one ``rng.choice``, i.e. one uniform double
-    each, in that order, state by state) fill the histograms of
-    :func:`mutual_information_from_counts`. The study drew the ε-exploration coin and the random
-    action separately; drawing ``a`` from the ε-greedy distribution is the same distribution.
-    Deliberately unvectorised: it is the reference and the baseline of ``nudge bench``;
-    :func:`monte_carlo_mutual_information` returns identical numbers for the same ``rng`` state.
-
-    Parameters
-    ----------
-    belief
-        ``(G,)`` belief (normalised here, as the study did).
-    states
-        ``(C,)`` flat state indices.
-    p_a_given_sg
-        ``(G, S, A)`` action model.
-    mapping
-        ``(M, A, F)`` ``p(phi_i | a, m)``.
-    distortion
-        ``(F, F)`` ``p(phi_m | phi_i)``.
-    rng
-        Source of randomness (consumes ``4 * samples * C`` doubles).
-    samples
-        Samples per state.
-    weighting
-        See :func:`mutual_information_from_counts`.
-
-    Returns
-    -------
-    np.ndarray
-        ``(C,)`` estimates in nats.
-    """
-    b = _normalised_belief(belief)
-    p_a = np.asarray(p_a_given_sg, dtype=float)
-    table_a = np.asarray(mapping, dtype=float)
-    table_m = np.asarray(distortion, dtype=float)
-    n_goals, n_labels = b.size, table_m.shape[-1]
-    state_list = np.atleast_1d(np.asarray(states, dtype=int))
-    estimates = np.empty(state_list.size)
-    for c, s in enumerate(state_list):
-        mode = int(s) % N_MODES
-        counts = np.zeros((n_goals, n_labels))
-        for _ in range(samples):
-            g = rng.choice(n_goals, p=b)
-            a = rng.choice(N_ACTIONS, p=p_a[g, s])
-            phi_i = rng.choice(n_labels, p=table_a[mode, a])
-            phi_m = rng.choice(n_labels, p=table_m[phi_i])
-            counts[g, phi_m] += 1.0
-        estimates[c] = mutual_information_from_counts(counts[None], b, weighting)[0]
-    return estimates
-
-
-def _inverse_cdf(cdf: np.ndarray, uniforms: np.ndarray) -> np.ndarray:
-    """Index drawn by ``uniforms`` from rows ``cdf`` (``(..., K)``): exactly ``Generator.choice``'s
-    ``cdf.searchsorted(u, side="right")``, so both implementations see the same draws."""
-    return (cdf <= uniforms[..., None]).sum(axis=-1)
-
-
-def _choice_cdf(p: np.ndarray) -> np.ndarray:
-    """``Generator.choice``'s cdf of every row of ``p``: ``cumsum`` divided by its last entry."""
-    cdf = np.cumsum(p, axis=-1)
-    return cdf / cdf[..., -1:]
-
-
-def monte_carlo_mutual_information(
-        belief: np.ndarray, states: np.ndarray, p_a_given_sg: np.ndarray, mapping: np.ndarray,
-        distortion: np.ndarray, rng: np.random.Generator, samples: int = 250,
-        weighting: Weighting = "unweighted") -> np.ndarray:
-    """Vectorised :func:`monte_carlo_mutual_information_per_sample`, identical numbers.
-
-    All ``(C, samples, 4)`` uniforms are drawn in one call, in the per-sample version's order, and
-    turned into draws by the same cdf comparison ``Generator.choice`` uses.
-
-    Parameters
-    ----------
-    belief, states, p_a_given_sg, mapping, distortion, rng, samples, weighting
-        As in :func:`monte_carlo_mutual_information_per_sample`.
-
-    Returns
-    -------
-    np.ndarray
-        ``(C,)`` estimates in nats.
-    """
-    counts = monte_carlo_label_counts(belief, states, p_a_given_sg, mapping, distortion, rng, samples)
-    return mutual_information_from_counts(counts, _normalised_belief(belief), weighting)
-
-
-def monte_carlo_label_counts(
-        belief: np.ndarray, states: np.ndarray, p_a_given_sg: np.ndarray, mapping: np.ndarray,
-        distortion: np.ndarray, rng: np.random.Generator, samples: int = 250,
-        modes: np.ndarray | None = None) -> np.ndarray:
-    """The sampled label histograms behind the Monte-Carlo estimate (the study's scheme).
-
-    Per state, ``samples`` draws of ``g ~ b``, ``a ~ p(a | s, g)``, ``phi_i ~ p(phi_i | a, m(s))``,
-    ``phi_m ~ p(phi_m | phi_i)``. Both weightings of :func:`mutual_information_from_counts` can be
-    computed from the same counts.
-
-    Parameters
-    ----------
-    belief
-        ``(G,)`` belief (normalised here).
-    states
-        ``(C,)`` indices into the state axis of ``p_a_given_sg``.
-    p_a_given_sg, mapping, distortion
-        ``(G, S, A)``, ``(M, A, F)`` and ``(F, F)`` tables.
-    rng
-        Source of the ``(C, samples, 4)`` uniforms (one call).
-    samples
-        Samples per state.
-    modes
-        ``(C,)`` the mode of each of ``states`` (``None``: ``states % 3``, the toolkit's grid).
-
-    Returns
-    -------
-    np.ndarray
-        ``(C, G, F)`` float counts.
-    """
-    b = _normalised_belief(belief)
-    state_list = np.atleast_1d(np.asarray(states, dtype=int))
-    n_states = state_list.size
-    n_goals = b.size
-    cdf_goal = _choice_cdf(b)
-    cdf_action = _choice_cdf(np.asarray(p_a_given_sg, dtype=float)[:, state_list])  # (G, C, A)
-    cdf_intended = _choice_cdf(np.asarray(mapping, dtype=float))  # (M, A, F)
-    cdf_measured = _choice_cdf(np.asarray(distortion, dtype=float))  # (F, F)
-    n_labels = cdf_measured.shape[-1]
-    state_modes = state_list % N_MODES if modes is None else np.atleast_1d(np.asarray(modes, dtype=int))
-    if state_modes.shape != state_list.shape:
-        raise ValueError(f"modes must match states ({state_list.shape}), got {state_modes.shape}")
-
-    uniforms = rng.random((n_states, samples, 4))
-    column = np.arange(n_states)[:, None]
-    goal = _inverse_cdf(cdf_goal, uniforms[..., 0])  # (C, N)
-    action = _inverse_cdf(cdf_action[goal, column], uniforms[..., 1])
-    intended = _inverse_cdf(cdf_intended[state_modes[:, None], action], uniforms[..., 2])
-    measured = _inverse_cdf(cdf_measured[intended], uniforms[..., 3])
-    flat = (column * n_goals + goal) * n_labels + measured
-    counts = np.bincount(flat.ravel(), minlength=n_states * n_goals * n_labels)
-    return counts.reshape(n_states, n_goals, n_labels).astype(float)
 
 
 # --- settings ----------------------------------------------------------------------------------
@@ -395,172 +150,6 @@ class DisambiguationSettings:
                    domain="window", rotation_gate=12.0)
 
 
-# --- candidate domains -------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class Candidates:
-    """The states s* is chosen from, in search order.
-
-    Attributes
-    ----------
-    states
-        ``(C,)`` flat state indices.
-    cells
-        ``(C, 2)`` cell indices ``(i, j)``.
-    positions
-        ``(C, 2)`` world positions used by world-unit distances and the rotation gate.
-    """
-
-    states: np.ndarray
-    cells: np.ndarray
-    positions: np.ndarray
-
-
-def _goal_cell_ids(goal_cells: np.ndarray) -> np.ndarray:
-    """``(N_X * N_Y,)`` bool: which flat cell ids ``i * N_Y + j`` hold a goal."""
-    cells = np.asarray(goal_cells, dtype=int).reshape(-1, 2)
-    occupied = np.zeros(N_CELLS_X * N_CELLS_Y, dtype=bool)
-    occupied[cells[:, 0] * N_CELLS_Y + cells[:, 1]] = True
-    return occupied
-
-
-def _mean_goal_position(goal_cells: np.ndarray) -> np.ndarray:
-    """``(2,)`` unweighted mean of the goals' cell centres (the rotation gate's reference)."""
-    cells = np.asarray(goal_cells, dtype=int).reshape(-1, 2)
-    return cell_centre(cells[:, 0], cells[:, 1]).mean(axis=0)
-
-
-def _rotation_gate_keep(modes: np.ndarray, positions: np.ndarray, mean_goal: np.ndarray,
-                        rotation_gate: float) -> np.ndarray:
-    """``(C,)`` bool: False for theta-mode candidates farther than the gate from ``mean_goal``."""
-    dx = positions[:, 0] - mean_goal[0]
-    dy = positions[:, 1] - mean_goal[1]
-    return (modes != N_MODES - 1) | (np.sqrt(dx * dx + dy * dy) <= rotation_gate)
-
-
-class _WindowTable:
-    """Every window slot's validity for every cell of one goal layout, built once.
-
-    A slot is ``(dx, dy, mode)``, ordered row-major over dx, dy, mode. With the flat index
-    ``((i * 10 + j) * 8 + h) * 3 + m``, the slot's state is ``cell_id * 24 + h * 3 +
-    slot_offset`` with ``slot_offset = (dx * 10 + dy) * 24 + mode``, so a query is a row lookup
-    and one masked add.
-    """
-
-    def __init__(self, goal_cells: np.ndarray, window: int) -> None:
-        if window < 1 or window % 2 == 0:
-            raise ValueError(f"window must be a positive odd number of cells, got {window}")
-        half = window // 2
-        dx, dy, mode = (a.ravel() for a in np.meshgrid(np.arange(-half, half + 1), np.arange(-half, half + 1),
-                                                       np.arange(N_MODES), indexing="ij"))
-        self.offsets = np.stack([dx, dy], axis=1)  # (K, 2)
-        self.modes = mode
-        self.slot_offset = (dx * N_CELLS_Y + dy) * (N_HEADINGS * N_MODES) + mode
-        self.displacement = np.stack([dx * CELL_WIDTH, dy * CELL_HEIGHT], axis=1)
-        i, j = np.divmod(np.arange(N_CELLS_X * N_CELLS_Y), N_CELLS_Y)
-        ci = i[:, None] + dx[None, :]
-        cj = j[:, None] + dy[None, :]
-        on_grid = (ci >= 0) & (ci < N_CELLS_X) & (cj >= 0) & (cj < N_CELLS_Y)
-        occupied = _goal_cell_ids(goal_cells)
-        cell_ids = np.where(on_grid, ci * N_CELLS_Y + cj, 0)
-        self.valid = on_grid & ~occupied[cell_ids]  # (cells, K)
-        self.mean_goal = _mean_goal_position(goal_cells)
-
-    def candidates(self, current_state: int, robot_position: np.ndarray | None,
-                   rotation_gate: float | None) -> Candidates:
-        # Integer arithmetic on the flat index (cheaper than np.unravel_index for one state).
-        cell_id, rest = divmod(int(current_state), N_HEADINGS * N_MODES)
-        i, j = divmod(cell_id, N_CELLS_Y)
-        if robot_position is None:
-            origin = np.array([X_MIN + CELL_WIDTH * (i + 0.5), Y_MIN + CELL_HEIGHT * (j + 0.5)])
-        else:
-            origin = np.asarray(robot_position, dtype=float)[:2]
-        keep = self.valid[cell_id]
-        positions = self.displacement + origin
-        if rotation_gate is not None:
-            keep = keep & _rotation_gate_keep(self.modes, positions, self.mean_goal, rotation_gate)
-        base = cell_id * (N_HEADINGS * N_MODES) + (rest // N_MODES) * N_MODES
-        return Candidates(states=self.slot_offset[keep] + base, cells=self.offsets[keep] + (i, j),
-                          positions=positions[keep])
-
-
-def window_candidates(current_state: int, goal_cells: np.ndarray, window: int = 3,
-                      robot_position: np.ndarray | None = None,
-                      rotation_gate: float | None = None) -> Candidates:
-    """The ``window x window`` cells around the current cell, all modes, the current heading.
-
-    Order: row-major over ``dx``, then ``dy``, then mode. Off-grid cells and goal cells are never
-    candidates. A candidate's world position is the study's ``robot_position + (dx * 4.2, dy *
-    3.4)`` (the cell centre when the robot sits at its cell's centre). Repeated queries on one
-    layout are faster through :meth:`DisambiguationModel.candidates`, which keeps the tables.
-
-    Parameters
-    ----------
-    current_state
-        Flat index of the robot's discrete state.
-    goal_cells
-        ``(G, 2)`` goal cells.
-    window
-        Odd window side (3 or 5).
-    robot_position
-        ``(2,)`` continuous robot position; ``None`` uses the current cell's centre.
-    rotation_gate
-        See :class:`DisambiguationSettings`.
-
-    Returns
-    -------
-    Candidates
-    """
-    return _WindowTable(goal_cells, int(window)).candidates(current_state, robot_position, rotation_gate)
-
-
-def mode_candidates(current_state: int, robot_position: np.ndarray | None = None) -> Candidates:
-    """The states that differ from ``current_state`` in mode alone: its cell and heading, every
-    mode, in mode order (the current state included: keeping the mode is a choice too).
-
-    Parameters
-    ----------
-    current_state
-        Flat index of the robot's discrete state.
-    robot_position
-        ``(2,)`` continuous robot position (every candidate's); ``None`` uses the cell's centre.
-
-    Returns
-    -------
-    Candidates
-    """
-    i, j, h, _ = (int(v) for v in state_coordinates(int(current_state)))
-    modes = np.arange(N_MODES)
-    position = cell_centre(i, j) if robot_position is None else np.asarray(robot_position, dtype=float)[:2]
-    return Candidates(states=np.asarray(state_index(i, j, h, modes), dtype=np.int64),
-                      cells=np.tile([i, j], (N_MODES, 1)), positions=np.tile(position, (N_MODES, 1)))
-
-
-def global_candidates(goal_cells: np.ndarray, rotation_gate: float | None = None) -> Candidates:
-    """Every state whose cell is not a goal cell (all headings and modes), in flat-index order.
-
-    World positions are cell centres.
-
-    Parameters
-    ----------
-    goal_cells
-        ``(G, 2)`` goal cells.
-    rotation_gate
-        See :class:`DisambiguationSettings`.
-
-    Returns
-    -------
-    Candidates
-    """
-    i, j, _, m = all_state_coordinates().T
-    positions = cell_centre(i, j)
-    keep = ~_goal_cell_ids(goal_cells)[i * N_CELLS_Y + j]
-    if rotation_gate is not None:
-        keep &= _rotation_gate_keep(m, positions, _mean_goal_position(goal_cells), rotation_gate)
-    return Candidates(states=np.flatnonzero(keep), cells=np.column_stack([i[keep], j[keep]]),
-                      positions=positions[keep])
-
-
 # --- distance regulariser and D(s) --------------------------------------------------------------
 
 def _distance(weights: np.ndarray, goals: np.ndarray, positions: np.ndarray, kind: str) -> np.ndarray:
@@ -596,7 +185,7 @@ def distance_regulariser(belief: np.ndarray, goal_positions: np.ndarray, positio
     np.ndarray
         ``(C,)``.
     """
-    b = _normalised_belief(belief)
+    b = normalised_belief(belief)
     goals = np.asarray(goal_positions, dtype=float).reshape(-1, 2)
     if goals.shape[0] != b.size:
         raise ValueError(f"{goals.shape[0]} goal positions for a belief over {b.size} goals")
@@ -633,7 +222,7 @@ class DisambiguationModel:
     _likelihood_rows: np.ndarray = field(init=False, repr=False)
     _xlogx_rows: np.ndarray = field(init=False, repr=False)
     _goal_positions: dict[str, np.ndarray] = field(init=False, repr=False)
-    _window_tables: dict[int, _WindowTable] = field(init=False, repr=False)
+    _window_tables: dict[int, WindowTable] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         cells = np.asarray(self.goal_cells, dtype=int).reshape(-1, 2)
@@ -673,7 +262,7 @@ class DisambiguationModel:
             return global_candidates(self.goal_cells, settings.rotation_gate)
         table = self._window_tables.get(settings.window)
         if table is None:
-            table = self._window_tables[settings.window] = _WindowTable(self.goal_cells, settings.window)
+            table = self._window_tables[settings.window] = WindowTable(self.goal_cells, settings.window)
         return table.candidates(current_state, robot_position, settings.rotation_gate)
 
     def mutual_information(self, weights: np.ndarray, states: np.ndarray) -> np.ndarray:
@@ -747,7 +336,7 @@ def disambiguation_scores(belief: np.ndarray, model: DisambiguationModel, candid
     DisambiguationScores
     """
     settings = settings or DisambiguationSettings()
-    b = _normalised_belief(belief)
+    b = normalised_belief(belief)
     if b.size != model.n_goals:
         raise ValueError(f"belief over {b.size} goals for a layout with {model.n_goals}")
     weights = b if goal_transition is None else predict_belief(b, goal_transition)

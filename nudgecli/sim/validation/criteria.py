@@ -1,7 +1,7 @@
 """The two criteria the validation compares, and how their argmaxes are taken.
 
 - The metric: ``D(s) = I(s) - lambda R(s)``, the exact Eq. 13 mutual information
-  (:func:`nudgecli.model.disambiguation.mutual_information`) and the model's expected distance
+  (:func:`nudgecli.model.information.mutual_information`) and the model's expected distance
   (:func:`nudgecli.model.disambiguation.distance_regulariser`, in grid cells).
 - The ground truth: a one-step look-ahead on the belief, computed exactly by enumerating the
   labels: the expected gap between the first and second maxima of the next belief

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from nudgecli.errors import ConfigError
-from nudgecli.model.disambiguation import (
+from nudgecli.model.information import (
     Weighting,
     monte_carlo_label_counts,
     mutual_information,
@@ -453,7 +453,7 @@ def monte_carlo_estimates(rng: np.random.Generator, belief: np.ndarray, policy: 
                           n_samples: int) -> dict[str, np.ndarray]:
     """The study's per-sample Monte-Carlo estimate of ``I(s)``, both weightings from the same samples.
 
-    One call of :func:`nudgecli.model.disambiguation.monte_carlo_label_counts`, then the KL of
+    One call of :func:`nudgecli.model.information.monte_carlo_label_counts`, then the KL of
     each sampled goal's label histogram to the pooled one, averaged plainly or weighted by belief.
 
     Parameters

@@ -17,7 +17,7 @@ Two worlds (:attr:`~nudgecli.sim.validation.readings.Reading.world`):
   3 x 3 window of cells around the query, without goal cells, in both modes.
 - ``three-mode``: the study's world, entirely the model's: goals on random distinct cells
   with random headings, :func:`~nudgecli.model.mdp.solve_layout`, the likelihood, and the
-  candidates of :func:`~nudgecli.model.disambiguation.window_candidates` (3 x 3 cells, all
+  candidates of :func:`~nudgecli.model.candidates.window_candidates` (3 x 3 cells, all
   three modes, the current heading).
 """
 
@@ -27,7 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nudgecli.model.disambiguation import observation_likelihood, window_candidates
+from nudgecli.model.candidates import window_candidates
+from nudgecli.model.disambiguation import observation_likelihood
 from nudgecli.model.interface import (
     MOVE_N,
     MOVE_P,
@@ -279,7 +280,7 @@ def study_queries(rng: np.random.Generator, world: ValidationWorld, window: int 
     queries : np.ndarray
         ``(Q,)`` query states.
     candidates : np.ndarray
-        ``(Q, C)`` the candidates of :func:`~nudgecli.model.disambiguation.window_candidates`,
+        ``(Q, C)`` the candidates of :func:`~nudgecli.model.candidates.window_candidates`,
         in its order, padded with ``-1``; ``C = 3 (2 window + 1)^2``.
     """
     free = np.flatnonzero(~np.isin(np.arange(N_CELLS_X * N_CELLS_Y),
