@@ -27,16 +27,14 @@ from nudgecli.model.interface import (
 )
 from nudgecli.rng import generator
 from nudgecli.sim.calibration import simulate_distortion_session
+from nudgecli.sim.participant_fitting import censored_normal_fit, log_drift_correlation, participant_from_log
 from nudgecli.sim.participants import (
     LABEL_SIGN,
     Participant,
     blows_drift_normals,
-    censored_normal_fit,
     draw_participants,
     drift_normals,
-    log_drift_correlation,
     mapping_with_error,
-    participant_from_log,
     participants_frame,
     participants_from_frame,
 )
@@ -292,7 +290,7 @@ def test_log_drift_correlation_by_hand() -> None:
     # deviations: Hard Puff 1, (saturated), -1, -2 -> the one unsaturated pair (-1, -2);
     # Soft Sip 1, -1, 0 -> pairs (1, -1), (-1, 0); the 1-sample blow has no pair
     products, squares = (-1 * -2) + (1 * -1) + (-1 * 0), 1 + 1 + 1
-    import nudgecli.sim.participants as participants_module
+    import nudgecli.sim.participant_fitting as participants_module
 
     assert log_drift_correlation(blows, levels, spreads) is None  # 3 pairs < MIN_DRIFT_PAIRS
     original = participants_module.MIN_DRIFT_PAIRS

@@ -231,7 +231,7 @@ def test_event_driven_tidy_logs_round_trip_as_the_ciaa_variant(tmp_path: Path) -
                     reason="the pilots' logs (../shared/data/calibration) are absent")
 def test_the_pilots_blows_counted_as_events_and_the_drifting_model_agree() -> None:
     from nudgecli.sim.calibration_io import read_distortion_session
-    from nudgecli.sim.participants import participant_from_log
+    from nudgecli.sim.participant_fitting import participant_from_log
 
     for pilot, values in PILOT_EVENT_DIAGONALS.items():
         session = read_distortion_session(SHARED_CALIBRATION / pilot)

@@ -160,7 +160,7 @@ CALIBRATION = Path(__file__).resolve().parents[2] / "shared" / "data" / "calibra
 
 @pytest.mark.skipif(not CALIBRATION.is_dir(), reason="shared/data/calibration is not beside the repository")
 def test_a_study_can_use_a_real_persons_physiology(tmp_path):
-    from nudgecli.sim.participants import participant_from_log
+    from nudgecli.sim.participant_fitting import participant_from_log
     from nudgecli.sim.study import study_participant
 
     log = str(CALIBRATION / "andrewtest")

@@ -57,13 +57,13 @@ from nudgecli.sim.calibration_io import (
     requeue_consistent,
     silent_prompts,
 )
+from nudgecli.sim.participant_fitting import participant_from_log
 from nudgecli.sim.participants import (
     LABEL_SIGN,
     Participant,
     blow_pressures,
     blows_drift_normals,
     lognormal_delays,
-    participant_from_log,
     ramp_fraction_at,
 )
 from nudgecli.store import write_json_atomic
@@ -599,7 +599,7 @@ def fit_calibration_dir(calibration_dir: str | Path, variant: str = AUTO_VARIANT
 
     Reads whichever sessions the folder holds; a missing session falls back to the default table
     with a warning. When a fixed-rate pressure stream exists, the participant's pressure physiology
-    is estimated too (:func:`nudgecli.sim.participants.participant_from_log`) and recorded in the
+    is estimated too (:func:`nudgecli.sim.participant_fitting.participant_from_log`) and recorded in the
     provenance; an event-driven stream's messages are not samples of the blow (steady pressure
     sends none), so no physiology is estimated from it.
 
@@ -717,7 +717,7 @@ def _physiology(session: DistortionSession, warnings: list[str]) -> dict[str, An
         return None
     return {
         "method": "censored-normal quantile fit of the plateau samples per prompted label "
-                  "(nudgecli.sim.participants.participant_from_log)",
+                  "(nudgecli.sim.participant_fitting.participant_from_log)",
         "level": {label: float(v) for label, v in zip(LABELS, person.pressure_level, strict=True)},
         "spread": {label: float(v) for label, v in zip(LABELS, person.pressure_spread, strict=True)},
         "reaction_s": person.reaction_s,

@@ -39,7 +39,8 @@ from nudgecli.sim.calibration import FittedTables, fit_participant_tables
 from nudgecli.sim.calibration_io import DistortionSession, MappingSession, write_sessions
 from nudgecli.sim.ciaa import packaged_task, subject_schedule, task_layouts
 from nudgecli.sim.counterbalance import design_record, participant_order
-from nudgecli.sim.participants import Participant, draw_participant, participant_from_log
+from nudgecli.sim.participant_fitting import participant_from_log
+from nudgecli.sim.participants import Participant, draw_participant
 from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSpec, run_trial, run_world_trial
 from nudgecli.steplog import STEP_COLUMNS
 from nudgecli.store import RunFolder, library_versions, run_lock, utc_now
