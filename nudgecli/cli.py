@@ -157,7 +157,7 @@ def fit_command(calibration_dir: str, out: str | None, variant: str) -> None:
     session. A missing session falls back to the default table.
     """
 
-    from nudgecli.sim.calibration import fit_calibration_dir, write_profile
+    from nudgecli.sim.calibration_profile import fit_calibration_dir, write_profile
     from nudgecli.store import check_writable
 
     folder = Path(calibration_dir)

@@ -28,7 +28,7 @@ sync_api = pytest.importorskip("playwright.sync_api", reason="needs playwright: 
 from live_helpers import ANSWERS, TWO_TRIALS  # noqa: E402
 
 from nudgecli.cli import main  # noqa: E402
-from nudgecli.sim.calibration import fit_calibration_dir  # noqa: E402
+from nudgecli.sim.calibration_profile import fit_calibration_dir  # noqa: E402
 
 #: The key that answers each action prompt with the true mapping (move_p Soft Puff 3, move_n Soft Sip
 #: 4, to_mode_r Hard Puff 1, to_mode_l Hard Sip 2; DESIGN.md 2.2).

@@ -24,10 +24,6 @@ from nudgecli.sim.calibration import (
     DISTORTION_SMOOTHING,
     estimate_distortion,
     estimate_mapping,
-    fit_calibration_dir,
-    fit_participant_tables,
-    simulate_distortion_session,
-    simulate_mapping_session,
     smooth_true_distortion,
     smooth_true_mapping,
 )
@@ -38,6 +34,12 @@ from nudgecli.sim.calibration_io import (
     mapping_session_frames,
     read_sessions,
     write_sessions,
+)
+from nudgecli.sim.calibration_profile import fit_calibration_dir
+from nudgecli.sim.calibration_sessions import (
+    fit_participant_tables,
+    simulate_distortion_session,
+    simulate_mapping_session,
 )
 from nudgecli.sim.participants import Participant, mapping_with_error
 

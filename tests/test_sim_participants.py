@@ -26,7 +26,7 @@ from nudgecli.model.interface import (
     label_pressure,
 )
 from nudgecli.rng import generator
-from nudgecli.sim.calibration import simulate_distortion_session
+from nudgecli.sim.calibration_sessions import simulate_distortion_session
 from nudgecli.sim.participant_fitting import censored_normal_fit, log_drift_correlation, participant_from_log
 from nudgecli.sim.participants import (
     LABEL_SIGN,

@@ -21,8 +21,9 @@ from nudgecli.model.interface import (
     SOFT_SIP,
 )
 from nudgecli.rng import generator
-from nudgecli.sim.calibration import estimate_distortion, event_driven_stream, simulate_distortion_session
+from nudgecli.sim.calibration import estimate_distortion
 from nudgecli.sim.calibration_io import INPUT_STOPPED, requeue_consistent, silent_prompts
+from nudgecli.sim.calibration_sessions import event_driven_stream, simulate_distortion_session
 from nudgecli.sim.real_population import (
     PILOT_DIAGONALS,
     PILOT_EVENT_DIAGONALS,
@@ -177,7 +178,7 @@ def test_without_drift_the_low_hard_diagonals_are_out_of_reach() -> None:
 @pytest.mark.skipif(not SHARED_CALIBRATION.is_dir(),
                     reason="the pilots' logs (../shared/data/calibration) are absent")
 def test_pilot_diagonals_are_what_nudge_fit_gives() -> None:
-    from nudgecli.sim.calibration import fit_calibration_dir
+    from nudgecli.sim.calibration_profile import fit_calibration_dir
 
     for pilot, values in PILOT_DIAGONALS.items():
         table = fit_calibration_dir(SHARED_CALIBRATION / pilot).profile["p_phm_given_phi"]

@@ -16,7 +16,7 @@ from pydantic import ValidationError
 
 from nudgecli.cli import main
 from nudgecli.config import ExperimentConfig, format_validation_error, load_experiment
-from nudgecli.sim.calibration import fit_calibration_dir
+from nudgecli.sim.calibration_profile import fit_calibration_dir
 from nudgecli.sim.study import run_study
 
 README = Path(__file__).resolve().parents[1] / "README.md"

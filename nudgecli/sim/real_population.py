@@ -32,14 +32,9 @@ import pandas as pd
 from nudgecli.config import CalibrationSection, ExperimentConfig, InterfaceSection, PopulationSection
 from nudgecli.model.interface import LABELS, N_LABELS
 from nudgecli.rng import generator
-from nudgecli.sim.calibration import (
-    estimate_distortion,
-    event_driven_stream,
-    merge_and_smooth,
-    simulate_distortion_session,
-    smooth_true_distortion,
-)
+from nudgecli.sim.calibration import estimate_distortion, merge_and_smooth, smooth_true_distortion
 from nudgecli.sim.calibration_io import CIAA_VARIANT, DistortionSession
+from nudgecli.sim.calibration_sessions import event_driven_stream, simulate_distortion_session
 from nudgecli.sim.participants import (
     LABEL_IS_HARD,
     LABEL_SIGN,
@@ -84,7 +79,7 @@ def as_event_driven(session: DistortionSession, interface: InterfaceSection,
     """A fixed-rate distortion session's pressures as the sibling study's event-driven stream.
 
     The session's pressure samples (missing ones read as zero) go through
-    :func:`nudgecli.sim.calibration.event_driven_stream`, so the result holds the messages the
+    :func:`nudgecli.sim.calibration_sessions.event_driven_stream`, so the result holds the messages the
     sibling study's device would have sent for the same blows (with the pressure taken to move
     linearly between samples); the prompts are kept.
 
@@ -138,7 +133,7 @@ def expected_diagonal(label: int, level: float, spread: float, interface: Interf
         with an onset ramp of ``ramp`` ticks (:meth:`Participant.true_distortion`), smoothed as
         the estimator smooths. ``"event_driven"``: the ratio of the expected message counts of
         such a blow (its ticks turned into messages by
-        :func:`nudgecli.sim.calibration.event_driven_stream`, the release back to zero included),
+        :func:`nudgecli.sim.calibration_sessions.event_driven_stream`, the release back to zero included),
         averaged over :data:`EVENT_BLOWS` blows drawn from ``generator(seed, "expected_diagonal")``.
     hold_samples
         Ticks of one blow (a 4 s prompt minus a ~1.5 s reaction at 10 Hz: 25).

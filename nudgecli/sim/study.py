@@ -35,8 +35,8 @@ from nudgecli.model.mdp import MDPRewards, SolvedLayout, solve_layout
 from nudgecli.model.path_world import PathLayout, PathWorld, optimal_policy
 from nudgecli.model.world import MODE_NAMES, Layout, sample_layout
 from nudgecli.rng import generator, seed_key
-from nudgecli.sim.calibration import FittedTables, fit_participant_tables
 from nudgecli.sim.calibration_io import DistortionSession, MappingSession, write_sessions
+from nudgecli.sim.calibration_sessions import FittedTables, fit_participant_tables
 from nudgecli.sim.ciaa import packaged_task, subject_schedule, task_layouts
 from nudgecli.sim.counterbalance import design_record, participant_order
 from nudgecli.sim.participant_fitting import participant_from_log
