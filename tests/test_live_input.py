@@ -19,7 +19,8 @@ from nudgecli.model.interface import (
     label_of_pressure,
 )
 from nudgecli.sim.calibration import estimate_distortion, estimate_mapping
-from nudgecli.sim.calibration_io import read_sessions, write_sessions
+from nudgecli.sim.calibration_io import write_sessions
+from nudgecli.sim.calibration_readers import read_sessions
 
 
 @pytest.fixture(scope="module")

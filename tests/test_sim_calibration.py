@@ -32,10 +32,10 @@ from nudgecli.sim.calibration_io import (
     MappingSession,
     distortion_session_frames,
     mapping_session_frames,
-    read_sessions,
     write_sessions,
 )
 from nudgecli.sim.calibration_profile import fit_calibration_dir
+from nudgecli.sim.calibration_readers import read_sessions
 from nudgecli.sim.calibration_sessions import (
     fit_participant_tables,
     simulate_distortion_session,

@@ -20,13 +20,9 @@ from nudgecli.cli import main
 from nudgecli.errors import DataError
 from nudgecli.model.interface import LABELS
 from nudgecli.sim.calibration import estimate_distortion
-from nudgecli.sim.calibration_io import (
-    detect_variant,
-    read_distortion_session,
-    requeue_consistent,
-    silent_prompts,
-)
+from nudgecli.sim.calibration_io import requeue_consistent, silent_prompts
 from nudgecli.sim.calibration_profile import fit_calibration_dir
+from nudgecli.sim.calibration_readers import detect_variant, read_distortion_session
 
 # (shown, label); each prompt is shown 4 s then blank 1 s. Prompt 2 gets no message at all, so the
 # protocol shows it again at the end (prompt 4).

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from nudgecli.config import PopulationSection
-from nudgecli.sim.calibration_io import DistortionSession, read_distortion_session
+from nudgecli.sim.calibration_io import DistortionSession
+from nudgecli.sim.calibration_readers import read_distortion_session
 from nudgecli.sim.habit_ranges import (
     covering_range,
     derived_timing_ranges,

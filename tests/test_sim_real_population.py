@@ -215,7 +215,8 @@ def test_cli_plot_population(tmp_path: Path) -> None:
 
 
 def test_event_driven_tidy_logs_round_trip_as_the_ciaa_variant(tmp_path: Path) -> None:
-    from nudgecli.sim.calibration_io import read_distortion_session, write_sessions
+    from nudgecli.sim.calibration_io import write_sessions
+    from nudgecli.sim.calibration_readers import read_distortion_session
 
     calibration = CalibrationSection(prompt_s=4.0, blank_s=1.0, prompts_per_label=3, stream="event_driven")
     session = simulate_distortion_session(_probe(SOFT_SIP, 0.25, 0.08, 2), calibration, INTERFACE,
@@ -231,7 +232,7 @@ def test_event_driven_tidy_logs_round_trip_as_the_ciaa_variant(tmp_path: Path) -
 @pytest.mark.skipif(not SHARED_CALIBRATION.is_dir(),
                     reason="the pilots' logs (../shared/data/calibration) are absent")
 def test_the_pilots_blows_counted_as_events_and_the_drifting_model_agree() -> None:
-    from nudgecli.sim.calibration_io import read_distortion_session
+    from nudgecli.sim.calibration_readers import read_distortion_session
     from nudgecli.sim.participant_fitting import participant_from_log
 
     for pilot, values in PILOT_EVENT_DIAGONALS.items():

@@ -32,10 +32,10 @@ from nudgecli.sim.calibration import (
 from nudgecli.sim.calibration_io import (
     AUTO_VARIANT,
     DistortionSession,
-    read_sessions,
     requeue_consistent,
     silent_prompts,
 )
+from nudgecli.sim.calibration_readers import read_sessions
 from nudgecli.sim.participant_fitting import participant_from_log
 from nudgecli.store import write_json_atomic
 

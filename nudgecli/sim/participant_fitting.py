@@ -16,7 +16,8 @@ from scipy.special import ndtri
 from nudgecli.config import PopulationSection
 from nudgecli.errors import DataError
 from nudgecli.model.interface import LABELS, N_LABELS, ZERO_THRESHOLD, label_pressure
-from nudgecli.sim.calibration_io import DistortionSession, distortion_windows, read_distortion_session
+from nudgecli.sim.calibration_io import DistortionSession, distortion_windows
+from nudgecli.sim.calibration_readers import read_distortion_session
 from nudgecli.sim.participants import (
     LABEL_SIGN,
     MAX_DRIFT_CORRELATION,
@@ -210,7 +211,7 @@ def participant_from_log(source: str | Path | DistortionSession | pd.DataFrame, 
     ----------
     source
         A participant's calibration folder (study or tidy format), its ``p_phm_given_phi/``
-        folder, a session read by :func:`nudgecli.sim.calibration_io.read_distortion_session`, or
+        folder, a session read by :func:`nudgecli.sim.calibration_readers.read_distortion_session`, or
         a stream table with the prompt of each sample (:func:`session_from_stream_frame`).
 
     Raises
