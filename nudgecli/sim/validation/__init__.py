@@ -5,7 +5,9 @@
 - :mod:`~nudgecli.sim.validation.world`: the validation worlds, built from the model's own
   functions;
 - :mod:`~nudgecli.sim.validation.criteria`: the metric's and the ground truth's values;
-- :mod:`~nudgecli.sim.validation.runner`: settings, simulations, results;
+- :mod:`~nudgecli.sim.validation.settings`: the settings;
+- :mod:`~nudgecli.sim.validation.runner`: simulations, results;
+- :mod:`~nudgecli.sim.validation.convergence`: the Monte-Carlo convergence study;
 - :mod:`~nudgecli.sim.validation.output`: files and printed tables.
 """
 
@@ -17,14 +19,14 @@ from typing import Any
 # Submodules load on first use (PEP 562), so `nudge --help` and `--reading`'s choices do not
 # pay for the whole validation (scipy, pandas) at start-up.
 _HOME: dict[str, str] = {
-    "DEFAULT_MC_SAMPLES": "runner",
-    "MAX_MC_SAMPLES": "runner",
-    "MC_VARIANTS": "runner",
+    "DEFAULT_MC_SAMPLES": "settings",
+    "MAX_MC_SAMPLES": "settings",
+    "MC_VARIANTS": "settings",
     "QUERY_COLUMNS": "runner",
     "READINGS": "readings",
     "Reading": "readings",
     "ValidationResult": "runner",
-    "ValidationSettings": "runner",
+    "ValidationSettings": "settings",
     "ValidationWorld": "world",
     "distinct_margin": "criteria",
     "expected_entropy_drop": "criteria",
@@ -34,7 +36,7 @@ _HOME: dict[str, str] = {
     "format_summary": "output",
     "get_reading": "readings",
     "goal_transitions": "world",
-    "monte_carlo_estimates": "runner",
+    "monte_carlo_estimates": "convergence",
     "neighbourhoods": "world",
     "prepare_out": "output",
     "queries_csv": "output",

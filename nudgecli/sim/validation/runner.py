@@ -19,202 +19,39 @@ One simulation ``k`` (randomness from ``nudgecli.rng.generator(seed, "validation
    are recorded beside it, and so is the match of the lambda = ``regularisation`` variant.
 7. Monte-Carlo convergence (``mc_queries`` queries spread over the simulations): the study's
    per-sample estimator at each sample count against the exact mutual information.
+
+The settings are in :mod:`nudgecli.sim.validation.settings`, the convergence study (step 7) in
+:mod:`nudgecli.sim.validation.convergence`.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from nudgecli.errors import ConfigError
-from nudgecli.model.information import (
-    Weighting,
-    monte_carlo_label_counts,
-    mutual_information,
-    mutual_information_from_counts,
-)
+from nudgecli.model.information import mutual_information
 from nudgecli.model.interface import default_distortion_table, default_mapping_table
-from nudgecli.model.mdp import DEFAULT_GAMMA
-from nudgecli.model.world import N_CELLS_X, N_CELLS_Y
 from nudgecli.rng import generator
+from nudgecli.sim.validation.convergence import aggregate_convergence, convergence_records
 from nudgecli.sim.validation.criteria import (
     distinct_margin,
     expected_entropy_drop,
     expected_goal_distance,
     expected_top_two_gap,
     tolerant_argmax,
-    unweighted_limit,
 )
 from nudgecli.sim.validation.readings import READINGS, TWO_GOAL_REST, TWO_GOAL_SPLIT, Reading, get_reading
+from nudgecli.sim.validation.settings import ValidationSettings
 from nudgecli.sim.validation.world import (
-    N_VALIDATION_MODES,
     ValidationWorld,
     neighbourhoods,
     sample_study_world,
     sample_world,
     study_queries,
 )
-
-#: Default Monte-Carlo sample counts of the convergence study.
-DEFAULT_MC_SAMPLES: tuple[int, ...] = (10, 30, 100, 300, 1000, 3000, 10000)
-#: Largest sample count accepted (the cost is linear in it).
-MAX_MC_SAMPLES = 100_000
-#: Variants of the Monte-Carlo estimate: the study's unweighted KL mean and the belief-weighted one.
-MC_VARIANTS: tuple[Weighting, ...] = ("unweighted", "belief")
-
-
-@dataclass(frozen=True)
-class ValidationSettings:
-    """Everything a validation run depends on (with the seed, it determines the result).
-
-    Attributes
-    ----------
-    simulations
-        Number of random worlds.
-    min_goals, max_goals
-        Range of ``|G|`` (inclusive), stepped cyclically over the simulations.
-    states
-        ``|S| = 2 W H`` of the two-mode world (the three-mode world has the study's 2400).
-    seed
-        Master seed; simulation ``k`` uses ``generator(seed, "validation", k)``.
-    window
-        Half-width of the neighbourhood in cells (1: a 3 x 3 window).
-    epsilon
-        Epsilon of the epsilon-greedy human model (paper Eq. 1).
-    regularisation
-        lambda of the regularised variant reported beside every reading (distance in cells).
-    tie_tolerance
-        Relative tolerance under which the best two candidates count as a near-tie.
-    mc_queries
-        Queries (in total, spread over the simulations) used for the Monte-Carlo convergence
-        study; 0 skips it.
-    mc_samples
-        Sample counts per state of the convergence study.
-    belief_concentration
-        ``c`` of the ``Dirichlet(c, ..., c)`` query beliefs.
-    reading
-        Which reading of the paper's paragraph (:data:`~nudgecli.sim.validation.readings.READINGS`).
-    """
-
-    simulations: int = 100
-    min_goals: int = 3
-    max_goals: int = 30
-    states: int = 200
-    seed: int = 0
-    window: int = 1
-    epsilon: float = 0.1
-    regularisation: float = 1.0
-    tie_tolerance: float = 1e-9
-    mc_queries: int = 100
-    mc_samples: tuple[int, ...] = DEFAULT_MC_SAMPLES
-    belief_concentration: float = 1.0
-    reading: str = "dirichlet"
-
-    @property
-    def grid_shape(self) -> tuple[int, int]:
-        """``(W, H)`` of the reading's world (two-mode: the most square factorisation of ``states / 2``)."""
-        if READINGS.get(self.reading, READINGS["dirichlet"]).world == "three-mode":
-            return N_CELLS_X, N_CELLS_Y
-        cells = self.states // N_VALIDATION_MODES
-        width = max(d for d in range(1, math.isqrt(max(cells, 1)) + 1) if cells % d == 0)
-        return width, cells // width
-
-    @property
-    def n_cells(self) -> int:
-        width, height = self.grid_shape
-        return width * height
-
-    def goal_counts(self) -> np.ndarray:
-        """``(simulations,)`` the ``|G|`` of every simulation (stepped cyclically)."""
-        span = self.max_goals - self.min_goals + 1
-        return self.min_goals + np.arange(self.simulations) % span
-
-    def check(self) -> ValidationSettings:
-        """Raise :class:`ConfigError` naming the first option that is out of range."""
-        reading = get_reading(self.reading)
-        if self.simulations < 1:
-            raise ConfigError(f"--simulations must be at least 1 (got {self.simulations})")
-        if self.seed < 0:
-            raise ConfigError(f"--seed must be a non-negative integer (got {self.seed})")
-        if self.min_goals < 2:
-            raise ConfigError(
-                f"--min-goals must be at least 2 (got {self.min_goals}): disambiguation needs two goals")
-        if self.min_goals > self.max_goals:
-            raise ConfigError(
-                f"--min-goals ({self.min_goals}) is larger than --max-goals ({self.max_goals}); "
-                "lower --min-goals or raise --max-goals")
-        if self.window < 1:
-            raise ConfigError(f"window half-width must be at least 1 (got {self.window})")
-        if reading.world == "two-mode":
-            window_states = N_VALIDATION_MODES * (2 * self.window + 1) ** 2
-            if self.states < window_states:
-                raise ConfigError(
-                    f"--states {self.states} is fewer than one neighbourhood ({window_states} states: "
-                    f"{2 * self.window + 1} x {2 * self.window + 1} cells x {N_VALIDATION_MODES} modes); "
-                    f"use --states {window_states} or more")
-            if self.states % N_VALIDATION_MODES:
-                raise ConfigError(
-                    f"--states must be even (two modes x cells), got {self.states}; e.g. --states 200")
-            width, height = self.grid_shape
-            side = 2 * self.window + 1
-            if width < side:
-                raise ConfigError(
-                    f"--states {self.states} gives a {width} x {height} grid (2 x {self.n_cells} cells); "
-                    f"both sides must be at least {side}: use 2 x W x H states with W, H >= {side}, "
-                    "e.g. --states 200 (10 x 10)")
-        if self.max_goals > self.n_cells // 2:
-            raise ConfigError(
-                f"--max-goals {self.max_goals} is too many for the {self.n_cells} cells of this world; "
-                f"use at most {self.n_cells // 2} goals (half the cells)"
-                + (" or more --states" if reading.world == "two-mode" else ""))
-        if not 0.0 <= self.epsilon <= 1.0:
-            raise ConfigError(f"epsilon must lie in [0, 1] (got {self.epsilon})")
-        if not (math.isfinite(self.belief_concentration) and self.belief_concentration > 0.0):
-            raise ConfigError(f"--belief-concentration must be a positive, finite number (got "
-                              f"{self.belief_concentration}); "
-                              "1 spreads beliefs evenly, larger values make them nearly uniform")
-        if not self.tie_tolerance >= 0.0:
-            raise ConfigError(f"tie tolerance must be non-negative (got {self.tie_tolerance})")
-        if self.mc_queries < 0:
-            raise ConfigError(f"--mc-queries must be 0 or more (got {self.mc_queries})")
-        if self.mc_queries and not self.mc_samples:
-            raise ConfigError("the Monte-Carlo sample counts are empty; give at least one or --mc-queries 0")
-        for n in self.mc_samples:
-            if not 1 <= n <= MAX_MC_SAMPLES:
-                raise ConfigError(
-                    f"Monte-Carlo sample counts must lie in 1..{MAX_MC_SAMPLES} (got {n})")
-        return self
-
-    def describe(self) -> dict[str, Any]:
-        """The settings as JSON-ready values, with the derived world description."""
-        reading = get_reading(self.reading)
-        data = asdict(self)
-        data["mc_samples"] = list(self.mc_samples)
-        width, height = self.grid_shape
-        modes = N_VALIDATION_MODES if reading.world == "two-mode" else 3
-        belief = (f"Dirichlet({self.belief_concentration:g}) per query" if reading.belief == "dirichlet" else
-                  f"two random goals share {1 - TWO_GOAL_REST:g} (the larger share uniform in "
-                  f"{TWO_GOAL_SPLIT[0]:g}..{TWO_GOAL_SPLIT[1]:g}), the others {TWO_GOAL_REST:g}")
-        truth = ("E[max1(b') - max2(b')]" if reading.truth == "top-two-gap" else "H(b) - E[H(b')]")
-        data.update({
-            "reading": reading.describe(),
-            "world": reading.world,
-            "grid": [width, height], "modes": modes, "window_cells": 2 * self.window + 1,
-            "discount": DEFAULT_GAMMA, "goal_counts": "cyclic: min_goals + k mod (max_goals - min_goals + 1)",
-            "belief": belief,
-            "metric": f"D(s) = I(s) - {reading.regularisation:g} R(s) (Eq. 13, 16)",
-            "ground_truth": f"{truth} over one observation drawn from "
-                            + ("p(phi_m | s)" if reading.expectation == "belief" else "the true goal"),
-            "match": reading.match,
-            "mc_scheme": ("per state N samples g ~ b, a ~ p(a|s,g), phi_i ~ p(phi_i|a,m), "
-                          "phi_m ~ p(phi_m|phi_i)"),
-        })
-        return data
-
 
 #: Per-query columns of the result (and of validation.csv), in order.
 QUERY_COLUMNS: tuple[str, ...] = (
@@ -440,131 +277,9 @@ def simulate(settings: ValidationSettings, k: int, n_goals: int, n_mc: int, mapp
     records: list[dict[str, Any]] = []
     if n_mc:
         picked = np.sort(rng.choice(n_queries, size=min(n_mc, n_queries), replace=False))
-        records = _convergence_records(rng, settings, world, cand[picked], valid[picked], beliefs[picked],
+        records = convergence_records(rng, settings, world, cand[picked], valid[picked], beliefs[picked],
                                        info[picked], lik[picked], mapping, distortion)
     return table, records
-
-
-# --- Monte-Carlo convergence -------------------------------------------------------------------------
-
-
-def monte_carlo_estimates(rng: np.random.Generator, belief: np.ndarray, policy: np.ndarray,
-                          modes: np.ndarray, mapping: np.ndarray, distortion: np.ndarray,
-                          n_samples: int) -> dict[str, np.ndarray]:
-    """The study's per-sample Monte-Carlo estimate of ``I(s)``, both weightings from the same samples.
-
-    One call of :func:`nudgecli.model.information.monte_carlo_label_counts`, then the KL of
-    each sampled goal's label histogram to the pooled one, averaged plainly or weighted by belief.
-
-    Parameters
-    ----------
-    rng
-        Source of randomness.
-    belief
-        ``(G,)``.
-    policy
-        ``(G, C, A)`` ``p(a | s, g)`` of the states to estimate.
-    modes
-        ``(C,)`` their modes.
-    mapping
-        ``(M, A, F)`` ``p(phi_i | a, m)``.
-    distortion
-        ``(F, F)`` ``p(phi_m | phi_i)``.
-    n_samples
-        Samples per state.
-
-    Returns
-    -------
-    dict[str, np.ndarray]
-        ``{"unweighted": (C,), "belief": (C,)}`` estimates in nats.
-    """
-    counts = monte_carlo_label_counts(belief, np.arange(policy.shape[1]), policy, mapping, distortion, rng,
-                                      samples=n_samples, modes=modes)
-    weights = np.asarray(belief, dtype=float) / np.sum(belief)
-    return {variant: mutual_information_from_counts(counts, weights, variant) for variant in MC_VARIANTS}
-
-
-def _convergence_records(rng: np.random.Generator, settings: ValidationSettings, world: ValidationWorld,
-                         cand: np.ndarray, valid: np.ndarray, beliefs: np.ndarray, info: np.ndarray,
-                         lik: np.ndarray, mapping: np.ndarray,
-                         distortion: np.ndarray) -> list[dict[str, Any]]:
-    """Monte-Carlo estimates of the selected queries' candidates, compared with the exact values.
-
-    Parameters
-    ----------
-    cand, valid, info
-        ``(Q', C)`` candidates, their mask and exact mutual information.
-    beliefs
-        ``(Q', G)``.
-    lik
-        ``(Q', G, C, F)``.
-
-    Returns
-    -------
-    list[dict]
-        Per (query, sample count, variant), and per query for the unweighted limit
-        (``n_samples`` ``None``): ``abs_error_sum``, ``states``, ``agree``, ``agree_strict``, ``regret``.
-    """
-    tol = settings.tie_tolerance
-    exact_best, _, _ = tolerant_argmax(info, valid, tol)
-    records: list[dict[str, Any]] = []
-
-    def record(n: int | None, variant: str, estimate: np.ndarray, exact: np.ndarray,
-               q: int) -> dict[str, Any]:
-        choice = int(tolerant_argmax(estimate[None, :], None, tol)[0][0])
-        exact_max = float(exact.max())
-        return {
-            "n_samples": n, "variant": variant, "states": int(exact.size),
-            "abs_error_sum": float(np.abs(estimate - exact).sum()),
-            "agree": bool(exact[choice] >= exact_max - tol * max(1.0, abs(exact_max))),
-            "agree_strict": bool(choice == exact_best[q]),
-            "regret": exact_max - float(exact[choice]),
-        }
-
-    for q in range(cand.shape[0]):
-        states = cand[q, valid[q]]
-        exact = info[q, valid[q]]
-        for n in settings.mc_samples:
-            estimates = monte_carlo_estimates(rng, beliefs[q], world.policy[:, states, :],
-                                              world.modes[states], mapping, distortion, n)
-            for variant in MC_VARIANTS:
-                records.append(record(n, variant, estimates[variant], exact, q))
-        limit = unweighted_limit(beliefs[q], lik[q][:, valid[q], :])
-        records.append(record(None, "unweighted", limit, exact, q))
-    return records
-
-
-def _pool(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    """Pooled measures of a group of per-query records."""
-    states = sum(r["states"] for r in records)
-    return {
-        "mae": sum(r["abs_error_sum"] for r in records) / states,
-        "argmax_agreement": sum(r["agree"] for r in records) / len(records),
-        "argmax_agreement_strict": sum(r["agree_strict"] for r in records) / len(records),
-        "mean_regret": sum(r["regret"] for r in records) / len(records),
-        "queries": len(records),
-        "states": int(states),
-    }
-
-
-def _aggregate_convergence(
-        records: list[dict[str, Any]], sample_counts: Sequence[int],
-) -> tuple[list[dict[str, Any]], dict[str, dict[str, Any]]]:
-    """One row per (sample count, variant), in the given order, and the ``N -> infinity`` limits."""
-    rows = []
-    for n in sample_counts:
-        for variant in MC_VARIANTS:
-            group = [r for r in records if r["n_samples"] == n and r["variant"] == variant]
-            if group:
-                rows.append({"n_samples": int(n), "variant": variant, **_pool(group)})
-    limits: dict[str, dict[str, Any]] = {}
-    group = [r for r in records if r["n_samples"] is None]
-    if group:
-        limits["unweighted"] = _pool(group)
-        limits["belief"] = {"mae": 0.0, "argmax_agreement": 1.0, "argmax_agreement_strict": 1.0,
-                            "mean_regret": 0.0, "queries": len(group),
-                            "states": int(sum(r["states"] for r in group))}
-    return rows, limits
 
 
 # --- the whole run -------------------------------------------------------------------------------
@@ -612,7 +327,7 @@ def run_validation(settings: ValidationSettings, mapping: np.ndarray | None = No
         if progress:
             progress(k + 1, settings.simulations)
     queries = {name: np.concatenate([t[name] for t in tables]) for name in QUERY_COLUMNS}
-    convergence, limits = _aggregate_convergence(records, settings.mc_samples)
+    convergence, limits = aggregate_convergence(records, settings.mc_samples)
     return ValidationResult(settings=settings, queries=queries, convergence=convergence,
                             convergence_limit=limits)
 
@@ -645,6 +360,5 @@ def run_all_readings(settings: ValidationSettings, readings: Sequence[str] = tup
     return results
 
 
-__all__ = ["DEFAULT_MC_SAMPLES", "MAX_MC_SAMPLES", "MC_VARIANTS", "QUERY_COLUMNS", "ValidationResult",
-           "ValidationSettings", "monte_carlo_estimates", "query_beliefs", "run_all_readings",
-           "run_validation", "simulate"]
+__all__ = ["QUERY_COLUMNS", "ValidationResult", "query_beliefs", "run_all_readings", "run_validation",
+           "simulate"]
