@@ -22,7 +22,8 @@ import pandas as pd
 
 from nudgecli.config import load_experiment
 from nudgecli.reference import packaged_reference
-from nudgecli.report.habits import measure_habits, run_folder_cells, summarise_habits
+from nudgecli.report.habit_cells import run_folder_cells
+from nudgecli.report.habits import measure_habits, summarise_habits
 from nudgecli.sim.study import run_study
 
 #: The habits of issue 19's table, the targets.

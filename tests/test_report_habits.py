@@ -15,15 +15,8 @@ from click.testing import CliRunner
 
 from nudgecli.cli import main
 from nudgecli.reference import packaged_reference, people_ranges
-from nudgecli.report.habits import (
-    DEADBAND,
-    HARD,
-    NEUTRAL,
-    SOFT,
-    habits_of,
-    measure_habits,
-    run_folder_cells,
-)
+from nudgecli.report.habit_cells import DEADBAND, HARD, NEUTRAL, SOFT, run_folder_cells
+from nudgecli.report.habits import habits_of, measure_habits
 
 HABITS_MD = Path(__file__).resolve().parents[2] / "shared" / "data" / "ciaa-task" / "HABITS.md"
 HEADER = "t,trial,label,x,y,theta,mode_switch,layout\n"

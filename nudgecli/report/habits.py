@@ -17,14 +17,15 @@ sip-and-puff users), in the toolkit's 10 Hz view:
 
 The habits (:data:`HABITS`) are measured per event and summarised per participant (or trial) and
 pooled; ``people`` is the range of the participants' own medians, as HABITS.md gives it.
+
+The cells are defined, and read from a run folder, in :mod:`nudgecli.report.habit_cells`; a real
+log is read in :mod:`nudgecli.report.habit_logs`.
 """
 
 from __future__ import annotations
 
-import itertools
 import json
 import math
-from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -32,34 +33,21 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from nudgecli.errors import DataError, RunFolderError
-from nudgecli.model.interface import HARD_PUFF, HARD_SIP, PUFF_DEADBAND, SIP_DEADBAND, SOFT_PUFF, SOFT_SIP
-from nudgecli.model.world import MODE_NAMES, angle_difference
+from nudgecli.errors import DataError
 from nudgecli.reference import PACKAGED_REFERENCES, packaged_reference
-from nudgecli.sim.calibration_io import STREAM_CODES
-from nudgecli.steplog import MODE_SWITCH_HUMAN, has_event
-from nudgecli.store import RunFolder, is_run_folder
+from nudgecli.report.habit_cells import (
+    HABIT_RATE_HZ,
+    HARD,
+    NEUTRAL,
+    SOFT,
+    TIME_SLACK,
+    cell_runs,
+    run_folder_cells,
+)
+from nudgecli.report.habit_logs import read_log_cells
 
-#: The rate of HABITS.md's cells (a real log is resampled to it).
-HABIT_RATE_HZ = 10.0
 #: Blows are merged across neutral gaps of at most this long (HABITS.md).
 MERGE_GAP_S = 0.25
-#: Float slack of time comparisons (cell edges are multiples of 0.1 s in binary floating point).
-TIME_SLACK = 1e-9
-#: A pose closer than this to a waypoint (units) stands on it: the worlds snap onto waypoints
-#: exactly, so this only absorbs the rounding of a written log.
-WAYPOINT_TOLERANCE = 1e-3
-#: Pose changes below this (units, rad) are no motion: float noise of a written log.
-POSE_TOLERANCE = 1e-9
-
-#: Cell kinds.
-NEUTRAL, DEADBAND, SOFT, HARD = 0, 1, 2, 3
-_KIND_OF_CODE = {HARD_PUFF: HARD, HARD_SIP: HARD, SOFT_PUFF: SOFT, SOFT_SIP: SOFT, PUFF_DEADBAND: DEADBAND,
-                 SIP_DEADBAND: DEADBAND}
-#: Label name -> cell kind: the interface labels, deadbands, and every neutral spelling (the
-#: toolkit's empty label, the pilots' ``None``, the sibling study's ``Zero Band`` and ``input stopped``).
-LABEL_KINDS = {"": NEUTRAL, **{name: _KIND_OF_CODE.get(code, NEUTRAL) for name, code in STREAM_CODES.items()}}
-
 
 @dataclass(frozen=True)
 class Habit:
@@ -89,31 +77,11 @@ HABITS = (
 HABIT_KEYS = tuple(h.key for h in HABITS)
 _BY_KEY = {h.key: h for h in HABITS}
 
-#: The columns of the cell table :func:`measure_habits` reads (one row per cell, trials contiguous
-#: and in time order): ``kind`` (:data:`NEUTRAL` ...), ``moving``, ``switch`` (a mode switch fired
-#: in the cell), ``at_waypoint`` (after this cell the robot stands at a waypoint; read at the last
-#: cell of a motion run) and ``waypoints_known`` (False where a real log names no layout); optional
-#: ``switch_from`` / ``switch_to``: a switch cell's mode before and after (0 x, 1 y, 2 theta; -1 unknown).
-CELL_COLUMNS = ("participant", "trial", "kind", "moving", "switch", "at_waypoint", "waypoints_known")
-#: Mode words of a real log's ``mode_switch`` column (the mode switched to) -> mode index.
-MODE_WORDS = {"x": 0, "horizontal": 0, "y": 1, "vertical": 1, "t": 2, "theta": 2, "rotation": 2,
-              "rotational": 2}
 #: Columns of the event table: one row per measured event.
 EVENT_COLUMNS = ("participant", "trial", "habit", "value")
 
 
 # --- runs of cells -----------------------------------------------------------------------------
-
-
-def _runs(mask: np.ndarray, new_trial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Start and end (exclusive) indices of the runs of True in ``mask`` that do not cross a trial.
-
-    ``new_trial[i]`` is True where cell ``i`` is its trial's first.
-    """
-    mask = np.asarray(mask, dtype=bool)
-    before = np.concatenate(([False], mask[:-1])) & ~new_trial
-    after = np.concatenate((mask[1:], [False])) & ~np.concatenate((new_trial[1:], [True]))
-    return np.flatnonzero(mask & ~before), np.flatnonzero(mask & ~after) + 1
 
 
 def _any_in(mask: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
@@ -126,7 +94,7 @@ def _merged_blows(kind: np.ndarray, new_trial: np.ndarray, gap_cells: int) -> tu
     """Blows: runs of non-neutral cells after filling neutral gaps of at most ``gap_cells`` cells that
     lie between two non-neutral cells of the same trial."""
     active = kind != NEUTRAL
-    gap_starts, gap_ends = _runs(~active, new_trial)
+    gap_starts, gap_ends = cell_runs(~active, new_trial)
     # a gap is inside a trial's input when a non-neutral cell of the same trial precedes and follows it
     inside = ~new_trial[gap_starts] & (gap_ends < len(kind))
     inside[inside] &= ~new_trial[gap_ends[inside]]
@@ -136,7 +104,7 @@ def _merged_blows(kind: np.ndarray, new_trial: np.ndarray, gap_cells: int) -> tu
     np.add.at(cover, gap_starts[fill], 1)
     np.add.at(cover, gap_ends[fill], -1)
     filled |= np.cumsum(cover[:-1]) > 0
-    return _runs(filled, new_trial)
+    return cell_runs(filled, new_trial)
 
 
 def _next_at_or_after(sorted_index: np.ndarray, positions: np.ndarray) -> np.ndarray:
@@ -163,7 +131,8 @@ def measure_habits(cells: pd.DataFrame, rate_hz: float = HABIT_RATE_HZ,
     Parameters
     ----------
     cells
-        ``(N,)`` cells with :data:`CELL_COLUMNS`, each trial's cells contiguous and in time order.
+        ``(N,)`` cells with :data:`~nudgecli.report.habit_cells.CELL_COLUMNS`, each trial's cells
+        contiguous and in time order.
     rate_hz
         Cells per second.
     merge_gap_s
@@ -213,7 +182,7 @@ def measure_habits(cells: pd.DataFrame, rate_hz: float = HABIT_RATE_HZ,
     add("hard_blow_whole", starts[hard_blow], duration[hard_blow])
     add("soft_blow", starts[~hard_blow], duration[~hard_blow])
 
-    hard_starts, hard_ends = _runs(kind == HARD, new_trial)
+    hard_starts, hard_ends = cell_runs(kind == HARD, new_trial)
     add("hard_band_per_excursion", hard_starts, (hard_ends - hard_starts) * dt)
 
     # soft blows and motion: the robot's last moving cell inside the blow
@@ -227,7 +196,7 @@ def measure_habits(cells: pd.DataFrame, rate_hz: float = HABIT_RATE_HZ,
     add("soft_blow_never_moving", starts[still], duration[still])
 
     # reactions: motion runs, switches
-    run_starts, run_ends = _runs(moving, new_trial)
+    run_starts, run_ends = cell_runs(moving, new_trial)
     switches = np.flatnonzero(switch)
     # the next motion run of the same trial (n: none)
     next_run = np.full(len(run_starts), n)
@@ -259,242 +228,6 @@ def measure_habits(cells: pd.DataFrame, rate_hz: float = HABIT_RATE_HZ,
     if not frames:
         return pd.DataFrame(columns=list(EVENT_COLUMNS))
     return pd.concat(frames, ignore_index=True)
-
-
-# --- sources: a run folder ---------------------------------------------------------------------
-
-_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "mode", "cell_x", "cell_y", "heading", "phi_m",
-                 "event"]
-_TRIAL_COLUMNS = ["participant", "trial", "layout", "final_x", "final_y", "final_theta"]
-
-
-def _label_kinds(labels: pd.Series, where: str | Callable[[int], str]) -> np.ndarray:
-    """``(N,)`` cell kinds of label names; an unknown name is a :class:`DataError` naming its row
-    (``where``: the file, or the name of a row by its index)."""
-    text = labels.fillna("").astype(str).str.strip()
-    kinds = text.map(LABEL_KINDS)
-    unknown = kinds.isna().to_numpy()
-    if unknown.any():
-        row = int(np.flatnonzero(unknown)[0])
-        known = ", ".join(repr(k) for k in LABEL_KINDS)
-        raise DataError(f"{where(row) if callable(where) else where}: unknown label {text.iloc[row]!r}; "
-                        f"labels are {known}")
-    return kinds.to_numpy(dtype=np.int8)
-
-
-def _moving(pose: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """``(N,)`` whether the pose changed across each cell (``pose``, ``after``: ``(N, 3)``)."""
-    shift = np.abs(after[:, :2] - pose[:, :2]).max(axis=1)
-    turn = np.abs(angle_difference(after[:, 2], pose[:, 2]))
-    return (shift > POSE_TOLERANCE) | (turn > POSE_TOLERANCE)
-
-
-def _at_waypoints(position: np.ndarray, layouts: np.ndarray,
-                  waypoints: Mapping[int, np.ndarray]) -> np.ndarray:
-    """``(N,)`` whether each position ``(N, 2)`` lies on a waypoint of its layout ``(N,)``."""
-    at = np.zeros(len(position), dtype=bool)
-    for layout in np.unique(layouts):
-        rows = layouts == layout
-        points = waypoints[int(layout)]
-        gap = np.abs(position[rows, None, :] - points[None, :, :]).max(axis=2)
-        at[rows] = (gap <= WAYPOINT_TOLERANCE).any(axis=1)
-    return at
-
-
-def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
-    """The cells of a run folder (``nudge simulate`` / ``run`` / ``study``): its steps.
-
-    The pose after a step is the next step's, or the trial's final pose; a switch is the person's
-    (``mode_switch_human``); a motion run ends at a waypoint when its last pose is one of the
-    CIAA layout's waypoints, or in the grid world when the robot's cell and heading differ from
-    where the run began.
-
-    Returns
-    -------
-    tuple
-        The cell table (:data:`CELL_COLUMNS`) and the run's rate (cells per second).
-    """
-    run = RunFolder(folder)
-    if not is_run_folder(folder):
-        raise RunFolderError(f"{folder}: not a run folder (no manifest.json, steps/ or trials/); give a "
-                             "folder written by `nudge simulate`, `nudge run` or `nudge study`, or a CSV log")
-    run.check_complete()
-    config = run.read_config()
-    steps = run.read_table("steps", columns=_STEP_COLUMNS)
-    trials = run.read_table("trials", columns=_TRIAL_COLUMNS)
-    steps = steps.sort_values(["participant", "trial"], kind="stable").reset_index(drop=True)
-    key = ["participant", "trial"]
-    sizes = steps.groupby(key, sort=False).size()
-    empty = trials.set_index(key).index.difference(sizes.index)
-    if len(empty):
-        participant, trial = empty[0]
-        raise DataError(f"{run.path / 'steps'}: trial {trial} of participant {participant} has no steps; "
-                        f"re-simulate the run (`{run.resume_command()}` after removing its parts)")
-    final = steps[key].merge(trials, on=key, how="left")
-    n = len(steps)
-    last = np.ones(n, dtype=bool)
-    last[:-1] = (steps["participant"].to_numpy()[1:] != steps["participant"].to_numpy()[:-1]) | \
-        (steps["trial"].to_numpy()[1:] != steps["trial"].to_numpy()[:-1])
-    pose = steps[["x", "y", "theta"]].to_numpy(dtype=float)
-    after = np.roll(pose, -1, axis=0)
-    after[last] = final.loc[last, ["final_x", "final_y", "final_theta"]].to_numpy(dtype=float)
-    moving = _moving(pose, after)
-    if config.world.kind == "ciaa":
-        layouts = run.read_layouts()
-        waypoints = {int(row.layout): np.asarray(row.waypoints, dtype=float).reshape(-1, 2)
-                     for row in layouts.itertuples()}
-        at_waypoint = _at_waypoints(after[:, :2], final["layout"].to_numpy(dtype=int), waypoints)
-    else:
-        # the grid world has no waypoints: a stop counts where the robot arrived in another cell
-        state = steps[["cell_x", "cell_y", "heading"]].to_numpy(dtype=np.int64)
-        state_after = np.roll(state, -1, axis=0)
-        state_after[last] = -1  # the trial ended: no switch can follow
-        new_trial = np.concatenate(([True], last[:-1]))
-        run_starts, _ = _runs(moving, new_trial)
-        marker = np.full(n, -1)
-        marker[run_starts] = run_starts
-        began = np.maximum.accumulate(marker) if n else marker
-        at_waypoint = moving & (state_after != state[np.maximum(began, 0)]).any(axis=1)
-    mode = steps["mode"].map({name: index for index, name in enumerate(MODE_NAMES)}).fillna(-1)
-    mode = mode.to_numpy(dtype=int)
-    mode_after = np.roll(mode, -1)
-    mode_after[last] = -1  # a switch in a trial's last step: where it went is not logged
-    cells = pd.DataFrame({
-        "participant": steps["participant"], "trial": steps["trial"],
-        "kind": _label_kinds(steps["phi_m"], str(run.path / "steps")),
-        "moving": moving, "switch": has_event(steps["event"], MODE_SWITCH_HUMAN),
-        "at_waypoint": at_waypoint, "waypoints_known": True, "switch_from": mode, "switch_to": mode_after,
-    })
-    return cells, float(config.study.rate_hz)
-
-
-# --- sources: a real log -----------------------------------------------------------------------
-
-#: The columns of a real log (CSV): required, and optional with what they give.
-LOG_REQUIRED = ("trial", "label", "x", "y", "theta", "mode_switch")
-LOG_TIME_NAMES = ("t", "time")
-_FALSE_WORDS = {"", "0", "0.0", "false", "no", "none", "nan"}
-
-
-def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataFrame:
-    """The cells of a real log: a CSV of time-stamped labelled samples, resampled by zero-order hold.
-
-    Columns: ``t`` (or ``time``, seconds), ``trial``, ``label`` (an interface label, a deadband,
-    or a neutral one: empty, ``Zero Band``, ``input stopped``, ``None``), ``x``, ``y``, ``theta``
-    (the robot's pose after the row), ``mode_switch`` (non-empty and not ``0``/``false``: a mode
-    switch fired at this time; a mode word, ``x``/``y``/``theta``, says where it went, which undone
-    switches need); optional ``participant`` (default: the file's name) and ``layout``
-    (the CIAA task's trial index, whose waypoints mark the stops; without it stops at a waypoint
-    are not measured). Each row holds the whole state from its time on, so an event-driven log
-    (a row per change) and a sampled one read alike. A trial starts at its first row; its cells
-    are read at ``t0, t0 + 0.1, ...`` up to its last row; a switch belongs to the first cell read
-    at or after it.
-
-    Raises
-    ------
-    DataError
-        No time stamps or labels, an unknown label, a time that is not a number or goes back, a
-        pose missing, or a trial shorter than one cell: naming the file and the row.
-    """
-    path = Path(path)
-    try:
-        frame = pd.read_csv(path, dtype=str, keep_default_na=False)
-    except (UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
-        raise DataError(f"{path}: not a readable CSV log ({exc})") from None
-    frame.columns = [str(c).strip() for c in frame.columns]
-    time_column = next((c for c in LOG_TIME_NAMES if c in frame.columns), None)
-    needed = ["t (or time)"] if time_column is None else []
-    needed += [c for c in LOG_REQUIRED if c not in frame.columns]
-    if needed:
-        raise DataError(f"{path}: no {', '.join(needed)} column(s); a real log needs t, trial, label, x, "
-                        "y, theta and mode_switch (participant and layout optional), one row per sample or "
-                        "event")
-    if frame.empty:
-        raise DataError(f"{path}: no rows; a real log needs at least two samples per trial")
-
-    def row_name(i: int) -> str:
-        return f"{path}, row {i + 2}"  # the header is line 1
-
-    numbers = {}
-    for column in (time_column, "x", "y", "theta"):
-        values = pd.to_numeric(frame[column].str.strip(), errors="coerce")
-        bad = values.isna() | ~np.isfinite(values.to_numpy(dtype=float))
-        if bad.any():
-            i = int(np.flatnonzero(bad.to_numpy())[0])
-            raise DataError(f"{row_name(i)}: {column} {frame[column].iloc[i]!r} is not a number; every row "
-                            f"needs its time and the robot's pose")
-        numbers[column] = values.to_numpy(dtype=float)
-    kinds = _label_kinds(frame["label"], row_name)
-    participant = frame["participant"].str.strip() if "participant" in frame.columns else \
-        pd.Series(path.stem, index=frame.index)
-    trial = frame["trial"].str.strip()
-    switch_word = frame["mode_switch"].str.strip().str.lower()
-    switch = ~switch_word.isin(_FALSE_WORDS)
-    switch_to = switch_word.map(MODE_WORDS).fillna(-1).to_numpy(dtype=int)
-    layout = None
-    if "layout" in frame.columns:
-        layout = pd.to_numeric(frame["layout"].str.strip(), errors="coerce")
-    time = numbers[time_column]
-    group = (participant + "\x00" + trial).to_numpy()
-    new_trial = np.concatenate(([True], group[1:] != group[:-1]))
-    seen: set[str] = set()
-    for first_row in np.flatnonzero(new_trial).tolist():
-        if group[first_row] in seen:
-            raise DataError(f"{row_name(first_row)}: trial {trial.iloc[first_row]!r} of participant "
-                            f"{participant.iloc[first_row]!r} continues after other rows; write each trial's "
-                            "rows together, in time order")
-        seen.add(group[first_row])
-    back = np.flatnonzero(~new_trial[1:] & (np.diff(time) < 0)) + 1
-    if back.size:
-        i = int(back[0])
-        raise DataError(f"{row_name(i)}: time {time[i]:g} s comes before the previous row's "
-                        f"{time[i - 1]:g} s; sort each trial's rows by time")
-    from nudgecli.sim.ciaa import packaged_task, task_layouts
-
-    task = task_layouts(packaged_task())
-    all_waypoints = {index: lay.waypoints for index, lay in task.items()}
-    start_modes = {index: lay.start_mode for index, lay in task.items()}
-    dt = 1.0 / rate_hz
-    firsts = np.flatnonzero(new_trial)
-    bounds = np.append(firsts, len(frame))
-    pieces = []
-    for lo, hi in itertools.pairwise(bounds):
-        rel = time[lo:hi] - time[lo]
-        reads = math.floor(rel[-1] / dt + TIME_SLACK) + 1
-        if reads < 2:
-            raise DataError(f"{path}, rows {lo + 2}-{hi + 1}: trial {trial.iloc[lo]!r} of participant "
-                            f"{participant.iloc[lo]!r} lasts {rel[-1]:g} s, less than one {dt:g} s cell; "
-                            "give each trial from its start to its end")
-        grid = np.arange(reads) * dt
-        held = lo + np.searchsorted(rel, grid + TIME_SLACK, side="right") - 1  # zero-order hold
-        pose = np.column_stack([numbers[c][held] for c in ("x", "y", "theta")])
-        rows = lo + np.flatnonzero(switch.to_numpy()[lo:hi])
-        fired = np.ceil(rel[rows - lo] / dt - TIME_SLACK).astype(int)
-        inside = fired < reads - 1
-        cell_switch = np.zeros(reads - 1, dtype=bool)
-        cell_switch[fired[inside]] = True
-        known = False
-        start_mode = -1
-        at_waypoint = np.zeros(reads - 1, dtype=bool)
-        if layout is not None:
-            index = layout.iloc[lo]
-            if pd.isna(index) or int(index) not in all_waypoints:
-                raise DataError(f"{row_name(int(lo))}: layout {frame['layout'].iloc[lo]!r} is not a trial "
-                                f"index of the CIAA task (0-{max(all_waypoints)})")
-            known = True
-            start_mode = start_modes[int(index)]
-            at_waypoint = _at_waypoints(pose[1:, :2], np.full(reads - 1, int(index)), all_waypoints)
-        # each switch comes from where the one before it went (the first: the layout's start mode)
-        went_to = switch_to[rows]
-        came_from = np.concatenate(([start_mode], went_to[:-1]))
-        cell_from, cell_to = np.full(reads - 1, -1), np.full(reads - 1, -1)
-        cell_from[fired[inside]] = came_from[inside]
-        cell_to[fired[inside]] = went_to[inside]
-        pieces.append(pd.DataFrame({
-            "participant": participant.iloc[lo], "trial": trial.iloc[lo], "kind": kinds[held[:-1]],
-            "moving": _moving(pose[:-1], pose[1:]), "switch": cell_switch, "at_waypoint": at_waypoint,
-            "waypoints_known": known, "switch_from": cell_from, "switch_to": cell_to}))
-    return pd.concat(pieces, ignore_index=True)
 
 
 def source_cells(source: str | Path) -> tuple[pd.DataFrame, float, str]:
@@ -652,7 +385,7 @@ def habits_of(source: str | Path, by: str = "participant", compare: str | None =
     Parameters
     ----------
     source
-        A run folder, or a CSV log (:func:`read_log_cells`).
+        A run folder, or a CSV log (:func:`~nudgecli.report.habit_logs.read_log_cells`).
     by
         ``participant`` or ``trial``: the units listed beside the pooled figures.
     compare

@@ -1,0 +1,165 @@
+"""HABITS.md's cell table (``nudge habits``): the 10 Hz cells operating habits are measured on,
+their kinds and columns, the helpers that derive them, and the reader of a run folder's steps.
+A real log's cells are read by :mod:`nudgecli.report.habit_logs`."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from nudgecli.errors import DataError, RunFolderError
+from nudgecli.model.interface import HARD_PUFF, HARD_SIP, PUFF_DEADBAND, SIP_DEADBAND, SOFT_PUFF, SOFT_SIP
+from nudgecli.model.world import MODE_NAMES, angle_difference
+from nudgecli.sim.calibration_io import STREAM_CODES
+from nudgecli.steplog import MODE_SWITCH_HUMAN, has_event
+from nudgecli.store import RunFolder, is_run_folder
+
+#: The rate of HABITS.md's cells (a real log is resampled to it).
+HABIT_RATE_HZ = 10.0
+#: Float slack of time comparisons (cell edges are multiples of 0.1 s in binary floating point).
+TIME_SLACK = 1e-9
+#: A pose closer than this to a waypoint (units) stands on it: the worlds snap onto waypoints
+#: exactly, so this only absorbs the rounding of a written log.
+WAYPOINT_TOLERANCE = 1e-3
+#: Pose changes below this (units, rad) are no motion: float noise of a written log.
+POSE_TOLERANCE = 1e-9
+
+#: Cell kinds.
+NEUTRAL, DEADBAND, SOFT, HARD = 0, 1, 2, 3
+_KIND_OF_CODE = {HARD_PUFF: HARD, HARD_SIP: HARD, SOFT_PUFF: SOFT, SOFT_SIP: SOFT, PUFF_DEADBAND: DEADBAND,
+                 SIP_DEADBAND: DEADBAND}
+#: Label name -> cell kind: the interface labels, deadbands, and every neutral spelling (the
+#: toolkit's empty label, the pilots' ``None``, the sibling study's ``Zero Band`` and ``input stopped``).
+LABEL_KINDS = {"": NEUTRAL, **{name: _KIND_OF_CODE.get(code, NEUTRAL) for name, code in STREAM_CODES.items()}}
+
+#: The columns of the cell table :func:`nudgecli.report.habits.measure_habits` reads (one row
+#: per cell, trials contiguous and in time order): ``kind`` (:data:`NEUTRAL` ...), ``moving``,
+#: ``switch`` (a mode switch fired in the cell), ``at_waypoint`` (after this cell the robot stands
+#: at a waypoint; read at the last cell of a motion run) and ``waypoints_known`` (False where a real
+#: log names no layout); optional ``switch_from`` / ``switch_to``: a switch cell's mode before and
+#: after (0 x, 1 y, 2 theta; -1 unknown).
+CELL_COLUMNS = ("participant", "trial", "kind", "moving", "switch", "at_waypoint", "waypoints_known")
+
+
+# --- runs of cells -----------------------------------------------------------------------------
+
+
+def cell_runs(mask: np.ndarray, new_trial: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and end (exclusive) indices of the runs of True in ``mask`` that do not cross a trial.
+
+    ``new_trial[i]`` is True where cell ``i`` is its trial's first.
+    """
+    mask = np.asarray(mask, dtype=bool)
+    before = np.concatenate(([False], mask[:-1])) & ~new_trial
+    after = np.concatenate((mask[1:], [False])) & ~np.concatenate((new_trial[1:], [True]))
+    return np.flatnonzero(mask & ~before), np.flatnonzero(mask & ~after) + 1
+
+
+# --- sources: a run folder ---------------------------------------------------------------------
+
+_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "mode", "cell_x", "cell_y", "heading", "phi_m",
+                 "event"]
+_TRIAL_COLUMNS = ["participant", "trial", "layout", "final_x", "final_y", "final_theta"]
+
+
+def label_kinds(labels: pd.Series, where: str | Callable[[int], str]) -> np.ndarray:
+    """``(N,)`` cell kinds of label names; an unknown name is a :class:`DataError` naming its row
+    (``where``: the file, or the name of a row by its index)."""
+    text = labels.fillna("").astype(str).str.strip()
+    kinds = text.map(LABEL_KINDS)
+    unknown = kinds.isna().to_numpy()
+    if unknown.any():
+        row = int(np.flatnonzero(unknown)[0])
+        known = ", ".join(repr(k) for k in LABEL_KINDS)
+        raise DataError(f"{where(row) if callable(where) else where}: unknown label {text.iloc[row]!r}; "
+                        f"labels are {known}")
+    return kinds.to_numpy(dtype=np.int8)
+
+
+def pose_changes(pose: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """``(N,)`` whether the pose changed across each cell (``pose``, ``after``: ``(N, 3)``)."""
+    shift = np.abs(after[:, :2] - pose[:, :2]).max(axis=1)
+    turn = np.abs(angle_difference(after[:, 2], pose[:, 2]))
+    return (shift > POSE_TOLERANCE) | (turn > POSE_TOLERANCE)
+
+
+def on_waypoints(position: np.ndarray, layouts: np.ndarray,
+                  waypoints: Mapping[int, np.ndarray]) -> np.ndarray:
+    """``(N,)`` whether each position ``(N, 2)`` lies on a waypoint of its layout ``(N,)``."""
+    at = np.zeros(len(position), dtype=bool)
+    for layout in np.unique(layouts):
+        rows = layouts == layout
+        points = waypoints[int(layout)]
+        gap = np.abs(position[rows, None, :] - points[None, :, :]).max(axis=2)
+        at[rows] = (gap <= WAYPOINT_TOLERANCE).any(axis=1)
+    return at
+
+
+def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
+    """The cells of a run folder (``nudge simulate`` / ``run`` / ``study``): its steps.
+
+    The pose after a step is the next step's, or the trial's final pose; a switch is the person's
+    (``mode_switch_human``); a motion run ends at a waypoint when its last pose is one of the
+    CIAA layout's waypoints, or in the grid world when the robot's cell and heading differ from
+    where the run began.
+
+    Returns
+    -------
+    tuple
+        The cell table (:data:`CELL_COLUMNS`) and the run's rate (cells per second).
+    """
+    run = RunFolder(folder)
+    if not is_run_folder(folder):
+        raise RunFolderError(f"{folder}: not a run folder (no manifest.json, steps/ or trials/); give a "
+                             "folder written by `nudge simulate`, `nudge run` or `nudge study`, or a CSV log")
+    run.check_complete()
+    config = run.read_config()
+    steps = run.read_table("steps", columns=_STEP_COLUMNS)
+    trials = run.read_table("trials", columns=_TRIAL_COLUMNS)
+    steps = steps.sort_values(["participant", "trial"], kind="stable").reset_index(drop=True)
+    key = ["participant", "trial"]
+    sizes = steps.groupby(key, sort=False).size()
+    empty = trials.set_index(key).index.difference(sizes.index)
+    if len(empty):
+        participant, trial = empty[0]
+        raise DataError(f"{run.path / 'steps'}: trial {trial} of participant {participant} has no steps; "
+                        f"re-simulate the run (`{run.resume_command()}` after removing its parts)")
+    final = steps[key].merge(trials, on=key, how="left")
+    n = len(steps)
+    last = np.ones(n, dtype=bool)
+    last[:-1] = (steps["participant"].to_numpy()[1:] != steps["participant"].to_numpy()[:-1]) | \
+        (steps["trial"].to_numpy()[1:] != steps["trial"].to_numpy()[:-1])
+    pose = steps[["x", "y", "theta"]].to_numpy(dtype=float)
+    after = np.roll(pose, -1, axis=0)
+    after[last] = final.loc[last, ["final_x", "final_y", "final_theta"]].to_numpy(dtype=float)
+    moving = pose_changes(pose, after)
+    if config.world.kind == "ciaa":
+        layouts = run.read_layouts()
+        waypoints = {int(row.layout): np.asarray(row.waypoints, dtype=float).reshape(-1, 2)
+                     for row in layouts.itertuples()}
+        at_waypoint = on_waypoints(after[:, :2], final["layout"].to_numpy(dtype=int), waypoints)
+    else:
+        # the grid world has no waypoints: a stop counts where the robot arrived in another cell
+        state = steps[["cell_x", "cell_y", "heading"]].to_numpy(dtype=np.int64)
+        state_after = np.roll(state, -1, axis=0)
+        state_after[last] = -1  # the trial ended: no switch can follow
+        new_trial = np.concatenate(([True], last[:-1]))
+        run_starts, _ = cell_runs(moving, new_trial)
+        marker = np.full(n, -1)
+        marker[run_starts] = run_starts
+        began = np.maximum.accumulate(marker) if n else marker
+        at_waypoint = moving & (state_after != state[np.maximum(began, 0)]).any(axis=1)
+    mode = steps["mode"].map({name: index for index, name in enumerate(MODE_NAMES)}).fillna(-1)
+    mode = mode.to_numpy(dtype=int)
+    mode_after = np.roll(mode, -1)
+    mode_after[last] = -1  # a switch in a trial's last step: where it went is not logged
+    cells = pd.DataFrame({
+        "participant": steps["participant"], "trial": steps["trial"],
+        "kind": label_kinds(steps["phi_m"], str(run.path / "steps")),
+        "moving": moving, "switch": has_event(steps["event"], MODE_SWITCH_HUMAN),
+        "at_waypoint": at_waypoint, "waypoints_known": True, "switch_from": mode, "switch_to": mode_after,
+    })
+    return cells, float(config.study.rate_hz)
