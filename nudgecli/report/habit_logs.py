@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import itertools
 import math
+from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +30,141 @@ MODE_WORDS = {"x": 0, "horizontal": 0, "y": 1, "vertical": 1, "t": 2, "theta": 2
               "rotational": 2}
 
 
+@dataclass(frozen=True)
+class _Log:
+    """A real log's columns, checked (one entry per row)."""
+
+    path: Path
+    frame: pd.DataFrame
+    time: np.ndarray
+    numbers: dict[str, np.ndarray]  # the time and pose columns (x, y, theta)
+    kinds: np.ndarray
+    participant: pd.Series
+    trial: pd.Series
+    switch: pd.Series
+    switch_to: np.ndarray
+    layout: pd.Series | None  # the CIAA trial index per row, None without a layout column
+
+    def row_name(self, i: int) -> str:
+        return _row_name(self.path, i)
+
+
+def _row_name(path: Path, i: int) -> str:
+    """How an error names row ``i`` (0-based, after the header) of the log at ``path``."""
+    return f"{path}, row {i + 2}"  # the header is line 1
+
+
+def _read_log_frame(path: Path) -> tuple[pd.DataFrame, str]:
+    """The log as text, with its time column's name; a :class:`DataError` for an unreadable file,
+    missing columns or no rows."""
+    try:
+        frame = pd.read_csv(path, dtype=str, keep_default_na=False)
+    except (UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+        raise DataError(f"{path}: not a readable CSV log ({exc})") from None
+    frame.columns = [str(c).strip() for c in frame.columns]
+    time_column = next((c for c in LOG_TIME_NAMES if c in frame.columns), None)
+    needed = ["t (or time)"] if time_column is None else []
+    needed += [c for c in LOG_REQUIRED if c not in frame.columns]
+    if needed or time_column is None:  # (no time column is always in needed)
+        raise DataError(f"{path}: no {', '.join(needed)} column(s); a real log needs t, trial, label, x, "
+                        "y, theta and mode_switch (participant and layout optional), one row per sample or "
+                        "event")
+    if frame.empty:
+        raise DataError(f"{path}: no rows; a real log needs at least two samples per trial")
+    return frame, time_column
+
+
+def _parse_log(path: Path, frame: pd.DataFrame, time_column: str) -> _Log:
+    """The log's columns as values; a :class:`DataError` naming the row of a time or pose that is
+    not a number, or of an unknown label."""
+    row_name = partial(_row_name, path)
+    numbers = {}
+    for column in (time_column, "x", "y", "theta"):
+        values = pd.to_numeric(frame[column].str.strip(), errors="coerce")
+        bad = values.isna() | ~np.isfinite(values.to_numpy(dtype=float))
+        if bad.any():
+            i = int(np.flatnonzero(bad.to_numpy())[0])
+            raise DataError(f"{row_name(i)}: {column} {frame[column].iloc[i]!r} is not a number; every row "
+                            f"needs its time and the robot's pose")
+        numbers[column] = values.to_numpy(dtype=float)
+    kinds = label_kinds(frame["label"], row_name)
+    participant = frame["participant"].str.strip() if "participant" in frame.columns else \
+        pd.Series(path.stem, index=frame.index)
+    trial = frame["trial"].str.strip()
+    switch_word = frame["mode_switch"].str.strip().str.lower()
+    switch = ~switch_word.isin(_FALSE_WORDS)
+    switch_to = switch_word.map(MODE_WORDS).fillna(-1).to_numpy(dtype=int)
+    layout = None
+    if "layout" in frame.columns:
+        layout = pd.to_numeric(frame["layout"].str.strip(), errors="coerce")
+    return _Log(path=path, frame=frame, time=numbers[time_column], numbers=numbers, kinds=kinds,
+                participant=participant, trial=trial, switch=switch, switch_to=switch_to, layout=layout)
+
+
+def _trial_starts(log: _Log) -> np.ndarray:
+    """``(N,)`` True at each trial's first row; a :class:`DataError` for a trial whose rows are
+    not together, or a time that goes back within a trial."""
+    participant, trial, time, row_name = log.participant, log.trial, log.time, log.row_name
+    group = (participant + "\x00" + trial).to_numpy()
+    new_trial = np.concatenate(([True], group[1:] != group[:-1]))
+    seen: set[str] = set()
+    for first_row in np.flatnonzero(new_trial).tolist():
+        if group[first_row] in seen:
+            raise DataError(f"{row_name(first_row)}: trial {trial.iloc[first_row]!r} of participant "
+                            f"{participant.iloc[first_row]!r} continues after other rows; write each trial's "
+                            "rows together, in time order")
+        seen.add(group[first_row])
+    back = np.flatnonzero(~new_trial[1:] & (np.diff(time) < 0)) + 1
+    if back.size:
+        i = int(back[0])
+        raise DataError(f"{row_name(i)}: time {time[i]:g} s comes before the previous row's "
+                        f"{time[i - 1]:g} s; sort each trial's rows by time")
+    return new_trial
+
+
+def _trial_cells(log: _Log, lo: int, hi: int, rate_hz: float, all_waypoints: dict[int, np.ndarray],
+                 start_modes: dict[int, int]) -> pd.DataFrame:
+    """The cells of one trial, rows ``lo`` to ``hi`` (exclusive), read every ``1 / rate_hz`` s
+    from its first row by zero-order hold."""
+    time, participant, trial, row_name = log.time, log.participant, log.trial, log.row_name
+    dt = 1.0 / rate_hz
+    rel = time[lo:hi] - time[lo]
+    reads = math.floor(rel[-1] / dt + TIME_SLACK) + 1
+    if reads < 2:
+        raise DataError(f"{log.path}, rows {lo + 2}-{hi + 1}: trial {trial.iloc[lo]!r} of participant "
+                        f"{participant.iloc[lo]!r} lasts {rel[-1]:g} s, less than one {dt:g} s cell; "
+                        "give each trial from its start to its end")
+    grid = np.arange(reads) * dt
+    held = lo + np.searchsorted(rel, grid + TIME_SLACK, side="right") - 1  # zero-order hold
+    pose = np.column_stack([log.numbers[c][held] for c in ("x", "y", "theta")])
+    rows = lo + np.flatnonzero(log.switch.to_numpy()[lo:hi])
+    fired = np.ceil(rel[rows - lo] / dt - TIME_SLACK).astype(int)
+    inside = fired < reads - 1
+    cell_switch = np.zeros(reads - 1, dtype=bool)
+    cell_switch[fired[inside]] = True
+    known = False
+    start_mode = -1
+    at_waypoint = np.zeros(reads - 1, dtype=bool)
+    if log.layout is not None:
+        index = log.layout.iloc[lo]
+        if pd.isna(index) or int(index) not in all_waypoints:
+            raise DataError(f"{row_name(int(lo))}: layout {log.frame['layout'].iloc[lo]!r} is not a trial "
+                            f"index of the CIAA task (0-{max(all_waypoints)})")
+        known = True
+        start_mode = start_modes[int(index)]
+        at_waypoint = on_waypoints(pose[1:, :2], np.full(reads - 1, int(index)), all_waypoints)
+    # each switch comes from where the one before it went (the first: the layout's start mode)
+    went_to = log.switch_to[rows]
+    came_from = np.concatenate(([start_mode], went_to[:-1]))
+    cell_from, cell_to = np.full(reads - 1, -1), np.full(reads - 1, -1)
+    cell_from[fired[inside]] = came_from[inside]
+    cell_to[fired[inside]] = went_to[inside]
+    return pd.DataFrame({
+        "participant": participant.iloc[lo], "trial": trial.iloc[lo], "kind": log.kinds[held[:-1]],
+        "moving": pose_changes(pose[:-1], pose[1:]), "switch": cell_switch, "at_waypoint": at_waypoint,
+        "waypoints_known": known, "switch_from": cell_from, "switch_to": cell_to})
+
+
 def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataFrame:
     """The cells of a real log: a CSV of time-stamped labelled samples, resampled by zero-order hold.
 
@@ -49,101 +186,15 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
         pose missing, or a trial shorter than one cell: naming the file and the row.
     """
     path = Path(path)
-    try:
-        frame = pd.read_csv(path, dtype=str, keep_default_na=False)
-    except (UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
-        raise DataError(f"{path}: not a readable CSV log ({exc})") from None
-    frame.columns = [str(c).strip() for c in frame.columns]
-    time_column = next((c for c in LOG_TIME_NAMES if c in frame.columns), None)
-    needed = ["t (or time)"] if time_column is None else []
-    needed += [c for c in LOG_REQUIRED if c not in frame.columns]
-    if needed:
-        raise DataError(f"{path}: no {', '.join(needed)} column(s); a real log needs t, trial, label, x, "
-                        "y, theta and mode_switch (participant and layout optional), one row per sample or "
-                        "event")
-    if frame.empty:
-        raise DataError(f"{path}: no rows; a real log needs at least two samples per trial")
-
-    def row_name(i: int) -> str:
-        return f"{path}, row {i + 2}"  # the header is line 1
-
-    numbers = {}
-    for column in (time_column, "x", "y", "theta"):
-        values = pd.to_numeric(frame[column].str.strip(), errors="coerce")
-        bad = values.isna() | ~np.isfinite(values.to_numpy(dtype=float))
-        if bad.any():
-            i = int(np.flatnonzero(bad.to_numpy())[0])
-            raise DataError(f"{row_name(i)}: {column} {frame[column].iloc[i]!r} is not a number; every row "
-                            f"needs its time and the robot's pose")
-        numbers[column] = values.to_numpy(dtype=float)
-    kinds = label_kinds(frame["label"], row_name)
-    participant = frame["participant"].str.strip() if "participant" in frame.columns else \
-        pd.Series(path.stem, index=frame.index)
-    trial = frame["trial"].str.strip()
-    switch_word = frame["mode_switch"].str.strip().str.lower()
-    switch = ~switch_word.isin(_FALSE_WORDS)
-    switch_to = switch_word.map(MODE_WORDS).fillna(-1).to_numpy(dtype=int)
-    layout = None
-    if "layout" in frame.columns:
-        layout = pd.to_numeric(frame["layout"].str.strip(), errors="coerce")
-    time = numbers[time_column]
-    group = (participant + "\x00" + trial).to_numpy()
-    new_trial = np.concatenate(([True], group[1:] != group[:-1]))
-    seen: set[str] = set()
-    for first_row in np.flatnonzero(new_trial).tolist():
-        if group[first_row] in seen:
-            raise DataError(f"{row_name(first_row)}: trial {trial.iloc[first_row]!r} of participant "
-                            f"{participant.iloc[first_row]!r} continues after other rows; write each trial's "
-                            "rows together, in time order")
-        seen.add(group[first_row])
-    back = np.flatnonzero(~new_trial[1:] & (np.diff(time) < 0)) + 1
-    if back.size:
-        i = int(back[0])
-        raise DataError(f"{row_name(i)}: time {time[i]:g} s comes before the previous row's "
-                        f"{time[i - 1]:g} s; sort each trial's rows by time")
+    frame, time_column = _read_log_frame(path)
+    log = _parse_log(path, frame, time_column)
+    new_trial = _trial_starts(log)
     from nudgecli.sim.ciaa import packaged_task, task_layouts
 
     task = task_layouts(packaged_task())
     all_waypoints = {index: lay.waypoints for index, lay in task.items()}
     start_modes = {index: lay.start_mode for index, lay in task.items()}
-    dt = 1.0 / rate_hz
-    firsts = np.flatnonzero(new_trial)
-    bounds = np.append(firsts, len(frame))
-    pieces = []
-    for lo, hi in itertools.pairwise(bounds):
-        rel = time[lo:hi] - time[lo]
-        reads = math.floor(rel[-1] / dt + TIME_SLACK) + 1
-        if reads < 2:
-            raise DataError(f"{path}, rows {lo + 2}-{hi + 1}: trial {trial.iloc[lo]!r} of participant "
-                            f"{participant.iloc[lo]!r} lasts {rel[-1]:g} s, less than one {dt:g} s cell; "
-                            "give each trial from its start to its end")
-        grid = np.arange(reads) * dt
-        held = lo + np.searchsorted(rel, grid + TIME_SLACK, side="right") - 1  # zero-order hold
-        pose = np.column_stack([numbers[c][held] for c in ("x", "y", "theta")])
-        rows = lo + np.flatnonzero(switch.to_numpy()[lo:hi])
-        fired = np.ceil(rel[rows - lo] / dt - TIME_SLACK).astype(int)
-        inside = fired < reads - 1
-        cell_switch = np.zeros(reads - 1, dtype=bool)
-        cell_switch[fired[inside]] = True
-        known = False
-        start_mode = -1
-        at_waypoint = np.zeros(reads - 1, dtype=bool)
-        if layout is not None:
-            index = layout.iloc[lo]
-            if pd.isna(index) or int(index) not in all_waypoints:
-                raise DataError(f"{row_name(int(lo))}: layout {frame['layout'].iloc[lo]!r} is not a trial "
-                                f"index of the CIAA task (0-{max(all_waypoints)})")
-            known = True
-            start_mode = start_modes[int(index)]
-            at_waypoint = on_waypoints(pose[1:, :2], np.full(reads - 1, int(index)), all_waypoints)
-        # each switch comes from where the one before it went (the first: the layout's start mode)
-        went_to = switch_to[rows]
-        came_from = np.concatenate(([start_mode], went_to[:-1]))
-        cell_from, cell_to = np.full(reads - 1, -1), np.full(reads - 1, -1)
-        cell_from[fired[inside]] = came_from[inside]
-        cell_to[fired[inside]] = went_to[inside]
-        pieces.append(pd.DataFrame({
-            "participant": participant.iloc[lo], "trial": trial.iloc[lo], "kind": kinds[held[:-1]],
-            "moving": pose_changes(pose[:-1], pose[1:]), "switch": cell_switch, "at_waypoint": at_waypoint,
-            "waypoints_known": known, "switch_from": cell_from, "switch_to": cell_to}))
+    bounds = np.append(np.flatnonzero(new_trial), len(frame))
+    pieces = [_trial_cells(log, lo, hi, rate_hz, all_waypoints, start_modes)
+              for lo, hi in itertools.pairwise(bounds)]
     return pd.concat(pieces, ignore_index=True)

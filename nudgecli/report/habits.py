@@ -124,6 +124,132 @@ def gap_cells_of(rate_hz: float, merge_gap_s: float = MERGE_GAP_S) -> int:
     return math.floor(merge_gap_s * rate_hz + TIME_SLACK)
 
 
+#: One measuring step's events: (habit key, the cell each event is filed at, its values).
+_Events = list[tuple[str, np.ndarray, np.ndarray]]
+
+
+@dataclass(frozen=True)
+class _CellArrays:
+    """The cell table's columns as arrays, with each cell's trial bookkeeping."""
+
+    participant: np.ndarray
+    trial: np.ndarray
+    kind: np.ndarray
+    moving: np.ndarray
+    switch: np.ndarray
+    at_waypoint: np.ndarray
+    known: np.ndarray
+    came_from: np.ndarray
+    went_to: np.ndarray
+    new_trial: np.ndarray  # True at a trial's first cell
+    trial_id: np.ndarray  # 0, 1, ... per trial, in table order
+    trial_first: np.ndarray  # each trial's first cell
+    cell_index: np.ndarray  # the cell's index within its trial
+    dt: float
+
+    @property
+    def n(self) -> int:
+        return len(self.kind)
+
+
+def _cell_arrays(cells: pd.DataFrame, rate_hz: float) -> _CellArrays:
+    """The arrays the measuring steps read, from a cell table
+    (:data:`~nudgecli.report.habit_cells.CELL_COLUMNS`)."""
+    n = len(cells)
+    participant = cells["participant"].to_numpy()
+    trial = cells["trial"].to_numpy()
+    new_trial = np.ones(n, dtype=bool)
+    if n:
+        new_trial[1:] = (participant[1:] != participant[:-1]) | (trial[1:] != trial[:-1])
+    trial_id = np.cumsum(new_trial) - 1
+    trial_first = np.flatnonzero(new_trial)
+    unknown = np.full(n, -1)
+    return _CellArrays(
+        participant=participant, trial=trial, kind=cells["kind"].to_numpy(dtype=np.int8),
+        moving=cells["moving"].to_numpy(dtype=bool), switch=cells["switch"].to_numpy(dtype=bool),
+        at_waypoint=cells["at_waypoint"].to_numpy(dtype=bool),
+        known=cells["waypoints_known"].to_numpy(dtype=bool),
+        came_from=cells["switch_from"].to_numpy(dtype=int) if "switch_from" in cells else unknown,
+        went_to=cells["switch_to"].to_numpy(dtype=int) if "switch_to" in cells else unknown,
+        new_trial=new_trial, trial_id=trial_id, trial_first=trial_first,
+        cell_index=np.arange(n) - trial_first[trial_id], dt=1.0 / rate_hz)
+
+
+def _blow_events(c: _CellArrays, gap_cells: int) -> _Events:
+    """The first command, the blows and the pauses between them, hard-band excursions, and what
+    soft blows did to the robot."""
+    dt, n, kind, moving, trial_id = c.dt, c.n, c.kind, c.moving, c.trial_id
+    events: _Events = []
+    # first command: the trial's first Soft or Hard cell
+    command = np.flatnonzero(kind >= SOFT)
+    first = command[np.unique(trial_id[command], return_index=True)[1]]
+    events.append(("first_command_latency", first, c.cell_index[first] * dt))
+
+    # blows, and the pauses between consecutive blows of one trial
+    starts, ends = _merged_blows(kind, c.new_trial, gap_cells)
+    same = trial_id[starts[1:]] == trial_id[starts[:-1]]
+    pause = (starts[1:] - ends[:-1])[same] * dt
+    events.append(("pause_between_blows", starts[1:][same], pause))
+    events.append(("share_pauses_over_1s", starts[1:][same], np.round(pause, 6) > 1.0))
+    events.append(("share_pauses_over_2s", starts[1:][same], np.round(pause, 6) > 2.0))
+    hard_blow = _any_in(kind == HARD, starts, ends)
+    duration = (ends - starts) * dt
+    events.append(("hard_blow_whole", starts[hard_blow], duration[hard_blow]))
+    events.append(("soft_blow", starts[~hard_blow], duration[~hard_blow]))
+
+    hard_starts, hard_ends = cell_runs(kind == HARD, c.new_trial)
+    events.append(("hard_band_per_excursion", hard_starts, (hard_ends - hard_starts) * dt))
+
+    # soft blows and motion: the robot's last moving cell inside the blow
+    moved = _any_in(moving, starts, ends)
+    last_moving = np.maximum.accumulate(np.where(moving, np.arange(n), -1)) if n else np.zeros(0, int)
+    soft_moved = ~hard_blow & moved
+    hold = (ends[soft_moved] - 1 - last_moving[ends[soft_moved] - 1]) * dt
+    per_trial = pd.Series(hold).groupby(trial_id[starts[soft_moved]]).sum()
+    events.append(("hold_on_per_trial", c.trial_first[per_trial.index.to_numpy(dtype=int)],
+                   per_trial.to_numpy()))
+    still = ~hard_blow & ~moved
+    events.append(("soft_blow_never_moving", starts[still], duration[still]))
+    return events
+
+
+def _reaction_events(c: _CellArrays) -> _Events:
+    """Reactions: a stop at a waypoint -> the next switch, and a switch -> the robot moving again."""
+    dt, n, trial_id = c.dt, c.n, c.trial_id
+    # reactions: motion runs, switches
+    run_starts, run_ends = cell_runs(c.moving, c.new_trial)
+    switches = np.flatnonzero(c.switch)
+    # the next motion run of the same trial (n: none)
+    next_run = np.full(len(run_starts), n)
+    same_trial = trial_id[run_starts[1:]] == trial_id[run_starts[:-1]]
+    next_run[:-1][same_trial] = run_starts[1:][same_trial]
+    stop_switch = _next_at_or_after(switches, run_ends)
+    stop_ok = (c.at_waypoint[run_ends - 1] & c.known[run_ends - 1] & (stop_switch >= 0))
+    stop_ok[stop_ok] &= (trial_id[stop_switch[stop_ok]] == trial_id[run_starts[stop_ok]]) & \
+        (stop_switch[stop_ok] < next_run[stop_ok])
+    events: _Events = [("reaction_stop_to_switch", run_ends[stop_ok],
+                        (stop_switch[stop_ok] - run_ends[stop_ok]) * dt)]
+
+    motion_after = _next_at_or_after(run_starts, switches + 1)
+    switch_after = _next_at_or_after(switches, switches + 1)
+    ok = motion_after >= 0
+    ok[ok] &= trial_id[motion_after[ok]] == trial_id[switches[ok]]
+    ok &= (switch_after < 0) | (switch_after >= motion_after)  # no switch strictly between
+    events.append(("reaction_switch_to_motion", switches[ok], (motion_after[ok] - switches[ok]) * dt))
+    return events
+
+
+def _undone_switch_events(c: _CellArrays) -> _Events:
+    """Undone switches: a -> b, then straight back b -> a with no motion between."""
+    switches = np.flatnonzero(c.switch)
+    came_from, went_to, trial_id = c.came_from, c.went_to, c.trial_id
+    first_switch, second_switch = switches[:-1], switches[1:]
+    undone = (trial_id[first_switch] == trial_id[second_switch]) & (came_from[first_switch] >= 0) & \
+        (went_to[second_switch] == came_from[first_switch]) & \
+        ~_any_in(c.moving, first_switch + 1, second_switch)
+    return [("undone_switch", first_switch[undone], (second_switch[undone] - first_switch[undone]) * c.dt)]
+
+
 def measure_habits(cells: pd.DataFrame, rate_hz: float = HABIT_RATE_HZ,
                    merge_gap_s: float = MERGE_GAP_S) -> pd.DataFrame:
     """Every habit event of every trial.
@@ -144,87 +270,12 @@ def measure_habits(cells: pd.DataFrame, rate_hz: float = HABIT_RATE_HZ,
         :data:`EVENT_COLUMNS`: one row per event, values in seconds (a share habit: 1.0 or 0.0 per
         pause), rounded to the microsecond.
     """
-    dt = 1.0 / rate_hz
-    n = len(cells)
-    participant = cells["participant"].to_numpy()
-    trial = cells["trial"].to_numpy()
-    kind = cells["kind"].to_numpy(dtype=np.int8)
-    moving = cells["moving"].to_numpy(dtype=bool)
-    switch = cells["switch"].to_numpy(dtype=bool)
-    at_waypoint = cells["at_waypoint"].to_numpy(dtype=bool)
-    known = cells["waypoints_known"].to_numpy(dtype=bool)
-    new_trial = np.ones(n, dtype=bool)
-    if n:
-        new_trial[1:] = (participant[1:] != participant[:-1]) | (trial[1:] != trial[:-1])
-    trial_id = np.cumsum(new_trial) - 1
-    trial_first = np.flatnonzero(new_trial)
-    cell_index = np.arange(n) - trial_first[trial_id]
-    frames: list[pd.DataFrame] = []
-
-    def add(habit: str, where: np.ndarray, values: np.ndarray) -> None:
-        frames.append(pd.DataFrame({"participant": participant[where], "trial": trial[where],
-                                    "habit": habit, "value": np.round(np.asarray(values, float), 6)}))
-
-    # first command: the trial's first Soft or Hard cell
-    command = np.flatnonzero(kind >= SOFT)
-    first = command[np.unique(trial_id[command], return_index=True)[1]]
-    add("first_command_latency", first, cell_index[first] * dt)
-
-    # blows, and the pauses between consecutive blows of one trial
-    starts, ends = _merged_blows(kind, new_trial, gap_cells_of(rate_hz, merge_gap_s))
-    same = trial_id[starts[1:]] == trial_id[starts[:-1]]
-    pause = (starts[1:] - ends[:-1])[same] * dt
-    add("pause_between_blows", starts[1:][same], pause)
-    add("share_pauses_over_1s", starts[1:][same], np.round(pause, 6) > 1.0)
-    add("share_pauses_over_2s", starts[1:][same], np.round(pause, 6) > 2.0)
-    hard_blow = _any_in(kind == HARD, starts, ends)
-    duration = (ends - starts) * dt
-    add("hard_blow_whole", starts[hard_blow], duration[hard_blow])
-    add("soft_blow", starts[~hard_blow], duration[~hard_blow])
-
-    hard_starts, hard_ends = cell_runs(kind == HARD, new_trial)
-    add("hard_band_per_excursion", hard_starts, (hard_ends - hard_starts) * dt)
-
-    # soft blows and motion: the robot's last moving cell inside the blow
-    moved = _any_in(moving, starts, ends)
-    last_moving = np.maximum.accumulate(np.where(moving, np.arange(n), -1)) if n else np.zeros(0, int)
-    soft_moved = ~hard_blow & moved
-    hold = (ends[soft_moved] - 1 - last_moving[ends[soft_moved] - 1]) * dt
-    per_trial = pd.Series(hold).groupby(trial_id[starts[soft_moved]]).sum()
-    add("hold_on_per_trial", trial_first[per_trial.index.to_numpy(dtype=int)], per_trial.to_numpy())
-    still = ~hard_blow & ~moved
-    add("soft_blow_never_moving", starts[still], duration[still])
-
-    # reactions: motion runs, switches
-    run_starts, run_ends = cell_runs(moving, new_trial)
-    switches = np.flatnonzero(switch)
-    # the next motion run of the same trial (n: none)
-    next_run = np.full(len(run_starts), n)
-    same_trial = trial_id[run_starts[1:]] == trial_id[run_starts[:-1]]
-    next_run[:-1][same_trial] = run_starts[1:][same_trial]
-    stop_switch = _next_at_or_after(switches, run_ends)
-    stop_ok = (at_waypoint[run_ends - 1] & known[run_ends - 1] & (stop_switch >= 0))
-    stop_ok[stop_ok] &= (trial_id[stop_switch[stop_ok]] == trial_id[run_starts[stop_ok]]) & \
-        (stop_switch[stop_ok] < next_run[stop_ok])
-    add("reaction_stop_to_switch", run_ends[stop_ok], (stop_switch[stop_ok] - run_ends[stop_ok]) * dt)
-
-    motion_after = _next_at_or_after(run_starts, switches + 1)
-    switch_after = _next_at_or_after(switches, switches + 1)
-    ok = motion_after >= 0
-    ok[ok] &= trial_id[motion_after[ok]] == trial_id[switches[ok]]
-    ok &= (switch_after < 0) | (switch_after >= motion_after)  # no switch strictly between
-    add("reaction_switch_to_motion", switches[ok], (motion_after[ok] - switches[ok]) * dt)
-
-    # undone switches: a -> b, then straight back b -> a with no motion between
-    unknown = np.full(n, -1)
-    came_from = cells["switch_from"].to_numpy(dtype=int) if "switch_from" in cells else unknown
-    went_to = cells["switch_to"].to_numpy(dtype=int) if "switch_to" in cells else unknown
-    first_switch, second_switch = switches[:-1], switches[1:]
-    undone = (trial_id[first_switch] == trial_id[second_switch]) & (came_from[first_switch] >= 0) & \
-        (went_to[second_switch] == came_from[first_switch]) & \
-        ~_any_in(moving, first_switch + 1, second_switch)
-    add("undone_switch", first_switch[undone], (second_switch[undone] - first_switch[undone]) * dt)
-
+    c = _cell_arrays(cells, rate_hz)
+    events = _blow_events(c, gap_cells_of(rate_hz, merge_gap_s)) + _reaction_events(c) + \
+        _undone_switch_events(c)
+    frames = [pd.DataFrame({"participant": c.participant[where], "trial": c.trial[where], "habit": habit,
+                            "value": np.round(np.asarray(values, float), 6)})
+              for habit, where, values in events]
     if not frames:
         return pd.DataFrame(columns=list(EVENT_COLUMNS))
     return pd.concat(frames, ignore_index=True)
