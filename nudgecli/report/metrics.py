@@ -133,6 +133,24 @@ def trial_metrics(
     DataError
         A required column is missing, or a trial appears twice in the trial table.
     """
+    s, has_input = _trial_steps(trials, steps)
+    frame = _step_indicators(s, has_input, mode_switches)
+    per_trial = frame.groupby(_TRIAL_KEY, sort=False).agg(
+        steps=("human", "size"),
+        human_steps=("human", "sum"),
+        assisted_steps=("assisted", "sum"),
+        assisted_alpha=("assisted_alpha", "sum"),
+        switches=("switches", "sum"),
+        active_steps=("active", "sum"),
+        first_command_t=("command_t", "min"),
+    )
+    ratios = _trial_ratios(s, frame, per_trial, engagement, strength)
+    return _metrics_table(trials, s, per_trial, ratios, has_input, success, completion_time)
+
+
+def _trial_steps(trials: pd.DataFrame, steps: pd.DataFrame) -> tuple[pd.DataFrame, bool]:
+    """The checked step log with each step's true goal, sorted by trial and step, and whether it
+    has the input columns (:data:`INPUT_STEP_COLUMNS`)."""
     _require_columns(trials, TRIAL_COLUMNS, "trial table")
     _require_columns(steps, STEP_COLUMNS, "step log")
     if trials.duplicated(_TRIAL_KEY).any():
@@ -145,12 +163,17 @@ def trial_metrics(
     columns = [*STEP_COLUMNS, *INPUT_STEP_COLUMNS] if has_input else list(STEP_COLUMNS)
     s = steps[columns].merge(trial_goal, on=_TRIAL_KEY, how="inner", validate="many_to_one")
     s = s.sort_values([*_TRIAL_KEY, "step"], kind="stable").reset_index(drop=True)
+    return s, has_input
 
+
+def _step_indicators(s: pd.DataFrame, has_input: bool, mode_switches: str) -> pd.DataFrame:
+    """Per step: human turn, assisted (``alpha > 0`` towards the true goal) and its ``alpha``,
+    the human's mode switches, any measured input, and the time of a command (NaN otherwise)."""
     alpha = s["alpha"].astype(float).fillna(0.0)
     is_human = (s["turn"].astype(str) == HUMAN_TURN).to_numpy()
     correct_goal = s["inferred_goal"].to_numpy() == s["true_goal"].to_numpy()
     assisted = is_human & (alpha.to_numpy() > 0) & correct_goal
-    frame = pd.DataFrame({
+    return pd.DataFrame({
         "participant": s["participant"],
         "trial": s["trial"],
         "human": is_human.astype(np.int64),
@@ -162,16 +185,12 @@ def trial_metrics(
         "command_t": (s["t"].astype(float).where(s["phi_m"].isin(LABELS)).to_numpy() if has_input
                       else np.full(len(s), np.nan)),
     })
-    per_trial = frame.groupby(_TRIAL_KEY, sort=False).agg(
-        steps=("human", "size"),
-        human_steps=("human", "sum"),
-        assisted_steps=("assisted", "sum"),
-        assisted_alpha=("assisted_alpha", "sum"),
-        switches=("switches", "sum"),
-        active_steps=("active", "sum"),
-        first_command_t=("command_t", "min"),
-    )
 
+
+def _trial_ratios(s: pd.DataFrame, frame: pd.DataFrame, per_trial: pd.DataFrame, engagement: str,
+                  strength: str) -> dict[str, pd.Series]:
+    """Per trial: assistance engagement and strength (per step or per turn), human effort and the
+    active input fraction, rounded to :data:`_DECIMALS`."""
     with np.errstate(invalid="ignore", divide="ignore"):
         if engagement == "per_step":
             engagement_values = per_trial["assisted_steps"] / per_trial["human_steps"].where(
@@ -194,7 +213,16 @@ def trial_metrics(
     strength_values = strength_values.round(_DECIMALS)
     effort_values = effort_values.round(_DECIMALS)
     active_values = active_values.round(_DECIMALS)
+    return {"engagement": engagement_values, "strength": strength_values, "effort": effort_values,
+            "active": active_values}
 
+
+def _metrics_table(trials: pd.DataFrame, s: pd.DataFrame, per_trial: pd.DataFrame,
+                   ratios: dict[str, pd.Series], has_input: bool, success: str,
+                   completion_time: str) -> pd.DataFrame:
+    """The metrics table: one row per trial in the trial table's order (see :func:`trial_metrics`)."""
+    engagement_values, strength_values = ratios["engagement"], ratios["strength"]
+    effort_values, active_values = ratios["effort"], ratios["active"]
     out = trials[list(ID_COLUMNS)].copy()
     key = pd.MultiIndex.from_frame(trials[_TRIAL_KEY])
     out["assistance_engagement"] = engagement_values.reindex(key).to_numpy(dtype=float)
