@@ -119,97 +119,124 @@ def trajectory(steps: pd.DataFrame, layout: TrialLayout, *, ax: Axes | None = No
     start = layout.start_pose if layout.start_pose is not None else np.array([x[0], y[0], theta[0]])
     turns = steps["turn"].astype(str).to_numpy()
     events = steps["event"] if "event" in steps.columns else pd.Series([""] * len(steps))
-    tick_len = 0.55 * world.CELL_HEIGHT
     ax = axes_or_new(ax, TRAJECTORY_FIGSIZE)
     out = TrajectoryArtists(ax=ax)
 
     with figure_style():
-        for gx in np.arange(world.N_CELLS_X + 1) * world.CELL_WIDTH + world.X_MIN:
-            ax.axvline(gx, color="#D0D0D0", linewidth=0.5, zorder=0)
-        for gy in np.arange(world.N_CELLS_Y + 1) * world.CELL_HEIGHT + world.Y_MIN:
-            ax.axhline(gy, color="#D0D0D0", linewidth=0.5, zorder=0)
-
-        # Goals: disc, heading tick, label.
-        for g, (gx, gy, gth) in enumerate(layout.goal_poses):
-            colour, _ = goal_style(g, layout.true_goal)
-            ax.plot([gx, gx + tick_len * np.cos(gth)], [gy, gy + tick_len * np.sin(gth)], color=colour,
-                    linewidth=2.0, solid_capstyle="butt", zorder=4)
-            (disc,) = ax.plot([gx], [gy], marker="o", markersize=10, color=colour, markeredgecolor="black",
-                              markeredgewidth=0.6, zorder=5, linestyle="none")
-            out.goals.append(disc)
-            out.goal_labels.append(ax.annotate(
-                f"g{g}" + (" (true)" if g == layout.true_goal else ""), (gx, gy), xytext=(0, -9),
-                textcoords="offset points", ha="center", va="top", fontsize=8, color="black", zorder=6))
-
-        # Path, one segment per turn (each joined to the next turn's first point).
-        for turn, first, last in runs(turns):
-            end = min(last + 1, len(x) - 1)
-            who = "autonomy" if turn == AUTONOMY_TURN else "human"
-            human = who == "human"
-            (line,) = ax.plot(x[first:end + 1], y[first:end + 1],
-                              color=HUMAN_COLOUR if human else AUTONOMY_COLOUR,
-                              linestyle="-" if human else (0, (3, 1.5)), linewidth=1.6 if human else 1.8,
-                              solid_capstyle="round", zorder=3)
-            out.path.append((who, line))
-
-        # Mode changes.
-        modes = steps["mode"].astype(str).to_numpy() if "mode" in steps.columns else np.empty(0, dtype=str)
-        for k, who in mode_switch_authors(steps):
-            (marker,) = ax.plot([x[k]], [y[k]], marker=MODE_MARKERS.get(modes[k], "s"), markersize=6,
-                                markerfacecolor=SWITCH_FILL[who], markeredgecolor="black",
-                                markeredgewidth=0.9, linestyle="none", zorder=7)
-            out.switches.append((who, marker))
-        nudge = has_event(events, NUDGE)
-        if nudge.any():
-            # Under the mode-change markers: the autonomy often switches mode as it starts a nudge.
-            ax.plot(x[nudge], y[nudge], marker="D", markersize=10,
-                    markerfacecolor=to_rgba(NUDGE_COLOUR, 0.85), markeredgecolor="black",
-                    markeredgewidth=0.6, linestyle="none", zorder=6)
-        ax.plot([start[0]], [start[1]], marker="*", markersize=13, color="black",
-                markeredgecolor="white", markeredgewidth=0.5, linestyle="none", zorder=9)
-        ax.plot([x[-1]], [y[-1]], marker="X", markersize=8, color="black", markeredgecolor="white",
-                markeredgewidth=0.5, linestyle="none", zorder=9)
-
-        ax.set_xlim(world.X_MIN, world.X_MAX)
-        ax.set_ylim(world.Y_MIN, world.Y_MAX)
-        ax.set_aspect("equal")
-        ax.set_xlabel("x (world units)")
-        ax.set_ylabel("y (world units)")
-        for spine in ("top", "right"):
-            ax.spines[spine].set_visible(True)
-        if title:
-            ax.set_title(title, loc="left")
-
-        # one swatch per goal, in the colours the discs (and Fig. 5's lines) use
-        out.handles = [
-            Line2D([], [], marker="o", markersize=8, color=goal_style(g, layout.true_goal)[0],
-                   markeredgecolor="black", markeredgewidth=0.6, linestyle="none",
-                   label=f"g{g} (true goal)" if g == layout.true_goal else f"g{g}")
-            for g in range(layout.n_goals)
-        ]
-        out.handles += [
-            Line2D([], [], marker="*", markersize=11, color="black", linestyle="none", label="Start"),
-            Line2D([], [], marker="X", markersize=7, color="black", linestyle="none", label="End"),
-            Line2D([], [], color=HUMAN_COLOUR, linewidth=1.6, label="Human drove"),
-            Line2D([], [], color=AUTONOMY_COLOUR, linewidth=1.8, linestyle=(0, (3, 1.5)),
-                   label="Autonomy drove"),
-        ]
-        for mode, symbol in MODE_MARKERS.items():
-            out.handles.append(Line2D([], [], marker=symbol, markersize=6, markerfacecolor="#B0B0B0",
-                                      markeredgecolor="black", linestyle="none",
-                                      label=f"Switch to {MODE_NAMES[mode]}"))
-        # squares: no mode uses them, so the fill key cannot be read as the theta marker
-        for who, text in (("human", "  filled: by human"), ("autonomy", "  open: by autonomy")):
-            out.handles.append(Line2D([], [], marker="s", markersize=6, markerfacecolor=SWITCH_FILL[who],
-                                      markeredgecolor="black", linestyle="none", label=text))
-        if nudge.any():
-            out.handles.append(Line2D([], [], marker="D", markersize=7, markerfacecolor=NUDGE_COLOUR,
-                                      markeredgecolor="black", markeredgewidth=0.6, linestyle="none",
-                                      label="Nudge"))
+        _draw_grid(ax)
+        _draw_goals(ax, layout, out)
+        _draw_path(ax, x, y, turns, out)
+        nudged = _draw_marks(ax, steps, x, y, start, events, out)
+        _style_axes(ax, title)
+        out.handles = _legend_handles(layout, nudged)
         figure = ax.get_figure()
         if legend and figure is not None:
             figure.legend(handles=out.handles, loc="outside right center")
     return out
+
+
+def _draw_grid(ax: Axes) -> None:
+    """The workspace's cell grid, in light gray under everything."""
+    for gx in np.arange(world.N_CELLS_X + 1) * world.CELL_WIDTH + world.X_MIN:
+        ax.axvline(gx, color="#D0D0D0", linewidth=0.5, zorder=0)
+    for gy in np.arange(world.N_CELLS_Y + 1) * world.CELL_HEIGHT + world.Y_MIN:
+        ax.axhline(gy, color="#D0D0D0", linewidth=0.5, zorder=0)
+
+
+def _draw_goals(ax: Axes, layout: TrialLayout, out: TrajectoryArtists) -> None:
+    """Each goal as a disc with a tick in its heading, and its label (the true goal's says so)."""
+    tick_len = 0.55 * world.CELL_HEIGHT
+    for g, (gx, gy, gth) in enumerate(layout.goal_poses):
+        colour, _ = goal_style(g, layout.true_goal)
+        ax.plot([gx, gx + tick_len * np.cos(gth)], [gy, gy + tick_len * np.sin(gth)], color=colour,
+                linewidth=2.0, solid_capstyle="butt", zorder=4)
+        (disc,) = ax.plot([gx], [gy], marker="o", markersize=10, color=colour, markeredgecolor="black",
+                          markeredgewidth=0.6, zorder=5, linestyle="none")
+        out.goals.append(disc)
+        out.goal_labels.append(ax.annotate(
+            f"g{g}" + (" (true)" if g == layout.true_goal else ""), (gx, gy), xytext=(0, -9),
+            textcoords="offset points", ha="center", va="top", fontsize=8, color="black", zorder=6))
+
+
+def _draw_path(ax: Axes, x: np.ndarray, y: np.ndarray, turns: np.ndarray, out: TrajectoryArtists) -> None:
+    """The path: solid black where the human drove, dashed gray where the autonomy drove."""
+    # Path, one segment per turn (each joined to the next turn's first point).
+    for turn, first, last in runs(turns):
+        end = min(last + 1, len(x) - 1)
+        who = "autonomy" if turn == AUTONOMY_TURN else "human"
+        human = who == "human"
+        (line,) = ax.plot(x[first:end + 1], y[first:end + 1],
+                          color=HUMAN_COLOUR if human else AUTONOMY_COLOUR,
+                          linestyle="-" if human else (0, (3, 1.5)), linewidth=1.6 if human else 1.8,
+                          solid_capstyle="round", zorder=3)
+        out.path.append((who, line))
+
+
+def _draw_marks(ax: Axes, steps: pd.DataFrame, x: np.ndarray, y: np.ndarray, start: np.ndarray,
+                events: pd.Series, out: TrajectoryArtists) -> bool:
+    """Markers at the mode changes and nudges, the start and the end; whether there was a nudge."""
+    # Mode changes.
+    modes = steps["mode"].astype(str).to_numpy() if "mode" in steps.columns else np.empty(0, dtype=str)
+    for k, who in mode_switch_authors(steps):
+        (marker,) = ax.plot([x[k]], [y[k]], marker=MODE_MARKERS.get(modes[k], "s"), markersize=6,
+                            markerfacecolor=SWITCH_FILL[who], markeredgecolor="black",
+                            markeredgewidth=0.9, linestyle="none", zorder=7)
+        out.switches.append((who, marker))
+    nudge = has_event(events, NUDGE)
+    if nudge.any():
+        # Under the mode-change markers: the autonomy often switches mode as it starts a nudge.
+        ax.plot(x[nudge], y[nudge], marker="D", markersize=10,
+                markerfacecolor=to_rgba(NUDGE_COLOUR, 0.85), markeredgecolor="black",
+                markeredgewidth=0.6, linestyle="none", zorder=6)
+    ax.plot([start[0]], [start[1]], marker="*", markersize=13, color="black",
+            markeredgecolor="white", markeredgewidth=0.5, linestyle="none", zorder=9)
+    ax.plot([x[-1]], [y[-1]], marker="X", markersize=8, color="black", markeredgecolor="white",
+            markeredgewidth=0.5, linestyle="none", zorder=9)
+    return bool(nudge.any())
+
+
+def _style_axes(ax: Axes, title: str | None) -> None:
+    """The workspace's limits, equal aspect, labels, a closed frame and the title."""
+    ax.set_xlim(world.X_MIN, world.X_MAX)
+    ax.set_ylim(world.Y_MIN, world.Y_MAX)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (world units)")
+    ax.set_ylabel("y (world units)")
+    for spine in ("top", "right"):
+        ax.spines[spine].set_visible(True)
+    if title:
+        ax.set_title(title, loc="left")
+
+
+def _legend_handles(layout: TrialLayout, nudged: bool) -> list[Any]:
+    """The legend: the goals, start and end, who drove, the modes, who switched, and nudges."""
+    # one swatch per goal, in the colours the discs (and Fig. 5's lines) use
+    handles = [
+        Line2D([], [], marker="o", markersize=8, color=goal_style(g, layout.true_goal)[0],
+               markeredgecolor="black", markeredgewidth=0.6, linestyle="none",
+               label=f"g{g} (true goal)" if g == layout.true_goal else f"g{g}")
+        for g in range(layout.n_goals)
+    ]
+    handles += [
+        Line2D([], [], marker="*", markersize=11, color="black", linestyle="none", label="Start"),
+        Line2D([], [], marker="X", markersize=7, color="black", linestyle="none", label="End"),
+        Line2D([], [], color=HUMAN_COLOUR, linewidth=1.6, label="Human drove"),
+        Line2D([], [], color=AUTONOMY_COLOUR, linewidth=1.8, linestyle=(0, (3, 1.5)),
+               label="Autonomy drove"),
+    ]
+    for mode, symbol in MODE_MARKERS.items():
+        handles.append(Line2D([], [], marker=symbol, markersize=6, markerfacecolor="#B0B0B0",
+                              markeredgecolor="black", linestyle="none",
+                              label=f"Switch to {MODE_NAMES[mode]}"))
+    # squares: no mode uses them, so the fill key cannot be read as the theta marker
+    for who, text in (("human", "  filled: by human"), ("autonomy", "  open: by autonomy")):
+        handles.append(Line2D([], [], marker="s", markersize=6, markerfacecolor=SWITCH_FILL[who],
+                              markeredgecolor="black", linestyle="none", label=text))
+    if nudged:
+        handles.append(Line2D([], [], marker="D", markersize=7, markerfacecolor=NUDGE_COLOUR,
+                              markeredgecolor="black", markeredgewidth=0.6, linestyle="none",
+                              label="Nudge"))
+    return handles
 
 
 __all__ = ["MODE_MARKERS", "SWITCH_FILL", "TRAJECTORY_FIGSIZE", "TrajectoryArtists", "mode_switch_authors",
