@@ -169,44 +169,10 @@ def questionnaire_bars(df: pd.DataFrame, kind: Kind, *, ax: Axes | None = None,
     baseline = 1.0 if kind == "likert" and not coded else 0.0
     n_cond = len(order)
     width = 0.8 / n_cond
-    colours, hatches = condition_colours(order), condition_hatches(order)
     summary = scores.groupby([name_col, "condition"])[value_col].agg(["mean", "std", "count"])
-    artists: list[Any] = []
-    tops: dict[str, float] = {}
     with figure_style():
-        for j, c in enumerate(order):
-            xs, means, sds = [], [], []
-            for i, g in enumerate(groups):
-                if (g, c) not in summary.index:
-                    continue
-                row = summary.loc[(g, c)]
-                xs.append(i + (j - (n_cond - 1) / 2) * width)
-                means.append(float(row["mean"]))
-                sds.append(float(row["std"]) if row["count"] > 1 else 0.0)
-                tops[g] = max(tops.get(g, baseline), means[-1] + sds[-1])
-            if not xs:
-                continue
-            bars = ax.bar(xs, np.asarray(means) - baseline, width=width * 0.92, bottom=baseline,
-                          color=to_rgba(colours[c], 0.75), edgecolor="black", linewidth=0.7, hatch=hatches[c],
-                          label=condition_display_name(c), zorder=2)
-            ax.errorbar(xs, means, yerr=sds, fmt="none", ecolor="black", elinewidth=0.9, capsize=2.5,
-                        capthick=0.9, zorder=3)
-            artists.append(bars)
-        ax.set_xticks(range(len(groups)))
-        ax.set_xticklabels([labels[g] for g in groups])
-        ax.tick_params(axis="x", length=0)
-        ax.set_xlim(-0.5, len(groups) - 0.5)
-        if kind == "tlx":
-            ax.set_ylabel("NASA-TLX score (0-100)")
-            ax.set_ylim(0.0, max(ax.get_ylim()[1], 100.0))
-        else:
-            hi = ax.get_ylim()[1]
-            ax.set_ylim(-3.0 if coded else 1.0, max(hi, 3.0 if coded else 7.0))
-            ax.set_yticks(range(-3, 4) if coded else range(1, 8))
-            if coded:
-                ax.axhline(0.0, color="black", linewidth=0.8)
-            low, high = ("-3", "+3") if coded else ("1", "7")
-            ax.set_ylabel(f"Rating ({low} = strongly disagree,\n{high} = strongly agree)")
+        artists, tops = _draw_bars(ax, summary, groups, order, baseline, width)
+        _label_axes(ax, kind, [labels[g] for g in groups], coded)
         for i, g in enumerate(groups):
             entry = by_name.get(g)
             if entry:
@@ -214,6 +180,55 @@ def questionnaire_bars(df: pd.DataFrame, kind: Kind, *, ax: Axes | None = None,
                 artists.extend(draw_brackets(ax, positions, brackets_from_stats(entry, star_rule),
                                              data_top=tops.get(g)))
     return artists
+
+
+def _draw_bars(ax: Axes, summary: pd.DataFrame, groups: list[Any], order: list[str], baseline: float,
+               width: float) -> tuple[list[Any], dict[str, float]]:
+    """Per condition, a bar of the mean from ``baseline`` with an SD error bar in each group; the
+    bar containers and each group's highest bar top (mean + SD)."""
+    n_cond = len(order)
+    colours, hatches = condition_colours(order), condition_hatches(order)
+    artists: list[Any] = []
+    tops: dict[str, float] = {}
+    for j, c in enumerate(order):
+        xs, means, sds = [], [], []
+        for i, g in enumerate(groups):
+            if (g, c) not in summary.index:
+                continue
+            row = summary.loc[(g, c)]
+            xs.append(i + (j - (n_cond - 1) / 2) * width)
+            means.append(float(row["mean"]))
+            sds.append(float(row["std"]) if row["count"] > 1 else 0.0)
+            tops[g] = max(tops.get(g, baseline), means[-1] + sds[-1])
+        if not xs:
+            continue
+        bars = ax.bar(xs, np.asarray(means) - baseline, width=width * 0.92, bottom=baseline,
+                      color=to_rgba(colours[c], 0.75), edgecolor="black", linewidth=0.7, hatch=hatches[c],
+                      label=condition_display_name(c), zorder=2)
+        ax.errorbar(xs, means, yerr=sds, fmt="none", ecolor="black", elinewidth=0.9, capsize=2.5,
+                    capthick=0.9, zorder=3)
+        artists.append(bars)
+    return artists, tops
+
+
+def _label_axes(ax: Axes, kind: Kind, group_labels: list[str], coded: bool) -> None:
+    """The group labels under the bars and the score axis of ``kind`` (Likert: 1..7, or -3..+3
+    when ``coded``)."""
+    ax.set_xticks(range(len(group_labels)))
+    ax.set_xticklabels(group_labels)
+    ax.tick_params(axis="x", length=0)
+    ax.set_xlim(-0.5, len(group_labels) - 0.5)
+    if kind == "tlx":
+        ax.set_ylabel("NASA-TLX score (0-100)")
+        ax.set_ylim(0.0, max(ax.get_ylim()[1], 100.0))
+    else:
+        hi = ax.get_ylim()[1]
+        ax.set_ylim(-3.0 if coded else 1.0, max(hi, 3.0 if coded else 7.0))
+        ax.set_yticks(range(-3, 4) if coded else range(1, 8))
+        if coded:
+            ax.axhline(0.0, color="black", linewidth=0.8)
+        low, high = ("-3", "+3") if coded else ("1", "7")
+        ax.set_ylabel(f"Rating ({low} = strongly disagree,\n{high} = strongly agree)")
 
 
 def questionnaire_figure(tlx_df: pd.DataFrame | None = None, likert_df: pd.DataFrame | None = None, *,
