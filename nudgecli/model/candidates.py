@@ -118,7 +118,8 @@ def window_candidates(current_state: int, goal_cells: np.ndarray, window: int = 
     Order: row-major over ``dx``, then ``dy``, then mode. Off-grid cells and goal cells are never
     candidates. A candidate's world position is the study's ``robot_position + (dx * 4.2, dy *
     3.4)`` (the cell centre when the robot sits at its cell's centre). Repeated queries on one
-    layout are faster through :meth:`DisambiguationModel.candidates`, which keeps the tables.
+    layout are faster through
+    :meth:`nudgecli.model.disambiguation.DisambiguationModel.candidates`, which keeps the tables.
 
     Parameters
     ----------
@@ -131,7 +132,7 @@ def window_candidates(current_state: int, goal_cells: np.ndarray, window: int = 
     robot_position
         ``(2,)`` continuous robot position; ``None`` uses the current cell's centre.
     rotation_gate
-        See :class:`DisambiguationSettings`.
+        See :class:`nudgecli.model.disambiguation.DisambiguationSettings`.
 
     Returns
     -------
@@ -172,7 +173,7 @@ def global_candidates(goal_cells: np.ndarray, rotation_gate: float | None = None
     goal_cells
         ``(G, 2)`` goal cells.
     rotation_gate
-        See :class:`DisambiguationSettings`.
+        See :class:`nudgecli.model.disambiguation.DisambiguationSettings`.
 
     Returns
     -------

@@ -102,7 +102,8 @@ class DisambiguationSettings:
         ``R(s) = ||q(s) - sum_g b_g g||`` (the study).
     distance_unit
         ``"cells"``: positions are cell indices ``(i, j)`` (one step along x or y is 1 whatever
-        the cell's 4.2 x 3.4 size); ``"world"``: world units (see :func:`window_candidates`).
+        the cell's 4.2 x 3.4 size); ``"world"``: world units (see
+        :func:`~nudgecli.model.candidates.window_candidates`).
     window
         Side of the square window of cells around the current cell (odd: 3 or 5).
     domain
@@ -253,9 +254,9 @@ class DisambiguationModel:
 
     def candidates(self, current_state: int, settings: DisambiguationSettings,
                    robot_position: np.ndarray | None = None) -> Candidates:
-        """The candidates of ``settings.domain`` for this layout (:func:`window_candidates` or
-        :func:`global_candidates`, or :func:`mode_candidates` for the mode-only scope), with the
-        window tables kept between calls."""
+        """The candidates of ``settings.domain`` for this layout
+        (:func:`~nudgecli.model.candidates.window_candidates` or :func:`global_candidates`, or
+        :func:`mode_candidates` for the mode-only scope), with the window tables kept between calls."""
         if settings.scope == "mode-only":
             return mode_candidates(current_state, robot_position)
         if settings.domain == "global":
@@ -322,7 +323,7 @@ def disambiguation_scores(belief: np.ndarray, model: DisambiguationModel, candid
     model
         The layout's :class:`DisambiguationModel`.
     candidates
-        From :meth:`DisambiguationModel.candidates` (or :func:`window_candidates`, :func:`global_candidates`).
+        From :meth:`DisambiguationModel.candidates` (or the functions of :mod:`nudgecli.model.candidates`).
     settings
         Paper defaults when ``None``.
     rng
