@@ -35,7 +35,7 @@ IN_REWORK: tuple[str, ...] = (
     "nudgecli/report/brackets.py",  # draw_brackets: 95 lines
     "nudgecli/report/figures/boxplots.py",  # metric_boxplot: 104 lines
     "nudgecli/report/stats.py",  # 679 lines
-    "nudgecli/sim/batch.py",  # 803 lines
+    "nudgecli/sim/batch.py",  # 803 lines (main has moved it to nudgecli/runs/batch.py: rename on merge)
     "nudgecli/sim/study.py",  # 669 lines
     "nudgecli/store.py",  # 876 lines
 )
