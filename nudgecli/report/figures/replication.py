@@ -42,6 +42,27 @@ def _grid(n: int, width: float = 3.4, height: float = 2.6) -> tuple[Figure, list
     return fig, axes[:n]
 
 
+def _pair_groups(table: pd.DataFrame) -> list[tuple[Any, Any, Any]]:
+    """The ``(metric, a, b)`` of the table's rows in order of first appearance: one panel each (a
+    table without ``a``, ``b`` columns has one pair: ``(metric, None, None)``)."""
+    if "a" not in table.columns or "b" not in table.columns:
+        return [(metric, None, None) for metric in dict.fromkeys(table["metric"])]
+    return list(dict.fromkeys(zip(table["metric"], table["a"], table["b"], strict=True)))
+
+
+def _one_pair_per_metric(table: pd.DataFrame) -> bool:
+    """Whether the table compares one pair of conditions (two conditions: the panels keep their titles)."""
+    return len(_pair_groups(table)) == table["metric"].nunique()
+
+
+def _of(table: pd.DataFrame, metric: Any, a: Any, b: Any) -> pd.DataFrame:
+    """The rows of one panel of :func:`_pair_groups`."""
+    mask = table["metric"] == metric
+    if a is not None:
+        mask &= (table["a"] == a) & (table["b"] == b)
+    return table[mask]
+
+
 def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = None) -> Axes:
     """One metric's forest plot: every replication's difference of medians with its bootstrap
     interval, coloured by participant-level significance, and the pooled mean with its range.
@@ -77,29 +98,33 @@ def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = No
 
 
 def forest_figure(rows: pd.DataFrame, summary: pd.DataFrame) -> Figure:
-    """:func:`forest_panel` per metric (``rows``: :func:`~nudgecli.report.replication.replication_rows`,
-    ``summary``: :func:`~nudgecli.report.replication.summarise`)."""
-    metrics = list(dict.fromkeys(rows["metric"]))
-    fig, axes = _grid(len(metrics), height=max(2.4, 0.18 * rows["replication"].nunique() + 1.2))
-    for ax, metric in zip(axes, metrics, strict=True):
-        forest_panel(rows[rows["metric"] == metric], summary[summary["metric"] == metric].iloc[0], ax=ax)
+    """:func:`forest_panel` per metric and pair of conditions (``rows``:
+    :func:`~nudgecli.report.replication.replication_rows`, ``summary``:
+    :func:`~nudgecli.report.replication.summarise`); the pair is in the x label."""
+    panels = _pair_groups(rows)
+    fig, axes = _grid(len(panels), height=max(2.4, 0.18 * rows["replication"].nunique() + 1.2))
+    for ax, (metric, a, b) in zip(axes, panels, strict=True):
+        forest_panel(_of(rows, metric, a, b), _of(summary, metric, a, b).iloc[0], ax=ax)
     if axes:
         axes[0].legend(fontsize=6, loc="best")
     return fig
 
 
-def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes | None = None) -> Axes:
+def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes | None = None,
+                show_pair: bool = False) -> Axes:
     """One metric's power against participants: participant level solid, trial level dashed,
     with the Clopper-Pearson band, and the target line.
 
     Parameters
     ----------
     power
-        The metric's rows of :func:`~nudgecli.report.replication.power_table`.
+        The rows of :func:`~nudgecli.report.replication.power_table` of one metric and pair.
     target
         The target power (a dotted line).
     ax
         Axes to draw on; default a new figure's.
+    show_pair
+        Name the pair ``a - b`` in the title (a study of more than two conditions).
     """
     ax = _axes(ax)
     for level, style in (("participant", "-"), ("trial", "--")):
@@ -107,7 +132,8 @@ def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes |
         ax.plot(group["participants"], group["power"], style, marker="o", ms=3, label=f"{level} level")
         ax.fill_between(group["participants"], group["low"], group["high"], alpha=0.15)
     ax.axhline(target, color="black", lw=0.6, ls=":")
-    ax.set_title(f"{power['metric'].iloc[0]} ({power['direction'].iloc[0]})", fontsize=9)
+    pair = f": {power['a'].iloc[0]} - {power['b'].iloc[0]}" if show_pair else ""
+    ax.set_title(f"{power['metric'].iloc[0]}{pair} ({power['direction'].iloc[0]})", fontsize=9)
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlabel("participants", fontsize=8)
     ax.set_ylabel("power", fontsize=8)
@@ -116,11 +142,13 @@ def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes |
 
 
 def power_figure(power: pd.DataFrame, target: float = POWER_TARGET) -> Figure:
-    """:func:`power_panel` per metric of :func:`~nudgecli.report.replication.power_table`'s table."""
-    metrics = list(dict.fromkeys(power["metric"]))
-    fig, axes = _grid(len(metrics))
-    for ax, metric in zip(axes, metrics, strict=True):
-        power_panel(power[power["metric"] == metric], target, ax=ax)
+    """:func:`power_panel` per metric and pair of :func:`~nudgecli.report.replication.power_table`'s
+    table (the pair in the title when there are several)."""
+    panels = _pair_groups(power)
+    show_pair = not _one_pair_per_metric(power)
+    fig, axes = _grid(len(panels))
+    for ax, (metric, a, b) in zip(axes, panels, strict=True):
+        power_panel(_of(power, metric, a, b), target, ax=ax, show_pair=show_pair)
     if axes:
         axes[0].legend(fontsize=6, loc="best")
     return fig
@@ -158,16 +186,18 @@ def sweep_panel(group: pd.DataFrame, name: str, *, ax: Axes | None = None) -> Ax
 
 
 def sweep_figure(rows: pd.DataFrame, parameters: Sequence[str]) -> Figure:
-    """:func:`sweep_panel` per metric (rows) and swept parameter (columns)."""
-    metrics = list(dict.fromkeys(rows["metric"]))
-    fig = Figure(figsize=(3.0 * len(parameters), 2.3 * len(metrics)), layout="constrained")
-    axes = fig.subplots(len(metrics), len(parameters), squeeze=False)
-    for i, metric in enumerate(metrics):
-        group = rows[rows["metric"] == metric]
+    """:func:`sweep_panel` per metric and pair of conditions (rows) and swept parameter (columns)."""
+    panels = _pair_groups(rows)
+    show_pair = not _one_pair_per_metric(rows)
+    fig = Figure(figsize=(3.0 * len(parameters), 2.3 * len(panels)), layout="constrained")
+    axes = fig.subplots(len(panels), len(parameters), squeeze=False)
+    for i, (metric, a, b) in enumerate(panels):
+        group = _of(rows, metric, a, b)
         for j, name in enumerate(parameters):
             sweep_panel(group, name, ax=axes[i][j])
             if j == 0:
-                axes[i][j].set_ylabel(f"{metric}\n(a - b)", fontsize=7)
+                axes[i][j].set_ylabel(f"{metric}\n({a} - {b})" if show_pair else f"{metric}\n(a - b)",
+                                      fontsize=7)
     return fig
 
 
