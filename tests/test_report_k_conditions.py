@@ -395,3 +395,30 @@ def test_analyze_orders_conditions_as_the_experiment_lists_them(tmp_path: Path) 
     result = CliRunner().invoke(main, ["analyze", str(run), "--plan", "paper", "--bootstrap", "100"])
     assert result.exit_code == 0, result.output
     assert json.loads((run / "stats.json").read_text())["conditions"] == listed
+
+
+def test_compare_real_and_simulated_tables_of_four_conditions(tmp_path: Path) -> None:
+    rng = np.random.default_rng(7)
+    names = ["teleoperation", "control", "blending", "disambiguation"]  # the real table's row order
+
+    def table(offset: float) -> pd.DataFrame:
+        return pd.DataFrame([{"participant": f"p{p}", "condition": c, "trial": t,
+                              "completion_time": 20 + 3 * i + offset + rng.normal()}
+                             for p in range(4) for i, c in enumerate(names) for t in range(3)])
+
+    table(0.0).to_csv(tmp_path / "sim.csv", index=False)
+    real = table(1.0)
+    real.to_csv(tmp_path / "real.csv", index=False)
+    result = CliRunner().invoke(main, ["compare", str(tmp_path / "sim.csv"), str(tmp_path / "real.csv"),
+                                       "--format", "json", "--resamples", "50",
+                                       "--out", str(tmp_path / "cmp"), "--formats", "png"])
+    assert result.exit_code == 0, result.output
+    document = json.loads((tmp_path / "cmp" / "compare.json").read_text())
+    # the paper's conditions first, then the real table's order
+    assert document["conditions"] == ["disambiguation", "control", "teleoperation", "blending"]
+    rows = document["comparison"]
+    assert [r["condition"] for r in rows] == document["conditions"]
+    for row in rows:
+        own = real[real["condition"] == row["condition"]]["completion_time"]
+        assert row["n_real"] == len(own) and row["median_real"] == pytest.approx(own.median())
+    assert (tmp_path / "cmp" / "compare.png").is_file()
