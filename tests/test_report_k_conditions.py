@@ -422,3 +422,13 @@ def test_compare_real_and_simulated_tables_of_four_conditions(tmp_path: Path) ->
         own = real[real["condition"] == row["condition"]]["completion_time"]
         assert row["n_real"] == len(own) and row["median_real"] == pytest.approx(own.median())
     assert (tmp_path / "cmp" / "compare.png").is_file()
+    # the figure: one column per condition, the distances under each condition's name (narrow panels)
+    from nudgecli.report.compare import CompareOptions, compare_sources
+    from nudgecli.report.compare_figure import build_compare_figure
+
+    compared = compare_sources(tmp_path / "sim.csv", tmp_path / "real.csv",
+                               options=CompareOptions(resamples=20))
+    axes = build_compare_figure(compared.trials, compared.table, compared.medians).get_axes()
+    titles = [ax.get_title(loc="left") for ax in axes]
+    assert [t.split("\n")[0] for t in titles] == document["conditions"]
+    assert all(t.split("\n")[1].startswith("KS ") for t in titles)
