@@ -219,9 +219,20 @@ def test_replication_rows_judge_each_pair_by_its_own_participant_test() -> None:
         assert row["participant_direction"] == np.sign(sizes[pair])
     power = power_table(rows)
     assert len(power) == 3 * 2  # every pair, at both levels
-    assert len(power_figure(power).get_axes()) == 3
-    forest = forest_figure(rows, summarise(rows))
-    assert [ax.get_xlabel().split(" (")[0] for ax in forest.get_axes()] == ["x - y", "x - z", "y - z"]
+    # power: a grid per level of test, a row per pair holding its power
+    grids = power_figure(power).get_axes()
+    assert [ax.get_title().split(" ")[0] for ax in grids] == ["participant", "trial"]
+    labels = [t.get_text() for t in grids[0].get_yticklabels()]  # the rows are shared by both grids
+    assert [label.split(" (")[0] for label in labels] == ["value: x - y", "value: x - z", "value: y - z"]
+    for ax in grids:
+        level = ax.get_title().split(" ")[0]
+        cells = [float(t.get_text()) for t in ax.texts]
+        assert cells == list(power.loc[power["level"] == level, "power"])
+    # forest: a panel per metric, a row per pair with every replication and the pooled mean
+    (forest,) = forest_figure(rows, summarise(rows)).get_axes()
+    assert [t.get_text() for t in forest.get_yticklabels()] == ["x - y", "x - z", "y - z"]
+    dots = np.concatenate([np.asarray(line.get_ydata()) for line in forest.lines if line.get_marker() == "o"])
+    assert len(dots) == len(rows) and set(np.round(dots).astype(int)) == {0, 1, 2}
 
 
 # --- brackets for up to six conditions ---------------------------------------------------------
