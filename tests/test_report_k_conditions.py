@@ -219,6 +219,10 @@ def test_replication_rows_judge_each_pair_by_its_own_participant_test() -> None:
         assert row["participant_direction"] == np.sign(sizes[pair])
     power = power_table(rows)
     assert len(power) == 3 * 2  # every pair, at both levels
+    # in the order of the conditions, not by name
+    reordered = power_table(pd.concat([rows[rows["a"] == "y"], rows[rows["a"] == "x"]]))
+    assert list(dict.fromkeys(zip(reordered["a"], reordered["b"], strict=True))) == [
+        ("y", "z"), ("x", "y"), ("x", "z")]
     # power: a grid per level of test, a row per pair holding its power
     grids = power_figure(power).get_axes()
     assert [ax.get_title().split(" ")[0] for ax in grids] == ["participant", "trial"]

@@ -257,7 +257,11 @@ def power_table(rows: pd.DataFrame, directions: Mapping[str, int | None] | None 
         significant, power, low, high`` with the Clopper-Pearson 95 % interval.
     """
     out = []
-    for (n, metric, a, b), group in rows.groupby(["participants", "metric", "a", "b"], sort=True):
+    # pairs in the analysis' order of conditions (not by name) within each count and metric
+    order = {pair: i for i, pair in enumerate(dict.fromkeys(zip(rows["a"], rows["b"], strict=True)))}
+    ranked = rows.assign(_pair=[order[pair] for pair in zip(rows["a"], rows["b"], strict=True)])
+    groups = ranked.groupby(["participants", "metric", "_pair", "a", "b"], sort=True)
+    for (n, metric, _, a, b), group in groups:
         wanted = directions.get(metric) if directions is not None else paper_direction(metric, a, b)
         for level in ("trial", "participant"):
             significant = group[f"{level}_significant"].astype(bool)
