@@ -220,10 +220,12 @@ def adjust_p_values(p_values: Sequence[float] | np.ndarray, method: str = "holm"
 def epsilon_squared(h_statistic: float, n_observations: int) -> float:
     """The epsilon-squared effect size of a Kruskal-Wallis test: ``H / ((n^2 - 1) / (n + 1))``.
 
-    That is ``H / (n - 1)``, in ``[0, 1]``: 0 when the groups' mean ranks are equal, 1 when the
-    groups' ranks do not overlap at all. Kelley (1935) via Tomczak & Tomczak, "The need to report
-    effect size estimates revisited", *Trends in Sport Sciences* 21(1), 19-25 (2014), eq. 9; the
-    rank epsilon-squared of ``rcompanion::epsilonSquared`` (Mangiafico).
+    That is ``H / (n - 1)``, in ``[0, 1]``: 0 when the groups' mean ranks are equal, larger the
+    more the groups' ranks separate (two equal groups that do not overlap give about 0.75, three
+    about 0.89: the maximum depends on k and the group sizes). The rank-based epsilon-squared as given by
+    M. Tomczak and E. Tomczak, "The need to report effect size estimates revisited. An overview of
+    some recommended measures of effect size", *Trends in Sport Sciences* 21(1), 19-25 (2014); the
+    same as ``rcompanion::epsilonSquared`` (S. Mangiafico) for Kruskal-Wallis.
 
     Parameters
     ----------
