@@ -329,10 +329,12 @@ def run_participant_task(config: ExperimentConfig, seed: int, index: int,
     return participant_metrics(cached_plan(config, seed), index, analysis)
 
 
-def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str]) -> dict[str, Any]:
-    """An analysis task: the replication's statistics (:func:`analyse_replication`)."""
+def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str],
+                      study_conditions: Sequence[str] = ()) -> dict[str, Any]:
+    """An analysis task: the replication's statistics (:func:`analyse_replication`; the study's
+    conditions give their order after the plan's)."""
     tune_allocator()
-    return analyse_replication(metrics, analysis, names)
+    return analyse_replication(metrics, analysis, names, study_conditions)
 
 
 # --- the run -----------------------------------------------------------------------------------
@@ -534,7 +536,8 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
         waiting = [a for a in waiting if not ready(a)]
         for analysis in submitted:
             data = read_study_metrics(folder, analysis.study, analysis.participants)
-            executor.submit(Job(analysis.key, run_analysis_task, (data, batch.plan, metrics)))
+            conditions = tuple(graph.studies[analysis.study].config.study.conditions)
+            executor.submit(Job(analysis.key, run_analysis_task, (data, batch.plan, metrics, conditions)))
         return len(submitted)
 
     def submit_participants(study: Study) -> int:
