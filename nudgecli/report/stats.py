@@ -798,8 +798,8 @@ def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
 def _pairwise_columns(entry: dict[str, Any], a: str, b: str) -> dict[str, Any]:
     """:data:`K_CONDITION_CSV_COLUMNS` of one pair of a ``stats.json`` entry of three or more conditions."""
     level, effect = entry["participant_level"], entry["effect_size"]
-    test = next((r for r in level.get("pairs") or [] if (r["a"], r["b"]) == (a, b)), {})
-    size = next((r for r in effect.get("pairs") or [] if (r["a"], r["b"]) == (a, b)), {})
+    test: dict[str, Any] = next((r for r in level.get("pairs") or [] if (r["a"], r["b"]) == (a, b)), {})
+    size: dict[str, Any] = next((r for r in effect.get("pairs") or [] if (r["a"], r["b"]) == (a, b)), {})
     return {
         "pairwise_test": level.get("pairwise_test", "none"),
         "pairwise_statistic": test.get("statistic", math.nan),
