@@ -75,7 +75,8 @@ def test_participant_ids_give_their_number():
     assert participant_index("P9999") == 9999 and participant_index("x" * 28 + "0001") == 1
     # IDs that would map to a surprising number are refused with the rule, in one line
     for odd in ("alice", "P00", "P-1", "1" * 20, "5" * 5000, "P10000", "P1a", "x" * 29 + "0001", "P 1"):
-        with pytest.raises(ConfigError, match=r"ending in the participant's number: letters .* 1 to 9999") as err:
+        rule = r"ending in the participant's number: letters .* 1 to 9999"
+        with pytest.raises(ConfigError, match=rule) as err:
             participant_index(odd)
         assert "\n" not in str(err.value) and len(str(err.value)) < 300
 

@@ -124,5 +124,5 @@ def test_analyze_refuses_questionnaires_of_people_not_in_the_table(tmp_path) -> 
     table = pd.read_csv(data / "questionnaires_two_conditions.csv")
     table.loc[len(table)] = {**table.iloc[0].to_dict(), "participant": 77}
     table.to_csv(tmp_path / "q.csv", index=False)
-    with pytest.raises(DataError, match="respondent.* 77 are not participants of"):
+    with pytest.raises(DataError, match=r"respondent.* 77 are not participants of"):
         analyze(data / "metrics_two_conditions.csv", out=tmp_path / "a", questionnaires=tmp_path / "q.csv")
