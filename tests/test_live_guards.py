@@ -107,12 +107,14 @@ def test_a_second_server_for_a_served_participant_is_refused_and_ctrl_c_says_how
         assert address.startswith(f"http://127.0.0.1:{port}/?token="), server.stderr.read()
         # the same participant again, on another port (as `--resume` would be): one line, nothing changed
         before = (out / "manifest.json").read_text()
-        runner = CliRunner()
-        second = runner.invoke(main, ["study", "paper", "--participant", "P07", "--resume", "--port",
-                                      str(_free_port()), "--out", str(out),
-                                      *[a for item in OVERRIDES for a in ("--set", item)]])
-        assert second.exit_code == 1 and second.output.count("\n") == 1, second.output
-        assert second.output.startswith("Error: ") and "P07 is already being served by" in second.output
+        second = subprocess.run(  # a subprocess with a timeout: a server that starts would serve forever
+            [sys.executable, "-m", "nudgecli.cli", "study", "paper", "--participant", "P07", "--resume",
+             "--port", str(_free_port()), "--out", str(out), *[a for i in OVERRIDES for a in ("--set", i)]],
+            capture_output=True, text=True, timeout=60,
+        )
+        assert second.returncode == 1 and second.stdout == "", (second.stdout, second.stderr)
+        assert second.stderr.count("\n") == 1 and second.stderr.startswith("Error: "), second.stderr
+        assert "P07 is already being served by" in second.stderr
         assert (out / "manifest.json").read_text() == before
         with pytest.raises(LockError, match="already being served"):
             build_session("paper", "P07", out, overrides=OVERRIDES, resume=True)
