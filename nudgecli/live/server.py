@@ -35,7 +35,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Protocol
 
-from aiohttp import WSMsgType, web
+from aiohttp import WSCloseCode, WSMsgType, web
 
 from nudgecli.live.messages import INPUT_TYPES, MAX_MESSAGE_BYTES, check_message
 from nudgecli.live.session import LiveSession
@@ -235,6 +235,13 @@ async def _websocket(request: web.Request) -> web.WebSocketResponse:
     return ws
 
 
+async def _close_pages(app: web.Application) -> None:
+    """On Ctrl-C: close the pages' websockets, so the server stops at once instead of waiting for
+    them (the pages then show that the server is gone)."""
+    for ws in app[SOCKETS_KEY].open:
+        await ws.close(code=WSCloseCode.GOING_AWAY, message=b"the study server stopped")
+
+
 def create_app(session: LiveSession, clock: Clock | None = None, token: str | None = None) -> web.Application:
     """The aiohttp application of one live session (``clock``: real time at the protocol rate;
     ``token``: the session's token, random when ``None``)."""
@@ -247,6 +254,7 @@ def create_app(session: LiveSession, clock: Clock | None = None, token: str | No
     app.router.add_get("/ws", _websocket)
     app.router.add_static("/static/", static_dir())
     app.cleanup_ctx.append(_ticker_context)
+    app.on_shutdown.append(_close_pages)
     return app
 
 

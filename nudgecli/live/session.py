@@ -543,6 +543,7 @@ class LiveSession:
             "step": s.step,
             "t": round(s.step * self.settings.dt, 3),
             "border": min(since / BORDER_S, 1.0) if s.turn == HUMAN_TURN else None,
+            "border_s": BORDER_S,
             "autonomy": s.turn == AUTONOMY_TURN,
             "trial": s.spec.trial,
             "block": s.spec.block,
