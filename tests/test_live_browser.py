@@ -7,6 +7,8 @@ the lost-server overlay).
 
 Skipped where no browser can be had: it needs the `playwright` package (the test extra) and a
 Chromium (Debian's `chromium` package, `playwright install chromium`, or NUDGE_CHROMIUM=/path).
+`.ci/run` installs Debian's Chromium when none is found and sets NUDGE_REQUIRE_BROWSER=1, which
+turns the skip into a failure.
 With NUDGE_SCREENSHOT=path the page's screenshot is also saved there (the README's picture).
 """
 
@@ -169,6 +171,8 @@ def _longest_run(values: pd.Series, value: str) -> int:
 
 def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
     chromium = _chromium()
+    if chromium is None and os.environ.get("NUDGE_REQUIRE_BROWSER"):
+        pytest.fail("NUDGE_REQUIRE_BROWSER is set (as in .ci/run) but no Chromium was found")
     if chromium is None:
         pytest.skip(
             "no Chromium found: apt-get install chromium, `playwright install chromium`, or set "
