@@ -134,20 +134,32 @@ def _answer_questionnaire(page, check_unset: bool = False) -> None:
     _wait(page, "state.phase !== 'questionnaire'")
 
 
-def _foreign_socket_opens(browser, port: int, token: str) -> bool:
-    """Whether a page of another origin (http://other.example) can open the session's websocket."""
-    page = browser.new_page()
-    page.route("http://other.example/", lambda route: route.fulfill(body="<p>", content_type="text/html"))
-    page.goto("http://other.example/")
-    opened = page.evaluate(
-        """([port, token]) => new Promise((resolve) => {
-             const ws = new WebSocket(`ws://127.0.0.1:${port}/ws?token=${token}`);
-             ws.onopen = () => resolve(true);
-             ws.onclose = () => resolve(false);
-           })""",
-        [port, token],
-    )
-    page.close()
+def _foreign_socket_opens(browser, port: int, token: str, folder: Path) -> bool:
+    """Whether a page of another origin on the same machine (another local web server) can open the
+    session's websocket, even knowing the token."""
+    import functools
+    import http.server
+    import threading
+
+    (folder / "index.html").write_text("<p>another page</p>")
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(folder))
+    other = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    threading.Thread(target=other.serve_forever, daemon=True).start()
+    try:
+        page = browser.new_page()
+        page.goto(f"http://127.0.0.1:{other.server_address[1]}/")
+        opened = page.evaluate(
+            """([port, token]) => new Promise((resolve) => {
+                 const ws = new WebSocket(`ws://127.0.0.1:${port}/ws?token=${token}`);
+                 ws.onopen = () => { ws.close(); resolve(true); };
+                 ws.onclose = () => resolve(false);
+               })""",
+            [port, token],
+        )
+        page.close()
+    finally:
+        other.shutdown()
+        other.server_close()
     return opened
 
 
@@ -221,7 +233,8 @@ def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
             page = browser.new_page(viewport={"width": 900, "height": 820})
             # 15: the address without its token is refused; a page of another origin cannot connect
             assert page.goto(f"http://127.0.0.1:{port}/").status == 403
-            assert not _foreign_socket_opens(browser, port, token)
+            (tmp_path / "other").mkdir()
+            assert not _foreign_socket_opens(browser, port, token, tmp_path / "other")
             page.goto(address)
             _wait(page, "state !== null && state.phase === 'welcome' && role === 'controller'")
             page.keyboard.press(" ")
