@@ -155,7 +155,7 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
     DataError
         Missing id columns, an incomplete set of TLX subscales, pairs or weights, a value that
         is not numeric or out of range, an unknown subscale name, weights not summing to 15,
-        or no score column at all.
+        no score column at all, or (with ``block``) two rows of one participant, condition and block.
     """
     if table.empty:
         raise DataError(f"{source} has no rows; it needs one row per questionnaire response")
@@ -163,8 +163,6 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
         if column not in table.columns:
             raise DataError(f"{source} has no {column!r} column; add it (one value per response row)")
     ids = [c for c in ("participant", "condition", "block") if c in table.columns]
-    if "block" in ids:
-        _check_one_response_per_block(table, ids, source)
     scores = table[ids].copy()
     scores["condition"] = scores["condition"].astype(str)
 
@@ -209,6 +207,8 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
     if not rating_present and not likert_columns:
         raise DataError(f"{source} holds no scores; add the six columns {', '.join(TLX_RATING_COLUMNS)} "
                         f"and/or Likert items named {LIKERT_PREFIX}<item>")
+    if "block" in ids:  # a valid table otherwise: now, one response per participant, condition and block
+        _check_one_response_per_block(table, ids, source)
     return scores.reset_index(drop=True)
 
 
