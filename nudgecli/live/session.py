@@ -238,7 +238,8 @@ class LiveSession:
         practice), ``{"type": "questionnaire", "answers": {...}}``, ``{"type": "blur"}`` (the page
         lost focus: keys up), ``{"type": "ping"}``; and from the server ``{"type": "disconnect"}``
         (the last page closed: the running trial is abandoned, unrecorded, and starts again from
-        its beginning on the next Space).
+        its beginning on the next Space). The server passes only messages that follow the schema of
+        :mod:`nudgecli.live.messages`, and input only from the controlling page.
         """
         kind = message.get("type")
         if kind == "key":
