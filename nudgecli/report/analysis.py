@@ -56,7 +56,12 @@ from nudgecli.report.metrics import (
     trial_metrics,
 )
 from nudgecli.report.plans import AnalysisPlan, load_plan
-from nudgecli.report.questionnaires import questionnaire_scores, read_questionnaires, score_columns
+from nudgecli.report.questionnaires import (
+    check_respondents,
+    questionnaire_scores,
+    read_questionnaires,
+    score_columns,
+)
 from nudgecli.report.stats import (
     SINGLE_CONDITION_NOTE,
     ComparisonOptions,
@@ -862,6 +867,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         if score_conditions != trial_conditions:
             raise DataError(f"{questionnaires}: conditions {sorted(score_conditions)} differ from those of "
                             f"{source} {sorted(trial_conditions)}; name the conditions the same way")
+        check_respondents(scores, table["participant"], str(questionnaires), str(source))
 
     selected = _select_metrics(metrics, [*available, *score_names])
     trial_selected = [m for m in selected if m in available]
