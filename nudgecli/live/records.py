@@ -180,7 +180,9 @@ class LiveFolder:
     def release(self) -> None:
         """Give up the participant's lock (the server stopped)."""
         lock_path, self._lock_path = self._lock_path, None
-        held = _PARTICIPANT_LOCKS.get(lock_path) if lock_path is not None else None
+        if lock_path is None:
+            return
+        held = _PARTICIPANT_LOCKS.get(lock_path)
         if held is None:
             return
         held[1] -= 1
