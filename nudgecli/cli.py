@@ -9,6 +9,7 @@ says how to resume.
 from __future__ import annotations
 
 import json
+import os
 import shlex
 import sys
 from collections.abc import Callable
@@ -63,7 +64,27 @@ class NudgeGroup(click.Group):
 @click.pass_context
 def main(ctx: click.Context, debug: bool) -> None:
     """Simulate and analyse assistive shared-control studies (sip-and-puff intent disambiguation)."""
+    ensure_stderr()
     ctx.meta["nudge.debug"] = debug
+
+
+def ensure_stderr() -> None:
+    """Give the process a stderr when it was started without one (``2>&-``).
+
+    Without it, logs and progress have nowhere to go (Python sets ``sys.stderr`` to None and the
+    first progress line raises), and worse, the next file opened would get descriptor 2, so a
+    library or worker writing to "stderr" would write into that file. Descriptor 2 becomes
+    ``/dev/null`` instead: the command works and says nothing on stderr.
+    """
+    try:
+        os.fstat(2)
+    except OSError:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        if devnull != 2:
+            os.dup2(devnull, 2)
+            os.close(devnull)
+    if sys.stderr is None:
+        sys.stderr = open(2, "w", buffering=1, errors="backslashreplace", closefd=False)  # noqa: SIM115
 
 
 def echo_json(data: Any) -> None:
@@ -174,6 +195,7 @@ def fit_command(calibration_dir: str, out: str | None, variant: str) -> None:
 # --- simulate / run ------------------------------------------------------------------------
 
 _SET_HELP = "Override one experiment field, e.g. --set disambiguation.window=5 (repeatable)."
+_YES_HELP = "Simulate more trials than the size limit allows without asking (see the README)."
 
 
 def _progress_bar(label: str, unit: str = "trial") -> tuple[Any, Any]:
@@ -224,7 +246,7 @@ def _interrupt_hint(target: Path, commands: list[str]) -> Callable[[], str]:
 
 def _simulate(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
               scheduler: str | None, resume: bool, force: bool, overrides: tuple[str, ...],
-              plan: str | None = None, command: str = "simulate") -> Any:
+              plan: str | None = None, command: str = "simulate", confirm: bool = False) -> Any:
 
     from nudgecli.config import load_experiment
     from nudgecli.sim.study import run_study
@@ -239,7 +261,8 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
     bar, update = _progress_bar("simulating")
     try:
         return run_study(config, target, seed=seed, participants=participants, workers=workers,
-                         scheduler=scheduler, resume=resume, force=force, progress=update, plan=plan)
+                         scheduler=scheduler, resume=resume, force=force, progress=update, plan=plan,
+                         confirm=confirm)
     except BaseException:
         if not out and target.is_dir() and not any(target.iterdir()):
             target.rmdir()  # the default folder made for this run, still empty: leave nothing behind
@@ -268,12 +291,14 @@ def _print_study_summary(run: Any) -> None:
               help="dask.distributed scheduler address (or DASK_SCHEDULER_ADDRESS); needs nudgecli[cluster].")
 @click.option("--resume", is_flag=True, help="Finish an interrupted run in --out (same experiment and seed).")
 @click.option("--force", is_flag=True, help="Replace a run that already is in --out.")
+@click.option("--yes", is_flag=True, help=_YES_HELP)
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
 def simulate_command(experiment: str, out: str | None, seed: int | None, participants: int | None,
-                     workers: int, scheduler: str | None, resume: bool, force: bool,
+                     workers: int, scheduler: str | None, resume: bool, force: bool, yes: bool,
                      overrides: tuple[str, ...]) -> None:
     """Simulate a study: EXPERIMENT is a preset (paper, study-code, smoke) or a TOML file."""
-    run = _simulate(experiment, out, seed, participants, workers, scheduler, resume, force, overrides)
+    run = _simulate(experiment, out, seed, participants, workers, scheduler, resume, force, overrides,
+                    confirm=yes)
     _print_study_summary(run)
     click.echo(f"Run folder: {run.path}", err=True)
     click.echo(str(run.path))
@@ -346,27 +371,23 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
     trajectory for a run; questionnaires where analysed. stats.json must match the metrics.
     """
     from nudgecli.report.plans import load_plan
-    from nudgecli.report.plotting import parse_formats, parse_trial, plot_folder
+    from nudgecli.report.plotting import default_out, parse_formats, parse_trial, plot_folder
     from nudgecli.store import run_lock
 
     chosen, trial_key = parse_formats(formats), parse_trial(trial)
     analysis_plan = load_plan(plan or "paper")
-    with _lock_if_folder(run, run_lock):
-        if plan is not None:
-            from nudgecli.report.analysis import analyze
+    if plan is not None:
+        from nudgecli.report.analysis import analyze
 
-            analyze(run, plan=analysis_plan)
+        analyze(run, plan=analysis_plan)  # takes the locks of what it writes
+    # lock only the folder written: the figures' folder given by --out (a read-only RUN is then
+    # only read), else the run or analysis folder that holds figures/ (which `analyze` locks)
+    written_folder = Path(out) if out is not None else default_out(run).parent
+    with run_lock(written_folder):
         written = plot_folder(run, out, chosen, trial_key, star_rule=analysis_plan.comparison_options(),
                               item_labels=analysis_plan.questionnaires.labels)
     for path in written:
         click.echo(str(path))
-
-
-def _lock_if_folder(path: str, run_lock: Any) -> Any:
-    """The run folder's lock when ``path`` is an existing folder, else nothing to hold."""
-    import contextlib
-
-    return run_lock(path) if Path(path).is_dir() else contextlib.nullcontext()
 
 
 # --- run -----------------------------------------------------------------------------------
@@ -382,9 +403,10 @@ def _lock_if_folder(path: str, run_lock: Any) -> Any:
               help="Analysis plan [default: the plan named like the experiment, else paper].")
 @click.option("--resume", is_flag=True, help="Finish an interrupted run in --out.")
 @click.option("--force", is_flag=True, help="Replace a run that already is in --out.")
+@click.option("--yes", is_flag=True, help=_YES_HELP)
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
 def run_command(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
-                plan: str | None, resume: bool, force: bool, overrides: tuple[str, ...]) -> None:
+                plan: str | None, resume: bool, force: bool, yes: bool, overrides: tuple[str, ...]) -> None:
     """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
     from nudgecli.config import default_plan_name
     from nudgecli.report.analysis import analyze, format_table
@@ -394,7 +416,7 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
     if plan is not None and Path(plan).suffix.lower() == ".toml":
         plan = str(Path(plan).resolve())
     run = _simulate(experiment, out, seed, participants, workers, None, resume, force, overrides,
-                    plan=plan, command="run")
+                    plan=plan, command="run", confirm=yes)
     _print_study_summary(run)
     chosen_plan = plan or default_plan_name(run.experiment)
     info(f"analysing with the {chosen_plan!r} plan")
@@ -433,10 +455,11 @@ def plot_population_command(experiment: str, participants: int, seed: int | None
     from nudgecli.report.plotting import parse_formats
     from nudgecli.report.population_figure import plot_population
     from nudgecli.sim.real_population import coverage_table, simulated_diagonals
-    from nudgecli.store import write_text_atomic
+    from nudgecli.store import check_writable, write_text_atomic
 
     chosen = parse_formats(formats)
     config = load_experiment(experiment, overrides)
+    check_writable(out)  # before the calibrations, which take a while
     master = config.experiment.seed if seed is None else seed
     diagonals = simulated_diagonals(config, participants, master)
     table = coverage_table(diagonals)
@@ -503,6 +526,10 @@ def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[st
     from nudgecli.report.plotting import parse_formats
 
     chosen_formats = parse_formats(formats)
+    if out is not None:
+        from nudgecli.store import check_writable
+
+        check_writable(out)  # before the bootstrap, which takes a while
     result = compare_sources(simulated, real, plan=plan, metrics=list(metric_names) or None,
                              condition_map=_parse_matches(matches),
                              options=CompareOptions(resamples=resamples, level=level, seed=seed))
@@ -549,7 +576,14 @@ def _run_batch_command(label: str, run: Any, out: str | None, default_name: str,
     from nudgecli.store import default_run_dir
 
     target = Path(out) if out else default_run_dir(default_name)
-    result = run(out=target, progress=Progress(label), log=info, **kwargs)
+    ctx = click.get_current_context()
+    ctx.meta[INTERRUPT_HINT] = _batch_interrupt_hint(target, rerun_command(ctx, target))
+    try:
+        result = run(out=target, progress=Progress(label), log=info, **kwargs)
+    except BaseException:
+        if not out and target.is_dir() and not any(target.iterdir()):
+            target.rmdir()  # the default folder made for this batch, still empty: leave nothing behind
+        raise
     table = result.summary
     if output_format == "json":
         echo_json(json.loads(table.to_json(orient="records")))
@@ -558,7 +592,51 @@ def _run_batch_command(label: str, run: Any, out: str | None, default_name: str,
     else:
         click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
     info(f"Batch folder: {result.run.path} ({result.run.computed} tasks computed now)")
-    click.echo(str(result.run.path))
+    if output_format == "table":  # under json/csv stdout is the document alone (the folder is on stderr)
+        click.echo(str(result.run.path))
+
+
+def rerun_command(ctx: click.Context, target: Path) -> str:
+    """The command line that resumes the interrupted command of ``ctx`` into ``target``: its
+    arguments and the options given on the command line, ``--out target`` and ``--resume``
+    (``--force`` dropped: it would delete what was finished)."""
+    from click.core import ParameterSource
+
+    arguments: list[str] = []
+    options: list[str] = []
+    for param in ctx.command.params:
+        name = param.name or ""
+        value = ctx.params.get(name)
+        if isinstance(param, click.Argument):
+            arguments.append(str(value))
+            continue
+        given = ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE
+        if name in ("out", "resume", "force") or not given:
+            continue
+        flag = max(param.opts, key=len)  # the long name: --replications, not -R
+        if getattr(param, "is_flag", False):
+            options += [flag] if value else []
+        elif getattr(param, "multiple", False):
+            for item in value or ():
+                options += [flag, str(item)]
+        else:
+            options += [flag, str(value)]
+    parts = ["nudge", ctx.info_name or ctx.command.name or "", *arguments, *options, "--out", str(target),
+             "--resume"]
+    return " ".join(shlex.quote(p) for p in parts)
+
+
+def _batch_interrupt_hint(target: Path, command: str) -> Callable[[], str]:
+    """What to say after Ctrl-C of a batch into ``target``."""
+
+    def hint() -> str:
+        from nudgecli.sim.batch import BATCH_MANIFEST
+
+        if (target / BATCH_MANIFEST).is_file():
+            return f"{target} keeps its finished tasks; resume with: {command}"
+        return "nothing was computed yet; run the command again"
+
+    return hint
 
 
 def _experiment_name(experiment: str) -> str:
