@@ -39,7 +39,7 @@ ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 NUDGE = [sys.executable, "-m", "nudgecli.cli"]
 TABLE = ROOT / "tests" / "data" / "metrics_two_conditions.csv"
-SHIPPED_PROBE_S = study_module.SCHEDULER_PROBE_S
+SHIPPED_TIMEOUT_S = study_module.SCHEDULER_TIMEOUT_S
 GRID = """
 experiment = "smoke"
 replications = 1
@@ -244,7 +244,7 @@ def foreign_service(greeting: bytes | None) -> Iterator[int]:
 
 @pytest.mark.parametrize("greeting", [b"SSH-2.0-OpenSSH_9.6\r\n", None], ids=["speaks-first", "silent"])
 def test_a_scheduler_address_of_another_service_is_refused_in_one_line(tmp_path, monkeypatch, greeting):
-    monkeypatch.setattr(study_module, "SCHEDULER_PROBE_S", 1.5)  # the shipped 7 s, shortened for the test
+    monkeypatch.setattr(study_module, "SCHEDULER_TIMEOUT_S", 1.5)  # the shipped 7 s, shortened for the test
     out = tmp_path / "batch"
     results = []
     with foreign_service(greeting) as port:
@@ -261,7 +261,7 @@ def test_a_scheduler_address_of_another_service_is_refused_in_one_line(tmp_path,
     line = one_error_line(said)
     assert results[0].exit_code == 1 and address in line and "dask scheduler" in line
     assert not out.exists()
-    assert 0 < SHIPPED_PROBE_S <= 8  # the refusal, with Python's start, comes within 10 s
+    assert 0 < SHIPPED_TIMEOUT_S <= 8  # the refusal, with Python's start, comes within 10 s
 
 
 # --- 12: size first, in constant memory --------------------------------------------------------

@@ -362,11 +362,9 @@ def _json(value: Any) -> str:
 
 #: Seconds a worker waits between two checks that its parent is alive (where prctl is missing).
 PARENT_POLL_S = 0.5
-#: Seconds to wait for a dask scheduler to answer before ``--scheduler`` is refused.
-SCHEDULER_TIMEOUT_S = 10.0
-#: Seconds the probe of ``--scheduler`` waits for a dask handshake: a scheduler answers in
-#: milliseconds, and a refusal, the start of Python included, then comes within 10 s.
-SCHEDULER_PROBE_S = 7.0
+#: Seconds to wait for a dask scheduler to answer before ``--scheduler`` is refused: a scheduler
+#: answers in milliseconds, and a refusal, the start of Python included, comes within 10 s.
+SCHEDULER_TIMEOUT_S = 7.0
 _PR_SET_PDEATHSIG = 1
 
 _WORKER_PLAN: StudyPlan | None = None
@@ -479,7 +477,7 @@ def connect_scheduler(address: str) -> Any:
     """A ``dask.distributed.Client`` of the scheduler at ``address``.
 
     The address is probed first (:func:`probe_scheduler`), so that a service that is not a
-    dask scheduler is refused within :data:`SCHEDULER_PROBE_S` seconds: the client alone
+    dask scheduler is refused within :data:`SCHEDULER_TIMEOUT_S` seconds: the client alone
     waits for ever on a server that never answers, and takes a greeting from one that speaks
     first (SSH, SMTP) as the length of a message of exabytes.
 
@@ -487,14 +485,14 @@ def connect_scheduler(address: str) -> Any:
     ------
     ConfigError
         dask.distributed is not installed, the address is malformed, or no dask scheduler
-        answers within :data:`SCHEDULER_PROBE_S` seconds.
+        answers within :data:`SCHEDULER_TIMEOUT_S` seconds.
     """
     try:
         from dask.distributed import Client
     except ImportError as exc:  # pragma: no cover - depends on the optional extra
         raise ConfigError("--scheduler needs dask.distributed: pip install 'nudgecli[cluster]'") from exc
     fix = "give the address of a running dask scheduler, e.g. tcp://host:8786"
-    problem = probe_scheduler(address, SCHEDULER_PROBE_S)
+    problem = probe_scheduler(address, SCHEDULER_TIMEOUT_S)
     if problem is not None:
         raise ConfigError(f"--scheduler {address}: {problem}; {fix}")
     try:
@@ -524,7 +522,7 @@ def probe_scheduler(address: str, timeout_s: float) -> str | None:
         try:
             asyncio.run(asyncio.wait_for(handshake(), timeout_s))
         except TimeoutError:
-            return f"no dask scheduler answered within {timeout_s:g} s"
+            return f"cannot connect (no dask scheduler answered within {timeout_s:g} s)"
         except (OSError, ValueError, TypeError) as exc:
             return f"cannot connect ({_one_line(exc)})"
         except Exception:
