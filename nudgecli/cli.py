@@ -8,6 +8,7 @@ says how to resume.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shlex
@@ -382,10 +383,22 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
         analyze(run, plan=analysis_plan)  # takes the locks of what it writes
     # lock only the folder written: the figures' folder given by --out (a read-only RUN is then
     # only read), else the run or analysis folder that holds figures/ (which `analyze` locks)
-    written_folder = Path(out) if out is not None else default_out(run).parent
-    with run_lock(written_folder):
-        written = plot_folder(run, out, chosen, trial_key, star_rule=analysis_plan.comparison_options(),
-                              item_labels=analysis_plan.questionnaires.labels)
+    written_folder: Path | None = None  # None: not a plottable source; plot_folder says why
+    if out is not None:
+        written_folder = Path(out)
+    elif Path(run).exists():
+        with contextlib.suppress(NudgeError):
+            written_folder = default_out(run).parent
+    made = written_folder is not None and not written_folder.exists()
+    try:
+        with run_lock(written_folder) if written_folder is not None else contextlib.nullcontext():
+            written = plot_folder(run, out, chosen, trial_key, star_rule=analysis_plan.comparison_options(),
+                                  item_labels=analysis_plan.questionnaires.labels)
+    except BaseException:
+        if made and written_folder is not None and written_folder.is_dir() \
+                and not any(written_folder.iterdir()):
+            written_folder.rmdir()  # made only to hold the lock: a failed plot leaves nothing behind
+        raise
     for path in written:
         click.echo(str(path))
 
