@@ -333,7 +333,9 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
                     bootstrap: int | None, drop_duplicates: bool) -> None:
     """Metrics and statistics of a run folder or a metrics table (CSV/Parquet, one row per trial)."""
     from nudgecli.report.analysis import analyze, format_table
+    from nudgecli.report.plans import check_resamples
 
+    check_resamples(bootstrap, "--bootstrap")
     bar, update = _progress_bar("analysing", unit="metric")
     try:
         result = analyze(source, plan=plan, out=out, metrics=list(metric_names) or None,
@@ -459,17 +461,22 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
 @click.option("--formats", default="png,pdf", show_default=True, help="Figure formats: png, pdf, svg.")
 @click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="What to print on stdout: the coverage table.")
+@click.option("--yes", is_flag=True,
+              help="Calibrate more participants than the size limit allows without asking.")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
 def plot_population_command(experiment: str, participants: int, seed: int | None, out: str, formats: str,
-                            output_format: str, overrides: tuple[str, ...]) -> None:
+                            output_format: str, yes: bool, overrides: tuple[str, ...]) -> None:
     """Calibrate EXPERIMENT's simulated participants and draw their fitted p(phi_m | phi_i) diagonals
     beside the real people's (pilots: fixed 10 Hz stream; sibling study: event-driven stream)."""
     from nudgecli.config import load_experiment
     from nudgecli.report.plotting import parse_formats
     from nudgecli.report.population_figure import plot_population
     from nudgecli.sim.real_population import coverage_table, simulated_diagonals
+    from nudgecli.sim.size import MAX_CALIBRATIONS_WITHOUT_YES, check_size
     from nudgecli.store import check_writable, write_text_atomic
 
+    check_size(participants, yes, limit=MAX_CALIBRATIONS_WITHOUT_YES,
+               work="calibrate {} simulated participants", fix="fewer --participants")
     chosen = parse_formats(formats)
     config = load_experiment(experiment, overrides)
     check_writable(out)  # before the calibrations, which take a while
@@ -536,9 +543,11 @@ def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[st
     with cluster-bootstrap intervals.
     """
     from nudgecli.report.compare import CompareOptions, compare_sources, format_comparison, write_comparison
+    from nudgecli.report.plans import check_resamples
     from nudgecli.report.plotting import parse_formats
 
     chosen_formats = parse_formats(formats)
+    check_resamples(resamples, "--resamples")
     if out is not None:
         from nudgecli.store import check_writable
 
@@ -757,14 +766,16 @@ def _validation_readings() -> list[str]:
                    "(readings.json with --all-readings).")
 @click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
               show_default=True, help="What to print on stdout.")
+@click.option("--yes", is_flag=True, help="Run more queries than the size limit allows without asking.")
 def validate_command(simulations: int, min_goals: int, max_goals: int, states: int, seed: int,
                      belief_concentration: float, mc_queries: int, reading: str, all_readings: bool,
-                     out: str | None, output_format: str) -> None:
+                     out: str | None, output_format: str, yes: bool) -> None:
     """The paper's simulation-based validation of D(s): its argmax vs a one-step ground truth."""
     import time
     from dataclasses import replace
 
     from nudgecli.sim import validation
+    from nudgecli.sim.size import MAX_QUERIES_WITHOUT_YES, check_size
 
     if all_readings and reading != "dirichlet":
         raise click.UsageError("--reading and --all-readings exclude each other")
@@ -774,6 +785,8 @@ def validate_command(simulations: int, min_goals: int, max_goals: int, states: i
     names = list(validation.READINGS) if all_readings else [reading]
     for name in names:
         replace(settings, reading=name).check()
+    check_size(simulations * states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
+               work="run {} queries (worlds x states x readings)", fix="fewer --simulations or --states")
     if out is not None:
         validation.prepare_out(out)
     start = time.perf_counter()

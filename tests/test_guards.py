@@ -271,23 +271,34 @@ def _never(*args, **kwargs):
     raise AssertionError("work started before the size check")
 
 
-@pytest.mark.parametrize("args", [
-    ["replicate", "smoke", "-R", "1000000000000"],
-    ["power", "smoke", "--participants", "2,100000000", "-R", "3"],
-    ["simulate", "smoke", "--participants", "100000000"],
-    ["run", "smoke", "--participants", "100000000"],
-], ids=["replicate", "power", "simulate", "run"])
-def test_a_huge_command_is_refused_before_any_work(tmp_path, monkeypatch, args):
-    monkeypatch.setattr(batch_module, "build_graph", _never)
-    monkeypatch.setattr(batch_module, "check_physiology_logs", _never)
-    monkeypatch.setattr(study_module.StudyPlan, "build", _never)
-    monkeypatch.setattr(study_module, "check_physiology_logs", _never)
+@pytest.mark.parametrize(("args", "limit"), [
+    (["replicate", "smoke", "-R", "1000000000000"], f"more than {MAX_TRIALS_WITHOUT_YES:,}"),
+    (["power", "smoke", "--participants", "2,100000000", "-R", "3"], f"more than {MAX_TRIALS_WITHOUT_YES:,}"),
+    (["simulate", "smoke", "--participants", "100000000"], f"more than {MAX_TRIALS_WITHOUT_YES:,}"),
+    (["run", "smoke", "--participants", "100000000"], f"more than {MAX_TRIALS_WITHOUT_YES:,}"),
+    (["plot-population", "smoke", "--participants", "100000000"], "calibrate 100,000,000 simulated"),
+    (["validate", "--simulations", "100000000"], "run 20,000,000,000 queries"),
+    (["analyze", str(TABLE), "--bootstrap", "1000000000"], "at most 1,000,000 bootstrap resamples"),
+    (["compare", str(TABLE), str(TABLE), "--resamples", "1000000000"], "at most 1,000,000 bootstrap"),
+], ids=["replicate", "power", "simulate", "run", "plot-population", "validate", "analyze", "compare"])
+def test_a_huge_command_is_refused_before_any_work(tmp_path, monkeypatch, args, limit):
+    import nudgecli.report.analysis as analysis
+    import nudgecli.report.compare as compare
+    import nudgecli.sim.real_population as real_population
+    import nudgecli.sim.validation as validation
+
+    for module, name in ((batch_module, "build_graph"), (batch_module, "check_physiology_logs"),
+                         (study_module.StudyPlan, "build"), (study_module, "check_physiology_logs"),
+                         (real_population, "simulated_diagonals"), (validation, "run_validation"),
+                         (analysis, "analyze"), (compare, "compare_sources")):
+        monkeypatch.setattr(module, name, _never)
     out = tmp_path / "out"
     started = time.monotonic()
     result = invoke([*args, "--out", str(out)])
     assert time.monotonic() - started < 5
     line = one_error_line(result.output)
-    assert result.exit_code == 1 and "--yes" in line and f"more than {MAX_TRIALS_WITHOUT_YES:,}" in line
+    assert result.exit_code == 1 and limit in line
+    assert "--yes" in line or "resamples" in line
     assert not out.exists()
 
 

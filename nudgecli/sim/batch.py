@@ -251,7 +251,7 @@ class SizeEstimate:
     workers: int
 
     def describe(self) -> str:
-        return (f"{self.studies} studies, {self.participant_tasks} participant tasks + {self.analyses} "
+        return (f"{self.studies:,} studies, {self.participant_tasks:,} participant tasks + {self.analyses:,} "
                 f"analyses, {self.trials:,} trials; about {format_duration(self.seconds)} on {self.workers} "
                 f"worker(s) and {self.bytes / 1e6:.1f} MB on disk")
 
