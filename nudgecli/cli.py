@@ -214,9 +214,12 @@ def _progress_bar(label: str, unit: str = "trial") -> tuple[Any, Any]:
 
 
 def resume_command(experiment: str, target: Path, seed: int | None, participants: int | None, workers: int,
-                   overrides: tuple[str, ...], command: str = "simulate") -> str:
-    """The exact command line that resumes an interrupted ``nudge simulate`` (or ``run``) into ``target``."""
+                   overrides: tuple[str, ...], command: str = "simulate", confirm: bool = False) -> str:
+    """The exact command line that resumes an interrupted ``nudge simulate`` (or ``run``) into ``target``
+    (with ``--yes`` when the study is above the size limit and ``confirm`` let it run)."""
     parts = ["nudge", command, experiment, "--out", str(target)]
+    if confirm:
+        parts += ["--yes"]
     if seed is not None:
         parts += ["--seed", str(seed)]
     if participants is not None:
@@ -255,9 +258,10 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
 
     config = load_experiment(experiment, overrides)
     target = Path(out) if out else default_run_dir(config.experiment.name)
-    commands = [resume_command(experiment, target, seed, participants, workers, overrides)]
+    commands = [resume_command(experiment, target, seed, participants, workers, overrides, confirm=confirm)]
     if command != "simulate":
-        commands.append(resume_command(experiment, target, seed, participants, workers, overrides, command))
+        commands.append(resume_command(experiment, target, seed, participants, workers, overrides, command,
+                                       confirm))
     click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, commands)
     bar, update = _progress_bar("simulating")
     try:

@@ -477,3 +477,38 @@ def test_fit_writes_a_profile_named_with_255_bytes(tmp_path, analysed_run):
                                        str(out)])
     assert result.exit_code == 0, result.output
     assert json.loads(out.read_text()) and sorted(p.name for p in tmp_path.iterdir()) == [out.name]
+
+
+def test_aborting_the_process_pool_does_not_wait_for_a_running_task():
+    from nudgecli.sim.executors import Job, ProcessExecutor
+
+    executor = ProcessExecutor(1)
+    executor.submit(Job("slow", time.sleep, (30,), affinity="a"))
+    executor._fill()  # the job is now in the worker
+    time.sleep(0.2)
+    started = time.monotonic()
+    executor.abort()
+    assert time.monotonic() - started < 3  # close() would wait for its farewell, then terminate
+    assert all(not slot.process.is_alive() for slot in executor._slots)
+
+
+def test_ctrl_c_of_a_large_simulation_resumes_with_yes(tmp_path, monkeypatch):
+    monkeypatch.setattr("nudgecli.sim.size.MAX_TRIALS_WITHOUT_YES", 10)
+    out = tmp_path / "run"
+    original = store.RunFolder.write_participant_parts
+    calls = []
+
+    def interrupted_after_one(self, *args, **kwargs):
+        if calls:
+            raise KeyboardInterrupt
+        calls.append(1)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(store.RunFolder, "write_participant_parts", interrupted_after_one)
+    result = invoke(["simulate", "smoke", "--participants", "3", "--yes", "--out", str(out)])
+    assert result.exit_code == 130
+    command = result.output.split("resume with: ")[1].strip().splitlines()[0]
+    assert "--yes" in shlex.split(command)
+    monkeypatch.setattr(store.RunFolder, "write_participant_parts", original)
+    resumed = invoke(shlex.split(command)[1:])
+    assert resumed.exit_code == 0, resumed.output

@@ -621,8 +621,10 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
             computed += 1
             if progress:
                 progress(done, total)
-    finally:
-        executor.close()
+    except BaseException:
+        executor.abort()  # Ctrl-C or a failure: do not wait for the running tasks
+        raise
+    executor.close()
     return computed
 
 
