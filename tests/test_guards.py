@@ -24,6 +24,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import click
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -512,3 +513,32 @@ def test_ctrl_c_of_a_large_simulation_resumes_with_yes(tmp_path, monkeypatch):
     monkeypatch.setattr(store.RunFolder, "write_participant_parts", original)
     resumed = invoke(shlex.split(command)[1:])
     assert resumed.exit_code == 0, resumed.output
+
+
+# --- values as the user wrote them ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("override", "said"), [
+    ("population.rest_s=abc", 'population.rest_s: should be a list, e.g. [0.5, 1.0] (got "abc")'),
+    ("population.rest_s=[1]", "population.rest_s: too few values (got [1])"),
+    ("study.participants=eight", '(got "eight")'),
+    ("study.conditions=[true]", "(got true)"),
+])
+def test_config_errors_show_values_as_written_without_pydantic_words(override, said):
+    result = invoke(["simulate", "smoke", "--set", override, "--out", "never-made"])
+    line = one_error_line(result.output)
+    assert result.exit_code == 1 and said in line
+    for internal in ("tuple", "Field required", "np.", "True"):
+        assert internal not in line
+    assert not Path("never-made").exists()
+
+
+def test_a_numpy_value_is_shown_plainly():
+    from pydantic import ValidationError
+
+    from nudgecli.config import ExperimentConfig, format_validation_error
+
+    with pytest.raises(ValidationError) as caught:
+        ExperimentConfig.model_validate({"population": {"rest_s": (np.float64(0.0), np.float64(150.0))}})
+    message = format_validation_error(caught.value, "x.toml", ExperimentConfig)
+    assert "got [0.0, 150.0]" in message and "np." not in message
