@@ -29,6 +29,7 @@ from nudgecli.report.replication import (
     smallest_n,
 )
 from nudgecli.sim import batch as batch_module
+from nudgecli.sim import size as size_module
 from nudgecli.sim.batch import layout_key, replicate, replication_seed
 from nudgecli.sim.executors import Progress
 from nudgecli.sim.study import StudyPlan, simulate_participant
@@ -364,7 +365,7 @@ def test_a_sweep_killed_with_sigkill_and_resumed_equals_an_uninterrupted_one(tmp
 # --- the run: size, progress, refusals --------------------------------------------------------
 
 def test_a_batch_above_the_size_limit_is_refused_without_yes(tmp_path, monkeypatch):
-    monkeypatch.setattr(batch_module, "MAX_TRIALS_WITHOUT_YES", 10)
+    monkeypatch.setattr(size_module, "MAX_TRIALS_WITHOUT_YES", 10)
     out = tmp_path / "big"
     refused = CliRunner().invoke(main, ["replicate", "smoke", "-R", "1", "--out", str(out)])
     assert refused.exit_code == 1 and "16 trials" in refused.output and "--yes" in refused.output

@@ -9,6 +9,7 @@ the participants run serially, on local processes or on a dask cluster, in any o
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import json
 import math
@@ -28,7 +29,7 @@ from typing import Any
 import pandas as pd
 
 from nudgecli.config import ExperimentConfig, default_plan_name
-from nudgecli.errors import ConfigError
+from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.interface import default_distortion_table, default_mapping_table
 from nudgecli.model.mdp import MDPRewards, SolvedLayout, solve_layout
@@ -41,6 +42,7 @@ from nudgecli.sim.ciaa import packaged_task, subject_schedule, task_layouts
 from nudgecli.sim.counterbalance import design_record, participant_order
 from nudgecli.sim.participants import Participant, draw_participant, participant_from_log
 from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSpec, run_trial, run_world_trial
+from nudgecli.sim.size import check_size, trials_per_participant
 from nudgecli.steplog import STEP_COLUMNS
 from nudgecli.store import RunFolder, library_versions, run_lock, utc_now
 
@@ -371,8 +373,9 @@ def _json(value: Any) -> str:
 
 #: Seconds a worker waits between two checks that its parent is alive (where prctl is missing).
 PARENT_POLL_S = 0.5
-#: Seconds to wait for a dask scheduler to answer before ``--scheduler`` is refused.
-SCHEDULER_TIMEOUT_S = 10.0
+#: Seconds to wait for a dask scheduler to answer before ``--scheduler`` is refused: a scheduler
+#: answers in milliseconds, and a refusal, the start of Python included, comes within 10 s.
+SCHEDULER_TIMEOUT_S = 7.0
 _PR_SET_PDEATHSIG = 1
 
 _WORKER_PLAN: StudyPlan | None = None
@@ -462,31 +465,91 @@ def process_context() -> BaseContext:
 
 
 def _processes(plan: StudyPlan, todo: list[int], workers: int) -> Iterator[ParticipantResult]:
-    with ProcessPoolExecutor(max_workers=workers, mp_context=process_context(), initializer=_init_worker,
-                             initargs=(plan, os.getpid())) as pool:
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=process_context(), initializer=_init_worker,
+                               initargs=(plan, os.getpid()))
+    try:
         futures = [pool.submit(_run_in_worker, index) for index in todo]
         for future in as_completed(futures):
             yield future.result()
+    except BaseException:
+        # Ctrl-C or a failure: drop the queued participants and stop the running ones now (their
+        # results would be thrown away); the pool's own exit waits for every queued task
+        processes = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            with contextlib.suppress(OSError, ValueError, AttributeError):
+                process.terminate()
+        raise
+    else:
+        pool.shutdown(wait=True)
 
 
 def connect_scheduler(address: str) -> Any:
     """A ``dask.distributed.Client`` of the scheduler at ``address``.
 
+    The address is probed first (:func:`probe_scheduler`), so that a service that is not a
+    dask scheduler is refused within :data:`SCHEDULER_TIMEOUT_S` seconds: the client alone
+    waits for ever on a server that never answers, and takes a greeting from one that speaks
+    first (SSH, SMTP) as the length of a message of exabytes.
+
     Raises
     ------
     ConfigError
-        dask.distributed is not installed, the address is malformed, or no scheduler answers
-        within :data:`SCHEDULER_TIMEOUT_S` seconds.
+        dask.distributed is not installed, the address is malformed, or no dask scheduler
+        answers within :data:`SCHEDULER_TIMEOUT_S` seconds.
     """
     try:
         from dask.distributed import Client
     except ImportError as exc:  # pragma: no cover - depends on the optional extra
         raise ConfigError("--scheduler needs dask.distributed: pip install 'nudgecli[cluster]'") from exc
+    fix = "give the address of a running dask scheduler, e.g. tcp://host:8786"
+    problem = probe_scheduler(address, SCHEDULER_TIMEOUT_S)
+    if problem is not None:
+        raise ConfigError(f"--scheduler {address}: {problem}; {fix}")
     try:
         return Client(address, timeout=f"{SCHEDULER_TIMEOUT_S}s")
     except (OSError, ValueError, TypeError) as exc:
-        raise ConfigError(f"--scheduler {address}: cannot connect ({exc}); give the address of a running "
-                          "dask scheduler, e.g. tcp://host:8786") from None
+        raise ConfigError(f"--scheduler {address}: cannot connect ({_one_line(exc)}); {fix}") from None
+
+
+def probe_scheduler(address: str, timeout_s: float) -> str | None:
+    """Open and close one dask connection to ``address`` (its handshake included), within ``timeout_s``.
+
+    Returns
+    -------
+    str or None
+        None when a dask scheduler answered; else what went wrong, in a few words.
+    """
+    import asyncio
+    from concurrent.futures import ThreadPoolExecutor
+
+    from distributed.comm import connect
+
+    async def handshake() -> None:
+        comm = await connect(address, timeout=timeout_s)
+        await comm.close()
+
+    def run() -> str | None:
+        try:
+            asyncio.run(asyncio.wait_for(handshake(), timeout_s))
+        except TimeoutError:
+            return f"cannot connect (no dask scheduler answered within {timeout_s:g} s)"
+        except (OSError, ValueError, TypeError) as exc:
+            return f"cannot connect ({_one_line(exc)})"
+        except Exception:
+            # e.g. a MemoryError: a greeting's bytes read as the length of a message
+            return "the service there is not a dask scheduler (its answer is not dask's protocol)"
+        return None
+
+    # in a thread of its own: the caller may itself be running an event loop (a notebook)
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="nudge-probe") as pool:
+        return pool.submit(run).result()
+
+
+def _one_line(exc: BaseException) -> str:
+    """An exception's message on one line (or its type's name when it has none)."""
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
 
 
 def _dask(plan: StudyPlan, todo: list[int], client: Any) -> Iterator[ParticipantResult]:
@@ -513,7 +576,8 @@ class StudyRun:
 
 def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, participants: int | None = None,
               workers: int = 1, scheduler: str | None = None, resume: bool = False, force: bool = False,
-              progress: Callable[[int, int], None] | None = None, plan: str | None = None) -> StudyRun:
+              progress: Callable[[int, int], None] | None = None, plan: str | None = None,
+              confirm: bool = False) -> StudyRun:
     """Simulate a study into the run folder ``out``.
 
     Parameters
@@ -535,6 +599,8 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     plan
         The analysis plan recorded in the manifest for ``nudge analyze`` (default: the plan
         preset named like the experiment, else ``paper``).
+    confirm
+        Run a study above :data:`nudgecli.sim.size.MAX_TRIALS_WITHOUT_YES` trials (``--yes``).
 
     Returns
     -------
@@ -542,6 +608,9 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
 
     Raises
     ------
+    ConfigError
+        Bad workers, seed or participant count, a study too large without ``confirm``, or an
+        unreachable scheduler.
     LockError
         Another command is writing ``out`` (the run folder is locked for the whole run).
     """
@@ -553,6 +622,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     n = config.study.participants if participants is None else participants
     if n < 1:
         raise ConfigError(f"--participants must be at least 1, got {n}")
+    check_size(n * trials_per_participant(config), confirm, fix="fewer participants")
     if participants is not None:
         config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
     check_physiology_logs(config)
@@ -615,17 +685,25 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
         results = _processes(plan, todo, min(workers, len(todo)))
     else:
         results = _serial(plan, todo)
-    for result in results:
-        if result.calibration is not None:
-            write_sessions(folder.calibration_dir(result.participant), *result.calibration)
-        sums = folder.write_participant_parts(result.participant, result.trials, result.steps, result.record)
-        manifest.setdefault("checksums", {})[str(result.participant)] = sums
-        done.add(result.participant)
-        manifest["completed"] = sorted(done)
-        manifest["timings_s"][str(result.participant)] = round(result.wall_s, 3)
-        folder.write_manifest(manifest)
-        if progress:
-            progress(len(done) * trials_per, n * trials_per)
+    try:
+        for result in results:
+            if result.calibration is not None:
+                write_sessions(folder.calibration_dir(result.participant), *result.calibration)
+            sums = folder.write_participant_parts(result.participant, result.trials, result.steps,
+                                                  result.record)
+            manifest.setdefault("checksums", {})[str(result.participant)] = sums
+            done.add(result.participant)
+            manifest["completed"] = sorted(done)
+            manifest["timings_s"][str(result.participant)] = round(result.wall_s, 3)
+            folder.write_manifest(manifest)
+            if progress:
+                progress(len(done) * trials_per, n * trials_per)
+    except BaseException:
+        # Ctrl-C, a failed participant, a write error: the run must not read as still running
+        manifest["status"] = "interrupted"
+        with contextlib.suppress(NudgeError, OSError):
+            folder.write_manifest(manifest)
+        raise
     folder.write_participants_table()
     manifest.update({"status": "complete", "finished": utc_now(),
                      "wall_s": round(time.perf_counter() - started, 3),
