@@ -94,11 +94,16 @@ def format_args(tmp_path: Path) -> dict[str, list[str]]:
     """Small but real arguments of every command that has --format."""
     sweep = tmp_path / "grid.toml"
     sweep.write_text(GRID)
+    log = tmp_path / "log.csv"  # a real log: a 0.5 s soft blow that moves the robot, then a pause
+    log.write_text("t,trial,label,x,y,theta,mode_switch\n" + "".join(
+        f"{i / 10:.1f},0,{'Soft Puff' if 10 <= i < 15 else 'Zero Band'},{min(max(i - 10, 0), 5)},0,0,0\n"
+        for i in range(30)))
     return {
         "analyze": ["analyze", str(TABLE), "--out", str(tmp_path / "analysis"), "--bootstrap", "50"],
         "bench": ["bench", "--only", "model", "--repeats", "1", "--baseline-repeats", "1"],
         "compare": ["compare", str(TABLE), str(TABLE), "--resamples", "0", "--out", str(tmp_path / "compare"),
                     "--formats", "png"],
+        "habits": ["habits", str(log)],
         "plot-population": ["plot-population", "smoke", "--participants", "1", "--formats", "png", "--out",
                             str(tmp_path / "population")],
         "power": ["power", "smoke", "--participants", "2,3", "-R", "1", "--out", str(tmp_path / "power")],
@@ -451,7 +456,8 @@ def test_an_unwritable_out_is_refused_before_computing(tmp_path, monkeypatch, co
     blocker.write_text("not a folder")
     out = str(blocker / "out")  # cannot be made, even by root
     args = {"compare": ["compare", str(TABLE), str(TABLE), "--out", out],
-            "plot-population": ["plot-population", "smoke", "--participants", "1", "--out", out]}[command]
+            "habits": ["habits", str(log)],
+        "plot-population": ["plot-population", "smoke", "--participants", "1", "--out", out]}[command]
     result = invoke(args)
     assert result.exit_code == 1 and out in one_error_line(result.output)
     assert result.stdout == ""  # nothing computed, nothing printed
