@@ -456,8 +456,7 @@ def test_an_unwritable_out_is_refused_before_computing(tmp_path, monkeypatch, co
     blocker.write_text("not a folder")
     out = str(blocker / "out")  # cannot be made, even by root
     args = {"compare": ["compare", str(TABLE), str(TABLE), "--out", out],
-            "habits": ["habits", str(log)],
-        "plot-population": ["plot-population", "smoke", "--participants", "1", "--out", out]}[command]
+            "plot-population": ["plot-population", "smoke", "--participants", "1", "--out", out]}[command]
     result = invoke(args)
     assert result.exit_code == 1 and out in one_error_line(result.output)
     assert result.stdout == ""  # nothing computed, nothing printed
