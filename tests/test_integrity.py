@@ -254,10 +254,10 @@ def test_a_sweep_run_twice_gives_the_same_files_and_salib_warns_nothing(tmp_path
             assert (first / name).read_bytes() == (second / name).read_bytes(), name
 
 
-def test_the_readme_sweep_file_example_loads(tmp_path):
+def test_the_docs_sweep_file_example_loads(tmp_path):
     from nudgecli.sim.sweep import load_sweep
 
-    readme = (ROOT / "README.md").read_text()
+    readme = (ROOT / "docs" / "batches.md").read_text()
     start = readme.index("A sweep file:")
     block = readme[readme.index("```toml\n", start) + len("```toml\n"):]
     block = block[:block.index("```")]
