@@ -494,7 +494,7 @@ def figure_cli_startup(options: BenchOptions) -> dict[str, Any]:
 
 #: The modules a worker of each executor imports before its first task (process-pool workers are
 #: forked and inherit them; dask and spawned workers import them).
-WORKER_MODULES = {"study": "nudgecli.sim.study", "batch": "nudgecli.sim.batch"}
+WORKER_MODULES = {"study": "nudgecli.sim.study", "batch": "nudgecli.runs.batch"}
 
 
 def figure_worker_ready(options: BenchOptions) -> dict[str, Any]:
@@ -572,7 +572,7 @@ def _scale_batch(workload: str, options: BenchOptions) -> Any:
     """The batch of a scale workload: one ``paper`` study of ``scale_participants`` participants
     (``study``), or ``scale_studies`` replications of ``smoke`` (``sweep``: many small studies)."""
     from nudgecli.report.plans import load_plan
-    from nudgecli.sim.batch import Batch, single_point
+    from nudgecli.runs.batch import Batch, single_point
 
     if workload == "study":
         config = load_experiment(options.study_experiment)
@@ -602,7 +602,7 @@ def _children_cpu_s() -> float:
 def _time_batch(workload: str, options: BenchOptions, workers: int = 1,
                 scheduler: str | None = None) -> float:
     """Wall seconds of the workload (the largest worker's peak memory goes to ``_SCALE_PEAKS``)."""
-    from nudgecli.sim.batch import run_batch
+    from nudgecli.runs.batch import run_batch
 
     batch = _scale_batch(workload, options)
     folder = Path(tempfile.mkdtemp(prefix="nudge-bench-scale-"))
@@ -693,7 +693,7 @@ def scale_dask_figure(workload: str) -> Figure:
 
 
 def _import_batch() -> None:
-    import nudgecli.sim.batch  # noqa: F401
+    import nudgecli.runs.batch  # noqa: F401
 
 
 def scale_figures() -> list[Figure]:

@@ -253,7 +253,7 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
               plan: str | None = None, command: str = "simulate", confirm: bool = False) -> Any:
 
     from nudgecli.config import load_experiment
-    from nudgecli.sim.study import run_study
+    from nudgecli.runs.study import run_study
     from nudgecli.store import default_run_dir
 
     config = load_experiment(experiment, overrides)
@@ -277,7 +277,7 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
 
 
 def _print_study_summary(run: Any) -> None:
-    from nudgecli.sim.study import success_by_condition
+    from nudgecli.runs.study import success_by_condition
 
     table = success_by_condition(run.trials)
     click.echo(f"{len(run.trials)} trials, {run.participants} participants "
@@ -476,8 +476,8 @@ def plot_population_command(experiment: str, participants: int, seed: int | None
     from nudgecli.config import load_experiment
     from nudgecli.report.plotting import parse_formats
     from nudgecli.report.population_figure import plot_population
+    from nudgecli.runs.size import MAX_CALIBRATIONS_WITHOUT_YES, check_size
     from nudgecli.sim.real_population import coverage_table, simulated_diagonals, simulated_habits
-    from nudgecli.sim.size import MAX_CALIBRATIONS_WITHOUT_YES, check_size
     from nudgecli.store import check_writable, write_text_atomic
 
     check_size(participants, yes, limit=MAX_CALIBRATIONS_WITHOUT_YES,
@@ -635,7 +635,7 @@ def _batch_options(func: Any) -> Any:
 
 def _run_batch_command(label: str, run: Any, out: str | None, default_name: str, output_format: str,
                        **kwargs: Any) -> None:
-    from nudgecli.sim.executors import Progress
+    from nudgecli.runs.executors import Progress
     from nudgecli.store import default_run_dir
 
     target = Path(out) if out else default_run_dir(default_name)
@@ -693,7 +693,7 @@ def _batch_interrupt_hint(target: Path, command: str) -> Callable[[], str]:
     """What to say after Ctrl-C of a batch into ``target``."""
 
     def hint() -> str:
-        from nudgecli.sim.batch import BATCH_MANIFEST
+        from nudgecli.runs.batch import BATCH_MANIFEST
 
         if (target / BATCH_MANIFEST).is_file():
             return f"{target} keeps its finished tasks; resume with: {command}"
@@ -721,7 +721,7 @@ def replicate_command(experiment: str, replications: int, seed: int | None, plan
                       scheduler: str | None, resume: bool, force: bool, yes: bool,
                       output_format: str) -> None:
     """R independent studies of EXPERIMENT: how often each difference is significant, the pooled effect."""
-    from nudgecli.sim.batch import replicate
+    from nudgecli.runs.batch import replicate
 
     _run_batch_command("replicate", replicate, out, f"{_experiment_name(experiment)}-replicate",
                        output_format,
@@ -752,7 +752,7 @@ def power_command(experiment: str, counts: str, replications: int, seed: int | N
                   overrides: tuple[str, ...], out: str | None, workers: int, scheduler: str | None,
                   resume: bool, force: bool, yes: bool, output_format: str) -> None:
     """Power curves: the chance of a significant difference in the paper's direction per participant count."""
-    from nudgecli.sim.batch import power
+    from nudgecli.runs.batch import power
 
     _run_batch_command("power", power, out, f"{_experiment_name(experiment)}-power", output_format,
                        experiment=experiment, participant_counts=_counts(counts), replications=replications,
@@ -768,7 +768,7 @@ def power_command(experiment: str, counts: str, replications: int, seed: int | N
 def sweep_command(sweep_file: str, replications: int | None, seed: int | None, out: str | None, workers: int,
                   scheduler: str | None, resume: bool, force: bool, yes: bool, output_format: str) -> None:
     """Run a sweep file (grid, Sobol or Morris design over experiment keys); see the README for the format."""
-    from nudgecli.sim.batch import sweep
+    from nudgecli.runs.batch import sweep
 
     _run_batch_command("sweep", sweep, out, f"{_experiment_name(sweep_file)}-sweep", output_format,
                        sweep_file=sweep_file, replications=replications, seed=seed, workers=workers,
@@ -815,8 +815,8 @@ def validate_command(simulations: int, min_goals: int, max_goals: int, states: i
     import time
     from dataclasses import replace
 
+    from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size
     from nudgecli.sim import validation
-    from nudgecli.sim.size import MAX_QUERIES_WITHOUT_YES, check_size
 
     if all_readings and reading != "dirichlet":
         raise click.UsageError("--reading and --all-readings exclude each other")

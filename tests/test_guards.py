@@ -30,10 +30,10 @@ from click.testing import CliRunner
 
 from nudgecli import store
 from nudgecli.cli import main
-from nudgecli.sim import batch as batch_module
+from nudgecli.runs import batch as batch_module
+from nudgecli.runs.batch import Batch, Point, build_graph, estimate, estimate_batch, single_point
+from nudgecli.runs.size import MAX_TRIALS_WITHOUT_YES, trials_per_participant
 from nudgecli.sim import study as study_module
-from nudgecli.sim.batch import Batch, Point, build_graph, estimate, estimate_batch, single_point
-from nudgecli.sim.size import MAX_TRIALS_WITHOUT_YES, trials_per_participant
 from nudgecli.store import LOCK, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -318,7 +318,7 @@ def test_a_huge_sweep_is_refused_before_any_work(tmp_path, monkeypatch):
 
 
 def test_simulate_above_the_limit_runs_with_yes(tmp_path, monkeypatch):
-    monkeypatch.setattr("nudgecli.sim.size.MAX_TRIALS_WITHOUT_YES", 10)
+    monkeypatch.setattr("nudgecli.runs.size.MAX_TRIALS_WITHOUT_YES", 10)
     out = tmp_path / "run"
     refused = invoke(["simulate", "smoke", "--participants", "2", "--out", str(out)])
     assert refused.exit_code == 1 and "16 trials" in refused.output and not out.exists()
@@ -487,7 +487,7 @@ def test_fit_writes_a_profile_named_with_255_bytes(tmp_path, analysed_run):
 
 
 def test_aborting_the_process_pool_does_not_wait_for_a_running_task():
-    from nudgecli.sim.executors import Job, ProcessExecutor
+    from nudgecli.runs.executors import Job, ProcessExecutor
 
     executor = ProcessExecutor(1)
     executor.submit(Job("slow", time.sleep, (30,), affinity="a"))
@@ -500,7 +500,7 @@ def test_aborting_the_process_pool_does_not_wait_for_a_running_task():
 
 
 def test_ctrl_c_of_a_large_simulation_resumes_with_yes(tmp_path, monkeypatch):
-    monkeypatch.setattr("nudgecli.sim.size.MAX_TRIALS_WITHOUT_YES", 10)
+    monkeypatch.setattr("nudgecli.runs.size.MAX_TRIALS_WITHOUT_YES", 10)
     out = tmp_path / "run"
     original = store.RunFolder.write_participant_parts
     calls = []

@@ -16,8 +16,8 @@ from pydantic import ValidationError
 
 from nudgecli.cli import main
 from nudgecli.config import ExperimentConfig, format_validation_error, load_experiment
+from nudgecli.runs.study import run_study
 from nudgecli.sim.calibration import fit_calibration_dir
-from nudgecli.sim.study import run_study
 
 PEOPLE_DOC = Path(__file__).resolve().parents[1] / "docs" / "people.md"  # the physiology-log example
 PILOT = Path(__file__).resolve().parents[2] / "shared" / "data" / "calibration" / "andrewtest"

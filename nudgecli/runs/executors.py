@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any, TextIO
 
-from nudgecli.sim.study import die_with_parent, process_context
+from nudgecli.runs.study import die_with_parent, process_context
 
 #: Plans (affinities) a worker is assumed to hold: the size of its plan cache.
 HELD_AFFINITIES = 4

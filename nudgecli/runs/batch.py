@@ -26,7 +26,7 @@ plan is sent to every worker (:func:`install_plan`) before its participant tasks
 Every result is written by this process as an atomic part file (``tasks/``, ``analyses/``), so
 ``--resume`` finishes an interrupted batch without recomputing a finished task, and the tables
 assembled from the parts are the same for any executor and number of workers. The executors
-themselves are in :mod:`nudgecli.sim.executors`.
+themselves are in :mod:`nudgecli.runs.executors`.
 """
 
 from __future__ import annotations
@@ -53,18 +53,10 @@ from nudgecli.report.metrics import trial_metrics
 from nudgecli.report.plans import AnalysisPlan
 from nudgecli.report.replication import analyse_replication
 from nudgecli.rng import seed_sequence
-from nudgecli.sim.executors import HELD_AFFINITIES, Executor, Job, format_duration, make_executor
-from nudgecli.sim.size import check_size, trials_per_participant
-from nudgecli.sim.study import (
-    StudyPlan,
-    build_layouts,
-    check_physiology_logs,
-    connect_scheduler,
-    layout_chunks,
-    simulate_participant,
-    solve_layout_chunk,
-    tune_allocator,
-)
+from nudgecli.runs.executors import HELD_AFFINITIES, Executor, Job, format_duration, make_executor
+from nudgecli.runs.size import check_size, trials_per_participant
+from nudgecli.runs.study import connect_scheduler, layout_chunks, solve_layout_chunk, tune_allocator
+from nudgecli.sim.study import StudyPlan, build_layouts, check_physiology_logs, simulate_participant
 from nudgecli.store import LOCK, library_versions, run_lock, utc_now, write_json_atomic, write_parquet_atomic
 
 BATCH_MANIFEST = "batch.json"
@@ -464,7 +456,7 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     resume, force
         Finish the batch already in ``out`` / replace it.
     confirm
-        Run a batch above :data:`nudgecli.sim.size.MAX_TRIALS_WITHOUT_YES` trials (``--yes``).
+        Run a batch above :data:`nudgecli.runs.size.MAX_TRIALS_WITHOUT_YES` trials (``--yes``).
     progress
         Called with (tasks done, tasks in all) after every task.
     log
@@ -814,7 +806,7 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
         sensitivity,
         summarise,
     )
-    from nudgecli.sim.sweep import load_sweep
+    from nudgecli.runs.sweep import load_sweep
 
     loaded = load_sweep(sweep_file)
     spec = loaded.spec
