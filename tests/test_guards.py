@@ -31,9 +31,9 @@ from click.testing import CliRunner
 from nudgecli import store
 from nudgecli.cli import main
 from nudgecli.runs import batch as batch_module
+from nudgecli.runs import study as study_module
 from nudgecli.runs.batch import Batch, Point, build_graph, estimate, estimate_batch, single_point
 from nudgecli.runs.size import MAX_TRIALS_WITHOUT_YES, trials_per_participant
-from nudgecli.sim import study as study_module
 from nudgecli.store import LOCK, write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -296,6 +296,7 @@ def test_a_huge_command_is_refused_before_any_work(tmp_path, monkeypatch, args, 
 
     for module, name in ((batch_module, "build_graph"), (batch_module, "check_physiology_logs"),
                          (study_module.StudyPlan, "build"), (study_module, "check_physiology_logs"),
+                         (study_module, "build_plan_on"),
                          (real_population, "simulated_diagonals"), (validation, "run_validation"),
                          (analysis, "analyze"), (compare, "compare_sources")):
         monkeypatch.setattr(module, name, _never)
