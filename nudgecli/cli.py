@@ -893,5 +893,26 @@ def study_command(experiment: str, participant_id: str, port: int, out: str | No
         sys.exit(130)  # interrupted (Ctrl-C) before the participant finished
 
 
+def entry_point() -> None:
+    """The ``nudge`` program: :data:`main`, and after Ctrl-C a prompt exit.
+
+    After Ctrl-C the run folder is already marked and the resume command printed; what is left
+    is the interpreter's shutdown, which joins a process pool's management thread, and that
+    thread can wait for ever on a queue whose worker was just stopped (CPython 3.11). So an
+    interrupted command leaves at once (``os._exit``, streams flushed first).
+    """
+    import os
+
+    try:
+        main()
+    except SystemExit as exc:
+        if exc.code == EXIT_INTERRUPTED:
+            for stream in (sys.stdout, sys.stderr):
+                with contextlib.suppress(Exception):
+                    stream.flush()
+            os._exit(EXIT_INTERRUPTED)
+        raise
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    entry_point()
