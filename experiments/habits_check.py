@@ -24,7 +24,7 @@ from nudgecli.config import load_experiment
 from nudgecli.reference import packaged_reference
 from nudgecli.report.habit_cells import run_folder_cells
 from nudgecli.report.habits import measure_habits, summarise_habits
-from nudgecli.sim.study import run_study
+from nudgecli.runs.study import run_study
 
 #: The habits of issue 19's table, the targets.
 TARGET_HABITS = ("first_command_latency", "pause_between_blows", "hard_blow_whole", "hard_band_per_excursion",

@@ -8,7 +8,9 @@ says how to resume.
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
 import shlex
 import sys
 from collections.abc import Callable
@@ -63,7 +65,27 @@ class NudgeGroup(click.Group):
 @click.pass_context
 def main(ctx: click.Context, debug: bool) -> None:
     """Simulate and analyse assistive shared-control studies (sip-and-puff intent disambiguation)."""
+    ensure_stderr()
     ctx.meta["nudge.debug"] = debug
+
+
+def ensure_stderr() -> None:
+    """Give the process a stderr when it was started without one (``2>&-``).
+
+    Without it, logs and progress have nowhere to go (Python sets ``sys.stderr`` to None and the
+    first progress line raises), and worse, the next file opened would get descriptor 2, so a
+    library or worker writing to "stderr" would write into that file. Descriptor 2 becomes
+    ``/dev/null`` instead: the command works and says nothing on stderr.
+    """
+    try:
+        os.fstat(2)
+    except OSError:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        if devnull != 2:
+            os.dup2(devnull, 2)
+            os.close(devnull)
+    if sys.stderr is None:
+        sys.stderr = open(2, "w", buffering=1, errors="backslashreplace", closefd=False)  # noqa: SIM115
 
 
 def echo_json(data: Any) -> None:
@@ -174,6 +196,7 @@ def fit_command(calibration_dir: str, out: str | None, variant: str) -> None:
 # --- simulate / run ------------------------------------------------------------------------
 
 _SET_HELP = "Override one experiment field, e.g. --set disambiguation.window=5 (repeatable)."
+_YES_HELP = "Simulate more trials than the size limit allows without asking (see the README)."
 
 
 def _progress_bar(label: str, unit: str = "trial") -> tuple[Any, Any]:
@@ -191,9 +214,12 @@ def _progress_bar(label: str, unit: str = "trial") -> tuple[Any, Any]:
 
 
 def resume_command(experiment: str, target: Path, seed: int | None, participants: int | None, workers: int,
-                   overrides: tuple[str, ...], command: str = "simulate") -> str:
-    """The exact command line that resumes an interrupted ``nudge simulate`` (or ``run``) into ``target``."""
+                   overrides: tuple[str, ...], command: str = "simulate", confirm: bool = False) -> str:
+    """The exact command line that resumes an interrupted ``nudge simulate`` (or ``run``) into ``target``
+    (with ``--yes`` when the study is above the size limit and ``confirm`` let it run)."""
     parts = ["nudge", command, experiment, "--out", str(target)]
+    if confirm:
+        parts += ["--yes"]
     if seed is not None:
         parts += ["--seed", str(seed)]
     if participants is not None:
@@ -224,22 +250,24 @@ def _interrupt_hint(target: Path, commands: list[str]) -> Callable[[], str]:
 
 def _simulate(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
               scheduler: str | None, resume: bool, force: bool, overrides: tuple[str, ...],
-              plan: str | None = None, command: str = "simulate") -> Any:
+              plan: str | None = None, command: str = "simulate", confirm: bool = False) -> Any:
 
     from nudgecli.config import load_experiment
-    from nudgecli.sim.study import run_study
+    from nudgecli.runs.study import run_study
     from nudgecli.store import default_run_dir
 
     config = load_experiment(experiment, overrides)
     target = Path(out) if out else default_run_dir(config.experiment.name)
-    commands = [resume_command(experiment, target, seed, participants, workers, overrides)]
+    commands = [resume_command(experiment, target, seed, participants, workers, overrides, confirm=confirm)]
     if command != "simulate":
-        commands.append(resume_command(experiment, target, seed, participants, workers, overrides, command))
+        commands.append(resume_command(experiment, target, seed, participants, workers, overrides, command,
+                                       confirm))
     click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, commands)
     bar, update = _progress_bar("simulating")
     try:
         return run_study(config, target, seed=seed, participants=participants, workers=workers,
-                         scheduler=scheduler, resume=resume, force=force, progress=update, plan=plan)
+                         scheduler=scheduler, resume=resume, force=force, progress=update, plan=plan,
+                         confirm=confirm)
     except BaseException:
         if not out and target.is_dir() and not any(target.iterdir()):
             target.rmdir()  # the default folder made for this run, still empty: leave nothing behind
@@ -249,7 +277,7 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
 
 
 def _print_study_summary(run: Any) -> None:
-    from nudgecli.sim.study import success_by_condition
+    from nudgecli.runs.study import success_by_condition
 
     table = success_by_condition(run.trials)
     click.echo(f"{len(run.trials)} trials, {run.participants} participants "
@@ -268,12 +296,14 @@ def _print_study_summary(run: Any) -> None:
               help="dask.distributed scheduler address (or DASK_SCHEDULER_ADDRESS); needs nudgecli[cluster].")
 @click.option("--resume", is_flag=True, help="Finish an interrupted run in --out (same experiment and seed).")
 @click.option("--force", is_flag=True, help="Replace a run that already is in --out.")
+@click.option("--yes", is_flag=True, help=_YES_HELP)
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
 def simulate_command(experiment: str, out: str | None, seed: int | None, participants: int | None,
-                     workers: int, scheduler: str | None, resume: bool, force: bool,
+                     workers: int, scheduler: str | None, resume: bool, force: bool, yes: bool,
                      overrides: tuple[str, ...]) -> None:
     """Simulate a study: EXPERIMENT is a preset (paper, study-code, smoke) or a TOML file."""
-    run = _simulate(experiment, out, seed, participants, workers, scheduler, resume, force, overrides)
+    run = _simulate(experiment, out, seed, participants, workers, scheduler, resume, force, overrides,
+                    confirm=yes)
     _print_study_summary(run)
     click.echo(f"Run folder: {run.path}", err=True)
     click.echo(str(run.path))
@@ -307,7 +337,9 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
                     bootstrap: int | None, drop_duplicates: bool) -> None:
     """Metrics and statistics of a run folder or a metrics table (CSV/Parquet, one row per trial)."""
     from nudgecli.report.analysis import analyze, format_table
+    from nudgecli.report.plans import check_resamples
 
+    check_resamples(bootstrap, "--bootstrap")
     bar, update = _progress_bar("analysing", unit="metric")
     try:
         result = analyze(source, plan=plan, out=out, metrics=list(metric_names) or None,
@@ -346,27 +378,35 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
     trajectory for a run; questionnaires where analysed. stats.json must match the metrics.
     """
     from nudgecli.report.plans import load_plan
-    from nudgecli.report.plotting import parse_formats, parse_trial, plot_folder
+    from nudgecli.report.plotting import default_out, parse_formats, parse_trial, plot_folder
     from nudgecli.store import run_lock
 
     chosen, trial_key = parse_formats(formats), parse_trial(trial)
     analysis_plan = load_plan(plan or "paper")
-    with _lock_if_folder(run, run_lock):
-        if plan is not None:
-            from nudgecli.report.analysis import analyze
+    if plan is not None:
+        from nudgecli.report.analysis import analyze
 
-            analyze(run, plan=analysis_plan)
-        written = plot_folder(run, out, chosen, trial_key, star_rule=analysis_plan.comparison_options(),
-                              item_labels=analysis_plan.questionnaires.labels)
+        analyze(run, plan=analysis_plan)  # takes the locks of what it writes
+    # lock only the folder written: the figures' folder given by --out (a read-only RUN is then
+    # only read), else the run or analysis folder that holds figures/ (which `analyze` locks)
+    written_folder: Path | None = None  # None: not a plottable source; plot_folder says why
+    if out is not None:
+        written_folder = Path(out)
+    elif Path(run).exists():
+        with contextlib.suppress(NudgeError):
+            written_folder = default_out(run).parent
+    made = written_folder is not None and not written_folder.exists()
+    try:
+        with run_lock(written_folder) if written_folder is not None else contextlib.nullcontext():
+            written = plot_folder(run, out, chosen, trial_key, star_rule=analysis_plan.comparison_options(),
+                                  item_labels=analysis_plan.questionnaires.labels)
+    except BaseException:
+        if made and written_folder is not None and written_folder.is_dir() \
+                and not any(written_folder.iterdir()):
+            written_folder.rmdir()  # made only to hold the lock: a failed plot leaves nothing behind
+        raise
     for path in written:
         click.echo(str(path))
-
-
-def _lock_if_folder(path: str, run_lock: Any) -> Any:
-    """The run folder's lock when ``path`` is an existing folder, else nothing to hold."""
-    import contextlib
-
-    return run_lock(path) if Path(path).is_dir() else contextlib.nullcontext()
 
 
 # --- run -----------------------------------------------------------------------------------
@@ -382,9 +422,10 @@ def _lock_if_folder(path: str, run_lock: Any) -> Any:
               help="Analysis plan [default: the plan named like the experiment, else paper].")
 @click.option("--resume", is_flag=True, help="Finish an interrupted run in --out.")
 @click.option("--force", is_flag=True, help="Replace a run that already is in --out.")
+@click.option("--yes", is_flag=True, help=_YES_HELP)
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
 def run_command(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
-                plan: str | None, resume: bool, force: bool, overrides: tuple[str, ...]) -> None:
+                plan: str | None, resume: bool, force: bool, yes: bool, overrides: tuple[str, ...]) -> None:
     """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
     from nudgecli.config import default_plan_name
     from nudgecli.report.analysis import analyze, format_table
@@ -394,7 +435,7 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
     if plan is not None and Path(plan).suffix.lower() == ".toml":
         plan = str(Path(plan).resolve())
     run = _simulate(experiment, out, seed, participants, workers, None, resume, force, overrides,
-                    plan=plan, command="run")
+                    plan=plan, command="run", confirm=yes)
     _print_study_summary(run)
     chosen_plan = plan or default_plan_name(run.experiment)
     info(f"analysing with the {chosen_plan!r} plan")
@@ -424,20 +465,26 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
 @click.option("--formats", default="png,pdf", show_default=True, help="Figure formats: png, pdf, svg.")
 @click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="What to print on stdout: the coverage table.")
+@click.option("--yes", is_flag=True,
+              help="Calibrate more participants than the size limit allows without asking.")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
 def plot_population_command(experiment: str, participants: int, seed: int | None, out: str, formats: str,
-                            output_format: str, overrides: tuple[str, ...]) -> None:
+                            output_format: str, yes: bool, overrides: tuple[str, ...]) -> None:
     """Calibrate EXPERIMENT's simulated participants and draw their fitted p(phi_m | phi_i) diagonals
     beside the real people's (pilots: fixed 10 Hz stream; sibling study: event-driven stream), and
     their drawn timing habits beside the ten real users' ranges (HABITS.md)."""
     from nudgecli.config import load_experiment
     from nudgecli.report.plotting import parse_formats
     from nudgecli.report.population_figure import plot_population
+    from nudgecli.runs.size import MAX_CALIBRATIONS_WITHOUT_YES, check_size
     from nudgecli.sim.real_population import coverage_table, simulated_diagonals, simulated_habits
-    from nudgecli.store import write_text_atomic
+    from nudgecli.store import check_writable, write_text_atomic
 
+    check_size(participants, yes, limit=MAX_CALIBRATIONS_WITHOUT_YES,
+               work="calibrate {} simulated participants", fix="fewer --participants")
     chosen = parse_formats(formats)
     config = load_experiment(experiment, overrides)
+    check_writable(out)  # before the calibrations, which take a while
     master = config.experiment.seed if seed is None else seed
     diagonals = simulated_diagonals(config, participants, master)
     habits = simulated_habits(config, participants, master)
@@ -533,10 +580,16 @@ def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[st
     with cluster-bootstrap intervals.
     """
     from nudgecli.report.compare import CompareOptions, compare_sources, format_comparison, write_comparison
+    from nudgecli.report.plans import check_resamples
     from nudgecli.report.plotting import parse_formats
 
     chosen_formats = parse_formats(formats)
     notes: list[str] = []
+    check_resamples(resamples, "--resamples")
+    if out is not None:
+        from nudgecli.store import check_writable
+
+        check_writable(out)  # before the bootstrap, which takes a while
     result = compare_sources(simulated, real, plan=plan, metrics=list(metric_names) or None,
                              condition_map=_parse_matches(matches),
                              options=CompareOptions(resamples=resamples, level=level, seed=seed),
@@ -582,11 +635,18 @@ def _batch_options(func: Any) -> Any:
 
 def _run_batch_command(label: str, run: Any, out: str | None, default_name: str, output_format: str,
                        **kwargs: Any) -> None:
-    from nudgecli.sim.executors import Progress
+    from nudgecli.runs.executors import Progress
     from nudgecli.store import default_run_dir
 
     target = Path(out) if out else default_run_dir(default_name)
-    result = run(out=target, progress=Progress(label), log=info, **kwargs)
+    ctx = click.get_current_context()
+    ctx.meta[INTERRUPT_HINT] = _batch_interrupt_hint(target, rerun_command(ctx, target))
+    try:
+        result = run(out=target, progress=Progress(label), log=info, **kwargs)
+    except BaseException:
+        if not out and target.is_dir() and not any(target.iterdir()):
+            target.rmdir()  # the default folder made for this batch, still empty: leave nothing behind
+        raise
     table = result.summary
     if output_format == "json":
         echo_json(json.loads(table.to_json(orient="records")))
@@ -595,7 +655,51 @@ def _run_batch_command(label: str, run: Any, out: str | None, default_name: str,
     else:
         click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
     info(f"Batch folder: {result.run.path} ({result.run.computed} tasks computed now)")
-    click.echo(str(result.run.path))
+    if output_format == "table":  # under json/csv stdout is the document alone (the folder is on stderr)
+        click.echo(str(result.run.path))
+
+
+def rerun_command(ctx: click.Context, target: Path) -> str:
+    """The command line that resumes the interrupted command of ``ctx`` into ``target``: its
+    arguments and the options given on the command line, ``--out target`` and ``--resume``
+    (``--force`` dropped: it would delete what was finished)."""
+    from click.core import ParameterSource
+
+    arguments: list[str] = []
+    options: list[str] = []
+    for param in ctx.command.params:
+        name = param.name or ""
+        value = ctx.params.get(name)
+        if isinstance(param, click.Argument):
+            arguments.append(str(value))
+            continue
+        given = ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE
+        if name in ("out", "resume", "force") or not given:
+            continue
+        flag = max(param.opts, key=len)  # the long name: --replications, not -R
+        if getattr(param, "is_flag", False):
+            options += [flag] if value else []
+        elif getattr(param, "multiple", False):
+            for item in value or ():
+                options += [flag, str(item)]
+        else:
+            options += [flag, str(value)]
+    parts = ["nudge", ctx.info_name or ctx.command.name or "", *arguments, *options, "--out", str(target),
+             "--resume"]
+    return " ".join(shlex.quote(p) for p in parts)
+
+
+def _batch_interrupt_hint(target: Path, command: str) -> Callable[[], str]:
+    """What to say after Ctrl-C of a batch into ``target``."""
+
+    def hint() -> str:
+        from nudgecli.runs.batch import BATCH_MANIFEST
+
+        if (target / BATCH_MANIFEST).is_file():
+            return f"{target} keeps its finished tasks; resume with: {command}"
+        return "nothing was computed yet; run the command again"
+
+    return hint
 
 
 def _experiment_name(experiment: str) -> str:
@@ -617,7 +721,7 @@ def replicate_command(experiment: str, replications: int, seed: int | None, plan
                       scheduler: str | None, resume: bool, force: bool, yes: bool,
                       output_format: str) -> None:
     """R independent studies of EXPERIMENT: how often each difference is significant, the pooled effect."""
-    from nudgecli.sim.batch import replicate
+    from nudgecli.runs.batch import replicate
 
     _run_batch_command("replicate", replicate, out, f"{_experiment_name(experiment)}-replicate",
                        output_format,
@@ -648,7 +752,7 @@ def power_command(experiment: str, counts: str, replications: int, seed: int | N
                   overrides: tuple[str, ...], out: str | None, workers: int, scheduler: str | None,
                   resume: bool, force: bool, yes: bool, output_format: str) -> None:
     """Power curves: the chance of a significant difference in the paper's direction per participant count."""
-    from nudgecli.sim.batch import power
+    from nudgecli.runs.batch import power
 
     _run_batch_command("power", power, out, f"{_experiment_name(experiment)}-power", output_format,
                        experiment=experiment, participant_counts=_counts(counts), replications=replications,
@@ -664,7 +768,7 @@ def power_command(experiment: str, counts: str, replications: int, seed: int | N
 def sweep_command(sweep_file: str, replications: int | None, seed: int | None, out: str | None, workers: int,
                   scheduler: str | None, resume: bool, force: bool, yes: bool, output_format: str) -> None:
     """Run a sweep file (grid, Sobol or Morris design over experiment keys); see the README for the format."""
-    from nudgecli.sim.batch import sweep
+    from nudgecli.runs.batch import sweep
 
     _run_batch_command("sweep", sweep, out, f"{_experiment_name(sweep_file)}-sweep", output_format,
                        sweep_file=sweep_file, replications=replications, seed=seed, workers=workers,
@@ -703,13 +807,15 @@ def _validation_readings() -> list[str]:
                    "(readings.json with --all-readings).")
 @click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
               show_default=True, help="What to print on stdout.")
+@click.option("--yes", is_flag=True, help="Run more queries than the size limit allows without asking.")
 def validate_command(simulations: int, min_goals: int, max_goals: int, states: int, seed: int,
                      belief_concentration: float, mc_queries: int, reading: str, all_readings: bool,
-                     out: str | None, output_format: str) -> None:
+                     out: str | None, output_format: str, yes: bool) -> None:
     """The paper's simulation-based validation of D(s): its argmax vs a one-step ground truth."""
     import time
     from dataclasses import replace
 
+    from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size
     from nudgecli.sim import validation
 
     if all_readings and reading != "dirichlet":
@@ -720,6 +826,8 @@ def validate_command(simulations: int, min_goals: int, max_goals: int, states: i
     names = list(validation.READINGS) if all_readings else [reading]
     for name in names:
         replace(settings, reading=name).check()
+    check_size(simulations * states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
+               work="run {} queries (worlds x states x readings)", fix="fewer --simulations or --states")
     if out is not None:
         validation.prepare_out(out)
     start = time.perf_counter()
@@ -785,5 +893,26 @@ def study_command(experiment: str, participant_id: str, port: int, out: str | No
         sys.exit(130)  # interrupted (Ctrl-C) before the participant finished
 
 
+def entry_point() -> None:
+    """The ``nudge`` program: :data:`main`, and after Ctrl-C a prompt exit.
+
+    After Ctrl-C the run folder is already marked and the resume command printed; what is left
+    is the interpreter's shutdown, which joins a process pool's management thread, and that
+    thread can wait for ever on a queue whose worker was just stopped (CPython 3.11). So an
+    interrupted command leaves at once (``os._exit``, streams flushed first).
+    """
+    import os
+
+    try:
+        main()
+    except SystemExit as exc:
+        if exc.code == EXIT_INTERRUPTED:
+            for stream in (sys.stdout, sys.stderr):
+                with contextlib.suppress(Exception):
+                    stream.flush()
+            os._exit(EXIT_INTERRUPTED)
+        raise
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    entry_point()

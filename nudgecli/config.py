@@ -8,6 +8,7 @@ fail with a "did you mean", and values are range-checked. Precedence: command-li
 
 from __future__ import annotations
 
+import json
 import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -757,9 +758,23 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
         return f"{source}: unknown key {where!r}{hint or '; known keys: ' + ', '.join(names)}"
     message = first["msg"].removeprefix("Value error, ")
     value = first.get("input")
-    shown = "" if isinstance(value, dict) else f" (got {plain(value)!r})"
+    if first["type"] in ("tuple_type", "list_type"):  # TOML has lists; "tuple" is pydantic's word
+        message = "should be a list, e.g. [0.5, 1.0]"
+    elif first["type"] == "missing" and loc and isinstance(loc[-1], int):
+        where = ".".join(str(p) for p in loc[:-1])  # "rest_s.1: Field required": a value too few
+        message = "too few values"
+    shown = "" if isinstance(value, dict) else f" (got {as_written(value)})"
     more = f" (and {len(exc.errors()) - 1} more problem(s))" if len(exc.errors()) > 1 else ""
     return f"{source}: {where + ': ' if where else ''}{message}{shown}{more}"
+
+
+def as_written(value: Any) -> str:
+    """``value`` as a user writes it in TOML or ``--set``: ``150.0``, ``"abc"``, ``[0.5, 1.0]``,
+    ``true`` (JSON's spelling, which TOML shares for these), not ``np.float64(150.0)`` or ``True``."""
+    try:
+        return json.dumps(plain(value), ensure_ascii=False)
+    except (TypeError, ValueError):  # not JSON (e.g. a date): Python's spelling is the best there is
+        return repr(plain(value))
 
 
 def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = ()) -> ExperimentConfig:

@@ -80,7 +80,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     target = Path(path)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+        fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(target), suffix=".tmp", dir=target.parent)
         os.close(fd)
     except OSError as exc:
         raise write_error(target, exc) from exc
@@ -96,6 +96,28 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     finally:
         with contextlib.suppress(OSError):
             tmp_path.unlink(missing_ok=True)
+
+
+#: Characters ``tempfile.mkstemp`` puts between the prefix and the suffix.
+_RANDOM_CHARACTERS = 8
+#: The longest file name when the file system does not say (``NAME_MAX`` of ext4, APFS, NTFS).
+_NAME_MAX = 255
+
+
+def temporary_prefix(target: Path) -> str:
+    """The prefix of ``target``'s temporary name: ``.<name>.``, its name cut so that the whole
+    temporary name (``.<name>.<8 random characters>.tmp``) fits the file system's limit.
+
+    A legal name of 255 bytes would otherwise give a temporary name too long to create. The cut
+    is made on a character boundary (UTF-8); temporaries are told apart by their random part.
+    """
+    try:
+        limit = os.pathconf(target.parent, "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):  # not POSIX, or the file system does not say
+        limit = _NAME_MAX
+    room = max(1, min(limit, _NAME_MAX) - len("..") - _RANDOM_CHARACTERS - len(".tmp"))
+    name = os.fsencode(target.name)[:room].decode("utf-8", errors="ignore")  # no half character
+    return f".{name}."
 
 
 def write_error(path: str | Path, exc: OSError) -> WriteError:

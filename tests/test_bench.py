@@ -75,21 +75,24 @@ def test_study_figures_on_the_smoke_preset(monkeypatch: pytest.MonkeyPatch, tmp_
                                  study_repeats=1)
     logged: list[str] = []
     rows = bench.run_bench(options, figures=bench.STUDY_FIGURES, progress=logged.append)
-    assert logged == ["bench: study_setup", "bench: trials", "bench: study"]
+    assert logged == ["bench: study_setup", "bench: trials", "bench: study", "bench: cli_startup",
+                      "bench: worker_ready"]
     for row in rows:
         _check_types(row)
-    setup, trials, study = rows
+    setup, trials, study, startup, worker = rows
     assert setup["what"] == "study setup: 8 layouts' value iteration"
     assert setup["baseline_s"] is None and setup["ratio"] is None and setup["peak_mb"] is None
     assert "(8 x 50 ms)" in setup["target"] and "'smoke' (seed 7)" in setup["note"]
     assert trials["what"] == "trials, simulated s per wall s"
     assert trials["baseline_s"] > 0
     assert trials["ratio"] == pytest.approx(trials["baseline_s"] / trials["time_s"])
-    assert trials["target"] == ">= 1,000x" and "8 trials" in trials["note"]
+    assert trials["target"] == ">= 1,000x; <= 3.50 ms per trial" and "8 trials" in trials["note"]
     assert study["what"] == "smoke-scale study (8 trials), 2 workers"
     assert study["baseline_s"] is None and study["ratio"] is None
     assert study["peak_mb"] is not None and study["peak_mb"] > 0
     assert "1 participants" in study["note"] and "upper bound" in study["note"]
+    assert startup["what"] == "nudge --help (start-up)" and startup["ok"] == (startup["time_s"] <= 0.3)
+    assert "nudgecli.sim.study" in worker["note"] and "nudgecli.runs.batch" in worker["note"]
     assert list(tmp_path.iterdir()) == []  # the study's temporary folder is removed
     assert json.loads(json.dumps(rows)) == rows
     table = bench.format_table(rows)
@@ -129,3 +132,19 @@ def test_the_analyze_figure_is_its_own_group_and_runs_on_a_small_table() -> None
     assert len(table) == 1000 and table.groupby(["participant", "condition"]).size().eq(50).all()
     row = bench.figure_analyze(bench.BenchOptions(analyze_rows=1000, analyze_participants=10))
     assert set(row) == set(bench.COLUMNS) and row["peak_mb"] > 0 and "1,000-row" in row["what"]
+
+
+def test_replicate_throughput_counts_every_trial_of_the_batch(monkeypatch: pytest.MonkeyPatch,
+                                                              tmp_path: Path) -> None:
+    # smoke: 2 participants x 2 conditions x 4 trials = 16 trials a study; 2 studies = 32 trials
+    monkeypatch.setattr(bench.tempfile, "tempdir", str(tmp_path))
+    options = bench.BenchOptions(throughput_experiment="smoke", throughput_replications=2, study_workers=1)
+    row = bench.figure_replicate_throughput(options)
+    _check_types(row)
+    assert row["what"] == "replicate smoke -R 2, 1 workers, end to end"
+    assert row["baseline_s"] == pytest.approx(32 / 1_000_000 * 3600)
+    per_hour = float(row["note"].split(" trials per hour")[0].replace(",", ""))
+    assert per_hour == pytest.approx(32 / row["time_s"] * 3600, rel=1e-3)
+    assert row["ok"] == (per_hour >= 1_000_000)
+    assert bench.figure_replicate_throughput in bench.select_figures("scale")
+    assert list(tmp_path.iterdir()) == []

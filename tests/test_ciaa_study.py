@@ -15,8 +15,8 @@ from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.report.analysis import analyze
 from nudgecli.report.metrics import trial_metrics
+from nudgecli.runs.study import run_study
 from nudgecli.sim.ciaa import packaged_task, subject_schedule
-from nudgecli.sim.study import run_study
 from nudgecli.store import RunFolder
 
 PARTICIPANTS = 3

@@ -51,3 +51,20 @@ def test_every_relative_link_resolves(page: Path) -> None:
         if not dest.exists() or (anchor and dest.suffix == ".md" and anchor not in anchors(dest)):
             broken.append(target)
     assert broken == [], f"{page.name}: links to nothing: {broken}"
+
+
+def test_the_readme_is_a_short_guide_that_points_to_every_page() -> None:
+    # issue 22: the README is a user guide (at most 20 KB) with a table of contents; the rest is docs/
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert len(text.encode()) <= 20_000
+    assert "## Contents" in text
+    linked = {Path(t.partition("#")[0]).name for t in relative_links(ROOT / "README.md")
+              if t.startswith("docs/")}
+    assert {p.name for p in (ROOT / "docs").glob("*.md")} <= linked
+
+
+@pytest.mark.parametrize("page", sorted((ROOT / "docs").glob("*.md")), ids=lambda p: p.name)
+def test_every_docs_page_opens_with_the_question_it_answers(page: Path) -> None:
+    lines = page.read_text(encoding="utf-8").splitlines()
+    assert lines[0].startswith("# ") and lines[1] == ""
+    assert lines[2].startswith("*") and lines[2].endswith("?*"), f"{page.name}: no opening question"

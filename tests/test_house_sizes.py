@@ -21,33 +21,29 @@ MODULE_LIMIT = 600
 #: Most lines a function may have, from its ``def`` line to its last line (decorators aside).
 FUNCTION_LIMIT = 80
 
-#: Files over a limit today that are being reworked in parallel under issue 22 (orchestration into
-#: runs/, the run folder's life in store.py, every default in config.py, the statistics and figure
-#: modules, live/): exempt by name, module and functions, whatever their sizes while that work
-#: lands (their sizes move with it). Once it has landed each leaves this list, or moves to the
-#: capped lists below at its size then.
-IN_REWORK: tuple[str, ...] = (
-    "nudgecli/bench.py",  # 711 lines
-    "nudgecli/cli.py",  # 789 lines
-    "nudgecli/config.py",  # 829 lines
-    "nudgecli/live/records.py",  # LiveFolder.open: 86 lines
-    "nudgecli/report/analysis.py",  # 900 lines; _analyze_locked: 87
-    "nudgecli/report/brackets.py",  # draw_brackets: 95 lines
-    "nudgecli/report/figures/boxplots.py",  # metric_boxplot: 104 lines
-    "nudgecli/report/stats.py",  # 679 lines
-    "nudgecli/sim/batch.py",  # 803 lines (main has moved it to nudgecli/runs/batch.py: rename on merge)
-    "nudgecli/sim/study.py",  # 669 lines
-    "nudgecli/store.py",  # 876 lines
-)
+#: Files over a limit today that are being reworked in parallel: exempt by name. Empty: every
+#: exception is capped below at its size.
+IN_REWORK: tuple[str, ...] = ()
 
-#: Other modules over :data:`MODULE_LIMIT` today -> their length now, a cap until they are split.
+#: Modules over :data:`MODULE_LIMIT` today -> their length now, a cap until they are split.
 ALLOWED_MODULES: dict[str, int] = {
-    # not split yet: TrialSession is one 385-line class
-    "nudgecli/sim/protocol.py": 680,
+    "nudgecli/bench.py": 802,  # the figures of every group; a package per group would do
+    "nudgecli/cli.py": 918,  # every command's options
+    "nudgecli/config.py": 844,  # the sections and their derivation notes
+    "nudgecli/report/analysis.py": 923,  # reading, checking, formatting and writing an analysis
+    "nudgecli/report/stats.py": 867,  # the paper's tests and the k-condition pairs
+    "nudgecli/runs/batch.py": 837,  # the batch graph, its execution and the three batch kinds
+    "nudgecli/sim/protocol.py": 680,  # TrialSession is one 385-line class
+    "nudgecli/store.py": 898,  # run folders, manifests, checksums, locks, atomic writes
 }
 
-#: Other functions over :data:`FUNCTION_LIMIT` (``module:qualified name``) -> their length, a cap.
-ALLOWED_FUNCTIONS: dict[str, int] = {}
+#: Functions over :data:`FUNCTION_LIMIT` (``module:qualified name``) -> their length, a cap.
+ALLOWED_FUNCTIONS: dict[str, int] = {
+    "nudgecli/report/analysis.py:_analyze_locked": 89,
+    "nudgecli/report/brackets.py:draw_brackets": 82,
+    "nudgecli/report/figures/boxplots.py:metric_boxplot": 104,
+    "nudgecli/runs/batch.py:_run_graph": 82,
+}
 
 
 def _functions(tree: ast.AST, prefix: str = "") -> list[tuple[str, int]]:

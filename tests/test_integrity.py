@@ -22,7 +22,7 @@ from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.errors import RunFolderError
 from nudgecli.report.analysis import analyze
-from nudgecli.sim.study import run_study
+from nudgecli.runs.study import run_study
 from nudgecli.store import RunFolder
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -254,10 +254,10 @@ def test_a_sweep_run_twice_gives_the_same_files_and_salib_warns_nothing(tmp_path
             assert (first / name).read_bytes() == (second / name).read_bytes(), name
 
 
-def test_the_readme_sweep_file_example_loads(tmp_path):
-    from nudgecli.sim.sweep import load_sweep
+def test_the_docs_sweep_file_example_loads(tmp_path):
+    from nudgecli.runs.sweep import load_sweep
 
-    readme = (ROOT / "README.md").read_text()
+    readme = (ROOT / "docs" / "batches.md").read_text()
     start = readme.index("A sweep file:")
     block = readme[readme.index("```toml\n", start) + len("```toml\n"):]
     block = block[:block.index("```")]
@@ -279,7 +279,7 @@ def _independent_replication_seed(master: int, replication: int) -> int:
 
 
 def test_replication_seeds_are_pinned():
-    from nudgecli.sim.batch import replication_seed
+    from nudgecli.runs.batch import replication_seed
 
     # known values: changing how replication r's seed is derived changes every batch's results
     assert [replication_seed(0, r) for r in range(3)] == [
@@ -291,7 +291,7 @@ def test_replication_seeds_are_pinned():
 
 
 def test_a_batch_runs_replication_r_with_its_pinned_seed(tmp_path):
-    from nudgecli.sim.batch import replicate
+    from nudgecli.runs.batch import replicate
 
     result = replicate("smoke", 2, tmp_path / "batch", seed=5, participants=2)
     seeds = sorted(set(result.rows[["replication", "seed"]].itertuples(index=False, name=None)))
@@ -362,7 +362,7 @@ def test_a_lock_file_with_a_non_numeric_pid_is_taken_over(tmp_path, smoke_run, p
 
 @pytest.mark.parametrize("content", ["[1, 2]", '{"conditions": ["a"]}', '"text"', '{"metrics": 3}'])
 def test_a_batch_analysis_of_the_wrong_shape_is_recomputed_on_resume(tmp_path, content):
-    from nudgecli.sim.batch import replicate
+    from nudgecli.runs.batch import replicate
 
     first = replicate("smoke", 1, tmp_path / "a", seed=3, participants=2)
     (analysis,) = sorted((tmp_path / "a" / "analyses").glob("*.json"))

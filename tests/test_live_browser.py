@@ -1,8 +1,14 @@
 """`nudge study` in a real browser: headless Chromium driven by Playwright runs the calibration and two
 short trials with scripted key presses; the run folder then passes `nudge analyze` and `nudge plot`.
+On the way it checks the page's guards: the token, the Origin and Host checks, a bad message answered
+while the trial goes on, a second tab that only watches, a second server on the same port that records
+nothing, and what the participant sees (key legend, border help, unset sliders, the practice's result,
+the lost-server overlay).
 
 Skipped where no browser can be had: it needs the `playwright` package (the test extra) and a
 Chromium (Debian's `chromium` package, `playwright install chromium`, or NUDGE_CHROMIUM=/path).
+`.ci/run` installs Debian's Chromium when none is found and sets NUDGE_REQUIRE_BROWSER=1, which
+turns the skip into a failure.
 With NUDGE_SCREENSHOT=path the page's screenshot is also saved there (the README's picture).
 """
 
@@ -103,19 +109,82 @@ def _calibrate(page) -> None:
         page.keyboard.up(held)
 
 
-def _answer_questionnaire(page) -> None:
+#: Chromium's flags for a headless run in a container (no sandbox as root, no GPU, no network chatter).
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync"]
+
+
+def _answer_questionnaire(page, check_unset: bool = False) -> None:
     _wait(page, "state.phase === 'questionnaire' && document.querySelector('#q-submit') !== null")
+    if check_unset:  # the sliders start unset: submitting them untouched is refused, nothing is sent
+        assert page.inner_text("#tlx_mental-out") == "not set"
+        for name, value in ANSWERS.items():
+            if name.startswith("likert_"):
+                page.check(f"input[name='{name}'][value='{value}']")
+        page.click("#q-submit")
+        assert "Set every slider" in page.inner_text("#q-error") and _state(page)["phase"] == "questionnaire"
     for name, value in ANSWERS.items():
-        if name.startswith("tlx_"):
-            page.eval_on_selector(f"#{name}", "(el, v) => { el.value = v; }", value)
+        if name.startswith("tlx_"):  # as a person moves it: the value, then the input event
+            page.eval_on_selector(
+                f"#{name}", "(el, v) => { el.value = v; el.dispatchEvent(new Event('input')); }", value
+            )
         else:
             page.check(f"input[name='{name}'][value='{value}']")
     page.click("#q-submit")
     _wait(page, "state.phase !== 'questionnaire'")
 
 
+def _foreign_socket_opens(browser, port: int, token: str, folder: Path) -> bool:
+    """Whether a page of another origin on the same machine (another local web server) can open the
+    session's websocket, even knowing the token."""
+    import functools
+    import http.server
+    import threading
+
+    (folder / "index.html").write_text("<p>another page</p>")
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=str(folder))
+    other = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    threading.Thread(target=other.serve_forever, daemon=True).start()
+    try:
+        page = browser.new_page()
+        page.goto(f"http://127.0.0.1:{other.server_address[1]}/")
+        opened = page.evaluate(
+            """([port, token]) => new Promise((resolve) => {
+                 const ws = new WebSocket(`ws://127.0.0.1:${port}/ws?token=${token}`);
+                 ws.onopen = () => { ws.close(); resolve(true); };
+                 ws.onclose = () => resolve(false);
+               })""",
+            [port, token],
+        )
+        page.close()
+    finally:
+        other.shutdown()
+        other.server_close()
+    return opened
+
+
+def _status_with_host(port: int, path: str, host: str) -> int:
+    import http.client
+
+    connection = http.client.HTTPConnection("127.0.0.1", port, timeout=10)
+    connection.request("GET", path, headers={"Host": host})
+    status = connection.getresponse().status
+    connection.close()
+    return status
+
+
+def _longest_run(values: pd.Series, value: str) -> int:
+    best = run = 0
+    for v in values:
+        run = run + 1 if v == value else 0
+        best = max(best, run)
+    return best
+
+
 def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
     chromium = _chromium()
+    if chromium is None and os.environ.get("NUDGE_REQUIRE_BROWSER"):
+        pytest.fail("NUDGE_REQUIRE_BROWSER is set (as in .ci/run) but no Chromium was found")
     if chromium is None:
         pytest.skip(
             "no Chromium found: apt-get install chromium, `playwright install chromium`, or set "
@@ -145,30 +214,68 @@ def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
     )
     try:
         address = server.stdout.readline().strip()  # the server prints its address once it listens
-        assert address == f"http://127.0.0.1:{port}/", (
+        assert address.startswith(f"http://127.0.0.1:{port}/?token="), (
             server.stderr.read() if server.poll() is not None else address
         )
+        token = address.split("token=")[1]
+        # 18: a second server on the same port refuses before recording anyone
+        second = subprocess.run(
+            [sys.executable, "-m", "nudgecli.cli", "study", "paper", "--participant", "P02", "--port",
+             str(port), "--out", str(out), *sets], capture_output=True, text=True, timeout=60,
+        )
+        assert second.returncode == 1 and "cannot listen" in second.stderr, second.stderr
+        assert set(json.loads((out / "manifest.json").read_text())["live"]) == {"1"}
+        # 15: another Host (DNS rebinding) is refused even with the token
+        assert _status_with_host(port, f"/?token={token}", f"attacker.example:{port}") == 403
+        assert _status_with_host(port, f"/?token={token}", f"127.0.0.1:{port}") == 200
         with sync_api.sync_playwright() as p:
-            browser = p.chromium.launch(executable_path=chromium, headless=True)
+            browser = p.chromium.launch(executable_path=chromium, headless=True, args=CHROMIUM_ARGS)
             page = browser.new_page(viewport={"width": 900, "height": 820})
+            # 15: the address without its token is refused; a page of another origin cannot connect
+            assert page.goto(f"http://127.0.0.1:{port}/").status == 403
+            (tmp_path / "other").mkdir()
+            assert not _foreign_socket_opens(browser, port, token, tmp_path / "other")
             page.goto(address)
-            _wait(page, "state !== null && state.phase === 'welcome'")
+            _wait(page, "state !== null && state.phase === 'welcome' && role === 'controller'")
             page.keyboard.press(" ")
             _wait(page, "state.phase === 'mapping'")
+            assert page.is_visible("#legend")  # the keys on every input screen
             _calibrate(page)
             _wait(page, "state.phase === 'ready' && state.ready_for === 'teleoperation'")
+            # the first practice runs out of time (no input); then the rest is skipped
+            page.keyboard.press(" ")
+            _wait(page, "state.phase === 'trial'")
+            assert page.is_visible("#legend") and "blue to red" in page.inner_text("#border-help")
+            _wait(page, "state.phase === 'ready' && state.ready_for === 'blending'", 10)
             page.click("#skip")
             _wait(page, "state.ready_for === 'evaluation'")
-            # trial 1: hold a soft puff (keeps moving), let go, then a hard puff (one mode switch)
+            # the ready screen of trial 1 says how the practice went, and that it was the practice
+            assert "Practice 1 of 3 (teleoperation): time is up" in page.inner_text("#ready-outcome")
+            # trial 1: hold a soft puff (keeps moving); meanwhile a second tab opens, only watches, tries
+            # a key and closes: the held key stays held. Then let go, and a hard puff (one mode switch)
             page.keyboard.press(" ")
             _wait(page, "state.phase === 'trial'")
             page.keyboard.down("3")
-            page.wait_for_timeout(1200)
+            # 16: a malformed message gets an error reply; the trial goes on
+            page.evaluate("""ws.send('{"type": "key", "key": "3", "down": "false"}')""")
+            page.evaluate("""ws.send('{"type": "axis", "value": [[1]]}')""")
+            _wait(page, "lastError.includes('axis')", 5)
+            watcher = browser.new_page()
+            watcher.goto(address)
+            _wait(watcher, "role === 'watcher' && state !== null && state.phase === 'trial'", 10)
+            assert watcher.is_visible("#watching")
+            watcher.keyboard.press("4")  # the watching page sends no input...
+            # ...and what it sends anyway is refused by the server (a held Soft Sip would show in the log)
+            watcher.evaluate("""ws.send('{"type": "key", "key": "4", "down": true}')""")
+            _wait(watcher, "lastError.includes('only watches')", 5)
+            watcher.close()
+            page.wait_for_timeout(700)
+            assert _state(page)["phase"] == "trial"
             page.keyboard.up("3")
             page.keyboard.press("1")
             page.wait_for_timeout(300)
             screenshot = page.screenshot(path=str(tmp_path / "study-page.png"))
-            _answer_questionnaire(page)
+            _answer_questionnaire(page, check_unset=True)
             # trial 2: a soft sip held, then nothing: the turn passes to the assistant
             page.keyboard.press(" ")
             _wait(page, "state.phase === 'trial'")
@@ -177,9 +284,16 @@ def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
             page.keyboard.up("4")
             _answer_questionnaire(page)
             _wait(page, "state.phase === 'done'")
+            # the server goes away: the page says so over everything
+            assert not page.is_visible("#lost")
+            server.send_signal(signal.SIGINT)
+            server.wait(timeout=10)
+            _wait(page, "document.getElementById('lost').classList.contains('shown')", 10)
+            assert "connection to the study server was lost" in page.inner_text("#lost").lower()
             browser.close()
     finally:
-        server.send_signal(signal.SIGINT)
+        if server.poll() is None:
+            server.send_signal(signal.SIGINT)
         try:
             server.wait(timeout=10)
         except subprocess.TimeoutExpired:
@@ -191,7 +305,15 @@ def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
     trials = pd.read_parquet(out / "trials" / "part-0001.parquet")
     assert list(trials["trial"]) == [0, 1]
     first = steps[steps["trial"] == 0]
-    assert (first["phi_m"] == "Soft Puff").sum() >= 5  # the held key moved the robot for many samples
+    # the held key moved the robot for many samples in a row: closing the watching tab released nothing
+    # (the key was held about 1.2 s, 12 samples), and the watcher's key never reached the session
+    intended = list(first["phi_i"])
+    assert _longest_run(first["phi_m"], "Soft Puff") >= 9, intended
+    assert "Soft Sip" not in intended
+    # the soft puff lasted until the key went up, right before the hard puff: had closing the watching
+    # tab released it, some 7 samples without input would lie between the two
+    last_soft = max(i for i, label in enumerate(intended) if label == "Soft Puff")
+    assert intended.index("Hard Puff") - last_soft <= 3, intended
     assert first["event"].str.contains("mode_switch_human").sum() == 1  # one blow, one switch
     # the agent used the tables `nudge fit` fits from the session's calibration logs
     profile = fit_calibration_dir(out / "calibration" / "participant-0001").profile

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from nudgecli.config import load_experiment
+from nudgecli.errors import ConfigError
 from nudgecli.live.calibration import DistortionRecorder, MappingRecorder
 from nudgecli.live.input import KEY_LABELS, LiveInput, key_pressures
 from nudgecli.live.session import participant_index
@@ -71,9 +72,14 @@ def test_the_gamepad_axis_is_raw_pressure_without_an_intended_label(config):
 
 
 def test_participant_ids_give_their_number():
-    assert participant_index("P01") == 1 and participant_index("7") == 7 and participant_index("p-12") == 12
-    with pytest.raises(Exception, match="ending in the participant's number"):
-        participant_index("alice")
+    assert participant_index("P01") == 1 and participant_index("7") == 7 and participant_index("p_12") == 12
+    assert participant_index("P9999") == 9999 and participant_index("x" * 28 + "0001") == 1
+    # IDs that would map to a surprising number are refused with the rule, in one line
+    for odd in ("alice", "P00", "P-1", "1" * 20, "5" * 5000, "P10000", "P1a", "x" * 29 + "0001", "P 1"):
+        rule = r"ending in the participant's number: letters .* 1 to 9999"
+        with pytest.raises(ConfigError, match=rule) as err:
+            participant_index(odd)
+        assert "\n" not in str(err.value) and len(str(err.value)) < 300
 
 
 def _run_mapping(recorder: MappingRecorder, answer, delay: float = 0.35) -> None:
@@ -214,6 +220,8 @@ def test_study_command_mistakes_are_one_error_line(tmp_path):
     runner = CliRunner()
     for args, words in (
         (["--participant", "alice"], "ending in the participant's number"),
+        (["--participant", "5" * 5000], "at most 32 characters"),
+        (["--participant", "P00"], "from 1 to 9999"),
         (["--participant", "P1", "--condition-order", "control"], "name each condition"),
         (["--participant", "P1", "--set", "calibration.rate_hz=20"], "must equal study.rate_hz"),
     ):

@@ -61,12 +61,24 @@ class PageClient:
         return await self.receive_until(lambda m: m["type"] == "state" and m["tick"] == self.ticks)
 
 
-async def _play_trials(session: LiveSession, streams: list[list], stop_in_trial: int | None = None) -> None:
+TOKEN = "test-token"
+
+
+async def page_socket(client: TestClient, token: str = TOKEN, origin: str | None = None):
+    """A websocket as the study page opens it: the session's token and the page's own Origin."""
+    own = f"http://127.0.0.1:{client.server.port}"
+    return await client.ws_connect(f"/ws?token={token}", headers={"Origin": origin or own})
+
+
+async def _play_trials(
+    session: LiveSession, streams: list[list], stop_in_trial: int | None = None, noise: list | None = None
+) -> None:
     """Drive ``session`` through the server with a stepped clock: skip the practice, then play each
-    evaluation trial with its recorded stream and answer each questionnaire."""
+    evaluation trial with its recorded stream and answer each questionnaire. ``noise``: raw texts
+    sent before each human step of the trials (each must get an error reply and change nothing)."""
     clock = SteppedClock(session.settings.dt)
-    async with TestClient(TestServer(create_app(session, clock))) as client:
-        page = PageClient(await client.ws_connect("/ws"), clock)
+    async with TestClient(TestServer(create_app(session, clock, token=TOKEN))) as client:
+        page = PageClient(await page_socket(client), clock)
         page.ticks = (await page.receive_until(lambda m: m["type"] == "state"))["tick"]
         if page.state["phase"] == "welcome":
             await page.send({"type": "start"})
@@ -84,6 +96,10 @@ async def _play_trials(session: LiveSession, streams: list[list], stop_in_trial:
                 if number == stop_in_trial and k == 25:
                     return
                 if page.state["trial"]["turn"] == HUMAN_TURN:
+                    if noise:
+                        await page.ws.send_str(noise[k % len(noise)])
+                        reply = await page.receive_until(lambda m: m["type"] != "state")
+                        assert reply["type"] == "error", reply
                     await page.send(*transition(current, stream[k]))
                     current, k = stream[k], k + 1
                 await page.tick()
@@ -181,10 +197,14 @@ async def _play_until_killed(port: int, process: subprocess.Popen) -> None:
     """Over the real server: finish trial 0 in real time, start trial 1, then SIGKILL the server."""
     import aiohttp
 
+    address = process.stdout.readline().strip()  # printed once the server answers
+    token = address.split("token=")[1]
     async with aiohttp.ClientSession() as http:
         for _ in range(100):
             try:
-                ws = await http.ws_connect(f"http://127.0.0.1:{port}/ws")
+                ws = await http.ws_connect(
+                    f"http://127.0.0.1:{port}/ws?token={token}", headers={"Origin": f"http://127.0.0.1:{port}"}
+                )
                 break
             except aiohttp.ClientError:
                 await asyncio.sleep(0.1)

@@ -33,8 +33,9 @@ from nudgecli.model.world import (
 )
 from nudgecli.report.plans import load_plan
 from nudgecli.rng import generator
+from nudgecli.runs.study import run_study
 from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec
-from nudgecli.sim.study import StudyPlan, build_layouts, participant_schedule, run_study, simulate_participant
+from nudgecli.sim.study import StudyPlan, build_layouts, participant_schedule, simulate_participant
 from nudgecli.steplog import AUTONOMY_TURN, HUMAN_TURN, MODE_SELECT, MODE_SWITCH_AUTONOMY, has_event
 from tests.test_sim_study import assert_same_run
 

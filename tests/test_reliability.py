@@ -27,7 +27,7 @@ from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.errors import LockError, RunFolderError, WriteError
 from nudgecli.report.analysis import analyze
-from nudgecli.sim.study import run_study
+from nudgecli.runs.study import run_study
 from nudgecli.store import LOCK, RunFolder, default_run_dir, run_lock
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -356,7 +356,7 @@ def test_ctrl_c_elsewhere_exits_130(tmp_path, monkeypatch):
     result = CliRunner().invoke(main, ["analyze", str(table)])
     assert result.exit_code == 130 and "Interrupted: " in result.output
     assert "run the command again" in result.output
-    monkeypatch.setattr("nudgecli.sim.study.run_study", interrupted)
+    monkeypatch.setattr("nudgecli.runs.study.run_study", interrupted)
     result = CliRunner().invoke(main, ["run", "smoke", "--out", str(tmp_path / "never")])
     assert result.exit_code == 130 and "nothing was simulated yet" in result.output
     assert not (tmp_path / "never").exists() or not any((tmp_path / "never").iterdir())

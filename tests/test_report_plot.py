@@ -39,7 +39,7 @@ from nudgecli.report.figures import (
 from nudgecli.report.plotting import analysis_folder_of_table, layouts_by_trial
 from nudgecli.report.style import condition_display_name, figure_style
 from nudgecli.report.trial_selection import choose_figure5_trial
-from nudgecli.sim.study import run_study
+from nudgecli.runs.study import run_study
 from nudgecli.store import RunFolder
 
 QUESTIONNAIRES_CSV = Path(__file__).parent / "data" / "questionnaires_smoke_run.csv"

@@ -44,7 +44,7 @@ def test_weighted_tlx_from_pairwise_winners() -> None:
 
 
 def test_likert_items_and_missing_answers() -> None:
-    table = pd.DataFrame([_row(likert_q3=7, likert_q4=1), _row(likert_q3=None, likert_q4=4)])
+    table = pd.DataFrame([_row(likert_q3=7, likert_q4=1), _row(block=1, likert_q3=None, likert_q4=4)])
     table.loc[1, "tlx_effort"] = None
     scores = questionnaire_scores(table)
     assert list(scores.columns) == ["participant", "condition", "block", "tlx_raw", "likert_q3", "likert_q4"]
@@ -86,3 +86,43 @@ def test_read_questionnaires_refuses_missing_and_empty_files(tmp_path) -> None:
     (tmp_path / "empty.csv").write_text("")
     with pytest.raises(DataError, match="is empty"):
         read_questionnaires(tmp_path / "empty.csv")
+
+
+def test_a_repeated_or_conflicting_response_is_refused_naming_both_rows() -> None:
+    other = _row(participant=2)
+    repeated = pd.DataFrame([_row(likert_q3=5), other, _row(likert_q3=5)])
+    with pytest.raises(DataError, match=r"rows 2 and 4 are both participant 1's response for condition "
+                                        r"control, block 0, with the same answers twice"):
+        questionnaire_scores(repeated, "q.csv")
+    conflicting = pd.DataFrame([_row(likert_q3=5), other, _row(likert_q3=2)])
+    with pytest.raises(DataError, match=r"rows 2 and 4 .* different answers \(conflicting"):
+        questionnaire_scores(conflicting, "q.csv")
+    # the id as written differently ("1" and 1 in a mixed column) is still the same person
+    mixed = pd.DataFrame([_row(), {**_row(), "participant": " 1"}])
+    with pytest.raises(DataError, match="rows 2 and 3"):
+        questionnaire_scores(mixed)
+    # one response per block is fine, and so is the same block number of another condition
+    fine = pd.DataFrame([_row(), _row(block=1), _row(condition="disambiguation")])
+    assert len(questionnaire_scores(fine)) == 3
+
+
+def test_respondents_outside_the_run_are_named() -> None:
+    from nudgecli.report.questionnaires import check_respondents
+
+    scores = questionnaire_scores(pd.DataFrame([_row(participant=p) for p in (1, 2, 9, 12)]))
+    with pytest.raises(DataError, match=r"q.csv: respondent\(s\) 9, 12 are not participants of RUN"):
+        check_respondents(scores, pd.Series([1, 1, 2, 3]), "q.csv", "RUN")
+    check_respondents(scores, pd.Series([1.0, 2, 9, 12, 40]), "q.csv", "RUN")  # everyone is known
+
+
+def test_analyze_refuses_questionnaires_of_people_not_in_the_table(tmp_path) -> None:
+    from pathlib import Path
+
+    from nudgecli.report.analysis import analyze
+
+    data = Path(__file__).parent / "data"
+    table = pd.read_csv(data / "questionnaires_two_conditions.csv")
+    table.loc[len(table)] = {**table.iloc[0].to_dict(), "participant": 77}
+    table.to_csv(tmp_path / "q.csv", index=False)
+    with pytest.raises(DataError, match=r"respondent.* 77 are not participants of"):
+        analyze(data / "metrics_two_conditions.csv", out=tmp_path / "a", questionnaires=tmp_path / "q.csv")

@@ -21,7 +21,7 @@ from nudgecli.errors import DataError
 from nudgecli.report import stats as stats_module
 from nudgecli.report.analysis import analyze, sniff_delimiter
 from nudgecli.report.stats import _weighted_medians, bootstrap_median_differences
-from nudgecli.sim.study import run_study
+from nudgecli.runs.study import run_study
 
 TABLE = Path(__file__).parent / "data" / "metrics_two_conditions.csv"
 

@@ -28,11 +28,13 @@ from nudgecli.report.replication import (
     sensitivity,
     smallest_n,
 )
-from nudgecli.sim import batch as batch_module
-from nudgecli.sim.batch import layout_key, replicate, replication_seed
-from nudgecli.sim.executors import Progress
+from nudgecli.runs import batch as batch_module
+from nudgecli.runs import size as size_module
+from nudgecli.runs.batch import layout_key, replicate, replication_seed
+from nudgecli.runs.executors import Progress
+from nudgecli.runs.study import build_plan_on
+from nudgecli.runs.sweep import Design, Range, SweepFile, design_values, load_sweep
 from nudgecli.sim.study import StudyPlan, simulate_participant
-from nudgecli.sim.sweep import Design, Range, SweepFile, design_values, load_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
@@ -64,7 +66,7 @@ def test_a_large_job_and_a_large_result_do_not_block_each_other() -> None:
     # a 2 MB result coming back while a 2 MB job goes out: through the pipe both ends would wait
     # for ever (run in a child Python, so a regression fails here instead of hanging the suite)
     script = (
-        "from nudgecli.sim.executors import Job, ProcessExecutor\n"
+        "from nudgecli.runs.executors import Job, ProcessExecutor\n"
         "if __name__ == '__main__':\n"
         "    ex = ProcessExecutor(1)\n"
         "    ex.submit(Job('a', bytes, (2_000_000,)))\n"
@@ -81,7 +83,7 @@ def test_a_large_job_and_a_large_result_do_not_block_each_other() -> None:
 def test_a_broadcast_never_reuses_the_file_of_one_still_being_read() -> None:
     import pickle
 
-    from nudgecli.sim.executors import Job, ProcessExecutor
+    from nudgecli.runs.executors import Job, ProcessExecutor
 
     executor = ProcessExecutor(1)
     try:
@@ -112,7 +114,7 @@ def test_a_plan_assembled_from_layout_tasks_equals_the_built_one() -> None:
     chunks = [batch_module.solve_layout_chunk(config, 11, a, b) for a, b in batch_module.layout_chunks(48, 5)]
     built = StudyPlan.build(config, 11)
     # assembled here from chunks, and by `nudge simulate --workers 3` in three processes
-    for assembled in (StudyPlan.assemble(config, 11, chunks), StudyPlan.build_on(config, 11, 3)):
+    for assembled in (StudyPlan.assemble(config, 11, chunks), build_plan_on(config, 11, 3)):
         assert len(assembled.solved) == len(built.solved) == 48
         for mine, theirs in zip(assembled.solved, built.solved, strict=True):
             for name in ("policy", "values", "p_a_given_sg"):
@@ -125,7 +127,7 @@ def test_a_study_as_big_as_the_pool_has_its_layouts_solved_once_and_sent(tmp_pat
     """A lone study with as many participants as workers has its layouts solved in layout tasks
     (one chunk per worker), its plan broadcast before its participant tasks, and no worker
     builds the plan itself; the tables equal a serial run's, on processes and on dask."""
-    from nudgecli.sim.executors import SerialExecutor
+    from nudgecli.runs.executors import SerialExecutor
 
     events: list[tuple[str, str]] = []
 
@@ -364,7 +366,7 @@ def test_a_sweep_killed_with_sigkill_and_resumed_equals_an_uninterrupted_one(tmp
 # --- the run: size, progress, refusals --------------------------------------------------------
 
 def test_a_batch_above_the_size_limit_is_refused_without_yes(tmp_path, monkeypatch):
-    monkeypatch.setattr(batch_module, "MAX_TRIALS_WITHOUT_YES", 10)
+    monkeypatch.setattr(size_module, "MAX_TRIALS_WITHOUT_YES", 10)
     out = tmp_path / "big"
     refused = CliRunner().invoke(main, ["replicate", "smoke", "-R", "1", "--out", str(out)])
     assert refused.exit_code == 1 and "16 trials" in refused.output and "--yes" in refused.output
@@ -391,7 +393,7 @@ def test_progress_prints_rate_and_eta_every_few_seconds_when_not_a_terminal():
 
 def test_a_bad_scheduler_address_is_refused_before_the_folder_is_created(tmp_path, monkeypatch):
     pytest.importorskip("dask.distributed")
-    monkeypatch.setattr("nudgecli.sim.study.SCHEDULER_TIMEOUT_S", 0.5)
+    monkeypatch.setattr("nudgecli.runs.study.SCHEDULER_TIMEOUT_S", 0.5)
     for args in (["simulate", "smoke", "--scheduler", "nonsense"],
                  ["simulate", "smoke", "--scheduler", "tcp://127.0.0.1:9"],
                  ["replicate", "smoke", "-R", "1", "--scheduler", "tcp://127.0.0.1:9"]):

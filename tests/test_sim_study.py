@@ -16,7 +16,8 @@ from click.testing import CliRunner
 
 from nudgecli.cli import main
 from nudgecli.config import load_experiment
-from nudgecli.sim.study import build_layouts, participant_schedule, run_study
+from nudgecli.runs.study import run_study
+from nudgecli.sim.study import build_layouts, participant_schedule
 from nudgecli.store import RunFolder
 
 

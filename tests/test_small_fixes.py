@@ -1,4 +1,4 @@
-"""The README's physiology-log example runs as written, a truncated calibration stream warns,
+"""The physiology-log example of docs/people.md runs as written, a truncated calibration stream warns,
 config errors print plain numbers."""
 
 from __future__ import annotations
@@ -16,16 +16,16 @@ from pydantic import ValidationError
 
 from nudgecli.cli import main
 from nudgecli.config import ExperimentConfig, format_validation_error, load_experiment
+from nudgecli.runs.study import run_study
 from nudgecli.sim.calibration_profile import fit_calibration_dir
-from nudgecli.sim.study import run_study
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+PEOPLE_DOC = Path(__file__).resolve().parents[1] / "docs" / "people.md"  # the physiology-log example
 PILOT = Path(__file__).resolve().parents[2] / "shared" / "data" / "calibration" / "andrewtest"
 
 
 @pytest.fixture(scope="module")
 def pilot_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """What the README's first command makes (`nudge simulate smoke --out results/pilot`), in a
+    """What the physiology example's first command makes (`nudge simulate smoke --out results/pilot`), in a
     scratch working directory."""
     cwd = tmp_path_factory.mktemp("cwd")
     run_study(load_experiment("smoke"), cwd / "results" / "pilot")
@@ -33,14 +33,14 @@ def pilot_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_the_readme_physiology_example_works_with_the_toolkits_own_logs(pilot_run, monkeypatch):
-    text = README.read_text(encoding="utf-8")
+    text = PEOPLE_DOC.read_text(encoding="utf-8")
     commands = re.findall(r"^nudge simulate .*$", text, flags=re.MULTILINE)
     make, use = next((a, b) for a, b in itertools.pairwise(commands) if "physiology_logs" in b)
     assert shlex.split(make)[1:] == ["simulate", "smoke", "--out", "results/pilot"]
     args = shlex.split(use)[1:]
     assert args[1] == "paper"
     monkeypatch.chdir(pilot_run)
-    # the README's --set as written, on the smoke preset and one participant to stay fast
+    # the example's --set as written, on the smoke preset and one participant to stay fast
     result = CliRunner().invoke(main, ["simulate", "smoke", "--participants", "1", "--out", "with-logs",
                                        *args[2:]])
     assert result.exit_code == 0, result.output

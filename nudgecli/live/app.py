@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import shlex
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from nudgecli.config import ExperimentConfig, load_experiment
 from nudgecli.errors import ConfigError
 from nudgecli.live.records import LiveFolder
-from nudgecli.live.session import LiveSession
+from nudgecli.live.session import LiveSession, participant_index
 
 
 def first_condition(config: ExperimentConfig, condition_order: str | None) -> str | None:
@@ -56,6 +57,29 @@ def build_session(
     )
 
 
+def resume_command(
+    experiment: str,
+    participant_id: str,
+    folder: str | Path,
+    port: int | None = None,
+    condition_order: str | None = None,
+    seed: int | None = None,
+    overrides: Sequence[str] = (),
+) -> str:
+    """The ``nudge study`` command that continues a session: the same experiment, folder, seed,
+    condition order and ``--set`` values (the folder refuses other ones), and ``--resume``."""
+    parts = ["nudge", "study", experiment, "--participant", participant_id, "--out", str(folder)]
+    if port is not None:
+        parts += ["--port", str(port)]
+    if condition_order is not None:
+        parts += ["--condition-order", condition_order]
+    if seed is not None:
+        parts += ["--seed", str(seed)]
+    for item in overrides:
+        parts += ["--set", item]
+    return shlex.join([*parts, "--resume"])
+
+
 def run_live_study(
     experiment: str,
     participant_id: str,
@@ -69,30 +93,41 @@ def run_live_study(
     log: Callable[[str], None] = print,
 ) -> LiveSession:
     """Build the session and serve it on 127.0.0.1 until Ctrl-C; returns the session (its ``phase``
-    is ``"done"`` when the participant finished)."""
+    is ``"done"`` when the participant finished).
+
+    The port is taken before anything is recorded: a port in use leaves the folder as it was.
+    """
     try:
-        from nudgecli.live.server import serve
+        from nudgecli.live.server import bind, serve
     except ImportError as exc:
         raise ConfigError(
             f"nudge study needs the web server extra ({exc.name} is missing): pip install 'nudgecli[study]'"
         ) from None
-    session = build_session(experiment, participant_id, out, condition_order, seed, resume, overrides)
-    log(
-        f"participant {participant_id} (index {session.index}), {len(session.schedule)} trials, "
-        f"condition order {', '.join(session.entry['condition_order'])}; run folder {session.folder.path}"
-    )
-    log("open the address below in a browser; Ctrl-C ends the server (resume later with --resume)")
+    participant_index(participant_id)  # a bad ID is refused before the port is taken
     try:
-        serve(session, port, announce=announce)
+        sock = bind(port)
     except OSError as exc:
         raise ConfigError(
             f"--port {port}: cannot listen on 127.0.0.1:{port} ({exc.strerror}); choose another --port"
         ) from None
-    if session.phase != "done":
+    try:
+        session = build_session(experiment, participant_id, out, condition_order, seed, resume, overrides)
+    except BaseException:
+        sock.close()
+        raise
+    try:
         log(
-            f"stopped before the end of the session; continue at the next trial with: "
-            f"nudge study {experiment} --participant {participant_id} --out {session.folder.path} --resume "
-            "(same --set and --seed)"
+            f"participant {participant_id} (index {session.index}), {len(session.schedule)} trials, "
+            f"condition order {', '.join(session.entry['condition_order'])}; run folder {session.folder.path}"
         )
+        log("open the address below in a browser; Ctrl-C ends the server (resume later with --resume)")
+        serve(session, sock, announce=announce)
+    finally:
+        session.folder.release()
+    if session.phase != "done":
+        command = resume_command(
+            experiment, participant_id, session.folder.path, port, condition_order, seed, overrides
+        )
+        log(f"stopped before the end of the session; continue at the next trial with: {command}")
     log(f"run folder: {session.folder.path}")
     return session

@@ -87,6 +87,6 @@ def questionnaire_row(answers: dict[str, Any]) -> dict[str, Any] | str:
 def _number(value: Any) -> float | None:
     try:
         number = float(value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         return None
     return number if math.isfinite(number) else None

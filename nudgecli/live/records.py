@@ -18,23 +18,38 @@ The manifest holds the simulate keys (``experiment``, ``config``, ``seed``, ``pa
 ``executor = "live"``) and a ``live`` entry per participant with ``completed_trials``: the truth
 about which trials are done. On resume, rows of trials not listed there (a crash between two
 writes) are dropped, so at most the trial that was running is lost.
+
+Several servers (one per participant) may record into one folder at once. Each holds its
+participant's lock (``.nudge-participant-iiii.lock``, the run-folder lock of
+:func:`nudgecli.store.run_lock` for one participant) for as long as it serves, so a second server
+for the same participant is refused; and every manifest write is a read-modify-write of this
+participant's entry under the folder's lock, so one participant's checkpoint never drops
+another's.
 """
 
 from __future__ import annotations
 
+import contextlib
+import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
 from nudgecli.config import ExperimentConfig
-from nudgecli.errors import RunFolderError
+from nudgecli.errors import LockError, RunFolderError
 from nudgecli.sim.study import StudyLayout, layouts_frame
 from nudgecli.store import (
     CONFIG,
+    LOCK,
     RunFolder,
+    _acquire,
+    _describe_holder,
+    _read_holder,
     library_versions,
     part_name,
+    run_lock,
     utc_now,
     write_parquet_atomic,
     write_text_atomic,
@@ -42,6 +57,43 @@ from nudgecli.store import (
 
 QUESTIONNAIRES = "questionnaires.csv"
 EXECUTOR = "live"
+#: How long a manifest write waits for another participant's server to release the folder lock
+#: (each holds it for one read-modify-write, milliseconds; ``nudge analyze`` may hold it longer).
+FOLDER_LOCK_WAIT_S = 30.0
+
+#: Participant locks this process holds: lock file -> [open handle, holders]. A process serves one
+#: participant, but may build their session again on resume (tests do, in one process): re-entrant
+#: per process, released when its last holder releases it.
+_PARTICIPANT_LOCKS: dict[Path, list[Any]] = {}
+
+
+def participant_lock_name(participant: int) -> str:
+    """The file name of a participant's lock in a live folder."""
+    return f".nudge-participant-{participant:04d}.lock"
+
+
+def _is_lock_file(name: str) -> bool:
+    return name == LOCK or (name.startswith(".nudge-participant-") and name.endswith(".lock"))
+
+
+@contextlib.contextmanager
+def folder_lock(path: Path, wait_s: float = FOLDER_LOCK_WAIT_S) -> Iterator[None]:
+    """Hold the folder's lock for one read-modify-write, waiting while another server holds it."""
+    deadline = time.monotonic() + wait_s
+    while True:
+        try:
+            lock = run_lock(path, command="nudge study (manifest update)")
+            lock.__enter__()
+        except LockError:
+            if time.monotonic() >= deadline:
+                raise
+            time.sleep(0.02)
+            continue
+        break
+    try:
+        yield
+    finally:
+        lock.__exit__(None, None, None)
 
 
 class LiveFolder:
@@ -57,6 +109,8 @@ class LiveFolder:
         self.run = RunFolder(path)
         self.path = self.run.path
         self.manifest: dict[str, Any] = {}
+        self.entry: dict[str, Any] = {}
+        self._lock_path: Path | None = None
 
     # --- opening ------------------------------------------------------------------------------
 
@@ -78,6 +132,76 @@ class LiveFolder:
             The folder holds a simulated run, another experiment or seed, a non-run, or (without
             ``resume``) this participant already; or ``resume`` with nothing to resume.
         """
+        existed = self.path.exists()
+        try:
+            self.lock_participant(participant, participant_id)
+            with folder_lock(self.path):
+                return self._open_locked(
+                    config, seed, layouts, participant, participant_id, trials_per_participant, resume
+                )
+        except BaseException:
+            self.release()
+            if not existed:  # refused before anything was recorded: leave no empty folder behind
+                with contextlib.suppress(OSError):
+                    for child in self.path.iterdir():
+                        if _is_lock_file(child.name):
+                            child.unlink()
+                    self.path.rmdir()
+            raise
+
+    def lock_participant(self, participant: int, participant_id: str) -> None:
+        """Take the participant's lock for as long as this server serves them.
+
+        Raises
+        ------
+        LockError
+            Another server (process) serves this participant from this folder now.
+        """
+        with contextlib.suppress(OSError):  # taking the lock file below names the problem
+            self.path.mkdir(parents=True, exist_ok=True)
+        lock_path = (self.path / participant_lock_name(participant)).resolve()
+        if lock_path == self._lock_path:
+            return
+        if lock_path in _PARTICIPANT_LOCKS:
+            _PARTICIPANT_LOCKS[lock_path][1] += 1
+            self._lock_path = lock_path
+            return
+        try:
+            handle = _acquire(lock_path, None)
+        except LockError:
+            holder = _describe_holder(_read_holder(lock_path))
+            raise LockError(
+                f"{self.path}: participant {participant_id} is already being served by {holder}; "
+                "continue there, or stop that server (Ctrl-C) before starting another"
+            ) from None
+        _PARTICIPANT_LOCKS[lock_path] = [handle, 1]
+        self._lock_path = lock_path
+
+    def release(self) -> None:
+        """Give up the participant's lock (the server stopped)."""
+        lock_path, self._lock_path = self._lock_path, None
+        if lock_path is None:
+            return
+        held = _PARTICIPANT_LOCKS.get(lock_path)
+        if held is None:
+            return
+        held[1] -= 1
+        if held[1] == 0:
+            del _PARTICIPANT_LOCKS[lock_path]
+            with contextlib.suppress(OSError):
+                lock_path.unlink()
+            held[0].close()
+
+    def _open_locked(
+        self,
+        config: ExperimentConfig,
+        seed: int,
+        layouts: list[StudyLayout],
+        participant: int,
+        participant_id: str,
+        trials_per_participant: int,
+        resume: bool,
+    ) -> dict[str, Any]:
         run, key = self.run, str(participant)
         config_text = config.to_toml()
         if run.is_run():
@@ -112,7 +236,7 @@ class LiveFolder:
         else:
             if resume:
                 raise RunFolderError(f"{self.path}: nothing to resume (no run there); drop --resume")
-            if self.path.exists() and any(self.path.iterdir()):
+            if self.path.exists() and any(not _is_lock_file(p.name) for p in self.path.iterdir()):
                 raise RunFolderError(f"{self.path}: exists and is not empty; choose another --out")
             self.path.mkdir(parents=True, exist_ok=True)
             write_text_atomic(self.path / CONFIG, config_text)
@@ -144,21 +268,37 @@ class LiveFolder:
             manifest["live"][key] = entry
         manifest["participants"] = len(manifest["live"])
         self.manifest = manifest
+        self.entry = entry
         self.save(participant, status_of_participant="running")
         return entry
 
     # --- checkpoints --------------------------------------------------------------------------
 
-    def save(self, participant: int, status_of_participant: str | None = None) -> None:
-        """Write the manifest (the study is complete when every participant in it is)."""
-        m = self.manifest
-        entry = m["live"][str(participant)]
+    def save(
+        self, participant: int, status_of_participant: str | None = None, add_seconds: float = 0.0
+    ) -> None:
+        """Write this participant's entry into the manifest (the study is complete when every
+        participant in it is).
+
+        A read-modify-write under the folder's lock: the other participants' entries and timings
+        are those on disk, so servers of several participants in one folder keep each other's.
+        """
+        key = str(participant)
+        entry = self.entry
         if status_of_participant is not None:
             entry["status"] = status_of_participant
         entry["updated"] = utc_now()
-        m["completed"] = sorted(int(k) for k, e in m["live"].items() if e.get("status") == "complete")
-        m["status"] = "complete" if len(m["completed"]) == len(m["live"]) else "running"
-        self.run.write_manifest(m)
+        with folder_lock(self.path):
+            m = self.run.read_manifest() if self.run.is_run() else self.manifest
+            m.setdefault("live", {})[key] = entry
+            timings = m.setdefault("timings_s", {})
+            if add_seconds:
+                timings[key] = round(timings.get(key, 0.0) + add_seconds, 3)
+            m["participants"] = len(m["live"])
+            m["completed"] = sorted(int(k) for k, e in m["live"].items() if e.get("status") == "complete")
+            m["status"] = "complete" if len(m["completed"]) == len(m["live"]) else "running"
+            self.run.write_manifest(m)
+            self.manifest = m
 
     def read_participant_tables(
         self, participant: int, completed: list[int]
@@ -180,30 +320,28 @@ class LiveFolder:
         """Checkpoint after a trial: steps, trials, then the manifest naming ``trial`` complete."""
         write_parquet_atomic(self.path / "steps" / part_name(participant), steps)
         write_parquet_atomic(self.path / "trials" / part_name(participant), trials)
-        entry = self.manifest["live"][str(participant)]
-        entry["completed_trials"] = sorted({*entry["completed_trials"], trial})
-        self.manifest["timings_s"][str(participant)] = round(
-            self.manifest["timings_s"].get(str(participant), 0.0) + wall_s, 3
-        )
-        self.save(participant)
+        self.entry["completed_trials"] = sorted({*self.entry["completed_trials"], trial})
+        self.save(participant, add_seconds=wall_s)
 
     def write_participant(self, participant: int, record: pd.DataFrame) -> None:
         """The participant's session is complete: their participants part, then the manifest."""
         write_parquet_atomic(self.path / "participants" / part_name(participant), record)
         self.save(participant, status_of_participant="complete")
-        self.run.write_participants_table()
+        with folder_lock(self.path):  # another participant may finish at the same moment
+            self.run.write_participants_table()
         self.save(participant)
 
     def write_questionnaire(self, participant: int, row: dict[str, Any]) -> None:
         """Add (or replace) one participant's answers for one block in ``questionnaires.csv``."""
         path = self.path / QUESTIONNAIRES
         new = pd.DataFrame([row])
-        if path.is_file():
-            old = pd.read_csv(path)
-            keep = ~((old["participant"] == row["participant"]) & (old["block"] == row["block"]))
-            new = pd.concat([old[keep], new], ignore_index=True).sort_values(["participant", "block"])
-        write_text_atomic(path, new.to_csv(index=False))
-        entry = self.manifest["live"][str(participant)]
+        with folder_lock(self.path):  # the file is shared by the participants of the folder
+            if path.is_file():
+                old = pd.read_csv(path)
+                keep = ~((old["participant"] == row["participant"]) & (old["block"] == row["block"]))
+                new = pd.concat([old[keep], new], ignore_index=True).sort_values(["participant", "block"])
+            write_text_atomic(path, new.to_csv(index=False))
+        entry = self.entry
         entry["questionnaire_blocks"] = sorted({*entry["questionnaire_blocks"], int(row["block"])})
         self.save(participant)
 

@@ -69,19 +69,36 @@ PRACTICE = ("teleoperation", "blending", "turn-taking")
 BORDER_S = 3.5
 
 
+#: The longest participant ID (it names files and is printed; a longer one is a mistake).
+MAX_ID_LENGTH = 32
+#: The largest participant number: part files are numbered with four digits (``part-0001``).
+MAX_PARTICIPANT = 9999
+#: The rule a participant ID follows, as the error message says it.
+ID_RULE = (
+    f"letters (optionally then '_'), then the participant's number from 1 to {MAX_PARTICIPANT}, "
+    f"at most {MAX_ID_LENGTH} characters, e.g. P01, p_12 or 3"
+)
+
+
 def participant_index(participant_id: str) -> int:
     """The index in a participant ID: its trailing number (``P01`` -> 1, ``7`` -> 7).
 
     The index seeds the participant's schedule and true goals and, without ``--condition-order``,
-    rotates the starting condition, exactly as participant ``i`` of a simulated study.
+    rotates the starting condition, exactly as participant ``i`` of a simulated study. IDs that
+    would map to a surprising number are refused (:data:`ID_RULE`): ``P00`` (0 is no participant
+    number), ``P-1`` (reads as minus one, would be 1), more than four digits.
     """
-    match = re.fullmatch(r"\s*[A-Za-z_-]*0*(\d+)\s*", participant_id)
-    if not match:
+    text = participant_id.strip()
+    match = re.fullmatch(r"[A-Za-z]*_?(\d{1,4})", text) if len(text) <= MAX_ID_LENGTH else None
+    index = int(match.group(1)) if match else 0
+    if not match or not 1 <= index <= MAX_PARTICIPANT:
+        shown = participant_id if len(participant_id) <= MAX_ID_LENGTH else f"{participant_id[:12]}... " \
+            f"({len(participant_id)} characters)"
         raise ConfigError(
-            f"--participant {participant_id!r}: give an ID ending in the participant's number, "
-            "e.g. P01 or 3 (the number seeds their schedule)"
+            f"--participant {shown!r}: give an ID ending in the participant's number: {ID_RULE} "
+            "(the number seeds their schedule)"
         )
-    return int(match.group(1))
+    return index
 
 
 def live_handover_idle_s(config: ExperimentConfig) -> float:
@@ -222,7 +239,8 @@ class LiveSession:
         practice), ``{"type": "questionnaire", "answers": {...}}``, ``{"type": "blur"}`` (the page
         lost focus: keys up), ``{"type": "ping"}``; and from the server ``{"type": "disconnect"}``
         (the last page closed: the running trial is abandoned, unrecorded, and starts again from
-        its beginning on the next Space).
+        its beginning on the next Space). The server passes only messages that follow the schema of
+        :mod:`nudgecli.live.messages`, and input only from the controlling page.
         """
         kind = message.get("type")
         if kind == "key":
@@ -527,6 +545,7 @@ class LiveSession:
             "step": s.step,
             "t": round(s.step * self.settings.dt, 3),
             "border": min(since / BORDER_S, 1.0) if s.turn == HUMAN_TURN else None,
+            "border_s": BORDER_S,
             "autonomy": s.turn == AUTONOMY_TURN,
             "trial": s.spec.trial,
             "block": s.spec.block,

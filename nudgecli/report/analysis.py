@@ -56,7 +56,12 @@ from nudgecli.report.metrics import (
     trial_metrics,
 )
 from nudgecli.report.plans import AnalysisPlan, load_plan
-from nudgecli.report.questionnaires import questionnaire_scores, read_questionnaires, score_columns
+from nudgecli.report.questionnaires import (
+    check_respondents,
+    questionnaire_scores,
+    read_questionnaires,
+    score_columns,
+)
 from nudgecli.report.stats import (
     SINGLE_CONDITION_NOTE,
     ComparisonOptions,
@@ -532,8 +537,12 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
     settings = plan.stats
     comparison = settings.star_comparison
     thresholds = ", ".join(f"{t:g}" for t in settings.star_thresholds)
-    test = "Wilcoxon signed-rank" if len(conditions) == 2 else "Friedman"
-    effect = "matched-pairs rank-biserial r of a - b" if len(conditions) == 2 else "Kendall's W"
+    test = "Wilcoxon signed-rank" if len(conditions) == 2 else (
+        f"Friedman, then Wilcoxon signed-rank for every pair ({settings.p_adjust} adjustment)")
+    effect = "matched-pairs rank-biserial r of a - b" if len(conditions) == 2 else (
+        "Kendall's W (Friedman), epsilon-squared (Kruskal-Wallis), matched-pairs rank-biserial r of a - b "
+        "(each pair)")
+    many = "pairwise_p" in table.columns  # more than two conditions: the pairs' own participant-level tests
     seed = table["ci_seed"].iloc[0] if len(table) else plan.bootstrap.seed
     if len(conditions) == 1:
         return _descriptive_summary(table, conditions, plan, source, n_trials, n_participants)
@@ -564,7 +573,8 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
             f"Participant level ({first['participant_test']}, {int(first['n_participants'])} participants): "
             f"statistic = {format_value(first['participant_statistic'])}, "
             f"p = {format_p(first['participant_p'])}. "
-            f"Effect size: {_effect(first['effect_size_name'], first['effect_size'])}.",
+            f"Effect size: {_effect(first['effect_size_name'], first['effect_size'])}"
+            + (f", epsilon-squared = {format_value(first['epsilon_squared'])}." if many else "."),
         ]
         if first["participant_note"]:
             lines += ["", f"Note: {first['participant_note']}."]
@@ -574,10 +584,14 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
         rows = [[f"{r['a']} - {r['b']}", format_p(r["conover_p"]), format_p(r["conover_p_unadjusted"]),
                  r["stars"] or "ns", format_value(r["difference"]),
                  f"[{format_value(r['ci_low'])}, {format_value(r['ci_high'])}]"]
+                + ([format_p(r["pairwise_p"]),
+                    _effect(r["pairwise_effect_size_name"], r["pairwise_effect_size"])] if many else [])
                 for r in pairs_of_metric.to_dict("records")]
-        lines += ["", _render(
-            ["comparison", f"Conover p ({first['p_adjust']})", "p unadjusted", "stars",
-             "difference of medians", f"{first['ci_level']:.0%} CI"], rows, markdown=True)]
+        header = ["comparison", f"Conover p ({first['p_adjust']})", "p unadjusted", "stars",
+                  "difference of medians", f"{first['ci_level']:.0%} CI"]
+        if many:
+            header += [f"Wilcoxon p ({first['p_adjust']})", "effect"]
+        lines += ["", _render(header, rows, markdown=True)]
     return "\n".join(lines) + "\n"
 
 
@@ -708,6 +722,13 @@ def load_source(source: Path, plan: AnalysisPlan, min_conditions: int = 1, *, dr
     metric_columns = validate_metrics_table(table, str(source), first_row, min_conditions)
     table, _ = drop_or_refuse_duplicates(table, source, first_row, drop_duplicates, notes)
     return table, metric_columns, analysis_folder(source)
+
+
+def _study_conditions(manifest: dict[str, Any] | None) -> list[str]:
+    """The conditions a run's experiment lists (``config.study.conditions`` of its manifest), in order."""
+    study = ((manifest or {}).get("config") or {}).get("study") or {}
+    listed = study.get("conditions") if isinstance(study, dict) else None
+    return [str(c) for c in listed] if isinstance(listed, list | tuple) else []
 
 
 def _plan_label(plan: str | Path | AnalysisPlan, loaded: AnalysisPlan) -> str:
@@ -846,6 +867,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         if score_conditions != trial_conditions:
             raise DataError(f"{questionnaires}: conditions {sorted(score_conditions)} differ from those of "
                             f"{source} {sorted(trial_conditions)}; name the conditions the same way")
+        check_respondents(scores, table["participant"], str(questionnaires), str(source))
 
     selected = _select_metrics(metrics, [*available, *score_names])
     trial_selected = [m for m in selected if m in available]
@@ -858,7 +880,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         filtered = table  # nothing to filter: no copy of a large table
     if filtered["condition"].dtype != "category":
         filtered["condition"] = filtered["condition"].astype(str).astype("category")
-    conditions = order_conditions(filtered["condition"].cat.categories, plan.conditions)
+    conditions = order_conditions(filtered["condition"].cat.categories,
+                                  (*plan.conditions, *_study_conditions(manifest)))
     options = comparison_options(plan, seed, bootstrap)
     total = len(trial_selected) + (len(score_selected) if scores is not None else 0)
     entries = []

@@ -139,6 +139,43 @@ def assign_levels(spans: Sequence[tuple[float, float]]) -> list[int]:
     return levels
 
 
+def _drawn_spans(positions: Mapping[str, float], comparisons: Iterable[Bracket],
+                 show_ns: bool) -> list[tuple[float, float, str]]:
+    """``(left, right, label)`` of each comparison :func:`draw_brackets` draws, in the given order.
+
+    Raises
+    ------
+    DataError
+        A drawn comparison names a group that is not in ``positions``.
+    """
+    drawn: list[tuple[float, float, str]] = []
+    for comp in comparisons:
+        label = comp.stars or ("n.s." if show_ns else "")
+        if not label:
+            continue
+        for cond in (comp.a, comp.b):
+            if cond not in positions:
+                raise DataError(
+                    f"significance bracket {comp.a!r} vs {comp.b!r}: condition {cond!r} is not plotted "
+                    f"(plotted: {', '.join(map(repr, positions))}); check the stats and the metrics "
+                    "table name the same conditions"
+                )
+        x1, x2 = sorted((float(positions[comp.a]), float(positions[comp.b])))
+        drawn.append((x1, x2, label))
+    return drawn
+
+
+def bracket_levels(positions: Mapping[str, float], comparisons: Iterable[Bracket], *,
+                   show_ns: bool = False) -> int:
+    """How many stacked levels :func:`draw_brackets` needs for these comparisons (0 for none).
+
+    Lets a figure make room before drawing: with many conditions and many significant pairs the
+    brackets would otherwise squeeze the data into the bottom of the axes.
+    """
+    drawn = _drawn_spans(positions, comparisons, show_ns)
+    return max(assign_levels([(x1, x2) for x1, x2, _ in drawn])) + 1 if drawn else 0
+
+
 def _root_figure(ax: Axes) -> Figure:
     """The top-level figure holding ``ax`` (through any subfigures)."""
     fig: Any = ax.get_figure()
@@ -195,20 +232,7 @@ def draw_brackets(ax: Axes, positions: Mapping[str, float], comparisons: Iterabl
     DataError
         A comparison names a group that is not in ``positions``.
     """
-    drawn: list[tuple[float, float, str]] = []
-    for comp in comparisons:
-        label = comp.stars or ("n.s." if show_ns else "")
-        if not label:
-            continue
-        for cond in (comp.a, comp.b):
-            if cond not in positions:
-                raise DataError(
-                    f"significance bracket {comp.a!r} vs {comp.b!r}: condition {cond!r} is not plotted "
-                    f"(plotted: {', '.join(map(repr, positions))}); check the stats and the metrics "
-                    "table name the same conditions"
-                )
-        x1, x2 = sorted((float(positions[comp.a]), float(positions[comp.b])))
-        drawn.append((x1, x2, label))
+    drawn = _drawn_spans(positions, comparisons, show_ns)
     if not drawn:
         return []
 

@@ -41,7 +41,7 @@ import scipy.stats
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.analysis import format_p, format_value, load_source
 from nudgecli.report.plans import AnalysisPlan, load_plan
-from nudgecli.report.stats import json_ready
+from nudgecli.report.stats import json_ready, order_conditions
 from nudgecli.rng import generator
 from nudgecli.store import write_text_atomic
 
@@ -107,7 +107,8 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
     -------
     tuple[pd.DataFrame, pd.DataFrame, list[str]]
         Both tables restricted to the shared conditions (conditions as strings), and the shared
-        conditions in the real table's order of first appearance.
+        conditions in :func:`~nudgecli.report.stats.order_conditions`' order: the paper's first,
+        then the real table's order of first appearance.
 
     Raises
     ------
@@ -125,7 +126,8 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
                             f"{did_you_mean(key, sim_conditions)}; its conditions: "
                             f"{', '.join(sim_conditions)}")
     simulated = simulated.assign(condition=simulated["condition"].map(lambda c: mapping.get(c, c)))
-    shared = [c for c in real_conditions if c in set(simulated["condition"])]
+    in_both = [c for c in real_conditions if c in set(simulated["condition"])]
+    shared = order_conditions(in_both, real_conditions)
     if not shared:
         raise DataError(f"no condition in common: simulated {', '.join(sim_conditions)}; real "
                         f"{', '.join(real_conditions)}; pair them with --match SIMULATED=REAL, e.g. "

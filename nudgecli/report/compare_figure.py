@@ -41,7 +41,8 @@ def _ecdf(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def compare_panel(trials: dict[str, pd.DataFrame], medians: pd.DataFrame, metric: str, condition: str,
-                  comparison: pd.DataFrame | None = None, *, title: str = "", ax: Axes | None = None) -> Axes:
+                  comparison: pd.DataFrame | None = None, *, title: str = "", ax: Axes | None = None,
+                  two_line_title: bool = False) -> Axes:
     """One metric and condition: each source's ECDF of the trials and its participants' medians
     as dots under it; the KS statistic and Wasserstein distance in the title.
 
@@ -60,6 +61,9 @@ def compare_panel(trials: dict[str, pd.DataFrame], medians: pd.DataFrame, metric
         The title before the distances (the condition when the figure has several).
     ax
         Axes to draw on; default a new figure's.
+    two_line_title
+        Put the distances under the title instead of after it (narrow panels: three or more
+        conditions side by side).
     """
     if ax is None:
         ax = Figure(figsize=(COLUMN_WIDTH_IN, 2.3), layout="constrained").subplots()
@@ -87,7 +91,8 @@ def compare_panel(trials: dict[str, pd.DataFrame], medians: pd.DataFrame, metric
     if not row.empty:
         ks, w1 = float(row["ks_statistic"].iloc[0]), float(row["wasserstein"].iloc[0])
         if math.isfinite(ks):
-            title = f"{title + ': ' if title else ''}KS {ks:.2f}, W {format_value(w1)}"
+            separator = "\n" if two_line_title else ": "
+            title = f"{title + separator if title else ''}KS {ks:.2f}, W {format_value(w1)}"
     ax.set_title(title, loc="left")
     return ax
 
@@ -116,7 +121,8 @@ def build_compare_figure(trials: dict[str, pd.DataFrame], comparison: pd.DataFra
         for i, metric in enumerate(metrics):
             for j, condition in enumerate(conditions):
                 ax = compare_panel(trials, medians, metric, condition, comparison,
-                                   title=condition if n_cols > 1 else "", ax=axes[i, j])
+                                   title=condition if n_cols > 1 else "", ax=axes[i, j],
+                                   two_line_title=n_cols > 2)
                 if j == 0:
                     ax.set_ylabel("share of trials")
         handles, labels = axes[0, 0].get_legend_handles_labels()

@@ -50,6 +50,23 @@ from nudgecli.errors import ConfigError, did_you_mean
 from nudgecli.report.metrics import METRIC_NAMES
 from nudgecli.report.stats import ComparisonOptions
 
+#: The most bootstrap resamples (a plan's, ``analyze --bootstrap``, ``compare --resamples``): each
+#: resample holds a row of indices per participant in memory, so more would exhaust it.
+MAX_RESAMPLES = 1_000_000
+
+
+def check_resamples(resamples: int | None, option: str) -> None:
+    """Refuse more than :data:`MAX_RESAMPLES` bootstrap resamples given as ``option``, before any work.
+
+    Raises
+    ------
+    ConfigError
+        ``resamples`` is above the cap.
+    """
+    if resamples is not None and resamples > MAX_RESAMPLES:
+        raise ConfigError(f"{option} {resamples:,}: at most {MAX_RESAMPLES:,} bootstrap resamples; "
+                          "2000 is the usual number")
+
 #: The p-value adjustments ``statsmodels.stats.multitest.multipletests`` accepts, plus ``none``.
 P_ADJUST_METHODS = (
     "none", "bonferroni", "sidak", "holm-sidak", "holm", "simes-hochberg", "hommel",
@@ -121,7 +138,7 @@ class StatsSettings(_Section):
 class BootstrapSettings(_Section):
     """The cluster bootstrap of the median difference (participants are resampled)."""
 
-    resamples: int = Field(default=2000, ge=100, le=1_000_000)
+    resamples: int = Field(default=2000, ge=100, le=MAX_RESAMPLES)
     level: float = Field(default=0.95, gt=0, lt=1)
     seed: int = Field(default=0, ge=0)
 

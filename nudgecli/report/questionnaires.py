@@ -22,7 +22,11 @@ column                      content
                             7 strongly agree)
 =========================== =============================================================
 
-An empty cell is a missing answer: that score is missing for that response. Scores:
+An empty cell is a missing answer: that score is missing for that response. With a ``block``
+column, each participant answers once per condition and block: a second row for the same
+participant, condition and block (repeated or conflicting) is refused, naming both rows. A
+respondent who is not a participant of the analysed run is refused by :func:`check_respondents`.
+Scores:
 
 - ``tlx_raw``: the mean of the six subscale ratings (the paper's "raw TLX");
 - ``tlx_weighted``: ``sum(rating * wins) / 15`` (only with pairs or weights);
@@ -151,7 +155,7 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
     DataError
         Missing id columns, an incomplete set of TLX subscales, pairs or weights, a value that
         is not numeric or out of range, an unknown subscale name, weights not summing to 15,
-        or no score column at all.
+        no score column at all, or (with ``block``) two rows of one participant, condition and block.
     """
     if table.empty:
         raise DataError(f"{source} has no rows; it needs one row per questionnaire response")
@@ -203,7 +207,66 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
     if not rating_present and not likert_columns:
         raise DataError(f"{source} holds no scores; add the six columns {', '.join(TLX_RATING_COLUMNS)} "
                         f"and/or Likert items named {LIKERT_PREFIX}<item>")
+    if "block" in ids:  # a valid table otherwise: now, one response per participant, condition and block
+        _check_one_response_per_block(table, ids, source)
     return scores.reset_index(drop=True)
+
+
+def _check_one_response_per_block(table: pd.DataFrame, ids: list[str], source: str) -> None:
+    """Refuse two rows of one participant, condition and block (a repeated or conflicting response)."""
+    keys = table[ids].astype(str).apply(lambda column: column.str.strip())
+    repeated = keys.duplicated(keep=False)
+    if not repeated.any():
+        return
+    first = int(np.flatnonzero(repeated.to_numpy())[0])
+    same = keys.eq(keys.iloc[first]).all(axis=1).to_numpy()
+    rows = np.flatnonzero(same)[:2]
+    a, b = (table.iloc[int(r)] for r in rows)
+    answers = [c for c in table.columns if c not in ids]
+    alike = all((pd.isna(a[c]) and pd.isna(b[c])) or str(a[c]) == str(b[c]) for c in answers)
+    what = ("the same answers twice (a repeated response)" if alike
+            else "different answers (conflicting responses)")
+    raise DataError(
+        f"{source}: rows {rows[0] + 2} and {rows[1] + 2} are both participant {a['participant']}'s response "
+        f"for condition {a['condition']}, block {a['block']}, with {what}; keep one row per participant, "
+        "condition and block"
+    )
+
+
+def respondent_key(value: object) -> str:
+    """A participant id as text, so ``3``, ``3.0`` and ``"3"`` name the same person."""
+    try:
+        number = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError, OverflowError):
+        return str(value).strip()
+    return str(int(number)) if number.is_integer() else str(value).strip()
+
+
+def check_respondents(scores: pd.DataFrame, participants: pd.Series, source: str, run: str) -> None:
+    """Refuse responses of people who are not participants of the analysed run, naming them.
+
+    Parameters
+    ----------
+    scores
+        The table of :func:`questionnaire_scores`.
+    participants
+        The run's ``participant`` column (any length; its distinct values count).
+    source, run
+        The questionnaire file and the run or table, for the message.
+
+    Raises
+    ------
+    DataError
+        A respondent is not among ``participants``.
+    """
+    known = {respondent_key(p) for p in pd.unique(participants)}
+    strangers = sorted({respondent_key(p) for p in scores["participant"]} - known,
+                       key=lambda k: (len(k), k))
+    if strangers:
+        more = f" and {len(strangers) - 10} more" if len(strangers) > 10 else ""
+        shown = ", ".join(strangers[:10]) + more
+        raise DataError(f"{source}: respondent(s) {shown} are not participants of {run}; remove their rows, "
+                        "or analyse the run they belong to")
 
 
 def score_columns(scores: pd.DataFrame) -> list[str]:

@@ -6,11 +6,14 @@ trial-level Kruskal-Wallis and Conover, participant-level Wilcoxon with the rank
 size, the bootstrap interval of the median difference). This module only counts and pools those
 results:
 
+- every pair of conditions is reported (with ``k`` conditions, ``k (k - 1) / 2`` rows per metric
+  and replication);
 - a replication is *significant at the trial level* when Kruskal-Wallis and the Conover p of
   the pair are both significant at the plan's ``kruskal_alpha`` (with its comparison, as the
-  stars), *at the participant level* when the paired test's p is; its *direction* is the sign of
-  ``a - b`` (trial level: the difference of medians, or of means where the medians tie;
-  participant level: the rank-biserial r);
+  stars), *at the participant level* when the pair's paired test's p is (two conditions: the
+  Wilcoxon test; more: the pair's post-hoc Wilcoxon test, adjusted as the Conover p); its
+  *direction* is the sign of ``a - b`` (trial level: the difference of medians, or of means where
+  the medians tie; participant level: the pair's rank-biserial r);
 - pooled effect sizes are the mean over replications with the 2.5 and 97.5 percentiles of the
   replications' values (where 95 % of replications of this study land);
 - power is the fraction of replications significant in the paper's direction (either
@@ -35,6 +38,7 @@ import scipy.stats
 from nudgecli.report.metrics import apply_filters
 from nudgecli.report.plans import AnalysisPlan
 from nudgecli.report.stats import (
+    PAPER_CONDITIONS,
     compare_conditions,
     condition_table,
     is_significant,
@@ -56,11 +60,13 @@ PAPER_DIRECTIONS: dict[str, int | None] = {
     "human_turns": -1,           # "subjects perform fewer turns under the Disambiguation condition"
     "success": None,
 }
-PAPER_PAIR = ("disambiguation", "control")
+#: The paper's comparison, ``a - b`` (the one order of conditions puts it first wherever both are present).
+PAPER_PAIR = PAPER_CONDITIONS
 POWER_TARGET = 0.8
 
 
-def analyse_replication(metrics: pd.DataFrame, plan: AnalysisPlan, names: Sequence[str]) -> dict[str, Any]:
+def analyse_replication(metrics: pd.DataFrame, plan: AnalysisPlan, names: Sequence[str],
+                        study_conditions: Sequence[str] = ()) -> dict[str, Any]:
     """The ``stats.json`` document of one replication (as ``nudge analyze`` computes it).
 
     Parameters
@@ -71,11 +77,14 @@ def analyse_replication(metrics: pd.DataFrame, plan: AnalysisPlan, names: Sequen
         The analysis plan (filters, tests, bootstrap).
     names
         The metrics to analyse.
+    study_conditions
+        The experiment's ``study.conditions`` (their order follows the plan's in
+        :func:`~nudgecli.report.stats.order_conditions`).
     """
     from nudgecli.report.analysis import comparison_options
 
     filtered = apply_filters(metrics, plan.filters)
-    conditions = order_conditions(filtered["condition"].astype(str), plan.conditions)
+    conditions = order_conditions(filtered["condition"].astype(str), (*plan.conditions, *study_conditions))
     return json_ready(compare_conditions(filtered, list(names), conditions, comparison_options(plan, None)))
 
 
@@ -107,7 +116,9 @@ def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
         ``point, replication, seed, [parameters...], participants, metric, a, b, median_a,
         median_b, difference, ci_low, ci_high, kruskal_p, conover_p, participant_p,
         effect_size_name, effect_size, trial_significant, trial_direction,
-        participant_significant, participant_direction``.
+        participant_significant, participant_direction``; ``participant_p`` and the effect size
+        are the pair's (its post-hoc Wilcoxon test and rank-biserial r with more than two
+        conditions).
     """
     alpha, comparison = plan.stats.kruskal_alpha, plan.stats.star_comparison
     rows = []
@@ -115,6 +126,9 @@ def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
         document = stats[entry["analysis"]]
         for row in stats_table(document).to_dict("records"):
             a, b = row["a"], row["b"]
+            if "pairwise_p" in row:  # more than two conditions: the pair's post-hoc test, not the omnibus
+                row.update(participant_p=row["pairwise_p"], effect_size_name=row["pairwise_effect_size_name"],
+                           effect_size=row["pairwise_effect_size"])
             trial_sign = _sign(_difference(row["median_a"], row["median_b"]))
             if trial_sign == 0:
                 trial_sign = _sign(_difference(row["mean_a"], row["mean_b"]))
@@ -245,7 +259,11 @@ def power_table(rows: pd.DataFrame, directions: Mapping[str, int | None] | None 
         significant, power, low, high`` with the Clopper-Pearson 95 % interval.
     """
     out = []
-    for (n, metric, a, b), group in rows.groupby(["participants", "metric", "a", "b"], sort=True):
+    # pairs in the analysis' order of conditions (not by name) within each count and metric
+    order = {pair: i for i, pair in enumerate(dict.fromkeys(zip(rows["a"], rows["b"], strict=True)))}
+    ranked = rows.assign(_pair=[order[pair] for pair in zip(rows["a"], rows["b"], strict=True)])
+    groups = ranked.groupby(["participants", "metric", "_pair", "a", "b"], sort=True)
+    for (n, metric, _, a, b), group in groups:
         wanted = directions.get(metric) if directions is not None else paper_direction(metric, a, b)
         for level in ("trial", "participant"):
             significant = group[f"{level}_significant"].astype(bool)

@@ -9,15 +9,22 @@ Tidy tables in, tidy tables or plain dicts out (the style of pingouin). For each
 - stars ``*``, ``**``, ``***`` from the adjusted post-hoc p, only when Kruskal-Wallis is
   significant; the comparison (``<`` as the paper, ``<=`` as the study software) is a setting;
 - because trials are nested in participants, a participant-level test on per-participant
-  medians: Wilcoxon signed-rank (two conditions) or Friedman (more); participants missing a
-  condition are dropped with a note;
+  medians: Wilcoxon signed-rank (two conditions) or Friedman (more), then, with more than two
+  conditions, Wilcoxon signed-rank for every pair with the same adjustment as Conover's (Holm by
+  default); participants missing a condition are dropped with a note;
 - an effect size on the participant medians: the matched-pairs rank-biserial correlation (two
-  conditions; positive when the first condition is larger), or Kendall's W (more);
+  conditions, or each pair of more; positive when the first condition is larger), and with more
+  than two conditions Kendall's W of the Friedman test and the epsilon-squared of the trial-level
+  Kruskal-Wallis test;
 - a cluster-bootstrap percentile interval of the difference of the trial-level medians of each
   pair of conditions: whole participants (with all their trials) are resampled with
   replacement, ``rng = np.random.default_rng(seed)``, the same resamples for every metric.
 
-The result of :func:`compare_conditions` is the ``stats.json`` document (DESIGN section 5).
+The result of :func:`compare_conditions` is the ``stats.json`` document (DESIGN section 5). With
+two conditions it holds exactly the keys it always held (the reference run pins it); the keys of
+the pairwise participant-level tests and of epsilon-squared appear with three or more.
+
+The order of the conditions everywhere (tests, tables, figures) is :func:`order_conditions`'.
 """
 
 from __future__ import annotations
@@ -72,10 +79,36 @@ class ComparisonOptions:
     seed: int = 0
 
 
+#: The paper's two conditions, in its order: drawn and compared first wherever they are present.
+PAPER_CONDITIONS: tuple[str, ...] = ("disambiguation", "control")
+
+
 def order_conditions(values: Sequence[Any], preferred: Sequence[str] = ()) -> list[str]:
-    """The conditions present in ``values``: those in ``preferred`` first (in its order), the rest sorted."""
+    """The conditions present in ``values``, in the toolkit's one order of conditions.
+
+    The paper's conditions (:data:`PAPER_CONDITIONS`) that are present come first, in the paper's
+    order (so the paper's comparison is always ``disambiguation - control``); then those in
+    ``preferred`` (the analysis plan's ``conditions``, then the experiment's ``study.conditions``),
+    in its order; then the rest sorted by name (not by first appearance: the order, and so every
+    output, must not depend on the order of a table's rows).
+
+    Parameters
+    ----------
+    values
+        Condition labels (any number of repeats; missing values are ignored).
+    preferred
+        Conditions in the wanted order (absent ones are skipped, repeats ignored).
+
+    Returns
+    -------
+    list[str]
+        Each present condition once.
+    """
     present = sorted({str(v) for v in values if not pd.isna(v)})
-    first = [c for c in preferred if c in present]
+    first: list[str] = []
+    for c in (*PAPER_CONDITIONS, *(str(p) for p in preferred)):
+        if c in present and c not in first:
+            first.append(c)
     return first + [c for c in present if c not in first]
 
 
@@ -149,6 +182,68 @@ def kruskal_wallis(data: pd.DataFrame, metric: str, conditions: Sequence[str], *
     return {"statistic": float(result.statistic), "p": float(result.pvalue)}
 
 
+def adjust_p_values(p_values: Sequence[float] | np.ndarray, method: str = "holm") -> np.ndarray:
+    """Adjust a family of p-values for multiple comparisons (``statsmodels``' ``multipletests``).
+
+    Holm's step-down method (the default, as the paper's post-hoc tests): sort the ``m`` p-values,
+    multiply the ``i``-th smallest (``i = 1..m``) by ``m - i + 1``, make the sequence
+    non-decreasing (running maximum) and cap it at 1 (Holm, *Scand. J. Statist.* 6, 65-70, 1979).
+
+    Parameters
+    ----------
+    p_values
+        ``(m,)`` unadjusted p-values; NaN marks an undefined test, which is not part of the
+        family (it stays NaN and does not count in ``m``).
+    method
+        A ``multipletests`` method, or ``"none"`` (the p-values unchanged).
+
+    Returns
+    -------
+    np.ndarray
+        ``(m,)`` adjusted p-values, in the given order.
+    """
+    values = np.asarray(p_values, dtype=float)
+    adjusted = values.copy()
+    defined = np.isfinite(values)
+    n_tests = int(defined.sum())
+    if method in ("none", "", None) or n_tests == 0:
+        return adjusted
+    if n_tests == 1 and method in _IDENTITY_ON_ONE_TEST:
+        return adjusted  # one test: these adjustments return p itself (and statsmodels' Holm runs
+        # gc.collect() on every call, which dominated the analysis of many replications)
+    from statsmodels.stats.multitest import multipletests
+
+    adjusted[defined] = multipletests(values[defined], method=method)[1]
+    return adjusted
+
+
+def epsilon_squared(h_statistic: float, n_observations: int) -> float:
+    """The epsilon-squared effect size of a Kruskal-Wallis test: ``H / ((n^2 - 1) / (n + 1))``.
+
+    That is ``H / (n - 1)``, in ``[0, 1]``: 0 when the groups' mean ranks are equal, larger the
+    more the groups' ranks separate (two equal groups that do not overlap give about 0.75, three
+    about 0.89: the maximum depends on k and the group sizes). The rank-based epsilon-squared as given by
+    M. Tomczak and E. Tomczak, "The need to report effect size estimates revisited. An overview of
+    some recommended measures of effect size", *Trends in Sport Sciences* 21(1), 19-25 (2014); the
+    same as ``rcompanion::epsilonSquared`` (S. Mangiafico) for Kruskal-Wallis.
+
+    Parameters
+    ----------
+    h_statistic
+        The (tie-corrected) Kruskal-Wallis H.
+    n_observations
+        Values in all groups together.
+
+    Returns
+    -------
+    float
+        NaN for fewer than two observations or an undefined H.
+    """
+    if n_observations < 2 or not np.isfinite(h_statistic):
+        return math.nan
+    return float(h_statistic * (n_observations + 1) / (n_observations ** 2 - 1))
+
+
 def conover(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adjust: str = "holm",
             condition: str = "condition") -> pd.DataFrame:
     """Conover's pairwise post-hoc test (``scikit_posthocs.posthoc_conover``).
@@ -168,21 +263,13 @@ def conover(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adj
     present = [c for c in conditions if (tidy["condition"] == c).any()]
     rows = [{"a": a, "b": b, "p": math.nan, "p_unadjusted": math.nan} for a, b in pairs(conditions)]
     if len(present) >= 2 and tidy["value"].nunique() >= 2:
-        adjust = None if p_adjust in ("none", "", None) else p_adjust
-        if len(present) == 2 and adjust in _IDENTITY_ON_ONE_TEST:
-            adjust = None  # one comparison: these adjustments return p itself (and statsmodels' Holm
-            # runs gc.collect() on every call, which dominated the analysis of many replications)
         unadjusted = scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition", sort=False)
-        adjusted = unadjusted
-        if adjust is not None:
-            # what posthoc_conover(p_adjust=adjust) does, without ranking the data a second time
-            from statsmodels.stats.multitest import multipletests
-
-            upper = np.triu_indices(len(unadjusted), 1)
-            matrix = unadjusted.to_numpy(copy=True)
-            matrix[upper] = multipletests(matrix[upper], method=adjust)[1]
-            matrix.T[upper] = matrix[upper]
-            adjusted = pd.DataFrame(matrix, index=unadjusted.index, columns=unadjusted.columns)
+        # what posthoc_conover(p_adjust=...) does, without ranking the data a second time
+        upper = np.triu_indices(len(unadjusted), 1)
+        matrix = unadjusted.to_numpy(copy=True)
+        matrix[upper] = adjust_p_values(matrix[upper], p_adjust)
+        matrix.T[upper] = matrix[upper]
+        adjusted = pd.DataFrame(matrix, index=unadjusted.index, columns=unadjusted.columns)
         for row in rows:
             if row["a"] in present and row["b"] in present:
                 row["p"] = float(adjusted.loc[row["a"], row["b"]])
@@ -259,22 +346,80 @@ def kendalls_w(friedman_statistic: float, n_participants: int, n_conditions: int
     return float(friedman_statistic / (n_participants * (n_conditions - 1)))
 
 
+#: Columns of :func:`pairwise_wilcoxon`'s table.
+PAIRWISE_COLUMNS = ("a", "b", "n_participants", "statistic", "p", "p_unadjusted", "rank_biserial")
+
+
+def _wilcoxon_pairs(wide: pd.DataFrame, conditions: Sequence[str], p_adjust: str) -> pd.DataFrame:
+    """:func:`pairwise_wilcoxon` on a wide table of complete participants (one column per condition)."""
+    rows = []
+    for a, b in pairs(conditions):
+        x, y = wide[a].to_numpy(dtype=float), wide[b].to_numpy(dtype=float)
+        statistic = p = math.nan
+        if x.size and not np.all(x == y):  # all differences zero: Wilcoxon is undefined
+            result = scipy.stats.wilcoxon(x, y)
+            statistic, p = float(result.statistic), float(result.pvalue)
+        rows.append({"a": a, "b": b, "n_participants": int(x.size), "statistic": statistic,
+                     "p_unadjusted": p, "rank_biserial": rank_biserial(x, y)})
+    table = pd.DataFrame(rows, columns=[c for c in PAIRWISE_COLUMNS if c != "p"])
+    table.insert(4, "p", adjust_p_values(table["p_unadjusted"].to_numpy(dtype=float), p_adjust))
+    return table
+
+
+def pairwise_wilcoxon(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
+                      participant: str = "participant", condition: str = "condition",
+                      aggregate: Literal["median", "mean"] = "median",
+                      p_adjust: str = "holm") -> pd.DataFrame:
+    """Wilcoxon signed-rank tests of every pair of conditions on per-participant summaries.
+
+    The post-hoc tests of the participant-level Friedman test: the participants with a value in
+    every condition (the Friedman test's, listwise deletion), summarised per condition by
+    ``aggregate``; for each pair ``scipy.stats.wilcoxon(a, b)`` (zero differences dropped, exact
+    p for small samples), the p-values of all pairs adjusted together by ``p_adjust`` (Holm by
+    default, as the Conover p-values), and the matched-pairs rank-biserial correlation of ``a - b``.
+
+    Parameters
+    ----------
+    data
+        Tidy table, one row per trial: ``participant``, ``condition`` and the ``metric`` column.
+    metric
+        The column to analyse.
+    conditions
+        The conditions, in order; the pairs are :func:`pairs` of them.
+    p_adjust
+        ``multipletests`` method (``"none"`` for no adjustment).
+
+    Returns
+    -------
+    pd.DataFrame
+        One row per pair, columns :data:`PAIRWISE_COLUMNS`: ``a, b, n_participants, statistic``
+        (Wilcoxon's W), ``p`` (adjusted), ``p_unadjusted``, ``rank_biserial``. Statistic and p are
+        NaN where every participant's difference is zero (that pair is left out of the adjustment).
+    """
+    wide, _ = participant_summaries(data, metric, conditions, participant=participant,
+                                    condition=condition, aggregate=aggregate)
+    return _wilcoxon_pairs(wide, conditions, p_adjust)
+
+
 def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
                            participant: str = "participant", condition: str = "condition",
-                           aggregate: Literal["median", "mean"] = "median",
+                           aggregate: Literal["median", "mean"] = "median", p_adjust: str = "holm",
                            ) -> tuple[dict[str, Any], dict[str, Any]]:
     """The paired test on per-participant summaries and its effect size.
 
     Two conditions: Wilcoxon signed-rank (``scipy.stats.wilcoxon``, defaults: zero differences
     dropped, exact p for small samples) and the matched-pairs rank-biserial correlation of
-    ``a - b``. More: Friedman (``scipy.stats.friedmanchisquare``) and Kendall's W.
+    ``a - b``. More: Friedman (``scipy.stats.friedmanchisquare``) and Kendall's W, then
+    :func:`pairwise_wilcoxon` (adjusted by ``p_adjust``) with each pair's rank-biserial correlation.
 
     Returns
     -------
     (dict, dict)
         ``participant_level``: ``test, aggregate, statistic, p, n_participants,
-        dropped_participants, note``; ``effect_size``: ``name, value`` (and ``a, b`` for two
-        conditions).
+        dropped_participants, note`` (and with more than two conditions ``pairwise_test``,
+        ``p_adjust`` and ``pairs``: a list of ``a, b, statistic, p, p_unadjusted``);
+        ``effect_size``: ``name, value`` (and ``a, b`` for two conditions; ``pairs``, a list of
+        ``a, b, name, value``, for more).
     """
     wide, dropped = participant_summaries(data, metric, conditions, participant=participant,
                                           condition=condition, aggregate=aggregate)
@@ -317,8 +462,18 @@ def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence
     }
     if two:
         effect_size = {"name": "rank_biserial", "value": effect, "a": conditions[0], "b": conditions[1]}
-    else:
-        effect_size = {"name": "kendall_w", "value": effect}
+        return level, effect_size
+    effect_size = {"name": "kendall_w", "value": effect}
+    if len(conditions) > 2:
+        posthoc = _wilcoxon_pairs(wide, conditions, p_adjust)
+        level.update({
+            "pairwise_test": "wilcoxon",
+            "p_adjust": p_adjust,
+            "pairs": [{"a": r["a"], "b": r["b"], "statistic": r["statistic"], "p": r["p"],
+                       "p_unadjusted": r["p_unadjusted"]} for r in posthoc.to_dict("records")],
+        })
+        effect_size["pairs"] = [{"a": r["a"], "b": r["b"], "name": "rank_biserial",
+                                 "value": r["rank_biserial"]} for r in posthoc.to_dict("records")]
     return level, effect_size
 
 
@@ -493,7 +648,11 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
               "stars": significance_stars(row.p, options.star_thresholds, options.star_comparison)
               if significant else ""} for row in posthoc.itertuples()]
     level, effect = participant_level_test(data, metric, conditions, participant=participant,
-                                           condition=condition, aggregate=options.participant_aggregate)
+                                           condition=condition, aggregate=options.participant_aggregate,
+                                           p_adjust=options.p_adjust)
+    if len(conditions) > 2:  # (with two, the pair's rank-biserial r says it; stats.json stays as it was)
+        effect["kruskal_epsilon_squared"] = epsilon_squared(kruskal["statistic"],
+                                                            sum(int(v) for v in descriptives["n"].values()))
     intervals = bootstrap_median_differences(
         data, metric, conditions, resamples=options.bootstrap_resamples, level=options.bootstrap_level,
         seed=options.seed, participant=participant, condition=condition)
@@ -570,6 +729,13 @@ STATS_CSV_COLUMNS = (
     "participant_test", "participant_statistic", "participant_p", "n_participants",
     "effect_size_name", "effect_size", "difference", "ci_low", "ci_high", "ci_level",
 )
+#: The columns ``stats.csv`` adds after :data:`STATS_CSV_COLUMNS` when more than two conditions are
+#: compared: the pair's participant-level post-hoc test and effect size (with two conditions the
+#: participant-level test is the pair's), and the epsilon-squared of Kruskal-Wallis.
+K_CONDITION_CSV_COLUMNS = (
+    "pairwise_test", "pairwise_statistic", "pairwise_p", "pairwise_p_unadjusted",
+    "pairwise_effect_size_name", "pairwise_effect_size", "epsilon_squared",
+)
 
 
 def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
@@ -582,11 +748,14 @@ def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
     -------
     pd.DataFrame
         Columns :data:`STATS_CSV_COLUMNS`, then ``mean_a, mean_b, participant_note, ci_seed,
-        ci_resamples``. With a single condition, one row per metric with ``b`` ``None`` and only
-        ``metric, a, b, n_a, median_a, q1_a, q3_a, participant_test, ci_level, mean_a,
-        participant_note, ci_seed, ci_resamples``.
+        ci_resamples``, then with more than two conditions :data:`K_CONDITION_CSV_COLUMNS` (the
+        ``participant_*`` and ``effect_size*`` columns stay the omnibus Friedman test and Kendall's
+        W; ``pairwise_*`` are the pair's Wilcoxon test and rank-biserial r). With a single
+        condition, one row per metric with ``b`` ``None`` and only ``metric, a, b, n_a, median_a,
+        q1_a, q3_a, participant_test, ci_level, mean_a, participant_note, ci_seed, ci_resamples``.
     """
     rows = []
+    many = len(stats["conditions"]) > 2
     for entry in stats["metrics"]:
         ci, level = entry["ci"], entry["participant_level"]
         extra = {"participant_note": level.get("note") or "", "ci_seed": ci.get("seed"),
@@ -621,8 +790,25 @@ def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
                 "ci_high": interval["high"], "ci_level": ci["level"],
                 "mean_a": entry["mean"][a], "mean_b": entry["mean"][b],
                 **extra,
+                **(_pairwise_columns(entry, a, b) if many else {}),
             })
     return pd.DataFrame(rows)
+
+
+def _pairwise_columns(entry: dict[str, Any], a: str, b: str) -> dict[str, Any]:
+    """:data:`K_CONDITION_CSV_COLUMNS` of one pair of a ``stats.json`` entry of three or more conditions."""
+    level, effect = entry["participant_level"], entry["effect_size"]
+    test: dict[str, Any] = next((r for r in level.get("pairs") or [] if (r["a"], r["b"]) == (a, b)), {})
+    size: dict[str, Any] = next((r for r in effect.get("pairs") or [] if (r["a"], r["b"]) == (a, b)), {})
+    return {
+        "pairwise_test": level.get("pairwise_test", "none"),
+        "pairwise_statistic": test.get("statistic", math.nan),
+        "pairwise_p": test.get("p", math.nan),
+        "pairwise_p_unadjusted": test.get("p_unadjusted", math.nan),
+        "pairwise_effect_size_name": size.get("name", "none"),
+        "pairwise_effect_size": size.get("value", math.nan),
+        "epsilon_squared": effect.get("kruskal_epsilon_squared", math.nan),
+    }
 
 
 def condition_table(table: pd.DataFrame) -> pd.DataFrame:
@@ -658,8 +844,10 @@ def condition_table(table: pd.DataFrame) -> pd.DataFrame:
 
 
 def stats_csv(table: pd.DataFrame) -> str:
-    """``stats.csv``: :func:`stats_table`'s table, columns :data:`STATS_CSV_COLUMNS` only."""
-    return table[[c for c in STATS_CSV_COLUMNS if c in table.columns]].to_csv(index=False)
+    """``stats.csv``: :func:`stats_table`'s table, columns :data:`STATS_CSV_COLUMNS` then (more than
+    two conditions) :data:`K_CONDITION_CSV_COLUMNS` only."""
+    columns = (*STATS_CSV_COLUMNS, *K_CONDITION_CSV_COLUMNS)
+    return table[[c for c in columns if c in table.columns]].to_csv(index=False)
 
 
 def _plain(value: Any) -> Any:

@@ -5,28 +5,53 @@
 const params = new URLSearchParams(location.search);
 const AXIS = Number(params.get("axis") || 0);      // which gamepad axis is the pressure
 const AXIS_SIGN = params.get("invert") ? -1 : 1;   // sip positive, puff negative
+const TOKEN = params.get("token") || "";           // the session's token, from the printed address
 const INPUT_KEYS = new Set(["1", "2", "3", "4", " "]);
+const INPUT_PHASES = new Set(["mapping", "distortion", "ready", "trial"]);
 
 let ws = null;
 let state = null;
 let lastAxis = undefined;
+let role = null;          // "controller" (this page drives the session) or "watcher"
+let everConnected = false;
+let lastError = "";       // the server's last error reply (tests read it)
 
 function send(message) {
+  // a watching page sends no input (the server would refuse it); a ping is fine
+  if (role !== "controller" && message.type !== "ping") return;
   if (ws && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(message));
 }
 
 function connect() {
-  ws = new WebSocket(`ws://${location.host}/ws`);
+  ws = new WebSocket(`ws://${location.host}/ws?token=${encodeURIComponent(TOKEN)}`);
   const badge = document.getElementById("connection");
-  ws.onopen = () => { badge.textContent = "connected"; badge.className = "online"; lastAxis = undefined; };
+  ws.onopen = () => {
+    everConnected = true;
+    badge.textContent = "connected"; badge.className = "online"; lastAxis = undefined;
+    document.getElementById("lost").classList.remove("shown");
+  };
   ws.onclose = () => {
+    role = null;
     badge.textContent = "disconnected: reconnecting…"; badge.className = "offline";
+    document.getElementById("lost-help").textContent = everConnected ?
+      "The connection to the study server was lost. Keep this page open: it reconnects by itself " +
+      "when the server is back. If nothing happens, tell the experimenter." :
+      "Cannot reach the study server. Open the exact address the server printed (it ends in " +
+      "?token=…), and check that the server is running.";
+    document.getElementById("lost").classList.add("shown");
     setTimeout(connect, 1000);
   };
   ws.onmessage = (event) => {
     const message = JSON.parse(event.data);
     if (message.type === "state") { state = message; render(); }
-    else if (message.type === "error") document.getElementById("q-error").textContent = message.message;
+    else if (message.type === "role") {
+      role = message.role;
+      document.getElementById("watching").classList.toggle("shown", role !== "controller");
+    } else if (message.type === "error") {
+      lastError = message.message;
+      document.getElementById(state && state.phase === "questionnaire" ? "q-error" : "notice").textContent =
+        message.message;
+    }
   };
 }
 
@@ -67,9 +92,20 @@ function show(id) {
   for (const screen of document.querySelectorAll(".screen")) screen.classList.toggle("active", screen.id === id);
 }
 
+function renderLegend() {  // the keys on every screen that takes input
+  const legend = document.getElementById("legend");
+  legend.classList.toggle("shown", INPUT_PHASES.has(state.phase));
+  if (legend.dataset.filled) return;
+  legend.innerHTML = Object.entries(state.keys).map(([key, label]) => `<span><kbd>${key}</kbd> ${label}</span>`)
+    .join("") + "<span><kbd>Space</kbd> start</span>";
+  legend.dataset.filled = "1";
+}
+
 function render() {
   document.getElementById("participant").textContent = `Participant ${state.participant}`;
   document.getElementById("progress").textContent = `Trials ${state.trials_done} / ${state.trials_total}`;
+  document.getElementById("notice").textContent = "";
+  renderLegend();
   const phase = state.phase;
   if (phase === "welcome") show("welcome");
   else if (phase === "mapping" || phase === "distortion") renderCalibration();
@@ -113,12 +149,18 @@ function renderReady() {
     next === "evaluation" ? `Trial ${state.trials_done + 1} of ${state.trials_total}` : "Practice";
   document.getElementById("ready-help").textContent = PRACTICE_HELP[next] || "";
   document.getElementById("skip").style.display = next === "evaluation" ? "none" : "inline-block";
-  const o = state.last_outcome;
-  let outcome = "";
-  if (o && o.abandoned) outcome = "The page was closed during the trial: it starts again from the beginning.";
-  else if (o) outcome = o.success ? `Goal reached in ${o.duration_s.toFixed(1)} s.` :
-    (o.timed_out ? "Time is up." : "That was not the red goal.");
-  document.getElementById("ready-outcome").textContent = outcome;
+  document.getElementById("ready-outcome").textContent = outcomeText(state.last_outcome);
+}
+
+const PRACTICE_NAMES = { teleoperation: "Practice 1 of 3 (teleoperation)", blending: "Practice 2 of 3 (blending)",
+  "turn-taking": "Practice 3 of 3 (turn-taking)" };
+
+function outcomeText(o) {  // what the last trial or practice gave, named, so it is not taken for the next
+  if (!o) return "";
+  const what = o.kind === "evaluation" ? `Trial ${state.trials_done}` : (PRACTICE_NAMES[o.kind] || "Practice");
+  if (o.abandoned) return `${what}: the page was closed during it; it starts again from the beginning.`;
+  if (o.success) return `${what}: goal reached in ${o.duration_s.toFixed(1)} s.`;
+  return `${what}: ${o.timed_out ? "time is up" : "that was not the red goal"}.`;
 }
 
 function renderTrial() {
@@ -129,6 +171,10 @@ function renderTrial() {
   document.getElementById("clock").textContent = `${t.t.toFixed(1)} s / ${t.time_limit_s} s`;
   const canvas = document.getElementById("world");
   canvas.style.borderColor = t.autonomy ? "#999" : borderColour(t.border);
+  document.getElementById("border-help").textContent = t.autonomy ?
+    "Grey border: the assistant is moving the robot; wait for your turn." :
+    `The border turns from blue to red over the first ${t.border_s} s of your commands in a turn; ` +
+    "pause for about two seconds to hand the robot to the assistant.";
   draw(canvas, t);
 }
 
@@ -174,14 +220,21 @@ function renderQuestionnaire() {
   const form = document.getElementById("q-form");
   form.innerHTML = "";
   document.getElementById("q-error").textContent = "";
-  for (const item of q.tlx) {
+  for (const item of q.tlx) {  // sliders start unset: an untouched one is no answer, not a 50
     const div = document.createElement("div"); div.className = "item";
-    div.innerHTML = `<label for="${item.name}">${item.question} <output id="${item.name}-out">50</output></label>` +
-      `<span class="small">${item.low}</span> <input type="range" id="${item.name}" name="${item.name}" min="${q.tlx_range[0]}" ` +
-      `max="${q.tlx_range[1]}" step="5" value="50"> <span class="small">${item.high}</span>`;
+    const middle = (q.tlx_range[0] + q.tlx_range[1]) / 2;
+    div.innerHTML = `<label for="${item.name}">${item.question} <output id="${item.name}-out">not set</output></label>` +
+      `<span class="small">${item.low}</span> <input type="range" class="unset" id="${item.name}" name="${item.name}" ` +
+      `min="${q.tlx_range[0]}" max="${q.tlx_range[1]}" step="5" value="${middle}"> <span class="small">${item.high}</span>`;
     form.appendChild(div);
     const input = div.querySelector("input");
-    input.addEventListener("input", () => { div.querySelector("output").textContent = input.value; });
+    const touch = () => {
+      input.classList.remove("unset"); input.dataset.touched = "1";
+      div.querySelector("output").textContent = input.value;
+    };
+    input.addEventListener("input", touch);
+    input.addEventListener("change", touch);
+    input.addEventListener("pointerdown", touch);
   }
   for (const item of q.likert) {
     const div = document.createElement("div"); div.className = "item likert";
@@ -198,7 +251,16 @@ function renderQuestionnaire() {
   form.onsubmit = (e) => {
     e.preventDefault();
     const answers = {};
-    for (const item of q.tlx) answers[item.name] = Number(form.elements[item.name].value);
+    const unset = [];
+    for (const item of q.tlx) {
+      const input = form.elements[item.name];
+      answers[item.name] = input.dataset.touched ? Number(input.value) : null;
+      if (!input.dataset.touched) unset.push(item.subscale);
+    }
+    if (unset.length) {
+      document.getElementById("q-error").textContent = `Set every slider (not yet: ${unset.join(", ")}).`;
+      return;
+    }
     for (const item of q.likert) {
       const checked = form.querySelector(`input[name="${item.name}"]:checked`);
       answers[item.name] = checked ? Number(checked.value) : null;

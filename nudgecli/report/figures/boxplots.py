@@ -21,7 +21,7 @@ from matplotlib.layout_engine import ConstrainedLayoutEngine
 from matplotlib.ticker import MaxNLocator
 
 from nudgecli.errors import DataError
-from nudgecli.report.brackets import DEFAULT_STAR_RULE, brackets_from_stats, draw_brackets
+from nudgecli.report.brackets import DEFAULT_STAR_RULE, bracket_levels, brackets_from_stats, draw_brackets
 from nudgecli.report.figures.common import (
     axes_or_new,
     jitter,
@@ -45,6 +45,10 @@ METRIC_FIGSIZE = (FULL_WIDTH_IN, 2.6)
 METRIC_ROW_HEIGHT_IN = 2.6
 #: Panels per row of :func:`metrics_figure`.
 METRIC_PANELS_PER_ROW = 3
+#: Bracket levels a row of :func:`metrics_figure` holds at its base height; each further level
+#: (many conditions, many significant pairs) adds :data:`BRACKET_LEVEL_HEIGHT_IN` to every row.
+BRACKET_LEVELS_PER_ROW = 4
+BRACKET_LEVEL_HEIGHT_IN = 0.2
 BOX_WIDTH = 0.55
 
 
@@ -250,7 +254,9 @@ def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metri
     Returns
     -------
     Figure
-        ``ceil(M / 3)`` rows of panels, 2.4 in wide per column (7.2 in for three), 2.6 in per row.
+        ``ceil(M / 3)`` rows of panels, 2.4 in wide per column (7.2 in for three), 2.6 in per row
+        (plus :data:`BRACKET_LEVEL_HEIGHT_IN` per bracket level above
+        :data:`BRACKET_LEVELS_PER_ROW` that the most crowded panel needs).
     """
     if not metric_names:
         raise DataError("metrics table: no metric to plot")
@@ -258,10 +264,14 @@ def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metri
     entries = stats_by_metric(stats)
     n_cols = min(len(metric_names), METRIC_PANELS_PER_ROW)
     n_rows = math.ceil(len(metric_names) / METRIC_PANELS_PER_ROW)
+    positions = {c: float(i) for i, c in enumerate(order)}
+    levels = max(bracket_levels(positions, brackets_from_stats(entries.get(m), star_rule))
+                 for m in metric_names)
+    row_height = METRIC_ROW_HEIGHT_IN + max(0, levels - BRACKET_LEVELS_PER_ROW) * BRACKET_LEVEL_HEIGHT_IN
     with figure_style():
         layout = ConstrainedLayoutEngine(w_pad=0.04, h_pad=0.03, wspace=0.06)
         width = FULL_WIDTH_IN * (n_cols if n_rows == 1 else METRIC_PANELS_PER_ROW) / METRIC_PANELS_PER_ROW
-        fig = Figure(figsize=(width, METRIC_ROW_HEIGHT_IN * n_rows), layout=layout)
+        fig = Figure(figsize=(width, row_height * n_rows), layout=layout)
         axes = np.atleast_1d(fig.subplots(n_rows, METRIC_PANELS_PER_ROW if n_rows > 1 else n_cols)).ravel()
         for i, metric in enumerate(metric_names):
             metric_boxplot(metrics, metric, entries.get(metric), ax=axes[i], conditions=order, seed=seed,

@@ -20,11 +20,11 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from nudgecli.errors import DataError
-from nudgecli.report.stats import order_conditions
+from nudgecli.report.stats import PAPER_CONDITIONS, order_conditions
 from nudgecli.report.style import PANEL_LETTER_PT, figure_style
 
-#: Conditions drawn first when nothing else fixes the order (the paper's order).
-DEFAULT_CONDITION_ORDER = ("disambiguation", "control")
+#: Conditions drawn first (the paper's order; :func:`nudgecli.report.stats.order_conditions` owns the rule).
+DEFAULT_CONDITION_ORDER = PAPER_CONDITIONS
 #: Jitter half-width of the trial dots, in units of the box spacing.
 JITTER_HALF_WIDTH = 0.17
 
@@ -45,9 +45,9 @@ def resolve_conditions(metrics: pd.DataFrame | None = None, stats: Mapping[str, 
     Returns
     -------
     list[str]
-        The explicit order; else the stats' conditions, then any other condition of ``metrics``
-        sorted; else :func:`nudgecli.report.stats.order_conditions` with Disambiguation and
-        Control first.
+        The explicit order; else the stats' conditions (the analysis ordered them), then any
+        other condition of ``metrics`` in :func:`nudgecli.report.stats.order_conditions`' order;
+        else that order (the paper's conditions first).
     """
     if conditions is not None:
         return [str(c) for c in conditions]
@@ -55,7 +55,7 @@ def resolve_conditions(metrics: pd.DataFrame | None = None, stats: Mapping[str, 
     if stats and stats.get("conditions"):
         order = [str(c) for c in stats["conditions"]]
         return order + [c for c in order_conditions(present) if c not in order]
-    return order_conditions(present, DEFAULT_CONDITION_ORDER)
+    return order_conditions(present)
 
 
 def stats_by_metric(stats: Mapping[str, Any] | None) -> dict[str, Mapping[str, Any]]:

@@ -42,6 +42,27 @@ def _grid(n: int, width: float = 3.4, height: float = 2.6) -> tuple[Figure, list
     return fig, axes[:n]
 
 
+def _pair_groups(table: pd.DataFrame) -> list[tuple[Any, Any, Any]]:
+    """The ``(metric, a, b)`` of the table's rows in order of first appearance: one panel each (a
+    table without ``a``, ``b`` columns has one pair: ``(metric, None, None)``)."""
+    if "a" not in table.columns or "b" not in table.columns:
+        return [(metric, None, None) for metric in dict.fromkeys(table["metric"])]
+    return list(dict.fromkeys(zip(table["metric"], table["a"], table["b"], strict=True)))
+
+
+def _one_pair_per_metric(table: pd.DataFrame) -> bool:
+    """Whether the table compares one pair of conditions (two conditions: the panels keep their titles)."""
+    return len(_pair_groups(table)) == table["metric"].nunique()
+
+
+def _of(table: pd.DataFrame, metric: Any, a: Any, b: Any) -> pd.DataFrame:
+    """The rows of one panel of :func:`_pair_groups`."""
+    mask = table["metric"] == metric
+    if a is not None:
+        mask &= (table["a"] == a) & (table["b"] == b)
+    return table[mask]
+
+
 def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = None) -> Axes:
     """One metric's forest plot: every replication's difference of medians with its bootstrap
     interval, coloured by participant-level significance, and the pooled mean with its range.
@@ -76,13 +97,71 @@ def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = No
     return ax
 
 
+def pairs_forest_panel(group: pd.DataFrame, pooled: pd.DataFrame, *, ax: Axes | None = None) -> Axes:
+    """One metric's forest plot of every pair of conditions (a study of three or more): one row per
+    pair ``a - b``, in it every replication's difference of medians with its bootstrap interval
+    (coloured by the pair's participant-level significance, replications spread over the row) and
+    the pooled mean (a dark tick) with its 2.5-97.5 % range (a band).
+
+    Parameters
+    ----------
+    group
+        The metric's rows of :func:`~nudgecli.report.replication.replication_rows`.
+    pooled
+        The metric's rows of :func:`~nudgecli.report.replication.summarise` (one per pair).
+    ax
+        Axes to draw on; default a new figure's.
+    """
+    ax = _axes(ax)
+    pairs = list(dict.fromkeys(zip(group["a"], group["b"], strict=True)))
+    replications = sorted(group["replication"].unique())
+    spread = {r: (i - (len(replications) - 1) / 2) * 0.7 / max(1, len(replications))
+              for i, r in enumerate(replications)}
+    for row, (a, b) in enumerate(pairs):
+        own = group[(group["a"] == a) & (group["b"] == b)]
+        y = row + own["replication"].map(spread).to_numpy(dtype=float)
+        for significant in (False, True):
+            mask = own["participant_significant"].astype(bool).to_numpy() == significant
+            sub = own[mask]
+            diff = sub["difference"].astype(float).to_numpy()
+            err = np.vstack([diff - sub["ci_low"].astype(float).to_numpy(),
+                             sub["ci_high"].astype(float).to_numpy() - diff])
+            ax.errorbar(diff, y[mask], xerr=np.abs(err), fmt="o", ms=2, lw=0.6,
+                        color=FOREST_COLOURS[significant],
+                        label=(("significant (participant level)" if significant else "not significant")
+                               if row == 0 else None))
+        summary = pooled[(pooled["a"] == a) & (pooled["b"] == b)]
+        if not summary.empty:
+            first = summary.iloc[0]
+            ax.fill_betweenx([row - 0.42, row + 0.42], first["difference_low"], first["difference_high"],
+                             color="#3498db", alpha=0.15, linewidth=0)
+            ax.plot([first["difference"]] * 2, [row - 0.42, row + 0.42], color="#2c3e50", lw=1.2)
+    ax.axvline(0, color="black", lw=0.6, ls=":")
+    ax.set_yticks(np.arange(len(pairs)), [f"{a} - {b}" for a, b in pairs], fontsize=6)
+    ax.set_ylim(len(pairs) - 0.5, -0.5)  # the first pair on top
+    ax.set_title(str(group["metric"].iloc[0]), fontsize=9)
+    ax.set_xlabel("a - b (difference of medians)", fontsize=8)
+    return ax
+
+
 def forest_figure(rows: pd.DataFrame, summary: pd.DataFrame) -> Figure:
-    """:func:`forest_panel` per metric (``rows``: :func:`~nudgecli.report.replication.replication_rows`,
-    ``summary``: :func:`~nudgecli.report.replication.summarise`)."""
-    metrics = list(dict.fromkeys(rows["metric"]))
-    fig, axes = _grid(len(metrics), height=max(2.4, 0.18 * rows["replication"].nunique() + 1.2))
-    for ax, metric in zip(axes, metrics, strict=True):
-        forest_panel(rows[rows["metric"] == metric], summary[summary["metric"] == metric].iloc[0], ax=ax)
+    """The forest plots of a replication (``rows``: :func:`~nudgecli.report.replication.replication_rows`,
+    ``summary``: :func:`~nudgecli.report.replication.summarise`): :func:`forest_panel` per metric
+    for two conditions, :func:`pairs_forest_panel` per metric (a row per pair) for more."""
+    if not _one_pair_per_metric(rows):
+        metrics = list(dict.fromkeys(rows["metric"]))
+        n_pairs = len(_pair_groups(rows)) / len(metrics)
+        height = max(2.4, n_pairs * (0.1 + 0.03 * rows["replication"].nunique()) + 1.0)
+        fig, axes = _grid(len(metrics), width=4.0, height=height)
+        for ax, metric in zip(axes, metrics, strict=True):
+            pairs_forest_panel(rows[rows["metric"] == metric], summary[summary["metric"] == metric], ax=ax)
+        if axes:
+            axes[0].legend(fontsize=6, loc="best")
+        return fig
+    panels = _pair_groups(rows)
+    fig, axes = _grid(len(panels), height=max(2.4, 0.18 * rows["replication"].nunique() + 1.2))
+    for ax, (metric, a, b) in zip(axes, panels, strict=True):
+        forest_panel(_of(rows, metric, a, b), _of(summary, metric, a, b).iloc[0], ax=ax)
     if axes:
         axes[0].legend(fontsize=6, loc="best")
     return fig
@@ -115,12 +194,61 @@ def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes |
     return ax
 
 
+def power_grid_panel(power: pd.DataFrame, level: str, target: float = POWER_TARGET, *,
+                     ax: Axes | None = None) -> Axes:
+    """The power of every metric and pair at one level of test as a grid (a study of three or more
+    conditions): one row per (metric, pair), one column per participant count, each cell shaded
+    by its power and labelled with it (bold where it reaches ``target``).
+
+    Parameters
+    ----------
+    power
+        :func:`~nudgecli.report.replication.power_table`'s table.
+    level
+        ``participant`` or ``trial``.
+    target
+        The target power.
+    ax
+        Axes to draw on; default a new figure's.
+    """
+    ax = _axes(ax)
+    rows = power[power["level"] == level]
+    panels = _pair_groups(rows)
+    counts = sorted(rows["participants"].unique())
+    grid = np.full((len(panels), len(counts)), np.nan)
+    for i, (metric, a, b) in enumerate(panels):
+        own = _of(rows, metric, a, b).set_index("participants")["power"]
+        grid[i] = [own.get(n, np.nan) for n in counts]
+    ax.imshow(grid, cmap="Blues", vmin=0.0, vmax=1.0, aspect="auto", interpolation="nearest")
+    for (i, j), value in np.ndenumerate(grid):
+        if np.isfinite(value):
+            ax.text(j, i, f"{value:.2f}", ha="center", va="center", fontsize=6,
+                    color="white" if value > 0.6 else "black",
+                    fontweight="bold" if value >= target else "normal")
+    ax.set_xticks(np.arange(len(counts)), [str(int(n)) for n in counts], fontsize=7)
+    directions = {(m, a, b): d for m, a, b, d in zip(rows["metric"], rows["a"], rows["b"], rows["direction"],
+                                                     strict=True)}
+    ax.set_yticks(np.arange(len(panels)), [f"{m}: {a} - {b} ({directions[m, a, b]})" for m, a, b in panels],
+                  fontsize=6)
+    ax.set_xlabel("participants", fontsize=8)
+    ax.set_title(f"{level} level (bold: power >= {target:g})", fontsize=9)
+    return ax
+
+
 def power_figure(power: pd.DataFrame, target: float = POWER_TARGET) -> Figure:
-    """:func:`power_panel` per metric of :func:`~nudgecli.report.replication.power_table`'s table."""
-    metrics = list(dict.fromkeys(power["metric"]))
-    fig, axes = _grid(len(metrics))
-    for ax, metric in zip(axes, metrics, strict=True):
-        power_panel(power[power["metric"] == metric], target, ax=ax)
+    """The power curves of :func:`~nudgecli.report.replication.power_table`'s table: :func:`power_panel`
+    per metric for two conditions; for more, :func:`power_grid_panel` at each level of test (one
+    row per metric and pair)."""
+    if not _one_pair_per_metric(power):
+        n_rows = len(_pair_groups(power))
+        fig = Figure(figsize=(8.0, max(2.6, 0.16 * n_rows + 1.0)), layout="constrained")
+        for ax, level in zip(fig.subplots(1, 2, sharey=True), ("participant", "trial"), strict=True):
+            power_grid_panel(power, level, target, ax=ax)
+        return fig
+    panels = _pair_groups(power)
+    fig, axes = _grid(len(panels))
+    for ax, (metric, a, b) in zip(axes, panels, strict=True):
+        power_panel(_of(power, metric, a, b), target, ax=ax)
     if axes:
         axes[0].legend(fontsize=6, loc="best")
     return fig
@@ -158,16 +286,18 @@ def sweep_panel(group: pd.DataFrame, name: str, *, ax: Axes | None = None) -> Ax
 
 
 def sweep_figure(rows: pd.DataFrame, parameters: Sequence[str]) -> Figure:
-    """:func:`sweep_panel` per metric (rows) and swept parameter (columns)."""
-    metrics = list(dict.fromkeys(rows["metric"]))
-    fig = Figure(figsize=(3.0 * len(parameters), 2.3 * len(metrics)), layout="constrained")
-    axes = fig.subplots(len(metrics), len(parameters), squeeze=False)
-    for i, metric in enumerate(metrics):
-        group = rows[rows["metric"] == metric]
+    """:func:`sweep_panel` per metric and pair of conditions (rows) and swept parameter (columns)."""
+    panels = _pair_groups(rows)
+    show_pair = not _one_pair_per_metric(rows)
+    fig = Figure(figsize=(3.0 * len(parameters), 2.3 * len(panels)), layout="constrained")
+    axes = fig.subplots(len(panels), len(parameters), squeeze=False)
+    for i, (metric, a, b) in enumerate(panels):
+        group = _of(rows, metric, a, b)
         for j, name in enumerate(parameters):
             sweep_panel(group, name, ax=axes[i][j])
             if j == 0:
-                axes[i][j].set_ylabel(f"{metric}\n(a - b)", fontsize=7)
+                axes[i][j].set_ylabel(f"{metric}\n({a} - {b})" if show_pair else f"{metric}\n(a - b)",
+                                      fontsize=7)
     return fig
 
 
@@ -207,5 +337,6 @@ def sensitivity_figure(indices: pd.DataFrame) -> Figure:
     return fig
 
 
-__all__ = ["FOREST_COLOURS", "forest_figure", "forest_panel", "power_figure", "power_panel",
+__all__ = ["FOREST_COLOURS", "forest_figure", "forest_panel", "pairs_forest_panel", "power_figure",
+           "power_grid_panel", "power_panel",
            "sensitivity_figure", "sensitivity_panel", "sweep_figure", "sweep_panel"]

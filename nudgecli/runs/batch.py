@@ -26,11 +26,12 @@ plan is sent to every worker (:func:`install_plan`) before its participant tasks
 Every result is written by this process as an atomic part file (``tasks/``, ``analyses/``), so
 ``--resume`` finishes an interrupted batch without recomputing a finished task, and the tables
 assembled from the parts are the same for any executor and number of workers. The executors
-themselves are in :mod:`nudgecli.sim.executors`.
+themselves are in :mod:`nudgecli.runs.executors`.
 """
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import threading
@@ -46,28 +47,19 @@ import pandas as pd
 import pyarrow.parquet as pq
 
 from nudgecli.config import ExperimentConfig
-from nudgecli.errors import ConfigError, RunFolderError
+from nudgecli.errors import ConfigError, NudgeError, RunFolderError
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.report.metrics import trial_metrics
 from nudgecli.report.plans import AnalysisPlan
 from nudgecli.report.replication import analyse_replication
 from nudgecli.rng import seed_sequence
-from nudgecli.sim.executors import HELD_AFFINITIES, Executor, Job, format_duration, make_executor
-from nudgecli.sim.study import (
-    StudyPlan,
-    build_layouts,
-    check_physiology_logs,
-    connect_scheduler,
-    layout_chunks,
-    simulate_participant,
-    solve_layout_chunk,
-    tune_allocator,
-)
-from nudgecli.store import library_versions, utc_now, write_json_atomic, write_parquet_atomic
+from nudgecli.runs.executors import HELD_AFFINITIES, Executor, Job, format_duration, make_executor
+from nudgecli.runs.size import check_size, trials_per_participant
+from nudgecli.runs.study import connect_scheduler, layout_chunks, solve_layout_chunk, tune_allocator
+from nudgecli.sim.study import StudyPlan, build_layouts, check_physiology_logs, simulate_participant
+from nudgecli.store import LOCK, library_versions, run_lock, utc_now, write_json_atomic, write_parquet_atomic
 
 BATCH_MANIFEST = "batch.json"
-#: Simulated trials above which a batch needs ``--yes`` (``confirm=True``).
-MAX_TRIALS_WITHOUT_YES = 200_000
 #: Wall seconds per simulated trial on one core (``nudge bench``: one participant of ``paper``,
 #: 48 trials in about 0.4-0.7 s on the 2-core development machine) -- for the size estimate only.
 SECONDS_PER_TRIAL = 0.012
@@ -215,11 +207,6 @@ class Graph:
         return sum(s.participants * trials_per_participant(s.config) for s in self.studies.values())
 
 
-def trials_per_participant(config: ExperimentConfig) -> int:
-    """Trials each participant does (every layout of every condition once)."""
-    return len(config.study.conditions) * config.study.trials_per_condition
-
-
 def build_graph(batch: Batch) -> Graph:
     """Every study and analysis of the batch, deduplicated (equal experiments share tasks)."""
     studies: dict[str, Study] = {}
@@ -256,19 +243,41 @@ class SizeEstimate:
     workers: int
 
     def describe(self) -> str:
-        return (f"{self.studies} studies, {self.participant_tasks} participant tasks + {self.analyses} "
+        return (f"{self.studies:,} studies, {self.participant_tasks:,} participant tasks + {self.analyses:,} "
                 f"analyses, {self.trials:,} trials; about {format_duration(self.seconds)} on {self.workers} "
                 f"worker(s) and {self.bytes / 1e6:.1f} MB on disk")
 
 
 def estimate(graph: Graph, workers: int) -> SizeEstimate:
     """The size of the batch and its estimated wall time on ``workers`` and disk use."""
-    trials = graph.trials
-    seconds = (trials * SECONDS_PER_TRIAL + len(graph.analyses) * SECONDS_PER_ANALYSIS) / max(1, workers)
-    size = (graph.participant_tasks * BYTES_PER_TASK + trials * BYTES_PER_TRIAL
-            + len(graph.analyses) * BYTES_PER_ANALYSIS)
-    return SizeEstimate(len(graph.studies), graph.participant_tasks, len(graph.analyses), trials, seconds,
-                        size, workers)
+    return _size(len(graph.studies), graph.participant_tasks, len(graph.analyses), graph.trials, workers)
+
+
+def estimate_batch(batch: Batch, workers: int) -> SizeEstimate:
+    """:func:`estimate` of the batch's graph without building it: constant memory in the replications.
+
+    Every replication has the same studies up to their seeds (points with equal experiments
+    share a study whatever the seed), so one replication's counts times ``R`` are the graph's.
+    This is what the size guard checks before anything is built.
+    """
+    participants: dict[str, int] = {}  # one replication's studies: normalised experiment -> participants
+    per_trial: dict[str, int] = {}
+    analysed: set[tuple[str, int]] = set()
+    for point in batch.points:
+        key = _normalised_toml(point.config)
+        participants[key] = max(participants.get(key, 0), max(point.participants))
+        per_trial[key] = trials_per_participant(point.config)
+        analysed.update((key, n) for n in point.participants)
+    r = batch.replications
+    tasks = sum(participants.values())
+    trials = sum(n * per_trial[key] for key, n in participants.items())
+    return _size(r * len(participants), r * tasks, r * len(analysed), r * trials, workers)
+
+
+def _size(studies: int, participant_tasks: int, analyses: int, trials: int, workers: int) -> SizeEstimate:
+    seconds = (trials * SECONDS_PER_TRIAL + analyses * SECONDS_PER_ANALYSIS) / max(1, workers)
+    size = participant_tasks * BYTES_PER_TASK + trials * BYTES_PER_TRIAL + analyses * BYTES_PER_ANALYSIS
+    return SizeEstimate(studies, participant_tasks, analyses, trials, seconds, size, workers)
 
 
 # --- tasks (run in a worker) -------------------------------------------------------------------
@@ -329,10 +338,12 @@ def run_participant_task(config: ExperimentConfig, seed: int, index: int,
     return participant_metrics(cached_plan(config, seed), index, analysis)
 
 
-def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str]) -> dict[str, Any]:
-    """An analysis task: the replication's statistics (:func:`analyse_replication`)."""
+def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str],
+                      study_conditions: Sequence[str] = ()) -> dict[str, Any]:
+    """An analysis task: the replication's statistics (:func:`analyse_replication`; the study's
+    conditions give their order after the plan's)."""
     tune_allocator()
-    return analyse_replication(metrics, analysis, names)
+    return analyse_replication(metrics, analysis, names, study_conditions)
 
 
 # --- the run -----------------------------------------------------------------------------------
@@ -403,7 +414,7 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
         for name in ("tasks", "analyses", "figures"):
             shutil.rmtree(folder / name, ignore_errors=True)
         manifest.unlink()
-    elif folder.exists() and any(folder.iterdir()):
+    elif folder.exists() and any(p.name != LOCK for p in folder.iterdir()):
         if not force:
             raise RunFolderError(f"{folder}: exists and is not empty; choose another --out or use --force")
     elif resume:
@@ -445,7 +456,7 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     resume, force
         Finish the batch already in ``out`` / replace it.
     confirm
-        Run a batch above :data:`MAX_TRIALS_WITHOUT_YES` trials (``--yes``).
+        Run a batch above :data:`nudgecli.runs.size.MAX_TRIALS_WITHOUT_YES` trials (``--yes``).
     progress
         Called with (tasks done, tasks in all) after every task.
     log
@@ -461,27 +472,40 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
         Bad workers, an unreachable scheduler, or a batch too large without ``confirm``.
     RunFolderError
         ``out`` holds something else (see :func:`prepare_folder`).
+    LockError
+        Another command is writing ``out`` (the batch folder is locked for the whole batch, as a
+        run folder is).
     """
     if workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {workers}")
+    size = estimate_batch(batch, workers)  # before anything is built: constant memory
+    check_size(size.trials, confirm, details=size.describe(),
+               fix="fewer replications, participants or design points")
     for point in batch.points:
         check_physiology_logs(point.config)
-    graph = build_graph(batch)
-    size = estimate(graph, workers)
-    if log is not None:
-        log(f"batch: {size.describe()}")
-    if size.trials > MAX_TRIALS_WITHOUT_YES and not confirm:
-        raise ConfigError(f"this batch simulates {size.trials:,} trials (more than "
-                          f"{MAX_TRIALS_WITHOUT_YES:,}; {size.describe()}); pass --yes to run it, or use "
-                          "fewer replications, participants or design points")
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
     folder = Path(out)
+    made = not folder.exists()
     try:
-        mode = prepare_folder(folder, batch.describe(), resume=resume, force=force)
+        with run_lock(folder):
+            return _run_batch_locked(batch, folder, size, workers, client, resume, force, progress, log)
     except BaseException:
+        if made and folder.is_dir() and not any(folder.iterdir()):
+            folder.rmdir()  # made only for this batch, which was refused: leave nothing behind
+        raise
+    finally:
         if client is not None:
             client.close()
-        raise
+
+
+def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: int, client: Any, resume: bool,
+                      force: bool, progress: Callable[[int, int], None] | None,
+                      log: Callable[[str], None] | None) -> BatchRun:
+    """:func:`run_batch` once the batch folder's lock is held."""
+    mode = prepare_folder(folder, batch.describe(), resume=resume, force=force)
+    if log is not None:  # only now: a refusal is its one error line
+        log(f"batch: {size.describe()}")
+    graph = build_graph(batch)
     manifest: dict[str, Any] = {
         "batch": batch.describe(),
         "status": "running",
@@ -495,8 +519,15 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     }
     write_json_atomic(folder / BATCH_MANIFEST, manifest)
     started = time.perf_counter()
-    executor = make_executor(workers, client)
-    computed = _run_graph(batch, graph, folder, executor, progress)
+    try:
+        executor = make_executor(workers, client)
+        computed = _run_graph(batch, graph, folder, executor, progress)
+    except BaseException:
+        # an interrupted batch (Ctrl-C, a failed task, a write error) must not read as running
+        manifest.update({"status": "interrupted", "interrupted": utc_now()})
+        with contextlib.suppress(NudgeError, OSError):
+            write_json_atomic(folder / BATCH_MANIFEST, manifest)
+        raise
     stats = {key: _read_json(analysis_part(folder, key)) for key in sorted(graph.analyses)}
     peak = getattr(executor, "peak_rss_mb", None)
     manifest.update({"status": "complete", "finished": utc_now(),
@@ -534,7 +565,8 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
         waiting = [a for a in waiting if not ready(a)]
         for analysis in submitted:
             data = read_study_metrics(folder, analysis.study, analysis.participants)
-            executor.submit(Job(analysis.key, run_analysis_task, (data, batch.plan, metrics)))
+            conditions = tuple(graph.studies[analysis.study].config.study.conditions)
+            executor.submit(Job(analysis.key, run_analysis_task, (data, batch.plan, metrics, conditions)))
         return len(submitted)
 
     def submit_participants(study: Study) -> int:
@@ -588,8 +620,10 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
             computed += 1
             if progress:
                 progress(done, total)
-    finally:
-        executor.close()
+    except BaseException:
+        executor.abort()  # Ctrl-C or a failure: do not wait for the running tasks
+        raise
+    executor.close()
     return computed
 
 
@@ -772,7 +806,7 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
         sensitivity,
         summarise,
     )
-    from nudgecli.sim.sweep import load_sweep
+    from nudgecli.runs.sweep import load_sweep
 
     loaded = load_sweep(sweep_file)
     spec = loaded.spec

@@ -1,0 +1,460 @@
+"""Running a study: where its participants run (serially, on local processes or on a dask
+cluster), the run folder's life while they do (lock, manifest, parts, resume), and the
+worker processes' lifecycle.
+
+The domain (the plan, one participant's study) is :mod:`nudgecli.sim.study`; a participant's
+results are a pure function of (experiment, seed, participant index), so the tables are
+identical whichever executor runs them, in any order.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import math
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from multiprocessing import get_context
+from multiprocessing.context import BaseContext
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from nudgecli.config import ExperimentConfig, default_plan_name
+from nudgecli.errors import ConfigError, NudgeError
+from nudgecli.model.mdp import SolvedLayout
+from nudgecli.runs.size import check_size, trials_per_participant
+from nudgecli.sim.calibration_io import write_sessions
+from nudgecli.sim.counterbalance import design_record
+from nudgecli.sim.study import (
+    ParticipantResult,
+    StudyPlan,
+    build_layouts,
+    check_physiology_logs,
+    simulate_participant,
+    solve_layouts,
+)
+from nudgecli.store import RunFolder, library_versions, run_lock, utc_now
+
+# --- the plan, its layouts solved in parallel ---------------------------------------------
+
+def layout_chunks(n_layouts: int, parts: int) -> list[tuple[int, int]]:
+    """``range(n_layouts)`` as at most ``parts`` contiguous ``(start, stop)`` chunks of near-equal size."""
+    parts = max(1, min(parts, n_layouts))
+    edges = [round(k * n_layouts / parts) for k in range(parts + 1)]
+    return [(a, b) for a, b in itertools.pairwise(edges) if b > a]
+
+
+def solve_layout_chunk(config: ExperimentConfig, seed: int, start: int, stop: int) -> list[SolvedLayout]:
+    """The study's layouts ``start:stop`` solved: one piece of a plan built in parallel."""
+    tune_allocator()
+    return solve_layouts(config, build_layouts(config, seed)[start:stop])
+
+
+def _solve_chunk(args: tuple[ExperimentConfig, int, int, int]) -> list[SolvedLayout]:
+    return solve_layout_chunk(*args)
+
+
+def build_plan_on(config: ExperimentConfig, seed: int, workers: int, client: Any = None) -> StudyPlan:
+    """:meth:`StudyPlan.build`, with the grid world's layouts solved by ``workers`` short-lived processes,
+    or, given a dask ``client``, by the cluster's workers.
+
+    So a study on many workers does not wait for one process to solve every layout first.
+    """
+    if client is not None:
+        workers = max(1, len(client.scheduler_info().get("workers", {})))
+    if workers <= 1 or config.world.kind == "ciaa":
+        return StudyPlan.build(config, seed)
+    chunks = layout_chunks(len(build_layouts(config, seed)), workers)
+    if client is not None:
+        futures = [client.submit(solve_layout_chunk, config, seed, a, b, pure=False) for a, b in chunks]
+        return StudyPlan.assemble(config, seed, client.gather(futures))
+    with ProcessPoolExecutor(max_workers=len(chunks), mp_context=process_context(),
+                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
+        solved = list(pool.map(_solve_chunk, [(config, seed, a, b) for a, b in chunks]))
+    return StudyPlan.assemble(config, seed, solved)
+
+
+
+# --- executors --------------------------------------------------------------------------------
+
+#: Seconds a worker waits between two checks that its parent is alive (where prctl is missing).
+PARENT_POLL_S = 0.5
+#: Seconds to wait for a dask scheduler to answer before ``--scheduler`` is refused: a scheduler
+#: answers in milliseconds, and a refusal, the start of Python included, comes within 10 s.
+SCHEDULER_TIMEOUT_S = 7.0
+_PR_SET_PDEATHSIG = 1
+
+_WORKER_PLAN: StudyPlan | None = None
+
+
+def die_with_parent(parent_pid: int) -> None:
+    """Make this (worker) process exit when the process ``parent_pid`` dies.
+
+    On Linux the kernel sends SIGKILL at the parent's death (``prctl(PR_SET_PDEATHSIG)``);
+    everywhere, a daemon thread also checks ``os.getppid()`` every :data:`PARENT_POLL_S`
+    seconds and exits the process once it differs from ``parent_pid`` (the orphan was
+    re-parented). So a killed ``nudge`` never leaves workers behind holding its pipes.
+    """
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        except (OSError, AttributeError):  # pragma: no cover - no prctl: the thread below covers it
+            pass
+    if os.getppid() != parent_pid:  # the parent died before prctl took effect
+        os._exit(1)
+
+    def watch() -> None:
+        while True:
+            time.sleep(PARENT_POLL_S)
+            if os.getppid() != parent_pid:
+                os._exit(1)
+
+    threading.Thread(target=watch, name="nudge-parent-watch", daemon=True).start()
+
+
+_M_TRIM_THRESHOLD = -1
+_M_MMAP_THRESHOLD = -3
+_ALLOCATOR_TUNED = False
+
+
+def tune_allocator() -> None:
+    """Undo a tiny ``MALLOC_TRIM_THRESHOLD_`` in this process (once; glibc only).
+
+    dask's nanny starts its workers with ``MALLOC_TRIM_THRESHOLD_=65536``, which also fixes glibc's
+    mmap threshold at 128 KiB: every large numpy temporary is then mapped and unmapped anew, and
+    the layout solving and trials run 2.5-3.5 times slower than in a plain process (measured on
+    the paper preset's plan). Where that variable is set, this raises the mmap threshold to 32 MB
+    and the trim threshold to 64 MB, so freed memory above 64 MB is still returned to the system.
+    """
+    global _ALLOCATOR_TUNED
+    if _ALLOCATOR_TUNED or "MALLOC_TRIM_THRESHOLD_" not in os.environ or not sys.platform.startswith("linux"):
+        return
+    _ALLOCATOR_TUNED = True
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None)
+        libc.mallopt(_M_MMAP_THRESHOLD, 32 * 1024 * 1024)
+        libc.mallopt(_M_TRIM_THRESHOLD, 64 * 1024 * 1024)
+    except (OSError, AttributeError):  # pragma: no cover - not glibc
+        pass
+
+
+def simulate_on_worker(plan: StudyPlan, participant_index: int) -> ParticipantResult:
+    """:func:`simulate_participant` as a dask task (with :func:`tune_allocator` first)."""
+    tune_allocator()
+    return simulate_participant(plan, participant_index)
+
+
+def _init_worker(plan: StudyPlan, parent_pid: int) -> None:
+    global _WORKER_PLAN
+    die_with_parent(parent_pid)
+    _WORKER_PLAN = plan
+
+
+def _run_in_worker(participant_index: int) -> ParticipantResult:
+    assert _WORKER_PLAN is not None, "worker not initialised"
+    return simulate_participant(_WORKER_PLAN, participant_index)
+
+
+def _serial(plan: StudyPlan, todo: list[int]) -> Iterator[ParticipantResult]:
+    for index in todo:
+        yield simulate_participant(plan, index)
+
+
+def process_context() -> BaseContext:
+    """``fork`` where it exists (workers inherit the plan without pickling), else ``spawn``."""
+    return get_context("fork") if os.name == "posix" else get_context("spawn")
+
+
+def _processes(plan: StudyPlan, todo: list[int], workers: int) -> Iterator[ParticipantResult]:
+    pool = ProcessPoolExecutor(max_workers=workers, mp_context=process_context(), initializer=_init_worker,
+                               initargs=(plan, os.getpid()))
+    try:
+        futures = [pool.submit(_run_in_worker, index) for index in todo]
+        for future in as_completed(futures):
+            yield future.result()
+    except BaseException:
+        # Ctrl-C or a failure: drop the queued participants and stop the running ones now (their
+        # results would be thrown away); the pool's own exit waits for every queued task
+        processes = list((getattr(pool, "_processes", None) or {}).values())
+        pool.shutdown(wait=False, cancel_futures=True)
+        for process in processes:
+            with contextlib.suppress(OSError, ValueError, AttributeError):
+                process.terminate()
+        raise
+    else:
+        pool.shutdown(wait=True)
+
+
+def connect_scheduler(address: str) -> Any:
+    """A ``dask.distributed.Client`` of the scheduler at ``address``.
+
+    The address is probed first (:func:`probe_scheduler`), so that a service that is not a
+    dask scheduler is refused within :data:`SCHEDULER_TIMEOUT_S` seconds: the client alone
+    waits for ever on a server that never answers, and takes a greeting from one that speaks
+    first (SSH, SMTP) as the length of a message of exabytes.
+
+    Raises
+    ------
+    ConfigError
+        dask.distributed is not installed, the address is malformed, or no dask scheduler
+        answers within :data:`SCHEDULER_TIMEOUT_S` seconds.
+    """
+    try:
+        from dask.distributed import Client
+    except ImportError as exc:  # pragma: no cover - depends on the optional extra
+        raise ConfigError("--scheduler needs dask.distributed: pip install 'nudgecli[cluster]'") from exc
+    fix = "give the address of a running dask scheduler, e.g. tcp://host:8786"
+    problem = probe_scheduler(address, SCHEDULER_TIMEOUT_S)
+    if problem is not None:
+        raise ConfigError(f"--scheduler {address}: {problem}; {fix}")
+    try:
+        return Client(address, timeout=f"{SCHEDULER_TIMEOUT_S}s")
+    except (OSError, ValueError, TypeError) as exc:
+        raise ConfigError(f"--scheduler {address}: cannot connect ({_one_line(exc)}); {fix}") from None
+
+
+def probe_scheduler(address: str, timeout_s: float) -> str | None:
+    """Open and close one dask connection to ``address`` (its handshake included), within ``timeout_s``.
+
+    Returns
+    -------
+    str or None
+        None when a dask scheduler answered; else what went wrong, in a few words.
+    """
+    import asyncio
+    from concurrent.futures import ThreadPoolExecutor
+
+    from distributed.comm import connect
+
+    async def handshake() -> None:
+        comm = await connect(address, timeout=timeout_s)
+        await comm.close()
+
+    def run() -> str | None:
+        try:
+            asyncio.run(asyncio.wait_for(handshake(), timeout_s))
+        except TimeoutError:
+            return f"cannot connect (no dask scheduler answered within {timeout_s:g} s)"
+        except (OSError, ValueError, TypeError) as exc:
+            return f"cannot connect ({_one_line(exc)})"
+        except Exception:
+            # e.g. a MemoryError: a greeting's bytes read as the length of a message
+            return "the service there is not a dask scheduler (its answer is not dask's protocol)"
+        return None
+
+    # in a thread of its own: the caller may itself be running an event loop (a notebook)
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="nudge-probe") as pool:
+        return pool.submit(run).result()
+
+
+def _one_line(exc: BaseException) -> str:
+    """An exception's message on one line (or its type's name when it has none)."""
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
+
+
+def _dask(plan: StudyPlan, todo: list[int], client: Any) -> Iterator[ParticipantResult]:
+    from dask.distributed import as_completed as dask_completed
+
+    with client:
+        shared = client.scatter(plan, broadcast=True)
+        futures = [client.submit(simulate_on_worker, shared, index, pure=False) for index in todo]
+        for future in dask_completed(futures):
+            yield future.result()
+
+
+@dataclass
+class StudyRun:
+    """What :func:`run_study` did."""
+
+    path: Path
+    experiment: str
+    mode: str
+    participants: int
+    computed: list[int]
+    trials: pd.DataFrame
+
+
+def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, participants: int | None = None,
+              workers: int = 1, scheduler: str | None = None, resume: bool = False, force: bool = False,
+              progress: Callable[[int, int], None] | None = None, plan: str | None = None,
+              confirm: bool = False) -> StudyRun:
+    """Simulate a study into the run folder ``out``.
+
+    Parameters
+    ----------
+    config
+        The resolved experiment.
+    out
+        The run folder.
+    seed, participants
+        Overrides of the experiment's seed and participant count.
+    workers
+        Local processes (1: in this process).
+    scheduler
+        Address of a dask.distributed scheduler; overrides ``workers``.
+    resume, force
+        See :meth:`RunFolder.prepare`.
+    progress
+        Called with (trials done, trials in all) as participants complete.
+    plan
+        The analysis plan recorded in the manifest for ``nudge analyze`` (default: the plan
+        preset named like the experiment, else ``paper``).
+    confirm
+        Run a study above :data:`nudgecli.runs.size.MAX_TRIALS_WITHOUT_YES` trials (``--yes``).
+
+    Returns
+    -------
+    StudyRun
+
+    Raises
+    ------
+    ConfigError
+        Bad workers, seed or participant count, a study too large without ``confirm``, or an
+        unreachable scheduler.
+    LockError
+        Another command is writing ``out`` (the run folder is locked for the whole run).
+    """
+    if workers < 1:
+        raise ConfigError(f"--workers must be at least 1, got {workers}")
+    seed = config.experiment.seed if seed is None else seed
+    if seed < 0:
+        raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
+    n = config.study.participants if participants is None else participants
+    if n < 1:
+        raise ConfigError(f"--participants must be at least 1, got {n}")
+    check_size(n * trials_per_participant(config), confirm, fix="fewer participants")
+    if participants is not None:
+        config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
+    check_physiology_logs(config)
+    if plan is not None:  # a plan that cannot load is refused before anything is simulated or written
+        from nudgecli.report.plans import load_plan
+
+        load_plan(plan)
+    client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
+    try:
+        with run_lock(out):
+            return _run_locked(RunFolder(out), config, seed, n, workers, scheduler, client, resume, force,
+                               progress, plan)
+    except BaseException:
+        if client is not None:
+            client.close()
+        raise
+
+
+def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, workers: int,
+                scheduler: str | None, client: Any, resume: bool, force: bool,
+                progress: Callable[[int, int], None] | None, plan_name: str | None) -> StudyRun:
+    """:func:`run_study` once the folder's lock is held (``client``: the connected dask client, or None)."""
+    mode = folder.prepare(config, seed, n, resume=resume, force=force)
+    done = set(folder.completed_participants()) & set(range(n)) if mode == "resume" else set()
+    if mode == "resume":
+        changed = folder.changed_parts(folder.read_manifest())
+        if changed:  # not what was written: recompute them (a participant is a pure function of the seed)
+            listed = ", ".join(part for parts in changed.values() for part in parts)
+            print(f"Warning: {folder.path}: {listed} changed since written (SHA-256 differs from the "
+                  "manifest's); simulating again", file=sys.stderr)
+            done -= set(changed)
+    plan = build_plan_on(config, seed, workers, client)
+    trials_per = plan.trials_per_participant()
+    manifest: dict[str, Any] = folder.read_manifest() if mode == "resume" else {
+        "experiment": config.experiment.name,
+        "config": config.model_dump(mode="json"),
+        "seed": seed,
+        "participants": n,
+        "trials_per_participant": trials_per,
+        "versions": library_versions(),
+        "created": utc_now(),
+        "timings_s": {},
+    }
+    if plan.paths is None:  # the CIAA world takes its subjects' block orders from the task file
+        manifest["counterbalancing"] = design_record(list(config.study.conditions),
+                                                     config.study.counterbalancing, n)
+    manifest.update({"status": "running", "completed": sorted(done),
+                     "executor": _executor_name(workers, scheduler)})
+    if plan_name is not None or "plan" not in manifest:
+        manifest["plan"] = plan_name or default_plan_name(config.experiment.name)
+    folder.write_layouts(plan.layouts_frame())
+    folder.write_manifest(manifest)
+    todo = [i for i in range(n) if i not in done]
+    started = time.perf_counter()
+    if progress:
+        progress(len(done) * trials_per, n * trials_per)
+    if client is not None:
+        results = _dask(plan, todo, client)
+    elif workers > 1 and len(todo) > 1:
+        results = _processes(plan, todo, min(workers, len(todo)))
+    else:
+        results = _serial(plan, todo)
+    try:
+        for result in results:
+            if result.calibration is not None:
+                write_sessions(folder.calibration_dir(result.participant), *result.calibration)
+            sums = folder.write_participant_parts(result.participant, result.trials, result.steps,
+                                                  result.record)
+            manifest.setdefault("checksums", {})[str(result.participant)] = sums
+            done.add(result.participant)
+            manifest["completed"] = sorted(done)
+            manifest["timings_s"][str(result.participant)] = round(result.wall_s, 3)
+            folder.write_manifest(manifest)
+            if progress:
+                progress(len(done) * trials_per, n * trials_per)
+    except BaseException:
+        # Ctrl-C, a failed participant, a write error: the run must not read as still running
+        manifest["status"] = "interrupted"
+        with contextlib.suppress(NudgeError, OSError):
+            folder.write_manifest(manifest)
+        raise
+    folder.write_participants_table()
+    manifest.update({"status": "complete", "finished": utc_now(),
+                     "wall_s": round(time.perf_counter() - started, 3),
+                     "peak_rss_mb": _finite_or_none(round(peak_memory_mb(), 1))})
+    folder.write_manifest(manifest)
+    return StudyRun(path=folder.path, experiment=config.experiment.name, mode=mode, participants=n,
+                    computed=todo, trials=folder.read_trials())
+
+
+def _finite_or_none(value: float) -> float | None:
+    """JSON has no NaN: an unknown measurement is ``null``."""
+    return value if math.isfinite(value) else None
+
+
+def _executor_name(workers: int, scheduler: str | None) -> str:
+    if scheduler:
+        return "dask"
+    return "serial" if workers == 1 else f"processes:{workers}"
+
+
+def peak_memory_mb() -> float:
+    """Peak resident memory of this process and its finished children, in MB (Linux ru_maxrss is KiB)."""
+    try:
+        import resource  # Unix only
+    except ImportError:  # pragma: no cover - Windows has no getrusage
+        return float("nan")
+    own = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    children = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    return max(own, children) / 1024.0
+
+
+def success_by_condition(trials: pd.DataFrame) -> pd.DataFrame:
+    """Trials and success rate per condition (the summary ``nudge simulate`` prints)."""
+    grouped = trials.groupby("condition", sort=False)
+    return pd.DataFrame({
+        "trials": grouped.size(),
+        "success_rate": grouped["success"].mean(),
+        "timed_out": grouped["timed_out"].sum(),
+        "median_duration_s": grouped["duration_s"].median(),
+    })
