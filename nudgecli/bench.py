@@ -223,7 +223,7 @@ _STUDY_SCRIPT = """
 import json, resource, sys, time
 from pathlib import Path
 from nudgecli.config import load_experiment
-from nudgecli.sim.study import run_study
+from nudgecli.runs.study import run_study
 
 experiment, out, workers, participants = sys.argv[1], Path(sys.argv[2]), int(sys.argv[3]), sys.argv[4]
 config = load_experiment(experiment)
@@ -494,7 +494,7 @@ def figure_cli_startup(options: BenchOptions) -> dict[str, Any]:
 
 #: The modules a worker of each executor imports before its first task (process-pool workers are
 #: forked and inherit them; dask and spawned workers import them).
-WORKER_MODULES = {"study": "nudgecli.sim.study", "batch": "nudgecli.runs.batch"}
+WORKER_MODULES = {"study": "nudgecli.runs.study", "batch": "nudgecli.runs.batch"}
 
 
 def figure_worker_ready(options: BenchOptions) -> dict[str, Any]:

@@ -17,6 +17,7 @@ from nudgecli.cli import main
 from nudgecli.reference import packaged_reference, people_ranges
 from nudgecli.report.habit_cells import DEADBAND, HARD, NEUTRAL, SOFT, run_folder_cells
 from nudgecli.report.habits import habits_of, measure_habits
+from nudgecli.store import file_sha256
 
 HABITS_MD = Path(__file__).resolve().parents[2] / "shared" / "data" / "ciaa-task" / "HABITS.md"
 HEADER = "t,trial,label,x,y,theta,mode_switch,layout\n"
@@ -365,6 +366,11 @@ def test_a_run_with_an_empty_trial(ciaa_run: Path, tmp_path: Path) -> None:
     part = copy / "steps" / "part-0001.parquet"
     steps = pd.read_parquet(part)
     steps[steps["trial"] != 4].to_parquet(part, index=False)
+    # recorded so (as a run whose trial left no steps would be), not a part changed afterwards
+    manifest_path = copy / "manifest.json"
+    manifest = json.loads(manifest_path.read_text())
+    manifest["checksums"]["1"]["steps"] = file_sha256(part)
+    manifest_path.write_text(json.dumps(manifest))
     code, out, err = run_cli(tmp_path, copy)
     assert code == 1 and out == ""
     assert "trial 4 of participant 1 has no steps" in err and str(copy / "steps") in err
