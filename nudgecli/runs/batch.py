@@ -40,7 +40,7 @@ from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import pandas as pd
@@ -50,14 +50,15 @@ from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError, NudgeError, RunFolderError
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.report.metrics import trial_metrics
-from nudgecli.report.plans import AnalysisPlan
-from nudgecli.report.replication import analyse_replication
 from nudgecli.rng import seed_sequence
 from nudgecli.runs.executors import HELD_AFFINITIES, Executor, Job, format_duration, make_executor
 from nudgecli.runs.size import check_size, trials_per_participant
 from nudgecli.runs.study import connect_scheduler, layout_chunks, solve_layout_chunk, tune_allocator
 from nudgecli.sim.study import StudyPlan, build_layouts, check_physiology_logs, simulate_participant
 from nudgecli.store import LOCK, library_versions, run_lock, utc_now, write_json_atomic, write_parquet_atomic
+
+if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only
+    from nudgecli.report.plans import AnalysisPlan
 
 BATCH_MANIFEST = "batch.json"
 #: Wall seconds per simulated trial on one core (``nudge bench``: one participant of ``paper``,
@@ -343,6 +344,8 @@ def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequ
     """An analysis task: the replication's statistics (:func:`analyse_replication`; the study's
     conditions give their order after the plan's)."""
     tune_allocator()
+    from nudgecli.report.replication import analyse_replication
+
     return analyse_replication(metrics, analysis, names, study_conditions)
 
 
