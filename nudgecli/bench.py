@@ -774,6 +774,13 @@ def run_bench(options: BenchOptions | None = None,
     return rows
 
 
+def _format_ratio(ratio: float | None) -> str:
+    """``1,349x`` for large ratios, ``0.46x`` below 10 (where whole numbers would hide the size)."""
+    if ratio is None:
+        return "-"
+    return f"{ratio:,.0f}x" if ratio >= 10 else f"{ratio:.2f}x"
+
+
 def _format_seconds(seconds: float | None) -> str:
     if seconds is None:
         return "-"
@@ -789,7 +796,7 @@ def format_table(rows: list[dict[str, Any]]) -> str:
     with each row's note on the line below it."""
     header = ("what", "time", "baseline", "ratio", "memory", "target", "ok")
     cells = [(row["what"], _format_seconds(row["time_s"]), _format_seconds(row["baseline_s"]),
-              "-" if row["ratio"] is None else f"{row['ratio']:,.0f}x",
+              _format_ratio(row["ratio"]),
               "-" if row.get("peak_mb") is None else f"{row['peak_mb']:,.0f} MB", row["target"],
               "yes" if row["ok"] else "NO") for row in rows]
     widths = [max(len(header[k]), *(len(c[k]) for c in cells)) for k in range(len(header))]

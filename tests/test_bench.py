@@ -148,3 +148,11 @@ def test_replicate_throughput_counts_every_trial_of_the_batch(monkeypatch: pytes
     assert row["ok"] == (per_hour >= 1_000_000)
     assert bench.figure_replicate_throughput in bench.select_figures("scale")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_small_ratios_keep_their_decimals() -> None:
+    # a throughput at 0.46 of its target read "0x" when every ratio was rounded to a whole number
+    rows = [{"what": w, "time_s": 1.0, "baseline_s": 1.0, "ratio": r, "peak_mb": None, "target": "-",
+             "ok": True, "note": ""} for w, r in (("small", 0.4607), ("large", 25_000.0))]
+    small, large = bench.format_table(rows).splitlines()[2:4]
+    assert "0.46x" in small and "25,000x" in large
