@@ -711,12 +711,12 @@ def _experiment_name(experiment: str) -> str:
 @click.option("--replications", "-R", type=int, required=True,
               help="Independent studies (each its own seed).")
 @click.option("--seed", type=int, help="Master seed of the replications [default: the experiment's].")
-@click.option("--plan", default="paper", show_default=True, metavar="PLAN",
-              help="Analysis plan of each study.")
+@click.option("--plan", default=None, metavar="PLAN",
+              help="Analysis plan of each study [default: the plan named like the experiment, else paper].")
 @click.option("--participants", type=int, help="Participants per study [default: the experiment's].")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
 @_batch_options
-def replicate_command(experiment: str, replications: int, seed: int | None, plan: str,
+def replicate_command(experiment: str, replications: int, seed: int | None, plan: str | None,
                       participants: int | None, overrides: tuple[str, ...], out: str | None, workers: int,
                       scheduler: str | None, resume: bool, force: bool, yes: bool,
                       output_format: str) -> None:
@@ -743,12 +743,13 @@ def _counts(text: str) -> list[int]:
               help="Participant counts, e.g. 6,9,12,18,24.")
 @click.option("--replications", "-R", type=int, required=True, help="Studies per count.")
 @click.option("--seed", type=int, help="Master seed of the replications [default: the experiment's].")
-@click.option("--plan", default="paper", show_default=True, metavar="PLAN",
-              help="Analysis plan of each study.")
+@click.option("--plan", default=None, metavar="PLAN",
+              help="Analysis plan of each study [default: the plan named like the experiment, else paper].")
 @click.option("--target", type=float, default=0.8, show_default=True, help="The power to reach.")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
 @_batch_options
-def power_command(experiment: str, counts: str, replications: int, seed: int | None, plan: str, target: float,
+def power_command(experiment: str, counts: str, replications: int, seed: int | None, plan: str | None,
+                  target: float,
                   overrides: tuple[str, ...], out: str | None, workers: int, scheduler: str | None,
                   resume: bool, force: bool, yes: bool, output_format: str) -> None:
     """Power curves: the chance of a significant difference in the paper's direction per participant count."""

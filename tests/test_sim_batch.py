@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import io
+import json
 import math
 import os
 import signal
@@ -505,3 +506,17 @@ def test_bench_scale_figures_cover_every_core_count_and_dask():
             *(f"figure_scale_{workload}_{w}" for w in range(1, cores + 1)), f"figure_scale_{workload}_dask"]
     row = scale_figure("sweep", 1)(BenchOptions(scale_studies=2))
     assert row["ratio"] == 1.0 and row["time_s"] > 0 and "2 smoke studies" in row["what"]
+
+
+@pytest.mark.parametrize(("name", "plan"), [("study-code", "study-code"), ("a-new-study", "paper")])
+def test_replicate_takes_the_plan_run_and_analyze_take(tmp_path: Path, name: str, plan: str) -> None:
+    # one rule for the default plan (config.default_plan_name): the plan named like the
+    # experiment, else paper; the smoke study renamed, so that only the name decides
+    experiment = tmp_path / "experiment.toml"
+    experiment.write_text(list_presets("experiments")["smoke"].read_text().replace(
+        'name = "smoke"', f'name = "{name}"'))
+    out = tmp_path / "batch"
+    result = CliRunner().invoke(main, ["replicate", str(experiment), "-R", "1", "--out", str(out),
+                                       "--format", "json"])
+    assert result.exit_code == 0, result.output
+    assert json.loads((out / "batch.json").read_text())["batch"]["plan"]["name"] == plan

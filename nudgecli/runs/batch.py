@@ -721,6 +721,14 @@ def _load(experiment: str, overrides: Sequence[str], participants: int | None) -
     return config
 
 
+def _plan_for(config: ExperimentConfig, plan: str | AnalysisPlan | None) -> str | AnalysisPlan:
+    """The plan given, else the one ``nudge run`` and ``nudge analyze`` take for the experiment
+    (:func:`nudgecli.config.default_plan_name`: the plan named like it, else ``paper``)."""
+    from nudgecli.config import default_plan_name
+
+    return plan if plan is not None else default_plan_name(config.experiment.name)
+
+
 def _check(replications: int, seed: int | None) -> None:
     if replications < 1:
         raise ConfigError(f"--replications must be at least 1, got {replications}")
@@ -729,7 +737,7 @@ def _check(replications: int, seed: int | None) -> None:
 
 
 def replicate(experiment: str, replications: int, out: str | Path, *, seed: int | None = None,
-              plan: str | AnalysisPlan = "paper", participants: int | None = None,
+              plan: str | AnalysisPlan | None = None, participants: int | None = None,
               overrides: Sequence[str] = (), **options: Any) -> BatchResult:
     """``nudge replicate``: R independent studies of one experiment, each analysed with the plan.
 
@@ -743,7 +751,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
 
     _check(replications, seed)
     config = _load(experiment, overrides, participants)
-    chosen = load_plan(plan)
+    chosen = load_plan(_plan_for(config, plan))
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name})
@@ -759,7 +767,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
 
 
 def power(experiment: str, participant_counts: Sequence[int], replications: int, out: str | Path, *,
-          seed: int | None = None, plan: str | AnalysisPlan = "paper", overrides: Sequence[str] = (),
+          seed: int | None = None, plan: str | AnalysisPlan | None = None, overrides: Sequence[str] = (),
           target: float = 0.8, **options: Any) -> BatchResult:
     """``nudge power``: the power curve of every metric over participant counts.
 
@@ -778,7 +786,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     if not 0 < target < 1:
         raise ConfigError(f"--target must be between 0 and 1, got {target}")
     config = _load(experiment, overrides, None)
-    chosen = load_plan(plan)
+    chosen = load_plan(_plan_for(config, plan))
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name})
