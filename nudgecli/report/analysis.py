@@ -50,7 +50,7 @@ from nudgecli.report.metrics import (
     ID_COLUMNS,
     INPUT_STEP_COLUMNS,
     METRIC_NAMES,
-    STEP_COLUMNS,
+    METRIC_STEP_COLUMNS,
     TRIAL_COLUMNS,
     apply_filters,
     trial_metrics,
@@ -133,7 +133,7 @@ def read_run(folder: str | Path, notes: list[str] | None = None) -> tuple[pd.Dat
     -------
     (pd.DataFrame, pd.DataFrame)
         ``trials`` with :data:`~nudgecli.report.metrics.TRIAL_COLUMNS`, ``steps`` with
-        :data:`~nudgecli.report.metrics.STEP_COLUMNS`.
+        :data:`~nudgecli.report.metrics.METRIC_STEP_COLUMNS`.
 
     Raises
     ------
@@ -157,7 +157,7 @@ def read_run(folder: str | Path, notes: list[str] | None = None) -> tuple[pd.Dat
     if trials.empty:
         raise RunFolderError(f"{folder}: trials/part-*.parquet hold no trials yet; "
                              "run `nudge simulate` first")
-    steps = run.read_table("steps", [*STEP_COLUMNS, *INPUT_STEP_COLUMNS])
+    steps = run.read_table("steps", [*METRIC_STEP_COLUMNS, *INPUT_STEP_COLUMNS])
     return trials, steps
 
 

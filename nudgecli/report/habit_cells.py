@@ -60,7 +60,7 @@ def cell_runs(mask: np.ndarray, new_trial: np.ndarray) -> tuple[np.ndarray, np.n
 
 # --- sources: a run folder ---------------------------------------------------------------------
 
-_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "mode", "cell_x", "cell_y", "heading", "phi_m",
+_HABIT_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "mode", "cell_x", "cell_y", "heading", "phi_m",
                  "event"]
 _TRIAL_COLUMNS = ["participant", "trial", "layout", "final_x", "final_y", "final_theta"]
 
@@ -117,7 +117,7 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
                              "folder written by `nudge simulate`, `nudge run` or `nudge study`, or a CSV log")
     run.check_complete()
     config = run.read_config()
-    steps = run.read_table("steps", columns=_STEP_COLUMNS)
+    steps = run.read_table("steps", columns=_HABIT_STEP_COLUMNS)
     trials = run.read_table("trials", columns=_TRIAL_COLUMNS)
     steps = steps.sort_values(["participant", "trial"], kind="stable").reset_index(drop=True)
     key = ["participant", "trial"]

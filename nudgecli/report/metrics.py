@@ -71,7 +71,7 @@ METRIC_NAMES = (
 TRIAL_COLUMNS = ("participant", "condition", "block", "trial", "true_goal", "success", "duration_s",
                  "human_turns")
 #: The columns of the step log the metrics use.
-STEP_COLUMNS = ("participant", "trial", "step", "turn", "alpha", "inferred_goal", "event")
+METRIC_STEP_COLUMNS = ("participant", "trial", "step", "turn", "alpha", "inferred_goal", "event")
 #: The columns of the step log the input measures use (``first_input_latency``,
 #: ``active_input_fraction``); a log without them gets those two metrics missing.
 INPUT_STEP_COLUMNS = ("t", "phi_m")
@@ -107,7 +107,7 @@ def trial_metrics(
         One row per trial with the columns :data:`TRIAL_COLUMNS`; ``(participant, trial)``
         identifies a trial.
     steps
-        One row per 10 Hz step with the columns :data:`STEP_COLUMNS` (any order of rows), and
+        One row per 10 Hz step with the columns :data:`METRIC_STEP_COLUMNS` (any order of rows), and
         :data:`INPUT_STEP_COLUMNS` for the two input measures (missing without them).
         ``turn`` is ``"human"`` or ``"autonomy"``; ``inferred_goal`` is -1 when there is none;
         ``event`` holds event names joined with ``"|"`` (empty when none).
@@ -152,7 +152,7 @@ def _trial_steps(trials: pd.DataFrame, steps: pd.DataFrame) -> tuple[pd.DataFram
     """The checked step log with each step's true goal, sorted by trial and step, and whether it
     has the input columns (:data:`INPUT_STEP_COLUMNS`)."""
     _require_columns(trials, TRIAL_COLUMNS, "trial table")
-    _require_columns(steps, STEP_COLUMNS, "step log")
+    _require_columns(steps, METRIC_STEP_COLUMNS, "step log")
     if trials.duplicated(_TRIAL_KEY).any():
         first = trials.loc[trials.duplicated(_TRIAL_KEY), _TRIAL_KEY].iloc[0].tolist()
         raise DataError(f"the trial table holds trial (participant, trial) = {tuple(first)} more than "
@@ -160,7 +160,7 @@ def _trial_steps(trials: pd.DataFrame, steps: pd.DataFrame) -> tuple[pd.DataFram
 
     trial_goal = trials[[*_TRIAL_KEY, "true_goal"]]
     has_input = all(c in steps.columns for c in INPUT_STEP_COLUMNS)
-    columns = [*STEP_COLUMNS, *INPUT_STEP_COLUMNS] if has_input else list(STEP_COLUMNS)
+    columns = [*METRIC_STEP_COLUMNS, *INPUT_STEP_COLUMNS] if has_input else list(METRIC_STEP_COLUMNS)
     s = steps[columns].merge(trial_goal, on=_TRIAL_KEY, how="inner", validate="many_to_one")
     s = s.sort_values([*_TRIAL_KEY, "step"], kind="stable").reset_index(drop=True)
     return s, has_input
