@@ -60,8 +60,8 @@ def cell_runs(mask: np.ndarray, new_trial: np.ndarray) -> tuple[np.ndarray, np.n
 
 # --- sources: a run folder ---------------------------------------------------------------------
 
-_HABIT_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "mode", "cell_x", "cell_y", "heading", "phi_m",
-                 "event"]
+_HABIT_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "mode", "cell_x", "cell_y", "heading",
+                       "phi_m", "event"]
 _TRIAL_COLUMNS = ["participant", "trial", "layout", "final_x", "final_y", "final_theta"]
 
 
