@@ -749,9 +749,8 @@ def _counts(text: str) -> list[int]:
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=_SET_HELP)
 @_batch_options
 def power_command(experiment: str, counts: str, replications: int, seed: int | None, plan: str | None,
-                  target: float,
-                  overrides: tuple[str, ...], out: str | None, workers: int, scheduler: str | None,
-                  resume: bool, force: bool, yes: bool, output_format: str) -> None:
+                  target: float, overrides: tuple[str, ...], out: str | None, workers: int,
+                  scheduler: str | None, resume: bool, force: bool, yes: bool, output_format: str) -> None:
     """Power curves: the chance of a significant difference in the paper's direction per participant count."""
     from nudgecli.runs.batch import power
 

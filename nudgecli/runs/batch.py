@@ -46,7 +46,7 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 
-from nudgecli.config import ExperimentConfig
+from nudgecli.config import ExperimentConfig, default_plan_name
 from nudgecli.errors import ConfigError, NudgeError, RunFolderError
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.report.metrics import trial_metrics
@@ -721,14 +721,6 @@ def _load(experiment: str, overrides: Sequence[str], participants: int | None) -
     return config
 
 
-def _plan_for(config: ExperimentConfig, plan: str | AnalysisPlan | None) -> str | AnalysisPlan:
-    """The plan given, else the one ``nudge run`` and ``nudge analyze`` take for the experiment
-    (:func:`nudgecli.config.default_plan_name`: the plan named like it, else ``paper``)."""
-    from nudgecli.config import default_plan_name
-
-    return plan if plan is not None else default_plan_name(config.experiment.name)
-
-
 def _check(replications: int, seed: int | None) -> None:
     if replications < 1:
         raise ConfigError(f"--replications must be at least 1, got {replications}")
@@ -751,7 +743,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
 
     _check(replications, seed)
     config = _load(experiment, overrides, participants)
-    chosen = load_plan(_plan_for(config, plan))
+    chosen = load_plan(default_plan_name(config.experiment.name) if plan is None else plan)
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name})
@@ -786,7 +778,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     if not 0 < target < 1:
         raise ConfigError(f"--target must be between 0 and 1, got {target}")
     config = _load(experiment, overrides, None)
-    chosen = load_plan(_plan_for(config, plan))
+    chosen = load_plan(default_plan_name(config.experiment.name) if plan is None else plan)
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name})
