@@ -377,9 +377,9 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
     Fig. 3 and 4 where their metrics are present, one panel per other metric; Fig. 5 and a
     trajectory for a run; questionnaires where analysed. stats.json must match the metrics.
     """
+    from nudgecli.locks import run_lock
     from nudgecli.report.plans import load_plan
     from nudgecli.report.plotting import default_out, parse_formats, parse_trial, plot_folder
-    from nudgecli.store import run_lock
 
     chosen, trial_key = parse_formats(formats), parse_trial(trial)
     analysis_plan = load_plan(plan or "paper")
@@ -428,9 +428,10 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
                 plan: str | None, resume: bool, force: bool, yes: bool, overrides: tuple[str, ...]) -> None:
     """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
     from nudgecli.config import default_plan_name
+    from nudgecli.locks import run_lock
     from nudgecli.report.analysis import analyze, format_table
     from nudgecli.report.plotting import plot_folder
-    from nudgecli.store import run_lock
+    from nudgecli.run_folder_names import FIGURES_DIR, STATS_JSON, SUMMARY_MD
 
     if plan is not None and Path(plan).suffix.lower() == ".toml":
         plan = str(Path(plan).resolve())
@@ -447,8 +448,8 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
         click.echo(format_table(result.table, result.stats["conditions"]))
         written = plot_folder(run.path)
     click.echo("")
-    click.echo(f"Statistics: {run.path / 'stats.json'}, {run.path / 'summary.md'}")
-    click.echo(f"Figures:    {len(written)} files in {run.path / 'figures'}")
+    click.echo(f"Statistics: {run.path / STATS_JSON}, {run.path / SUMMARY_MD}")
+    click.echo(f"Figures:    {len(written)} files in {run.path / FIGURES_DIR}")
     click.echo(str(run.path))
 
 

@@ -39,23 +39,18 @@ import pandas as pd
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import LockError, RunFolderError
+from nudgecli.locks import acquire_lock_file, describe_holder, read_holder, run_lock
+from nudgecli.run_folder_names import CONFIG, LOCK, QUESTIONNAIRES_CSV
 from nudgecli.sim.study import StudyLayout, layouts_frame
 from nudgecli.store import (
-    CONFIG,
-    LOCK,
     RunFolder,
-    _acquire,
-    _describe_holder,
-    _read_holder,
     library_versions,
     part_name,
-    run_lock,
     utc_now,
     write_parquet_atomic,
     write_text_atomic,
 )
 
-QUESTIONNAIRES = "questionnaires.csv"
 EXECUTOR = "live"
 #: How long a manifest write waits for another participant's server to release the folder lock
 #: (each holds it for one read-modify-write, milliseconds; ``nudge analyze`` may hold it longer).
@@ -167,9 +162,9 @@ class LiveFolder:
             self._lock_path = lock_path
             return
         try:
-            handle = _acquire(lock_path, None)
+            handle = acquire_lock_file(lock_path, None)
         except LockError:
-            holder = _describe_holder(_read_holder(lock_path))
+            holder = describe_holder(read_holder(lock_path))
             raise LockError(
                 f"{self.path}: participant {participant_id} is already being served by {holder}; "
                 "continue there, or stop that server (Ctrl-C) before starting another"
@@ -333,7 +328,7 @@ class LiveFolder:
 
     def write_questionnaire(self, participant: int, row: dict[str, Any]) -> None:
         """Add (or replace) one participant's answers for one block in ``questionnaires.csv``."""
-        path = self.path / QUESTIONNAIRES
+        path = self.path / QUESTIONNAIRES_CSV
         new = pd.DataFrame([row])
         with folder_lock(self.path):  # the file is shared by the participants of the folder
             if path.is_file():

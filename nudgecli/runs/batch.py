@@ -48,14 +48,16 @@ import pyarrow.parquet as pq
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError, NudgeError, RunFolderError
+from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.report.metrics import trial_metrics
 from nudgecli.rng import seed_sequence
+from nudgecli.run_folder_names import FIGURES_DIR, LOCK
 from nudgecli.runs.executors import HELD_AFFINITIES, Executor, Job, format_duration, make_executor
 from nudgecli.runs.size import check_size, trials_per_participant
 from nudgecli.runs.study import connect_scheduler, layout_chunks, solve_layout_chunk, tune_allocator
 from nudgecli.sim.study import StudyPlan, build_layouts, check_physiology_logs, simulate_participant
-from nudgecli.store import LOCK, library_versions, run_lock, utc_now, write_json_atomic, write_parquet_atomic
+from nudgecli.store import library_versions, utc_now, write_json_atomic, write_parquet_atomic
 
 if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only
     from nudgecli.report.plans import AnalysisPlan
@@ -414,7 +416,7 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
             raise RunFolderError(f"{folder}: already holds a batch ({old.get('batch', {}).get('kind')}, "
                                  f"{old.get('status')}); use --resume to finish it, --force to replace it, "
                                  "or choose another --out")
-        for name in ("tasks", "analyses", "figures"):
+        for name in ("tasks", "analyses", FIGURES_DIR):
             shutil.rmtree(folder / name, ignore_errors=True)
         manifest.unlink()
     elif folder.exists() and any(p.name != LOCK for p in folder.iterdir()):
@@ -705,7 +707,7 @@ def _figures(folder: Path, figures: dict[str, Any]) -> list[Path]:
 
     written: list[Path] = []
     for stem, fig in figures.items():
-        written += save_figure(fig, folder / "figures", stem, ("png",))
+        written += save_figure(fig, folder / FIGURES_DIR, stem, ("png",))
     return written
 
 

@@ -29,6 +29,7 @@ import pandas as pd
 
 from nudgecli.config import ExperimentConfig, default_plan_name
 from nudgecli.errors import ConfigError, NudgeError
+from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.runs.size import check_size, trials_per_participant
 from nudgecli.sim.calibration_io import write_sessions
@@ -41,7 +42,7 @@ from nudgecli.sim.study import (
     simulate_participant,
     solve_layouts,
 )
-from nudgecli.store import RunFolder, library_versions, run_lock, utc_now
+from nudgecli.store import RunFolder, library_versions, utc_now
 
 # --- the plan, its layouts solved in parallel ---------------------------------------------
 
