@@ -32,6 +32,7 @@ import io
 import json
 import os
 import platform
+import shlex
 import sys
 import tempfile
 from collections.abc import Iterator, Mapping, Sequence
@@ -201,6 +202,39 @@ def default_run_dir(experiment: str, root: Path | None = None) -> Path:
             raise write_error(candidate, exc) from exc
         return candidate
     raise RunFolderError(f"{base.parent}: too many runs named {base.name}; choose --out")
+
+
+def resume_command(words: Sequence[str], target: str | Path, options: Sequence[str] = ()) -> str:
+    """The command line suggested to finish interrupted work: ``nudge WORDS --out TARGET OPTIONS
+    --resume``, each word quoted for the shell (every resume command the toolkit prints is built here)."""
+    return shlex.join(["nudge", *words, "--out", str(target), *options, "--resume"])
+
+
+def simulate_resume_command(experiment: str, target: str | Path, seed: int | None = None,
+                            participants: int | None = None, workers: int = 1, overrides: Sequence[str] = (),
+                            command: str = "simulate", confirm: bool = False) -> str:
+    """The ``nudge simulate`` (or ``run``) command that resumes a study into ``target`` with the same
+    choices (``--yes`` when ``confirm`` let a study above the size limit run)."""
+    options = ["--yes"] if confirm else []
+    for flag, value in (("--seed", seed), ("--participants", participants),
+                        ("--workers", workers if workers != 1 else None)):
+        options += [flag, str(value)] if value is not None else []
+    for override in overrides:
+        options += ["--set", override]
+    return resume_command([command, experiment], target, options)
+
+
+def study_resume_command(experiment: str, participant_id: str, folder: str | Path, port: int | None = None,
+                         condition_order: str | None = None, seed: int | None = None,
+                         overrides: Sequence[str] = ()) -> str:
+    """The ``nudge study`` command that continues a session: the same experiment, folder, seed,
+    condition order and ``--set`` values (the folder refuses other ones), and ``--resume``."""
+    options: list[str] = []
+    for flag, value in (("--port", port), ("--condition-order", condition_order), ("--seed", seed)):
+        options += [flag, str(value)] if value is not None else []
+    for item in overrides:
+        options += ["--set", item]
+    return resume_command(["study", experiment, "--participant", participant_id], folder, options)
 
 
 def file_sha256(path: str | Path) -> str:
@@ -432,15 +466,9 @@ class RunFolder:
 
     def resume_command(self, manifest: dict[str, Any] | None = None) -> str:
         """The command that finishes or repairs this run (``nudge simulate ... --resume``)."""
-        import shlex
-
         manifest = manifest if manifest is not None else self.read_manifest()
-        parts = ["nudge", "simulate", str(self.path / CONFIG), "--out", str(self.path)]
-        if "seed" in manifest:
-            parts += ["--seed", str(manifest["seed"])]
-        if "participants" in manifest:
-            parts += ["--participants", str(manifest["participants"])]
-        return " ".join(shlex.quote(p) for p in [*parts, "--resume"])
+        return simulate_resume_command(str(self.path / CONFIG), self.path, manifest.get("seed"),
+                                       manifest.get("participants"))
 
     def check_complete(self) -> dict[str, Any]:
         """The manifest of a complete run: every participant's parts present and readable.
@@ -483,8 +511,8 @@ class RunFolder:
         if missing:
             listed = "; ".join(f"participant {p}: {', '.join(parts)}" for p, parts in sorted(missing.items()))
             raise RunFolderError(f"{self.path} is incomplete: {listed}; a live session rewrites these after "
-                                 "each trial: continue the participant's session with `nudge study "
-                                 f"{self.path / CONFIG} --participant ID --out {self.path} --resume`")
+                                 "each trial: continue the participant's session with "
+                                 f"`{study_resume_command(str(self.path / CONFIG), 'ID', self.path)}`")
         return manifest
 
     def read_table(self, kind: str, columns: Sequence[str] | None = None) -> pd.DataFrame:
@@ -532,10 +560,10 @@ class RunFolder:
             try:
                 names = pq.ParquetFile(io.BytesIO(data)).schema_arrow.names
             except Exception as exc:  # pyarrow raises several types for broken files
-                fix = (f"`{self.resume_command()}`" if self.is_run() else "`nudge simulate EXPERIMENT --out "
-                       f"{self.path} --resume`")
+                fix = (self.resume_command() if self.is_run() else
+                       simulate_resume_command("EXPERIMENT", self.path))
                 raise DataError(f"{part} is not a readable Parquet file ({exc}); rewrite it with "
-                                f"{fix}") from None
+                                f"`{fix}`") from None
             missing = [c for c in columns or () if c not in names]
             if missing:
                 raise DataError(f"{part} lacks the column(s) {', '.join(missing)}; it was written by "
@@ -548,7 +576,7 @@ class RunFolder:
         folder = self.path
         if kind == "steps" and (folder / "trials").is_dir() and any((folder / "trials").glob("part-*")):
             return (f"{folder} has trials but no steps/part-*.parquet; finish the run with "
-                    f"`nudge simulate EXPERIMENT --out {folder} --resume`")
+                    f"`{simulate_resume_command('EXPERIMENT', folder)}`")
         if (folder / METRICS_CSV).is_file():
             # e.g. a committed reference run: its step logs were left out, its metrics kept
             return (f"{folder} holds metrics but not the step logs they came from; "
