@@ -35,7 +35,7 @@ import platform
 import shlex
 import sys
 import tempfile
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
@@ -173,6 +173,56 @@ def library_versions() -> dict[str, str]:
 def utc_now() -> str:
     """The current UTC time, ISO 8601 to the second."""
     return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
+
+
+def provenance() -> dict[str, Any]:
+    """What every manifest (a run's, a batch's) records of its making: ``versions``, ``created``."""
+    return {"versions": library_versions(), "created": utc_now()}
+
+
+def new_manifest(config: ExperimentConfig, seed: int, participants: int,
+                 trials_per_participant: int) -> dict[str, Any]:
+    """The keys a run's first ``manifest.json`` opens with, in this order (``nudge simulate`` and
+    ``nudge study`` add theirs after): the experiment and its resolved configuration, the seed, the
+    participants, the trials per participant, :func:`provenance` and the (empty) ``timings_s``."""
+    return {"experiment": config.experiment.name, "config": config.model_dump(mode="json"), "seed": seed,
+            "participants": participants, "trials_per_participant": trials_per_participant, **provenance(),
+            "timings_s": {}}
+
+
+def prepare_mode(path: Path, held: str | None, resume: bool, force: bool, *, kind: str = "run",
+                 own_file: Callable[[str], bool] = LOCK.__eq__, can_force: bool = True,
+                 resume_first: bool = False) -> str:
+    """The rule of every command that prepares a folder to write a run or a batch into.
+
+    A folder that holds a ``kind`` (``held`` describes it, e.g. ``"paper, complete"``) is refused
+    unless ``resume`` (``"resume"``: the caller checks it is the same work) or ``force``
+    (``"replace"``: the caller removes the old work). A folder holding other files (than those
+    ``own_file`` names: the lock) is refused unless ``force`` (``"overwrite"``). ``resume`` with
+    nothing there is refused. Else ``"new"``.
+
+    Parameters
+    ----------
+    can_force
+        Whether the command has ``--force`` (``nudge study`` has not): the refusal offers it.
+    resume_first
+        Refuse ``resume`` into a folder without a ``kind`` before looking at its contents
+        (``nudge study``'s order: "nothing to resume" rather than "not empty").
+    """
+    if held is not None:
+        if resume and not force:
+            return "resume"
+        if not force:
+            raise RunFolderError(f"{path}: already holds a {kind} ({held}); use --resume to finish it, "
+                                 "--force to replace it, or choose another --out")
+        return "replace"
+    occupied = path.exists() and any(not own_file(p.name) for p in path.iterdir())
+    if resume and (resume_first or not occupied):
+        raise RunFolderError(f"{path}: nothing to resume (no {kind} there); drop --resume")
+    if occupied and not force:
+        raise RunFolderError(f"{path}: exists and is not empty; choose another --out"
+                             + (" or use --force" if can_force else ""))
+    return "overwrite" if occupied else "new"
 
 
 def default_run_dir(experiment: str, root: Path | None = None) -> Path:
@@ -602,46 +652,37 @@ class RunFolder:
                 force: bool) -> str:
         """Make the folder ready for a run; return ``"new"`` or ``"resume"``.
 
-        A folder that holds another run is refused unless ``resume`` (which requires the same
-        resolved experiment and seed) or ``force`` (which deletes the old run's tables first).
-        A non-empty folder that is not a run is refused unless ``force``.
+        The rule is :func:`prepare_mode`'s: ``resume`` requires the same resolved experiment and
+        seed, ``force`` deletes the old run's tables (or the run's file names in a non-empty
+        folder) first; a folder left by a run killed before its manifest starts it afresh.
         """
         config_text = config.to_toml()
-        if self.is_run():
-            manifest = self.read_manifest()
-            if resume and not force:
-                differences = self.resume_differences(manifest, config, seed, participants)
-                if differences:
-                    shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
-                                                          if len(differences) > 8 else "")
-                    raise RunFolderError(
-                        f"{self.path}: cannot resume with settings different from those the run started "
-                        f"with ({shown}); {self._edited_config_hint(manifest)}resume it with its own: "
-                        f"`{self.resume_command(manifest)}`, or use --force to replace it")
-                self._remove_temporaries()
-                config_path = self.path / CONFIG
-                if not config_path.is_file() or config_path.read_text(encoding="utf-8") != config_text:
-                    # the manifest's experiment is the run's: put back an edited or lost config.toml
-                    print(f"Warning: {config_path} differed from the experiment in the manifest; "
-                          "rewritten from it", file=sys.stderr)
-                    write_text_atomic(config_path, config_text)
-                return "resume"
-            if not force:
-                state = manifest.get("status", "unknown")
-                raise RunFolderError(
-                    f"{self.path}: already holds a run ({manifest.get('experiment')}, {state}); "
-                    "use --resume to finish it, --force to replace it, or choose another --out")
-            self._clear()
-        elif resume and not force and self._only_a_start(config_text):
+        manifest = self.read_manifest() if self.is_run() else None
+        if manifest is None and resume and not force and self._only_a_start(config_text):
             self._remove_temporaries()  # killed before its manifest: start it afresh
             return "new"
-        elif self.path.exists() and any(p.name != LOCK for p in self.path.iterdir()):
-            if not force:
+        held = (None if manifest is None else
+                f"{manifest.get('experiment')}, {manifest.get('status', 'unknown')}")
+        mode = prepare_mode(self.path, held, resume, force)
+        if manifest is not None and mode == "resume":
+            differences = self.resume_differences(manifest, config, seed, participants)
+            if differences:
+                shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
+                                                      if len(differences) > 8 else "")
                 raise RunFolderError(
-                    f"{self.path}: exists and is not empty; choose another --out or use --force")
+                    f"{self.path}: cannot resume with settings different from those the run started "
+                    f"with ({shown}); {self._edited_config_hint(manifest)}resume it with its own: "
+                    f"`{self.resume_command(manifest)}`, or use --force to replace it")
+            self._remove_temporaries()
+            config_path = self.path / CONFIG
+            if not config_path.is_file() or config_path.read_text(encoding="utf-8") != config_text:
+                # the manifest's experiment is the run's: put back an edited or lost config.toml
+                print(f"Warning: {config_path} differed from the experiment in the manifest; "
+                      "rewritten from it", file=sys.stderr)
+                write_text_atomic(config_path, config_text)
+            return "resume"
+        if mode in ("replace", "overwrite"):
             self._clear()
-        elif resume:
-            raise RunFolderError(f"{self.path}: nothing to resume (no run there); drop --resume")
         write_text_atomic(self.path / CONFIG, config_text)
         return "new"
 

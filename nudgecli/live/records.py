@@ -44,8 +44,9 @@ from nudgecli.run_folder_names import CONFIG, LOCK, QUESTIONNAIRES_CSV
 from nudgecli.sim.study import StudyLayout, layouts_frame
 from nudgecli.store import (
     RunFolder,
-    library_versions,
+    new_manifest,
     part_name,
+    prepare_mode,
     utc_now,
     write_parquet_atomic,
     write_text_atomic,
@@ -229,27 +230,13 @@ class LiveFolder:
                     f"{self.path}: no session of participant {participant_id} to resume; drop --resume"
                 )
         else:
-            if resume:
-                raise RunFolderError(f"{self.path}: nothing to resume (no run there); drop --resume")
-            if self.path.exists() and any(not _is_lock_file(p.name) for p in self.path.iterdir()):
-                raise RunFolderError(f"{self.path}: exists and is not empty; choose another --out")
+            prepare_mode(self.path, None, resume, False, own_file=_is_lock_file, can_force=False,
+                         resume_first=True)
             self.path.mkdir(parents=True, exist_ok=True)
             write_text_atomic(self.path / CONFIG, config_text)
             run.write_layouts(layouts_frame(layouts))
-            manifest = {
-                "experiment": config.experiment.name,
-                "config": config.model_dump(mode="json"),
-                "seed": seed,
-                "participants": 0,
-                "trials_per_participant": trials_per_participant,
-                "versions": library_versions(),
-                "created": utc_now(),
-                "timings_s": {},
-                "status": "running",
-                "completed": [],
-                "executor": EXECUTOR,
-                "live": {},
-            }
+            manifest = new_manifest(config, seed, 0, trials_per_participant)
+            manifest.update({"status": "running", "completed": [], "executor": EXECUTOR, "live": {}})
             entry = None
         if entry is None:
             entry = {
