@@ -764,8 +764,8 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
         Parquet, one row per trial with ``participant``, ``condition`` and metric columns).
     plan
         An analysis plan: preset name (``paper``, ``study-code``), TOML path, or a plan.
-        Default: the plan recorded in a run folder's manifest (recorded there now if missing),
-        else ``paper``.
+        Default: the plan recorded in a run folder's manifest (recorded there now if missing and
+        the run folder is the output folder), else ``paper``.
     out
         Output folder; default the run folder, or ``<table>-analysis/`` beside a table.
     metrics
@@ -819,25 +819,23 @@ def _analyze_with_locks(source: Path, plan: str | Path | AnalysisPlan | None, ou
                         progress: Callable[[int, int], None] | None) -> AnalysisResult:
     """:func:`analyze` with the run folder's and the output folder's locks held."""
     with contextlib.ExitStack() as locks:
-        source_locked = False
         if is_run_folder(source):
             try:
                 locks.enter_context(run_lock(source))
-                source_locked = True
             except NudgeWriteError:
                 if out_dir.resolve() == source.resolve():
                     raise
                 # a read-only run folder analysed elsewhere: nobody can be writing it
         locks.enter_context(run_lock(out_dir))
         return _analyze_locked(source, plan, out_dir, metrics, questionnaires, seed, bootstrap,
-                               drop_duplicates, progress, source_locked)
+                               drop_duplicates, progress)
     raise AssertionError("unreachable")  # pragma: no cover - for type checkers
 
 
 def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, out_dir: Path,
                     metrics: Sequence[str] | None, questionnaires: str | Path | None, seed: int | None,
                     bootstrap: int | None, drop_duplicates: bool,
-                    progress: Callable[[int, int], None] | None, source_locked: bool) -> AnalysisResult:
+                    progress: Callable[[int, int], None] | None) -> AnalysisResult:
     """:func:`analyze` once the folders' locks are held."""
     notes: list[str] = []
     run = RunFolder(source) if source.is_dir() else None
@@ -851,8 +849,9 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     if source.is_dir():
         table, available, _ = _load_source(source, plan, notes)
         changed = True
+        # recorded for the next analysis only where this one writes: the run folder as its output
         if run is not None and manifest is not None and "participants" in manifest and \
-                "plan" not in manifest and source_locked:
+                "plan" not in manifest and out_dir.resolve() == source.resolve():
             manifest["plan"] = _plan_label(plan_arg, plan)
             run.write_manifest(manifest)
     else:
