@@ -11,7 +11,6 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import shlex
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -213,24 +212,6 @@ def _progress_bar(label: str, unit: str = "trial") -> tuple[Any, Any]:
     return bar, update
 
 
-def resume_command(experiment: str, target: Path, seed: int | None, participants: int | None, workers: int,
-                   overrides: tuple[str, ...], command: str = "simulate", confirm: bool = False) -> str:
-    """The exact command line that resumes an interrupted ``nudge simulate`` (or ``run``) into ``target``
-    (with ``--yes`` when the study is above the size limit and ``confirm`` let it run)."""
-    parts = ["nudge", command, experiment, "--out", str(target)]
-    if confirm:
-        parts += ["--yes"]
-    if seed is not None:
-        parts += ["--seed", str(seed)]
-    if participants is not None:
-        parts += ["--participants", str(participants)]
-    if workers != 1:
-        parts += ["--workers", str(workers)]
-    for override in overrides:
-        parts += ["--set", override]
-    return " ".join(shlex.quote(p) for p in [*parts, "--resume"])
-
-
 def _interrupt_hint(target: Path, commands: list[str]) -> Callable[[], str]:
     """What to say after Ctrl-C of a simulation into ``target``."""
 
@@ -254,14 +235,15 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
 
     from nudgecli.config import load_experiment
     from nudgecli.runs.study import run_study
-    from nudgecli.store import default_run_dir
+    from nudgecli.store import default_run_dir, simulate_resume_command
 
     config = load_experiment(experiment, overrides)
     target = Path(out) if out else default_run_dir(config.experiment.name)
-    commands = [resume_command(experiment, target, seed, participants, workers, overrides, confirm=confirm)]
+    commands = [simulate_resume_command(experiment, target, seed, participants, workers, overrides,
+                                        confirm=confirm)]
     if command != "simulate":
-        commands.append(resume_command(experiment, target, seed, participants, workers, overrides, command,
-                                       confirm))
+        commands.append(simulate_resume_command(experiment, target, seed, participants, workers, overrides,
+                                                command, confirm))
     click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, commands)
     bar, update = _progress_bar("simulating")
     try:
@@ -377,9 +359,9 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
     Fig. 3 and 4 where their metrics are present, one panel per other metric; Fig. 5 and a
     trajectory for a run; questionnaires where analysed. stats.json must match the metrics.
     """
+    from nudgecli.locks import run_lock
     from nudgecli.report.plans import load_plan
     from nudgecli.report.plotting import default_out, parse_formats, parse_trial, plot_folder
-    from nudgecli.store import run_lock
 
     chosen, trial_key = parse_formats(formats), parse_trial(trial)
     analysis_plan = load_plan(plan or "paper")
@@ -428,9 +410,10 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
                 plan: str | None, resume: bool, force: bool, yes: bool, overrides: tuple[str, ...]) -> None:
     """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
     from nudgecli.config import default_plan_name
+    from nudgecli.locks import run_lock
     from nudgecli.report.analysis import analyze, format_table
     from nudgecli.report.plotting import plot_folder
-    from nudgecli.store import run_lock
+    from nudgecli.run_folder_names import FIGURES_DIR, STATS_JSON, SUMMARY_MD
 
     if plan is not None and Path(plan).suffix.lower() == ".toml":
         plan = str(Path(plan).resolve())
@@ -447,8 +430,8 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
         click.echo(format_table(result.table, result.stats["conditions"]))
         written = plot_folder(run.path)
     click.echo("")
-    click.echo(f"Statistics: {run.path / 'stats.json'}, {run.path / 'summary.md'}")
-    click.echo(f"Figures:    {len(written)} files in {run.path / 'figures'}")
+    click.echo(f"Statistics: {run.path / STATS_JSON}, {run.path / SUMMARY_MD}")
+    click.echo(f"Figures:    {len(written)} files in {run.path / FIGURES_DIR}")
     click.echo(str(run.path))
 
 
@@ -665,6 +648,8 @@ def rerun_command(ctx: click.Context, target: Path) -> str:
     (``--force`` dropped: it would delete what was finished)."""
     from click.core import ParameterSource
 
+    from nudgecli.store import resume_command
+
     arguments: list[str] = []
     options: list[str] = []
     for param in ctx.command.params:
@@ -684,9 +669,7 @@ def rerun_command(ctx: click.Context, target: Path) -> str:
                 options += [flag, str(item)]
         else:
             options += [flag, str(value)]
-    parts = ["nudge", ctx.info_name or ctx.command.name or "", *arguments, *options, "--out", str(target),
-             "--resume"]
-    return " ".join(shlex.quote(p) for p in parts)
+    return resume_command([ctx.info_name or ctx.command.name or "", *arguments, *options], target)
 
 
 def _batch_interrupt_hint(target: Path, command: str) -> Callable[[], str]:

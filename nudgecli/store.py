@@ -21,10 +21,7 @@ readable Parquet files; ``--resume`` recomputes the others, and those whose SHA-
 the one the manifest recorded when they were written. Readers take exactly the parts of the
 participants the manifest promises and verify them against it.
 
-While a command writes a run folder it holds the folder's lock (:func:`run_lock`, the file
-``.nudge.lock`` with the holder's pid, host and command): a second writer is refused with a
-:class:`LockError` naming the holder; a lock left behind by a process of this host that no longer
-runs is taken over with a warning on stderr.
+While a command writes a run folder it holds the folder's lock (:func:`nudgecli.locks.run_lock`).
 """
 
 from __future__ import annotations
@@ -35,10 +32,10 @@ import io
 import json
 import os
 import platform
-import socket
+import shlex
 import sys
 import tempfile
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
@@ -49,14 +46,20 @@ import pyarrow.parquet as pq
 
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
-from nudgecli.errors import DataError, LockError, NudgeError, RunFolderError, WriteError
+from nudgecli.errors import DataError, NudgeError, RunFolderError, WriteError
+from nudgecli.run_folder_names import (
+    CONFIG,
+    LAYOUTS,
+    LOCK,
+    MANIFEST,
+    METRICS_CSV,
+    PART_KINDS,
+    PARTICIPANTS,
+    STATS_CSV,
+    STATS_JSON,
+    SUMMARY_MD,
+)
 
-MANIFEST = "manifest.json"
-CONFIG = "config.toml"
-PARTICIPANTS = "participants.parquet"
-LAYOUTS = "layouts.parquet"
-LOCK = ".nudge.lock"
-PART_KINDS = ("trials", "steps", "participants")
 _LIBRARIES = ("numpy", "scipy", "pandas", "pyarrow", "pydantic", "click", "matplotlib", "scikit-posthocs")
 
 
@@ -141,170 +144,6 @@ def check_writable(folder: str | Path) -> None:
         (Path(folder) / ".nudge-write-check").unlink()
 
 
-# --- the run-folder lock ---------------------------------------------------------------------
-
-#: Locks this process holds: resolved folder -> (open lock file, depth); re-entrant per folder.
-_HELD: dict[Path, list[Any]] = {}
-
-
-def _pid_alive(pid: int) -> bool:
-    """Whether a process ``pid`` runs on this host."""
-    if pid <= 0:
-        return False
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # it exists, owned by someone else
-        return True
-    except OSError:  # pragma: no cover - e.g. Windows without the process
-        return False
-    return True
-
-
-def _read_holder(path: Path) -> dict[str, Any]:
-    try:
-        data = json.loads(path.read_text(encoding="utf-8") or "{}")
-    except (OSError, ValueError):
-        return {}
-    return data if isinstance(data, dict) else {}
-
-
-def _holder_pid(holder: dict[str, Any]) -> int:
-    """The pid a lock file names; -1 (no process) when it names none or not a number (a damaged
-    or hand-edited lock file is then taken over like a dead holder's)."""
-    try:
-        return int(holder.get("pid", -1))
-    except (TypeError, ValueError, OverflowError):
-        return -1
-
-
-def _describe_holder(holder: dict[str, Any]) -> str:
-    what = holder.get("command") or "a nudge command"
-    return (f"`{what}` (pid {holder.get('pid', '?')} on host {holder.get('host', '?')}, "
-            f"since {holder.get('since', '?')})")
-
-
-def _try_lock(handle: Any) -> bool | None:
-    """Take an exclusive, non-blocking OS lock on an open file.
-
-    Returns
-    -------
-    bool or None
-        True when taken, False when another process holds it, None where the platform has no
-        ``flock`` (then the holder's pid is the only sign of a live holder).
-    """
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover - not POSIX
-        return None
-    try:
-        fcntl.flock(handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        return False
-    return True
-
-
-@contextlib.contextmanager
-def run_lock(folder: str | Path, command: str | None = None) -> Iterator[Path]:
-    """Hold the lock of the run folder ``folder`` (made if missing) for the block.
-
-    The lock is the file ``folder/.nudge.lock``, locked with ``flock`` while held (so the OS
-    releases it when the holder dies, even by SIGKILL) and holding the owner's pid, host,
-    command and start time. Re-entrant within one process (``nudge run`` holds it across
-    simulate, analyze and plot). The file is removed when the block ends.
-
-    Parameters
-    ----------
-    folder
-        The run folder (or analysis folder) about to be written.
-    command
-        What holds it, for the message another writer gets (default: this process's command line).
-
-    Raises
-    ------
-    LockError
-        Another process holds the lock (the message names it), or a lock file of another host
-        that cannot be verified.
-    WriteError
-        The folder cannot be made or the lock file written.
-    """
-    path = Path(folder)
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise write_error(path, exc) from exc
-    key = path.resolve()
-    if key in _HELD:
-        _HELD[key][1] += 1
-        try:
-            yield path
-        finally:
-            _HELD[key][1] -= 1
-        return
-    lock_path = path / LOCK
-    handle = _acquire(lock_path, command)
-    _HELD[key] = [handle, 1]
-    try:
-        yield path
-    finally:
-        del _HELD[key]
-        with contextlib.suppress(OSError):
-            lock_path.unlink()
-        handle.close()
-
-
-def _acquire(lock_path: Path, command: str | None) -> Any:
-    """Open, lock and fill in ``lock_path``; the open file (closing it releases the lock)."""
-    host = socket.gethostname()
-    for _ in range(20):
-        try:
-            handle = open(lock_path, "a+", encoding="utf-8")  # noqa: SIM115 - held until release
-        except OSError as exc:
-            raise write_error(lock_path, exc) from exc
-        locked = _try_lock(handle)
-        if locked is False:
-            holder = _read_holder(lock_path)
-            handle.close()
-            raise LockError(f"{lock_path.parent}: in use by {_describe_holder(holder)}; wait for it to "
-                            "finish or choose another --out")
-        try:
-            same_file = os.fstat(handle.fileno()).st_ino == os.stat(lock_path).st_ino
-        except FileNotFoundError:
-            same_file = False
-        if not same_file:  # the previous holder removed the file between our open and our lock
-            handle.close()
-            continue
-        holder = _read_holder(lock_path)
-        if holder:
-            pid = _holder_pid(holder)
-            if holder.get("host") != host:
-                handle.close()
-                raise LockError(
-                    f"{lock_path.parent}: locked by {_describe_holder(holder)}, another host, which cannot "
-                    f"be checked from here; if no nudge command runs there any more, delete {lock_path}")
-            if locked is None and pid != os.getpid() and _pid_alive(pid):  # pragma: no cover - no flock
-                handle.close()
-                raise LockError(f"{lock_path.parent}: in use by {_describe_holder(holder)}; wait for it "
-                                "to finish or choose another --out")
-            state = "no longer running" if not _pid_alive(pid) else "no longer holding it"
-            print(f"Warning: {lock_path.parent}: taking over the stale lock of {_describe_holder(holder)}, "
-                  f"{state}", file=sys.stderr)
-        record = {"pid": os.getpid(), "host": host, "command": command or " ".join(
-            [Path(sys.argv[0]).name, *sys.argv[1:]]), "since": utc_now()}
-        try:
-            handle.seek(0)
-            handle.truncate()
-            handle.write(json.dumps(record) + "\n")
-            handle.flush()
-            os.fsync(handle.fileno())
-        except OSError as exc:
-            handle.close()
-            raise write_error(lock_path, exc) from exc
-        return handle
-    raise LockError(f"{lock_path.parent}: could not take the lock (it changed hands repeatedly); try again")
-
-
 def write_text_atomic(path: str | Path, text: str) -> None:
     """Write ``text`` to ``path`` atomically (UTF-8, newlines as given)."""
     with atomic_path(path) as tmp:
@@ -336,6 +175,56 @@ def utc_now() -> str:
     return datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
+def provenance() -> dict[str, Any]:
+    """What every manifest (a run's, a batch's) records of its making: ``versions``, ``created``."""
+    return {"versions": library_versions(), "created": utc_now()}
+
+
+def new_manifest(config: ExperimentConfig, seed: int, participants: int,
+                 trials_per_participant: int) -> dict[str, Any]:
+    """The keys a run's first ``manifest.json`` opens with, in this order (``nudge simulate`` and
+    ``nudge study`` add theirs after): the experiment and its resolved configuration, the seed, the
+    participants, the trials per participant, :func:`provenance` and the (empty) ``timings_s``."""
+    return {"experiment": config.experiment.name, "config": config.model_dump(mode="json"), "seed": seed,
+            "participants": participants, "trials_per_participant": trials_per_participant, **provenance(),
+            "timings_s": {}}
+
+
+def prepare_mode(path: Path, held: str | None, resume: bool, force: bool, *, kind: str = "run",
+                 own_file: Callable[[str], bool] = LOCK.__eq__, can_force: bool = True,
+                 resume_first: bool = False) -> str:
+    """The rule of every command that prepares a folder to write a run or a batch into.
+
+    A folder that holds a ``kind`` (``held`` describes it, e.g. ``"paper, complete"``) is refused
+    unless ``resume`` (``"resume"``: the caller checks it is the same work) or ``force``
+    (``"replace"``: the caller removes the old work). A folder holding other files (than those
+    ``own_file`` names: the lock) is refused unless ``force`` (``"overwrite"``). ``resume`` with
+    nothing there is refused. Else ``"new"``.
+
+    Parameters
+    ----------
+    can_force
+        Whether the command has ``--force`` (``nudge study`` has not): the refusal offers it.
+    resume_first
+        Refuse ``resume`` into a folder without a ``kind`` before looking at its contents
+        (``nudge study``'s order: "nothing to resume" rather than "not empty").
+    """
+    if held is not None:
+        if resume and not force:
+            return "resume"
+        if not force:
+            raise RunFolderError(f"{path}: already holds a {kind} ({held}); use --resume to finish it, "
+                                 "--force to replace it, or choose another --out")
+        return "replace"
+    occupied = path.exists() and any(not own_file(p.name) for p in path.iterdir())
+    if resume and (resume_first or not occupied):
+        raise RunFolderError(f"{path}: nothing to resume (no {kind} there); drop --resume")
+    if occupied and not force:
+        raise RunFolderError(f"{path}: exists and is not empty; choose another --out"
+                             + (" or use --force" if can_force else ""))
+    return "overwrite" if occupied else "new"
+
+
 def default_run_dir(experiment: str, root: Path | None = None) -> Path:
     """A new, empty ``results/<experiment>-<UTC timestamp>/`` under the current directory (or ``root``).
 
@@ -363,6 +252,39 @@ def default_run_dir(experiment: str, root: Path | None = None) -> Path:
             raise write_error(candidate, exc) from exc
         return candidate
     raise RunFolderError(f"{base.parent}: too many runs named {base.name}; choose --out")
+
+
+def resume_command(words: Sequence[str], target: str | Path, options: Sequence[str] = ()) -> str:
+    """The command line suggested to finish interrupted work: ``nudge WORDS --out TARGET OPTIONS
+    --resume``, each word quoted for the shell (every resume command the toolkit prints is built here)."""
+    return shlex.join(["nudge", *words, "--out", str(target), *options, "--resume"])
+
+
+def simulate_resume_command(experiment: str, target: str | Path, seed: int | None = None,
+                            participants: int | None = None, workers: int = 1, overrides: Sequence[str] = (),
+                            command: str = "simulate", confirm: bool = False) -> str:
+    """The ``nudge simulate`` (or ``run``) command that resumes a study into ``target`` with the same
+    choices (``--yes`` when ``confirm`` let a study above the size limit run)."""
+    options = ["--yes"] if confirm else []
+    for flag, value in (("--seed", seed), ("--participants", participants),
+                        ("--workers", workers if workers != 1 else None)):
+        options += [flag, str(value)] if value is not None else []
+    for override in overrides:
+        options += ["--set", override]
+    return resume_command([command, experiment], target, options)
+
+
+def study_resume_command(experiment: str, participant_id: str, folder: str | Path, port: int | None = None,
+                         condition_order: str | None = None, seed: int | None = None,
+                         overrides: Sequence[str] = ()) -> str:
+    """The ``nudge study`` command that continues a session: the same experiment, folder, seed,
+    condition order and ``--set`` values (the folder refuses other ones), and ``--resume``."""
+    options: list[str] = []
+    for flag, value in (("--port", port), ("--condition-order", condition_order), ("--seed", seed)):
+        options += [flag, str(value)] if value is not None else []
+    for item in overrides:
+        options += ["--set", item]
+    return resume_command(["study", experiment, "--participant", participant_id], folder, options)
 
 
 def file_sha256(path: str | Path) -> str:
@@ -594,15 +516,9 @@ class RunFolder:
 
     def resume_command(self, manifest: dict[str, Any] | None = None) -> str:
         """The command that finishes or repairs this run (``nudge simulate ... --resume``)."""
-        import shlex
-
         manifest = manifest if manifest is not None else self.read_manifest()
-        parts = ["nudge", "simulate", str(self.path / CONFIG), "--out", str(self.path)]
-        if "seed" in manifest:
-            parts += ["--seed", str(manifest["seed"])]
-        if "participants" in manifest:
-            parts += ["--participants", str(manifest["participants"])]
-        return " ".join(shlex.quote(p) for p in [*parts, "--resume"])
+        return simulate_resume_command(str(self.path / CONFIG), self.path, manifest.get("seed"),
+                                       manifest.get("participants"))
 
     def check_complete(self) -> dict[str, Any]:
         """The manifest of a complete run: every participant's parts present and readable.
@@ -645,8 +561,8 @@ class RunFolder:
         if missing:
             listed = "; ".join(f"participant {p}: {', '.join(parts)}" for p, parts in sorted(missing.items()))
             raise RunFolderError(f"{self.path} is incomplete: {listed}; a live session rewrites these after "
-                                 "each trial: continue the participant's session with `nudge study "
-                                 f"{self.path / CONFIG} --participant ID --out {self.path} --resume`")
+                                 "each trial: continue the participant's session with "
+                                 f"`{study_resume_command(str(self.path / CONFIG), 'ID', self.path)}`")
         return manifest
 
     def read_table(self, kind: str, columns: Sequence[str] | None = None) -> pd.DataFrame:
@@ -694,10 +610,10 @@ class RunFolder:
             try:
                 names = pq.ParquetFile(io.BytesIO(data)).schema_arrow.names
             except Exception as exc:  # pyarrow raises several types for broken files
-                fix = (f"`{self.resume_command()}`" if self.is_run() else "`nudge simulate EXPERIMENT --out "
-                       f"{self.path} --resume`")
+                fix = (self.resume_command() if self.is_run() else
+                       simulate_resume_command("EXPERIMENT", self.path))
                 raise DataError(f"{part} is not a readable Parquet file ({exc}); rewrite it with "
-                                f"{fix}") from None
+                                f"`{fix}`") from None
             missing = [c for c in columns or () if c not in names]
             if missing:
                 raise DataError(f"{part} lacks the column(s) {', '.join(missing)}; it was written by "
@@ -710,11 +626,11 @@ class RunFolder:
         folder = self.path
         if kind == "steps" and (folder / "trials").is_dir() and any((folder / "trials").glob("part-*")):
             return (f"{folder} has trials but no steps/part-*.parquet; finish the run with "
-                    f"`nudge simulate EXPERIMENT --out {folder} --resume`")
-        if (folder / "metrics.csv").is_file():
+                    f"`{simulate_resume_command('EXPERIMENT', folder)}`")
+        if (folder / METRICS_CSV).is_file():
             # e.g. a committed reference run: its step logs were left out, its metrics kept
             return (f"{folder} holds metrics but not the step logs they came from; "
-                    f"analyse the table instead: `nudge analyze {folder / 'metrics.csv'}`")
+                    f"analyse the table instead: `nudge analyze {folder / METRICS_CSV}`")
         return (f"{folder} has no {kind} yet (no {kind}/part-*.parquet); run "
                 f"`nudge simulate EXPERIMENT --out {folder}` first")
 
@@ -736,46 +652,37 @@ class RunFolder:
                 force: bool) -> str:
         """Make the folder ready for a run; return ``"new"`` or ``"resume"``.
 
-        A folder that holds another run is refused unless ``resume`` (which requires the same
-        resolved experiment and seed) or ``force`` (which deletes the old run's tables first).
-        A non-empty folder that is not a run is refused unless ``force``.
+        The rule is :func:`prepare_mode`'s: ``resume`` requires the same resolved experiment and
+        seed, ``force`` deletes the old run's tables (or the run's file names in a non-empty
+        folder) first; a folder left by a run killed before its manifest starts it afresh.
         """
         config_text = config.to_toml()
-        if self.is_run():
-            manifest = self.read_manifest()
-            if resume and not force:
-                differences = self.resume_differences(manifest, config, seed, participants)
-                if differences:
-                    shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
-                                                          if len(differences) > 8 else "")
-                    raise RunFolderError(
-                        f"{self.path}: cannot resume with settings different from those the run started "
-                        f"with ({shown}); {self._edited_config_hint(manifest)}resume it with its own: "
-                        f"`{self.resume_command(manifest)}`, or use --force to replace it")
-                self._remove_temporaries()
-                config_path = self.path / CONFIG
-                if not config_path.is_file() or config_path.read_text(encoding="utf-8") != config_text:
-                    # the manifest's experiment is the run's: put back an edited or lost config.toml
-                    print(f"Warning: {config_path} differed from the experiment in the manifest; "
-                          "rewritten from it", file=sys.stderr)
-                    write_text_atomic(config_path, config_text)
-                return "resume"
-            if not force:
-                state = manifest.get("status", "unknown")
-                raise RunFolderError(
-                    f"{self.path}: already holds a run ({manifest.get('experiment')}, {state}); "
-                    "use --resume to finish it, --force to replace it, or choose another --out")
-            self._clear()
-        elif resume and not force and self._only_a_start(config_text):
+        manifest = self.read_manifest() if self.is_run() else None
+        if manifest is None and resume and not force and self._only_a_start(config_text):
             self._remove_temporaries()  # killed before its manifest: start it afresh
             return "new"
-        elif self.path.exists() and any(p.name != LOCK for p in self.path.iterdir()):
-            if not force:
+        held = (None if manifest is None else
+                f"{manifest.get('experiment')}, {manifest.get('status', 'unknown')}")
+        mode = prepare_mode(self.path, held, resume, force)
+        if manifest is not None and mode == "resume":
+            differences = self.resume_differences(manifest, config, seed, participants)
+            if differences:
+                shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
+                                                      if len(differences) > 8 else "")
                 raise RunFolderError(
-                    f"{self.path}: exists and is not empty; choose another --out or use --force")
+                    f"{self.path}: cannot resume with settings different from those the run started "
+                    f"with ({shown}); {self._edited_config_hint(manifest)}resume it with its own: "
+                    f"`{self.resume_command(manifest)}`, or use --force to replace it")
+            self._remove_temporaries()
+            config_path = self.path / CONFIG
+            if not config_path.is_file() or config_path.read_text(encoding="utf-8") != config_text:
+                # the manifest's experiment is the run's: put back an edited or lost config.toml
+                print(f"Warning: {config_path} differed from the experiment in the manifest; "
+                      "rewritten from it", file=sys.stderr)
+                write_text_atomic(config_path, config_text)
+            return "resume"
+        if mode in ("replace", "overwrite"):
             self._clear()
-        elif resume:
-            raise RunFolderError(f"{self.path}: nothing to resume (no run there); drop --resume")
         write_text_atomic(self.path / CONFIG, config_text)
         return "new"
 
@@ -848,8 +755,8 @@ class RunFolder:
             if folder.is_dir():
                 for p in folder.glob("*.parquet"):
                     p.unlink()
-        for name in (MANIFEST, CONFIG, PARTICIPANTS, LAYOUTS, "metrics.csv", "stats.json", "stats.csv",
-                     "summary.md"):
+        for name in (MANIFEST, CONFIG, PARTICIPANTS, LAYOUTS, METRICS_CSV, STATS_JSON, STATS_CSV,
+                     SUMMARY_MD):
             (self.path / name).unlink(missing_ok=True)
         calibration = self.path / "calibration"
         if calibration.is_dir():

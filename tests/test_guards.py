@@ -30,11 +30,12 @@ from click.testing import CliRunner
 
 from nudgecli import store
 from nudgecli.cli import main
+from nudgecli.run_folder_names import LOCK
 from nudgecli.runs import batch as batch_module
 from nudgecli.runs import study as study_module
 from nudgecli.runs.batch import Batch, Point, build_graph, estimate, estimate_batch, single_point
 from nudgecli.runs.size import MAX_TRIALS_WITHOUT_YES, trials_per_participant
-from nudgecli.store import LOCK, write_text_atomic
+from nudgecli.store import write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
@@ -74,7 +75,7 @@ def wait_for(predicate, timeout: float = 60.0) -> None:
 @contextlib.contextmanager
 def held_elsewhere(folder: Path) -> Iterator[subprocess.Popen]:
     """Another process holds ``folder``'s lock (as a running ``analyze`` or batch does)."""
-    code = ("import sys, time\nfrom nudgecli.store import run_lock\n"
+    code = ("import sys, time\nfrom nudgecli.locks import run_lock\n"
             "with run_lock(sys.argv[1], command='nudge analyze (elsewhere)'):\n"
             "    print('held', flush=True)\n    time.sleep(120)\n")
     proc = subprocess.Popen([sys.executable, "-c", code, str(folder)], env=ENV, stdout=subprocess.PIPE,

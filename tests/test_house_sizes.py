@@ -34,7 +34,7 @@ ALLOWED_MODULES: dict[str, int] = {
     "nudgecli/report/stats.py": 867,  # the paper's tests and the k-condition pairs
     "nudgecli/runs/batch.py": 840,  # the batch graph, its execution and the three batch kinds
     "nudgecli/sim/protocol.py": 680,  # TrialSession is one 385-line class
-    "nudgecli/store.py": 898,  # run folders, manifests, checksums, locks, atomic writes
+    "nudgecli/store.py": 805,  # run folders, manifests, checksums, atomic writes (the lock: locks.py)
 }
 
 #: Functions over :data:`FUNCTION_LIMIT` (``module:qualified name``) -> their length, a cap.

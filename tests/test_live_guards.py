@@ -22,11 +22,12 @@ from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS
 
 from nudgecli.cli import main
 from nudgecli.errors import LockError
-from nudgecli.live.app import build_session, resume_command
+from nudgecli.live.app import build_session
 from nudgecli.live.messages import check_message
 from nudgecli.live.server import WATCHING, SteppedClock, create_app
 from nudgecli.live.session import LiveSession
 from nudgecli.model.interface import SOFT_PUFF, SOFT_SIP
+from nudgecli.store import study_resume_command as resume_command
 
 TOKEN = "guard-token"
 OVERRIDES = TWO_TRIALS + DEFAULT_TABLES

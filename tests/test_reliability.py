@@ -26,9 +26,11 @@ from nudgecli import store
 from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.errors import LockError, RunFolderError, WriteError
+from nudgecli.locks import run_lock
 from nudgecli.report.analysis import analyze
+from nudgecli.run_folder_names import LOCK
 from nudgecli.runs.study import run_study
-from nudgecli.store import LOCK, RunFolder, default_run_dir, run_lock
+from nudgecli.store import RunFolder, default_run_dir
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}

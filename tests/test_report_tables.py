@@ -189,6 +189,9 @@ def test_analyze_uses_the_plan_recorded_in_the_manifest(tmp_path):
     assert "- plan: paper;" in analyze(run, plan="paper").summary
     del manifest["plan"]  # a run made before plans were recorded
     (run / "manifest.json").write_text(json.dumps(manifest))
+    before = (run / "manifest.json").read_bytes()
+    elsewhere = analyze(run, out=tmp_path / "elsewhere")  # writes only into its output folder
+    assert "- plan: paper;" in elsewhere.summary and (run / "manifest.json").read_bytes() == before
     assert "- plan: paper;" in analyze(run).summary  # smoke has no plan of its own
     assert json.loads((run / "manifest.json").read_text())["plan"] == "paper"
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import shlex
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -10,6 +9,7 @@ from nudgecli.config import ExperimentConfig, load_experiment
 from nudgecli.errors import ConfigError
 from nudgecli.live.records import LiveFolder
 from nudgecli.live.session import LiveSession, participant_index
+from nudgecli.store import study_resume_command
 
 
 def first_condition(config: ExperimentConfig, condition_order: str | None) -> str | None:
@@ -57,29 +57,6 @@ def build_session(
     )
 
 
-def resume_command(
-    experiment: str,
-    participant_id: str,
-    folder: str | Path,
-    port: int | None = None,
-    condition_order: str | None = None,
-    seed: int | None = None,
-    overrides: Sequence[str] = (),
-) -> str:
-    """The ``nudge study`` command that continues a session: the same experiment, folder, seed,
-    condition order and ``--set`` values (the folder refuses other ones), and ``--resume``."""
-    parts = ["nudge", "study", experiment, "--participant", participant_id, "--out", str(folder)]
-    if port is not None:
-        parts += ["--port", str(port)]
-    if condition_order is not None:
-        parts += ["--condition-order", condition_order]
-    if seed is not None:
-        parts += ["--seed", str(seed)]
-    for item in overrides:
-        parts += ["--set", item]
-    return shlex.join([*parts, "--resume"])
-
-
 def run_live_study(
     experiment: str,
     participant_id: str,
@@ -125,7 +102,7 @@ def run_live_study(
     finally:
         session.folder.release()
     if session.phase != "done":
-        command = resume_command(
+        command = study_resume_command(
             experiment, participant_id, session.folder.path, port, condition_order, seed, overrides
         )
         log(f"stopped before the end of the session; continue at the next trial with: {command}")

@@ -39,23 +39,19 @@ import pandas as pd
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import LockError, RunFolderError
+from nudgecli.locks import acquire_lock_file, describe_holder, read_holder, run_lock
+from nudgecli.run_folder_names import CONFIG, LOCK, QUESTIONNAIRES_CSV
 from nudgecli.sim.study import StudyLayout, layouts_frame
 from nudgecli.store import (
-    CONFIG,
-    LOCK,
     RunFolder,
-    _acquire,
-    _describe_holder,
-    _read_holder,
-    library_versions,
+    new_manifest,
     part_name,
-    run_lock,
+    prepare_mode,
     utc_now,
     write_parquet_atomic,
     write_text_atomic,
 )
 
-QUESTIONNAIRES = "questionnaires.csv"
 EXECUTOR = "live"
 #: How long a manifest write waits for another participant's server to release the folder lock
 #: (each holds it for one read-modify-write, milliseconds; ``nudge analyze`` may hold it longer).
@@ -167,9 +163,9 @@ class LiveFolder:
             self._lock_path = lock_path
             return
         try:
-            handle = _acquire(lock_path, None)
+            handle = acquire_lock_file(lock_path, None)
         except LockError:
-            holder = _describe_holder(_read_holder(lock_path))
+            holder = describe_holder(read_holder(lock_path))
             raise LockError(
                 f"{self.path}: participant {participant_id} is already being served by {holder}; "
                 "continue there, or stop that server (Ctrl-C) before starting another"
@@ -234,27 +230,13 @@ class LiveFolder:
                     f"{self.path}: no session of participant {participant_id} to resume; drop --resume"
                 )
         else:
-            if resume:
-                raise RunFolderError(f"{self.path}: nothing to resume (no run there); drop --resume")
-            if self.path.exists() and any(not _is_lock_file(p.name) for p in self.path.iterdir()):
-                raise RunFolderError(f"{self.path}: exists and is not empty; choose another --out")
+            prepare_mode(self.path, None, resume, False, own_file=_is_lock_file, can_force=False,
+                         resume_first=True)
             self.path.mkdir(parents=True, exist_ok=True)
             write_text_atomic(self.path / CONFIG, config_text)
             run.write_layouts(layouts_frame(layouts))
-            manifest = {
-                "experiment": config.experiment.name,
-                "config": config.model_dump(mode="json"),
-                "seed": seed,
-                "participants": 0,
-                "trials_per_participant": trials_per_participant,
-                "versions": library_versions(),
-                "created": utc_now(),
-                "timings_s": {},
-                "status": "running",
-                "completed": [],
-                "executor": EXECUTOR,
-                "live": {},
-            }
+            manifest = new_manifest(config, seed, 0, trials_per_participant)
+            manifest.update({"status": "running", "completed": [], "executor": EXECUTOR, "live": {}})
             entry = None
         if entry is None:
             entry = {
@@ -333,7 +315,7 @@ class LiveFolder:
 
     def write_questionnaire(self, participant: int, row: dict[str, Any]) -> None:
         """Add (or replace) one participant's answers for one block in ``questionnaires.csv``."""
-        path = self.path / QUESTIONNAIRES
+        path = self.path / QUESTIONNAIRES_CSV
         new = pd.DataFrame([row])
         with folder_lock(self.path):  # the file is shared by the participants of the folder
             if path.is_file():

@@ -45,6 +45,7 @@ import pyarrow.parquet as pq
 from nudgecli.config import default_plan_name
 from nudgecli.errors import ConfigError, DataError, RunFolderError, did_you_mean
 from nudgecli.errors import WriteError as NudgeWriteError
+from nudgecli.locks import run_lock
 from nudgecli.report.checksum import CHECKSUM_KEY, metrics_checksum
 from nudgecli.report.metrics import (
     ID_COLUMNS,
@@ -72,7 +73,8 @@ from nudgecli.report.stats import (
     stats_csv,
     stats_table,
 )
-from nudgecli.store import RunFolder, is_run_folder, run_lock, write_text_atomic
+from nudgecli.run_folder_names import METRICS_CSV, QUESTIONNAIRES_CSV, STATS_CSV, STATS_JSON, SUMMARY_MD
+from nudgecli.store import RunFolder, is_run_folder, write_text_atomic
 
 #: Columns of a metrics table that describe the trial rather than measure it.
 NON_METRIC_COLUMNS = (*ID_COLUMNS, "layout", "n_goals", "true_goal")
@@ -147,7 +149,7 @@ def read_run(folder: str | Path, notes: list[str] | None = None) -> tuple[pd.Dat
     run = RunFolder(folder)
     if run.is_run():
         manifest = run.read_manifest()
-        kept_metrics_only = (folder / "metrics.csv").is_file() and \
+        kept_metrics_only = (folder / METRICS_CSV).is_file() and \
             not any((folder / "steps").glob("part-*.parquet"))
         if "participants" in manifest and not kept_metrics_only:
             run.check_complete()
@@ -628,10 +630,10 @@ def analysed_metrics_path(folder: str | Path) -> Path | None:
     table ``stats.json``'s ``metrics_table`` names (a table analysed as it is is not copied);
     ``None`` when there is neither."""
     folder = Path(folder)
-    if (folder / "metrics.csv").is_file():
-        return folder / "metrics.csv"
+    if (folder / METRICS_CSV).is_file():
+        return folder / METRICS_CSV
     try:
-        named = json.loads((folder / "stats.json").read_text(encoding="utf-8")).get("metrics_table")
+        named = json.loads((folder / STATS_JSON).read_text(encoding="utf-8")).get("metrics_table")
     except (OSError, ValueError, AttributeError):
         return None
     path = folder / named if isinstance(named, str) else None
@@ -641,7 +643,7 @@ def analysed_metrics_path(folder: str | Path) -> Path | None:
 def read_analysed_metrics(path: str | Path) -> pd.DataFrame:
     """Read the table :func:`analysed_metrics_path` names, conditions as plain strings."""
     path = Path(path)
-    table = pd.read_csv(path) if path.name == "metrics.csv" else read_metrics_table(path)
+    table = pd.read_csv(path) if path.name == METRICS_CSV else read_metrics_table(path)
     table["condition"] = table["condition"].astype(str)
     return table
 
@@ -762,8 +764,8 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
         Parquet, one row per trial with ``participant``, ``condition`` and metric columns).
     plan
         An analysis plan: preset name (``paper``, ``study-code``), TOML path, or a plan.
-        Default: the plan recorded in a run folder's manifest (recorded there now if missing),
-        else ``paper``.
+        Default: the plan recorded in a run folder's manifest (recorded there now if missing and
+        the run folder is the output folder), else ``paper``.
     out
         Output folder; default the run folder, or ``<table>-analysis/`` beside a table.
     metrics
@@ -817,25 +819,23 @@ def _analyze_with_locks(source: Path, plan: str | Path | AnalysisPlan | None, ou
                         progress: Callable[[int, int], None] | None) -> AnalysisResult:
     """:func:`analyze` with the run folder's and the output folder's locks held."""
     with contextlib.ExitStack() as locks:
-        source_locked = False
         if is_run_folder(source):
             try:
                 locks.enter_context(run_lock(source))
-                source_locked = True
             except NudgeWriteError:
                 if out_dir.resolve() == source.resolve():
                     raise
                 # a read-only run folder analysed elsewhere: nobody can be writing it
         locks.enter_context(run_lock(out_dir))
         return _analyze_locked(source, plan, out_dir, metrics, questionnaires, seed, bootstrap,
-                               drop_duplicates, progress, source_locked)
+                               drop_duplicates, progress)
     raise AssertionError("unreachable")  # pragma: no cover - for type checkers
 
 
 def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, out_dir: Path,
                     metrics: Sequence[str] | None, questionnaires: str | Path | None, seed: int | None,
                     bootstrap: int | None, drop_duplicates: bool,
-                    progress: Callable[[int, int], None] | None, source_locked: bool) -> AnalysisResult:
+                    progress: Callable[[int, int], None] | None) -> AnalysisResult:
     """:func:`analyze` once the folders' locks are held."""
     notes: list[str] = []
     run = RunFolder(source) if source.is_dir() else None
@@ -849,8 +849,9 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     if source.is_dir():
         table, available, _ = _load_source(source, plan, notes)
         changed = True
+        # recorded for the next analysis only where this one writes: the run folder as its output
         if run is not None and manifest is not None and "participants" in manifest and \
-                "plan" not in manifest and source_locked:
+                "plan" not in manifest and out_dir.resolve() == source.resolve():
             manifest["plan"] = _plan_label(plan_arg, plan)
             run.write_manifest(manifest)
     else:
@@ -894,8 +895,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         stats["metrics"] += compare_conditions(scores, score_selected, conditions, options)["metrics"]
     if progress:
         progress(total, total)
-    metrics_path = out_dir / "metrics.csv"
-    stats["metrics_table"] = ("metrics.csv" if changed else
+    metrics_path = out_dir / METRICS_CSV
+    stats["metrics_table"] = (METRICS_CSV if changed else
                               os.path.relpath(source.resolve(), out_dir.resolve()))
     stats[CHECKSUM_KEY] = metrics_checksum(filtered, trial_selected, plan.filters)
     stats = json_ready(stats)
@@ -909,13 +910,10 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     if changed:
         write_text_atomic(metrics_path, filtered[metrics_columns].to_csv(index=False))
         written.append(metrics_path)
-    outputs = {
-        "stats.json": json.dumps(stats, indent=2, allow_nan=False) + "\n",
-        "stats.csv": stats_csv(tidy),
-        "summary.md": summary,
-    }
+    outputs = {STATS_JSON: json.dumps(stats, indent=2, allow_nan=False) + "\n", STATS_CSV: stats_csv(tidy),
+               SUMMARY_MD: summary}
     if scores is not None:
-        outputs["questionnaires.csv"] = scores.to_csv(index=False)
+        outputs[QUESTIONNAIRES_CSV] = scores.to_csv(index=False)
     for name, text in outputs.items():
         write_text_atomic(out_dir / name, text)
         written.append(out_dir / name)

@@ -43,11 +43,8 @@ from nudgecli.report.stats import ComparisonOptions
 from nudgecli.report.style import condition_display_name
 from nudgecli.report.trial_selection import choose_figure5_trial
 from nudgecli.report.trial_steps import TrialKey
+from nudgecli.run_folder_names import FIGURES_DIR, METRICS_CSV, QUESTIONNAIRES_CSV, STATS_JSON
 from nudgecli.store import RunFolder
-
-METRICS_FILE = "metrics.csv"
-STATS_FILE = "stats.json"
-QUESTIONNAIRES_FILE = "questionnaires.csv"
 
 
 def parse_formats(text: str) -> tuple[str, ...]:
@@ -291,9 +288,9 @@ def analysis_folder_of_table(table: Path) -> Path:
         Neither holds a ``stats.json``.
     """
     for folder in (table.parent / f"{table.stem}-analysis", table.parent):
-        if (folder / STATS_FILE).is_file():
+        if (folder / STATS_JSON).is_file():
             return folder
-    raise RunFolderError(f"{table}: not analysed yet (no {STATS_FILE} beside it); "
+    raise RunFolderError(f"{table}: not analysed yet (no {STATS_JSON} beside it); "
                          f"run `nudge analyze {table}` first")
 
 
@@ -336,7 +333,7 @@ def read_inputs(source: str | Path) -> FigureInputs:
                                  "give a run folder made by `nudge simulate`, a metrics table or its "
                                  "analysis folder")
         folder = analysis_folder_of_table(path)
-        stats_path = folder / STATS_FILE
+        stats_path = folder / STATS_JSON
         stats = read_stats(stats_path)
         table = read_metrics_table(path)
         validate_metrics_table(table, str(path))
@@ -350,13 +347,13 @@ def read_inputs(source: str | Path) -> FigureInputs:
         # an analysis folder holds metrics.csv, or its stats.json names the table it analysed
         metrics_path = analysed_metrics_path(folder)
         if metrics_path is None and not run.is_run():
-            raise RunFolderError(f"{folder}: not a run folder (no manifest.json) and no {METRICS_FILE}; "
+            raise RunFolderError(f"{folder}: not a run folder (no manifest.json) and no {METRICS_CSV}; "
                                  "run `nudge simulate` and `nudge analyze` first, or give a metrics table")
-        if metrics_path is None or not (folder / STATS_FILE).is_file():
+        if metrics_path is None or not (folder / STATS_JSON).is_file():
             raise RunFolderError(f"{folder}: no metrics yet; run `nudge analyze {folder}` first")
-        stats_path = folder / STATS_FILE
+        stats_path = folder / STATS_JSON
         stats = read_stats(stats_path)
-        if metrics_path.name == METRICS_FILE:
+        if metrics_path.name == METRICS_CSV:
             table = _read_metrics_csv(metrics_path)
         else:
             table = read_metrics_table(metrics_path)
@@ -380,8 +377,8 @@ def read_inputs(source: str | Path) -> FigureInputs:
         else:
             layouts = layouts_by_trial(trials, layout_table)
     questionnaires = None
-    if (folder / QUESTIONNAIRES_FILE).is_file():
-        questionnaires = pd.read_csv(folder / QUESTIONNAIRES_FILE)
+    if (folder / QUESTIONNAIRES_CSV).is_file():
+        questionnaires = pd.read_csv(folder / QUESTIONNAIRES_CSV)
     return FigureInputs(metrics=table, stats=stats, trials=trials, steps=steps, layouts=layouts,
                         questionnaires=questionnaires, path_layouts=path_layouts, time_limit_s=time_limit_s)
 
@@ -390,7 +387,7 @@ def default_out(source: str | Path) -> Path:
     """Where the figures of a source go by default: ``figures/`` in its (analysis) folder."""
     path = Path(source)
     folder = analysis_folder_of_table(path) if path.is_file() else path
-    return folder / "figures"
+    return folder / FIGURES_DIR
 
 
 def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequence[str] = ("png", "pdf"),

@@ -34,6 +34,8 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import hashlib
+import json
+import shutil
 import threading
 import time
 from collections import OrderedDict
@@ -48,14 +50,16 @@ import pyarrow.parquet as pq
 
 from nudgecli.config import ExperimentConfig, default_plan_name
 from nudgecli.errors import ConfigError, NudgeError, RunFolderError
+from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.report.metrics import trial_metrics
 from nudgecli.rng import seed_sequence
+from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.runs.executors import HELD_AFFINITIES, Executor, Job, format_duration, make_executor
 from nudgecli.runs.size import check_size, trials_per_participant
 from nudgecli.runs.study import connect_scheduler, layout_chunks, solve_layout_chunk, tune_allocator
 from nudgecli.sim.study import StudyPlan, build_layouts, check_physiology_logs, simulate_participant
-from nudgecli.store import LOCK, library_versions, run_lock, utc_now, write_json_atomic, write_parquet_atomic
+from nudgecli.store import prepare_mode, provenance, utc_now, write_json_atomic, write_parquet_atomic
 
 if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only
     from nudgecli.report.plans import AnalysisPlan
@@ -378,8 +382,6 @@ def _readable_json(path: Path) -> bool:
     if not path.is_file():
         return False
     try:
-        import json
-
         document = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return False
@@ -394,34 +396,27 @@ def read_study_metrics(folder: Path, study: str, participants: int) -> pd.DataFr
 
 
 def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool) -> str:
-    """Make ``folder`` ready for the batch; ``"new"`` or ``"resume"`` (same description required)."""
-    import json
-    import shutil
+    """Make ``folder`` ready for the batch; ``"new"`` or ``"resume"`` (same description required).
 
-    manifest = folder / BATCH_MANIFEST
+    The rule is the run folder's (:func:`nudgecli.store.prepare_mode`); a folder that is not empty
+    but holds no batch is written into with ``force``, not cleared."""
+    manifest, old = folder / BATCH_MANIFEST, None
     if manifest.is_file():
         try:
             old = json.loads(manifest.read_text(encoding="utf-8"))
         except ValueError as exc:
             raise RunFolderError(f"{manifest}: unreadable ({exc}); use --force to start again") from None
-        if resume and not force:
-            if old.get("batch") != json.loads(json.dumps(description)):
-                raise RunFolderError(f"{folder}: holds a different batch (experiment, design, seed, "
-                                     "replications or plan); resume it with the same settings, or use "
-                                     "--force")
-            return "resume"
-        if not force:
-            raise RunFolderError(f"{folder}: already holds a batch ({old.get('batch', {}).get('kind')}, "
-                                 f"{old.get('status')}); use --resume to finish it, --force to replace it, "
-                                 "or choose another --out")
-        for name in ("tasks", "analyses", "figures"):
+    held = None if old is None else f"{old.get('batch', {}).get('kind')}, {old.get('status')}"
+    mode = prepare_mode(folder, held, resume, force, kind="batch")
+    if old is not None and mode == "resume":
+        if old.get("batch") != json.loads(json.dumps(description)):
+            raise RunFolderError(f"{folder}: holds a different batch (experiment, design, seed, "
+                                 "replications or plan); resume it with the same settings, or use --force")
+        return "resume"
+    if mode == "replace":
+        for name in ("tasks", "analyses", FIGURES_DIR):
             shutil.rmtree(folder / name, ignore_errors=True)
         manifest.unlink()
-    elif folder.exists() and any(p.name != LOCK for p in folder.iterdir()):
-        if not force:
-            raise RunFolderError(f"{folder}: exists and is not empty; choose another --out or use --force")
-    elif resume:
-        raise RunFolderError(f"{folder}: nothing to resume (no batch there); drop --resume")
     folder.mkdir(parents=True, exist_ok=True)
     return "new"
 
@@ -513,8 +508,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
         "batch": batch.describe(),
         "status": "running",
         "executor": "dask" if client is not None else ("serial" if workers == 1 else f"processes:{workers}"),
-        "versions": library_versions(),
-        "created": utc_now(),
+        **provenance(),
         "studies": len(graph.studies),
         "participant_tasks": graph.participant_tasks,
         "analyses": len(graph.analyses),
@@ -541,8 +535,6 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
 
 
 def _read_json(path: Path) -> dict[str, Any]:
-    import json
-
     return json.loads(path.read_text(encoding="utf-8"))
 
 
@@ -705,7 +697,7 @@ def _figures(folder: Path, figures: dict[str, Any]) -> list[Path]:
 
     written: list[Path] = []
     for stem, fig in figures.items():
-        written += save_figure(fig, folder / "figures", stem, ("png",))
+        written += save_figure(fig, folder / FIGURES_DIR, stem, ("png",))
     return written
 
 

@@ -29,6 +29,7 @@ import pandas as pd
 
 from nudgecli.config import ExperimentConfig, default_plan_name
 from nudgecli.errors import ConfigError, NudgeError
+from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.runs.size import check_size, trials_per_participant
 from nudgecli.sim.calibration_io import write_sessions
@@ -41,7 +42,7 @@ from nudgecli.sim.study import (
     simulate_participant,
     solve_layouts,
 )
-from nudgecli.store import RunFolder, library_versions, run_lock, utc_now
+from nudgecli.store import RunFolder, new_manifest, utc_now
 
 # --- the plan, its layouts solved in parallel ---------------------------------------------
 
@@ -370,16 +371,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
             done -= set(changed)
     plan = build_plan_on(config, seed, workers, client)
     trials_per = plan.trials_per_participant()
-    manifest: dict[str, Any] = folder.read_manifest() if mode == "resume" else {
-        "experiment": config.experiment.name,
-        "config": config.model_dump(mode="json"),
-        "seed": seed,
-        "participants": n,
-        "trials_per_participant": trials_per,
-        "versions": library_versions(),
-        "created": utc_now(),
-        "timings_s": {},
-    }
+    manifest = folder.read_manifest() if mode == "resume" else new_manifest(config, seed, n, trials_per)
     if plan.paths is None:  # the CIAA world takes its subjects' block orders from the task file
         manifest["counterbalancing"] = design_record(list(config.study.conditions),
                                                      config.study.counterbalancing, n)

@@ -1,0 +1,27 @@
+"""The names of the files and folders in a run folder and in an analysis folder (DESIGN.md section 4).
+
+The one place each name is spelled: :mod:`nudgecli.store` writes and reads the run's own files,
+``nudge analyze`` (:mod:`nudgecli.report.analysis`) writes the analysis files into its output
+folder (the run folder by default), ``nudge plot`` reads them and writes the figures' folder.
+"""
+
+from __future__ import annotations
+
+MANIFEST = "manifest.json"
+CONFIG = "config.toml"
+PARTICIPANTS = "participants.parquet"
+LAYOUTS = "layouts.parquet"
+#: The run-folder lock (:func:`nudgecli.locks.run_lock`); not part of the run.
+LOCK = ".nudge.lock"
+#: The tables written in one part per participant: ``<kind>/part-NNNN.parquet``.
+PART_KINDS = ("trials", "steps", "participants")
+
+#: What ``nudge analyze`` writes: the metrics, the statistics (JSON, CSV), the summary, and the
+#: questionnaire scores (``nudge study`` records the answers under the same name).
+METRICS_CSV = "metrics.csv"
+STATS_JSON = "stats.json"
+STATS_CSV = "stats.csv"
+SUMMARY_MD = "summary.md"
+QUESTIONNAIRES_CSV = "questionnaires.csv"
+#: The folder ``nudge plot`` (and a batch) writes its figures into.
+FIGURES_DIR = "figures"

@@ -1,0 +1,80 @@
+"""The prepare rule of a folder about to be written (:func:`nudgecli.store.prepare_mode`), as each
+of its callers uses it: ``nudge simulate`` (defaults), the batches (``kind="batch"``; a forced
+non-empty folder is written into, not cleared) and ``nudge study`` (no ``--force``, its
+participant locks are its own, "nothing to resume" before "not empty")."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from nudgecli.errors import RunFolderError
+from nudgecli.run_folder_names import LOCK
+from nudgecli.runs.batch import prepare_folder
+from nudgecli.store import prepare_mode
+
+
+def _folder(tmp_path: Path, *names: str) -> Path:
+    folder = tmp_path / "out"
+    folder.mkdir()
+    for name in names:
+        (folder / name).write_text("x")
+    return folder
+
+
+def test_a_folder_that_holds_work_is_resumed_replaced_or_refused(tmp_path: Path) -> None:
+    folder = _folder(tmp_path, "batch.json")
+    assert prepare_mode(folder, "sweep, complete", resume=True, force=False, kind="batch") == "resume"
+    assert prepare_mode(folder, "sweep, complete", resume=True, force=True, kind="batch") == "replace"
+    assert prepare_mode(folder, "sweep, complete", resume=False, force=True, kind="batch") == "replace"
+    with pytest.raises(RunFolderError) as refused:
+        prepare_mode(folder, "sweep, complete", resume=False, force=False, kind="batch")
+    assert str(refused.value) == (f"{folder}: already holds a batch (sweep, complete); use --resume to "
+                                  "finish it, --force to replace it, or choose another --out")
+
+
+def test_a_folder_with_other_files_needs_force_and_the_lock_does_not_count(tmp_path: Path) -> None:
+    assert prepare_mode(_folder(tmp_path, LOCK), None, resume=False, force=False) == "new"
+    assert prepare_mode(tmp_path / "missing", None, resume=False, force=False) == "new"
+    (tmp_path / "out" / "notes.txt").write_text("mine")
+    folder = tmp_path / "out"
+    assert prepare_mode(folder, None, resume=False, force=True) == "overwrite"
+    assert prepare_mode(folder, None, resume=True, force=True) == "overwrite"
+    with pytest.raises(RunFolderError, match=r"not empty; choose another --out or use --force$"):
+        prepare_mode(folder, None, resume=False, force=False)
+    with pytest.raises(RunFolderError, match=r"exists and is not empty; choose another --out$"):
+        prepare_mode(folder, None, resume=False, force=False, can_force=False)
+
+
+def test_resume_with_nothing_there_is_refused_in_each_callers_order(tmp_path: Path) -> None:
+    with pytest.raises(RunFolderError, match=r"nothing to resume \(no batch there\); drop --resume"):
+        prepare_mode(tmp_path / "missing", None, resume=True, force=True, kind="batch")
+    folder = _folder(tmp_path, "notes.txt")
+    with pytest.raises(RunFolderError, match="not empty"):  # simulate, batches: the contents first
+        prepare_mode(folder, None, resume=True, force=False)
+    with pytest.raises(RunFolderError, match=r"nothing to resume \(no run there\)"):  # nudge study
+        prepare_mode(folder, None, resume=True, force=False, resume_first=True, can_force=False)
+
+
+def test_own_files_are_those_the_caller_names(tmp_path: Path) -> None:
+    folder = _folder(tmp_path, ".nudge-participant-0001.lock")
+    with pytest.raises(RunFolderError, match="not empty"):
+        prepare_mode(folder, None, resume=False, force=False)
+    locks_are_own = prepare_mode(folder, None, resume=False, force=False,
+                                 own_file=lambda name: name.endswith(".lock"))
+    assert locks_are_own == "new"
+
+
+def test_a_forced_batch_writes_into_a_non_empty_folder_without_clearing_it(tmp_path: Path) -> None:
+    folder = _folder(tmp_path, "notes.txt")
+    assert prepare_folder(folder, {"kind": "sweep"}, resume=False, force=True) == "new"
+    assert (folder / "notes.txt").read_text() == "x"
+    (folder / "batch.json").write_text('{"batch": {"kind": "sweep"}, "status": "complete"}')
+    (folder / "tasks").mkdir()
+    assert prepare_folder(folder, {"kind": "sweep"}, resume=True, force=False) == "resume"
+    with pytest.raises(RunFolderError, match="holds a different batch"):
+        prepare_folder(folder, {"kind": "power"}, resume=True, force=False)
+    assert prepare_folder(folder, {"kind": "power"}, resume=False, force=True) == "new"
+    assert not (folder / "batch.json").exists() and not (folder / "tasks").exists()
+    assert (folder / "notes.txt").is_file()
