@@ -96,7 +96,8 @@ from nudgecli.steplog import (
     join_events,
 )
 
-_ZERO3 = np.zeros(3)
+#: No command: the step log's u_h of a step without a motion command, u_a without assistance.
+_ZERO3 = interface.NO_COMMAND
 
 
 @dataclass(frozen=True)
@@ -325,7 +326,7 @@ class TrialSession:
         if measured == NO_INPUT:
             self.locked = False  # the driver's "input stopped" unlocks switching
         elif measured in (SOFT_PUFF, SOFT_SIP) and not self.locked:
-            u_h = interface.human_velocity(measured, self.mode, s.human_speed, s.human_turn_rate)
+            u_h = interface.human_command(measured, self.mode, s.human_speed, s.human_turn_rate)
             commanded = True
         elif measured in (HARD_PUFF, HARD_SIP) and not self.locked:
             self.mode = interface.switch_mode(self.mode, measured)
@@ -337,15 +338,16 @@ class TrialSession:
         if self.policy == "hindsight":
             inferred, alpha = self.leader, 0.0
             u_a = self._hindsight_assistance()
-            u_f = u_h + u_a  # every step, with or without a command (first-order hindsight optimisation)
+            # every step, with or without a command (first-order hindsight optimisation)
+            u_f = np.add(u_h, u_a)
         else:
             inferred, alpha = self._blending() if self.blends else (NO_GOAL, 0.0)
             u_a = _ZERO3
             if inferred != NO_GOAL:
-                u_a = assistance.autonomy_velocity((self.x, self.y, self.theta), self.goal_list[inferred],
-                                                   s.autonomy_speed, s.autonomy_turn_rate, s.dt)
+                u_a = assistance.autonomy_command(self.x, self.y, self.theta, *self.goal_list[inferred],
+                                                  s.autonomy_speed, s.autonomy_turn_rate, s.dt)
             # blending acts only on a motion command (a mode switch or no input leaves the robot still)
-            u_f = assistance.blend(u_a, u_h, alpha) if u_h is not _ZERO3 else u_h
+            u_f = assistance.blend_command(u_a, u_h, alpha) if u_h is not _ZERO3 else u_h
         self._record(HUMAN_TURN, state, mode_before, intended, pressure, measured, u_h, u_a, alpha, inferred,
                      events)
         self._move(u_f)
@@ -487,8 +489,8 @@ class TrialSession:
         if self.policy == "mode-switch":  # the mode-switch autonomy never moves the robot
             u_a = _ZERO3
         else:
-            u_a = assistance.autonomy_velocity((self.x, self.y, self.theta), target, s.autonomy_speed,
-                                               s.autonomy_turn_rate, s.dt)
+            u_a = assistance.autonomy_command(self.x, self.y, self.theta, float(target[0]), float(target[1]),
+                                              float(target[2]), s.autonomy_speed, s.autonomy_turn_rate, s.dt)
         self._record(AUTONOMY_TURN, self.state, self.mode, NO_INPUT, 0.0, NO_INPUT, _ZERO3, u_a, 0.0,
                      self.autonomy_inferred, events)
         self._move(u_a)
@@ -498,12 +500,13 @@ class TrialSession:
 
     # --- shared helpers -----------------------------------------------------------------------
 
-    def _move(self, velocity: np.ndarray) -> None:
+    def _move(self, velocity: tuple[float, float, float] | np.ndarray) -> None:
         assert self.world is not None
         self.x, self.y, self.theta = self.world.move(self.x, self.y, self.theta, velocity, self.settings.dt)
 
     def _record(self, turn: str, state: int, mode: int, intended: int, pressure: float, measured: int,
-                u_h: np.ndarray, u_a: np.ndarray, alpha: float, inferred: int, events: list[str]) -> None:
+                u_h: tuple[float, float, float] | np.ndarray, u_a: tuple[float, float, float] | np.ndarray,
+                alpha: float, inferred: int, events: list[str]) -> None:
         """Append one step: the pose, cell and mode at the start of the step, what happened in it.
 
         The row is kept raw (a tuple; the belief array is never changed in place, only replaced)
