@@ -73,6 +73,7 @@ from nudgecli.model.ties import tied_with_max, unique_argmax
 from nudgecli.model.world import (
     MODE_NAMES,
     N_MODES,
+    Command,
     GridWorld,
     Layout,
     World,
@@ -96,8 +97,10 @@ from nudgecli.steplog import (
     join_events,
 )
 
-#: No command: the step log's u_h of a step without a motion command, u_a without assistance.
-_ZERO3 = interface.NO_COMMAND
+_ZERO3 = interface.NO_COMMAND  # u_h of a step without a motion command, u_a without assistance
+#: The step log's ``phi_m`` of a measured code (no input: empty).
+_STREAM_LABEL = {**dict(enumerate(LABELS)), interface.PUFF_DEADBAND: interface.PUFF_DEADBAND_LABEL,
+                 interface.SIP_DEADBAND: interface.SIP_DEADBAND_LABEL}
 
 
 @dataclass(frozen=True)
@@ -338,8 +341,7 @@ class TrialSession:
         if self.policy == "hindsight":
             inferred, alpha = self.leader, 0.0
             u_a = self._hindsight_assistance()
-            # every step, with or without a command (first-order hindsight optimisation)
-            u_f = np.add(u_h, u_a)
+            u_f = np.add(u_h, u_a)  # every step, command or not (first-order hindsight optimisation)
         else:
             inferred, alpha = self._blending() if self.blends else (NO_GOAL, 0.0)
             u_a = _ZERO3
@@ -500,13 +502,12 @@ class TrialSession:
 
     # --- shared helpers -----------------------------------------------------------------------
 
-    def _move(self, velocity: tuple[float, float, float] | np.ndarray) -> None:
+    def _move(self, velocity: Command) -> None:
         assert self.world is not None
         self.x, self.y, self.theta = self.world.move(self.x, self.y, self.theta, velocity, self.settings.dt)
 
     def _record(self, turn: str, state: int, mode: int, intended: int, pressure: float, measured: int,
-                u_h: tuple[float, float, float] | np.ndarray, u_a: tuple[float, float, float] | np.ndarray,
-                alpha: float, inferred: int, events: list[str]) -> None:
+                u_h: Command, u_a: Command, alpha: float, inferred: int, events: list[str]) -> None:
         """Append one step: the pose, cell and mode at the start of the step, what happened in it.
 
         The row is kept raw (a tuple; the belief array is never changed in place, only replaced)
@@ -543,7 +544,7 @@ class TrialSession:
             "heading": list(headings),
             "phi_i": [LABELS[i] if i >= 0 else "" for i in intended],
             "pressure": pressures,
-            "phi_m": [_stream_label(m) for m in measured],
+            "phi_m": [_STREAM_LABEL.get(m, "") for m in measured],
             "u_h_x": human[0],
             "u_h_y": human[1],
             "u_h_theta": human[2],
@@ -671,13 +672,3 @@ def run_world_trial(spec: TrialSpec, settings: ProtocolSettings, world: World, p
 def handover_steps(handover_idle_s: float, dt: float) -> int:
     """Idle steps that hand the turn over: the turn passes once the idle count exceeds this."""
     return max(1, round(handover_idle_s / dt))
-
-
-def _stream_label(code: int) -> str:
-    if 0 <= code < 4:
-        return LABELS[code]
-    if code == interface.PUFF_DEADBAND:
-        return interface.PUFF_DEADBAND_LABEL
-    if code == interface.SIP_DEADBAND:
-        return interface.SIP_DEADBAND_LABEL
-    return ""
