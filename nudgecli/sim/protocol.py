@@ -98,6 +98,7 @@ from nudgecli.steplog import (
 )
 
 _ZERO3 = interface.NO_COMMAND  # u_h of a step without a motion command, u_a without assistance
+_NO_DECAY = DecayCounters()
 #: The step log's ``phi_m`` of a measured code (no input: empty).
 _STREAM_LABEL = {**dict(enumerate(LABELS)), interface.PUFF_DEADBAND: interface.PUFF_DEADBAND_LABEL,
                  interface.SIP_DEADBAND: interface.SIP_DEADBAND_LABEL}
@@ -313,12 +314,13 @@ class TrialSession:
         pressure
             The signed pressure of the sample, in ``[-1, 1]``.
         """
-        if self.turn != HUMAN_TURN or self.finished:
+        s, world = self.settings, self.world
+        assert world is not None
+        if self.turn != HUMAN_TURN or self.reached >= 0 or self.step >= s.time_limit_steps:  # finished
             raise RuntimeError("human_step outside a running human turn")
-        s = self.settings
         events, self.pending_events = self.pending_events, []
-        state = self.state
         mode_before = self.mode
+        state = world.state(self.x, self.y, self.theta, mode_before)
         measured = interface.label_of_pressure(pressure, s.soft_threshold, s.hard_threshold, s.zero_threshold)
         if measured != NO_INPUT and self.initiated_at < 0:
             self.initiated_at = self.step
@@ -352,10 +354,10 @@ class TrialSession:
             u_f = assistance.blend_command(u_a, u_h, alpha) if u_h is not _ZERO3 else u_h
         self._record(HUMAN_TURN, state, mode_before, intended, pressure, measured, u_h, u_a, alpha, inferred,
                      events)
-        self._move(u_f)
+        self.x, self.y, self.theta = world.move(self.x, self.y, self.theta, u_f, s.dt)
         self.step += 1
         if self.initiated_at >= 0:
-            self.reached = self._goal_reached()
+            self.reached = world.goal_reached(self.x, self.y, self.theta)
             if self.reached >= 0:
                 return
         if (self.turn_taking and self.initiated_at >= 0 and self.idle > self.handover_idle_steps
@@ -369,7 +371,7 @@ class TrialSession:
         if 0 <= measured < 4:
             new_event = s.update == "sample" or measured != self.blow_label
             self.blow_label = measured
-            self.decay_counters = DecayCounters()
+            self.decay_counters = _NO_DECAY  # counters restart (frozen: one instance serves every step)
             if new_event:
                 likelihood = self.model.likelihood[:, state, measured]
                 self._set_belief(bayes_update(self.belief, likelihood, self.goal_transition))
@@ -402,11 +404,6 @@ class TrialSession:
         commands = np.array([assistance.autonomy_velocity(pose, goal, s.autonomy_speed, s.autonomy_turn_rate,
                                                           s.dt) for goal in self.goal_list])
         return policies.hindsight_assistance(self.belief, commands, s.hindsight_gain)
-
-    def _goal_reached(self) -> int:
-        """The goal whose success rule the pose meets (the world's), or -1."""
-        assert self.world is not None
-        return self.world.goal_reached(self.x, self.y, self.theta)
 
     # --- the autonomy's turn ------------------------------------------------------------------
 
