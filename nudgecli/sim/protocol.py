@@ -94,7 +94,9 @@ from nudgecli.steplog import (
     STEP,
     STEP_COLUMNS,
     TRIAL_START,
+    command_columns,
     join_events,
+    step_times,
 )
 
 _ZERO3 = interface.NO_COMMAND  # u_h of a step without a motion command, u_a without assistance
@@ -523,14 +525,15 @@ class TrialSession:
         (steps, turns, xs, ys, thetas, modes, states, intended, pressures, measured, u_h, u_a, alphas,
          inferred, beliefs, entropies, events) = (list(column) for column in zip(*self.rows, strict=True))
         n, dt, cells = len(steps), self.settings.dt, self.world.cells
-        cell_x, cell_y, headings = zip(*(cells(state) for state in states), strict=True)
-        human = np.array(u_h, dtype=float).reshape(n, 3).T.tolist()
-        autonomy = np.array(u_a, dtype=float).reshape(n, 3).T.tolist()
+        cells_of = {state: cells(state) for state in set(states)}  # a trial visits few states
+        cell_x, cell_y, headings = zip(*(cells_of[state] for state in states), strict=True)
+        human, autonomy = command_columns(u_h, n), command_columns(u_a, n)
+        times = step_times(dt, max(steps))
         columns: dict[str, list[Any]] = {
             "participant": [self.spec.participant] * n,
             "trial": [self.spec.trial] * n,
             "step": steps,
-            "t": [round(step * dt, 10) for step in steps],
+            "t": [times[step] for step in steps],
             "turn": turns,
             "x": xs,
             "y": ys,
