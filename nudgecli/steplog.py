@@ -84,3 +84,24 @@ def count_event(events: pd.Series | Iterable[object], name: str) -> pd.Series:
 def has_event(events: pd.Series | Iterable[object], name: str) -> np.ndarray:
     """``(N,)`` bool: which ``event`` cells contain the event ``name`` exactly."""
     return (count_event(events, name) > 0).to_numpy(dtype=bool)
+
+
+#: ``round(k dt, 10)`` for k = 0, 1, ... per dt, replaced whole (never grown in place) when too short.
+_STEP_TIMES: dict[float, list[float]] = {}
+
+
+def step_times(dt: float, last_step: int) -> list[float]:
+    """The ``t`` column's values ``round(k dt, 10)`` of steps ``0..last_step`` at least: computed once
+    per dt and process, then indexed (rounding every row of every trial was a tenth of formatting)."""
+    times = _STEP_TIMES.get(dt)
+    if times is None or len(times) <= last_step:
+        times = _STEP_TIMES[dt] = [round(k * dt, 10) for k in range(max(2 * last_step + 1, 2048))]
+    return times
+
+
+def command_columns(commands: list[tuple[float, float, float] | np.ndarray], n: int) -> list[list[float]]:
+    """The ``*_x``, ``*_y`` and ``*_theta`` columns of ``n`` commands ``(vx, vy, omega)``: tuples of
+    floats as they are, anything else through a ``(n, 3)`` float array."""
+    if all(type(command) is tuple for command in commands):
+        return [list(column) for column in zip(*commands, strict=True)]
+    return np.array(commands, dtype=float).reshape(n, 3).T.tolist()

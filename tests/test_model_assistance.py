@@ -10,7 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nudgecli.model import assistance as ast
-from nudgecli.model.world import angle_difference, state_index
+from nudgecli.model import interface
+from nudgecli.model.world import angle_difference, state_index, turn_between
 
 
 @pytest.mark.parametrize(("p", "expected"), [
@@ -92,6 +93,63 @@ def test_autonomy_velocity_examples() -> None:
 def test_blend() -> None:
     np.testing.assert_allclose(ast.blend(np.array([5.0, 0.0, 1.0]), np.array([0.0, 3.0, 0.0]), 0.8),
                                [4.0, 0.6, 0.8])
+
+
+# --- the scalar twins the simulation's step loop runs: bit for bit the array rules --------------
+
+angles = st.one_of(st.floats(-1e6, 1e6, allow_nan=False),
+                   st.sampled_from([0.0, -0.0, math.pi, -math.pi, 2 * math.pi, -2 * math.pi, math.pi / 4,
+                                    7 * math.pi / 4, 1e-300, -1e-300, math.nextafter(math.pi, 0.0)]))
+
+
+@settings(max_examples=500, deadline=None)
+@given(a=angles, b=angles)
+def test_turn_between_is_angle_difference_bit_for_bit(a: float, b: float) -> None:
+    assert turn_between(a, b).hex() == float(angle_difference(a, b)).hex()
+    assert turn_between(a, b).hex() == float(angle_difference(np.array([a]), np.array([b]))[0]).hex()
+
+
+commands = st.tuples(*[st.floats(-10, 10, allow_nan=False)] * 3)
+
+
+@settings(max_examples=300, deadline=None)
+@given(u_a=commands, u_h=st.one_of(commands, st.just((0.0, 0.0, 0.0))), alpha=st.floats(0, 1))
+def test_blend_command_is_the_array_blend_bit_for_bit(u_a: tuple[float, float, float],
+                                                      u_h: tuple[float, float, float], alpha: float) -> None:
+    expected = alpha * np.asarray(u_a) + (1.0 - alpha) * np.asarray(u_h)  # Algorithm 1, line 8, on arrays
+    assert [v.hex() for v in ast.blend_command(u_a, u_h, alpha)] == [float(v).hex() for v in expected]
+    assert ast.blend(np.asarray(u_a), np.asarray(u_h), alpha).tolist() == expected.tolist()
+
+
+@settings(max_examples=300, deadline=None)
+@given(x=st.floats(0, 50), y=st.floats(0, 40), theta=st.floats(-10, 10), tx=st.floats(0, 50),
+       ty=st.floats(0, 40), ttheta=st.floats(-10, 10), dt=st.sampled_from([0.01, 0.1, 1.0]))
+def test_autonomy_command_is_the_array_rule_bit_for_bit(x: float, y: float, theta: float, tx: float,
+                                                        ty: float, ttheta: float, dt: float) -> None:
+    """Against the rule written out with numpy's angle arithmetic (``np.mod``), as it read before the
+    step loop moved to plain floats."""
+    dx, dy = np.float64(tx) - x, np.float64(ty) - y
+    distance = math.hypot(dx, dy)
+    vx = vy = omega = np.float64(0.0)
+    if distance > 0.0:
+        scale = min(np.float64(5.0), distance / dt) / distance
+        vx, vy = dx * scale, dy * scale
+    error = np.mod(np.float64(ttheta) - theta + np.pi, 2.0 * np.pi) - np.pi
+    if error != 0.0:
+        omega = np.copysign(min(np.float64(1.5), abs(error) / dt), error)
+    command = ast.autonomy_command(x, y, theta, tx, ty, ttheta, 5.0, 1.5, dt)
+    assert [v.hex() for v in command] == [float(v).hex() for v in (vx, vy, omega)]
+    assert ast.autonomy_velocity((x, y, theta), (tx, ty, ttheta), 5.0, 1.5, dt).tolist() == list(command)
+
+
+@pytest.mark.parametrize("mode", [0, 1, 2])
+@pytest.mark.parametrize("label", [interface.NO_INPUT, *range(6)])
+def test_human_command_is_the_label_table(label: int, mode: int) -> None:
+    expected = np.zeros(3)
+    if label in (interface.SOFT_PUFF, interface.SOFT_SIP):  # Upsilon: soft labels move, the rest do not
+        expected[mode] = (1.0 if label == interface.SOFT_PUFF else -1.0) * (3.0 if mode < 2 else -1.95)
+    assert [v.hex() for v in interface.human_command(label, mode, 3.0, 1.95)] == [v.hex() for v in expected]
+    assert interface.human_velocity(label, mode).tolist() == expected.tolist()
 
 
 def test_step_sizes() -> None:

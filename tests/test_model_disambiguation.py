@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy.special import rel_entr
+from scipy.special import rel_entr, xlogy
 
 from nudgecli.errors import ProbabilityTableError
 from nudgecli.model import candidates as cand
 from nudgecli.model import disambiguation as dis
 from nudgecli.model import information as mi
-from nudgecli.model.interface import default_distortion_table, default_mapping_table
-from nudgecli.model.mdp import action_likelihood, solve_layout
+from nudgecli.model.interface import default_distortion_table, default_mapping_table, observation_model
+from nudgecli.model.mdp import DistinctActionRows, action_likelihood, solve_layout
 from nudgecli.model.world import (
     N_CELLS_X,
     N_CELLS_Y,
@@ -359,6 +359,33 @@ def test_settings_defaults_and_validation() -> None:
         dis.DisambiguationSettings(window=4)
     with pytest.raises(ValueError, match="estimator"):
         dis.DisambiguationSettings(estimator="sampling")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("rows", ["epsilon-greedy", "a few", "all different"])
+def test_model_tables_are_the_per_state_products_bit_for_bit(rows: str) -> None:
+    """The model computes each distinct (mode, row) pair once and gathers; every table must be
+    exactly the product of every state's own row (the runs' tables depend on the last bit)."""
+    rng = np.random.default_rng(11)
+    n_goals = len(GOAL_CELLS)
+    if rows == "epsilon-greedy":
+        p_a = action_likelihood(rng.integers(4, size=(n_goals, N_STATES)), 0.1)
+    else:
+        pool = rng.dirichlet(np.ones(4), size=5 if rows == "a few" else n_goals * N_STATES)
+        p_a = pool[rng.integers(len(pool), size=(n_goals, N_STATES))] if rows == "a few" else \
+            pool.reshape(n_goals, N_STATES, 4)
+    mapping, distortion = rng.dirichlet(np.ones(4), size=(3, 4)), rng.dirichlet(np.ones(4), size=4)
+    modes = np.arange(N_STATES) % 3
+    per_state = (p_a[:, :, None, :] @ observation_model(mapping, distortion)[modes])[:, :, 0, :]
+    for table in (p_a, DistinctActionRows.of(p_a)):
+        model = dis.DisambiguationModel(GOAL_CELLS, table, mapping, distortion)
+        assert model.likelihood.tobytes() == per_state.tobytes()
+        assert dis.observation_likelihood(table, mapping, distortion).tobytes() == per_state.tobytes()
+        # the state-major copies behind the exact MI (Eq. 13)
+        assert model._likelihood_rows.tobytes() == per_state.transpose(1, 0, 2).tobytes()
+        assert model._xlogx_rows.tobytes() == xlogy(per_state, per_state).sum(axis=-1).T.tobytes()
+        assert model.p_a_given_sg.tobytes() == p_a.tobytes()
+    with pytest.raises(ValueError, match="modes"):
+        dis.observation_likelihood(DistinctActionRows.of(p_a), mapping, distortion, modes=modes)
 
 
 def test_bad_action_model_is_rejected_with_its_row() -> None:

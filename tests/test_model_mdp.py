@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from nudgecli.errors import ProbabilityTableError
 from nudgecli.model import mdp
 from nudgecli.model.interface import MOVE_N, MOVE_P, TO_MODE_L, TO_MODE_R
 from nudgecli.model.world import N_HEADINGS, N_STATES, all_state_coordinates, state_index
@@ -233,6 +234,46 @@ def test_solve_layout_human_model_matches_policy() -> None:
     expected = 0.8 * np.eye(4)[layout.policy] + 0.05
     np.testing.assert_allclose(layout.p_a_given_sg, expected)
     assert math.isfinite(layout.values.max())
+
+
+def test_distinct_action_rows_rebuild_the_table_and_its_modes() -> None:
+    layout = mdp.solve_layout(GOAL_CELLS[:3], GOAL_HEADINGS[:3], gamma=0.9, epsilon=0.2)
+    actions = layout.actions
+    assert actions.table is layout.p_a_given_sg
+    # every (goal, state) row, its bytes included, is its pair's row; the pair's mode is the state's
+    assert actions.rows[actions.index].tobytes() == layout.p_a_given_sg.tobytes()
+    np.testing.assert_array_equal(actions.row_modes[actions.index], np.broadcast_to(np.arange(N_STATES) % 3,
+                                                                                     actions.index.shape))
+    # epsilon-greedy: one row per (mode, greedy action), no two pairs alike
+    pairs = {(int(m), tuple(row)) for m, row in zip(actions.row_modes, actions.rows.tolist(), strict=True)}
+    assert len(pairs) == len(actions.rows) <= 3 * 4
+    assert len(actions.rows) == len({(s % 3, int(a)) for (_, s), a in np.ndenumerate(layout.policy)})
+
+
+def test_distinct_action_rows_keep_rows_apart_by_bytes_and_by_mode() -> None:
+    table = np.full((2, 6, 4), 0.25)
+    table[1, 2] = [0.5, 0.5, 0.0, -0.0]  # the same values as row (0, 2) below but another sign of zero
+    table[0, 2] = [0.5, 0.5, 0.0, 0.0]
+    actions = mdp.DistinctActionRows.of(table, modes=np.array([0, 0, 1, 1, 2, 2]))
+    # (mode 0, uniform), (mode 1, uniform), (mode 2, uniform), two mode-1 rows of (0.5, 0.5, 0, +-0)
+    assert len(actions.rows) == 5
+    assert actions.index[0, 2] != actions.index[1, 2] and actions.index[0, 0] != actions.index[0, 2]
+    assert actions.rows[actions.index].tobytes() == table.tobytes()
+
+
+def test_distinct_action_rows_name_the_first_bad_row_in_table_order() -> None:
+    table = np.full((2, 6, 4), 0.25)
+    table[1, 0] = [-0.5, 0.5, 0.5, 0.5]  # sorts before every other row (mode 0, a negative entry)
+    table[0, 4] = [0.9, 0.9, 0.0, 0.0]  # but this one comes first in the table
+    with pytest.raises(ProbabilityTableError, match=r"p\(a \| s, g\): row \(goal 0, state 4\) = \[0\.9"):
+        mdp.DistinctActionRows.of(table)
+    table[0, 4] = np.nan
+    with pytest.raises(ProbabilityTableError, match=r"my table: row \(goal 0, state 4\)"):
+        mdp.DistinctActionRows.of(table, name="my table")
+    with pytest.raises(ProbabilityTableError, match="shape"):
+        mdp.DistinctActionRows.of(np.full((2, 6, 3), 1 / 3))
+    with pytest.raises(ValueError, match="modes"):
+        mdp.DistinctActionRows.of(np.full((2, 6, 4), 0.25), modes=np.zeros(5))
 
 
 def test_value_iteration_rejects_bad_input() -> None:

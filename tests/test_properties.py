@@ -78,3 +78,15 @@ def test_window_candidates_over_every_cell_match_brute_force(state: int, goal_id
                 if 0 <= i + dx < world.N_CELLS_X and 0 <= j + dy < world.N_CELLS_Y
                 and (i + dx) * world.N_CELLS_Y + (j + dy) not in goal_ids]
     assert window_candidates(state, goals, window).states.tolist() == expected
+
+
+@given(st.floats(-100, 100), st.floats(-100, 100), st.floats(-20, 20))
+def test_clamp_and_discretise_are_the_min_max_rules(x: float, y: float, theta: float) -> None:
+    """The step loop's comparisons are ``min(max(v, low), high)`` exactly (values and cells)."""
+    low_x, high_x = world.X_MIN + world.ROBOT_RADIUS, world.X_MAX - world.ROBOT_RADIUS
+    low_y, high_y = world.Y_MIN + world.ROBOT_RADIUS, world.Y_MAX - world.ROBOT_RADIUS
+    assert world.clamp_position(x, y) == (min(max(x, low_x), high_x), min(max(y, low_y), high_y))
+    i = min(max(math.floor((x - world.X_MIN) / world.CELL_WIDTH), 0), world.N_CELLS_X - 1)
+    j = min(max(math.floor((y - world.Y_MIN) / world.CELL_HEIGHT), 0), world.N_CELLS_Y - 1)
+    h = math.floor((theta % (2 * math.pi)) / world.HEADING_STEP) % world.N_HEADINGS
+    assert world.discretise(x, y, theta) == (i, j, h)

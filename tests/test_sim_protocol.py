@@ -249,3 +249,16 @@ def test_the_trial_ends_at_the_first_human_step_within_tolerance(paper, layout_i
                 turn_start -= 1
             assert (steps["phi_m"].iloc[turn_start:k + 1] == "").all()
     assert result.summary["duration_s"] == pytest.approx(len(steps) * DT)
+
+
+def test_step_log_times_and_command_columns() -> None:
+    from nudgecli.steplog import command_columns, step_times
+
+    assert step_times(0.1, 5)[:6] == [round(k * 0.1, 10) for k in range(6)] == [0.0, 0.1, 0.2, 0.3, 0.4, 0.5]
+    longer = step_times(0.1, 5000)  # past the first table: a longer one, the same values
+    assert len(longer) > 5000 and longer[4999] == round(4999 * 0.1, 10) == 499.9
+    assert step_times(0.25, 3)[:4] == [0.0, 0.25, 0.5, 0.75]
+    columns = command_columns([(1.0, 2.0, 3.0), (4.0, 5.0, -0.5)], 2)
+    assert columns == [[1.0, 4.0], [2.0, 5.0], [3.0, -0.5]]
+    mixed = command_columns([(1.0, 2.0, 3.0), np.array([4.0, 5.0, 6.0])], 2)  # hindsight's array commands
+    assert mixed == [[1.0, 4.0], [2.0, 5.0], [3.0, 6.0]] and all(type(v) is float for c in mixed for v in c)

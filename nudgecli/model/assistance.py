@@ -16,10 +16,10 @@ from nudgecli.model.ties import tied_with_max
 from nudgecli.model.world import (
     CELL_HEIGHT,
     CELL_WIDTH,
-    angle_difference,
     cell_centre,
     heading_angle,
     state_coordinates,
+    turn_between,
 )
 
 #: Autonomy speed (units/s) and turn rate (rad/s) of the study's potential fields.
@@ -187,23 +187,32 @@ def autonomy_velocity(pose: Pose, target_pose: Pose, speed: float = AUTONOMY_SPE
     Returns
     -------
     np.ndarray
-        ``(3,)`` ``(vx, vy, omega)``.
+        ``(3,)`` ``(vx, vy, omega)``: :func:`autonomy_command` as an array.
+    """
+    x, y, theta = (float(v) for v in pose)
+    tx, ty, ttheta = (float(v) for v in target_pose)
+    return np.array(autonomy_command(x, y, theta, tx, ty, ttheta, speed, turn_rate, dt))
+
+
+def autonomy_command(x: float, y: float, theta: float, tx: float, ty: float, ttheta: float,
+                     speed: float, turn_rate: float, dt: float) -> tuple[float, float, float]:
+    """:func:`autonomy_velocity` from ``(x, y, theta)`` to ``(tx, ty, ttheta)`` as a tuple of floats.
+
+    The rule's one implementation, in plain float arithmetic: it runs on every simulated step of
+    the autonomy's turn and of blending, where numpy's per-call overhead was most of its cost.
     """
     if dt <= 0:
         raise ValueError(f"dt must be positive, got {dt}")
-    # scalar math: this runs on every simulated step
-    x, y, theta = (float(v) for v in pose)
-    tx, ty, ttheta = (float(v) for v in target_pose)
     vx = vy = omega = 0.0
     dx, dy = tx - x, ty - y
     distance = math.hypot(dx, dy)
     if distance > 0.0:
         scale = min(speed, distance / dt) / distance
         vx, vy = dx * scale, dy * scale
-    error = float(angle_difference(ttheta, theta))  # in [-pi, pi)
+    error = turn_between(ttheta, theta)  # in [-pi, pi)
     if error != 0.0:
         omega = math.copysign(min(turn_rate, abs(error) / dt), error)
-    return np.array([vx, vy, omega])
+    return vx, vy, omega
 
 
 def blend(u_a: np.ndarray, u_h: np.ndarray, alpha: float) -> np.ndarray:
@@ -219,9 +228,17 @@ def blend(u_a: np.ndarray, u_h: np.ndarray, alpha: float) -> np.ndarray:
     Returns
     -------
     np.ndarray
-        ``(3,)``.
+        ``(3,)``: :func:`blend_command` as an array.
     """
-    return alpha * np.asarray(u_a, dtype=float) + (1.0 - alpha) * np.asarray(u_h, dtype=float)
+    return np.array(blend_command(tuple(map(float, u_a)), tuple(map(float, u_h)), alpha))
+
+
+def blend_command(u_a: tuple[float, float, float], u_h: tuple[float, float, float],
+                  alpha: float) -> tuple[float, float, float]:
+    """:func:`blend` of two commands given as tuples of floats (the rule's one implementation;
+    every blended step of a simulation runs it)."""
+    keep = 1.0 - alpha
+    return (alpha * u_a[0] + keep * u_h[0], alpha * u_a[1] + keep * u_h[1], alpha * u_a[2] + keep * u_h[2])
 
 
 def step_sizes(window: int) -> tuple[float, ...]:

@@ -10,35 +10,21 @@ from typing import Literal
 import numpy as np
 from scipy.special import xlogy
 
-from nudgecli.errors import ProbabilityTableError
 from nudgecli.model.candidates import Candidates, WindowTable, global_candidates, mode_candidates
 from nudgecli.model.inference import predict_belief
 from nudgecli.model.information import Weighting, monte_carlo_mutual_information, normalised_belief
 from nudgecli.model.interface import (
-    N_ACTIONS,
     observation_model,
     validate_distortion_table,
     validate_mapping_table,
 )
+from nudgecli.model.mdp import DistinctActionRows
 from nudgecli.model.ties import first_argmax
-from nudgecli.model.world import N_MODES, cell_centre
+from nudgecli.model.world import cell_centre
 
 # --- observation model ------------------------------------------------------------------------
 
-def _check_action_likelihood(p_a_given_sg: np.ndarray, name: str = "p(a | s, g)") -> np.ndarray:
-    """Vectorised check of a ``(G, S, A)`` table: non-negative, finite, rows summing to 1."""
-    arr = np.asarray(p_a_given_sg, dtype=float)
-    if arr.ndim != 3 or arr.shape[2] != N_ACTIONS:
-        raise ProbabilityTableError(f"{name}: expected shape (G, S, {N_ACTIONS}), got {arr.shape}")
-    bad = ~np.isfinite(arr).all(axis=-1) | (arr < 0).any(axis=-1) | (np.abs(arr.sum(axis=-1) - 1.0) > 1e-6)
-    if bad.any():
-        g, s = (int(k) for k in np.argwhere(bad)[0])
-        raise ProbabilityTableError(
-            f"{name}: row (goal {g}, state {s}) = {arr[g, s].tolist()} is not a probability distribution")
-    return arr
-
-
-def observation_likelihood(p_a_given_sg: np.ndarray, mapping: np.ndarray,
+def observation_likelihood(p_a_given_sg: np.ndarray | DistinctActionRows, mapping: np.ndarray,
                            distortion: np.ndarray, modes: np.ndarray | None = None) -> np.ndarray:
     """``p(phi_m | g, s) = sum_a sum_phi_i p(phi_m | phi_i) p(phi_i | a, m(s)) p(a | s, g)``.
 
@@ -47,14 +33,15 @@ def observation_likelihood(p_a_given_sg: np.ndarray, mapping: np.ndarray,
     Parameters
     ----------
     p_a_given_sg
-        ``(G, S, A)`` the human's action model.
+        ``(G, S, A)`` the human's action model, or its :class:`~nudgecli.model.mdp.DistinctActionRows`
+        (checked once per layout: :attr:`SolvedLayout.actions <nudgecli.model.mdp.SolvedLayout>`).
     mapping
         ``(M, A, F)`` ``p(phi_i | a, m)``.
     distortion
         ``(F, F)`` ``p(phi_m | phi_i)`` (row intended, column measured).
     modes
         ``(S,)`` mode index of every state, for state spaces other than the 2400-state grid
-        (``None``: ``s % 3``).
+        (``None``: ``s % 3``); only with a table (distinct rows carry their modes).
 
     Returns
     -------
@@ -66,14 +53,27 @@ def observation_likelihood(p_a_given_sg: np.ndarray, mapping: np.ndarray,
     ProbabilityTableError
         If a table has the wrong shape, a negative entry or a row not summing to 1 (naming it).
     """
-    p_a = _check_action_likelihood(p_a_given_sg)
+    actions = _distinct_rows(p_a_given_sg, modes)
+    return _distinct_likelihood(actions, mapping, distortion).take(actions.index, axis=0)
+
+
+def _distinct_rows(p_a_given_sg: np.ndarray | DistinctActionRows,
+                   modes: np.ndarray | None = None) -> DistinctActionRows:
+    if isinstance(p_a_given_sg, DistinctActionRows):
+        if modes is not None:
+            raise ValueError("distinct action rows carry their states' modes; pass modes with a table only")
+        return p_a_given_sg
+    return DistinctActionRows.of(p_a_given_sg, modes)
+
+
+def _distinct_likelihood(actions: DistinctActionRows, mapping: np.ndarray,
+                         distortion: np.ndarray) -> np.ndarray:
+    """``(U, F)`` ``p(phi_m | a-row, mode)`` of each distinct ``(mode, row)`` pair: the rows of
+    :func:`observation_likelihood`, each computed once (``actions.index`` spreads them)."""
     measured_given_action = observation_model(validate_mapping_table(mapping),
                                               validate_distortion_table(distortion))  # (M, A, F)
-    modes = np.arange(p_a.shape[1]) % N_MODES if modes is None else np.asarray(modes, dtype=int)
-    if modes.shape != (p_a.shape[1],):
-        raise ValueError(f"modes must have shape ({p_a.shape[1]},), got {modes.shape}")
-    # (G, S, 1, A) @ (S, A, F) -> (G, S, 1, F)
-    return (p_a[:, :, None, :] @ measured_given_action[modes])[:, :, 0, :]
+    # (U, 1, A) @ (U, A, F) -> (U, 1, F): per pair the same (1, A) @ (A, F) product as per state
+    return (actions.rows[:, None, :] @ measured_given_action[actions.row_modes])[:, 0, :]
 
 
 # --- settings ----------------------------------------------------------------------------------
@@ -198,13 +198,15 @@ class DisambiguationModel:
     """What D(s) needs about one layout and one participant model, computed once per trial.
 
     Construct it with the four inputs; the tables are validated and the rest is derived.
+    ``p_a_given_sg`` may be given as the layout's :class:`~nudgecli.model.mdp.DistinctActionRows`
+    (``SolvedLayout.actions``), checked once per layout rather than once per model.
 
     Attributes
     ----------
     goal_cells
         ``(G, 2)`` goal cells.
     p_a_given_sg
-        ``(G, S, A)`` the human action model.
+        ``(G, S, A)`` the human action model (the table, whichever form it was given in).
     mapping
         ``(M, A, F)`` ``p(phi_i | a, m)``.
     distortion
@@ -214,7 +216,7 @@ class DisambiguationModel:
     """
 
     goal_cells: np.ndarray
-    p_a_given_sg: np.ndarray
+    p_a_given_sg: np.ndarray | DistinctActionRows
     mapping: np.ndarray
     distortion: np.ndarray
     likelihood: np.ndarray = field(init=False, repr=False)
@@ -227,19 +229,23 @@ class DisambiguationModel:
 
     def __post_init__(self) -> None:
         cells = np.asarray(self.goal_cells, dtype=int).reshape(-1, 2)
-        likelihood = observation_likelihood(self.p_a_given_sg, self.mapping, self.distortion)
-        if likelihood.shape[0] != cells.shape[0]:
-            raise ValueError(f"{cells.shape[0]} goal cells but p(a | s, g) has {likelihood.shape[0]} goals")
+        actions = _distinct_rows(self.p_a_given_sg)
+        if actions.index.shape[0] != cells.shape[0]:
+            raise ValueError(f"{cells.shape[0]} goal cells but p(a | s, g) has "
+                             f"{actions.index.shape[0]} goals")
+        # every derived table is a gather of the distinct rows' values (bit for bit the per-state ones)
+        distinct = _distinct_likelihood(actions, self.mapping, self.distortion)  # (U, F)
+        by_state = actions.index.T  # (S, G)
+        n_states, n_goals = by_state.shape
         set_ = object.__setattr__  # frozen dataclass: derived fields are set once, here
         set_(self, "goal_cells", cells)
-        set_(self, "p_a_given_sg", np.asarray(self.p_a_given_sg, dtype=float))
+        set_(self, "p_a_given_sg", actions.table)
         set_(self, "mapping", np.asarray(self.mapping, dtype=float))
         set_(self, "distortion", np.asarray(self.distortion, dtype=float))
-        set_(self, "likelihood", likelihood)
-        n_goals, n_states, n_labels = likelihood.shape
+        set_(self, "likelihood", distinct.take(actions.index, axis=0))
         set_(self, "_likelihood_rows",
-             np.ascontiguousarray(likelihood.transpose(1, 0, 2)).reshape(n_states, n_goals * n_labels))
-        set_(self, "_xlogx_rows", np.ascontiguousarray(xlogy(likelihood, likelihood).sum(axis=-1).T))
+             distinct.take(by_state, axis=0).reshape(n_states, n_goals * distinct.shape[1]))
+        set_(self, "_xlogx_rows", xlogy(distinct, distinct).sum(axis=-1).take(by_state))
         set_(self, "_goal_positions", {"cells": cells.astype(float),
                                        "world": cell_centre(cells[:, 0], cells[:, 1])})
         set_(self, "_window_tables", {})

@@ -115,13 +115,27 @@ def human_velocity(label: int, mode: int, speed: float = 3.0, turn_rate: float =
     Returns
     -------
     np.ndarray
-        ``(3,)`` ``(vx, vy, omega)``.
+        ``(3,)`` ``(vx, vy, omega)``: :func:`human_command` as an array.
     """
-    u = np.zeros(3)
-    if label in (SOFT_PUFF, SOFT_SIP):
-        sign = 1.0 if label == SOFT_PUFF else -1.0
-        u[mode] = sign * (speed if mode < 2 else -turn_rate)
-    return u
+    return np.array(human_command(label, mode, speed, turn_rate))
+
+
+#: The command of a label that does not move the robot (a hard label, a deadband, no input).
+NO_COMMAND = (0.0, 0.0, 0.0)
+
+
+def human_command(label: int, mode: int, speed: float = 3.0,
+                  turn_rate: float = 1.95) -> tuple[float, float, float]:
+    """:func:`human_velocity` as a tuple of floats: the rule's one implementation (it runs on
+    every simulated step, where a fresh numpy array per step cost more than the rule)."""
+    if label != SOFT_PUFF and label != SOFT_SIP:
+        return NO_COMMAND
+    value = (1.0 if label == SOFT_PUFF else -1.0) * (speed if mode < 2 else -turn_rate)
+    if mode == 0:
+        return value, 0.0, 0.0
+    if mode == 1:
+        return 0.0, value, 0.0
+    return 0.0, 0.0, value
 
 
 def default_mapping_table(noise: float = DEFAULT_TABLE_NOISE) -> np.ndarray:
@@ -158,6 +172,8 @@ def validate_probability_table(table: np.ndarray, name: str, shape: tuple[int, .
     arr = np.asarray(table, dtype=float)
     if arr.shape != shape:
         raise ProbabilityTableError(f"{name}: expected shape {shape}, got {arr.shape}")
+    if np.isfinite(arr).all() and (arr >= 0).all() and (np.abs(arr.sum(axis=-1) - 1.0) <= atol).all():
+        return arr  # every row passes: checked at once (the row loop below only names the first bad one)
     for index in np.ndindex(*shape[:-1]):
         row = arr[index]
         where = _row_name(index, row_names)

@@ -20,10 +20,11 @@ goals of a layout are solved together in one ``(G, S)`` computation.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from nudgecli.errors import ProbabilityTableError
 from nudgecli.model.interface import MOVE_N, MOVE_P, N_ACTIONS, TO_MODE_L, TO_MODE_R
 from nudgecli.model.ties import DEFAULT_TIE_RTOL, first_argmax
 from nudgecli.model.world import (
@@ -103,6 +104,77 @@ class GoalTransitions:
         return (rewards or MDPRewards()).by_kind()[self.outcome]
 
 
+@dataclass(frozen=True, eq=False)
+class DistinctActionRows:
+    """A checked ``p(a | s, g)`` table and its distinct ``(mode, row)`` pairs.
+
+    Anything computed per row and mode (``p(phi_m | g, s)``, Eq. 12) is computed once per pair and
+    gathered: an ε-greedy table has one distinct row per action (and mode), against ``G x S`` rows.
+    Rows count as the same when their bytes are, so a gathered result is bit for bit what the
+    computation gives on every row.
+
+    Attributes
+    ----------
+    table
+        ``(G, S, A)`` the table, checked: every row finite, non-negative and summing to 1.
+    rows
+        ``(U, A)`` its distinct rows (one per distinct pair).
+    row_modes
+        ``(U,)`` the mode of each pair.
+    index
+        ``(G, S)`` the pair of each goal and state: ``table[g, s] == rows[index[g, s]]``.
+    """
+
+    table: np.ndarray
+    rows: np.ndarray
+    row_modes: np.ndarray
+    index: np.ndarray
+
+    @classmethod
+    def of(cls, p_a_given_sg: np.ndarray, modes: np.ndarray | None = None,
+           name: str = "p(a | s, g)") -> DistinctActionRows:
+        """Check ``p_a_given_sg`` and find its distinct ``(mode, row)`` pairs.
+
+        Parameters
+        ----------
+        p_a_given_sg
+            ``(G, S, A)`` the human's action model.
+        modes
+            ``(S,)`` mode of every state (``None``: ``s % 3``, the toolkit's grid).
+        name
+            The table's name in error messages.
+
+        Raises
+        ------
+        ProbabilityTableError
+            If the table has the wrong shape or a row that is not a distribution (naming the first).
+        """
+        table = np.asarray(p_a_given_sg, dtype=float)
+        if table.ndim != 3 or table.shape[2] != N_ACTIONS:
+            raise ProbabilityTableError(f"{name}: expected shape (G, S, {N_ACTIONS}), got {table.shape}")
+        n_goals, n_states, n_actions = table.shape
+        modes = np.arange(n_states) % N_MODES if modes is None else np.asarray(modes, dtype=int)
+        if modes.shape != (n_states,):
+            raise ValueError(f"modes must have shape ({n_states},), got {modes.shape}")
+        # one record per goal and state: its mode, then its row; unique on the records' bytes
+        keyed = np.empty((n_goals, n_states, n_actions + 1))
+        keyed[:, :, 0] = modes
+        keyed[:, :, 1:] = table
+        records = keyed.reshape(-1).view(np.dtype((np.void, keyed.itemsize * (n_actions + 1))))
+        distinct, index = np.unique(records, return_inverse=True)
+        pairs = distinct.view(float).reshape(-1, n_actions + 1)
+        rows = pairs[:, 1:]
+        bad = (~np.isfinite(rows).all(axis=-1) | (rows < 0).any(axis=-1)
+               | (np.abs(rows.sum(axis=-1) - 1.0) > 1e-6))
+        index = index.reshape(n_goals, n_states)
+        if bad.any():
+            g, s = (int(k) for k in np.argwhere(bad[index])[0])  # the first bad row in table order
+            raise ProbabilityTableError(f"{name}: row (goal {g}, state {s}) = {table[g, s].tolist()} "
+                                        "is not a probability distribution")
+        return cls(table=table, rows=np.ascontiguousarray(rows), row_modes=pairs[:, 0].astype(int),
+                   index=index)
+
+
 @dataclass(frozen=True)
 class SolvedLayout:
     """The solved goal MDPs of one layout and the human action model derived from them.
@@ -117,12 +189,19 @@ class SolvedLayout:
         ``(G, S, A)`` ε-greedy ``p(a | s, g)`` (Eq. 1).
     iterations
         Number of value-iteration sweeps until the span criterion held.
+    actions
+        ``p_a_given_sg`` checked and as its distinct rows (derived; computed here once per layout,
+        not once per participant's model of it).
     """
 
     policy: np.ndarray
     values: np.ndarray
     p_a_given_sg: np.ndarray
     iterations: int
+    actions: DistinctActionRows = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "actions", DistinctActionRows.of(self.p_a_given_sg))
 
 
 def _validate_goals(goal_cells: np.ndarray, goal_headings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nudgecli.model import interface
-from nudgecli.model.world import N_MODES, angle_difference, next_multiple
+from nudgecli.model.world import N_MODES, Command, angle_difference, next_multiple, turn_between
 
 #: Mode letters of the task files, in the toolkit's mode order (x, y, theta).
 MODE_LETTERS = ("x", "y", "t")
@@ -222,7 +222,7 @@ class PathWorld:
         location, turned = divmod(state // N_MODES, 2)
         return int(location), int(turned), 0
 
-    def move(self, x: float, y: float, theta: float, velocity: np.ndarray,
+    def move(self, x: float, y: float, theta: float, velocity: Command,
              dt: float) -> tuple[float, float, float]:
         last = len(self.layout.waypoints) - 1
         if self.location < last:
@@ -236,11 +236,11 @@ class PathWorld:
                 else:
                     theta = (theta + v * dt) % (2.0 * math.pi)
             x, y = self._snap_location(x, y)
-            if abs(float(angle_difference(theta, self.layout.goal_theta))) < self.heading_tolerance:
+            if abs(turn_between(theta, self.layout.goal_theta)) < self.heading_tolerance:
                 theta, self.turned = self.layout.goal_theta, True
         return x, y, theta
 
-    def holds_still(self, x: float, y: float, theta: float, velocity: np.ndarray) -> bool:
+    def holds_still(self, x: float, y: float, theta: float, velocity: Command) -> bool:
         if self.location >= len(self.layout.waypoints) - 1:
             return True
         mode, direction = self.allowed

@@ -61,8 +61,18 @@ def wrap_angle(theta: np.ndarray | float) -> np.ndarray | float:
 
 
 def angle_difference(a: np.ndarray | float, b: np.ndarray | float) -> np.ndarray | float:
-    """Signed smallest difference ``a - b`` in ``[-pi, pi)``."""
+    """Signed smallest difference ``a - b`` in ``[-pi, pi)`` (arrays; :func:`turn_between` for two floats)."""
     return np.mod(np.asarray(a) - np.asarray(b) + np.pi, 2.0 * np.pi) - np.pi
+
+
+def turn_between(a: float, b: float) -> float:
+    """:func:`angle_difference` of two floats with plain float arithmetic, bit for bit the same.
+
+    Python's ``%`` on floats and ``np.mod`` both take ``fmod`` and then move a remainder whose
+    sign differs from the divisor's by one divisor, so the two agree exactly (a test holds them
+    to it); numpy's per-call overhead was the larger part of every simulated step's turn checks.
+    """
+    return (a - b + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def cell_centre(i: np.ndarray | int, j: np.ndarray | int) -> np.ndarray:
@@ -85,9 +95,11 @@ def heading_angle(h: np.ndarray | int) -> np.ndarray | float:
 
 def discretise(x: float, y: float, theta: float) -> tuple[int, int, int]:
     """The cell and heading of a continuous pose: nearest cell centre, ``floor(theta / 45 deg)``."""
-    # plain floats: this runs every simulated step
-    i = min(max(math.floor((x - X_MIN) / CELL_WIDTH), 0), N_CELLS_X - 1)
-    j = min(max(math.floor((y - Y_MIN) / CELL_HEIGHT), 0), N_CELLS_Y - 1)
+    # plain floats and comparisons (min/max calls cost more than the rule): this runs every simulated step
+    i = math.floor((x - X_MIN) / CELL_WIDTH)
+    i = 0 if i < 0 else N_CELLS_X - 1 if i > N_CELLS_X - 1 else i
+    j = math.floor((y - Y_MIN) / CELL_HEIGHT)
+    j = 0 if j < 0 else N_CELLS_Y - 1 if j > N_CELLS_Y - 1 else j
     h = math.floor((theta % (2.0 * math.pi)) / HEADING_STEP) % N_HEADINGS
     return i, j, h
 
@@ -108,11 +120,20 @@ def all_state_coordinates() -> np.ndarray:
     return np.stack(np.unravel_index(np.arange(N_STATES), GRID_SHAPE), axis=-1)
 
 
+#: A robot command ``(vx, vy, omega)``: a tuple of floats in the simulation's step loop, or a ``(3,)`` array.
+Command = tuple[float, float, float] | np.ndarray
+
+
+_X_LOW, _X_HIGH = X_MIN + ROBOT_RADIUS, X_MAX - ROBOT_RADIUS
+_Y_LOW, _Y_HIGH = Y_MIN + ROBOT_RADIUS, Y_MAX - ROBOT_RADIUS
+
+
 def clamp_position(x: float, y: float) -> tuple[float, float]:
     """Keep a robot position inside the workspace shrunk by the robot radius (per axis)."""
-    x = min(max(x, X_MIN + ROBOT_RADIUS), X_MAX - ROBOT_RADIUS)
-    y = min(max(y, Y_MIN + ROBOT_RADIUS), Y_MAX - ROBOT_RADIUS)
-    return x, y
+    # min(max(v, low), high) as comparisons (the same value: max keeps v unless low > v), every step
+    x = _X_LOW if x < _X_LOW else x
+    y = _Y_LOW if y < _Y_LOW else y
+    return (_X_HIGH if x > _X_HIGH else x), (_Y_HIGH if y > _Y_HIGH else y)
 
 
 @dataclass(frozen=True)
@@ -239,10 +260,10 @@ class World(Protocol):
     def cells(self, state: int) -> tuple[int, int, int]:
         """``(cell_x, cell_y, heading)`` of a discrete state, as the step log records them."""
 
-    def move(self, x: float, y: float, theta: float, velocity: np.ndarray,
+    def move(self, x: float, y: float, theta: float, velocity: Command,
              dt: float) -> tuple[float, float, float]:
-        """The pose after one step of ``velocity`` ``(3,)`` (units/s, rad/s anticlockwise) for ``dt`` s,
-        under the world's constraints."""
+        """The pose after one step of ``velocity`` ``(vx, vy, omega)`` (units/s, rad/s anticlockwise)
+        for ``dt`` s, under the world's constraints."""
 
     def goal_reached(self, x: float, y: float, theta: float) -> int:
         """The index of the goal whose success rule the pose meets, or -1."""
@@ -250,9 +271,9 @@ class World(Protocol):
     def next_mark(self, coordinate: float, direction: float, axis: int) -> float:
         """The next mark a person can see along ``axis`` strictly beyond ``coordinate`` in ``direction``."""
 
-    def holds_still(self, x: float, y: float, theta: float, velocity: np.ndarray) -> bool:
-        """Whether a command of ``velocity`` ``(3,)`` leaves the robot at ``(x, y, theta)`` (a wall, a
-        direction the world does not allow); asks without moving anything."""
+    def holds_still(self, x: float, y: float, theta: float, velocity: Command) -> bool:
+        """Whether a command of ``velocity`` ``(vx, vy, omega)`` leaves the robot at ``(x, y, theta)``
+        (a wall, a direction the world does not allow); asks without moving anything."""
 
 
 #: A step short enough that a probe of the workspace's bounds moves the robot by a rounding's width.
@@ -297,14 +318,14 @@ class GridWorld:
 
     def state(self, x: float, y: float, theta: float, mode: int) -> int:
         i, j, h = discretise(x, y, theta)
-        return int(state_index(i, j, h, mode))
+        return ((i * N_CELLS_Y + j) * N_HEADINGS + h) * N_MODES + int(mode)  # state_index on ints
 
     def cells(self, state: int) -> tuple[int, int, int]:
         cell, h = divmod(state // N_MODES, N_HEADINGS)
         i, j = divmod(cell, N_CELLS_Y)
         return int(i), int(j), int(h)
 
-    def move(self, x: float, y: float, theta: float, velocity: np.ndarray,
+    def move(self, x: float, y: float, theta: float, velocity: Command,
              dt: float) -> tuple[float, float, float]:
         x, y = clamp_position(x + float(velocity[0]) * dt, y + float(velocity[1]) * dt)
         return x, y, (theta + float(velocity[2]) * dt) % (2.0 * math.pi)
@@ -312,16 +333,15 @@ class GridWorld:
     def goal_reached(self, x: float, y: float, theta: float) -> int:
         # scalar math: this runs every step
         for index, (gx, gy, gth) in enumerate(self._goal_list):
-            if math.hypot(gx - x, gy - y) <= self.success_distance:
-                turn = (gth - theta + math.pi) % (2.0 * math.pi) - math.pi
-                if abs(turn) <= self.success_angle:
-                    return index
+            if (math.hypot(gx - x, gy - y) <= self.success_distance
+                    and abs(turn_between(gth, theta)) <= self.success_angle):
+                return index
         return -1
 
     def next_mark(self, coordinate: float, direction: float, axis: int) -> float:
         return grid_next_mark(coordinate, direction, axis)
 
-    def holds_still(self, x: float, y: float, theta: float, velocity: np.ndarray) -> bool:
+    def holds_still(self, x: float, y: float, theta: float, velocity: Command) -> bool:
         # only the workspace's bounds stop the robot; a turn always turns
         if abs(float(velocity[2])) > 0.0:
             return False

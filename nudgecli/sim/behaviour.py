@@ -50,8 +50,8 @@ from nudgecli.model.interface import HARD_PUFF, HARD_SIP, NO_INPUT, SOFT_PUFF, S
 from nudgecli.model.world import (
     N_MODES,
     World,
-    angle_difference,
     grid_next_mark,
+    turn_between,
 )
 from nudgecli.sim.participants import Participant
 
@@ -158,7 +158,7 @@ def next_centre(coordinate: float, direction: float, axis: int) -> float:
 def mark_reached(coordinate: float, target: float, direction: float, axis: int) -> bool:
     """Whether ``coordinate`` has reached ``target`` moving in ``direction`` (angles unwrapped locally)."""
     if axis == 2:
-        ahead = float(angle_difference(target, coordinate))
+        ahead = turn_between(target, coordinate)
         return ahead * direction <= 1e-9
     return (target - coordinate) * direction <= 1e-9
 
@@ -213,8 +213,9 @@ class SimulatedPerson:
         self.hold_axis = -1
         self.hold_target = 0.0
         self.hold_direction = 0.0
-        self.blow = np.zeros(0)
-        self.blow_normals = np.zeros(0)
+        # the current blow's pressures and deviations, as lists: read one sample per step
+        self.blow: list[float] | np.ndarray = []
+        self.blow_normals: list[float] | np.ndarray = []
         self.blow_pos = 0
         self.blow_held = 0
         self.last_normal = 0.0  # the deviation of the blow's last sample, where a held blow drifts on from
@@ -341,7 +342,7 @@ class SimulatedPerson:
         where the path turns, a wall): the world's own rule, as the person sees it next step."""
         if self.world is None:
             return False
-        velocity = interface.human_velocity(self.held_label, view.mode)
+        velocity = interface.human_command(self.held_label, view.mode)
         x, y, theta = view.x, view.y, view.theta
         return self.world.holds_still(x, y, theta, velocity)
 
@@ -399,7 +400,7 @@ class SimulatedPerson:
             return False
         axis = self.hold_axis
         before, now = self.previous_pose[axis], (view.x, view.y, view.theta)[axis]
-        moved = float(angle_difference(now, before)) if axis == 2 else now - before
+        moved = turn_between(now, before) if axis == 2 else now - before
         meant = 1.0 if self.held_action == interface.MOVE_P else -1.0
         if axis == 2:
             meant = -meant  # move_p turns clockwise
@@ -455,24 +456,25 @@ class SimulatedPerson:
             peak = max(1, round(p.hard_peak_s * self._jitter(s.hard_blow_jitter) / s.dt))
             self.hold_left = p.onset_ramp_samples + peak + p.offset_ramp_samples
             self.blow_held = 0
-            self.blow_normals = p.drift_normals(self.hold_left, self.rng)
-            self.blow = p.pulse_pressures(label, self.blow_normals, peak)
+            normals = p.drift_normals(self.hold_left, self.rng)
+            self.blow = p.pulse_pressures(label, normals, peak).tolist()
+            self.blow_normals = normals.tolist()
             self.blow_pos = 0
             return
         if label in (HARD_PUFF, HARD_SIP):
             self.hold_left = max(1, round(p.hard_blow_s * self._jitter(s.hard_blow_jitter) / s.dt))
         else:
             self.hold_left = s.max_hold_steps
-            velocity = interface.human_velocity(label, view.mode)
+            along = interface.human_command(label, view.mode)[view.mode]
             self.hold_axis = int(view.mode)
-            self.hold_direction = float(np.sign(velocity[self.hold_axis]))
+            self.hold_direction = 1.0 if along > 0.0 else -1.0 if along < 0.0 else 0.0  # np.sign
             coordinate = (view.x, view.y, view.theta)[self.hold_axis]
             self.hold_target = self.next_mark(coordinate, self.hold_direction, self.hold_axis)
         start = self.blow_held if continuing else 0
         self.blow_held = start
-        self.blow_normals = p.drift_normals(self.hold_left, self.rng,
-                                            previous=self.last_normal if start > 0 else None)
-        self.blow = p.pressures_from_normals(label, self.blow_normals, start=start)
+        normals = p.drift_normals(self.hold_left, self.rng, previous=self.last_normal if start > 0 else None)
+        self.blow = p.pressures_from_normals(label, normals, start=start).tolist()
+        self.blow_normals = normals.tolist()
         self.blow_pos = 0
 
     def _release(self) -> None:
@@ -500,7 +502,7 @@ class SimulatedPerson:
     def _errors(self, view: RobotView) -> tuple[float, float, float]:
         """What is left to the goal along x, y and the heading (signed, shortest turn)."""
         gx, gy, gth = self.goal
-        return gx - view.x, gy - view.y, float(angle_difference(gth, view.theta))
+        return gx - view.x, gy - view.y, turn_between(gth, view.theta)
 
     def _fine_action(self, view: RobotView) -> int | None:
         """Inside the goal cell: the action that reduces a remaining error, or ``None`` if none is left."""
@@ -527,13 +529,13 @@ class SimulatedPerson:
             return 0
         before, now = self.previous_pose, (view.x, view.y, view.theta)
         moved = (abs(now[0] - before[0]), abs(now[1] - before[1]),
-                 abs(float(angle_difference(now[2], before[2]))))
+                 abs(turn_between(now[2], before[2])))
         if not any(moved[axis] > _MOTION_EPS for axis in range(3) if axis != self.hold_mode):
             return 0
         gx, gy, gth = self.goal
         change = math.hypot(gx - now[0], gy - now[1]) - math.hypot(gx - before[0], gy - before[1])
         if abs(change) <= _MOTION_EPS:
-            change = abs(float(angle_difference(gth, now[2]))) - abs(float(angle_difference(gth, before[2])))
+            change = abs(turn_between(gth, now[2])) - abs(turn_between(gth, before[2]))
         if abs(change) <= _MOTION_EPS:
             return 0
         return 1 if change < 0 else -1

@@ -73,6 +73,7 @@ from nudgecli.model.ties import tied_with_max, unique_argmax
 from nudgecli.model.world import (
     MODE_NAMES,
     N_MODES,
+    Command,
     GridWorld,
     Layout,
     World,
@@ -93,10 +94,16 @@ from nudgecli.steplog import (
     STEP,
     STEP_COLUMNS,
     TRIAL_START,
+    command_columns,
     join_events,
+    step_times,
 )
 
-_ZERO3 = np.zeros(3)
+_ZERO3 = interface.NO_COMMAND  # u_h of a step without a motion command, u_a without assistance
+_NO_DECAY = DecayCounters()
+#: The step log's ``phi_m`` of a measured code (no input: empty).
+_STREAM_LABEL = {**dict(enumerate(LABELS)), interface.PUFF_DEADBAND: interface.PUFF_DEADBAND_LABEL,
+                 interface.SIP_DEADBAND: interface.SIP_DEADBAND_LABEL}
 
 
 @dataclass(frozen=True)
@@ -309,12 +316,13 @@ class TrialSession:
         pressure
             The signed pressure of the sample, in ``[-1, 1]``.
         """
-        if self.turn != HUMAN_TURN or self.finished:
+        s, world = self.settings, self.world
+        assert world is not None
+        if self.turn != HUMAN_TURN or self.reached >= 0 or self.step >= s.time_limit_steps:  # finished
             raise RuntimeError("human_step outside a running human turn")
-        s = self.settings
         events, self.pending_events = self.pending_events, []
-        state = self.state
         mode_before = self.mode
+        state = world.state(self.x, self.y, self.theta, mode_before)
         measured = interface.label_of_pressure(pressure, s.soft_threshold, s.hard_threshold, s.zero_threshold)
         if measured != NO_INPUT and self.initiated_at < 0:
             self.initiated_at = self.step
@@ -325,7 +333,7 @@ class TrialSession:
         if measured == NO_INPUT:
             self.locked = False  # the driver's "input stopped" unlocks switching
         elif measured in (SOFT_PUFF, SOFT_SIP) and not self.locked:
-            u_h = interface.human_velocity(measured, self.mode, s.human_speed, s.human_turn_rate)
+            u_h = interface.human_command(measured, self.mode, s.human_speed, s.human_turn_rate)
             commanded = True
         elif measured in (HARD_PUFF, HARD_SIP) and not self.locked:
             self.mode = interface.switch_mode(self.mode, measured)
@@ -337,21 +345,21 @@ class TrialSession:
         if self.policy == "hindsight":
             inferred, alpha = self.leader, 0.0
             u_a = self._hindsight_assistance()
-            u_f = u_h + u_a  # every step, with or without a command (first-order hindsight optimisation)
+            u_f = np.add(u_h, u_a)  # every step, command or not (first-order hindsight optimisation)
         else:
             inferred, alpha = self._blending() if self.blends else (NO_GOAL, 0.0)
             u_a = _ZERO3
             if inferred != NO_GOAL:
-                u_a = assistance.autonomy_velocity((self.x, self.y, self.theta), self.goal_list[inferred],
-                                                   s.autonomy_speed, s.autonomy_turn_rate, s.dt)
+                u_a = assistance.autonomy_command(self.x, self.y, self.theta, *self.goal_list[inferred],
+                                                  s.autonomy_speed, s.autonomy_turn_rate, s.dt)
             # blending acts only on a motion command (a mode switch or no input leaves the robot still)
-            u_f = assistance.blend(u_a, u_h, alpha) if u_h is not _ZERO3 else u_h
+            u_f = assistance.blend_command(u_a, u_h, alpha) if u_h is not _ZERO3 else u_h
         self._record(HUMAN_TURN, state, mode_before, intended, pressure, measured, u_h, u_a, alpha, inferred,
                      events)
-        self._move(u_f)
+        self.x, self.y, self.theta = world.move(self.x, self.y, self.theta, u_f, s.dt)
         self.step += 1
         if self.initiated_at >= 0:
-            self.reached = self._goal_reached()
+            self.reached = world.goal_reached(self.x, self.y, self.theta)
             if self.reached >= 0:
                 return
         if (self.turn_taking and self.initiated_at >= 0 and self.idle > self.handover_idle_steps
@@ -365,7 +373,7 @@ class TrialSession:
         if 0 <= measured < 4:
             new_event = s.update == "sample" or measured != self.blow_label
             self.blow_label = measured
-            self.decay_counters = DecayCounters()
+            self.decay_counters = _NO_DECAY  # counters restart (frozen: one instance serves every step)
             if new_event:
                 likelihood = self.model.likelihood[:, state, measured]
                 self._set_belief(bayes_update(self.belief, likelihood, self.goal_transition))
@@ -398,11 +406,6 @@ class TrialSession:
         commands = np.array([assistance.autonomy_velocity(pose, goal, s.autonomy_speed, s.autonomy_turn_rate,
                                                           s.dt) for goal in self.goal_list])
         return policies.hindsight_assistance(self.belief, commands, s.hindsight_gain)
-
-    def _goal_reached(self) -> int:
-        """The goal whose success rule the pose meets (the world's), or -1."""
-        assert self.world is not None
-        return self.world.goal_reached(self.x, self.y, self.theta)
 
     # --- the autonomy's turn ------------------------------------------------------------------
 
@@ -487,8 +490,8 @@ class TrialSession:
         if self.policy == "mode-switch":  # the mode-switch autonomy never moves the robot
             u_a = _ZERO3
         else:
-            u_a = assistance.autonomy_velocity((self.x, self.y, self.theta), target, s.autonomy_speed,
-                                               s.autonomy_turn_rate, s.dt)
+            u_a = assistance.autonomy_command(self.x, self.y, self.theta, float(target[0]), float(target[1]),
+                                              float(target[2]), s.autonomy_speed, s.autonomy_turn_rate, s.dt)
         self._record(AUTONOMY_TURN, self.state, self.mode, NO_INPUT, 0.0, NO_INPUT, _ZERO3, u_a, 0.0,
                      self.autonomy_inferred, events)
         self._move(u_a)
@@ -498,12 +501,12 @@ class TrialSession:
 
     # --- shared helpers -----------------------------------------------------------------------
 
-    def _move(self, velocity: np.ndarray) -> None:
+    def _move(self, velocity: Command) -> None:
         assert self.world is not None
         self.x, self.y, self.theta = self.world.move(self.x, self.y, self.theta, velocity, self.settings.dt)
 
     def _record(self, turn: str, state: int, mode: int, intended: int, pressure: float, measured: int,
-                u_h: np.ndarray, u_a: np.ndarray, alpha: float, inferred: int, events: list[str]) -> None:
+                u_h: Command, u_a: Command, alpha: float, inferred: int, events: list[str]) -> None:
         """Append one step: the pose, cell and mode at the start of the step, what happened in it.
 
         The row is kept raw (a tuple; the belief array is never changed in place, only replaced)
@@ -522,14 +525,15 @@ class TrialSession:
         (steps, turns, xs, ys, thetas, modes, states, intended, pressures, measured, u_h, u_a, alphas,
          inferred, beliefs, entropies, events) = (list(column) for column in zip(*self.rows, strict=True))
         n, dt, cells = len(steps), self.settings.dt, self.world.cells
-        cell_x, cell_y, headings = zip(*(cells(state) for state in states), strict=True)
-        human = np.array(u_h, dtype=float).reshape(n, 3).T.tolist()
-        autonomy = np.array(u_a, dtype=float).reshape(n, 3).T.tolist()
+        cells_of = {state: cells(state) for state in set(states)}  # a trial visits few states
+        cell_x, cell_y, headings = zip(*(cells_of[state] for state in states), strict=True)
+        human, autonomy = command_columns(u_h, n), command_columns(u_a, n)
+        times = step_times(dt, max(steps))
         columns: dict[str, list[Any]] = {
             "participant": [self.spec.participant] * n,
             "trial": [self.spec.trial] * n,
             "step": steps,
-            "t": [round(step * dt, 10) for step in steps],
+            "t": [times[step] for step in steps],
             "turn": turns,
             "x": xs,
             "y": ys,
@@ -540,7 +544,7 @@ class TrialSession:
             "heading": list(headings),
             "phi_i": [LABELS[i] if i >= 0 else "" for i in intended],
             "pressure": pressures,
-            "phi_m": [_stream_label(m) for m in measured],
+            "phi_m": [_STREAM_LABEL.get(m, "") for m in measured],
             "u_h_x": human[0],
             "u_h_y": human[1],
             "u_h_theta": human[2],
@@ -668,13 +672,3 @@ def run_world_trial(spec: TrialSpec, settings: ProtocolSettings, world: World, p
 def handover_steps(handover_idle_s: float, dt: float) -> int:
     """Idle steps that hand the turn over: the turn passes once the idle count exceeds this."""
     return max(1, round(handover_idle_s / dt))
-
-
-def _stream_label(code: int) -> str:
-    if 0 <= code < 4:
-        return LABELS[code]
-    if code == interface.PUFF_DEADBAND:
-        return interface.PUFF_DEADBAND_LABEL
-    if code == interface.SIP_DEADBAND:
-        return interface.SIP_DEADBAND_LABEL
-    return ""

@@ -287,7 +287,7 @@ def simulate_participant(plan: StudyPlan, participant_index: int) -> Participant
             if model is None:
                 assert isinstance(spec.layout, Layout)
                 model = models[spec.layout_index] = DisambiguationModel(
-                    spec.layout.goal_cells, solved.p_a_given_sg, mapping, distortion)
+                    spec.layout.goal_cells, solved.actions, mapping, distortion)
             result = run_trial(spec, settings, solved, model, participant, rng)
         summaries.append(result.summary)
         for column, values in result.steps.items():
