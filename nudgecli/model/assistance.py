@@ -230,7 +230,8 @@ def blend(u_a: np.ndarray, u_h: np.ndarray, alpha: float) -> np.ndarray:
     np.ndarray
         ``(3,)``: :func:`blend_command` as an array.
     """
-    return np.array(blend_command(tuple(map(float, u_a)), tuple(map(float, u_h)), alpha))
+    return np.array(list(blend_command((float(u_a[0]), float(u_a[1]), float(u_a[2])),
+                                       (float(u_h[0]), float(u_h[1]), float(u_h[2])), alpha)))
 
 
 def blend_command(u_a: tuple[float, float, float], u_h: tuple[float, float, float],

@@ -352,7 +352,8 @@ def disambiguation_scores(belief: np.ndarray, model: DisambiguationModel, candid
     else:
         if rng is None:
             raise ValueError("the Monte-Carlo estimator needs an rng (np.random.Generator)")
-        information = monte_carlo_mutual_information(weights, candidates.states, model.p_a_given_sg,
+        table = np.asarray(model.p_a_given_sg)  # dense once the model is built
+        information = monte_carlo_mutual_information(weights, candidates.states, table,
                                                      model.mapping, model.distortion, rng,
                                                      settings.samples, settings.weighting)
     positions = candidates.cells if settings.distance_unit == "cells" else candidates.positions

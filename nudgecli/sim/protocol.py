@@ -342,6 +342,8 @@ class TrialSession:
             commanded = True
             events.append(MODE_SWITCH_HUMAN)
         self.idle = 0 if commanded or self.initiated_at < 0 else self.idle + 1
+        u_a: Command
+        u_f: Command
         if self.policy == "hindsight":
             inferred, alpha = self.leader, 0.0
             u_a = self._hindsight_assistance()
