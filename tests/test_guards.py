@@ -26,6 +26,7 @@ from pathlib import Path
 import click
 import numpy as np
 import pytest
+from cli_helpers import one_error_line, wait_for
 from click.testing import CliRunner
 
 from nudgecli import store
@@ -57,19 +58,6 @@ method = "grid"
 
 def invoke(args: list[str]):
     return CliRunner().invoke(main, args)
-
-
-def one_error_line(output: str) -> str:
-    lines = [line for line in output.splitlines() if line.strip()]
-    assert len(lines) == 1 and lines[0].startswith("Error: "), output
-    return lines[0]
-
-
-def wait_for(predicate, timeout: float = 60.0) -> None:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        assert time.monotonic() < deadline, "timed out waiting for the child process"
-        time.sleep(0.005)
 
 
 @contextlib.contextmanager

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from cli_helpers import one_error_line
 from click.testing import CliRunner
 
 from nudgecli.cli import main
@@ -26,13 +27,6 @@ from nudgecli.runs.study import run_study
 from nudgecli.store import RunFolder
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def one_error_line(output: str) -> str:
-    lines = [line for line in output.splitlines() if line.strip()]
-    assert len(lines) == 1 and lines[0].startswith("Error: "), output
-    assert "Traceback" not in output
-    return lines[0]
 
 
 def invoke(args: list[str]):

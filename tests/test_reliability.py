@@ -15,11 +15,11 @@ import socket
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import pandas as pd
 import pytest
+from cli_helpers import one_error_line, wait_for
 from click.testing import CliRunner
 
 from nudgecli import store
@@ -48,20 +48,6 @@ def tables(path: Path) -> list[pd.DataFrame]:
 def assert_same_run(a: Path, b: Path) -> None:
     for left, right in zip(tables(a), tables(b), strict=True):
         pd.testing.assert_frame_equal(left, right, check_exact=True)
-
-
-def one_error_line(output: str) -> str:
-    lines = [line for line in output.splitlines() if line.strip()]
-    assert len(lines) == 1 and lines[0].startswith("Error: "), output
-    assert "Traceback" not in output
-    return lines[0]
-
-
-def wait_for(predicate, timeout: float = 60.0) -> None:
-    deadline = time.monotonic() + timeout
-    while not predicate():
-        assert time.monotonic() < deadline, "timed out waiting for the child process"
-        time.sleep(0.005)
 
 
 @pytest.fixture(scope="module")

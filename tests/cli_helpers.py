@@ -1,0 +1,23 @@
+"""Helpers shared by the command-line tests (imported as ``from cli_helpers import ...``; pytest
+puts this folder on the path, as for ``live_helpers``)."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+
+def one_error_line(output: str) -> str:
+    """The output's single ``Error: ...`` line; fails if there is anything else or a traceback."""
+    lines = [line for line in output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("Error: "), output
+    assert "Traceback" not in output
+    return lines[0]
+
+
+def wait_for(predicate: Callable[[], object], timeout: float = 60.0) -> None:
+    """Poll ``predicate`` every 5 ms until it is true; fail after ``timeout`` seconds."""
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        assert time.monotonic() < deadline, "timed out waiting for the child process"
+        time.sleep(0.005)
