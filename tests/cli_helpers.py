@@ -3,8 +3,10 @@ puts this folder on the path, as for ``live_helpers``)."""
 
 from __future__ import annotations
 
+import shutil
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 
 def one_error_line(output: str) -> str:
@@ -21,3 +23,9 @@ def wait_for(predicate: Callable[[], object], timeout: float = 60.0) -> None:
     while not predicate():
         assert time.monotonic() < deadline, "timed out waiting for the child process"
         time.sleep(0.005)
+
+
+def copy_run(source: Path, target: Path) -> Path:
+    """A copy of the run folder ``source`` at ``target`` (for tests that damage a run)."""
+    shutil.copytree(source, target)
+    return target

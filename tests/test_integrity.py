@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from cli_helpers import one_error_line
+from cli_helpers import copy_run, one_error_line
 from click.testing import CliRunner
 
 from nudgecli.cli import main
@@ -39,11 +39,6 @@ def smoke_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("integrity") / "run"
     run_study(load_experiment("smoke"), out, participants=2)
     return out
-
-
-def copy_run(source: Path, target: Path) -> Path:
-    shutil.copytree(source, target)
-    return target
 
 
 def partial_run(tmp_path: Path, smoke_run: Path) -> Path:

@@ -9,7 +9,6 @@ import errno
 import json
 import os
 import shlex
-import shutil
 import signal
 import socket
 import subprocess
@@ -19,7 +18,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from cli_helpers import one_error_line, wait_for
+from cli_helpers import copy_run, one_error_line, wait_for
 from click.testing import CliRunner
 
 from nudgecli import store
@@ -56,11 +55,6 @@ def clean_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("clean") / "run"
     run_study(load_experiment("smoke"), out, participants=3)
     return out
-
-
-def copy_run(source: Path, target: Path) -> Path:
-    shutil.copytree(source, target)
-    return target
 
 
 def invoke(args: list[str]):

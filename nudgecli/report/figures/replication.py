@@ -63,6 +63,22 @@ def _of(table: pd.DataFrame, metric: Any, a: Any, b: Any) -> pd.DataFrame:
     return table[mask]
 
 
+def _replication_intervals(ax: Axes, rows: pd.DataFrame, y: np.ndarray, *, ms: float, lw: float,
+                           labelled: bool) -> None:
+    """Each replication's difference of medians at height ``y`` with its bootstrap interval,
+    non-significant then significant at the participant level (the forest panels' one drawing)."""
+    for significant in (False, True):
+        mask = rows["participant_significant"].astype(bool).to_numpy() == significant
+        sub = rows[mask]
+        diff = sub["difference"].astype(float).to_numpy()
+        err = np.vstack([diff - sub["ci_low"].astype(float).to_numpy(),
+                         sub["ci_high"].astype(float).to_numpy() - diff])
+        name = "significant (participant level)" if significant else "not significant"
+        label = name if labelled else None
+        ax.errorbar(diff, y[mask], xerr=np.abs(err), fmt="o", ms=ms, lw=lw, color=FOREST_COLOURS[significant],
+                    label=label)
+
+
 def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = None) -> Axes:
     """One metric's forest plot: every replication's difference of medians with its bootstrap
     interval, coloured by participant-level significance, and the pooled mean with its range.
@@ -79,14 +95,7 @@ def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = No
     ax = _axes(ax)
     group = group.sort_values("replication")
     y = np.arange(len(group))
-    for significant in (False, True):
-        mask = group["participant_significant"].astype(bool).to_numpy() == significant
-        sub = group[mask]
-        diff = sub["difference"].astype(float).to_numpy()
-        err = np.vstack([diff - sub["ci_low"].astype(float).to_numpy(),
-                         sub["ci_high"].astype(float).to_numpy() - diff])
-        ax.errorbar(diff, y[mask], xerr=np.abs(err), fmt="o", ms=3, lw=0.8, color=FOREST_COLOURS[significant],
-                    label="significant (participant level)" if significant else "not significant")
+    _replication_intervals(ax, group, y, ms=3, lw=0.8, labelled=True)
     ax.axvspan(pooled["difference_low"], pooled["difference_high"], color="#3498db", alpha=0.15)
     ax.axvline(pooled["difference"], color="#2c3e50", lw=1.2)
     ax.axvline(0, color="black", lw=0.6, ls=":")
@@ -120,16 +129,7 @@ def pairs_forest_panel(group: pd.DataFrame, pooled: pd.DataFrame, *, ax: Axes | 
     for row, (a, b) in enumerate(pairs):
         own = group[(group["a"] == a) & (group["b"] == b)]
         y = row + own["replication"].map(spread).to_numpy(dtype=float)
-        for significant in (False, True):
-            mask = own["participant_significant"].astype(bool).to_numpy() == significant
-            sub = own[mask]
-            diff = sub["difference"].astype(float).to_numpy()
-            err = np.vstack([diff - sub["ci_low"].astype(float).to_numpy(),
-                             sub["ci_high"].astype(float).to_numpy() - diff])
-            ax.errorbar(diff, y[mask], xerr=np.abs(err), fmt="o", ms=2, lw=0.6,
-                        color=FOREST_COLOURS[significant],
-                        label=(("significant (participant level)" if significant else "not significant")
-                               if row == 0 else None))
+        _replication_intervals(ax, own, y, ms=2, lw=0.6, labelled=row == 0)
         summary = pooled[(pooled["a"] == a) & (pooled["b"] == b)]
         if not summary.empty:
             first = summary.iloc[0]
