@@ -63,13 +63,12 @@ from nudgecli.report.questionnaires import (
     read_questionnaires,
     score_columns,
 )
-from nudgecli.report.stats import (
+from nudgecli.report.stats import ComparisonOptions, order_conditions
+from nudgecli.report.stats_document import (
     SINGLE_CONDITION_NOTE,
-    ComparisonOptions,
     compare_conditions,
     condition_table,
     json_ready,
-    order_conditions,
     stats_csv,
     stats_table,
 )
@@ -485,7 +484,7 @@ def _render(header: list[str], rows: list[list[str]], markdown: bool) -> str:
 
 
 def _descriptive_rows(table: pd.DataFrame, first: str) -> list[list[str]]:
-    """Rows ``first, n, median [q1, q3], mean`` of :func:`~nudgecli.report.stats.condition_table`'s
+    """Rows ``first, n, median [q1, q3], mean`` of :func:`~nudgecli.report.stats_document.condition_table`'s
     table; ``first`` names the column that opens each row (``metric`` or ``condition``)."""
     return [[str(row[first]), str(int(row["n"])), _median_iqr(row["median"], row["q1"], row["q3"]),
              format_value(row["mean"])] for row in table.to_dict("records")]
@@ -497,7 +496,7 @@ def format_table(table: pd.DataFrame, conditions: Sequence[str]) -> str:
     Parameters
     ----------
     table
-        :func:`~nudgecli.report.stats.stats_table`'s tidy table of ``stats.json``.
+        :func:`~nudgecli.report.stats_document.stats_table`'s tidy table of ``stats.json``.
     conditions
         ``stats.json``'s conditions, in order.
 
@@ -533,7 +532,7 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
                    n_trials: int, n_participants: int) -> str:
     """``summary.md``: the settings, then per metric a line of tests and two markdown tables.
 
-    ``table`` is :func:`~nudgecli.report.stats.stats_table`'s tidy table of ``stats.json``,
+    ``table`` is :func:`~nudgecli.report.stats_document.stats_table`'s tidy table of ``stats.json``,
     ``conditions`` its conditions in order.
     """
     settings = plan.stats
@@ -742,7 +741,7 @@ def _plan_label(plan: str | Path | AnalysisPlan, loaded: AnalysisPlan) -> str:
 
 def _excluded_notes(table: pd.DataFrame) -> list[str]:
     """The participant-level tests' exclusions, one line per distinct note with its metrics
-    (``table``: :func:`~nudgecli.report.stats.stats_table`'s)."""
+    (``table``: :func:`~nudgecli.report.stats_document.stats_table`'s)."""
     by_note: dict[str, list[str]] = {}
     for row in table.drop_duplicates("metric").to_dict("records"):
         note = row["participant_note"]
