@@ -11,7 +11,6 @@ import pandas as pd
 import pytest
 import scipy.stats
 
-from nudgecli.report.analysis import format_p, format_table, format_value
 from nudgecli.report.cluster_bootstrap import _weighted_medians, bootstrap_median_differences
 from nudgecli.report.participant_tests import kendalls_w, participant_level_test, rank_biserial
 from nudgecli.report.stats import (
@@ -30,6 +29,7 @@ from nudgecli.report.stats_document import (
     json_ready,
     stats_table,
 )
+from nudgecli.report.summary import format_p, format_table, format_value
 
 # Groups with many ties (within and across groups).
 GROUPS = {

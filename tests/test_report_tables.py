@@ -19,8 +19,9 @@ from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.errors import DataError
 from nudgecli.report import cluster_bootstrap as bootstrap_module
-from nudgecli.report.analysis import analyze, sniff_delimiter
+from nudgecli.report.analysis import analyze
 from nudgecli.report.cluster_bootstrap import _weighted_medians, bootstrap_median_differences
+from nudgecli.report.tables import sniff_delimiter
 from nudgecli.runs.study import run_study
 
 TABLE = Path(__file__).parent / "data" / "metrics_two_conditions.csv"

@@ -21,9 +21,9 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from nudgecli.report.analysis import format_value
 from nudgecli.report.figures.output import save_figure
 from nudgecli.report.style import COLUMN_WIDTH_IN, FULL_WIDTH_IN, OKABE_ITO, figure_style
+from nudgecli.report.summary import format_value
 
 #: File stem of the figure.
 FIGURE_STEM = "compare"
