@@ -318,8 +318,9 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
                     metric_names: tuple[str, ...], questionnaires: str | None, seed: int | None,
                     bootstrap: int | None, drop_duplicates: bool) -> None:
     """Metrics and statistics of a run folder or a metrics table (CSV/Parquet, one row per trial)."""
-    from nudgecli.report.analysis import analyze, format_table
+    from nudgecli.report.analysis import analyze
     from nudgecli.report.plans import check_resamples
+    from nudgecli.report.summary import format_table
 
     check_resamples(bootstrap, "--bootstrap")
     bar, update = _progress_bar("analysing", unit="metric")
@@ -411,8 +412,9 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
     """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
     from nudgecli.config import default_plan_name
     from nudgecli.locks import run_lock
-    from nudgecli.report.analysis import analyze, format_table
+    from nudgecli.report.analysis import analyze
     from nudgecli.report.plotting import plot_folder
+    from nudgecli.report.summary import format_table
     from nudgecli.run_folder_names import FIGURES_DIR, STATS_JSON, SUMMARY_MD
 
     if plan is not None and Path(plan).suffix.lower() == ".toml":

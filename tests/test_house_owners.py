@@ -5,6 +5,10 @@
 - the prepare rule (a folder holding another run, a non-empty folder, ``--resume`` with nothing
   there), the manifest skeleton and the suggested ``--resume`` command: ``nudgecli/store.py``.
 
+And one owner of a figure concept: "draw on the given axes, or on a new figure's of this size"
+(the ``ax=None`` convention of every panel) is ``nudgecli/report/figures/common.py``'s
+``axes_or_new``; no module of ``nudgecli/report`` makes a panel's figure itself.
+
 The code is read as Python (string constants and names, docstrings left out), so prose that
 mentions ``stats.json`` does not count and a second spelling in an f-string does.
 """
@@ -107,3 +111,78 @@ def test_the_walk_sees_f_strings_and_skips_docstrings(tmp_path: Path) -> None:
                and id(n) not in skipped]
     assert "stats.json" in strings and any("nothing to resume" in s for s in strings)
     assert "--resume" not in strings and "Writes stats.json." not in strings
+
+
+# --- "the given axes, or a new figure's": one owner ----------------------------------------------------
+
+#: The one owner of "draw on the given axes, or on a new figure's of this size".
+AXES_OWNER = "nudgecli/report/figures/common.py"
+
+
+def _takes_ax(node: ast.FunctionDef | ast.AsyncFunctionDef) -> bool:
+    arguments = node.args
+    return any(a.arg == "ax" for a in (*arguments.posonlyargs, *arguments.args, *arguments.kwonlyargs))
+
+
+def _called(node: ast.AST) -> str:
+    """The name a call calls (``Figure`` of ``Figure(...)`` and of ``matplotlib.figure.Figure(...)``)."""
+    if not isinstance(node, ast.Call):
+        return ""
+    return node.func.id if isinstance(node.func, ast.Name) else getattr(node.func, "attr", "")
+
+
+def _imported(node: ast.AST) -> list[str]:
+    if isinstance(node, ast.Import):
+        return [alias.name for alias in node.names]
+    if isinstance(node, ast.ImportFrom):
+        return [f"{node.module}.{alias.name}" for alias in node.names]
+    return []
+
+
+def axes_copies(source: str) -> list[str]:
+    """Where ``source`` makes "the given axes, or a new figure's" itself instead of calling
+    :func:`nudgecli.report.figures.common.axes_or_new`: a function taking ``ax`` that makes a
+    ``Figure``, a test of ``ax is None``/``ax is not None``, a new figure's single axes
+    (``subplots()`` without arguments), or pyplot (``plt.subplots``)."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and _takes_ax(node):
+            found += [f"{node.name} takes ax and makes a Figure (line {call.lineno})"
+                      for call in ast.walk(node) if _called(call) == "Figure"]
+        if isinstance(node, ast.Compare) and isinstance(node.left, ast.Name) and node.left.id == "ax" and \
+                isinstance(node.ops[0], ast.Is | ast.IsNot) and \
+                isinstance(node.comparators[0], ast.Constant) and node.comparators[0].value is None:
+            found.append(f"ax is None (line {node.lineno})")
+        if isinstance(node, ast.Call) and _called(node) == "subplots" and not node.args and not node.keywords:
+            found.append(f"subplots() of one new axes (line {node.lineno})")
+        if any(name.endswith("pyplot") for name in _imported(node)):
+            found.append(f"pyplot imported (line {node.lineno})")
+    return sorted(set(found))
+
+
+def test_the_given_axes_or_a_new_figure_has_one_owner() -> None:
+    copies = {}
+    for path in sorted((PACKAGE / "report").rglob("*.py")):
+        name = path.relative_to(PACKAGE.parent).as_posix()
+        if name != AXES_OWNER and (found := axes_copies(path.read_text(encoding="utf-8"))):
+            copies[name] = found
+    assert copies == {}, "call nudgecli.report.figures.common.axes_or_new instead"
+
+
+@pytest.mark.parametrize("source", [
+    "def _axes(ax):\n    return ax if ax is not None else Figure(figsize=(3, 2)).subplots()\n",
+    "def panel(x, *, ax=None):\n    if ax is None:\n        ax = 1\n",
+    "def panel(x, *, ax=None):\n    fig = matplotlib.figure.Figure()\n    return fig.axes\n",
+    "def panel(x):\n    return make().subplots()\n",
+    "import matplotlib.pyplot as plt\n",
+    "from matplotlib import pyplot\n",
+])
+def test_the_axes_walk_sees_each_kind_of_copy(source: str) -> None:
+    assert axes_copies(source) != []
+
+
+def test_the_axes_walk_leaves_figures_of_several_axes_and_callers_alone() -> None:
+    source = ("def figure(rows):\n    fig = Figure(figsize=(6, 3))\n    left, right = fig.subplots(1, 2)\n"
+              "    panel(rows, ax=left)\n    return fig\n\n"
+              "def panel(rows, *, ax=None):\n    ax = axes_or_new(ax, (3, 2))\n    return ax\n")
+    assert axes_copies(source) == []

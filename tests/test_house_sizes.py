@@ -28,10 +28,8 @@ IN_REWORK: tuple[str, ...] = ()
 #: Modules over :data:`MODULE_LIMIT` today -> their length now, a cap until they are split.
 ALLOWED_MODULES: dict[str, int] = {
     "nudgecli/bench.py": 809,  # the figures of every group; a package per group would do
-    "nudgecli/cli.py": 901,  # every command's options
+    "nudgecli/cli.py": 903,  # every command's options (+2: format_table imported from report.summary)
     "nudgecli/config.py": 844,  # the sections and their derivation notes
-    "nudgecli/report/analysis.py": 921,  # reading, checking, formatting and writing an analysis
-    "nudgecli/report/stats.py": 867,  # the paper's tests and the k-condition pairs
     "nudgecli/runs/batch.py": 832,  # the batch graph, its execution and the three batch kinds
     "nudgecli/sim/protocol.py": 680,  # TrialSession is one 385-line class
     "nudgecli/store.py": 805,  # run folders, manifests, checksums, atomic writes (the lock: locks.py)
@@ -39,9 +37,6 @@ ALLOWED_MODULES: dict[str, int] = {
 
 #: Functions over :data:`FUNCTION_LIMIT` (``module:qualified name``) -> their length, a cap.
 ALLOWED_FUNCTIONS: dict[str, int] = {
-    "nudgecli/report/analysis.py:_analyze_locked": 87,
-    "nudgecli/report/brackets.py:draw_brackets": 82,
-    "nudgecli/report/figures/boxplots.py:metric_boxplot": 104,
     "nudgecli/runs/batch.py:_run_graph": 82,
 }
 

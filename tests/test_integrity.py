@@ -290,7 +290,7 @@ def test_a_batch_runs_replication_r_with_its_pinned_seed(tmp_path):
 # --- 8: the bootstrap interval's level -------------------------------------------------------------
 
 def test_the_bootstrap_interval_is_the_levels_percentiles_of_brute_force_resamples():
-    from nudgecli.report.stats import bootstrap_median_differences
+    from nudgecli.report.cluster_bootstrap import bootstrap_median_differences
 
     rng = np.random.default_rng(3)
     rows = [{"participant": p, "condition": c, "value": float(rng.integers(0, 20))}
@@ -314,7 +314,7 @@ def test_the_bootstrap_interval_is_the_levels_percentiles_of_brute_force_resampl
 
 @pytest.mark.parametrize("level", [0.5, 0.9])
 def test_the_bootstrap_interval_covers_a_known_median_difference_at_its_level(level):
-    from nudgecli.report.stats import bootstrap_median_differences
+    from nudgecli.report.cluster_bootstrap import bootstrap_median_differences
 
     datasets, participants, shift = 300, 30, 1.0
     covered = 0

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from nudgecli.model import world
 from nudgecli.model.candidates import window_candidates
 from nudgecli.report.brackets import assign_levels
-from nudgecli.report.stats import rank_biserial
+from nudgecli.report.participant_tests import rank_biserial
 from nudgecli.sim.calibration_io import nearest_indices
 
 spans = st.lists(st.tuples(st.integers(0, 6), st.integers(0, 6))

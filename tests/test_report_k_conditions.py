@@ -27,21 +27,17 @@ from nudgecli.cli import main
 from nudgecli.report.brackets import Bracket, assign_levels, bracket_levels, draw_brackets
 from nudgecli.report.figures.boxplots import FIGURE4_METRICS, METRIC_ROW_HEIGHT_IN, metrics_figure
 from nudgecli.report.figures.replication import forest_figure, power_figure
+from nudgecli.report.participant_tests import pairwise_wilcoxon, participant_level_test
 from nudgecli.report.replication import power_table, replication_rows, summarise
 from nudgecli.report.stats import (
     ComparisonOptions,
     adjust_p_values,
-    compare_conditions,
     conover,
     epsilon_squared,
-    json_ready,
     kruskal_wallis,
     order_conditions,
-    pairwise_wilcoxon,
-    participant_level_test,
-    stats_csv,
-    stats_table,
 )
+from nudgecli.report.stats_document import compare_conditions, json_ready, stats_csv, stats_table
 
 THREE = ("x", "y", "z")
 FEW_RESAMPLES = ComparisonOptions(bootstrap_resamples=100)

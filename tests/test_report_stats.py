@@ -11,26 +11,25 @@ import pandas as pd
 import pytest
 import scipy.stats
 
-from nudgecli.report.analysis import format_p, format_table, format_value
+from nudgecli.report.cluster_bootstrap import _weighted_medians, bootstrap_median_differences
+from nudgecli.report.participant_tests import kendalls_w, participant_level_test, rank_biserial
 from nudgecli.report.stats import (
     ComparisonOptions,
-    _weighted_medians,
-    analyze_metric,
-    bootstrap_median_differences,
-    compare_conditions,
-    condition_table,
     conover,
     describe,
     is_significant,
-    json_ready,
-    kendalls_w,
     kruskal_wallis,
     order_conditions,
-    participant_level_test,
-    rank_biserial,
     significance_stars,
+)
+from nudgecli.report.stats_document import (
+    analyze_metric,
+    compare_conditions,
+    condition_table,
+    json_ready,
     stats_table,
 )
+from nudgecli.report.summary import format_p, format_table, format_value
 
 # Groups with many ties (within and across groups).
 GROUPS = {

@@ -18,9 +18,10 @@ from hypothesis import strategies as st
 from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.errors import DataError
-from nudgecli.report import stats as stats_module
-from nudgecli.report.analysis import analyze, sniff_delimiter
-from nudgecli.report.stats import _weighted_medians, bootstrap_median_differences
+from nudgecli.report import cluster_bootstrap as bootstrap_module
+from nudgecli.report.analysis import analyze
+from nudgecli.report.cluster_bootstrap import _weighted_medians, bootstrap_median_differences
+from nudgecli.report.tables import sniff_delimiter
 from nudgecli.runs.study import run_study
 
 TABLE = Path(__file__).parent / "data" / "metrics_two_conditions.csv"
@@ -147,8 +148,8 @@ def test_the_bootstrap_equals_its_definition_with_small_blocks(monkeypatch):
     data = pd.DataFrame({"participant": rng.choice(["p1", "p2", "p3", "p4", "p5", "p6"], n),
                          "condition": rng.choice(["a", "b", "c"], n),
                          "value": rng.integers(0, 12, n).astype(float)})
-    monkeypatch.setattr(stats_module, "_block_size", lambda n, p: 4)  # many blocks
-    monkeypatch.setattr(stats_module, "_BOOTSTRAP_CHUNK_CELLS", 37)  # many chunks
+    monkeypatch.setattr(bootstrap_module, "_block_size", lambda n, p: 4)  # many blocks
+    monkeypatch.setattr(bootstrap_module, "_BOOTSTRAP_CHUNK_CELLS", 37)  # many chunks
     fast = bootstrap_median_differences(data, "value", ["a", "b", "c"], resamples=60, seed=9)
     expected = bootstrap_by_definition(data, ["a", "b", "c"], resamples=60, seed=9)
     assert list(zip(fast["low"], fast["high"], strict=True)) == expected
@@ -164,12 +165,12 @@ def test_weighted_medians_equal_replicated_medians_for_any_blocks(participants, 
     values = np.sort(rng.integers(0, 6, n).astype(float) if ties else rng.normal(size=n))
     owners = rng.integers(0, participants, n)
     weights = rng.integers(0, 3, size=(resamples, participants))
-    original = stats_module._block_size, stats_module._BOOTSTRAP_CHUNK_CELLS
-    stats_module._block_size, stats_module._BOOTSTRAP_CHUNK_CELLS = (lambda n, p: block), chunk
+    original = bootstrap_module._block_size, bootstrap_module._BOOTSTRAP_CHUNK_CELLS
+    bootstrap_module._block_size, bootstrap_module._BOOTSTRAP_CHUNK_CELLS = (lambda n, p: block), chunk
     try:
         fast = _weighted_medians(values, owners, weights)
     finally:
-        stats_module._block_size, stats_module._BOOTSTRAP_CHUNK_CELLS = original
+        bootstrap_module._block_size, bootstrap_module._BOOTSTRAP_CHUNK_CELLS = original
     for r in range(resamples):
         replicated = np.repeat(values, weights[r, owners])
         expected = np.median(replicated) if replicated.size else math.nan

@@ -23,6 +23,7 @@ from matplotlib.artist import Artist
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure, SubFigure
 from matplotlib.lines import Line2D
+from matplotlib.text import Text
 from matplotlib.transforms import offset_copy
 
 from nudgecli.errors import DataError
@@ -259,20 +260,26 @@ def draw_brackets(ax: Axes, positions: Mapping[str, float], comparisons: Iterabl
     artists: list[Artist] = []
     for level, (x1, x2, label) in sorted(zip(levels, drawn, strict=True), key=lambda item: item[0]):
         y = data_top + (pad_frac + tick_frac + level * step_frac) * total
-        leg = tick_frac * total
-        line = Line2D([x1, x1, x2, x2], [y - leg, y, y, y - leg], color=color, linewidth=linewidth,
-                      solid_joinstyle="miter", clip_on=False)
-        ax.add_line(line)
-        is_ns = label == "n.s."
-        if is_ns:
-            text = ax.text((x1 + x2) / 2.0, y, label, ha="center", va="bottom", color=color,
-                           fontsize=fontsize * 0.8, clip_on=False)
-        else:
-            # The asterisk glyph sits high above its baseline; dropping the baseline 0.15 em
-            # below the bar leaves the stars just clear of it.
-            shifted = offset_copy(ax.transData, fig=_root_figure(ax), y=-0.15 * fontsize, units="points")
-            text = ax.text((x1 + x2) / 2.0, y, label, ha="center", va="baseline", color=color,
-                           fontsize=fontsize, clip_on=False, transform=shifted)
-        artists.extend([line, text])
+        artists.extend(_draw_bracket(ax, x1, x2, y, tick_frac * total, label, fontsize=fontsize, color=color,
+                                     linewidth=linewidth))
     ax.set_ylim(lo, lo + total)
     return artists
+
+
+def _draw_bracket(ax: Axes, x1: float, x2: float, y: float, leg: float, label: str, *, fontsize: float,
+                  color: str, linewidth: float) -> tuple[Line2D, Text]:
+    """One bracket from ``x1`` to ``x2`` with its bar at ``y`` and legs ``leg`` long (data units),
+    its label centred on the bar: stars pulled down onto it, ``n.s.`` smaller, just above it."""
+    line = Line2D([x1, x1, x2, x2], [y - leg, y, y, y - leg], color=color, linewidth=linewidth,
+                  solid_joinstyle="miter", clip_on=False)
+    ax.add_line(line)
+    if label == "n.s.":
+        text = ax.text((x1 + x2) / 2.0, y, label, ha="center", va="bottom", color=color,
+                       fontsize=fontsize * 0.8, clip_on=False)
+    else:
+        # The asterisk glyph sits high above its baseline; dropping the baseline 0.15 em
+        # below the bar leaves the stars just clear of it.
+        shifted = offset_copy(ax.transData, fig=_root_figure(ax), y=-0.15 * fontsize, units="points")
+        text = ax.text((x1 + x2) / 2.0, y, label, ha="center", va="baseline", color=color,
+                       fontsize=fontsize, clip_on=False, transform=shifted)
+    return line, text

@@ -39,9 +39,11 @@ import pandas as pd
 import scipy.stats
 
 from nudgecli.errors import DataError, did_you_mean
-from nudgecli.report.analysis import format_p, format_value, load_source
+from nudgecli.report.analysis import load_source
 from nudgecli.report.plans import AnalysisPlan, load_plan
-from nudgecli.report.stats import json_ready, order_conditions
+from nudgecli.report.stats import order_conditions
+from nudgecli.report.stats_document import json_ready
+from nudgecli.report.summary import format_p, format_value
 from nudgecli.rng import generator
 from nudgecli.store import write_text_atomic
 

@@ -21,9 +21,10 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from nudgecli.report.analysis import format_value
+from nudgecli.report.figures.common import axes_or_new
 from nudgecli.report.figures.output import save_figure
 from nudgecli.report.style import COLUMN_WIDTH_IN, FULL_WIDTH_IN, OKABE_ITO, figure_style
+from nudgecli.report.summary import format_value
 
 #: File stem of the figure.
 FIGURE_STEM = "compare"
@@ -65,8 +66,7 @@ def compare_panel(trials: dict[str, pd.DataFrame], medians: pd.DataFrame, metric
         Put the distances under the title instead of after it (narrow panels: three or more
         conditions side by side).
     """
-    if ax is None:
-        ax = Figure(figsize=(COLUMN_WIDTH_IN, 2.3), layout="constrained").subplots()
+    ax = axes_or_new(ax, (COLUMN_WIDTH_IN, 2.3))
     for source, style in SOURCE_STYLE.items():
         table = trials[source]
         subset = table[table["condition"].astype(str) == condition]

@@ -25,7 +25,7 @@ from matplotlib.lines import Line2D
 
 from nudgecli.errors import DataError
 from nudgecli.report.figures.boxplots import METRIC_FIGSIZE, MetricSpec, metric_boxplot
-from nudgecli.report.figures.common import panel_letter, stats_by_metric
+from nudgecli.report.figures.common import axes_or_new, panel_letter, stats_by_metric
 from nudgecli.report.style import FULL_WIDTH_IN, HUMAN_COLOUR, figure_style, goal_style
 from nudgecli.steplog import MODE_SWITCH_HUMAN, has_event
 
@@ -33,6 +33,8 @@ from nudgecli.steplog import MODE_SWITCH_HUMAN, has_event
 WORLD_SIZE = (30.0, 20.0)
 CORRIDOR_HALF_WIDTH = 0.84
 PATH_TRAJECTORY_FIGSIZE = (FULL_WIDTH_IN, 3.0)
+#: Size in inches of one of its two panels drawn alone.
+PATH_PANEL_FIGSIZE = (PATH_TRAJECTORY_FIGSIZE[0] / 2, PATH_TRAJECTORY_FIGSIZE[1])
 #: The measures drawn by :func:`measures_figure`, in order, with their labels.
 MEASURE_SPECS: dict[str, MetricSpec] = {
     "completion_time": MetricSpec("completion_time", "Completion time (s)"),
@@ -99,15 +101,6 @@ def _trial(steps: pd.DataFrame) -> _Trial:
                   switches=np.asarray(has_event(events, MODE_SWITCH_HUMAN), dtype=bool))
 
 
-def _axes(ax: Axes | None) -> Axes:
-    """``ax``, or the axes of a new figure (half of :data:`PATH_TRAJECTORY_FIGSIZE`)."""
-    if ax is not None:
-        return ax
-    size = (PATH_TRAJECTORY_FIGSIZE[0] / 2, PATH_TRAJECTORY_FIGSIZE[1])
-    axes: Axes = Figure(figsize=size, layout="constrained").subplots()
-    return axes
-
-
 def path_panel(steps: pd.DataFrame, waypoints: np.ndarray, turn_waypoint: int, goal_pose: np.ndarray, *,
                ax: Axes | None = None) -> Axes:
     """Panel (a): the world, the corridor and waypoints (the turn waypoint ringed), the goal with
@@ -127,7 +120,7 @@ def path_panel(steps: pd.DataFrame, waypoints: np.ndarray, turn_waypoint: int, g
     ax
         Axes to draw on; default a new figure's.
     """
-    trial, ax = _trial(steps), _axes(ax)
+    trial, ax = _trial(steps), axes_or_new(ax, PATH_PANEL_FIGSIZE)
     waypoints = np.asarray(waypoints, dtype=float).reshape(-1, 2)
     x, y, modes = trial.x, trial.y, trial.modes
     gx, gy, gth = (float(v) for v in goal_pose)
@@ -183,7 +176,7 @@ def progress_panel(steps: pd.DataFrame, waypoints: np.ndarray, *, time_limit_s: 
     Axes
         ``ax`` (the progress axis).
     """
-    trial, progress_ax = _trial(steps), _axes(ax)
+    trial, progress_ax = _trial(steps), axes_or_new(ax, PATH_PANEL_FIGSIZE)
     waypoints = np.asarray(waypoints, dtype=float).reshape(-1, 2)
     t, modes = trial.t, trial.modes
     along = path_progress(trial.x, trial.y, waypoints)

@@ -30,17 +30,13 @@ from matplotlib.figure import Figure
 
 from nudgecli.errors import ConfigError, DataError, RunFolderError
 from nudgecli.report import figures
-from nudgecli.report.analysis import (
-    TABLE_SUFFIXES,
-    analysed_metrics_path,
-    read_metrics_table,
-    validate_metrics_table,
-)
+from nudgecli.report.analysis import analysed_metrics_path
 from nudgecli.report.checksum import recorded_checksum, verify_metrics
 from nudgecli.report.figures import TrialLayout
 from nudgecli.report.metrics import apply_filters
 from nudgecli.report.stats import ComparisonOptions
 from nudgecli.report.style import condition_display_name
+from nudgecli.report.tables import TABLE_SUFFIXES, read_metrics_table, validate_metrics_table
 from nudgecli.report.trial_selection import choose_figure5_trial
 from nudgecli.report.trial_steps import TrialKey
 from nudgecli.run_folder_names import FIGURES_DIR, METRICS_CSV, QUESTIONNAIRES_CSV, STATS_JSON

@@ -29,6 +29,7 @@ from matplotlib.figure import Figure
 
 from nudgecli.model.interface import LABELS
 from nudgecli.reference import people_ranges
+from nudgecli.report.figures.common import axes_or_new
 from nudgecli.report.figures.output import save_figure
 from nudgecli.report.style import FULL_WIDTH_IN, OKABE_ITO, figure_style
 from nudgecli.sim.real_population import PILOT_DIAGONALS, PILOT_EVENT_DIAGONALS, SIBLING_DIAGONAL_SPANS
@@ -56,8 +57,7 @@ def population_panel(simulated: pd.DataFrame, stream: str, *, ax: Axes | None = 
     ax
         Axes to draw on; default a new figure's.
     """
-    if ax is None:
-        ax = Figure(figsize=(FULL_WIDTH_IN / 2, 2.9), layout="constrained").subplots()
+    ax = axes_or_new(ax, (FULL_WIDTH_IN / 2, 2.9))
     own = simulated[simulated["stream"] == stream]
     for k, label in enumerate(LABELS):
         values = own.loc[own["label"] == label, "diagonal"].to_numpy(dtype=float)
@@ -104,8 +104,7 @@ def habits_panel(habits: pd.DataFrame, *, ax: Axes | None = None) -> Axes:
     ax
         Axes to draw on; default a new figure's.
     """
-    if ax is None:
-        ax = Figure(figsize=(FULL_WIDTH_IN, 2.7), layout="constrained").subplots()
+    ax = axes_or_new(ax, (FULL_WIDTH_IN, 2.7))
     real = people_ranges("ciaa-people")
     for k, habit in enumerate(HABIT_TITLES):
         values = habits.loc[habits["habit"] == habit, "value"].to_numpy(dtype=float)

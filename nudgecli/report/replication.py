@@ -1,9 +1,10 @@
 """Summaries over replications: significance rates, pooled effects, power curves, sensitivity indices.
 
 Each replication is analysed exactly as ``nudge analyze`` analyses a run
-(:func:`analyse_replication`: the plan's filters, then :func:`nudgecli.report.stats.compare_conditions`:
-trial-level Kruskal-Wallis and Conover, participant-level Wilcoxon with the rank-biserial effect
-size, the bootstrap interval of the median difference). This module only counts and pools those
+(:func:`analyse_replication`: the plan's filters, then
+:func:`nudgecli.report.stats_document.compare_conditions`: trial-level Kruskal-Wallis and Conover,
+participant-level Wilcoxon with the rank-biserial effect size, the bootstrap interval of the median
+difference). This module only counts and pools those
 results:
 
 - every pair of conditions is reported (with ``k`` conditions, ``k (k - 1) / 2`` rows per metric
@@ -37,15 +38,8 @@ import scipy.stats
 
 from nudgecli.report.metrics import apply_filters
 from nudgecli.report.plans import AnalysisPlan
-from nudgecli.report.stats import (
-    PAPER_CONDITIONS,
-    compare_conditions,
-    condition_table,
-    is_significant,
-    json_ready,
-    order_conditions,
-    stats_table,
-)
+from nudgecli.report.stats import PAPER_CONDITIONS, is_significant, order_conditions
+from nudgecli.report.stats_document import compare_conditions, condition_table, json_ready, stats_table
 from nudgecli.rng import generator
 
 #: The direction of Disambiguation - Control the paper reports (Section 6, Fig. 3 and 4): +1 higher

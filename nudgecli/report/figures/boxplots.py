@@ -184,42 +184,10 @@ def metric_boxplot(metrics: pd.DataFrame, metric: str, stats_entry: Mapping[str,
             v = v[np.isfinite(v)]
             data.append(v)
             out.n[c] = int(v.size)
-        drawable = [i for i, v in enumerate(data) if v.size]
-        if drawable:
-            bp = ax.boxplot([data[i] for i in drawable], positions=[positions[order[i]] for i in drawable],
-                            widths=BOX_WIDTH, patch_artist=True, showfliers=False, whis=1.5,
-                            medianprops={"color": "black", "linewidth": 1.8, "zorder": 4},
-                            whiskerprops={"color": "black", "linewidth": 0.9},
-                            capprops={"color": "black", "linewidth": 0.9},
-                            boxprops={"edgecolor": "black", "linewidth": 0.9}, manage_ticks=False, zorder=2)
-            for patch, i in zip(bp["boxes"], drawable, strict=True):
-                patch.set_facecolor(to_rgba(colours[order[i]], 0.45))
-                out.boxes[order[i]] = patch
+        _draw_boxes(ax, data, out, colours)
         if show_points:
-            for i, c in enumerate(order):
-                v = data[i]
-                if not v.size:
-                    continue
-                x = positions[c] + jitter(seed, c, v.size)
-                out.points[c] = ax.scatter(x, v, s=6, color="black", alpha=0.5, linewidths=0, zorder=3,
-                                           label=None)
-        ax.set_xticks([positions[c] for c in order])
-        names = [condition_display_name(c) for c in order]
-        if len(order) <= 2:
-            if show_n:
-                names = [f"{name}\n(n = {out.n[c]})" for name, c in zip(names, order, strict=True)]
-            ax.set_xticklabels(names)
-        else:
-            # Too narrow for horizontal names: rotate them, and keep the counts horizontal in a
-            # row of their own just under the axis.
-            ax.set_xticklabels(names, rotation=30, ha="right", rotation_mode="anchor")
-            if show_n and len(order) <= 4:
-                ax.tick_params(axis="x", pad=12)
-                for c in order:
-                    ax.annotate(f"n={out.n[c]}", (positions[c], 0.0), xycoords=("data", "axes fraction"),
-                                xytext=(0, -2), textcoords="offset points", ha="center", va="top",
-                                fontsize=TICK_FONT_PT)
-        ax.set_xlim(-0.6, len(order) - 0.4)
+            _draw_points(ax, data, out, seed)
+        _label_conditions(ax, out, show_n)
         ax.set_ylabel(wrap_label(label if label is not None else spec.label))
         if spec.integer:
             ax.yaxis.set_major_locator(MaxNLocator(integer=True))
@@ -228,6 +196,55 @@ def metric_boxplot(metrics: pd.DataFrame, metric: str, stats_entry: Mapping[str,
         ax.autoscale_view()
         out.brackets = draw_brackets(ax, positions, brackets_from_stats(stats_entry, star_rule))
     return out
+
+
+def _draw_boxes(ax: Axes, data: list[np.ndarray], out: BoxplotArtists, colours: Mapping[str, str]) -> None:
+    """The box of each condition with values (``data``: its values, in ``out.conditions``' order),
+    filled in its colour; recorded in ``out.boxes``."""
+    order, positions = out.conditions, out.positions
+    drawable = [i for i, v in enumerate(data) if v.size]
+    if not drawable:
+        return
+    bp = ax.boxplot([data[i] for i in drawable], positions=[positions[order[i]] for i in drawable],
+                    widths=BOX_WIDTH, patch_artist=True, showfliers=False, whis=1.5,
+                    medianprops={"color": "black", "linewidth": 1.8, "zorder": 4},
+                    whiskerprops={"color": "black", "linewidth": 0.9},
+                    capprops={"color": "black", "linewidth": 0.9},
+                    boxprops={"edgecolor": "black", "linewidth": 0.9}, manage_ticks=False, zorder=2)
+    for patch, i in zip(bp["boxes"], drawable, strict=True):
+        patch.set_facecolor(to_rgba(colours[order[i]], 0.45))
+        out.boxes[order[i]] = patch
+
+
+def _draw_points(ax: Axes, data: list[np.ndarray], out: BoxplotArtists, seed: int) -> None:
+    """Every trial as a dot, jittered sideways (seeded per condition); recorded in ``out.points``."""
+    for c, v in zip(out.conditions, data, strict=True):
+        if not v.size:
+            continue
+        x = out.positions[c] + jitter(seed, c, v.size)
+        out.points[c] = ax.scatter(x, v, s=6, color="black", alpha=0.5, linewidths=0, zorder=3, label=None)
+
+
+def _label_conditions(ax: Axes, out: BoxplotArtists, show_n: bool) -> None:
+    """The x axis: a tick per condition with its display name and (``show_n``) its number of trials."""
+    order, positions = out.conditions, out.positions
+    ax.set_xticks([positions[c] for c in order])
+    names = [condition_display_name(c) for c in order]
+    if len(order) <= 2:
+        if show_n:
+            names = [f"{name}\n(n = {out.n[c]})" for name, c in zip(names, order, strict=True)]
+        ax.set_xticklabels(names)
+    else:
+        # Too narrow for horizontal names: rotate them, and keep the counts horizontal in a
+        # row of their own just under the axis.
+        ax.set_xticklabels(names, rotation=30, ha="right", rotation_mode="anchor")
+        if show_n and len(order) <= 4:
+            ax.tick_params(axis="x", pad=12)
+            for c in order:
+                ax.annotate(f"n={out.n[c]}", (positions[c], 0.0), xycoords=("data", "axes fraction"),
+                            xytext=(0, -2), textcoords="offset points", ha="center", va="top",
+                            fontsize=TICK_FONT_PT)
+    ax.set_xlim(-0.6, len(order) - 0.4)
 
 
 def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metric_names: Sequence[str], *,

@@ -18,21 +18,17 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from nudgecli.report.figures.common import axes_or_new
 from nudgecli.report.replication import POWER_TARGET
 
 #: Colours of a replication's interval by participant-level significance.
 FOREST_COLOURS = {True: "#c0392b", False: "#7f8c8d"}
+#: Size in inches of one panel: a panel drawn alone, and a cell of the grids of panels.
+PANEL_FIGSIZE = (3.4, 2.6)
 
 
-def _axes(ax: Axes | None) -> Axes:
-    """``ax``, or the axes of a new single-panel figure."""
-    if ax is not None:
-        return ax
-    axes: Axes = Figure(figsize=(3.4, 2.6), layout="constrained").subplots()
-    return axes
-
-
-def _grid(n: int, width: float = 3.4, height: float = 2.6) -> tuple[Figure, list[Any]]:
+def _grid(n: int, width: float = PANEL_FIGSIZE[0],
+          height: float = PANEL_FIGSIZE[1]) -> tuple[Figure, list[Any]]:
     cols = min(3, max(1, n))
     rows_ = max(1, math.ceil(n / cols))
     fig = Figure(figsize=(width * cols, height * rows_), layout="constrained")
@@ -92,7 +88,7 @@ def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = No
     ax
         Axes to draw on; default a new figure's.
     """
-    ax = _axes(ax)
+    ax = axes_or_new(ax, PANEL_FIGSIZE)
     group = group.sort_values("replication")
     y = np.arange(len(group))
     _replication_intervals(ax, group, y, ms=3, lw=0.8, labelled=True)
@@ -121,7 +117,7 @@ def pairs_forest_panel(group: pd.DataFrame, pooled: pd.DataFrame, *, ax: Axes | 
     ax
         Axes to draw on; default a new figure's.
     """
-    ax = _axes(ax)
+    ax = axes_or_new(ax, PANEL_FIGSIZE)
     pairs = list(dict.fromkeys(zip(group["a"], group["b"], strict=True)))
     replications = sorted(group["replication"].unique())
     spread = {r: (i - (len(replications) - 1) / 2) * 0.7 / max(1, len(replications))
@@ -180,7 +176,7 @@ def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes |
     ax
         Axes to draw on; default a new figure's.
     """
-    ax = _axes(ax)
+    ax = axes_or_new(ax, PANEL_FIGSIZE)
     for level, style in (("participant", "-"), ("trial", "--")):
         group = power[power["level"] == level].sort_values("participants")
         ax.plot(group["participants"], group["power"], style, marker="o", ms=3, label=f"{level} level")
@@ -211,7 +207,7 @@ def power_grid_panel(power: pd.DataFrame, level: str, target: float = POWER_TARG
     ax
         Axes to draw on; default a new figure's.
     """
-    ax = _axes(ax)
+    ax = axes_or_new(ax, PANEL_FIGSIZE)
     rows = power[power["level"] == level]
     panels = _pair_groups(rows)
     counts = sorted(rows["participants"].unique())
@@ -269,7 +265,7 @@ def sweep_panel(group: pd.DataFrame, name: str, *, ax: Axes | None = None) -> Ax
     ax
         Axes to draw on; default a new figure's.
     """
-    ax = _axes(ax)
+    ax = axes_or_new(ax, PANEL_FIGSIZE)
     keys = group[name].map(lambda v: v if isinstance(v, int | float) else str(v))
     stats = group.assign(_x=keys).groupby("_x")["difference"].agg(
         mean="mean", low=lambda v: np.nanpercentile(v, 2.5) if v.notna().any() else np.nan,
@@ -311,7 +307,7 @@ def sensitivity_panel(indices: pd.DataFrame, *, ax: Axes | None = None) -> Axes:
     ax
         Axes to draw on; default a new figure's.
     """
-    ax = _axes(ax)
+    ax = axes_or_new(ax, PANEL_FIGSIZE)
     group = indices[indices["index"].isin(["S1", "ST", "mu_star", "sigma"])]
     names = list(dict.fromkeys(group["parameter"]))
     kinds = list(dict.fromkeys(group["index"]))

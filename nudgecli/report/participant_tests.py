@@ -1,0 +1,206 @@
+"""The participant-level tests of a metric and their effect sizes (trials are nested in participants).
+
+Each participant's trials are summarised per condition (median by default); participants missing
+a condition are dropped with a note. Two conditions: Wilcoxon signed-rank and the matched-pairs
+rank-biserial correlation of ``a - b``. More: Friedman and Kendall's W, then Wilcoxon signed-rank
+for every pair (adjusted as the Conover p-values) with each pair's rank-biserial correlation.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+import scipy.stats
+
+from nudgecli.report.stats import adjust_p_values, pairs, python_scalar, tidy_values
+
+
+def participant_summaries(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
+                          participant: str = "participant", condition: str = "condition",
+                          aggregate: Literal["median", "mean"] = "median") -> tuple[pd.DataFrame, list[Any]]:
+    """Per-participant medians (or means) per condition, complete participants only.
+
+    Returns
+    -------
+    (pd.DataFrame, list)
+        A wide table (index participant, one column per condition in the given order) of the
+        participants with a value in every condition, and the participants dropped because
+        they miss a condition.
+    """
+    tidy = tidy_values(data, metric, conditions, condition, participant)
+    grouped = tidy.groupby(["participant", "condition"], observed=True)["value"]
+    wide = grouped.agg(aggregate).unstack("condition")
+    wide = wide.reindex(columns=list(conditions))
+    complete = wide.notna().all(axis=1)
+    dropped = [python_scalar(p) for p in wide.index[~complete]]
+    return wide[complete], dropped
+
+
+def rank_biserial(x: np.ndarray, y: np.ndarray) -> float:
+    """Matched-pairs rank-biserial correlation of ``x - y`` (Kerby's simple difference formula).
+
+    ``r = (sum of ranks of positive differences - sum of ranks of negative differences) /
+    sum of all ranks``, ranks of ``|x - y|`` with zero differences dropped (as Wilcoxon's
+    ``zero_method="wilcox"``). +1 when every ``x`` exceeds its ``y``.
+
+    Parameters
+    ----------
+    x, y
+        ``(n,)`` paired values.
+
+    Returns
+    -------
+    float
+        In ``[-1, 1]``; 0 when every difference is zero, NaN for no pairs.
+    """
+    difference = np.asarray(x, dtype=float) - np.asarray(y, dtype=float)
+    if difference.size == 0:
+        return math.nan
+    difference = difference[difference != 0]
+    if difference.size == 0:
+        return 0.0
+    ranks = scipy.stats.rankdata(np.abs(difference))
+    return float((ranks[difference > 0].sum() - ranks[difference < 0].sum()) / ranks.sum())
+
+
+def kendalls_w(friedman_statistic: float, n_participants: int, n_conditions: int) -> float:
+    """Kendall's coefficient of concordance from Friedman's chi-square: ``W = chi2 / (n (k - 1))``."""
+    if n_participants < 1 or n_conditions < 2:
+        return math.nan
+    return float(friedman_statistic / (n_participants * (n_conditions - 1)))
+
+
+#: Columns of :func:`pairwise_wilcoxon`'s table.
+PAIRWISE_COLUMNS = ("a", "b", "n_participants", "statistic", "p", "p_unadjusted", "rank_biserial")
+
+
+def _wilcoxon_pairs(wide: pd.DataFrame, conditions: Sequence[str], p_adjust: str) -> pd.DataFrame:
+    """:func:`pairwise_wilcoxon` on a wide table of complete participants (one column per condition)."""
+    rows = []
+    for a, b in pairs(conditions):
+        x, y = wide[a].to_numpy(dtype=float), wide[b].to_numpy(dtype=float)
+        statistic = p = math.nan
+        if x.size and not np.all(x == y):  # all differences zero: Wilcoxon is undefined
+            result = scipy.stats.wilcoxon(x, y)
+            statistic, p = float(result.statistic), float(result.pvalue)
+        rows.append({"a": a, "b": b, "n_participants": int(x.size), "statistic": statistic,
+                     "p_unadjusted": p, "rank_biserial": rank_biserial(x, y)})
+    table = pd.DataFrame(rows, columns=[c for c in PAIRWISE_COLUMNS if c != "p"])
+    table.insert(4, "p", adjust_p_values(table["p_unadjusted"].to_numpy(dtype=float), p_adjust))
+    return table
+
+
+def pairwise_wilcoxon(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
+                      participant: str = "participant", condition: str = "condition",
+                      aggregate: Literal["median", "mean"] = "median",
+                      p_adjust: str = "holm") -> pd.DataFrame:
+    """Wilcoxon signed-rank tests of every pair of conditions on per-participant summaries.
+
+    The post-hoc tests of the participant-level Friedman test: the participants with a value in
+    every condition (the Friedman test's, listwise deletion), summarised per condition by
+    ``aggregate``; for each pair ``scipy.stats.wilcoxon(a, b)`` (zero differences dropped, exact
+    p for small samples), the p-values of all pairs adjusted together by ``p_adjust`` (Holm by
+    default, as the Conover p-values), and the matched-pairs rank-biserial correlation of ``a - b``.
+
+    Parameters
+    ----------
+    data
+        Tidy table, one row per trial: ``participant``, ``condition`` and the ``metric`` column.
+    metric
+        The column to analyse.
+    conditions
+        The conditions, in order; the pairs are :func:`~nudgecli.report.stats.pairs` of them.
+    p_adjust
+        ``multipletests`` method (``"none"`` for no adjustment).
+
+    Returns
+    -------
+    pd.DataFrame
+        One row per pair, columns :data:`PAIRWISE_COLUMNS`: ``a, b, n_participants, statistic``
+        (Wilcoxon's W), ``p`` (adjusted), ``p_unadjusted``, ``rank_biserial``. Statistic and p are
+        NaN where every participant's difference is zero (that pair is left out of the adjustment).
+    """
+    wide, _ = participant_summaries(data, metric, conditions, participant=participant,
+                                    condition=condition, aggregate=aggregate)
+    return _wilcoxon_pairs(wide, conditions, p_adjust)
+
+
+def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
+                           participant: str = "participant", condition: str = "condition",
+                           aggregate: Literal["median", "mean"] = "median", p_adjust: str = "holm",
+                           ) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The paired test on per-participant summaries and its effect size.
+
+    Two conditions: Wilcoxon signed-rank (``scipy.stats.wilcoxon``, defaults: zero differences
+    dropped, exact p for small samples) and the matched-pairs rank-biserial correlation of
+    ``a - b``. More: Friedman (``scipy.stats.friedmanchisquare``) and Kendall's W, then
+    :func:`pairwise_wilcoxon` (adjusted by ``p_adjust``) with each pair's rank-biserial correlation.
+
+    Returns
+    -------
+    (dict, dict)
+        ``participant_level``: ``test, aggregate, statistic, p, n_participants,
+        dropped_participants, note`` (and with more than two conditions ``pairwise_test``,
+        ``p_adjust`` and ``pairs``: a list of ``a, b, statistic, p, p_unadjusted``);
+        ``effect_size``: ``name, value`` (and ``a, b`` for two conditions; ``pairs``, a list of
+        ``a, b, name, value``, for more).
+    """
+    wide, dropped = participant_summaries(data, metric, conditions, participant=participant,
+                                          condition=condition, aggregate=aggregate)
+    notes = []
+    if dropped:
+        notes.append(f"{len(dropped)} participant(s) without a value in every condition dropped: "
+                     f"{', '.join(map(str, dropped))}")
+    n = len(wide)
+    statistic = p = effect = math.nan
+    two = len(conditions) == 2
+    if two:
+        a, b = wide[conditions[0]].to_numpy(), wide[conditions[1]].to_numpy()
+        effect = rank_biserial(a, b)
+        if n == 0:
+            notes.append("no participant has values in both conditions")
+        elif np.all(a == b):
+            notes.append("every participant's difference is zero; the test is undefined")
+        else:
+            result = scipy.stats.wilcoxon(a, b)
+            statistic, p = float(result.statistic), float(result.pvalue)
+    else:
+        if n < 2:
+            notes.append("fewer than two participants have values in every condition")
+        else:
+            with warnings.catch_warnings(), np.errstate(invalid="ignore", divide="ignore"):
+                warnings.simplefilter("ignore", RuntimeWarning)
+                result = scipy.stats.friedmanchisquare(*(wide[c].to_numpy() for c in conditions))
+            statistic, p = float(result.statistic), float(result.pvalue)
+            if not np.isfinite(statistic):
+                notes.append("every participant ranks the conditions equally; the test is undefined")
+            effect = kendalls_w(statistic, n, len(conditions))
+    level = {
+        "test": "wilcoxon" if two else "friedman",
+        "aggregate": aggregate,
+        "statistic": statistic,
+        "p": p,
+        "n_participants": n,
+        "dropped_participants": dropped,
+        "note": "; ".join(notes) if notes else None,
+    }
+    if two:
+        effect_size = {"name": "rank_biserial", "value": effect, "a": conditions[0], "b": conditions[1]}
+        return level, effect_size
+    effect_size = {"name": "kendall_w", "value": effect}
+    if len(conditions) > 2:
+        posthoc = _wilcoxon_pairs(wide, conditions, p_adjust)
+        level.update({
+            "pairwise_test": "wilcoxon",
+            "p_adjust": p_adjust,
+            "pairs": [{"a": r["a"], "b": r["b"], "statistic": r["statistic"], "p": r["p"],
+                       "p_unadjusted": r["p_unadjusted"]} for r in posthoc.to_dict("records")],
+        })
+        effect_size["pairs"] = [{"a": r["a"], "b": r["b"], "name": "rank_biserial",
+                                 "value": r["rank_biserial"]} for r in posthoc.to_dict("records")]
+    return level, effect_size

@@ -1,0 +1,282 @@
+"""The ``stats.json`` document (DESIGN section 5): every metric's statistics put together
+(:func:`compare_conditions`), and read back as tidy tables for the printed table, ``summary.md``,
+``stats.csv`` and the replication summaries (:func:`stats_table`, :func:`condition_table`).
+
+With two conditions the document holds exactly the keys it always held (the reference run pins
+it); the keys of the pairwise participant-level tests and of epsilon-squared appear with three or
+more.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from nudgecli.report.cluster_bootstrap import bootstrap_median_differences
+from nudgecli.report.participant_tests import participant_level_test
+from nudgecli.report.stats import (
+    ComparisonOptions,
+    conover,
+    describe,
+    epsilon_squared,
+    is_significant,
+    kruskal_wallis,
+    python_scalar,
+    significance_stars,
+)
+
+#: The settings when none are given (a frozen dataclass: one instance serves every call).
+DEFAULT_OPTIONS = ComparisonOptions()
+
+
+def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
+                   options: ComparisonOptions = DEFAULT_OPTIONS, *,
+                   participant: str = "participant", condition: str = "condition") -> dict[str, Any]:
+    """All statistics of one metric: one entry of ``stats.json``'s ``metrics`` list.
+
+    Parameters
+    ----------
+    data
+        Tidy table, one row per trial (or questionnaire response), with ``participant``,
+        ``condition`` and the ``metric`` column (numeric or boolean; missing values ignored).
+    metric
+        The column to analyse.
+    conditions
+        The conditions to compare, in order (the first is ``a`` of the first pair).
+    options
+        Test settings.
+
+    Returns
+    -------
+    dict
+        ``metric, n, mean, median, q1, q3`` (each ``{condition: value}``), ``kruskal``,
+        ``conover`` (list of ``a, b, p, p_unadjusted``), ``p_adjust``, ``stars`` (list of
+        ``a, b, stars``), ``participant_level``, ``effect_size``, ``ci``.
+    """
+    table = describe(data, metric, conditions, condition=condition).set_index("condition")
+    descriptives = {column: {c: python_scalar(table.loc[c, column]) for c in conditions}
+                    for column in ("n", "mean", "median", "q1", "q3")}
+    if len(conditions) < 2:
+        return _descriptive_entry(metric, descriptives, options)
+    kruskal = kruskal_wallis(data, metric, conditions, condition=condition)
+    posthoc = conover(data, metric, conditions, p_adjust=options.p_adjust, condition=condition)
+    significant = is_significant(kruskal["p"], options.kruskal_alpha, options.star_comparison)
+    stars = [{"a": row.a, "b": row.b,
+              "stars": significance_stars(row.p, options.star_thresholds, options.star_comparison)
+              if significant else ""} for row in posthoc.itertuples()]
+    level, effect = participant_level_test(data, metric, conditions, participant=participant,
+                                           condition=condition, aggregate=options.participant_aggregate,
+                                           p_adjust=options.p_adjust)
+    if len(conditions) > 2:  # (with two, the pair's rank-biserial r says it; stats.json stays as it was)
+        effect["kruskal_epsilon_squared"] = epsilon_squared(kruskal["statistic"],
+                                                            sum(int(v) for v in descriptives["n"].values()))
+    intervals = bootstrap_median_differences(
+        data, metric, conditions, resamples=options.bootstrap_resamples, level=options.bootstrap_level,
+        seed=options.seed, participant=participant, condition=condition)
+    return {
+        "metric": metric,
+        **descriptives,
+        "kruskal": kruskal,
+        "conover": posthoc.to_dict("records"),
+        "p_adjust": options.p_adjust,
+        "stars": stars,
+        "participant_level": level,
+        "effect_size": effect,
+        "ci": {
+            "method": "cluster bootstrap over participants, percentile interval of the difference "
+                      "of trial medians (a - b)",
+            "level": options.bootstrap_level,
+            "resamples": options.bootstrap_resamples,
+            "seed": options.seed,
+            "pairs": intervals.to_dict("records"),
+        },
+    }
+
+
+#: The note of a metric analysed with a single condition (nothing to compare).
+SINGLE_CONDITION_NOTE = "a single condition: descriptive statistics only, no tests"
+
+
+def _descriptive_entry(metric: str, descriptives: dict[str, Any],
+                       options: ComparisonOptions) -> dict[str, Any]:
+    """The ``stats.json`` entry of a metric with one condition: the descriptives, no test (the test
+    fields keep their keys, with missing values and :data:`SINGLE_CONDITION_NOTE`)."""
+    return {
+        "metric": metric,
+        **descriptives,
+        "kruskal": {"statistic": math.nan, "p": math.nan},
+        "conover": [],
+        "p_adjust": options.p_adjust,
+        "stars": [],
+        "participant_level": {"test": "none", "aggregate": options.participant_aggregate,
+                              "statistic": math.nan, "p": math.nan, "n_participants": 0,
+                              "dropped_participants": [], "note": SINGLE_CONDITION_NOTE},
+        "effect_size": {"name": "none", "value": math.nan},
+        "ci": {"method": "none", "level": options.bootstrap_level, "resamples": 0, "seed": options.seed,
+               "pairs": []},
+    }
+
+
+def compare_conditions(data: pd.DataFrame, metrics: Sequence[str], conditions: Sequence[str],
+                       options: ComparisonOptions = DEFAULT_OPTIONS, *,
+                       participant: str = "participant", condition: str = "condition") -> dict[str, Any]:
+    """The ``stats.json`` document: every metric's statistics.
+
+    With a single condition every metric gets its descriptive statistics only (no test, no
+    interval; the participant-level ``note`` says so).
+
+    Returns
+    -------
+    dict
+        ``{"conditions": [...], "metrics": [analyze_metric(...) for each metric]}``. Values are
+        plain Python (NaN stays float NaN; :func:`json_ready` turns it into ``None``).
+    """
+    return {
+        "conditions": list(conditions),
+        "metrics": [analyze_metric(data, m, conditions, options, participant=participant,
+                                   condition=condition) for m in metrics],
+    }
+
+
+#: The columns of ``stats.csv``, in order (a subset of :func:`stats_table`'s; a table of a single
+#: condition has only those of them that it holds).
+STATS_CSV_COLUMNS = (
+    "metric", "a", "b", "n_a", "n_b", "median_a", "median_b", "q1_a", "q3_a", "q1_b", "q3_b",
+    "kruskal_statistic", "kruskal_p", "conover_p", "conover_p_unadjusted", "p_adjust", "stars",
+    "participant_test", "participant_statistic", "participant_p", "n_participants",
+    "effect_size_name", "effect_size", "difference", "ci_low", "ci_high", "ci_level",
+)
+#: The columns ``stats.csv`` adds after :data:`STATS_CSV_COLUMNS` when more than two conditions are
+#: compared: the pair's participant-level post-hoc test and effect size (with two conditions the
+#: participant-level test is the pair's), and the epsilon-squared of Kruskal-Wallis.
+K_CONDITION_CSV_COLUMNS = (
+    "pairwise_test", "pairwise_statistic", "pairwise_p", "pairwise_p_unadjusted",
+    "pairwise_effect_size_name", "pairwise_effect_size", "epsilon_squared",
+)
+
+
+def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
+    """``stats.json`` as a tidy table: one row per metric x pair of conditions.
+
+    The one reader of ``stats.json``'s ``metrics`` for the formatters (the printed table,
+    ``summary.md``, ``stats.csv``) and the replication summaries: they take this table.
+
+    Returns
+    -------
+    pd.DataFrame
+        Columns :data:`STATS_CSV_COLUMNS`, then ``mean_a, mean_b, participant_note, ci_seed,
+        ci_resamples``, then with more than two conditions :data:`K_CONDITION_CSV_COLUMNS` (the
+        ``participant_*`` and ``effect_size*`` columns stay the omnibus Friedman test and Kendall's
+        W; ``pairwise_*`` are the pair's Wilcoxon test and rank-biserial r). With a single
+        condition, one row per metric with ``b`` ``None`` and only ``metric, a, b, n_a, median_a,
+        q1_a, q3_a, participant_test, ci_level, mean_a, participant_note, ci_seed, ci_resamples``.
+    """
+    rows = []
+    many = len(stats["conditions"]) > 2
+    for entry in stats["metrics"]:
+        ci, level = entry["ci"], entry["participant_level"]
+        extra = {"participant_note": level.get("note") or "", "ci_seed": ci.get("seed"),
+                 "ci_resamples": ci.get("resamples")}
+        if len(stats["conditions"]) == 1:  # descriptives only
+            (a,) = stats["conditions"]
+            rows.append({"metric": entry["metric"], "a": a, "b": None, "n_a": entry["n"][a],
+                         "median_a": entry["median"][a], "q1_a": entry["q1"][a], "q3_a": entry["q3"][a],
+                         "participant_test": "none", "ci_level": ci["level"], "mean_a": entry["mean"][a],
+                         **extra})
+            continue
+        posthoc = {(r["a"], r["b"]): r for r in entry["conover"]}
+        stars = {(r["a"], r["b"]): r["stars"] for r in entry["stars"]}
+        for interval in ci["pairs"]:
+            a, b = interval["a"], interval["b"]
+            rows.append({
+                "metric": entry["metric"], "a": a, "b": b,
+                "n_a": entry["n"][a], "n_b": entry["n"][b],
+                "median_a": entry["median"][a], "median_b": entry["median"][b],
+                "q1_a": entry["q1"][a], "q3_a": entry["q3"][a],
+                "q1_b": entry["q1"][b], "q3_b": entry["q3"][b],
+                "kruskal_statistic": entry["kruskal"]["statistic"], "kruskal_p": entry["kruskal"]["p"],
+                "conover_p": posthoc[a, b]["p"], "conover_p_unadjusted": posthoc[a, b]["p_unadjusted"],
+                "p_adjust": entry["p_adjust"], "stars": stars[a, b],
+                "participant_test": level["test"],
+                "participant_statistic": level["statistic"],
+                "participant_p": level["p"],
+                "n_participants": level["n_participants"],
+                "effect_size_name": entry["effect_size"]["name"],
+                "effect_size": entry["effect_size"]["value"],
+                "difference": interval["difference"], "ci_low": interval["low"],
+                "ci_high": interval["high"], "ci_level": ci["level"],
+                "mean_a": entry["mean"][a], "mean_b": entry["mean"][b],
+                **extra,
+                **(_pairwise_columns(entry, a, b) if many else {}),
+            })
+    return pd.DataFrame(rows)
+
+
+def _pairwise_columns(entry: dict[str, Any], a: str, b: str) -> dict[str, Any]:
+    """:data:`K_CONDITION_CSV_COLUMNS` of one pair of a ``stats.json`` entry of three or more conditions."""
+    level, effect = entry["participant_level"], entry["effect_size"]
+    test: dict[str, Any] = next((r for r in level.get("pairs") or [] if (r["a"], r["b"]) == (a, b)), {})
+    size: dict[str, Any] = next((r for r in effect.get("pairs") or [] if (r["a"], r["b"]) == (a, b)), {})
+    return {
+        "pairwise_test": level.get("pairwise_test", "none"),
+        "pairwise_statistic": test.get("statistic", math.nan),
+        "pairwise_p": test.get("p", math.nan),
+        "pairwise_p_unadjusted": test.get("p_unadjusted", math.nan),
+        "pairwise_effect_size_name": size.get("name", "none"),
+        "pairwise_effect_size": size.get("value", math.nan),
+        "epsilon_squared": effect.get("kruskal_epsilon_squared", math.nan),
+    }
+
+
+def condition_table(table: pd.DataFrame) -> pd.DataFrame:
+    """The descriptives of :func:`stats_table`'s table per metric x condition.
+
+    Parameters
+    ----------
+    table
+        :func:`stats_table`'s table.
+
+    Returns
+    -------
+    pd.DataFrame
+        ``metric, condition, n, median, q1, q3, mean``: one row per metric and condition, metrics
+        in the table's order, conditions in order of first appearance (the ``stats.json`` order:
+        every condition is ``a`` or ``b`` of some pair, and the pairs follow that order).
+    """
+    columns = ["metric", "condition", "n", "median", "q1", "q3", "mean"]
+    sides = []
+    for side in ("a", "b"):
+        if f"n_{side}" not in table:
+            continue
+        part = table[["metric", side, f"n_{side}", f"median_{side}", f"q1_{side}", f"q3_{side}",
+                      f"mean_{side}"]].copy()
+        part.columns = columns
+        part["_row"], part["_side"] = np.arange(len(table)), side
+        sides.append(part)
+    if not sides:
+        return pd.DataFrame(columns=columns)
+    stacked = pd.concat(sides).sort_values(["_row", "_side"], kind="stable")
+    stacked = stacked.drop_duplicates(["metric", "condition"])
+    return stacked[columns].reset_index(drop=True)
+
+
+def stats_csv(table: pd.DataFrame) -> str:
+    """``stats.csv``: :func:`stats_table`'s table, columns :data:`STATS_CSV_COLUMNS` then (more than
+    two conditions) :data:`K_CONDITION_CSV_COLUMNS` only."""
+    columns = (*STATS_CSV_COLUMNS, *K_CONDITION_CSV_COLUMNS)
+    return table[[c for c in columns if c in table.columns]].to_csv(index=False)
+
+def json_ready(value: Any) -> Any:
+    """A copy of ``value`` with numpy scalars made plain and NaN/inf made ``None`` (JSON null)."""
+    if isinstance(value, dict):
+        return {str(k): json_ready(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [json_ready(v) for v in value]
+    value = python_scalar(value)
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value

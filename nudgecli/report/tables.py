@@ -1,0 +1,306 @@
+"""Reading and checking a metrics table (CSV or Parquet): one row per trial with ``participant``,
+``condition`` and metric columns (real study data), as ``nudge analyze``, ``nudge compare`` and
+``nudge plot`` take it.
+
+Every column other than ``participant``, ``condition``, ``block``, ``trial``, ``layout``,
+``n_goals`` and ``true_goal`` is a metric and must be numeric (booleans count as 0/1). A CSV's
+delimiter is sniffed. Two columns of one name, infinite values and condition labels that differ
+only by case or surrounding spaces are errors naming the columns and rows; repeated trials (same
+participant, condition, block and trial) are an error unless dropped on request
+(:func:`drop_or_refuse_duplicates`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import csv
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from nudgecli.errors import DataError, did_you_mean
+from nudgecli.report.metrics import ID_COLUMNS, METRIC_NAMES
+
+#: Columns of a metrics table that describe the trial rather than measure it.
+NON_METRIC_COLUMNS = (*ID_COLUMNS, "layout", "n_goals", "true_goal")
+TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
+#: The columns that identify one trial of a metrics table (those present are used).
+TRIAL_KEY = ("participant", "condition", "block", "trial")
+#: How many rows or pairs an error message lists.
+_SHOWN = 5
+
+
+def read_metrics_table(path: str | Path) -> pd.DataFrame:
+    """Read a metrics table (CSV or Parquet) as it is.
+
+    Raises
+    ------
+    DataError
+        Not a CSV/Parquet file, empty, unreadable, or no rows.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in TABLE_SUFFIXES:
+        raise DataError(f"{path} is neither a run folder nor a metrics table; give a run folder (with "
+                        "trials/ and steps/) or a .csv/.parquet table with one row per trial")
+    try:
+        if suffix == ".csv":
+            delimiter = sniff_delimiter(path)
+            check_unique_columns(_csv_header(path, delimiter), path)
+            # conditions as categories: a large table's labels are not copied into millions of strings
+            table = pd.read_csv(path, sep=delimiter, dtype={"condition": "category"})
+        else:
+            check_unique_columns(pq.read_schema(path).names, path)
+            table = pd.read_parquet(path)
+    except pd.errors.EmptyDataError:
+        raise DataError(f"{path} is empty; a metrics table needs a header (participant, condition, "
+                        "metrics) and one row per trial") from None
+    except (pd.errors.ParserError, UnicodeDecodeError, OSError, ValueError, pa.ArrowException) as exc:
+        raise DataError(f"{path} cannot be read as a {suffix[1:]} table: {exc}") from None
+    if table.empty:
+        raise DataError(f"{path} has no rows; a metrics table needs one row per trial")
+    release_free_memory()
+    return table
+
+
+def _csv_header(path: Path, delimiter: str) -> list[str]:
+    """The column names of a CSV file's first line, as written."""
+    with open(path, encoding="utf-8-sig", errors="replace", newline="") as handle:
+        return next(csv.reader(handle, delimiter=delimiter), [])
+
+
+def check_unique_columns(names: Sequence[str], source: str | Path) -> None:
+    """Refuse a table in which two columns share a name (pandas would rename the second
+    ``name.1`` and analyse it as a metric of its own).
+
+    Raises
+    ------
+    DataError
+        Naming the column and its positions (1-based).
+    """
+    positions: dict[str, list[int]] = {}
+    for position, name in enumerate(names, start=1):
+        positions.setdefault(str(name), []).append(position)
+    repeated = {name: where for name, where in positions.items() if len(where) > 1}
+    if repeated:
+        listed = "; ".join(f"{name!r} (columns {', '.join(map(str, where[:-1]))} and {where[-1]})"
+                           for name, where in repeated.items())
+        raise DataError(f"{source}: more than one column of one name: {listed}; rename or remove the "
+                        "repeats so that each column has its own name")
+
+
+def release_free_memory() -> None:
+    """Hand the heap that parsing freed back to the operating system (glibc only; else nothing).
+
+    The CSV parser makes and frees millions of small objects (one per label cell); glibc keeps
+    that memory in the process unless asked, which for a table of millions of rows is a few
+    hundred MB of resident memory that nothing uses.
+    """
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("c")
+    if name is None:  # pragma: no cover - not a C library ctypes can find
+        return
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(name).malloc_trim(0)
+
+
+def sniff_delimiter(path: Path, sample_bytes: int = 65536) -> str:
+    """The field separator of a CSV file (``,``, ``;``, tab or ``|``), from its first 64 KiB.
+
+    ``csv.Sniffer`` decides; a file it cannot decide (one column) is read with ``,``.
+    """
+    try:
+        with open(path, encoding="utf-8", errors="replace", newline="") as handle:
+            sample = handle.read(sample_bytes)
+    except OSError:
+        return ","  # pandas reports the problem when it reads the file
+    lines = sample.splitlines()
+    if len(sample) == sample_bytes and len(lines) > 1:
+        sample = "\n".join(lines[:-1])  # the last line may be cut
+    try:
+        return csv.Sniffer().sniff(sample, delimiters=",;\t|").delimiter
+    except csv.Error:
+        return ","
+
+
+def _rows(positions: Sequence[int], first_row: int) -> str:
+    """Row numbers for a message: the first few, then how many more."""
+    shown = ", ".join(str(int(i) + first_row) for i in positions[:_SHOWN])
+    more = f" and {len(positions) - _SHOWN} more" if len(positions) > _SHOWN else ""
+    return shown + more
+
+
+def check_condition_labels(table: pd.DataFrame, source: str) -> None:
+    """Refuse condition labels that differ only by case or surrounding spaces (``Control``, ``control ``).
+
+    Raises
+    ------
+    DataError
+        Naming the near-identical labels and the most frequent spelling as the one meant.
+    """
+    counts = table["condition"].value_counts()  # most frequent first
+    groups: dict[str, list[str]] = {}
+    for label in (str(value) for value, count in counts.items() if count > 0):
+        groups.setdefault(label.strip().casefold(), []).append(label)
+    for spellings in groups.values():
+        if len(spellings) > 1:
+            listed = ", ".join(repr(label) for label in spellings)
+            raise DataError(f"{source}: condition labels {listed} differ only by case or surrounding spaces "
+                            f"(did you mean {spellings[0]!r}?); spell each condition one way")
+
+
+def find_duplicate_trials(table: pd.DataFrame) -> tuple[list[str], np.ndarray]:
+    """The trial key columns present and a mask of rows repeating an earlier row's key.
+
+    Returns
+    -------
+    (list of str, np.ndarray)
+        The key columns used (``participant``, ``condition`` and whichever of ``block``,
+        ``trial`` exist) and ``(n_rows,)`` booleans, True for each repeat after the first. No
+        ``trial`` column: no key, nothing is a duplicate.
+    """
+    if "trial" not in table.columns:
+        return [], np.zeros(len(table), dtype=bool)
+    key = [c for c in TRIAL_KEY if c in table.columns]
+    combined = np.zeros(len(table), dtype=np.int64)
+    span = 1
+    for column in key:  # one int64 code per row: far less memory than DataFrame.duplicated on a large table
+        column_codes, uniques = pd.factorize(table[column], use_na_sentinel=False)
+        size = max(1, len(uniques))
+        span *= size
+        if span >= 2**62:  # the combined code would overflow: let pandas hash the rows
+            return key, table.duplicated(subset=key, keep="first").to_numpy()
+        combined *= size
+        combined += column_codes
+        del column_codes
+    order = np.argsort(combined, kind="stable")  # equal keys stay in row order: the first is kept
+    ordered = combined[order]
+    repeats = np.zeros(len(table), dtype=bool)
+    repeats[order[1:][ordered[1:] == ordered[:-1]]] = True
+    return key, repeats
+
+
+def _check_finite(table: pd.DataFrame, metric_columns: Sequence[str], source: str, first_row: int) -> None:
+    """Refuse infinite values in metric columns (missing values are allowed: they are left out)."""
+    bad: list[str] = []
+    positions: set[int] = set()
+    for column in metric_columns:
+        if pd.api.types.is_bool_dtype(table[column]):
+            continue
+        values = table[column].to_numpy(dtype=float, na_value=np.nan)
+        infinite = np.flatnonzero(np.isinf(values))
+        if infinite.size:
+            bad.append(f"{column!r} (rows {_rows(list(infinite), first_row)})")
+            positions.update(int(i) for i in infinite)
+    if bad:
+        raise DataError(f"{source}: infinite values in {len(positions)} row(s): {'; '.join(bad)}; "
+                        "replace them with a number or leave the cell empty (a missing value)")
+
+
+def _first_non_number(series: pd.Series, first_row: int) -> str:
+    """`` (row R holds 'VALUE')``: the first cell of a non-numeric column that is not a number
+    (a blank is a missing value, not the culprit); empty if none can be singled out."""
+    present = series.notna().to_numpy()
+    numbers = pd.to_numeric(series, errors="coerce").notna().to_numpy()
+    culprits = np.flatnonzero(present & ~numbers)
+    if not culprits.size:
+        return ""
+    more = f", and {culprits.size - 1} more cell(s)" if culprits.size > 1 else ""
+    return f" (row {int(culprits[0]) + first_row} holds {series.iloc[int(culprits[0])]!r}{more})"
+
+
+def _is_numeric(series: pd.Series) -> bool:
+    return pd.api.types.is_bool_dtype(series) or pd.api.types.is_numeric_dtype(series)
+
+
+def _as_boolean(series: pd.Series) -> pd.Series | None:
+    """A column of True/False with blanks (read by pandas as objects) as nullable booleans, else None."""
+    values = series.dropna()
+    if len(values) and all(isinstance(v, bool | np.bool_) for v in values):
+        return series.astype("boolean")
+    return None
+
+
+def validate_metrics_table(table: pd.DataFrame, source: str, first_row: int = 2,
+                           min_conditions: int = 1) -> list[str]:
+    """Check a metrics table and return its metric columns.
+
+    Boolean columns with blanks (``True``, ``False``, empty) are converted in place to nullable
+    booleans.
+
+    Parameters
+    ----------
+    table
+        The table as read.
+    source
+        Its name in messages.
+    first_row
+        The row number messages give the table's first row (2 for a CSV: line 1 is the header).
+    min_conditions
+        Fewest conditions the table must hold.
+
+    Raises
+    ------
+    DataError
+        A missing or incomplete ``participant``/``condition`` column, no metric column, a
+        non-numeric metric column, an infinite value, condition labels differing only by case or
+        surrounding spaces, or fewer than ``min_conditions`` conditions (a single condition is
+        analysed descriptively).
+    """
+    for column in ("participant", "condition"):
+        if column not in table.columns:
+            hint = did_you_mean(column, [str(c) for c in table.columns])
+            raise DataError(f"{source} has no {column!r} column{hint}; a metrics table needs "
+                            "participant, condition and metric columns, one row per trial")
+        empty = table[column].isna()
+        if empty.any():
+            row = int(empty.to_numpy().nonzero()[0][0])
+            raise DataError(f"{source}: column {column!r} is empty in row {row + first_row}; fill it in "
+                            "or remove the row")
+    metric_columns = [str(c) for c in table.columns if c not in NON_METRIC_COLUMNS]
+    if not metric_columns:
+        raise DataError(f"{source} has no metric columns; add one numeric column per metric "
+                        f"(e.g. {', '.join(METRIC_NAMES[:3])})")
+    for column in metric_columns:
+        if table[column].dtype == object and (converted := _as_boolean(table[column])) is not None:
+            table[column] = converted
+        if not _is_numeric(table[column]):
+            culprit = _first_non_number(table[column], first_row)
+            raise DataError(f"{source}: metric column {column!r} is not numeric{culprit}; make it numeric, "
+                            "remove it, or pick the metrics with --metric")
+    _check_finite(table, metric_columns, source, first_row)
+    check_condition_labels(table, source)
+    conditions = sorted({str(value) for value in table["condition"].dropna().unique()})
+    if len(conditions) < min_conditions:
+        raise DataError(f"{source}: column 'condition' holds {len(conditions)} condition(s); "
+                        f"this needs at least {min_conditions}")
+    return metric_columns
+
+
+def drop_or_refuse_duplicates(table: pd.DataFrame, source: Path, first_row: int, drop_duplicates: bool,
+                              notes: list[str]) -> tuple[pd.DataFrame, bool]:
+    """``table`` without repeated trial rows (:func:`find_duplicate_trials`), and whether any were
+    dropped: the one check of duplicated trials, for ``analyze`` and ``compare`` alike.
+
+    Raises
+    ------
+    DataError
+        Repeated trial rows and not ``drop_duplicates`` (naming the rows and the flag).
+    """
+    key, repeats = find_duplicate_trials(table)
+    if not repeats.any():
+        return table, False
+    positions = np.flatnonzero(repeats)
+    if not drop_duplicates:
+        raise DataError(f"{source}: {positions.size} duplicate trial row(s) (same {', '.join(key)} as an "
+                        f"earlier row): rows {_rows(list(positions), first_row)}; remove them, or pass "
+                        "--drop-duplicates to keep the first of each")
+    notes.append(f"{source}: dropped {positions.size} duplicate trial row(s) (same {', '.join(key)}; the "
+                 f"first of each kept): rows {_rows(list(positions), first_row)}")
+    return table.loc[~repeats].reset_index(drop=True), True
