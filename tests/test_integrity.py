@@ -280,7 +280,7 @@ def test_replication_seeds_are_pinned():
 
 
 def test_a_batch_runs_replication_r_with_its_pinned_seed(tmp_path):
-    from nudgecli.runs.batch import replicate
+    from nudgecli.runs.batch_kinds import replicate
 
     result = replicate("smoke", 2, tmp_path / "batch", seed=5, participants=2)
     seeds = sorted(set(result.rows[["replication", "seed"]].itertuples(index=False, name=None)))
@@ -351,7 +351,7 @@ def test_a_lock_file_with_a_non_numeric_pid_is_taken_over(tmp_path, smoke_run, p
 
 @pytest.mark.parametrize("content", ["[1, 2]", '{"conditions": ["a"]}', '"text"', '{"metrics": 3}'])
 def test_a_batch_analysis_of_the_wrong_shape_is_recomputed_on_resume(tmp_path, content):
-    from nudgecli.runs.batch import replicate
+    from nudgecli.runs.batch_kinds import replicate
 
     first = replicate("smoke", 1, tmp_path / "a", seed=3, participants=2)
     (analysis,) = sorted((tmp_path / "a" / "analyses").glob("*.json"))
