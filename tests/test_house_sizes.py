@@ -27,7 +27,6 @@ IN_REWORK: tuple[str, ...] = ()
 
 #: Modules over :data:`MODULE_LIMIT` today -> their length now, a cap until they are split.
 ALLOWED_MODULES: dict[str, int] = {
-    "nudgecli/bench.py": 809,  # the figures of every group; a package per group would do
     "nudgecli/cli.py": 901,  # every command's options
     "nudgecli/config.py": 844,  # the sections and their derivation notes
     "nudgecli/report/analysis.py": 921,  # reading, checking, formatting and writing an analysis

@@ -500,7 +500,9 @@ def test_conover_of_two_conditions_is_adjusted_as_statsmodels_adjusts_one_test(m
 
 
 def test_bench_scale_figures_cover_every_core_count_and_dask():
-    from nudgecli.bench import BenchOptions, scale_figure, select_figures
+    from nudgecli.bench import select_figures
+    from nudgecli.bench.common import BenchOptions
+    from nudgecli.bench.scale import scale_figure
 
     names = [f.__name__ for f in select_figures("scale")]
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
