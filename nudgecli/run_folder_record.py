@@ -38,7 +38,7 @@ def part_name(participant: int) -> str:
     return f"part-{participant:04d}.parquet"
 
 
-def _readable(part: Path) -> bool:
+def readable_parquet(part: Path) -> bool:
     """Whether ``part`` is a Parquet file whose footer parses (a truncated file's does not)."""
     try:
         pq.ParquetFile(part).close()
@@ -207,7 +207,7 @@ class RunRecord:
         done: set[int] | None = None
         for kind in PART_KINDS:
             folder = self.path / kind
-            found = {int(p.stem.split("-")[1]) for p in folder.glob("part-*.parquet") if _readable(p)}
+            found = {int(p.stem.split("-")[1]) for p in folder.glob("part-*.parquet") if readable_parquet(p)}
             done = found if done is None else done & found
         return sorted(done or set())
 
@@ -229,7 +229,7 @@ class RunRecord:
                 part = self.part_path(kind, index)
                 if not part.is_file():
                     missing.setdefault(index, []).append(f"{kind}/{part.name} (missing)")
-                elif not _readable(part):
+                elif not readable_parquet(part):
                     missing.setdefault(index, []).append(f"{kind}/{part.name} (unreadable)")
         return missing
 

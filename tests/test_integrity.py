@@ -363,6 +363,19 @@ def test_a_batch_analysis_of_the_wrong_shape_is_recomputed_on_resume(tmp_path, c
     pd.testing.assert_frame_equal(again.rows, first.rows)
 
 
+def test_a_truncated_batch_task_part_is_recomputed_on_resume(tmp_path):
+    from nudgecli.runs.batch_kinds import replicate
+
+    first = replicate("smoke", 1, tmp_path / "a", seed=3, participants=2)
+    part = sorted((tmp_path / "a" / "tasks").glob("*/part-0001.parquet"))[0]
+    good = part.read_bytes()
+    part.write_bytes(good[: len(good) // 2])  # a footer that does not parse
+    again = replicate("smoke", 1, tmp_path / "a", seed=3, participants=2, resume=True)
+    assert again.run.computed == 1  # the participant (its analysis is on disk and readable)
+    assert part.read_bytes() == good
+    pd.testing.assert_frame_equal(again.rows, first.rows)
+
+
 @pytest.mark.parametrize("value", ["inf", "-inf", "nan"])
 def test_validate_refuses_a_non_finite_belief_concentration(value):
     result = invoke(["validate", "--simulations", "2", "--max-goals", "4", "--mc-queries", "0",

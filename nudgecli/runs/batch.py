@@ -49,13 +49,13 @@ from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.rng import seed_sequence
+from nudgecli.run_folder_record import readable_parquet
 from nudgecli.runs.batch_folder import (
     BATCH_MANIFEST,
     analysis_part,
     prepare_folder,
     read_json,
     read_study_metrics,
-    readable_parquet,
     readable_stats,
     task_part,
 )

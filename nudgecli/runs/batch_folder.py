@@ -3,8 +3,9 @@
 Every result of a batch is written by the process that runs it as an atomic part file: a
 participant task's per-trial metrics under ``tasks/<study>/``, an analysis's statistics under
 ``analyses/``. ``--resume`` recomputes exactly the tasks whose part is missing or unreadable
-(:func:`readable_parquet`, :func:`readable_stats`), so an interrupted batch finishes without
-recomputing a finished task. The graph and its execution are in :mod:`nudgecli.runs.batch`.
+(:func:`nudgecli.run_folder_record.readable_parquet`, :func:`readable_stats`), so an interrupted
+batch finishes without recomputing a finished task. The graph and its execution are in
+:mod:`nudgecli.runs.batch`.
 """
 
 from __future__ import annotations
@@ -15,10 +16,10 @@ from pathlib import Path
 from typing import Any
 
 import pandas as pd
-import pyarrow.parquet as pq
 
 from nudgecli.errors import RunFolderError
 from nudgecli.run_folder_names import FIGURES_DIR
+from nudgecli.run_folder_record import part_name
 from nudgecli.store import prepare_mode
 
 BATCH_MANIFEST = "batch.json"
@@ -26,22 +27,12 @@ BATCH_MANIFEST = "batch.json"
 
 def task_part(folder: Path, study: str, participant: int) -> Path:
     """The part file of a participant task."""
-    return folder / "tasks" / study / f"part-{participant:04d}.parquet"
+    return folder / "tasks" / study / part_name(participant)
 
 
 def analysis_part(folder: Path, analysis: str) -> Path:
     """The part file of an analysis."""
     return folder / "analyses" / f"{analysis}.json"
-
-
-def readable_parquet(path: Path) -> bool:
-    if not path.is_file():
-        return False
-    try:
-        pq.ParquetFile(path)
-    except Exception:  # pyarrow raises several types for broken files
-        return False
-    return True
 
 
 def readable_stats(path: Path) -> bool:
