@@ -678,7 +678,7 @@ def _batch_interrupt_hint(target: Path, command: str) -> Callable[[], str]:
     """What to say after Ctrl-C of a batch into ``target``."""
 
     def hint() -> str:
-        from nudgecli.runs.batch import BATCH_MANIFEST
+        from nudgecli.runs.batch_folder import BATCH_MANIFEST
 
         if (target / BATCH_MANIFEST).is_file():
             return f"{target} keeps its finished tasks; resume with: {command}"
@@ -706,7 +706,7 @@ def replicate_command(experiment: str, replications: int, seed: int | None, plan
                       scheduler: str | None, resume: bool, force: bool, yes: bool,
                       output_format: str) -> None:
     """R independent studies of EXPERIMENT: how often each difference is significant, the pooled effect."""
-    from nudgecli.runs.batch import replicate
+    from nudgecli.runs.batch_kinds import replicate
 
     _run_batch_command("replicate", replicate, out, f"{_experiment_name(experiment)}-replicate",
                        output_format,
@@ -737,7 +737,7 @@ def power_command(experiment: str, counts: str, replications: int, seed: int | N
                   target: float, overrides: tuple[str, ...], out: str | None, workers: int,
                   scheduler: str | None, resume: bool, force: bool, yes: bool, output_format: str) -> None:
     """Power curves: the chance of a significant difference in the paper's direction per participant count."""
-    from nudgecli.runs.batch import power
+    from nudgecli.runs.batch_kinds import power
 
     _run_batch_command("power", power, out, f"{_experiment_name(experiment)}-power", output_format,
                        experiment=experiment, participant_counts=_counts(counts), replications=replications,
@@ -753,7 +753,7 @@ def power_command(experiment: str, counts: str, replications: int, seed: int | N
 def sweep_command(sweep_file: str, replications: int | None, seed: int | None, out: str | None, workers: int,
                   scheduler: str | None, resume: bool, force: bool, yes: bool, output_format: str) -> None:
     """Run a sweep file (grid, Sobol or Morris design over experiment keys); see the README for the format."""
-    from nudgecli.runs.batch import sweep
+    from nudgecli.runs.batch_kinds import sweep
 
     _run_batch_command("sweep", sweep, out, f"{_experiment_name(sweep_file)}-sweep", output_format,
                        sweep_file=sweep_file, replications=replications, seed=seed, workers=workers,

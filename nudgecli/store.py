@@ -22,6 +22,9 @@ the one the manifest recorded when they were written. Readers take exactly the p
 participants the manifest promises and verify them against it.
 
 While a command writes a run folder it holds the folder's lock (:func:`nudgecli.locks.run_lock`).
+What a run folder records and holds (the manifest's promises, the parts and their checksums, the
+experiment's differences on resume) is read and checked by
+:class:`nudgecli.run_folder_record.RunRecord`, which :class:`RunFolder` builds on.
 """
 
 from __future__ import annotations
@@ -35,7 +38,7 @@ import platform
 import shlex
 import sys
 import tempfile
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
@@ -45,8 +48,8 @@ import pandas as pd
 import pyarrow.parquet as pq
 
 from nudgecli import __version__
-from nudgecli.config import ExperimentConfig, experiment_from_toml
-from nudgecli.errors import DataError, NudgeError, RunFolderError, WriteError
+from nudgecli.config import ExperimentConfig
+from nudgecli.errors import DataError, RunFolderError, WriteError
 from nudgecli.run_folder_names import (
     CONFIG,
     LAYOUTS,
@@ -59,6 +62,7 @@ from nudgecli.run_folder_names import (
     STATS_JSON,
     SUMMARY_MD,
 )
+from nudgecli.run_folder_record import RunRecord, file_sha256, part_name
 
 _LIBRARIES = ("numpy", "scipy", "pandas", "pyarrow", "pydantic", "click", "matplotlib", "scikit-posthocs")
 
@@ -287,63 +291,6 @@ def study_resume_command(experiment: str, participant_id: str, folder: str | Pat
     return resume_command(["study", experiment, "--participant", participant_id], folder, options)
 
 
-def file_sha256(path: str | Path) -> str:
-    """The SHA-256 of a file's bytes, as hex (read in 1 MiB blocks)."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
-def _flatten(data: Any, prefix: str = "") -> dict[str, Any]:
-    """A nested mapping as ``{"section.key": value}`` (lists stay whole)."""
-    if not isinstance(data, Mapping):
-        return {prefix: data}
-    flat: dict[str, Any] = {}
-    for key, value in data.items():
-        flat.update(_flatten(value, f"{prefix}.{key}" if prefix else str(key)))
-    return flat
-
-
-def _shown(value: Any) -> str:
-    """A value as the user wrote it in TOML or on the command line (JSON spelling)."""
-    return "(absent)" if value is _ABSENT else json.dumps(value)
-
-
-_ABSENT = object()
-
-
-def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -> list[str]:
-    """``key: OLD in the manifest, NEW now`` for every key of two resolved experiments that differs.
-
-    Parameters
-    ----------
-    recorded
-        The experiment the manifest recorded (``manifest["config"]``).
-    current
-        The experiment now (``ExperimentConfig.model_dump(mode="json")``).
-    """
-    old, new = _flatten(recorded), _flatten(json.loads(json.dumps(current)))
-    return [f"{key}: {_shown(old.get(key, _ABSENT))} in the manifest, {_shown(new.get(key, _ABSENT))} now"
-            for key in sorted(old.keys() | new.keys())
-            if old.get(key, _ABSENT) != new.get(key, _ABSENT)]
-
-
-def _readable(part: Path) -> bool:
-    """Whether ``part`` is a Parquet file whose footer parses (a truncated file's does not)."""
-    try:
-        pq.ParquetFile(part).close()
-    except Exception:  # pyarrow raises several types for broken files
-        return False
-    return True
-
-
-def part_name(participant: int) -> str:
-    """The file name of a participant's parts."""
-    return f"part-{participant:04d}.parquet"
-
-
 #: What marks a folder as a run folder, any one of them: the tables' folders, the manifest, the
 #: resolved experiment.
 RUN_FOLDER_MARKERS = ("trials", "steps", MANIFEST, CONFIG)
@@ -360,8 +307,9 @@ def is_run_folder(path: str | Path) -> bool:
     return path.is_dir() and any((path / marker).exists() for marker in RUN_FOLDER_MARKERS)
 
 
-class RunFolder:
-    """A run folder on disk.
+class RunFolder(RunRecord):
+    """A run folder on disk: what :class:`~nudgecli.run_folder_record.RunRecord` reads and checks,
+    and the reading of its tables, its preparation, writing and resumption.
 
     Parameters
     ----------
@@ -369,150 +317,7 @@ class RunFolder:
         The folder.
     """
 
-    def __init__(self, path: str | Path) -> None:
-        self.path = Path(path)
-
-    # --- inspection ---------------------------------------------------------------------------
-
-    @property
-    def manifest_path(self) -> Path:
-        return self.path / MANIFEST
-
-    def is_run(self) -> bool:
-        """Whether the folder holds a run with a manifest (:func:`is_run_folder` is the looser test
-        of a folder with any part of a run)."""
-        return self.manifest_path.is_file()
-
-    def read_manifest(self) -> dict[str, Any]:
-        """The manifest, or a ``RunFolderError`` naming the problem."""
-        if not self.is_run():
-            raise RunFolderError(f"{self.path}: not a run folder (no {MANIFEST}); run `nudge simulate` first")
-        try:
-            return json.loads(self.manifest_path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            raise RunFolderError(f"{self.manifest_path}: unreadable manifest ({exc})") from exc
-
-    def participant_count(self, manifest: Mapping[str, Any]) -> int:
-        """The manifest's ``participants``: a whole number, or a ``RunFolderError`` naming the value."""
-        value = manifest.get("participants", 0)
-        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-            raise RunFolderError(f"{self.manifest_path}: participants = {json.dumps(value)} is not a whole "
-                                 "number of participants; the manifest is damaged: restore it, or simulate "
-                                 "the run again with --force")
-        return value
-
-    def manifest_participants(self, manifest: Mapping[str, Any]) -> list[int] | None:
-        """The participants whose parts the manifest promises (a ``nudge study`` folder: those its
-        ``live`` entries name), or ``None`` for a manifest that names no participant count."""
-        if manifest.get("executor") == "live":
-            try:
-                return sorted(int(key) for key in (manifest.get("live") or {}))
-            except (TypeError, ValueError):
-                raise RunFolderError(f"{self.manifest_path}: a participant of 'live' is not a number; "
-                                     "the manifest is damaged") from None
-        if "participants" not in manifest:
-            return None
-        return list(range(self.participant_count(manifest)))
-
-    def stray_parts(self, manifest: Mapping[str, Any]) -> list[str]:
-        """Parts on disk of participants the manifest does not promise (``trials/part-0007.parquet``):
-        copied in from another run, left by an earlier run with more participants; never read."""
-        expected = self.manifest_participants(manifest)
-        if expected is None:
-            return []
-        names = {part_name(index) for index in expected}
-        return [f"{kind}/{part.name}" for kind in PART_KINDS
-                for part in sorted((self.path / kind).glob("part-*.parquet")) if part.name not in names]
-
-    def recorded_checksums(self, manifest: Mapping[str, Any]) -> dict[int, dict[str, str]]:
-        """The manifest's ``checksums``: participant -> part kind -> SHA-256 (hex); empty for a
-        manifest of an older nudge.
-
-        Raises
-        ------
-        RunFolderError
-            The entry is not of that shape (a damaged or edited manifest).
-        """
-        recorded = manifest.get("checksums") or {}
-        try:
-            sums = {int(key): dict(value) for key, value in recorded.items()}
-            if all(kind in PART_KINDS and isinstance(digest, str)
-                   for value in sums.values() for kind, digest in value.items()):
-                return sums
-        except (AttributeError, TypeError, ValueError):
-            pass
-        raise RunFolderError(f"{self.manifest_path}: 'checksums' is damaged (expected participant -> "
-                             f"{{{', '.join(PART_KINDS)}}} -> SHA-256); restore the manifest, or simulate "
-                             "the run again with --force")
-
-    def changed_parts(self, manifest: Mapping[str, Any]) -> dict[int, list[str]]:
-        """Participant -> its parts on disk whose SHA-256 differs from the one the manifest recorded."""
-        changed: dict[int, list[str]] = {}
-        for participant, sums in self.recorded_checksums(manifest).items():
-            for kind, recorded in sums.items():
-                part = self.part_path(kind, participant)
-                if part.is_file() and file_sha256(part) != recorded:
-                    changed.setdefault(participant, []).append(f"{kind}/{part.name}")
-        return changed
-
-    def integrity_notes(self, manifest: Mapping[str, Any]) -> list[str]:
-        """What a reader of the run should be told: stray parts left out, parts without a recorded
-        SHA-256 (a manifest of an older nudge, or a ``nudge study`` folder) that were not verified."""
-        notes = []
-        strays = self.stray_parts(manifest)
-        if strays:
-            shown = ", ".join(strays[:6]) + (f" and {len(strays) - 6} more" if len(strays) > 6 else "")
-            notes.append(f"{self.path}: left out {len(strays)} part(s) not in the manifest: {shown}; they do "
-                         "not belong to this run (remove them)")
-        expected = self.manifest_participants(manifest) or []
-        sums = self.recorded_checksums(manifest)
-        unverified = [index for index in expected if index not in sums]
-        if unverified and manifest.get("executor") != "live":
-            notes.append(f"{self.path}: the manifest records no SHA-256 of the parts of {len(unverified)} "
-                         "participant(s) (written by an older nudge); they were read unverified")
-        return notes
-
-    def read_config(self) -> ExperimentConfig:
-        """The resolved experiment the run was made with."""
-        path = self.path / CONFIG
-        if not path.is_file():
-            raise RunFolderError(f"{self.path}: no {CONFIG}; the run folder is incomplete")
-        return experiment_from_toml(path.read_text(encoding="utf-8"), str(path))
-
-    def part_path(self, kind: str, participant: int) -> Path:
-        """Where participant ``participant``'s part of ``kind`` lives."""
-        return self.path / kind / part_name(participant)
-
-    def completed_participants(self) -> list[int]:
-        """Participants whose three parts are all on disk and readable (a Parquet footer that parses)."""
-        done: set[int] | None = None
-        for kind in PART_KINDS:
-            folder = self.path / kind
-            found = {int(p.stem.split("-")[1]) for p in folder.glob("part-*.parquet") if _readable(p)}
-            done = found if done is None else done & found
-        return sorted(done or set())
-
-    def missing_parts(self, participants: int) -> dict[int, list[str]]:
-        """Participant -> the parts (``trials/part-0003.parquet``, ...) missing or unreadable.
-
-        Parameters
-        ----------
-        participants
-            How many participants the run has (0 .. participants - 1 are expected).
-        """
-        return self._unusable_parts({index: PART_KINDS for index in range(participants)})
-
-    def _unusable_parts(self, expected: Mapping[int, Sequence[str]]) -> dict[int, list[str]]:
-        """Participant -> those of its expected part kinds that are missing or unreadable."""
-        missing: dict[int, list[str]] = {}
-        for index, kinds in expected.items():
-            for kind in kinds:
-                part = self.part_path(kind, index)
-                if not part.is_file():
-                    missing.setdefault(index, []).append(f"{kind}/{part.name} (missing)")
-                elif not _readable(part):
-                    missing.setdefault(index, []).append(f"{kind}/{part.name} (unreadable)")
-        return missing
+    # --- reading ------------------------------------------------------------------------------
 
     def resume_command(self, manifest: dict[str, Any] | None = None) -> str:
         """The command that finishes or repairs this run (``nudge simulate ... --resume``)."""
@@ -640,12 +445,6 @@ class RunFolder:
     def read_steps(self) -> pd.DataFrame:
         return self.read_table("steps")
 
-    def read_layouts(self) -> pd.DataFrame:
-        path = self.path / LAYOUTS
-        if not path.is_file():
-            raise RunFolderError(f"{self.path}: no {LAYOUTS}; the run folder is incomplete")
-        return pd.read_parquet(path)
-
     # --- writing ------------------------------------------------------------------------------
 
     def prepare(self, config: ExperimentConfig, seed: int, participants: int, resume: bool,
@@ -686,46 +485,6 @@ class RunFolder:
         write_text_atomic(self.path / CONFIG, config_text)
         return "new"
 
-    def resume_differences(self, manifest: Mapping[str, Any], config: ExperimentConfig, seed: int,
-                           participants: int) -> list[str]:
-        """What differs between the run the manifest recorded and a resume of it with ``config``,
-        ``seed`` and ``participants`` by this nudge: ``key: OLD in the manifest, NEW now`` each.
-
-        The resolved experiment is compared key by key (a manifest without one: the run's
-        ``config.toml``), then the seed, the participant count and nudgecli's version.
-        """
-        if isinstance(manifest.get("config"), Mapping):
-            differences = experiment_differences(manifest["config"], config.model_dump(mode="json"))
-        else:  # a manifest of an older nudge: the run's config.toml is the record
-            config_path = self.path / CONFIG
-            old = config_path.read_text(encoding="utf-8") if config_path.is_file() else ""
-            differences = [] if old == config.to_toml() else [f"{CONFIG}: differs from the experiment now"]
-        if manifest.get("seed") != seed:
-            differences.append(f"seed: {_shown(manifest.get('seed', _ABSENT))} in the manifest, {seed} now")
-        if manifest.get("participants") != participants and \
-                not any(d.startswith("study.participants:") for d in differences):
-            differences.append(f"participants: {_shown(manifest.get('participants', _ABSENT))} in the "
-                               f"manifest, {participants} now")
-        recorded_version = (manifest.get("versions") or {}).get("nudgecli", _ABSENT)
-        if recorded_version != __version__:
-            shown = "(absent)" if recorded_version is _ABSENT else str(recorded_version)
-            differences.append(f"nudgecli version: {shown} in the manifest, {__version__} now")
-        return differences
-
-    def _edited_config_hint(self, manifest: Mapping[str, Any]) -> str:
-        """``put back ...; `` when the run's ``config.toml`` no longer holds the experiment its
-        manifest recorded (edited after the run started), else nothing."""
-        path = self.path / CONFIG
-        recorded = manifest.get("config")
-        if not isinstance(recorded, Mapping) or not path.is_file():
-            return ""
-        try:
-            on_disk = experiment_from_toml(path.read_text(encoding="utf-8"), str(path))
-        except (NudgeError, OSError, ValueError):
-            return f"{path} no longer holds the run's experiment: put back the manifest's values, then "
-        if experiment_differences(recorded, on_disk.model_dump(mode="json")):
-            return f"{path} was edited after the run started: put back the manifest's values, then "
-        return ""
 
     def _only_a_start(self, config_text: str) -> bool:
         """Whether the folder holds only the start of this very run (its config.toml, perhaps its

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -10,15 +11,17 @@ import pytest
 from click.testing import CliRunner
 
 from nudgecli import bench
+from nudgecli.bench import analyze, common, scale
+from nudgecli.bench import model as figures
 from nudgecli.cli import main
 
 
 def test_run_bench_rows_have_the_columns() -> None:
-    options = bench.BenchOptions(repeats=1, baseline_repeats=1, mc_states=2)
+    options = common.BenchOptions(repeats=1, baseline_repeats=1, mc_states=2)
     # the window figure's baseline is a full 75-state per-sample run (about a second); the grid
     # and VI figures are cheap at these options
-    rows = bench.run_bench(options, figures=[bench.figure_grid, bench.figure_value_iteration])
-    assert [set(row) for row in rows] == [set(bench.COLUMNS)] * 2
+    rows = bench.run_bench(options, figures=[figures.figure_grid, figures.figure_value_iteration])
+    assert [set(row) for row in rows] == [set(common.COLUMNS)] * 2
     grid, vi = rows
     assert grid["ratio"] == pytest.approx(grid["baseline_s"] / grid["time_s"])
     assert "scaled linearly" in grid["note"]
@@ -29,12 +32,12 @@ def test_run_bench_rows_have_the_columns() -> None:
     assert "value iteration" in table
 
 
-def _fake_figure(options: bench.BenchOptions) -> dict[str, Any]:
+def _fake_figure(options: common.BenchOptions) -> dict[str, Any]:
     return {"what": "fake", "time_s": 2e-5, "baseline_s": 0.5, "ratio": 25_000.0, "peak_mb": None,
             "target": ">= 5000x", "ok": True, "note": "a note"}
 
 
-def _fake_study_figure(options: bench.BenchOptions) -> dict[str, Any]:
+def _fake_study_figure(options: common.BenchOptions) -> dict[str, Any]:
     return {"what": f"fake study of {options.study_experiment}", "time_s": 3.0, "baseline_s": None,
             "ratio": None, "peak_mb": 200.0, "target": "<= 20 s", "ok": True, "note": ""}
 
@@ -45,7 +48,7 @@ def test_bench_command_formats(monkeypatch: pytest.MonkeyPatch) -> None:
     result = runner.invoke(main, ["bench", "--format", "json"])
     assert result.exit_code == 0, result.output
     rows = json.loads(result.stdout)
-    assert rows == [_fake_figure(bench.BenchOptions())]
+    assert rows == [_fake_figure(common.BenchOptions())]
     result = runner.invoke(main, ["bench"])
     assert result.exit_code == 0
     assert "fake" in result.stdout and "20.0 us" in result.stdout and "25,000x" in result.stdout
@@ -60,7 +63,7 @@ def test_format_seconds_units() -> None:
 
 
 def _check_types(row: dict[str, Any]) -> None:
-    assert list(row) == list(bench.COLUMNS)
+    assert list(row) == list(common.COLUMNS)
     assert isinstance(row["what"], str) and isinstance(row["target"], str) and isinstance(row["note"], str)
     assert isinstance(row["time_s"], float) and row["time_s"] > 0
     for key in ("baseline_s", "ratio", "peak_mb"):
@@ -70,9 +73,9 @@ def _check_types(row: dict[str, Any]) -> None:
 
 def test_study_figures_on_the_smoke_preset(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     # smoke: 8 layouts, 8 trials per participant; one participant keeps the subprocess short
-    monkeypatch.setattr(bench.tempfile, "tempdir", str(tmp_path))  # where the study's run folder goes
-    options = bench.BenchOptions(study_experiment="smoke", study_participants=1, study_workers=2,
-                                 study_repeats=1)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))  # where the study's run folder goes
+    options = common.BenchOptions(study_experiment="smoke", study_participants=1, study_workers=2,
+                                  study_repeats=1)
     logged: list[str] = []
     rows = bench.run_bench(options, figures=bench.STUDY_FIGURES, progress=logged.append)
     assert logged == ["bench: study_setup", "bench: trials", "bench: study", "bench: cli_startup",
@@ -103,7 +106,7 @@ def test_select_figures_groups() -> None:
     assert bench.select_figures("all") == bench.FIGURES
     assert bench.select_figures("study") == bench.STUDY_FIGURES
     model = bench.select_figures("model")
-    assert model == [bench.figure_window, bench.figure_grid, bench.figure_value_iteration]
+    assert model == [figures.figure_window, figures.figure_grid, figures.figure_value_iteration]
     assert not set(model) & set(bench.STUDY_FIGURES)
     with pytest.raises(ValueError, match="only must be"):
         bench.select_figures("everything")
@@ -126,27 +129,27 @@ def test_bench_command_only(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def test_the_analyze_figure_is_its_own_group_and_runs_on_a_small_table() -> None:
-    assert bench.select_figures("analyze") == [bench.figure_analyze]
-    assert bench.figure_analyze not in bench.select_figures("all")
-    table = bench.synthetic_metrics_table(1000, 10)
+    assert bench.select_figures("analyze") == [analyze.figure_analyze]
+    assert analyze.figure_analyze not in bench.select_figures("all")
+    table = analyze.synthetic_metrics_table(1000, 10)
     assert len(table) == 1000 and table.groupby(["participant", "condition"]).size().eq(50).all()
-    row = bench.figure_analyze(bench.BenchOptions(analyze_rows=1000, analyze_participants=10))
-    assert set(row) == set(bench.COLUMNS) and row["peak_mb"] > 0 and "1,000-row" in row["what"]
+    row = analyze.figure_analyze(common.BenchOptions(analyze_rows=1000, analyze_participants=10))
+    assert set(row) == set(common.COLUMNS) and row["peak_mb"] > 0 and "1,000-row" in row["what"]
 
 
 def test_replicate_throughput_counts_every_trial_of_the_batch(monkeypatch: pytest.MonkeyPatch,
                                                               tmp_path: Path) -> None:
     # smoke: 2 participants x 2 conditions x 4 trials = 16 trials a study; 2 studies = 32 trials
-    monkeypatch.setattr(bench.tempfile, "tempdir", str(tmp_path))
-    options = bench.BenchOptions(throughput_experiment="smoke", throughput_replications=2, study_workers=1)
-    row = bench.figure_replicate_throughput(options)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    options = common.BenchOptions(throughput_experiment="smoke", throughput_replications=2, study_workers=1)
+    row = scale.figure_replicate_throughput(options)
     _check_types(row)
     assert row["what"] == "replicate smoke -R 2, 1 workers, end to end"
     assert row["baseline_s"] == pytest.approx(32 / 1_000_000 * 3600)
     per_hour = float(row["note"].split(" trials per hour")[0].replace(",", ""))
     assert per_hour == pytest.approx(32 / row["time_s"] * 3600, rel=1e-3)
     assert row["ok"] == (per_hour >= 1_000_000)
-    assert bench.figure_replicate_throughput in bench.select_figures("scale")
+    assert scale.figure_replicate_throughput in bench.select_figures("scale")
     assert list(tmp_path.iterdir()) == []
 
 

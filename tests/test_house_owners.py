@@ -3,7 +3,9 @@
 
 - the names of a run folder's and an analysis folder's files: ``nudgecli/run_folder_names.py``;
 - the prepare rule (a folder holding another run, a non-empty folder, ``--resume`` with nothing
-  there), the manifest skeleton and the suggested ``--resume`` command: ``nudgecli/store.py``.
+  there), the manifest skeleton and the suggested ``--resume`` command: ``nudgecli/store.py``;
+- the executor's name a study's or a batch's manifest records (``serial``, ``processes:W``,
+  ``dask``): ``nudgecli/runs/study.py``.
 
 And one owner of a figure concept: "draw on the given axes, or on a new figure's of this size"
 (the ``ax=None`` convention of every panel) is ``nudgecli/report/figures/common.py``'s
@@ -25,6 +27,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "nudgecli"
 
 NAMES_MODULE = "nudgecli/run_folder_names.py"
 STORE = "nudgecli/store.py"
+EXECUTOR_NAME = "nudgecli/runs/study.py"
 
 #: File and folder names of a run folder and of an analysis folder.
 FILE_NAMES = ("manifest.json", "participants.parquet", "layouts.parquet", ".nudge.lock", "metrics.csv",
@@ -100,6 +103,12 @@ def test_the_manifest_skeleton_is_built_once() -> None:
 def test_the_resume_command_is_built_once() -> None:
     assert modules_with_string("--resume", exact=True) == {STORE}
     assert modules_using("shlex") == {STORE}
+
+
+def test_the_executor_name_is_spelled_once() -> None:
+    assert modules_with_string("processes:", exact=False) == {EXECUTOR_NAME}
+    assert modules_with_string("serial", exact=True) == {EXECUTOR_NAME}
+    assert {EXECUTOR_NAME, "nudgecli/runs/batch.py"} <= modules_using("executor_name")
 
 
 def test_the_walk_sees_f_strings_and_skips_docstrings(tmp_path: Path) -> None:

@@ -84,9 +84,9 @@ def test_resume_with_another_seed_or_version_is_refused(tmp_path, smoke_run, mon
     seed = json.loads((run / "manifest.json").read_text())["seed"]
     with pytest.raises(RunFolderError, match=rf"seed: {seed} in the manifest, {seed + 1} now"):
         run_study(load_experiment("smoke"), run, participants=2, seed=seed + 1, resume=True)
-    import nudgecli.store as store
+    import nudgecli.run_folder_record as record  # where the resume compares the versions
 
-    monkeypatch.setattr(store, "__version__", "99.0")
+    monkeypatch.setattr(record, "__version__", "99.0")
     with pytest.raises(RunFolderError, match=r"nudgecli version: .* in the manifest, 99.0 now"):
         run_study(load_experiment("smoke"), run, participants=2, resume=True)
 
@@ -280,7 +280,7 @@ def test_replication_seeds_are_pinned():
 
 
 def test_a_batch_runs_replication_r_with_its_pinned_seed(tmp_path):
-    from nudgecli.runs.batch import replicate
+    from nudgecli.runs.batch_kinds import replicate
 
     result = replicate("smoke", 2, tmp_path / "batch", seed=5, participants=2)
     seeds = sorted(set(result.rows[["replication", "seed"]].itertuples(index=False, name=None)))
@@ -351,7 +351,7 @@ def test_a_lock_file_with_a_non_numeric_pid_is_taken_over(tmp_path, smoke_run, p
 
 @pytest.mark.parametrize("content", ["[1, 2]", '{"conditions": ["a"]}', '"text"', '{"metrics": 3}'])
 def test_a_batch_analysis_of_the_wrong_shape_is_recomputed_on_resume(tmp_path, content):
-    from nudgecli.runs.batch import replicate
+    from nudgecli.runs.batch_kinds import replicate
 
     first = replicate("smoke", 1, tmp_path / "a", seed=3, participants=2)
     (analysis,) = sorted((tmp_path / "a" / "analyses").glob("*.json"))
@@ -360,6 +360,19 @@ def test_a_batch_analysis_of_the_wrong_shape_is_recomputed_on_resume(tmp_path, c
     again = replicate("smoke", 1, tmp_path / "a", seed=3, participants=2, resume=True)
     assert again.run.computed == 1  # the analysis, not the participants
     assert analysis.read_text() == good
+    pd.testing.assert_frame_equal(again.rows, first.rows)
+
+
+def test_a_truncated_batch_task_part_is_recomputed_on_resume(tmp_path):
+    from nudgecli.runs.batch_kinds import replicate
+
+    first = replicate("smoke", 1, tmp_path / "a", seed=3, participants=2)
+    part = sorted((tmp_path / "a" / "tasks").glob("*/part-0001.parquet"))[0]
+    good = part.read_bytes()
+    part.write_bytes(good[: len(good) // 2])  # a footer that does not parse
+    again = replicate("smoke", 1, tmp_path / "a", seed=3, participants=2, resume=True)
+    assert again.run.computed == 1  # the participant (its analysis is on disk and readable)
+    assert part.read_bytes() == good
     pd.testing.assert_frame_equal(again.rows, first.rows)
 
 

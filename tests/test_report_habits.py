@@ -17,7 +17,7 @@ from nudgecli.cli import main
 from nudgecli.reference import packaged_reference, people_ranges
 from nudgecli.report.habit_cells import DEADBAND, HARD, NEUTRAL, SOFT, run_folder_cells
 from nudgecli.report.habits import habits_of, measure_habits
-from nudgecli.store import file_sha256
+from nudgecli.run_folder_record import file_sha256
 
 HABITS_MD = Path(__file__).resolve().parents[2] / "shared" / "data" / "ciaa-task" / "HABITS.md"
 HEADER = "t,trial,label,x,y,theta,mode_switch,layout\n"

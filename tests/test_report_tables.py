@@ -198,7 +198,7 @@ def test_analyze_uses_the_plan_recorded_in_the_manifest(tmp_path):
 
 
 def test_plot_finds_the_table_an_analysis_folder_did_not_copy(tmp_path):
-    from nudgecli.bench import synthetic_metrics_table
+    from nudgecli.bench.analyze import synthetic_metrics_table
 
     source = write(tmp_path / "full.csv", synthetic_metrics_table(400, 6))
     result = analyze(source, bootstrap=50)

@@ -30,8 +30,11 @@ from nudgecli.report.replication import (
     smallest_n,
 )
 from nudgecli.runs import batch as batch_module
+from nudgecli.runs import batch_tasks
 from nudgecli.runs import size as size_module
-from nudgecli.runs.batch import layout_key, replicate, replication_seed
+from nudgecli.runs.batch import replication_seed
+from nudgecli.runs.batch_kinds import replicate
+from nudgecli.runs.batch_tasks import layout_key
 from nudgecli.runs.executors import Progress
 from nudgecli.runs.study import build_plan_on
 from nudgecli.runs.sweep import Design, Range, SweepFile, design_values, load_sweep
@@ -144,7 +147,7 @@ def test_a_study_as_big_as_the_pool_has_its_layouts_solved_once_and_sent(tmp_pat
             super().broadcast(job)
 
     serial = replicate("smoke", 1, tmp_path / "serial", seed=5)
-    batch_module._PLANS.clear()
+    batch_tasks._PLANS.clear()
 
     def no_build(*args, **kwargs):
         raise AssertionError("a worker built a plan that was to be sent to it")
@@ -165,7 +168,7 @@ def test_a_study_as_big_as_the_pool_has_its_layouts_solved_once_and_sent(tmp_pat
     assert "install_plan" not in [name for _, name in events]
     monkeypatch.undo()
     distributed = pytest.importorskip("dask.distributed")
-    batch_module._PLANS.clear()
+    batch_tasks._PLANS.clear()
     monkeypatch.setattr(batch_module.StudyPlan, "build", no_build)  # the workers share this process
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=":0") as cluster:
@@ -497,7 +500,9 @@ def test_conover_of_two_conditions_is_adjusted_as_statsmodels_adjusts_one_test(m
 
 
 def test_bench_scale_figures_cover_every_core_count_and_dask():
-    from nudgecli.bench import BenchOptions, scale_figure, select_figures
+    from nudgecli.bench import select_figures
+    from nudgecli.bench.common import BenchOptions
+    from nudgecli.bench.scale import scale_figure
 
     names = [f.__name__ for f in select_figures("scale")]
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()

@@ -11,7 +11,7 @@ import pytest
 
 from nudgecli.errors import RunFolderError
 from nudgecli.run_folder_names import LOCK
-from nudgecli.runs.batch import prepare_folder
+from nudgecli.runs.batch_folder import prepare_folder
 from nudgecli.store import prepare_mode
 
 

@@ -15,30 +15,27 @@ make up the graph, all submitted to one executor:
   ``nudge analyze``) of the first ``n`` participants, submitted as soon as they are done.
 
 Layouts and their solved goal MDPs (the :class:`~nudgecli.sim.study.StudyPlan`) are kept in a
-small cache in each worker, keyed by what they depend on (:func:`layout_key`), never built once
-per task: the process pool sends each worker the tasks of the studies it already holds, and on
-dask the tasks of a study are hinted to one worker (work stealing may still move them). In a
-batch of fewer studies than workers, a study with at least as many unfinished participants as
-there are workers would have every worker solve all its layouts at the start; its layouts are
-solved once instead, in chunks spread over
-the workers (*layout tasks*, :func:`nudgecli.sim.study.solve_layout_chunk`), and the assembled
-plan is sent to every worker (:func:`install_plan`) before its participant tasks.
+small cache in each worker (:mod:`nudgecli.runs.batch_tasks`: the tasks and the cache, keyed by
+what the plans depend on), never built once per task: the process pool sends each worker the
+tasks of the studies it already holds, and on dask the tasks of a study are hinted to one worker
+(work stealing may still move them). In a batch of fewer studies than workers, a study with at
+least as many unfinished participants as there are workers would have every worker solve all its
+layouts at the start; its layouts are solved once instead, in chunks spread over the workers
+(*layout tasks*, :func:`nudgecli.sim.study.solve_layout_chunk`), and the assembled plan is sent
+to every worker (:func:`~nudgecli.runs.batch_tasks.install_plan`) before its participant tasks.
 Every result is written by this process as an atomic part file (``tasks/``, ``analyses/``), so
 ``--resume`` finishes an interrupted batch without recomputing a finished task, and the tables
 assembled from the parts are the same for any executor and number of workers. The executors
-themselves are in :mod:`nudgecli.runs.executors`.
+themselves are in :mod:`nudgecli.runs.executors`, the batch folder's parts and prepare rule in
+:mod:`nudgecli.runs.batch_folder`, and the commands that build and run the three kinds of batch
+(``replicate``, ``power``, ``sweep``) in :mod:`nudgecli.runs.batch_kinds`.
 """
 
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import hashlib
-import json
-import shutil
-import threading
 import time
-from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -46,25 +43,37 @@ from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import pandas as pd
-import pyarrow.parquet as pq
 
-from nudgecli.config import ExperimentConfig, default_plan_name
-from nudgecli.errors import ConfigError, NudgeError, RunFolderError
+from nudgecli.config import ExperimentConfig
+from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
-from nudgecli.report.metrics import trial_metrics
 from nudgecli.rng import seed_sequence
-from nudgecli.run_folder_names import FIGURES_DIR
-from nudgecli.runs.executors import HELD_AFFINITIES, Executor, Job, format_duration, make_executor
+from nudgecli.run_folder_record import readable_parquet
+from nudgecli.runs.batch_folder import (
+    BATCH_MANIFEST,
+    analysis_part,
+    prepare_folder,
+    read_json,
+    read_study_metrics,
+    readable_stats,
+    task_part,
+)
+from nudgecli.runs.batch_tasks import install_plan, layout_key, run_analysis_task, run_participant_task
+from nudgecli.runs.executors import Executor, Job, format_duration, make_executor
 from nudgecli.runs.size import check_size, trials_per_participant
-from nudgecli.runs.study import connect_scheduler, layout_chunks, solve_layout_chunk, tune_allocator
-from nudgecli.sim.study import StudyPlan, build_layouts, check_physiology_logs, simulate_participant
-from nudgecli.store import prepare_mode, provenance, utc_now, write_json_atomic, write_parquet_atomic
+from nudgecli.runs.study import (
+    connect_scheduler,
+    executor_name,
+    layout_chunks,
+    solve_layout_chunk,
+)
+from nudgecli.sim.study import StudyPlan, build_layouts, check_physiology_logs
+from nudgecli.store import provenance, utc_now, write_json_atomic, write_parquet_atomic
 
 if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only
     from nudgecli.report.plans import AnalysisPlan
 
-BATCH_MANIFEST = "batch.json"
 #: Wall seconds per simulated trial on one core (``nudge bench``: one participant of ``paper``,
 #: 48 trials in about 0.4-0.7 s on the 2-core development machine) -- for the size estimate only.
 SECONDS_PER_TRIAL = 0.012
@@ -75,9 +84,6 @@ SECONDS_PER_ANALYSIS = 0.4
 BYTES_PER_TASK = 7_000
 BYTES_PER_TRIAL = 60
 BYTES_PER_ANALYSIS = 14_000
-#: Study plans (layouts + solved MDPs, about 20 MB at the paper's 48 layouts) a worker keeps; the
-#: process pool's dispatch mirrors this cache.
-PLAN_CACHE_SIZE = HELD_AFFINITIES
 
 
 # --- the batch ---------------------------------------------------------------------------------
@@ -147,20 +153,6 @@ def _normalised_toml(config: ExperimentConfig) -> str:
 def study_key(config: ExperimentConfig, seed: int) -> str:
     """A stable name of the study ``(experiment, seed)``, whatever its participant count."""
     text = f"{_normalised_toml(config)}\nseed = {seed}\n"
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
-
-
-#: Sections that neither draw nor solve layouts (the study's layouts depend on ``[study]`` and
-#: the seed, their MDPs on ``[model]``); every other section, present or future, is in the key.
-_NOT_LAYOUT_SECTIONS = ("experiment", "interface", "inference", "disambiguation", "assistance", "population",
-                        "calibration")
-
-
-def layout_key(config: ExperimentConfig, seed: int) -> str:
-    """What a study's layouts and their solved MDPs depend on, as a short hash."""
-    data = config.model_dump(mode="json", exclude=set(_NOT_LAYOUT_SECTIONS))
-    data["study"].pop("participants", None)
-    text = f"{sorted(data.items())!r}\nseed = {seed}"
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
 
 
@@ -285,141 +277,7 @@ def _size(studies: int, participant_tasks: int, analyses: int, trials: int, work
     return SizeEstimate(studies, participant_tasks, analyses, trials, seconds, size, workers)
 
 
-# --- tasks (run in a worker) -------------------------------------------------------------------
-
-_PLANS: OrderedDict[str, StudyPlan] = OrderedDict()
-_PLANS_LOCK = threading.Lock()
-
-
-def cached_plan(config: ExperimentConfig, seed: int) -> StudyPlan:
-    """The study plan of ``(config, seed)`` from this process's cache, built on a miss.
-
-    Keyed by :func:`layout_key`: studies that differ only in settings that do not touch the
-    layouts (e.g. ``inference.kappa`` in a sweep) share one plan. Holds :data:`PLAN_CACHE_SIZE`
-    plans at most (least recently used dropped), so a worker's memory does not grow with the batch.
-    """
-    key = layout_key(config, seed)
-    with _PLANS_LOCK:  # a dask worker may run tasks in several threads
-        plan = _PLANS.get(key)
-        if plan is None:
-            plan = StudyPlan.build(config, seed)
-        _remember_plan(key, plan)
-    return dataclasses.replace(plan, config=config)
-
-
-def _remember_plan(key: str, plan: StudyPlan) -> None:
-    """Make ``plan`` the cache's most recent (dropping the oldest beyond ``PLAN_CACHE_SIZE``); the
-    caller holds ``_PLANS_LOCK``."""
-    _PLANS[key] = plan
-    _PLANS.move_to_end(key)
-    while len(_PLANS) > PLAN_CACHE_SIZE:
-        _PLANS.popitem(last=False)
-
-
-def install_plan(plan: StudyPlan) -> None:
-    """Put a study's plan, built elsewhere, into this process's cache (:func:`cached_plan` finds it)."""
-    with _PLANS_LOCK:
-        _remember_plan(layout_key(plan.config, plan.seed), plan)
-
-
-def participant_metrics(plan: StudyPlan, index: int, analysis: AnalysisPlan) -> pd.DataFrame:
-    """One participant's per-trial metrics under the analysis plan's definitions.
-
-    Returns
-    -------
-    pd.DataFrame
-        One row per trial: ``participant, condition, block, trial`` and the metrics of
-        :func:`nudgecli.report.metrics.trial_metrics`.
-    """
-    result = simulate_participant(plan, index)
-    definitions = analysis.metrics.model_dump(exclude={"include"})
-    return trial_metrics(result.trials, result.steps, **definitions)
-
-
-def run_participant_task(config: ExperimentConfig, seed: int, index: int,
-                         analysis: AnalysisPlan) -> pd.DataFrame:
-    """A participant task, with this worker's cached plan of the study."""
-    tune_allocator()
-    return participant_metrics(cached_plan(config, seed), index, analysis)
-
-
-def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str],
-                      study_conditions: Sequence[str] = ()) -> dict[str, Any]:
-    """An analysis task: the replication's statistics (:func:`analyse_replication`; the study's
-    conditions give their order after the plan's)."""
-    tune_allocator()
-    from nudgecli.report.replication import analyse_replication
-
-    return analyse_replication(metrics, analysis, names, study_conditions)
-
-
 # --- the run -----------------------------------------------------------------------------------
-
-def task_part(folder: Path, study: str, participant: int) -> Path:
-    """The part file of a participant task."""
-    return folder / "tasks" / study / f"part-{participant:04d}.parquet"
-
-
-def analysis_part(folder: Path, analysis: str) -> Path:
-    """The part file of an analysis."""
-    return folder / "analyses" / f"{analysis}.json"
-
-
-def _readable_parquet(path: Path) -> bool:
-    if not path.is_file():
-        return False
-    try:
-        pq.ParquetFile(path)
-    except Exception:  # pyarrow raises several types for broken files
-        return False
-    return True
-
-
-def _readable_json(path: Path) -> bool:
-    """Whether ``path`` holds an analysis's stats document: a JSON object with a list of
-    ``conditions`` and of ``metrics`` (anything else, e.g. a damaged or edited file, is
-    recomputed by ``--resume``)."""
-    if not path.is_file():
-        return False
-    try:
-        document = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return False
-    return isinstance(document, dict) and isinstance(document.get("conditions"), list) and \
-        isinstance(document.get("metrics"), list) and all(isinstance(m, dict) for m in document["metrics"])
-
-
-def read_study_metrics(folder: Path, study: str, participants: int) -> pd.DataFrame:
-    """The per-trial metrics of a study's first ``participants``, in participant order."""
-    frames = [pd.read_parquet(task_part(folder, study, i)) for i in range(participants)]
-    return pd.concat(frames, ignore_index=True)
-
-
-def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool) -> str:
-    """Make ``folder`` ready for the batch; ``"new"`` or ``"resume"`` (same description required).
-
-    The rule is the run folder's (:func:`nudgecli.store.prepare_mode`); a folder that is not empty
-    but holds no batch is written into with ``force``, not cleared."""
-    manifest, old = folder / BATCH_MANIFEST, None
-    if manifest.is_file():
-        try:
-            old = json.loads(manifest.read_text(encoding="utf-8"))
-        except ValueError as exc:
-            raise RunFolderError(f"{manifest}: unreadable ({exc}); use --force to start again") from None
-    held = None if old is None else f"{old.get('batch', {}).get('kind')}, {old.get('status')}"
-    mode = prepare_mode(folder, held, resume, force, kind="batch")
-    if old is not None and mode == "resume":
-        if old.get("batch") != json.loads(json.dumps(description)):
-            raise RunFolderError(f"{folder}: holds a different batch (experiment, design, seed, "
-                                 "replications or plan); resume it with the same settings, or use --force")
-        return "resume"
-    if mode == "replace":
-        for name in ("tasks", "analyses", FIGURES_DIR):
-            shutil.rmtree(folder / name, ignore_errors=True)
-        manifest.unlink()
-    folder.mkdir(parents=True, exist_ok=True)
-    return "new"
-
 
 @dataclass
 class BatchRun:
@@ -507,7 +365,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     manifest: dict[str, Any] = {
         "batch": batch.describe(),
         "status": "running",
-        "executor": "dask" if client is not None else ("serial" if workers == 1 else f"processes:{workers}"),
+        "executor": executor_name(workers, client is not None),
         **provenance(),
         "studies": len(graph.studies),
         "participant_tasks": graph.participant_tasks,
@@ -525,7 +383,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
         with contextlib.suppress(NudgeError, OSError):
             write_json_atomic(folder / BATCH_MANIFEST, manifest)
         raise
-    stats = {key: _read_json(analysis_part(folder, key)) for key in sorted(graph.analyses)}
+    stats = {key: read_json(analysis_part(folder, key)) for key in sorted(graph.analyses)}
     peak = getattr(executor, "peak_rss_mb", None)
     manifest.update({"status": "complete", "finished": utc_now(),
                      "wall_s": round(time.perf_counter() - started, 3),
@@ -534,92 +392,117 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     return BatchRun(folder, mode, graph, size, stats, computed, peak)
 
 
-def _read_json(path: Path) -> dict[str, Any]:
-    return json.loads(path.read_text(encoding="utf-8"))
-
-
 def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
                progress: Callable[[int, int], None] | None) -> int:
     """Submit every unfinished task, write each result as it comes; returns the tasks computed."""
-    remaining: dict[str, set[int]] = {}
-    for study in graph.studies.values():
-        remaining[study.key] = {i for i in range(study.participants)
-                                if not _readable_parquet(task_part(folder, study.key, i))}
-    waiting = [a for a in graph.analyses.values() if not _readable_json(analysis_part(folder, a.key))]
-    total = graph.participant_tasks + len(graph.analyses)
-    done = total - sum(len(v) for v in remaining.values()) - len(waiting)
-    metrics = list(batch.plan.metrics.include)
-    in_flight = 0
-
-    def ready(analysis: Analysis) -> bool:
-        return not any(i < analysis.participants for i in remaining[analysis.study])
-
-    def submit_ready() -> int:
-        nonlocal waiting
-        submitted = [a for a in waiting if ready(a)]
-        waiting = [a for a in waiting if not ready(a)]
-        for analysis in submitted:
-            data = read_study_metrics(folder, analysis.study, analysis.participants)
-            conditions = tuple(graph.studies[analysis.study].config.study.conditions)
-            executor.submit(Job(analysis.key, run_analysis_task, (data, batch.plan, metrics, conditions)))
-        return len(submitted)
-
-    def submit_participants(study: Study) -> int:
-        for i in sorted(remaining[study.key]):
-            executor.submit(Job(f"{study.key}-p{i:04d}", run_participant_task,
-                                (study.config, study.seed, i, batch.plan), affinity=study.layouts))
-        return len(remaining[study.key])
-
-    # layout tasks: job key -> (study, chunk); a study's finished chunks by index
-    layout_jobs: dict[str, tuple[str, int]] = {}
-    solved: dict[str, dict[int, list[SolvedLayout]]] = {}
-    busy = sum(1 for study in graph.studies.values() if remaining[study.key])
+    run = _GraphRun(batch, graph, folder, executor)
     try:
-        for study in graph.studies.values():
-            if not shares_plan(study, len(remaining[study.key]), busy, executor.workers):
-                in_flight += submit_participants(study)
-                continue
-            solved[study.key] = {}
-            chunks = layout_chunks(len(build_layouts(study.config, study.seed)), executor.workers)
-            for c, (start, stop) in enumerate(chunks):
-                key = f"{study.key}-layouts{c:03d}"
-                layout_jobs[key] = (study.key, c)
-                executor.submit(Job(key, solve_layout_chunk, (study.config, study.seed, start, stop)))
-                in_flight += 1
-        in_flight += submit_ready()
+        run.submit_first()
         if progress:
-            progress(done, total)
+            progress(run.done, run.total)
         computed = 0
-        while in_flight:
+        while run.in_flight:
             job, result = executor.next_result()
-            in_flight -= 1
-            if job.key in layout_jobs:  # a layout task: not a part of the batch's tables
-                study_key, chunk = layout_jobs.pop(job.key)
-                solved[study_key][chunk] = result
-                if not any(owner == study_key for owner, _ in layout_jobs.values()):
-                    study = graph.studies[study_key]
-                    parts = solved.pop(study_key)
-                    plan = StudyPlan.assemble(study.config, study.seed, [parts[c] for c in sorted(parts)])
-                    executor.broadcast(Job(f"{study_key}-plan", install_plan, (plan,),
-                                           affinity=study.layouts))
-                    in_flight += submit_participants(study)
-                continue
-            if job.affinity is not None:  # a participant task
-                study_name, index = job.key.rsplit("-p", 1)
-                write_parquet_atomic(task_part(folder, study_name, int(index)), result)
-                remaining[study_name].discard(int(index))
-                in_flight += submit_ready()
-            else:
-                write_json_atomic(analysis_part(folder, job.key), result)
-            done += 1
-            computed += 1
-            if progress:
-                progress(done, total)
+            run.in_flight -= 1
+            if run.take(job, result):
+                run.done += 1
+                computed += 1
+                if progress:
+                    progress(run.done, run.total)
     except BaseException:
         executor.abort()  # Ctrl-C or a failure: do not wait for the running tasks
         raise
     executor.close()
     return computed
+
+
+class _GraphRun:
+    """One run of the batch's graph: what is left to compute, what is in flight, and the layout
+    tasks' results of the studies whose plan is being assembled."""
+
+    def __init__(self, batch: Batch, graph: Graph, folder: Path, executor: Executor) -> None:
+        self.batch, self.graph, self.folder, self.executor = batch, graph, folder, executor
+        #: study key -> its participants without a readable part; the analyses without one
+        self.remaining = {study.key: {i for i in range(study.participants)
+                                      if not readable_parquet(task_part(folder, study.key, i))}
+                          for study in graph.studies.values()}
+        self.waiting = [a for a in graph.analyses.values()
+                        if not readable_stats(analysis_part(folder, a.key))]
+        self.total = graph.participant_tasks + len(graph.analyses)
+        self.done = self.total - sum(len(v) for v in self.remaining.values()) - len(self.waiting)
+        self.metrics = list(batch.plan.metrics.include)
+        self.in_flight = 0
+        #: layout tasks: job key -> (study, chunk); a study's finished chunks by index
+        self.layout_jobs: dict[str, tuple[str, int]] = {}
+        self.solved: dict[str, dict[int, list[SolvedLayout]]] = {}
+
+    def submit_first(self) -> None:
+        """Each study's participant tasks, or its layout tasks where its plan is shared
+        (:func:`shares_plan`); then the analyses whose participants are all done."""
+        busy = sum(1 for study in self.graph.studies.values() if self.remaining[study.key])
+        for study in self.graph.studies.values():
+            if shares_plan(study, len(self.remaining[study.key]), busy, self.executor.workers):
+                self.submit_layouts(study)
+            else:
+                self.submit_participants(study)
+        self.submit_ready()
+
+    def submit_layouts(self, study: Study) -> None:
+        self.solved[study.key] = {}
+        chunks = layout_chunks(len(build_layouts(study.config, study.seed)), self.executor.workers)
+        for c, (start, stop) in enumerate(chunks):
+            key = f"{study.key}-layouts{c:03d}"
+            self.layout_jobs[key] = (study.key, c)
+            self.executor.submit(Job(key, solve_layout_chunk, (study.config, study.seed, start, stop)))
+            self.in_flight += 1
+
+    def submit_participants(self, study: Study) -> None:
+        for i in sorted(self.remaining[study.key]):
+            self.executor.submit(Job(f"{study.key}-p{i:04d}", run_participant_task,
+                                     (study.config, study.seed, i, self.batch.plan), affinity=study.layouts))
+        self.in_flight += len(self.remaining[study.key])
+
+    def ready(self, analysis: Analysis) -> bool:
+        return not any(i < analysis.participants for i in self.remaining[analysis.study])
+
+    def submit_ready(self) -> None:
+        """The waiting analyses whose participants are all done."""
+        submitted = [a for a in self.waiting if self.ready(a)]
+        self.waiting = [a for a in self.waiting if not self.ready(a)]
+        for analysis in submitted:
+            data = read_study_metrics(self.folder, analysis.study, analysis.participants)
+            conditions = tuple(self.graph.studies[analysis.study].config.study.conditions)
+            self.executor.submit(Job(analysis.key, run_analysis_task,
+                                     (data, self.batch.plan, self.metrics, conditions)))
+        self.in_flight += len(submitted)
+
+    def take(self, job: Job, result: Any) -> bool:
+        """Write a finished task's part (submitting what it unblocks); whether it was a task of
+        the batch's tables (a layout task is not)."""
+        if job.key in self.layout_jobs:
+            self.take_layouts(job.key, result)
+            return False
+        if job.affinity is not None:  # a participant task
+            study_name, index = job.key.rsplit("-p", 1)
+            write_parquet_atomic(task_part(self.folder, study_name, int(index)), result)
+            self.remaining[study_name].discard(int(index))
+            self.submit_ready()
+        else:
+            write_json_atomic(analysis_part(self.folder, job.key), result)
+        return True
+
+    def take_layouts(self, key: str, layouts: list[SolvedLayout]) -> None:
+        """Keep a chunk of solved layouts; once a study has all of them, send its assembled plan
+        to every worker and submit its participant tasks."""
+        study_key, chunk = self.layout_jobs.pop(key)
+        self.solved[study_key][chunk] = layouts
+        if any(owner == study_key for owner, _ in self.layout_jobs.values()):
+            return
+        study = self.graph.studies[study_key]
+        parts = self.solved.pop(study_key)
+        plan = StudyPlan.assemble(study.config, study.seed, [parts[c] for c in sorted(parts)])
+        self.executor.broadcast(Job(f"{study_key}-plan", install_plan, (plan,), affinity=study.layouts))
+        self.submit_participants(study)
 
 
 def shares_plan(study: Study, unfinished: int, studies: int, workers: int) -> bool:
@@ -651,182 +534,3 @@ def parameter_names(batch: Batch) -> list[str]:
 def single_point(config: ExperimentConfig, participants: Sequence[int]) -> tuple[Point, ...]:
     """The one design point of ``replicate`` and ``power``."""
     return (Point(index=0, parameters={}, config=config, participants=tuple(participants)),)
-
-
-
-# --- the commands: replicate, power, sweep ----------------------------------------------------
-
-@dataclass
-class BatchResult:
-    """What a command computed and wrote.
-
-    Attributes
-    ----------
-    run
-        The batch run.
-    rows
-        One row per replication, metric and pair of conditions (``replications.csv``).
-    summary
-        The command's main table (printed by the CLI).
-    tables
-        Every table written, by file stem.
-    files
-        Every file written.
-    """
-
-    run: BatchRun
-    rows: pd.DataFrame
-    summary: pd.DataFrame
-    tables: dict[str, pd.DataFrame]
-    files: list[Path]
-
-
-def _write_tables(folder: Path, tables: dict[str, pd.DataFrame]) -> list[Path]:
-    from nudgecli.store import write_text_atomic
-
-    written = []
-    for stem, table in tables.items():
-        path = folder / f"{stem}.csv"
-        write_text_atomic(path, table.to_csv(index=False))
-        written.append(path)
-    return written
-
-
-def _figures(folder: Path, figures: dict[str, Any]) -> list[Path]:
-    from nudgecli.report.figures.output import save_figure
-
-    written: list[Path] = []
-    for stem, fig in figures.items():
-        written += save_figure(fig, folder / FIGURES_DIR, stem, ("png",))
-    return written
-
-
-def _load(experiment: str, overrides: Sequence[str], participants: int | None) -> ExperimentConfig:
-    from nudgecli.config import load_experiment
-
-    config = load_experiment(experiment, tuple(overrides))
-    if participants is not None:
-        if participants < 1:
-            raise ConfigError(f"--participants must be at least 1, got {participants}")
-        study = config.study.model_copy(update={"participants": participants})
-        config = config.model_copy(update={"study": study})
-    return config
-
-
-def _check(replications: int, seed: int | None) -> None:
-    if replications < 1:
-        raise ConfigError(f"--replications must be at least 1, got {replications}")
-    if seed is not None and seed < 0:
-        raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
-
-
-def replicate(experiment: str, replications: int, out: str | Path, *, seed: int | None = None,
-              plan: str | AnalysisPlan | None = None, participants: int | None = None,
-              overrides: Sequence[str] = (), **options: Any) -> BatchResult:
-    """``nudge replicate``: R independent studies of one experiment, each analysed with the plan.
-
-    Writes ``replications.csv`` (per replication), ``conditions.csv`` (tidy medians per
-    condition), ``summary.csv`` (per metric: significance rates, median p, pooled effects) and
-    ``figures/forest.png``. ``options`` go to :func:`run_batch`.
-    """
-    from nudgecli.report.figures.replication import forest_figure
-    from nudgecli.report.plans import load_plan
-    from nudgecli.report.replication import condition_values, replication_rows, summarise
-
-    _check(replications, seed)
-    config = _load(experiment, overrides, participants)
-    chosen = load_plan(default_plan_name(config.experiment.name) if plan is None else plan)
-    batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
-                  config.experiment.seed if seed is None else seed, chosen,
-                  {"experiment": config.experiment.name})
-    run = run_batch(batch, out, **options)
-    rows = replication_rows(run.graph.entries, run.stats, chosen)
-    summary = summarise(rows).drop(columns=["point"])
-    tables = {"replications": rows.drop(columns=["point"]),
-              "conditions": condition_values(run.graph.entries, run.stats).drop(columns=["point"]),
-              "summary": summary}
-    figures = {"forest": forest_figure(rows, summarise(rows))}
-    files = _write_tables(run.path, tables) + _figures(run.path, figures)
-    return BatchResult(run, rows, summary, tables, files)
-
-
-def power(experiment: str, participant_counts: Sequence[int], replications: int, out: str | Path, *,
-          seed: int | None = None, plan: str | AnalysisPlan | None = None, overrides: Sequence[str] = (),
-          target: float = 0.8, **options: Any) -> BatchResult:
-    """``nudge power``: the power curve of every metric over participant counts.
-
-    Replication ``r`` simulates its largest study once; each count ``n`` analyses its first
-    ``n`` participants. Writes ``power.csv`` (per count, metric and level of test, with the
-    Clopper-Pearson interval), ``smallest_n.csv``, ``replications.csv`` and ``figures/power.png``.
-    """
-    from nudgecli.report.figures.replication import power_figure
-    from nudgecli.report.plans import load_plan
-    from nudgecli.report.replication import power_table, replication_rows, smallest_n
-
-    _check(replications, seed)
-    counts = sorted(set(int(n) for n in participant_counts))
-    if not counts or counts[0] < 2:
-        raise ConfigError("--participants: give counts of at least 2, e.g. --participants 6,9,12,18,24")
-    if not 0 < target < 1:
-        raise ConfigError(f"--target must be between 0 and 1, got {target}")
-    config = _load(experiment, overrides, None)
-    chosen = load_plan(default_plan_name(config.experiment.name) if plan is None else plan)
-    batch = Batch("power", single_point(config, counts), replications,
-                  config.experiment.seed if seed is None else seed, chosen,
-                  {"experiment": config.experiment.name})
-    run = run_batch(batch, out, **options)
-    rows = replication_rows(run.graph.entries, run.stats, chosen)
-    curves = power_table(rows)
-    smallest = smallest_n(curves, target)
-    tables = {"power": curves, "smallest_n": smallest, "replications": rows.drop(columns=["point"])}
-    files = _write_tables(run.path, tables) + _figures(run.path, {"power": power_figure(curves, target)})
-    return BatchResult(run, rows, curves, tables, files)
-
-
-def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, seed: int | None = None,
-          **options: Any) -> BatchResult:
-    """``nudge sweep``: every design point of a sweep file, R replications each with common seeds.
-
-    Writes ``sweep.csv`` (tidy: ``point, replication, seed, <parameters...>, condition, metric,
-    value``), ``replications.csv``, ``points.csv`` (per point and metric: the summary of
-    :func:`nudgecli.report.replication.summarise` with the parameters), for Sobol and Morris
-    designs ``sensitivity.csv``, and the figures ``figures/sweep.png`` (and ``sensitivity.png``).
-    """
-    from nudgecli.report.figures.replication import sensitivity_figure, sweep_figure
-    from nudgecli.report.plans import load_plan
-    from nudgecli.report.replication import (
-        condition_values,
-        point_outputs,
-        replication_rows,
-        sensitivity,
-        summarise,
-    )
-    from nudgecli.runs.sweep import load_sweep
-
-    loaded = load_sweep(sweep_file)
-    spec = loaded.spec
-    count = spec.replications if replications is None else replications
-    _check(count, seed)
-    chosen = load_plan(spec.plan)
-    points = tuple(Point(p.index, p.parameters, p.config, (p.config.study.participants,))
-                   for p in loaded.points)
-    batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen,
-                  {"design": spec.design.model_dump(mode="json"), "experiment": spec.experiment})
-    run = run_batch(batch, out, **options)
-    names = parameter_names(batch)
-    table = point_table(batch).astype(object)
-    for name in names:
-        table[name] = table[name].map(lambda v: v if isinstance(v, int | float | str | bool) else str(v))
-    rows = replication_rows(run.graph.entries, run.stats, chosen, table)
-    summary = summarise(rows).merge(table, on="point", how="left")
-    tidy = condition_values(run.graph.entries, run.stats, table)
-    tables = {"sweep": tidy, "replications": rows, "points": summary}
-    figures: dict[str, Any] = {"sweep": sweep_figure(rows, names)}
-    if loaded.problem is not None and loaded.samples is not None:
-        indices = sensitivity(spec.design.method, loaded.problem, loaded.samples, point_outputs(rows),
-                              levels=spec.design.levels, seed=batch.seed)
-        tables["sensitivity"] = indices
-        if not indices.empty:
-            figures["sensitivity"] = sensitivity_figure(indices)
-    files = _write_tables(run.path, tables) + _figures(run.path, figures)
-    return BatchResult(run, rows, tables.get("sensitivity", summary), tables, files)

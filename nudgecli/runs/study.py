@@ -376,7 +376,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
         manifest["counterbalancing"] = design_record(list(config.study.conditions),
                                                      config.study.counterbalancing, n)
     manifest.update({"status": "running", "completed": sorted(done),
-                     "executor": _executor_name(workers, scheduler)})
+                     "executor": executor_name(workers, bool(scheduler))})
     if plan_name is not None or "plan" not in manifest:
         manifest["plan"] = plan_name or default_plan_name(config.experiment.name)
     folder.write_layouts(plan.layouts_frame())
@@ -424,8 +424,10 @@ def _finite_or_none(value: float) -> float | None:
     return value if math.isfinite(value) else None
 
 
-def _executor_name(workers: int, scheduler: str | None) -> str:
-    if scheduler:
+def executor_name(workers: int, on_dask: bool) -> str:
+    """What runs a study's or a batch's work, as its manifest records it: ``dask`` (a scheduler),
+    ``serial`` (one worker: this process) or ``processes:W`` (``W`` local worker processes)."""
+    if on_dask:
         return "dask"
     return "serial" if workers == 1 else f"processes:{workers}"
 

@@ -1,0 +1,195 @@
+"""The scale figures of ``nudge bench`` (``--only scale``, not part of ``all``): batches of studies
+on 1..cores local workers and on a local dask cluster (parallel efficiency, serial fraction, the
+workers' memory), and ``nudge replicate`` end to end (trials per hour)."""
+
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from nudgecli.bench.common import BENCH_SEED, BenchOptions, Figure, available_cores, child_environment, row
+from nudgecli.bench.targets import (
+    DASK_RATIO_TARGET,
+    SCALE_EFFICIENCY_TARGET,
+    THROUGHPUT_TARGET_PER_HOUR,
+    WORKER_MEMORY_TARGET_MB,
+)
+from nudgecli.config import load_experiment
+
+_SCALE_TIMES: dict[tuple[str, str], float] = {}
+
+
+def _scale_batch(workload: str, options: BenchOptions) -> Any:
+    """The batch of a scale workload: one ``paper`` study of ``scale_participants`` participants
+    (``study``), or ``scale_studies`` replications of ``smoke`` (``sweep``: many small studies)."""
+    from nudgecli.report.plans import load_plan
+    from nudgecli.runs.batch import Batch, single_point
+
+    if workload == "study":
+        config = load_experiment(options.study_experiment)
+        n = options.scale_participants
+        config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
+        return Batch("replicate", single_point(config, (n,)), 1, BENCH_SEED, load_plan("paper"))
+    config = load_experiment("smoke")
+    return Batch("replicate", single_point(config, (config.study.participants,)), options.scale_studies,
+                 BENCH_SEED, load_plan("paper"))
+
+
+_SCALE_PEAKS: dict[tuple[str, int], float | None] = {}
+#: (CPU seconds of this process, CPU seconds of the finished workers) of each timed run.
+_SCALE_CPU: dict[tuple[str, int], tuple[float, float]] = {}
+
+
+def _children_cpu_s() -> float:
+    """CPU seconds of this process's reaped children (0 where unknown)."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - Windows
+        return 0.0
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _time_batch(workload: str, options: BenchOptions, workers: int = 1,
+                scheduler: str | None = None) -> float:
+    """Wall seconds of the workload (the largest worker's peak memory goes to ``_SCALE_PEAKS``)."""
+    from nudgecli.runs.batch import run_batch
+
+    batch = _scale_batch(workload, options)
+    folder = Path(tempfile.mkdtemp(prefix="nudge-bench-scale-"))
+    try:
+        children = _children_cpu_s()
+        start, own = time.perf_counter(), time.process_time()
+        run = run_batch(batch, folder / "batch", workers=workers, scheduler=scheduler, confirm=True)
+        elapsed = time.perf_counter() - start
+        _SCALE_PEAKS[(workload, workers)] = run.worker_peak_mb
+        _SCALE_CPU[(workload, workers)] = (time.process_time() - own, _children_cpu_s() - children)
+        return elapsed
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def _serial_time(workload: str, options: BenchOptions) -> float:
+    key = (workload, repr(options))
+    if key not in _SCALE_TIMES:
+        _SCALE_TIMES[key] = _time_batch(workload, options, workers=1)
+    return _SCALE_TIMES[key]
+
+
+def _workload_text(workload: str, options: BenchOptions) -> str:
+    if workload == "study":
+        return f"one {options.study_experiment} study of {options.scale_participants} participants"
+    return f"{options.scale_studies} smoke studies"
+
+
+def scale_figure(workload: str, workers: int) -> Figure:
+    """A figure: the workload on ``workers`` local processes, its parallel efficiency and serial fraction."""
+
+    def figure(options: BenchOptions) -> dict[str, Any]:
+        serial = _serial_time(workload, options)
+        elapsed = serial if workers == 1 else _time_batch(workload, options, workers=workers)
+        if workers > 1:
+            _SCALE_TIMES[(workload + f":{workers}", repr(options))] = elapsed
+        efficiency = serial / (workers * elapsed)
+        karp_flatt = (1 / (serial / elapsed) - 1 / workers) / (1 - 1 / workers) if workers > 1 else 0.0
+        target = SCALE_EFFICIENCY_TARGET[workload]
+        parent_cpu, worker_cpu = _SCALE_CPU.get((workload, workers), (math.nan, math.nan))
+        cpu = (f"; CPU: this process {parent_cpu:.2f} s, workers {worker_cpu:.2f} s (serial share "
+               f"{parent_cpu / (parent_cpu + worker_cpu):.1%})" if workers > 1 else "")
+        peak = _SCALE_PEAKS.get((workload, workers)) if workers > 1 else None
+        ok = efficiency >= target and (peak is None or peak <= WORKER_MEMORY_TARGET_MB)
+        return row(f"scale: {_workload_text(workload, options)}, {workers} worker(s)", elapsed, serial,
+                   f"efficiency >= {target:.0%} (16-core target); worker <= "
+                   f"{WORKER_MEMORY_TARGET_MB:.0f} MB", ok,
+                   f"parallel efficiency {efficiency:.0%}; serial fraction (Karp-Flatt) {karp_flatt:.1%}; "
+                   f"ratio = speed-up over 1 worker; {available_cores()} cores; memory: the largest "
+                   f"worker's peak RSS{cpu}", peak_mb=peak)
+
+    figure.__name__ = f"figure_scale_{workload}_{workers}"
+    return figure
+
+
+def scale_dask_figure(workload: str) -> Figure:
+    """A figure: the workload on a local dask cluster of single-thread worker processes, one per core,
+    against the process pool on the same cores."""
+
+    def figure(options: BenchOptions) -> dict[str, Any]:
+        try:
+            from dask.distributed import LocalCluster
+        except ImportError:  # pragma: no cover - the optional extra
+            return row(f"scale: {_workload_text(workload, options)}, dask", float("nan"), None,
+                       f"<= {DASK_RATIO_TARGET}x the process pool", False,
+                       "dask.distributed is not installed (pip install 'nudgecli[cluster]')")
+        cores = available_cores()
+        from dask.distributed import Client
+
+        with LocalCluster(n_workers=cores, threads_per_worker=1, processes=True, dashboard_address=":0",
+                          silence_logs=40) as cluster, Client(cluster) as client:
+            client.run(_import_batch)  # start-up (imports in every worker) is not part of the figure
+            elapsed = _time_batch(workload, options, scheduler=cluster.scheduler_address)
+        pool = _SCALE_TIMES.get((workload + f":{cores}", repr(options)))
+        if pool is None:
+            pool = (_time_batch(workload, options, workers=cores) if cores > 1
+                    else _serial_time(workload, options))
+        ratio = elapsed / pool
+        serial = _serial_time(workload, options)
+        return row(f"scale: {_workload_text(workload, options)}, dask ({cores} workers)", elapsed, pool,
+                   f"<= {DASK_RATIO_TARGET}x the process pool", ratio <= DASK_RATIO_TARGET,
+                   f"dask / process pool on {cores} cores = {ratio:.2f}x (ratio column: pool / dask); "
+                   f"parallel efficiency {serial / (cores * elapsed):.0%}; cluster start-up and the "
+                   "workers' imports excluded")
+
+    figure.__name__ = f"figure_scale_{workload}_dask"
+    return figure
+
+
+def _import_batch() -> None:
+    import nudgecli.runs.batch  # noqa: F401
+
+
+def figure_replicate_throughput(options: BenchOptions) -> dict[str, Any]:
+    """``nudge replicate EXPERIMENT -R N --workers W`` end to end in a child: trials per hour.
+
+    Everything a user waits for counts: start-up, every study simulated with its parts written,
+    every study analysed, the batch's tables. ``baseline_s`` is the wall time at the target rate,
+    so ``ratio`` >= 1 meets it.
+    """
+    config = load_experiment(options.throughput_experiment)
+    per_study = config.study.participants * len(config.study.conditions) * config.study.trials_per_condition
+    trials = per_study * options.throughput_replications
+    folder = Path(tempfile.mkdtemp(prefix="nudge-bench-replicate-"))
+    try:
+        start = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "nudgecli.cli", "replicate", options.throughput_experiment,
+                        "-R", str(options.throughput_replications), "--workers", str(options.study_workers),
+                        "--seed", str(BENCH_SEED), "--out", str(folder / "batch"), "--yes"],
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=child_environment(),
+                       check=True)
+        elapsed = time.perf_counter() - start
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    per_hour = trials / elapsed * 3600.0
+    at_target = trials / THROUGHPUT_TARGET_PER_HOUR * 3600.0
+    return row(f"replicate {options.throughput_experiment} -R {options.throughput_replications}, "
+               f"{options.study_workers} workers, end to end", elapsed, at_target,
+               f">= {THROUGHPUT_TARGET_PER_HOUR:,.0f} trials per hour",
+               per_hour >= THROUGHPUT_TARGET_PER_HOUR,
+               f"{per_hour:,.0f} trials per hour ({trials:,} trials, every study analysed); "
+               f"{available_cores()} cores; baseline = the wall time at the target rate")
+
+
+def scale_figures() -> list[Figure]:
+    """Both workloads on 1..cores local workers, then on a local dask cluster; then the end-to-end
+    replication throughput."""
+    figures: list[Figure] = []
+    for workload in ("study", "sweep"):
+        figures += [scale_figure(workload, w) for w in range(1, available_cores() + 1)]
+        figures.append(scale_dask_figure(workload))
+    figures.append(figure_replicate_throughput)
+    return figures

@@ -1,0 +1,199 @@
+"""``nudge replicate``, ``power`` and ``sweep``: the three kinds of batch.
+
+Each command builds its :class:`~nudgecli.runs.batch.Batch` (one design point for ``replicate``
+and ``power``, the sweep file's points for ``sweep``), runs it with
+:func:`~nudgecli.runs.batch.run_batch`, and writes its tables (CSV) and figures into the batch
+folder.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import pandas as pd
+
+from nudgecli.config import ExperimentConfig, default_plan_name
+from nudgecli.errors import ConfigError
+from nudgecli.run_folder_names import FIGURES_DIR
+from nudgecli.runs.batch import Batch, BatchRun, Point, parameter_names, point_table, run_batch, single_point
+from nudgecli.store import write_text_atomic
+
+if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load when a command analyses
+    from nudgecli.report.plans import AnalysisPlan
+
+
+@dataclass
+class BatchResult:
+    """What a command computed and wrote.
+
+    Attributes
+    ----------
+    run
+        The batch run.
+    rows
+        One row per replication, metric and pair of conditions (``replications.csv``).
+    summary
+        The command's main table (printed by the CLI).
+    tables
+        Every table written, by file stem.
+    files
+        Every file written.
+    """
+
+    run: BatchRun
+    rows: pd.DataFrame
+    summary: pd.DataFrame
+    tables: dict[str, pd.DataFrame]
+    files: list[Path]
+
+
+def _write_tables(folder: Path, tables: dict[str, pd.DataFrame]) -> list[Path]:
+    written = []
+    for stem, table in tables.items():
+        path = folder / f"{stem}.csv"
+        write_text_atomic(path, table.to_csv(index=False))
+        written.append(path)
+    return written
+
+
+def _figures(folder: Path, figures: dict[str, Any]) -> list[Path]:
+    from nudgecli.report.figures.output import save_figure
+
+    written: list[Path] = []
+    for stem, fig in figures.items():
+        written += save_figure(fig, folder / FIGURES_DIR, stem, ("png",))
+    return written
+
+
+def _load(experiment: str, overrides: Sequence[str], participants: int | None) -> ExperimentConfig:
+    from nudgecli.config import load_experiment
+
+    config = load_experiment(experiment, tuple(overrides))
+    if participants is not None:
+        if participants < 1:
+            raise ConfigError(f"--participants must be at least 1, got {participants}")
+        study = config.study.model_copy(update={"participants": participants})
+        config = config.model_copy(update={"study": study})
+    return config
+
+
+def _check(replications: int, seed: int | None) -> None:
+    if replications < 1:
+        raise ConfigError(f"--replications must be at least 1, got {replications}")
+    if seed is not None and seed < 0:
+        raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
+
+
+def replicate(experiment: str, replications: int, out: str | Path, *, seed: int | None = None,
+              plan: str | AnalysisPlan | None = None, participants: int | None = None,
+              overrides: Sequence[str] = (), **options: Any) -> BatchResult:
+    """``nudge replicate``: R independent studies of one experiment, each analysed with the plan.
+
+    Writes ``replications.csv`` (per replication), ``conditions.csv`` (tidy medians per
+    condition), ``summary.csv`` (per metric: significance rates, median p, pooled effects) and
+    ``figures/forest.png``. ``options`` go to :func:`run_batch`.
+    """
+    from nudgecli.report.figures.replication import forest_figure
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.replication import condition_values, replication_rows, summarise
+
+    _check(replications, seed)
+    config = _load(experiment, overrides, participants)
+    chosen = load_plan(default_plan_name(config.experiment.name) if plan is None else plan)
+    batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
+                  config.experiment.seed if seed is None else seed, chosen,
+                  {"experiment": config.experiment.name})
+    run = run_batch(batch, out, **options)
+    rows = replication_rows(run.graph.entries, run.stats, chosen)
+    summary = summarise(rows).drop(columns=["point"])
+    tables = {"replications": rows.drop(columns=["point"]),
+              "conditions": condition_values(run.graph.entries, run.stats).drop(columns=["point"]),
+              "summary": summary}
+    figures = {"forest": forest_figure(rows, summarise(rows))}
+    files = _write_tables(run.path, tables) + _figures(run.path, figures)
+    return BatchResult(run, rows, summary, tables, files)
+
+
+def power(experiment: str, participant_counts: Sequence[int], replications: int, out: str | Path, *,
+          seed: int | None = None, plan: str | AnalysisPlan | None = None, overrides: Sequence[str] = (),
+          target: float = 0.8, **options: Any) -> BatchResult:
+    """``nudge power``: the power curve of every metric over participant counts.
+
+    Replication ``r`` simulates its largest study once; each count ``n`` analyses its first
+    ``n`` participants. Writes ``power.csv`` (per count, metric and level of test, with the
+    Clopper-Pearson interval), ``smallest_n.csv``, ``replications.csv`` and ``figures/power.png``.
+    """
+    from nudgecli.report.figures.replication import power_figure
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.replication import power_table, replication_rows, smallest_n
+
+    _check(replications, seed)
+    counts = sorted(set(int(n) for n in participant_counts))
+    if not counts or counts[0] < 2:
+        raise ConfigError("--participants: give counts of at least 2, e.g. --participants 6,9,12,18,24")
+    if not 0 < target < 1:
+        raise ConfigError(f"--target must be between 0 and 1, got {target}")
+    config = _load(experiment, overrides, None)
+    chosen = load_plan(default_plan_name(config.experiment.name) if plan is None else plan)
+    batch = Batch("power", single_point(config, counts), replications,
+                  config.experiment.seed if seed is None else seed, chosen,
+                  {"experiment": config.experiment.name})
+    run = run_batch(batch, out, **options)
+    rows = replication_rows(run.graph.entries, run.stats, chosen)
+    curves = power_table(rows)
+    smallest = smallest_n(curves, target)
+    tables = {"power": curves, "smallest_n": smallest, "replications": rows.drop(columns=["point"])}
+    files = _write_tables(run.path, tables) + _figures(run.path, {"power": power_figure(curves, target)})
+    return BatchResult(run, rows, curves, tables, files)
+
+
+def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, seed: int | None = None,
+          **options: Any) -> BatchResult:
+    """``nudge sweep``: every design point of a sweep file, R replications each with common seeds.
+
+    Writes ``sweep.csv`` (tidy: ``point, replication, seed, <parameters...>, condition, metric,
+    value``), ``replications.csv``, ``points.csv`` (per point and metric: the summary of
+    :func:`nudgecli.report.replication.summarise` with the parameters), for Sobol and Morris
+    designs ``sensitivity.csv``, and the figures ``figures/sweep.png`` (and ``sensitivity.png``).
+    """
+    from nudgecli.report.figures.replication import sensitivity_figure, sweep_figure
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.replication import (
+        condition_values,
+        point_outputs,
+        replication_rows,
+        sensitivity,
+        summarise,
+    )
+    from nudgecli.runs.sweep import load_sweep
+
+    loaded = load_sweep(sweep_file)
+    spec = loaded.spec
+    count = spec.replications if replications is None else replications
+    _check(count, seed)
+    chosen = load_plan(spec.plan)
+    points = tuple(Point(p.index, p.parameters, p.config, (p.config.study.participants,))
+                   for p in loaded.points)
+    batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen,
+                  {"design": spec.design.model_dump(mode="json"), "experiment": spec.experiment})
+    run = run_batch(batch, out, **options)
+    names = parameter_names(batch)
+    table = point_table(batch).astype(object)
+    for name in names:
+        table[name] = table[name].map(lambda v: v if isinstance(v, int | float | str | bool) else str(v))
+    rows = replication_rows(run.graph.entries, run.stats, chosen, table)
+    summary = summarise(rows).merge(table, on="point", how="left")
+    tidy = condition_values(run.graph.entries, run.stats, table)
+    tables = {"sweep": tidy, "replications": rows, "points": summary}
+    figures: dict[str, Any] = {"sweep": sweep_figure(rows, names)}
+    if loaded.problem is not None and loaded.samples is not None:
+        indices = sensitivity(spec.design.method, loaded.problem, loaded.samples, point_outputs(rows),
+                              levels=spec.design.levels, seed=batch.seed)
+        tables["sensitivity"] = indices
+        if not indices.empty:
+            figures["sensitivity"] = sensitivity_figure(indices)
+    files = _write_tables(run.path, tables) + _figures(run.path, figures)
+    return BatchResult(run, rows, tables.get("sensitivity", summary), tables, files)

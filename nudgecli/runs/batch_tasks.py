@@ -1,0 +1,111 @@
+"""The tasks of a batch that run in a worker, and the worker's cache of study plans.
+
+A participant task simulates one participant of a study with the study's plan (its layouts and
+their solved goal MDPs, :class:`~nudgecli.sim.study.StudyPlan`), which each worker keeps in a
+small cache keyed by what the plan depends on (:func:`layout_key`), so a plan is built once per
+worker, not once per task; an analysis task computes a replication's statistics. The graph that
+submits them is :mod:`nudgecli.runs.batch`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import threading
+from collections import OrderedDict
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import pandas as pd
+
+from nudgecli.config import ExperimentConfig
+from nudgecli.report.metrics import trial_metrics
+from nudgecli.runs.executors import HELD_AFFINITIES
+from nudgecli.runs.study import tune_allocator
+from nudgecli.sim.study import StudyPlan, simulate_participant
+
+if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only
+    from nudgecli.report.plans import AnalysisPlan
+
+#: Study plans (layouts + solved MDPs, about 20 MB at the paper's 48 layouts) a worker keeps; the
+#: process pool's dispatch mirrors this cache.
+PLAN_CACHE_SIZE = HELD_AFFINITIES
+
+#: Sections that neither draw nor solve layouts (the study's layouts depend on ``[study]`` and
+#: the seed, their MDPs on ``[model]``); every other section, present or future, is in the key.
+_NOT_LAYOUT_SECTIONS = ("experiment", "interface", "inference", "disambiguation", "assistance", "population",
+                        "calibration")
+
+
+def layout_key(config: ExperimentConfig, seed: int) -> str:
+    """What a study's layouts and their solved MDPs depend on, as a short hash."""
+    data = config.model_dump(mode="json", exclude=set(_NOT_LAYOUT_SECTIONS))
+    data["study"].pop("participants", None)
+    text = f"{sorted(data.items())!r}\nseed = {seed}"
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]
+
+
+_PLANS: OrderedDict[str, StudyPlan] = OrderedDict()
+_PLANS_LOCK = threading.Lock()
+
+
+def cached_plan(config: ExperimentConfig, seed: int) -> StudyPlan:
+    """The study plan of ``(config, seed)`` from this process's cache, built on a miss.
+
+    Keyed by :func:`layout_key`: studies that differ only in settings that do not touch the
+    layouts (e.g. ``inference.kappa`` in a sweep) share one plan. Holds :data:`PLAN_CACHE_SIZE`
+    plans at most (least recently used dropped), so a worker's memory does not grow with the batch.
+    """
+    key = layout_key(config, seed)
+    with _PLANS_LOCK:  # a dask worker may run tasks in several threads
+        plan = _PLANS.get(key)
+        if plan is None:
+            plan = StudyPlan.build(config, seed)
+        _remember_plan(key, plan)
+    return dataclasses.replace(plan, config=config)
+
+
+def _remember_plan(key: str, plan: StudyPlan) -> None:
+    """Make ``plan`` the cache's most recent (dropping the oldest beyond ``PLAN_CACHE_SIZE``); the
+    caller holds ``_PLANS_LOCK``."""
+    _PLANS[key] = plan
+    _PLANS.move_to_end(key)
+    while len(_PLANS) > PLAN_CACHE_SIZE:
+        _PLANS.popitem(last=False)
+
+
+def install_plan(plan: StudyPlan) -> None:
+    """Put a study's plan, built elsewhere, into this process's cache (:func:`cached_plan` finds it)."""
+    with _PLANS_LOCK:
+        _remember_plan(layout_key(plan.config, plan.seed), plan)
+
+
+def participant_metrics(plan: StudyPlan, index: int, analysis: AnalysisPlan) -> pd.DataFrame:
+    """One participant's per-trial metrics under the analysis plan's definitions.
+
+    Returns
+    -------
+    pd.DataFrame
+        One row per trial: ``participant, condition, block, trial`` and the metrics of
+        :func:`nudgecli.report.metrics.trial_metrics`.
+    """
+    result = simulate_participant(plan, index)
+    definitions = analysis.metrics.model_dump(exclude={"include"})
+    return trial_metrics(result.trials, result.steps, **definitions)
+
+
+def run_participant_task(config: ExperimentConfig, seed: int, index: int,
+                         analysis: AnalysisPlan) -> pd.DataFrame:
+    """A participant task, with this worker's cached plan of the study."""
+    tune_allocator()
+    return participant_metrics(cached_plan(config, seed), index, analysis)
+
+
+def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str],
+                      study_conditions: Sequence[str] = ()) -> dict[str, Any]:
+    """An analysis task: the replication's statistics (:func:`analyse_replication`; the study's
+    conditions give their order after the plan's)."""
+    tune_allocator()
+    from nudgecli.report.replication import analyse_replication
+
+    return analyse_replication(metrics, analysis, names, study_conditions)
