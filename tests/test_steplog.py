@@ -22,7 +22,7 @@ def brute_force_count(cell: object, name: str) -> int:
 
 
 cells = st.one_of(
-    st.lists(st.sampled_from(NAMES + ("", " nudge ")), max_size=4).map(join_events),
+    st.lists(st.sampled_from((*NAMES, "", " nudge ")), max_size=4).map(join_events),
     st.none(), st.just(math.nan), st.integers(-3, 3))
 
 

@@ -34,7 +34,8 @@ from nudgecli.sim.ciaa import packaged_task, subject_schedule, task_layouts
 from nudgecli.sim.counterbalance import participant_order
 from nudgecli.sim.participant_fitting import participant_from_log
 from nudgecli.sim.participants import Participant, draw_participant
-from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSpec, run_trial, run_world_trial
+from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSpec
+from nudgecli.sim.trials import run_trial, run_world_trial
 from nudgecli.steplog import STEP_COLUMNS
 
 #: The ``condition`` of a layout every condition runs (``[study] shared_layouts``).
