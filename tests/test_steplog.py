@@ -9,7 +9,15 @@ import pandas as pd
 from hypothesis import given
 from hypothesis import strategies as st
 
-from nudgecli.steplog import EVENT_SEPARATOR, count_event, has_event, join_events
+from nudgecli.steplog import (
+    EVENT_SEPARATOR,
+    STEP_COLUMNS,
+    STEP_NUMERIC_DTYPES,
+    count_event,
+    has_event,
+    join_events,
+    steps_frame,
+)
 
 NAMES = ("mode_switch_human", "nudge", "trial_start", "mode_switch")
 
@@ -47,3 +55,21 @@ def test_count_event_keeps_rows_that_share_an_index_label_apart() -> None:
 def test_count_event_reads_a_plain_iterable() -> None:
     counts = count_event(iter(["nudge", None, "trial_start|nudge"]), "nudge")
     assert counts.tolist() == [1, 0, 1] and counts.index.equals(pd.RangeIndex(3))
+
+
+def test_steps_frame_is_the_frame_pandas_infers_from_the_columns() -> None:
+    # a step log's columns as the protocol builds them (sim/step_record.py): Python ints, floats,
+    # strings and belief lists, typed here independently of STEP_NUMERIC_DTYPES
+    ints = {"participant": [3] * 4, "trial": [7] * 4, "step": [0, 1, 2, 3], "cell_x": [1, 1, 2, 2],
+            "cell_y": [0, 0, 0, 1], "heading": [0, 0, 1, 1], "inferred_goal": [-1, -1, 2, 2]}
+    floats = {name: [0.0, 0.1, -0.25, 1.5] for name in (
+        "t", "x", "y", "theta", "pressure", "u_h_x", "u_h_y", "u_h_theta", "u_a_x", "u_a_y", "u_a_theta",
+        "alpha", "entropy")}
+    text = {"turn": ["human"] * 4, "mode": ["x", "y", "theta", "x"], "phi_i": ["", "Soft Puff", "", ""],
+            "phi_m": ["", "Soft Puff", "Soft-Hard Puff Deadband", ""],
+            "event": ["trial_start", "", "", "nudge"],
+            "belief": [[0.5, 0.5], [0.6, 0.4], [0.7, 0.3], [0.75, 0.25]]}
+    columns = {name: {**ints, **floats, **text}[name] for name in STEP_COLUMNS}
+    frame = steps_frame(columns)
+    pd.testing.assert_frame_equal(frame, pd.DataFrame(columns), check_exact=True)
+    assert set(STEP_NUMERIC_DTYPES) == set(ints) | set(floats)

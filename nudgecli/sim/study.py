@@ -36,7 +36,7 @@ from nudgecli.sim.participant_fitting import participant_from_log
 from nudgecli.sim.participants import Participant, draw_participant
 from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSpec
 from nudgecli.sim.trials import run_trial, run_world_trial
-from nudgecli.steplog import STEP_COLUMNS
+from nudgecli.steplog import STEP_COLUMNS, steps_frame
 
 #: The ``condition`` of a layout every condition runs (``[study] shared_layouts``).
 SHARED = "shared"
@@ -302,7 +302,7 @@ def simulate_participant(plan: StudyPlan, participant_index: int) -> Participant
     return ParticipantResult(
         participant=participant_index,
         trials=pd.DataFrame(summaries),
-        steps=pd.DataFrame(step_columns),
+        steps=steps_frame(step_columns),
         record=pd.DataFrame([record]),
         wall_s=time.perf_counter() - start,
         calibration=fitted.sessions,
