@@ -258,6 +258,8 @@ class TrialSession:
         if not 0 <= self.spec.true_goal < n_goals:
             raise ValueError(f"true_goal {self.spec.true_goal} is not one of the layout's {n_goals} goals")
         self.x, self.y, self.theta = (float(v) for v in world.start_pose)
+        # the autonomy's command of the last human step and what it was computed for
+        self.last_autonomy: tuple[tuple[float, ...], Command] = ((math.nan,) * 4, _ZERO3)
         self.mode = int(world.start_mode)
         self.goal_poses = world.goal_poses
         self.goal_list = [(float(x), float(y), float(t)) for x, y, t in self.goal_poses]
@@ -342,8 +344,13 @@ class TrialSession:
             inferred, alpha = self._blending() if self.blends else (NO_GOAL, 0.0)
             u_a = _ZERO3
             if inferred != NO_GOAL:
-                u_a = assistance.autonomy_command(self.x, self.y, self.theta, *self.goal_list[inferred],
-                                                  s.autonomy_speed, s.autonomy_turn_rate, s.dt)
+                towards = (self.x, self.y, self.theta, inferred)
+                if towards == self.last_autonomy[0]:  # the robot stood still: the same pure command
+                    u_a = self.last_autonomy[1]
+                else:
+                    u_a = assistance.autonomy_command(self.x, self.y, self.theta, *self.goal_list[inferred],
+                                                      s.autonomy_speed, s.autonomy_turn_rate, s.dt)
+                    self.last_autonomy = (towards, u_a)
             # blending acts only on a motion command (a mode switch or no input leaves the robot still)
             u_f = assistance.blend_command(u_a, u_h, alpha) if u_h is not _ZERO3 else u_h
         self._record(HUMAN_TURN, state, mode_before, intended, pressure, measured, u_h, u_a, alpha, inferred,
