@@ -12,6 +12,7 @@ what happened during it. ``event`` holds zero or more event names joined with
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -47,6 +48,24 @@ STEP_COLUMNS = (
     "u_a_theta", "alpha", "inferred_goal", "belief", "entropy", "event",
 )
 
+#: The step log's numeric columns and their dtypes (the rest are text, and ``belief`` lists).
+STEP_NUMERIC_DTYPES: dict[str, type[np.generic]] = {
+    **dict.fromkeys(("participant", "trial", "step", "cell_x", "cell_y", "heading", "inferred_goal"),
+                    np.int64),
+    **dict.fromkeys(("t", "x", "y", "theta", "pressure", "u_h_x", "u_h_y", "u_h_theta", "u_a_x", "u_a_y",
+                     "u_a_theta", "alpha", "entropy"), np.float64),
+}
+
+
+def steps_frame(columns: dict[str, list[Any]]) -> pd.DataFrame:
+    """The step log's frame of ``columns`` (:data:`STEP_COLUMNS` -> ``(N,)`` lists of Python values).
+
+    Numeric columns go through one typed numpy array each: the values and dtypes pandas would
+    infer from the lists, without its per-element type checks (a tenth of building the frame).
+    """
+    return pd.DataFrame({name: np.array(values, dtype=STEP_NUMERIC_DTYPES[name])
+                         if name in STEP_NUMERIC_DTYPES else values for name, values in columns.items()})
+
 
 def join_events(events: Iterable[str]) -> str:
     """The ``event`` cell of a step with these events (empty string for none)."""
@@ -76,9 +95,11 @@ def count_event(events: pd.Series | Iterable[object], name: str) -> pd.Series:
         ``(N,)`` counts, with the index of ``events`` (a fresh range index for a plain iterable).
     """
     series = events if isinstance(events, pd.Series) else pd.Series(list(events), dtype=object)
-    text = series.where(series.map(lambda v: isinstance(v, str)), "").astype(str)
-    tokens = text.str.split(EVENT_SEPARATOR).explode().str.strip()
-    return (tokens == name).groupby(level=0).sum().reindex(series.index, fill_value=0)
+    # A step log holds a handful of distinct cells over thousands of rows: split each distinct
+    # cell once and look the counts up by code (a missing cell has code -1: the appended 0).
+    codes, cells = pd.factorize(series)
+    per_cell = np.array([event_tokens(cell).count(name) for cell in cells] + [0], dtype=np.int64)
+    return pd.Series(per_cell[codes], index=series.index)
 
 
 def has_event(events: pd.Series | Iterable[object], name: str) -> np.ndarray:

@@ -27,8 +27,9 @@ from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.interface import default_distortion_table, default_mapping_table
 from nudgecli.report.analysis import analyze
 from nudgecli.rng import generator
-from nudgecli.sim.protocol import ProtocolSettings, TrialSession, handover_steps
+from nudgecli.sim.protocol import ProtocolSettings, TrialSession
 from nudgecli.sim.study import StudyPlan, participant_schedule
+from nudgecli.sim.trials import handover_steps
 from nudgecli.steplog import HUMAN_TURN
 
 

@@ -28,7 +28,8 @@ from nudgecli.rng import generator
 from nudgecli.sim.behaviour import next_centre
 from nudgecli.sim.ciaa import load_task, packaged_task, subject_schedule, task_layouts
 from nudgecli.sim.participants import Participant, mapping_with_error
-from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec, run_world_trial
+from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec
+from nudgecli.sim.trials import run_world_trial
 
 SHARED_TASK = Path(__file__).resolve().parents[2] / "shared" / "data" / "ciaa-task" / "layouts.json"
 HALF_PI = math.pi / 2.0

@@ -25,8 +25,9 @@ from nudgecli.model.mdp import solve_layout
 from nudgecli.model.world import MODE_NAMES, N_STATES, Layout, state_index
 from nudgecli.rng import generator
 from nudgecli.sim.participants import Participant, mapping_with_error
-from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec, run_trial
+from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec
 from nudgecli.sim.study import build_layouts, participant_schedule
+from nudgecli.sim.trials import run_trial
 
 SOFT, HARD, DEAD = -0.15, -0.8, -0.4  # puff pressures in the soft band, the hard band, the deadband
 

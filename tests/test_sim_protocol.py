@@ -16,8 +16,9 @@ from nudgecli.model.mdp import solve_layout
 from nudgecli.model.world import MODE_NAMES, cell_centre, discretise, state_index
 from nudgecli.rng import generator
 from nudgecli.sim.participants import Participant, mapping_with_error
-from nudgecli.sim.protocol import ProtocolSettings, TrialSpec, handover_steps, run_trial
+from nudgecli.sim.protocol import ProtocolSettings, TrialSpec
 from nudgecli.sim.study import build_layouts
+from nudgecli.sim.trials import handover_steps, run_trial
 
 DT = 0.1
 

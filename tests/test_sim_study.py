@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import os
 import signal
 import subprocess
@@ -17,7 +18,7 @@ from click.testing import CliRunner
 from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.runs.study import run_study
-from nudgecli.sim.study import build_layouts, participant_schedule
+from nudgecli.sim.study import build_layouts, fewer_collections, participant_schedule
 from nudgecli.store import RunFolder
 
 
@@ -202,3 +203,18 @@ def test_the_simulated_calibration_logs_refit_to_the_agents_tables(tmp_path):
                                np.array(json.loads(record["agent_p_phi_given_a"])), rtol=0, atol=1e-12)
     np.testing.assert_allclose(distortion_table_from_dict(profile["p_phm_given_phi"]),
                                np.array(json.loads(record["agent_p_phm_given_phi"])), rtol=0, atol=1e-12)
+
+
+def test_fewer_collections_raises_the_first_threshold_for_the_block_only() -> None:
+    before = gc.get_threshold()
+    try:
+        gc.set_threshold(700, 10, 10)
+        with pytest.raises(RuntimeError), fewer_collections(12_345):
+            assert gc.get_threshold() == (12_345, 10, 10)
+            raise RuntimeError("a trial failed")
+        assert gc.get_threshold() == (700, 10, 10)  # restored, even after an error
+        gc.set_threshold(50_000, 10, 10)
+        with fewer_collections(12_345):
+            assert gc.get_threshold() == (50_000, 10, 10)  # never lowered
+    finally:
+        gc.set_threshold(*before)

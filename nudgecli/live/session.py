@@ -58,8 +58,9 @@ from nudgecli.rng import generator, seed_key
 from nudgecli.sim.calibration import estimate_distortion, estimate_mapping
 from nudgecli.sim.calibration_io import write_sessions
 from nudgecli.sim.calibration_readers import read_sessions
-from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec, handover_steps
+from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec
 from nudgecli.sim.study import StudyLayout, StudyPlan, participant_schedule, solve_layouts
+from nudgecli.sim.trials import handover_steps
 from nudgecli.steplog import AUTONOMY_TURN, HUMAN_TURN, STEP_COLUMNS
 
 #: The practice trials of phase 3, in order.

@@ -299,6 +299,10 @@ class GridWorld:
         self.success_angle = success_angle
         self._goal_poses = layout.goal_poses
         self._goal_list = [(float(x), float(y), float(t)) for x, y, t in self._goal_poses]
+        # The last query's answer: both are pure functions of the pose, asked every step, and the
+        # robot stands still in about half of a person's steps (no input, a mode switch).
+        self._last_state: tuple[tuple[float, float, float, int], int] = ((math.nan,) * 3 + (0,), -1)
+        self._last_goal: tuple[tuple[float, float, float], int] = ((math.nan,) * 3, -1)
 
     @property
     def n_goals(self) -> int:
@@ -317,8 +321,14 @@ class GridWorld:
         return int(self.layout.start_mode)
 
     def state(self, x: float, y: float, theta: float, mode: int) -> int:
+        pose = (x, y, theta, mode)
+        last, answer = self._last_state
+        if pose == last:
+            return answer
         i, j, h = discretise(x, y, theta)
-        return ((i * N_CELLS_Y + j) * N_HEADINGS + h) * N_MODES + int(mode)  # state_index on ints
+        answer = ((i * N_CELLS_Y + j) * N_HEADINGS + h) * N_MODES + int(mode)  # state_index on ints
+        self._last_state = (pose, answer)
+        return answer
 
     def cells(self, state: int) -> tuple[int, int, int]:
         cell, h = divmod(state // N_MODES, N_HEADINGS)
@@ -332,11 +342,18 @@ class GridWorld:
 
     def goal_reached(self, x: float, y: float, theta: float) -> int:
         # scalar math: this runs every step
+        pose = (x, y, theta)
+        last, answer = self._last_goal
+        if pose == last:
+            return answer
+        answer = -1
         for index, (gx, gy, gth) in enumerate(self._goal_list):
             if (math.hypot(gx - x, gy - y) <= self.success_distance
                     and abs(turn_between(gth, theta)) <= self.success_angle):
-                return index
-        return -1
+                answer = index
+                break
+        self._last_goal = (pose, answer)
+        return answer
 
     def next_mark(self, coordinate: float, direction: float, axis: int) -> float:
         return grid_next_mark(coordinate, direction, axis)

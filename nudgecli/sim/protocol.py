@@ -66,21 +66,18 @@ from nudgecli.model.inference import (
     normalised_entropy,
     predict_belief,
 )
-from nudgecli.model.interface import HARD_PUFF, HARD_SIP, LABELS, NO_INPUT, SOFT_PUFF, SOFT_SIP
-from nudgecli.model.mdp import SolvedLayout
+from nudgecli.model.interface import HARD_PUFF, HARD_SIP, NO_INPUT, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.path_world import PathLayout
 from nudgecli.model.ties import tied_with_max, unique_argmax
 from nudgecli.model.world import (
-    MODE_NAMES,
     N_MODES,
     Command,
     GridWorld,
     Layout,
     World,
-    state_index,
 )
-from nudgecli.sim.behaviour import BehaviourSettings, InputSource, SimulatedPerson
-from nudgecli.sim.participants import Participant
+from nudgecli.sim.behaviour import BehaviourSettings
+from nudgecli.sim.step_record import step_columns
 from nudgecli.steplog import (
     AUTONOMY_TURN,
     HANDOVER_TO_AUTONOMY,
@@ -92,18 +89,11 @@ from nudgecli.steplog import (
     NO_GOAL,
     NUDGE,
     STEP,
-    STEP_COLUMNS,
     TRIAL_START,
-    command_columns,
-    join_events,
-    step_times,
 )
 
 _ZERO3 = interface.NO_COMMAND  # u_h of a step without a motion command, u_a without assistance
 _NO_DECAY = DecayCounters()
-#: The step log's ``phi_m`` of a measured code (no input: empty).
-_STREAM_LABEL = {**dict(enumerate(LABELS)), interface.PUFF_DEADBAND: interface.PUFF_DEADBAND_LABEL,
-                 interface.SIP_DEADBAND: interface.SIP_DEADBAND_LABEL}
 
 
 @dataclass(frozen=True)
@@ -268,6 +258,8 @@ class TrialSession:
         if not 0 <= self.spec.true_goal < n_goals:
             raise ValueError(f"true_goal {self.spec.true_goal} is not one of the layout's {n_goals} goals")
         self.x, self.y, self.theta = (float(v) for v in world.start_pose)
+        # the autonomy's command of the last human step and what it was computed for
+        self.last_autonomy: tuple[tuple[float, ...], Command] = ((math.nan,) * 4, _ZERO3)
         self.mode = int(world.start_mode)
         self.goal_poses = world.goal_poses
         self.goal_list = [(float(x), float(y), float(t)) for x, y, t in self.goal_poses]
@@ -352,8 +344,13 @@ class TrialSession:
             inferred, alpha = self._blending() if self.blends else (NO_GOAL, 0.0)
             u_a = _ZERO3
             if inferred != NO_GOAL:
-                u_a = assistance.autonomy_command(self.x, self.y, self.theta, *self.goal_list[inferred],
-                                                  s.autonomy_speed, s.autonomy_turn_rate, s.dt)
+                towards = (self.x, self.y, self.theta, inferred)
+                if towards == self.last_autonomy[0]:  # the robot stood still: the same pure command
+                    u_a = self.last_autonomy[1]
+                else:
+                    u_a = assistance.autonomy_command(self.x, self.y, self.theta, *self.goal_list[inferred],
+                                                      s.autonomy_speed, s.autonomy_turn_rate, s.dt)
+                    self.last_autonomy = (towards, u_a)
             # blending acts only on a motion command (a mode switch or no input leaves the robot still)
             u_f = assistance.blend_command(u_a, u_h, alpha) if u_h is not _ZERO3 else u_h
         self._record(HUMAN_TURN, state, mode_before, intended, pressure, measured, u_h, u_a, alpha, inferred,
@@ -512,8 +509,8 @@ class TrialSession:
         """Append one step: the pose, cell and mode at the start of the step, what happened in it.
 
         The row is kept raw (a tuple; the belief array is never changed in place, only replaced)
-        and put into the schema's columns once, by :attr:`columns`: per-step formatting was a
-        fifth of the trial loop.
+        (:data:`~nudgecli.sim.step_record.ROW_FIELDS`) and put into the schema's columns once, by
+        :attr:`columns`.
         """
         self.rows.append((self.step, turn, self.x, self.y, self.theta, mode, state, intended, pressure,
                           measured, u_h, u_a, alpha, inferred, self.belief, self.entropy, events))
@@ -522,45 +519,8 @@ class TrialSession:
     def columns(self) -> dict[str, list[Any]]:
         """The steps so far as the step log's columns (:data:`~nudgecli.steplog.STEP_COLUMNS`)."""
         assert self.world is not None
-        if not self.rows:
-            return {c: [] for c in STEP_COLUMNS}
-        (steps, turns, xs, ys, thetas, modes, states, intended, pressures, measured, u_h, u_a, alphas,
-         inferred, beliefs, entropies, events) = (list(column) for column in zip(*self.rows, strict=True))
-        n, dt, cells = len(steps), self.settings.dt, self.world.cells
-        cells_of = {state: cells(state) for state in set(states)}  # a trial visits few states
-        cell_x, cell_y, headings = zip(*(cells_of[state] for state in states), strict=True)
-        human, autonomy = command_columns(u_h, n), command_columns(u_a, n)
-        times = step_times(dt, max(steps))
-        columns: dict[str, list[Any]] = {
-            "participant": [self.spec.participant] * n,
-            "trial": [self.spec.trial] * n,
-            "step": steps,
-            "t": [times[step] for step in steps],
-            "turn": turns,
-            "x": xs,
-            "y": ys,
-            "theta": thetas,
-            "mode": [MODE_NAMES[m] for m in modes],
-            "cell_x": list(cell_x),
-            "cell_y": list(cell_y),
-            "heading": list(headings),
-            "phi_i": [LABELS[i] if i >= 0 else "" for i in intended],
-            "pressure": pressures,
-            "phi_m": [_STREAM_LABEL.get(m, "") for m in measured],
-            "u_h_x": human[0],
-            "u_h_y": human[1],
-            "u_h_theta": human[2],
-            "u_a_x": autonomy[0],
-            "u_a_y": autonomy[1],
-            "u_a_theta": autonomy[2],
-            "alpha": alphas,
-            "inferred_goal": inferred,
-            "belief": [belief.tolist() for belief in beliefs],
-            "entropy": entropies,
-            "event": [join_events(e) for e in events],
-        }
-        assert tuple(columns) == STEP_COLUMNS
-        return columns
+        spec = self.spec
+        return step_columns(self.rows, spec.participant, spec.trial, self.settings.dt, self.world.cells)
 
     # --- the trial's end ----------------------------------------------------------------------
 
@@ -590,87 +550,3 @@ class TrialSession:
             "final_belief_true_goal": float(self.belief[true_goal]),
             "final_entropy": self.entropy,
         }
-
-def run_session(session: TrialSession, source: InputSource) -> TrialResult:
-    """Run a trial to its end with ``source`` giving the human's input."""
-    new_turn = True
-    after_autonomy = False
-    while not session.finished:
-        if session.turn == HUMAN_TURN:
-            if new_turn:
-                source.start_turn(after_autonomy)
-                new_turn = False
-            intended, pressure = source.next_input(session)
-            session.human_step(intended, pressure)
-        else:
-            session.autonomy_step()
-            new_turn = after_autonomy = True
-    return TrialResult(summary=session.summary(), steps=session.columns)
-
-
-def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout, model: DisambiguationModel,
-              participant: Participant, rng: np.random.Generator) -> TrialResult:
-    """Simulate one trial with a simulated participant.
-
-    Parameters
-    ----------
-    spec
-        The trial, its layout and its true goal.
-    settings
-        The protocol's knobs (from the experiment).
-    solved
-        The layout's solved goal MDPs (``policy (G, S)``: the participant acts on their goal's row).
-    model
-        The agent's model of this participant in this layout (fitted tables, ``p(phi_m | g, s)``).
-    participant
-        The simulated person (true physiology and habits).
-    rng
-        This trial's random stream; the person and the agent each get a child stream of it.
-
-    Returns
-    -------
-    TrialResult
-    """
-    layout, goal = spec.layout, spec.true_goal
-    if not isinstance(layout, Layout):
-        raise TypeError("run_trial simulates the grid world; use run_world_trial for another world")
-    goal_cell = int(state_index(int(layout.goal_cells[goal, 0]), int(layout.goal_cells[goal, 1]),
-                                int(layout.goal_headings[goal]), 0)) // N_MODES
-    world = GridWorld(layout, settings.success_distance, settings.success_angle)
-    return run_world_trial(spec, settings, world, solved.policy[goal], goal_cell, model, participant, rng)
-
-
-def run_world_trial(spec: TrialSpec, settings: ProtocolSettings, world: World, policy: np.ndarray,
-                    goal_cell: int, model: DisambiguationModel | None, participant: Participant,
-                    rng: np.random.Generator) -> TrialResult:
-    """Simulate one trial in ``world`` with a simulated participant.
-
-    Parameters
-    ----------
-    spec, settings, model, participant, rng
-        As for :func:`run_trial` (``model`` is ``None`` in an unassisted condition).
-    world
-        The trial's world (made for this trial: it may keep per-trial state).
-    policy
-        ``(S,)`` the optimal task action per discrete state of ``world`` for the true goal.
-    goal_cell
-        The goal's discrete cell (``state // N_MODES``) for fine positioning, or -1 for none.
-
-    Returns
-    -------
-    TrialResult
-    """
-    person_rng, agent_rng = rng.spawn(2)
-    goal = spec.true_goal
-    # the person hands the turn over only where there is an autonomy's turn to hand it to
-    hands_over = policies.policy_of(spec.condition) in policies.TURN_TAKING
-    person = SimulatedPerson(participant, settings.behaviour, policy, world.goal_poses[goal], goal_cell,
-                             person_rng, world=world, hands_over=hands_over)
-    session = TrialSession(spec, settings, model, handover_steps(participant.handover_idle_s, settings.dt),
-                           agent_rng, world=world)
-    return run_session(session, person)
-
-
-def handover_steps(handover_idle_s: float, dt: float) -> int:
-    """Idle steps that hand the turn over: the turn passes once the idle count exceeds this."""
-    return max(1, round(handover_idle_s / dt))

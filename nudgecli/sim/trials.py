@@ -1,0 +1,100 @@
+"""Running one trial: a :class:`~nudgecli.sim.protocol.TrialSession` driven to its end by an
+input source (a simulated person in the grid world or another world, or a live one)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from nudgecli.model import policies
+from nudgecli.model.disambiguation import DisambiguationModel
+from nudgecli.model.mdp import SolvedLayout
+from nudgecli.model.world import N_MODES, GridWorld, Layout, World, state_index
+from nudgecli.sim.behaviour import InputSource, SimulatedPerson
+from nudgecli.sim.participants import Participant
+from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSession, TrialSpec
+from nudgecli.steplog import HUMAN_TURN
+
+
+def run_session(session: TrialSession, source: InputSource) -> TrialResult:
+    """Run a trial to its end with ``source`` giving the human's input."""
+    new_turn = True
+    after_autonomy = False
+    while not session.finished:
+        if session.turn == HUMAN_TURN:
+            if new_turn:
+                source.start_turn(after_autonomy)
+                new_turn = False
+            intended, pressure = source.next_input(session)
+            session.human_step(intended, pressure)
+        else:
+            session.autonomy_step()
+            new_turn = after_autonomy = True
+    return TrialResult(summary=session.summary(), steps=session.columns)
+
+
+def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout, model: DisambiguationModel,
+              participant: Participant, rng: np.random.Generator) -> TrialResult:
+    """Simulate one trial with a simulated participant.
+
+    Parameters
+    ----------
+    spec
+        The trial, its layout and its true goal.
+    settings
+        The protocol's knobs (from the experiment).
+    solved
+        The layout's solved goal MDPs (``policy (G, S)``: the participant acts on their goal's row).
+    model
+        The agent's model of this participant in this layout (fitted tables, ``p(phi_m | g, s)``).
+    participant
+        The simulated person (true physiology and habits).
+    rng
+        This trial's random stream; the person and the agent each get a child stream of it.
+
+    Returns
+    -------
+    TrialResult
+    """
+    layout, goal = spec.layout, spec.true_goal
+    if not isinstance(layout, Layout):
+        raise TypeError("run_trial simulates the grid world; use run_world_trial for another world")
+    goal_cell = int(state_index(int(layout.goal_cells[goal, 0]), int(layout.goal_cells[goal, 1]),
+                                int(layout.goal_headings[goal]), 0)) // N_MODES
+    world = GridWorld(layout, settings.success_distance, settings.success_angle)
+    return run_world_trial(spec, settings, world, solved.policy[goal], goal_cell, model, participant, rng)
+
+
+def run_world_trial(spec: TrialSpec, settings: ProtocolSettings, world: World, policy: np.ndarray,
+                    goal_cell: int, model: DisambiguationModel | None, participant: Participant,
+                    rng: np.random.Generator) -> TrialResult:
+    """Simulate one trial in ``world`` with a simulated participant.
+
+    Parameters
+    ----------
+    spec, settings, model, participant, rng
+        As for :func:`run_trial` (``model`` is ``None`` in an unassisted condition).
+    world
+        The trial's world (made for this trial: it may keep per-trial state).
+    policy
+        ``(S,)`` the optimal task action per discrete state of ``world`` for the true goal.
+    goal_cell
+        The goal's discrete cell (``state // N_MODES``) for fine positioning, or -1 for none.
+
+    Returns
+    -------
+    TrialResult
+    """
+    person_rng, agent_rng = rng.spawn(2)
+    goal = spec.true_goal
+    # the person hands the turn over only where there is an autonomy's turn to hand it to
+    hands_over = policies.policy_of(spec.condition) in policies.TURN_TAKING
+    person = SimulatedPerson(participant, settings.behaviour, policy, world.goal_poses[goal], goal_cell,
+                             person_rng, world=world, hands_over=hands_over)
+    session = TrialSession(spec, settings, model, handover_steps(participant.handover_idle_s, settings.dt),
+                           agent_rng, world=world)
+    return run_session(session, person)
+
+
+def handover_steps(handover_idle_s: float, dt: float) -> int:
+    """Idle steps that hand the turn over: the turn passes once the idle count exceeds this."""
+    return max(1, round(handover_idle_s / dt))

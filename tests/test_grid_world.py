@@ -1,0 +1,56 @@
+"""The paper's grid world (``nudgecli.model.world.GridWorld``): its per-step queries answer as the
+rules they stand for, whatever was asked before (each remembers its last answer)."""
+
+from __future__ import annotations
+
+import math
+
+from hypothesis import given
+from hypothesis import strategies as st
+
+from nudgecli.model.world import (
+    X_MAX,
+    X_MIN,
+    Y_MAX,
+    Y_MIN,
+    GridWorld,
+    discretise,
+    sample_layout,
+    state_index,
+    turn_between,
+)
+from nudgecli.rng import generator
+
+LAYOUT = sample_layout(generator(5, "grid-world-test"), "tl", 4, 0)
+SUCCESS_DISTANCE, SUCCESS_ANGLE = 1.0, 0.3
+
+coordinates = st.tuples(st.floats(X_MIN, X_MAX), st.floats(Y_MIN, Y_MAX), st.floats(0.0, 2 * math.pi - 1e-9))
+# a goal's position among the queries, facing its heading or away, so some of them reach a goal
+at_goals = st.builds(lambda goal, turn: (goal[0], goal[1], (goal[2] + turn) % (2 * math.pi)),
+                     st.sampled_from([(float(x), float(y), float(t)) for x, y, t in LAYOUT.goal_poses]),
+                     st.sampled_from([0.0, 0.2, math.pi]))
+poses = st.one_of(coordinates, at_goals)
+
+
+def goal_by_the_rule(x: float, y: float, theta: float) -> int:
+    """The first goal within the success tolerance, read from the layout directly."""
+    for index, (gx, gy, gth) in enumerate(LAYOUT.goal_poses):
+        if math.hypot(gx - x, gy - y) <= SUCCESS_DISTANCE and abs(turn_between(gth, theta)) <= SUCCESS_ANGLE:
+            return index
+    return -1
+
+
+@given(st.lists(st.tuples(poses, st.integers(0, 2)), min_size=1, max_size=30), st.data())
+def test_state_and_goal_queries_answer_by_the_rule_in_any_order(queries: list, data: st.DataObject) -> None:
+    world = GridWorld(LAYOUT, SUCCESS_DISTANCE, SUCCESS_ANGLE)
+    # repeat some queries back to back, as a robot standing still does
+    repeated = [q for q in queries for _ in range(data.draw(st.integers(1, 3)))]
+    for (x, y, theta), mode in repeated:
+        assert world.state(x, y, theta, mode) == state_index(*discretise(x, y, theta), mode)
+        assert world.goal_reached(x, y, theta) == goal_by_the_rule(x, y, theta)
+
+
+def test_the_same_pose_in_another_mode_is_another_state() -> None:
+    world = GridWorld(LAYOUT, SUCCESS_DISTANCE, SUCCESS_ANGLE)
+    x, y, theta = 0.1, 0.2, 0.3
+    assert world.state(x, y, theta, 1) == world.state(x, y, theta, 0) + 1
