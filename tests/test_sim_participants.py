@@ -344,3 +344,31 @@ def replace_drift(participant: Participant, value: float) -> Participant:
     from dataclasses import replace
 
     return replace(participant, drift_correlation=value)
+
+
+@given(label=st.integers(0, 3), ramp=st.integers(0, 4), start=st.integers(0, 6), n=st.integers(1, 30),
+       rho=st.floats(0.0, 0.99), seed=st.integers(0, 2**16),
+       previous=st.one_of(st.none(), st.floats(-3.0, 3.0)),
+       levels=st.lists(st.floats(0.0, 1.4), min_size=4, max_size=4),
+       spreads=st.lists(st.floats(0.0, 0.6), min_size=4, max_size=4))
+@settings(max_examples=200)
+def test_a_blow_sample_by_sample_is_the_array_blow_bit_for_bit(
+        label: int, ramp: int, start: int, n: int, rho: float, seed: int, previous: float | None,
+        levels: list[float], spreads: list[float]) -> None:
+    # the simulated person computes a soft hold one sample at a time (drift_step, sample_pressure);
+    # the array methods (drift_normals, pressures_from_normals) are the definition
+    participant = Participant(
+        index=0, seed_key="test/samples", pressure_level=LABEL_SIGN * (np.array(levels) + 1e-3),
+        pressure_spread=np.array(spreads), mapping=mapping_with_error(0.0), epsilon=0.1, rest_s=0.5,
+        operate_s=3.0, action_pause_s=0.2, hard_blow_s=0.5, reaction_s=1.0, onset_ramp_samples=ramp,
+        drift_correlation=rho)
+    innovations = np.random.default_rng(seed).standard_normal(n)
+    normals = drift_normals(innovations, rho, previous)
+    pressures = participant.pressures_from_normals(label, normals, start=start)
+    last = previous
+    for k, innovation in enumerate(innovations.tolist()):
+        normal = innovation if last is None else participant.drift_step(last, innovation)
+        assert normal == normals[k] and np.signbit(normal) == np.signbit(normals[k])
+        pressure = participant.sample_pressure(label, start + k, normal)
+        assert pressure == pressures[k] and np.signbit(pressure) == np.signbit(pressures[k])
+        last = normal

@@ -217,6 +217,10 @@ class SimulatedPerson:
         self.blow: list[float] | np.ndarray = []
         self.blow_normals: list[float] | np.ndarray = []
         self.blow_pos = 0
+        self.blow_innovations: list[float] = []  # the current soft hold's draws, one per sample
+        self.blow_label = NO_INPUT  # the label of the current soft hold
+        self.blow_start = 0  # the position of the hold's first sample within its blow
+        self.blow_previous: float | None = None  # the deviation the hold continues from, if any
         self.blow_held = 0
         self.last_normal = 0.0  # the deviation of the blow's last sample, where a held blow drifts on from
         self.still_steps = 0  # steps the robot has stood still under the current soft hold
@@ -265,6 +269,8 @@ class SimulatedPerson:
         if intended == NO_INPUT:
             self.blow_held = 0
             return NO_INPUT, 0.0
+        if self.blow_pos == len(self.blow):
+            self._next_soft_sample()
         pressure = float(self.blow[self.blow_pos])
         self.last_normal = float(self.blow_normals[self.blow_pos])
         self.blow_pos += 1
@@ -474,10 +480,24 @@ class SimulatedPerson:
             self.hold_target = self.next_mark(coordinate, self.hold_direction, self.hold_axis)
         start = self.blow_held if continuing else 0
         self.blow_held = start
-        normals = p.drift_normals(self.hold_left, self.rng, previous=self.last_normal if start > 0 else None)
-        self.blow = p.pressures_from_normals(label, normals, start=start).tolist()
-        self.blow_normals = normals.tolist()
+        # the hold's deviations are drawn now (the same draw as Participant.drift_normals), its
+        # samples computed as they are given (_next_soft_sample)
+        self.blow_innovations = self.rng.standard_normal(self.hold_left).tolist()
+        self.blow_label, self.blow_start = label, start
+        self.blow_previous = self.last_normal if start > 0 else None
+        self.blow, self.blow_normals = [], []
         self.blow_pos = 0
+
+    def _next_soft_sample(self) -> None:
+        """Append the current soft hold's next sample to ``blow`` and ``blow_normals``: the values
+        :meth:`Participant.pressures_from_normals` of :meth:`Participant.drift_normals` would give."""
+        p, k = self.participant, len(self.blow)
+        previous = self.blow_previous if k == 0 else self.blow_normals[k - 1]
+        innovation = self.blow_innovations[k]
+        normal = innovation if previous is None else p.drift_step(previous, innovation)
+        assert isinstance(self.blow, list) and isinstance(self.blow_normals, list)
+        self.blow_normals.append(normal)
+        self.blow.append(p.sample_pressure(self.blow_label, self.blow_start + k, normal))
 
     def _release(self) -> None:
         self.held_label = NO_INPUT

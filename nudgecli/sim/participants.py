@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import MISSING, dataclass, field, fields
 from typing import Any
@@ -272,6 +273,9 @@ class Participant:
     hard_peak_s: float = 0.2
     offset_ramp_samples: int = 1
     _mapping_cdf: np.ndarray = field(init=False, repr=False, compare=False)
+    # Plain floats of one sample's pressure model (sample_pressure, drift_step), read every step.
+    _sample_terms: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], float] = field(
+        init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         level = np.array(self.pressure_level, dtype=float)
@@ -290,6 +294,10 @@ class Participant:
             value.setflags(write=False)
             object.__setattr__(self, name, value)
         object.__setattr__(self, "onset_ramp_samples", int(self.onset_ramp_samples))
+        rho = float(self.drift_correlation)
+        object.__setattr__(self, "_sample_terms", (
+            tuple(abs(v) for v in level.tolist()), tuple(spread.tolist()), tuple(LABEL_SIGN.tolist()),
+            math.sqrt(1.0 - rho * rho)))
         object.__setattr__(self, "offset_ramp_samples", int(self.offset_ramp_samples))
         if not 0.0 <= self.drift_correlation <= MAX_DRIFT_CORRELATION:
             raise ValueError(f"drift_correlation must lie in [0, {MAX_DRIFT_CORRELATION}], "
@@ -315,6 +323,26 @@ class Participant:
         ``previous`` is the deviation of the blow's sample before these, or ``None`` for a new blow.
         """
         return drift_normals(rng.standard_normal(n), self.drift_correlation, previous)
+
+    def drift_step(self, previous: float, innovation: float) -> float:
+        """The deviation of a blow's next sample after one of deviation ``previous``: one step of
+        :func:`drift_normals`'s recursion, bit for bit (``tests/test_sim_participants.py``)."""
+        # scale e + rho z: the same two products and one sum as the array recursion (a sum commutes exactly)
+        return self._sample_terms[3] * innovation + self.drift_correlation * previous
+
+    def sample_pressure(self, label: int, position: int, normal: float) -> float:
+        """The signed pressure of one sample of a blow of ``label``: the sample at ``position`` of
+        the blow (0: its first), with deviation ``normal``.
+
+        One element of :meth:`pressures_from_normals`, bit for bit, in plain floats: a person's
+        soft blow is computed sample by sample as it is held (most holds end after a few of the
+        ``max_hold_s`` samples drawn for them).
+        """
+        levels, spreads, signs, _ = self._sample_terms
+        ramp = self.onset_ramp_samples
+        fraction = (position + 1.0) / (ramp + 1.0) if position < ramp else 1.0
+        magnitude = fraction * (levels[label] + spreads[label] * normal)
+        return signs[label] * (0.0 if magnitude < 0.0 else 1.0 if magnitude > 1.0 else magnitude)
 
     def pressures_from_normals(self, label: int, normals: np.ndarray, start: int = 0) -> np.ndarray:
         """The pressures of holding ``label`` with the given deviations (:meth:`drift_normals`).

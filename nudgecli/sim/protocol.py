@@ -259,7 +259,7 @@ class TrialSession:
             raise ValueError(f"true_goal {self.spec.true_goal} is not one of the layout's {n_goals} goals")
         self.x, self.y, self.theta = (float(v) for v in world.start_pose)
         # the autonomy's command of the last human step and what it was computed for
-        self.last_autonomy: tuple[tuple[float, ...], Command] = ((math.nan,) * 4, _ZERO3)
+        self.last_autonomy: tuple[tuple[float, ...], tuple[float, float, float]] = ((math.nan,) * 4, _ZERO3)
         self.mode = int(world.start_mode)
         self.goal_poses = world.goal_poses
         self.goal_list = [(float(x), float(y), float(t)) for x, y, t in self.goal_poses]
