@@ -342,11 +342,28 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
 
 # --- plot ----------------------------------------------------------------------------------
 
+def _plan_of(source: str, plan: str | None) -> str:
+    """The plan of ``source`` by :func:`nudgecli.config.resolve_plan`: ``plan``, else the plan
+    its run folder's manifest records, else the one named like its experiment, else paper."""
+    from nudgecli.config import resolve_plan
+    from nudgecli.store import RunFolder
+
+    manifest: Any = {}
+    folder = RunFolder(Path(source))
+    if plan is None and Path(source).is_dir() and folder.is_run():
+        with contextlib.suppress(NudgeError):  # a damaged manifest: plotting says what is wrong
+            manifest = folder.read_manifest()
+    if not isinstance(manifest, dict):
+        manifest = {}
+    return resolve_plan(plan, recorded=manifest.get("plan"), experiment=str(manifest.get("experiment", "")))
+
+
 @main.command("plot", short_help="Draw the figures of an analysed run or metrics table.")
 @click.argument("run", type=click.Path(path_type=str))
 @click.option("--plan", metavar="PLAN", default=None,
               help="Analyse RUN with this plan first (writes metrics.csv and stats.json), then plot "
-                   "[default: plot the existing analysis; item labels of the paper plan].")
+                   "[default: plot the existing analysis, with the star rule and item labels of the plan "
+                   "recorded in the run folder, else the plan named like the run's experiment, else paper].")
 @click.option("--out", type=click.Path(file_okay=False, path_type=str), default=None,
               help="Folder for the figures [default: figures/ in the run or analysis folder].")
 @click.option("--formats", default="png,pdf", show_default=True, help="Comma-separated: png, pdf, svg.")
@@ -364,7 +381,7 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
     from nudgecli.report.plotting import default_out, parse_formats, parse_trial, plot_folder
 
     chosen, trial_key = parse_formats(formats), parse_trial(trial)
-    analysis_plan = load_plan(plan or "paper")
+    analysis_plan = load_plan(_plan_of(run, plan))
     if plan is not None:
         from nudgecli.report.analysis import analyze
 
@@ -409,9 +426,10 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
 def run_command(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
                 plan: str | None, resume: bool, force: bool, yes: bool, overrides: tuple[str, ...]) -> None:
     """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
-    from nudgecli.config import default_plan_name
+    from nudgecli.config import resolve_plan
     from nudgecli.locks import run_lock
     from nudgecli.report.analysis import analyze, format_table
+    from nudgecli.report.plans import load_plan
     from nudgecli.report.plotting import plot_folder
     from nudgecli.run_folder_names import FIGURES_DIR, STATS_JSON, SUMMARY_MD
 
@@ -420,15 +438,17 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
     run = _simulate(experiment, out, seed, participants, workers, None, resume, force, overrides,
                     plan=plan, command="run", confirm=yes)
     _print_study_summary(run)
-    chosen_plan = plan or default_plan_name(run.experiment)
+    chosen_plan = resolve_plan(plan, experiment=run.experiment)
     info(f"analysing with the {chosen_plan!r} plan")
+    analysis_plan = load_plan(chosen_plan)
     with run_lock(run.path):
         result = analyze(run.path, plan=chosen_plan)
         for note in result.notes:
             info(f"Note: {note}")
         click.echo("")
         click.echo(format_table(result.table, result.stats["conditions"]))
-        written = plot_folder(run.path)
+        written = plot_folder(run.path, star_rule=analysis_plan.comparison_options(),
+                              item_labels=analysis_plan.questionnaires.labels)
     click.echo("")
     click.echo(f"Statistics: {run.path / STATS_JSON}, {run.path / SUMMARY_MD}")
     click.echo(f"Figures:    {len(written)} files in {run.path / FIGURES_DIR}")

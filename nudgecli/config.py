@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import tomllib
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
@@ -19,6 +19,8 @@ from nudgecli.errors import ConfigError, did_you_mean
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 Probability = Annotated[float, Field(ge=0, le=1)]
+#: A plan as a command holds it: a preset name, a path or a loaded plan (:func:`resolve_plan`).
+PlanT = TypeVar("PlanT")
 
 
 class Section(BaseModel):
@@ -680,6 +682,33 @@ def default_plan_name(experiment: str) -> str:
     """The analysis plan a run of ``experiment`` is analysed with by default: the plan preset of
     the same name (``study-code``), else ``paper``."""
     return experiment if experiment in list_presets("analysis") else "paper"
+
+
+def resolve_plan(plan: PlanT | None, *, recorded: str | None = None,
+                 experiment: str | None = None) -> PlanT | str:
+    """The analysis plan a command uses: the one rule of ``analyze``, ``plot``, ``run``,
+    ``replicate`` and ``power``.
+
+    Parameters
+    ----------
+    plan
+        The plan given (``--plan``: a preset name, a path or a loaded plan); wins when not None.
+    recorded
+        The plan recorded in the run folder's manifest (what the run was simulated or analysed
+        with), if any.
+    experiment
+        The experiment's name (the run's manifest, or the experiment file's ``[experiment] name``).
+
+    Returns
+    -------
+    The plan given, else the recorded one, else the plan named like the experiment
+    (:func:`default_plan_name`), else ``paper``.
+    """
+    if plan is not None:
+        return plan
+    if recorded:
+        return recorded
+    return default_plan_name(experiment) if experiment else "paper"
 
 
 def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) -> Path:

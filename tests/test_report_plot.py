@@ -241,6 +241,35 @@ def test_plot_with_plan_analyses_an_unanalysed_run_then_plots(simulated_run: Pat
     assert _written_files(run / "figures") == {stem: {"png"} for stem in ALL_STEMS - {"questionnaires"}}
 
 
+@pytest.mark.parametrize(("manifest", "expected"), [
+    ({"experiment": "baselines"}, "baselines"),  # the plan named like the experiment
+    ({"experiment": "ciaa-teleop"}, "ciaa-teleop"),
+    ({"experiment": "a-new-study"}, "paper"),  # no plan of that name
+    ({"experiment": "baselines", "plan": "study-code"}, "study-code"),  # the plan the run recorded wins
+])
+def test_plot_takes_the_plan_of_the_runs_experiment(simulated_run: Path, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch, manifest: dict[str, str],
+                                                    expected: str) -> None:
+    # one rule for the plan (config.resolve_plan), as analyze and run: the plan given, else the
+    # run's recorded plan, else the plan named like its experiment, else paper
+    from nudgecli.report import plotting
+    from nudgecli.report.plans import load_plan
+
+    run = _copy_run(simulated_run, tmp_path / "run")
+    recorded = {k: v for k, v in json.loads((run / "manifest.json").read_text()).items() if k != "plan"}
+    (run / "manifest.json").write_text(json.dumps({**recorded, **manifest}))
+    seen: dict[str, Any] = {}
+    monkeypatch.setattr(plotting, "plot_folder", lambda *args, **kwargs: seen.update(kwargs) or [])
+    result = _plot(str(run))
+    assert result.exit_code == 0, (result.output, result.exception)
+    plan = load_plan(expected)
+    assert (seen["star_rule"], seen["item_labels"]) == (plan.comparison_options(), plan.questionnaires.labels)
+    if expected in ("baselines", "ciaa-teleop"):  # what tells these plans from the paper's
+        assert seen["item_labels"] != load_plan("paper").questionnaires.labels
+    if expected == "study-code":
+        assert seen["star_rule"] != load_plan("paper").comparison_options()
+
+
 # --- `nudge run` ---------------------------------------------------------------------------------
 
 

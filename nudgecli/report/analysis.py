@@ -42,7 +42,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from nudgecli.config import default_plan_name
+from nudgecli.config import resolve_plan
 from nudgecli.errors import ConfigError, DataError, RunFolderError, did_you_mean
 from nudgecli.errors import WriteError as NudgeWriteError
 from nudgecli.locks import run_lock
@@ -841,9 +841,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     run = RunFolder(source) if source.is_dir() else None
     manifest = run.read_manifest() if run is not None and run.is_run() else None
     if plan_arg is None:
-        recorded = manifest.get("plan") if manifest else None
-        fallback = default_plan_name(str(manifest.get("experiment", ""))) if manifest else "paper"
-        plan_arg = recorded or fallback
+        known = manifest or {}
+        plan_arg = resolve_plan(None, recorded=known.get("plan"), experiment=str(known.get("experiment", "")))
     plan = load_plan(plan_arg)
     changed = False
     if source.is_dir():

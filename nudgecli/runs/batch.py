@@ -48,7 +48,7 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 
-from nudgecli.config import ExperimentConfig, default_plan_name
+from nudgecli.config import ExperimentConfig, resolve_plan
 from nudgecli.errors import ConfigError, NudgeError, RunFolderError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
@@ -735,7 +735,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
 
     _check(replications, seed)
     config = _load(experiment, overrides, participants)
-    chosen = load_plan(default_plan_name(config.experiment.name) if plan is None else plan)
+    chosen = load_plan(resolve_plan(plan, experiment=config.experiment.name))
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name})
@@ -770,7 +770,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     if not 0 < target < 1:
         raise ConfigError(f"--target must be between 0 and 1, got {target}")
     config = _load(experiment, overrides, None)
-    chosen = load_plan(default_plan_name(config.experiment.name) if plan is None else plan)
+    chosen = load_plan(resolve_plan(plan, experiment=config.experiment.name))
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name})
