@@ -16,6 +16,15 @@ from typing import Annotated, Any, Literal, TypeVar
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from nudgecli.errors import ConfigError, did_you_mean
+from nudgecli.model.disambiguation import DisambiguationSettings
+from nudgecli.model.interface import (
+    DEFAULT_TABLE_NOISE,
+    HARD_THRESHOLD_EARLY,
+    SOFT_THRESHOLD_EARLY,
+    ZERO_THRESHOLD,
+)
+from nudgecli.model.mdp import DEFAULT_GAMMA, DEFAULT_HUMAN_EPSILON, MDPRewards
+from nudgecli.model.path_world import HEADING_TOLERANCE, SNAP_TOLERANCE, SUCCESS_DISTANCE
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 Probability = Annotated[float, Field(ge=0, le=1)]
@@ -135,9 +144,10 @@ class StudySection(Section):
 class InterfaceSection(Section):
     """``[interface]``: the sip-and-puff driver's label bands and the human's command speeds."""
 
-    soft_threshold: Probability = 0.3
-    hard_threshold: Probability = 0.5
-    zero_threshold: Probability = 0.002
+    # the pilots' bands (nudgecli.model.interface), which the paper's study used
+    soft_threshold: Probability = SOFT_THRESHOLD_EARLY
+    hard_threshold: Probability = HARD_THRESHOLD_EARLY
+    zero_threshold: Probability = ZERO_THRESHOLD
     human_speed: PositiveFloat = 3.0
     human_turn_rate: PositiveFloat = 1.95
 
@@ -151,17 +161,18 @@ class InterfaceSection(Section):
 class ModelSection(Section):
     """``[model]``: the human model the agent assumes (goal MDPs, epsilon-greedy policy, tables)."""
 
-    epsilon: Annotated[float, Field(ge=0, lt=1)] = 0.1
-    gamma: Annotated[float, Field(gt=0, lt=1)] = 0.96
-    move_reward: float = -10.0
-    mode_switch_reward: float = -100.0
-    bump_reward: float = -100.0
-    goal_reward: float = 100.0
+    # the study's values, where the goal MDPs are defined (nudgecli.model.mdp)
+    epsilon: Annotated[float, Field(ge=0, lt=1)] = DEFAULT_HUMAN_EPSILON
+    gamma: Annotated[float, Field(gt=0, lt=1)] = DEFAULT_GAMMA
+    move_reward: float = MDPRewards.move
+    mode_switch_reward: float = MDPRewards.mode_switch
+    bump_reward: float = MDPRewards.bump
+    goal_reward: float = MDPRewards.goal
     tables: Literal["fitted", "default"] = Field(
         default="fitted",
         description="fitted: tables estimated from each participant's (simulated) calibration; "
         "default: 0.8 one-hot + 0.2 uniform for everyone.")
-    default_table_noise: Probability = 0.2
+    default_table_noise: Probability = DEFAULT_TABLE_NOISE
 
 
 class InferenceSection(Section):
@@ -182,23 +193,30 @@ class InferenceSection(Section):
         "labelled 10 Hz sample (the study software).")
 
 
+#: The model's defaults of D(s), which ``[disambiguation]`` takes.
+_DISAMBIGUATION = DisambiguationSettings()
+
+
 class DisambiguationSection(Section):
     """``[disambiguation]``: D(s) = mi_weight * I(s) - distance_weight * R(s) and its search domain."""
 
-    estimator: Literal["exact", "monte_carlo"] = "exact"
-    samples: int = Field(default=250, ge=1)
-    weighting: Literal["belief", "unweighted"] = "belief"
-    mi_weight: Annotated[float, Field(ge=0)] = 1.0
-    distance_weight: Annotated[float, Field(ge=0)] = 1.0
-    distance: Literal["expected", "to_mean"] = "expected"
-    distance_unit: Literal["cells", "world"] = "cells"
-    window: Literal[3, 5] = 3
-    domain: Literal["window", "global"] = "window"
+    # the defaults are the model's (nudgecli.model.disambiguation.DisambiguationSettings)
+    estimator: Literal["exact", "monte_carlo"] = _DISAMBIGUATION.estimator
+    samples: int = Field(default=_DISAMBIGUATION.samples, ge=1)
+    weighting: Literal["belief", "unweighted"] = _DISAMBIGUATION.weighting
+    mi_weight: Annotated[float, Field(ge=0)] = _DISAMBIGUATION.mi_weight
+    distance_weight: Annotated[float, Field(ge=0)] = _DISAMBIGUATION.distance_weight
+    distance: Literal["expected", "to_mean"] = _DISAMBIGUATION.distance
+    distance_unit: Literal["cells", "world"] = _DISAMBIGUATION.distance_unit
+    window: Literal[3, 5] = _DISAMBIGUATION.window  # type: ignore[assignment]  # 3, an int to mypy
+    domain: Literal["window", "global"] = _DISAMBIGUATION.domain
     rotation_gate: Annotated[float, Field(ge=0)] | None = Field(
-        default=None, description="Drop theta-mode candidates farther than this from the mean goal.")
+        default=_DISAMBIGUATION.rotation_gate,
+        description="Drop theta-mode candidates farther than this from the mean goal.")
     scope: Literal["domain", "mode-only"] = Field(
-        default="domain", description="domain: the states of `domain`; mode-only: the states that differ "
-        "from the current one in mode alone (the mode-switch policy always uses these).")
+        default=_DISAMBIGUATION.scope,
+        description="domain: the states of `domain`; mode-only: the states that "
+        "differ from the current one in mode alone (the mode-switch policy always uses these).")
 
 
 class AssistanceSection(Section):
@@ -587,9 +605,9 @@ class WorldSection(Section):
     ciaa_conditions: tuple[Literal["no_assistance"], ...] = ("no_assistance",)
     linear_speed: PositiveFloat = 1.6
     angular_speed: PositiveFloat = 0.64
-    snap_tolerance: PositiveFloat = 0.1
-    heading_tolerance: PositiveFloat = 0.1
-    success_distance: PositiveFloat = 0.1
+    snap_tolerance: PositiveFloat = SNAP_TOLERANCE  # TASK.md's (nudgecli.model.path_world)
+    heading_tolerance: PositiveFloat = HEADING_TOLERANCE
+    success_distance: PositiveFloat = SUCCESS_DISTANCE
 
     @model_validator(mode="after")
     def _check(self) -> WorldSection:

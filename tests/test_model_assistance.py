@@ -98,7 +98,8 @@ def test_autonomy_velocity_examples() -> None:
     assert ast.autonomy_velocity(np.zeros(3), np.array([0.0, 0.0, math.pi / 2]), **AUTONOMY)[2] == 1.5
     assert ast.autonomy_velocity(np.zeros(3), np.array([0.0, 0.0, 3 * math.pi / 2]), **AUTONOMY)[2] == -1.5
     # near the target: slows to land exactly on it in one step
-    v = ast.autonomy_velocity(np.array([10.0, 10.0, 1.0]), np.array([10.02, 10.0, 1.001]), **AUTONOMY, dt=0.01)
+    v = ast.autonomy_velocity(np.array([10.0, 10.0, 1.0]), np.array([10.02, 10.0, 1.001]), **AUTONOMY,
+                              dt=0.01)
     np.testing.assert_allclose(v, [2.0, 0.0, 0.1], atol=1e-9)
     np.testing.assert_array_equal(ast.autonomy_velocity(np.array([1.0, 2.0, 3.0]), np.array([1.0, 2.0, 3.0]),
                                                         **AUTONOMY),
@@ -164,7 +165,7 @@ def test_human_command_is_the_label_table(label: int, mode: int) -> None:
     if label in (interface.SOFT_PUFF, interface.SOFT_SIP):  # Upsilon: soft labels move, the rest do not
         expected[mode] = (1.0 if label == interface.SOFT_PUFF else -1.0) * (3.0 if mode < 2 else -1.95)
     assert [v.hex() for v in interface.human_command(label, mode, 3.0, 1.95)] == [v.hex() for v in expected]
-    assert interface.human_velocity(label, mode).tolist() == expected.tolist()
+    assert interface.human_velocity(label, mode, 3.0, 1.95).tolist() == expected.tolist()
 
 
 def test_step_sizes() -> None:

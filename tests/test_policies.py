@@ -188,10 +188,10 @@ def test_hindsight_adds_the_belief_weighted_sum_of_the_goal_commands(goal, numbe
     commands = np.array(numbers[:12]).reshape(4, 3)
     u_h = np.array(numbers[12:])
     one_hot = np.eye(4)[goal]
-    np.testing.assert_allclose(policies.hindsight_command(u_h, one_hot, commands), u_h + commands[goal])
+    np.testing.assert_allclose(policies.hindsight_command(u_h, one_hot, commands, 1.0), u_h + commands[goal])
     belief = np.array(weights) / sum(weights)
     loop = u_h + sum(belief[g] * commands[g] for g in range(4))
-    np.testing.assert_allclose(policies.hindsight_command(u_h, belief, commands), loop, atol=1e-12)
+    np.testing.assert_allclose(policies.hindsight_command(u_h, belief, commands, 1.0), loop, atol=1e-12)
 
 
 def test_hindsight_with_a_one_hot_belief_moves_by_that_goals_command_plus_the_persons():

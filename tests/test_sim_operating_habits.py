@@ -105,7 +105,7 @@ def drive(p: SimulatedPerson, view: View, steps: int, world: StopAtMark | None =
         elif measured in (HARD_PUFF,) and not locked:
             view.mode, locked = switch_mode(view.mode, measured), True
         elif measured == SOFT_PUFF and view.mode == 0 and not locked:
-            velocity = human_velocity(SOFT_PUFF, 0)
+            velocity = human_velocity(SOFT_PUFF, 0, SPEED, 1.0)
             if world is None or not world.holds_still(view.x, view.y, view.theta, velocity):
                 view.x += SPEED * DT
     return labels

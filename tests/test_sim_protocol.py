@@ -97,8 +97,8 @@ def test_alpha_follows_the_paper_rule(paper):
             assert inferred == -1 and alpha == 0.0
             continue
         assert inferred == leaders[0]
-        assert alpha == pytest.approx(assistance.blending_factor(b.max(), b.size, ramp.rho1_factor, ramp.rho2_factor,
-                                                              ramp.rho3), abs=1e-12)
+        expected = assistance.blending_factor(b.max(), b.size, ramp.rho1_factor, ramp.rho2_factor, ramp.rho3)
+        assert alpha == pytest.approx(expected, abs=1e-12)
 
 
 def turns(steps: pd.DataFrame) -> list[pd.DataFrame]:

@@ -49,6 +49,9 @@ from nudgecli.sim.participants import (
     ramp_fraction_at,
 )
 
+#: The ``[calibration]`` defaults (the device's event step).
+CALIBRATION = CalibrationSection()
+
 # --- simulated sessions -----------------------------------------------------------------------
 
 def _reaction_delays(participant: Participant, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -106,7 +109,7 @@ def simulate_mapping_session(participant: Participant, calibration: CalibrationS
 
 
 def event_driven_stream(times: np.ndarray, pressure: np.ndarray, interface: InterfaceSection,
-                        step: float = 0.0109) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                        step: float = CALIBRATION.event_step) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The event-driven label stream a device sends for a pressure trace sampled at fixed ticks.
 
     The device's pressure is quantised in ``step`` increments and it sends one message each time
