@@ -110,7 +110,7 @@ def info(message: str) -> None:
 @main.command("presets")
 def presets_command() -> None:
     """List the shipped experiments and analysis plans."""
-    from nudgecli.config import list_presets, read_toml
+    from nudgecli.config_files import list_presets, read_toml
 
     kinds: tuple[tuple[Literal["experiments", "analysis"], str], ...] = (
         ("experiments", "Experiments"), ("analysis", "Analysis plans"))
@@ -343,9 +343,9 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
 # --- plot ----------------------------------------------------------------------------------
 
 def _plan_of(source: str, plan: str | None) -> str:
-    """The plan of ``source`` by :func:`nudgecli.config.resolve_plan`: ``plan``, else the plan
+    """The plan of ``source`` by :func:`nudgecli.config_files.resolve_plan`: ``plan``, else the plan
     its run folder's manifest records, else the one named like its experiment, else paper."""
-    from nudgecli.config import resolve_plan
+    from nudgecli.config_files import resolve_plan
     from nudgecli.store import RunFolder
 
     manifest: Any = {}
@@ -426,7 +426,7 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
 def run_command(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
                 plan: str | None, resume: bool, force: bool, yes: bool, overrides: tuple[str, ...]) -> None:
     """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
-    from nudgecli.config import resolve_plan
+    from nudgecli.config_files import resolve_plan
     from nudgecli.locks import run_lock
     from nudgecli.report.analysis import analyze, format_table
     from nudgecli.report.plans import load_plan

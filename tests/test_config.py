@@ -6,13 +6,8 @@ import pytest
 from click.testing import CliRunner
 
 from nudgecli.cli import main
-from nudgecli.config import (
-    ExperimentConfig,
-    experiment_from_toml,
-    list_presets,
-    load_experiment,
-    parse_override,
-)
+from nudgecli.config import ExperimentConfig, experiment_from_toml, load_experiment
+from nudgecli.config_files import list_presets, parse_override
 from nudgecli.errors import ConfigError
 
 
@@ -95,6 +90,6 @@ def test_defaults_alone_are_a_valid_experiment():
 ])
 def test_resolve_plan_is_the_one_rule(given: str | None, recorded: str | None, experiment: str | None,
                                       expected: str) -> None:
-    from nudgecli.config import resolve_plan
+    from nudgecli.config_files import resolve_plan
 
     assert resolve_plan(given, recorded=recorded, experiment=experiment) == expected

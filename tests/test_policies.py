@@ -15,7 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nudgecli.cli import main
-from nudgecli.config import default_plan_name, experiment_from_toml, load_experiment
+from nudgecli.config import experiment_from_toml, load_experiment
+from nudgecli.config_files import default_plan_name
 from nudgecli.model import assistance, policies
 from nudgecli.model.candidates import mode_candidates
 from nudgecli.model.disambiguation import DisambiguationModel

@@ -250,7 +250,7 @@ def test_plot_with_plan_analyses_an_unanalysed_run_then_plots(simulated_run: Pat
 def test_plot_takes_the_plan_of_the_runs_experiment(simulated_run: Path, tmp_path: Path,
                                                     monkeypatch: pytest.MonkeyPatch, manifest: dict[str, str],
                                                     expected: str) -> None:
-    # one rule for the plan (config.resolve_plan), as analyze and run: the plan given, else the
+    # one rule for the plan (config_files.resolve_plan), as analyze and run: the plan given, else the
     # run's recorded plan, else the plan named like its experiment, else paper
     from nudgecli.report import plotting
     from nudgecli.report.plans import load_plan

@@ -48,7 +48,8 @@ import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
 
-from nudgecli.config import ExperimentConfig, resolve_plan
+from nudgecli.config import ExperimentConfig
+from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError, NudgeError, RunFolderError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout

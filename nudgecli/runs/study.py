@@ -27,7 +27,8 @@ from typing import Any
 
 import pandas as pd
 
-from nudgecli.config import ExperimentConfig, resolve_plan
+from nudgecli.config import ExperimentConfig
+from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
