@@ -287,6 +287,24 @@ def test_run_smoke_leaves_stats_summary_metrics_and_figures_and_prints_the_folde
     _assert_valid_files(sorted((out / "figures").iterdir()))
 
 
+def test_run_plots_with_the_plan_it_analysed_with(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the smoke study named "study-code": run analyses with that plan, and plots with its star rule
+    from nudgecli.config_files import list_presets
+    from nudgecli.report import plotting
+    from nudgecli.report.plans import load_plan
+
+    experiment = tmp_path / "experiment.toml"
+    experiment.write_text(list_presets("experiments")["smoke"].read_text().replace(
+        'name = "smoke"', 'name = "study-code"'))
+    seen: dict[str, Any] = {}
+    monkeypatch.setattr(plotting, "plot_folder", lambda *args, **kwargs: seen.update(kwargs) or [])
+    result = CliRunner().invoke(main, ["run", str(experiment), "--out", str(tmp_path / "run")])
+    assert result.exit_code == 0, (result.output, result.exception)
+    plan = load_plan("study-code")
+    assert (seen["star_rule"], seen["item_labels"]) == (plan.comparison_options(), plan.questionnaires.labels)
+    assert seen["star_rule"] != load_plan("paper").comparison_options()
+
+
 # --- the figures of the run: axes, labels, brackets -----------------------------------------------
 
 
