@@ -29,7 +29,7 @@ from nudgecli.config_files import (
 )
 from nudgecli.config_people import BehaviourSection, CalibrationSection, PopulationSection
 from nudgecli.errors import ConfigError, did_you_mean
-from nudgecli.model.disambiguation import DisambiguationSettings
+from nudgecli.model.disambiguation_settings import DisambiguationSettings
 from nudgecli.model.interface import (
     DEFAULT_TABLE_NOISE,
     HARD_THRESHOLD_EARLY,

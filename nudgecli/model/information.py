@@ -3,11 +3,10 @@ counts, and the study's Monte-Carlo estimate."""
 
 from __future__ import annotations
 
-from typing import Literal
-
 import numpy as np
 from scipy.special import rel_entr, xlogy
 
+from nudgecli.model.disambiguation_settings import Weighting
 from nudgecli.model.inference import predict_belief
 from nudgecli.model.interface import N_ACTIONS
 from nudgecli.model.world import N_MODES
@@ -46,7 +45,6 @@ def mutual_information(belief: np.ndarray, likelihood: np.ndarray,
 
 # --- Monte-Carlo estimate (the study's scheme) ------------------------------------------------
 
-Weighting = Literal["unweighted", "belief"]
 
 
 def normalised_belief(belief: np.ndarray) -> np.ndarray:
