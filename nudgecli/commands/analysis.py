@@ -290,4 +290,4 @@ def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[st
 
 
 #: The commands of this module, registered on ``nudge`` by :mod:`nudgecli.cli`.
-COMMANDS = (analyze_command, plot_command, plot_population_command, habits_command, compare_command,)
+COMMANDS = (analyze_command, plot_command, plot_population_command, habits_command, compare_command)

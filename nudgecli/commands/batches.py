@@ -177,4 +177,4 @@ def sweep_command(sweep_file: str, replications: int | None, seed: int | None, o
 
 
 #: The commands of this module, registered on ``nudge`` by :mod:`nudgecli.cli`.
-COMMANDS = (replicate_command, power_command, sweep_command,)
+COMMANDS = (replicate_command, power_command, sweep_command)

@@ -201,4 +201,4 @@ def study_command(experiment: str, participant_id: str, port: int, out: str | No
 
 
 #: The commands of this module, registered on ``nudge`` by :mod:`nudgecli.cli`.
-COMMANDS = (fit_command, simulate_command, run_command, study_command,)
+COMMANDS = (fit_command, simulate_command, run_command, study_command)

@@ -154,4 +154,4 @@ def validate_command(simulations: int, min_goals: int, max_goals: int, states: i
 
 
 #: The commands of this module, registered on ``nudge`` by :mod:`nudgecli.cli`.
-COMMANDS = (presets_command, bench_command, validate_command,)
+COMMANDS = (presets_command, bench_command, validate_command)
