@@ -6,13 +6,8 @@ import pytest
 from click.testing import CliRunner
 
 from nudgecli.cli import main
-from nudgecli.config import (
-    ExperimentConfig,
-    experiment_from_toml,
-    list_presets,
-    load_experiment,
-    parse_override,
-)
+from nudgecli.config import ExperimentConfig, experiment_from_toml, load_experiment
+from nudgecli.config_files import list_presets, parse_override
 from nudgecli.errors import ConfigError
 
 
@@ -83,3 +78,18 @@ def test_inconsistent_values_are_rejected_with_the_field(override, message):
 
 def test_defaults_alone_are_a_valid_experiment():
     assert ExperimentConfig().study.conditions == ("disambiguation", "control")
+
+
+@pytest.mark.parametrize(("given", "recorded", "experiment", "expected"), [
+    ("ciaa-teleop", "study-code", "baselines", "ciaa-teleop"),  # the plan given wins
+    (None, "study-code", "baselines", "study-code"),  # else the run's recorded plan
+    (None, None, "baselines", "baselines"),  # else the plan named like the experiment
+    (None, "", "study-code", "study-code"),
+    (None, None, "a-new-study", "paper"),  # else paper
+    (None, None, None, "paper"),
+])
+def test_resolve_plan_is_the_one_rule(given: str | None, recorded: str | None, experiment: str | None,
+                                      expected: str) -> None:
+    from nudgecli.config_files import resolve_plan
+
+    assert resolve_plan(given, recorded=recorded, experiment=experiment) == expected

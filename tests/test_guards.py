@@ -532,7 +532,8 @@ def test_config_errors_show_values_as_written_without_pydantic_words(override, s
 def test_a_numpy_value_is_shown_plainly():
     from pydantic import ValidationError
 
-    from nudgecli.config import ExperimentConfig, format_validation_error
+    from nudgecli.config import ExperimentConfig
+    from nudgecli.config_files import format_validation_error
 
     with pytest.raises(ValidationError) as caught:
         ExperimentConfig.model_validate({"population": {"rest_s": (np.float64(0.0), np.float64(150.0))}})

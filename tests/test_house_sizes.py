@@ -26,14 +26,10 @@ FUNCTION_LIMIT = 80
 IN_REWORK: tuple[str, ...] = ()
 
 #: Modules over :data:`MODULE_LIMIT` today -> their length now, a cap until they are split.
-ALLOWED_MODULES: dict[str, int] = {
-    "nudgecli/cli.py": 903,  # every command's options (+2: format_table imported from report.summary)
-    "nudgecli/config.py": 844,  # the sections and their derivation notes
-}
+ALLOWED_MODULES: dict[str, int] = {}
 
 #: Functions over :data:`FUNCTION_LIMIT` (``module:qualified name``) -> their length, a cap.
-ALLOWED_FUNCTIONS: dict[str, int] = {
-}
+ALLOWED_FUNCTIONS: dict[str, int] = {}
 
 
 def _functions(tree: ast.AST, prefix: str = "") -> list[tuple[str, int]]:

@@ -9,9 +9,24 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from nudgecli.config import AssistanceSection
 from nudgecli.model import assistance as ast
 from nudgecli.model import interface
 from nudgecli.model.world import angle_difference, state_index, turn_between
+
+#: The defaults of ``[assistance]`` (the paper's): the model's functions take them as arguments.
+PAPER = AssistanceSection()
+RAMP = {"rho1_factor": PAPER.rho1_factor, "rho2_factor": PAPER.rho2_factor, "rho3": PAPER.rho3}
+KNEE = {"knee": PAPER.distance_knee, "drop": PAPER.distance_drop}
+AUTONOMY = {"speed": PAPER.autonomy_speed, "turn_rate": PAPER.autonomy_turn_rate}
+
+
+def blending(entropy_gate: float | None = None, startup_delay: float = 0.0,
+             distance_weighting: bool = False) -> ast.BlendingSettings:
+    """The paper's ramp and distance weight, with the study's gates as asked."""
+    return ast.BlendingSettings(**RAMP, entropy_gate=entropy_gate, startup_delay=startup_delay,
+                                distance_weighting=distance_weighting, distance_knee=KNEE["knee"],
+                                distance_drop=KNEE["drop"])
 
 
 @pytest.mark.parametrize(("p", "expected"), [
@@ -23,34 +38,33 @@ from nudgecli.model.world import angle_difference, state_index, turn_between
     (1.0, 0.8),
 ])
 def test_alpha_breakpoints_four_goals(p: float, expected: float) -> None:
-    assert ast.blending_factor(p, 4) == pytest.approx(expected, abs=1e-12)
+    assert ast.blending_factor(p, 4, **RAMP) == pytest.approx(expected, abs=1e-12)
 
 
 def test_alpha_three_goals_and_vectorised() -> None:
     rho1, rho2 = 1.1 / 3, 1.2 / 3
-    values = ast.blending_factor(np.array([rho1, (rho1 + rho2) / 2, rho2, 0.9]), 3)
+    values = ast.blending_factor(np.array([rho1, (rho1 + rho2) / 2, rho2, 0.9]), 3, **RAMP)
     np.testing.assert_allclose(values, [0.0, 0.4, 0.8, 0.8], atol=1e-12)
     with pytest.raises(ValueError):
-        ast.blending_factor(0.5, 3, rho1_factor=1.2, rho2_factor=1.1)
+        ast.blending_factor(0.5, 3, rho1_factor=1.2, rho2_factor=1.1, rho3=0.8)
 
 
 def test_distance_weight() -> None:
-    assert ast.distance_weight(0.0) == 1.0
-    assert ast.distance_weight(17.5) == pytest.approx(0.8)
-    assert ast.distance_weight(35.0) == pytest.approx(0.6)
-    assert ast.distance_weight(36.0) == pytest.approx(0.6 * math.exp(-1.0))
-    assert ast.distance_weight(35.0 + 1e-9) == pytest.approx(0.6, abs=1e-8)  # continuous at the knee
+    assert ast.distance_weight(0.0, **KNEE) == 1.0
+    assert ast.distance_weight(17.5, **KNEE) == pytest.approx(0.8)
+    assert ast.distance_weight(35.0, **KNEE) == pytest.approx(0.6)
+    assert ast.distance_weight(36.0, **KNEE) == pytest.approx(0.6 * math.exp(-1.0))
+    assert ast.distance_weight(35.0 + 1e-9, **KNEE) == pytest.approx(0.6, abs=1e-8)  # continuous at the knee
 
 
 def test_assistance_alpha_gates() -> None:
-    study = ast.BlendingSettings.study()
-    assert (study.entropy_gate, study.startup_delay, study.distance_weighting) == (0.65, 1.0, True)
+    study = blending(entropy_gate=0.65, startup_delay=1.0, distance_weighting=True)  # the study software
     # uncertain belief or too early in the turn -> 0
     assert ast.assistance_alpha(0.9, 4, 0.7, 5.0, 0.0, study) == 0.0
     assert ast.assistance_alpha(0.9, 4, 0.3, 0.5, 0.0, study) == 0.0
     assert ast.assistance_alpha(0.9, 4, 0.3, 1.0, 17.5, study) == pytest.approx(0.8 * 0.8)
     # the paper: no gates
-    assert ast.assistance_alpha(0.9, 4, 0.99, 0.0, 100.0) == pytest.approx(0.8)
+    assert ast.assistance_alpha(0.9, 4, 0.99, 0.0, 100.0, blending()) == pytest.approx(0.8)
 
 
 @settings(max_examples=200, deadline=None)
@@ -61,7 +75,7 @@ def test_autonomy_velocity_never_overshoots(x: float, y: float, theta: float, tx
                                             ttheta: float, dt: float) -> None:
     pose = np.array([x, y, theta])
     target = np.array([tx, ty, ttheta])
-    v = ast.autonomy_velocity(pose, target, dt=dt)
+    v = ast.autonomy_velocity(pose, target, **AUTONOMY, dt=dt)
     assert math.hypot(v[0], v[1]) <= 5.0 + 1e-9
     assert abs(v[2]) <= 1.5 + 1e-12
     distance = math.hypot(tx - x, ty - y)
@@ -78,15 +92,17 @@ def test_autonomy_velocity_never_overshoots(x: float, y: float, theta: float, tx
 
 
 def test_autonomy_velocity_examples() -> None:
-    v = ast.autonomy_velocity(np.array([10.0, 10.0, 0.0]), np.array([20.0, 10.0, 0.0]))
+    v = ast.autonomy_velocity(np.array([10.0, 10.0, 0.0]), np.array([20.0, 10.0, 0.0]), **AUTONOMY)
     np.testing.assert_allclose(v, [5.0, 0.0, 0.0])
     # shortest direction: target 90 deg anticlockwise -> positive omega; 90 deg clockwise -> negative
-    assert ast.autonomy_velocity(np.zeros(3), np.array([0.0, 0.0, math.pi / 2]))[2] == 1.5
-    assert ast.autonomy_velocity(np.zeros(3), np.array([0.0, 0.0, 3 * math.pi / 2]))[2] == -1.5
+    assert ast.autonomy_velocity(np.zeros(3), np.array([0.0, 0.0, math.pi / 2]), **AUTONOMY)[2] == 1.5
+    assert ast.autonomy_velocity(np.zeros(3), np.array([0.0, 0.0, 3 * math.pi / 2]), **AUTONOMY)[2] == -1.5
     # near the target: slows to land exactly on it in one step
-    v = ast.autonomy_velocity(np.array([10.0, 10.0, 1.0]), np.array([10.02, 10.0, 1.001]), dt=0.01)
+    v = ast.autonomy_velocity(np.array([10.0, 10.0, 1.0]), np.array([10.02, 10.0, 1.001]), **AUTONOMY,
+                              dt=0.01)
     np.testing.assert_allclose(v, [2.0, 0.0, 0.1], atol=1e-9)
-    np.testing.assert_array_equal(ast.autonomy_velocity(np.array([1.0, 2.0, 3.0]), np.array([1.0, 2.0, 3.0])),
+    np.testing.assert_array_equal(ast.autonomy_velocity(np.array([1.0, 2.0, 3.0]), np.array([1.0, 2.0, 3.0]),
+                                                        **AUTONOMY),
                                   np.zeros(3))
 
 
@@ -149,7 +165,7 @@ def test_human_command_is_the_label_table(label: int, mode: int) -> None:
     if label in (interface.SOFT_PUFF, interface.SOFT_SIP):  # Upsilon: soft labels move, the rest do not
         expected[mode] = (1.0 if label == interface.SOFT_PUFF else -1.0) * (3.0 if mode < 2 else -1.95)
     assert [v.hex() for v in interface.human_command(label, mode, 3.0, 1.95)] == [v.hex() for v in expected]
-    assert interface.human_velocity(label, mode).tolist() == expected.tolist()
+    assert interface.human_velocity(label, mode, 3.0, 1.95).tolist() == expected.tolist()
 
 
 def test_step_sizes() -> None:
@@ -190,12 +206,12 @@ def test_nudge_target() -> None:
 def test_assistance_alpha_is_the_ramp_with_the_gates(p, n, entropy, since, distance, gate, delay,
                                                      weighting) -> None:
     """The protocol's one alpha rule against its parts: blending_factor, the gates, distance_weight."""
-    settings = ast.BlendingSettings(entropy_gate=0.65 if gate else None, startup_delay=1.0 if delay else 0.0,
-                                    distance_weighting=weighting)
-    expected = float(ast.blending_factor(p, n))
+    settings = blending(entropy_gate=0.65 if gate else None, startup_delay=1.0 if delay else 0.0,
+                        distance_weighting=weighting)
+    expected = float(ast.blending_factor(p, n, **RAMP))
     if (gate and entropy > 0.65) or (delay and since < 1.0):
         expected = 0.0
     elif weighting:
-        expected *= float(ast.distance_weight(distance))
+        expected *= float(ast.distance_weight(distance, **KNEE))
     got = ast.assistance_alpha(p, n, entropy, since, distance, settings)
     assert got == pytest.approx(expected, abs=1e-12)

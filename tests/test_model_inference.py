@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from nudgecli.config import InferenceSection
 from nudgecli.model.inference import (
     DecayCounters,
     DecaySettings,
@@ -19,6 +20,10 @@ from nudgecli.model.inference import (
     normalised_entropy,
 )
 
+#: The study's forgetting: the ``[inference]`` defaults (delay 10, rate 0.008, cap 1000).
+_INFERENCE = InferenceSection()
+STUDY = DecaySettings(_INFERENCE.decay_delay, _INFERENCE.decay_rate, _INFERENCE.decay_cap)
+RATE = {"rate": STUDY.rate, "cap": STUDY.cap}
 
 def brute_force_update(belief: list[float], likelihood: list[float],
                        transition: list[list[float]] | None) -> list[float]:
@@ -84,9 +89,9 @@ def test_normalised_entropy_values() -> None:
 
 
 def test_decay_weight_formula() -> None:
-    assert decay_weight(0) == 0.0
-    assert decay_weight(5) == pytest.approx(1 - math.exp(-0.04))
-    assert decay_weight(5000) == pytest.approx(1 - math.exp(-0.008 * 1000))  # capped
+    assert decay_weight(0, **RATE) == 0.0
+    assert decay_weight(5, **RATE) == pytest.approx(1 - math.exp(-0.04))
+    assert decay_weight(5000, **RATE) == pytest.approx(1 - math.exp(-0.008 * 1000))  # capped
 
 
 def test_decay_sequence() -> None:
@@ -95,12 +100,12 @@ def test_decay_sequence() -> None:
     counters = DecayCounters()
     b = belief
     for n in range(1, 11):  # the first 10 empty samples change nothing
-        b, counters = decay_on_empty_sample(b, counters)
+        b, counters = decay_on_empty_sample(b, counters, STUDY)
         np.testing.assert_array_equal(b, belief)
         assert counters == DecayCounters(empty_samples=n, decay_steps=0)
     n_decaying = 25
     for _ in range(n_decaying):
-        b, counters = decay_on_empty_sample(b, counters)
+        b, counters = decay_on_empty_sample(b, counters, STUDY)
     assert counters == DecayCounters(empty_samples=10 + n_decaying, decay_steps=n_decaying)
     # b - U shrinks by prod_k (1 - f_k) = exp(-0.008 * sum_{k<n} k) = exp(-0.008 n (n - 1) / 2)
     residual = math.exp(-0.008 * n_decaying * (n_decaying - 1) / 2)
@@ -110,7 +115,7 @@ def test_decay_sequence() -> None:
 
 def test_decay_first_mix_is_zero_and_cap_applies() -> None:
     belief = np.array([0.9, 0.1])
-    b, counters = decay_on_empty_sample(belief, DecayCounters(empty_samples=10), DecaySettings())
+    b, counters = decay_on_empty_sample(belief, DecayCounters(empty_samples=10), STUDY)
     np.testing.assert_array_equal(b, belief)  # k = 0: f = 0
     assert counters.decay_steps == 1
     custom = DecaySettings(delay=0, rate=0.5, cap=2)

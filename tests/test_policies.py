@@ -15,7 +15,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nudgecli.cli import main
-from nudgecli.config import default_plan_name, experiment_from_toml, load_experiment
+from nudgecli.config import experiment_from_toml, load_experiment
+from nudgecli.config_files import default_plan_name
 from nudgecli.model import assistance, policies
 from nudgecli.model.candidates import mode_candidates
 from nudgecli.model.disambiguation import DisambiguationModel
@@ -188,10 +189,10 @@ def test_hindsight_adds_the_belief_weighted_sum_of_the_goal_commands(goal, numbe
     commands = np.array(numbers[:12]).reshape(4, 3)
     u_h = np.array(numbers[12:])
     one_hot = np.eye(4)[goal]
-    np.testing.assert_allclose(policies.hindsight_command(u_h, one_hot, commands), u_h + commands[goal])
+    np.testing.assert_allclose(policies.hindsight_command(u_h, one_hot, commands, 1.0), u_h + commands[goal])
     belief = np.array(weights) / sum(weights)
     loop = u_h + sum(belief[g] * commands[g] for g in range(4))
-    np.testing.assert_allclose(policies.hindsight_command(u_h, belief, commands), loop, atol=1e-12)
+    np.testing.assert_allclose(policies.hindsight_command(u_h, belief, commands, 1.0), loop, atol=1e-12)
 
 
 def test_hindsight_with_a_one_hot_belief_moves_by_that_goals_command_plus_the_persons():

@@ -241,6 +241,35 @@ def test_plot_with_plan_analyses_an_unanalysed_run_then_plots(simulated_run: Pat
     assert _written_files(run / "figures") == {stem: {"png"} for stem in ALL_STEMS - {"questionnaires"}}
 
 
+@pytest.mark.parametrize(("manifest", "expected"), [
+    ({"experiment": "baselines"}, "baselines"),  # the plan named like the experiment
+    ({"experiment": "ciaa-teleop"}, "ciaa-teleop"),
+    ({"experiment": "a-new-study"}, "paper"),  # no plan of that name
+    ({"experiment": "baselines", "plan": "study-code"}, "study-code"),  # the plan the run recorded wins
+])
+def test_plot_takes_the_plan_of_the_runs_experiment(simulated_run: Path, tmp_path: Path,
+                                                    monkeypatch: pytest.MonkeyPatch, manifest: dict[str, str],
+                                                    expected: str) -> None:
+    # one rule for the plan (config_files.resolve_plan), as analyze and run: the plan given, else the
+    # run's recorded plan, else the plan named like its experiment, else paper
+    from nudgecli.report import plotting
+    from nudgecli.report.plans import load_plan
+
+    run = _copy_run(simulated_run, tmp_path / "run")
+    recorded = {k: v for k, v in json.loads((run / "manifest.json").read_text()).items() if k != "plan"}
+    (run / "manifest.json").write_text(json.dumps({**recorded, **manifest}))
+    seen: dict[str, Any] = {}
+    monkeypatch.setattr(plotting, "plot_folder", lambda *args, **kwargs: seen.update(kwargs) or [])
+    result = _plot(str(run))
+    assert result.exit_code == 0, (result.output, result.exception)
+    plan = load_plan(expected)
+    assert (seen["star_rule"], seen["item_labels"]) == (plan.comparison_options(), plan.questionnaires.labels)
+    if expected in ("baselines", "ciaa-teleop"):  # what tells these plans from the paper's
+        assert seen["item_labels"] != load_plan("paper").questionnaires.labels
+    if expected == "study-code":
+        assert seen["star_rule"] != load_plan("paper").comparison_options()
+
+
 # --- `nudge run` ---------------------------------------------------------------------------------
 
 
@@ -256,6 +285,24 @@ def test_run_smoke_leaves_stats_summary_metrics_and_figures_and_prints_the_folde
     assert _written_files(out / "figures") == {stem: {"png", "pdf"}
                                                for stem in ALL_STEMS - {"questionnaires"}}
     _assert_valid_files(sorted((out / "figures").iterdir()))
+
+
+def test_run_plots_with_the_plan_it_analysed_with(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # the smoke study named "study-code": run analyses with that plan, and plots with its star rule
+    from nudgecli.config_files import list_presets
+    from nudgecli.report import plotting
+    from nudgecli.report.plans import load_plan
+
+    experiment = tmp_path / "experiment.toml"
+    experiment.write_text(list_presets("experiments")["smoke"].read_text().replace(
+        'name = "smoke"', 'name = "study-code"'))
+    seen: dict[str, Any] = {}
+    monkeypatch.setattr(plotting, "plot_folder", lambda *args, **kwargs: seen.update(kwargs) or [])
+    result = CliRunner().invoke(main, ["run", str(experiment), "--out", str(tmp_path / "run")])
+    assert result.exit_code == 0, (result.output, result.exception)
+    plan = load_plan("study-code")
+    assert (seen["star_rule"], seen["item_labels"]) == (plan.comparison_options(), plan.questionnaires.labels)
+    assert seen["star_rule"] != load_plan("paper").comparison_options()
 
 
 # --- the figures of the run: axes, labels, brackets -----------------------------------------------

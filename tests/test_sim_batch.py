@@ -18,7 +18,8 @@ import pytest
 from click.testing import CliRunner
 
 from nudgecli.cli import main
-from nudgecli.config import list_presets, load_experiment
+from nudgecli.config import load_experiment
+from nudgecli.config_files import list_presets
 from nudgecli.errors import ConfigError
 from nudgecli.report.plans import AnalysisPlan
 from nudgecli.report.replication import (
@@ -515,7 +516,7 @@ def test_bench_scale_figures_cover_every_core_count_and_dask():
 
 @pytest.mark.parametrize(("name", "plan"), [("study-code", "study-code"), ("a-new-study", "paper")])
 def test_replicate_takes_the_plan_run_and_analyze_take(tmp_path: Path, name: str, plan: str) -> None:
-    # one rule for the default plan (config.default_plan_name): the plan named like the
+    # one rule for the default plan (config_files.default_plan_name): the plan named like the
     # experiment, else paper; the smoke study renamed, so that only the name decides
     experiment = tmp_path / "experiment.toml"
     experiment.write_text(list_presets("experiments")["smoke"].read_text().replace(

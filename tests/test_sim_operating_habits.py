@@ -27,13 +27,8 @@ from nudgecli.model.path_world import PathWorld
 from nudgecli.model.world import N_MODES, N_STATES, GridWorld, discretise, grid_next_mark, state_index
 from nudgecli.sim.behaviour import BehaviourSettings, SimulatedPerson
 from nudgecli.sim.ciaa import packaged_task, task_layouts
-from nudgecli.sim.participants import (
-    Participant,
-    draw_participant,
-    lognormal_delays,
-    mapping_with_error,
-    pulse_fractions,
-)
+from nudgecli.sim.participants import Participant, draw_participant, mapping_with_error
+from nudgecli.sim.pressure_model import lognormal_delays, pulse_fractions
 
 DT = 0.1
 SPEED = 3.0  # units/s of a soft command in the hand-driven robot below
@@ -105,7 +100,7 @@ def drive(p: SimulatedPerson, view: View, steps: int, world: StopAtMark | None =
         elif measured in (HARD_PUFF,) and not locked:
             view.mode, locked = switch_mode(view.mode, measured), True
         elif measured == SOFT_PUFF and view.mode == 0 and not locked:
-            velocity = human_velocity(SOFT_PUFF, 0)
+            velocity = human_velocity(SOFT_PUFF, 0, SPEED, 1.0)
             if world is None or not world.holds_still(view.x, view.y, view.theta, velocity):
                 view.x += SPEED * DT
     return labels

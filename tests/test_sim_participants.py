@@ -29,15 +29,13 @@ from nudgecli.rng import generator
 from nudgecli.sim.calibration_sessions import simulate_distortion_session
 from nudgecli.sim.participant_fitting import censored_normal_fit, log_drift_correlation, participant_from_log
 from nudgecli.sim.participants import (
-    LABEL_SIGN,
     Participant,
-    blows_drift_normals,
     draw_participants,
-    drift_normals,
     mapping_with_error,
     participants_frame,
     participants_from_frame,
 )
+from nudgecli.sim.pressure_model import LABEL_SIGN, blows_drift_normals, drift_normals
 
 SHARED_CALIBRATION = Path(__file__).resolve().parents[2] / "shared" / "data" / "calibration"
 needs_shared = pytest.mark.skipif(

@@ -89,6 +89,7 @@ def test_blending_arithmetic_in_the_human_turn(paper, layout_index):
 
 def test_alpha_follows_the_paper_rule(paper):
     _, steps, _, _ = simulate(paper, 7, noisy_participant(), seed=5)
+    ramp = paper[0].assistance
     human = steps[steps["turn"] == "human"]
     for belief, alpha, inferred in zip(human["belief"], human["alpha"], human["inferred_goal"], strict=True):
         b = np.asarray(belief)
@@ -97,7 +98,8 @@ def test_alpha_follows_the_paper_rule(paper):
             assert inferred == -1 and alpha == 0.0
             continue
         assert inferred == leaders[0]
-        assert alpha == pytest.approx(assistance.blending_factor(b.max(), b.size), abs=1e-12)
+        expected = assistance.blending_factor(b.max(), b.size, ramp.rho1_factor, ramp.rho2_factor, ramp.rho3)
+        assert alpha == pytest.approx(expected, abs=1e-12)
 
 
 def turns(steps: pd.DataFrame) -> list[pd.DataFrame]:

@@ -15,7 +15,8 @@ from click.testing import CliRunner
 from pydantic import ValidationError
 
 from nudgecli.cli import main
-from nudgecli.config import ExperimentConfig, format_validation_error, load_experiment
+from nudgecli.config import ExperimentConfig, load_experiment
+from nudgecli.config_files import format_validation_error
 from nudgecli.runs.study import run_study
 from nudgecli.sim.calibration_profile import fit_calibration_dir
 

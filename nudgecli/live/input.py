@@ -27,7 +27,7 @@ import numpy as np
 from nudgecli.config import InterfaceSection
 from nudgecli.model.interface import LABELS, N_LABELS, NO_INPUT
 from nudgecli.sim.behaviour import RobotView
-from nudgecli.sim.participants import LABEL_SIGN
+from nudgecli.sim.pressure_model import LABEL_SIGN
 
 #: Key -> interface label (the study's answer keys: 1 Hard Puff, 2 Hard Sip, 3 Soft Puff, 4 Soft Sip).
 KEY_LABELS = {str(k + 1): k for k in range(N_LABELS)}

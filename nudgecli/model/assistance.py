@@ -22,10 +22,6 @@ from nudgecli.model.world import (
     turn_between,
 )
 
-#: Autonomy speed (units/s) and turn rate (rad/s) of the study's potential fields.
-AUTONOMY_SPEED = 5.0
-AUTONOMY_TURN_RATE = 1.5
-
 # One cell along x, y and the diagonal; the study's list used the rounded diagonals
 # sqrt(4.2^2 + 3.4^2) = 5.40 and twice that, 10.81.
 _DIAGONAL = 5.40
@@ -36,8 +32,8 @@ STEP_SIZES_3X3 = (CELL_WIDTH, CELL_HEIGHT, _DIAGONAL)
 STEP_SIZES_5X5 = (*STEP_SIZES_3X3, 2 * CELL_WIDTH, 2 * CELL_HEIGHT, _DOUBLE_DIAGONAL)
 
 
-def blending_factor(p_goal: float | np.ndarray, n_goals: int, rho1_factor: float = 1.1,
-                    rho2_factor: float = 1.2, rho3: float = 0.8) -> float | np.ndarray:
+def blending_factor(p_goal: float | np.ndarray, n_goals: int, rho1_factor: float, rho2_factor: float,
+                    rho3: float) -> float | np.ndarray:
     """The paper's piecewise-linear ``alpha(p(g'))`` (Section 4).
 
     ``alpha = 0`` for ``p <= rho1``, ``rho3 (p - rho1) / (rho2 - rho1)`` for ``rho1 < p <= rho2``
@@ -50,7 +46,7 @@ def blending_factor(p_goal: float | np.ndarray, n_goals: int, rho1_factor: float
     n_goals
         Number of goals.
     rho1_factor, rho2_factor, rho3
-        The breakpoints' factors and the plateau.
+        The breakpoints' factors and the plateau (``[assistance]``; the paper: 1.1, 1.2, 0.8).
 
     Returns
     -------
@@ -67,15 +63,16 @@ def blending_factor(p_goal: float | np.ndarray, n_goals: int, rho1_factor: float
     return float(alpha) if alpha.ndim == 0 else alpha
 
 
-def distance_weight(distance: float | np.ndarray, knee: float = 35.0,
-                    drop: float = 0.4) -> float | np.ndarray:
+def distance_weight(distance: float | np.ndarray, knee: float, drop: float) -> float | np.ndarray:
     """The study's distance weight on alpha: ``1 - drop d / knee`` up to the knee, then
-    ``(1 - drop) exp(-(d - knee))`` (continuous at the knee: 0.6 there by default).
+    ``(1 - drop) exp(-(d - knee))`` (continuous at the knee: ``1 - drop`` there).
 
     Parameters
     ----------
     distance
         ``(...)`` distance from the robot to ``g'`` in world units.
+    knee, drop
+        ``[assistance] distance_knee`` and ``distance_drop`` (the study: 35 and 0.4).
 
     Returns
     -------
@@ -91,7 +88,8 @@ def distance_weight(distance: float | np.ndarray, knee: float = 35.0,
 
 @dataclass(frozen=True)
 class BlendingSettings:
-    """How alpha is computed during the human's turn.
+    """How alpha is computed during the human's turn (the ``[assistance]`` keys, which hold the
+    defaults: ``nudgecli.sim.protocol.ProtocolSettings.from_config`` builds it).
 
     Attributes
     ----------
@@ -107,24 +105,19 @@ class BlendingSettings:
         The distance weight's knee (world units) and its drop at the knee (study: 35 and 0.4).
     """
 
-    rho1_factor: float = 1.1
-    rho2_factor: float = 1.2
-    rho3: float = 0.8
-    entropy_gate: float | None = None
-    startup_delay: float = 0.0
-    distance_weighting: bool = False
-    distance_knee: float = 35.0
-    distance_drop: float = 0.4
-
-    @classmethod
-    def study(cls) -> BlendingSettings:
-        """The study software: kappa 0.65, 1 s start-up delay, distance weighting on."""
-        return cls(entropy_gate=0.65, startup_delay=1.0, distance_weighting=True)
+    rho1_factor: float
+    rho2_factor: float
+    rho3: float
+    entropy_gate: float | None
+    startup_delay: float
+    distance_weighting: bool
+    distance_knee: float
+    distance_drop: float
 
 
 def assistance_alpha(p_goal: float, n_goals: int, normalised_entropy: float,
                      seconds_since_first_input: float, distance_to_goal: float,
-                     settings: BlendingSettings | None = None) -> float:
+                     settings: BlendingSettings) -> float:
     """alpha with the optional study gates: the paper's alpha, zeroed while the belief is too
     uncertain or the turn has just started, and optionally scaled by the distance weight.
 
@@ -141,13 +134,12 @@ def assistance_alpha(p_goal: float, n_goals: int, normalised_entropy: float,
     distance_to_goal
         Robot-to-``g'`` distance in world units.
     settings
-        Paper behaviour (no gates) when ``None``.
+        The ramp, the gates and the distance weight.
 
     Returns
     -------
     float
     """
-    settings = settings or BlendingSettings()
     if settings.entropy_gate is not None and normalised_entropy > settings.entropy_gate:
         return 0.0
     if settings.startup_delay > 0 and seconds_since_first_input < settings.startup_delay:
@@ -164,8 +156,8 @@ def assistance_alpha(p_goal: float, n_goals: int, normalised_entropy: float,
 Pose = np.ndarray | tuple[float, float, float]
 
 
-def autonomy_velocity(pose: Pose, target_pose: Pose, speed: float = AUTONOMY_SPEED,
-                      turn_rate: float = AUTONOMY_TURN_RATE, dt: float = 0.01) -> np.ndarray:
+def autonomy_velocity(pose: Pose, target_pose: Pose, speed: float, turn_rate: float,
+                      dt: float = 0.01) -> np.ndarray:
     """``u_a``: straight towards the target position at constant speed, bang-bang rotation.
 
     The translation is ``speed`` along the line to the target, reduced to ``distance / dt`` when a

@@ -110,7 +110,7 @@ class WindowTable:
                           positions=positions[keep])
 
 
-def window_candidates(current_state: int, goal_cells: np.ndarray, window: int = 3,
+def window_candidates(current_state: int, goal_cells: np.ndarray, window: int,
                       robot_position: np.ndarray | None = None,
                       rotation_gate: float | None = None) -> Candidates:
     """The ``window x window`` cells around the current cell, all modes, the current heading.

@@ -97,9 +97,9 @@ class DecaySettings:
         Upper bound on ``k`` in the exponent.
     """
 
-    delay: int = 10
-    rate: float = 0.008
-    cap: int = 1000
+    delay: int
+    rate: float
+    cap: int
 
 
 @dataclass(frozen=True)
@@ -118,13 +118,13 @@ class DecayCounters:
     decay_steps: int = 0
 
 
-def decay_weight(k: int | np.ndarray, rate: float = 0.008, cap: int = 1000) -> float | np.ndarray:
+def decay_weight(k: int | np.ndarray, rate: float, cap: int) -> float | np.ndarray:
     """Mixing weight towards uniform of the ``k``-th decaying sample: ``1 - exp(-rate min(k, cap))``."""
     return -np.expm1(-rate * np.minimum(k, cap))
 
 
 def decay_on_empty_sample(belief: np.ndarray, counters: DecayCounters,
-                          settings: DecaySettings | None = None) -> tuple[np.ndarray, DecayCounters]:
+                          settings: DecaySettings) -> tuple[np.ndarray, DecayCounters]:
     """Apply one sample without an observation (no input or a deadband label).
 
     The first ``settings.delay`` empty samples leave the belief unchanged; each further one mixes
@@ -140,7 +140,7 @@ def decay_on_empty_sample(belief: np.ndarray, counters: DecayCounters,
     counters
         The counters before this sample.
     settings
-        Delay, rate and cap (study values when ``None``).
+        Delay, rate and cap (``[inference] decay_delay``, ``decay_rate``, ``decay_cap``).
 
     Returns
     -------
@@ -149,7 +149,6 @@ def decay_on_empty_sample(belief: np.ndarray, counters: DecayCounters,
     counters : DecayCounters
         The counters after this sample.
     """
-    settings = settings or DecaySettings()
     b = np.asarray(belief, dtype=float)
     empty = counters.empty_samples + 1
     if empty <= settings.delay:

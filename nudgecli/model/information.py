@@ -3,11 +3,10 @@ counts, and the study's Monte-Carlo estimate."""
 
 from __future__ import annotations
 
-from typing import Literal
-
 import numpy as np
 from scipy.special import rel_entr, xlogy
 
+from nudgecli.model.disambiguation_settings import Weighting
 from nudgecli.model.inference import predict_belief
 from nudgecli.model.interface import N_ACTIONS
 from nudgecli.model.world import N_MODES
@@ -46,7 +45,6 @@ def mutual_information(belief: np.ndarray, likelihood: np.ndarray,
 
 # --- Monte-Carlo estimate (the study's scheme) ------------------------------------------------
 
-Weighting = Literal["unweighted", "belief"]
 
 
 def normalised_belief(belief: np.ndarray) -> np.ndarray:
@@ -102,7 +100,7 @@ def mutual_information_from_counts(counts: np.ndarray, belief: np.ndarray,
 
 def monte_carlo_mutual_information_per_sample(
         belief: np.ndarray, states: np.ndarray, p_a_given_sg: np.ndarray, mapping: np.ndarray,
-        distortion: np.ndarray, rng: np.random.Generator, samples: int = 250,
+        distortion: np.ndarray, rng: np.random.Generator, samples: int,
         weighting: Weighting = "unweighted") -> np.ndarray:
     """The study's per-sample Monte-Carlo MI estimate, one Python iteration per sample.
 
@@ -172,7 +170,7 @@ def _choice_cdf(p: np.ndarray) -> np.ndarray:
 
 def monte_carlo_mutual_information(
         belief: np.ndarray, states: np.ndarray, p_a_given_sg: np.ndarray, mapping: np.ndarray,
-        distortion: np.ndarray, rng: np.random.Generator, samples: int = 250,
+        distortion: np.ndarray, rng: np.random.Generator, samples: int,
         weighting: Weighting = "unweighted") -> np.ndarray:
     """Vectorised :func:`monte_carlo_mutual_information_per_sample`, identical numbers.
 
@@ -195,7 +193,7 @@ def monte_carlo_mutual_information(
 
 def monte_carlo_label_counts(
         belief: np.ndarray, states: np.ndarray, p_a_given_sg: np.ndarray, mapping: np.ndarray,
-        distortion: np.ndarray, rng: np.random.Generator, samples: int = 250,
+        distortion: np.ndarray, rng: np.random.Generator, samples: int,
         modes: np.ndarray | None = None) -> np.ndarray:
     """The sampled label histograms behind the Monte-Carlo estimate (the study's scheme).
 

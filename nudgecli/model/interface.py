@@ -106,7 +106,7 @@ def label_of_pressure(pressure: float, soft_threshold: float = SOFT_THRESHOLD_EA
     return SIP_DEADBAND if sip else PUFF_DEADBAND
 
 
-def human_velocity(label: int, mode: int, speed: float = 3.0, turn_rate: float = 1.95) -> np.ndarray:
+def human_velocity(label: int, mode: int, speed: float, turn_rate: float) -> np.ndarray:
     """``Upsilon``: the robot command ``u_h`` of one measured label.
 
     A Soft Puff moves ``+speed`` along x or y, or turns clockwise (negative omega) at
@@ -124,8 +124,7 @@ def human_velocity(label: int, mode: int, speed: float = 3.0, turn_rate: float =
 NO_COMMAND = (0.0, 0.0, 0.0)
 
 
-def human_command(label: int, mode: int, speed: float = 3.0,
-                  turn_rate: float = 1.95) -> tuple[float, float, float]:
+def human_command(label: int, mode: int, speed: float, turn_rate: float) -> tuple[float, float, float]:
     """:func:`human_velocity` as a tuple of floats: the rule's one implementation (it runs on
     every simulated step, where a fresh numpy array per step cost more than the rule)."""
     if label != SOFT_PUFF and label != SOFT_SIP:

@@ -167,6 +167,14 @@ def allowed_motion(layout: PathLayout, location: int, turned: bool) -> tuple[int
     return layout.leg_modes[leg], layout.leg_directions[leg]
 
 
+#: TASK.md's tolerances (sections 4 and 7), the defaults of ``[world]``: the robot snaps onto the
+#: next waypoint within this many units on both axes, onto the goal heading within this many
+#: rad, and a success ends within this Manhattan distance of the goal.
+SNAP_TOLERANCE = 0.1
+HEADING_TOLERANCE = 0.1
+SUCCESS_DISTANCE = 0.1
+
+
 class PathWorld:
     """One trial of the CIAA task: the :class:`~nudgecli.model.world.World` of a path layout.
 
@@ -182,8 +190,9 @@ class PathWorld:
         Largest final Manhattan distance to the goal of a success (0.1, the study's analysis).
     """
 
-    def __init__(self, layout: PathLayout, snap_tolerance: float = 0.1, heading_tolerance: float = 0.1,
-                 success_distance: float = 0.1) -> None:
+    def __init__(self, layout: PathLayout, snap_tolerance: float = SNAP_TOLERANCE,
+                 heading_tolerance: float = HEADING_TOLERANCE,
+                 success_distance: float = SUCCESS_DISTANCE) -> None:
         self.layout = layout
         self.snap_tolerance = snap_tolerance
         self.heading_tolerance = heading_tolerance

@@ -74,7 +74,7 @@ def gap_gated_alpha(alpha: float, belief: np.ndarray, gap: float) -> float:
     return alpha if confidence_gap(belief) > gap else 0.0
 
 
-def hindsight_assistance(belief: np.ndarray, goal_commands: np.ndarray, gain: float = 1.0) -> np.ndarray:
+def hindsight_assistance(belief: np.ndarray, goal_commands: np.ndarray, gain: float) -> np.ndarray:
     """The first-order hindsight-optimisation assistance: ``gain * sum_g b_g u_a^g``.
 
     Javdani et al. (2015, RSS; 2018, IJRR) choose the robot action maximising the belief-weighted
@@ -103,7 +103,7 @@ def hindsight_assistance(belief: np.ndarray, goal_commands: np.ndarray, gain: fl
 
 
 def hindsight_command(u_h: np.ndarray, belief: np.ndarray, goal_commands: np.ndarray,
-                      gain: float = 1.0) -> np.ndarray:
+                      gain: float) -> np.ndarray:
     """``u_f = u_h + gain * sum_g b_g u_a^g`` (:func:`hindsight_assistance` added to the person's)."""
     return np.asarray(u_h, dtype=float) + hindsight_assistance(belief, goal_commands, gain)
 

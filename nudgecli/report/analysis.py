@@ -39,7 +39,7 @@ from typing import Any
 
 import pandas as pd
 
-from nudgecli.config import default_plan_name
+from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError, DataError, RunFolderError, did_you_mean
 from nudgecli.errors import WriteError as NudgeWriteError
 from nudgecli.locks import run_lock
@@ -408,9 +408,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
 def _recorded_plan(manifest: dict[str, Any] | None) -> str:
     """The plan of a run analysed without ``--plan``: the one its manifest records, else the plan
     named like its experiment; ``paper`` for a table."""
-    recorded = manifest.get("plan") if manifest else None
-    fallback = default_plan_name(str(manifest.get("experiment", ""))) if manifest else "paper"
-    return recorded or fallback
+    known = manifest or {}
+    return resolve_plan(None, recorded=known.get("plan"), experiment=str(known.get("experiment", "")))
 
 
 def _record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan_arg: str | Path | AnalysisPlan,

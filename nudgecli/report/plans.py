@@ -45,7 +45,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
-from nudgecli.config import format_validation_error, list_presets, read_toml, resolve_preset
+from nudgecli.config_files import format_validation_error, list_presets, read_toml, resolve_preset
 from nudgecli.errors import ConfigError, did_you_mean
 from nudgecli.report.metrics import METRIC_NAMES
 from nudgecli.report.stats import ComparisonOptions
@@ -219,8 +219,8 @@ def plan_names() -> list[str]:
 def load_plan(plan: str | Path | AnalysisPlan) -> AnalysisPlan:
     """Load and validate an analysis plan.
 
-    The preset lookup is :func:`nudgecli.config.resolve_preset` (the one shared with experiment
-    files), the TOML reading :func:`nudgecli.config.read_toml`.
+    The preset lookup is :func:`nudgecli.config_files.resolve_preset` (the one shared with experiment
+    files), the TOML reading :func:`nudgecli.config_files.read_toml`.
 
     Parameters
     ----------

@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
-from nudgecli.config import ExperimentConfig, default_plan_name
+from nudgecli.config import ExperimentConfig
+from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError
 from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.runs.batch import Batch, BatchRun, Point, parameter_names, point_table, run_batch, single_point
@@ -102,7 +103,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
 
     _check(replications, seed)
     config = _load(experiment, overrides, participants)
-    chosen = load_plan(default_plan_name(config.experiment.name) if plan is None else plan)
+    chosen = load_plan(resolve_plan(plan, experiment=config.experiment.name))
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name})
@@ -137,7 +138,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     if not 0 < target < 1:
         raise ConfigError(f"--target must be between 0 and 1, got {target}")
     config = _load(experiment, overrides, None)
-    chosen = load_plan(default_plan_name(config.experiment.name) if plan is None else plan)
+    chosen = load_plan(resolve_plan(plan, experiment=config.experiment.name))
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name})

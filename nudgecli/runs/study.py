@@ -27,7 +27,8 @@ from typing import Any
 
 import pandas as pd
 
-from nudgecli.config import ExperimentConfig, default_plan_name
+from nudgecli.config import ExperimentConfig
+from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
@@ -378,7 +379,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     manifest.update({"status": "running", "completed": sorted(done),
                      "executor": executor_name(workers, bool(scheduler))})
     if plan_name is not None or "plan" not in manifest:
-        manifest["plan"] = plan_name or default_plan_name(config.experiment.name)
+        manifest["plan"] = resolve_plan(plan_name, experiment=config.experiment.name)
     folder.write_layouts(plan.layouts_frame())
     folder.write_manifest(manifest)
     todo = [i for i in range(n) if i not in done]

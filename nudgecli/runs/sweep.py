@@ -39,7 +39,8 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
-from nudgecli.config import ExperimentConfig, format_validation_error, load_experiment, preset_dir
+from nudgecli.config import ExperimentConfig, load_experiment
+from nudgecli.config_files import format_validation_error, preset_dir
 from nudgecli.errors import ConfigError
 
 #: Where the shipped example sweeps live (beside the experiment presets, in their own folder so

@@ -44,7 +44,7 @@ from typing import Literal, Protocol
 
 import numpy as np
 
-from nudgecli.config import ExperimentConfig
+from nudgecli.config import BehaviourSection, ExperimentConfig
 from nudgecli.model import interface
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, NO_INPUT, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.world import (
@@ -92,31 +92,37 @@ class InputSource(Protocol):
         """``(intended label or NO_INPUT, signed pressure)`` for this 10 Hz step."""
 
 
+#: The ``[behaviour]`` defaults, which :class:`BehaviourSettings` takes.
+_BEHAVIOUR = BehaviourSection()
+
+
 @dataclass(frozen=True)
 class BehaviourSettings:
-    """The ``[behaviour]`` keys in steps and plain numbers (read once per run)."""
+    """The ``[behaviour]`` keys in steps and plain numbers (read once per run). The defaults are
+    ``[behaviour]``'s, but for the operating habits (``event_reactions`` ...), which are off: the
+    earlier person, whom the tests of one habit start from."""
 
     dt: float
-    decisions: Literal["events", "grid"] = "events"
-    lean_on_blending: bool = True
-    release_when_dragged: bool = True
-    after_autonomy: Literal["replan", "resume"] = "replan"
+    decisions: Literal["events", "grid"] = _BEHAVIOUR.decisions
+    lean_on_blending: bool = _BEHAVIOUR.lean_on_blending
+    release_when_dragged: bool = _BEHAVIOUR.release_when_dragged
+    after_autonomy: Literal["replan", "resume"] = _BEHAVIOUR.after_autonomy
     stall_steps: int = 0
     max_hold_steps: int = 30
-    fine_position_tolerance: float = 0.5
-    fine_heading_tolerance: float = 0.15
-    rest_jitter: float = 0.5
-    operate_jitter: float = 0.3
-    pause_jitter: float = 0.5
-    hard_blow_jitter: float = 0.2
+    fine_position_tolerance: float = _BEHAVIOUR.fine_position_tolerance
+    fine_heading_tolerance: float = _BEHAVIOUR.fine_heading_tolerance
+    rest_jitter: float = _BEHAVIOUR.rest_jitter
+    operate_jitter: float = _BEHAVIOUR.operate_jitter
+    pause_jitter: float = _BEHAVIOUR.pause_jitter
+    hard_blow_jitter: float = _BEHAVIOUR.hard_blow_jitter
     event_reactions: bool = False
     planning: bool = False
     hard_pulses: bool = False
     hold_on: bool = False
     pause_tail: bool = False
     notice_mode_errors: bool = False
-    planning_jitter: float = 0.2
-    hold_on_jitter: float = 0.5
+    planning_jitter: float = _BEHAVIOUR.planning_jitter
+    hold_on_jitter: float = _BEHAVIOUR.hold_on_jitter
 
     @classmethod
     def from_config(cls, config: ExperimentConfig) -> BehaviourSettings:
@@ -348,7 +354,8 @@ class SimulatedPerson:
         where the path turns, a wall): the world's own rule, as the person sees it next step."""
         if self.world is None:
             return False
-        velocity = interface.human_command(self.held_label, view.mode)
+        # unit speeds: only the command's direction decides whether the robot stands still
+        velocity = interface.human_command(self.held_label, view.mode, 1.0, 1.0)
         x, y, theta = view.x, view.y, view.theta
         return self.world.holds_still(x, y, theta, velocity)
 
@@ -473,7 +480,7 @@ class SimulatedPerson:
             self.hold_left = max(1, round(p.hard_blow_s * self._jitter(s.hard_blow_jitter) / s.dt))
         else:
             self.hold_left = s.max_hold_steps
-            along = interface.human_command(label, view.mode)[view.mode]
+            along = interface.human_command(label, view.mode, 1.0, 1.0)[view.mode]  # its sign is what counts
             self.hold_axis = int(view.mode)
             self.hold_direction = 1.0 if along > 0.0 else -1.0 if along < 0.0 else 0.0  # np.sign
             coordinate = (view.x, view.y, view.theta)[self.hold_axis]

@@ -40,14 +40,17 @@ from nudgecli.sim.calibration_io import (
     DistortionSession,
     MappingSession,
 )
-from nudgecli.sim.participants import (
+from nudgecli.sim.participants import Participant
+from nudgecli.sim.pressure_model import (
     LABEL_SIGN,
-    Participant,
     blow_pressures,
     blows_drift_normals,
     lognormal_delays,
     ramp_fraction_at,
 )
+
+#: The ``[calibration]`` defaults (the device's event step).
+CALIBRATION = CalibrationSection()
 
 # --- simulated sessions -----------------------------------------------------------------------
 
@@ -106,7 +109,7 @@ def simulate_mapping_session(participant: Participant, calibration: CalibrationS
 
 
 def event_driven_stream(times: np.ndarray, pressure: np.ndarray, interface: InterfaceSection,
-                        step: float = 0.0109) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                        step: float = CALIBRATION.event_step) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The event-driven label stream a device sends for a pressure trace sampled at fixed ticks.
 
     The device's pressure is quantised in ``step`` increments and it sends one message each time

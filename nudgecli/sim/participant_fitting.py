@@ -18,13 +18,8 @@ from nudgecli.errors import DataError
 from nudgecli.model.interface import LABELS, N_LABELS, ZERO_THRESHOLD, label_pressure
 from nudgecli.sim.calibration_io import DistortionSession, distortion_windows
 from nudgecli.sim.calibration_readers import read_distortion_session
-from nudgecli.sim.participants import (
-    LABEL_SIGN,
-    MAX_DRIFT_CORRELATION,
-    MIN_SPREAD,
-    Participant,
-    mapping_with_error,
-)
+from nudgecli.sim.participants import MAX_DRIFT_CORRELATION, MIN_SPREAD, Participant, mapping_with_error
+from nudgecli.sim.pressure_model import LABEL_SIGN
 
 #: Samples dropped at the start and end of each blow when estimating a plateau from a log.
 LOG_ONSET_SAMPLES, LOG_RELEASE_SAMPLES = 2, 1

@@ -5,24 +5,7 @@ A :class:`Participant` is drawn from the ``[population]`` ranges (see
 estimated from a real person's calibration log
 (:func:`nudgecli.sim.participant_fitting.participant_from_log`).
 
-Pressure model (per 10 Hz sample of a blow with intended label ``phi_i``)::
-
-    magnitude_j = clip(f_j * (level[phi_i] + spread[phi_i] * z_j), 0, 1)
-    pressure_j  = sign(phi_i) * magnitude_j        (puff negative, sip positive)
-    f_j = (j + 1) / (k + 1) for the first k = onset_ramp_samples samples of the blow, else 1
-    z_0 = e_0,  z_j = rho * z_{j-1} + sqrt(1 - rho^2) * e_j,   e_j ~ N(0, 1) iid
-
-so a blow never crosses to the other side (a draw past zero reads as no input), hard blows
-saturate at 1 like the real sensor, and the onset ramp reproduces the ramp-through soft and
-deadband samples the pilot logs show at the start of hard blows. The deviations ``z`` drift
-within a blow (an AR(1) process with lag-1 correlation ``rho = drift_correlation``, one per
-participant; :func:`drift_normals`): real pressure wanders slowly (the pilots' plateaus have
-lag-1 correlations of 0.75-0.98 at 10 Hz), it does not jump independently from tick to tick.
-Each sample's marginal is still ``N(0, 1)``, so the per-sample label probabilities, and with them
-the fixed-rate calibration tables, do not depend on ``rho``; what depends on it is how often
-the pressure *changes*, which is what an event-driven device counts. The driver's thresholds
-(:func:`nudgecli.model.interface.label_pressure`) turn pressures into labels, so soft-to-hard
-confusions, deadbands and unintended mode switches emerge from the physiology.
+The pressure model of a blow's samples is :mod:`nudgecli.sim.pressure_model`'s.
 
 Index conventions: labels ``F = 4`` (Hard Puff, Hard Sip, Soft Puff, Soft Sip), actions ``A = 4``,
 modes ``M = 3`` (see :mod:`nudgecli.model.interface`).
@@ -30,7 +13,6 @@ modes ``M = 3`` (see :mod:`nudgecli.model.interface`).
 
 from __future__ import annotations
 
-import itertools
 import json
 import math
 from collections.abc import Mapping, Sequence
@@ -58,11 +40,16 @@ from nudgecli.model.interface import (
 )
 from nudgecli.model.world import N_MODES
 from nudgecli.rng import generator, seed_key
+from nudgecli.sim.pressure_model import (
+    LABEL_IS_HARD,
+    LABEL_SIGN,
+    blow_pressures,
+    drift_normals,
+    lognormal_delays,
+    pulse_fractions,
+    ramp_fractions,
+)
 
-#: Sign of each intended label's pressure: puffs negative, sips positive.
-LABEL_SIGN = np.array([-1.0, 1.0, -1.0, 1.0])
-#: Whether each label is a hard one.
-LABEL_IS_HARD = np.array([True, True, False, False])
 #: Columns of :meth:`Participant.sample_code_probabilities`: the 4 labels, the 2 deadbands, no input.
 CODE_COLUMNS = (HARD_PUFF, HARD_SIP, SOFT_PUFF, SOFT_SIP, PUFF_DEADBAND, SIP_DEADBAND, NO_INPUT)
 #: Smallest spread a participant may have (keeps the normal CDF defined).
@@ -83,115 +70,6 @@ def threshold_triple(thresholds: Thresholds) -> tuple[float, float, float]:
     if len(values) == 3:
         return values[0], values[1], values[2]
     raise ValueError(f"thresholds must be (soft, hard) or (soft, hard, zero), got {thresholds!r}")
-
-
-def ramp_fractions(n: int, ramp_samples: int) -> np.ndarray:
-    """``(n,)`` fraction of the level reached at each sample of a blow of ``n`` samples.
-
-    The first ``ramp_samples`` samples rise linearly, ``(j + 1) / (ramp_samples + 1)``; the rest are 1.
-    """
-    return ramp_fraction_at(np.arange(n), ramp_samples)
-
-
-def ramp_fraction_at(position: np.ndarray, ramp_samples: int) -> np.ndarray:
-    """The onset-ramp fraction of samples at ``position`` (``(N,)``, 0: a blow's first sample)."""
-    return np.where(position < ramp_samples, (position + 1.0) / (ramp_samples + 1.0), 1.0)
-
-
-def pulse_fractions(onset_samples: int, peak_samples: int, offset_samples: int) -> np.ndarray:
-    """``(onset + peak + offset,)`` fraction of the level at each sample of a short hard pulse.
-
-    The onset rises as a blow's (``(j + 1) / (onset + 1)``, :func:`ramp_fractions`), the peak holds
-    the level, and the offset falls symmetrically (``(offset - j) / (offset + 1)``), so the last
-    sample is still above zero and the release that follows is a full one.
-    """
-    onset = ramp_fractions(onset_samples, onset_samples)
-    offset = (offset_samples - np.arange(offset_samples)) / (offset_samples + 1.0)
-    return np.concatenate([onset, np.ones(peak_samples), offset])
-
-
-def lognormal_delays(median: float, log_sd: float, n: int, rng: np.random.Generator) -> np.ndarray:
-    """``(n,)`` delays ``median * exp(log_sd * z)``, ``z ~ N(0, 1)``: log-normal around ``median``.
-
-    The one delay law of a person's reactions, in calibration prompts and in the task.
-    """
-    return median * np.exp(log_sd * rng.standard_normal(n))
-
-
-def drift_normals(innovations: np.ndarray, correlation: float, previous: float | None = None) -> np.ndarray:
-    """The standard normal deviations of one blow's samples: an AR(1) drift with stationary marginals.
-
-    ``z_0 = e_0`` (or ``rho * previous + sqrt(1 - rho^2) * e_0`` when the blow continues from a
-    sample whose deviation was ``previous``) and ``z_j = rho * z_{j-1} + sqrt(1 - rho^2) * e_j``,
-    so every ``z_j`` is ``N(0, 1)`` and ``corr(z_j, z_{j+k}) = rho^k``. With ``rho = 0`` the
-    result is ``innovations`` itself.
-
-    Parameters
-    ----------
-    innovations
-        ``(n,)`` independent standard normal draws ``e``.
-    correlation
-        ``rho`` in ``[0, 1)``.
-    previous
-        The deviation of the sample just before this stretch of the same blow, or ``None`` for a
-        new blow.
-
-    Returns
-    -------
-    np.ndarray
-        ``(n,)`` deviations ``z``.
-    """
-    e = np.asarray(innovations, dtype=float)
-    if e.size == 0:
-        return e.copy()
-    rho = float(correlation)
-    scale = np.sqrt(1.0 - rho * rho)
-    first = e[0] if previous is None else rho * previous + scale * e[0]
-    # The recursion z_t = rho z_{t-1} + scale e_t, step by step: blows are tens of samples, where a
-    # plain loop beats scipy.signal.lfilter's call overhead and spares every worker importing
-    # scipy.signal (over a second). The same operations as lfilter's direct form, so the values
-    # are bit-identical to it (tests/test_sim_participants.py checks).
-    out = np.empty(e.size)
-    out[0] = last = float(first)
-    for t, innovation in enumerate(e[1:].tolist(), start=1):
-        last = scale * innovation + rho * last
-        out[t] = last
-    return out
-
-
-def blows_drift_normals(innovations: np.ndarray, lengths: np.ndarray, correlation: float) -> np.ndarray:
-    """:func:`drift_normals` of consecutive blows: ``(sum(lengths),)`` innovations, a new blow per length."""
-    bounds = np.r_[0, np.cumsum(lengths)]
-    if bounds[-1] != len(innovations):
-        raise ValueError(f"lengths add up to {bounds[-1]}, not to the {len(innovations)} innovations")
-    if correlation == 0.0:
-        return np.asarray(innovations, dtype=float).copy()
-    return np.concatenate([np.zeros(0)] + [drift_normals(innovations[a:b], correlation)
-                                            for a, b in itertools.pairwise(bounds) if b > a])
-
-
-def blow_pressures(levels: np.ndarray, spreads: np.ndarray, signs: np.ndarray, fractions: np.ndarray,
-                   normals: np.ndarray) -> np.ndarray:
-    """Signed pressures of blow samples (the module's pressure model, vectorised).
-
-    Parameters
-    ----------
-    levels, spreads
-        ``(N,)`` magnitude level and spread of each sample's intended label.
-    signs
-        ``(N,)`` ``-1`` for puffs, ``+1`` for sips.
-    fractions
-        ``(N,)`` onset-ramp fraction of each sample (1 on the plateau).
-    normals
-        ``(N,)`` standard normal deviations (:func:`drift_normals`).
-
-    Returns
-    -------
-    np.ndarray
-        ``(N,)`` pressures in ``[-1, 1]``.
-    """
-    magnitude = np.clip(fractions * (levels + spreads * normals), 0.0, 1.0)
-    return signs * magnitude
 
 
 @dataclass(frozen=True, eq=False)
@@ -233,7 +111,7 @@ class Participant:
         Idle time after the first input of a turn with which they hand the turn over, seconds.
     drift_correlation
         Lag-1 correlation of their pressure's deviations from tick to tick within a blow
-        (:func:`drift_normals`; 0: independent samples).
+        (:func:`~nudgecli.sim.pressure_model.drift_normals`; 0: independent samples).
     planning_s
         Time spent looking at the layout and the mode before a trial's first command, seconds.
     event_reaction_s
@@ -326,7 +204,8 @@ class Participant:
 
     def drift_step(self, previous: float, innovation: float) -> float:
         """The deviation of a blow's next sample after one of deviation ``previous``: one step of
-        :func:`drift_normals`'s recursion, bit for bit (``tests/test_sim_participants.py``)."""
+        :func:`~nudgecli.sim.pressure_model.drift_normals`'s recursion, bit for bit
+        (``tests/test_sim_participants.py``)."""
         # scale e + rho z: the same two products and one sum as the array recursion (a sum commutes exactly)
         return self._sample_terms[3] * innovation + self.drift_correlation * previous
 

@@ -49,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-from nudgecli.config import ExperimentConfig
+from nudgecli.config import ExperimentConfig, HindsightSection, ModeSwitchSection
 from nudgecli.model import assistance, interface, policies
 from nudgecli.model.assistance import BlendingSettings
 from nudgecli.model.disambiguation import (
@@ -120,9 +120,9 @@ class ProtocolSettings:
     disambiguation: DisambiguationSettings
     window: int
     behaviour: BehaviourSettings
-    blending_gap: float | None = None
-    mode_criterion: str = "disamb"
-    hindsight_gain: float = 1.0
+    blending_gap: float | None
+    mode_criterion: str
+    hindsight_gain: float
 
     @classmethod
     def from_config(cls, config: ExperimentConfig) -> ProtocolSettings:
@@ -162,8 +162,9 @@ class ProtocolSettings:
             behaviour=BehaviourSettings.from_config(config),
             blending_gap=(config.blending.gap if config.blending is not None and config.blending.gate == "gap"
                           else None),
-            mode_criterion=config.mode_switch.criterion if config.mode_switch is not None else "disamb",
-            hindsight_gain=config.hindsight.gain if config.hindsight is not None else 1.0,
+            # the sections of conditions the study does not run may be absent: their defaults then
+            mode_criterion=(config.mode_switch or ModeSwitchSection()).criterion,
+            hindsight_gain=(config.hindsight or HindsightSection()).gain,
         )
 
 

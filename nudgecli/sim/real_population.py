@@ -34,16 +34,14 @@ from nudgecli.model.interface import LABELS, N_LABELS
 from nudgecli.rng import generator
 from nudgecli.sim.calibration import estimate_distortion, merge_and_smooth, smooth_true_distortion
 from nudgecli.sim.calibration_io import CIAA_VARIANT, DistortionSession
-from nudgecli.sim.calibration_sessions import event_driven_stream, simulate_distortion_session
-from nudgecli.sim.participants import (
+from nudgecli.sim.calibration_sessions import CALIBRATION, event_driven_stream, simulate_distortion_session
+from nudgecli.sim.participants import Participant, level_range, spread_range
+from nudgecli.sim.pressure_model import (
     LABEL_IS_HARD,
     LABEL_SIGN,
-    Participant,
     blow_pressures,
     blows_drift_normals,
-    level_range,
     ramp_fractions,
-    spread_range,
 )
 
 #: The stream formats: the pilots' fixed 10 Hz stream, the sibling study's event-driven one.
@@ -75,7 +73,7 @@ EVENT_BLOWS = 400
 
 
 def as_event_driven(session: DistortionSession, interface: InterfaceSection,
-                    event_step: float = 0.0109) -> DistortionSession:
+                    event_step: float = CALIBRATION.event_step) -> DistortionSession:
     """A fixed-rate distortion session's pressures as the sibling study's event-driven stream.
 
     The session's pressure samples (missing ones read as zero) go through
@@ -115,8 +113,9 @@ def _probe(label: int, level: float, spread: float, ramp: int, correlation: floa
 
 
 def expected_diagonal(label: int, level: float, spread: float, interface: InterfaceSection,
-                      stream: str = "fixed_rate", ramp: int = 2, hold_samples: int = 25,
-                      event_step: float = 0.0109, seed: int = 0, correlation: float = 0.0) -> float:
+                      stream: str = CALIBRATION.stream, ramp: int = 2, hold_samples: int = 25,
+                      event_step: float = CALIBRATION.event_step, seed: int = 0,
+                      correlation: float = 0.0) -> float:
     """The ``p(phi_m = phi_i | phi_i)`` the study's estimator converges to for one label's physiology.
 
     Parameters
@@ -168,8 +167,9 @@ def expected_diagonal(label: int, level: float, spread: float, interface: Interf
     return float(merged[label])
 
 
-def diagonal_image(population: PopulationSection, interface: InterfaceSection, stream: str = "fixed_rate",
-                   hold_samples: int = 25, event_step: float = 0.0109) -> pd.DataFrame:
+def diagonal_image(population: PopulationSection, interface: InterfaceSection,
+                   stream: str = CALIBRATION.stream, hold_samples: int = 25,
+                   event_step: float = CALIBRATION.event_step) -> pd.DataFrame:
     """The range of :func:`expected_diagonal` over a population's level, spread, ramp and drift ranges.
 
     Every corner of each label's (level, spread, ramp, drift correlation) box is evaluated, plus

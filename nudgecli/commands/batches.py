@@ -1,0 +1,180 @@
+"""Batch commands: ``replicate``, ``power`` and ``sweep`` (many studies, resumable, on local
+workers or a dask cluster)."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import click
+
+from nudgecli.commands.common import INTERRUPT_HINT, SET_HELP, echo_json, info
+
+# --- replicate / power / sweep -------------------------------------------------------------
+
+def _batch_options(func: Any) -> Any:
+    """The options every batch command shares (executor, output folder, resume, size check)."""
+    options = [
+        click.option("--out", type=click.Path(file_okay=False),
+                     help="Batch folder [default: results/<experiment>-<command>-<UTC time>]."),
+        click.option("--workers", type=int, default=1, show_default=True, help="Local worker processes."),
+        click.option("--scheduler", envvar="DASK_SCHEDULER_ADDRESS",
+                     help="dask.distributed scheduler address (or DASK_SCHEDULER_ADDRESS); needs "
+                          "nudgecli[cluster]."),
+        click.option("--resume", is_flag=True, help="Finish an interrupted batch in --out (same settings)."),
+        click.option("--force", is_flag=True, help="Replace a batch that already is in --out."),
+        click.option("--yes", is_flag=True, help="Run a batch above the size limit (see the README)."),
+        click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]),
+                     default="table", show_default=True, help="What to print on stdout."),
+    ]
+    for option in reversed(options):
+        func = option(func)
+    return func
+
+
+def _run_batch_command(label: str, run: Any, out: str | None, default_name: str, output_format: str,
+                       **kwargs: Any) -> None:
+    from nudgecli.runs.executors import Progress
+    from nudgecli.store import default_run_dir
+
+    target = Path(out) if out else default_run_dir(default_name)
+    ctx = click.get_current_context()
+    ctx.meta[INTERRUPT_HINT] = _batch_interrupt_hint(target, rerun_command(ctx, target))
+    try:
+        result = run(out=target, progress=Progress(label), log=info, **kwargs)
+    except BaseException:
+        if not out and target.is_dir() and not any(target.iterdir()):
+            target.rmdir()  # the default folder made for this batch, still empty: leave nothing behind
+        raise
+    table = result.summary
+    if output_format == "json":
+        echo_json(json.loads(table.to_json(orient="records")))
+    elif output_format == "csv":
+        click.echo(table.to_csv(index=False), nl=False)
+    else:
+        click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
+    info(f"Batch folder: {result.run.path} ({result.run.computed} tasks computed now)")
+    if output_format == "table":  # under json/csv stdout is the document alone (the folder is on stderr)
+        click.echo(str(result.run.path))
+
+
+def rerun_command(ctx: click.Context, target: Path) -> str:
+    """The command line that resumes the interrupted command of ``ctx`` into ``target``: its
+    arguments and the options given on the command line, ``--out target`` and ``--resume``
+    (``--force`` dropped: it would delete what was finished)."""
+    from click.core import ParameterSource
+
+    from nudgecli.store import resume_command
+
+    arguments: list[str] = []
+    options: list[str] = []
+    for param in ctx.command.params:
+        name = param.name or ""
+        value = ctx.params.get(name)
+        if isinstance(param, click.Argument):
+            arguments.append(str(value))
+            continue
+        given = ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE
+        if name in ("out", "resume", "force") or not given:
+            continue
+        flag = max(param.opts, key=len)  # the long name: --replications, not -R
+        if getattr(param, "is_flag", False):
+            options += [flag] if value else []
+        elif getattr(param, "multiple", False):
+            for item in value or ():
+                options += [flag, str(item)]
+        else:
+            options += [flag, str(value)]
+    return resume_command([ctx.info_name or ctx.command.name or "", *arguments, *options], target)
+
+
+def _batch_interrupt_hint(target: Path, command: str) -> Callable[[], str]:
+    """What to say after Ctrl-C of a batch into ``target``."""
+
+    def hint() -> str:
+        from nudgecli.runs.batch_folder import BATCH_MANIFEST
+
+        if (target / BATCH_MANIFEST).is_file():
+            return f"{target} keeps its finished tasks; resume with: {command}"
+        return "nothing was computed yet; run the command again"
+
+    return hint
+
+
+def _experiment_name(experiment: str) -> str:
+    return Path(experiment).stem if experiment.endswith(".toml") else experiment
+
+
+@click.command("replicate")
+@click.argument("experiment")
+@click.option("--replications", "-R", type=int, required=True,
+              help="Independent studies (each its own seed).")
+@click.option("--seed", type=int, help="Master seed of the replications [default: the experiment's].")
+@click.option("--plan", default=None, metavar="PLAN",
+              help="Analysis plan of each study [default: the plan named like the experiment, else paper].")
+@click.option("--participants", type=int, help="Participants per study [default: the experiment's].")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+@_batch_options
+def replicate_command(experiment: str, replications: int, seed: int | None, plan: str | None,
+                      participants: int | None, overrides: tuple[str, ...], out: str | None, workers: int,
+                      scheduler: str | None, resume: bool, force: bool, yes: bool,
+                      output_format: str) -> None:
+    """R independent studies of EXPERIMENT: how often each difference is significant, the pooled effect."""
+    from nudgecli.runs.batch_kinds import replicate
+
+    _run_batch_command("replicate", replicate, out, f"{_experiment_name(experiment)}-replicate",
+                       output_format,
+                       experiment=experiment, replications=replications, seed=seed, plan=plan,
+                       participants=participants, overrides=overrides, workers=workers, scheduler=scheduler,
+                       resume=resume, force=force, confirm=yes)
+
+
+def _counts(text: str) -> list[int]:
+    try:
+        return [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise click.BadParameter(f"{text!r}: give comma-separated integers, e.g. 6,9,12,18,24") from None
+
+
+@click.command("power")
+@click.argument("experiment")
+@click.option("--participants", "counts", required=True, metavar="N,N,...",
+              help="Participant counts, e.g. 6,9,12,18,24.")
+@click.option("--replications", "-R", type=int, required=True, help="Studies per count.")
+@click.option("--seed", type=int, help="Master seed of the replications [default: the experiment's].")
+@click.option("--plan", default=None, metavar="PLAN",
+              help="Analysis plan of each study [default: the plan named like the experiment, else paper].")
+@click.option("--target", type=float, default=0.8, show_default=True, help="The power to reach.")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+@_batch_options
+def power_command(experiment: str, counts: str, replications: int, seed: int | None, plan: str | None,
+                  target: float, overrides: tuple[str, ...], out: str | None, workers: int,
+                  scheduler: str | None, resume: bool, force: bool, yes: bool, output_format: str) -> None:
+    """Power curves: the chance of a significant difference in the paper's direction per participant count."""
+    from nudgecli.runs.batch_kinds import power
+
+    _run_batch_command("power", power, out, f"{_experiment_name(experiment)}-power", output_format,
+                       experiment=experiment, participant_counts=_counts(counts), replications=replications,
+                       seed=seed, plan=plan, overrides=overrides, target=target, workers=workers,
+                       scheduler=scheduler, resume=resume, force=force, confirm=yes)
+
+
+@click.command("sweep")
+@click.argument("sweep_file")
+@click.option("--replications", "-R", type=int, help="Studies per design point [default: the file's].")
+@click.option("--seed", type=int, help="Master seed of the replications [default: the file's].")
+@_batch_options
+def sweep_command(sweep_file: str, replications: int | None, seed: int | None, out: str | None, workers: int,
+                  scheduler: str | None, resume: bool, force: bool, yes: bool, output_format: str) -> None:
+    """Run a sweep file (grid, Sobol or Morris design over experiment keys); see the README for the format."""
+    from nudgecli.runs.batch_kinds import sweep
+
+    _run_batch_command("sweep", sweep, out, f"{_experiment_name(sweep_file)}-sweep", output_format,
+                       sweep_file=sweep_file, replications=replications, seed=seed, workers=workers,
+                       scheduler=scheduler, resume=resume, force=force, confirm=yes)
+
+
+#: The commands of this module, registered on ``nudge`` by :mod:`nudgecli.cli`.
+COMMANDS = (replicate_command, power_command, sweep_command)

@@ -1,0 +1,205 @@
+"""Commands that simulate or run a study: ``fit``, ``simulate``, ``run`` (simulate, analyse and
+plot) and ``study`` (a person in the loop)."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import click
+
+from nudgecli.commands.common import INTERRUPT_HINT, SET_HELP, YES_HELP, info, progress_bar
+
+# --- fit -----------------------------------------------------------------------------------
+
+@click.command("fit")
+@click.argument("calibration_dir", type=click.Path(file_okay=False))
+@click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
+              help="Profile JSON to write [default: ./<folder name>.profile.json].")
+@click.option("--variant", type=click.Choice(["auto", "pilot", "ciaa"]), default="auto", show_default=True,
+              help="Log format of the p(phi_m | phi_i) stream: pilot (fixed 10 Hz, neutral label 'None'), "
+                   "ciaa (the sibling study's event-driven stream, neutral label 'Zero Band'), or auto "
+                   "(detect from the neutral label, else from the message timing).")
+def fit_command(calibration_dir: str, out: str | None, variant: str) -> None:
+    """Fit p(phi_i | a) and p(phi_m | phi_i) from one participant's calibration logs.
+
+    CALIBRATION_DIR holds p_phi_given_a/ and/or p_phm_given_phi/ (the study's export; the sibling
+    study's <id>_p_ui_given_a/ and <id>_p_um_given_ui/ too) or the tidy files of a simulated
+    session. A missing session falls back to the default table.
+    """
+
+    from nudgecli.sim.calibration_profile import fit_calibration_dir, write_profile
+    from nudgecli.store import check_writable
+
+    folder = Path(calibration_dir)
+    target = Path(out) if out is not None else Path.cwd() / f"{folder.resolve().name}.profile.json"
+    check_writable(target.parent)
+    result = fit_calibration_dir(folder, variant)
+    for warning in result.warnings:
+        info(f"Warning: {warning}")
+    write_profile(result.profile, target)
+    click.echo(result.summary)
+    info(str(target))
+
+
+def _interrupt_hint(target: Path, commands: list[str]) -> Callable[[], str]:
+    """What to say after Ctrl-C of a simulation into ``target``."""
+
+    def hint() -> str:
+        from nudgecli.store import RunFolder
+
+        run = RunFolder(target)
+        if run.is_run():
+            done = len(run.completed_participants())
+            alternatives = "".join(f" (or, to analyse and plot too: {c})" for c in commands[1:])
+            return (f"{target} keeps its {done} finished participant(s); resume with: "
+                    f"{commands[0]}{alternatives}")
+        return "nothing was simulated yet; run the command again"
+
+    return hint
+
+
+def _simulate(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
+              scheduler: str | None, resume: bool, force: bool, overrides: tuple[str, ...],
+              plan: str | None = None, command: str = "simulate", confirm: bool = False) -> Any:
+
+    from nudgecli.config import load_experiment
+    from nudgecli.runs.study import run_study
+    from nudgecli.store import default_run_dir, simulate_resume_command
+
+    config = load_experiment(experiment, overrides)
+    target = Path(out) if out else default_run_dir(config.experiment.name)
+    commands = [simulate_resume_command(experiment, target, seed, participants, workers, overrides,
+                                        confirm=confirm)]
+    if command != "simulate":
+        commands.append(simulate_resume_command(experiment, target, seed, participants, workers, overrides,
+                                                command, confirm))
+    click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, commands)
+    bar, update = progress_bar("simulating")
+    try:
+        return run_study(config, target, seed=seed, participants=participants, workers=workers,
+                         scheduler=scheduler, resume=resume, force=force, progress=update, plan=plan,
+                         confirm=confirm)
+    except BaseException:
+        if not out and target.is_dir() and not any(target.iterdir()):
+            target.rmdir()  # the default folder made for this run, still empty: leave nothing behind
+        raise
+    finally:
+        bar.close()
+
+
+def _print_study_summary(run: Any) -> None:
+    from nudgecli.runs.study import success_by_condition
+
+    table = success_by_condition(run.trials)
+    click.echo(f"{len(run.trials)} trials, {run.participants} participants "
+               f"({'resumed, ' if run.mode == 'resume' else ''}{len(run.computed)} simulated now)")
+    click.echo(table.to_string(float_format=lambda v: f"{v:.3f}"))
+
+
+@click.command("simulate")
+@click.argument("experiment")
+@click.option("--out", type=click.Path(file_okay=False),
+              help="Run folder [default: results/<experiment>-<UTC time>].")
+@click.option("--seed", type=int, help="Master seed [default: the experiment's].")
+@click.option("--participants", type=int, help="Number of participants [default: the experiment's].")
+@click.option("--workers", type=int, default=1, show_default=True, help="Local worker processes.")
+@click.option("--scheduler", envvar="DASK_SCHEDULER_ADDRESS",
+              help="dask.distributed scheduler address (or DASK_SCHEDULER_ADDRESS); needs nudgecli[cluster].")
+@click.option("--resume", is_flag=True, help="Finish an interrupted run in --out (same experiment and seed).")
+@click.option("--force", is_flag=True, help="Replace a run that already is in --out.")
+@click.option("--yes", is_flag=True, help=YES_HELP)
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+def simulate_command(experiment: str, out: str | None, seed: int | None, participants: int | None,
+                     workers: int, scheduler: str | None, resume: bool, force: bool, yes: bool,
+                     overrides: tuple[str, ...]) -> None:
+    """Simulate a study: EXPERIMENT is a preset (paper, study-code, smoke) or a TOML file."""
+    run = _simulate(experiment, out, seed, participants, workers, scheduler, resume, force, overrides,
+                    confirm=yes)
+    _print_study_summary(run)
+    click.echo(f"Run folder: {run.path}", err=True)
+    click.echo(str(run.path))
+
+
+# --- run -----------------------------------------------------------------------------------
+
+@click.command("run")
+@click.argument("experiment", default="paper")
+@click.option("--out", type=click.Path(file_okay=False),
+              help="Run folder [default: results/<experiment>-<UTC time>].")
+@click.option("--seed", type=int, help="Master seed [default: the experiment's].")
+@click.option("--participants", type=int, help="Number of participants [default: the experiment's].")
+@click.option("--workers", type=int, default=1, show_default=True, help="Local worker processes.")
+@click.option("--plan", metavar="PLAN", default=None,
+              help="Analysis plan [default: the plan named like the experiment, else paper].")
+@click.option("--resume", is_flag=True, help="Finish an interrupted run in --out.")
+@click.option("--force", is_flag=True, help="Replace a run that already is in --out.")
+@click.option("--yes", is_flag=True, help=YES_HELP)
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+def run_command(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
+                plan: str | None, resume: bool, force: bool, yes: bool, overrides: tuple[str, ...]) -> None:
+    """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
+    from nudgecli.config_files import resolve_plan
+    from nudgecli.locks import run_lock
+    from nudgecli.report.analysis import analyze
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.plotting import plot_folder
+    from nudgecli.report.summary import format_table
+    from nudgecli.run_folder_names import FIGURES_DIR, STATS_JSON, SUMMARY_MD
+
+    if plan is not None and Path(plan).suffix.lower() == ".toml":
+        plan = str(Path(plan).resolve())
+    run = _simulate(experiment, out, seed, participants, workers, None, resume, force, overrides,
+                    plan=plan, command="run", confirm=yes)
+    _print_study_summary(run)
+    chosen_plan = resolve_plan(plan, experiment=run.experiment)
+    info(f"analysing with the {chosen_plan!r} plan")
+    analysis_plan = load_plan(chosen_plan)
+    with run_lock(run.path):
+        result = analyze(run.path, plan=chosen_plan)
+        for note in result.notes:
+            info(f"Note: {note}")
+        click.echo("")
+        click.echo(format_table(result.table, result.stats["conditions"]))
+        written = plot_folder(run.path, star_rule=analysis_plan.comparison_options(),
+                              item_labels=analysis_plan.questionnaires.labels)
+    click.echo("")
+    click.echo(f"Statistics: {run.path / STATS_JSON}, {run.path / SUMMARY_MD}")
+    click.echo(f"Figures:    {len(written)} files in {run.path / FIGURES_DIR}")
+    click.echo(str(run.path))
+
+
+# --- study (a person in the loop) ---------------------------------------------------------
+
+
+@click.command("study")
+@click.argument("experiment")
+@click.option("--participant", "participant_id", required=True, metavar="ID",
+              help="Participant ID ending in their number, e.g. P01 (the number seeds their schedule).")
+@click.option("--port", type=click.IntRange(1, 65535), default=8765, show_default=True,
+              help="Port on 127.0.0.1.")
+@click.option("--out", type=click.Path(file_okay=False),
+              help="Run folder, shared by the participants of one study "
+                   "[default: results/<experiment>-live].")
+@click.option("--condition-order", metavar="A,B",
+              help="The order of the conditions' blocks, e.g. control,disambiguation [default: rotates "
+                   "with the participant's number, as in the experiment].")
+@click.option("--seed", type=int, help="Master seed [default: the experiment's].")
+@click.option("--resume", is_flag=True, help="Continue this participant's session at their next trial.")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+def study_command(experiment: str, participant_id: str, port: int, out: str | None,
+                  condition_order: str | None, seed: int | None, resume: bool,
+                  overrides: tuple[str, ...]) -> None:
+    """Run one participant's session in a browser page served on 127.0.0.1 (needs nudgecli[study])."""
+    from nudgecli.live.app import run_live_study
+
+    session = run_live_study(experiment, participant_id, port=port, out=out, condition_order=condition_order,
+                             seed=seed, resume=resume, overrides=overrides, announce=click.echo, log=info)
+    if session.phase != "done":
+        sys.exit(130)  # interrupted (Ctrl-C) before the participant finished
+
+
+#: The commands of this module, registered on ``nudge`` by :mod:`nudgecli.cli`.
+COMMANDS = (fit_command, simulate_command, run_command, study_command)

@@ -1,0 +1,157 @@
+"""``nudge presets``, ``nudge bench`` and ``nudge validate`` (the paper's validation of D(s))."""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import click
+
+from nudgecli.commands.common import echo_json, info, progress_bar
+
+# --- presets -------------------------------------------------------------------------------
+
+@click.command("presets")
+def presets_command() -> None:
+    """List the shipped experiments and analysis plans."""
+    from nudgecli.config_files import list_presets, read_toml
+
+    kinds: tuple[tuple[Literal["experiments", "analysis"], str], ...] = (
+        ("experiments", "Experiments"), ("analysis", "Analysis plans"))
+    for kind, title in kinds:
+        click.echo(f"{title}:")
+        for name, path in list_presets(kind).items():
+            data = read_toml(path)
+            # experiments describe themselves in [experiment], plans at the top level
+            text = data.get("experiment", {}).get("description", "") if kind == "experiments" \
+                else data.get("description", "")
+            click.echo(f"  {name:<12} {text}")
+
+
+# --- bench ---------------------------------------------------------------------------------
+
+
+@click.command("bench")
+@click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
+              show_default=True, help="What to print on stdout.")
+@click.option("--only", type=click.Choice(["model", "study", "scale", "analyze", "all"]), default="all",
+              show_default=True,
+              help="Which figures: the model's (a few seconds), the study's (about 10-15 s: plan, trials, "
+                   "the paper-scale study with 2 workers in a subprocess), both (all); only when asked: "
+                   "the scale figures (about a minute on 2 cores: batches on 1..cores workers and on a "
+                   "local dask cluster, with parallel efficiency and serial fraction) or analyze "
+                   "(`nudge analyze` of a 3.5 M-row table in a subprocess, about a minute).")
+@click.option("--scale-participants", type=click.IntRange(min=2), default=16, show_default=True,
+              help="Scale figures: participants of the one-study workload (paper preset).")
+@click.option("--scale-studies", type=click.IntRange(min=2), default=24, show_default=True,
+              help="Scale figures: studies of the many-studies workload (smoke preset).")
+@click.option("--repeats", type=click.IntRange(min=1), default=7, show_default=True,
+              help="Batches of each fast measurement (the best is reported).")
+@click.option("--baseline-repeats", type=click.IntRange(min=1), default=3, show_default=True,
+              help="Runs of each per-sample Monte-Carlo baseline, about 1 s each (the best is reported).")
+@click.option("--study-repeats", type=click.IntRange(min=1), default=3, show_default=True,
+              help="Runs of the study plan build and of one participant's trials, about 1 s each "
+                   "(the best is reported).")
+def bench_command(output_format: str, only: str, scale_participants: int, scale_studies: int, repeats: int,
+                  baseline_repeats: int, study_repeats: int) -> None:
+    """Performance figures of the model and the study, each against a baseline measured in the same run."""
+    from nudgecli.bench import BenchOptions, format_table, run_bench, select_figures
+
+    options = BenchOptions(repeats=repeats, baseline_repeats=baseline_repeats, study_repeats=study_repeats,
+                           scale_participants=scale_participants, scale_studies=scale_studies)
+    rows = run_bench(options, figures=select_figures(only), progress=info)
+    if output_format == "json":
+        echo_json(rows)
+    else:
+        click.echo(format_table(rows))
+
+
+# --- validate ------------------------------------------------------------------------------
+
+
+def _validation_readings() -> list[str]:
+    """The names of the validation's readings (for ``--reading``'s choices)."""
+    from nudgecli.sim.validation.readings import READINGS
+
+    return list(READINGS)
+
+
+@click.command("validate")
+@click.option("--simulations", type=int, default=100, show_default=True,
+              help="Random worlds (each queries every state off the goals once).")
+@click.option("--min-goals", type=int, default=3, show_default=True, help="Fewest goals |G| (at least 2).")
+@click.option("--max-goals", type=int, default=30, show_default=True,
+              help="Most goals |G|; |G| steps cyclically from --min-goals to --max-goals.")
+@click.option("--states", type=int, default=200, show_default=True,
+              help="|S| = 2 modes x W x H cells of the two-mode world (200: a 10 x 10 grid).")
+@click.option("--seed", type=int, default=0, show_default=True, help="Master seed of the whole validation.")
+@click.option("--belief-concentration", type=float, default=1.0, show_default=True,
+              help="Query beliefs are Dirichlet(c): 1 spreads them evenly, large c makes them near uniform.")
+@click.option("--mc-queries", type=int, default=100, show_default=True,
+              help="Queries of the Monte-Carlo convergence study (0 skips it).")
+@click.option("--reading", type=click.Choice(list(_validation_readings())), default="dirichlet",
+              show_default=True, help="Which reading of the paper's validation paragraph (see the README).")
+@click.option("--all-readings", is_flag=True,
+              help="Run every reading on the same worlds and print one row per reading, by |G|.")
+@click.option("--out", "out", type=click.Path(file_okay=False, path_type=str), default=None,
+              help="Folder for validation.json, validation.csv (per query) and validation.png/.pdf "
+                   "(readings.json with --all-readings).")
+@click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
+              show_default=True, help="What to print on stdout.")
+@click.option("--yes", is_flag=True, help="Run more queries than the size limit allows without asking.")
+def validate_command(simulations: int, min_goals: int, max_goals: int, states: int, seed: int,
+                     belief_concentration: float, mc_queries: int, reading: str, all_readings: bool,
+                     out: str | None, output_format: str, yes: bool) -> None:
+    """The paper's simulation-based validation of D(s): its argmax vs a one-step ground truth."""
+    import time
+    from dataclasses import replace
+
+    from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size
+    from nudgecli.sim import validation
+
+    if all_readings and reading != "dirichlet":
+        raise click.UsageError("--reading and --all-readings exclude each other")
+    settings = validation.ValidationSettings(
+        simulations=simulations, min_goals=min_goals, max_goals=max_goals, states=states, seed=seed,
+        mc_queries=mc_queries, reading=reading, belief_concentration=belief_concentration)
+    names = list(validation.READINGS) if all_readings else [reading]
+    for name in names:
+        replace(settings, reading=name).check()
+    check_size(simulations * states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
+               work="run {} queries (worlds x states x readings)", fix="fewer --simulations or --states")
+    if out is not None:
+        validation.prepare_out(out)
+    start = time.perf_counter()
+    bar, update = progress_bar("validating", unit="simulation")
+    try:
+        if all_readings:
+            results = validation.run_all_readings(settings, names, progress=update)
+        else:
+            results = [validation.run_validation(settings, progress=update)]
+    finally:
+        bar.close()
+    info(f"validation: {simulations * len(names)} simulations in {time.perf_counter() - start:.1f} s")
+    if all_readings:
+        records = validation.readings_summary(results)
+        if out is not None:
+            validation.save_readings(results, out)
+        if output_format == "json":
+            echo_json(records)
+        else:
+            click.echo(validation.format_readings(records))
+    else:
+        summary = results[0].summary()
+        if out is not None:
+            from nudgecli.report.validation_figure import plot_validation
+
+            validation.save_validation(results[0], out)
+            plot_validation(summary, out)
+        if output_format == "json":
+            echo_json(summary)
+        else:
+            click.echo(validation.format_summary(summary))
+    if out is not None:
+        info(str(out))
+
+
+#: The commands of this module, registered on ``nudge`` by :mod:`nudgecli.cli`.
+COMMANDS = (presets_command, bench_command, validate_command)

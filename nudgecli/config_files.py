@@ -1,0 +1,193 @@
+"""Experiment and analysis-plan files: the shipped presets, which plan a run is analysed with,
+TOML reading and writing, ``--set`` overrides and the one-line message of a validation error."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from pathlib import Path
+from typing import Any, Literal, TypeVar
+
+from pydantic import BaseModel, ValidationError
+
+from nudgecli.config_base import plain
+from nudgecli.errors import ConfigError, did_you_mean
+
+#: A plan as a command holds it: a preset name, a path or a loaded plan (:func:`resolve_plan`).
+PlanT = TypeVar("PlanT")
+
+
+def preset_dir(kind: Literal["experiments", "analysis"]) -> Path:
+    """The folder holding the shipped presets of ``kind``.
+
+    Installed, they sit in ``nudgecli/presets/<kind>/`` (pyproject maps the top-level folders
+    there); in a source tree without an install, in the top-level ``<kind>/`` folder.
+    """
+    installed = Path(__file__).resolve().parent / "presets" / kind
+    if any(installed.glob("*.toml")):
+        return installed
+    return Path(__file__).resolve().parents[1] / kind
+
+
+def list_presets(kind: Literal["experiments", "analysis"]) -> dict[str, Path]:
+    """Preset name -> file, sorted by name."""
+    return {p.stem: p for p in sorted(preset_dir(kind).glob("*.toml"))}
+
+
+def default_plan_name(experiment: str) -> str:
+    """The analysis plan a run of ``experiment`` is analysed with by default: the plan preset of
+    the same name (``study-code``), else ``paper``."""
+    return experiment if experiment in list_presets("analysis") else "paper"
+
+
+def resolve_plan(plan: PlanT | None, *, recorded: str | None = None,
+                 experiment: str | None = None) -> PlanT | str:
+    """The analysis plan a command uses: the one rule of ``analyze``, ``plot``, ``run``,
+    ``replicate`` and ``power``.
+
+    Parameters
+    ----------
+    plan
+        The plan given (``--plan``: a preset name, a path or a loaded plan); wins when not None.
+    recorded
+        The plan recorded in the run folder's manifest (what the run was simulated or analysed
+        with), if any.
+    experiment
+        The experiment's name (the run's manifest, or the experiment file's ``[experiment] name``).
+
+    Returns
+    -------
+    The plan given, else the recorded one, else the plan named like the experiment
+    (:func:`default_plan_name`), else ``paper``.
+    """
+    if plan is not None:
+        return plan
+    if recorded:
+        return recorded
+    return default_plan_name(experiment) if experiment else "paper"
+
+
+def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) -> Path:
+    """A preset name or a TOML path -> an existing file, or a ``ConfigError`` with suggestions."""
+    candidate = Path(name_or_path)
+    if candidate.suffix == ".toml" or candidate.exists():
+        if not candidate.is_file():
+            raise ConfigError(f"{name_or_path}: no such file; give a preset name or a path to a .toml file")
+        return candidate
+    presets = list_presets(kind)
+    if name_or_path in presets:
+        return presets[name_or_path]
+    what = "an experiment" if kind == "experiments" else "an analysis plan"
+    raise ConfigError(
+        f"{name_or_path!r} is neither {what} preset nor a file{did_you_mean(name_or_path, presets)}; "
+        f"presets: {', '.join(presets)} (see `nudge presets`)")
+
+
+def read_toml(path: Path) -> dict[str, Any]:
+    """Parse a TOML file, turning syntax errors into a ``ConfigError`` naming the file."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read ({exc.strerror})") from exc
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: invalid TOML: {exc}") from exc
+
+
+def parse_override(text: str) -> tuple[list[str], Any]:
+    """``section.key=value`` -> (path, value); the value is read as a TOML literal, else a string."""
+    if "=" not in text:
+        raise ConfigError(f"--set {text!r}: expected section.key=value, e.g. --set study.participants=4")
+    key, raw = text.split("=", 1)
+    path = [p.strip() for p in key.strip().split(".") if p.strip()]
+    if len(path) < 2:
+        raise ConfigError(f"--set {text!r}: name the section and the key, e.g. disambiguation.window=5")
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()
+    return path, value
+
+
+def apply_override(data: dict[str, Any], path: list[str], value: Any) -> None:
+    node = data
+    for part in path[:-1]:
+        child = node.setdefault(part, {})
+        if not isinstance(child, dict):
+            raise ConfigError(f"--set {'.'.join(path)}: {part!r} is not a section")
+        node = child
+    node[path[-1]] = value
+
+
+def _field_names(model: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
+    """The field names of the (nested) model at ``loc`` (for "did you mean")."""
+    current: Any = model
+    for part in loc:
+        field = current.model_fields.get(part) if isinstance(part, str) else None
+        annotation = field.annotation if field is not None else None
+        if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
+            break
+        current = annotation
+    return [field.alias or name for name, field in current.model_fields.items()]
+
+
+def format_validation_error(exc: ValidationError, source: str, model: type[BaseModel]) -> str:
+    """One readable line naming the file, the field and the fix."""
+    first = exc.errors()[0]
+    loc = tuple(first["loc"])
+    where = ".".join(str(p) for p in loc)
+    if first["type"] == "extra_forbidden":
+        names = _field_names(model, loc[:-1])
+        hint = did_you_mean(str(loc[-1]), names)
+        return f"{source}: unknown key {where!r}{hint or '; known keys: ' + ', '.join(names)}"
+    message = first["msg"].removeprefix("Value error, ")
+    value = first.get("input")
+    if first["type"] in ("tuple_type", "list_type"):  # TOML has lists; "tuple" is pydantic's word
+        message = "should be a list, e.g. [0.5, 1.0]"
+    elif first["type"] == "missing" and loc and isinstance(loc[-1], int):
+        where = ".".join(str(p) for p in loc[:-1])  # "rest_s.1: Field required": a value too few
+        message = "too few values"
+    shown = "" if isinstance(value, dict) else f" (got {as_written(value)})"
+    more = f" (and {len(exc.errors()) - 1} more problem(s))" if len(exc.errors()) > 1 else ""
+    return f"{source}: {where + ': ' if where else ''}{message}{shown}{more}"
+
+
+def as_written(value: Any) -> str:
+    """``value`` as a user writes it in TOML or ``--set``: ``150.0``, ``"abc"``, ``[0.5, 1.0]``,
+    ``true`` (JSON's spelling, which TOML shares for these), not ``np.float64(150.0)`` or ``True``."""
+    try:
+        return json.dumps(plain(value), ensure_ascii=False)
+    except (TypeError, ValueError):  # not JSON (e.g. a date): Python's spelling is the best there is
+        return repr(plain(value))
+
+
+def dump_toml(data: dict[str, Any]) -> str:
+    """A small TOML writer for nested dicts of scalars and lists (what our configs hold)."""
+    lines: list[str] = []
+    scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
+    for key, value in scalars.items():
+        lines.append(f"{key} = {_toml_value(value)}")
+    for key, value in data.items():
+        if isinstance(value, dict):
+            if lines:
+                lines.append("")
+            lines.append(f"[{key}]")
+            for k, v in value.items():
+                if isinstance(v, dict):
+                    raise ValueError("dump_toml supports two levels of nesting")
+                lines.append(f"{k} = {_toml_value(v)}")
+    return "\n".join(lines) + "\n"
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int | float):
+        return repr(value)
+    if isinstance(value, str):
+        escaped = value.replace("\\", "\\\\").replace('"', '\\"')
+        return f'"{escaped}"'
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise TypeError(f"cannot write {type(value).__name__} to TOML")

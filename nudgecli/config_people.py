@@ -1,0 +1,310 @@
+"""The simulated people's sections of an experiment: ``[population]`` (the ranges each
+participant's physiology and habits are drawn from, with where they come from), ``[behaviour]``
+(how a person acts in their turn) and ``[calibration]`` (the simulated Phases 1-2).
+
+Part of :class:`nudgecli.config.ExperimentConfig`; import them from :mod:`nudgecli.config`.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from nudgecli.config_base import PositiveFloat, Section, check_range
+
+
+class PopulationSection(Section):
+    """``[population]``: the ranges each simulated participant's true physiology and habits are drawn from.
+
+    Every ``[low, high]`` pair is a uniform draw per participant (``onset_ramp_samples`` an integer
+    draw); ``reaction_log_sd`` is one value for everyone. Pressure levels are magnitudes on the
+    device's scale (sip positive, puff negative in the stream); a level above 1 means the person
+    blows harder than the sensor reads, so most samples saturate at 1 the way real hard blows do.
+    A blow's per-sample pressure is ``level + spread * z`` (after an onset ramp), clipped to [0, 1]
+    on the intended side; ``z`` is N(0, 1) at every sample and drifts within a blow with lag-1
+    correlation ``drift_correlation`` (``nudgecli.sim.pressure_model``).
+
+    Where the defaults come from -- the real pilot logs in ``shared/data/calibration/`` (recorded
+    with soft/hard thresholds 0.3/0.5). Per prompted label, the samples of each prompt window with
+    non-zero pressure, without each blow's first two and last sample (its ramps), fitted by the
+    censored-normal quantile fit of ``nudgecli.sim.participants.participant_from_log``
+    (magnitudes; "sat." = share of samples at the sensor's limit 1.0):
+
+    ===================  ===============================  ========================  ==============
+    field                andrewtest                       deepaktest                default range
+    ===================  ===============================  ========================  ==============
+    hard_puff_level      1.04 (61% sat.)                  0.60                      [0.55, 1.10]
+    hard_sip_level       1.10 (98% sat.)                  1.12 (100% sat.)          [0.60, 1.20] *
+    soft_puff_level      0.088                            0.103                     [0.05, 0.17] *
+    soft_sip_level       0.222 (31% of samples > 0.3:     1.08: never produced a    [0.05, 0.42] *
+                         the 28% Soft Sip -> Hard Sip)    soft sip (outside the
+                                                          population; simulate him
+                                                          with participant_from_log)
+    hard_spread          0.196 (puff; sip saturated)      0.149 (puff)              [0.05, 0.20]
+    soft_spread          0.088 (puff), 0.153 (sip)        0.024 (puff)              [0.02, 0.15]
+    drift_correlation    0.94 (per label: 0.85 Hard       0.99 (per label: 0.99     [0.56, 0.99] *
+                         Puff, 0.94 Soft Puff, 0.98       Hard Puff, 0.97 Soft
+                         Soft Sip)                        Puff)
+    onset_ramp_samples   hard blows reach their level in 2-3 samples (+0.06 +0.69 +1.00;
+                         -0.28 -0.67 -0.95; -0.13 -0.33 -0.44), soft ones in 1-4    [1, 3]
+    reaction_s           blow onset median 1.44 s         1.32 s                    [0.9, 2.0]
+                         (key-press latency medians 1.43, 1.51, 1.50 s in the mapping sessions)
+    reaction_log_sd      blow onsets 0.31, 0.27; key presses 0.42 (10-90%: 0.9-2.8 s)  0.35
+    mapping_error        0/72 wrong (andrewtest), 0/72 (deepak), 3/24 (deepaktest)  [0.0, 0.12]
+    ===================  ==========================================================  ==============
+
+    (*) The pilots' logs alone give hard_sip_level [0.80, 1.20], soft_puff_level [0.05, 0.16],
+    soft_sip_level [0.05, 0.24] and drift_correlation [0.94, 0.99] (the two people's estimates);
+    these ends are moved to cover twelve real people's calibrations (below).
+
+    ``drift_correlation`` is ``log_drift_correlation``: the lag-1 correlation of the plateau
+    samples' deviations from their label's fitted level, over consecutive pairs of one blow that
+    are both unsaturated. The real pressure wanders slowly: from one 10 Hz tick to the next it
+    moves 0.01-0.05 on average, three to six times less than independent draws with the same
+    spread would. No pilot data exist for the task-level habits: ``epsilon`` brackets the study's
+    0.1; ``operate_s`` the paper's 3-4 s border reminder; ``rest_s``, ``action_pause_s`` and
+    ``hard_blow_s`` are short against the ~1 s idle handover, and a mode-switch blow outlasts the
+    onset ramp so it reaches the hard band.
+
+    Checked against twelve real people (issue 14; ``nudgecli.sim.real_population``,
+    ``nudge plot-population``). Their fitted ``p(phi_m | phi_i)`` diagonals: the pilots' (fixed
+    10 Hz stream, fitted by ``nudge fit``) Hard Puff 0.90-0.93, Hard Sip 0.95-0.97, Soft Puff
+    0.97, Soft Sip 0.70 and 0.01 (deepaktest, who never produced a soft sip); nine sibling-study
+    participants (event-driven stream, prompts 4 s + 1 s blank) Hard Puff 0.53-0.84, Hard Sip
+    0.54-0.78, Soft Puff 0.80-0.97, Soft Sip 0.31-0.97. A fixed-rate stream counts time and an
+    event-driven one counts pressure *changes*: a saturated blow is silent, its ramps through the
+    soft band and the deadband are not, and a slowly drifting plateau changes little. So each
+    real value is compared with the diagonal the estimator converges to in its own format:
+    ``expected_diagonal`` (exact label probabilities of a 25-tick blow for 10 Hz, which do not
+    depend on the drift; the expected message counts of the device's 0.0109 quantisation,
+    averaged over 400 seeded blows, for event-driven), over the corners and midpoints of each
+    label's (level, spread, ramp, drift) box (``diagonal_image``).
+
+    The derivation: every range starts where the pilots' logs put it; where the image of the
+    ranges misses an end of a real span, the parameter that moves that end is extended by the
+    least amount (0.01 grid) at which a participant of the population reaches it.
+
+    1. The top of the hard spans (``drift_range_covering``). Less drift means more pressure
+       changes on an unsaturated plateau, where a hard blow's changes count as hard, so the
+       highest hard diagonal rises as the drift falls. The pilots' drift (0.94-0.99) tops out
+       at 0.76 against the real 0.84 (Hard Puff) and 0.78 (Hard Sip): the lower end goes down
+       to **0.56**, where Hard Puff reaches 0.84 (``highest_diagonal``: over the level range's
+       ends and midpoint, the spread ends and the ramps). The pilots are two people with
+       strongly drifting blows; some of the sibling study's nine blew more unsteadily.
+    2. The bottom of every span (``level_range_covering``, then with the drift range of 1). A
+       soft label's diagonal falls as its level rises towards the soft threshold, so its upper
+       end is raised: **Soft Sip 0.42** (for 0.31), **Soft Puff 0.17** (for 0.80). A hard
+       label's falls as its level drops towards the hard threshold (an unsaturated, slowly
+       drifting blow spends most of its changes on the way up and down through the soft band),
+       so its lower end is lowered: **Hard Sip 0.60** (for 0.54); Hard Puff's 0.55 reaches 0.53
+       already (``lowest_diagonal``: over the ends of the spread and drift ranges and the
+       ramps).
+
+    The image of the defaults:
+
+    ===========  ==================  ====================  ====================================
+    label        fixed 10 Hz         event-driven          against the real people
+    ===========  ==================  ====================  ====================================
+    Hard Puff    0.81-0.97           0.50-0.84             all covered
+    Hard Sip     0.85-0.97           0.54-0.83             all covered
+    Soft Puff    0.77-0.97           0.79-0.97             all covered
+    Soft Sip     0.05-0.97           0.30-0.97             all covered but deepaktest's 0.01
+    ===========  ==================  ====================  ====================================
+
+    The extremes are reached at the corners of the ranges (for the lowest hard values: a low
+    level, a small spread and the strongest drift together), so few drawn participants come
+    near them. deepaktest's soft-sip level of 1.08 lies outside any "soft" range (simulate him
+    with ``physiology_logs``); counted as the event-driven device would, his soft sips give
+    0.28, near the sibling study's lowest 0.31. The ``paper`` and ``study-code`` presets use
+    these defaults. Drawing each parameter uniformly over a range whose end is set by the most
+    extreme real person is an assumption: it makes such people more common than they may be.
+    """
+
+    soft_puff_level: tuple[float, float] = (0.05, 0.17)
+    soft_sip_level: tuple[float, float] = (0.05, 0.42)
+    hard_puff_level: tuple[float, float] = (0.55, 1.10)
+    hard_sip_level: tuple[float, float] = (0.60, 1.20)
+    soft_spread: tuple[float, float] = (0.02, 0.15)
+    hard_spread: tuple[float, float] = (0.05, 0.20)
+    onset_ramp_samples: tuple[int, int] = (1, 3)
+    mapping_error: tuple[float, float] = (0.0, 0.12)
+    epsilon: tuple[float, float] = (0.02, 0.15)
+    rest_s: tuple[float, float] = (0.3, 1.5)
+    operate_s: tuple[float, float] = (2.5, 5.0)
+    action_pause_s: tuple[float, float] = (0.1, 0.4)
+    hard_blow_s: tuple[float, float] = (0.4, 0.8)
+    handover_idle_s: tuple[float, float] = Field(
+        default=(1.5, 2.0),
+        description="Idle time after the first input of a turn that hands the turn to the autonomy, drawn "
+        "per participant (the paper: 'not issuing any commands for ~1.5-2 s'); a live session uses the "
+        "middle of the range.")
+    reaction_s: tuple[float, float] = (0.9, 2.0)
+    reaction_log_sd: Annotated[float, Field(ge=0, le=2)] = 0.35
+    drift_correlation: tuple[float, float] = Field(
+        default=(0.56, 0.99),
+        description="Lag-1 correlation, from one 10 Hz sample to the next within a blow, of the pressure's "
+        "deviation from its level (0: independent samples). Does not change the per-sample label "
+        "probabilities; it sets how often the pressure changes, which an event-driven device counts.")
+    planning_s: tuple[float, float] = Field(
+        default=(1.32, 2.75),
+        description="Looking at the layout and the mode before a trial's first command, s "
+        "(behaviour.planning). "
+        "From the pilots' prompt -> blow onset medians (1.32, 1.45 s), the upper end extended to the "
+        "real people's highest first-command latency (HABITS.md: 1.80-2.75 s).")
+    event_reaction_s: tuple[float, float] = Field(
+        default=(0.49, 1.70),
+        description="Median delay from a visible event (the robot stopped, the mode changed, the turn came "
+        "back, a surprise) to acting on it, s (behaviour.event_reactions). From the pilots' 1.32-1.45 s, "
+        "extended to cover the real reactions (HABITS.md: stop -> switch 0.59-1.80, switch -> motion "
+        "0.83-1.59, each a reaction plus a ramp of about 0.1 s).")
+    event_reaction_log_sd: tuple[float, float] = Field(
+        default=(0.27, 0.42),
+        description="Per-person log-sd of those delays: the tail of their pauses (behaviour.pause_tail). The "
+        "pilots' blow onsets (0.27, 0.31) and key presses (0.42).")
+    hold_on_s: tuple[float, float] = Field(
+        default=(0.10, 0.32),
+        description="Blowing on after the robot stopped under a soft command, s (behaviour.hold_on). The "
+        "pilot still blowing when a prompt cleared released after a median 0.32 s; the lower end extended "
+        "to the real people's 0.1 s per stop (HABITS.md).")
+    hard_peak_s: tuple[float, float] = Field(
+        default=(0.10, 0.30),
+        description="A mode-switch pulse's time at its peak, s (behaviour.hard_pulses). The pilots held "
+        "prompted hard blows for seconds, so nothing there: the real time in the hard band per excursion "
+        "(HABITS.md: 0.10-0.30 s).")
+    offset_ramp_samples: tuple[int, int] = Field(
+        default=(0, 2),
+        description="Samples a hard pulse takes to fall from its peak. The pilots' hard blows fell in a "
+        "median "
+        "1 (andrewtest) and 0 (deepaktest) samples; the upper end extended to 2 so a pulse (onset 1-3 + peak "
+        "+ offset) reaches the real people's longest hard blows (HABITS.md: 0.30-0.80 s whole).")
+    physiology_logs: tuple[str, ...] = Field(
+        default=(),
+        description="Calibration folders with a p(phi_m | phi_i) session (study export or tidy format): "
+        "participant k takes the pressure physiology recorded in the k-th, the others are drawn; "
+        "habits are always drawn. Relative paths are relative to the working directory.")
+
+    @model_validator(mode="after")
+    def _check(self) -> PopulationSection:
+        for name, (lo, hi) in {
+            "soft_puff_level": (0.0, 1.5), "soft_sip_level": (0.0, 1.5), "hard_puff_level": (0.0, 1.5),
+            "hard_sip_level": (0.0, 1.5), "soft_spread": (0.0, 1.0), "hard_spread": (0.0, 1.0),
+            "onset_ramp_samples": (0, 20), "mapping_error": (0.0, 0.75), "epsilon": (0.0, 1.0),
+            "rest_s": (0.0, 60.0), "operate_s": (0.1, 120.0), "action_pause_s": (0.0, 10.0),
+            "hard_blow_s": (0.1, 5.0), "reaction_s": (0.0, 10.0), "handover_idle_s": (0.1, 30.0),
+            "drift_correlation": (0.0, 0.99), "planning_s": (0.0, 60.0), "event_reaction_s": (0.0, 10.0),
+            "event_reaction_log_sd": (0.0, 2.0), "hold_on_s": (0.0, 5.0), "hard_peak_s": (0.0, 5.0),
+            "offset_ramp_samples": (0, 20),
+        }.items():
+            check_range(name, getattr(self, name), lo, hi)
+        return self
+
+
+class BehaviourSection(Section):
+    """``[behaviour]``: how the simulated person acts in their turn (:mod:`nudgecli.sim.behaviour`).
+
+    The participant's own habits (rest, operating time, pauses, handover idle time) are drawn
+    per participant from ``[population]``; these keys say how they decide.
+
+    - ``decisions``: ``events`` decides at what a person can see (the robot reached the next cell
+      centre along the commanded axis, the mode changed, a new turn began); ``grid`` re-plans
+      whenever the robot crosses into another discrete state (a boundary a person cannot see).
+    - ``lean_on_blending``: while blending carries the robot towards their goal (the last step
+      reduced the remaining error), a person whose policy says "switch mode" keeps their current
+      soft command instead (paper, Section 6: manual switches become unnecessary once blending
+      is active).
+    - ``release_when_dragged``: when blending moves the robot away from their goal, they let go
+      (blending acts only on a non-zero command, so the robot stops) and decide again with a new
+      blow.
+    - ``after_autonomy``: ``replan`` acts from the state and mode the autonomy left (its mode
+      change is kept unless the policy says otherwise); ``resume`` first repeats the task action
+      they were doing before the autonomy's turn, as a person who ignores it would.
+    - ``stall_s``: how long the robot may stand still under a held soft command before the person
+      notices, lets go and decides again with a new blow (a deadband reading, a dip to no input,
+      a move the world does not allow, a wall); 0: never, the command is held to ``max_hold_s``.
+      No data pin it: one second is a person's visual reaction with room to spare.
+    - ``max_hold_s``: the longest one command is held before deciding again (blending that never
+      lets the robot reach the next cell centre).
+    - ``fine_position_tolerance`` / ``fine_heading_tolerance``: the per-axis error (units) and
+      heading error (rad) a person accepts when fine positioning inside the goal's cell (inside
+      the success tolerance).
+    - ``*_jitter``: per-turn or per-action variation of the participant's habits: a duration ``d``
+      is drawn as ``d * U(1 - jitter, 1 + jitter)``.
+
+    The operating habits measured from real sip-and-puff users (``shared/data/ciaa-task/HABITS.md``;
+    ``nudge habits``), each one key; ``false`` restores the earlier person:
+
+    - ``event_reactions``: a visible event (the robot stopped at a mark where the plan changes, the
+      mode changed, a hard pulse that switched nothing ended, the turn came back from the autonomy,
+      the robot stood still for ``stall_s``) is acted on after a reaction delay drawn per event
+      from the person's own log-normal (``population.event_reaction_s``); the next blow starts
+      then, or after their release pause if that ends later. ``false``: the same step, and turns
+      after the autonomy start after ``rest_s``.
+    - ``planning``: before a trial's first command the person looks at the layout and the mode for
+      their ``planning_s`` (``planning_jitter`` per trial); ``false``: ``rest_s``.
+    - ``hard_pulses``: a mode switch is a short pulse: their onset ramp, ``hard_peak_s`` at the
+      level, their offset ramp, then a full release; ``false``: a plateau of ``hard_blow_s`` with no
+      offset ramp.
+    - ``hold_on``: when the robot stops under their soft command at a mark where the plan changes
+      (a waypoint of a path), they keep blowing for ``hold_on_s`` (``hold_on_jitter`` per stop)
+      before they let go; ``false``: they let go in the step it stops.
+    - ``pause_tail``: reaction delays spread log-normally with the person's own
+      ``event_reaction_log_sd`` (a long tail of pauses that differs by person); ``false``: always
+      their median.
+    - ``notice_mode_errors``: an unintended mode switch or a motion the other way than meant under a
+      soft blow is noticed after a reaction delay (the blow goes on until then), then corrected by
+      their own plan; ``false``: noticed in the same step.
+    """
+
+    decisions: Literal["events", "grid"] = "events"
+    lean_on_blending: bool = True
+    release_when_dragged: bool = True
+    after_autonomy: Literal["replan", "resume"] = "replan"
+    stall_s: Annotated[float, Field(ge=0)] = 1.0
+    max_hold_s: PositiveFloat = 3.0
+    fine_position_tolerance: PositiveFloat = 0.5
+    fine_heading_tolerance: PositiveFloat = 0.15
+    rest_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.5
+    operate_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.3
+    pause_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.5
+    hard_blow_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.2
+    event_reactions: bool = True
+    planning: bool = True
+    hard_pulses: bool = True
+    hold_on: bool = True
+    pause_tail: bool = True
+    notice_mode_errors: bool = True
+    planning_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.2
+    hold_on_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.5
+
+
+class CalibrationSection(Section):
+    """``[calibration]``: the simulated Phases 1-2, following the study's prompting protocol.
+
+    ``p(phi_i | a)``: ``mapping_blocks`` blocks of the 12 action images in random order; an answer
+    clears the prompt ``answer_clear_s`` later (0.50-0.52 s in the pilot logs), no answer within
+    ``answer_timeout_s`` (the study's 10 s) clears it as missed, and blocks are separated by the
+    hard-puff refresher (``block_break_s``; 10-18 s in the logs). ``p(phi_m | phi_i)``:
+    ``prompts_per_label`` rounds of the 4 labels in random order, each shown ``prompt_s`` then
+    ``blank_s`` blank, with the stream labelled at ``rate_hz``.
+
+    ``stream`` is the device's label stream: ``fixed_rate`` (the pilots' logs: one labelled
+    sample per tick) or ``event_driven`` (the sibling study's logs: a message each time the
+    pressure, quantised in steps of ``event_step``, changes, none while it is steady, and
+    ``Zero Band`` + ``input stopped`` at the end of each blow; ``nudgecli.sim.calibration.
+    event_driven_stream``). The sibling study prompted 4 s with 1 s blank (``prompt_s = 4``,
+    ``blank_s = 1``).
+    """
+
+    mapping_blocks: int = Field(default=6, ge=1, description="Blocks of the 12 prompted actions.")
+    prompts_per_label: int = Field(default=12, ge=1)
+    prompt_s: PositiveFloat = 6.0
+    blank_s: PositiveFloat = 1.5
+    answer_timeout_s: PositiveFloat = 10.0
+    answer_clear_s: Annotated[float, Field(ge=0)] = 0.5
+    block_break_s: Annotated[float, Field(ge=0)] = 10.0
+    rate_hz: PositiveFloat = 10.0
+    stream: Literal["fixed_rate", "event_driven"] = "fixed_rate"
+    event_step: Annotated[float, Field(gt=0, le=0.1)] = Field(
+        default=0.0109, description="Pressure quantisation of the event-driven stream (the sibling study's "
+        "device stepped in about 0.0109).")
