@@ -526,3 +526,15 @@ def test_replicate_takes_the_plan_run_and_analyze_take(tmp_path: Path, name: str
                                        "--format", "json"])
     assert result.exit_code == 0, result.output
     assert json.loads((out / "batch.json").read_text())["batch"]["plan"]["name"] == plan
+
+
+@pytest.mark.parametrize(("experiment", "plan_line", "expected"), [
+    ("ciaa-teleop", "", "ciaa-teleop"),  # the plan named like the experiment
+    ("smoke", "", "paper"),  # no plan of that name: paper's
+    ("ciaa-teleop", 'plan = "paper"\n', "paper"),  # the plan given wins
+])
+def test_a_sweep_takes_its_plan_by_the_rule_of_replicate_and_power(tmp_path, experiment, plan_line, expected):
+    path = tmp_path / "sweep.toml"
+    path.write_text(f'experiment = "{experiment}"\nreplications = 1\n{plan_line}\n[design]\nmethod = "grid"\n\n'
+                    '[parameters]\n"study.participants" = [2]\n')
+    assert load_sweep(str(path)).spec.plan == expected

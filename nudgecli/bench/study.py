@@ -184,7 +184,7 @@ def figure_cli_startup(options: BenchOptions) -> dict[str, Any]:
 
 #: The modules a worker of each executor imports before its first task (process-pool workers are
 #: forked and inherit them; dask and spawned workers import them).
-WORKER_MODULES = {"study": "nudgecli.runs.study", "batch": "nudgecli.runs.batch"}
+WORKER_MODULES = {"study": "nudgecli.runs.study", "batch": "nudgecli.runs.batch_tasks"}
 
 
 def figure_worker_ready(options: BenchOptions) -> dict[str, Any]:

@@ -5,7 +5,8 @@ A sweep file is TOML::
     experiment = "smoke"          # preset or path (relative paths: to the sweep file's folder)
     replications = 4              # studies per design point, the same seeds at every point
     seed = 11                     # master seed of the replications' seeds
-    plan = "paper"                # analysis plan (preset or path); default "paper"
+    plan = "paper"                # analysis plan (preset or path); default: the plan named
+                                  # like the experiment, else paper (config_files.resolve_plan)
     set = ["study.participants=4"]    # fixed overrides applied at every point (optional)
 
     [design]
@@ -40,7 +41,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from nudgecli.config import ExperimentConfig, load_experiment
-from nudgecli.config_files import format_validation_error, preset_dir
+from nudgecli.config_files import format_validation_error, preset_dir, resolve_plan
 from nudgecli.errors import ConfigError
 
 #: Where the shipped example sweeps live (beside the experiment presets, in their own folder so
@@ -87,7 +88,7 @@ class SweepFile(_Model):
     experiment: str
     replications: int = Field(default=4, ge=1, le=100_000)
     seed: int = Field(default=0, ge=0)
-    plan: str = "paper"
+    plan: str | None = None
     set: list[str] = Field(default_factory=list)
     design: Design = Field(default_factory=Design)
     parameters: dict[str, Range | Values]
@@ -193,7 +194,8 @@ def load_sweep(name_or_path: str) -> Sweep:
     if experiment.endswith(".toml") and beside.is_file():
         experiment = str(beside)
     base = load_experiment(experiment, spec.set)  # fails early on a bad experiment or --set
-    del base
+    # the plan rule of replicate and power: the plan given, else the one named like the experiment
+    spec = spec.model_copy(update={"plan": resolve_plan(spec.plan, experiment=base.experiment.name)})
     values, problem, samples = design_values(spec)
     points = []
     for index, assignment in enumerate(values):
