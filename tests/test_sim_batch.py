@@ -535,6 +535,6 @@ def test_replicate_takes_the_plan_run_and_analyze_take(tmp_path: Path, name: str
 ])
 def test_a_sweep_takes_its_plan_by_the_rule_of_replicate_and_power(tmp_path, experiment, plan_line, expected):
     path = tmp_path / "sweep.toml"
-    path.write_text(f'experiment = "{experiment}"\nreplications = 1\n{plan_line}\n[design]\nmethod = "grid"\n\n'
-                    '[parameters]\n"study.participants" = [2]\n')
+    path.write_text(f'experiment = "{experiment}"\nreplications = 1\n{plan_line}\n'
+                    '[design]\nmethod = "grid"\n\n[parameters]\n"study.participants" = [2]\n')
     assert load_sweep(str(path)).spec.plan == expected
