@@ -175,6 +175,7 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     spec = loaded.spec
     count = spec.replications if replications is None else replications
     _check(count, seed)
+    assert spec.plan is not None  # load_sweep applied the plan rule
     chosen = load_plan(spec.plan)
     points = tuple(Point(p.index, p.parameters, p.config, (p.config.study.participants,))
                    for p in loaded.points)
