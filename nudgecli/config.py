@@ -126,6 +126,11 @@ class StudySection(Section):
         return self
 
     @property
+    def dt(self) -> float:
+        """The length of one step, s (``1 / rate_hz``): the protocol's and the person's clock."""
+        return 1.0 / self.rate_hz
+
+    @property
     def trials_per_condition(self) -> int:
         design = len(self.goal_counts) * len(self.corners) * len(self.start_modes)
         return design * max(1, self.shared_layouts)

@@ -195,3 +195,14 @@ def test_the_axes_walk_leaves_figures_of_several_axes_and_callers_alone() -> Non
               "    panel(rows, ax=left)\n    return fig\n\n"
               "def panel(rows, *, ax=None):\n    ax = axes_or_new(ax, (3, 2))\n    return ax\n")
     assert axes_copies(source) == []
+
+
+def test_the_step_length_is_derived_once() -> None:
+    # a study's dt is [study] rate_hz's StudySection.dt: no other module divides by a section's rate
+    dividing = set()
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Div) and \
+                    isinstance(node.right, ast.Attribute) and node.right.attr == "rate_hz":
+                dividing.add(path.relative_to(PACKAGE.parent).as_posix())
+    assert dividing == {"nudgecli/config.py"}

@@ -127,7 +127,7 @@ class BehaviourSettings:
     @classmethod
     def from_config(cls, config: ExperimentConfig) -> BehaviourSettings:
         b = config.behaviour
-        dt = 1.0 / config.study.rate_hz
+        dt = config.study.dt
         return cls(dt=dt, decisions=b.decisions, lean_on_blending=b.lean_on_blending,
                    release_when_dragged=b.release_when_dragged,
                    after_autonomy=b.after_autonomy, stall_steps=round(b.stall_s / dt),

@@ -128,7 +128,7 @@ class ProtocolSettings:
     def from_config(cls, config: ExperimentConfig) -> ProtocolSettings:
         study, itf, inf, dis, ass = (config.study, config.interface, config.inference,
                                      config.disambiguation, config.assistance)
-        dt = 1.0 / study.rate_hz
+        dt = study.dt
         path = config.world.kind == "ciaa"
         return cls(
             dt=dt,
