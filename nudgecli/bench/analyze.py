@@ -3,18 +3,14 @@
 
 from __future__ import annotations
 
-import json
 import shutil
-import subprocess
-import sys
 import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from nudgecli.bench.common import BENCH_SEED, BenchOptions, available_cores, child_environment, row
+from nudgecli.bench.common import BENCH_SEED, BenchOptions, available_cores, row, run_child_script
 from nudgecli.bench.targets import ANALYZE_MEMORY_TARGET_MB, ANALYZE_WALL_TARGET_S
 
 _ANALYZE_SCRIPT = """
@@ -90,16 +86,9 @@ def figure_analyze(options: BenchOptions) -> dict[str, Any]:
         pacsv.write_csv(pa.Table.from_pandas(table, preserve_index=False), source)
         size_mb = source.stat().st_size / 1e6
         del table
-        start = time.perf_counter()
-        completed = subprocess.run([sys.executable, "-c", _ANALYZE_SCRIPT, str(source), str(folder / "out")],
-                                   stdout=subprocess.PIPE, stderr=None, text=True, env=child_environment(),
-                                   check=False)
-        process_s = time.perf_counter() - start
+        process_s, report = run_child_script(_ANALYZE_SCRIPT, [str(source), str(folder / "out")], "analyze")
     finally:
         shutil.rmtree(folder, ignore_errors=True)
-    if completed.returncode != 0:
-        raise RuntimeError(f"bench: the analyze subprocess failed with exit status {completed.returncode}")
-    report = json.loads(completed.stdout.strip().splitlines()[-1])
     peak = report["self_kib"] / 1024.0
     ok = process_s <= ANALYZE_WALL_TARGET_S and peak <= ANALYZE_MEMORY_TARGET_MB
     return row(f"analyze, {options.analyze_rows:,}-row metrics table", process_s, None,

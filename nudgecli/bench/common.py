@@ -8,6 +8,7 @@ several batches is reported (:func:`best_call_time`); slow ones are timed whole
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -125,6 +126,24 @@ def best_child_time(arguments: list[str], repeats: int) -> float:
                        env=child_environment(), check=True)
         best = min(best, time.perf_counter() - start)
     return best
+
+
+def run_child_script(script: str, arguments: list[str], what: str) -> tuple[float, dict[str, Any]]:
+    """Run ``script`` in a child Python with ``arguments``: its wall time (start-up included) and the
+    JSON report it prints as its last line of stdout.
+
+    Raises
+    ------
+    RuntimeError
+        The child failed (its exit status is named, with ``what`` it was).
+    """
+    start = time.perf_counter()
+    completed = subprocess.run([sys.executable, "-c", script, *arguments], stdout=subprocess.PIPE,
+                               stderr=None, text=True, env=child_environment(), check=False)
+    seconds = time.perf_counter() - start
+    if completed.returncode != 0:
+        raise RuntimeError(f"bench: the {what} subprocess failed with exit status {completed.returncode}")
+    return seconds, json.loads(completed.stdout.strip().splitlines()[-1])
 
 
 def format_seconds(seconds: float | None) -> str:

@@ -6,10 +6,7 @@ worker's."""
 from __future__ import annotations
 
 import functools
-import json
 import shutil
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -19,9 +16,9 @@ from nudgecli.bench.common import (
     BenchOptions,
     available_cores,
     best_child_time,
-    child_environment,
     format_seconds,
     row,
+    run_child_script,
 )
 from nudgecli.bench.targets import (
     CLI_STARTUP_TARGET_S,
@@ -145,17 +142,11 @@ def figure_study(options: BenchOptions) -> dict[str, Any]:
     workers = max(1, options.study_workers)
     folder = Path(tempfile.mkdtemp(prefix="nudge-bench-"))
     try:
-        start = time.perf_counter()
-        completed = subprocess.run(
-            [sys.executable, "-c", _STUDY_SCRIPT, options.study_experiment, str(folder / "run"), str(workers),
-             "" if options.study_participants is None else str(options.study_participants)],
-            stdout=subprocess.PIPE, stderr=None, text=True, env=child_environment(), check=False)
-        process_s = time.perf_counter() - start
+        participants = "" if options.study_participants is None else str(options.study_participants)
+        arguments = [options.study_experiment, str(folder / "run"), str(workers), participants]
+        process_s, report = run_child_script(_STUDY_SCRIPT, arguments, "study")
     finally:
         shutil.rmtree(folder, ignore_errors=True)
-    if completed.returncode != 0:
-        raise RuntimeError(f"bench: the study subprocess failed with exit status {completed.returncode}")
-    report = json.loads(completed.stdout.strip().splitlines()[-1])
     wall = float(report["wall_s"])
     self_mb = report["self_kib"] / 1024.0
     worker_mb = report["children_kib"] / 1024.0
