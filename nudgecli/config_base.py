@@ -3,9 +3,9 @@ the value types and the range check their validators share."""
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal, get_args, get_origin
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 PositiveFloat = Annotated[float, Field(gt=0)]
 Probability = Annotated[float, Field(ge=0, le=1)]
@@ -15,6 +15,34 @@ class Section(BaseModel):
     """Base of every section: unknown keys are errors, values are validated on assignment."""
 
     model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=True)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_booleans_for_numbers(cls, data: Any) -> Any:
+        # pydantic reads true as 1 and false as 0 for a number: `--set study.rate_hz=true` would
+        # silently simulate at 1 Hz
+        if not isinstance(data, dict):
+            return data
+        for name, value in data.items():
+            field = cls.model_fields.get(name)
+            if field is None or admits(field.annotation, bool) or not (
+                    admits(field.annotation, float) or admits(field.annotation, int)):
+                continue
+            items = value if isinstance(value, list | tuple) else (value,)
+            if any(isinstance(item, bool) for item in items):
+                shown = str(value).lower() if isinstance(value, bool) else "a list with true/false"
+                raise ValueError(f"{name} = {shown}: give a number, not true/false")
+        return data
+
+
+def admits(annotation: Any, kind: type) -> bool:
+    """Whether a field's type admits values of ``kind`` (the type itself, a literal of such values,
+    or a union, container or annotation holding one)."""
+    if annotation is kind:
+        return True
+    if get_origin(annotation) is Literal:
+        return any(type(arg) is kind for arg in get_args(annotation))
+    return any(admits(arg, kind) for arg in get_args(annotation))
 
 
 def plain(value: Any) -> Any:

@@ -93,3 +93,16 @@ def test_resolve_plan_is_the_one_rule(given: str | None, recorded: str | None, e
     from nudgecli.config_files import resolve_plan
 
     assert resolve_plan(given, recorded=recorded, experiment=experiment) == expected
+
+
+@pytest.mark.parametrize("override", ["study.rate_hz=true", "study.time_limit_s=false",
+                                      "population.hold_on_s=[0.1, true]", "model.epsilon=true"])
+def test_true_or_false_for_a_number_is_refused(override: str) -> None:
+    # pydantic alone reads true as 1 and false as 0: a study at 1 Hz without a word
+    with pytest.raises(ConfigError, match="not true/false"):
+        load_experiment("smoke", [override])
+
+
+def test_true_and_false_still_set_switches() -> None:
+    config = load_experiment("smoke", ["behaviour.hold_on=false", "behaviour.lean_on_blending=true"])
+    assert config.behaviour.hold_on is False and config.behaviour.lean_on_blending is True

@@ -380,9 +380,19 @@ def test_model_tables_are_the_per_state_products_bit_for_bit(rows: str) -> None:
         model = dis.DisambiguationModel(GOAL_CELLS, table, mapping, distortion)
         assert model.likelihood.tobytes() == per_state.tobytes()
         assert dis.observation_likelihood(table, mapping, distortion).tobytes() == per_state.tobytes()
-        # the state-major copies behind the exact MI (Eq. 13)
-        assert model._likelihood_rows.tobytes() == per_state.transpose(1, 0, 2).tobytes()
-        assert model._xlogx_rows.tobytes() == xlogy(per_state, per_state).sum(axis=-1).T.tobytes()
+        # one state's column, as the protocol's Bayesian update reads it
+        for s_, label in zip(rng.integers(N_STATES, size=50), rng.integers(4, size=50), strict=True):
+            assert model.label_likelihood(int(s_), int(label)).tobytes() == per_state[:, s_, label].tobytes()
+        # the exact MI (Eq. 13) at candidate states, as computed from the per-state table's
+        # state-major rows (kron(w, I_F) spreads the weights over the labels)
+        states = np.r_[rng.integers(N_STATES, size=40), 7, 7]
+        weights = rng.dirichlet(np.ones(n_goals))
+        rows = per_state.transpose(1, 0, 2)[states].reshape(len(states), -1)
+        marginal = rows @ (weights[:, None, None] * np.eye(4)).reshape(-1, 4)
+        conditional = xlogy(per_state, per_state).sum(axis=-1).T[states] @ weights
+        expected = np.maximum(conditional - xlogy(marginal, marginal).sum(axis=-1), 0.0)
+        assert model.mutual_information(weights, states).tobytes() == expected.tobytes()
+        assert model.mutual_information(weights, np.array([], dtype=int)).shape == (0,)
         assert model.p_a_given_sg.tobytes() == p_a.tobytes()
     with pytest.raises(ValueError, match="modes"):
         dis.observation_likelihood(DistinctActionRows.of(p_a), mapping, distortion, modes=modes)

@@ -47,3 +47,19 @@ def test_matches_brute_force_and_permutes(ints: list[int], random) -> None:
     np.testing.assert_array_equal(tied_with_max(permuted), tied_with_max(values)[order])
     if expected_unique >= 0:
         assert order[unique_argmax(permuted)] == expected_unique
+
+
+def _unique_by_the_array_rule(values: np.ndarray) -> int:
+    tied = tied_with_max(values)
+    return int(np.argmax(tied)) if int(tied.sum()) == 1 else -1
+
+
+near_ties = st.lists(st.sampled_from([0.25, 0.25 + 1e-12, 0.25 + 1e-8, 0.5, 1e9, 1e9 * (1 + 1e-10), -3.0]),
+                     min_size=1, max_size=6)
+anything = st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=1, max_size=6)
+
+
+@given(st.one_of(near_ties, anything))
+def test_unique_argmax_is_the_array_rule_in_plain_floats(values: list[float]) -> None:
+    array = np.array(values, dtype=float)
+    assert unique_argmax(array) == _unique_by_the_array_rule(array)

@@ -46,6 +46,9 @@ class TableModel:
         for label, values in per_label.items():
             self.likelihood[:, :, label] = np.asarray(values)[:, None]
 
+    def label_likelihood(self, state: int, label: int) -> np.ndarray:
+        return self.likelihood[:, state, label]
+
 
 def session(paper, update: str, model, condition: str = "control") -> TrialSession:
     _, settings, layouts = paper

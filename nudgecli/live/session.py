@@ -40,6 +40,7 @@ from nudgecli.live.questionnaire import questionnaire_form, questionnaire_row
 from nudgecli.live.records import LiveFolder
 from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.interface import LABELS, default_distortion_table, default_mapping_table
+from nudgecli.model.mdp import DistinctActionRows
 from nudgecli.model.world import (
     CORNERS,
     GOAL_RADIUS,
@@ -340,7 +341,7 @@ class LiveSession:
     # --- trials -------------------------------------------------------------------------------
 
     def _model(
-        self, layout_index: int, goal_cells: np.ndarray, p_a_given_sg: np.ndarray
+        self, layout_index: int, goal_cells: np.ndarray, p_a_given_sg: np.ndarray | DistinctActionRows
     ) -> DisambiguationModel:
         assert self.mapping is not None and self.distortion is not None
         model = self.models.get(layout_index)
@@ -370,7 +371,7 @@ class LiveSession:
         solved = self.plan.solved[spec.layout_index]
         if not isinstance(spec.layout, Layout):
             raise ConfigError("nudge study runs the paper's grid world; this experiment's world is another")
-        model = self._model(spec.layout_index, spec.layout.goal_cells, solved.p_a_given_sg)
+        model = self._model(spec.layout_index, spec.layout.goal_cells, solved.actions)
         _, agent_rng = generator(self.seed, "participant", self.index, "trial", spec.trial).spawn(2)
         return TrialSession(spec, self.settings, model, self.handover_steps, agent_rng)
 
@@ -397,7 +398,7 @@ class LiveSession:
             layout=layout,
             true_goal=int(rng.integers(3)),
         )
-        model = self._model(-1 - k, layout.goal_cells, solved.p_a_given_sg)
+        model = self._model(-1 - k, layout.goal_cells, solved.actions)
         return TrialSession(spec, settings, model, idle, rng.spawn(1)[0])
 
     def _step_trial(self) -> None:

@@ -5,6 +5,7 @@ in :mod:`nudgecli.model.information`, the candidate domains in :mod:`nudgecli.mo
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -138,18 +139,21 @@ class DisambiguationModel:
     distortion
         ``(F, F)`` ``p(phi_m | phi_i)``.
     likelihood
-        ``(G, S, F)`` ``p(phi_m | g, s)`` (derived).
+        ``(G, S, F)`` ``p(phi_m | g, s)`` (derived on first use; the protocol reads single states
+        through :meth:`label_likelihood` and D(s) its candidates', so a trial never builds it).
     """
 
     goal_cells: np.ndarray
     p_a_given_sg: np.ndarray | DistinctActionRows
     mapping: np.ndarray
     distortion: np.ndarray
-    likelihood: np.ndarray = field(init=False, repr=False)
-    # State-major copies for fast gathers: (S, G * F) likelihood rows and (S, G) sum_f p log p,
-    # the belief-independent half of Eq. 13.
-    _likelihood_rows: np.ndarray = field(init=False, repr=False)
-    _xlogx_rows: np.ndarray = field(init=False, repr=False)
+    # Every derived table is a gather of the layout's distinct rows (bit for bit the per-state
+    # ones): the (U, F) distinct likelihoods, their (U,) sum_f p log p (the belief-independent half
+    # of Eq. 13), and the (G, S) and state-major (S, G) indices into them.
+    _distinct: np.ndarray = field(init=False, repr=False)
+    _xlogx_distinct: np.ndarray = field(init=False, repr=False)
+    _index: np.ndarray = field(init=False, repr=False)
+    _by_state: np.ndarray = field(init=False, repr=False)
     _goal_positions: dict[str, np.ndarray] = field(init=False, repr=False)
     _window_tables: dict[int, WindowTable] = field(init=False, repr=False)
 
@@ -159,22 +163,28 @@ class DisambiguationModel:
         if actions.index.shape[0] != cells.shape[0]:
             raise ValueError(f"{cells.shape[0]} goal cells but p(a | s, g) has "
                              f"{actions.index.shape[0]} goals")
-        # every derived table is a gather of the distinct rows' values (bit for bit the per-state ones)
         distinct = _distinct_likelihood(actions, self.mapping, self.distortion)  # (U, F)
-        by_state = actions.index.T  # (S, G)
-        n_states, n_goals = by_state.shape
         set_ = object.__setattr__  # frozen dataclass: derived fields are set once, here
         set_(self, "goal_cells", cells)
         set_(self, "p_a_given_sg", actions.table)
         set_(self, "mapping", np.asarray(self.mapping, dtype=float))
         set_(self, "distortion", np.asarray(self.distortion, dtype=float))
-        set_(self, "likelihood", distinct.take(actions.index, axis=0))
-        set_(self, "_likelihood_rows",
-             distinct.take(by_state, axis=0).reshape(n_states, n_goals * distinct.shape[1]))
-        set_(self, "_xlogx_rows", xlogy(distinct, distinct).sum(axis=-1).take(by_state))
+        set_(self, "_distinct", distinct)
+        set_(self, "_xlogx_distinct", xlogy(distinct, distinct).sum(axis=-1))
+        set_(self, "_index", actions.index)
+        set_(self, "_by_state", np.ascontiguousarray(actions.index.T))
         set_(self, "_goal_positions", {"cells": cells.astype(float),
                                        "world": cell_centre(cells[:, 0], cells[:, 1])})
         set_(self, "_window_tables", {})
+
+    @cached_property
+    def likelihood(self) -> np.ndarray:
+        """``(G, S, F)`` ``p(phi_m | g, s)``: every state's table at once."""
+        return self._distinct.take(self._index, axis=0)
+
+    def label_likelihood(self, state: int, label: int) -> np.ndarray:
+        """``(G,)`` ``p(phi_m = label | g, state)``: ``likelihood[:, state, label]``'s values."""
+        return self._distinct[self._index[:, state], label]
 
     @property
     def n_goals(self) -> int:
@@ -214,12 +224,13 @@ class DisambiguationModel:
         np.ndarray
             ``(C,)`` in nats.
         """
-        rows = self._likelihood_rows.take(states, axis=0)  # (C, G * F)
-        n_labels = self.likelihood.shape[2]
+        rows_of = self._by_state.take(states, axis=0)  # (C, G) indices into the distinct rows
+        n_labels = self._distinct.shape[1]
+        rows = self._distinct.take(rows_of, axis=0).reshape(rows_of.shape[0], rows_of.shape[1] * n_labels)
         # sum_g w_g p(f | g, s) as one product with the (G * F, F) matrix kron(w, I_F).
         spread = (weights[:, None, None] * np.eye(n_labels)).reshape(-1, n_labels)
         marginal = rows @ spread  # (C, F)
-        conditional = self._xlogx_rows.take(states, axis=0) @ weights  # (C,)
+        conditional = self._xlogx_distinct.take(rows_of) @ weights  # (C,)
         return np.maximum(conditional - xlogy(marginal, marginal).sum(axis=-1), 0.0)
 
 

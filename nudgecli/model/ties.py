@@ -70,5 +70,14 @@ def unique_argmax(values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL) -> int:
     A rule blind to the order of the entries: permuting ``values`` permutes the answer, and a
     tie never resolves in favour of an index.
     """
-    tied = tied_with_max(values, rtol)
-    return int(np.argmax(tied)) if int(tied.sum()) == 1 else -1
+    # tied_with_max's rule in plain floats (the protocol asks after every belief update, on a
+    # handful of goals); tests/test_model_ties.py holds the two to each other
+    items = np.asarray(values, dtype=float).tolist()
+    if not items:
+        raise ValueError("no candidates to choose from")
+    if any(item != item for item in items):
+        return -1  # a NaN maximum ties nothing, as in tied_with_max
+    best = max(items)
+    threshold = best - rtol * max(1.0, abs(best))
+    tied = [index for index, item in enumerate(items) if item >= threshold]
+    return tied[0] if len(tied) == 1 else -1

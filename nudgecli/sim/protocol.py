@@ -375,7 +375,7 @@ class TrialSession:
             self.blow_label = measured
             self.decay_counters = _NO_DECAY  # counters restart (frozen: one instance serves every step)
             if new_event:
-                likelihood = self.model.likelihood[:, state, measured]
+                likelihood = self.model.label_likelihood(state, measured)
                 self._set_belief(bayes_update(self.belief, likelihood, self.goal_transition))
             return
         if measured == NO_INPUT:
