@@ -107,6 +107,23 @@ def test_a_broadcast_never_reuses_the_file_of_one_still_being_read() -> None:
         executor.close()
 
 
+def test_the_pool_gives_every_worker_a_job_before_any_gets_a_second() -> None:
+    # a study's two layout chunks went to one worker (filled to POOL_DEPTH first) and ran in turn
+    from nudgecli.runs.executors import POOL_DEPTH, Job, ProcessExecutor
+
+    executor = ProcessExecutor(2)
+    try:
+        for key in ("chunk0", "chunk1", "chunk2", "chunk3"):
+            executor.submit(Job(key, int, ("1",)))
+        executor._fill()
+        assert [len(slot.inflight) for slot in executor._slots] == [min(2, POOL_DEPTH)] * 2
+        assert [next(iter(slot.inflight)) for slot in executor._slots] == ["chunk0", "chunk1"]
+        keys = sorted(executor.next_result()[0].key for _ in range(4))
+        assert keys == ["chunk0", "chunk1", "chunk2", "chunk3"]
+    finally:
+        executor.close()
+
+
 def test_layout_chunks_cover_the_layouts_in_order() -> None:
     assert batch_module.layout_chunks(48, 16) == [(3 * k, 3 * k + 3) for k in range(16)]
     assert batch_module.layout_chunks(10, 4) == [(0, 2), (2, 5), (5, 8), (8, 10)]

@@ -225,17 +225,23 @@ class ProcessExecutor:
             slot.holds.popitem(last=False)
 
     def _fill(self) -> None:
-        for slot in self._slots:
-            while len(slot.inflight) < POOL_DEPTH:
-                job = self._pick(slot)
-                if job is None:
-                    return
-                data = pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL)
-                if len(data) <= PIPE_JOB_BYTES:
-                    slot.conn.send_bytes(data)
-                else:
-                    slot.conn.send(self._spooled_job(job, data, 1))
-                slot.inflight[job.key] = job
+        # breadth first: every worker gets a job before any gets a second (filling one worker to
+        # POOL_DEPTH first ran a study's two layout chunks one after the other on one worker)
+        for depth in range(1, POOL_DEPTH + 1):
+            for slot in self._slots:
+                while len(slot.inflight) < depth:
+                    job = self._pick(slot)
+                    if job is None:
+                        return
+                    self._send(slot, job)
+
+    def _send(self, slot: _Slot, job: Job) -> None:
+        data = pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL)
+        if len(data) <= PIPE_JOB_BYTES:
+            slot.conn.send_bytes(data)
+        else:
+            slot.conn.send(self._spooled_job(job, data, 1))
+        slot.inflight[job.key] = job
 
     def _spooled_job(self, job: Job, data: bytes, readers: int) -> Job:
         """Write ``job`` (pickled: ``data``) to a new file of the spool folder, to be read by
