@@ -29,6 +29,7 @@ from nudgecli.config_files import (
 )
 from nudgecli.config_people import BehaviourSection, CalibrationSection, PopulationSection
 from nudgecli.errors import ConfigError, did_you_mean
+from nudgecli.model.conditions import PAPER_CONDITIONS, POLICIES
 from nudgecli.model.disambiguation_settings import DisambiguationSettings
 from nudgecli.model.interface import (
     DEFAULT_TABLE_NOISE,
@@ -56,7 +57,7 @@ class ExperimentMeta(Section):
 
 
 #: The assistance policies a ``[study] conditions`` list may name (``nudgecli.sim.policies``).
-CONDITION_NAMES = ("disambiguation", "control", "teleoperation", "blending", "mode-switch", "hindsight")
+CONDITION_NAMES = POLICIES
 #: Conditions that need their own settings section (``[blending]``, ``[mode-switch]``,
 #: ``[hindsight]``); ``disambiguation`` and ``control`` use ``[disambiguation]`` and
 #: ``[assistance]``, which every experiment has, and ``teleoperation`` has no settings.
@@ -80,7 +81,7 @@ class StudySection(Section):
     """
 
     participants: int = Field(default=9, ge=1, le=10_000)
-    conditions: tuple[str, ...] = ("disambiguation", "control")
+    conditions: tuple[str, ...] = PAPER_CONDITIONS
     counterbalancing: Literal["williams", "williams-pair", "rotation"] = "williams"
     shared_layouts: int = Field(default=0, ge=0, le=100)
     goal_counts: tuple[int, ...] = (3, 4)

@@ -206,3 +206,24 @@ def test_the_step_length_is_derived_once() -> None:
                     isinstance(node.right, ast.Attribute) and node.right.attr == "rate_hz":
                 dividing.add(path.relative_to(PACKAGE.parent).as_posix())
     assert dividing == {"nudgecli/config.py"}
+
+
+def _tuples_of_strings(path: Path) -> list[tuple[str, ...]]:
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Tuple | ast.List) and node.elts and all(
+                isinstance(e, ast.Constant) and isinstance(e.value, str) for e in node.elts):
+            found.append(tuple(e.value for e in node.elts))  # type: ignore[attr-defined]
+    return found
+
+
+def test_the_condition_names_and_the_paper_pair_are_listed_once() -> None:
+    from nudgecli.model.conditions import PAPER_CONDITIONS, POLICIES
+
+    owners: dict[tuple[str, ...], set[str]] = {PAPER_CONDITIONS: set(), POLICIES: set()}
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for names in _tuples_of_strings(path):
+            if names in owners:
+                owners[names].add(path.relative_to(PACKAGE.parent).as_posix())
+    assert owners == {PAPER_CONDITIONS: {"nudgecli/model/conditions.py"},
+                      POLICIES: {"nudgecli/model/conditions.py"}}

@@ -26,16 +26,7 @@ from typing import Literal
 import numpy as np
 from scipy.special import rel_entr, xlogy
 
-#: Every policy, by condition name.
-POLICIES = ("disambiguation", "control", "teleoperation", "blending", "mode-switch", "hindsight")
-#: Condition names of other studies that are one of :data:`POLICIES` under another name.
-POLICY_ALIASES = {"no_assistance": "teleoperation"}
-#: Policies with the paper's turn-taking (the person hands the turn over when idle).
-TURN_TAKING = frozenset({"disambiguation", "control", "mode-switch"})
-#: Policies without inference or any autonomous command.
-UNASSISTED = frozenset({"teleoperation"})
-#: Policies that blend during the human's turn with the paper's alpha (Algorithm 1, line 8).
-BLENDING = frozenset({"disambiguation", "control", "mode-switch", "blending"})
+from nudgecli.model.conditions import POLICIES, POLICY_ALIASES
 
 ModeCriterion = Literal["disamb", "entropy", "kl"]
 

@@ -36,9 +36,10 @@ import numpy as np
 import pandas as pd
 import scipy.stats
 
+from nudgecli.model.conditions import PAPER_CONDITIONS
 from nudgecli.report.metrics import apply_filters
 from nudgecli.report.plans import AnalysisPlan
-from nudgecli.report.stats import PAPER_CONDITIONS, is_significant, order_conditions
+from nudgecli.report.stats import is_significant, order_conditions
 from nudgecli.report.stats_document import compare_conditions, condition_table, json_ready, stats_table
 from nudgecli.rng import generator
 

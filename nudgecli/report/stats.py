@@ -43,6 +43,8 @@ import pandas as pd
 import scikit_posthocs
 import scipy.stats
 
+from nudgecli.model.conditions import PAPER_CONDITIONS
+
 #: Adjustments that leave a single p-value unchanged (``multipletests`` with one test).
 _IDENTITY_ON_ONE_TEST = frozenset({"bonferroni", "sidak", "holm-sidak", "holm", "simes-hochberg", "hommel",
                                    "fdr_bh", "fdr_by"})
@@ -78,10 +80,6 @@ class ComparisonOptions:
     bootstrap_resamples: int = 2000
     bootstrap_level: float = 0.95
     seed: int = 0
-
-
-#: The paper's two conditions, in its order: drawn and compared first wherever they are present.
-PAPER_CONDITIONS: tuple[str, ...] = ("disambiguation", "control")
 
 
 def order_conditions(values: Sequence[Any], preferred: Sequence[str] = ()) -> list[str]:

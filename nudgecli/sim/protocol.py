@@ -52,6 +52,7 @@ import numpy as np
 from nudgecli.config import ExperimentConfig, HindsightSection, ModeSwitchSection
 from nudgecli.model import assistance, interface, policies
 from nudgecli.model.assistance import BlendingSettings
+from nudgecli.model.conditions import BLENDING, TURN_TAKING, UNASSISTED
 from nudgecli.model.disambiguation import (
     DisambiguationModel,
     DisambiguationSettings,
@@ -250,9 +251,9 @@ class TrialSession:
             self.world = GridWorld(layout, self.settings.success_distance, self.settings.success_angle)
         world = self.world
         self.policy = policies.policy_of(self.spec.condition)
-        self.assisted = self.policy not in policies.UNASSISTED
-        self.turn_taking = self.policy in policies.TURN_TAKING
-        self.blends = self.policy in policies.BLENDING
+        self.assisted = self.policy not in UNASSISTED
+        self.turn_taking = self.policy in TURN_TAKING
+        self.blends = self.policy in BLENDING
         if self.assisted and self.model is None:
             raise ValueError(f"condition {self.spec.condition!r} needs the agent's model")
         n_goals = world.n_goals

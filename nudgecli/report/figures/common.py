@@ -20,7 +20,8 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from nudgecli.errors import DataError
-from nudgecli.report.stats import PAPER_CONDITIONS, order_conditions
+from nudgecli.model.conditions import PAPER_CONDITIONS
+from nudgecli.report.stats import order_conditions
 from nudgecli.report.style import PANEL_LETTER_PT, figure_style
 
 #: Conditions drawn first (the paper's order; :func:`nudgecli.report.stats.order_conditions` owns the rule).
