@@ -122,3 +122,17 @@ def test_decay_first_mix_is_zero_and_cap_applies() -> None:
     b, _ = decay_on_empty_sample(belief, DecayCounters(empty_samples=3, decay_steps=7), custom)
     f = 1 - math.exp(-0.5 * 2)
     np.testing.assert_allclose(b, (1 - f) * belief + f * 0.5)
+
+
+def _beliefs(g: int) -> st.SearchStrategy[np.ndarray]:
+    drawn = arrays(np.float64, g, elements=st.floats(0.0, 1.0)).filter(lambda b: b.sum() > 0)
+    return st.one_of(drawn.map(lambda b: b / b.sum()), st.integers(0, g - 1).map(lambda k: np.eye(g)[k]))
+
+
+@given(st.integers(2, 8).flatmap(_beliefs))
+def test_one_belief_has_the_entropy_of_a_batch_bit_for_bit(belief: np.ndarray) -> None:
+    # a single belief takes a plain-float path; a batch row is the definition (np.clip, np.log)
+    single = normalised_entropy(belief)
+    batch = normalised_entropy(np.stack([belief, belief]))[0]
+    assert isinstance(single, float)
+    assert single == batch and math.copysign(1.0, single) == math.copysign(1.0, batch)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -79,8 +80,16 @@ def normalised_entropy(belief: np.ndarray) -> np.ndarray | float:
     if n_goals <= 1:
         return np.zeros(b.shape[:-1]) if b.ndim > 1 else 0.0
     entropy = -xlogy(b, b).sum(axis=-1)
-    result = np.clip(entropy / np.log(n_goals), 0.0, 1.0)
-    return float(result) if b.ndim == 1 else result
+    if b.ndim == 1:  # one belief, after every update of a trial: np.clip's rule on plain floats
+        ratio = float(entropy) / _log_goals(n_goals)
+        return 0.0 if ratio < 0.0 else 1.0 if ratio > 1.0 else ratio
+    return np.clip(entropy / np.log(n_goals), 0.0, 1.0)
+
+
+@functools.cache
+def _log_goals(n_goals: int) -> float:
+    """``log |G|`` as numpy computes it (so one belief's ratio is bit for bit a batch's)."""
+    return float(np.log(n_goals))
 
 
 @dataclass(frozen=True)
