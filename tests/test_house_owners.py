@@ -227,3 +227,15 @@ def test_the_condition_names_and_the_paper_pair_are_listed_once() -> None:
                 owners[names].add(path.relative_to(PACKAGE.parent).as_posix())
     assert owners == {PAPER_CONDITIONS: {"nudgecli/model/conditions.py"},
                       POLICIES: {"nudgecli/model/conditions.py"}}
+
+
+def test_the_entropy_gate_is_written_once() -> None:
+    # the confidence gate (alpha 0 and no g' while H(b)/log|G| > kappa) is assistance.entropy_gated
+    comparing = set()
+    for path in sorted(PACKAGE.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Compare) and any(
+                    isinstance(sub, ast.Attribute) and sub.attr == "entropy_gate" for sub in ast.walk(node)):
+                comparing.add(path.relative_to(PACKAGE.parent).as_posix())
+    assert not comparing
+    assert {"nudgecli/model/assistance.py", "nudgecli/sim/protocol.py"} <= modules_using("entropy_gated")

@@ -115,6 +115,12 @@ class BlendingSettings:
     distance_drop: float
 
 
+def entropy_gated(normalised_entropy: float, gate: float | None) -> bool:
+    """Whether the study's confidence gate holds blending off: the belief's normalised entropy
+    exceeds ``gate`` (``kappa``; ``None``: no gate)."""
+    return gate is not None and normalised_entropy > gate
+
+
 def assistance_alpha(p_goal: float, n_goals: int, normalised_entropy: float,
                      seconds_since_first_input: float, distance_to_goal: float,
                      settings: BlendingSettings) -> float:
@@ -140,7 +146,7 @@ def assistance_alpha(p_goal: float, n_goals: int, normalised_entropy: float,
     -------
     float
     """
-    if settings.entropy_gate is not None and normalised_entropy > settings.entropy_gate:
+    if entropy_gated(normalised_entropy, settings.entropy_gate):
         return 0.0
     if settings.startup_delay > 0 and seconds_since_first_input < settings.startup_delay:
         return 0.0

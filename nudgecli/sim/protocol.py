@@ -389,7 +389,7 @@ class TrialSession:
     def _blending(self) -> tuple[int, float]:
         """``(g', alpha)`` of this step (``NO_GOAL, 0`` without a unique, ungated leader)."""
         s = self.settings.blending
-        if self.leader == NO_GOAL or (s.entropy_gate is not None and self.entropy > s.entropy_gate):
+        if self.leader == NO_GOAL or assistance.entropy_gated(self.entropy, s.entropy_gate):
             return NO_GOAL, 0.0
         gx, gy, _ = self.goal_list[self.leader]
         since_first = ((self.step - self.initiated_at) * self.settings.dt if self.initiated_at >= 0
