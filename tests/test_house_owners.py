@@ -239,3 +239,38 @@ def test_the_entropy_gate_is_written_once() -> None:
                 comparing.add(path.relative_to(PACKAGE.parent).as_posix())
     assert not comparing
     assert {"nudgecli/model/assistance.py", "nudgecli/sim/protocol.py"} <= modules_using("entropy_gated")
+
+
+#: Numeric option defaults that belong to the command line alone (no function behind restates them).
+CLI_ONLY_DEFAULTS = {"--workers": 1, "--participants": 100}
+
+
+def _numeric_option_defaults(path: Path) -> dict[str, float]:
+    """``--option`` -> its default, where that default is a number written in the option."""
+    found = {}
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        is_option = isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and \
+            node.func.attr == "option"
+        if not is_option:
+            continue
+        for keyword in node.keywords:
+            value = keyword.value
+            if keyword.arg == "default" and isinstance(value, ast.Constant) and \
+                    isinstance(value.value, int | float) and not isinstance(value.value, bool):
+                name = next(str(a.value) for a in node.args if isinstance(a, ast.Constant)
+                            and str(a.value).startswith("--"))
+                found[name] = value.value
+    return found
+
+
+def test_command_options_take_their_defaults_from_their_owners() -> None:
+    # a number written as an option's default would be a second copy of the function's default
+    for path in sorted((PACKAGE / "commands").glob("*.py")):
+        for name, value in _numeric_option_defaults(path).items():
+            assert CLI_ONLY_DEFAULTS.get(name) == value, f"{path.name}: {name} default={value}"
+    from nudgecli import command_defaults
+
+    for name in (n for n in vars(command_defaults) if n.isupper()):
+        modules = modules_using(name)
+        assert any(m.startswith("nudgecli/commands/") for m in modules), name  # the option shows it
+        assert any(not m.startswith("nudgecli/commands/") for m in modules), name  # the function uses it

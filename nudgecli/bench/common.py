@@ -18,6 +18,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from nudgecli import command_defaults as defaults
+
 COLUMNS = ("what", "time_s", "baseline_s", "ratio", "peak_mb", "target", "ok", "note")
 BENCH_SEED = 20220214
 MC_SAMPLES = 250
@@ -53,15 +55,15 @@ class BenchOptions:
         --workers study_workers`` (``nudge bench --only scale``).
     """
 
-    repeats: int = 7
-    baseline_repeats: int = 3
+    repeats: int = defaults.BENCH_REPEATS
+    baseline_repeats: int = defaults.BENCH_BASELINE_REPEATS
     mc_states: int = 75
     study_experiment: str = "paper"
     study_participants: int | None = None
     study_workers: int = 2
-    study_repeats: int = 3
-    scale_participants: int = 16
-    scale_studies: int = 24
+    study_repeats: int = defaults.BENCH_STUDY_REPEATS
+    scale_participants: int = defaults.BENCH_SCALE_PARTICIPANTS
+    scale_studies: int = defaults.BENCH_SCALE_STUDIES
     analyze_rows: int = 3_500_000
     analyze_participants: int = 1000
     throughput_experiment: str = "paper"

@@ -9,6 +9,7 @@ from typing import Any
 
 import click
 
+from nudgecli import command_defaults as defaults
 from nudgecli.commands.common import SET_HELP, echo_json, info, progress_bar
 from nudgecli.errors import NudgeError
 
@@ -242,11 +243,14 @@ def _parse_matches(matches: tuple[str, ...]) -> dict[str, str]:
               help="Folder for compare.csv, participant_medians.csv, compare.json and the figure.")
 @click.option("--formats", default="png,pdf", show_default=True,
               help="Figure formats with --out: png, pdf, svg.")
-@click.option("--resamples", type=click.IntRange(min=0), default=2000, show_default=True,
+@click.option("--resamples", type=click.IntRange(min=0), default=defaults.COMPARE_RESAMPLES,
+              show_default=True,
               help="Cluster-bootstrap resamples of the distances (0: no intervals).")
-@click.option("--level", type=click.FloatRange(0.5, 1.0, min_open=True, max_open=True), default=0.95,
+@click.option("--level", type=click.FloatRange(0.5, 1.0, min_open=True, max_open=True),
+              default=defaults.COMPARE_LEVEL,
               show_default=True, help="Level of the bootstrap intervals.")
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Bootstrap seed.")
+@click.option("--seed", type=click.IntRange(min=0), default=defaults.COMPARE_SEED, show_default=True,
+              help="Bootstrap seed.")
 @click.option("--drop-duplicates", is_flag=True,
               help="Keep the first of repeated trial rows of a table instead of refusing them.")
 def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[str, ...],

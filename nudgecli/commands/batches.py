@@ -10,6 +10,7 @@ from typing import Any
 
 import click
 
+from nudgecli import command_defaults as defaults
 from nudgecli.commands.common import INTERRUPT_HINT, SET_HELP, echo_json, info
 
 # --- replicate / power / sweep -------------------------------------------------------------
@@ -146,7 +147,8 @@ def _counts(text: str) -> list[int]:
 @click.option("--seed", type=int, help="Master seed of the replications [default: the experiment's].")
 @click.option("--plan", default=None, metavar="PLAN",
               help="Analysis plan of each study [default: the plan named like the experiment, else paper].")
-@click.option("--target", type=float, default=0.8, show_default=True, help="The power to reach.")
+@click.option("--target", type=float, default=defaults.POWER_TARGET,
+              show_default=True, help="The power to reach.")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
 @_batch_options
 def power_command(experiment: str, counts: str, replications: int, seed: int | None, plan: str | None,

@@ -10,6 +10,7 @@ from typing import Any
 
 import click
 
+from nudgecli import command_defaults as defaults
 from nudgecli.commands.common import INTERRUPT_HINT, SET_HELP, YES_HELP, info, progress_bar
 
 # --- fit -----------------------------------------------------------------------------------
@@ -178,7 +179,7 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
 @click.argument("experiment")
 @click.option("--participant", "participant_id", required=True, metavar="ID",
               help="Participant ID ending in their number, e.g. P01 (the number seeds their schedule).")
-@click.option("--port", type=click.IntRange(1, 65535), default=8765, show_default=True,
+@click.option("--port", type=click.IntRange(1, 65535), default=defaults.STUDY_PORT, show_default=True,
               help="Port on 127.0.0.1.")
 @click.option("--out", type=click.Path(file_okay=False),
               help="Run folder, shared by the participants of one study "

@@ -6,6 +6,7 @@ from typing import Literal
 
 import click
 
+from nudgecli import command_defaults as defaults
 from nudgecli.commands.common import echo_json, info, progress_bar
 
 # --- presets -------------------------------------------------------------------------------
@@ -40,15 +41,19 @@ def presets_command() -> None:
                    "the scale figures (about a minute on 2 cores: batches on 1..cores workers and on a "
                    "local dask cluster, with parallel efficiency and serial fraction) or analyze "
                    "(`nudge analyze` of a 3.5 M-row table in a subprocess, about a minute).")
-@click.option("--scale-participants", type=click.IntRange(min=2), default=16, show_default=True,
+@click.option("--scale-participants", type=click.IntRange(min=2), default=defaults.BENCH_SCALE_PARTICIPANTS,
+              show_default=True,
               help="Scale figures: participants of the one-study workload (paper preset).")
-@click.option("--scale-studies", type=click.IntRange(min=2), default=24, show_default=True,
+@click.option("--scale-studies", type=click.IntRange(min=2), default=defaults.BENCH_SCALE_STUDIES,
+              show_default=True,
               help="Scale figures: studies of the many-studies workload (smoke preset).")
-@click.option("--repeats", type=click.IntRange(min=1), default=7, show_default=True,
+@click.option("--repeats", type=click.IntRange(min=1), default=defaults.BENCH_REPEATS, show_default=True,
               help="Batches of each fast measurement (the best is reported).")
-@click.option("--baseline-repeats", type=click.IntRange(min=1), default=3, show_default=True,
+@click.option("--baseline-repeats", type=click.IntRange(min=1), default=defaults.BENCH_BASELINE_REPEATS,
+              show_default=True,
               help="Runs of each per-sample Monte-Carlo baseline, about 1 s each (the best is reported).")
-@click.option("--study-repeats", type=click.IntRange(min=1), default=3, show_default=True,
+@click.option("--study-repeats", type=click.IntRange(min=1), default=defaults.BENCH_STUDY_REPEATS,
+              show_default=True,
               help="Runs of the study plan build and of one participant's trials, about 1 s each "
                    "(the best is reported).")
 def bench_command(output_format: str, only: str, scale_participants: int, scale_studies: int, repeats: int,
@@ -76,19 +81,23 @@ def _validation_readings() -> list[str]:
 
 
 @click.command("validate")
-@click.option("--simulations", type=int, default=100, show_default=True,
+@click.option("--simulations", type=int, default=defaults.VALIDATION_SIMULATIONS, show_default=True,
               help="Random worlds (each queries every state off the goals once).")
-@click.option("--min-goals", type=int, default=3, show_default=True, help="Fewest goals |G| (at least 2).")
-@click.option("--max-goals", type=int, default=30, show_default=True,
+@click.option("--min-goals", type=int, default=defaults.VALIDATION_MIN_GOALS,
+              show_default=True, help="Fewest goals |G| (at least 2).")
+@click.option("--max-goals", type=int, default=defaults.VALIDATION_MAX_GOALS, show_default=True,
               help="Most goals |G|; |G| steps cyclically from --min-goals to --max-goals.")
-@click.option("--states", type=int, default=200, show_default=True,
+@click.option("--states", type=int, default=defaults.VALIDATION_STATES, show_default=True,
               help="|S| = 2 modes x W x H cells of the two-mode world (200: a 10 x 10 grid).")
-@click.option("--seed", type=int, default=0, show_default=True, help="Master seed of the whole validation.")
-@click.option("--belief-concentration", type=float, default=1.0, show_default=True,
+@click.option("--seed", type=int, default=defaults.VALIDATION_SEED, show_default=True,
+              help="Master seed of the whole validation.")
+@click.option("--belief-concentration", type=float, default=defaults.VALIDATION_BELIEF_CONCENTRATION,
+              show_default=True,
               help="Query beliefs are Dirichlet(c): 1 spreads them evenly, large c makes them near uniform.")
-@click.option("--mc-queries", type=int, default=100, show_default=True,
+@click.option("--mc-queries", type=int, default=defaults.VALIDATION_MC_QUERIES, show_default=True,
               help="Queries of the Monte-Carlo convergence study (0 skips it).")
-@click.option("--reading", type=click.Choice(list(_validation_readings())), default="dirichlet",
+@click.option("--reading", type=click.Choice(list(_validation_readings())),
+              default=defaults.VALIDATION_READING,
               show_default=True, help="Which reading of the paper's validation paragraph (see the README).")
 @click.option("--all-readings", is_flag=True,
               help="Run every reading on the same worlds and print one row per reading, by |G|.")

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+from nudgecli import command_defaults as defaults
 from nudgecli.config import ExperimentConfig, load_experiment
 from nudgecli.errors import ConfigError
 from nudgecli.live.records import LiveFolder
@@ -60,7 +61,7 @@ def build_session(
 def run_live_study(
     experiment: str,
     participant_id: str,
-    port: int = 8765,
+    port: int = defaults.STUDY_PORT,
     out: str | None = None,
     condition_order: str | None = None,
     seed: int | None = None,

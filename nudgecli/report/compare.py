@@ -38,6 +38,7 @@ import numpy as np
 import pandas as pd
 import scipy.stats
 
+from nudgecli import command_defaults as defaults
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.analysis import load_source
 from nudgecli.report.plans import AnalysisPlan, load_plan
@@ -79,9 +80,9 @@ class CompareOptions:
         Master seed of the resamples.
     """
 
-    resamples: int = 2000
-    level: float = 0.95
-    seed: int = 0
+    resamples: int = defaults.COMPARE_RESAMPLES
+    level: float = defaults.COMPARE_LEVEL
+    seed: int = defaults.COMPARE_SEED
 
 
 def _numeric(series: pd.Series) -> pd.Series:

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
+from nudgecli import command_defaults as defaults
 from nudgecli.config import ExperimentConfig
 from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError
@@ -120,7 +121,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
 
 def power(experiment: str, participant_counts: Sequence[int], replications: int, out: str | Path, *,
           seed: int | None = None, plan: str | AnalysisPlan | None = None, overrides: Sequence[str] = (),
-          target: float = 0.8, **options: Any) -> BatchResult:
+          target: float = defaults.POWER_TARGET, **options: Any) -> BatchResult:
     """``nudge power``: the power curve of every metric over participant counts.
 
     Replication ``r`` simulates its largest study once; each count ``n`` analyses its first

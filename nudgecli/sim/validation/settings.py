@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from nudgecli import command_defaults as defaults
 from nudgecli.errors import ConfigError
 from nudgecli.model.information import Weighting
 from nudgecli.model.mdp import DEFAULT_GAMMA
@@ -57,19 +58,19 @@ class ValidationSettings:
         Which reading of the paper's paragraph (:data:`~nudgecli.sim.validation.readings.READINGS`).
     """
 
-    simulations: int = 100
-    min_goals: int = 3
-    max_goals: int = 30
-    states: int = 200
-    seed: int = 0
+    simulations: int = defaults.VALIDATION_SIMULATIONS
+    min_goals: int = defaults.VALIDATION_MIN_GOALS
+    max_goals: int = defaults.VALIDATION_MAX_GOALS
+    states: int = defaults.VALIDATION_STATES
+    seed: int = defaults.VALIDATION_SEED
     window: int = 1
     epsilon: float = 0.1
     regularisation: float = 1.0
     tie_tolerance: float = 1e-9
-    mc_queries: int = 100
+    mc_queries: int = defaults.VALIDATION_MC_QUERIES
     mc_samples: tuple[int, ...] = DEFAULT_MC_SAMPLES
-    belief_concentration: float = 1.0
-    reading: str = "dirichlet"
+    belief_concentration: float = defaults.VALIDATION_BELIEF_CONCENTRATION
+    reading: str = defaults.VALIDATION_READING
 
     @property
     def grid_shape(self) -> tuple[int, int]:
