@@ -544,3 +544,31 @@ def test_plot_of_an_unanalysed_table_says_to_analyze(tmp_path: Path) -> None:
     table = _real_table(tmp_path, {"workload": lambda r, c: float(r.normal(50, 5))})
     line = _single_error_line(_plot(str(table)))
     assert f"`nudge analyze {table}`" in line
+
+
+@pytest.mark.parametrize(("manifest", "expected"), [
+    ({"experiment": "ciaa-teleop"}, "ciaa-teleop"),
+    ({"experiment": "a-new-study"}, "paper"),
+    ({"experiment": "baselines", "plan": "study-code"}, "study-code"),
+])
+def test_compare_takes_the_simulated_runs_plan_by_the_same_rule(
+        simulated_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, manifest: dict[str, str],
+        expected: str) -> None:
+    from nudgecli.report import compare
+    from nudgecli.report.analysis import plan_of_source
+
+    run = _copy_run(simulated_run, tmp_path / "run")
+    recorded = {k: v for k, v in json.loads((run / "manifest.json").read_text()).items() if k != "plan"}
+    (run / "manifest.json").write_text(json.dumps({**recorded, **manifest}))
+    assert plan_of_source(run) == expected
+    assert plan_of_source(tmp_path / "metrics.csv") == "paper"  # a table: no run to ask
+    asked: list[object] = []
+
+    def stop(plan: object) -> None:
+        asked.append(plan)
+        raise RuntimeError("stop before reading")
+
+    monkeypatch.setattr(compare, "load_plan", stop)
+    with pytest.raises(RuntimeError):
+        compare.compare_sources(run, tmp_path / "real.csv")
+    assert asked == [expected]

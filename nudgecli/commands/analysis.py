@@ -230,8 +230,9 @@ def _parse_matches(matches: tuple[str, ...]) -> dict[str, str]:
 @click.command("compare", short_help="Simulated people beside real people, metric by metric.")
 @click.argument("simulated", type=click.Path(path_type=str))
 @click.argument("real", type=click.Path(path_type=str))
-@click.option("--plan", metavar="PLAN", default="paper", show_default=True,
-              help="Analysis plan: the metric definitions of a run folder and the filters of both sources.")
+@click.option("--plan", metavar="PLAN", default=None,
+              help="Analysis plan: the metric definitions of a run folder and the filters of both sources "
+                   "[default: the plan the simulated run records or is named like, else paper].")
 @click.option("--metric", "metric_names", multiple=True, metavar="NAME",
               help="Compare only this metric (repeatable) [default: every metric both hold].")
 @click.option("--match", "matches", multiple=True, metavar="SIMULATED=REAL",
@@ -253,7 +254,7 @@ def _parse_matches(matches: tuple[str, ...]) -> dict[str, str]:
               help="Bootstrap seed.")
 @click.option("--drop-duplicates", is_flag=True,
               help="Keep the first of repeated trial rows of a table instead of refusing them.")
-def compare_command(simulated: str, real: str, plan: str, metric_names: tuple[str, ...],
+def compare_command(simulated: str, real: str, plan: str | None, metric_names: tuple[str, ...],
                     matches: tuple[str, ...], output_format: str, out: str | None, formats: str,
                     resamples: int, level: float, seed: int, drop_duplicates: bool) -> None:
     """Compare SIMULATED (a run folder or metrics table) with REAL (a metrics table of real trials).

@@ -405,6 +405,14 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
                           summary=summary, questionnaires=scores, notes=notes)
 
 
+def plan_of_source(source: str | Path) -> str:
+    """The plan a source is analysed with when none is given (:func:`_recorded_plan` of its
+    manifest: a run folder's recorded plan or its experiment's; ``paper`` for a table)."""
+    path = Path(source)
+    run = RunFolder(path) if path.is_dir() else None
+    return _recorded_plan(run.read_manifest() if run is not None and run.is_run() else None)
+
+
 def _recorded_plan(manifest: dict[str, Any] | None) -> str:
     """The plan of a run analysed without ``--plan``: the one its manifest records, else the plan
     named like its experiment; ``paper`` for a table."""

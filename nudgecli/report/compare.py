@@ -375,7 +375,7 @@ class Comparison:
         })
 
 
-def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | AnalysisPlan = "paper",
+def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | AnalysisPlan | None = None,
                     metrics: Sequence[str] | None = None, condition_map: Mapping[str, str] | None = None,
                     options: CompareOptions = CompareOptions(), *, drop_duplicates: bool = False,
                     notes: list[str] | None = None) -> Comparison:
@@ -388,7 +388,8 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
     real
         A metrics table of real trials (CSV or Parquet; one condition is enough).
     plan
-        The analysis plan whose metric definitions and filters apply to both sources.
+        The analysis plan whose metric definitions and filters apply to both sources (``None``:
+        the simulated run's, as ``nudge analyze`` picks it; ``paper`` for a table).
     metrics
         Only these metrics (default: every metric both hold).
     condition_map
@@ -404,9 +405,10 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
     DataError, RunFolderError, ConfigError
         Unreadable sources, no shared metric or condition, an unknown metric.
     """
+    from nudgecli.report.analysis import plan_of_source
     from nudgecli.report.metrics import apply_filters
 
-    chosen = load_plan(plan)
+    chosen = load_plan(plan_of_source(simulated) if plan is None else plan)
     sim_table, sim_metrics, _ = load_source(Path(simulated), chosen, min_conditions=1,
                                             drop_duplicates=drop_duplicates, notes=notes)
     real_path = Path(real)
