@@ -557,9 +557,11 @@ class SimulatedPerson:
         if self.previous_pose is None or self.hold_mode < 0:
             return 0
         before, now = self.previous_pose, (view.x, view.y, view.theta)
-        moved = (abs(now[0] - before[0]), abs(now[1] - before[1]),
-                 abs(turn_between(now[2], before[2])))
-        if not any(moved[axis] > _MOTION_EPS for axis in range(3) if axis != self.hold_mode):
+        held = self.hold_mode
+        # moved along an axis they do not command (written out: this runs every step of a hold)
+        if not ((held != 0 and abs(now[0] - before[0]) > _MOTION_EPS)
+                or (held != 1 and abs(now[1] - before[1]) > _MOTION_EPS)
+                or (held != 2 and abs(turn_between(now[2], before[2])) > _MOTION_EPS)):
             return 0
         gx, gy, gth = self.goal
         change = math.hypot(gx - now[0], gy - now[1]) - math.hypot(gx - before[0], gy - before[1])
