@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from run_builders import synthetic_run
 
 from nudgecli.cli import main
 from nudgecli.errors import ConfigError
@@ -24,40 +25,11 @@ STATS_KEYS = ["metric", "n", "mean", "median", "q1", "q3", "kruskal", "conover",
 
 
 def make_run(folder: Path, n_participants: int = 5, trials_per_condition: int = 4, seed: int = 1) -> Path:
-    """A small run folder in the DESIGN section 4 layout: one trials/steps part per participant.
-
-    Control trials are 2 s longer and have more mode switches, so the differences are clear.
-    """
-    rng = np.random.default_rng(seed)
-    (folder / "trials").mkdir(parents=True)
-    (folder / "steps").mkdir()
-    for participant in range(n_participants):
-        trial_rows, step_frames = [], []
-        for condition, extra in (("disambiguation", 0), ("control", 20)):
-            for k in range(trials_per_condition):
-                trial = len(trial_rows)
-                n = int(rng.integers(20, 40)) + extra
-                turn = np.where((np.arange(n) // 8) % 2 == 0, "human", "autonomy")
-                human = turn == "human"
-                alpha = np.where(human & (rng.random(n) < 0.5), 0.8, 0.0)
-                switch = rng.random(n) < (0.05 if extra == 0 else 0.2)
-                event = np.where(switch, "mode_switch_human", "")
-                human_turns = int((human & np.r_[True, turn[1:] != turn[:-1]]).sum())
-                trial_rows.append({
-                    "participant": participant, "condition": condition, "block": k // 2, "trial": trial,
-                    "layout": trial, "n_goals": 3, "true_goal": 0, "reached_goal": 0, "success": True,
-                    "timed_out": False, "duration_s": n * 0.1, "human_turns": human_turns,
-                    "autonomy_turns": human_turns - 1})
-                step_frames.append(pd.DataFrame({
-                    "participant": participant, "trial": trial, "step": np.arange(n), "t": np.arange(n) * 0.1,
-                    "turn": turn, "x": 10.0, "y": 10.0, "theta": 0.0, "mode": "x", "cell_x": 1, "cell_y": 2,
-                    "heading": 0, "phi_m": "", "u_h_x": 0.0, "u_h_y": 0.0, "u_h_theta": 0.0, "u_a_x": 0.0,
-                    "u_a_y": 0.0, "u_a_theta": 0.0, "alpha": alpha,
-                    "inferred_goal": rng.integers(-1, 3, n), "belief": [[1 / 3] * 3] * n, "entropy": 1.0,
-                    "event": event}))
-        pd.DataFrame(trial_rows).to_parquet(folder / "trials" / f"part-{participant:05d}.parquet")
-        pd.concat(step_frames).to_parquet(folder / "steps" / f"part-{participant:05d}.parquet")
-    return folder
+    """A small two-condition run folder: control trials are 2 s longer and have more mode switches,
+    so the differences are clear."""
+    return synthetic_run(folder, {"disambiguation": 0, "control": 20}, n_participants=n_participants,
+                         trials_per_condition=trials_per_condition, seed=seed, max_steps=40,
+                         switch_probability=lambda extra: 0.05 if extra == 0 else 0.2)
 
 
 @pytest.fixture(scope="module")

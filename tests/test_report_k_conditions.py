@@ -22,6 +22,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.text import Text
 from matplotlib.transforms import Bbox
+from run_builders import synthetic_run
 
 from nudgecli.cli import main
 from nudgecli.report.brackets import Bracket, assign_levels, bracket_levels, draw_brackets
@@ -311,37 +312,11 @@ def test_figure_rows_grow_with_the_bracket_levels() -> None:
 
 def make_k_run(folder: Path, conditions: dict[str, int], n_participants: int = 6,
                trials_per_condition: int = 4, seed: int = 3) -> Path:
-    """A small run folder (DESIGN section 4 layout) of any conditions, as the two-condition one of
-    test_report_analysis: ``conditions`` maps each condition to the steps it adds to every trial."""
-    rng = np.random.default_rng(seed)
-    (folder / "trials").mkdir(parents=True)
-    (folder / "steps").mkdir()
-    for participant in range(n_participants):
-        trial_rows, step_frames = [], []
-        for condition, extra in conditions.items():
-            for k in range(trials_per_condition):
-                trial = len(trial_rows)
-                n = int(rng.integers(20, 30)) + extra
-                turn = np.where((np.arange(n) // 8) % 2 == 0, "human", "autonomy")
-                human = turn == "human"
-                alpha = np.where(human & (rng.random(n) < 0.5), 0.8, 0.0)
-                event = np.where(rng.random(n) < 0.05 + extra / 200, "mode_switch_human", "")
-                human_turns = int((human & np.r_[True, turn[1:] != turn[:-1]]).sum())
-                trial_rows.append({
-                    "participant": participant, "condition": condition, "block": k // 2, "trial": trial,
-                    "layout": trial, "n_goals": 3, "true_goal": 0, "reached_goal": 0, "success": True,
-                    "timed_out": False, "duration_s": n * 0.1, "human_turns": human_turns,
-                    "autonomy_turns": human_turns - 1})
-                step_frames.append(pd.DataFrame({
-                    "participant": participant, "trial": trial, "step": np.arange(n), "t": np.arange(n) * 0.1,
-                    "turn": turn, "x": 10.0, "y": 10.0, "theta": 0.0, "mode": "x", "cell_x": 1, "cell_y": 2,
-                    "heading": 0, "phi_m": "", "u_h_x": 0.0, "u_h_y": 0.0, "u_h_theta": 0.0, "u_a_x": 0.0,
-                    "u_a_y": 0.0, "u_a_theta": 0.0, "alpha": alpha,
-                    "inferred_goal": rng.integers(-1, 3, n), "belief": [[1 / 3] * 3] * n, "entropy": 1.0,
-                    "event": event}))
-        pd.DataFrame(trial_rows).to_parquet(folder / "trials" / f"part-{participant:05d}.parquet")
-        pd.concat(step_frames).to_parquet(folder / "steps" / f"part-{participant:05d}.parquet")
-    return folder
+    """A small run folder of any conditions: ``conditions`` maps each condition to the steps it adds
+    to every trial (and, per 200 of them, to its mode-switch rate)."""
+    return synthetic_run(folder, conditions, n_participants=n_participants,
+                         trials_per_condition=trials_per_condition, seed=seed, max_steps=30,
+                         switch_probability=lambda extra: 0.05 + extra / 200)
 
 
 @pytest.mark.parametrize("conditions, expected_order", [
