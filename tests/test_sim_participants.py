@@ -370,3 +370,12 @@ def test_a_blow_sample_by_sample_is_the_array_blow_bit_for_bit(
         pressure = participant.sample_pressure(label, start + k, normal)
         assert pressure == pressures[k] and np.signbit(pressure) == np.signbit(pressures[k])
         last = normal
+
+
+@pytest.mark.parametrize("rho", [1.5, -0.2])
+def test_a_drift_correlation_out_of_range_is_named(rho: float) -> None:
+    # checked before anything is derived from it (sqrt(1 - rho^2) fails first for |rho| > 1)
+    with pytest.raises(ValueError, match="drift_correlation must lie in"):
+        Participant(index=0, seed_key="test/rho", pressure_level=np.array([-0.6, 0.9, -0.12, 0.25]),
+                    pressure_spread=np.full(4, 0.1), mapping=mapping_with_error(0.0), epsilon=0.1, rest_s=0.5,
+                    operate_s=3.0, action_pause_s=0.2, hard_blow_s=0.5, reaction_s=1.0, drift_correlation=rho)

@@ -220,8 +220,8 @@ class SimulatedPerson:
         self.hold_target = 0.0
         self.hold_direction = 0.0
         # the current blow's pressures and deviations, as lists: read one sample per step
-        self.blow: list[float] | np.ndarray = []
-        self.blow_normals: list[float] | np.ndarray = []
+        self.blow: list[float] = []
+        self.blow_normals: list[float] = []
         self.blow_pos = 0
         self.blow_innovations: list[float] = []  # the current soft hold's draws, one per sample
         self.blow_label = NO_INPUT  # the label of the current soft hold
@@ -502,7 +502,6 @@ class SimulatedPerson:
         previous = self.blow_previous if k == 0 else self.blow_normals[k - 1]
         innovation = self.blow_innovations[k]
         normal = innovation if previous is None else p.drift_step(previous, innovation)
-        assert isinstance(self.blow, list) and isinstance(self.blow_normals, list)
         self.blow_normals.append(normal)
         self.blow.append(p.sample_pressure(self.blow_label, self.blow_start + k, normal))
 

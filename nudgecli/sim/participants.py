@@ -72,6 +72,9 @@ def threshold_triple(thresholds: Thresholds) -> tuple[float, float, float]:
     raise ValueError(f"thresholds must be (soft, hard) or (soft, hard, zero), got {thresholds!r}")
 
 
+#: :data:`LABEL_SIGN` as plain floats (one sample's pressure, :meth:`Participant.sample_pressure`).
+_SIGNS = tuple(LABEL_SIGN.tolist())
+
 @dataclass(frozen=True, eq=False)
 class Participant:
     """One participant's true physiology and habits.
@@ -151,9 +154,11 @@ class Participant:
     hard_peak_s: float = 0.2
     offset_ramp_samples: int = 1
     _mapping_cdf: np.ndarray = field(init=False, repr=False, compare=False)
-    # Plain floats of one sample's pressure model (sample_pressure, drift_step), read every step.
-    _sample_terms: tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], float] = field(
-        init=False, repr=False, compare=False)
+    # Plain floats of one sample's pressure model (sample_pressure, drift_step), read every step:
+    # the labels' level magnitudes and spreads, and the drift's innovation scale sqrt(1 - rho^2).
+    _levels: tuple[float, ...] = field(init=False, repr=False, compare=False)
+    _spreads: tuple[float, ...] = field(init=False, repr=False, compare=False)
+    _drift_scale: float = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         level = np.array(self.pressure_level, dtype=float)
@@ -172,14 +177,14 @@ class Participant:
             value.setflags(write=False)
             object.__setattr__(self, name, value)
         object.__setattr__(self, "onset_ramp_samples", int(self.onset_ramp_samples))
-        rho = float(self.drift_correlation)
-        object.__setattr__(self, "_sample_terms", (
-            tuple(abs(v) for v in level.tolist()), tuple(spread.tolist()), tuple(LABEL_SIGN.tolist()),
-            math.sqrt(1.0 - rho * rho)))
         object.__setattr__(self, "offset_ramp_samples", int(self.offset_ramp_samples))
         if not 0.0 <= self.drift_correlation <= MAX_DRIFT_CORRELATION:
             raise ValueError(f"drift_correlation must lie in [0, {MAX_DRIFT_CORRELATION}], "
                              f"got {self.drift_correlation}")
+        rho = float(self.drift_correlation)
+        object.__setattr__(self, "_levels", tuple(abs(v) for v in level.tolist()))
+        object.__setattr__(self, "_spreads", tuple(spread.tolist()))
+        object.__setattr__(self, "_drift_scale", math.sqrt(1.0 - rho * rho))
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Participant):
@@ -207,7 +212,7 @@ class Participant:
         :func:`~nudgecli.sim.pressure_model.drift_normals`'s recursion, bit for bit
         (``tests/test_sim_participants.py``)."""
         # scale e + rho z: the same two products and one sum as the array recursion (a sum commutes exactly)
-        return self._sample_terms[3] * innovation + self.drift_correlation * previous
+        return self._drift_scale * innovation + self.drift_correlation * previous
 
     def sample_pressure(self, label: int, position: int, normal: float) -> float:
         """The signed pressure of one sample of a blow of ``label``: the sample at ``position`` of
@@ -217,11 +222,10 @@ class Participant:
         soft blow is computed sample by sample as it is held (most holds end after a few of the
         ``max_hold_s`` samples drawn for them).
         """
-        levels, spreads, signs, _ = self._sample_terms
         ramp = self.onset_ramp_samples
         fraction = (position + 1.0) / (ramp + 1.0) if position < ramp else 1.0
-        magnitude = fraction * (levels[label] + spreads[label] * normal)
-        return signs[label] * (0.0 if magnitude < 0.0 else 1.0 if magnitude > 1.0 else magnitude)
+        magnitude = fraction * (self._levels[label] + self._spreads[label] * normal)
+        return _SIGNS[label] * (0.0 if magnitude < 0.0 else 1.0 if magnitude > 1.0 else magnitude)
 
     def pressures_from_normals(self, label: int, normals: np.ndarray, start: int = 0) -> np.ndarray:
         """The pressures of holding ``label`` with the given deviations (:meth:`drift_normals`).
