@@ -226,7 +226,6 @@ class SimulatedPerson:
         self.blow_innovations: list[float] = []  # the current soft hold's draws, one per sample
         self.blow_label = NO_INPUT  # the label of the current soft hold
         self.blow_start = 0  # the position of the hold's first sample within its blow
-        self.blow_previous: float | None = None  # the deviation the hold continues from, if any
         self.blow_held = 0
         self.last_normal = 0.0  # the deviation of the blow's last sample, where a held blow drifts on from
         self.still_steps = 0  # steps the robot has stood still under the current soft hold
@@ -491,7 +490,6 @@ class SimulatedPerson:
         # samples computed as they are given (_next_soft_sample)
         self.blow_innovations = self.rng.standard_normal(self.hold_left).tolist()
         self.blow_label, self.blow_start = label, start
-        self.blow_previous = self.last_normal if start > 0 else None
         self.blow, self.blow_normals = [], []
         self.blow_pos = 0
 
@@ -499,9 +497,10 @@ class SimulatedPerson:
         """Append the current soft hold's next sample to ``blow`` and ``blow_normals``: the values
         :meth:`Participant.pressures_from_normals` of :meth:`Participant.drift_normals` would give."""
         p, k = self.participant, len(self.blow)
-        previous = self.blow_previous if k == 0 else self.blow_normals[k - 1]
         innovation = self.blow_innovations[k]
-        normal = innovation if previous is None else p.drift_step(previous, innovation)
+        # the deviation of the sample given last (next_input keeps it), unless a new blow starts here
+        new_blow = k == 0 and self.blow_start == 0
+        normal = innovation if new_blow else p.drift_step(self.last_normal, innovation)
         self.blow_normals.append(normal)
         self.blow.append(p.sample_pressure(self.blow_label, self.blow_start + k, normal))
 
