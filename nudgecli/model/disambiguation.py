@@ -149,11 +149,10 @@ class DisambiguationModel:
     distortion: np.ndarray
     # Every derived table is a gather of the layout's distinct rows (bit for bit the per-state
     # ones): the (U, F) distinct likelihoods, their (U,) sum_f p log p (the belief-independent half
-    # of Eq. 13), and the (G, S) and state-major (S, G) indices into them.
+    # of Eq. 13), and the (G, S) index into them.
     _distinct: np.ndarray = field(init=False, repr=False)
     _xlogx_distinct: np.ndarray = field(init=False, repr=False)
     _index: np.ndarray = field(init=False, repr=False)
-    _by_state: np.ndarray = field(init=False, repr=False)
     _goal_positions: dict[str, np.ndarray] = field(init=False, repr=False)
     _window_tables: dict[int, WindowTable] = field(init=False, repr=False)
 
@@ -172,7 +171,6 @@ class DisambiguationModel:
         set_(self, "_distinct", distinct)
         set_(self, "_xlogx_distinct", xlogy(distinct, distinct).sum(axis=-1))
         set_(self, "_index", actions.index)
-        set_(self, "_by_state", np.ascontiguousarray(actions.index.T))
         set_(self, "_goal_positions", {"cells": cells.astype(float),
                                        "world": cell_centre(cells[:, 0], cells[:, 1])})
         set_(self, "_window_tables", {})
@@ -224,7 +222,7 @@ class DisambiguationModel:
         np.ndarray
             ``(C,)`` in nats.
         """
-        rows_of = self._by_state.take(states, axis=0)  # (C, G) indices into the distinct rows
+        rows_of = self._index.take(states, axis=1).T  # (C, G) indices into the distinct rows
         n_labels = self._distinct.shape[1]
         rows = self._distinct.take(rows_of, axis=0).reshape(rows_of.shape[0], rows_of.shape[1] * n_labels)
         # sum_g w_g p(f | g, s) as one product with the (G * F, F) matrix kron(w, I_F).
