@@ -79,10 +79,10 @@ def test_study_figures_on_the_smoke_preset(monkeypatch: pytest.MonkeyPatch, tmp_
     logged: list[str] = []
     rows = bench.run_bench(options, figures=bench.STUDY_FIGURES, progress=logged.append)
     assert logged == ["bench: study_setup", "bench: trials", "bench: study", "bench: cli_startup",
-                      "bench: worker_ready"]
+                      "bench: pool_ready", "bench: worker_ready"]
     for row in rows:
         _check_types(row)
-    setup, trials, study, startup, worker = rows
+    setup, trials, study, startup, pool, worker = rows
     assert setup["what"] == "study setup: 8 layouts' value iteration"
     assert setup["baseline_s"] is None and setup["ratio"] is None and setup["peak_mb"] is None
     assert "(8 x 50 ms)" in setup["target"] and "'smoke' (seed 7)" in setup["note"]
@@ -96,6 +96,7 @@ def test_study_figures_on_the_smoke_preset(monkeypatch: pytest.MonkeyPatch, tmp_
     assert "1 participants" in study["note"] and "upper bound" in study["note"]
     assert startup["what"] == "nudge --help (start-up)" and startup["ok"] == (startup["time_s"] <= 0.3)
     assert "nudgecli.runs.study" in worker["note"] and "nudgecli.runs.batch" in worker["note"]
+    assert pool["what"] == "worker ready (local pool, forked)" and pool["note"].startswith("2 pool workers")
     assert list(tmp_path.iterdir()) == []  # the study's temporary folder is removed
     assert json.loads(json.dumps(rows)) == rows
     table = bench.format_table(rows)

@@ -34,6 +34,7 @@ from nudgecli.bench.model import figure_grid, figure_value_iteration, figure_win
 from nudgecli.bench.scale import scale_figures
 from nudgecli.bench.study import (
     figure_cli_startup,
+    figure_pool_ready,
     figure_study,
     figure_study_setup,
     figure_trials,
@@ -49,6 +50,7 @@ STUDY_FIGURES: list[Figure] = [
     figure_trials,
     figure_study,
     figure_cli_startup,
+    figure_pool_ready,
     figure_worker_ready,
 ]
 

@@ -177,14 +177,48 @@ def figure_cli_startup(options: BenchOptions) -> dict[str, Any]:
 #: forked and inherit them; dask and spawned workers import them).
 WORKER_MODULES = {"study": "nudgecli.runs.study", "batch": "nudgecli.runs.batch_tasks"}
 
+# Run inside the child Python of ``figure_pool_ready``: the task modules loaded (as a command has them
+# when it starts its pool), then the time from starting W pool workers until each has answered a
+# first task, as one JSON line.
+_POOL_READY_SCRIPT = """
+import json, os, sys, time
+from nudgecli.runs.executors import Job, ProcessExecutor
+import nudgecli.runs.batch_tasks, nudgecli.runs.study
+
+workers = int(sys.argv[1])
+start = time.perf_counter()
+pool = ProcessExecutor(workers)
+for k in range(workers):
+    pool.submit(Job(f"ready-{k}", os.getpid, ()))
+pids = {pool.next_result()[1] for _ in range(workers)}
+ready = time.perf_counter() - start
+pool.close()
+print(json.dumps({"ready_s": ready, "workers": len(pids)}))
+"""
+
 
 def figure_worker_ready(options: BenchOptions) -> dict[str, Any]:
     """A fresh Python importing what a study's and a batch's tasks need: a spawned worker's start-up."""
     times = {kind: best_child_time(["-c", f"import {module}"], options.study_repeats)
              for kind, module in WORKER_MODULES.items()}
     worst = max(times.values())
-    return row("worker ready (fresh process, task imports)", worst, None,
+    return row("worker ready (fresh process: dask, spawn)", worst, None,
                f"<= {format_seconds(WORKER_READY_TARGET_S)}", worst <= WORKER_READY_TARGET_S,
                "; ".join(f"{kind} tasks ({WORKER_MODULES[kind]}) {format_seconds(t)}"
                           for kind, t in times.items())
                + f"; interpreter start-up included; best of {max(1, options.study_repeats)}")
+
+
+def figure_pool_ready(options: BenchOptions) -> dict[str, Any]:
+    """The local worker pool of a command: from starting its workers until every one has answered
+    a first task (they are forked from the command, so they start with its imports)."""
+    workers = max(2, available_cores())
+    best, report = float("inf"), {}
+    for _ in range(max(1, options.study_repeats)):
+        _, report = run_child_script(_POOL_READY_SCRIPT, [str(workers)], "pool start-up")
+        best = min(best, float(report["ready_s"]))
+    return row("worker ready (local pool, forked)", best, None, f"<= {format_seconds(WORKER_READY_TARGET_S)}",
+               best <= WORKER_READY_TARGET_S,
+               f"{report['workers']} pool workers started by a process that has loaded the task modules "
+               f"(as nudge simulate, run, replicate, power and sweep have), until each answered a first "
+               f"task; best of {max(1, options.study_repeats)}")

@@ -74,8 +74,11 @@ from nudgecli.store import provenance, utc_now, write_json_atomic, write_parquet
 if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only
     from nudgecli.report.plans import AnalysisPlan
 
-#: Wall seconds per simulated trial on one core (``nudge bench``: one participant of ``paper``,
-#: 48 trials in about 0.4-0.7 s on the 2-core development machine) -- for the size estimate only.
+#: CPU seconds per simulated trial end to end on one core -- for the size estimate only. Everything
+#: a study costs per trial besides its analysis: its layouts' value iteration, the trials, their
+#: metrics and the parts written (``nudge replicate paper -R 20 --workers 2`` on the 2-core
+#: development machine, 2026-11-25: 94 s of CPU for 8,640 trials and 20 analyses, 10-11 ms a trial;
+#: the trial loop alone is 4-6 ms of it).
 SECONDS_PER_TRIAL = 0.012
 #: Wall seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.4 s).
 SECONDS_PER_ANALYSIS = 0.4
