@@ -209,6 +209,47 @@ def test_ctrl_c_of_simulate_with_workers_exits_promptly(tmp_path):
     assert json.loads((out / "manifest.json").read_text())["status"] == "interrupted"
 
 
+
+class _ExitCalledError(Exception):
+    """What the test's stand-in for ``os._exit`` raises instead of ending pytest."""
+
+
+@pytest.mark.parametrize("code", [130, 1, 0])
+def test_entry_point_leaves_at_once_only_after_ctrl_c(monkeypatch, code):
+    # After Ctrl-C the interpreter's shutdown can wait for ever on a stopped pool worker's queue
+    # (CPython 3.11), so the program must leave with os._exit, its streams flushed first; any
+    # other exit goes through the normal shutdown.
+    from nudgecli import cli
+
+    events: list[str] = []
+
+    def fake_main() -> None:
+        print("written before the exit", end="")
+        raise SystemExit(code)
+
+    class Stream(io.StringIO):
+        def flush(self) -> None:
+            events.append("flush")
+            super().flush()
+
+    def fake_exit(status: int) -> None:
+        events.append(f"exit {status}")
+        raise _ExitCalledError
+
+    monkeypatch.setattr(cli, "main", fake_main)
+    monkeypatch.setattr(os, "_exit", fake_exit)
+    monkeypatch.setattr(sys, "stdout", Stream())
+    monkeypatch.setattr(sys, "stderr", Stream())
+    if code == 130:
+        with pytest.raises(_ExitCalledError):
+            cli.entry_point()
+        assert events == ["flush", "flush", "exit 130"]
+    else:
+        with pytest.raises(SystemExit) as raised:
+            cli.entry_point()
+        assert raised.value.code == code and events == []
+
+
 # --- 11: a service that is not a dask scheduler ------------------------------------------------
 
 
