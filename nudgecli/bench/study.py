@@ -213,7 +213,8 @@ def figure_pool_ready(options: BenchOptions) -> dict[str, Any]:
     """The local worker pool of a command: from starting its workers until every one has answered
     a first task (they are forked from the command, so they start with its imports)."""
     workers = max(2, available_cores())
-    best, report = float("inf"), {}
+    best: float = float("inf")
+    report: dict[str, Any] = {}
     for _ in range(max(1, options.study_repeats)):
         _, report = run_child_script(_POOL_READY_SCRIPT, [str(workers)], "pool start-up")
         best = min(best, float(report["ready_s"]))
