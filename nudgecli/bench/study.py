@@ -183,7 +183,8 @@ WORKER_MODULES = {"study": "nudgecli.runs.study", "batch": "nudgecli.runs.batch_
 _POOL_READY_SCRIPT = """
 import json, os, sys, time
 from nudgecli.runs.executors import Job, ProcessExecutor
-import nudgecli.runs.batch_tasks, nudgecli.runs.study
+from nudgecli.runs.study import process_context
+import nudgecli.runs.batch_tasks
 
 workers = int(sys.argv[1])
 start = time.perf_counter()
@@ -193,7 +194,7 @@ for k in range(workers):
 pids = {pool.next_result()[1] for _ in range(workers)}
 ready = time.perf_counter() - start
 pool.close()
-print(json.dumps({"ready_s": ready, "workers": len(pids)}))
+print(json.dumps({"ready_s": ready, "workers": len(pids), "start": process_context().get_start_method()}))
 """
 
 
@@ -211,15 +212,15 @@ def figure_worker_ready(options: BenchOptions) -> dict[str, Any]:
 
 def figure_pool_ready(options: BenchOptions) -> dict[str, Any]:
     """The local worker pool of a command: from starting its workers until every one has answered
-    a first task (they are forked from the command, so they start with its imports)."""
+    a first task (forked from the command where the platform forks, so they start with its imports)."""
     workers = max(2, available_cores())
     best: float = float("inf")
     report: dict[str, Any] = {}
     for _ in range(max(1, options.study_repeats)):
         _, report = run_child_script(_POOL_READY_SCRIPT, [str(workers)], "pool start-up")
         best = min(best, float(report["ready_s"]))
-    return row("worker ready (local pool, forked)", best, None, f"<= {format_seconds(WORKER_READY_TARGET_S)}",
-               best <= WORKER_READY_TARGET_S,
+    return row(f"worker ready (local pool, {report['start']})", best, None,
+               f"<= {format_seconds(WORKER_READY_TARGET_S)}", best <= WORKER_READY_TARGET_S,
                f"{report['workers']} pool workers started by a process that has loaded the task modules "
                f"(as nudge simulate, run, replicate, power and sweep have), until each answered a first "
                f"task; best of {max(1, options.study_repeats)}")
