@@ -7,6 +7,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -151,6 +152,23 @@ def test_replicate_throughput_counts_every_trial_of_the_batch(monkeypatch: pytes
     assert per_hour == pytest.approx(32 / row["time_s"] * 3600, rel=1e-3)
     assert row["ok"] == (per_hour >= 1_000_000)
     assert scale.figure_replicate_throughput in bench.select_figures("scale")
+    assert list(tmp_path.iterdir()) == []
+
+
+
+def test_a_scale_batch_runs_in_a_child_of_its_own(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    # The batch runs in a fresh Python, so its forked workers carry none of what this process loaded
+    # for other figures: a worker started from here would hold this test process's pages.
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    ballast = np.ones(300 * 2**20 // 8)  # 300 MB resident here, which a worker forked from here would hold
+    options = common.BenchOptions(scale_studies=2)
+    row = scale.scale_figure("sweep", 2)(options)
+    _check_types(row)
+    assert row["what"] == "scale: 2 smoke studies, 2 worker(s)"
+    assert row["baseline_s"] == scale._SCALE_TIMES[("sweep", repr(options))]  # the 1-worker run
+    assert 0 < row["peak_mb"] < 300 and ballast.sum() == ballast.size
+    own, workers = scale._SCALE_CPU[("sweep", 2)]
+    assert 0 < own < workers and f"workers {workers:.2f} s" in row["note"]
     assert list(tmp_path.iterdir()) == []
 
 

@@ -13,7 +13,15 @@ import time
 from pathlib import Path
 from typing import Any
 
-from nudgecli.bench.common import BENCH_SEED, BenchOptions, Figure, available_cores, child_environment, row
+from nudgecli.bench.common import (
+    BENCH_SEED,
+    BenchOptions,
+    Figure,
+    available_cores,
+    child_environment,
+    row,
+    run_child_script,
+)
 from nudgecli.bench.targets import (
     DASK_RATIO_TARGET,
     SCALE_EFFICIENCY_TARGET,
@@ -25,7 +33,7 @@ from nudgecli.config import load_experiment
 _SCALE_TIMES: dict[tuple[str, str], float] = {}
 
 
-def _scale_batch(workload: str, options: BenchOptions) -> Any:
+def scale_batch(workload: str, options: BenchOptions) -> Any:
     """The batch of a scale workload: one ``paper`` study of ``scale_participants`` participants
     (``study``), or ``scale_studies`` replications of ``smoke`` (``sweep``: many small studies)."""
     from nudgecli.report.plans import load_plan
@@ -42,37 +50,51 @@ def _scale_batch(workload: str, options: BenchOptions) -> Any:
 
 
 _SCALE_PEAKS: dict[tuple[str, int], float | None] = {}
-#: (CPU seconds of this process, CPU seconds of the finished workers) of each timed run.
+#: (CPU seconds of the batch's own process, CPU seconds of its finished workers) of each timed run.
 _SCALE_CPU: dict[tuple[str, int], tuple[float, float]] = {}
 
+# Run inside the child Python of ``_time_batch``: one workload through ``run_batch`` as a command
+# runs it, then one JSON line with its wall time (imports excluded), the largest worker's peak
+# memory and the CPU seconds of the process and of its reaped workers. A child of its own, so that
+# what this process loaded for earlier figures (dask, earlier batches) is neither in the forked
+# workers' memory nor in the timing.
+_BATCH_SCRIPT = """
+import json, resource, sys, time
+from pathlib import Path
+from nudgecli.bench.common import BenchOptions
+from nudgecli.bench.scale import scale_batch
+from nudgecli.runs.batch import run_batch
 
-def _children_cpu_s() -> float:
-    """CPU seconds of this process's reaped children (0 where unknown)."""
-    try:
-        import resource
-    except ImportError:  # pragma: no cover - Windows
-        return 0.0
-    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return usage.ru_utime + usage.ru_stime
+workload, folder, workers, scheduler, experiment, participants, studies = sys.argv[1:8]
+options = BenchOptions(study_experiment=experiment, scale_participants=int(participants),
+                       scale_studies=int(studies))
+batch = scale_batch(workload, options)
+usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+children = usage.ru_utime + usage.ru_stime
+start, own = time.perf_counter(), time.process_time()
+run = run_batch(batch, Path(folder), workers=int(workers), scheduler=scheduler or None, confirm=True)
+wall = time.perf_counter() - start
+usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(json.dumps({"wall_s": wall, "worker_peak_mb": run.worker_peak_mb,
+                  "cpu_s": time.process_time() - own,
+                  "workers_cpu_s": usage.ru_utime + usage.ru_stime - children}))
+"""
 
 
 def _time_batch(workload: str, options: BenchOptions, workers: int = 1,
                 scheduler: str | None = None) -> float:
-    """Wall seconds of the workload (the largest worker's peak memory goes to ``_SCALE_PEAKS``)."""
-    from nudgecli.runs.batch import run_batch
-
-    batch = _scale_batch(workload, options)
+    """Wall seconds of the workload in a child Python (the largest worker's peak memory goes to
+    ``_SCALE_PEAKS``, the CPU split to ``_SCALE_CPU``)."""
     folder = Path(tempfile.mkdtemp(prefix="nudge-bench-scale-"))
     try:
-        children = _children_cpu_s()
-        start, own = time.perf_counter(), time.process_time()
-        run = run_batch(batch, folder / "batch", workers=workers, scheduler=scheduler, confirm=True)
-        elapsed = time.perf_counter() - start
-        _SCALE_PEAKS[(workload, workers)] = run.worker_peak_mb
-        _SCALE_CPU[(workload, workers)] = (time.process_time() - own, _children_cpu_s() - children)
-        return elapsed
+        _, report = run_child_script(_BATCH_SCRIPT, [
+            workload, str(folder / "batch"), str(workers), scheduler or "", options.study_experiment,
+            str(options.scale_participants), str(options.scale_studies)], f"{workload} batch")
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+    _SCALE_PEAKS[(workload, workers)] = report["worker_peak_mb"]
+    _SCALE_CPU[(workload, workers)] = (float(report["cpu_s"]), float(report["workers_cpu_s"]))
+    return float(report["wall_s"])
 
 
 def _serial_time(workload: str, options: BenchOptions) -> float:
@@ -100,7 +122,7 @@ def scale_figure(workload: str, workers: int) -> Figure:
         karp_flatt = (1 / (serial / elapsed) - 1 / workers) / (1 - 1 / workers) if workers > 1 else 0.0
         target = SCALE_EFFICIENCY_TARGET[workload]
         parent_cpu, worker_cpu = _SCALE_CPU.get((workload, workers), (math.nan, math.nan))
-        cpu = (f"; CPU: this process {parent_cpu:.2f} s, workers {worker_cpu:.2f} s (serial share "
+        cpu = (f"; CPU: the batch's process {parent_cpu:.2f} s, workers {worker_cpu:.2f} s (serial share "
                f"{parent_cpu / (parent_cpu + worker_cpu):.1%})" if workers > 1 else "")
         peak = _SCALE_PEAKS.get((workload, workers)) if workers > 1 else None
         ok = efficiency >= target and (peak is None or peak <= WORKER_MEMORY_TARGET_MB)
