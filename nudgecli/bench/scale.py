@@ -55,25 +55,35 @@ _SCALE_CPU: dict[tuple[str, int], tuple[float, float]] = {}
 
 # Run inside the child Python of ``_time_batch``: one workload through ``run_batch`` as a command
 # runs it, then one JSON line with its wall time (imports excluded), the largest worker's peak
-# memory and the CPU seconds of the process and of its reaped workers. A child of its own, so that
+# memory and the CPU seconds of the process and of its reaped workers (on dask: a local cluster
+# started before the clock starts). A child of its own, so that
 # what this process loaded for earlier figures (dask, earlier batches) is neither in the forked
 # workers' memory nor in the timing.
 _BATCH_SCRIPT = """
-import json, resource, sys, time
+import contextlib, json, resource, sys, time
 from pathlib import Path
 from nudgecli.bench.common import BenchOptions
-from nudgecli.bench.scale import scale_batch
+from nudgecli.bench.scale import import_batch, scale_batch
 from nudgecli.runs.batch import run_batch
 
-workload, folder, workers, scheduler, experiment, participants, studies = sys.argv[1:8]
+workload, folder, workers, on_dask, experiment, participants, studies = sys.argv[1:8]
 options = BenchOptions(study_experiment=experiment, scale_participants=int(participants),
                        scale_studies=int(studies))
 batch = scale_batch(workload, options)
+scheduler, stack = None, contextlib.ExitStack()
+if on_dask == "dask":
+    # a local cluster of single-thread worker processes, started and warmed before the clock starts
+    from dask.distributed import Client, LocalCluster
+    cluster = stack.enter_context(LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
+                                               dashboard_address=":0", silence_logs=40))
+    stack.enter_context(Client(cluster)).run(import_batch)
+    scheduler = cluster.scheduler_address
 usage = resource.getrusage(resource.RUSAGE_CHILDREN)
 children = usage.ru_utime + usage.ru_stime
 start, own = time.perf_counter(), time.process_time()
-run = run_batch(batch, Path(folder), workers=int(workers), scheduler=scheduler or None, confirm=True)
-wall = time.perf_counter() - start
+with stack:
+    run = run_batch(batch, Path(folder), workers=int(workers), scheduler=scheduler, confirm=True)
+    wall = time.perf_counter() - start
 usage = resource.getrusage(resource.RUSAGE_CHILDREN)
 print(json.dumps({"wall_s": wall, "worker_peak_mb": run.worker_peak_mb,
                   "cpu_s": time.process_time() - own,
@@ -81,19 +91,21 @@ print(json.dumps({"wall_s": wall, "worker_peak_mb": run.worker_peak_mb,
 """
 
 
-def _time_batch(workload: str, options: BenchOptions, workers: int = 1,
-                scheduler: str | None = None) -> float:
-    """Wall seconds of the workload in a child Python (the largest worker's peak memory goes to
-    ``_SCALE_PEAKS``, the CPU split to ``_SCALE_CPU``)."""
+def _time_batch(workload: str, options: BenchOptions, workers: int = 1, dask: bool = False) -> float:
+    """Wall seconds of the workload in a child Python, on ``workers`` local processes or on a local
+    dask cluster of as many (the largest worker's peak memory goes to ``_SCALE_PEAKS``, the CPU
+    split to ``_SCALE_CPU``)."""
     folder = Path(tempfile.mkdtemp(prefix="nudge-bench-scale-"))
     try:
         _, report = run_child_script(_BATCH_SCRIPT, [
-            workload, str(folder / "batch"), str(workers), scheduler or "", options.study_experiment,
-            str(options.scale_participants), str(options.scale_studies)], f"{workload} batch")
+            workload, str(folder / "batch"), str(workers), "dask" if dask else "pool",
+            options.study_experiment, str(options.scale_participants), str(options.scale_studies)],
+            f"{workload} batch")
     finally:
         shutil.rmtree(folder, ignore_errors=True)
-    _SCALE_PEAKS[(workload, workers)] = report["worker_peak_mb"]
-    _SCALE_CPU[(workload, workers)] = (float(report["cpu_s"]), float(report["workers_cpu_s"]))
+    if not dask:  # a dask run's workers are not this child's: neither their peak nor their CPU is known here
+        _SCALE_PEAKS[(workload, workers)] = report["worker_peak_mb"]
+        _SCALE_CPU[(workload, workers)] = (float(report["cpu_s"]), float(report["workers_cpu_s"]))
     return float(report["wall_s"])
 
 
@@ -143,18 +155,13 @@ def scale_dask_figure(workload: str) -> Figure:
 
     def figure(options: BenchOptions) -> dict[str, Any]:
         try:
-            from dask.distributed import LocalCluster
+            import dask.distributed  # noqa: F401
         except ImportError:  # pragma: no cover - the optional extra
             return row(f"scale: {_workload_text(workload, options)}, dask", float("nan"), None,
                        f"<= {DASK_RATIO_TARGET}x the process pool", False,
                        "dask.distributed is not installed (pip install 'nudgecli[cluster]')")
         cores = available_cores()
-        from dask.distributed import Client
-
-        with LocalCluster(n_workers=cores, threads_per_worker=1, processes=True, dashboard_address=":0",
-                          silence_logs=40) as cluster, Client(cluster) as client:
-            client.run(_import_batch)  # start-up (imports in every worker) is not part of the figure
-            elapsed = _time_batch(workload, options, scheduler=cluster.scheduler_address)
+        elapsed = _time_batch(workload, options, workers=cores, dask=True)
         pool = _SCALE_TIMES.get((workload + f":{cores}", repr(options)))
         if pool is None:
             pool = (_time_batch(workload, options, workers=cores) if cores > 1
@@ -171,7 +178,8 @@ def scale_dask_figure(workload: str) -> Figure:
     return figure
 
 
-def _import_batch() -> None:
+def import_batch() -> None:
+    """What a dask worker imports before its first task (run on every worker before the clock starts)."""
     import nudgecli.runs.batch  # noqa: F401
 
 
