@@ -273,3 +273,13 @@ def test_the_stall_time_is_an_experiment_key() -> None:
     assert BehaviourSettings.from_config(load_experiment("paper")).stall_steps == 10  # 1 s at 10 Hz
     off = load_experiment("paper", ["behaviour.stall_s=0"])
     assert BehaviourSettings.from_config(off).stall_steps == 0
+
+
+def test_the_longest_hold_defaults_to_the_behaviour_sections_seconds_at_any_step_length() -> None:
+    # one rule for seconds -> steps, shared with from_config; a written-out 30 held only at 10 Hz
+    from nudgecli.config_people import BehaviourSection
+
+    seconds = BehaviourSection().max_hold_s
+    for dt in (0.1, 0.05, 0.2):
+        assert BehaviourSettings(dt=dt).max_hold_steps == max(1, round(seconds / dt))
+    assert BehaviourSettings(dt=0.1, max_hold_steps=7).max_hold_steps == 7

@@ -108,7 +108,8 @@ class BehaviourSettings:
     release_when_dragged: bool = _BEHAVIOUR.release_when_dragged
     after_autonomy: Literal["replan", "resume"] = _BEHAVIOUR.after_autonomy
     stall_steps: int = 0
-    max_hold_steps: int = 30
+    #: ``[behaviour] max_hold_s`` in steps (derived from its default and ``dt`` when not given).
+    max_hold_steps: int = -1
     fine_position_tolerance: float = _BEHAVIOUR.fine_position_tolerance
     fine_heading_tolerance: float = _BEHAVIOUR.fine_heading_tolerance
     rest_jitter: float = _BEHAVIOUR.rest_jitter
@@ -124,6 +125,10 @@ class BehaviourSettings:
     planning_jitter: float = _BEHAVIOUR.planning_jitter
     hold_on_jitter: float = _BEHAVIOUR.hold_on_jitter
 
+    def __post_init__(self) -> None:
+        if self.max_hold_steps < 0:  # frozen: the derived default is set once, here
+            object.__setattr__(self, "max_hold_steps", hold_steps(_BEHAVIOUR.max_hold_s, self.dt))
+
     @classmethod
     def from_config(cls, config: ExperimentConfig) -> BehaviourSettings:
         b = config.behaviour
@@ -131,7 +136,7 @@ class BehaviourSettings:
         return cls(dt=dt, decisions=b.decisions, lean_on_blending=b.lean_on_blending,
                    release_when_dragged=b.release_when_dragged,
                    after_autonomy=b.after_autonomy, stall_steps=round(b.stall_s / dt),
-                   max_hold_steps=max(1, round(b.max_hold_s / dt)),
+                   max_hold_steps=hold_steps(b.max_hold_s, dt),
                    fine_position_tolerance=b.fine_position_tolerance,
                    fine_heading_tolerance=b.fine_heading_tolerance, rest_jitter=b.rest_jitter,
                    operate_jitter=b.operate_jitter, pause_jitter=b.pause_jitter,
@@ -139,6 +144,11 @@ class BehaviourSettings:
                    planning=b.planning, hard_pulses=b.hard_pulses, hold_on=b.hold_on,
                    pause_tail=b.pause_tail, notice_mode_errors=b.notice_mode_errors,
                    planning_jitter=b.planning_jitter, hold_on_jitter=b.hold_on_jitter)
+
+
+def hold_steps(max_hold_s: float, dt: float) -> int:
+    """The steps of the longest hold of one command (at least one)."""
+    return max(1, round(max_hold_s / dt))
 
 
 def move_action(mode: int, error: float) -> int:
