@@ -10,9 +10,17 @@ import numpy as np
 import pandas as pd
 import pytest
 import scipy.stats
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from nudgecli.report.cluster_bootstrap import _weighted_medians, bootstrap_median_differences
-from nudgecli.report.participant_tests import kendalls_w, participant_level_test, rank_biserial
+from nudgecli.report.participant_tests import (
+    kendalls_w,
+    participant_level_test,
+    rank_biserial,
+    signed_rank_sum,
+    signed_rank_test,
+)
 from nudgecli.report.stats import (
     ComparisonOptions,
     conover,
@@ -348,3 +356,52 @@ def test_tidy_table_round_trips_every_number_of_the_printed_table(conditions: li
     for row in per_condition.to_dict("records"):
         for key in ("n", "median", "q1", "q3", "mean"):
             assert _same(row[key], entries[row["metric"]][key][row["condition"]]), key
+
+
+# --- Wilcoxon's signed-rank test with its exact sign-flip test vectorised --------------------------
+
+
+def _brute_force_r_plus(d: list[float]) -> float:
+    """R+ by loops: each positive difference's average rank among the nonzero |d| (a hand rule)."""
+    magnitudes = [abs(v) for v in d if v != 0]
+    total = 0.0
+    for v in d:
+        if v > 0:
+            below = sum(1 for m in magnitudes if m < abs(v))
+            tied = sum(1 for m in magnitudes if m == abs(v))
+            total += below + (tied + 1) / 2  # ranks below+1 .. below+tied, averaged
+    return total
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.integers(-3, 3), min_size=1, max_size=12))
+def test_signed_rank_sum_is_the_hand_rule(d: list[int]) -> None:
+    values = [float(v) for v in d]
+    assert signed_rank_sum(np.array(values)) == _brute_force_r_plus(values)
+    # every row of a stack of sign flips at once
+    flips = np.array([values, [-v for v in values]])
+    assert signed_rank_sum(flips, axis=-1).tolist() == [_brute_force_r_plus(values),
+                                                        _brute_force_r_plus([-v for v in values])]
+
+
+@settings(max_examples=120, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 4), st.integers(0, 4)), min_size=1, max_size=9),
+       st.sampled_from([1.0, 0.5, 0.1]))
+def test_signed_rank_test_is_scipys_wilcoxon_bit_for_bit(pairs_: list[tuple[int, int]], scale: float) -> None:
+    # small integer scores: zeros and ties in most draws (scipy's exact sign-flip test), none in some
+    x = np.array([a * scale for a, _ in pairs_])
+    y = np.array([b * scale for _, b in pairs_])
+    assume(not np.all(x == y))  # the callers leave that case out (scipy's test is undefined there)
+    expected = scipy.stats.wilcoxon(x, y)
+    assert np.array_equal(signed_rank_test(x, y), (float(expected.statistic), float(expected.pvalue)),
+                          equal_nan=True)
+
+
+@pytest.mark.parametrize("n", [13, 14])
+def test_signed_rank_test_at_scipys_size_limit_of_the_sign_flip_test(n: int) -> None:
+    # 13 differences with ties: the sign-flip test (2^13 flips); 14: scipy's normal approximation
+    x = np.arange(n, dtype=float) % 5
+    y = np.zeros(n)
+    y[::3] = 1.0
+    expected = scipy.stats.wilcoxon(x, y)
+    assert signed_rank_test(x, y) == (float(expected.statistic), float(expected.pvalue))
