@@ -241,6 +241,14 @@ def test_the_entropy_gate_is_written_once() -> None:
     assert {"nudgecli/model/assistance.py", "nudgecli/sim/protocol.py"} <= modules_using("entropy_gated")
 
 
+
+def test_the_signed_rank_test_has_one_owner() -> None:
+    # every participant-level Wilcoxon goes through participant_tests.signed_rank_test, so none
+    # runs scipy's one-flip-at-a-time permutation test or drifts from it
+    assert modules_using("wilcoxon") == {"nudgecli/report/participant_tests.py"}
+    assert modules_using("signed_rank_test") == {"nudgecli/report/participant_tests.py"}
+
+
 #: Numeric option defaults that belong to the command line alone (no function behind restates them).
 CLI_ONLY_DEFAULTS = {"--workers": 1, "--participants": 100}
 
