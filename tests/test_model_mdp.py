@@ -6,11 +6,22 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from nudgecli.config import load_experiment
 from nudgecli.errors import ProbabilityTableError
 from nudgecli.model import mdp
 from nudgecli.model.interface import MOVE_N, MOVE_P, TO_MODE_L, TO_MODE_R
-from nudgecli.model.world import N_HEADINGS, N_STATES, all_state_coordinates, state_index
+from nudgecli.model.world import (
+    CORNERS,
+    N_HEADINGS,
+    N_STATES,
+    all_state_coordinates,
+    sample_layout,
+    state_index,
+)
+from nudgecli.sim.study import build_layouts, solve_layouts
 
 GOAL_CELLS = np.array([[3, 1], [1, 2], [0, 0], [5, 0]])
 GOAL_HEADINGS = np.array([6, 7, 3, 0])
@@ -193,11 +204,11 @@ def test_greedy_policy_is_optimal(transitions: mdp.GoalTransitions,
     optimal = mdp.value_iteration(transitions.next_state, rewards, span_epsilon=1e-12)[0]
     np.testing.assert_allclose(_evaluate_policy(transitions.next_state, rewards, policy, 0.96), optimal,
                                atol=1e-6)
-    # solve_layout returns exactly the greedy policy of Q
+    # solve_layout returns exactly the greedy policy of the span rule's Q, from V* (goal_fixed_point)
     layout = mdp.solve_layout(GOAL_CELLS, GOAL_HEADINGS)
     np.testing.assert_array_equal(layout.policy, policy)
-    np.testing.assert_array_equal(layout.values, values)
-    assert layout.iterations == iterations
+    np.testing.assert_allclose(layout.values, optimal, rtol=0, atol=1e-9)
+    assert layout.iterations < 40 < iterations
 
 
 def test_ties_break_by_action_order(solved: tuple[np.ndarray, np.ndarray, int]) -> None:
@@ -286,3 +297,95 @@ def test_value_iteration_rejects_bad_input() -> None:
     bad[0, 0, 1] = 6
     with pytest.raises(ValueError, match="indices"):
         mdp.value_iteration(bad, rew)
+
+
+# --- the fixed point V* and the span rule's policy ----------------------------------------------
+
+def _span_rule_policy(goal_cells: np.ndarray, goal_headings: np.ndarray,
+                      rewards: mdp.MDPRewards | None = None, gamma: float = 0.96) -> np.ndarray:
+    tr = mdp.build_transitions(goal_cells, goal_headings)
+    return mdp.greedy_policy(mdp.value_iteration(tr.next_state, tr.rewards(rewards), gamma=gamma)[1])
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(CORNERS), st.integers(1, 4), st.integers(0, 2))
+def test_solve_layout_has_the_span_rules_policy(seed: int, corner: str, n_goals: int, mode: int) -> None:
+    # goal_fixed_point's argument, checked where the study draws its layouts (3,000 more drawn
+    # offline agreed): the policy from V* is the policy of value iteration to the span rule
+    layout = sample_layout(np.random.default_rng(seed), corner, n_goals, mode)
+    solved = mdp.solve_layout(layout.goal_cells, layout.goal_headings)
+    np.testing.assert_array_equal(solved.policy, _span_rule_policy(layout.goal_cells, layout.goal_headings))
+
+
+def test_goal_fixed_point_is_the_bellman_fixed_point(transitions: mdp.GoalTransitions,
+                                                     solved: tuple[np.ndarray, np.ndarray, int]) -> None:
+    result = mdp.goal_fixed_point(transitions)
+    assert result is not None
+    values, q, sweeps = result
+    assert sweeps < 40
+    # one more backup changes no bit, and V is the maximum of the returned Q
+    rewards = transitions.rewards()
+    goals = np.indices(transitions.next_state.shape)[0]
+    backed_up = (rewards + 0.96 * values[goals, transitions.next_state]).max(axis=1)
+    np.testing.assert_array_equal(backed_up, values)
+    np.testing.assert_array_equal(values, q.max(axis=-1))
+    # V*: value iteration to a far tighter tolerance, and the greedy policy's own value
+    optimal = mdp.value_iteration(transitions.next_state, rewards, span_epsilon=1e-12)[0]
+    np.testing.assert_allclose(values, optimal, rtol=0, atol=1e-9)
+    policy = mdp.greedy_policy(q)
+    np.testing.assert_allclose(_evaluate_policy(transitions.next_state, rewards, policy, 0.96), values,
+                               rtol=0, atol=1e-9)
+    # the span rule's V is V* less the goal's reward after its last sweep, c_K = 100 g^K / (1 - g)
+    span_values, _, k = solved
+    reachable = values > 1.0
+    np.testing.assert_allclose(values[reachable] - span_values[reachable], 100 * 0.96 ** k / 0.04,
+                               rtol=1e-6)
+
+
+def test_self_loop_value_is_the_float_fixed_point() -> None:
+    for reward, gamma in ((100.0, 0.96), (100.0, 0.9), (-3.0, 0.5), (0.0, 0.96)):
+        value = mdp.self_loop_value(reward, gamma)
+        assert value is not None
+        assert reward + gamma * value == value
+        assert value == pytest.approx(reward / (1 - gamma), rel=1e-12)
+
+
+# Cell (0, 0) is walled in by goals at (1, 0) and (0, 1) and the grid's corner: its states cannot
+# reach goal 2 (they turn in place for ever), so the argument does not cover them.
+WALLED_IN = (np.array([[1, 0], [0, 1], [6, 6]]), np.array([0, 3, 5]))
+
+
+@pytest.mark.parametrize(("goal_cells", "goal_headings", "rewards", "why"), [
+    (*WALLED_IN, None, "a walled-in cell"),
+    (GOAL_CELLS, GOAL_HEADINGS, mdp.MDPRewards(bump=1.0), "a bump that pays"),
+    (GOAL_CELLS, GOAL_HEADINGS, mdp.MDPRewards(goal=-1.0), "a goal that costs"),
+    # a fixed point, but far states are worth less than 0 (about -62)
+    (GOAL_CELLS, GOAL_HEADINGS, mdp.MDPRewards(goal=10.0, mode_switch=-10.0), "far states below 0"),
+])
+def test_goal_fixed_point_declines_where_its_argument_does_not_hold(
+        goal_cells: np.ndarray, goal_headings: np.ndarray, rewards: mdp.MDPRewards | None, why: str) -> None:
+    transitions = mdp.build_transitions(goal_cells, goal_headings)
+    assert mdp.goal_fixed_point(transitions, rewards) is None, why
+    # solve_layout then runs the span rule itself: its values, sweeps and policy
+    values, q, iterations = mdp.value_iteration(transitions.next_state, transitions.rewards(rewards))
+    layout = mdp.solve_layout(goal_cells, goal_headings, rewards)
+    np.testing.assert_array_equal(layout.values, values)
+    np.testing.assert_array_equal(layout.policy, mdp.greedy_policy(q))
+    assert layout.iterations == iterations
+
+
+def test_goal_fixed_point_gives_up_after_max_sweeps(transitions: mdp.GoalTransitions) -> None:
+    sweeps = mdp.goal_fixed_point(transitions)[2]  # type: ignore[index]
+    assert mdp.goal_fixed_point(transitions, max_sweeps=sweeps - 1) is None
+    assert mdp.goal_fixed_point(transitions, max_sweeps=sweeps) is not None
+
+
+def test_the_paper_studys_layouts_get_the_span_rules_policy() -> None:
+    config = load_experiment("paper")
+    layouts = build_layouts(config, config.experiment.seed)
+    solved = solve_layouts(config, layouts)
+    # 47 from V*; one walls cell (0, 7) in with goals at (0, 8), (1, 7) and (0, 6): the span rule
+    assert sorted(item.iterations for item in solved)[-2:] == [26, 307]
+    for item, layout in zip(layouts, solved, strict=True):
+        policy = _span_rule_policy(item.layout.goal_cells, item.layout.goal_headings)
+        np.testing.assert_array_equal(layout.policy, policy)

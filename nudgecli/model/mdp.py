@@ -15,12 +15,16 @@ One deterministic MDP per goal (DESIGN 2.3, study notes section 3):
 
 Transitions are stored as a next-state index table ``(G, A, S)`` and an outcome-kind table of
 the same shape, so value iteration is a gather per sweep rather than a matrix product, and all
-goals of a layout are solved together in one ``(G, S)`` computation.
+goals of a layout are solved together in one ``(G, S)`` computation. The study's rule is value
+iteration to a span tolerance (:func:`value_iteration`); :func:`solve_layout` gets the same greedy
+policy from the exact fixed point ``V*`` (:func:`goal_fixed_point`) wherever the two provably
+agree, in about 20 sweeps instead of 305.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -182,13 +186,14 @@ class SolvedLayout:
     Attributes
     ----------
     policy
-        ``(G, S)`` int greedy action per goal and state.
+        ``(G, S)`` int greedy action per goal and state: the policy of value iteration's span rule.
     values
-        ``(G, S)`` state values ``V``.
+        ``(G, S)`` state values ``V``: ``V*`` where :func:`goal_fixed_point` applies, else the span
+        rule's last sweep.
     p_a_given_sg
         ``(G, S, A)`` ε-greedy ``p(a | s, g)`` (Eq. 1).
     iterations
-        Number of value-iteration sweeps until the span criterion held.
+        Number of sweeps done (to the fixed point, or until the span criterion held).
     actions
         ``p_a_given_sg`` checked and as its distinct rows (derived; computed here once per layout,
         not once per participant's model of it).
@@ -283,6 +288,36 @@ def build_transitions(goal_cells: np.ndarray, goal_headings: np.ndarray) -> Goal
     return GoalTransitions(next_state=next_state, outcome=outcome)
 
 
+@dataclass(frozen=True)
+class _BellmanSweep:
+    """One Bellman backup of batched deterministic MDPs: ``Q = R + gamma V[next]``, ``V' = max_a Q``.
+
+    The one owner of the sweep that :func:`value_iteration` and :func:`goal_fixed_point` repeat.
+    """
+
+    flat_next: np.ndarray  # (G * A * S,) gather indices into V.ravel(): goal g's states start at g * S
+    reward: np.ndarray  # (G * A * S,)
+    shape: tuple[int, int, int]  # (G, A, S)
+    gamma: float
+
+    @classmethod
+    def of(cls, next_state: np.ndarray, reward: np.ndarray, gamma: float) -> _BellmanSweep:
+        n_goals, n_actions, n_states = next_state.shape
+        flat_next = (next_state + (np.arange(n_goals) * n_states)[:, None, None]).reshape(-1)
+        return cls(flat_next, np.asarray(reward, dtype=float).reshape(-1), (n_goals, n_actions, n_states),
+                   gamma)
+
+    def __call__(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(Q (G, A, S), V' (G * S,))`` from the flat values ``V (G * S,)``."""
+        # gamma * V[next] == (gamma * V)[next] elementwise, and scaling the G*S values before
+        # the gather is A times less work than scaling the gathered G*A*S. The indices were checked
+        # by the caller; mode="clip" skips numpy's per-element bounds error path (about 20% faster).
+        q_flat = np.take(self.gamma * values, self.flat_next, mode="clip")
+        q_flat += self.reward
+        q = q_flat.reshape(self.shape)
+        return q, q.max(axis=1).reshape(-1)
+
+
 def value_iteration(next_state: np.ndarray, reward: np.ndarray, gamma: float = DEFAULT_GAMMA,
                     span_epsilon: float = DEFAULT_SPAN_EPSILON,
                     max_iterations: int = 100_000) -> tuple[np.ndarray, np.ndarray, int]:
@@ -322,30 +357,122 @@ def value_iteration(next_state: np.ndarray, reward: np.ndarray, gamma: float = D
         raise ValueError(f"next_state and reward must both be (G, A, S); got {nxt.shape} and {rew.shape}")
     if not 0.0 < gamma < 1.0:
         raise ValueError(f"gamma must be in (0, 1), got {gamma}")
-    n_goals, n_actions, n_states = nxt.shape
+    n_goals, _, n_states = nxt.shape
     if nxt.size and (nxt.min() < 0 or nxt.max() >= n_states):
         raise ValueError(f"next_state indices must be in 0..{n_states - 1}")
-    # Flat gather indices into V.ravel(): goal g's states start at g * S.
-    flat_next = (nxt + (np.arange(n_goals) * n_states)[:, None, None]).reshape(-1)
+    sweep = _BellmanSweep.of(nxt, rew, gamma)
     threshold = span_epsilon * (1.0 - gamma) / gamma
     values = np.zeros(n_goals * n_states)
-    rew_flat = rew.reshape(-1)
     q = rew.copy()
     iterations = 0
     while iterations < max_iterations:
         iterations += 1
-        # gamma * V[next] == (gamma * V)[next] elementwise, and scaling the G*S values before
-        # the gather is A times less work than scaling the gathered G*A*S. The indices were checked
-        # above; mode="clip" skips numpy's per-element bounds error path (about 20% faster here).
-        q_flat = np.take(gamma * values, flat_next, mode="clip")
-        q_flat += rew_flat
-        q = q_flat.reshape(n_goals, n_actions, n_states)
-        new_values = q.max(axis=1).reshape(-1)
+        q, new_values = sweep(values)
         change = new_values - values
         values = new_values
         if change.max() - change.min() < threshold:
             break
     return values.reshape(n_goals, n_states), np.ascontiguousarray(q.transpose(0, 2, 1)), iterations
+
+
+#: Sweeps :func:`goal_fixed_point` makes before it leaves a layout to :func:`value_iteration` (the
+#: study's layouts reach their fixed point in 18-26).
+FIXED_POINT_MAX_SWEEPS = 100
+
+
+@lru_cache(maxsize=32)
+def self_loop_value(reward: float, gamma: float, max_steps: int = 100_000) -> float | None:
+    """The float fixed point of ``v = reward + gamma v`` (an absorbing state's value), or ``None``.
+
+    Iterated from 0 as a sweep computes it, so a state pinned at this value keeps it bit for bit in
+    every sweep; ``None`` if the iteration has no fixed point within ``max_steps`` (a 2-cycle of
+    roundings).
+    """
+    value = 0.0
+    for _ in range(max_steps):
+        following = reward + gamma * value
+        if following == value:
+            return value
+        value = following
+    return None
+
+
+def goal_fixed_point(transitions: GoalTransitions, rewards: MDPRewards | None = None,
+                     gamma: float = DEFAULT_GAMMA, span_epsilon: float = DEFAULT_SPAN_EPSILON,
+                     max_sweeps: int = FIXED_POINT_MAX_SWEEPS) -> tuple[np.ndarray, np.ndarray, int] | None:
+    """The goal MDPs' optimal values ``V*``, where their greedy policy is :func:`value_iteration`'s.
+
+    The span rule's policy is the greedy policy of its last sweep's ``Q_K``. From ``V_0 = 0``,
+    ``V_k(s)`` is the best ``k``-step return. When the goal pays and nothing else does (``goal > 0
+    >= move, mode_switch, bump``), a path that does not reach the goal returns at most 0, so a
+    state ``s`` whose optimal path reaches the goal within ``k`` steps and whose ``V*(s)`` exceeds
+    ``c_k = goal gamma^k / (1 - gamma)`` (the goal's reward after step ``k``) has
+    ``V_k(s) = V*(s) - c_k``: the same offset for every such state. Moves and mode switches are
+    reversible, so every successor of such a state is one too, and ``Q_K(s, .) = Q*(s, .) - c_K``
+    for all its actions: the same greedy actions and ties. Inside another goal's cell every action
+    ties in both. The span rule stops only once ``goal gamma^(K-1)`` (a settled state's change)
+    is below the threshold, i.e. ``c_(K-1) < span_epsilon / gamma``, against an obstacle
+    interior's change of 0, or once every state has settled (one goal: all changes equal). So
+    when every state outside the goal poses and obstacle interiors has ``V*(s) >
+    span_epsilon / gamma``, the two policies agree; the test suite holds them together on
+    thousands of layouts.
+
+    ``V*`` is found by the same sweep from values below every return, the goal poses and obstacle
+    interiors pinned at their self-loop values (:func:`self_loop_value`), until a sweep changes no
+    value bit (about 20 sweeps on the study's layouts, against the span rule's 305: states are
+    exact once their path to the goal fits in the sweeps, instead of a geometric approach).
+
+    Parameters
+    ----------
+    transitions
+        The layout's goal MDPs (:func:`build_transitions`).
+    rewards
+        Reward values (study defaults when ``None``).
+    gamma
+        Discount factor in ``(0, 1)``.
+    span_epsilon
+        The span rule's ``epsilon`` whose policy is to be matched.
+    max_sweeps
+        Sweeps to reach the fixed point before giving up.
+
+    Returns
+    -------
+    tuple or None
+        ``(V (G, S), Q (G, S, A), sweeps)`` as :func:`value_iteration` returns them, with
+        ``V == Q.max(-1)`` exactly; ``None`` where the argument above does not apply: rewards of
+        another sign structure, a state that cannot reach its goal (a cell walled in by other
+        goals' cells and the grid's edge) or worth no more than ``span_epsilon / gamma``, or no
+        fixed point within ``max_sweeps``. The caller then runs :func:`value_iteration`.
+    """
+    r = rewards or MDPRewards()
+    if not (r.goal > 0.0 and max(r.move, r.mode_switch, r.bump) <= 0.0 and 0.0 < gamma < 1.0):
+        return None
+    goal_value = self_loop_value(r.goal, gamma)
+    inside_value = self_loop_value(r.inside_obstacle, gamma)
+    if goal_value is None or inside_value is None:
+        return None
+    kinds = transitions.outcome[:, 0, :]  # (G, S): absorbing and interior states are so for every action
+    at_goal = kinds == OUTCOME_GOAL_ABSORBING
+    inside = kinds == OUTCOME_INSIDE_OBSTACLE
+    n_goals, _, n_states = transitions.next_state.shape
+    start = np.full((n_goals, n_states), float(r.by_kind().min()) / (1.0 - gamma))  # below every return
+    start[at_goal] = goal_value
+    start[inside] = inside_value
+    values = start.reshape(-1)
+    sweep = _BellmanSweep.of(transitions.next_state, transitions.rewards(r), gamma)
+    sweeps = 0
+    while True:
+        sweeps += 1
+        q, new_values = sweep(values)
+        if np.array_equal(new_values, values):  # no bit changed: the sweep's fixed point
+            break
+        if sweeps >= max_sweeps:
+            return None
+        values = new_values
+    free = ~(at_goal | inside).reshape(-1)
+    if not (values[free] > span_epsilon / gamma).all():
+        return None
+    return values.reshape(n_goals, n_states), np.ascontiguousarray(q.transpose(0, 2, 1)), sweeps
 
 
 def greedy_policy(q_values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL) -> np.ndarray:
@@ -419,11 +546,16 @@ def solve_layout(goal_cells: np.ndarray, goal_headings: np.ndarray, rewards: MDP
     Returns
     -------
     SolvedLayout
-        ``policy (G, S)``, ``values (G, S)``, ``p_a_given_sg (G, S, A)`` and ``iterations``.
+        ``policy (G, S)``, ``values (G, S)``, ``p_a_given_sg (G, S, A)`` and ``iterations``. The
+        policy is the greedy policy of :func:`value_iteration` (the span rule); it is computed from
+        ``V*`` (:func:`goal_fixed_point`) wherever the two provably agree.
     """
     transitions = build_transitions(goal_cells, goal_headings)
-    values, q_values, iterations = value_iteration(transitions.next_state, transitions.rewards(rewards),
-                                                   gamma=gamma, span_epsilon=span_epsilon)
+    # V* where its greedy policy is provably the span rule's (about 15x fewer sweeps), else the rule
+    solution = (goal_fixed_point(transitions, rewards, gamma, span_epsilon)
+                or value_iteration(transitions.next_state, transitions.rewards(rewards), gamma=gamma,
+                                   span_epsilon=span_epsilon))
+    values, q_values, iterations = solution
     policy = greedy_policy(q_values)
     return SolvedLayout(policy=policy, values=values, p_a_given_sg=action_likelihood(policy, epsilon),
                         iterations=iterations)
