@@ -21,6 +21,7 @@ import pyarrow.parquet as pq
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
 from nudgecli.errors import NudgeError, RunFolderError
+from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import CONFIG, LAYOUTS, MANIFEST, PART_KINDS
 
 
@@ -237,7 +238,7 @@ class RunRecord:
         path = self.path / LAYOUTS
         if not path.is_file():
             raise RunFolderError(f"{self.path}: no {LAYOUTS}; the run folder is incomplete")
-        return pd.read_parquet(path)
+        return read_parquet(path)
 
     def resume_differences(self, manifest: Mapping[str, Any], config: ExperimentConfig, seed: int,
                            participants: int) -> list[str]:

@@ -50,6 +50,7 @@ import pyarrow.parquet as pq
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import DataError, RunFolderError, WriteError
+from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import (
     CONFIG,
     LAYOUTS,
@@ -423,8 +424,7 @@ class RunFolder(RunRecord):
             if missing:
                 raise DataError(f"{part} lacks the column(s) {', '.join(missing)}; it was written by "
                                 "another version of nudge: re-run `nudge simulate` with this version")
-            frames.append(pd.read_parquet(io.BytesIO(data), columns=list(columns) if columns is not None
-                                          else None))
+            frames.append(read_parquet(data, columns))
         return pd.concat(frames, ignore_index=True)
 
     def _no_parts_message(self, kind: str) -> str:

@@ -40,6 +40,7 @@ import pandas as pd
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import LockError, RunFolderError
 from nudgecli.locks import acquire_lock_file, describe_holder, read_holder, run_lock
+from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import CONFIG, LOCK, QUESTIONNAIRES_CSV
 from nudgecli.sim.study import StudyLayout, layouts_frame
 from nudgecli.store import (
@@ -292,7 +293,7 @@ class LiveFolder:
             if not path.is_file():
                 tables.append(None)
                 continue
-            frame = pd.read_parquet(path)
+            frame = read_parquet(path)
             tables.append(frame[frame["trial"].isin(completed)].reset_index(drop=True))
         return tables[0], tables[1]
 

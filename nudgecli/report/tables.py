@@ -23,6 +23,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from nudgecli.errors import DataError, did_you_mean
+from nudgecli.parquet_reader import read_parquet
 from nudgecli.report.metrics import ID_COLUMNS, METRIC_NAMES
 
 #: Columns of a metrics table that describe the trial rather than measure it.
@@ -55,7 +56,7 @@ def read_metrics_table(path: str | Path) -> pd.DataFrame:
             table = pd.read_csv(path, sep=delimiter, dtype={"condition": "category"})
         else:
             check_unique_columns(pq.read_schema(path).names, path)
-            table = pd.read_parquet(path)
+            table = read_parquet(path)
     except pd.errors.EmptyDataError:
         raise DataError(f"{path} is empty; a metrics table needs a header (participant, condition, "
                         "metrics) and one row per trial") from None

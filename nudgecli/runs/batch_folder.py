@@ -18,6 +18,7 @@ from typing import Any
 import pandas as pd
 
 from nudgecli.errors import RunFolderError
+from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.run_folder_record import part_name
 from nudgecli.store import prepare_mode
@@ -55,7 +56,7 @@ def read_json(path: Path) -> dict[str, Any]:
 
 def read_study_metrics(folder: Path, study: str, participants: int) -> pd.DataFrame:
     """The per-trial metrics of a study's first ``participants``, in participant order."""
-    frames = [pd.read_parquet(task_part(folder, study, i)) for i in range(participants)]
+    frames = [read_parquet(task_part(folder, study, i)) for i in range(participants)]
     return pd.concat(frames, ignore_index=True)
 
 
