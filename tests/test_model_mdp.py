@@ -38,14 +38,18 @@ def solved() -> tuple[np.ndarray, np.ndarray, int]:
     return mdp.value_iteration(tr.next_state, tr.rewards())
 
 
-def brute_force_transition(g: int, i: int, j: int, h: int, m: int,
-                           a: int) -> tuple[tuple[int, int, int, int], str]:
+Pose = tuple[int, int, int, int]
+
+
+def brute_force_transition(g: int, i: int, j: int, h: int, m: int, a: int,
+                           goal_cells: np.ndarray = GOAL_CELLS,
+                           goal_headings: np.ndarray = GOAL_HEADINGS) -> tuple[Pose, str]:
     """The MDP rules of the study written out state by state, independently of the vectorised code."""
-    own = (int(GOAL_CELLS[g, 0]), int(GOAL_CELLS[g, 1]))
-    others = {(int(x), int(y)) for k, (x, y) in enumerate(GOAL_CELLS) if k != g}
+    own = (int(goal_cells[g, 0]), int(goal_cells[g, 1]))
+    others = {(int(x), int(y)) for k, (x, y) in enumerate(goal_cells) if k != g}
     if (i, j) in others:
         return (i, j, h, m), "inside_obstacle"
-    if (i, j) == own and h == GOAL_HEADINGS[g]:
+    if (i, j) == own and h == goal_headings[g]:
         return (i, j, h, m), "goal_absorbing"
     if a == TO_MODE_R:
         return (i, j, h, (m + 1) % 3), "mode_switch"
@@ -61,7 +65,7 @@ def brute_force_transition(g: int, i: int, j: int, h: int, m: int,
         nh = (h - step) % 8  # move_p turns clockwise: heading index - 1
     if not (0 <= ni < 10 and 0 <= nj < 10) or (ni, nj) in others:
         return (i, j, h, m), "bump"
-    if (ni, nj) == own and nh == GOAL_HEADINGS[g]:
+    if (ni, nj) == own and nh == goal_headings[g]:
         return (ni, nj, nh, m), "goal_entry"
     return (ni, nj, nh, m), "move"
 
@@ -74,6 +78,22 @@ def test_transitions_equal_the_rules_state_by_state(transitions: mdp.GoalTransit
                 (ni, nj, nh, nm), kind = brute_force_transition(g, *(int(v) for v in coords[s]), a)
                 assert transitions.next_state[g, a, s] == state_index(ni, nj, nh, nm)
                 assert mdp.OUTCOME_NAMES[transitions.outcome[g, a, s]] == kind
+
+
+@settings(max_examples=6, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 9), st.integers(0, 9), st.integers(0, 7)), min_size=1, max_size=5,
+                unique_by=lambda goal: goal[:2]))
+def test_transitions_equal_the_rules_on_any_layout(goals: list[tuple[int, int, int]]) -> None:
+    # goals anywhere: on the grid's edges, side by side, walling cells in
+    cells = np.array([goal[:2] for goal in goals])
+    headings = np.array([goal[2] for goal in goals])
+    transitions = mdp.build_transitions(cells, headings)
+    coords = all_state_coordinates().tolist()
+    for g in range(len(goals)):
+        for a in range(4):
+            expected = [brute_force_transition(g, *coords[s], a, cells, headings) for s in range(N_STATES)]
+            assert transitions.next_state[g, a].tolist() == [state_index(*pose) for pose, _ in expected]
+            assert [mdp.OUTCOME_NAMES[k] for k in transitions.outcome[g, a]] == [kind for _, kind in expected]
 
 
 def test_transition_examples(transitions: mdp.GoalTransitions) -> None:

@@ -228,8 +228,51 @@ def _validate_goals(goal_cells: np.ndarray, goal_headings: np.ndarray) -> tuple[
     return cells, headings
 
 
+@lru_cache(maxsize=1)
+def _open_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The grid's transitions without goals, computed once (read-only arrays).
+
+    Returns
+    -------
+    next_state, outcome
+        ``(A, S)``: a move along the active coordinate (off the grid: a bump, the state stays),
+        a mode switch cycles the mode.
+    state_pose
+        ``(S,)`` the cell and heading of every state, ``cell * N_HEADINGS + heading`` (the mode
+        left out: a goal pose holds in any mode).
+    target_pose
+        ``(2, S)`` the same of each move's next state (``MOVE_P``, ``MOVE_N``).
+    """
+    i, j, h, m = all_state_coordinates().T
+    states = np.arange(N_STATES)
+    next_state = np.empty((N_ACTIONS, N_STATES), dtype=np.int64)
+    outcome = np.empty((N_ACTIONS, N_STATES), dtype=np.int8)
+    # The move of each action along the active coordinate; theta's move_p is clockwise (h - 1).
+    for action, step in ((MOVE_P, 1), (MOVE_N, -1)):
+        ni = np.where(m == 0, i + step, i)
+        nj = np.where(m == 1, j + step, j)
+        nh = np.where(m == 2, (h - step) % N_HEADINGS, h)
+        off_grid = (ni < 0) | (ni >= N_CELLS_X) | (nj < 0) | (nj >= N_CELLS_Y)
+        next_state[action] = np.where(off_grid, states, state_index(np.where(off_grid, i, ni),
+                                                                    np.where(off_grid, j, nj), nh, m))
+        outcome[action] = np.where(off_grid, OUTCOME_BUMP, OUTCOME_MOVE)
+    for action, step in ((TO_MODE_R, 1), (TO_MODE_L, -1)):
+        next_state[action] = state_index(i, j, h, (m + step) % N_MODES)
+        outcome[action] = OUTCOME_MODE_SWITCH
+    # state_index's order, ((i * N_CELLS_Y + j) * N_HEADINGS + h) * N_MODES + m, without the mode
+    state_pose = states // N_MODES
+    target_pose = next_state[[MOVE_P, MOVE_N]] // N_MODES
+    for array in (next_state, outcome, state_pose, target_pose):
+        array.setflags(write=False)
+    return next_state, outcome, state_pose, target_pose
+
+
 def build_transitions(goal_cells: np.ndarray, goal_headings: np.ndarray) -> GoalTransitions:
     """The next-state and outcome tables of every goal's MDP.
+
+    The open grid's tables (:func:`_open_grid`, computed once) with each goal's exceptions: a move
+    into another goal's cell bumps, a move onto the goal pose enters the goal, the goal pose is
+    absorbing and another goal's cell is an obstacle interior.
 
     Parameters
     ----------
@@ -245,46 +288,31 @@ def build_transitions(goal_cells: np.ndarray, goal_headings: np.ndarray) -> Goal
     """
     cells, headings = _validate_goals(goal_cells, goal_headings)
     n_goals = cells.shape[0]
-    coords = all_state_coordinates()
-    i, j, h, m = coords.T
+    open_next, open_outcome, state_pose, target_pose = _open_grid()
     states = np.arange(N_STATES)
-
-    # The move of each action along the active coordinate; theta's move_p is clockwise (h - 1).
-    moved: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
-    for action, step in ((MOVE_P, 1), (MOVE_N, -1)):
-        ni = np.where(m == 0, i + step, i)
-        nj = np.where(m == 1, j + step, j)
-        nh = np.where(m == 2, (h - step) % N_HEADINGS, h)
-        moved[action] = (ni, nj, nh)
-
-    goal_cell_mask = np.zeros((N_CELLS_X, N_CELLS_Y), dtype=int) - 1  # goal index per cell or -1
-    goal_cell_mask[cells[:, 0], cells[:, 1]] = np.arange(n_goals)
-
+    flat_cells = cells[:, 0] * N_CELLS_Y + cells[:, 1]
+    goal_pose = (flat_cells * N_HEADINGS + headings)[:, None, None]  # (G, 1, 1)
+    obstacle = np.zeros((n_goals, N_CELLS_X * N_CELLS_Y), dtype=bool)  # (G, cells): other goals' cells
+    obstacle[:, flat_cells] = True
+    obstacle[np.arange(n_goals), flat_cells] = False
+    moves = [MOVE_P, MOVE_N]
+    # (G, 2, S). An open-grid bump's target is its own state: it lies in another goal's cell or on
+    # the goal pose only where the state is overridden below.
+    bump = obstacle[:, target_pose // N_HEADINGS]
+    enters_goal = target_pose == goal_pose
     next_state = np.empty((n_goals, N_ACTIONS, N_STATES), dtype=np.int64)
     outcome = np.empty((n_goals, N_ACTIONS, N_STATES), dtype=np.int8)
-    for g in range(n_goals):
-        cell_owner = goal_cell_mask[i, j]
-        inside_obstacle = (cell_owner >= 0) & (cell_owner != g)
-        at_goal = (i == cells[g, 0]) & (j == cells[g, 1]) & (h == headings[g])
-        for action in (MOVE_P, MOVE_N):
-            ni, nj, nh = moved[action]
-            off_grid = (ni < 0) | (ni >= N_CELLS_X) | (nj < 0) | (nj >= N_CELLS_Y)
-            owner = goal_cell_mask[np.clip(ni, 0, N_CELLS_X - 1), np.clip(nj, 0, N_CELLS_Y - 1)]
-            bump = off_grid | ((owner >= 0) & (owner != g))
-            target = np.where(bump, states, state_index(np.where(bump, i, ni), np.where(bump, j, nj),
-                                                         nh, m))
-            enters_goal = ~bump & (ni == cells[g, 0]) & (nj == cells[g, 1]) & (nh == headings[g])
-            kind = np.where(bump, OUTCOME_BUMP, np.where(enters_goal, OUTCOME_GOAL_ENTRY, OUTCOME_MOVE))
-            next_state[g, action] = target
-            outcome[g, action] = kind
-        for action, step in ((TO_MODE_R, 1), (TO_MODE_L, -1)):
-            next_state[g, action] = state_index(i, j, h, (m + step) % N_MODES)
-            outcome[g, action] = OUTCOME_MODE_SWITCH
-        # Absorbing and obstacle-interior states override whatever the action would do.
-        overrides = ((at_goal, OUTCOME_GOAL_ABSORBING), (inside_obstacle, OUTCOME_INSIDE_OBSTACLE))
-        for mask, kind_code in overrides:
-            next_state[g][:, mask] = states[mask]
-            outcome[g][:, mask] = kind_code
+    next_state[:] = open_next
+    outcome[:] = open_outcome
+    next_state[:, moves] = np.where(bump, states, open_next[moves])
+    outcome[:, moves] = np.where(bump, OUTCOME_BUMP,
+                                 np.where(enters_goal, OUTCOME_GOAL_ENTRY, open_outcome[moves]))
+    # Absorbing and obstacle-interior states override whatever the action would do.
+    at_goal = (state_pose == goal_pose[:, 0])[:, None, :]  # (G, 1, S)
+    inside_obstacle = obstacle[:, state_pose // N_HEADINGS][:, None, :]
+    next_state = np.where(at_goal | inside_obstacle, states, next_state)
+    outcome = np.where(at_goal, np.int8(OUTCOME_GOAL_ABSORBING),
+                       np.where(inside_obstacle, np.int8(OUTCOME_INSIDE_OBSTACLE), outcome))
     return GoalTransitions(next_state=next_state, outcome=outcome)
 
 
