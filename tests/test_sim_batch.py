@@ -555,3 +555,23 @@ def test_a_sweep_takes_its_plan_by_the_rule_of_replicate_and_power(tmp_path, exp
     path.write_text(f'experiment = "{experiment}"\nreplications = 1\n{plan_line}\n'
                     '[design]\nmethod = "grid"\n\n[parameters]\n"study.participants" = [2]\n')
     assert load_sweep(str(path)).spec.plan == expected
+
+
+def test_participant_metrics_are_those_of_the_whole_step_log() -> None:
+    # a batch's participant task formats only the step log's columns the metrics read
+    from nudgecli.report.metrics import trial_metrics
+    from nudgecli.sim.study import StudyPlan, simulate_participant
+
+    config = load_experiment("smoke")
+    plan = StudyPlan.build(config, 7)
+    analysis = AnalysisPlan()
+    definitions = analysis.metrics.model_dump(exclude={"include"})
+    for index in (0, 1):
+        whole = simulate_participant(plan, index)
+        expected = trial_metrics(whole.trials, whole.steps, **definitions)
+        pd.testing.assert_frame_equal(batch_tasks.participant_metrics(plan, index, analysis), expected,
+                                      check_exact=True)
+        assert expected["first_input_latency"].notna().any()  # the input columns were there
+    kept = simulate_participant(plan, 0, step_log_columns=("event", "trial", "belief")).steps
+    assert list(kept.columns) == ["trial", "belief", "event"]
+    pd.testing.assert_frame_equal(kept, simulate_participant(plan, 0).steps[["trial", "belief", "event"]])

@@ -265,3 +265,31 @@ def test_step_log_times_and_command_columns() -> None:
     assert columns == [[1.0, 4.0], [2.0, 5.0], [3.0, -0.5]]
     mixed = command_columns([(1.0, 2.0, 3.0), np.array([4.0, 5.0, 6.0])], 2)  # hindsight's array commands
     assert mixed == [[1.0, 4.0], [2.0, 5.0], [3.0, 6.0]] and all(type(v) is float for c in mixed for v in c)
+
+
+def test_a_trial_keeps_the_step_log_columns_asked_for(paper) -> None:
+    # the metrics' batches keep a third of the columns: the same values, in the schema's order
+    from nudgecli.steplog import STEP_COLUMNS
+
+    _config, settings, layouts = paper
+    item = layouts[5]
+    solved = solve_layout(item.layout.goal_cells, item.layout.goal_headings)
+    model = DisambiguationModel(item.layout.goal_cells, solved.p_a_given_sg, default_mapping_table(),
+                                default_distortion_table())
+    spec = TrialSpec(participant=1, condition=item.condition, block=0, trial=0, layout_index=item.index,
+                     layout=item.layout)
+
+    def steps(names=STEP_COLUMNS):
+        rng = generator(3, "test", 5)
+        return run_trial(spec, settings, solved, model, noisy_participant(), rng, names).steps
+
+    full = steps()
+    assert tuple(full) == STEP_COLUMNS and len(full["step"]) > 20
+    # the cell columns are the discretised pose at the start of each step
+    poses = zip(full["x"], full["y"], full["theta"], strict=True)
+    assert [discretise(*pose) for pose in poses] == list(zip(full["cell_x"], full["cell_y"], full["heading"],
+                                                                 strict=True))
+    for names in (("event", "belief", "participant", "cell_y", "u_a_theta", "t"), ("phi_m",), ()):
+        kept = steps(names)
+        assert list(kept) == [name for name in STEP_COLUMNS if name in names]
+        assert kept == {name: full[name] for name in kept}

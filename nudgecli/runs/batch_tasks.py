@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 import pandas as pd
 
 from nudgecli.config import ExperimentConfig
-from nudgecli.report.metrics import trial_metrics
+from nudgecli.report.metrics import INPUT_STEP_COLUMNS, METRIC_STEP_COLUMNS, trial_metrics
 from nudgecli.runs.executors import HELD_AFFINITIES
 from nudgecli.runs.study import tune_allocator
 from nudgecli.sim.study import StudyPlan, simulate_participant
@@ -89,7 +89,8 @@ def participant_metrics(plan: StudyPlan, index: int, analysis: AnalysisPlan) -> 
         One row per trial: ``participant, condition, block, trial`` and the metrics of
         :func:`nudgecli.report.metrics.trial_metrics`.
     """
-    result = simulate_participant(plan, index)
+    # the metrics read a third of the step log's columns: the rest is not formatted at all
+    result = simulate_participant(plan, index, step_log_columns=METRIC_STEP_COLUMNS + INPUT_STEP_COLUMNS)
     definitions = analysis.metrics.model_dump(exclude={"include"})
     return trial_metrics(result.trials, result.steps, **definitions)
 

@@ -44,6 +44,7 @@ states differing from the current one in mode alone (event ``mode_select``, with
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -90,6 +91,7 @@ from nudgecli.steplog import (
     NO_GOAL,
     NUDGE,
     STEP,
+    STEP_COLUMNS,
     TRIAL_START,
 )
 
@@ -520,9 +522,14 @@ class TrialSession:
     @property
     def columns(self) -> dict[str, list[Any]]:
         """The steps so far as the step log's columns (:data:`~nudgecli.steplog.STEP_COLUMNS`)."""
+        return self.step_log_columns(STEP_COLUMNS)
+
+    def step_log_columns(self, names: Collection[str]) -> dict[str, list[Any]]:
+        """The steps so far as the step log's columns ``names`` (in the schema's order)."""
         assert self.world is not None
         spec = self.spec
-        return step_columns(self.rows, spec.participant, spec.trial, self.settings.dt, self.world.cells)
+        return step_columns(self.rows, spec.participant, spec.trial, self.settings.dt, self.world.cells,
+                            names)
 
     # --- the trial's end ----------------------------------------------------------------------
 

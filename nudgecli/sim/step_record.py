@@ -7,7 +7,8 @@ formatting every step as it happened was a fifth of the trial loop, so the colum
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
+from functools import cache
 from typing import Any
 
 from nudgecli.model import interface
@@ -25,7 +26,8 @@ ROW_FIELDS = ("step", "turn", "x", "y", "theta", "mode", "state", "intended", "p
 
 
 def step_columns(rows: Sequence[tuple[Any, ...]], participant: int, trial: int, dt: float,
-                 cells: Callable[[int], tuple[int, int, int]]) -> dict[str, list[Any]]:
+                 cells: Callable[[int], tuple[int, int, int]],
+                 names: Collection[str] = STEP_COLUMNS) -> dict[str, list[Any]]:
     """The step log's columns of one trial's raw rows.
 
     Parameters
@@ -38,49 +40,65 @@ def step_columns(rows: Sequence[tuple[Any, ...]], participant: int, trial: int, 
         The step's length, s (the ``t`` column is ``round(step * dt, 10)``).
     cells
         The world's ``state -> (cell_x, cell_y, heading)``.
+    names
+        The columns wanted (all of them by default; the metrics need a third of them, and the
+        others, the beliefs above all, are most of the formatting).
 
     Returns
     -------
     dict
-        :data:`~nudgecli.steplog.STEP_COLUMNS` -> ``(N,)`` lists.
+        The wanted columns of :data:`~nudgecli.steplog.STEP_COLUMNS`, in its order -> ``(N,)`` lists.
     """
+    wanted = [name for name in STEP_COLUMNS if name in names]
     if not rows:
-        return {c: [] for c in STEP_COLUMNS}
-    (steps, turns, xs, ys, thetas, modes, states, intended, pressures, measured, u_h, u_a, alphas,
-     inferred, beliefs, entropies, events) = (list(column) for column in zip(*rows, strict=True))
-    n = len(steps)
-    cells_of = {state: cells(state) for state in set(states)}  # a trial visits few states
-    cell_x, cell_y, headings = zip(*(cells_of[state] for state in states), strict=True)
-    human, autonomy = command_columns(u_h, n), command_columns(u_a, n)
-    times = step_times(dt, max(steps))
-    columns: dict[str, list[Any]] = {
-        "participant": [participant] * n,
-        "trial": [trial] * n,
-        "step": steps,
-        "t": [times[step] for step in steps],
-        "turn": turns,
-        "x": xs,
-        "y": ys,
-        "theta": thetas,
-        "mode": [MODE_NAMES[m] for m in modes],
-        "cell_x": list(cell_x),
-        "cell_y": list(cell_y),
-        "heading": list(headings),
-        "phi_i": [LABELS[i] if i >= 0 else "" for i in intended],
-        "pressure": pressures,
-        "phi_m": [STREAM_LABEL.get(m, "") for m in measured],
-        "u_h_x": human[0],
-        "u_h_y": human[1],
-        "u_h_theta": human[2],
-        "u_a_x": autonomy[0],
-        "u_a_y": autonomy[1],
-        "u_a_theta": autonomy[2],
-        "alpha": alphas,
-        "inferred_goal": inferred,
-        "belief": [belief.tolist() for belief in beliefs],
-        "entropy": entropies,
-        "event": [join_events(e) for e in events],
-    }
-    assert tuple(columns) == STEP_COLUMNS
-    return columns
+        return {name: [] for name in wanted}
+    field = dict(zip(ROW_FIELDS, zip(*rows, strict=True), strict=True))
+    n = len(rows)
 
+    @cache
+    def cell_columns() -> tuple[tuple[int, ...], ...]:
+        cells_of = {state: cells(state) for state in set(field["state"])}  # a trial visits few states
+        return tuple(zip(*(cells_of[state] for state in field["state"]), strict=True))
+
+    @cache
+    def human() -> list[list[float]]:
+        return command_columns(list(field["u_h"]), n)
+
+    @cache
+    def autonomy() -> list[list[float]]:
+        return command_columns(list(field["u_a"]), n)
+
+    def times() -> list[float]:
+        table = step_times(dt, max(field["step"]))
+        return [table[step] for step in field["step"]]
+
+    build: dict[str, Callable[[], list[Any]]] = {
+        "participant": lambda: [participant] * n,
+        "trial": lambda: [trial] * n,
+        "step": lambda: list(field["step"]),
+        "t": times,
+        "turn": lambda: list(field["turn"]),
+        "x": lambda: list(field["x"]),
+        "y": lambda: list(field["y"]),
+        "theta": lambda: list(field["theta"]),
+        "mode": lambda: [MODE_NAMES[m] for m in field["mode"]],
+        "cell_x": lambda: list(cell_columns()[0]),
+        "cell_y": lambda: list(cell_columns()[1]),
+        "heading": lambda: list(cell_columns()[2]),
+        "phi_i": lambda: [LABELS[i] if i >= 0 else "" for i in field["intended"]],
+        "pressure": lambda: list(field["pressure"]),
+        "phi_m": lambda: [STREAM_LABEL.get(m, "") for m in field["measured"]],
+        "u_h_x": lambda: human()[0],
+        "u_h_y": lambda: human()[1],
+        "u_h_theta": lambda: human()[2],
+        "u_a_x": lambda: autonomy()[0],
+        "u_a_y": lambda: autonomy()[1],
+        "u_a_theta": lambda: autonomy()[2],
+        "alpha": lambda: list(field["alpha"]),
+        "inferred_goal": lambda: list(field["inferred"]),
+        "belief": lambda: [belief.tolist() for belief in field["belief"]],
+        "entropy": lambda: list(field["entropy"]),
+        "event": lambda: [join_events(e) for e in field["events"]],
+    }
+    assert tuple(build) == STEP_COLUMNS
+    return {name: build[name]() for name in wanted}

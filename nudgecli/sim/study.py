@@ -15,7 +15,7 @@ import contextlib
 import gc
 import json
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Collection, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -288,8 +288,13 @@ def fewer_collections(threshold: int = TRIAL_LOOP_GC_THRESHOLD) -> Iterator[None
         gc.set_threshold(*before)
 
 
-def simulate_participant(plan: StudyPlan, participant_index: int) -> ParticipantResult:
-    """Simulate every trial of one participant (a pure function of the plan and the index)."""
+def simulate_participant(plan: StudyPlan, participant_index: int,
+                         step_log_columns: Collection[str] = STEP_COLUMNS) -> ParticipantResult:
+    """Simulate every trial of one participant (a pure function of the plan and the index).
+
+    ``step_log_columns``: the step log's columns the result keeps (all by default: the run
+    folder's step log; a batch computing metrics only keeps theirs).
+    """
     start = time.perf_counter()
     config, seed = plan.config, plan.seed
     participant = study_participant(config, seed, participant_index)
@@ -298,13 +303,13 @@ def simulate_participant(plan: StudyPlan, participant_index: int) -> Participant
     settings = ProtocolSettings.from_config(config)
     summaries: list[dict[str, Any]] = []
     # one frame per participant, not per trial: building frames was a tenth of the run
-    step_columns: dict[str, list[Any]] = {column: [] for column in STEP_COLUMNS}
+    step_columns: dict[str, list[Any]] = {column: [] for column in STEP_COLUMNS if column in step_log_columns}
     models: dict[int, DisambiguationModel] = {}
     with fewer_collections():  # the loop allocates many short-lived tuples and no cycles
         for spec in plan.schedule(participant_index):
             rng = generator(seed, "participant", participant_index, "trial", spec.trial)
             if plan.paths is not None:
-                result = _path_trial(plan, spec, settings, participant, rng)
+                result = _path_trial(plan, spec, settings, participant, rng, step_log_columns)
             else:
                 solved = plan.solved[spec.layout_index]
                 model = models.get(spec.layout_index)
@@ -312,7 +317,7 @@ def simulate_participant(plan: StudyPlan, participant_index: int) -> Participant
                     assert isinstance(spec.layout, Layout)
                     model = models[spec.layout_index] = DisambiguationModel(
                         spec.layout.goal_cells, solved.actions, mapping, distortion)
-                result = run_trial(spec, settings, solved, model, participant, rng)
+                result = run_trial(spec, settings, solved, model, participant, rng, step_log_columns)
             summaries.append(result.summary)
             for column, values in result.steps.items():
                 step_columns[column].extend(values)
@@ -333,14 +338,14 @@ def simulate_participant(plan: StudyPlan, participant_index: int) -> Participant
 
 
 def _path_trial(plan: StudyPlan, spec: TrialSpec, settings: ProtocolSettings, participant: Participant,
-                rng: Any) -> TrialResult:
+                rng: Any, step_log_columns: Collection[str]) -> TrialResult:
     """One CIAA trial: a fresh path world, the layout's optimal command plan, no agent model."""
     assert plan.paths is not None and plan.policies is not None
     w = plan.config.world
     world = PathWorld(plan.paths[spec.layout_index], snap_tolerance=w.snap_tolerance,
                       heading_tolerance=w.heading_tolerance, success_distance=w.success_distance)
     policy = plan.policies[spec.layout_index]
-    return run_world_trial(spec, settings, world, policy, -1, None, participant, rng)
+    return run_world_trial(spec, settings, world, policy, -1, None, participant, rng, step_log_columns)
 
 
 def _json(value: Any) -> str:

@@ -3,6 +3,8 @@ input source (a simulated person in the grid world or another world, or a live o
 
 from __future__ import annotations
 
+from collections.abc import Collection
+
 import numpy as np
 
 from nudgecli.model import policies
@@ -13,11 +15,13 @@ from nudgecli.model.world import N_MODES, GridWorld, Layout, World, state_index
 from nudgecli.sim.behaviour import InputSource, SimulatedPerson
 from nudgecli.sim.participants import Participant
 from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSession, TrialSpec
-from nudgecli.steplog import HUMAN_TURN
+from nudgecli.steplog import HUMAN_TURN, STEP_COLUMNS
 
 
-def run_session(session: TrialSession, source: InputSource) -> TrialResult:
-    """Run a trial to its end with ``source`` giving the human's input."""
+def run_session(session: TrialSession, source: InputSource,
+                step_log_columns: Collection[str] = STEP_COLUMNS) -> TrialResult:
+    """Run a trial to its end with ``source`` giving the human's input; the result keeps the step
+    log's columns ``step_log_columns``."""
     new_turn = True
     after_autonomy = False
     while not session.finished:
@@ -30,11 +34,12 @@ def run_session(session: TrialSession, source: InputSource) -> TrialResult:
         else:
             session.autonomy_step()
             new_turn = after_autonomy = True
-    return TrialResult(summary=session.summary(), steps=session.columns)
+    return TrialResult(summary=session.summary(), steps=session.step_log_columns(step_log_columns))
 
 
 def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout, model: DisambiguationModel,
-              participant: Participant, rng: np.random.Generator) -> TrialResult:
+              participant: Participant, rng: np.random.Generator,
+              step_log_columns: Collection[str] = STEP_COLUMNS) -> TrialResult:
     """Simulate one trial with a simulated participant.
 
     Parameters
@@ -51,6 +56,8 @@ def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout,
         The simulated person (true physiology and habits).
     rng
         This trial's random stream; the person and the agent each get a child stream of it.
+    step_log_columns
+        The step log's columns the result keeps (all by default).
 
     Returns
     -------
@@ -62,17 +69,19 @@ def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout,
     goal_cell = int(state_index(int(layout.goal_cells[goal, 0]), int(layout.goal_cells[goal, 1]),
                                 int(layout.goal_headings[goal]), 0)) // N_MODES
     world = GridWorld(layout, settings.success_distance, settings.success_angle)
-    return run_world_trial(spec, settings, world, solved.policy[goal], goal_cell, model, participant, rng)
+    return run_world_trial(spec, settings, world, solved.policy[goal], goal_cell, model, participant, rng,
+                           step_log_columns)
 
 
 def run_world_trial(spec: TrialSpec, settings: ProtocolSettings, world: World, policy: np.ndarray,
                     goal_cell: int, model: DisambiguationModel | None, participant: Participant,
-                    rng: np.random.Generator) -> TrialResult:
+                    rng: np.random.Generator,
+                    step_log_columns: Collection[str] = STEP_COLUMNS) -> TrialResult:
     """Simulate one trial in ``world`` with a simulated participant.
 
     Parameters
     ----------
-    spec, settings, model, participant, rng
+    spec, settings, model, participant, rng, step_log_columns
         As for :func:`run_trial` (``model`` is ``None`` in an unassisted condition).
     world
         The trial's world (made for this trial: it may keep per-trial state).
@@ -93,7 +102,7 @@ def run_world_trial(spec: TrialSpec, settings: ProtocolSettings, world: World, p
                              person_rng, world=world, hands_over=hands_over)
     session = TrialSession(spec, settings, model, handover_steps(participant.handover_idle_s, settings.dt),
                            agent_rng, world=world)
-    return run_session(session, person)
+    return run_session(session, person, step_log_columns)
 
 
 def handover_steps(handover_idle_s: float, dt: float) -> int:
