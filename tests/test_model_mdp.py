@@ -409,3 +409,35 @@ def test_the_paper_studys_layouts_get_the_span_rules_policy() -> None:
     for item, layout in zip(layouts, solved, strict=True):
         policy = _span_rule_policy(item.layout.goal_cells, item.layout.goal_headings)
         np.testing.assert_array_equal(layout.policy, policy)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 4), st.integers(1, 30), st.integers(0, 2**32 - 1),
+       st.sampled_from([0.0, 0.1, 0.25, 1.0, 1 / 3]), st.booleans(), st.booleans())
+def test_distinct_rows_of_a_policy_are_those_of_its_table(n_goals: int, n_states: int, seed: int,
+                                                          epsilon: float, one_action: bool,
+                                                          grid_modes: bool) -> None:
+    rng = np.random.default_rng(seed)
+    policy = (np.full((n_goals, n_states), int(rng.integers(4))) if one_action
+              else rng.integers(0, 4, size=(n_goals, n_states)))
+    modes = None if grid_modes else rng.integers(0, 3, size=n_states)
+    expected = mdp.DistinctActionRows.of(mdp.action_likelihood(policy, epsilon), modes=modes)
+    got = mdp.DistinctActionRows.of_policy(policy, epsilon, modes=modes)
+    assert got.table.tobytes() == expected.table.tobytes()
+    assert got.rows.tobytes() == expected.rows.tobytes()  # the same rows in the same order
+    np.testing.assert_array_equal(got.row_modes, expected.row_modes)
+    np.testing.assert_array_equal(got.index, expected.index)
+    assert got.index.dtype == expected.index.dtype and got.row_modes.dtype == expected.row_modes.dtype
+
+
+def test_solved_layout_keeps_distinct_rows_of_its_own_table() -> None:
+    layout = mdp.solve_layout(GOAL_CELLS, GOAL_HEADINGS)
+    expected = mdp.DistinctActionRows.of(layout.p_a_given_sg)
+    assert layout.actions.table is layout.p_a_given_sg
+    assert layout.actions.rows.tobytes() == expected.rows.tobytes()
+    np.testing.assert_array_equal(layout.actions.index, expected.index)
+    # rows of another table are not taken: the layout's own are found
+    other = mdp.DistinctActionRows.of_policy(np.zeros_like(layout.policy), 0.1)
+    rebuilt = mdp.SolvedLayout(layout.policy, layout.values, layout.p_a_given_sg, layout.iterations,
+                               known_actions=other)
+    np.testing.assert_array_equal(rebuilt.actions.index, expected.index)

@@ -23,7 +23,7 @@ agree, in about 20 sweeps instead of 305.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import InitVar, dataclass, field
 from functools import lru_cache
 
 import numpy as np
@@ -178,6 +178,35 @@ class DistinctActionRows:
         return cls(table=table, rows=np.ascontiguousarray(rows), row_modes=pairs[:, 0].astype(int),
                    index=index)
 
+    @classmethod
+    def of_policy(cls, policy: np.ndarray, epsilon: float,
+                  modes: np.ndarray | None = None) -> DistinctActionRows:
+        """:meth:`of` the ε-greedy table of ``policy`` (:func:`action_likelihood`), the same arrays.
+
+        An ε-greedy row is fixed by its greedy action, so the table's distinct ``(mode, row)`` pairs
+        are those of the ``(mode, action)`` pairs that occur (at most 12): :meth:`of` sorts those
+        few instead of the ``G x S`` rows.
+
+        Parameters
+        ----------
+        policy
+            ``(G, S)`` int greedy actions.
+        epsilon
+            The ε of Eq. 1.
+        modes
+            ``(S,)`` mode of every state (``None``: ``s % 3``, the toolkit's grid).
+        """
+        policy = np.asarray(policy, dtype=int)
+        table = action_likelihood(policy, epsilon)
+        modes = np.arange(policy.shape[1]) % N_MODES if modes is None else np.asarray(modes, dtype=int)
+        pair = modes * N_ACTIONS + policy  # (G, S): mode-major pair codes
+        present = np.flatnonzero(np.bincount(pair.ravel()))
+        # the occurring pairs' rows, computed as the whole table's are (elementwise, the same bytes)
+        pairs = cls.of(action_likelihood(present % N_ACTIONS, epsilon)[None], modes=present // N_ACTIONS)
+        index_of_pair = np.zeros(present[-1] + 1, dtype=pairs.index.dtype)
+        index_of_pair[present] = pairs.index[0]
+        return cls(table=table, rows=pairs.rows, row_modes=pairs.row_modes, index=index_of_pair[pair])
+
 
 @dataclass(frozen=True)
 class SolvedLayout:
@@ -203,10 +232,14 @@ class SolvedLayout:
     values: np.ndarray
     p_a_given_sg: np.ndarray
     iterations: int
+    known_actions: InitVar[DistinctActionRows | None] = None
     actions: DistinctActionRows = field(init=False, repr=False, compare=False)
 
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "actions", DistinctActionRows.of(self.p_a_given_sg))
+    def __post_init__(self, known_actions: DistinctActionRows | None) -> None:
+        # ``known_actions``: the table's distinct rows where the caller has them (of the same table)
+        if known_actions is None or known_actions.table is not self.p_a_given_sg:
+            known_actions = DistinctActionRows.of(self.p_a_given_sg)
+        object.__setattr__(self, "actions", known_actions)
 
 
 def _validate_goals(goal_cells: np.ndarray, goal_headings: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -585,6 +618,7 @@ def solve_layout(goal_cells: np.ndarray, goal_headings: np.ndarray, rewards: MDP
                                    span_epsilon=span_epsilon))
     values, q_values, iterations = solution
     policy = greedy_policy(q_values)
-    return SolvedLayout(policy=policy, values=values, p_a_given_sg=action_likelihood(policy, epsilon),
-                        iterations=iterations)
+    actions = DistinctActionRows.of_policy(policy, epsilon)
+    return SolvedLayout(policy=policy, values=values, p_a_given_sg=actions.table, iterations=iterations,
+                        known_actions=actions)
 
