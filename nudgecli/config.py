@@ -31,13 +31,14 @@ from nudgecli.config_people import BehaviourSection, CalibrationSection, Populat
 from nudgecli.errors import ConfigError, did_you_mean
 from nudgecli.model.conditions import PAPER_CONDITIONS, POLICIES
 from nudgecli.model.disambiguation_settings import DisambiguationSettings
+from nudgecli.model.human_actions import DEFAULT_HUMAN_EPSILON
 from nudgecli.model.interface import (
     DEFAULT_TABLE_NOISE,
     HARD_THRESHOLD_EARLY,
     SOFT_THRESHOLD_EARLY,
     ZERO_THRESHOLD,
 )
-from nudgecli.model.mdp import DEFAULT_GAMMA, DEFAULT_HUMAN_EPSILON, MDPRewards
+from nudgecli.model.mdp import DEFAULT_GAMMA, MDPRewards
 from nudgecli.model.path_world import HEADING_TOLERANCE, SNAP_TOLERANCE, SUCCESS_DISTANCE
 
 __all__ = [

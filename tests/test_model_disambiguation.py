@@ -14,8 +14,9 @@ from nudgecli.errors import ProbabilityTableError
 from nudgecli.model import candidates as cand
 from nudgecli.model import disambiguation as dis
 from nudgecli.model import information as mi
+from nudgecli.model.human_actions import DistinctActionRows, action_likelihood
 from nudgecli.model.interface import default_distortion_table, default_mapping_table, observation_model
-from nudgecli.model.mdp import DistinctActionRows, action_likelihood, solve_layout
+from nudgecli.model.mdp import solve_layout
 from nudgecli.model.world import (
     N_CELLS_X,
     N_CELLS_Y,

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from nudgecli.config import load_experiment
 from nudgecli.errors import ProbabilityTableError
-from nudgecli.model import mdp
+from nudgecli.model import human_actions, mdp
 from nudgecli.model.interface import MOVE_N, MOVE_P, TO_MODE_L, TO_MODE_R
 from nudgecli.model.world import (
     CORNERS,
@@ -250,13 +250,13 @@ def test_ties_break_by_action_order(solved: tuple[np.ndarray, np.ndarray, int]) 
 
 def test_action_likelihood() -> None:
     policy = np.array([[0, 3, 2], [1, 1, 0]])
-    p = mdp.action_likelihood(policy, 0.1)
+    p = human_actions.action_likelihood(policy, 0.1)
     assert p.shape == (2, 3, 4)
     np.testing.assert_allclose(p.sum(axis=-1), 1.0)
     assert p[0, 1, 3] == pytest.approx(0.925) and p[0, 1, 0] == pytest.approx(0.025)
     np.testing.assert_array_equal(p.argmax(axis=-1), policy)
     with pytest.raises(ValueError):
-        mdp.action_likelihood(policy, 1.5)
+        human_actions.action_likelihood(policy, 1.5)
 
 
 def test_solve_layout_human_model_matches_policy() -> None:
@@ -285,7 +285,7 @@ def test_distinct_action_rows_keep_rows_apart_by_bytes_and_by_mode() -> None:
     table = np.full((2, 6, 4), 0.25)
     table[1, 2] = [0.5, 0.5, 0.0, -0.0]  # the same values as row (0, 2) below but another sign of zero
     table[0, 2] = [0.5, 0.5, 0.0, 0.0]
-    actions = mdp.DistinctActionRows.of(table, modes=np.array([0, 0, 1, 1, 2, 2]))
+    actions = human_actions.DistinctActionRows.of(table, modes=np.array([0, 0, 1, 1, 2, 2]))
     # (mode 0, uniform), (mode 1, uniform), (mode 2, uniform), two mode-1 rows of (0.5, 0.5, 0, +-0)
     assert len(actions.rows) == 5
     assert actions.index[0, 2] != actions.index[1, 2] and actions.index[0, 0] != actions.index[0, 2]
@@ -297,14 +297,14 @@ def test_distinct_action_rows_name_the_first_bad_row_in_table_order() -> None:
     table[1, 0] = [-0.5, 0.5, 0.5, 0.5]  # sorts before every other row (mode 0, a negative entry)
     table[0, 4] = [0.9, 0.9, 0.0, 0.0]  # but this one comes first in the table
     with pytest.raises(ProbabilityTableError, match=r"p\(a \| s, g\): row \(goal 0, state 4\) = \[0\.9"):
-        mdp.DistinctActionRows.of(table)
+        human_actions.DistinctActionRows.of(table)
     table[0, 4] = np.nan
     with pytest.raises(ProbabilityTableError, match=r"my table: row \(goal 0, state 4\)"):
-        mdp.DistinctActionRows.of(table, name="my table")
+        human_actions.DistinctActionRows.of(table, name="my table")
     with pytest.raises(ProbabilityTableError, match="shape"):
-        mdp.DistinctActionRows.of(np.full((2, 6, 3), 1 / 3))
+        human_actions.DistinctActionRows.of(np.full((2, 6, 3), 1 / 3))
     with pytest.raises(ValueError, match="modes"):
-        mdp.DistinctActionRows.of(np.full((2, 6, 4), 0.25), modes=np.zeros(5))
+        human_actions.DistinctActionRows.of(np.full((2, 6, 4), 0.25), modes=np.zeros(5))
 
 
 def test_value_iteration_rejects_bad_input() -> None:
@@ -421,8 +421,9 @@ def test_distinct_rows_of_a_policy_are_those_of_its_table(n_goals: int, n_states
     policy = (np.full((n_goals, n_states), int(rng.integers(4))) if one_action
               else rng.integers(0, 4, size=(n_goals, n_states)))
     modes = None if grid_modes else rng.integers(0, 3, size=n_states)
-    expected = mdp.DistinctActionRows.of(mdp.action_likelihood(policy, epsilon), modes=modes)
-    got = mdp.DistinctActionRows.of_policy(policy, epsilon, modes=modes)
+    table = human_actions.action_likelihood(policy, epsilon)
+    expected = human_actions.DistinctActionRows.of(table, modes=modes)
+    got = human_actions.DistinctActionRows.of_policy(policy, epsilon, modes=modes)
     assert got.table.tobytes() == expected.table.tobytes()
     assert got.rows.tobytes() == expected.rows.tobytes()  # the same rows in the same order
     np.testing.assert_array_equal(got.row_modes, expected.row_modes)
@@ -432,12 +433,12 @@ def test_distinct_rows_of_a_policy_are_those_of_its_table(n_goals: int, n_states
 
 def test_solved_layout_keeps_distinct_rows_of_its_own_table() -> None:
     layout = mdp.solve_layout(GOAL_CELLS, GOAL_HEADINGS)
-    expected = mdp.DistinctActionRows.of(layout.p_a_given_sg)
+    expected = human_actions.DistinctActionRows.of(layout.p_a_given_sg)
     assert layout.actions.table is layout.p_a_given_sg
     assert layout.actions.rows.tobytes() == expected.rows.tobytes()
     np.testing.assert_array_equal(layout.actions.index, expected.index)
     # rows of another table are not taken: the layout's own are found
-    other = mdp.DistinctActionRows.of_policy(np.zeros_like(layout.policy), 0.1)
+    other = human_actions.DistinctActionRows.of_policy(np.zeros_like(layout.policy), 0.1)
     rebuilt = mdp.SolvedLayout(layout.policy, layout.values, layout.p_a_given_sg, layout.iterations,
                                known_actions=other)
     np.testing.assert_array_equal(rebuilt.actions.index, expected.index)

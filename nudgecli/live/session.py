@@ -39,8 +39,8 @@ from nudgecli.live.input import KEY_LABELS, LiveInput
 from nudgecli.live.questionnaire import questionnaire_form, questionnaire_row
 from nudgecli.live.records import LiveFolder
 from nudgecli.model.disambiguation import DisambiguationModel
+from nudgecli.model.human_actions import DistinctActionRows
 from nudgecli.model.interface import LABELS, default_distortion_table, default_mapping_table
-from nudgecli.model.mdp import DistinctActionRows
 from nudgecli.model.world import (
     CORNERS,
     GOAL_RADIUS,

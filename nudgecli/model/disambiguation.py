@@ -13,6 +13,7 @@ from scipy.special import xlogy
 
 from nudgecli.model.candidates import Candidates, WindowTable, global_candidates, mode_candidates
 from nudgecli.model.disambiguation_settings import DisambiguationSettings
+from nudgecli.model.human_actions import DistinctActionRows
 from nudgecli.model.inference import predict_belief
 from nudgecli.model.information import monte_carlo_mutual_information, normalised_belief
 from nudgecli.model.interface import (
@@ -20,7 +21,6 @@ from nudgecli.model.interface import (
     validate_distortion_table,
     validate_mapping_table,
 )
-from nudgecli.model.mdp import DistinctActionRows
 from nudgecli.model.ties import first_argmax
 from nudgecli.model.world import cell_centre
 
@@ -35,8 +35,9 @@ def observation_likelihood(p_a_given_sg: np.ndarray | DistinctActionRows, mappin
     Parameters
     ----------
     p_a_given_sg
-        ``(G, S, A)`` the human's action model, or its :class:`~nudgecli.model.mdp.DistinctActionRows`
-        (checked once per layout: :attr:`SolvedLayout.actions <nudgecli.model.mdp.SolvedLayout>`).
+        ``(G, S, A)`` the human's action model, or its
+        :class:`~nudgecli.model.human_actions.DistinctActionRows` (checked once per layout:
+        :attr:`SolvedLayout.actions <nudgecli.model.mdp.SolvedLayout>`).
     mapping
         ``(M, A, F)`` ``p(phi_i | a, m)``.
     distortion
@@ -125,7 +126,7 @@ class DisambiguationModel:
     """What D(s) needs about one layout and one participant model, computed once per trial.
 
     Construct it with the four inputs; the tables are validated and the rest is derived.
-    ``p_a_given_sg`` may be given as the layout's :class:`~nudgecli.model.mdp.DistinctActionRows`
+    ``p_a_given_sg`` may be given as the layout's :class:`~nudgecli.model.human_actions.DistinctActionRows`
     (``SolvedLayout.actions``), checked once per layout rather than once per model.
 
     Attributes

@@ -1,4 +1,4 @@
-"""Goal MDPs over the 2400 discrete states, batched value iteration and the ε-greedy human model.
+"""Goal MDPs over the 2400 discrete states, their values and policies, and a layout's solution.
 
 One deterministic MDP per goal (DESIGN 2.3, study notes section 3):
 
@@ -18,7 +18,8 @@ the same shape, so value iteration is a gather per sweep rather than a matrix pr
 goals of a layout are solved together in one ``(G, S)`` computation. The study's rule is value
 iteration to a span tolerance (:func:`value_iteration`); :func:`solve_layout` gets the same greedy
 policy from the exact fixed point ``V*`` (:func:`goal_fixed_point`) wherever the two provably
-agree, in about 20 sweeps instead of 305.
+agree, in about 20 sweeps instead of 305. The human's ε-greedy action model built on the policy
+is :mod:`nudgecli.model.human_actions`.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from nudgecli.errors import ProbabilityTableError
+from nudgecli.model.human_actions import DEFAULT_HUMAN_EPSILON, DistinctActionRows
 from nudgecli.model.interface import MOVE_N, MOVE_P, N_ACTIONS, TO_MODE_L, TO_MODE_R
 from nudgecli.model.ties import DEFAULT_TIE_RTOL, first_argmax
 from nudgecli.model.world import (
@@ -44,8 +45,6 @@ from nudgecli.model.world import (
 DEFAULT_GAMMA = 0.96
 #: pymdptoolbox's default ``epsilon``; VI stops when ``span(V_{k+1} - V_k) < eps (1 - gamma) / gamma``.
 DEFAULT_SPAN_EPSILON = 0.01
-#: The human's sub-optimality ε of Eq. 1.
-DEFAULT_HUMAN_EPSILON = 0.1
 #: Relative tolerance under which two Q-values count as tied in :func:`greedy_policy`.
 
 # Outcome kinds of a (state, action) pair; each kind has one reward (see MDPRewards.by_kind).
@@ -106,106 +105,6 @@ class GoalTransitions:
     def rewards(self, rewards: MDPRewards | None = None) -> np.ndarray:
         """``(G, A, S)`` reward of every transition under ``rewards`` (study values by default)."""
         return (rewards or MDPRewards()).by_kind()[self.outcome]
-
-
-@dataclass(frozen=True, eq=False)
-class DistinctActionRows:
-    """A checked ``p(a | s, g)`` table and its distinct ``(mode, row)`` pairs.
-
-    Anything computed per row and mode (``p(phi_m | g, s)``, Eq. 12) is computed once per pair and
-    gathered: an ε-greedy table has one distinct row per action (and mode), against ``G x S`` rows.
-    Rows count as the same when their bytes are, so a gathered result is bit for bit what the
-    computation gives on every row.
-
-    Attributes
-    ----------
-    table
-        ``(G, S, A)`` the table, checked: every row finite, non-negative and summing to 1.
-    rows
-        ``(U, A)`` its distinct rows (one per distinct pair).
-    row_modes
-        ``(U,)`` the mode of each pair.
-    index
-        ``(G, S)`` the pair of each goal and state: ``table[g, s] == rows[index[g, s]]``.
-    """
-
-    table: np.ndarray
-    rows: np.ndarray
-    row_modes: np.ndarray
-    index: np.ndarray
-
-    @classmethod
-    def of(cls, p_a_given_sg: np.ndarray, modes: np.ndarray | None = None,
-           name: str = "p(a | s, g)") -> DistinctActionRows:
-        """Check ``p_a_given_sg`` and find its distinct ``(mode, row)`` pairs.
-
-        Parameters
-        ----------
-        p_a_given_sg
-            ``(G, S, A)`` the human's action model.
-        modes
-            ``(S,)`` mode of every state (``None``: ``s % 3``, the toolkit's grid).
-        name
-            The table's name in error messages.
-
-        Raises
-        ------
-        ProbabilityTableError
-            If the table has the wrong shape or a row that is not a distribution (naming the first).
-        """
-        table = np.asarray(p_a_given_sg, dtype=float)
-        if table.ndim != 3 or table.shape[2] != N_ACTIONS:
-            raise ProbabilityTableError(f"{name}: expected shape (G, S, {N_ACTIONS}), got {table.shape}")
-        n_goals, n_states, n_actions = table.shape
-        modes = np.arange(n_states) % N_MODES if modes is None else np.asarray(modes, dtype=int)
-        if modes.shape != (n_states,):
-            raise ValueError(f"modes must have shape ({n_states},), got {modes.shape}")
-        # one record per goal and state: its mode, then its row; unique on the records' bytes
-        keyed = np.empty((n_goals, n_states, n_actions + 1))
-        keyed[:, :, 0] = modes
-        keyed[:, :, 1:] = table
-        records = keyed.reshape(-1).view(np.dtype((np.void, keyed.itemsize * (n_actions + 1))))
-        distinct, index = np.unique(records, return_inverse=True)
-        pairs = distinct.view(float).reshape(-1, n_actions + 1)
-        rows = pairs[:, 1:]
-        bad = (~np.isfinite(rows).all(axis=-1) | (rows < 0).any(axis=-1)
-               | (np.abs(rows.sum(axis=-1) - 1.0) > 1e-6))
-        index = index.reshape(n_goals, n_states)
-        if bad.any():
-            g, s = (int(k) for k in np.argwhere(bad[index])[0])  # the first bad row in table order
-            raise ProbabilityTableError(f"{name}: row (goal {g}, state {s}) = {table[g, s].tolist()} "
-                                        "is not a probability distribution")
-        return cls(table=table, rows=np.ascontiguousarray(rows), row_modes=pairs[:, 0].astype(int),
-                   index=index)
-
-    @classmethod
-    def of_policy(cls, policy: np.ndarray, epsilon: float,
-                  modes: np.ndarray | None = None) -> DistinctActionRows:
-        """:meth:`of` the ε-greedy table of ``policy`` (:func:`action_likelihood`), the same arrays.
-
-        An ε-greedy row is fixed by its greedy action, so the table's distinct ``(mode, row)`` pairs
-        are those of the ``(mode, action)`` pairs that occur (at most 12): :meth:`of` sorts those
-        few instead of the ``G x S`` rows.
-
-        Parameters
-        ----------
-        policy
-            ``(G, S)`` int greedy actions.
-        epsilon
-            The ε of Eq. 1.
-        modes
-            ``(S,)`` mode of every state (``None``: ``s % 3``, the toolkit's grid).
-        """
-        policy = np.asarray(policy, dtype=int)
-        table = action_likelihood(policy, epsilon)
-        modes = np.arange(policy.shape[1]) % N_MODES if modes is None else np.asarray(modes, dtype=int)
-        pair = modes * N_ACTIONS + policy  # (G, S): mode-major pair codes
-        present = np.flatnonzero(np.bincount(pair.ravel()))
-        # the occurring pairs' rows, computed as the whole table's are (elementwise, the same bytes)
-        pairs = cls.of(action_likelihood(present % N_ACTIONS, epsilon)[None], modes=present // N_ACTIONS)
-        index_of_pair = np.zeros(present[-1] + 1, dtype=pairs.index.dtype)
-        index_of_pair[present] = pairs.index[0]
-        return cls(table=table, rows=pairs.rows, row_modes=pairs.row_modes, index=index_of_pair[pair])
 
 
 @dataclass(frozen=True)
@@ -558,30 +457,6 @@ def greedy_policy(q_values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL) -> np.nd
         ``(...)`` int action indices.
     """
     return first_argmax(q_values, rtol)
-
-
-def action_likelihood(policy: np.ndarray, epsilon: float = DEFAULT_HUMAN_EPSILON,
-                      n_actions: int = N_ACTIONS) -> np.ndarray:
-    """ε-greedy ``p(a | s, g) = (1 - eps) onehot(pi_g(s)) + eps / A`` (Eq. 1).
-
-    Parameters
-    ----------
-    policy
-        ``(G, S)`` int greedy actions.
-    epsilon
-        Probability of a uniformly random action; 0.1 gives 0.925 / 0.025.
-    n_actions
-        Number of actions ``A``.
-
-    Returns
-    -------
-    np.ndarray
-        ``(G, S, A)``; each row sums to 1.
-    """
-    if not 0.0 <= epsilon <= 1.0:
-        raise ValueError(f"epsilon must be in [0, 1], got {epsilon}")
-    onehot = np.eye(n_actions)[np.asarray(policy, dtype=int)]
-    return (1.0 - epsilon) * onehot + epsilon / n_actions
 
 
 def solve_layout(goal_cells: np.ndarray, goal_headings: np.ndarray, rewards: MDPRewards | None = None,

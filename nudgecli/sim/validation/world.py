@@ -12,7 +12,7 @@ Two worlds (:attr:`~nudgecli.sim.validation.readings.Reading.world`):
   ``model/mdp.py`` builds the same rules for the fixed 2400-state grid only, so the table is
   built here; solving, the human model and the likelihood are the model's
   (:func:`~nudgecli.model.mdp.value_iteration`, :func:`~nudgecli.model.mdp.greedy_policy`,
-  :func:`~nudgecli.model.mdp.action_likelihood`,
+  :func:`~nudgecli.model.human_actions.action_likelihood`,
   :func:`~nudgecli.model.disambiguation.observation_likelihood`). The neighbourhood is the
   3 x 3 window of cells around the query, without goal cells, in both modes.
 - ``three-mode``: the study's world, entirely the model's: goals on random distinct cells
@@ -29,6 +29,7 @@ import numpy as np
 
 from nudgecli.model.candidates import window_candidates
 from nudgecli.model.disambiguation import observation_likelihood
+from nudgecli.model.human_actions import action_likelihood
 from nudgecli.model.interface import (
     MOVE_N,
     MOVE_P,
@@ -47,7 +48,6 @@ from nudgecli.model.mdp import (
     OUTCOME_MOVE,
     GoalTransitions,
     MDPRewards,
-    action_likelihood,
     greedy_policy,
     solve_layout,
     value_iteration,
@@ -161,7 +161,7 @@ def solve_goal_policies(transitions: GoalTransitions, epsilon: float,
 
     :func:`~nudgecli.model.mdp.value_iteration` (pymdptoolbox's span rule, the model's discount),
     :func:`~nudgecli.model.mdp.greedy_policy` (ties to the first action: move_p, move_n,
-    to_mode_r, to_mode_l) and :func:`~nudgecli.model.mdp.action_likelihood`.
+    to_mode_r, to_mode_l) and :func:`~nudgecli.model.human_actions.action_likelihood`.
     """
     _, q_values, _ = value_iteration(transitions.next_state, transitions.rewards(rewards))
     return action_likelihood(greedy_policy(q_values), epsilon)
