@@ -125,6 +125,10 @@ class SolvedLayout:
     actions
         ``p_a_given_sg`` checked and as its distinct rows (derived; computed here once per layout,
         not once per participant's model of it).
+    known_actions
+        (Given at construction only.) Those rows where the caller has them already
+        (:func:`solve_layout`: :meth:`DistinctActionRows.of_policy`); taken only when their table is
+        ``p_a_given_sg`` itself.
     """
 
     policy: np.ndarray
