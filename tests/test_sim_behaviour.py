@@ -20,7 +20,8 @@ from nudgecli.model.interface import (
     label_of_pressure,
 )
 from nudgecli.model.world import CELL_WIDTH, N_MODES, N_STATES, X_MIN, discretise, state_index
-from nudgecli.sim.behaviour import BehaviourSettings, Phase, SimulatedPerson, mark_reached, next_centre
+from nudgecli.sim.behaviour import Phase, SimulatedPerson, mark_reached, next_centre
+from nudgecli.sim.behaviour_settings import BehaviourSettings
 from nudgecli.sim.participants import Participant, mapping_with_error
 
 DT = 0.1

@@ -25,7 +25,8 @@ from nudgecli.model.interface import (
 )
 from nudgecli.model.path_world import PathWorld
 from nudgecli.model.world import N_MODES, N_STATES, GridWorld, discretise, grid_next_mark, state_index
-from nudgecli.sim.behaviour import BehaviourSettings, SimulatedPerson
+from nudgecli.sim.behaviour import SimulatedPerson
+from nudgecli.sim.behaviour_settings import BehaviourSettings
 from nudgecli.sim.ciaa import packaged_task, task_layouts
 from nudgecli.sim.participants import Participant, draw_participant, mapping_with_error
 from nudgecli.sim.pressure_model import lognormal_delays, pulse_fractions

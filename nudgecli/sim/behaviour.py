@@ -38,13 +38,11 @@ pressure per 10 Hz step); a live person at a keyboard is another. Both feed the 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from enum import Enum
-from typing import Literal, Protocol
+from typing import Protocol
 
 import numpy as np
 
-from nudgecli.config import BehaviourSection, ExperimentConfig
 from nudgecli.model import interface
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, NO_INPUT, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.world import (
@@ -53,10 +51,15 @@ from nudgecli.model.world import (
     grid_next_mark,
     turn_between,
 )
+from nudgecli.sim.behaviour_settings import BehaviourSettings
 from nudgecli.sim.participants import Participant
 
 #: Below this a change of position or angle is rounding, not motion.
 _MOTION_EPS = 1e-9
+
+
+#: :meth:`SimulatedPerson.quiet_steps` while idle: until the turn or the trial ends.
+_FOREVER = 1 << 62
 
 
 class Phase(Enum):
@@ -90,65 +93,6 @@ class InputSource(Protocol):
 
     def next_input(self, view: RobotView) -> tuple[int, float]:
         """``(intended label or NO_INPUT, signed pressure)`` for this 10 Hz step."""
-
-
-#: The ``[behaviour]`` defaults, which :class:`BehaviourSettings` takes.
-_BEHAVIOUR = BehaviourSection()
-
-
-@dataclass(frozen=True)
-class BehaviourSettings:
-    """The ``[behaviour]`` keys in steps and plain numbers (read once per run). The defaults are
-    ``[behaviour]``'s, but for the operating habits (``event_reactions`` ...), which are off: the
-    earlier person, whom the tests of one habit start from."""
-
-    dt: float
-    decisions: Literal["events", "grid"] = _BEHAVIOUR.decisions
-    lean_on_blending: bool = _BEHAVIOUR.lean_on_blending
-    release_when_dragged: bool = _BEHAVIOUR.release_when_dragged
-    after_autonomy: Literal["replan", "resume"] = _BEHAVIOUR.after_autonomy
-    stall_steps: int = 0
-    #: ``[behaviour] max_hold_s`` in steps (derived from its default and ``dt`` when not given).
-    max_hold_steps: int = -1
-    fine_position_tolerance: float = _BEHAVIOUR.fine_position_tolerance
-    fine_heading_tolerance: float = _BEHAVIOUR.fine_heading_tolerance
-    rest_jitter: float = _BEHAVIOUR.rest_jitter
-    operate_jitter: float = _BEHAVIOUR.operate_jitter
-    pause_jitter: float = _BEHAVIOUR.pause_jitter
-    hard_blow_jitter: float = _BEHAVIOUR.hard_blow_jitter
-    event_reactions: bool = False
-    planning: bool = False
-    hard_pulses: bool = False
-    hold_on: bool = False
-    pause_tail: bool = False
-    notice_mode_errors: bool = False
-    planning_jitter: float = _BEHAVIOUR.planning_jitter
-    hold_on_jitter: float = _BEHAVIOUR.hold_on_jitter
-
-    def __post_init__(self) -> None:
-        if self.max_hold_steps < 0:  # frozen: the derived default is set once, here
-            object.__setattr__(self, "max_hold_steps", hold_steps(_BEHAVIOUR.max_hold_s, self.dt))
-
-    @classmethod
-    def from_config(cls, config: ExperimentConfig) -> BehaviourSettings:
-        b = config.behaviour
-        dt = config.study.dt
-        return cls(dt=dt, decisions=b.decisions, lean_on_blending=b.lean_on_blending,
-                   release_when_dragged=b.release_when_dragged,
-                   after_autonomy=b.after_autonomy, stall_steps=round(b.stall_s / dt),
-                   max_hold_steps=hold_steps(b.max_hold_s, dt),
-                   fine_position_tolerance=b.fine_position_tolerance,
-                   fine_heading_tolerance=b.fine_heading_tolerance, rest_jitter=b.rest_jitter,
-                   operate_jitter=b.operate_jitter, pause_jitter=b.pause_jitter,
-                   hard_blow_jitter=b.hard_blow_jitter, event_reactions=b.event_reactions,
-                   planning=b.planning, hard_pulses=b.hard_pulses, hold_on=b.hold_on,
-                   pause_tail=b.pause_tail, notice_mode_errors=b.notice_mode_errors,
-                   planning_jitter=b.planning_jitter, hold_on_jitter=b.hold_on_jitter)
-
-
-def hold_steps(max_hold_s: float, dt: float) -> int:
-    """The steps of the longest hold of one command (at least one)."""
-    return max(1, round(max_hold_s / dt))
 
 
 def move_action(mode: int, error: float) -> int:
@@ -273,6 +217,30 @@ class SimulatedPerson:
         self._release()
         self.resume_action = self.last_action if after_autonomy and s.after_autonomy == "resume" else -1
         self.previous_pose = None
+
+    def quiet_steps(self, view: RobotView) -> int:
+        """How many steps from this one on certainly give no input, whatever the robot does: the
+        rest before operating, a release pause between blows (once the mode on display has been
+        seen), or the idling after their operating time. 0 where this step has to be decided."""
+        if self.phase is Phase.RESTING:
+            return self.rest_left
+        if self.phase is Phase.IDLE:
+            return _FOREVER
+        # a mode that changed since the last step is an event for _see_mode: that step in full
+        return self.pause_left if view.mode == self.seen_mode else 0
+
+    def skip_quiet(self, steps: int, pose: tuple[float, float, float], mode: int) -> None:
+        """What :meth:`next_input` does in ``steps >= 1`` of the :meth:`quiet_steps` (each gives
+        ``NO_INPUT, 0.0``), the robot at ``pose`` in ``mode`` at the start of the last of them."""
+        if self.phase is Phase.RESTING:
+            self.rest_left -= steps
+        elif self.phase is Phase.OPERATING:
+            self.operate_left -= steps
+            self.pause_left -= steps
+        self.previous_pose = pose
+        self.seen_mode = mode
+        self.clock += steps
+        self.blow_held = 0
 
     def next_input(self, view: RobotView) -> tuple[int, float]:
         """The intended label and the pressure of this step (``NO_INPUT, 0.0`` for none)."""

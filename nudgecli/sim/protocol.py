@@ -78,8 +78,8 @@ from nudgecli.model.world import (
     Layout,
     World,
 )
-from nudgecli.sim.behaviour import BehaviourSettings
-from nudgecli.sim.step_record import step_columns
+from nudgecli.sim.behaviour_settings import BehaviourSettings
+from nudgecli.sim.step_record import ROW_FIELDS, step_columns
 from nudgecli.steplog import (
     AUTONOMY_TURN,
     HANDOVER_TO_AUTONOMY,
@@ -97,6 +97,7 @@ from nudgecli.steplog import (
 
 _ZERO3 = interface.NO_COMMAND  # u_h of a step without a motion command, u_a without assistance
 _NO_DECAY = DecayCounters()
+_AUTONOMY_COMMAND = ROW_FIELDS.index("u_a")  # a raw step row's u_a
 
 
 @dataclass(frozen=True)
@@ -340,12 +341,11 @@ class TrialSession:
         self.idle = 0 if commanded or self.initiated_at < 0 else self.idle + 1
         u_a: Command
         u_f: Command
+        inferred, alpha = self._goal_and_alpha()
         if self.policy == "hindsight":
-            inferred, alpha = self.leader, 0.0
             u_a = self._hindsight_assistance()
             u_f = np.add(u_h, u_a)  # every step, command or not (first-order hindsight optimisation)
         else:
-            inferred, alpha = self._blending() if self.blends else (NO_GOAL, 0.0)
             u_a = _ZERO3
             if inferred != NO_GOAL:
                 towards = (self.x, self.y, self.theta, inferred)
@@ -365,9 +365,48 @@ class TrialSession:
             self.reached = world.goal_reached(self.x, self.y, self.theta)
             if self.reached >= 0:
                 return
+        self._hand_over_when_idle()
+
+    def _goal_and_alpha(self) -> tuple[int, float]:
+        """This step's ``(g', alpha)``: the blending rule's, hindsight's leader (and 0), or none."""
+        if self.policy == "hindsight":
+            return self.leader, 0.0
+        return self._blending() if self.blends else (NO_GOAL, 0.0)
+
+    def _hand_over_when_idle(self) -> None:
+        """The turn passes to the autonomy once the person has been idle for long enough."""
         if (self.turn_taking and self.initiated_at >= 0 and self.idle > self.handover_idle_steps
                 and not self.finished):
             self._start_autonomy_turn()
+
+    def quiet_human_steps(self, limit: int) -> int:
+        """Up to ``limit`` steps of the human's turn without input (each what ``human_step(NO_INPUT,
+        0.0)`` does) while the robot stands; how many ran: at least one, fewer where the turn ends."""
+        s, world = self.settings, self.world
+        assert world is not None
+        pose = (self.x, self.y, self.theta)
+        self.human_step(NO_INPUT, 0.0)
+        # the rest at once only where just the step, the idle count and alpha change: no input is
+        # measured, no decay, the robot stands (the grid world's move is pure, so it may be asked)
+        measured = interface.label_of_pressure(0.0, s.soft_threshold, s.hard_threshold, s.zero_threshold)
+        if (limit <= 1 or self.turn != HUMAN_TURN or self.finished or measured != NO_INPUT
+                or (s.decay is not None and self.initiated_at >= 0)
+                or (self.x, self.y, self.theta) != pose or not isinstance(world, GridWorld)
+                or world.move(*pose, _ZERO3, s.dt) != pose):
+            return 1
+        state, counting = world.state(*pose, self.mode), self.initiated_at >= 0
+        u_a = self.rows[-1][_AUTONOMY_COMMAND]  # the same goal (or belief) and pose: the same command
+        steps = min(limit - 1, s.time_limit_steps - self.step)
+        if self.turn_taking and counting:  # it passes at the step whose idle count exceeds the threshold
+            steps = min(steps, self.handover_idle_steps + 1 - self.idle)
+        for _ in range(steps):
+            inferred, alpha = self._goal_and_alpha()
+            self._record(HUMAN_TURN, state, self.mode, NO_INPUT, 0.0, NO_INPUT, _ZERO3, u_a, alpha,
+                         inferred, [])
+            self.step += 1
+            self.idle += counting
+        self._hand_over_when_idle()
+        return 1 + steps
 
     def _observe(self, measured: int, state: int) -> None:
         """The Bayesian update (Eq. 7) with the state the label was produced in, or forgetting."""

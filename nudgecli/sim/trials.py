@@ -19,16 +19,25 @@ from nudgecli.steplog import HUMAN_TURN, STEP_COLUMNS
 
 
 def run_session(session: TrialSession, source: InputSource,
-                step_log_columns: Collection[str] = STEP_COLUMNS) -> TrialResult:
+                step_log_columns: Collection[str] = STEP_COLUMNS, quiet_runs: bool = True) -> TrialResult:
     """Run a trial to its end with ``source`` giving the human's input; the result keeps the step
-    log's columns ``step_log_columns``."""
+    log's columns ``step_log_columns``. ``quiet_runs=False`` asks a simulated person for every
+    step (the same steps, slower: for the test that holds the quiet runs to it)."""
     new_turn = True
     after_autonomy = False
+    # a simulated person says when they will give no input for a while: those steps run at once
+    person = source if quiet_runs and isinstance(source, SimulatedPerson) else None
     while not session.finished:
         if session.turn == HUMAN_TURN:
             if new_turn:
                 source.start_turn(after_autonomy)
                 new_turn = False
+            quiet = person.quiet_steps(session) if person is not None else 0
+            if quiet > 1:
+                pose, mode = (session.x, session.y, session.theta), session.mode
+                assert person is not None
+                person.skip_quiet(session.quiet_human_steps(quiet), pose, mode)
+                continue
             intended, pressure = source.next_input(session)
             session.human_step(intended, pressure)
         else:
