@@ -8,7 +8,9 @@ says how to resume.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
+import gc
 import os
 import sys
 from collections.abc import Callable
@@ -86,16 +88,27 @@ def ensure_stderr() -> None:
         sys.stderr = open(2, "w", buffering=1, errors="backslashreplace", closefd=False)  # noqa: SIM115
 
 
+def freeze_collector_at_exit() -> None:
+    """Freeze the garbage collector when the interpreter exits, after every exit handler
+    registered later (they run last to first: call this first).
+
+    The interpreter's final collections then skip the heap the command built, which took
+    0.1-0.2 s of a short command; every object is still freed by its reference count, and the
+    handlers that clean up (a pool's, a temporary folder's) have run by then.
+    """
+    atexit.register(gc.freeze)
+
+
 def entry_point() -> None:
     """The ``nudge`` program: :data:`main`, and after Ctrl-C a prompt exit.
 
     After Ctrl-C the run folder is already marked and the resume command printed; what is left
     is the interpreter's shutdown, which joins a process pool's management thread, and that
     thread can wait for ever on a queue whose worker was just stopped (CPython 3.11). So an
-    interrupted command leaves at once (``os._exit``, streams flushed first).
+    interrupted command leaves at once (``os._exit``, streams flushed first). At every exit the
+    collector is frozen last (:func:`freeze_collector_at_exit`).
     """
-    import os
-
+    freeze_collector_at_exit()
     try:
         main()
     except SystemExit as exc:

@@ -33,12 +33,14 @@ from nudgecli.config import load_experiment
 from nudgecli.sim.study import StudyPlan, simulate_participant
 
 # Run inside the child Python of ``figure_study``: the study through ``run_study`` (as
-# ``nudge simulate EXPERIMENT --workers W --out OUT`` does), progress on stderr, then one JSON line
-# with the wall time of run_study and ru_maxrss (KiB on Linux) of the child itself and of its
-# largest finished (reaped) child, i.e. the largest worker process.
+# ``nudge simulate EXPERIMENT --workers W --out OUT`` does, its exit included), progress on
+# stderr, then one JSON line with the wall time of run_study and ru_maxrss (KiB on Linux) of the
+# child itself and of its largest finished (reaped) child, i.e. the largest worker process.
 _STUDY_SCRIPT = """
 import json, resource, sys, time
 from pathlib import Path
+from nudgecli.cli import freeze_collector_at_exit
+freeze_collector_at_exit()  # as the program does
 from nudgecli.config import load_experiment
 from nudgecli.runs.study import run_study
 
