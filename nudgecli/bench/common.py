@@ -8,12 +8,13 @@ several batches is reported (:func:`best_call_time`); slow ones are timed whole
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import subprocess
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -110,6 +111,26 @@ def child_environment() -> dict[str, str]:
     package_parent = str(Path(__file__).resolve().parents[2])  # nudgecli/bench/common.py
     env["PYTHONPATH"] = os.pathsep.join(p for p in (package_parent, env.get("PYTHONPATH")) if p)
     return env
+
+
+def uncompiled_modules_warning(package: Path, environ: Mapping[str, str]) -> str | None:
+    """A warning where the child Pythons would compile ``package`` on every start, or ``None``.
+
+    That is where their bytecode cache is off (``PYTHONDONTWRITEBYTECODE`` in ``environ``, which
+    they inherit) and a module of the package has no cached bytecode: then every start-up figure
+    carries the compile (0.4-0.5 s of the paper study's 2.3-2.7 s on a 2-core machine), which an
+    installed package does not pay (pip compiles at install).
+    """
+    if not environ.get("PYTHONDONTWRITEBYTECODE"):
+        return None
+    sources = sorted(package.rglob("*.py"))
+    missing = [p for p in sources if not Path(importlib.util.cache_from_source(str(p))).is_file()]
+    if not missing:
+        return None
+    return (f"bench: warning: PYTHONDONTWRITEBYTECODE is set and {len(missing)} of {package.name}'s "
+            f"{len(sources)} modules have no cached bytecode, so every child Python compiles them and "
+            f"the start-up figures include it; run `python -m compileall -q {package}` first (as pip "
+            "install does), or unset it")
 
 
 def available_cores() -> int:

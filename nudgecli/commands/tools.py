@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
 from typing import Literal
 
 import click
 
+import nudgecli
 from nudgecli import command_defaults as defaults
 from nudgecli.commands.common import echo_json, info, progress_bar
 
@@ -60,7 +63,11 @@ def bench_command(output_format: str, only: str, scale_participants: int, scale_
                   baseline_repeats: int, study_repeats: int) -> None:
     """Performance figures of the model and the study, each against a baseline measured in the same run."""
     from nudgecli.bench import BenchOptions, format_table, run_bench, select_figures
+    from nudgecli.bench.common import uncompiled_modules_warning
 
+    warning = uncompiled_modules_warning(Path(nudgecli.__file__).parent, os.environ)
+    if warning is not None:
+        info(warning)
     options = BenchOptions(repeats=repeats, baseline_repeats=baseline_repeats, study_repeats=study_repeats,
                            scale_participants=scale_participants, scale_studies=scale_studies)
     rows = run_bench(options, figures=select_figures(only), progress=info)
