@@ -74,14 +74,15 @@ from nudgecli.store import provenance, utc_now, write_json_atomic, write_parquet
 if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only
     from nudgecli.report.plans import AnalysisPlan
 
-#: CPU seconds per simulated trial end to end on one core -- for the size estimate only. Everything
-#: a study costs per trial besides its analysis: its layouts' value iteration, the trials, their
-#: metrics and the parts written (``nudge replicate paper -R 20 --workers 2`` on the 2-core
-#: development machine, 2026-11-25: 94 s of CPU for 8,640 trials and 20 analyses, 10-11 ms a trial;
-#: the trial loop alone is 4-6 ms of it).
-SECONDS_PER_TRIAL = 0.012
-#: Wall seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.4 s).
-SECONDS_PER_ANALYSIS = 0.4
+#: CPU seconds per simulated trial end to end on one core -- for the size estimate's "about ..."
+#: only (the guard counts trials). Everything a study costs per trial besides its analysis: its
+#: layouts, the trials, their metrics and the parts written (``nudge replicate paper -R 20
+#: --workers 2`` on the 2-core development machine, 2026-11-26: 51-57 s of CPU for 8,640 trials
+#: and 20 analyses, 5.4-6.0 ms a trial; the trial loop alone is about 3 ms of it).
+SECONDS_PER_TRIAL = 0.006
+#: Seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.26 s alone,
+#: more beside a worker).
+SECONDS_PER_ANALYSIS = 0.3
 #: Bytes on disk: a participant task's part file (about 7 KB of Parquet overhead and 60 bytes per
 #: trial, measured on ``smoke``) and an analysis (its JSON document, about 14 KB).
 BYTES_PER_TASK = 7_000
