@@ -5,12 +5,15 @@ asking the person at every step."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 import functools
 from types import SimpleNamespace
 from typing import Any
 
 import pandas as pd
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from test_sim_behaviour import DT, View, person_with
 
 from nudgecli.config import load_experiment
@@ -88,7 +91,8 @@ def _check_skips(patch: pytest.MonkeyPatch) -> None:
 
     def checked(self: SimulatedPerson, steps: int, pose: tuple[float, float, float], mode: int) -> None:
         assert (*pose, mode) == started[id(self)]
-        every = copy.deepcopy(self)
+        # a deep copy but for what the person only reads (their world, physiology and policy)
+        every = copy.deepcopy(self, {id(v): v for v in (self.world, self.participant, self.policy)})
         view = SimpleNamespace(x=pose[0], y=pose[1], theta=pose[2], mode=mode)
         assert [_NEXT_INPUT(every, view) for _ in range(steps)] == [(NO_INPUT, 0.0)] * steps
         skip_quiet(self, steps, pose, mode)
@@ -117,3 +121,40 @@ def test_resting_and_idling_are_quiet() -> None:
     assert person.phase is Phase.RESTING and person.quiet_steps(View(40.0, 30.0, 0.0, mode=0)) == 7
     person.phase = Phase.IDLE
     assert person.quiet_steps(View(40.0, 30.0, 0.0, mode=0)) > 10**9  # until the turn ends
+
+
+@st.composite
+def _settings(draw: st.DrawFn) -> list[str]:
+    """``--set`` overrides of the paper experiment over every habit and rule a quiet run holds."""
+    flags = ("event_reactions", "planning", "hard_pulses", "hold_on", "pause_tail", "notice_mode_errors",
+             "lean_on_blending", "release_when_dragged")
+    overrides = [f"behaviour.{flag}={str(draw(st.booleans())).lower()}" for flag in flags]
+    overrides += [
+        f"behaviour.decisions={draw(st.sampled_from(['events', 'grid']))}",
+        f"behaviour.after_autonomy={draw(st.sampled_from(['replan', 'resume']))}",
+        f"behaviour.stall_s={draw(st.sampled_from([0.0, 0.5, 1.0]))}",
+        f"inference.update={draw(st.sampled_from(['action', 'sample']))}",
+        f"inference.decay={str(draw(st.booleans())).lower()}",
+        f"inference.decay_delay={draw(st.sampled_from([0, 1, 3, 10]))}",
+        f"assistance.startup_delay_s={draw(st.sampled_from([0.0, 0.35, 1.0]))}",
+        f"assistance.entropy_gate={str(draw(st.booleans())).lower()}",
+        f"assistance.distance_weighting={str(draw(st.booleans())).lower()}",
+    ]
+    return overrides
+
+
+@functools.cache
+def _paper_plan() -> StudyPlan:
+    config = load_experiment("paper")
+    return StudyPlan.build(config, config.experiment.seed)
+
+
+@settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(overrides=_settings(), index=st.integers(0, 8))
+def test_quiet_runs_give_the_same_trials_under_any_habits_and_rules(overrides, index, monkeypatch) -> None:
+    # the layouts depend on neither section: the plan's, with the drawn settings
+    plan = dataclasses.replace(_paper_plan(), config=load_experiment("paper", overrides))
+    every_trials, every_steps, _ = _participant(plan, index, False, monkeypatch)
+    quiet_trials, quiet_steps, _ = _participant(plan, index, True, monkeypatch)
+    pd.testing.assert_frame_equal(quiet_trials, every_trials, check_exact=True)
+    pd.testing.assert_frame_equal(quiet_steps, every_steps, check_exact=True)
