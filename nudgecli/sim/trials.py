@@ -32,10 +32,8 @@ def run_session(session: TrialSession, source: InputSource,
             if new_turn:
                 source.start_turn(after_autonomy)
                 new_turn = False
-            quiet = person.quiet_steps(session) if person is not None else 0
-            if quiet > 1:
+            if person is not None and (quiet := person.quiet_steps(session)) > 1:
                 pose, mode = (session.x, session.y, session.theta), session.mode
-                assert person is not None
                 person.skip_quiet(session.quiet_human_steps(quiet), pose, mode)
                 continue
             intended, pressure = source.next_input(session)
