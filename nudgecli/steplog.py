@@ -11,7 +11,7 @@ what happened during it. ``event`` holds zero or more event names joined with
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from typing import Any
 
 import numpy as np
@@ -55,6 +55,11 @@ STEP_NUMERIC_DTYPES: dict[str, type[np.generic]] = {
     **dict.fromkeys(("t", "x", "y", "theta", "pressure", "u_h_x", "u_h_y", "u_h_theta", "u_a_x", "u_a_y",
                      "u_a_theta", "alpha", "entropy"), np.float64),
 }
+
+
+def wanted_step_columns(names: Collection[str]) -> list[str]:
+    """The columns of :data:`STEP_COLUMNS` among ``names``, in the schema's order."""
+    return [name for name in STEP_COLUMNS if name in names]
 
 
 def steps_frame(columns: dict[str, list[Any]]) -> pd.DataFrame:

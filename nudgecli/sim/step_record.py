@@ -14,7 +14,7 @@ from typing import Any
 from nudgecli.model import interface
 from nudgecli.model.interface import LABELS
 from nudgecli.model.world import MODE_NAMES
-from nudgecli.steplog import STEP_COLUMNS, command_columns, join_events, step_times
+from nudgecli.steplog import STEP_COLUMNS, command_columns, join_events, step_times, wanted_step_columns
 
 #: The step log's ``phi_m`` of a measured code (no input: empty).
 STREAM_LABEL = {**dict(enumerate(LABELS)), interface.PUFF_DEADBAND: interface.PUFF_DEADBAND_LABEL,
@@ -49,7 +49,7 @@ def step_columns(rows: Sequence[tuple[Any, ...]], participant: int, trial: int, 
     dict
         The wanted columns of :data:`~nudgecli.steplog.STEP_COLUMNS`, in its order -> ``(N,)`` lists.
     """
-    wanted = [name for name in STEP_COLUMNS if name in names]
+    wanted = wanted_step_columns(names)
     if not rows:
         return {name: [] for name in wanted}
     field = dict(zip(ROW_FIELDS, zip(*rows, strict=True), strict=True))

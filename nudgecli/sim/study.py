@@ -38,7 +38,7 @@ from nudgecli.sim.participant_fitting import participant_from_log
 from nudgecli.sim.participants import Participant, draw_participant
 from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSpec
 from nudgecli.sim.trials import run_trial, run_world_trial
-from nudgecli.steplog import STEP_COLUMNS, steps_frame
+from nudgecli.steplog import STEP_COLUMNS, steps_frame, wanted_step_columns
 
 #: The ``condition`` of a layout every condition runs (``[study] shared_layouts``).
 SHARED = "shared"
@@ -303,7 +303,7 @@ def simulate_participant(plan: StudyPlan, participant_index: int,
     settings = ProtocolSettings.from_config(config)
     summaries: list[dict[str, Any]] = []
     # one frame per participant, not per trial: building frames was a tenth of the run
-    step_columns: dict[str, list[Any]] = {column: [] for column in STEP_COLUMNS if column in step_log_columns}
+    step_columns: dict[str, list[Any]] = {column: [] for column in wanted_step_columns(step_log_columns)}
     models: dict[int, DisambiguationModel] = {}
     with fewer_collections():  # the loop allocates many short-lived tuples and no cycles
         for spec in plan.schedule(participant_index):
