@@ -174,6 +174,29 @@ def test_vectorised_monte_carlo_reproduces_the_per_sample_loop(weighting: str) -
     np.testing.assert_array_equal(fast, slow)
 
 
+class _ZeroUniforms:
+    """Stands in for a Generator whose every uniform is exactly 0.0 (a value ``random`` can return)."""
+
+    def random(self, shape: tuple[int, ...]) -> np.ndarray:
+        return np.zeros(shape)
+
+
+def test_monte_carlo_draws_never_land_on_a_zero_probability_outcome() -> None:
+    # Generator.choice's rule is cdf.searchsorted(u, side="right"): u = 0.0 skips the leading
+    # outcomes of probability 0 (cdf 0.0) rather than drawing them
+    p_a = np.zeros((2, 1, 4))
+    p_a[:, 0, 1] = 1.0  # move_n for sure
+    mapping = np.zeros((3, 4, 4))
+    mapping[:, :, 3] = 1.0
+    mapping[0, 1] = [0.0, 0.0, 1.0, 0.0]  # move_n in mode x: Soft Puff for sure
+    distortion = np.eye(4)
+    counts = mi.monte_carlo_label_counts(np.array([0.0, 1.0]), np.array([0]), p_a, mapping, distortion,
+                                         _ZeroUniforms(), 5)  # type: ignore[arg-type]
+    expected = np.zeros((1, 2, 4))
+    expected[0, 1, 2] = 5.0  # every draw: goal 1, Soft Puff
+    np.testing.assert_array_equal(counts, expected)
+
+
 def test_belief_weighted_monte_carlo_converges_to_exact() -> None:
     # Study-like tables: ε-greedy actions of random policies, the default noise tables.
     rng = np.random.default_rng(2)
@@ -326,6 +349,24 @@ def test_scores_combine_the_terms(model: dis.DisambiguationModel) -> None:
     mi_only = dis.DisambiguationSettings(distance_weight=0.0, window=5)
     choice = dis.maximally_disambiguating_state(belief, model, current, mi_only)
     assert choice.state == int(cands.states[int(np.flatnonzero(info >= info.max() - 1e-12)[0])])
+
+
+def test_scores_with_a_goal_transition_propagate_the_information_term_only(
+        model: dis.DisambiguationModel) -> None:
+    # Eq. 13 weighs the goals by the predicted belief b @ T; the distance term of Eq. 15 keeps b
+    belief = np.array([0.7, 0.1, 0.15, 0.05])
+    transition = np.array([[0.1, 0.6, 0.2, 0.1], [0.3, 0.3, 0.3, 0.1],
+                           [0.25, 0.25, 0.25, 0.25], [0.7, 0.1, 0.1, 0.1]])
+    current = int(state_index(6, 5, 3, 1))
+    settings_ = dis.DisambiguationSettings(mi_weight=0.7, distance_weight=0.2, window=5)
+    cands = model.candidates(current, settings_)
+    scores = dis.disambiguation_scores(belief, model, cands, settings_, goal_transition=transition)
+    info = brute_force_mi(belief, model.likelihood[:, cands.states], transition)
+    assert np.abs(info - brute_force_mi(belief, model.likelihood[:, cands.states], None)).max() > 1e-3
+    dist = [sum(belief[g] * math.dist(GOAL_CELLS[g], c) for g in range(4)) for c in cands.cells]
+    np.testing.assert_allclose(scores.information, info, atol=1e-12)
+    np.testing.assert_allclose(scores.distance, dist, atol=1e-12)
+    np.testing.assert_allclose(scores.score, 0.7 * info - 0.2 * np.array(dist), atol=1e-12)
 
 
 def test_study_variant_scores(model: dis.DisambiguationModel) -> None:
