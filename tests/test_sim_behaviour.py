@@ -17,10 +17,12 @@ from nudgecli.model.interface import (
     SOFT_PUFF,
     SOFT_SIP,
     TO_MODE_R,
+    TRUE_MAPPING,
+    human_command,
     label_of_pressure,
 )
 from nudgecli.model.world import CELL_WIDTH, N_MODES, N_STATES, X_MIN, discretise, state_index
-from nudgecli.sim.behaviour import Phase, SimulatedPerson, mark_reached, next_centre
+from nudgecli.sim.behaviour import Phase, SimulatedPerson, mark_reached, move_action, next_centre
 from nudgecli.sim.behaviour_settings import BehaviourSettings
 from nudgecli.sim.participants import Participant, mapping_with_error
 
@@ -284,3 +286,33 @@ def test_the_longest_hold_defaults_to_the_behaviour_sections_seconds_at_any_step
     for dt in (0.1, 0.05, 0.2):
         assert BehaviourSettings(dt=dt).max_hold_steps == max(1, round(seconds / dt))
     assert BehaviourSettings(dt=0.1, max_hold_steps=7).max_hold_steps == 7
+
+
+def test_operating_time_runs_out_only_after_its_last_sample() -> None:
+    # 1.5 s of operating is 15 samples: the decision at the 15th (the end of the first one-cell
+    # move, 14 samples on) is still inside it, so they start a second move and go idle at its end
+    person = person_with(rest_s=0.0, operate_s=1.5)
+    person.start_turn(after_autonomy=False)
+    labels = drive(person, View(13.5, 7.1, 0.0, 0), 40)
+    assert labels[:28] == [SOFT_PUFF] * 28 and labels[28:] == [NO_INPUT] * 12
+    assert person.phase is Phase.IDLE
+
+
+def test_a_random_action_is_any_of_the_four() -> None:
+    # epsilon 1: every decision is the uniform random action of Eq. 1, over all four actions
+    person = person_with(MOVE_P)
+    person.participant = replace(person.participant, epsilon=1.0)
+    view = View(13.5, 7.1, 0.0, 0)
+    actions = [person._policy_action(view)[0] for _ in range(4000)]
+    counts = np.bincount(actions, minlength=4)
+    assert counts.size == 4 and np.all(np.abs(counts / 4000 - 0.25) < 0.03), counts
+
+
+@pytest.mark.parametrize("mode", [0, 1, 2])
+@pytest.mark.parametrize("error", [-0.7, 0.4])
+def test_move_action_commands_the_robot_towards_the_error(mode: int, error: float) -> None:
+    # the action's label under the true mapping moves the robot along the active axis with the
+    # sign of the error (theta: move_p turns clockwise, so a positive error needs move_n)
+    label = int(TRUE_MAPPING[move_action(mode, error)])
+    velocity = human_command(label, mode, 1.0, 1.0)
+    assert np.sign(velocity[mode]) == np.sign(error)
