@@ -244,6 +244,16 @@ def test_mutual_information_from_counts_hand_cases() -> None:
         mi.mutual_information_from_counts(counts, np.ones(3), "median")  # type: ignore[arg-type]
 
 
+def test_belief_weighted_estimate_normalises_the_belief() -> None:
+    # sum_g b_g KL_g with b normalised here: a belief given as weights 2 : 1 : 1 is (0.5, 0.25, 0.25)
+    counts = np.array([[[5, 2, 1, 0], [0, 1, 1, 6], [2, 2, 2, 2]]], dtype=float)
+    pooled = counts[0].sum(axis=0) / counts.sum()
+    kls = [rel_entr(row / row.sum(), pooled).sum() for row in counts[0]]
+    expected = 0.5 * kls[0] + 0.25 * kls[1] + 0.25 * kls[2]
+    for belief in (np.array([2.0, 1.0, 1.0]), np.array([0.5, 0.25, 0.25])):
+        assert mi.mutual_information_from_counts(counts, belief, "belief")[0] == pytest.approx(expected)
+
+
 # --- candidate domains --------------------------------------------------------------------------
 
 def brute_force_window(current: int, goal_cells: np.ndarray, window: int) -> list[int]:
