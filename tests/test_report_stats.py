@@ -159,6 +159,16 @@ def test_stars_only_when_kruskal_wallis_is_significant() -> None:
     assert is_significant(0.05, 0.05, "<=") and not is_significant(0.05, 0.05, "<")
 
 
+@pytest.mark.parametrize(("comparison", "stars"), [("<", ""), ("<=", "***")])
+def test_the_kruskal_gate_uses_the_star_comparison(comparison: str, stars: str) -> None:
+    # alpha set to the Kruskal-Wallis p itself: p <= alpha passes the gate, p < alpha does not
+    data = _tidy({"a": list(range(10)), "b": list(range(20, 30))})
+    p = kruskal_wallis(data, "value", ["a", "b"])["p"]
+    options = ComparisonOptions(kruskal_alpha=p, star_comparison=comparison, bootstrap_resamples=100)
+    entry = analyze_metric(data, "value", ["a", "b"], options)
+    assert entry["conover"][0]["p"] < 0.001 and entry["stars"][0]["stars"] == stars
+
+
 def test_describe_per_condition() -> None:
     data = _tidy({"a": [1, 2, 3, 4, 100], "b": [5.0, 6.0]})
     table = describe(data, "value", ["b", "a"]).set_index("condition")
