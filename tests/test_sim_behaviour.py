@@ -16,6 +16,7 @@ from nudgecli.model.interface import (
     NO_INPUT,
     SOFT_PUFF,
     SOFT_SIP,
+    TO_MODE_L,
     TO_MODE_R,
     TRUE_MAPPING,
     human_command,
@@ -316,3 +317,50 @@ def test_move_action_commands_the_robot_towards_the_error(mode: int, error: floa
     label = int(TRUE_MAPPING[move_action(mode, error)])
     velocity = human_command(label, mode, 1.0, 1.0)
     assert np.sign(velocity[mode]) == np.sign(error)
+
+
+def test_a_person_notices_the_robot_turning_the_wrong_way() -> None:
+    """Theta mode: they meant move_p (clockwise, theta falls), a Soft Sip turned it anticlockwise."""
+    person = person_with(MOVE_P)
+    person.start_turn(after_autonomy=False)
+    view = View(13.5, 7.1, 1.0, 2)
+    person.next_input(view)  # first decision: Soft Puff, a clockwise turn ...
+    assert person.held_action == MOVE_P and person.hold_axis == 2
+    person.held_label = SOFT_SIP  # ... stand in for a mapping slip
+    person.blow = np.full(30, 0.15)
+    assert person._decision_due(replace(view, theta=1.1))  # the robot turned anticlockwise
+    assert not person._decision_due(replace(view, theta=0.9))  # clockwise, as they meant
+
+
+def test_jitter_spreads_both_ways_around_the_habit() -> None:
+    # rest 2 s x U(0.5, 1.5) at 10 Hz: rests from 10 to 30 steps, about half of them above 20
+    person = person_with(rest_s=2.0, settings=BehaviourSettings(dt=DT, rest_jitter=0.5))
+    rests = []
+    for _ in range(400):
+        person.start_turn(after_autonomy=False)
+        rests.append(person.rest_left)
+    rests = np.array(rests)
+    assert rests.min() >= 10 and rests.max() <= 30
+    assert abs(rests.mean() - 20.0) < 1.0  # standard error of the mean: 5.8 / sqrt(400) = 0.29
+    assert 0.4 < (rests > 20).mean() < 0.6
+
+
+def test_fine_positioning_uses_each_axis_tolerance() -> None:
+    # position tolerance 0.5 on x and y, heading tolerance 0.15: a y error of 0.3 needs nothing,
+    # a heading error of 0.3 needs a turn
+    person = person_with(goal=(40.0, 30.0, 0.0))
+    s = person.settings
+    assert s.fine_heading_tolerance < 0.3 < s.fine_position_tolerance
+    assert person._fine_action(View(40.0, 29.7, 0.0, 1)) is None
+    assert person._fine_action(View(40.0, 30.0, -0.3, 2)) == move_action(2, 0.3)
+
+
+@pytest.mark.parametrize(("mode", "target"), [(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)])
+def test_fine_positioning_switches_to_the_needed_mode_in_one_step(mode: int, target: int) -> None:
+    # the only remaining error lies on `target`'s axis; to_mode_r cycles the mode +1, to_mode_l -1
+    errors = {0: (39.0, 30.0, 0.0), 1: (40.0, 29.0, 0.0), 2: (40.0, 30.0, -0.3)}
+    x, y, theta = errors[target]
+    person = person_with(goal=(40.0, 30.0, 0.0))
+    action = person._fine_action(View(x, y, theta, mode))
+    assert action in (TO_MODE_R, TO_MODE_L)
+    assert (mode + (1 if action == TO_MODE_R else -1)) % N_MODES == target
