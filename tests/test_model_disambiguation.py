@@ -336,6 +336,23 @@ def test_s_star_on_a_hand_checkable_window() -> None:
     assert choice.index == 6
 
 
+def test_s_star_is_the_first_of_candidates_tied_up_to_rounding() -> None:
+    # I(s) = 0; world-unit distance to the belief's mean goal, cell (6.5, 2.5): the cells (6, 5) and
+    # (7, 5) are mirror images about it, equally near, but their computed D(s) differ in the last bit
+    goal_cells = np.array([[5, 1], [8, 4]])
+    p_a = np.repeat(action_likelihood(np.zeros((1, N_STATES), dtype=int)), 2, axis=0)
+    flat = dis.DisambiguationModel(goal_cells, p_a, default_mapping_table(), default_distortion_table())
+    settings_ = dis.DisambiguationSettings(distance_unit="world", distance="to_mean", window=5)
+    choice = dis.maximally_disambiguating_state(np.array([0.5, 0.5]), flat, int(state_index(8, 7, 0, 0)),
+                                                settings_)
+    # by hand, in cell units (a uniform grid scales x and y by the cell sizes, not the order)
+    width, height = cell_centre(1, 1) - cell_centre(0, 0)
+    hand = [math.hypot((i - 6.5) * width, (j - 2.5) * height) for i, j in choice.candidates.cells]
+    nearest = [k for k, d in enumerate(hand) if d <= min(hand) + 1e-9]
+    assert {tuple(choice.candidates.cells[k]) for k in nearest} == {(6, 5), (7, 5)}
+    assert choice.index == nearest[0] and choice.state == int(state_index(6, 5, 0, 0))
+
+
 def test_s_star_respects_the_grid_edge() -> None:
     flat = _flat_model()
     current = int(state_index(9, 9, 0, 0))
