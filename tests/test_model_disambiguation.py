@@ -174,11 +174,14 @@ def test_vectorised_monte_carlo_reproduces_the_per_sample_loop(weighting: str) -
     np.testing.assert_array_equal(fast, slow)
 
 
-class _ZeroUniforms:
-    """Stands in for a Generator whose every uniform is exactly 0.0 (a value ``random`` can return)."""
+class _ConstantUniforms:
+    """Stands in for a Generator whose every uniform is ``value`` (one ``random`` can return)."""
+
+    def __init__(self, value: float) -> None:
+        self.value = value
 
     def random(self, shape: tuple[int, ...]) -> np.ndarray:
-        return np.zeros(shape)
+        return np.full(shape, self.value)
 
 
 def test_monte_carlo_draws_never_land_on_a_zero_probability_outcome() -> None:
@@ -191,10 +194,34 @@ def test_monte_carlo_draws_never_land_on_a_zero_probability_outcome() -> None:
     mapping[0, 1] = [0.0, 0.0, 1.0, 0.0]  # move_n in mode x: Soft Puff for sure
     distortion = np.eye(4)
     counts = mi.monte_carlo_label_counts(np.array([0.0, 1.0]), np.array([0]), p_a, mapping, distortion,
-                                         _ZeroUniforms(), 5)  # type: ignore[arg-type]
+                                         _ConstantUniforms(0.0), 5)  # type: ignore[arg-type]
     expected = np.zeros((1, 2, 4))
     expected[0, 1, 2] = 5.0  # every draw: goal 1, Soft Puff
     np.testing.assert_array_equal(counts, expected)
+
+
+def test_monte_carlo_draws_stay_in_range_for_rows_within_the_tables_tolerance() -> None:
+    # rows summing to 1 - 5e-7 pass validation (1e-6); as in Generator.choice, each cdf is divided by
+    # its last entry, so the largest uniform below 1 draws the last outcome, never one past it
+    p_a = np.full((1, 1, 4), 0.25)
+    p_a[0, 0, 3] -= 5e-7
+    mapping = default_mapping_table()
+    mapping[0, 3] = [0.0, 0.0, 0.0, 1.0 - 5e-7]
+    distortion = np.eye(4)
+    distortion[3, 3] -= 5e-7
+    largest_below_one = float(np.nextafter(1.0, 0.0))
+    counts = mi.monte_carlo_label_counts(np.array([1.0]), np.array([0]), p_a, mapping, distortion,
+                                         _ConstantUniforms(largest_below_one), 3)  # type: ignore[arg-type]
+    expected = np.zeros((1, 1, 4))
+    expected[0, 0, 3] = 3.0  # to_mode_l -> Hard Sip, measured as itself
+    np.testing.assert_array_equal(counts, expected)
+
+
+@pytest.mark.parametrize("belief", [[0.5, -0.1, 0.6], [0.0, 0.0], [np.nan, 1.0], [np.inf, 1.0], [],
+                                    [[0.5, 0.5]]])
+def test_a_belief_that_is_not_a_distribution_is_refused(belief: list) -> None:
+    with pytest.raises(ValueError, match="non-negative"):
+        mi.normalised_belief(np.array(belief, dtype=float))
 
 
 def test_belief_weighted_monte_carlo_converges_to_exact() -> None:
