@@ -31,6 +31,16 @@ def test_distortion_row_not_summing_to_one_is_named() -> None:
         interface.validate_distortion_table(table)
 
 
+def test_a_row_sum_is_checked_to_one_millionth() -> None:
+    # within 1e-6 of 1 a row passes; 2e-6 off it is named (the row loop has the fast check's tolerance)
+    table = interface.default_distortion_table()
+    table[interface.SOFT_SIP, 0] += 5e-7
+    interface.validate_distortion_table(table)
+    table[interface.SOFT_SIP, 0] += 1.5e-6
+    with pytest.raises(ProbabilityTableError, match="row 'Soft Sip' sums to"):
+        interface.validate_distortion_table(table)
+
+
 @pytest.mark.parametrize("shape", [(4, 4, 4), (3, 4), (3, 4, 5)])
 def test_wrong_shape_is_rejected(shape: tuple[int, ...]) -> None:
     with pytest.raises(ProbabilityTableError, match=r"p\(phi_i \| a\): expected shape \(3, 4, 4\)"):
