@@ -67,6 +67,15 @@ def test_assistance_alpha_gates() -> None:
     assert ast.assistance_alpha(0.9, 4, 0.99, 0.0, 100.0, blending()) == pytest.approx(0.8)
 
 
+def test_entropy_gate_holds_only_while_the_entropy_exceeds_kappa() -> None:
+    # DESIGN 2.6: alpha is 0 while H > kappa; at H == kappa the belief is confident enough
+    assert not ast.entropy_gated(0.65, 0.65) and ast.entropy_gated(0.6500001, 0.65)
+    assert not ast.entropy_gated(1.0, None)
+    study = blending(entropy_gate=0.65)
+    assert ast.assistance_alpha(0.9, 4, 0.65, 5.0, 0.0, study) == pytest.approx(0.8)
+    assert ast.assistance_alpha(0.9, 4, 0.6500001, 5.0, 0.0, study) == 0.0
+
+
 @settings(max_examples=200, deadline=None)
 @given(x=st.floats(3, 45), y=st.floats(2, 36), theta=st.floats(0, 2 * math.pi - 1e-9),
        tx=st.floats(3, 45), ty=st.floats(2, 36), ttheta=st.floats(0, 2 * math.pi - 1e-9),

@@ -174,6 +174,56 @@ def test_vectorised_monte_carlo_reproduces_the_per_sample_loop(weighting: str) -
     np.testing.assert_array_equal(fast, slow)
 
 
+class _ConstantUniforms:
+    """Stands in for a Generator whose every uniform is ``value`` (one ``random`` can return)."""
+
+    def __init__(self, value: float) -> None:
+        self.value = value
+
+    def random(self, shape: tuple[int, ...]) -> np.ndarray:
+        return np.full(shape, self.value)
+
+
+def test_monte_carlo_draws_never_land_on_a_zero_probability_outcome() -> None:
+    # Generator.choice's rule is cdf.searchsorted(u, side="right"): u = 0.0 skips the leading
+    # outcomes of probability 0 (cdf 0.0) rather than drawing them
+    p_a = np.zeros((2, 1, 4))
+    p_a[:, 0, 1] = 1.0  # move_n for sure
+    mapping = np.zeros((3, 4, 4))
+    mapping[:, :, 3] = 1.0
+    mapping[0, 1] = [0.0, 0.0, 1.0, 0.0]  # move_n in mode x: Soft Puff for sure
+    distortion = np.eye(4)
+    counts = mi.monte_carlo_label_counts(np.array([0.0, 1.0]), np.array([0]), p_a, mapping, distortion,
+                                         _ConstantUniforms(0.0), 5)  # type: ignore[arg-type]
+    expected = np.zeros((1, 2, 4))
+    expected[0, 1, 2] = 5.0  # every draw: goal 1, Soft Puff
+    np.testing.assert_array_equal(counts, expected)
+
+
+def test_monte_carlo_draws_stay_in_range_for_rows_within_the_tables_tolerance() -> None:
+    # rows summing to 1 - 5e-7 pass validation (1e-6); as in Generator.choice, each cdf is divided by
+    # its last entry, so the largest uniform below 1 draws the last outcome, never one past it
+    p_a = np.full((1, 1, 4), 0.25)
+    p_a[0, 0, 3] -= 5e-7
+    mapping = default_mapping_table()
+    mapping[0, 3] = [0.0, 0.0, 0.0, 1.0 - 5e-7]
+    distortion = np.eye(4)
+    distortion[3, 3] -= 5e-7
+    largest_below_one = float(np.nextafter(1.0, 0.0))
+    counts = mi.monte_carlo_label_counts(np.array([1.0]), np.array([0]), p_a, mapping, distortion,
+                                         _ConstantUniforms(largest_below_one), 3)  # type: ignore[arg-type]
+    expected = np.zeros((1, 1, 4))
+    expected[0, 0, 3] = 3.0  # to_mode_l -> Hard Sip, measured as itself
+    np.testing.assert_array_equal(counts, expected)
+
+
+@pytest.mark.parametrize("belief", [[0.5, -0.1, 0.6], [0.0, 0.0], [np.nan, 1.0], [np.inf, 1.0], [],
+                                    [[0.5, 0.5]]])
+def test_a_belief_that_is_not_a_distribution_is_refused(belief: list) -> None:
+    with pytest.raises(ValueError, match="non-negative"):
+        mi.normalised_belief(np.array(belief, dtype=float))
+
+
 def test_belief_weighted_monte_carlo_converges_to_exact() -> None:
     # Study-like tables: ε-greedy actions of random policies, the default noise tables.
     rng = np.random.default_rng(2)
@@ -219,6 +269,16 @@ def test_mutual_information_from_counts_hand_cases() -> None:
     assert estimate == pytest.approx(np.mean(kls))
     with pytest.raises(ValueError, match="weighting"):
         mi.mutual_information_from_counts(counts, np.ones(3), "median")  # type: ignore[arg-type]
+
+
+def test_belief_weighted_estimate_normalises_the_belief() -> None:
+    # sum_g b_g KL_g with b normalised here: a belief given as weights 2 : 1 : 1 is (0.5, 0.25, 0.25)
+    counts = np.array([[[5, 2, 1, 0], [0, 1, 1, 6], [2, 2, 2, 2]]], dtype=float)
+    pooled = counts[0].sum(axis=0) / counts.sum()
+    kls = [rel_entr(row / row.sum(), pooled).sum() for row in counts[0]]
+    expected = 0.5 * kls[0] + 0.25 * kls[1] + 0.25 * kls[2]
+    for belief in (np.array([2.0, 1.0, 1.0]), np.array([0.5, 0.25, 0.25])):
+        assert mi.mutual_information_from_counts(counts, belief, "belief")[0] == pytest.approx(expected)
 
 
 # --- candidate domains --------------------------------------------------------------------------
@@ -303,6 +363,23 @@ def test_s_star_on_a_hand_checkable_window() -> None:
     assert choice.index == 6
 
 
+def test_s_star_is_the_first_of_candidates_tied_up_to_rounding() -> None:
+    # I(s) = 0; world-unit distance to the belief's mean goal, cell (6.5, 2.5): the cells (6, 5) and
+    # (7, 5) are mirror images about it, equally near, but their computed D(s) differ in the last bit
+    goal_cells = np.array([[5, 1], [8, 4]])
+    p_a = np.repeat(action_likelihood(np.zeros((1, N_STATES), dtype=int)), 2, axis=0)
+    flat = dis.DisambiguationModel(goal_cells, p_a, default_mapping_table(), default_distortion_table())
+    settings_ = dis.DisambiguationSettings(distance_unit="world", distance="to_mean", window=5)
+    choice = dis.maximally_disambiguating_state(np.array([0.5, 0.5]), flat, int(state_index(8, 7, 0, 0)),
+                                                settings_)
+    # by hand, in cell units (a uniform grid scales x and y by the cell sizes, not the order)
+    width, height = cell_centre(1, 1) - cell_centre(0, 0)
+    hand = [math.hypot((i - 6.5) * width, (j - 2.5) * height) for i, j in choice.candidates.cells]
+    nearest = [k for k, d in enumerate(hand) if d <= min(hand) + 1e-9]
+    assert {tuple(choice.candidates.cells[k]) for k in nearest} == {(6, 5), (7, 5)}
+    assert choice.index == nearest[0] and choice.state == int(state_index(6, 5, 0, 0))
+
+
 def test_s_star_respects_the_grid_edge() -> None:
     flat = _flat_model()
     current = int(state_index(9, 9, 0, 0))
@@ -326,6 +403,24 @@ def test_scores_combine_the_terms(model: dis.DisambiguationModel) -> None:
     mi_only = dis.DisambiguationSettings(distance_weight=0.0, window=5)
     choice = dis.maximally_disambiguating_state(belief, model, current, mi_only)
     assert choice.state == int(cands.states[int(np.flatnonzero(info >= info.max() - 1e-12)[0])])
+
+
+def test_scores_with_a_goal_transition_propagate_the_information_term_only(
+        model: dis.DisambiguationModel) -> None:
+    # Eq. 13 weighs the goals by the predicted belief b @ T; the distance term of Eq. 15 keeps b
+    belief = np.array([0.7, 0.1, 0.15, 0.05])
+    transition = np.array([[0.1, 0.6, 0.2, 0.1], [0.3, 0.3, 0.3, 0.1],
+                           [0.25, 0.25, 0.25, 0.25], [0.7, 0.1, 0.1, 0.1]])
+    current = int(state_index(6, 5, 3, 1))
+    settings_ = dis.DisambiguationSettings(mi_weight=0.7, distance_weight=0.2, window=5)
+    cands = model.candidates(current, settings_)
+    scores = dis.disambiguation_scores(belief, model, cands, settings_, goal_transition=transition)
+    info = brute_force_mi(belief, model.likelihood[:, cands.states], transition)
+    assert np.abs(info - brute_force_mi(belief, model.likelihood[:, cands.states], None)).max() > 1e-3
+    dist = [sum(belief[g] * math.dist(GOAL_CELLS[g], c) for g in range(4)) for c in cands.cells]
+    np.testing.assert_allclose(scores.information, info, atol=1e-12)
+    np.testing.assert_allclose(scores.distance, dist, atol=1e-12)
+    np.testing.assert_allclose(scores.score, 0.7 * info - 0.2 * np.array(dist), atol=1e-12)
 
 
 def test_study_variant_scores(model: dis.DisambiguationModel) -> None:

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nudgecli.config import load_experiment
+from nudgecli.config import ExperimentConfig, load_experiment
 from nudgecli.errors import ProbabilityTableError
 from nudgecli.model import human_actions, mdp
 from nudgecli.model.interface import MOVE_N, MOVE_P, TO_MODE_L, TO_MODE_R
@@ -257,6 +257,14 @@ def test_action_likelihood() -> None:
     np.testing.assert_array_equal(p.argmax(axis=-1), policy)
     with pytest.raises(ValueError):
         human_actions.action_likelihood(policy, 1.5)
+
+
+def test_default_epsilon_is_the_papers() -> None:
+    # DESIGN 2.3: epsilon = 0.1, so 0.925 for the optimal action and 0.025 for each other; the
+    # config's default [model] epsilon reads the same constant
+    p = human_actions.action_likelihood(np.array([[2]]))
+    np.testing.assert_allclose(p[0, 0], [0.025, 0.025, 0.925, 0.025], rtol=0, atol=1e-15)
+    assert ExperimentConfig().model.epsilon == 0.1
 
 
 def test_solve_layout_human_model_matches_policy() -> None:

@@ -152,6 +152,27 @@ def test_pairwise_wilcoxon_uses_the_participants_with_every_condition() -> None:
     assert tidy.loc[0, "p"] == pytest.approx(expected)
 
 
+@pytest.mark.parametrize("method", ["none", "bonferroni"])
+def test_pairwise_wilcoxon_adjusts_by_the_asked_method(method: str) -> None:
+    data = three_group_table()
+    medians = data.groupby(["participant", "condition"])["value"].median().unstack()
+    raw = [scipy.stats.wilcoxon(medians[a], medians[b]).pvalue for a, b in itertools.combinations(THREE, 2)]
+    expected = raw if method == "none" else [min(1.0, 3 * p) for p in raw]  # Bonferroni by hand
+    tidy = pairwise_wilcoxon(data, "value", THREE, p_adjust=method)
+    assert list(tidy["p_unadjusted"]) == pytest.approx(raw)
+    assert list(tidy["p"]) == pytest.approx(expected)
+
+
+def test_friedman_needs_two_complete_participants() -> None:
+    # one participant with every condition (the others miss z): no test, a note
+    data = three_group_table()
+    data = data[(data["participant"] == 0) | (data["condition"] != "z")]
+    level, effect = participant_level_test(data, "value", THREE)
+    assert level["n_participants"] == 1
+    assert math.isnan(level["statistic"]) and math.isnan(level["p"]) and math.isnan(effect["value"])
+    assert "fewer than two participants" in level["note"]
+
+
 def test_stats_document_of_three_conditions_holds_every_pair() -> None:
     data = three_group_table()
     stats = json_ready(compare_conditions(data, ["value"], list(THREE), FEW_RESAMPLES))

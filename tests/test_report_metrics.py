@@ -119,6 +119,25 @@ def test_filters_act_on_their_own_metric_only() -> None:
     assert metrics.loc[0, "mode_switches"] == 3  # the input is untouched
 
 
+def test_a_filter_keeps_a_value_equal_to_its_maximum() -> None:
+    # "above its maximum" (inclusive maximum): 0.7 s stays under a 0.7 s limit, 1.0 s goes
+    trials, steps = _log()
+    filtered = apply_filters(trial_metrics(trials, steps), {"completion_time": 0.7, "mode_switches": 3})
+    assert math.isnan(filtered.loc[0, "completion_time"]) and filtered.loc[1, "completion_time"] == 0.7
+    assert filtered.loc[0, "mode_switches"] == 3
+
+
+def test_study_success_is_the_last_inferred_goal_not_the_first() -> None:
+    # inferred goals 2, none, 0, none: the last one (0) is the true goal; the first (2) is not
+    trials = pd.DataFrame({"participant": [1], "condition": ["a"], "block": [0], "trial": [0],
+                           "true_goal": [0], "success": [False], "duration_s": [0.4], "human_turns": [1]})
+    steps = _steps(1, 0, {"turn": [H] * 4, "alpha": [0.0] * 4, "inferred_goal": [2, -1, 0, -1],
+                          "event": [""] * 4})
+    assert bool(trial_metrics(trials, steps, success="last_inferred_goal").loc[0, "success"])
+    steps["inferred_goal"] = [0, -1, 2, -1]
+    assert not bool(trial_metrics(trials, steps, success="last_inferred_goal").loc[0, "success"])
+
+
 def test_missing_columns_and_duplicate_trials_are_refused() -> None:
     trials, steps = _log()
     with pytest.raises(DataError, match="step log lacks the column"):

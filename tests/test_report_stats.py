@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import math
 import re
+import statistics
 
 import numpy as np
 import pandas as pd
@@ -115,6 +116,17 @@ def test_kruskal_and_conover_match_the_textbook(names: tuple[str, ...]) -> None:
         assert row.p == pytest.approx(holm[row.a, row.b], rel=1e-10)
 
 
+def test_conover_adjusts_whatever_the_order_of_the_rows() -> None:
+    # the table lists the conditions c, b, a; the pairs asked for are (a, b), (a, c), (b, c)
+    _, _, raw, holm = textbook_kruskal_conover(GROUPS)
+    reversed_rows = _tidy({name: GROUPS[name] for name in ("c", "b", "a")})
+    table = conover(reversed_rows, "value", ["a", "b", "c"], p_adjust="holm")
+    assert [(r.a, r.b) for r in table.itertuples()] == [("a", "b"), ("a", "c"), ("b", "c")]
+    for row in table.itertuples():
+        assert row.p_unadjusted == pytest.approx(raw[row.a, row.b], rel=1e-10)
+        assert row.p == pytest.approx(holm[row.a, row.b], rel=1e-10)
+
+
 def test_conover_without_adjustment_reports_raw_p_twice() -> None:
     data = _tidy(GROUPS)
     table = conover(data, "value", ["a", "b", "c"], p_adjust="none")
@@ -147,12 +159,33 @@ def test_stars_only_when_kruskal_wallis_is_significant() -> None:
     assert is_significant(0.05, 0.05, "<=") and not is_significant(0.05, 0.05, "<")
 
 
+@pytest.mark.parametrize(("comparison", "stars"), [("<", ""), ("<=", "***")])
+def test_the_kruskal_gate_uses_the_star_comparison(comparison: str, stars: str) -> None:
+    # alpha set to the Kruskal-Wallis p itself: p <= alpha passes the gate, p < alpha does not
+    data = _tidy({"a": list(range(10)), "b": list(range(20, 30))})
+    p = kruskal_wallis(data, "value", ["a", "b"])["p"]
+    options = ComparisonOptions(kruskal_alpha=p, star_comparison=comparison, bootstrap_resamples=100)
+    entry = analyze_metric(data, "value", ["a", "b"], options)
+    assert entry["conover"][0]["p"] < 0.001 and entry["stars"][0]["stars"] == stars
+
+
 def test_describe_per_condition() -> None:
     data = _tidy({"a": [1, 2, 3, 4, 100], "b": [5.0, 6.0]})
     table = describe(data, "value", ["b", "a"]).set_index("condition")
     assert list(table.index) == ["b", "a"]
     assert table.loc["a", "n"] == 5 and table.loc["a", "median"] == 3
     assert table.loc["a", "q1"] == 2 and table.loc["a", "q3"] == 4 and table.loc["a", "mean"] == 22
+
+
+def test_describe_quartiles_are_linear_quantiles() -> None:
+    # four values: the linear rule puts q1 a quarter of the way from 1 to 2 (numpy's default)
+    data = _tidy({"a": [1.0, 2.0, 3.0, 4.0], "b": [10.0, 0.0, 5.0, 7.0, 1.0, 2.0]})
+    table = describe(data, "value", ["a", "b"]).set_index("condition")
+    assert table.loc["a", "q1"] == pytest.approx(1.75) and table.loc["a", "q3"] == pytest.approx(3.25)
+    for name, values in (("a", [1.0, 2.0, 3.0, 4.0]), ("b", [10.0, 0.0, 5.0, 7.0, 1.0, 2.0])):
+        q1, median, q3 = np.quantile(values, [0.25, 0.5, 0.75])
+        assert (table.loc[name, "q1"], table.loc[name, "median"], table.loc[name, "q3"]) == pytest.approx(
+            (q1, median, q3))
 
 
 def test_rank_biserial_hand_case() -> None:
@@ -220,6 +253,23 @@ def test_weighted_medians_equal_medians_of_replicated_samples() -> None:
         replicated = np.repeat(values, weights[r, owners])
         expected = np.median(replicated) if replicated.size else math.nan
         assert fast[r] == pytest.approx(expected, nan_ok=True)
+
+
+@pytest.mark.parametrize("aggregate", ["median", "mean"])
+def test_participant_level_test_summarises_by_the_chosen_aggregate(aggregate: str) -> None:
+    # skewed trials: a participant's mean and median differ, and so do the paired differences
+    trials = {0: ([1, 2, 9], [2, 2, 2]), 1: ([3, 4, 20], [5, 5, 6]), 2: ([0, 1, 2], [1, 1, 4]),
+              3: ([6, 7, 30], [7, 8, 8]), 4: ([2, 2, 3], [4, 4, 4]), 5: ([5, 6, 40], [6, 7, 7])}
+    rows = [{"participant": p, "condition": c, "value": float(v)}
+            for p, pair in trials.items() for c, values in zip("ab", pair, strict=True) for v in values]
+    summarise = statistics.mean if aggregate == "mean" else statistics.median
+    a = [summarise(pair[0]) for pair in trials.values()]
+    b = [summarise(pair[1]) for pair in trials.values()]
+    level, effect = participant_level_test(pd.DataFrame(rows), "value", ["a", "b"], aggregate=aggregate)
+    expected = scipy.stats.wilcoxon(a, b)
+    assert level["aggregate"] == aggregate
+    assert (level["statistic"], level["p"]) == pytest.approx((expected.statistic, expected.pvalue))
+    assert effect["value"] == pytest.approx(rank_biserial(np.array(a), np.array(b)))
 
 
 def test_participants_missing_a_condition_are_dropped_with_a_note() -> None:

@@ -16,11 +16,14 @@ from nudgecli.model.interface import (
     NO_INPUT,
     SOFT_PUFF,
     SOFT_SIP,
+    TO_MODE_L,
     TO_MODE_R,
+    TRUE_MAPPING,
+    human_command,
     label_of_pressure,
 )
 from nudgecli.model.world import CELL_WIDTH, N_MODES, N_STATES, X_MIN, discretise, state_index
-from nudgecli.sim.behaviour import Phase, SimulatedPerson, mark_reached, next_centre
+from nudgecli.sim.behaviour import Phase, SimulatedPerson, mark_reached, move_action, next_centre
 from nudgecli.sim.behaviour_settings import BehaviourSettings
 from nudgecli.sim.participants import Participant, mapping_with_error
 
@@ -284,3 +287,80 @@ def test_the_longest_hold_defaults_to_the_behaviour_sections_seconds_at_any_step
     for dt in (0.1, 0.05, 0.2):
         assert BehaviourSettings(dt=dt).max_hold_steps == max(1, round(seconds / dt))
     assert BehaviourSettings(dt=0.1, max_hold_steps=7).max_hold_steps == 7
+
+
+def test_operating_time_runs_out_only_after_its_last_sample() -> None:
+    # 1.5 s of operating is 15 samples: the decision at the 15th (the end of the first one-cell
+    # move, 14 samples on) is still inside it, so they start a second move and go idle at its end
+    person = person_with(rest_s=0.0, operate_s=1.5)
+    person.start_turn(after_autonomy=False)
+    labels = drive(person, View(13.5, 7.1, 0.0, 0), 40)
+    assert labels[:28] == [SOFT_PUFF] * 28 and labels[28:] == [NO_INPUT] * 12
+    assert person.phase is Phase.IDLE
+
+
+def test_a_random_action_is_any_of_the_four() -> None:
+    # epsilon 1: every decision is the uniform random action of Eq. 1, over all four actions
+    person = person_with(MOVE_P)
+    person.participant = replace(person.participant, epsilon=1.0)
+    view = View(13.5, 7.1, 0.0, 0)
+    actions = [person._policy_action(view)[0] for _ in range(4000)]
+    counts = np.bincount(actions, minlength=4)
+    assert counts.size == 4 and np.all(np.abs(counts / 4000 - 0.25) < 0.03), counts
+
+
+@pytest.mark.parametrize("mode", [0, 1, 2])
+@pytest.mark.parametrize("error", [-0.7, 0.4])
+def test_move_action_commands_the_robot_towards_the_error(mode: int, error: float) -> None:
+    # the action's label under the true mapping moves the robot along the active axis with the
+    # sign of the error (theta: move_p turns clockwise, so a positive error needs move_n)
+    label = int(TRUE_MAPPING[move_action(mode, error)])
+    velocity = human_command(label, mode, 1.0, 1.0)
+    assert np.sign(velocity[mode]) == np.sign(error)
+
+
+def test_a_person_notices_the_robot_turning_the_wrong_way() -> None:
+    """Theta mode: they meant move_p (clockwise, theta falls), a Soft Sip turned it anticlockwise."""
+    person = person_with(MOVE_P)
+    person.start_turn(after_autonomy=False)
+    view = View(13.5, 7.1, 1.0, 2)
+    person.next_input(view)  # first decision: Soft Puff, a clockwise turn ...
+    assert person.held_action == MOVE_P and person.hold_axis == 2
+    person.held_label = SOFT_SIP  # ... stand in for a mapping slip
+    person.blow = np.full(30, 0.15)
+    assert person._decision_due(replace(view, theta=1.1))  # the robot turned anticlockwise
+    assert not person._decision_due(replace(view, theta=0.9))  # clockwise, as they meant
+
+
+def test_jitter_spreads_both_ways_around_the_habit() -> None:
+    # rest 2 s x U(0.5, 1.5) at 10 Hz: rests from 10 to 30 steps, about half of them above 20
+    person = person_with(rest_s=2.0, settings=BehaviourSettings(dt=DT, rest_jitter=0.5))
+    rests = []
+    for _ in range(400):
+        person.start_turn(after_autonomy=False)
+        rests.append(person.rest_left)
+    rests = np.array(rests)
+    assert rests.min() >= 10 and rests.max() <= 30
+    assert abs(rests.mean() - 20.0) < 1.0  # standard error of the mean: 5.8 / sqrt(400) = 0.29
+    assert 0.4 < (rests > 20).mean() < 0.6
+
+
+def test_fine_positioning_uses_each_axis_tolerance() -> None:
+    # position tolerance 0.5 on x and y, heading tolerance 0.15: a y error of 0.3 needs nothing,
+    # a heading error of 0.3 needs a turn
+    person = person_with(goal=(40.0, 30.0, 0.0))
+    s = person.settings
+    assert s.fine_heading_tolerance < 0.3 < s.fine_position_tolerance
+    assert person._fine_action(View(40.0, 29.7, 0.0, 1)) is None
+    assert person._fine_action(View(40.0, 30.0, -0.3, 2)) == move_action(2, 0.3)
+
+
+@pytest.mark.parametrize(("mode", "target"), [(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)])
+def test_fine_positioning_switches_to_the_needed_mode_in_one_step(mode: int, target: int) -> None:
+    # the only remaining error lies on `target`'s axis; to_mode_r cycles the mode +1, to_mode_l -1
+    errors = {0: (39.0, 30.0, 0.0), 1: (40.0, 29.0, 0.0), 2: (40.0, 30.0, -0.3)}
+    x, y, theta = errors[target]
+    person = person_with(goal=(40.0, 30.0, 0.0))
+    action = person._fine_action(View(x, y, theta, mode))
+    assert action in (TO_MODE_R, TO_MODE_L)
+    assert (mode + (1 if action == TO_MODE_R else -1)) % N_MODES == target
