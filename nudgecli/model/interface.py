@@ -184,7 +184,7 @@ def validate_probability_table(table: np.ndarray, name: str, shape: tuple[int, .
         total = row.sum()
         if abs(total - 1.0) > atol:
             raise ProbabilityTableError(
-                f"{name}: row {where} sums to {total:.6g}, not 1; renormalise it")
+                f"{name}: row {where} sums to {total:.10g}, not 1; renormalise it")
     return arr
 
 
