@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 
 import numpy as np
@@ -11,12 +12,12 @@ import pytest
 from nudgecli.config import load_experiment
 from nudgecli.model import assistance
 from nudgecli.model.disambiguation import DisambiguationModel, maximally_disambiguating_state
-from nudgecli.model.interface import default_distortion_table, default_mapping_table
+from nudgecli.model.interface import NO_INPUT, SOFT_PUFF, default_distortion_table, default_mapping_table
 from nudgecli.model.mdp import solve_layout
 from nudgecli.model.world import MODE_NAMES, cell_centre, discretise, state_index
 from nudgecli.rng import generator
 from nudgecli.sim.participants import Participant, mapping_with_error
-from nudgecli.sim.protocol import ProtocolSettings, TrialSpec
+from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec, goal_transition_matrix
 from nudgecli.sim.study import build_layouts
 from nudgecli.sim.trials import handover_steps, run_trial
 
@@ -293,3 +294,154 @@ def test_a_trial_keeps_the_step_log_columns_asked_for(paper) -> None:
         kept = steps(names)
         assert list(kept) == [name for name in STEP_COLUMNS if name in names]
         assert kept == {name: full[name] for name in kept}
+
+
+# --- the turn-taking rules, step by step on a session --------------------------------------------
+
+def session_of(paper, condition: str, layout_index: int = 0, handover: int = 3, **changes) -> TrialSession:
+    """A fresh session on one of the paper's layouts with the default tables (``changes`` to the settings)."""
+    _config, settings, layouts = paper
+    item = layouts[layout_index]
+    solved = solve_layout(item.layout.goal_cells, item.layout.goal_headings)
+    model = DisambiguationModel(item.layout.goal_cells, solved.p_a_given_sg, default_mapping_table(),
+                                default_distortion_table())
+    spec = TrialSpec(participant=0, condition=condition, block=0, trial=0, layout_index=item.index,
+                     layout=item.layout)
+    changed = dataclasses.replace(settings, **changes)
+    return TrialSession(spec, changed, model, handover, generator(0, "session"))
+
+
+def confident(n_goals: int, leader: int) -> np.ndarray:
+    """A belief with a unique leader and a normalised entropy well below kappa (0.65)."""
+    belief = np.full(n_goals, 0.1 / (n_goals - 1))
+    belief[leader] = 0.9
+    return belief
+
+
+def test_the_disambiguation_step_heads_for_the_leader_and_control_keeps_its_heading(paper):
+    # Algorithm 1, lines 13-15: below kappa the Disambiguation condition steps towards g' and turns
+    # to g''s heading (inferred_goal = g'); Control steps towards the mean of the tied leaders (here
+    # the one leader) and keeps the robot's heading, with no g' logged
+    sizes = assistance.step_sizes(paper[1].window)
+    for condition in ("disambiguation", "control"):
+        session = session_of(paper, condition, layout_index=5)
+        goals = session.goal_poses
+        leader = goals.shape[0] - 1
+        session._set_belief(confident(goals.shape[0], leader))
+        assert session.entropy < paper[1].kappa
+        start = np.array([session.x, session.y, session.theta])
+        session._start_autonomy_turn()
+        assert session.pending_events[-1] == "step"
+        target = session.autonomy_target
+        assert any(np.allclose(target[:2], assistance.step_target(start[:2], goals[leader, :2], r),
+                               atol=1e-12) for r in sizes)
+        if condition == "disambiguation":
+            assert session.autonomy_inferred == leader and target[2] == goals[leader, 2] != start[2]
+        else:
+            assert session.autonomy_inferred == -1 and target[2] == start[2]
+        session.autonomy_step()
+        assert pd.DataFrame(session.columns)["inferred_goal"].iloc[-1] == session.autonomy_inferred
+
+
+def test_the_autonomy_nudges_only_when_the_entropy_exceeds_kappa(paper):
+    # "nudges to s* when the normalised entropy exceeds kappa": an entropy equal to kappa steps
+    belief = np.array([0.5, 0.3, 0.2])
+    entropy = float(-(belief * np.log(belief)).sum() / np.log(3))
+    session = session_of(paper, "disambiguation", layout_index=0)
+    assert session.goal_poses.shape[0] == 3
+    session._set_belief(belief)
+    at_kappa = session_of(paper, "disambiguation", layout_index=0, kappa=session.entropy)
+    assert session.entropy == pytest.approx(entropy, abs=1e-12)
+    at_kappa._set_belief(belief)
+    at_kappa._start_autonomy_turn()
+    assert at_kappa.pending_events[-1] == "step" and at_kappa.nudges == 0
+    below = session_of(paper, "disambiguation", layout_index=0, kappa=float(np.nextafter(session.entropy, 0)))
+    below._set_belief(belief)
+    below._start_autonomy_turn()
+    assert "nudge" in below.pending_events and below.nudges == 1
+
+
+def test_the_autonomy_hands_back_at_exactly_the_arrival_tolerance(paper):
+    # the turn ends when the robot is within (<=) arrival_tolerance of its target position
+    probe = session_of(paper, "control", layout_index=2)
+    probe._set_belief(confident(probe.goal_poses.shape[0], 0))
+    probe._start_autonomy_turn()
+    target = probe.autonomy_target.copy()
+    probe.autonomy_step()
+    left = float(np.hypot(target[0] - probe.x, target[1] - probe.y))
+    assert left > 0
+    for tolerance, turn in ((left, "human"), (float(np.nextafter(left, 0)), "autonomy")):
+        session = session_of(paper, "control", layout_index=2, arrival_tolerance=tolerance)
+        session._set_belief(confident(session.goal_poses.shape[0], 0))
+        session._start_autonomy_turn()
+        np.testing.assert_array_equal(session.autonomy_target, target)  # the same draw of R
+        session.autonomy_step()
+        assert session.turn == turn, tolerance
+
+
+def test_idle_steps_count_from_the_turns_first_input(paper):
+    # samples without input before the turn's first input are not idle time; from a first input
+    # that commands nothing (a deadband sample) the turn passes once the idle count exceeds 3
+    session = session_of(paper, "disambiguation", handover=3)
+    for _ in range(10):
+        session.human_step(NO_INPUT, 0.0)
+    assert session.turn == "human" and session.idle == 0
+    session.human_step(SOFT_PUFF, -0.4)  # the puff deadband: an input, no command
+    assert session.idle == 1
+    for expected_idle in (2, 3):
+        session.human_step(NO_INPUT, 0.0)
+        assert session.turn == "human" and session.idle == expected_idle
+    session.human_step(NO_INPUT, 0.0)  # the 4th idle step: 4 > 3
+    assert session.turn == "autonomy" and session.autonomy_turns == 1
+
+
+def test_a_goal_counts_only_after_the_turns_first_input(paper):
+    session = session_of(paper, "disambiguation", layout_index=3)
+    session.x, session.y, session.theta = (float(v) for v in session.goal_poses[1])
+    session.human_step(NO_INPUT, 0.0)  # at the goal, but nothing was given yet
+    assert session.reached == -1 and not session.finished
+    session.human_step(SOFT_PUFF, -0.4)  # a deadband input: the robot stands, the goal counts
+    assert session.reached == 1 and session.summary()["reached_goal"] == 1
+
+
+def test_the_summary_counts_agree_with_the_step_log(paper):
+    checked = 0
+    for layout_index, seed in ((1, 6), (0, 1), (4, 2), (8, 3), (16, 4)):
+        result, steps, _, _ = simulate(paper, layout_index, noisy_participant(), seed=seed,
+                                       condition="disambiguation")
+        summary, events = result.summary, steps["event"]
+        blocks = turns(steps)
+        assert summary["human_turns"] == sum(t["turn"].iloc[0] == "human" for t in blocks)
+        assert summary["autonomy_turns"] == events.str.contains("handover_to_autonomy").sum()
+        assert summary["nudges"] == events.str.contains("nudge").sum()
+        assert summary["human_mode_switches"] == events.str.contains("mode_switch_human").sum()
+        assert summary["steps"] == len(steps)
+        checked += (0 < summary["nudges"] < summary["autonomy_turns"]) and summary["human_mode_switches"] > 0
+    assert checked >= 1, "a trial must hold nudges, steps and mode switches for the counts to be told apart"
+
+
+def test_the_gap_gate_applies_to_the_blending_policy_only(paper):
+    # [blending] gate = "gap" is the blending baseline's; the turn-taking conditions keep the paper's alpha
+    belief = np.array([0.6, 0.3, 0.1])  # p1 - p2 = 0.3 <= 0.4
+    alphas = {}
+    for condition in ("blending", "disambiguation"):
+        session = session_of(paper, condition, layout_index=0, blending_gap=0.4)
+        session._set_belief(belief)
+        alphas[condition] = session._blending()[1]
+    assert alphas["blending"] == 0.0 and alphas["disambiguation"] > 0.0
+
+
+def test_the_goal_transition_keeps_stay_on_the_diagonal_and_spreads_the_rest_evenly():
+    # hand-solved: 3 goals, stay 0.8 -> 0.1 to each other goal; stay 1 is the identity (None)
+    matrix = goal_transition_matrix(3, 0.8)
+    np.testing.assert_allclose(matrix, [[0.8, 0.1, 0.1], [0.1, 0.8, 0.1], [0.1, 0.1, 0.8]], atol=1e-15)
+    np.testing.assert_allclose(goal_transition_matrix(5, 0.6).sum(axis=1), 1.0, atol=1e-15)
+    assert goal_transition_matrix(4, 1.0) is None
+
+
+def test_the_handover_idle_time_rounds_to_whole_steps():
+    # 0.7 s at 0.1 s is 7 steps although 0.7 / 0.1 is 6.999...; at least one step
+    assert 0.7 / 0.1 < 7 and 0.3 / 0.1 < 3
+    assert handover_steps(0.7, 0.1) == 7 and handover_steps(0.3, 0.1) == 3 and handover_steps(1.5, 0.1) == 15
+    assert handover_steps(0.26, 0.1) == 3 and handover_steps(0.24, 0.1) == 2
+    assert handover_steps(0.01, 0.1) == 1 and handover_steps(0.0, 0.1) == 1
