@@ -330,3 +330,50 @@ def test_config_world_section_is_validated():
     with pytest.raises(ConfigError, match=r"world\.kind"):
         load_experiment("ciaa-teleop", ["world.kind=maze"])
     assert load_experiment("paper").world.kind == "grid"
+
+
+def test_a_soft_command_turns_at_the_worlds_angular_speed(ciaa):
+    # the CIAA world's wall-clock speeds (1.6 units/s, 0.64 rad/s) replace the interface's
+    config, settings = ciaa
+    assert config.interface.human_turn_rate != config.world.angular_speed
+    session = session_for(straight_layout(start_mode=2), settings)
+    world = session.world
+    session.x, world.location = 15.0, 1  # at the turn waypoint, in the theta mode
+    session.human_step(SOFT_SIP, 0.15)  # anticlockwise, the allowed way
+    assert session.theta == pytest.approx(0.64 * 0.1, abs=1e-12)
+    session.human_step(NO_INPUT, 0.0)
+    assert session.x == 15.0 and session.mode == 2
+
+
+def test_the_heading_snaps_only_strictly_within_the_tolerance():
+    # TASK.md section 4, step 2: |theta - theta_goal| < 0.1 rad snaps; an error equal to the
+    # tolerance does not
+    from nudgecli.model.world import turn_between
+
+    omega, dt = 0.64, 0.1
+    error = abs(float(turn_between((omega * dt) % (2.0 * math.pi), HALF_PI)))
+    for tolerance, snapped in ((error, False), (float(np.nextafter(error, np.inf)), True)):
+        world = PathWorld(straight_layout(), heading_tolerance=tolerance)
+        world.location = 1  # at the turn waypoint
+        _, _, theta = world.move(15.0, 5.0, 0.0, (0.0, 0.0, omega), dt)
+        assert world.turned is snapped and (theta == HALF_PI) is snapped
+
+
+def test_goal_reached_is_a_manhattan_distance_rule():
+    world = PathWorld(straight_layout(), success_distance=0.1)
+    world.location = 2  # the goal waypoint (15, 10)
+    assert world.goal_reached(15.06, 10.0, 0.0) == 0
+    assert world.goal_reached(15.06, 10.06, 0.0) == -1  # 0.12 in Manhattan distance, 0.06 on each axis
+    assert world.goal_reached(15.04, 9.95, 0.0) == 0
+
+
+def test_holds_still_for_a_command_in_another_mode_or_against_the_leg():
+    world = PathWorld(straight_layout())  # the first leg allows +x only
+    assert world.holds_still(10.0, 5.0, 0.0, (0.0, 1.0, 0.0))  # y: another mode, masked
+    assert world.holds_still(10.0, 5.0, 0.0, (0.0, 0.0, -1.0))  # theta: masked before the turn waypoint
+    assert world.holds_still(10.0, 5.0, 0.0, (-1.0, 0.0, 0.0))  # -x: against the leg
+    assert not world.holds_still(10.0, 5.0, 0.0, (1.0, 0.0, 0.0))
+    for velocity in ((0.0, 1.0, 0.0), (-1.0, 0.0, 0.0), (1.0, 0.0, 0.0)):  # the world's move agrees
+        probe = PathWorld(straight_layout())
+        assert (probe.move(10.0, 5.0, 0.0, velocity, 0.1) == (10.0, 5.0, 0.0)) == world.holds_still(
+            10.0, 5.0, 0.0, velocity)
