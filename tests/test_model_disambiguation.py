@@ -323,6 +323,40 @@ def test_rotation_gate_drops_far_theta_candidates() -> None:
     np.testing.assert_allclose(first, robot + np.array([-2 * 4.2, -2 * 3.4]))
 
 
+def test_the_rotation_gate_keeps_a_theta_candidate_exactly_at_the_gate() -> None:
+    # "farther than the gate" is dropped: a theta-mode candidate at exactly the gate's distance stays
+    current = int(state_index(6, 6, 2, 0))
+    robot = np.array([31.0, 24.5])
+    full = cand.window_candidates(current, GOAL_CELLS, 3, robot_position=robot)
+    mean_goal = cell_centre(GOAL_CELLS[:, 0], GOAL_CELLS[:, 1]).mean(axis=0)
+    offset = full.positions - mean_goal
+    distance = np.sqrt(offset[:, 0] * offset[:, 0] + offset[:, 1] * offset[:, 1])
+    theta = np.flatnonzero(full.states % 3 == 2)
+    k = theta[np.argmin(distance[theta])]  # the nearest theta-mode candidate
+    at_gate = cand.window_candidates(current, GOAL_CELLS, 3, robot_position=robot,
+                                     rotation_gate=float(distance[k]))
+    assert full.states[k] in at_gate.states
+    below = float(np.nextafter(distance[k], 0))
+    assert full.states[k] not in cand.window_candidates(current, GOAL_CELLS, 3, robot_position=robot,
+                                                         rotation_gate=below).states
+
+
+def test_global_candidates_apply_the_rotation_gate() -> None:
+    mean_goal = cell_centre(GOAL_CELLS[:, 0], GOAL_CELLS[:, 1]).mean(axis=0)
+    goal_cells = set(map(tuple, GOAL_CELLS.tolist()))
+    expected = []
+    for s in range(N_STATES):  # brute force over the flat index
+        i, j, _h, m = (int(v) for v in state_coordinates(s))
+        if (i, j) in goal_cells:
+            continue
+        if m == 2 and np.linalg.norm(cell_centre(i, j) - mean_goal) > 12.0:
+            continue
+        expected.append(s)
+    gated = cand.global_candidates(GOAL_CELLS, rotation_gate=12.0)
+    assert gated.states.tolist() == expected
+    assert len(expected) < N_STATES - len(GOAL_CELLS) * 24  # the gate dropped some
+
+
 def test_global_candidates_exclude_goal_cells() -> None:
     cands = cand.global_candidates(GOAL_CELLS)
     assert cands.states.size == N_STATES - len(GOAL_CELLS) * 24

@@ -354,3 +354,33 @@ def test_the_baselines_plan_orders_the_experiments_conditions():
     plan = load_plan("baselines")
     assert plan.conditions == load_experiment("baselines").study.conditions
     assert default_plan_name("baselines") == "baselines"
+
+
+def test_the_hindsight_gain_scales_the_added_command():
+    commands = np.array([[1.0, -2.0, 0.5], [3.0, 0.0, -1.0]])
+    belief = np.array([0.25, 0.75])
+    by_hand = np.array([0.25 * 1.0 + 0.75 * 3.0, 0.25 * -2.0, 0.25 * 0.5 + 0.75 * -1.0])
+    np.testing.assert_allclose(policies.hindsight_assistance(belief, commands, 0.5), 0.5 * by_hand,
+                               atol=1e-15)
+    np.testing.assert_allclose(policies.hindsight_command(np.ones(3), belief, commands, 2.0),
+                               1.0 + 2.0 * by_hand, atol=1e-15)
+    # and the protocol passes [hindsight] gain through
+    config = experiment_from_toml(POLICY_TOML.replace("gain = 1.0", "gain = 0.5"))
+    settings_ = ProtocolSettings.from_config(config)
+    assert settings_.hindsight_gain == 0.5
+    layout, model = _layout_model(5)
+    session = TrialSession(_spec("hindsight", layout), settings_, model, 10, np.random.default_rng(2))
+    session._set_belief(np.eye(3)[1])
+    pose = (session.x, session.y, session.theta)
+    session.human_step(SOFT_PUFF, -0.2)
+    row = {c: v[-1] for c, v in session.columns.items()}
+    goal_command = assistance.autonomy_velocity(pose, layout.goal_poses[1], settings_.autonomy_speed,
+                                                settings_.autonomy_turn_rate, settings_.dt)
+    np.testing.assert_allclose([row["u_a_x"], row["u_a_y"], row["u_a_theta"]], 0.5 * goal_command, atol=1e-15)
+
+
+def test_the_confidence_gap_of_one_goal_is_its_belief_and_of_none_zero():
+    assert policies.confidence_gap(np.array([1.0])) == 1.0
+    assert policies.confidence_gap(np.array([])) == 0.0
+    assert policies.gap_gated_alpha(0.7, np.array([1.0]), 0.4) == 0.7
+    assert policies.confidence_gap(np.array([0.2, 0.5, 0.3])) == pytest.approx(0.2, abs=1e-15)
