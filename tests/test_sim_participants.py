@@ -23,6 +23,7 @@ from nudgecli.model.interface import (
     SOFT_PUFF,
     SOFT_SIP,
     TRUE_MAPPING,
+    ZERO_THRESHOLD,
     label_pressure,
 )
 from nudgecli.rng import generator
@@ -379,3 +380,49 @@ def test_a_drift_correlation_out_of_range_is_named(rho: float) -> None:
         Participant(index=0, seed_key="test/rho", pressure_level=np.array([-0.6, 0.9, -0.12, 0.25]),
                     pressure_spread=np.full(4, 0.1), mapping=mapping_with_error(0.0), epsilon=0.1, rest_s=0.5,
                     operate_s=3.0, action_pause_s=0.2, hard_blow_s=0.5, reaction_s=1.0, drift_correlation=rho)
+
+
+def test_ramp_counts_are_drawn_over_the_whole_inclusive_range() -> None:
+    # integer ranges include both ends: a one-value range gives that value, and over many draws
+    # every count of the default ranges occurs
+    narrow = PopulationSection(onset_ramp_samples=(2, 2), offset_ramp_samples=(3, 3))
+    fixed = draw_participants(narrow, 3, seed=4)
+    assert [(p.onset_ramp_samples, p.offset_ramp_samples) for p in fixed] == [(2, 3)] * 3
+    population = PopulationSection()
+    drawn = draw_participants(population, 200, seed=1)
+    for name in ("onset_ramp_samples", "offset_ramp_samples"):
+        low, high = getattr(population, name)
+        assert {getattr(p, name) for p in drawn} == set(range(low, high + 1)), name
+
+
+class _FixedUniform:
+    """A stand-in generator whose uniform draw is fixed (``Generator.random`` may return 0.0)."""
+
+    def __init__(self, value: float) -> None:
+        self.value = value
+
+    def random(self) -> float:
+        return self.value
+
+
+def test_an_intended_label_of_probability_zero_is_never_drawn() -> None:
+    # inverse-CDF sampling: label k for u in [cdf[k-1], cdf[k]); a zero-probability label has an
+    # empty interval, even at u = 0 and at u exactly on a boundary
+    mapping = np.zeros((3, 4, 4))
+    mapping[..., 2] = 0.25
+    mapping[..., 3] = 0.75
+    person = Participant(index=0, seed_key="t", pressure_level=np.array([-0.8, 0.8, -0.15, 0.15]),
+                         pressure_spread=np.full(4, 0.05), mapping=mapping, epsilon=0.0, rest_s=0.5,
+                         operate_s=3.0, action_pause_s=0.2, hard_blow_s=0.4, reaction_s=0.5)
+    assert person.intended_label(0, 0, _FixedUniform(0.0)) == 2
+    assert person.intended_label(1, 2, _FixedUniform(0.25)) == 3
+    assert person.intended_label(1, 2, _FixedUniform(0.2499)) == 2
+
+
+def test_drawn_levels_are_floored_at_twice_the_zero_threshold() -> None:
+    # a range reaching 0 would give a level without a side (and a blow that is never an input)
+    population = PopulationSection(soft_puff_level=(0.0, 0.001), soft_sip_level=(0.0, 0.0))
+    for person in draw_participants(population, 5, seed=0):
+        assert person.pressure_level[SOFT_PUFF] == -2 * ZERO_THRESHOLD == -0.004
+        assert person.pressure_level[SOFT_SIP] == 0.004
+        assert abs(person.pressure_level[HARD_PUFF]) >= population.hard_puff_level[0]
