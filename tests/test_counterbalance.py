@@ -93,3 +93,21 @@ def test_the_record_says_whether_the_count_balances_the_design():
     assert design_record(conditions, "williams", 8)["balanced"]
     record = design_record(conditions, "williams", 6)
     assert not record["balanced"] and record["participant_orders"]["5"] == record["orders"][1]
+
+
+def test_the_orders_are_the_documented_constructions_by_hand():
+    # Williams: first row 0, 1, k-1, 2, k-2, ...; row r adds r (mod k). Rotation: cyclic shifts of 0..k-1
+    assert williams_square(4) == [[0, 1, 3, 2], [1, 2, 0, 3], [2, 3, 1, 0], [3, 0, 2, 1]]
+    assert williams_square(6)[0] == [0, 1, 5, 2, 4, 3]
+    assert condition_orders(3, "williams-pair") == [[0, 1, 2], [1, 2, 0], [2, 0, 1],
+                                                    [2, 1, 0], [0, 2, 1], [1, 0, 2]]
+    assert condition_orders(3, "rotation") == [[0, 1, 2], [1, 2, 0], [2, 0, 1]]
+
+
+def test_participants_cycle_through_every_order_of_the_pair_of_squares():
+    conditions = ["a", "b", "c"]
+    orders = condition_orders(3, "williams-pair")
+    for participant in range(12):  # 6 orders: participants 3-5 take the mirrored rows
+        expected = [conditions[c] for c in orders[participant % 6]]
+        assert participant_order(conditions, "williams-pair", participant) == expected
+    assert participant_order(conditions, "williams-pair", 4) == ["a", "c", "b"]
