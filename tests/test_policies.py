@@ -384,3 +384,13 @@ def test_the_confidence_gap_of_one_goal_is_its_belief_and_of_none_zero():
     assert policies.confidence_gap(np.array([])) == 0.0
     assert policies.gap_gated_alpha(0.7, np.array([1.0]), 0.4) == 0.7
     assert policies.confidence_gap(np.array([0.2, 0.5, 0.3])) == pytest.approx(0.2, abs=1e-15)
+
+
+def test_a_goal_without_belief_adds_nothing_to_the_pairwise_kl_even_where_it_is_infinite():
+    # goal 2 gives labels goals 0 and 1 never give (KL inf), but holds no belief: its pairs count 0
+    p = np.array([[[0.5, 0.5, 0.0, 0.0], [0.25, 0.75, 0.0, 0.0], [0.0, 0.0, 0.5, 0.5]]])
+    kl01 = 0.5 * math.log(0.5 / 0.25) + 0.5 * math.log(0.5 / 0.75)
+    kl10 = 0.25 * math.log(0.25 / 0.5) + 0.75 * math.log(0.75 / 0.5)
+    score = policies.weighted_pairwise_kl(np.array([0.5, 0.5, 0.0]), p)
+    np.testing.assert_allclose(score, [0.25 * (kl01 + kl10)], rtol=1e-12)
+    assert np.isinf(policies.weighted_pairwise_kl(np.array([0.4, 0.3, 0.3]), p)).all()
