@@ -22,6 +22,7 @@ from nudgecli.model.world import MODE_NAMES
 from nudgecli.rng import generator
 from nudgecli.sim.calibration import (
     DISTORTION_SMOOTHING,
+    MAX_REPEAT_ROUNDS,
     estimate_distortion,
     estimate_mapping,
     smooth_true_distortion,
@@ -354,3 +355,41 @@ def test_fitting_a_folder_of_participants_names_them(tmp_path):
     assert result.exit_code == 1
     assert result.output.count("Error:") == 1 and "p01, p02" in result.output
     assert f"nudge fit {tmp_path / 'p01'}" in result.output
+
+
+def test_a_distortion_blow_rises_through_the_participants_onset_ramp() -> None:
+    # the ramp counts samples from each blow's start: (j + 1) / (k + 1) of the level for j < k
+    steady = Participant(
+        index=0, seed_key="test/steady", pressure_level=np.array([-0.6, 0.9, -0.12, 0.25]),
+        pressure_spread=np.full(4, 1e-4), mapping=mapping_with_error(0.0), epsilon=0.0, rest_s=0.5,
+        operate_s=3.0, action_pause_s=0.2, hard_blow_s=0.5, reaction_s=1.0, reaction_log_sd=0.0,
+        onset_ramp_samples=3)
+    session = simulate_distortion_session(steady, CalibrationSection(prompts_per_label=2), INTERFACE,
+                                          generator(2, "ramp"))
+    shown, cleared = session.prompt_times[0::2], session.prompt_times[1::2]
+    for start, end, label in zip(shown, cleared, session.prompt_labels, strict=True):
+        inside = (session.stream_times >= start) & (session.stream_times < end)
+        blow = np.abs(session.stream_pressure[inside])
+        blow = blow[blow > 0]
+        level = abs(steady.pressure_level[label])
+        assert len(blow) > 10
+        np.testing.assert_allclose(blow[:5], level * np.array([0.25, 0.5, 0.75, 1.0, 1.0]), atol=1e-3)
+
+
+def test_a_prompt_whose_blow_gets_no_sample_is_asked_again() -> None:
+    # a reaction just short of the prompt's end leaves no sample in it: no input, so it is re-queued
+    # (every round, up to MAX_REPEAT_ROUNDS); a prompt-long 1 s reaction is never repeated
+    calibration = CalibrationSection(prompts_per_label=1)
+
+    def late(reaction_s: float) -> Participant:
+        return Participant(
+            index=0, seed_key="test/late", pressure_level=np.array([-0.6, 0.9, -0.12, 0.25]),
+            pressure_spread=np.full(4, 0.05), mapping=mapping_with_error(0.0), epsilon=0.0, rest_s=0.5,
+            operate_s=3.0, action_pause_s=0.2, hard_blow_s=0.5, reaction_s=reaction_s, reaction_log_sd=0.0)
+
+    on_time = simulate_distortion_session(late(1.0), calibration, INTERFACE, generator(3, "late"))
+    assert len(on_time.prompt_labels) == 4
+    too_late = simulate_distortion_session(late(calibration.prompt_s - 1e-6), calibration, INTERFACE,
+                                           generator(3, "late"))
+    assert len(too_late.prompt_labels) == 4 * (1 + MAX_REPEAT_ROUNDS)
+    assert not np.any(too_late.stream_pressure)
