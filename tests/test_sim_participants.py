@@ -426,3 +426,43 @@ def test_drawn_levels_are_floored_at_twice_the_zero_threshold() -> None:
         assert person.pressure_level[SOFT_PUFF] == -2 * ZERO_THRESHOLD == -0.004
         assert person.pressure_level[SOFT_SIP] == 0.004
         assert abs(person.pressure_level[HARD_PUFF]) >= population.hard_puff_level[0]
+
+
+def test_participant_from_log_takes_the_reaction_from_the_positive_onsets_by_hand() -> None:
+    # a hand-built stream: 8 prompts of 3 s (then 1 s blank), each blow from a known sample on;
+    # one blow is already on at its prompt's first sample (onset 0: no reaction to measure)
+    import math
+    import statistics
+
+    onsets = [3, 4, 6, 9, 3, 5, 0, 12]  # samples after each prompt's first
+    labels = [LABELS[k % 4] for k in range(8)]
+    magnitude = dict(zip(LABELS, (0.6, 0.7, 0.15, 0.2), strict=True))  # Hard/Soft Puff/Sip, in label order
+    t, pressure, intended, delays = [], [], [], []
+    for prompt, (onset, label) in enumerate(zip(onsets, labels, strict=True)):
+        first = len(t)
+        for j in range(40):
+            t.append(round((first + j) * 0.1, 10))
+            on = j < 30
+            intended.append(label if on else "")
+            blowing = on and onset <= j < 29
+            sign = LABEL_SIGN[LABELS.index(label)]
+            pressure.append(sign * (magnitude[label] + 0.01 * math.sin(j + prompt)) if blowing else 0.0)
+        if onset > 0:
+            delays.append(t[first + onset] - t[first])
+    frame = pd.DataFrame({"t": t, "pressure": pressure, "intended": intended})
+    person = participant_from_log(frame)
+    centre = statistics.median(math.log(d) for d in delays)
+    assert person.reaction_s == pytest.approx(statistics.median(delays), rel=1e-12)
+    assert person.reaction_s == pytest.approx(0.5, rel=1e-9)
+    assert person.reaction_log_sd == pytest.approx(
+        1.4826 * statistics.median(abs(math.log(d) - centre) for d in delays), rel=1e-12)
+
+
+def test_censored_normal_fit_of_all_saturated_samples_by_hand() -> None:
+    # nothing below the ceiling: spread SATURATED_SPREAD (0.05) and the level that saturates
+    # 1 - 0.5 / n of the time (the fraction is capped below 1)
+    from statistics import NormalDist
+
+    level, spread = censored_normal_fit(np.ones(50))
+    assert spread == 0.05
+    assert level == pytest.approx(1.0 + 0.05 * NormalDist().inv_cdf(1 - 0.5 / 50), rel=1e-12)
