@@ -106,3 +106,39 @@ def test_true_or_false_for_a_number_is_refused(override: str) -> None:
 def test_true_and_false_still_set_switches() -> None:
     config = load_experiment("smoke", ["behaviour.hold_on=false", "behaviour.lean_on_blending=true"])
     assert config.behaviour.hold_on is False and config.behaviour.lean_on_blending is True
+
+
+@pytest.mark.parametrize("override", [
+    "interface.soft_threshold=0.5",  # soft_threshold <= hard_threshold (0.5): equal is allowed
+    "study.goal_counts=[2, 8]",  # 2 to 8 goals, both ends included
+])
+def test_the_ends_of_an_inclusive_bound_are_accepted(override: str) -> None:
+    load_experiment("paper", [override])
+
+
+@pytest.mark.parametrize(("experiment", "override", "message"), [
+    ("paper", "assistance.rho2_factor=1.1", "rho2_factor must be greater"),  # equal to rho1_factor
+    ("paper", "behaviour.fine_position_tolerance=1.0", "fine_position_tolerance must be below"),
+    ("paper", "behaviour.fine_heading_tolerance=0.2", "fine_heading_tolerance must be below"),
+    ("paper", "study.goal_counts=[1, 3]", "use 2 to 8"),
+    # 2.0 / 10 Hz = 0.2 units a step, exactly the snapping window 2 * 0.1: it could skip a waypoint
+    ("ciaa-teleop", "world.linear_speed=2.0", "keep it below 2 * world.snap_tolerance"),
+])
+def test_the_end_of_a_strict_bound_is_refused(experiment: str, override: str, message: str) -> None:
+    with pytest.raises(ConfigError, match="--set") as info:
+        load_experiment(experiment, [override])
+    assert message in str(info.value)
+
+
+def test_an_override_must_name_a_section_and_a_key() -> None:
+    with pytest.raises(ConfigError, match="name the section and the key"):
+        parse_override("participants=3")
+    assert parse_override("study.participants = 3") == (["study", "participants"], 3)
+
+
+def test_an_unknown_key_suggests_the_nearest_of_its_own_section() -> None:
+    suggestion = r"unknown key 'study.participnts' \(did you mean 'participants'\?\)"
+    with pytest.raises(ConfigError, match=suggestion):
+        load_experiment("paper", ["study.participnts=3"])
+    with pytest.raises(ConfigError, match=r"unknown key 'study.zzz'; known keys: participants, "):
+        load_experiment("paper", ["study.zzz=3"])

@@ -31,11 +31,13 @@ from click.testing import CliRunner
 
 from nudgecli import store
 from nudgecli.cli import main
+from nudgecli.errors import ConfigError
+from nudgecli.report.plans import MAX_RESAMPLES, check_resamples
 from nudgecli.run_folder_names import LOCK
 from nudgecli.runs import batch as batch_module
 from nudgecli.runs import study as study_module
 from nudgecli.runs.batch import Batch, Point, build_graph, estimate, estimate_batch, single_point
-from nudgecli.runs.size import MAX_TRIALS_WITHOUT_YES, trials_per_participant
+from nudgecli.runs.size import MAX_TRIALS_WITHOUT_YES, check_size, trials_per_participant
 from nudgecli.store import write_text_atomic
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -326,6 +328,20 @@ def test_a_scheduler_address_of_another_service_is_refused_in_one_line(tmp_path,
 
 def _never(*args, **kwargs):
     raise AssertionError("work started before the size check")
+
+
+def test_the_size_limits_allow_the_limit_itself_and_refuse_one_more() -> None:
+    check_resamples(MAX_RESAMPLES, "--bootstrap")
+    check_resamples(None, "--bootstrap")
+    with pytest.raises(ConfigError, match="--bootstrap 1,000,001: at most 1,000,000"):
+        check_resamples(MAX_RESAMPLES + 1, "--bootstrap")
+    check_size(MAX_TRIALS_WITHOUT_YES, False)
+    check_size(MAX_TRIALS_WITHOUT_YES + 1, True)  # --yes
+    with pytest.raises(ConfigError, match=f"simulate {MAX_TRIALS_WITHOUT_YES + 1:,} trials"):
+        check_size(MAX_TRIALS_WITHOUT_YES + 1, False)
+    check_size(5, False, limit=5)
+    with pytest.raises(ConfigError, match=r"calibrate 6 people \(more than 5; 1 s\)"):
+        check_size(6, False, limit=5, work="calibrate {} people", details="1 s")
 
 
 @pytest.mark.parametrize(("args", "limit"), [

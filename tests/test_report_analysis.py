@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +16,8 @@ from run_builders import synthetic_run
 from nudgecli.cli import main
 from nudgecli.errors import ConfigError
 from nudgecli.report.analysis import analyze
-from nudgecli.report.plans import load_plan, plan_names
+from nudgecli.report.plans import load_plan, plan_from_dict, plan_names
+from nudgecli.report.stats import ComparisonOptions
 
 DATA = Path(__file__).parent / "data"
 METRICS_CSV = DATA / "metrics_two_conditions.csv"
@@ -222,3 +224,35 @@ def test_is_run_folder_is_one_marker_of_a_run(tmp_path: Path, marker: str | None
     assert is_run_folder(folder) is (marker is not None)
     assert RunFolder(folder).is_run() is (marker == "manifest.json")  # the narrower test: a manifest
     assert not is_run_folder(folder / "missing") and not is_run_folder(tmp_path / "file.csv")
+
+
+def test_every_option_of_a_plan_reaches_the_statistics() -> None:
+    plan = plan_from_dict({"stats": {"kruskal_alpha": 0.01, "p_adjust": "bonferroni",
+                                     "star_thresholds": [0.1, 0.02], "star_comparison": "<=",
+                                     "participant_aggregate": "mean"},
+                           "bootstrap": {"resamples": 150, "level": 0.9, "seed": 4}})
+    expected = ComparisonOptions(kruskal_alpha=0.01, p_adjust="bonferroni", star_thresholds=(0.1, 0.02),
+                                 star_comparison="<=", participant_aggregate="mean", bootstrap_resamples=150,
+                                 bootstrap_level=0.9, seed=4)
+    assert plan.comparison_options() == expected
+    assert plan.comparison_options(seed=9) == replace(expected, seed=9)
+
+
+def test_star_thresholds_must_strictly_decrease() -> None:
+    with pytest.raises(ConfigError, match="strictly decreasing"):
+        plan_from_dict({"stats": {"star_thresholds": [0.05, 0.05]}})
+    with pytest.raises(ConfigError, match="strictly decreasing"):
+        plan_from_dict({"stats": {"star_thresholds": [0.01, 0.05]}})
+
+
+def test_a_plan_file_without_a_name_is_named_after_the_file(tmp_path: Path) -> None:
+    (tmp_path / "my-plan.toml").write_text('description = "mine"\n')
+    (tmp_path / "named.toml").write_text('name = "other"\n')
+    assert load_plan(tmp_path / "my-plan.toml").name == "my-plan"
+    assert load_plan(tmp_path / "named.toml").name == "other"
+
+
+def test_a_bootstrap_of_zero_resamples_is_refused_before_anything_is_written(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="--bootstrap must be at least 1, got 0"):
+        analyze(METRICS_CSV, out=tmp_path / "out", bootstrap=0)
+    assert not (tmp_path / "out").exists()

@@ -23,6 +23,7 @@ from nudgecli.report.compare import (
     shared_metrics,
     weighted_distances,
 )
+from nudgecli.rng import generator
 
 
 def synthetic(n_participants: int = 6, trials: int = 8, shift: float = 0.0, seed: int = 0,
@@ -140,6 +141,41 @@ def test_shared_metrics_and_their_errors() -> None:
         shared_metrics(["a"], ["b"])
     with pytest.raises(DataError, match="the real table has no metric 'b'"):
         shared_metrics(["a", "b"], ["a"], ["b"])
+
+
+def test_the_cluster_bootstrap_intervals_by_a_plain_loop_over_repeated_samples() -> None:
+    """Each resample draws participants with replacement (the seed's ``compare/<source>`` branch);
+    its distances are scipy's on the drawn people's trials; the interval is the level's central
+    percentiles. Integer values, so the two sources tie often."""
+    simulated = synthetic(4, 5, seed=1).assign(mode_switches=lambda t: t["mode_switches"] + 1)
+    real = synthetic(5, 3, seed=2, prefix="r")
+    options = CompareOptions(resamples=60, level=0.8, seed=11)
+    (row,) = compare_tables(simulated, real, ["mode_switches"], ["none"], options).to_dict("records")
+    draws = {}
+    for source, table in (("simulated", simulated), ("real", real)):
+        people = sorted(table["participant"].unique())
+        rng = generator(options.seed, "compare", source)
+        picks = rng.integers(0, len(people), (options.resamples, len(people)))
+        draws[source] = [pd.concat([table[table["participant"] == people[i]] for i in pick])["mode_switches"]
+                         for pick in picks]
+    pairs = list(zip(draws["simulated"], draws["real"], strict=True))
+    ks = [scipy.stats.ks_2samp(a, b).statistic for a, b in pairs]
+    w1 = [scipy.stats.wasserstein_distance(a, b) for a, b in pairs]
+    assert (row["ks_low"], row["ks_high"]) == pytest.approx(tuple(np.quantile(ks, [0.1, 0.9])))
+    assert (row["wasserstein_low"], row["wasserstein_high"]) == pytest.approx(
+        tuple(np.quantile(w1, [0.1, 0.9])))
+    assert row["valid_resamples"] == 60
+    assert (row["q1_real"], row["median_real"], row["q3_real"]) == pytest.approx(
+        tuple(np.quantile(real["mode_switches"], [0.25, 0.5, 0.75])))
+
+
+def test_a_simulated_median_on_the_edge_of_the_real_range_is_inside() -> None:
+    real = pd.DataFrame({"participant": ["r1", "r1", "r2"], "condition": "none", "m": [1.0, 3.0, 6.0]})
+    simulated = pd.DataFrame({"participant": ["s1", "s2", "s3", "s4"], "condition": "none",
+                              "m": [2.0, 6.0, 6.5, 1.9]})
+    (row,) = compare_tables(simulated, real, ["m"], ["none"], CompareOptions(resamples=0)).to_dict("records")
+    assert (row["real_participant_min"], row["real_participant_max"]) == (2.0, 6.0)
+    assert row["simulated_inside_real_range"] == 0.5  # 2.0 and 6.0 are on the edges: inside
 
 
 def _write(tmp_path: Path) -> tuple[Path, Path]:

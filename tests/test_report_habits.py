@@ -133,6 +133,31 @@ def test_a_second_switch_before_the_motion_voids_the_first_reaction() -> None:
     assert values(events, "reaction_switch_to_motion") == [0.3]
 
 
+@pytest.mark.parametrize(("gap_cells", "over_1s"), [(10, 0.0), (11, 1.0)])
+def test_a_pause_of_exactly_1_s_is_not_over_1_s(gap_cells: int, over_1s: float) -> None:
+    events = measure_habits(cells_of([SOFT, SOFT] + [NEUTRAL] * gap_cells + [SOFT, NEUTRAL]))
+    assert values(events, "pause_between_blows") == [gap_cells / 10]
+    assert values(events, "share_pauses_over_1s") == [over_1s]
+    assert values(events, "share_pauses_over_2s") == [0.0]
+
+
+def test_a_switch_in_the_cell_where_motion_resumes_is_not_before_the_motion() -> None:
+    # switch -> motion: the switch at cell 4 comes with the motion, so the one at cell 1 is
+    # answered by the motion 0.3 s later (nothing strictly between them)
+    moving = [False] * 4 + [True, False]
+    kinds = [NEUTRAL, HARD, NEUTRAL, NEUTRAL, HARD, NEUTRAL]
+    events = measure_habits(cells_of(kinds, moving, switch=[1, 4]))
+    assert values(events, "reaction_switch_to_motion") == [0.3]
+    # stop -> switch: a stop at a waypoint, then a switch in the cell the robot moves again, is
+    # no reaction to the stop
+    moving = [False, True, True, False, False, True, False]
+    kinds = [NEUTRAL, SOFT, SOFT, NEUTRAL, NEUTRAL, HARD, NEUTRAL]
+    assert values(measure_habits(cells_of(kinds, moving, switch=[5], at_waypoint=[2])),
+                  "reaction_stop_to_switch") == []
+    assert values(measure_habits(cells_of(kinds, moving, switch=[4], at_waypoint=[2])),
+                  "reaction_stop_to_switch") == [0.1]
+
+
 @pytest.mark.parametrize(("moving_cell", "back_to", "expected"), [
     (None, 0, [0.5]),  # x -> y, then straight back y -> x 0.5 s later
     (4, 0, []),  # the robot moved between: not undone

@@ -60,6 +60,9 @@ def test_likert_items_and_missing_answers() -> None:
     ({**{f"tlx_weight_{s}": w for s, w in WINS.items()}, "tlx_weight_mental": 4}, "sum to 14"),
     ({**_pairs_for(WINS), "tlx_pair_3": "boredom"}, "name the winning subscale"),
     ({**_pairs_for(WINS), **{f"tlx_pair_{i}": "mental" for i in range(1, 16)}}, "each subscale is in only 5"),
+    # six wins, one more than the pairs a subscale is in (the other nine answers are possible)
+    ({f"tlx_pair_{i + 1}": s for i, s in enumerate(["mental"] * 6 + ["physical"] * 5 + ["temporal"] * 4)},
+     "'mental' wins 6 of the 15"),
     ({**_pairs_for(WINS), **{f"tlx_weight_{s}": w for s, w in WINS.items()}}, "keep one of the two"),
 ])
 def test_invalid_values_are_refused(change: dict[str, object], message: str) -> None:

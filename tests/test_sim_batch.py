@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import scipy.stats
 from click.testing import CliRunner
 
 from nudgecli.cli import main
@@ -24,11 +25,14 @@ from nudgecli.errors import ConfigError
 from nudgecli.report.plans import AnalysisPlan
 from nudgecli.report.replication import (
     analyse_replication,
+    clopper_pearson,
+    paper_direction,
     point_outputs,
     power_table,
     replication_rows,
     sensitivity,
     smallest_n,
+    summarise,
 )
 from nudgecli.runs import batch as batch_module
 from nudgecli.runs import batch_tasks
@@ -194,6 +198,29 @@ def test_a_study_as_big_as_the_pool_has_its_layouts_solved_once_and_sent(tmp_pat
     assert_same_tables(serial, on_dask)
 
 
+def test_points_differing_only_in_participants_share_one_study_of_the_largest() -> None:
+    from nudgecli.runs.batch import Batch, Point, build_graph, estimate, estimate_batch
+
+    config = load_experiment("smoke")
+
+    def sized(n: int):
+        return config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
+
+    # the smaller point first: the study must still grow to the larger one's participants
+    points = (Point(0, {"study.participants": 2}, sized(2), (2,)),
+              Point(1, {"study.participants": 5}, sized(5), (5,)))
+    batch = Batch("sweep", points, 3, 7, AnalysisPlan(), {})
+    graph = build_graph(batch)
+    assert len(graph.studies) == 3  # one per replication
+    assert [s.participants for s in graph.studies.values()] == [5, 5, 5]
+    assert graph.entries.groupby("replication")["study"].nunique().tolist() == [1, 1, 1]
+    assert sorted(graph.entries["participants"]) == [2, 2, 2, 5, 5, 5]
+    # the size guard's estimate without the graph equals the graph's, whatever the workers
+    for workers in (1, 3):
+        assert estimate_batch(batch, workers) == estimate(graph, workers)
+    assert estimate(graph, 3).seconds == pytest.approx(estimate(graph, 1).seconds / 3)
+
+
 def test_a_participant_does_not_depend_on_how_many_others_there_are():
     # power analyses the first n participants of each replication's largest study: this must hold
     config = load_experiment("smoke")
@@ -314,6 +341,129 @@ def test_point_outputs_average_the_replications_of_each_point():
     assert point_outputs(rows)["y"].tolist() == [2.0, -1.0]
 
 
+# --- counting replications: intervals, smallest n, pooled effects --------------------------------
+
+@pytest.mark.parametrize(("k", "n", "level"), [(0, 10, 0.95), (3, 10, 0.95), (10, 10, 0.95), (7, 20, 0.9),
+                                               (1, 4, 0.5), (13, 60, 0.99)])
+def test_clopper_pearson_is_the_pair_of_beta_quantiles(k: int, n: int, level: float) -> None:
+    # Clopper & Pearson (1934): low = Beta(k, n - k + 1) quantile alpha/2 (0 at k = 0), high =
+    # Beta(k + 1, n - k) quantile 1 - alpha/2 (1 at k = n)
+    tail = (1 - level) / 2
+    low = 0.0 if k == 0 else scipy.stats.beta.ppf(tail, k, n - k + 1)
+    high = 1.0 if k == n else scipy.stats.beta.ppf(1 - tail, k + 1, n - k)
+    assert clopper_pearson(k, n, level) == pytest.approx((low, high), abs=1e-9)
+    assert all(math.isnan(v) for v in clopper_pearson(0, 0))
+
+
+def power_rows(significant: dict[int, list[bool]], a: str = "disambiguation", b: str = "control",
+               metric: str = "mode_switches", direction: int = -1) -> pd.DataFrame:
+    """Replication rows of one metric and pair: per participant count, which replications were
+    significant (at both levels, in ``direction``)."""
+    return pd.DataFrame([
+        {"participants": n, "metric": metric, "a": a, "b": b, "trial_significant": s,
+         "trial_direction": direction, "participant_significant": s, "participant_direction": direction}
+        for n, flags in significant.items() for s in flags])
+
+
+def test_smallest_n_is_the_first_count_whose_power_reaches_the_target() -> None:
+    # powers 0.5, 0.8 (exactly the target), 1.0: the smallest n is 9, reached with equality
+    curve = power_table(power_rows({6: [True, False] * 5, 9: [True] * 8 + [False] * 2, 12: [True] * 10}))
+    level = curve[curve["level"] == "participant"].set_index("participants")["power"]
+    assert level.to_dict() == {6: 0.5, 9: 0.8, 12: 1.0}
+    assert smallest_n(curve, target=0.8).set_index("level")["participants"].to_dict() == {
+        "trial": 9, "participant": 9}
+    assert smallest_n(curve, target=0.5).set_index("level").loc["trial", "participants"] == 6
+
+
+def test_power_counts_only_the_papers_direction_of_either_order_of_the_pair() -> None:
+    # the paper: fewer mode switches under Disambiguation; a - b < 0 when a is Disambiguation,
+    # a - b > 0 when the pair is written the other way round
+    assert paper_direction("mode_switches", "disambiguation", "control") == -1
+    assert paper_direction("mode_switches", "control", "disambiguation") == +1
+    assert paper_direction("assistance_engagement", "disambiguation", "control") is None
+    flags = {6: [True] * 4}
+    cases = [("disambiguation", "control", -1, 1.0), ("disambiguation", "control", +1, 0.0),
+             ("control", "disambiguation", +1, 1.0), ("control", "disambiguation", -1, 0.0)]
+    for a, b, direction, power in cases:
+        curve = power_table(power_rows(flags, a, b, direction=direction))
+        assert curve["power"].tolist() == [power, power], (a, b, direction)
+        assert curve["direction"].iloc[0] == ("a < b" if a == "disambiguation" else "a > b")
+    either = power_table(power_rows(flags, metric="assistance_engagement", direction=+1))
+    assert either["power"].tolist() == [1.0, 1.0] and either["direction"].iloc[0] == "either"
+
+
+def test_summarise_counts_directions_and_pools_effects_over_replications() -> None:
+    effects = np.arange(1.0, 41.0) / 40  # 40 replications: r = 0.025 ... 1.0
+    rows = pd.DataFrame({
+        "point": 0, "participants": 8, "metric": "m", "a": "x", "b": "y",
+        "trial_significant": [True] * 30 + [False] * 10,
+        "trial_direction": [1] * 10 + [-1] * 10 + [0] * 10 + [1] * 10,
+        "participant_significant": [True] * 20 + [False] * 20,
+        "participant_direction": [-1] * 5 + [1] * 35,
+        "kruskal_p": np.linspace(0.0, 0.39, 40), "conover_p": np.linspace(0.0, 0.78, 40),
+        "participant_p": np.linspace(1.0, 0.61, 40),
+        "effect_size_name": "rank_biserial", "effect_size": effects, "difference": -2 * effects,
+    })
+    (summary,) = summarise(rows).to_dict("records")
+    assert summary["replications"] == 40
+    # a direction of 0 (tied medians and means) is neither higher nor lower
+    assert (summary["trial_a_higher"], summary["trial_a_lower"]) == (0.25, 0.25)
+    assert (summary["participant_a_higher"], summary["participant_a_lower"]) == (15 / 40, 5 / 40)
+    assert summary["median_kruskal_p"] == pytest.approx(np.median(rows["kruskal_p"]))
+    assert summary["median_conover_p"] == pytest.approx(np.median(rows["conover_p"]))
+    assert summary["median_participant_p"] == pytest.approx(0.805)
+    # numpy's linear percentiles: 2.5 % of 39 gaps is 0.975 of the way from the 1st to the 2nd value
+    low, high = 0.025 + 0.975 * 0.025, 0.025 * 39 + 0.025 * 0.025
+    assert (summary["effect_size"], summary["effect_size_low"], summary["effect_size_high"]) == pytest.approx(
+        (effects.mean(), low, high))
+    assert (summary["difference"], summary["difference_low"], summary["difference_high"]) == pytest.approx(
+        (-2 * effects.mean(), -2 * high, -2 * low))
+
+
+def test_point_outputs_average_the_column_asked_for() -> None:
+    rows = pd.DataFrame({"point": [0, 0, 1, 1], "metric": "m", "difference": [1.0, 3.0, -2.0, 0.0],
+                         "effect_size": [0.5, 0.1, -0.2, -0.4]})
+    assert point_outputs(rows, "effect_size")["y"].tolist() == pytest.approx([0.3, -0.3])
+
+
+def test_a_replication_is_significant_at_the_trial_level_only_when_both_tests_are() -> None:
+    plan = AnalysisPlan(conditions=("a", "b"), bootstrap={"resamples": 100})
+    document = analyse_replication(synthetic_study(np.random.default_rng(5), 8, 0.9), plan, ["value"])
+    entry = document["metrics"][0]
+    entries = pd.DataFrame([{"point": 0, "replication": 0, "seed": 0, "participants": 8, "analysis": "s"}])
+    verdicts = {}
+    for kruskal_p, conover_p in [(0.01, 0.01), (0.01, 0.2), (0.2, 0.01), (0.2, 0.2)]:
+        entry["kruskal"]["p"], entry["conover"][0]["p"] = kruskal_p, conover_p
+        (row,) = replication_rows(entries, {"s": document}, plan).to_dict("records")
+        verdicts[kruskal_p, conover_p] = row["trial_significant"]
+    assert verdicts == {(0.01, 0.01): True, (0.01, 0.2): False, (0.2, 0.01): False, (0.2, 0.2): False}
+    # equal medians: the direction is the sign of the difference of the means
+    entry["median"]["b"] = entry["median"]["a"]
+    for mean_b, direction in [(entry["mean"]["a"] - 1.0, +1), (entry["mean"]["a"] + 1.0, -1),
+                              (entry["mean"]["a"], 0)]:
+        entry["mean"]["b"] = mean_b
+        (row,) = replication_rows(entries, {"s": document}, plan).to_dict("records")
+        assert row["trial_direction"] == direction, mean_b
+
+
+def test_morris_mu_star_of_a_linear_model_is_its_slope_times_the_range() -> None:
+    # y = sum c_i x_i: every elementary effect on the unit scale is c_i (high_i - low_i), whatever
+    # the trajectory, so mu* = |c_i| (high_i - low_i), mu = c_i (high_i - low_i) and sigma = 0;
+    # six levels, so analysing the design as a four-level one would scale every effect by 0.9
+    slopes, lows, highs = np.array([2.0, -0.5, 0.0]), np.array([0.0, 1.0, -3.0]), np.array([1.0, 5.0, 3.0])
+    spec = SweepFile(experiment="unused", design=Design(method="morris", samples=10, levels=6, seed=2),
+                     parameters={f"p.x{k}": Range(low=lo, high=hi)
+                                 for k, lo, hi in zip((1, 2, 3), lows, highs, strict=True)})
+    points, problem, samples = design_values(spec)
+    assert problem is not None and samples is not None and len(points) == 10 * 4
+    outputs = pd.DataFrame({"point": np.arange(len(points)), "metric": "linear", "y": samples @ slopes})
+    indices = sensitivity("morris", problem, samples, outputs, levels=6).set_index(["parameter", "index"])
+    for k, (slope, lo, hi) in enumerate(zip(slopes, lows, highs, strict=True), start=1):
+        assert indices.loc[(f"p.x{k}", "mu_star"), "value"] == pytest.approx(abs(slope) * (hi - lo))
+        assert indices.loc[(f"p.x{k}", "mu"), "value"] == pytest.approx(slope * (hi - lo))
+        assert indices.loc[(f"p.x{k}", "sigma"), "value"] == pytest.approx(0.0, abs=1e-9)
+
+
 # --- sweep files ------------------------------------------------------------------------------
 
 SWEEP = """
@@ -336,6 +486,44 @@ def test_a_grid_sweep_file_gives_every_combination(tmp_path):
     values = [(p.parameters["inference.kappa"], p.parameters["disambiguation.window"]) for p in sweep.points]
     assert values == [(0.6, 3), (0.6, 5), (0.7, 3), (0.7, 5)]
     assert sweep.points[3].config.disambiguation.window == 5 and sweep.points[3].config.inference.kappa == 0.7
+
+
+def test_a_design_coordinate_picks_a_value_by_its_whole_part() -> None:
+    from nudgecli.runs.sweep import Values, map_sample, salib_problem
+
+    choices = Values(values=["a", "b", "c"])
+    # the coordinate of k values runs over [0, k]: value i owns [i, i + 1), the top end the last
+    assert [map_sample(choices, x) for x in (0.0, 0.99, 1.0, 1.6, 2.5, 3.0)] == ["a", "a", "b", "b", "c", "c"]
+    whole = Range(low=1.0, high=5.0, integer=True)
+    assert [map_sample(whole, x) for x in (1.0, 3.7, 4.999, 5.0)] == [1, 3, 4, 5]
+    assert isinstance(map_sample(whole, 3.7), int) and map_sample(Range(low=1.0, high=5.0), 3.7) == 3.7
+    spec = SweepFile(experiment="unused", design=Design(method="sobol", samples=64, seed=1),
+                     parameters={"a.k": choices, "b.x": Range(low=-1.0, high=2.0)})
+    assert salib_problem(spec)["bounds"] == [[0.0, 3.0], [-1.0, 2.0]]
+    points, _, _ = design_values(spec)
+    assert {p["a.k"] for p in points} == {"a", "b", "c"}  # every value is drawn
+
+
+def test_a_sampled_design_follows_its_seed() -> None:
+    def design(seed: int) -> np.ndarray:
+        spec = SweepFile(experiment="unused", design=Design(method="sobol", samples=8, seed=seed),
+                         parameters={"a.x": Range(low=0.0, high=1.0), "a.y": Range(low=0.0, high=1.0)})
+        return design_values(spec)[2]
+
+    np.testing.assert_array_equal(design(4), design(4))
+    assert not np.array_equal(design(4), design(5))
+
+
+@pytest.mark.parametrize(("parameters", "message"), [
+    ({"a.x": {"low": 1.0, "high": 1.0}}, "low must be below high"),
+    ({"a.b.x": [1, 2]}, "write it as section.key"),
+])
+def test_an_empty_range_or_a_deep_key_is_refused(parameters: dict, message: str) -> None:
+    from pydantic import ValidationError
+
+    with pytest.raises(ValidationError, match=message):
+        SweepFile.model_validate({"experiment": "unused", "design": {"method": "sobol"},
+                                  "parameters": parameters})
 
 
 @pytest.mark.parametrize(("extra", "message"), [
@@ -478,10 +666,17 @@ def test_workers_exit_when_their_parent_is_killed(tmp_path, command):
     proc.communicate(timeout=10)
 
 
-def test_replicate_and_power_commands_print_their_tables(tmp_path):
+def test_replicate_and_power_commands_print_their_tables(tmp_path, monkeypatch):
+    from nudgecli.report import replication
+
+    targets = []
+    original = replication.smallest_n
+    monkeypatch.setattr(replication, "smallest_n", lambda power, target=0.8: targets.append(target) or
+                        original(power, target))
     result = CliRunner().invoke(main, ["power", "smoke", "--participants", "2,3", "-R", "2", "--out",
-                                       str(tmp_path / "p"), "--format", "json"])
+                                       str(tmp_path / "p"), "--format", "json", "--target", "0.55"])
     assert result.exit_code == 0, result.output
+    assert targets == [0.55]  # --target reaches the smallest n
     assert (tmp_path / "p" / "power.csv").is_file() and (tmp_path / "p" / "figures" / "power.png").is_file()
     power = pd.read_csv(tmp_path / "p" / "power.csv")
     assert sorted(power["participants"].unique()) == [2, 3]

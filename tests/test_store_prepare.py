@@ -78,3 +78,33 @@ def test_a_forced_batch_writes_into_a_non_empty_folder_without_clearing_it(tmp_p
     assert prepare_folder(folder, {"kind": "power"}, resume=False, force=True) == "new"
     assert not (folder / "batch.json").exists() and not (folder / "tasks").exists()
     assert (folder / "notes.txt").is_file()
+
+
+# --- atomic writes -----------------------------------------------------------------------------
+
+
+def test_an_atomic_file_gets_the_umasks_permissions_and_a_failed_one_leaves_nothing(tmp_path: Path) -> None:
+    import os
+    import stat
+
+    from nudgecli.errors import WriteError
+    from nudgecli.store import atomic_path, write_text_atomic
+
+    umask = os.umask(0o022)
+    os.umask(umask)
+    if 0o666 & ~umask == 0o600:
+        pytest.skip("under this umask a plain file is 0600 too")
+    write_text_atomic(tmp_path / "a.txt", "x")
+    # mkstemp makes 0600 files; a written file has what open() gives under the umask
+    assert stat.S_IMODE((tmp_path / "a.txt").stat().st_mode) == 0o666 & ~umask
+
+    (tmp_path / "b.txt").write_text("old")
+
+    def fail(path: Path) -> None:
+        path.write_text("half")
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(WriteError, match="No space left on device"), atomic_path(tmp_path / "b.txt") as tmp:
+        fail(tmp)
+    assert (tmp_path / "b.txt").read_text() == "old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.txt"]  # no temporary left
