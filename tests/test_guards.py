@@ -146,7 +146,9 @@ def test_the_table_format_still_ends_with_the_batch_folder(tmp_path):
 
 def test_a_running_batch_is_locked_and_ctrl_c_prints_the_command_that_resumes_it(tmp_path):
     out = tmp_path / "batch"
-    args = ["replicate", "smoke", "-R", "6", "--participants", "2", "--seed", "4", "--workers", "2",
+    # 20 replications: after its first part the batch runs for about 6 s more (2.3 s with 6, which
+    # a loaded machine's in-process second writer could outlast, finding no lock to refuse it)
+    args = ["replicate", "smoke", "-R", "20", "--participants", "2", "--seed", "4", "--workers", "2",
             "--format", "csv"]
     # a new session: Ctrl-C in a terminal reaches the whole process group, workers included
     first = subprocess.Popen([*NUDGE, *args, "--out", str(out)], env=ENV, stdout=subprocess.DEVNULL,
@@ -158,7 +160,7 @@ def test_a_running_batch_is_locked_and_ctrl_c_prints_the_command_that_resumes_it
         second = invoke(["replicate", "smoke", "-R", "1", "--out", str(out), "--force"])
         line = one_error_line(second.output)
         assert second.exit_code == 1 and "in use by" in line and f"pid {first.pid}" in line
-        assert json.loads((out / "batch.json").read_text())["batch"]["replications"] == 6  # untouched
+        assert json.loads((out / "batch.json").read_text())["batch"]["replications"] == 20  # untouched
         assert any((out / "tasks").glob("*/part-*.parquet"))
         os.killpg(first.pid, signal.SIGINT)
         interrupted = time.monotonic()
@@ -173,7 +175,7 @@ def test_a_running_batch_is_locked_and_ctrl_c_prints_the_command_that_resumes_it
     manifest = json.loads((out / "batch.json").read_text())
     assert manifest["status"] == "interrupted"  # not left "running"
     command = stderr.split("resume with: ")[1].strip().splitlines()[0]
-    assert command == ("nudge replicate smoke --replications 6 --seed 4 --participants 2 --workers 2 "
+    assert command == ("nudge replicate smoke --replications 20 --seed 4 --participants 2 --workers 2 "
                        f"--format csv --out {out} --resume")
     resumed = invoke(shlex.split(command)[1:])
     assert resumed.exit_code == 0, resumed.output
