@@ -127,6 +127,17 @@ def test_conover_adjusts_whatever_the_order_of_the_rows() -> None:
         assert row.p == pytest.approx(holm[row.a, row.b], rel=1e-10)
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_conover_without_degrees_of_freedom_is_nan_without_a_warning() -> None:
+    # one value per condition: n - k = 0 leaves Conover's t statistic no degrees of freedom
+    table = conover(_tidy({"a": [1.0], "b": [2.0], "c": [5.0]}), "value", ["a", "b", "c"])
+    assert table[["p", "p_unadjusted"]].isna().all().all()
+    # one more value gives it one, and the test runs
+    assert table.shape == (3, 4)
+    assert np.isfinite(conover(_tidy({"a": [1.0, 1.5], "b": [2.0], "c": [5.0]}), "value",
+                               ["a", "b", "c"])["p_unadjusted"]).all()
+
+
 def test_conover_without_adjustment_reports_raw_p_twice() -> None:
     data = _tidy(GROUPS)
     table = conover(data, "value", ["a", "b", "c"], p_adjust="none")

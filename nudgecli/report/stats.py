@@ -262,12 +262,13 @@ def conover(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adj
     -------
     pd.DataFrame
         One row per pair: ``a, b, p`` (adjusted), ``p_unadjusted``; NaN where a condition has
-        no values or all values are equal.
+        no values, all values are equal, or there are no more values than conditions (the test's
+        t statistic has ``n - k`` degrees of freedom).
     """
     tidy = tidy_values(data, metric, conditions, condition)
     present = [c for c in conditions if (tidy["condition"] == c).any()]
     rows = [{"a": a, "b": b, "p": math.nan, "p_unadjusted": math.nan} for a, b in pairs(conditions)]
-    if len(present) >= 2 and tidy["value"].nunique() >= 2:
+    if len(present) >= 2 and tidy["value"].nunique() >= 2 and len(tidy) > len(present):
         unadjusted = scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition", sort=False)
         # what posthoc_conover(p_adjust=...) does, without ranking the data a second time
         upper = np.triu_indices(len(unadjusted), 1)
