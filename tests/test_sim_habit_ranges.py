@@ -69,3 +69,54 @@ def test_the_shipped_ranges_are_the_derivation_from_the_pilots_and_habits() -> N
     # the reactions' tail starts at the pilots' blow onsets' log-sd
     sds = [float(np.std(np.log(prompt_onsets(p)))) for p in pilots if p is not None]
     assert population.event_reaction_log_sd[0] == pytest.approx(min(sds), abs=0.01)
+
+
+def one_prompt_session(label: str, shown: float, cleared: float, magnitudes: dict[float, float],
+                       end: float = 8.0) -> DistortionSession:
+    """One prompt of ``label`` at 10 Hz, with the given pressure magnitudes (a puff: negative)."""
+    t = np.round(np.arange(0.0, end, 0.1), 1)
+    pressure = np.zeros_like(t)
+    for time, value in magnitudes.items():
+        pressure[np.isclose(t, time)] = -value
+    return DistortionSession(prompt_times=np.array([shown, cleared]), prompt_commands=(label, ""),
+                             stream_times=t, stream_codes=np.zeros(len(t), dtype=int),
+                             stream_pressure=pressure)
+
+
+def test_a_blow_starting_as_the_prompt_clears_is_no_onset_of_that_prompt() -> None:
+    # the prompt was on [1.0, 3.0): pressure from 3.0 on came after it cleared
+    late = one_prompt_session("Soft Puff", 1.0, 3.0, {3.0: 0.2, 3.1: 0.2})
+    assert prompt_onsets(late).size == 0
+    early = one_prompt_session("Soft Puff", 1.0, 3.0, {2.9: 0.2, 3.0: 0.2})
+    np.testing.assert_allclose(prompt_onsets(early), [1.9])
+
+
+def test_a_sample_at_exactly_the_plateau_fraction_is_on_the_plateau() -> None:
+    # magnitudes 1, 1, 1, 1, 0.8, 0.3: median 1, so 0.8 (= PLATEAU_FRACTION * 1) is the last plateau
+    # sample and one sample (0.3) follows it
+    blow = {2.0: 1.0, 2.1: 1.0, 2.2: 1.0, 2.3: 1.0, 2.4: 0.8, 2.5: 0.3}
+    np.testing.assert_array_equal(hard_offset_samples(one_prompt_session("Hard Puff", 1.0, 4.0, blow)), [1])
+
+
+@pytest.mark.parametrize(("stop", "motion", "reaction"), [
+    ((1.0, 2.0), (0.5, 3.0), (0.4, 2.9)),  # both ends from the switch-to-motion reaction
+    ((0.5, 3.0), (1.0, 2.0), (0.4, 2.9)),  # both ends from the stop-to-switch reaction
+])
+def test_derived_ranges_solved_by_hand(monkeypatch: pytest.MonkeyPatch, stop: tuple[float, float],
+                                       motion: tuple[float, float], reaction: tuple[float, float]) -> None:
+    import nudgecli.sim.habit_ranges as habit_ranges
+
+    real = {"first_command_latency": (1.0, 2.0), "reaction_stop_to_switch": stop,
+            "reaction_switch_to_motion": motion, "hard_band_per_excursion": (0.2, 0.6),
+            "hard_blow_whole": (0.5, 1.5), "hold_on_per_stop": (0.1, 0.3)}
+    monkeypatch.setattr(habit_ranges, "REAL_HABIT_RANGES", real)
+    derived = derived_timing_ranges([hand_session()])
+    # onsets 1.3 and 1.5: median 1.4, so every reaction starts from (1.4, 1.4); each reaction is
+    # seen 0.1 s after its parameter, so its range is the real one less 0.1, joined over both
+    assert derived["planning_s"] == pytest.approx((1.0, 2.0))
+    assert derived["event_reaction_s"] == pytest.approx(reaction)
+    # the one held blow let go 0.4 s after the clear: (0.4, 0.4) extended down to 0.1
+    assert derived["hold_on_s"] == pytest.approx((0.1, 0.4))
+    assert derived["hard_peak_s"] == (0.2, 0.6)
+    # longest pulse 1.5 s = 15 samples = 3 onset + 6 peak + 6 offset; the pilot's offset ramp is 2
+    assert derived["offset_ramp_samples"] == (2, 6)
