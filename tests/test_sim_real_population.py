@@ -270,3 +270,15 @@ def test_as_event_driven_counts_a_hand_made_session() -> None:
     assert np.sum(converted.stream_codes == SOFT_SIP) == 54
     assert np.sum(np.isin(converted.stream_codes, [SIP_DEADBAND, HARD_SIP])) == 92 + 91 - 54
     assert converted.stream_codes[-1] == INPUT_STOPPED
+
+
+def test_coverage_table_counts_the_real_range_ends_as_inside_and_covered() -> None:
+    # the sibling study's Hard Puff span is 0.53-0.84: diagonals at exactly its ends are inside it
+    # and reach both ends; one just inside each end reaches neither
+    ends = [(p, "event_driven", "Hard Puff", d) for p, d in enumerate([0.53, 0.84])]
+    table = coverage_table(pd.DataFrame(ends, columns=["participant", "stream", "label", "diagonal"]))
+    row = table.iloc[0]
+    assert row["real_inside"] == 1.0 and row["covers_low"] and row["covers_high"]
+    inner = [(p, "event_driven", "Hard Puff", d) for p, d in enumerate([0.54, 0.83])]
+    row = coverage_table(pd.DataFrame(inner, columns=["participant", "stream", "label", "diagonal"])).iloc[0]
+    assert row["real_inside"] == 1.0 and not row["covers_low"] and not row["covers_high"]
