@@ -282,3 +282,9 @@ def test_coverage_table_counts_the_real_range_ends_as_inside_and_covered() -> No
     inner = [(p, "event_driven", "Hard Puff", d) for p, d in enumerate([0.54, 0.83])]
     row = coverage_table(pd.DataFrame(inner, columns=["participant", "stream", "label", "diagonal"])).iloc[0]
     assert row["real_inside"] == 1.0 and not row["covers_low"] and not row["covers_high"]
+
+
+def test_a_drift_range_starting_at_zero_is_searched_from_zero() -> None:
+    # every diagonal is at least 0: a range starting at independent samples reaches it as it is
+    independent = PopulationSection(**PILOT_RANGES, drift_correlation=(0.0, 0.5))
+    assert drift_range_covering({0: 0.0}, independent, INTERFACE) == (0.0, 0.5)
