@@ -98,6 +98,20 @@ def test_resume_with_the_same_settings_finishes_the_run(tmp_path, smoke_run):
     pd.testing.assert_frame_equal(RunFolder(run).read_trials(), RunFolder(smoke_run).read_trials())
 
 
+def test_resume_counts_no_stray_part_as_a_completed_participant(tmp_path, smoke_run):
+    # a part of participant 7 copied into a run of 2: resume neither lists it nor reports it done
+    run = partial_run(tmp_path, smoke_run)
+    for kind in ("trials", "steps", "participants"):
+        shutil.copy(run / kind / "part-0000.parquet", run / kind / "part-0007.parquet")
+    reported = []
+    done = run_study(load_experiment("smoke"), run, participants=2, resume=True,
+                     progress=lambda finished, total: reported.append((finished, total)))
+    assert done.computed == [1]
+    assert json.loads((run / "manifest.json").read_text())["completed"] == [0, 1]
+    trials_per = len(RunFolder(smoke_run).read_trials()) // 2
+    assert reported == [(trials_per, 2 * trials_per), (2 * trials_per, 2 * trials_per)]
+
+
 # --- 3: exactly the manifest's parts ------------------------------------------------------------
 
 def test_analyze_reads_only_the_manifests_participants_and_names_a_stray(tmp_path, smoke_run):
