@@ -427,3 +427,27 @@ def test_a_damaged_checksums_entry_is_one_error_line(tmp_path, smoke_run, damage
     manifest["checksums"] = damage
     (run / "manifest.json").write_text(json.dumps(manifest))
     assert "'checksums' is damaged" in one_error_line(invoke(["analyze", str(run)]).output)
+
+
+def test_changed_parts_compares_only_the_parts_on_disk(tmp_path):
+    from nudgecli.run_folder_record import RunRecord
+
+    (tmp_path / "trials").mkdir()
+    (tmp_path / "trials" / "part-0000.parquet").write_bytes(b"written")
+    recorded = {"checksums": {"0": {"trials": hashlib.sha256(b"other").hexdigest(),
+                                    "steps": hashlib.sha256(b"gone").hexdigest()},
+                              "1": {"trials": hashlib.sha256(b"never written").hexdigest()}}}
+    # participant 0's steps part and participant 1's trials part are missing: that is for
+    # missing_parts to name, not a change
+    assert RunRecord(tmp_path).changed_parts(recorded) == {0: ["trials/part-0000.parquet"]}
+
+
+@pytest.mark.parametrize(("value", "count"), [(0, 0), (2, 2)])
+def test_a_whole_participant_count_is_read_as_it_is(tmp_path, value, count):
+    from nudgecli.run_folder_record import RunRecord
+
+    record = RunRecord(tmp_path)
+    assert record.participant_count({"participants": value}) == count
+    assert record.manifest_participants({"participants": value}) == list(range(count))
+    with pytest.raises(RunFolderError, match="participants = -1"):
+        record.participant_count({"participants": -1})
