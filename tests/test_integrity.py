@@ -451,3 +451,13 @@ def test_a_whole_participant_count_is_read_as_it_is(tmp_path, value, count):
     assert record.manifest_participants({"participants": value}) == list(range(count))
     with pytest.raises(RunFolderError, match="participants = -1"):
         record.participant_count({"participants": -1})
+
+
+def test_a_live_study_folder_gets_no_unverified_note(tmp_path):
+    from nudgecli.run_folder_record import RunRecord
+
+    record = RunRecord(tmp_path)
+    # a `nudge study` folder records no SHA-256 by design: nothing to tell its reader
+    assert record.integrity_notes({"executor": "live", "live": {"0": {}, "1": {}}}) == []
+    notes = record.integrity_notes({"executor": "serial", "participants": 2})
+    assert len(notes) == 1 and "no SHA-256 of the parts of 2 participant(s)" in notes[0]
