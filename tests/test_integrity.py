@@ -461,3 +461,16 @@ def test_a_live_study_folder_gets_no_unverified_note(tmp_path):
     assert record.integrity_notes({"executor": "live", "live": {"0": {}, "1": {}}}) == []
     notes = record.integrity_notes({"executor": "serial", "participants": 2})
     assert len(notes) == 1 and "no SHA-256 of the parts of 2 participant(s)" in notes[0]
+
+
+def test_a_participant_is_completed_only_with_all_three_parts_readable(tmp_path):
+    from nudgecli.run_folder_record import RunRecord
+
+    for kind in ("trials", "steps", "participants"):
+        (tmp_path / kind).mkdir()
+        pd.DataFrame({"x": [1]}).to_parquet(tmp_path / kind / "part-0000.parquet")
+    pd.DataFrame({"x": [1]}).to_parquet(tmp_path / "trials" / "part-0001.parquet")  # killed after trials
+    for kind in ("trials", "steps"):
+        pd.DataFrame({"x": [1]}).to_parquet(tmp_path / kind / "part-0002.parquet")
+    (tmp_path / "participants" / "part-0002.parquet").write_bytes(b"PAR1 truncated")
+    assert RunRecord(tmp_path).completed_participants() == [0]
