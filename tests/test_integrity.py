@@ -474,3 +474,20 @@ def test_a_participant_is_completed_only_with_all_three_parts_readable(tmp_path)
         pd.DataFrame({"x": [1]}).to_parquet(tmp_path / kind / "part-0002.parquet")
     (tmp_path / "participants" / "part-0002.parquet").write_bytes(b"PAR1 truncated")
     assert RunRecord(tmp_path).completed_participants() == [0]
+
+
+def test_resume_differences_name_the_participant_count_once(tmp_path):
+    from nudgecli import __version__
+    from nudgecli.run_folder_record import RunRecord
+
+    config = load_experiment("smoke")
+    recorded = {"seed": 1, "participants": 2, "versions": {"nudgecli": __version__},
+                "config": config.model_dump(mode="json")}
+    record = RunRecord(tmp_path)
+    # the experiment is the same, only the count differs: one line for it
+    assert record.resume_differences(recorded, config, 1, 3) == ["participants: 2 in the manifest, 3 now"]
+    # the count differs inside the experiment too: its study.participants line says it, once
+    grown = config.model_copy(update={"study": config.study.model_copy(update={"participants": 3})})
+    recorded["config"]["study"]["participants"] = 2
+    differences = record.resume_differences(recorded, grown, 1, 3)
+    assert differences == ["study.participants: 2 in the manifest, 3 now"]
