@@ -491,3 +491,17 @@ def test_resume_differences_name_the_participant_count_once(tmp_path):
     recorded["config"]["study"]["participants"] = 2
     differences = record.resume_differences(recorded, grown, 1, 3)
     assert differences == ["study.participants: 2 in the manifest, 3 now"]
+
+
+@pytest.mark.parametrize(("strays", "tail"), [(6, ""), (7, " and 1 more")])
+def test_a_stray_note_names_six_parts_then_counts_the_rest(tmp_path, strays, tail):
+    from nudgecli.run_folder_record import RunRecord
+
+    (tmp_path / "trials").mkdir()
+    for index in range(1, strays + 1):
+        (tmp_path / "trials" / f"part-{index:04d}.parquet").write_bytes(b"")
+    manifest = {"participants": 1, "checksums": {"0": {}}}
+    notes = RunRecord(tmp_path).integrity_notes(manifest)
+    shown = ", ".join(f"trials/part-{index:04d}.parquet" for index in range(1, 7))
+    assert notes == [f"{tmp_path}: left out {strays} part(s) not in the manifest: {shown}{tail}; they do "
+                     "not belong to this run (remove them)"]
