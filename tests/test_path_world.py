@@ -122,6 +122,23 @@ def test_schedule_follows_the_subjects_no_assistance_blocks():
         assert len(trials) == 12 and [t.block for t in trials] == [0] * 6 + [1] * 6
 
 
+
+def test_schedule_orders_blocks_by_session_position_not_by_their_order_in_the_file():
+    task = packaged_task()
+    # the same task with every subject's blocks listed in reverse (a task file given by path
+    # need not list them in session order)
+    shuffled = {**task, "subject_blocks": {subject: dict(reversed(list(blocks.items())))
+                                           for subject, blocks in task["subject_blocks"].items()}}
+    conditions = ("no_assistance", "filter_assistance", "corrective_assistance")
+    for participant in range(10):
+        assert subject_schedule(shuffled, participant, conditions) == \
+            subject_schedule(task, participant, conditions)
+    # subject 001 ran no_assistance_1 first and no_assistance_0 fifth
+    first = task["subject_blocks"]["001"]
+    trials = subject_schedule(shuffled, 0, ("no_assistance",))
+    assert [t.layout_index for t in trials] == [*first["no_assistance_1"]["trial_indices_in_order"],
+                                               *first["no_assistance_0"]["trial_indices_in_order"]]
+
 # --- kinematics and constraints ------------------------------------------------------------------
 
 def test_a_leg_that_allows_plus_x_ignores_minus_x_y_and_theta_commands():
