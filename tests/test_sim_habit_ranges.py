@@ -120,3 +120,9 @@ def test_derived_ranges_solved_by_hand(monkeypatch: pytest.MonkeyPatch, stop: tu
     assert derived["hard_peak_s"] == (0.2, 0.6)
     # longest pulse 1.5 s = 15 samples = 3 onset + 6 peak + 6 offset; the pilot's offset ramp is 2
     assert derived["offset_ramp_samples"] == (2, 6)
+
+
+def test_a_hard_blow_held_past_the_clear_is_measured_to_its_end() -> None:
+    # plateau 2.0-3.5 s through the clear at 3.0 s, then 0.5 and 0.2: two samples after the plateau
+    blow = {round(2.0 + 0.1 * k, 1): 1.0 for k in range(16)} | {3.6: 0.5, 3.7: 0.2}
+    np.testing.assert_array_equal(hard_offset_samples(one_prompt_session("Hard Puff", 1.0, 3.0, blow)), [2])
