@@ -505,3 +505,12 @@ def test_a_stray_note_names_six_parts_then_counts_the_rest(tmp_path, strays, tai
     shown = ", ".join(f"trials/part-{index:04d}.parquet" for index in range(1, 7))
     assert notes == [f"{tmp_path}: left out {strays} part(s) not in the manifest: {shown}{tail}; they do "
                      "not belong to this run (remove them)"]
+
+
+def test_resume_with_a_plan_records_it_and_without_one_keeps_the_recorded(tmp_path, smoke_run):
+    run = partial_run(tmp_path, smoke_run)
+    assert json.loads((run / "manifest.json").read_text())["plan"] == "paper"
+    run_study(load_experiment("smoke"), run, participants=2, resume=True, plan="study-code")
+    assert json.loads((run / "manifest.json").read_text())["plan"] == "study-code"
+    run_study(load_experiment("smoke"), run, participants=2, resume=True)
+    assert json.loads((run / "manifest.json").read_text())["plan"] == "study-code"
