@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from rng_stubs import FixedUniform
 from scipy.special import rel_entr, xlogy
 
 from nudgecli.errors import ProbabilityTableError
@@ -174,16 +175,6 @@ def test_vectorised_monte_carlo_reproduces_the_per_sample_loop(weighting: str) -
     np.testing.assert_array_equal(fast, slow)
 
 
-class _ConstantUniforms:
-    """Stands in for a Generator whose every uniform is ``value`` (one ``random`` can return)."""
-
-    def __init__(self, value: float) -> None:
-        self.value = value
-
-    def random(self, shape: tuple[int, ...]) -> np.ndarray:
-        return np.full(shape, self.value)
-
-
 def test_monte_carlo_draws_never_land_on_a_zero_probability_outcome() -> None:
     # Generator.choice's rule is cdf.searchsorted(u, side="right"): u = 0.0 skips the leading
     # outcomes of probability 0 (cdf 0.0) rather than drawing them
@@ -194,7 +185,7 @@ def test_monte_carlo_draws_never_land_on_a_zero_probability_outcome() -> None:
     mapping[0, 1] = [0.0, 0.0, 1.0, 0.0]  # move_n in mode x: Soft Puff for sure
     distortion = np.eye(4)
     counts = mi.monte_carlo_label_counts(np.array([0.0, 1.0]), np.array([0]), p_a, mapping, distortion,
-                                         _ConstantUniforms(0.0), 5)  # type: ignore[arg-type]
+                                         FixedUniform(0.0), 5)  # type: ignore[arg-type]
     expected = np.zeros((1, 2, 4))
     expected[0, 1, 2] = 5.0  # every draw: goal 1, Soft Puff
     np.testing.assert_array_equal(counts, expected)
@@ -211,7 +202,7 @@ def test_monte_carlo_draws_stay_in_range_for_rows_within_the_tables_tolerance() 
     distortion[3, 3] -= 5e-7
     largest_below_one = float(np.nextafter(1.0, 0.0))
     counts = mi.monte_carlo_label_counts(np.array([1.0]), np.array([0]), p_a, mapping, distortion,
-                                         _ConstantUniforms(largest_below_one), 3)  # type: ignore[arg-type]
+                                         FixedUniform(largest_below_one), 3)  # type: ignore[arg-type]
     expected = np.zeros((1, 1, 4))
     expected[0, 0, 3] = 3.0  # to_mode_l -> Hard Sip, measured as itself
     np.testing.assert_array_equal(counts, expected)

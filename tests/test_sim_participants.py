@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from rng_stubs import FixedUniform
 
 from nudgecli.config import CalibrationSection, InterfaceSection, PopulationSection
 from nudgecli.errors import DataError
@@ -395,16 +396,6 @@ def test_ramp_counts_are_drawn_over_the_whole_inclusive_range() -> None:
         assert {getattr(p, name) for p in drawn} == set(range(low, high + 1)), name
 
 
-class _FixedUniform:
-    """A stand-in generator whose uniform draw is fixed (``Generator.random`` may return 0.0)."""
-
-    def __init__(self, value: float) -> None:
-        self.value = value
-
-    def random(self) -> float:
-        return self.value
-
-
 def test_an_intended_label_of_probability_zero_is_never_drawn() -> None:
     # inverse-CDF sampling: label k for u in [cdf[k-1], cdf[k]); a zero-probability label has an
     # empty interval, even at u = 0 and at u exactly on a boundary
@@ -414,9 +405,9 @@ def test_an_intended_label_of_probability_zero_is_never_drawn() -> None:
     person = Participant(index=0, seed_key="t", pressure_level=np.array([-0.8, 0.8, -0.15, 0.15]),
                          pressure_spread=np.full(4, 0.05), mapping=mapping, epsilon=0.0, rest_s=0.5,
                          operate_s=3.0, action_pause_s=0.2, hard_blow_s=0.4, reaction_s=0.5)
-    assert person.intended_label(0, 0, _FixedUniform(0.0)) == 2
-    assert person.intended_label(1, 2, _FixedUniform(0.25)) == 3
-    assert person.intended_label(1, 2, _FixedUniform(0.2499)) == 2
+    assert person.intended_label(0, 0, FixedUniform(0.0)) == 2
+    assert person.intended_label(1, 2, FixedUniform(0.25)) == 3
+    assert person.intended_label(1, 2, FixedUniform(0.2499)) == 2
 
 
 def test_drawn_levels_are_floored_at_twice_the_zero_threshold() -> None:
