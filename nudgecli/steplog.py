@@ -12,10 +12,12 @@ what happened during it. ``event`` holds zero or more event names joined with
 from __future__ import annotations
 
 from collections.abc import Collection, Iterable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:  # pandas loads where frames are built: a study's worker imports this module without it
+    import pandas as pd
 
 #: Turn names of the ``turn`` column.
 HUMAN_TURN = "human"
@@ -62,14 +64,29 @@ def wanted_step_columns(names: Collection[str]) -> list[str]:
     return [name for name in STEP_COLUMNS if name in names]
 
 
-def steps_frame(columns: dict[str, list[Any]]) -> pd.DataFrame:
-    """The step log's frame of ``columns`` (:data:`STEP_COLUMNS` -> ``(N,)`` lists of Python values).
+def step_arrays(columns: dict[str, list[Any] | np.ndarray]) -> dict[str, np.ndarray | list[Any]]:
+    """The step log's ``columns`` (:data:`STEP_COLUMNS` -> ``(N,)`` lists of Python values) with each
+    numeric column as one typed numpy array (:data:`STEP_NUMERIC_DTYPES`); text and ``belief`` columns
+    stay lists.
 
-    Numeric columns go through one typed numpy array each: the values and dtypes pandas would
-    infer from the lists, without its per-element type checks (a tenth of building the frame).
+    Numpy only, so a worker can build its step log without pandas. A column that already is an
+    array of its dtype is kept as it is (no copy).
     """
-    return pd.DataFrame({name: np.array(values, dtype=STEP_NUMERIC_DTYPES[name])
-                         if name in STEP_NUMERIC_DTYPES else values for name, values in columns.items()})
+    return {name: np.asarray(values, dtype=STEP_NUMERIC_DTYPES[name]) if name in STEP_NUMERIC_DTYPES
+            else values for name, values in columns.items()}
+
+
+def steps_frame(columns: dict[str, list[Any] | np.ndarray]) -> pd.DataFrame:
+    """The step log's frame of ``columns`` (:data:`STEP_COLUMNS` -> ``(N,)`` lists of Python values,
+    or the arrays of :func:`step_arrays`).
+
+    Numeric columns go through one typed numpy array each (:func:`step_arrays`): the values and
+    dtypes pandas would infer from the lists, without its per-element type checks (a tenth of
+    building the frame).
+    """
+    import pandas as pd
+
+    return pd.DataFrame(step_arrays(columns))
 
 
 def join_events(events: Iterable[str]) -> str:
@@ -99,6 +116,8 @@ def count_event(events: pd.Series | Iterable[object], name: str) -> pd.Series:
     pd.Series
         ``(N,)`` counts, with the index of ``events`` (a fresh range index for a plain iterable).
     """
+    import pandas as pd
+
     series = events if isinstance(events, pd.Series) else pd.Series(list(events), dtype=object)
     # A step log holds a handful of distinct cells over thousands of rows: split each distinct
     # cell once and look the counts up by code (a missing cell has code -1: the appended 0).

@@ -96,7 +96,7 @@ def test_study_figures_on_the_smoke_preset(monkeypatch: pytest.MonkeyPatch, tmp_
     assert study["peak_mb"] is not None and study["peak_mb"] > 0
     assert "1 participants" in study["note"] and "upper bound" in study["note"]
     assert startup["what"] == "nudge --help (start-up)" and startup["ok"] == (startup["time_s"] <= 0.3)
-    assert "nudgecli.runs.study" in worker["note"] and "nudgecli.runs.batch" in worker["note"]
+    assert "nudgecli.runs.study_tasks" in worker["note"] and "nudgecli.runs.batch" in worker["note"]
     assert pool["what"] == "worker ready (local pool, fork)" and pool["note"].startswith("2 pool workers")
     assert list(tmp_path.iterdir()) == []  # the study's temporary folder is removed
     assert json.loads(json.dumps(rows)) == rows

@@ -177,7 +177,7 @@ def figure_cli_startup(options: BenchOptions) -> dict[str, Any]:
 
 #: The modules a worker of each executor imports before its first task (process-pool workers are
 #: forked and inherit them; dask and spawned workers import them).
-WORKER_MODULES = {"study": "nudgecli.runs.study", "batch": "nudgecli.runs.batch_tasks"}
+WORKER_MODULES = {"study": "nudgecli.runs.study_tasks", "batch": "nudgecli.runs.batch_tasks"}
 
 # Run inside the child Python of ``figure_pool_ready``: the task modules loaded (as a command has them
 # when it starts its pool), then the time from starting W pool workers until each has answered a
@@ -185,7 +185,7 @@ WORKER_MODULES = {"study": "nudgecli.runs.study", "batch": "nudgecli.runs.batch_
 _POOL_READY_SCRIPT = """
 import json, os, sys, time
 from nudgecli.runs.executors import Job, ProcessExecutor
-from nudgecli.runs.study import process_context
+from nudgecli.runs.study_tasks import process_context
 import nudgecli.runs.batch_tasks
 
 workers = int(sys.argv[1])

@@ -21,7 +21,7 @@ import pandas as pd
 from nudgecli.config import ExperimentConfig
 from nudgecli.report.metrics import INPUT_STEP_COLUMNS, METRIC_STEP_COLUMNS, trial_metrics
 from nudgecli.runs.executors import HELD_AFFINITIES
-from nudgecli.runs.study import tune_allocator
+from nudgecli.runs.study_tasks import tune_allocator
 from nudgecli.sim.study import StudyPlan, simulate_participant
 
 if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only

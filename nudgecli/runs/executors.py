@@ -8,7 +8,7 @@ how many run at once. The process pool is this package's own (not ``concurrent.f
 it can send each worker the tasks whose data it already holds: a worker gets, in order, a task
 without affinity, a task of an affinity it has served recently, else a task of the affinity the
 fewest workers hold. Its workers exit when the parent dies
-(:func:`nudgecli.sim.study.die_with_parent`) and report their peak memory when they close.
+(:func:`nudgecli.runs.study_tasks.die_with_parent`) and report their peak memory when they close.
 :class:`Progress` prints a batch's progress on stderr.
 """
 
@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any, TextIO
 
-from nudgecli.runs.study import die_with_parent, process_context
+from nudgecli.runs.study_tasks import die_with_parent, process_context
 
 #: Plans (affinities) a worker is assumed to hold: the size of its plan cache.
 HELD_AFFINITIES = 4

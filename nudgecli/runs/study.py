@@ -1,6 +1,7 @@
 """Running a study: where its participants run (serially, on local processes or on a dask
-cluster), the run folder's life while they do (lock, manifest, parts, resume), and the
-worker processes' lifecycle.
+cluster) and the run folder's life while they do (lock, manifest, parts, resume). What runs in
+the workers, and their lifecycle, is :mod:`nudgecli.runs.study_tasks`: they send back a
+participant's columns, and the tables are made here, in the process that writes them.
 
 The domain (the plan, one participant's study) is :mod:`nudgecli.sim.study`; a participant's
 results are a pure function of (experiment, seed, participant index), so the tables are
@@ -13,15 +14,11 @@ import contextlib
 import itertools
 import math
 import os
-import signal
 import sys
-import threading
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
-from multiprocessing import get_context
-from multiprocessing.context import BaseContext
 from pathlib import Path
 from typing import Any
 
@@ -33,14 +30,23 @@ from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.runs.size import check_size, trials_per_participant
+from nudgecli.runs.study_tasks import (
+    _init_worker,
+    _run_in_worker,
+    die_with_parent,
+    process_context,
+    simulate_on_worker,
+    tune_allocator,
+)
 from nudgecli.sim.calibration_io import write_sessions
 from nudgecli.sim.counterbalance import design_record
 from nudgecli.sim.study import (
+    ParticipantColumns,
     ParticipantResult,
     StudyPlan,
     build_layouts,
     check_physiology_logs,
-    simulate_participant,
+    simulate_participant_columns,
     solve_layouts,
 )
 from nudgecli.store import RunFolder, new_manifest, utc_now
@@ -87,100 +93,17 @@ def build_plan_on(config: ExperimentConfig, seed: int, workers: int, client: Any
 
 # --- executors --------------------------------------------------------------------------------
 
-#: Seconds a worker waits between two checks that its parent is alive (where prctl is missing).
-PARENT_POLL_S = 0.5
 #: Seconds to wait for a dask scheduler to answer before ``--scheduler`` is refused: a scheduler
 #: answers in milliseconds, and a refusal, the start of Python included, comes within 10 s.
 SCHEDULER_TIMEOUT_S = 7.0
-_PR_SET_PDEATHSIG = 1
-
-_WORKER_PLAN: StudyPlan | None = None
 
 
-def die_with_parent(parent_pid: int) -> None:
-    """Make this (worker) process exit when the process ``parent_pid`` dies.
-
-    On Linux the kernel sends SIGKILL at the parent's death (``prctl(PR_SET_PDEATHSIG)``);
-    everywhere, a daemon thread also checks ``os.getppid()`` every :data:`PARENT_POLL_S`
-    seconds and exits the process once it differs from ``parent_pid`` (the orphan was
-    re-parented). So a killed ``nudge`` never leaves workers behind holding its pipes.
-    """
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-        except (OSError, AttributeError):  # pragma: no cover - no prctl: the thread below covers it
-            pass
-    if os.getppid() != parent_pid:  # the parent died before prctl took effect
-        os._exit(1)
-
-    def watch() -> None:
-        while True:
-            time.sleep(PARENT_POLL_S)
-            if os.getppid() != parent_pid:
-                os._exit(1)
-
-    threading.Thread(target=watch, name="nudge-parent-watch", daemon=True).start()
-
-
-_M_TRIM_THRESHOLD = -1
-_M_MMAP_THRESHOLD = -3
-_ALLOCATOR_TUNED = False
-
-
-def tune_allocator() -> None:
-    """Undo a tiny ``MALLOC_TRIM_THRESHOLD_`` in this process (once; glibc only).
-
-    dask's nanny starts its workers with ``MALLOC_TRIM_THRESHOLD_=65536``, which also fixes glibc's
-    mmap threshold at 128 KiB: every large numpy temporary is then mapped and unmapped anew, and
-    the layout solving and trials run 2.5-3.5 times slower than in a plain process (measured on
-    the paper preset's plan). Where that variable is set, this raises the mmap threshold to 32 MB
-    and the trim threshold to 64 MB, so freed memory above 64 MB is still returned to the system.
-    """
-    global _ALLOCATOR_TUNED
-    if _ALLOCATOR_TUNED or "MALLOC_TRIM_THRESHOLD_" not in os.environ or not sys.platform.startswith("linux"):
-        return
-    _ALLOCATOR_TUNED = True
-    try:
-        import ctypes
-
-        libc = ctypes.CDLL(None)
-        libc.mallopt(_M_MMAP_THRESHOLD, 32 * 1024 * 1024)
-        libc.mallopt(_M_TRIM_THRESHOLD, 64 * 1024 * 1024)
-    except (OSError, AttributeError):  # pragma: no cover - not glibc
-        pass
-
-
-def simulate_on_worker(plan: StudyPlan, participant_index: int) -> ParticipantResult:
-    """:func:`simulate_participant` as a dask task (with :func:`tune_allocator` first)."""
-    tune_allocator()
-    return simulate_participant(plan, participant_index)
-
-
-def _init_worker(plan: StudyPlan, parent_pid: int) -> None:
-    global _WORKER_PLAN
-    die_with_parent(parent_pid)
-    _WORKER_PLAN = plan
-
-
-def _run_in_worker(participant_index: int) -> ParticipantResult:
-    assert _WORKER_PLAN is not None, "worker not initialised"
-    return simulate_participant(_WORKER_PLAN, participant_index)
-
-
-def _serial(plan: StudyPlan, todo: list[int]) -> Iterator[ParticipantResult]:
+def _serial(plan: StudyPlan, todo: list[int]) -> Iterator[ParticipantColumns]:
     for index in todo:
-        yield simulate_participant(plan, index)
+        yield simulate_participant_columns(plan, index)
 
 
-def process_context() -> BaseContext:
-    """``fork`` where it exists (workers inherit the plan without pickling), else ``spawn``."""
-    return get_context("fork") if os.name == "posix" else get_context("spawn")
-
-
-def _processes(plan: StudyPlan, todo: list[int], workers: int) -> Iterator[ParticipantResult]:
+def _processes(plan: StudyPlan, todo: list[int], workers: int) -> Iterator[ParticipantColumns]:
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=process_context(), initializer=_init_worker,
                                initargs=(plan, os.getpid()))
     try:
@@ -268,7 +191,7 @@ def _one_line(exc: BaseException) -> str:
     return text or type(exc).__name__
 
 
-def _dask(plan: StudyPlan, todo: list[int], client: Any) -> Iterator[ParticipantResult]:
+def _dask(plan: StudyPlan, todo: list[int], client: Any) -> Iterator[ParticipantColumns]:
     from dask.distributed import as_completed as dask_completed
 
     with client:
@@ -393,7 +316,9 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     else:
         results = _serial(plan, todo)
     try:
-        for result in results:
+        for columns in results:
+            # the workers send columns; the tables are made here, in the process that writes them
+            result = ParticipantResult.from_columns(columns)
             if result.calibration is not None:
                 write_sessions(folder.calibration_dir(result.participant), *result.calibration)
             sums = folder.write_participant_parts(result.participant, result.trials, result.steps,

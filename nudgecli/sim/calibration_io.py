@@ -62,13 +62,15 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from nudgecli.errors import DataError
 from nudgecli.model.interface import INPUT_STOPPED_LABEL, LABELS, NO_INPUT, NO_INPUT_LABEL, STREAM_LABELS
-from nudgecli.store import atomic_path
+
+if TYPE_CHECKING:  # pandas (and the run folder's store) load where sessions are written, not in a worker
+    import pandas as pd
 
 #: The 12 action images of the mapping session, in the study's naming.
 ACTION_IMAGES = (
@@ -209,6 +211,8 @@ class DistortionSession:
 # --- writers (tidy format) --------------------------------------------------------------------
 
 def _write_csv_atomic(frame: pd.DataFrame, path: Path) -> None:
+    from nudgecli.store import atomic_path
+
     with atomic_path(path) as tmp:
         frame.to_csv(tmp, index=False)
 
@@ -216,6 +220,8 @@ def _write_csv_atomic(frame: pd.DataFrame, path: Path) -> None:
 def mapping_session_frames(session: MappingSession) -> dict[str, pd.DataFrame]:
     """The tidy tables of a mapping session: ``mapping_prompts`` (t, command), ``mapping_responses``
     (t, key)."""
+    import pandas as pd
+
     return {
         "mapping_prompts": pd.DataFrame({"t": session.prompt_times,
                                          "command": list(session.prompt_commands)}),
@@ -226,6 +232,8 @@ def mapping_session_frames(session: MappingSession) -> dict[str, pd.DataFrame]:
 def distortion_session_frames(session: DistortionSession) -> dict[str, pd.DataFrame]:
     """The tidy tables of a distortion session: ``distortion_prompts`` (t, command) and
     ``distortion_stream`` (t, pressure, label)."""
+    import pandas as pd
+
     return {
         "distortion_prompts": pd.DataFrame({"t": session.prompt_times,
                                             "command": list(session.prompt_commands)}),

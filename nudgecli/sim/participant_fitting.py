@@ -4,13 +4,13 @@ plateau samples, the censored-normal level and spread, the drift correlation, an
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 from dataclasses import fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
-import pandas as pd
 from scipy.special import ndtri
 
 from nudgecli.config import PopulationSection
@@ -20,6 +20,9 @@ from nudgecli.sim.calibration_io import DistortionSession, distortion_windows
 from nudgecli.sim.calibration_readers import read_distortion_session
 from nudgecli.sim.participants import MAX_DRIFT_CORRELATION, MIN_SPREAD, Participant, mapping_with_error
 from nudgecli.sim.pressure_model import LABEL_SIGN
+
+if TYPE_CHECKING:  # pandas loads in the functions that read or build tables: a study's worker runs without it
+    import pandas as pd
 
 #: Samples dropped at the start and end of each blow when estimating a plateau from a log.
 LOG_ONSET_SAMPLES, LOG_RELEASE_SAMPLES = 2, 1
@@ -162,6 +165,8 @@ def session_from_stream_frame(frame: pd.DataFrame) -> DistortionSession:
     back = np.flatnonzero(np.diff(times) < 0)
     if back.size:
         raise DataError(f"stream frame: row {int(back[0]) + 1}: time runs backwards")
+    import pandas as pd
+
     intended = ["" if pd.isna(v) else str(v) for v in frame["intended"]]
     unknown = [(row, v) for row, v in enumerate(intended) if v and v not in LABELS]
     if unknown:
@@ -185,6 +190,13 @@ def session_from_stream_frame(frame: pd.DataFrame) -> DistortionSession:
     codes = label_pressure(pressure)
     return DistortionSession(np.array(prompt_times), tuple(commands), times, codes, pressure,
                              {"stream": "stream frame"})
+
+
+def _is_frame(source: object) -> TypeGuard[pd.DataFrame]:
+    """Whether ``source`` is a pandas DataFrame, without importing pandas (a frame exists only once
+    pandas is loaded; a worker reading a log folder never loads it for this)."""
+    pandas = sys.modules.get("pandas")
+    return pandas is not None and isinstance(source, pandas.DataFrame)
 
 
 def participant_from_log(source: str | Path | DistortionSession | pd.DataFrame, index: int = 0,
@@ -218,7 +230,7 @@ def participant_from_log(source: str | Path | DistortionSession | pd.DataFrame, 
     if isinstance(source, DistortionSession):
         session = source
         where = session.files.get("stream", "distortion session")
-    elif isinstance(source, pd.DataFrame):
+    elif _is_frame(source):
         session = session_from_stream_frame(source)
         where = "stream frame"
     else:

@@ -17,10 +17,9 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import MISSING, dataclass, field, fields
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 from scipy.special import ndtr
 
 from nudgecli.config import InterfaceSection, PopulationSection
@@ -49,6 +48,9 @@ from nudgecli.sim.pressure_model import (
     pulse_fractions,
     ramp_fractions,
 )
+
+if TYPE_CHECKING:  # pandas loads in the functions that read or build tables: a study's worker runs without it
+    import pandas as pd
 
 #: Columns of :meth:`Participant.sample_code_probabilities`: the 4 labels, the 2 deadbands, no input.
 CODE_COLUMNS = (HARD_PUFF, HARD_SIP, SOFT_PUFF, SOFT_SIP, PUFF_DEADBAND, SIP_DEADBAND, NO_INPUT)
@@ -406,6 +408,8 @@ class Participant:
 
 def participants_frame(participants: Sequence[Participant]) -> pd.DataFrame:
     """The one-row-per-participant table (scalars and JSON strings), ready for parquet."""
+    import pandas as pd
+
     return pd.DataFrame([p.to_record() for p in participants])
 
 

@@ -18,9 +18,9 @@ import time
 from collections.abc import Collection, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import pandas as pd
+import numpy as np
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError
@@ -38,7 +38,10 @@ from nudgecli.sim.participant_fitting import participant_from_log
 from nudgecli.sim.participants import Participant, draw_participant
 from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSpec
 from nudgecli.sim.trials import run_trial, run_world_trial
-from nudgecli.steplog import STEP_COLUMNS, steps_frame, wanted_step_columns
+from nudgecli.steplog import STEP_COLUMNS, step_arrays, steps_frame, wanted_step_columns
+
+if TYPE_CHECKING:  # pandas loads where frames are built (the parent of a study), never in its workers
+    import pandas as pd
 
 #: The ``condition`` of a layout every condition runs (``[study] shared_layouts``).
 SHARED = "shared"
@@ -82,6 +85,8 @@ def build_layouts(config: ExperimentConfig, seed: int) -> list[StudyLayout]:
 
 def layouts_frame(layouts: Iterable[StudyLayout]) -> pd.DataFrame:
     """``layouts.parquet``: one row per layout with goal and start poses as lists."""
+    import pandas as pd
+
     rows = []
     for item in layouts:
         lay = item.layout
@@ -154,6 +159,8 @@ def solve_layouts(config: ExperimentConfig, layouts: list[StudyLayout]) -> list[
 
 def path_layouts_frame(paths: dict[int, PathLayout]) -> pd.DataFrame:
     """``layouts.parquet`` of the CIAA world: one row per task layout with its path."""
+    import pandas as pd
+
     rows = []
     for index, lay in sorted(paths.items()):
         rows.append({
@@ -226,6 +233,26 @@ class StudyPlan:
 
 
 @dataclass
+class ParticipantColumns:
+    """One participant's results as plain columns: what a worker computes and sends back.
+
+    Numpy and Python values only, so a worker needs no pandas (:class:`ParticipantResult` makes the
+    tables of them, in the process that writes them).
+    """
+
+    participant: int
+    #: The trial summaries, one dict per trial in the participant's order.
+    trials: list[dict[str, Any]]
+    #: The step log's wanted columns: numeric columns as typed arrays (:func:`nudgecli.steplog.step_arrays`),
+    #: text and ``belief`` columns as lists.
+    steps: dict[str, np.ndarray | list[Any]]
+    #: The participant's row of ``participants.parquet``.
+    record: dict[str, Any]
+    wall_s: float
+    calibration: tuple[MappingSession, DistortionSession] | None = None
+
+
+@dataclass
 class ParticipantResult:
     """One participant's tables (the unit of work's output)."""
 
@@ -235,6 +262,15 @@ class ParticipantResult:
     record: pd.DataFrame
     wall_s: float
     calibration: tuple[MappingSession, DistortionSession] | None = None
+
+    @classmethod
+    def from_columns(cls, columns: ParticipantColumns) -> ParticipantResult:
+        """The tables of a participant's columns (``wall_s``: the simulation's, as measured in the worker)."""
+        import pandas as pd
+
+        return cls(participant=columns.participant, trials=pd.DataFrame(columns.trials),
+                   steps=steps_frame(columns.steps), record=pd.DataFrame([columns.record]),
+                   wall_s=columns.wall_s, calibration=columns.calibration)
 
 
 def agent_tables(config: ExperimentConfig, participant: Participant, seed: int) -> FittedTables:
@@ -290,8 +326,19 @@ def fewer_collections(threshold: int = TRIAL_LOOP_GC_THRESHOLD) -> Iterator[None
 
 def simulate_participant(plan: StudyPlan, participant_index: int,
                          step_log_columns: Collection[str] = STEP_COLUMNS) -> ParticipantResult:
-    """Simulate every trial of one participant (a pure function of the plan and the index).
+    """Simulate every trial of one participant (a pure function of the plan and the index), as tables.
 
+    :func:`simulate_participant_columns` made into frames (:meth:`ParticipantResult.from_columns`).
+    """
+    columns = simulate_participant_columns(plan, participant_index, step_log_columns)
+    return ParticipantResult.from_columns(columns)
+
+
+def simulate_participant_columns(plan: StudyPlan, participant_index: int,
+                                 step_log_columns: Collection[str] = STEP_COLUMNS) -> ParticipantColumns:
+    """Simulate every trial of one participant (a pure function of the plan and the index), as columns.
+
+    What a worker runs: numpy and Python values only, no pandas.
     ``step_log_columns``: the step log's columns the result keeps (all by default: the run
     folder's step log; a batch computing metrics only keeps theirs).
     """
@@ -302,7 +349,7 @@ def simulate_participant(plan: StudyPlan, participant_index: int,
     mapping, distortion = fitted.mapping, fitted.distortion
     settings = ProtocolSettings.from_config(config)
     summaries: list[dict[str, Any]] = []
-    # one frame per participant, not per trial: building frames was a tenth of the run
+    # one set of columns per participant, not per trial: building frames was a tenth of the run
     step_columns: dict[str, list[Any]] = {column: [] for column in wanted_step_columns(step_log_columns)}
     models: dict[int, DisambiguationModel] = {}
     with fewer_collections():  # the loop allocates many short-lived tuples and no cycles
@@ -327,11 +374,11 @@ def simulate_participant(plan: StudyPlan, participant_index: int,
         "agent_p_phm_given_phi": _json(distortion.tolist()),
         "calibration": _json(fitted.provenance),
     })
-    return ParticipantResult(
+    return ParticipantColumns(
         participant=participant_index,
-        trials=pd.DataFrame(summaries),
-        steps=steps_frame(step_columns),
-        record=pd.DataFrame([record]),
+        trials=summaries,
+        steps=step_arrays(step_columns),
+        record=record,
         wall_s=time.perf_counter() - start,
         calibration=fitted.sessions,
     )
