@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gc
 import os
+import pickle
 import signal
 import subprocess
 import sys
@@ -18,7 +19,16 @@ from click.testing import CliRunner
 from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.runs.study import run_study
-from nudgecli.sim.study import build_layouts, fewer_collections, participant_schedule
+from nudgecli.sim.study import (
+    ParticipantResult,
+    StudyPlan,
+    build_layouts,
+    fewer_collections,
+    participant_schedule,
+    simulate_participant,
+    simulate_participant_columns,
+)
+from nudgecli.steplog import STEP_NUMERIC_DTYPES
 from nudgecli.store import RunFolder
 
 
@@ -218,3 +228,71 @@ def test_fewer_collections_raises_the_first_threshold_for_the_block_only() -> No
             assert gc.get_threshold() == (50_000, 10, 10)  # never lowered
     finally:
         gc.set_threshold(*before)
+
+
+# A fresh Python in which pandas and pyarrow cannot be imported (as if not installed) imports a
+# study's worker tasks and simulates one participant of the smoke preset as a worker does.
+_WORKER_WITHOUT_PANDAS = """
+import os, pickle, sys
+
+class RefuseTables:
+    def find_spec(self, name, path=None, target=None):
+        if name.split(".")[0] in ("pandas", "pyarrow"):
+            raise ImportError(f"{name} is refused: a study's worker must not import it")
+        return None
+
+sys.meta_path.insert(0, RefuseTables())
+from nudgecli.runs import study_tasks
+from nudgecli.config import load_experiment
+from nudgecli.sim.study import StudyPlan, simulate_participant_columns
+
+config = load_experiment("smoke")
+plan = StudyPlan.build(config, config.experiment.seed)
+columns = simulate_participant_columns(plan, 1)
+study_tasks._init_worker(plan, os.getppid())  # a pool worker's start and task
+in_pool = study_tasks._run_in_worker(1)
+assert "pandas" not in sys.modules and "pyarrow" not in sys.modules, "pandas or pyarrow was imported"
+with open(sys.argv[1], "wb") as handle:
+    pickle.dump((columns, in_pool), handle)
+"""
+
+
+def test_a_study_worker_runs_without_pandas_and_its_columns_make_the_parents_tables(tmp_path):
+    out = tmp_path / "columns.pickle"
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    done = subprocess.run([sys.executable, "-c", _WORKER_WITHOUT_PANDAS, str(out)], env=env,
+                          capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr
+    with open(out, "rb") as handle:
+        sent = pickle.load(handle)
+    config = load_experiment("smoke")
+    expected = simulate_participant(StudyPlan.build(config, config.experiment.seed), 1)
+    for columns in sent:
+        made = ParticipantResult.from_columns(columns)
+        for name in ("trials", "steps", "record"):
+            pd.testing.assert_frame_equal(getattr(made, name), getattr(expected, name), check_exact=True)
+        assert made.participant == expected.participant == 1
+
+
+@pytest.mark.parametrize("experiment", ["smoke", "ciaa-teleop"])
+def test_simulate_participant_is_the_frames_of_its_columns(experiment):
+    config = load_experiment(experiment)
+    plan = StudyPlan.build(config, config.experiment.seed)
+    columns = simulate_participant_columns(plan, 0)
+    result = simulate_participant(plan, 0)
+    # the columns as a worker sends them: typed arrays for numbers, Python lists for the rest
+    for name, values in columns.steps.items():
+        if name in STEP_NUMERIC_DTYPES:
+            assert isinstance(values, np.ndarray) and values.dtype == STEP_NUMERIC_DTYPES[name], name
+        else:
+            assert isinstance(values, list), name
+    assert isinstance(columns.record, dict) and all(isinstance(row, dict) for row in columns.trials)
+    # the frames, built here the plain way: pandas inferring every column from Python values
+    plain_steps = pd.DataFrame({name: values.tolist() if isinstance(values, np.ndarray) else values
+                                for name, values in columns.steps.items()})
+    pd.testing.assert_frame_equal(result.steps, plain_steps, check_exact=True)
+    pd.testing.assert_frame_equal(result.trials, pd.DataFrame(columns.trials), check_exact=True)
+    pd.testing.assert_frame_equal(result.record, pd.DataFrame([columns.record]), check_exact=True)
+    assert list(result.steps.columns) == list(columns.steps) and len(result.trials) == len(columns.trials) > 0
+    assert result.participant == columns.participant == 0
+    assert (result.calibration is None) == (columns.calibration is None)

@@ -16,6 +16,7 @@ from nudgecli.steplog import (
     count_event,
     has_event,
     join_events,
+    step_arrays,
     steps_frame,
 )
 
@@ -73,3 +74,14 @@ def test_steps_frame_is_the_frame_pandas_infers_from_the_columns() -> None:
     frame = steps_frame(columns)
     pd.testing.assert_frame_equal(frame, pd.DataFrame(columns), check_exact=True)
     assert set(STEP_NUMERIC_DTYPES) == set(ints) | set(floats)
+    # the numpy-only half (a worker's): typed arrays for numbers, the text and belief lists as they are
+    arrays = step_arrays(columns)
+    assert list(arrays) == list(columns)
+    for name in ints:
+        assert arrays[name].dtype == np.int64 and arrays[name].tolist() == ints[name]
+    for name in floats:
+        assert arrays[name].dtype == np.float64 and arrays[name].tolist() == floats[name]
+    assert all(arrays[name] is columns[name] for name in text)
+    # the frame of those arrays is the same frame, and arrays of their dtype are not copied again
+    pd.testing.assert_frame_equal(steps_frame(arrays), frame, check_exact=True)
+    assert all(again is arrays[name] for name, again in step_arrays(arrays).items())
