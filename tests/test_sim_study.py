@@ -252,6 +252,9 @@ columns = simulate_participant_columns(plan, 1)
 study_tasks._init_worker(plan, os.getppid())  # a pool worker's start and task
 in_pool = study_tasks._run_in_worker(1)
 assert "pandas" not in sys.modules and "pyarrow" not in sys.modules, "pandas or pyarrow was imported"
+parent_side = [name for name in ("nudgecli.store", "nudgecli.locks", "nudgecli.run_folder_record",
+                                 "nudgecli.parquet_reader", "nudgecli.runs.study") if name in sys.modules]
+assert not parent_side, f"the run folder's modules were imported: {parent_side}"
 with open(sys.argv[1], "wb") as handle:
     pickle.dump((columns, in_pool), handle)
 """
