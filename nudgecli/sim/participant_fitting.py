@@ -17,7 +17,6 @@ from nudgecli.config import PopulationSection
 from nudgecli.errors import DataError
 from nudgecli.model.interface import LABELS, N_LABELS, ZERO_THRESHOLD, label_pressure
 from nudgecli.sim.calibration_io import DistortionSession, distortion_windows
-from nudgecli.sim.calibration_readers import read_distortion_session
 from nudgecli.sim.participants import MAX_DRIFT_CORRELATION, MIN_SPREAD, Participant, mapping_with_error
 from nudgecli.sim.pressure_model import LABEL_SIGN
 
@@ -234,6 +233,9 @@ def participant_from_log(source: str | Path | DistortionSession | pd.DataFrame, 
         session = session_from_stream_frame(source)
         where = "stream frame"
     else:
+        # the log readers load with a log to read: a simulated participant's worker never needs them
+        from nudgecli.sim.calibration_readers import read_distortion_session
+
         found = read_distortion_session(source)
         if found is None:
             raise DataError(f"{source}: no p(phi_m | phi_i) session (p_phm_given_phi/_command_prompt.csv + "
