@@ -12,10 +12,12 @@ what happened during it. ``event`` holds zero or more event names joined with
 from __future__ import annotations
 
 from collections.abc import Collection, Iterable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:  # a worker simulates and computes metrics without importing pandas
+    import pandas as pd
 
 #: Turn names of the ``turn`` column.
 HUMAN_TURN = "human"
@@ -68,6 +70,8 @@ def steps_frame(columns: dict[str, list[Any]]) -> pd.DataFrame:
     Numeric columns go through one typed numpy array each: the values and dtypes pandas would
     infer from the lists, without its per-element type checks (a tenth of building the frame).
     """
+    import pandas as pd
+
     return pd.DataFrame({name: np.array(values, dtype=STEP_NUMERIC_DTYPES[name])
                          if name in STEP_NUMERIC_DTYPES else values for name, values in columns.items()})
 
@@ -84,8 +88,8 @@ def event_tokens(cell: object) -> list[str]:
     return [token.strip() for token in cell.split(EVENT_SEPARATOR)]
 
 
-def count_event(events: pd.Series | Iterable[object], name: str) -> pd.Series:
-    """Per row, how many times the event ``name`` occurs in its ``event`` cell (missing cells: none).
+def event_counts(events: Iterable[object], name: str) -> np.ndarray:
+    """Per cell, how many times the event ``name`` occurs in it (missing cells: none).
 
     Parameters
     ----------
@@ -96,15 +100,32 @@ def count_event(events: pd.Series | Iterable[object], name: str) -> pd.Series:
 
     Returns
     -------
-    pd.Series
-        ``(N,)`` counts, with the index of ``events`` (a fresh range index for a plain iterable).
+    np.ndarray
+        ``(N,)`` int64 counts.
     """
-    series = events if isinstance(events, pd.Series) else pd.Series(list(events), dtype=object)
     # A step log holds a handful of distinct cells over thousands of rows: split each distinct
-    # cell once and look the counts up by code (a missing cell has code -1: the appended 0).
-    codes, cells = pd.factorize(series)
-    per_cell = np.array([event_tokens(cell).count(name) for cell in cells] + [0], dtype=np.int64)
-    return pd.Series(per_cell[codes], index=series.index)
+    # cell once (a cell that cannot be a key, or a missing one, has no events anyway).
+    per_cell: dict[object, int] = {}
+
+    def count(cell: object) -> int:
+        if not isinstance(cell, str):
+            return 0
+        found = per_cell.get(cell)
+        if found is None:
+            found = per_cell[cell] = event_tokens(cell).count(name)
+        return found
+
+    cells = events.tolist() if isinstance(events, np.ndarray) else list(events)
+    return np.fromiter((count(cell) for cell in cells), dtype=np.int64, count=len(cells))
+
+
+def count_event(events: pd.Series | Iterable[object], name: str) -> pd.Series:
+    """:func:`event_counts` as a series, with the index of ``events`` (a fresh range index for a
+    plain iterable)."""
+    import pandas as pd
+
+    series = events if isinstance(events, pd.Series) else pd.Series(list(events), dtype=object)
+    return pd.Series(event_counts(series.to_numpy(dtype=object), name), index=series.index)
 
 
 def has_event(events: pd.Series | Iterable[object], name: str) -> np.ndarray:
