@@ -39,8 +39,8 @@ def brute_force(trials: dict[str, list[Any]], steps: dict[str, list[Any]], engag
             continue
         human = [i for i in rows if steps["turn"][i] == H]
         assisted = [i for i in human if steps["alpha"][i] > 0 and steps["inferred_goal"][i] == goal]
-        switches = sum(cell.split("|").count("mode_switch_human") for cell in
-                       (steps["event"][i] for i in rows if mode_switches == "any_turn" or steps["turn"][i] == H))
+        counted = [i for i in rows if mode_switches == "any_turn" or steps["turn"][i] == H]
+        switches = sum(steps["event"][i].split("|").count("mode_switch_human") for i in counted)
         # human turns: maximal runs of consecutive human steps in step order
         turns: list[list[int]] = []
         for position, i in enumerate(rows):
@@ -51,7 +51,7 @@ def brute_force(trials: dict[str, list[Any]], steps: dict[str, list[Any]], engag
             else:
                 turns.append([i])
 
-        def turn_strength(turn: list[int]) -> float:
+        def turn_strength(turn: list[int], assisted: list[int] = assisted) -> float:
             a = [steps["alpha"][i] for i in turn if i in assisted]
             return sum(a) / len(a) if a else 0.0
 
@@ -78,7 +78,8 @@ def brute_force(trials: dict[str, list[Any]], steps: dict[str, list[Any]], engag
 def step_logs(draw: st.DrawFn) -> tuple[dict[str, list[Any]], dict[str, list[Any]]]:
     """A trial table of 1-4 trials (two participants) and a shuffled step log: some trials without
     steps, some steps of trials not in the table, each trial's steps numbered 0..n-1."""
-    keys = draw(st.lists(st.tuples(st.integers(0, 1), st.integers(0, 5)), min_size=1, max_size=4, unique=True))
+    keys = draw(st.lists(st.tuples(st.integers(0, 1), st.integers(0, 5)), min_size=1, max_size=4,
+                         unique=True))
     trials = {"participant": [p for p, _ in keys], "trial": [k for _, k in keys],
               "true_goal": draw(st.lists(st.integers(0, 2), min_size=len(keys), max_size=len(keys)))}
     logged = draw(st.lists(st.tuples(st.integers(0, 1), st.integers(0, 6)), max_size=5, unique=True))
@@ -101,15 +102,16 @@ def step_logs(draw: st.DrawFn) -> tuple[dict[str, list[Any]], dict[str, list[Any
 
 @settings(max_examples=150, deadline=None)
 @given(log=step_logs(), engagement=st.sampled_from(["per_step", "per_turn"]),
-       strength=st.sampled_from(["per_step", "per_turn"]), switches=st.sampled_from(["any_turn", "human_turn"]),
-       with_input=st.booleans())
+       strength=st.sampled_from(["per_step", "per_turn"]),
+       switches=st.sampled_from(["any_turn", "human_turn"]), with_input=st.booleans())
 def test_every_step_metric_is_the_brute_force_loops(log: tuple[dict[str, list[Any]], dict[str, list[Any]]],
                                                      engagement: str, strength: str, switches: str,
                                                      with_input: bool) -> None:
     trials, steps = log
     if not with_input:
         steps = {c: v for c, v in steps.items() if c not in ("t", "phi_m")}
-    arrays = {c: np.array(v, dtype=object if c in ("turn", "event", "phi_m") else None) for c, v in steps.items()}
+    arrays = {c: np.array(v, dtype=object if c in ("turn", "event", "phi_m") else None)
+              for c, v in steps.items()}
     got = step_metric_arrays(trials, arrays, engagement=engagement, strength=strength,  # type: ignore[arg-type]
                              mode_switches=switches)  # type: ignore[arg-type]
     expected = brute_force(trials, steps, engagement, strength, switches)
@@ -120,7 +122,8 @@ def test_every_step_metric_is_the_brute_force_loops(log: tuple[dict[str, list[An
 
 def test_a_step_log_without_rows_gives_missing_values() -> None:
     trials = {"participant": [0, 0], "trial": [0, 1], "true_goal": [1, 2]}
-    empty: dict[str, Any] = {c: np.zeros(0) for c in ("participant", "trial", "step", "alpha", "inferred_goal", "t")}
+    numeric = ("participant", "trial", "step", "alpha", "inferred_goal", "t")
+    empty: dict[str, Any] = {c: np.zeros(0) for c in numeric}
     empty.update({c: np.zeros(0, dtype=object) for c in ("turn", "event", "phi_m")})
     got = step_metric_arrays(trials, empty, engagement="per_turn", strength="per_turn")
     assert all(np.isnan(got[name]).all() for name in STEP_METRIC_NAMES)
@@ -146,14 +149,15 @@ def test_a_worker_computes_the_step_metrics_without_pandas(tmp_path: Path) -> No
         sys.meta_path.insert(0, RefusePandas())
         from nudgecli.report.step_metrics import step_metric_arrays
         got = step_metric_arrays({"participant": [0], "trial": [0], "true_goal": [1]},
-                                 {"participant": [0, 0], "trial": [0, 0], "step": [1, 0], "turn": ["human"] * 2,
-                                  "alpha": [0.5, 0.0], "inferred_goal": [1, 1], "event": ["", "mode_switch_human"]})
+                                 {"participant": [0, 0], "trial": [0, 0], "step": [1, 0],
+                                  "turn": ["human"] * 2, "alpha": [0.5, 0.0], "inferred_goal": [1, 1],
+                                  "event": ["", "mode_switch_human"]})
         assert got["assistance_engagement"].tolist() == [0.5] and got["mode_switches"].tolist() == [1.0]
         assert "pandas" not in sys.modules
         print("ok")
         """)
     root = Path(__file__).resolve().parents[1]
-    done = subprocess.run([sys.executable, "-c", script], cwd=root, capture_output=True, text=True, timeout=120,
-                          env={"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin"})
+    done = subprocess.run([sys.executable, "-c", script], cwd=root, capture_output=True, text=True,
+                          timeout=120, env={"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin"})
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "ok"

@@ -52,7 +52,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.errors import DataError
-from nudgecli.report.step_metrics import step_metric_arrays
+from nudgecli.report.step_metrics import INPUT_STEP_COLUMNS, METRIC_STEP_COLUMNS, step_metric_arrays
 
 METRIC_NAMES = (
     "assistance_engagement",
@@ -69,11 +69,6 @@ METRIC_NAMES = (
 #: The columns of the trial table the metrics use.
 TRIAL_COLUMNS = ("participant", "condition", "block", "trial", "true_goal", "success", "duration_s",
                  "human_turns")
-#: The columns of the step log the metrics use.
-METRIC_STEP_COLUMNS = ("participant", "trial", "step", "turn", "alpha", "inferred_goal", "event")
-#: The columns of the step log the input measures use (``first_input_latency``,
-#: ``active_input_fraction``); a log without them gets those two metrics missing.
-INPUT_STEP_COLUMNS = ("t", "phi_m")
 #: The columns identifying a trial in the metrics table, before the metric columns.
 ID_COLUMNS = ("participant", "condition", "block", "trial")
 

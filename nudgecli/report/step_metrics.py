@@ -22,9 +22,21 @@ from nudgecli.errors import DataError
 from nudgecli.model.interface import LABELS
 from nudgecli.steplog import HUMAN_TURN, MODE_SWITCH_HUMAN, event_counts
 
+#: The columns of the step log the metrics use.
+METRIC_STEP_COLUMNS = ("participant", "trial", "step", "turn", "alpha", "inferred_goal", "event")
+#: The columns of the step log the input measures use (``first_input_latency``,
+#: ``active_input_fraction``); a log without them gets those two metrics missing.
+INPUT_STEP_COLUMNS = ("t", "phi_m")
 #: The per-trial values :func:`step_metric_arrays` returns, in order.
 STEP_METRIC_NAMES = ("assistance_engagement", "assistance_strength", "mode_switches", "human_effort",
                      "first_input_latency", "active_input_fraction", "last_inferred_goal")
+
+#: The metric definitions (keywords of :func:`step_metric_arrays`) that the step-based metrics
+#: depend on; ``success`` and ``completion_time`` are read from the trial table.
+STEP_DEFINITIONS = ("engagement", "strength", "mode_switches")
+
+#: One column: ``(N,)`` values, as a numpy array or a list.
+Column = Sequence[Any] | np.ndarray
 
 #: Decimals the ratio metrics are rounded to: sums over steps divided by counts carry
 #: floating-point noise (0.8 * 3 / 3 != 0.8); rounding makes equal values equal again, so they
@@ -32,8 +44,8 @@ STEP_METRIC_NAMES = ("assistance_engagement", "assistance_strength", "mode_switc
 RATIO_DECIMALS = 12
 
 
-def trial_rows_of_steps(trial_participant: Sequence[Any], trial_number: Sequence[Any],
-                        step_participant: Sequence[Any], step_trial: Sequence[Any]) -> np.ndarray:
+def trial_rows_of_steps(trial_participant: Column, trial_number: Column, step_participant: Column,
+                        step_trial: Column) -> np.ndarray:
     """Each step's row in the trial table, matched by ``(participant, trial)``.
 
     Returns
@@ -58,8 +70,8 @@ def trial_rows_of_steps(trial_participant: Sequence[Any], trial_number: Sequence
 
 
 def step_metric_arrays(
-    trials: Mapping[str, Sequence[Any]],
-    steps: Mapping[str, Sequence[Any]],
+    trials: Mapping[str, Column],
+    steps: Mapping[str, Column],
     *,
     engagement: Literal["per_step", "per_turn"] = "per_step",
     strength: Literal["per_step", "per_turn"] = "per_step",
@@ -188,6 +200,6 @@ def _per_human_turn(row: np.ndarray, is_human: np.ndarray, assisted: np.ndarray,
     return out_engagement, out_strength
 
 
-def _plain(values: Sequence[Any]) -> list[Any]:
+def _plain(values: Column) -> list[Any]:
     """Python values (``tolist`` of an array), so that keys of equal value hash alike."""
     return values.tolist() if isinstance(values, np.ndarray) else list(values)
