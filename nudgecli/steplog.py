@@ -104,19 +104,10 @@ def event_counts(events: Iterable[object], name: str) -> np.ndarray:
         ``(N,)`` int64 counts.
     """
     # A step log holds a handful of distinct cells over thousands of rows: split each distinct
-    # cell once (a cell that cannot be a key, or a missing one, has no events anyway).
-    per_cell: dict[object, int] = {}
-
-    def count(cell: object) -> int:
-        if not isinstance(cell, str):
-            return 0
-        found = per_cell.get(cell)
-        if found is None:
-            found = per_cell[cell] = event_tokens(cell).count(name)
-        return found
-
+    # cell once, then look every row up (a missing cell, or anything but text, has no events).
     cells = events.tolist() if isinstance(events, np.ndarray) else list(events)
-    return np.fromiter((count(cell) for cell in cells), dtype=np.int64, count=len(cells))
+    per_cell = {cell: event_tokens(cell).count(name) for cell in set(cells)}
+    return np.fromiter(map(per_cell.__getitem__, cells), dtype=np.int64, count=len(cells))
 
 
 def count_event(events: pd.Series | Iterable[object], name: str) -> pd.Series:

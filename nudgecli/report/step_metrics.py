@@ -65,8 +65,16 @@ def trial_rows_of_steps(trial_participant: Column, trial_number: Column, step_pa
             raise DataError(f"the trial table holds trial (participant, trial) = {key} more than "
                             "once; each trial must appear once")
         rows[key] = row
-    keys = zip(_plain(step_participant), _plain(step_trial), strict=True)
-    return np.fromiter((rows.get(key, -1) for key in keys), dtype=np.int64, count=len(step_participant))
+    participant, trial = np.asarray(step_participant), np.asarray(step_trial)
+    if len(participant) != len(trial):
+        raise ValueError(f"{len(participant)} step participants but {len(trial)} step trials")
+    if not len(participant):
+        return np.zeros(0, dtype=np.int64)
+    # a step log keeps each trial's steps together: look each run of one trial's steps up once
+    starts = np.flatnonzero(np.r_[True, (participant[1:] != participant[:-1]) | (trial[1:] != trial[:-1])])
+    run_keys = zip(_plain(participant[starts]), _plain(trial[starts]), strict=True)
+    found = [rows.get(key, -1) for key in run_keys]
+    return np.repeat(np.array(found, dtype=np.int64), np.diff(np.r_[starts, len(participant)]))
 
 
 def step_metric_arrays(
