@@ -11,12 +11,12 @@ what happened during it. ``event`` holds zero or more event names joined with
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable
+from collections.abc import Collection, Iterable, Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-if TYPE_CHECKING:  # pandas loads where frames are built: a study's worker imports this module without it
+if TYPE_CHECKING:  # pandas loads where frames are built: a worker simulates and computes metrics without it
     import pandas as pd
 
 #: Turn names of the ``turn`` column.
@@ -64,7 +64,7 @@ def wanted_step_columns(names: Collection[str]) -> list[str]:
     return [name for name in STEP_COLUMNS if name in names]
 
 
-def step_arrays(columns: dict[str, list[Any] | np.ndarray]) -> dict[str, np.ndarray | list[Any]]:
+def step_arrays(columns: Mapping[str, list[Any] | np.ndarray]) -> dict[str, np.ndarray | list[Any]]:
     """The step log's ``columns`` (:data:`STEP_COLUMNS` -> ``(N,)`` lists of Python values) with each
     numeric column as one typed numpy array (:data:`STEP_NUMERIC_DTYPES`); text and ``belief`` columns
     stay lists.
@@ -76,7 +76,7 @@ def step_arrays(columns: dict[str, list[Any] | np.ndarray]) -> dict[str, np.ndar
             else values for name, values in columns.items()}
 
 
-def steps_frame(columns: dict[str, list[Any] | np.ndarray]) -> pd.DataFrame:
+def steps_frame(columns: Mapping[str, list[Any] | np.ndarray]) -> pd.DataFrame:
     """The step log's frame of ``columns`` (:data:`STEP_COLUMNS` -> ``(N,)`` lists of Python values,
     or the arrays of :func:`step_arrays`).
 
@@ -101,8 +101,8 @@ def event_tokens(cell: object) -> list[str]:
     return [token.strip() for token in cell.split(EVENT_SEPARATOR)]
 
 
-def count_event(events: pd.Series | Iterable[object], name: str) -> pd.Series:
-    """Per row, how many times the event ``name`` occurs in its ``event`` cell (missing cells: none).
+def event_counts(events: Iterable[object], name: str) -> np.ndarray:
+    """Per cell, how many times the event ``name`` occurs in it (missing cells: none).
 
     Parameters
     ----------
@@ -113,17 +113,23 @@ def count_event(events: pd.Series | Iterable[object], name: str) -> pd.Series:
 
     Returns
     -------
-    pd.Series
-        ``(N,)`` counts, with the index of ``events`` (a fresh range index for a plain iterable).
+    np.ndarray
+        ``(N,)`` int64 counts.
     """
+    # A step log holds a handful of distinct cells over thousands of rows: split each distinct
+    # cell once, then look every row up (a missing cell, or anything but text, has no events).
+    cells = events.tolist() if isinstance(events, np.ndarray) else list(events)
+    per_cell = {cell: event_tokens(cell).count(name) for cell in set(cells)}
+    return np.fromiter(map(per_cell.__getitem__, cells), dtype=np.int64, count=len(cells))
+
+
+def count_event(events: pd.Series | Iterable[object], name: str) -> pd.Series:
+    """:func:`event_counts` as a series, with the index of ``events`` (a fresh range index for a
+    plain iterable)."""
     import pandas as pd
 
     series = events if isinstance(events, pd.Series) else pd.Series(list(events), dtype=object)
-    # A step log holds a handful of distinct cells over thousands of rows: split each distinct
-    # cell once and look the counts up by code (a missing cell has code -1: the appended 0).
-    codes, cells = pd.factorize(series)
-    per_cell = np.array([event_tokens(cell).count(name) for cell in cells] + [0], dtype=np.int64)
-    return pd.Series(per_cell[codes], index=series.index)
+    return pd.Series(event_counts(series.to_numpy(dtype=object), name), index=series.index)
 
 
 def has_event(events: pd.Series | Iterable[object], name: str) -> np.ndarray:

@@ -9,6 +9,7 @@ import os
 import signal
 import subprocess
 import sys
+import textwrap
 import time
 from pathlib import Path
 
@@ -22,7 +23,7 @@ from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.config_files import list_presets
 from nudgecli.errors import ConfigError
-from nudgecli.report.plans import AnalysisPlan
+from nudgecli.report.plans import AnalysisPlan, load_plan
 from nudgecli.report.replication import (
     analyse_replication,
     clopper_pearson,
@@ -759,14 +760,44 @@ def test_participant_metrics_are_those_of_the_whole_step_log() -> None:
 
     config = load_experiment("smoke")
     plan = StudyPlan.build(config, 7)
-    analysis = AnalysisPlan()
-    definitions = analysis.metrics.model_dump(exclude={"include"})
-    for index in (0, 1):
-        whole = simulate_participant(plan, index)
-        expected = trial_metrics(whole.trials, whole.steps, **definitions)
-        pd.testing.assert_frame_equal(batch_tasks.participant_metrics(plan, index, analysis), expected,
-                                      check_exact=True)
+    for analysis in (AnalysisPlan(), load_plan("study-code")):
+        definitions = batch_tasks.metric_definitions(analysis)
+        for index in (0, 1):
+            whole = simulate_participant(plan, index)
+            expected = trial_metrics(whole.trials, whole.steps, **definitions)
+            pd.testing.assert_frame_equal(batch_tasks.participant_metrics(plan, index, definitions).frame(),
+                                          expected, check_exact=True)
         assert expected["first_input_latency"].notna().any()  # the input columns were there
     kept = simulate_participant(plan, 0, step_log_columns=("event", "trial", "belief")).steps
     assert list(kept.columns) == ["trial", "belief", "event"]
     pd.testing.assert_frame_equal(kept, simulate_participant(plan, 0).steps[["trial", "belief", "event"]])
+
+
+def test_a_batch_worker_runs_participant_tasks_without_pandas() -> None:
+    # a worker that only simulates participants imports neither pandas nor the statistics; the
+    # process writing the parts makes the frames
+    script = textwrap.dedent("""
+        import sys
+
+        class RefusePandas:
+            def find_spec(self, name, path=None, target=None):
+                if name.split(".")[0] in ("pandas", "pyarrow", "scikit_posthocs") or name == "scipy.stats":
+                    raise ImportError(f"{name} is not to be imported by a participant task")
+                return None
+
+        sys.meta_path.insert(0, RefusePandas())
+        from nudgecli.config import load_experiment
+        from nudgecli.runs.batch_tasks import run_participant_task
+
+        definitions = {"engagement": "per_turn", "strength": "per_step", "mode_switches": "human_turn",
+                       "success": "reached_goal", "completion_time": "all_trials"}
+        result = run_participant_task(load_experiment("smoke"), 3, 1, definitions)
+        assert len(result.trials) == len(result.values["mode_switches"]) > 0
+        assert not any(name.split(".")[0] == "pandas" for name in sys.modules)
+        print("ok")
+        """)
+    root = Path(__file__).resolve().parents[1]
+    done = subprocess.run([sys.executable, "-c", script], cwd=root, capture_output=True, text=True,
+                          timeout=300, env={"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin"})
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip() == "ok"

@@ -52,8 +52,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.errors import DataError
-from nudgecli.model.interface import LABELS
-from nudgecli.steplog import HUMAN_TURN, MODE_SWITCH_HUMAN, count_event
+from nudgecli.report.step_metrics import INPUT_STEP_COLUMNS, METRIC_STEP_COLUMNS, step_metric_arrays
 
 METRIC_NAMES = (
     "assistance_engagement",
@@ -70,16 +69,9 @@ METRIC_NAMES = (
 #: The columns of the trial table the metrics use.
 TRIAL_COLUMNS = ("participant", "condition", "block", "trial", "true_goal", "success", "duration_s",
                  "human_turns")
-#: The columns of the step log the metrics use.
-METRIC_STEP_COLUMNS = ("participant", "trial", "step", "turn", "alpha", "inferred_goal", "event")
-#: The columns of the step log the input measures use (``first_input_latency``,
-#: ``active_input_fraction``); a log without them gets those two metrics missing.
-INPUT_STEP_COLUMNS = ("t", "phi_m")
 #: The columns identifying a trial in the metrics table, before the metric columns.
 ID_COLUMNS = ("participant", "condition", "block", "trial")
 
-_TRIAL_KEY = ["participant", "trial"]
-_DECIMALS = 12
 
 
 def _require_columns(table: pd.DataFrame, columns: tuple[str, ...], what: str) -> None:
@@ -133,156 +125,64 @@ def trial_metrics(
     DataError
         A required column is missing, or a trial appears twice in the trial table.
     """
-    s, has_input = _trial_steps(trials, steps)
-    frame = _step_indicators(s, has_input, mode_switches)
-    per_trial = frame.groupby(_TRIAL_KEY, sort=False).agg(
-        steps=("human", "size"),
-        human_steps=("human", "sum"),
-        assisted_steps=("assisted", "sum"),
-        assisted_alpha=("assisted_alpha", "sum"),
-        switches=("switches", "sum"),
-        active_steps=("active", "sum"),
-        first_command_t=("command_t", "min"),
-    )
-    ratios = _trial_ratios(s, frame, per_trial, engagement, strength)
-    return _metrics_table(trials, s, per_trial, ratios, has_input, success, completion_time)
-
-
-def _trial_steps(trials: pd.DataFrame, steps: pd.DataFrame) -> tuple[pd.DataFrame, bool]:
-    """The checked step log with each step's true goal, sorted by trial and step, and whether it
-    has the input columns (:data:`INPUT_STEP_COLUMNS`)."""
     _require_columns(trials, TRIAL_COLUMNS, "trial table")
     _require_columns(steps, METRIC_STEP_COLUMNS, "step log")
-    if trials.duplicated(_TRIAL_KEY).any():
-        first = trials.loc[trials.duplicated(_TRIAL_KEY), _TRIAL_KEY].iloc[0].tolist()
-        raise DataError(f"the trial table holds trial (participant, trial) = {tuple(first)} more than "
-                        "once; each trial must appear once")
-
-    trial_goal = trials[[*_TRIAL_KEY, "true_goal"]]
-    has_input = all(c in steps.columns for c in INPUT_STEP_COLUMNS)
-    columns = [*METRIC_STEP_COLUMNS, *INPUT_STEP_COLUMNS] if has_input else list(METRIC_STEP_COLUMNS)
-    s = steps[columns].merge(trial_goal, on=_TRIAL_KEY, how="inner", validate="many_to_one")
-    s = s.sort_values([*_TRIAL_KEY, "step"], kind="stable").reset_index(drop=True)
-    return s, has_input
+    values = step_metric_arrays(
+        {"participant": trials["participant"].to_numpy(), "trial": trials["trial"].to_numpy(),
+         "true_goal": trials["true_goal"].to_numpy()},
+        step_metric_columns(steps), engagement=engagement, strength=strength, mode_switches=mode_switches)
+    return metrics_frame(trials, values, success=success, completion_time=completion_time)
 
 
-def _step_indicators(s: pd.DataFrame, has_input: bool, mode_switches: str) -> pd.DataFrame:
-    """Per step: human turn, assisted (``alpha > 0`` towards the true goal) and its ``alpha``,
-    the human's mode switches, any measured input, and the time of a command (NaN otherwise)."""
-    alpha = s["alpha"].astype(float).fillna(0.0)
-    is_human = (s["turn"].astype(str) == HUMAN_TURN).to_numpy()
-    correct_goal = s["inferred_goal"].to_numpy() == s["true_goal"].to_numpy()
-    assisted = is_human & (alpha.to_numpy() > 0) & correct_goal
-    return pd.DataFrame({
-        "participant": s["participant"],
-        "trial": s["trial"],
-        "human": is_human.astype(np.int64),
-        "assisted": assisted.astype(np.int64),
-        "assisted_alpha": np.where(assisted, alpha.to_numpy(), 0.0),
-        "switches": _human_mode_switches_per_step(s, only_human_turns=mode_switches == "human_turn"),
-        "active": ((s["phi_m"].fillna("").astype(str) != "").to_numpy(np.int64) if has_input
-                   else np.zeros(len(s), dtype=np.int64)),
-        "command_t": (s["t"].astype(float).where(s["phi_m"].isin(LABELS)).to_numpy() if has_input
-                      else np.full(len(s), np.nan)),
-    })
+def step_metric_columns(steps: pd.DataFrame) -> dict[str, np.ndarray]:
+    """The step log's columns as :func:`~nudgecli.report.step_metrics.step_metric_arrays` takes
+    them: ``alpha`` missing -> 0, ``turn`` as text, ``phi_m`` missing -> ``""`` (no input); the
+    input columns only where the log has both."""
+    columns = {
+        "participant": steps["participant"].to_numpy(),
+        "trial": steps["trial"].to_numpy(),
+        "step": steps["step"].to_numpy(),
+        "turn": steps["turn"].astype(str).to_numpy(dtype=object),
+        "alpha": steps["alpha"].astype(float).fillna(0.0).to_numpy(dtype=float),
+        "inferred_goal": steps["inferred_goal"].to_numpy(),
+        "event": steps["event"].to_numpy(dtype=object),
+    }
+    if all(c in steps.columns for c in INPUT_STEP_COLUMNS):
+        columns["t"] = steps["t"].astype(float).to_numpy(dtype=float)
+        columns["phi_m"] = steps["phi_m"].fillna("").astype(str).to_numpy(dtype=object)
+    return columns
 
 
-def _trial_ratios(s: pd.DataFrame, frame: pd.DataFrame, per_trial: pd.DataFrame, engagement: str,
-                  strength: str) -> dict[str, pd.Series]:
-    """Per trial: assistance engagement and strength (per step or per turn), human effort and the
-    active input fraction, rounded to :data:`_DECIMALS`."""
-    with np.errstate(invalid="ignore", divide="ignore"):
-        if engagement == "per_step":
-            engagement_values = per_trial["assisted_steps"] / per_trial["human_steps"].where(
-                per_trial["human_steps"] > 0)
-        if strength == "per_step":
-            strength_values = per_trial["assisted_alpha"] / per_trial["assisted_steps"].where(
-                per_trial["assisted_steps"] > 0)
-        if "per_turn" in (engagement, strength):
-            per_turn = _per_human_turn(s, frame)
-            if engagement == "per_turn":
-                engagement_values = per_turn["engagement"]
-            if strength == "per_turn":
-                strength_values = per_turn["strength"]
-        effort_values = per_trial["human_steps"] / per_trial["steps"]
-        active_values = per_trial["active_steps"] / per_trial["steps"]
+def metrics_frame(trials: pd.DataFrame, values: Mapping[str, np.ndarray], *,
+                  success: Literal["reached_goal", "last_inferred_goal"] = "reached_goal",
+                  completion_time: Literal["all_trials", "successful_trials"] = "all_trials") -> pd.DataFrame:
+    """The metrics table of :func:`trial_metrics`: the trial table's identifiers and columns with
+    the step-based metrics ``values`` (:func:`~nudgecli.report.step_metrics.step_metric_arrays`
+    of the same trials, in the same order).
 
-    # Sums over steps divided by counts carry floating-point noise (0.8 * 3 / 3 != 0.8); rounding
-    # to 12 decimals makes equal values equal again, so they rank as ties in the tests.
-    engagement_values = engagement_values.round(_DECIMALS)
-    strength_values = strength_values.round(_DECIMALS)
-    effort_values = effort_values.round(_DECIMALS)
-    active_values = active_values.round(_DECIMALS)
-    return {"engagement": engagement_values, "strength": strength_values, "effort": effort_values,
-            "active": active_values}
-
-
-def _metrics_table(trials: pd.DataFrame, s: pd.DataFrame, per_trial: pd.DataFrame,
-                   ratios: dict[str, pd.Series], has_input: bool, success: str,
-                   completion_time: str) -> pd.DataFrame:
-    """The metrics table: one row per trial in the trial table's order (see :func:`trial_metrics`)."""
-    engagement_values, strength_values = ratios["engagement"], ratios["strength"]
-    effort_values, active_values = ratios["effort"], ratios["active"]
+    Returns
+    -------
+    pd.DataFrame
+        One row per trial in the trial table's order: :data:`ID_COLUMNS` then :data:`METRIC_NAMES`;
+        the counts are nullable integers, ``success`` is boolean.
+    """
     out = trials[list(ID_COLUMNS)].copy()
-    key = pd.MultiIndex.from_frame(trials[_TRIAL_KEY])
-    out["assistance_engagement"] = engagement_values.reindex(key).to_numpy(dtype=float)
-    out["assistance_strength"] = strength_values.reindex(key).to_numpy(dtype=float)
-    out["mode_switches"] = pd.array(per_trial["switches"].reindex(key).to_numpy(dtype=float),
-                                   dtype="Float64").astype("Int64")
-    out["human_effort"] = effort_values.reindex(key).to_numpy(dtype=float)
+    out["assistance_engagement"] = values["assistance_engagement"]
+    out["assistance_strength"] = values["assistance_strength"]
+    out["mode_switches"] = pd.array(values["mode_switches"], dtype="Float64").astype("Int64")
+    out["human_effort"] = values["human_effort"]
     out["completion_time"] = pd.to_numeric(trials["duration_s"]).astype(float).to_numpy()
     out["human_turns"] = pd.array(pd.to_numeric(trials["human_turns"]).to_numpy(), dtype="Int64")
     if success == "reached_goal":
         out["success"] = pd.array(trials["success"].astype(bool).to_numpy(), dtype="boolean")
     else:
-        last_goal = _last_inferred_goal(s).reindex(key)
-        reached = last_goal.to_numpy() == trials["true_goal"].to_numpy()
+        reached = values["last_inferred_goal"] == trials["true_goal"].to_numpy()
         out["success"] = pd.array(reached, dtype="boolean")
-    out["first_input_latency"] = per_trial["first_command_t"].reindex(key).to_numpy(dtype=float)
-    out["active_input_fraction"] = active_values.reindex(key).to_numpy(dtype=float)
-    if not has_input:
-        out["active_input_fraction"] = np.nan
+    out["first_input_latency"] = values["first_input_latency"]
+    out["active_input_fraction"] = values["active_input_fraction"]
     if completion_time == "successful_trials":
         out["completion_time"] = out["completion_time"].where(out["success"].fillna(False).to_numpy(bool))
     return out.reset_index(drop=True)
-
-
-def _per_human_turn(s: pd.DataFrame, frame: pd.DataFrame) -> pd.DataFrame:
-    """Per trial: the mean over human turns of the per-turn engagement and strength.
-
-    A turn is a maximal run of consecutive steps with the same ``turn`` value within a trial.
-    The per-turn strength is the mean ``alpha`` over the turn's assisted steps, 0 when none.
-    """
-    new_trial = (s["participant"] != s["participant"].shift()) | (s["trial"] != s["trial"].shift())
-    new_turn = new_trial | (s["turn"] != s["turn"].shift())
-    human = frame.assign(turn_id=new_turn.cumsum().to_numpy())
-    human = human[human["human"] == 1]
-    turns = human.groupby([*_TRIAL_KEY, "turn_id"], sort=False).agg(
-        steps=("human", "size"), assisted_steps=("assisted", "sum"), assisted_alpha=("assisted_alpha", "sum"))
-    turns["engagement"] = turns["assisted_steps"] / turns["steps"]
-    turns["strength"] = (turns["assisted_alpha"] / turns["assisted_steps"].where(turns["assisted_steps"] > 0)
-                         ).fillna(0.0)
-    return turns.groupby(level=_TRIAL_KEY, sort=False)[["engagement", "strength"]].mean()
-
-
-def _human_mode_switches_per_step(s: pd.DataFrame, only_human_turns: bool) -> np.ndarray:
-    """Per step: the number of ``mode_switch_human`` events (optionally 0 outside human turns).
-
-    Returns
-    -------
-    np.ndarray
-        ``(len(s),)`` integer counts aligned with the rows of ``s``.
-    """
-    counts = count_event(s["event"], MODE_SWITCH_HUMAN).to_numpy(dtype=np.int64)
-    if only_human_turns:
-        counts = np.where(s["turn"].astype(str).to_numpy() == HUMAN_TURN, counts, 0)
-    return counts
-
-
-def _last_inferred_goal(s: pd.DataFrame) -> pd.Series:
-    """Per trial: the last inferred goal (``inferred_goal >= 0``), -1 when there was none."""
-    inferred = s.loc[s["inferred_goal"] >= 0, [*_TRIAL_KEY, "inferred_goal"]]
-    return inferred.groupby(_TRIAL_KEY, sort=False)["inferred_goal"].last()
 
 
 def apply_filters(metrics: pd.DataFrame, filters: Mapping[str, float]) -> pd.DataFrame:

@@ -59,7 +59,13 @@ from nudgecli.runs.batch_folder import (
     readable_stats,
     task_part,
 )
-from nudgecli.runs.batch_tasks import install_plan, layout_key, run_analysis_task, run_participant_task
+from nudgecli.runs.batch_tasks import (
+    install_plan,
+    layout_key,
+    metric_definitions,
+    run_analysis_task,
+    run_participant_task,
+)
 from nudgecli.runs.executors import Executor, Job, format_duration, make_executor
 from nudgecli.runs.size import check_size, trials_per_participant
 from nudgecli.runs.study import (
@@ -435,6 +441,7 @@ class _GraphRun:
         self.total = graph.participant_tasks + len(graph.analyses)
         self.done = self.total - sum(len(v) for v in self.remaining.values()) - len(self.waiting)
         self.metrics = list(batch.plan.metrics.include)
+        self.definitions = metric_definitions(batch.plan)
         self.in_flight = 0
         #: layout tasks: job key -> (study, chunk); a study's finished chunks by index
         self.layout_jobs: dict[str, tuple[str, int]] = {}
@@ -463,7 +470,7 @@ class _GraphRun:
     def submit_participants(self, study: Study) -> None:
         for i in sorted(self.remaining[study.key]):
             self.executor.submit(Job(f"{study.key}-p{i:04d}", run_participant_task,
-                                     (study.config, study.seed, i, self.batch.plan), affinity=study.layouts))
+                                     (study.config, study.seed, i, self.definitions), affinity=study.layouts))
         self.in_flight += len(self.remaining[study.key])
 
     def ready(self, analysis: Analysis) -> bool:
@@ -488,7 +495,7 @@ class _GraphRun:
             return False
         if job.affinity is not None:  # a participant task
             study_name, index = job.key.rsplit("-p", 1)
-            write_parquet_atomic(task_part(self.folder, study_name, int(index)), result)
+            write_parquet_atomic(task_part(self.folder, study_name, int(index)), result.frame())
             self.remaining[study_name].discard(int(index))
             self.submit_ready()
         else:

@@ -3,8 +3,11 @@
 A participant task simulates one participant of a study with the study's plan (its layouts and
 their solved goal MDPs, :class:`~nudgecli.sim.study.StudyPlan`), which each worker keeps in a
 small cache keyed by what the plan depends on (:func:`layout_key`), so a plan is built once per
-worker, not once per task; an analysis task computes a replication's statistics. The graph that
-submits them is :mod:`nudgecli.runs.batch`.
+worker, not once per task, and computes the participant's step-based metrics with numpy
+(:mod:`nudgecli.report.step_metrics`): a worker that runs only participant tasks never imports
+pandas, and the process that writes the part makes the metrics table
+(:meth:`ParticipantMetrics.frame`). An analysis task computes a replication's statistics. The
+graph that submits them is :mod:`nudgecli.runs.batch`.
 """
 
 from __future__ import annotations
@@ -13,18 +16,25 @@ import dataclasses
 import hashlib
 import threading
 from collections import OrderedDict
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-import pandas as pd
+import numpy as np
 
 from nudgecli.config import ExperimentConfig
-from nudgecli.report.metrics import INPUT_STEP_COLUMNS, METRIC_STEP_COLUMNS, trial_metrics
+from nudgecli.report.step_metrics import (
+    INPUT_STEP_COLUMNS,
+    METRIC_STEP_COLUMNS,
+    STEP_DEFINITIONS,
+    step_metric_arrays,
+)
 from nudgecli.runs.executors import HELD_AFFINITIES
 from nudgecli.runs.study_tasks import tune_allocator
-from nudgecli.sim.study import StudyPlan, simulate_participant
+from nudgecli.sim.study import StudyPlan, simulate_participant_columns, trials_frame
 
-if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only
+if TYPE_CHECKING:  # pandas and the statistics (scipy.stats, scikit-posthocs) load where used
+    import pandas as pd
+
     from nudgecli.report.plans import AnalysisPlan
 
 #: Study plans (layouts + solved MDPs, about 20 MB at the paper's 48 layouts) a worker keeps; the
@@ -80,26 +90,64 @@ def install_plan(plan: StudyPlan) -> None:
         _remember_plan(layout_key(plan.config, plan.seed), plan)
 
 
-def participant_metrics(plan: StudyPlan, index: int, analysis: AnalysisPlan) -> pd.DataFrame:
-    """One participant's per-trial metrics under the analysis plan's definitions.
+@dataclasses.dataclass
+class ParticipantMetrics:
+    """One participant's per-trial metrics as a participant task returns them (plain values and
+    numpy arrays, so the worker needs no pandas).
+
+    Attributes
+    ----------
+    trials
+        The participant's trial table, one row (dict) per trial.
+    values
+        The step-based metrics of :func:`~nudgecli.report.step_metrics.step_metric_arrays`,
+        ``(T,)`` each, in the trials' order.
+    definitions
+        The analysis plan's metric definitions (:func:`metric_definitions`).
+    """
+
+    trials: list[dict[str, Any]]
+    values: dict[str, np.ndarray]
+    definitions: dict[str, str]
+
+    def frame(self) -> pd.DataFrame:
+        """The metrics table (:func:`nudgecli.report.metrics.metrics_frame`): one row per trial,
+        ``participant, condition, block, trial`` and the metrics."""
+        from nudgecli.report.metrics import metrics_frame
+
+        from_trials: dict[str, Any] = {key: self.definitions[key] for key in ("success", "completion_time")}
+        return metrics_frame(trials_frame(self.trials), self.values, **from_trials)
+
+
+def metric_definitions(analysis: AnalysisPlan) -> dict[str, str]:
+    """The analysis plan's metric definitions (``engagement``, ``strength``, ``mode_switches``,
+    ``success``, ``completion_time``) as plain text, what a participant task is given."""
+    return analysis.metrics.model_dump(exclude={"include"})
+
+
+def participant_metrics(plan: StudyPlan, index: int, definitions: Mapping[str, str]) -> ParticipantMetrics:
+    """One participant's per-trial metrics under the metric definitions (:func:`metric_definitions`).
 
     Returns
     -------
-    pd.DataFrame
-        One row per trial: ``participant, condition, block, trial`` and the metrics of
-        :func:`nudgecli.report.metrics.trial_metrics`.
+    ParticipantMetrics
+        Its :meth:`~ParticipantMetrics.frame` is :func:`nudgecli.report.metrics.trial_metrics` of the
+        participant's trial table and step log.
     """
     # the metrics read a third of the step log's columns: the rest is not formatted at all
-    result = simulate_participant(plan, index, step_log_columns=METRIC_STEP_COLUMNS + INPUT_STEP_COLUMNS)
-    definitions = analysis.metrics.model_dump(exclude={"include"})
-    return trial_metrics(result.trials, result.steps, **definitions)
+    result = simulate_participant_columns(plan, index,
+                                          step_log_columns=METRIC_STEP_COLUMNS + INPUT_STEP_COLUMNS)
+    keys = {name: [row[name] for row in result.trials] for name in ("participant", "trial", "true_goal")}
+    chosen: dict[str, Any] = {name: definitions[name] for name in STEP_DEFINITIONS}
+    values = step_metric_arrays(keys, result.steps, **chosen)
+    return ParticipantMetrics(result.trials, values, dict(definitions))
 
 
 def run_participant_task(config: ExperimentConfig, seed: int, index: int,
-                         analysis: AnalysisPlan) -> pd.DataFrame:
+                         definitions: Mapping[str, str]) -> ParticipantMetrics:
     """A participant task, with this worker's cached plan of the study."""
     tune_allocator()
-    return participant_metrics(cached_plan(config, seed), index, analysis)
+    return participant_metrics(cached_plan(config, seed), index, definitions)
 
 
 def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str],

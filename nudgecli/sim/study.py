@@ -232,6 +232,13 @@ class StudyPlan:
         return path_layouts_frame(self.paths) if self.paths is not None else layouts_frame(self.layouts)
 
 
+def trials_frame(summaries: Sequence[dict[str, Any]]) -> pd.DataFrame:
+    """The trial table of trial summaries (one dict per trial, :meth:`TrialSession.summary`)."""
+    import pandas as pd
+
+    return pd.DataFrame(list(summaries))
+
+
 @dataclass
 class ParticipantColumns:
     """One participant's results as plain columns: what a worker computes and sends back.
@@ -268,7 +275,7 @@ class ParticipantResult:
         """The tables of a participant's columns (``wall_s``: the simulation's, as measured in the worker)."""
         import pandas as pd
 
-        return cls(participant=columns.participant, trials=pd.DataFrame(columns.trials),
+        return cls(participant=columns.participant, trials=trials_frame(columns.trials),
                    steps=steps_frame(columns.steps), record=pd.DataFrame([columns.record]),
                    wall_s=columns.wall_s, calibration=columns.calibration)
 

@@ -1,0 +1,213 @@
+"""The step-based metrics of every trial, from the step log's columns as arrays (numpy only).
+
+The one computation behind :func:`nudgecli.report.metrics.trial_metrics` (which reads frames and
+assembles the metrics table) and a batch's participant tasks (which run in workers that do not
+import pandas). The definitions are those of :mod:`nudgecli.report.metrics`.
+
+Steps are matched to their trial by ``(participant, trial)`` (steps of a trial not in the trial
+table are left out) and put in step order within each trial (a stable sort); each trial's sums
+are then taken over its contiguous run of steps with ``np.add.reduceat``, in step order (the
+order pandas' grouped sums use for such sorted groups, so the values are the ones the metrics
+table has always had).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, Literal
+
+import numpy as np
+
+from nudgecli.errors import DataError
+from nudgecli.model.interface import LABELS
+from nudgecli.steplog import HUMAN_TURN, MODE_SWITCH_HUMAN, event_counts
+
+#: The columns of the step log the metrics use.
+METRIC_STEP_COLUMNS = ("participant", "trial", "step", "turn", "alpha", "inferred_goal", "event")
+#: The columns of the step log the input measures use (``first_input_latency``,
+#: ``active_input_fraction``); a log without them gets those two metrics missing.
+INPUT_STEP_COLUMNS = ("t", "phi_m")
+#: The per-trial values :func:`step_metric_arrays` returns, in order.
+STEP_METRIC_NAMES = ("assistance_engagement", "assistance_strength", "mode_switches", "human_effort",
+                     "first_input_latency", "active_input_fraction", "last_inferred_goal")
+
+#: The metric definitions (keywords of :func:`step_metric_arrays`) that the step-based metrics
+#: depend on; ``success`` and ``completion_time`` are read from the trial table.
+STEP_DEFINITIONS = ("engagement", "strength", "mode_switches")
+
+#: One column: ``(N,)`` values, as a numpy array or a list.
+Column = Sequence[Any] | np.ndarray
+
+#: Decimals the ratio metrics are rounded to: sums over steps divided by counts carry
+#: floating-point noise (0.8 * 3 / 3 != 0.8); rounding makes equal values equal again, so they
+#: rank as ties in the tests.
+RATIO_DECIMALS = 12
+
+
+def trial_rows_of_steps(trial_participant: Column, trial_number: Column, step_participant: Column,
+                        step_trial: Column) -> np.ndarray:
+    """Each step's row in the trial table, matched by ``(participant, trial)``.
+
+    Returns
+    -------
+    np.ndarray
+        ``(N,)`` int64 row indices into the ``(T,)`` trial table; -1 for a step whose trial is
+        not in the table.
+
+    Raises
+    ------
+    DataError
+        A ``(participant, trial)`` appears twice in the trial table.
+    """
+    rows: dict[tuple[Any, Any], int] = {}
+    for row, key in enumerate(zip(_plain(trial_participant), _plain(trial_number), strict=True)):
+        if key in rows:
+            raise DataError(f"the trial table holds trial (participant, trial) = {key} more than "
+                            "once; each trial must appear once")
+        rows[key] = row
+    participant, trial = np.asarray(step_participant), np.asarray(step_trial)
+    if len(participant) != len(trial):
+        raise ValueError(f"{len(participant)} step participants but {len(trial)} step trials")
+    if not len(participant):
+        return np.zeros(0, dtype=np.int64)
+    # a step log keeps each trial's steps together: look each run of one trial's steps up once
+    starts = np.flatnonzero(np.r_[True, (participant[1:] != participant[:-1]) | (trial[1:] != trial[:-1])])
+    run_keys = zip(_plain(participant[starts]), _plain(trial[starts]), strict=True)
+    found = [rows.get(key, -1) for key in run_keys]
+    return np.repeat(np.array(found, dtype=np.int64), np.diff(np.r_[starts, len(participant)]))
+
+
+def step_metric_arrays(
+    trials: Mapping[str, Column],
+    steps: Mapping[str, Column],
+    *,
+    engagement: Literal["per_step", "per_turn"] = "per_step",
+    strength: Literal["per_step", "per_turn"] = "per_step",
+    mode_switches: Literal["any_turn", "human_turn"] = "any_turn",
+) -> dict[str, np.ndarray]:
+    """The step-based metrics of every trial of the trial table.
+
+    Parameters
+    ----------
+    trials
+        ``participant``, ``trial`` and ``true_goal``: ``(T,)`` each, one trial per row.
+    steps
+        ``participant``, ``trial``, ``step``: ``(N,)`` each, any order of rows; ``turn`` (text),
+        ``alpha`` (floats, no missing values), ``inferred_goal`` (-1 for none) and ``event``
+        (event cells; missing cells have no events); and optionally ``t`` (floats) and ``phi_m``
+        (text, ``""`` for no input) for the two input measures.
+    engagement, strength, mode_switches
+        The definitions of :func:`nudgecli.report.metrics.trial_metrics`.
+
+    Returns
+    -------
+    dict
+        :data:`STEP_METRIC_NAMES` -> ``(T,)`` float arrays in the trial table's order: NaN for a
+        trial without steps (and where the metric has none: no human step, no assisted step, no
+        command, no input columns, no inferred goal). ``mode_switches`` counts switches as
+        floats; ``last_inferred_goal`` is the last ``inferred_goal >= 0`` of the trial's steps.
+    """
+    n_trials = len(trials["participant"])
+    row = trial_rows_of_steps(trials["participant"], trials["trial"], steps["participant"], steps["trial"])
+    kept = np.flatnonzero(row >= 0)
+    # step order within a trial (ties keep the log's order); trials in the trial table's order
+    order = kept[np.lexsort((np.asarray(steps["step"])[kept], row[kept]))]
+    row = row[order]
+    has_input = "t" in steps and "phi_m" in steps
+
+    true_goal = np.asarray(trials["true_goal"])[row]
+    alpha = np.asarray(steps["alpha"], dtype=float)[order]
+    is_human = np.asarray(steps["turn"], dtype=object)[order] == HUMAN_TURN
+    inferred = np.asarray(steps["inferred_goal"])[order]
+    assisted = is_human & (alpha > 0) & (inferred == true_goal)
+    assisted_alpha = np.where(assisted, alpha, 0.0)
+    switches = event_counts(np.asarray(steps["event"], dtype=object)[order], MODE_SWITCH_HUMAN)
+    if mode_switches == "human_turn":
+        switches = np.where(is_human, switches, 0)
+
+    starts = np.flatnonzero(np.r_[True, row[1:] != row[:-1]]) if len(row) else np.zeros(0, dtype=np.int64)
+    present = row[starts]
+
+    def per_trial(values: np.ndarray, reduce: np.ufunc = np.add) -> np.ndarray:
+        """``(T,)`` floats: ``reduce`` over each trial's steps, NaN for a trial without steps."""
+        out = np.full(n_trials, np.nan)
+        if len(starts):
+            out[present] = reduce.reduceat(values, starts)
+        return out
+
+    n_steps = per_trial(np.ones(len(row), dtype=np.int64))
+    human_steps = per_trial(is_human.astype(np.int64))
+    assisted_steps = per_trial(assisted.astype(np.int64))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        if engagement == "per_step" or strength == "per_step":
+            engagement_values = assisted_steps / np.where(human_steps > 0, human_steps, np.nan)
+            strength_values = per_trial(assisted_alpha) / np.where(assisted_steps > 0, assisted_steps, np.nan)
+        if "per_turn" in (engagement, strength):
+            turn_engagement, turn_strength = _per_human_turn(row, is_human, assisted, assisted_alpha,
+                                                              np.asarray(steps["turn"], dtype=object)[order],
+                                                              n_trials)
+            if engagement == "per_turn":
+                engagement_values = turn_engagement
+            if strength == "per_turn":
+                strength_values = turn_strength
+        effort_values = human_steps / n_steps
+        if has_input:
+            phi_m = np.asarray(steps["phi_m"], dtype=object)[order]
+            active_values = per_trial((phi_m != "").astype(np.int64)) / n_steps
+            command_t = np.where(np.isin(phi_m, LABELS), np.asarray(steps["t"], dtype=float)[order], np.nan)
+            latency = per_trial(command_t, np.fmin)  # fmin: steps without a command (NaN) are skipped
+        else:
+            active_values = latency = np.full(n_trials, np.nan)
+
+    # the last step with an inferred goal of each trial (rows are in step order within a trial)
+    named_row, named_goal = row[inferred >= 0], inferred[inferred >= 0]
+    last = np.r_[named_row[1:] != named_row[:-1], True] if len(named_row) else np.zeros(0, dtype=bool)
+    last_goal = np.full(n_trials, np.nan)
+    last_goal[named_row[last]] = named_goal[last]
+    return {
+        "assistance_engagement": np.round(engagement_values, RATIO_DECIMALS),
+        "assistance_strength": np.round(strength_values, RATIO_DECIMALS),
+        "mode_switches": per_trial(switches.astype(np.int64)),
+        "human_effort": np.round(effort_values, RATIO_DECIMALS),
+        "first_input_latency": latency,
+        "active_input_fraction": np.round(active_values, RATIO_DECIMALS),
+        "last_inferred_goal": last_goal,
+    }
+
+
+def _per_human_turn(row: np.ndarray, is_human: np.ndarray, assisted: np.ndarray, assisted_alpha: np.ndarray,
+                    turn: np.ndarray, n_trials: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per trial: the mean over its human turns of the per-turn engagement and strength.
+
+    A turn is a maximal run of consecutive steps (in the trial's step order) with the same ``turn``
+    value. The per-turn strength is the mean ``alpha`` over the turn's assisted steps, 0 when none.
+
+    Returns
+    -------
+    tuple of np.ndarray
+        ``(T,)`` engagement and strength; NaN for a trial without a human turn.
+    """
+    if not is_human.any():
+        return np.full(n_trials, np.nan), np.full(n_trials, np.nan)
+    new_turn = np.r_[True, (row[1:] != row[:-1]) | (turn[1:] != turn[:-1])]
+    turn_id = np.cumsum(new_turn)[is_human]
+    turn_starts = np.flatnonzero(np.r_[True, turn_id[1:] != turn_id[:-1]])
+    steps = np.add.reduceat(np.ones(len(turn_id), dtype=np.int64), turn_starts)
+    assisted_steps = np.add.reduceat(assisted[is_human].astype(np.int64), turn_starts)
+    alpha_sums = np.add.reduceat(assisted_alpha[is_human], turn_starts)
+    engagement = assisted_steps / steps
+    strength = np.zeros(len(turn_starts))
+    np.divide(alpha_sums, assisted_steps, out=strength, where=assisted_steps > 0)
+
+    turn_row = row[is_human][turn_starts]
+    trial_starts = np.flatnonzero(np.r_[True, turn_row[1:] != turn_row[:-1]])
+    turns = np.diff(trial_starts, append=len(turn_row)).astype(np.float64)
+    out_engagement, out_strength = np.full(n_trials, np.nan), np.full(n_trials, np.nan)
+    out_engagement[turn_row[trial_starts]] = np.add.reduceat(engagement, trial_starts) / turns
+    out_strength[turn_row[trial_starts]] = np.add.reduceat(strength, trial_starts) / turns
+    return out_engagement, out_strength
+
+
+def _plain(values: Column) -> list[Any]:
+    """Python values (``tolist`` of an array), so that keys of equal value hash alike."""
+    return values.tolist() if isinstance(values, np.ndarray) else list(values)
