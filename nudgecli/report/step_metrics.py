@@ -108,32 +108,19 @@ def step_metric_arrays(
         floats; ``last_inferred_goal`` is the last ``inferred_goal >= 0`` of the trial's steps.
     """
     n_trials = len(trials["participant"])
-    row = trial_rows_of_steps(trials["participant"], trials["trial"], steps["participant"], steps["trial"])
-    kept = np.flatnonzero(row >= 0)
-    # step order within a trial (ties keep the log's order); trials in the trial table's order
-    order = kept[np.lexsort((np.asarray(steps["step"])[kept], row[kept]))]
-    row = row[order]
-    has_input = "t" in steps and "phi_m" in steps
+    row, order = _steps_in_trial_order(trials, steps)
+    per_trial = _PerTrial(row, n_trials)
 
     true_goal = np.asarray(trials["true_goal"])[row]
     alpha = np.asarray(steps["alpha"], dtype=float)[order]
-    is_human = np.asarray(steps["turn"], dtype=object)[order] == HUMAN_TURN
+    turn = np.asarray(steps["turn"], dtype=object)[order]
+    is_human = turn == HUMAN_TURN
     inferred = np.asarray(steps["inferred_goal"])[order]
     assisted = is_human & (alpha > 0) & (inferred == true_goal)
     assisted_alpha = np.where(assisted, alpha, 0.0)
     switches = event_counts(np.asarray(steps["event"], dtype=object)[order], MODE_SWITCH_HUMAN)
     if mode_switches == "human_turn":
         switches = np.where(is_human, switches, 0)
-
-    starts = np.flatnonzero(np.r_[True, row[1:] != row[:-1]]) if len(row) else np.zeros(0, dtype=np.int64)
-    present = row[starts]
-
-    def per_trial(values: np.ndarray, reduce: np.ufunc = np.add) -> np.ndarray:
-        """``(T,)`` floats: ``reduce`` over each trial's steps, NaN for a trial without steps."""
-        out = np.full(n_trials, np.nan)
-        if len(starts):
-            out[present] = reduce.reduceat(values, starts)
-        return out
 
     n_steps = per_trial(np.ones(len(row), dtype=np.int64))
     human_steps = per_trial(is_human.astype(np.int64))
@@ -143,27 +130,14 @@ def step_metric_arrays(
             engagement_values = assisted_steps / np.where(human_steps > 0, human_steps, np.nan)
             strength_values = per_trial(assisted_alpha) / np.where(assisted_steps > 0, assisted_steps, np.nan)
         if "per_turn" in (engagement, strength):
-            turn_engagement, turn_strength = _per_human_turn(row, is_human, assisted, assisted_alpha,
-                                                              np.asarray(steps["turn"], dtype=object)[order],
+            turn_engagement, turn_strength = _per_human_turn(row, is_human, assisted, assisted_alpha, turn,
                                                               n_trials)
             if engagement == "per_turn":
                 engagement_values = turn_engagement
             if strength == "per_turn":
                 strength_values = turn_strength
         effort_values = human_steps / n_steps
-        if has_input:
-            phi_m = np.asarray(steps["phi_m"], dtype=object)[order]
-            active_values = per_trial((phi_m != "").astype(np.int64)) / n_steps
-            command_t = np.where(np.isin(phi_m, LABELS), np.asarray(steps["t"], dtype=float)[order], np.nan)
-            latency = per_trial(command_t, np.fmin)  # fmin: steps without a command (NaN) are skipped
-        else:
-            active_values = latency = np.full(n_trials, np.nan)
-
-    # the last step with an inferred goal of each trial (rows are in step order within a trial)
-    named_row, named_goal = row[inferred >= 0], inferred[inferred >= 0]
-    last = np.r_[named_row[1:] != named_row[:-1], True] if len(named_row) else np.zeros(0, dtype=bool)
-    last_goal = np.full(n_trials, np.nan)
-    last_goal[named_row[last]] = named_goal[last]
+        active_values, latency = _input_measures(steps, order, per_trial, n_steps)
     return {
         "assistance_engagement": np.round(engagement_values, RATIO_DECIMALS),
         "assistance_strength": np.round(strength_values, RATIO_DECIMALS),
@@ -171,8 +145,62 @@ def step_metric_arrays(
         "human_effort": np.round(effort_values, RATIO_DECIMALS),
         "first_input_latency": latency,
         "active_input_fraction": np.round(active_values, RATIO_DECIMALS),
-        "last_inferred_goal": last_goal,
+        "last_inferred_goal": _last_inferred_goal(row, inferred, n_trials),
     }
+
+
+def _steps_in_trial_order(trials: Mapping[str, Column],
+                          steps: Mapping[str, Column]) -> tuple[np.ndarray, np.ndarray]:
+    """The steps of the trial table's trials, each trial's in step order (ties keep the log's order)
+    and the trials in the table's order.
+
+    Returns
+    -------
+    tuple of np.ndarray
+        ``(M,)`` each: the steps' rows in the trial table, and their indices in ``steps``.
+    """
+    row = trial_rows_of_steps(trials["participant"], trials["trial"], steps["participant"], steps["trial"])
+    kept = np.flatnonzero(row >= 0)
+    order = kept[np.lexsort((np.asarray(steps["step"])[kept], row[kept]))]
+    return row[order], order
+
+
+class _PerTrial:
+    """Reductions over each trial's contiguous steps (``row``: ``(M,)`` trial rows, each trial's
+    steps together): ``(T,)`` floats, NaN for a trial without steps."""
+
+    def __init__(self, row: np.ndarray, n_trials: int) -> None:
+        empty = np.zeros(0, dtype=np.int64)
+        self.starts = np.flatnonzero(np.r_[True, row[1:] != row[:-1]]) if len(row) else empty
+        self.present = row[self.starts]
+        self.n_trials = n_trials
+
+    def __call__(self, values: np.ndarray, reduce: np.ufunc = np.add) -> np.ndarray:
+        out = np.full(self.n_trials, np.nan)
+        if len(self.starts):
+            out[self.present] = reduce.reduceat(values, self.starts)
+        return out
+
+
+def _input_measures(steps: Mapping[str, Column], order: np.ndarray, per_trial: _PerTrial,
+                    n_steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per trial: the fraction of steps with any measured input and the time of the first command
+    (``(T,)`` each; NaN without the input columns)."""
+    if "t" not in steps or "phi_m" not in steps:
+        return np.full(per_trial.n_trials, np.nan), np.full(per_trial.n_trials, np.nan)
+    phi_m = np.asarray(steps["phi_m"], dtype=object)[order]
+    active = per_trial((phi_m != "").astype(np.int64)) / n_steps
+    command_t = np.where(np.isin(phi_m, LABELS), np.asarray(steps["t"], dtype=float)[order], np.nan)
+    return active, per_trial(command_t, np.fmin)  # fmin: steps without a command (NaN) are skipped
+
+
+def _last_inferred_goal(row: np.ndarray, inferred: np.ndarray, n_trials: int) -> np.ndarray:
+    """Per trial: the last ``inferred_goal >= 0`` of its steps (in step order), NaN if none."""
+    named_row, named_goal = row[inferred >= 0], inferred[inferred >= 0]
+    last = np.r_[named_row[1:] != named_row[:-1], True] if len(named_row) else np.zeros(0, dtype=bool)
+    out = np.full(n_trials, np.nan)
+    out[named_row[last]] = named_goal[last]
+    return out
 
 
 def _per_human_turn(row: np.ndarray, is_human: np.ndarray, assisted: np.ndarray, assisted_alpha: np.ndarray,

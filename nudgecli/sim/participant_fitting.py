@@ -198,6 +198,29 @@ def _is_frame(source: object) -> TypeGuard[pd.DataFrame]:
     return pandas is not None and isinstance(source, pandas.DataFrame)
 
 
+def _distortion_session(source: str | Path | DistortionSession | pd.DataFrame
+                        ) -> tuple[DistortionSession, str]:
+    """The distortion session of :func:`participant_from_log`'s ``source``, and where it came from.
+
+    Raises
+    ------
+    DataError
+        A folder without a ``p(phi_m | phi_i)`` session.
+    """
+    if isinstance(source, DistortionSession):
+        return source, source.files.get("stream", "distortion session")
+    if _is_frame(source):
+        return session_from_stream_frame(source), "stream frame"
+    # the log readers load with a log to read: a simulated participant's worker never needs them
+    from nudgecli.sim.calibration_readers import read_distortion_session
+
+    found = read_distortion_session(source)
+    if found is None:
+        raise DataError(f"{source}: no p(phi_m | phi_i) session (p_phm_given_phi/_command_prompt.csv + "
+                        "_joy_sip_puff.csv, or distortion_prompts.csv + distortion_stream.csv)")
+    return found, str(source)
+
+
 def participant_from_log(source: str | Path | DistortionSession | pd.DataFrame, index: int = 0,
                          template: Participant | None = None,
                          population: PopulationSection | None = None) -> Participant:
@@ -226,22 +249,7 @@ def participant_from_log(source: str | Path | DistortionSession | pd.DataFrame, 
         If there is no distortion session, it has no pressures, or a label has fewer than
         ``MIN_LOG_SAMPLES`` plateau samples.
     """
-    if isinstance(source, DistortionSession):
-        session = source
-        where = session.files.get("stream", "distortion session")
-    elif _is_frame(source):
-        session = session_from_stream_frame(source)
-        where = "stream frame"
-    else:
-        # the log readers load with a log to read: a simulated participant's worker never needs them
-        from nudgecli.sim.calibration_readers import read_distortion_session
-
-        found = read_distortion_session(source)
-        if found is None:
-            raise DataError(f"{source}: no p(phi_m | phi_i) session (p_phm_given_phi/_command_prompt.csv + "
-                            "_joy_sip_puff.csv, or distortion_prompts.csv + distortion_stream.csv)")
-        session = found
-        where = str(source)
+    session, where = _distortion_session(source)
     blows, onset = log_plateau_samples(session)
     samples = [np.concatenate(label_blows) if label_blows else np.zeros(0) for label_blows in blows]
     levels = np.zeros(N_LABELS)
