@@ -10,9 +10,9 @@ the line (line 1 is the header) and saying what to fix.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
+import pandas as pd
 
 from nudgecli.errors import DataError
 from nudgecli.model.interface import LABELS, NO_INPUT_LABEL
@@ -39,9 +39,6 @@ from nudgecli.sim.calibration_io import (
     MappingSession,
 )
 
-if TYPE_CHECKING:  # pandas loads in the functions that read or build tables: a study's worker runs without it
-    import pandas as pd
-
 # --- low-level parsing ------------------------------------------------------------------------
 
 def unquote(value: object) -> str:
@@ -60,8 +57,6 @@ def unquote(value: object) -> str:
 
 def _read_csv(path: Path, columns: tuple[str, ...], what: str) -> pd.DataFrame:
     """Read a CSV as strings, checking that it exists, is not empty and has ``columns``."""
-    import pandas as pd
-
     if not path.is_file():
         raise DataError(f"{path}: no such file; {what} needs it")
     try:
@@ -83,8 +78,6 @@ def _read_csv(path: Path, columns: tuple[str, ...], what: str) -> pd.DataFrame:
 
 def _times(frame: pd.DataFrame, column: str, path: Path) -> np.ndarray:
     """The time column as floats, checked to be finite and non-decreasing."""
-    import pandas as pd
-
     raw = frame[column].to_numpy(dtype=object)
     values = pd.to_numeric(pd.Series(raw).str.strip(), errors="coerce").to_numpy(dtype=float)
     bad = np.flatnonzero(~np.isfinite(values))
@@ -202,8 +195,6 @@ def detect_variant(labels: list[str], times: np.ndarray, path: Path | str,
 def _parse_stream(frame: pd.DataFrame, path: Path, time_column: str, label_column: str,
                   pressure_column: str, variant: str = AUTO_VARIANT
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
-    import pandas as pd
-
     times = _times(frame, time_column, path)
     names = [unquote(v) for v in frame[label_column].to_numpy(dtype=object)]
     detected = detect_variant(names, times, path, variant)
