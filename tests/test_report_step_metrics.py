@@ -4,8 +4,6 @@ their independence from pandas (a batch's workers compute them without it)."""
 from __future__ import annotations
 
 import math
-import subprocess
-import sys
 import textwrap
 from pathlib import Path
 from typing import Any
@@ -14,6 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from import_guard import run_refusing
 
 from nudgecli.errors import DataError
 from nudgecli.model.interface import LABELS
@@ -140,13 +139,6 @@ def test_a_worker_computes_the_step_metrics_without_pandas(tmp_path: Path) -> No
     script = textwrap.dedent("""
         import sys
 
-        class RefusePandas:
-            def find_spec(self, name, path=None, target=None):
-                if name.split(".")[0] in ("pandas", "pyarrow"):
-                    raise ImportError(f"{name} is not to be imported here")
-                return None
-
-        sys.meta_path.insert(0, RefusePandas())
         from nudgecli.report.step_metrics import step_metric_arrays
         got = step_metric_arrays({"participant": [0], "trial": [0], "true_goal": [1]},
                                  {"participant": [0, 0], "trial": [0, 0], "step": [1, 0],
@@ -156,8 +148,6 @@ def test_a_worker_computes_the_step_metrics_without_pandas(tmp_path: Path) -> No
         assert "pandas" not in sys.modules
         print("ok")
         """)
-    root = Path(__file__).resolve().parents[1]
-    done = subprocess.run([sys.executable, "-c", script], cwd=root, capture_output=True, text=True,
-                          timeout=120, env={"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin"})
+    done = run_refusing(script, ("pandas", "pyarrow"))
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "ok"

@@ -18,6 +18,7 @@ import pandas as pd
 import pytest
 import scipy.stats
 from click.testing import CliRunner
+from import_guard import run_refusing
 
 from nudgecli.cli import main
 from nudgecli.config import load_experiment
@@ -779,13 +780,6 @@ def test_a_batch_worker_runs_participant_tasks_without_pandas() -> None:
     script = textwrap.dedent("""
         import sys
 
-        class RefusePandas:
-            def find_spec(self, name, path=None, target=None):
-                if name.split(".")[0] in ("pandas", "pyarrow", "scikit_posthocs") or name == "scipy.stats":
-                    raise ImportError(f"{name} is not to be imported by a participant task")
-                return None
-
-        sys.meta_path.insert(0, RefusePandas())
         from nudgecli.config import load_experiment
         from nudgecli.runs.batch_tasks import run_participant_task
 
@@ -796,8 +790,6 @@ def test_a_batch_worker_runs_participant_tasks_without_pandas() -> None:
         assert not any(name.split(".")[0] == "pandas" for name in sys.modules)
         print("ok")
         """)
-    root = Path(__file__).resolve().parents[1]
-    done = subprocess.run([sys.executable, "-c", script], cwd=root, capture_output=True, text=True,
-                          timeout=300, env={"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin"})
+    done = run_refusing(script, ("pandas", "pyarrow", "scikit_posthocs", "scipy.stats"))
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip() == "ok"

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from import_guard import run_refusing
 
 from nudgecli.cli import main
 from nudgecli.config import load_experiment
@@ -235,13 +236,6 @@ def test_fewer_collections_raises_the_first_threshold_for_the_block_only() -> No
 _WORKER_WITHOUT_PANDAS = """
 import os, pickle, sys
 
-class RefuseTables:
-    def find_spec(self, name, path=None, target=None):
-        if name.split(".")[0] in ("pandas", "pyarrow"):
-            raise ImportError(f"{name} is refused: a study's worker must not import it")
-        return None
-
-sys.meta_path.insert(0, RefuseTables())
 from nudgecli.runs import study_tasks
 from nudgecli.config import load_experiment
 from nudgecli.sim.study import StudyPlan, simulate_participant_columns
@@ -262,9 +256,7 @@ with open(sys.argv[1], "wb") as handle:
 
 def test_a_study_worker_runs_without_pandas_and_its_columns_make_the_parents_tables(tmp_path):
     out = tmp_path / "columns.pickle"
-    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
-    done = subprocess.run([sys.executable, "-c", _WORKER_WITHOUT_PANDAS, str(out)], env=env,
-                          capture_output=True, text=True, check=False)
+    done = run_refusing(_WORKER_WITHOUT_PANDAS, ("pandas", "pyarrow"), str(out))
     assert done.returncode == 0, done.stderr
     with open(out, "rb") as handle:
         sent = pickle.load(handle)
