@@ -761,7 +761,7 @@ def test_participant_metrics_are_those_of_the_whole_step_log() -> None:
 
     config = load_experiment("smoke")
     plan = StudyPlan.build(config, 7)
-    for analysis in (AnalysisPlan(), load_plan("study-code")):
+    for analysis in (AnalysisPlan(), load_plan("study-code"), load_plan("paper")):
         definitions = batch_tasks.metric_definitions(analysis)
         for index in (0, 1):
             whole = simulate_participant(plan, index)
