@@ -113,11 +113,13 @@ class RunRecord:
             raise RunFolderError(f"{self.manifest_path}: unreadable manifest ({exc})") from exc
 
     def participant_count(self, manifest: Mapping[str, Any]) -> int:
-        """The manifest's ``participants``: a whole number, or a ``RunFolderError`` naming the value."""
-        value = manifest.get("participants", 0)
-        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-            raise RunFolderError(f"{self.manifest_path}: participants = {json.dumps(value)} is not a whole "
-                                 "number of participants; the manifest is damaged: restore it, or simulate "
+        """The manifest's ``participants``: a whole number of at least 1 (a run simulates one at
+        least), or a ``RunFolderError`` naming the value."""
+        value = manifest.get("participants")
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            shown = json.dumps(value) if "participants" in manifest else "(missing)"
+            raise RunFolderError(f"{self.manifest_path}: participants = {shown} is not a whole number of "
+                                 "participants (1 or more); the manifest is damaged: restore it, or simulate "
                                  "the run again with --force")
         return value
 

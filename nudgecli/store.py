@@ -464,6 +464,7 @@ class RunFolder(RunRecord):
                 f"{manifest.get('experiment')}, {manifest.get('status', 'unknown')}")
         mode = prepare_mode(self.path, held, resume, force)
         if manifest is not None and mode == "resume":
+            self.participant_count(manifest)  # a damaged count is named first: no command resumes it
             differences = self.resume_differences(manifest, config, seed, participants)
             if differences:
                 shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"

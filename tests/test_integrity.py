@@ -8,6 +8,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -442,15 +443,33 @@ def test_changed_parts_compares_only_the_parts_on_disk(tmp_path):
     assert RunRecord(tmp_path).changed_parts(recorded) == {0: ["trials/part-0000.parquet"]}
 
 
-@pytest.mark.parametrize(("value", "count"), [(0, 0), (2, 2)])
+@pytest.mark.parametrize(("value", "count"), [(1, 1), (2, 2)])
 def test_a_whole_participant_count_is_read_as_it_is(tmp_path, value, count):
     from nudgecli.run_folder_record import RunRecord
 
     record = RunRecord(tmp_path)
     assert record.participant_count({"participants": value}) == count
     assert record.manifest_participants({"participants": value}) == list(range(count))
-    with pytest.raises(RunFolderError, match="participants = -1"):
-        record.participant_count({"participants": -1})
+
+
+@pytest.mark.parametrize(("manifest", "shown"), [({"participants": 0}, "0"), ({"participants": -1}, "-1"),
+                                                 ({"participants": 2.0}, "2.0"), ({}, "(missing)")])
+def test_a_participant_count_below_one_or_missing_is_refused(tmp_path, manifest, shown):
+    # a run simulates one participant at least (run_study refuses fewer): 0 is a damaged manifest
+    from nudgecli.run_folder_record import RunRecord
+
+    with pytest.raises(RunFolderError, match=re.escape(f"participants = {shown} is not a whole number")):
+        RunRecord(tmp_path).participant_count(manifest)
+
+
+def test_a_manifest_with_no_participants_is_one_error_line_not_an_empty_run(tmp_path, smoke_run):
+    run = copy_run(smoke_run, tmp_path / "run")
+    manifest = json.loads((run / "manifest.json").read_text())
+    manifest["participants"] = 0
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    for command in (["analyze", str(run)], ["simulate", "smoke", "--out", str(run), "--resume"]):
+        line = one_error_line(invoke(command).output)
+        assert "participants = 0 is not a whole number" in line and "manifest.json" in line, command
 
 
 def test_a_live_study_folder_gets_no_unverified_note(tmp_path):
