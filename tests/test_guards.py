@@ -146,9 +146,7 @@ def test_the_table_format_still_ends_with_the_batch_folder(tmp_path):
 
 def test_a_running_batch_is_locked_and_ctrl_c_prints_the_command_that_resumes_it(tmp_path):
     out = tmp_path / "batch"
-    # 20 replications: after its first part the batch runs for about 6 s more (2.3 s with 6, which
-    # a loaded machine's in-process second writer could outlast, finding no lock to refuse it)
-    args = ["replicate", "smoke", "-R", "20", "--participants", "2", "--seed", "4", "--workers", "2",
+    args = ["replicate", "smoke", "-R", "6", "--participants", "2", "--seed", "4", "--workers", "2",
             "--format", "csv"]
     # a new session: Ctrl-C in a terminal reaches the whole process group, workers included
     first = subprocess.Popen([*NUDGE, *args, "--out", str(out)], env=ENV, stdout=subprocess.DEVNULL,
@@ -156,13 +154,17 @@ def test_a_running_batch_is_locked_and_ctrl_c_prints_the_command_that_resumes_it
     try:
         wait_for(lambda: any((out / "tasks").glob("*/part-*.parquet")) or first.poll() is not None)
         if first.poll() is not None:
-            pytest.skip("the first batch finished before the second writer came (a very fast machine)")
+            pytest.skip("the first batch finished before its first part was seen (a very fast machine)")
+        # held where it is (workers too), so that neither the second writer nor Ctrl-C can come
+        # after the batch's end, however long the second writer takes on a loaded machine
+        os.killpg(first.pid, signal.SIGSTOP)
         second = invoke(["replicate", "smoke", "-R", "1", "--out", str(out), "--force"])
         line = one_error_line(second.output)
         assert second.exit_code == 1 and "in use by" in line and f"pid {first.pid}" in line
-        assert json.loads((out / "batch.json").read_text())["batch"]["replications"] == 20  # untouched
+        assert json.loads((out / "batch.json").read_text())["batch"]["replications"] == 6  # untouched
         assert any((out / "tasks").glob("*/part-*.parquet"))
-        os.killpg(first.pid, signal.SIGINT)
+        os.killpg(first.pid, signal.SIGINT)  # pending until it runs again: Ctrl-C as it resumes
+        os.killpg(first.pid, signal.SIGCONT)
         interrupted = time.monotonic()
         stderr = first.communicate(timeout=60)[1]
         assert time.monotonic() - interrupted < 10, "the batch must exit promptly after Ctrl-C"
@@ -175,7 +177,7 @@ def test_a_running_batch_is_locked_and_ctrl_c_prints_the_command_that_resumes_it
     manifest = json.loads((out / "batch.json").read_text())
     assert manifest["status"] == "interrupted"  # not left "running"
     command = stderr.split("resume with: ")[1].strip().splitlines()[0]
-    assert command == ("nudge replicate smoke --replications 20 --seed 4 --participants 2 --workers 2 "
+    assert command == ("nudge replicate smoke --replications 6 --seed 4 --participants 2 --workers 2 "
                        f"--format csv --out {out} --resume")
     resumed = invoke(shlex.split(command)[1:])
     assert resumed.exit_code == 0, resumed.output
