@@ -68,10 +68,8 @@ def trial_rows_of_steps(trial_participant: Column, trial_number: Column, step_pa
     participant, trial = np.asarray(step_participant), np.asarray(step_trial)
     if len(participant) != len(trial):
         raise ValueError(f"{len(participant)} step participants but {len(trial)} step trials")
-    if not len(participant):
-        return np.zeros(0, dtype=np.int64)
     # a step log keeps each trial's steps together: look each run of one trial's steps up once
-    starts = np.flatnonzero(np.r_[True, (participant[1:] != participant[:-1]) | (trial[1:] != trial[:-1])])
+    starts = _run_starts(participant, trial)
     run_keys = zip(_plain(participant[starts]), _plain(trial[starts]), strict=True)
     found = [rows.get(key, -1) for key in run_keys]
     return np.repeat(np.array(found, dtype=np.int64), np.diff(np.r_[starts, len(participant)]))
@@ -170,8 +168,7 @@ class _PerTrial:
     steps together): ``(T,)`` floats, NaN for a trial without steps."""
 
     def __init__(self, row: np.ndarray, n_trials: int) -> None:
-        empty = np.zeros(0, dtype=np.int64)
-        self.starts = np.flatnonzero(np.r_[True, row[1:] != row[:-1]]) if len(row) else empty
+        self.starts = _run_starts(row)
         self.present = row[self.starts]
         self.n_trials = n_trials
 
@@ -197,9 +194,10 @@ def _input_measures(steps: Mapping[str, Column], order: np.ndarray, per_trial: _
 def _last_inferred_goal(row: np.ndarray, inferred: np.ndarray, n_trials: int) -> np.ndarray:
     """Per trial: the last ``inferred_goal >= 0`` of its steps (in step order), NaN if none."""
     named_row, named_goal = row[inferred >= 0], inferred[inferred >= 0]
-    last = np.r_[named_row[1:] != named_row[:-1], True] if len(named_row) else np.zeros(0, dtype=bool)
     out = np.full(n_trials, np.nan)
-    out[named_row[last]] = named_goal[last]
+    if len(named_row):
+        last = np.r_[_run_starts(named_row)[1:], len(named_row)] - 1
+        out[named_row[last]] = named_goal[last]
     return out
 
 
@@ -217,9 +215,10 @@ def _per_human_turn(row: np.ndarray, is_human: np.ndarray, assisted: np.ndarray,
     """
     if not is_human.any():
         return np.full(n_trials, np.nan), np.full(n_trials, np.nan)
-    new_turn = np.r_[True, (row[1:] != row[:-1]) | (turn[1:] != turn[:-1])]
-    turn_id = np.cumsum(new_turn)[is_human]
-    turn_starts = np.flatnonzero(np.r_[True, turn_id[1:] != turn_id[:-1]])
+    # each row's turn: the runs of equal (trial, turn) in step order
+    starts = _run_starts(row, turn)
+    turn_id = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(row)]))[is_human]
+    turn_starts = _run_starts(turn_id)
     steps = np.add.reduceat(np.ones(len(turn_id), dtype=np.int64), turn_starts)
     assisted_steps = np.add.reduceat(assisted[is_human].astype(np.int64), turn_starts)
     alpha_sums = np.add.reduceat(assisted_alpha[is_human], turn_starts)
@@ -227,13 +226,31 @@ def _per_human_turn(row: np.ndarray, is_human: np.ndarray, assisted: np.ndarray,
     strength = np.zeros(len(turn_starts))
     np.divide(alpha_sums, assisted_steps, out=strength, where=assisted_steps > 0)
 
-    turn_row = row[is_human][turn_starts]
-    trial_starts = np.flatnonzero(np.r_[True, turn_row[1:] != turn_row[:-1]])
-    turns = np.diff(trial_starts, append=len(turn_row)).astype(np.float64)
-    out_engagement, out_strength = np.full(n_trials, np.nan), np.full(n_trials, np.nan)
-    out_engagement[turn_row[trial_starts]] = np.add.reduceat(engagement, trial_starts) / turns
-    out_strength[turn_row[trial_starts]] = np.add.reduceat(strength, trial_starts) / turns
-    return out_engagement, out_strength
+    # the mean over each trial's turns (a trial's human turns are together, in step order)
+    per_trial = _PerTrial(row[is_human][turn_starts], n_trials)
+    turns = per_trial(np.ones(len(turn_starts), dtype=np.int64))
+    return per_trial(engagement) / turns, per_trial(strength) / turns
+
+
+def _run_starts(*keys: np.ndarray) -> np.ndarray:
+    """Where each run of consecutive rows with equal ``keys`` starts.
+
+    Parameters
+    ----------
+    *keys
+        ``(M,)`` arrays each (numbers or objects).
+
+    Returns
+    -------
+    np.ndarray
+        ``(R,)`` int64 indices of the runs' first rows, ascending; empty for no rows.
+    """
+    if not len(keys[0]):
+        return np.zeros(0, dtype=np.int64)
+    changed = np.zeros(len(keys[0]) - 1, dtype=bool)
+    for key in keys:
+        changed |= key[1:] != key[:-1]
+    return np.flatnonzero(np.r_[True, changed])
 
 
 def _plain(values: Column) -> list[Any]:
