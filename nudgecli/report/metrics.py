@@ -52,7 +52,12 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.errors import DataError
-from nudgecli.report.step_metrics import INPUT_STEP_COLUMNS, METRIC_STEP_COLUMNS, step_metric_arrays
+from nudgecli.report.step_metrics import (
+    INPUT_STEP_COLUMNS,
+    METRIC_STEP_COLUMNS,
+    STEP_TRIAL_COLUMNS,
+    step_metric_arrays,
+)
 
 METRIC_NAMES = (
     "assistance_engagement",
@@ -71,7 +76,6 @@ TRIAL_COLUMNS = ("participant", "condition", "block", "trial", "true_goal", "suc
                  "human_turns")
 #: The columns identifying a trial in the metrics table, before the metric columns.
 ID_COLUMNS = ("participant", "condition", "block", "trial")
-
 
 
 def _require_columns(table: pd.DataFrame, columns: tuple[str, ...], what: str) -> None:
@@ -127,10 +131,9 @@ def trial_metrics(
     """
     _require_columns(trials, TRIAL_COLUMNS, "trial table")
     _require_columns(steps, METRIC_STEP_COLUMNS, "step log")
-    values = step_metric_arrays(
-        {"participant": trials["participant"].to_numpy(), "trial": trials["trial"].to_numpy(),
-         "true_goal": trials["true_goal"].to_numpy()},
-        step_metric_columns(steps), engagement=engagement, strength=strength, mode_switches=mode_switches)
+    values = step_metric_arrays({name: trials[name].to_numpy() for name in STEP_TRIAL_COLUMNS},
+                                step_metric_columns(steps), engagement=engagement, strength=strength,
+                                mode_switches=mode_switches)
     return metrics_frame(trials, values, success=success, completion_time=completion_time)
 
 

@@ -27,6 +27,8 @@ METRIC_STEP_COLUMNS = ("participant", "trial", "step", "turn", "alpha", "inferre
 #: The columns of the step log the input measures use (``first_input_latency``,
 #: ``active_input_fraction``); a log without them gets those two metrics missing.
 INPUT_STEP_COLUMNS = ("t", "phi_m")
+#: The columns of the trial table the step-based metrics use (``trials`` of :func:`step_metric_arrays`).
+STEP_TRIAL_COLUMNS = ("participant", "trial", "true_goal")
 #: The per-trial values :func:`step_metric_arrays` returns, in order.
 STEP_METRIC_NAMES = ("assistance_engagement", "assistance_strength", "mode_switches", "human_effort",
                      "first_input_latency", "active_input_fraction", "last_inferred_goal")
@@ -88,7 +90,8 @@ def step_metric_arrays(
     Parameters
     ----------
     trials
-        ``participant``, ``trial`` and ``true_goal``: ``(T,)`` each, one trial per row.
+        :data:`STEP_TRIAL_COLUMNS` (``participant``, ``trial``, ``true_goal``): ``(T,)`` each, one
+        trial per row.
     steps
         ``participant``, ``trial``, ``step``: ``(N,)`` each, any order of rows; ``turn`` (text),
         ``alpha`` (floats, no missing values), ``inferred_goal`` (-1 for none) and ``event``

@@ -26,6 +26,7 @@ from nudgecli.report.step_metrics import (
     INPUT_STEP_COLUMNS,
     METRIC_STEP_COLUMNS,
     STEP_DEFINITIONS,
+    STEP_TRIAL_COLUMNS,
     step_metric_arrays,
 )
 from nudgecli.runs.executors import HELD_AFFINITIES
@@ -137,7 +138,7 @@ def participant_metrics(plan: StudyPlan, index: int, definitions: Mapping[str, s
     # the metrics read a third of the step log's columns: the rest is not formatted at all
     result = simulate_participant_columns(plan, index,
                                           step_log_columns=METRIC_STEP_COLUMNS + INPUT_STEP_COLUMNS)
-    keys = {name: [row[name] for row in result.trials] for name in ("participant", "trial", "true_goal")}
+    keys = {name: [row[name] for row in result.trials] for name in STEP_TRIAL_COLUMNS}
     chosen: dict[str, Any] = {name: definitions[name] for name in STEP_DEFINITIONS}
     values = step_metric_arrays(keys, result.steps, **chosen)
     return ParticipantMetrics(result.trials, values, dict(definitions))
