@@ -320,23 +320,24 @@ class WorldSection(Section):
 class ExperimentConfig(Section):
     """A whole experiment file."""
 
-    experiment: ExperimentMeta = ExperimentMeta()
-    study: StudySection = StudySection()
-    interface: InterfaceSection = InterfaceSection()
-    model: ModelSection = ModelSection()
-    inference: InferenceSection = InferenceSection()
-    disambiguation: DisambiguationSection = DisambiguationSection()
-    assistance: AssistanceSection = AssistanceSection()
-    population: PopulationSection = PopulationSection()
-    behaviour: BehaviourSection = BehaviourSection()
-    calibration: CalibrationSection = CalibrationSection()
-    world: WorldSection = WorldSection()
+    experiment: ExperimentMeta = Field(default_factory=ExperimentMeta)
+    study: StudySection = Field(default_factory=StudySection)
+    interface: InterfaceSection = Field(default_factory=InterfaceSection)
+    model: ModelSection = Field(default_factory=ModelSection)
+    inference: InferenceSection = Field(default_factory=InferenceSection)
+    disambiguation: DisambiguationSection = Field(default_factory=DisambiguationSection)
+    assistance: AssistanceSection = Field(default_factory=AssistanceSection)
+    population: PopulationSection = Field(default_factory=PopulationSection)
+    behaviour: BehaviourSection = Field(default_factory=BehaviourSection)
+    calibration: CalibrationSection = Field(default_factory=CalibrationSection)
+    world: WorldSection = Field(default_factory=WorldSection)
     # the policies' own sections: absent unless the experiment lists their condition
     blending: BlendingPolicySection | None = None
     mode_switch: ModeSwitchSection | None = Field(default=None, alias="mode-switch")
     hindsight: HindsightSection | None = None
 
-    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=True, populate_by_name=True)
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=True, populate_by_name=True,
+                              defer_build=True)
 
     @model_validator(mode="after")
     def _check_policy_sections(self) -> ExperimentConfig:

@@ -9,7 +9,9 @@ from typing import Literal
 from nudgecli.config import BehaviourSection, ExperimentConfig
 
 #: The ``[behaviour]`` defaults, which :class:`BehaviourSettings` takes.
-_BEHAVIOUR = BehaviourSection()
+# the defaults unvalidated (they are the fields' own): validating would build the section's
+# validator at import
+_BEHAVIOUR = BehaviourSection.model_construct()
 
 
 @dataclass(frozen=True)

@@ -50,7 +50,9 @@ from nudgecli.sim.pressure_model import (
 )
 
 #: The ``[calibration]`` defaults (the device's event step).
-CALIBRATION = CalibrationSection()
+# the defaults unvalidated (they are the fields' own): validating would build the section's
+# validator at import
+CALIBRATION = CalibrationSection.model_construct()
 
 # --- simulated sessions -----------------------------------------------------------------------
 
