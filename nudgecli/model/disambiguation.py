@@ -9,7 +9,6 @@ from functools import cached_property
 from typing import Literal
 
 import numpy as np
-from scipy.special import xlogy
 
 from nudgecli.model.candidates import Candidates, WindowTable, global_candidates, mode_candidates
 from nudgecli.model.disambiguation_settings import DisambiguationSettings
@@ -21,6 +20,7 @@ from nudgecli.model.interface import (
     validate_distortion_table,
     validate_mapping_table,
 )
+from nudgecli.model.log_terms import xlogy
 from nudgecli.model.ties import first_argmax
 from nudgecli.model.world import cell_centre
 

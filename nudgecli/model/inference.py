@@ -6,7 +6,8 @@ import functools
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import xlogy
+
+from nudgecli.model.log_terms import xlogy
 
 
 def predict_belief(belief: np.ndarray, goal_transition: np.ndarray | None = None) -> np.ndarray:

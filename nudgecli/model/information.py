@@ -4,11 +4,11 @@ counts, and the study's Monte-Carlo estimate."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import rel_entr, xlogy
 
 from nudgecli.model.disambiguation_settings import Weighting
 from nudgecli.model.inference import predict_belief
 from nudgecli.model.interface import N_ACTIONS
+from nudgecli.model.log_terms import xlogy
 from nudgecli.model.world import N_MODES
 
 
@@ -84,6 +84,8 @@ def mutual_information_from_counts(counts: np.ndarray, belief: np.ndarray,
     np.ndarray
         ``(C,)`` estimates in nats.
     """
+    from scipy.special import rel_entr  # here, not at import: a study's worker never calls this
+
     counts = np.asarray(counts, dtype=float)
     per_goal = counts.sum(axis=-1)  # (C, G)
     pooled = counts.sum(axis=-2)  # (C, F)

@@ -24,9 +24,9 @@ from __future__ import annotations
 from typing import Literal
 
 import numpy as np
-from scipy.special import rel_entr, xlogy
 
 from nudgecli.model.conditions import POLICIES, POLICY_ALIASES
+from nudgecli.model.log_terms import xlogy
 
 ModeCriterion = Literal["disamb", "entropy", "kl"]
 
@@ -139,6 +139,8 @@ def weighted_pairwise_kl(weights: np.ndarray, likelihood: np.ndarray) -> np.ndar
     np.ndarray
         ``(C,)`` (``inf`` where a goal gives a label another goal never gives).
     """
+    from scipy.special import rel_entr  # here, not at import: a study's worker never calls this
+
     p = np.asarray(likelihood, dtype=float)
     w = np.asarray(weights, dtype=float)
     divergence = rel_entr(p[:, :, None, :], p[:, None, :, :]).sum(axis=-1)  # (C, G, G); diagonal 0

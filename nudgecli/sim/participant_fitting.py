@@ -11,7 +11,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeGuard
 
 import numpy as np
-from scipy.special import ndtri
 
 from nudgecli.config import PopulationSection
 from nudgecli.errors import DataError
@@ -57,6 +56,8 @@ def censored_normal_fit(magnitudes: np.ndarray, ceiling: float = 1.0) -> tuple[f
     tuple[float, float]
         ``(level, spread)``, spread at least ``MIN_SPREAD``.
     """
+    from scipy.special import ndtri  # here, not at import: a study's worker never calls this
+
     x = np.sort(np.asarray(magnitudes, dtype=float))
     n = len(x)
     saturated = x >= ceiling - 1e-6

@@ -20,7 +20,6 @@ from dataclasses import MISSING, dataclass, field, fields
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.special import ndtr
 
 from nudgecli.config import InterfaceSection, PopulationSection
 from nudgecli.errors import DataError
@@ -299,6 +298,8 @@ class Participant:
             Soft Puff, Soft Sip, puff deadband, sip deadband, no input); rows sum to 1. Exact under
             the normal model (the magnitude is ``N(f level, f spread)`` clipped to ``[0, 1]``).
         """
+        from scipy.special import ndtr  # here, not at import: a study's worker never calls this
+
         soft, hard, zero = threshold_triple(thresholds)
         mean = fraction * np.abs(self.pressure_level)
         sd = fraction * self.pressure_spread

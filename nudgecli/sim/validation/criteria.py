@@ -12,9 +12,10 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import rel_entr, xlogy
+from scipy.special import rel_entr
 
 from nudgecli.model.disambiguation import distance_regulariser
+from nudgecli.model.log_terms import xlogy
 from nudgecli.model.ties import first_argmax
 
 
