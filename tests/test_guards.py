@@ -172,7 +172,7 @@ def test_a_running_batch_is_locked_and_ctrl_c_prints_the_command_that_resumes_it
         if first.poll() is None:
             first.kill()
             first.wait()
-    assert first.returncode == 130, stderr
+    assert first.returncode == 130, (first.returncode, stderr)
     assert "Traceback" not in stderr
     manifest = json.loads((out / "batch.json").read_text())
     assert manifest["status"] == "interrupted"  # not left "running"
