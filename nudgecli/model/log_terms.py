@@ -8,7 +8,17 @@ numpy's ``log`` is the C library's, as on x86-64 without AVX-512 (tests hold the
 
 from __future__ import annotations
 
+from typing import overload
+
 import numpy as np
+
+
+@overload
+def xlogy(x: np.ndarray, y: np.ndarray | float) -> np.ndarray: ...
+@overload
+def xlogy(x: float, y: np.ndarray) -> np.ndarray: ...
+@overload
+def xlogy(x: float, y: float) -> float: ...
 
 
 def xlogy(x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray | float:
@@ -22,7 +32,7 @@ def xlogy(x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray | float:
     Returns
     -------
     np.ndarray or float
-        The broadcast shape of ``x`` and ``y``; a float where both are numbers. ``+0.0`` where
+        The broadcast shape of ``x`` and ``y``; a float where both are numbers (or 0-d arrays). ``+0.0`` where
         ``x == 0`` (also for ``x = -0.0``), ``-inf`` where ``x > 0`` and ``y == 0``, NaN where either
         is NaN or ``y < 0 != x``, as ``scipy.special.xlogy`` (which, unlike numpy, does not warn
         of the -inf and NaN).
