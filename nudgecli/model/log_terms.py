@@ -32,10 +32,10 @@ def xlogy(x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray | float:
     Returns
     -------
     np.ndarray or float
-        The broadcast shape of ``x`` and ``y``; a float where both are numbers (or 0-d arrays). ``+0.0`` where
-        ``x == 0`` (also for ``x = -0.0``), ``-inf`` where ``x > 0`` and ``y == 0``, NaN where either
-        is NaN or ``y < 0 != x``, as ``scipy.special.xlogy`` (which, unlike numpy, does not warn
-        of the -inf and NaN).
+        The broadcast shape of ``x`` and ``y``; a float where both are numbers (or 0-d arrays).
+        ``+0.0`` where ``x == 0`` (also for ``x = -0.0``), ``-inf`` where ``x > 0`` and ``y == 0``,
+        NaN where either is NaN or ``y < 0 != x``, as ``scipy.special.xlogy`` (which, unlike
+        numpy, does not warn of the -inf and NaN).
     """
     same = y is x
     x = np.asarray(x, dtype=float)
@@ -43,7 +43,7 @@ def xlogy(x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray | float:
     # log only where it is used: a zero x never meets log(0), and numpy warns of log(0) or log(-1)
     # only where the product is -inf or NaN
     used = x.astype(bool) if same else x.astype(bool) | np.isnan(y)  # x != 0 (NaN too), faster
-    # np.broadcast_shapes is slow for the one small belief of every update: shapes that are the same need none
+    # np.broadcast_shapes is slow beside the small belief of every update: equal shapes need none
     out = np.zeros(x.shape if same or x.shape == y.shape else np.broadcast_shapes(x.shape, y.shape))
     np.log(y, out=out, where=used)
     np.multiply(x, out, out=out, where=used)

@@ -298,7 +298,9 @@ class Participant:
             Soft Puff, Soft Sip, puff deadband, sip deadband, no input); rows sum to 1. Exact under
             the normal model (the magnitude is ``N(f level, f spread)`` clipped to ``[0, 1]``).
         """
-        from scipy.special import ndtr  # here, not at import: a study's worker never calls this
+        # imported here: only a physiology's calibration tables need it, and
+        # a worker that never gets here loads no scipy (0.2 s)
+        from scipy.special import ndtr
 
         soft, hard, zero = threshold_triple(thresholds)
         mean = fraction * np.abs(self.pressure_level)
