@@ -3,6 +3,7 @@ every mode, and every state (with the rotation gate)."""
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -91,6 +92,10 @@ class WindowTable:
         cell_ids = np.where(on_grid, ci * N_CELLS_Y + cj, 0)
         self.valid = on_grid & ~occupied[cell_ids]  # (cells, K)
         self.mean_goal = _mean_goal_position(goal_cells)
+        # shared by every model of the layout (window_table)
+        for table in (self.offsets, self.modes, self.slot_offset, self.displacement, self.valid,
+                      self.mean_goal):
+            table.flags.writeable = False
 
     def candidates(self, current_state: int, robot_position: np.ndarray | None,
                    rotation_gate: float | None) -> Candidates:
@@ -110,6 +115,18 @@ class WindowTable:
                           positions=positions[keep])
 
 
+def window_table(goal_cells: np.ndarray, window: int) -> WindowTable:
+    """The :class:`WindowTable` of a layout's ``(G, 2)`` goal cells, built once per process: it
+    depends on the layout alone, and a worker simulates every participant on the same layouts."""
+    cells = np.ascontiguousarray(goal_cells, dtype=np.int64).reshape(-1, 2)
+    return _window_table(cells.tobytes(), int(window))
+
+
+@functools.lru_cache(maxsize=256)  # a few studies' layouts; a table is a few kB
+def _window_table(goal_cells: bytes, window: int) -> WindowTable:
+    return WindowTable(np.frombuffer(goal_cells, dtype=np.int64).reshape(-1, 2), window)
+
+
 def window_candidates(current_state: int, goal_cells: np.ndarray, window: int,
                       robot_position: np.ndarray | None = None,
                       rotation_gate: float | None = None) -> Candidates:
@@ -117,9 +134,8 @@ def window_candidates(current_state: int, goal_cells: np.ndarray, window: int,
 
     Order: row-major over ``dx``, then ``dy``, then mode. Off-grid cells and goal cells are never
     candidates. A candidate's world position is the study's ``robot_position + (dx * 4.2, dy *
-    3.4)`` (the cell centre when the robot sits at its cell's centre). Repeated queries on one
-    layout are faster through
-    :meth:`nudgecli.model.disambiguation.DisambiguationModel.candidates`, which keeps the tables.
+    3.4)`` (the cell centre when the robot sits at its cell's centre). The layout's table is
+    built once (:func:`window_table`).
 
     Parameters
     ----------
@@ -138,7 +154,7 @@ def window_candidates(current_state: int, goal_cells: np.ndarray, window: int,
     -------
     Candidates
     """
-    return WindowTable(goal_cells, int(window)).candidates(current_state, robot_position, rotation_gate)
+    return window_table(goal_cells, window).candidates(current_state, robot_position, rotation_gate)
 
 
 def mode_candidates(current_state: int, robot_position: np.ndarray | None = None) -> Candidates:

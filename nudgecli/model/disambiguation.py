@@ -10,7 +10,7 @@ from typing import Literal
 
 import numpy as np
 
-from nudgecli.model.candidates import Candidates, WindowTable, global_candidates, mode_candidates
+from nudgecli.model.candidates import Candidates, global_candidates, mode_candidates, window_table
 from nudgecli.model.disambiguation_settings import DisambiguationSettings
 from nudgecli.model.human_actions import DistinctActionRows
 from nudgecli.model.inference import predict_belief
@@ -155,7 +155,6 @@ class DisambiguationModel:
     _xlogx_distinct: np.ndarray = field(init=False, repr=False)
     _index: np.ndarray = field(init=False, repr=False)
     _goal_positions: dict[str, np.ndarray] = field(init=False, repr=False)
-    _window_tables: dict[int, WindowTable] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         cells = np.asarray(self.goal_cells, dtype=int).reshape(-1, 2)
@@ -174,7 +173,6 @@ class DisambiguationModel:
         set_(self, "_index", actions.index)
         set_(self, "_goal_positions", {"cells": cells.astype(float),
                                        "world": cell_centre(cells[:, 0], cells[:, 1])})
-        set_(self, "_window_tables", {})
 
     @cached_property
     def likelihood(self) -> np.ndarray:
@@ -197,14 +195,12 @@ class DisambiguationModel:
                    robot_position: np.ndarray | None = None) -> Candidates:
         """The candidates of ``settings.domain`` for this layout
         (:func:`~nudgecli.model.candidates.window_candidates` or :func:`global_candidates`, or
-        :func:`mode_candidates` for the mode-only scope), with the window tables kept between calls."""
+        :func:`mode_candidates` for the mode-only scope); the layout's window table is built once."""
         if settings.scope == "mode-only":
             return mode_candidates(current_state, robot_position)
         if settings.domain == "global":
             return global_candidates(self.goal_cells, settings.rotation_gate)
-        table = self._window_tables.get(settings.window)
-        if table is None:
-            table = self._window_tables[settings.window] = WindowTable(self.goal_cells, settings.window)
+        table = window_table(self.goal_cells, settings.window)
         return table.candidates(current_state, robot_position, settings.rotation_gate)
 
     def mutual_information(self, weights: np.ndarray, states: np.ndarray) -> np.ndarray:
