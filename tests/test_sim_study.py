@@ -233,7 +233,7 @@ def test_fewer_collections_raises_the_first_threshold_for_the_block_only() -> No
 
 # A fresh Python in which pandas and pyarrow cannot be imported (as if not installed) imports a
 # study's worker tasks and simulates one participant of the smoke preset as a worker does.
-_WORKER_WITHOUT_PANDAS = """
+_WORKER_WITHOUT_PANDAS_OR_SCIPY = """
 import os, pickle, sys
 
 from nudgecli.runs import study_tasks
@@ -256,7 +256,7 @@ with open(sys.argv[1], "wb") as handle:
 
 def test_a_study_worker_runs_without_pandas_or_scipy_and_its_columns_make_the_parents_tables(tmp_path):
     out = tmp_path / "columns.pickle"
-    done = run_refusing(_WORKER_WITHOUT_PANDAS, ("pandas", "pyarrow", "scipy"), str(out))
+    done = run_refusing(_WORKER_WITHOUT_PANDAS_OR_SCIPY, ("pandas", "pyarrow", "scipy"), str(out))
     assert done.returncode == 0, done.stderr
     with open(out, "rb") as handle:
         sent = pickle.load(handle)
@@ -267,6 +267,44 @@ def test_a_study_worker_runs_without_pandas_or_scipy_and_its_columns_make_the_pa
         for name in ("trials", "steps", "record"):
             pd.testing.assert_frame_equal(getattr(made, name), getattr(expected, name), check_exact=True)
         assert made.participant == expected.participant == 1
+
+
+_WORKER_BUILDS_NO_VALIDATOR = """
+import os, pickle, sys
+
+from pydantic import BaseModel
+
+from nudgecli.runs import study_tasks
+
+with open(sys.argv[1], "rb") as handle:
+    plan = pickle.load(handle)
+study_tasks._init_worker(plan, os.getppid())
+study_tasks._run_in_worker(0)
+
+
+def models(kind):
+    for sub in kind.__subclasses__():
+        yield sub
+        yield from models(sub)
+
+
+built = sorted(model.__name__ for model in models(BaseModel)
+               if model.__module__.startswith("nudgecli") and model.__pydantic_complete__)
+assert not built, f"the worker built the validators of {built}"
+print("ok")
+"""
+
+
+@pytest.mark.parametrize("experiment", ["paper", "baselines"])
+def test_a_study_worker_builds_no_config_validator(tmp_path, experiment):
+    # the worker is sent its experiment pickled: it validates none, and takes the defaults of
+    # absent sections from section_defaults (building a validator is most of a config's import)
+    config = load_experiment(experiment)
+    path = tmp_path / "plan.pickle"
+    path.write_bytes(pickle.dumps(StudyPlan.build(config, config.experiment.seed)))
+    done = run_refusing(_WORKER_BUILDS_NO_VALIDATOR, (), str(path))
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "ok"
 
 
 @pytest.mark.parametrize("experiment", ["smoke", "ciaa-teleop"])

@@ -7,11 +7,10 @@ from dataclasses import dataclass
 from typing import Literal
 
 from nudgecli.config import BehaviourSection, ExperimentConfig
+from nudgecli.config_base import section_defaults
 
 #: The ``[behaviour]`` defaults, which :class:`BehaviourSettings` takes.
-# the defaults unvalidated (they are the fields' own): validating would build the section's
-# validator at import
-_BEHAVIOUR = BehaviourSection.model_construct()
+_BEHAVIOUR = section_defaults(BehaviourSection)
 
 
 @dataclass(frozen=True)

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from nudgecli.config import CalibrationSection, InterfaceSection
+from nudgecli.config_base import section_defaults
 from nudgecli.model.interface import (
     LABELS,
     N_LABELS,
@@ -50,9 +51,7 @@ from nudgecli.sim.pressure_model import (
 )
 
 #: The ``[calibration]`` defaults (the device's event step).
-# the defaults unvalidated (they are the fields' own): validating would build the section's
-# validator at import
-CALIBRATION = CalibrationSection.model_construct()
+CALIBRATION = section_defaults(CalibrationSection)
 
 # --- simulated sessions -----------------------------------------------------------------------
 

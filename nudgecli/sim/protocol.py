@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from nudgecli.config import ExperimentConfig, HindsightSection, ModeSwitchSection
+from nudgecli.config_base import section_defaults
 from nudgecli.model import assistance, interface, policies
 from nudgecli.model.assistance import BlendingSettings
 from nudgecli.model.conditions import BLENDING, TURN_TAKING, UNASSISTED
@@ -167,8 +168,8 @@ class ProtocolSettings:
             blending_gap=(config.blending.gap if config.blending is not None and config.blending.gate == "gap"
                           else None),
             # the sections of conditions the study does not run may be absent: their defaults then
-            mode_criterion=(config.mode_switch or ModeSwitchSection()).criterion,
-            hindsight_gain=(config.hindsight or HindsightSection()).gain,
+            mode_criterion=(config.mode_switch or section_defaults(ModeSwitchSection)).criterion,
+            hindsight_gain=(config.hindsight or section_defaults(HindsightSection)).gain,
         )
 
 
