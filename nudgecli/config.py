@@ -6,15 +6,16 @@ fail with a "did you mean", and values are range-checked. Precedence: command-li
 ``smoke``, ``ciaa-teleop``) live in the top-level ``experiments/`` folder and are shipped inside the wheel.
 
 This module is the experiment's face: :class:`ExperimentConfig`, every section (the simulated
-people's are written in :mod:`nudgecli.config_people`), :func:`load_experiment` and
-:func:`experiment_from_toml`. Presets, plans, TOML and ``--set`` parsing are
+people's are written in :mod:`nudgecli.config_people`), :func:`load_experiment`,
+:func:`experiment_from_toml` and :func:`section_defaults`. Presets, plans, TOML and ``--set`` parsing are
 :mod:`nudgecli.config_files`; the sections' base and value types :mod:`nudgecli.config_base`.
 """
 
 from __future__ import annotations
 
+import functools
 import tomllib
-from typing import Annotated, Literal
+from typing import Annotated, Literal, TypeVar, cast
 
 from pydantic import ConfigDict, Field, ValidationError, field_validator, model_validator
 
@@ -413,3 +414,18 @@ def experiment_from_toml(text: str, source: str = "config.toml") -> ExperimentCo
         return ExperimentConfig.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, source, ExperimentConfig)) from None
+
+
+SectionT = TypeVar("SectionT", bound=Section)
+
+
+def section_defaults(section: type[SectionT]) -> SectionT:
+    """``section`` with every default, made once per class and unvalidated: the defaults are the
+    fields' own values, and validating them would build the section's validator, which a worker
+    (sent its experiment pickled) never needs otherwise."""
+    return cast(SectionT, _section_defaults(section))
+
+
+@functools.cache
+def _section_defaults(section: type[Section]) -> Section:
+    return section.model_construct()

@@ -3,8 +3,7 @@ the value types and the range check their validators share."""
 
 from __future__ import annotations
 
-import functools
-from typing import Annotated, Any, Literal, TypeVar, cast, get_args, get_origin
+from typing import Annotated, Any, Literal, get_args, get_origin
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -16,8 +15,8 @@ class Section(BaseModel):
     """Base of every section: unknown keys are errors, values are validated on assignment."""
 
     # defer_build: the validator is built at a section's first validation, not at import; a study's
-    # worker receives its config pickled and validates none, its defaults from section_defaults
-    # (about 25 ms of every start-up)
+    # worker receives its config pickled and validates none, its defaults from
+    # nudgecli.config.section_defaults (about 25 ms of every start-up)
     model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=True, defer_build=True)
 
     @model_validator(mode="before")
@@ -39,20 +38,6 @@ class Section(BaseModel):
         return data
 
 
-
-SectionT = TypeVar("SectionT", bound=Section)
-
-
-def section_defaults(section: type[SectionT]) -> SectionT:
-    """``section`` with every default, made once per class and unvalidated: the defaults are the
-    fields' own values, and validating them would build the section's validator, which a worker
-    (sent its experiment pickled) never needs otherwise."""
-    return cast(SectionT, _section_defaults(section))
-
-
-@functools.cache
-def _section_defaults(section: type[Section]) -> Section:
-    return section.model_construct()
 
 def admits(annotation: Any, kind: type) -> bool:
     """Whether a field's type admits values of ``kind`` (the type itself, a literal of such values,

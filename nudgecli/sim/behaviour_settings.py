@@ -6,8 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from nudgecli.config import BehaviourSection, ExperimentConfig
-from nudgecli.config_base import section_defaults
+from nudgecli.config import BehaviourSection, ExperimentConfig, section_defaults
 
 #: The ``[behaviour]`` defaults, which :class:`BehaviourSettings` takes.
 _BEHAVIOUR = section_defaults(BehaviourSection)

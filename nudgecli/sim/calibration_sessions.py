@@ -16,8 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from nudgecli.config import CalibrationSection, InterfaceSection
-from nudgecli.config_base import section_defaults
+from nudgecli.config import CalibrationSection, InterfaceSection, section_defaults
 from nudgecli.model.interface import (
     LABELS,
     N_LABELS,

@@ -50,8 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from nudgecli.config import ExperimentConfig, HindsightSection, ModeSwitchSection
-from nudgecli.config_base import section_defaults
+from nudgecli.config import ExperimentConfig, HindsightSection, ModeSwitchSection, section_defaults
 from nudgecli.model import assistance, interface, policies
 from nudgecli.model.assistance import BlendingSettings
 from nudgecli.model.conditions import BLENDING, TURN_TAKING, UNASSISTED
