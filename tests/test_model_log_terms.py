@@ -107,3 +107,15 @@ def test_entropy_of_a_belief_in_nats():
     assert -xlogy(np.full(4, 0.25), np.full(4, 0.25)).sum() == pytest.approx(math.log(4), abs=1e-15)
     point = np.array([0.0, 1.0, 0.0])
     assert -xlogy(point, point).sum() == 0.0
+
+
+@pytest.mark.parametrize(("shape", "axes"),
+                         [((40, 30, 20), (2, 0, 1)), ((200, 5), (1, 0)), ((64, 9, 17), (1, 2, 0))])
+def test_a_sum_over_p_log_p_adds_in_scipys_order_whatever_the_layout(shape, axes):
+    # numpy sums pairwise along memory: an output laid out otherwise than scipy's ufunc lays it
+    # out adds the same values in another order, and `nudge validate` moved in the last bit
+    p = np.random.default_rng(3).uniform(size=shape).transpose(axes)  # not C-contiguous
+    ours, scipys = xlogy(p, p), scipy.special.xlogy(p, p)
+    assert ours.strides == scipys.strides
+    for axis in range(p.ndim):
+        assert np.array_equal(ours.sum(axis=axis), scipys.sum(axis=axis))

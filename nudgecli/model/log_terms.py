@@ -43,8 +43,11 @@ def xlogy(x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray | float:
     # log only where it is used: a zero x never meets log(0), and numpy warns of log(0) or log(-1)
     # only where the product is -inf or NaN
     used = x.astype(bool) if same else x.astype(bool) | np.isnan(y)  # x != 0 (NaN too), faster
-    # np.broadcast_shapes is slow beside the small belief of every update: equal shapes need none
-    out = np.zeros(x.shape if same or x.shape == y.shape else np.broadcast_shapes(x.shape, y.shape))
+    # equal shapes: the output laid out in memory as x is, as a ufunc's (scipy's) would be, so that
+    # a sum over it adds in the same order (and np.broadcast_shapes, slow beside the small belief
+    # of every update, is not needed)
+    out = (np.zeros_like(x) if same or x.shape == y.shape
+           else np.zeros(np.broadcast_shapes(x.shape, y.shape)))
     np.log(y, out=out, where=used)
     np.multiply(x, out, out=out, where=used)
     return out if out.ndim else float(out)
