@@ -148,11 +148,3 @@ def step_times(dt: float, last_step: int) -> list[float]:
     if times is None or len(times) <= last_step:
         times = _STEP_TIMES[dt] = [round(k * dt, 10) for k in range(max(2 * last_step + 1, 2048))]
     return times
-
-
-def command_columns(commands: list[tuple[float, float, float] | np.ndarray], n: int) -> list[list[float]]:
-    """The ``*_x``, ``*_y`` and ``*_theta`` columns of ``n`` commands ``(vx, vy, omega)``: tuples of
-    floats as they are, anything else through a ``(n, 3)`` float array."""
-    if all(type(command) is tuple for command in commands):
-        return [list(column) for column in zip(*commands, strict=True)]
-    return np.array(commands, dtype=float).reshape(n, 3).T.tolist()

@@ -255,17 +255,79 @@ def test_the_trial_ends_at_the_first_human_step_within_tolerance(paper, layout_i
     assert result.summary["duration_s"] == pytest.approx(len(steps) * DT)
 
 
-def test_step_log_times_and_command_columns() -> None:
-    from nudgecli.steplog import command_columns, step_times
+def test_step_log_times() -> None:
+    from nudgecli.steplog import step_times
 
     assert step_times(0.1, 5)[:6] == [round(k * 0.1, 10) for k in range(6)] == [0.0, 0.1, 0.2, 0.3, 0.4, 0.5]
     longer = step_times(0.1, 5000)  # past the first table: a longer one, the same values
     assert len(longer) > 5000 and longer[4999] == round(4999 * 0.1, 10) == 499.9
     assert step_times(0.25, 3)[:4] == [0.0, 0.25, 0.5, 0.75]
-    columns = command_columns([(1.0, 2.0, 3.0), (4.0, 5.0, -0.5)], 2)
-    assert columns == [[1.0, 4.0], [2.0, 5.0], [3.0, -0.5]]
-    mixed = command_columns([(1.0, 2.0, 3.0), np.array([4.0, 5.0, 6.0])], 2)  # hindsight's array commands
-    assert mixed == [[1.0, 4.0], [2.0, 5.0], [3.0, 6.0]] and all(type(v) is float for c in mixed for v in c)
+
+
+def _row_by_row_step_log(trials) -> pd.DataFrame:
+    """The step log of raw trials, one row at a time in plain Python (the schema read literally)."""
+    from nudgecli.model.interface import LABELS
+    from nudgecli.sim.step_record import ROW_FIELDS, STREAM_LABEL
+
+    out = []
+    for rows, participant, trial, dt, cells in trials:
+        for row in rows:
+            f = dict(zip(ROW_FIELDS, row, strict=True))
+            cell_x, cell_y, heading = cells(f["state"])
+            u_h, u_a = [float(v) for v in f["u_h"]], [float(v) for v in f["u_a"]]
+            out.append({
+                "participant": participant, "trial": trial, "step": f["step"],
+                "t": round(f["step"] * dt, 10), "turn": f["turn"], "x": f["x"], "y": f["y"],
+                "theta": f["theta"], "mode": MODE_NAMES[f["mode"]], "cell_x": cell_x, "cell_y": cell_y,
+                "heading": heading, "phi_i": LABELS[f["intended"]] if f["intended"] >= 0 else "",
+                "pressure": f["pressure"], "phi_m": STREAM_LABEL.get(f["measured"], ""),
+                "u_h_x": u_h[0], "u_h_y": u_h[1], "u_h_theta": u_h[2], "u_a_x": u_a[0], "u_a_y": u_a[1],
+                "u_a_theta": u_a[2], "alpha": f["alpha"], "inferred_goal": f["inferred"],
+                "belief": [float(b) for b in f["belief"]], "entropy": f["entropy"],
+                "event": "|".join(f["events"]),  # DESIGN section 4: the step's events joined by "|"
+            })
+    return pd.DataFrame(out)
+
+
+def test_a_participants_step_log_is_each_trials_rows_in_turn() -> None:
+    # one call formats all of a participant's trials: each with its own ids, step length, world
+    # (cells), belief length and command types, the same as reading every row literally
+    from nudgecli.sim.step_record import StepRecording, step_columns
+    from nudgecli.steplog import STEP_COLUMNS, steps_frame
+
+    rng = np.random.default_rng(11)
+
+    def rows(n: int, goals: int) -> list[tuple]:
+        out = []
+        for k in range(n):
+            pose = rng.uniform(0, 5, size=3).tolist()
+            codes = int(rng.integers(3)), int(rng.integers(900)), int(rng.integers(-1, 4))  # mode, state, phi
+            pressure, measured = float(rng.uniform(-1, 1)), int(rng.choice([-1, 0, 1, 2, 3, 4, 5]))
+            u_a = tuple(rng.normal(size=3).tolist()) if k % 3 else rng.normal(size=3)  # hindsight's arrays
+            events = [] if k % 5 else ["nudge", "step"][: 1 + k % 2]
+            out.append((k, "human" if k % 4 else "autonomy", *pose, *codes, pressure, measured,
+                        (1.0, -2.0, 0.5), u_a, float(rng.uniform()), int(rng.integers(-1, goals)),
+                        rng.dirichlet(np.ones(goals)), float(rng.uniform()), events))
+        return out
+
+    def cells_a(state: int) -> tuple[int, int, int]:
+        return state // 100, state % 100 // 10, state % 10
+
+    def cells_b(state: int) -> tuple[int, int, int]:
+        return state % 7, -state, 0
+
+    raw = [(rows(23, 3), 4, 0, 0.1, cells_a), ([], 4, 1, 0.1, cells_a), (rows(40, 5), 4, 2, 0.25, cells_b),
+           (rows(1, 2), 4, 7, 0.1, cells_b)]
+    recordings = [StepRecording.of_rows(*trial) for trial in raw]
+    expected = _row_by_row_step_log(raw)
+    columns = step_columns(recordings)
+    assert tuple(columns) == STEP_COLUMNS
+    pd.testing.assert_frame_equal(steps_frame(columns), expected, check_exact=True)
+    # each trial alone gives its own rows of the same log
+    alone = pd.concat([steps_frame(step_columns([r])) for r in recordings if len(r)], ignore_index=True)
+    pd.testing.assert_frame_equal(alone, expected, check_exact=True)
+    empty = steps_frame(step_columns([]))
+    assert list(empty.columns) == list(STEP_COLUMNS) and len(empty) == 0
 
 
 def test_a_trial_keeps_the_step_log_columns_asked_for(paper) -> None:
@@ -293,7 +355,7 @@ def test_a_trial_keeps_the_step_log_columns_asked_for(paper) -> None:
     for names in (("event", "belief", "participant", "cell_y", "u_a_theta", "t"), ("phi_m",), ()):
         kept = steps(names)
         assert list(kept) == [name for name in STEP_COLUMNS if name in names]
-        assert kept == {name: full[name] for name in kept}
+        assert {name: list(v) for name, v in kept.items()} == {name: list(full[name]) for name in kept}
 
 
 # --- the turn-taking rules, step by step on a session --------------------------------------------

@@ -44,7 +44,6 @@ states differing from the current one in mode alone (event ``mode_select``, with
 from __future__ import annotations
 
 import math
-from collections.abc import Collection
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -79,7 +78,7 @@ from nudgecli.model.world import (
     World,
 )
 from nudgecli.sim.behaviour_settings import BehaviourSettings
-from nudgecli.sim.step_record import ROW_FIELDS, step_columns
+from nudgecli.sim.step_record import ROW_FIELDS, StepRecording, step_columns
 from nudgecli.steplog import (
     AUTONOMY_TURN,
     HANDOVER_TO_AUTONOMY,
@@ -91,7 +90,6 @@ from nudgecli.steplog import (
     NO_GOAL,
     NUDGE,
     STEP,
-    STEP_COLUMNS,
     TRIAL_START,
 )
 
@@ -183,14 +181,6 @@ class TrialSpec:
     layout_index: int
     layout: Layout | PathLayout
     true_goal: int = 0
-
-
-@dataclass
-class TrialResult:
-    """The summary row and the step columns of one trial."""
-
-    summary: dict[str, Any]
-    steps: dict[str, list[Any]]
 
 
 def goal_transition_matrix(n_goals: int, stay: float) -> np.ndarray | None:
@@ -559,16 +549,16 @@ class TrialSession:
                           measured, u_h, u_a, alpha, inferred, self.belief, self.entropy, events))
 
     @property
-    def columns(self) -> dict[str, list[Any]]:
-        """The steps so far as the step log's columns (:data:`~nudgecli.steplog.STEP_COLUMNS`)."""
-        return self.step_log_columns(STEP_COLUMNS)
+    def recording(self) -> StepRecording:
+        """The steps so far, raw (:func:`~nudgecli.sim.step_record.step_columns` makes the log of them)."""
+        spec, world = self.spec, self.world
+        assert world is not None
+        return StepRecording.of_rows(self.rows, spec.participant, spec.trial, self.settings.dt, world.cells)
 
-    def step_log_columns(self, names: Collection[str]) -> dict[str, list[Any]]:
-        """The steps so far as the step log's columns ``names`` (in the schema's order)."""
-        assert self.world is not None
-        spec = self.spec
-        return step_columns(self.rows, spec.participant, spec.trial, self.settings.dt, self.world.cells,
-                            names)
+    @property
+    def columns(self) -> dict[str, np.ndarray | list[Any]]:
+        """The steps so far as the step log's columns (:data:`~nudgecli.steplog.STEP_COLUMNS`)."""
+        return step_columns([self.recording])
 
     # --- the trial's end ----------------------------------------------------------------------
 

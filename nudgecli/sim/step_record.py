@@ -2,19 +2,24 @@
 
 :class:`~nudgecli.sim.protocol.TrialSession` appends one tuple per step (:data:`ROW_FIELDS`);
 formatting every step as it happened was a fifth of the trial loop, so the columns of
-:data:`~nudgecli.steplog.STEP_COLUMNS` are built here, once per trial.
+:data:`~nudgecli.steplog.STEP_COLUMNS` are built here, once per participant (all their trials'
+recordings at once: each numeric column one typed array straight from the rows, each coded column
+looked up once per distinct code).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection, Sequence
-from functools import cache
+from collections.abc import Callable, Collection, Iterator, Sequence
+from dataclasses import dataclass
+from itertools import chain
 from typing import Any
+
+import numpy as np
 
 from nudgecli.model import interface
 from nudgecli.model.interface import LABELS
 from nudgecli.model.world import MODE_NAMES
-from nudgecli.steplog import STEP_COLUMNS, command_columns, join_events, step_times, wanted_step_columns
+from nudgecli.steplog import STEP_COLUMNS, STEP_NUMERIC_DTYPES, join_events, step_times, wanted_step_columns
 
 #: The step log's ``phi_m`` of a measured code (no input: empty).
 STREAM_LABEL = {**dict(enumerate(LABELS)), interface.PUFF_DEADBAND: interface.PUFF_DEADBAND_LABEL,
@@ -24,22 +29,178 @@ STREAM_LABEL = {**dict(enumerate(LABELS)), interface.PUFF_DEADBAND: interface.PU
 ROW_FIELDS = ("step", "turn", "x", "y", "theta", "mode", "state", "intended", "pressure", "measured",
               "u_h", "u_a", "alpha", "inferred", "belief", "entropy", "events")
 
+#: The step-log column each plain field becomes, value for value (the rest are derived from fields).
+_PLAIN_FIELDS = {"step": "step", "turn": "turn", "x": "x", "y": "y", "theta": "theta", "pressure": "pressure",
+                 "alpha": "alpha", "inferred_goal": "inferred", "entropy": "entropy"}
+#: The command columns: the field and the axis of each.
+_COMMAND_COLUMNS = {f"{field}_{axis}": (field, k) for field in ("u_h", "u_a")
+                    for k, axis in enumerate(("x", "y", "theta"))}
+#: The cell columns, in the order of a world's ``cells(state)``.
+_CELL_COLUMNS = ("cell_x", "cell_y", "heading")
 
-def step_columns(rows: Sequence[tuple[Any, ...]], participant: int, trial: int, dt: float,
-                 cells: Callable[[int], tuple[int, int, int]],
-                 names: Collection[str] = STEP_COLUMNS) -> dict[str, list[Any]]:
-    """The step log's columns of one trial's raw rows.
 
-    Parameters
+@dataclass(frozen=True)
+class StepRecording:
+    """One trial's raw steps, field by field, and what the step log needs besides them.
+
+    Attributes
     ----------
-    rows
-        ``(N,)`` tuples of :data:`ROW_FIELDS` (the belief an array never changed in place).
+    fields
+        :data:`ROW_FIELDS` -> ``(N,)`` the steps' values (the belief an array never changed in
+        place), except ``events``: each step's ``event`` cell (its event names joined). Plain
+        tuples of numbers and text: the garbage collector stops visiting them (a row holding its
+        list of events stayed in its view for the whole participant).
     participant, trial
         The trial's identifiers, repeated on every row.
     dt
         The step's length, s (the ``t`` column is ``round(step * dt, 10)``).
     cells
-        The world's ``state -> (cell_x, cell_y, heading)``.
+        The trial's world's ``state -> (cell_x, cell_y, heading)``.
+    """
+
+    fields: dict[str, tuple[Any, ...]]
+    participant: int
+    trial: int
+    dt: float
+    cells: Callable[[int], tuple[int, int, int]]
+
+    @classmethod
+    def of_rows(cls, rows: Sequence[tuple[Any, ...]], participant: int, trial: int, dt: float,
+                cells: Callable[[int], tuple[int, int, int]]) -> StepRecording:
+        """The recording of ``(N,)`` raw rows (tuples of :data:`ROW_FIELDS`)."""
+        fields: dict[str, tuple[Any, ...]] = (dict(zip(ROW_FIELDS, zip(*rows, strict=True), strict=True))
+                                              if rows else dict.fromkeys(ROW_FIELDS, ()))
+        fields["events"] = tuple(join_events(events) if events else "" for events in fields["events"])
+        return cls(fields, participant, trial, dt, cells)
+
+    def __len__(self) -> int:
+        return len(self.fields["step"])
+
+
+def mapped_codes(codes: np.ndarray, value_of: Callable[[int], Any], dtype: Any = object) -> np.ndarray:
+    """``value_of(code)`` for every code, asked once per distinct code (a log has few of them).
+
+    Parameters
+    ----------
+    codes
+        ``(N,)`` integer codes.
+    value_of
+        The value of one code (given a Python ``int``): a scalar, or a ``K``-tuple.
+    dtype
+        The values' dtype (object: text).
+
+    Returns
+    -------
+    np.ndarray
+        ``(N,)`` the values, or ``(N, K)`` where each is a ``K``-tuple.
+    """
+    distinct, position = np.unique(codes, return_inverse=True)
+    table = np.array([value_of(code) for code in distinct.tolist()], dtype=dtype)
+    return table[position.reshape(-1)]
+
+
+class _Columns:
+    """The step log's columns of recordings, each made on first use (some share their work)."""
+
+    def __init__(self, recordings: Sequence[StepRecording]) -> None:
+        self.recordings = recordings
+        self.lengths = np.array([len(recording) for recording in recordings], dtype=np.int64)
+        self.n = int(self.lengths.sum())
+        ends = np.cumsum(self.lengths)
+        self.spans = list(zip((ends - self.lengths).tolist(), ends.tolist(), recordings, strict=True))
+        self.made: dict[tuple[str, ...], np.ndarray] = {}  # what several columns share, made once
+
+    def values(self, field: str) -> Iterator[Any]:
+        """The field's values, trial after trial."""
+        return chain.from_iterable(recording.fields[field] for recording in self.recordings)
+
+    def numeric(self, field: str, dtype: type[np.generic]) -> np.ndarray:
+        key = ("numeric", field, np.dtype(dtype).str)
+        if key not in self.made:
+            self.made[key] = np.fromiter(self.values(field), dtype=dtype, count=self.n)
+        return self.made[key]
+
+    def per_trial(self, value_of: Callable[[StepRecording], int]) -> np.ndarray:
+        ids = np.array([value_of(recording) for recording in self.recordings], dtype=np.int64)
+        return np.repeat(ids, self.lengths)
+
+    def cells(self) -> np.ndarray:
+        """``(3, N)``: cell_x, cell_y and heading."""
+        if ("cells",) in self.made:
+            return self.made[("cells",)]
+        cells = np.empty((self.n, 3), dtype=np.int64)
+        state = self.numeric("state", np.int64)
+        for start, end, recording in self.spans:  # each trial's world says what its states' cells are
+            if end > start:
+                cells[start:end] = mapped_codes(state[start:end], recording.cells, np.int64)
+        made = self.made[("cells",)] = cells.T.copy()
+        return made
+
+    def times(self) -> np.ndarray:
+        step = self.numeric("step", np.int64)
+        last = int(step.max()) if self.n else 0
+        tables = {dt: np.array(step_times(dt, last), dtype=np.float64)  # one table a step length
+                  for dt in {recording.dt for recording in self.recordings}}
+        t = np.empty(self.n, dtype=np.float64)
+        for start, end, recording in self.spans:
+            t[start:end] = tables[recording.dt][step[start:end]]
+        return t
+
+    def commands(self, field: str) -> np.ndarray:
+        """``(3, N)``: the x, y and theta components of the field's commands."""
+        key = ("commands", field)
+        if key not in self.made:
+            # (vx, vy, omega) tuples, or hindsight's arrays: one (N, 3) array, then its three columns
+            flat = np.fromiter(chain.from_iterable(self.values(field)), dtype=np.float64, count=3 * self.n)
+            self.made[key] = flat.reshape(self.n, 3).T.copy()
+        return self.made[key]
+
+    def beliefs(self) -> list[list[float]]:
+        # a belief is replaced, never changed, at an update (a few hundred a participant): the steps
+        # between two updates hold one array, and their cells one list of it
+        out: list[list[float]] = []
+        last, cell = None, []
+        for belief in self.values("belief"):
+            if belief is not last:
+                last, cell = belief, belief.tolist()
+            out.append(cell)
+        return out
+
+    def labels(self, field: str, value_of: Callable[[int], str]) -> list[str]:
+        return mapped_codes(self.numeric(field, np.int64), value_of).tolist()
+
+    def column(self, name: str) -> np.ndarray | list[Any]:
+        """The step log's column ``name`` (:data:`~nudgecli.steplog.STEP_COLUMNS`)."""
+        if name in _PLAIN_FIELDS:
+            dtype = STEP_NUMERIC_DTYPES.get(name)
+            field = _PLAIN_FIELDS[name]
+            return self.numeric(field, dtype) if dtype is not None else list(self.values(field))
+        if name in _COMMAND_COLUMNS:
+            field, axis = _COMMAND_COLUMNS[name]
+            return self.commands(field)[axis]
+        if name in _CELL_COLUMNS:
+            return self.cells()[_CELL_COLUMNS.index(name)]
+        others: dict[str, Callable[[], np.ndarray | list[Any]]] = {
+            "participant": lambda: self.per_trial(lambda recording: recording.participant),
+            "trial": lambda: self.per_trial(lambda recording: recording.trial),
+            "t": self.times,
+            "mode": lambda: self.labels("mode", MODE_NAMES.__getitem__),
+            "phi_i": lambda: self.labels("intended", lambda code: LABELS[code] if code >= 0 else ""),
+            "phi_m": lambda: self.labels("measured", lambda code: STREAM_LABEL.get(code, "")),
+            "belief": self.beliefs,
+            "event": lambda: list(self.values("events")),
+        }
+        return others[name]()
+
+
+def step_columns(recordings: Sequence[StepRecording],
+                 names: Collection[str] = STEP_COLUMNS) -> dict[str, np.ndarray | list[Any]]:
+    """The step log's columns of the trials' raw rows, one after another.
+
+    Parameters
+    ----------
+    recordings
+        The trials' recordings, in the log's order.
     names
         The columns wanted (all of them by default; the metrics need a third of them, and the
         others, the beliefs above all, are most of the formatting).
@@ -47,58 +208,10 @@ def step_columns(rows: Sequence[tuple[Any, ...]], participant: int, trial: int, 
     Returns
     -------
     dict
-        The wanted columns of :data:`~nudgecli.steplog.STEP_COLUMNS`, in its order -> ``(N,)`` lists.
+        The wanted columns of :data:`~nudgecli.steplog.STEP_COLUMNS`, in its order -> ``(N,)``
+        columns: each numeric one a typed array (:data:`~nudgecli.steplog.STEP_NUMERIC_DTYPES`),
+        text and ``belief`` (one list of floats a step) lists, as
+        :func:`~nudgecli.steplog.step_arrays` gives them.
     """
-    wanted = wanted_step_columns(names)
-    if not rows:
-        return {name: [] for name in wanted}
-    field = dict(zip(ROW_FIELDS, zip(*rows, strict=True), strict=True))
-    n = len(rows)
-
-    @cache
-    def cell_columns() -> tuple[tuple[int, ...], ...]:
-        cells_of = {state: cells(state) for state in set(field["state"])}  # a trial visits few states
-        return tuple(zip(*(cells_of[state] for state in field["state"]), strict=True))
-
-    @cache
-    def human() -> list[list[float]]:
-        return command_columns(list(field["u_h"]), n)
-
-    @cache
-    def autonomy() -> list[list[float]]:
-        return command_columns(list(field["u_a"]), n)
-
-    def times() -> list[float]:
-        table = step_times(dt, max(field["step"]))
-        return [table[step] for step in field["step"]]
-
-    build: dict[str, Callable[[], list[Any]]] = {
-        "participant": lambda: [participant] * n,
-        "trial": lambda: [trial] * n,
-        "step": lambda: list(field["step"]),
-        "t": times,
-        "turn": lambda: list(field["turn"]),
-        "x": lambda: list(field["x"]),
-        "y": lambda: list(field["y"]),
-        "theta": lambda: list(field["theta"]),
-        "mode": lambda: [MODE_NAMES[m] for m in field["mode"]],
-        "cell_x": lambda: list(cell_columns()[0]),
-        "cell_y": lambda: list(cell_columns()[1]),
-        "heading": lambda: list(cell_columns()[2]),
-        "phi_i": lambda: [LABELS[i] if i >= 0 else "" for i in field["intended"]],
-        "pressure": lambda: list(field["pressure"]),
-        "phi_m": lambda: [STREAM_LABEL.get(m, "") for m in field["measured"]],
-        "u_h_x": lambda: human()[0],
-        "u_h_y": lambda: human()[1],
-        "u_h_theta": lambda: human()[2],
-        "u_a_x": lambda: autonomy()[0],
-        "u_a_y": lambda: autonomy()[1],
-        "u_a_theta": lambda: autonomy()[2],
-        "alpha": lambda: list(field["alpha"]),
-        "inferred_goal": lambda: list(field["inferred"]),
-        "belief": lambda: [belief.tolist() for belief in field["belief"]],
-        "entropy": lambda: list(field["entropy"]),
-        "event": lambda: [join_events(e) for e in field["events"]],
-    }
-    assert tuple(build) == STEP_COLUMNS
-    return {name: build[name]() for name in wanted}
+    columns = _Columns(recordings)
+    return {name: columns.column(name) for name in wanted_step_columns(names)}

@@ -36,9 +36,10 @@ from nudgecli.sim.ciaa import packaged_task, subject_schedule, task_layouts
 from nudgecli.sim.counterbalance import participant_order
 from nudgecli.sim.participant_fitting import participant_from_log
 from nudgecli.sim.participants import Participant, draw_participant
-from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSpec
-from nudgecli.sim.trials import run_trial, run_world_trial
-from nudgecli.steplog import STEP_COLUMNS, step_arrays, steps_frame, wanted_step_columns
+from nudgecli.sim.protocol import ProtocolSettings, TrialSpec
+from nudgecli.sim.step_record import StepRecording, step_columns
+from nudgecli.sim.trials import TrialResult, run_trial, run_world_trial
+from nudgecli.steplog import STEP_COLUMNS, steps_frame
 
 if TYPE_CHECKING:  # pandas loads where frames are built (the parent of a study), never in its workers
     import pandas as pd
@@ -250,8 +251,8 @@ class ParticipantColumns:
     participant: int
     #: The trial summaries, one dict per trial in the participant's order.
     trials: list[dict[str, Any]]
-    #: The step log's wanted columns: numeric columns as typed arrays (:func:`nudgecli.steplog.step_arrays`),
-    #: text and ``belief`` columns as lists.
+    #: The step log's wanted columns (:func:`nudgecli.sim.step_record.step_columns`): numeric
+    #: columns as typed arrays, text and ``belief`` columns as lists.
     steps: dict[str, np.ndarray | list[Any]]
     #: The participant's row of ``participants.parquet``.
     record: dict[str, Any]
@@ -356,8 +357,8 @@ def simulate_participant_columns(plan: StudyPlan, participant_index: int,
     mapping, distortion = fitted.mapping, fitted.distortion
     settings = ProtocolSettings.from_config(config)
     summaries: list[dict[str, Any]] = []
-    # one set of columns per participant, not per trial: building frames was a tenth of the run
-    step_columns: dict[str, list[Any]] = {column: [] for column in wanted_step_columns(step_log_columns)}
+    # the step log's columns are made once per participant, of all the trials' raw steps
+    recordings: list[StepRecording] = []
     models: dict[int, DisambiguationModel] = {}
     with fewer_collections():  # the loop allocates many short-lived tuples and no cycles
         for spec in plan.schedule(participant_index):
@@ -373,8 +374,7 @@ def simulate_participant_columns(plan: StudyPlan, participant_index: int,
                         spec.layout.goal_cells, solved.actions, mapping, distortion)
                 result = run_trial(spec, settings, solved, model, participant, rng, step_log_columns)
             summaries.append(result.summary)
-            for column, values in result.steps.items():
-                step_columns[column].extend(values)
+            recordings.append(result.recording)
     record = participant.to_record()
     record.update({
         "agent_p_phi_given_a": _json(mapping.tolist()),
@@ -384,7 +384,7 @@ def simulate_participant_columns(plan: StudyPlan, participant_index: int,
     return ParticipantColumns(
         participant=participant_index,
         trials=summaries,
-        steps=step_arrays(step_columns),
+        steps=step_columns(recordings, step_log_columns),
         record=record,
         wall_s=time.perf_counter() - start,
         calibration=fitted.sessions,

@@ -4,6 +4,9 @@ input source (a simulated person in the grid world or another world, or a live o
 from __future__ import annotations
 
 from collections.abc import Collection
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
 
 import numpy as np
 
@@ -14,8 +17,24 @@ from nudgecli.model.mdp import SolvedLayout
 from nudgecli.model.world import N_MODES, GridWorld, Layout, World, state_index
 from nudgecli.sim.behaviour import InputSource, SimulatedPerson
 from nudgecli.sim.participants import Participant
-from nudgecli.sim.protocol import ProtocolSettings, TrialResult, TrialSession, TrialSpec
+from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec
+from nudgecli.sim.step_record import StepRecording, step_columns
 from nudgecli.steplog import HUMAN_TURN, STEP_COLUMNS
+
+
+@dataclass
+class TrialResult:
+    """One trial's summary row and its steps, raw (:attr:`steps`: the step log's columns of them)."""
+
+    summary: dict[str, Any]
+    recording: StepRecording
+    #: The step log's columns :attr:`steps` keeps.
+    step_log_columns: Collection[str] = field(default=STEP_COLUMNS)
+
+    @cached_property
+    def steps(self) -> dict[str, np.ndarray | list[Any]]:
+        """The trial's step log columns (a participant's are made at once, of all their recordings)."""
+        return step_columns([self.recording], self.step_log_columns)
 
 
 def run_session(session: TrialSession, source: InputSource,
@@ -41,7 +60,7 @@ def run_session(session: TrialSession, source: InputSource,
         else:
             session.autonomy_step()
             new_turn = after_autonomy = True
-    return TrialResult(summary=session.summary(), steps=session.step_log_columns(step_log_columns))
+    return TrialResult(session.summary(), session.recording, step_log_columns)
 
 
 def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout, model: DisambiguationModel,
