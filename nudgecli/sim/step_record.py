@@ -37,6 +37,13 @@ _COMMAND_COLUMNS = {f"{field}_{axis}": (field, k) for field in ("u_h", "u_a")
                     for k, axis in enumerate(("x", "y", "theta"))}
 #: The cell columns, in the order of a world's ``cells(state)``.
 _CELL_COLUMNS = ("cell_x", "cell_y", "heading")
+#: The fields a recording keeps as typed arrays, and their dtypes (the step log's, or integer codes).
+_FIELD_DTYPES: dict[str, type[np.generic]] = {
+    **{field: STEP_NUMERIC_DTYPES[column] for column, field in _PLAIN_FIELDS.items()
+       if column in STEP_NUMERIC_DTYPES},
+    **dict.fromkeys(("mode", "state", "intended", "measured"), np.int64),
+    **{field: STEP_NUMERIC_DTYPES[f"{field}_x"] for field in ("u_h", "u_a")},
+}
 
 
 @dataclass(frozen=True)
@@ -46,10 +53,12 @@ class StepRecording:
     Attributes
     ----------
     fields
-        :data:`ROW_FIELDS` -> ``(N,)`` the steps' values (the belief an array never changed in
-        place), except ``events``: each step's ``event`` cell (its event names joined). Plain
-        tuples of numbers and text: the garbage collector stops visiting them (a row holding its
-        list of events stayed in its view for the whole participant).
+        :data:`ROW_FIELDS` -> ``(N,)`` the steps' values: typed arrays of the numeric fields
+        (``u_h`` and ``u_a`` ``(3N,)``, each command's ``(vx, vy, omega)`` in turn), tuples of
+        the text and of the beliefs (arrays never changed in place); ``events`` holds each step's
+        ``event`` cell (its event names joined). Arrays are no work for the garbage collector, and
+        the tuples it visits once (a tuple per step, or a list of events, was one more object to
+        visit for each step).
     participant, trial
         The trial's identifiers, repeated on every row.
     dt
@@ -58,7 +67,7 @@ class StepRecording:
         The trial's world's ``state -> (cell_x, cell_y, heading)``.
     """
 
-    fields: dict[str, tuple[Any, ...]]
+    fields: dict[str, np.ndarray | tuple[Any, ...]]
     participant: int
     trial: int
     dt: float
@@ -68,9 +77,15 @@ class StepRecording:
     def of_rows(cls, rows: Sequence[tuple[Any, ...]], participant: int, trial: int, dt: float,
                 cells: Callable[[int], tuple[int, int, int]]) -> StepRecording:
         """The recording of ``(N,)`` raw rows (tuples of :data:`ROW_FIELDS`)."""
-        fields: dict[str, tuple[Any, ...]] = (dict(zip(ROW_FIELDS, zip(*rows, strict=True), strict=True))
-                                              if rows else dict.fromkeys(ROW_FIELDS, ()))
+        n = len(rows)
+        fields: dict[str, Any] = (dict(zip(ROW_FIELDS, zip(*rows, strict=True), strict=True)) if rows
+                                  else dict.fromkeys(ROW_FIELDS, ()))
         fields["events"] = tuple(join_events(events) if events else "" for events in fields["events"])
+        for field, dtype in _FIELD_DTYPES.items():
+            if field in ("u_h", "u_a"):  # (vx, vy, omega) tuples, or hindsight's arrays
+                fields[field] = np.fromiter(chain.from_iterable(fields[field]), dtype=dtype, count=3 * n)
+            else:
+                fields[field] = np.fromiter(fields[field], dtype=dtype, count=n)
         return cls(fields, participant, trial, dt, cells)
 
     def __len__(self) -> int:
@@ -114,10 +129,12 @@ class _Columns:
         """The field's values, trial after trial."""
         return chain.from_iterable(recording.fields[field] for recording in self.recordings)
 
-    def numeric(self, field: str, dtype: type[np.generic]) -> np.ndarray:
-        key = ("numeric", field, np.dtype(dtype).str)
+    def numeric(self, field: str) -> np.ndarray:
+        """A numeric field's values, trial after trial (:data:`_FIELD_DTYPES`)."""
+        key = ("numeric", field)
         if key not in self.made:
-            self.made[key] = np.fromiter(self.values(field), dtype=dtype, count=self.n)
+            arrays = [recording.fields[field] for recording in self.recordings]
+            self.made[key] = np.concatenate(arrays) if arrays else np.empty(0, dtype=_FIELD_DTYPES[field])
         return self.made[key]
 
     def per_trial(self, value_of: Callable[[StepRecording], int]) -> np.ndarray:
@@ -129,7 +146,7 @@ class _Columns:
         if ("cells",) in self.made:
             return self.made[("cells",)]
         cells = np.empty((self.n, 3), dtype=np.int64)
-        state = self.numeric("state", np.int64)
+        state = self.numeric("state")
         for start, end, recording in self.spans:  # each trial's world says what its states' cells are
             if end > start:
                 cells[start:end] = mapped_codes(state[start:end], recording.cells, np.int64)
@@ -137,7 +154,7 @@ class _Columns:
         return made
 
     def times(self) -> np.ndarray:
-        step = self.numeric("step", np.int64)
+        step = self.numeric("step")
         last = int(step.max()) if self.n else 0
         tables = {dt: np.array(step_times(dt, last), dtype=np.float64)  # one table a step length
                   for dt in {recording.dt for recording in self.recordings}}
@@ -150,9 +167,7 @@ class _Columns:
         """``(3, N)``: the x, y and theta components of the field's commands."""
         key = ("commands", field)
         if key not in self.made:
-            # (vx, vy, omega) tuples, or hindsight's arrays: one (N, 3) array, then its three columns
-            flat = np.fromiter(chain.from_iterable(self.values(field)), dtype=np.float64, count=3 * self.n)
-            self.made[key] = flat.reshape(self.n, 3).T.copy()
+            self.made[key] = self.numeric(field).reshape(self.n, 3).T.copy()
         return self.made[key]
 
     def beliefs(self) -> list[list[float]]:
@@ -167,14 +182,13 @@ class _Columns:
         return out
 
     def labels(self, field: str, value_of: Callable[[int], str]) -> list[str]:
-        return mapped_codes(self.numeric(field, np.int64), value_of).tolist()
+        return mapped_codes(self.numeric(field), value_of).tolist()
 
     def column(self, name: str) -> np.ndarray | list[Any]:
         """The step log's column ``name`` (:data:`~nudgecli.steplog.STEP_COLUMNS`)."""
         if name in _PLAIN_FIELDS:
-            dtype = STEP_NUMERIC_DTYPES.get(name)
             field = _PLAIN_FIELDS[name]
-            return self.numeric(field, dtype) if dtype is not None else list(self.values(field))
+            return self.numeric(field) if field in _FIELD_DTYPES else list(self.values(field))
         if name in _COMMAND_COLUMNS:
             field, axis = _COMMAND_COLUMNS[name]
             return self.commands(field)[axis]
