@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
 
 from nudgecli.model.world import (
     X_MAX,
@@ -14,6 +16,7 @@ from nudgecli.model.world import (
     Y_MAX,
     Y_MIN,
     GridWorld,
+    cell_centre,
     discretise,
     sample_layout,
     state_index,
@@ -54,3 +57,23 @@ def test_the_same_pose_in_another_mode_is_another_state() -> None:
     world = GridWorld(LAYOUT, SUCCESS_DISTANCE, SUCCESS_ANGLE)
     x, y, theta = 0.1, 0.2, 0.3
     assert world.state(x, y, theta, 1) == world.state(x, y, theta, 0) + 1
+
+
+cell_indices = st.one_of(st.integers(0, 9), hnp.arrays(np.int64, hnp.array_shapes(max_dims=2, max_side=4),
+                                                       elements=st.integers(0, 9)))
+
+
+@given(cell_indices, cell_indices)
+def test_a_cells_centre_is_the_grids_rule_for_one_cell_or_many(i, j) -> None:
+    # DESIGN: the workspace [3, 45] x [2, 36] in 10 x 10 cells of 4.2 x 3.4, a cell's centre half a
+    # cell in from its corner; indices broadcast together (a number is one cell)
+    try:
+        i_b, j_b = np.broadcast_arrays(np.asarray(i), np.asarray(j))
+    except ValueError:
+        return  # shapes that do not broadcast: not a question cell_centre answers
+    centre = cell_centre(i, j)
+    assert centre.shape == (*i_b.shape, 2) and centre.dtype == np.float64
+    for index in np.ndindex(i_b.shape):
+        x = 3.0 + (45.0 - 3.0) / 10 * float(i_b[index]) + (45.0 - 3.0) / 10 / 2.0
+        y = 2.0 + (36.0 - 2.0) / 10 * float(j_b[index]) + (36.0 - 2.0) / 10 / 2.0
+        assert (centre[index][0], centre[index][1]) == (x, y)

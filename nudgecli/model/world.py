@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Protocol
 
 import numpy as np
@@ -83,9 +84,18 @@ def cell_centre(i: np.ndarray | int, j: np.ndarray | int) -> np.ndarray:
     np.ndarray
         ``(..., 2)`` array of ``(x, y)``.
     """
+    if isinstance(i, int | np.integer) and isinstance(j, int | np.integer):  # one cell: float math
+        return np.array([X_MIN + CELL_WIDTH * float(i) + CELL_WIDTH / 2.0,
+                         Y_MIN + CELL_HEIGHT * float(j) + CELL_HEIGHT / 2.0])
     x = X_MIN + CELL_WIDTH * np.asarray(i, dtype=float) + CELL_WIDTH / 2.0
     y = Y_MIN + CELL_HEIGHT * np.asarray(j, dtype=float) + CELL_HEIGHT / 2.0
-    return np.stack(np.broadcast_arrays(x, y), axis=-1)
+    if np.shape(x) != np.shape(y):
+        x, y = np.broadcast_arrays(x, y)
+    # filled in place: np.stack was most of the cost of a trial's few calls (goals, start, nudges)
+    centre = np.empty((*np.shape(x), 2))
+    centre[..., 0] = x
+    centre[..., 1] = y
+    return centre
 
 
 def heading_angle(h: np.ndarray | int) -> np.ndarray | float:
@@ -163,17 +173,22 @@ class Layout:
     def n_goals(self) -> int:
         return int(self.goal_cells.shape[0])
 
-    @property
+    @cached_property
     def goal_poses(self) -> np.ndarray:
-        """``(G, 3)`` continuous goal poses (cell centre, ``heading * 45 deg``)."""
+        """``(G, 3)`` continuous goal poses (cell centre, ``heading * 45 deg``); read-only (made once
+        per layout, not once per trial)."""
         xy = cell_centre(self.goal_cells[:, 0], self.goal_cells[:, 1])
-        return np.column_stack([xy, heading_angle(self.goal_headings)])
+        poses = np.column_stack([xy, heading_angle(self.goal_headings)])
+        poses.setflags(write=False)
+        return poses
 
-    @property
+    @cached_property
     def start_pose(self) -> np.ndarray:
-        """``(3,)`` continuous start pose."""
+        """``(3,)`` continuous start pose; read-only."""
         xy = cell_centre(*self.start_cell)
-        return np.array([xy[0], xy[1], float(heading_angle(self.start_heading))])
+        pose = np.array([xy[0], xy[1], float(heading_angle(self.start_heading))])
+        pose.setflags(write=False)
+        return pose
 
 
 def _region_cells(region: tuple[tuple[int, int], tuple[int, int]]) -> np.ndarray:
