@@ -519,6 +519,28 @@ def test_model_tables_are_the_per_state_products_bit_for_bit(rows: str) -> None:
         dis.observation_likelihood(DistinctActionRows.of(p_a), mapping, distortion, modes=modes)
 
 
+def test_a_models_tables_are_checked_every_time_though_their_product_is_made_once() -> None:
+    # the (M, A, F) product of a participant's two tables is shared by their models of every
+    # layout: a table with the same numbers in another shape, or a bad one, is still refused
+    solved = solve_layout(GOAL_CELLS, GOAL_HEADINGS)
+    mapping, distortion = default_mapping_table(0.2), default_distortion_table(0.15)
+    first = dis.DisambiguationModel(GOAL_CELLS, solved.p_a_given_sg, mapping, distortion)
+    second = dis.DisambiguationModel(GOAL_CELLS, solved.p_a_given_sg, mapping.copy(), distortion.copy())
+    assert np.array_equal(second.likelihood, first.likelihood)
+    expected = brute_force_likelihood(solved.p_a_given_sg, mapping, distortion)
+    np.testing.assert_allclose(first.likelihood, expected, rtol=0, atol=1e-12)
+    with pytest.raises(ProbabilityTableError, match="shape"):
+        dis.DisambiguationModel(GOAL_CELLS, solved.p_a_given_sg, mapping.reshape(4, 3, 4), distortion)
+    with pytest.raises(ProbabilityTableError, match="shape"):
+        dis.DisambiguationModel(GOAL_CELLS, solved.p_a_given_sg, mapping, distortion.reshape(2, 8))
+    bad = distortion.copy()
+    bad[1] = [0.5, 0.5, 0.5, -0.5]
+    with pytest.raises(ProbabilityTableError, match="Hard Sip"):
+        dis.DisambiguationModel(GOAL_CELLS, solved.p_a_given_sg, mapping, bad)
+    other = dis.DisambiguationModel(GOAL_CELLS, solved.p_a_given_sg, default_mapping_table(0.3), distortion)
+    assert not np.array_equal(other.likelihood, first.likelihood)  # other tables, another product
+
+
 def test_bad_action_model_is_rejected_with_its_row() -> None:
     p_a = np.full((2, 5, 4), 0.25)
     p_a[1, 3] = [0.5, 0.5, 0.5, -0.5]

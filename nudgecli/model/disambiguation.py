@@ -5,7 +5,7 @@ in :mod:`nudgecli.model.information`, the candidate domains in :mod:`nudgecli.mo
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import cached_property
+from functools import cached_property, lru_cache
 from typing import Literal
 
 import numpy as np
@@ -73,10 +73,25 @@ def _distinct_likelihood(actions: DistinctActionRows, mapping: np.ndarray,
                          distortion: np.ndarray) -> np.ndarray:
     """``(U, F)`` ``p(phi_m | a-row, mode)`` of each distinct ``(mode, row)`` pair: the rows of
     :func:`observation_likelihood`, each computed once (``actions.index`` spreads them)."""
-    measured_given_action = observation_model(validate_mapping_table(mapping),
-                                              validate_distortion_table(distortion))  # (M, A, F)
+    measured_given_action = _measured_given_action(mapping, distortion)  # (M, A, F)
     # (U, 1, A) @ (U, A, F) -> (U, 1, F): per pair the same (1, A) @ (A, F) product as per state
     return (actions.rows[:, None, :] @ measured_given_action[actions.row_modes])[:, 0, :]
+
+
+def _measured_given_action(mapping: np.ndarray, distortion: np.ndarray) -> np.ndarray:
+    """``(M, A, F)`` :func:`observation_model` of the validated tables (read-only): made once per
+    process for each pair of tables, which a participant's models of all their layouts share."""
+    m, d = np.asarray(mapping, dtype=float), np.asarray(distortion, dtype=float)
+    return _measured_given_action_of(m.shape, m.tobytes(), d.shape, d.tobytes())
+
+
+@lru_cache(maxsize=256)
+def _measured_given_action_of(mapping_shape: tuple[int, ...], mapping: bytes,
+                              distortion_shape: tuple[int, ...], distortion: bytes) -> np.ndarray:
+    table = observation_model(validate_mapping_table(np.frombuffer(mapping).reshape(mapping_shape)),
+                              validate_distortion_table(np.frombuffer(distortion).reshape(distortion_shape)))
+    table.setflags(write=False)
+    return table
 
 
 # --- distance regulariser and D(s) --------------------------------------------------------------
