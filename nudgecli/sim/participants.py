@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import math
+from bisect import bisect_right
 from collections.abc import Mapping, Sequence
 from dataclasses import MISSING, dataclass, field, fields
 from typing import TYPE_CHECKING, Any
@@ -154,7 +155,8 @@ class Participant:
     hold_on_s: float = 0.2
     hard_peak_s: float = 0.2
     offset_ramp_samples: int = 1
-    _mapping_cdf: np.ndarray = field(init=False, repr=False, compare=False)
+    # the mapping's cumulative rows as plain floats, (M, A, F): a label is drawn at every decision
+    _mapping_cdf: tuple[tuple[tuple[float, ...], ...], ...] = field(init=False, repr=False, compare=False)
     # Plain floats of one sample's pressure model (sample_pressure, drift_step), read every step:
     # the labels' level magnitudes and spreads, and the drift's innovation scale sqrt(1 - rho^2).
     _levels: tuple[float, ...] = field(init=False, repr=False, compare=False)
@@ -173,10 +175,10 @@ class Participant:
             raise ValueError("pressure_level must be negative for puffs and positive for sips")
         cdf = np.cumsum(mapping, axis=-1)
         cdf[..., -1] = 1.0
-        for name, value in (("pressure_level", level), ("pressure_spread", spread), ("mapping", mapping),
-                            ("_mapping_cdf", cdf)):
+        for name, value in (("pressure_level", level), ("pressure_spread", spread), ("mapping", mapping)):
             value.setflags(write=False)
             object.__setattr__(self, name, value)
+        object.__setattr__(self, "_mapping_cdf", tuple(tuple(map(tuple, rows)) for rows in cdf.tolist()))
         object.__setattr__(self, "onset_ramp_samples", int(self.onset_ramp_samples))
         object.__setattr__(self, "offset_ramp_samples", int(self.offset_ramp_samples))
         if not 0.0 <= self.drift_correlation <= MAX_DRIFT_CORRELATION:
@@ -199,7 +201,8 @@ class Participant:
 
     def intended_label(self, action: int, mode: int, rng: np.random.Generator) -> int:
         """Draw ``phi_i ~ p(phi_i | a, m)`` from the participant's internal mapping (one uniform draw)."""
-        return int(np.searchsorted(self._mapping_cdf[mode, action], rng.random(), side="right"))
+        # bisect_right is np.searchsorted(side="right") on the same floats, without numpy's call
+        return bisect_right(self._mapping_cdf[mode][action], rng.random())
 
     def drift_normals(self, n: int, rng: np.random.Generator, previous: float | None = None) -> np.ndarray:
         """``(n,)`` deviations of ``n`` samples of a blow (one normal draw of size ``n``; module function).
