@@ -2,9 +2,9 @@
 
 :class:`~nudgecli.sim.protocol.TrialSession` appends one tuple per step (:data:`ROW_FIELDS`);
 formatting every step as it happened was a fifth of the trial loop, so the columns of
-:data:`~nudgecli.steplog.STEP_COLUMNS` are built here, once per participant (all their trials'
-recordings at once: each numeric column one typed array straight from the rows, each coded column
-looked up once per distinct code).
+:data:`~nudgecli.steplog.STEP_COLUMNS` are built here: each trial's rows into typed arrays as it
+ends (:meth:`StepRecording.of_rows`), then all of a participant's trials at once
+(:func:`step_columns`: the arrays concatenated, each coded column looked up once per distinct code).
 """
 
 from __future__ import annotations
@@ -224,8 +224,9 @@ def step_columns(recordings: Sequence[StepRecording],
     dict
         The wanted columns of :data:`~nudgecli.steplog.STEP_COLUMNS`, in its order -> ``(N,)``
         columns: each numeric one a typed array (:data:`~nudgecli.steplog.STEP_NUMERIC_DTYPES`),
-        text and ``belief`` (one list of floats a step) lists, as
-        :func:`~nudgecli.steplog.step_arrays` gives them.
+        text and ``belief`` (a list of floats a step) lists, as
+        :func:`~nudgecli.steplog.step_arrays` gives them. The steps between two belief updates
+        share one list (a cell is read, never changed in place).
     """
     columns = _Columns(recordings)
     return {name: columns.column(name) for name in wanted_step_columns(names)}
