@@ -203,6 +203,18 @@ def test_control_target_ties() -> None:
     np.testing.assert_allclose(ast.control_target(near_tie, goals), [5.0, 0.0])
 
 
+@given(st.lists(st.tuples(st.sampled_from([0.1, 0.2, 0.2 + 1e-12, 0.3, 1 / 3, 0.7]),
+                          st.floats(3.0, 45.0), st.floats(2.0, 36.0)), min_size=1, max_size=8))
+def test_control_target_is_numpys_mean_of_the_tied_goals_bit_for_bit(rows) -> None:
+    # the mean computed as numpy computes it over the rows of the tied goals (the rule's
+    # reference in arrays, as it was written before it was made plain floats)
+    from nudgecli.model.ties import tied_with_max
+
+    belief, goals = np.array([r[0] for r in rows]), np.array([r[1:] for r in rows])
+    expected = goals[tied_with_max(belief, 1e-9)].mean(axis=0)
+    assert ast.control_target(belief, goals).tobytes() == expected.tobytes()
+
+
 def test_nudge_target() -> None:
     pose, mode = ast.nudge_target(int(state_index(2, 7, 3, 1)))
     np.testing.assert_allclose(pose, [3 + 4.2 * 2 + 2.1, 2 + 3.4 * 7 + 1.7, 3 * math.pi / 4])

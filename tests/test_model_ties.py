@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
-from nudgecli.model.ties import first_argmax, tied_with_max, unique_argmax
+from nudgecli.model.ties import first_argmax, tied_indices, tied_with_max, unique_argmax
 
 
 def test_first_on_ties_within_the_tolerance() -> None:
@@ -63,3 +63,11 @@ anything = st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=1, 
 def test_unique_argmax_is_the_array_rule_in_plain_floats(values: list[float]) -> None:
     array = np.array(values, dtype=float)
     assert unique_argmax(array) == _unique_by_the_array_rule(array)
+
+
+@given(st.one_of(near_ties, anything))
+@example([-np.inf, -np.inf, 0.5 - np.inf])  # every value -inf: all tied (the threshold is -inf itself)
+@example([np.inf, 1.0])  # an infinite maximum: none (inf - inf is NaN)
+def test_tied_indices_are_the_array_rules_ties_in_plain_floats(values: list[float]) -> None:
+    array = np.array(values, dtype=float)
+    assert tied_indices(array) == np.flatnonzero(tied_with_max(array)).tolist()

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from nudgecli.model.ties import tied_with_max
+from nudgecli.model.ties import tied_indices
 from nudgecli.model.world import (
     CELL_HEIGHT,
     CELL_WIDTH,
@@ -306,7 +306,16 @@ def control_target(belief: np.ndarray, goal_positions: np.ndarray, atol: float =
     goals = np.asarray(goal_positions, dtype=float)[:, :2]
     if b.shape != (goals.shape[0],):
         raise ValueError(f"belief shape {b.shape} does not match {goals.shape[0]} goals")
-    return goals[tied_with_max(b, atol)].mean(axis=0)
+    tied = tied_indices(b, atol)
+    if not tied:  # a NaN belief: no goal is tied, and the mean of none is NaN
+        return np.full(2, np.nan)
+    # numpy's mean over the rows, in plain floats (every Control turn asks): the rows added in
+    # order from the first, then divided by their number
+    x, y = goals[tied[0]].tolist()
+    for index in tied[1:]:
+        gx, gy = goals[index].tolist()
+        x, y = x + gx, y + gy
+    return np.array([x / len(tied), y / len(tied)])
 
 
 def nudge_target(state: int) -> tuple[np.ndarray, int]:

@@ -64,20 +64,27 @@ def first_argmax(values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL,
     return np.argmax(tied_with_max(values, rtol, valid), axis=-1)
 
 
+def tied_indices(values: np.ndarray | list[float], rtol: float = DEFAULT_TIE_RTOL) -> list[int]:
+    """The indices of ``(C,)`` values tied for the maximum: :func:`tied_with_max`'s rule in plain
+    floats (for a handful of goals, asked often), and none where a value is NaN (as there).
+
+    ``tests/test_model_ties.py`` holds the two to each other.
+    """
+    items = np.asarray(values, dtype=float).tolist()
+    if not items:
+        raise ValueError("no candidates to choose from")
+    if any(item != item for item in items):
+        return []  # a NaN maximum ties nothing, as in tied_with_max
+    best = max(items)
+    threshold = best - rtol * max(1.0, abs(best))
+    return [index for index, item in enumerate(items) if item >= threshold]
+
+
 def unique_argmax(values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL) -> int:
     """Index of the maximum of ``(C,)`` values, or -1 when two or more entries are tied for it.
 
     A rule blind to the order of the entries: permuting ``values`` permutes the answer, and a
     tie never resolves in favour of an index.
     """
-    # tied_with_max's rule in plain floats (the protocol asks after every belief update, on a
-    # handful of goals); tests/test_model_ties.py holds the two to each other
-    items = np.asarray(values, dtype=float).tolist()
-    if not items:
-        raise ValueError("no candidates to choose from")
-    if any(item != item for item in items):
-        return -1  # a NaN maximum ties nothing, as in tied_with_max
-    best = max(items)
-    threshold = best - rtol * max(1.0, abs(best))
-    tied = [index for index, item in enumerate(items) if item >= threshold]
+    tied = tied_indices(values, rtol)  # the protocol asks after every belief update
     return tied[0] if len(tied) == 1 else -1
