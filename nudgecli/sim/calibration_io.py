@@ -234,12 +234,13 @@ def distortion_session_frames(session: DistortionSession) -> dict[str, pd.DataFr
     ``distortion_stream`` (t, pressure, label)."""
     import pandas as pd
 
+    names = stream_names(session.variant)
     return {
         "distortion_prompts": pd.DataFrame({"t": session.prompt_times,
                                             "command": list(session.prompt_commands)}),
         "distortion_stream": pd.DataFrame({
             "t": session.stream_times, "pressure": session.stream_pressure,
-            "label": [stream_names(session.variant)[int(c)] for c in session.stream_codes]}),
+            "label": [names[code] for code in np.asarray(session.stream_codes).astype(np.int64).tolist()]}),
     }
 
 
