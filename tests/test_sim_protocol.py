@@ -328,6 +328,16 @@ def test_a_participants_step_log_is_each_trials_rows_in_turn() -> None:
     pd.testing.assert_frame_equal(alone, expected, check_exact=True)
     empty = steps_frame(step_columns([]))
     assert list(empty.columns) == list(STEP_COLUMNS) and len(empty) == 0
+    # a recording for some columns keeps only the fields they are made of (the metrics' batches
+    # ask for a third of the columns), and gives those columns as the full recording does
+    kept_fields = {("phi_m", "trial"): {"step", "measured"},
+                   ("t", "cell_y", "u_a_x", "event"): {"step", "state", "u_a", "events"}}
+    for names, fields in kept_fields.items():
+        partial = [StepRecording.of_rows(*trial, names=names) for trial in raw]
+        assert set(partial[0].fields) == fields
+        in_order = [name for name in STEP_COLUMNS if name in names]
+        pd.testing.assert_frame_equal(steps_frame(step_columns(partial, names)), expected[in_order],
+                                      check_exact=True)
 
 
 def test_a_trial_keeps_the_step_log_columns_asked_for(paper) -> None:

@@ -44,6 +44,7 @@ states differing from the current one in mode alone (event ``mode_select``, with
 from __future__ import annotations
 
 import math
+from collections.abc import Collection
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -90,6 +91,7 @@ from nudgecli.steplog import (
     NO_GOAL,
     NUDGE,
     STEP,
+    STEP_COLUMNS,
     TRIAL_START,
 )
 
@@ -548,17 +550,18 @@ class TrialSession:
         self.rows.append((self.step, turn, self.x, self.y, self.theta, mode, state, intended, pressure,
                           measured, u_h, u_a, alpha, inferred, self.belief, self.entropy, events))
 
-    @property
-    def recording(self) -> StepRecording:
-        """The steps so far, raw (:func:`~nudgecli.sim.step_record.step_columns` makes the log of them)."""
+    def recording(self, names: Collection[str] = STEP_COLUMNS) -> StepRecording:
+        """The steps so far, raw, as the step log's columns ``names`` need them
+        (:func:`~nudgecli.sim.step_record.step_columns` makes the log of them)."""
         spec, world = self.spec, self.world
         assert world is not None
-        return StepRecording.of_rows(self.rows, spec.participant, spec.trial, self.settings.dt, world.cells)
+        return StepRecording.of_rows(self.rows, spec.participant, spec.trial, self.settings.dt, world.cells,
+                                     names)
 
     @property
     def columns(self) -> dict[str, np.ndarray | list[Any]]:
         """The steps so far as the step log's columns (:data:`~nudgecli.steplog.STEP_COLUMNS`)."""
-        return step_columns([self.recording])
+        return step_columns([self.recording()])
 
     # --- the trial's end ----------------------------------------------------------------------
 

@@ -37,6 +37,15 @@ _COMMAND_COLUMNS = {f"{field}_{axis}": (field, k) for field in ("u_h", "u_a")
                     for k, axis in enumerate(("x", "y", "theta"))}
 #: The cell columns, in the order of a world's ``cells(state)``.
 _CELL_COLUMNS = ("cell_x", "cell_y", "heading")
+#: The fields each derived column is made of (a plain column: its field; ``participant`` and
+#: ``trial``: none).
+_COLUMN_FIELDS: dict[str, tuple[str, ...]] = {
+    **{column: (field,) for column, field in _PLAIN_FIELDS.items()},
+    **{column: (field,) for column, (field, _) in _COMMAND_COLUMNS.items()},
+    **dict.fromkeys(_CELL_COLUMNS, ("state",)),
+    "participant": (), "trial": (), "t": ("step",), "mode": ("mode",), "phi_i": ("intended",),
+    "phi_m": ("measured",), "belief": ("belief",), "event": ("events",),
+}
 #: The fields a recording keeps as typed arrays, and their dtypes (the step log's, or integer codes).
 _FIELD_DTYPES: dict[str, type[np.generic]] = {
     **{field: STEP_NUMERIC_DTYPES[column] for column, field in _PLAIN_FIELDS.items()
@@ -56,7 +65,8 @@ class StepRecording:
         :data:`ROW_FIELDS` -> ``(N,)`` the steps' values: typed arrays of the numeric fields
         (``u_h`` and ``u_a`` ``(3N,)``, each command's ``(vx, vy, omega)`` in turn), tuples of
         the text and of the beliefs (arrays never changed in place); ``events`` holds each step's
-        ``event`` cell (its event names joined). Arrays are no work for the garbage collector, and
+        ``event`` cell (its event names joined). Only the fields of the step log's wanted columns
+        are kept. Arrays are no work for the garbage collector, and
         the tuples it visits once (a tuple per step, or a list of events, was one more object to
         visit for each step).
     participant, trial
@@ -75,17 +85,26 @@ class StepRecording:
 
     @classmethod
     def of_rows(cls, rows: Sequence[tuple[Any, ...]], participant: int, trial: int, dt: float,
-                cells: Callable[[int], tuple[int, int, int]]) -> StepRecording:
-        """The recording of ``(N,)`` raw rows (tuples of :data:`ROW_FIELDS`)."""
+                cells: Callable[[int], tuple[int, int, int]],
+                names: Collection[str] = STEP_COLUMNS) -> StepRecording:
+        """The recording of ``(N,)`` raw rows (tuples of :data:`ROW_FIELDS`), keeping the fields the
+        step log's columns ``names`` are made of (and ``step``)."""
         n = len(rows)
-        fields: dict[str, Any] = (dict(zip(ROW_FIELDS, zip(*rows, strict=True), strict=True)) if rows
-                                  else dict.fromkeys(ROW_FIELDS, ()))
-        fields["events"] = tuple(join_events(events) if events else "" for events in fields["events"])
-        for field, dtype in _FIELD_DTYPES.items():
-            if field in ("u_h", "u_a"):  # (vx, vy, omega) tuples, or hindsight's arrays
-                fields[field] = np.fromiter(chain.from_iterable(fields[field]), dtype=dtype, count=3 * n)
+        raw = (dict(zip(ROW_FIELDS, zip(*rows, strict=True), strict=True)) if rows
+               else dict.fromkeys(ROW_FIELDS, ()))
+        kept = {"step", *(field for name in wanted_step_columns(names) for field in _COLUMN_FIELDS[name])}
+        fields: dict[str, np.ndarray | tuple[Any, ...]] = {}
+        for field in (field for field in ROW_FIELDS if field in kept):
+            values = raw[field]
+            if field == "events":
+                fields[field] = tuple(join_events(events) if events else "" for events in values)
+            elif field in ("u_h", "u_a"):  # (vx, vy, omega) tuples, or hindsight's arrays
+                flat = chain.from_iterable(values)
+                fields[field] = np.fromiter(flat, dtype=_FIELD_DTYPES[field], count=3 * n)
+            elif field in _FIELD_DTYPES:
+                fields[field] = np.fromiter(values, dtype=_FIELD_DTYPES[field], count=n)
             else:
-                fields[field] = np.fromiter(fields[field], dtype=dtype, count=n)
+                fields[field] = values
         return cls(fields, participant, trial, dt, cells)
 
     def __len__(self) -> int:

@@ -60,7 +60,7 @@ def run_session(session: TrialSession, source: InputSource,
         else:
             session.autonomy_step()
             new_turn = after_autonomy = True
-    return TrialResult(session.summary(), session.recording, step_log_columns)
+    return TrialResult(session.summary(), session.recording(step_log_columns), step_log_columns)
 
 
 def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout, model: DisambiguationModel,
