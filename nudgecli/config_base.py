@@ -38,7 +38,6 @@ class Section(BaseModel):
         return data
 
 
-
 def admits(annotation: Any, kind: type) -> bool:
     """Whether a field's type admits values of ``kind`` (the type itself, a literal of such values,
     or a union, container or annotation holding one)."""
