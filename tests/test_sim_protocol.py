@@ -330,6 +330,10 @@ def test_a_participants_step_log_is_each_trials_rows_in_turn() -> None:
     assert list(empty.columns) == list(STEP_COLUMNS) and len(empty) == 0
     # a recording for some columns keeps only the fields they are made of (the metrics' batches
     # ask for a third of the columns), and gives those columns as the full recording does
+    for name in STEP_COLUMNS:  # each column alone, from a recording kept for it
+        alone_kept = [StepRecording.of_rows(*trial, names=(name,)) for trial in raw]
+        pd.testing.assert_frame_equal(steps_frame(step_columns(alone_kept, (name,))), expected[[name]],
+                                      check_exact=True)
     kept_fields = {("phi_m", "trial"): {"step", "measured"},
                    ("t", "cell_y", "u_a_x", "event"): {"step", "state", "u_a", "events"}}
     for names, fields in kept_fields.items():
