@@ -200,6 +200,51 @@ def test_a_study_as_big_as_the_pool_has_its_layouts_solved_once_and_sent(tmp_pat
     assert_same_tables(serial, on_dask)
 
 
+@pytest.mark.parametrize("workers", [1, 3])
+def test_every_analysis_of_a_batch_is_that_of_its_parts_as_read_back(tmp_path, monkeypatch, workers):
+    # power: analyses of a study's first n participants; on 3 workers each analysis's metrics are
+    # split over 3 tasks (merged in order) and its input comes from the parts this run just wrote
+    from nudgecli.runs.batch_folder import analysis_part, read_study_metrics
+    from nudgecli.runs.batch_kinds import power
+
+    submit_ready = batch_module._GraphRun.submit_ready
+
+    def keeping_only_what_waits(self) -> None:
+        submit_ready(self)
+        # the parts kept in memory are those of studies with an analysis still to submit
+        assert set(self.written) <= {analysis.study for analysis in self.waiting}
+
+    monkeypatch.setattr(batch_module._GraphRun, "submit_ready", keeping_only_what_waits)
+    result = power("smoke", [2, 3], 2, tmp_path / "power", seed=4, workers=workers)
+    run, plan = result.run, load_plan("paper")
+    names = list(plan.metrics.include)
+    assert len(names) >= 3
+    conditions = tuple(load_experiment("smoke").study.conditions)
+    for analysis in run.graph.analyses.values():
+        data = read_study_metrics(run.path, analysis.study, analysis.participants)
+        expected = batch_tasks.run_analysis_task(data, plan, names, conditions)
+        written = json.loads(analysis_part(run.path, analysis.key).read_text())
+        assert written == json.loads(json.dumps(expected))
+        assert [m["metric"] for m in written["metrics"]] == names
+
+
+def test_merged_analysis_chunks_are_the_document_of_all_the_metrics() -> None:
+    plan = AnalysisPlan(conditions=("a", "b"), bootstrap={"resamples": 100})
+    data = synthetic_study(np.random.default_rng(3), 6, 0.7)
+    data["other"] = data["value"] * 2.0 + 1.0
+    data["third"] = -data["value"]
+    names = ["value", "other", "third"]
+    whole = batch_tasks.run_analysis_task(data, plan, names)
+    for chunks in ([names], [names[:1], names[1:]], [names[:2], names[2:]], [[n] for n in names]):
+        parts = [batch_tasks.run_analysis_task(data, plan, chunk) for chunk in chunks]
+        assert batch_tasks.merge_analysis_chunks(parts) == whole
+    other = dict(whole, conditions=list(reversed(whole["conditions"])))
+    with pytest.raises(ValueError, match="different conditions"):
+        batch_tasks.merge_analysis_chunks([whole, other])
+    with pytest.raises(ValueError, match="no stats documents"):
+        batch_tasks.merge_analysis_chunks([])
+
+
 def test_points_differing_only_in_participants_share_one_study_of_the_largest() -> None:
     from nudgecli.runs.batch import Batch, Point, build_graph, estimate, estimate_batch
 

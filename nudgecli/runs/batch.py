@@ -12,7 +12,12 @@ make up the graph, all submitted to one executor:
   with fewer: participant ``i``'s results do not depend on how many others there are, so a
   power curve simulates each replication's largest study once and analyses its first ``n``;
 - an *analysis task* ``(study, n)``: the plan's statistics (:mod:`nudgecli.report.stats`, as
-  ``nudge analyze``) of the first ``n`` participants, submitted as soon as they are done.
+  ``nudge analyze``) of the first ``n`` participants, submitted as soon as they are done. Its
+  metrics are split into as many chunks as there are workers (each metric's statistics are its
+  own), one task each, and the chunks' documents merged in order
+  (:func:`~nudgecli.runs.batch_tasks.merge_analysis_chunks`), so a batch's last analysis does not
+  run on one worker while the others wait. Its input is the parts this process wrote in this run
+  (kept while an analysis of the study waits) or, after ``--resume``, read back from their files.
 
 Layouts and their solved goal MDPs (the :class:`~nudgecli.sim.study.StudyPlan`) are kept in a
 small cache in each worker (:mod:`nudgecli.runs.batch_tasks`: the tasks and the cache, keyed by
@@ -62,6 +67,7 @@ from nudgecli.runs.batch_folder import (
 from nudgecli.runs.batch_tasks import (
     install_plan,
     layout_key,
+    merge_analysis_chunks,
     metric_definitions,
     run_analysis_task,
     run_participant_task,
@@ -446,6 +452,13 @@ class _GraphRun:
         #: layout tasks: job key -> (study, chunk); a study's finished chunks by index
         self.layout_jobs: dict[str, tuple[str, int]] = {}
         self.solved: dict[str, dict[int, list[SolvedLayout]]] = {}
+        #: analysis tasks: job key -> (analysis, chunk of its metrics, its chunks); an analysis's
+        #: finished chunks by index
+        self.analysis_jobs: dict[str, tuple[str, int, int]] = {}
+        self.analysed: dict[str, dict[int, dict[str, Any]]] = {}
+        #: study key -> the metrics parts written in this run, by participant, while an analysis of
+        #: the study waits (its task reads them from here, not from the files)
+        self.written: dict[str, dict[int, pd.DataFrame]] = {}
 
     def submit_first(self) -> None:
         """Each study's participant tasks, or its layout tasks where its plan is shared
@@ -477,15 +490,25 @@ class _GraphRun:
         return not any(i < analysis.participants for i in self.remaining[analysis.study])
 
     def submit_ready(self) -> None:
-        """The waiting analyses whose participants are all done."""
+        """The waiting analyses whose participants are all done, each as one task per chunk of its
+        metrics (as many chunks as workers at most: a batch's last analyses then finish in
+        parallel, not on one worker while the others wait)."""
         submitted = [a for a in self.waiting if self.ready(a)]
         self.waiting = [a for a in self.waiting if not self.ready(a)]
+        chunks = [self.metrics[a:b] for a, b in layout_chunks(len(self.metrics), self.executor.workers)]
         for analysis in submitted:
-            data = read_study_metrics(self.folder, analysis.study, analysis.participants)
+            data = read_study_metrics(self.folder, analysis.study, analysis.participants,
+                                      self.written.get(analysis.study))
             conditions = tuple(self.graph.studies[analysis.study].config.study.conditions)
-            self.executor.submit(Job(analysis.key, run_analysis_task,
-                                     (data, self.batch.plan, self.metrics, conditions)))
-        self.in_flight += len(submitted)
+            self.analysed[analysis.key] = {}
+            for c, names in enumerate(chunks):
+                key = f"{analysis.key}-m{c:02d}"
+                self.analysis_jobs[key] = (analysis.key, c, len(chunks))
+                self.executor.submit(Job(key, run_analysis_task, (data, self.batch.plan, names, conditions)))
+                self.in_flight += 1
+        waiting = {a.study for a in self.waiting}
+        for study in [s for s in self.written if s not in waiting]:
+            del self.written[study]
 
     def take(self, job: Job, result: Any) -> bool:
         """Write a finished task's part (submitting what it unblocks); whether it was a task of
@@ -493,13 +516,21 @@ class _GraphRun:
         if job.key in self.layout_jobs:
             self.take_layouts(job.key, result)
             return False
-        if job.affinity is not None:  # a participant task
-            study_name, index = job.key.rsplit("-p", 1)
-            write_parquet_atomic(task_part(self.folder, study_name, int(index)), result.frame())
-            self.remaining[study_name].discard(int(index))
-            self.submit_ready()
-        else:
-            write_json_atomic(analysis_part(self.folder, job.key), result)
+        if job.key in self.analysis_jobs:
+            key, chunk, chunks = self.analysis_jobs.pop(job.key)
+            self.analysed[key][chunk] = result
+            if len(self.analysed[key]) < chunks:
+                return False
+            parts = self.analysed.pop(key)
+            document = merge_analysis_chunks([parts[c] for c in range(chunks)])
+            write_json_atomic(analysis_part(self.folder, key), document)
+            return True
+        study_name, index = job.key.rsplit("-p", 1)  # a participant task
+        frame = result.frame()
+        write_parquet_atomic(task_part(self.folder, study_name, int(index)), frame)
+        self.written.setdefault(study_name, {})[int(index)] = frame
+        self.remaining[study_name].discard(int(index))
+        self.submit_ready()
         return True
 
     def take_layouts(self, key: str, layouts: list[SolvedLayout]) -> None:

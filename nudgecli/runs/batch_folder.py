@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import shutil
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -54,9 +55,16 @@ def read_json(path: Path) -> dict[str, Any]:
     return json.loads(path.read_text(encoding="utf-8"))
 
 
-def read_study_metrics(folder: Path, study: str, participants: int) -> pd.DataFrame:
-    """The per-trial metrics of a study's first ``participants``, in participant order."""
-    frames = [read_parquet(task_part(folder, study, i)) for i in range(participants)]
+def read_study_metrics(folder: Path, study: str, participants: int,
+                       kept: Mapping[int, pd.DataFrame] | None = None) -> pd.DataFrame:
+    """The per-trial metrics of a study's first ``participants``, in participant order.
+
+    ``kept`` holds parts this process has just written, by participant (the frames it wrote,
+    equal to what reading them gives); the others are read from their files.
+    """
+    kept = kept or {}
+    frames = [kept.get(i) for i in range(participants)]
+    frames = [read_parquet(task_part(folder, study, i)) if f is None else f for i, f in enumerate(frames)]
     return pd.concat(frames, ignore_index=True)
 
 

@@ -153,9 +153,31 @@ def run_participant_task(config: ExperimentConfig, seed: int, index: int,
 
 def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str],
                       study_conditions: Sequence[str] = ()) -> dict[str, Any]:
-    """An analysis task: the replication's statistics (:func:`analyse_replication`; the study's
-    conditions give their order after the plan's)."""
+    """An analysis task: the replication's statistics of the metrics ``names``
+    (:func:`~nudgecli.report.replication.analyse_replication`; the study's conditions give their
+    order after the plan's). A replication's metrics may be split over several tasks, whose
+    documents :func:`merge_analysis_chunks` joins."""
     tune_allocator()
     from nudgecli.report.replication import analyse_replication
 
     return analyse_replication(metrics, analysis, names, study_conditions)
+
+
+def merge_analysis_chunks(documents: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+    """The stats document of a replication from its chunks' documents (:func:`run_analysis_task`
+    of one metrics table and plan, each with a consecutive chunk of the metrics), in chunk order.
+
+    Each metric is analysed on its own (:func:`~nudgecli.report.stats_document.analyze_metric`),
+    so this is the document one task of all the metrics makes, key for key.
+
+    Raises
+    ------
+    ValueError
+        No documents, or documents of different conditions (not of one table and plan).
+    """
+    if not documents:
+        raise ValueError("no stats documents to merge")
+    conditions = list(documents[0]["conditions"])
+    if any(list(d["conditions"]) != conditions for d in documents):
+        raise ValueError("stats documents of different conditions cannot be merged")
+    return {"conditions": conditions, "metrics": [entry for d in documents for entry in d["metrics"]]}
