@@ -104,11 +104,18 @@ def test_a_broadcast_never_reuses_the_file_of_one_still_being_read() -> None:
         executor._read_by_one("a")
         assert "a" not in executor._spooled and "a" not in executor._broadcast
         executor.broadcast(Job("c", int, ("3",)))
-        files = {key: entry[0] for key, entry in executor._spooled.items()}
+        files = {key: entry[0][0] for key, entry in executor._spooled.items()}
         assert files["b"] != files["c"]
         for key, path in files.items():
             with open(path, "rb") as handle:
                 assert pickle.load(handle).key == key
+        # the files a broadcast job reads go with it, once its one reader is done
+        scratch = executor.scratch_path("chunk.pickle")
+        Path(scratch).write_bytes(b"solved layouts")
+        executor.broadcast(Job("d", int, ("4",)), files=[scratch])
+        assert scratch in executor._spooled["d"][0] and scratch != executor.scratch_path("chunk.pickle")
+        executor._read_by_one("d")
+        assert not Path(scratch).exists()
     finally:
         executor.close()
 
@@ -243,6 +250,32 @@ def test_merged_analysis_chunks_are_the_document_of_all_the_metrics() -> None:
         batch_tasks.merge_analysis_chunks([whole, other])
     with pytest.raises(ValueError, match="no stats documents"):
         batch_tasks.merge_analysis_chunks([])
+
+
+@pytest.mark.skipif(os.name != "posix", reason="the pool's workers inherit the test's patches by fork")
+def test_on_the_pool_a_lone_studys_plan_reaches_the_workers_in_its_chunks_files(tmp_path, monkeypatch):
+    from nudgecli.runs.executors import ProcessExecutor
+
+    serial = replicate("smoke", 1, tmp_path / "serial", seed=5)
+    batch_tasks._PLANS.clear()
+
+    def no_build(*args, **kwargs):
+        raise AssertionError("a worker built a plan that was to be sent to it")
+
+    sent: list[tuple[str, list[str]]] = []
+    broadcast = ProcessExecutor.broadcast
+
+    def recording(self, job, files=()):
+        sent.append((job.func.__name__, list(files)))
+        broadcast(self, job, files)
+
+    monkeypatch.setattr(batch_module.StudyPlan, "build", no_build)  # the forked workers inherit it
+    monkeypatch.setattr(ProcessExecutor, "broadcast", recording)
+    pooled = replicate("smoke", 1, tmp_path / "pool", seed=5, workers=2)
+    assert_same_tables(serial, pooled)
+    # one broadcast, of the two layout chunks' files (the plan itself is never sent)
+    assert [(name, len(files)) for name, files in sent] == [("install_plan_of_files", 2)]
+    assert not any(Path(path).exists() for _, files in sent for path in files)
 
 
 def test_points_differing_only_in_participants_share_one_study_of_the_largest() -> None:

@@ -66,19 +66,21 @@ from nudgecli.runs.batch_folder import (
 )
 from nudgecli.runs.batch_tasks import (
     install_plan,
+    install_plan_of_files,
     layout_key,
     merge_analysis_chunks,
     metric_definitions,
     run_analysis_task,
     run_participant_task,
 )
-from nudgecli.runs.executors import Executor, Job, format_duration, make_executor
+from nudgecli.runs.executors import Executor, Job, ProcessExecutor, format_duration, make_executor
 from nudgecli.runs.size import check_size, trials_per_participant
 from nudgecli.runs.study import (
     connect_scheduler,
     executor_name,
     layout_chunks,
     solve_layout_chunk,
+    solve_layout_chunk_into,
 )
 from nudgecli.sim.study import StudyPlan, build_layouts, check_physiology_logs
 from nudgecli.store import provenance, utc_now, write_json_atomic, write_parquet_atomic
@@ -449,9 +451,10 @@ class _GraphRun:
         self.metrics = list(batch.plan.metrics.include)
         self.definitions = metric_definitions(batch.plan)
         self.in_flight = 0
-        #: layout tasks: job key -> (study, chunk); a study's finished chunks by index
+        #: layout tasks: job key -> (study, chunk); a study's finished chunks by index (on the process
+        #: pool: the files that hold them)
         self.layout_jobs: dict[str, tuple[str, int]] = {}
-        self.solved: dict[str, dict[int, list[SolvedLayout]]] = {}
+        self.solved: dict[str, dict[int, list[SolvedLayout] | str]] = {}
         #: analysis tasks: job key -> (analysis, chunk of its metrics, its chunks); an analysis's
         #: finished chunks by index
         self.analysis_jobs: dict[str, tuple[str, int, int]] = {}
@@ -477,7 +480,12 @@ class _GraphRun:
         for c, (start, stop) in enumerate(chunks):
             key = f"{study.key}-layouts{c:03d}"
             self.layout_jobs[key] = (study.key, c)
-            self.executor.submit(Job(key, solve_layout_chunk, (study.config, study.seed, start, stop)))
+            if isinstance(self.executor, ProcessExecutor):  # the chunk stays in a file the workers read
+                path = self.executor.scratch_path(f"{key}.pickle")
+                job = Job(key, solve_layout_chunk_into, (path, study.config, study.seed, start, stop))
+            else:
+                job = Job(key, solve_layout_chunk, (study.config, study.seed, start, stop))
+            self.executor.submit(job)
             self.in_flight += 1
 
     def submit_participants(self, study: Study) -> None:
@@ -533,17 +541,28 @@ class _GraphRun:
         self.submit_ready()
         return True
 
-    def take_layouts(self, key: str, layouts: list[SolvedLayout]) -> None:
-        """Keep a chunk of solved layouts; once a study has all of them, send its assembled plan
-        to every worker and submit its participant tasks."""
+    def take_layouts(self, key: str, layouts: list[SolvedLayout] | str) -> None:
+        """Keep a chunk of solved layouts (on the process pool: the file that holds them); once a
+        study has all of them, send its plan to every worker and submit its participant tasks.
+
+        The process pool's workers assemble the plan themselves from the chunks' files, so its
+        20 MB are neither received nor pickled again here while the workers wait; elsewhere this
+        process assembles it and sends it."""
         study_key, chunk = self.layout_jobs.pop(key)
         self.solved[study_key][chunk] = layouts
         if any(owner == study_key for owner, _ in self.layout_jobs.values()):
             return
         study = self.graph.studies[study_key]
         parts = self.solved.pop(study_key)
-        plan = StudyPlan.assemble(study.config, study.seed, [parts[c] for c in sorted(parts)])
-        self.executor.broadcast(Job(f"{study_key}-plan", install_plan, (plan,), affinity=study.layouts))
+        pieces = [parts[c] for c in sorted(parts)]
+        plan_key = f"{study_key}-plan"
+        if isinstance(self.executor, ProcessExecutor):
+            files = [str(path) for path in pieces]
+            self.executor.broadcast(Job(plan_key, install_plan_of_files, (study.config, study.seed, files),
+                                        affinity=study.layouts), files=files)
+        else:
+            plan = StudyPlan.assemble(study.config, study.seed, [p for p in pieces if not isinstance(p, str)])
+            self.executor.broadcast(Job(plan_key, install_plan, (plan,), affinity=study.layouts))
         self.submit_participants(study)
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import pickle
 import threading
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
@@ -89,6 +90,16 @@ def install_plan(plan: StudyPlan) -> None:
     """Put a study's plan, built elsewhere, into this process's cache (:func:`cached_plan` finds it)."""
     with _PLANS_LOCK:
         _remember_plan(layout_key(plan.config, plan.seed), plan)
+
+
+def install_plan_of_files(config: ExperimentConfig, seed: int, paths: Sequence[str]) -> None:
+    """:func:`install_plan` of the study's plan assembled here from its solved layouts, pickled in
+    the files ``paths`` in chunk order (:func:`~nudgecli.runs.study.solve_layout_chunk_into`)."""
+    chunks = []
+    for path in paths:
+        with open(path, "rb") as handle:
+            chunks.append(pickle.load(handle))
+    install_plan(StudyPlan.assemble(config, seed, chunks))
 
 
 @dataclasses.dataclass

@@ -25,7 +25,7 @@ import tempfile
 import time
 import traceback
 from collections import OrderedDict, deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any, TextIO
@@ -154,7 +154,7 @@ class ProcessExecutor:
         self._broadcast: set[str] = set()  # keys of broadcast jobs in flight (their results are dropped)
         self._spool: str | None = None  # where large and broadcast jobs wait for the workers to read them
         self._spooled_count = 0
-        #: jobs in the spool: key -> [file, workers yet to finish it]
+        #: jobs in the spool: key -> [its file and the files it reads, workers yet to finish it]
         self._spooled: dict[str, list[Any]] = {}
         #: The largest worker's peak resident memory in MB, known after :meth:`close`.
         self.peak_rss_mb: float | None = None
@@ -174,14 +174,16 @@ class ProcessExecutor:
     def workers(self) -> int:
         return len(self._slots)
 
-    def broadcast(self, job: Job) -> None:
+    def broadcast(self, job: Job, files: Sequence[str] = ()) -> None:
         """Send ``job`` to every worker now, ahead of any job dispatched later; a worker then counts
         as holding its affinity.
 
         The job is pickled once into a file and the workers get its path (see
-        :data:`PIPE_JOB_BYTES`; a study's plan is about 19 MB).
+        :data:`PIPE_JOB_BYTES`). ``files`` (paths of :meth:`scratch_path`) are what the job reads:
+        they are removed with it, once every worker has run it.
         """
-        small = self._spooled_job(job, pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL), len(self._slots))
+        small = self._spooled_job(job, pickle.dumps(job, protocol=pickle.HIGHEST_PROTOCOL), len(self._slots),
+                                  files)
         self._broadcast.add(job.key)
         for slot in self._slots:
             slot.conn.send(small)
@@ -243,16 +245,25 @@ class ProcessExecutor:
             slot.conn.send(self._spooled_job(job, data, 1))
         slot.inflight[job.key] = job
 
-    def _spooled_job(self, job: Job, data: bytes, readers: int) -> Job:
-        """Write ``job`` (pickled: ``data``) to a new file of the spool folder, to be read by
-        ``readers`` workers (then removed); the small job that runs it from there."""
+    def scratch_path(self, name: str) -> str:
+        """A new path in the spool folder, for a job to write a large result into: the workers share
+        this machine's files, so a result meant for every worker (a study's solved layouts) can
+        reach them by :meth:`broadcast`'s ``files`` without passing through this process."""
+        return self._spool_path(name)
+
+    def _spool_path(self, name: str) -> str:
         if self._spool is None:
             self._spool = tempfile.mkdtemp(prefix="nudge-jobs-")
         self._spooled_count += 1  # a new name each time: an earlier file may still be being read
-        path = os.path.join(self._spool, f"{self._spooled_count:06d}.pickle")
+        return os.path.join(self._spool, f"{self._spooled_count:06d}-{name}")
+
+    def _spooled_job(self, job: Job, data: bytes, readers: int, files: Sequence[str] = ()) -> Job:
+        """Write ``job`` (pickled: ``data``) to a new file of the spool folder, to be read by
+        ``readers`` workers (then removed, with ``files``); the small job that runs it from there."""
+        path = self._spool_path("job.pickle")
         with open(path, "wb") as handle:
             handle.write(data)
-        self._spooled[job.key] = [path, readers]
+        self._spooled[job.key] = [[path, *files], readers]
         return Job(job.key, run_pickled_job, (path,), job.affinity)
 
     def _read_by_one(self, key: str) -> None:
@@ -264,8 +275,9 @@ class ProcessExecutor:
         if entry[1] == 0:
             del self._spooled[key]
             self._broadcast.discard(key)
-            with contextlib.suppress(OSError):
-                os.remove(entry[0])
+            for path in entry[0]:
+                with contextlib.suppress(OSError):
+                    os.remove(path)
 
     def next_result(self) -> tuple[Job, Any]:
         while True:

@@ -14,6 +14,7 @@ import contextlib
 import itertools
 import math
 import os
+import pickle
 import sys
 import time
 from collections.abc import Callable, Iterator
@@ -64,6 +65,16 @@ def solve_layout_chunk(config: ExperimentConfig, seed: int, start: int, stop: in
     """The study's layouts ``start:stop`` solved: one piece of a plan built in parallel."""
     tune_allocator()
     return solve_layouts(config, build_layouts(config, seed)[start:stop])
+
+
+def solve_layout_chunk_into(path: str, config: ExperimentConfig, seed: int, start: int, stop: int) -> str:
+    """:func:`solve_layout_chunk`, its result pickled into the file ``path`` (on a worker that shares
+    this machine's files, so that the solved layouts reach the other workers without passing
+    through the batch's process); returns ``path``."""
+    layouts = solve_layout_chunk(config, seed, start, stop)
+    with open(path, "wb") as handle:
+        pickle.dump(layouts, handle, protocol=pickle.HIGHEST_PROTOCOL)
+    return path
 
 
 def _solve_chunk(args: tuple[ExperimentConfig, int, int, int]) -> list[SolvedLayout]:
