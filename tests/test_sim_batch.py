@@ -278,6 +278,46 @@ def test_on_the_pool_a_lone_studys_plan_reaches_the_workers_in_its_chunks_files(
     assert not any(Path(path).exists() for _, files in sent for path in files)
 
 
+def test_on_dask_a_broadcast_affinity_is_hinted_to_no_worker_and_others_to_one(monkeypatch) -> None:
+    # a lone study's plan goes to every worker; hinting its tasks to one of them left the others
+    # idle until dask's work stealing moved tasks (about a second)
+    distributed = pytest.importorskip("dask.distributed")
+    from nudgecli.runs.executors import DaskExecutor, Job
+
+    done = type("Done", (), {"add": lambda self, future: None})
+    monkeypatch.setattr(distributed, "as_completed", done)
+
+    class Client:
+        def __init__(self) -> None:
+            self.submitted: dict[str, dict] = {}
+            self.ran: list = []
+
+        def scheduler_info(self) -> dict:
+            return {"workers": {"tcp://b": {}, "tcp://a": {}}}
+
+        def submit(self, func, *args, key, pure, **kwargs):
+            self.submitted[key] = kwargs
+            return type("Future", (), {"key": key})()
+
+        def run(self, func, *args) -> None:
+            self.ran.append((func, args))
+
+    client = Client()
+    executor = DaskExecutor(client)
+    executor.submit(Job("s1-p0", int, ("1",), affinity="s1"))
+    executor.submit(Job("s2-p0", int, ("1",), affinity="s2"))
+    executor.broadcast(Job("s3-plan", int, ("1",), affinity="s3"))
+    executor.submit(Job("s3-p0", int, ("1",), affinity="s3"))
+    executor.submit(Job("s1-p1", int, ("1",), affinity="s1"))
+    executor.submit(Job("n1", int, ("1",)))
+    assert client.ran == [(int, ("1",))]
+    hinted = {key: kwargs.get("workers") for key, kwargs in client.submitted.items()}
+    assert hinted == {"nudge-s1-p0": ["tcp://a"], "nudge-s2-p0": ["tcp://b"], "nudge-s3-p0": None,
+                      "nudge-s1-p1": ["tcp://a"], "nudge-n1": None}
+    assert all(kwargs == {"workers": hinted[key], "allow_other_workers": True}
+               for key, kwargs in client.submitted.items() if hinted[key] is not None)
+
+
 def test_points_differing_only_in_participants_share_one_study_of_the_largest() -> None:
     from nudgecli.runs.batch import Batch, Point, build_graph, estimate, estimate_batch
 

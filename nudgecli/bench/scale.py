@@ -179,7 +179,11 @@ def scale_dask_figure(workload: str) -> Figure:
 
 
 def import_batch() -> None:
-    """What a dask worker imports before its first task (run on every worker before the clock starts)."""
+    """What a dask worker imports for a batch's tasks, run on every worker before the clock starts
+    (the figure excludes the workers' imports): the participant tasks' modules and the analysis
+    tasks' (pandas and the statistics, about 1 s, which a fresh worker otherwise pays on its first
+    analysis chunk, as the process pool's workers, forked from a process that has them, do not)."""
+    import nudgecli.report.replication
     import nudgecli.runs.batch  # noqa: F401
 
 

@@ -362,11 +362,13 @@ class DaskExecutor:
         #: Workers at the start (at least 1); the cluster may grow or shrink later.
         self.workers = max(1, len(self._workers))
         self._hints: dict[str, str] = {}
+        #: affinities whose data every worker got by :meth:`broadcast`: their jobs go anywhere
+        self._everywhere: set[str] = set()
         self._jobs: dict[str, Job] = {}
         self._done = as_completed()
 
     def _hint(self, affinity: str) -> list[str] | None:
-        if not self._workers:
+        if not self._workers or affinity in self._everywhere:
             return None
         if affinity not in self._hints:
             self._hints[affinity] = self._workers[len(self._hints) % len(self._workers)]
@@ -374,17 +376,23 @@ class DaskExecutor:
 
     def submit(self, job: Job) -> None:
         client = self._client
-        if job.affinity is not None:
+        hint = None if job.affinity is None else self._hint(job.affinity)
+        if hint is not None:
             future = client.submit(job.func, *job.args, key=f"nudge-{job.key}",
-                                   workers=self._hint(job.affinity), allow_other_workers=True, pure=False)
-        else:
+                                   workers=hint, allow_other_workers=True, pure=False)
+        else:  # no affinity, one every worker holds, or no worker known yet: anywhere
             future = client.submit(job.func, *job.args, key=f"nudge-{job.key}", pure=False)
         self._jobs[future.key] = job
         self._done.add(future)
 
     def broadcast(self, job: Job) -> None:
-        """Run ``job`` in every worker now (``Client.run``); a worker that joins later does not get it."""
+        """Run ``job`` in every worker now (``Client.run``); a worker that joins later does not get it.
+
+        Every worker then holds the job's affinity, so the jobs of that affinity are not hinted to
+        one worker (the others would wait for work stealing to give them any)."""
         self._client.run(job.func, *job.args)
+        if job.affinity is not None:
+            self._everywhere.add(job.affinity)
 
     def next_result(self) -> tuple[Job, Any]:
         future = next(self._done)
