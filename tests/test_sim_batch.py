@@ -288,12 +288,13 @@ def test_on_dask_a_broadcast_affinity_is_hinted_to_no_worker_and_others_to_one(m
     monkeypatch.setattr(distributed, "as_completed", done)
 
     class Client:
-        def __init__(self) -> None:
+        def __init__(self, workers: tuple[str, ...] = ("tcp://b", "tcp://a")) -> None:
+            self.workers = workers
             self.submitted: dict[str, dict] = {}
             self.ran: list = []
 
         def scheduler_info(self) -> dict:
-            return {"workers": {"tcp://b": {}, "tcp://a": {}}}
+            return {"workers": {name: {} for name in self.workers}}
 
         def submit(self, func, *args, key, pure, **kwargs):
             self.submitted[key] = kwargs
@@ -316,6 +317,10 @@ def test_on_dask_a_broadcast_affinity_is_hinted_to_no_worker_and_others_to_one(m
                       "nudge-s1-p1": ["tcp://a"], "nudge-n1": None}
     assert all(kwargs == {"workers": hinted[key], "allow_other_workers": True}
                for key, kwargs in client.submitted.items() if hinted[key] is not None)
+    # a cluster whose workers are not known yet: anywhere (dask refuses allow_other_workers alone)
+    empty = Client(workers=())
+    DaskExecutor(empty).submit(Job("s1-p0", int, ("1",), affinity="s1"))
+    assert empty.submitted == {"nudge-s1-p0": {}}
 
 
 def test_points_differing_only_in_participants_share_one_study_of_the_largest() -> None:
