@@ -148,6 +148,23 @@ def test_missing_columns_and_duplicate_trials_are_refused() -> None:
         trial_metrics(pd.concat([trials, trials.iloc[[0]]]), steps)
 
 
+def test_the_metrics_table_keeps_the_trial_tables_identifiers_and_types_its_metrics() -> None:
+    # the parts of every batch and `nudge analyze` are written with these types: counts are
+    # nullable integers, success is boolean, the identifiers keep the trial table's dtypes
+    trials, steps = _log()
+    trials["participant"] = trials["participant"].astype("Int64")  # e.g. a real study's table
+    trials.index = [7, 8, 9]
+    metrics = trial_metrics(trials, steps)
+    assert [str(t) for t in metrics.dtypes] == [
+        "Int64", str(trials["condition"].dtype), "int64", "int64", "float64", "float64", "Int64", "float64",
+        "float64", "Int64", "boolean", "float64", "float64"]
+    assert list(metrics.index) == [0, 1, 2]
+    assert metrics["condition"].tolist() == trials["condition"].tolist()
+    # trial 2 has no steps: its count is missing (not 0, not NaN in a float column)
+    assert metrics["mode_switches"].iloc[2] is pd.NA
+    assert metrics["success"].tolist() == [False, True, True]
+
+
 def test_completion_time_of_successful_trials_only_follows_the_paper():
     trials = pd.DataFrame({
         "participant": [0, 0], "condition": ["a", "a"], "block": [0, 0], "trial": [0, 1],
