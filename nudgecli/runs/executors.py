@@ -246,12 +246,10 @@ class ProcessExecutor:
         slot.inflight[job.key] = job
 
     def scratch_path(self, name: str) -> str:
-        """A new path in the spool folder, for a job to write a large result into: the workers share
-        this machine's files, so a result meant for every worker (a study's solved layouts) can
-        reach them by :meth:`broadcast`'s ``files`` without passing through this process."""
-        return self._spool_path(name)
-
-    def _spool_path(self, name: str) -> str:
+        """A new path in the spool folder (ending in ``name``), e.g. for a job to write a large
+        result into: the workers share this machine's files, so a result meant for every worker (a
+        study's solved layouts) can reach them by :meth:`broadcast`'s ``files`` without passing
+        through this process."""
         if self._spool is None:
             self._spool = tempfile.mkdtemp(prefix="nudge-jobs-")
         self._spooled_count += 1  # a new name each time: an earlier file may still be being read
@@ -260,7 +258,7 @@ class ProcessExecutor:
     def _spooled_job(self, job: Job, data: bytes, readers: int, files: Sequence[str] = ()) -> Job:
         """Write ``job`` (pickled: ``data``) to a new file of the spool folder, to be read by
         ``readers`` workers (then removed, with ``files``); the small job that runs it from there."""
-        path = self._spool_path("job.pickle")
+        path = self.scratch_path("job.pickle")
         with open(path, "wb") as handle:
             handle.write(data)
         self._spooled[job.key] = [[path, *files], readers]
