@@ -144,12 +144,21 @@ def test_layout_chunks_cover_the_layouts_in_order() -> None:
     assert batch_module.layout_chunks(5, 1) == [(0, 5)]
 
 
-def test_a_plan_assembled_from_layout_tasks_equals_the_built_one() -> None:
+def test_a_plan_assembled_from_layout_tasks_equals_the_built_one(tmp_path) -> None:
+    from nudgecli.runs.study import solve_layout_chunk, solve_layout_chunk_into
+
     config = load_experiment("paper")
-    chunks = [batch_module.solve_layout_chunk(config, 11, a, b) for a, b in batch_module.layout_chunks(48, 5)]
+    ranges = batch_module.layout_chunks(48, 5)
+    chunks = [solve_layout_chunk(config, 11, a, b) for a, b in ranges]
     built = StudyPlan.build(config, 11)
+    # a batch's workers assemble it from the layout tasks' files (in chunk order) into their cache
+    files = [solve_layout_chunk_into(str(tmp_path / f"{a}.pickle"), config, 11, a, b)
+             for a, b in ranges[::-1]]
+    batch_tasks._PLANS.clear()
+    batch_tasks.install_plan_of_files(config, 11, files[::-1])
+    installed = batch_tasks._PLANS[layout_key(config, 11)]
     # assembled here from chunks, and by `nudge simulate --workers 3` in three processes
-    for assembled in (StudyPlan.assemble(config, 11, chunks), build_plan_on(config, 11, 3)):
+    for assembled in (StudyPlan.assemble(config, 11, chunks), build_plan_on(config, 11, 3), installed):
         assert len(assembled.solved) == len(built.solved) == 48
         for mine, theirs in zip(assembled.solved, built.solved, strict=True):
             for name in ("policy", "values", "p_a_given_sg"):
@@ -158,10 +167,11 @@ def test_a_plan_assembled_from_layout_tasks_equals_the_built_one() -> None:
                                       simulate_participant(built, 0).trials, check_exact=True)
 
 
-def test_a_study_as_big_as_the_pool_has_its_layouts_solved_once_and_sent(tmp_path, monkeypatch):
-    """A lone study with as many participants as workers has its layouts solved in layout tasks
-    (one chunk per worker), its plan broadcast before its participant tasks, and no worker
-    builds the plan itself; the tables equal a serial run's, on processes and on dask."""
+def test_off_the_pool_a_lone_study_is_spread_and_every_worker_builds_its_plan(tmp_path, monkeypatch):
+    """A lone study with as many participants as workers, on executors whose workers may not share
+    this machine's files (dask): no layout tasks and no plan sent (each worker builds the plan,
+    faster than sending it to many), its tasks spread over the workers; the tables equal a serial
+    run's, on a fake two-worker executor and on dask."""
     from nudgecli.runs.executors import SerialExecutor
 
     events: list[tuple[str, str]] = []
@@ -177,30 +187,23 @@ def test_a_study_as_big_as_the_pool_has_its_layouts_solved_once_and_sent(tmp_pat
             events.append(("broadcast", job.func.__name__))
             super().broadcast(job)
 
+        def spread(self, affinity):
+            events.append(("spread", affinity))
+
     serial = replicate("smoke", 1, tmp_path / "serial", seed=5)
-    batch_tasks._PLANS.clear()
-
-    def no_build(*args, **kwargs):
-        raise AssertionError("a worker built a plan that was to be sent to it")
-
     monkeypatch.setattr(batch_module, "make_executor", lambda workers, client: TwoWorkers())
-    monkeypatch.setattr(batch_module.StudyPlan, "build", no_build)
     shared = replicate("smoke", 1, tmp_path / "shared", seed=5)
     assert_same_tables(serial, shared)
-    names = [name for _, name in events]
-    assert names.count("install_plan") == 1
-    assert names.count("solve_layout_chunk") == 2  # one chunk per worker
-    assert names.index("install_plan") < names.index("run_participant_task")
-    # two studies for two workers: each keeps its own worker, no plan is sent
+    study = next(iter(shared.run.graph.studies.values()))
+    assert [e for e in events if e[0] != "submit"] == [("spread", study.layouts)]
+    submitted = {name for kind, name in events if kind == "submit"}
+    assert submitted == {"run_participant_task", "run_analysis_task"}
+    # two studies for two workers: each keeps its own worker, nothing is spread or sent
     events.clear()
-    monkeypatch.undo()
-    monkeypatch.setattr(batch_module, "make_executor", lambda workers, client: TwoWorkers())
     replicate("smoke", 2, tmp_path / "two-studies", seed=5)
-    assert "install_plan" not in [name for _, name in events]
+    assert [e for e in events if e[0] != "submit"] == []
     monkeypatch.undo()
     distributed = pytest.importorskip("dask.distributed")
-    batch_tasks._PLANS.clear()
-    monkeypatch.setattr(batch_module.StudyPlan, "build", no_build)  # the workers share this process
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
                                   dashboard_address=":0") as cluster:
         on_dask = replicate("smoke", 1, tmp_path / "dask", seed=5, scheduler=cluster.scheduler_address)
@@ -269,7 +272,7 @@ def test_on_the_pool_a_lone_studys_plan_reaches_the_workers_in_its_chunks_files(
         sent.append((job.func.__name__, list(files)))
         broadcast(self, job, files)
 
-    monkeypatch.setattr(batch_module.StudyPlan, "build", no_build)  # the forked workers inherit it
+    monkeypatch.setattr(StudyPlan, "build", no_build)  # the forked workers inherit it
     monkeypatch.setattr(ProcessExecutor, "broadcast", recording)
     pooled = replicate("smoke", 1, tmp_path / "pool", seed=5, workers=2)
     assert_same_tables(serial, pooled)

@@ -88,6 +88,9 @@ class SerialExecutor:
     def broadcast(self, job: Job) -> None:
         execute(job)
 
+    def spread(self, affinity: str) -> None:
+        """Nothing to do: one process runs every job."""
+
     def next_result(self) -> tuple[Job, Any]:
         job = self._queue.popleft()
         return job, execute(job)
@@ -190,6 +193,9 @@ class ProcessExecutor:
             slot.inflight[job.key] = small
             if job.affinity is not None:
                 self._hold(slot, job.affinity)
+
+    def spread(self, affinity: str) -> None:
+        """Nothing to do: an idle worker already takes jobs of the affinity the fewest workers hold."""
 
     def submit(self, job: Job) -> None:
         if job.affinity is None:
@@ -382,6 +388,11 @@ class DaskExecutor:
             future = client.submit(job.func, *job.args, key=f"nudge-{job.key}", pure=False)
         self._jobs[future.key] = job
         self._done.add(future)
+
+    def spread(self, affinity: str) -> None:
+        """Hint the jobs of ``affinity`` to no worker: every worker is to hold its data (e.g. each
+        builds a lone study's plan itself), so none should wait for work stealing to get some."""
+        self._everywhere.add(affinity)
 
     def broadcast(self, job: Job) -> None:
         """Run ``job`` in every worker now (``Client.run``); a worker that joins later does not get it.
