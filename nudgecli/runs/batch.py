@@ -25,9 +25,12 @@ what the plans depend on), never built once per task: the process pool sends eac
 tasks of the studies it already holds, and on dask the tasks of a study are hinted to one worker
 (work stealing may still move them). In a batch of fewer studies than workers, a study with at
 least as many unfinished participants as there are workers would have every worker solve all its
-layouts at the start; its layouts are solved once instead, in chunks spread over the workers
-(*layout tasks*, :func:`nudgecli.sim.study.solve_layout_chunk`), and the assembled plan is sent
-to every worker (:func:`~nudgecli.runs.batch_tasks.install_plan`) before its participant tasks.
+layouts at the start. On the process pool its layouts are solved once instead, in chunks spread
+over the workers (*layout tasks*, :func:`nudgecli.runs.study.solve_layout_chunk_into`, each
+chunk pickled into a file), and every worker assembles the plan from those files
+(:func:`~nudgecli.runs.batch_tasks.install_plan_of_files`) before the study's participant tasks.
+On dask, whose workers need not share this machine's files, every worker builds the plan itself
+(faster than sending it to many workers) and the study's tasks are hinted to none.
 Every result is written by this process as an atomic part file (``tasks/``, ``analyses/``), so
 ``--resume`` finishes an interrupted batch without recomputing a finished task, and the tables
 assembled from the parts are the same for any executor and number of workers. The executors
