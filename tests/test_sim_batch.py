@@ -281,9 +281,9 @@ def test_on_the_pool_a_lone_studys_plan_reaches_the_workers_in_its_chunks_files(
     assert not any(Path(path).exists() for _, files in sent for path in files)
 
 
-def test_on_dask_a_broadcast_affinity_is_hinted_to_no_worker_and_others_to_one(monkeypatch) -> None:
-    # a lone study's plan goes to every worker; hinting its tasks to one of them left the others
-    # idle until dask's work stealing moved tasks (about a second)
+def test_on_dask_a_spread_or_broadcast_affinity_is_hinted_to_no_worker_and_others_to_one(monkeypatch) -> None:
+    # every worker holds a lone study's plan (each builds it, or it was sent to all); hinting its
+    # tasks to one of them left the others idle until dask's work stealing moved tasks (a second)
     distributed = pytest.importorskip("dask.distributed")
     from nudgecli.runs.executors import DaskExecutor, Job
 
@@ -312,12 +312,14 @@ def test_on_dask_a_broadcast_affinity_is_hinted_to_no_worker_and_others_to_one(m
     executor.submit(Job("s2-p0", int, ("1",), affinity="s2"))
     executor.broadcast(Job("s3-plan", int, ("1",), affinity="s3"))
     executor.submit(Job("s3-p0", int, ("1",), affinity="s3"))
+    executor.spread("s4")
+    executor.submit(Job("s4-p0", int, ("1",), affinity="s4"))
     executor.submit(Job("s1-p1", int, ("1",), affinity="s1"))
     executor.submit(Job("n1", int, ("1",)))
     assert client.ran == [(int, ("1",))]
     hinted = {key: kwargs.get("workers") for key, kwargs in client.submitted.items()}
     assert hinted == {"nudge-s1-p0": ["tcp://a"], "nudge-s2-p0": ["tcp://b"], "nudge-s3-p0": None,
-                      "nudge-s1-p1": ["tcp://a"], "nudge-n1": None}
+                      "nudge-s4-p0": None, "nudge-s1-p1": ["tcp://a"], "nudge-n1": None}
     assert all(kwargs == {"workers": hinted[key], "allow_other_workers": True}
                for key, kwargs in client.submitted.items() if hinted[key] is not None)
     # a cluster whose workers are not known yet: anywhere (dask refuses allow_other_workers alone)
