@@ -227,6 +227,26 @@ def test_a_full_disk_while_writing_a_participant_leaves_no_half_participant(tmp_
     assert_same_run(out, clean_run)
 
 
+@pytest.mark.skipif(os.name != "posix", reason="the pool's workers inherit the test's patch by fork")
+def test_a_full_disk_under_a_workers_file_is_one_error_line(tmp_path, monkeypatch):
+    # a lone study's layout tasks pickle their chunks into the pool's spool folder, in the workers
+    import nudgecli.runs.study as study
+
+    def dump(obj, handle, protocol=None):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), handle.name)
+
+    monkeypatch.setattr(study.pickle, "dump", dump)  # the forked workers inherit it
+    out = tmp_path / "batch"
+    result = CliRunner().invoke(main, ["replicate", "smoke", "-R", "1", "--workers", "2", "--out", str(out)])
+    assert result.exit_code == 1, result.output
+    errors = [line for line in result.output.splitlines() if line.startswith("Error: ")]
+    assert len(errors) == 1 and "Traceback" not in result.output  # after the size and progress lines
+    line = errors[0]
+    assert "No space left on device" in line and "layouts" in line
+    assert json.loads((out / "batch.json").read_text())["status"] == "interrupted"
+    assert not Path(line.split(": ")[1]).parent.exists()  # the spool folder is gone with the pool
+
+
 def _deny_writes(monkeypatch) -> None:
     """Every new file fails as in a read-only folder (the atomic writer's and any other mkstemp)."""
 

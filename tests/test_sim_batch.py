@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import io
 import json
 import math
@@ -326,6 +327,32 @@ def test_on_dask_a_spread_or_broadcast_affinity_is_hinted_to_no_worker_and_other
     empty = Client(workers=())
     DaskExecutor(empty).submit(Job("s1-p0", int, ("1",), affinity="s1"))
     assert empty.submitted == {"nudge-s1-p0": {}}
+
+
+def _full_disk(path: str) -> None:
+    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), path)
+
+
+def test_an_oserror_in_a_task_reaches_the_command_as_itself_on_the_pool_and_on_dask() -> None:
+    # the command turns an OSError into one error line with its path and cause (a WorkerError
+    # would be a traceback)
+    from nudgecli.runs.executors import DaskExecutor, Job, ProcessExecutor
+
+    def check(executor) -> None:
+        executor.submit(Job("x", _full_disk, ("/spool/chunk.pickle",)))
+        with pytest.raises(OSError) as raised:
+            executor.next_result()
+        assert raised.value.errno == errno.ENOSPC and raised.value.filename == "/spool/chunk.pickle"
+
+    pool = ProcessExecutor(1)
+    try:
+        check(pool)
+    finally:
+        pool.abort()
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=":0") as cluster, distributed.Client(cluster) as client:
+        check(DaskExecutor(client))
 
 
 def test_points_differing_only_in_participants_share_one_study_of_the_largest() -> None:

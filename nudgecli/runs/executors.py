@@ -125,6 +125,10 @@ def _pool_worker(conn: Connection, parent_pid: int) -> None:
             return
         try:
             result = execute(job)
+        except OSError as exc:  # e.g. a full disk under a file the job writes: the parent re-raises it
+            cause = (exc.errno, exc.strerror or str(exc), exc.filename, exc.filename2)
+            conn.send(("oserror", job.key, cause))
+            continue
         except Exception:
             conn.send(("error", job.key, traceback.format_exc()))
             continue
@@ -300,6 +304,9 @@ class ProcessExecutor:
             job = slot.inflight.pop(key)
             broadcast = key in self._broadcast
             self._read_by_one(key)
+            if status == "oserror":  # the command's one error line (path and cause), as in this process
+                code, cause, path, other = payload
+                raise OSError(code, cause, path, None, other)
             if status != "ok":
                 raise WorkerError(f"task {key} failed in a worker:\n{payload}")
             if not broadcast:
@@ -408,6 +415,8 @@ class DaskExecutor:
         job = self._jobs.pop(future.key)
         try:
             result = future.result()
+        except OSError:  # the command's one error line (path and cause), as in this process
+            raise
         except Exception as exc:
             raise WorkerError(f"task {job.key} failed on the cluster: {exc!r}") from exc
         future.release()
