@@ -3,7 +3,8 @@
 All three take :class:`Job` objects with :meth:`submit` and give back ``(job, result)`` pairs, in
 the order they finish, with :meth:`next_result`; :meth:`broadcast` runs a job once in every worker
 (to hand each the data a study's tasks share) before the jobs submitted after it, and its result is
-dropped; :meth:`close` ends them, :meth:`abort` at once (after Ctrl-C or a failure). ``workers`` is
+dropped; :meth:`spread` says that every worker is to hold an affinity's data (dask then hints its jobs
+to no worker); :meth:`close` ends them, :meth:`abort` at once (after Ctrl-C or a failure). ``workers`` is
 how many run at once. The process pool is this package's own (not ``concurrent.futures``), so that
 it can send each worker the tasks whose data it already holds: a worker gets, in order, a task
 without affinity, a task of an affinity it has served recently, else a task of the affinity the
@@ -373,7 +374,8 @@ class DaskExecutor:
         #: Workers at the start (at least 1); the cluster may grow or shrink later.
         self.workers = max(1, len(self._workers))
         self._hints: dict[str, str] = {}
-        #: affinities whose data every worker got by :meth:`broadcast`: their jobs go anywhere
+        #: affinities whose data every worker holds (:meth:`broadcast`, :meth:`spread`): their jobs go
+        #: anywhere
         self._everywhere: set[str] = set()
         self._jobs: dict[str, Job] = {}
         self._done = as_completed()
