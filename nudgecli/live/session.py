@@ -62,7 +62,7 @@ from nudgecli.sim.calibration_readers import read_sessions
 from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec
 from nudgecli.sim.study import StudyLayout, StudyPlan, participant_schedule, solve_layouts
 from nudgecli.sim.trials import handover_steps
-from nudgecli.steplog import AUTONOMY_TURN, HUMAN_TURN, STEP_COLUMNS
+from nudgecli.steplog import AUTONOMY_TURN, HUMAN_TURN, STEP_COLUMNS, steps_frame
 
 #: The practice trials of phase 3, in order.
 PRACTICE = ("teleoperation", "blending", "turn-taking")
@@ -428,7 +428,7 @@ class LiveSession:
             "duration_s": summary["duration_s"],
         }
         if running.kind == "evaluation":
-            steps = pd.DataFrame(session.columns)
+            steps = steps_frame(session.columns)  # the step log's one frame maker, as a simulated run's
             self.trials = (
                 pd.concat([self.trials, pd.DataFrame([summary])], ignore_index=True)
                 if len(self.trials)
