@@ -139,17 +139,17 @@ def test_the_pool_gives_every_worker_a_job_before_any_gets_a_second() -> None:
 
 
 def test_layout_chunks_cover_the_layouts_in_order() -> None:
-    assert batch_module.layout_chunks(48, 16) == [(3 * k, 3 * k + 3) for k in range(16)]
-    assert batch_module.layout_chunks(10, 4) == [(0, 2), (2, 5), (5, 8), (8, 10)]
-    assert batch_module.layout_chunks(3, 8) == [(0, 1), (1, 2), (2, 3)]
-    assert batch_module.layout_chunks(5, 1) == [(0, 5)]
+    assert batch_module.contiguous_chunks(48, 16) == [(3 * k, 3 * k + 3) for k in range(16)]
+    assert batch_module.contiguous_chunks(10, 4) == [(0, 2), (2, 5), (5, 8), (8, 10)]
+    assert batch_module.contiguous_chunks(3, 8) == [(0, 1), (1, 2), (2, 3)]
+    assert batch_module.contiguous_chunks(5, 1) == [(0, 5)]
 
 
 def test_a_plan_assembled_from_layout_tasks_equals_the_built_one(tmp_path) -> None:
     from nudgecli.runs.study import solve_layout_chunk, solve_layout_chunk_into
 
     config = load_experiment("paper")
-    ranges = batch_module.layout_chunks(48, 5)
+    ranges = batch_module.contiguous_chunks(48, 5)
     chunks = [solve_layout_chunk(config, 11, a, b) for a, b in ranges]
     built = StudyPlan.build(config, 11)
     # a batch's workers assemble it from the layout tasks' files (in chunk order) into their cache

@@ -78,8 +78,8 @@ from nudgecli.runs.executors import Executor, Job, ProcessExecutor, format_durat
 from nudgecli.runs.size import check_size, trials_per_participant
 from nudgecli.runs.study import (
     connect_scheduler,
+    contiguous_chunks,
     executor_name,
-    layout_chunks,
     solve_layout_chunk_into,
 )
 from nudgecli.sim.study import build_layouts, check_physiology_logs
@@ -485,7 +485,7 @@ class _GraphRun:
         """The study's layout tasks (on the process pool: :meth:`submit_first`)."""
         assert isinstance(self.executor, ProcessExecutor)
         self.solved[study.key] = {}
-        chunks = layout_chunks(len(build_layouts(study.config, study.seed)), self.executor.workers)
+        chunks = contiguous_chunks(len(build_layouts(study.config, study.seed)), self.executor.workers)
         for c, (start, stop) in enumerate(chunks):
             key = f"{study.key}-layouts{c:03d}"
             self.layout_jobs[key] = (study.key, c)
@@ -509,7 +509,7 @@ class _GraphRun:
         parallel, not on one worker while the others wait)."""
         submitted = [a for a in self.waiting if self.ready(a)]
         self.waiting = [a for a in self.waiting if not self.ready(a)]
-        chunks = [self.metrics[a:b] for a, b in layout_chunks(len(self.metrics), self.executor.workers)]
+        chunks = [self.metrics[a:b] for a, b in contiguous_chunks(len(self.metrics), self.executor.workers)]
         for analysis in submitted:
             data = read_study_metrics(self.folder, analysis.study, analysis.participants,
                                       self.written.get(analysis.study))

@@ -54,10 +54,11 @@ from nudgecli.store import RunFolder, new_manifest, utc_now
 
 # --- the plan, its layouts solved in parallel ---------------------------------------------
 
-def layout_chunks(n_layouts: int, parts: int) -> list[tuple[int, int]]:
-    """``range(n_layouts)`` as at most ``parts`` contiguous ``(start, stop)`` chunks of near-equal size."""
-    parts = max(1, min(parts, n_layouts))
-    edges = [round(k * n_layouts / parts) for k in range(parts + 1)]
+def contiguous_chunks(n: int, parts: int) -> list[tuple[int, int]]:
+    """``range(n)`` as at most ``parts`` contiguous ``(start, stop)`` chunks of near-equal size (a
+    study's layouts over its layout tasks, a replication's metrics over its analysis tasks)."""
+    parts = max(1, min(parts, n))
+    edges = [round(k * n / parts) for k in range(parts + 1)]
     return [(a, b) for a, b in itertools.pairwise(edges) if b > a]
 
 
@@ -91,7 +92,7 @@ def build_plan_on(config: ExperimentConfig, seed: int, workers: int, client: Any
         workers = max(1, len(client.scheduler_info().get("workers", {})))
     if workers <= 1 or config.world.kind == "ciaa":
         return StudyPlan.build(config, seed)
-    chunks = layout_chunks(len(build_layouts(config, seed)), workers)
+    chunks = contiguous_chunks(len(build_layouts(config, seed)), workers)
     if client is not None:
         futures = [client.submit(solve_layout_chunk, config, seed, a, b, pure=False) for a, b in chunks]
         return StudyPlan.assemble(config, seed, client.gather(futures))
