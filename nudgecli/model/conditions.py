@@ -4,6 +4,8 @@ protocol and the statistics all read it without loading numerical libraries)."""
 
 from __future__ import annotations
 
+from collections.abc import Collection, Mapping, Sequence
+
 #: Every policy, by condition name (:mod:`nudgecli.model.policies` implements them).
 POLICIES = ("disambiguation", "control", "teleoperation", "blending", "mode-switch", "hindsight")
 #: The paper's two conditions, in the paper's order.
@@ -16,3 +18,48 @@ TURN_TAKING = frozenset({"disambiguation", "control", "mode-switch"})
 UNASSISTED = frozenset({"teleoperation"})
 #: Policies that blend during the human's turn with the paper's alpha (Algorithm 1, line 8).
 BLENDING = frozenset({"disambiguation", "control", "mode-switch", "blending"})
+
+#: Metrics a built-in policy makes constant by construction (not applicable to its condition):
+#: without turn-taking the person's turn is the whole trial (``human_effort`` 1, ``human_turns`` 1);
+#: without assistance there is nothing to engage; an additive assistance has no blending weight
+#: to average (its alpha is 1 whenever it acts).
+CONSTANT_METRICS: dict[str, frozenset[str]] = {
+    "disambiguation": frozenset(),
+    "control": frozenset(),
+    "turn-taking": frozenset(),
+    "mode-switch": frozenset(),
+    "teleoperation": frozenset({"assistance_engagement", "assistance_strength", "human_effort",
+                                "human_turns"}),
+    "blending": frozenset({"human_effort", "human_turns"}),
+    "hindsight": frozenset({"assistance_strength", "human_effort", "human_turns"}),
+}
+
+
+def not_applicable_metrics(conditions: Sequence[str],
+                           constant_metrics: Mapping[str, Collection[str]] | None = None,
+                           ) -> dict[str, tuple[str, ...]]:
+    """Metric -> the conditions for which it is not applicable (constant by construction).
+
+    Parameters
+    ----------
+    conditions
+        The study's conditions, in order.
+    constant_metrics
+        Condition -> the metrics its policy makes constant (an experiment's resolved policies:
+        ``nudgecli.sim.policy_registry.constant_metrics_of``); by default the built-in policies'
+        :data:`CONSTANT_METRICS` under each condition's policy name (aliases resolved), nothing for
+        a condition that names no built-in policy.
+
+    Returns
+    -------
+    dict
+        Only metrics with at least one such condition; conditions in the study's order.
+    """
+    if constant_metrics is None:
+        constant_metrics = {name: CONSTANT_METRICS.get(POLICY_ALIASES.get(name, name), frozenset())
+                            for name in conditions}
+    table: dict[str, list[str]] = {}
+    for condition in conditions:
+        for metric in sorted(constant_metrics.get(condition, ())):
+            table.setdefault(metric, []).append(condition)
+    return {metric: tuple(names) for metric, names in sorted(table.items())}
