@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import functools
 import tomllib
-from typing import Annotated, Literal, TypeVar, cast
+from typing import Annotated, Any, Literal, TypeVar, cast
 
 from pydantic import ConfigDict, Field, ValidationError, field_validator, model_validator
 
@@ -98,10 +98,8 @@ class StudySection(Section):
     @field_validator("conditions")
     @classmethod
     def _known_conditions(cls, conditions: tuple[str, ...]) -> tuple[str, ...]:
-        for name in conditions:
-            if name not in CONDITION_NAMES:
-                raise ValueError(f"unknown condition {name!r}{did_you_mean(name, CONDITION_NAMES)}; "
-                                 f"known: {', '.join(CONDITION_NAMES)}")
+        # a name that is no built-in policy must be one of the experiment's [policies.NAME]:
+        # ExperimentConfig checks it, where the sections are known
         if len(conditions) == 1:
             raise ValueError(f"only one condition ({conditions[0]!r}); a study compares two or more, "
                              "e.g. conditions = [\"disambiguation\", \"control\"]")
@@ -249,6 +247,7 @@ class BlendingPolicySection(Section):
     by more than ``gap`` (the open hindsight-optimisation code's confidence gate, 0.4).
     """
 
+    kind: Literal["convex", "additive"] = "convex"
     gate: Literal["none", "gap"] = "none"
     gap: Annotated[float, Field(ge=0, lt=1)] = 0.4
 
@@ -265,6 +264,19 @@ class ModeSwitchSection(Section):
     """
 
     criterion: Literal["disamb", "entropy", "kl"] = "disamb"
+
+
+class CustomPolicySection(Section):
+    """``[policies.NAME]``: a condition ``NAME`` that runs a researcher's own policy.
+
+    ``factory`` names it as ``module:attribute`` (the module is imported from the experiment file's
+    folder, then from ``sys.path``); the attribute is called with ``params`` as keyword arguments
+    once per trial and returns an object with the policy interface
+    (``nudgecli.sim.policy_interface.Policy``; docs/policies.md).
+    """
+
+    factory: str = Field(min_length=3, pattern=r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
+    params: dict[str, Any] = Field(default_factory=dict)
 
 
 class HindsightSection(Section):
@@ -336,12 +348,27 @@ class ExperimentConfig(Section):
     blending: BlendingPolicySection | None = None
     mode_switch: ModeSwitchSection | None = Field(default=None, alias="mode-switch")
     hindsight: HindsightSection | None = None
+    # a researcher's own policies, by condition name
+    policies: dict[str, CustomPolicySection] | None = None
+    # the folder their modules are imported from (the experiment file's; never written out)
+    policy_search_path: str | None = Field(default=None, exclude=True)
 
     model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=True, populate_by_name=True,
                               defer_build=True)
 
     @model_validator(mode="after")
     def _check_policy_sections(self) -> ExperimentConfig:
+        own = self.policies or {}
+        for name in own:
+            if name in CONDITION_NAMES:
+                raise ValueError(f"[policies.{name}] reuses the built-in policy's name {name!r}; give your "
+                                 "policy a name of its own")
+        for name in self.study.conditions:
+            if name not in CONDITION_NAMES and name not in own:
+                known = (*CONDITION_NAMES, *own)
+                raise ValueError(f"study.conditions: unknown condition {name!r}{did_you_mean(name, known)}; "
+                                 f"known: {', '.join(known)} (or define your own in a [policies.{name}] "
+                                 "section: docs/policies.md)")
         if self.world.kind != "grid":
             return self
         for condition in self.study.conditions:
@@ -401,7 +428,10 @@ def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = 
             ExperimentConfig.model_validate(data)
         except ValidationError as exc:
             raise ConfigError(format_validation_error(exc, f"--set {text}", ExperimentConfig)) from None
-    return ExperimentConfig.model_validate(data)
+    config = ExperimentConfig.model_validate(data)
+    if config.policies:  # a researcher's policy modules are imported from beside the experiment file
+        config = config.model_copy(update={"policy_search_path": str(path.resolve().parent)})
+    return config
 
 
 def experiment_from_toml(text: str, source: str = "config.toml") -> ExperimentConfig:

@@ -38,6 +38,17 @@ class LockError(RunFolderError):
     """A run folder is being written by another command (its lock names the holder)."""
 
 
+class PolicyError(NudgeError):
+    """A condition's own policy does not import, does not fit the interface, or fails at run time."""
+
+
+def user_error(kind: str, message: str) -> NudgeError:
+    """The :class:`NudgeError` of class name ``kind`` with ``message`` (one sent from a worker by name)."""
+    classes = {cls.__name__: cls for cls in (NudgeError, ConfigError, DataError, RunFolderError, WriteError,
+                                             LockError, PolicyError)}
+    return classes.get(kind, NudgeError)(message)
+
+
 def did_you_mean(name: str, candidates: Iterable[object]) -> str:
     """``" (did you mean 'x'?)"`` for the closest candidate, or ``""`` when none is close."""
     matches = difflib.get_close_matches(str(name), [str(c) for c in candidates], n=1, cutoff=0.6)

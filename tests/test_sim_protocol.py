@@ -503,7 +503,8 @@ def test_the_gap_gate_applies_to_the_blending_policy_only(paper):
     for condition in ("blending", "disambiguation"):
         session = session_of(paper, condition, layout_index=0, blending_gap=0.4)
         session._set_belief(belief)
-        alphas[condition] = session._blending()[1]
+        session.u_h = (3.0, 0.0, 0.0)  # a motion command this step
+        alphas[condition] = session.policy.assist(session).alpha
     assert alphas["blending"] == 0.0 and alphas["disambiguation"] > 0.0
 
 

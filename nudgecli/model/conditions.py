@@ -1,23 +1,25 @@
-"""The study conditions by name: the one list of the policies a condition may run, the paper's
-pair, and which policies take turns, blend or assist (no dependencies, so the configuration, the
-protocol and the statistics all read it without loading numerical libraries)."""
+"""The study conditions by name: the one list of the built-in policies a condition may run, the
+paper's pair, the aliases, and the metrics each built-in policy makes constant (no dependencies,
+so the configuration, the protocol and the statistics all read it without loading numerical
+libraries). What each policy does is :mod:`nudgecli.sim.builtin_policies`."""
 
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping, Sequence
 
-#: Every policy, by condition name (:mod:`nudgecli.model.policies` implements them).
-POLICIES = ("disambiguation", "control", "teleoperation", "blending", "mode-switch", "hindsight")
+#: Every built-in policy, by condition name (:mod:`nudgecli.sim.builtin_policies` implements them).
+POLICIES = ("disambiguation", "control", "teleoperation", "blending", "mode-switch", "hindsight",
+            "turn-taking")
 #: The paper's two conditions, in the paper's order.
 PAPER_CONDITIONS: tuple[str, ...] = ("disambiguation", "control")
 #: Condition names of other studies that are one of :data:`POLICIES` under another name.
 POLICY_ALIASES = {"no_assistance": "teleoperation"}
-#: Policies with the paper's turn-taking (the person hands the turn over when idle).
-TURN_TAKING = frozenset({"disambiguation", "control", "mode-switch"})
-#: Policies without inference or any autonomous command.
-UNASSISTED = frozenset({"teleoperation"})
-#: Policies that blend during the human's turn with the paper's alpha (Algorithm 1, line 8).
-BLENDING = frozenset({"disambiguation", "control", "mode-switch", "blending"})
+
+
+def policy_name(condition: str) -> str:
+    """The built-in policy a condition names (``no_assistance`` is ``teleoperation``)."""
+    return POLICY_ALIASES.get(condition, condition)
+
 
 #: Metrics a built-in policy makes constant by construction (not applicable to its condition):
 #: without turn-taking the person's turn is the whole trial (``human_effort`` 1, ``human_turns`` 1);

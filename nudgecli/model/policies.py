@@ -1,22 +1,9 @@
-"""The assistance policies a study's conditions name, and the equations of the prior-work ones.
+"""The equations of the prior-work assistance policies (arrays in, arrays out).
 
-Every condition is a policy run by the same protocol (:mod:`nudgecli.sim.protocol`), world and
-simulated people; the policies differ in what the autonomy does:
-
-============== ============ =========== ===================================================
-policy         inference    turn-taking what the autonomy does
-============== ============ =========== ===================================================
-disambiguation Eq. 7        yes         blends in the human's turn; nudges to s* (Eq. 16)
-control        Eq. 7        yes         blends; steps towards the mean of the tied leaders
-teleoperation  none         no          nothing (the person's turn is the whole trial)
-blending       Eq. 7        no          blends towards g' (Dragan & Srinivasa, 2013)
-mode-switch    Eq. 7        yes         blends; in its turn changes the mode only
-                                        (Gopinath & Argall, 2017)
-hindsight      Eq. 7        no          adds sum_g b_g u_a^g to the person's command
-                                        (Javdani et al., 2015/2018, first order)
-============== ============ =========== ===================================================
-
-The CIAA study's ``no_assistance`` condition is the teleoperation policy under the study's name.
+The policies themselves, one object per trial behind one interface, are
+:mod:`nudgecli.sim.builtin_policies`; this module holds the mathematics they share with tests
+and other callers: the confidence gap of ADA's arbitration, the first-order hindsight sum, and the
+expected-posterior-entropy and pairwise-KL rankings of mode-only states.
 """
 
 from __future__ import annotations
@@ -25,24 +12,9 @@ from typing import Literal
 
 import numpy as np
 
-from nudgecli.model.conditions import POLICIES, POLICY_ALIASES
 from nudgecli.model.log_terms import xlogy
 
 ModeCriterion = Literal["disamb", "entropy", "kl"]
-
-
-def policy_of(condition: str) -> str:
-    """The policy a condition runs (``no_assistance`` is ``teleoperation``).
-
-    Raises
-    ------
-    ValueError
-        The condition names no policy.
-    """
-    policy = POLICY_ALIASES.get(condition, condition)
-    if policy not in POLICIES:
-        raise ValueError(f"condition {condition!r} is none of the policies {', '.join(POLICIES)}")
-    return policy
 
 
 def confidence_gap(belief: np.ndarray) -> float:

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any, TextIO
 
+from nudgecli.errors import NudgeError, user_error
 from nudgecli.runs.study_tasks import die_with_parent, process_context
 
 #: Plans (affinities) a worker is assumed to hold: the size of its plan cache.
@@ -129,6 +130,9 @@ def _pool_worker(conn: Connection, parent_pid: int) -> None:
         except OSError as exc:  # e.g. a full disk under a file the job writes: the parent re-raises it
             cause = (exc.errno, exc.strerror or str(exc), exc.filename, exc.filename2)
             conn.send(("oserror", job.key, cause))
+            continue
+        except NudgeError as exc:  # a user's error (a policy of theirs that fails): one Error line
+            conn.send(("nudgeerror", job.key, (type(exc).__name__, str(exc))))
             continue
         except Exception:
             conn.send(("error", job.key, traceback.format_exc()))
@@ -308,6 +312,8 @@ class ProcessExecutor:
             if status == "oserror":  # the command's one error line (path and cause), as in this process
                 code, cause, path, other = payload
                 raise OSError(code, cause, path, None, other)
+            if status == "nudgeerror":
+                raise user_error(*payload)
             if status != "ok":
                 raise WorkerError(f"task {key} failed in a worker:\n{payload}")
             if not broadcast:
@@ -417,7 +423,7 @@ class DaskExecutor:
         job = self._jobs.pop(future.key)
         try:
             result = future.result()
-        except OSError:  # the command's one error line (path and cause), as in this process
+        except (OSError, NudgeError):  # the command's one error line, as in this process
             raise
         except Exception as exc:
             raise WorkerError(f"task {job.key} failed on the cluster: {exc!r}") from exc

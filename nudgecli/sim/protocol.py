@@ -45,59 +45,53 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from nudgecli.config import ExperimentConfig, HindsightSection, ModeSwitchSection, section_defaults
-from nudgecli.model import assistance, interface, policies
-from nudgecli.model.assistance import BlendingSettings
-from nudgecli.model.conditions import BLENDING, TURN_TAKING, UNASSISTED
-from nudgecli.model.disambiguation import (
-    DisambiguationModel,
-    DisambiguationSettings,
-    disambiguation_scores,
-    maximally_disambiguating_state,
+from nudgecli.config import (
+    BlendingPolicySection,
+    ExperimentConfig,
+    HindsightSection,
+    ModeSwitchSection,
+    section_defaults,
 )
+from nudgecli.model import assistance, interface
+from nudgecli.model.assistance import BlendingSettings
+from nudgecli.model.disambiguation import DisambiguationModel, DisambiguationSettings
 from nudgecli.model.inference import (
     DecayCounters,
     DecaySettings,
     bayes_update,
     decay_on_empty_sample,
     normalised_entropy,
-    predict_belief,
 )
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, NO_INPUT, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.path_world import PathLayout
-from nudgecli.model.ties import tied_with_max, unique_argmax
+from nudgecli.model.ties import unique_argmax
 from nudgecli.model.world import (
-    N_MODES,
     Command,
     GridWorld,
     Layout,
     World,
 )
 from nudgecli.sim.behaviour_settings import BehaviourSettings
-from nudgecli.sim.step_record import ROW_FIELDS, StepRecording, step_columns
+from nudgecli.sim.policy_registry import PolicySpec, checked_policy_specs, make_policy
+from nudgecli.sim.step_record import StepRecording, step_columns
 from nudgecli.steplog import (
     AUTONOMY_TURN,
     HANDOVER_TO_AUTONOMY,
     HANDOVER_TO_HUMAN,
     HUMAN_TURN,
-    MODE_SELECT,
     MODE_SWITCH_AUTONOMY,
     MODE_SWITCH_HUMAN,
-    NO_GOAL,
-    NUDGE,
-    STEP,
     STEP_COLUMNS,
     TRIAL_START,
 )
 
 _ZERO3 = interface.NO_COMMAND  # u_h of a step without a motion command, u_a without assistance
 _NO_DECAY = DecayCounters()
-_AUTONOMY_COMMAND = ROW_FIELDS.index("u_a")  # a raw step row's u_a
 
 
 @dataclass(frozen=True)
@@ -125,8 +119,10 @@ class ProtocolSettings:
     window: int
     behaviour: BehaviourSettings
     blending_gap: float | None
+    blending_kind: str
     mode_criterion: str
     hindsight_gain: float
+    custom_policies: tuple[PolicySpec, ...] = ()
 
     @classmethod
     def from_config(cls, config: ExperimentConfig) -> ProtocolSettings:
@@ -166,9 +162,11 @@ class ProtocolSettings:
             behaviour=BehaviourSettings.from_config(config),
             blending_gap=(config.blending.gap if config.blending is not None and config.blending.gate == "gap"
                           else None),
+            blending_kind=(config.blending or section_defaults(BlendingPolicySection)).kind,
             # the sections of conditions the study does not run may be absent: their defaults then
             mode_criterion=(config.mode_switch or section_defaults(ModeSwitchSection)).criterion,
             hindsight_gain=(config.hindsight or section_defaults(HindsightSection)).gain,
+            custom_policies=checked_policy_specs(config),
         )
 
 
@@ -245,18 +243,17 @@ class TrialSession:
                 raise TypeError("a trial on a path layout needs its world (world=PathWorld(...))")
             self.world = GridWorld(layout, self.settings.success_distance, self.settings.success_angle)
         world = self.world
-        self.policy = policies.policy_of(self.spec.condition)
-        self.assisted = self.policy not in UNASSISTED
-        self.turn_taking = self.policy in TURN_TAKING
-        self.blends = self.policy in BLENDING
+        self.policy = make_policy(self.spec.condition, self.settings)
+        self.assisted = bool(self.policy.infers)
+        self.turn_taking = bool(self.policy.takes_turns)
         if self.assisted and self.model is None:
             raise ValueError(f"condition {self.spec.condition!r} needs the agent's model")
         n_goals = world.n_goals
         if not 0 <= self.spec.true_goal < n_goals:
             raise ValueError(f"true_goal {self.spec.true_goal} is not one of the layout's {n_goals} goals")
         self.x, self.y, self.theta = (float(v) for v in world.start_pose)
-        # the autonomy's command of the last human step and what it was computed for
-        self.last_autonomy: tuple[tuple[float, ...], tuple[float, float, float]] = ((math.nan,) * 4, _ZERO3)
+        self.measured = NO_INPUT  # this step's measured label and command (what a policy sees)
+        self.u_h: Command = _ZERO3
         self.mode = int(world.start_mode)
         self.goal_poses = world.goal_poses
         self.goal_list = [(float(x), float(y), float(t)) for x, y, t in self.goal_poses]
@@ -331,24 +328,8 @@ class TrialSession:
             commanded = True
             events.append(MODE_SWITCH_HUMAN)
         self.idle = 0 if commanded or self.initiated_at < 0 else self.idle + 1
-        u_a: Command
-        u_f: Command
-        inferred, alpha = self._goal_and_alpha()
-        if self.policy == "hindsight":
-            u_a = self._hindsight_assistance()
-            u_f = np.add(u_h, u_a)  # every step, command or not (first-order hindsight optimisation)
-        else:
-            u_a = _ZERO3
-            if inferred != NO_GOAL:
-                towards = (self.x, self.y, self.theta, inferred)
-                if towards == self.last_autonomy[0]:  # the robot stood still: the same pure command
-                    u_a = self.last_autonomy[1]
-                else:
-                    u_a = assistance.autonomy_command(self.x, self.y, self.theta, *self.goal_list[inferred],
-                                                      s.autonomy_speed, s.autonomy_turn_rate, s.dt)
-                    self.last_autonomy = (towards, u_a)
-            # blending acts only on a motion command (a mode switch or no input leaves the robot still)
-            u_f = assistance.blend_command(u_a, u_h, alpha) if u_h is not _ZERO3 else u_h
+        self.measured, self.u_h = measured, u_h
+        u_f, u_a, alpha, inferred = self.policy.assist(self)
         self._record(HUMAN_TURN, state, mode_before, intended, pressure, measured, u_h, u_a, alpha, inferred,
                      events)
         self.x, self.y, self.theta = world.move(self.x, self.y, self.theta, u_f, s.dt)
@@ -358,12 +339,6 @@ class TrialSession:
             if self.reached >= 0:
                 return
         self._hand_over_when_idle()
-
-    def _goal_and_alpha(self) -> tuple[int, float]:
-        """This step's ``(g', alpha)``: the blending rule's, hindsight's leader (and 0), or none."""
-        if self.policy == "hindsight":
-            return self.leader, 0.0
-        return self._blending() if self.blends else (NO_GOAL, 0.0)
 
     def _hand_over_when_idle(self) -> None:
         """The turn passes to the autonomy once the person has been idle for long enough."""
@@ -387,18 +362,22 @@ class TrialSession:
                 or world.move(*pose, _ZERO3, s.dt) != pose):
             return 1
         state, counting = world.state(*pose, self.mode), self.initiated_at >= 0
-        u_a = self.rows[-1][_AUTONOMY_COMMAND]  # the same goal (or belief) and pose: the same command
         steps = min(limit - 1, s.time_limit_steps - self.step)
         if self.turn_taking and counting:  # it passes at the step whose idle count exceeds the threshold
             steps = min(steps, self.handover_idle_steps + 1 - self.idle)
-        for _ in range(steps):
-            inferred, alpha = self._goal_and_alpha()
+        ran = 0
+        self.measured, self.u_h = NO_INPUT, _ZERO3
+        while ran < steps:
+            u_f, u_a, alpha, inferred = self.policy.assist(self)
+            if u_f is not _ZERO3 and any(u_f):  # the policy moves the robot: the steps run one by one
+                break
             self._record(HUMAN_TURN, state, self.mode, NO_INPUT, 0.0, NO_INPUT, _ZERO3, u_a, alpha,
                          inferred, [])
             self.step += 1
             self.idle += counting
+            ran += 1
         self._hand_over_when_idle()
-        return 1 + steps
+        return 1 + ran
 
     def _observe(self, measured: int, state: int) -> None:
         """The Bayesian update (Eq. 7) with the state the label was produced in, or forgetting."""
@@ -419,100 +398,21 @@ class TrialSession:
             if decayed is not self.belief:
                 self._set_belief(decayed)
 
-    def _blending(self) -> tuple[int, float]:
-        """``(g', alpha)`` of this step (``NO_GOAL, 0`` without a unique, ungated leader)."""
-        s = self.settings.blending
-        if self.leader == NO_GOAL or assistance.entropy_gated(self.entropy, s.entropy_gate):
-            return NO_GOAL, 0.0
-        gx, gy, _ = self.goal_list[self.leader]
-        since_first = ((self.step - self.initiated_at) * self.settings.dt if self.initiated_at >= 0
-                       else -math.inf)
-        alpha = assistance.assistance_alpha(self.leader_probability, len(self.goal_list), self.entropy,
-                                            since_first, math.hypot(gx - self.x, gy - self.y), s)
-        if self.policy == "blending" and self.settings.blending_gap is not None:
-            alpha = policies.gap_gated_alpha(alpha, self.belief, self.settings.blending_gap)
-        return self.leader, alpha
-
-    def _hindsight_assistance(self) -> np.ndarray:
-        """``sum_g b_g u_a^g`` (scaled by the gain): the hindsight policy's added command."""
-        s = self.settings
-        pose = (self.x, self.y, self.theta)
-        commands = np.array([assistance.autonomy_velocity(pose, goal, s.autonomy_speed, s.autonomy_turn_rate,
-                                                          s.dt) for goal in self.goal_list])
-        return policies.hindsight_assistance(self.belief, commands, s.hindsight_gain)
-
     # --- the autonomy's turn ------------------------------------------------------------------
 
     def _start_autonomy_turn(self) -> None:
-        """Choose the autonomy's target: a nudge to s*, or a bounded step (Algorithm 1, 10-15)."""
-        s, rng = self.settings, self.rng
-        assert self.model is not None
+        """The policy chooses what its turn does (Algorithm 1, lines 10-15, for the paper's two)."""
+        plan = self.policy.start_turn(self)
         self.turn = AUTONOMY_TURN
         self.autonomy_turns += 1
-        state = self.state
-        position = np.array([self.x, self.y])
-        disambiguation = self.policy == "disambiguation"
-        if self.policy == "mode-switch":
-            events = [MODE_SELECT]
-            mode = self._select_mode(state, position)
-            if mode != self.mode:
-                self.mode = mode
-                events.append(MODE_SWITCH_AUTONOMY)
-            # a target at the robot's own pose: the turn moves nothing and ends after its one step
-            self.autonomy_target = np.array([self.x, self.y, self.theta])
-            self.autonomy_inferred = NO_GOAL
-            self.pending_events = [HANDOVER_TO_AUTONOMY, *events]
-            return
-        if disambiguation and self.entropy > s.kappa:
-            choice = maximally_disambiguating_state(self.belief, self.model, state, s.disambiguation,
-                                                    robot_position=position, rng=rng,
-                                                    goal_transition=self.goal_transition)
-            target, m = assistance.nudge_target(choice.state)
-            events = [NUDGE]
-            if m != self.mode:
-                self.mode = m
-                events.append(MODE_SWITCH_AUTONOMY)
-            self.nudges += 1
-            inferred = NO_GOAL
-        else:
-            radius = assistance.draw_step_size(rng, s.window)
-            inferred = self.leader if disambiguation else NO_GOAL
-            if inferred != NO_GOAL:
-                goal_xy = self.goal_poses[inferred, :2]
-                heading = float(self.goal_poses[inferred, 2])
-            else:  # Control, or Disambiguation with tied leaders: the mean of the tied goals
-                goal_xy = assistance.control_target(self.belief, self.goal_poses[:, :2])
-                heading = self.theta
-            step_xy = assistance.step_target(position, goal_xy, radius)
-            target = np.array([step_xy[0], step_xy[1], heading])
-            events = [STEP]
-        self.autonomy_target = target
-        self.autonomy_inferred = inferred
-        self.pending_events = [HANDOVER_TO_AUTONOMY, *events]
-
-    def _select_mode(self, state: int, position: np.ndarray) -> int:
-        """The mode whose next inputs disambiguate most, by ``mode_criterion``, over the states that
-        differ from ``state`` in mode alone; the current mode wins ties (no needless switch)."""
-        s = self.settings
-        assert self.model is not None
-        mode_only = replace(s.disambiguation, scope="mode-only")
-        candidates = self.model.candidates(state, mode_only, position)
-        if s.mode_criterion == "disamb":  # D(s), Eq. 15, over the mode-only states
-            score = disambiguation_scores(self.belief, self.model, candidates, mode_only, self.rng,
-                                          self.goal_transition).score
-        else:
-            weights = (self.belief if self.goal_transition is None
-                       else predict_belief(self.belief, self.goal_transition))
-            likelihood = self.model.likelihood[:, candidates.states, :].transpose(1, 0, 2)  # (C, G, F)
-            if s.mode_criterion == "entropy":  # the lowest expected posterior entropy wins
-                score = -policies.expected_posterior_entropy(weights, likelihood)
-            else:
-                score = policies.weighted_pairwise_kl(weights, likelihood)
-        modes = candidates.states % N_MODES
-        tied = tied_with_max(score)
-        if tied[modes == self.mode].any():
-            return self.mode
-        return int(modes[int(np.argmax(tied))])  # the first of the tied modes
+        events = [HANDOVER_TO_AUTONOMY, *plan.events]
+        if plan.mode is not None and plan.mode != self.mode:
+            self.mode = plan.mode
+            events.append(MODE_SWITCH_AUTONOMY)
+        self.nudges += plan.nudge
+        self.autonomy_target = plan.target
+        self.autonomy_inferred = plan.goal
+        self.pending_events = events
 
     def autonomy_step(self) -> None:
         """One 10 Hz step of the autonomy's turn (at least one step; it ends at the target)."""
@@ -521,7 +421,7 @@ class TrialSession:
         s = self.settings
         target = self.autonomy_target
         events, self.pending_events = self.pending_events, []
-        if self.policy == "mode-switch":  # the mode-switch autonomy never moves the robot
+        if target is None:  # a turn that does not move: one step
             u_a = _ZERO3
         else:
             u_a = assistance.autonomy_command(self.x, self.y, self.theta, float(target[0]), float(target[1]),
@@ -530,7 +430,8 @@ class TrialSession:
                      self.autonomy_inferred, events)
         self._move(u_a)
         self.step += 1
-        if math.hypot(target[0] - self.x, target[1] - self.y) <= s.arrival_tolerance and not self.finished:
+        arrived = target is None or math.hypot(target[0] - self.x, target[1] - self.y) <= s.arrival_tolerance
+        if arrived and not self.finished:
             self._start_human_turn()
 
     # --- shared helpers -----------------------------------------------------------------------

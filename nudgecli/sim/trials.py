@@ -10,8 +10,6 @@ from typing import Any
 
 import numpy as np
 
-from nudgecli.model import policies
-from nudgecli.model.conditions import TURN_TAKING
 from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.model.world import N_MODES, GridWorld, Layout, World, state_index
@@ -122,12 +120,11 @@ def run_world_trial(spec: TrialSpec, settings: ProtocolSettings, world: World, p
     """
     person_rng, agent_rng = rng.spawn(2)
     goal = spec.true_goal
-    # the person hands the turn over only where there is an autonomy's turn to hand it to
-    hands_over = policies.policy_of(spec.condition) in TURN_TAKING
-    person = SimulatedPerson(participant, settings.behaviour, policy, world.goal_poses[goal], goal_cell,
-                             person_rng, world=world, hands_over=hands_over)
     session = TrialSession(spec, settings, model, handover_steps(participant.handover_idle_s, settings.dt),
                            agent_rng, world=world)
+    # the person hands the turn over only where there is an autonomy's turn to hand it to
+    person = SimulatedPerson(participant, settings.behaviour, policy, world.goal_poses[goal], goal_cell,
+                             person_rng, world=world, hands_over=session.turn_taking)
     return run_session(session, person, step_log_columns)
 
 

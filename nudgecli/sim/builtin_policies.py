@@ -1,0 +1,268 @@
+"""The built-in assistance policies, each an implementation of :class:`~nudgecli.sim.policy_interface.Policy`.
+
+============== ============ =========== ===================================================
+policy         inference    turn-taking what the assistance does
+============== ============ =========== ===================================================
+disambiguation Eq. 7        yes         blends in the human's turn; nudges to s* (Eq. 16)
+control        Eq. 7        yes         blends; steps towards the mean of the tied leaders
+turn-taking    Eq. 7        yes         blends; its turn does nothing (the control that
+                                        isolates what an autonomy turn adds)
+teleoperation  none         no          nothing (the person's turn is the whole trial)
+blending       Eq. 7        no          blends towards g' (Dragan & Srinivasa, 2013), convex
+                                        or additive (ADA's blend)
+mode-switch    Eq. 7        yes         blends; in its turn changes the mode only, by a
+                                        named criterion (:mod:`nudgecli.sim.mode_selection`)
+hindsight      Eq. 7        no          adds sum_g b_g u_a^g (Javdani et al. 2015/2018 as
+                                        ADA's code computes it)
+============== ============ =========== ===================================================
+
+The CIAA study's ``no_assistance`` condition is the teleoperation policy under the study's name.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from nudgecli.model import assistance, policies
+from nudgecli.model.disambiguation import disambiguation_scores, maximally_disambiguating_state
+from nudgecli.model.inference import predict_belief
+from nudgecli.model.interface import NO_COMMAND
+from nudgecli.model.ties import tied_with_max
+from nudgecli.model.world import N_MODES
+from nudgecli.sim.policy_interface import Assistance, AutonomyTurn, StepView
+from nudgecli.steplog import MODE_SELECT, NO_GOAL, NUDGE, STEP
+
+if TYPE_CHECKING:
+    from nudgecli.sim.protocol import ProtocolSettings
+
+_NO_POSE = (math.nan,) * 4
+
+
+class PaperBlending:
+    """The paper's blending in the human's turn (Algorithm 1, line 8): ``u_f = alpha u_a + (1 -
+    alpha) u_h`` towards ``g' = argmax b`` while the person's command is non-zero, alpha by the one
+    alpha rule (:func:`nudgecli.model.assistance.assistance_alpha`); no ``g'`` (alpha 0) when two or
+    more goals tie for the highest belief. Its autonomy turn is the subclasses'."""
+
+    infers = True
+    takes_turns = True
+    #: Metrics this policy makes constant (``nudgecli.model.conditions.CONSTANT_METRICS``).
+    constant_metrics: frozenset[str] = frozenset()
+
+    def __init__(self, settings: ProtocolSettings) -> None:
+        self.settings = settings
+        # the command of the last step and what it was computed for: the robot often stands
+        self._last: tuple[tuple[float, ...], tuple[float, float, float]] = (_NO_POSE, NO_COMMAND)
+
+    def goal_and_alpha(self, view: StepView) -> tuple[int, float]:
+        """``(g', alpha)`` of this step (``-1, 0`` without a unique, ungated leader)."""
+        s = self.settings.blending
+        leader = view.leader
+        if leader == NO_GOAL or assistance.entropy_gated(view.entropy, s.entropy_gate):
+            return NO_GOAL, 0.0
+        gx, gy, _ = view.goal_poses[leader]
+        since_first = ((view.step - view.initiated_at) * self.settings.dt if view.initiated_at >= 0
+                       else -math.inf)
+        alpha = assistance.assistance_alpha(view.leader_probability, len(view.goal_poses), view.entropy,
+                                            since_first, math.hypot(gx - view.x, gy - view.y), s)
+        return leader, alpha
+
+    def goal_command(self, view: StepView, goal: int) -> tuple[float, float, float]:
+        """``u_a``: the autonomy's command towards ``goal``'s pose (remembered while the robot stands)."""
+        towards = (view.x, view.y, view.theta, goal)
+        if towards == self._last[0]:
+            return self._last[1]
+        s = self.settings
+        gx, gy, gt = view.goal_poses[goal]
+        u_a = assistance.autonomy_command(view.x, view.y, view.theta, float(gx), float(gy), float(gt),
+                                          s.autonomy_speed, s.autonomy_turn_rate, s.dt)
+        self._last = (towards, u_a)
+        return u_a
+
+    def assist(self, view: StepView) -> Assistance:
+        inferred, alpha = self.goal_and_alpha(view)
+        u_a = self.goal_command(view, inferred) if inferred != NO_GOAL else NO_COMMAND
+        u_h = view.u_h
+        # blending acts only on a motion command (a mode switch or no input leaves the robot still)
+        # (u_h is the tuple of a soft label's command or NO_COMMAND itself)
+        u_f = assistance.blend_command(u_a, u_h, alpha) if u_h is not NO_COMMAND else u_h  # type: ignore[arg-type]
+        return Assistance(u_f, u_a, alpha, inferred)
+
+    def start_turn(self, view: StepView) -> AutonomyTurn:
+        return AutonomyTurn.stay()
+
+
+def bounded_step(view: StepView, goal: int) -> AutonomyTurn:
+    """A step of a random size ``R' = min(R, D / 2)`` towards ``goal``'s pose, or, with ``goal`` -1,
+    towards the mean position of the goals tied for the highest belief, heading kept (Algorithm 1,
+    lines 13-15; the paper's Control)."""
+    radius = assistance.draw_step_size(view.rng, view.settings.window)
+    if goal != NO_GOAL:
+        goal_xy = view.goal_poses[goal, :2]
+        heading = float(view.goal_poses[goal, 2])
+    else:
+        goal_xy = assistance.control_target(view.belief, view.goal_poses[:, :2])
+        heading = view.theta
+    step_xy = assistance.step_target(np.array([view.x, view.y]), goal_xy, radius)
+    return AutonomyTurn(np.array([step_xy[0], step_xy[1], heading]), None, (STEP,), goal)
+
+
+class Disambiguation(PaperBlending):
+    """The paper's Disambiguation condition: in its turn, a nudge to s* (Eq. 16) while the
+    normalised entropy exceeds kappa, else a bounded step towards ``g'`` (the tied goals' mean
+    when the leaders tie)."""
+
+    def start_turn(self, view: StepView) -> AutonomyTurn:
+        s = self.settings
+        assert view.model is not None
+        if view.entropy > s.kappa:
+            choice = maximally_disambiguating_state(view.belief, view.model, view.state, s.disambiguation,
+                                                    robot_position=np.array([view.x, view.y]), rng=view.rng,
+                                                    goal_transition=view.goal_transition)
+            target, mode = assistance.nudge_target(choice.state)
+            return AutonomyTurn(target, mode, (NUDGE,), NO_GOAL, nudge=True)
+        return bounded_step(view, view.leader)
+
+
+class Control(PaperBlending):
+    """The paper's Control condition: in its turn, a bounded step towards the mean of the goals
+    tied for the highest belief."""
+
+    def start_turn(self, view: StepView) -> AutonomyTurn:
+        return bounded_step(view, NO_GOAL)
+
+
+class TurnTaking(PaperBlending):
+    """The paper's protocol (blending, the person's idle handover) whose autonomy turn does
+    nothing: one step without motion, then the person's turn again. Against it, a condition's
+    difference is what its autonomy turn adds."""
+
+
+class Blending(PaperBlending):
+    """Policy blending without turn-taking (Dragan & Srinivasa 2013): the person's turn is the
+    whole trial.
+
+    ``[blending] kind``: ``convex`` blends with the paper's alpha (``u_f = alpha u_a + (1 - alpha)
+    u_h``), zeroed unless the confidence gap ``p1 - p2`` exceeds ``gap`` when ``gate = "gap"``: a
+    hybrid of the paper's ramp and ADA's gate. ``additive`` is ADA's own blend: while the gate
+    passes, the whole single-goal assistance towards ``g'`` is added to the person's command
+    (alpha 1), on steps with a command.
+    """
+
+    takes_turns = False
+    constant_metrics = frozenset({"human_effort", "human_turns"})
+
+    def __init__(self, settings: ProtocolSettings) -> None:
+        super().__init__(settings)
+        self.additive = settings.blending_kind == "additive"
+        if self.additive:
+            self.constant_metrics = frozenset({"assistance_strength", "human_effort", "human_turns"})
+
+    def assist(self, view: StepView) -> Assistance:
+        gap = self.settings.blending_gap
+        if self.additive:
+            leader = view.leader
+            u_h = view.u_h
+            if (leader == NO_GOAL or u_h is NO_COMMAND
+                    or (gap is not None and policies.confidence_gap(view.belief) <= gap)):
+                return Assistance(u_h, NO_COMMAND, 0.0, leader)
+            return Assistance.additive(u_h, self.goal_command(view, leader), leader)
+        inferred, alpha = self.goal_and_alpha(view)
+        if gap is not None:
+            alpha = policies.gap_gated_alpha(alpha, view.belief, gap)
+        u_a = self.goal_command(view, inferred) if inferred != NO_GOAL else NO_COMMAND
+        u_h = view.u_h
+        u_f = assistance.blend_command(u_a, u_h, alpha) if u_h is not NO_COMMAND else u_h  # type: ignore[arg-type]
+        return Assistance(u_f, u_a, alpha, inferred)
+
+
+class Teleoperation:
+    """No assistance: no inference, no blending, no autonomy (the CIAA study's ``no_assistance``)."""
+
+    infers = False
+    takes_turns = False
+    constant_metrics = frozenset({"assistance_engagement", "assistance_strength", "human_effort",
+                                  "human_turns"})
+
+    def __init__(self, settings: ProtocolSettings) -> None:
+        self.settings = settings
+
+    def assist(self, view: StepView) -> Assistance:
+        return Assistance(view.u_h)
+
+    def start_turn(self, view: StepView) -> AutonomyTurn:
+        return AutonomyTurn.stay()
+
+
+class ModeSwitch(PaperBlending):
+    """Mode-switch assistance (after Gopinath & Argall 2017): blends in the person's turn; its own
+    turn is one step that switches to the mode ranked best by ``[mode-switch] criterion`` and never
+    moves the robot (event ``mode_select``, with ``mode_switch_autonomy`` when the mode changes)."""
+
+    def start_turn(self, view: StepView) -> AutonomyTurn:
+        return AutonomyTurn(None, select_mode(view, self.settings.mode_criterion), (MODE_SELECT,))
+
+
+def select_mode(view: StepView, criterion: str) -> int:
+    """The mode whose next inputs disambiguate most by ``criterion``, over the states that differ
+    from the current one in mode alone; the current mode wins ties (no needless switch)."""
+    s = view.settings
+    assert view.model is not None
+    state = view.state
+    mode_only = replace(s.disambiguation, scope="mode-only")
+    candidates = view.model.candidates(state, mode_only, np.array([view.x, view.y]))
+    if criterion == "disamb":  # D(s), Eq. 15, over the mode-only states
+        score = disambiguation_scores(view.belief, view.model, candidates, mode_only, view.rng,
+                                      view.goal_transition).score
+    else:
+        weights = (view.belief if view.goal_transition is None
+                   else predict_belief(view.belief, view.goal_transition))
+        likelihood = view.model.likelihood[:, candidates.states, :].transpose(1, 0, 2)  # (C, G, F)
+        if criterion == "entropy":  # the lowest expected posterior entropy wins
+            score = -policies.expected_posterior_entropy(weights, likelihood)
+        else:
+            score = policies.weighted_pairwise_kl(weights, likelihood)
+    modes = candidates.states % N_MODES
+    tied = tied_with_max(score)
+    if tied[modes == view.mode].any():
+        return view.mode
+    return int(modes[tied].min())  # the first of the tied modes in mode order (x, y, theta)
+
+
+class Hindsight:
+    """First-order hindsight optimisation (Javdani et al. 2015/2018): the belief-weighted sum of
+    the per-goal autonomous commands added to the person's command every step; no turn-taking."""
+
+    infers = True
+    takes_turns = False
+    constant_metrics = frozenset({"assistance_strength", "human_effort", "human_turns"})
+
+    def __init__(self, settings: ProtocolSettings) -> None:
+        self.settings = settings
+
+    def assist(self, view: StepView) -> Assistance:
+        s = self.settings
+        pose = (view.x, view.y, view.theta)
+        commands = np.array([assistance.autonomy_velocity(pose, goal, s.autonomy_speed, s.autonomy_turn_rate,
+                                                          s.dt) for goal in view.goal_poses])
+        u_a = policies.hindsight_assistance(view.belief, commands, s.hindsight_gain)
+        return Assistance(np.add(view.u_h, u_a), u_a, 0.0, view.leader)
+
+    def start_turn(self, view: StepView) -> AutonomyTurn:
+        return AutonomyTurn.stay()
+
+
+#: The built-in policies by name (a condition names one, or its alias; ``nudgecli.model.conditions``).
+BUILTIN_POLICIES: dict[str, type] = {
+    "disambiguation": Disambiguation,
+    "control": Control,
+    "turn-taking": TurnTaking,
+    "teleoperation": Teleoperation,
+    "blending": Blending,
+    "mode-switch": ModeSwitch,
+    "hindsight": Hindsight,
+}

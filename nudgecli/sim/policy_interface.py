@@ -1,0 +1,243 @@
+"""The assistance policy interface: what a policy sees each 10 Hz step and what it returns.
+
+Every condition of a study runs one policy through the same protocol
+(:class:`nudgecli.sim.protocol.TrialSession`), world and simulated people. The built-in policies
+(:mod:`nudgecli.sim.builtin_policies`) and a researcher's own (named in an experiment file by import
+path, :mod:`nudgecli.sim.policy_registry`) implement the same :class:`Policy` protocol, so the
+protocol never branches on a policy's name.
+
+A policy object lives for one trial: the protocol makes a fresh one (``factory(**params)``) when a
+trial starts. Each step of the human's turn it calls :meth:`Policy.assist`; when the person hands
+the turn over (only for a policy whose ``takes_turns`` is true) it calls :meth:`Policy.start_turn`
+once, and drives the robot to the returned target at the autonomy's speeds, then hands back.
+
+A minimal policy (assist only when the leading goal's probability passes a threshold)::
+
+    from nudgecli.sim.policy_interface import Assistance, AutonomyTurn, StepView, drive_towards
+
+    class Threshold:
+        infers = True           # the protocol runs Eq. 7 for it: view.belief is the posterior
+        takes_turns = False     # the person's turn is the whole trial
+
+        def __init__(self, threshold: float = 0.6, weight: float = 0.5) -> None:
+            self.threshold, self.weight = threshold, weight
+
+        def assist(self, view: StepView) -> Assistance:
+            goal = view.leader
+            if goal < 0 or view.leader_probability < self.threshold or not any(view.u_h):
+                return Assistance(view.u_h)
+            u_a = drive_towards(view, view.goal_poses[goal])
+            return Assistance.convex(view.u_h, u_a, self.weight, goal)
+
+        def start_turn(self, view: StepView) -> AutonomyTurn:
+            return AutonomyTurn.stay()
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, runtime_checkable
+
+import numpy as np
+
+from nudgecli.model import assistance
+from nudgecli.model.interface import NO_COMMAND
+from nudgecli.steplog import NO_GOAL
+
+if TYPE_CHECKING:
+    from nudgecli.model.disambiguation import DisambiguationModel
+    from nudgecli.sim.protocol import ProtocolSettings
+
+#: A command ``(vx, vy, omega)``: units/s along x and y, rad/s (a tuple or a ``(3,)`` array).
+Command = tuple[float, float, float] | np.ndarray
+
+
+class StepView(Protocol):
+    """What a policy sees at a step (read-only; the trial's session provides it).
+
+    Attributes
+    ----------
+    x, y, theta
+        The robot's pose at the start of the step (world units, rad).
+    mode
+        The active mode: 0 x, 1 y, 2 theta.
+    state
+        The discrete state of the pose and mode (the world's; the grid world's 2400 states).
+    step
+        Steps since the trial started (``step * settings.dt`` seconds).
+    turn
+        ``"human"`` or ``"autonomy"``.
+    goal_poses
+        ``(G, 3)`` the layout's goal poses.
+    belief
+        ``(G,)`` the agent's belief over the goals (Eq. 7; uniform for a policy that does not infer).
+    leader
+        The goal with the unique highest belief, or -1 when two or more tie (no ``g'``).
+    leader_probability
+        The highest belief.
+    entropy
+        The belief's normalised entropy ``H(b) / log G``.
+    measured
+        This step's measured label (0 Hard Puff, 1 Hard Sip, 2 Soft Puff, 3 Soft Sip, -1 none;
+        the deadbands are -2 and -3).
+    u_h
+        This step's human command ``(vx, vy, omega)`` (zero without a soft label).
+    initiated_at
+        The step of the turn's first measured input, -1 before it.
+    model
+        The agent's model of this participant in this layout (``p(phi_m | g, s)``), ``None`` for a
+        policy that does not infer.
+    goal_transition
+        ``(G, G)`` ``p(g_t | g_{t-1})`` of Eq. 6, or ``None`` for the identity (the paper's).
+    rng
+        The agent's random stream (draw from it only: a run is a pure function of its seed).
+    settings
+        The protocol's knobs (``dt``, the autonomy's ``autonomy_speed`` and ``autonomy_turn_rate``,
+        the person's ``human_speed`` and ``human_turn_rate``, ...).
+    """
+
+    x: float
+    y: float
+    theta: float
+    mode: int
+    step: int
+    turn: str
+    goal_poses: np.ndarray
+    belief: np.ndarray
+    leader: int
+    leader_probability: float
+    entropy: float
+    measured: int
+    u_h: Command
+    initiated_at: int
+    model: DisambiguationModel | None
+    goal_transition: np.ndarray | None
+    rng: np.random.Generator
+    settings: ProtocolSettings
+
+    @property
+    def state(self) -> int: ...
+
+
+class Assistance(NamedTuple):
+    """What a policy does in one step of the human's turn.
+
+    Attributes
+    ----------
+    command
+        ``(3,)`` the command executed this step, ``u_f``.
+    u_a
+        ``(3,)`` the assistance's own command (the step log's ``u_a``).
+    alpha
+        The assistance's weight in ``command``: ``u_f = alpha u_a + (1 - alpha) u_h`` for a convex
+        blend, ``u_f = u_h + alpha u_a`` for an additive one; 0 when it does not act. The
+        engagement and strength metrics read it (a step is engaged when alpha > 0 and ``goal`` is
+        the true goal).
+    goal
+        The goal the assistance acts for (the step log's ``inferred_goal``), -1 for none.
+    """
+
+    command: Command
+    u_a: Command = NO_COMMAND
+    alpha: float = 0.0
+    goal: int = NO_GOAL
+
+    @classmethod
+    def convex(cls, u_h: Command, u_a: Command, alpha: float, goal: int) -> Assistance:
+        """``u_f = alpha u_a + (1 - alpha) u_h`` (the paper's blending, Algorithm 1 line 8)."""
+        return cls(assistance.blend_command(checked_command(u_a, "u_a"), checked_command(u_h, "u_h"), alpha),
+                   u_a, alpha, goal)
+
+    @classmethod
+    def additive(cls, u_h: Command, u_a: Command, goal: int) -> Assistance:
+        """``u_f = u_h + u_a`` (alpha 1: the whole assistance is added to the person's command)."""
+        return cls(np.add(u_h, u_a), u_a, 1.0, goal)
+
+
+@dataclass(frozen=True)
+class AutonomyTurn:
+    """What the autonomy does in its turn, chosen once when the person hands the turn over.
+
+    Attributes
+    ----------
+    target
+        ``(3,)`` the pose the autonomy drives to at its own speeds (the turn ends within
+        ``arrival_tolerance`` of its position), or ``None``: the turn is one step that does not move.
+    mode
+        The mode to switch to at the turn's start, or ``None`` to keep the mode.
+    events
+        The step log's events of the turn's first step (``nudge``, ``step``, ``mode_select``; the
+        protocol adds ``mode_switch_autonomy`` when ``mode`` changes the mode).
+    goal
+        The goal the turn acts for (the step log's ``inferred_goal``), -1 for none.
+    nudge
+        Whether the turn is a nudge (counted in the trial table's ``nudges``).
+    """
+
+    target: np.ndarray | None
+    mode: int | None = None
+    events: tuple[str, ...] = field(default=())
+    goal: int = NO_GOAL
+    nudge: bool = False
+
+    @classmethod
+    def stay(cls, events: Sequence[str] = ()) -> AutonomyTurn:
+        """A turn that does nothing: one step without motion, then the person's turn again."""
+        return cls(None, None, tuple(events))
+
+
+@runtime_checkable
+class Policy(Protocol):
+    """An assistance policy (one object per trial).
+
+    Attributes
+    ----------
+    infers
+        Whether the protocol runs goal inference (Eq. 7) for it: ``view.belief`` is then the
+        posterior and ``view.model`` the agent's model; otherwise the belief stays uniform.
+    takes_turns
+        Whether the person hands the turn over (after their handover idle time) and
+        :meth:`start_turn` is called; without, the person's turn is the whole trial.
+    """
+
+    infers: bool
+    takes_turns: bool
+
+    def assist(self, view: StepView) -> Assistance:
+        """The command to execute in this step of the human's turn (:class:`Assistance`)."""
+        ...
+
+    def start_turn(self, view: StepView) -> AutonomyTurn:
+        """What to do in the autonomy's turn that starts now (:class:`AutonomyTurn`)."""
+        ...
+
+
+def drive_towards(view: StepView, target: Sequence[float] | np.ndarray,
+                  speed: float | None = None, turn_rate: float | None = None) -> tuple[float, float, float]:
+    """The command that drives the robot straight to ``target`` (3,) at the autonomy's speeds (or
+    the given ones), turning to its heading, without passing it within one step."""
+    s = view.settings
+    return assistance.autonomy_command(view.x, view.y, view.theta, float(target[0]), float(target[1]),
+                                       float(target[2]), s.autonomy_speed if speed is None else speed,
+                                       s.autonomy_turn_rate if turn_rate is None else turn_rate, s.dt)
+
+
+def checked_command(value: Any, what: str) -> tuple[float, float, float]:
+    """``value`` as a finite ``(vx, vy, omega)`` tuple.
+
+    Raises
+    ------
+    ValueError
+        ``value`` is not three finite numbers (``what`` names it in the message).
+    """
+    try:
+        items = tuple(float(v) for v in np.asarray(value, dtype=float).reshape(-1))
+    except (TypeError, ValueError):
+        raise ValueError(f"{what} must be three numbers (vx, vy, omega), got {value!r}") from None
+    if len(items) != 3:
+        raise ValueError(f"{what} must be three numbers (vx, vy, omega), got {len(items)}")
+    if not all(math.isfinite(v) for v in items):
+        raise ValueError(f"{what} must be finite, got {items}")
+    return items[0], items[1], items[2]

@@ -1,0 +1,245 @@
+"""Which policy a condition runs: a built-in one by name, or a researcher's own by import path.
+
+An experiment names its own policy in a ``[policies.NAME]`` section (``nudgecli.config``)::
+
+    [study]
+    conditions = ["control", "threshold"]
+
+    [policies.threshold]
+    factory = "policies.threshold:ThresholdAssist"   # module:attribute
+    params = { threshold = 0.6 }
+
+The module is imported from the experiment file's folder (then from ``sys.path``); the attribute
+is called with ``params`` as keyword arguments once per trial and must return an object with the
+:class:`~nudgecli.sim.policy_interface.Policy` interface. Everything is checked when the
+experiment is loaded (:func:`check_custom_policy`), and a custom policy's every answer is checked
+at run time (:class:`CheckedPolicy`): a failure is one :class:`~nudgecli.errors.PolicyError`
+naming the condition and the policy.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib
+import inspect
+import math
+import sys
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from nudgecli.errors import PolicyError
+from nudgecli.model.conditions import CONSTANT_METRICS, policy_name
+from nudgecli.sim.builtin_policies import BUILTIN_POLICIES
+from nudgecli.sim.policy_interface import Assistance, AutonomyTurn, Policy, StepView, checked_command
+
+if TYPE_CHECKING:
+    from nudgecli.config import ExperimentConfig
+    from nudgecli.sim.protocol import ProtocolSettings
+
+#: Metrics constant by construction for a policy that does not take turns / does not infer.
+_WITHOUT_TURNS = frozenset({"human_effort", "human_turns"})
+_WITHOUT_INFERENCE = frozenset({"assistance_engagement", "assistance_strength"})
+
+
+@dataclass(frozen=True)
+class PolicySpec:
+    """A condition's own policy: ``factory`` (``module:attr``), its parameters, where to import from.
+
+    ``search_path`` is the experiment file's folder (absolute; it is not written to a run folder's
+    ``config.toml``, which records ``factory`` and ``params`` only): it goes on ``sys.path`` before
+    the import, in the process that loads the experiment and in every worker.
+    """
+
+    condition: str
+    factory: str
+    params: tuple[tuple[str, Any], ...] = ()
+    search_path: str | None = None
+
+    @property
+    def described(self) -> str:
+        return f"condition {self.condition!r} (policy {self.factory})"
+
+
+def load_factory(spec: PolicySpec) -> Callable[..., Any]:
+    """The callable ``spec.factory`` names, imported once per process.
+
+    Raises
+    ------
+    PolicyError
+        The module does not import, or has no such attribute, or it is not callable.
+    """
+    return _load_factory(spec.factory, spec.search_path, spec.condition)
+
+
+@functools.cache
+def _load_factory(factory: str, search_path: str | None, condition: str) -> Callable[..., Any]:
+    where = f"condition {condition!r} (policy {factory})"
+    module_name, sep, attribute = factory.partition(":")
+    if not sep or not module_name or not attribute:
+        raise PolicyError(f"{where}: the policy must be named as 'module:attribute', e.g. "
+                          "'policies.threshold:ThresholdAssist'")
+    if search_path is not None and search_path not in sys.path:
+        sys.path.insert(0, search_path)
+    try:
+        module = importlib.import_module(module_name)
+    except Exception as exc:  # a researcher's module: any failure of its import is theirs to see
+        raise PolicyError(f"{where}: cannot import module {module_name!r}: {type(exc).__name__}: {exc} "
+                          "(the module is looked up beside the experiment file, then on sys.path)") from exc
+    target: Any = module
+    for part in attribute.split("."):
+        if not hasattr(target, part):
+            raise PolicyError(f"{where}: module {module_name!r} has no attribute {attribute!r}")
+        target = getattr(target, part)
+    if not callable(target):
+        raise PolicyError(f"{where}: {attribute!r} is not callable; name a class or a function that "
+                          "returns a policy")
+    return target  # type: ignore[no-any-return]
+
+
+def check_custom_policy(spec: PolicySpec) -> Policy:
+    """Import ``spec``'s factory, check its parameters, make one policy and check its interface.
+
+    Returns
+    -------
+    Policy
+        The policy made (its traits say which metrics it makes constant).
+
+    Raises
+    ------
+    PolicyError
+        With one line naming the condition, the policy and what is wrong.
+    """
+    factory = load_factory(spec)
+    params = dict(spec.params)
+    try:
+        inspect.signature(factory).bind(**params)
+    except TypeError as exc:
+        raise PolicyError(f"{spec.described}: its parameters {sorted(params)} do not fit its signature "
+                          f"{inspect.signature(factory)}: {exc}") from None
+    except ValueError:  # no signature to inspect (a builtin): calling it will tell
+        pass
+    policy = _make(factory, params, spec)
+    missing = [name for name in ("infers", "takes_turns", "assist", "start_turn")
+               if not hasattr(policy, name)]
+    if missing:
+        raise PolicyError(f"{spec.described}: the object it returns lacks {', '.join(missing)} of the policy "
+                          "interface (nudgecli.sim.policy_interface.Policy; see docs/policies.md)")
+    for name in ("infers", "takes_turns"):
+        if not isinstance(getattr(policy, name), bool):
+            raise PolicyError(f"{spec.described}: its {name} must be True or False")
+    for name in ("assist", "start_turn"):
+        if not callable(getattr(policy, name)):
+            raise PolicyError(f"{spec.described}: its {name} must be a method")
+    return policy
+
+
+def _make(factory: Callable[..., Any], params: Mapping[str, Any], spec: PolicySpec) -> Any:
+    try:
+        return factory(**params)
+    except Exception as exc:
+        raise PolicyError(f"{spec.described}: making the policy failed: {type(exc).__name__}: {exc}") from exc
+
+
+class CheckedPolicy:
+    """A researcher's policy with every answer checked: an exception, a NaN or a command of the
+    wrong shape is a :class:`PolicyError` naming the condition and the policy."""
+
+    def __init__(self, inner: Any, spec: PolicySpec) -> None:
+        self.inner = inner
+        self.spec = spec
+        self.infers = bool(inner.infers)
+        self.takes_turns = bool(inner.takes_turns)
+
+    def assist(self, view: StepView) -> Assistance:
+        try:
+            answer = self.inner.assist(view)
+        except Exception as exc:
+            raise PolicyError(f"{self.spec.described}: assist raised {type(exc).__name__}: {exc}") from exc
+        if not isinstance(answer, Assistance):
+            answer = self._fail(f"assist returned {type(answer).__name__}, not an Assistance")
+        try:
+            command = checked_command(answer.command, "its command")
+            u_a = checked_command(answer.u_a, "its u_a")
+        except ValueError as exc:
+            raise PolicyError(f"{self.spec.described}: assist: {exc}") from None
+        alpha, goal = answer.alpha, answer.goal
+        if not isinstance(alpha, int | float) or not math.isfinite(alpha):
+            self._fail(f"assist returned alpha {alpha!r}; it must be a finite number")
+        if not isinstance(goal, int) or not -1 <= goal < len(view.goal_poses):
+            self._fail(f"assist returned goal {goal!r}; it must be -1 or a goal index below "
+                       f"{len(view.goal_poses)}")
+        return Assistance(command, u_a, float(alpha), int(goal))
+
+    def start_turn(self, view: StepView) -> AutonomyTurn:
+        try:
+            plan = self.inner.start_turn(view)
+        except Exception as exc:
+            raise PolicyError(f"{self.spec.described}: start_turn raised "
+                              f"{type(exc).__name__}: {exc}") from exc
+        if not isinstance(plan, AutonomyTurn):
+            self._fail(f"start_turn returned {type(plan).__name__}, not an AutonomyTurn")
+        if plan.target is not None:
+            try:
+                checked_command(plan.target, "its target")
+            except ValueError as exc:
+                raise PolicyError(f"{self.spec.described}: start_turn: {exc}") from None
+        if plan.mode is not None and plan.mode not in (0, 1, 2):
+            self._fail(f"start_turn returned mode {plan.mode!r}; it must be 0, 1, 2 or None")
+        return plan
+
+    def _fail(self, what: str) -> Any:
+        raise PolicyError(f"{self.spec.described}: {what}")
+
+
+def make_policy(condition: str, settings: ProtocolSettings) -> Policy:
+    """A fresh policy for one trial of ``condition``: the experiment's own, or the built-in one."""
+    for spec in settings.custom_policies:
+        if spec.condition == condition:
+            return CheckedPolicy(_make(load_factory(spec), dict(spec.params), spec), spec)
+    return BUILTIN_POLICIES[policy_name(condition)](settings)  # type: ignore[no-any-return]
+
+
+def policy_specs(config: ExperimentConfig) -> tuple[PolicySpec, ...]:
+    """The experiment's own policies (``[policies.NAME]``) that its conditions run."""
+    own = config.policies or {}
+    return tuple(PolicySpec(name, own[name].factory, tuple(sorted(own[name].params.items())),
+                            config.policy_search_path)
+                 for name in config.study.conditions if name in own)
+
+
+def checked_policy_specs(config: ExperimentConfig) -> tuple[PolicySpec, ...]:
+    """:func:`policy_specs`, each imported, made once and checked (:func:`check_custom_policy`), so
+    a policy that cannot run is refused before any work starts."""
+    specs = policy_specs(config)
+    for spec in specs:
+        check_custom_policy(spec)
+    return specs
+
+
+def constant_metrics_of(config: ExperimentConfig) -> dict[str, frozenset[str]]:
+    """Condition -> the metrics its policy makes constant by construction.
+
+    A built-in policy's are its own (``additive`` blending adds strength); a researcher's policy's
+    are those of its traits (no turns: human effort and turns; no inference: engagement and
+    strength) plus any it lists in a ``constant_metrics`` attribute.
+    """
+    specs = {spec.condition: spec for spec in policy_specs(config)}
+    table: dict[str, frozenset[str]] = {}
+    for condition in config.study.conditions:
+        spec = specs.get(condition)
+        if spec is None:
+            name = policy_name(condition)
+            metrics = CONSTANT_METRICS.get(name, frozenset())
+            if name == "blending" and config.blending is not None and config.blending.kind == "additive":
+                metrics = metrics | {"assistance_strength"}
+            table[condition] = metrics
+            continue
+        policy = check_custom_policy(spec)
+        metrics = frozenset(getattr(policy, "constant_metrics", ()))
+        if not policy.takes_turns:
+            metrics |= _WITHOUT_TURNS
+        if not policy.infers:
+            metrics |= _WITHOUT_INFERENCE
+        table[condition] = metrics
+    return table
