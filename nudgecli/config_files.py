@@ -163,21 +163,27 @@ def as_written(value: Any) -> str:
 
 
 def dump_toml(data: dict[str, Any]) -> str:
-    """A small TOML writer for nested dicts of scalars and lists (what our configs hold)."""
+    """A small TOML writer for nested dicts of scalars and lists (what our configs hold).
+
+    A dict is a table ``[a]``, a dict inside it ``[a.b]`` (a table holding only tables gets no
+    header of its own), and so on at any depth.
+    """
     lines: list[str] = []
-    scalars = {k: v for k, v in data.items() if not isinstance(v, dict)}
+    _dump_table(data, (), lines)
+    return "\n".join(lines) + "\n"
+
+
+def _dump_table(table: dict[str, Any], path: tuple[str, ...], lines: list[str]) -> None:
+    scalars = {k: v for k, v in table.items() if not isinstance(v, dict)}
+    if path and (scalars or len(scalars) == len(table)):
+        if lines:
+            lines.append("")
+        lines.append(f"[{'.'.join(path)}]")
     for key, value in scalars.items():
         lines.append(f"{key} = {_toml_value(value)}")
-    for key, value in data.items():
+    for key, value in table.items():
         if isinstance(value, dict):
-            if lines:
-                lines.append("")
-            lines.append(f"[{key}]")
-            for k, v in value.items():
-                if isinstance(v, dict):
-                    raise ValueError("dump_toml supports two levels of nesting")
-                lines.append(f"{k} = {_toml_value(v)}")
-    return "\n".join(lines) + "\n"
+            _dump_table(value, (*path, key), lines)
 
 
 def _toml_value(value: Any) -> str:

@@ -1,0 +1,197 @@
+"""A researcher's own policy in the harness: the shipped example runs from the command line, its
+tables do not depend on the executor, and every way a policy can be wrong is one Error line."""
+
+from __future__ import annotations
+
+import json
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from nudgecli.cli import main
+from nudgecli.config import load_experiment
+from nudgecli.runs.study import run_study
+from nudgecli.sim.policy_interface import Assistance, Policy
+from nudgecli.sim.policy_registry import constant_metrics_of
+from tests.test_sim_study import assert_same_run
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "experiments" / "custom-policy.toml"
+
+
+def test_the_example_runs_from_the_command_line_and_its_policy_acts(tmp_path):
+    out = tmp_path / "run"
+    result = CliRunner().invoke(main, ["run", str(EXAMPLE), "--participants", "2", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    stats = json.loads((out / "stats.json").read_text())
+    assert stats["conditions"] == ["disambiguation", "blending", "threshold"]
+    import pandas as pd
+
+    steps = pd.read_parquet(out / "steps")
+    trials = pd.read_parquet(out / "trials")
+    threshold = trials.loc[trials["condition"] == "threshold", ["participant", "trial"]]
+    mine = steps.merge(threshold, on=["participant", "trial"])
+    assert len(mine) > 1000
+    # the threshold policy blends at its fixed weight and never otherwise
+    assert set(np.unique(mine["alpha"])) == {0.0, 0.5}
+    # it takes no turns: the person's turn is the whole trial
+    assert (mine["turn"] == "human").all()
+
+
+def test_a_custom_policys_tables_are_identical_with_one_and_two_workers_and_dask(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    config = load_experiment(str(EXAMPLE))
+    run_study(config, tmp_path / "one", participants=2, workers=1)
+    run_study(config, tmp_path / "two", participants=2, workers=2)
+    # worker processes of their own: the policy's module is imported there from the experiment's folder
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=":0") as cluster:
+        run_study(config, tmp_path / "dask", participants=2, scheduler=cluster.scheduler_address)
+    assert_same_run(tmp_path / "one", tmp_path / "two")
+    assert_same_run(tmp_path / "one", tmp_path / "dask")
+
+
+def test_the_example_policy_has_the_interface_and_its_traits_set_the_constant_metrics():
+    import sys
+
+    config = load_experiment(str(EXAMPLE))
+    constant = constant_metrics_of(config)  # imports the module from the experiment's folder
+    assert constant["threshold"] == {"human_effort", "human_turns"}  # no turns
+    assert constant["disambiguation"] == frozenset()
+    assert constant["blending"] == {"human_effort", "human_turns"}
+    policy = sys.modules["policies.threshold"].ThresholdAssist()
+    assert isinstance(policy, Policy)
+
+
+# --- bad policies: one Error line naming the condition and the policy, exit 1 ----------------------
+
+GOOD = """
+from nudgecli.sim.policy_interface import Assistance, AutonomyTurn
+
+class Mine:
+    infers = True
+    takes_turns = False
+
+    def __init__(self, weight=0.5):
+        self.weight = weight
+
+    def assist(self, view):
+        return Assistance(view.u_h)
+
+    def start_turn(self, view):
+        return AutonomyTurn.stay()
+"""
+
+EXPERIMENT = """
+[experiment]
+name = "mine"
+
+[study]
+participants = 1
+conditions = ["control", "mine"]
+goal_counts = [3]
+corners = ["tr"]
+start_modes = ["x"]
+blocks_per_condition = 1
+
+[policies.mine]
+factory = "{factory}"
+params = {params}
+"""
+
+
+def _experiment(tmp_path: Path, module: str, factory: str = "mymodule:Mine", params: str = "{}") -> Path:
+    (tmp_path / "mymodule.py").write_text(textwrap.dedent(module))
+    path = tmp_path / "mine.toml"
+    path.write_text(EXPERIMENT.format(factory=factory, params=params))
+    return path
+
+
+def _simulate(tmp_path: Path, experiment: Path, *extra: str):
+    import sys
+
+    sys.modules.pop("mymodule", None)  # each test's module is its own
+    out = tmp_path / "run"
+    return out, CliRunner().invoke(main, ["simulate", str(experiment), "--out", str(out), *extra])
+
+
+def _one_error_line(result, *words: str) -> None:
+    assert result.exit_code == 1, result.output
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    errors = [line for line in lines if line.startswith("Error:")]
+    assert len(errors) == 1, result.output
+    assert "Traceback" not in result.output
+    for word in words:
+        assert word in errors[0], (word, errors[0])
+
+
+def test_a_good_policy_of_ones_own_runs(tmp_path):
+    _, result = _simulate(tmp_path, _experiment(tmp_path, GOOD, params="{ weight = 0.3 }"))
+    assert result.exit_code == 0, result.output
+
+
+@pytest.mark.parametrize(("module", "factory", "params", "words"), [
+    ("raise ImportError('no such thing')\n", "mymodule:Mine", "{}", ["cannot import module 'mymodule'"]),
+    ("x = 1\n", "nomodule_here:Mine", "{}", ["cannot import module 'nomodule_here'"]),
+    (GOOD, "mymodule:Yours", "{}", ["has no attribute 'Yours'"]),
+    (GOOD + "\nNOT_CALLABLE = 3\n", "mymodule:NOT_CALLABLE", "{}", ["not callable"]),
+    (GOOD + "\nclass Half:\n    infers = True\n    def assist(self, view): pass\n", "mymodule:Half", "{}",
+     ["lacks takes_turns, start_turn"]),
+    (GOOD.replace("takes_turns = False", "takes_turns = 'no'"), "mymodule:Mine", "{}",
+     ["takes_turns must be True or False"]),
+    (GOOD, "mymodule:Mine", "{ strength = 2 }", ["do not fit its signature"]),
+    (GOOD.replace("self.weight = weight", "raise ValueError('weight out of range')"), "mymodule:Mine", "{}",
+     ["making the policy failed", "weight out of range"]),
+])
+def test_a_policy_that_cannot_run_is_refused_before_any_work(tmp_path, module, factory, params, words):
+    out, result = _simulate(tmp_path, _experiment(tmp_path, module, factory, params))
+    _one_error_line(result, "condition 'mine'", *words)
+    assert not (out / "trials").exists()
+
+
+@pytest.mark.parametrize(("assist", "words"), [
+    ("raise RuntimeError('lost')", ["assist raised RuntimeError: lost"]),
+    ("return Assistance((float('nan'), 0.0, 0.0))", ["must be finite"]),
+    ("return Assistance((1.0, 0.0))", ["must be three numbers"]),
+    ("return (view.u_h, view.u_h, 0.0, -1)", ["not an Assistance"]),
+    ("return Assistance(view.u_h, alpha=float('inf'))", ["alpha inf"]),
+    ("return Assistance(view.u_h, goal=7)", ["goal 7"]),
+])
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_policy_that_fails_at_run_time_is_one_error_line_and_the_run_is_interrupted(
+        tmp_path, assist, words, workers):
+    module = GOOD.replace("return Assistance(view.u_h)", assist)
+    # made and checked once before the run: the failure comes with the first step
+    out, result = _simulate(tmp_path, _experiment(tmp_path, module), "--workers", workers)
+    _one_error_line(result, "condition 'mine' (policy mymodule:Mine)", *words)
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["status"] == "interrupted"
+    analysed = CliRunner().invoke(main, ["analyze", str(out)])
+    assert analysed.exit_code == 1 and "Error:" in analysed.output
+
+
+def test_a_condition_that_names_no_policy_points_to_policy_sections(tmp_path):
+    path = tmp_path / "mine.toml"
+    path.write_text(EXPERIMENT.format(factory="mymodule:Mine", params="{}").replace(
+        'conditions = ["control", "mine"]', 'conditions = ["control", "mien"]'))
+    _, result = _simulate(tmp_path, path)
+    _one_error_line(result, "unknown condition 'mien'", "did you mean 'mine'", "[policies.mien]")
+
+
+def test_a_policy_section_may_not_reuse_a_built_in_name(tmp_path):
+    path = tmp_path / "mine.toml"
+    path.write_text(EXPERIMENT.format(factory="mymodule:Mine", params="{}").replace(
+        "[policies.mine]", "[policies.control]"))
+    _, result = _simulate(tmp_path, path)
+    _one_error_line(result, "[policies.control]", "built-in")
+
+
+def test_the_assistance_helpers_blend_and_add_as_documented():
+    # hand-computed: convex 0.25 * (4, 0, 1) + 0.75 * (0, 2, 1) = (1, 1.5, 1); additive (4, 2, 2)
+    convex = Assistance.convex((0.0, 2.0, 1.0), (4.0, 0.0, 1.0), 0.25, 1)
+    assert convex.command == (1.0, 1.5, 1.0) and convex.alpha == 0.25 and convex.goal == 1
+    additive = Assistance.additive((0.0, 2.0, 1.0), (4.0, 0.0, 1.0), 2)
+    assert tuple(additive.command) == (4.0, 2.0, 2.0) and additive.alpha == 1.0
