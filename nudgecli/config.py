@@ -280,13 +280,20 @@ class CustomPolicySection(Section):
 
 
 class HindsightSection(Section):
-    """``[hindsight]``: the ``hindsight`` condition (first-order hindsight optimisation).
+    """``[hindsight]``: the ``hindsight`` condition, first-order hindsight optimisation as the
+    authors' open code computes it (personalrobotics/ada_assistance_policy; docs/baselines.md).
 
-    ``gain`` scales the belief-weighted sum of the per-goal autonomous commands added to the
-    person's command every step (1: the sum itself).
+    Every step the belief-weighted sum of each goal's Huber-cost assistance is added to the
+    person's command. ``strength``: the assistance far from a goal over the person's full command
+    (unset: the source's ratio, 0.306, ``nudgecli.model.hindsight.SOURCE_STRENGTH``); ``zone``: the
+    Huber zone around each goal inside which it slows (world units; unset: the source's 0.07 m
+    scaled by the person's speed over the source user's, 1.05 units); ``assist``: ``always`` (the
+    source: every step, input or not) or ``on-command`` (only on steps with a motion command).
     """
 
-    gain: Annotated[float, Field(ge=0)] = 1.0
+    strength: Annotated[float, Field(gt=0, le=10)] | None = None
+    zone: Annotated[float, Field(gt=0, le=50)] | None = None
+    assist: Literal["always", "on-command"] = "always"
 
 
 class WorldSection(Section):
@@ -375,7 +382,7 @@ class ExperimentConfig(Section):
             field_name = CONDITION_SECTIONS.get(condition)
             if field_name is not None and getattr(self, field_name) is None:
                 example = {"blending": 'gate = "gap"', "mode-switch": 'criterion = "disamb"',
-                           "hindsight": "gain = 1.0"}[condition]
+                           "hindsight": 'assist = "always"'}[condition]
                 key, value = example.split(" = ")
                 raise ValueError(f"study.conditions lists {condition!r} but there is no [{condition}] "
                                  f"section with its settings; add one, e.g. [{condition}] {example} (or "

@@ -17,11 +17,11 @@ from hypothesis import strategies as st
 from nudgecli.cli import main
 from nudgecli.config import experiment_from_toml, load_experiment
 from nudgecli.config_files import default_plan_name
-from nudgecli.model import assistance, policies
+from nudgecli.model import hindsight, policies
 from nudgecli.model.candidates import mode_candidates
 from nudgecli.model.conditions import policy_name
 from nudgecli.model.disambiguation import DisambiguationModel
-from nudgecli.model.interface import SOFT_PUFF, default_distortion_table, default_mapping_table
+from nudgecli.model.interface import NO_INPUT, SOFT_PUFF, default_distortion_table, default_mapping_table
 from nudgecli.model.mdp import solve_layout
 from nudgecli.model.world import (
     N_CELLS_X,
@@ -63,7 +63,6 @@ gap = 0.4
 [mode-switch]
 criterion = "disamb"
 [hindsight]
-gain = 1.0
 """
 
 
@@ -188,38 +187,57 @@ def test_entropy_and_kl_criteria_equal_their_definitions(weights, seed):
 
 # --- hindsight ------------------------------------------------------------------------------------
 
-@given(st.integers(0, 3), st.lists(st.floats(-5, 5), min_size=15, max_size=15),
-       st.lists(st.floats(0.01, 1.0), min_size=4, max_size=4))
-@settings(max_examples=60, deadline=None)
-def test_hindsight_adds_the_belief_weighted_sum_of_the_goal_commands(goal, numbers, weights):
-    commands = np.array(numbers[:12]).reshape(4, 3)
-    u_h = np.array(numbers[12:])
-    one_hot = np.eye(4)[goal]
-    np.testing.assert_allclose(policies.hindsight_command(u_h, one_hot, commands, 1.0), u_h + commands[goal])
-    belief = np.array(weights) / sum(weights)
-    loop = u_h + sum(belief[g] * commands[g] for g in range(4))
-    np.testing.assert_allclose(policies.hindsight_command(u_h, belief, commands, 1.0), loop, atol=1e-12)
-
-
-def test_hindsight_with_a_one_hot_belief_moves_by_that_goals_command_plus_the_persons():
-    config = experiment_from_toml(POLICY_TOML)
-    settings_ = ProtocolSettings.from_config(config)
+def _hindsight_step(toml: str, belief: np.ndarray, pressure: float):
+    """One step of a hindsight trial from layout 5's start with ``belief``: (session, pose before, row)."""
+    settings_ = ProtocolSettings.from_config(experiment_from_toml(toml))
     layout, model = _layout_model(5)
+    session = TrialSession(_spec("hindsight", layout), settings_, model, 10, np.random.default_rng(2))
+    session._set_belief(belief)
+    pose = (session.x, session.y, session.theta)
+    session.human_step(SOFT_PUFF if pressure else NO_INPUT, pressure)
+    row = {c: v[-1] for c, v in session.columns.items()}
+    return session, pose, row, layout
+
+
+def test_hindsight_with_a_one_hot_belief_adds_that_goals_ada_assistance_to_the_persons_command():
     for goal in range(3):
-        session = TrialSession(_spec("hindsight", layout), settings_, model, 10, np.random.default_rng(2))
-        session._set_belief(np.eye(3)[goal])
-        pose = (session.x, session.y, session.theta)
-        session.human_step(SOFT_PUFF, -0.2)  # a soft puff: the person's command in the start mode
-        row = {c: v[-1] for c, v in session.columns.items()}
+        session, pose, row, layout = _hindsight_step(POLICY_TOML, np.eye(3)[goal], -0.2)
+        s = session.settings
         u_h = np.array([row["u_h_x"], row["u_h_y"], row["u_h_theta"]])
         u_a = np.array([row["u_a_x"], row["u_a_y"], row["u_a_theta"]])
-        goal_command = assistance.autonomy_velocity(pose, layout.goal_poses[goal], settings_.autonomy_speed,
-                                                    settings_.autonomy_turn_rate, settings_.dt)
+        # ADA's one-goal assistance, evaluated after the person's command (the source's 0.1 s)
+        goal_command = hindsight.goal_command(*pose, tuple(layout.goal_poses[goal]), s.hindsight, s.dt,
+                                              tuple(u_h))
         assert np.abs(u_h).sum() > 0 and np.abs(goal_command).sum() > 0
         np.testing.assert_array_equal(u_a, goal_command)
-        expected = GridWorld(layout, 1.0, 0.2).move(*pose, u_h + goal_command, settings_.dt)
+        # far from every goal its speed is the source's share of the person's full command, 0.306
+        far_speed = hindsight.SOURCE_STRENGTH * s.human_speed
+        assert math.hypot(u_a[0], u_a[1]) == pytest.approx(far_speed, rel=1e-12)
+        expected = GridWorld(layout, 1.0, 0.2).move(*pose, u_h + u_a, s.dt)
         np.testing.assert_allclose((session.x, session.y, session.theta), expected, atol=1e-12)
-        assert row["turn"] == HUMAN_TURN and row["alpha"] == 0.0
+        assert row["turn"] == HUMAN_TURN and row["alpha"] == 1.0 and row["inferred_goal"] == goal
+
+
+def test_hindsight_always_assists_without_input_and_on_command_only_with_it():
+    belief = np.array([0.2, 0.5, 0.3])
+    _, pose, row, _ = _hindsight_step(POLICY_TOML, belief, 0.0)
+    assert row["alpha"] == 1.0 and abs(row["u_a_x"]) + abs(row["u_a_y"]) > 0  # the source: every step
+    on_command = POLICY_TOML.replace("[hindsight]", '[hindsight]\nassist = "on-command"')
+    session, pose, row, _ = _hindsight_step(on_command, belief, 0.0)
+    assert row["alpha"] == 0.0 and (row["u_a_x"], row["u_a_y"], row["u_a_theta"]) == (0.0, 0.0, 0.0)
+    assert (session.x, session.y, session.theta) == pose  # no input, no assistance: the robot stands
+    _, _, row, _ = _hindsight_step(on_command, belief, -0.2)
+    assert row["alpha"] == 1.0
+
+
+def test_hindsight_strength_and_zone_are_read_from_its_section():
+    settings_ = ProtocolSettings.from_config(experiment_from_toml(POLICY_TOML))
+    assert settings_.hindsight.strength == hindsight.SOURCE_STRENGTH
+    scaled_zone = hindsight.TRANSLATION_DELTA_SWITCH * 3.0 / 0.2  # the source's 0.07 m, 15 units a metre
+    assert settings_.hindsight.zone == pytest.approx(scaled_zone, rel=1e-12)
+    changed = POLICY_TOML.replace("[hindsight]", "[hindsight]\nstrength = 1.0\nzone = 4.0")
+    settings_ = ProtocolSettings.from_config(experiment_from_toml(changed))
+    assert (settings_.hindsight.strength, settings_.hindsight.zone) == (1.0, 4.0)
 
 
 # --- blending -------------------------------------------------------------------------------------
@@ -363,29 +381,6 @@ def test_the_baselines_plan_orders_the_experiments_conditions():
     assert default_plan_name("baselines") == "baselines"
 
 
-def test_the_hindsight_gain_scales_the_added_command():
-    commands = np.array([[1.0, -2.0, 0.5], [3.0, 0.0, -1.0]])
-    belief = np.array([0.25, 0.75])
-    by_hand = np.array([0.25 * 1.0 + 0.75 * 3.0, 0.25 * -2.0, 0.25 * 0.5 + 0.75 * -1.0])
-    np.testing.assert_allclose(policies.hindsight_assistance(belief, commands, 0.5), 0.5 * by_hand,
-                               atol=1e-15)
-    np.testing.assert_allclose(policies.hindsight_command(np.ones(3), belief, commands, 2.0),
-                               1.0 + 2.0 * by_hand, atol=1e-15)
-    # and the protocol passes [hindsight] gain through
-    config = experiment_from_toml(POLICY_TOML.replace("gain = 1.0", "gain = 0.5"))
-    settings_ = ProtocolSettings.from_config(config)
-    assert settings_.hindsight_gain == 0.5
-    layout, model = _layout_model(5)
-    session = TrialSession(_spec("hindsight", layout), settings_, model, 10, np.random.default_rng(2))
-    session._set_belief(np.eye(3)[1])
-    pose = (session.x, session.y, session.theta)
-    session.human_step(SOFT_PUFF, -0.2)
-    row = {c: v[-1] for c, v in session.columns.items()}
-    goal_command = assistance.autonomy_velocity(pose, layout.goal_poses[1], settings_.autonomy_speed,
-                                                settings_.autonomy_turn_rate, settings_.dt)
-    np.testing.assert_allclose([row["u_a_x"], row["u_a_y"], row["u_a_theta"]], 0.5 * goal_command, atol=1e-15)
-
-
 def test_the_confidence_gap_of_one_goal_is_its_belief_and_of_none_zero():
     assert policies.confidence_gap(np.array([1.0])) == 1.0
     assert policies.confidence_gap(np.array([])) == 0.0
@@ -401,3 +396,24 @@ def test_a_goal_without_belief_adds_nothing_to_the_pairwise_kl_even_where_it_is_
     score = policies.weighted_pairwise_kl(np.array([0.5, 0.5, 0.0]), p)
     np.testing.assert_allclose(score, [0.25 * (kl01 + kl10)], rtol=1e-12)
     assert np.isinf(policies.weighted_pairwise_kl(np.array([0.4, 0.3, 0.3]), p)).all()
+
+
+def test_additive_blending_adds_the_leaders_whole_ada_assistance_only_past_the_gap():
+    toml = POLICY_TOML.replace('gate = "gap"', 'kind = "additive"\ngate = "gap"')
+    settings_ = ProtocolSettings.from_config(experiment_from_toml(toml))
+    layout, model = _layout_model(5)
+    for belief, acts in ((np.array([0.1, 0.8, 0.1]), True), (np.array([0.35, 0.45, 0.2]), False)):
+        session = TrialSession(_spec("blending", layout), settings_, model, 10, np.random.default_rng(2))
+        session._set_belief(belief)
+        pose = (session.x, session.y, session.theta)
+        session.human_step(NO_INPUT, 0.0)  # ADA's blend acts with or without input
+        row = {c: v[-1] for c, v in session.columns.items()}
+        u_a = (row["u_a_x"], row["u_a_y"], row["u_a_theta"])
+        if acts:  # p1 - p2 = 0.7 > 0.4: goal 1's whole assistance, alpha 1
+            expected = hindsight.goal_command(*pose, tuple(layout.goal_poses[1]), settings_.hindsight,
+                                              settings_.dt, (0.0, 0.0, 0.0))
+            assert u_a == expected and row["alpha"] == 1.0 and row["inferred_goal"] == 1
+            assert (session.x, session.y) != pose[:2]
+        else:  # p1 - p2 = 0.1: the person's command alone
+            assert u_a == (0.0, 0.0, 0.0) and row["alpha"] == 0.0
+            assert (session.x, session.y, session.theta) == pose

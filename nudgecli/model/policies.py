@@ -2,7 +2,7 @@
 
 The policies themselves, one object per trial behind one interface, are
 :mod:`nudgecli.sim.builtin_policies`; this module holds the mathematics they share with tests
-and other callers: the confidence gap of ADA's arbitration, the first-order hindsight sum, and the
+and other callers: the confidence gap of ADA's arbitration and the
 expected-posterior-entropy and pairwise-KL rankings of mode-only states.
 """
 
@@ -35,40 +35,6 @@ def gap_gated_alpha(alpha: float, belief: np.ndarray, gap: float) -> float:
     prediction's confidence).
     """
     return alpha if confidence_gap(belief) > gap else 0.0
-
-
-def hindsight_assistance(belief: np.ndarray, goal_commands: np.ndarray, gain: float) -> np.ndarray:
-    """The first-order hindsight-optimisation assistance: ``gain * sum_g b_g u_a^g``.
-
-    Javdani et al. (2015, RSS; 2018, IJRR) choose the robot action maximising the belief-weighted
-    sum of the per-goal action values, ``argmax_a sum_g b(g) Q_g(x, u, a)`` (the hindsight
-    approximation of the POMDP's value); linearised around the user's input (their first-order
-    approximation) the assistance is the belief-weighted sum of the per-goal autonomous
-    commands, added to the user's command.
-
-    Parameters
-    ----------
-    belief
-        ``(G,)`` belief over goals (Eq. 7 here, in place of their max-ent IOC predictor).
-    goal_commands
-        ``(G, 3)`` the autonomous command ``u_a^g`` towards each goal.
-    gain
-        Scale of the sum (1: the sum itself).
-
-    Returns
-    -------
-    np.ndarray
-        ``(3,)``.
-    """
-    b = np.asarray(belief, dtype=float)
-    commands = np.asarray(goal_commands, dtype=float).reshape(b.size, -1)
-    return gain * (b @ commands)
-
-
-def hindsight_command(u_h: np.ndarray, belief: np.ndarray, goal_commands: np.ndarray,
-                      gain: float) -> np.ndarray:
-    """``u_f = u_h + gain * sum_g b_g u_a^g`` (:func:`hindsight_assistance` added to the person's)."""
-    return np.asarray(u_h, dtype=float) + hindsight_assistance(belief, goal_commands, gain)
 
 
 def expected_posterior_entropy(weights: np.ndarray, likelihood: np.ndarray) -> np.ndarray:

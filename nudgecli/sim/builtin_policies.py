@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from nudgecli.model import assistance, policies
+from nudgecli.model import assistance, hindsight, policies
 from nudgecli.model.disambiguation import disambiguation_scores, maximally_disambiguating_state
 from nudgecli.model.inference import predict_belief
 from nudgecli.model.interface import NO_COMMAND
@@ -147,10 +147,12 @@ class Blending(PaperBlending):
     whole trial.
 
     ``[blending] kind``: ``convex`` blends with the paper's alpha (``u_f = alpha u_a + (1 - alpha)
-    u_h``), zeroed unless the confidence gap ``p1 - p2`` exceeds ``gap`` when ``gate = "gap"``: a
-    hybrid of the paper's ramp and ADA's gate. ``additive`` is ADA's own blend: while the gate
-    passes, the whole single-goal assistance towards ``g'`` is added to the person's command
-    (alpha 1), on steps with a command.
+    u_h``, ``u_a`` at the autonomy's speed) on steps with a motion command, zeroed unless the
+    confidence gap ``p1 - p2`` exceeds ``gap`` when ``gate = "gap"``: a hybrid of the paper's ramp
+    and ADA's gate, this toolkit's choice. ``additive`` is ADA's own blend
+    (``AdaAssistancePolicy.get_blend_action``): every step while the gate passes (one goal always
+    passes), the most likely goal's whole Huber-cost assistance
+    (:func:`nudgecli.model.hindsight.goal_command`) is added to the person's command (alpha 1).
     """
 
     takes_turns = False
@@ -164,13 +166,18 @@ class Blending(PaperBlending):
 
     def assist(self, view: StepView) -> Assistance:
         gap = self.settings.blending_gap
-        if self.additive:
-            leader = view.leader
+        if self.additive:  # AdaAssistancePolicy.get_blend_action: every step, input or not
             u_h = view.u_h
-            if (leader == NO_GOAL or u_h is NO_COMMAND
-                    or (gap is not None and policies.confidence_gap(view.belief) <= gap)):
-                return Assistance(u_h, NO_COMMAND, 0.0, leader)
-            return Assistance.additive(u_h, self.goal_command(view, leader), leader)
+            if gap is not None and not hindsight.blend_confident(view.belief, gap):
+                return Assistance(u_h, NO_COMMAND, 0.0, view.leader)
+            # the most likely goal's whole Huber-cost assistance (the first of tied leaders, as the
+            # source's argmax), evaluated after the person's command as the source does
+            goal = int(np.argmax(view.belief))
+            s = self.settings
+            goal_pose = tuple(view.goal_poses[goal])
+            u_a = hindsight.goal_command(view.x, view.y, view.theta, goal_pose, s.hindsight,  # type: ignore[arg-type]
+                                         s.dt, tuple(u_h))  # type: ignore[arg-type]
+            return Assistance.additive(u_h, u_a, goal)
         inferred, alpha = self.goal_and_alpha(view)
         if gap is not None:
             alpha = policies.gap_gated_alpha(alpha, view.belief, gap)
@@ -234,8 +241,12 @@ def select_mode(view: StepView, criterion: str) -> int:
 
 
 class Hindsight:
-    """First-order hindsight optimisation (Javdani et al. 2015/2018): the belief-weighted sum of
-    the per-goal autonomous commands added to the person's command every step; no turn-taking."""
+    """First-order hindsight optimisation (Javdani et al. 2015/2018) as the authors' open code
+    computes it (``AssistancePolicy.get_assisted_action``): the belief-weighted sum of each goal's
+    Huber-cost assistance (:func:`nudgecli.model.hindsight.hindsight_command`, evaluated after the
+    person's command for the source's 0.1 s) added to the person's command; no turn-taking.
+    ``[hindsight] assist = "always"`` (the source) adds it every step, ``"on-command"`` only on
+    steps with a motion command. alpha is 1 on the steps it acts (additive: the whole sum is added)."""
 
     infers = True
     takes_turns = False
@@ -243,14 +254,16 @@ class Hindsight:
 
     def __init__(self, settings: ProtocolSettings) -> None:
         self.settings = settings
+        self.on_command = settings.hindsight_assist == "on-command"
 
     def assist(self, view: StepView) -> Assistance:
+        u_h = view.u_h
+        if self.on_command and u_h is NO_COMMAND:
+            return Assistance(u_h, NO_COMMAND, 0.0, view.leader)
         s = self.settings
-        pose = (view.x, view.y, view.theta)
-        commands = np.array([assistance.autonomy_velocity(pose, goal, s.autonomy_speed, s.autonomy_turn_rate,
-                                                          s.dt) for goal in view.goal_poses])
-        u_a = policies.hindsight_assistance(view.belief, commands, s.hindsight_gain)
-        return Assistance(np.add(view.u_h, u_a), u_a, 0.0, view.leader)
+        u_a = hindsight.hindsight_command(view.x, view.y, view.theta, view.goal_poses, view.belief,
+                                          s.hindsight, s.dt, tuple(u_h))  # type: ignore[arg-type]
+        return Assistance.additive(u_h, u_a, view.leader)
 
     def start_turn(self, view: StepView) -> AutonomyTurn:
         return AutonomyTurn.stay()

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -60,6 +60,7 @@ from nudgecli.config import (
 from nudgecli.model import assistance, interface
 from nudgecli.model.assistance import BlendingSettings
 from nudgecli.model.disambiguation import DisambiguationModel, DisambiguationSettings
+from nudgecli.model.hindsight import HindsightSettings
 from nudgecli.model.inference import (
     DecayCounters,
     DecaySettings,
@@ -121,7 +122,8 @@ class ProtocolSettings:
     blending_gap: float | None
     blending_kind: str
     mode_criterion: str
-    hindsight_gain: float
+    hindsight: HindsightSettings
+    hindsight_assist: str
     custom_policies: tuple[PolicySpec, ...] = ()
 
     @classmethod
@@ -165,9 +167,21 @@ class ProtocolSettings:
             blending_kind=(config.blending or section_defaults(BlendingPolicySection)).kind,
             # the sections of conditions the study does not run may be absent: their defaults then
             mode_criterion=(config.mode_switch or section_defaults(ModeSwitchSection)).criterion,
-            hindsight_gain=(config.hindsight or section_defaults(HindsightSection)).gain,
+            hindsight=hindsight_settings(config),
+            hindsight_assist=(config.hindsight or section_defaults(HindsightSection)).assist,
             custom_policies=checked_policy_specs(config),
         )
+
+
+def hindsight_settings(config: ExperimentConfig) -> HindsightSettings:
+    """The hindsight policy's assistance in this world: the source's, scaled to the person's
+    speeds (:meth:`HindsightSettings.from_source`), with ``[hindsight] strength`` / ``zone`` where set."""
+    section = config.hindsight or section_defaults(HindsightSection)
+    itf = config.interface
+    derived = HindsightSettings.from_source(itf.human_speed, itf.human_turn_rate)
+    changes = {key: value for key, value in (("strength", section.strength), ("zone", section.zone))
+               if value is not None}
+    return replace(derived, **changes) if changes else derived
 
 
 @dataclass(frozen=True)
