@@ -255,15 +255,15 @@ class BlendingPolicySection(Section):
 class ModeSwitchSection(Section):
     """``[mode-switch]``: the ``mode-switch`` condition (the autonomy's turn only changes the mode).
 
-    ``criterion`` ranks the states that differ from the current one in mode alone: ``disamb`` by
-    D(s) of ``[disambiguation]`` (Eq. 15), ``entropy`` by the expected entropy of the belief after
-    the next measured label (lowest wins), ``kl`` by the belief-weighted KL divergence between the
-    goals' label distributions (highest wins). With the exact estimator ``entropy`` picks the mode
-    ``disamb`` picks: ``I(s) = H(b) - E H(b')`` and ``R(s)`` is the same for every mode-only
-    state; they part with the Monte-Carlo estimator. ``kl`` is a different ranking.
+    ``criterion`` names the rule that chooses the mode, over the states that differ from the
+    current one in mode alone: ``paper-mi`` the seed paper's D(s) of ``[disambiguation]`` (its
+    mutual information: the distance term is equal for these states); ``gopinath2017`` Gopinath &
+    Argall's (2017) disambiguation metric of projected beliefs; ``gopinath2017-kl`` its KL variant;
+    ``herlant2016`` Herlant et al.'s (2016) time-optimal mode for the most likely goal
+    (docs/baselines.md cites each source).
     """
 
-    criterion: Literal["disamb", "entropy", "kl"] = "disamb"
+    criterion: Literal["paper-mi", "gopinath2017", "gopinath2017-kl", "herlant2016"] = "paper-mi"
 
 
 class CustomPolicySection(Section):
@@ -381,7 +381,7 @@ class ExperimentConfig(Section):
         for condition in self.study.conditions:
             field_name = CONDITION_SECTIONS.get(condition)
             if field_name is not None and getattr(self, field_name) is None:
-                example = {"blending": 'gate = "gap"', "mode-switch": 'criterion = "disamb"',
+                example = {"blending": 'gate = "gap"', "mode-switch": 'criterion = "paper-mi"',
                            "hindsight": 'assist = "always"'}[condition]
                 key, value = example.split(" = ")
                 raise ValueError(f"study.conditions lists {condition!r} but there is no [{condition}] "

@@ -31,7 +31,8 @@ EXECUTOR_NAME = "nudgecli/runs/study.py"
 
 #: File and folder names of a run folder and of an analysis folder.
 FILE_NAMES = ("manifest.json", "participants.parquet", "layouts.parquet", ".nudge.lock", "metrics.csv",
-              "stats.json", "stats.csv", "summary.md", "questionnaires.csv", "figures")
+              "stats.json", "stats.csv", "summary.md", "questionnaires.csv", "questionnaire_scores.csv",
+              "figures")
 #: Words of the prepare rule's refusals.
 PREPARE_TEXTS = ("exists and is not empty", "nothing to resume", "already holds a")
 
@@ -238,7 +239,8 @@ def test_the_entropy_gate_is_written_once() -> None:
                     isinstance(sub, ast.Attribute) and sub.attr == "entropy_gate" for sub in ast.walk(node)):
                 comparing.add(path.relative_to(PACKAGE.parent).as_posix())
     assert not comparing
-    assert {"nudgecli/model/assistance.py", "nudgecli/sim/protocol.py"} <= modules_using("entropy_gated")
+    owners = {"nudgecli/model/assistance.py", "nudgecli/sim/builtin_policies.py"}
+    assert owners <= modules_using("entropy_gated")
 
 
 

@@ -11,7 +11,7 @@ teleoperation  none         no          nothing (the person's turn is the whole 
 blending       Eq. 7        no          blends towards g' (Dragan & Srinivasa, 2013), convex
                                         or additive (ADA's blend)
 mode-switch    Eq. 7        yes         blends; in its turn changes the mode only, by a
-                                        named criterion (:mod:`nudgecli.sim.mode_selection`)
+                                        named criterion (:func:`select_mode`)
 hindsight      Eq. 7        no          adds sum_g b_g u_a^g (Javdani et al. 2015/2018 as
                                         ADA's code computes it)
 ============== ============ =========== ===================================================
@@ -27,12 +27,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from nudgecli.model import assistance, hindsight, policies
+from nudgecli.model import assistance, hindsight, mode_criteria, policies
 from nudgecli.model.disambiguation import disambiguation_scores, maximally_disambiguating_state
-from nudgecli.model.inference import predict_belief
 from nudgecli.model.interface import NO_COMMAND
-from nudgecli.model.ties import tied_with_max
-from nudgecli.model.world import N_MODES
 from nudgecli.sim.policy_interface import Assistance, AutonomyTurn, StepView
 from nudgecli.steplog import MODE_SELECT, NO_GOAL, NUDGE, STEP
 
@@ -214,30 +211,53 @@ class ModeSwitch(PaperBlending):
         return AutonomyTurn(None, select_mode(view, self.settings.mode_criterion), (MODE_SELECT,))
 
 
+#: What a mode switch costs Herlant et al.'s time-optimal plan: a hard blow and the reaction
+#: before it, about 1 s for real sip-and-puff users (data/ciaa-task/HABITS.md, "a stop to the next
+#: switch"). In this world each mode moves one axis, so it orders nothing but the choice to switch.
+HERLANT_SWITCH_TIME_S = 1.0
+
+
 def select_mode(view: StepView, criterion: str) -> int:
-    """The mode whose next inputs disambiguate most by ``criterion``, over the states that differ
-    from the current one in mode alone; the current mode wins ties (no needless switch)."""
+    """The mode ``criterion`` chooses over the states that differ from the current one in mode
+    alone (the current mode wins ties, then the first in mode order x, y, theta).
+
+    - ``paper-mi``: the seed paper's D(s) (Eq. 15) over those states; its distance term is the
+      same for each, so this is Eq. 13's mutual information.
+    - ``gopinath2017``: Gopinath & Argall's disambiguation metric of beliefs projected 1 s and 2 s
+      along each mode's motion (:func:`nudgecli.model.mode_criteria.gopinath_disambiguation`).
+    - ``gopinath2017-kl``: its KL variant, KL(belief projected 1 s || current belief).
+    - ``herlant2016``: the mode the time-optimal plan to ``g'`` uses next (Herlant et al. 2016);
+      without a unique ``g'`` the mode is kept.
+    """
     s = view.settings
     assert view.model is not None
-    state = view.state
+    if criterion == "herlant2016":
+        if view.leader == NO_GOAL:
+            return view.mode
+        speeds = np.array([s.human_speed, s.human_speed, s.human_turn_rate])
+        tolerance = np.array([s.success_distance, s.success_distance, s.success_angle])
+        return mode_criteria.herlant_time_optimal_mode(np.array([view.x, view.y, view.theta]),
+                                                       view.goal_poses[view.leader], view.mode, speeds,
+                                                       HERLANT_SWITCH_TIME_S, tolerance)
     mode_only = replace(s.disambiguation, scope="mode-only")
-    candidates = view.model.candidates(state, mode_only, np.array([view.x, view.y]))
-    if criterion == "disamb":  # D(s), Eq. 15, over the mode-only states
+    candidates = view.model.candidates(view.state, mode_only, np.array([view.x, view.y]))
+    if criterion == "paper-mi":  # D(s), Eq. 15, over the mode-only states (in mode order)
         score = disambiguation_scores(view.belief, view.model, candidates, mode_only, view.rng,
                                       view.goal_transition).score
-    else:
-        weights = (view.belief if view.goal_transition is None
-                   else predict_belief(view.belief, view.goal_transition))
-        likelihood = view.model.likelihood[:, candidates.states, :].transpose(1, 0, 2)  # (C, G, F)
-        if criterion == "entropy":  # the lowest expected posterior entropy wins
-            score = -policies.expected_posterior_entropy(weights, likelihood)
-        else:
-            score = policies.weighted_pairwise_kl(weights, likelihood)
-    modes = candidates.states % N_MODES
-    tied = tied_with_max(score)
-    if tied[modes == view.mode].any():
-        return view.mode
-    return int(modes[tied].min())  # the first of the tied modes in mode order (x, y, theta)
+        return mode_criteria.choose_mode(score, view.mode)
+    likelihood = view.model.likelihood[:, candidates.states, :].transpose(1, 0, 2)  # (M, G, F)
+
+    def projected(horizon_s: float) -> np.ndarray:
+        steps = mode_criteria.horizon_steps(horizon_s, s.dt)
+        return mode_criteria.project_beliefs(view.belief, likelihood, steps=steps,
+                                             goal_transition=view.goal_transition)
+
+    if criterion == "gopinath2017":
+        score = mode_criteria.gopinath_disambiguation(projected(mode_criteria.GOPINATH_SHORT_HORIZON_S),
+                                                      projected(mode_criteria.GOPINATH_LONG_HORIZON_S))
+    else:  # gopinath2017-kl
+        score = mode_criteria.projected_kl(projected(mode_criteria.GOPINATH_KL_HORIZON_S), view.belief)
+    return mode_criteria.choose_mode(score, view.mode)
 
 
 class Hindsight:
