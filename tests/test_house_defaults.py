@@ -79,6 +79,8 @@ def config_defaults() -> dict[str, Any]:
     for section, field in ExperimentConfig.model_fields.items():
         options = [a for a in (field.annotation, *typing.get_args(field.annotation))
                    if isinstance(a, type) and issubclass(a, BaseModel)]
+        if not options:  # not a section: the [policies.NAME] tables and their import folder
+            continue
         for key, sub in options[0].model_fields.items():
             found[f"{section}.{key}"] = sub.default
     return found
