@@ -165,7 +165,8 @@ def _section_classes() -> dict[str, str]:
     for section, field in ExperimentConfig.model_fields.items():
         options = [a for a in (field.annotation, *typing.get_args(field.annotation))
                    if isinstance(a, type) and issubclass(a, BaseModel)]
-        classes[section] = options[0].__name__
+        if options:  # [policies] and its import folder are not sections
+            classes[section] = options[0].__name__
     return classes
 
 
