@@ -157,7 +157,7 @@ def test_the_metrics_table_keeps_the_trial_tables_identifiers_and_types_its_metr
     metrics = trial_metrics(trials, steps)
     assert [str(t) for t in metrics.dtypes] == [
         "Int64", str(trials["condition"].dtype), "int64", "int64", "float64", "float64", "Int64", "float64",
-        "float64", "Int64", "boolean", "float64", "float64"]
+        "float64", "Int64", "boolean", "float64", "float64", "boolean"]
     assert list(metrics.index) == [0, 1, 2]
     assert metrics["condition"].tolist() == trials["condition"].tolist()
     # trial 2 has no steps: its count is missing (not 0, not NaN in a float column)
@@ -178,3 +178,31 @@ def test_completion_time_of_successful_trials_only_follows_the_paper():
     paper = trial_metrics(trials, steps, completion_time="successful_trials")
     assert every["completion_time"].tolist() == [12.5, 30.0]
     assert paper["completion_time"].iloc[0] == 12.5 and pd.isna(paper["completion_time"].iloc[1])
+
+
+def test_wrong_goal_is_an_arrival_at_another_goal_not_a_time_out() -> None:
+    # true goal 1 in every trial; reached: 1 (success), 0 (another goal), -1 (time-out: neither),
+    # 2 (another goal), missing (unknown)
+    trials = pd.DataFrame({
+        "participant": [0] * 5, "condition": ["a"] * 5, "block": [0] * 5, "trial": list(range(5)),
+        "true_goal": [1] * 5, "reached_goal": pd.array([1, 0, -1, 2, None], dtype="Int64"),
+        "success": [True, False, False, False, False], "duration_s": [1.0] * 5, "human_turns": [1] * 5,
+    })
+    steps = pd.concat([_steps(0, t, {"turn": [H], "alpha": [0.0], "inferred_goal": [1], "event": [""]})
+                       for t in range(5)])
+    got = trial_metrics(trials, steps)["wrong_goal"]
+    assert got.dtype == "boolean" and got.tolist() == [False, True, False, True, pd.NA]
+    # the trial table's outcome under every plan, whatever success means there
+    study = trial_metrics(trials, steps, success="last_inferred_goal")
+    assert study["wrong_goal"].tolist() == got.tolist() and study["success"].all()
+    # a hand-made trial table without the column: missing, not False
+    assert trial_metrics(trials.drop(columns="reached_goal"), steps)["wrong_goal"].isna().all()
+
+
+def test_wrong_goal_is_in_the_baselines_plan_beside_success_not_in_the_papers() -> None:
+    from nudgecli.report.plans import load_plan
+
+    baselines = list(load_plan("baselines").metrics.include)
+    assert baselines[baselines.index("success") + 1] == "wrong_goal"
+    assert "wrong_goal" not in load_plan("paper").metrics.include
+    assert "wrong_goal" not in load_plan("study-code").metrics.include

@@ -13,7 +13,11 @@ Definitions (the paper's, DESIGN section 5), per trial:
   the fraction of the trial's steps that are human-turn steps);
 - ``completion_time``: the trial's duration in seconds (``duration_s``);
 - ``human_turns``: the number of human turns (``human_turns`` of the trial table);
-- ``success``: the trial ended at the true goal (``success`` of the trial table).
+- ``success``: the trial ended at the true goal (``success`` of the trial table);
+- ``wrong_goal``: the trial ended at a goal that is not the true one (``reached_goal >= 0`` and
+  ``reached_goal != true_goal`` of the trial table; a time-out, ``reached_goal == -1``, is neither
+  a success nor a wrong goal). The same under every plan, whatever its ``success`` definition;
+  missing for a trial table without ``reached_goal`` (a hand-made one: every run has it).
 
 The measures the team checks against real people's teleoperation (the CIAA task), defined from
 the step log the same way in every world:
@@ -69,11 +73,14 @@ METRIC_NAMES = (
     "success",
     "first_input_latency",
     "active_input_fraction",
+    "wrong_goal",
 )
 
-#: The columns of the trial table the metrics use.
+#: The columns of the trial table the metrics use (a run's trial table has them all).
 TRIAL_COLUMNS = ("participant", "condition", "block", "trial", "true_goal", "success", "duration_s",
-                 "human_turns")
+                 "human_turns", "reached_goal")
+#: Those of :data:`TRIAL_COLUMNS` a trial table may lack: ``wrong_goal`` is then missing.
+OPTIONAL_TRIAL_COLUMNS = ("reached_goal",)
 #: The columns identifying a trial in the metrics table, before the metric columns.
 ID_COLUMNS = ("participant", "condition", "block", "trial")
 
@@ -100,8 +107,8 @@ def trial_metrics(
     Parameters
     ----------
     trials
-        One row per trial with the columns :data:`TRIAL_COLUMNS`; ``(participant, trial)``
-        identifies a trial.
+        One row per trial with the columns :data:`TRIAL_COLUMNS` (those of
+        :data:`OPTIONAL_TRIAL_COLUMNS` optional); ``(participant, trial)`` identifies a trial.
     steps
         One row per 10 Hz step with the columns :data:`METRIC_STEP_COLUMNS` (any order of rows), and
         :data:`INPUT_STEP_COLUMNS` for the two input measures (missing without them).
@@ -129,7 +136,8 @@ def trial_metrics(
     DataError
         A required column is missing, or a trial appears twice in the trial table.
     """
-    _require_columns(trials, TRIAL_COLUMNS, "trial table")
+    required = tuple(c for c in TRIAL_COLUMNS if c not in OPTIONAL_TRIAL_COLUMNS)
+    _require_columns(trials, required, "trial table")
     _require_columns(steps, METRIC_STEP_COLUMNS, "step log")
     values = step_metric_arrays({name: trials[name].to_numpy() for name in STEP_TRIAL_COLUMNS},
                                 step_metric_columns(steps), engagement=engagement, strength=strength,
@@ -188,8 +196,32 @@ def metrics_frame(trials: pd.DataFrame, values: Mapping[str, np.ndarray], *,
         "success": reached,
         "first_input_latency": values["first_input_latency"],
         "active_input_fraction": values["active_input_fraction"],
+        "wrong_goal": wrong_goal(trials),
     })
     return pd.DataFrame(columns)
+
+
+def wrong_goal(trials: pd.DataFrame) -> pd.arrays.BooleanArray:
+    """Whether each trial ended at a goal other than its true one.
+
+    Parameters
+    ----------
+    trials
+        ``(T,)`` rows with ``true_goal`` and ``reached_goal`` (the goal the trial ended at, -1 for
+        none: a time-out).
+
+    Returns
+    -------
+    pd.arrays.BooleanArray
+        ``(T,)``: ``reached_goal >= 0 and reached_goal != true_goal``; missing where
+        ``reached_goal`` is, and everywhere without the column.
+    """
+    if "reached_goal" not in trials.columns:
+        return pd.array([pd.NA] * len(trials), dtype="boolean")
+    reached = pd.to_numeric(trials["reached_goal"]).astype("Float64").to_numpy(dtype=float, na_value=np.nan)
+    true_goal = pd.to_numeric(trials["true_goal"]).to_numpy(dtype=float)
+    ended_elsewhere = (reached >= 0) & (reached != true_goal)
+    return pd.arrays.BooleanArray(ended_elsewhere, np.isnan(reached))
 
 
 def apply_filters(metrics: pd.DataFrame, filters: Mapping[str, float]) -> pd.DataFrame:
