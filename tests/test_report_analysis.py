@@ -198,7 +198,10 @@ def test_nan_values_are_null_in_stats_json(tmp_path: Path) -> None:
     text = (tmp_path / "out" / "stats.json").read_text()
     assert "NaN" not in text
     entry = json.loads(text)["metrics"][0]
-    assert entry["median"] == {"disambiguation": None, "control": None} and entry["n"]["control"] == 0
+    assert entry["median"] == {"disambiguation": None, "control": None}
+    # a condition without values is left out of the metric as "no values" (its n too)
+    assert entry["n"] == {"disambiguation": None, "control": None}
+    assert entry["not_applicable_reasons"] == {"disambiguation": "no values", "control": "no values"}
 
 
 def test_a_run_kept_without_step_logs_points_to_its_metrics_table(tmp_path):

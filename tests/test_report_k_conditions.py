@@ -20,14 +20,21 @@ from hypothesis import strategies as st
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
-from matplotlib.text import Text
+from matplotlib.text import Annotation, Text
 from matplotlib.transforms import Bbox
 from run_builders import synthetic_run
 
 from nudgecli.cli import main
+from nudgecli.model.conditions import not_applicable_metrics
 from nudgecli.report.brackets import Bracket, assign_levels, bracket_levels, draw_brackets
-from nudgecli.report.figures.boxplots import FIGURE4_METRICS, METRIC_ROW_HEIGHT_IN, metrics_figure
+from nudgecli.report.figures.boxplots import (
+    BRACKET_LEVEL_HEIGHT_IN,
+    FIGURE4_METRICS,
+    METRIC_ROW_HEIGHT_IN,
+    metrics_figure,
+)
 from nudgecli.report.figures.replication import forest_figure, power_figure
+from nudgecli.report.letters import entry_letters
 from nudgecli.report.participant_tests import pairwise_wilcoxon, participant_level_test
 from nudgecli.report.replication import power_table, replication_rows, summarise
 from nudgecli.report.stats import (
@@ -322,10 +329,15 @@ def test_figure_rows_grow_with_the_bracket_levels() -> None:
                   for a, b in itertools.combinations(conditions, 2)]
     stats = {"conditions": conditions,
              "metrics": [{"metric": "completion_time", "kruskal": {"p": 1e-6}, "conover": every_pair}]}
-    tall = metrics_figure(metrics, stats, ["completion_time"])
+    tall = metrics_figure(metrics, stats, ["completion_time"], comparisons="brackets")  # all 15 pairs
     plain = metrics_figure(metrics, None, ["completion_time"])
     assert plain.get_figheight() == METRIC_ROW_HEIGHT_IN
     assert tall.get_figheight() > METRIC_ROW_HEIGHT_IN
+    # six conditions are lettered by default (one row of text, no levels); a reference condition's
+    # five brackets all meet at it, five levels: one above the row's four
+    assert metrics_figure(metrics, stats, ["completion_time"]).get_figheight() == METRIC_ROW_HEIGHT_IN
+    assert metrics_figure(metrics, stats, ["completion_time"], reference="b").get_figheight() == \
+        pytest.approx(METRIC_ROW_HEIGHT_IN + BRACKET_LEVEL_HEIGHT_IN)
 
 
 # --- `nudge analyze` and `nudge plot` end to end -----------------------------------------------
@@ -357,41 +369,72 @@ def test_analyze_and_plot_k_conditions_through_the_cli(tmp_path: Path, condition
     k = len(conditions)
     pairs = list(itertools.combinations(expected_order, 2))
     metrics = pd.read_csv(run / "metrics.csv")
+    constant = not_applicable_metrics(expected_order)  # the model's table, what a run's analysis is given
     for entry in stats["metrics"]:
         assert [(r["a"], r["b"]) for r in entry["conover"]] == pairs
         name = entry["metric"]
+        left_out = list(constant.get(name, ()))
+        assert entry.get("not_applicable", []) == left_out
+        assert all(entry["n"][c] is None and entry["median"][c] is None for c in left_out)
+        compared = [c for c in expected_order if c not in left_out]
+        compared_pairs = list(itertools.combinations(compared, 2))
+        assert all(r["p"] is None for r in entry["conover"] if (r["a"], r["b"]) not in compared_pairs)
         values = metrics.dropna(subset=[name])
+        values = values[values["condition"].isin(compared)]
         if values[name].nunique() < 2:
             continue
-        groups = [values.loc[values["condition"] == c, name].astype(float) for c in expected_order]
+        groups = [values.loc[values["condition"] == c, name].astype(float) for c in compared]
         assert entry["kruskal"]["p"] == pytest.approx(scipy.stats.kruskal(*groups).pvalue)
         medians = values.groupby(["participant", "condition"])[name].median().unstack()
-        medians = medians[expected_order].dropna()
+        medians = medians[compared].dropna()
         raw = [scipy.stats.wilcoxon(medians[a], medians[b]).pvalue if not np.all(medians[a] == medians[b])
-               else math.nan for a, b in pairs]
+               else math.nan for a, b in compared_pairs]
         defined = [p for p in raw if not math.isnan(p)]
         holm = iter(hand_holm(defined))
         expected = [next(holm) if not math.isnan(p) else None for p in raw]
-        got = [r["p"] for r in entry["participant_level"]["pairs"]]
-        assert got == pytest.approx(expected, nan_ok=True)
+        got = {(r["a"], r["b"]): r["p"] for r in entry["participant_level"]["pairs"]}
+        assert [got[pair] for pair in compared_pairs] == pytest.approx(expected, nan_ok=True)
     completion = next(e for e in stats["metrics"] if e["metric"] == "completion_time")
     assert all(s["stars"] for s in completion["stars"][:k - 1])  # disambiguation is faster than each other
     summary = (run / "summary.md").read_text()
     assert "Friedman, then Wilcoxon signed-rank for every pair (holm adjustment)" in summary
-    assert summary.count("| Wilcoxon p (holm) | effect |") == len(stats["metrics"])
+    # up to three conditions a table of every pair per metric; four get a letter per condition
+    assert summary.count("| Wilcoxon p (holm) | effect |") == (len(stats["metrics"]) if k <= 3 else 0)
+    assert summary.count("| mean | letters |") == (0 if k <= 3 else len(stats["metrics"]))
     assert len(pd.read_csv(run / "stats.csv")) == len(stats["metrics"]) * len(pairs)
 
     result = runner.invoke(main, ["plot", str(run), "--formats", "png"])
     assert result.exit_code == 0, result.output
     assert (run / "figures" / "fig4.png").is_file()
-    # the figure of the analysis: k boxes and one bracket per starred pair in each panel
+    # the figure of the analysis: k slots in each panel, a box where the metric applies, "n/a" where it
+    # does not; one bracket per starred pair (three conditions) or the letters of the pairs (four)
     fig = metrics_figure(metrics, stats, FIGURE4_METRICS)
     for ax, name in zip(fig.get_axes(), FIGURE4_METRICS, strict=True):
         entry = next(e for e in stats["metrics"] if e["metric"] == name)
         assert [t.get_text().split("\n")[0] for t in ax.get_xticklabels()][:1] == ["Disambiguation"]
         assert len(ax.get_xticks()) == k
+        left_out = entry.get("not_applicable", [])
+        marks = [t for t in ax.texts if not isinstance(t, Annotation)]  # not the "n=..." counts
+        assert sorted(t.get_position()[0] for t in marks if t.get_text() == "n/a") == \
+            [float(expected_order.index(c)) for c in left_out]
         starred = sorted(s["stars"] for s in entry["stars"] if s["stars"])
-        assert sorted(t.get_text() for t in ax.texts if "*" in t.get_text()) == starred
+        stars_drawn = sorted(t.get_text() for t in marks if "*" in t.get_text())
+        if k <= 3:
+            assert stars_drawn == starred
+            continue
+        assert stars_drawn == []
+        compared = [c for c in expected_order if c not in left_out]
+        letters = entry_letters(entry, compared)
+        assert {t.get_position()[0]: t.get_text() for t in marks if t.get_text() != "n/a"} == {
+            float(expected_order.index(c)): letters[c] for c in compared}
+    # with a reference condition: brackets of its pairs only
+    if k > 3:
+        referenced = metrics_figure(metrics, stats, FIGURE4_METRICS, reference="control")
+        for ax, name in zip(referenced.get_axes(), FIGURE4_METRICS, strict=True):
+            entry = next(e for e in stats["metrics"] if e["metric"] == name)
+            expected_stars = sorted(s["stars"] for s in entry["stars"]
+                                    if s["stars"] and "control" in (s["a"], s["b"]))
+            assert sorted(t.get_text() for t in ax.texts if "*" in t.get_text()) == expected_stars
 
 
 def test_analyze_orders_conditions_as_the_experiment_lists_them(tmp_path: Path) -> None:

@@ -29,6 +29,9 @@ from nudgecli.errors import NudgeError
               show_default=True, help="What to print on stdout.")
 @click.option("--metric", "metric_names", multiple=True, metavar="NAME",
               help="Analyse only this metric (repeatable).")
+@click.option("--reference", metavar="CONDITION", default=None,
+              help="summary.md compares every other condition with this one only [default: every pair up "
+                   "to three conditions, a compact letter display from four].")
 @click.option("--questionnaires", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="Questionnaire CSV (NASA-TLX, Likert) analysed alongside.")
 @click.option("--seed", type=click.IntRange(min=0), default=None,
@@ -39,7 +42,7 @@ from nudgecli.errors import NudgeError
               help="Keep the first of repeated trial rows of a table instead of refusing them.")
 def analyze_command(source: str, plan: str | None, out: str | None, output_format: str,
                     metric_names: tuple[str, ...], questionnaires: str | None, seed: int | None,
-                    bootstrap: int | None, drop_duplicates: bool) -> None:
+                    bootstrap: int | None, drop_duplicates: bool, reference: str | None) -> None:
     """Metrics and statistics of a run folder or a metrics table (CSV/Parquet, one row per trial)."""
     from nudgecli.report.analysis import analyze
     from nudgecli.report.plans import check_resamples
@@ -50,7 +53,7 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
     try:
         result = analyze(source, plan=plan, out=out, metrics=list(metric_names) or None,
                          questionnaires=questionnaires, seed=seed, bootstrap=bootstrap,
-                         drop_duplicates=drop_duplicates, progress=update)
+                         drop_duplicates=drop_duplicates, progress=update, reference=reference)
     finally:
         bar.close()
     for note in result.notes:
@@ -94,7 +97,11 @@ def _plan_of(source: str, plan: str | None) -> str:
 @click.option("--trial", metavar="PARTICIPANT:TRIAL", default=None,
               help="The trial of Fig. 5 and the trajectory [default: the Disambiguation trial whose "
                    "true-goal belief rose most after a nudge].")
-def plot_command(run: str, plan: str | None, out: str | None, formats: str, trial: str | None) -> None:
+@click.option("--reference", metavar="CONDITION", default=None,
+              help="Box plots: brackets only for the pairs of this condition [default: every significant "
+                   "pair up to three conditions, a compact letter display from four].")
+def plot_command(run: str, plan: str | None, out: str | None, formats: str, trial: str | None,
+                 reference: str | None) -> None:
     """Draw the figures of RUN: an analysed run folder, a metrics table or the table's analysis folder.
 
     Fig. 3 and 4 where their metrics are present, one panel per other metric; Fig. 5 and a
@@ -109,7 +116,7 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
     if plan is not None:
         from nudgecli.report.analysis import analyze
 
-        analyze(run, plan=analysis_plan)  # takes the locks of what it writes
+        analyze(run, plan=analysis_plan, reference=reference)  # takes the locks of what it writes
     # lock only the folder written: the figures' folder given by --out (a read-only RUN is then
     # only read), else the run or analysis folder that holds figures/ (which `analyze` locks)
     written_folder: Path | None = None  # None: not a plottable source; plot_folder says why
@@ -122,7 +129,7 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
     try:
         with run_lock(written_folder) if written_folder is not None else contextlib.nullcontext():
             written = plot_folder(run, out, chosen, trial_key, star_rule=analysis_plan.comparison_options(),
-                                  item_labels=analysis_plan.questionnaires.labels)
+                                  item_labels=analysis_plan.questionnaires.labels, reference=reference)
     except BaseException:
         if made and written_folder is not None and written_folder.is_dir() \
                 and not any(written_folder.iterdir()):

@@ -18,7 +18,10 @@ surrounding spaces are an error with a "did you mean"; a CSV's delimiter is snif
 (:mod:`nudgecli.report.tables`).
 
 The plan's filters apply, then the statistics (:mod:`nudgecli.report.stats_document`) and the
-summary (:mod:`nudgecli.report.summary`). Written
+summary (:mod:`nudgecli.report.summary`). A run folder's metrics that its conditions make constant
+by construction are left out of their tests for those conditions
+(:func:`nudgecli.model.conditions.not_applicable_metrics`; :mod:`nudgecli.report.not_applicable`).
+Written
 atomically (temporary file in the same folder, then ``os.replace``), while holding the folder's
 lock (:func:`nudgecli.store.run_lock`), to the run folder, ``<table>-analysis/`` beside a table
 (``study.csv`` gives ``study-analysis/``), or ``out``: ``stats.json``, ``stats.csv``,
@@ -32,7 +35,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -43,6 +46,7 @@ from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError, DataError, RunFolderError, did_you_mean
 from nudgecli.errors import WriteError as NudgeWriteError
 from nudgecli.locks import run_lock
+from nudgecli.model.conditions import not_applicable_metrics
 from nudgecli.report.checksum import CHECKSUM_KEY, metrics_checksum
 from nudgecli.report.metrics import (
     INPUT_STEP_COLUMNS,
@@ -52,6 +56,7 @@ from nudgecli.report.metrics import (
     apply_filters,
     trial_metrics,
 )
+from nudgecli.report.pair_display import check_reference
 from nudgecli.report.plans import AnalysisPlan, load_plan
 from nudgecli.report.questionnaires import (
     check_respondents,
@@ -283,7 +288,8 @@ def _excluded_notes(table: pd.DataFrame) -> list[str]:
 def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, out: str | Path | None = None,
             metrics: Sequence[str] | None = None, questionnaires: str | Path | None = None,
             seed: int | None = None, *, bootstrap: int | None = None, drop_duplicates: bool = False,
-            progress: Callable[[int, int], None] | None = None) -> AnalysisResult:
+            progress: Callable[[int, int], None] | None = None, reference: str | None = None,
+            not_applicable: Mapping[str, Collection[str]] | None = None) -> AnalysisResult:
     """Compute the metrics and statistics of a run or a metrics table and write them.
 
     Parameters
@@ -310,6 +316,13 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
         Drop repeated trial rows of a metrics table (keeping the first) instead of refusing them.
     progress
         Called with (metrics done, metrics in all) as the statistics proceed.
+    reference
+        ``summary.md`` shows only this condition's pairs (``--reference``); default every pair up
+        to three conditions, a compact letter display from four.
+    not_applicable
+        Metric -> the conditions it is not applicable to, left out of its tests; default, for a
+        run folder, :func:`nudgecli.model.conditions.not_applicable_metrics` of its conditions,
+        for a table none (a condition without values is left out either way).
 
     Returns
     -------
@@ -318,7 +331,8 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
     Raises
     ------
     DataError, RunFolderError, ConfigError
-        Invalid source, table, questionnaire table, metric name or plan (one clear message each).
+        Invalid source, table, questionnaire table, metric name, plan or reference condition (one
+        clear message each).
     LockError
         Another command is writing the run folder or the output folder.
     WriteError
@@ -335,7 +349,8 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
     made_out = not out_dir.exists()
     try:
         return _analyze_with_locks(source, plan, out_dir, metrics, questionnaires, seed, bootstrap,
-                                   drop_duplicates, progress)
+                                   drop_duplicates, progress, reference=reference,
+                                   not_applicable=not_applicable)
     except BaseException:
         if made_out and out_dir.is_dir() and not any(out_dir.iterdir()):
             out_dir.rmdir()  # made only for this analysis, which failed: leave nothing behind
@@ -345,7 +360,8 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
 def _analyze_with_locks(source: Path, plan: str | Path | AnalysisPlan | None, out_dir: Path,
                         metrics: Sequence[str] | None, questionnaires: str | Path | None, seed: int | None,
                         bootstrap: int | None, drop_duplicates: bool,
-                        progress: Callable[[int, int], None] | None) -> AnalysisResult:
+                        progress: Callable[[int, int], None] | None, *, reference: str | None = None,
+                        not_applicable: Mapping[str, Collection[str]] | None = None) -> AnalysisResult:
     """:func:`analyze` with the run folder's and the output folder's locks held."""
     with contextlib.ExitStack() as locks:
         if is_run_folder(source):
@@ -357,14 +373,15 @@ def _analyze_with_locks(source: Path, plan: str | Path | AnalysisPlan | None, ou
                 # a read-only run folder analysed elsewhere: nobody can be writing it
         locks.enter_context(run_lock(out_dir))
         return _analyze_locked(source, plan, out_dir, metrics, questionnaires, seed, bootstrap,
-                               drop_duplicates, progress)
+                               drop_duplicates, progress, reference=reference, not_applicable=not_applicable)
     raise AssertionError("unreachable")  # pragma: no cover - for type checkers
 
 
 def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, out_dir: Path,
                     metrics: Sequence[str] | None, questionnaires: str | Path | None, seed: int | None,
                     bootstrap: int | None, drop_duplicates: bool,
-                    progress: Callable[[int, int], None] | None) -> AnalysisResult:
+                    progress: Callable[[int, int], None] | None, *, reference: str | None = None,
+                    not_applicable: Mapping[str, Collection[str]] | None = None) -> AnalysisResult:
     """:func:`analyze` once the folders' locks are held."""
     notes: list[str] = []
     run = RunFolder(source) if source.is_dir() else None
@@ -387,8 +404,12 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     filtered, changed = _filtered(table, plan, changed)
     conditions = order_conditions(filtered["condition"].cat.categories,
                                   (*plan.conditions, *_study_conditions(manifest)))
+    check_reference(reference, conditions)
+    if not_applicable is None:  # the one place a run's conditions say which metrics are constant
+        not_applicable = not_applicable_metrics(conditions) if source.is_dir() else {}
     options = comparison_options(plan, seed, bootstrap)
-    stats = _statistics(filtered, trial_selected, scores, score_selected, conditions, options, progress)
+    stats = _statistics(filtered, trial_selected, scores, score_selected, conditions, options, progress,
+                        not_applicable)
     stats["metrics_table"] = (METRICS_CSV if changed else
                               os.path.relpath(source.resolve(), out_dir.resolve()))
     stats[CHECKSUM_KEY] = metrics_checksum(filtered, trial_selected, plan.filters)
@@ -396,7 +417,9 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     tidy = stats_table(stats)
     notes += _excluded_notes(tidy)
     summary = format_summary(tidy, stats["conditions"], plan, source, n_trials=len(filtered),
-                             n_participants=filtered["participant"].nunique())
+                             n_participants=filtered["participant"].nunique(), reference=reference,
+                             not_applicable={e["metric"]: e.get("not_applicable_reasons") or {}
+                                             for e in stats["metrics"]})
 
     metrics_columns = [c for c in filtered.columns if c in NON_METRIC_COLUMNS or c in available]
     written = _write_analysis(out_dir, filtered[metrics_columns] if changed else None, stats, tidy, summary,
@@ -462,18 +485,22 @@ def _filtered(table: pd.DataFrame, plan: AnalysisPlan, changed: bool) -> tuple[p
 
 def _statistics(filtered: pd.DataFrame, trial_selected: Sequence[str], scores: pd.DataFrame | None,
                 score_selected: Sequence[str], conditions: Sequence[str], options: ComparisonOptions,
-                progress: Callable[[int, int], None] | None) -> dict[str, Any]:
+                progress: Callable[[int, int], None] | None,
+                not_applicable: Mapping[str, Collection[str]]) -> dict[str, Any]:
     """The ``stats.json`` document of the trial metrics, then of the questionnaire scores, one
-    metric at a time so that ``progress`` hears of each."""
+    metric at a time so that ``progress`` hears of each (``not_applicable``: metric -> the
+    conditions left out of its tests)."""
     total = len(trial_selected) + (len(score_selected) if scores is not None else 0)
     entries = []
     for done, name in enumerate(trial_selected):
         if progress:
             progress(done, total)
-        entries += compare_conditions(filtered, [name], conditions, options)["metrics"]
+        entries += compare_conditions(filtered, [name], conditions, options,
+                                      not_applicable=not_applicable)["metrics"]
     stats: dict[str, Any] = {"conditions": list(conditions), "metrics": entries}
     if scores is not None and score_selected:
-        stats["metrics"] += compare_conditions(scores, score_selected, conditions, options)["metrics"]
+        stats["metrics"] += compare_conditions(scores, score_selected, conditions, options,
+                                               not_applicable=not_applicable)["metrics"]
     if progress:
         progress(total, total)
     return stats

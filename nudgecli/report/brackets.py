@@ -187,7 +187,7 @@ def _root_figure(ax: Axes) -> Figure:
     return fig
 
 
-def _axes_height_pt(ax: Axes) -> float:
+def axes_height_pt(ax: Axes) -> float:
     """The axes' height in points at the figure's size (a lower bound after layout)."""
     height_pt = ax.bbox.height * 72.0 / _root_figure(ax).dpi
     # A layout engine (constrained layout) shrinks the axes a little for labels and titles;
@@ -248,7 +248,7 @@ def draw_brackets(ax: Axes, positions: Mapping[str, float], comparisons: Iterabl
     # Height of the label above its bar: asterisks are drawn pulled down onto the bar (they sit
     # high in their line box), so they need less than a full line; "n.s." needs a line.
     text_em = 0.75 if all(label != "n.s." for *_, label in drawn) else 1.1
-    text_frac = fontsize * text_em / _axes_height_pt(ax)
+    text_frac = fontsize * text_em / axes_height_pt(ax)
     step_frac = max(text_frac, tick_frac) + gap_frac
     needed_frac = pad_frac + tick_frac + (n_levels - 1) * step_frac + text_frac + 0.01
     needed_frac = min(needed_frac, 0.8)

@@ -13,7 +13,9 @@ Sources:
   that holds its ``stats.json`` and ``metrics.csv``): box plots only.
 
 The paper's Fig. 3 and Fig. 4 are drawn where all three of their metrics are present; every
-other analysed metric of the table gets a panel of its own in ``metrics``.
+other analysed metric of the table gets a panel of its own in ``metrics``. Four or more conditions
+are compared by letters, or by the brackets of a reference condition (``--reference``;
+:mod:`nudgecli.report.figures.comparison_marks`).
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from nudgecli.report.analysis import analysed_metrics_path
 from nudgecli.report.checksum import recorded_checksum, verify_metrics
 from nudgecli.report.figures import TrialLayout
 from nudgecli.report.metrics import apply_filters
+from nudgecli.report.pair_display import check_reference
 from nudgecli.report.stats import ComparisonOptions
 from nudgecli.report.style import condition_display_name
 from nudgecli.report.tables import TABLE_SUFFIXES, read_metrics_table, validate_metrics_table
@@ -135,6 +138,9 @@ class PlotPlan:
         The analysis plan's star rule (for statistics entries without stars).
     item_labels
         Axis labels of questionnaire items (the plan's ``[questionnaires] labels``).
+    reference
+        The box plots' brackets only for this condition's pairs (``--reference``); ``None``:
+        every significant pair up to three conditions, letters from four.
     """
 
     out_dir: Path
@@ -143,6 +149,7 @@ class PlotPlan:
     seed: int = 0
     star_rule: ComparisonOptions = field(default_factory=ComparisonOptions)
     item_labels: Mapping[str, str] = field(default_factory=dict)
+    reference: str | None = None
 
 
 def drawn_metrics(inputs: FigureInputs) -> list[str]:
@@ -189,7 +196,7 @@ def draw_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]:
     out: dict[str, Figure] = {}
     for stem, names in metric_figure_groups(drawn_metrics(inputs)).items():
         out[stem] = figures.metrics_figure(inputs.metrics, inputs.stats, names, seed=plan.seed,
-                                           star_rule=plan.star_rule)
+                                           star_rule=plan.star_rule, reference=plan.reference)
     if inputs.steps is not None and inputs.trials is not None and len(inputs.steps):
         key = plan.trial if plan.trial is not None else choose_figure5_trial(inputs.steps, inputs.trials)
         steps = inputs.steps[(inputs.steps["participant"] == key[0]) & (inputs.steps["trial"] == key[1])]
@@ -388,7 +395,7 @@ def default_out(source: str | Path) -> Path:
 
 def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequence[str] = ("png", "pdf"),
                 trial: TrialKey | None = None, *, star_rule: ComparisonOptions | None = None,
-                item_labels: Mapping[str, str] | None = None) -> list[Path]:
+                item_labels: Mapping[str, str] | None = None, reference: str | None = None) -> list[Path]:
     """Draw and write every figure a source's data allow; return the files written.
 
     Parameters
@@ -407,8 +414,16 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
         The plan's star rule (for statistics entries without stars) [default: the paper's].
     item_labels
         Questionnaire item labels (the plan's ``[questionnaires] labels``).
+    reference
+        Compare the box plots' conditions with this one only (``--reference``).
+
+    Raises
+    ------
+    ConfigError
+        ``reference`` is not a condition of the analysis (one line naming them).
     """
     inputs = read_inputs(source)
+    check_reference(reference, figures.resolve_conditions(inputs.metrics, inputs.stats))
     if trial is not None and inputs.trials is not None:
         known = set(zip(inputs.trials["participant"], inputs.trials["trial"], strict=True))
         if trial not in known:
@@ -417,7 +432,7 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
                               f"(participants 0-{last_participant}, trials 0-{last_trial})")
     plan = PlotPlan(out_dir=Path(out) if out is not None else default_out(source), formats=tuple(formats),
                     trial=trial, star_rule=star_rule or ComparisonOptions(),
-                    item_labels=dict(item_labels or {}))
+                    item_labels=dict(item_labels or {}), reference=reference)
     return write_figures(inputs, plan)
 
 

@@ -10,13 +10,14 @@ more.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from nudgecli.report.cluster_bootstrap import bootstrap_median_differences
+from nudgecli.report.not_applicable import NO_EXCLUSIONS, entry_over_conditions, not_applicable_reasons
 from nudgecli.report.participant_tests import participant_level_test
 from nudgecli.report.stats import (
     ComparisonOptions,
@@ -34,7 +35,7 @@ DEFAULT_OPTIONS = ComparisonOptions()
 
 
 def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
-                   options: ComparisonOptions = DEFAULT_OPTIONS, *,
+                   options: ComparisonOptions = DEFAULT_OPTIONS, *, not_applicable: Collection[str] = (),
                    participant: str = "participant", condition: str = "condition") -> dict[str, Any]:
     """All statistics of one metric: one entry of ``stats.json``'s ``metrics`` list.
 
@@ -49,17 +50,40 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
         The conditions to compare, in order (the first is ``a`` of the first pair).
     options
         Test settings.
+    not_applicable
+        The conditions the metric is not applicable to: left out of every test, effect size and
+        interval (:mod:`nudgecli.report.not_applicable`), as is a condition without a value of it.
 
     Returns
     -------
     dict
         ``metric, n, mean, median, q1, q3`` (each ``{condition: value}``), ``kruskal``,
         ``conover`` (list of ``a, b, p, p_unadjusted``), ``p_adjust``, ``stars`` (list of
-        ``a, b, stars``), ``participant_level``, ``effect_size``, ``ci``.
+        ``a, b, stars``), ``participant_level``, ``effect_size``, ``ci``; with conditions left out,
+        their values missing and ``not_applicable``, ``not_applicable_reasons``
+        (:func:`~nudgecli.report.not_applicable.entry_over_conditions`).
     """
     table = describe(data, metric, conditions, condition=condition).set_index("condition")
     descriptives = {column: {c: python_scalar(table.loc[c, column]) for c in conditions}
                     for column in ("n", "mean", "median", "q1", "q3")}
+    reasons = not_applicable_reasons(descriptives["n"], conditions, not_applicable)
+    if not reasons:
+        return _compared_entry(data, metric, conditions, descriptives, options, many=len(conditions) > 2,
+                               participant=participant, condition=condition)
+    compared = [c for c in conditions if c not in reasons]
+    entry = None
+    if len(compared) >= 2:
+        entry = _compared_entry(data, metric, compared, {k: {c: v[c] for c in compared}
+                                                         for k, v in descriptives.items()},
+                                options, many=len(compared) > 2, participant=participant, condition=condition)
+    return entry_over_conditions(entry, metric, descriptives, conditions, reasons, options)
+
+
+def _compared_entry(data: pd.DataFrame, metric: str, conditions: Sequence[str],
+                    descriptives: dict[str, dict[str, Any]], options: ComparisonOptions, *, many: bool,
+                    participant: str, condition: str) -> dict[str, Any]:
+    """:func:`analyze_metric`'s entry of conditions that all have values (``descriptives``: theirs;
+    ``many``: with epsilon-squared, as a document of more than two conditions has)."""
     if len(conditions) < 2:
         return _descriptive_entry(metric, descriptives, options)
     kruskal = kruskal_wallis(data, metric, conditions, condition=condition)
@@ -71,7 +95,7 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
     level, effect = participant_level_test(data, metric, conditions, participant=participant,
                                            condition=condition, aggregate=options.participant_aggregate,
                                            p_adjust=options.p_adjust)
-    if len(conditions) > 2:  # (with two, the pair's rank-biserial r says it; stats.json stays as it was)
+    if many:  # (with two, the pair's rank-biserial r says it; stats.json stays as it was)
         effect["kruskal_epsilon_squared"] = epsilon_squared(kruskal["statistic"],
                                                             sum(int(v) for v in descriptives["n"].values()))
     intervals = bootstrap_median_differences(
@@ -123,11 +147,13 @@ def _descriptive_entry(metric: str, descriptives: dict[str, Any],
 
 def compare_conditions(data: pd.DataFrame, metrics: Sequence[str], conditions: Sequence[str],
                        options: ComparisonOptions = DEFAULT_OPTIONS, *,
+                       not_applicable: Mapping[str, Collection[str]] = NO_EXCLUSIONS,
                        participant: str = "participant", condition: str = "condition") -> dict[str, Any]:
     """The ``stats.json`` document: every metric's statistics.
 
     With a single condition every metric gets its descriptive statistics only (no test, no
-    interval; the participant-level ``note`` says so).
+    interval; the participant-level ``note`` says so). ``not_applicable`` maps a metric to the
+    conditions it is not applicable to (:func:`analyze_metric`).
 
     Returns
     -------
@@ -137,8 +163,8 @@ def compare_conditions(data: pd.DataFrame, metrics: Sequence[str], conditions: S
     """
     return {
         "conditions": list(conditions),
-        "metrics": [analyze_metric(data, m, conditions, options, participant=participant,
-                                   condition=condition) for m in metrics],
+        "metrics": [analyze_metric(data, m, conditions, options, not_applicable=not_applicable.get(m, ()),
+                                   participant=participant, condition=condition) for m in metrics],
     }
 
 
@@ -174,6 +200,8 @@ def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
         W; ``pairwise_*`` are the pair's Wilcoxon test and rank-biserial r). With a single
         condition, one row per metric with ``b`` ``None`` and only ``metric, a, b, n_a, median_a,
         q1_a, q3_a, participant_test, ci_level, mean_a, participant_note, ci_seed, ci_resamples``.
+        A condition left out of a metric (:mod:`nudgecli.report.not_applicable`) has its cells
+        missing (``n_a``/``n_b`` then nullable integers), as has every test of a pair holding it.
     """
     rows = []
     many = len(stats["conditions"]) > 2
@@ -213,7 +241,11 @@ def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
                 **extra,
                 **(_pairwise_columns(entry, a, b) if many else {}),
             })
-    return pd.DataFrame(rows)
+    table = pd.DataFrame(rows)
+    for column in ("n_a", "n_b"):  # a count missing for a condition left out stays a count
+        if column in table and table[column].isna().any():
+            table[column] = table[column].astype("Int64")
+    return table
 
 
 def _pairwise_columns(entry: dict[str, Any], a: str, b: str) -> dict[str, Any]:

@@ -2,19 +2,30 @@
 (:func:`format_table`) and ``summary.md`` (:func:`format_summary`), both from
 :func:`~nudgecli.report.stats_document.stats_table`'s tidy table of ``stats.json``; numbers and
 p-values are formatted one way everywhere (:func:`format_value`, :func:`format_p`).
+
+A condition a metric is not applicable to (:mod:`nudgecli.report.not_applicable`) shows
+:data:`NOT_APPLICABLE_CELL` in its cells and in those of its pairs. ``summary.md`` shows the pairs
+of four or more conditions by letters, or those of a reference condition
+(:mod:`nudgecli.report.pair_display`).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
+from nudgecli.report.letters import compact_letter_display
+from nudgecli.report.not_applicable import is_not_applicable
+from nudgecli.report.pair_display import PairDisplay, of_reference, pair_display
 from nudgecli.report.plans import AnalysisPlan
 from nudgecli.report.stats_document import SINGLE_CONDITION_NOTE, condition_table
+
+#: What a table shows for a condition a metric is not applicable to, and for its pairs.
+NOT_APPLICABLE_CELL = "n/a"
 
 
 def format_value(value: Any) -> str:
@@ -64,9 +75,28 @@ def _render(header: list[str], rows: list[list[str]], markdown: bool) -> str:
 
 def _descriptive_rows(table: pd.DataFrame, first: str) -> list[list[str]]:
     """Rows ``first, n, median [q1, q3], mean`` of :func:`~nudgecli.report.stats_document.condition_table`'s
-    table; ``first`` names the column that opens each row (``metric`` or ``condition``)."""
-    return [[str(row[first]), str(int(row["n"])), _median_iqr(row["median"], row["q1"], row["q3"]),
-             format_value(row["mean"])] for row in table.to_dict("records")]
+    table; ``first`` names the column that opens each row (``metric`` or ``condition``); a
+    condition left out of the metric shows :data:`NOT_APPLICABLE_CELL`."""
+    rows = []
+    for row in table.to_dict("records"):
+        if is_not_applicable(row["n"]):
+            rows.append([str(row[first])] + [NOT_APPLICABLE_CELL] * 3)
+        else:
+            rows.append([str(row[first]), str(int(row["n"])),
+                         _median_iqr(row["median"], row["q1"], row["q3"]), format_value(row["mean"])])
+    return rows
+
+
+def _left_out(row: Mapping[str, Any]) -> bool:
+    """Whether a pair row of the tidy table holds a condition left out of its metric."""
+    return is_not_applicable(row["n_a"]) or is_not_applicable(row["n_b"])
+
+
+def _side(row: Mapping[str, Any], side: str) -> str:
+    """``median [q1, q3]`` of one side of a pair row, or :data:`NOT_APPLICABLE_CELL`."""
+    if is_not_applicable(row[f"n_{side}"]):
+        return NOT_APPLICABLE_CELL
+    return _median_iqr(row[f"median_{side}"], row[f"q1_{side}"], row[f"q3_{side}"])
 
 
 def format_table(table: pd.DataFrame, conditions: Sequence[str]) -> str:
@@ -80,7 +110,9 @@ def format_table(table: pd.DataFrame, conditions: Sequence[str]) -> str:
         ``stats.json``'s conditions, in order.
 
     Columns: median [q1, q3] of both conditions, Kruskal-Wallis p, Conover p, stars, the
-    participant-level p, the effect size and the median difference with its interval.
+    participant-level p, the effect size and the median difference with its interval. A pair
+    holding a condition left out of the metric shows :data:`NOT_APPLICABLE_CELL` for that
+    condition and for the pair's own statistics.
     """
     if len(conditions) == 1:
         (c,) = conditions
@@ -98,21 +130,33 @@ def format_table(table: pd.DataFrame, conditions: Sequence[str]) -> str:
     rows = []
     for r in table.to_dict("records"):
         row = [r["metric"]] + ([] if two else [f"{r['a']} vs {r['b']}"])
-        row += [_median_iqr(r["median_a"], r["q1_a"], r["q3_a"]),
-                _median_iqr(r["median_b"], r["q1_b"], r["q3_b"]), format_p(r["kruskal_p"]),
-                format_p(r["conover_p"]), r["stars"] or "ns", format_p(r["participant_p"]),
-                _effect(r["effect_size_name"], r["effect_size"]),
-                _interval(r["difference"], r["ci_low"], r["ci_high"])]
+        if _left_out(r):
+            # with two conditions the participant-level test and its effect are the pair's own
+            own = NOT_APPLICABLE_CELL
+            row += [_side(r, "a"), _side(r, "b"), format_p(r["kruskal_p"]), own, own,
+                    own if two else format_p(r["participant_p"]),
+                    own if two else _effect(r["effect_size_name"], r["effect_size"]), own]
+        else:
+            row += [_median_iqr(r["median_a"], r["q1_a"], r["q3_a"]),
+                    _median_iqr(r["median_b"], r["q1_b"], r["q3_b"]), format_p(r["kruskal_p"]),
+                    format_p(r["conover_p"]), r["stars"] or "ns", format_p(r["participant_p"]),
+                    _effect(r["effect_size_name"], r["effect_size"]),
+                    _interval(r["difference"], r["ci_low"], r["ci_high"])]
         rows.append(row)
     return _render(header, rows, markdown=False)
 
 
 def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: AnalysisPlan, source: Path,
-                   n_trials: int, n_participants: int) -> str:
+                   n_trials: int, n_participants: int, *, reference: str | None = None,
+                   not_applicable: Mapping[str, Mapping[str, str]] | None = None) -> str:
     """``summary.md``: the settings, then per metric a line of tests and two markdown tables.
 
     ``table`` is :func:`~nudgecli.report.stats_document.stats_table`'s tidy table of ``stats.json``,
-    ``conditions`` its conditions in order.
+    ``conditions`` its conditions in order. The pairs (:func:`~nudgecli.report.pair_display.pair_display`):
+    up to three conditions every pair; four or more a letter per condition in the table of
+    descriptives instead (:func:`~nudgecli.report.letters.compact_letter_display` of the pairs
+    with stars); with ``reference`` only that condition's pairs. ``not_applicable``: metric ->
+    condition -> why it was left out (``stats.json``'s ``not_applicable_reasons``).
     """
     settings = plan.stats
     comparison = settings.star_comparison
@@ -127,6 +171,7 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
     if len(conditions) == 1:
         return _descriptive_summary(table, conditions, plan, source, n_trials, n_participants)
     resamples = table["ci_resamples"].iloc[0] if len(table) else plan.bootstrap.resamples
+    display = pair_display(len(conditions), reference)
     lines = [
         "# Analysis summary",
         "",
@@ -141,38 +186,81 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
         f"- interval: {plan.bootstrap.level:.0%} cluster bootstrap over participants of the difference of "
         f"trial medians ({resamples} resamples, seed {seed})",
     ]
+    if display == "letters":
+        lines.append("- pairs: a compact letter display per metric (Piepho 2004): conditions that share a "
+                     "letter do not differ, a pair with a star does; every pair is in stats.csv")
+    elif display == "reference" and len(conditions) > 2:
+        lines.append(f"- pairs: those of {reference} (--reference); every pair is in stats.csv")
     descriptives = condition_table(table)
     for metric, pairs_of_metric in table.groupby("metric", sort=False):
-        first = pairs_of_metric.iloc[0]
-        lines += [
-            "",
-            f"## {metric}",
-            "",
+        reasons = (not_applicable or {}).get(str(metric), {})
+        lines += _metric_section(str(metric), pairs_of_metric, descriptives[descriptives["metric"] == metric],
+                                 many, display, reference, reasons)
+    return "\n".join(lines) + "\n"
+
+
+def _metric_section(metric: str, pairs_of_metric: pd.DataFrame, own: pd.DataFrame, many: bool,
+                    display: PairDisplay, reference: str | None, reasons: Mapping[str, str]) -> list[str]:
+    """One metric's lines of ``summary.md``: its tests, the conditions left out of them, its
+    descriptives (with letters) and its pairs (``own``: its rows of the condition table)."""
+    first = pairs_of_metric.iloc[0]
+    compared = [str(r["condition"]) for r in own.to_dict("records") if not is_not_applicable(r["n"])]
+    lines = ["", f"## {metric}", ""]
+    if len(compared) < 2:
+        lines.append("No test: fewer than two conditions left to compare.")
+    else:
+        lines.append(
             f"Kruskal-Wallis H = {format_value(first['kruskal_statistic'])}, "
             f"p = {format_p(first['kruskal_p'])}. "
-            f"Participant level ({first['participant_test']}, {int(first['n_participants'])} participants): "
+            f"Participant level ({first['participant_test']}, {int(first['n_participants'])} "
+            "participants): "
             f"statistic = {format_value(first['participant_statistic'])}, "
             f"p = {format_p(first['participant_p'])}. "
             f"Effect size: {_effect(first['effect_size_name'], first['effect_size'])}"
-            + (f", epsilon-squared = {format_value(first['epsilon_squared'])}." if many else "."),
-        ]
-        if first["participant_note"]:
-            lines += ["", f"Note: {first['participant_note']}."]
-        lines += ["", _render(["condition", "n", "median [q1, q3]", "mean"],
-                              _descriptive_rows(descriptives[descriptives["metric"] == metric], "condition"),
-                              markdown=True)]
-        rows = [[f"{r['a']} - {r['b']}", format_p(r["conover_p"]), format_p(r["conover_p_unadjusted"]),
-                 r["stars"] or "ns", format_value(r["difference"]),
-                 f"[{format_value(r['ci_low'])}, {format_value(r['ci_high'])}]"]
-                + ([format_p(r["pairwise_p"]),
-                    _effect(r["pairwise_effect_size_name"], r["pairwise_effect_size"])] if many else [])
-                for r in pairs_of_metric.to_dict("records")]
-        header = ["comparison", f"Conover p ({first['p_adjust']})", "p unadjusted", "stars",
-                  "difference of medians", f"{first['ci_level']:.0%} CI"]
-        if many:
-            header += [f"Wilcoxon p ({first['p_adjust']})", "effect"]
-        lines += ["", _render(header, rows, markdown=True)]
-    return "\n".join(lines) + "\n"
+            + (f", epsilon-squared = {format_value(first['epsilon_squared'])}." if many else "."))
+    left_out = [str(r["condition"]) for r in own.to_dict("records") if is_not_applicable(r["n"])]
+    if left_out:
+        lines += ["", "Left out of the tests: " + ", ".join(
+            f"{c} ({reasons.get(c, NOT_APPLICABLE_CELL)})" for c in left_out) + "."]
+    if first["participant_note"] and len(compared) >= 2:
+        lines += ["", f"Note: {first['participant_note']}."]
+    descriptive_header = ["condition", "n", "median [q1, q3]", "mean"]
+    descriptive_rows = _descriptive_rows(own, "condition")
+    if display == "letters":
+        letters = _letters(pairs_of_metric, compared)
+        descriptive_header.append("letters")
+        descriptive_rows = [[*row, letters.get(row[0], NOT_APPLICABLE_CELL)] for row in descriptive_rows]
+    lines += ["", _render(descriptive_header, descriptive_rows, markdown=True)]
+    if display == "letters":
+        return lines
+    shown = pairs_of_metric.to_dict("records")
+    if display == "reference" and reference is not None:
+        shown = [r for r in shown if of_reference(reference, r["a"], r["b"])]
+    header = ["comparison", f"Conover p ({first['p_adjust']})", "p unadjusted", "stars",
+              "difference of medians", f"{first['ci_level']:.0%} CI"]
+    if many:
+        header += [f"Wilcoxon p ({first['p_adjust']})", "effect"]
+    return [*lines, "", _render(header, [_pair_cells(r, many) for r in shown], markdown=True)]
+
+
+def _pair_cells(r: Mapping[str, Any], many: bool) -> list[str]:
+    """One pair's row of ``summary.md``'s comparisons (:data:`NOT_APPLICABLE_CELL` for a pair
+    holding a condition left out)."""
+    if _left_out(r):
+        return [f"{r['a']} - {r['b']}"] + [NOT_APPLICABLE_CELL] * (7 if many else 5)
+    return ([f"{r['a']} - {r['b']}", format_p(r["conover_p"]), format_p(r["conover_p_unadjusted"]),
+             r["stars"] or "ns", format_value(r["difference"]),
+             f"[{format_value(r['ci_low'])}, {format_value(r['ci_high'])}]"]
+            + ([format_p(r["pairwise_p"]),
+                _effect(r["pairwise_effect_size_name"], r["pairwise_effect_size"])] if many else []))
+
+
+def _letters(pairs_of_metric: pd.DataFrame, compared: Sequence[str]) -> dict[str, str]:
+    """The compact letter display of one metric's compared conditions: a pair differs where it has stars."""
+    present = set(compared)
+    different = [(r["a"], r["b"]) for r in pairs_of_metric.to_dict("records")
+                 if r["a"] in present and r["b"] in present and r["stars"]]
+    return compact_letter_display(compared, different)
 
 
 def _descriptive_summary(table: pd.DataFrame, conditions: Sequence[str], plan: AnalysisPlan, source: Path,

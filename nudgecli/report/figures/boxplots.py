@@ -1,7 +1,10 @@
 """Box plots of per-trial metrics (the paper's Fig. 3 and Fig. 4, and any other metric table).
 
 Every trial is a dot, boxes show median and quartiles, and the significance brackets come from
-the toolkit's own Kruskal-Wallis / Conover p-values (``stats.json``, :mod:`nudgecli.report.brackets`).
+the toolkit's own Kruskal-Wallis / Conover p-values (``stats.json``, :mod:`nudgecli.report.brackets`);
+four or more conditions get a compact letter display instead, or the brackets of one reference
+condition, and a condition a metric is not applicable to gets an "n/a" in its slot
+(:mod:`nudgecli.report.figures.comparison_marks`).
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from matplotlib.layout_engine import ConstrainedLayoutEngine
 from matplotlib.ticker import MaxNLocator
 
 from nudgecli.errors import DataError
-from nudgecli.report.brackets import DEFAULT_STAR_RULE, bracket_levels, brackets_from_stats, draw_brackets
+from nudgecli.report.brackets import DEFAULT_STAR_RULE, bracket_levels, draw_brackets
 from nudgecli.report.figures.common import (
     axes_or_new,
     jitter,
@@ -30,6 +33,13 @@ from nudgecli.report.figures.common import (
     stats_by_metric,
     wrap_label,
 )
+from nudgecli.report.figures.comparison_marks import (
+    Comparisons,
+    chosen_marks,
+    mark_letters,
+    mark_not_applicable,
+)
+from nudgecli.report.not_applicable import not_applicable_of
 from nudgecli.report.stats import ComparisonOptions
 from nudgecli.report.style import (
     FULL_WIDTH_IN,
@@ -83,6 +93,7 @@ METRIC_SPECS: dict[str, MetricSpec] = {
     "human_effort": MetricSpec("human_effort", "Human effort (fraction of trial time)"),
     "completion_time": MetricSpec("completion_time", "Completion time (s)"),
     "success": MetricSpec("success", "Success (1 = reached the true goal)"),
+    "wrong_goal": MetricSpec("wrong_goal", "Wrong goal (1 = ended at another goal)"),
 }
 FIGURE3_METRICS = ("assistance_engagement", "assistance_strength", "human_turns")
 FIGURE4_METRICS = ("mode_switches", "human_effort", "completion_time")
@@ -112,7 +123,12 @@ class BoxplotArtists:
     brackets
         Significance bracket artists (lines and star texts).
     n
-        Number of trials with a value, per condition.
+        Number of trials with a value, per condition (0 for a condition the metric is not
+        applicable to: none is drawn).
+    letters
+        The compact letter display's texts (four or more conditions), one per condition with letters.
+    not_applicable
+        The "n/a" texts of the conditions the metric is not applicable to.
     """
 
     ax: Axes
@@ -122,12 +138,15 @@ class BoxplotArtists:
     points: dict[str, PathCollection] = field(default_factory=dict)
     brackets: list[Any] = field(default_factory=list)
     n: dict[str, int] = field(default_factory=dict)
+    letters: list[Any] = field(default_factory=list)
+    not_applicable: list[Any] = field(default_factory=list)
 
 
 def metric_boxplot(metrics: pd.DataFrame, metric: str, stats_entry: Mapping[str, Any] | None = None, *,
                    ax: Axes | None = None, conditions: Sequence[str] | None = None, seed: int = 0,
                    show_points: bool = True, show_n: bool = True, label: str | None = None,
-                   star_rule: ComparisonOptions = DEFAULT_STAR_RULE) -> BoxplotArtists:
+                   star_rule: ComparisonOptions = DEFAULT_STAR_RULE, comparisons: Comparisons = "auto",
+                   reference: str | None = None) -> BoxplotArtists:
     """A box plot per condition with every trial as a jittered dot and significance brackets.
 
     Boxes show the median and quartiles, whiskers reach the furthest trial within 1.5 IQR of
@@ -143,7 +162,8 @@ def metric_boxplot(metrics: pd.DataFrame, metric: str, stats_entry: Mapping[str,
         The metric column (a key of :data:`METRIC_SPECS` gets its label and unit scaling).
     stats_entry
         The metric's element of ``stats["metrics"]``; brackets are drawn for its significant
-        comparisons only. ``None``: no brackets.
+        comparisons only, letters for four or more conditions; its ``not_applicable`` conditions
+        get no box and an "n/a". ``None``: no brackets.
     ax
         Axes to draw on; default a new figure's.
     conditions
@@ -159,11 +179,21 @@ def metric_boxplot(metrics: pd.DataFrame, metric: str, stats_entry: Mapping[str,
     star_rule
         The plan's star rule for entries without their own stars (see
         :func:`nudgecli.report.brackets.brackets_from_stats`).
+    comparisons
+        ``"auto"`` (brackets up to three conditions, letters from four), ``"brackets"`` or
+        ``"letters"`` (:func:`~nudgecli.report.figures.comparison_marks.chosen_marks`).
+    reference
+        Draw only the brackets of this condition's pairs.
 
     Returns
     -------
     BoxplotArtists
-        Axes, positions, boxes, dots and brackets drawn.
+        Axes, positions, boxes, dots, brackets, letters and "n/a" marks drawn.
+
+    Raises
+    ------
+    ConfigError
+        ``reference`` is not one of the conditions drawn.
     """
     require_columns(metrics, ["condition", metric], "metrics table")
     spec = metric_spec(metric)
@@ -176,26 +206,47 @@ def metric_boxplot(metrics: pd.DataFrame, metric: str, stats_entry: Mapping[str,
     colours = condition_colours(order)
     positions = {c: float(i) for i, c in enumerate(order)}
     out = BoxplotArtists(ax=ax, conditions=list(order), positions=positions)
+    left_out = [c for c in not_applicable_of(stats_entry) if c in positions]
 
     with figure_style():
-        data = []
-        for c in order:
-            v = values[condition_col == c].to_numpy()
-            v = v[np.isfinite(v)]
-            data.append(v)
-            out.n[c] = int(v.size)
+        data = _values_by_condition(values, condition_col, out, left_out)
         _draw_boxes(ax, data, out, colours)
         if show_points:
             _draw_points(ax, data, out, seed)
-        _label_conditions(ax, out, show_n)
+        _label_conditions(ax, out, show_n, left_out)
         ax.set_ylabel(wrap_label(label if label is not None else spec.label))
         if spec.integer:
             ax.yaxis.set_major_locator(MaxNLocator(integer=True))
         ax.tick_params(axis="x", length=0)
         ax.margins(y=0.05)
         ax.autoscale_view()
-        out.brackets = draw_brackets(ax, positions, brackets_from_stats(stats_entry, star_rule))
+        _mark(out, stats_entry, star_rule, comparisons, reference, left_out)
     return out
+
+
+def _mark(out: BoxplotArtists, stats_entry: Mapping[str, Any] | None, star_rule: ComparisonOptions,
+          comparisons: Comparisons, reference: str | None, left_out: Sequence[str]) -> None:
+    """The comparisons' brackets or letters above the boxes (of the conditions with values) and
+    the "n/a" of the conditions ``left_out``; recorded in ``out``."""
+    brackets, letters = chosen_marks(stats_entry, out.conditions, star_rule, comparisons, reference)
+    out.brackets = draw_brackets(out.ax, out.positions, brackets)
+    if letters:
+        compared = [c for c in out.conditions if c not in left_out and out.n[c]]
+        out.letters = mark_letters(out.ax, out.positions, stats_entry, compared, star_rule)
+    out.not_applicable = mark_not_applicable(out.ax, out.positions, left_out)
+
+
+def _values_by_condition(values: pd.Series, condition_col: pd.Series, out: BoxplotArtists,
+                         left_out: Sequence[str]) -> list[np.ndarray]:
+    """Each condition's finite values, in ``out.conditions``' order (none for those ``left_out``:
+    the metric is not applicable to them); their counts recorded in ``out.n``."""
+    data = []
+    for c in out.conditions:
+        v = values[condition_col == c].to_numpy()
+        v = v[np.isfinite(v)] if c not in left_out else v[:0]
+        data.append(v)
+        out.n[c] = int(v.size)
+    return data
 
 
 def _draw_boxes(ax: Axes, data: list[np.ndarray], out: BoxplotArtists, colours: Mapping[str, str]) -> None:
@@ -225,14 +276,16 @@ def _draw_points(ax: Axes, data: list[np.ndarray], out: BoxplotArtists, seed: in
         out.points[c] = ax.scatter(x, v, s=6, color="black", alpha=0.5, linewidths=0, zorder=3, label=None)
 
 
-def _label_conditions(ax: Axes, out: BoxplotArtists, show_n: bool) -> None:
-    """The x axis: a tick per condition with its display name and (``show_n``) its number of trials."""
+def _label_conditions(ax: Axes, out: BoxplotArtists, show_n: bool, left_out: Sequence[str] = ()) -> None:
+    """The x axis: a tick per condition with its display name and (``show_n``) its number of trials
+    ("n/a" for the conditions ``left_out``)."""
     order, positions = out.conditions, out.positions
     ax.set_xticks([positions[c] for c in order])
     names = [condition_display_name(c) for c in order]
+    counts = {c: "n/a" if c in left_out else f"n = {out.n[c]}" for c in order}
     if len(order) <= 2:
         if show_n:
-            names = [f"{name}\n(n = {out.n[c]})" for name, c in zip(names, order, strict=True)]
+            names = [f"{name}\n({counts[c]})" for name, c in zip(names, order, strict=True)]
         ax.set_xticklabels(names)
     else:
         # Too narrow for horizontal names: rotate them, and keep the counts horizontal in a
@@ -241,7 +294,8 @@ def _label_conditions(ax: Axes, out: BoxplotArtists, show_n: bool) -> None:
         if show_n and len(order) <= 4:
             ax.tick_params(axis="x", pad=12)
             for c in order:
-                ax.annotate(f"n={out.n[c]}", (positions[c], 0.0), xycoords=("data", "axes fraction"),
+                ax.annotate(counts[c].replace(" ", ""), (positions[c], 0.0),
+                            xycoords=("data", "axes fraction"),
                             xytext=(0, -2), textcoords="offset points", ha="center", va="top",
                             fontsize=TICK_FONT_PT)
     ax.set_xlim(-0.6, len(order) - 0.4)
@@ -249,7 +303,8 @@ def _label_conditions(ax: Axes, out: BoxplotArtists, show_n: bool) -> None:
 
 def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metric_names: Sequence[str], *,
                    conditions: Sequence[str] | None = None, seed: int = 0,
-                   star_rule: ComparisonOptions = DEFAULT_STAR_RULE) -> Figure:
+                   star_rule: ComparisonOptions = DEFAULT_STAR_RULE, comparisons: Comparisons = "auto",
+                   reference: str | None = None) -> Figure:
     """One box-plot panel per metric, lettered (a), (b), ..., up to three panels per row.
 
     Parameters
@@ -267,6 +322,9 @@ def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metri
         Jitter seed.
     star_rule
         The plan's star rule (for statistics entries without stars).
+    comparisons, reference
+        Which comparisons each panel marks (:func:`metric_boxplot`): by default brackets up to
+        three conditions and letters from four; with ``reference`` its pairs' brackets.
 
     Returns
     -------
@@ -274,6 +332,11 @@ def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metri
         ``ceil(M / 3)`` rows of panels, 2.4 in wide per column (7.2 in for three), 2.6 in per row
         (plus :data:`BRACKET_LEVEL_HEIGHT_IN` per bracket level above
         :data:`BRACKET_LEVELS_PER_ROW` that the most crowded panel needs).
+
+    Raises
+    ------
+    ConfigError
+        ``reference`` is not one of the conditions drawn.
     """
     if not metric_names:
         raise DataError("metrics table: no metric to plot")
@@ -282,8 +345,8 @@ def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metri
     n_cols = min(len(metric_names), METRIC_PANELS_PER_ROW)
     n_rows = math.ceil(len(metric_names) / METRIC_PANELS_PER_ROW)
     positions = {c: float(i) for i, c in enumerate(order)}
-    levels = max(bracket_levels(positions, brackets_from_stats(entries.get(m), star_rule))
-                 for m in metric_names)
+    levels = max(bracket_levels(positions, chosen_marks(entries.get(m), order, star_rule, comparisons,
+                                                        reference)[0]) for m in metric_names)
     row_height = METRIC_ROW_HEIGHT_IN + max(0, levels - BRACKET_LEVELS_PER_ROW) * BRACKET_LEVEL_HEIGHT_IN
     with figure_style():
         layout = ConstrainedLayoutEngine(w_pad=0.04, h_pad=0.03, wspace=0.06)
@@ -292,7 +355,7 @@ def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metri
         axes = np.atleast_1d(fig.subplots(n_rows, METRIC_PANELS_PER_ROW if n_rows > 1 else n_cols)).ravel()
         for i, metric in enumerate(metric_names):
             metric_boxplot(metrics, metric, entries.get(metric), ax=axes[i], conditions=order, seed=seed,
-                           star_rule=star_rule)
+                           star_rule=star_rule, comparisons=comparisons, reference=reference)
             panel_letter(axes[i], i)
         for ax in axes[len(metric_names):]:
             ax.set_visible(False)
