@@ -3,7 +3,9 @@
 stdout carries results (tables, JSON); logs and progress go to stderr. A ``NudgeError``
 prints one ``Error: ...`` line and exits 1 (``--debug`` shows the traceback), and so does an
 ``OSError`` (naming the path and the cause); click usage errors exit 2; Ctrl-C exits 130 and
-says how to resume.
+says how to resume. stdout is written whole or not at all (:mod:`nudgecli.commands.stdout`): a
+failed write is an ``Error:`` line and exit 1; a reader that went away (``| head``) ends the
+command quietly with 141.
 """
 
 from __future__ import annotations
@@ -20,7 +22,8 @@ import click
 
 from nudgecli import __version__
 from nudgecli.commands import analysis, batches, simulation, tools
-from nudgecli.commands.common import EXIT_INTERRUPTED, INTERRUPT_HINT
+from nudgecli.commands.common import EXIT_INTERRUPTED, INTERRUPT_HINT, declaring_inputs
+from nudgecli.commands.stdout import EXIT_BROKEN_PIPE, ReaderGoneError, checked_stdout
 from nudgecli.errors import NudgeError
 
 
@@ -33,11 +36,17 @@ def os_error_message(exc: OSError) -> str:
 
 class NudgeGroup(click.Group):
     """A click group that turns ``NudgeError`` and ``OSError`` into one ``Error:`` line and exit
-    status 1, and Ctrl-C into exit status 130 with a line on how to resume."""
+    status 1, and Ctrl-C into exit status 130 with a line on how to resume. Its commands write
+    stdout through :func:`~nudgecli.commands.stdout.checked_stdout`: a failed write of their
+    output is such an error too, and a reader of stdout that went away ends them quietly with
+    :data:`~nudgecli.commands.stdout.EXIT_BROKEN_PIPE`."""
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
-            return super().invoke(ctx)
+            with checked_stdout():  # every write reaches the descriptor or raises: nothing is left to flush
+                return super().invoke(ctx)
+        except ReaderGoneError:  # nothing of it was left in Python's own buffer: no message at exit
+            ctx.exit(EXIT_BROKEN_PIPE)
         except NudgeError as exc:
             if ctx.meta.get("nudge.debug"):
                 raise
@@ -66,7 +75,7 @@ def main(ctx: click.Context, debug: bool) -> None:
 
 
 for _command in (*tools.COMMANDS, *simulation.COMMANDS, *analysis.COMMANDS, *batches.COMMANDS):
-    main.add_command(_command)
+    main.add_command(declaring_inputs(_command))  # no output replaces a file the command read
 
 
 def ensure_stderr() -> None:

@@ -17,11 +17,15 @@ LOCK = ".nudge.lock"
 PART_KINDS = ("trials", "steps", "participants")
 
 #: What ``nudge analyze`` writes: the metrics, the statistics (JSON, CSV), the summary, and the
-#: questionnaire scores (``nudge study`` records the answers under the same name).
+#: questionnaire scores. Outputs have names of their own: no analysis file is named like a record
+#: a study keeps (the scores were once written as ``questionnaires.csv``, over the answers).
 METRICS_CSV = "metrics.csv"
 STATS_JSON = "stats.json"
 STATS_CSV = "stats.csv"
 SUMMARY_MD = "summary.md"
+QUESTIONNAIRE_SCORES_CSV = "questionnaire_scores.csv"
+#: The participants' questionnaire answers ``nudge study`` records (a record, read by ``nudge
+#: analyze --questionnaires``; never written by an analysis).
 QUESTIONNAIRES_CSV = "questionnaires.csv"
 #: The folder ``nudge plot`` (and a batch) writes its figures into.
 FIGURES_DIR = "figures"

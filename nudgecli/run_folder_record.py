@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,9 +20,16 @@ import pyarrow.parquet as pq
 
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
-from nudgecli.errors import NudgeError, RunFolderError
+from nudgecli.errors import DataError, NudgeError, RunFolderError
 from nudgecli.parquet_reader import read_parquet
-from nudgecli.run_folder_names import CONFIG, LAYOUTS, MANIFEST, PART_KINDS
+from nudgecli.run_folder_names import CONFIG, LAYOUTS, MANIFEST, PART_KINDS, PARTICIPANTS
+
+#: The manifest's record of the run's whole files: ``{"layouts.parquet": SHA-256, ...}`` (the parts'
+#: are under ``checksums``, by participant).
+FILE_CHECKSUMS = "files"
+#: What a nudge run writes beside its parts: a folder with parts and one of these but no manifest
+#: is a run whose manifest was lost, not a folder of parts assembled by hand.
+RUN_TRACES = (CONFIG, LAYOUTS, PARTICIPANTS, "calibration")
 
 
 def file_sha256(path: str | Path) -> str:
@@ -237,10 +244,104 @@ class RunRecord:
         return missing
 
     def read_layouts(self) -> pd.DataFrame:
+        """The trial layouts, verified against the SHA-256 the manifest recorded when they were
+        written (a manifest of an older nudge, or a ``nudge study`` folder, records none).
+
+        Raises
+        ------
+        RunFolderError
+            No layouts, or layouts changed since they were written (naming the command that
+            writes them again).
+        DataError
+            Layouts that are not a readable Parquet file (a truncated file).
+        """
         path = self.path / LAYOUTS
         if not path.is_file():
             raise RunFolderError(f"{self.path}: no {LAYOUTS}; the run folder is incomplete")
-        return read_parquet(path)
+        manifest = self.read_manifest() if self.is_run() else {}
+        files = manifest.get(FILE_CHECKSUMS)
+        recorded = files.get(LAYOUTS) if isinstance(files, Mapping) else None
+        data = path.read_bytes()
+        if recorded is not None and hashlib.sha256(data).hexdigest() != recorded:
+            raise RunFolderError(f"{self.path}: {LAYOUTS} changed since it was written (its SHA-256 differs "
+                                 f"from the one in the manifest); write it again with "
+                                 f"`{self.resume_command(manifest)}`")
+        try:
+            return read_parquet(data)
+        except Exception as exc:  # pyarrow raises several types for broken files
+            fix = self.resume_command(manifest) if manifest else "nudge simulate ... --resume"
+            raise DataError(f"{path} is not a readable Parquet file ({exc}); write it again with "
+                            f"`{fix}`") from None
+
+    def resume_command(self, manifest: Mapping[str, Any] | None = None) -> str:
+        """The command that finishes or repairs this run (``nudge simulate ... --resume``)."""
+        from nudgecli.store import simulate_resume_command  # store builds on this module
+
+        manifest = manifest if manifest is not None else self.read_manifest()
+        return simulate_resume_command(str(self.path / CONFIG), self.path, manifest.get("seed"),
+                                       manifest.get("participants"))
+
+    def unvouched_parts(self, manifest: Mapping[str, Any],
+                        participants: Iterable[int]) -> dict[int, list[str]]:
+        """Participant -> those of its parts on disk the manifest does not vouch for: no SHA-256
+        recorded of it (not written by this run: copied in, or left by another), or one that
+        differs (changed since written). Parts not on disk are :meth:`missing_parts`' business."""
+        sums = self.recorded_checksums(manifest)
+        unvouched: dict[int, list[str]] = {}
+        for participant in participants:
+            for kind in PART_KINDS:
+                part = self.part_path(kind, participant)
+                recorded = sums.get(participant, {}).get(kind)
+                if not part.is_file():
+                    continue
+                why = ("no SHA-256 recorded" if recorded is None else
+                       "changed since written" if file_sha256(part) != recorded else None)
+                if why is not None:
+                    unvouched.setdefault(participant, []).append(f"{kind}/{part.name} ({why})")
+        return unvouched
+
+    def check_vouched(self, manifest: Mapping[str, Any]) -> None:
+        """Refuse a run whose manifest records the parts' SHA-256 (this nudge's manifests do) but
+        not those of every participant it promises: parts no record vouches for were not written
+        by this run (a manifest of an older nudge records none: :meth:`integrity_notes` says so).
+
+        Raises
+        ------
+        RunFolderError
+            Names the parts and the command that simulates them again.
+        """
+        if "checksums" not in manifest or manifest.get("executor") == "live":
+            return
+        sums = self.recorded_checksums(manifest)
+        unrecorded = [f"{kind}/{part_name(index)}" for index in self.manifest_participants(manifest) or []
+                      for kind in PART_KINDS if kind not in sums.get(index, {})]
+        if unrecorded:
+            shown = ", ".join(unrecorded[:6]) + (f" and {len(unrecorded) - 6} more" if len(unrecorded) > 6
+                                                 else "")
+            raise RunFolderError(f"{self.path}: the manifest records no SHA-256 of {shown}: nothing shows "
+                                 f"they are this run's (copied in from another run?); simulate them again "
+                                 f"with `{self.resume_command(manifest)}`")
+
+    def lost_manifest_error(self) -> RunFolderError | None:
+        """The refusal of a folder that holds a run's parts and another of its files
+        (:data:`RUN_TRACES`) but no manifest: nothing shows which participants the run has, nor
+        that the parts are its own (``None`` when there is a manifest, or no such trace)."""
+        if self.is_run():
+            return None
+        found = sorted({int(p.stem.split("-")[1]) for kind in PART_KINDS
+                        for p in (self.path / kind).glob("part-*.parquet") if p.stem.split("-")[1].isdigit()})
+        if not found or not any((self.path / trace).exists() for trace in RUN_TRACES):
+            return None
+        fix = f"nudge simulate {self.path / CONFIG} --out {self.path} --force"
+        return RunFolderError(f"{self.path}: no {MANIFEST}: nothing shows how many participants the run "
+                              f"has (parts of {len(found)} found) nor that its parts are its own, so it "
+                              f"cannot be read as complete; put {MANIFEST} back, or simulate the run again: "
+                              f"`{fix}` (with the --seed it was run with)")
+
+    def unrecorded_note(self) -> str:
+        """What a reader of a folder of parts without a manifest (assembled by hand) is told."""
+        return (f"{self.path} has no {MANIFEST}: nothing shows that its parts are the whole study or "
+                "unchanged; they were analysed as found, unverified")
 
     def resume_differences(self, manifest: Mapping[str, Any], config: ExperimentConfig, seed: int,
                            participants: int) -> list[str]:

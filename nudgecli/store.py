@@ -50,6 +50,7 @@ import pyarrow.parquet as pq
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import DataError, RunFolderError, WriteError
+from nudgecli.outputs import check_not_an_input
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import (
     CONFIG,
@@ -59,6 +60,7 @@ from nudgecli.run_folder_names import (
     METRICS_CSV,
     PART_KINDS,
     PARTICIPANTS,
+    QUESTIONNAIRE_SCORES_CSV,
     STATS_CSV,
     STATS_JSON,
     SUMMARY_MD,
@@ -83,9 +85,11 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; if the block succeeds, flush it to disk and rename
     it onto ``path``, so readers see the old file or the new one, never part of one.
 
-    Every file the toolkit writes goes through here.
+    Every file the toolkit writes goes through here; so it refuses to replace a file the running
+    command read (:func:`nudgecli.outputs.check_not_an_input`).
     """
     target = Path(path)
+    check_not_an_input(target)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(target), suffix=".tmp", dir=target.parent)
@@ -160,10 +164,12 @@ def write_json_atomic(path: str | Path, data: Any) -> None:
     write_text_atomic(path, json.dumps(data, indent=2) + "\n")
 
 
-def write_parquet_atomic(path: str | Path, frame: pd.DataFrame) -> None:
-    """Write ``frame`` to ``path`` as Parquet atomically (no index)."""
+def write_parquet_atomic(path: str | Path, frame: pd.DataFrame) -> str:
+    """Write ``frame`` to ``path`` as Parquet atomically (no index); the file's SHA-256 (hex)."""
     with atomic_path(path) as tmp:
         frame.to_parquet(tmp, index=False)
+        digest = file_sha256(tmp)
+    return digest
 
 
 def library_versions() -> dict[str, str]:
@@ -320,12 +326,6 @@ class RunFolder(RunRecord):
 
     # --- reading ------------------------------------------------------------------------------
 
-    def resume_command(self, manifest: dict[str, Any] | None = None) -> str:
-        """The command that finishes or repairs this run (``nudge simulate ... --resume``)."""
-        manifest = manifest if manifest is not None else self.read_manifest()
-        return simulate_resume_command(str(self.path / CONFIG), self.path, manifest.get("seed"),
-                                       manifest.get("participants"))
-
     def check_complete(self) -> dict[str, Any]:
         """The manifest of a complete run: every participant's parts present and readable.
 
@@ -350,6 +350,7 @@ class RunFolder(RunRecord):
             state = manifest.get("status", "not finished")
             raise RunFolderError(f"{self.path}: the run is {state} (all parts are there but it did not "
                                  f"finish); finish it with `{fix}`")
+        self.check_vouched(manifest)
         return manifest
 
     def _check_live(self, manifest: dict[str, Any]) -> dict[str, Any]:
@@ -376,7 +377,9 @@ class RunFolder(RunRecord):
 
         With a manifest, exactly the parts of the participants it promises are read (strays are
         left out: :meth:`stray_parts`), and each part whose SHA-256 the manifest recorded is
-        verified against it; without one, every part on disk.
+        verified against it; without one, every part on disk of a folder of parts alone (assembled
+        by hand), while a run's folder that lost its manifest is refused
+        (:meth:`lost_manifest_error`).
 
         Parameters
         ----------
@@ -394,6 +397,9 @@ class RunFolder(RunRecord):
             A part is unreadable or lacks one of ``columns``.
         """
         manifest = self.read_manifest() if self.is_run() else None
+        lost = self.lost_manifest_error()
+        if lost is not None:
+            raise lost
         expected = self.manifest_participants(manifest) if manifest is not None else None
         if expected is None:
             parts = sorted((self.path / kind).glob("part-*.parquet"))
@@ -516,7 +522,7 @@ class RunFolder(RunRecord):
                 for p in folder.glob("*.parquet"):
                     p.unlink()
         for name in (MANIFEST, CONFIG, PARTICIPANTS, LAYOUTS, METRICS_CSV, STATS_JSON, STATS_CSV,
-                     SUMMARY_MD):
+                     SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV):
             (self.path / name).unlink(missing_ok=True)
         calibration = self.path / "calibration"
         if calibration.is_dir():
@@ -532,8 +538,9 @@ class RunFolder(RunRecord):
     def write_manifest(self, manifest: dict[str, Any]) -> None:
         write_json_atomic(self.manifest_path, manifest)
 
-    def write_layouts(self, layouts: pd.DataFrame) -> None:
-        write_parquet_atomic(self.path / LAYOUTS, layouts)
+    def write_layouts(self, layouts: pd.DataFrame) -> str:
+        """Write ``layouts.parquet``; its SHA-256 (hex), for the manifest."""
+        return write_parquet_atomic(self.path / LAYOUTS, layouts)
 
     def write_participant_parts(self, participant: int, trials: pd.DataFrame, steps: pd.DataFrame,
                                 record: pd.DataFrame) -> dict[str, str]:
@@ -560,6 +567,6 @@ class RunFolder(RunRecord):
                     raise write_error(self.part_path(kind, participant), exc) from exc
         return sums
 
-    def write_participants_table(self) -> None:
-        """Combine the participants' parts into ``participants.parquet``."""
-        write_parquet_atomic(self.path / PARTICIPANTS, self.read_table("participants"))
+    def write_participants_table(self) -> str:
+        """Combine the participants' parts into ``participants.parquet``; its SHA-256, for the manifest."""
+        return write_parquet_atomic(self.path / PARTICIPANTS, self.read_table("participants"))

@@ -109,7 +109,8 @@ def test_plot_draws_the_trajectory_along_the_path_and_the_measures(ciaa_run, tmp
                                        "--trial", "1:3"])
     assert result.exit_code == 0, result.output
     assert {p.name for p in tmp_path.iterdir()} == {"trajectory.png", "measures.png"}
-    result = CliRunner().invoke(main, ["plot", str(ciaa_run), "--out", str(tmp_path), "--trial", "1:12"])
+    result = CliRunner().invoke(main, ["plot", str(ciaa_run), "--out", str(tmp_path), "--trial", "1:12",
+                                       "--force"])  # --out holds the first figures now
     assert result.exit_code == 1 and "no such trial" in result.stderr
 
 

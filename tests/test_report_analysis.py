@@ -89,11 +89,12 @@ def test_cli_table_json_and_csv(run_folder: Path, tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     assert "mode_switches" in result.stdout and "KW p" in result.stdout
     assert result.stderr.strip().splitlines()[-1] == str(tmp_path)
-    result = _invoke(str(run_folder), "--out", str(tmp_path), "--format", "json", "--metric", "human_turns")
+    result = _invoke(str(run_folder), "--out", str(tmp_path), "--format", "json", "--metric", "human_turns",
+                     "--force")  # --out holds the first analysis now
     assert result.exit_code == 0
     document = json.loads(result.stdout)  # stdout holds only JSON
     assert [m["metric"] for m in document["metrics"]] == ["human_turns"]
-    result = _invoke(str(run_folder), "--out", str(tmp_path), "--format", "csv")
+    result = _invoke(str(run_folder), "--out", str(tmp_path), "--format", "csv", "--force")
     assert result.exit_code == 0
     assert result.stdout.splitlines()[0].startswith("metric,a,b,")
 
@@ -103,8 +104,8 @@ def test_metrics_table_source_and_questionnaires(tmp_path: Path) -> None:
     names = [m["metric"] for m in result.stats["metrics"]]
     assert names == ["mode_switches", "completion_time", "success", "tlx_raw", "tlx_weighted", "likert_q3",
                      "likert_q4"]
-    assert (tmp_path / "questionnaires.csv").is_file()
-    tlx = pd.read_csv(tmp_path / "questionnaires.csv")
+    assert (tmp_path / "questionnaire_scores.csv").is_file()  # a name of its own: not the answers
+    tlx = pd.read_csv(tmp_path / "questionnaire_scores.csv")
     raw = pd.read_csv(QUESTIONNAIRES_CSV)
     subscales = [c for c in raw.columns if c.startswith("tlx_") and "pair" not in c]
     assert np.allclose(tlx["tlx_raw"], raw[subscales].mean(axis=1))

@@ -90,7 +90,7 @@ def run_data(analysed_run: Path) -> RunData:
                    stats=json.loads((analysed_run / "stats.json").read_text(encoding="utf-8")),
                    trials=trials, steps=run.read_steps(),
                    layouts=layouts_by_trial(trials, run.read_layouts()),
-                   questionnaires=pd.read_csv(analysed_run / "questionnaires.csv"))
+                   questionnaires=pd.read_csv(analysed_run / "questionnaire_scores.csv"))
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,7 @@ from typing import Any
 import click
 
 from nudgecli import command_defaults as defaults
-from nudgecli.commands.common import SET_HELP, echo_json, info, progress_bar
+from nudgecli.commands.common import FORCE_HELP, SET_HELP, echo_json, info, progress_bar
 from nudgecli.errors import NudgeError
 
 # --- analyze -------------------------------------------------------------------------------
@@ -40,15 +40,19 @@ from nudgecli.errors import NudgeError
               help="Bootstrap resamples of the intervals [default: the plan's].")
 @click.option("--drop-duplicates", is_flag=True,
               help="Keep the first of repeated trial rows of a table instead of refusing them.")
+@click.option("--force", is_flag=True, help=FORCE_HELP)
 def analyze_command(source: str, plan: str | None, out: str | None, output_format: str,
                     metric_names: tuple[str, ...], questionnaires: str | None, seed: int | None,
-                    bootstrap: int | None, drop_duplicates: bool, reference: str | None) -> None:
+                    bootstrap: int | None, drop_duplicates: bool, reference: str | None, force: bool) -> None:
     """Metrics and statistics of a run folder or a metrics table (CSV/Parquet, one row per trial)."""
-    from nudgecli.report.analysis import analyze
+    from nudgecli.outputs import check_output_folder
+    from nudgecli.report.analysis import analysis_folder, analyze
     from nudgecli.report.plans import check_resamples
     from nudgecli.report.summary import format_table
 
     check_resamples(bootstrap, "--bootstrap")
+    if out is not None:  # the run folder itself, or the table's analysis folder, is the source's own
+        check_output_folder(out, force=force, own=[source, analysis_folder(Path(source))])
     bar, update = progress_bar("analysing", unit="metric")
     try:
         result = analyze(source, plan=plan, out=out, metrics=list(metric_names) or None,
@@ -100,8 +104,9 @@ def _plan_of(source: str, plan: str | None) -> str:
 @click.option("--reference", metavar="CONDITION", default=None,
               help="Box plots: brackets only for the pairs of this condition [default: every significant "
                    "pair up to three conditions, a compact letter display from four].")
+@click.option("--force", is_flag=True, help=FORCE_HELP)
 def plot_command(run: str, plan: str | None, out: str | None, formats: str, trial: str | None,
-                 reference: str | None) -> None:
+                 reference: str | None, force: bool) -> None:
     """Draw the figures of RUN: an analysed run folder, a metrics table or the table's analysis folder.
 
     Fig. 3 and 4 where their metrics are present, one panel per other metric; Fig. 5 and a
@@ -128,6 +133,8 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
     made = written_folder is not None and not written_folder.exists()
     try:
         with run_lock(written_folder) if written_folder is not None else contextlib.nullcontext():
+            if out is not None:  # under the lock: a folder another command is writing is named so
+                _check_figures_folder(run, out, force)
             written = plot_folder(run, out, chosen, trial_key, star_rule=analysis_plan.comparison_options(),
                                   item_labels=analysis_plan.questionnaires.labels, reference=reference)
     except BaseException:
@@ -137,6 +144,18 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
         raise
     for path in written:
         click.echo(str(path))
+
+
+def _check_figures_folder(run: str, out: str, force: bool) -> None:
+    """``plot --out``'s folder: new, empty or RUN's own figures folder, unless ``force``
+    (:func:`nudgecli.outputs.check_output_folder`)."""
+    from nudgecli.outputs import check_output_folder
+    from nudgecli.report.plotting import default_out
+
+    own: list[Path] = []
+    with contextlib.suppress(NudgeError):  # not a plottable source: plot_folder says why
+        own.append(default_out(run))
+    check_output_folder(out, force=force, own=own)
 
 
 # --- plot-population -----------------------------------------------------------------------
@@ -261,9 +280,10 @@ def _parse_matches(matches: tuple[str, ...]) -> dict[str, str]:
               help="Bootstrap seed.")
 @click.option("--drop-duplicates", is_flag=True,
               help="Keep the first of repeated trial rows of a table instead of refusing them.")
+@click.option("--force", is_flag=True, help=FORCE_HELP)
 def compare_command(simulated: str, real: str, plan: str | None, metric_names: tuple[str, ...],
                     matches: tuple[str, ...], output_format: str, out: str | None, formats: str,
-                    resamples: int, level: float, seed: int, drop_duplicates: bool) -> None:
+                    resamples: int, level: float, seed: int, drop_duplicates: bool, force: bool) -> None:
     """Compare SIMULATED (a run folder or metrics table) with REAL (a metrics table of real trials).
 
     For each metric and condition both hold: per-participant medians side by side, the real
@@ -277,10 +297,16 @@ def compare_command(simulated: str, real: str, plan: str | None, metric_names: t
     chosen_formats = parse_formats(formats)
     notes: list[str] = []
     check_resamples(resamples, "--resamples")
-    if out is not None:
+    if out is not None:  # before the bootstrap, which takes a while
+        from nudgecli.outputs import check_not_an_input, check_output_folder
+        from nudgecli.report.compare import COMPARISON_FILES
+        from nudgecli.report.compare_figure import FIGURE_STEM
         from nudgecli.store import check_writable
 
-        check_writable(out)  # before the bootstrap, which takes a while
+        check_output_folder(out, force=force)
+        check_writable(out)
+        for name in (*COMPARISON_FILES, *(f"{FIGURE_STEM}.{suffix}" for suffix in chosen_formats)):
+            check_not_an_input(Path(out) / name)
     result = compare_sources(simulated, real, plan=plan, metrics=list(metric_names) or None,
                              condition_map=_parse_matches(matches),
                              options=CompareOptions(resamples=resamples, level=level, seed=seed),

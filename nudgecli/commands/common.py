@@ -3,11 +3,15 @@ progress bar and the help texts of the options several commands have."""
 
 from __future__ import annotations
 
+import functools
 import json
+import math
 import sys
 from typing import Any
 
 import click
+
+from nudgecli.outputs import command_inputs, declare_input
 
 #: ``ctx.meta`` key of a callable returning what to tell the user after Ctrl-C (how to resume).
 INTERRUPT_HINT = "nudge.interrupt_hint"
@@ -16,18 +20,41 @@ EXIT_INTERRUPTED = 130
 
 SET_HELP = "Override one experiment field, e.g. --set disambiguation.window=5 (repeatable)."
 YES_HELP = "Simulate more trials than the size limit allows without asking (see the README)."
+FORCE_HELP = ("Write into --out even when it is not empty or holds a run (files of the same names are "
+              "replaced; nothing else is touched).")
 
 
 def echo_json(data: Any) -> None:
-    """Print ``data`` as JSON on stdout (the only output of ``--format json``)."""
-    click.echo(json.dumps(data, indent=2, sort_keys=False, default=_json_default))
+    """Print ``data`` as JSON on stdout (the only output of ``--format json``): strict JSON, every
+    NaN or infinity as ``null`` (:func:`strict_json_value`), as every JSON file the toolkit writes."""
+    click.echo(json.dumps(strict_json_value(data), indent=2, sort_keys=False, allow_nan=False))
 
 
-def _json_default(value: Any) -> Any:
-    if hasattr(value, "tolist"):
-        return value.tolist()
-    if hasattr(value, "item"):
-        return value.item()
+def strict_json_value(value: Any) -> Any:
+    """A copy of ``value`` that strict JSON can hold: mappings with string keys, lists, numpy
+    arrays and scalars made plain, and a float that is NaN or infinite made ``None`` (``null``;
+    Python's ``json`` would write ``NaN``, which no strict JSON reader accepts).
+
+    Raises
+    ------
+    TypeError
+        A value of another kind (a bug: the document was not made JSON-ready).
+    """
+    if isinstance(value, dict):
+        return {str(key): strict_json_value(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [strict_json_value(item) for item in value]
+    if hasattr(value, "tolist"):  # a numpy array or scalar: Python lists and scalars
+        plain = value.tolist()
+        return strict_json_value(plain) if isinstance(plain, list) else _strict_scalar(plain)
+    return _strict_scalar(value)
+
+
+def _strict_scalar(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if value is None or isinstance(value, str | int | float):  # bool is an int
+        return value
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
@@ -48,3 +75,35 @@ def progress_bar(label: str, unit: str = "trial") -> tuple[Any, Any]:
         bar.refresh()
 
     return bar, update
+
+
+#: Options that name a file the command reads though their type is not a path (a plan preset or
+#: its TOML file; ``ciaa-people`` or a reference JSON).
+FILE_OPTIONS = ("plan", "compare")
+
+
+def declaring_inputs(command: click.Command) -> click.Command:
+    """``command``, its callback run with the files it reads declared
+    (:func:`nudgecli.outputs.declare_input`): the values of its path arguments and options and of
+    :data:`FILE_OPTIONS`, ``--out`` aside. So no command replaces a file it read with an output,
+    whoever wrote the command (:func:`nudgecli.store.atomic_path` refuses)."""
+    callback = command.callback
+    if callback is None or getattr(callback, "declares_inputs", False):
+        return command
+    named = [(param.name, param.opts[-1] if isinstance(param, click.Option) else param.human_readable_name)
+             for param in command.params
+             if param.name not in (None, "out") and (isinstance(param.type, click.Path)
+                                                     or param.name in FILE_OPTIONS)]
+
+    @functools.wraps(callback)
+    def run(*args: Any, **kwargs: Any) -> Any:
+        with command_inputs():
+            for name, label in named:
+                value = kwargs.get(str(name))
+                for path in value if isinstance(value, tuple | list) else (value,):
+                    declare_input(label, path)
+            return callback(*args, **kwargs)
+
+    run.declares_inputs = True  # type: ignore[attr-defined]
+    command.callback = run
+    return command

@@ -31,10 +31,12 @@ def fit_command(calibration_dir: str, out: str | None, variant: str) -> None:
     session. A missing session falls back to the default table.
     """
 
+    from nudgecli.outputs import declare_input
     from nudgecli.sim.calibration_profile import fit_calibration_dir, write_profile
     from nudgecli.store import check_writable
 
     folder = Path(calibration_dir)
+    declare_input("CALIBRATION_DIR", *(folder.rglob("*") if folder.is_dir() else ()))  # its logs: never --out
     target = Path(out) if out is not None else Path.cwd() / f"{folder.resolve().name}.profile.json"
     check_writable(target.parent)
     result = fit_calibration_dir(folder, variant)

@@ -10,7 +10,7 @@ import click
 
 import nudgecli
 from nudgecli import command_defaults as defaults
-from nudgecli.commands.common import echo_json, info, progress_bar
+from nudgecli.commands.common import FORCE_HELP, echo_json, info, progress_bar
 
 # --- presets -------------------------------------------------------------------------------
 
@@ -114,9 +114,10 @@ def _validation_readings() -> list[str]:
 @click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
               show_default=True, help="What to print on stdout.")
 @click.option("--yes", is_flag=True, help="Run more queries than the size limit allows without asking.")
+@click.option("--force", is_flag=True, help=FORCE_HELP)
 def validate_command(simulations: int, min_goals: int, max_goals: int, states: int, seed: int,
                      belief_concentration: float, mc_queries: int, reading: str, all_readings: bool,
-                     out: str | None, output_format: str, yes: bool) -> None:
+                     out: str | None, output_format: str, yes: bool, force: bool) -> None:
     """The paper's simulation-based validation of D(s): its argmax vs a one-step ground truth."""
     import time
     from dataclasses import replace
@@ -135,6 +136,9 @@ def validate_command(simulations: int, min_goals: int, max_goals: int, states: i
     check_size(simulations * states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
                work="run {} queries (worlds x states x readings)", fix="fewer --simulations or --states")
     if out is not None:
+        from nudgecli.outputs import check_output_folder
+
+        check_output_folder(out, force=force)
         validation.prepare_out(out)
     start = time.perf_counter()
     bar, update = progress_bar("validating", unit="simulation")

@@ -27,7 +27,9 @@ lock (:func:`nudgecli.store.run_lock`), to the run folder, ``<table>-analysis/``
 (``study.csv`` gives ``study-analysis/``), or ``out``: ``stats.json``, ``stats.csv``,
 ``summary.md``, ``metrics.csv`` (for a run folder, or a table the analysis changed; a table
 analysed as it is is not copied: ``stats.json``'s ``metrics_table`` names the table the
-statistics came from) and, with questionnaires, ``questionnaires.csv``.
+statistics came from) and, with questionnaires, ``questionnaire_scores.csv`` (a name of its own:
+``questionnaires.csv`` is the answers ``nudge study`` records). No output replaces an input
+(:func:`nudgecli.outputs.check_not_an_input`: all of them are checked before the first is written).
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ from nudgecli.errors import ConfigError, DataError, RunFolderError, did_you_mean
 from nudgecli.errors import WriteError as NudgeWriteError
 from nudgecli.locks import run_lock
 from nudgecli.model.conditions import not_applicable_metrics
+from nudgecli.outputs import check_not_an_input
 from nudgecli.report.checksum import CHECKSUM_KEY, metrics_checksum
 from nudgecli.report.metrics import (
     INPUT_STEP_COLUMNS,
@@ -73,7 +76,7 @@ from nudgecli.report.tables import (
     read_metrics_table,
     validate_metrics_table,
 )
-from nudgecli.run_folder_names import METRICS_CSV, QUESTIONNAIRES_CSV, STATS_CSV, STATS_JSON, SUMMARY_MD
+from nudgecli.run_folder_names import METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_CSV, STATS_JSON, SUMMARY_MD
 from nudgecli.store import RunFolder, is_run_folder, write_text_atomic
 
 
@@ -118,7 +121,8 @@ def read_run(folder: str | Path, notes: list[str] | None = None) -> tuple[pd.Dat
     With a manifest, exactly the parts of the participants it promises are read, each verified
     against the SHA-256 the manifest recorded (:meth:`nudgecli.store.RunFolder.read_table`);
     stray parts and parts without a recorded checksum (an older nudge's run, still read) are
-    reported in ``notes``.
+    reported in ``notes``. Without one, a run's folder that lost it is refused, and a folder of
+    parts alone is read with a note that nothing vouches for them.
 
     Returns
     -------
@@ -144,6 +148,8 @@ def read_run(folder: str | Path, notes: list[str] | None = None) -> tuple[pd.Dat
             run.check_complete()
             if notes is not None:
                 notes += run.integrity_notes(manifest)
+    elif notes is not None and run.lost_manifest_error() is None:  # parts alone: say they are unverified
+        notes.append(run.unrecorded_note())
     trials = run.read_table("trials", TRIAL_COLUMNS)
     if trials.empty:
         raise RunFolderError(f"{folder}: trials/part-*.parquet hold no trials yet; "
@@ -510,15 +516,18 @@ def _write_analysis(out_dir: Path, metrics: pd.DataFrame | None, stats: dict[str
                     summary: str, scores: pd.DataFrame | None) -> list[Path]:
     """Write the analysis files atomically into ``out_dir``: ``metrics.csv`` (when ``metrics`` is
     given: the analysed table differs from the source), ``stats.json``, ``stats.csv``,
-    ``summary.md`` and, with ``scores``, ``questionnaires.csv``; return them in that order."""
+    ``summary.md`` and, with ``scores``, ``questionnaire_scores.csv``; return them in that order.
+    None of them is written when one of them is an input of the command."""
     written: list[Path] = []
-    if metrics is not None:
-        write_text_atomic(out_dir / METRICS_CSV, metrics.to_csv(index=False))
-        written.append(out_dir / METRICS_CSV)
     outputs = {STATS_JSON: json.dumps(stats, indent=2, allow_nan=False) + "\n", STATS_CSV: stats_csv(tidy),
                SUMMARY_MD: summary}
     if scores is not None:
-        outputs[QUESTIONNAIRES_CSV] = scores.to_csv(index=False)
+        outputs[QUESTIONNAIRE_SCORES_CSV] = scores.to_csv(index=False)
+    for name in ([METRICS_CSV] if metrics is not None else []) + list(outputs):
+        check_not_an_input(out_dir / name)  # all of them first: never a half-replaced analysis
+    if metrics is not None:
+        write_text_atomic(out_dir / METRICS_CSV, metrics.to_csv(index=False))
+        written.append(out_dir / METRICS_CSV)
     for name, text in outputs.items():
         write_text_atomic(out_dir / name, text)
         written.append(out_dir / name)

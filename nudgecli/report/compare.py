@@ -427,6 +427,10 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
                       {"simulated": sim_table, "real": real_table})
 
 
+#: The tables :func:`write_comparison` writes (the figure is :mod:`nudgecli.report.compare_figure`'s).
+COMPARISON_FILES = ("compare.csv", "participant_medians.csv", "compare.json")
+
+
 def write_comparison(result: Comparison, out: str | Path) -> list[Path]:
     """Write ``compare.csv``, ``participant_medians.csv`` and ``compare.json`` into ``out`` (atomically)."""
     import json
@@ -434,11 +438,11 @@ def write_comparison(result: Comparison, out: str | Path) -> list[Path]:
     folder = Path(out)
     if folder.exists() and not folder.is_dir():
         raise DataError(f"--out {folder} is a file; give a folder")
-    files = {
-        "compare.csv": result.table.to_csv(index=False),
-        "participant_medians.csv": result.medians.to_csv(index=False),
-        "compare.json": json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n",
-    }
+    files = dict(zip(COMPARISON_FILES, (
+        result.table.to_csv(index=False),
+        result.medians.to_csv(index=False),
+        json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n",
+    ), strict=True))
     written = []
     for name, text in files.items():
         write_text_atomic(folder / name, text)

@@ -8,7 +8,7 @@ which figures the data allow (:func:`draw_figures`) and writes them (:func:`writ
 Sources:
 
 - a run folder analysed with ``nudge analyze``: ``metrics.csv``, ``stats.json``, the trial table,
-  the step log and the layouts (Fig. 5 and the trajectory), ``questionnaires.csv`` if present;
+  the step log and the layouts (Fig. 5 and the trajectory), ``questionnaire_scores.csv`` if present;
 - an analysed metrics table, given as the table itself or as its analysis folder (the folder
   that holds its ``stats.json`` and ``metrics.csv``): box plots only.
 
@@ -42,7 +42,7 @@ from nudgecli.report.style import condition_display_name
 from nudgecli.report.tables import TABLE_SUFFIXES, read_metrics_table, validate_metrics_table
 from nudgecli.report.trial_selection import choose_figure5_trial
 from nudgecli.report.trial_steps import TrialKey
-from nudgecli.run_folder_names import FIGURES_DIR, METRICS_CSV, QUESTIONNAIRES_CSV, STATS_JSON
+from nudgecli.run_folder_names import FIGURES_DIR, METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_JSON
 from nudgecli.store import RunFolder
 
 
@@ -380,8 +380,8 @@ def read_inputs(source: str | Path) -> FigureInputs:
         else:
             layouts = layouts_by_trial(trials, layout_table)
     questionnaires = None
-    if (folder / QUESTIONNAIRES_CSV).is_file():
-        questionnaires = pd.read_csv(folder / QUESTIONNAIRES_CSV)
+    if (folder / QUESTIONNAIRE_SCORES_CSV).is_file():
+        questionnaires = pd.read_csv(folder / QUESTIONNAIRE_SCORES_CSV)
     return FigureInputs(metrics=table, stats=stats, trials=trials, steps=steps, layouts=layouts,
                         questionnaires=questionnaires, path_layouts=path_layouts, time_limit_s=time_limit_s)
 

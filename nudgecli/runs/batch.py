@@ -56,9 +56,9 @@ from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
 from nudgecli.rng import seed_sequence
-from nudgecli.run_folder_record import readable_parquet
 from nudgecli.runs.batch_folder import (
     BATCH_MANIFEST,
+    PartRecord,
     analysis_part,
     prepare_folder,
     read_json,
@@ -83,7 +83,7 @@ from nudgecli.runs.study import (
     solve_layout_chunk_into,
 )
 from nudgecli.sim.study import build_layouts, check_physiology_logs
-from nudgecli.store import provenance, utc_now, write_json_atomic, write_parquet_atomic
+from nudgecli.store import provenance, utc_now, write_json_atomic
 
 if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only
     from nudgecli.report.plans import AnalysisPlan
@@ -440,12 +440,14 @@ class _GraphRun:
 
     def __init__(self, batch: Batch, graph: Graph, folder: Path, executor: Executor) -> None:
         self.batch, self.graph, self.folder, self.executor = batch, graph, folder, executor
-        #: study key -> its participants without a readable part; the analyses without one
+        #: study key -> its participants without a part the record vouches for; the analyses without one
+        self.record = PartRecord(folder)
         self.remaining = {study.key: {i for i in range(study.participants)
-                                      if not readable_parquet(task_part(folder, study.key, i))}
+                                      if not self.record.vouches(task_part(folder, study.key, i))}
                           for study in graph.studies.values()}
         self.waiting = [a for a in graph.analyses.values()
-                        if not readable_stats(analysis_part(folder, a.key))]
+                        if not self.record.vouches(analysis_part(folder, a.key), readable_stats)]
+        self.record.warn_refused()
         self.total = graph.participant_tasks + len(graph.analyses)
         self.done = self.total - sum(len(v) for v in self.remaining.values()) - len(self.waiting)
         self.metrics = list(batch.plan.metrics.include)
@@ -537,11 +539,11 @@ class _GraphRun:
                 return False
             parts = self.analysed.pop(key)
             document = merge_analysis_chunks([parts[c] for c in range(chunks)])
-            write_json_atomic(analysis_part(self.folder, key), document)
+            self.record.write_json(analysis_part(self.folder, key), document)
             return True
         study_name, index = job.key.rsplit("-p", 1)  # a participant task
         frame = result.frame()
-        write_parquet_atomic(task_part(self.folder, study_name, int(index)), frame)
+        self.record.write_parquet(task_part(self.folder, study_name, int(index)), frame)
         self.written.setdefault(study_name, {})[int(index)] = frame
         self.remaining[study_name].discard(int(index))
         self.submit_ready()

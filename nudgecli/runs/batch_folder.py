@@ -1,18 +1,25 @@
-"""The batch folder: its manifest's name, the part files of its tasks, and the prepare rule.
+"""The batch folder: its manifest's name, the part files of its tasks, their record, and the
+prepare rule.
 
 Every result of a batch is written by the process that runs it as an atomic part file: a
 participant task's per-trial metrics under ``tasks/<study>/``, an analysis's statistics under
-``analyses/``. ``--resume`` recomputes exactly the tasks whose part is missing or unreadable
-(:func:`nudgecli.run_folder_record.readable_parquet`, :func:`readable_stats`), so an interrupted
-batch finishes without recomputing a finished task. The graph and its execution are in
-:mod:`nudgecli.runs.batch`.
+``analyses/``. Each part's SHA-256 is appended to the batch's record, ``checksums.sha256``
+(:class:`PartRecord`; the format of ``sha256sum``, so ``sha256sum -c checksums.sha256`` checks a
+batch by hand), once the part is in place. ``--resume`` keeps exactly the parts the record vouches
+for (and that are readable: :func:`readable_stats` for an analysis) and computes the others again:
+a missing, truncated or edited part, or one copied in from another batch, never reaches the
+batch's tables; an interrupted batch finishes without recomputing a finished task. The graph and
+its execution are in :mod:`nudgecli.runs.batch`.
 """
 
 from __future__ import annotations
 
 import json
+import os
+import re
 import shutil
-from collections.abc import Mapping
+import sys
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -21,10 +28,13 @@ import pandas as pd
 from nudgecli.errors import RunFolderError
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import FIGURES_DIR
-from nudgecli.run_folder_record import part_name
-from nudgecli.store import prepare_mode
+from nudgecli.run_folder_record import file_sha256, part_name, readable_parquet
+from nudgecli.store import prepare_mode, write_error, write_json_atomic, write_parquet_atomic
 
 BATCH_MANIFEST = "batch.json"
+#: The record of the batch's parts: one ``<SHA-256>  <path in the folder>`` line per part written.
+PART_RECORD = "checksums.sha256"
+_RECORD_LINE = re.compile(r"([0-9a-f]{64})  ([^\n]+)")
 
 
 def task_part(folder: Path, study: str, participant: int) -> Path:
@@ -68,6 +78,80 @@ def read_study_metrics(folder: Path, study: str, participants: int,
     return pd.concat(frames, ignore_index=True)
 
 
+class PartRecord:
+    """The batch folder's record of its parts (:data:`PART_RECORD`): what ``--resume`` may keep.
+
+    A part is recorded once it is in place, so a part without a line (killed between the two,
+    copied in from another batch) or whose bytes no longer give its line's SHA-256 (edited,
+    truncated) is not vouched for, and is computed again. A torn last line (a kill while
+    appending) vouches for nothing. Later lines of a path replace earlier ones.
+
+    Parameters
+    ----------
+    folder
+        The batch folder.
+    """
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self.path = folder / PART_RECORD
+        self.sums: dict[str, str] = {}
+        try:
+            text = self.path.read_text(encoding="utf-8", errors="replace")
+        except FileNotFoundError:
+            text = ""
+        except OSError as exc:
+            raise RunFolderError(f"{self.path}: cannot be read ({exc.strerror or exc}); use --force to "
+                                 "start the batch again") from None
+        for line in text.splitlines():
+            match = _RECORD_LINE.fullmatch(line)
+            if match:
+                self.sums[match.group(2)] = match.group(1)
+        #: Parts on disk that the record does not vouch for, as they were met (for the warning).
+        self.refused: list[str] = []
+
+    def _name(self, part: Path) -> str:
+        return part.relative_to(self.folder).as_posix()
+
+    def vouches(self, part: Path, readable: Callable[[Path], bool] = readable_parquet) -> bool:
+        """Whether ``part`` is on disk, readable, and has the SHA-256 the record holds of it."""
+        if not part.is_file():
+            return False
+        recorded = self.sums.get(self._name(part))
+        if recorded is not None and file_sha256(part) == recorded and readable(part):
+            return True
+        self.refused.append(self._name(part))
+        return False
+
+    def warn_refused(self) -> None:
+        """Say on stderr which parts on disk are computed again, not being vouched for."""
+        if self.refused:
+            shown = ", ".join(self.refused[:6]) + (f" and {len(self.refused) - 6} more"
+                                                   if len(self.refused) > 6 else "")
+            print(f"Warning: {self.folder}: {shown}: not vouched for by {PART_RECORD} (not as this batch "
+                  "wrote them); computing them again", file=sys.stderr)
+
+    def write_parquet(self, part: Path, frame: pd.DataFrame) -> None:
+        """Write a task's part atomically, then record it."""
+        self._record(part, write_parquet_atomic(part, frame))
+
+    def write_json(self, part: Path, document: Any) -> None:
+        """Write an analysis's part atomically, then record it."""
+        write_json_atomic(part, document)
+        self._record(part, file_sha256(part))
+
+    def _record(self, part: Path, digest: str) -> None:
+        """Append ``part``'s line to the record, on disk before the next part is written."""
+        name = self._name(part)
+        try:
+            with open(self.path, "a", encoding="utf-8") as handle:
+                handle.write(f"{digest}  {name}\n")
+                handle.flush()
+                os.fsync(handle.fileno())
+        except OSError as exc:
+            raise write_error(self.path, exc) from exc
+
+
 def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool) -> str:
     """Make ``folder`` ready for the batch; ``"new"`` or ``"resume"`` (same description required).
 
@@ -90,5 +174,6 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
         for name in ("tasks", "analyses", FIGURES_DIR):
             shutil.rmtree(folder / name, ignore_errors=True)
         manifest.unlink()
+    (folder / PART_RECORD).unlink(missing_ok=True)  # a new batch: no line left there vouches for a part
     folder.mkdir(parents=True, exist_ok=True)
     return "new"

@@ -30,6 +30,8 @@ from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
+from nudgecli.run_folder_names import LAYOUTS, PARTICIPANTS
+from nudgecli.run_folder_record import FILE_CHECKSUMS
 from nudgecli.runs.size import check_size, trials_per_participant
 from nudgecli.runs.study_tasks import (
     _init_worker,
@@ -299,12 +301,15 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     mode = folder.prepare(config, seed, n, resume=resume, force=force)
     done = set(folder.completed_participants()) & set(range(n)) if mode == "resume" else set()
     if mode == "resume":
-        changed = folder.changed_parts(folder.read_manifest())
-        if changed:  # not what was written: recompute them (a participant is a pure function of the seed)
-            listed = ", ".join(part for parts in changed.values() for part in parts)
-            print(f"Warning: {folder.path}: {listed} changed since written (SHA-256 differs from the "
-                  "manifest's); simulating again", file=sys.stderr)
-            done -= set(changed)
+        # keep only the parts the manifest vouches for (the SHA-256 recorded when this run wrote
+        # them); the others are simulated again, a participant being a pure function of the seed
+        unvouched = folder.unvouched_parts(folder.read_manifest(), sorted(done))
+        if unvouched:
+            listed = ", ".join(part for parts in unvouched.values() for part in parts)
+            print(f"Warning: {folder.path}: {listed}: not vouched for by the manifest (not as this run wrote "
+                  f"them); simulating participant(s) {', '.join(map(str, sorted(unvouched)))} again",
+                  file=sys.stderr)
+            done -= set(unvouched)
     plan = build_plan_on(config, seed, workers, client)
     trials_per = plan.trials_per_participant()
     manifest = folder.read_manifest() if mode == "resume" else new_manifest(config, seed, n, trials_per)
@@ -315,7 +320,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                      "executor": executor_name(workers, bool(scheduler))})
     if plan_name is not None or "plan" not in manifest:
         manifest["plan"] = resolve_plan(plan_name, experiment=config.experiment.name)
-    folder.write_layouts(plan.layouts_frame())
+    manifest[FILE_CHECKSUMS] = {LAYOUTS: folder.write_layouts(plan.layouts_frame())}  # read back by plot
     folder.write_manifest(manifest)
     todo = [i for i in range(n) if i not in done]
     started = time.perf_counter()
@@ -348,7 +353,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
         with contextlib.suppress(NudgeError, OSError):
             folder.write_manifest(manifest)
         raise
-    folder.write_participants_table()
+    manifest[FILE_CHECKSUMS][PARTICIPANTS] = folder.write_participants_table()
     manifest.update({"status": "complete", "finished": utc_now(),
                      "wall_s": round(time.perf_counter() - started, 3),
                      "peak_rss_mb": _finite_or_none(round(peak_memory_mb(), 1))})
