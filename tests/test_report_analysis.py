@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import replace
 from pathlib import Path
 
@@ -65,6 +66,9 @@ def test_analyze_run_folder_writes_all_files(run_folder: Path, tmp_path: Path) -
     assert len(table) == len(paper_metrics) and {"conover_p", "stars", "ci_low"} <= set(table.columns)
     summary = (tmp_path / "summary.md").read_text()
     assert "## completion_time" in summary and "| disambiguation - control |" in summary
+    # the source as seen from the output folder: no machine's path in a shipped summary
+    expected = os.path.relpath(run_folder.resolve(), tmp_path.resolve())
+    assert f"- source: `{expected}`\n" in summary and not expected.startswith("/")
     assert not list(tmp_path.glob(".*.tmp"))
 
 

@@ -416,13 +416,14 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     options = comparison_options(plan, seed, bootstrap)
     stats = _statistics(filtered, trial_selected, scores, score_selected, conditions, options, progress,
                         not_applicable)
-    stats["metrics_table"] = (METRICS_CSV if changed else
-                              os.path.relpath(source.resolve(), out_dir.resolve()))
+    # the source as seen from the output folder: no machine's path in what is written
+    source_from_out = Path(os.path.relpath(source.resolve(), out_dir.resolve()))
+    stats["metrics_table"] = METRICS_CSV if changed else str(source_from_out)
     stats[CHECKSUM_KEY] = metrics_checksum(filtered, trial_selected, plan.filters)
     stats = json_ready(stats)
     tidy = stats_table(stats)
     notes += _excluded_notes(tidy)
-    summary = format_summary(tidy, stats["conditions"], plan, source, n_trials=len(filtered),
+    summary = format_summary(tidy, stats["conditions"], plan, source_from_out, n_trials=len(filtered),
                              n_participants=filtered["participant"].nunique(), reference=reference,
                              not_applicable={e["metric"]: e.get("not_applicable_reasons") or {}
                                              for e in stats["metrics"]})

@@ -156,7 +156,9 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
     up to three conditions every pair; four or more a letter per condition in the table of
     descriptives instead (:func:`~nudgecli.report.letters.compact_letter_display` of the pairs
     with stars); with ``reference`` only that condition's pairs. ``not_applicable``: metric ->
-    condition -> why it was left out (``stats.json``'s ``not_applicable_reasons``).
+    condition -> why it was left out (``stats.json``'s ``not_applicable_reasons``). ``source`` is
+    the analysed run folder or table as seen from the folder ``summary.md`` is written to (``.``:
+    that folder itself).
     """
     settings = plan.stats
     comparison = settings.star_comparison
