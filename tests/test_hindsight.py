@@ -239,6 +239,23 @@ def test_a_long_step_is_capped_at_the_goal() -> None:
     assert (vx, vy, omega) == (pytest.approx(0.2), 0.0, pytest.approx(0.05))
 
 
+def velocity(pose, goals, belief, settings, user=None) -> np.ndarray:
+    """``hindsight_command`` uncapped (no step), as an array."""
+    return np.array(hs.hindsight_command(*pose, goals, belief, settings, None, user))
+
+
+def goal_velocities(pose, goals, settings) -> np.ndarray:
+    """``(G, 3)``: each goal's ``goal_command``, uncapped."""
+    return np.array([hs.goal_command(*pose, tuple(goal), settings) for goal in goals])
+
+
+def blended(u_h: np.ndarray, belief, commands: np.ndarray,
+            threshold=hs.BLEND_PROB_DIFF_REQUIRED) -> np.ndarray:
+    """ADA's blend of ``u_h`` with the goal ``ada_blend_goal`` picks (the person's alone for none)."""
+    goal = hs.ada_blend_goal(belief, threshold)
+    return u_h.copy() if goal < 0 else u_h + commands[goal]
+
+
 @settings(max_examples=200, deadline=None)
 @given(x=st.floats(3, 45), y=st.floats(2, 36), theta=angle, gx=st.floats(3, 45), gy=st.floats(2, 36),
        gtheta=angle, dt=st.floats(1e-3, 20.0))
@@ -249,7 +266,7 @@ def test_a_step_never_passes_the_goal(x: float, y: float, theta: float, gx: floa
     assert abs(omega) * dt <= abs(math.remainder(gtheta - theta, 2 * math.pi)) * (1 + 1e-9) + 1e-12
     # a short step is the uncapped assistance
     short = hs.hindsight_command(x, y, theta, [(gx, gy, gtheta)], [1.0], WORLD, 1e-9)
-    uncapped = hs.hindsight_velocity((x, y, theta), [(gx, gy, gtheta)], [1.0], WORLD)
+    uncapped = velocity((x, y, theta), [(gx, gy, gtheta)], [1.0], WORLD)
     assert np.allclose(short, uncapped, rtol=1e-9, atol=1e-12)
 
 
@@ -266,7 +283,7 @@ GOALS = np.array([[40.0, 10.0, 0.0], [10.0, 33.0, 0.0], [30.0, 30.0, 1.0], [12.0
 def test_two_far_goals_by_hand() -> None:
     # from (10, 10, 0): goal 0 is 30 units east, goal 1 23 units north, both at the robot's heading;
     # each pulls at the far speed 0.91875, weighted 1/4 and 3/4
-    v = hs.hindsight_velocity((10.0, 10.0, 0.0), GOALS[:2], [0.25, 0.75], WORLD)
+    v = velocity((10.0, 10.0, 0.0), GOALS[:2], [0.25, 0.75], WORLD)
     assert v == pytest.approx([0.25 * 0.91875, 0.75 * 0.91875, 0.0], rel=1e-12)
 
 
@@ -275,15 +292,15 @@ def test_a_one_hot_belief_gives_that_goal_s_command(k: int) -> None:
     belief = np.eye(len(GOALS))[k]
     pose = (15.0, 14.0, 0.4)
     expected = hs.goal_command(*pose, tuple(GOALS[k]), WORLD)
-    assert hs.hindsight_velocity(pose, GOALS, belief, WORLD) == pytest.approx(expected, rel=1e-12)
-    assert hs.goal_velocities(pose, GOALS, WORLD)[k] == pytest.approx(expected, rel=1e-12)
+    assert velocity(pose, GOALS, belief, WORLD) == pytest.approx(expected, rel=1e-12)
+    assert goal_velocities(pose, GOALS, WORLD)[k] == pytest.approx(expected, rel=1e-12)
 
 
 def test_the_belief_is_normalised_by_its_sum() -> None:
     # AssistancePolicy.get_assisted_action divides the weighted sum by sum(goal_distribution)
     pose, belief = (15.0, 14.0, 0.4), np.array([0.1, 0.2, 0.3, 0.4])
-    expected = belief @ hs.goal_velocities(pose, GOALS, WORLD)
-    assert hs.hindsight_velocity(pose, GOALS, 3.0 * belief, WORLD) == pytest.approx(expected, rel=1e-12)
+    expected = belief @ goal_velocities(pose, GOALS, WORLD)
+    assert velocity(pose, GOALS, 3.0 * belief, WORLD) == pytest.approx(expected, rel=1e-12)
 
 
 @settings(max_examples=100, deadline=None)
@@ -295,16 +312,16 @@ def test_permuting_goals_and_belief_together_changes_nothing(data: st.DataObject
     order = np.array(data.draw(st.permutations(range(n))))
     pose = (data.draw(st.floats(3, 45)), data.draw(st.floats(2, 36)), data.draw(angle))
     user = (1.0, -2.0, 0.5)
-    same = hs.hindsight_velocity(pose, goals, belief, WORLD, user)
-    permuted = hs.hindsight_velocity(pose, goals[order], belief[order], WORLD, user)
+    same = velocity(pose, goals, belief, WORLD, user)
+    permuted = velocity(pose, goals[order], belief[order], WORLD, user)
     assert np.allclose(same, permuted, rtol=1e-9, atol=1e-12)
 
 
 def test_a_belief_that_does_not_fit_is_refused() -> None:
     with pytest.raises(ValueError, match="positive"):
-        hs.hindsight_velocity((10.0, 10.0, 0.0), GOALS, np.zeros(4), WORLD)
+        velocity((10.0, 10.0, 0.0), GOALS, np.zeros(4), WORLD)
     with pytest.raises(ValueError, match="entries"):
-        hs.hindsight_velocity((10.0, 10.0, 0.0), GOALS, np.ones(3), WORLD)
+        velocity((10.0, 10.0, 0.0), GOALS, np.ones(3), WORLD)
 
 
 def test_settings_out_of_range_are_refused() -> None:
@@ -322,28 +339,28 @@ COMMANDS = np.array([[1.0, 0.0, 0.5], [0.0, 2.0, -0.5], [-1.0, -1.0, 0.0]])
 
 def test_the_blend_gate_is_strict_at_the_threshold() -> None:
     # a lead of exactly 0.5 (0.75 - 0.25, both exact in binary) does not pass a threshold of 0.5
-    assert np.array_equal(hs.ada_blend_command(U_H, [0.75, 0.25], COMMANDS[:2], 0.5), U_H)
+    assert np.array_equal(blended(U_H, [0.75, 0.25], COMMANDS[:2], 0.5), U_H)
     just_below = 0.5 - 2**-20
-    assisted = hs.ada_blend_command(U_H, [0.75, 0.25], COMMANDS[:2], just_below)
+    assisted = blended(U_H, [0.75, 0.25], COMMANDS[:2], just_below)
     assert np.array_equal(assisted, U_H + COMMANDS[0])
 
 
 def test_the_blend_adds_the_leader_s_full_command() -> None:
     # the default 0.4: a lead of 0.7 assists with goal 1's whole command; 0.25 does not
-    assert hs.ada_blend_command(U_H, [0.1, 0.8, 0.1], COMMANDS) == pytest.approx(U_H + COMMANDS[1])
-    assert np.array_equal(hs.ada_blend_command(U_H, [0.5, 0.25, 0.25], COMMANDS), U_H)
+    assert blended(U_H, [0.1, 0.8, 0.1], COMMANDS) == pytest.approx(U_H + COMMANDS[1])
+    assert np.array_equal(blended(U_H, [0.5, 0.25, 0.25], COMMANDS), U_H)
     # the lead is over the second goal, not the last: 0.45 - 0.45 = 0, not 0.45 - 0.1
-    assert np.array_equal(hs.ada_blend_command(U_H, [0.45, 0.45, 0.1], COMMANDS, 0.3), U_H)
+    assert np.array_equal(blended(U_H, [0.45, 0.45, 0.1], COMMANDS, 0.3), U_H)
     # a negative threshold assists even at a tie, with the first maximum (np.argmax)
-    assert hs.ada_blend_command(U_H, [0.4, 0.4, 0.2], COMMANDS, -0.1) == pytest.approx(U_H + COMMANDS[0])
+    assert blended(U_H, [0.4, 0.4, 0.2], COMMANDS, -0.1) == pytest.approx(U_H + COMMANDS[0])
     # one goal always passes
-    assert hs.ada_blend_command(U_H, [0.2], COMMANDS[:1]) == pytest.approx(U_H + COMMANDS[0])
+    assert blended(U_H, [0.2], COMMANDS[:1]) == pytest.approx(U_H + COMMANDS[0])
     assert hs.BLEND_PROB_DIFF_REQUIRED == 0.4
 
 
 @given(belief=st.lists(st.floats(0.0, 1.0), min_size=3, max_size=3), threshold=st.floats(-0.5, 1.0))
 def test_the_blend_is_the_person_or_the_person_plus_the_leader(belief: list[float], threshold: float) -> None:
-    out = hs.ada_blend_command(U_H, belief, COMMANDS, threshold)
+    out = blended(U_H, belief, COMMANDS, threshold)
     leader = max(range(3), key=lambda g: (belief[g], -g))  # the first maximum
     lead = belief[leader] - max(belief[g] for g in range(3) if g != leader)
     expected = U_H + COMMANDS[leader] if lead > threshold else U_H

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nudgecli.model.policies import confidence_gap
 from nudgecli.model.world import turn_between
 
 # --- the source's constants ---------------------------------------------------------------------
@@ -343,110 +344,35 @@ def hindsight_command(x: float, y: float, theta: float, goal_poses: np.ndarray |
     return vx, vy, omega
 
 
-def hindsight_velocity(pose: np.ndarray | Triple, goal_poses: np.ndarray | Sequence[Triple],
-                       belief: np.ndarray | Sequence[float], settings: HindsightSettings,
-                       user_command: np.ndarray | Triple | None = None) -> np.ndarray:
-    """:func:`hindsight_command` uncapped, as an array.
-
-    Parameters
-    ----------
-    pose
-        ``(3,)`` ``(x, y, theta)``.
-    goal_poses
-        ``(G, 3)``.
-    belief
-        ``(G,)``.
-    settings
-        The assistance's settings.
-    user_command
-        ``(3,)`` the person's command (the look-ahead), or ``None``.
-
-    Returns
-    -------
-    np.ndarray
-        ``(3,)`` ``(vx, vy, omega)`` in units/s and rad/s.
-    """
-    x, y, theta = (float(v) for v in pose)
-    return np.array(hindsight_command(x, y, theta, goal_poses, belief, settings, None,
-                                      _triple(user_command)))
-
-
-def goal_velocities(pose: np.ndarray | Triple, goal_poses: np.ndarray | Sequence[Triple],
-                    settings: HindsightSettings, dt: float | None = None,
-                    user_command: np.ndarray | Triple | None = None) -> np.ndarray:
-    """Every goal's :func:`goal_command` (the blend's ``goal_commands``).
-
-    Parameters
-    ----------
-    pose
-        ``(3,)`` ``(x, y, theta)``.
-    goal_poses
-        ``(G, 3)``.
-    settings
-        The assistance's settings.
-    dt
-        The step (s) each command is capped for; ``None``: uncapped.
-    user_command
-        ``(3,)`` the person's command (the look-ahead), or ``None``.
-
-    Returns
-    -------
-    np.ndarray
-        ``(G, 3)``.
-    """
-    x, y, theta = (float(v) for v in pose)
-    command = _triple(user_command)
-    rows = [goal_command(x, y, theta, goal, settings, dt, command) for goal in _poses(goal_poses)]
-    return np.array(rows, dtype=float).reshape(len(rows), 3)
-
-
-def _triple(command: np.ndarray | Triple | None) -> Triple | None:
-    """A command as three floats (``None`` stays)."""
-    if command is None:
-        return None
-    return float(command[0]), float(command[1]), float(command[2])
-
-
 def blend_confident(belief: np.ndarray | Sequence[float],
                     threshold: float = BLEND_PROB_DIFF_REQUIRED) -> bool:
     """ADA's blend confidence (``blend_confidence_function_prob_diff``): one goal or none always
     passes; otherwise the highest probability must exceed the second highest by more than
-    ``threshold`` (strictly)."""
-    ordered = sorted(float(p) for p in belief)
-    if len(ordered) <= 1:
-        return True
-    return ordered[-1] - ordered[-2] > threshold
+    ``threshold`` (strictly; the gap is :func:`nudgecli.model.policies.confidence_gap`)."""
+    b = np.asarray(belief, dtype=float).reshape(-1)
+    return b.size <= 1 or confidence_gap(b) > threshold
 
 
-def ada_blend_command(u_h: np.ndarray | Triple, belief: np.ndarray | Sequence[float],
-                      goal_commands: np.ndarray, threshold: float = BLEND_PROB_DIFF_REQUIRED) -> np.ndarray:
-    """ADA's additive blend (``AdaAssistancePolicy.get_blend_action``).
+def ada_blend_goal(belief: np.ndarray | Sequence[float],
+                   threshold: float | None = BLEND_PROB_DIFF_REQUIRED) -> int:
+    """The goal whose whole assistance ADA's additive blend adds to the person's command
+    (``AdaAssistancePolicy.get_blend_action``), or -1 for none (direct teleoperation).
 
-    When :func:`blend_confident` holds, the most likely goal's full command is added to the
-    person's (``get_assisted_action`` with the belief made one-hot on ``argmax``, the first
-    maximum); otherwise the person's command alone (direct teleoperation).
+    The most likely goal (``argmax``, the first maximum) when :func:`blend_confident` holds;
+    ``threshold=None`` has no gate (the most likely goal always).
 
     Parameters
     ----------
-    u_h
-        ``(3,)`` the person's command.
     belief
         ``(G,)``.
-    goal_commands
-        ``(G, 3)`` each goal's assistance (:func:`goal_velocities`).
     threshold
-        The required lead of the most likely goal over the second.
+        The required lead of the most likely goal over the second, or ``None``.
 
     Returns
     -------
-    np.ndarray
-        ``(3,)``.
+    int
     """
-    human = np.asarray(u_h, dtype=float).reshape(3)
     b = np.asarray(belief, dtype=float).reshape(-1)
-    commands = np.asarray(goal_commands, dtype=float).reshape(-1, 3)
-    if commands.shape[0] != b.size:
-        raise ValueError(f"{commands.shape[0]} goal commands for a belief over {b.size} goals")
-    if b.size == 0 or not blend_confident(b, threshold):
-        return human.copy()
-    return human + commands[int(np.argmax(b))]
+    if b.size == 0 or (threshold is not None and not blend_confident(b, threshold)):
+        return -1
+    return int(np.argmax(b))

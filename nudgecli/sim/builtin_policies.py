@@ -165,11 +165,10 @@ class Blending(PaperBlending):
         gap = self.settings.blending_gap
         if self.additive:  # AdaAssistancePolicy.get_blend_action: every step, input or not
             u_h = view.u_h
-            if gap is not None and not hindsight.blend_confident(view.belief, gap):
+            goal = hindsight.ada_blend_goal(view.belief, gap)
+            if goal == NO_GOAL:
                 return Assistance(u_h, NO_COMMAND, 0.0, view.leader)
-            # the most likely goal's whole Huber-cost assistance (the first of tied leaders, as the
-            # source's argmax), evaluated after the person's command as the source does
-            goal = int(np.argmax(view.belief))
+            # that goal's whole Huber-cost assistance, evaluated after the person's command
             s = self.settings
             goal_pose = tuple(view.goal_poses[goal])
             u_a = hindsight.goal_command(view.x, view.y, view.theta, goal_pose, s.hindsight,  # type: ignore[arg-type]
