@@ -195,6 +195,16 @@ def axes_height_pt(ax: Axes) -> float:
     return max(height_pt * 0.9, 1.0)
 
 
+
+def top_of_data(ax: Axes, data_top: float | None = None) -> float:
+    """Where marks above the data start: ``data_top``, or the top of the axes' data limits (the
+    axes' top when they hold no data), never below the axes' bottom."""
+    lo, hi = ax.get_ylim()
+    if data_top is None:
+        y1 = ax.dataLim.y1
+        data_top = float(y1) if np.isfinite(y1) and ax.dataLim.height >= 0 else float(hi)
+    return max(float(data_top), lo)
+
 def draw_brackets(ax: Axes, positions: Mapping[str, float], comparisons: Iterable[Bracket], *,
                   data_top: float | None = None, fontsize: float = STAR_FONT_PT, color: str = "black",
                   linewidth: float = 0.8, show_ns: bool = False, pad_frac: float = 0.03,
@@ -238,10 +248,7 @@ def draw_brackets(ax: Axes, positions: Mapping[str, float], comparisons: Iterabl
         return []
 
     lo, hi = ax.get_ylim()
-    if data_top is None:
-        y1 = ax.dataLim.y1
-        data_top = float(y1) if np.isfinite(y1) and ax.dataLim.height >= 0 else float(hi)
-    data_top = max(float(data_top), lo)
+    data_top = top_of_data(ax, data_top)
     levels = assign_levels([(x1, x2) for x1, x2, _ in drawn])
     n_levels = max(levels) + 1
 

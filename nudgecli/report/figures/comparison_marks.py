@@ -14,12 +14,11 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any, Literal
 
-import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.text import Text
 from matplotlib.transforms import blended_transform_factory
 
-from nudgecli.report.brackets import Bracket, axes_height_pt, brackets_from_stats
+from nudgecli.report.brackets import Bracket, axes_height_pt, brackets_from_stats, top_of_data
 from nudgecli.report.letters import entry_letters
 from nudgecli.report.pair_display import check_reference, of_reference, pair_display
 from nudgecli.report.stats import ComparisonOptions
@@ -103,10 +102,7 @@ def draw_letters(ax: Axes, positions: Mapping[str, float], letters: Mapping[str,
     if not shown:
         return []
     lo, hi = ax.get_ylim()
-    if data_top is None:
-        y1 = ax.dataLim.y1
-        data_top = float(y1) if np.isfinite(y1) and ax.dataLim.height >= 0 else float(hi)
-    data_top = max(float(data_top), lo)
+    data_top = top_of_data(ax, data_top)
     # a line of text (1.2 em) above a small gap; at least what the axes already hold
     needed_frac = min(pad_frac + 1.2 * fontsize / axes_height_pt(ax) + 0.01, 0.5)
     span = data_top - lo if data_top > lo else max(abs(data_top), 1.0)
