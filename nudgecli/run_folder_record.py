@@ -27,6 +27,8 @@ from nudgecli.run_folder_names import CONFIG, LAYOUTS, MANIFEST, PART_KINDS, PAR
 #: The manifest's record of the run's whole files: ``{"layouts.parquet": SHA-256, ...}`` (the parts'
 #: are under ``checksums``, by participant).
 FILE_CHECKSUMS = "files"
+#: The manifest's entry of what each condition's policy makes constant (condition -> metrics).
+CONSTANT_METRICS_KEY = "constant_metrics"
 #: What a nudge run writes beside its parts: a folder with parts and one of these but no manifest
 #: is a run whose manifest was lost, not a folder of parts assembled by hand.
 RUN_TRACES = (CONFIG, LAYOUTS, PARTICIPANTS, "calibration")

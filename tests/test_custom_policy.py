@@ -28,6 +28,13 @@ def test_the_example_runs_from_the_command_line_and_its_policy_acts(tmp_path):
     assert result.exit_code == 0, result.output
     stats = json.loads((out / "stats.json").read_text())
     assert stats["conditions"] == ["disambiguation", "blending", "threshold"]
+    # the run recorded what each policy makes constant, and the analysis leaves those out
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert manifest["constant_metrics"]["threshold"] == ["human_effort", "human_turns"]
+    entries = {entry["metric"]: entry for entry in stats["metrics"]}
+    assert entries["human_effort"]["not_applicable"] == ["blending", "threshold"]
+    assert entries["human_turns"]["not_applicable"] == ["blending", "threshold"]
+    assert not entries["completion_time"].get("not_applicable")
     import pandas as pd
 
     steps = pd.read_parquet(out / "steps")
@@ -195,3 +202,20 @@ def test_the_assistance_helpers_blend_and_add_as_documented():
     assert convex.command == (1.0, 1.5, 1.0) and convex.alpha == 0.25 and convex.goal == 1
     additive = Assistance.additive((0.0, 2.0, 1.0), (4.0, 0.0, 1.0), 2)
     assert tuple(additive.command) == (4.0, 2.0, 2.0) and additive.alpha == 1.0
+
+
+def test_a_batch_leaves_out_what_each_policy_makes_constant(tmp_path):
+    out = tmp_path / "batch"
+    result = CliRunner().invoke(main, ["replicate", str(EXAMPLE), "-R", "1", "--participants", "2",
+                                       "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    (document,) = [json.loads(p.read_text()) for p in (out / "analyses").glob("*.json")]
+    entries = {entry["metric"]: entry for entry in document["metrics"]}
+    assert entries["human_effort"]["not_applicable"] == ["blending", "threshold"]
+    assert not entries["assistance_engagement"].get("not_applicable")
+
+
+def test_additive_blending_makes_its_strength_constant():
+    config = load_experiment("baselines", ["blending.kind=additive"])
+    assert constant_metrics_of(config)["blending"] == {"assistance_strength", "human_effort", "human_turns"}
+    assert constant_metrics_of(load_experiment("baselines"))["blending"] == {"human_effort", "human_turns"}

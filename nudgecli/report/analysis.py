@@ -77,6 +77,7 @@ from nudgecli.report.tables import (
     validate_metrics_table,
 )
 from nudgecli.run_folder_names import METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_CSV, STATS_JSON, SUMMARY_MD
+from nudgecli.run_folder_record import CONSTANT_METRICS_KEY
 from nudgecli.store import RunFolder, is_run_folder, write_text_atomic
 
 
@@ -412,7 +413,9 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
                                   (*plan.conditions, *_study_conditions(manifest)))
     check_reference(reference, conditions)
     if not_applicable is None:  # the one place a run's conditions say which metrics are constant
-        not_applicable = not_applicable_metrics(conditions) if source.is_dir() else {}
+        # as the run recorded it (its policies'; a run of an older nudge: the built-ins' table)
+        recorded = (manifest or {}).get(CONSTANT_METRICS_KEY)
+        not_applicable = not_applicable_metrics(conditions, recorded) if source.is_dir() else {}
     options = comparison_options(plan, seed, bootstrap)
     stats = _statistics(filtered, trial_selected, scores, score_selected, conditions, options, progress,
                         not_applicable)

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -61,7 +61,8 @@ POWER_TARGET = 0.8
 
 
 def analyse_replication(metrics: pd.DataFrame, plan: AnalysisPlan, names: Sequence[str],
-                        study_conditions: Sequence[str] = ()) -> dict[str, Any]:
+                        study_conditions: Sequence[str] = (),
+                        not_applicable: Mapping[str, Collection[str]] | None = None) -> dict[str, Any]:
     """The ``stats.json`` document of one replication (as ``nudge analyze`` computes it).
 
     Parameters
@@ -75,12 +76,16 @@ def analyse_replication(metrics: pd.DataFrame, plan: AnalysisPlan, names: Sequen
     study_conditions
         The experiment's ``study.conditions`` (their order follows the plan's in
         :func:`~nudgecli.report.stats.order_conditions`).
+    not_applicable
+        Metric -> the conditions its policies make constant, left out of its tests (as ``nudge
+        analyze`` leaves them out).
     """
     from nudgecli.report.analysis import comparison_options
 
     filtered = apply_filters(metrics, plan.filters)
     conditions = order_conditions(filtered["condition"].astype(str), (*plan.conditions, *study_conditions))
-    return json_ready(compare_conditions(filtered, list(names), conditions, comparison_options(plan, None)))
+    return json_ready(compare_conditions(filtered, list(names), conditions, comparison_options(plan, None),
+                                         not_applicable=not_applicable or {}))
 
 
 def _sign(value: float | None) -> int:

@@ -67,6 +67,7 @@ from nudgecli.runs.batch_folder import (
     task_part,
 )
 from nudgecli.runs.batch_tasks import (
+    analysis_design,
     install_plan_of_files,
     layout_key,
     merge_analysis_chunks,
@@ -515,12 +516,12 @@ class _GraphRun:
         for analysis in submitted:
             data = read_study_metrics(self.folder, analysis.study, analysis.participants,
                                       self.written.get(analysis.study))
-            conditions = tuple(self.graph.studies[analysis.study].config.study.conditions)
+            design = analysis_design(self.graph.studies[analysis.study].config)
             self.analysed[analysis.key] = {}
             for c, names in enumerate(chunks):
                 key = f"{analysis.key}-m{c:02d}"
                 self.analysis_jobs[key] = (analysis.key, c, len(chunks))
-                self.executor.submit(Job(key, run_analysis_task, (data, self.batch.plan, names, conditions)))
+                self.executor.submit(Job(key, run_analysis_task, (data, self.batch.plan, names, *design)))
                 self.in_flight += 1
         waiting = {a.study for a in self.waiting}
         for study in [s for s in self.written if s not in waiting]:

@@ -32,6 +32,7 @@ from nudgecli.report.step_metrics import (
 )
 from nudgecli.runs.executors import HELD_AFFINITIES
 from nudgecli.runs.study_tasks import tune_allocator
+from nudgecli.sim.policy_registry import not_applicable_of
 from nudgecli.sim.study import StudyPlan, simulate_participant_columns, trials_frame
 
 if TYPE_CHECKING:  # pandas and the statistics (scipy.stats, scikit-posthocs) load where used
@@ -163,15 +164,23 @@ def run_participant_task(config: ExperimentConfig, seed: int, index: int,
 
 
 def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str],
-                      study_conditions: Sequence[str] = ()) -> dict[str, Any]:
+                      study_conditions: Sequence[str] = (),
+                      not_applicable: Mapping[str, Sequence[str]] | None = None) -> dict[str, Any]:
     """An analysis task: the replication's statistics of the metrics ``names``
     (:func:`~nudgecli.report.replication.analyse_replication`; the study's conditions give their
-    order after the plan's). A replication's metrics may be split over several tasks, whose
-    documents :func:`merge_analysis_chunks` joins."""
+    order after the plan's; ``not_applicable``: metric -> the conditions left out of its tests).
+    A replication's metrics may be split over several tasks, whose documents
+    :func:`merge_analysis_chunks` joins."""
     tune_allocator()
     from nudgecli.report.replication import analyse_replication
 
-    return analyse_replication(metrics, analysis, names, study_conditions)
+    return analyse_replication(metrics, analysis, names, study_conditions, not_applicable or {})
+
+
+def analysis_design(config: ExperimentConfig) -> tuple[tuple[str, ...], dict[str, tuple[str, ...]]]:
+    """A study's conditions and, per metric, those its policies make constant: what
+    :func:`run_analysis_task` takes after the metrics' names."""
+    return tuple(config.study.conditions), not_applicable_of(config)
 
 
 def merge_analysis_chunks(documents: Sequence[Mapping[str, Any]]) -> dict[str, Any]:

@@ -31,7 +31,7 @@ from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.run_folder_names import LAYOUTS, PARTICIPANTS
-from nudgecli.run_folder_record import FILE_CHECKSUMS
+from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, FILE_CHECKSUMS
 from nudgecli.runs.size import check_size, trials_per_participant
 from nudgecli.runs.study_tasks import (
     _init_worker,
@@ -43,6 +43,7 @@ from nudgecli.runs.study_tasks import (
 )
 from nudgecli.sim.calibration_io import write_sessions
 from nudgecli.sim.counterbalance import design_record
+from nudgecli.sim.policy_registry import constant_metrics_of
 from nudgecli.sim.study import (
     ParticipantColumns,
     ParticipantResult,
@@ -317,7 +318,10 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
         manifest["counterbalancing"] = design_record(list(config.study.conditions),
                                                      config.study.counterbalancing, n)
     manifest.update({"status": "running", "completed": sorted(done),
-                     "executor": executor_name(workers, bool(scheduler))})
+                     "executor": executor_name(workers, bool(scheduler)),
+                     # what each condition's policy makes constant, for the analysis (which need
+                     # not import a researcher's policy to know it)
+                     CONSTANT_METRICS_KEY: {c: sorted(m) for c, m in constant_metrics_of(config).items()}})
     if plan_name is not None or "plan" not in manifest:
         manifest["plan"] = resolve_plan(plan_name, experiment=config.experiment.name)
     manifest[FILE_CHECKSUMS] = {LAYOUTS: folder.write_layouts(plan.layouts_frame())}  # read back by plot

@@ -47,8 +47,6 @@ class PaperBlending:
 
     infers = True
     takes_turns = True
-    #: Metrics this policy makes constant (``nudgecli.model.conditions.CONSTANT_METRICS``).
-    constant_metrics: frozenset[str] = frozenset()
 
     def __init__(self, settings: ProtocolSettings) -> None:
         self.settings = settings
@@ -153,13 +151,10 @@ class Blending(PaperBlending):
     """
 
     takes_turns = False
-    constant_metrics = frozenset({"human_effort", "human_turns"})
 
     def __init__(self, settings: ProtocolSettings) -> None:
         super().__init__(settings)
         self.additive = settings.blending_kind == "additive"
-        if self.additive:
-            self.constant_metrics = frozenset({"assistance_strength", "human_effort", "human_turns"})
 
     def assist(self, view: StepView) -> Assistance:
         gap = self.settings.blending_gap
@@ -188,8 +183,6 @@ class Teleoperation:
 
     infers = False
     takes_turns = False
-    constant_metrics = frozenset({"assistance_engagement", "assistance_strength", "human_effort",
-                                  "human_turns"})
 
     def __init__(self, settings: ProtocolSettings) -> None:
         self.settings = settings
@@ -269,7 +262,6 @@ class Hindsight:
 
     infers = True
     takes_turns = False
-    constant_metrics = frozenset({"assistance_strength", "human_effort", "human_turns"})
 
     def __init__(self, settings: ProtocolSettings) -> None:
         self.settings = settings

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from nudgecli.errors import PolicyError
-from nudgecli.model.conditions import CONSTANT_METRICS, policy_name
+from nudgecli.model.conditions import CONSTANT_METRICS, not_applicable_metrics, policy_name
 from nudgecli.sim.builtin_policies import BUILTIN_POLICIES
 from nudgecli.sim.policy_interface import Assistance, AutonomyTurn, Policy, StepView, checked_command
 
@@ -243,3 +243,9 @@ def constant_metrics_of(config: ExperimentConfig) -> dict[str, frozenset[str]]:
             metrics |= _WITHOUT_INFERENCE
         table[condition] = metrics
     return table
+
+
+def not_applicable_of(config: ExperimentConfig) -> dict[str, tuple[str, ...]]:
+    """Metric -> the experiment's conditions for which it is not applicable
+    (:func:`~nudgecli.model.conditions.not_applicable_metrics` of :func:`constant_metrics_of`)."""
+    return not_applicable_metrics(config.study.conditions, constant_metrics_of(config))
