@@ -21,24 +21,19 @@ or a live one), one intended label and pressure per step. Every step of the huma
 The robot's kinematics, constraints, discrete states and success rule are the trial's world's
 (:class:`nudgecli.model.world.World`): the paper's grid world by default, or the CIAA path world.
 
-The trial's condition names its policy (:mod:`nudgecli.model.policies`). In ``teleoperation``
-(the CIAA study's ``no_assistance``) there is no inference, no blending and no autonomy: the
-human's turn lasts the whole trial. ``blending`` and ``hindsight`` have no turn-taking either:
-the human's turn lasts the whole trial, with the belief updated as above; ``blending`` blends
-as in step 3 (optionally gated by the confidence gap), ``hindsight`` adds the belief-weighted
-sum of the per-goal autonomous commands to the human's command every step (the step log's
-``u_a`` is that sum, ``alpha`` 0, ``inferred_goal`` the unique leader). ``mode-switch`` takes
-turns as the paper does, and in its turn the autonomy only selects the mode (below).
+The trial's condition names its policy (:mod:`nudgecli.sim.policy_interface`: a built-in one of
+:mod:`nudgecli.sim.builtin_policies`, or the experiment's own), one object per trial. Step 3's
+command is the policy's (:meth:`~nudgecli.sim.policy_interface.Policy.assist`: the paper's
+blending for the paper's conditions); a policy that does not infer leaves the belief uniform, and
+one that takes no turns makes the human's turn the whole trial.
 
-The turn passes to the autonomy after the participant's handover idle time without a command.
-In the autonomy's turn the belief is frozen; the Disambiguation condition nudges to s* when the
-normalised entropy exceeds kappa and otherwise steps towards ``g'`` (towards the mean of the tied
-goals, heading kept, when the leaders are tied); the Control condition steps towards the mean of
-the goals tied for the highest belief. The autonomy drives at its own speeds until it is within
-``arrival_tolerance`` of its target position, then hands back. In ``mode-switch`` the autonomy's
-turn is one step that switches to the mode ranked best by ``[mode-switch] criterion`` over the
-states differing from the current one in mode alone (event ``mode_select``, with
-``mode_switch_autonomy`` when the mode changes) and never moves the robot.
+The turn passes to the autonomy after the participant's handover idle time without a command
+(for a policy that takes turns). In the autonomy's turn the belief is frozen; the policy chooses,
+once, what the turn does (:meth:`~nudgecli.sim.policy_interface.Policy.start_turn`: the
+Disambiguation condition's nudge to s* or bounded step, the Control condition's step towards the
+tied leaders' mean, a mode switch, or nothing), and the autonomy drives at its own speeds until it
+is within ``arrival_tolerance`` of the turn's target position, then hands back (a turn without a
+target is one step that does not move).
 """
 
 from __future__ import annotations
@@ -270,7 +265,6 @@ class TrialSession:
         self.u_h: Command = _ZERO3
         self.mode = int(world.start_mode)
         self.goal_poses = world.goal_poses
-        self.goal_list = [(float(x), float(y), float(t)) for x, y, t in self.goal_poses]
         self.goal_transition = goal_transition_matrix(n_goals, self.settings.goal_stay)
         self._set_belief(np.full(n_goals, 1.0 / n_goals))
         self._start_human_turn()
