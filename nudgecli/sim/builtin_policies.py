@@ -52,6 +52,15 @@ class PaperBlending:
         self.settings = settings
         # the command of the last step and what it was computed for: the robot often stands
         self._last: tuple[tuple[float, ...], tuple[float, float, float]] = (_NO_POSE, NO_COMMAND)
+        # the trial's goal poses as plain floats, made at the first step (numpy scalars cost more
+        # than the arithmetic they feed, every step)
+        self._goals: list[tuple[float, float, float]] = []
+
+    def goals(self, view: StepView) -> list[tuple[float, float, float]]:
+        """The trial's goal poses as float triples (the policy lives for one trial)."""
+        if not self._goals:
+            self._goals = [(float(x), float(y), float(t)) for x, y, t in view.goal_poses]
+        return self._goals
 
     def goal_and_alpha(self, view: StepView) -> tuple[int, float]:
         """``(g', alpha)`` of this step (``-1, 0`` without a unique, ungated leader)."""
@@ -59,10 +68,11 @@ class PaperBlending:
         leader = view.leader
         if leader == NO_GOAL or assistance.entropy_gated(view.entropy, s.entropy_gate):
             return NO_GOAL, 0.0
-        gx, gy, _ = view.goal_poses[leader]
+        goals = self.goals(view)
+        gx, gy, _ = goals[leader]
         since_first = ((view.step - view.initiated_at) * self.settings.dt if view.initiated_at >= 0
                        else -math.inf)
-        alpha = assistance.assistance_alpha(view.leader_probability, len(view.goal_poses), view.entropy,
+        alpha = assistance.assistance_alpha(view.leader_probability, len(goals), view.entropy,
                                             since_first, math.hypot(gx - view.x, gy - view.y), s)
         return leader, alpha
 
@@ -72,8 +82,7 @@ class PaperBlending:
         if towards == self._last[0]:
             return self._last[1]
         s = self.settings
-        gx, gy, gt = view.goal_poses[goal]
-        u_a = assistance.autonomy_command(view.x, view.y, view.theta, float(gx), float(gy), float(gt),
+        u_a = assistance.autonomy_command(view.x, view.y, view.theta, *self.goals(view)[goal],
                                           s.autonomy_speed, s.autonomy_turn_rate, s.dt)
         self._last = (towards, u_a)
         return u_a
