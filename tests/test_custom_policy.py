@@ -140,6 +140,14 @@ def test_a_good_policy_of_ones_own_runs(tmp_path):
     assert result.exit_code == 0, result.output
 
 
+def test_a_policy_may_answer_with_numpys_scalars(tmp_path):
+    module = "import numpy as np\n" + GOOD.replace(
+        "return Assistance(view.u_h)",
+        "return Assistance(view.u_h, alpha=np.float32(0.0), goal=np.argmax(view.belief))")
+    _, result = _simulate(tmp_path, _experiment(tmp_path, module))
+    assert result.exit_code == 0, result.output
+
+
 @pytest.mark.parametrize(("module", "factory", "params", "words"), [
     ("raise ImportError('no such thing')\n", "mymodule:Mine", "{}", ["cannot import module 'mymodule'"]),
     ("x = 1\n", "nomodule_here:Mine", "{}", ["cannot import module 'nomodule_here'"]),

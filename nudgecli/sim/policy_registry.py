@@ -23,6 +23,7 @@ import functools
 import importlib
 import inspect
 import math
+import numbers
 import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -164,9 +165,10 @@ class CheckedPolicy:
         except ValueError as exc:
             raise PolicyError(f"{self.spec.described}: assist: {exc}") from None
         alpha, goal = answer.alpha, answer.goal
-        if not isinstance(alpha, int | float) or not math.isfinite(alpha):
+        # numpy's scalars are numbers too (np.float32(0.5), np.argmax's np.int64)
+        if not isinstance(alpha, numbers.Real) or not math.isfinite(alpha):
             self._fail(f"assist returned alpha {alpha!r}; it must be a finite number")
-        if not isinstance(goal, int) or not -1 <= goal < len(view.goal_poses):
+        if not isinstance(goal, numbers.Integral) or not -1 <= goal < len(view.goal_poses):
             self._fail(f"assist returned goal {goal!r}; it must be -1 or a goal index below "
                        f"{len(view.goal_poses)}")
         return Assistance(command, u_a, float(alpha), int(goal))
