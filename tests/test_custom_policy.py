@@ -223,7 +223,18 @@ def test_a_batch_leaves_out_what_each_policy_makes_constant(tmp_path):
     assert not entries["assistance_engagement"].get("not_applicable")
 
 
-def test_additive_blending_makes_its_strength_constant():
-    config = load_experiment("baselines", ["blending.kind=additive"])
-    assert constant_metrics_of(config)["blending"] == {"assistance_strength", "human_effort", "human_turns"}
-    assert constant_metrics_of(load_experiment("baselines"))["blending"] == {"human_effort", "human_turns"}
+def test_blendings_strength_is_constant_where_its_alpha_has_one_value():
+    every = {"assistance_strength", "human_effort", "human_turns"}
+    config = load_experiment("baselines", ["blending.kind=additive"])  # alpha 1 whenever it acts
+    assert constant_metrics_of(config)["blending"] == every
+    # the gap gate with 3 goals: p1 - p2 > 0.4 and p2 >= (1 - p1) / 2 give p1 > 0.6 >= rho2 = 0.4
+    # (4 goals: p1 > 0.55 >= 0.3): the ramp is at rho3 whenever the gate passes
+    assert constant_metrics_of(load_experiment("baselines"))["blending"] == every
+    # at the bound (1.2 <= 0.1 * 2 + 1) still constant; below it (gap 0.05: p1 > 0.3667 < 0.4 with 3
+    # goals, e.g. 0.38, 0.32, 0.30) the ramp's rising part comes through
+    assert constant_metrics_of(load_experiment("baselines", ["blending.gap=0.1"]))["blending"] == every
+    varying = load_experiment("baselines", ["blending.gap=0.05"])
+    assert constant_metrics_of(varying)["blending"] == {"human_effort", "human_turns"}
+    for change in ("blending.gate=none", "assistance.distance_weighting=true"):
+        metrics = constant_metrics_of(load_experiment("baselines", [change]))["blending"]
+        assert "assistance_strength" not in metrics

@@ -233,7 +233,7 @@ def constant_metrics_of(config: ExperimentConfig) -> dict[str, frozenset[str]]:
         if spec is None:
             name = policy_name(condition)
             metrics = CONSTANT_METRICS.get(name, frozenset())
-            if name == "blending" and config.blending is not None and config.blending.kind == "additive":
+            if name == "blending" and _blending_strength_is_constant(config):
                 metrics = metrics | {"assistance_strength"}
             table[condition] = metrics
             continue
@@ -245,6 +245,26 @@ def constant_metrics_of(config: ExperimentConfig) -> dict[str, frozenset[str]]:
             metrics |= _WITHOUT_INFERENCE
         table[condition] = metrics
     return table
+
+
+def _blending_strength_is_constant(config: ExperimentConfig) -> bool:
+    """Whether the ``blending`` condition's alpha, where it is not 0, has one value by construction.
+
+    Additive blending's alpha is 1 whenever it acts. The convex blend gated by the confidence gap
+    acts only when ``p1 - p2 > gap``; the second highest belief is at least ``(1 - p1) / (G - 1)``,
+    so then ``p1 > (gap (G - 1) + 1) / G``. Where that bound reaches every goal count's ``rho2 =
+    rho2_factor / G`` (``rho2_factor <= gap (G - 1) + 1``), the paper's ramp is at ``rho3``
+    whenever the gate passes, and without the distance weighting nothing else scales it: alpha is
+    0 or ``rho3``.
+    """
+    section = config.blending
+    if section is None:
+        return False
+    if section.kind == "additive":
+        return True
+    ass = config.assistance
+    return (section.gate == "gap" and not ass.distance_weighting
+            and all(ass.rho2_factor <= section.gap * (goals - 1) + 1 for goals in config.study.goal_counts))
 
 
 def not_applicable_of(config: ExperimentConfig) -> dict[str, tuple[str, ...]]:
