@@ -68,7 +68,8 @@ def test_the_example_policy_has_the_interface_and_its_traits_set_the_constant_me
     constant = constant_metrics_of(config)  # imports the module from the experiment's folder
     assert constant["threshold"] == {"human_effort", "human_turns"}  # no turns
     assert constant["disambiguation"] == frozenset()
-    assert constant["blending"] == {"human_effort", "human_turns"}
+    # the gap-gated blend's alpha is 0.8 whenever it acts: its strength is constant too
+    assert constant["blending"] == {"assistance_strength", "human_effort", "human_turns"}
     policy = sys.modules["policies.threshold"].ThresholdAssist()
     assert isinstance(policy, Policy)
 

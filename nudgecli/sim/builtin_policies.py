@@ -39,7 +39,21 @@ if TYPE_CHECKING:
 _NO_POSE = (math.nan,) * 4
 
 
-class PaperBlending:
+class FloatGoals:
+    """The trial's goal poses as plain floats, made at a policy's first step (numpy scalars cost
+    more than the arithmetic they feed, every step; a policy lives for one trial)."""
+
+    _goals: list[tuple[float, float, float]]
+
+    def goals(self, view: StepView) -> list[tuple[float, float, float]]:
+        """``(G,)`` goal poses as ``(x, y, theta)`` float triples."""
+        goals = getattr(self, "_goals", None)
+        if goals is None:
+            goals = self._goals = [(float(x), float(y), float(t)) for x, y, t in view.goal_poses]
+        return goals
+
+
+class PaperBlending(FloatGoals):
     """The paper's blending in the human's turn (Algorithm 1, line 8): ``u_f = alpha u_a + (1 -
     alpha) u_h`` towards ``g' = argmax b`` while the person's command is non-zero, alpha by the one
     alpha rule (:func:`nudgecli.model.assistance.assistance_alpha`); no ``g'`` (alpha 0) when two or
@@ -52,15 +66,6 @@ class PaperBlending:
         self.settings = settings
         # the command of the last step and what it was computed for: the robot often stands
         self._last: tuple[tuple[float, ...], tuple[float, float, float]] = (_NO_POSE, NO_COMMAND)
-        # the trial's goal poses as plain floats, made at the first step (numpy scalars cost more
-        # than the arithmetic they feed, every step)
-        self._goals: list[tuple[float, float, float]] = []
-
-    def goals(self, view: StepView) -> list[tuple[float, float, float]]:
-        """The trial's goal poses as float triples (the policy lives for one trial)."""
-        if not self._goals:
-            self._goals = [(float(x), float(y), float(t)) for x, y, t in view.goal_poses]
-        return self._goals
 
     def goal_and_alpha(self, view: StepView) -> tuple[int, float]:
         """``(g', alpha)`` of this step (``-1, 0`` without a unique, ungated leader)."""
@@ -174,8 +179,7 @@ class Blending(PaperBlending):
                 return Assistance(u_h, NO_COMMAND, 0.0, view.leader)
             # that goal's whole Huber-cost assistance, evaluated after the person's command
             s = self.settings
-            goal_pose = tuple(view.goal_poses[goal])
-            u_a = hindsight.goal_command(view.x, view.y, view.theta, goal_pose, s.hindsight,  # type: ignore[arg-type]
+            u_a = hindsight.goal_command(view.x, view.y, view.theta, self.goals(view)[goal], s.hindsight,
                                          s.dt, tuple(u_h))  # type: ignore[arg-type]
             return Assistance.additive(u_h, u_a, goal)
         inferred, alpha = self.goal_and_alpha(view)
@@ -261,7 +265,7 @@ def select_mode(view: StepView, criterion: str) -> int:
     return mode_criteria.choose_mode(score, view.mode)
 
 
-class Hindsight:
+class Hindsight(FloatGoals):
     """First-order hindsight optimisation (Javdani et al. 2015/2018) as the authors' open code
     computes it (``AssistancePolicy.get_assisted_action``): the belief-weighted sum of each goal's
     Huber-cost assistance (:func:`nudgecli.model.hindsight.hindsight_command`, evaluated after the
@@ -281,7 +285,7 @@ class Hindsight:
         if self.on_command and u_h is NO_COMMAND:
             return Assistance(u_h, NO_COMMAND, 0.0, view.leader)
         s = self.settings
-        u_a = hindsight.hindsight_command(view.x, view.y, view.theta, view.goal_poses, view.belief,
+        u_a = hindsight.hindsight_command(view.x, view.y, view.theta, self.goals(view), view.belief,
                                           s.hindsight, s.dt, tuple(u_h))  # type: ignore[arg-type]
         return Assistance.additive(u_h, u_a, view.leader)
 

@@ -168,7 +168,7 @@ class CheckedPolicy:
         # numpy's scalars are numbers too (np.float32(0.5), np.argmax's np.int64)
         if not isinstance(alpha, numbers.Real) or not math.isfinite(alpha):
             self._fail(f"assist returned alpha {alpha!r}; it must be a finite number")
-        if not isinstance(goal, numbers.Integral) or not -1 <= goal < len(view.goal_poses):
+        if not isinstance(goal, numbers.Integral) or not -1 <= int(goal) < len(view.goal_poses):
             self._fail(f"assist returned goal {goal!r}; it must be -1 or a goal index below "
                        f"{len(view.goal_poses)}")
         return Assistance(command, u_a, float(alpha), int(goal))
