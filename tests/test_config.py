@@ -14,7 +14,8 @@ from nudgecli.errors import ConfigError
 def test_the_shipped_presets_are_listed():
     assert set(list_presets("experiments")) == {"paper", "study-code", "smoke", "ciaa-teleop", "baselines",
                                                 "custom-policy"}
-    assert set(list_presets("analysis")) == {"paper", "study-code", "ciaa-teleop", "baselines", "custom-policy"}
+    assert set(list_presets("analysis")) == {"paper", "study-code", "ciaa-teleop", "baselines",
+                                             "custom-policy"}
     result = CliRunner().invoke(main, ["presets"])
     assert result.exit_code == 0
     for name in ("paper", "study-code", "smoke"):
