@@ -326,7 +326,11 @@ def test_its_own_json_is_a_reference(ciaa_run: Path, tmp_path: Path) -> None:
 @pytest.mark.skipif(not HABITS_MD.is_file(), reason="HABITS.md (../shared/data/ciaa-task) is absent")
 def test_the_packaged_reference_is_habits_md_table() -> None:
     lines = HABITS_MD.read_text().splitlines()
-    rows = [line for line in lines if line.startswith("| ") and "---" not in line]
+    # the first table: the operating habits the packaged reference holds (a later section of
+    # HABITS.md, inside a soft blow, has a table of its own that the reference does not hold yet)
+    start = next(i for i, line in enumerate(lines) if line.startswith("| "))
+    end = next((i for i in range(start, len(lines)) if not lines[i].startswith("|")), len(lines))
+    rows = [line for line in lines[start:end] if "---" not in line]
     numbers = re.compile(r"-?\d+\.\d+")
     table = {}
     for line in rows[1:]:  # the header first
