@@ -260,10 +260,14 @@ class ModeSwitchSection(Section):
     mutual information: the distance term is equal for these states); ``gopinath2017`` Gopinath &
     Argall's (2017) disambiguation metric of projected beliefs; ``gopinath2017-kl`` its KL variant;
     ``herlant2016`` Herlant et al.'s (2016) time-optimal mode for the most likely goal
-    (docs/baselines.md cites each source).
+    (docs/baselines.md cites each source). ``trigger``: ``handover`` selects the mode in the
+    autonomy's turn after the person's idle handover (the paper's turn-taking); ``request`` has no
+    turns and answers each mode switch the person makes with the criterion's best other mode (the
+    sources' user request, here the person's own mode-switch blow).
     """
 
     criterion: Literal["paper-mi", "gopinath2017", "gopinath2017-kl", "herlant2016"] = "paper-mi"
+    trigger: Literal["handover", "request"] = "handover"
 
 
 class CustomPolicySection(Section):

@@ -239,3 +239,35 @@ def test_blendings_strength_is_constant_where_its_alpha_has_one_value():
     for change in ("blending.gate=none", "assistance.distance_weighting=true"):
         metrics = constant_metrics_of(load_experiment("baselines", [change]))["blending"]
         assert "assistance_strength" not in metrics
+
+
+def test_a_policy_may_answer_the_persons_mode_switches(tmp_path):
+    import pandas as pd
+
+    module = GOOD + "\n    def choose_mode(self, view, requested):\n        return 2\n"
+    out, result = _simulate(tmp_path, _experiment(tmp_path, module))
+    assert result.exit_code == 0, result.output
+    steps, trials = pd.read_parquet(out / "steps"), pd.read_parquet(out / "trials")
+    mine = steps.merge(trials.loc[trials["condition"] == "mine", ["participant", "trial"]])
+    selected = mine[mine["event"].astype(str).str.contains("mode_select")]
+    assert len(selected) > 0 and len(selected) == trials.loc[trials["condition"] == "mine",
+                                                             "human_mode_switches"].sum()
+    # the step after each answered switch is in the mode the policy chose (theta)
+    after = mine.loc[mine.index.isin(selected.index + 1)]
+    assert (after["mode"] == "theta").all()
+
+
+@pytest.mark.parametrize(("hook", "words"), [
+    ("return 7", ["choose_mode returned 7"]),
+    ("raise KeyError('no mode')", ["choose_mode raised KeyError"]),
+])
+def test_a_mode_switch_hook_that_fails_is_one_error_line(tmp_path, hook, words):
+    module = GOOD + f"\n    def choose_mode(self, view, requested):\n        {hook}\n"
+    _, result = _simulate(tmp_path, _experiment(tmp_path, module))
+    _one_error_line(result, "condition 'mine' (policy mymodule:Mine)", *words)
+
+
+def test_mode_switch_on_request_takes_no_turns_so_effort_and_turns_are_constant():
+    config = load_experiment("baselines", ["mode-switch.trigger=request"])
+    assert constant_metrics_of(config)["mode-switch"] == {"human_effort", "human_turns"}
+    assert constant_metrics_of(load_experiment("baselines"))["mode-switch"] == frozenset()

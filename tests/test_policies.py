@@ -22,6 +22,7 @@ from nudgecli.model.candidates import mode_candidates
 from nudgecli.model.conditions import policy_name
 from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.interface import (
+    HARD_PUFF,
     NO_INPUT,
     SOFT_PUFF,
     SOFT_SIP,
@@ -444,3 +445,65 @@ def test_herlant2016_switches_to_the_mode_of_the_axis_still_to_travel():
     session._set_belief(np.array([0.4, 0.4, 0.2]))
     session._start_autonomy_turn()
     assert session.mode == 2
+
+
+# --- mode-switch on request -----------------------------------------------------------------------
+
+def _request_session(criterion: str, layout, model, mode: int, belief: np.ndarray) -> TrialSession:
+    toml = POLICY_TOML.replace('criterion = "paper-mi"', f'criterion = "{criterion}"\ntrigger = "request"')
+    settings_ = ProtocolSettings.from_config(experiment_from_toml(toml))
+    session = TrialSession(_spec("mode-switch", layout), settings_, model, 10, np.random.default_rng(1))
+    session.mode = mode
+    session._set_belief(belief)
+    return session
+
+
+def test_on_request_a_persons_switch_goes_to_the_criterions_best_other_mode():
+    layout, model = _layout_model(3)
+    rng = np.random.default_rng(3)
+    chose_other = 0
+    for _ in range(30):
+        mode = int(rng.integers(N_MODES))
+        belief = rng.dirichlet(np.ones(3))
+        session = _request_session("paper-mi", layout, model, mode, belief)
+        assert not session.turn_taking  # no autonomy turns: requests only
+        state = session.state
+        session.human_step(HARD_PUFF, -0.9)  # a hard puff: the person asks for a switch
+        requested = (mode + 1) % N_MODES  # Hard Puff cycles x -> y -> theta -> x
+        # the belief the choice saw: after this step's update (the hard puff is an observation)
+        mode_only = [state - state % N_MODES + m for m in range(N_MODES)]  # the same cell and heading
+        likelihood = model.likelihood[:, mode_only, :].transpose(1, 0, 2)
+        scores = _brute_force_scores("paper-mi", session.belief, likelihood, session.settings.dt)
+        others = [m for m in range(N_MODES) if m != mode]
+        best = max(scores[m] for m in others)
+        tied = [m for m in others if math.isclose(scores[m], best, rel_tol=1e-6, abs_tol=1e-9)]
+        expected = requested if requested in tied else tied[0]
+        assert session.mode == expected != mode
+        assert session.human_switches == 1
+        assert has_event(session.columns["event"], MODE_SELECT)[-1]
+        chose_other += expected != requested
+    assert chose_other >= 3  # the choice overrode the person's own often
+
+
+def test_herlant_on_request_skips_the_current_mode_and_falls_back_to_the_request():
+    layout, model = _layout_model(3)
+    goal = layout.goal_poses[0]
+    # (mode, offset from goal 0 in x, y, heading, the mode the blow asked for, the answer)
+    cases = ((0, 10.0, 0.0, 1.0, 1, 2),  # x and the heading to travel, in x: the plan's next, theta
+             (1, 0.0, 10.0, 0.0, 0, 0))  # only y to travel, in y: nothing else needed, the request
+    for mode, dx, dy, dtheta, requested, expected in cases:
+        session = _request_session("herlant2016", layout, model, mode, np.array([0.8, 0.1, 0.1]))
+        session.x, session.y = float(goal[0]) + dx, float(goal[1]) + dy
+        session.theta = float(goal[2]) + dtheta
+        assert session.choose_mode is not None  # asked as the protocol asks it on a hard blow
+        assert session.choose_mode(session, requested) == expected
+
+
+def test_with_handover_the_persons_switch_is_their_own():
+    layout, model = _layout_model(3)
+    settings_ = ProtocolSettings.from_config(experiment_from_toml(POLICY_TOML))
+    session = TrialSession(_spec("mode-switch", layout), settings_, model, 10, np.random.default_rng(1))
+    session.mode = 0
+    session.human_step(HARD_PUFF, -0.9)
+    assert session.mode == 1 and session.turn_taking
+    assert not has_event(session.columns["event"], MODE_SELECT).any()

@@ -208,12 +208,29 @@ class Teleoperation:
 
 
 class ModeSwitch(PaperBlending):
-    """Mode-switch assistance (after Gopinath & Argall 2017): blends in the person's turn; its own
-    turn is one step that switches to the mode ranked best by ``[mode-switch] criterion`` and never
-    moves the robot (event ``mode_select``, with ``mode_switch_autonomy`` when the mode changes)."""
+    """Mode-switch assistance (after Gopinath & Argall 2017): blends in the person's turn and
+    selects modes by ``[mode-switch] criterion``, never moving the robot itself.
+
+    ``[mode-switch] trigger``: ``handover`` (the paper's turn-taking): the autonomy's turn is one
+    step that switches to the mode ranked best (event ``mode_select``, with
+    ``mode_switch_autonomy`` when the mode changes). ``request`` (Gopinath & Argall's button, here
+    the person's own mode-switch blow): no turns; each mode switch the person makes goes to the
+    mode ranked best among the other two (:meth:`choose_mode`).
+    """
+
+    def __init__(self, settings: ProtocolSettings) -> None:
+        super().__init__(settings)
+        self.takes_turns = settings.mode_trigger == "handover"
 
     def start_turn(self, view: StepView) -> AutonomyTurn:
         return AutonomyTurn(None, select_mode(view, self.settings.mode_criterion), (MODE_SELECT,))
+
+    def choose_mode(self, view: StepView, requested: int) -> int | None:
+        """The mode a person's switch (to ``requested``) goes to: with ``trigger = "request"`` the
+        criterion's best mode other than the current one, else ``None`` (the person's own)."""
+        if self.takes_turns:
+            return None
+        return select_mode(view, self.settings.mode_criterion, requested)
 
 
 #: What a mode switch costs Herlant et al.'s time-optimal plan: a hard blow and the reaction
@@ -222,9 +239,11 @@ class ModeSwitch(PaperBlending):
 HERLANT_SWITCH_TIME_S = 1.0
 
 
-def select_mode(view: StepView, criterion: str) -> int:
+def select_mode(view: StepView, criterion: str, requested: int | None = None) -> int:
     """The mode ``criterion`` chooses over the states that differ from the current one in mode
-    alone (the current mode wins ties, then the first in mode order x, y, theta).
+    alone (the current mode wins ties, then the first in mode order x, y, theta); on a person's
+    request to switch (``requested``: the mode their blow asked for) the current mode is not a
+    choice.
 
     - ``paper-mi``: the seed paper's D(s) (Eq. 15) over those states; its distance term is the
       same for each, so this is Eq. 13's mutual information.
@@ -232,24 +251,29 @@ def select_mode(view: StepView, criterion: str) -> int:
       along each mode's motion (:func:`nudgecli.model.mode_criteria.gopinath_disambiguation`).
     - ``gopinath2017-kl``: its KL variant, KL(belief projected 1 s || current belief).
     - ``herlant2016``: the mode the time-optimal plan to ``g'`` uses next (Herlant et al. 2016);
-      without a unique ``g'`` the mode is kept.
+      without a unique ``g'`` the mode is kept. On a request: the plan's first dimension other
+      than the current mode's, or the requested mode when the plan needs no other.
     """
     s = view.settings
     assert view.model is not None
+    keep = view.mode if requested is None else requested  # what no better choice leaves
     if criterion == "herlant2016":
         if view.leader == NO_GOAL:
-            return view.mode
+            return keep
         speeds = np.array([s.human_speed, s.human_speed, s.human_turn_rate])
         tolerance = np.array([s.success_distance, s.success_distance, s.success_angle])
-        return mode_criteria.herlant_time_optimal_mode(np.array([view.x, view.y, view.theta]),
-                                                       view.goal_poses[view.leader], view.mode, speeds,
-                                                       HERLANT_SWITCH_TIME_S, tolerance)
+        _, order = mode_criteria.herlant_time_optimal_plan(np.array([view.x, view.y, view.theta]),
+                                                           view.goal_poses[view.leader], view.mode, speeds,
+                                                           HERLANT_SWITCH_TIME_S, tolerance)
+        if requested is not None:
+            order = tuple(mode for mode in order if mode != view.mode)
+        return order[0] if order else keep
     mode_only = replace(s.disambiguation, scope="mode-only")
     candidates = view.model.candidates(view.state, mode_only, np.array([view.x, view.y]))
     if criterion == "paper-mi":  # D(s), Eq. 15, over the mode-only states (in mode order)
         score = disambiguation_scores(view.belief, view.model, candidates, mode_only, view.rng,
                                       view.goal_transition).score
-        return mode_criteria.choose_mode(score, view.mode)
+        return _best_mode(score, view.mode, requested)
     likelihood = view.model.likelihood[:, candidates.states, :].transpose(1, 0, 2)  # (M, G, F)
 
     def projected(horizon_s: float) -> np.ndarray:
@@ -262,7 +286,17 @@ def select_mode(view: StepView, criterion: str) -> int:
                                                       projected(mode_criteria.GOPINATH_LONG_HORIZON_S))
     else:  # gopinath2017-kl
         score = mode_criteria.projected_kl(projected(mode_criteria.GOPINATH_KL_HORIZON_S), view.belief)
-    return mode_criteria.choose_mode(score, view.mode)
+    return _best_mode(score, view.mode, requested)
+
+
+def _best_mode(scores: np.ndarray, mode: int, requested: int | None) -> int:
+    """:func:`~nudgecli.model.mode_criteria.choose_mode` of ``(M,)`` scores in mode order; on a
+    request the current mode is out of the choice."""
+    if requested is None:
+        return mode_criteria.choose_mode(scores, mode)
+    others = np.array(scores, dtype=float)
+    others[mode] = -np.inf
+    return mode_criteria.choose_mode(others, requested)
 
 
 class Hindsight(FloatGoals):

@@ -200,6 +200,12 @@ class Policy(Protocol):
     takes_turns
         Whether the person hands the turn over (after their handover idle time) and
         :meth:`start_turn` is called; without, the person's turn is the whole trial.
+
+    A policy may also answer the person's mode switches with an optional method
+    ``choose_mode(view, requested) -> int | None``, called when a hard blow switches the mode
+    (``requested``: the mode the blow asked for): the mode to go to instead (0, 1, 2), or ``None``
+    for the person's own (the step log adds ``mode_select`` where it chose). The built-in
+    ``mode-switch`` policy has one, for ``[mode-switch] trigger = "request"``.
     """
 
     infers: bool
@@ -212,6 +218,7 @@ class Policy(Protocol):
     def start_turn(self, view: StepView) -> AutonomyTurn:
         """What to do in the autonomy's turn that starts now (:class:`AutonomyTurn`)."""
         ...
+
 
 
 def drive_towards(view: StepView, target: Sequence[float] | np.ndarray,

@@ -151,6 +151,18 @@ class CheckedPolicy:
         self.spec = spec
         self.infers = bool(inner.infers)
         self.takes_turns = bool(inner.takes_turns)
+        # the optional hook, checked like the rest; absent when the policy has none
+        self.choose_mode = self._choose_mode if callable(getattr(inner, "choose_mode", None)) else None
+
+    def _choose_mode(self, view: StepView, requested: int) -> int | None:
+        try:
+            mode = self.inner.choose_mode(view, requested)
+        except Exception as exc:
+            raise PolicyError(f"{self.spec.described}: choose_mode raised "
+                              f"{type(exc).__name__}: {exc}") from exc
+        if mode is not None and not (isinstance(mode, numbers.Integral) and 0 <= int(mode) <= 2):
+            self._fail(f"choose_mode returned {mode!r}; it must be 0, 1, 2 or None")
+        return None if mode is None else int(mode)
 
     def assist(self, view: StepView) -> Assistance:
         try:
@@ -235,6 +247,9 @@ def constant_metrics_of(config: ExperimentConfig) -> dict[str, frozenset[str]]:
             metrics = CONSTANT_METRICS.get(name, frozenset())
             if name == "blending" and _blending_strength_is_constant(config):
                 metrics = metrics | {"assistance_strength"}
+            requests = config.mode_switch is not None and config.mode_switch.trigger == "request"
+            if name == "mode-switch" and requests:  # no autonomy turn: the person's turn is the trial
+                metrics = metrics | _WITHOUT_TURNS
             table[condition] = metrics
             continue
         policy = check_custom_policy(spec)

@@ -80,6 +80,7 @@ from nudgecli.steplog import (
     HANDOVER_TO_AUTONOMY,
     HANDOVER_TO_HUMAN,
     HUMAN_TURN,
+    MODE_SELECT,
     MODE_SWITCH_AUTONOMY,
     MODE_SWITCH_HUMAN,
     STEP_COLUMNS,
@@ -117,6 +118,7 @@ class ProtocolSettings:
     blending_gap: float | None
     blending_kind: str
     mode_criterion: str
+    mode_trigger: str
     hindsight: HindsightSettings
     hindsight_assist: str
     custom_policies: tuple[PolicySpec, ...] = ()
@@ -162,6 +164,7 @@ class ProtocolSettings:
             blending_kind=(config.blending or section_defaults(BlendingPolicySection)).kind,
             # the sections of conditions the study does not run may be absent: their defaults then
             mode_criterion=(config.mode_switch or section_defaults(ModeSwitchSection)).criterion,
+            mode_trigger=(config.mode_switch or section_defaults(ModeSwitchSection)).trigger,
             hindsight=hindsight_settings(config),
             hindsight_assist=(config.hindsight or section_defaults(HindsightSection)).assist,
             custom_policies=checked_policy_specs(config),
@@ -255,6 +258,8 @@ class TrialSession:
         self.policy = make_policy(self.spec.condition, self.settings)
         self.assisted = bool(self.policy.infers)
         self.turn_taking = bool(self.policy.takes_turns)
+        # the optional hook through which a policy answers a person's mode switch
+        self.choose_mode = getattr(self.policy, "choose_mode", None)
         if self.assisted and self.model is None:
             raise ValueError(f"condition {self.spec.condition!r} needs the agent's model")
         n_goals = world.n_goals
@@ -330,11 +335,16 @@ class TrialSession:
             u_h = interface.human_command(measured, self.mode, s.human_speed, s.human_turn_rate)
             commanded = True
         elif measured in (HARD_PUFF, HARD_SIP) and not self.locked:
-            self.mode = interface.switch_mode(self.mode, measured)
+            requested = interface.switch_mode(self.mode, measured)
+            # a policy that answers mode switches (a request for its choice) may send it elsewhere
+            chosen = self.choose_mode(self, requested) if self.choose_mode is not None else None
+            self.mode = requested if chosen is None else chosen
             self.locked = True
             self.human_switches += 1
             commanded = True
             events.append(MODE_SWITCH_HUMAN)
+            if chosen is not None:
+                events.append(MODE_SELECT)
         self.idle = 0 if commanded or self.initiated_at < 0 else self.idle + 1
         self.measured, self.u_h = measured, u_h
         u_f, u_a, alpha, inferred = self.policy.assist(self)
