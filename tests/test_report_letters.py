@@ -329,6 +329,10 @@ def test_an_unknown_reference_condition_is_one_error_line(tmp_path: Path) -> Non
     assert not (run / "stats.json").exists()  # refused before anything was written
     result = runner.invoke(main, ["analyze", str(run), "--bootstrap", "100", "--reference", "control"])
     assert result.exit_code == 0, result.output
+    # the printed table too: control's three pairs per metric, not all six
+    printed = [line for line in result.output.splitlines() if " vs " in line]
+    assert all(" vs control" in line or "control vs " in line for line in printed)
+    assert len(printed) == 3 * len(json.loads((run / "stats.json").read_text())["metrics"])
     summary = (run / "summary.md").read_text()
     pair_rows = [line for line in summary.splitlines() if line.startswith("| ") and " - " in line]
     assert pair_rows and all("control" in line.split("|")[1] for line in pair_rows)

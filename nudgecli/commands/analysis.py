@@ -67,7 +67,7 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
     elif output_format == "csv":
         click.echo(result.table.to_csv(index=False), nl=False)
     else:
-        click.echo(format_table(result.table, result.stats["conditions"]))
+        click.echo(format_table(result.table, result.stats["conditions"], reference))
     info(str(result.out))
 
 

@@ -99,7 +99,7 @@ def _side(row: Mapping[str, Any], side: str) -> str:
     return _median_iqr(row[f"median_{side}"], row[f"q1_{side}"], row[f"q3_{side}"])
 
 
-def format_table(table: pd.DataFrame, conditions: Sequence[str]) -> str:
+def format_table(table: pd.DataFrame, conditions: Sequence[str], reference: str | None = None) -> str:
     """A plain-text table of the statistics: one row per metric x pair of conditions.
 
     Parameters
@@ -108,6 +108,9 @@ def format_table(table: pd.DataFrame, conditions: Sequence[str]) -> str:
         :func:`~nudgecli.report.stats_document.stats_table`'s tidy table of ``stats.json``.
     conditions
         ``stats.json``'s conditions, in order.
+    reference
+        Only the pairs of this condition (``--reference``; three or more conditions), as
+        ``summary.md`` and the figures show them; ``stats.csv`` keeps every pair.
 
     Columns: median [q1, q3] of both conditions, Kruskal-Wallis p, Conover p, stars, the
     participant-level p, the effect size and the median difference with its interval. A pair
@@ -129,6 +132,8 @@ def format_table(table: pd.DataFrame, conditions: Sequence[str]) -> str:
     header += ["KW p", "Conover p", "stars", "participant p", "effect", f"a-b [{level:.0%} CI]"]
     rows = []
     for r in table.to_dict("records"):
+        if reference is not None and not two and not of_reference(reference, r["a"], r["b"]):
+            continue
         row = [r["metric"]] + ([] if two else [f"{r['a']} vs {r['b']}"])
         if _left_out(r):
             # with two conditions the participant-level test and its effect are the pair's own
