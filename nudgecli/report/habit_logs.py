@@ -3,6 +3,7 @@ resampled by zero-order hold into HABITS.md's cells (:mod:`nudgecli.report.habit
 
 from __future__ import annotations
 
+import csv
 import itertools
 import math
 from dataclasses import dataclass
@@ -24,6 +25,16 @@ from nudgecli.report.habit_cells import (
 #: The columns of a real log (CSV): required, and optional with what they give.
 LOG_REQUIRED = ("trial", "label", "x", "y", "theta", "mode_switch")
 LOG_TIME_NAMES = ("t", "time")
+#: The delimiters a log may use, the first one whose header names every column winning (a
+#: spreadsheet in a locale with a decimal comma writes semicolons).
+LOG_DELIMITERS = (",", ";", "\t", "|")
+#: The longest a trial may last (s): the CIAA task's trials stop at 50 s, so a longer one is a time
+#: stamp out of place (milliseconds, a clock's epoch), whose cells would fill the memory (1e7 s is
+#: 1e8 cells, gigabytes).
+MAX_TRIAL_S = 3600.0
+#: The most cells a log may hold in all (about 55 hours at 10 Hz; a log of 2 million cells takes about
+#: half a gigabyte while it is measured): checked from the time stamps before any cell is built.
+MAX_LOG_CELLS = 2_000_000
 _FALSE_WORDS = {"", "0", "0.0", "false", "no", "none", "nan"}
 #: Mode words of a real log's ``mode_switch`` column (the mode switched to) -> mode index.
 MODE_WORDS = {"x": 0, "horizontal": 0, "y": 1, "vertical": 1, "t": 2, "theta": 2, "rotation": 2,
@@ -54,11 +65,28 @@ def _row_name(path: Path, i: int) -> str:
     return f"{path}, row {i + 2}"  # the header is line 1
 
 
+def _names_log_columns(names: set[str]) -> bool:
+    """Whether a header's column ``names`` hold a time column and every required one."""
+    return bool(names & set(LOG_TIME_NAMES)) and names.issuperset(LOG_REQUIRED)
+
+
+def _log_delimiter(path: Path) -> str:
+    """The first of :data:`LOG_DELIMITERS` under which the header line names every column a log
+    needs (a comma where none does, for the error to say what the header holds)."""
+    with path.open(encoding="utf-8", newline="") as file:
+        header = file.readline()
+    for delimiter in LOG_DELIMITERS:
+        names = next(csv.reader([header], delimiter=delimiter), [])
+        if _names_log_columns({name.strip() for name in names}):
+            return delimiter
+    return ","
+
+
 def _read_log_frame(path: Path) -> tuple[pd.DataFrame, str]:
     """The log as text, with its time column's name; a :class:`DataError` for an unreadable file,
-    missing columns or no rows."""
+    missing columns (naming those its header holds) or no rows."""
     try:
-        frame = pd.read_csv(path, dtype=str, keep_default_na=False)
+        frame = pd.read_csv(path, sep=_log_delimiter(path), dtype=str, keep_default_na=False)
     except (UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise DataError(f"{path}: not a readable CSV log ({exc})") from None
     frame.columns = [str(c).strip() for c in frame.columns]
@@ -66,9 +94,12 @@ def _read_log_frame(path: Path) -> tuple[pd.DataFrame, str]:
     needed = ["t (or time)"] if time_column is None else []
     needed += [c for c in LOG_REQUIRED if c not in frame.columns]
     if needed or time_column is None:  # (no time column is always in needed)
-        raise DataError(f"{path}: no {', '.join(needed)} column(s); a real log needs t, trial, label, x, "
-                        "y, theta and mode_switch (participant and layout optional), one row per sample or "
-                        "event")
+        found = ", ".join(repr(c) for c in frame.columns)
+        plural = "" if len(frame.columns) == 1 else "s"
+        raise DataError(f"{path}: no {', '.join(needed)} column(s); its header holds {len(frame.columns)} "
+                        f"column{plural}, {found}; a real log needs t, trial, label, x, y, theta and "
+                        "mode_switch (participant and layout optional), separated by commas (or ;, tab "
+                        "or |), one row per sample or event")
     if frame.empty:
         raise DataError(f"{path}: no rows; a real log needs at least two samples per trial")
     return frame, time_column
@@ -84,8 +115,12 @@ def _parse_log(path: Path, frame: pd.DataFrame, time_column: str) -> _Log:
         bad = values.isna() | ~np.isfinite(values.to_numpy(dtype=float))
         if bad.any():
             i = int(np.flatnonzero(bad.to_numpy())[0])
-            raise DataError(f"{row_name(i)}: {column} {frame[column].iloc[i]!r} is not a number; every row "
-                            f"needs its time and the robot's pose")
+            text = frame[column].iloc[i].strip()
+            # a spreadsheet with a decimal comma writes 0,5 (and semicolons between the columns)
+            comma = pd.to_numeric(text.replace(",", "."), errors="coerce")
+            hint = f" (a decimal comma? write {text.replace(',', '.')})" if not pd.isna(comma) else ""
+            raise DataError(f"{row_name(i)}: {column} {frame[column].iloc[i]!r} is not a number{hint}; every "
+                            "row needs its time and the robot's pose")
         numbers[column] = values.to_numpy(dtype=float)
     kinds = label_kinds(frame["label"], row_name)
     participant = frame["participant"].str.strip() if "participant" in frame.columns else \
@@ -120,6 +155,58 @@ def _trial_starts(log: _Log) -> np.ndarray:
         raise DataError(f"{row_name(i)}: time {time[i]:g} s comes before the previous row's "
                         f"{time[i - 1]:g} s; sort each trial's rows by time")
     return new_trial
+
+
+def _trial_spans(time: np.ndarray, new_trial: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each trial's first and last row ``(T,)`` and its duration ``(T,)`` (s, last minus first)."""
+    firsts = np.flatnonzero(new_trial)
+    lasts = np.append(firsts[1:], len(time)) - 1
+    return firsts, lasts, time[lasts] - time[firsts]
+
+
+def trial_cell_counts(time: np.ndarray, new_trial: np.ndarray, rate_hz: float) -> np.ndarray:
+    """``(T,)`` how many cells each trial of a log holds, from its time stamps alone (no cell built).
+
+    Parameters
+    ----------
+    time
+        ``(N,)`` the rows' time stamps (s), in order within each trial.
+    new_trial
+        ``(N,)`` True at each trial's first row.
+    rate_hz
+        Cells per second.
+
+    Returns
+    -------
+    np.ndarray
+        ``(T,)`` float: a trial is read every ``1 / rate_hz`` s from its first row up to its last,
+        ``floor(duration * rate + slack) + 1`` reads as :func:`_trial_cells` counts them, and holds a
+        cell between two reads; floats, so a far time stamp is counted without overflow.
+    """
+    _, _, duration = _trial_spans(time, new_trial)
+    return np.floor(duration / (1.0 / rate_hz) + TIME_SLACK)
+
+
+def _check_log_size(log: _Log, new_trial: np.ndarray, rate_hz: float) -> None:
+    """Refuse, before any cell is built, a trial longer than :data:`MAX_TRIAL_S` or a log of more
+    than :data:`MAX_LOG_CELLS` cells, naming the row whose time stamp passes the limit."""
+    firsts, lasts, duration = _trial_spans(log.time, new_trial)
+    too_long = np.flatnonzero(duration > MAX_TRIAL_S)
+    if too_long.size:
+        k = int(too_long[0])
+        first, last = int(firsts[k]), int(lasts[k])
+        trial = f"trial {log.trial.iloc[first]!r} of participant {log.participant.iloc[first]!r}"
+        raise DataError(f"{log.row_name(last)}: time {log.time[last]:g} s is {duration[k]:g} s after the "
+                        f"start of {trial} from row {first + 2} ({log.time[first]:g} s); a trial may last at "
+                        f"most {MAX_TRIAL_S:g} s ({MAX_TRIAL_S * rate_hz:.0f} cells at {rate_hz:g} Hz): "
+                        "check that the time stamps are seconds from one clock")
+    total = np.cumsum(trial_cell_counts(log.time, new_trial, rate_hz))
+    past = np.flatnonzero(total > MAX_LOG_CELLS)
+    if past.size:
+        k = int(past[0])
+        raise DataError(f"{log.row_name(int(lasts[k]))}: the log holds {total[k]:.0f} cells at {rate_hz:g} "
+                        f"Hz up to this row, more than the {MAX_LOG_CELLS} a log may hold; measure it in "
+                        "parts (a file per participant or per session)")
 
 
 def _trial_cells(log: _Log, lo: int, hi: int, rate_hz: float, all_waypoints: dict[int, np.ndarray],
@@ -183,12 +270,15 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
     ------
     DataError
         No time stamps or labels, an unknown label, a time that is not a number or goes back, a
-        pose missing, or a trial shorter than one cell: naming the file and the row.
+        pose missing, a trial shorter than one cell, or one longer than :data:`MAX_TRIAL_S` or a log
+        of more than :data:`MAX_LOG_CELLS` cells (checked before any cell is built): naming the
+        file and the row.
     """
     path = Path(path)
     frame, time_column = _read_log_frame(path)
     log = _parse_log(path, frame, time_column)
     new_trial = _trial_starts(log)
+    _check_log_size(log, new_trial, rate_hz)
     from nudgecli.sim.ciaa import packaged_task, task_layouts
 
     task = task_layouts(packaged_task())

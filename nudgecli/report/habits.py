@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from nudgecli.errors import DataError
+from nudgecli.errors import DataError, did_you_mean
 from nudgecli.reference import PACKAGED_REFERENCES, packaged_reference
 from nudgecli.report.habit_cells import (
     HABIT_RATE_HZ,
@@ -79,6 +79,9 @@ _BY_KEY = {h.key: h for h in HABITS}
 
 #: Columns of the event table: one row per measured event.
 EVENT_COLUMNS = ("participant", "trial", "habit", "value")
+#: Columns of :meth:`HabitsResult.comparison`: one row per habit both the source and the reference have.
+COMPARISON_COLUMNS = ("habit", "median", "people_min", "people_max", "reference_median", "reference_min",
+                      "reference_max", "inside", "people_inside")
 
 
 # --- runs of cells -----------------------------------------------------------------------------
@@ -370,7 +373,8 @@ class HabitsResult:
                          "reference_max": hi, "inside": bool(lo - TIME_SLACK <= median <= hi + TIME_SLACK),
                          "people_inside": float(np.mean((own >= lo - TIME_SLACK)
                                                         & (own <= hi + TIME_SLACK)))})
-        return pd.DataFrame(rows)
+        # its columns even with no habit in common (one the source has no event of)
+        return pd.DataFrame(rows, columns=list(COMPARISON_COLUMNS))
 
     def to_json(self) -> dict[str, Any]:
         """The JSON of ``--format json`` (the shape ``--compare FILE`` reads back)."""
@@ -418,6 +422,15 @@ def load_reference(name_or_path: str) -> dict[str, Any]:
     if not isinstance(habits, dict):
         raise DataError(f"{path}: no 'habits' object; a reference has the shape of "
                         "`nudge habits --format json`")
+    if not habits:
+        raise DataError(f"{path}: holds no habit to compare with; a reference has the shape of "
+                        "`nudge habits --format json`, its habits one or more of " + ", ".join(HABIT_KEYS))
+    # a habit nudge does not measure would be left out of the comparison unsaid (a misspelt key)
+    unknown = [key for key in habits if key not in _BY_KEY]
+    if unknown:
+        suggestion = did_you_mean(unknown[0], HABIT_KEYS)
+        raise DataError(f"{path}: habit {unknown[0]!r} is not one nudge measures{suggestion}; the habits are "
+                        + ", ".join(HABIT_KEYS))
     for key, entry in habits.items():
         try:
             float(entry["pooled"]["median"])
@@ -444,13 +457,31 @@ def habits_of(source: str | Path, by: str = "participant", compare: str | None =
     """
     reference = load_reference(compare) if compare is not None else None
     cells, rate, kind = source_cells(source)
-    return summarise_habits(measure_habits(cells, rate), str(source), kind, by, reference)
+    events = measure_habits(cells, rate)
+    if events.empty:
+        raise DataError(_nothing_to_measure(str(source), cells, rate))
+    return summarise_habits(events, str(source), kind, by, reference)
+
+
+def _nothing_to_measure(source: str, cells: pd.DataFrame, rate_hz: float) -> str:
+    """Why a source with no habit event has none, in the words of its cells.
+
+    Every non-neutral cell is in a blow, and a blow is an event, so no event means no input at all:
+    what is left to say is whether it switched modes or moved."""
+    trials = len(cells.drop_duplicates(["participant", "trial"]))
+    switches, moving = int(cells["switch"].sum()), int(cells["moving"].sum())
+    found = f"its {switches} mode switch(es) and {moving} moving cell(s) make no reaction or undone switch" \
+        if switches or moving else "no mode switch or motion"
+    of_trials = f"{trials} trial" + ("" if trials == 1 else "s")
+    return (f"{source}: nothing to measure: its {len(cells)} cells of {of_trials} at {rate_hz:g} Hz hold "
+            f"no input (every label neutral: empty, Zero Band, input stopped or None) and {found}; "
+            "habits are measured on a person operating the interface")
 
 
 def summarise_habits(events: pd.DataFrame, source: str, kind: str = "run", by: str = "participant",
                      reference: dict[str, Any] | None = None) -> HabitsResult:
-    """The :class:`HabitsResult` of measured events (:func:`measure_habits`), e.g. of several runs'
-    cells measured together."""
+    """The :class:`HabitsResult` of measured events (:func:`measure_habits`, at least one: a source
+    with none is refused by :func:`habits_of`), e.g. of several runs' cells measured together."""
     people = _summarise(events, ["participant"])
     units = people if by == "participant" else _summarise(events, ["participant", "trial"])
     pooled = _summarise(events, [])
