@@ -3,9 +3,10 @@
 stdout carries results (tables, JSON); logs and progress go to stderr. A ``NudgeError``
 prints one ``Error: ...`` line and exits 1 (``--debug`` shows the traceback), and so does an
 ``OSError`` (naming the path and the cause); click usage errors exit 2; Ctrl-C exits 130 and
-says how to resume. stdout is written whole or not at all (:mod:`nudgecli.commands.stdout`): a
-failed write is an ``Error:`` line and exit 1; a reader that went away (``| head``) ends the
-command quietly with 141.
+says how to resume, and so does SIGTERM, with 143 (:mod:`nudgecli.commands.terminate`). stdout
+is written whole or not at all (:mod:`nudgecli.commands.stdout`): a failed write is an
+``Error:`` line and exit 1; a reader that went away (``| head``) ends the command quietly with
+141.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from nudgecli import __version__
 from nudgecli.commands import analysis, batches, simulation, tools
 from nudgecli.commands.common import EXIT_INTERRUPTED, INTERRUPT_HINT, declaring_inputs
 from nudgecli.commands.stdout import EXIT_BROKEN_PIPE, ReaderGoneError, checked_stdout
+from nudgecli.commands.terminate import EXIT_TERMINATED, Terminated, terminate_as_interrupt
 from nudgecli.errors import NudgeError
 
 
@@ -36,8 +38,8 @@ def os_error_message(exc: OSError) -> str:
 
 class NudgeGroup(click.Group):
     """A click group that turns ``NudgeError`` and ``OSError`` into one ``Error:`` line and exit
-    status 1, and Ctrl-C into exit status 130 with a line on how to resume. Its commands write
-    stdout through :func:`~nudgecli.commands.stdout.checked_stdout`: a failed write of their
+    status 1, and Ctrl-C into exit status 130 with a line on how to resume (SIGTERM: 143). Its
+    commands write stdout through :func:`~nudgecli.commands.stdout.checked_stdout`: a failed write of their
     output is such an error too, and a reader of stdout that went away ends them quietly with
     :data:`~nudgecli.commands.stdout.EXIT_BROKEN_PIPE`."""
 
@@ -57,11 +59,12 @@ class NudgeGroup(click.Group):
                 raise
             click.echo(f"Error: {os_error_message(exc)}", err=True)
             ctx.exit(1)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as exc:
             hint: Callable[[], str] | None = ctx.meta.get(INTERRUPT_HINT)
             message = hint() if hint is not None else "nothing half-written was left; run the command again"
-            click.echo(f"\nInterrupted: {message}", err=True)
-            ctx.exit(EXIT_INTERRUPTED)
+            terminated = isinstance(exc, Terminated)
+            click.echo(f"\n{'Terminated' if terminated else 'Interrupted'}: {message}", err=True)
+            ctx.exit(EXIT_TERMINATED if terminated else EXIT_INTERRUPTED)
 
 
 @click.group(cls=NudgeGroup, context_settings={"help_option_names": ["-h", "--help"]})
@@ -109,7 +112,7 @@ def freeze_collector_at_exit() -> None:
 
 
 def entry_point() -> None:
-    """The ``nudge`` program: :data:`main`, and after Ctrl-C a prompt exit.
+    """The ``nudge`` program: :data:`main`, SIGTERM handled as Ctrl-C, and after either a prompt exit.
 
     After Ctrl-C the run folder is already marked and the resume command printed; what is left
     is the interpreter's shutdown, which joins a process pool's management thread, and that
@@ -118,14 +121,15 @@ def entry_point() -> None:
     collector is frozen last (:func:`freeze_collector_at_exit`).
     """
     freeze_collector_at_exit()
+    terminate_as_interrupt()
     try:
         main()
     except SystemExit as exc:
-        if exc.code == EXIT_INTERRUPTED:
+        if exc.code in (EXIT_INTERRUPTED, EXIT_TERMINATED):
             for stream in (sys.stdout, sys.stderr):
                 with contextlib.suppress(Exception):
                     stream.flush()
-            os._exit(EXIT_INTERRUPTED)
+            os._exit(int(exc.code))
         raise
 
 
