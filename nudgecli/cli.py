@@ -26,7 +26,7 @@ from nudgecli.commands import analysis, batches, simulation, tools
 from nudgecli.commands.common import EXIT_INTERRUPTED, INTERRUPT_HINT, declaring_inputs
 from nudgecli.commands.stdout import EXIT_BROKEN_PIPE, ReaderGoneError, checked_stdout
 from nudgecli.commands.terminate import EXIT_TERMINATED, Terminated, terminate_as_interrupt
-from nudgecli.errors import NudgeError
+from nudgecli.errors import NudgeError, WorkerLostError
 
 
 def os_error_message(exc: OSError) -> str:
@@ -52,7 +52,11 @@ class NudgeGroup(click.Group):
         except NudgeError as exc:
             if ctx.meta.get("nudge.debug"):
                 raise
-            click.echo(f"Error: {exc}", err=True)
+            resume: Callable[[], str] | None = ctx.meta.get(INTERRUPT_HINT)
+            if isinstance(exc, WorkerLostError) and resume is not None:  # what was finished is kept
+                click.echo(f"Error: {exc}; {resume()}", err=True)
+            else:
+                click.echo(f"Error: {exc}", err=True)
             ctx.exit(1)
         except OSError as exc:
             if ctx.meta.get("nudge.debug"):

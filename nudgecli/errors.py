@@ -42,6 +42,11 @@ class PolicyError(NudgeError):
     """A condition's own policy does not import, does not fit the interface, or fails at run time."""
 
 
+class WorkerLostError(NudgeError):
+    """A worker (a dask worker, a pool's process) was lost mid-run: what was finished is kept, and
+    the command line adds how to resume (``nudgecli.cli``)."""
+
+
 def user_error(kind: str, message: str) -> NudgeError:
     """The :class:`NudgeError` of class name ``kind`` with ``message`` (one sent from a worker by name)."""
     classes = {cls.__name__: cls for cls in (NudgeError, ConfigError, DataError, RunFolderError, WriteError,

@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from cli_helpers import wait_for
+from cli_helpers import one_error_line, wait_for
 from click.testing import CliRunner
 
 from nudgecli.cli import main
@@ -53,3 +53,58 @@ def test_sigterm_marks_the_run_interrupted_releases_the_lock_and_exits_143(tmp_p
     command = stderr.split("resume with: ")[1].strip().splitlines()[0]
     assert command.startswith("nudge simulate smoke --out ") and command.endswith("--resume")
     assert shlex.split(command)[4] == str(out)
+
+
+# --- a lost dask worker --------------------------------------------------------------------------
+
+
+@pytest.fixture()
+def cluster():
+    """An in-process dask cluster on TCP (its tasks see this test's monkeypatching)."""
+    distributed = pytest.importorskip("dask.distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
+                                  dashboard_address=None) as local:
+        yield local
+
+
+def _cancel_own_task(*args):
+    """A task that cancels itself, as the scheduler cancels the tasks of a worker it lost."""
+    from distributed import Future, get_client, get_worker
+
+    key = get_worker().get_current_task()
+    client = get_client()
+    client.cancel([Future(key, client=client)], reason="worker-lost")
+    import time
+
+    time.sleep(1)
+
+
+def test_a_cancelled_dask_task_is_one_error_line_naming_the_loss_and_the_resume_command(tmp_path, cluster,
+                                                                                       monkeypatch):
+    monkeypatch.setattr("nudgecli.runs.study.simulate_on_worker", _cancel_own_task)
+    out = tmp_path / "run"
+    result = invoke(["simulate", "smoke", "--participants", "2", "--out", str(out),
+                     "--scheduler", cluster.scheduler_address])
+    assert result.exit_code == 1, result.output
+    line = one_error_line(result.output.replace(f"Run folder: {out}", ""))
+    assert "lost" in line and "dask" in line
+    # the resume command Ctrl-C prints (its tables are the same with or without the cluster)
+    assert line.endswith(f"resume with: nudge simulate smoke --out {out} --participants 2 --resume"), line
+    assert json.loads((out / "manifest.json").read_text())["status"] == "interrupted"
+
+
+def test_dask_result_turns_a_cancelled_future_into_a_worker_lost_error(cluster):
+    from distributed import Client
+
+    from nudgecli.errors import WorkerLostError
+    from nudgecli.runs.executors import dask_result
+
+    with Client(cluster) as client:
+        assert dask_result(client.submit(sum, [1, 2]), "a sum") == 3
+        future = client.submit(__import__("time").sleep, 2, pure=False)
+        client.cancel([future], reason="worker-lost")
+        with pytest.raises(WorkerLostError, match=r"^the dask cluster lost task 7 \(worker-lost: "):
+            dask_result(future, "task 7")
+        failing = client.submit(int, "x")  # a task's own error is not a lost worker
+        with pytest.raises(ValueError):
+            dask_result(failing, "task 8")

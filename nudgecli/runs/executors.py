@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any, TextIO
 
-from nudgecli.errors import NudgeError, user_error
+from nudgecli.errors import NudgeError, WorkerLostError, user_error
 from nudgecli.runs.study_tasks import die_with_parent, process_context
 
 #: Plans (affinities) a worker is assumed to hold: the size of its plan cache.
@@ -74,6 +74,37 @@ def run_pickled_job(path: str) -> Any:
 
 class WorkerError(RuntimeError):
     """A task failed in a worker (the worker's traceback is the message)."""
+
+
+def dask_result(future: Any, task: str) -> Any:
+    """``future.result()`` of a dask task, a lost worker turned into one clear error.
+
+    A scheduler cancels the tasks of a worker it lost (``FutureCancelledError``, a
+    ``concurrent.futures.CancelledError``) or gives up on a task whose workers kept dying
+    (``KilledWorker``, ``distributed.scheduler``); both were tracebacks.
+
+    Parameters
+    ----------
+    future
+        A ``dask.distributed.Future``.
+    task
+        What the task computes, named in the message (e.g. ``participant 3``).
+
+    Raises
+    ------
+    WorkerLostError
+        The task was cancelled or its worker killed.
+    """
+    from concurrent.futures import CancelledError
+
+    from distributed import KilledWorker
+
+    try:
+        return future.result()
+    except (CancelledError, KilledWorker) as exc:
+        why = getattr(exc, "reason", None) or type(exc).__name__
+        raise WorkerLostError(f"the dask cluster lost {task} ({why}: a worker died or left, or the "
+                              "scheduler cancelled it)") from None
 
 
 class SerialExecutor:
@@ -304,8 +335,8 @@ class ProcessExecutor:
                 status, key, payload = slot.conn.recv()
             except (EOFError, OSError):
                 slot.process.join(timeout=1)
-                raise WorkerError(f"worker {slot.process.pid} died (exit code {slot.process.exitcode}) "
-                                  f"while running {', '.join(slot.inflight)}") from None
+                raise WorkerLostError(f"worker {slot.process.pid} died (exit code {slot.process.exitcode}) "
+                                      f"while running {', '.join(slot.inflight)}") from None
             job = slot.inflight.pop(key)
             broadcast = key in self._broadcast
             self._read_by_one(key)
@@ -422,7 +453,7 @@ class DaskExecutor:
         future = next(self._done)
         job = self._jobs.pop(future.key)
         try:
-            result = future.result()
+            result = dask_result(future, f"task {job.key}")
         except (OSError, NudgeError):  # the command's one error line, as in this process
             raise
         except Exception as exc:

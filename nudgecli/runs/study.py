@@ -209,11 +209,14 @@ def _one_line(exc: BaseException) -> str:
 def _dask(plan: StudyPlan, todo: list[int], client: Any) -> Iterator[ParticipantColumns]:
     from dask.distributed import as_completed as dask_completed
 
+    from nudgecli.runs.executors import dask_result
+
     with client:
         shared = client.scatter(plan, broadcast=True)
         futures = [client.submit(simulate_on_worker, shared, index, pure=False) for index in todo]
+        participant = dict(zip((future.key for future in futures), todo, strict=True))
         for future in dask_completed(futures):
-            yield future.result()
+            yield dask_result(future, f"participant {participant[future.key]}")
 
 
 @dataclass
