@@ -108,3 +108,51 @@ def test_dask_result_turns_a_cancelled_future_into_a_worker_lost_error(cluster):
         failing = client.submit(int, "x")  # a task's own error is not a lost worker
         with pytest.raises(ValueError):
             dask_result(failing, "task 8")
+
+
+# --- compare's conditions ------------------------------------------------------------------------
+
+
+def _metrics_table(path: Path, conditions: list[str], seed: int = 0) -> Path:
+    """A small metrics table: 3 participants x 4 trials of each condition."""
+    import numpy as np
+    import pandas as pd
+
+    rng = np.random.default_rng(seed)
+    rows = [{"participant": f"p{p}", "condition": condition, "trial": t,
+             "completion_time": float(20 + rng.normal()), "mode_switches": int(rng.integers(3, 9))}
+            for condition in conditions for p in range(3) for t in range(4)]
+    pd.DataFrame(rows).to_csv(path, index=False)
+    return path
+
+
+def test_compare_refuses_near_identical_condition_labels_with_a_did_you_mean(tmp_path):
+    simulated = _metrics_table(tmp_path / "sim.csv", ["disambiguation", "control"])
+    for label in ("Control ", "CONTROL", " control"):
+        real = _metrics_table(tmp_path / "real.csv", ["disambiguation", label], seed=1)
+        result = invoke(["compare", str(simulated), str(real), "--resamples", "0"])
+        assert result.exit_code == 1, result.output
+        line = one_error_line(result.output)
+        assert f"{real}: condition {label!r}" in line and "(did you mean 'control'?)" in line, line
+        assert f"--match {shlex.quote('control=' + label)}" in line, line
+        # the fix the line gives works
+        fixed = invoke(["compare", str(simulated), str(real), "--resamples", "0", "--format", "json",
+                        "--match", f"control={label}"])
+        assert fixed.exit_code == 0, fixed.output
+        assert json.loads(fixed.stdout)["conditions"] == ["disambiguation", label]
+
+
+def test_compare_says_which_conditions_one_table_holds_alone(tmp_path):
+    simulated = _metrics_table(tmp_path / "sim.csv", ["disambiguation", "control", "teleoperation"])
+    real = _metrics_table(tmp_path / "real.csv", ["disambiguation", "control", "blending"], seed=1)
+    result = CliRunner().invoke(main, ["compare", str(simulated), str(real), "--resamples", "0",
+                                       "--format", "json"])
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.stdout)["conditions"] == ["disambiguation", "control"]
+    notes = [line for line in result.stderr.splitlines() if line.startswith("Note: ")]
+    assert notes == [
+        f"Note: condition 'blending' is only in the real table ({real}): not compared; pair it with "
+        "--match SIMULATED=blending",
+        f"Note: condition 'teleoperation' is only in the simulated source ({simulated}): not compared; "
+        "pair it with --match teleoperation=REAL",
+    ], result.stderr

@@ -241,7 +241,8 @@ def habits_command(source: str, by: str, output_format: str, compare: str | None
 
 
 def _parse_matches(matches: tuple[str, ...]) -> dict[str, str]:
-    """``("none=no assistance", ...)`` -> ``{"none": "no assistance"}``."""
+    """``("none=no assistance", ...)`` -> ``{"none": "no assistance"}``, the labels as written (a
+    table's label may end in a space, and ``--match 'control=Control '`` must pair it)."""
     from nudgecli.errors import ConfigError
 
     mapping: dict[str, str] = {}
@@ -249,7 +250,7 @@ def _parse_matches(matches: tuple[str, ...]) -> dict[str, str]:
         simulated, sep, real = text.partition("=")
         if not sep or not simulated.strip() or not real.strip():
             raise ConfigError(f"--match {text!r}: expected SIMULATED=REAL, e.g. --match none='no assistance'")
-        mapping[simulated.strip()] = real.strip()
+        mapping[simulated] = real
     return mapping
 
 

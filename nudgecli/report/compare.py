@@ -30,6 +30,7 @@ so a run folder's metrics are the analysis plan's) and :func:`write_comparison` 
 from __future__ import annotations
 
 import math
+import shlex
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -96,7 +97,9 @@ Aligned = tuple[pd.DataFrame, pd.DataFrame, list[str]]
 
 
 def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
-                     condition_map: Mapping[str, str] | None = None) -> Aligned:
+                     condition_map: Mapping[str, str] | None = None, *,
+                     names: tuple[str, str] = ("simulated", "real"),
+                     notes: list[str] | None = None) -> Aligned:
     """Rename the simulated conditions by ``condition_map`` and keep the conditions both tables hold.
 
     Parameters
@@ -105,6 +108,10 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
         Metrics tables with a ``condition`` column.
     condition_map
         Simulated condition -> the real table's name for it (e.g. ``{"none": "no assistance"}``).
+    names
+        How the messages name the two sources (e.g. their paths).
+    notes
+        Receives a line for each condition one table holds alone (it is not compared).
 
     Returns
     -------
@@ -116,7 +123,9 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
     Raises
     ------
     DataError
-        A ``condition_map`` key that is not a simulated condition, or no shared condition.
+        A ``condition_map`` key that is not a simulated condition, two conditions left unpaired
+        whose labels differ in case or spaces only (``control`` and ``Control ``: the same
+        condition spelled two ways, which would be dropped silently), or no shared condition.
     """
     simulated = simulated.assign(condition=simulated["condition"].astype(str))
     real = real.assign(condition=real["condition"].astype(str))
@@ -129,13 +138,41 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
                             f"{did_you_mean(key, sim_conditions)}; its conditions: "
                             f"{', '.join(sim_conditions)}")
     simulated = simulated.assign(condition=simulated["condition"].map(lambda c: mapping.get(c, c)))
-    in_both = [c for c in real_conditions if c in set(simulated["condition"])]
+    renamed = {mapping.get(c, c): c for c in sim_conditions}  # the simulated label of each, as given
+    real_only = [c for c in real_conditions if c not in renamed]
+    sim_only = [c for c in renamed if c not in set(real_conditions)]
+    _refuse_near_identical(sim_only, real_only, renamed, names)
+    in_both = [c for c in real_conditions if c in renamed]
     shared = order_conditions(in_both, real_conditions)
     if not shared:
         raise DataError(f"no condition in common: simulated {', '.join(sim_conditions)}; real "
                         f"{', '.join(real_conditions)}; pair them with --match SIMULATED=REAL, e.g. "
                         f"--match {sim_conditions[0]}={real_conditions[0]}")
+    if notes is not None:
+        notes += [f"condition {c!r} is only in the real table ({names[1]}): not compared; pair it with "
+                  f"--match SIMULATED={c}" for c in sorted(real_only)]
+        notes += [f"condition {renamed[c]!r} is only in the simulated source ({names[0]}): not compared; "
+                  f"pair it with --match {renamed[c]}=REAL" for c in sorted(sim_only)]
     return (simulated[simulated["condition"].isin(shared)], real[real["condition"].isin(shared)], shared)
+
+
+def _same_label(label: str) -> str:
+    """A condition label with case and runs of white space made alike."""
+    return " ".join(label.split()).casefold()
+
+
+def _refuse_near_identical(sim_only: Sequence[str], real_only: Sequence[str], renamed: Mapping[str, str],
+                           names: tuple[str, str]) -> None:
+    """Refuse an unpaired real condition whose label is an unpaired simulated one's but for case or
+    spaces (``renamed``: the simulated label as given, by its name after ``--match``)."""
+    by_form = {_same_label(c): c for c in sim_only}
+    for label in real_only:
+        twin = by_form.get(_same_label(label))
+        if twin is not None:
+            given = renamed[twin]
+            raise DataError(f"{names[1]}: condition {label!r} differs from the condition {given!r} of "
+                            f"{names[0]} in case or spaces only (did you mean {given!r}?); name them "
+                            f"alike, or pair them with --match {shlex.quote(f'{given}={label}')}")
 
 
 def shared_metrics(simulated_metrics: Sequence[str], real_metrics: Sequence[str],
@@ -398,7 +435,8 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
         Keep the first of repeated trial rows of a table instead of refusing them (as
         ``nudge analyze --drop-duplicates``).
     notes
-        Receives what was left out (duplicates dropped, stray parts of a run folder), a line each.
+        Receives what was left out (duplicates dropped, stray parts of a run folder, a condition
+        one source holds alone), a line each.
 
     Raises
     ------
@@ -420,7 +458,8 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
     selected = shared_metrics(sim_metrics, real_metrics, metrics)
     sim_table = apply_filters(sim_table, chosen.filters)
     real_table = apply_filters(real_table, chosen.filters)
-    sim_table, real_table, conditions = align_conditions(sim_table, real_table, condition_map)
+    sim_table, real_table, conditions = align_conditions(sim_table, real_table, condition_map,
+                                                         names=(str(simulated), str(real)), notes=notes)
     table = compare_tables(sim_table, real_table, selected, conditions, options)
     medians = participant_medians(sim_table, real_table, selected)
     return Comparison(str(simulated), str(real), selected, conditions, table, medians, options,
