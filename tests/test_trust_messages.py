@@ -156,3 +156,54 @@ def test_compare_says_which_conditions_one_table_holds_alone(tmp_path):
         f"Note: condition 'teleoperation' is only in the simulated source ({simulated}): not compared; "
         "pair it with --match teleoperation=REAL",
     ], result.stderr
+
+
+# --- a plan's conditions -------------------------------------------------------------------------
+
+TWO_CONDITIONS = Path(__file__).with_name("data") / "metrics_two_conditions.csv"
+
+
+def _plan(path: Path, conditions: list[str]) -> Path:
+    path.write_text(f"conditions = {json.dumps(conditions)}\n")
+    return path
+
+
+@pytest.mark.parametrize(("listed", "named", "suggested"), [
+    (["Disambiguation", "control"], "Disambiguation", "disambiguation"),  # differently cased
+    (["disambiguation", "control "], "control ", "control"),               # a space too many
+    (["disambiguation", "baseline"], "baseline", None),                    # missing, control unnamed
+    (["disambig", "ctrl"], "disambig", "disambiguation"),                  # neither spelled as the data
+])
+def test_a_plan_naming_a_condition_the_data_lacks_is_refused(tmp_path, listed, named, suggested):
+    plan = _plan(tmp_path / "mine.toml", listed)
+    out = tmp_path / "analysis"
+    result = invoke(["analyze", str(TWO_CONDITIONS), "--plan", str(plan), "--out", str(out)])
+    assert result.exit_code == 1, result.output
+    line = one_error_line(result.output)
+    assert line.startswith(f"Error: {plan}: conditions names {named!r}, which {TWO_CONDITIONS} does not hold")
+    assert "its conditions: control, disambiguation" in line, line
+    if suggested is not None:
+        assert f"(did you mean {suggested!r}?)" in line, line
+    assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.parametrize("listed", [
+    ["disambiguation", "control", "blending"],  # a plan over more conditions than this study's
+    ["teleoperation", "hindsight"],             # another study's plan: its order applies to nothing here
+])
+def test_a_plan_whose_conditions_cover_the_data_or_name_none_of_it_is_used(tmp_path, listed):
+    plan = _plan(tmp_path / "wider.toml", listed)
+    result = invoke(["analyze", str(TWO_CONDITIONS), "--plan", str(plan), "--out", str(tmp_path / "a"),
+                     "--bootstrap", "100", "--format", "json"])
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.stdout)["conditions"] == ["disambiguation", "control"]
+
+
+def test_a_plan_spelling_short_labels_in_another_case_is_refused(tmp_path):
+    # difflib sees nothing alike in 'A' and 'a': the labels are compared with case folded
+    table = _metrics_table(tmp_path / "ab.csv", ["a", "b"])
+    plan = _plan(tmp_path / "ab.toml", ["B", "A"])
+    result = invoke(["analyze", str(table), "--plan", str(plan), "--out", str(tmp_path / "out")])
+    assert result.exit_code == 1, result.output
+    assert "conditions names 'B', which" in one_error_line(result.output)
+    assert "(did you mean 'b'?)" in result.output

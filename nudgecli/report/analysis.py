@@ -60,7 +60,7 @@ from nudgecli.report.metrics import (
     trial_metrics,
 )
 from nudgecli.report.pair_display import check_reference
-from nudgecli.report.plans import AnalysisPlan, load_plan
+from nudgecli.report.plans import AnalysisPlan, check_plan_conditions, load_plan
 from nudgecli.report.questionnaires import (
     check_respondents,
     questionnaire_scores,
@@ -399,9 +399,13 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     if source.is_dir():
         table, available, _ = _load_source(source, plan, notes)
         changed = True
-        _record_plan(run, manifest, plan_arg, plan, out_dir)
     else:
         table, available, changed = _load_table(source, drop_duplicates, notes)
+    # before anything is recorded: a plan whose conditions are not the data's is refused
+    check_plan_conditions(plan, _plan_label(plan_arg, plan), table["condition"].astype(str).unique(),
+                          str(source))
+    if source.is_dir():
+        _record_plan(run, manifest, plan_arg, plan, out_dir)
     _check_filters(plan, available)
     scores, score_names = _read_scores(questionnaires, table, source)
     selected = _select_metrics(metrics, [*available, *score_names])

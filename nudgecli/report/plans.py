@@ -34,12 +34,14 @@ path to a TOML file. Layout::
     [questionnaires.labels]                      # axis labels of questionnaire items (figures)
     Q3 = "Q3: figured out my goal more easily"
 
-Unknown keys are refused with a "did you mean" suggestion naming the file and the key.
+Unknown keys are refused with a "did you mean" suggestion naming the file and the key; a
+condition the data lacks, where the plan is meant for that data, by :func:`check_plan_conditions`.
 """
 
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal
 
@@ -184,6 +186,53 @@ class AnalysisPlan(_Section):
             bootstrap_level=self.bootstrap.level,
             seed=self.bootstrap.seed if seed is None else seed,
         )
+
+
+def check_plan_conditions(plan: AnalysisPlan, plan_label: str, present: Sequence[str], source: str) -> None:
+    """Refuse a plan whose ``conditions`` name one the data lacks where the data holds one the
+    plan does not name, so that the plan's order would be ignored silently.
+
+    A missing condition is refused when an unnamed one of the data resembles it (the same but
+    for case or spaces, or a close spelling: :func:`~nudgecli.errors.did_you_mean`), or when the
+    plan names some of the data's conditions (it is this data's plan, but its list is wrong). A
+    plan naming conditions the data lacks is used where it names all the data's conditions (a
+    plan over more conditions than one run holds: the CIAA plan over its one-condition run) or
+    none of them and none alike (another study's plan, e.g. ``paper`` for a table of other
+    conditions: its order applies to nothing there).
+
+    Parameters
+    ----------
+    plan
+        The analysis plan.
+    plan_label
+        How to name the plan (its file, or a preset's name).
+    present
+        The data's conditions.
+    source
+        How to name the data (a run folder or a table).
+
+    Raises
+    ------
+    ConfigError
+        A missing condition as above: the plan, the condition, the data's conditions and a
+        suggestion.
+    """
+    present = sorted({str(c) for c in present})
+    listed = [str(c) for c in plan.conditions]
+    unnamed = [c for c in present if c not in listed]
+    if not unnamed:
+        return
+    alike = {" ".join(c.split()).casefold(): c for c in unnamed}
+    shares = any(c in present for c in listed)
+    for name in listed:
+        if name in present:
+            continue
+        twin = alike.get(" ".join(name.split()).casefold())
+        hint = f" (did you mean {twin!r}?)" if twin is not None else did_you_mean(name, unnamed)
+        if hint or shares:
+            raise ConfigError(f"{plan_label}: conditions names {name!r}, which {source} does not hold{hint}; "
+                              f"its conditions: {', '.join(present)}; list them in the plan as the data "
+                              "spells them")
 
 
 def plan_from_dict(data: dict[str, Any], source: str = "<plan>") -> AnalysisPlan:
