@@ -50,12 +50,31 @@ __all__ = [
 ]
 
 
+#: The fastest step rate a study may simulate, Hz (1 ms steps; the paper's is 10 Hz).
+MAX_RATE_HZ = 1000.0
+#: The longest trial time limit, s (an hour; the paper's is 120 s).
+MAX_TIME_LIMIT_S = 3600.0
+
+
 class ExperimentMeta(Section):
-    """``[experiment]``: name and description of the experiment, and its default seed."""
+    """``[experiment]``: name and description of the experiment, and its default seed.
+
+    ``name`` names the run folder (``results/<name>-<UTC time>``), so it must be a plain name:
+    no path separator, not ``.`` or ``..``, no NUL.
+    """
 
     name: str = "experiment"
     description: str = ""
     seed: int = Field(default=2022, ge=0)
+
+    @field_validator("name")
+    @classmethod
+    def _plain_name(cls, name: str) -> str:
+        # a name such as "../../x" would put the default run folder outside results/
+        if not name or name in (".", "..") or any(c in name for c in "/\\\0"):
+            raise ValueError("must be a plain name (no / or \\, not . or .., not empty): it names the run "
+                             "folder results/<name>-<time>; e.g. \"pilot-2\"")
+        return name
 
 
 #: The assistance policies a ``[study] conditions`` list may name (``nudgecli.sim.policies``).
@@ -90,8 +109,9 @@ class StudySection(Section):
     corners: tuple[Literal["tr", "tl", "bl", "br"], ...] = ("tr", "tl", "bl", "br")
     start_modes: tuple[Literal["x", "y", "theta"], ...] = ("x", "y", "theta")
     blocks_per_condition: int = Field(default=3, ge=1)
-    rate_hz: PositiveFloat = 10.0
-    time_limit_s: PositiveFloat = 120.0
+    # finite and bounded: inf made a step of 0 s, and 1e6 Hz filled memory a trial at a time
+    rate_hz: float = Field(default=10.0, ge=1.0, le=MAX_RATE_HZ, allow_inf_nan=False)
+    time_limit_s: float = Field(default=120.0, gt=0.0, le=MAX_TIME_LIMIT_S, allow_inf_nan=False)
     success_distance: PositiveFloat = 1.0
     success_angle: PositiveFloat = 0.2
 
@@ -119,6 +139,10 @@ class StudySection(Section):
                 raise ValueError(f"goal_counts: {g} goals do not fit the goal regions; use 2 to 8")
         if not self.goal_counts or not self.corners or not self.start_modes:
             raise ValueError("goal_counts, corners and start_modes must not be empty")
+        if round(self.time_limit_s * self.rate_hz) < 1:  # the protocol's count of a trial's steps
+            steps = self.time_limit_s * self.rate_hz
+            raise ValueError(f"study.time_limit_s * study.rate_hz = {steps:g} gives "
+                             "no step a trial; give a time limit of at least one step (1 / rate_hz s)")
         trials = self.trials_per_condition
         if trials % self.blocks_per_condition:
             raise ValueError(

@@ -3,6 +3,7 @@ the value types and the range check their validators share."""
 
 from __future__ import annotations
 
+import json
 from typing import Annotated, Any, Literal, get_args, get_origin
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
@@ -21,9 +22,10 @@ class Section(BaseModel):
 
     @model_validator(mode="before")
     @classmethod
-    def _no_booleans_for_numbers(cls, data: Any) -> Any:
-        # pydantic reads true as 1 and false as 0 for a number: `--set study.rate_hz=true` would
-        # silently simulate at 1 Hz
+    def _numbers_as_written(cls, data: Any) -> Any:
+        # pydantic's lax mode converts what a number field is given: true to 1 (`--set
+        # study.rate_hz=true` would simulate at 1 Hz), the text "10" to 10 and 2.0 to 2 for a whole
+        # number; a file or --set must say the number itself
         if not isinstance(data, dict):
             return data
         for name, value in data.items():
@@ -35,6 +37,13 @@ class Section(BaseModel):
             if any(isinstance(item, bool) for item in items):
                 shown = str(value).lower() if isinstance(value, bool) else "a list with true/false"
                 raise ValueError(f"{name} = {shown}: give a number, not true/false")
+            # a scalar given for a list is pydantic's to name ("should be a list")
+            numbers = () if items is not value and holds_sequence(field.annotation) else items
+            if not admits(field.annotation, str) and any(isinstance(item, str) for item in numbers):
+                shown = json.dumps(value, ensure_ascii=False)
+                raise ValueError(f"{name}: give a number, not text: no quotes (got {shown})")
+            if not admits(field.annotation, float) and any(isinstance(item, float) for item in numbers):
+                raise ValueError(f"{name}: give a whole number, no decimal point (got {json.dumps(value)})")
         return data
 
 
@@ -46,6 +55,13 @@ def admits(annotation: Any, kind: type) -> bool:
     if get_origin(annotation) is Literal:
         return any(type(arg) is kind for arg in get_args(annotation))
     return any(admits(arg, kind) for arg in get_args(annotation))
+
+
+def holds_sequence(annotation: Any) -> bool:
+    """Whether a field's type is (or its union holds) a tuple or list."""
+    if get_origin(annotation) in (tuple, list):
+        return True
+    return any(holds_sequence(arg) for arg in get_args(annotation))
 
 
 def plain(value: Any) -> Any:

@@ -86,9 +86,15 @@ def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) 
 def read_toml(path: Path) -> dict[str, Any]:
     """Parse a TOML file, turning syntax errors into a ``ConfigError`` naming the file."""
     try:
-        text = path.read_text(encoding="utf-8")
+        data = path.read_bytes()
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read ({exc.strerror})") from exc
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:  # TOML is UTF-8 (toml.io, "Spec"); say where the first bad byte is
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise ConfigError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} on line {line}); TOML files "
+                          "are UTF-8: save it as UTF-8 in your editor") from None
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -96,7 +102,15 @@ def read_toml(path: Path) -> dict[str, Any]:
 
 
 def parse_override(text: str) -> tuple[list[str], Any]:
-    """``section.key=value`` -> (path, value); the value is read as a TOML literal, else a string."""
+    """``section.key=value`` -> (path, value); the value is read as a TOML literal, else a string.
+
+    One assignment per ``--set``: a line break would let TOML read a second one (``2\\nb=3``), which
+    was silently dropped.
+    """
+    if any(c in text for c in "\n\r"):
+        first = text.splitlines()[0] if text.splitlines() else ""
+        raise ConfigError(f"--set {first!r}...: one assignment per --set, on one line; give each its own "
+                          "--set (e.g. --set study.participants=4 --set experiment.seed=3)")
     if "=" not in text:
         raise ConfigError(f"--set {text!r}: expected section.key=value, e.g. --set study.participants=4")
     key, raw = text.split("=", 1)

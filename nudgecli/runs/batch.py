@@ -76,7 +76,7 @@ from nudgecli.runs.batch_tasks import (
     run_participant_task,
 )
 from nudgecli.runs.executors import Executor, Job, ProcessExecutor, format_duration, make_executor
-from nudgecli.runs.size import check_size, trials_per_participant
+from nudgecli.runs.size import check_batch_size, trials_per_participant
 from nudgecli.runs.study import (
     connect_scheduler,
     contiguous_chunks,
@@ -354,8 +354,7 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     if workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {workers}")
     size = estimate_batch(batch, workers)  # before anything is built: constant memory
-    check_size(size.trials, confirm, details=size.describe(),
-               fix="fewer replications, participants or design points")
+    check_batch_size(batch, size, confirm)  # trials, then steps: before anything is built
     for point in batch.points:
         check_physiology_logs(point.config)
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists

@@ -4,7 +4,10 @@
 settings alone (constant memory: no task list, no graph) and refuse more than
 :data:`MAX_TRIALS_WITHOUT_YES` unless ``--yes`` is given, so a typo such as
 ``--participants 100000000`` or ``-R 1000000000000`` fails at once with one line instead of
-filling memory or running for years. ``plot-population`` counts its calibrations
+filling memory or running for years. They count steps too (:func:`check_study_size`): a trial
+runs up to ``round(time_limit_s * rate_hz)`` steps and a participant's are held in memory
+together (about 1 KB a step), so a high ``study.rate_hz`` or a long ``study.time_limit_s`` is
+refused by name before anything is cleared or written. ``plot-population`` counts its calibrations
 (:data:`MAX_CALIBRATIONS_WITHOUT_YES`) and ``validate`` its queries
 (:data:`MAX_QUERIES_WITHOUT_YES`) the same way; bootstrap resamples have a hard cap
 (:data:`nudgecli.report.plans.MAX_RESAMPLES`).
@@ -12,11 +15,23 @@ filling memory or running for years. ``plot-population`` counts its calibrations
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError
 
+if TYPE_CHECKING:
+    from nudgecli.runs.batch import Batch, SizeEstimate
+
 #: Simulated trials above which a command needs ``--yes`` (``confirm=True``).
 MAX_TRIALS_WITHOUT_YES = 200_000
+#: Steps one participant may run at most (every trial to its time limit) without ``--yes``: they
+#: are held in memory together, about 1 KB a step (``nudge simulate smoke --set
+#: study.rate_hz=2000``: 668,048 steps, 560 MB more than at 10 Hz).
+MAX_STEPS_PER_PARTICIPANT_WITHOUT_YES = 1_000_000
+#: Steps a command may run at most without ``--yes``: the trial limit at the paper's 1,200 steps a
+#: trial (120 s at 10 Hz).
+MAX_STEPS_WITHOUT_YES = MAX_TRIALS_WITHOUT_YES * 1_200
 #: Simulated participants ``plot-population`` calibrates without ``--yes`` (about 0.15 s each).
 MAX_CALIBRATIONS_WITHOUT_YES = 10_000
 #: Queries (worlds x states x readings) ``validate`` runs without ``--yes`` (about 50 us each).
@@ -26,6 +41,78 @@ MAX_QUERIES_WITHOUT_YES = 10_000_000
 def trials_per_participant(config: ExperimentConfig) -> int:
     """Trials each participant does (every layout of every condition once)."""
     return len(config.study.conditions) * config.study.trials_per_condition
+
+
+def steps_per_trial(config: ExperimentConfig) -> int:
+    """The most steps a trial runs: its time limit in steps, as the protocol counts them
+    (``nudgecli.sim.protocol.ProtocolSettings.time_limit_steps``)."""
+    return round(config.study.time_limit_s / config.study.dt)
+
+
+def check_study_size(config: ExperimentConfig, participants: int, confirm: bool, *,
+                     fix: str = "fewer participants") -> None:
+    """Refuse a study too large without ``confirm``: its trials, then its steps (trials run to
+    their time limit), for one participant (memory) and for all of them (time and disk).
+
+    Parameters
+    ----------
+    config
+        The experiment (its design, ``study.rate_hz`` and ``study.time_limit_s``).
+    participants
+        Participants of one study.
+    confirm
+        ``--yes`` was given.
+    fix
+        What to reduce instead of the participants or trials.
+
+    Raises
+    ------
+    ConfigError
+        Above :data:`MAX_TRIALS_WITHOUT_YES` trials, :data:`MAX_STEPS_PER_PARTICIPANT_WITHOUT_YES`
+        steps of one participant or :data:`MAX_STEPS_WITHOUT_YES` steps in all, without ``confirm``.
+    """
+    trials = trials_per_participant(config)
+    check_size(participants * trials, confirm, fix=fix)
+    check_steps(config, participants * trials * steps_per_trial(config), confirm, fix=fix)
+
+
+def check_batch_size(batch: Batch, estimate: SizeEstimate, confirm: bool) -> None:
+    """:func:`check_study_size` of a batch: its trials (``estimate``), then the steps of its
+    studies, one per distinct experiment and replication (as :func:`nudgecli.runs.batch.build_graph`
+    shares them), named by the experiment whose participants run the most."""
+    from nudgecli.runs.batch import study_key  # batch imports this module
+
+    fix = "fewer replications, participants or design points"
+    check_size(estimate.trials, confirm, details=estimate.describe(), fix=fix)
+    studies: dict[str, tuple[ExperimentConfig, int]] = {}  # one replication's: key -> (experiment, people)
+    for point in batch.points:
+        key = study_key(point.config, 0)
+        known = studies.get(key, (point.config, 0))
+        studies[key] = (known[0], max(known[1], max(point.participants)))
+    steps = batch.replications * sum(n * trials_per_participant(c) * steps_per_trial(c)
+                                     for c, n in studies.values())
+    longest = max((config for config, _ in studies.values()),
+                  key=lambda c: trials_per_participant(c) * steps_per_trial(c))
+    check_steps(longest, steps, confirm, fix=fix)
+
+
+def check_steps(config: ExperimentConfig, total_steps: int, confirm: bool, *,
+                fix: str = "fewer participants") -> None:
+    """Refuse, without ``confirm``, more steps for one participant of ``config`` than
+    :data:`MAX_STEPS_PER_PARTICIPANT_WITHOUT_YES` (held in memory together), then more than
+    :data:`MAX_STEPS_WITHOUT_YES` in all (``total_steps``: every trial of the command to its time
+    limit); the message names ``config``'s rate and time limit."""
+    trials = trials_per_participant(config)
+    steps = trials * steps_per_trial(config)
+    study = config.study
+    why = (f"{trials} trials of up to {steps_per_trial(config):,} steps: study.time_limit_s = "
+           f"{study.time_limit_s:g} s at study.rate_hz = {study.rate_hz:g}")
+    slower = "a lower study.rate_hz or a shorter study.time_limit_s"
+    check_size(steps, confirm, limit=MAX_STEPS_PER_PARTICIPANT_WITHOUT_YES,
+               work="simulate up to {} steps for one participant",
+               details=f"{why}; about 1 KB each in memory", fix=slower)
+    check_size(total_steps, confirm, limit=MAX_STEPS_WITHOUT_YES,
+               work="simulate up to {} steps", details=why, fix=f"{slower}, or {fix}")
 
 
 def check_size(count: int, confirm: bool, *, limit: int | None = None, work: str = "simulate {} trials",

@@ -32,7 +32,7 @@ from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.run_folder_names import LAYOUTS, PARTICIPANTS
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, FILE_CHECKSUMS
-from nudgecli.runs.size import check_size, trials_per_participant
+from nudgecli.runs.size import check_study_size
 from nudgecli.runs.study_tasks import (
     _init_worker,
     _run_in_worker,
@@ -279,7 +279,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     n = config.study.participants if participants is None else participants
     if n < 1:
         raise ConfigError(f"--participants must be at least 1, got {n}")
-    check_size(n * trials_per_participant(config), confirm, fix="fewer participants")
+    check_study_size(config, n, confirm)  # trials and steps, before the folder is touched
     if participants is not None:
         config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
     check_physiology_logs(config)
