@@ -7,7 +7,8 @@ with status 1; anything else is a bug and shows a traceback.
 from __future__ import annotations
 
 import difflib
-from collections.abc import Iterable
+import shlex
+from collections.abc import Iterable, Sequence
 
 
 class NudgeError(Exception):
@@ -58,3 +59,9 @@ def did_you_mean(name: str, candidates: Iterable[object]) -> str:
     """``" (did you mean 'x'?)"`` for the closest candidate, or ``""`` when none is close."""
     matches = difflib.get_close_matches(str(name), [str(c) for c in candidates], n=1, cutoff=0.6)
     return f" (did you mean {matches[0]!r}?)" if matches else ""
+
+
+def shell_words(words: Sequence[str]) -> str:
+    """``words`` as one command line a user can paste, each quoted for the shell where needed
+    (the one quoting of every command or option a message suggests)."""
+    return shlex.join(words)

@@ -35,7 +35,6 @@ import io
 import json
 import os
 import platform
-import shlex
 import sys
 import tempfile
 from collections.abc import Callable, Iterator, Sequence
@@ -49,7 +48,7 @@ import pyarrow.parquet as pq
 
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig
-from nudgecli.errors import DataError, RunFolderError, WriteError
+from nudgecli.errors import DataError, RunFolderError, WriteError, shell_words
 from nudgecli.outputs import check_not_an_input
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import (
@@ -268,7 +267,7 @@ def default_run_dir(experiment: str, root: Path | None = None) -> Path:
 def resume_command(words: Sequence[str], target: str | Path, options: Sequence[str] = ()) -> str:
     """The command line suggested to finish interrupted work: ``nudge WORDS --out TARGET OPTIONS
     --resume``, each word quoted for the shell (every resume command the toolkit prints is built here)."""
-    return shlex.join(["nudge", *words, "--out", str(target), *options, "--resume"])
+    return shell_words(["nudge", *words, "--out", str(target), *options, "--resume"])
 
 
 def simulate_resume_command(experiment: str, target: str | Path, seed: int | None = None,

@@ -30,7 +30,6 @@ so a run folder's metrics are the analysis plan's) and :func:`write_comparison` 
 from __future__ import annotations
 
 import math
-import shlex
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -40,7 +39,7 @@ import pandas as pd
 import scipy.stats
 
 from nudgecli import command_defaults as defaults
-from nudgecli.errors import DataError, did_you_mean
+from nudgecli.errors import DataError, did_you_mean, shell_words
 from nudgecli.report.analysis import load_source
 from nudgecli.report.plans import AnalysisPlan, load_plan
 from nudgecli.report.stats import order_conditions
@@ -172,7 +171,7 @@ def _refuse_near_identical(sim_only: Sequence[str], real_only: Sequence[str], re
             given = renamed[twin]
             raise DataError(f"{names[1]}: condition {label!r} differs from the condition {given!r} of "
                             f"{names[0]} in case or spaces only (did you mean {given!r}?); name them "
-                            f"alike, or pair them with --match {shlex.quote(f'{given}={label}')}")
+                            f"alike, or pair them with {shell_words(['--match', f'{given}={label}'])}")
 
 
 def shared_metrics(simulated_metrics: Sequence[str], real_metrics: Sequence[str],
