@@ -157,6 +157,10 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
         return f"{source}: unknown key {where!r}{hint or '; known keys: ' + ', '.join(names)}"
     message = first["msg"].removeprefix("Value error, ")
     value = first.get("input")
+    # a section's own check names its field first ("participants: ..."): that is the field's place
+    head, sep, rest = message.partition(": ")
+    if first["type"] == "value_error" and sep and head in _field_names(model, loc) and head not in loc:
+        where, message = f"{where}.{head}" if where else head, rest
     if first["type"] in ("tuple_type", "list_type"):  # TOML has lists; "tuple" is pydantic's word
         message = "should be a list, e.g. [0.5, 1.0]"
     elif first["type"] == "missing" and loc and isinstance(loc[-1], int):

@@ -179,7 +179,7 @@ def test_a_set_value_is_taken_as_written_or_refused(tmp_path, value, words):
 def test_a_file_holding_a_float_for_a_whole_number_is_refused(tmp_path):
     path = tmp_path / "e.toml"
     path.write_text("[study]\nparticipants = 4.0\n")
-    with pytest.raises(ConfigError, match=r"e.toml: study: participants: give a whole number.*\(got 4.0\)"):
+    with pytest.raises(ConfigError, match=r"e.toml: study.participants: give a whole number.*\(got 4.0\)"):
         load_experiment(str(path))
 
 
