@@ -55,6 +55,25 @@ def test_sigterm_marks_the_run_interrupted_releases_the_lock_and_exits_143(tmp_p
     assert shlex.split(command)[4] == str(out)
 
 
+@pytest.mark.parametrize("workers", [1, 2])
+def test_an_interrupt_before_the_first_participant_marks_the_run_interrupted(tmp_path, workers):
+    """The signal in the test above can land in the instant after the manifest reads "running" and
+    before the first participant (here: in the progress bar's first call); CI once saw that
+    leave the manifest "running"."""
+    from nudgecli.config import load_experiment
+    from nudgecli.runs.study import run_study
+
+    def interrupted_progress(done: int, total: int) -> None:
+        raise KeyboardInterrupt
+
+    out = tmp_path / "run"
+    with pytest.raises(KeyboardInterrupt):
+        run_study(load_experiment("smoke"), out, participants=3, workers=workers,
+                  progress=interrupted_progress)
+    assert json.loads((out / "manifest.json").read_text())["status"] == "interrupted"
+    assert not (out / ".nudge.lock").exists()
+
+
 # --- a lost dask worker --------------------------------------------------------------------------
 
 

@@ -328,18 +328,20 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     if plan_name is not None or "plan" not in manifest:
         manifest["plan"] = resolve_plan(plan_name, experiment=config.experiment.name)
     manifest[FILE_CHECKSUMS] = {LAYOUTS: folder.write_layouts(plan.layouts_frame())}  # read back by plot
-    folder.write_manifest(manifest)
     todo = [i for i in range(n) if i not in done]
     started = time.perf_counter()
-    if progress:
-        progress(len(done) * trials_per, n * trials_per)
-    if client is not None:
-        results = _dask(plan, todo, client)
-    elif workers > 1 and len(todo) > 1:
-        results = _processes(plan, todo, min(workers, len(todo)))
-    else:
-        results = _serial(plan, todo)
+    # from the manifest's "running" on, any exit marks it: a signal can land before the first
+    # participant as well (in the manifest's own write, the progress bar's start, the pool's)
     try:
+        folder.write_manifest(manifest)
+        if progress:
+            progress(len(done) * trials_per, n * trials_per)
+        if client is not None:
+            results = _dask(plan, todo, client)
+        elif workers > 1 and len(todo) > 1:
+            results = _processes(plan, todo, min(workers, len(todo)))
+        else:
+            results = _serial(plan, todo)
         for columns in results:
             # the workers send columns; the tables are made here, in the process that writes them
             result = ParticipantResult.from_columns(columns)
