@@ -178,6 +178,17 @@ class PopulationSection(Section):
         "median "
         "1 (andrewtest) and 0 (deepaktest) samples; the upper end extended to 2 so a pulse (onset 1-3 + peak "
         "+ offset) reaches the real people's longest hard blows (HABITS.md: 0.30-0.80 s whole).")
+    deadband_share: tuple[float, float] = Field(
+        default=(0.045, 0.21),
+        description="Share of a soft blow's time the pressure strays into the Soft-Hard deadband "
+        "(behaviour.deadband_strays). The pilots' prompts had no robot to stop, so nothing there: the "
+        "real people's share (HABITS.md, inside a soft blow: 0.045-0.21), the habit it produces one for "
+        "one (nudgecli.sim.habit_ranges).")
+    deadband_stray_s: tuple[float, float] = Field(
+        default=(0.10, 0.30),
+        description="Median time a stray stays in the deadband before the pressure is back in the soft "
+        "band, s (behaviour.deadband_strays): the real people's deadband runs inside a soft blow "
+        "(HABITS.md: medians 0.10-0.30 s), a stray of n samples being a run of n cells.")
     physiology_logs: tuple[str, ...] = Field(
         default=(),
         description="Calibration folders with a p(phi_m | phi_i) session (study export or tidy format): "
@@ -194,7 +205,7 @@ class PopulationSection(Section):
             "hard_blow_s": (0.1, 5.0), "reaction_s": (0.0, 10.0), "handover_idle_s": (0.1, 30.0),
             "drift_correlation": (0.0, 0.99), "planning_s": (0.0, 60.0), "event_reaction_s": (0.0, 10.0),
             "event_reaction_log_sd": (0.0, 2.0), "hold_on_s": (0.0, 5.0), "hard_peak_s": (0.0, 5.0),
-            "offset_ramp_samples": (0, 20),
+            "offset_ramp_samples": (0, 20), "deadband_share": (0.0, 0.9), "deadband_stray_s": (0.0, 5.0),
         }.items():
             check_range(name, getattr(self, name), lo, hi)
         return self

@@ -323,28 +323,52 @@ def test_its_own_json_is_a_reference(ciaa_run: Path, tmp_path: Path) -> None:
 # --- the packaged reference -----------------------------------------------------------------------
 
 
+def markdown_tables(text: str) -> list[list[list[str]]]:
+    """Each ``|``-table of a markdown text: its rows (header first, the ``---`` row dropped) as cells."""
+    tables: list[list[list[str]]] = []
+    inside = False
+    for line in text.splitlines():
+        if not line.startswith("|"):
+            inside = False
+            continue
+        if not inside:
+            tables.append([])
+            inside = True
+        if "---" not in line:
+            tables[-1].append([c.strip() for c in line.strip().strip("|").split("|")])
+    return tables
+
+
 @pytest.mark.skipif(not HABITS_MD.is_file(), reason="HABITS.md (../shared/data/ciaa-task) is absent")
-def test_the_packaged_reference_is_habits_md_table() -> None:
-    lines = HABITS_MD.read_text().splitlines()
-    # the first table: the operating habits the packaged reference holds (a later section of
-    # HABITS.md, inside a soft blow, has a table of its own that the reference does not hold yet)
-    start = next(i for i, line in enumerate(lines) if line.startswith("| "))
-    end = next((i for i in range(start, len(lines)) if not lines[i].startswith("|")), len(lines))
-    rows = [line for line in lines[start:end] if "---" not in line]
+def test_the_packaged_reference_is_habits_md_tables() -> None:
+    tables = markdown_tables(HABITS_MD.read_text())
+    assert len(tables) == 2  # the operating habits, then inside a soft blow
     numbers = re.compile(r"-?\d+\.\d+")
     table = {}
-    for line in rows[1:]:  # the header first
-        cells = [c.strip() for c in line.strip("|").split("|")]
+    for cells in tables[0][1:] + tables[1][1:]:  # each table's header first
         table[cells[0]] = ([float(v) for v in numbers.findall(cells[2])],
                            [float(v) for v in numbers.findall(cells[3])])
     reference = packaged_reference("ciaa-people")["habits"]
-    assert len(reference) == len(table) == 12
+    assert len(reference) == 12 + 5 and len(table) == 12 + 3
+    checked = 0
     for entry in reference.values():
-        label = entry["label"]
-        pooled, people = table[label]
+        if "row" in entry:  # one outcome of "what follows a deadband run": "<outcome>: 80 %"
+            pooled_text = next(c[2] for c in tables[1] if c[0] == entry["row"])
+            shares = {k.strip(): v for k, v in re.findall(r"([^:;]+): (\d+) %", pooled_text)}
+            assert entry["pooled"] == {"median": int(shares[entry["outcome"]]) / 100}, entry["label"]
+            assert entry["people"] is None
+            checked += 1
+            continue
+        pooled, people = table[entry["label"]]
         expected = [entry["pooled"][k] for k in ("median", "q25", "q75") if k in entry["pooled"]]
-        assert pooled == expected, label
-        assert people == entry["people"], label
+        assert pooled == expected, entry["label"]
+        # the deadband share's people cell also gives their median: "0.045 - 0.21 (median 0.073)"
+        assert people == entry["people"] + ([entry["people_median"]] if "people_median" in entry else []), \
+            entry["label"]
+        checked += 1
+    assert checked == 17
+    follows = next(c[2] for c in tables[1] if c[0].startswith("what follows"))
+    assert sum(int(v) for v in re.findall(r"(\d+) %", follows)) == 100
     stated = packaged_reference("ciaa-people")["stated"]["hold_on_per_stop"]
     assert stated["text"] in HABITS_MD.read_text().replace("\n  ", " ")
 

@@ -126,3 +126,28 @@ def test_a_hard_blow_held_past_the_clear_is_measured_to_its_end() -> None:
     # plateau 2.0-3.5 s through the clear at 3.0 s, then 0.5 and 0.2: two samples after the plateau
     blow = {round(2.0 + 0.1 * k, 1): 1.0 for k in range(16)} | {3.6: 0.5, 3.7: 0.2}
     np.testing.assert_array_equal(hard_offset_samples(one_prompt_session("Hard Puff", 1.0, 3.0, blow)), [2])
+
+
+def test_the_shipped_pressure_control_ranges_are_the_derivation() -> None:
+    from nudgecli.sim.habit_ranges import derived_pressure_control_ranges
+
+    derived = derived_pressure_control_ranges()
+    population = PopulationSection()
+    assert set(derived) == {"deadband_share", "deadband_stray_s"}
+    for name, bounds in derived.items():
+        assert tuple(getattr(population, name)) == pytest.approx(bounds, abs=1e-12), name
+    # HABITS.md's inside-a-soft-blow table: shares 0.045-0.21, runs 0.10-0.30 s (people's medians)
+    assert derived == {"deadband_share": (0.045, 0.21), "deadband_stray_s": (0.1, 0.3)}
+
+
+def test_pressure_control_ranges_solved_by_hand(monkeypatch: pytest.MonkeyPatch) -> None:
+    import nudgecli.sim.habit_ranges as habit_ranges
+
+    monkeypatch.setattr(habit_ranges, "REAL_HABIT_RANGES", {"deadband_share_soft_blows": (0.0123, 0.5),
+                                                            "deadband_run_in_soft_blow": (0.2, 0.7)})
+    monkeypatch.setattr(habit_ranges, "HABIT_OFFSETS_S", {"deadband_share_soft_blows": 0.0,
+                                                          "deadband_run_in_soft_blow": 0.1})
+    derived = habit_ranges.derived_pressure_control_ranges()
+    # a share to three decimals; a run measured 0.1 s after its parameter starts 0.1 s earlier
+    assert derived["deadband_share"] == (0.012, 0.5)
+    assert derived["deadband_stray_s"] == pytest.approx((0.1, 0.6))

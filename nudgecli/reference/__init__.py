@@ -2,10 +2,10 @@
 
 ``ciaa_people.json`` is the table of ``shared/data/ciaa-task/HABITS.md``: the operating habits of
 the sibling CIAA study's ten sip-and-puff users, per habit the pooled median and quartiles and the
-range of the ten people's own medians (``people``), plus the ranges HABITS.md states only in words
-(``stated``). It is the one owner of those numbers: the population's timing ranges
-(:mod:`nudgecli.sim.habit_ranges`) and ``nudge habits --compare ciaa-people`` both read it, and a
-test checks it against HABITS.md.
+range of the ten people's own medians (``people``, null where HABITS.md gives a pooled share only),
+plus the ranges HABITS.md states only in words (``stated``). It is the one owner of those numbers:
+the population's timing ranges (:mod:`nudgecli.sim.habit_ranges`) and ``nudge habits --compare
+ciaa-people`` both read it, and a test checks it against HABITS.md.
 """
 
 from __future__ import annotations
@@ -36,7 +36,9 @@ def packaged_reference(name: str) -> dict[str, Any]:
 
 
 def people_ranges(name: str = "ciaa-people") -> dict[str, tuple[float, float]]:
-    """Habit -> the range of the real people's own medians, from the table and the stated words."""
+    """Habit -> the range of the real people's own medians, from the table and the stated words
+    (a habit given pooled only, ``people`` null, has none)."""
     data = packaged_reference(name)
     entries = {**data["habits"], **data.get("stated", {})}
-    return {habit: (float(entry["people"][0]), float(entry["people"][1])) for habit, entry in entries.items()}
+    return {habit: (float(entry["people"][0]), float(entry["people"][1])) for habit, entry in entries.items()
+            if entry.get("people") is not None}

@@ -17,10 +17,18 @@ What the pilots' logs say (their ``p(phi_m | phi_i)`` sessions, prompts of 6 s):
   letting go once what they watched has changed (blowing on after the robot stops);
 - :func:`hard_offset_samples`: samples from a hard blow's last plateau sample to its end (its
   offset ramp).
+
+Pressure control within a soft blow (issue 37: ``deadband_share``, ``deadband_stray_s``,
+:func:`derived_pressure_control_ranges`): the pilots' prompts showed a label and no robot, so
+nothing in them stops when the pressure strays into the deadband and nothing shows a correction:
+like ``hard_peak_s``, these ranges are the real people's, moved by the offset between parameter
+and habit (0 for both: a stray of n samples is a deadband run of n cells, and the stray share is
+the deadband share of the soft blows' cells).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -37,7 +45,8 @@ from nudgecli.sim.participants import Participant
 REAL_HABIT_RANGES: dict[str, tuple[float, float]] = {
     name: bounds for name, bounds in people_ranges("ciaa-people").items()
     if name in ("first_command_latency", "reaction_stop_to_switch", "reaction_switch_to_motion",
-                "hard_band_per_excursion", "hard_blow_whole", "hold_on_per_stop")
+                "hard_band_per_excursion", "hard_blow_whole", "hold_on_per_stop",
+                "deadband_share_soft_blows", "deadband_run_in_soft_blow")
 }
 #: How long after its parameter each habit is measured (the model's mechanics, at 10 Hz): the
 #: first command cell is the blow's first sample (0); a switch is seen the step after it and the
@@ -47,14 +56,19 @@ HABIT_OFFSETS_S: dict[str, float] = {
     "first_command_latency": 0.0,
     "reaction_stop_to_switch": 0.1,
     "reaction_switch_to_motion": 0.1,
+    # a share, not seconds: the stray share is the deadband share of soft blows' cells
+    "deadband_share_soft_blows": 0.0,
+    # a stray of n samples is a run of n deadband cells
+    "deadband_run_in_soft_blow": 0.0,
 }
 #: A plateau sample of a hard blow: at least this fraction of the blow's median magnitude.
 PLATEAU_FRACTION = 0.8
 
 
 def covering_range(start: tuple[float, float], real: tuple[float, float],
-                   offset: float = 0.0) -> tuple[float, float]:
-    """The least extension of ``start`` whose image ``[lo + offset, hi + offset]`` covers ``real``.
+                   offset: float = 0.0, digits: int = 2) -> tuple[float, float]:
+    """The least extension of ``start`` whose image ``[lo + offset, hi + offset]`` covers ``real``,
+    rounded to ``digits`` decimals.
 
     >>> covering_range((1.32, 1.45), (1.80, 2.75))
     (1.32, 2.75)
@@ -63,7 +77,7 @@ def covering_range(start: tuple[float, float], real: tuple[float, float],
     """
     lo = min(start[0], real[0] - offset)
     hi = max(start[1], real[1] - offset)
-    return round(lo, 2), round(hi, 2)
+    return round(lo, digits), round(hi, digits)
 
 
 def _windows(session: DistortionSession) -> list[tuple[float, float, str]]:
@@ -149,6 +163,35 @@ def derived_timing_ranges(pilots: list[DistortionSession]) -> dict[str, tuple[fl
     offset = (min(offsets), max(max(offsets), needed))
     return {"planning_s": planning, "event_reaction_s": reaction, "hold_on_s": hold_on, "hard_peak_s": peak,
             "offset_ramp_samples": offset}
+
+
+def derived_pressure_control_ranges() -> dict[str, tuple[float, float]]:
+    """The population's ranges of pressure control within a soft blow, from :data:`REAL_HABIT_RANGES`.
+
+    Nothing in the pilots' prompts starts them (no robot stopped, nothing was corrected), so each is
+    the real people's range moved by its offset (:data:`HABIT_OFFSETS_S`, 0), the share to three
+    decimals (HABITS.md gives 0.045).
+
+    Returns
+    -------
+    dict
+        ``deadband_share`` and ``deadband_stray_s``, as :class:`~nudgecli.config.PopulationSection`
+        holds them.
+    """
+    ranges = {}
+    for parameter, habit in DEADBAND_PARAMETERS.items():
+        real = REAL_HABIT_RANGES[habit]
+        # no pilots' start: the least range is the real one moved by the offset
+        ranges[parameter] = covering_range((math.inf, -math.inf), real, HABIT_OFFSETS_S[habit], digits=3)
+    return ranges
+
+
+#: The drawn parameter of pressure control within a soft blow -> the habit it produces (issue 37),
+#: measured the parameter plus :data:`HABIT_OFFSETS_S` (0).
+DEADBAND_PARAMETERS: dict[str, str] = {
+    "deadband_share": "deadband_share_soft_blows",
+    "deadband_stray_s": "deadband_run_in_soft_blow",
+}
 
 
 #: The drawn parameter behind each real habit (``nudge plot-population``'s habits panel): the

@@ -131,6 +131,16 @@ class Participant:
         How long a mode-switch pulse stays at its peak, between its onset and offset ramps, seconds.
     offset_ramp_samples
         Samples a hard pulse takes to fall from its peak (see :func:`pulse_fractions`).
+    deadband_share
+        The share of their soft blows' time their pressure strays into the Soft-Hard deadband
+        (``behaviour.deadband_strays``, :mod:`nudgecli.sim.behaviour_strays`). Produces HABITS.md's
+        "share of soft-blow time in the deadband" one for one (offset 0): a stray's samples are
+        the blow's deadband cells; the blows a stray ends are shorter by their unused rest, which
+        raises the measured share a little.
+    deadband_stray_s
+        The median time a stray stays in the deadband before the pressure is back in the soft band,
+        seconds (each stray's length log-normal around it, rounded to whole samples). Produces
+        HABITS.md's "a deadband run inside a soft blow" (the person's median) one for one (offset 0).
     """
 
     index: int
@@ -155,6 +165,8 @@ class Participant:
     hold_on_s: float = 0.2
     hard_peak_s: float = 0.2
     offset_ramp_samples: int = 1
+    deadband_share: float = 0.07
+    deadband_stray_s: float = 0.2
     # the mapping's cumulative rows as plain floats, (M, A, F): a label is drawn at every decision
     _mapping_cdf: tuple[tuple[tuple[float, ...], ...], ...] = field(init=False, repr=False, compare=False)
     # Plain floats of one sample's pressure model (sample_pressure, drift_step), read every step:
@@ -184,6 +196,9 @@ class Participant:
         if not 0.0 <= self.drift_correlation <= MAX_DRIFT_CORRELATION:
             raise ValueError(f"drift_correlation must lie in [0, {MAX_DRIFT_CORRELATION}], "
                              f"got {self.drift_correlation}")
+        if not 0.0 <= self.deadband_share < 1.0 or self.deadband_stray_s < 0.0:
+            raise ValueError(f"deadband_share must lie in [0, 1) and deadband_stray_s be at least 0, got "
+                             f"{self.deadband_share} and {self.deadband_stray_s}")
         rho = float(self.drift_correlation)
         object.__setattr__(self, "_levels", tuple(abs(v) for v in level.tolist()))
         object.__setattr__(self, "_spreads", tuple(spread.tolist()))
@@ -483,6 +498,9 @@ def draw_participant(population: PopulationSection, index: int, rng: np.random.G
         hard_peak_s=_uniform(rng, population.hard_peak_s),
         offset_ramp_samples=int(rng.integers(population.offset_ramp_samples[0],
                                              population.offset_ramp_samples[1] + 1)),
+        # pressure control within a soft blow (issue 37), last: every draw above keeps its value
+        deadband_share=_uniform(rng, population.deadband_share),
+        deadband_stray_s=_uniform(rng, population.deadband_stray_s),
     )
 
 
