@@ -44,6 +44,7 @@ from nudgecli.report.habit_cells import (
     cell_runs,
     run_folder_cells,
 )
+from nudgecli.report.habit_deadband import deadband_events
 from nudgecli.report.habit_logs import read_log_cells
 
 #: Blows are merged across neutral gaps of at most this long (HABITS.md).
@@ -73,6 +74,12 @@ HABITS = (
     Habit("hold_on_per_trial", "holding on after the robot stopped (s per trial)", "hold_on"),
     Habit("soft_blow_never_moving", "a soft blow that never moves the robot (s)", "soft_still"),
     Habit("undone_switch", "an undone switch: switch -> the switch back (s)", "undone"),
+    # inside a soft blow (HABITS.md's second table, :mod:`nudgecli.report.habit_deadband`)
+    Habit("deadband_share_soft_blows", "share of soft-blow time in the deadband", "db_share", share=True),
+    Habit("deadband_run_in_soft_blow", "a deadband run inside a soft blow (s)", "db_run"),
+    Habit("deadband_then_soft", "deadband run -> soft again", "db>soft", share=True),
+    Habit("deadband_then_blow_ends", "deadband run -> the blow ends", "db>end", share=True),
+    Habit("deadband_then_gap_soft", "deadband run -> neutral gap, soft again", "db>gap", share=True),
 )
 HABIT_KEYS = tuple(h.key for h in HABITS)
 _BY_KEY = {h.key: h for h in HABITS}
@@ -213,7 +220,7 @@ def _blow_events(c: _CellArrays, gap_cells: int) -> _Events:
                    per_trial.to_numpy()))
     still = ~hard_blow & ~moved
     events.append(("soft_blow_never_moving", starts[still], duration[still]))
-    return events
+    return events + deadband_events(kind, c.new_trial, starts[~hard_blow], ends[~hard_blow], dt)
 
 
 def _reaction_events(c: _CellArrays) -> _Events:
@@ -363,16 +370,18 @@ class HabitsResult:
             measured = self.pooled[self.pooled["habit"] == habit.key]
             if entry is None or measured.empty:
                 continue
-            lo, hi = (float(v) for v in entry["people"])
             median = float(measured["median"].iloc[0])
             own = self.people.loc[self.people["habit"] == habit.key, "median"].to_numpy(dtype=float)
-            rows.append({"habit": habit.key, "median": median,
-                         "people_min": float(measured["people_min"].iloc[0]),
-                         "people_max": float(measured["people_max"].iloc[0]),
-                         "reference_median": float(entry["pooled"]["median"]), "reference_min": lo,
-                         "reference_max": hi, "inside": bool(lo - TIME_SLACK <= median <= hi + TIME_SLACK),
-                         "people_inside": float(np.mean((own >= lo - TIME_SLACK)
-                                                        & (own <= hi + TIME_SLACK)))})
+            row = {"habit": habit.key, "median": median, "people_min": float(measured["people_min"].iloc[0]),
+                   "people_max": float(measured["people_max"].iloc[0]),
+                   "reference_median": float(entry["pooled"]["median"]), "reference_min": math.nan,
+                   "reference_max": math.nan, "inside": None, "people_inside": math.nan}
+            if entry.get("people") is not None:  # HABITS.md gives some shares pooled only
+                lo, hi = (float(v) for v in entry["people"])
+                row.update(reference_min=lo, reference_max=hi,
+                           inside=bool(lo - TIME_SLACK <= median <= hi + TIME_SLACK),
+                           people_inside=float(np.mean((own >= lo - TIME_SLACK) & (own <= hi + TIME_SLACK))))
+            rows.append(row)
         # its columns even with no habit in common (one the source has no event of)
         return pd.DataFrame(rows, columns=list(COMPARISON_COLUMNS))
 
@@ -434,12 +443,13 @@ def load_reference(name_or_path: str) -> dict[str, Any]:
     for key, entry in habits.items():
         try:
             float(entry["pooled"]["median"])
-            [float(v) for v in entry["people"][:2]]
-            if len(entry["people"]) != 2:
-                raise ValueError
+            if entry["people"] is not None:  # null: a habit given pooled only
+                [float(v) for v in entry["people"][:2]]
+                if len(entry["people"]) != 2:
+                    raise ValueError
         except (KeyError, TypeError, ValueError):
-            raise DataError(f"{path}: habit {key!r} needs pooled.median and people [min, max] as "
-                            "numbers") from None
+            raise DataError(f"{path}: habit {key!r} needs pooled.median and people [min, max] (or null) "
+                            "as numbers") from None
     return {"name": str(data.get("name", path.name)), **data}
 
 
@@ -512,15 +522,18 @@ def format_habits(result: HabitsResult) -> str:
                 f"{_fmt(row.people_min) + '-' + _fmt(row.people_max):>12}")
         if comparison is not None and habit.key in comparison.index:
             ref = comparison.loc[habit.key]
-            line += (f"   {_fmt(ref['reference_median']):>22} "
-                     f"{_fmt(ref['reference_min']) + '-' + _fmt(ref['reference_max']):>12} "
-                     f"{'yes' if ref['inside'] else 'no':>6} {ref['people_inside']:>8.0%}")
+            inside = "-" if ref["inside"] is None else "yes" if ref["inside"] else "no"
+            people_in = "-" if math.isnan(ref["people_inside"]) else f"{ref['people_inside']:.0%}"
+            people_range = ("-" if math.isnan(ref["reference_min"])
+                            else _fmt(ref["reference_min"]) + "-" + _fmt(ref["reference_max"]))
+            line += f"   {_fmt(ref['reference_median']):>22} {people_range:>12} {inside:>6} {people_in:>8}"
         lines.append(line)
     keys = ["participant"] if result.by == "participant" else ["participant", "trial"]
     wide = result.units.pivot_table(index=keys, columns="habit", values="median", sort=False)
     wide = wide[[h.key for h in HABITS if h.key in wide.columns]]
     wide.columns = [_BY_KEY[c].short for c in wide.columns]
-    lines += ["", f"Medians per {result.by} (shares for pause>1s, pause>2s):",
+    shares = ", ".join(h.short for h in HABITS if h.share)
+    lines += ["", f"Medians per {result.by} (shares for {shares}):",
               wide.to_string(float_format=lambda v: f"{v:.2f}", na_rep="-")]
     return "\n".join(lines)
 
