@@ -7,7 +7,9 @@ Tidy tables in, tidy tables or plain dicts out (the style of pingouin). For each
 - descriptives per condition: ``n``, ``mean``, ``median``, ``q1``, ``q3`` (linear quantiles);
 - Kruskal-Wallis over trials (``scipy.stats.kruskal``, tie-corrected H), as the paper;
 - Conover's pairwise post-hoc test (``scikit_posthocs.posthoc_conover``) with adjusted
-  (Holm by default) and unadjusted p;
+  (Holm by default) and unadjusted p; both evaluated on arrays with the libraries' numbers bit
+  for bit (:mod:`nudgecli.report.rank_tests`), the libraries themselves (imported only then)
+  where that cannot be guaranteed;
 - stars ``*``, ``**``, ``***`` from the adjusted post-hoc p, only when Kruskal-Wallis is
   significant; the comparison (``<`` as the paper, ``<=`` as the study software) is a setting;
 - because trials are nested in participants, a participant-level test on per-participant
@@ -40,10 +42,9 @@ from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
-import scikit_posthocs
-import scipy.stats
 
 from nudgecli.model.conditions import PAPER_CONDITIONS
+from nudgecli.report.rank_tests import conover_exact, kruskal_exact
 
 #: Adjustments that leave a single p-value unchanged (``multipletests`` with one test).
 _IDENTITY_ON_ONE_TEST = frozenset({"bonferroni", "sidak", "holm-sidak", "holm", "simes-hochberg", "hommel",
@@ -183,6 +184,11 @@ def kruskal_wallis(data: pd.DataFrame, metric: str, conditions: Sequence[str], *
     groups = [g for g in groups if g.size]
     if len(groups) < 2 or np.unique(np.concatenate(groups)).size < 2:
         return {"statistic": math.nan, "p": math.nan}
+    exact = kruskal_exact(groups)
+    if exact is not None:
+        return {"statistic": exact[0], "p": exact[1]}
+    import scipy.stats
+
     result = scipy.stats.kruskal(*groups)
     return {"statistic": float(result.statistic), "p": float(result.pvalue)}
 
@@ -269,7 +275,7 @@ def conover(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adj
     present = [c for c in conditions if (tidy["condition"] == c).any()]
     rows = [{"a": a, "b": b, "p": math.nan, "p_unadjusted": math.nan} for a, b in pairs(conditions)]
     if len(present) >= 2 and tidy["value"].nunique() >= 2 and len(tidy) > len(present):
-        unadjusted = scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition", sort=False)
+        unadjusted = _conover_unadjusted(tidy)
         # what posthoc_conover(p_adjust=...) does, without ranking the data a second time
         upper = np.triu_indices(len(unadjusted), 1)
         matrix = unadjusted.to_numpy(copy=True)
@@ -281,6 +287,19 @@ def conover(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adj
                 row["p"] = float(adjusted.loc[row["a"], row["b"]])
                 row["p_unadjusted"] = float(unadjusted.loc[row["a"], row["b"]])
     return pd.DataFrame(rows, columns=["a", "b", "p", "p_unadjusted"])
+
+
+def _conover_unadjusted(tidy: pd.DataFrame) -> pd.DataFrame:
+    """The unadjusted Conover p-values of the tidy rows' conditions (``scikit_posthocs.posthoc_conover``
+    with ``sort=False``: rows and columns in order of first appearance), evaluated on arrays where
+    that gives the library's bits (:func:`~nudgecli.report.rank_tests.conover_exact`)."""
+    exact = conover_exact(tidy["value"].to_numpy(dtype=float), tidy["condition"].to_numpy(dtype=str))
+    if exact is not None:
+        groups, matrix = exact
+        return pd.DataFrame(matrix, index=groups, columns=groups)
+    import scikit_posthocs
+
+    return scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition", sort=False)
 
 
 def significance_stars(p: float, thresholds: Sequence[float] = (0.05, 0.01, 0.001),
