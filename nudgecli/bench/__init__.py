@@ -19,7 +19,9 @@ simulate the study itself: the plan's value iteration, one participant's trials 
 and the whole study with worker processes in a child Python process so that its peak memory is
 measured apart from this one's. A third group runs only when asked (``--only analyze``,
 ``ANALYZE_FIGURES``, :mod:`~nudgecli.bench.analyze`, a minute or so): ``nudge analyze`` of a
-large synthetic metrics table. What each figure must meet is in :mod:`~nudgecli.bench.targets`;
+large synthetic metrics table; another (``--only pipeline``, :mod:`~nudgecli.bench.pipeline`)
+measures ``nudge replicate`` end to end against the trial loop's own speed (the pipeline
+efficiency). What each figure must meet is in :mod:`~nudgecli.bench.targets`;
 what they share (options, row, timing) in :mod:`~nudgecli.bench.common`.
 """
 
@@ -31,6 +33,7 @@ from typing import Any
 from nudgecli.bench.analyze import figure_analyze
 from nudgecli.bench.common import BenchOptions, Figure, format_seconds
 from nudgecli.bench.model import figure_grid, figure_value_iteration, figure_window
+from nudgecli.bench.pipeline import pipeline_figures
 from nudgecli.bench.scale import scale_figures
 from nudgecli.bench.study import (
     figure_cli_startup,
@@ -69,8 +72,9 @@ def select_figures(only: str = "all") -> list[Figure]:
     ----------
     only
         ``study`` (the figures in ``STUDY_FIGURES``), ``model`` (the others of ``FIGURES``),
-        ``all`` (``FIGURES``) or ``analyze`` (``ANALYZE_FIGURES``, not part of ``all``: it takes
-        about a minute).
+        ``all`` (``FIGURES``), ``scale``, ``pipeline`` (:mod:`~nudgecli.bench.pipeline`: batches
+        end to end against the trial loop, about two minutes) or ``analyze``
+        (``ANALYZE_FIGURES``, about a minute); the last three are not part of ``all``.
 
     Raises
     ------
@@ -88,8 +92,11 @@ def select_figures(only: str = "all") -> list[Figure]:
         return scale_figures()
     if only == "analyze":
         return list(ANALYZE_FIGURES)
+    if only == "pipeline":
+        return pipeline_figures()
     if only not in ("model", "study"):
-        raise ValueError(f"only must be 'model', 'study', 'scale', 'analyze' or 'all', got {only!r}")
+        raise ValueError(f"only must be 'model', 'study', 'scale', 'pipeline', 'analyze' or 'all', "
+                         f"got {only!r}")
     study = only == "study"
     return [figure for figure in FIGURES if (figure in STUDY_FIGURES) == study]
 

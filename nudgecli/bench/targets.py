@@ -42,3 +42,11 @@ DASK_RATIO_TARGET = 1.25
 WORKER_MEMORY_TARGET_MB = 300.0
 #: Trials per hour of ``nudge replicate paper -R 20 --workers 2`` end to end on 2 cores.
 THROUGHPUT_TARGET_PER_HOUR = 1_000_000.0
+
+# --- pipeline figures ---------------------------------------------------------------------------
+
+#: Pipeline efficiency (trials x the loop's time per trial over workers x wall time) of
+#: ``nudge replicate paper -R <key> --workers 2`` (issue 39).
+PIPELINE_EFFICIENCY_TARGET = {4: 0.80, 20: 0.90}
+#: Trials per hour of the larger of those batches end to end on 2 cores (issue 39).
+PIPELINE_THROUGHPUT_TARGET_PER_HOUR = 10_000_000.0

@@ -37,12 +37,15 @@ def presets_command() -> None:
 @click.command("bench")
 @click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
               show_default=True, help="What to print on stdout.")
-@click.option("--only", type=click.Choice(["model", "study", "scale", "analyze", "all"]), default="all",
+@click.option("--only", type=click.Choice(["model", "study", "scale", "pipeline", "analyze", "all"]),
+              default="all",
               show_default=True,
               help="Which figures: the model's (a few seconds), the study's (about 10-15 s: plan, trials, "
                    "the paper-scale study with 2 workers in a subprocess), both (all); only when asked: "
                    "the scale figures (about a minute on 2 cores: batches on 1..cores workers and on a "
-                   "local dask cluster, with parallel efficiency and serial fraction) or analyze "
+                   "local dask cluster, with parallel efficiency and serial fraction), pipeline "
+                   "(`replicate paper -R 4` and `-R 20` end to end against the trial loop's own speed: "
+                   "pipeline efficiency and trials an hour, about two minutes) or analyze "
                    "(`nudge analyze` of a 3.5 M-row table in a subprocess, about a minute).")
 @click.option("--scale-participants", type=click.IntRange(min=2), default=defaults.BENCH_SCALE_PARTICIPANTS,
               show_default=True,

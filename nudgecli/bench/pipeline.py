@@ -1,0 +1,203 @@
+"""The pipeline figures of ``nudge bench`` (``--only pipeline``, not part of ``all``): how much of a
+batch's wall time its workers spend in the trial loop.
+
+A batch's *pipeline efficiency* is the time its trials would take at the trial loop's own speed,
+spread over its workers, against its wall time:
+
+    efficiency = trials x loop seconds per trial / (workers x wall seconds)
+
+It is 100 % when nothing but trials runs on the batch's critical path (no imports before the
+workers start, no analysis, figure or table after the last trial, no idle worker), and it is what
+issue 39 asks of ``nudge replicate paper -R 4 --workers 2`` (>= 80 %) and ``-R 20`` (>= 90 %).
+Everything is measured side by side in one run: the loop (every participant of the experiment's
+study in this process, the plan built beforehand, the best of ``study_repeats`` runs of each),
+then both batches end to end as a user runs them (``python -m nudgecli.cli replicate ...`` in a
+child, interpreter start-up included), then the loop again, whose better time per participant
+counts (on a machine shared with other work, other processes only ever add time). The CPU seconds
+of each batch (the command and its reaped workers) give the size guard's cost per trial
+(:data:`nudgecli.runs.batch.SECONDS_PER_TRIAL`).
+"""
+
+from __future__ import annotations
+
+import json
+import resource
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from nudgecli.bench.common import BENCH_SEED, BenchOptions, Figure, available_cores, child_environment, row
+from nudgecli.bench.targets import PIPELINE_EFFICIENCY_TARGET, PIPELINE_THROUGHPUT_TARGET_PER_HOUR
+from nudgecli.config import load_experiment
+
+#: The replications of the two batches, each with its efficiency target.
+PIPELINE_REPLICATIONS = tuple(PIPELINE_EFFICIENCY_TARGET)
+
+
+@dataclass(frozen=True)
+class BatchTiming:
+    """One batch run end to end.
+
+    Attributes
+    ----------
+    replications
+        ``-R``.
+    trials
+        Trials of every study of the batch.
+    wall_s
+        Wall seconds of the whole command.
+    cpu_s
+        CPU seconds of the command and of its workers together.
+    worker_peak_mb
+        The largest worker's peak resident memory (``batch.json``), None where unknown.
+    """
+
+    replications: int
+    trials: int
+    wall_s: float
+    cpu_s: float
+    worker_peak_mb: float | None
+
+
+@dataclass(frozen=True)
+class PipelineMeasurement:
+    """What the pipeline figures report: the loop's seconds per trial and each batch's timing."""
+
+    experiment: str
+    workers: int
+    loop_s_per_trial: float
+    batches: dict[int, BatchTiming]
+
+
+def pipeline_efficiency(trials: int, loop_s_per_trial: float, workers: int, wall_s: float) -> float:
+    """``trials x loop_s_per_trial / (workers x wall_s)``: the share of the workers' wall time the
+    trials would take at the loop's speed."""
+    return trials * loop_s_per_trial / (workers * wall_s)
+
+
+def trials_per_hour(trials: int, wall_s: float) -> float:
+    return trials / wall_s * 3600.0
+
+
+def loop_seconds_per_trial(experiment: str, repeats: int) -> list[tuple[float, int]]:
+    """Every participant of the experiment's study simulated in this process (its plan built first):
+    per participant, the best wall seconds of ``repeats`` runs and the participant's trials."""
+    from nudgecli.sim.study import StudyPlan, simulate_participant
+
+    config = load_experiment(experiment)
+    plan = StudyPlan.build(config, config.experiment.seed)
+    measured = []
+    for index in range(config.study.participants):
+        best, trials = float("inf"), 0
+        for _ in range(max(1, repeats)):
+            start = time.perf_counter()
+            result = simulate_participant(plan, index)
+            best = min(best, time.perf_counter() - start)
+            trials = len(result.trials)
+        measured.append((best, trials))
+    return measured
+
+
+def time_replicate(experiment: str, replications: int, workers: int) -> BatchTiming:
+    """``nudge replicate EXPERIMENT -R replications --workers workers`` in a child Python, timed end
+    to end, with its CPU seconds (the child and its reaped workers) and its largest worker's peak."""
+    from nudgecli.runs.batch_folder import BATCH_MANIFEST
+
+    config = load_experiment(experiment)
+    trials = replications * config.study.participants * len(config.study.conditions) \
+        * config.study.trials_per_condition
+    folder = Path(tempfile.mkdtemp(prefix="nudge-bench-pipeline-"))
+    try:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        start = time.perf_counter()
+        command = [sys.executable, "-m", "nudgecli.cli", "replicate", experiment, "-R", str(replications),
+                   "--workers", str(workers), "--seed", str(BENCH_SEED), "--out", str(folder / "batch"),
+                   "--yes"]
+        subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=child_environment(),
+                       check=True)
+        wall = time.perf_counter() - start
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        manifest = json.loads((folder / "batch" / BATCH_MANIFEST).read_text(encoding="utf-8"))
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+    cpu = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+    peak = manifest.get("worker_peak_rss_mb")
+    return BatchTiming(replications, trials, wall, cpu, None if peak is None else float(peak))
+
+
+def measure_pipeline(options: BenchOptions) -> PipelineMeasurement:
+    """The loop, both batches, the loop again (see the module's note)."""
+    experiment, workers = options.throughput_experiment, options.study_workers
+    first = loop_seconds_per_trial(experiment, options.study_repeats)
+    batches = {r: time_replicate(experiment, r, workers) for r in PIPELINE_REPLICATIONS}
+    second = loop_seconds_per_trial(experiment, options.study_repeats)
+    seconds = sum(min(a[0], b[0]) for a, b in zip(first, second, strict=True))
+    trials = sum(t for _, t in first)
+    return PipelineMeasurement(experiment, workers, seconds / trials, batches)
+
+
+def pipeline_row(measured: PipelineMeasurement, replications: int) -> dict[str, Any]:
+    """The row of one batch: ``time_s`` its wall time, ``baseline_s`` the wall time at the loop's
+    speed on its workers, so ``ratio`` is the pipeline efficiency."""
+    timing = measured.batches[replications]
+    ideal = timing.trials * measured.loop_s_per_trial / measured.workers
+    efficiency = pipeline_efficiency(timing.trials, measured.loop_s_per_trial, measured.workers,
+                                     timing.wall_s)
+    target = PIPELINE_EFFICIENCY_TARGET[replications]
+    return row(f"pipeline: replicate {measured.experiment} -R {replications}, {measured.workers} workers",
+               timing.wall_s, ideal, f"efficiency >= {target:.0%}", efficiency >= target,
+               f"pipeline efficiency {efficiency:.0%} ({timing.trials:,} trials x "
+               f"{measured.loop_s_per_trial * 1e3:.2f} ms, the loop's time per trial, over "
+               f"{measured.workers} workers x {timing.wall_s:.2f} s); "
+               f"{trials_per_hour(timing.trials, timing.wall_s):,.0f} trials per hour; CPU "
+               f"{timing.cpu_s:.1f} s, {timing.cpu_s / timing.trials * 1e3:.2f} ms a trial end to end; "
+               f"{available_cores()} cores; memory: the largest worker's peak RSS; baseline = the wall "
+               "time at the loop's speed", peak_mb=timing.worker_peak_mb)
+
+
+def throughput_row(measured: PipelineMeasurement) -> dict[str, Any]:
+    """Trials an hour of the largest batch, against the issue's target (``baseline_s``: its wall
+    time at the target rate, so ``ratio`` >= 1 meets it)."""
+    timing = measured.batches[max(measured.batches)]
+    per_hour = trials_per_hour(timing.trials, timing.wall_s)
+    at_loop = 3600.0 * measured.workers / measured.loop_s_per_trial
+    return row(f"pipeline: trials an hour, replicate {measured.experiment} -R {timing.replications}, "
+               f"{measured.workers} workers", timing.wall_s,
+               timing.trials / PIPELINE_THROUGHPUT_TARGET_PER_HOUR * 3600.0,
+               f">= {PIPELINE_THROUGHPUT_TARGET_PER_HOUR:,.0f} trials per hour",
+               per_hour >= PIPELINE_THROUGHPUT_TARGET_PER_HOUR,
+               f"{per_hour:,.0f} trials per hour end to end; the loop alone on {measured.workers} workers: "
+               f"{at_loop:,.0f}; baseline = the wall time at the target rate")
+
+
+_MEASURED: dict[str, PipelineMeasurement] = {}
+
+
+def _measured(options: BenchOptions) -> PipelineMeasurement:
+    """One measurement per options for all the pipeline figures of a run (side by side)."""
+    key = repr(options)
+    if key not in _MEASURED:
+        _MEASURED[key] = measure_pipeline(options)
+    return _MEASURED[key]
+
+
+def _efficiency_figure(replications: int) -> Figure:
+    def figure(options: BenchOptions) -> dict[str, Any]:
+        return pipeline_row(_measured(options), replications)
+
+    figure.__name__ = f"figure_pipeline_{replications}"
+    return figure
+
+
+def figure_pipeline_throughput(options: BenchOptions) -> dict[str, Any]:
+    return throughput_row(_measured(options))
+
+
+def pipeline_figures() -> list[Figure]:
+    """The efficiency of each batch, then the trials an hour."""
+    return [*(_efficiency_figure(r) for r in PIPELINE_REPLICATIONS), figure_pipeline_throughput]
