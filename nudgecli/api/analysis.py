@@ -1,0 +1,224 @@
+"""``nudgecli.analyze``: the metrics and statistics of a run or a metrics table, as tidy frames.
+
+The work is :func:`nudgecli.report.analysis.analyze`'s (what ``nudge analyze`` and ``nudge run``
+call through this module); an :class:`Analysis` holds what it computed and where it wrote it.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from nudgecli.api.folders import FolderOwner, remove_if_made, temporary_folder
+from nudgecli.api.run import ProgressCallback, Run
+from nudgecli.errors import DataError
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from nudgecli.report.analysis import AnalysisResult
+    from nudgecli.report.plans import AnalysisPlan
+
+#: The file a metrics DataFrame given to :func:`analyze` is written to, in the analysis folder
+#: (Parquet: the values exactly as given), so the analysis can be plotted and read again.
+DATAFRAME_TABLE = "metrics.parquet"
+
+#: The columns of :attr:`Analysis.tests`, one row per metric.
+TEST_COLUMNS = ("metric", "kruskal_statistic", "kruskal_p", "p_adjust", "participant_test",
+                "participant_aggregate", "participant_statistic", "participant_p", "n_participants",
+                "participant_note")
+
+
+class Analysis(FolderOwner):
+    """What :func:`analyze` computed: tidy frames, the statistics document and the files written.
+
+    Attributes
+    ----------
+    path
+        The folder of ``stats.json``, ``stats.csv``, ``summary.md`` (and ``metrics.csv``).
+    source
+        What was analysed: the run folder or table (the table written for a DataFrame).
+    plan
+        The analysis plan given (``None``: the source's own, as ``nudge analyze`` chooses it).
+    result
+        :class:`nudgecli.report.analysis.AnalysisResult`, everything ``nudge analyze`` used.
+    """
+
+    def __init__(self, result: AnalysisResult, source: Path, plan: str | Path | AnalysisPlan | None, *,
+                 temporary: bool = False, keep_alive: object = None) -> None:
+        self._own(result.out, temporary)
+        self.result = result
+        self.source = source
+        self.plan = plan
+        self._keep_alive = keep_alive  # a temporary Run whose folder this analysis was written into
+
+    @property
+    def metrics(self) -> pd.DataFrame:
+        """One row per trial (after the plan's filters): participant, condition and each metric."""
+        return self.result.metrics
+
+    @property
+    def pairs(self) -> pd.DataFrame:
+        """``stats.csv``: one row per metric and pair of conditions (medians, Conover p, stars,
+        participant-level test, effect size, bootstrap interval of the difference)."""
+        return self.result.table
+
+    @functools.cached_property
+    def tests(self) -> pd.DataFrame:
+        """One row per metric: the omnibus Kruskal-Wallis test and the participant-level test
+        (columns :data:`TEST_COLUMNS`)."""
+        import pandas as pd
+
+        rows = []
+        for entry in self.result.stats["metrics"]:
+            kruskal = entry.get("kruskal") or {}
+            participant = entry.get("participant_level") or {}
+            rows.append({"metric": entry["metric"], "kruskal_statistic": kruskal.get("statistic"),
+                         "kruskal_p": kruskal.get("p"), "p_adjust": entry.get("p_adjust"),
+                         "participant_test": participant.get("test"),
+                         "participant_aggregate": participant.get("aggregate"),
+                         "participant_statistic": participant.get("statistic"),
+                         "participant_p": participant.get("p"),
+                         "n_participants": participant.get("n_participants"),
+                         "participant_note": participant.get("note")})
+        return pd.DataFrame(rows, columns=list(TEST_COLUMNS))
+
+    @property
+    def stats(self) -> dict[str, Any]:
+        """The ``stats.json`` document (NaN as ``None``)."""
+        return self.result.stats
+
+    @property
+    def conditions(self) -> list[str]:
+        """The conditions, in the analysis's order."""
+        return list(self.result.stats["conditions"])
+
+    @property
+    def notes(self) -> list[str]:
+        """What was left out or changed (duplicates dropped, an undefined test), a line each."""
+        return list(self.result.notes)
+
+    @property
+    def files(self) -> list[Path]:
+        """The files written."""
+        return list(self.result.files)
+
+    def summary(self) -> str:
+        """The text ``summary.md`` holds."""
+        return self.result.summary
+
+    def table(self, reference: str | None = None) -> str:
+        """The plain-text table ``nudge analyze`` prints (only ``reference``'s pairs when given)."""
+        from nudgecli.report.summary import format_table
+
+        return format_table(self.result.table, self.conditions, reference)
+
+    def __repr__(self) -> str:
+        return (f"Analysis({len(self.result.stats['metrics'])} metrics, conditions {self.conditions}, "
+                f"{str(self.path)!r})")
+
+
+def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | AnalysisPlan | None = None,
+            metrics: Sequence[str] | None = None, questionnaires: str | Path | None = None,
+            bootstrap: int | None = None, out: str | Path | None = None, seed: int | None = None,
+            reference: str | None = None, drop_duplicates: bool = False,
+            progress: ProgressCallback | None = None, force: bool = False) -> Analysis:
+    """Compute the metrics and statistics of ``source``, as ``nudge analyze`` does.
+
+    Parameters
+    ----------
+    source
+        A :class:`Run`, a run folder, a metrics table's path (CSV/Parquet), or a metrics DataFrame
+        (one row per trial: ``participant``, ``condition`` and metric columns).
+    plan
+        An analysis plan: a preset (``paper``, ``study-code``), a TOML file or a loaded plan;
+        default the run's recorded plan, else the one named like its experiment, else ``paper``.
+    metrics
+        Only these metrics, in this order (``--metric``).
+    questionnaires
+        A questionnaire CSV analysed alongside.
+    bootstrap, seed
+        Bootstrap resamples and seed of the intervals; default the plan's (2000 and 0 in the
+        shipped plans).
+    out
+        The folder written; default as ``nudge analyze``: the run folder, ``<table>-analysis/``
+        beside a table, and for a DataFrame a temporary folder removed with the :class:`Analysis`.
+    reference
+        ``summary.md`` compares every other condition with this one only.
+    drop_duplicates
+        Keep the first of repeated trial rows of a table instead of refusing them.
+    progress
+        Called with (metrics done, metrics in all); default silent.
+    force
+        Write into an ``out`` that holds other files or a run (``--force``); without it such a
+        folder is refused, as ``nudge analyze --out`` refuses it.
+
+    Returns
+    -------
+    Analysis
+
+    Raises
+    ------
+    NudgeError
+        Invalid source, plan, metric, questionnaire table or reference (``nudge``'s ``Error:`` line);
+        a folder this call made is removed again.
+    """
+    import pandas as pd
+
+    from nudgecli.outputs import check_output_folder
+    from nudgecli.report.analysis import analysis_folder
+    from nudgecli.report.analysis import analyze as analyze_source
+    from nudgecli.report.plans import check_resamples
+
+    check_resamples(bootstrap, "--bootstrap")
+    path = source.path if isinstance(source, Run) else source
+    if out is not None:  # the run folder itself, or the table's analysis folder, is the source's own
+        own = [path, analysis_folder(Path(path))] if isinstance(path, str | Path) else []
+        check_output_folder(out, force=force, own=own)
+    options: dict[str, Any] = {"plan": plan, "metrics": list(metrics) if metrics is not None else None,
+                               "questionnaires": questionnaires, "seed": seed, "bootstrap": bootstrap,
+                               "drop_duplicates": drop_duplicates, "progress": progress,
+                               "reference": reference}
+    if isinstance(source, pd.DataFrame):
+        return _analyze_frame(source, out, options)
+    if isinstance(source, Run):
+        result = analyze_source(source.path, out=out, **options)
+        return Analysis(result, source.path, plan, keep_alive=source if out is None else None)
+    if not isinstance(source, str | Path):
+        raise DataError(f"analyze: source must be a Run, a run folder, a metrics table or a DataFrame, "
+                        f"not {type(source).__name__}")
+    return Analysis(analyze_source(source, out=out, **options), Path(source), plan)
+
+
+def _analyze_frame(frame: pd.DataFrame, out: str | Path | None, options: dict[str, Any]) -> Analysis:
+    """:func:`analyze` of a DataFrame: written as :data:`DATAFRAME_TABLE` into the analysis folder
+    (``out`` or a temporary one) and analysed from there."""
+    from pyarrow.lib import ArrowException
+
+    from nudgecli.report.analysis import analyze as analyze_source
+    from nudgecli.store import write_parquet_atomic
+
+    temporary = out is None
+    folder = temporary_folder("analysis") if out is None else Path(out)
+    made = temporary or not folder.exists()
+    table = folder / DATAFRAME_TABLE
+    had_table = table.exists()
+    if folder.exists() and not folder.is_dir():
+        raise DataError(f"--out {folder} is a file; give a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        try:
+            write_parquet_atomic(table, frame)
+        except (ValueError, TypeError, ArrowException) as exc:  # columns Parquet cannot hold
+            raise DataError(f"metrics DataFrame: cannot be stored as a table ({exc}); give one row per "
+                            "trial with participant, condition and numeric metric columns") from None
+        result = analyze_source(table, out=folder, **options)
+    except BaseException:
+        if made:
+            remove_if_made(folder, True)
+        elif not had_table:
+            table.unlink(missing_ok=True)
+        raise
+    return Analysis(result, table, options["plan"], temporary=temporary)

@@ -1,0 +1,199 @@
+"""``nudgecli.replicate``, ``nudgecli.power`` and ``nudgecli.sweep``: many studies as one batch, their
+tables as tidy frames.
+
+The work is :mod:`nudgecli.runs.batch_kinds`' (``nudge replicate``, ``power`` and ``sweep`` call
+it through this module); a :class:`Batch` holds its batch folder, temporary unless ``out`` is given.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from nudgecli import command_defaults as defaults
+from nudgecli.api.folders import FolderOwner, remove_if_made, temporary_folder
+from nudgecli.api.run import Overrides, ProgressCallback, override_texts
+from nudgecli.errors import NudgeError
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from nudgecli.report.plans import AnalysisPlan
+    from nudgecli.runs.batch_kinds import BatchResult
+
+
+class Batch(FolderOwner):
+    """A finished batch: its main table, every table it wrote, its folder.
+
+    Attributes
+    ----------
+    path
+        The batch folder (temporary when the call had no ``out``).
+    result
+        :class:`nudgecli.runs.batch_kinds.BatchResult`.
+    """
+
+    def __init__(self, result: BatchResult, *, temporary: bool) -> None:
+        self._own(Path(result.run.path), temporary)
+        self.result = result
+
+    @property
+    def summary(self) -> pd.DataFrame:
+        """The table the command prints: per metric and pair (replicate), per count (power), per
+        design point (sweep)."""
+        return self.result.summary
+
+    @property
+    def tables(self) -> dict[str, pd.DataFrame]:
+        """Every table written, by file stem (``replications``, ``conditions``, ``power``, ...)."""
+        return dict(self.result.tables)
+
+    @property
+    def rows(self) -> pd.DataFrame:
+        """One row per replication, metric and pair of conditions (``replications.csv``)."""
+        return self.result.rows
+
+    @property
+    def computed(self) -> int:
+        """Tasks computed by this call (a resumed batch's finished ones are not)."""
+        return int(self.result.run.computed)
+
+    @property
+    def files(self) -> list[Path]:
+        """The files written."""
+        return list(self.result.files)
+
+    def text(self) -> str:
+        """The table the command prints."""
+        return self.summary.to_string(index=False, float_format=lambda v: f"{v:.3g}")
+
+    def __repr__(self) -> str:
+        return f"Batch({len(self.summary)} rows, {str(self.path)!r})"
+
+
+def holds_batch(folder: str | Path) -> bool:
+    """Whether ``folder`` holds a batch (its manifest): one a resumed command would finish."""
+    from nudgecli.runs.batch_folder import BATCH_MANIFEST
+
+    return (Path(folder) / BATCH_MANIFEST).is_file()
+
+
+def progress_line(label: str) -> ProgressCallback:
+    """The progress the batch commands print on stderr: tasks done, rate and ETA (``label: ...``)."""
+    from nudgecli.runs.executors import Progress
+
+    return Progress(label)
+
+
+def _run(work: Callable[..., BatchResult], out: str | Path | None, label: str,
+         progress: ProgressCallback | None, log: Callable[[str], None] | None, **kwargs: Any) -> Batch:
+    """Run one batch kind into ``out`` (or a temporary folder, removed again when it fails); a
+    ``people`` given is passed on where the runs layer takes it (issue 37's ``--people``)."""
+    if kwargs.get("people", ...) is None:
+        del kwargs["people"]  # not asked for: the batch kinds of every version run without it
+    elif "people" in kwargs and "people" not in inspect.signature(work).parameters:
+        raise NudgeError(f"people={str(kwargs['people'])!r} needs the runs layer's --people support "
+                         "(issue 37), which this version of nudge does not have yet")
+    temporary = out is None
+    target = temporary_folder(label) if out is None else Path(out)
+    try:
+        result = work(out=target, progress=progress, log=log, **kwargs)
+    except BaseException:
+        remove_if_made(target, temporary)
+        raise
+    return Batch(result, temporary=temporary)
+
+
+def replicate(experiment: str | Path, replications: int, *, seed: int | None = None,
+              plan: str | AnalysisPlan | None = None, participants: int | None = None,
+              overrides: Overrides | None = None, people: str | Path | None = None,
+              out: str | Path | None = None, workers: int = 1, scheduler: str | None = None,
+              resume: bool = False, force: bool = False, confirm: bool = False,
+              progress: ProgressCallback | None = None, log: Callable[[str], None] | None = None) -> Batch:
+    """R independent studies of ``experiment``, each analysed with the plan, as ``nudge replicate``.
+
+    Parameters
+    ----------
+    experiment
+        A preset or an experiment TOML file.
+    replications
+        Independent studies (each its own seed).
+    seed, plan, participants, overrides
+        The master seed, the analysis plan, participants per study and ``--set`` overrides.
+    people
+        A people file whose twins are simulated (``--people``, issue 37), where the runs layer takes it.
+    out
+        The batch folder, kept; ``None``: a temporary one removed with the :class:`Batch`.
+    workers, scheduler, resume, force, confirm
+        Local workers or a dask scheduler, finish or replace a batch in ``out``, run above the
+        size limit (``--yes``).
+    progress, log
+        ``progress(done, total)`` over tasks and ``log(line)`` for the batch's size; default silent.
+
+    Returns
+    -------
+    Batch
+        ``summary``: per metric and pair, significance rates, median p and pooled effect.
+    """
+    from nudgecli.runs.batch_kinds import replicate as replicate_batch
+
+    return _run(replicate_batch, out, "replicate", progress, log, experiment=str(experiment),
+                replications=replications, seed=seed, plan=plan, participants=participants,
+                overrides=override_texts(overrides), workers=workers, scheduler=scheduler, resume=resume,
+                force=force, confirm=confirm, people=people)
+
+
+def power(experiment: str | Path, participants: Sequence[int], replications: int, *, seed: int | None = None,
+          plan: str | AnalysisPlan | None = None, target: float = defaults.POWER_TARGET,
+          overrides: Overrides | None = None, people: str | Path | None = None,
+          out: str | Path | None = None, workers: int = 1, scheduler: str | None = None, resume: bool = False,
+          force: bool = False, confirm: bool = False, progress: ProgressCallback | None = None,
+          log: Callable[[str], None] | None = None) -> Batch:
+    """Power curves over participant counts, as ``nudge power``.
+
+    Parameters
+    ----------
+    participants
+        The participant counts (each at least 2), e.g. ``[6, 9, 12]``.
+    target
+        The power to reach (``smallest_n``).
+    experiment, replications, seed, plan, overrides, people
+        As :func:`replicate`'s.
+    out, workers, scheduler, resume, force, confirm, progress, log
+        As :func:`replicate`'s.
+
+    Returns
+    -------
+    Batch
+        ``summary``: per count, metric and level of test, the power with its Clopper-Pearson interval.
+    """
+    from nudgecli.runs.batch_kinds import power as power_batch
+
+    return _run(power_batch, out, "power", progress, log, experiment=str(experiment),
+                participant_counts=list(participants), replications=replications, seed=seed, plan=plan,
+                overrides=override_texts(overrides), target=target, workers=workers, scheduler=scheduler,
+                resume=resume, force=force, confirm=confirm, people=people)
+
+
+def sweep(sweep_file: str | Path, *, replications: int | None = None, seed: int | None = None,
+          out: str | Path | None = None, workers: int = 1, scheduler: str | None = None, resume: bool = False,
+          force: bool = False, confirm: bool = False, progress: ProgressCallback | None = None,
+          log: Callable[[str], None] | None = None) -> Batch:
+    """Every design point of a sweep file, R replications each, as ``nudge sweep``.
+
+    Parameters
+    ----------
+    sweep_file
+        A sweep TOML (grid, Sobol or Morris design over experiment keys).
+    replications, seed
+        Override the file's.
+    out, workers, scheduler, resume, force, confirm, progress, log
+        As :func:`replicate`'s.
+    """
+    from nudgecli.runs.batch_kinds import sweep as sweep_batch
+
+    return _run(sweep_batch, out, "sweep", progress, log, sweep_file=str(sweep_file),
+                replications=replications, seed=seed, workers=workers, scheduler=scheduler, resume=resume,
+                force=force, confirm=confirm)

@@ -1,0 +1,268 @@
+"""``nudgecli.plot``: one figure of an analysis as a matplotlib Figure, or one panel into one's own axes;
+and :func:`save_figures`, every figure written as files (``nudge plot``).
+
+The drawing is :mod:`nudgecli.report.plotting`'s and :mod:`nudgecli.report.figures`'; the star
+rule and item labels are the analysis plan's, chosen as ``nudge plot`` chooses them.
+"""
+
+from __future__ import annotations
+
+import contextlib
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from nudgecli.api.analysis import Analysis
+from nudgecli.api.run import Run
+from nudgecli.errors import ConfigError, NudgeError, did_you_mean
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+    from nudgecli.report.plans import AnalysisPlan
+
+#: The figures of several panels, which cannot be drawn into one axes: ``plot(..., ax=)`` takes a
+#: metric's name (one panel) instead.
+MULTI_PANEL = ("fig3", "fig4", "metrics", "questionnaires", "measures")
+
+
+def plan_of(source: str | Path, plan: str | Path | AnalysisPlan | None = None) -> str | Path | AnalysisPlan:
+    """The plan whose star rule and labels the figures of ``source`` use: ``plan``, else the one its
+    run folder's manifest records, else the one named like its experiment, else ``paper``
+    (:func:`nudgecli.config_files.resolve_plan`)."""
+    from nudgecli.config_files import resolve_plan
+    from nudgecli.store import RunFolder
+
+    manifest: Any = {}
+    folder = RunFolder(Path(source))
+    if plan is None and Path(source).is_dir() and folder.is_run():
+        with contextlib.suppress(NudgeError):  # a damaged manifest: plotting says what is wrong
+            manifest = folder.read_manifest()
+    if not isinstance(manifest, dict):
+        manifest = {}
+    return resolve_plan(plan, recorded=manifest.get("plan"), experiment=str(manifest.get("experiment", "")))
+
+
+def _folder_of(analysis: Analysis | Run | str | Path) -> Path:
+    """The analysed folder or table to draw from."""
+    if isinstance(analysis, Analysis | Run):
+        return analysis.path
+    if isinstance(analysis, str | Path):
+        return Path(analysis)
+    raise NudgeError(f"plot: give an Analysis, an analysed run folder or a metrics table, not "
+                     f"{type(analysis).__name__}")
+
+
+def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axes | None = None,
+         trial: tuple[int, int] | None = None, reference: str | None = None) -> Figure:
+    """Draw one figure of an analysis, as ``nudge plot`` draws it, without writing a file.
+
+    Parameters
+    ----------
+    analysis
+        An :class:`Analysis`, an analysed :class:`Run`, or the path ``nudge plot`` takes (an
+        analysed run folder, an analysed metrics table or its analysis folder).
+    figure
+        ``fig3``, ``fig4`` (the paper's box plots), ``metrics`` (every other metric), ``fig5``,
+        ``trajectory``, ``questionnaires`` (where the data allow them; a path-world run:
+        ``measures`` and ``trajectory``), or one metric's name: its box-plot panel alone.
+    ax
+        Axes of one's own to draw one metric's panel into (``figure`` a metric's name); default
+        a new figure.
+    trial
+        ``(participant, trial)`` of Fig. 5 and the trajectory (``--trial``).
+    reference
+        Brackets only for this condition's pairs (``--reference``).
+
+    Returns
+    -------
+    Figure
+        The new figure, or the figure ``ax`` belongs to.
+
+    Raises
+    ------
+    NudgeError
+        Not analysed, an unknown figure or metric, a figure of several panels with ``ax``, an
+        unknown trial or reference (``nudge plot``'s messages).
+    """
+    from nudgecli.report import figures
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.plotting import (
+        PlotPlan,
+        draw_figures,
+        draw_path_figures,
+        drawn_metrics,
+        metric_figure_groups,
+        read_inputs,
+    )
+    from nudgecli.report.style import figure_style
+
+    folder = _folder_of(analysis)
+    inputs = read_inputs(folder)
+    chosen = load_plan(plan_of(folder, analysis.plan if isinstance(analysis, Analysis) else None))
+    conditions = figures.resolve_conditions(inputs.metrics, inputs.stats)
+    _check_choices(folder, inputs, conditions, trial, reference)
+    metrics = drawn_metrics(inputs)
+    if figure in metrics:
+        with figure_style():
+            entry = figures.stats_by_metric(inputs.stats).get(figure)
+            artists = figures.metric_boxplot(inputs.metrics, figure, entry, ax=ax, conditions=conditions,
+                                             star_rule=chosen.comparison_options(), reference=reference)
+        return artists.ax.figure  # type: ignore[return-value]  # a Figure: axes_or_new makes no SubFigure
+    plan = PlotPlan(out_dir=folder, trial=trial, star_rule=chosen.comparison_options(),
+                    item_labels=chosen.questionnaires.labels, reference=reference)
+    if inputs.path_layouts is not None:
+        available = ["measures", "trajectory"]
+    else:
+        available = [*metric_figure_groups(metrics),
+                     *(["fig5", "trajectory"] if inputs.steps is not None else []),
+                     *(["questionnaires"] if inputs.questionnaires is not None else [])]
+    if figure not in available:
+        choices = [*available, *metrics]
+        raise ConfigError(f"figure {figure!r}: not a figure of {folder}; choose one of "
+                          f"{', '.join(choices)}{did_you_mean(figure, choices)}")
+    if ax is not None:
+        raise ConfigError(f"figure {figure!r} is drawn on axes of its own (several panels or a trial's); "
+                          f"to draw into ax give one metric's panel: {', '.join(metrics)}")
+    if figure in ("fig3", "fig4", "metrics"):
+        names = metric_figure_groups(metrics)[figure]
+        return figures.metrics_figure(inputs.metrics, inputs.stats, names, seed=plan.seed,
+                                      star_rule=plan.star_rule, reference=reference)
+    drawn = draw_path_figures(inputs, plan) if inputs.path_layouts is not None else draw_figures(inputs, plan)
+    if figure not in drawn:  # e.g. fig5 of a run whose layouts give no trajectory
+        raise ConfigError(f"figure {figure!r}: this source's data do not give it; choose one of "
+                          f"{', '.join(drawn)}")
+    return drawn[figure]
+
+
+def _check_choices(folder: Path, inputs: Any, conditions: Sequence[str], trial: tuple[int, int] | None,
+                   reference: str | None) -> None:
+    """``reference`` a condition drawn and ``trial`` a trial of the run (``nudge plot``'s checks)."""
+    from nudgecli.report.pair_display import check_reference
+
+    check_reference(reference, conditions)
+    if trial is not None and inputs.trials is not None:
+        known = set(zip(inputs.trials["participant"], inputs.trials["trial"], strict=True))
+        if tuple(trial) not in known:
+            last_participant, last_trial = inputs.trials["participant"].max(), inputs.trials["trial"].max()
+            raise ConfigError(f"--trial {trial[0]}:{trial[1]}: no such trial in {folder} "
+                              f"(participants 0-{last_participant}, trials 0-{last_trial})")
+
+
+def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | AnalysisPlan | None = None,
+                 out: str | Path | None = None, formats: str | Sequence[str] = ("png", "pdf"),
+                 trial: str | tuple[int, int] | None = None, reference: str | None = None,
+                 force: bool = False) -> list[Path]:
+    """Write every figure of ``source`` in every format, as ``nudge plot`` does; the files written.
+
+    Parameters
+    ----------
+    source
+        An :class:`Analysis`, an analysed :class:`Run`, or ``nudge plot``'s RUN.
+    plan
+        Analyse ``source`` with this plan first (``--plan``); default: plot the existing analysis
+        with the plan it records.
+    out
+        The figures' folder; default ``figures/`` in the run or analysis folder.
+    formats
+        ``png``, ``pdf``, ``svg``: a sequence, or comma-separated as ``--formats`` takes them.
+    trial
+        ``(participant, trial)`` or ``"P:T"`` (``--trial``), as :func:`plot`'s.
+    reference
+        As :func:`plot`'s.
+    force
+        Write into an ``out`` that is not empty.
+
+    Raises
+    ------
+    NudgeError
+        ``nudge plot``'s errors; a folder made only for the figures is removed again.
+    """
+    from nudgecli.locks import run_lock
+    from nudgecli.report.analysis import analyze as analyze_source
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.plotting import default_out, parse_formats, parse_trial, plot_folder
+
+    chosen_formats = parse_formats(formats) if isinstance(formats, str) else tuple(formats)
+    trial_key = parse_trial(trial) if isinstance(trial, str) or trial is None \
+        else (int(trial[0]), int(trial[1]))
+    folder = _folder_of(source)
+    if isinstance(source, Analysis) and plan is None:
+        plan = source.plan
+        analysis_plan = load_plan(plan_of(folder, plan))
+    else:
+        analysis_plan = load_plan(plan_of(folder, plan))
+        if plan is not None:
+            # analyze takes the locks of what it writes
+            analyze_source(folder, plan=analysis_plan, reference=reference)
+    # lock only the folder written: the figures' folder given by out (a read-only source is then
+    # only read), else the run or analysis folder that holds figures/ (which analyze locks)
+    written_folder: Path | None = None  # None: not a plottable source; plot_folder says why
+    if out is not None:
+        written_folder = Path(out)
+    elif folder.exists():
+        with contextlib.suppress(NudgeError):
+            written_folder = default_out(folder).parent
+    made = written_folder is not None and not written_folder.exists()
+    try:
+        with run_lock(written_folder) if written_folder is not None else contextlib.nullcontext():
+            if out is not None:  # under the lock: a folder another command is writing is named so
+                _check_figures_folder(folder, out, force)
+            return plot_folder(folder, out, chosen_formats, trial_key,
+                               star_rule=analysis_plan.comparison_options(),
+                               item_labels=analysis_plan.questionnaires.labels, reference=reference)
+    except BaseException:
+        if made and written_folder is not None and written_folder.is_dir() \
+                and not any(written_folder.iterdir()):
+            written_folder.rmdir()  # made only to hold the lock: a failed plot leaves nothing behind
+        raise
+
+
+def _check_figures_folder(source: Path, out: str | Path, force: bool) -> None:
+    """The figures' folder: new, empty or the source's own figures folder, unless ``force``
+    (:func:`nudgecli.outputs.check_output_folder`)."""
+    from nudgecli.outputs import check_output_folder
+    from nudgecli.report.plotting import default_out
+
+    own: list[Path] = []
+    with contextlib.suppress(NudgeError):  # not a plottable source: plot_folder says why
+        own.append(default_out(source))
+    check_output_folder(out, force=force, own=own)
+
+
+def analyze_and_plot(run: Run | str | Path, *, plan: str | Path | None = None,
+                     log: Callable[[str], None] | None = None) -> tuple[Analysis, list[Path]]:
+    """Analyse a run into its own folder and write its figures there, under its lock (``nudge run``'s
+    second half).
+
+    Parameters
+    ----------
+    run
+        A :class:`Run` or a run folder.
+    plan
+        The analysis plan (default: the one named like the run's experiment, else ``paper``).
+    log
+        Receives the line naming the plan chosen, before the analysis.
+
+    Returns
+    -------
+    tuple[Analysis, list[Path]]
+        The analysis and the figure files written.
+    """
+    from nudgecli.config_files import resolve_plan
+    from nudgecli.locks import run_lock
+    from nudgecli.report.analysis import analyze as analyze_source
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.plotting import plot_folder
+
+    opened = run if isinstance(run, Run) else Run.open(run)
+    chosen: str | Path = resolve_plan(plan, experiment=opened.experiment)
+    if log is not None:
+        log(f"analysing with the {chosen!r} plan")
+    analysis_plan = load_plan(chosen)
+    with run_lock(opened.path):
+        result = analyze_source(opened.path, plan=chosen)
+        written = plot_folder(opened.path, star_rule=analysis_plan.comparison_options(),
+                              item_labels=analysis_plan.questionnaires.labels)
+    return Analysis(result, opened.path, chosen, keep_alive=opened), written

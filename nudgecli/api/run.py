@@ -1,0 +1,263 @@
+"""``nudgecli.simulate``: a simulated study as a :class:`Run` whose tables are DataFrames.
+
+The work is :func:`nudgecli.runs.study.run_study`'s, the one ``nudge simulate`` and ``nudge run``
+call through this module; a :class:`Run` reads its run folder's tables when first asked.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import math
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from nudgecli.api.folders import FolderOwner, remove_if_made, temporary_folder
+from nudgecli.errors import ConfigError, NudgeError
+
+if TYPE_CHECKING:  # pandas and pydantic load on first use, not with ``import nudgecli``
+    import pandas as pd
+
+    from nudgecli.config import ExperimentConfig
+
+#: What ``overrides=`` takes: ``{"disambiguation.window": 5}`` or ``["disambiguation.window=5"]``.
+Overrides = Mapping[str, object] | Sequence[str]
+#: ``progress(done, total)``: trials (or metrics, tasks) done so far and in all.
+ProgressCallback = Callable[[int, int], None]
+
+
+class Run(FolderOwner):
+    """A simulated study: its run folder and its tables, read lazily.
+
+    Attributes
+    ----------
+    path
+        The run folder (a temporary one when :func:`simulate` was given no ``out``).
+    config
+        The experiment that was simulated.
+    mode
+        ``new``, ``resume`` or ``replace``: what :func:`simulate` did with the folder.
+    computed
+        The participants simulated by this call (a resumed run's finished ones are not).
+    participant_count
+        Participants of the study.
+    """
+
+    def __init__(self, path: str | Path, config: ExperimentConfig, *, temporary: bool = False,
+                 mode: str = "new", computed: Sequence[int] = (), participant_count: int | None = None,
+                 trials: pd.DataFrame | None = None) -> None:
+        self._own(Path(path), temporary)
+        self.config = config
+        self.mode = mode
+        self.computed = list(computed)
+        self.participant_count = config.study.participants if participant_count is None else participant_count
+        if trials is not None:  # the table run_study read back already
+            self.__dict__["trials"] = trials
+
+    @classmethod
+    def open(cls, path: str | Path) -> Run:
+        """The run folder ``path`` (``nudge simulate``'s, a kept :class:`Run`'s); never removed by it.
+
+        Raises
+        ------
+        RunFolderError
+            Not a run folder.
+        """
+        from nudgecli.errors import RunFolderError
+        from nudgecli.store import RunFolder
+
+        folder = RunFolder(Path(path))
+        if not folder.is_run():
+            raise RunFolderError(f"{path}: not a run folder (no manifest.json); give a folder made by "
+                                 "`nudge simulate`")
+        manifest = folder.read_manifest()
+        return cls(path, folder.read_config(), participant_count=folder.participant_count(manifest),
+                   mode="open")
+
+    @property
+    def experiment(self) -> str:
+        """The experiment's name (``[experiment] name``)."""
+        return self.config.experiment.name
+
+    @functools.cached_property
+    def trials(self) -> pd.DataFrame:
+        """One row per trial, ``(participants x trials, columns)``: condition, success, duration_s, ..."""
+        return self._folder().read_trials()
+
+    @functools.cached_property
+    def steps(self) -> pd.DataFrame:
+        """The step log, one row per 10 Hz step of every trial (belief, pose, command, ...)."""
+        return self._folder().read_steps()
+
+    @functools.cached_property
+    def participants(self) -> pd.DataFrame:
+        """One row per simulated participant: the person drawn (calibration, habits)."""
+        return self._folder().read_table("participants")
+
+    def success(self) -> pd.DataFrame:
+        """Trials, success rate, time-outs and median duration per condition (what ``nudge simulate``
+        prints), one row per condition."""
+        from nudgecli.runs.study import success_by_condition
+
+        return success_by_condition(self.trials)
+
+    def report(self) -> str:
+        """The text ``nudge simulate`` prints before the folder: counts and :meth:`success`."""
+        head = (f"{len(self.trials)} trials, {self.participant_count} participants "
+                f"({'resumed, ' if self.mode == 'resume' else ''}{len(self.computed)} simulated now)")
+        return head + "\n" + self.success().to_string(float_format=lambda v: f"{v:.3f}")
+
+    def _folder(self) -> Any:
+        from nudgecli.errors import RunFolderError
+        from nudgecli.store import RunFolder
+
+        if self.closed:
+            raise RunFolderError(f"{self.path}: this run was closed and its temporary folder removed; "
+                                 "give simulate(out=...) to keep it")
+        return RunFolder(self.path)
+
+    def __repr__(self) -> str:
+        kept = "temporary" if self.temporary else "kept"
+        return f"Run({self.experiment!r}, {self.participant_count} participants, {str(self.path)!r}, {kept})"
+
+
+def override_texts(overrides: Overrides | None) -> tuple[str, ...]:
+    """``overrides`` as ``--set`` texts: a mapping's values written as TOML literals.
+
+    Raises
+    ------
+    ConfigError
+        A value TOML cannot hold (``None``, an object), or overrides given as one string.
+    """
+    if overrides is None:
+        return ()
+    if isinstance(overrides, str):
+        raise ConfigError(f"overrides={overrides!r}: give a list of KEY=VALUE texts or a mapping, "
+                          "e.g. {'disambiguation.window': 5}")
+    if isinstance(overrides, Mapping):
+        return tuple(f"{key}={toml_literal(value, key)}" for key, value in overrides.items())
+    return tuple(str(text) for text in overrides)
+
+
+def toml_literal(value: object, key: str = "value") -> str:
+    """``value`` as a TOML literal (``5``, ``0.25``, ``true``, ``"tr"``, ``[3, 4]``)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
+        return repr(value)
+    if isinstance(value, str):
+        return toml_string(value)
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(toml_literal(item, key) for item in value) + "]"
+    raise ConfigError(f"--set {key}: {value!r} is not a TOML value; give a number, text, true/false or "
+                      "a list")
+
+
+def toml_string(text: str) -> str:
+    """``text`` as a TOML basic string: quotes and backslashes escaped, control characters (DEL too)
+    as ``\\uXXXX``, everything else as it is (JSON's escapes would split a character outside the
+    Basic Multilingual Plane into a surrogate pair, which TOML refuses)."""
+    escaped = "".join(f"\\{char}" if char in '"\\' else
+                      f"\\u{ord(char):04x}" if ord(char) < 0x20 or ord(char) == 0x7F else char
+                      for char in text)
+    return f'"{escaped}"'
+
+
+def experiment_config(name_or_path: str | Path, overrides: Overrides | None = None) -> ExperimentConfig:
+    """The experiment ``name_or_path`` (a preset such as ``paper`` or ``smoke``, or a TOML file) with
+    ``overrides`` applied, validated: what :func:`simulate` would run.
+
+    Raises
+    ------
+    ConfigError
+        An unknown preset, an invalid file or override (the message ``nudge`` prints).
+    """
+    from nudgecli.config import load_experiment
+
+    return load_experiment(str(name_or_path), override_texts(overrides))
+
+
+def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | None = None,
+             seed: int | None = None, workers: int = 1, out: str | Path | None = None,
+             overrides: Overrides | None = None, people: str | Path | None = None,
+             progress: ProgressCallback | None = None, scheduler: str | None = None, resume: bool = False,
+             force: bool = False, plan: str | None = None, confirm: bool = False) -> Run:
+    """Simulate a study, as ``nudge simulate`` does.
+
+    Parameters
+    ----------
+    experiment
+        A preset name (``paper``, ``smoke``, ...), an experiment TOML file, or a loaded
+        experiment (:func:`experiment_config`).
+    participants, seed
+        Override the experiment's participant count and master seed.
+    workers
+        Local worker processes (1: in this process).
+    out
+        The run folder, kept; ``None``: a temporary folder removed when the :class:`Run` is closed,
+        leaves its ``with`` block or is garbage-collected.
+    overrides
+        Experiment fields to change, ``{"disambiguation.window": 5}`` or ``["disambiguation.window=5"]``
+        (``--set``); only with an experiment given by name or file.
+    people
+        A table of people to simulate (``--people``, issue 37); needs a version whose runs layer
+        takes it.
+    progress
+        Called with (trials done, trials in all) as participants finish; default silent.
+    scheduler
+        A dask.distributed scheduler's address (overrides ``workers``).
+    resume, force
+        Finish an interrupted run in ``out``, or replace the run there.
+    plan
+        The analysis plan recorded in the manifest (default: the one named like the experiment).
+    confirm
+        Simulate a study above the size limit (``--yes``).
+
+    Returns
+    -------
+    Run
+
+    Raises
+    ------
+    NudgeError
+        Invalid experiment, override, count, seed or folder, with the message of ``nudge``'s
+        ``Error:`` line; nothing is written then.
+    """
+    from nudgecli.config import ExperimentConfig
+    from nudgecli.runs.study import run_study
+
+    if isinstance(experiment, ExperimentConfig):
+        if overrides:
+            raise ConfigError("overrides= applies to an experiment given by name or file; give them to "
+                              "nudgecli.experiment_config(name, overrides) instead")
+        config = experiment
+    else:
+        config = experiment_config(experiment, overrides)
+    extra: dict[str, Any] = {}
+    if people is not None:
+        if "people" not in inspect.signature(run_study).parameters:
+            raise NudgeError(f"people={str(people)!r} needs the runs layer's --people support (issue 37), "
+                             "which this version of nudge does not have yet")
+        extra["people"] = people
+    temporary = out is None
+    target = temporary_folder(config.experiment.name) if out is None else Path(out)
+    made = temporary or not target.exists()
+    try:
+        study = run_study(config, target, seed=seed, participants=participants, workers=workers,
+                          scheduler=scheduler, resume=resume, force=force, progress=progress, plan=plan,
+                          confirm=confirm, **extra)
+    except BaseException:
+        # a folder this call made is removed whole (a temporary one) or when still empty (--out)
+        if temporary or (made and target.is_dir() and not any(target.iterdir())):
+            remove_if_made(target, True)
+        raise
+    if participants is not None:
+        section = config.study.model_copy(update={"participants": participants})
+        config = config.model_copy(update={"study": section})
+    return Run(study.path, config, temporary=temporary, mode=study.mode, computed=study.computed,
+               participant_count=study.participants, trials=study.trials)
