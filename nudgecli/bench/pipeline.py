@@ -10,12 +10,15 @@ It is 100 % when nothing but trials runs on the batch's critical path (no import
 workers start, no analysis, figure or table after the last trial, no idle worker), and it is what
 issue 39 asks of ``nudge replicate paper -R 4 --workers 2`` (>= 80 %) and ``-R 20`` (>= 90 %).
 Everything is measured side by side in one run: the loop (every participant of the experiment's
-study in this process, the plan built beforehand, the best of ``study_repeats`` runs of each),
+study in this process, the plan built beforehand, the best CPU time of ``study_repeats`` runs of
+each: :func:`loop_seconds_per_trial`),
 then both batches end to end as a user runs them (``python -m nudgecli.cli replicate ...`` in a
 child, interpreter start-up included), then the loop again, whose better time per participant
 counts (on a machine shared with other work, other processes only ever add time). The CPU seconds
 of each batch (the command and its reaped workers) give the size guard's cost per trial
-(:data:`nudgecli.runs.batch.SECONDS_PER_TRIAL`).
+(:data:`nudgecli.runs.batch.SECONDS_PER_TRIAL`) and the *CPU share* of the loop,
+``trials x loop seconds per trial / the batch's CPU seconds``: what the batch computes besides
+trials, which a machine shared with other work does not distort as it does the wall time.
 """
 
 from __future__ import annotations
@@ -80,13 +83,23 @@ def pipeline_efficiency(trials: int, loop_s_per_trial: float, workers: int, wall
     return trials * loop_s_per_trial / (workers * wall_s)
 
 
+def cpu_share(trials: int, loop_s_per_trial: float, cpu_s: float) -> float:
+    """``trials x loop_s_per_trial / cpu_s``: the share of a batch's CPU seconds its trials would
+    take at the loop's speed."""
+    return trials * loop_s_per_trial / cpu_s
+
+
 def trials_per_hour(trials: int, wall_s: float) -> float:
     return trials / wall_s * 3600.0
 
 
 def loop_seconds_per_trial(experiment: str, repeats: int) -> list[tuple[float, int]]:
     """Every participant of the experiment's study simulated in this process (its plan built first):
-    per participant, the best wall seconds of ``repeats`` runs and the participant's trials."""
+    per participant, the best CPU seconds of ``repeats`` runs and the participant's trials.
+
+    CPU seconds, not wall: the loop is single-threaded and CPU-bound, so unloaded they are its wall
+    time, and on a machine shared with other work they still are its own cost (its wall time there
+    is doubled by a second busy process per core, which would flatter every efficiency)."""
     from nudgecli.sim.study import StudyPlan, simulate_participant
 
     config = load_experiment(experiment)
@@ -95,9 +108,9 @@ def loop_seconds_per_trial(experiment: str, repeats: int) -> list[tuple[float, i
     for index in range(config.study.participants):
         best, trials = float("inf"), 0
         for _ in range(max(1, repeats)):
-            start = time.perf_counter()
+            start = time.process_time()
             result = simulate_participant(plan, index)
-            best = min(best, time.perf_counter() - start)
+            best = min(best, time.process_time() - start)
             trials = len(result.trials)
         measured.append((best, trials))
     return measured
@@ -155,7 +168,8 @@ def pipeline_row(measured: PipelineMeasurement, replications: int) -> dict[str, 
                f"{measured.loop_s_per_trial * 1e3:.2f} ms, the loop's time per trial, over "
                f"{measured.workers} workers x {timing.wall_s:.2f} s); "
                f"{trials_per_hour(timing.trials, timing.wall_s):,.0f} trials per hour; CPU "
-               f"{timing.cpu_s:.1f} s, {timing.cpu_s / timing.trials * 1e3:.2f} ms a trial end to end; "
+               f"{timing.cpu_s:.1f} s, {timing.cpu_s / timing.trials * 1e3:.2f} ms a trial end to end, "
+               f"{cpu_share(timing.trials, measured.loop_s_per_trial, timing.cpu_s):.0%} of it the loop; "
                f"{available_cores()} cores; memory: the largest worker's peak RSS; baseline = the wall "
                "time at the loop's speed", peak_mb=timing.worker_peak_mb)
 
