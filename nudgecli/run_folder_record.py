@@ -201,7 +201,21 @@ class RunRecord:
         if unverified and manifest.get("executor") != "live":
             notes.append(f"{self.path}: the manifest records no SHA-256 of the parts of {len(unverified)} "
                          "participant(s) (written by an older nudge); they were read unverified")
+        if manifest.get("executor") == "live" and manifest.get("status") != "complete":
+            notes.append(self._live_progress_note(manifest))
         return notes
+
+    def _live_progress_note(self, manifest: Mapping[str, Any]) -> str:
+        """How far an unfinished ``nudge study`` folder got: its participants finished, its trials
+        recorded (the manifest's ``live`` entries are the truth about both)."""
+        entries = dict(manifest.get("live") or {})
+        finished = sum(entry.get("status") == "complete" for entry in entries.values())
+        done = {key: len(entry.get("completed_trials") or []) for key, entry in entries.items()}
+        under_way = ", ".join(f"{entries[key].get('participant_id', key)} with {done[key]} trial(s)"
+                              for key in sorted(entries, key=int) if entries[key].get("status") != "complete")
+        return (f"{self.path}: a live study still under way: {finished} of {len(entries)} participant(s) "
+                f"finished, {sum(done.values())} trial(s) recorded (unfinished: {under_way}); the "
+                "statistics are of the trials recorded so far")
 
     def read_config(self) -> ExperimentConfig:
         """The resolved experiment the run was made with."""

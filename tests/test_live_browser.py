@@ -1,9 +1,12 @@
 """`nudge study` in a real browser: headless Chromium driven by Playwright runs the calibration and two
 short trials with scripted key presses; the run folder then passes `nudge analyze` and `nudge plot`.
 On the way it checks the page's guards: the token, the Origin and Host checks, a bad message answered
-while the trial goes on, a second tab that only watches, a second server on the same port that records
-nothing, and what the participant sees (key legend, border help, unset sliders, the practice's result,
-the lost-server overlay).
+while the trial goes on, a second tab that only watches, a monitor page (`&role=monitor`) that never
+controls, a second server on the same port that records nothing; a crash (SIGKILL) between the trials
+and `--resume`, after which the same open tab reconnects by itself; and what the participant sees (the
+keys in the task's words, border help, unset sliders drawn without a position or fill, the practice's
+result, the trial a closed tab abandoned, the questionnaire's block and condition, answered by keyboard
+alone the second time, the lost-server overlay), and the console's line when the participant finishes.
 
 Skipped where no browser can be had: it needs the `playwright` package (the test extra) and a
 Chromium (Debian's `chromium` package, `playwright install chromium`, or NUDGE_CHROMIUM=/path).
@@ -14,6 +17,7 @@ With NUDGE_SCREENSHOT=path the page's screenshot is also saved there (the README
 
 from __future__ import annotations
 
+import io
 import json
 import os
 import shutil
@@ -134,6 +138,73 @@ def _answer_questionnaire(page, check_unset: bool = False) -> None:
     _wait(page, "state.phase !== 'questionnaire'")
 
 
+def _blue_pixels(png: bytes) -> int:
+    """How many pixels of a screenshot are the blue of a slider's fill (Chromium's accent colour
+    draws the track up to the thumb); the page itself draws nothing blue in a questionnaire."""
+    import matplotlib.image
+
+    rgb = matplotlib.image.imread(io.BytesIO(png), format="png")[..., :3]
+    return int(((rgb[..., 2] - rgb[..., 0] > 0.3) & (rgb[..., 2] > 0.6)).sum())
+
+
+def _check_unset_sliders(page) -> None:
+    """An untouched slider says "not set" and looks it: no thumb, no fill up to the middle (its own
+    appearance off, a flat grey track); once moved it is a normal slider with its fill."""
+    style = page.eval_on_selector(
+        "#tlx_physical",
+        "el => [getComputedStyle(el).appearance, getComputedStyle(el).backgroundImage, "
+        "el.getAttribute('aria-valuetext'), el.className]",
+    )
+    assert style == ["none", "none", "not set", "unset"], style
+    assert page.inner_text("#tlx_physical-out") == "not set"
+    assert _blue_pixels(page.locator("#tlx_physical").screenshot()) == 0
+    page.eval_on_selector("#tlx_physical", "el => { el.value = 80; el.dispatchEvent(new Event('input')); }")
+    assert page.eval_on_selector("#tlx_physical", "el => getComputedStyle(el).appearance") != "none"
+    assert _blue_pixels(page.locator("#tlx_physical").screenshot()) > 20  # the check sees a fill
+    assert page.inner_text("#tlx_physical-out") == "80"
+
+
+def _answer_by_keyboard(page) -> dict:
+    """The questionnaire with keys alone: the first slider has the focus; arrows move a slider by
+    5, a digit answers a statement, Enter goes to the next question and submits after the last."""
+    _wait(page, "state.phase === 'questionnaire' && document.activeElement.id === 'tlx_mental'")
+    for name, value in ANSWERS.items():
+        if name.startswith("tlx_"):
+            steps = (value - 50) // 5
+            for _ in range(abs(steps)):
+                page.keyboard.press("ArrowRight" if steps > 0 else "ArrowLeft")
+        else:
+            page.keyboard.press(str(value))
+        page.keyboard.press("Enter")
+    _wait(page, "state.phase !== 'questionnaire'")
+    return dict(ANSWERS)
+
+
+def _start_server(port: int, out: Path, sets: list[str], *extra: str) -> tuple[subprocess.Popen, str]:
+    """``nudge study paper --participant P01`` and the address it prints once it listens."""
+    server = subprocess.Popen(
+        [sys.executable, "-m", "nudgecli.cli", "study", "paper", "--participant", "P01", "--port", str(port),
+         "--out", str(out), *sets, *extra],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    address = server.stdout.readline().strip()  # the server prints its address once it listens
+    assert address.startswith(f"http://127.0.0.1:{port}/?token="), (
+        server.stderr.read() if server.poll() is not None else address
+    )
+    return server, address
+
+
+def _stop(server: subprocess.Popen) -> None:
+    if server.poll() is None:
+        server.send_signal(signal.SIGINT)
+    try:
+        server.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        server.kill()
+
+
 def _foreign_socket_opens(browser, port: int, token: str, folder: Path) -> bool:
     """Whether a page of another origin on the same machine (another local web server) can open the
     session's websocket, even knowing the token."""
@@ -193,30 +264,9 @@ def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
     out, port = tmp_path / "run", _free_port()
     overrides = (*TWO_TRIALS, "study.time_limit_s=3", "calibration.prompt_s=0.8")
     sets = [arg for item in overrides for arg in ("--set", item)]
-    server = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "nudgecli.cli",
-            "study",
-            "paper",
-            "--participant",
-            "P01",
-            "--port",
-            str(port),
-            "--out",
-            str(out),
-            *sets,
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    server, address = _start_server(port, out, sets)
+    resumed = None
     try:
-        address = server.stdout.readline().strip()  # the server prints its address once it listens
-        assert address.startswith(f"http://127.0.0.1:{port}/?token="), (
-            server.stderr.read() if server.poll() is not None else address
-        )
         token = address.split("token=")[1]
         # 18: a second server on the same port refuses before recording anyone
         second = subprocess.run(
@@ -237,15 +287,27 @@ def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
             assert not _foreign_socket_opens(browser, port, token, tmp_path / "other")
             page.goto(address)
             _wait(page, "state !== null && state.phase === 'welcome' && role === 'controller'")
+            # the welcome screen explains each key in the task's words, as the server says them
+            assert "switch the mode forward" in page.inner_text("#welcome-keys")
+            # the experimenter's monitor page, asked for explicitly: it shows the session, never controls
+            monitor = browser.new_page()
+            monitor.goto(address + "&role=monitor")
+            _wait(monitor, "role === 'monitor' && state !== null")
+            assert monitor.is_visible("#monitoring") and not monitor.is_visible("#watching")
             page.keyboard.press(" ")
             _wait(page, "state.phase === 'mapping'")
-            assert page.is_visible("#legend")  # the keys on every input screen
+            # the keys on every input screen; while calibrating, their labels alone (not the answers)
+            assert page.is_visible("#legend") and "Hard Puff" in page.inner_text("#legend")
+            assert ":" not in page.inner_text("#legend") and "Space" not in page.inner_text("#legend")
             _calibrate(page)
             _wait(page, "state.phase === 'ready' && state.ready_for === 'teleoperation'")
+            assert "Space start" in page.inner_text("#legend").replace("\n", " ")
             # the first practice runs out of time (no input); then the rest is skipped
             page.keyboard.press(" ")
             _wait(page, "state.phase === 'trial'")
             assert page.is_visible("#legend") and "blue to red" in page.inner_text("#border-help")
+            legend = page.inner_text("#legend")
+            assert "Space" not in legend and "Hard Puff: switch the mode forward" in legend, legend
             _wait(page, "state.phase === 'ready' && state.ready_for === 'blending'", 10)
             page.click("#skip")
             _wait(page, "state.ready_for === 'evaluation'")
@@ -264,10 +326,17 @@ def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
             watcher.goto(address)
             _wait(watcher, "role === 'watcher' && state !== null && state.phase === 'trial'", 10)
             assert watcher.is_visible("#watching")
+            _wait(page, "state.trial.turn === 'human'", 5)
+            _wait(watcher, "state.trial.turn === 'human'", 5)
+            # only the page that drives the robot is told it is its turn
+            assert page.inner_text("#turn") == "Your turn"
+            assert watcher.inner_text("#turn") == monitor.inner_text("#turn") == "Participant's turn"
             watcher.keyboard.press("4")  # the watching page sends no input...
             # ...and what it sends anyway is refused by the server (a held Soft Sip would show in the log)
             watcher.evaluate("""ws.send('{"type": "key", "key": "4", "down": true}')""")
             _wait(watcher, "lastError.includes('only watches')", 5)
+            monitor.evaluate("""ws.send('{"type": "key", "key": "4", "down": true}')""")
+            _wait(monitor, "lastError.includes('monitor page')", 5)
             watcher.close()
             page.wait_for_timeout(700)
             assert _state(page)["phase"] == "trial"
@@ -275,31 +344,66 @@ def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
             page.keyboard.press("1")
             page.wait_for_timeout(300)
             screenshot = page.screenshot(path=str(tmp_path / "study-page.png"))
+            _wait(page, "state.phase === 'questionnaire' && document.querySelector('#q-submit') !== null")
+            condition = _state(page)["questionnaire"]["condition"]
+            assert page.inner_text("#q-title") == (
+                f'About the block you just finished: block 1 of 2, condition "{condition}"'
+            )
+            _check_unset_sliders(page)
             _answer_questionnaire(page, check_unset=True)
+            _wait(page, "state.phase === 'ready' && state.ready_for === 'evaluation'")
+            # a crash between the trials: the server is killed, the open tab says so and waits; the
+            # resumed server has the same token, and the same tab (and the monitor) reconnect by themselves
+            server.kill()
+            server.wait(timeout=10)
+            _wait(page, "document.getElementById('lost').classList.contains('shown')", 10)
+            resumed, resumed_address = _start_server(port, out, sets, "--resume")
+            assert resumed_address == address
+            _wait(page, "role === 'controller' && state.phase === 'welcome' && "
+                        "!document.getElementById('lost').classList.contains('shown')", 15)
+            _wait(monitor, "role === 'monitor' && state !== null && state.phase === 'welcome'", 10)
+            page.keyboard.press(" ")
+            _wait(page, "state.phase === 'ready' && state.ready_for === 'evaluation'")
+            assert page.inner_text("#ready-title") == "Trial 2 of 2"
+            # trial 2 starts; the participant's tab closes during it (the trial is abandoned) and opens
+            # again: it controls again, the monitor still only monitors
+            page.keyboard.press(" ")
+            _wait(page, "state.phase === 'trial'")
+            page.close()
+            _wait(monitor, "state.phase === 'ready'", 10)
+            page = browser.new_page(viewport={"width": 900, "height": 820})
+            page.goto(address)
+            _wait(page, "role === 'controller' && state !== null && state.phase === 'ready'")
+            assert page.inner_text("#ready-title") == "Trial 2 of 2"
+            assert page.inner_text("#ready-outcome").startswith("Trial 2: the page was closed during it")
+            monitor.evaluate("""ws.send('{"type": "start"}')""")
+            _wait(monitor, "lastError.includes('monitor page') && role === 'monitor'", 5)
             # trial 2: a soft sip held, then nothing: the turn passes to the assistant
             page.keyboard.press(" ")
             _wait(page, "state.phase === 'trial'")
             page.keyboard.down("4")
             page.wait_for_timeout(800)
             page.keyboard.up("4")
-            _answer_questionnaire(page)
+            typed = _answer_by_keyboard(page)  # the second questionnaire by keyboard alone
             _wait(page, "state.phase === 'done'")
             # the server goes away: the page says so over everything
             assert not page.is_visible("#lost")
-            server.send_signal(signal.SIGINT)
-            server.wait(timeout=10)
+            resumed.send_signal(signal.SIGINT)
+            _, console = resumed.communicate(timeout=10)
             _wait(page, "document.getElementById('lost').classList.contains('shown')", 10)
             assert "connection to the study server was lost" in page.inner_text("#lost").lower()
             browser.close()
     finally:
-        if server.poll() is None:
-            server.send_signal(signal.SIGINT)
-        try:
-            server.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            server.kill()
+        _stop(server)
+        if resumed is not None:
+            _stop(resumed)
     if os.environ.get("NUDGE_SCREENSHOT"):
         Path(os.environ["NUDGE_SCREENSHOT"]).write_bytes(screenshot)
+    # the console (stderr) names the monitor's address and says when the participant finished
+    assert f"{address}&role=monitor" in console
+    assert "participant P01 finished: 2 of 2 trials" in console, console
+    answers = pd.read_csv(out / "questionnaires.csv")
+    assert len(answers) == 2 and answers.iloc[1][list(typed)].to_dict() == typed
 
     steps = pd.read_parquet(out / "steps" / "part-0001.parquet")
     trials = pd.read_parquet(out / "trials" / "part-0001.parquet")

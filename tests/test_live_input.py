@@ -76,10 +76,20 @@ def test_participant_ids_give_their_number():
     assert participant_index("P9999") == 9999 and participant_index("x" * 28 + "0001") == 1
     # IDs that would map to a surprising number are refused with the rule, in one line
     for odd in ("alice", "P00", "P-1", "1" * 20, "5" * 5000, "P10000", "P1a", "x" * 29 + "0001", "P 1"):
-        rule = r"ending in the participant's number: letters .* 1 to 9999"
+        rule = r"ending in the participant's number: ASCII letters .* 1 to 9999 in the digits 0-9"
         with pytest.raises(ConfigError, match=rule) as err:
             participant_index(odd)
         assert "\n" not in str(err.value) and len(str(err.value)) < 300
+
+
+def test_participant_ids_are_ascii_and_have_no_spaces_around_them():
+    """Python's ``int`` and ``\\d`` read Arabic-Indic and fullwidth digits (and other scripts'
+    letters pass ``isalpha``): such IDs are refused, as are spaces around an ID, never stripped."""
+    for odd in ("P\u0661", "P\u0660\u0661", "\u0661\u0662", "P\uff11", "\uff10\uff11", "P\u09e7",
+                "\u00c9\u00c901", "\u0410\u041101", " P01", "P01 ", "\tP01", "P01\n", "P01\u00a0"):
+        with pytest.raises(ConfigError, match="ASCII letters"):
+            participant_index(odd)
+    assert participant_index("P01") == 1  # the same ID without them
 
 
 def _run_mapping(recorder: MappingRecorder, answer, delay: float = 0.35) -> None:

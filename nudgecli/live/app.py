@@ -99,7 +99,9 @@ def run_live_study(
             f"condition order {', '.join(session.entry['condition_order'])}; run folder {session.folder.path}"
         )
         log("open the address below in a browser; Ctrl-C ends the server (resume later with --resume)")
-        serve(session, sock, announce=announce)
+        # on --resume the stored token: the participant's tab, still open, reconnects by itself
+        token = session.folder.page_token(session.index, resume)
+        serve(session, sock, announce=announce, token=token, log=log)
     finally:
         session.folder.release()
     if session.phase != "done":

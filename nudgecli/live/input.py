@@ -25,12 +25,58 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from nudgecli.config import InterfaceSection
-from nudgecli.model.interface import LABELS, N_LABELS, NO_INPUT
+from nudgecli.model.interface import LABELS, N_LABELS, NO_INPUT, human_command, switch_mode
+from nudgecli.model.world import MODE_NAMES, N_MODES
 from nudgecli.sim.behaviour import RobotView
 from nudgecli.sim.pressure_model import LABEL_SIGN
 
 #: Key -> interface label (the study's answer keys: 1 Hard Puff, 2 Hard Sip, 3 Soft Puff, 4 Soft Sip).
 KEY_LABELS = {str(k + 1): k for k in range(N_LABELS)}
+
+
+#: How the page writes each mode (the robot's heading mode as the Greek letter the paper uses).
+MODE_SHOWN = {"x": "x", "y": "y", "theta": "\u03b8"}
+
+
+def _motion_words(vx: float, vy: float, omega: float) -> str:
+    """A command ``(vx, vy, omega)`` of one axis in words (omega anticlockwise, as in the world)."""
+    if vx:
+        return "move right" if vx > 0 else "move left"
+    if vy:
+        return "move up" if vy > 0 else "move down"
+    if omega:
+        return "turn counterclockwise" if omega > 0 else "turn clockwise"
+    return "nothing"
+
+
+def label_meaning(label: int) -> str:
+    """What a label does in the task, in words read off the interface's own rules.
+
+    A label that switches the mode (:func:`~nudgecli.model.interface.switch_mode`) is named by
+    the cycle it walks from the x mode (``switch the mode forward (x -> y -> theta)``); a label that
+    moves the robot (:func:`~nudgecli.model.interface.human_command`) by its motion in each mode.
+    The page shows these words, so they cannot drift from what the protocol does with a key.
+    """
+    cycle = [0]
+    while len(cycle) < N_MODES and switch_mode(cycle[-1], label) != cycle[-1]:
+        cycle.append(switch_mode(cycle[-1], label))
+    if len(cycle) > 1:
+        direction = "forward" if cycle[1] == 1 else "backward"
+        walk = " \u2192 ".join(MODE_SHOWN[MODE_NAMES[m]] for m in (*cycle, 0))
+        return f"switch the mode {direction} ({walk})"
+    motions = [
+        (_motion_words(*human_command(label, mode, 1.0, 1.0)), MODE_SHOWN[MODE_NAMES[mode]])
+        for mode in range(N_MODES)
+    ]
+    if all(words == "nothing" for words, _ in motions):
+        return "nothing"
+    return ", ".join(f"{words} in the {shown} mode" for words, shown in motions)
+
+
+def key_meanings() -> dict[str, dict[str, str]]:
+    """Each key's label and what it does in the task: ``{"1": {"label": "Hard Puff", "does":
+    "switch the mode forward (x -> y -> theta -> x)"}, ...}`` (:func:`label_meaning`)."""
+    return {key: {"label": LABELS[label], "does": label_meaning(label)} for key, label in KEY_LABELS.items()}
 
 
 def key_pressures(interface: InterfaceSection) -> np.ndarray:

@@ -22,14 +22,18 @@ writes) are dropped, so at most the trial that was running is lost.
 Several servers (one per participant) may record into one folder at once. Each holds its
 participant's lock (``.nudge-participant-iiii.lock``, the run-folder lock of
 :func:`nudgecli.store.run_lock` for one participant) for as long as it serves, so a second server
-for the same participant is refused; and every manifest write is a read-modify-write of this
-participant's entry under the folder's lock, so one participant's checkpoint never drops
-another's.
+for the same participant is refused (the page's token waits in ``.nudge-participant-iiii.token``
+until the participant is complete, so ``--resume`` serves the tab that is still open); and every
+manifest write is a read-modify-write of this participant's entry under the folder's lock, so one
+participant's checkpoint never drops another's.
 """
 
 from __future__ import annotations
 
 import contextlib
+import os
+import re
+import secrets
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -67,6 +71,16 @@ _PARTICIPANT_LOCKS: dict[Path, list[Any]] = {}
 def participant_lock_name(participant: int) -> str:
     """The file name of a participant's lock in a live folder."""
     return f".nudge-participant-{participant:04d}.lock"
+
+
+def participant_token_name(participant: int) -> str:
+    """The file name of a participant's page token in a live folder (read by ``--resume``)."""
+    return f".nudge-participant-{participant:04d}.token"
+
+
+#: What a stored token must look like to be used again (``secrets.token_urlsafe(16)`` gives 22
+#: such characters); anything else (an edited or truncated file) is replaced by a new token.
+_TOKEN_PATTERN = re.compile(r"[A-Za-z0-9_-]{22,64}")
 
 
 def _is_lock_file(name: str) -> bool:
@@ -313,6 +327,7 @@ class LiveFolder:
         with folder_lock(self.path):  # another participant may finish at the same moment
             self.run.write_participants_table()
         self.save(participant)
+        self.forget_page_token(participant)
 
     def write_questionnaire(self, participant: int, row: dict[str, Any]) -> None:
         """Add (or replace) one participant's answers for one block in ``questionnaires.csv``."""
@@ -327,6 +342,36 @@ class LiveFolder:
         entry = self.entry
         entry["questionnaire_blocks"] = sorted({*entry["questionnaire_blocks"], int(row["block"])})
         self.save(participant)
+
+    # --- the page's token -----------------------------------------------------------------------
+
+    def page_token(self, participant: int, resume: bool) -> str:
+        """The token of the participant's page: on ``resume`` the one stored at the last start, so
+        the participant's open tab reconnects to the resumed server; otherwise (or when none is
+        stored, or the stored one is not a token) a new random one, stored for the next resume.
+
+        The token is written to a file of this folder readable by its owner only (mode 0600):
+        it keeps other web pages out, and a process that can read the folder can drive the study
+        anyway. It is removed when the participant's session is complete.
+        """
+        path = self.path / participant_token_name(participant)
+        if resume:
+            with contextlib.suppress(OSError, UnicodeDecodeError):
+                stored = path.read_text(encoding="ascii").strip()
+                if _TOKEN_PATTERN.fullmatch(stored):
+                    return stored
+        token = secrets.token_urlsafe(16)
+        temporary = path.with_name(path.name + ".tmp")
+        descriptor = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
+        with os.fdopen(descriptor, "w", encoding="ascii") as handle:
+            handle.write(token + "\n")
+        os.replace(temporary, path)
+        return token
+
+    def forget_page_token(self, participant: int) -> None:
+        """The participant's session is complete: its page token is no longer needed."""
+        with contextlib.suppress(OSError):
+            (self.path / participant_token_name(participant)).unlink()
 
     def calibration_dir(self, participant: int) -> Path:
         return self.run.calibration_dir(participant)

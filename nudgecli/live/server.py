@@ -12,13 +12,21 @@ Guards (a study page drives a real person's session; other pages on the machine 
 - the server binds to 127.0.0.1 only, and answers only requests whose ``Host`` is its own
   address (``127.0.0.1:PORT`` or ``localhost:PORT``), so a foreign name resolving to 127.0.0.1
   (DNS rebinding) gets nothing;
-- the page and the websocket need the session's token (``?token=...``, random per server start,
-  in the address printed at start); the websocket also needs the page's own ``Origin``;
+- the page and the websocket need the session's token (``?token=...``, in the address printed at
+  start: random for a new participant, the stored one on ``--resume``, so the participant's open
+  tab reconnects by itself after a crash); the websocket also needs the page's own ``Origin``;
 - every message is checked against the schema of :mod:`nudgecli.live.messages`; a bad one gets
-  an error reply and changes nothing;
-- one page controls the session at a time: the first to connect; later pages are told they only
-  watch (their input is refused). When the controlling page closes, its keys are released and
-  the oldest watching page takes over; a watching page closing changes nothing.
+  an error reply and changes nothing. Its size is checked before it is parsed (a message of up
+  to :data:`MAX_FRAME_BYTES` is read and refused; aiohttp closes the socket on a larger one, from
+  its frame header), and a message nested too deeply for Python's JSON reader is refused too,
+  each with one line on the server's log;
+- pages have a role. A participant's page (the printed address) drives the session: the first
+  open one controls it, later ones are told they only watch (their input is refused), and when
+  the controlling page closes its keys are released and the oldest other participant's page takes
+  over. A monitor page (the address with ``&role=monitor``) shows the session and never
+  controls it, whatever closes. While no participant's page is open the session waits and its
+  clock stops: a running trial is abandoned (it runs again from its start), a calibration prompt
+  keeps the time it had left.
 """
 
 from __future__ import annotations
@@ -29,8 +37,10 @@ import hmac
 import json
 import secrets
 import socket
+import sys
 import time
-from collections.abc import AsyncIterator
+from collections.abc import AsyncIterator, Callable
+from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
 from typing import Any, Protocol
@@ -49,13 +59,24 @@ TOKEN_KEY = web.AppKey("token", str)
 #: Paths that need the token: the page and the websocket (``/static/`` holds only the page's code).
 GUARDED_PATHS = ("/", "/ws")
 WATCHING = "another page controls this session; this page only watches"
+MONITORING = "this is a monitor page: it shows the session and sends no input"
+#: The roles a page may ask for with ``?role=``: none is the participant's page.
+PARTICIPANT, MONITOR = "participant", "monitor"
+#: The largest websocket message aiohttp reads (checked from the frame header, before reading):
+#: one up to this size is read and refused by its length, larger ones close the socket.
+MAX_FRAME_BYTES = 16 * 1024 * 1024
+
+
+def _stderr_line(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
 
 
 class Sockets:
-    """The pages connected to the session, in the order they connected; the first controls it."""
+    """The pages connected to the session, in the order they connected, with their roles; the
+    first participant's page controls the session, a monitor page never does."""
 
     def __init__(self) -> None:
-        self.pages: dict[web.WebSocketResponse, None] = {}  # insertion-ordered set
+        self.pages: dict[web.WebSocketResponse, str] = {}  # insertion-ordered: page -> role
 
     @property
     def open(self) -> list[web.WebSocketResponse]:
@@ -63,10 +84,61 @@ class Sockets:
 
     @property
     def controller(self) -> web.WebSocketResponse | None:
-        return next(iter(self.pages), None)
+        return next((ws for ws, role in self.pages.items() if role == PARTICIPANT), None)
+
+    def role_of(self, ws: web.WebSocketResponse) -> str:
+        """What the page is told it is: ``controller``, ``watcher`` or ``monitor``."""
+        if self.pages.get(ws) == MONITOR:
+            return MONITOR
+        return "controller" if self.controller is ws else "watcher"
 
 
 SOCKETS_KEY = web.AppKey("sockets", Sockets)
+
+
+@dataclass
+class SessionTime:
+    """The session's time: the clock's, less the spans when no participant's page was open (a
+    calibration prompt's clock pauses while the tab is closed). It starts paused: no page yet."""
+
+    clock: Clock
+    paused_s: float = 0.0
+    paused_at: float | None = 0.0
+
+    def now(self) -> float:
+        current = self.clock.now() if self.paused_at is None else self.paused_at
+        return current - self.paused_s
+
+    def pause(self) -> None:
+        if self.paused_at is None:
+            self.paused_at = self.clock.now()
+
+    def go_on(self) -> None:
+        if self.paused_at is not None:
+            self.paused_s += self.clock.now() - self.paused_at
+            self.paused_at = None
+
+
+@dataclass
+class ServerLog:
+    """The server's console lines: refused messages that look like attacks, and the end."""
+
+    write: Callable[[str], None] = _stderr_line
+    finished: bool = field(default=False)
+
+    def session_changed(self, session: LiveSession) -> None:
+        """Say once when the participant has finished (the experimenter may not watch the page)."""
+        if session.phase == "done" and not self.finished:
+            self.finished = True
+            done = len(session.entry["completed_trials"])
+            self.write(
+                f"participant {session.participant_id} finished: {done} of {len(session.schedule)} trials "
+                f"and the questionnaires recorded in {session.folder.path}; Ctrl-C ends the server"
+            )
+
+
+TIME_KEY = web.AppKey("time", SessionTime)
+LOG_KEY = web.AppKey("log", ServerLog)
 
 
 def static_dir() -> Path:
@@ -132,12 +204,13 @@ async def _broadcast(app: web.Application, message: dict[str, Any]) -> None:
 
 
 async def _ticker(app: web.Application) -> None:
-    session, clock = app[SESSION_KEY], app[CLOCK_KEY]
+    session, clock, session_time = app[SESSION_KEY], app[CLOCK_KEY], app[TIME_KEY]
     while True:
         await clock.wait()
-        if not app[SOCKETS_KEY].open:
-            continue  # no page: the session waits (a trial left mid-way was abandoned)
-        session.tick(clock.now())
+        if app[SOCKETS_KEY].controller is None:
+            continue  # no participant's page: the session waits (a trial left mid-way was abandoned)
+        session.tick(session_time.now())
+        app[LOG_KEY].session_changed(session)
         await _broadcast(app, session.view())
 
 
@@ -188,50 +261,69 @@ async def _reply_error(ws: web.WebSocketResponse, text: str) -> None:
     await _send(ws, {"type": "error", "message": text})
 
 
+def _parse(text: str) -> tuple[Any, str | None, bool]:
+    """The JSON value of a message, or why it is refused, its size checked before it is parsed;
+    and whether the refusal goes to the log (what no page of ours sends: too large, too deep)."""
+    if len(text) > MAX_MESSAGE_BYTES:
+        return None, f"message of {len(text)} characters; at most {MAX_MESSAGE_BYTES}", True
+    try:
+        return json.loads(text), None, False
+    except RecursionError:  # Python's JSON reader recurses per nesting level; no message nests
+        return None, "not a message: JSON nested too deeply", True
+    except ValueError:  # not JSON, or a number too long to read
+        return None, "not JSON", False
+
+
 async def _websocket(request: web.Request) -> web.WebSocketResponse:
     app = request.app
-    session, clock, sockets = app[SESSION_KEY], app[CLOCK_KEY], app[SOCKETS_KEY]
-    # aiohttp's own limit well above ours, so an oversized message is answered, not a dropped socket
-    ws = web.WebSocketResponse(heartbeat=10.0, max_msg_size=64 * MAX_MESSAGE_BYTES)
+    session, sockets, session_time, log = app[SESSION_KEY], app[SOCKETS_KEY], app[TIME_KEY], app[LOG_KEY]
+    role = request.query.get("role", PARTICIPANT)
+    if role not in (PARTICIPANT, MONITOR):
+        raise web.HTTPBadRequest(
+            text=f"refused: role {role[:20]!r}; a page is the participant's, or role=monitor\n")
+    # aiohttp's own limit far above ours, so an oversized message is answered, not a dropped socket
+    ws = web.WebSocketResponse(heartbeat=10.0, max_msg_size=MAX_FRAME_BYTES)
     await ws.prepare(request)
-    sockets.pages[ws] = None
-    await _send(ws, {"type": "role", "role": "controller" if sockets.controller is ws else "watcher"})
+    sockets.pages[ws] = role
+    if sockets.controller is ws:
+        session_time.go_on()  # a participant's page again: the session's clock runs
+    await _send(ws, {"type": "role", "role": sockets.role_of(ws)})
     await _send(ws, session.view())
     try:
         async for msg in ws:
             if msg.type != WSMsgType.TEXT:
                 continue
-            if len(msg.data) > MAX_MESSAGE_BYTES:
-                await _reply_error(ws, f"message of {len(msg.data)} characters; at most {MAX_MESSAGE_BYTES}")
-                continue
-            try:
-                data = json.loads(msg.data)
-            except ValueError:  # not JSON, or a number too long to read
-                await _reply_error(ws, "not JSON")
-                continue
-            problem = check_message(data)
+            data, problem, worth_logging = _parse(msg.data)
+            if worth_logging:
+                log.write(f"refused a message from a {role} page: {problem}")
+            problem = problem or check_message(data)
             if problem is not None:
                 await _reply_error(ws, problem)
                 continue
             if data["type"] in INPUT_TYPES and sockets.controller is not ws:
-                await _reply_error(ws, WATCHING)
+                await _reply_error(ws, MONITORING if role == MONITOR else WATCHING)
                 continue
-            reply = session.handle(data, clock.now())
+            reply = session.handle(data, session_time.now())
             if reply is not None:
                 await _send(ws, reply)
             if data["type"] in ("start", "skip", "questionnaire") or (
                 data["type"] == "key" and data["key"] == " "
             ):
+                log.session_changed(session)
                 await _broadcast(app, session.view())
     finally:
         was_controller = sockets.controller is ws
         sockets.pages.pop(ws, None)
         if was_controller:
-            # the controlling page's keys are up; with no page left, the running trial is abandoned
-            session.handle({"type": "disconnect" if not sockets.pages else "blur"}, clock.now())
+            # the controlling page's keys are up; with no participant's page left, the running
+            # trial is abandoned and the session's clock stops
             successor = sockets.controller
-            if successor is not None:
+            session.handle({"type": "blur" if successor is not None else "disconnect"}, session_time.now())
+            if successor is None:
+                session_time.pause()
+            else:
                 await _send(successor, {"type": "role", "role": "controller"})
+            await _broadcast(app, session.view())  # a monitor sees the trial abandoned
     return ws
 
 
@@ -242,13 +334,20 @@ async def _close_pages(app: web.Application) -> None:
         await ws.close(code=WSCloseCode.GOING_AWAY, message=b"the study server stopped")
 
 
-def create_app(session: LiveSession, clock: Clock | None = None, token: str | None = None) -> web.Application:
+def create_app(
+    session: LiveSession,
+    clock: Clock | None = None,
+    token: str | None = None,
+    log: Callable[[str], None] = _stderr_line,
+) -> web.Application:
     """The aiohttp application of one live session (``clock``: real time at the protocol rate;
-    ``token``: the session's token, random when ``None``)."""
+    ``token``: the session's token, random when ``None``; ``log``: the console's lines)."""
     app = web.Application(middlewares=[_guard])
     app[SESSION_KEY] = session
     app[TOKEN_KEY] = token or secrets.token_urlsafe(16)
     app[CLOCK_KEY] = clock or PacedClock(session.settings.dt)
+    app[TIME_KEY] = SessionTime(app[CLOCK_KEY])
+    app[LOG_KEY] = ServerLog(log)
     app[SOCKETS_KEY] = Sockets()
     app.router.add_get("/", _index)
     app.router.add_get("/ws", _websocket)
@@ -284,9 +383,21 @@ def page_address(port: int, token: str) -> str:
     return f"http://{HOST}:{port}/?token={token}"
 
 
-def serve(session: LiveSession, sock: socket.socket, announce: Any = print) -> None:
+def serve(
+    session: LiveSession,
+    sock: socket.socket,
+    announce: Any = print,
+    token: str | None = None,
+    log: Callable[[str], None] = _stderr_line,
+) -> None:
     """Serve the session on the listening socket ``sock`` (:func:`bind`) until interrupted;
-    ``announce`` gets the page's address (with the token) once the server answers."""
-    app = create_app(session)
+    ``announce`` gets the page's address (with ``token``, random when ``None``) once the server
+    answers, ``log`` the console's lines (the monitor page's address first)."""
+    app = create_app(session, token=token, log=log)
     address = page_address(sock.getsockname()[1], app[TOKEN_KEY])
-    web.run_app(app, sock=sock, print=lambda _: announce(address), handle_signals=True)
+
+    def answering(_: str) -> None:
+        announce(address)
+        log(f"a read-only monitor page for the experimenter: {address}&role={MONITOR}")
+
+    web.run_app(app, sock=sock, print=answering, handle_signals=True)

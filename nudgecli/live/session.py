@@ -35,12 +35,12 @@ import pandas as pd
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError
 from nudgecli.live.calibration import DistortionRecorder, MappingRecorder, action_prompt_text
-from nudgecli.live.input import KEY_LABELS, LiveInput
+from nudgecli.live.input import KEY_LABELS, LiveInput, key_meanings
 from nudgecli.live.questionnaire import questionnaire_form, questionnaire_row
 from nudgecli.live.records import LiveFolder
 from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.human_actions import DistinctActionRows
-from nudgecli.model.interface import LABELS, default_distortion_table, default_mapping_table
+from nudgecli.model.interface import default_distortion_table, default_mapping_table
 from nudgecli.model.world import (
     CORNERS,
     GOAL_RADIUS,
@@ -77,8 +77,8 @@ MAX_ID_LENGTH = 32
 MAX_PARTICIPANT = 9999
 #: The rule a participant ID follows, as the error message says it.
 ID_RULE = (
-    f"letters (optionally then '_'), then the participant's number from 1 to {MAX_PARTICIPANT}, "
-    f"at most {MAX_ID_LENGTH} characters, e.g. P01, p_12 or 3"
+    f"ASCII letters (optionally then '_'), then the participant's number from 1 to {MAX_PARTICIPANT} "
+    f"in the digits 0-9, at most {MAX_ID_LENGTH} characters, no spaces, e.g. P01, p_12 or 3"
 )
 
 
@@ -88,10 +88,13 @@ def participant_index(participant_id: str) -> int:
     The index seeds the participant's schedule and true goals and, without ``--condition-order``,
     rotates the starting condition, exactly as participant ``i`` of a simulated study. IDs that
     would map to a surprising number are refused (:data:`ID_RULE`): ``P00`` (0 is no participant
-    number), ``P-1`` (reads as minus one, would be 1), more than four digits.
+    number), ``P-1`` (reads as minus one, would be 1), more than four digits, digits of other
+    scripts (``P\u0661``, Arabic-Indic one; ``P\uff11``, fullwidth one: Python's ``int`` reads both),
+    and spaces around the ID (it names the participant in the manifest and the resume command
+    as given: refused rather than silently changed).
     """
-    text = participant_id.strip()
-    match = re.fullmatch(r"[A-Za-z]*_?(\d{1,4})", text) if len(text) <= MAX_ID_LENGTH else None
+    text = participant_id
+    match = re.fullmatch(r"[A-Za-z]*_?([0-9]{1,4})", text, re.ASCII) if len(text) <= MAX_ID_LENGTH else None
     index = int(match.group(1)) if match else 0
     if not match or not 1 <= index <= MAX_PARTICIPANT:
         shown = participant_id if len(participant_id) <= MAX_ID_LENGTH else f"{participant_id[:12]}... " \
@@ -423,6 +426,7 @@ class LiveSession:
         summary = session.summary()
         self.last_outcome = {
             "kind": running.kind,
+            "number": self._trial_number(running),
             "success": bool(summary["success"]),
             "timed_out": bool(summary["timed_out"]),
             "duration_s": summary["duration_s"],
@@ -449,9 +453,17 @@ class LiveSession:
         """Drop the running trial (nothing of it is recorded); it starts again from the beginning."""
         if self.phase == "trial" and self.trial is not None:
             self.ready_for = self.trial.kind
+            number = self._trial_number(self.trial)
             self.trial = None
             self.phase = "ready"
-            self.last_outcome = {"kind": self.ready_for, "abandoned": True}
+            self.last_outcome = {"kind": self.ready_for, "number": number, "abandoned": True}
+
+    def _trial_number(self, running: RunningTrial) -> int | None:
+        """An evaluation trial's place in the participant's schedule, from 1 (practice: ``None``)."""
+        if running.kind != "evaluation":
+            return None
+        trial = running.session.spec.trial
+        return next(n for n, spec in enumerate(self.schedule, start=1) if spec.trial == trial)
 
     def _end_practice(self) -> None:
         self.entry["familiarised"] = True
@@ -505,7 +517,7 @@ class LiveSession:
             "trials_total": len(self.schedule),
             "ready_for": self.ready_for,
             "last_outcome": self.last_outcome,
-            "keys": {k: LABELS[v] for k, v in KEY_LABELS.items()},
+            "keys": key_meanings(),
         }
         if self.phase == "mapping" and self.mapping_recorder is not None:
             prompt = self.mapping_recorder.prompt
@@ -528,8 +540,17 @@ class LiveSession:
         elif self.phase == "trial" and self.trial is not None:
             out["trial"] = self._trial_view(self.trial)
         elif self.phase == "questionnaire":
-            out["questionnaire"] = {"block": self._pending_questionnaire(), **questionnaire_form()}
+            block = self._pending_questionnaire()
+            out["questionnaire"] = {**self._block_named(block), **questionnaire_form()}
         return out
+
+    def _block_named(self, block: int | None) -> dict[str, Any]:
+        """A block as the questionnaire names it: its number, its place among the participant's
+        blocks (from 1), how many there are, and its condition."""
+        blocks = sorted({spec.block for spec in self.schedule})
+        condition = next((spec.condition for spec in self.schedule if spec.block == block), None)
+        number = blocks.index(block) + 1 if block in blocks else None
+        return {"block": block, "block_number": number, "blocks": len(blocks), "condition": condition}
 
     def _trial_view(self, running: RunningTrial) -> dict[str, Any]:
         s = running.session

@@ -6,13 +6,14 @@ const params = new URLSearchParams(location.search);
 const AXIS = Number(params.get("axis") || 0);      // which gamepad axis is the pressure
 const AXIS_SIGN = params.get("invert") ? -1 : 1;   // sip positive, puff negative
 const TOKEN = params.get("token") || "";           // the session's token, from the printed address
+const MONITOR = params.get("role") === "monitor";  // the experimenter's read-only page, asked for explicitly
 const INPUT_KEYS = new Set(["1", "2", "3", "4", " "]);
 const INPUT_PHASES = new Set(["mapping", "distortion", "ready", "trial"]);
 
 let ws = null;
 let state = null;
 let lastAxis = undefined;
-let role = null;          // "controller" (this page drives the session) or "watcher"
+let role = null;          // "controller" (this page drives the session), "watcher" or "monitor"
 let everConnected = false;
 let lastError = "";       // the server's last error reply (tests read it)
 
@@ -23,7 +24,8 @@ function send(message) {
 }
 
 function connect() {
-  ws = new WebSocket(`ws://${location.host}/ws?token=${encodeURIComponent(TOKEN)}`);
+  ws = new WebSocket(`ws://${location.host}/ws?token=${encodeURIComponent(TOKEN)}` +
+    (MONITOR ? "&role=monitor" : ""));
   const badge = document.getElementById("connection");
   ws.onopen = () => {
     everConnected = true;
@@ -46,7 +48,9 @@ function connect() {
     if (message.type === "state") { state = message; render(); }
     else if (message.type === "role") {
       role = message.role;
-      document.getElementById("watching").classList.toggle("shown", role !== "controller");
+      document.getElementById("watching").classList.toggle("shown", role === "watcher");
+      document.getElementById("monitoring").classList.toggle("shown", role === "monitor");
+      if (state) render();
     } else if (message.type === "error") {
       lastError = message.message;
       document.getElementById(state && state.phase === "questionnaire" ? "q-error" : "notice").textContent =
@@ -58,12 +62,14 @@ function connect() {
 // --- input: keys held down, and a gamepad axis -------------------------------------------------
 
 document.addEventListener("keydown", (e) => {
+  if (state && state.phase === "questionnaire") { questionnaireKey(e); return; }  // the form's keys
   if (!INPUT_KEYS.has(e.key) || isTyping(e)) return;
   e.preventDefault();
   if (e.repeat) return;  // the key is still down: the server already knows
   send({ type: "key", key: e.key, down: true });
 });
 document.addEventListener("keyup", (e) => {
+  if (state && state.phase === "questionnaire") return;
   if (!INPUT_KEYS.has(e.key) || isTyping(e)) return;
   e.preventDefault();
   send({ type: "key", key: e.key, down: false });
@@ -92,13 +98,28 @@ function show(id) {
   for (const screen of document.querySelectorAll(".screen")) screen.classList.toggle("active", screen.id === id);
 }
 
-function renderLegend() {  // the keys on every screen that takes input
+function renderLegend() {  // the keys on every screen that takes input, in the task's words
   const legend = document.getElementById("legend");
-  legend.classList.toggle("shown", INPUT_PHASES.has(state.phase));
-  if (legend.dataset.filled) return;
-  legend.innerHTML = Object.entries(state.keys).map(([key, label]) => `<span><kbd>${key}</kbd> ${label}</span>`)
-    .join("") + "<span><kbd>Space</kbd> start</span>";
-  legend.dataset.filled = "1";
+  const phase = state.phase;
+  legend.classList.toggle("shown", INPUT_PHASES.has(phase));
+  // calibration part 1 asks which input the person would use for an action: the legend names the
+  // inputs only, so it does not answer for them; Space starts something only on a ready screen
+  const explained = phase === "ready" || phase === "trial";
+  const wanted = `${phase === "mapping" || phase === "distortion" ? "labels" : "meanings"}` +
+    (phase === "ready" ? "+space" : "");
+  if (legend.dataset.filled === wanted) return;
+  legend.innerHTML = Object.entries(state.keys).map(([key, k]) =>
+    `<span><kbd>${key}</kbd> ${k.label}${explained ? ": " + k.does : ""}</span>`).join("") +
+    (phase === "ready" ? "<span><kbd>Space</kbd> start</span>" : "");
+  legend.dataset.filled = wanted;
+}
+
+function renderWelcomeKeys() {  // the welcome screen's table: the server's words for each key
+  const table = document.getElementById("welcome-keys");
+  if (table.dataset.filled) return;
+  table.innerHTML = Object.entries(state.keys).map(([key, k]) =>
+    `<tr><th>${key}</th><td>${k.label}</td><td>${k.does}</td></tr>`).join("");
+  table.dataset.filled = "1";
 }
 
 function render() {
@@ -107,7 +128,7 @@ function render() {
   document.getElementById("notice").textContent = "";
   renderLegend();
   const phase = state.phase;
-  if (phase === "welcome") show("welcome");
+  if (phase === "welcome") { renderWelcomeKeys(); show("welcome"); }
   else if (phase === "mapping" || phase === "distortion") renderCalibration();
   else if (phase === "ready") renderReady();
   else if (phase === "trial") renderTrial();
@@ -124,7 +145,7 @@ function renderCalibration() {
   if (c.part === 1) {
     title.textContent = "Calibration 1 of 2: which input would you use?";
     help.textContent = "For each action, press the key of the sip or puff you would use for it: " +
-      "1 Hard Puff, 2 Hard Sip, 3 Soft Puff, 4 Soft Sip.";
+      Object.entries(state.keys).map(([key, k]) => `${key} ${k.label}`).join(", ") + ".";
     prompt.textContent = c.break ? "Short break…" : (c.prompt || "");
   } else {
     title.textContent = "Calibration 2 of 2: produce the input";
@@ -157,7 +178,7 @@ const PRACTICE_NAMES = { teleoperation: "Practice 1 of 3 (teleoperation)", blend
 
 function outcomeText(o) {  // what the last trial or practice gave, named, so it is not taken for the next
   if (!o) return "";
-  const what = o.kind === "evaluation" ? `Trial ${state.trials_done}` : (PRACTICE_NAMES[o.kind] || "Practice");
+  const what = o.kind === "evaluation" ? `Trial ${o.number}` : (PRACTICE_NAMES[o.kind] || "Practice");
   if (o.abandoned) return `${what}: the page was closed during it; it starts again from the beginning.`;
   if (o.success) return `${what}: goal reached in ${o.duration_s.toFixed(1)} s.`;
   return `${what}: ${o.timed_out ? "time is up" : "that was not the red goal"}.`;
@@ -166,7 +187,9 @@ function outcomeText(o) {  // what the last trial or practice gave, named, so it
 function renderTrial() {
   show("trial");
   const t = state.trial;
-  document.getElementById("turn").textContent = t.autonomy ? "Assistant's turn" : "Your turn";
+  // only the page that drives the robot is told it is its turn
+  document.getElementById("turn").textContent = t.autonomy ? "Assistant's turn" :
+    (role === "controller" ? "Your turn" : "Participant's turn");
   for (const span of document.querySelectorAll(".modes span")) span.classList.toggle("active", span.dataset.mode === t.mode);
   document.getElementById("clock").textContent = `${t.t.toFixed(1)} s / ${t.time_limit_s} s`;
   const canvas = document.getElementById("world");
@@ -217,6 +240,8 @@ function renderQuestionnaire() {
   const q = state.questionnaire;
   if (formBlock === q.block) return;  // keep what the person has entered
   formBlock = q.block;
+  document.getElementById("q-title").textContent =
+    `About the block you just finished: block ${q.block_number} of ${q.blocks}, condition "${q.condition}"`;
   const form = document.getElementById("q-form");
   form.innerHTML = "";
   document.getElementById("q-error").textContent = "";
@@ -225,11 +250,13 @@ function renderQuestionnaire() {
     const middle = (q.tlx_range[0] + q.tlx_range[1]) / 2;
     div.innerHTML = `<label for="${item.name}">${item.question} <output id="${item.name}-out">not set</output></label>` +
       `<span class="small">${item.low}</span> <input type="range" class="unset" id="${item.name}" name="${item.name}" ` +
-      `min="${q.tlx_range[0]}" max="${q.tlx_range[1]}" step="5" value="${middle}"> <span class="small">${item.high}</span>`;
+      `min="${q.tlx_range[0]}" max="${q.tlx_range[1]}" step="5" value="${middle}" aria-valuetext="not set">` +
+      ` <span class="small">${item.high}</span>`;
     form.appendChild(div);
     const input = div.querySelector("input");
-    const touch = () => {
+    const touch = () => {  // moved or clicked: now it has a value, drawn as a normal slider
       input.classList.remove("unset"); input.dataset.touched = "1";
+      input.removeAttribute("aria-valuetext");
       div.querySelector("output").textContent = input.value;
     };
     input.addEventListener("input", touch);
@@ -267,6 +294,43 @@ function renderQuestionnaire() {
     }
     send({ type: "questionnaire", answers: answers });
   };
+  if (role === "controller") focusItem(0);
+}
+
+// --- the questionnaire by keyboard: arrows move a slider or choose a statement's answer, digits
+// answer a statement (1-7), Enter goes to the next question and on the last one submits ---------
+
+function questionItems() {  // one focus target per question: its slider, or its checked (or first) radio
+  return Array.from(document.querySelectorAll("#q-form .item")).map((div) =>
+    div.querySelector("input[type=range]") || div.querySelector("input[type=radio]:checked") ||
+    div.querySelector("input[type=radio]"));
+}
+
+function focusItem(index) {
+  const items = questionItems();
+  if (index < items.length) items[index].focus();
+  else document.getElementById("q-submit").focus();
+}
+
+function questionnaireKey(e) {
+  const target = e.target;
+  const items = questionItems();
+  const div = target && target.closest ? target.closest("#q-form .item") : null;
+  const index = div ? Array.from(document.querySelectorAll("#q-form .item")).indexOf(div) : -1;
+  if (index < 0) {
+    if (e.key === "Enter" && target.id !== "q-submit") { e.preventDefault(); focusItem(0); }
+    return;  // the submit button takes Enter and Space itself
+  }
+  if (target.type === "radio" && /^[0-9]$/.test(e.key)) {  // a digit answers the statement
+    const radio = div.querySelector(`input[type=radio][value="${e.key}"]`);
+    e.preventDefault();
+    if (radio) { radio.checked = true; radio.focus(); }
+  } else if (e.key === "Enter") {
+    e.preventDefault();
+    if (index + 1 < items.length) focusItem(index + 1);
+    else document.getElementById("q-form").requestSubmit();
+  }
+  // arrows: the browser's own (a slider moves by its step; in a radio group the next answer is chosen)
 }
 
 connect();
