@@ -22,7 +22,7 @@ from typing import Any
 import click
 
 from nudgecli import __version__
-from nudgecli.commands import analysis, batches, simulation, tools
+from nudgecli.commands import analysis, batches, people, simulation, tools
 from nudgecli.commands.common import EXIT_INTERRUPTED, INTERRUPT_HINT, declaring_inputs
 from nudgecli.commands.stdout import EXIT_BROKEN_PIPE, ReaderGoneError, checked_stdout
 from nudgecli.commands.terminate import EXIT_TERMINATED, Terminated, terminate_as_interrupt
@@ -81,7 +81,8 @@ def main(ctx: click.Context, debug: bool) -> None:
     ctx.meta["nudge.debug"] = debug
 
 
-for _command in (*tools.COMMANDS, *simulation.COMMANDS, *analysis.COMMANDS, *batches.COMMANDS):
+for _command in (*tools.COMMANDS, *simulation.COMMANDS, *analysis.COMMANDS, *batches.COMMANDS,
+                 *people.COMMANDS):
     main.add_command(declaring_inputs(_command))  # no output replaces a file the command read
 
 

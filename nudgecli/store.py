@@ -272,12 +272,14 @@ def resume_command(words: Sequence[str], target: str | Path, options: Sequence[s
 
 def simulate_resume_command(experiment: str, target: str | Path, seed: int | None = None,
                             participants: int | None = None, workers: int = 1, overrides: Sequence[str] = (),
-                            command: str = "simulate", confirm: bool = False) -> str:
+                            command: str = "simulate", confirm: bool = False,
+                            people: str | None = None) -> str:
     """The ``nudge simulate`` (or ``run``) command that resumes a study into ``target`` with the same
-    choices (``--yes`` when ``confirm`` let a study above the size limit run)."""
+    choices (``--yes`` when ``confirm`` let a study above the size limit run; ``people``: the
+    ``--people`` file)."""
     options = ["--yes"] if confirm else []
     for flag, value in (("--seed", seed), ("--participants", participants),
-                        ("--workers", workers if workers != 1 else None)):
+                        ("--workers", workers if workers != 1 else None), ("--people", people)):
         options += [flag, str(value)] if value is not None else []
     for override in overrides:
         options += ["--set", override]

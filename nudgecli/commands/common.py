@@ -20,6 +20,8 @@ EXIT_INTERRUPTED = 130
 
 SET_HELP = "Override one experiment field, e.g. --set disambiguation.window=5 (repeatable)."
 YES_HELP = "Simulate more trials than the size limit allows without asking (see the README)."
+PEOPLE_HELP = ("Simulate the twins of a people file (nudge fit-people): participant i has the habits of "
+               "person i mod P, the rest of their physiology drawn as usual.")
 FORCE_HELP = ("Write into --out even when it is not empty or holds a run (files of the same names are "
               "replaced; nothing else is touched).")
 

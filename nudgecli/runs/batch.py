@@ -84,6 +84,7 @@ from nudgecli.runs.study import (
     solve_layout_chunk_into,
 )
 from nudgecli.sim.study import build_layouts, check_physiology_logs
+from nudgecli.sim.twins import Twin
 from nudgecli.store import provenance, utc_now, write_json_atomic
 
 if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only
@@ -134,7 +135,11 @@ class Batch:
     plan
         The analysis plan of every replication.
     extra
-        JSON-ready facts recorded in the manifest and compared on ``--resume`` (e.g. the design).
+        JSON-ready facts recorded in the manifest and compared on ``--resume`` (e.g. the design, the
+        people file's record).
+    people
+        Twins of real people (``--people``): participant ``i`` of every study has the habits of
+        person ``i mod P`` (:func:`nudgecli.sim.study.study_participant`).
     """
 
     kind: Literal["replicate", "power", "sweep"]
@@ -143,6 +148,7 @@ class Batch:
     seed: int
     plan: AnalysisPlan
     extra: dict[str, Any] = field(default_factory=dict)
+    people: tuple[Twin, ...] = ()
 
     def describe(self) -> dict[str, Any]:
         """What identifies the batch (a resumed batch must describe itself identically)."""
@@ -499,7 +505,8 @@ class _GraphRun:
     def submit_participants(self, study: Study) -> None:
         for i in sorted(self.remaining[study.key]):
             self.executor.submit(Job(f"{study.key}-p{i:04d}", run_participant_task,
-                                     (study.config, study.seed, i, self.definitions), affinity=study.layouts))
+                                     (study.config, study.seed, i, self.definitions, self.batch.people),
+                                     affinity=study.layouts))
         self.in_flight += len(self.remaining[study.key])
 
     def ready(self, analysis: Analysis) -> bool:
@@ -579,19 +586,6 @@ def shares_plan(study: Study, unfinished: int, studies: int, workers: int) -> bo
     and sending every plan to every worker would cost more than it saves.
     """
     return workers > 1 and unfinished >= workers and studies < workers and study.config.world.kind != "ciaa"
-
-
-def point_table(batch: Batch) -> pd.DataFrame:
-    """One row per point: ``point`` and its swept parameters (values as they were given)."""
-    return pd.DataFrame([{"point": p.index, **p.parameters} for p in batch.points])
-
-
-def parameter_names(batch: Batch) -> list[str]:
-    """The swept parameters, in the design's order."""
-    names: list[str] = []
-    for point in batch.points:
-        names += [n for n in point.parameters if n not in names]
-    return names
 
 
 def single_point(config: ExperimentConfig, participants: Sequence[int]) -> tuple[Point, ...]:

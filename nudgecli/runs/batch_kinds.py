@@ -8,6 +8,7 @@ folder.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,7 +21,11 @@ from nudgecli.config import ExperimentConfig
 from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError
 from nudgecli.run_folder_names import FIGURES_DIR
-from nudgecli.runs.batch import Batch, BatchRun, Point, parameter_names, point_table, run_batch, single_point
+from nudgecli.runs.batch import Batch, BatchRun, Point, run_batch, single_point
+from nudgecli.runs.batch_folder import BATCH_MANIFEST
+from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
+from nudgecli.sim.people_file import People, check_same_people, people_of
+from nudgecli.sim.twins import Twin
 from nudgecli.store import write_text_atomic
 
 if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load when a command analyses
@@ -82,6 +87,24 @@ def _load(experiment: str, overrides: Sequence[str], participants: int | None) -
     return config
 
 
+def _people_fields(people: People | str | Path | None, out: str | Path,
+                   resume: bool) -> tuple[dict[str, Any], tuple[Twin, ...]]:
+    """The people file's record for the batch's description (nothing without one, so a batch of the
+    population describes itself as before) and its twins; a resumed batch must have the same."""
+    chosen = people_of(people)
+    manifest = Path(out) / BATCH_MANIFEST
+    if resume and manifest.is_file():
+        try:
+            recorded = json.loads(manifest.read_text(encoding="utf-8"))["batch"].get(PEOPLE_KEY)
+        except (ValueError, KeyError, TypeError, AttributeError):
+            recorded = None  # an unreadable manifest is the prepare rule's to refuse
+        else:
+            check_same_people(recorded, chosen, out)
+    if chosen is None:
+        return {}, ()
+    return {PEOPLE_KEY: chosen.record()}, chosen.twins
+
+
 def _check(replications: int, seed: int | None) -> None:
     if replications < 1:
         raise ConfigError(f"--replications must be at least 1, got {replications}")
@@ -91,12 +114,14 @@ def _check(replications: int, seed: int | None) -> None:
 
 def replicate(experiment: str, replications: int, out: str | Path, *, seed: int | None = None,
               plan: str | AnalysisPlan | None = None, participants: int | None = None,
-              overrides: Sequence[str] = (), **options: Any) -> BatchResult:
+              overrides: Sequence[str] = (), people: People | str | Path | None = None,
+              **options: Any) -> BatchResult:
     """``nudge replicate``: R independent studies of one experiment, each analysed with the plan.
 
     Writes ``replications.csv`` (per replication), ``conditions.csv`` (tidy medians per
     condition), ``summary.csv`` (per metric: significance rates, median p, pooled effects) and
-    ``figures/forest.png``. ``options`` go to :func:`run_batch`.
+    ``figures/forest.png``. ``people``: twins of real people (a people file, ``--people``).
+    ``options`` go to :func:`run_batch`.
     """
     from nudgecli.report.figures.replication import forest_figure
     from nudgecli.report.plans import load_plan
@@ -105,9 +130,10 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     _check(replications, seed)
     config = _load(experiment, overrides, participants)
     chosen = load_plan(resolve_plan(plan, experiment=config.experiment.name))
+    record, twins = _people_fields(people, out, bool(options.get("resume")))
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
-                  {"experiment": config.experiment.name})
+                  {"experiment": config.experiment.name, **record}, twins)
     run = run_batch(batch, out, **options)
     rows = replication_rows(run.graph.entries, run.stats, chosen)
     summary = summarise(rows).drop(columns=["point"])
@@ -121,12 +147,14 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
 
 def power(experiment: str, participant_counts: Sequence[int], replications: int, out: str | Path, *,
           seed: int | None = None, plan: str | AnalysisPlan | None = None, overrides: Sequence[str] = (),
-          target: float = defaults.POWER_TARGET, **options: Any) -> BatchResult:
+          target: float = defaults.POWER_TARGET, people: People | str | Path | None = None,
+          **options: Any) -> BatchResult:
     """``nudge power``: the power curve of every metric over participant counts.
 
     Replication ``r`` simulates its largest study once; each count ``n`` analyses its first
     ``n`` participants. Writes ``power.csv`` (per count, metric and level of test, with the
     Clopper-Pearson interval), ``smallest_n.csv``, ``replications.csv`` and ``figures/power.png``.
+    ``people``: twins of real people (a people file, ``--people``), cycled over the participants.
     """
     from nudgecli.report.figures.replication import power_figure
     from nudgecli.report.plans import load_plan
@@ -140,9 +168,10 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
         raise ConfigError(f"--target must be between 0 and 1, got {target}")
     config = _load(experiment, overrides, None)
     chosen = load_plan(resolve_plan(plan, experiment=config.experiment.name))
+    record, twins = _people_fields(people, out, bool(options.get("resume")))
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
-                  {"experiment": config.experiment.name})
+                  {"experiment": config.experiment.name, **record}, twins)
     run = run_batch(batch, out, **options)
     rows = replication_rows(run.graph.entries, run.stats, chosen)
     curves = power_table(rows)
@@ -200,3 +229,16 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
             figures["sensitivity"] = sensitivity_figure(indices)
     files = _write_tables(run.path, tables) + _figures(run.path, figures)
     return BatchResult(run, rows, tables.get("sensitivity", summary), tables, files)
+
+
+def point_table(batch: Batch) -> pd.DataFrame:
+    """One row per point: ``point`` and its swept parameters (values as they were given)."""
+    return pd.DataFrame([{"point": p.index, **p.parameters} for p in batch.points])
+
+
+def parameter_names(batch: Batch) -> list[str]:
+    """The swept parameters, in the design's order."""
+    names: list[str] = []
+    for point in batch.points:
+        names += [n for n in point.parameters if n not in names]
+    return names

@@ -34,6 +34,7 @@ from nudgecli.runs.executors import HELD_AFFINITIES
 from nudgecli.runs.study_tasks import tune_allocator
 from nudgecli.sim.policy_registry import not_applicable_of
 from nudgecli.sim.study import StudyPlan, simulate_participant_columns, trials_frame
+from nudgecli.sim.twins import Twin
 
 if TYPE_CHECKING:  # pandas and the statistics (scipy.stats, scikit-posthocs) load where used
     import pandas as pd
@@ -156,11 +157,14 @@ def participant_metrics(plan: StudyPlan, index: int, definitions: Mapping[str, s
     return ParticipantMetrics(result.trials, values, dict(definitions))
 
 
-def run_participant_task(config: ExperimentConfig, seed: int, index: int,
-                         definitions: Mapping[str, str]) -> ParticipantMetrics:
-    """A participant task, with this worker's cached plan of the study."""
+def run_participant_task(config: ExperimentConfig, seed: int, index: int, definitions: Mapping[str, str],
+                         people: Sequence[Twin] = ()) -> ParticipantMetrics:
+    """A participant task, with this worker's cached plan of the study (``people``: the batch's
+    twins of real people, :attr:`~nudgecli.sim.study.StudyPlan.people`)."""
     tune_allocator()
-    return participant_metrics(cached_plan(config, seed), index, definitions)
+    plan = cached_plan(config, seed)
+    return participant_metrics(dataclasses.replace(plan, people=tuple(people)) if people else plan, index,
+                               definitions)
 
 
 def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str],

@@ -11,6 +11,7 @@ identical whichever executor runs them, in any order.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import itertools
 import math
 import os
@@ -43,6 +44,8 @@ from nudgecli.runs.study_tasks import (
 )
 from nudgecli.sim.calibration_io import write_sessions
 from nudgecli.sim.counterbalance import design_record
+from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
+from nudgecli.sim.people_file import People, check_same_people, people_of
 from nudgecli.sim.policy_registry import constant_metrics_of
 from nudgecli.sim.study import (
     ParticipantColumns,
@@ -234,7 +237,7 @@ class StudyRun:
 def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, participants: int | None = None,
               workers: int = 1, scheduler: str | None = None, resume: bool = False, force: bool = False,
               progress: Callable[[int, int], None] | None = None, plan: str | None = None,
-              confirm: bool = False) -> StudyRun:
+              confirm: bool = False, people: People | str | Path | None = None) -> StudyRun:
     """Simulate a study into the run folder ``out``.
 
     Parameters
@@ -258,6 +261,10 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
         preset named like the experiment, else ``paper``).
     confirm
         Run a study above :data:`nudgecli.runs.size.MAX_TRIALS_WITHOUT_YES` trials (``--yes``).
+    people
+        Twins of real people (``--people``: a people file or its :class:`People`): participant ``i``
+        has the habits of person ``i mod P``; recorded in the manifest (file name and SHA-256), and
+        ``resume`` refuses other people.
 
     Returns
     -------
@@ -283,6 +290,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     if participants is not None:
         config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
     check_physiology_logs(config)
+    people = people_of(people)  # a bad people file is refused before the folder is touched
     if plan is not None:  # a plan that cannot load is refused before anything is simulated or written
         from nudgecli.report.plans import load_plan
 
@@ -291,7 +299,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     try:
         with run_lock(out):
             return _run_locked(RunFolder(out), config, seed, n, workers, scheduler, client, resume, force,
-                               progress, plan)
+                               progress, plan, people)
     except BaseException:
         if client is not None:
             client.close()
@@ -300,9 +308,12 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
 
 def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, workers: int,
                 scheduler: str | None, client: Any, resume: bool, force: bool,
-                progress: Callable[[int, int], None] | None, plan_name: str | None) -> StudyRun:
+                progress: Callable[[int, int], None] | None, plan_name: str | None,
+                people: People | None = None) -> StudyRun:
     """:func:`run_study` once the folder's lock is held (``client``: the connected dask client, or None)."""
     mode = folder.prepare(config, seed, n, resume=resume, force=force)
+    if mode == "resume":
+        check_same_people(folder.read_manifest().get(PEOPLE_KEY), people, folder.path)
     done = set(folder.completed_participants()) & set(range(n)) if mode == "resume" else set()
     if mode == "resume":
         # keep only the parts the manifest vouches for (the SHA-256 recorded when this run wrote
@@ -315,6 +326,8 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                   file=sys.stderr)
             done -= set(unvouched)
     plan = build_plan_on(config, seed, workers, client)
+    if people is not None:
+        plan = dataclasses.replace(plan, people=people.twins)
     trials_per = plan.trials_per_participant()
     manifest = folder.read_manifest() if mode == "resume" else new_manifest(config, seed, n, trials_per)
     if plan.paths is None:  # the CIAA world takes its subjects' block orders from the task file
@@ -325,6 +338,8 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                      # what each condition's policy makes constant, for the analysis (which need
                      # not import a researcher's policy to know it)
                      CONSTANT_METRICS_KEY: {c: sorted(m) for c, m in constant_metrics_of(config).items()}})
+    if people is not None:
+        manifest[PEOPLE_KEY] = people.record()
     if plan_name is not None or "plan" not in manifest:
         manifest["plan"] = resolve_plan(plan_name, experiment=config.experiment.name)
     manifest[FILE_CHECKSUMS] = {LAYOUTS: folder.write_layouts(plan.layouts_frame())}  # read back by plot

@@ -39,6 +39,7 @@ from nudgecli.sim.participants import Participant, draw_participant
 from nudgecli.sim.protocol import ProtocolSettings, TrialSpec
 from nudgecli.sim.step_record import StepRecording, step_columns
 from nudgecli.sim.trials import TrialResult, run_trial, run_world_trial
+from nudgecli.sim.twins import Twin, apply_twin, twin_at
 from nudgecli.steplog import STEP_COLUMNS, steps_frame
 
 if TYPE_CHECKING:  # pandas loads where frames are built (the parent of a study), never in its workers
@@ -202,6 +203,7 @@ class StudyPlan:
     solved: list[SolvedLayout]
     paths: dict[int, PathLayout] | None = None
     policies: dict[int, Any] | None = None
+    people: tuple[Twin, ...] = ()  # twins of real people (--people): participant i is people[i mod P]
 
     @classmethod
     def build(cls, config: ExperimentConfig, seed: int) -> StudyPlan:
@@ -292,15 +294,17 @@ def agent_tables(config: ExperimentConfig, participant: Participant, seed: int) 
     return fit_participant_tables(participant, config.calibration, config.interface, rng)
 
 
-def study_participant(config: ExperimentConfig, seed: int, index: int) -> Participant:
+def study_participant(config: ExperimentConfig, seed: int, index: int,
+                      people: Sequence[Twin] = ()) -> Participant:
     """Participant ``index``: drawn from the population, with the pressure physiology of
-    ``population.physiology_logs[index]`` when the experiment names a real log for them."""
+    ``population.physiology_logs[index]`` when the experiment names a real log for them, and the
+    habits of twin ``index mod P`` of ``people`` when given (:func:`~nudgecli.sim.twins.apply_twin`)."""
     drawn = draw_participant(config.population, index, generator(seed, "participant", index, "physiology"),
                              key=seed_key("participant", index))
     logs = config.population.physiology_logs
     if index < len(logs):
-        return participant_from_log(logs[index], index=index, template=drawn, population=config.population)
-    return drawn
+        drawn = participant_from_log(logs[index], index=index, template=drawn, population=config.population)
+    return apply_twin(drawn, twin_at(people, index)) if people else drawn
 
 
 def check_physiology_logs(config: ExperimentConfig) -> None:
@@ -352,7 +356,7 @@ def simulate_participant_columns(plan: StudyPlan, participant_index: int,
     """
     start = time.perf_counter()
     config, seed = plan.config, plan.seed
-    participant = study_participant(config, seed, participant_index)
+    participant = study_participant(config, seed, participant_index, plan.people)
     fitted = agent_tables(config, participant, seed)
     mapping, distortion = fitted.mapping, fitted.distortion
     settings = ProtocolSettings.from_config(config)

@@ -1,0 +1,176 @@
+"""What ``nudge fit-people`` reads: each participant's habit figures from a source.
+
+A source is one of
+- a real log in ``nudge habits``' CSV format (:mod:`nudgecli.report.habit_logs`), or a run folder:
+  measured here with ``nudge habits``' own functions (:mod:`nudgecli.report.habits`);
+- the per-participant table of ``nudge habits --by participant --format csv`` (its
+  ``participant`` rows; the ``pooled`` rows are ignored): read as it is.
+
+Either way the result is, per participant in the source's order, habit -> its
+:class:`~nudgecli.sim.twins.HabitFigures`. Bad input is one :class:`~nudgecli.errors.DataError`
+naming the file, the participant and the field.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pandas as pd
+
+from nudgecli.config import PopulationSection
+from nudgecli.errors import DataError, did_you_mean
+from nudgecli.report.habits import HABIT_KEYS, HABITS, measure_habits, source_cells, summarise_habits
+from nudgecli.sim.twin_fit import HabitFigures, assumed_onset_samples, fit_twin
+from nudgecli.sim.twins import Twin
+
+#: Participant label -> habit -> figures, participants in the source's order.
+SourceHabits = dict[str, dict[str, HabitFigures]]
+#: Columns a habits table must have.
+TABLE_COLUMNS = ("participant", "habit", "median")
+#: The unit each habit is given in (``nudge habits --format json``'s ``unit``).
+HABIT_UNITS = {h.key: "share" if h.share else "s" for h in HABITS}
+
+
+def _is_habits_table(path: Path) -> bool:
+    """Whether a CSV file's header is a habits table's (``habit`` and ``median`` columns), not a log's."""
+    try:
+        header = pd.read_csv(path, nrows=0, sep=None, engine="python").columns
+    except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
+        return False
+    names = {str(c).strip().lower() for c in header}
+    return {"habit", "median"} <= names
+
+
+def _figure(value: object) -> float:
+    try:
+        return float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _figures_of(people: pd.DataFrame) -> SourceHabits:
+    """Per participant (in order of appearance), habit -> figures, of a per-participant summary."""
+    found: SourceHabits = {}
+    for row in people.itertuples(index=False):
+        found.setdefault(str(row.participant), {})[str(row.habit)] = HabitFigures(
+            n=int(row.n), median=float(row.median), q25=_figure(row.q25), q75=_figure(row.q75))
+    return found
+
+
+def measured_source(path: Path) -> SourceHabits:
+    """A run folder's or a real log's participants' habits, measured as ``nudge habits`` does.
+
+    Raises
+    ------
+    DataError
+        No participants, or a participant with no trial to measure (no input at all).
+    """
+    cells, rate, _ = source_cells(path)
+    if cells.empty:
+        raise DataError(f"{path}: no participants (no trial to measure)")
+    events = measure_habits(cells, rate)
+    found = _figures_of(summarise_habits(events, str(path)).people) if not events.empty else {}
+    participants = [str(p) for p in pd.unique(cells["participant"])]
+    for participant in participants:
+        if participant not in found:
+            raise DataError(f"{path}: participant {participant!r}: no trial with input to measure (every "
+                            "cell neutral); a twin needs their habits")
+    return {participant: found[participant] for participant in participants}
+
+
+def _check_row(path: Path, participant: str, habit: str, row: pd.Series) -> HabitFigures | None:
+    """One row of a habits table as figures (None: a habit with no event), or a DataError."""
+    where = f"{path}: participant {participant!r}"
+    if habit not in HABIT_UNITS:
+        raise DataError(f"{where}: habit {habit!r} is not one nudge measures"
+                        f"{did_you_mean(habit, HABIT_KEYS)}; the habits are {', '.join(HABIT_KEYS)}")
+    if "unit" in row.index and str(row["unit"]).strip() not in ("", "nan", HABIT_UNITS[habit]):
+        raise DataError(f"{where}: {habit}: unit {str(row['unit']).strip()!r}; nudge measures it in "
+                        f"{HABIT_UNITS[habit]!r}")
+    n = _figure(row["n"]) if "n" in row.index else math.nan
+    median = _figure(row["median"])
+    if n == 0:
+        return None
+    if math.isnan(median):
+        given = str(row["median"]).strip() or "empty"
+        raise DataError(f"{where}: {habit}: the median is not a number ({given})")
+    if median < 0:
+        raise DataError(f"{where}: {habit}: the median {median:g} is negative; habits are durations or "
+                        "shares")
+    quartiles = [_figure(row[c]) if c in row.index else math.nan for c in ("q25", "q75")]
+    return HabitFigures(n=int(n) if math.isfinite(n) else 0, median=median, q25=quartiles[0],
+                        q75=quartiles[1])
+
+
+def table_source(path: Path) -> SourceHabits:
+    """The participants' habits of a ``nudge habits --by participant --format csv`` table.
+
+    Raises
+    ------
+    DataError
+        A trial table, no participant rows, an unknown habit or unit, a negative or missing
+        median, a habit listed twice for one participant, or a participant with no trials (``n``
+        0 for every habit).
+    """
+    try:
+        table = pd.read_csv(path, dtype=str, keep_default_na=False, sep=None, engine="python")
+    except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: not a habits table ({exc})") from None
+    table.columns = [str(c).strip().lower() for c in table.columns]
+    missing = [c for c in TABLE_COLUMNS if c not in table.columns]
+    if missing:
+        raise DataError(f"{path}: no column {missing[0]!r}; give `nudge habits --by participant --format "
+                        "csv`")
+    if "trial" in table.columns:
+        raise DataError(f"{path}: a table per trial; fit-people reads one per participant "
+                        "(`nudge habits --by participant --format csv`)")
+    if "scope" in table.columns:
+        table = table[table["scope"].str.strip() == "participant"]
+    if table.empty:
+        raise DataError(f"{path}: no participants (no 'participant' rows); give `nudge habits --by "
+                        "participant --format csv`")
+    found: SourceHabits = {}
+    for _, row in table.iterrows():
+        participant, habit = str(row["participant"]).strip(), str(row["habit"]).strip()
+        habits = found.setdefault(participant, {})
+        if habit in habits:
+            raise DataError(f"{path}: participant {participant!r}: habit {habit!r} is listed twice")
+        figures = _check_row(path, participant, habit, row)
+        if figures is not None:
+            habits[habit] = figures
+    for participant, habits in found.items():
+        if not habits:
+            raise DataError(f"{path}: participant {participant!r}: no trials (n is 0 for every habit)")
+    return found
+
+
+def source_habits(source: str | Path) -> SourceHabits:
+    """Each participant's habits of ``source`` (a run folder, a real log, or a habits table)."""
+    path = Path(source)
+    if path.is_file() and _is_habits_table(path):
+        return table_source(path)
+    return measured_source(path)
+
+
+def twins_of_sources(sources: list[str | Path], population: PopulationSection | None = None) -> list[Twin]:
+    """One twin per participant of each source, in order (:func:`~nudgecli.sim.twins.fit_twin`).
+
+    ``population``: the ``[population]`` whose middle onset ramp a hard pulse is fitted with (the
+    defaults when None).
+
+    Raises
+    ------
+    DataError
+        No source, or a bad source (:func:`source_habits`).
+    """
+    if not sources:
+        raise DataError("fit-people: give one or more sources (a real log, a run folder or a habits table)")
+    onset = assumed_onset_samples(population or PopulationSection())
+    twins = []
+    for source in sources:
+        name = Path(source).name
+        for participant, habits in source_habits(source).items():
+            twins.append(Twin(participant=participant, source=name,
+                              parameters=fit_twin(habits, onset_samples=onset)))
+    return twins

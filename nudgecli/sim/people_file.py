@@ -1,0 +1,192 @@
+"""The people file (``nudge fit-people --out PEOPLE.csv``, ``--people PEOPLE.csv``): one twin a row.
+
+A CSV with a strict schema (:data:`PEOPLE_COLUMNS`):
+
+- ``person``: 0, 1, 2 ... in order (study participant ``i`` is person ``i mod P``);
+- ``source``, ``participant``: where the twin comes from (a file or folder name, the
+  participant's label there);
+- one column per parameter of :data:`~nudgecli.sim.twins.TWIN_PARAMETERS`: the fitted value, or
+  empty where the population's draw is used;
+- ``from_population``: the parameters left to the population's draw, separated by ``;`` (exactly
+  the empty cells).
+
+A parameter column may be left out (every person draws it); any other column is refused, and so
+is a value the simulation does not accept (``[population]``'s check of that parameter).
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from nudgecli.errors import DataError, did_you_mean
+from nudgecli.sim.twins import INTEGER_PARAMETERS, TWIN_PARAMETERS, Twin, parameter_is_valid
+
+#: The columns of a people file, in order.
+PEOPLE_COLUMNS = ("person", "source", "participant", *TWIN_PARAMETERS, "from_population")
+#: Columns every people file has.
+REQUIRED_COLUMNS = ("person", "source", "participant", "from_population")
+#: Separator of the ``from_population`` list.
+LIST_SEPARATOR = ";"
+
+
+@dataclass(frozen=True)
+class People:
+    """The twins of a people file, with what identifies the file.
+
+    Attributes
+    ----------
+    name
+        The file's name (no folder).
+    sha256
+        The SHA-256 of its bytes, hex.
+    twins
+        ``(P,)`` the twins in ``person`` order.
+    """
+
+    name: str
+    sha256: str
+    twins: tuple[Twin, ...]
+
+    def record(self) -> dict[str, Any]:
+        """What a manifest records of it (and what ``--resume`` compares)."""
+        return {"file": self.name, "sha256": self.sha256, "people": len(self.twins)}
+
+
+def _format_value(name: str, value: float) -> str:
+    return str(int(value)) if name in INTEGER_PARAMETERS else repr(float(value))
+
+
+def people_csv(twins: Sequence[Twin]) -> str:
+    """The people file's text of ``twins`` (person ``i`` is ``twins[i]``)."""
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(PEOPLE_COLUMNS)
+    for person, twin in enumerate(twins):
+        values = [_format_value(name, twin.parameters[name]) if name in twin.parameters else ""
+                  for name in TWIN_PARAMETERS]
+        writer.writerow([person, twin.source, twin.participant, *values,
+                         LIST_SEPARATOR.join(twin.from_population)])
+    return buffer.getvalue()
+
+
+def _parse_value(path: Path, where: str, name: str, text: str) -> float:
+    """A parameter cell's value, or a DataError naming the file, the person and the field."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise DataError(f"{path}: {where}: {name}: {text!r} is not a number") from None
+    if not parameter_is_valid(name, value):
+        kind = "a whole number of samples" if name in INTEGER_PARAMETERS else "a value"
+        raise DataError(f"{path}: {where}: {name}: {text} is out of its valid range (needs {kind} that "
+                        f"[population] {name} accepts)")
+    return int(value) if name in INTEGER_PARAMETERS else value
+
+
+def _row_twin(path: Path, row: dict[str, str], position: int, present: Sequence[str]) -> Twin:
+    person, participant = row["person"].strip(), row["participant"].strip()
+    where = f"person {person or '?'} (participant {participant!r})"
+    if person != str(position):
+        raise DataError(f"{path}: {where}: person: expected {position} (people are numbered 0, 1, 2 ... in "
+                        "order)")
+    listed = [name.strip() for name in row["from_population"].split(LIST_SEPARATOR) if name.strip()]
+    for name in listed:
+        if name not in TWIN_PARAMETERS:
+            raise DataError(f"{path}: {where}: from_population: {name!r} is not a twin's parameter"
+                            f"{did_you_mean(name, TWIN_PARAMETERS)}; they are {', '.join(TWIN_PARAMETERS)}")
+    parameters: dict[str, float] = {}
+    for name in present:
+        text = row[name].strip()
+        if not text:
+            if name not in listed:
+                raise DataError(f"{path}: {where}: {name}: empty but not listed in from_population")
+            continue
+        if name in listed:
+            raise DataError(f"{path}: {where}: {name}: has a value but is listed in from_population")
+        parameters[name] = _parse_value(path, where, name, text)
+    return Twin(participant=participant, source=row["source"].strip(), parameters=parameters)
+
+
+def read_people(path: str | Path) -> People:
+    """The people file at ``path``.
+
+    Raises
+    ------
+    DataError
+        A missing or unreadable file, no people, an unknown or missing column, or a bad cell (naming
+        the file, the person and the field).
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"{path}: no such people file; make one with `nudge fit-people SOURCE... --out "
+                        f"{path.name}`")
+    data = path.read_bytes()
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise DataError(f"{path}: not a people file (not UTF-8 text: {exc})") from None
+    reader = csv.DictReader(io.StringIO(text))
+    header = [name.strip() for name in (reader.fieldnames or [])]
+    if not header:
+        raise DataError(f"{path}: empty; a people file has the columns {', '.join(PEOPLE_COLUMNS)}")
+    for name in header:
+        if name not in PEOPLE_COLUMNS:
+            raise DataError(f"{path}: column {name!r} is not a people file's"
+                            f"{did_you_mean(name, PEOPLE_COLUMNS)}; the columns are "
+                            f"{', '.join(PEOPLE_COLUMNS)}")
+    missing = [name for name in REQUIRED_COLUMNS if name not in header]
+    if missing:
+        raise DataError(f"{path}: no column {missing[0]!r}; a people file has the columns "
+                        f"{', '.join(PEOPLE_COLUMNS)}")
+    if len(set(header)) != len(header):
+        raise DataError(f"{path}: a column is named twice ({', '.join(header)})")
+    reader.fieldnames = header
+    present = [name for name in TWIN_PARAMETERS if name in header]
+    twins = []
+    for position, row in enumerate(reader):
+        if None in row or any(value is None for value in row.values()):
+            more = "more" if None in row else "fewer"
+            raise DataError(f"{path}: person {position}: the row has {more} cells than the header's "
+                            f"{len(header)}")
+        twins.append(_row_twin(path, row, position, present))
+    if not twins:
+        raise DataError(f"{path}: holds no people (a header and no rows)")
+    return People(name=path.name, sha256=hashlib.sha256(data).hexdigest(), twins=tuple(twins))
+
+
+
+#: The manifest key of the people file a run or batch simulated.
+MANIFEST_KEY = "people"
+
+
+def people_of(people: People | str | Path | None) -> People | None:
+    """``people`` as :class:`People`: read where it is a path (:func:`read_people`)."""
+    if people is None or isinstance(people, People):
+        return people
+    return read_people(people)
+
+
+def check_same_people(recorded: dict[str, Any] | None, people: People | None, where: str | Path) -> None:
+    """Refuse to resume ``where`` with other people than it was simulated with.
+
+    ``recorded`` is the manifest's :data:`MANIFEST_KEY` entry (None: the population's people).
+
+    Raises
+    ------
+    DataError
+        The people file's name or SHA-256 differs from the recorded one, or one of the two has none.
+    """
+    now = people.record() if people is not None else None
+    if (recorded or None) == now:
+        return
+
+    def said(record: dict[str, Any] | None) -> str:
+        return "the population's people (no --people)" if record is None else \
+            f"--people {record.get('file')} (sha256 {str(record.get('sha256'))[:12]}...)"
+    raise DataError(f"{where}: was simulated with {said(recorded)}, not {said(now)}; resume with the same "
+                    "people file, or start again with --force")
