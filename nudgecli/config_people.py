@@ -265,6 +265,12 @@ class BehaviourSection(Section):
     - ``notice_mode_errors``: an unintended mode switch or a motion the other way than meant under a
       soft blow is noticed after a reaction delay (the blow goes on until then), then corrected by
       their own plan; ``false``: noticed in the same step.
+    - ``deadband_strays``: within a soft blow the pressure stays in the soft band but for strays into
+      the Soft-Hard deadband (the robot stops), which start at the person's rate (their
+      ``population.deadband_share`` of the blow's time), last their ``deadband_stray_s`` and end
+      back in the soft band, or, as HABITS.md counts, with the blow's end
+      (``nudgecli.sim.behaviour_strays``); ``false``: the drawn pressure as it is, deadband readings
+      included.
     """
 
     decisions: Literal["events", "grid"] = "events"
@@ -287,6 +293,7 @@ class BehaviourSection(Section):
     notice_mode_errors: bool = True
     planning_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.2
     hold_on_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.5
+    deadband_strays: bool = True
 
 
 class CalibrationSection(Section):

@@ -235,7 +235,8 @@ def test_study_code_trials_run_every_gate_of_the_study_software(tmp_path) -> Non
             started = np.cumsum(labels != "") > 0
             run = 0
             for position, i in enumerate(turn.index):
-                run = 0 if labels[position] in LABELS else run + 1
+                # empty samples count from the turn's first input on (a deadband reading is one)
+                run = 0 if labels[position] in LABELS or not started[position] else run + 1
                 if started[position] and run > 11 and labels[position] not in LABELS:
                     before, after = (np.abs(beliefs[j] - 1 / n).sum() for j in (i - 1, i))
                     if before > 1e-9:

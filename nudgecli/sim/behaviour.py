@@ -52,7 +52,9 @@ from nudgecli.model.world import (
     turn_between,
 )
 from nudgecli.sim.behaviour_settings import BehaviourSettings
+from nudgecli.sim.behaviour_strays import controlled_pressure, stray_hazard, stray_schedule
 from nudgecli.sim.participants import Participant
+from nudgecli.sim.pressure_model import LABEL_SIGN
 
 #: Below this a change of position or angle is rounding, not motion.
 _MOTION_EPS = 1e-9
@@ -60,6 +62,8 @@ _MOTION_EPS = 1e-9
 
 #: :meth:`SimulatedPerson.quiet_steps` while idle: until the turn or the trial ends.
 _FOREVER = 1 << 62
+#: Each label's pressure sign as plain floats (read per sample of a soft hold).
+_SIGNS = tuple(LABEL_SIGN.tolist())
 
 
 class Phase(Enum):
@@ -195,6 +199,13 @@ class SimulatedPerson:
         self.seen_mode = -1  # the mode they last saw
         self.switched = False  # the mode changed during the current hard blow
         self.planned = False  # the trial's first turn has begun
+        # pressure control within a soft blow (BehaviourSettings.deadband_strays, sim/behaviour_strays.py)
+        self.stray_median = participant.deadband_stray_s / settings.dt  # their median stray, samples
+        self.stray_hazard = (stray_hazard(participant.deadband_share, self.stray_median)
+                             if settings.deadband_strays else 0.0)
+        self.strays: list[bool] | None = None  # the current soft hold's straying samples (None: no control)
+        self.stray_release_at = -1  # the sample of the hold before which they let go after a stray
+        self.thresholds = (settings.zero_threshold, settings.soft_threshold, settings.hard_threshold)
 
     # --- the turn ---------------------------------------------------------------------------
 
@@ -347,6 +358,11 @@ class SimulatedPerson:
             return self._surprise_noticed()  # the mode changed under their blow (an unintended switch)
         if self.notice_at >= 0:
             return self._surprise_noticed()  # a surprise seen earlier, not yet acted on
+        if self.stray_release_at == len(self.blow):  # a stray they end by letting go: the robot stood still
+            self.release = True
+            if self.settings.event_reactions:
+                self._saw_event()
+            return True
         if self._stalled(view):
             self.release = True  # the robot stands still under their command: let go, try again
             if self.settings.event_reactions:
@@ -382,6 +398,8 @@ class SimulatedPerson:
         # the three comparisons written out (a generator over the axes was a twentieth of the loop)
         still = (abs(view.x - px) <= _MOTION_EPS and abs(view.y - py) <= _MOTION_EPS
                  and abs(view.theta - ptheta) <= _MOTION_EPS)
+        if still and self.strays is not None and self.blow and self.strays[len(self.blow) - 1]:
+            return False  # a stray stopped it: they know why and answer with its end, not a stall
         self.still_steps = self.still_steps + 1 if still else 0
         return self.still_steps >= self.settings.stall_steps
 
@@ -441,7 +459,8 @@ class SimulatedPerson:
         self.hold_mode, self.hold_state = view.mode, view.state
         self.last_action = action
         self.still_steps = 0
-        self.notice_at = self.hold_on_left = -1
+        self.notice_at = self.hold_on_left = self.stray_release_at = -1
+        self.strays = None
         self.switched = False
         if label in (HARD_PUFF, HARD_SIP) and s.hard_pulses:
             # a short pulse: onset ramp, peak, offset ramp, then a full release
@@ -467,6 +486,9 @@ class SimulatedPerson:
         # the hold's deviations are drawn now (the same draw as Participant.drift_normals), its
         # samples computed as they are given (_next_soft_sample)
         self.blow_innovations = self.rng.standard_normal(self.hold_left).tolist()
+        if s.deadband_strays and label in (SOFT_PUFF, SOFT_SIP):
+            self.strays, self.stray_release_at = stray_schedule(self.stray_hazard, self.stray_median,
+                                                                self.hold_left, self.rng)
         self.blow_label, self.blow_start = label, start
         self.blow, self.blow_normals = [], []
         self.blow_pos = 0
@@ -480,7 +502,12 @@ class SimulatedPerson:
         new_blow = k == 0 and self.blow_start == 0
         normal = innovation if new_blow else p.drift_step(self.last_normal, innovation)
         self.blow_normals.append(normal)
-        self.blow.append(p.sample_pressure(self.blow_label, self.blow_start + k, normal))
+        pressure = p.sample_pressure(self.blow_label, self.blow_start + k, normal)
+        if self.strays is not None:  # their control keeps the blow soft but for its strays
+            returning = k > 0 and self.strays[k - 1] and not self.strays[k]
+            pressure = controlled_pressure(pressure, _SIGNS[self.blow_label], self.strays[k], returning,
+                                           self.thresholds)
+        self.blow.append(pressure)
 
     def _release(self) -> None:
         self.held_label = NO_INPUT

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from nudgecli.config import BehaviourSection, ExperimentConfig, section_defaults
+from nudgecli.model.interface import HARD_THRESHOLD_EARLY, SOFT_THRESHOLD_EARLY, ZERO_THRESHOLD
 
 #: The ``[behaviour]`` defaults, which :class:`BehaviourSettings` takes.
 _BEHAVIOUR = section_defaults(BehaviourSection)
@@ -40,6 +41,11 @@ class BehaviourSettings:
     notice_mode_errors: bool = False
     planning_jitter: float = _BEHAVIOUR.planning_jitter
     hold_on_jitter: float = _BEHAVIOUR.hold_on_jitter
+    deadband_strays: bool = False
+    #: the driver's label bands, which the person's pressure control keeps a soft blow within
+    zero_threshold: float = ZERO_THRESHOLD
+    soft_threshold: float = SOFT_THRESHOLD_EARLY
+    hard_threshold: float = HARD_THRESHOLD_EARLY
 
     def __post_init__(self) -> None:
         if self.max_hold_steps < 0:  # frozen: the derived default is set once, here
@@ -59,7 +65,10 @@ class BehaviourSettings:
                    hard_blow_jitter=b.hard_blow_jitter, event_reactions=b.event_reactions,
                    planning=b.planning, hard_pulses=b.hard_pulses, hold_on=b.hold_on,
                    pause_tail=b.pause_tail, notice_mode_errors=b.notice_mode_errors,
-                   planning_jitter=b.planning_jitter, hold_on_jitter=b.hold_on_jitter)
+                   planning_jitter=b.planning_jitter, hold_on_jitter=b.hold_on_jitter,
+                   deadband_strays=b.deadband_strays, zero_threshold=config.interface.zero_threshold,
+                   soft_threshold=config.interface.soft_threshold,
+                   hard_threshold=config.interface.hard_threshold)
 
 
 def hold_steps(max_hold_s: float, dt: float) -> int:

@@ -30,14 +30,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, LABELS, ZERO_THRESHOLD
 from nudgecli.reference import people_ranges
 from nudgecli.sim.calibration_io import DistortionSession
 from nudgecli.sim.participants import Participant
+
+if TYPE_CHECKING:  # pandas loads in drawn_habits: a study's worker reads the offsets without it
+    import pandas as pd
 
 #: Real people's ranges of per-person medians (HABITS.md, the ten sibling-study users), seconds: read
 #: from the packaged reference (:mod:`nudgecli.reference`), the one owner of HABITS.md's numbers.
@@ -214,6 +217,8 @@ def drawn_habits(people: Sequence[Participant]) -> pd.DataFrame:
         Columns ``participant``, ``habit``, ``parameter``, ``value`` (seconds); one row per person
         and habit of :data:`HABIT_PARAMETERS`.
     """
+    import pandas as pd
+
     rows = [{"participant": person.index, "habit": habit, "parameter": parameter,
              "value": round(float(getattr(person, parameter)) + HABIT_OFFSETS_S.get(habit, 0.0), 6)}
             for person in people for habit, parameter in HABIT_PARAMETERS.items()]
