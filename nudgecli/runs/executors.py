@@ -8,7 +8,10 @@ to no worker); :meth:`close` ends them, :meth:`abort` at once (after Ctrl-C or a
 how many run at once. The process pool is this package's own (not ``concurrent.futures``), so that
 it can send each worker the tasks whose data it already holds: a worker gets, in order, a task
 without affinity, a task of an affinity it has served recently, else a task of the affinity the
-fewest workers hold. Its workers exit when the parent dies
+fewest workers hold. A job marked ``here`` (a batch's analyses) runs in the pool's own process, in
+one thread beside the workers, where the process would otherwise only wait for them: its modules
+(scipy.stats, for the analyses) are then imported once, while the workers run trials, and never
+into a worker, whose memory stays that of its trials. Its workers exit when the parent dies
 (:func:`nudgecli.runs.study_tasks.die_with_parent`) and report their peak memory when they close.
 :class:`Progress` prints a batch's progress on stderr.
 """
@@ -23,6 +26,7 @@ import shutil
 import signal
 import sys
 import tempfile
+import threading
 import time
 import traceback
 from collections import OrderedDict, deque
@@ -51,13 +55,16 @@ class Job:
     ``func`` must be a module-level function (it is pickled to process and dask workers).
     ``affinity`` names what the task shares with others (for a participant task, the study's
     layouts): executors keep tasks of equal affinity together. ``None`` marks a task that may
-    run anywhere and goes first (an analysis, which finishes a replication).
+    run anywhere and goes first (an analysis, which finishes a replication). ``here`` asks the
+    process pool to run it in this process, beside its workers (see the module's note); other
+    executors run it as any job.
     """
 
     key: str
     func: Callable[..., Any]
     args: tuple[Any, ...]
     affinity: str | None = None
+    here: bool = False
 
 
 def execute(job: Job) -> Any:
@@ -171,6 +178,63 @@ def _pool_worker(conn: Connection, parent_pid: int) -> None:
         conn.send(("ok", job.key, result))
 
 
+class _HereThread:
+    """The process pool's jobs marked ``here``: run one at a time in a thread of this process.
+
+    A finished job's result (or exception) waits in :meth:`finished`, and a byte on a pipe
+    (:attr:`wakeup`) wakes :meth:`ProcessExecutor.next_result`, which waits on it with the
+    workers' pipes. The thread starts with the first job, after the workers are forked (a fork
+    while it imports could leave a worker holding an import lock no one releases).
+    """
+
+    def __init__(self) -> None:
+        self._executor: Any = None
+        self._done: deque[tuple[Job, bool, Any]] = deque()
+        self._lock = threading.Lock()
+        self.wakeup: Connection | None = None
+        self._signal: Connection | None = None
+        self.running = 0
+
+    def submit(self, job: Job) -> None:
+        if self._executor is None:
+            from concurrent.futures import ThreadPoolExecutor
+            from multiprocessing import Pipe
+
+            self.wakeup, self._signal = Pipe(duplex=False)
+            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="nudge-here")
+        self.running += 1
+        self._executor.submit(self._run, job)
+
+    def _run(self, job: Job) -> None:
+        try:
+            outcome = (job, True, execute(job))
+        except BaseException as exc:  # handed to next_result, which raises it as the job's own
+            outcome = (job, False, exc)
+        with self._lock:
+            self._done.append(outcome)
+        assert self._signal is not None
+        with contextlib.suppress(OSError):
+            self._signal.send_bytes(b"1")
+
+    def finished(self) -> tuple[Job, Any] | None:
+        """A finished job and its result, or None; a job that failed raises its exception here."""
+        with self._lock:
+            if not self._done:
+                return None
+            job, ok, payload = self._done.popleft()
+        assert self.wakeup is not None
+        self.wakeup.recv_bytes()  # its byte: the pipe holds one per job not yet taken
+        self.running -= 1
+        if not ok:
+            raise payload
+        return job, payload
+
+    def close(self) -> None:
+        """Take no more jobs; a running one finishes in its thread (it cannot be interrupted)."""
+        if self._executor is not None:
+            self._executor.shutdown(wait=False, cancel_futures=True)
+
+
 @dataclass
 class _Slot:
     process: Any
@@ -201,6 +265,7 @@ class ProcessExecutor:
         self._spooled: dict[str, list[Any]] = {}
         #: The largest worker's peak resident memory in MB, known after :meth:`close`.
         self.peak_rss_mb: float | None = None
+        self._here = _HereThread()  # started on its first job: after the workers are forked
         for _ in range(workers):
             parent_end, child_end = context.Pipe(duplex=True)
             process = context.Process(target=_pool_worker, args=(child_end, os.getpid()), daemon=True,
@@ -238,7 +303,9 @@ class ProcessExecutor:
         """Nothing to do: an idle worker already takes jobs of the affinity the fewest workers hold."""
 
     def submit(self, job: Job) -> None:
-        if job.affinity is None:
+        if job.here:
+            self._here.submit(job)
+        elif job.affinity is None:
             self._free.append(job)
         else:
             self._pending.setdefault(job.affinity, deque()).append(job)
@@ -326,11 +393,18 @@ class ProcessExecutor:
     def next_result(self) -> tuple[Job, Any]:
         while True:
             self._fill()
-            busy = {slot.conn: slot for slot in self._slots if slot.inflight}
+            finished = self._here.finished()
+            if finished is not None:
+                return finished
+            busy: dict[Any, _Slot | None] = {slot.conn: slot for slot in self._slots if slot.inflight}
+            if self._here.running:
+                busy[self._here.wakeup] = None
             if not busy:
                 raise RuntimeError("no job to wait for")
             conn = wait(list(busy))[0]
-            slot = busy[conn]  # type: ignore[index]
+            slot = busy[conn]
+            if slot is None:  # a job of this process's thread is done: finished() takes it next
+                continue
             try:
                 status, key, payload = slot.conn.recv()
             except (EOFError, OSError):
@@ -351,6 +425,7 @@ class ProcessExecutor:
                 return job, payload
 
     def close(self) -> None:
+        self._here.close()
         for slot in self._slots:
             with contextlib.suppress(OSError, ValueError):
                 slot.conn.send(None)
@@ -371,6 +446,7 @@ class ProcessExecutor:
     def abort(self) -> None:
         """End the workers now (Ctrl-C, a failed task): a running task is not waited for, so the
         command exits at once instead of after :meth:`close`'s farewell (up to 6 s)."""
+        self._here.close()
         for slot in self._slots:
             with contextlib.suppress(OSError, ValueError, AttributeError):
                 slot.process.terminate()
