@@ -7,6 +7,7 @@ and reaches these functions as ``item_labels``.
 
 from __future__ import annotations
 
+import itertools
 import textwrap
 from collections.abc import Mapping, Sequence
 from typing import Any, Literal
@@ -17,6 +18,7 @@ from matplotlib.axes import Axes
 from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
+from matplotlib.transforms import Bbox
 
 from nudgecli.errors import DataError
 from nudgecli.report.brackets import DEFAULT_STAR_RULE, brackets_from_stats, draw_brackets
@@ -119,12 +121,24 @@ def split_questionnaire_scores(scores: pd.DataFrame) -> tuple[pd.DataFrame | Non
     return (scores[ids + tlx] if tlx else None, scores[ids + likert] if likert else None)
 
 
+#: Line widths (characters) tried in turn for the group labels under the bars, widest first.
+LABEL_WRAP_WIDTHS = (13, 11, 9)
+#: Type sizes (points) tried at the narrowest wrap when a word alone is too wide for its group.
+LABEL_FONT_SIZES_PT = (7.0, 6.0, 5.0)
+#: The least gap (pixels at the figure's dpi) kept between two texts of the figure.
+LABEL_GAP_PX = 2.0
+
+
 def _wrap_group_label(label: str, width: int = 13) -> str:
-    """A group label on short lines; an item code (``Q3:``) gets a line of its own."""
+    """A group label on short lines, words kept whole; an item code (``Q3:``) gets a line of its own."""
     code, sep, text = label.partition(": ")
     if sep and len(code) <= 4:
-        return code + "\n" + "\n".join(textwrap.wrap(text, width))
-    return "\n".join(textwrap.wrap(label, width))
+        return code + "\n" + _wrap_words(text, width)
+    return _wrap_words(label, width)
+
+
+def _wrap_words(text: str, width: int) -> str:
+    return "\n".join(textwrap.wrap(text, width, break_long_words=False, break_on_hyphens=False))
 
 
 def questionnaire_bars(df: pd.DataFrame, kind: Kind, *, ax: Axes | None = None,
@@ -291,8 +305,47 @@ def questionnaire_figure(tlx_df: pd.DataFrame | None = None, likert_df: pd.DataF
         fig.legend(handles=[Patch(facecolor=to_rgba(condition_colours(order)[c], 0.75), edgecolor="black",
                                   hatch=condition_hatches(order)[c], label=condition_display_name(c))
                             for c in order], loc="outside upper center", ncols=len(order))
+        group_labels = {ax: [group_label(g, item_labels) for g in pd.unique(df.iloc[:, 1])]
+                        for ax, df in zip(axes, longs, strict=True)}
+        fit_group_labels(fig, group_labels)
     return fig
 
 
-__all__ = ["TLX_SCALE_NAMES", "group_label", "long_scores", "questionnaire_bars", "questionnaire_figure",
-           "split_questionnaire_scores"]
+def _overlap(a: Bbox, b: Bbox, gap: float) -> bool:
+    """Whether two boxes (pixels) come closer than ``gap`` in both directions."""
+    return a.x0 < b.x1 + gap and b.x0 < a.x1 + gap and a.y0 < b.y1 + gap and b.y0 < a.y1 + gap
+
+
+def _crowded_axes(fig: Figure, axes: list[Axes]) -> list[Axes]:
+    """The panels whose group labels touch one another (window extents from the renderer, after
+    the constrained layout, which keeps each panel's texts clear of the other panels')."""
+    fig.draw_without_rendering()  # the layout places the panels; the labels' extents follow
+
+    def touching(ax: Axes) -> bool:
+        boxes = [t.get_window_extent() for t in ax.get_xticklabels() if t.get_visible() and t.get_text()]
+        return any(_overlap(a, b, LABEL_GAP_PX) for a, b in itertools.pairwise(boxes))
+
+    return [ax for ax in axes if touching(ax)]
+
+
+def fit_group_labels(fig: Figure, labels: Mapping[Axes, Sequence[str]]) -> None:
+    """Wrap each panel's group labels (``labels``: unwrapped, in tick order) until no two touch:
+    narrower lines first (:data:`LABEL_WRAP_WIDTHS`), then a smaller
+    type (:data:`LABEL_FONT_SIZES_PT`) where one word alone is wider than its group. Panels whose
+    labels fit keep the widest wrap; the last step is kept if nothing fits.
+    """
+    steps: list[tuple[int, float | None]] = [(width, None) for width in LABEL_WRAP_WIDTHS]
+    steps += [(LABEL_WRAP_WIDTHS[-1], size) for size in LABEL_FONT_SIZES_PT]
+    crowded = _crowded_axes(fig, list(labels))
+    for width, size in steps[1:]:
+        if not crowded:
+            return
+        for ax in crowded:
+            ax.set_xticks(ax.get_xticks(), [_wrap_group_label(label, width) for label in labels[ax]])
+            if size is not None:
+                ax.tick_params(axis="x", labelsize=size)
+        crowded = _crowded_axes(fig, list(labels))
+
+
+__all__ = ["TLX_SCALE_NAMES", "fit_group_labels", "group_label", "long_scores", "questionnaire_bars",
+           "questionnaire_figure", "split_questionnaire_scores"]
