@@ -245,6 +245,8 @@ BAD_INPUTS: dict[str, tuple[Callable[[Path, Path], object], Callable[[Path, Path
                            lambda run, out: ["simulate", "nosuch", "--out", str(out)]),
     "no participants": (lambda run, out: api.simulate("smoke", participants=0, out=out),
                         lambda run, out: ["simulate", "smoke", "--participants", "0", "--out", str(out)]),
+    "no participants, temporary": (lambda run, out: api.simulate("smoke", participants=0),
+                                   lambda run, out: ["simulate", "smoke", "--participants", "0"]),
     "bad override": (lambda run, out: api.simulate("smoke", overrides={"disambiguation.window": "wide"},
                                                    out=out),
                      lambda run, out: ["simulate", "smoke", "--set", 'disambiguation.window="wide"', "--out",

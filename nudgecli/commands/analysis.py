@@ -3,15 +3,12 @@
 
 from __future__ import annotations
 
-import contextlib
 from pathlib import Path
-from typing import Any
 
 import click
 
 from nudgecli import command_defaults as defaults
 from nudgecli.commands.common import FORCE_HELP, SET_HELP, echo_json, info, progress_bar
-from nudgecli.errors import NudgeError
 
 # --- analyze -------------------------------------------------------------------------------
 
@@ -45,19 +42,14 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
                     metric_names: tuple[str, ...], questionnaires: str | None, seed: int | None,
                     bootstrap: int | None, drop_duplicates: bool, reference: str | None, force: bool) -> None:
     """Metrics and statistics of a run folder or a metrics table (CSV/Parquet, one row per trial)."""
-    from nudgecli.outputs import check_output_folder
-    from nudgecli.report.analysis import analysis_folder, analyze
-    from nudgecli.report.plans import check_resamples
-    from nudgecli.report.summary import format_table
+    from nudgecli import api
 
-    check_resamples(bootstrap, "--bootstrap")
-    if out is not None:  # the run folder itself, or the table's analysis folder, is the source's own
-        check_output_folder(out, force=force, own=[source, analysis_folder(Path(source))])
     bar, update = progress_bar("analysing", unit="metric")
     try:
-        result = analyze(source, plan=plan, out=out, metrics=list(metric_names) or None,
-                         questionnaires=questionnaires, seed=seed, bootstrap=bootstrap,
-                         drop_duplicates=drop_duplicates, progress=update, reference=reference)
+        result = api.analyze(source, plan=plan, out=out, metrics=list(metric_names) or None,
+                             questionnaires=questionnaires, seed=seed, bootstrap=bootstrap,
+                             drop_duplicates=drop_duplicates, progress=update, reference=reference,
+                             force=force)
     finally:
         bar.close()
     for note in result.notes:
@@ -65,29 +57,13 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
     if output_format == "json":
         echo_json(result.stats)
     elif output_format == "csv":
-        click.echo(result.table.to_csv(index=False), nl=False)
+        click.echo(result.pairs.to_csv(index=False), nl=False)
     else:
-        click.echo(format_table(result.table, result.stats["conditions"], reference))
-    info(str(result.out))
+        click.echo(result.table(reference))
+    info(str(result.path))
 
 
 # --- plot ----------------------------------------------------------------------------------
-
-def _plan_of(source: str, plan: str | None) -> str:
-    """The plan of ``source`` by :func:`nudgecli.config_files.resolve_plan`: ``plan``, else the plan
-    its run folder's manifest records, else the one named like its experiment, else paper."""
-    from nudgecli.config_files import resolve_plan
-    from nudgecli.store import RunFolder
-
-    manifest: Any = {}
-    folder = RunFolder(Path(source))
-    if plan is None and Path(source).is_dir() and folder.is_run():
-        with contextlib.suppress(NudgeError):  # a damaged manifest: plotting says what is wrong
-            manifest = folder.read_manifest()
-    if not isinstance(manifest, dict):
-        manifest = {}
-    return resolve_plan(plan, recorded=manifest.get("plan"), experiment=str(manifest.get("experiment", "")))
-
 
 @click.command("plot", short_help="Draw the figures of an analysed run or metrics table.")
 @click.argument("run", type=click.Path(path_type=str))
@@ -112,50 +88,12 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
     Fig. 3 and 4 where their metrics are present, one panel per other metric; Fig. 5 and a
     trajectory for a run; questionnaires where analysed. stats.json must match the metrics.
     """
-    from nudgecli.locks import run_lock
-    from nudgecli.report.plans import load_plan
-    from nudgecli.report.plotting import default_out, parse_formats, parse_trial, plot_folder
+    from nudgecli import api
 
-    chosen, trial_key = parse_formats(formats), parse_trial(trial)
-    analysis_plan = load_plan(_plan_of(run, plan))
-    if plan is not None:
-        from nudgecli.report.analysis import analyze
-
-        analyze(run, plan=analysis_plan, reference=reference)  # takes the locks of what it writes
-    # lock only the folder written: the figures' folder given by --out (a read-only RUN is then
-    # only read), else the run or analysis folder that holds figures/ (which `analyze` locks)
-    written_folder: Path | None = None  # None: not a plottable source; plot_folder says why
-    if out is not None:
-        written_folder = Path(out)
-    elif Path(run).exists():
-        with contextlib.suppress(NudgeError):
-            written_folder = default_out(run).parent
-    made = written_folder is not None and not written_folder.exists()
-    try:
-        with run_lock(written_folder) if written_folder is not None else contextlib.nullcontext():
-            if out is not None:  # under the lock: a folder another command is writing is named so
-                _check_figures_folder(run, out, force)
-            written = plot_folder(run, out, chosen, trial_key, star_rule=analysis_plan.comparison_options(),
-                                  item_labels=analysis_plan.questionnaires.labels, reference=reference)
-    except BaseException:
-        if made and written_folder is not None and written_folder.is_dir() \
-                and not any(written_folder.iterdir()):
-            written_folder.rmdir()  # made only to hold the lock: a failed plot leaves nothing behind
-        raise
+    written = api.save_figures(run, plan=plan, out=out, formats=formats, trial=trial, reference=reference,
+                               force=force)
     for path in written:
         click.echo(str(path))
-
-
-def _check_figures_folder(run: str, out: str, force: bool) -> None:
-    """``plot --out``'s folder: new, empty or RUN's own figures folder, unless ``force``
-    (:func:`nudgecli.outputs.check_output_folder`)."""
-    from nudgecli.outputs import check_output_folder
-    from nudgecli.report.plotting import default_out
-
-    own: list[Path] = []
-    with contextlib.suppress(NudgeError):  # not a plottable source: plot_folder says why
-        own.append(default_out(run))
-    check_output_folder(out, force=force, own=own)
 
 
 # --- plot-population -----------------------------------------------------------------------
@@ -226,32 +164,18 @@ def habits_command(source: str, by: str, output_format: str, compare: str | None
     """The operating habits of SOURCE, per participant and pooled: a run folder (nudge simulate, run or
     study) or a real log (CSV: t, trial, label, x, y, theta, mode_switch; participant and layout
     optional), read in 10 Hz cells as HABITS.md defines them."""
-    from nudgecli.report.habits import format_habits, habits_csv, habits_of
+    from nudgecli import api
 
-    result = habits_of(source, by=by, compare=compare)
+    result = api.habits(source, by=by, compare=compare)
     if output_format == "json":
         echo_json(result.to_json())
     elif output_format == "csv":
-        click.echo(habits_csv(result), nl=False)
+        click.echo(result.csv(), nl=False)
     else:
-        click.echo(format_habits(result))
+        click.echo(result.text())
 
 
 # --- compare -------------------------------------------------------------------------------
-
-
-def _parse_matches(matches: tuple[str, ...]) -> dict[str, str]:
-    """``("none=no assistance", ...)`` -> ``{"none": "no assistance"}``, the labels as written (a
-    table's label may end in a space, and ``--match 'control=Control '`` must pair it)."""
-    from nudgecli.errors import ConfigError
-
-    mapping: dict[str, str] = {}
-    for text in matches:
-        simulated, sep, real = text.partition("=")
-        if not sep or not simulated.strip() or not real.strip():
-            raise ConfigError(f"--match {text!r}: expected SIMULATED=REAL, e.g. --match none='no assistance'")
-        mapping[simulated] = real
-    return mapping
 
 
 @click.command("compare", short_help="Simulated people beside real people, metric by metric.")
@@ -291,42 +215,21 @@ def compare_command(simulated: str, real: str, plan: str | None, metric_names: t
     people's range, pooled medians and quartiles, Kolmogorov-Smirnov and Wasserstein distances
     with cluster-bootstrap intervals.
     """
-    from nudgecli.report.compare import CompareOptions, compare_sources, format_comparison, write_comparison
-    from nudgecli.report.plans import check_resamples
-    from nudgecli.report.plotting import parse_formats
+    from nudgecli import api
 
-    chosen_formats = parse_formats(formats)
-    notes: list[str] = []
-    check_resamples(resamples, "--resamples")
-    if out is not None:  # before the bootstrap, which takes a while
-        from nudgecli.outputs import check_not_an_input, check_output_folder
-        from nudgecli.report.compare import COMPARISON_FILES
-        from nudgecli.report.compare_figure import FIGURE_STEM
-        from nudgecli.store import check_writable
-
-        check_output_folder(out, force=force)
-        check_writable(out)
-        for name in (*COMPARISON_FILES, *(f"{FIGURE_STEM}.{suffix}" for suffix in chosen_formats)):
-            check_not_an_input(Path(out) / name)
-    result = compare_sources(simulated, real, plan=plan, metrics=list(metric_names) or None,
-                             condition_map=_parse_matches(matches),
-                             options=CompareOptions(resamples=resamples, level=level, seed=seed),
-                             drop_duplicates=drop_duplicates, notes=notes)
-    for note in notes:
+    result = api.compare(simulated, real, plan=plan, metrics=list(metric_names) or None, match=matches,
+                         resamples=resamples, level=level, seed=seed, drop_duplicates=drop_duplicates,
+                         out=out, formats=formats, force=force)
+    for note in result.notes:
         info(f"Note: {note}")
     if output_format == "json":
         echo_json(result.to_json())
     elif output_format == "csv":
         click.echo(result.table.to_csv(index=False), nl=False)
     else:
-        click.echo(format_comparison(result))
-    if out is not None:
-        from nudgecli.report.compare_figure import plot_comparison
-
-        written = write_comparison(result, out)
-        written += plot_comparison(result.trials, result.table, result.medians, out, chosen_formats)
-        for path in written:
-            info(str(path))
+        click.echo(result.text())
+    for path in result.files:
+        info(str(path))
 
 
 #: The commands of this module, registered on ``nudge`` by :mod:`nudgecli.cli`.
