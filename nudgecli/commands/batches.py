@@ -11,7 +11,7 @@ from typing import Any
 import click
 
 from nudgecli import command_defaults as defaults
-from nudgecli.commands.common import INTERRUPT_HINT, SET_HELP, echo_json, info
+from nudgecli.commands.common import INTERRUPT_HINT, PEOPLE_HELP, SET_HELP, echo_json, info
 
 # --- replicate / power / sweep -------------------------------------------------------------
 
@@ -117,11 +117,12 @@ def _experiment_name(experiment: str) -> str:
               help="Analysis plan of each study [default: the plan named like the experiment, else paper].")
 @click.option("--participants", type=int, help="Participants per study [default: the experiment's].")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+@click.option("--people", metavar="PEOPLE.csv", default=None, help=PEOPLE_HELP)
 @_batch_options
 def replicate_command(experiment: str, replications: int, seed: int | None, plan: str | None,
-                      participants: int | None, overrides: tuple[str, ...], out: str | None, workers: int,
-                      scheduler: str | None, resume: bool, force: bool, yes: bool,
-                      output_format: str) -> None:
+                      participants: int | None, overrides: tuple[str, ...], people: str | None,
+                      out: str | None, workers: int, scheduler: str | None, resume: bool, force: bool,
+                      yes: bool, output_format: str) -> None:
     """R independent studies of EXPERIMENT: how often each difference is significant, the pooled effect."""
     from nudgecli.runs.batch_kinds import replicate
 
@@ -129,7 +130,7 @@ def replicate_command(experiment: str, replications: int, seed: int | None, plan
                        output_format,
                        experiment=experiment, replications=replications, seed=seed, plan=plan,
                        participants=participants, overrides=overrides, workers=workers, scheduler=scheduler,
-                       resume=resume, force=force, confirm=yes)
+                       resume=resume, force=force, confirm=yes, people=people)
 
 
 def _counts(text: str) -> list[int]:
@@ -150,17 +151,19 @@ def _counts(text: str) -> list[int]:
 @click.option("--target", type=float, default=defaults.POWER_TARGET,
               show_default=True, help="The power to reach.")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+@click.option("--people", metavar="PEOPLE.csv", default=None, help=PEOPLE_HELP)
 @_batch_options
 def power_command(experiment: str, counts: str, replications: int, seed: int | None, plan: str | None,
-                  target: float, overrides: tuple[str, ...], out: str | None, workers: int,
-                  scheduler: str | None, resume: bool, force: bool, yes: bool, output_format: str) -> None:
+                  target: float, overrides: tuple[str, ...], people: str | None, out: str | None,
+                  workers: int, scheduler: str | None, resume: bool, force: bool, yes: bool,
+                  output_format: str) -> None:
     """Power curves: the chance of a significant difference in the paper's direction per participant count."""
     from nudgecli.runs.batch_kinds import power
 
     _run_batch_command("power", power, out, f"{_experiment_name(experiment)}-power", output_format,
                        experiment=experiment, participant_counts=_counts(counts), replications=replications,
                        seed=seed, plan=plan, overrides=overrides, target=target, workers=workers,
-                       scheduler=scheduler, resume=resume, force=force, confirm=yes)
+                       scheduler=scheduler, resume=resume, force=force, confirm=yes, people=people)
 
 
 @click.command("sweep")
