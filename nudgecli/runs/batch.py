@@ -12,12 +12,17 @@ make up the graph, all submitted to one executor:
   with fewer: participant ``i``'s results do not depend on how many others there are, so a
   power curve simulates each replication's largest study once and analyses its first ``n``;
 - an *analysis task* ``(study, n)``: the plan's statistics (:mod:`nudgecli.report.stats`, as
-  ``nudge analyze``) of the first ``n`` participants, submitted as soon as they are done. Its
-  metrics are split into as many chunks as there are workers (each metric's statistics are its
-  own), one task each, and the chunks' documents merged in order
-  (:func:`~nudgecli.runs.batch_tasks.merge_analysis_chunks`), so a batch's last analysis does not
-  run on one worker while the others wait. Its input is the parts this process wrote in this run
-  (kept while an analysis of the study waits) or, after ``--resume``, read back from their files.
+  ``nudge analyze``) of the first ``n`` participants, submitted as soon as they are done. On the
+  process pool it runs in this process, in a thread beside the workers (a job marked ``here``,
+  :mod:`nudgecli.runs.executors`), which otherwise only waits for them: the statistics' modules
+  are imported once, while the trials run, and never into a worker, and nothing of an analysis
+  waits for a worker. On dask its metrics are split into as many chunks as there are workers
+  (each metric's statistics are its own), one task each, and the chunks' documents merged in
+  order (:func:`~nudgecli.runs.batch_tasks.merge_analysis_chunks`), so a batch's last analysis
+  does not run on one worker while the others wait. Its input is the parts this process wrote in
+  this run (kept while an analysis of the study waits) or, after ``--resume``, read back from
+  their files. What the command needs after the batch (its figures' modules) is imported the same
+  way, beside the workers (``run_batch``'s ``prepare``).
 
 Layouts and their solved goal MDPs (the :class:`~nudgecli.sim.study.StudyPlan`) are kept in a
 small cache in each worker (:mod:`nudgecli.runs.batch_tasks`: the tasks and the cache, keyed by
@@ -75,8 +80,8 @@ from nudgecli.runs.batch_tasks import (
     run_analysis_task,
     run_participant_task,
 )
-from nudgecli.runs.executors import Executor, Job, ProcessExecutor, format_duration, make_executor
-from nudgecli.runs.size import check_batch_size, trials_per_participant
+from nudgecli.runs.executors import Executor, Job, ProcessExecutor, make_executor
+from nudgecli.runs.size import SizeEstimate, check_batch_size, size_estimate, trials_per_participant
 from nudgecli.runs.study import (
     connect_scheduler,
     contiguous_chunks,
@@ -90,20 +95,6 @@ from nudgecli.store import provenance, utc_now, write_json_atomic
 if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only
     from nudgecli.report.plans import AnalysisPlan
 
-#: CPU seconds per simulated trial end to end on one core -- for the size estimate's "about ..."
-#: only (the guard counts trials). Everything a study costs per trial besides its analysis: its
-#: layouts, the trials, their metrics and the parts written (``nudge replicate paper -R 20
-#: --workers 2`` on the 2-core development machine, 2026-11-26: 51-57 s of CPU for 8,640 trials
-#: and 20 analyses, 5.4-6.0 ms a trial; the trial loop alone is about 3 ms of it).
-SECONDS_PER_TRIAL = 0.006
-#: Seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.26 s alone,
-#: more beside a worker).
-SECONDS_PER_ANALYSIS = 0.3
-#: Bytes on disk: a participant task's part file (about 7 KB of Parquet overhead and 60 bytes per
-#: trial, measured on ``smoke``) and an analysis (its JSON document, about 14 KB).
-BYTES_PER_TASK = 7_000
-BYTES_PER_TRIAL = 60
-BYTES_PER_ANALYSIS = 14_000
 
 
 # --- the batch ---------------------------------------------------------------------------------
@@ -252,27 +243,10 @@ def build_graph(batch: Batch) -> Graph:
     return Graph(studies, analyses, pd.DataFrame(rows))
 
 
-@dataclass(frozen=True)
-class SizeEstimate:
-    """How big a batch is, from the figures ``nudge bench`` measures (see the constants above)."""
-
-    studies: int
-    participant_tasks: int
-    analyses: int
-    trials: int
-    seconds: float
-    bytes: int
-    workers: int
-
-    def describe(self) -> str:
-        return (f"{self.studies:,} studies, {self.participant_tasks:,} participant tasks + {self.analyses:,} "
-                f"analyses, {self.trials:,} trials; about {format_duration(self.seconds)} on {self.workers} "
-                f"worker(s) and {self.bytes / 1e6:.1f} MB on disk")
-
-
 def estimate(graph: Graph, workers: int) -> SizeEstimate:
     """The size of the batch and its estimated wall time on ``workers`` and disk use."""
-    return _size(len(graph.studies), graph.participant_tasks, len(graph.analyses), graph.trials, workers)
+    return size_estimate(len(graph.studies), graph.participant_tasks, len(graph.analyses), graph.trials,
+                         workers)
 
 
 def estimate_batch(batch: Batch, workers: int) -> SizeEstimate:
@@ -293,13 +267,7 @@ def estimate_batch(batch: Batch, workers: int) -> SizeEstimate:
     r = batch.replications
     tasks = sum(participants.values())
     trials = sum(n * per_trial[key] for key, n in participants.items())
-    return _size(r * len(participants), r * tasks, r * len(analysed), r * trials, workers)
-
-
-def _size(studies: int, participant_tasks: int, analyses: int, trials: int, workers: int) -> SizeEstimate:
-    seconds = (trials * SECONDS_PER_TRIAL + analyses * SECONDS_PER_ANALYSIS) / max(1, workers)
-    size = participant_tasks * BYTES_PER_TASK + trials * BYTES_PER_TRIAL + analyses * BYTES_PER_ANALYSIS
-    return SizeEstimate(studies, participant_tasks, analyses, trials, seconds, size, workers)
+    return size_estimate(r * len(participants), r * tasks, r * len(analysed), r * trials, workers)
 
 
 # --- the run -----------------------------------------------------------------------------------
@@ -320,7 +288,8 @@ class BatchRun:
 def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | None = None,
               resume: bool = False, force: bool = False, confirm: bool = False,
               progress: Callable[[int, int], None] | None = None,
-              log: Callable[[str], None] | None = None) -> BatchRun:
+              log: Callable[[str], None] | None = None,
+              prepare: Callable[[], object] | None = None) -> BatchRun:
     """Run every task of the batch into the folder ``out``.
 
     Parameters
@@ -342,6 +311,10 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
         Called with (tasks done, tasks in all) after every task.
     log
         Called with lines for the user (the size estimate).
+    prepare
+        What the command does after the batch and may do before (e.g. import its figures' modules):
+        on the process pool it runs in this process beside the workers, before the first analysis,
+        off the batch's critical path; elsewhere it is not called.
 
     Returns
     -------
@@ -368,7 +341,8 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     made = not folder.exists()
     try:
         with run_lock(folder):
-            return _run_batch_locked(batch, folder, size, workers, client, resume, force, progress, log)
+            return _run_batch_locked(batch, folder, size, workers, client, resume, force, progress, log,
+                                     prepare)
     except BaseException:
         if made and folder.is_dir() and not any(folder.iterdir()):
             folder.rmdir()  # made only for this batch, which was refused: leave nothing behind
@@ -380,7 +354,7 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
 
 def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: int, client: Any, resume: bool,
                       force: bool, progress: Callable[[int, int], None] | None,
-                      log: Callable[[str], None] | None) -> BatchRun:
+                      log: Callable[[str], None] | None, prepare: Callable[[], object] | None) -> BatchRun:
     """:func:`run_batch` once the batch folder's lock is held."""
     mode = prepare_folder(folder, batch.describe(), resume=resume, force=force)
     if log is not None:  # only now: a refusal is its one error line
@@ -400,7 +374,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     started = time.perf_counter()
     try:
         executor = make_executor(workers, client)
-        computed = _run_graph(batch, graph, folder, executor, progress)
+        computed = _run_graph(batch, graph, folder, executor, progress, prepare)
     except BaseException:
         # an interrupted batch (Ctrl-C, a failed task, a write error) must not read as running
         manifest.update({"status": "interrupted", "interrupted": utc_now()})
@@ -417,10 +391,13 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
 
 
 def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
-               progress: Callable[[int, int], None] | None) -> int:
+               progress: Callable[[int, int], None] | None, prepare: Callable[[], object] | None) -> int:
     """Submit every unfinished task, write each result as it comes; returns the tasks computed."""
     run = _GraphRun(batch, graph, folder, executor)
     try:
+        if prepare is not None and isinstance(executor, ProcessExecutor):
+            executor.submit(Job(_PREPARE, _quietly, (prepare,), here=True))  # first in this process's thread
+            run.in_flight += 1
         run.submit_first()
         if progress:
             progress(run.done, run.total)
@@ -514,11 +491,14 @@ class _GraphRun:
 
     def submit_ready(self) -> None:
         """The waiting analyses whose participants are all done, each as one task per chunk of its
-        metrics (as many chunks as workers at most: a batch's last analyses then finish in
+        metrics: on the process pool one (it runs in this process's thread beside the workers),
+        elsewhere as many chunks as workers at most (a batch's last analyses then finish in
         parallel, not on one worker while the others wait)."""
         submitted = [a for a in self.waiting if self.ready(a)]
         self.waiting = [a for a in self.waiting if not self.ready(a)]
-        chunks = [self.metrics[a:b] for a, b in contiguous_chunks(len(self.metrics), self.executor.workers)]
+        # the process pool runs them in this process, one at a time: chunks would only add merges
+        parts = 1 if isinstance(self.executor, ProcessExecutor) else self.executor.workers
+        chunks = [self.metrics[a:b] for a, b in contiguous_chunks(len(self.metrics), parts)]
         for analysis in submitted:
             data = read_study_metrics(self.folder, analysis.study, analysis.participants,
                                       self.written.get(analysis.study))
@@ -527,7 +507,8 @@ class _GraphRun:
             for c, names in enumerate(chunks):
                 key = f"{analysis.key}-m{c:02d}"
                 self.analysis_jobs[key] = (analysis.key, c, len(chunks))
-                self.executor.submit(Job(key, run_analysis_task, (data, self.batch.plan, names, *design)))
+                self.executor.submit(Job(key, run_analysis_task, (data, self.batch.plan, names, *design),
+                                         here=True))
                 self.in_flight += 1
         waiting = {a.study for a in self.waiting}
         for study in [s for s in self.written if s not in waiting]:
@@ -535,7 +516,9 @@ class _GraphRun:
 
     def take(self, job: Job, result: Any) -> bool:
         """Write a finished task's part (submitting what it unblocks); whether it was a task of
-        the batch's tables (a layout task is not)."""
+        the batch's tables (a layout task and the command's preparation are not)."""
+        if job.key == _PREPARE:
+            return False
         if job.key in self.layout_jobs:
             self.take_layouts(job.key, result)
             return False
@@ -573,6 +556,16 @@ class _GraphRun:
         self.executor.broadcast(Job(f"{study_key}-plan", install_plan_of_files,
                                     (study.config, study.seed, files), affinity=study.layouts), files=files)
         self.submit_participants(study)
+
+
+#: The key of the job that runs ``run_batch``'s ``prepare``.
+_PREPARE = "prepare"
+
+
+def _quietly(prepare: Callable[[], object]) -> None:
+    """Run ``prepare``; a failure is the command's to meet when it does the same after the batch."""
+    with contextlib.suppress(Exception):
+        prepare()
 
 
 def shares_plan(study: Study, unfinished: int, studies: int, workers: int) -> bool:

@@ -28,7 +28,7 @@ from nudgecli.sim.people_file import People, check_same_people, people_of
 from nudgecli.sim.twins import Twin
 from nudgecli.store import write_text_atomic
 
-if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load when a command analyses
+if TYPE_CHECKING:  # the statistics, summaries and figures load beside the batch's workers (import_outputs)
     from nudgecli.report.plans import AnalysisPlan
 
 
@@ -73,6 +73,18 @@ def _figures(folder: Path, figures: dict[str, Any]) -> list[Path]:
     for stem, fig in figures.items():
         written += save_figure(fig, folder / FIGURES_DIR, stem, ("png",))
     return written
+
+
+def import_outputs() -> None:
+    """Import what the commands use after their batch: the replication summaries, the figures and
+    matplotlib's PNG renderer (about 2 s on 2 cores, with scipy.stats). It is the batch's
+    ``prepare`` (:func:`~nudgecli.runs.batch.run_batch`): on the process pool it runs beside the
+    workers, not before they start nor after the last trial."""
+    import matplotlib.backends.backend_agg  # noqa: F401  (what savefig loads on its first PNG)
+
+    import nudgecli.report.figures.output
+    import nudgecli.report.figures.replication
+    import nudgecli.report.replication  # noqa: F401
 
 
 def _load(experiment: str, overrides: Sequence[str], participants: int | None) -> ExperimentConfig:
@@ -123,9 +135,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     ``figures/forest.png``. ``people``: twins of real people (a people file, ``--people``).
     ``options`` go to :func:`run_batch`.
     """
-    from nudgecli.report.figures.replication import forest_figure
     from nudgecli.report.plans import load_plan
-    from nudgecli.report.replication import condition_values, replication_rows, summarise
 
     _check(replications, seed)
     config = _load(experiment, overrides, participants)
@@ -134,7 +144,10 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name, **record}, twins)
-    run = run_batch(batch, out, **options)
+    run = run_batch(batch, out, prepare=import_outputs, **options)
+    from nudgecli.report.figures.replication import forest_figure
+    from nudgecli.report.replication import condition_values, replication_rows, summarise
+
     rows = replication_rows(run.graph.entries, run.stats, chosen)
     summary = summarise(rows).drop(columns=["point"])
     tables = {"replications": rows.drop(columns=["point"]),
@@ -156,9 +169,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     Clopper-Pearson interval), ``smallest_n.csv``, ``replications.csv`` and ``figures/power.png``.
     ``people``: twins of real people (a people file, ``--people``), cycled over the participants.
     """
-    from nudgecli.report.figures.replication import power_figure
     from nudgecli.report.plans import load_plan
-    from nudgecli.report.replication import power_table, replication_rows, smallest_n
 
     _check(replications, seed)
     counts = sorted(set(int(n) for n in participant_counts))
@@ -172,7 +183,10 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name, **record}, twins)
-    run = run_batch(batch, out, **options)
+    run = run_batch(batch, out, prepare=import_outputs, **options)
+    from nudgecli.report.figures.replication import power_figure
+    from nudgecli.report.replication import power_table, replication_rows, smallest_n
+
     rows = replication_rows(run.graph.entries, run.stats, chosen)
     curves = power_table(rows)
     smallest = smallest_n(curves, target)
@@ -190,15 +204,7 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     :func:`nudgecli.report.replication.summarise` with the parameters), for Sobol and Morris
     designs ``sensitivity.csv``, and the figures ``figures/sweep.png`` (and ``sensitivity.png``).
     """
-    from nudgecli.report.figures.replication import sensitivity_figure, sweep_figure
     from nudgecli.report.plans import load_plan
-    from nudgecli.report.replication import (
-        condition_values,
-        point_outputs,
-        replication_rows,
-        sensitivity,
-        summarise,
-    )
     from nudgecli.runs.sweep import load_sweep
 
     loaded = load_sweep(sweep_file)
@@ -211,7 +217,16 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
                    for p in loaded.points)
     batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen,
                   {"design": spec.design.model_dump(mode="json"), "experiment": spec.experiment})
-    run = run_batch(batch, out, **options)
+    run = run_batch(batch, out, prepare=import_outputs, **options)
+    from nudgecli.report.figures.replication import sensitivity_figure, sweep_figure
+    from nudgecli.report.replication import (
+        condition_values,
+        point_outputs,
+        replication_rows,
+        sensitivity,
+        summarise,
+    )
+
     names = parameter_names(batch)
     table = point_table(batch).astype(object)
     for name in names:

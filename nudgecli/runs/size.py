@@ -15,13 +15,15 @@ refused by name before anything is cleared or written. ``plot-population`` count
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError
+from nudgecli.runs.executors import format_duration
 
 if TYPE_CHECKING:
-    from nudgecli.runs.batch import Batch, SizeEstimate
+    from nudgecli.runs.batch import Batch
 
 #: Simulated trials above which a command needs ``--yes`` (``confirm=True``).
 MAX_TRIALS_WITHOUT_YES = 200_000
@@ -36,6 +38,50 @@ MAX_STEPS_WITHOUT_YES = MAX_TRIALS_WITHOUT_YES * 1_200
 MAX_CALIBRATIONS_WITHOUT_YES = 10_000
 #: Queries (worlds x states x readings) ``validate`` runs without ``--yes`` (about 50 us each).
 MAX_QUERIES_WITHOUT_YES = 10_000_000
+
+
+# --- a batch's estimate (its "about ..."): the guard itself counts trials and steps ---------------
+
+#: CPU seconds per simulated trial end to end on one core -- for the size estimate's "about ..."
+#: only (the guard counts trials). Everything a study costs per trial besides its analysis: its
+#: layouts, the trials, their metrics and the parts written (``nudge replicate paper -R 20
+#: --workers 2`` on the 2-core development machine, 2026-11-26: 51-57 s of CPU for 8,640 trials
+#: and 20 analyses, 5.4-6.0 ms a trial; the trial loop alone is about 3 ms of it).
+SECONDS_PER_TRIAL = 0.006
+#: Seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.26 s alone,
+#: more beside a worker).
+SECONDS_PER_ANALYSIS = 0.3
+#: Bytes on disk: a participant task's part file (about 7 KB of Parquet overhead and 60 bytes per
+#: trial, measured on ``smoke``) and an analysis (its JSON document, about 14 KB).
+BYTES_PER_TASK = 7_000
+BYTES_PER_TRIAL = 60
+BYTES_PER_ANALYSIS = 14_000
+
+
+@dataclass(frozen=True)
+class SizeEstimate:
+    """How big a batch is, and its cost from the figures ``nudge bench`` measures (the constants above)."""
+
+    studies: int
+    participant_tasks: int
+    analyses: int
+    trials: int
+    seconds: float
+    bytes: int
+    workers: int
+
+    def describe(self) -> str:
+        return (f"{self.studies:,} studies, {self.participant_tasks:,} participant tasks + {self.analyses:,} "
+                f"analyses, {self.trials:,} trials; about {format_duration(self.seconds)} on {self.workers} "
+                f"worker(s) and {self.bytes / 1e6:.1f} MB on disk")
+
+
+def size_estimate(studies: int, participant_tasks: int, analyses: int, trials: int,
+                  workers: int) -> SizeEstimate:
+    """A batch's :class:`SizeEstimate` from its counts (:func:`nudgecli.runs.batch.estimate_batch`)."""
+    seconds = (trials * SECONDS_PER_TRIAL + analyses * SECONDS_PER_ANALYSIS) / max(1, workers)
+    size = participant_tasks * BYTES_PER_TASK + trials * BYTES_PER_TRIAL + analyses * BYTES_PER_ANALYSIS
+    return SizeEstimate(studies, participant_tasks, analyses, trials, seconds, size, workers)
 
 
 def trials_per_participant(config: ExperimentConfig) -> int:

@@ -1,0 +1,70 @@
+"""The process pool's jobs marked ``here`` (:class:`nudgecli.runs.executors.Job`): run one at a time in
+a thread of the pool's own process, beside its workers (:class:`~nudgecli.runs.executors.ProcessExecutor`)."""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+from collections import deque
+from multiprocessing.connection import Connection
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from nudgecli.runs.executors import Job
+
+
+class HereThread:
+    """The process pool's jobs marked ``here``: run one at a time in a thread of this process.
+
+    A finished job's result (or exception) waits in :meth:`finished`, and a byte on a pipe
+    (:attr:`wakeup`) wakes :meth:`ProcessExecutor.next_result`, which waits on it with the
+    workers' pipes. The thread starts with the first job, after the workers are forked (a fork
+    while it imports could leave a worker holding an import lock no one releases).
+    """
+
+    def __init__(self) -> None:
+        self._executor: Any = None
+        self._done: deque[tuple[Job, bool, Any]] = deque()
+        self._lock = threading.Lock()
+        self.wakeup: Connection | None = None
+        self._signal: Connection | None = None
+        self.running = 0
+
+    def submit(self, job: Job) -> None:
+        if self._executor is None:
+            from concurrent.futures import ThreadPoolExecutor
+            from multiprocessing import Pipe
+
+            self.wakeup, self._signal = Pipe(duplex=False)
+            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="nudge-here")
+        self.running += 1
+        self._executor.submit(self._run, job)
+
+    def _run(self, job: Job) -> None:
+        try:
+            outcome = (job, True, job.func(*job.args))
+        except BaseException as exc:  # handed to next_result, which raises it as the job's own
+            outcome = (job, False, exc)
+        with self._lock:
+            self._done.append(outcome)
+        assert self._signal is not None
+        with contextlib.suppress(OSError):
+            self._signal.send_bytes(b"1")
+
+    def finished(self) -> tuple[Job, Any] | None:
+        """A finished job and its result, or None; a job that failed raises its exception here."""
+        with self._lock:
+            if not self._done:
+                return None
+            job, ok, payload = self._done.popleft()
+        assert self.wakeup is not None
+        self.wakeup.recv_bytes()  # its byte: the pipe holds one per job not yet taken
+        self.running -= 1
+        if not ok:
+            raise payload
+        return job, payload
+
+    def close(self) -> None:
+        """Take no more jobs; a running one finishes in its thread (it cannot be interrupted)."""
+        if self._executor is not None:
+            self._executor.shutdown(wait=False, cancel_futures=True)
