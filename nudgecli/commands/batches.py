@@ -37,14 +37,14 @@ def _batch_options(func: Any) -> Any:
 
 def _run_batch_command(label: str, run: Any, out: str | None, default_name: str, output_format: str,
                        **kwargs: Any) -> None:
-    from nudgecli.runs.executors import Progress
+    from nudgecli.api import progress_line
     from nudgecli.store import default_run_dir
 
     target = Path(out) if out else default_run_dir(default_name)
     ctx = click.get_current_context()
     ctx.meta[INTERRUPT_HINT] = _batch_interrupt_hint(target, rerun_command(ctx, target))
     try:
-        result = run(out=target, progress=Progress(label), log=info, **kwargs)
+        result = run(out=target, progress=progress_line(label), log=info, **kwargs)
     except BaseException:
         if not out and target.is_dir() and not any(target.iterdir()):
             target.rmdir()  # the default folder made for this batch, still empty: leave nothing behind
@@ -55,10 +55,10 @@ def _run_batch_command(label: str, run: Any, out: str | None, default_name: str,
     elif output_format == "csv":
         click.echo(table.to_csv(index=False), nl=False)
     else:
-        click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3g}"))
-    info(f"Batch folder: {result.run.path} ({result.run.computed} tasks computed now)")
+        click.echo(result.text())
+    info(f"Batch folder: {result.path} ({result.computed} tasks computed now)")
     if output_format == "table":  # under json/csv stdout is the document alone (the folder is on stderr)
-        click.echo(str(result.run.path))
+        click.echo(str(result.path))
 
 
 def rerun_command(ctx: click.Context, target: Path) -> str:
@@ -95,9 +95,9 @@ def _batch_interrupt_hint(target: Path, command: str) -> Callable[[], str]:
     """What to say after Ctrl-C of a batch into ``target``."""
 
     def hint() -> str:
-        from nudgecli.runs.batch_folder import BATCH_MANIFEST
+        from nudgecli.api import holds_batch
 
-        if (target / BATCH_MANIFEST).is_file():
+        if holds_batch(target):
             return f"{target} keeps its finished tasks; resume with: {command}"
         return "nothing was computed yet; run the command again"
 
@@ -124,7 +124,7 @@ def replicate_command(experiment: str, replications: int, seed: int | None, plan
                       out: str | None, workers: int, scheduler: str | None, resume: bool, force: bool,
                       yes: bool, output_format: str) -> None:
     """R independent studies of EXPERIMENT: how often each difference is significant, the pooled effect."""
-    from nudgecli.runs.batch_kinds import replicate
+    from nudgecli.api import replicate
 
     _run_batch_command("replicate", replicate, out, f"{_experiment_name(experiment)}-replicate",
                        output_format,
@@ -158,10 +158,10 @@ def power_command(experiment: str, counts: str, replications: int, seed: int | N
                   workers: int, scheduler: str | None, resume: bool, force: bool, yes: bool,
                   output_format: str) -> None:
     """Power curves: the chance of a significant difference in the paper's direction per participant count."""
-    from nudgecli.runs.batch_kinds import power
+    from nudgecli.api import power
 
     _run_batch_command("power", power, out, f"{_experiment_name(experiment)}-power", output_format,
-                       experiment=experiment, participant_counts=_counts(counts), replications=replications,
+                       experiment=experiment, participants=_counts(counts), replications=replications,
                        seed=seed, plan=plan, overrides=overrides, target=target, workers=workers,
                        scheduler=scheduler, resume=resume, force=force, confirm=yes, people=people)
 
@@ -174,7 +174,7 @@ def power_command(experiment: str, counts: str, replications: int, seed: int | N
 def sweep_command(sweep_file: str, replications: int | None, seed: int | None, out: str | None, workers: int,
                   scheduler: str | None, resume: bool, force: bool, yes: bool, output_format: str) -> None:
     """Run a sweep file (grid, Sobol or Morris design over experiment keys); see the README for the format."""
-    from nudgecli.runs.batch_kinds import sweep
+    from nudgecli.api import sweep
 
     _run_batch_command("sweep", sweep, out, f"{_experiment_name(sweep_file)}-sweep", output_format,
                        sweep_file=sweep_file, replications=replications, seed=seed, workers=workers,
