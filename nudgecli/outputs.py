@@ -13,17 +13,21 @@ Two rules every command that writes files follows:
   holds a run other than the one analysed, or that is not empty, is refused without ``--force``
   (:func:`check_output_folder`): the analysis of one run written into another would be drawn by
   ``nudge plot`` as the other's. ``simulate``, ``run`` and the batches apply the same rule to
-  the folder they write (:func:`nudgecli.store.prepare_mode`).
+  the folder they write (:func:`nudgecli.store.prepare_mode`); ``plot-population`` to its
+  ``--out`` (the current folder by default), its own earlier outputs aside.
+- **An output file that exists is replaced only with ``--force``** (:func:`check_output_file`):
+  ``nudge fit --out PROFILE.json`` does not write over a profile fitted before.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from nudgecli.errors import RunFolderError, WriteError
+from nudgecli.run_folder_names import LOCK
 
 #: The files the running command read, as it named them: (device, inode) and resolved path ->
 #: how the user gave it (``--questionnaires``, ``SOURCE``).
@@ -78,7 +82,25 @@ def check_not_an_input(target: str | Path) -> None:
                              "replaces a file the command read: choose another --out")
 
 
-def check_output_folder(folder: str | Path, *, force: bool, own: Iterable[str | Path] = ()) -> None:
+def check_output_file(target: str | Path, *, force: bool) -> None:
+    """Refuse to replace an existing file ``target`` unless ``force`` (a file the command read is
+    refused even then: :func:`check_not_an_input`).
+
+    Raises
+    ------
+    WriteError
+        ``target`` is one of the command's inputs.
+    RunFolderError
+        ``target`` exists and ``force`` is not given.
+    """
+    path = Path(target)
+    check_not_an_input(path)  # the stronger reason first: --force would not help
+    if path.exists() and not force:
+        raise RunFolderError(f"{path}: exists; choose another --out or use --force to replace it")
+
+
+def check_output_folder(folder: str | Path, *, force: bool, own: Iterable[str | Path] = (),
+                        own_file: Callable[[str], bool] = LOCK.__eq__) -> None:
     """Refuse an output folder that holds a run or other files, unless ``force`` or it is ``own``.
 
     Parameters
@@ -91,6 +113,9 @@ def check_output_folder(folder: str | Path, *, force: bool, own: Iterable[str | 
     own
         Folders the command writes as its own for this source (``nudge analyze RUN`` writes into
         ``RUN``, ``nudge analyze T.csv`` into ``T-analysis/``): always accepted.
+    own_file
+        The names of files the folder may hold without counting as not empty: the lock, and a
+        command's own outputs of an earlier call (which it replaces).
 
     Raises
     ------
@@ -107,7 +132,7 @@ def check_output_folder(folder: str | Path, *, force: bool, own: Iterable[str | 
         raise RunFolderError(f"{path} holds another run (or batch): files written there would be read as "
                              f"that run's (`nudge plot {path}` would draw them); choose another --out (a new "
                              "or empty folder), or use --force to write there anyway")
-    prepare_mode(path, None, resume=False, force=False)  # the one rule of a folder that is not empty
+    prepare_mode(path, None, resume=False, force=False, own_file=own_file)  # the rule of a non-empty folder
 
 
 def _same_folder(a: Path, b: Path) -> bool:

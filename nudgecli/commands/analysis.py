@@ -105,19 +105,22 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
               help="Simulated participants to calibrate.")
 @click.option("--seed", type=int, default=None, help="Master seed [default: the experiment's].")
 @click.option("--out", type=click.Path(file_okay=False, path_type=str), default=".", show_default=True,
-              help="Folder for population.csv, population_habits.csv and the figure population.<format>.")
+              help="Folder for population.csv, population_habits.csv and the figure population.<format>; "
+                   "one holding other files needs --force.")
+@click.option("--force", is_flag=True, help="Write into an --out that holds other files.")
 @click.option("--formats", default="png,pdf", show_default=True, help="Figure formats: png, pdf, svg.")
 @click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="What to print on stdout: the coverage table.")
 @click.option("--yes", is_flag=True,
               help="Calibrate more participants than the size limit allows without asking.")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
-def plot_population_command(experiment: str, participants: int, seed: int | None, out: str, formats: str,
-                            output_format: str, yes: bool, overrides: tuple[str, ...]) -> None:
+def plot_population_command(experiment: str, participants: int, seed: int | None, out: str, force: bool,
+                            formats: str, output_format: str, yes: bool, overrides: tuple[str, ...]) -> None:
     """Calibrate EXPERIMENT's simulated participants and draw their fitted p(phi_m | phi_i) diagonals
     beside the real people's (pilots: fixed 10 Hz stream; sibling study: event-driven stream), and
     their drawn timing habits beside the ten real users' ranges (HABITS.md)."""
     from nudgecli.config import load_experiment
+    from nudgecli.outputs import check_output_folder
     from nudgecli.report.plotting import parse_formats
     from nudgecli.report.population_figure import plot_population
     from nudgecli.runs.size import MAX_CALIBRATIONS_WITHOUT_YES, check_size
@@ -128,7 +131,10 @@ def plot_population_command(experiment: str, participants: int, seed: int | None
                work="calibrate {} simulated participants", fix="fewer --participants")
     chosen = parse_formats(formats)
     config = load_experiment(experiment, overrides)
-    check_writable(out)  # before the calibrations, which take a while
+    # as every --out (the current folder by default): new, empty, or holding this command's own
+    # outputs of an earlier call, else --force; then writable; before the calibrations, which take a while
+    check_output_folder(out, force=force, own_file=_population_file)
+    check_writable(out)
     master = config.experiment.seed if seed is None else seed
     diagonals = simulated_diagonals(config, participants, master)
     habits = simulated_habits(config, participants, master)
@@ -146,6 +152,16 @@ def plot_population_command(experiment: str, participants: int, seed: int | None
     for path in [folder / "population.csv", folder / "population_habits.csv",
                  *plot_population(diagonals, folder, chosen, title, habits)]:
         info(str(path))
+
+
+def _population_file(name: str) -> bool:
+    """``plot-population``'s own outputs (an earlier call's, which it replaces) and the lock."""
+    from nudgecli.report.figures import SUPPORTED_FORMATS
+    from nudgecli.run_folder_names import LOCK
+
+    stem, _, suffix = name.partition(".")
+    return name in (LOCK, "population.csv", "population_habits.csv") or (
+        stem == "population" and suffix in SUPPORTED_FORMATS)
 
 
 # --- habits --------------------------------------------------------------------------------
