@@ -16,7 +16,7 @@ then both batches end to end as a user runs them (``python -m nudgecli.cli repli
 child, interpreter start-up included), then the loop again, whose better time per participant
 counts (on a machine shared with other work, other processes only ever add time). The CPU seconds
 of each batch (the command and its reaped workers) give the size guard's cost per trial
-(:data:`nudgecli.runs.batch.SECONDS_PER_TRIAL`) and the *CPU share* of the loop,
+(:data:`nudgecli.runs.size.SECONDS_PER_TRIAL`) and the *CPU share* of the loop,
 ``trials x loop seconds per trial / the batch's CPU seconds``: what the batch computes besides
 trials, which a machine shared with other work does not distort as it does the wall time.
 """

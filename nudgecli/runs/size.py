@@ -43,14 +43,19 @@ MAX_QUERIES_WITHOUT_YES = 10_000_000
 # --- a batch's estimate (its "about ..."): the guard itself counts trials and steps ---------------
 
 #: CPU seconds per simulated trial end to end on one core -- for the size estimate's "about ..."
-#: only (the guard counts trials). Everything a study costs per trial besides its analysis: its
-#: layouts, the trials, their metrics and the parts written (``nudge replicate paper -R 20
-#: --workers 2`` on the 2-core development machine, 2026-11-26: 51-57 s of CPU for 8,640 trials
-#: and 20 analyses, 5.4-6.0 ms a trial; the trial loop alone is about 3 ms of it).
-SECONDS_PER_TRIAL = 0.006
-#: Seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.26 s alone,
-#: more beside a worker).
-SECONDS_PER_ANALYSIS = 0.3
+#: only (the guard counts trials). Everything a study costs per trial besides its analysis: the
+#: command's imports, its layouts, the trials, their metrics and the parts written. Measured on the
+#: 2-core development machine on 2026-11-28, shared with other work (load 3.5-5; CPU seconds, which
+#: that inflates less than wall time), ``nudge replicate paper -R 20 --workers 2``: 30.2-31.6 s of
+#: CPU (the command and its workers, ``/usr/bin/time``) for 8,640 trials and 20 analyses, so
+#: 3.1-3.3 ms a trial; ``-R 4``: 7.3-8.5 s for 1,728 trials and 4 analyses, 3.8-4.5 ms a trial. The
+#: trial loop alone is 3.2 ms a trial (CPU, ``nudge bench --only pipeline``). Was 0.006 (2026-11-26,
+#: before the faster statistics and the model's pressure strays).
+SECONDS_PER_TRIAL = 0.0035
+#: CPU seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.17 s
+#: on 2026-11-28, the best of five beside other work; 0.26 s before the array Kruskal-Wallis and
+#: Conover of :mod:`nudgecli.report.rank_tests`).
+SECONDS_PER_ANALYSIS = 0.2
 #: Bytes on disk: a participant task's part file (about 7 KB of Parquet overhead and 60 bytes per
 #: trial, measured on ``smoke``) and an analysis (its JSON document, about 14 KB).
 BYTES_PER_TASK = 7_000
