@@ -213,3 +213,28 @@ def test_with_the_switch_off_a_run_is_the_earlier_persons(tmp_path: Path, preset
     assert digests["false"] == BEFORE[(preset, participants)]
     assert digests["true"] != digests["false"]  # and on, it is another person
     assert math.isfinite(STRAY_LOG_SD)
+
+
+def test_each_person_draws_their_control_inside_the_ranges_and_old_records_read_back() -> None:
+    from nudgecli.config import PopulationSection
+    from nudgecli.sim.participants import draw_participants
+
+    population = PopulationSection()
+    people = draw_participants(population, 200, seed=5)
+    shares = np.array([p.deadband_share for p in people])
+    strays = np.array([p.deadband_stray_s for p in people])
+    assert population.deadband_share[0] <= shares.min() and shares.max() <= population.deadband_share[1]
+    assert population.deadband_stray_s[0] <= strays.min() and strays.max() <= population.deadband_stray_s[1]
+    assert np.ptp(shares) > 0.1 and np.ptp(strays) > 0.1  # spread over the ranges, not one value
+    record = people[0].to_record()
+    assert Participant.from_record(record) == people[0]
+    # a participants table written before issue 37 has neither column: the defaults are used
+    older = {k: v for k, v in record.items() if not k.startswith("deadband_")}
+    assert Participant.from_record(older).deadband_share == Participant.__dataclass_fields__[
+        "deadband_share"].default
+    with pytest.raises(ValueError, match="deadband_share"):
+        Participant(**{**{f: getattr(people[0], f) for f in ("index", "seed_key", "pressure_level",
+                                                              "pressure_spread", "mapping", "epsilon",
+                                                              "rest_s", "operate_s", "action_pause_s",
+                                                              "hard_blow_s", "reaction_s")},
+                       "deadband_share": 1.0})
