@@ -46,11 +46,11 @@ MAX_QUERIES_WITHOUT_YES = 10_000_000
 #: only (the guard counts trials). Everything a study costs per trial besides its analysis: the
 #: command's imports, its layouts, the trials, their metrics and the parts written. Measured on the
 #: 2-core development machine on 2026-11-28, shared with other work (load 3.5-5; CPU seconds, which
-#: that inflates less than wall time), ``nudge replicate paper -R 20 --workers 2``: 30.2-31.6 s of
-#: CPU (the command and its workers, ``/usr/bin/time``) for 8,640 trials and 20 analyses, so
-#: 3.1-3.3 ms a trial; ``-R 4``: 7.3-8.5 s for 1,728 trials and 4 analyses, 3.8-4.5 ms a trial. The
-#: trial loop alone is 3.2 ms a trial (CPU, ``nudge bench --only pipeline``). Was 0.006 (2026-11-26,
-#: before the faster statistics and the model's pressure strays).
+#: that inflates less than wall time), ``nudge replicate paper -R 20 --workers 2``: 30.6-32.8 s of
+#: CPU (the command and its workers, ``/usr/bin/time``, four runs) for 8,640 trials and 20 analyses,
+#: less the analyses 3.1-3.4 ms a trial; ``-R 4``: 7.8-9.1 s for 1,728 trials and 4 analyses (six
+#: runs), 4.1-4.9 ms a trial. The trial loop alone is 2.4-3.2 ms a trial (CPU). Was 0.006
+#: (2026-11-26, before the faster statistics and imports; docs/performance.md, issue 39).
 SECONDS_PER_TRIAL = 0.0035
 #: CPU seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.17 s
 #: on 2026-11-28, the best of five beside other work; 0.26 s before the array Kruskal-Wallis and
