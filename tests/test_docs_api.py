@@ -3,6 +3,7 @@ executed in order in a fresh folder, and the tables they write equal the command
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import re
 from pathlib import Path
@@ -14,6 +15,17 @@ from click.testing import CliRunner
 from nudgecli.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
+
+
+def _walkthrough_maker() -> Any:
+    """examples/make_walkthrough.py as a module (examples/ is no package)."""
+    path = ROOT / "examples" / "make_walkthrough.py"
+    spec = importlib.util.spec_from_file_location("make_walkthrough", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
 DOC = ROOT / "docs" / "api.md"
 NOTEBOOK = ROOT / "examples" / "walkthrough.ipynb"
 
@@ -40,11 +52,13 @@ def test_the_block_reader_sees_every_python_block_and_nothing_else() -> None:
     assert python_blocks(page) == ["a = 1", "b = 2\nc = 3"]
 
 
-def test_the_notebook_runs_the_pages_code() -> None:
-    # one walkthrough in two forms: the test below runs the notebook, so both must hold the same code
+def test_the_notebook_is_the_pages_walkthrough() -> None:
+    # one walkthrough in two forms: the test below runs the notebook, so it must be the page's, made
+    # by examples/make_walkthrough.py (run it after editing the page)
     notebook = json.loads(NOTEBOOK.read_text(encoding="utf-8"))
-    assert notebook["nbformat"] == 4
-    assert notebook_code(notebook) == python_blocks(DOC.read_text(encoding="utf-8"))
+    page = DOC.read_text(encoding="utf-8")
+    assert notebook == _walkthrough_maker().notebook_of(page)
+    assert notebook["nbformat"] == 4 and notebook_code(notebook) == python_blocks(page)
 
 
 def test_the_walkthrough_runs_and_its_tables_equal_the_commands(tmp_path: Path,
