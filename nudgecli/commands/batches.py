@@ -4,6 +4,7 @@ workers or a dask cluster)."""
 from __future__ import annotations
 
 import json
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -43,8 +44,11 @@ def _run_batch_command(label: str, run: Any, out: str | None, default_name: str,
     target = Path(out) if out else default_run_dir(default_name)
     ctx = click.get_current_context()
     ctx.meta[INTERRUPT_HINT] = _batch_interrupt_hint(target, rerun_command(ctx, target))
+    # the progress line (rate and ETA) is for a person: where a script reads stdout (json, csv), only on a
+    # terminal, as the other commands' progress bars
+    progress = progress_line(label) if output_format == "table" or sys.stderr.isatty() else None
     try:
-        result = run(out=target, progress=progress_line(label), log=info, **kwargs)
+        result = run(out=target, progress=progress, log=info, **kwargs)
     except BaseException:
         if not out and target.is_dir() and not any(target.iterdir()):
             target.rmdir()  # the default folder made for this batch, still empty: leave nothing behind
