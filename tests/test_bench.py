@@ -168,7 +168,9 @@ def test_a_scale_batch_runs_in_a_child_of_its_own(monkeypatch: pytest.MonkeyPatc
     assert row["baseline_s"] == scale._SCALE_TIMES[("sweep", repr(options))]  # the 1-worker run
     assert 0 < row["peak_mb"] < 300 and ballast.sum() == ballast.size
     own, workers = scale._SCALE_CPU[("sweep", 2)]
-    assert 0 < own < workers and f"workers {workers:.2f} s" in row["note"]
+    # the batch's own process runs the analyses beside the workers: for two tiny studies, most of the CPU
+    assert own > 0 and workers > 0 and f"workers {workers:.2f} s" in row["note"]
+    assert f"the batch's process {own:.2f} s, its analyses included" in row["note"]
     assert list(tmp_path.iterdir()) == []
 
 

@@ -134,8 +134,10 @@ def scale_figure(workload: str, workers: int) -> Figure:
         karp_flatt = (1 / (serial / elapsed) - 1 / workers) / (1 - 1 / workers) if workers > 1 else 0.0
         target = SCALE_EFFICIENCY_TARGET[workload]
         parent_cpu, worker_cpu = _SCALE_CPU.get((workload, workers), (math.nan, math.nan))
-        cpu = (f"; CPU: the batch's process {parent_cpu:.2f} s, workers {worker_cpu:.2f} s (serial share "
-               f"{parent_cpu / (parent_cpu + worker_cpu):.1%})" if workers > 1 else "")
+        # the batch's process runs the analyses beside the workers (its share is not all serial)
+        share = parent_cpu / (parent_cpu + worker_cpu)
+        cpu = (f"; CPU: the batch's process {parent_cpu:.2f} s, its analyses included, workers "
+               f"{worker_cpu:.2f} s (its share {share:.1%})" if workers > 1 else "")
         peak = _SCALE_PEAKS.get((workload, workers)) if workers > 1 else None
         ok = efficiency >= target and (peak is None or peak <= WORKER_MEMORY_TARGET_MB)
         return row(f"scale: {_workload_text(workload, options)}, {workers} worker(s)", elapsed, serial,
