@@ -44,6 +44,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.model.conditions import PAPER_CONDITIONS
+from nudgecli.report.p_adjust import NATIVE_ADJUSTMENTS
 from nudgecli.report.rank_tests import conover_exact, kruskal_exact
 
 #: Adjustments that leave a single p-value unchanged (``multipletests`` with one test).
@@ -194,7 +195,8 @@ def kruskal_wallis(data: pd.DataFrame, metric: str, conditions: Sequence[str], *
 
 
 def adjust_p_values(p_values: Sequence[float] | np.ndarray, method: str = "holm") -> np.ndarray:
-    """Adjust a family of p-values for multiple comparisons (``statsmodels``' ``multipletests``).
+    """Adjust a family of p-values for multiple comparisons (``statsmodels``' ``multipletests``;
+    Holm and Bonferroni computed here with its numbers, :mod:`nudgecli.report.p_adjust`).
 
     Holm's step-down method (the default, as the paper's post-hoc tests): sort the ``m`` p-values,
     multiply the ``i``-th smallest (``i = 1..m``) by ``m - i + 1``, make the sequence
@@ -222,6 +224,10 @@ def adjust_p_values(p_values: Sequence[float] | np.ndarray, method: str = "holm"
     if n_tests == 1 and method in _IDENTITY_ON_ONE_TEST:
         return adjusted  # one test: these adjustments return p itself (and statsmodels' Holm runs
         # gc.collect() on every call, which dominated the analysis of many replications)
+    native = NATIVE_ADJUSTMENTS.get(method)
+    if native is not None:  # statsmodels' numbers bit for bit, without its gc.collect()
+        adjusted[defined] = native(values[defined])
+        return adjusted
     from statsmodels.stats.multitest import multipletests
 
     adjusted[defined] = multipletests(values[defined], method=method)[1]
