@@ -5,6 +5,7 @@ nudgecli stays cheap."""
 from __future__ import annotations
 
 import gc
+import json
 import math
 import os
 import subprocess
@@ -155,27 +156,22 @@ def test_a_quoted_string_keeps_its_spaces_and_quotes() -> None:
         assert parse_override(f"a.b={api.run.toml_literal(text)}")[1] == text
 
 
-def test_people_is_passed_on_only_where_the_runs_layer_takes_it(monkeypatch: pytest.MonkeyPatch,
-                                                                tmp_path: Path) -> None:
-    import nudgecli.runs.study as study
-
-    def without_people(config: Any, out: Path, **options: Any) -> Any:
-        raise AssertionError("not to be called")
-
-    monkeypatch.setattr(study, "run_study", without_people)
-    with pytest.raises(NudgeError, match=r"people='p\.csv' needs the runs layer's --people support"):
-        api.simulate("smoke", people="p.csv", out=tmp_path / "run")
-    assert not (tmp_path / "run").exists()
-    received = {}
-
-    def with_people(config: Any, out: Path, *, people: Any = None, **options: Any) -> Any:
-        received["people"] = people
-        raise ConfigError("stop here")
-
-    monkeypatch.setattr(study, "run_study", with_people)
-    with pytest.raises(ConfigError, match="stop here"):
-        api.simulate("smoke", people="p.csv", out=tmp_path / "run")
-    assert received == {"people": "p.csv"}
+def test_people_are_simulated_as_their_twins(smoke: Smoke, tmp_path: Path) -> None:
+    run, _ = smoke
+    people = tmp_path / "people.csv"
+    cli(["fit-people", str(run.path), "--out", str(people)])
+    table = pd.read_csv(people)
+    parameters = [c for c in table.columns if c not in ("person", "source", "participant", "from_population")]
+    twins = api.simulate("smoke", participants=3, seed=2, people=people, out=tmp_path / "api")
+    drawn = twins.participants.set_index("index")
+    for participant in range(3):  # participant i is person i mod P, their parameters as the file's
+        person = table.iloc[participant % len(table)]
+        for name in parameters:
+            assert drawn.loc[participant, name] == pytest.approx(person[name]), (participant, name)
+    manifest = json.loads((twins.path / "manifest.json").read_text())
+    assert manifest["people"]["file"] == "people.csv" and manifest["people"]["people"] == len(table) == 2
+    without = api.simulate("smoke", participants=3, seed=2).participants.set_index("index")
+    assert not all(without.loc[0, name] == pytest.approx(table.iloc[0][name]) for name in parameters)
 
 
 # --- analyze ---------------------------------------------------------------------------------------

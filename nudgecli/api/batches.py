@@ -7,7 +7,6 @@ it through this module); a :class:`Batch` holds its batch folder, temporary unle
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -15,7 +14,6 @@ from typing import TYPE_CHECKING, Any
 from nudgecli import command_defaults as defaults
 from nudgecli.api.folders import FolderOwner, remove_if_made, temporary_folder
 from nudgecli.api.run import Overrides, ProgressCallback, override_texts
-from nudgecli.errors import NudgeError
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -89,13 +87,7 @@ def progress_line(label: str) -> ProgressCallback:
 
 def _run(work: Callable[..., BatchResult], out: str | Path | None, label: str,
          progress: ProgressCallback | None, log: Callable[[str], None] | None, **kwargs: Any) -> Batch:
-    """Run one batch kind into ``out`` (or a temporary folder, removed again when it fails); a
-    ``people`` given is passed on where the runs layer takes it (issue 37's ``--people``)."""
-    if kwargs.get("people", ...) is None:
-        del kwargs["people"]  # not asked for: the batch kinds of every version run without it
-    elif "people" in kwargs and "people" not in inspect.signature(work).parameters:
-        raise NudgeError(f"people={str(kwargs['people'])!r} needs the runs layer's --people support "
-                         "(issue 37), which this version of nudge does not have yet")
+    """Run one batch kind into ``out`` (or a temporary folder, removed again when it fails)."""
     temporary = out is None
     target = temporary_folder(label) if out is None else Path(out)
     try:
@@ -123,7 +115,7 @@ def replicate(experiment: str | Path, replications: int, *, seed: int | None = N
     seed, plan, participants, overrides
         The master seed, the analysis plan, participants per study and ``--set`` overrides.
     people
-        A people file whose twins are simulated (``--people``, issue 37), where the runs layer takes it.
+        A people file whose twins are simulated (``--people``, ``nudge fit-people``).
     out
         The batch folder, kept; ``None``: a temporary one removed with the :class:`Batch`.
     workers, scheduler, resume, force, confirm

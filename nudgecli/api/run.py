@@ -7,14 +7,13 @@ call through this module; a :class:`Run` reads its run folder's tables when firs
 from __future__ import annotations
 
 import functools
-import inspect
 import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from nudgecli.api.folders import FolderOwner, remove_if_made, temporary_folder
-from nudgecli.errors import ConfigError, NudgeError
+from nudgecli.errors import ConfigError
 
 if TYPE_CHECKING:  # pandas and pydantic load on first use, not with ``import nudgecli``
     import pandas as pd
@@ -205,8 +204,8 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
         Experiment fields to change, ``{"disambiguation.window": 5}`` or ``["disambiguation.window=5"]``
         (``--set``); only with an experiment given by name or file.
     people
-        A table of people to simulate (``--people``, issue 37); needs a version whose runs layer
-        takes it.
+        A people file (``nudge fit-people``, ``--people``): participant ``i`` is the twin of person
+        ``i mod P``, the rest of their physiology drawn as usual.
     progress
         Called with (trials done, trials in all) as participants finish; default silent.
     scheduler
@@ -238,19 +237,13 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
         config = experiment
     else:
         config = experiment_config(experiment, overrides)
-    extra: dict[str, Any] = {}
-    if people is not None:
-        if "people" not in inspect.signature(run_study).parameters:
-            raise NudgeError(f"people={str(people)!r} needs the runs layer's --people support (issue 37), "
-                             "which this version of nudge does not have yet")
-        extra["people"] = people
     temporary = out is None
     target = temporary_folder(config.experiment.name) if out is None else Path(out)
     made = temporary or not target.exists()
     try:
         study = run_study(config, target, seed=seed, participants=participants, workers=workers,
                           scheduler=scheduler, resume=resume, force=force, progress=progress, plan=plan,
-                          confirm=confirm, **extra)
+                          confirm=confirm, people=people)
     except BaseException:
         # a folder this call made is removed whole (a temporary one) or when still empty (--out)
         if temporary or (made and target.is_dir() and not any(target.iterdir())):

@@ -1,0 +1,70 @@
+"""Every command of issue 40 is a thin wrapper over the Python API: it parses, calls
+:mod:`nudgecli.api`, prints. So none of their code imports the layers that compute (the model, the
+simulation, the runs, the analysis, the experiment files): what a command prints is what an API
+function returned, and a notebook gets the same numbers.
+
+The commands outside the API's scope so far (``fit``, ``study``, ``plot-population``, and the
+tools of ``commands/tools.py``) are named here, so a new command is held to the rule by default.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+PACKAGE = Path(__file__).resolve().parents[1] / "nudgecli"
+
+#: The command modules whose commands call the API.
+MODULES = ("commands/analysis.py", "commands/batches.py")
+#: Functions of those modules not (yet) on the API: they may import the computing layers.
+NOT_ON_THE_API = {"fit_command", "study_command", "plot_population_command",
+                  "_population_file"}  # plot-population's helper
+#: The layers that compute; a thin command imports none of them.
+COMPUTING = ("nudgecli.model", "nudgecli.sim", "nudgecli.runs", "nudgecli.report", "nudgecli.config",
+             "nudgecli.config_files", "nudgecli.locks", "nudgecli.bench", "nudgecli.live")
+
+
+def _imports(node: ast.AST) -> list[str]:
+    found = []
+    for sub in ast.walk(node):
+        if isinstance(sub, ast.Import):
+            found += [alias.name for alias in sub.names]
+        elif isinstance(sub, ast.ImportFrom) and sub.module and sub.level == 0:
+            found += [sub.module, *(f"{sub.module}.{alias.name}" for alias in sub.names)]
+    return found
+
+
+def computing_imports(source: str, exempt: set[str]) -> list[str]:
+    """``function: module`` for each import of a computing layer in ``source``, at any depth, outside
+    the functions named in ``exempt``."""
+    tree = ast.parse(source)
+    skipped = {id(sub) for node in ast.walk(tree)
+               if isinstance(node, ast.FunctionDef) and node.name in exempt for sub in ast.walk(node)}
+    offending = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import | ast.ImportFrom) and id(node) not in skipped:
+            offending += [module for module in _imports(node)
+                          if any(module == layer or module.startswith(layer + ".") for layer in COMPUTING)]
+    return offending
+
+
+def test_the_walk_finds_an_import_inside_a_command() -> None:
+    source = ("import click\nfrom nudgecli import api\n"
+              "def analyze_command():\n    from nudgecli.report.analysis import analyze\n"
+              "def fit_command():\n    from nudgecli.sim.calibration_profile import fit_calibration_dir\n"
+              "def run_command():\n    import nudgecli.runs.study\n")
+    assert computing_imports(source, NOT_ON_THE_API) == [
+        "nudgecli.report.analysis", "nudgecli.report.analysis.analyze", "nudgecli.runs.study"]
+
+
+@pytest.mark.parametrize("module", MODULES)
+def test_the_commands_compute_nothing_themselves(module: str) -> None:
+    assert computing_imports((PACKAGE / module).read_text(encoding="utf-8"), NOT_ON_THE_API) == []
+
+
+@pytest.mark.parametrize("module", MODULES)
+def test_the_commands_call_the_api(module: str) -> None:
+    imported = _imports(ast.parse((PACKAGE / module).read_text(encoding="utf-8")))
+    assert any(name == "nudgecli.api" or name.startswith("nudgecli.api.") for name in imported)
