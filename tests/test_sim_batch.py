@@ -274,6 +274,7 @@ def test_on_the_pool_a_lone_studys_plan_reaches_the_workers_in_its_chunks_files(
         broadcast(self, job, files)
 
     monkeypatch.setattr(StudyPlan, "build", no_build)  # the forked workers inherit it
+    monkeypatch.setattr(batch_tasks, "build_plan", no_build)  # (its layouts solved through the cache)
     monkeypatch.setattr(ProcessExecutor, "broadcast", recording)
     pooled = replicate("smoke", 1, tmp_path / "pool", seed=5, workers=2)
     assert_same_tables(serial, pooled)

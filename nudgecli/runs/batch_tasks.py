@@ -31,6 +31,7 @@ from nudgecli.report.step_metrics import (
     step_metric_arrays,
 )
 from nudgecli.runs.executors import HELD_AFFINITIES
+from nudgecli.runs.solved_layouts import build_plan, remember_plan
 from nudgecli.runs.study_tasks import tune_allocator
 from nudgecli.sim.policy_registry import not_applicable_of
 from nudgecli.sim.study import StudyPlan, simulate_participant_columns, trials_frame
@@ -73,8 +74,8 @@ def cached_plan(config: ExperimentConfig, seed: int) -> StudyPlan:
     key = layout_key(config, seed)
     with _PLANS_LOCK:  # a dask worker may run tasks in several threads
         plan = _PLANS.get(key)
-        if plan is None:
-            plan = StudyPlan.build(config, seed)
+        if plan is None:  # the layouts a sweep's other points drew are solved already
+            plan = build_plan(config, seed)
         _remember_plan(key, plan)
     return dataclasses.replace(plan, config=config)
 
@@ -101,7 +102,9 @@ def install_plan_of_files(config: ExperimentConfig, seed: int, paths: Sequence[s
     for path in paths:
         with open(path, "rb") as handle:
             chunks.append(pickle.load(handle))
-    install_plan(StudyPlan.assemble(config, seed, chunks))
+    plan = StudyPlan.assemble(config, seed, chunks)
+    remember_plan(plan)
+    install_plan(plan)
 
 
 @dataclasses.dataclass

@@ -34,6 +34,7 @@ from nudgecli.model.mdp import SolvedLayout
 from nudgecli.run_folder_names import LAYOUTS, PARTICIPANTS
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, FILE_CHECKSUMS
 from nudgecli.runs.size import check_study_size
+from nudgecli.runs.solved_layouts import solve_layouts_cached
 from nudgecli.runs.study_tasks import (
     _init_worker,
     _run_in_worker,
@@ -54,7 +55,6 @@ from nudgecli.sim.study import (
     build_layouts,
     check_physiology_logs,
     simulate_participant_columns,
-    solve_layouts,
 )
 from nudgecli.store import RunFolder, new_manifest, utc_now
 
@@ -71,7 +71,7 @@ def contiguous_chunks(n: int, parts: int) -> list[tuple[int, int]]:
 def solve_layout_chunk(config: ExperimentConfig, seed: int, start: int, stop: int) -> list[SolvedLayout]:
     """The study's layouts ``start:stop`` solved: one piece of a plan built in parallel."""
     tune_allocator()
-    return solve_layouts(config, build_layouts(config, seed)[start:stop])
+    return solve_layouts_cached(config, build_layouts(config, seed)[start:stop])
 
 
 def solve_layout_chunk_into(path: str, config: ExperimentConfig, seed: int, start: int, stop: int) -> str:
