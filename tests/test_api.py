@@ -315,7 +315,13 @@ def test_plot_draws_the_commands_figures_and_one_panel_into_given_axes(smoke: Sm
                    if line.get_zorder() == 4)  # the boxes' medianprops
     assert drawn == pytest.approx(sorted(medians), rel=1e-12)
     assert isinstance(api.plot(analysis, "fig5"), Figure)
-    with pytest.raises(ConfigError, match="several panels or a trial's"):
+    beliefs = Figure().subplots()
+    assert api.plot(analysis, "fig5", ax=beliefs, trial=(1, 3)) is beliefs.figure
+    assert beliefs.get_title(loc="left").startswith("Participant 1, trial 3")
+    # Fig. 5's lines are the trial's beliefs over its steps: one point a step
+    steps = api.Run.open(analysis.path).steps.query("participant == 1 and trial == 3")
+    assert max(len(line.get_xdata()) for line in beliefs.lines) == len(steps)
+    with pytest.raises(ConfigError, match="several panels, which one axes cannot hold"):
         api.plot(analysis, "fig4", ax=left)
     with pytest.raises(ConfigError, match="did you mean 'fig4'"):
         api.plot(analysis, "fig 4")

@@ -68,8 +68,8 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         ``trajectory``, ``questionnaires`` (where the data allow them; a path-world run:
         ``measures`` and ``trajectory``), or one metric's name: its box-plot panel alone.
     ax
-        Axes of one's own to draw one metric's panel into (``figure`` a metric's name); default
-        a new figure.
+        Axes of one's own to draw one panel into: a metric's box plot, ``fig5`` or ``trajectory``;
+        default a new figure.
     trial
         ``(participant, trial)`` of Fig. 5 and the trajectory (``--trial``).
     reference
@@ -112,19 +112,16 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         return artists.ax.figure  # type: ignore[return-value]  # a Figure: axes_or_new makes no SubFigure
     plan = PlotPlan(out_dir=folder, trial=trial, star_rule=chosen.comparison_options(),
                     item_labels=chosen.questionnaires.labels, reference=reference)
-    if inputs.path_layouts is not None:
-        available = ["measures", "trajectory"]
-    else:
-        available = [*metric_figure_groups(metrics),
-                     *(["fig5", "trajectory"] if inputs.steps is not None else []),
-                     *(["questionnaires"] if inputs.questionnaires is not None else [])]
+    available = _figures_of(inputs, metrics)
     if figure not in available:
         choices = [*available, *metrics]
         raise ConfigError(f"figure {figure!r}: not a figure of {folder}; choose one of "
                           f"{', '.join(choices)}{did_you_mean(figure, choices)}")
+    if ax is not None and figure in ("fig5", "trajectory") and inputs.path_layouts is None:
+        return _trial_into(inputs, figure, trial, ax)
     if ax is not None:
-        raise ConfigError(f"figure {figure!r} is drawn on axes of its own (several panels or a trial's); "
-                          f"to draw into ax give one metric's panel: {', '.join(metrics)}")
+        raise ConfigError(f"figure {figure!r} has several panels, which one axes cannot hold; to draw into "
+                          f"ax give one metric's panel ({', '.join(metrics)}), fig5 or trajectory")
     if figure in ("fig3", "fig4", "metrics"):
         names = metric_figure_groups(metrics)[figure]
         return figures.metrics_figure(inputs.metrics, inputs.stats, names, seed=plan.seed,
@@ -134,6 +131,33 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         raise ConfigError(f"figure {figure!r}: this source's data do not give it; choose one of "
                           f"{', '.join(drawn)}")
     return drawn[figure]
+
+
+def _figures_of(inputs: Any, metrics: Sequence[str]) -> list[str]:
+    """The figures ``nudge plot`` draws of these inputs, by file stem."""
+    from nudgecli.report.plotting import metric_figure_groups
+
+    if inputs.path_layouts is not None:
+        return ["measures", "trajectory"]
+    return [*metric_figure_groups(metrics), *(["fig5", "trajectory"] if inputs.steps is not None else []),
+            *(["questionnaires"] if inputs.questionnaires is not None else [])]
+
+
+def _trial_into(inputs: Any, figure: str, trial: tuple[int, int] | None, ax: Axes) -> Figure:
+    """Fig. 5 or the trajectory of ``trial`` (default the one ``nudge plot`` draws) on ``ax``."""
+    from nudgecli.report import figures
+    from nudgecli.report.plotting import trial_panel
+    from nudgecli.report.style import figure_style
+
+    panel = trial_panel(inputs, trial)
+    with figure_style():
+        if figure == "fig5":
+            drawn = figures.belief_trace(panel.steps, panel.true_goal, panel.n_goals, ax=ax,
+                                         title=panel.title).ax
+        else:
+            assert panel.layout is not None  # "trajectory" is offered only where the layouts give it
+            drawn = figures.trajectory(panel.steps, panel.layout, ax=ax, title=panel.title).ax
+    return drawn.figure  # type: ignore[return-value]  # the caller's axes: their figure
 
 
 def _check_choices(folder: Path, inputs: Any, conditions: Sequence[str], trial: tuple[int, int] | None,

@@ -179,6 +179,41 @@ def _trial_title(trials: pd.DataFrame, key: TrialKey) -> str:
     return label + (f" ({condition_display_name(str(rows.iloc[0]))})" if not rows.empty else "")
 
 
+@dataclass(frozen=True)
+class TrialPanel:
+    """What Fig. 5 and the trajectory draw of one trial: its steps, true goal, goal count, layout
+    (``None``: no trajectory) and title."""
+
+    steps: pd.DataFrame
+    true_goal: int
+    n_goals: int | None
+    layout: TrialLayout | None
+    title: str
+
+
+def trial_panel(inputs: FigureInputs, trial: TrialKey | None) -> TrialPanel:
+    """The trial of Fig. 5 and the trajectory: ``trial``, else
+    :func:`~nudgecli.report.trial_selection.choose_figure5_trial`'s, from a run's inputs.
+
+    Raises
+    ------
+    DataError
+        The chosen trial has no steps.
+    """
+    assert inputs.steps is not None and inputs.trials is not None
+    key = trial if trial is not None else choose_figure5_trial(inputs.steps, inputs.trials)
+    steps = inputs.steps[(inputs.steps["participant"] == key[0]) & (inputs.steps["trial"] == key[1])]
+    if steps.empty:
+        raise DataError(f"no steps for participant {key[0]}, trial {key[1]}; pick a trial of the run "
+                        "(--trial PARTICIPANT:TRIAL)")
+    layout = (inputs.layouts or {}).get(key)
+    true_goal = layout.true_goal if layout is not None else int(
+        inputs.trials.loc[(inputs.trials["participant"] == key[0])
+                          & (inputs.trials["trial"] == key[1]), "true_goal"].iloc[0])
+    return TrialPanel(steps, true_goal, layout.n_goals if layout is not None else None, layout,
+                      _trial_title(inputs.trials, key))
+
+
 def draw_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]:
     """Every figure the inputs allow, by file stem (no files written).
 
@@ -198,20 +233,10 @@ def draw_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]:
         out[stem] = figures.metrics_figure(inputs.metrics, inputs.stats, names, seed=plan.seed,
                                            star_rule=plan.star_rule, reference=plan.reference)
     if inputs.steps is not None and inputs.trials is not None and len(inputs.steps):
-        key = plan.trial if plan.trial is not None else choose_figure5_trial(inputs.steps, inputs.trials)
-        steps = inputs.steps[(inputs.steps["participant"] == key[0]) & (inputs.steps["trial"] == key[1])]
-        if steps.empty:
-            raise DataError(f"no steps for participant {key[0]}, trial {key[1]}; pick a trial of the run "
-                            "(--trial PARTICIPANT:TRIAL)")
-        title = _trial_title(inputs.trials, key)
-        layout = (inputs.layouts or {}).get(key)
-        true_goal = layout.true_goal if layout is not None else int(
-            inputs.trials.loc[(inputs.trials["participant"] == key[0])
-                              & (inputs.trials["trial"] == key[1]), "true_goal"].iloc[0])
-        n_goals = layout.n_goals if layout is not None else None
-        out["fig5"] = figures.figure_5(steps, true_goal, n_goals, title=title)
-        if layout is not None:
-            out["trajectory"] = figures.trajectory_figure(steps, layout, title=title)
+        panel = trial_panel(inputs, plan.trial)
+        out["fig5"] = figures.figure_5(panel.steps, panel.true_goal, panel.n_goals, title=panel.title)
+        if panel.layout is not None:
+            out["trajectory"] = figures.trajectory_figure(panel.steps, panel.layout, title=panel.title)
     if inputs.questionnaires is not None:
         tlx, likert = figures.split_questionnaire_scores(inputs.questionnaires)
         if tlx is not None or likert is not None:
@@ -436,6 +461,6 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
     return write_figures(inputs, plan)
 
 
-__all__ = ["FigureInputs", "PlotPlan", "draw_figures", "drawn_metrics", "layouts_by_trial",
+__all__ = ["FigureInputs", "PlotPlan", "TrialPanel", "draw_figures", "drawn_metrics", "layouts_by_trial",
            "metric_figure_groups", "parse_formats", "parse_trial", "plot_folder", "read_inputs", "read_stats",
-           "write_figures"]
+           "trial_panel", "write_figures"]
