@@ -263,11 +263,13 @@ class SimulatedPerson:
         if intended == NO_INPUT:
             self.blow_held = 0
             return NO_INPUT, 0.0
-        if self.blow_pos == len(self.blow):
+        position = self.blow_pos
+        if position == len(self.blow):
             self._next_soft_sample()
-        pressure = float(self.blow[self.blow_pos])
-        self.last_normal = float(self.blow_normals[self.blow_pos])
-        self.blow_pos += 1
+        # the blow's lists hold floats already (tolist(), or the samples computed as given)
+        pressure = self.blow[position]
+        self.last_normal = self.blow_normals[position]
+        self.blow_pos = position + 1
         self.blow_held += 1
         return intended, pressure
 
@@ -281,18 +283,21 @@ class SimulatedPerson:
             return NO_INPUT
         # OPERATING: the operating time counts from the first step of operating
         self.operate_left -= 1
-        self._see_mode(view)
+        if view.mode != self.seen_mode:  # _see_mode's own first test, here: most steps see no change
+            self._see_mode(view)
         if self.pause_left > 0:  # releasing between two blows
             self.pause_left -= 1
             return NO_INPUT
         if self.hold_on_left > 0:  # the robot stopped at a mark: blowing on a little
             self.hold_on_left -= 1
             if self.hold_on_left > 0 and self.hold_left > 0:
-                return self._continue()
+                self.hold_left -= 1  # _continue, written out (as below)
+                return self.held_label
             self.hold_on_left = -1
             self.release = True  # then they let go and act on what they saw
         elif self.held_label != NO_INPUT and self.hold_left > 0 and not self._decision_due(view):
-            return self._continue()
+            self.hold_left -= 1
+            return self.held_label
         if self.held_label in (HARD_PUFF, HARD_SIP) and not self.switched and self.settings.event_reactions:
             self._saw_event()  # a mode-switch blow ended and the mode did not change: a visible event
         if self.operate_left < 0 and self.hands_over:

@@ -43,11 +43,11 @@ class FloatGoals:
     """The trial's goal poses as plain floats, made at a policy's first step (numpy scalars cost
     more than the arithmetic they feed, every step; a policy lives for one trial)."""
 
-    _goals: list[tuple[float, float, float]]
+    _goals: list[tuple[float, float, float]] | None = None
 
     def goals(self, view: StepView) -> list[tuple[float, float, float]]:
         """``(G,)`` goal poses as ``(x, y, theta)`` float triples."""
-        goals = getattr(self, "_goals", None)
+        goals = self._goals
         if goals is None:
             goals = self._goals = [(float(x), float(y), float(t)) for x, y, t in view.goal_poses]
         return goals
@@ -93,13 +93,36 @@ class PaperBlending(FloatGoals):
         return u_a
 
     def assist(self, view: StepView) -> Assistance:
-        inferred, alpha = self.goal_and_alpha(view)
-        u_a = self.goal_command(view, inferred) if inferred != NO_GOAL else NO_COMMAND
+        # goal_and_alpha and goal_command written out: every step of a person's turn runs this,
+        # the quiet ones included, and the calls cost more than the rule
+        settings = self.settings
+        s = settings.blending
+        leader = view.leader
         u_h = view.u_h
+        if leader == NO_GOAL or assistance.entropy_gated(view.entropy, s.entropy_gate):
+            inferred, alpha, u_a = NO_GOAL, 0.0, NO_COMMAND
+        else:
+            inferred = leader
+            x, y, theta = view.x, view.y, view.theta
+            goals = self._goals
+            if goals is None:
+                goals = self.goals(view)
+            gx, gy, gtheta = goals[leader]
+            initiated_at = view.initiated_at
+            since_first = (view.step - initiated_at) * settings.dt if initiated_at >= 0 else -math.inf
+            alpha = assistance.assistance_alpha(view.leader_probability, len(goals), view.entropy,
+                                                since_first, math.hypot(gx - x, gy - y), s)
+            towards = (x, y, theta, leader)
+            last_towards, u_a = self._last
+            if towards != last_towards:
+                u_a = assistance.autonomy_command(x, y, theta, gx, gy, gtheta, settings.autonomy_speed,
+                                                  settings.autonomy_turn_rate, settings.dt)
+                self._last = (towards, u_a)
         # blending acts only on a motion command (a mode switch or no input leaves the robot still)
         # (u_h is the tuple of a soft label's command or NO_COMMAND itself)
         u_f = assistance.blend_command(u_a, u_h, alpha) if u_h is not NO_COMMAND else u_h  # type: ignore[arg-type]
-        return Assistance(u_f, u_a, alpha, inferred)
+        # Assistance(...) without its constructor's keyword handling (every step makes one)
+        return tuple.__new__(Assistance, (u_f, u_a, alpha, inferred))
 
     def start_turn(self, view: StepView) -> AutonomyTurn:
         return AutonomyTurn.stay()

@@ -39,7 +39,7 @@ target is one step that does not move).
 from __future__ import annotations
 
 import math
-from collections.abc import Collection
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -89,6 +89,8 @@ from nudgecli.steplog import (
 
 _ZERO3 = interface.NO_COMMAND  # u_h of a step without a motion command, u_a without assistance
 _NO_DECAY = DecayCounters()
+#: A step's events where none are pending (shared: a step that adds one makes a new list).
+_NO_EVENTS: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -298,7 +300,7 @@ class TrialSession:
     def _start_human_turn(self) -> None:
         self.turn = HUMAN_TURN
         self.human_turns += 1
-        self.pending_events = [HANDOVER_TO_HUMAN if self.step > 0 else TRIAL_START]
+        self.pending_events: Sequence[str] = [HANDOVER_TO_HUMAN if self.step > 0 else TRIAL_START]
         self.initiated_at = -1  # step of the turn's first measured input
         self.idle = 0  # steps without a command since then
         self.locked = False  # a hard label switched the mode: no command until the blow ends
@@ -315,16 +317,19 @@ class TrialSession:
         pressure
             The signed pressure of the sample, in ``[-1, 1]``.
         """
-        s, world = self.settings, self.world
+        # locals instead of attribute reads, the row appended inline: this runs every step
+        s, world, step = self.settings, self.world, self.step
         assert world is not None
-        if self.turn != HUMAN_TURN or self.reached >= 0 or self.step >= s.time_limit_steps:  # finished
+        if self.turn != HUMAN_TURN or self.reached >= 0 or step >= s.time_limit_steps:  # finished
             raise RuntimeError("human_step outside a running human turn")
-        events, self.pending_events = self.pending_events, []
-        mode_before = self.mode
-        state = world.state(self.x, self.y, self.theta, mode_before)
+        events = self.pending_events
+        if events:
+            self.pending_events = _NO_EVENTS
+        x, y, theta, mode_before = self.x, self.y, self.theta, self.mode
+        state = world.state(x, y, theta, mode_before)
         measured = interface.label_of_pressure(pressure, s.soft_threshold, s.hard_threshold, s.zero_threshold)
         if measured != NO_INPUT and self.initiated_at < 0:
-            self.initiated_at = self.step
+            self.initiated_at = step
         if self.assisted:
             self._observe(measured, state)
         u_h = _ZERO3
@@ -332,31 +337,35 @@ class TrialSession:
         if measured == NO_INPUT:
             self.locked = False  # the driver's "input stopped" unlocks switching
         elif measured in (SOFT_PUFF, SOFT_SIP) and not self.locked:
-            u_h = interface.human_command(measured, self.mode, s.human_speed, s.human_turn_rate)
+            u_h = interface.human_command(measured, mode_before, s.human_speed, s.human_turn_rate)
             commanded = True
         elif measured in (HARD_PUFF, HARD_SIP) and not self.locked:
-            requested = interface.switch_mode(self.mode, measured)
+            requested = interface.switch_mode(mode_before, measured)
             # a policy that answers mode switches (a request for its choice) may send it elsewhere
             chosen = self.choose_mode(self, requested) if self.choose_mode is not None else None
             self.mode = requested if chosen is None else chosen
             self.locked = True
             self.human_switches += 1
             commanded = True
-            events.append(MODE_SWITCH_HUMAN)
+            events = [*events, MODE_SWITCH_HUMAN]
             if chosen is not None:
                 events.append(MODE_SELECT)
-        self.idle = 0 if commanded or self.initiated_at < 0 else self.idle + 1
+        initiated_at = self.initiated_at
+        self.idle = 0 if commanded or initiated_at < 0 else self.idle + 1
         self.measured, self.u_h = measured, u_h
         u_f, u_a, alpha, inferred = self.policy.assist(self)
-        self._record(HUMAN_TURN, state, mode_before, intended, pressure, measured, u_h, u_a, alpha, inferred,
-                     events)
-        self.x, self.y, self.theta = world.move(self.x, self.y, self.theta, u_f, s.dt)
-        self.step += 1
-        if self.initiated_at >= 0:
+        # _record's row, written out
+        self.rows.append((step, HUMAN_TURN, x, y, theta, mode_before, state, intended, pressure, measured,
+                          u_h, u_a, alpha, inferred, self.belief, self.entropy, events))
+        self.x, self.y, self.theta = world.move(x, y, theta, u_f, s.dt)
+        self.step = step = step + 1
+        if initiated_at >= 0:
             self.reached = world.goal_reached(self.x, self.y, self.theta)
             if self.reached >= 0:
                 return
-        self._hand_over_when_idle()
+            # _hand_over_when_idle, written out (not reached: finished only at the time limit)
+            if self.turn_taking and self.idle > self.handover_idle_steps and step < s.time_limit_steps:
+                self._start_autonomy_turn()
 
     def _hand_over_when_idle(self) -> None:
         """The turn passes to the autonomy once the person has been idle for long enough."""
@@ -385,13 +394,20 @@ class TrialSession:
             steps = min(steps, self.handover_idle_steps + 1 - self.idle)
         ran = 0
         self.measured, self.u_h = NO_INPUT, _ZERO3
+        # what no step of the run changes, read once (the pose, mode and belief stand; the policy
+        # sees the step and the idle count move)
+        assist, append = self.policy.assist, self.rows.append
+        mode, belief, entropy = self.mode, self.belief, self.entropy
+        x, y, theta = pose
+        step = self.step
         while ran < steps:
-            u_f, u_a, alpha, inferred = self.policy.assist(self)
+            u_f, u_a, alpha, inferred = assist(self)
             if u_f is not _ZERO3 and any(u_f):  # the policy moves the robot: the steps run one by one
                 break
-            self._record(HUMAN_TURN, state, self.mode, NO_INPUT, 0.0, NO_INPUT, _ZERO3, u_a, alpha,
-                         inferred, [])
-            self.step += 1
+            # _record's row, written out
+            append((step, HUMAN_TURN, x, y, theta, mode, state, NO_INPUT, 0.0, NO_INPUT, _ZERO3, u_a, alpha,
+                    inferred, belief, entropy, _NO_EVENTS))
+            self.step = step = step + 1
             self.idle += counting
             ran += 1
         self._hand_over_when_idle()
@@ -438,7 +454,7 @@ class TrialSession:
             raise RuntimeError("autonomy_step outside a running autonomy turn")
         s = self.settings
         target = self.autonomy_target
-        events, self.pending_events = self.pending_events, []
+        events, self.pending_events = self.pending_events, _NO_EVENTS
         if target is None:  # a turn that does not move: one step
             u_a = _ZERO3
         else:
@@ -459,7 +475,7 @@ class TrialSession:
         self.x, self.y, self.theta = self.world.move(self.x, self.y, self.theta, velocity, self.settings.dt)
 
     def _record(self, turn: str, state: int, mode: int, intended: int, pressure: float, measured: int,
-                u_h: Command, u_a: Command, alpha: float, inferred: int, events: list[str]) -> None:
+                u_h: Command, u_a: Command, alpha: float, inferred: int, events: Sequence[str]) -> None:
         """Append one step: the pose, cell and mode at the start of the step, what happened in it.
 
         The row is kept raw (a tuple; the belief array is never changed in place, only replaced)

@@ -44,7 +44,10 @@ def run_session(session: TrialSession, source: InputSource,
     after_autonomy = False
     # a simulated person says when they will give no input for a while: those steps run at once
     person = source if quiet_runs and isinstance(source, SimulatedPerson) else None
-    while not session.finished:
+    # the bound methods and the end rule (TrialSession.finished) read once: the loop runs every step
+    next_input, human_step, autonomy_step = source.next_input, session.human_step, session.autonomy_step
+    time_limit = session.settings.time_limit_steps
+    while session.reached < 0 and session.step < time_limit:
         if session.turn == HUMAN_TURN:
             if new_turn:
                 source.start_turn(after_autonomy)
@@ -53,10 +56,10 @@ def run_session(session: TrialSession, source: InputSource,
                 pose, mode = (session.x, session.y, session.theta), session.mode
                 person.skip_quiet(session.quiet_human_steps(quiet), pose, mode)
                 continue
-            intended, pressure = source.next_input(session)
-            session.human_step(intended, pressure)
+            intended, pressure = next_input(session)
+            human_step(intended, pressure)
         else:
-            session.autonomy_step()
+            autonomy_step()
             new_turn = after_autonomy = True
     return TrialResult(session.summary(), session.recording(step_log_columns), step_log_columns)
 
