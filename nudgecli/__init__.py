@@ -48,6 +48,8 @@ if TYPE_CHECKING:  # what type checkers and editors see; at run time __getattr__
 
 def __getattr__(name: str) -> Any:
     """The API's ``name``, its module imported now (PEP 562)."""
+    if name == "api":  # the package itself, as ``import nudgecli.api`` would give it
+        return importlib.import_module("nudgecli.api")
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'nudgecli' has no attribute {name!r}")
@@ -57,4 +59,4 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_LAZY})
+    return sorted({*globals(), *_LAZY, "api"})

@@ -74,7 +74,7 @@ def test_importing_nudgecli_loads_no_heavy_module() -> None:
 def test_the_top_level_names_are_the_apis() -> None:
     for name in nudgecli._LAZY:
         assert getattr(nudgecli, name) is getattr(api, name)
-    assert nudgecli.NudgeError is NudgeError
+    assert nudgecli.NudgeError is NudgeError and nudgecli.api is api
     with pytest.raises(AttributeError, match="no attribute 'simulat'"):
         nudgecli.simulat  # noqa: B018 - the lookup is the test
 
