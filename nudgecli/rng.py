@@ -7,11 +7,13 @@ sees do not depend on how many workers ran, in which order, or on which machine.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 
 import numpy as np
 
 
+@functools.lru_cache(maxsize=256)  # a few names, hashed for every trial's stream
 def _word_key(name: str) -> int:
     """A stable 32-bit integer for a branch name (independent of Python's hash seed)."""
     digest = hashlib.sha256(name.encode("utf-8")).digest()

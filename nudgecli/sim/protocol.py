@@ -331,7 +331,14 @@ class TrialSession:
         if measured != NO_INPUT and self.initiated_at < 0:
             self.initiated_at = step
         if self.assisted:
-            self._observe(measured, state)
+            # _observe's two commonest steps written out: a held blow's label again (no new event)
+            # and no input without forgetting
+            if measured == self.blow_label and 0 <= measured < 4 and s.update != "sample":
+                self.decay_counters = _NO_DECAY
+            elif measured == NO_INPUT and s.decay is None:
+                self.blow_label = NO_INPUT
+            else:
+                self._observe(measured, state)
         u_h = _ZERO3
         commanded = False
         if measured == NO_INPUT:
@@ -445,6 +452,9 @@ class TrialSession:
             events.append(MODE_SWITCH_AUTONOMY)
         self.nudges += plan.nudge
         self.autonomy_target = plan.target
+        # the target as plain floats, once per turn (each of its steps reads it)
+        self._target_pose = (None if plan.target is None else
+                             (float(plan.target[0]), float(plan.target[1]), float(plan.target[2])))
         self.autonomy_inferred = plan.goal
         self.pending_events = events
 
@@ -452,19 +462,24 @@ class TrialSession:
         """One 10 Hz step of the autonomy's turn (at least one step; it ends at the target)."""
         if self.turn != AUTONOMY_TURN or self.finished:
             raise RuntimeError("autonomy_step outside a running autonomy turn")
-        s = self.settings
-        target = self.autonomy_target
+        s, world = self.settings, self.world
+        assert world is not None
+        target = self._target_pose
         events, self.pending_events = self.pending_events, _NO_EVENTS
+        x, y, theta, mode = self.x, self.y, self.theta, self.mode
         if target is None:  # a turn that does not move: one step
             u_a = _ZERO3
         else:
-            u_a = assistance.autonomy_command(self.x, self.y, self.theta, float(target[0]), float(target[1]),
-                                              float(target[2]), s.autonomy_speed, s.autonomy_turn_rate, s.dt)
-        self._record(AUTONOMY_TURN, self.state, self.mode, NO_INPUT, 0.0, NO_INPUT, _ZERO3, u_a, 0.0,
-                     self.autonomy_inferred, events)
-        self._move(u_a)
+            u_a = assistance.autonomy_command(x, y, theta, target[0], target[1], target[2], s.autonomy_speed,
+                                              s.autonomy_turn_rate, s.dt)
+        # _record's row and _move, written out (every step of the autonomy's turn)
+        state = world.state(x, y, theta, mode)
+        self.rows.append((self.step, AUTONOMY_TURN, x, y, theta, mode, state, NO_INPUT, 0.0, NO_INPUT, _ZERO3,
+                          u_a, 0.0, self.autonomy_inferred, self.belief, self.entropy, events))
+        x, y, theta = world.move(x, y, theta, u_a, s.dt)
+        self.x, self.y, self.theta = x, y, theta
         self.step += 1
-        arrived = target is None or math.hypot(target[0] - self.x, target[1] - self.y) <= s.arrival_tolerance
+        arrived = target is None or math.hypot(target[0] - x, target[1] - y) <= s.arrival_tolerance
         if arrived and not self.finished:
             self._start_human_turn()
 
