@@ -19,11 +19,12 @@ from nudgecli.commands.common import INTERRUPT_HINT, SET_HELP, YES_HELP, info, p
 @click.argument("calibration_dir", type=click.Path(file_okay=False))
 @click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
               help="Profile JSON to write [default: ./<folder name>.profile.json].")
+@click.option("--force", is_flag=True, help="Replace the profile --out names if it exists.")
 @click.option("--variant", type=click.Choice(["auto", "pilot", "ciaa"]), default="auto", show_default=True,
               help="Log format of the p(phi_m | phi_i) stream: pilot (fixed 10 Hz, neutral label 'None'), "
                    "ciaa (the sibling study's event-driven stream, neutral label 'Zero Band'), or auto "
                    "(detect from the neutral label, else from the message timing).")
-def fit_command(calibration_dir: str, out: str | None, variant: str) -> None:
+def fit_command(calibration_dir: str, out: str | None, force: bool, variant: str) -> None:
     """Fit p(phi_i | a) and p(phi_m | phi_i) from one participant's calibration logs.
 
     CALIBRATION_DIR holds p_phi_given_a/ and/or p_phm_given_phi/ (the study's export; the sibling
@@ -31,13 +32,14 @@ def fit_command(calibration_dir: str, out: str | None, variant: str) -> None:
     session. A missing session falls back to the default table.
     """
 
-    from nudgecli.outputs import declare_input
+    from nudgecli.outputs import check_output_file, declare_input
     from nudgecli.sim.calibration_profile import fit_calibration_dir, write_profile
     from nudgecli.store import check_writable
 
     folder = Path(calibration_dir)
     declare_input("CALIBRATION_DIR", *(folder.rglob("*") if folder.is_dir() else ()))  # its logs: never --out
     target = Path(out) if out is not None else Path.cwd() / f"{folder.resolve().name}.profile.json"
+    check_output_file(target, force=force)  # a profile fitted before is replaced only with --force
     check_writable(target.parent)
     result = fit_calibration_dir(folder, variant)
     for warning in result.warnings:
