@@ -17,7 +17,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "nudgecli"
 
 #: The command modules whose commands call the API.
-MODULES = ("commands/analysis.py", "commands/batches.py")
+MODULES = ("commands/simulation.py", "commands/analysis.py", "commands/batches.py")
 #: Functions of those modules not (yet) on the API: they may import the computing layers.
 NOT_ON_THE_API = {"fit_command", "study_command", "plot_population_command",
                   "_population_file"}  # plot-population's helper

@@ -70,11 +70,10 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
               scheduler: str | None, resume: bool, force: bool, overrides: tuple[str, ...],
               plan: str | None = None, command: str = "simulate", confirm: bool = False) -> Any:
 
-    from nudgecli.config import load_experiment
-    from nudgecli.runs.study import run_study
+    from nudgecli import api
     from nudgecli.store import default_run_dir, simulate_resume_command
 
-    config = load_experiment(experiment, overrides)
+    config = api.experiment_config(experiment, overrides)
     target = Path(out) if out else default_run_dir(config.experiment.name)
     commands = [simulate_resume_command(experiment, target, seed, participants, workers, overrides,
                                         confirm=confirm)]
@@ -84,9 +83,9 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
     click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, commands)
     bar, update = progress_bar("simulating")
     try:
-        return run_study(config, target, seed=seed, participants=participants, workers=workers,
-                         scheduler=scheduler, resume=resume, force=force, progress=update, plan=plan,
-                         confirm=confirm)
+        return api.simulate(config, out=target, seed=seed, participants=participants, workers=workers,
+                            scheduler=scheduler, resume=resume, force=force, progress=update, plan=plan,
+                            confirm=confirm)
     except BaseException:
         if not out and target.is_dir() and not any(target.iterdir()):
             target.rmdir()  # the default folder made for this run, still empty: leave nothing behind
@@ -96,12 +95,7 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
 
 
 def _print_study_summary(run: Any) -> None:
-    from nudgecli.runs.study import success_by_condition
-
-    table = success_by_condition(run.trials)
-    click.echo(f"{len(run.trials)} trials, {run.participants} participants "
-               f"({'resumed, ' if run.mode == 'resume' else ''}{len(run.computed)} simulated now)")
-    click.echo(table.to_string(float_format=lambda v: f"{v:.3f}"))
+    click.echo(run.report())
 
 
 @click.command("simulate")
@@ -146,12 +140,7 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
 def run_command(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
                 plan: str | None, resume: bool, force: bool, yes: bool, overrides: tuple[str, ...]) -> None:
     """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
-    from nudgecli.config_files import resolve_plan
-    from nudgecli.locks import run_lock
-    from nudgecli.report.analysis import analyze
-    from nudgecli.report.plans import load_plan
-    from nudgecli.report.plotting import plot_folder
-    from nudgecli.report.summary import format_table
+    from nudgecli import api
     from nudgecli.run_folder_names import FIGURES_DIR, STATS_JSON, SUMMARY_MD
 
     if plan is not None and Path(plan).suffix.lower() == ".toml":
@@ -159,17 +148,11 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
     run = _simulate(experiment, out, seed, participants, workers, None, resume, force, overrides,
                     plan=plan, command="run", confirm=yes)
     _print_study_summary(run)
-    chosen_plan = resolve_plan(plan, experiment=run.experiment)
-    info(f"analysing with the {chosen_plan!r} plan")
-    analysis_plan = load_plan(chosen_plan)
-    with run_lock(run.path):
-        result = analyze(run.path, plan=chosen_plan)
-        for note in result.notes:
-            info(f"Note: {note}")
-        click.echo("")
-        click.echo(format_table(result.table, result.stats["conditions"]))
-        written = plot_folder(run.path, star_rule=analysis_plan.comparison_options(),
-                              item_labels=analysis_plan.questionnaires.labels)
+    result, written = api.analyze_and_plot(run, plan=plan, log=info)
+    for note in result.notes:
+        info(f"Note: {note}")
+    click.echo("")
+    click.echo(result.table())
     click.echo("")
     click.echo(f"Statistics: {run.path / STATS_JSON}, {run.path / SUMMARY_MD}")
     click.echo(f"Figures:    {len(written)} files in {run.path / FIGURES_DIR}")
