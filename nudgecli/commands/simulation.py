@@ -11,7 +11,7 @@ from typing import Any
 import click
 
 from nudgecli import command_defaults as defaults
-from nudgecli.commands.common import INTERRUPT_HINT, SET_HELP, YES_HELP, info, progress_bar
+from nudgecli.commands.common import INTERRUPT_HINT, PEOPLE_HELP, SET_HELP, YES_HELP, info, progress_bar
 
 # --- fit -----------------------------------------------------------------------------------
 
@@ -68,7 +68,8 @@ def _interrupt_hint(target: Path, commands: list[str]) -> Callable[[], str]:
 
 def _simulate(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
               scheduler: str | None, resume: bool, force: bool, overrides: tuple[str, ...],
-              plan: str | None = None, command: str = "simulate", confirm: bool = False) -> Any:
+              plan: str | None = None, command: str = "simulate", confirm: bool = False,
+              people: str | None = None) -> Any:
 
     from nudgecli import api
     from nudgecli.store import default_run_dir, simulate_resume_command
@@ -76,16 +77,16 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
     config = api.experiment_config(experiment, overrides)
     target = Path(out) if out else default_run_dir(config.experiment.name)
     commands = [simulate_resume_command(experiment, target, seed, participants, workers, overrides,
-                                        confirm=confirm)]
+                                        confirm=confirm, people=people)]
     if command != "simulate":
         commands.append(simulate_resume_command(experiment, target, seed, participants, workers, overrides,
-                                                command, confirm))
+                                                command, confirm, people))
     click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, commands)
     bar, update = progress_bar("simulating")
     try:
         return api.simulate(config, out=target, seed=seed, participants=participants, workers=workers,
                             scheduler=scheduler, resume=resume, force=force, progress=update, plan=plan,
-                            confirm=confirm)
+                            confirm=confirm, people=people)
     except BaseException:
         if not out and target.is_dir() and not any(target.iterdir()):
             target.rmdir()  # the default folder made for this run, still empty: leave nothing behind
@@ -111,12 +112,13 @@ def _print_study_summary(run: Any) -> None:
 @click.option("--force", is_flag=True, help="Replace a run that already is in --out.")
 @click.option("--yes", is_flag=True, help=YES_HELP)
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+@click.option("--people", metavar="PEOPLE.csv", default=None, help=PEOPLE_HELP)
 def simulate_command(experiment: str, out: str | None, seed: int | None, participants: int | None,
                      workers: int, scheduler: str | None, resume: bool, force: bool, yes: bool,
-                     overrides: tuple[str, ...]) -> None:
+                     overrides: tuple[str, ...], people: str | None) -> None:
     """Simulate a study: EXPERIMENT is a preset (paper, study-code, smoke) or a TOML file."""
     run = _simulate(experiment, out, seed, participants, workers, scheduler, resume, force, overrides,
-                    confirm=yes)
+                    confirm=yes, people=people)
     _print_study_summary(run)
     click.echo(f"Run folder: {run.path}", err=True)
     click.echo(str(run.path))
@@ -137,8 +139,10 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
 @click.option("--force", is_flag=True, help="Replace a run that already is in --out.")
 @click.option("--yes", is_flag=True, help=YES_HELP)
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
+@click.option("--people", metavar="PEOPLE.csv", default=None, help=PEOPLE_HELP)
 def run_command(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
-                plan: str | None, resume: bool, force: bool, yes: bool, overrides: tuple[str, ...]) -> None:
+                plan: str | None, resume: bool, force: bool, yes: bool, overrides: tuple[str, ...],
+                people: str | None) -> None:
     """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
     from nudgecli import api
     from nudgecli.run_folder_names import FIGURES_DIR, STATS_JSON, SUMMARY_MD
@@ -146,7 +150,7 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
     if plan is not None and Path(plan).suffix.lower() == ".toml":
         plan = str(Path(plan).resolve())
     run = _simulate(experiment, out, seed, participants, workers, None, resume, force, overrides,
-                    plan=plan, command="run", confirm=yes)
+                    plan=plan, command="run", confirm=yes, people=people)
     _print_study_summary(run)
     result, written = api.analyze_and_plot(run, plan=plan, log=info)
     for note in result.notes:
