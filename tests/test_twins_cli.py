@@ -225,3 +225,11 @@ def test_a_batch_simulates_its_people_in_every_participant_task(tmp_path: Path) 
     trials = pd.concat([pd.read_parquet(part) for part in parts])
     # the population's people plan about 2 s, and the shortest smoke trial takes under 20 s with them
     assert len(trials) == 16 and trials["completion_time"].min() >= 30.0
+
+
+def test_the_resume_command_names_the_people_file() -> None:
+    from nudgecli.store import simulate_resume_command
+
+    assert simulate_resume_command("paper", "out dir", people="my people.csv") == \
+        "nudge simulate paper --out 'out dir' --people 'my people.csv' --resume"
+    assert "--people" not in simulate_resume_command("paper", "out")
