@@ -476,8 +476,13 @@ def test_a_live_study_folder_gets_no_unverified_note(tmp_path):
     from nudgecli.run_folder_record import RunRecord
 
     record = RunRecord(tmp_path)
-    # a `nudge study` folder records no SHA-256 by design: nothing to tell its reader
-    assert record.integrity_notes({"executor": "live", "live": {"0": {}, "1": {}}}) == []
+    # a `nudge study` folder records no SHA-256 by design: nothing to tell its reader once finished,
+    # and while under way only how far it got
+    finished = {"executor": "live", "status": "complete",
+                "live": {"0": {"status": "complete"}, "1": {"status": "complete"}}}
+    assert record.integrity_notes(finished) == []
+    under_way = record.integrity_notes({"executor": "live", "live": {"0": {}, "1": {}}})
+    assert len(under_way) == 1 and "still under way" in under_way[0] and "SHA-256" not in under_way[0]
     notes = record.integrity_notes({"executor": "serial", "participants": 2})
     assert len(notes) == 1 and "no SHA-256 of the parts of 2 participant(s)" in notes[0]
 
