@@ -25,6 +25,10 @@ _LAZY = {
     "habits": "nudgecli.api.tables", "compare": "nudgecli.api.tables",
     "replicate": "nudgecli.api.batches", "power": "nudgecli.api.batches", "sweep": "nudgecli.api.batches",
     "Batch": "nudgecli.api.batches", "NudgeError": "nudgecli.errors",
+    "fit": "nudgecli.api.fitting", "fit_people": "nudgecli.api.fitting",
+    "validate": "nudgecli.api.validation", "Validation": "nudgecli.api.validation",
+    "plot_population": "nudgecli.api.population", "Population": "nudgecli.api.population",
+    "presets": "nudgecli.api.presets",
 }
 
 __all__ = ["__version__", *_LAZY]
@@ -38,11 +42,18 @@ if TYPE_CHECKING:  # what type checkers and editors see; at run time __getattr__
     from nudgecli.api.batches import sweep as sweep
     from nudgecli.api.figures import plot as plot
     from nudgecli.api.figures import save_figures as save_figures
+    from nudgecli.api.fitting import fit as fit
+    from nudgecli.api.fitting import fit_people as fit_people
+    from nudgecli.api.population import Population as Population
+    from nudgecli.api.population import plot_population as plot_population
+    from nudgecli.api.presets import presets as presets
     from nudgecli.api.run import Run as Run
     from nudgecli.api.run import experiment_config as experiment_config
     from nudgecli.api.run import simulate as simulate
     from nudgecli.api.tables import compare as compare
     from nudgecli.api.tables import habits as habits
+    from nudgecli.api.validation import Validation as Validation
+    from nudgecli.api.validation import validate as validate
     from nudgecli.errors import NudgeError as NudgeError
 
 

@@ -30,6 +30,9 @@ COMPARE_RESAMPLES = 2000
 COMPARE_LEVEL = 0.95
 COMPARE_SEED = 0
 
+# nudge plot-population (nudgecli.api.population.plot_population)
+POPULATION_PARTICIPANTS = 100
+
 # nudge power (nudgecli.runs.batch_kinds.power)
 POWER_TARGET = 0.8
 

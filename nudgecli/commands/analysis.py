@@ -3,8 +3,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import click
 
 from nudgecli import command_defaults as defaults
@@ -101,8 +99,8 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
 
 @click.command("plot-population", short_help="Simulated participants' calibrations beside real people's.")
 @click.argument("experiment")
-@click.option("--participants", type=click.IntRange(min=1), default=100, show_default=True,
-              help="Simulated participants to calibrate.")
+@click.option("--participants", type=click.IntRange(min=1), default=defaults.POPULATION_PARTICIPANTS,
+              show_default=True, help="Simulated participants to calibrate.")
 @click.option("--seed", type=int, default=None, help="Master seed [default: the experiment's].")
 @click.option("--out", type=click.Path(file_okay=False, path_type=str), default=".", show_default=True,
               help="Folder for population.csv, population_habits.csv and the figure population.<format>; "
@@ -119,49 +117,19 @@ def plot_population_command(experiment: str, participants: int, seed: int | None
     """Calibrate EXPERIMENT's simulated participants and draw their fitted p(phi_m | phi_i) diagonals
     beside the real people's (pilots: fixed 10 Hz stream; sibling study: event-driven stream), and
     their drawn timing habits beside the ten real users' ranges (HABITS.md)."""
-    from nudgecli.config import load_experiment
-    from nudgecli.outputs import check_output_folder
-    from nudgecli.report.plotting import parse_formats
-    from nudgecli.report.population_figure import plot_population
-    from nudgecli.runs.size import MAX_CALIBRATIONS_WITHOUT_YES, check_size
-    from nudgecli.sim.real_population import coverage_table, simulated_diagonals, simulated_habits
-    from nudgecli.store import check_writable, write_text_atomic
+    from nudgecli.api.population import plot_population
 
-    check_size(participants, yes, limit=MAX_CALIBRATIONS_WITHOUT_YES,
-               work="calibrate {} simulated participants", fix="fewer --participants")
-    chosen = parse_formats(formats)
-    config = load_experiment(experiment, overrides)
-    # as every --out (the current folder by default): new, empty, or holding this command's own
-    # outputs of an earlier call, else --force; then writable; before the calibrations, which take a while
-    check_output_folder(out, force=force, own_file=_population_file)
-    check_writable(out)
-    master = config.experiment.seed if seed is None else seed
-    diagonals = simulated_diagonals(config, participants, master)
-    habits = simulated_habits(config, participants, master)
-    table = coverage_table(diagonals)
+    made = plot_population(experiment, participants=participants, seed=seed, out=out, force=force,
+                           formats=formats, yes=yes, overrides=overrides)
+    table = made.coverage
     if output_format == "json":
         echo_json(table.to_dict(orient="records"))
     elif output_format == "csv":
         click.echo(table.to_csv(index=False), nl=False)
     else:
         click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
-    folder = Path(out)
-    write_text_atomic(folder / "population.csv", diagonals.to_csv(index=False))
-    write_text_atomic(folder / "population_habits.csv", habits.to_csv(index=False))
-    title = f"{config.experiment.name}: {participants} simulated participants (seed {master})"
-    for path in [folder / "population.csv", folder / "population_habits.csv",
-                 *plot_population(diagonals, folder, chosen, title, habits)]:
+    for path in made.files:
         info(str(path))
-
-
-def _population_file(name: str) -> bool:
-    """``plot-population``'s own outputs (an earlier call's, which it replaces) and the lock."""
-    from nudgecli.report.figures import SUPPORTED_FORMATS
-    from nudgecli.run_folder_names import LOCK
-
-    stem, _, suffix = name.partition(".")
-    return name in (LOCK, "population.csv", "population_habits.csv") or (
-        stem == "population" and suffix in SUPPORTED_FORMATS)
 
 
 # --- habits --------------------------------------------------------------------------------

@@ -13,26 +13,22 @@ from nudgecli.commands.common import info
 @click.argument("sources", nargs=-1, required=True, type=click.Path(path_type=str))
 @click.option("--out", "out", required=True, type=click.Path(dir_okay=False, path_type=str),
               help="The people file to write (CSV), read by simulate, run, replicate and power --people.")
-def fit_people_command(sources: tuple[str, ...], out: str) -> None:
+@click.option("--force", is_flag=True, help="Replace the people file --out names if it exists.")
+def fit_people_command(sources: tuple[str, ...], out: str, force: bool) -> None:
     """One simulated person per participant of SOURCE...: a real log (the CSV nudge habits reads), a run
     folder, or a table of `nudge habits --by participant --format csv`. Each timing parameter is set
     from the participant's own habit medians by the documented offsets (docs/people.md); one their
     source lacks is left to the population's draw, and the file's from_population column says so."""
-    from nudgecli.outputs import declare_input
-    from nudgecli.report.twin_sources import twins_of_sources
-    from nudgecli.sim.people_file import people_csv
-    from nudgecli.store import check_writable, write_text_atomic
+    from nudgecli.api.fitting import fit_people
 
-    declare_input("SOURCE", *sources)  # --out never replaces a source
-    target = Path(out)
-    check_writable(target.parent if str(target.parent) else Path.cwd())
-    twins = twins_of_sources(list(sources))
-    write_text_atomic(target, people_csv(twins))
-    for person, twin in enumerate(twins):
-        drawn = ", ".join(twin.from_population) or "-"
-        click.echo(f"person {person}: {twin.source} participant {twin.participant}: "
-                   f"{len(twin.parameters)} parameter(s) from their habits; from the population: {drawn}")
-    info(f"People file: {target}")
+    people = fit_people(list(sources), out=out, force=force)
+    parameters = list(people.columns[people.columns.get_loc("participant") + 1:-1])  # between the two
+    for row in people.to_dict(orient="records"):
+        fitted = sum(1 for name in parameters if row[name] == row[name])  # NaN: the population's draw
+        drawn = ", ".join(str(row["from_population"]).split(";")) if row["from_population"] else "-"
+        click.echo(f"person {row['person']}: {row['source']} participant {row['participant']}: "
+                   f"{fitted} parameter(s) from their habits; from the population: {drawn}")
+    info(f"People file: {Path(out)}")
 
 
 #: The commands of this module, registered on ``nudge`` by :mod:`nudgecli.cli`.

@@ -32,19 +32,13 @@ def fit_command(calibration_dir: str, out: str | None, force: bool, variant: str
     session. A missing session falls back to the default table.
     """
 
-    from nudgecli.outputs import check_output_file, declare_input
-    from nudgecli.sim.calibration_profile import fit_calibration_dir, write_profile
-    from nudgecli.store import check_writable
+    from nudgecli.api.fitting import fit
 
     folder = Path(calibration_dir)
-    declare_input("CALIBRATION_DIR", *(folder.rglob("*") if folder.is_dir() else ()))  # its logs: never --out
     target = Path(out) if out is not None else Path.cwd() / f"{folder.resolve().name}.profile.json"
-    check_output_file(target, force=force)  # a profile fitted before is replaced only with --force
-    check_writable(target.parent)
-    result = fit_calibration_dir(folder, variant)
+    result = fit(folder, out=target, force=force, variant=variant)
     for warning in result.warnings:
         info(f"Warning: {warning}")
-    write_profile(result.profile, target)
     click.echo(result.summary)
     info(str(target))
 

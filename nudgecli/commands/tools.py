@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Literal
 
 import click
 
@@ -17,18 +16,13 @@ from nudgecli.commands.common import FORCE_HELP, echo_json, info, progress_bar
 @click.command("presets")
 def presets_command() -> None:
     """List the shipped experiments and analysis plans."""
-    from nudgecli.config_files import list_presets, read_toml
+    from nudgecli.api.presets import PRESET_KINDS, presets
 
-    kinds: tuple[tuple[Literal["experiments", "analysis"], str], ...] = (
-        ("experiments", "Experiments"), ("analysis", "Analysis plans"))
-    for kind, title in kinds:
+    table = presets()
+    for kind, title in PRESET_KINDS.items():
         click.echo(f"{title}:")
-        for name, path in list_presets(kind).items():
-            data = read_toml(path)
-            # experiments describe themselves in [experiment], plans at the top level
-            text = data.get("experiment", {}).get("description", "") if kind == "experiments" \
-                else data.get("description", "")
-            click.echo(f"  {name:<12} {text}")
+        for row in table[table["kind"] == kind].itertuples(index=False):
+            click.echo(f"  {row.name:<12} {row.description}")
 
 
 # --- bench ---------------------------------------------------------------------------------
@@ -85,9 +79,9 @@ def bench_command(output_format: str, only: str, scale_participants: int, scale_
 
 def _validation_readings() -> list[str]:
     """The names of the validation's readings (for ``--reading``'s choices)."""
-    from nudgecli.sim.validation.readings import READINGS
+    from nudgecli.api.validation import reading_names
 
-    return list(READINGS)
+    return reading_names()
 
 
 @click.command("validate")
@@ -123,55 +117,26 @@ def validate_command(simulations: int, min_goals: int, max_goals: int, states: i
                      out: str | None, output_format: str, yes: bool, force: bool) -> None:
     """The paper's simulation-based validation of D(s): its argmax vs a one-step ground truth."""
     import time
-    from dataclasses import replace
 
-    from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size
-    from nudgecli.sim import validation
+    from nudgecli.api.validation import READINGS_EXCLUDE, validate
 
-    if all_readings and reading != "dirichlet":
-        raise click.UsageError("--reading and --all-readings exclude each other")
-    settings = validation.ValidationSettings(
-        simulations=simulations, min_goals=min_goals, max_goals=max_goals, states=states, seed=seed,
-        mc_queries=mc_queries, reading=reading, belief_concentration=belief_concentration)
-    names = list(validation.READINGS) if all_readings else [reading]
-    for name in names:
-        replace(settings, reading=name).check()
-    check_size(simulations * states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
-               work="run {} queries (worlds x states x readings)", fix="fewer --simulations or --states")
-    if out is not None:
-        from nudgecli.outputs import check_output_folder
-
-        check_output_folder(out, force=force)
-        validation.prepare_out(out)
+    if all_readings and reading != defaults.VALIDATION_READING:
+        raise click.UsageError(READINGS_EXCLUDE)  # a usage error here (exit 2), a NudgeError in the API
     start = time.perf_counter()
     bar, update = progress_bar("validating", unit="simulation")
     try:
-        if all_readings:
-            results = validation.run_all_readings(settings, names, progress=update)
-        else:
-            results = [validation.run_validation(settings, progress=update)]
+        result = validate(simulations=simulations, min_goals=min_goals, max_goals=max_goals, states=states,
+                          seed=seed, belief_concentration=belief_concentration, mc_queries=mc_queries,
+                          reading=reading, all_readings=all_readings, out=out, force=force, yes=yes,
+                          progress=update)
     finally:
         bar.close()
-    info(f"validation: {simulations * len(names)} simulations in {time.perf_counter() - start:.1f} s")
-    if all_readings:
-        records = validation.readings_summary(results)
-        if out is not None:
-            validation.save_readings(results, out)
-        if output_format == "json":
-            echo_json(records)
-        else:
-            click.echo(validation.format_readings(records))
+    runs = len(result.results)
+    info(f"validation: {simulations * runs} simulations in {time.perf_counter() - start:.1f} s")
+    if output_format == "json":
+        echo_json(result.to_json())
     else:
-        summary = results[0].summary()
-        if out is not None:
-            from nudgecli.report.validation_figure import plot_validation
-
-            validation.save_validation(results[0], out)
-            plot_validation(summary, out)
-        if output_format == "json":
-            echo_json(summary)
-        else:
-            click.echo(validation.format_summary(summary))
+        click.echo(result.text())
     if out is not None:
         info(str(out))
 

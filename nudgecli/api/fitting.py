@@ -1,0 +1,121 @@
+"""``nudgecli.fit`` and ``nudgecli.fit_people``: a participant's calibration profile from their logs,
+and twins of real people (a people file) from their logs or habits.
+
+The work is :func:`nudgecli.sim.calibration_profile.fit_calibration_dir`'s and
+:func:`nudgecli.report.twin_sources.twins_of_sources`'s; ``nudge fit`` and ``nudge fit-people``
+call them through this module and print what it returns.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from nudgecli.sim.calibration_profile import CalibrationProfile
+
+
+def fit(calibration_dir: str | Path, *, out: str | Path | None = None, force: bool = False,
+        variant: str = "auto") -> CalibrationProfile:
+    """Fit p(phi_i | a) and p(phi_m | phi_i) from one participant's calibration logs, as ``nudge fit``.
+
+    Parameters
+    ----------
+    calibration_dir
+        The folder of the logs: ``p_phi_given_a/`` and/or ``p_phm_given_phi/`` (the sibling
+        study's ``<id>_p_ui_given_a/`` and ``<id>_p_um_given_ui/`` too) or a simulated session's
+        tidy files. A missing session falls back to the default table.
+    out
+        The profile JSON to write; ``None`` writes nothing (``nudge fit``'s default is
+        ``./<folder name>.profile.json``).
+    force
+        Replace an existing ``out``.
+    variant
+        ``auto``, ``pilot`` or ``ciaa``: the log format of the p(phi_m | phi_i) stream.
+
+    Returns
+    -------
+    CalibrationProfile
+        ``.profile`` (the JSON document), ``.summary`` (the text ``nudge fit`` prints) and
+        ``.warnings`` (one line each, what ``nudge fit`` prints as ``Warning:`` lines).
+
+    Raises
+    ------
+    NudgeError
+        An existing ``out`` without ``force``, an ``out`` that is one of the logs, an unwritable
+        folder, unreadable logs; checked before anything is written.
+    """
+    from nudgecli.outputs import check_output_file, command_inputs, declare_input
+    from nudgecli.sim.calibration_profile import fit_calibration_dir, write_profile
+    from nudgecli.store import check_writable
+
+    folder = Path(calibration_dir)
+    with command_inputs():  # the logs are this call's inputs only
+        if out is not None:
+            declare_input("CALIBRATION_DIR", *(folder.rglob("*") if folder.is_dir() else ()))  # never out
+            check_output_file(out, force=force)  # a profile fitted before is replaced only with force
+            check_writable(Path(out).parent)
+        result = fit_calibration_dir(folder, variant)
+        if out is not None:
+            write_profile(result.profile, Path(out))
+    return result
+
+
+def fit_people(sources: str | Path | Sequence[str | Path], *, out: str | Path | None = None,
+               force: bool = False) -> pd.DataFrame:
+    """One simulated person per participant of ``sources``, as ``nudge fit-people``.
+
+    Each timing parameter is set from the participant's own habit medians by the documented
+    offsets (docs/people.md); one their source lacks is left to the population's draw.
+
+    Parameters
+    ----------
+    sources
+        Real logs (the CSV ``nudge habits`` reads), run folders, or tables of
+        ``nudge habits --by participant --format csv``.
+    out
+        The people file to write (CSV, read by ``--people``); ``None`` writes nothing.
+    force
+        Replace an existing ``out``.
+
+    Returns
+    -------
+    DataFrame
+        ``(P, columns)``: the people file's rows (:data:`nudgecli.sim.people_file.PEOPLE_COLUMNS`):
+        ``person``, ``source``, ``participant`` (text), one float column per parameter (NaN where
+        the population's draw is used) and ``from_population`` (those parameters' names, ``;``
+        between them).
+
+    Raises
+    ------
+    NudgeError
+        An unreadable source, no participants, an existing ``out`` without ``force``, an ``out``
+        that is a source; nothing is written.
+    """
+    import pandas as pd
+
+    from nudgecli.outputs import check_output_file, command_inputs, declare_input
+    from nudgecli.report.twin_sources import twins_of_sources
+    from nudgecli.sim.people_file import LIST_SEPARATOR, PEOPLE_COLUMNS, people_csv
+    from nudgecli.sim.twins import TWIN_PARAMETERS
+    from nudgecli.store import check_writable, write_text_atomic
+
+    named: list[str | Path] = [str(sources)] if isinstance(sources, str | Path) \
+        else [str(source) for source in sources]
+    target = None if out is None else Path(out)
+    with command_inputs():  # the sources are this call's inputs only
+        if target is not None:
+            declare_input("SOURCE", *named)  # out never replaces a source
+            check_output_file(target, force=force)
+            check_writable(target.parent if str(target.parent) else Path.cwd())
+        twins = twins_of_sources(named)
+        if target is not None:
+            write_text_atomic(target, people_csv(twins))
+    rows = [{"person": person, "source": twin.source, "participant": str(twin.participant),
+             **{name: float(twin.parameters.get(name, float("nan"))) for name in TWIN_PARAMETERS},
+             "from_population": LIST_SEPARATOR.join(twin.from_population)}
+            for person, twin in enumerate(twins)]
+    return pd.DataFrame(rows, columns=list(PEOPLE_COLUMNS))

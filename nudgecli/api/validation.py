@@ -1,0 +1,158 @@
+"""``nudgecli.validate``: the paper's simulation-based validation of D(s) (its argmax against a
+one-step ground truth), as ``nudge validate`` runs it.
+
+The work is :mod:`nudgecli.sim.validation`'s (settings, readings, runner, output) and
+:func:`nudgecli.report.validation_figure.plot_validation`'s; ``nudge validate`` calls it through
+this module and prints what it returns.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from nudgecli import command_defaults as defaults
+from nudgecli.errors import ConfigError
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from nudgecli.sim.validation.runner import ValidationResult
+
+#: The message of a reading named beside ``all_readings`` (``nudge validate``'s usage error).
+READINGS_EXCLUDE = "--reading and --all-readings exclude each other"
+
+
+@dataclass(frozen=True)
+class Validation:
+    """What :func:`validate` computed and the files it wrote.
+
+    Attributes
+    ----------
+    results
+        One :class:`~nudgecli.sim.validation.runner.ValidationResult` per reading run.
+    all_readings
+        Whether every reading ran (``--all-readings``): the printed table is then one row per reading.
+    files
+        The files written (with ``out``).
+    """
+
+    results: tuple[ValidationResult, ...]
+    all_readings: bool
+    files: list[Path] = field(default_factory=list)
+
+    def summary(self) -> dict[str, Any]:
+        """The one reading's JSON summary (``validation.json``); with ``all_readings`` the first's."""
+        return self.results[0].summary()
+
+    def readings(self) -> list[dict[str, Any]]:
+        """One record per reading and |G| (``readings.json``'s rows)."""
+        from nudgecli.sim.validation import readings_summary
+
+        return readings_summary(list(self.results))
+
+    def to_json(self) -> dict[str, Any] | list[dict[str, Any]]:
+        """The document ``nudge validate --format json`` prints."""
+        return self.readings() if self.all_readings else self.summary()
+
+    def text(self) -> str:
+        """The table ``nudge validate`` prints."""
+        from nudgecli.sim.validation import format_readings, format_summary
+
+        return format_readings(self.readings()) if self.all_readings else format_summary(self.summary())
+
+    @property
+    def queries(self) -> pd.DataFrame:
+        """``(Q * readings, columns)``: one row per query (``validation.csv``'s columns) and its
+        ``reading``."""
+        import pandas as pd
+
+        from nudgecli.sim.validation import QUERY_COLUMNS
+
+        return pd.concat([pd.DataFrame({"reading": result.settings.reading,
+                                        **{name: result.queries[name] for name in QUERY_COLUMNS}})
+                          for result in self.results], ignore_index=True)
+
+
+def reading_names() -> list[str]:
+    """The readings of the paper's validation paragraph, by name (``reading=``'s choices)."""
+    from nudgecli.sim.validation.readings import READINGS
+
+    return list(READINGS)
+
+
+def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
+             min_goals: int = defaults.VALIDATION_MIN_GOALS, max_goals: int = defaults.VALIDATION_MAX_GOALS,
+             states: int = defaults.VALIDATION_STATES, seed: int = defaults.VALIDATION_SEED,
+             belief_concentration: float = defaults.VALIDATION_BELIEF_CONCENTRATION,
+             mc_queries: int = defaults.VALIDATION_MC_QUERIES, reading: str = defaults.VALIDATION_READING,
+             all_readings: bool = False, out: str | Path | None = None, force: bool = False,
+             yes: bool = False, progress: Callable[[int, int], None] | None = None) -> Validation:
+    """Run the paper's validation of D(s), as ``nudge validate`` does.
+
+    Parameters
+    ----------
+    simulations
+        Random worlds (each queries every state off the goals once).
+    min_goals, max_goals
+        |G| steps cyclically from ``min_goals`` to ``max_goals``.
+    states
+        |S| = 2 modes x W x H cells of the two-mode world.
+    seed
+        Master seed of the whole validation.
+    belief_concentration
+        Query beliefs are Dirichlet(c).
+    mc_queries
+        Queries of the Monte-Carlo convergence study (0 skips it).
+    reading
+        Which reading of the paper's validation paragraph.
+    all_readings
+        Run every reading on the same worlds (``reading`` must then be left at its default).
+    out, force
+        Folder for ``validation.json``, ``validation.csv`` and the figure (``readings.json`` with
+        ``all_readings``); ``force``: one that is not empty.
+    yes
+        Run more queries than the size limit allows.
+    progress
+        ``progress(done, total)`` after each simulation.
+
+    Raises
+    ------
+    NudgeError
+        ``nudge validate``'s errors (bad settings, over the size limit, an unusable ``out``),
+        before anything is written.
+    """
+    from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size
+    from nudgecli.sim import validation
+
+    if all_readings and reading != defaults.VALIDATION_READING:
+        raise ConfigError(READINGS_EXCLUDE)
+    settings = validation.ValidationSettings(
+        simulations=simulations, min_goals=min_goals, max_goals=max_goals, states=states, seed=seed,
+        mc_queries=mc_queries, reading=reading, belief_concentration=belief_concentration)
+    names = list(validation.READINGS) if all_readings else [reading]
+    for name in names:
+        replace(settings, reading=name).check()
+    check_size(simulations * states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
+               work="run {} queries (worlds x states x readings)", fix="fewer --simulations or --states")
+    if out is not None:
+        from nudgecli.outputs import check_output_folder
+
+        check_output_folder(out, force=force)
+        validation.prepare_out(out)
+    if all_readings:
+        results = validation.run_all_readings(settings, names, progress=progress)
+    else:
+        results = [validation.run_validation(settings, progress=progress)]
+    made = Validation(tuple(results), all_readings)
+    if out is not None:
+        if all_readings:
+            made.files.extend(validation.save_readings(results, out))
+        else:
+            from nudgecli.report.validation_figure import plot_validation
+
+            made.files.extend(validation.save_validation(results[0], out))
+            made.files.extend(plot_validation(made.summary(), out))
+    return made
