@@ -111,6 +111,7 @@ def test_a_stop_at_a_waypoint_then_a_switch_1_s_later_in_a_real_log(tmp_path: Pa
     assert values(events, "reaction_switch_to_motion") == [1.2]
     # 0.2 + 0.2: cells 3.8 and 3.9 after the last moving one, 3.7
     assert values(events, "hold_on_per_trial") == [0.4]
+    assert values(events, "hold_on_per_stop") == [0.2, 0.2]  # one per soft blow that held on
     assert values(events, "hard_blow_whole") == [0.2]
     assert values(events, "pause_between_blows") == [0.8, 0.9]
 
@@ -232,6 +233,7 @@ def loop_habits(cells: pd.DataFrame, dt: float = 0.1) -> dict[str, list[float]]:
                 out.setdefault("soft_blow_never_moving", []).append((e - s) * dt)
         if hold:
             out.setdefault("hold_on_per_trial", []).append(sum(hold))
+        out.setdefault("hold_on_per_stop", []).extend(h for h in hold if h > 0)
         for c in range(n):
             if kind[c] == HARD and (c == 0 or kind[c - 1] != HARD):
                 e = c
@@ -272,7 +274,7 @@ def test_the_measurement_equals_a_plain_loop_on_a_simulated_run(ciaa_run: Path) 
         got = sorted(values(events, habit))
         np.testing.assert_allclose(got, sorted(loop_values), atol=1e-6, err_msg=habit)
     # the run has each kind of event
-    assert {"reaction_stop_to_switch", "reaction_switch_to_motion", "hold_on_per_trial",
+    assert {"reaction_stop_to_switch", "reaction_switch_to_motion", "hold_on_per_trial", "hold_on_per_stop",
             "undone_switch"} <= set(expected)
 
 

@@ -94,6 +94,14 @@ def test_what_a_source_lacks_or_the_simulation_refuses_is_left_to_the_population
     assert twin.from_population == ("planning_s", "event_reaction_log_sd", "hold_on_s")
 
 
+def test_the_hold_on_per_stop_is_read_one_for_one_before_the_per_trial_sum() -> None:
+    """A log measured by nudge habits has the hold-on per stop: the parameter is its median; a
+    table of HABITS.md's rows only falls back to the per-trial sum over the four stops."""
+    per_stop = {**HABITS, "hold_on_per_stop": HabitFigures(40, 0.3)}
+    assert fit_twin(per_stop, onset_samples=2)["hold_on_s"] == pytest.approx(0.3)
+    assert fit_twin(HABITS, onset_samples=2)["hold_on_s"] == pytest.approx(0.8 / 4)
+
+
 def test_a_hard_blow_with_fewer_ramp_samples_than_the_assumed_onset_has_no_offset_ramp() -> None:
     habits = {"hard_band_per_excursion": HabitFigures(20, 0.3), "hard_blow_whole": HabitFigures(20, 0.4)}
     assert fit_twin(habits, onset_samples=2)["offset_ramp_samples"] == 0

@@ -72,6 +72,10 @@ HABITS = (
     Habit("reaction_stop_to_switch", "robot stops at a waypoint -> next switch (s)", "stop>switch"),
     Habit("reaction_switch_to_motion", "mode switch -> robot moves again (s)", "switch>move"),
     Habit("hold_on_per_trial", "holding on after the robot stopped (s per trial)", "hold_on"),
+    # not in HABITS.md: the same holds one by one (a soft blow that moved the robot and went on
+    # after it stopped), which shows a person's hold-on per stop where the per-trial sum mixes it
+    # with the number of stops (what a twin's hold_on_s is fitted from)
+    Habit("hold_on_per_stop", "holding on after the robot stopped (s per stop)", "hold_stop"),
     Habit("soft_blow_never_moving", "a soft blow that never moves the robot (s)", "soft_still"),
     Habit("undone_switch", "an undone switch: switch -> the switch back (s)", "undone"),
     # inside a soft blow (HABITS.md's second table, :mod:`nudgecli.report.habit_deadband`)
@@ -218,6 +222,8 @@ def _blow_events(c: _CellArrays, gap_cells: int) -> _Events:
     per_trial = pd.Series(hold).groupby(trial_id[starts[soft_moved]]).sum()
     events.append(("hold_on_per_trial", c.trial_first[per_trial.index.to_numpy(dtype=int)],
                    per_trial.to_numpy()))
+    held = hold > 0
+    events.append(("hold_on_per_stop", starts[soft_moved][held], hold[held]))
     still = ~hard_blow & ~moved
     events.append(("soft_blow_never_moving", starts[still], duration[still]))
     return events + deadband_events(kind, c.new_trial, starts[~hard_blow], ends[~hard_blow], dt)
