@@ -218,6 +218,46 @@ def test_a_plan_whose_conditions_cover_the_data_or_name_none_of_it_is_used(tmp_p
     assert json.loads(result.stdout)["conditions"] == ["disambiguation", "control"]
 
 
+def test_run_refuses_a_plan_misnaming_the_experiments_conditions_before_simulating(tmp_path):
+    """The run will hold the experiment's conditions: a plan misnaming them was refused only by the
+    analysis, after the whole study had been simulated."""
+    plan = _plan(tmp_path / "mine.toml", ["Disambiguation", "control"])
+    out = tmp_path / "run"
+    result = invoke(["run", "smoke", "--plan", str(plan), "--out", str(out)])
+    assert result.exit_code == 1, result.output
+    line = one_error_line(result.output)
+    assert line.startswith(f"Error: {plan}: conditions names 'Disambiguation', which experiment smoke does "
+                           "not hold (did you mean 'disambiguation'?)"), line
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("command", [["replicate", "smoke", "-R", "2"],
+                                     ["power", "smoke", "--participants", "2,3", "-R", "2"]])
+def test_a_batch_refuses_a_plan_misnaming_the_experiments_conditions_before_simulating(tmp_path, command):
+    plan = _plan(tmp_path / "mine.toml", ["disambiguation", "Control"])
+    out = tmp_path / "batch"
+    result = invoke([*command, "--plan", str(plan), "--out", str(out)])
+    assert result.exit_code == 1, result.output
+    line = one_error_line(result.output)
+    assert line.startswith(f"Error: {plan}: conditions names 'Control', which experiment smoke does not hold "
+                           "(did you mean 'control'?)"), line
+    assert not out.exists()
+
+
+def test_a_sweep_refuses_a_plan_misnaming_its_experiments_conditions_before_simulating(tmp_path):
+    plan = _plan(tmp_path / "mine.toml", ["Disambiguation", "control"])
+    sweep = tmp_path / "sweep.toml"
+    sweep.write_text(f'experiment = "smoke"\nreplications = 1\nplan = {json.dumps(str(plan))}\n'
+                     '[design]\nmethod = "grid"\n[parameters]\n"inference.kappa" = { values = [0.5, 0.6] }\n')
+    out = tmp_path / "batch"
+    result = invoke(["sweep", str(sweep), "--out", str(out)])
+    assert result.exit_code == 1, result.output
+    line = one_error_line(result.output)
+    assert line.startswith(f"Error: {plan}: conditions names 'Disambiguation', which experiment smoke does "
+                           "not hold"), line
+    assert not out.exists()
+
+
 def test_a_plan_spelling_short_labels_in_another_case_is_refused(tmp_path):
     # difflib sees nothing alike in 'A' and 'a': the labels are compared with case folded
     table = _metrics_table(tmp_path / "ab.csv", ["a", "b"])

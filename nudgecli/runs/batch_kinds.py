@@ -124,6 +124,18 @@ def _check(replications: int, seed: int | None) -> None:
         raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
 
 
+def _checked_plan(plan: str | AnalysisPlan, configs: Sequence[ExperimentConfig]) -> AnalysisPlan:
+    """The batch's plan, refused before any study is simulated where its ``conditions`` misname
+    the conditions its studies will hold (:func:`~nudgecli.report.plans.check_plan_conditions`)."""
+    from nudgecli.report.plans import check_plan_conditions, load_plan
+
+    chosen = load_plan(plan)
+    label = str(plan) if isinstance(plan, str) else chosen.name
+    for config in configs:
+        check_plan_conditions(chosen, label, config.study.conditions, f"experiment {config.experiment.name}")
+    return chosen
+
+
 def replicate(experiment: str, replications: int, out: str | Path, *, seed: int | None = None,
               plan: str | AnalysisPlan | None = None, participants: int | None = None,
               overrides: Sequence[str] = (), people: People | str | Path | None = None,
@@ -135,11 +147,9 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     ``figures/forest.png``. ``people``: twins of real people (a people file, ``--people``).
     ``options`` go to :func:`run_batch`.
     """
-    from nudgecli.report.plans import load_plan
-
     _check(replications, seed)
     config = _load(experiment, overrides, participants)
-    chosen = load_plan(resolve_plan(plan, experiment=config.experiment.name))
+    chosen = _checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
     record, twins = _people_fields(people, out, bool(options.get("resume")))
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
@@ -169,8 +179,6 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     Clopper-Pearson interval), ``smallest_n.csv``, ``replications.csv`` and ``figures/power.png``.
     ``people``: twins of real people (a people file, ``--people``), cycled over the participants.
     """
-    from nudgecli.report.plans import load_plan
-
     _check(replications, seed)
     counts = sorted(set(int(n) for n in participant_counts))
     if not counts or counts[0] < 2:
@@ -178,7 +186,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     if not 0 < target < 1:
         raise ConfigError(f"--target must be between 0 and 1, got {target}")
     config = _load(experiment, overrides, None)
-    chosen = load_plan(resolve_plan(plan, experiment=config.experiment.name))
+    chosen = _checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
     record, twins = _people_fields(people, out, bool(options.get("resume")))
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
@@ -204,7 +212,6 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     :func:`nudgecli.report.replication.summarise` with the parameters), for Sobol and Morris
     designs ``sensitivity.csv``, and the figures ``figures/sweep.png`` (and ``sensitivity.png``).
     """
-    from nudgecli.report.plans import load_plan
     from nudgecli.runs.sweep import load_sweep
 
     loaded = load_sweep(sweep_file)
@@ -212,7 +219,7 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     count = spec.replications if replications is None else replications
     _check(count, seed)
     assert spec.plan is not None  # load_sweep applied the plan rule
-    chosen = load_plan(spec.plan)
+    chosen = _checked_plan(spec.plan, [p.config for p in loaded.points])
     points = tuple(Point(p.index, p.parameters, p.config, (p.config.study.participants,))
                    for p in loaded.points)
     batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen,

@@ -291,10 +291,12 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
         config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
     check_physiology_logs(config)
     people = people_of(people)  # a bad people file is refused before the folder is touched
-    if plan is not None:  # a plan that cannot load is refused before anything is simulated or written
-        from nudgecli.report.plans import load_plan
+    if plan is not None:  # a plan that cannot load, or that misnames the experiment's conditions (which
+        # the run will hold), is refused before anything is simulated or written
+        from nudgecli.report.plans import check_plan_conditions, load_plan
 
-        load_plan(plan)
+        check_plan_conditions(load_plan(plan), plan, config.study.conditions,
+                              f"experiment {config.experiment.name}")
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
     try:
         with run_lock(out):
