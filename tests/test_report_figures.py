@@ -431,6 +431,28 @@ def test_questionnaire_scores_table_is_split_and_labelled(tmp_path: Path) -> Non
     assert [p.name for p in paths] == ["fig3.png", "fig4.png", "questionnaires.png"]
 
 
+def test_questionnaires_of_four_conditions_get_letters_not_a_bracket_per_pair() -> None:
+    """Four conditions have six pairs: as the box plots do, the bars get a compact letter display
+    (the letters of nudgecli.report.letters, one per condition above its bar) and no brackets."""
+    from nudgecli.report.letters import entry_letters
+
+    four = ("disambiguation", "control", "blending", "teleoperation")
+    likert = pd.DataFrame([{"participant": p, "condition": c, "likert_q3": 2 + 4 * (c == "control"),
+                            "likert_q4": 4} for p in range(4) for c in four])
+    stats = make_stats(four, {})
+    first = stats["metrics"][0]["metric"]
+    pairs = {("disambiguation", "control"): 0.001, ("control", "blending"): 0.002,
+             ("control", "teleoperation"): 0.003}
+    stats["metrics"] = [{**make_stats(four, {first: pairs})["metrics"][0], "metric": "likert_q3"}]
+    fig = questionnaire_figure(None, likert, conditions=list(four), stats=stats)
+    (ax,) = fig.get_axes()
+    expected = entry_letters(stats["metrics"][0], list(four))
+    assert len(set(expected.values())) == 2  # control apart from the other three
+    assert _star_texts(ax) == []
+    assert sorted(t.get_text() for t in ax.texts if t.get_text() in set(expected.values())) == \
+        sorted(expected.values())
+
+
 def test_likert_wording_comes_from_the_plan() -> None:
     from nudgecli.report.plans import load_plan
 

@@ -21,8 +21,10 @@ from matplotlib.patches import Patch
 from matplotlib.transforms import Bbox
 
 from nudgecli.errors import DataError
-from nudgecli.report.brackets import DEFAULT_STAR_RULE, brackets_from_stats, draw_brackets
+from nudgecli.report.brackets import DEFAULT_STAR_RULE, draw_brackets
 from nudgecli.report.figures.common import axes_or_new, panel_letter, resolve_conditions, stats_by_metric
+from nudgecli.report.figures.comparison_marks import chosen_marks, draw_letters
+from nudgecli.report.letters import entry_letters
 from nudgecli.report.stats import ComparisonOptions
 from nudgecli.report.style import (
     FULL_WIDTH_IN,
@@ -161,7 +163,8 @@ def questionnaire_bars(df: pd.DataFrame, kind: Kind, *, ax: Axes | None = None,
     conditions
         Drawing order; default the table's.
     stats
-        Statistics of the scores (``stats.json`` dict or ``name -> entry``) for brackets.
+        Statistics of the scores (``stats.json`` dict or ``name -> entry``) for brackets (up to
+        three conditions) or a compact letter display (four or more).
     item_labels
         Axis labels of scales/items (see :func:`group_label`).
     star_rule
@@ -170,7 +173,7 @@ def questionnaire_bars(df: pd.DataFrame, kind: Kind, *, ax: Axes | None = None,
     Returns
     -------
     list
-        The bar containers (one per condition), then any bracket artists.
+        The bar containers (one per condition), then any bracket or letter artists.
     """
     name_col, value_col, _ = _COLUMNS[kind]
     scores = long_scores(df, kind)
@@ -191,8 +194,14 @@ def questionnaire_bars(df: pd.DataFrame, kind: Kind, *, ax: Axes | None = None,
             entry = by_name.get(g)
             if entry:
                 positions = {c: i + (j - (n_cond - 1) / 2) * width for j, c in enumerate(order)}
-                artists.extend(draw_brackets(ax, positions, brackets_from_stats(entry, star_rule),
-                                             data_top=tops.get(g)))
+                # four or more conditions: a compact letter display, as the box plots give, where
+                # every pair's bracket would stack above the bars
+                brackets, letters = chosen_marks(entry, order, star_rule)
+                if letters:
+                    artists.extend(draw_letters(ax, positions, entry_letters(entry, order, star_rule),
+                                                data_top=max(tops.values(), default=None)))
+                else:
+                    artists.extend(draw_brackets(ax, positions, brackets, data_top=tops.get(g)))
     return artists
 
 
