@@ -159,8 +159,8 @@ def toml_literal(value: object, key: str = "value") -> str:
 
 def toml_string(text: str) -> str:
     """``text`` as a TOML basic string: quotes and backslashes escaped, control characters (DEL too)
-    as ``\\uXXXX``, everything else as it is (JSON's escapes would split a character outside the
-    Basic Multilingual Plane into a surrogate pair, which TOML refuses)."""
+    as ``\\u`` and four hex digits, everything else as it is (JSON's escapes would split a character
+    outside the Basic Multilingual Plane into a surrogate pair, which TOML refuses)."""
     escaped = "".join(f"\\{char}" if char in '"\\' else
                       f"\\u{ord(char):04x}" if ord(char) < 0x20 or ord(char) == 0x7F else char
                       for char in text)
