@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 import numpy as np
 
 from nudgecli.live.input import KEY_LABELS, key_pressures
@@ -85,3 +88,18 @@ def transition(current: Item, wanted: Item) -> list[dict]:
     if wanted[0] == "axis":
         messages.append({"type": "axis", "value": wanted[1]})
     return messages
+
+
+def play_session(session: Any, until: Callable[[Any], bool]) -> None:
+    """Skip the practice of a :class:`nudgecli.live.session.LiveSession`, then run its trials without
+    input, answering each questionnaire with :data:`ANSWERS`, until ``until(session)`` holds (or the
+    session is done)."""
+    for message in ({"type": "start"}, {"type": "skip"}):
+        session.handle(message, 0.0)
+    while session.phase != "done" and not until(session):
+        if session.phase == "questionnaire":
+            session.handle({"type": "questionnaire", "answers": ANSWERS}, 0.0)
+        elif session.phase == "ready":
+            session.handle({"type": "start"}, 0.0)
+        else:
+            session.tick(0.0)

@@ -48,3 +48,21 @@ def synthetic_run(folder: Path, conditions: Mapping[str, int], *, n_participants
         pd.DataFrame(trial_rows).to_parquet(folder / "trials" / f"part-{participant:05d}.parquet")
         pd.concat(step_frames).to_parquet(folder / "steps" / f"part-{participant:05d}.parquet")
     return folder
+
+
+def hard_puff_mapping(folder: Path) -> Path:
+    """One participant's calibration folder, as ``nudge fit`` reads it: the smoke preset's mapping
+    session with every prompt answered Hard Puff (label 0) a tick after it shows."""
+    from nudgecli.config import load_experiment
+    from nudgecli.live.calibration import MappingRecorder
+    from nudgecli.sim.calibration_io import write_sessions
+
+    recorder = MappingRecorder.create(load_experiment("smoke").calibration, np.random.default_rng(2), "test")
+    now = 0.0
+    while not recorder.done:
+        now = round(now + 0.1, 9)
+        if recorder.prompt is not None and recorder.answered_at is None:
+            recorder.answer(0, now)
+        recorder.tick(now)
+    write_sessions(folder, mapping=recorder.session())
+    return folder

@@ -4,15 +4,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pytest
 from cli_helpers import one_error_line
 from click.testing import CliRunner
+from run_builders import hard_puff_mapping
 
 from nudgecli.cli import main
-from nudgecli.config import load_experiment
-from nudgecli.live.calibration import MappingRecorder
-from nudgecli.sim.calibration_io import write_sessions
 
 
 def _invoke(args: list[str]):
@@ -22,16 +19,7 @@ def _invoke(args: list[str]):
 @pytest.fixture(scope="module")
 def calibration_dir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """One participant's mapping session (every prompt answered Hard Puff), as `nudge fit` reads it."""
-    folder = tmp_path_factory.mktemp("calibration")
-    recorder = MappingRecorder.create(load_experiment("smoke").calibration, np.random.default_rng(2), "test")
-    now = 0.0
-    while not recorder.done:
-        now = round(now + 0.1, 9)
-        if recorder.prompt is not None and recorder.answered_at is None:
-            recorder.answer(0, now)
-        recorder.tick(now)
-    write_sessions(folder, mapping=recorder.session())
-    return folder
+    return hard_puff_mapping(tmp_path_factory.mktemp("calibration"))
 
 
 def test_fit_refuses_to_replace_a_profile_without_force(tmp_path, calibration_dir, monkeypatch):

@@ -7,7 +7,7 @@ import pytest
 pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip install '.[study]'")
 
 from click.testing import CliRunner
-from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS
+from live_helpers import DEFAULT_TABLES, TWO_TRIALS, play_session
 
 from nudgecli.cli import main
 from nudgecli.live.app import build_session
@@ -20,15 +20,7 @@ OVERRIDES = TWO_TRIALS + DEFAULT_TABLES
 def _play(session: LiveSession, trials: int | None) -> None:
     """Skip the practice, then run ``trials`` evaluation trials without input (all: ``None``),
     answering each questionnaire."""
-    for message in ({"type": "start"}, {"type": "skip"}):
-        session.handle(message, 0.0)
-    while session.phase != "done" and (trials is None or len(session.entry["completed_trials"]) < trials):
-        if session.phase == "questionnaire":
-            session.handle({"type": "questionnaire", "answers": ANSWERS}, 0.0)
-        elif session.phase == "ready":
-            session.handle({"type": "start"}, 0.0)
-        else:
-            session.tick(0.0)
+    play_session(session, lambda s: trials is not None and len(s.entry["completed_trials"]) >= trials)
 
 
 def test_analyze_of_an_unfinished_live_study_notes_how_far_it_got(tmp_path):

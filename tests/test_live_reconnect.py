@@ -15,7 +15,7 @@ pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip instal
 
 from aiohttp import WSServerHandshakeError
 from aiohttp.test_utils import TestClient, TestServer
-from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS
+from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS, play_session
 
 from nudgecli.live.app import build_session
 from nudgecli.live.input import key_meanings
@@ -172,15 +172,7 @@ def test_the_token_file_goes_when_the_participant_is_complete(tmp_path):
 
 
 def _run_to_the_end(session: LiveSession) -> None:
-    for message in ({"type": "start"}, {"type": "skip"}):
-        session.handle(message, 0.0)
-    while session.phase != "done":
-        if session.phase == "questionnaire":
-            session.handle({"type": "questionnaire", "answers": ANSWERS}, 0.0)
-        elif session.phase == "ready":
-            session.handle({"type": "start"}, 0.0)
-        else:
-            session.tick(0.0)
+    play_session(session, lambda s: False)
 
 
 # --- messages too large or too deep ------------------------------------------------------------
@@ -277,15 +269,7 @@ async def _last_questionnaire(session: LiveSession, log: list[str]) -> None:
 
 def test_the_console_says_once_when_the_participant_has_finished(tmp_path):
     session = build_session("paper", "P07", tmp_path / "run", overrides=OVERRIDES)
-    for message in ({"type": "start"}, {"type": "skip"}):
-        session.handle(message, 0.0)
-    while not (session.phase == "questionnaire" and session.next_trial is None):
-        if session.phase == "questionnaire":
-            session.handle({"type": "questionnaire", "answers": ANSWERS}, 0.0)
-        elif session.phase == "ready":
-            session.handle({"type": "start"}, 0.0)
-        else:
-            session.tick(0.0)
+    play_session(session, lambda s: s.phase == "questionnaire" and s.next_trial is None)
     log: list[str] = []
     asyncio.run(_last_questionnaire(session, log))
     assert session.phase == "done"
