@@ -23,6 +23,7 @@ from nudgecli.errors import ConfigError
 from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.runs.batch import Batch, BatchRun, Point, run_batch, single_point
 from nudgecli.runs.batch_folder import BATCH_MANIFEST
+from nudgecli.runs.study import checked_plan
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, people_of
 from nudgecli.sim.twins import Twin
@@ -124,18 +125,6 @@ def _check(replications: int, seed: int | None) -> None:
         raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
 
 
-def _checked_plan(plan: str | AnalysisPlan, configs: Sequence[ExperimentConfig]) -> AnalysisPlan:
-    """The batch's plan, refused before any study is simulated where its ``conditions`` misname
-    the conditions its studies will hold (:func:`~nudgecli.report.plans.check_plan_conditions`)."""
-    from nudgecli.report.plans import check_plan_conditions, load_plan
-
-    chosen = load_plan(plan)
-    label = str(plan) if isinstance(plan, str) else chosen.name
-    for config in configs:
-        check_plan_conditions(chosen, label, config.study.conditions, f"experiment {config.experiment.name}")
-    return chosen
-
-
 def replicate(experiment: str, replications: int, out: str | Path, *, seed: int | None = None,
               plan: str | AnalysisPlan | None = None, participants: int | None = None,
               overrides: Sequence[str] = (), people: People | str | Path | None = None,
@@ -149,7 +138,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     """
     _check(replications, seed)
     config = _load(experiment, overrides, participants)
-    chosen = _checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
+    chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
     record, twins = _people_fields(people, out, bool(options.get("resume")))
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
@@ -186,7 +175,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     if not 0 < target < 1:
         raise ConfigError(f"--target must be between 0 and 1, got {target}")
     config = _load(experiment, overrides, None)
-    chosen = _checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
+    chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
     record, twins = _people_fields(people, out, bool(options.get("resume")))
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
@@ -219,7 +208,7 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     count = spec.replications if replications is None else replications
     _check(count, seed)
     assert spec.plan is not None  # load_sweep applied the plan rule
-    chosen = _checked_plan(spec.plan, [p.config for p in loaded.points])
+    chosen = checked_plan(spec.plan, [p.config for p in loaded.points])
     points = tuple(Point(p.index, p.parameters, p.config, (p.config.study.participants,))
                    for p in loaded.points)
     batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen,

@@ -18,11 +18,11 @@ import os
 import pickle
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
@@ -57,6 +57,10 @@ from nudgecli.sim.study import (
     simulate_participant_columns,
 )
 from nudgecli.store import RunFolder, new_manifest, utc_now
+
+if TYPE_CHECKING:
+    from nudgecli.report.plans import AnalysisPlan
+
 
 # --- the plan, its layouts solved in parallel ---------------------------------------------
 
@@ -234,6 +238,19 @@ class StudyRun:
     trials: pd.DataFrame
 
 
+def checked_plan(plan: str | AnalysisPlan, configs: Sequence[ExperimentConfig]) -> AnalysisPlan:
+    """The plan of a run or a batch, loaded, and refused where it cannot load or its ``conditions``
+    misname the conditions its studies will hold (their experiments'):
+    :func:`~nudgecli.report.plans.check_plan_conditions`, before any study is simulated."""
+    from nudgecli.report.plans import check_plan_conditions, load_plan
+
+    chosen = load_plan(plan)
+    label = str(plan) if isinstance(plan, str) else chosen.name
+    for config in configs:
+        check_plan_conditions(chosen, label, config.study.conditions, f"experiment {config.experiment.name}")
+    return chosen
+
+
 def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, participants: int | None = None,
               workers: int = 1, scheduler: str | None = None, resume: bool = False, force: bool = False,
               progress: Callable[[int, int], None] | None = None, plan: str | None = None,
@@ -291,12 +308,8 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
         config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
     check_physiology_logs(config)
     people = people_of(people)  # a bad people file is refused before the folder is touched
-    if plan is not None:  # a plan that cannot load, or that misnames the experiment's conditions (which
-        # the run will hold), is refused before anything is simulated or written
-        from nudgecli.report.plans import check_plan_conditions, load_plan
-
-        check_plan_conditions(load_plan(plan), plan, config.study.conditions,
-                              f"experiment {config.experiment.name}")
+    if plan is not None:  # refused before anything is simulated or written
+        checked_plan(plan, [config])
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
     try:
         with run_lock(out):
