@@ -548,6 +548,10 @@ def habits_csv(result: HabitsResult) -> str:
     """The CSV of ``--format csv``: pooled rows (scope ``pooled``) then the units' rows."""
     pooled = result.pooled.assign(scope="pooled")
     units = result.units.assign(scope=result.by)
+    # a run's labels are integers: the pooled rows' empty cells would make them floats ("0.0") in
+    # a numpy column, not in a nullable one; a real log's text labels stay as written
+    units = units.astype({key: "Int64" for key in ("participant", "trial")
+                          if key in units.columns and pd.api.types.is_integer_dtype(units[key])})
     table = pd.concat([pooled, units], ignore_index=True)
     columns = ["scope", "participant", *(["trial"] if result.by == "trial" else []), "habit", "n", "median",
                "q25", "q75", "people_min", "people_max"]

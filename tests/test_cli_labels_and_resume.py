@@ -1,0 +1,68 @@
+"""Small user-facing fixes through the command line: a run's participant labels print as integers
+in ``nudge habits --format csv`` (a real log's labels as written)."""
+
+from __future__ import annotations
+
+import io
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+
+from nudgecli.cli import main
+
+
+def nudge(*args: str):
+    return CliRunner().invoke(main, [*args])
+
+
+@pytest.fixture(scope="module")
+def smoke_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two simulated participants of the smoke experiment (labels 0 and 1)."""
+    out = tmp_path_factory.mktemp("labels") / "run"
+    result = nudge("simulate", "smoke", "--participants", "2", "--seed", "3", "--out", str(out))
+    assert result.exit_code == 0, result.output
+    return out
+
+
+def csv_cells(text: str) -> pd.DataFrame:
+    """A CSV's cells as written (no number parsing, empty cells as '')."""
+    return pd.read_csv(io.StringIO(text), dtype=str, keep_default_na=False)
+
+
+# --- 1. nudge habits --format csv ----------------------------------------------------------------
+
+
+@pytest.mark.parametrize("by", ["participant", "trial"])
+def test_habits_csv_writes_a_runs_labels_as_integers(smoke_run: Path, by: str) -> None:
+    result = nudge("habits", str(smoke_run), "--format", "csv", "--by", by)
+    assert result.exit_code == 0, result.output
+    cells = csv_cells(result.stdout)
+    units = cells[cells["scope"] == by]
+    trials = pd.read_parquet(smoke_run / "trials")
+    # the labels as the run's own trials table holds them, printed by Python's int -> str
+    assert set(units["participant"]) == {str(int(p)) for p in trials["participant"].unique()}
+    if by == "trial":
+        assert set(units["trial"]) <= {str(int(t)) for t in trials["trial"].unique()}
+        assert len(units[["participant", "trial"]].drop_duplicates()) == len(trials)
+    pooled = cells[cells["scope"] == "pooled"]
+    assert len(pooled) and set(pooled["participant"]) == {""}  # pooled rows have no unit
+    # the figures are untouched: the same numbers as the API's units table
+    numbers = pd.read_csv(io.StringIO(result.stdout))
+    assert np.allclose(numbers.loc[numbers["scope"] == by, "median"].to_numpy(dtype=float),
+                       units["median"].astype(float).to_numpy(), equal_nan=True)
+
+
+def test_habits_csv_keeps_a_real_logs_labels_as_written(tmp_path: Path) -> None:
+    rows = [(0.0, "Zero Band"), (0.5, "Soft Puff"), (1.2, "Zero Band"), (2.0, "Soft Sip"),
+            (3.0, "input stopped")]
+    body = "".join(f"{t},{trial},{label},22.5,5,0,0,6,{who}\n"
+                   for who in ("07", "P2") for trial in (1, 2) for t, label in rows)
+    log = tmp_path / "log.csv"
+    log.write_text("t,trial,label,x,y,theta,mode_switch,layout,participant\n" + body)
+    result = nudge("habits", str(log), "--format", "csv", "--by", "trial")
+    assert result.exit_code == 0, result.output
+    units = csv_cells(result.stdout).query("scope == 'trial'")
+    assert set(units["participant"]) == {"07", "P2"} and set(units["trial"]) == {"1", "2"}
