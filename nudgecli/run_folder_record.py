@@ -290,12 +290,17 @@ class RunRecord:
                             f"`{fix}`") from None
 
     def resume_command(self, manifest: Mapping[str, Any] | None = None) -> str:
-        """The command that finishes or repairs this run (``nudge simulate ... --resume``)."""
+        """The command that finishes or repairs this run (``nudge simulate ... --resume``), with
+        ``--people`` and the file the manifest records where the run simulated a people file (a
+        resume without it is refused by the people check)."""
+        from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
         from nudgecli.store import simulate_resume_command  # store builds on this module
 
         manifest = manifest if manifest is not None else self.read_manifest()
+        people = manifest.get(PEOPLE_KEY)
         return simulate_resume_command(str(self.path / CONFIG), self.path, manifest.get("seed"),
-                                       manifest.get("participants"))
+                                       manifest.get("participants"),
+                                       people=people.get("file") if isinstance(people, Mapping) else None)
 
     def unvouched_parts(self, manifest: Mapping[str, Any],
                         participants: Iterable[int]) -> dict[int, list[str]]:

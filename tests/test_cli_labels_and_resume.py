@@ -1,14 +1,18 @@
 """Small user-facing fixes through the command line: a run's participant labels print as integers
-in ``nudge habits --format csv`` (a real log's labels as written)."""
+in ``nudge habits --format csv`` (a real log's labels as written), and the resume command a
+damaged run folder names carries the run's ``--people`` file."""
 
 from __future__ import annotations
 
 import io
+import json
+import shlex
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
+from cli_helpers import copy_run, one_error_line
 from click.testing import CliRunner
 
 from nudgecli.cli import main
@@ -66,3 +70,41 @@ def test_habits_csv_keeps_a_real_logs_labels_as_written(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     units = csv_cells(result.stdout).query("scope == 'trial'")
     assert set(units["participant"]) == {"07", "P2"} and set(units["trial"]) == {"1", "2"}
+
+
+# --- 2. the resume command of a damaged run folder -----------------------------------------------
+
+
+def damaged_run_resume(run: Path) -> list[str]:
+    """Remove participant 1's trials part of ``run``; the words of the command ``nudge analyze``'s
+    error names to restore it."""
+    (run / "trials" / "part-0001.parquet").unlink()
+    refused = nudge("analyze", str(run))
+    assert refused.exit_code == 1
+    line = one_error_line(refused.stderr)
+    assert "is incomplete" in line and line.count("`") == 2
+    return shlex.split(line.split("`")[1])
+
+
+def test_the_resume_command_of_a_run_with_people_names_the_people_file(
+        smoke_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)  # the people file is where the commands are typed
+    assert nudge("fit-people", str(smoke_run), "--out", "people.csv").exit_code == 0
+    made = nudge("simulate", "smoke", "--participants", "2", "--seed", "4", "--people", "people.csv",
+                 "--out", "run")
+    assert made.exit_code == 0, made.output
+    recorded = json.loads(Path("run/manifest.json").read_text())["people"]["file"]
+    words = damaged_run_resume(Path("run"))
+    assert words[:2] == ["nudge", "simulate"] and words[-1] == "--resume"
+    assert words[words.index("--people") + 1] == recorded == "people.csv"
+    # the printed command is one the people check accepts: it restores the run
+    resumed = nudge(*words[1:])
+    assert resumed.exit_code == 0, resumed.output
+    assert nudge("analyze", "run").exit_code == 0
+
+
+def test_the_resume_command_of_a_run_without_people_names_none(smoke_run: Path, tmp_path: Path) -> None:
+    run = copy_run(smoke_run, tmp_path / "run")
+    words = damaged_run_resume(run)
+    assert "--people" not in words
+    assert nudge(*words[1:]).exit_code == 0
