@@ -191,7 +191,7 @@ def test_fit_people_returns_the_people_file_the_command_writes(tmp_path: Path) -
     partial.write_text("scope,participant,habit,n,median,q25,q75\n"
                        "participant,P1,first_command_latency,12,2.0,1.8,2.2\n")
     sources = [str(PILOTS / "pilot-1.csv"), str(PILOTS / "pilot-2.csv"), str(partial)]
-    table = nudgecli.fit_people(sources, out=tmp_path / "api.csv")
+    table = nudgecli.fit_people(sources, out=tmp_path / "api.csv").table
     printed = cli(["fit-people", *sources, "--out", str(tmp_path / "cli.csv")]).stdout
     assert (tmp_path / "api.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
     # the frame is the file, read independently (labels as text, empty cells as NaN)
@@ -213,7 +213,7 @@ def test_fit_people_returns_the_people_file_the_command_writes(tmp_path: Path) -
 
 def test_fit_people_without_out_writes_nothing(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(tmp_path)
-    table = nudgecli.fit_people(PILOTS / "pilot-1.csv")
+    table = nudgecli.fit_people(PILOTS / "pilot-1.csv").table
     assert len(table) >= 1 and files_under(tmp_path) == []
 
 

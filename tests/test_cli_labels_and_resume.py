@@ -1,9 +1,11 @@
 """Small user-facing fixes through the command line: a run's participant labels print as integers
 in ``nudge habits --format csv`` (a real log's labels as written), and the resume command a
-damaged run folder names carries the run's ``--people`` file."""
+damaged run folder names carries the run's ``--people`` file, and ``nudge fit-people`` prints the
+count of fitted parameters the API returns."""
 
 from __future__ import annotations
 
+import csv
 import io
 import json
 import shlex
@@ -15,7 +17,10 @@ import pytest
 from cli_helpers import copy_run, one_error_line
 from click.testing import CliRunner
 
+import nudgecli
 from nudgecli.cli import main
+
+PILOT = Path(__file__).resolve().parents[1] / "experiments" / "pilots" / "pilot-1.csv"
 
 
 def nudge(*args: str):
@@ -108,3 +113,26 @@ def test_the_resume_command_of_a_run_without_people_names_none(smoke_run: Path, 
     words = damaged_run_resume(run)
     assert "--people" not in words
     assert nudge(*words[1:]).exit_code == 0
+
+
+# --- 3. nudge fit-people's count of fitted parameters ---------------------------------------------
+
+
+def test_fit_people_prints_the_count_of_fitted_parameters_the_api_returns(tmp_path: Path) -> None:
+    partial = tmp_path / "one-habit.csv"  # one habit: its person draws every other parameter
+    partial.write_text("scope,participant,habit,n,median,q25,q75\n"
+                       "participant,P1,first_command_latency,12,2.0,1.8,2.2\n")
+    sources = [str(PILOT), str(partial)]
+    found = nudgecli.fit_people(sources)
+    printed = nudge("fit-people", *sources, "--out", str(tmp_path / "people.csv"))
+    assert printed.exit_code == 0, printed.output
+    assert printed.stdout == found.text() + "\n"
+    # the count: the people file's filled parameter cells, read independently of the API
+    with open(tmp_path / "people.csv", newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    parameters = [name for name in rows[0] if name not in ("person", "source", "participant",
+                                                           "from_population")]
+    filled = [sum(row[name] != "" for name in parameters) for row in rows]
+    assert list(found.fitted) == filled and filled[-1] == 1 and filled[0] > 1
+    for line, count in zip(printed.stdout.splitlines(), filled, strict=True):
+        assert f": {count} parameter(s) from their habits; " in line

@@ -9,6 +9,7 @@ call them through this module and print what it returns.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -64,8 +65,43 @@ def fit(calibration_dir: str | Path, *, out: str | Path | None = None, force: bo
     return result
 
 
+@dataclass(frozen=True)
+class FittedPeople:
+    """The twins :func:`fit_people` made, with the text ``nudge fit-people`` prints.
+
+    Attributes
+    ----------
+    table
+        ``(P, columns)``: the people file's rows (:data:`nudgecli.sim.people_file.PEOPLE_COLUMNS`):
+        ``person``, ``source``, ``participant`` (text), one float column per parameter (NaN where
+        the population's draw is used) and ``from_population`` (those parameters' names, ``;``
+        between them).
+    fitted
+        ``(P,)``: how many parameters each person has from their own habits.
+    files
+        The people file written (with ``out``).
+    """
+
+    table: pd.DataFrame
+    fitted: tuple[int, ...]
+    files: list[Path] = field(default_factory=list)
+
+    def text(self) -> str:
+        """The lines ``nudge fit-people`` prints, one a person: its source and participant, how many
+        parameters their habits set, and those left to the population's draw."""
+        from nudgecli.sim.people_file import LIST_SEPARATOR
+
+        lines = []
+        for row, fitted in zip(self.table.to_dict(orient="records"), self.fitted, strict=True):
+            drawn = ", ".join(str(row["from_population"]).split(LIST_SEPARATOR)) if row["from_population"] \
+                else "-"
+            lines.append(f"person {row['person']}: {row['source']} participant {row['participant']}: "
+                         f"{fitted} parameter(s) from their habits; from the population: {drawn}")
+        return "\n".join(lines)
+
+
 def fit_people(sources: str | Path | Sequence[str | Path], *, out: str | Path | None = None,
-               force: bool = False) -> pd.DataFrame:
+               force: bool = False) -> FittedPeople:
     """One simulated person per participant of ``sources``, as ``nudge fit-people``.
 
     Each timing parameter is set from the participant's own habit medians by the documented
@@ -83,11 +119,9 @@ def fit_people(sources: str | Path | Sequence[str | Path], *, out: str | Path | 
 
     Returns
     -------
-    DataFrame
-        ``(P, columns)``: the people file's rows (:data:`nudgecli.sim.people_file.PEOPLE_COLUMNS`):
-        ``person``, ``source``, ``participant`` (text), one float column per parameter (NaN where
-        the population's draw is used) and ``from_population`` (those parameters' names, ``;``
-        between them).
+    FittedPeople
+        ``.table`` (the people file's rows, one a person), ``.fitted`` (per person, how many
+        parameters their habits set), ``.files`` and ``.text()`` (what ``nudge fit-people`` prints).
 
     Raises
     ------
@@ -118,4 +152,6 @@ def fit_people(sources: str | Path | Sequence[str | Path], *, out: str | Path | 
              **{name: float(twin.parameters.get(name, float("nan"))) for name in TWIN_PARAMETERS},
              "from_population": LIST_SEPARATOR.join(twin.from_population)}
             for person, twin in enumerate(twins)]
-    return pd.DataFrame(rows, columns=list(PEOPLE_COLUMNS))
+    fitted = tuple(sum(name in twin.parameters for name in TWIN_PARAMETERS) for twin in twins)
+    return FittedPeople(pd.DataFrame(rows, columns=list(PEOPLE_COLUMNS)), fitted,
+                        [] if target is None else [target])

@@ -22,12 +22,7 @@ def fit_people_command(sources: tuple[str, ...], out: str, force: bool) -> None:
     from nudgecli.api.fitting import fit_people
 
     people = fit_people(list(sources), out=out, force=force)
-    parameters = list(people.columns[people.columns.get_loc("participant") + 1:-1])  # between the two
-    for row in people.to_dict(orient="records"):
-        fitted = sum(1 for name in parameters if row[name] == row[name])  # NaN: the population's draw
-        drawn = ", ".join(str(row["from_population"]).split(";")) if row["from_population"] else "-"
-        click.echo(f"person {row['person']}: {row['source']} participant {row['participant']}: "
-                   f"{fitted} parameter(s) from their habits; from the population: {drawn}")
+    click.echo(people.text())
     info(f"People file: {Path(out)}")
 
 
