@@ -1,5 +1,6 @@
 """Small user-facing fixes through the command line: a run's participant labels print as integers
-in ``nudge habits --format csv`` (a real log's labels as written), and the resume command a
+in ``nudge habits --format csv`` and in ``nudge compare``'s files (a real source's labels as
+written), and the resume command a
 damaged run folder names carries the run's ``--people`` file, and ``nudge fit-people`` prints the
 count of fitted parameters the API returns."""
 
@@ -75,6 +76,24 @@ def test_habits_csv_keeps_a_real_logs_labels_as_written(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     units = csv_cells(result.stdout).query("scope == 'trial'")
     assert set(units["participant"]) == {"07", "P2"} and set(units["trial"]) == {"1", "2"}
+
+
+def test_compare_writes_a_runs_labels_as_integers_and_a_real_tables_as_written(smoke_run: Path,
+                                                                              tmp_path: Path) -> None:
+    trials = pd.read_parquet(smoke_run / "trials")
+    real = tmp_path / "real.csv"  # the run's own trials, labelled as a real study might label them
+    trials.assign(participant="P" + trials["participant"].astype(str)).to_csv(real, index=False)
+    out = tmp_path / "compare"
+    result = nudge("compare", str(smoke_run), str(real), "--resamples", "0", "--format", "json",
+                   "--out", str(out), "--formats", "png")
+    assert result.exit_code == 0, result.output
+    expected = {"simulated": {str(int(p)) for p in trials["participant"].unique()},
+                "real": {f"P{int(p)}" for p in trials["participant"].unique()}}
+    medians = csv_cells((out / "participant_medians.csv").read_text())
+    printed = json.loads(result.stdout)["participant_medians"]
+    for source, labels in expected.items():
+        assert set(medians.loc[medians["source"] == source, "participant"]) == labels
+        assert {row["participant"] for row in printed if row["source"] == source} == labels  # text, not 0
 
 
 # --- 2. the resume command of a damaged run folder -----------------------------------------------
