@@ -165,7 +165,7 @@ def _validate_goals(goal_cells: np.ndarray, goal_headings: np.ndarray) -> tuple[
 
 
 @lru_cache(maxsize=1)
-def _open_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _open_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The grid's transitions without goals, computed once (read-only arrays).
 
     Returns
@@ -173,11 +173,14 @@ def _open_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     next_state, outcome
         ``(A, S)``: a move along the active coordinate (off the grid: a bump, the state stays),
         a mode switch cycles the mode.
-    state_pose
-        ``(S,)`` the cell and heading of every state, ``cell * N_HEADINGS + heading`` (the mode
-        left out: a goal pose holds in any mode).
-    target_pose
-        ``(2, S)`` the same of each move's next state (``MOVE_P``, ``MOVE_N``).
+    move_action, move_state, move_target_pose
+        ``(2 S,)`` every move (``MOVE_P`` and ``MOVE_N`` from every state): its action, its state
+        and the pose of its next state (``cell * N_HEADINGS + heading``, the mode left out: a goal
+        pose holds in any mode), ordered by the cell of that next state (an off-grid bump's: its
+        own), so the moves that end in one cell are consecutive.
+    first_move
+        ``(C + 1,)`` where each cell's moves start in that order: cell ``c``'s are
+        ``first_move[c]:first_move[c + 1]``.
     """
     i, j, h, m = all_state_coordinates().T
     states = np.arange(N_STATES)
@@ -196,19 +199,26 @@ def _open_grid() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         next_state[action] = state_index(i, j, h, (m + step) % N_MODES)
         outcome[action] = OUTCOME_MODE_SWITCH
     # state_index's order, ((i * N_CELLS_Y + j) * N_HEADINGS + h) * N_MODES + m, without the mode
-    state_pose = states // N_MODES
-    target_pose = next_state[[MOVE_P, MOVE_N]] // N_MODES
-    for array in (next_state, outcome, state_pose, target_pose):
+    target_pose = (next_state[[MOVE_P, MOVE_N]] // N_MODES).reshape(-1)
+    by_cell = np.argsort(target_pose // N_HEADINGS, kind="stable")
+    move_target_pose = target_pose[by_cell]
+    first_move = np.searchsorted(move_target_pose // N_HEADINGS, np.arange(N_CELLS_X * N_CELLS_Y + 1))
+    move_action = np.array([MOVE_P, MOVE_N])[by_cell // N_STATES]
+    move_state = by_cell % N_STATES
+    tables = (next_state, outcome, move_action, move_state, move_target_pose, first_move)
+    for array in tables:
         array.setflags(write=False)
-    return next_state, outcome, state_pose, target_pose
+    return tables
 
 
 def build_transitions(goal_cells: np.ndarray, goal_headings: np.ndarray) -> GoalTransitions:
     """The next-state and outcome tables of every goal's MDP.
 
-    The open grid's tables (:func:`_open_grid`, computed once) with each goal's exceptions: a move
-    into another goal's cell bumps, a move onto the goal pose enters the goal, the goal pose is
-    absorbing and another goal's cell is an obstacle interior.
+    The open grid's tables (:func:`_open_grid`, computed once) with each goal's exceptions, which
+    touch only the goals' cells and the moves into them (written where they are, not found by a
+    pass over every state): a move that completes the goal pose enters the goal, a move into
+    another goal's cell bumps, another goal's cell is an obstacle interior and the goal pose is
+    absorbing (each rule overriding those before it).
 
     Parameters
     ----------
@@ -224,31 +234,31 @@ def build_transitions(goal_cells: np.ndarray, goal_headings: np.ndarray) -> Goal
     """
     cells, headings = _validate_goals(goal_cells, goal_headings)
     n_goals = cells.shape[0]
-    open_next, open_outcome, state_pose, target_pose = _open_grid()
-    states = np.arange(N_STATES)
-    flat_cells = cells[:, 0] * N_CELLS_Y + cells[:, 1]
-    goal_pose = (flat_cells * N_HEADINGS + headings)[:, None, None]  # (G, 1, 1)
-    obstacle = np.zeros((n_goals, N_CELLS_X * N_CELLS_Y), dtype=bool)  # (G, cells): other goals' cells
-    obstacle[:, flat_cells] = True
-    obstacle[np.arange(n_goals), flat_cells] = False
-    moves = [MOVE_P, MOVE_N]
-    # (G, 2, S). An open-grid bump's target is its own state: it lies in another goal's cell or on
-    # the goal pose only where the state is overridden below.
-    bump = obstacle[:, target_pose // N_HEADINGS]
-    enters_goal = target_pose == goal_pose
-    next_state = np.empty((n_goals, N_ACTIONS, N_STATES), dtype=np.int64)
-    outcome = np.empty((n_goals, N_ACTIONS, N_STATES), dtype=np.int8)
-    next_state[:] = open_next
-    outcome[:] = open_outcome
-    next_state[:, moves] = np.where(bump, states, open_next[moves])
-    outcome[:, moves] = np.where(bump, OUTCOME_BUMP,
-                                 np.where(enters_goal, OUTCOME_GOAL_ENTRY, open_outcome[moves]))
-    # Absorbing and obstacle-interior states override whatever the action would do.
-    at_goal = (state_pose == goal_pose[:, 0])[:, None, :]  # (G, 1, S)
-    inside_obstacle = obstacle[:, state_pose // N_HEADINGS][:, None, :]
-    next_state = np.where(at_goal | inside_obstacle, states, next_state)
-    outcome = np.where(at_goal, np.int8(OUTCOME_GOAL_ABSORBING),
-                       np.where(inside_obstacle, np.int8(OUTCOME_INSIDE_OBSTACLE), outcome))
+    open_next, open_outcome, move_action, move_state, move_target_pose, first_move = _open_grid()
+    flat_cells = (cells[:, 0] * N_CELLS_Y + cells[:, 1]).tolist()
+    goal_poses = [cell * N_HEADINGS + int(h) for cell, h in zip(flat_cells, headings, strict=True)]
+    # the moves that end in each goal's cell
+    into = [slice(int(first_move[cell]), int(first_move[cell + 1])) for cell in flat_cells]
+    cell_states = N_HEADINGS * N_MODES  # a cell's states are consecutive: cell * cell_states + ...
+    next_state = np.repeat(open_next[None], n_goals, axis=0)
+    outcome = np.repeat(open_outcome[None], n_goals, axis=0)
+    for g in range(n_goals):
+        nxt, kind = next_state[g], outcome[g]  # (A, S) views
+        entering = into[g].start + np.flatnonzero(move_target_pose[into[g]] == goal_poses[g])
+        kind[move_action[entering], move_state[entering]] = OUTCOME_GOAL_ENTRY
+        others = [k for k in range(n_goals) if k != g]
+        if others:
+            bumped = np.concatenate([np.arange(into[k].start, into[k].stop) for k in others])
+            actions, states = move_action[bumped], move_state[bumped]
+            nxt[actions, states] = states
+            kind[actions, states] = OUTCOME_BUMP
+        for k in others:
+            inside = slice(flat_cells[k] * cell_states, (flat_cells[k] + 1) * cell_states)
+            nxt[:, inside] = np.arange(inside.start, inside.stop)
+            kind[:, inside] = OUTCOME_INSIDE_OBSTACLE
+        at_goal = slice(goal_poses[g] * N_MODES, (goal_poses[g] + 1) * N_MODES)
+        nxt[:, at_goal] = np.arange(at_goal.start, at_goal.stop)
+        kind[:, at_goal] = OUTCOME_GOAL_ABSORBING
     return GoalTransitions(next_state=next_state, outcome=outcome)
 
 
@@ -311,7 +321,9 @@ def value_iteration(next_state: np.ndarray, reward: np.ndarray, gamma: float = D
         ``(G, S)`` values after the last sweep.
     Q : np.ndarray
         ``(G, S, A)`` the Q-values of the last sweep (so ``V == Q.max(-1)`` exactly; the greedy
-        policy of ``Q`` is the policy pymdptoolbox returns).
+        policy of ``Q`` is the policy pymdptoolbox returns): a transposed view of the sweep's
+        ``(G, A, S)`` array, not a copy (a maximum over its strided action axis runs along the
+        states, 2-3 times faster than over the 4 contiguous values of each row).
     iterations : int
         Number of sweeps done.
     """
@@ -336,7 +348,7 @@ def value_iteration(next_state: np.ndarray, reward: np.ndarray, gamma: float = D
         values = new_values
         if change.max() - change.min() < threshold:
             break
-    return values.reshape(n_goals, n_states), np.ascontiguousarray(q.transpose(0, 2, 1)), iterations
+    return values.reshape(n_goals, n_states), q.transpose(0, 2, 1), iterations
 
 
 #: Sweeps :func:`goal_fixed_point` makes before it leaves a layout to :func:`value_iteration` (the
@@ -436,7 +448,7 @@ def goal_fixed_point(transitions: GoalTransitions, rewards: MDPRewards | None = 
     free = ~(at_goal | inside).reshape(-1)
     if not (values[free] > span_epsilon / gamma).all():
         return None
-    return values.reshape(n_goals, n_states), np.ascontiguousarray(q.transpose(0, 2, 1)), sweeps
+    return values.reshape(n_goals, n_states), q.transpose(0, 2, 1), sweeps
 
 
 def greedy_policy(q_values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL) -> np.ndarray:
