@@ -151,3 +151,39 @@ def test_a_worker_computes_the_step_metrics_without_pandas(tmp_path: Path) -> No
     done = run_refusing(script, ("pandas", "pyarrow"))
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "ok"
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(st.tuples(st.integers(-1, 3), st.integers(0, 3)), max_size=12))
+def test_a_log_is_read_unsorted_exactly_where_the_stable_sort_keeps_it(pairs: list[tuple[int, int]]) -> None:
+    # the fast path's test against the sort it skips: every step kept and lexsort's order unchanged
+    from nudgecli.report.step_metrics import _in_row_and_step_order
+
+    row = np.array([r for r, _ in pairs], dtype=np.int64)
+    step = np.array([s for _, s in pairs], dtype=np.int64)
+    unchanged = bool((row >= 0).all()) and np.array_equal(np.lexsort((step, row)), np.arange(len(pairs)))
+    assert _in_row_and_step_order(row, step) == unchanged
+
+
+@settings(max_examples=100, deadline=None)
+@given(log=step_logs(), engagement=st.sampled_from(["per_step", "per_turn"]),
+       strength=st.sampled_from(["per_step", "per_turn"]),
+       switches=st.sampled_from(["any_turn", "human_turn"]))
+def test_a_log_in_trial_and_step_order_gives_the_sorted_logs_values(
+        log: tuple[dict[str, list[Any]], dict[str, list[Any]]], engagement: str, strength: str,
+        switches: str) -> None:
+    # a participant task's log: only the table's trials, in its order, each trial's steps in order
+    trials, steps = log
+    position = {key: k for k, key in enumerate(zip(trials["participant"], trials["trial"], strict=True))}
+    rows = [i for i in range(len(steps["step"])) if (steps["participant"][i], steps["trial"][i]) in position]
+    rows.sort(key=lambda i: (position[steps["participant"][i], steps["trial"][i]], steps["step"][i]))
+    in_order = {c: np.array([v[i] for i in rows], dtype=object if c in ("turn", "event", "phi_m") else None)
+                for c, v in steps.items()}
+    reversed_log = {c: v[::-1] for c, v in in_order.items()}  # the same steps through the sort
+    kinds: dict[str, Any] = {"engagement": engagement, "strength": strength, "mode_switches": switches}
+    got = step_metric_arrays(trials, in_order, **kinds)
+    sorted_values = step_metric_arrays(trials, reversed_log, **kinds)
+    expected = brute_force(trials, {c: list(v) for c, v in in_order.items()}, engagement, strength, switches)
+    for name in STEP_METRIC_NAMES:
+        np.testing.assert_array_equal(got[name], sorted_values[name], err_msg=name)
+        assert got[name].tolist() == pytest.approx(expected[name], abs=1e-11, nan_ok=True), name

@@ -5,10 +5,10 @@ assembles the metrics table) and a batch's participant tasks (which run in worke
 import pandas). The definitions are those of :mod:`nudgecli.report.metrics`.
 
 Steps are matched to their trial by ``(participant, trial)`` (steps of a trial not in the trial
-table are left out) and put in step order within each trial (a stable sort); each trial's sums
-are then taken over its contiguous run of steps with ``np.add.reduceat``, in step order (the
-order pandas' grouped sums use for such sorted groups, so the values are the ones the metrics
-table has always had).
+table are left out) and put in step order within each trial (a stable sort, skipped where the
+log is in that order already, as a participant task's is); each trial's sums are then taken over
+its contiguous run of steps with ``np.add.reduceat``, in step order (the order pandas' grouped
+sums use for such sorted groups, so the values are the ones the metrics table has always had).
 """
 
 from __future__ import annotations
@@ -113,13 +113,13 @@ def step_metric_arrays(
     per_trial = _PerTrial(row, n_trials)
 
     true_goal = np.asarray(trials["true_goal"])[row]
-    alpha = np.asarray(steps["alpha"], dtype=float)[order]
-    turn = np.asarray(steps["turn"], dtype=object)[order]
+    alpha = _in_order(steps["alpha"], order, float)
+    turn = _in_order(steps["turn"], order, object)
     is_human = turn == HUMAN_TURN
-    inferred = np.asarray(steps["inferred_goal"])[order]
+    inferred = _in_order(steps["inferred_goal"], order)
     assisted = is_human & (alpha > 0) & (inferred == true_goal)
     assisted_alpha = np.where(assisted, alpha, 0.0)
-    switches = event_counts(np.asarray(steps["event"], dtype=object)[order], MODE_SWITCH_HUMAN)
+    switches = event_counts(_in_order(steps["event"], order, object), MODE_SWITCH_HUMAN)
     if mode_switches == "human_turn":
         switches = np.where(is_human, switches, 0)
 
@@ -151,19 +151,43 @@ def step_metric_arrays(
 
 
 def _steps_in_trial_order(trials: Mapping[str, Column],
-                          steps: Mapping[str, Column]) -> tuple[np.ndarray, np.ndarray]:
+                          steps: Mapping[str, Column]) -> tuple[np.ndarray, np.ndarray | None]:
     """The steps of the trial table's trials, each trial's in step order (ties keep the log's order)
     and the trials in the table's order.
 
     Returns
     -------
-    tuple of np.ndarray
-        ``(M,)`` each: the steps' rows in the trial table, and their indices in ``steps``.
+    row : np.ndarray
+        ``(M,)`` the steps' rows in the trial table, in that order.
+    order : np.ndarray or None
+        ``(M,)`` their indices in ``steps``; ``None`` where that is every step in the log's own
+        order (a participant task's log: its trials in the table's order, each in step order), so
+        the columns are read as they are, neither sorted nor copied.
     """
     row = trial_rows_of_steps(trials["participant"], trials["trial"], steps["participant"], steps["trial"])
+    step = np.asarray(steps["step"])
+    if _in_row_and_step_order(row, step):  # the stable sort below would give every index in order
+        return row, None
     kept = np.flatnonzero(row >= 0)
-    order = kept[np.lexsort((np.asarray(steps["step"])[kept], row[kept]))]
+    order = kept[np.lexsort((step[kept], row[kept]))]
     return row[order], order
+
+
+def _in_row_and_step_order(row: np.ndarray, step: np.ndarray) -> bool:
+    """Whether every step is of a trial in the table (``row >= 0``) and the ``(row, step)`` pairs
+    never decrease (``(M,)`` each): the order ``np.lexsort((step, row))`` gives, unchanged."""
+    if (row < 0).any():
+        return False
+    row_change = row[1:] - row[:-1]
+    same_trial = row_change == 0
+    return bool((row_change >= 0).all() and (step[1:][same_trial] >= step[:-1][same_trial]).all())
+
+
+def _in_order(column: Column, order: np.ndarray | None, dtype: Any = None) -> np.ndarray:
+    """``(M,)`` a step column as an array in the metrics' step order (``order``: as
+    :func:`_steps_in_trial_order` gives it; ``None``: the column's own)."""
+    values = np.asarray(column, dtype=dtype)
+    return values if order is None else values[order]
 
 
 class _PerTrial:
@@ -182,15 +206,15 @@ class _PerTrial:
         return out
 
 
-def _input_measures(steps: Mapping[str, Column], order: np.ndarray, per_trial: _PerTrial,
+def _input_measures(steps: Mapping[str, Column], order: np.ndarray | None, per_trial: _PerTrial,
                     n_steps: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Per trial: the fraction of steps with any measured input and the time of the first command
     (``(T,)`` each; NaN without the input columns)."""
     if "t" not in steps or "phi_m" not in steps:
         return np.full(per_trial.n_trials, np.nan), np.full(per_trial.n_trials, np.nan)
-    phi_m = np.asarray(steps["phi_m"], dtype=object)[order]
+    phi_m = _in_order(steps["phi_m"], order, object)
     active = per_trial((phi_m != "").astype(np.int64)) / n_steps
-    command_t = np.where(np.isin(phi_m, LABELS), np.asarray(steps["t"], dtype=float)[order], np.nan)
+    command_t = np.where(np.isin(phi_m, LABELS), _in_order(steps["t"], order, float), np.nan)
     return active, per_trial(command_t, np.fmin)  # fmin: steps without a command (NaN) are skipped
 
 
