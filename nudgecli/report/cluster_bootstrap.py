@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -190,8 +191,8 @@ def _pick(values: np.ndarray, distinct: np.ndarray | None, owner_blocks: np.ndar
 
 def bootstrap_median_differences(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
                                  resamples: int = 2000, level: float = 0.95, seed: int = 0,
-                                 participant: str = "participant",
-                                 condition: str = "condition") -> pd.DataFrame:
+                                 participant: str = "participant", condition: str = "condition",
+                                 tidy: pd.DataFrame | None = None) -> pd.DataFrame:
     """Cluster-bootstrap percentile intervals of ``median(a) - median(b)`` for every pair.
 
     The medians are over trials. Each resample draws the participants (those with a value of
@@ -200,15 +201,30 @@ def bootstrap_median_differences(data: pd.DataFrame, metric: str, conditions: Se
     ``rng.integers(0, P, size=(resamples, P))`` (row ``r`` lists resample ``r``'s participants,
     as codes in order of first appearance in the table); each resample's median is
     ``np.median`` of its replicated trials (:func:`_weighted_medians` computes it without
-    replicating). Resamples in which a condition has no trial are left out.
+    replicating). Resamples in which a condition has no trial are left out. ``tidy``:
+    :func:`~nudgecli.report.stats.tidy_values` of the arguments with the participants, when the
+    caller holds it (``data`` is then not read).
 
     Returns
     -------
     pd.DataFrame
         One row per pair: ``a, b, difference`` (observed), ``low, high``, ``valid_resamples``.
     """
-    tidy = tidy_values(data, metric, conditions, condition, participant)
+    rows = median_difference_intervals(data, metric, conditions, resamples=resamples, level=level, seed=seed,
+                                       participant=participant, condition=condition, tidy=tidy)
+    return pd.DataFrame(rows, columns=["a", "b", "difference", "low", "high", "valid_resamples"])
+
+
+def median_difference_intervals(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
+                                resamples: int = 2000, level: float = 0.95, seed: int = 0,
+                                participant: str = "participant", condition: str = "condition",
+                                tidy: pd.DataFrame | None = None) -> list[dict[str, Any]]:
+    """:func:`bootstrap_median_differences`' rows as plain dicts (Python floats and ints): what
+    the ``stats.json`` document holds, without a table made and read back."""
+    if tidy is None:
+        tidy = tidy_values(data, metric, conditions, condition, participant)
     codes, uniques = pd.factorize(tidy["participant"])
+    labels, all_values = tidy["condition"].to_numpy(dtype=object), tidy["value"].to_numpy(dtype=float)
     n_participants = len(uniques)
     rows = []
     medians: dict[str, np.ndarray] = {}
@@ -219,8 +235,8 @@ def bootstrap_median_differences(data: pd.DataFrame, metric: str, conditions: Se
         flat = (np.arange(resamples)[:, None] * n_participants + draws).ravel()
         weights = np.bincount(flat, minlength=resamples * n_participants).reshape(resamples, n_participants)
         for c in conditions:
-            mask = (tidy["condition"] == c).to_numpy()
-            values = tidy["value"].to_numpy()[mask]
+            mask = labels == c
+            values = all_values[mask]
             owners = codes[mask]
             order = np.argsort(values)  # ties in any order: the medians are values
             medians[c] = _weighted_medians(values[order], owners[order], weights)
@@ -238,4 +254,4 @@ def bootstrap_median_differences(data: pd.DataFrame, metric: str, conditions: Se
                 low, high = (float(q) for q in np.quantile(differences, [tail, 1.0 - tail]))
         rows.append({"a": a, "b": b, "difference": difference, "low": low, "high": high,
                      "valid_resamples": valid})
-    return pd.DataFrame(rows, columns=["a", "b", "difference", "low", "high", "valid_resamples"])
+    return rows

@@ -81,8 +81,15 @@ def signed_rank_test(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 
 def participant_summaries(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
                           participant: str = "participant", condition: str = "condition",
-                          aggregate: Literal["median", "mean"] = "median") -> tuple[pd.DataFrame, list[Any]]:
+                          aggregate: Literal["median", "mean"] = "median",
+                          tidy: pd.DataFrame | None = None) -> tuple[pd.DataFrame, list[Any]]:
     """Per-participant medians (or means) per condition, complete participants only.
+
+    Parameters
+    ----------
+    tidy
+        :func:`~nudgecli.report.stats.tidy_values` of the arguments with the participants, when
+        the caller holds it (every test of a metric reads the same rows); ``data`` is then not read.
 
     Returns
     -------
@@ -91,7 +98,8 @@ def participant_summaries(data: pd.DataFrame, metric: str, conditions: Sequence[
         participants with a value in every condition, and the participants dropped because
         they miss a condition.
     """
-    tidy = tidy_values(data, metric, conditions, condition, participant)
+    if tidy is None:
+        tidy = tidy_values(data, metric, conditions, condition, participant)
     grouped = tidy.groupby(["participant", "condition"], observed=True)["value"]
     wide = grouped.agg(aggregate).unstack("condition")
     wide = wide.reindex(columns=list(conditions))
@@ -191,13 +199,14 @@ def pairwise_wilcoxon(data: pd.DataFrame, metric: str, conditions: Sequence[str]
 def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
                            participant: str = "participant", condition: str = "condition",
                            aggregate: Literal["median", "mean"] = "median", p_adjust: str = "holm",
-                           ) -> tuple[dict[str, Any], dict[str, Any]]:
+                           tidy: pd.DataFrame | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
     """The paired test on per-participant summaries and its effect size.
 
     Two conditions: Wilcoxon signed-rank (``scipy.stats.wilcoxon``, defaults: zero differences
     dropped, exact p for small samples) and the matched-pairs rank-biserial correlation of
     ``a - b``. More: Friedman (``scipy.stats.friedmanchisquare``) and Kendall's W, then
     :func:`pairwise_wilcoxon` (adjusted by ``p_adjust``) with each pair's rank-biserial correlation.
+    ``tidy``: as :func:`participant_summaries`'.
 
     Returns
     -------
@@ -209,7 +218,7 @@ def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence
         ``a, b, name, value``, for more).
     """
     wide, dropped = participant_summaries(data, metric, conditions, participant=participant,
-                                          condition=condition, aggregate=aggregate)
+                                          condition=condition, aggregate=aggregate, tidy=tidy)
     notes = []
     if dropped:
         notes.append(f"{len(dropped)} participant(s) without a value in every condition dropped: "

@@ -148,8 +148,14 @@ def python_scalar(value: Any) -> Any:
 
 
 def describe(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
-             condition: str = "condition") -> pd.DataFrame:
+             condition: str = "condition", tidy: pd.DataFrame | None = None) -> pd.DataFrame:
     """Descriptives of one metric per condition.
+
+    Parameters
+    ----------
+    tidy
+        :func:`tidy_values` of ``data``, ``metric`` and ``conditions``, when the caller holds it
+        (every test of a metric reads the same rows: computed once); ``data`` is then not read.
 
     Returns
     -------
@@ -157,7 +163,8 @@ def describe(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
         One row per condition (in the given order): ``condition, n, mean, median, q1, q3``;
         missing values are ignored, statistics of an empty condition are NaN.
     """
-    tidy = tidy_values(data, metric, conditions, condition)
+    if tidy is None:
+        tidy = tidy_values(data, metric, conditions, condition)
     grouped = tidy.groupby("condition", observed=True)["value"]
     table = pd.DataFrame({
         "n": grouped.size(),
@@ -171,8 +178,13 @@ def describe(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
 
 
 def kruskal_wallis(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
-                   condition: str = "condition") -> dict[str, float]:
+                   condition: str = "condition", tidy: pd.DataFrame | None = None) -> dict[str, float]:
     """Kruskal-Wallis H test over trials (tie-corrected, ``scipy.stats.kruskal``).
+
+    Parameters
+    ----------
+    tidy
+        :func:`tidy_values` of the arguments, when the caller holds it (as :func:`describe`).
 
     Returns
     -------
@@ -180,8 +192,8 @@ def kruskal_wallis(data: pd.DataFrame, metric: str, conditions: Sequence[str], *
         ``{"statistic": H, "p": p}``; both NaN when fewer than two conditions have values or
         all values are equal.
     """
-    tidy = tidy_values(data, metric, conditions, condition)
-    groups = [tidy.loc[tidy["condition"] == c, "value"].to_numpy() for c in conditions]
+    values, labels = _value_arrays(data, metric, conditions, condition, tidy)
+    groups = [values[labels == c] for c in conditions]
     groups = [g for g in groups if g.size]
     if len(groups) < 2 or np.unique(np.concatenate(groups)).size < 2:
         return {"statistic": math.nan, "p": math.nan}
@@ -192,6 +204,16 @@ def kruskal_wallis(data: pd.DataFrame, metric: str, conditions: Sequence[str], *
 
     result = scipy.stats.kruskal(*groups)
     return {"statistic": float(result.statistic), "p": float(result.pvalue)}
+
+
+def _value_arrays(data: pd.DataFrame, metric: str, conditions: Sequence[str], condition: str,
+                  tidy: pd.DataFrame | None) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`tidy_values`' ``value`` ``(n,)`` float and ``condition`` ``(n,)`` labels as arrays
+    (``tidy`` when given): the tests select a condition's values by comparing arrays, not through
+    pandas."""
+    if tidy is None:
+        tidy = tidy_values(data, metric, conditions, condition)
+    return tidy["value"].to_numpy(dtype=float), tidy["condition"].to_numpy(dtype=object)
 
 
 def adjust_p_values(p_values: Sequence[float] | np.ndarray, method: str = "holm") -> np.ndarray:
@@ -262,13 +284,15 @@ def epsilon_squared(h_statistic: float, n_observations: int) -> float:
 
 
 def conover(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adjust: str = "holm",
-            condition: str = "condition") -> pd.DataFrame:
+            condition: str = "condition", tidy: pd.DataFrame | None = None) -> pd.DataFrame:
     """Conover's pairwise post-hoc test (``scikit_posthocs.posthoc_conover``).
 
     Parameters
     ----------
     p_adjust
         ``multipletests`` method for the adjusted p (``"none"`` for no adjustment).
+    tidy
+        :func:`tidy_values` of the arguments, when the caller holds it (as :func:`describe`).
 
     Returns
     -------
@@ -277,35 +301,46 @@ def conover(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adj
         no values, all values are equal, or there are no more values than conditions (the test's
         t statistic has ``n - k`` degrees of freedom).
     """
-    tidy = tidy_values(data, metric, conditions, condition)
-    present = [c for c in conditions if (tidy["condition"] == c).any()]
-    rows = [{"a": a, "b": b, "p": math.nan, "p_unadjusted": math.nan} for a, b in pairs(conditions)]
-    if len(present) >= 2 and tidy["value"].nunique() >= 2 and len(tidy) > len(present):
-        unadjusted = _conover_unadjusted(tidy)
-        # what posthoc_conover(p_adjust=...) does, without ranking the data a second time
-        upper = np.triu_indices(len(unadjusted), 1)
-        matrix = unadjusted.to_numpy(copy=True)
-        matrix[upper] = adjust_p_values(matrix[upper], p_adjust)
-        matrix.T[upper] = matrix[upper]
-        adjusted = pd.DataFrame(matrix, index=unadjusted.index, columns=unadjusted.columns)
-        for row in rows:
-            if row["a"] in present and row["b"] in present:
-                row["p"] = float(adjusted.loc[row["a"], row["b"]])
-                row["p_unadjusted"] = float(unadjusted.loc[row["a"], row["b"]])
+    rows = conover_rows(data, metric, conditions, p_adjust=p_adjust, condition=condition, tidy=tidy)
     return pd.DataFrame(rows, columns=["a", "b", "p", "p_unadjusted"])
 
 
-def _conover_unadjusted(tidy: pd.DataFrame) -> pd.DataFrame:
-    """The unadjusted Conover p-values of the tidy rows' conditions (``scikit_posthocs.posthoc_conover``
-    with ``sort=False``: rows and columns in order of first appearance), evaluated on arrays where
-    that gives the library's bits (:func:`~nudgecli.report.rank_tests.conover_exact`)."""
-    exact = conover_exact(tidy["value"].to_numpy(dtype=float), tidy["condition"].to_numpy(dtype=str))
+def conover_rows(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adjust: str = "holm",
+                 condition: str = "condition", tidy: pd.DataFrame | None = None) -> list[dict[str, Any]]:
+    """:func:`conover`'s rows as plain dicts (``a, b, p, p_unadjusted``; Python floats): what the
+    ``stats.json`` document holds, without a table made and read back."""
+    values, labels = _value_arrays(data, metric, conditions, condition, tidy)
+    present = [c for c in conditions if (labels == c).any()]
+    rows = [{"a": a, "b": b, "p": math.nan, "p_unadjusted": math.nan} for a, b in pairs(conditions)]
+    if len(present) >= 2 and np.unique(values).size >= 2 and values.size > len(present):
+        groups, unadjusted = _conover_unadjusted(values, labels)
+        # what posthoc_conover(p_adjust=...) does, without ranking the data a second time
+        upper = np.triu_indices(len(groups), 1)
+        adjusted = unadjusted.copy()
+        adjusted[upper] = adjust_p_values(adjusted[upper], p_adjust)
+        adjusted.T[upper] = adjusted[upper]
+        position = {group: i for i, group in enumerate(groups)}
+        for row in rows:
+            if row["a"] in present and row["b"] in present:
+                i, j = position[row["a"]], position[row["b"]]
+                row["p"], row["p_unadjusted"] = float(adjusted[i, j]), float(unadjusted[i, j])
+    return rows
+
+
+def _conover_unadjusted(values: np.ndarray, labels: np.ndarray) -> tuple[list[Any], np.ndarray]:
+    """The unadjusted Conover p-values of ``(n,)`` values in groups ``(n,)`` labels
+    (``scikit_posthocs.posthoc_conover`` with ``sort=False``): the groups in order of first
+    appearance and their ``(k, k)`` matrix, evaluated on arrays where that gives the library's
+    bits (:func:`~nudgecli.report.rank_tests.conover_exact`)."""
+    labels = labels.astype(str)
+    exact = conover_exact(values, labels)
     if exact is not None:
-        groups, matrix = exact
-        return pd.DataFrame(matrix, index=groups, columns=groups)
+        return exact
     import scikit_posthocs
 
-    return scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition", sort=False)
+    frame = pd.DataFrame({"value": values, "condition": labels})
+    table = scikit_posthocs.posthoc_conover(frame, val_col="value", group_col="condition", sort=False)
+    return list(table.index), table.to_numpy(dtype=float)
 
 
 def significance_stars(p: float, thresholds: Sequence[float] = (0.05, 0.01, 0.001),

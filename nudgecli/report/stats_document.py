@@ -16,18 +16,19 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from nudgecli.report.cluster_bootstrap import bootstrap_median_differences
+from nudgecli.report.cluster_bootstrap import median_difference_intervals
 from nudgecli.report.not_applicable import NO_EXCLUSIONS, entry_over_conditions, not_applicable_reasons
 from nudgecli.report.participant_tests import participant_level_test
 from nudgecli.report.stats import (
     ComparisonOptions,
-    conover,
+    conover_rows,
     describe,
     epsilon_squared,
     is_significant,
     kruskal_wallis,
     python_scalar,
     significance_stars,
+    tidy_values,
 )
 
 #: The settings when none are given (a frozen dataclass: one instance serves every call).
@@ -63,49 +64,56 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
         their values missing and ``not_applicable``, ``not_applicable_reasons``
         (:func:`~nudgecli.report.not_applicable.entry_over_conditions`).
     """
-    table = describe(data, metric, conditions, condition=condition).set_index("condition")
-    descriptives = {column: {c: python_scalar(table.loc[c, column]) for c in conditions}
+    # the rows every statistic of the metric reads, made once (each test would make them again)
+    tidy = tidy_values(data, metric, conditions, condition, participant)
+    table = describe(data, metric, conditions, condition=condition, tidy=tidy)  # a row per condition
+    descriptives = {column: dict(zip(conditions, map(python_scalar, table[column].to_numpy()), strict=True))
                     for column in ("n", "mean", "median", "q1", "q3")}
     reasons = not_applicable_reasons(descriptives["n"], conditions, not_applicable)
     if not reasons:
         return _compared_entry(data, metric, conditions, descriptives, options, many=len(conditions) > 2,
-                               participant=participant, condition=condition)
+                               participant=participant, condition=condition, tidy=tidy)
     compared = [c for c in conditions if c not in reasons]
     entry = None
-    if len(compared) >= 2:
+    if len(compared) >= 2:  # the rows of the compared conditions: tidy_values of them
+        kept = tidy[tidy["condition"].isin(compared).to_numpy()].reset_index(drop=True)
         entry = _compared_entry(data, metric, compared, {k: {c: v[c] for c in compared}
                                                          for k, v in descriptives.items()},
-                                options, many=len(compared) > 2, participant=participant, condition=condition)
+                                options, many=len(compared) > 2, participant=participant, condition=condition,
+                                tidy=kept)
     return entry_over_conditions(entry, metric, descriptives, conditions, reasons, options)
 
 
 def _compared_entry(data: pd.DataFrame, metric: str, conditions: Sequence[str],
                     descriptives: dict[str, dict[str, Any]], options: ComparisonOptions, *, many: bool,
-                    participant: str, condition: str) -> dict[str, Any]:
+                    participant: str, condition: str, tidy: pd.DataFrame) -> dict[str, Any]:
     """:func:`analyze_metric`'s entry of conditions that all have values (``descriptives``: theirs;
-    ``many``: with epsilon-squared, as a document of more than two conditions has)."""
+    ``many``: with epsilon-squared, as a document of more than two conditions has; ``tidy``:
+    :func:`~nudgecli.report.stats.tidy_values` of the metric and these conditions, with the
+    participants)."""
     if len(conditions) < 2:
         return _descriptive_entry(metric, descriptives, options)
-    kruskal = kruskal_wallis(data, metric, conditions, condition=condition)
-    posthoc = conover(data, metric, conditions, p_adjust=options.p_adjust, condition=condition)
+    kruskal = kruskal_wallis(data, metric, conditions, condition=condition, tidy=tidy)
+    posthoc = conover_rows(data, metric, conditions, p_adjust=options.p_adjust, condition=condition,
+                           tidy=tidy)
     significant = is_significant(kruskal["p"], options.kruskal_alpha, options.star_comparison)
-    stars = [{"a": row.a, "b": row.b,
-              "stars": significance_stars(row.p, options.star_thresholds, options.star_comparison)
-              if significant else ""} for row in posthoc.itertuples()]
+    stars = [{"a": row["a"], "b": row["b"],
+              "stars": significance_stars(row["p"], options.star_thresholds, options.star_comparison)
+              if significant else ""} for row in posthoc]
     level, effect = participant_level_test(data, metric, conditions, participant=participant,
                                            condition=condition, aggregate=options.participant_aggregate,
-                                           p_adjust=options.p_adjust)
+                                           p_adjust=options.p_adjust, tidy=tidy)
     if many:  # (with two, the pair's rank-biserial r says it; stats.json stays as it was)
         effect["kruskal_epsilon_squared"] = epsilon_squared(kruskal["statistic"],
                                                             sum(int(v) for v in descriptives["n"].values()))
-    intervals = bootstrap_median_differences(
+    intervals = median_difference_intervals(
         data, metric, conditions, resamples=options.bootstrap_resamples, level=options.bootstrap_level,
-        seed=options.seed, participant=participant, condition=condition)
+        seed=options.seed, participant=participant, condition=condition, tidy=tidy)
     return {
         "metric": metric,
         **descriptives,
         "kruskal": kruskal,
-        "conover": posthoc.to_dict("records"),
+        "conover": posthoc,
         "p_adjust": options.p_adjust,
         "stars": stars,
         "participant_level": level,
@@ -116,7 +124,7 @@ def _compared_entry(data: pd.DataFrame, metric: str, conditions: Sequence[str],
             "level": options.bootstrap_level,
             "resamples": options.bootstrap_resamples,
             "seed": options.seed,
-            "pairs": intervals.to_dict("records"),
+            "pairs": intervals,
         },
     }
 

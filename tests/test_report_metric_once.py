@@ -1,0 +1,120 @@
+"""A metric's statistics read its rows once (``tidy_values``, passed down by ``analyze_metric``):
+every number is the libraries' (scipy, scikit-posthocs, pandas) on the raw values, bit for bit,
+with ties, missing values, conditions left out, and two to four conditions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+import scikit_posthocs
+import scipy.stats
+
+from nudgecli.report.cluster_bootstrap import bootstrap_median_differences, median_difference_intervals
+from nudgecli.report.participant_tests import participant_level_test
+from nudgecli.report.stats import ComparisonOptions, conover, conover_rows, kruskal_wallis, tidy_values
+from nudgecli.report.stats_document import analyze_metric
+
+OPTIONS = ComparisonOptions(bootstrap_resamples=200, seed=3)
+
+
+def _trials(n_conditions: int, seed: int, *, categorical: bool = False) -> tuple[pd.DataFrame, list[str]]:
+    """Trials of 6 participants: ``ties`` (few values), ``gaps`` (a third missing), ``flag`` (bool),
+    ``partial`` (no value in the last condition)."""
+    rng = np.random.default_rng(seed)
+    conditions = [f"c{i}" for i in range(n_conditions)]
+    n = 40 * n_conditions
+    data = pd.DataFrame({"participant": rng.integers(0, 6, n), "condition": rng.choice(conditions, n)})
+    data["ties"] = rng.integers(0, 5, n).astype(float) + (data["condition"] == conditions[0]).to_numpy()
+    data["gaps"] = np.where(rng.random(n) < 0.3, np.nan, rng.gamma(2.0, 3.0, n).round(1))
+    data["flag"] = rng.random(n) < 0.4
+    data["partial"] = np.where(data["condition"] == conditions[-1], np.nan, rng.normal(size=n))
+    if categorical:
+        data["condition"] = data["condition"].astype("category")
+    return data, conditions
+
+
+def _same(a: object, b: object) -> bool:
+    """Equal values and types, NaN equal to NaN, floats bit for bit."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        return list(a) == list(b) and all(_same(a[k], b[k]) for k in a)
+    if isinstance(a, list | tuple) and type(a) is type(b):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    if isinstance(a, float) and isinstance(b, float) and math.isnan(a) and math.isnan(b):
+        return True
+    return type(a) is type(b) and a == b
+
+
+@pytest.mark.parametrize("n_conditions", [2, 4])
+@pytest.mark.parametrize("metric", ["ties", "gaps", "flag", "partial"])
+def test_trial_level_tests_are_the_libraries_on_the_raw_values(n_conditions, metric):
+    data, conditions = _trials(n_conditions, seed=n_conditions)
+    kept = data[data[metric].notna()]
+    groups = [kept.loc[kept["condition"] == c, metric].to_numpy(dtype=float) for c in conditions]
+    if metric == "partial" and n_conditions == 2:  # a single condition with values: nothing to test
+        assert math.isnan(kruskal_wallis(data, metric, conditions)["p"])
+        assert all(math.isnan(r["p"]) for r in conover_rows(data, metric, conditions))
+        return
+    groups = [g for g in groups if g.size]
+    kruskal = kruskal_wallis(data, metric, conditions)
+    expected = scipy.stats.kruskal(*groups)
+    assert (kruskal["statistic"], kruskal["p"]) == (float(expected.statistic), float(expected.pvalue))
+    # the rows in the table's order, the groups in order of first appearance (as the analysis calls it)
+    frame = pd.DataFrame({"value": kept[metric].to_numpy(dtype=float), "group": kept["condition"]})
+    unadjusted = scikit_posthocs.posthoc_conover(frame, val_col="value", group_col="group", sort=False)
+    adjusted = scikit_posthocs.posthoc_conover(frame, val_col="value", group_col="group", sort=False,
+                                               p_adjust="holm")
+    for row in conover_rows(data, metric, conditions):
+        if row["b"] not in unadjusted:  # the condition without values
+            assert math.isnan(row["p"]) and math.isnan(row["p_unadjusted"])
+            continue
+        assert row["p_unadjusted"] == unadjusted.loc[row["a"], row["b"]]
+        assert row["p"] == adjusted.loc[row["a"], row["b"]]
+    # the bootstrap's observed difference: the difference of the trial medians
+    for row in median_difference_intervals(data, metric, conditions, resamples=100):
+        a, b = (np.median(kept.loc[kept["condition"] == c, metric].to_numpy(dtype=float)) if (
+            kept["condition"] == c).any() else math.nan for c in (row["a"], row["b"]))
+        assert _same(row["difference"], float(a - b))
+
+
+@pytest.mark.parametrize("n_conditions", [2, 3, 4])
+@pytest.mark.parametrize("categorical", [False, True])
+def test_every_statistic_is_the_same_from_the_shared_rows(n_conditions, categorical):
+    data, conditions = _trials(n_conditions, seed=10 + n_conditions, categorical=categorical)
+    for metric in ("ties", "gaps", "flag", "partial"):
+        tidy = tidy_values(data, metric, conditions, "condition", "participant")
+        assert kruskal_wallis(data, metric, conditions, tidy=tidy) == kruskal_wallis(data, metric, conditions)
+        assert conover(data, metric, conditions, tidy=tidy).equals(conover(data, metric, conditions))
+        assert _same(conover_rows(data, metric, conditions, tidy=tidy),
+                     conover(data, metric, conditions).to_dict("records"))
+        assert _same(participant_level_test(data, metric, conditions, tidy=tidy),
+                     participant_level_test(data, metric, conditions))
+        table = bootstrap_median_differences(data, metric, conditions, resamples=150, seed=2)
+        assert table.equals(bootstrap_median_differences(data, metric, conditions, resamples=150, seed=2,
+                                                         tidy=tidy))
+        assert _same(median_difference_intervals(data, metric, conditions, resamples=150, seed=2, tidy=tidy),
+                     table.to_dict("records"))
+
+
+@pytest.mark.parametrize("n_conditions", [3, 4])
+def test_a_condition_left_out_leaves_the_others_as_if_it_were_absent(n_conditions):
+    data, conditions = _trials(n_conditions, seed=20 + n_conditions)
+    left_out = conditions[-1]
+    entry = analyze_metric(data, "gaps", conditions, OPTIONS, not_applicable=[left_out])
+    # the compared conditions' statistics are those of the table without the condition left out
+    alone = analyze_metric(data[data["condition"] != left_out], "gaps", conditions[:-1], OPTIONS)
+    for key in ("kruskal", "conover", "stars", "participant_level", "effect_size", "ci"):
+        # (the entry adds the pairs of the condition left out, and the keys saying why)
+        assert _same(_without(entry[key], left_out, alone[key]), alone[key]), key
+
+
+def _without(value: object, condition: str, like: object) -> object:
+    """``value`` without the pairs holding ``condition``, with the keys of ``like`` only."""
+    if isinstance(value, dict) and isinstance(like, dict):
+        return {k: _without(value[k], condition, like[k]) for k in like}
+    if isinstance(value, list) and isinstance(like, list):
+        kept = [v for v in value if not (isinstance(v, dict) and condition in (v.get("a"), v.get("b")))]
+        return [_without(v, condition, w) for v, w in zip(kept, like, strict=False)] + kept[len(like):]
+    return value
