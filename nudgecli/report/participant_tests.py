@@ -15,9 +15,12 @@ from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
-import scipy.stats
 
+from nudgecli.report.rank_tests import average_ranks
 from nudgecli.report.stats import adjust_p_values, pairs, python_scalar, tidy_values
+
+# scipy.stats (about 0.6 s of CPU to import) is imported by the functions that call it, so that
+# importing this module, and the stats document's, costs nothing until a test runs
 
 #: ``scipy.stats.wilcoxon``'s default (``method="auto"``) runs an exact sign-flip permutation test
 #: when the differences hold zeros or ties and there are at most this many of them (since scipy
@@ -41,6 +44,8 @@ def signed_rank_sum(d: np.ndarray, axis: int = -1) -> np.ndarray:
         ``(...)``; every partial sum is a multiple of 0.5 below ``n (n + 1) / 2``, so it is exact in
         any order of addition.
     """
+    import scipy.stats
+
     d = np.moveaxis(np.asarray(d, dtype=float), axis, -1)
     magnitude = np.where(d == 0, np.nan, np.abs(d))
     ranks = scipy.stats.rankdata(magnitude, axis=-1, nan_policy="omit")
@@ -67,6 +72,8 @@ def signed_rank_test(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
         ``min(R+, R-)`` and the two-sided p-value, bit for bit what ``scipy.stats.wilcoxon`` returns
         (a test holds the two together).
     """
+    import scipy.stats
+
     d = np.asarray(x, dtype=float) - np.asarray(y, dtype=float)
     nonzero = np.abs(d[d != 0])
     has_zeros_or_ties = nonzero.size < d.size or np.unique(nonzero).size < nonzero.size
@@ -131,7 +138,10 @@ def rank_biserial(x: np.ndarray, y: np.ndarray) -> float:
     difference = difference[difference != 0]
     if difference.size == 0:
         return 0.0
-    ranks = scipy.stats.rankdata(np.abs(difference))
+    if np.isnan(difference).any():  # (scipy.stats.rankdata propagates NaN: so does r)
+        return math.nan
+    # scipy.stats.rankdata's average ranks: half-integers, so every sum below is exact
+    ranks, _ = average_ranks(np.abs(difference))
     return float((ranks[difference > 0].sum() - ranks[difference < 0].sum()) / ranks.sum())
 
 
@@ -239,6 +249,8 @@ def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence
         if n < 2:
             notes.append("fewer than two participants have values in every condition")
         else:
+            import scipy.stats
+
             with warnings.catch_warnings(), np.errstate(invalid="ignore", divide="ignore"):
                 warnings.simplefilter("ignore", RuntimeWarning)
                 result = scipy.stats.friedmanchisquare(*(wide[c].to_numpy() for c in conditions))
