@@ -17,8 +17,20 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nudgecli.report.cluster_bootstrap import bootstrap_median_differences, median_difference_intervals
-from nudgecli.report.participant_tests import participant_level_test, rank_biserial
-from nudgecli.report.stats import ComparisonOptions, conover, conover_rows, kruskal_wallis, tidy_values
+from nudgecli.report.participant_tests import (
+    _median_table,
+    participant_level_test,
+    participant_summaries,
+    rank_biserial,
+)
+from nudgecli.report.stats import (
+    ComparisonOptions,
+    conover,
+    conover_rows,
+    describe,
+    kruskal_wallis,
+    tidy_values,
+)
 from nudgecli.report.stats_document import analyze_metric
 
 OPTIONS = ComparisonOptions(bootstrap_resamples=200, seed=3)
@@ -153,3 +165,66 @@ def test_importing_the_analysis_does_not_import_scipy_stats():
             "print('scipy.stats' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def _grouped_medians(tidy: pd.DataFrame, conditions: list[str]) -> pd.DataFrame:
+    """pandas' table of per-participant medians (the computation ``_median_table`` replaces)."""
+    grouped = tidy.groupby(["participant", "condition"], observed=True)["value"]
+    return grouped.median().unstack("condition").reindex(columns=conditions)
+
+
+@pytest.mark.parametrize("participants", ["int", "str", "float", "missing"])
+@pytest.mark.parametrize("values", ["ties", "normal", "gaps", "infinite", "huge"])
+def test_median_table_is_pandas_grouped_median_bit_for_bit(participants, values):
+    rng = np.random.default_rng(len(participants) * 7 + len(values))
+    conditions = ["a", "b", "c"]
+    n = 90
+    codes = pd.Series(rng.integers(0, 7, n))
+    data = pd.DataFrame({"condition": rng.choice([*conditions, "x"], n)})
+    data["participant"] = {"int": codes, "float": codes * 1.5, "str": codes.map(lambda p: f"p{p}"),
+                           "missing": codes.map(lambda p: None if p == 2 else f"p{p}")}[participants]
+    data["value"] = {"ties": rng.integers(0, 3, n).astype(float), "normal": rng.normal(size=n),
+                     "gaps": np.where(rng.random(n) < 0.5, np.nan, rng.normal(size=n)),
+                     "infinite": rng.choice([0.0, 1.0, np.inf, -np.inf], n),
+                     # (x + x) / 2 of a middle value would overflow: an odd group's median is x itself
+                     "huge": rng.choice([1.6e308, 1.7e308, -1.7e308], n)}[values]
+    tidy = tidy_values(data, "value", conditions, "condition", "participant")
+    table = _median_table(tidy, conditions)
+    assert table is not None
+    expected = _grouped_medians(tidy, conditions)
+    pd.testing.assert_frame_equal(table, expected, check_exact=True)
+    assert np.array_equal(np.signbit(table.to_numpy()), np.signbit(expected.to_numpy()))
+
+
+def test_median_table_leaves_signed_zeros_and_categorical_participants_to_pandas():
+    # pandas' selection returns -0.0 here, a sort would give 0.0: the table is pandas'
+    values = [1.0, -0.0, -0.0, 1.0, -0.0, 0.0, -0.0]
+    data = pd.DataFrame({"participant": 0, "condition": "a", "value": values})
+    tidy = tidy_values(data, "value", ["a"], "condition", "participant")
+    assert _median_table(tidy, ["a"]) is None
+    wide, _ = participant_summaries(data, "value", ["a"])
+    assert np.signbit(wide.iloc[0, 0]) == np.signbit(_grouped_medians(tidy, ["a"]).iloc[0, 0])
+    data["participant"] = data["participant"].astype("category")
+    data["value"] = np.abs(data["value"])
+    assert _median_table(tidy_values(data, "value", ["a"], "condition", "participant"), ["a"]) is None
+
+
+def _describe_by_pandas(data: pd.DataFrame, metric: str, conditions: list[str]) -> pd.DataFrame:
+    """The descriptives as one grouped table reindexed to the conditions (the computation
+    ``descriptive_columns`` places without the table)."""
+    grouped = tidy_values(data, metric, conditions, "condition").groupby("condition", observed=True)["value"]
+    table = pd.DataFrame({"n": grouped.size(), "mean": grouped.mean(), "median": grouped.median(),
+                          "q1": grouped.quantile(0.25), "q3": grouped.quantile(0.75)}).reindex(conditions)
+    table["n"] = table["n"].fillna(0).astype(int)
+    return table.rename_axis("condition").reset_index()
+
+
+@pytest.mark.parametrize("n_conditions", [2, 4])
+@pytest.mark.parametrize("categorical", [False, True])
+def test_describe_is_the_grouped_table_bit_for_bit(n_conditions, categorical):
+    data, conditions = _trials(n_conditions, seed=30 + n_conditions, categorical=categorical)
+    data["empty"] = np.nan
+    conditions = conditions[::-1]  # not in sorted order
+    for metric in ("ties", "gaps", "flag", "partial", "empty"):
+        pd.testing.assert_frame_equal(describe(data, metric, conditions),
+                                      _describe_by_pandas(data, metric, conditions), check_exact=True)

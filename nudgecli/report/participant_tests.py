@@ -107,12 +107,65 @@ def participant_summaries(data: pd.DataFrame, metric: str, conditions: Sequence[
     """
     if tidy is None:
         tidy = tidy_values(data, metric, conditions, condition, participant)
-    grouped = tidy.groupby(["participant", "condition"], observed=True)["value"]
-    wide = grouped.agg(aggregate).unstack("condition")
-    wide = wide.reindex(columns=list(conditions))
+    wide = _median_table(tidy, conditions) if aggregate == "median" else None
+    if wide is None:  # means (pandas' compensated sums), categorical participants, no rows
+        grouped = tidy.groupby(["participant", "condition"], observed=True)["value"]
+        wide = grouped.agg(aggregate).unstack("condition")
+        wide = wide.reindex(columns=list(conditions))
     complete = wide.notna().all(axis=1)
     dropped = [python_scalar(p) for p in wide.index[~complete]]
     return wide[complete], dropped
+
+
+def _median_table(tidy: pd.DataFrame, conditions: Sequence[str]) -> pd.DataFrame | None:
+    """The table ``tidy.groupby(["participant", "condition"])["value"].median().unstack()`` (columns
+    reindexed to ``conditions``) gives, from one sort instead of pandas' grouping.
+
+    pandas' grouped median (``group_median_float64``) takes the group's middle value, or
+    ``(upper + lower) / 2`` of its two middle values; here the rows are sorted by group and value
+    (``np.lexsort``) and the same values are picked, and added and halved the same way: the same
+    bits. The participants are sorted as the grouping sorts them (``pd.factorize(sort=True)``;
+    missing ones left out as the grouping leaves them).
+
+    Parameters
+    ----------
+    tidy
+        :func:`~nudgecli.report.stats.tidy_values` rows with the participants.
+    conditions
+        The columns, in order.
+
+    Returns
+    -------
+    pd.DataFrame or None
+        ``(P, k)`` medians, index ``participant`` (sorted), columns ``condition``; NaN where a
+        participant has no value of a condition. None for categorical participants, no rows, or
+        a value -0.0 (the caller groups with pandas then).
+    """
+    participants_column = tidy["participant"]
+    values = tidy["value"].to_numpy(dtype=float)
+    # pandas' selection may return either zero of a group holding -0.0 and 0.0: let it choose
+    if len(tidy) == 0 or isinstance(participants_column.dtype, pd.CategoricalDtype) or \
+            np.any((values == 0) & np.signbit(values)):
+        return None
+    codes, participants = pd.factorize(participants_column, sort=True)
+    labels = tidy["condition"].to_numpy(dtype=object)
+    column = np.full(labels.size, -1)
+    for j, c in enumerate(conditions):
+        column[labels == c] = j
+    keep = (codes >= 0) & (column >= 0)
+    keys = codes[keep] * len(conditions) + column[keep]
+    order = np.lexsort((values[keep], keys))  # by group, then by value
+    ordered, ordered_keys = values[keep][order], keys[order]
+    starts = np.flatnonzero(np.r_[True, ordered_keys[1:] != ordered_keys[:-1]])
+    sizes = np.diff(np.r_[starts, ordered.size])
+    lower, upper = ordered[starts + (sizes - 1) // 2], ordered[starts + sizes // 2]
+    with np.errstate(invalid="ignore", over="ignore"):  # NaN and inf as pandas' (silent) median
+        medians = np.where(sizes % 2 == 1, lower, (upper + lower) / 2)
+    table = np.full((len(participants), len(conditions)), np.nan)
+    group_keys = ordered_keys[starts]
+    table[group_keys // len(conditions), group_keys % len(conditions)] = medians
+    return pd.DataFrame(table, index=pd.Index(participants, name="participant"),
+                        columns=pd.Index(list(conditions), name="condition"))
 
 
 def rank_biserial(x: np.ndarray, y: np.ndarray) -> float:

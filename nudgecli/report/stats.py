@@ -163,18 +163,37 @@ def describe(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
         One row per condition (in the given order): ``condition, n, mean, median, q1, q3``;
         missing values are ignored, statistics of an empty condition are NaN.
     """
+    columns = descriptive_columns(data, metric, conditions, condition=condition, tidy=tidy)
+    return pd.DataFrame({"condition": list(conditions), **columns})
+
+
+def descriptive_columns(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
+                        condition: str = "condition",
+                        tidy: pd.DataFrame | None = None) -> dict[str, np.ndarray]:
+    """:func:`describe`'s columns as arrays, without its table (the ``stats.json`` entry reads them).
+
+    The values are pandas' grouped ``size``, ``mean``, ``median`` and linear ``quantile`` (0.25,
+    0.75) of the condition's values; only placing them in the conditions' order is done here
+    (one pass over each result instead of a table reindexed, filled and reset).
+
+    Returns
+    -------
+    dict
+        ``n`` ``(k,)`` int64 (0 for a condition without values), ``mean, median, q1, q3`` ``(k,)``
+        float64 (NaN there), the conditions in the given order.
+    """
     if tidy is None:
         tidy = tidy_values(data, metric, conditions, condition)
     grouped = tidy.groupby("condition", observed=True)["value"]
-    table = pd.DataFrame({
-        "n": grouped.size(),
-        "mean": grouped.mean(),
-        "median": grouped.median(),
-        "q1": grouped.quantile(0.25),
-        "q3": grouped.quantile(0.75),
-    }).reindex(list(conditions))
-    table["n"] = table["n"].fillna(0).astype(int)
-    return table.rename_axis("condition").reset_index()
+    position = {c: i for i, c in enumerate(conditions)}
+    columns = {"n": np.zeros(len(conditions), dtype=np.int64),
+               **{name: np.full(len(conditions), np.nan) for name in ("mean", "median", "q1", "q3")}}
+    for name, result in (("n", grouped.size()), ("mean", grouped.mean()), ("median", grouped.median()),
+                         ("q1", grouped.quantile(0.25)), ("q3", grouped.quantile(0.75))):
+        for label, value in zip(result.index, result.to_numpy(), strict=True):
+            if label in position:
+                columns[name][position[label]] = value
+    return columns
 
 
 def kruskal_wallis(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,

@@ -22,7 +22,7 @@ from nudgecli.report.participant_tests import participant_level_test
 from nudgecli.report.stats import (
     ComparisonOptions,
     conover_rows,
-    describe,
+    descriptive_columns,
     epsilon_squared,
     is_significant,
     kruskal_wallis,
@@ -66,9 +66,9 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
     """
     # the rows every statistic of the metric reads, made once (each test would make them again)
     tidy = tidy_values(data, metric, conditions, condition, participant)
-    table = describe(data, metric, conditions, condition=condition, tidy=tidy)  # a row per condition
-    descriptives = {column: dict(zip(conditions, map(python_scalar, table[column].to_numpy()), strict=True))
-                    for column in ("n", "mean", "median", "q1", "q3")}
+    columns = descriptive_columns(data, metric, conditions, condition=condition, tidy=tidy)
+    descriptives = {column: dict(zip(conditions, map(python_scalar, values), strict=True))
+                    for column, values in columns.items()}
     reasons = not_applicable_reasons(descriptives["n"], conditions, not_applicable)
     if not reasons:
         return _compared_entry(data, metric, conditions, descriptives, options, many=len(conditions) > 2,
