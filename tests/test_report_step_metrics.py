@@ -177,7 +177,8 @@ def test_a_log_in_trial_and_step_order_gives_the_sorted_logs_values(
     position = {key: k for k, key in enumerate(zip(trials["participant"], trials["trial"], strict=True))}
     rows = [i for i in range(len(steps["step"])) if (steps["participant"][i], steps["trial"][i]) in position]
     rows.sort(key=lambda i: (position[steps["participant"][i], steps["trial"][i]], steps["step"][i]))
-    in_order = {c: np.array([v[i] for i in rows], dtype=object if c in ("turn", "event", "phi_m") else None)
+    # text columns as lists, as a participant task's step columns hold them
+    in_order = {c: [v[i] for i in rows] if c in ("turn", "event", "phi_m") else np.array([v[i] for i in rows])
                 for c, v in steps.items()}
     reversed_log = {c: v[::-1] for c, v in in_order.items()}  # the same steps through the sort
     kinds: dict[str, Any] = {"engagement": engagement, "strength": strength, "mode_switches": switches}

@@ -119,7 +119,9 @@ def step_metric_arrays(
     inferred = _in_order(steps["inferred_goal"], order)
     assisted = is_human & (alpha > 0) & (inferred == true_goal)
     assisted_alpha = np.where(assisted, alpha, 0.0)
-    switches = event_counts(_in_order(steps["event"], order, object), MODE_SWITCH_HUMAN)
+    # event_counts reads any sequence of cells: a column already in order is not made an array first
+    events = steps["event"] if order is None else _in_order(steps["event"], order, object)
+    switches = event_counts(events, MODE_SWITCH_HUMAN)
     if mode_switches == "human_turn":
         switches = np.where(is_human, switches, 0)
 
