@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 from nudgecli.report.cluster_bootstrap import bootstrap_median_differences, median_difference_intervals
 from nudgecli.report.participant_tests import (
     _median_table,
+    pairwise_wilcoxon,
     participant_level_test,
     participant_summaries,
     rank_biserial,
@@ -107,6 +108,12 @@ def test_every_statistic_is_the_same_from_the_shared_rows(n_conditions, categori
                      conover(data, metric, conditions).to_dict("records"))
         assert _same(participant_level_test(data, metric, conditions, tidy=tidy),
                      participant_level_test(data, metric, conditions))
+        if n_conditions > 2:  # the document's pairs are the post-hoc table's rows, types and bits
+            level, effect = participant_level_test(data, metric, conditions, tidy=tidy)
+            rows = pairwise_wilcoxon(data, metric, conditions).to_dict("records")
+            assert _same(level["pairs"], [{k: r[k] for k in ("a", "b", "statistic", "p", "p_unadjusted")}
+                                          for r in rows])
+            assert _same([p["value"] for p in effect["pairs"]], [r["rank_biserial"] for r in rows])
         table = bootstrap_median_differences(data, metric, conditions, resamples=150, seed=2)
         assert table.equals(bootstrap_median_differences(data, metric, conditions, resamples=150, seed=2,
                                                          tidy=tidy))

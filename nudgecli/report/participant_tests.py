@@ -211,6 +211,12 @@ PAIRWISE_COLUMNS = ("a", "b", "n_participants", "statistic", "p", "p_unadjusted"
 
 def _wilcoxon_pairs(wide: pd.DataFrame, conditions: Sequence[str], p_adjust: str) -> pd.DataFrame:
     """:func:`pairwise_wilcoxon` on a wide table of complete participants (one column per condition)."""
+    return pd.DataFrame(_wilcoxon_pair_rows(wide, conditions, p_adjust), columns=list(PAIRWISE_COLUMNS))
+
+
+def _wilcoxon_pair_rows(wide: pd.DataFrame, conditions: Sequence[str], p_adjust: str) -> list[dict[str, Any]]:
+    """:func:`_wilcoxon_pairs`' rows as plain dicts (keys :data:`PAIRWISE_COLUMNS`, Python scalars):
+    what the stats document holds, without a table made and read back."""
     rows = []
     for a, b in pairs(conditions):
         x, y = wide[a].to_numpy(dtype=float), wide[b].to_numpy(dtype=float)
@@ -219,9 +225,10 @@ def _wilcoxon_pairs(wide: pd.DataFrame, conditions: Sequence[str], p_adjust: str
             statistic, p = signed_rank_test(x, y)
         rows.append({"a": a, "b": b, "n_participants": int(x.size), "statistic": statistic,
                      "p_unadjusted": p, "rank_biserial": rank_biserial(x, y)})
-    table = pd.DataFrame(rows, columns=[c for c in PAIRWISE_COLUMNS if c != "p"])
-    table.insert(4, "p", adjust_p_values(table["p_unadjusted"].to_numpy(dtype=float), p_adjust))
-    return table
+    adjusted = adjust_p_values(np.array([r["p_unadjusted"] for r in rows], dtype=float), p_adjust)
+    return [{**{k: r[k] for k in ("a", "b", "n_participants", "statistic")}, "p": float(p),
+             "p_unadjusted": r["p_unadjusted"], "rank_biserial": r["rank_biserial"]}
+            for r, p in zip(rows, adjusted, strict=True)]
 
 
 def pairwise_wilcoxon(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
@@ -325,13 +332,13 @@ def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence
         return level, effect_size
     effect_size = {"name": "kendall_w", "value": effect}
     if len(conditions) > 2:
-        posthoc = _wilcoxon_pairs(wide, conditions, p_adjust)
+        posthoc = _wilcoxon_pair_rows(wide, conditions, p_adjust)
         level.update({
             "pairwise_test": "wilcoxon",
             "p_adjust": p_adjust,
             "pairs": [{"a": r["a"], "b": r["b"], "statistic": r["statistic"], "p": r["p"],
-                       "p_unadjusted": r["p_unadjusted"]} for r in posthoc.to_dict("records")],
+                       "p_unadjusted": r["p_unadjusted"]} for r in posthoc],
         })
         effect_size["pairs"] = [{"a": r["a"], "b": r["b"], "name": "rank_biserial",
-                                 "value": r["rank_biserial"]} for r in posthoc.to_dict("records")]
+                                 "value": r["rank_biserial"]} for r in posthoc]
     return level, effect_size
