@@ -13,16 +13,18 @@ import pandas as pd
 import pytest
 import scikit_posthocs
 import scipy.stats
-from hypothesis import given, settings
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from nudgecli.report.cluster_bootstrap import bootstrap_median_differences, median_difference_intervals
 from nudgecli.report.participant_tests import (
+    EXACT_MAX_N,
     _median_table,
     pairwise_wilcoxon,
     participant_level_test,
     participant_summaries,
     rank_biserial,
+    signed_rank_test,
 )
 from nudgecli.report.stats import (
     ComparisonOptions,
@@ -235,3 +237,19 @@ def test_describe_is_the_grouped_table_bit_for_bit(n_conditions, categorical):
     for metric in ("ties", "gaps", "flag", "partial", "empty"):
         pd.testing.assert_frame_equal(describe(data, metric, conditions),
                                       _describe_by_pandas(data, metric, conditions), check_exact=True)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(1, EXACT_MAX_N + 3), st.integers(0, 2**32 - 1), st.sampled_from([1.0, 0.37, 1e-3, 13.1]))
+def test_signed_rank_test_without_zeros_or_ties_is_scipys_exact_wilcoxon_bit_for_bit(n, seed, scale):
+    # distinct nonzero magnitudes, any mix of signs: scipy's exact null distribution (n <= 50),
+    # its normal approximation above
+    rng = np.random.default_rng(seed)
+    magnitudes = rng.permutation(np.arange(1, 3 * n + 1))[:n] * scale
+    signs = np.where(rng.random(n) < rng.random(), -1.0, 1.0)
+    y = rng.normal(size=n).round(2)
+    x = y + magnitudes * signs
+    d = x - y
+    assume(np.unique(np.abs(d)).size == n and np.all(d != 0))  # (x - y may round a magnitude)
+    expected = scipy.stats.wilcoxon(x, y)
+    assert signed_rank_test(x, y) == (float(expected.statistic), float(expected.pvalue))

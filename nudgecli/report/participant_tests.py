@@ -58,8 +58,10 @@ def signed_rank_test(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     With zeros or ties among at most :data:`SIGN_FLIP_MAX_N` differences, scipy's default runs an
     exact permutation test (all ``2^n`` sign flips) with a statistic it evaluates one flip at a time
     (60-70 ms a call). Here the same :func:`scipy.stats.permutation_test` gets ``R+`` of all flips
-    at once (:func:`signed_rank_sum`): the same null distribution, so the same p-value. Every other
-    case is ``scipy.stats.wilcoxon`` itself.
+    at once (:func:`signed_rank_sum`): the same null distribution, so the same p-value. Without
+    zeros or ties among at most :data:`EXACT_MAX_N` differences, scipy's exact test is evaluated
+    here on arrays (:func:`_exact_signed_rank_test`, about 1 ms a call less). Every other case is
+    ``scipy.stats.wilcoxon`` itself.
 
     Parameters
     ----------
@@ -82,8 +84,56 @@ def signed_rank_test(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
         result = scipy.stats.permutation_test((d,), signed_rank_sum, permutation_type="samples",
                                               vectorized=True, alternative="two-sided", axis=-1)
         return statistic, float(result.pvalue)
+    if 0 < d.size <= EXACT_MAX_N and not has_zeros_or_ties and np.isfinite(d).all():
+        exact = _exact_signed_rank_test(d)
+        if exact is not None:
+            return exact
     result = scipy.stats.wilcoxon(x, y)
     return float(result.statistic), float(result.pvalue)
+
+
+#: ``scipy.stats.wilcoxon``'s default runs its exact test (the null distribution of ``R+``) when
+#: the differences hold neither zeros nor ties and there are at most this many of them.
+EXACT_MAX_N = 50
+
+
+def _exact_signed_rank_test(d: np.ndarray) -> tuple[float, float] | None:
+    """``scipy.stats.wilcoxon``'s exact two-sided test of differences without zeros or ties.
+
+    What scipy 1.17 computes (``scipy/stats/_wilcoxon.py``, ``_wilcoxon_nd`` with
+    ``method="exact"`` and ``WilcoxonDistribution``), operation for operation: ``R+`` and ``R-``,
+    sums of the integer ranks of ``|d|`` (exact); the null probabilities of ``R+`` from scipy's
+    own ``_get_wilcoxon_distr(n)``; ``sf(k)`` the sum of those from ``k`` up and ``cdf(k)`` of
+    those up to ``k`` (each ``1 -`` the other side's sum when ``k`` exceeds the mean
+    ``n (n + 1) / 4``), summed by numpy over the same slices; ``p = 2 min(sf, cdf)`` clipped to
+    ``[0, 1]``. A test holds it to ``scipy.stats.wilcoxon`` bit for bit.
+
+    Parameters
+    ----------
+    d
+        ``(n,)`` finite differences, none zero, no two of equal magnitude, ``1 <= n <=``
+        :data:`EXACT_MAX_N`.
+
+    Returns
+    -------
+    (float, float) or None
+        ``min(R+, R-)`` and the p-value; None where this scipy has no ``_get_wilcoxon_distr``
+        (the caller runs ``scipy.stats.wilcoxon`` then).
+    """
+    try:
+        from scipy.stats._hypotests import _get_wilcoxon_distr
+    except ImportError:  # pragma: no cover - another scipy: its own function decides
+        return None
+    ranks, _ = average_ranks(np.abs(d))  # 1..n: integers, every sum below exact
+    r_plus, r_minus = float(np.sum(ranks[d > 0])), float(np.sum(ranks[d < 0]))
+    n = int(d.size)
+    probabilities = _get_wilcoxon_distr(n)
+    mean = n * (n + 1) / 4
+    k = int(r_plus)  # an integer: scipy's floor (for sf) and ceil (for cdf) of it are k itself
+    sf = probabilities[k:].sum() if k <= mean else 1 - probabilities[:k].sum()
+    cdf = probabilities[:k + 1].sum() if k <= mean else 1 - probabilities[k + 1:].sum()
+    p = np.clip(2 * np.minimum(sf, cdf), 0, 1)
+    return min(r_plus, r_minus), float(p)
 
 
 def participant_summaries(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
