@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 from nudgecli.report.cluster_bootstrap import bootstrap_median_differences, median_difference_intervals
 from nudgecli.report.participant_tests import (
     EXACT_MAX_N,
+    SIGN_FLIP_MAX_N,
     _median_table,
     pairwise_wilcoxon,
     participant_level_test,
@@ -251,5 +252,19 @@ def test_signed_rank_test_without_zeros_or_ties_is_scipys_exact_wilcoxon_bit_for
     x = y + magnitudes * signs
     d = x - y
     assume(np.unique(np.abs(d)).size == n and np.all(d != 0))  # (x - y may round a magnitude)
+    expected = scipy.stats.wilcoxon(x, y)
+    assert signed_rank_test(x, y) == (float(expected.statistic), float(expected.pvalue))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(SIGN_FLIP_MAX_N + 1, 90), st.integers(0, 2**32 - 1),
+       st.sampled_from(["zeros and ties", "distinct", "rounded", "scaled"]))
+def test_signed_rank_test_with_zeros_ties_or_many_is_scipys_normal_approximation(n, seed, kind):
+    rng = np.random.default_rng(seed)
+    d = {"zeros and ties": rng.integers(-4, 5, n).astype(float), "distinct": rng.normal(size=n),
+         "rounded": rng.normal(size=n).round(1), "scaled": rng.integers(-30, 31, n) * 0.37}[kind]
+    y = rng.normal(size=n).round(3)
+    x = y + d
+    assume(not np.all(x == y))
     expected = scipy.stats.wilcoxon(x, y)
     assert signed_rank_test(x, y) == (float(expected.statistic), float(expected.pvalue))

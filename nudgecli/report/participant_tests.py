@@ -60,8 +60,9 @@ def signed_rank_test(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     (60-70 ms a call). Here the same :func:`scipy.stats.permutation_test` gets ``R+`` of all flips
     at once (:func:`signed_rank_sum`): the same null distribution, so the same p-value. Without
     zeros or ties among at most :data:`EXACT_MAX_N` differences, scipy's exact test is evaluated
-    here on arrays (:func:`_exact_signed_rank_test`, about 1 ms a call less). Every other case is
-    ``scipy.stats.wilcoxon`` itself.
+    here on arrays (:func:`_exact_signed_rank_test`, about 1 ms a call less), and so is its normal
+    approximation for the rest (:func:`_normal_signed_rank_test`). Differences that are not all
+    finite, or all zero, go to ``scipy.stats.wilcoxon`` itself.
 
     Parameters
     ----------
@@ -88,6 +89,8 @@ def signed_rank_test(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
         exact = _exact_signed_rank_test(d)
         if exact is not None:
             return exact
+    if nonzero.size > 0 and (d.size > EXACT_MAX_N or has_zeros_or_ties) and np.isfinite(d).all():
+        return _normal_signed_rank_test(d)  # (n > 13 here when there are zeros or ties)
     result = scipy.stats.wilcoxon(x, y)
     return float(result.statistic), float(result.pvalue)
 
@@ -134,6 +137,48 @@ def _exact_signed_rank_test(d: np.ndarray) -> tuple[float, float] | None:
     cdf = probabilities[:k + 1].sum() if k <= mean else 1 - probabilities[k + 1:].sum()
     p = np.clip(2 * np.minimum(sf, cdf), 0, 1)
     return min(r_plus, r_minus), float(p)
+
+
+def _normal_signed_rank_test(d: np.ndarray) -> tuple[float, float]:
+    """``scipy.stats.wilcoxon``'s two-sided normal approximation (no continuity correction), for
+    more than :data:`EXACT_MAX_N` differences or zeros or ties among more than
+    :data:`SIGN_FLIP_MAX_N`.
+
+    What scipy 1.17 computes (``scipy/stats/_wilcoxon.py``, ``_wilcoxon_statistic`` and
+    ``_wilcoxon_nd`` with ``zero_method="wilcox"``; ``_stats_py._rankdata`` and ``_get_pvalue``),
+    operation for operation on values of the same types: zeros dropped (scipy ranks them last,
+    as NaN, and adds nothing of them), ``R+``, ``R-`` sums of the average ranks (half-integers:
+    exact); ``m = c (c + 1) 0.25`` and ``s = c (c + 1) (2 c + 1)`` of the ``c`` nonzero
+    differences; the tie counts laid out as scipy lays them (each run's size at the run's first
+    place in sorted order, zeros elsewhere, one per dropped zero after them), ``T = sum(t**3 -
+    t)`` over that same array (numpy's power and pairwise sum on the same layout, so the same
+    bits); ``se = sqrt((s - T / 2) / 24)``, ``z = (R+ - m) / se``, ``p = 2 ndtr(-|z|)``. A test
+    holds it to ``scipy.stats.wilcoxon`` bit for bit.
+
+    Parameters
+    ----------
+    d
+        ``(n,)`` finite differences, not all zero.
+
+    Returns
+    -------
+    (float, float)
+        ``min(R+, R-)`` and the p-value.
+    """
+    from scipy.special import ndtr  # scipy's _SimpleNormal.sf(x) is ndtr(-x)
+
+    nonzero = d[d != 0]
+    count = np.float64(nonzero.size)
+    ranks, tie_counts = average_ranks(np.abs(nonzero))
+    r_plus, r_minus = np.sum(ranks[nonzero > 0]), np.sum(ranks[nonzero < 0])
+    ties = np.zeros(d.size)  # scipy's layout: runs of the sorted |d| first, the dropped zeros last
+    ties[np.r_[0, np.cumsum(tie_counts)[:-1]]] = tie_counts
+    ties[nonzero.size:] = 1.0
+    mean = count * (count + 1.) * 0.25
+    spread = count * (count + 1.) * (2. * count + 1.)
+    se = np.sqrt((spread - np.sum(ties**3 - ties) / 2) / 24)
+    z = (r_plus - mean) / se
+    return float(min(r_plus, r_minus)), float(2 * ndtr(-np.abs(z)))
 
 
 def participant_summaries(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
