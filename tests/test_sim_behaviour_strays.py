@@ -12,13 +12,15 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import stats
 
 from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.model.interface import MOVE_N, NO_INPUT, SIP_DEADBAND, SOFT_SIP, label_of_pressure
 from nudgecli.model.world import N_MODES, N_STATES, discretise, state_index
-from nudgecli.sim import behaviour
+from nudgecli.sim import behaviour, behaviour_strays
 from nudgecli.sim.behaviour import SimulatedPerson
 from nudgecli.sim.behaviour_settings import BehaviourSettings
 from nudgecli.sim.behaviour_strays import (
@@ -59,6 +61,40 @@ def test_the_mean_stray_against_scipy(median: float, log_sd: float) -> None:
     k = np.arange(2, 5000)
     expected = x.cdf(1.5) + float(np.sum(k * (x.cdf(k + 0.5) - x.cdf(k - 0.5))))
     assert mean_stray_samples(median, log_sd) == pytest.approx(expected, rel=1e-9)
+
+
+def _mean_stray_loop(median: float, log_sd: float) -> float:
+    """The sum of :func:`mean_stray_samples` term by term in plain floats: the reference its blocks
+    of numpy arguments and accumulated terms must give bit for bit."""
+    if median <= 0.0:
+        return 1.0
+    total, k, log_median = 1.0, 2, math.log(median)
+    while True:
+        term = 0.5 * math.erfc((math.log(k - 0.5) - log_median) / (log_sd * math.sqrt(2.0)))
+        total += term
+        if term < 1e-15:
+            return total
+        k += 1
+
+
+@settings(max_examples=60, deadline=None)
+@given(median=st.floats(-0.5, 6.0), log_sd=st.one_of(st.just(STRAY_LOG_SD), st.floats(1e-3, 1.6)))
+def test_the_mean_stray_is_the_plain_loops_bit_for_bit(median: float, log_sd: float) -> None:
+    assert mean_stray_samples.__wrapped__(median, log_sd) == _mean_stray_loop(median, log_sd)
+
+
+def test_the_mean_stray_past_its_first_block_is_the_plain_loops(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the first block ending far too early: the rest of the terms come in blocks of 7
+    monkeypatch.setattr(behaviour_strays, "_TAIL_ARGUMENT", 0.1)
+    monkeypatch.setattr(behaviour_strays, "_BLOCK", 7)
+    for median in (0.05, 1.3, 2.7):
+        assert mean_stray_samples.__wrapped__(median, STRAY_LOG_SD) == _mean_stray_loop(median, STRAY_LOG_SD)
+
+
+@pytest.mark.parametrize(("median", "log_sd"), [(2.0, -0.5), (math.nan, 1.0), (2.0, math.inf)])
+def test_a_mean_stray_whose_sum_never_ends_is_refused(median: float, log_sd: float) -> None:
+    with pytest.raises(ValueError, match="log-sd"):
+        mean_stray_samples.__wrapped__(median, log_sd)
 
 
 def test_the_mean_stray_without_spread_and_the_hazard_by_hand() -> None:

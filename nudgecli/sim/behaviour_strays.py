@@ -49,6 +49,13 @@ STRAY_LOG_SD = math.log(_RUN["q75"] / _RUN["q25"]) / (2.0 * NormalDist().inv_cdf
 STRAY_RELEASE_SHARE = float(_REFERENCE["deadband_then_blow_ends"]["pooled"]["median"])
 #: :func:`mean_stray_samples` sums ``P(L >= k)`` until a term falls below this.
 _TAIL = 1e-15
+#: The argument of ``erfc`` past which a term ``erfc(x) / 2`` is below :data:`_TAIL` (about 5.6):
+#: where the terms are expected to end, so that they are evaluated in one block.
+_TAIL_ARGUMENT = -NormalDist().inv_cdf(_TAIL) / math.sqrt(2.0)
+#: Terms evaluated at once after the first block (where the expected end was too early).
+_BLOCK = 1024
+#: The first block's length at most (memory; a stray of median m needs about ``3,700 m`` terms).
+_MAX_BLOCK = 1 << 20
 
 
 @cache
@@ -59,18 +66,57 @@ def mean_stray_samples(median_samples: float, log_sd: float) -> float:
     ``E[L] = 1 + sum_{k >= 2} Phi((ln m - ln(k - 1/2)) / s)``, summed until a term is below
     :data:`_TAIL` (the terms fall with ``k``). With ``s = 0``: ``max(1, round(m))``. Cached: one
     person's value is asked for once per trial.
+
+    The terms are evaluated a block at a time: the logs are ``math.log``'s (:func:`_half_logs`),
+    the arguments' subtraction and division numpy's (IEEE, the same roundings as Python's floats),
+    each ``math.erfc`` called once, and the terms added one after another in ``k`` order
+    (``np.add.accumulate`` adds sequentially). So the value is, bit for bit, that of the plain loop
+    ``total += 0.5 * math.erfc((math.log(k - 0.5) - math.log(m)) / (s * math.sqrt(2)))`` (about
+    6,000 terms a paper participant: the loop took 3-4 ms, mostly Python's per-term overhead);
+    ``tests/test_sim_behaviour_strays.py`` holds the two equal.
+
+    Raises
+    ------
+    ValueError
+        If ``median_samples`` or ``log_sd`` is not finite, or ``log_sd < 0`` (the sum never ends).
     """
+    if not (math.isfinite(median_samples) and math.isfinite(log_sd)) or log_sd < 0.0:
+        raise ValueError(f"a stray's median ({median_samples}) and log-sd ({log_sd}) must be finite, "
+                         "the log-sd non-negative")
     if median_samples <= 0.0:
         return 1.0
     if log_sd == 0.0:
         return float(max(1, round(median_samples)))
-    total, k, log_median = 1.0, 2, math.log(median_samples)
+    log_median, scale = math.log(median_samples), log_sd * math.sqrt(2.0)
+    # k - 1/2 > m exp(x s sqrt 2) past the tail's argument x: end a little after the expected end
+    expected_end = 0.5 + median_samples * math.exp(1.001 * _TAIL_ARGUMENT * scale)
+    start, stop = 2, 2 + min(_MAX_BLOCK, max(_BLOCK, int(expected_end)))
+    total = 1.0
     while True:
-        term = 0.5 * math.erfc((math.log(k - 0.5) - log_median) / (log_sd * math.sqrt(2.0)))
-        total += term
-        if term < _TAIL:
+        arguments = (_half_logs(stop)[start - 2:] - log_median) / scale
+        terms = 0.5 * np.fromiter(map(math.erfc, arguments.tolist()), dtype=float, count=arguments.size)
+        below = np.flatnonzero(terms < _TAIL)
+        end = int(below[0]) + 1 if below.size else terms.size  # the first term below the tail is added
+        total = float(np.add.accumulate(np.concatenate(([total], terms[:end])))[-1])
+        if below.size:
             return total
-        k += 1
+        start, stop = stop, stop + _BLOCK
+
+
+#: ``math.log(k - 0.5)`` for ``k = 2, 3, ...`` (the C library's: numpy's SIMD log can differ in the
+#: last bit), made once per process and replaced whole when longer ones are asked for.
+_HALF_LOGS = np.empty(0)
+
+
+def _half_logs(stop: int) -> np.ndarray:
+    """``(stop - 2,)`` ``math.log(k - 0.5)`` for ``k = 2 .. stop - 1`` (read-only)."""
+    global _HALF_LOGS
+    if _HALF_LOGS.size < stop - 2:
+        size = max(stop - 2, 2 * _HALF_LOGS.size)
+        logs = np.fromiter((math.log(k - 0.5) for k in range(2, size + 2)), dtype=float, count=size)
+        logs.setflags(write=False)
+        _HALF_LOGS = logs
+    return _HALF_LOGS[:stop - 2]
 
 
 def stray_hazard(share: float, median_samples: float, log_sd: float = STRAY_LOG_SD) -> float:
