@@ -545,6 +545,52 @@ def test_a_models_tables_are_checked_every_time_though_their_product_is_made_onc
     assert not np.array_equal(other.likelihood, first.likelihood)  # other tables, another product
 
 
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_layouts=st.integers(1, 6))
+def test_a_participants_models_made_together_are_those_made_one_at_a_time(seed: int, n_layouts: int) -> None:
+    # layouts of 1-5 goals with a few distinct random action rows each (so the stacked layouts
+    # bring different numbers of rows), random tables, some layouts given as their distinct rows
+    rng = np.random.default_rng(seed)
+    cells, tables = [], []
+    for _ in range(n_layouts):
+        n_goals = int(rng.integers(1, 6))
+        flat = rng.choice(N_CELLS_X * N_CELLS_Y, size=n_goals, replace=False)
+        cells.append(np.column_stack([flat % N_CELLS_X, flat // N_CELLS_X]))
+        pool = rng.dirichlet(np.ones(4), size=int(rng.integers(1, 6)))
+        p_a = pool[rng.integers(len(pool), size=(n_goals, N_STATES))]
+        tables.append(DistinctActionRows.of(p_a) if rng.random() < 0.5 else p_a)
+    mapping, distortion = rng.dirichlet(np.ones(4), size=(3, 4)), rng.dirichlet(np.ones(4), size=4)
+    together = dis.DisambiguationModel.of_layouts(cells, tables, mapping, distortion)
+    assert len(together) == n_layouts
+    states = rng.integers(N_STATES, size=30)
+    for stacked, goal_cells, table in zip(together, cells, tables, strict=True):
+        alone = dis.DisambiguationModel(goal_cells, table, mapping, distortion)
+        for name in ("goal_cells", "p_a_given_sg", "mapping", "distortion", "_distinct", "_xlogx_distinct",
+                     "_index", "likelihood"):
+            mine, theirs = getattr(stacked, name), getattr(alone, name)
+            assert mine.dtype == theirs.dtype and mine.shape == theirs.shape, name
+            assert mine.tobytes() == theirs.tobytes(), name
+        for unit in ("cells", "world"):
+            assert stacked.goal_positions(unit).tobytes() == alone.goal_positions(unit).tobytes()
+        weights = rng.dirichlet(np.ones(len(goal_cells)))
+        assert (stacked.mutual_information(weights, states).tobytes()
+                == alone.mutual_information(weights, states).tobytes())
+
+
+def test_models_made_together_check_their_layouts() -> None:
+    solved = solve_layout(GOAL_CELLS, GOAL_HEADINGS)
+    mapping, distortion = default_mapping_table(0.2), default_distortion_table(0.15)
+    assert dis.DisambiguationModel.of_layouts([], [], mapping, distortion) == []
+    with pytest.raises(ValueError, match="2 layouts' goal cells but 1 action models"):
+        dis.DisambiguationModel.of_layouts([GOAL_CELLS, GOAL_CELLS], [solved.actions], mapping, distortion)
+    with pytest.raises(ValueError, match="3 goal cells but p"):
+        dis.DisambiguationModel.of_layouts([GOAL_CELLS, GOAL_CELLS[:3]], [solved.actions, solved.actions],
+                                           mapping, distortion)
+    with pytest.raises(ProbabilityTableError, match="shape"):
+        dis.DisambiguationModel.of_layouts([GOAL_CELLS], [solved.actions], mapping.reshape(4, 3, 4),
+                                           distortion)
+
+
 def test_bad_action_model_is_rejected_with_its_row() -> None:
     p_a = np.full((2, 5, 4), 0.25)
     p_a[1, 3] = [0.5, 0.5, 0.5, -0.5]

@@ -363,20 +363,16 @@ def simulate_participant_columns(plan: StudyPlan, participant_index: int,
     summaries: list[dict[str, Any]] = []
     # the step log's columns are made once per participant, of all the trials' raw steps
     recordings: list[StepRecording] = []
-    models: dict[int, DisambiguationModel] = {}
+    schedule = plan.schedule(participant_index)
+    models = _agent_models(plan, schedule, mapping, distortion)
     with fewer_collections():  # the loop allocates many short-lived tuples and no cycles
-        for spec in plan.schedule(participant_index):
+        for spec in schedule:
             rng = generator(seed, "participant", participant_index, "trial", spec.trial)
             if plan.paths is not None:
                 result = _path_trial(plan, spec, settings, participant, rng, step_log_columns)
             else:
-                solved = plan.solved[spec.layout_index]
-                model = models.get(spec.layout_index)
-                if model is None:
-                    assert isinstance(spec.layout, Layout)
-                    model = models[spec.layout_index] = DisambiguationModel(
-                        spec.layout.goal_cells, solved.actions, mapping, distortion)
-                result = run_trial(spec, settings, solved, model, participant, rng, step_log_columns)
+                result = run_trial(spec, settings, plan.solved[spec.layout_index], models[spec.layout_index],
+                                   participant, rng, step_log_columns)
             summaries.append(result.summary)
             recordings.append(result.recording)
     record = participant.to_record()
@@ -393,6 +389,23 @@ def simulate_participant_columns(plan: StudyPlan, participant_index: int,
         wall_s=time.perf_counter() - start,
         calibration=fitted.sessions,
     )
+
+
+def _agent_models(plan: StudyPlan, schedule: Sequence[TrialSpec], mapping: np.ndarray,
+                  distortion: np.ndarray) -> dict[int, DisambiguationModel]:
+    """The agent's model of the participant (their fitted tables) in each grid layout of their
+    schedule, by layout index, made together (:meth:`DisambiguationModel.of_layouts`); none in the
+    CIAA world."""
+    if plan.paths is not None:
+        return {}
+    layouts: dict[int, Layout] = {}
+    for spec in schedule:
+        assert isinstance(spec.layout, Layout)
+        layouts.setdefault(spec.layout_index, spec.layout)
+    goal_cells = [layout.goal_cells for layout in layouts.values()]
+    actions = [plan.solved[index].actions for index in layouts]
+    models = DisambiguationModel.of_layouts(goal_cells, actions, mapping, distortion)
+    return dict(zip(layouts, models, strict=True))
 
 
 def _path_trial(plan: StudyPlan, spec: TrialSpec, settings: ProtocolSettings, participant: Participant,
