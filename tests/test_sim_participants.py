@@ -284,6 +284,27 @@ def test_blows_drift_normals_start_every_blow_afresh() -> None:
         blows_drift_normals(e, np.array([5, 6]), 0.8)
 
 
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_blows=st.integers(0, 40), longest=st.integers(0, 45),
+       rho=st.floats(0.0, 0.999))
+def test_blows_advanced_together_are_each_blows_drift_bit_for_bit(seed: int, n_blows: int, longest: int,
+                                                                  rho: float) -> None:
+    # blows of 0 to `longest` samples, each its own drift_normals (the loop a blow), joined
+    rng = np.random.default_rng(seed)
+    lengths = rng.integers(0, longest + 1, size=n_blows)
+    e = rng.standard_normal(int(lengths.sum()))
+    ends = np.cumsum(lengths).tolist()
+    expected = [drift_normals(e[end - length:end], rho)
+                for end, length in zip(ends, lengths.tolist(), strict=True)]
+    got = blows_drift_normals(e, lengths, rho)
+    assert got.dtype == np.float64 and got.tobytes() == np.concatenate([np.zeros(0), *expected]).tobytes()
+
+
+def test_blows_of_a_negative_length_are_refused() -> None:
+    with pytest.raises(ValueError, match=r"add up to 3, .* one is negative"):
+        blows_drift_normals(np.zeros(3), np.array([5, -2]), 0.5)
+
+
 def test_log_drift_correlation_by_hand() -> None:
     levels, spreads = np.array([0.8, 0.9, 0.1, 0.2]), np.array([0.1, 0.1, 0.05, 0.1])
     blows = [[np.array([0.9, 1.0, 0.7, 0.6])], [], [], [np.array([0.3, 0.1, 0.2]), np.array([0.4])]]
