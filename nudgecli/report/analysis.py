@@ -73,6 +73,7 @@ from nudgecli.report.summary import format_summary
 from nudgecli.report.tables import (
     NON_METRIC_COLUMNS,
     drop_or_refuse_duplicates,
+    read_csv_labels,
     read_metrics_table,
     validate_metrics_table,
 )
@@ -204,9 +205,10 @@ def analysed_metrics_path(folder: str | Path) -> Path | None:
 
 
 def read_analysed_metrics(path: str | Path) -> pd.DataFrame:
-    """Read the table :func:`analysed_metrics_path` names, conditions as plain strings."""
+    """Read the table :func:`analysed_metrics_path` names, conditions as plain strings and labels as
+    written (:func:`~nudgecli.report.tables.read_csv_labels`)."""
     path = Path(path)
-    table = pd.read_csv(path) if path.name == METRICS_CSV else read_metrics_table(path)
+    table = read_csv_labels(path) if path.name == METRICS_CSV else read_metrics_table(path)
     table["condition"] = table["condition"].astype(str)
     return table
 

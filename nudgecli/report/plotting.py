@@ -39,7 +39,7 @@ from nudgecli.report.metrics import apply_filters
 from nudgecli.report.pair_display import check_reference
 from nudgecli.report.stats import ComparisonOptions
 from nudgecli.report.style import condition_display_name
-from nudgecli.report.tables import TABLE_SUFFIXES, read_metrics_table, validate_metrics_table
+from nudgecli.report.tables import TABLE_SUFFIXES, read_csv_labels, read_metrics_table, validate_metrics_table
 from nudgecli.report.trial_selection import choose_figure5_trial
 from nudgecli.report.trial_steps import TrialKey
 from nudgecli.run_folder_names import FIGURES_DIR, METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_JSON
@@ -323,14 +323,16 @@ def analysis_folder_of_table(table: Path) -> Path:
 
 
 def _read_metrics_csv(path: Path) -> pd.DataFrame:
-    """``metrics.csv`` as ``nudge analyze`` wrote it, its floats read back exactly.
+    """``metrics.csv`` as ``nudge analyze`` wrote it, its floats read back exactly and its labels as
+    written (:func:`~nudgecli.report.tables.read_csv_labels`).
 
     pandas 3 parses floats exactly by default; pandas 2 needs the round-trip parser for that
     (its default may differ in the last bit, which the checksum would see).
     """
-    exact = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
+    pandas_3 = int(pd.__version__.split(".")[0]) >= 3
+    exact: dict[str, Any] = {} if pandas_3 else {"float_precision": "round_trip"}
     try:
-        table = pd.read_csv(path, **exact)
+        table = read_csv_labels(path, **exact)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError, ValueError) as exc:
         raise DataError(f"{path} cannot be read as a metrics table ({exc}); "
                         "run `nudge analyze` again") from None
@@ -406,7 +408,7 @@ def read_inputs(source: str | Path) -> FigureInputs:
             layouts = layouts_by_trial(trials, layout_table)
     questionnaires = None
     if (folder / QUESTIONNAIRE_SCORES_CSV).is_file():
-        questionnaires = pd.read_csv(folder / QUESTIONNAIRE_SCORES_CSV)
+        questionnaires = read_csv_labels(folder / QUESTIONNAIRE_SCORES_CSV)
     return FigureInputs(metrics=table, stats=stats, trials=trials, steps=steps, layouts=layouts,
                         questionnaires=questionnaires, path_layouts=path_layouts, time_limit_s=time_limit_s)
 

@@ -44,6 +44,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.errors import DataError
+from nudgecli.report.tables import read_csv_labels
 
 TLX_SUBSCALES = ("mental", "physical", "temporal", "performance", "effort", "frustration")
 TLX_RATING_COLUMNS = tuple(f"tlx_{s}" for s in TLX_SUBSCALES)
@@ -56,7 +57,8 @@ TLX_RANGE = (0.0, 100.0)
 
 
 def read_questionnaires(path: str | Path) -> pd.DataFrame:
-    """Read a questionnaire CSV (see the module docstring) without interpreting it.
+    """Read a questionnaire CSV (see the module docstring) without interpreting it; ``participant``
+    and ``block`` labels as written (:func:`~nudgecli.report.tables.read_csv_labels`).
 
     Raises
     ------
@@ -68,7 +70,7 @@ def read_questionnaires(path: str | Path) -> pd.DataFrame:
         raise DataError(f"questionnaire file {path} does not exist; give a CSV file with participant, "
                         "condition and tlx_*/likert_* columns")
     try:
-        table = pd.read_csv(path)
+        table = read_csv_labels(path)
     except pd.errors.EmptyDataError:
         raise DataError(f"{path} is empty; it needs a header row and one row per response") from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:

@@ -8,6 +8,13 @@ delimiter is sniffed. Two columns of one name, infinite values and condition lab
 only by case or surrounding spaces are errors naming the columns and rows; repeated trials (same
 participant, condition, block and trial) are an error unless dropped on request
 (:func:`drop_or_refuse_duplicates`).
+
+A CSV's label columns (``participant``, ``block``, ``trial``) are kept as written: a column whose
+every label is a canonical integer (``7``, ``12``, ``-3``: the text Python writes for an int64) is
+read as integers, as it always was; a column with any other label (``07``, ``P7``, ``+3``,
+``7.0``) is read as text, exactly as written (:func:`read_csv_labels`, the one owner of that rule
+for every real table: metrics tables, ``metrics.csv`` read back, questionnaires). A Parquet
+table's columns keep the types they were stored with.
 """
 
 from __future__ import annotations
@@ -33,6 +40,71 @@ TABLE_SUFFIXES = (".csv", ".parquet", ".pq")
 TRIAL_KEY = ("participant", "condition", "block", "trial")
 #: How many rows or pairs an error message lists.
 _SHOWN = 5
+#: The columns of a real table that hold labels, not quantities (read by :func:`read_csv_labels`).
+LABEL_COLUMNS = ("participant", "block", "trial")
+#: The range of a canonical integer label: pandas reads integers in it as int64.
+_INT64_RANGE = (-(2**63), 2**63 - 1)
+
+
+def is_canonical_integer(text: str) -> bool:
+    """Whether ``text`` is exactly the text Python writes for an int64: ``7``, ``12``, ``-3``; not
+    ``07``, ``+3``, ``-0``, ``7.0``, `` 7`` or ``1_000`` (``str(int(text))`` gives ``text`` back)."""
+    try:
+        number = int(text)
+    except ValueError:
+        return False
+    return str(number) == text and _INT64_RANGE[0] <= number <= _INT64_RANGE[1]
+
+
+def labels_as_written(labels: pd.Series) -> pd.Series:
+    """A label column read as text, as a researcher's table means it.
+
+    Parameters
+    ----------
+    labels
+        ``(N,)`` the column's cells as written (Python strings; missing cells NaN).
+
+    Returns
+    -------
+    pd.Series
+        ``(N,)`` integers when every label is a canonical integer (:func:`is_canonical_integer`),
+        exactly as pandas reads such a column (int64; float64 with missing cells), so that the
+        numbers and the order of participants of existing analyses stay as they were; otherwise
+        the labels as written, as text (``str``, as pandas reads a column of text): ``07`` stays
+        ``07``, and a column of ``07`` and ``7`` holds two labels.
+    """
+    # the distinct labels only: a large table has millions of cells but few participants
+    codes, written = pd.factorize(labels.to_numpy(dtype=object))
+    if not all(is_canonical_integer(str(label)) for label in written):
+        return labels.astype("str")
+    numbers = np.array([int(label) for label in written] or [0], dtype=np.int64)[codes]
+    missing = codes < 0
+    if missing.any():  # pandas reads integers with blanks as float64 (int64 -> float64 rounds to nearest)
+        return pd.Series(np.where(missing, np.nan, numbers.astype(np.float64)), index=labels.index,
+                         name=labels.name)
+    return pd.Series(numbers, index=labels.index, name=labels.name)
+
+
+def read_csv_labels(path: str | Path, dtype: dict[str, object] | None = None,
+                    **options: object) -> pd.DataFrame:
+    """``pandas.read_csv`` of a real table with its :data:`LABEL_COLUMNS` kept as written
+    (:func:`labels_as_written`): the one reading of a real table's labels.
+
+    Parameters
+    ----------
+    path
+        The CSV file.
+    dtype
+        Further columns' dtypes (e.g. ``{"condition": "category"}``).
+    options
+        Passed on to ``pandas.read_csv`` (``sep``, ``float_precision``).
+    """
+    as_text = {column: object for column in LABEL_COLUMNS}  # a column the table lacks is ignored
+    table = pd.read_csv(path, dtype={**as_text, **(dtype or {})}, **options)  # type: ignore[call-overload]
+    for column in LABEL_COLUMNS:
+        if column in table.columns:
+            table[column] = labels_as_written(table[column])
+    return table
 
 
 def read_metrics_table(path: str | Path) -> pd.DataFrame:
@@ -53,7 +125,7 @@ def read_metrics_table(path: str | Path) -> pd.DataFrame:
             delimiter = sniff_delimiter(path)
             check_unique_columns(_csv_header(path, delimiter), path)
             # conditions as categories: a large table's labels are not copied into millions of strings
-            table = pd.read_csv(path, sep=delimiter, dtype={"condition": "category"})
+            table = read_csv_labels(path, sep=delimiter, dtype={"condition": "category"})
         else:
             check_unique_columns(pq.read_schema(path).names, path)
             table = read_parquet(path)
