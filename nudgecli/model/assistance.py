@@ -159,6 +159,35 @@ def assistance_alpha(p_goal: float, n_goals: int, normalised_entropy: float,
     return alpha
 
 
+def startup_delay_end(initiated_at: int, dt: float, startup_delay: float) -> int:
+    """The first step at which :func:`assistance_alpha`'s start-up gate no longer holds alpha at 0:
+    the least ``step >= initiated_at`` with ``(step - initiated_at) * dt`` not below ``startup_delay``,
+    decided by that very float test (the product is monotone in the step count, so the first step
+    it passes at is found from the estimate ``ceil(startup_delay / dt)`` by a step or two).
+
+    Parameters
+    ----------
+    initiated_at
+        The step of the turn's first measured input (``>= 0``).
+    dt
+        The step's length, s (positive).
+    startup_delay
+        The gate's delay, s (finite; ``<= 0`` gates nothing: ``initiated_at`` itself).
+
+    Returns
+    -------
+    int
+    """
+    if not dt > 0.0 or not math.isfinite(startup_delay):
+        raise ValueError(f"dt must be positive and startup_delay finite, got {dt} and {startup_delay}")
+    count = max(0, math.ceil(startup_delay / dt))
+    while count > 0 and (count - 1) * dt >= startup_delay:
+        count -= 1
+    while count * dt < startup_delay:
+        count += 1
+    return initiated_at + count
+
+
 Pose = np.ndarray | tuple[float, float, float]
 
 

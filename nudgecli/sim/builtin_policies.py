@@ -30,7 +30,7 @@ import numpy as np
 from nudgecli.model import assistance, hindsight, mode_criteria, policies
 from nudgecli.model.disambiguation import disambiguation_scores, maximally_disambiguating_state
 from nudgecli.model.interface import NO_COMMAND
-from nudgecli.sim.policy_interface import Assistance, AutonomyTurn, StepView
+from nudgecli.sim.policy_interface import Assistance, AtStep, AutonomyTurn, QuietRun, StepView
 from nudgecli.steplog import MODE_SELECT, NO_GOAL, NUDGE, STEP
 
 if TYPE_CHECKING:
@@ -123,6 +123,20 @@ class PaperBlending(FloatGoals):
         u_f = assistance.blend_command(u_a, u_h, alpha) if u_h is not NO_COMMAND else u_h  # type: ignore[arg-type]
         # Assistance(...) without its constructor's keyword handling (every step makes one)
         return tuple.__new__(Assistance, (u_f, u_a, alpha, inferred))
+
+    def assist_quiet(self, view: StepView, steps: int) -> tuple[QuietRun, ...]:
+        """:meth:`assist` at each of ``steps`` steps from ``view.step`` on where only the step
+        moves. Of the view, :meth:`assist` reads the step only through the start-up gate of alpha
+        (:func:`nudgecli.model.assistance.assistance_alpha`): the run is one assistance, or two
+        where the gate opens inside it (the second :meth:`assist` at the step it opens)."""
+        first = self.assist(view)
+        s, initiated_at = self.settings, view.initiated_at
+        if initiated_at < 0 or not s.blending.startup_delay > 0.0:  # no gate, or closed throughout
+            return ((steps, first),)
+        opens = assistance.startup_delay_end(initiated_at, s.dt, s.blending.startup_delay)
+        if not view.step < opens < view.step + steps:
+            return ((steps, first),)
+        return ((opens - view.step, first), (view.step + steps - opens, self.assist(AtStep(view, opens))))
 
     def start_turn(self, view: StepView) -> AutonomyTurn:
         return AutonomyTurn.stay()
@@ -225,6 +239,10 @@ class Teleoperation:
 
     def assist(self, view: StepView) -> Assistance:
         return Assistance(view.u_h)
+
+    def assist_quiet(self, view: StepView, steps: int) -> tuple[QuietRun, ...]:
+        """:meth:`assist` of a quiet run: the person's command (none) throughout."""
+        return ((steps, self.assist(view)),)
 
     def start_turn(self, view: StepView) -> AutonomyTurn:
         return AutonomyTurn.stay()
@@ -345,6 +363,11 @@ class Hindsight(FloatGoals):
         u_a = hindsight.hindsight_command(view.x, view.y, view.theta, self.goals(view), view.belief,
                                           s.hindsight, s.dt, tuple(u_h))  # type: ignore[arg-type]
         return Assistance.additive(u_h, u_a, view.leader)
+
+    def assist_quiet(self, view: StepView, steps: int) -> tuple[QuietRun, ...]:
+        """:meth:`assist` of a quiet run, one assistance throughout: it reads the pose, the belief
+        and the person's command, never the step."""
+        return ((steps, self.assist(view)),)
 
     def start_turn(self, view: StepView) -> AutonomyTurn:
         return AutonomyTurn.stay()

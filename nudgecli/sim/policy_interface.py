@@ -156,6 +156,23 @@ class Assistance(NamedTuple):
         return cls(np.add(u_h, u_a), u_a, 1.0, goal)
 
 
+#: A stretch of a quiet run (:meth:`Policy` ``assist_quiet``): ``(count, assistance)``, the
+#: assistance of each of ``count`` consecutive steps.
+QuietRun = tuple[int, Assistance]
+
+
+class AtStep:
+    """``view`` as it would be at ``step`` of a quiet run (every other attribute is the view's own):
+    what a policy's ``assist_quiet`` passes to :meth:`Policy.assist` for a later step of the run."""
+
+    def __init__(self, view: StepView, step: int) -> None:
+        self._view = view
+        self.step = step
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._view, name)
+
+
 @dataclass(frozen=True)
 class AutonomyTurn:
     """What the autonomy does in its turn, chosen once when the person hands the turn over.
@@ -206,6 +223,17 @@ class Policy(Protocol):
     (``requested``: the mode the blow asked for): the mode to go to instead (0, 1, 2), or ``None``
     for the person's own (the step log adds ``mode_select`` where it chose). The built-in
     ``mode-switch`` policy has one, for ``[mode-switch] trigger = "request"``.
+
+    And it may answer a quiet run at once with an optional method ``assist_quiet(view, steps) ->
+    Sequence[QuietRun]``: where a simulated person certainly gives no input for ``steps`` steps and
+    the robot stands, the protocol asks it once, at the run's first step, instead of calling
+    :meth:`assist` at each. Over the run only ``view.step`` moves (one a step); the pose, mode,
+    belief, ``measured`` (none) and ``u_h`` (zero) stand. It returns ``(count, assistance)`` pairs
+    in step order: ``assistance`` is what :meth:`assist` returns at each of those ``count`` steps,
+    and the counts add up to ``steps`` (or fewer: the rest are asked again). Where an assistance's
+    command moves the robot, the steps from there run one by one. Without it (the default) the
+    protocol calls :meth:`assist` at every step of the run, so a policy needs it only for speed;
+    every built-in policy has one.
     """
 
     infers: bool

@@ -153,6 +153,7 @@ class CheckedPolicy:
         self.takes_turns = bool(inner.takes_turns)
         # the optional hook, checked like the rest; absent when the policy has none
         self.choose_mode = self._choose_mode if callable(getattr(inner, "choose_mode", None)) else None
+        self.assist_quiet = self._assist_quiet if callable(getattr(inner, "assist_quiet", None)) else None
 
     def _choose_mode(self, view: StepView, requested: int) -> int | None:
         try:
@@ -169,19 +170,36 @@ class CheckedPolicy:
             answer = self.inner.assist(view)
         except Exception as exc:
             raise PolicyError(f"{self.spec.described}: assist raised {type(exc).__name__}: {exc}") from exc
+        return self._checked_assistance(answer, view, "assist")
+
+    def _assist_quiet(self, view: StepView, steps: int) -> list[tuple[int, Assistance]]:
+        try:
+            runs = list(self.inner.assist_quiet(view, steps))
+        except Exception as exc:
+            raise PolicyError(f"{self.spec.described}: assist_quiet raised "
+                              f"{type(exc).__name__}: {exc}") from exc
+        checked = []
+        for run in runs:
+            if not (isinstance(run, tuple) and len(run) == 2 and isinstance(run[0], numbers.Integral)
+                    and int(run[0]) >= 1):
+                self._fail(f"assist_quiet gave {run!r}; each item must be (count >= 1, Assistance)")
+            checked.append((int(run[0]), self._checked_assistance(run[1], view, "assist_quiet")))
+        return checked
+
+    def _checked_assistance(self, answer: Any, view: StepView, method: str) -> Assistance:
         if not isinstance(answer, Assistance):
-            answer = self._fail(f"assist returned {type(answer).__name__}, not an Assistance")
+            answer = self._fail(f"{method} returned {type(answer).__name__}, not an Assistance")
         try:
             command = checked_command(answer.command, "its command")
             u_a = checked_command(answer.u_a, "its u_a")
         except ValueError as exc:
-            raise PolicyError(f"{self.spec.described}: assist: {exc}") from None
+            raise PolicyError(f"{self.spec.described}: {method}: {exc}") from None
         alpha, goal = answer.alpha, answer.goal
         # numpy's scalars are numbers too (np.float32(0.5), np.argmax's np.int64)
         if not isinstance(alpha, numbers.Real) or not math.isfinite(alpha):
-            self._fail(f"assist returned alpha {alpha!r}; it must be a finite number")
+            self._fail(f"{method} returned alpha {alpha!r}; it must be a finite number")
         if not isinstance(goal, numbers.Integral) or not -1 <= int(goal) < len(view.goal_poses):
-            self._fail(f"assist returned goal {goal!r}; it must be -1 or a goal index below "
+            self._fail(f"{method} returned goal {goal!r}; it must be -1 or a goal index below "
                        f"{len(view.goal_poses)}")
         return Assistance(command, u_a, float(alpha), int(goal))
 

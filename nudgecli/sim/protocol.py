@@ -39,7 +39,7 @@ target is one step that does not move).
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -73,6 +73,7 @@ from nudgecli.model.world import (
     World,
 )
 from nudgecli.sim.behaviour_settings import BehaviourSettings
+from nudgecli.sim.policy_interface import QuietRun
 from nudgecli.sim.policy_registry import PolicySpec, checked_policy_specs, make_policy
 from nudgecli.sim.step_record import StepRecording, step_columns
 from nudgecli.steplog import (
@@ -262,6 +263,8 @@ class TrialSession:
         self.turn_taking = bool(self.policy.takes_turns)
         # the optional hook through which a policy answers a person's mode switch
         self.choose_mode = getattr(self.policy, "choose_mode", None)
+        # and the optional one that answers a quiet run at once (without it: assist at each step)
+        self.assist_quiet = getattr(self.policy, "assist_quiet", None)
         if self.assisted and self.model is None:
             raise ValueError(f"condition {self.spec.condition!r} needs the agent's model")
         n_goals = world.n_goals
@@ -399,14 +402,25 @@ class TrialSession:
         steps = min(limit - 1, s.time_limit_steps - self.step)
         if self.turn_taking and counting:  # it passes at the step whose idle count exceeds the threshold
             steps = min(steps, self.handover_idle_steps + 1 - self.idle)
-        ran = 0
         self.measured, self.u_h = NO_INPUT, _ZERO3
+        if steps <= 0:
+            ran = 0
+        elif self.assist_quiet is None:
+            ran = self._quiet_steps_one_by_one(steps, state, counting)
+        else:
+            ran = self._quiet_runs(self.assist_quiet(self, steps), steps, state, counting)
+        self._hand_over_when_idle()
+        return 1 + ran
+
+    def _quiet_steps_one_by_one(self, steps: int, state: int, counting: bool) -> int:
+        """Up to ``steps`` quiet steps (see :meth:`quiet_human_steps`), the policy's ``assist`` asked
+        at each; how many ran (it stops before a step whose command moves the robot)."""
         # what no step of the run changes, read once (the pose, mode and belief stand; the policy
         # sees the step and the idle count move)
         assist, append = self.policy.assist, self.rows.append
-        mode, belief, entropy = self.mode, self.belief, self.entropy
-        x, y, theta = pose
+        x, y, theta, mode, belief, entropy = self.x, self.y, self.theta, self.mode, self.belief, self.entropy
         step = self.step
+        ran = 0
         while ran < steps:
             u_f, u_a, alpha, inferred = assist(self)
             if u_f is not _ZERO3 and any(u_f):  # the policy moves the robot: the steps run one by one
@@ -417,8 +431,31 @@ class TrialSession:
             self.step = step = step + 1
             self.idle += counting
             ran += 1
-        self._hand_over_when_idle()
-        return 1 + ran
+        return ran
+
+    def _quiet_runs(self, runs: Iterable[QuietRun], steps: int, state: int, counting: bool) -> int:
+        """Up to ``steps`` quiet steps (see :meth:`quiet_human_steps`) as the policy's
+        ``assist_quiet`` answered them (``(count, assistance)`` in step order); how many ran (it
+        stops before a stretch whose command moves the robot)."""
+        x, y, theta, mode, belief, entropy = self.x, self.y, self.theta, self.mode, self.belief, self.entropy
+        first = step = self.step
+        end = first + steps
+        for count, (u_f, u_a, alpha, inferred) in runs:
+            if count < 1:
+                raise ValueError(f"assist_quiet of {self.spec.condition!r} gave a stretch of {count} steps")
+            if u_f is not _ZERO3 and any(u_f):  # the policy moves the robot: the steps run one by one
+                break
+            stop = min(step + count, end)
+            # _record's rows, written out: a stretch's rows differ in the step only
+            self.rows.extend([(k, HUMAN_TURN, x, y, theta, mode, state, NO_INPUT, 0.0, NO_INPUT, _ZERO3, u_a,
+                               alpha, inferred, belief, entropy, _NO_EVENTS) for k in range(step, stop)])
+            step = stop
+            if step == end:
+                break
+        self.step = step
+        if counting:
+            self.idle += step - first
+        return step - first
 
     def _observe(self, measured: int, state: int) -> None:
         """The Bayesian update (Eq. 7) with the state the label was produced in, or forgetting."""
