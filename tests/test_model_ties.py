@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from hypothesis import example, given
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from nudgecli.model.ties import first_argmax, tied_indices, tied_with_max, unique_argmax
@@ -71,3 +73,38 @@ def test_unique_argmax_is_the_array_rule_in_plain_floats(values: list[float]) ->
 def test_tied_indices_are_the_array_rules_ties_in_plain_floats(values: list[float]) -> None:
     array = np.array(values, dtype=float)
     assert tied_indices(array) == np.flatnonzero(tied_with_max(array)).tolist()
+
+
+@settings(max_examples=80, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_columns=st.integers(1, 10), rows=st.integers(1, 60),
+       layout=st.sampled_from(["contiguous", "transposed", "batched"]), masked=st.booleans())
+def test_rows_by_columns_are_the_rows_one_at_a_time(seed: int, n_columns: int, rows: int, layout: str,
+                                                    masked: bool) -> None:
+    # short last axes (the maximum taken column by column) and long ones, contiguous or not; values
+    # on a coarse grid (exact ties), nudged by last bits or to either side of the tolerance, zeros of
+    # both signs, infinities and NaN; every row against Python's max and the tie rule written out
+    rng = np.random.default_rng(seed)
+    values = rng.integers(-3, 4, size=(rows, n_columns)).astype(float)
+    values += rng.choice([0.0, 1e-12, -1e-12, 0.5, -9.5e-10, -1.05e-9], size=values.shape)
+    special = rng.random(values.shape)
+    values[special < 0.05] = -0.0
+    values[(special >= 0.05) & (special < 0.08)] = np.nan
+    values[(special >= 0.08) & (special < 0.1)] = -np.inf
+    valid = rng.random(values.shape) < 0.8 if masked else None
+    if layout == "transposed":  # the last axis strided, as Q-values viewed action-last
+        values = np.ascontiguousarray(values.T).T
+    elif layout == "batched":
+        values = values.reshape(1, rows, n_columns)
+        valid = None if valid is None else valid.reshape(values.shape)
+    tied = tied_with_max(values, valid=valid)
+    first = first_argmax(values, valid=valid)
+    flat_values = values.reshape(rows, n_columns)
+    flat_valid = np.ones_like(flat_values, dtype=bool) if valid is None else valid.reshape(rows, n_columns)
+    for r in range(rows):
+        pairs = zip(flat_values[r].tolist(), flat_valid[r].tolist(), strict=True)
+        row = [v if ok else -math.inf for v, ok in pairs]
+        best = math.nan if any(v != v for v in row) else max(row)
+        threshold = best - 1e-9 * max(1.0, abs(best))
+        expected = [v >= threshold for v in row]
+        assert tied.reshape(rows, n_columns)[r].tolist() == expected
+        assert int(first.reshape(rows)[r]) == (expected.index(True) if any(expected) else 0)

@@ -37,10 +37,32 @@ def tied_with_max(values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL,
     if v.shape[-1] == 0:
         raise ValueError("no candidates to choose from")
     masked = v if valid is None else np.where(valid, v, -np.inf)
-    best = masked.max(axis=-1, keepdims=True)
+    best = _last_axis_max(masked)
     slack = rtol * np.maximum(1.0, np.abs(best))
     with np.errstate(invalid="ignore"):
         return masked >= best - slack
+
+
+#: The longest last axis whose maximum :func:`_last_axis_max` takes column by column.
+_COLUMNS_MAX = 8
+
+
+def _last_axis_max(values: np.ndarray) -> np.ndarray:
+    """``values.max(axis=-1, keepdims=True)`` of ``(..., C)`` values, ``(..., 1)``.
+
+    Where the last axis is short and contiguous (a ``(G, S, 4)`` table of Q-values laid out
+    action-last), numpy's reduction runs its inner loop once per row of ``C`` (0.5 ms a ``(3, 2400,
+    4)`` table); there the maximum is taken as ``C - 1`` elementwise maxima of whole columns instead
+    (0.03 ms). The same maximum of the same values (a NaN propagates in both; of a ``-0.0`` and a
+    ``0.0`` either may come back, which the tie threshold does not tell apart).
+    """
+    n_columns = values.shape[-1]
+    if values.ndim < 2 or n_columns > _COLUMNS_MAX or values.strides[-1] != values.itemsize:
+        return values.max(axis=-1, keepdims=True)
+    best = values[..., 0]
+    for column in range(1, n_columns):
+        best = np.maximum(best, values[..., column])
+    return best[..., None]
 
 
 def first_argmax(values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL,
