@@ -13,9 +13,10 @@ from __future__ import annotations
 import io
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import pandas as pd
-import pyarrow.parquet as pq
+if TYPE_CHECKING:  # pandas loads on the first read, after a batch has started its workers
+    import pandas as pd
 
 
 def read_parquet(source: str | Path | bytes, columns: Sequence[str] | None = None) -> pd.DataFrame:
@@ -33,8 +34,18 @@ def read_parquet(source: str | Path | bytes, columns: Sequence[str] | None = Non
     pandas.DataFrame
         The frame, with the dtypes ``pandas.read_parquet`` gives (its pandas metadata applied).
     """
+    import pyarrow.parquet as pq
+
     handle = io.BytesIO(source) if isinstance(source, bytes) else source
     with pq.ParquetFile(handle, pre_buffer=False) as parquet:
         table = parquet.read(columns=list(columns) if columns is not None else None, use_threads=False,
                              use_pandas_metadata=True)
     return table.to_pandas(use_threads=False)
+
+
+def parquet_column_names(data: bytes) -> list[str]:
+    """The column names of a Parquet file's bytes (its schema only; raises as pyarrow does for a
+    file that is not Parquet)."""
+    import pyarrow.parquet as pq
+
+    return list(pq.ParquetFile(io.BytesIO(data)).schema_arrow.names)

@@ -13,16 +13,16 @@ import hashlib
 import json
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
-
-import pandas as pd
-import pyarrow.parquet as pq
+from typing import TYPE_CHECKING, Any
 
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
 from nudgecli.errors import DataError, NudgeError, RunFolderError
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import CONFIG, LAYOUTS, MANIFEST, PART_KINDS, PARTICIPANTS
+
+if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
+    import pandas as pd
 
 #: The manifest's record of the run's whole files: ``{"layouts.parquet": SHA-256, ...}`` (the parts'
 #: are under ``checksums``, by participant).
@@ -50,6 +50,8 @@ def part_name(participant: int) -> str:
 
 def readable_parquet(part: Path) -> bool:
     """Whether ``part`` is a Parquet file whose footer parses (a truncated file's does not)."""
+    import pyarrow.parquet as pq
+
     try:
         pq.ParquetFile(part).close()
     except Exception:  # pyarrow raises several types for broken files

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import io
 import json
 import os
 import platform
@@ -41,16 +40,13 @@ from collections.abc import Callable, Iterator, Sequence
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
-from typing import Any
-
-import pandas as pd
-import pyarrow.parquet as pq
+from typing import TYPE_CHECKING, Any
 
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import DataError, RunFolderError, WriteError, shell_words
 from nudgecli.outputs import check_not_an_input
-from nudgecli.parquet_reader import read_parquet
+from nudgecli.parquet_reader import parquet_column_names, read_parquet
 from nudgecli.run_folder_names import (
     CONFIG,
     LAYOUTS,
@@ -65,6 +61,9 @@ from nudgecli.run_folder_names import (
     SUMMARY_MD,
 )
 from nudgecli.run_folder_record import RunRecord, file_sha256, part_name
+
+if TYPE_CHECKING:  # pandas and pyarrow load on first use, after a batch has started its workers
+    import pandas as pd
 
 _LIBRARIES = ("numpy", "scipy", "pandas", "pyarrow", "pydantic", "click", "matplotlib", "scikit-posthocs")
 
@@ -421,7 +420,7 @@ class RunFolder(RunRecord):
                     f"{self.path}: {kind}/{part.name} changed since it was written (its SHA-256 differs "
                     f"from the one in the manifest); restore it with `{self.resume_command(manifest)}`")
             try:
-                names = pq.ParquetFile(io.BytesIO(data)).schema_arrow.names
+                names = parquet_column_names(data)
             except Exception as exc:  # pyarrow raises several types for broken files
                 fix = (self.resume_command() if self.is_run() else
                        simulate_resume_command("EXPERIMENT", self.path))
@@ -432,6 +431,8 @@ class RunFolder(RunRecord):
                 raise DataError(f"{part} lacks the column(s) {', '.join(missing)}; it was written by "
                                 "another version of nudge: re-run `nudge simulate` with this version")
             frames.append(read_parquet(data, columns))
+        import pandas as pd
+
         return pd.concat(frames, ignore_index=True)
 
     def _no_parts_message(self, kind: str) -> str:

@@ -56,14 +56,15 @@ def test_a_failing_preparation_leaves_the_batch_to_finish(tmp_path: Path) -> Non
 
 
 def test_nothing_heavy_is_imported_before_the_workers_start(tmp_path: Path) -> None:
-    """``nudge replicate`` forks its workers before it has imported the statistics' or the figures'
-    libraries: they are imported beside the workers, and the workers never hold them."""
+    """``nudge replicate`` forks its workers before it has imported the statistics', the figures' or
+    the tables' libraries (pandas, pyarrow: about 0.3-0.5 s that left a core idle before the workers
+    started): they are imported beside the workers, and the workers never hold them."""
     script = (
         "import sys\n"
         "import nudgecli.runs.executors as executors\n"
         "start = executors.ProcessExecutor.__init__\n"
         "def spy(self, workers):\n"
-        "    heavy = ('matplotlib', 'scipy.stats', 'scikit_posthocs', 'statsmodels')\n"
+        "    heavy = ('matplotlib', 'scipy.stats', 'scikit_posthocs', 'statsmodels', 'pandas', 'pyarrow')\n"
         "    print('HEAVY', sorted(m for m in heavy if m in sys.modules), flush=True)\n"
         "    start(self, workers)\n"
         "executors.ProcessExecutor.__init__ = spy\n"

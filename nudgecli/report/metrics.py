@@ -56,24 +56,12 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.errors import DataError
+from nudgecli.report.metric_names import METRIC_NAMES as METRIC_NAMES  # re-exported
 from nudgecli.report.step_metrics import (
     INPUT_STEP_COLUMNS,
     METRIC_STEP_COLUMNS,
     STEP_TRIAL_COLUMNS,
     step_metric_arrays,
-)
-
-METRIC_NAMES = (
-    "assistance_engagement",
-    "assistance_strength",
-    "mode_switches",
-    "human_effort",
-    "completion_time",
-    "human_turns",
-    "success",
-    "first_input_latency",
-    "active_input_fraction",
-    "wrong_goal",
 )
 
 #: The columns of the trial table the metrics use (a run's trial table has them all).

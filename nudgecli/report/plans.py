@@ -49,8 +49,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from nudgecli.config_files import format_validation_error, list_presets, read_toml, resolve_preset
 from nudgecli.errors import ConfigError, did_you_mean
-from nudgecli.report.metrics import METRIC_NAMES
-from nudgecli.report.stats import ComparisonOptions
+from nudgecli.report.comparison_options import ComparisonOptions
+from nudgecli.report.metric_names import METRIC_NAMES
 
 #: The most bootstrap resamples (a plan's, ``analyze --bootstrap``, ``compare --resamples``): each
 #: resample holds a row of indices per participant in memory, so more would exhaust it.

@@ -37,51 +37,19 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
 
 from nudgecli.model.conditions import PAPER_CONDITIONS
+from nudgecli.report.comparison_options import ComparisonOptions as ComparisonOptions  # re-exported
 from nudgecli.report.p_adjust import NATIVE_ADJUSTMENTS
 from nudgecli.report.rank_tests import conover_exact, kruskal_exact
 
 #: Adjustments that leave a single p-value unchanged (``multipletests`` with one test).
 _IDENTITY_ON_ONE_TEST = frozenset({"bonferroni", "sidak", "holm-sidak", "holm", "simes-hochberg", "hommel",
                                    "fdr_bh", "fdr_by"})
-
-
-@dataclass(frozen=True)
-class ComparisonOptions:
-    """Settings of :func:`~nudgecli.report.stats_document.compare_conditions` (an analysis plan's
-    ``[stats]`` and ``[bootstrap]``).
-
-    Attributes
-    ----------
-    kruskal_alpha
-        Significance level of the Kruskal-Wallis gate for the stars.
-    p_adjust
-        Adjustment of the Conover p-values (a ``statsmodels`` ``multipletests`` method, or
-        ``"none"``).
-    star_thresholds
-        Strictly decreasing thresholds; one star per threshold met.
-    star_comparison
-        ``"<"`` (the paper) or ``"<="`` (the study software); also used for the gate.
-    participant_aggregate
-        How trials are summarised per participant and condition (``"median"`` or ``"mean"``).
-    bootstrap_resamples, bootstrap_level, seed
-        The cluster bootstrap.
-    """
-
-    kruskal_alpha: float = 0.05
-    p_adjust: str = "holm"
-    star_thresholds: tuple[float, ...] = (0.05, 0.01, 0.001)
-    star_comparison: Literal["<", "<="] = "<"
-    participant_aggregate: Literal["median", "mean"] = "median"
-    bootstrap_resamples: int = 2000
-    bootstrap_level: float = 0.95
-    seed: int = 0
 
 
 def order_conditions(values: Sequence[Any], preferred: Sequence[str] = ()) -> list[str]:

@@ -55,7 +55,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
-import pandas as pd
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError, NudgeError
@@ -92,7 +91,10 @@ from nudgecli.sim.study import build_layouts, check_physiology_logs
 from nudgecli.sim.twins import Twin
 from nudgecli.store import provenance, utc_now, write_json_atomic
 
-if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only
+if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only, and
+    # pandas after the workers have started
+    import pandas as pd
+
     from nudgecli.report.plans import AnalysisPlan
 
 
@@ -202,14 +204,21 @@ class Graph:
         Study key -> study (each with the most participants any point needs of it).
     analyses
         Analysis key -> analysis.
-    entries
+    entry_rows
         One row per (point, replication, participant count): ``point, replication, seed,
-        participants, study, analysis``.
+        participants, study, analysis`` (:attr:`entries` as a table).
     """
 
     studies: dict[str, Study]
     analyses: dict[str, Analysis]
-    entries: pd.DataFrame
+    entry_rows: list[dict[str, Any]]
+
+    @property
+    def entries(self) -> pd.DataFrame:
+        """:attr:`entry_rows` as a table (made when the batch's tables are, not before its workers start)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.entry_rows)
 
     @property
     def participant_tasks(self) -> int:
@@ -224,7 +233,7 @@ def build_graph(batch: Batch) -> Graph:
     """Every study and analysis of the batch, deduplicated (equal experiments share tasks)."""
     studies: dict[str, Study] = {}
     analyses: dict[str, Analysis] = {}
-    rows = []
+    rows: list[dict[str, Any]] = []
     for r in range(batch.replications):
         seed = replication_seed(batch.seed, r)
         for point in batch.points:
@@ -240,7 +249,7 @@ def build_graph(batch: Batch) -> Graph:
                 analyses[analysis] = Analysis(analysis, key, n)
                 rows.append({"point": point.index, "replication": r, "seed": seed, "participants": n,
                              "study": key, "analysis": analysis})
-    return Graph(studies, analyses, pd.DataFrame(rows))
+    return Graph(studies, analyses, rows)
 
 
 def estimate(graph: Graph, workers: int) -> SizeEstimate:

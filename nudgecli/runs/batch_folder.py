@@ -21,15 +21,16 @@ import shutil
 import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any
 
 from nudgecli.errors import RunFolderError
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.run_folder_record import file_sha256, part_name, readable_parquet
 from nudgecli.store import prepare_mode, write_error, write_json_atomic, write_parquet_atomic
+
+if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
+    import pandas as pd
 
 BATCH_MANIFEST = "batch.json"
 #: The record of the batch's parts: one ``<SHA-256>  <path in the folder>`` line per part written.
@@ -72,6 +73,8 @@ def read_study_metrics(folder: Path, study: str, participants: int,
     ``kept`` holds parts this process has just written, by participant (the frames it wrote,
     equal to what reading them gives); the others are read from their files.
     """
+    import pandas as pd
+
     kept = kept or {}
     frames = [kept.get(i) for i in range(participants)]
     frames = [read_parquet(task_part(folder, study, i)) if f is None else f for i, f in enumerate(frames)]

@@ -14,8 +14,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import pandas as pd
-
 from nudgecli import command_defaults as defaults
 from nudgecli.config import ExperimentConfig
 from nudgecli.config_files import resolve_plan
@@ -30,6 +28,8 @@ from nudgecli.sim.twins import Twin
 from nudgecli.store import write_text_atomic
 
 if TYPE_CHECKING:  # the statistics, summaries and figures load beside the batch's workers (import_outputs)
+    import pandas as pd
+
     from nudgecli.report.plans import AnalysisPlan
 
 
@@ -244,6 +244,8 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
 
 def point_table(batch: Batch) -> pd.DataFrame:
     """One row per point: ``point`` and its swept parameters (values as they were given)."""
+    import pandas as pd
+
     return pd.DataFrame([{"point": p.index, **p.parameters} for p in batch.points])
 
 

@@ -24,8 +24,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import pandas as pd
-
 from nudgecli.config import ExperimentConfig
 from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError, NudgeError
@@ -58,7 +56,9 @@ from nudgecli.sim.study import (
 )
 from nudgecli.store import RunFolder, new_manifest, utc_now
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # pandas loads on first use, after the workers have started
+    import pandas as pd
+
     from nudgecli.report.plans import AnalysisPlan
 
 
@@ -427,6 +427,8 @@ def peak_memory_mb() -> float:
 
 def success_by_condition(trials: pd.DataFrame) -> pd.DataFrame:
     """Trials and success rate per condition (the summary ``nudge simulate`` prints)."""
+    import pandas as pd
+
     grouped = trials.groupby("condition", sort=False)
     return pd.DataFrame({
         "trials": grouped.size(),
