@@ -1,13 +1,15 @@
-"""One belief's entropy in plain floats (every belief update of a trial asks for it) against the
-array rule it stands for, ``-xlogy(b, b).sum()``, bit for bit."""
+"""One belief's entropy and Bayes update in plain floats (every belief update of a trial asks for
+them) against the array rules they stand for, ``-xlogy(b, b).sum()`` and ``b l / sum(b l)``, bit for
+bit."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from nudgecli.model.inference import _belief_entropy, normalised_entropy
+from nudgecli.model.inference import _belief_entropy, bayes_update, normalised_entropy
 from nudgecli.model.log_terms import xlogy
 
 
@@ -53,3 +55,50 @@ def test_the_normalised_entropy_of_one_belief_is_a_batchs_row() -> None:
     batch[1] = 0.25
     rows = [normalised_entropy(belief) for belief in batch]
     assert rows == normalised_entropy(batch).tolist()
+
+
+# --- one belief's Bayes update (Eq. 7) in plain floats ---------------------------------------------
+
+def array_update(belief: np.ndarray, likelihood: np.ndarray) -> np.ndarray:
+    """Eq. 7 as the array rule computes it: numpy's product, sum and quotient."""
+    unnormalised = belief * likelihood
+    return unnormalised / unnormalised.sum()
+
+
+positives = st.one_of(st.floats(1e-300, 1.0), st.sampled_from([1e-300, 5e-324, 1.0, 0.25, 0.1, 1 / 3]))
+pairs = st.integers(1, 9).flatmap(lambda n: st.tuples(st.lists(positives, min_size=n, max_size=n),
+                                                        st.lists(entries, min_size=n, max_size=n)))
+
+
+@settings(max_examples=400, deadline=None)
+@given(pairs, st.booleans())
+def test_one_beliefs_update_is_the_array_rules_bit_for_bit(pair: tuple[list[float], list[float]],
+                                                          normalise: bool) -> None:
+    belief, likelihood = np.array(pair[0]), np.array(pair[1])
+    if normalise:
+        belief = belief / belief.sum()
+    if not (belief * likelihood).sum() > 0.0:
+        with pytest.raises(ValueError, match="zero probability"):
+            bayes_update(belief, likelihood)
+        return
+    updated = bayes_update(belief, likelihood)
+    expected = array_update(belief, likelihood)
+    assert updated.dtype == expected.dtype and updated.shape == expected.shape
+    assert updated.tobytes() == expected.tobytes()
+
+
+def test_many_random_updates_of_every_size_match_the_array_rule() -> None:
+    rng = np.random.default_rng(41)
+    for n_goals in range(1, 10):
+        for concentration in (0.05, 1.0, 20.0):
+            beliefs = rng.dirichlet(np.full(n_goals, concentration), size=2000)
+            likelihoods = rng.dirichlet(np.ones(4), size=(2000, n_goals))[:, :, 0] ** rng.integers(1, 8)
+            for belief, likelihood in zip(beliefs, likelihoods, strict=True):
+                expected = array_update(belief, likelihood)
+                assert bayes_update(belief, likelihood).tobytes() == expected.tobytes()
+    # a likelihood numpy broadcasts, and a goal transition, keep the array rule
+    belief = np.array([0.5, 0.3, 0.2])
+    assert bayes_update(belief, np.array([0.4])).tolist() == array_update(belief, np.array([0.4])).tolist()
+    stay = np.full((3, 3), 0.05) + np.eye(3) * 0.85
+    assert bayes_update(belief, np.array([0.2, 0.3, 0.5]), stay).tolist() == array_update(
+        belief @ stay, np.array([0.2, 0.3, 0.5])).tolist()
