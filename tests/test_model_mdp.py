@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from nudgecli.config import ExperimentConfig, load_experiment
@@ -257,6 +257,22 @@ def test_action_likelihood() -> None:
     np.testing.assert_array_equal(p.argmax(axis=-1), policy)
     with pytest.raises(ValueError):
         human_actions.action_likelihood(policy, 1.5)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n_actions=st.integers(1, 6),
+       shape=st.sampled_from([(0,), (5,), (2, 7), (3, 2, 4)]),
+       epsilon=st.one_of(st.sampled_from([0.0, 0.1, 1.0, 1 / 3]), st.floats(0.0, 1.0)))
+@example(seed=1, n_actions=5, shape=(2, 7), epsilon=0.1)  # 0.1 / 5 is not 0.1 * (1 / 5)
+def test_action_likelihood_is_eq1_on_every_one_hot_row_bit_for_bit(seed: int, n_actions: int,
+                                                                    shape: tuple[int, ...],
+                                                                    epsilon: float) -> None:
+    # Eq. 1 written out on the whole one-hot table; the function gathers the A rows it can take
+    policy = np.random.default_rng(seed).integers(0, n_actions, size=shape)
+    onehot = (policy[..., None] == np.arange(n_actions)).astype(float)
+    expected = (1.0 - epsilon) * onehot + epsilon / n_actions
+    got = human_actions.action_likelihood(policy, epsilon, n_actions)
+    assert got.shape == expected.shape and got.tobytes() == expected.tobytes()
 
 
 def test_default_epsilon_is_the_papers() -> None:

@@ -39,8 +39,10 @@ def action_likelihood(policy: np.ndarray, epsilon: float = DEFAULT_HUMAN_EPSILON
     """
     if not 0.0 <= epsilon <= 1.0:
         raise ValueError(f"epsilon must be in [0, 1], got {epsilon}")
-    onehot = np.eye(n_actions)[np.asarray(policy, dtype=int)]
-    return (1.0 - epsilon) * onehot + epsilon / n_actions
+    # the A possible rows, each the formula of a one-hot row, gathered: the same values as the
+    # formula applied to the (G, S, A) one-hot table (0.44 ms a 3-goal layout, against 0.07 ms)
+    rows = (1.0 - epsilon) * np.eye(n_actions) + epsilon / n_actions
+    return rows[np.asarray(policy, dtype=int)]
 
 
 @dataclass(frozen=True, eq=False)
