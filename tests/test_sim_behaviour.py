@@ -364,3 +364,19 @@ def test_fine_positioning_switches_to_the_needed_mode_in_one_step(mode: int, tar
     action = person._fine_action(View(x, y, theta, mode))
     assert action in (TO_MODE_R, TO_MODE_L)
     assert (mode + (1 if action == TO_MODE_R else -1)) % N_MODES == target
+
+
+@pytest.mark.parametrize(("axis", "target"), [(0, 17.7), (1, 9.0), (2, 0.785), (2, 6.2)])
+@pytest.mark.parametrize("direction", [1.0, -1.0])
+def test_a_soft_hold_ends_at_its_mark_by_mark_reached(axis: int, target: float, direction: float) -> None:
+    # _decision_due has mark_reached written out: held to it, at the mark, around it, and for a NaN
+    settings = BehaviourSettings(dt=DT, rest_jitter=0.0, operate_jitter=0.0, hold_on=False)
+    person, view = _holding_x_puff(settings, MOVE_P)
+    person.hold_mode = view.mode = axis
+    person.hold_axis, person.hold_direction, person.hold_target = axis, direction, target
+    person.previous_pose = None  # no motion seen: only the mark decides
+    offsets = [0.0, 1e-10, -1e-10, 2e-9, -2e-9, 0.3, -0.3, 3.0, -3.0, 6.1, -6.1, 6.3, float("nan")]
+    for offset in offsets:
+        coordinate = target + offset
+        moved = replace(view, **{("x", "y", "theta")[axis]: coordinate})
+        assert person._decision_due(moved) == mark_reached(coordinate, target, direction, axis), offset

@@ -383,9 +383,9 @@ class GridWorld:
         if pose == last:
             return answer
         answer = -1
+        distance, hypot = self.success_distance, math.hypot  # read once for the goals' loop
         for index, (gx, gy, gth) in enumerate(self._goal_list):
-            if (math.hypot(gx - x, gy - y) <= self.success_distance
-                    and abs(turn_between(gth, theta)) <= self.success_angle):
+            if hypot(gx - x, gy - y) <= distance and abs(turn_between(gth, theta)) <= self.success_angle:
                 answer = index
                 break
         self._last_goal = (pose, answer)

@@ -74,6 +74,10 @@ class Phase(Enum):
     IDLE = "idle"
 
 
+# the phases as module names: a member read through the class costs more than the test, every step
+_RESTING, _OPERATING, _IDLE = Phase.RESTING, Phase.OPERATING, Phase.IDLE
+
+
 class RobotView(Protocol):
     """What the person sees at the start of a step (the protocol's trial session provides it)."""
 
@@ -120,7 +124,8 @@ def next_centre(coordinate: float, direction: float, axis: int) -> float:
 
 
 def mark_reached(coordinate: float, target: float, direction: float, axis: int) -> bool:
-    """Whether ``coordinate`` has reached ``target`` moving in ``direction`` (angles unwrapped locally)."""
+    """Whether ``coordinate`` has reached ``target`` moving in ``direction`` (angles unwrapped locally).
+    ``SimulatedPerson._decision_due`` has it written out: keep the two in step."""
     if axis == 2:
         ahead = turn_between(target, coordinate)
         return ahead * direction <= 1e-9
@@ -233,19 +238,18 @@ class SimulatedPerson:
         """How many steps from this one on certainly give no input, whatever the robot does: the
         rest before operating, a release pause between blows (once the mode on display has been
         seen), or the idling after their operating time. 0 where this step has to be decided."""
-        if self.phase is Phase.RESTING:
-            return self.rest_left
-        if self.phase is Phase.IDLE:
-            return _FOREVER
-        # a mode that changed since the last step is an event for _see_mode: that step in full
-        return self.pause_left if view.mode == self.seen_mode else 0
+        phase = self.phase
+        if phase is _OPERATING:
+            # a mode that changed since the last step is an event for _see_mode: that step in full
+            return self.pause_left if view.mode == self.seen_mode else 0
+        return self.rest_left if phase is _RESTING else _FOREVER
 
     def skip_quiet(self, steps: int, pose: tuple[float, float, float], mode: int) -> None:
         """What :meth:`next_input` does in ``steps >= 1`` of the :meth:`quiet_steps` (each gives
         ``NO_INPUT, 0.0``), the robot at ``pose`` in ``mode`` at the start of the last of them."""
-        if self.phase is Phase.RESTING:
+        if self.phase is _RESTING:
             self.rest_left -= steps
-        elif self.phase is Phase.OPERATING:
+        elif self.phase is _OPERATING:
             self.operate_left -= steps
             self.pause_left -= steps
         self.previous_pose = pose
@@ -274,13 +278,14 @@ class SimulatedPerson:
         return intended, pressure
 
     def _intend(self, view: RobotView) -> int:
-        if self.phase is Phase.RESTING:
-            if self.rest_left > 0:
+        phase = self.phase
+        if phase is not _OPERATING:
+            if phase is _IDLE:
+                return NO_INPUT
+            if self.rest_left > 0:  # resting
                 self.rest_left -= 1
                 return NO_INPUT
-            self.phase = Phase.OPERATING
-        if self.phase is Phase.IDLE:
-            return NO_INPUT
+            self.phase = _OPERATING
         # OPERATING: the operating time counts from the first step of operating
         self.operate_left -= 1
         if view.mode != self.seen_mode:  # _see_mode's own first test, here: most steps see no change
@@ -382,8 +387,11 @@ class SimulatedPerson:
         if self.settings.release_when_dragged and self._blending_effect(view) < 0:
             self.release = True  # blending drags the robot away from their goal: let go
             return True
-        coordinate = (view.x, view.y, view.theta)[self.hold_axis]
-        if not mark_reached(coordinate, self.hold_target, self.hold_direction, self.hold_axis):
+        # mark_reached, written out (every step of a soft hold asks)
+        axis = self.hold_axis
+        coordinate = (view.x, view.y, view.theta)[axis]
+        ahead = turn_between(self.hold_target, coordinate) if axis == 2 else self.hold_target - coordinate
+        if not ahead * self.hold_direction <= 1e-9:
             return False
         if self.settings.hold_on and self._robot_stops(view):
             # the robot stops here under their blow: they see it stop and blow on a little first

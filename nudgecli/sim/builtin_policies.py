@@ -99,7 +99,8 @@ class PaperBlending(FloatGoals):
         s = settings.blending
         leader = view.leader
         u_h = view.u_h
-        if leader == NO_GOAL or assistance.entropy_gated(view.entropy, s.entropy_gate):
+        gate = s.entropy_gate  # assistance.entropy_gated, written out
+        if leader == NO_GOAL or (gate is not None and view.entropy > gate):
             inferred, alpha, u_a = NO_GOAL, 0.0, NO_COMMAND
         else:
             inferred = leader

@@ -296,7 +296,13 @@ class TrialSession:
         self.belief = belief
         self.entropy = float(normalised_entropy(belief))
         self.leader = unique_argmax(belief)
-        self.leader_probability = float(belief.max())
+        # belief.max() of the values as floats (numpy's method wrapper cost more than the rule): a
+        # positive largest is the same float; NaN and zeros (whose sign numpy picks) are numpy's own
+        values = belief.tolist()
+        top = max(values)
+        if not top > 0.0 or any(value != value for value in values):
+            top = float(belief.max())
+        self.leader_probability = top
 
     # --- the human's turn ---------------------------------------------------------------------
 

@@ -1,0 +1,54 @@
+"""The trial loop's written-out copies of rules owned elsewhere, held to their owners: the entropy
+gate in ``PaperBlending.assist`` (``assistance.entropy_gated``) and the leader's probability in
+``TrialSession._set_belief`` (numpy's ``max``)."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_sim_protocol import session_of
+
+from nudgecli.config import load_experiment
+from nudgecli.model import assistance
+from nudgecli.model.interface import NO_COMMAND
+from nudgecli.sim.builtin_policies import Disambiguation
+from nudgecli.sim.protocol import ProtocolSettings
+from nudgecli.sim.study import build_layouts
+
+
+@pytest.fixture(scope="module")
+def paper():
+    config = load_experiment("paper")
+    return config, ProtocolSettings.from_config(config), build_layouts(config, 11)
+
+
+@pytest.mark.parametrize("gate", [0.65, 0.3])
+def test_the_blending_entropy_gate_is_entropy_gated_at_and_around_kappa(gate: float) -> None:
+    protocol = ProtocolSettings.from_config(load_experiment("paper", ["assistance.entropy_gate=true",
+                                                                      f"inference.kappa={gate}"]))
+    goals = np.array([[40.0, 30.0, 0.0], [5.0, 5.0, 0.0], [70.0, 10.0, 0.0]])
+    for entropy in (gate, math.nextafter(gate, 0.0), math.nextafter(gate, 1.0), 0.1, 0.99):
+        view = SimpleNamespace(x=30.0, y=20.0, theta=0.0, step=9, goal_poses=goals, leader=0,
+                               leader_probability=0.9, entropy=entropy, u_h=NO_COMMAND, initiated_at=2)
+        answer = Disambiguation(protocol).assist(view)
+        gated = assistance.entropy_gated(entropy, protocol.blending.entropy_gate)
+        assert (answer.goal == -1 and answer.alpha == 0.0) == gated, entropy
+        assert answer.alpha == (0.0 if gated else 0.8)
+
+
+values = st.one_of(st.floats(0.0, 1.0), st.just(math.nan), st.just(0.0), st.just(-0.0))
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.integers(3, 3).flatmap(lambda n: st.lists(values, min_size=n, max_size=n)))
+def test_the_leaders_probability_is_numpys_max_of_the_belief(paper, belief: list[float]) -> None:
+    session = session_of(paper, "disambiguation")
+    array = np.array(belief)
+    session._set_belief(array)
+    expected = float(array.max())
+    assert np.array([session.leader_probability]).tobytes() == np.array([expected]).tobytes()
