@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import difflib
 import shlex
+import traceback
 from collections.abc import Iterable, Sequence
+from typing import Any
 
 
 class NudgeError(Exception):
@@ -53,6 +55,33 @@ def user_error(kind: str, message: str) -> NudgeError:
     classes = {cls.__name__: cls for cls in (NudgeError, ConfigError, DataError, RunFolderError, WriteError,
                                              LockError, PolicyError)}
     return classes.get(kind, NudgeError)(message)
+
+
+class WorkerError(RuntimeError):
+    """A task failed in a worker (the worker's traceback is the message)."""
+
+
+def failure_message(exc: Exception) -> tuple[str, Any]:
+    """An exception a worker process met, as ``(status, payload)`` that pickles and that
+    :func:`failure_from_message` raises again in the parent: an ``OSError`` keeps its code, cause
+    and paths (the command's one error line names them), a :class:`NudgeError` its class and
+    message, anything else becomes the worker's traceback. Call it in the ``except`` block."""
+    if isinstance(exc, OSError):
+        return "oserror", (exc.errno, exc.strerror or str(exc), exc.filename, exc.filename2)
+    if isinstance(exc, NudgeError):
+        return "nudgeerror", (type(exc).__name__, str(exc))
+    return "error", traceback.format_exc()
+
+
+def failure_from_message(status: str, payload: Any, task: str) -> Exception:
+    """The exception of :func:`failure_message`'s ``(status, payload)``, raised by the parent for
+    ``task`` (named in a :class:`WorkerError`'s message)."""
+    if status == "oserror":
+        code, cause, path, other = payload
+        return OSError(code, cause, path, None, other)
+    if status == "nudgeerror":
+        return user_error(*payload)
+    return WorkerError(f"{task} failed in a worker:\n{payload}")
 
 
 def did_you_mean(name: str, candidates: Iterable[object]) -> str:

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from nudgecli import command_defaults as defaults
+from nudgecli.cores import available_cores as available_cores  # re-exported: the benches import it from here
 
 COLUMNS = ("what", "time_s", "baseline_s", "ratio", "peak_mb", "target", "ok", "note")
 BENCH_SEED = 20220214
@@ -131,12 +132,6 @@ def uncompiled_modules_warning(package: Path, environ: Mapping[str, str]) -> str
             f"{len(sources)} modules have no cached bytecode, so every child Python compiles them and "
             f"the start-up figures include it; run `python -m compileall -q {package}` first (as pip "
             "install does), or unset it")
-
-
-def available_cores() -> int:
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
 
 
 def best_child_time(arguments: list[str], repeats: int) -> float:

@@ -280,13 +280,11 @@ def draw_path_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]
 
 def write_figures(inputs: FigureInputs, plan: PlotPlan) -> list[Path]:
     """Draw every figure (:func:`draw_figures`, or :func:`draw_path_figures` for a path-world run)
-    and write each in every format; return the files."""
+    and write each in every format, the files at once on the cores there are
+    (:func:`~nudgecli.report.figures.output.save_figures`); return the files."""
     figures.check_formats(plan.formats)
-    written: list[Path] = []
     drawn = draw_path_figures(inputs, plan) if inputs.path_layouts is not None else draw_figures(inputs, plan)
-    for stem, fig in drawn.items():
-        written += figures.save_figure(fig, plan.out_dir, stem, plan.formats)
-    return written
+    return figures.save_figures(drawn, plan.out_dir, plan.formats)
 
 
 # --- reading a source ----------------------------------------------------------------------------

@@ -27,14 +27,19 @@ import signal
 import sys
 import tempfile
 import time
-import traceback
 from collections import OrderedDict, deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any, TextIO
 
-from nudgecli.errors import NudgeError, WorkerLostError, user_error
+from nudgecli.errors import (
+    NudgeError,
+    WorkerError,
+    WorkerLostError,
+    failure_from_message,
+    failure_message,
+)
 from nudgecli.runs.here_jobs import HereThread
 from nudgecli.runs.study_tasks import die_with_parent, process_context
 
@@ -77,10 +82,6 @@ def run_pickled_job(path: str) -> Any:
     with open(path, "rb") as handle:
         job = pickle.load(handle)
     return execute(job)
-
-
-class WorkerError(RuntimeError):
-    """A task failed in a worker (the worker's traceback is the message)."""
 
 
 def dask_result(future: Any, task: str) -> Any:
@@ -165,15 +166,9 @@ def _pool_worker(conn: Connection, parent_pid: int) -> None:
             return
         try:
             result = execute(job)
-        except OSError as exc:  # e.g. a full disk under a file the job writes: the parent re-raises it
-            cause = (exc.errno, exc.strerror or str(exc), exc.filename, exc.filename2)
-            conn.send(("oserror", job.key, cause))
-            continue
-        except NudgeError as exc:  # a user's error (a policy of theirs that fails): one Error line
-            conn.send(("nudgeerror", job.key, (type(exc).__name__, str(exc))))
-            continue
-        except Exception:
-            conn.send(("error", job.key, traceback.format_exc()))
+        except Exception as exc:  # a full disk, a user's policy that fails: the parent raises it again
+            status, payload = failure_message(exc)
+            conn.send((status, job.key, payload))
             continue
         conn.send(("ok", job.key, result))
 
@@ -357,13 +352,8 @@ class ProcessExecutor:
             job = slot.inflight.pop(key)
             broadcast = key in self._broadcast
             self._read_by_one(key)
-            if status == "oserror":  # the command's one error line (path and cause), as in this process
-                code, cause, path, other = payload
-                raise OSError(code, cause, path, None, other)
-            if status == "nudgeerror":
-                raise user_error(*payload)
-            if status != "ok":
-                raise WorkerError(f"task {key} failed in a worker:\n{payload}")
+            if status != "ok":  # the command's one error line (an OSError's path and cause, a user's error)
+                raise failure_from_message(status, payload, f"task {key}")
             if not broadcast:
                 return job, payload
 

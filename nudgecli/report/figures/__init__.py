@@ -32,7 +32,7 @@ from nudgecli.report.figures.boxplots import (
     metrics_figure,
 )
 from nudgecli.report.figures.common import TrialLayout, resolve_conditions, stats_by_metric
-from nudgecli.report.figures.output import SUPPORTED_FORMATS, check_formats, save_figure
+from nudgecli.report.figures.output import SUPPORTED_FORMATS, check_formats, save_figure, save_figures
 from nudgecli.report.figures.questionnaires import (
     group_label,
     questionnaire_bars,
@@ -85,6 +85,7 @@ __all__ = [
     "questionnaire_figure",
     "resolve_conditions",
     "save_figure",
+    "save_figures",
     "split_questionnaire_scores",
     "stats_by_metric",
     "trajectory",
