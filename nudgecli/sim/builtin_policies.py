@@ -94,7 +94,8 @@ class PaperBlending(FloatGoals):
 
     def assist(self, view: StepView) -> Assistance:
         # goal_and_alpha and goal_command written out: every step of a person's turn runs this,
-        # the quiet ones included, and the calls cost more than the rule
+        # and the calls cost more than the rule (assist_quiet relies on it reading the step only
+        # through alpha's start-up gate: keep it so, here and in Blending.assist)
         settings = self.settings
         s = settings.blending
         leader = view.leader
