@@ -158,3 +158,38 @@ def test_quiet_runs_give_the_same_trials_under_any_habits_and_rules(overrides, i
     quiet_trials, quiet_steps, _ = _participant(plan, index, True, monkeypatch)
     pd.testing.assert_frame_equal(quiet_trials, every_trials, check_exact=True)
     pd.testing.assert_frame_equal(quiet_steps, every_steps, check_exact=True)
+
+
+@pytest.mark.parametrize(("experiment", "overrides"), [
+    ("paper", ()), ("smoke", ("behaviour.hard_pulses=false", "behaviour.event_reactions=false")),
+    ("baselines", ()),
+])
+def test_no_quiet_run_starts_right_after_a_step_with_input(experiment, overrides, monkeypatch) -> None:
+    """The trial loop does not ask ``quiet_steps`` after a step that gave input: hold that it
+    would have answered 0 at every such step (operating, no pause begun)."""
+    checked = 0
+
+    def checking(self: SimulatedPerson, view):  # type: ignore[no-untyped-def]
+        nonlocal checked
+        intended, pressure = _NEXT_INPUT(self, view)
+        if intended != NO_INPUT:
+            assert self.phase is Phase.OPERATING and self.pause_left <= 0
+            assert self.quiet_steps(view) == 0
+            checked += 1
+        return intended, pressure
+
+    skipped_in: set[Phase] = set()
+    skip_quiet = SimulatedPerson.skip_quiet
+
+    def skipping(self: SimulatedPerson, steps: int, pose, mode: int) -> None:  # type: ignore[no-untyped-def]
+        skipped_in.add(self.phase)
+        skip_quiet(self, steps, pose, mode)
+
+    config = load_experiment(experiment, list(overrides))
+    plan = StudyPlan.build(config, config.experiment.seed)
+    monkeypatch.setattr(SimulatedPerson, "next_input", checking)
+    monkeypatch.setattr(SimulatedPerson, "skip_quiet", skipping)
+    simulate_participant(plan, 1)
+    assert checked > 500
+    # and the quiet runs still come: rests, pauses between blows and the idling before a handover
+    assert skipped_in == {Phase.RESTING, Phase.OPERATING, Phase.IDLE}

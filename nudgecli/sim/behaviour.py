@@ -237,7 +237,10 @@ class SimulatedPerson:
     def quiet_steps(self, view: RobotView) -> int:
         """How many steps from this one on certainly give no input, whatever the robot does: the
         rest before operating, a release pause between blows (once the mode on display has been
-        seen), or the idling after their operating time. 0 where this step has to be decided."""
+        seen), or the idling after their operating time. 0 where this step has to be decided, and
+        always 0 at the step after one of the same turn that gave input (they are operating and
+        no pause has begun: a pause begins at a step without input), so the trial loop does not
+        ask then."""
         phase = self.phase
         if phase is _OPERATING:
             # a mode that changed since the last step is an event for _see_mode: that step in full

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from nudgecli.model.disambiguation import DisambiguationModel
+from nudgecli.model.interface import NO_INPUT
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.model.world import N_MODES, GridWorld, Layout, World, state_index
 from nudgecli.sim.behaviour import InputSource, SimulatedPerson
@@ -47,16 +48,18 @@ def run_session(session: TrialSession, source: InputSource,
     # the bound methods and the end rule (TrialSession.finished) read once: the loop runs every step
     next_input, human_step, autonomy_step = source.next_input, session.human_step, session.autonomy_step
     time_limit = session.settings.time_limit_steps
+    gave_input = False  # right after a step with input no quiet run starts (SimulatedPerson.quiet_steps)
     while session.reached < 0 and session.step < time_limit:
         if session.turn == HUMAN_TURN:
             if new_turn:
                 source.start_turn(after_autonomy)
-                new_turn = False
-            if person is not None and (quiet := person.quiet_steps(session)) > 1:
+                new_turn = gave_input = False
+            if person is not None and not gave_input and (quiet := person.quiet_steps(session)) > 1:
                 pose, mode = (session.x, session.y, session.theta), session.mode
                 person.skip_quiet(session.quiet_human_steps(quiet), pose, mode)
                 continue
             intended, pressure = next_input(session)
+            gave_input = intended != NO_INPUT
             human_step(intended, pressure)
         else:
             autonomy_step()
