@@ -9,8 +9,10 @@ import threading
 from pathlib import Path
 
 import pytest
+from click.testing import CliRunner
 from matplotlib.figure import Figure
 
+from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.cores import available_cores
 from nudgecli.errors import WorkerError, WriteError
@@ -118,3 +120,16 @@ def test_figures_are_written_here_while_another_thread_runs(smoke_run: Path, tmp
         release.set()
         other.join()
     assert {int(line) for line in log.read_text(encoding="utf-8").split()} == {os.getpid()}
+
+
+@needs_two_cores
+def test_nudge_run_writes_its_figures_in_forked_processes(tmp_path: Path,
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """No thread of the command's (its progress bar's tqdm monitor was one) keeps it from forking."""
+    log = tmp_path / "pids.log"
+    _spy_pids(monkeypatch, log)
+    result = CliRunner().invoke(main, ["run", "smoke", "--out", str(tmp_path / "run")])
+    assert result.exit_code == 0, result.output
+    pids = {int(line) for line in log.read_text(encoding="utf-8").split()}
+    assert os.getpid() not in pids and len(pids) >= 2
+    assert len(list((tmp_path / "run" / "figures").glob("*.png"))) == 5

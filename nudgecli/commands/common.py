@@ -66,10 +66,17 @@ def info(message: str) -> None:
 
 
 def progress_bar(label: str, unit: str = "trial") -> tuple[Any, Any]:
-    """A tqdm bar on stderr (off when stderr is not a terminal) and its update callback."""
+    """A tqdm bar on stderr (off when stderr is not a terminal) and its update callback.
+
+    The bar has no monitor thread (tqdm's, which adjusts the refresh rate of bars left alone; this
+    one is refreshed on every update): a thread left running keeps the command from writing its
+    figures in forked processes (:func:`nudgecli.report.figures.output.save_figures`)."""
     from tqdm import tqdm
 
-    bar = tqdm(total=0, desc=label, unit=unit, file=sys.stderr, disable=None, leave=False)
+    class Bar(tqdm):  # type: ignore[type-arg]
+        monitor_interval = 0
+
+    bar = Bar(total=0, desc=label, unit=unit, file=sys.stderr, disable=None, leave=False)
 
     def update(done: int, total: int) -> None:
         bar.total = total
