@@ -1,6 +1,7 @@
 """The trial loop's written-out copies of rules owned elsewhere, held to their owners: the entropy
-gate in ``PaperBlending.assist`` (``assistance.entropy_gated``) and the leader's probability in
-``TrialSession._set_belief`` (numpy's ``max``)."""
+gate in ``PaperBlending.assist`` (``assistance.entropy_gated``), the leader's probability in
+``TrialSession._set_belief`` (numpy's ``max``) and ``Assistance.additive``'s float sum (numpy's
+``add``)."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from nudgecli.config import load_experiment
 from nudgecli.model import assistance
 from nudgecli.model.interface import NO_COMMAND
 from nudgecli.sim.builtin_policies import Disambiguation
+from nudgecli.sim.policy_interface import Assistance
 from nudgecli.sim.protocol import ProtocolSettings
 from nudgecli.sim.study import build_layouts
 
@@ -52,3 +54,31 @@ def test_the_leaders_probability_is_numpys_max_of_the_belief(paper, belief: list
     session._set_belief(array)
     expected = float(array.max())
     assert np.array([session.leader_probability]).tobytes() == np.array([expected]).tobytes()
+
+
+floats = st.floats(allow_nan=True, allow_infinity=True, allow_subnormal=True)
+triples = st.tuples(floats, floats, floats)
+
+
+@settings(max_examples=300, deadline=None)
+@given(triples, triples)
+def test_an_additive_assistance_of_float_tuples_is_numpys_sum(u_h, u_a) -> None:
+    command = Assistance.additive(u_h, u_a, 1).command
+    assert type(command) is tuple
+    with np.errstate(over="ignore", invalid="ignore"):  # inf - inf, and sums past the largest float
+        expected = np.add(u_h, u_a)
+    assert np.array(command).tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize(("u_h", "u_a"), [
+    ((np.float32(0.1), 0.0, 0.0), (0.2, 0.0, 0.0)),
+    ((0.1, 0.0, 0.0), (np.float32(0.2), np.float32(0.3), np.float32(0.4))),
+    (np.array([0.1, 0.2, 0.3], dtype=np.float32), np.array([0.2, 0.1, 0.0], dtype=np.float32)),
+    ((1, 2, 3), (4, 5, 6)),
+    ([0.1, 0.2, 0.3], (0.3, 0.2, 0.1)),
+])
+def test_an_additive_assistance_of_anything_else_is_numpys_sum_in_its_dtype(u_h, u_a) -> None:
+    command = Assistance.additive(u_h, u_a, 0).command
+    expected = np.add(u_h, u_a)
+    assert isinstance(command, np.ndarray) and command.dtype == expected.dtype
+    assert command.tobytes() == expected.tobytes()

@@ -152,7 +152,15 @@ class Assistance(NamedTuple):
 
     @classmethod
     def additive(cls, u_h: Command, u_a: Command, goal: int) -> Assistance:
-        """``u_f = u_h + u_a`` (alpha 1: the whole assistance is added to the person's command)."""
+        """``u_f = u_h + u_a`` (alpha 1: the whole assistance is added to the person's command).
+
+        Two tuples of three numbers whose sums are Python floats (the built-in policies' commands,
+        every step of hindsight) give a tuple: numpy's float64 sum bit for bit without the array;
+        anything else (numpy scalars or arrays among them) is numpy's sum, an array in its dtype."""
+        if type(u_h) is tuple and type(u_a) is tuple and len(u_h) == 3 == len(u_a):
+            vx, vy, omega = u_h[0] + u_a[0], u_h[1] + u_a[1], u_h[2] + u_a[2]
+            if type(vx) is float and type(vy) is float and type(omega) is float:
+                return cls((vx, vy, omega), u_a, 1.0, goal)
         return cls(np.add(u_h, u_a), u_a, 1.0, goal)
 
 
