@@ -96,3 +96,23 @@ def test_every_goal_count_the_configuration_allows_is_placed_in_every_corner() -
 def test_a_goal_count_no_region_holds_is_refused_by_name() -> None:
     with pytest.raises(ValueError, match="cannot place 21 goals in the region opposite tl"):
         sample_layout(generator(3, "goal-placement-test"), "tl", 21, 0)
+
+
+@given(distance=st.one_of(st.floats(0.0, 60.0), st.sampled_from([0.0, 1.0, 2.1, 4.2, 1e-300])),
+       goal=st.integers(0, 3), direction=st.one_of(st.floats(0.0, 2 * math.pi), st.sampled_from(
+           [0.0, math.pi / 2, math.pi, 3 * math.pi / 2, math.pi / 4])),
+       stretch=st.one_of(st.sampled_from([1.0, 1 + 2**-52, 1 - 2**-53, 1 + 2**-50, 1 + 1e-6, 1 - 1e-6,
+                                          1 + 2e-6, 0.0, 2.0]), st.floats(1 - 1e-5, 1 + 1e-5)))
+def test_a_goal_is_reached_by_the_rule_at_the_edge_of_the_tolerance(distance, goal, direction,
+                                                                     stretch) -> None:
+    # on the edge of the tolerance, a float either side and along the axes: the hypot rule's answer
+    world = GridWorld(LAYOUT, distance, math.pi)
+    gx, gy, gth = (float(v) for v in LAYOUT.goal_poses[goal])
+    radius = distance * stretch
+    x, y = gx + radius * math.cos(direction), gy + radius * math.sin(direction)
+    expected = -1
+    for index, (hx, hy, _) in enumerate(LAYOUT.goal_poses):
+        if math.hypot(hx - x, hy - y) <= distance:
+            expected = index
+            break
+    assert world.goal_reached(x, y, gth) == expected
