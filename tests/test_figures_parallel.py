@@ -56,6 +56,7 @@ def _spy_pids(monkeypatch: pytest.MonkeyPatch, log: Path) -> None:
 @needs_two_cores
 def test_figures_written_at_once_are_those_written_one_after_the_other(
         smoke_run: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(output, "_other_threads_running", lambda: False)  # threads other tests left
     serial_dir, parallel_dir = tmp_path / "serial", tmp_path / "parallel"
     formats = ("png", "pdf", "svg")
     serial = output.save_figures(_drawn(smoke_run, serial_dir), serial_dir, formats, processes=1)
@@ -89,6 +90,7 @@ def test_a_childs_write_error_is_the_commands_error_line(smoke_run: Path, tmp_pa
         return save(fig, out_dir, stem, *args, **kwargs)  # type: ignore[arg-type]
 
     monkeypatch.setattr(output, "save_figure", failing)
+    monkeypatch.setattr(output, "_other_threads_running", lambda: False)
     with pytest.raises(WriteError, match=r"fig4\.png: cannot be written \(No space left on device\)$"):
         output.save_figures(_drawn(smoke_run, tmp_path), tmp_path, ("png",), processes=2)
 
@@ -100,6 +102,7 @@ def test_a_childs_crash_names_the_figure_and_the_traceback(smoke_run: Path, tmp_
         raise ValueError(f"cannot draw {stem}")
 
     monkeypatch.setattr(output, "save_figure", broken)
+    monkeypatch.setattr(output, "_other_threads_running", lambda: False)
     expected = r"(?s)writing figure 'fig3' failed in a worker:.*ValueError: cannot draw fig3"
     with pytest.raises(WorkerError, match=expected):
         output.save_figures(_drawn(smoke_run, tmp_path), tmp_path, ("png",), processes=2)
@@ -125,7 +128,11 @@ def test_figures_are_written_here_while_another_thread_runs(smoke_run: Path, tmp
 @needs_two_cores
 def test_nudge_run_writes_its_figures_in_forked_processes(tmp_path: Path,
                                                           monkeypatch: pytest.MonkeyPatch) -> None:
-    """No thread of the command's (its progress bar's tqdm monitor was one) keeps it from forking."""
+    """No thread of the command's (its progress bar's tqdm monitor was one) keeps it from forking;
+    threads that other tests left running (a server's, a pool's) are not the command's."""
+    before = set(threading.enumerate())
+    monkeypatch.setattr(output, "_other_threads_running",
+                        lambda: any(t not in before for t in threading.enumerate()))
     log = tmp_path / "pids.log"
     _spy_pids(monkeypatch, log)
     result = CliRunner().invoke(main, ["run", "smoke", "--out", str(tmp_path / "run")])

@@ -123,7 +123,7 @@ def save_figures(figures: Mapping[str, Figure], out_dir: str | os.PathLike[str],
     fmts = check_formats(formats)
     stems = list(figures)
     workers = min(len(stems), processes or len(stems), available_cores())
-    if workers < 2 or not _can_fork() or threading.active_count() > 1:
+    if workers < 2 or not _can_fork() or _other_threads_running():
         return [path for stem, fig in figures.items()
                 for path in save_figure(fig, out_dir, stem, fmts, dpi=dpi)]
     import multiprocessing
@@ -187,6 +187,11 @@ def _write_figures(figures: Mapping[str, Figure], formats: Sequence[str], out_di
 
 def _can_fork() -> bool:
     return hasattr(os, "fork")
+
+
+def _other_threads_running() -> bool:
+    """Whether a thread besides this one runs (a notebook's kernel, a dask client, a server)."""
+    return threading.active_count() > 1
 
 
 __all__ = ["PNG_DPI", "SUPPORTED_FORMATS", "check_formats", "save_figure", "save_figures"]
