@@ -39,7 +39,13 @@ from nudgecli.report.metrics import apply_filters
 from nudgecli.report.pair_display import check_reference
 from nudgecli.report.stats import ComparisonOptions
 from nudgecli.report.style import condition_display_name
-from nudgecli.report.tables import TABLE_SUFFIXES, read_csv_labels, read_metrics_table, validate_metrics_table
+from nudgecli.report.tables import (
+    TABLE_SUFFIXES,
+    drop_or_refuse_duplicates,
+    read_csv_labels,
+    read_metrics_table,
+    validate_metrics_table,
+)
 from nudgecli.report.trial_selection import choose_figure5_trial
 from nudgecli.report.trial_steps import TrialKey
 from nudgecli.run_folder_names import FIGURES_DIR, METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_JSON
@@ -338,6 +344,21 @@ def _read_metrics_csv(path: Path) -> pd.DataFrame:
     return table
 
 
+def _table_as_analysed(path: Path, folder: Path) -> pd.DataFrame:
+    """A metrics table's rows as its analysis in ``folder`` analysed them (before the filters).
+
+    An analysis that changed the table (``--drop-duplicates`` dropped repeated trial rows, or the
+    plan's filters blanked values) keeps its own copy, ``metrics.csv``: the table's repeated rows
+    are dropped here as that analysis dropped them (the first of each kept), so the checksum the
+    caller verifies still tells an unchanged table from one edited after its analysis.
+    """
+    table = read_metrics_table(path)
+    validate_metrics_table(table, str(path))
+    if analysed_metrics_path(folder) == folder / METRICS_CSV:
+        table, _ = drop_or_refuse_duplicates(table, path, first_row=2, drop_duplicates=True, notes=[])
+    return table
+
+
 def read_inputs(source: str | Path) -> FigureInputs:
     """The figure inputs of a source, with ``stats.json`` checked against the metrics.
 
@@ -363,8 +384,7 @@ def read_inputs(source: str | Path) -> FigureInputs:
         folder = analysis_folder_of_table(path)
         stats_path = folder / STATS_JSON
         stats = read_stats(stats_path)
-        table = read_metrics_table(path)
-        validate_metrics_table(table, str(path))
+        table = _table_as_analysed(path, folder)
         metrics_name = str(path)
     else:
         folder = path
