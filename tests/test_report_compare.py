@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -220,3 +222,12 @@ def test_cli_compare_errors_are_one_line(tmp_path: Path) -> None:
         result = runner.invoke(main, args)
         assert result.exit_code == 1, (args, result.output)
         assert result.stderr.startswith("Error: ") and result.stderr.count("\n") == 1, result.stderr
+
+
+def test_importing_the_comparison_does_not_import_scipy_stats() -> None:
+    # scipy.stats costs about 0.6 s of CPU: compare_tables imports it where it runs the tests, so
+    # every command that imports this module (the CLI's) does not pay for it; a fresh interpreter
+    # because this one has scipy.stats already
+    code = "import sys, nudgecli.report.compare; print('scipy.stats' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

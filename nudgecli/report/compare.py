@@ -36,7 +36,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-import scipy.stats
 
 from nudgecli import command_defaults as defaults
 from nudgecli.errors import DataError, did_you_mean, shell_words
@@ -349,6 +348,8 @@ def compare_tables(simulated: pd.DataFrame, real: pd.DataFrame, metrics: Sequenc
             ks_low = ks_high = w_low = w_high = math.nan
             valid = 0
             if sim_values.size and real_values.size:
+                import scipy.stats  # here, not at import: about 0.6 s of CPU for every command
+
                 test = scipy.stats.ks_2samp(sim_values, real_values)
                 ks, ks_p = float(test.statistic), float(test.pvalue)
                 w1 = float(scipy.stats.wasserstein_distance(sim_values, real_values))
