@@ -6,6 +6,7 @@ import itertools
 import math
 import re
 import statistics
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -14,6 +15,7 @@ import scipy.stats
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from nudgecli.report import participant_tests
 from nudgecli.report.cluster_bootstrap import _weighted_medians, bootstrap_median_differences
 from nudgecli.report.participant_tests import (
     kendalls_w,
@@ -472,3 +474,33 @@ def test_signed_rank_test_at_scipys_size_limit_of_the_sign_flip_test(n: int) -> 
     y[::3] = 1.0
     expected = scipy.stats.wilcoxon(x, y)
     assert signed_rank_test(x, y) == (float(expected.statistic), float(expected.pvalue))
+
+
+def _signed_rank_cases() -> list[tuple[np.ndarray, np.ndarray]]:
+    """Pairs for each of signed_rank_test's fast paths: ties among 7 (the sign-flip test), 20
+    distinct nonzero differences (the exact test), ties among 60 (the normal approximation)."""
+    rng = np.random.default_rng(3)
+    tied = np.arange(7.0) % 3
+    distinct = rng.permutation(np.arange(1.0, 21.0)) * rng.choice([-1.0, 1.0], 20)
+    many = np.arange(60.0) % 7 - 2.0
+    return [(tied, np.ones(7)), (distinct, np.zeros(20)), (many, np.zeros(60))]
+
+
+def test_signed_rank_test_runs_scipys_wilcoxon_itself_on_an_unchecked_scipy(monkeypatch) -> None:
+    wilcoxon = scipy.stats.wilcoxon
+    calls: list[Any] = []
+
+    def spy(x: np.ndarray, y: np.ndarray) -> Any:
+        calls.append(wilcoxon(x, y))
+        return calls[-1]
+
+    monkeypatch.setattr(scipy.stats, "wilcoxon", spy)
+    cases = _signed_rank_cases()
+    # the installed scipy is a checked release (add a new one to CHECKED_SCIPY_VERSIONS only after
+    # reading its source): the fast paths run, scipy's wilcoxon does not
+    fast = [signed_rank_test(x, y) for x, y in cases]
+    assert calls == []
+    monkeypatch.setattr(participant_tests, "installed_scipy_version", lambda: "1.14.1")
+    unchecked = [signed_rank_test(x, y) for x, y in cases]
+    assert len(calls) == len(cases)
+    assert unchecked == [(float(r.statistic), float(r.pvalue)) for r in calls] == fast

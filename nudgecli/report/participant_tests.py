@@ -27,6 +27,32 @@ from nudgecli.report.stats import adjust_p_values, pairs, python_scalar, tidy_va
 #: 1.15, gh-21567; pyproject.toml requires it, and a test holds the two together on the installed one).
 SIGN_FLIP_MAX_N = 13
 
+#: The scipy releases whose ``scipy.stats.wilcoxon`` the fast paths of :func:`signed_rank_test`
+#: were checked against, source and numbers; on any other release scipy's own function runs.
+#: Compared in the Python sources of these releases (scipy/scipy at git revisions e29dcb65,
+#: b9105ccc and 527eb7fd, as their wheels ship them): ``scipy/stats/_wilcoxon.py``
+#: (``_wilcoxon_iv``: the normal approximation above 50 differences; ``_wilcoxon_statistic``:
+#: ``R+``, ``R-``, ``m``, ``s``, the tie correction, ``se`` and ``z``; ``_wilcoxon_nd``: the exact
+#: test without zeros or ties, the sign-flip permutation test up to 13 differences with them,
+#: ``p = 2 min(sf, cdf)`` clipped; ``WilcoxonDistribution``), ``_hypotests._get_wilcoxon_distr``,
+#: ``_stats_py._rankdata`` (average ranks, tie counts in sorted order), ``_get_pvalue`` and
+#: ``_SimpleNormal``, ``_morestats.wilcoxon``'s defaults and ``_resampling.PermutationMethod``'s.
+#: The same operations in the same order on the same values in all three: 1.15 and 1.16 call
+#: numpy where 1.17 goes through the array API, keep the count of differences and the tie counts
+#: as integers where 1.17 casts them to float64 (whole numbers far below 2**53: exact either way),
+#: and sort in ``_rankdata`` with quicksort where 1.17 sorts stably (the average ranks and the
+#: tie counts' sorted layout do not depend on it). The bit-for-bit tests of
+#: :func:`signed_rank_test` against ``scipy.stats.wilcoxon`` (tests/test_report_stats.py,
+#: tests/test_report_metric_once.py) passed on each of these releases.
+CHECKED_SCIPY_VERSIONS = ("1.15.3", "1.16.3", "1.17.1")
+
+
+def installed_scipy_version() -> str:
+    """The installed scipy's release string (``scipy.__version__``, e.g. ``"1.17.1"``)."""
+    import scipy
+
+    return str(scipy.__version__)
+
 
 def signed_rank_sum(d: np.ndarray, axis: int = -1) -> np.ndarray:
     """Wilcoxon's ``R+`` along ``axis``: the average ranks of the nonzero ``|d|`` of the positive ``d``.
@@ -62,7 +88,8 @@ def signed_rank_test(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     zeros or ties among at most :data:`EXACT_MAX_N` differences, scipy's exact test is evaluated
     here on arrays (:func:`_exact_signed_rank_test`, about 1 ms a call less), and so is its normal
     approximation for the rest (:func:`_normal_signed_rank_test`). Differences that are not all
-    finite, or all zero, go to ``scipy.stats.wilcoxon`` itself.
+    finite, or all zero, go to ``scipy.stats.wilcoxon`` itself, and so does everything on a scipy
+    release whose source was not checked (:data:`CHECKED_SCIPY_VERSIONS`).
 
     Parameters
     ----------
@@ -77,6 +104,9 @@ def signed_rank_test(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     """
     import scipy.stats
 
+    if installed_scipy_version() not in CHECKED_SCIPY_VERSIONS:  # its arithmetic may differ
+        unchecked = scipy.stats.wilcoxon(x, y)
+        return float(unchecked.statistic), float(unchecked.pvalue)
     d = np.asarray(x, dtype=float) - np.asarray(y, dtype=float)
     nonzero = np.abs(d[d != 0])
     has_zeros_or_ties = nonzero.size < d.size or np.unique(nonzero).size < nonzero.size
@@ -103,11 +133,11 @@ EXACT_MAX_N = 50
 def _exact_signed_rank_test(d: np.ndarray) -> tuple[float, float] | None:
     """``scipy.stats.wilcoxon``'s exact two-sided test of differences without zeros or ties.
 
-    What scipy 1.17 computes (``scipy/stats/_wilcoxon.py``, ``_wilcoxon_nd`` with
-    ``method="exact"`` and ``WilcoxonDistribution``), operation for operation: ``R+`` and ``R-``,
-    sums of the integer ranks of ``|d|`` (exact); the null probabilities of ``R+`` from scipy's
-    own ``_get_wilcoxon_distr(n)``; ``sf(k)`` the sum of those from ``k`` up and ``cdf(k)`` of
-    those up to ``k`` (each ``1 -`` the other side's sum when ``k`` exceeds the mean
+    What scipy computes (:data:`CHECKED_SCIPY_VERSIONS`; ``scipy/stats/_wilcoxon.py``,
+    ``_wilcoxon_nd`` with ``method="exact"`` and ``WilcoxonDistribution``), operation for operation:
+    ``R+`` and ``R-``, sums of the integer ranks of ``|d|`` (exact); the null probabilities of
+    ``R+`` from scipy's own ``_get_wilcoxon_distr(n)``; ``sf(k)`` the sum of those from ``k`` up and
+    ``cdf(k)`` of those up to ``k`` (each ``1 -`` the other side's sum when ``k`` exceeds the mean
     ``n (n + 1) / 4``), summed by numpy over the same slices; ``p = 2 min(sf, cdf)`` clipped to
     ``[0, 1]``. A test holds it to ``scipy.stats.wilcoxon`` bit for bit.
 
@@ -144,16 +174,16 @@ def _normal_signed_rank_test(d: np.ndarray) -> tuple[float, float]:
     more than :data:`EXACT_MAX_N` differences or zeros or ties among more than
     :data:`SIGN_FLIP_MAX_N`.
 
-    What scipy 1.17 computes (``scipy/stats/_wilcoxon.py``, ``_wilcoxon_statistic`` and
-    ``_wilcoxon_nd`` with ``zero_method="wilcox"``; ``_stats_py._rankdata`` and ``_get_pvalue``),
-    operation for operation on values of the same types: zeros dropped (scipy ranks them last,
-    as NaN, and adds nothing of them), ``R+``, ``R-`` sums of the average ranks (half-integers:
-    exact); ``m = c (c + 1) 0.25`` and ``s = c (c + 1) (2 c + 1)`` of the ``c`` nonzero
-    differences; the tie counts laid out as scipy lays them (each run's size at the run's first
-    place in sorted order, zeros elsewhere, one per dropped zero after them), ``T = sum(t**3 -
-    t)`` over that same array (numpy's power and pairwise sum on the same layout, so the same
-    bits); ``se = sqrt((s - T / 2) / 24)``, ``z = (R+ - m) / se``, ``p = 2 ndtr(-|z|)``. A test
-    holds it to ``scipy.stats.wilcoxon`` bit for bit.
+    What scipy computes (:data:`CHECKED_SCIPY_VERSIONS`; ``scipy/stats/_wilcoxon.py``,
+    ``_wilcoxon_statistic`` and ``_wilcoxon_nd`` with ``zero_method="wilcox"``;
+    ``_stats_py._rankdata`` and ``_get_pvalue``), operation for operation on values of the same
+    types: zeros dropped (scipy ranks them last, as NaN, and adds nothing of them), ``R+``, ``R-``
+    sums of the average ranks (half-integers: exact); ``m = c (c + 1) 0.25`` and ``s = c (c + 1) (2
+    c + 1)`` of the ``c`` nonzero differences; the tie counts laid out as scipy lays them (each
+    run's size at the run's first place in sorted order, zeros elsewhere, one per dropped zero after
+    them), ``T = sum(t**3 - t)`` over that same array (numpy's power and pairwise sum on the same
+    layout, so the same bits); ``se = sqrt((s - T / 2) / 24)``, ``z = (R+ - m) / se``, ``p = 2
+    ndtr(-|z|)``. A test holds it to ``scipy.stats.wilcoxon`` bit for bit.
 
     Parameters
     ----------
