@@ -496,11 +496,21 @@ def test_signed_rank_test_runs_scipys_wilcoxon_itself_on_an_unchecked_scipy(monk
 
     monkeypatch.setattr(scipy.stats, "wilcoxon", spy)
     cases = _signed_rank_cases()
-    # the installed scipy is a checked release (add a new one to CHECKED_SCIPY_VERSIONS only after
-    # reading its source): the fast paths run, scipy's wilcoxon does not
+    # a checked series (add a new one to CHECKED_SCIPY_VERSIONS only after reading its source):
+    # the fast paths run, scipy's wilcoxon does not
+    monkeypatch.setattr(participant_tests, "installed_scipy_version", lambda: "1.17")
     fast = [signed_rank_test(x, y) for x, y in cases]
     assert calls == []
-    monkeypatch.setattr(participant_tests, "installed_scipy_version", lambda: "1.14.1")
+    monkeypatch.setattr(participant_tests, "installed_scipy_version", lambda: "1.14")
     unchecked = [signed_rank_test(x, y) for x, y in cases]
     assert len(calls) == len(cases)
     assert unchecked == [(float(r.statistic), float(r.pvalue)) for r in calls] == fast
+
+
+@pytest.mark.parametrize(("version", "series"), [("1.17.1", "1.17"), ("1.17.2rc1", "1.17"),
+                                                 ("1.16.0", "1.16"), ("2.0.0.dev0+git1234", "2.0")])
+def test_the_scipy_series_is_major_and_minor(monkeypatch, version: str, series: str) -> None:
+    import scipy
+
+    monkeypatch.setattr(scipy, "__version__", version)
+    assert participant_tests.installed_scipy_version() == series
