@@ -274,3 +274,39 @@ def test_each_person_draws_their_control_inside_the_ranges_and_old_records_read_
                                                               "rest_s", "operate_s", "action_pause_s",
                                                               "hard_blow_s", "reaction_s")},
                        "deadband_share": 1.0})
+
+
+def schedule_sample_by_sample(hazard: float, median: float, n: int, rng: np.random.Generator, log_sd: float,
+                              release_share: float) -> tuple[list[bool], int]:
+    """The module's schedule read off its docstring, one sample after another: the ``k``-th sample
+    whose uniform is below the hazard is the ``k``-th candidate and owns the ``k``-th length and
+    release draws, whether or not it starts a stray."""
+    starts, lengths, releases = rng.random(n), rng.standard_normal(n), rng.random(n)
+    straying = [False] * n
+    candidate, free_from = -1, 0
+    for sample in range(n):
+        if not starts[sample] < hazard:
+            continue
+        candidate += 1
+        if sample < free_from:  # inside a stray, or the sample right after it
+            continue
+        end = sample + max(1, round(median * math.exp(log_sd * lengths[candidate])))
+        for inside in range(sample, min(end, n)):
+            straying[inside] = True
+        if releases[candidate] < release_share:
+            return straying, end
+        free_from = end + 1
+    return straying, -1
+
+
+@settings(max_examples=150, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), hazard=st.sampled_from([0.0, 0.02, 0.3, 1.0]) | st.floats(0.0, 1.0),
+       median=st.floats(0.2, 6.0), n=st.integers(0, 80), log_sd=st.sampled_from([STRAY_LOG_SD, 0.0, 1.3]),
+       release_share=st.sampled_from([STRAY_RELEASE_SHARE, 0.0, 1.0]) | st.floats(0.0, 1.0))
+def test_the_schedule_is_the_sample_by_sample_reading(seed: int, hazard: float, median: float, n: int,
+                                                      log_sd: float, release_share: float) -> None:
+    # the same three draws, the same flags and release, and the stream left where the reading leaves it
+    rng, reference_rng = np.random.default_rng(seed), np.random.default_rng(seed)
+    assert (stray_schedule(hazard, median, n, rng, log_sd, release_share)
+            == schedule_sample_by_sample(hazard, median, n, reference_rng, log_sd, release_share))
+    assert rng.bit_generator.state == reference_rng.bit_generator.state

@@ -37,7 +37,14 @@ from nudgecli.sim.participants import (
     participants_frame,
     participants_from_frame,
 )
-from nudgecli.sim.pressure_model import LABEL_SIGN, blows_drift_normals, drift_normals
+from nudgecli.sim.pressure_model import (
+    LABEL_SIGN,
+    blows_drift_normals,
+    drift_normals,
+    lognormal_delay,
+    lognormal_delays,
+    pulse_fractions,
+)
 
 SHARED_CALIBRATION = Path(__file__).resolve().parents[2] / "shared" / "data" / "calibration"
 needs_shared = pytest.mark.skipif(
@@ -478,3 +485,49 @@ def test_censored_normal_fit_of_all_saturated_samples_by_hand() -> None:
     level, spread = censored_normal_fit(np.ones(50))
     assert spread == 0.05
     assert level == pytest.approx(1.0 + 0.05 * NormalDist().inv_cdf(1 - 0.5 / 50), rel=1e-12)
+
+
+@given(label=st.integers(0, 3), onset=st.integers(0, 4), peak=st.integers(1, 4), offset=st.integers(0, 3),
+       seed=st.integers(0, 2**16), levels=st.lists(st.floats(0.0, 1.4), min_size=4, max_size=4),
+       spreads=st.lists(st.floats(0.0, 0.6), min_size=4, max_size=4))
+@settings(max_examples=150)
+def test_a_pulse_is_its_samples_in_plain_floats_bit_for_bit(label: int, onset: int, peak: int, offset: int,
+                                                             seed: int, levels: list[float],
+                                                             spreads: list[float]) -> None:
+    # the pulse's law sample by sample: f_j * (|level| + spread z_j), clipped to [0, 1], signed; the
+    # onset rises (j + 1) / (onset + 1), the offset falls (offset - j) / (offset + 1)
+    participant = Participant(
+        index=0, seed_key="test/pulse", pressure_level=LABEL_SIGN * (np.array(levels) + 1e-3),
+        pressure_spread=np.array(spreads), mapping=mapping_with_error(0.0), epsilon=0.1, rest_s=0.5,
+        operate_s=3.0, action_pause_s=0.2, hard_blow_s=0.5, reaction_s=1.0, onset_ramp_samples=onset,
+        offset_ramp_samples=offset)
+    normals = np.random.default_rng(seed).standard_normal(onset + peak + offset)
+    fractions = ([(j + 1) / (onset + 1.0) for j in range(onset)] + [1.0] * peak
+                 + [(offset - j) / (offset + 1.0) for j in range(offset)])
+    level = abs(float(participant.pressure_level[label]))
+    spread = float(participant.pressure_spread[label])
+    sign = -1.0 if label in (HARD_PUFF, SOFT_PUFF) else 1.0
+    expected = [sign * min(max(f * (level + spread * z), 0.0), 1.0)
+                for f, z in zip(fractions, normals.tolist(), strict=True)]
+    pressures = participant.pulse_pressures(label, normals, peak)
+    assert pressures.dtype == np.float64 and pressures.tolist() == expected
+    assert np.signbit(pressures).tolist() == np.signbit(expected).tolist()
+    # the shape is made once and shared, so nobody may change it
+    assert pulse_fractions(onset, peak, offset) is pulse_fractions(onset, peak, offset)
+    assert not pulse_fractions(onset, peak, offset).flags.writeable
+
+
+@given(seed=st.integers(0, 2**32 - 1), median=st.floats(0.01, 5.0), log_sd=st.floats(0.0, 1.5))
+@settings(max_examples=200)
+def test_one_reaction_delay_is_the_arrays_bit_for_bit(seed: int, median: float, log_sd: float) -> None:
+    # a person's reaction (one delay) against the array law of size one, from the same stream
+    rng, reference_rng = np.random.default_rng(seed), np.random.default_rng(seed)
+    participant = Participant(
+        index=0, seed_key="test/delay", pressure_level=LABEL_SIGN * 0.5, pressure_spread=np.full(4, 0.1),
+        mapping=mapping_with_error(0.0), epsilon=0.1, rest_s=0.5, operate_s=3.0, action_pause_s=0.2,
+        hard_blow_s=0.5, reaction_s=1.0, event_reaction_s=median, event_reaction_log_sd=log_sd)
+    for _ in range(3):
+        assert participant.event_reaction(rng) == float(lognormal_delays(median, log_sd, 1, reference_rng)[0])
+    one = float(lognormal_delays(median, log_sd, 1, reference_rng)[0])
+    assert lognormal_delay(median, log_sd, rng) == one
+    assert rng.bit_generator.state == reference_rng.bit_generator.state

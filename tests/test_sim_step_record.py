@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Collection
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -40,3 +42,40 @@ def test_each_code_gets_its_value_asked_once_in_increasing_order(size: int) -> N
     assert asked == sorted(set(codes.tolist()))
     pairs = mapped_codes(codes, lambda code: (code, 2 * code), np.int64)
     assert pairs.dtype == np.int64 and pairs.tolist() == [[code, 2 * code] for code in codes.tolist()]
+
+
+def hand_rows() -> list[tuple]:
+    """Three raw steps (:data:`step_record.ROW_FIELDS`), one command an array as hindsight's are."""
+    belief = np.array([0.5, 0.25, 0.25])
+    return [
+        (0, "human", 1.5, 2.0, 0.0, 0, 7, 2, -0.25, 2, (0.1, 0.0, -0.2), (0.0, 0.0, 0.0), 0.0, -1, belief,
+         1.04, ("trial_start",)),
+        (1, "human", 1.6, 2.0, 0.1, 0, 7, 2, -0.3, 4, np.array([0.2, 0.0, 0.0]), (0.05, 0.0, 0.0), 0.5, 1,
+         belief, 1.04, ()),
+        (2, "robot", 1.7, 2.5, 0.2, 1, 9, -1, 0.0, -1, (0.0, 0.0, 0.0), (0.0, 0.3, 0.0), 1.0, 1, belief, 0.9,
+         ["goal_reached", "trial_end"]),
+    ]
+
+
+@pytest.mark.parametrize("names", [step_record.STEP_COLUMNS, ("x", "event", "u_a_y"), {"phi_m", "belief"},
+                                   ()])
+def test_a_recording_keeps_the_wanted_fields_of_its_rows_value_for_value(names: Collection[str]) -> None:
+    rows = hand_rows()
+    recording = step_record.StepRecording.of_rows(rows, 3, 1, 0.1, lambda state: (0, 0, 0), names)
+    kept = {"step"} | {field for name in names for field in step_record._COLUMN_FIELDS[name]}
+    assert list(recording.fields) == [field for field in step_record.ROW_FIELDS if field in kept]
+    by_field = dict(zip(step_record.ROW_FIELDS, zip(*rows, strict=True), strict=True))
+    for field, values in recording.fields.items():
+        if field == "events":  # each step's event cell
+            assert values == ("trial_start", "", "goal_reached|trial_end")
+        elif field in ("u_h", "u_a"):  # (3N,) each command's components in turn
+            assert values.dtype == np.float64
+            assert values.tolist() == [float(v) for command in by_field[field] for v in command]
+        elif field in ("turn", "belief"):
+            assert values == by_field[field]
+        else:
+            assert isinstance(values, np.ndarray) and values.dtype == step_record._FIELD_DTYPES[field]
+            assert values.tolist() == list(by_field[field])
+    assert len(recording) == 3
+    empty = step_record.StepRecording.of_rows([], 3, 1, 0.1, lambda state: (0, 0, 0), names)
+    assert len(empty) == 0 and list(empty.fields) == list(recording.fields)

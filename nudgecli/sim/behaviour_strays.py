@@ -153,13 +153,17 @@ def stray_schedule(hazard: float, median_samples: float, n: int, rng: np.random.
     releases = rng.random(n)
     straying = [False] * n
     allowed = 0  # a stray starts at the hold's first sample or after at least one soft sample
-    for k, start in enumerate(np.flatnonzero(starts < hazard).tolist()):
+    # the candidates' samples as Python ints; nonzero() of the 1-d mask is flatnonzero's without
+    # its ravel (a hold draws this once, a paper participant some 400 times)
+    for k, start in enumerate((starts < hazard).nonzero()[0].tolist()):
         if start < allowed:
             continue
-        length = max(1, round(median_samples * math.exp(log_sd * lengths[k])))
+        # Python floats: the same IEEE product and comparison as numpy's scalars, without their overhead
+        length = max(1, round(median_samples * math.exp(log_sd * float(lengths[k]))))
         end = start + length
-        straying[start:min(end, n)] = [True] * (min(end, n) - start)
-        if releases[k] < release_share:
+        last = min(end, n)
+        straying[start:last] = [True] * (last - start)
+        if float(releases[k]) < release_share:
             return straying, end
         allowed = end + 1
     return straying, -1

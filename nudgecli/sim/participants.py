@@ -44,7 +44,7 @@ from nudgecli.sim.pressure_model import (
     LABEL_SIGN,
     blow_pressures,
     drift_normals,
-    lognormal_delays,
+    lognormal_delay,
     pulse_fractions,
     ramp_fractions,
 )
@@ -279,13 +279,14 @@ class Participant:
         if len(normals) != len(fractions):
             raise ValueError(f"a pulse of {len(fractions)} samples needs as many deviations, "
                              f"got {len(normals)}")
-        ones = np.ones(len(fractions))
-        return blow_pressures(abs(self.pressure_level[label]) * ones, self.pressure_spread[label] * ones,
-                              LABEL_SIGN[label] * ones, fractions, normals)
+        # the label's level, spread and sign as scalars: broadcast, the same products and sums
+        # element for element as arrays of them (a pulse is a handful of samples, drawn in the loop)
+        return blow_pressures(abs(self.pressure_level[label]), self.pressure_spread[label], LABEL_SIGN[label],
+                              fractions, normals)
 
     def event_reaction(self, rng: np.random.Generator) -> float:
-        """One reaction delay to something they see, seconds (:func:`lognormal_delays`)."""
-        return float(lognormal_delays(self.event_reaction_s, self.event_reaction_log_sd, 1, rng)[0])
+        """One reaction delay to something they see, seconds (:func:`lognormal_delay`)."""
+        return lognormal_delay(self.event_reaction_s, self.event_reaction_log_sd, rng)
 
     def pressures(self, label: int, n: int, rng: np.random.Generator, start: int = 0) -> np.ndarray:
         """The pressures of a new blow of ``label`` held ``n`` samples (one normal draw of size ``n``).

@@ -25,6 +25,8 @@ spreads, the onset and offset ramps and ``rho``; these functions turn them into 
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 
 #: Sign of each intended label's pressure: puffs negative, sips positive.
@@ -46,16 +48,22 @@ def ramp_fraction_at(position: np.ndarray, ramp_samples: int) -> np.ndarray:
     return np.where(position < ramp_samples, (position + 1.0) / (ramp_samples + 1.0), 1.0)
 
 
+@cache
 def pulse_fractions(onset_samples: int, peak_samples: int, offset_samples: int) -> np.ndarray:
     """``(onset + peak + offset,)`` fraction of the level at each sample of a short hard pulse.
 
     The onset rises as a blow's (``(j + 1) / (onset + 1)``, :func:`ramp_fractions`), the peak holds
     the level, and the offset falls symmetrically (``(offset - j) / (offset + 1)``), so the last
     sample is still above zero and the release that follows is a full one.
+
+    Cached and read-only: a person's pulses have a few shapes, and making one anew (four small
+    arrays joined) was two thirds of a pulse's pressures in the trial loop.
     """
     onset = ramp_fractions(onset_samples, onset_samples)
     offset = (offset_samples - np.arange(offset_samples)) / (offset_samples + 1.0)
-    return np.concatenate([onset, np.ones(peak_samples), offset])
+    fractions = np.concatenate([onset, np.ones(peak_samples), offset])
+    fractions.setflags(write=False)
+    return fractions
 
 
 def lognormal_delays(median: float, log_sd: float, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -64,6 +72,18 @@ def lognormal_delays(median: float, log_sd: float, n: int, rng: np.random.Genera
     The one delay law of a person's reactions, in calibration prompts and in the task.
     """
     return median * np.exp(log_sd * rng.standard_normal(n))
+
+
+def lognormal_delay(median: float, log_sd: float, rng: np.random.Generator) -> float:
+    """One delay of :func:`lognormal_delays`: ``float(lognormal_delays(median, log_sd, 1, rng)[0])``
+    bit for bit, from the same draw of size 1.
+
+    The exponential stays numpy's (on a ``(1,)`` array, as there: with AVX-512 it can differ from
+    ``math.exp`` in the last bit); the product with ``median`` is a Python float's, the same IEEE
+    multiplication without a third array (a person's reaction is drawn hundreds of times a trial
+    set).
+    """
+    return median * float(np.exp(log_sd * rng.standard_normal(1))[0])
 
 
 def drift_normals(innovations: np.ndarray, correlation: float, previous: float | None = None) -> np.ndarray:
@@ -148,16 +168,17 @@ def blows_drift_normals(innovations: np.ndarray, lengths: np.ndarray, correlatio
     return out[position, blow]
 
 
-def blow_pressures(levels: np.ndarray, spreads: np.ndarray, signs: np.ndarray, fractions: np.ndarray,
-                   normals: np.ndarray) -> np.ndarray:
+def blow_pressures(levels: np.ndarray | float, spreads: np.ndarray | float, signs: np.ndarray | float,
+                   fractions: np.ndarray, normals: np.ndarray) -> np.ndarray:
     """Signed pressures of blow samples (the module's pressure model, vectorised).
 
     Parameters
     ----------
     levels, spreads
-        ``(N,)`` magnitude level and spread of each sample's intended label.
+        ``(N,)`` magnitude level and spread of each sample's intended label, or one for all samples
+        (a scalar broadcasts: the same values as an array of it).
     signs
-        ``(N,)`` ``-1`` for puffs, ``+1`` for sips.
+        ``(N,)`` ``-1`` for puffs, ``+1`` for sips, or one for all samples.
     fractions
         ``(N,)`` onset-ramp fraction of each sample (1 on the plateau).
     normals

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Collection, Iterator, Sequence
 from dataclasses import dataclass
+from functools import cache
 from itertools import chain
 from typing import Any
 
@@ -92,12 +93,11 @@ class StepRecording:
         n = len(rows)
         raw = (dict(zip(ROW_FIELDS, zip(*rows, strict=True), strict=True)) if rows
                else dict.fromkeys(ROW_FIELDS, ()))
-        kept = {"step", *(field for name in wanted_step_columns(names) for field in _COLUMN_FIELDS[name])}
         fields: dict[str, np.ndarray | tuple[Any, ...]] = {}
-        for field in (field for field in ROW_FIELDS if field in kept):
+        for field in _kept_fields(frozenset(names)):
             values = raw[field]
-            if field == "events":
-                fields[field] = tuple(join_events(events) if events else "" for events in values)
+            if field == "events":  # a list comprehension: a generator's resumptions cost more
+                fields[field] = tuple([join_events(events) if events else "" for events in values])
             elif field in ("u_h", "u_a"):  # (vx, vy, omega) tuples, or hindsight's arrays
                 flat = chain.from_iterable(values)
                 fields[field] = np.fromiter(flat, dtype=_FIELD_DTYPES[field], count=3 * n)
@@ -109,6 +109,14 @@ class StepRecording:
 
     def __len__(self) -> int:
         return len(self.fields["step"])
+
+
+@cache
+def _kept_fields(names: frozenset[str]) -> tuple[str, ...]:
+    """The fields of :data:`ROW_FIELDS` (in its order) the step log's columns ``names`` are made of,
+    and ``step``: asked once per set of columns, not at every trial's end."""
+    kept = {"step", *(field for name in wanted_step_columns(names) for field in _COLUMN_FIELDS[name])}
+    return tuple(field for field in ROW_FIELDS if field in kept)
 
 
 #: :func:`mapped_codes` finds the distinct codes of at least :data:`_DENSE_MIN_CODES` codes by a
