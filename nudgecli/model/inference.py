@@ -53,10 +53,13 @@ def bayes_update(belief: np.ndarray, likelihood: np.ndarray,
     ValueError
         If every goal has zero posterior mass (the observation is impossible under the model).
     """
+    likelihood = np.asarray(likelihood, dtype=float)
+    # one belief of a few goals and a likelihood of its shape (numpy would broadcast any other)
     if (goal_transition is None and isinstance(belief, np.ndarray) and belief.dtype == np.float64
-            and belief.ndim == 1 and 0 < belief.size <= _SEQUENTIAL_SUM_MAX):
-        return _bayes_update_one(belief, np.asarray(likelihood, dtype=float))
-    unnormalised = predict_belief(belief, goal_transition) * np.asarray(likelihood, dtype=float)
+            and belief.ndim == 1 and 0 < belief.size <= _SEQUENTIAL_SUM_MAX
+            and likelihood.shape == belief.shape):
+        return _bayes_update_one(belief, likelihood)
+    unnormalised = predict_belief(belief, goal_transition) * likelihood
     total = unnormalised.sum()
     if not total > 0.0:
         raise ValueError("the observation has zero probability under every goal")
@@ -69,15 +72,8 @@ def _bayes_update_one(belief: np.ndarray, likelihood: np.ndarray) -> np.ndarray:
 
     Each product and quotient is one IEEE operation as numpy's, and the products are added in
     numpy's order for fewer than 8 elements (the first, then the others in turn), so only the
-    per-call overhead of four array operations on four numbers goes; a ``likelihood`` that is
-    not ``(G,)`` (numpy would broadcast it) takes the array rule.
+    per-call overhead of four array operations on four numbers goes (``likelihood``: ``(G,)`` too).
     """
-    if likelihood.shape != belief.shape:
-        unnormalised = belief * likelihood
-        total = unnormalised.sum()
-        if not total > 0.0:
-            raise ValueError("the observation has zero probability under every goal")
-        return unnormalised / total
     products = [b * p for b, p in zip(belief.tolist(), likelihood.tolist(), strict=True)]
     total = products[0]
     for product in products[1:]:
