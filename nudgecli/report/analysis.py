@@ -218,12 +218,13 @@ def analysis_folder(table: Path) -> Path:
     return table.with_name(f"{table.stem}-analysis")
 
 
-def _load_table(source: Path, drop_duplicates: bool,
-                notes: list[str]) -> tuple[pd.DataFrame, list[str], bool]:
-    """A checked metrics table, its metric columns, and whether duplicates were dropped."""
+def _load_table(source: Path, drop_duplicates: bool, notes: list[str],
+                min_conditions: int = 1) -> tuple[pd.DataFrame, list[str], bool]:
+    """A checked metrics table (at least ``min_conditions`` conditions), its metric columns, and
+    whether duplicates were dropped."""
     table = read_metrics_table(source)
     first_row = 2 if source.suffix.lower() == ".csv" else 1
-    metric_columns = validate_metrics_table(table, str(source), first_row)
+    metric_columns = validate_metrics_table(table, str(source), first_row, min_conditions)
     table, dropped = drop_or_refuse_duplicates(table, source, first_row, drop_duplicates, notes)
     return table, metric_columns, dropped
 
@@ -262,10 +263,7 @@ def load_source(source: Path, plan: AnalysisPlan, min_conditions: int = 1, *, dr
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
     if source.is_dir():
         return _load_source(source, plan, notes)
-    table = read_metrics_table(source)
-    first_row = 2 if source.suffix.lower() == ".csv" else 1
-    metric_columns = validate_metrics_table(table, str(source), first_row, min_conditions)
-    table, _ = drop_or_refuse_duplicates(table, source, first_row, drop_duplicates, notes)
+    table, metric_columns, _ = _load_table(source, drop_duplicates, notes, min_conditions)
     return table, metric_columns, analysis_folder(source)
 
 
