@@ -19,7 +19,8 @@ def _measurement() -> pipeline.PipelineMeasurement:
     return pipeline.PipelineMeasurement(
         "paper", 2, 0.004,
         {4: pipeline.BatchTiming(4, 1728, 4.0, 8.64, 150.0),
-         20: pipeline.BatchTiming(20, 8640, 20.0, 40.0, None)})
+         20: pipeline.BatchTiming(20, 8640, 20.0, 40.0, None)},
+        pipeline.BatchTiming(50, 57_600, 150.0, 290.0, 120.0))
 
 
 def test_the_efficiency_row_is_trials_times_the_loop_over_workers_times_wall() -> None:
@@ -48,14 +49,31 @@ def test_the_throughput_row_counts_the_larger_batch() -> None:
     assert not row["ok"]
 
 
+def test_the_power_row_holds_the_wall_time_to_two_minutes() -> None:
+    measured = _measurement()
+    row = pipeline.power_row(measured)
+    assert row["what"] == "pipeline: power paper --participants 6,9,12,18,24 -R 50, 2 workers"
+    assert row["time_s"] == 150.0 and row["baseline_s"] == 120.0 and row["ratio"] == pytest.approx(0.8)
+    assert not row["ok"] and row["target"] == "<= 120 s" and row["peak_mb"] == 120.0
+    # 57,600 / 150 s x 3600; 57,600 x 4 ms / (2 x 150 s) = 76.8 %
+    assert row["note"].startswith("57,600 trials simulated (each replication's largest study, once), 1,382,400 trials per hour; pipeline efficiency 77%")
+    quick = pipeline.PipelineMeasurement("paper", 2, 0.004, measured.batches,
+                                         pipeline.BatchTiming(50, 57_600, 119.5, 230.0, None))
+    assert pipeline.power_row(quick)["ok"]
+
+
 def test_the_loop_counts_each_participants_better_run(monkeypatch: pytest.MonkeyPatch) -> None:
     runs = iter([[(1.0, 10), (3.0, 30)], [(2.0, 10), (2.5, 30)]])  # before and after the batches
     monkeypatch.setattr(pipeline, "loop_seconds_per_trial", lambda experiment, repeats: next(runs))
     monkeypatch.setattr(pipeline, "time_replicate",
                         lambda experiment, r, workers: pipeline.BatchTiming(r, 40 * r, float(r), 1.0, None))
+    asked = []
+    monkeypatch.setattr(pipeline, "time_power", lambda *args: asked.append(args) or pipeline.BatchTiming(
+        50, 1, 1.0, 1.0, None))
     measured = pipeline.measure_pipeline(common.BenchOptions())
     assert measured.loop_s_per_trial == pytest.approx((1.0 + 2.5) / 40)
     assert sorted(measured.batches) == [4, 20] and measured.workers == 2
+    assert asked == [("paper", (6, 9, 12, 18, 24), 50, 2)] and measured.power.replications == 50
 
 
 def test_one_tiny_batch_end_to_end(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
@@ -63,11 +81,16 @@ def test_one_tiny_batch_end_to_end(monkeypatch: pytest.MonkeyPatch, tmp_path: Pa
     timing = pipeline.time_replicate("smoke", 1, 1)  # 2 participants x 2 conditions x 4 trials
     assert timing.trials == 16 and timing.wall_s > 0 and timing.cpu_s > 0
     assert list(tmp_path.iterdir()) == []
+    # the largest study only (3 participants x 2 conditions x 4 trials): the smaller is its first 2
+    power = pipeline.time_power("smoke", (2, 3), 1, 1)
+    assert power.trials == 24 and power.replications == 1 and power.wall_s > 0 and power.cpu_s > 0
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_the_pipeline_group_is_asked_for_by_name(monkeypatch: pytest.MonkeyPatch) -> None:
     names = [f.__name__ for f in bench.select_figures("pipeline")]
-    assert names == ["figure_pipeline_4", "figure_pipeline_20", "figure_pipeline_throughput"]
+    assert names == ["figure_pipeline_4", "figure_pipeline_20", "figure_pipeline_throughput",
+                     "figure_pipeline_power"]
     assert not set(bench.select_figures("pipeline")) & set(bench.select_figures("all"))
     monkeypatch.setattr(pipeline, "measure_pipeline", lambda options: _measurement())
     result = CliRunner().invoke(main, ["bench", "--only", "pipeline", "--format", "json"])

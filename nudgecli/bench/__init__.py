@@ -21,7 +21,8 @@ measured apart from this one's. A third group runs only when asked (``--only ana
 ``ANALYZE_FIGURES``, :mod:`~nudgecli.bench.analyze`, a minute or so): ``nudge analyze`` of a
 large synthetic metrics table; another (``--only pipeline``, :mod:`~nudgecli.bench.pipeline`)
 measures ``nudge replicate`` end to end against the trial loop's own speed (the pipeline
-efficiency). What each figure must meet is in :mod:`~nudgecli.bench.targets`;
+efficiency), and ``nudge power`` against its wall-time target. What each figure must meet is in
+:mod:`~nudgecli.bench.targets`;
 what they share (options, row, timing) in :mod:`~nudgecli.bench.common`.
 """
 
@@ -73,7 +74,8 @@ def select_figures(only: str = "all") -> list[Figure]:
     only
         ``study`` (the figures in ``STUDY_FIGURES``), ``model`` (the others of ``FIGURES``),
         ``all`` (``FIGURES``), ``scale``, ``pipeline`` (:mod:`~nudgecli.bench.pipeline`: batches
-        end to end against the trial loop, about two minutes) or ``analyze``
+        end to end against the trial loop, and a power analysis: about three and a half minutes) or
+        ``analyze``
         (``ANALYZE_FIGURES``, about a minute); the last three are not part of ``all``.
 
     Raises

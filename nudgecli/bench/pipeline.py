@@ -13,7 +13,9 @@ Everything is measured side by side in one run: the loop (every participant of t
 study in this process, the plan built beforehand, the best CPU time of ``study_repeats`` runs of
 each: :func:`loop_seconds_per_trial`),
 then both batches end to end as a user runs them (``python -m nudgecli.cli replicate ...`` in a
-child, interpreter start-up included), then the loop again, whose better time per participant
+child, interpreter start-up included), then issue 39's power analysis (``nudge power EXPERIMENT
+--participants 6,9,12,18,24 -R 50``, about a minute and a quarter on 2 cores: under two minutes is
+its target), then the loop again, whose better time per participant
 counts (on a machine shared with other work, other processes only ever add time). The CPU seconds
 of each batch (the command and its reaped workers) give the size guard's cost per trial
 (:data:`nudgecli.runs.size.SECONDS_PER_TRIAL`) and the *CPU share* of the loop,
@@ -35,7 +37,13 @@ from pathlib import Path
 from typing import Any
 
 from nudgecli.bench.common import BENCH_SEED, BenchOptions, Figure, available_cores, child_environment, row
-from nudgecli.bench.targets import PIPELINE_EFFICIENCY_TARGET, PIPELINE_THROUGHPUT_TARGET_PER_HOUR
+from nudgecli.bench.targets import (
+    PIPELINE_EFFICIENCY_TARGET,
+    PIPELINE_THROUGHPUT_TARGET_PER_HOUR,
+    POWER_PARTICIPANTS,
+    POWER_REPLICATIONS,
+    POWER_WALL_TARGET_S,
+)
 from nudgecli.config import load_experiment
 
 #: The replications of the two batches, each with its efficiency target.
@@ -69,12 +77,14 @@ class BatchTiming:
 
 @dataclass(frozen=True)
 class PipelineMeasurement:
-    """What the pipeline figures report: the loop's seconds per trial and each batch's timing."""
+    """What the pipeline figures report: the loop's seconds per trial, each replicate batch's timing
+    (by ``-R``) and the power analysis's."""
 
     experiment: str
     workers: int
     loop_s_per_trial: float
     batches: dict[int, BatchTiming]
+    power: BatchTiming
 
 
 def pipeline_efficiency(trials: int, loop_s_per_trial: float, workers: int, wall_s: float) -> float:
@@ -119,18 +129,36 @@ def loop_seconds_per_trial(experiment: str, repeats: int) -> list[tuple[float, i
 def time_replicate(experiment: str, replications: int, workers: int) -> BatchTiming:
     """``nudge replicate EXPERIMENT -R replications --workers workers`` in a child Python, timed end
     to end, with its CPU seconds (the child and its reaped workers) and its largest worker's peak."""
-    from nudgecli.runs.batch_folder import BATCH_MANIFEST
-
     config = load_experiment(experiment)
     trials = replications * config.study.participants * len(config.study.conditions) \
         * config.study.trials_per_condition
+    return _time_batch(["replicate", experiment, "-R", str(replications)], replications, trials, workers)
+
+
+def time_power(experiment: str, participants: tuple[int, ...], replications: int,
+               workers: int) -> BatchTiming:
+    """``nudge power EXPERIMENT --participants N,N,... -R replications --workers workers`` in a child
+    Python, timed as :func:`time_replicate` times a batch. Its trials are those it simulates: each
+    replication's largest study, once (a smaller count analyses that study's first participants)."""
+    config = load_experiment(experiment)
+    study = config.study
+    trials = replications * max(participants) * len(study.conditions) * study.trials_per_condition
+    counts = ",".join(map(str, participants))
+    arguments = ["power", experiment, "--participants", counts, "-R", str(replications)]
+    return _time_batch(arguments, replications, trials, workers)
+
+
+def _time_batch(arguments: list[str], replications: int, trials: int, workers: int) -> BatchTiming:
+    """The batch command ``nudge ARGUMENTS`` (its seed, workers and a temporary folder added) run in
+    a child Python and timed; the folder is removed after."""
+    from nudgecli.runs.batch_folder import BATCH_MANIFEST
+
     folder = Path(tempfile.mkdtemp(prefix="nudge-bench-pipeline-"))
     try:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         start = time.perf_counter()
-        command = [sys.executable, "-m", "nudgecli.cli", "replicate", experiment, "-R", str(replications),
-                   "--workers", str(workers), "--seed", str(BENCH_SEED), "--out", str(folder / "batch"),
-                   "--yes"]
+        command = [sys.executable, "-m", "nudgecli.cli", *arguments, "--workers", str(workers),
+                   "--seed", str(BENCH_SEED), "--out", str(folder / "batch"), "--yes"]
         subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=child_environment(),
                        check=True)
         wall = time.perf_counter() - start
@@ -144,14 +172,15 @@ def time_replicate(experiment: str, replications: int, workers: int) -> BatchTim
 
 
 def measure_pipeline(options: BenchOptions) -> PipelineMeasurement:
-    """The loop, both batches, the loop again (see the module's note)."""
+    """The loop, both batches, the power analysis, the loop again (see the module's note)."""
     experiment, workers = options.throughput_experiment, options.study_workers
     first = loop_seconds_per_trial(experiment, options.study_repeats)
     batches = {r: time_replicate(experiment, r, workers) for r in PIPELINE_REPLICATIONS}
+    power = time_power(experiment, POWER_PARTICIPANTS, POWER_REPLICATIONS, workers)
     second = loop_seconds_per_trial(experiment, options.study_repeats)
     seconds = sum(min(a[0], b[0]) for a, b in zip(first, second, strict=True))
     trials = sum(t for _, t in first)
-    return PipelineMeasurement(experiment, workers, seconds / trials, batches)
+    return PipelineMeasurement(experiment, workers, seconds / trials, batches, power)
 
 
 def pipeline_row(measured: PipelineMeasurement, replications: int) -> dict[str, Any]:
@@ -189,6 +218,26 @@ def throughput_row(measured: PipelineMeasurement) -> dict[str, Any]:
                f"{at_loop:,.0f}; baseline = the wall time at the target rate")
 
 
+def power_row(measured: PipelineMeasurement) -> dict[str, Any]:
+    """The power analysis's row: ``time_s`` its wall time, ``baseline_s`` the target's, so ``ratio``
+    >= 1 meets it."""
+    timing = measured.power
+    counts = ",".join(map(str, POWER_PARTICIPANTS))
+    efficiency = pipeline_efficiency(timing.trials, measured.loop_s_per_trial, measured.workers,
+                                     timing.wall_s)
+    return row(f"pipeline: power {measured.experiment} --participants {counts} -R {timing.replications}, "
+               f"{measured.workers} workers", timing.wall_s, POWER_WALL_TARGET_S,
+               f"<= {POWER_WALL_TARGET_S:.0f} s", timing.wall_s <= POWER_WALL_TARGET_S,
+               f"{timing.trials:,} trials simulated (each replication's largest study, once), "
+               f"{trials_per_hour(timing.trials, timing.wall_s):,.0f} trials per hour; "
+               f"pipeline efficiency {efficiency:.0%}; CPU {timing.cpu_s:.1f} s; baseline = the target",
+               peak_mb=timing.worker_peak_mb)
+
+
+def figure_pipeline_power(options: BenchOptions) -> dict[str, Any]:
+    return power_row(_measured(options))
+
+
 _MEASURED: dict[str, PipelineMeasurement] = {}
 
 
@@ -213,5 +262,6 @@ def figure_pipeline_throughput(options: BenchOptions) -> dict[str, Any]:
 
 
 def pipeline_figures() -> list[Figure]:
-    """The efficiency of each batch, then the trials an hour."""
-    return [*(_efficiency_figure(r) for r in PIPELINE_REPLICATIONS), figure_pipeline_throughput]
+    """The efficiency of each batch, the trials an hour, then the power analysis."""
+    return [*(_efficiency_figure(r) for r in PIPELINE_REPLICATIONS), figure_pipeline_throughput,
+            figure_pipeline_power]

@@ -50,3 +50,8 @@ THROUGHPUT_TARGET_PER_HOUR = 1_000_000.0
 PIPELINE_EFFICIENCY_TARGET = {4: 0.80, 20: 0.90}
 #: Trials per hour of the larger of those batches end to end on 2 cores (issue 39).
 PIPELINE_THROUGHPUT_TARGET_PER_HOUR = 10_000_000.0
+#: ``nudge power paper --participants 6,9,12,18,24 -R 50 --workers 2`` end to end on 2 cores, s (issue 39).
+POWER_WALL_TARGET_S = 120.0
+#: That power analysis's participant counts and replications.
+POWER_PARTICIPANTS = (6, 9, 12, 18, 24)
+POWER_REPLICATIONS = 50

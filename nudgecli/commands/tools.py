@@ -39,7 +39,8 @@ def presets_command() -> None:
                    "the scale figures (about a minute on 2 cores: batches on 1..cores workers and on a "
                    "local dask cluster, with parallel efficiency and serial fraction), pipeline "
                    "(`replicate paper -R 4` and `-R 20` end to end against the trial loop's own speed: "
-                   "pipeline efficiency and trials an hour, about two minutes) or analyze "
+                   "pipeline efficiency and trials an hour; then `power paper --participants "
+                   "6,9,12,18,24 -R 50`; about three and a half minutes) or analyze "
                    "(`nudge analyze` of a 3.5 M-row table in a subprocess, about a minute).")
 @click.option("--scale-participants", type=click.IntRange(min=2), default=defaults.BENCH_SCALE_PARTICIPANTS,
               show_default=True,
