@@ -11,6 +11,9 @@ MANIFEST = "manifest.json"
 CONFIG = "config.toml"
 PARTICIPANTS = "participants.parquet"
 LAYOUTS = "layouts.parquet"
+#: The folder that keeps an exact copy (its bytes, under its own name) of the ``--people`` file a
+#: run or a batch simulated, so that its resume command names a file that is there.
+PEOPLE_DIR = "people"
 #: The run-folder lock (:func:`nudgecli.locks.run_lock`); not part of the run.
 LOCK = ".nudge.lock"
 #: The tables written in one part per participant: ``<kind>/part-NNNN.parquet``.

@@ -293,16 +293,22 @@ class RunRecord:
 
     def resume_command(self, manifest: Mapping[str, Any] | None = None) -> str:
         """The command that finishes or repairs this run (``nudge simulate ... --resume``), with
-        ``--people`` and the file the manifest records where the run simulated a people file (a
-        resume without it is refused by the people check)."""
+        ``--people`` where the run simulated a people file (a resume without it is refused by the
+        people check): the copy the folder keeps, by the folder's path as given (so the command
+        works from where it is typed), else (a folder made before copies were kept) the file's
+        name the manifest records."""
         from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
+        from nudgecli.sim.people_file import copy_path
         from nudgecli.store import simulate_resume_command  # store builds on this module
 
         manifest = manifest if manifest is not None else self.read_manifest()
         people = manifest.get(PEOPLE_KEY)
+        file = None
+        if isinstance(people, Mapping):
+            copy = copy_path(self.path, dict(people))
+            file = str(copy) if copy.is_file() else people.get("file")
         return simulate_resume_command(str(self.path / CONFIG), self.path, manifest.get("seed"),
-                                       manifest.get("participants"),
-                                       people=people.get("file") if isinstance(people, Mapping) else None)
+                                       manifest.get("participants"), people=file)
 
     def unvouched_parts(self, manifest: Mapping[str, Any],
                         participants: Iterable[int]) -> dict[int, list[str]]:

@@ -12,6 +12,7 @@ A run folder (DESIGN.md section 4)::
     calibration/participant-NNNN/
                            the participant's simulated calibration logs (tidy format; they
                            re-fit with `nudge fit` to the tables the agent used)
+    people/NAME.csv        with ``--people``: the people file's exact bytes (its resume names it)
 
 Every file is written to a temporary name in the same folder and renamed into place, so a
 crash (even SIGKILL) leaves either the old file or the new one, never half of one; an
@@ -55,6 +56,7 @@ from nudgecli.run_folder_names import (
     METRICS_CSV,
     PART_KINDS,
     PARTICIPANTS,
+    PEOPLE_DIR,
     QUESTIONNAIRE_SCORES_CSV,
     STATS_CSV,
     STATS_JSON,
@@ -155,6 +157,12 @@ def write_text_atomic(path: str | Path, text: str) -> None:
     """Write ``text`` to ``path`` atomically (UTF-8, newlines as given)."""
     with atomic_path(path) as tmp:
         tmp.write_text(text, encoding="utf-8", newline="")
+
+
+def write_bytes_atomic(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically, byte for byte."""
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
 
 
 def write_json_atomic(path: str | Path, data: Any) -> None:
@@ -501,7 +509,7 @@ class RunFolder(RunRecord):
         config_path = self.path / CONFIG
         if not config_path.is_file() or config_path.read_text(encoding="utf-8") != config_text:
             return False
-        allowed = {CONFIG, LAYOUTS, LOCK}
+        allowed = {CONFIG, LAYOUTS, LOCK, PEOPLE_DIR}
         return all(p.name in allowed or p.name.endswith(".tmp") for p in self.path.iterdir())
 
     def _remove_temporaries(self) -> None:
@@ -526,6 +534,12 @@ class RunFolder(RunRecord):
         for name in (MANIFEST, CONFIG, PARTICIPANTS, LAYOUTS, METRICS_CSV, STATS_JSON, STATS_CSV,
                      SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV):
             (self.path / name).unlink(missing_ok=True)
+        copies = self.path / PEOPLE_DIR  # the people file the old run kept (and a torn copy's temporary)
+        for copy in copies.glob("*") if copies.is_dir() else ():
+            if copy.is_file():
+                copy.unlink()
+        with contextlib.suppress(OSError):
+            copies.rmdir()
         calibration = self.path / "calibration"
         if calibration.is_dir():
             for log in calibration.glob("participant-*/*.csv"):

@@ -87,6 +87,7 @@ from nudgecli.runs.study import (
     executor_name,
     solve_layout_chunk_into,
 )
+from nudgecli.sim.people_file import People
 from nudgecli.sim.study import build_layouts, check_physiology_logs
 from nudgecli.sim.twins import Twin
 from nudgecli.store import provenance, utc_now, write_json_atomic
@@ -133,6 +134,8 @@ class Batch:
     people
         Twins of real people (``--people``): participant ``i`` of every study has the habits of
         person ``i mod P`` (:func:`nudgecli.sim.study.study_participant`).
+    people_file
+        The people file they come from (the batch folder keeps its bytes: ``people/<its name>``).
     """
 
     kind: Literal["replicate", "power", "sweep"]
@@ -142,6 +145,7 @@ class Batch:
     plan: AnalysisPlan
     extra: dict[str, Any] = field(default_factory=dict)
     people: tuple[Twin, ...] = ()
+    people_file: People | None = None
 
     def describe(self) -> dict[str, Any]:
         """What identifies the batch (a resumed batch must describe itself identically)."""
@@ -365,7 +369,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
                       force: bool, progress: Callable[[int, int], None] | None,
                       log: Callable[[str], None] | None, prepare: Callable[[], object] | None) -> BatchRun:
     """:func:`run_batch` once the batch folder's lock is held."""
-    mode = prepare_folder(folder, batch.describe(), resume=resume, force=force)
+    mode = prepare_folder(folder, batch.describe(), resume=resume, force=force, people=batch.people_file)
     if log is not None:  # only now: a refusal is its one error line
         log(f"batch: {size.describe()}")
     graph = build_graph(batch)

@@ -25,8 +25,9 @@ from typing import TYPE_CHECKING, Any
 
 from nudgecli.errors import RunFolderError
 from nudgecli.parquet_reader import read_parquet
-from nudgecli.run_folder_names import FIGURES_DIR
+from nudgecli.run_folder_names import FIGURES_DIR, PEOPLE_DIR
 from nudgecli.run_folder_record import file_sha256, part_name, readable_parquet
+from nudgecli.sim.people_file import People, keep_copy
 from nudgecli.store import prepare_mode, write_error, write_json_atomic, write_parquet_atomic
 
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
@@ -155,11 +156,14 @@ class PartRecord:
             raise write_error(self.path, exc) from exc
 
 
-def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool) -> str:
+def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool,
+                   people: People | None = None) -> str:
     """Make ``folder`` ready for the batch; ``"new"`` or ``"resume"`` (same description required).
 
     The rule is the run folder's (:func:`nudgecli.store.prepare_mode`); a folder that is not empty
-    but holds no batch is written into with ``force``, not cleared."""
+    but holds no batch is written into with ``force``, not cleared. Once the folder is accepted it
+    keeps the batch's ``people`` file, byte for byte (:func:`nudgecli.sim.people_file.keep_copy`;
+    a resume puts back a missing or edited copy)."""
     manifest, old = folder / BATCH_MANIFEST, None
     if manifest.is_file():
         try:
@@ -172,11 +176,13 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
         if old.get("batch") != json.loads(json.dumps(description)):
             raise RunFolderError(f"{folder}: holds a different batch (experiment, design, seed, "
                                  "replications or plan); resume it with the same settings, or use --force")
+        keep_copy(people, folder)
         return "resume"
     if mode == "replace":
-        for name in ("tasks", "analyses", FIGURES_DIR):
+        for name in ("tasks", "analyses", FIGURES_DIR, PEOPLE_DIR):
             shutil.rmtree(folder / name, ignore_errors=True)
         manifest.unlink()
     (folder / PART_RECORD).unlink(missing_ok=True)  # a new batch: no line left there vouches for a part
     folder.mkdir(parents=True, exist_ok=True)
+    keep_copy(people, folder)
     return "new"

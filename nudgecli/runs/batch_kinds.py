@@ -24,7 +24,6 @@ from nudgecli.runs.batch_folder import BATCH_MANIFEST
 from nudgecli.runs.study import checked_plan
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, people_of
-from nudgecli.sim.twins import Twin
 from nudgecli.store import write_text_atomic
 
 if TYPE_CHECKING:  # the statistics, summaries and figures load beside the batch's workers (import_outputs)
@@ -101,9 +100,9 @@ def _load(experiment: str, overrides: Sequence[str], participants: int | None) -
 
 
 def _people_fields(people: People | str | Path | None, out: str | Path,
-                   resume: bool) -> tuple[dict[str, Any], tuple[Twin, ...]]:
+                   resume: bool) -> tuple[dict[str, Any], People | None]:
     """The people file's record for the batch's description (nothing without one, so a batch of the
-    population describes itself as before) and its twins; a resumed batch must have the same."""
+    population describes itself as before) and the people; a resumed batch must have the same."""
     chosen = people_of(people)
     manifest = Path(out) / BATCH_MANIFEST
     if resume and manifest.is_file():
@@ -114,8 +113,8 @@ def _people_fields(people: People | str | Path | None, out: str | Path,
         else:
             check_same_people(recorded, chosen, out)
     if chosen is None:
-        return {}, ()
-    return {PEOPLE_KEY: chosen.record()}, chosen.twins
+        return {}, None
+    return {PEOPLE_KEY: chosen.record()}, chosen
 
 
 def _check(replications: int, seed: int | None) -> None:
@@ -139,10 +138,11 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     _check(replications, seed)
     config = _load(experiment, overrides, participants)
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
-    record, twins = _people_fields(people, out, bool(options.get("resume")))
+    record, chosen_people = _people_fields(people, out, bool(options.get("resume")))
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
-                  {"experiment": config.experiment.name, **record}, twins)
+                  {"experiment": config.experiment.name, **record},
+                  chosen_people.twins if chosen_people is not None else (), chosen_people)
     run = run_batch(batch, out, prepare=import_outputs, **options)
     from nudgecli.report.figures.replication import forest_figure
     from nudgecli.report.replication import condition_values, replication_rows, summarise
@@ -176,10 +176,11 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
         raise ConfigError(f"--target must be between 0 and 1, got {target}")
     config = _load(experiment, overrides, None)
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
-    record, twins = _people_fields(people, out, bool(options.get("resume")))
+    record, chosen_people = _people_fields(people, out, bool(options.get("resume")))
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
-                  {"experiment": config.experiment.name, **record}, twins)
+                  {"experiment": config.experiment.name, **record},
+                  chosen_people.twins if chosen_people is not None else (), chosen_people)
     run = run_batch(batch, out, prepare=import_outputs, **options)
     from nudgecli.report.figures.replication import power_figure
     from nudgecli.report.replication import power_table, replication_rows, smallest_n

@@ -44,7 +44,7 @@ from nudgecli.runs.study_tasks import (
 from nudgecli.sim.calibration_io import write_sessions
 from nudgecli.sim.counterbalance import design_record
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
-from nudgecli.sim.people_file import People, check_same_people, people_of
+from nudgecli.sim.people_file import People, check_same_people, keep_copy, people_of
 from nudgecli.sim.policy_registry import constant_metrics_of
 from nudgecli.sim.study import (
     ParticipantColumns,
@@ -280,8 +280,9 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
         Run a study above :data:`nudgecli.runs.size.MAX_TRIALS_WITHOUT_YES` trials (``--yes``).
     people
         Twins of real people (``--people``: a people file or its :class:`People`): participant ``i``
-        has the habits of person ``i mod P``; recorded in the manifest (file name and SHA-256), and
-        ``resume`` refuses other people.
+        has the habits of person ``i mod P``; recorded in the manifest (file name and SHA-256), its
+        bytes copied into ``out/people/`` (what the resume command names), and ``resume`` refuses
+        other people.
 
     Returns
     -------
@@ -329,6 +330,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     mode = folder.prepare(config, seed, n, resume=resume, force=force)
     if mode == "resume":
         check_same_people(folder.read_manifest().get(PEOPLE_KEY), people, folder.path)
+    keep_copy(people, folder.path)  # the people file travels with the run: its resume command names the copy
     done = set(folder.completed_participants()) & set(range(n)) if mode == "resume" else set()
     if mode == "resume":
         # keep only the parts the manifest vouches for (the SHA-256 recorded when this run wrote

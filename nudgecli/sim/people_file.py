@@ -20,11 +20,12 @@ import csv
 import hashlib
 import io
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from nudgecli.errors import DataError, did_you_mean
+from nudgecli.run_folder_names import PEOPLE_DIR
 from nudgecli.sim.twins import INTEGER_PARAMETERS, TWIN_PARAMETERS, Twin, parameter_is_valid
 
 #: The columns of a people file, in order.
@@ -47,11 +48,15 @@ class People:
         The SHA-256 of its bytes, hex.
     twins
         ``(P,)`` the twins in ``person`` order.
+    data
+        The file's bytes, for the copy a run or batch folder keeps (:func:`keep_copy`); empty for
+        people made in memory, who have no file to copy.
     """
 
     name: str
     sha256: str
     twins: tuple[Twin, ...]
+    data: bytes = field(default=b"", repr=False, compare=False)
 
     def record(self) -> dict[str, Any]:
         """What a manifest records of it (and what ``--resume`` compares)."""
@@ -156,7 +161,7 @@ def read_people(path: str | Path) -> People:
         twins.append(_row_twin(path, row, position, present))
     if not twins:
         raise DataError(f"{path}: holds no people (a header and no rows)")
-    return People(name=path.name, sha256=hashlib.sha256(data).hexdigest(), twins=tuple(twins))
+    return People(name=path.name, sha256=hashlib.sha256(data).hexdigest(), twins=tuple(twins), data=data)
 
 
 
@@ -190,3 +195,28 @@ def check_same_people(recorded: dict[str, Any] | None, people: People | None, wh
             f"--people {record.get('file')} (sha256 {str(record.get('sha256'))[:12]}...)"
     raise DataError(f"{where}: was simulated with {said(recorded)}, not {said(now)}; resume with the same "
                     "people file, or start again with --force")
+
+
+def copy_path(folder: str | Path, recorded: dict[str, Any]) -> Path:
+    """Where ``folder`` keeps its copy of the people file its manifest records (``recorded``: the
+    :data:`MANIFEST_KEY` entry): ``FOLDER/people/<the file's name>``, ``folder`` as given (a path
+    that works from where it was typed)."""
+    return Path(folder) / PEOPLE_DIR / Path(str(recorded.get("file"))).name
+
+
+def keep_copy(people: People | None, folder: str | Path) -> None:
+    """Keep the people file's exact bytes in ``folder`` (:func:`copy_path`), written atomically, so
+    that the folder's resume command names a file that is there and passes the people check.
+
+    Nothing is written without people, for people made in memory (no file), or where the copy
+    already holds these bytes (a resume given the copy itself as ``--people`` must not replace
+    its own input); a copy with other bytes (edited since) is put back.
+    """
+    if people is None or not people.data:
+        return
+    target = copy_path(folder, people.record())
+    if target.is_file() and target.read_bytes() == people.data:
+        return
+    from nudgecli.store import write_bytes_atomic  # the folders' writer; it imports the config
+
+    write_bytes_atomic(target, people.data)

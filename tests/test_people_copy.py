@@ -1,0 +1,163 @@
+"""A run's or a batch's people file travels with it: the folder keeps an exact copy of the
+``--people`` file (``people/<its name>``), the resume command a damaged run prints names that copy
+by the folder's path as typed (so it works from any folder), a resume with the copy passes the
+people check and one with an edited copy is refused; a batch resumed with its copy gives the
+tables of an uninterrupted one, byte for byte."""
+
+from __future__ import annotations
+
+import json
+import shlex
+from pathlib import Path
+
+import pytest
+from cli_helpers import one_error_line
+from click.testing import CliRunner
+
+from nudgecli.cli import main
+from nudgecli.sim.people_file import People, keep_copy, read_people
+
+#: A people file whose bytes its parsed twins do not give back (a BOM, CRLF line ends, a value
+#: written as "3.0"): a copy made from the twins rather than the bytes differs from it.
+PEOPLE_BYTES = ("\ufeffperson,source,participant,planning_s,from_population\r\n"
+                "0,by hand,slow,3.0,\r\n1,by hand,quick,1.0,\r\n").encode("utf-8")
+NAME = "my twins.csv"  # a space: the printed command must quote it
+SIMULATE = ("simulate", "smoke", "--participants", "2", "--seed", "4")
+REPLICATE = ("replicate", "smoke", "-R", "2", "--participants", "2", "--seed", "5")
+BATCH_TABLES = ("replications.csv", "conditions.csv", "summary.csv")
+
+
+def nudge(*args: str):
+    return CliRunner().invoke(main, [*args])
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    """Every file under ``folder`` (relative path -> bytes)."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture
+def typed_here(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """A folder ``a`` holding the people file, the current directory while a test starts its work."""
+    here = tmp_path / "a"
+    here.mkdir()
+    (here / NAME).write_bytes(PEOPLE_BYTES)
+    monkeypatch.chdir(here)
+    return here
+
+
+def simulated_run(here: Path) -> Path:
+    made = nudge(*SIMULATE, "--people", NAME, "--out", "run")
+    assert made.exit_code == 0, made.output
+    return here / "run"
+
+
+def printed_resume(run: str) -> list[str]:
+    """Damage ``run`` (participant 1's trials part gone); the words of the command ``nudge analyze``
+    names to restore it."""
+    (Path(run) / "trials" / "part-0001.parquet").unlink()
+    refused = nudge("analyze", run)
+    assert refused.exit_code == 1
+    line = one_error_line(refused.stderr)
+    assert "is incomplete" in line and line.count("`") == 2
+    return shlex.split(line.split("`")[1])
+
+
+def test_a_run_keeps_an_exact_copy_of_its_people_file(typed_here: Path) -> None:
+    run = simulated_run(typed_here)
+    assert (run / "people" / NAME).read_bytes() == PEOPLE_BYTES
+    assert [p.name for p in (run / "people").iterdir()] == [NAME]  # nothing else, no temporary left
+    recorded = json.loads((run / "manifest.json").read_text())["people"]
+    assert recorded["file"] == NAME and recorded["sha256"] == read_people(run / "people" / NAME).sha256
+
+
+def test_the_printed_resume_command_names_the_copy_and_works_from_another_folder(
+        typed_here: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    simulated_run(typed_here)
+    elsewhere = tmp_path / "b"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)  # the people file is not here: only the copy's path can work
+    words = printed_resume("../a/run")
+    assert words[words.index("--people") + 1] == str(Path("../a/run") / "people" / NAME)
+    resumed = nudge(*words[1:])
+    assert resumed.exit_code == 0, resumed.output
+    assert nudge("analyze", "../a/run").exit_code == 0
+
+
+def test_a_folder_without_a_copy_names_the_recorded_file_as_before(typed_here: Path) -> None:
+    run = simulated_run(typed_here)
+    (run / "people" / NAME).unlink()  # a run made before folders kept their people file
+    words = printed_resume("run")
+    assert words[words.index("--people") + 1] == NAME
+    assert nudge(*words[1:]).exit_code == 0  # typed where the file is
+    assert (run / "people" / NAME).read_bytes() == PEOPLE_BYTES  # the resume kept the copy
+
+
+def test_a_resume_with_an_edited_copy_is_refused_and_the_original_puts_it_back(typed_here: Path) -> None:
+    run = simulated_run(typed_here)
+    copy = run / "people" / NAME
+    # one more line end: the same people once parsed, other bytes; the SHA-256 refuses them
+    copy.write_bytes(PEOPLE_BYTES + b"\r\n")
+    assert read_people(copy).twins == read_people(NAME).twins
+    refused = nudge(*SIMULATE, "--people", str(copy), "--out", "run", "--resume")
+    assert refused.exit_code == 1
+    line = one_error_line(refused.stderr)
+    assert f"was simulated with --people {NAME} (sha256 {read_people(NAME).sha256[:12]}" in line
+    assert "same people file" in line
+    again = nudge(*SIMULATE, "--people", NAME, "--out", "run", "--resume")
+    assert again.exit_code == 0, again.output
+    assert copy.read_bytes() == PEOPLE_BYTES
+
+
+def test_a_fresh_run_into_the_folder_is_refused_untouched_and_force_drops_the_copy(typed_here: Path) -> None:
+    run = simulated_run(typed_here)
+    other = typed_here / "other.csv"
+    other.write_bytes(PEOPLE_BYTES.replace(b"3.0", b"4.0"))
+    before = snapshot(run)
+    refused = nudge(*SIMULATE, "--people", "other.csv", "--out", "run")
+    assert refused.exit_code == 1 and "already holds a run" in one_error_line(refused.stderr)
+    assert snapshot(run) == before
+    replaced = nudge(*SIMULATE, "--out", "run", "--force")  # the population's people now
+    assert replaced.exit_code == 0, replaced.output
+    assert not (run / "people").exists()
+
+
+def test_people_made_in_memory_leave_no_copy(tmp_path: Path) -> None:
+    keep_copy(People("recovery", "", ()), tmp_path)
+    keep_copy(None, tmp_path)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_batch_resumed_with_its_copy_from_another_folder_equals_an_uninterrupted_one(
+        typed_here: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    for out in ("whole", "damaged"):
+        made = nudge(*REPLICATE, "--people", NAME, "--out", out)
+        assert made.exit_code == 0, made.output
+        assert (typed_here / out / "people" / NAME).read_bytes() == PEOPLE_BYTES
+    damaged = typed_here / "damaged"
+    # an interrupted batch: a participant task and an analysis not done, no tables written
+    next((damaged / "tasks").glob("*/part-0001.parquet")).unlink()
+    next((damaged / "analyses").glob("*.json")).unlink()
+    for table in BATCH_TABLES:
+        (damaged / table).unlink()
+    manifest = json.loads((damaged / "batch.json").read_text())
+    (damaged / "batch.json").write_text(json.dumps({**manifest, "status": "interrupted"}))
+    monkeypatch.chdir(tmp_path)  # not where the people file is
+    copy = Path("a/damaged/people") / NAME
+    resumed = nudge(*REPLICATE, "--people", str(copy), "--out", "a/damaged", "--resume")
+    assert resumed.exit_code == 0, resumed.output
+    assert "(2 tasks computed now)" in resumed.stderr
+    for table in BATCH_TABLES:
+        assert (damaged / table).read_bytes() == (typed_here / "whole" / table).read_bytes(), table
+    assert copy.read_bytes() == PEOPLE_BYTES
+    # an edited copy is other people: refused with one line, the batch left as it is
+    copy.write_bytes(PEOPLE_BYTES + b"\r\n")
+    before = snapshot(damaged)
+    refused = nudge(*REPLICATE, "--people", str(copy), "--out", "a/damaged", "--resume")
+    assert refused.exit_code == 1
+    assert f"was simulated with --people {NAME}" in one_error_line(refused.stderr)
+    assert snapshot(damaged) == before
+    replaced = nudge(*REPLICATE, "--out", "a/damaged", "--force")  # the population's people now
+    assert replaced.exit_code == 0, replaced.output
+    assert not (damaged / "people").exists()
