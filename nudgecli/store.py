@@ -518,7 +518,9 @@ class RunFolder(RunRecord):
         The lock is held, so no live writer owns them.
         """
         calibration = sorted((self.path / "calibration").glob("participant-*"))
-        for folder in (self.path, *(self.path / kind for kind in PART_KINDS), *calibration):
+        parts = [self.path / kind for kind in PART_KINDS]
+        folders = (self.path, self.path / PEOPLE_DIR, *parts, *calibration)
+        for folder in folders:
             if folder.is_dir():
                 for tmp in folder.glob(".*.tmp"):
                     tmp.unlink(missing_ok=True)

@@ -105,9 +105,11 @@ def test_a_resume_with_an_edited_copy_is_refused_and_the_original_puts_it_back(t
     line = one_error_line(refused.stderr)
     assert f"was simulated with --people {NAME} (sha256 {read_people(NAME).sha256[:12]}" in line
     assert "same people file" in line
+    torn = run / "people" / f".{NAME}.x1y2z3w4.tmp"  # the temporary of a copy whose writer was killed
+    torn.write_bytes(PEOPLE_BYTES[:10])
     again = nudge(*SIMULATE, "--people", NAME, "--out", "run", "--resume")
     assert again.exit_code == 0, again.output
-    assert copy.read_bytes() == PEOPLE_BYTES
+    assert copy.read_bytes() == PEOPLE_BYTES and not torn.exists()
 
 
 def test_a_fresh_run_into_the_folder_is_refused_untouched_and_force_drops_the_copy(typed_here: Path) -> None:
