@@ -80,7 +80,17 @@ def test_canonical_integer_labels_give_the_outputs_they_gave_before(tables: Path
     outputs = (("real-analysis", "analysis", ANALYSIS_FILES), ("cmp", "compare", COMPARE_FILES))
     for folder, before, names in outputs:
         for name in names:
-            assert (tables / folder / name).read_bytes() == (BEFORE / before / name).read_bytes(), name
+            assert without_table_read(tables / folder / name) == (BEFORE / before / name).read_bytes(), name
+
+
+def without_table_read(path: Path) -> bytes:
+    """A file's bytes; ``stats.json``'s as written without its record of the table read (which
+    came after the expected files: report/table_read.py), every other byte as it is."""
+    if path.name != "stats.json":
+        return path.read_bytes()
+    stats = json.loads(path.read_text(encoding="utf-8"))
+    assert set(stats.pop("table_read")) == {"sha256", "rows", "drop_duplicates", "duplicates_dropped"}
+    return (json.dumps(stats, indent=2, allow_nan=False) + "\n").encode("utf-8")
 
 
 def test_analyze_keeps_zero_padded_labels_as_written(tables: Path) -> None:

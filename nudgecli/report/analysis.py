@@ -27,7 +27,8 @@ lock (:func:`nudgecli.store.run_lock`), to the run folder, ``<table>-analysis/``
 (``study.csv`` gives ``study-analysis/``), or ``out``: ``stats.json``, ``stats.csv``,
 ``summary.md``, ``metrics.csv`` (for a run folder, or a table the analysis changed; a table
 analysed as it is is not copied: ``stats.json``'s ``metrics_table`` names the table the
-statistics came from) and, with questionnaires, ``questionnaire_scores.csv`` (a name of its own:
+statistics came from, and its ``table_read`` what was done to a table's rows,
+:mod:`nudgecli.report.table_read`) and, with questionnaires, ``questionnaire_scores.csv`` (a name of its own:
 ``questionnaires.csv`` is the answers ``nudge study`` records). No output replaces an input
 (:func:`nudgecli.outputs.check_not_an_input`: all of them are checked before the first is written).
 """
@@ -70,15 +71,15 @@ from nudgecli.report.questionnaires import (
 from nudgecli.report.stats import ComparisonOptions, order_conditions
 from nudgecli.report.stats_document import compare_conditions, json_ready, stats_csv, stats_table
 from nudgecli.report.summary import format_summary
+from nudgecli.report.table_read import TABLE_READ_KEY, table_read_record
 from nudgecli.report.tables import (
     NON_METRIC_COLUMNS,
     drop_or_refuse_duplicates,
-    read_csv_labels,
     read_metrics_table,
     validate_metrics_table,
 )
 from nudgecli.run_folder_names import METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_CSV, STATS_JSON, SUMMARY_MD
-from nudgecli.run_folder_record import CONSTANT_METRICS_KEY
+from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, file_sha256
 from nudgecli.store import RunFolder, is_run_folder, write_text_atomic
 
 
@@ -204,29 +205,21 @@ def analysed_metrics_path(folder: str | Path) -> Path | None:
     return path if path is not None and path.is_file() else None
 
 
-def read_analysed_metrics(path: str | Path) -> pd.DataFrame:
-    """Read the table :func:`analysed_metrics_path` names, conditions as plain strings and labels as
-    written (:func:`~nudgecli.report.tables.read_csv_labels`)."""
-    path = Path(path)
-    table = read_csv_labels(path) if path.name == METRICS_CSV else read_metrics_table(path)
-    table["condition"] = table["condition"].astype(str)
-    return table
-
-
 def analysis_folder(table: Path) -> Path:
     """The default output folder of a metrics table: ``study.csv`` -> ``study-analysis/`` beside it."""
     return table.with_name(f"{table.stem}-analysis")
 
 
 def _load_table(source: Path, drop_duplicates: bool, notes: list[str],
-                min_conditions: int = 1) -> tuple[pd.DataFrame, list[str], bool]:
+                min_conditions: int = 1) -> tuple[pd.DataFrame, list[str], int]:
     """A checked metrics table (at least ``min_conditions`` conditions), its metric columns, and
-    whether duplicates were dropped."""
+    how many repeated trial rows were dropped."""
     table = read_metrics_table(source)
+    rows_read = len(table)
     first_row = 2 if source.suffix.lower() == ".csv" else 1
     metric_columns = validate_metrics_table(table, str(source), first_row, min_conditions)
-    table, dropped = drop_or_refuse_duplicates(table, source, first_row, drop_duplicates, notes)
-    return table, metric_columns, dropped
+    table, _ = drop_or_refuse_duplicates(table, source, first_row, drop_duplicates, notes)
+    return table, metric_columns, rows_read - len(table)
 
 
 def _load_source(source: Path, plan: AnalysisPlan,
@@ -396,11 +389,15 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     if plan_arg is None:
         plan_arg = _recorded_plan(manifest)
     plan = load_plan(plan_arg)
+    table_read: dict[str, Any] | None = None  # what was done to a table's rows, for `nudge plot`
     if source.is_dir():
         table, available, _ = _load_source(source, plan, notes)
         changed = True
     else:
-        table, available, changed = _load_table(source, drop_duplicates, notes)
+        sha256 = file_sha256(source)  # before reading: a table edited meanwhile is never taken for this one
+        table, available, dropped = _load_table(source, drop_duplicates, notes)
+        changed = dropped > 0
+        table_read = table_read_record(sha256, len(table) + dropped, drop_duplicates, dropped)
     # before anything is recorded: a plan whose conditions are not the data's is refused
     check_plan_conditions(plan, _plan_label(plan_arg, plan), table["condition"].astype(str).unique(),
                           str(source))
@@ -427,6 +424,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     source_from_out = Path(os.path.relpath(source.resolve(), out_dir.resolve()))
     stats["metrics_table"] = METRICS_CSV if changed else str(source_from_out)
     stats[CHECKSUM_KEY] = metrics_checksum(filtered, trial_selected, plan.filters)
+    if table_read is not None:
+        stats[TABLE_READ_KEY] = table_read
     stats = json_ready(stats)
     tidy = stats_table(stats)
     notes += _excluded_notes(tidy)

@@ -10,7 +10,8 @@ Sources:
 - a run folder analysed with ``nudge analyze``: ``metrics.csv``, ``stats.json``, the trial table,
   the step log and the layouts (Fig. 5 and the trajectory), ``questionnaire_scores.csv`` if present;
 - an analysed metrics table, given as the table itself or as its analysis folder (the folder
-  that holds its ``stats.json`` and ``metrics.csv``): box plots only.
+  that holds its ``stats.json`` and ``metrics.csv``): box plots only. The table itself is drawn
+  only when it is the one analysed, byte for byte (:mod:`nudgecli.report.table_read`).
 
 The paper's Fig. 3 and Fig. 4 are drawn where all three of their metrics are present; every
 other analysed metric of the table gets a panel of its own in ``metrics``. Four or more conditions
@@ -39,9 +40,10 @@ from nudgecli.report.metrics import apply_filters
 from nudgecli.report.pair_display import check_reference
 from nudgecli.report.stats import ComparisonOptions
 from nudgecli.report.style import condition_display_name
+from nudgecli.report.table_read import analyze_command, check_table_is_analysed, recorded_table_read
 from nudgecli.report.tables import (
     TABLE_SUFFIXES,
-    drop_or_refuse_duplicates,
+    find_duplicate_trials,
     read_csv_labels,
     read_metrics_table,
     validate_metrics_table,
@@ -344,19 +346,52 @@ def _read_metrics_csv(path: Path) -> pd.DataFrame:
     return table
 
 
-def _table_as_analysed(path: Path, folder: Path) -> pd.DataFrame:
-    """A metrics table's rows as its analysis in ``folder`` analysed them (before the filters).
-
-    An analysis that changed the table (``--drop-duplicates`` dropped repeated trial rows, or the
-    plan's filters blanked values) keeps its own copy, ``metrics.csv``: the table's repeated rows
-    are dropped here as that analysis dropped them (the first of each kept), so the checksum the
-    caller verifies still tells an unchanged table from one edited after its analysis.
-    """
+def _read_table(path: Path) -> pd.DataFrame:
+    """A metrics table an analysis named, read and checked as ``nudge analyze`` reads one."""
     table = read_metrics_table(path)
     validate_metrics_table(table, str(path))
-    if analysed_metrics_path(folder) == folder / METRICS_CSV:
-        table, _ = drop_or_refuse_duplicates(table, path, first_row=2, drop_duplicates=True, notes=[])
     return table
+
+
+def _table_as_analysed(path: Path, folder: Path, stats: Mapping[str, Any],
+                       stats_path: Path) -> tuple[pd.DataFrame, Path]:
+    """The rows the analysis in ``folder`` analysed of the metrics table ``path`` (before the
+    plan's filters) and the file they were read from.
+
+    The table must be the one analysed, byte for byte (:mod:`nudgecli.report.table_read`); the
+    rows are then the analysis's own: its ``metrics.csv`` where it changed the table (dropped
+    repeated trial rows, filtered values), else the table; no rule of the analysis is applied a
+    second time here. The analysis's own ``metrics.csv`` given as the table is read as it is (the
+    checksum vouches for it). A ``stats.json`` of an older nudge records nothing of the table: it
+    is read as it is (the checksum decides) unless it holds repeated trial rows, which that
+    analysis may or may not have dropped.
+
+    Raises
+    ------
+    DataError
+        The table is not the one analysed, or (an older analysis) holds repeated trial rows.
+    RunFolderError
+        The analysis changed the table and its ``metrics.csv`` is gone.
+    """
+    own_copy = folder / METRICS_CSV
+    if own_copy.is_file() and path.resolve() == own_copy.resolve():
+        return _read_metrics_csv(path), path
+    record = recorded_table_read(stats, str(stats_path))
+    if record is None:
+        table = _read_table(path)
+        if find_duplicate_trials(table)[1].any():
+            raise DataError(f"{path} holds repeated trial rows and {stats_path} (written by an older nudge) "
+                            "does not record whether its analysis dropped them; run "
+                            f"`{analyze_command(path, folder, drop_duplicates=True)}` again before plotting")
+        return table, path
+    check_table_is_analysed(path, record, stats_path)
+    if stats.get("metrics_table") != METRICS_CSV:  # analysed as it is: these very bytes
+        return _read_table(path), path
+    if not own_copy.is_file():
+        command = analyze_command(path, folder, record["drop_duplicates"])
+        raise RunFolderError(f"{own_copy} is gone: it held the rows of {path} that {stats_path} was "
+                             f"computed from; run `{command}` again before plotting")
+    return _read_metrics_csv(own_copy), own_copy
 
 
 def read_inputs(source: str | Path) -> FigureInputs:
@@ -384,8 +419,8 @@ def read_inputs(source: str | Path) -> FigureInputs:
         folder = analysis_folder_of_table(path)
         stats_path = folder / STATS_JSON
         stats = read_stats(stats_path)
-        table = _table_as_analysed(path, folder)
-        metrics_name = str(path)
+        table, metrics_file = _table_as_analysed(path, folder, stats, stats_path)
+        metrics_name = str(metrics_file)
     else:
         folder = path
         run = RunFolder(folder)
@@ -401,11 +436,8 @@ def read_inputs(source: str | Path) -> FigureInputs:
             raise RunFolderError(f"{folder}: no metrics yet; run `nudge analyze {folder}` first")
         stats_path = folder / STATS_JSON
         stats = read_stats(stats_path)
-        if metrics_path.name == METRICS_CSV:
-            table = _read_metrics_csv(metrics_path)
-        else:
-            table = read_metrics_table(metrics_path)
-            validate_metrics_table(table, str(metrics_path))
+        analysis_copy = metrics_path.name == METRICS_CSV
+        table = _read_metrics_csv(metrics_path) if analysis_copy else _read_table(metrics_path)
         metrics_name = str(metrics_path)
     record = recorded_checksum(stats, str(stats_path))
     table = apply_filters(table, record.get("filters") or {})
