@@ -100,10 +100,12 @@ def test_a_repeated_or_conflicting_response_is_refused_naming_both_rows() -> Non
     conflicting = pd.DataFrame([_row(likert_q3=5), other, _row(likert_q3=2)])
     with pytest.raises(DataError, match=r"rows 2 and 4 .* different answers \(conflicting"):
         questionnaire_scores(conflicting, "q.csv")
-    # the id as written differently ("1" and 1 in a mixed column) is still the same person
-    mixed = pd.DataFrame([_row(), {**_row(), "participant": " 1"}])
+    # one label in a mixed column ("1" and 1) is one person; another spelling (" 1") is another
+    # label, as the tables read it (report/tables.py), and check_respondents judges it
+    mixed = pd.DataFrame([_row(), {**_row(), "participant": "1"}])
     with pytest.raises(DataError, match="rows 2 and 3"):
         questionnaire_scores(mixed)
+    assert len(questionnaire_scores(pd.DataFrame([_row(), {**_row(), "participant": " 1"}]))) == 2
     # one response per block is fine, and so is the same block number of another condition
     fine = pd.DataFrame([_row(), _row(block=1), _row(condition="disambiguation")])
     assert len(questionnaire_scores(fine)) == 3

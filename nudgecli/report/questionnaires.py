@@ -26,6 +26,8 @@ An empty cell is a missing answer: that score is missing for that response. With
 column, each participant answers once per condition and block: a second row for the same
 participant, condition and block (repeated or conflicting) is refused, naming both rows. A
 respondent who is not a participant of the analysed run is refused by :func:`check_respondents`.
+Participant and block labels follow the tables' one rule (:mod:`nudgecli.report.tables`): kept
+as written, and matched as written, so ``07`` answers for participant ``07`` and never for ``7``.
 Scores:
 
 - ``tlx_raw``: the mean of the six subscale ratings (the paper's "raw TLX");
@@ -44,7 +46,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.errors import DataError
-from nudgecli.report.tables import read_csv_labels
+from nudgecli.report.tables import is_canonical_integer, label_text, read_csv_labels
 
 TLX_SUBSCALES = ("mental", "physical", "temporal", "performance", "effort", "frustration")
 TLX_RATING_COLUMNS = tuple(f"tlx_{s}" for s in TLX_SUBSCALES)
@@ -216,7 +218,8 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
 
 def _check_one_response_per_block(table: pd.DataFrame, ids: list[str], source: str) -> None:
     """Refuse two rows of one participant, condition and block (a repeated or conflicting response)."""
-    keys = table[ids].astype(str).apply(lambda column: column.str.strip())
+    # labels as the tables read them (two spellings are two people), conditions as written
+    keys = pd.DataFrame({column: table[column].map(label_text) for column in ids})
     repeated = keys.duplicated(keep=False)
     if not repeated.any():
         return
@@ -235,17 +238,15 @@ def _check_one_response_per_block(table: pd.DataFrame, ids: list[str], source: s
     )
 
 
-def respondent_key(value: object) -> str:
-    """A participant id as text, so ``3``, ``3.0`` and ``"3"`` name the same person."""
-    try:
-        number = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError, OverflowError):
-        return str(value).strip()
-    return str(int(number)) if number.is_integer() else str(value).strip()
-
-
 def check_respondents(scores: pd.DataFrame, participants: pd.Series, source: str, run: str) -> None:
     """Refuse responses of people who are not participants of the analysed run, naming them.
+
+    A respondent is the participant whose label is the same label: both are compared as the
+    tables read them (:func:`~nudgecli.report.tables.label_text`), so ``7`` answers for
+    participant ``7`` of a run or of a table of canonical integers, and ``07`` only for a
+    participant written ``07``. ``07``, ``7.0`` and ``7`` are never taken for one another (a table
+    may hold ``07`` and ``7`` as two people): a respondent whose label is another spelling of a
+    participant's is refused like any stranger, and the message shows how the run writes it.
 
     Parameters
     ----------
@@ -261,14 +262,42 @@ def check_respondents(scores: pd.DataFrame, participants: pd.Series, source: str
     DataError
         A respondent is not among ``participants``.
     """
-    known = {respondent_key(p) for p in pd.unique(participants)}
-    strangers = sorted({respondent_key(p) for p in scores["participant"]} - known,
+    known = {label_text(p) for p in pd.unique(participants)}
+    strangers = sorted({label_text(p) for p in pd.unique(scores["participant"])} - known,
                        key=lambda k: (len(k), k))
-    if strangers:
-        more = f" and {len(strangers) - 10} more" if len(strangers) > 10 else ""
-        shown = ", ".join(strangers[:10]) + more
-        raise DataError(f"{source}: respondent(s) {shown} are not participants of {run}; remove their rows, "
-                        "or analyse the run they belong to")
+    if not strangers:
+        return
+    more = f" and {len(strangers) - 10} more" if len(strangers) > 10 else ""
+    shown = ", ".join(_shown(label) for label in strangers[:10]) + more
+    raise DataError(f"{source}: respondent(s) {shown} are not participants of {run}"
+                    f"{_other_spellings(strangers, known, run)}; remove their rows, or analyse the run they "
+                    "belong to")
+
+
+def _shown(label: str) -> str:
+    """A label for a message: a canonical integer bare, any other text quoted (``'07'``, ``' 7'``)."""
+    return label if is_canonical_integer(label) else repr(label)
+
+
+def _other_spellings(strangers: list[str], known: set[str], run: str) -> str:
+    """`` (labels are matched exactly as written: RUN writes 7, not '07')``: the strangers that spell a
+    participant's number another way, which is the likely mistake; empty if none does."""
+    def number(label: str) -> float | None:
+        try:
+            return float(label)
+        except ValueError:
+            return None
+
+    by_number: dict[float, str] = {}
+    for label in sorted(known):
+        if (value := number(label)) is not None:
+            by_number.setdefault(value, label)
+    pairs = [(label, by_number[value]) for label in strangers
+             if (value := number(label)) is not None and value in by_number]
+    if not pairs:
+        return ""
+    listed = "; ".join(f"{_shown(written)}, not {_shown(label)}" for label, written in pairs[:3])
+    return f" (labels are matched exactly as written: {run} writes {listed})"
 
 
 def score_columns(scores: pd.DataFrame) -> list[str]:

@@ -56,6 +56,24 @@ def is_canonical_integer(text: str) -> bool:
     return str(number) == text and _INT64_RANGE[0] <= number <= _INT64_RANGE[1]
 
 
+def label_text(label: object) -> str:
+    """A label as :func:`read_csv_labels` reads it, as text: the one way two tables' labels are
+    matched (a questionnaire's respondents against a table's participants).
+
+    A number (a column of canonical integers is read as int64, or float64 beside blanks; a
+    Parquet table's numbers) is written as Python writes the integer it holds: ``7``, ``7.0`` and
+    ``np.int64(7)`` give ``"7"``. Text stays exactly as written: ``"07"``, ``"7.0"`` and ``" 7"``
+    are labels of their own, none of them ``"7"`` (a column holding one of them is read as text).
+    """
+    if isinstance(label, str):
+        return label
+    if isinstance(label, int | np.integer) and not isinstance(label, bool | np.bool_):
+        return str(int(label))
+    if isinstance(label, float | np.floating) and float(label).is_integer():
+        return str(int(label))
+    return str(label)
+
+
 def labels_as_written(labels: pd.Series) -> pd.Series:
     """A label column read as text, as a researcher's table means it.
 
