@@ -498,7 +498,7 @@ class RunFolder(RunRecord):
                 write_text_atomic(config_path, config_text)
             return "resume"
         if mode in ("replace", "overwrite"):
-            self._clear()
+            self._clear(manifest)
         write_text_atomic(self.path / CONFIG, config_text)
         return "new"
 
@@ -525,8 +525,10 @@ class RunFolder(RunRecord):
                 for tmp in folder.glob(".*.tmp"):
                     tmp.unlink(missing_ok=True)
 
-    def _clear(self) -> None:
-        """Remove what a run writes (only the run's own files and folders)."""
+    def _clear(self, manifest: dict[str, Any] | None) -> None:
+        """Remove what a run writes (only the run's own files and folders; of ``people/``, only the
+        copy the old run's ``manifest`` records: a folder that is not a run may keep the person's
+        own people files there)."""
         self._remove_temporaries()
         for kind in PART_KINDS:
             folder = self.path / kind
@@ -536,12 +538,14 @@ class RunFolder(RunRecord):
         for name in (MANIFEST, CONFIG, PARTICIPANTS, LAYOUTS, METRICS_CSV, STATS_JSON, STATS_CSV,
                      SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV):
             (self.path / name).unlink(missing_ok=True)
-        copies = self.path / PEOPLE_DIR  # the people file the old run kept (and a torn copy's temporary)
-        for copy in copies.glob("*") if copies.is_dir() else ():
-            if copy.is_file():
-                copy.unlink()
+        from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
+        from nudgecli.sim.people_file import copy_path
+
+        recorded = None if manifest is None else manifest.get(PEOPLE_KEY)
+        if isinstance(recorded, dict):  # the people file the old run kept (a torn copy's temporary: above)
+            copy_path(self.path, recorded).unlink(missing_ok=True)
         with contextlib.suppress(OSError):
-            copies.rmdir()
+            (self.path / PEOPLE_DIR).rmdir()  # only where nothing else is left in it
         calibration = self.path / "calibration"
         if calibration.is_dir():
             for log in calibration.glob("participant-*/*.csv"):

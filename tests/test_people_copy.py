@@ -125,6 +125,21 @@ def test_a_fresh_run_into_the_folder_is_refused_untouched_and_force_drops_the_co
     assert not (run / "people").exists()
 
 
+def test_force_into_a_folder_that_is_no_run_keeps_the_persons_own_people_files(typed_here: Path) -> None:
+    # --force replaces a run's own files; a people/ folder of a folder that holds no run is the
+    # person's (say, their fitted people files), and only the run's copy may land beside them
+    own = typed_here / "study" / "people" / "fitted.csv"
+    own.parent.mkdir(parents=True)
+    own.write_bytes(b"theirs")
+    made = nudge(*SIMULATE, "--people", NAME, "--out", "study", "--force")
+    assert made.exit_code == 0, made.output
+    assert own.read_bytes() == b"theirs"
+    assert (typed_here / "study" / "people" / NAME).read_bytes() == PEOPLE_BYTES
+    replaced = nudge(*SIMULATE, "--out", "study", "--force")  # now a run: its copy goes, theirs stays
+    assert replaced.exit_code == 0, replaced.output
+    assert sorted(p.name for p in own.parent.iterdir()) == ["fitted.csv"]
+
+
 def test_people_made_in_memory_leave_no_copy(tmp_path: Path) -> None:
     keep_copy(People("recovery", "", ()), tmp_path)
     keep_copy(None, tmp_path)
