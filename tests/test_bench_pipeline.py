@@ -56,7 +56,8 @@ def test_the_power_row_holds_the_wall_time_to_two_minutes() -> None:
     assert row["time_s"] == 150.0 and row["baseline_s"] == 120.0 and row["ratio"] == pytest.approx(0.8)
     assert not row["ok"] and row["target"] == "<= 120 s" and row["peak_mb"] == 120.0
     # 57,600 / 150 s x 3600; 57,600 x 4 ms / (2 x 150 s) = 76.8 %
-    assert row["note"].startswith("57,600 trials simulated (each replication's largest study, once), 1,382,400 trials per hour; pipeline efficiency 77%")
+    assert row["note"].startswith("57,600 trials simulated (each replication's largest study, once), "
+                                  "1,382,400 trials per hour; pipeline efficiency 77%")
     quick = pipeline.PipelineMeasurement("paper", 2, 0.004, measured.batches,
                                          pipeline.BatchTiming(50, 57_600, 119.5, 230.0, None))
     assert pipeline.power_row(quick)["ok"]
