@@ -37,7 +37,7 @@ import os
 import platform
 import sys
 import tempfile
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
@@ -151,6 +151,16 @@ def check_writable(folder: str | Path) -> None:
         tmp.write_bytes(b"")
     with contextlib.suppress(OSError):
         (Path(folder) / ".nudge-write-check").unlink()
+
+
+def remove_temporaries(folders: Iterable[Path]) -> None:
+    """Remove the temporaries (:func:`atomic_path`'s ``.<name>.<random>.tmp``) that writers killed
+    mid-write left in ``folders`` (missing folders are skipped). The caller holds the folder's lock,
+    so no live writer owns them."""
+    for folder in folders:
+        if folder.is_dir():
+            for tmp in folder.glob(".*.tmp"):
+                tmp.unlink(missing_ok=True)
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:
@@ -519,11 +529,7 @@ class RunFolder(RunRecord):
         """
         calibration = sorted((self.path / "calibration").glob("participant-*"))
         parts = [self.path / kind for kind in PART_KINDS]
-        folders = (self.path, self.path / PEOPLE_DIR, *parts, *calibration)
-        for folder in folders:
-            if folder.is_dir():
-                for tmp in folder.glob(".*.tmp"):
-                    tmp.unlink(missing_ok=True)
+        remove_temporaries((self.path, self.path / PEOPLE_DIR, *parts, *calibration))
 
     def _clear(self, manifest: dict[str, Any] | None) -> None:
         """Remove what a run writes (only the run's own files and folders; of ``people/``, only the

@@ -780,6 +780,21 @@ def test_resume_refuses_a_different_batch(tmp_path):
     assert same.exit_code == 0 and "0 tasks computed now" in same.output
 
 
+def test_resume_removes_the_temporaries_of_killed_writers_and_nothing_else(tmp_path):
+    out = tmp_path / "b"
+    assert CliRunner().invoke(main, ["replicate", "smoke", "-R", "1", "--out", str(out)]).exit_code == 0
+    task_folder = next((out / "tasks").iterdir())
+    torn = [out / ".batch.json.k2j4h1x9.tmp", task_folder / ".part-0000.parquet.a8d0c3b1.tmp",
+            out / "analyses" / ".x.json.0000abcd.tmp"]
+    for path in torn:
+        path.write_bytes(b"half a file")
+    theirs = out / "notes.tmp"  # not a temporary of the toolkit's (no leading dot): the person's own
+    theirs.write_text("mine")
+    same = CliRunner().invoke(main, ["replicate", "smoke", "-R", "1", "--out", str(out), "--resume"])
+    assert same.exit_code == 0 and "0 tasks computed now" in same.output
+    assert not [path for path in torn if path.exists()] and theirs.read_text() == "mine"
+
+
 # --- orphans ----------------------------------------------------------------------------------
 
 def _children(pid: int) -> list[int]:

@@ -28,7 +28,13 @@ from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import FIGURES_DIR, PEOPLE_DIR
 from nudgecli.run_folder_record import file_sha256, part_name, readable_parquet
 from nudgecli.sim.people_file import People, keep_copy
-from nudgecli.store import prepare_mode, write_error, write_json_atomic, write_parquet_atomic
+from nudgecli.store import (
+    prepare_mode,
+    remove_temporaries,
+    write_error,
+    write_json_atomic,
+    write_parquet_atomic,
+)
 
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
     import pandas as pd
@@ -176,6 +182,9 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
         if old.get("batch") != json.loads(json.dumps(description)):
             raise RunFolderError(f"{folder}: holds a different batch (experiment, design, seed, "
                                  "replications or plan); resume it with the same settings, or use --force")
+        # what writers killed mid-write left (the batch's lock is held: no live writer owns them)
+        own = [folder / name for name in ("tasks", "analyses", FIGURES_DIR, PEOPLE_DIR)]
+        remove_temporaries((folder, *own, *(folder / "tasks").glob("*/")))
         keep_copy(people, folder)
         return "resume"
     if mode == "replace":
