@@ -178,3 +178,10 @@ def test_a_batch_resumed_with_its_copy_from_another_folder_equals_an_uninterrupt
     replaced = nudge(*REPLICATE, "--out", "a/damaged", "--force")  # the population's people now
     assert replaced.exit_code == 0, replaced.output
     assert not (damaged / "people").exists()
+
+
+def test_a_power_analysis_keeps_its_copy_too(typed_here: Path) -> None:
+    made = nudge("power", "smoke", "--participants", "2,3", "-R", "1", "--seed", "6", "--people", NAME,
+                 "--out", "power")
+    assert made.exit_code == 0, made.output
+    assert (typed_here / "power" / "people" / NAME).read_bytes() == PEOPLE_BYTES
