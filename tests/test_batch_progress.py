@@ -32,10 +32,9 @@ def test_the_progress_line_with_its_eta_is_on_stderr_beside_the_table(
     assert "ETA" not in result.stdout
 
 
-def test_no_progress_line_where_a_script_reads_json() -> None:
-    runner = CliRunner()
-    with runner.isolated_filesystem():
-        result = runner.invoke(main, [*COMMANDS["power"], "--out", "batch", "--format", "json"])
+def test_no_progress_line_where_a_script_reads_json(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)  # (click's isolated_filesystem is deprecated, gone in Click 9)
+    result = CliRunner().invoke(main, [*COMMANDS["power"], "--out", "batch", "--format", "json"])
     assert result.exit_code == 0, result.output
     assert "ETA" not in result.stderr and "tasks (" not in result.stderr
     assert json.loads(result.stdout)  # stdout is the document alone
