@@ -207,3 +207,18 @@ def test_the_statistics_module_loads_without_scipy_stats_or_scikit_posthocs() ->
     result = run_refusing(script, ["scipy.stats", "scikit_posthocs"])
     assert result.returncode == 0, result.stderr
     assert result.stdout.split() == ["True", "True"]
+
+
+def test_every_fast_path_of_the_signed_rank_test_runs_without_scipy_stats() -> None:
+    """A two-condition analysis (the paper's) never imports scipy.stats (about 0.5 s of CPU in the
+    batch's parent, beside its workers): its Wilcoxon tests take the sign-flip (zeros or ties, n <=
+    13), exact (n <= 50) or normal (the rest) path, each scipy's numbers (tests/test_report_stats.py)."""
+    script = ("import numpy as np\n"
+              "from nudgecli.report.participant_tests import signed_rank_test\n"
+              "rng = np.random.default_rng(3)\n"
+              "x = rng.normal(size=60)\n"
+              "cases = [(np.array([1., 2, 2, 3, 0, 5]), np.zeros(6)), (x[:20], x[20:40]), (x[:55], x[5:])]\n"
+              "print(all(0.0 <= signed_rank_test(a, b)[1] <= 1.0 for a, b in cases))\n")
+    result = run_refusing(script, ["scipy.stats"])
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["True"]

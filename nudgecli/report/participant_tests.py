@@ -19,8 +19,10 @@ import pandas as pd
 from nudgecli.report.rank_tests import average_ranks
 from nudgecli.report.stats import adjust_p_values, pairs, python_scalar, tidy_values
 
-# scipy.stats (about 0.6 s of CPU to import) is imported by the functions that call it, so that
-# importing this module, and the stats document's, costs nothing until a test runs
+# scipy.stats (about 0.5 s of CPU to import) is imported only where scipy's own function runs (an
+# unchecked scipy release, differences that are not all finite or all zero, the Friedman test):
+# importing this module, and the stats document's, costs nothing, and a two-condition analysis
+# never imports it
 
 #: ``scipy.stats.wilcoxon``'s default (``method="auto"``) runs an exact sign-flip permutation test
 #: when the differences hold zeros or ties and there are at most this many of them (since scipy
@@ -63,7 +65,8 @@ def signed_rank_sum(d: np.ndarray, axis: int = -1) -> np.ndarray:
     Parameters
     ----------
     d
-        ``(..., n)`` paired differences (zeros are dropped, as ``zero_method="wilcox"`` does).
+        ``(..., n)`` paired differences (zeros are dropped, as ``zero_method="wilcox"`` does; so
+        are NaN, as ``scipy.stats.rankdata(..., nan_policy="omit")`` omits them).
     axis
         The axis of the pairs.
 
@@ -73,26 +76,53 @@ def signed_rank_sum(d: np.ndarray, axis: int = -1) -> np.ndarray:
         ``(...)``; every partial sum is a multiple of 0.5 below ``n (n + 1) / 2``, so it is exact in
         any order of addition.
     """
-    import scipy.stats
-
     d = np.moveaxis(np.asarray(d, dtype=float), axis, -1)
-    magnitude = np.where(d == 0, np.nan, np.abs(d))
-    ranks = scipy.stats.rankdata(magnitude, axis=-1, nan_policy="omit")
-    return np.where(d > 0, ranks, 0.0).sum(axis=-1)
+    rows = d.reshape(-1, d.shape[-1])
+    sums = [float(np.where(row > 0, nonzero_ranks(row), 0.0).sum()) for row in rows]
+    return np.array(sums).reshape(d.shape[:-1])
+
+
+def nonzero_ranks(d: np.ndarray) -> np.ndarray:
+    """``(n,)`` the average ranks of the nonzero, non-NaN ``|d|`` among themselves; 0 elsewhere.
+
+    ``scipy.stats.rankdata`` of the magnitudes with zeros as NaN and ``nan_policy="omit"``, as
+    ``scipy.stats.wilcoxon`` ranks them (half-integers: exact)."""
+    ranks = np.zeros(d.size)
+    ranked = (d != 0) & ~np.isnan(d)
+    ranks[ranked] = average_ranks(np.abs(d[ranked]))[0]
+    return ranks
+
+
+def wilcoxon_null_probabilities(n: int) -> np.ndarray:
+    """``(n (n + 1) / 2 + 1,)`` the null distribution of ``R+`` for ``n`` differences without zeros or
+    ties: ``P(R+ = r)``, ``r = 0 ... n (n + 1) / 2``.
+
+    ``R+ = sum_k k B_k`` with independent fair ``B_k``: each rank ``k`` in turn halves the
+    distribution so far and adds it again shifted by ``k`` (the recursion of scipy's
+    ``scipy.stats._hypotests._get_wilcoxon_distr``, which :func:`signed_rank_test` matches: every
+    value is a count over ``2^n`` with the count below ``2^53``, so each sum is exact).
+    """
+    probabilities = np.ones(1)
+    for rank in range(1, n + 1):
+        half = probabilities * 0.5
+        probabilities = np.zeros(rank * (rank + 1) // 2 + 1)
+        probabilities[:half.size] = half
+        probabilities[rank:] += half
+    return probabilities
 
 
 def signed_rank_test(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
-    """``scipy.stats.wilcoxon(x, y)``'s statistic and p-value, its exact sign-flip test vectorised.
+    """``scipy.stats.wilcoxon(x, y)``'s statistic and p-value, computed here on arrays.
 
     With zeros or ties among at most :data:`SIGN_FLIP_MAX_N` differences, scipy's default runs an
     exact permutation test (all ``2^n`` sign flips) with a statistic it evaluates one flip at a time
-    (60-70 ms a call). Here the same :func:`scipy.stats.permutation_test` gets ``R+`` of all flips
-    at once (:func:`signed_rank_sum`): the same null distribution, so the same p-value. Without
-    zeros or ties among at most :data:`EXACT_MAX_N` differences, scipy's exact test is evaluated
-    here on arrays (:func:`_exact_signed_rank_test`, about 1 ms a call less), and so is its normal
-    approximation for the rest (:func:`_normal_signed_rank_test`). Differences that are not all
-    finite, or all zero, go to ``scipy.stats.wilcoxon`` itself, and so does everything on a scipy
-    release series whose source was not checked (:data:`CHECKED_SCIPY_VERSIONS`).
+    (60-70 ms a call); here ``R+`` of all flips is one array operation
+    (:func:`_sign_flip_signed_rank_test`): the same null distribution and comparisons, so the same
+    p-value. Without zeros or ties among at most :data:`EXACT_MAX_N` differences, scipy's exact test
+    (:func:`_exact_signed_rank_test`), and for the rest its normal approximation
+    (:func:`_normal_signed_rank_test`). None of them imports ``scipy.stats``. Differences that are
+    not all finite, or all zero, go to ``scipy.stats.wilcoxon`` itself, and so does everything on a
+    scipy release series whose source was not checked (:data:`CHECKED_SCIPY_VERSIONS`).
 
     Parameters
     ----------
@@ -105,27 +135,65 @@ def signed_rank_test(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
         ``min(R+, R-)`` and the two-sided p-value, bit for bit what ``scipy.stats.wilcoxon`` returns
         (a test holds the two together).
     """
-    import scipy.stats
-
     if installed_scipy_version() not in CHECKED_SCIPY_VERSIONS:  # its arithmetic may differ
-        unchecked = scipy.stats.wilcoxon(x, y)
-        return float(unchecked.statistic), float(unchecked.pvalue)
+        return _scipy_signed_rank_test(x, y)
     d = np.asarray(x, dtype=float) - np.asarray(y, dtype=float)
     nonzero = np.abs(d[d != 0])
     has_zeros_or_ties = nonzero.size < d.size or np.unique(nonzero).size < nonzero.size
     if nonzero.size > 0 and d.size <= SIGN_FLIP_MAX_N and has_zeros_or_ties and not np.isnan(d).any():
-        statistic = min(float(signed_rank_sum(d)), float(signed_rank_sum(-d)))
-        result = scipy.stats.permutation_test((d,), signed_rank_sum, permutation_type="samples",
-                                              vectorized=True, alternative="two-sided", axis=-1)
-        return statistic, float(result.pvalue)
+        return _sign_flip_signed_rank_test(d)
     if 0 < d.size <= EXACT_MAX_N and not has_zeros_or_ties and np.isfinite(d).all():
-        exact = _exact_signed_rank_test(d)
-        if exact is not None:
-            return exact
+        return _exact_signed_rank_test(d)
     if nonzero.size > 0 and (d.size > EXACT_MAX_N or has_zeros_or_ties) and np.isfinite(d).all():
         return _normal_signed_rank_test(d)  # (n > 13 here when there are zeros or ties)
+    return _scipy_signed_rank_test(x, y)
+
+
+def _scipy_signed_rank_test(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """``scipy.stats.wilcoxon(x, y)`` itself (about 0.5 s of CPU to import scipy.stats the first time)."""
+    import scipy.stats
+
     result = scipy.stats.wilcoxon(x, y)
     return float(result.statistic), float(result.pvalue)
+
+
+#: The relative tolerance of ``scipy.stats.permutation_test``'s comparisons with the observed
+#: statistic: 100 machine epsilons of float64 (``_resampling.permutation_test``'s ``eps``).
+PERMUTATION_TOLERANCE = float(np.finfo(np.float64).eps) * 100
+
+
+def _sign_flip_signed_rank_test(d: np.ndarray) -> tuple[float, float]:
+    """``scipy.stats.wilcoxon``'s exact sign-flip test of differences with zeros or ties (at most
+    :data:`SIGN_FLIP_MAX_N` of them).
+
+    What scipy computes (:data:`CHECKED_SCIPY_VERSIONS`; ``_wilcoxon_nd``'s
+    ``PermutationMethod()`` and ``_resampling.permutation_test`` with ``permutation_type="samples"``
+    on one sample): the null distribution is ``R+`` of every one of the ``2^n`` sign flips of
+    ``d`` (a multiset: its order does not matter to the counts below); with ``gamma = |100 eps
+    R+(d)|``, ``less`` and ``greater`` are the counts of flips with ``R+ <= R+(d) + gamma`` and
+    ``R+ >= R+(d) - gamma`` over ``2^n``, and ``p = 2 min(less, greater)`` clipped to ``[0, 1]``.
+    A flip changes no magnitude, so the ranks are made once; every ``R+`` is a sum of
+    half-integers (exact). A test holds it to ``scipy.stats.wilcoxon`` bit for bit.
+
+    Parameters
+    ----------
+    d
+        ``(n,)`` differences without NaN, not all zero, ``n <=`` :data:`SIGN_FLIP_MAX_N`.
+
+    Returns
+    -------
+    (float, float)
+        ``min(R+, R-)`` and the p-value.
+    """
+    ranks = nonzero_ranks(d)
+    flips = ((np.arange(2 ** d.size)[:, None] >> np.arange(d.size)) & 1).astype(bool)  # (2^n, n)
+    null = np.where(np.where(flips, -d, d) > 0, ranks, 0.0).sum(axis=-1)
+    observed, r_minus = float(ranks[d > 0].sum()), float(ranks[d < 0].sum())
+    gamma = abs(PERMUTATION_TOLERANCE * observed)
+    total = float(flips.shape[0])
+    less = np.count_nonzero(null <= observed + gamma) / total
+    greater = np.count_nonzero(null >= observed - gamma) / total
+    return min(observed, r_minus), float(np.clip(min(less, greater) * 2, 0.0, 1.0))
 
 
 #: ``scipy.stats.wilcoxon``'s default runs its exact test (the null distribution of ``R+``) when
@@ -133,16 +201,17 @@ def signed_rank_test(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 EXACT_MAX_N = 50
 
 
-def _exact_signed_rank_test(d: np.ndarray) -> tuple[float, float] | None:
+def _exact_signed_rank_test(d: np.ndarray) -> tuple[float, float]:
     """``scipy.stats.wilcoxon``'s exact two-sided test of differences without zeros or ties.
 
     What scipy computes (:data:`CHECKED_SCIPY_VERSIONS`; ``scipy/stats/_wilcoxon.py``,
     ``_wilcoxon_nd`` with ``method="exact"`` and ``WilcoxonDistribution``), operation for operation:
     ``R+`` and ``R-``, sums of the integer ranks of ``|d|`` (exact); the null probabilities of
-    ``R+`` from scipy's own ``_get_wilcoxon_distr(n)``; ``sf(k)`` the sum of those from ``k`` up and
-    ``cdf(k)`` of those up to ``k`` (each ``1 -`` the other side's sum when ``k`` exceeds the mean
-    ``n (n + 1) / 4``), summed by numpy over the same slices; ``p = 2 min(sf, cdf)`` clipped to
-    ``[0, 1]``. A test holds it to ``scipy.stats.wilcoxon`` bit for bit.
+    ``R+`` (:func:`wilcoxon_null_probabilities`, scipy's ``_get_wilcoxon_distr(n)``); ``sf(k)``
+    the sum of those from ``k`` up and ``cdf(k)`` of those up to ``k`` (each ``1 -`` the other
+    side's sum when ``k`` exceeds the mean ``n (n + 1) / 4``), summed by numpy over the same
+    slices; ``p = 2 min(sf, cdf)`` clipped to ``[0, 1]``. A test holds it to
+    ``scipy.stats.wilcoxon`` bit for bit.
 
     Parameters
     ----------
@@ -152,18 +221,13 @@ def _exact_signed_rank_test(d: np.ndarray) -> tuple[float, float] | None:
 
     Returns
     -------
-    (float, float) or None
-        ``min(R+, R-)`` and the p-value; None where this scipy has no ``_get_wilcoxon_distr``
-        (the caller runs ``scipy.stats.wilcoxon`` then).
+    (float, float)
+        ``min(R+, R-)`` and the p-value.
     """
-    try:
-        from scipy.stats._hypotests import _get_wilcoxon_distr
-    except ImportError:  # pragma: no cover - another scipy: its own function decides
-        return None
     ranks, _ = average_ranks(np.abs(d))  # 1..n: integers, every sum below exact
     r_plus, r_minus = float(np.sum(ranks[d > 0])), float(np.sum(ranks[d < 0]))
     n = int(d.size)
-    probabilities = _get_wilcoxon_distr(n)
+    probabilities = wilcoxon_null_probabilities(n)
     mean = n * (n + 1) / 4
     k = int(r_plus)  # an integer: scipy's floor (for sf) and ceil (for cdf) of it are k itself
     sf = probabilities[k:].sum() if k <= mean else 1 - probabilities[:k].sum()
