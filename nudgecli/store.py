@@ -548,8 +548,9 @@ class RunFolder(RunRecord):
         from nudgecli.sim.people_file import copy_path
 
         recorded = None if manifest is None else manifest.get(PEOPLE_KEY)
-        if isinstance(recorded, dict):  # the people file the old run kept (a torn copy's temporary: above)
-            copy_path(self.path, recorded).unlink(missing_ok=True)
+        copy = copy_path(self.path, recorded) if isinstance(recorded, dict) else None
+        if copy is not None and copy.is_file():  # the people file the old run kept (its temporary: above)
+            copy.unlink()
         with contextlib.suppress(OSError):
             (self.path / PEOPLE_DIR).rmdir()  # only where nothing else is left in it
         calibration = self.path / "calibration"

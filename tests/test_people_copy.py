@@ -185,3 +185,14 @@ def test_a_power_analysis_keeps_its_copy_too(typed_here: Path) -> None:
                  "--out", "power")
     assert made.exit_code == 0, made.output
     assert (typed_here / "power" / "people" / NAME).read_bytes() == PEOPLE_BYTES
+
+
+def test_force_over_a_manifest_naming_no_file_in_people_replaces_the_run(typed_here: Path) -> None:
+    # the manifest is read from disk: a people record naming ".." (edited by hand) is no file to remove
+    run = simulated_run(typed_here)
+    manifest = json.loads((run / "manifest.json").read_text())
+    manifest["people"]["file"] = ".."
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    replaced = nudge(*SIMULATE, "--out", "run", "--force")
+    assert replaced.exit_code == 0, replaced.output
+    assert (run / "manifest.json").is_file() and (run / "people" / NAME).read_bytes() == PEOPLE_BYTES
