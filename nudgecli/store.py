@@ -545,14 +545,9 @@ class RunFolder(RunRecord):
                      SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV):
             (self.path / name).unlink(missing_ok=True)
         from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
-        from nudgecli.sim.people_file import copy_path
+        from nudgecli.sim.people_file import remove_copy
 
-        recorded = None if manifest is None else manifest.get(PEOPLE_KEY)
-        copy = copy_path(self.path, recorded) if isinstance(recorded, dict) else None
-        if copy is not None and copy.is_file():  # the people file the old run kept (its temporary: above)
-            copy.unlink()
-        with contextlib.suppress(OSError):
-            (self.path / PEOPLE_DIR).rmdir()  # only where nothing else is left in it
+        remove_copy(self.path, None if manifest is None else manifest.get(PEOPLE_KEY))
         calibration = self.path / "calibration"
         if calibration.is_dir():
             for log in calibration.glob("participant-*/*.csv"):

@@ -196,3 +196,15 @@ def test_force_over_a_manifest_naming_no_file_in_people_replaces_the_run(typed_h
     replaced = nudge(*SIMULATE, "--out", "run", "--force")
     assert replaced.exit_code == 0, replaced.output
     assert (run / "manifest.json").is_file() and (run / "people" / NAME).read_bytes() == PEOPLE_BYTES
+
+
+def test_a_batch_replaced_with_force_keeps_the_persons_own_people_files(typed_here: Path) -> None:
+    own = typed_here / "study" / "people" / "fitted.csv"
+    own.parent.mkdir(parents=True)
+    own.write_bytes(b"theirs")
+    made = nudge(*REPLICATE, "--people", NAME, "--out", "study", "--force")  # into a folder of theirs
+    assert made.exit_code == 0, made.output
+    assert (typed_here / "study" / "people" / NAME).read_bytes() == PEOPLE_BYTES
+    replaced = nudge(*REPLICATE, "--out", "study", "--force")  # the batch replaced: its copy goes
+    assert replaced.exit_code == 0, replaced.output
+    assert sorted(p.name for p in own.parent.iterdir()) == ["fitted.csv"] and own.read_bytes() == b"theirs"

@@ -27,7 +27,8 @@ from nudgecli.errors import RunFolderError
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import FIGURES_DIR, PEOPLE_DIR
 from nudgecli.run_folder_record import file_sha256, part_name, readable_parquet
-from nudgecli.sim.people_file import People, keep_copy
+from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
+from nudgecli.sim.people_file import People, keep_copy, remove_copy
 from nudgecli.store import (
     prepare_mode,
     remove_temporaries,
@@ -188,8 +189,11 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
         keep_copy(people, folder)
         return "resume"
     if mode == "replace":
-        for name in ("tasks", "analyses", FIGURES_DIR, PEOPLE_DIR):
+        for name in ("tasks", "analyses", FIGURES_DIR):
             shutil.rmtree(folder / name, ignore_errors=True)
+        # of people/, the old batch's copy of its people file goes; other files there stay
+        described = None if old is None else old.get("batch")
+        remove_copy(folder, described.get(PEOPLE_KEY) if isinstance(described, dict) else None)
         manifest.unlink()
     (folder / PART_RECORD).unlink(missing_ok=True)  # a new batch: no line left there vouches for a part
     folder.mkdir(parents=True, exist_ok=True)

@@ -16,6 +16,7 @@ is a value the simulation does not accept (``[population]``'s check of that para
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import hashlib
 import io
@@ -220,3 +221,15 @@ def keep_copy(people: People | None, folder: str | Path) -> None:
     from nudgecli.store import write_bytes_atomic  # the folders' writer; it imports the config
 
     write_bytes_atomic(target, people.data)
+
+
+def remove_copy(folder: str | Path, recorded: object) -> None:
+    """Remove the copy of the people file a replaced run or batch kept (``recorded``: its manifest's
+    :data:`MANIFEST_KEY` entry, read from disk: anything), and ``people/`` where nothing else is left
+    in it. Other files there stay: a folder that was not a run may keep the person's own files."""
+    copy = copy_path(folder, recorded) if isinstance(recorded, dict) else None
+    if copy is not None and copy.is_file():
+        copy.unlink()
+    with contextlib.suppress(OSError):
+        (Path(folder) / PEOPLE_DIR).rmdir()
+
