@@ -89,6 +89,19 @@ def test_a_row_repeating_a_trial_added_after_the_analysis_is_refused(analysed_wi
     assert "--drop-duplicates` again before plotting" in result.output
 
 
+def test_a_repeated_row_added_to_a_table_analysed_as_it_was_names_the_flag_the_analysis_needs(tmp_path):
+    # analysed without --drop-duplicates (none then); the command to run must pass the repeat now
+    source = tmp_path / "study.csv"
+    table = pd.read_csv(TABLE)
+    table.to_csv(source, index=False)
+    assert CliRunner().invoke(main, ["analyze", str(source)]).exit_code == 0
+    pd.concat([table, table.iloc[[0]]]).to_csv(source, index=False)
+    result = plot(source, tmp_path / "figures")
+    assert result.exit_code != 0 and f"run `nudge analyze {source} --drop-duplicates` again" in result.output
+    table.iloc[1:].to_csv(source, index=False)  # a row removed: the plain command does
+    assert f"run `nudge analyze {source}` again" in plot(source, tmp_path / "figures").output
+
+
 def stats_of(folder: Path) -> dict[str, Any]:
     return json.loads((folder / "stats.json").read_text())
 

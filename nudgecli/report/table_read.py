@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from nudgecli.errors import DataError
-from nudgecli.report.tables import read_metrics_table
+from nudgecli.report.tables import find_duplicate_trials, read_metrics_table
 from nudgecli.run_folder_record import file_sha256
 
 TABLE_READ_KEY = "table_read"
@@ -96,8 +96,12 @@ def check_table_is_analysed(table: Path, record: Mapping[str, Any], stats_path: 
     """
     if file_sha256(table) == record["sha256"]:
         return
+    repeated = bool(record["drop_duplicates"])
     try:
-        rows_now = f"{len(read_metrics_table(table))} rows now"
+        now = read_metrics_table(table)
+        rows_now = f"{len(now)} rows now"
+        # the command must pass the refusal of repeated trial rows the table now holds
+        repeated = repeated or bool(find_duplicate_trials(now)[1].any())
     except DataError:
         rows_now = "no longer a readable table"
     dropped = record["duplicates_dropped"]
@@ -106,7 +110,7 @@ def check_table_is_analysed(table: Path, record: Mapping[str, Any], stats_path: 
         then += f", {dropped} repeated trial row(s) dropped"
     raise DataError(f"{table} is not the table {stats_path} was computed from: edited since its analysis "
                     f"({then}; {rows_now}; its SHA-256 differs); run "
-                    f"`{analyze_command(table, stats_path.parent, record['drop_duplicates'])}` "
+                    f"`{analyze_command(table, stats_path.parent, repeated)}` "
                     "again before plotting")
 
 
