@@ -148,7 +148,9 @@ def test_the_table_format_still_ends_with_the_batch_folder(tmp_path):
 
 def test_a_running_batch_is_locked_and_ctrl_c_prints_the_command_that_resumes_it(tmp_path):
     out = tmp_path / "batch"
-    args = ["replicate", "smoke", "-R", "6", "--participants", "2", "--seed", "4", "--workers", "2",
+    # 20 studies: long enough that the batch cannot finish between its first part and the test's
+    # SIGSTOP on a loaded machine (6 could, once its analyses stopped importing scipy.stats)
+    args = ["replicate", "smoke", "-R", "20", "--participants", "2", "--seed", "4", "--workers", "2",
             "--format", "csv"]
     # a new session: Ctrl-C in a terminal reaches the whole process group, workers included
     first = subprocess.Popen([*NUDGE, *args, "--out", str(out)], env=ENV, stdout=subprocess.DEVNULL,
@@ -163,7 +165,7 @@ def test_a_running_batch_is_locked_and_ctrl_c_prints_the_command_that_resumes_it
         second = invoke(["replicate", "smoke", "-R", "1", "--out", str(out), "--force"])
         line = one_error_line(second.output)
         assert second.exit_code == 1 and "in use by" in line and f"pid {first.pid}" in line
-        assert json.loads((out / "batch.json").read_text())["batch"]["replications"] == 6  # untouched
+        assert json.loads((out / "batch.json").read_text())["batch"]["replications"] == 20  # untouched
         assert any((out / "tasks").glob("*/part-*.parquet"))
         os.killpg(first.pid, signal.SIGINT)  # pending until it runs again: Ctrl-C as it resumes
         os.killpg(first.pid, signal.SIGCONT)
@@ -179,7 +181,7 @@ def test_a_running_batch_is_locked_and_ctrl_c_prints_the_command_that_resumes_it
     manifest = json.loads((out / "batch.json").read_text())
     assert manifest["status"] == "interrupted"  # not left "running"
     command = stderr.split("resume with: ")[1].strip().splitlines()[0]
-    assert command == ("nudge replicate smoke --replications 6 --seed 4 --participants 2 --workers 2 "
+    assert command == ("nudge replicate smoke --replications 20 --seed 4 --participants 2 --workers 2 "
                        f"--format csv --out {out} --resume")
     resumed = invoke(shlex.split(command)[1:])
     assert resumed.exit_code == 0, resumed.output
