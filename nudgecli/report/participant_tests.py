@@ -59,38 +59,31 @@ def installed_scipy_version() -> str:
     return ".".join(str(scipy.__version__).split(".")[:2])
 
 
-def signed_rank_sum(d: np.ndarray, axis: int = -1) -> np.ndarray:
-    """Wilcoxon's ``R+`` along ``axis``: the average ranks of the nonzero ``|d|`` of the positive ``d``.
+def sign_flip_rank_sums(d: np.ndarray) -> np.ndarray:
+    """Wilcoxon's ``R+`` of every sign flip of the differences ``d``.
+
+    Flip ``k`` negates ``d[i]`` where bit ``i`` of ``k`` is set (flip 0 is ``d``, the last ``-d``).
+    ``R+`` is the sum of the average ranks of the nonzero ``|d|`` (zeros dropped, as
+    ``zero_method="wilcox"`` does; NaN omitted, as ``scipy.stats.rankdata(..., nan_policy="omit")``
+    omits them) over the flip's positive differences; no flip changes a magnitude, so the ranks are
+    made once.
 
     Parameters
     ----------
     d
-        ``(..., n)`` paired differences (zeros are dropped, as ``zero_method="wilcox"`` does; so
-        are NaN, as ``scipy.stats.rankdata(..., nan_policy="omit")`` omits them).
-    axis
-        The axis of the pairs.
+        ``(n,)`` paired differences.
 
     Returns
     -------
     np.ndarray
-        ``(...)``; every partial sum is a multiple of 0.5 below ``n (n + 1) / 2``, so it is exact in
+        ``(2^n,)``; every partial sum is a multiple of 0.5 below ``n (n + 1) / 2``, so it is exact in
         any order of addition.
     """
-    d = np.moveaxis(np.asarray(d, dtype=float), axis, -1)
-    rows = d.reshape(-1, d.shape[-1])
-    sums = [float(np.where(row > 0, nonzero_ranks(row), 0.0).sum()) for row in rows]
-    return np.array(sums).reshape(d.shape[:-1])
-
-
-def nonzero_ranks(d: np.ndarray) -> np.ndarray:
-    """``(n,)`` the average ranks of the nonzero, non-NaN ``|d|`` among themselves; 0 elsewhere.
-
-    ``scipy.stats.rankdata`` of the magnitudes with zeros as NaN and ``nan_policy="omit"``, as
-    ``scipy.stats.wilcoxon`` ranks them (half-integers: exact)."""
     ranks = np.zeros(d.size)
     ranked = (d != 0) & ~np.isnan(d)
     ranks[ranked] = average_ranks(np.abs(d[ranked]))[0]
-    return ranks
+    flips = ((np.arange(2 ** d.size)[:, None] >> np.arange(d.size)) & 1).astype(bool)  # (2^n, n)
+    return np.where(np.where(flips, -d, d) > 0, ranks, 0.0).sum(axis=-1)
 
 
 def wilcoxon_null_probabilities(n: int) -> np.ndarray:
@@ -172,8 +165,8 @@ def _sign_flip_signed_rank_test(d: np.ndarray) -> tuple[float, float]:
     ``d`` (a multiset: its order does not matter to the counts below); with ``gamma = |100 eps
     R+(d)|``, ``less`` and ``greater`` are the counts of flips with ``R+ <= R+(d) + gamma`` and
     ``R+ >= R+(d) - gamma`` over ``2^n``, and ``p = 2 min(less, greater)`` clipped to ``[0, 1]``.
-    A flip changes no magnitude, so the ranks are made once; every ``R+`` is a sum of
-    half-integers (exact). A test holds it to ``scipy.stats.wilcoxon`` bit for bit.
+    The null distribution is :func:`sign_flip_rank_sums`, whose first flip is ``d`` itself and
+    last ``-d`` (``R-``). A test holds it to ``scipy.stats.wilcoxon`` bit for bit.
 
     Parameters
     ----------
@@ -185,12 +178,10 @@ def _sign_flip_signed_rank_test(d: np.ndarray) -> tuple[float, float]:
     (float, float)
         ``min(R+, R-)`` and the p-value.
     """
-    ranks = nonzero_ranks(d)
-    flips = ((np.arange(2 ** d.size)[:, None] >> np.arange(d.size)) & 1).astype(bool)  # (2^n, n)
-    null = np.where(np.where(flips, -d, d) > 0, ranks, 0.0).sum(axis=-1)
-    observed, r_minus = float(ranks[d > 0].sum()), float(ranks[d < 0].sum())
+    null = sign_flip_rank_sums(d)
+    observed, r_minus = float(null[0]), float(null[-1])
     gamma = abs(PERMUTATION_TOLERANCE * observed)
-    total = float(flips.shape[0])
+    total = float(null.size)
     less = np.count_nonzero(null <= observed + gamma) / total
     greater = np.count_nonzero(null >= observed - gamma) / total
     return min(observed, r_minus), float(np.clip(min(less, greater) * 2, 0.0, 1.0))
