@@ -89,7 +89,6 @@ from nudgecli.runs.study import (
 )
 from nudgecli.sim.people_file import People
 from nudgecli.sim.study import build_layouts, check_physiology_logs
-from nudgecli.sim.twins import Twin
 from nudgecli.store import provenance, utc_now, write_json_atomic
 
 if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only, and
@@ -133,9 +132,8 @@ class Batch:
         people file's record).
     people
         Twins of real people (``--people``): participant ``i`` of every study has the habits of
-        person ``i mod P`` (:func:`nudgecli.sim.study.study_participant`).
-    people_file
-        The people file they come from (the batch folder keeps its bytes: ``people/<its name>``).
+        person ``i mod P`` (:func:`nudgecli.sim.study.study_participant`); the batch folder keeps
+        the file's bytes (``people/<its name>``).
     """
 
     kind: Literal["replicate", "power", "sweep"]
@@ -144,8 +142,7 @@ class Batch:
     seed: int
     plan: AnalysisPlan
     extra: dict[str, Any] = field(default_factory=dict)
-    people: tuple[Twin, ...] = ()
-    people_file: People | None = None
+    people: People | None = None
 
     def describe(self) -> dict[str, Any]:
         """What identifies the batch (a resumed batch must describe itself identically)."""
@@ -369,7 +366,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
                       force: bool, progress: Callable[[int, int], None] | None,
                       log: Callable[[str], None] | None, prepare: Callable[[], object] | None) -> BatchRun:
     """:func:`run_batch` once the batch folder's lock is held."""
-    mode = prepare_folder(folder, batch.describe(), resume=resume, force=force, people=batch.people_file)
+    mode = prepare_folder(folder, batch.describe(), resume=resume, force=force, people=batch.people)
     if log is not None:  # only now: a refusal is its one error line
         log(f"batch: {size.describe()}")
     graph = build_graph(batch)
@@ -493,9 +490,10 @@ class _GraphRun:
             self.in_flight += 1
 
     def submit_participants(self, study: Study) -> None:
+        twins = () if self.batch.people is None else self.batch.people.twins  # (not the file's bytes)
         for i in sorted(self.remaining[study.key]):
             self.executor.submit(Job(f"{study.key}-p{i:04d}", run_participant_task,
-                                     (study.config, study.seed, i, self.definitions, self.batch.people),
+                                     (study.config, study.seed, i, self.definitions, twins),
                                      affinity=study.layouts))
         self.in_flight += len(self.remaining[study.key])
 

@@ -141,8 +141,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     record, chosen_people = _people_fields(people, out, bool(options.get("resume")))
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
-                  {"experiment": config.experiment.name, **record},
-                  chosen_people.twins if chosen_people is not None else (), chosen_people)
+                  {"experiment": config.experiment.name, **record}, chosen_people)
     run = run_batch(batch, out, prepare=import_outputs, **options)
     from nudgecli.report.figures.replication import forest_figure
     from nudgecli.report.replication import condition_values, replication_rows, summarise
@@ -179,8 +178,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     record, chosen_people = _people_fields(people, out, bool(options.get("resume")))
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
-                  {"experiment": config.experiment.name, **record},
-                  chosen_people.twins if chosen_people is not None else (), chosen_people)
+                  {"experiment": config.experiment.name, **record}, chosen_people)
     run = run_batch(batch, out, prepare=import_outputs, **options)
     from nudgecli.report.figures.replication import power_figure
     from nudgecli.report.replication import power_table, replication_rows, smallest_n
