@@ -298,15 +298,12 @@ class RunRecord:
         works from where it is typed), else (a folder made before copies were kept) the file's
         name the manifest records."""
         from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
-        from nudgecli.sim.people_file import copy_path
+        from nudgecli.sim.people_file import resume_people
         from nudgecli.store import simulate_resume_command  # store builds on this module
 
         manifest = manifest if manifest is not None else self.read_manifest()
         people = manifest.get(PEOPLE_KEY)
-        file = None
-        if isinstance(people, Mapping):
-            copy = copy_path(self.path, dict(people))
-            file = str(copy) if copy.is_file() else people.get("file")
+        file = resume_people(self.path, people, people.get("file")) if isinstance(people, dict) else None
         return simulate_resume_command(str(self.path / CONFIG), self.path, manifest.get("seed"),
                                        manifest.get("participants"), people=file)
 

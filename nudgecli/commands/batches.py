@@ -43,7 +43,7 @@ def _run_batch_command(label: str, run: Any, out: str | None, default_name: str,
 
     target = Path(out) if out else default_run_dir(default_name)
     ctx = click.get_current_context()
-    ctx.meta[INTERRUPT_HINT] = _batch_interrupt_hint(target, rerun_command(ctx, target))
+    ctx.meta[INTERRUPT_HINT] = _batch_interrupt_hint(target, ctx)
     # the progress line (rate and ETA) is for a person: where a script reads stdout (json, csv), only on a
     # terminal, as the other commands' progress bars
     progress = progress_line(label) if output_format == "table" or sys.stderr.isatty() else None
@@ -65,10 +65,11 @@ def _run_batch_command(label: str, run: Any, out: str | None, default_name: str,
         click.echo(str(result.path))
 
 
-def rerun_command(ctx: click.Context, target: Path) -> str:
+def rerun_command(ctx: click.Context, target: Path, people: str | None = None) -> str:
     """The command line that resumes the interrupted command of ``ctx`` into ``target``: its
-    arguments and the options given on the command line, ``--out target`` and ``--resume``
-    (``--force`` dropped: it would delete what was finished)."""
+    arguments and the options given on the command line (``--people`` naming ``people`` where
+    given), ``--out target`` and ``--resume`` (``--force`` dropped: it would delete what was
+    finished)."""
     from click.core import ParameterSource
 
     from nudgecli.store import resume_command
@@ -77,7 +78,7 @@ def rerun_command(ctx: click.Context, target: Path) -> str:
     options: list[str] = []
     for param in ctx.command.params:
         name = param.name or ""
-        value = ctx.params.get(name)
+        value = people if name == "people" and people is not None else ctx.params.get(name)
         if isinstance(param, click.Argument):
             arguments.append(str(value))
             continue
@@ -95,13 +96,17 @@ def rerun_command(ctx: click.Context, target: Path) -> str:
     return resume_command([ctx.info_name or ctx.command.name or "", *arguments, *options], target)
 
 
-def _batch_interrupt_hint(target: Path, command: str) -> Callable[[], str]:
-    """What to say after Ctrl-C of a batch into ``target``."""
+def _batch_interrupt_hint(target: Path, ctx: click.Context) -> Callable[[], str]:
+    """What to say after Ctrl-C of the batch command of ``ctx`` into ``target``: the command that
+    resumes it, naming the copy of ``--people`` the folder keeps where it has been written (else
+    the file as typed)."""
 
     def hint() -> str:
         from nudgecli.api import holds_batch
+        from nudgecli.api.resuming import people_to_resume
 
         if holds_batch(target):
+            command = rerun_command(ctx, target, people_to_resume(target, ctx.params.get("people")))
             return f"{target} keeps its finished tasks; resume with: {command}"
         return "nothing was computed yet; run the command again"
 

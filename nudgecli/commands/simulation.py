@@ -43,15 +43,20 @@ def fit_command(calibration_dir: str, out: str | None, force: bool, variant: str
     info(str(target))
 
 
-def _interrupt_hint(target: Path, commands: list[str]) -> Callable[[], str]:
-    """What to say after Ctrl-C of a simulation into ``target``."""
+def _interrupt_hint(target: Path, people: str | None,
+                    resume_commands: Callable[[str | None], list[str]]) -> Callable[[], str]:
+    """What to say after Ctrl-C of a simulation into ``target``: the commands that resume it
+    (``resume_commands`` of the ``--people`` they name: the copy the folder keeps where it has
+    been written, else ``people`` as typed)."""
 
     def hint() -> str:
+        from nudgecli.api.resuming import people_to_resume
         from nudgecli.store import RunFolder
 
         run = RunFolder(target)
         if run.is_run():
             done = len(run.completed_participants())
+            commands = resume_commands(people_to_resume(target, people))
             alternatives = "".join(f" (or, to analyse and plot too: {c})" for c in commands[1:])
             return (f"{target} keeps its {done} finished participant(s); resume with: "
                     f"{commands[0]}{alternatives}")
@@ -70,12 +75,16 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
 
     config = api.experiment_config(experiment, overrides)
     target = Path(out) if out else default_run_dir(config.experiment.name)
-    commands = [simulate_resume_command(experiment, target, seed, participants, workers, overrides,
-                                        confirm=confirm, people=people)]
-    if command != "simulate":
-        commands.append(simulate_resume_command(experiment, target, seed, participants, workers, overrides,
-                                                command, confirm, people))
-    click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, commands)
+
+    def resume_commands(people_named: str | None) -> list[str]:
+        commands = [simulate_resume_command(experiment, target, seed, participants, workers, overrides,
+                                            confirm=confirm, people=people_named)]
+        if command != "simulate":
+            commands.append(simulate_resume_command(experiment, target, seed, participants, workers,
+                                                    overrides, command, confirm, people_named))
+        return commands
+
+    click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, people, resume_commands)
     bar, update = progress_bar("simulating")
     try:
         return api.simulate(config, out=target, seed=seed, participants=participants, workers=workers,

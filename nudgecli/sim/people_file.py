@@ -205,6 +205,31 @@ def copy_path(folder: str | Path, recorded: dict[str, Any]) -> Path:
     return Path(folder) / PEOPLE_DIR / Path(str(recorded.get("file"))).name
 
 
+def resume_people(folder: str | Path, recorded: object, otherwise: str | None) -> str | None:
+    """The ``--people`` a command that resumes ``folder`` names: the copy the folder keeps
+    (:func:`copy_path`, by ``folder`` as given, so the command works from wherever the folder's
+    path does) where it has been written, else ``otherwise``.
+
+    The one rule of every resume command a run or batch folder is named in: the one printed for
+    a damaged run and the Ctrl-C hints.
+
+    Parameters
+    ----------
+    folder
+        The run or batch folder, as the user gave it.
+    recorded
+        Its manifest's :data:`MANIFEST_KEY` entry, read from disk (anything; not a mapping: no
+        people file recorded yet, and no copy to name).
+    otherwise
+        What to name where no copy is there yet (interrupted before it was written, or a folder
+        of an older nudge): the ``--people`` as typed, or the recorded file's name.
+    """
+    if not isinstance(recorded, dict):
+        return otherwise
+    copy = copy_path(folder, recorded)
+    return str(copy) if copy.is_file() else otherwise
+
+
 def keep_copy(people: People | None, folder: str | Path) -> None:
     """Keep the people file's exact bytes in ``folder`` (:func:`copy_path`), written atomically, so
     that the folder's resume command names a file that is there and passes the people check.

@@ -1,0 +1,57 @@
+"""What a command that resumes an interrupted run or batch folder names: the ``--people`` file.
+
+A run or batch made with ``--people`` keeps an exact copy of the file in its folder
+(``people/<name>``, :func:`nudgecli.sim.people_file.keep_copy`); the command that resumes it names
+that copy by the folder's path as given, so it works from wherever that path does, not only from
+the folder the file's own path was typed in. The rule is
+:func:`nudgecli.sim.people_file.resume_people`'s; this module reads what the folder records.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+
+def _recorded_people(folder: Path) -> object:
+    """The people file a run's (``manifest.json``) or a batch's (``batch.json``, under ``batch``)
+    manifest records; ``None`` where neither is there or readable yet (anything else as read)."""
+    from nudgecli.run_folder_names import MANIFEST
+    from nudgecli.runs.batch_folder import BATCH_MANIFEST
+    from nudgecli.sim.people_file import MANIFEST_KEY
+
+    for name, section in ((MANIFEST, None), (BATCH_MANIFEST, "batch")):
+        try:
+            document = json.loads((folder / name).read_text(encoding="utf-8"))
+        except (OSError, ValueError):  # absent, or half-written by the process interrupted
+            continue
+        if section is not None:
+            document = document.get(section) if isinstance(document, dict) else None
+        return document.get(MANIFEST_KEY) if isinstance(document, dict) else None
+    return None
+
+
+def people_to_resume(folder: str | Path, typed: str | None) -> str | None:
+    """The ``--people`` of the command that resumes ``folder``, a run or batch folder.
+
+    Parameters
+    ----------
+    folder
+        The folder as the user gave it (``--out``).
+    typed
+        ``--people`` as the user typed it; ``None`` without one.
+
+    Returns
+    -------
+    str or None
+        The copy the folder keeps (``FOLDER/people/<name>``) where it has been written, else
+        ``typed`` (the command was interrupted before the copy was written).
+    """
+    from nudgecli.sim.people_file import resume_people
+
+    if typed is None:
+        return None
+    return resume_people(folder, _recorded_people(Path(folder)), typed)
+
+
+__all__ = ["people_to_resume"]
