@@ -866,6 +866,11 @@ def test_size_estimate_counts_tasks_and_trials():
     graph = batch_module.build_graph(batch)
     size = batch_module.estimate(graph, workers=2)
     assert (size.studies, size.participant_tasks, size.analyses, size.trials) == (3, 12, 6, 12 * 8)
+    # the work is shared by the workers, the fixed cost (start-up, figures) is not
+    from nudgecli.runs.size import SECONDS_FIXED, SECONDS_PER_ANALYSIS, SECONDS_PER_TRIAL
+    work = 96 * SECONDS_PER_TRIAL + 6 * SECONDS_PER_ANALYSIS
+    assert size.seconds == pytest.approx(SECONDS_FIXED + work / 2)
+    assert batch_module.estimate(graph, workers=1).seconds == pytest.approx(SECONDS_FIXED + work)
     with pytest.raises(ConfigError, match="--workers"):
         batch_module.run_batch(batch, "unused", workers=0)
 

@@ -43,19 +43,23 @@ MAX_QUERIES_WITHOUT_YES = 10_000_000
 # --- a batch's estimate (its "about ..."): the guard itself counts trials and steps ---------------
 
 #: CPU seconds per simulated trial end to end on one core -- for the size estimate's "about ..."
-#: only (the guard counts trials). Everything a study costs per trial besides its analysis: the
-#: command's imports, its layouts, the trials, their metrics and the parts written. Measured on the
-#: 2-core development machine on 2026-11-28, shared with other work (load 3.5-5; CPU seconds, which
-#: that inflates less than wall time), ``nudge replicate paper -R 20 --workers 2``: 30.6-32.8 s of
-#: CPU (the command and its workers, ``/usr/bin/time``, four runs) for 8,640 trials and 20 analyses,
-#: less the analyses 3.1-3.4 ms a trial; ``-R 4``: 7.8-9.1 s for 1,728 trials and 4 analyses (six
-#: runs), 4.1-4.9 ms a trial. The trial loop alone is 2.4-3.2 ms a trial (CPU). Was 0.006
-#: (2026-11-26, before the faster statistics and imports; docs/performance.md, issue 39).
-SECONDS_PER_TRIAL = 0.0035
-#: CPU seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.17 s
-#: on 2026-11-28, the best of five beside other work; 0.26 s before the array Kruskal-Wallis and
-#: Conover of :mod:`nudgecli.report.rank_tests`).
-SECONDS_PER_ANALYSIS = 0.2
+#: only (the guard counts trials). Everything a study costs per trial besides its analysis and the
+#: command's fixed cost: its layouts, the trials, their metrics and the parts written. Measured with
+#: ``nudge bench --only pipeline`` on a quiet 2-core machine on 2026-11-28 (CPU seconds of the
+#: command and its workers, less the analyses): ``replicate paper -R 20 --workers 2`` 22.4 s for
+#: 8,640 trials, 2.5 ms a trial; ``power paper --participants 6,9,12,18,24 -R 50`` 138.9 s for
+#: 57,600 simulated trials, 2.2 ms a trial. The trial loop alone is 1.85 ms a trial. Was 0.0035
+#: (measured before the analyses stopped importing scipy.stats), 0.006 on 2026-11-26.
+SECONDS_PER_TRIAL = 0.0025
+#: CPU seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.043-
+#: 0.055 s on 2026-11-28, 2-core machine; 0.17 s with scipy.stats imported, 0.26 s before the array
+#: Kruskal-Wallis and Conover of :mod:`nudgecli.report.rank_tests`).
+SECONDS_PER_ANALYSIS = 0.05
+#: Wall seconds a batch command spends whatever its size, before its workers start (the interpreter
+#: and the imports, about 0.3 s) and after its last analysis (the tables and the 300 dpi figure,
+#: about 0.7 s): 2026-11-28, 2-core machine (``replicate paper -R 4``: 3.75 s, of which 1.7 s at
+#: the two rates above).
+SECONDS_FIXED = 1.0
 #: Bytes on disk: a participant task's part file (about 7 KB of Parquet overhead and 60 bytes per
 #: trial, measured on ``smoke``) and an analysis (its JSON document, about 14 KB).
 BYTES_PER_TASK = 7_000
@@ -84,7 +88,7 @@ class SizeEstimate:
 def size_estimate(studies: int, participant_tasks: int, analyses: int, trials: int,
                   workers: int) -> SizeEstimate:
     """A batch's :class:`SizeEstimate` from its counts (:func:`nudgecli.runs.batch.estimate_batch`)."""
-    seconds = (trials * SECONDS_PER_TRIAL + analyses * SECONDS_PER_ANALYSIS) / max(1, workers)
+    seconds = SECONDS_FIXED + (trials * SECONDS_PER_TRIAL + analyses * SECONDS_PER_ANALYSIS) / max(1, workers)
     size = participant_tasks * BYTES_PER_TASK + trials * BYTES_PER_TRIAL + analyses * BYTES_PER_ANALYSIS
     return SizeEstimate(studies, participant_tasks, analyses, trials, seconds, size, workers)
 
