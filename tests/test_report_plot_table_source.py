@@ -180,3 +180,21 @@ def test_the_command_to_run_names_an_analysis_folder_of_its_own(tmp_path):
     assert analyze_command(table, tmp_path / "study-analysis", False) == f"nudge analyze {table}"
     assert analyze_command(table, tmp_path, True) == \
         f"nudge analyze {table} --out {tmp_path} --drop-duplicates"
+
+
+def test_a_parquet_tables_record_is_the_sha256_of_its_bytes_and_an_edit_is_refused(tmp_path):
+    """A Parquet file is binary: its record must be the hash of the bytes, not of any text made of
+    them, and rewriting one value (another file of the same shape) is refused like a CSV edit."""
+    source = tmp_path / "study.parquet"
+    table = pd.read_csv(TABLE)
+    table.to_parquet(source, index=False)
+    assert CliRunner().invoke(main, ["analyze", str(source), "--bootstrap", "20"]).exit_code == 0
+    record = stats_of(tmp_path / "study-analysis")["table_read"]
+    assert record["sha256"] == hashlib.sha256(source.read_bytes()).hexdigest()
+    assert record["rows"] == len(table) and record["duplicates_dropped"] == 0
+    assert plot(source, tmp_path / "figures").exit_code == 0
+    table.loc[0, "completion_time"] += 1.0
+    table.to_parquet(source, index=False)
+    result = plot(source, tmp_path / "again")
+    assert result.exit_code != 0 and not (tmp_path / "again").exists()
+    assert f"({len(table)} rows when analysed; {len(table)} rows now; its SHA-256 differs)" in result.output
