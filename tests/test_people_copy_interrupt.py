@@ -125,3 +125,15 @@ def test_interrupted_before_the_copy_is_written_the_hint_names_the_file_as_typed
     monkeypatch.setattr(batch_folder, "keep_copy", not_yet)  # a new batch: nothing computed yet
     refused = nudge(*REPLICATE, "--out", "batch")
     assert refused.exit_code == 130 and "nothing was computed yet; run the command again" in refused.output
+
+
+def test_ctrl_c_of_nudge_run_names_the_copy_in_both_commands_it_offers(
+        typed_here: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    interrupt_after_first(monkeypatch, store.RunFolder, "write_participant_parts")
+    result = nudge("run", *SIMULATE[1:], "--out", "run")
+    assert result.exit_code == 130, result.output
+    simulate, also = result.output.split("resume with: ")[1].strip().splitlines()[0].split(
+        " (or, to analyse and plot too: ")
+    words = [shlex.split(simulate), shlex.split(also.removesuffix(")"))]
+    assert [w[1] for w in words] == ["simulate", "run"]
+    assert [people_named(w) for w in words] == [str(Path("run") / "people" / NAME)] * 2
