@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from nudgecli.report.stats import pairs, tidy_values
+from nudgecli.report.stats import condition_positions, pairs, tidy_values
 
 #: Largest number of (resample x trial) cells the bootstrap holds in memory at once.
 _BOOTSTRAP_CHUNK_CELLS = 1_000_000
@@ -225,7 +225,8 @@ def median_difference_intervals(data: pd.DataFrame, metric: str, conditions: Seq
     if tidy is None:
         tidy = tidy_values(data, metric, conditions, condition, participant)
     codes, uniques = pd.factorize(tidy["participant"])
-    labels, all_values = tidy["condition"].to_numpy(dtype=object), tidy["value"].to_numpy(dtype=float)
+    positions = condition_positions(tidy["condition"], conditions)
+    all_values = tidy["value"].to_numpy(dtype=float)
     n_participants = len(uniques)
     rows = []
     medians: dict[str, np.ndarray] = {}
@@ -235,8 +236,8 @@ def median_difference_intervals(data: pd.DataFrame, metric: str, conditions: Seq
         draws = rng.integers(0, n_participants, size=(resamples, n_participants))
         flat = (np.arange(resamples)[:, None] * n_participants + draws).ravel()
         weights = np.bincount(flat, minlength=resamples * n_participants).reshape(resamples, n_participants)
-        for c in conditions:
-            mask = labels == c
+        for j, c in enumerate(conditions):
+            mask = positions == j
             values = all_values[mask]
             owners = codes[mask]
             order = np.argsort(values)  # ties in any order: the medians are values

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.report.rank_tests import average_ranks
-from nudgecli.report.stats import adjust_p_values, pairs, python_scalar, tidy_values
+from nudgecli.report.stats import adjust_p_values, condition_positions, pairs, python_scalar, tidy_values
 
 # scipy.stats (about 0.5 s of CPU to import) is imported only where scipy's own function runs (an
 # unchecked scipy release, differences that are not all finite or all zero, the Friedman test):
@@ -331,10 +331,7 @@ def _median_table(tidy: pd.DataFrame, conditions: Sequence[str]) -> pd.DataFrame
             np.any((values == 0) & np.signbit(values)):
         return None
     codes, participants = pd.factorize(participants_column, sort=True)
-    labels = tidy["condition"].to_numpy(dtype=object)
-    column = np.full(labels.size, -1)
-    for j, c in enumerate(conditions):
-        column[labels == c] = j
+    column = condition_positions(tidy["condition"], conditions)
     keep = (codes >= 0) & (column >= 0)
     keys = codes[keep] * len(conditions) + column[keep]
     order = np.lexsort((values[keep], keys))  # by group, then by value
