@@ -245,6 +245,21 @@ def test_jitter_is_deterministic(metrics2: pd.DataFrame) -> None:
         np.testing.assert_allclose(np.sort(first[c][:, 1]), expected)
 
 
+def test_dots_of_a_crowded_panel_are_one_image_in_vector_files(metrics2: pd.DataFrame,
+                                                                monkeypatch: pytest.MonkeyPatch,
+                                                                tmp_path: Path) -> None:
+    import nudgecli.report.figures.boxplots as boxplots
+
+    n = int(metrics2["completion_time"].notna().sum())
+    for limit, rasterized in ((n, False), (n - 1, True)):  # the panel's dots against the limit
+        monkeypatch.setattr(boxplots, "RASTER_DOTS_ABOVE", limit)
+        fig = Figure()
+        out = metric_boxplot(metrics2, "completion_time", None, ax=fig.subplots())
+        assert {pc.get_rasterized() for pc in out.points.values()} == {rasterized}
+        svg = save_figure(fig, tmp_path / str(limit), "panel", ("svg",))[0].read_text(encoding="utf-8")
+        assert ("<image" in svg) == rasterized
+
+
 def test_boxplot_drops_nan_and_scales_percent(metrics2: pd.DataFrame) -> None:
     fig = Figure()
     ax = fig.subplots()

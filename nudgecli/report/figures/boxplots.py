@@ -61,6 +61,11 @@ BRACKET_LEVELS_PER_ROW = 4
 BRACKET_LEVEL_HEIGHT_IN = 0.2
 BOX_WIDTH = 0.55
 
+#: Dots in one panel above which they are drawn as an image (at the figure's dpi) inside a PDF or
+#: SVG: every trial of a 3.5 M-row table as a vector mark made a 127 MB Fig. 3 that took minutes to
+#: write and to open. A study's few thousand trials stay vector marks.
+RASTER_DOTS_ABOVE = 20_000
+
 
 @dataclass(frozen=True)
 class MetricSpec:
@@ -268,12 +273,16 @@ def _draw_boxes(ax: Axes, data: list[np.ndarray], out: BoxplotArtists, colours: 
 
 
 def _draw_points(ax: Axes, data: list[np.ndarray], out: BoxplotArtists, seed: int) -> None:
-    """Every trial as a dot, jittered sideways (seeded per condition); recorded in ``out.points``."""
+    """Every trial as a dot, jittered sideways (seeded per condition); recorded in ``out.points``.
+    A panel of more than :data:`RASTER_DOTS_ABOVE` dots has them drawn as one image in vector
+    formats (the raster formats draw them the same either way)."""
+    rasterized = sum(v.size for v in data) > RASTER_DOTS_ABOVE
     for c, v in zip(out.conditions, data, strict=True):
         if not v.size:
             continue
         x = out.positions[c] + jitter(seed, c, v.size)
-        out.points[c] = ax.scatter(x, v, s=6, color="black", alpha=0.5, linewidths=0, zorder=3, label=None)
+        out.points[c] = ax.scatter(x, v, s=6, color="black", alpha=0.5, linewidths=0, zorder=3, label=None,
+                                   rasterized=rasterized)
 
 
 def _label_conditions(ax: Axes, out: BoxplotArtists, show_n: bool, left_out: Sequence[str] = ()) -> None:
