@@ -7,7 +7,12 @@ import pandas as pd
 import pytest
 
 from nudgecli.errors import DataError
-from nudgecli.report.trial_selection import choose_figure5_trial, nudge_followup_changes, turn_changes
+from nudgecli.report.trial_selection import (
+    choose_figure5_trial,
+    nudge_followup_changes,
+    trial_groups,
+    turn_changes,
+)
 
 
 def trial_steps(participant: int, trial: int, rises: dict[int, float], n_goals: int = 3,
@@ -77,3 +82,22 @@ def test_the_true_goal_column_is_required() -> None:
         choose_figure5_trial(trial_steps(0, 0, {1: 0.2}), trials)
     with pytest.raises(DataError, match="no steps"):
         choose_figure5_trial({}, trials.assign(true_goal=0))
+
+
+def test_the_choice_reads_interleaved_rows_as_it_reads_trials_in_stretches() -> None:
+    # a log written trial by trial gives each trial's rows as one slice; rows of trials interleaved
+    # (a table assembled by hand) are gathered: the same trial either way
+    steps = pd.concat([trial_steps(0, 0, {1: 0.2}), trial_steps(0, 1, {1: 0.5}), trial_steps(1, 2, {1: 0.3})],
+                      ignore_index=True)
+    trials = pd.DataFrame({"participant": [0, 0, 1], "trial": [0, 1, 2], "condition": ["disambiguation"] * 3,
+                           "true_goal": [1, 1, 1]})
+    interleaved = steps.iloc[np.argsort(steps["step"].to_numpy(), kind="stable")]
+    assert choose_figure5_trial(steps, trials) == choose_figure5_trial(interleaved, trials) == (0, 1)
+    # within a trial the rows are put in step order first
+    assert choose_figure5_trial(steps.iloc[::-1], trials) == (0, 1)
+    for table in (steps, interleaved, steps.iloc[::-1]):  # each trial's rows as pandas' grouping gives them
+        expected = {(int(p), int(t)): df for (p, t), df in table.groupby(["participant", "trial"], sort=True)}
+        got = dict(trial_groups(table))
+        assert list(got) == list(expected)
+        for key, frame in expected.items():
+            pd.testing.assert_frame_equal(got[key], frame)

@@ -8,7 +8,7 @@ trial's own (the trials table's ``true_goal``), never assumed to be goal 0.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -104,13 +104,28 @@ def turn_changes(steps: pd.DataFrame, goal: int) -> list[float]:
 def trial_groups(steps_all: pd.DataFrame | Mapping[TrialKey, pd.DataFrame]) -> Iterable[tuple[TrialKey,
                                                                                                 pd.DataFrame]]:
     """``((participant, trial), steps of that trial)`` from one table or a mapping."""
+    keys, steps_of = _trials_of(steps_all)
+    for key in keys:
+        yield key, steps_of(key)
+
+
+def _trials_of(steps_all: pd.DataFrame | Mapping[TrialKey, pd.DataFrame]
+               ) -> tuple[list[TrialKey], Callable[[TrialKey], pd.DataFrame]]:
+    """The ``(participant, trial)`` keys with steps (in order), and the steps of one, made when
+    asked: a run of 100 participants' 1.2 M steps split into every trial's table at once held the
+    step log twice (0.5 GB), where the rule reads the Disambiguation trials one at a time."""
     if isinstance(steps_all, Mapping):
-        for key, df in steps_all.items():
-            yield (int(key[0]), int(key[1])), df
-        return
+        frames = {(int(key[0]), int(key[1])): df for key, df in steps_all.items()}
+        return list(frames), frames.__getitem__
     require_columns(steps_all, ["participant", "trial"], "steps table")
-    for (p, tr), df in steps_all.groupby(["participant", "trial"], sort=True):
-        yield (int(p), int(tr)), df
+    # the rows of each group, in table order: the rows (and index) groupby's iteration yields; a
+    # trial's rows in one stretch (a run's log is written trial by trial) are a slice, not a copy
+    positions = steps_all.groupby(["participant", "trial"], sort=True).indices
+    rows: dict[TrialKey, slice | np.ndarray] = {}
+    for (p, tr), where in positions.items():
+        first, last = int(where[0]), int(where[-1])
+        rows[int(p), int(tr)] = slice(first, last + 1) if last - first + 1 == where.size else where
+    return list(rows), lambda key: steps_all.iloc[rows[key]]
 
 
 def choose_figure5_trial(steps_all: pd.DataFrame | Mapping[TrialKey, pd.DataFrame], trials: pd.DataFrame,
@@ -154,7 +169,7 @@ def choose_figure5_trial(steps_all: pd.DataFrame | Mapping[TrialKey, pd.DataFram
     success_of: dict[TrialKey, bool] = {}
     if "success" in trials.columns:
         success_of = {k: bool(s) for k, s in zip(keys, trials["success"], strict=True) if not pd.isna(s)}
-    groups = dict(trial_groups(steps_all))
+    groups, steps_of = _trials_of(steps_all)
     if not groups:
         raise DataError("steps table: no steps to choose a Fig. 5 trial from; simulate a run first")
     candidates = sorted(k for k in groups if cond_of.get(k, "").lower() == condition.lower())
@@ -166,7 +181,7 @@ def choose_figure5_trial(steps_all: pd.DataFrame | Mapping[TrialKey, pd.DataFram
     for measure in (nudge_followup_changes, turn_changes):
         best: tuple[float, TrialKey] | None = None
         for key in candidates:
-            changes = measure(groups[key], goal_of[key])
+            changes = measure(steps_of(key), goal_of[key])
             if changes and (best is None or max(changes) > best[0]):
                 best = (max(changes), key)
         if best is not None:
