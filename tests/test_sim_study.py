@@ -79,6 +79,48 @@ def test_same_seed_same_tables_serial_processes_and_dask(tmp_path):
     assert_same_run(tmp_path / "serial", tmp_path / "dask")
 
 
+def test_more_participants_than_the_pool_holds_ahead_give_the_serial_tables(tmp_path):
+    from nudgecli.runs.study import PARTICIPANTS_AHEAD_PER_WORKER
+
+    config = load_experiment("smoke")
+    n = 2 * PARTICIPANTS_AHEAD_PER_WORKER + 3  # some participants are submitted as others finish
+    run_study(config, tmp_path / "serial", participants=n, workers=1)
+    run_study(config, tmp_path / "two", participants=n, workers=2)
+    assert_same_run(tmp_path / "serial", tmp_path / "two")
+
+
+def test_the_local_pool_holds_a_few_participants_ahead_not_all(monkeypatch):
+    # every finished participant is held until the run has written it: the pool may hold a few
+    # beyond the ones written, whatever the study's size
+    import concurrent.futures
+
+    import nudgecli.runs.study as study_module
+
+    submitted: list[int] = []
+
+    class InstantPool:  # runs a task when it is submitted
+        def __init__(self, *args, **kwargs):
+            pass
+
+        def submit(self, fn, index):
+            submitted.append(index)
+            future = concurrent.futures.Future()
+            future.set_result(index)
+            return future
+
+        def shutdown(self, wait=True, cancel_futures=False):
+            pass
+
+    monkeypatch.setattr(study_module, "ProcessPoolExecutor", InstantPool)
+    workers, todo = 2, list(range(40))
+    taken, most_held = [], 0
+    for result in study_module._processes(None, todo, workers):
+        taken.append(result)
+        most_held = max(most_held, len(submitted) - len(taken) + 1)  # (the one just taken, unwritten)
+    assert sorted(taken) == todo and sorted(submitted) == todo
+    assert most_held <= study_module.PARTICIPANTS_AHEAD_PER_WORKER * workers + 1
+
+
 def test_a_different_seed_gives_different_tables(tmp_path):
     config = load_experiment("smoke")
     a = run_study(config, tmp_path / "a", seed=1, participants=1)

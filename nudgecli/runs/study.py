@@ -19,7 +19,7 @@ import pickle
 import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -125,13 +125,27 @@ def _serial(plan: StudyPlan, todo: list[int]) -> Iterator[ParticipantColumns]:
         yield simulate_participant_columns(plan, index)
 
 
+#: Participants submitted to the local pool per worker at a time (the one it runs and the next).
+PARTICIPANTS_AHEAD_PER_WORKER = 2
+
+
 def _processes(plan: StudyPlan, todo: list[int], workers: int) -> Iterator[ParticipantColumns]:
     pool = ProcessPoolExecutor(max_workers=workers, mp_context=process_context(), initializer=_init_worker,
                                initargs=(plan, os.getpid()))
     try:
-        futures = [pool.submit(_run_in_worker, index) for index in todo]
-        for future in as_completed(futures):
-            yield future.result()
+        # a few participants ahead of the workers, not all of them: a result is held until this
+        # process has written it, so a run of many participants whose writing here is slower
+        # than its workers' simulating held every finished one (1 GB for 300 paper participants)
+        queued = iter(todo)
+        pending = {pool.submit(_run_in_worker, index)
+                   for index in itertools.islice(queued, PARTICIPANTS_AHEAD_PER_WORKER * workers)}
+        while pending:
+            finished, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in finished:
+                following = next(queued, None)
+                if following is not None:
+                    pending.add(pool.submit(_run_in_worker, following))
+                yield future.result()
     except BaseException:
         # Ctrl-C or a failure: drop the queued participants and stop the running ones now (their
         # results would be thrown away); the pool's own exit waits for every queued task
@@ -222,7 +236,9 @@ def _dask(plan: StudyPlan, todo: list[int], client: Any) -> Iterator[Participant
         shared = client.scatter(plan, broadcast=True)
         futures = [client.submit(simulate_on_worker, shared, index, pure=False) for index in todo]
         participant = dict(zip((future.key for future in futures), todo, strict=True))
-        for future in dask_completed(futures):
+        completed = dask_completed(futures)
+        futures.clear()  # a result is released once taken (the cluster held every one till the end)
+        for future in completed:
             yield dask_result(future, f"participant {participant[future.key]}")
 
 
