@@ -37,7 +37,7 @@ import os
 import platform
 import sys
 import tempfile
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Sequence
 from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
@@ -390,7 +390,8 @@ class RunFolder(RunRecord):
                                  f"`{study_resume_command(str(self.path / CONFIG), 'ID', self.path)}`")
         return manifest
 
-    def read_table(self, kind: str, columns: Sequence[str] | None = None) -> pd.DataFrame:
+    def read_table(self, kind: str, columns: Sequence[str] | None = None,
+                   participants: Collection[int] | None = None) -> pd.DataFrame:
         """The parts of ``kind`` (``trials``, ``steps`` or ``participants``) concatenated in order.
 
         With a manifest, exactly the parts of the participants it promises are read (strays are
@@ -405,6 +406,8 @@ class RunFolder(RunRecord):
             The table.
         columns
             Only these columns (every part must have them); ``None`` reads all.
+        participants
+            Only these participants' parts; ``None`` reads every part.
 
         Raises
         ------
@@ -423,6 +426,7 @@ class RunFolder(RunRecord):
             parts = sorted((self.path / kind).glob("part-*.parquet"))
         else:
             parts = [part for index in expected if (part := self.part_path(kind, index)).is_file()]
+        parts = [p for p in parts if participants is None or int(p.stem.split("-")[1]) in participants]
         if not parts:
             raise RunFolderError(self._no_parts_message(kind))
         sums = self.recorded_checksums(manifest) if manifest is not None else {}

@@ -193,6 +193,36 @@ def test_plot_trial_option_draws_that_trial_in_fig5_and_trajectory(analysed_run:
     assert drawn == {"fig5": ({chosen}, title), "trajectory": ({chosen}, title)}
 
 
+def test_plot_inputs_of_a_run_hold_the_shown_trials_participant_only(analysed_run: Path,
+                                                                      run_data: RunData) -> None:
+    from nudgecli.report.plotting import read_inputs
+
+    default = choose_figure5_trial(run_data.steps, run_data.trials)  # from the whole step log
+    inputs = read_inputs(analysed_run)
+    assert inputs.trial == default and inputs.steps is not None
+    assert set(inputs.steps["participant"]) == {default[0]}
+    expected = run_data.steps[run_data.steps["participant"] == default[0]].reset_index(drop=True)
+    pd.testing.assert_frame_equal(inputs.steps, expected)
+    other = next(key for key in sorted(run_data.layouts) if key[0] != default[0])
+    asked = read_inputs(analysed_run, other)
+    assert asked.trial == other and set(asked.steps["participant"]) == {other[0]}
+
+
+def test_a_run_folder_reads_the_parts_of_the_participants_asked_and_checks_them(simulated_run: Path,
+                                                                               tmp_path: Path) -> None:
+    from nudgecli.errors import RunFolderError
+
+    run = RunFolder(_copy_run(simulated_run, tmp_path / "run"))
+    whole = run.read_steps()
+    one = run.read_table("steps", participants=[1])
+    pd.testing.assert_frame_equal(one, whole[whole["participant"] == 1].reset_index(drop=True))
+    with (run.path / "steps" / "part-0000.parquet").open("ab") as part:
+        part.write(b"edited")  # another participant's part is not read, so not checked
+    pd.testing.assert_frame_equal(run.read_table("steps", participants=[1]), one)
+    with pytest.raises(RunFolderError, match=r"part-0000\.parquet changed"):
+        run.read_table("steps", participants=[0])
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (["--trial", "0-3"], "expected PARTICIPANT:TRIAL"),
     (["--trial", "one:two"], "expected PARTICIPANT:TRIAL"),

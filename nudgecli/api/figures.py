@@ -99,7 +99,7 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
     from nudgecli.report.style import figure_style
 
     folder = _folder_of(analysis)
-    inputs = read_inputs(folder)
+    inputs = read_inputs(folder, trial)
     chosen = load_plan(plan_of(folder, analysis.plan if isinstance(analysis, Analysis) else None))
     conditions = figures.resolve_conditions(inputs.metrics, inputs.stats)
     _check_choices(folder, inputs, conditions, trial, reference)

@@ -53,6 +53,9 @@ from nudgecli.report.trial_steps import TrialKey
 from nudgecli.run_folder_names import FIGURES_DIR, METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_JSON
 from nudgecli.store import RunFolder
 
+#: The step-log columns the default rule of Fig. 5's trial reads (every participant's).
+FIGURE5_CHOICE_COLUMNS = ("participant", "trial", "step", "turn", "belief", "event")
+
 
 def parse_formats(text: str) -> tuple[str, ...]:
     """``"png,pdf"`` -> ``("png", "pdf")``, or a ``ConfigError`` naming the bad format."""
@@ -115,6 +118,9 @@ class FigureInputs:
         Questionnaire scores (``tlx_*``, ``likert_*`` columns), or ``None``.
     path_layouts, time_limit_s
         A CIAA path-world run's layouts table (waypoints) and trial time limit; ``None`` otherwise.
+    trial
+        The trial of Fig. 5 and the trajectory where ``steps`` were read for it alone (its
+        participant's steps: :func:`read_inputs`); ``None``: chosen from ``steps``.
     """
 
     metrics: pd.DataFrame
@@ -125,6 +131,7 @@ class FigureInputs:
     questionnaires: pd.DataFrame | None = None
     path_layouts: pd.DataFrame | None = None
     time_limit_s: float | None = None
+    trial: TrialKey | None = None
 
 
 @dataclass(frozen=True)
@@ -209,7 +216,8 @@ def trial_panel(inputs: FigureInputs, trial: TrialKey | None) -> TrialPanel:
         The chosen trial has no steps.
     """
     assert inputs.steps is not None and inputs.trials is not None
-    key = trial if trial is not None else choose_figure5_trial(inputs.steps, inputs.trials)
+    key = trial if trial is not None else inputs.trial if inputs.trial is not None else \
+        choose_figure5_trial(inputs.steps, inputs.trials)
     steps = inputs.steps[(inputs.steps["participant"] == key[0]) & (inputs.steps["trial"] == key[1])]
     if steps.empty:
         raise DataError(f"no steps for participant {key[0]}, trial {key[1]}; pick a trial of the run "
@@ -272,7 +280,8 @@ def draw_path_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]
     assert inputs.trials is not None and inputs.steps is not None and inputs.path_layouts is not None
     trials, layouts = inputs.trials, inputs.path_layouts
     out = {"measures": measures_figure(inputs.metrics, dict(inputs.stats))}
-    key = plan.trial if plan.trial is not None else representative_trial(trials)
+    key = plan.trial if plan.trial is not None else inputs.trial if inputs.trial is not None else \
+        representative_trial(trials)
     row = trials[(trials["participant"] == key[0]) & (trials["trial"] == key[1])].iloc[0]
     layout = layouts[layouts["layout"] == int(row["layout"])].iloc[0]
     steps = inputs.steps[(inputs.steps["participant"] == key[0]) & (inputs.steps["trial"] == key[1])]
@@ -394,14 +403,22 @@ def _table_as_analysed(path: Path, folder: Path, stats: Mapping[str, Any],
     return _read_metrics_csv(own_copy), own_copy
 
 
-def read_inputs(source: str | Path) -> FigureInputs:
+def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInputs:
     """The figure inputs of a source, with ``stats.json`` checked against the metrics.
+
+    Of a run, only the steps of the trial Fig. 5 and the trajectory show are kept: the steps of
+    its participant (the whole step log of 300 paper participants was 2.4 GB in memory). The
+    trial is ``trial``, else the one the default rule chooses from the columns it reads
+    (:data:`FIGURE5_CHOICE_COLUMNS`; the path world's :func:`representative_trial` from the
+    trials table).
 
     Parameters
     ----------
     source
         An analysed run folder, an analysed metrics table (CSV/Parquet), or a table's analysis
         folder.
+    trial
+        ``(participant, trial)`` of Fig. 5 and the trajectory; ``None``: the default rule's.
 
     Raises
     ------
@@ -443,24 +460,33 @@ def read_inputs(source: str | Path) -> FigureInputs:
     table = apply_filters(table, record.get("filters") or {})
     verify_metrics(stats, table, str(stats_path), metrics_name)
 
-    trials = steps = layouts = None
-    run = RunFolder(folder)
-    path_layouts = None
-    time_limit_s = None
-    if run.is_run() and run.completed_participants():
-        trials = run.read_trials()
-        steps = run.read_steps()
-        layout_table = run.read_layouts()
-        if "waypoints" in layout_table.columns:  # the CIAA path world
-            path_layouts = layout_table
-            time_limit_s = float(run.read_config().study.time_limit_s)
-        else:
-            layouts = layouts_by_trial(trials, layout_table)
     questionnaires = None
     if (folder / QUESTIONNAIRE_SCORES_CSV).is_file():
         questionnaires = read_csv_labels(folder / QUESTIONNAIRE_SCORES_CSV)
-    return FigureInputs(metrics=table, stats=stats, trials=trials, steps=steps, layouts=layouts,
-                        questionnaires=questionnaires, path_layouts=path_layouts, time_limit_s=time_limit_s)
+    return FigureInputs(metrics=table, stats=stats, questionnaires=questionnaires,
+                        **_run_fields(RunFolder(folder), trial))
+
+
+def _run_fields(run: RunFolder, trial: TrialKey | None) -> dict[str, Any]:
+    """:class:`FigureInputs`' fields of a run (none of a table): its trials, layouts and the
+    trial its figures show (``trial``, else the default rule's), with its participant's steps."""
+    if not (run.is_run() and run.completed_participants()):
+        return {}
+    trials = run.read_trials()
+    layout_table = run.read_layouts()
+    fields: dict[str, Any] = {"trials": trials}
+    if "waypoints" in layout_table.columns:  # the CIAA path world
+        fields.update(path_layouts=layout_table, time_limit_s=float(run.read_config().study.time_limit_s))
+        chosen = trial if trial is not None else representative_trial(trials)
+    else:
+        fields["layouts"] = layouts_by_trial(trials, layout_table)
+        chosen = trial if trial is not None else \
+            choose_figure5_trial(run.read_table("steps", FIGURE5_CHOICE_COLUMNS), trials)
+    # (a trial not in the run reads nothing: the caller names the run's trials)
+    known = chosen[0] in set(trials["participant"].astype(int))
+    fields["steps"] = run.read_table("steps", participants=[chosen[0]]) if known else pd.DataFrame()
+    fields["trial"] = chosen
+    return fields
 
 
 def default_out(source: str | Path) -> Path:
@@ -499,7 +525,7 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
     ConfigError
         ``reference`` is not a condition of the analysis (one line naming them).
     """
-    inputs = read_inputs(source)
+    inputs = read_inputs(source, trial)
     check_reference(reference, figures.resolve_conditions(inputs.metrics, inputs.stats))
     if trial is not None and inputs.trials is not None:
         known = set(zip(inputs.trials["participant"], inputs.trials["trial"], strict=True))
