@@ -12,8 +12,11 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from nudgecli.cli import main
+from nudgecli.errors import DataError
 from nudgecli.reference import packaged_reference, people_ranges
 from nudgecli.report.habit_cells import DEADBAND, HARD, NEUTRAL, SOFT, run_folder_cells
 from nudgecli.report.habits import habits_of, measure_habits
@@ -505,3 +508,23 @@ def test_the_summaries_and_the_comparison_of_known_events() -> None:
     assert compared.loc["pause_between_blows", "people_inside"] == pytest.approx(0.5)  # 0.6 in, 1.4 out
     assert bool(compared.loc["share_pauses_over_1s", "inside"]) is False  # 0.4 below 0.5
     assert compared.loc["share_pauses_over_1s", "people_inside"] == pytest.approx(0.5)  # 0.33 out, 0.5 in
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.sampled_from(["Soft Puff", " Soft Sip ", "Hard Puff", "Hard Sip", "", None,
+                                 "Puff Deadband", "Soft Blow", 3]), max_size=25),
+       st.sampled_from(["object", "str"]))
+def test_label_kinds_read_each_label_as_the_elementwise_rule(labels, dtype):
+    from nudgecli.report.habit_cells import LABEL_KINDS, label_kinds
+
+    if dtype == "str":
+        labels = [None if label is None else str(label) for label in labels]
+    series = pd.Series(labels, dtype=dtype)
+    text = series.fillna("").astype(str).str.strip()  # the rule, label by label
+    expected = text.map(LABEL_KINDS)
+    if expected.isna().any():
+        row = int(np.flatnonzero(expected.isna().to_numpy())[0])
+        with pytest.raises(DataError, match=re.escape(f"row {row}: unknown label {text.iloc[row]!r}")):
+            label_kinds(series, lambda r: f"row {r}")
+    else:
+        np.testing.assert_array_equal(label_kinds(series, "log"), expected.to_numpy(dtype=np.int8))
