@@ -193,12 +193,25 @@ def test_plot_trial_option_draws_that_trial_in_fig5_and_trajectory(analysed_run:
     assert drawn == {"fig5": ({chosen}, title), "trajectory": ({chosen}, title)}
 
 
-def test_plot_inputs_of_a_run_hold_the_shown_trials_participant_only(analysed_run: Path,
-                                                                      run_data: RunData) -> None:
+def test_plot_inputs_of_a_run_hold_the_shown_trials_participant_only(
+        analysed_run: Path, run_data: RunData, monkeypatch: pytest.MonkeyPatch) -> None:
     from nudgecli.report.plotting import read_inputs
 
     default = choose_figure5_trial(run_data.steps, run_data.trials)  # from the whole step log
+    steps_read: list[Any] = []
+    read_table = RunFolder.read_table
+
+    def recording(self: RunFolder, kind: str, *args: Any, **kwargs: Any) -> pd.DataFrame:
+        if kind == "steps":
+            steps_read.append(kwargs.get("participants"))
+        return read_table(self, kind, *args, **kwargs)
+
+    monkeypatch.setattr(RunFolder, "read_table", recording)
     inputs = read_inputs(analysed_run)
+    # the rule read each participant's part on its own, then the chosen one's whole
+    assert steps_read and all(participants is not None and len(participants) == 1
+                              for participants in steps_read)
+    assert {participants[0] for participants in steps_read} == set(run_data.trials["participant"])
     assert inputs.trial == default and inputs.steps is not None
     assert set(inputs.steps["participant"]) == {default[0]}
     expected = run_data.steps[run_data.steps["participant"] == default[0]].reset_index(drop=True)

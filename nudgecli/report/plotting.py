@@ -22,7 +22,7 @@ are compared by letters, or by the brackets of a reference condition (``--refere
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -48,7 +48,7 @@ from nudgecli.report.tables import (
     read_metrics_table,
     validate_metrics_table,
 )
-from nudgecli.report.trial_selection import choose_figure5_trial
+from nudgecli.report.trial_selection import choose_figure5_trial, trial_groups
 from nudgecli.report.trial_steps import TrialKey
 from nudgecli.run_folder_names import FIGURES_DIR, METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_JSON
 from nudgecli.store import RunFolder
@@ -480,13 +480,39 @@ def _run_fields(run: RunFolder, trial: TrialKey | None) -> dict[str, Any]:
         chosen = trial if trial is not None else representative_trial(trials)
     else:
         fields["layouts"] = layouts_by_trial(trials, layout_table)
-        chosen = trial if trial is not None else \
-            choose_figure5_trial(run.read_table("steps", FIGURE5_CHOICE_COLUMNS), trials)
+        chosen = trial if trial is not None else choose_figure5_trial(_ChoiceSteps(run, trials), trials)
     # (a trial not in the run reads nothing: the caller names the run's trials)
     known = chosen[0] in set(trials["participant"].astype(int))
     fields["steps"] = run.read_table("steps", participants=[chosen[0]]) if known else pd.DataFrame()
     fields["trial"] = chosen
     return fields
+
+
+class _ChoiceSteps(Mapping[TrialKey, pd.DataFrame]):
+    """A run's trials -> their steps in :data:`FIGURE5_CHOICE_COLUMNS`, read a participant's part at
+    a time as the default rule asks for the trials in order (300 paper participants' belief lists
+    read at once were 1.1 GB). The trials are the trials table's of participants with a steps part."""
+
+    def __init__(self, run: RunFolder, trials: pd.DataFrame) -> None:
+        self.run = run
+        keys = list(zip(trials["participant"].astype(int), trials["trial"].astype(int), strict=True))
+        with_steps = {p for p in {int(p) for p, _ in keys} if run.part_path("steps", p).is_file()}
+        self.trial_keys = [(int(p), int(t)) for p, t in keys if p in with_steps]
+        self.participant: int | None = None
+        self.steps: dict[TrialKey, pd.DataFrame] = {}
+
+    def __getitem__(self, key: TrialKey) -> pd.DataFrame:
+        if key[0] != self.participant:
+            part = self.run.read_table("steps", FIGURE5_CHOICE_COLUMNS, participants=[key[0]])
+            self.steps, self.participant = dict(trial_groups(part)), key[0]
+        # (a trial its participant's part lacks has no steps to measure)
+        return self.steps.get(key, pd.DataFrame(columns=list(FIGURE5_CHOICE_COLUMNS)))
+
+    def __iter__(self) -> Iterator[TrialKey]:
+        return iter(self.trial_keys)
+
+    def __len__(self) -> int:
+        return len(self.trial_keys)
 
 
 def default_out(source: str | Path) -> Path:

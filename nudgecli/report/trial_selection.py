@@ -114,9 +114,9 @@ def _trials_of(steps_all: pd.DataFrame | Mapping[TrialKey, pd.DataFrame]
     """The ``(participant, trial)`` keys with steps (in order), and the steps of one, made when
     asked: a run of 100 participants' 1.2 M steps split into every trial's table at once held the
     step log twice (0.5 GB), where the rule reads the Disambiguation trials one at a time."""
-    if isinstance(steps_all, Mapping):
-        frames = {(int(key[0]), int(key[1])): df for key, df in steps_all.items()}
-        return list(frames), frames.__getitem__
+    if isinstance(steps_all, Mapping):  # (a mapping may read a trial's steps only when asked)
+        keys = {(int(key[0]), int(key[1])): key for key in steps_all}
+        return list(keys), lambda key: steps_all[keys[key]]
     require_columns(steps_all, ["participant", "trial"], "steps table")
     # the rows of each group, in table order: the rows (and index) groupby's iteration yields; a
     # trial's rows in one stretch (a run's log is written trial by trial) are a slice, not a copy
