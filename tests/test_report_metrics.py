@@ -206,3 +206,26 @@ def test_wrong_goal_is_in_the_baselines_plan_beside_success_not_in_the_papers() 
     assert baselines[baselines.index("success") + 1] == "wrong_goal"
     assert "wrong_goal" not in load_plan("paper").metrics.include
     assert "wrong_goal" not in load_plan("study-code").metrics.include
+
+
+@pytest.mark.parametrize("definitions", [
+    {},  # the paper's
+    {"engagement": "per_turn", "strength": "per_turn", "mode_switches": "human_turn",
+     "success": "last_inferred_goal", "completion_time": "successful_trials"},  # the study code's
+])
+def test_metrics_read_a_participant_at_a_time_are_the_whole_logs(tmp_path, definitions) -> None:
+    from nudgecli.config import load_experiment
+    from nudgecli.report.metrics import trial_metrics_by_participant
+    from nudgecli.runs.study import run_study
+    from nudgecli.store import RunFolder
+
+    run = RunFolder(run_study(load_experiment("smoke"), tmp_path / "run", participants=3).path)
+    trials, steps = run.read_trials(), run.read_steps()
+    by_participant = dict(tuple(steps.groupby("participant")))
+    parts = trial_metrics_by_participant(trials, by_participant.get, **definitions)
+    pd.testing.assert_frame_equal(parts, trial_metrics(trials, steps, **definitions))
+    # a participant without steps: their trials' step metrics missing, as in a log without them
+    without = steps[steps["participant"] != 1]
+    del by_participant[1]
+    pd.testing.assert_frame_equal(trial_metrics_by_participant(trials, by_participant.get, **definitions),
+                                  trial_metrics(trials, without, **definitions))

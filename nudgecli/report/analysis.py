@@ -58,7 +58,7 @@ from nudgecli.report.metrics import (
     METRIC_STEP_COLUMNS,
     TRIAL_COLUMNS,
     apply_filters,
-    trial_metrics,
+    trial_metrics_by_participant,
 )
 from nudgecli.report.pair_display import check_reference
 from nudgecli.report.plans import AnalysisPlan, check_plan_conditions, load_plan
@@ -118,8 +118,10 @@ class AnalysisResult:
     notes: list[str] = field(default_factory=list)
 
 
-def read_run(folder: str | Path, notes: list[str] | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """The trial table and step log of a run folder (only the columns the metrics use).
+def read_run(folder: str | Path, notes: list[str] | None = None
+             ) -> tuple[pd.DataFrame, Callable[[int], pd.DataFrame | None]]:
+    """The trial table of a run folder and its step log one participant at a time (only the
+    columns the metrics use).
 
     With a manifest, exactly the parts of the participants it promises are read, each verified
     against the SHA-256 the manifest recorded (:meth:`nudgecli.store.RunFolder.read_table`);
@@ -129,9 +131,11 @@ def read_run(folder: str | Path, notes: list[str] | None = None) -> tuple[pd.Dat
 
     Returns
     -------
-    (pd.DataFrame, pd.DataFrame)
-        ``trials`` with :data:`~nudgecli.report.metrics.TRIAL_COLUMNS`, ``steps`` with
-        :data:`~nudgecli.report.metrics.METRIC_STEP_COLUMNS`.
+    (pd.DataFrame, callable)
+        ``trials`` with :data:`~nudgecli.report.metrics.TRIAL_COLUMNS`, and a participant -> their
+        steps with :data:`~nudgecli.report.metrics.METRIC_STEP_COLUMNS` (``None`` without any):
+        in a run, their part read when asked (and checked), so one participant's steps are in
+        memory at a time.
 
     Raises
     ------
@@ -157,8 +161,20 @@ def read_run(folder: str | Path, notes: list[str] | None = None) -> tuple[pd.Dat
     if trials.empty:
         raise RunFolderError(f"{folder}: trials/part-*.parquet hold no trials yet; "
                              "run `nudge simulate` first")
-    steps = run.read_table("steps", [*METRIC_STEP_COLUMNS, *INPUT_STEP_COLUMNS])
-    return trials, steps
+    columns = [*METRIC_STEP_COLUMNS, *INPUT_STEP_COLUMNS]
+    if not run.is_run():  # parts put together by hand: any part may hold any participant's steps
+        groups = dict(tuple(run.read_table("steps", columns).groupby("participant", sort=False)))
+        return trials, groups.get
+    participants = [int(p) for p in pd.unique(trials["participant"])]
+    if not any(run.part_path("steps", p).is_file() for p in participants):
+        run.read_table("steps", columns)  # no step log at all: refused, saying what to run
+
+    def steps_of(participant: int) -> pd.DataFrame | None:
+        if not run.part_path("steps", int(participant)).is_file():
+            return None
+        return run.read_table("steps", columns, participants=[int(participant)])
+
+    return trials, steps_of
 
 
 def _select_metrics(requested: Sequence[str] | None, available: Sequence[str]) -> list[str]:
@@ -232,11 +248,12 @@ def _load_source(source: Path, plan: AnalysisPlan,
         if not is_run_folder(source):
             raise DataError(f"{source} is neither a run folder nor a metrics table: it has no trials/ or "
                             "steps/; give a folder made by `nudge simulate` or a .csv/.parquet table")
-        trials, steps = read_run(source, notes)
+        trials, steps_of = read_run(source, notes)
         definitions = plan.metrics
-        metrics = trial_metrics(trials, steps, engagement=definitions.engagement,
-                                strength=definitions.strength, mode_switches=definitions.mode_switches,
-                                success=definitions.success, completion_time=definitions.completion_time)
+        metrics = trial_metrics_by_participant(
+            trials, steps_of, engagement=definitions.engagement, strength=definitions.strength,
+            mode_switches=definitions.mode_switches, success=definitions.success,
+            completion_time=definitions.completion_time)
         return metrics, list(definitions.include), source
     raise AssertionError("_load_source takes run folders; tables go through _load_table")  # pragma: no cover
 
