@@ -418,14 +418,14 @@ class RunFolder(RunRecord):
             A part is unreadable or lacks one of ``columns``.
         """
         manifest = self.read_manifest() if self.is_run() else None
-        lost = self.lost_manifest_error()
-        if lost is not None:
+        if (lost := self.lost_manifest_error()) is not None:
             raise lost
         expected = self.manifest_participants(manifest) if manifest is not None else None
         if expected is None:
             parts = sorted((self.path / kind).glob("part-*.parquet"))
-        else:
-            parts = [part for index in expected if (part := self.part_path(kind, index)).is_file()]
+        else:  # (only the participants asked: a run's other parts are not even looked for)
+            asked = [index for index in expected if participants is None or index in participants]
+            parts = [part for index in asked if (part := self.part_path(kind, index)).is_file()]
         parts = [p for p in parts if participants is None or int(p.stem.split("-")[1]) in participants]
         if not parts:
             raise RunFolderError(self._no_parts_message(kind))

@@ -4,7 +4,7 @@ A real log's cells are read by :mod:`nudgecli.report.habit_logs`."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 
 import numpy as np
@@ -121,8 +121,27 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
                              "folder written by `nudge simulate`, `nudge run` or `nudge study`, or a CSV log")
     run.check_complete()
     config = run.read_config()
-    steps = run.read_table("steps", columns=_HABIT_STEP_COLUMNS)
     trials = run.read_table("trials", columns=_TRIAL_COLUMNS)
+    waypoints = None
+    if config.world.kind == "ciaa":
+        waypoints = {int(row.layout): np.asarray(row.waypoints, dtype=float).reshape(-1, 2)
+                     for row in run.read_layouts().itertuples()}
+    parts: Iterator[tuple[pd.DataFrame, pd.DataFrame]]
+    if run.is_run():  # a participant's part at a time: a cell is its own trial's (1.4 GB for 300 at once)
+        participants = sorted(set(trials["participant"].astype(int)))
+        parts = ((run.read_table("steps", _HABIT_STEP_COLUMNS, participants=[p]),
+                  trials[trials["participant"] == p]) for p in participants)
+    else:  # parts put together by hand: any part may hold any participant's steps
+        parts = iter([(run.read_table("steps", columns=_HABIT_STEP_COLUMNS), trials)])
+    cells = pd.concat([_trial_cells(run, steps, part_trials, waypoints) for steps, part_trials in parts],
+                      ignore_index=True)
+    return cells, float(config.study.rate_hz)
+
+
+def _trial_cells(run: RunFolder, steps: pd.DataFrame, trials: pd.DataFrame,
+                 waypoints: Mapping[int, np.ndarray] | None) -> pd.DataFrame:
+    """The cells of ``steps`` (of the ``trials``: every one of them has steps), the CIAA
+    ``waypoints`` by layout (``None``: the grid world)."""
     steps = steps.sort_values(["participant", "trial"], kind="stable").reset_index(drop=True)
     key = ["participant", "trial"]
     sizes = steps.groupby(key, sort=False).size()
@@ -140,10 +159,7 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
     after = np.roll(pose, -1, axis=0)
     after[last] = final.loc[last, ["final_x", "final_y", "final_theta"]].to_numpy(dtype=float)
     moving = pose_changes(pose, after)
-    if config.world.kind == "ciaa":
-        layouts = run.read_layouts()
-        waypoints = {int(row.layout): np.asarray(row.waypoints, dtype=float).reshape(-1, 2)
-                     for row in layouts.itertuples()}
+    if waypoints is not None:
         at_waypoint = on_waypoints(after[:, :2], final["layout"].to_numpy(dtype=int), waypoints)
     else:
         # the grid world has no waypoints: a stop counts where the robot arrived in another cell
@@ -156,14 +172,14 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
         marker[run_starts] = run_starts
         began = np.maximum.accumulate(marker) if n else marker
         at_waypoint = moving & (state_after != state[np.maximum(began, 0)]).any(axis=1)
-    mode = steps["mode"].map({name: index for index, name in enumerate(MODE_NAMES)}).fillna(-1)
-    mode = mode.to_numpy(dtype=int)
+    # each distinct mode name looked up once (-1: missing or unknown)
+    codes, names = pd.factorize(steps["mode"])
+    mode = np.array([*(MODE_NAMES.index(name) if name in MODE_NAMES else -1 for name in names), -1])[codes]
     mode_after = np.roll(mode, -1)
     mode_after[last] = -1  # a switch in a trial's last step: where it went is not logged
-    cells = pd.DataFrame({
+    return pd.DataFrame({
         "participant": steps["participant"], "trial": steps["trial"],
         "kind": label_kinds(steps["phi_m"], str(run.path / "steps")),
         "moving": moving, "switch": has_event(steps["event"], MODE_SWITCH_HUMAN),
         "at_waypoint": at_waypoint, "waypoints_known": True, "switch_from": mode, "switch_to": mode_after,
     })
-    return cells, float(config.study.rate_hz)
