@@ -13,14 +13,11 @@ from pathlib import Path
 import pytest
 from cli_helpers import one_error_line
 from click.testing import CliRunner
+from people_helpers import PEOPLE_BYTES, people_typed_here
 
 from nudgecli.cli import main
 from nudgecli.sim.people_file import People, keep_copy, read_people
 
-#: A people file whose bytes its parsed twins do not give back (a BOM, CRLF line ends, a value
-#: written as "3.0"): a copy made from the twins rather than the bytes differs from it.
-PEOPLE_BYTES = ("\ufeffperson,source,participant,planning_s,from_population\r\n"
-                "0,by hand,slow,3.0,\r\n1,by hand,quick,1.0,\r\n").encode("utf-8")
 NAME = "my twins.csv"  # a space: the printed command must quote it
 SIMULATE = ("simulate", "smoke", "--participants", "2", "--seed", "4")
 REPLICATE = ("replicate", "smoke", "-R", "2", "--participants", "2", "--seed", "5")
@@ -39,12 +36,7 @@ def snapshot(folder: Path) -> dict[str, bytes]:
 
 @pytest.fixture
 def typed_here(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """A folder ``a`` holding the people file, the current directory while a test starts its work."""
-    here = tmp_path / "a"
-    here.mkdir()
-    (here / NAME).write_bytes(PEOPLE_BYTES)
-    monkeypatch.chdir(here)
-    return here
+    return people_typed_here(tmp_path, monkeypatch, NAME)
 
 
 def simulated_run(here: Path) -> Path:

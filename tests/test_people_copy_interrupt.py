@@ -13,15 +13,13 @@ from typing import Any
 
 import pytest
 from click.testing import CliRunner
+from people_helpers import people_typed_here
 
 from nudgecli import store
 from nudgecli.cli import main
 from nudgecli.runs import batch_folder
 from nudgecli.runs import study as study_module
 
-#: Two twins; a BOM and CRLF line ends, so only the file's own bytes pass the people check.
-PEOPLE_BYTES = ("\ufeffperson,source,participant,planning_s,from_population\r\n"
-                "0,by hand,slow,3.0,\r\n1,by hand,quick,1.0,\r\n").encode("utf-8")
 NAME = "twins.csv"
 SIMULATE = ("simulate", "smoke", "--participants", "2", "--seed", "4", "--people", NAME)
 REPLICATE = ("replicate", "smoke", "-R", "2", "--participants", "2", "--seed", "5", "--people", NAME)
@@ -34,12 +32,7 @@ def nudge(*args: str) -> Any:
 
 @pytest.fixture
 def typed_here(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """A folder ``a`` holding the people file: the current directory while a test starts its work."""
-    here = tmp_path / "a"
-    here.mkdir()
-    (here / NAME).write_bytes(PEOPLE_BYTES)
-    monkeypatch.chdir(here)
-    return here
+    return people_typed_here(tmp_path, monkeypatch, NAME)
 
 
 def interrupt_after_first(monkeypatch: pytest.MonkeyPatch, owner: type, method: str) -> Callable[[], None]:
