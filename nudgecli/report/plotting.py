@@ -505,8 +505,9 @@ class _ChoiceSteps(Mapping[TrialKey, pd.DataFrame]):
         if key[0] != self.participant:
             part = self.run.read_table("steps", FIGURE5_CHOICE_COLUMNS, participants=[key[0]])
             self.steps, self.participant = dict(trial_groups(part)), key[0]
-        # (a trial its participant's part lacks has no steps to measure)
-        return self.steps.get(key, pd.DataFrame(columns=list(FIGURE5_CHOICE_COLUMNS)))
+        if key not in self.steps:  # a trial its participant's part lacks has no steps to measure
+            return pd.DataFrame(columns=list(FIGURE5_CHOICE_COLUMNS))
+        return self.steps[key]
 
     def __iter__(self) -> Iterator[TrialKey]:
         return iter(self.trial_keys)
