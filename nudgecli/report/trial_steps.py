@@ -85,7 +85,14 @@ def belief_matrix(steps: pd.DataFrame, n_goals: int | None = None) -> np.ndarray
         A belief has another length than ``n_goals``.
     """
     require_columns(steps, ["belief"], "steps table")
-    rows = [as_vector(v) for v in steps["belief"]]
+    cells = steps["belief"].tolist()
+    # a run's log (Parquet lists: one float array a step, all of a trial's of one length) is stacked
+    # at once; every other cell goes through as_vector
+    if cells and all(type(c) is np.ndarray and c.dtype == np.float64 and c.ndim == 1 for c in cells):
+        sizes = {cell.size for cell in cells}
+        if len(sizes) == 1 and (size := sizes.pop()) and (n_goals is None or size == n_goals):
+            return np.stack(cells)
+    rows = [as_vector(v) for v in cells]
     lengths = {r.size for r in rows if r.size}
     if n_goals is None:
         n_goals = max(lengths) if lengths else 0
