@@ -221,6 +221,16 @@ def test_plot_inputs_of_a_run_hold_the_shown_trials_participant_only(
     assert asked.trial == other and set(asked.steps["participant"]) == {other[0]}
 
 
+def test_plot_of_a_run_missing_a_step_part_names_it_and_the_restore_command(analysed_run: Path,
+                                                                             tmp_path: Path) -> None:
+    run = _copy_run(analysed_run, tmp_path / "run")
+    (run / "steps" / "part-0001.parquet").unlink()
+    result = _plot(str(run), "--trial", "1:0", "--out", str(tmp_path / "figures"))
+    line = _single_error_line(result)
+    assert "participant 1: steps/part-0001.parquet (missing)" in line and "--resume" in line
+    assert not (tmp_path / "figures").exists()
+
+
 def test_a_run_folder_reads_the_parts_of_the_participants_asked_and_checks_them(simulated_run: Path,
                                                                                tmp_path: Path) -> None:
     from nudgecli.errors import RunFolderError

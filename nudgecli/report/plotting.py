@@ -472,6 +472,8 @@ def _run_fields(run: RunFolder, trial: TrialKey | None) -> dict[str, Any]:
     trial its figures show (``trial``, else the default rule's), with its participant's steps."""
     if not (run.is_run() and run.completed_participants()):
         return {}
+    if "participants" in run.read_manifest():
+        run.check_complete()  # a damaged run named with the command that restores it, as analyze names it
     trials = run.read_trials()
     layout_table = run.read_layouts()
     fields: dict[str, Any] = {"trials": trials}
