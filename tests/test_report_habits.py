@@ -530,15 +530,18 @@ def test_label_kinds_read_each_label_as_the_elementwise_rule(labels, dtype):
         np.testing.assert_array_equal(label_kinds(series, "log"), expected.to_numpy(dtype=np.int8))
 
 
-def test_a_runs_cells_read_a_participant_at_a_time_are_the_whole_logs(tmp_path: Path) -> None:
+@pytest.mark.parametrize("at_once", [1, 2, 16])
+def test_a_runs_cells_read_a_few_participants_at_a_time_are_the_whole_logs(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, at_once: int) -> None:
     from nudgecli.config import load_experiment
-    from nudgecli.report.habit_cells import _HABIT_STEP_COLUMNS, _TRIAL_COLUMNS, _trial_cells
+    from nudgecli.report import habit_cells
     from nudgecli.runs.study import run_study
     from nudgecli.store import RunFolder
 
+    monkeypatch.setattr(habit_cells, "_PARTICIPANTS_AT_ONCE", at_once)
     run = RunFolder(run_study(load_experiment("smoke"), tmp_path / "run", participants=3).path)
-    steps = run.read_table("steps", _HABIT_STEP_COLUMNS)
-    whole = _trial_cells(run, steps, run.read_table("trials", _TRIAL_COLUMNS), None)
+    steps = run.read_table("steps", habit_cells._HABIT_STEP_COLUMNS)
+    whole = habit_cells._trial_cells(run, steps, run.read_table("trials", habit_cells._TRIAL_COLUMNS), None)
     cells, _ = run_folder_cells(run.path)
     assert sorted(set(cells["participant"])) == [0, 1, 2]
     pd.testing.assert_frame_equal(cells, whole)

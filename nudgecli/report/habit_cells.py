@@ -63,6 +63,9 @@ def cell_runs(mask: np.ndarray, new_trial: np.ndarray) -> tuple[np.ndarray, np.n
 _HABIT_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "mode", "cell_x", "cell_y", "heading",
                        "phi_m", "event"]
 _TRIAL_COLUMNS = ["participant", "trial", "layout", "final_x", "final_y", "final_theta"]
+#: Participants whose step parts a run's cells are made from at once (about 13 MB of steps each
+#: for the paper's 48 trials): few enough to bound memory, enough that each read's cost is shared.
+_PARTICIPANTS_AT_ONCE = 16
 
 
 def label_kinds(labels: pd.Series, where: str | Callable[[int], str]) -> np.ndarray:
@@ -127,10 +130,12 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
         waypoints = {int(row.layout): np.asarray(row.waypoints, dtype=float).reshape(-1, 2)
                      for row in run.read_layouts().itertuples()}
     parts: Iterator[tuple[pd.DataFrame, pd.DataFrame]]
-    if run.is_run():  # a participant's part at a time: a cell is its own trial's (1.4 GB for 300 at once)
+    if run.is_run():  # a few participants at a time: a cell is its own trial's (1.4 GB for 300 at once)
         participants = sorted(set(trials["participant"].astype(int)))
-        parts = ((run.read_table("steps", _HABIT_STEP_COLUMNS, participants=[p]),
-                  trials[trials["participant"] == p]) for p in participants)
+        at_once = _PARTICIPANTS_AT_ONCE
+        groups = [participants[i:i + at_once] for i in range(0, len(participants), at_once)]
+        parts = ((run.read_table("steps", _HABIT_STEP_COLUMNS, participants=group),
+                  trials[trials["participant"].isin(group)]) for group in groups)
     else:  # parts put together by hand: any part may hold any participant's steps
         parts = iter([(run.read_table("steps", columns=_HABIT_STEP_COLUMNS), trials)])
     cells = pd.concat([_trial_cells(run, steps, part_trials, waypoints) for steps, part_trials in parts],
