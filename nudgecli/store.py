@@ -421,12 +421,12 @@ class RunFolder(RunRecord):
         if (lost := self.lost_manifest_error()) is not None:
             raise lost
         expected = self.manifest_participants(manifest) if manifest is not None else None
-        if expected is None:
-            parts = sorted((self.path / kind).glob("part-*.parquet"))
-        else:  # (only the participants asked: a run's other parts are not even looked for)
+        if expected is None:  # every part on disk, of the participants asked
+            found = sorted((self.path / kind).glob("part-*.parquet"))
+            parts = [p for p in found if participants is None or int(p.stem.split("-")[1]) in participants]
+        else:  # the parts the manifest promises, of the participants asked (no other one looked for)
             asked = [index for index in expected if participants is None or index in participants]
             parts = [part for index in asked if (part := self.part_path(kind, index)).is_file()]
-        parts = [p for p in parts if participants is None or int(p.stem.split("-")[1]) in participants]
         if not parts:
             raise RunFolderError(self._no_parts_message(kind))
         sums = self.recorded_checksums(manifest) if manifest is not None else {}

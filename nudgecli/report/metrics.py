@@ -70,6 +70,8 @@ TRIAL_COLUMNS = ("participant", "condition", "block", "trial", "true_goal", "suc
                  "human_turns", "reached_goal")
 #: Those of :data:`TRIAL_COLUMNS` a trial table may lack: ``wrong_goal`` is then missing.
 OPTIONAL_TRIAL_COLUMNS = ("reached_goal",)
+#: Those of :data:`TRIAL_COLUMNS` a trial table must have.
+_REQUIRED_TRIAL_COLUMNS = tuple(c for c in TRIAL_COLUMNS if c not in OPTIONAL_TRIAL_COLUMNS)
 #: The columns identifying a trial in the metrics table, before the metric columns.
 ID_COLUMNS = ("participant", "condition", "block", "trial")
 
@@ -125,8 +127,7 @@ def trial_metrics(
     DataError
         A required column is missing, or a trial appears twice in the trial table.
     """
-    required = tuple(c for c in TRIAL_COLUMNS if c not in OPTIONAL_TRIAL_COLUMNS)
-    _require_columns(trials, required, "trial table")
+    _require_columns(trials, _REQUIRED_TRIAL_COLUMNS, "trial table")
     _require_columns(steps, METRIC_STEP_COLUMNS, "step log")
     values = step_metric_arrays({name: trials[name].to_numpy() for name in STEP_TRIAL_COLUMNS},
                                 step_metric_columns(steps), engagement=engagement, strength=strength,
@@ -154,8 +155,7 @@ def trial_metrics_by_participant(
     **definitions
         :func:`trial_metrics`' keywords.
     """
-    required = tuple(c for c in TRIAL_COLUMNS if c not in OPTIONAL_TRIAL_COLUMNS)
-    _require_columns(trials, required, "trial table")
+    _require_columns(trials, _REQUIRED_TRIAL_COLUMNS, "trial table")
     arrays = {name: trials[name].to_numpy() for name in STEP_TRIAL_COLUMNS}
     values = {name: np.full(len(trials), np.nan) for name in STEP_METRIC_NAMES}
     outcome = {key: definitions.pop(key) for key in ("success", "completion_time") if key in definitions}

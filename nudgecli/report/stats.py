@@ -223,18 +223,14 @@ def condition_positions(labels: pd.Series, conditions: Sequence[str]) -> np.ndar
     np.ndarray
         ``(n,)`` intp.
     """
-    if isinstance(labels.dtype, pd.CategoricalDtype):
-        categories = labels.cat.categories.tolist()
-        # a code's position, the last entry for code -1 (missing)
-        lookup = np.array([_position(conditions, c) for c in categories] + [-1], dtype=np.intp)
-        return lookup[labels.cat.codes.to_numpy()]
     distinct = list(dict.fromkeys(conditions))  # an index's entries are distinct
-    lookup = np.array([_position(conditions, c) for c in distinct] + [-1], dtype=np.intp)
-    return lookup[pd.Index(distinct, dtype=object).get_indexer(labels)]
-
-
-def _position(conditions: Sequence[str], label: object) -> int:
-    return conditions.index(label) if label in conditions else -1  # type: ignore[arg-type]
+    # a distinct condition's position in conditions, and -1 (the last entry) for none of them
+    lookup = np.array([conditions.index(c) for c in distinct] + [-1], dtype=np.intp)
+    index = pd.Index(distinct, dtype=object)
+    if isinstance(labels.dtype, pd.CategoricalDtype):  # each category matched once, then its codes
+        by_code = np.append(lookup[index.get_indexer(labels.cat.categories)], -1)  # (code -1: missing)
+        return by_code[labels.cat.codes.to_numpy()]
+    return lookup[index.get_indexer(labels)]
 
 
 def adjust_p_values(p_values: Sequence[float] | np.ndarray, method: str = "holm") -> np.ndarray:
