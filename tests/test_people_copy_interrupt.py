@@ -66,19 +66,27 @@ def run_tables(run: Path) -> dict[str, bytes]:
     return {p.relative_to(run).as_posix(): p.read_bytes() for p in sorted(run.rglob("*.parquet"))}
 
 
+def resume_from_elsewhere(command: tuple[str, ...], out: Path, owner: type, method: str, elsewhere: Path,
+                          monkeypatch: pytest.MonkeyPatch) -> None:
+    """Run ``command`` into ``out``, Ctrl-C'd at ``owner.method``'s second call; its hint must name the
+    folder's copy, and the hinted command must finish the work from ``elsewhere`` (where NAME is
+    not: only the copy's path can work)."""
+    restore = interrupt_after_first(monkeypatch, owner, method)
+    words = hinted(nudge(*command, "--out", str(out)))
+    assert people_named(words) == str(out / "people" / NAME)
+    restore()
+    monkeypatch.chdir(elsewhere)
+    resumed = nudge(*words[1:])
+    assert resumed.exit_code == 0, resumed.output
+
+
 def test_ctrl_c_of_a_run_names_the_copy_and_resumes_from_another_folder(
         typed_here: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     whole, run = tmp_path / "whole", tmp_path / "run"
     assert nudge(*SIMULATE, "--out", str(whole)).exit_code == 0
-    restore = interrupt_after_first(monkeypatch, store.RunFolder, "write_participant_parts")
-    words = hinted(nudge(*SIMULATE, "--out", str(run)))
-    assert people_named(words) == str(run / "people" / NAME)
-    restore()
     elsewhere = tmp_path / "b"
     elsewhere.mkdir()
-    monkeypatch.chdir(elsewhere)  # NAME is not here: only the copy's path can work
-    resumed = nudge(*words[1:])
-    assert resumed.exit_code == 0, resumed.output
+    resume_from_elsewhere(SIMULATE, run, store.RunFolder, "write_participant_parts", elsewhere, monkeypatch)
     assert json.loads((run / "manifest.json").read_text())["status"] == "complete"
     tables = run_tables(run)
     # per participant its trials, steps and participant parts; the participants and layouts tables
@@ -89,13 +97,7 @@ def test_ctrl_c_of_a_batch_names_the_copy_and_resumes_from_another_folder(
         typed_here: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     whole, batch = tmp_path / "whole", tmp_path / "batch"
     assert nudge(*REPLICATE, "--out", str(whole)).exit_code == 0
-    restore = interrupt_after_first(monkeypatch, batch_folder.PartRecord, "write_parquet")
-    words = hinted(nudge(*REPLICATE, "--out", str(batch)))
-    assert people_named(words) == str(batch / "people" / NAME)
-    restore()
-    monkeypatch.chdir(tmp_path)  # NAME is not here either
-    resumed = nudge(*words[1:])
-    assert resumed.exit_code == 0, resumed.output
+    resume_from_elsewhere(REPLICATE, batch, batch_folder.PartRecord, "write_parquet", tmp_path, monkeypatch)
     for table in BATCH_TABLES:
         assert (batch / table).read_bytes() == (whole / table).read_bytes(), table
 
