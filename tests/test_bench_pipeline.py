@@ -97,3 +97,19 @@ def test_the_pipeline_group_is_asked_for_by_name(monkeypatch: pytest.MonkeyPatch
     result = CliRunner().invoke(main, ["bench", "--only", "pipeline", "--format", "json"])
     assert result.exit_code == 0, result.output
     assert '"pipeline: replicate paper -R 4, 2 workers"' in result.stdout
+
+
+def test_the_loop_is_timed_as_a_participant_task_runs_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    # not simulate_participant, whose frames (about a sixth of a paper trial) no batch worker builds:
+    # timing them would flatter every efficiency
+    from nudgecli.runs import batch_tasks
+    from nudgecli.sim import study
+
+    asked = []
+    real = batch_tasks.simulate_task_participant
+    monkeypatch.setattr(batch_tasks, "simulate_task_participant",
+                        lambda plan, index: asked.append(index) or real(plan, index))
+    monkeypatch.setattr(study, "simulate_participant", lambda *args, **kwargs: pytest.fail("frames timed"))
+    measured = pipeline.loop_seconds_per_trial("smoke", 2)
+    assert asked == [0, 0, 1, 1] and [trials for _, trials in measured] == [8, 8]
+    assert all(seconds > 0 for seconds, _ in measured)

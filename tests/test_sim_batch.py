@@ -138,6 +138,22 @@ def test_the_pool_gives_every_worker_a_job_before_any_gets_a_second() -> None:
         executor.close()
 
 
+def test_the_pool_refills_a_worker_before_its_result_is_handled() -> None:
+    # the caller's handling of a result (a first part's write imports pandas and pyarrow) can take
+    # longer than the worker's queued job: the worker already has its next one by then
+    from nudgecli.runs.executors import POOL_DEPTH, Job, ProcessExecutor
+
+    executor = ProcessExecutor(1)
+    try:
+        for k in range(POOL_DEPTH + 2):
+            executor.submit(Job(f"job{k}", int, (str(k),)))
+        job, result = executor.next_result()
+        assert (job.key, result) == ("job0", 0)
+        assert len(executor._slots[0].inflight) == POOL_DEPTH
+    finally:
+        executor.close()
+
+
 def test_layout_chunks_cover_the_layouts_in_order() -> None:
     assert batch_module.contiguous_chunks(48, 16) == [(3 * k, 3 * k + 3) for k in range(16)]
     assert batch_module.contiguous_chunks(10, 4) == [(0, 2), (2, 5), (5, 8), (8, 10)]

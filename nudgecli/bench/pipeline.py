@@ -10,8 +10,8 @@ It is 100 % when nothing but trials runs on the batch's critical path (no import
 workers start, no analysis, figure or table after the last trial, no idle worker), and it is what
 issue 39 asks of ``nudge replicate paper -R 4 --workers 2`` (>= 80 %) and ``-R 20`` (>= 90 %).
 Everything is measured side by side in one run: the loop (every participant of the experiment's
-study in this process, the plan built beforehand, the best CPU time of ``study_repeats`` runs of
-each: :func:`loop_seconds_per_trial`),
+study in this process as a participant task simulates it, the plan built beforehand, the best CPU
+time of ``study_repeats`` runs of each: :func:`loop_seconds_per_trial`),
 then both batches end to end as a user runs them (``python -m nudgecli.cli replicate ...`` in a
 child, interpreter start-up included), then issue 39's power analysis (``nudge power EXPERIMENT
 --participants 6,9,12,18,24 -R 50``, about a minute and a quarter on 2 cores: under two minutes is
@@ -104,13 +104,18 @@ def trials_per_hour(trials: int, wall_s: float) -> float:
 
 
 def loop_seconds_per_trial(experiment: str, repeats: int) -> list[tuple[float, int]]:
-    """Every participant of the experiment's study simulated in this process (its plan built first):
-    per participant, the best CPU seconds of ``repeats`` runs and the participant's trials.
+    """Every participant of the experiment's study simulated in this process as a batch's
+    participant task simulates it (its plan built first): per participant, the best CPU seconds of
+    ``repeats`` runs and the participant's trials.
 
-    CPU seconds, not wall: the loop is single-threaded and CPU-bound, so unloaded they are its wall
-    time, and on a machine shared with other work they still are its own cost (its wall time there
-    is doubled by a second busy process per core, which would flatter every efficiency)."""
-    from nudgecli.sim.study import StudyPlan, simulate_participant
+    The task's own loop (:func:`~nudgecli.runs.batch_tasks.simulate_task_participant`: the columns
+    its metrics read, no frames), not ``nudge simulate``'s (which also builds the step log's frames,
+    about a sixth of a paper trial, that no batch worker makes). CPU seconds, not wall: the loop is
+    single-threaded and CPU-bound, so unloaded they are its wall time, and on a machine shared with
+    other work they still are its own cost (its wall time there is doubled by a second busy process
+    per core, which would flatter every efficiency)."""
+    from nudgecli.runs import batch_tasks
+    from nudgecli.sim.study import StudyPlan
 
     config = load_experiment(experiment)
     plan = StudyPlan.build(config, config.experiment.seed)
@@ -119,7 +124,7 @@ def loop_seconds_per_trial(experiment: str, repeats: int) -> list[tuple[float, i
         best, trials = float("inf"), 0
         for _ in range(max(1, repeats)):
             start = time.process_time()
-            result = simulate_participant(plan, index)
+            result = batch_tasks.simulate_task_participant(plan, index)
             best = min(best, time.process_time() - start)
             trials = len(result.trials)
         measured.append((best, trials))

@@ -147,11 +147,12 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     from nudgecli.report.replication import condition_values, replication_rows, summarise
 
     rows = replication_rows(run.graph.entries, run.stats, chosen)
-    summary = summarise(rows).drop(columns=["point"])
+    summarised = summarise(rows)  # the figure reads it with its point column, the table without
+    summary = summarised.drop(columns=["point"])
     tables = {"replications": rows.drop(columns=["point"]),
               "conditions": condition_values(run.graph.entries, run.stats).drop(columns=["point"]),
               "summary": summary}
-    figures = {"forest": forest_figure(rows, summarise(rows))}
+    figures = {"forest": forest_figure(rows, summarised)}
     files = _write_tables(run.path, tables) + _figures(run.path, figures)
     return BatchResult(run, rows, summary, tables, files)
 

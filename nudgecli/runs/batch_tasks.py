@@ -34,7 +34,7 @@ from nudgecli.runs.executors import HELD_AFFINITIES
 from nudgecli.runs.solved_layouts import build_plan, remember_plan
 from nudgecli.runs.study_tasks import tune_allocator
 from nudgecli.sim.policy_registry import not_applicable_of
-from nudgecli.sim.study import StudyPlan, simulate_participant_columns, trials_frame
+from nudgecli.sim.study import ParticipantColumns, StudyPlan, simulate_participant_columns, trials_frame
 from nudgecli.sim.twins import Twin
 
 if TYPE_CHECKING:  # pandas and the statistics (scipy.stats, scikit-posthocs) load where used
@@ -142,6 +142,17 @@ def metric_definitions(analysis: AnalysisPlan) -> dict[str, str]:
     return analysis.metrics.model_dump(exclude={"include"})
 
 
+#: The step-log columns a participant task keeps: those its metrics read (the rest is not formatted
+#: at all, a third of the log's columns are kept).
+TASK_STEP_COLUMNS = METRIC_STEP_COLUMNS + INPUT_STEP_COLUMNS
+
+
+def simulate_task_participant(plan: StudyPlan, index: int) -> ParticipantColumns:
+    """A participant task's trial loop: the participant's trials and the step-log columns its
+    metrics read (:data:`TASK_STEP_COLUMNS`), as plain columns (no frames)."""
+    return simulate_participant_columns(plan, index, step_log_columns=TASK_STEP_COLUMNS)
+
+
 def participant_metrics(plan: StudyPlan, index: int, definitions: Mapping[str, str]) -> ParticipantMetrics:
     """One participant's per-trial metrics under the metric definitions (:func:`metric_definitions`).
 
@@ -151,9 +162,7 @@ def participant_metrics(plan: StudyPlan, index: int, definitions: Mapping[str, s
         Its :meth:`~ParticipantMetrics.frame` is :func:`nudgecli.report.metrics.trial_metrics` of the
         participant's trial table and step log.
     """
-    # the metrics read a third of the step log's columns: the rest is not formatted at all
-    result = simulate_participant_columns(plan, index,
-                                          step_log_columns=METRIC_STEP_COLUMNS + INPUT_STEP_COLUMNS)
+    result = simulate_task_participant(plan, index)
     keys = {name: [row[name] for row in result.trials] for name in STEP_TRIAL_COLUMNS}
     chosen: dict[str, Any] = {name: definitions[name] for name in STEP_DEFINITIONS}
     values = step_metric_arrays(keys, result.steps, **chosen)

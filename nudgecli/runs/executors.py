@@ -355,6 +355,9 @@ class ProcessExecutor:
             if status != "ok":  # the command's one error line (an OSError's path and cause, a user's error)
                 raise failure_from_message(status, payload, f"task {key}")
             if not broadcast:
+                # the worker's next job before the caller handles this result (a first part's write
+                # imports pandas and pyarrow: longer than a queued job runs)
+                self._fill()
                 return job, payload
 
     def close(self) -> None:
