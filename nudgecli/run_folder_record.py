@@ -239,6 +239,14 @@ class RunRecord:
             done = found if done is None else done & found
         return sorted(done or set())
 
+    def has_completed_participant(self) -> bool:
+        """Whether :meth:`completed_participants` is not empty, reading footers only until the first
+        participant whose three parts are readable (a complete run: three, not three per participant)."""
+        on_disk = [{int(p.stem.split("-")[1]): p for p in (self.path / kind).glob("part-*.parquet")}
+                   for kind in PART_KINDS]
+        candidates = sorted(set(on_disk[0]).intersection(*on_disk[1:]))
+        return any(all(readable_parquet(parts[index]) for parts in on_disk) for index in candidates)
+
     def missing_parts(self, participants: int) -> dict[int, list[str]]:
         """Participant -> the parts (``trials/part-0003.parquet``, ...) missing or unreadable.
 

@@ -498,6 +498,31 @@ def test_a_participant_is_completed_only_with_all_three_parts_readable(tmp_path)
         pd.DataFrame({"x": [1]}).to_parquet(tmp_path / kind / "part-0002.parquet")
     (tmp_path / "participants" / "part-0002.parquet").write_bytes(b"PAR1 truncated")
     assert RunRecord(tmp_path).completed_participants() == [0]
+    assert RunRecord(tmp_path).has_completed_participant()
+
+
+def test_whether_a_participant_completed_reads_footers_only_until_the_first(tmp_path, monkeypatch):
+    from nudgecli import run_folder_record
+    from nudgecli.run_folder_record import RunRecord
+
+    kinds = ("trials", "steps", "participants")
+    for kind in kinds:
+        (tmp_path / kind).mkdir()
+        for index in range(4):
+            pd.DataFrame({"x": [1]}).to_parquet(tmp_path / kind / f"part-{index:04d}.parquet")
+    for index in (0, 1):  # the first two have a broken part each; the third is complete
+        (tmp_path / kinds[index + 1] / f"part-{index:04d}.parquet").write_bytes(b"PAR1 truncated")
+    (tmp_path / "steps" / "part-0003.parquet").unlink()  # never a candidate
+    read = []
+    real = run_folder_record.readable_parquet
+    monkeypatch.setattr(run_folder_record, "readable_parquet",
+                        lambda part: read.append(part.name) or real(part))
+    record = RunRecord(tmp_path)
+    assert record.has_completed_participant()
+    assert read == ["part-0000.parquet"] * 2 + ["part-0001.parquet"] * 3 + ["part-0002.parquet"] * 3
+    assert record.completed_participants() == [2]
+    (tmp_path / "trials" / "part-0002.parquet").write_bytes(b"PAR1 truncated")
+    assert not record.has_completed_participant() and record.completed_participants() == []
 
 
 def test_resume_differences_name_the_participant_count_once(tmp_path):

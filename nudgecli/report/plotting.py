@@ -470,7 +470,7 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
 def _run_fields(run: RunFolder, trial: TrialKey | None) -> dict[str, Any]:
     """:class:`FigureInputs`' fields of a run (none of a table): its trials, layouts and the
     trial its figures show (``trial``, else the default rule's), with its participant's steps."""
-    if not (run.is_run() and run.completed_participants()):
+    if not (run.is_run() and run.has_completed_participant()):
         return {}
     if "participants" in run.read_manifest():
         run.check_complete()  # a damaged run named with the command that restores it, as analyze names it
