@@ -93,6 +93,10 @@ def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, An
             if old.get(key, _ABSENT) != new.get(key, _ABSENT)]
 
 
+#: A manifest's checksums: participant -> part kind -> SHA-256 (hex).
+_Checksums = dict[int, dict[str, str]]
+
+
 class RunRecord:
     """What a run folder on disk records and holds (read and checked, never written).
 
@@ -104,6 +108,8 @@ class RunRecord:
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
+        #: :meth:`manifest_to_read`'s last read: the file's identity, the manifest, its checksums
+        self._kept: tuple[tuple[int, int, int], dict[str, Any], _Checksums | None] | None = None
 
     @property
     def manifest_path(self) -> Path:
@@ -122,6 +128,31 @@ class RunRecord:
             return json.loads(self.manifest_path.read_text(encoding="utf-8"))
         except json.JSONDecodeError as exc:
             raise RunFolderError(f"{self.manifest_path}: unreadable manifest ({exc})") from exc
+
+    def manifest_to_read(self) -> dict[str, Any]:
+        """:meth:`read_manifest` for a reader that does not change it (a table read a participant's
+        part at a time: a 300-participant manifest is 0.1 MB of JSON), parsed again only once the
+        file is another (an atomic write's new inode), or its size or modification time changed.
+        While it is unchanged the same dict is returned: never modify it."""
+        try:
+            status = self.manifest_path.stat()
+        except OSError:
+            return self.read_manifest()  # its own error: no manifest
+        identity = (status.st_ino, status.st_size, status.st_mtime_ns)
+        if self._kept is None or self._kept[0] != identity:
+            self._kept = (identity, self.read_manifest(), None)
+        return self._kept[1]
+
+    def checksums_to_read(self, manifest: Mapping[str, Any]) -> dict[int, dict[str, str]]:
+        """:meth:`recorded_checksums` of ``manifest``, made once for :meth:`manifest_to_read`'s
+        manifest while it is unchanged (never modify it)."""
+        kept = self._kept
+        if kept is None or kept[1] is not manifest:
+            return self.recorded_checksums(manifest)
+        if kept[2] is None:
+            self._kept = kept = (kept[0], kept[1], self.recorded_checksums(manifest))
+        assert kept[2] is not None
+        return kept[2]
 
     def participant_count(self, manifest: Mapping[str, Any]) -> int:
         """The manifest's ``participants``: a whole number of at least 1 (a run simulates one at

@@ -417,7 +417,7 @@ class RunFolder(RunRecord):
         DataError
             A part is unreadable or lacks one of ``columns``.
         """
-        manifest = self.read_manifest() if self.is_run() else None
+        manifest = self.manifest_to_read() if self.is_run() else None
         if (lost := self.lost_manifest_error()) is not None:
             raise lost
         expected = self.manifest_participants(manifest) if manifest is not None else None
@@ -429,7 +429,7 @@ class RunFolder(RunRecord):
             parts = [part for index in asked if (part := self.part_path(kind, index)).is_file()]
         if not parts:
             raise RunFolderError(self._no_parts_message(kind))
-        sums = self.recorded_checksums(manifest) if manifest is not None else {}
+        sums = self.checksums_to_read(manifest) if manifest is not None else {}
         frames = []
         for part in parts:
             try:

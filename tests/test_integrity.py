@@ -160,6 +160,30 @@ def test_analyze_plot_and_resume_name_a_changed_part(tmp_path, smoke_run):
     analyze(run)
 
 
+def test_a_run_read_a_participant_at_a_time_parses_its_manifest_once_while_unchanged(tmp_path, smoke_run):
+    from nudgecli.run_folder_record import RunRecord
+    from nudgecli.store import write_json_atomic
+
+    run = copy_run(smoke_run, tmp_path / "run")
+    folder = RunFolder(run)
+    parsed, checked = [], []
+    read_manifest, recorded_checksums = RunRecord.read_manifest, RunRecord.recorded_checksums
+    folder.read_manifest = lambda: parsed.append(1) or read_manifest(folder)  # type: ignore[method-assign]
+    folder.recorded_checksums = lambda m: checked.append(1) or recorded_checksums(folder, m)  # type: ignore[method-assign]
+    first = [folder.read_table("steps", participants=[p]) for p in (0, 1, 0)]
+    assert len(parsed) == 1 and len(checked) == 1
+    # a manifest written again (atomically: another file) is read again, and its new record holds
+    manifest = json.loads((run / "manifest.json").read_text())
+    manifest["checksums"]["1"]["steps"] = "0" * 64
+    write_json_atomic(run / "manifest.json", manifest)
+    pd.testing.assert_frame_equal(folder.read_table("steps", participants=[0]), first[0])
+    assert len(parsed) == 2
+    with pytest.raises(RunFolderError, match=r"steps/part-0001\.parquet changed since it was written"):
+        folder.read_table("steps", participants=[1])
+    # a reader that changes a manifest gets its own copy each time
+    assert folder.read_manifest() is not folder.read_manifest()
+
+
 def test_a_manifest_without_checksums_is_analysed_with_a_note(tmp_path, smoke_run):
     run = copy_run(smoke_run, tmp_path / "run")
     manifest = json.loads((run / "manifest.json").read_text())
