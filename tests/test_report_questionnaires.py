@@ -131,3 +131,47 @@ def test_analyze_refuses_questionnaires_of_people_not_in_the_table(tmp_path) -> 
     table.to_csv(tmp_path / "q.csv", index=False)
     with pytest.raises(DataError, match=r"respondent.* 77 are not participants of"):
         analyze(data / "metrics_two_conditions.csv", out=tmp_path / "a", questionnaires=tmp_path / "q.csv")
+
+
+def _unblocked(**extra: object) -> dict[str, object]:
+    """A response row of a table without a ``block`` column (one response per condition)."""
+    return {k: v for k, v in _row(**extra).items() if k != "block"}
+
+
+def test_without_a_block_column_a_repeated_response_is_refused_naming_both_rows() -> None:
+    # the QA case: participant 0 answered for "control" twice; counted twice it made n = 3 of 2 people
+    table = pd.DataFrame([_unblocked(participant=0, condition="disambiguation"), _unblocked(participant=0),
+                          _unblocked(participant=1, condition="disambiguation"), _unblocked(participant=1),
+                          _unblocked(participant=0)])
+    with pytest.raises(DataError) as caught:
+        questionnaire_scores(table, "q.csv")
+    message = str(caught.value)
+    assert message.startswith("q.csv: rows 3 and 6 are both participant 0's response for condition control, "
+                              "with the same answers twice")
+    assert "or add a block column" in message and "\n" not in message  # the fix names both ways
+    conflicting = table.copy()
+    conflicting.loc[4, "tlx_mental"] = 5
+    with pytest.raises(DataError, match=r"rows 3 and 6 .* different answers \(conflicting"):
+        questionnaire_scores(conflicting, "q.csv")
+    # one response per participant and condition is what such a table holds
+    assert len(questionnaire_scores(table.iloc[:4], "q.csv")) == 4
+
+
+@pytest.mark.parametrize(("column", "suggestion"), [
+    ("tlx_mentl", "tlx_mental"), ("tlx_weight_efort", "tlx_weight_effort"), ("TLX_Mental", "tlx_mental"),
+    ("tlx_overall_score", None),
+])
+def test_an_unknown_tlx_column_is_refused_with_a_suggestion(column: str, suggestion: str | None) -> None:
+    extra: dict[str, object] = {column: 5}
+    if column.startswith("tlx_weight_"):  # beside a complete set of weights
+        extra |= {f"tlx_weight_{s}": w for s, w in WINS.items()}
+    with pytest.raises(DataError) as caught:
+        questionnaire_scores(pd.DataFrame([_row(**extra)]), "q.csv")
+    message = str(caught.value)
+    assert message.startswith(f"q.csv: unknown NASA-TLX column {column!r}")
+    if suggestion is not None:
+        assert f"(did you mean {suggestion!r}?)" in message
+    else:
+        assert "did you mean" not in message
+    assert "rename it or remove it" in message
+

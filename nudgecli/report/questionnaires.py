@@ -22,9 +22,11 @@ column                      content
                             7 strongly agree)
 =========================== =============================================================
 
-An empty cell is a missing answer: that score is missing for that response. With a ``block``
-column, each participant answers once per condition and block: a second row for the same
-participant, condition and block (repeated or conflicting) is refused, naming both rows. A
+An empty cell is a missing answer: that score is missing for that response. Each participant
+answers once per condition (with a ``block`` column: once per condition and block): a second row
+for the same participant and condition (and block), repeated or conflicting, is refused, naming
+both rows. A column named ``tlx_*`` (in any case) that is none of the above is refused with the
+nearest name: a misspelt subscale would otherwise be left out of the scores unseen. A
 respondent who is not a participant of the analysed run is refused by :func:`check_respondents`.
 Participant and block labels follow the tables' one rule (:mod:`nudgecli.report.tables`): kept
 as written, and matched as written, so ``07`` answers for participant ``07`` and never for ``7``.
@@ -45,13 +47,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from nudgecli.errors import DataError
+from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.tables import is_canonical_integer, label_text, read_csv_labels
 
 TLX_SUBSCALES = ("mental", "physical", "temporal", "performance", "effort", "frustration")
 TLX_RATING_COLUMNS = tuple(f"tlx_{s}" for s in TLX_SUBSCALES)
 TLX_PAIR_COLUMNS = tuple(f"tlx_pair_{i}" for i in range(1, 16))
 TLX_WEIGHT_COLUMNS = tuple(f"tlx_weight_{s}" for s in TLX_SUBSCALES)
+TLX_PREFIX = "tlx_"
+TLX_COLUMNS = (*TLX_RATING_COLUMNS, *TLX_PAIR_COLUMNS, *TLX_WEIGHT_COLUMNS)
 TLX_COMPARISONS = 15
 LIKERT_PREFIX = "likert_"
 LIKERT_RANGE = (1, 7)
@@ -100,6 +104,18 @@ def _check_range(values: pd.Series, column: str, low: float, high: float, source
         kind = "integers" if integer else "values"
         raise DataError(f"{source}: column {column!r} must hold {kind} from {low:g} to {high:g}; row "
                         f"{row + 2} holds {values.iloc[row]!r}")
+
+
+def _check_tlx_names(table: pd.DataFrame, source: str) -> None:
+    """Refuse a ``tlx_*`` column (in any case) that is not one of :data:`TLX_COLUMNS`, with the
+    nearest name: a misspelt ``tlx_mentl`` beside the six ratings would be dropped unseen."""
+    unknown = [str(c) for c in table.columns
+               if str(c).lower().startswith(TLX_PREFIX) and str(c) not in TLX_COLUMNS]
+    if unknown:
+        hint = did_you_mean(unknown[0], TLX_COLUMNS)
+        raise DataError(f"{source}: unknown NASA-TLX column {unknown[0]!r}{hint}; "
+                        f"rename it or remove it (the TLX columns are {', '.join(TLX_RATING_COLUMNS)}, "
+                        "tlx_pair_1..tlx_pair_15 or tlx_weight_<subscale>)")
 
 
 def _pair_wins(table: pd.DataFrame, source: str) -> np.ndarray:
@@ -159,13 +175,15 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
     DataError
         Missing id columns, an incomplete set of TLX subscales, pairs or weights, a value that
         is not numeric or out of range, an unknown subscale name, weights not summing to 15,
-        no score column at all, or (with ``block``) two rows of one participant, condition and block.
+        no score column at all, an unknown ``tlx_*`` column, or two rows of one participant and
+        condition (and block, with a ``block`` column).
     """
     if table.empty:
         raise DataError(f"{source} has no rows; it needs one row per questionnaire response")
     for column in ("participant", "condition"):
         if column not in table.columns:
             raise DataError(f"{source} has no {column!r} column; add it (one value per response row)")
+    _check_tlx_names(table, source)
     ids = [c for c in ("participant", "condition", "block") if c in table.columns]
     scores = table[ids].copy()
     scores["condition"] = scores["condition"].astype(str)
@@ -211,13 +229,14 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
     if not rating_present and not likert_columns:
         raise DataError(f"{source} holds no scores; add the six columns {', '.join(TLX_RATING_COLUMNS)} "
                         f"and/or Likert items named {LIKERT_PREFIX}<item>")
-    if "block" in ids:  # a valid table otherwise: now, one response per participant, condition and block
-        _check_one_response_per_block(table, ids, source)
+    # a valid table otherwise: now, one response per participant and condition (and block)
+    _check_one_response_each(table, ids, source)
     return scores.reset_index(drop=True)
 
 
-def _check_one_response_per_block(table: pd.DataFrame, ids: list[str], source: str) -> None:
-    """Refuse two rows of one participant, condition and block (a repeated or conflicting response)."""
+def _check_one_response_each(table: pd.DataFrame, ids: list[str], source: str) -> None:
+    """Refuse two rows of one participant and condition, and of one block if ``ids`` holds
+    ``block`` (a repeated or conflicting response: counted twice it would be two people's)."""
     # labels as the tables read them (two spellings are two people), conditions as written
     keys = pd.DataFrame({column: table[column].map(label_text) for column in ids})
     repeated = keys.duplicated(keep=False)
@@ -231,10 +250,14 @@ def _check_one_response_per_block(table: pd.DataFrame, ids: list[str], source: s
     alike = all((pd.isna(a[c]) and pd.isna(b[c])) or str(a[c]) == str(b[c]) for c in answers)
     what = ("the same answers twice (a repeated response)" if alike
             else "different answers (conflicting responses)")
+    if "block" in ids:
+        block, fix = f", block {a['block']}", "keep one row per participant, condition and block"
+    else:
+        block, fix = "", ("keep one row per participant and condition, or add a block column if they "
+                          "answered after different blocks")
     raise DataError(
         f"{source}: rows {rows[0] + 2} and {rows[1] + 2} are both participant {a['participant']}'s response "
-        f"for condition {a['condition']}, block {a['block']}, with {what}; keep one row per participant, "
-        "condition and block"
+        f"for condition {a['condition']}{block}, with {what}; {fix}"
     )
 
 
