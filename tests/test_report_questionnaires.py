@@ -175,3 +175,15 @@ def test_an_unknown_tlx_column_is_refused_with_a_suggestion(column: str, suggest
         assert "did you mean" not in message
     assert "rename it or remove it" in message
 
+
+def test_range_errors_print_plain_numbers() -> None:
+    with pytest.raises(DataError) as caught:
+        questionnaire_scores(pd.DataFrame([_row(), _row(block=1, tlx_mental=150)]), "q.csv")
+    assert str(caught.value).endswith("row 3 holds 150")
+    with pytest.raises(DataError) as caught:
+        questionnaire_scores(pd.DataFrame([_row(likert_q3=2.5)]), "q.csv")
+    assert str(caught.value).endswith("row 2 holds 2.5")
+    weights = {f"tlx_weight_{s}": w for s, w in WINS.items()}
+    with pytest.raises(DataError) as caught:
+        questionnaire_scores(pd.DataFrame([_row(**{**weights, "tlx_weight_mental": 7})]), "q.csv")
+    assert str(caught.value).endswith("row 2 holds 7")

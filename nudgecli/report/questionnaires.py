@@ -103,7 +103,13 @@ def _check_range(values: pd.Series, column: str, low: float, high: float, source
         row = int(np.flatnonzero(outside.to_numpy())[0])
         kind = "integers" if integer else "values"
         raise DataError(f"{source}: column {column!r} must hold {kind} from {low:g} to {high:g}; row "
-                        f"{row + 2} holds {values.iloc[row]!r}")
+                        f"{row + 2} holds {_plain(values.iloc[row])}")
+
+
+def _plain(value: float) -> str:
+    """A cell's number as a person writes it: ``150``, ``2.5`` (not ``np.float64(150.0)``)."""
+    number = float(value)
+    return str(int(number)) if number.is_integer() else repr(number)
 
 
 def _check_tlx_names(table: pd.DataFrame, source: str) -> None:
