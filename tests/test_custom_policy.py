@@ -15,7 +15,7 @@ from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.runs.study import run_study
 from nudgecli.sim.policy_interface import Assistance, Policy
-from nudgecli.sim.policy_registry import constant_metrics_of
+from nudgecli.sim.policy_registry import constant_metrics_of, load_factory, policy_specs
 from tests.test_sim_study import assert_same_run
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -62,15 +62,14 @@ def test_a_custom_policys_tables_are_identical_with_one_and_two_workers_and_dask
 
 
 def test_the_example_policy_has_the_interface_and_its_traits_set_the_constant_metrics():
-    import sys
-
     config = load_experiment(str(EXAMPLE))
     constant = constant_metrics_of(config)  # imports the module from the experiment's folder
     assert constant["threshold"] == {"human_effort", "human_turns"}  # no turns
     assert constant["disambiguation"] == frozenset()
     # the gap-gated blend's alpha is 0.8 whenever it acts: its strength is constant too
     assert constant["blending"] == {"assistance_strength", "human_effort", "human_turns"}
-    policy = sys.modules["policies.threshold"].ThresholdAssist()
+    (spec,) = policy_specs(config)
+    policy = load_factory(spec)()
     assert isinstance(policy, Policy)
 
 

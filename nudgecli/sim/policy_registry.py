@@ -19,12 +19,9 @@ naming the condition and the policy.
 
 from __future__ import annotations
 
-import functools
-import importlib
 import inspect
 import math
 import numbers
-import sys
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -33,6 +30,7 @@ from nudgecli.errors import PolicyError
 from nudgecli.model.conditions import CONSTANT_METRICS, not_applicable_metrics, policy_name
 from nudgecli.sim.builtin_policies import BUILTIN_POLICIES
 from nudgecli.sim.policy_interface import Assistance, AutonomyTurn, Policy, StepView, checked_command
+from nudgecli.sim.policy_loader import import_policy_module
 
 if TYPE_CHECKING:
     from nudgecli.config import ExperimentConfig
@@ -48,8 +46,9 @@ class PolicySpec:
     """A condition's own policy: ``factory`` (``module:attr``), its parameters, where to import from.
 
     ``search_path`` is the experiment file's folder (absolute; it is not written to a run folder's
-    ``config.toml``, which records ``factory`` and ``params`` only): it goes on ``sys.path`` before
-    the import, in the process that loads the experiment and in every worker.
+    ``config.toml``, which records ``factory`` and ``params`` only): the module is imported from its
+    files first (:mod:`nudgecli.sim.policy_loader`; the folder does not go on ``sys.path``), in the
+    process that loads the experiment and in every worker.
     """
 
     condition: str
@@ -62,28 +61,24 @@ class PolicySpec:
         return f"condition {self.condition!r} (policy {self.factory})"
 
 
-def load_factory(spec: PolicySpec) -> Callable[..., Any]:
-    """The callable ``spec.factory`` names, imported once per process.
+def load_factory(spec: PolicySpec, *, reload_changed: bool = True) -> Callable[..., Any]:
+    """The callable ``spec.factory`` names, its module imported from ``spec.search_path`` first
+    (:func:`~nudgecli.sim.policy_loader.import_policy_module`: by file, one module per folder, an
+    edited file imported again when ``reload_changed``), then from ``sys.path``.
 
     Raises
     ------
     PolicyError
-        The module does not import, or has no such attribute, or it is not callable.
+        The factory is not ``module:attribute``, the module does not import, or has no such
+        attribute, or it is not callable.
     """
-    return _load_factory(spec.factory, spec.search_path, spec.condition)
-
-
-@functools.cache
-def _load_factory(factory: str, search_path: str | None, condition: str) -> Callable[..., Any]:
-    where = f"condition {condition!r} (policy {factory})"
-    module_name, sep, attribute = factory.partition(":")
-    if not sep or not module_name or not attribute:
+    where = spec.described
+    module_name, sep, attribute = spec.factory.partition(":")
+    if not sep or not all(part.isidentifier() for part in (*module_name.split("."), *attribute.split("."))):
         raise PolicyError(f"{where}: the policy must be named as 'module:attribute', e.g. "
                           "'policies.threshold:ThresholdAssist'")
-    if search_path is not None and search_path not in sys.path:
-        sys.path.insert(0, search_path)
     try:
-        module = importlib.import_module(module_name)
+        module = import_policy_module(module_name, spec.search_path, reload_changed=reload_changed)
     except Exception as exc:  # a researcher's module: any failure of its import is theirs to see
         raise PolicyError(f"{where}: cannot import module {module_name!r}: {type(exc).__name__}: {exc} "
                           "(the module is looked up beside the experiment file, then on sys.path)") from exc
@@ -228,7 +223,9 @@ def make_policy(condition: str, settings: ProtocolSettings) -> Policy:
     """A fresh policy for one trial of ``condition``: the experiment's own, or the built-in one."""
     for spec in settings.custom_policies:
         if spec.condition == condition:
-            return CheckedPolicy(_make(load_factory(spec), dict(spec.params), spec), spec)
+            # the module the run was checked with: an edit during the run does not change its policy
+            factory = load_factory(spec, reload_changed=False)
+            return CheckedPolicy(_make(factory, dict(spec.params), spec), spec)
     return BUILTIN_POLICIES[policy_name(condition)](settings)  # type: ignore[no-any-return]
 
 

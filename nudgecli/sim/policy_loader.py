@@ -1,0 +1,130 @@
+"""Import a researcher's policy module from the experiment's folder, else from ``sys.path``.
+
+``policies.threshold`` named by an experiment in ``experiments/`` is the file
+``experiments/policies/threshold.py`` (or ``.../threshold/__init__.py``) when it is there, and a
+plain import otherwise. A module found in the folder is imported under a private parent package of
+that folder's own (``_nudge_policies_<digest of the folder>``, whose ``__path__`` is the folder), so
+
+- two experiments in different folders whose factories name the same module each get their own
+  (one process may load both: a notebook, a batch);
+- the folder never goes on ``sys.path``: a ``scipy.py`` beside an experiment does not shadow scipy;
+- packages (with or without ``__init__.py``) and relative imports inside them work as usual;
+- an edited file is imported again: the size and modification time of every file imported under
+  the folder's package are recorded, and when one has changed (or gone) the folder's modules are
+  all dropped and imported afresh (:func:`import_policy_module` with ``reload_changed``).
+
+Worker processes (``--workers``, dask) call the same function with the same folder, so they import
+the same files.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.machinery
+import importlib.util
+import os
+import sys
+import threading
+from pathlib import Path
+from types import ModuleType
+
+#: Folder's private package name -> {file: (st_mtime_ns, st_size)} of the modules imported under it.
+_IMPORTED_FILES: dict[str, dict[str, tuple[int, int]]] = {}
+_LOCK = threading.RLock()
+
+
+def import_policy_module(module_name: str, folder: str | None, *, reload_changed: bool = True) -> ModuleType:
+    """The module ``module_name`` (dotted), from ``folder`` when its file is there, else ``sys.path``.
+
+    Parameters
+    ----------
+    module_name
+        A dotted module name of identifiers (``policies.threshold``).
+    folder
+        The experiment file's folder (absolute), or ``None`` to import from ``sys.path`` only.
+    reload_changed
+        Whether to import the folder's modules afresh when a file imported from it has changed
+        since (when an experiment is loaded); without, the module already imported in this process
+        is returned as it is (each trial of a run makes its policy with the run's code).
+
+    Raises
+    ------
+    Exception
+        Whatever importing the module raises (the caller words it).
+    """
+    location = None if folder is None else module_file(folder, module_name)
+    if folder is None or location is None:
+        return importlib.import_module(module_name)
+    root = private_package_name(folder)
+    with _LOCK:
+        if reload_changed and _changed(root):
+            _forget(root)
+        qualified = f"{root}.{module_name}"
+        module = sys.modules.get(qualified)
+        if module is None:
+            _install_root(root, folder)
+            importlib.invalidate_caches()  # a file written since the last import is seen
+            try:
+                module = importlib.import_module(qualified)
+            finally:
+                _IMPORTED_FILES[root] = _file_stats(root)
+        return module
+
+
+def module_file(folder: str, module_name: str) -> Path | None:
+    """The file of ``module_name`` in ``folder`` (a module's ``.py`` or a package's ``__init__.py``;
+    the packages above it may be folders without one), or ``None`` when it is not there."""
+    base = Path(folder).joinpath(*module_name.split("."))
+    for candidate in (base.with_name(base.name + ".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def private_package_name(folder: str) -> str:
+    """The private parent package of ``folder``'s modules: one name per resolved folder."""
+    digest = hashlib.sha256(str(Path(folder).resolve()).encode()).hexdigest()[:16]
+    return f"_nudge_policies_{digest}"
+
+
+def _install_root(root: str, folder: str) -> None:
+    """The folder's private package: a package with no code whose ``__path__`` is the folder."""
+    if root in sys.modules:
+        return
+    spec = importlib.machinery.ModuleSpec(root, None, is_package=True)
+    spec.submodule_search_locations = [str(Path(folder).resolve())]
+    sys.modules[root] = importlib.util.module_from_spec(spec)
+
+
+def _file_stats(root: str) -> dict[str, tuple[int, int]]:
+    """The size and modification time of each file imported under ``root``."""
+    stats = {}
+    for name, module in list(sys.modules.items()):
+        path = getattr(module, "__file__", None)
+        if path and (name == root or name.startswith(root + ".")):
+            try:
+                found = os.stat(path)
+            except OSError:
+                continue
+            stats[path] = (found.st_mtime_ns, found.st_size)
+    return stats
+
+
+def _changed(root: str) -> bool:
+    """Whether a file imported under ``root`` has been edited or removed since."""
+    for path, (mtime_ns, size) in _IMPORTED_FILES.get(root, {}).items():
+        try:
+            found = os.stat(path)
+        except OSError:
+            return True
+        if (found.st_mtime_ns, found.st_size) != (mtime_ns, size):
+            return True
+    return False
+
+
+def _forget(root: str) -> None:
+    """Drop every module imported under ``root`` so the next import reads the files again."""
+    for name in [name for name in sys.modules if name == root or name.startswith(root + ".")]:
+        del sys.modules[name]
+    _IMPORTED_FILES.pop(root, None)
