@@ -179,8 +179,11 @@ def acquire_lock_file(lock_path: Path, command: str | None) -> Any:
             handle.write(json.dumps(record) + "\n")
             handle.flush()
             os.fsync(handle.fileno())
-        except OSError as exc:
-            handle.close()
+        except OSError as exc:  # a full disk: the record is not there, so neither is the lock
+            with contextlib.suppress(OSError):
+                lock_path.unlink()  # still ours (locked): an emptied file would look like a damaged holder's
+            with contextlib.suppress(OSError):  # closing flushes the unwritten record and fails again
+                handle.close()
             raise write_error(lock_path, exc) from exc
         return handle
     raise LockError(f"{lock_path.parent}: could not take the lock (it changed hands repeatedly); try again")
