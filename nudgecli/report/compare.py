@@ -121,7 +121,8 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
     Raises
     ------
     DataError
-        A ``condition_map`` key that is not a simulated condition, two conditions left unpaired
+        A ``condition_map`` key that is not a simulated condition or value that is not a real one,
+        two simulated conditions paired with one real condition, two conditions left unpaired
         whose labels differ in case or spaces only (``control`` and ``Control ``: the same
         condition spelled two ways, which would be dropped silently), or no shared condition.
     """
@@ -130,11 +131,7 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
     sim_conditions = list(dict.fromkeys(simulated["condition"]))
     real_conditions = list(dict.fromkeys(real["condition"]))
     mapping = dict(condition_map or {})
-    for key in mapping:
-        if key not in sim_conditions:
-            raise DataError(f"--match {key}={mapping[key]}: the simulated table has no condition {key!r}"
-                            f"{did_you_mean(key, sim_conditions)}; its conditions: "
-                            f"{', '.join(sim_conditions)}")
+    _check_matches(mapping, sim_conditions, real_conditions, names)
     simulated = simulated.assign(condition=simulated["condition"].map(lambda c: mapping.get(c, c)))
     renamed = {mapping.get(c, c): c for c in sim_conditions}  # the simulated label of each, as given
     real_only = [c for c in real_conditions if c not in renamed]
@@ -152,6 +149,45 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
         notes += [f"condition {renamed[c]!r} is only in the simulated source ({names[0]}): not compared; "
                   f"pair it with --match {renamed[c]}=REAL" for c in sorted(sim_only)]
     return (simulated[simulated["condition"].isin(shared)], real[real["condition"].isin(shared)], shared)
+
+
+def _check_matches(mapping: Mapping[str, str], sim_conditions: Sequence[str], real_conditions: Sequence[str],
+                   names: tuple[str, str]) -> None:
+    """Refuse a ``--match SIMULATED=REAL`` whose SIMULATED the simulated table lacks, whose REAL
+    the real table lacks (each with "did you mean"), or that pairs a second simulated condition
+    with one real condition (their trials would be pooled into one condition).
+
+    Parameters
+    ----------
+    mapping
+        Simulated condition -> real condition, as given.
+    sim_conditions, real_conditions
+        The conditions each table holds.
+    names
+        How the messages name the two sources.
+    """
+    for key, label in mapping.items():
+        if key not in sim_conditions:
+            raise DataError(f"--match {key}={label}: the simulated table has no condition {key!r}"
+                            f"{did_you_mean(key, sim_conditions)}; its conditions: "
+                            f"{', '.join(sim_conditions)}")
+        if label not in real_conditions:
+            raise DataError(f"--match {key}={label}: the real table ({names[1]}) has no condition {label!r}"
+                            f"{did_you_mean(label, real_conditions)}; its conditions: "
+                            f"{', '.join(real_conditions)}")
+    paired: dict[str, list[str]] = {}  # real condition -> the simulated conditions compared as it
+    for condition in sim_conditions:
+        paired.setdefault(mapping.get(condition, condition), []).append(condition)
+    for label, pooled in paired.items():
+        if len(pooled) > 1:
+            given = " ".join(shell_words(["--match", f"{c}={label}"]) for c in pooled if c in mapping)
+            unpaired = [c for c in pooled if c not in mapping]  # at most one: compared under its own name
+            fix = (f"; {shell_words(['--match', f'{unpaired[0]}=REAL'])} pairs {unpaired[0]!r} with another"
+                   if unpaired else "")
+            listed = ", ".join(repr(c) for c in pooled[:-1]) + f" and {pooled[-1]!r}"
+            raise DataError(f"{given}: the simulated conditions {listed} of {names[0]} would all be compared "
+                            f"as the real condition {label!r}, their trials pooled into one; pair each "
+                            f"simulated condition with a real condition of its own{fix}")
 
 
 def _same_label(label: str) -> str:
