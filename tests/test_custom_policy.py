@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import textwrap
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -13,9 +14,16 @@ from click.testing import CliRunner
 
 from nudgecli.cli import main
 from nudgecli.config import load_experiment
+from nudgecli.errors import PolicyError
 from nudgecli.runs.study import run_study
 from nudgecli.sim.policy_interface import Assistance, Policy
-from nudgecli.sim.policy_registry import constant_metrics_of, load_factory, policy_specs
+from nudgecli.sim.policy_registry import (
+    CheckedPolicy,
+    PolicySpec,
+    constant_metrics_of,
+    load_factory,
+    policy_specs,
+)
 from tests.test_sim_study import assert_same_run
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -270,3 +278,68 @@ def test_mode_switch_on_request_takes_no_turns_so_effort_and_turns_are_constant(
     config = load_experiment("baselines", ["mode-switch.trigger=request"])
     assert constant_metrics_of(config)["mode-switch"] == {"human_effort", "human_turns"}
     assert constant_metrics_of(load_experiment("baselines"))["mode-switch"] == frozenset()
+
+
+# --- a policy's own sys.exit() is a policy error; Ctrl-C stays Ctrl-C ------------------------------
+
+class _Raising:
+    """A policy each of whose hooks raises ``failure``."""
+
+    infers = True
+    takes_turns = True
+
+    def __init__(self, failure: BaseException) -> None:
+        self.failure = failure
+
+    def assist(self, view):
+        raise self.failure
+
+    def start_turn(self, view):
+        raise self.failure
+
+    def assist_quiet(self, view, steps):
+        raise self.failure
+
+    def choose_mode(self, view, requested):
+        raise self.failure
+
+
+def _call(checked: CheckedPolicy, hook: str) -> None:
+    view = SimpleNamespace(step=0, goal_poses=np.zeros((3, 3)), u_h=(0.0, 0.0, 0.0))
+    arguments = {"assist": (view,), "start_turn": (view,), "assist_quiet": (view, 2),
+                 "choose_mode": (view, 1)}
+    getattr(checked, hook)(*arguments[hook])
+
+
+@pytest.mark.parametrize("hook", ["assist", "start_turn", "assist_quiet", "choose_mode"])
+def test_a_policy_hook_that_calls_sys_exit_is_a_policy_error(hook):
+    checked = CheckedPolicy(_Raising(SystemExit(3)), PolicySpec("mine", "mymodule:Mine"))
+    described = r"condition 'mine' \(policy mymodule:Mine\)"
+    with pytest.raises(PolicyError, match=rf"{described}: {hook} raised SystemExit: 3"):
+        _call(checked, hook)
+
+
+@pytest.mark.parametrize("hook", ["assist", "start_turn", "assist_quiet", "choose_mode"])
+def test_ctrl_c_inside_a_policy_hook_stays_ctrl_c(hook):
+    checked = CheckedPolicy(_Raising(KeyboardInterrupt()), PolicySpec("mine", "mymodule:Mine"))
+    with pytest.raises(KeyboardInterrupt):
+        _call(checked, hook)
+
+
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_a_policy_that_calls_sys_exit_in_a_run_is_one_error_line_and_exit_1(tmp_path, workers):
+    module = "import sys\n" + GOOD.replace("return Assistance(view.u_h)", "sys.exit(0)")
+    out, result = _simulate(tmp_path, _experiment(tmp_path, module), "--workers", workers)
+    _one_error_line(result, "condition 'mine' (policy mymodule:Mine)", "assist raised SystemExit: 0")
+    assert json.loads((out / "manifest.json").read_text())["status"] == "interrupted"
+
+
+@pytest.mark.parametrize(("module", "words"), [
+    ("import sys\nsys.exit('bye')\n", ["cannot import module 'mymodule'", "SystemExit: bye"]),
+    ("import sys\n" + GOOD.replace("self.weight = weight", "sys.exit(2)"),
+     ["making the policy failed", "SystemExit: 2"]),
+])
+def test_a_policy_module_or_factory_that_calls_sys_exit_is_refused_before_any_work(tmp_path, module, words):
+    out, result = _simulate(tmp_path, _experiment(tmp_path, module))
+    _one_error_line(result, "condition 'mine'", *words)
+    assert not (out / "trials").exists()

@@ -39,6 +39,10 @@ if TYPE_CHECKING:
 #: Metrics constant by construction for a policy that does not take turns / does not infer.
 _WITHOUT_TURNS = frozenset({"human_effort", "human_turns"})
 _WITHOUT_INFERENCE = frozenset({"assistance_engagement", "assistance_strength"})
+#: What a researcher's code may raise that is a failure of their policy: any error, and SystemExit
+#: (a stray ``sys.exit()``, which would otherwise end the command quietly with its code);
+#: KeyboardInterrupt is the person's Ctrl-C and stays one.
+POLICY_FAILURES = (Exception, SystemExit)
 
 
 @dataclass(frozen=True)
@@ -79,7 +83,7 @@ def load_factory(spec: PolicySpec, *, reload_changed: bool = True) -> Callable[.
                           "'policies.threshold:ThresholdAssist'")
     try:
         module = import_policy_module(module_name, spec.search_path, reload_changed=reload_changed)
-    except Exception as exc:  # a researcher's module: any failure of its import is theirs to see
+    except POLICY_FAILURES as exc:  # a researcher's module: any failure of its import is theirs to see
         raise PolicyError(f"{where}: cannot import module {module_name!r}: {type(exc).__name__}: {exc} "
                           "(the module is looked up beside the experiment file, then on sys.path)") from exc
     target: Any = module
@@ -133,7 +137,7 @@ def check_custom_policy(spec: PolicySpec) -> Policy:
 def _make(factory: Callable[..., Any], params: Mapping[str, Any], spec: PolicySpec) -> Any:
     try:
         return factory(**params)
-    except Exception as exc:
+    except POLICY_FAILURES as exc:
         raise PolicyError(f"{spec.described}: making the policy failed: {type(exc).__name__}: {exc}") from exc
 
 
@@ -153,7 +157,7 @@ class CheckedPolicy:
     def _choose_mode(self, view: StepView, requested: int) -> int | None:
         try:
             mode = self.inner.choose_mode(view, requested)
-        except Exception as exc:
+        except POLICY_FAILURES as exc:
             raise PolicyError(f"{self.spec.described}: choose_mode raised "
                               f"{type(exc).__name__}: {exc}") from exc
         if mode is not None and not (isinstance(mode, numbers.Integral) and 0 <= int(mode) <= 2):
@@ -163,14 +167,14 @@ class CheckedPolicy:
     def assist(self, view: StepView) -> Assistance:
         try:
             answer = self.inner.assist(view)
-        except Exception as exc:
+        except POLICY_FAILURES as exc:
             raise PolicyError(f"{self.spec.described}: assist raised {type(exc).__name__}: {exc}") from exc
         return self._checked_assistance(answer, view, "assist")
 
     def _assist_quiet(self, view: StepView, steps: int) -> list[tuple[int, Assistance]]:
         try:
             runs = list(self.inner.assist_quiet(view, steps))
-        except Exception as exc:
+        except POLICY_FAILURES as exc:
             raise PolicyError(f"{self.spec.described}: assist_quiet raised "
                               f"{type(exc).__name__}: {exc}") from exc
         checked = []
@@ -201,7 +205,7 @@ class CheckedPolicy:
     def start_turn(self, view: StepView) -> AutonomyTurn:
         try:
             plan = self.inner.start_turn(view)
-        except Exception as exc:
+        except POLICY_FAILURES as exc:
             raise PolicyError(f"{self.spec.described}: start_turn raised "
                               f"{type(exc).__name__}: {exc}") from exc
         if not isinstance(plan, AutonomyTurn):
