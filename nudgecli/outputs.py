@@ -112,7 +112,9 @@ def check_output_folder(folder: str | Path, *, force: bool, own: Iterable[str | 
         touched).
     own
         Folders the command writes as its own for this source (``nudge analyze RUN`` writes into
-        ``RUN``, ``nudge analyze T.csv`` into ``T-analysis/``): always accepted.
+        ``RUN``, ``nudge analyze T.csv`` into ``T-analysis/``): always accepted here (``analyze``
+        itself refuses a ``T-analysis/`` that holds the analysis of another table, ``T.parquet``:
+        :func:`nudgecli.report.analysis_folders.check_folder_is_the_tables`).
     own_file
         The names of files the folder may hold without counting as not empty: the lock, and a
         command's own outputs of an earlier call (which it replaces).

@@ -152,8 +152,9 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     progress
         Called with (metrics done, metrics in all); default silent.
     force
-        Write into an ``out`` that holds other files or a run (``--force``); without it such a
-        folder is refused, as ``nudge analyze --out`` refuses it.
+        Write into an ``out`` that holds other files or a run (``--force``), or into a table's
+        ``<table>-analysis/`` that holds another table's analysis; without it such a folder is
+        refused, as ``nudge analyze`` refuses it.
 
     Returns
     -------
@@ -189,7 +190,7 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     if not isinstance(source, str | Path):
         raise DataError(f"analyze: source must be a Run, a run folder, a metrics table or a DataFrame, "
                         f"not {type(source).__name__}")
-    return Analysis(analyze_source(source, out=out, **options), Path(source), plan)
+    return Analysis(analyze_source(source, out=out, force=force, **options), Path(source), plan)
 
 
 def _analyze_frame(frame: pd.DataFrame, out: str | Path | None, options: dict[str, Any]) -> Analysis:

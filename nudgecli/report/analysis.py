@@ -24,10 +24,12 @@ by construction are left out of their tests for those conditions
 Written
 atomically (temporary file in the same folder, then ``os.replace``), while holding the folder's
 lock (:func:`nudgecli.store.run_lock`), to the run folder, ``<table>-analysis/`` beside a table
-(``study.csv`` gives ``study-analysis/``), or ``out``: ``stats.json``, ``stats.csv``,
-``summary.md``, ``metrics.csv`` (for a run folder, or a table the analysis changed; a table
-analysed as it is is not copied: ``stats.json``'s ``metrics_table`` names the table the
-statistics came from, and its ``table_read`` what was done to a table's rows,
+(``study.csv`` gives ``study-analysis/``; one that holds the analysis of another table, such as
+``study.parquet``, is refused without ``force``: :mod:`nudgecli.report.analysis_folders`), or
+``out``: ``stats.json``, ``stats.csv``, ``summary.md``, ``metrics.csv`` (for a run folder, or a
+table the analysis changed; a table analysed as it is is not copied: ``stats.json``'s
+``metrics_table`` names the table the statistics came from, and its ``table_read`` what was done
+to a table's rows,
 :mod:`nudgecli.report.table_read`) and, with questionnaires, ``questionnaire_scores.csv`` (a name of its own:
 ``questionnaires.csv`` is the answers ``nudge study`` records). No output replaces an input
 (:func:`nudgecli.outputs.check_not_an_input`: all of them are checked before the first is written).
@@ -51,6 +53,7 @@ from nudgecli.errors import WriteError as NudgeWriteError
 from nudgecli.locks import run_lock
 from nudgecli.model.conditions import not_applicable_metrics
 from nudgecli.outputs import check_not_an_input
+from nudgecli.report.analysis_folders import analysis_folder, check_folder_is_the_tables
 from nudgecli.report.checksum import CHECKSUM_KEY, metrics_checksum
 from nudgecli.report.metrics import (
     INPUT_STEP_COLUMNS,
@@ -221,11 +224,6 @@ def analysed_metrics_path(folder: str | Path) -> Path | None:
     return path if path is not None and path.is_file() else None
 
 
-def analysis_folder(table: Path) -> Path:
-    """The default output folder of a metrics table: ``study.csv`` -> ``study-analysis/`` beside it."""
-    return table.with_name(f"{table.stem}-analysis")
-
-
 def _load_table(source: Path, drop_duplicates: bool, notes: list[str],
                 min_conditions: int = 1) -> tuple[pd.DataFrame, list[str], int]:
     """A checked metrics table (at least ``min_conditions`` conditions), its metric columns, and
@@ -306,7 +304,8 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
             metrics: Sequence[str] | None = None, questionnaires: str | Path | None = None,
             seed: int | None = None, *, bootstrap: int | None = None, drop_duplicates: bool = False,
             progress: Callable[[int, int], None] | None = None, reference: str | None = None,
-            not_applicable: Mapping[str, Collection[str]] | None = None) -> AnalysisResult:
+            not_applicable: Mapping[str, Collection[str]] | None = None,
+            force: bool = False) -> AnalysisResult:
     """Compute the metrics and statistics of a run or a metrics table and write them.
 
     Parameters
@@ -340,6 +339,10 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
         Metric -> the conditions it is not applicable to, left out of its tests; default, for a
         run folder, :func:`nudgecli.model.conditions.not_applicable_metrics` of its conditions,
         for a table none (a condition without values is left out either way).
+    force
+        Write a table's analysis into its ``<table>-analysis/`` even when that folder holds the
+        analysis of another table (``study.parquet``'s in ``study-analysis/``), replacing it;
+        without it that is refused (:func:`~nudgecli.report.analysis_folders.check_folder_is_the_tables`).
 
     Returns
     -------
@@ -349,7 +352,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
     ------
     DataError, RunFolderError, ConfigError
         Invalid source, table, questionnaire table, metric name, plan or reference condition (one
-        clear message each).
+        clear message each); a table's analysis folder that holds another table's analysis.
     LockError
         Another command is writing the run folder or the output folder.
     WriteError
@@ -367,7 +370,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
     try:
         return _analyze_with_locks(source, plan, out_dir, metrics, questionnaires, seed, bootstrap,
                                    drop_duplicates, progress, reference=reference,
-                                   not_applicable=not_applicable)
+                                   not_applicable=not_applicable, force=force)
     except BaseException:
         if made_out and out_dir.is_dir() and not any(out_dir.iterdir()):
             out_dir.rmdir()  # made only for this analysis, which failed: leave nothing behind
@@ -378,7 +381,8 @@ def _analyze_with_locks(source: Path, plan: str | Path | AnalysisPlan | None, ou
                         metrics: Sequence[str] | None, questionnaires: str | Path | None, seed: int | None,
                         bootstrap: int | None, drop_duplicates: bool,
                         progress: Callable[[int, int], None] | None, *, reference: str | None = None,
-                        not_applicable: Mapping[str, Collection[str]] | None = None) -> AnalysisResult:
+                        not_applicable: Mapping[str, Collection[str]] | None = None,
+                        force: bool = False) -> AnalysisResult:
     """:func:`analyze` with the run folder's and the output folder's locks held."""
     with contextlib.ExitStack() as locks:
         if is_run_folder(source):
@@ -389,6 +393,8 @@ def _analyze_with_locks(source: Path, plan: str | Path | AnalysisPlan | None, ou
                     raise
                 # a read-only run folder analysed elsewhere: nobody can be writing it
         locks.enter_context(run_lock(out_dir))
+        if source.is_file() and not force and out_dir.resolve() == analysis_folder(source).resolve():
+            check_folder_is_the_tables(source, out_dir)  # under its lock: study.csv's, not study.parquet's
         return _analyze_locked(source, plan, out_dir, metrics, questionnaires, seed, bootstrap,
                                drop_duplicates, progress, reference=reference, not_applicable=not_applicable)
     raise AssertionError("unreachable")  # pragma: no cover - for type checkers
