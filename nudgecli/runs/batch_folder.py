@@ -14,6 +14,7 @@ its execution are in :mod:`nudgecli.runs.batch`.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -44,6 +45,12 @@ BATCH_MANIFEST = "batch.json"
 #: The record of the batch's parts: one ``<SHA-256>  <path in the folder>`` line per part written.
 PART_RECORD = "checksums.sha256"
 _RECORD_LINE = re.compile(r"([0-9a-f]{64})  ([^\n]+)")
+#: Every table a batch kind writes (``<stem>.csv`` in the folder: :mod:`nudgecli.runs.batch_kinds`
+#: writes no other), and every figure (``figures/<stem>.png``): replacing a batch removes them all,
+#: whichever kind it was, and a batch refuses an input of one of these names.
+BATCH_TABLES = ("replications", "conditions", "summary", "power", "smallest_n", "sweep", "points",
+                "sensitivity")
+BATCH_FIGURES = ("forest", "power", "sweep", "sensitivity")
 
 
 def task_part(folder: Path, study: str, participant: int) -> Path:
@@ -163,6 +170,36 @@ class PartRecord:
             raise write_error(self.path, exc) from exc
 
 
+def output_files(folder: Path) -> list[Path]:
+    """Every table and figure a batch of any kind writes in ``folder`` (:data:`BATCH_TABLES`,
+    :data:`BATCH_FIGURES`), there or not."""
+    return ([folder / f"{stem}.csv" for stem in BATCH_TABLES]
+            + [folder / FIGURES_DIR / f"{stem}.png" for stem in BATCH_FIGURES])
+
+
+def remove_outputs(folder: Path) -> None:
+    """Remove what a batch of any kind wrote in ``folder``: its parts (``tasks/``, ``analyses/``),
+    its tables and figures (:func:`output_files`) and the temporaries of their writers. Other files
+    stay, as they do in a replaced run folder: a user's notes, a figure of their own (``figures/``
+    goes only where nothing else is left in it).
+
+    Raises
+    ------
+    WriteError
+        A table or figure cannot be removed (names it and the cause).
+    """
+    for name in ("tasks", "analyses"):
+        shutil.rmtree(folder / name, ignore_errors=True)
+    remove_temporaries((folder, folder / FIGURES_DIR))  # the batch's lock is held: no live writer owns them
+    for path in output_files(folder):
+        try:
+            path.unlink(missing_ok=True)
+        except OSError as exc:
+            raise write_error(path, exc) from exc
+    with contextlib.suppress(OSError):
+        (folder / FIGURES_DIR).rmdir()
+
+
 def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool,
                    people: People | None = None) -> str:
     """Make ``folder`` ready for the batch; ``"new"`` or ``"resume"`` (same description required).
@@ -188,9 +225,8 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
         remove_temporaries((folder, *own, *(folder / "tasks").glob("*/")))
         keep_copy(people, folder)
         return "resume"
-    if mode == "replace":
-        for name in ("tasks", "analyses", FIGURES_DIR):
-            shutil.rmtree(folder / name, ignore_errors=True)
+    if mode == "replace":  # every output of the old batch goes, before any work: none outlives it
+        remove_outputs(folder)
         # of people/, the old batch's copy of its people file goes; other files there stay
         described = None if old is None else old.get("batch")
         remove_copy(folder, described.get(PEOPLE_KEY) if isinstance(described, dict) else None)

@@ -20,7 +20,7 @@ from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError
 from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.runs.batch import Batch, BatchRun, Point, run_batch, single_point
-from nudgecli.runs.batch_folder import BATCH_MANIFEST
+from nudgecli.runs.batch_folder import BATCH_FIGURES, BATCH_MANIFEST, BATCH_TABLES
 from nudgecli.runs.study import checked_plan
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, people_of
@@ -57,7 +57,15 @@ class BatchResult:
     files: list[Path]
 
 
+def _declared(stems: Sequence[str], declared: Sequence[str]) -> None:
+    """A table or figure not in the batch folder's list would outlive a replacement of its batch."""
+    if not set(stems) <= set(declared):
+        raise ValueError(f"batch outputs {sorted(set(stems) - set(declared))} are not declared in "
+                         "nudgecli.runs.batch_folder (BATCH_TABLES, BATCH_FIGURES)")
+
+
 def _write_tables(folder: Path, tables: dict[str, pd.DataFrame]) -> list[Path]:
+    _declared(list(tables), BATCH_TABLES)
     written = []
     for stem, table in tables.items():
         path = folder / f"{stem}.csv"
@@ -69,6 +77,7 @@ def _write_tables(folder: Path, tables: dict[str, pd.DataFrame]) -> list[Path]:
 def _figures(folder: Path, figures: dict[str, Any]) -> list[Path]:
     from nudgecli.report.figures.output import save_figure
 
+    _declared(list(figures), BATCH_FIGURES)
     written: list[Path] = []
     for stem, fig in figures.items():
         written += save_figure(fig, folder / FIGURES_DIR, stem, ("png",))

@@ -1,0 +1,48 @@
+"""A batch folder as a finished batch left it, with files of the user's own, for the tests of
+replacing and refusing batch folders."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from nudgecli.cli import main
+from nudgecli.run_folder_names import FIGURES_DIR
+from nudgecli.runs.batch_folder import BATCH_FIGURES, BATCH_TABLES, PART_RECORD
+
+#: A small replicate batch (the smoke experiment, 2 studies of 2 participants).
+REPLICATE = ("replicate", "smoke", "-R", "2", "--participants", "2")
+#: What :func:`an_old_batch` puts there of the user's own.
+USERS_FILES = {"notes.txt": b"mine", "figures/sketch.png": b"mine too"}
+
+
+def nudge(*args: str):
+    return CliRunner().invoke(main, [*args])
+
+
+def files_of(folder: Path) -> dict[str, bytes]:
+    """Every file under ``folder`` but the lock (relative path -> bytes)."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file() and p.name != ".nudge.lock"}
+
+
+def an_old_batch(folder: Path, kind: str = "power") -> None:
+    """A folder holding every output any batch kind writes, as a finished ``kind`` batch left it,
+    and two files of the user's own (one among the figures)."""
+    (folder / "tasks" / "study").mkdir(parents=True)
+    (folder / "tasks" / "study" / "part-0000.parquet").write_text("part")
+    (folder / "analyses").mkdir()
+    (folder / "analyses" / "study-n0002.json").write_text("{}")
+    (folder / FIGURES_DIR).mkdir()
+    for stem in BATCH_TABLES:
+        (folder / f"{stem}.csv").write_text("old table")
+    for stem in BATCH_FIGURES:
+        (folder / FIGURES_DIR / f"{stem}.png").write_text("old figure")
+    (folder / PART_RECORD).write_text("")
+    (folder / "batch.json").write_text(json.dumps({"batch": {"kind": kind}, "status": "complete"}))
+    (folder / "notes.txt").write_text("mine")
+    (folder / FIGURES_DIR / "sketch.png").write_text("mine too")
+
+
