@@ -343,3 +343,27 @@ def test_a_policy_module_or_factory_that_calls_sys_exit_is_refused_before_any_wo
     out, result = _simulate(tmp_path, _experiment(tmp_path, module))
     _one_error_line(result, "condition 'mine'", *words)
     assert not (out / "trials").exists()
+
+
+# --- constant_metrics: a set of known metric names, checked when the experiment is loaded ---------
+
+@pytest.mark.parametrize(("value", "words"), [
+    ('{"completion_tme"}', ["constant_metrics", "unknown metric 'completion_tme'",
+                            "did you mean 'completion_time'"]),
+    ('"completion_time"', ["constant_metrics", "a set of metric names", "{'completion_time'}"]),
+    ("3", ["constant_metrics", "a set of metric names"]),
+    ('{"completion_time", 4}', ["constant_metrics", "unknown metric 4"]),
+])
+def test_a_policys_constant_metrics_must_be_a_set_of_known_metric_names(tmp_path, value, words):
+    module = GOOD.replace("takes_turns = False", f"takes_turns = False\n    constant_metrics = {value}")
+    out, result = _simulate(tmp_path, _experiment(tmp_path, module))
+    _one_error_line(result, "condition 'mine' (policy mymodule:Mine)", *words)
+    assert not (out / "trials").exists()
+
+
+@pytest.mark.parametrize("value", ['{"completion_time"}', '["completion_time"]', '("completion_time",)',
+                                   'frozenset({"completion_time"})'])
+def test_a_policys_constant_metrics_are_added_to_those_of_its_traits(tmp_path, value):
+    module = GOOD.replace("takes_turns = False", f"takes_turns = False\n    constant_metrics = {value}")
+    config = load_experiment(str(_experiment(tmp_path, module)))
+    assert constant_metrics_of(config)["mine"] == {"completion_time", "human_effort", "human_turns"}

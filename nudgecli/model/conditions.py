@@ -21,6 +21,21 @@ def policy_name(condition: str) -> str:
     return POLICY_ALIASES.get(condition, condition)
 
 
+#: The per-trial metrics, in the metrics table's column order (``nudgecli.report.metrics``
+#: computes them; here so that the simulation can check the names a policy declares constant).
+METRIC_NAMES = (
+    "assistance_engagement",
+    "assistance_strength",
+    "mode_switches",
+    "human_effort",
+    "completion_time",
+    "human_turns",
+    "success",
+    "first_input_latency",
+    "active_input_fraction",
+    "wrong_goal",
+)
+
 #: Metrics a built-in policy makes constant by construction (not applicable to its condition):
 #: without turn-taking the person's turn is the whole trial (``human_effort`` 1, ``human_turns`` 1);
 #: without assistance there is nothing to engage; an additive assistance has no blending weight

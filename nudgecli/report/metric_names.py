@@ -6,18 +6,8 @@ a batch does before its workers start) does not load pandas.
 
 from __future__ import annotations
 
-#: The metrics of :func:`nudgecli.report.metrics.trial_metrics`, in the metrics table's column order.
-METRIC_NAMES = (
-    "assistance_engagement",
-    "assistance_strength",
-    "mode_switches",
-    "human_effort",
-    "completion_time",
-    "human_turns",
-    "success",
-    "first_input_latency",
-    "active_input_fraction",
-    "wrong_goal",
-)
+# The metrics of nudgecli.report.metrics.trial_metrics, in the metrics table's column order; the
+# model owns the names (the simulation checks the metrics a policy declares constant against them).
+from nudgecli.model.conditions import METRIC_NAMES as METRIC_NAMES
 
 __all__ = ["METRIC_NAMES"]

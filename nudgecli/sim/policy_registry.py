@@ -22,12 +22,12 @@ from __future__ import annotations
 import inspect
 import math
 import numbers
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from nudgecli.errors import PolicyError
-from nudgecli.model.conditions import CONSTANT_METRICS, not_applicable_metrics, policy_name
+from nudgecli.errors import PolicyError, did_you_mean
+from nudgecli.model.conditions import CONSTANT_METRICS, METRIC_NAMES, not_applicable_metrics, policy_name
 from nudgecli.sim.builtin_policies import BUILTIN_POLICIES
 from nudgecli.sim.policy_interface import Assistance, AutonomyTurn, Policy, StepView, checked_command
 from nudgecli.sim.policy_loader import import_policy_module
@@ -131,7 +131,23 @@ def check_custom_policy(spec: PolicySpec) -> Policy:
     for name in ("assist", "start_turn"):
         if not callable(getattr(policy, name)):
             raise PolicyError(f"{spec.described}: its {name} must be a method")
+    _check_constant_metrics(getattr(policy, "constant_metrics", ()), spec)
     return policy
+
+
+def _check_constant_metrics(value: Any, spec: PolicySpec) -> None:
+    """Refuse a ``constant_metrics`` that is not a collection of known metric names (a string
+    would be its letters)."""
+    where = f"{spec.described}: its constant_metrics"
+    if isinstance(value, str):
+        raise PolicyError(f"{where} {value!r} is a string; it must be a set of metric names, "
+                          f"e.g. {{{value!r}}}")
+    if not isinstance(value, Collection):
+        raise PolicyError(f"{where} must be a set of metric names, e.g. {{'completion_time'}}, got {value!r}")
+    for name in value:
+        if name not in METRIC_NAMES:
+            raise PolicyError(f"{where} names unknown metric {name!r}{did_you_mean(name, METRIC_NAMES)}; "
+                              f"known: {', '.join(METRIC_NAMES)}")
 
 
 def _make(factory: Callable[..., Any], params: Mapping[str, Any], spec: PolicySpec) -> Any:
