@@ -19,7 +19,7 @@ from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
 from nudgecli.errors import DataError, NudgeError, RunFolderError
 from nudgecli.parquet_reader import read_parquet
-from nudgecli.run_folder_names import CONFIG, LAYOUTS, MANIFEST, PART_KINDS, PARTICIPANTS
+from nudgecli.run_folder_names import CONFIG, LAYOUTS, MANIFEST, METRICS_CSV, PART_KINDS, PARTICIPANTS
 
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
     import pandas as pd
@@ -433,6 +433,58 @@ class RunRecord:
             shown = "(absent)" if recorded_version is _ABSENT else str(recorded_version)
             differences.append(f"nudgecli version: {shown} in the manifest, {__version__} now")
         return differences
+
+    def refuse_live_sessions(self, manifest: Mapping[str, Any] | None) -> None:
+        """Refuse to simulate into a ``nudge study`` folder (its manifest's executor is ``live``):
+        it holds a real person's sessions, which ``--force`` would delete and ``--resume`` would
+        take over (``nudge study`` refuses a simulated folder the same way).
+
+        Raises
+        ------
+        RunFolderError
+            The folder holds live sessions.
+        """
+        if manifest is not None and manifest.get("executor") == "live":
+            raise RunFolderError(f"{self.path}: holds live sessions of a person (recorded by `nudge study`); "
+                                 "simulate into another --out (neither --resume nor --force applies to them)")
+
+    def continue_session_hint(self, manifest: Mapping[str, Any], participants: Iterable[int] = ()) -> str:
+        """How to continue a ``nudge study`` folder's session: the ``nudge study ... --resume``
+        command with the folder's experiment (its config.toml: the --set values are in it) and seed,
+        and the participant's ID where one session is meant (``participants``, else the one
+        unfinished session), ``ID`` otherwise."""
+        from nudgecli.store import study_resume_command  # store builds on this module
+
+        entries = {str(key): entry for key, entry in (manifest.get("live") or {}).items()
+                   if isinstance(entry, Mapping) and entry.get("participant_id")}
+        keys = [str(index) for index in participants] or \
+            [key for key, entry in entries.items() if entry.get("status") != "complete"]
+        ids = [str(entries[key]["participant_id"]) for key in keys if key in entries]
+        seed = manifest.get("seed")
+        command = study_resume_command(str(self.path / CONFIG), ids[0] if len(ids) == 1 else "ID", self.path,
+                                       seed=seed if isinstance(seed, int) else None)
+        among = f" (ID: one of {', '.join(ids)})" if len(ids) > 1 else ""
+        return (f"continue the participant's session with `{command}`{among}, adding the --condition-order "
+                "it was started with, if any")
+
+    def no_parts_message(self, kind: str, manifest: Mapping[str, Any] | None) -> str:
+        """Why the folder has no part of ``kind`` to read, and the command that writes them: a
+        ``nudge study`` folder's continues a session (never a simulation: it would be refused)."""
+        from nudgecli.store import simulate_resume_command  # store builds on this module
+
+        folder = self.path
+        if manifest is not None and manifest.get("executor") == "live":
+            return (f"{folder} holds live sessions with no {kind} recorded yet; "
+                    f"{self.continue_session_hint(manifest)}")
+        if kind == "steps" and (folder / "trials").is_dir() and any((folder / "trials").glob("part-*")):
+            return (f"{folder} has trials but no steps/part-*.parquet; finish the run with "
+                    f"`{simulate_resume_command('EXPERIMENT', folder)}`")
+        if (folder / METRICS_CSV).is_file():
+            # e.g. a committed reference run: its step logs were left out, its metrics kept
+            return (f"{folder} holds metrics but not the step logs they came from; "
+                    f"analyse the table instead: `nudge analyze {folder / METRICS_CSV}`")
+        return (f"{folder} has no {kind} yet (no {kind}/part-*.parquet); run "
+                f"`nudge simulate EXPERIMENT --out {folder}` first")
 
     def _edited_config_hint(self, manifest: Mapping[str, Any]) -> str:
         """``put back ...; `` when the run's ``config.toml`` no longer holds the experiment its

@@ -386,8 +386,7 @@ class RunFolder(RunRecord):
         if missing:
             listed = "; ".join(f"participant {p}: {', '.join(parts)}" for p, parts in sorted(missing.items()))
             raise RunFolderError(f"{self.path} is incomplete: {listed}; a live session rewrites these after "
-                                 "each trial: continue the participant's session with "
-                                 f"`{study_resume_command(str(self.path / CONFIG), 'ID', self.path)}`")
+                                 f"each trial: {self.continue_session_hint(manifest, sorted(missing))}")
         return manifest
 
     def read_table(self, kind: str, columns: Sequence[str] | None = None,
@@ -428,7 +427,7 @@ class RunFolder(RunRecord):
             asked = [index for index in expected if participants is None or index in participants]
             parts = [part for index in asked if (part := self.part_path(kind, index)).is_file()]
         if not parts:
-            raise RunFolderError(self._no_parts_message(kind))
+            raise RunFolderError(self.no_parts_message(kind, manifest))
         sums = self.checksums_to_read(manifest) if manifest is not None else {}
         frames = []
         for part in parts:
@@ -457,18 +456,6 @@ class RunFolder(RunRecord):
 
         return pd.concat(frames, ignore_index=True)
 
-    def _no_parts_message(self, kind: str) -> str:
-        folder = self.path
-        if kind == "steps" and (folder / "trials").is_dir() and any((folder / "trials").glob("part-*")):
-            return (f"{folder} has trials but no steps/part-*.parquet; finish the run with "
-                    f"`{simulate_resume_command('EXPERIMENT', folder)}`")
-        if (folder / METRICS_CSV).is_file():
-            # e.g. a committed reference run: its step logs were left out, its metrics kept
-            return (f"{folder} holds metrics but not the step logs they came from; "
-                    f"analyse the table instead: `nudge analyze {folder / METRICS_CSV}`")
-        return (f"{folder} has no {kind} yet (no {kind}/part-*.parquet); run "
-                f"`nudge simulate EXPERIMENT --out {folder}` first")
-
     def read_trials(self) -> pd.DataFrame:
         return self.read_table("trials")
 
@@ -487,6 +474,7 @@ class RunFolder(RunRecord):
         """
         config_text = config.to_toml()
         manifest = self.read_manifest() if self.is_run() else None
+        self.refuse_live_sessions(manifest)  # a person's sessions: neither resumed nor replaced
         if manifest is None and resume and not force and self._only_a_start(config_text):
             self._remove_temporaries()  # killed before its manifest: start it afresh
             return "new"
@@ -515,7 +503,6 @@ class RunFolder(RunRecord):
             self._clear(manifest)
         write_text_atomic(self.path / CONFIG, config_text)
         return "new"
-
 
     def _only_a_start(self, config_text: str) -> bool:
         """Whether the folder holds only the start of this very run (its config.toml, perhaps its
