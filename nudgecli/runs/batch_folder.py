@@ -200,6 +200,37 @@ def remove_outputs(folder: Path) -> None:
         (folder / FIGURES_DIR).rmdir()
 
 
+#: JSON's names of what Python's json module reads, for a damaged manifest's message.
+_JSON_TYPES = {list: "an array", str: "a string", int: "a number", float: "a number", bool: "true or false",
+               type(None): "null"}
+
+
+def read_manifest(manifest: Path) -> tuple[dict[str, Any] | None, str | None]:
+    """The batch folder's manifest (``batch.json``) and what damages it, if anything.
+
+    Returns
+    -------
+    tuple
+        ``(None, None)`` where there is no manifest; ``(document, None)`` for a JSON object with a
+        ``batch`` object (the description a resume compares); ``(None, damage)`` for anything
+        else, ``damage`` saying what is wrong (not JSON, not an object, no ``batch`` object).
+    """
+    if not manifest.is_file():
+        return None, None
+    try:
+        document = json.loads(manifest.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:  # UnicodeDecodeError is a ValueError
+        return None, f"not readable as JSON: {exc}"
+    if not isinstance(document, dict):
+        return None, f"{_JSON_TYPES.get(type(document), 'not an object')}, not a JSON object"
+    described = document.get("batch")
+    if not isinstance(described, dict):
+        shown = "missing" if described is None else \
+            f"{_JSON_TYPES.get(type(described), 'not an object')}, not an object"
+        return None, f'its "batch" entry, the description of the batch, is {shown}'
+    return document, None
+
+
 def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool,
                    people: People | None = None) -> str:
     """Make ``folder`` ready for the batch; ``"new"`` or ``"resume"`` (same description required).
@@ -208,13 +239,14 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     but holds no batch is written into with ``force``, not cleared. Once the folder is accepted it
     keeps the batch's ``people`` file, byte for byte (:func:`nudgecli.sim.people_file.keep_copy`;
     a resume puts back a missing or edited copy)."""
-    manifest, old = folder / BATCH_MANIFEST, None
-    if manifest.is_file():
-        try:
-            old = json.loads(manifest.read_text(encoding="utf-8"))
-        except ValueError as exc:
-            raise RunFolderError(f"{manifest}: unreadable ({exc}); use --force to start again") from None
-    held = None if old is None else f"{old.get('batch', {}).get('kind')}, {old.get('status')}"
+    manifest = folder / BATCH_MANIFEST
+    old, damage = read_manifest(manifest)
+    if damage is not None and not force:  # a batch is there, but what it was is lost: only --force helps
+        raise RunFolderError(f"{manifest}: damaged ({damage}); which batch the folder holds is unknown, "
+                             "so it cannot be resumed: use --force to replace it (its tasks are computed "
+                             "again), or choose another --out")
+    held = (None if old is None and damage is None else "its batch.json damaged" if old is None
+            else f"{old['batch'].get('kind')}, {old.get('status')}")
     mode = prepare_mode(folder, held, resume, force, kind="batch")
     if old is not None and mode == "resume":
         if old.get("batch") != json.loads(json.dumps(description)):
