@@ -75,6 +75,8 @@ def _shown(value: Any) -> str:
 
 
 _ABSENT = object()
+#: The key of an experiment's own seed (the seed of a run without --seed).
+_EXPERIMENT_SEED = "experiment.seed"
 
 
 def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -> list[str]:
@@ -417,7 +419,11 @@ class RunRecord:
         ``config.toml``), then the seed, the participant count and nudgecli's version.
         """
         if isinstance(manifest.get("config"), Mapping):
-            differences = experiment_differences(manifest["config"], config.model_dump(mode="json"))
+            # the seed used is compared below; a run made before config.toml recorded it holds the
+            # experiment's own seed there, not its --seed
+            differences = [difference for difference in
+                           experiment_differences(manifest["config"], config.model_dump(mode="json"))
+                           if not difference.startswith(f"{_EXPERIMENT_SEED}:")]
         else:  # a manifest of an older nudge: the run's config.toml is the record
             config_path = self.path / CONFIG
             old = config_path.read_text(encoding="utf-8") if config_path.is_file() else ""
@@ -433,6 +439,25 @@ class RunRecord:
             shown = "(absent)" if recorded_version is _ABSENT else str(recorded_version)
             differences.append(f"nudgecli version: {shown} in the manifest, {__version__} now")
         return differences
+
+    def config_toml_warning(self, config: ExperimentConfig) -> str | None:
+        """What a resume that writes ``config`` (the manifest's experiment, with the run's seed) to
+        config.toml again says of the one there: it held the experiment's own seed rather than the
+        run's (written before config.toml recorded the --seed), or it differed (or was missing);
+        ``None`` when it holds ``config`` already."""
+        path = self.path / CONFIG
+        text = path.read_text(encoding="utf-8") if path.is_file() else None
+        if text == config.to_toml():
+            return None
+        try:
+            on_disk = None if text is None else experiment_from_toml(text, str(path))
+        except (NudgeError, ValueError):
+            on_disk = None
+        if on_disk is not None and [difference.split(":")[0] for difference in experiment_differences(
+                on_disk.model_dump(mode="json"), config.model_dump(mode="json"))] == [_EXPERIMENT_SEED]:
+            return (f"{path} held the experiment's own seed ({on_disk.experiment.seed}), not the one the "
+                    f"run used ({config.experiment.seed}); rewritten with it")
+        return f"{path} differed from the experiment in the manifest; rewritten from it"
 
     def refuse_live_sessions(self, manifest: Mapping[str, Any] | None) -> None:
         """Refuse to simulate into a ``nudge study`` folder (its manifest's executor is ``live``):

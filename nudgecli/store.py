@@ -492,12 +492,10 @@ class RunFolder(RunRecord):
                     f"with ({shown}); {self._edited_config_hint(manifest)}resume it with its own: "
                     f"`{self.resume_command(manifest)}`, or use --force to replace it")
             self._remove_temporaries()
-            config_path = self.path / CONFIG
-            if not config_path.is_file() or config_path.read_text(encoding="utf-8") != config_text:
-                # the manifest's experiment is the run's: put back an edited or lost config.toml
-                print(f"Warning: {config_path} differed from the experiment in the manifest; "
-                      "rewritten from it", file=sys.stderr)
-                write_text_atomic(config_path, config_text)
+            # the manifest's experiment is the run's: put back an edited or lost config.toml
+            if (warning := self.config_toml_warning(config)) is not None:
+                print(f"Warning: {warning}", file=sys.stderr)
+                write_text_atomic(self.path / CONFIG, config_text)
             return "resume"
         if mode in ("replace", "overwrite"):
             self._clear(manifest)

@@ -280,7 +280,8 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     out
         The run folder.
     seed, participants
-        Overrides of the experiment's seed and participant count.
+        Overrides of the experiment's seed and participant count (both recorded in the run's
+        config.toml and the manifest's experiment).
     workers
         Local processes (1: in this process).
     scheduler
@@ -323,6 +324,9 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     check_study_size(config, n, confirm)  # trials and steps, before the folder is touched
     if participants is not None:
         config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
+    # config.toml is the resolved experiment: it records the seed used, so simulating it again
+    # (`nudge simulate RUN/config.toml`) gives the same tables
+    config = config.model_copy(update={"experiment": config.experiment.model_copy(update={"seed": seed})})
     check_physiology_logs(config)
     people = people_of(people)  # a bad people file is refused before the folder is touched
     if plan is not None:  # refused before anything is simulated or written
