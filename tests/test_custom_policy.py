@@ -16,7 +16,7 @@ from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.errors import PolicyError
 from nudgecli.runs.study import run_study
-from nudgecli.sim.policy_interface import Assistance, Policy
+from nudgecli.sim.policy_interface import Assistance, AutonomyTurn, Policy
 from nudgecli.sim.policy_registry import (
     CheckedPolicy,
     PolicySpec,
@@ -367,3 +367,19 @@ def test_a_policys_constant_metrics_are_added_to_those_of_its_traits(tmp_path, v
     module = GOOD.replace("takes_turns = False", f"takes_turns = False\n    constant_metrics = {value}")
     config = load_experiment(str(_experiment(tmp_path, module)))
     assert constant_metrics_of(config)["mine"] == {"completion_time", "human_effort", "human_turns"}
+
+
+@pytest.mark.parametrize(("target", "words"), [
+    ((1.0, 2.0), ["start_turn: its target must be three numbers (x, y, theta), got 2"]),
+    ("here", ["start_turn: its target must be three numbers (x, y, theta), got 'here'"]),
+    ((1.0, float("nan"), 0.0), ["start_turn: its target must be finite"]),
+])
+def test_an_autonomy_turns_target_is_a_pose(target, words):
+    plan = AutonomyTurn(target)
+    mine = SimpleNamespace(infers=True, takes_turns=True, assist=None, start_turn=lambda view: plan)
+    checked = CheckedPolicy(mine, PolicySpec("mine", "mymodule:Mine"))
+    with pytest.raises(PolicyError) as raised:
+        checked.start_turn(SimpleNamespace())
+    for word in words:
+        assert word in str(raised.value)
+    assert "vx" not in str(raised.value)

@@ -268,19 +268,35 @@ def drive_towards(view: StepView, target: Sequence[float] | np.ndarray,
 
 
 def checked_command(value: Any, what: str) -> tuple[float, float, float]:
-    """``value`` as a finite ``(vx, vy, omega)`` tuple.
+    """``value`` as a finite command ``(vx, vy, omega)`` tuple.
 
     Raises
     ------
     ValueError
         ``value`` is not three finite numbers (``what`` names it in the message).
     """
+    return _three_finite(value, what, "vx, vy, omega")
+
+
+def checked_pose(value: Any, what: str) -> tuple[float, float, float]:
+    """``value`` as a finite pose ``(x, y, theta)`` tuple (an :class:`AutonomyTurn`'s target).
+
+    Raises
+    ------
+    ValueError
+        ``value`` is not three finite numbers (``what`` names it in the message).
+    """
+    return _three_finite(value, what, "x, y, theta")
+
+
+def _three_finite(value: Any, what: str, names: str) -> tuple[float, float, float]:
+    """``value`` (3,) as a tuple of finite floats; ``names`` says what the three are."""
     try:
         items = tuple(float(v) for v in np.asarray(value, dtype=float).reshape(-1))
     except (TypeError, ValueError):
-        raise ValueError(f"{what} must be three numbers (vx, vy, omega), got {value!r}") from None
+        raise ValueError(f"{what} must be three numbers ({names}), got {value!r}") from None
     if len(items) != 3:
-        raise ValueError(f"{what} must be three numbers (vx, vy, omega), got {len(items)}")
+        raise ValueError(f"{what} must be three numbers ({names}), got {len(items)}")
     if not all(math.isfinite(v) for v in items):
         raise ValueError(f"{what} must be finite, got {items}")
     return items[0], items[1], items[2]

@@ -29,7 +29,14 @@ from typing import TYPE_CHECKING, Any
 from nudgecli.errors import PolicyError, did_you_mean
 from nudgecli.model.conditions import CONSTANT_METRICS, METRIC_NAMES, not_applicable_metrics, policy_name
 from nudgecli.sim.builtin_policies import BUILTIN_POLICIES
-from nudgecli.sim.policy_interface import Assistance, AutonomyTurn, Policy, StepView, checked_command
+from nudgecli.sim.policy_interface import (
+    Assistance,
+    AutonomyTurn,
+    Policy,
+    StepView,
+    checked_command,
+    checked_pose,
+)
 from nudgecli.sim.policy_loader import import_policy_module
 
 if TYPE_CHECKING:
@@ -228,7 +235,7 @@ class CheckedPolicy:
             self._fail(f"start_turn returned {type(plan).__name__}, not an AutonomyTurn")
         if plan.target is not None:
             try:
-                checked_command(plan.target, "its target")
+                checked_pose(plan.target, "its target")
             except ValueError as exc:
                 raise PolicyError(f"{self.spec.described}: start_turn: {exc}") from None
         if plan.mode is not None and plan.mode not in (0, 1, 2):
