@@ -222,14 +222,24 @@ class RunRecord:
         return changed
 
     def integrity_notes(self, manifest: Mapping[str, Any]) -> list[str]:
-        """What a reader of the run should be told: stray parts left out, parts without a recorded
-        SHA-256 (a manifest of an older nudge, or a ``nudge study`` folder) that were not verified."""
+        """What a reader of the run should be told: stray parts left out, participants left out
+        whose parts the manifest checksummed beyond its count (a count lowered by hand), parts
+        without a recorded SHA-256 (a manifest of an older nudge, or a ``nudge study`` folder)
+        that were not verified."""
         notes = []
-        strays = self.stray_parts(manifest)
+        beyond = self._checksummed_beyond_count(manifest)
+        kept = {part_name(index) for index in beyond}  # named by the note of their own below
+        strays = [stray for stray in self.stray_parts(manifest) if stray.split("/", 1)[1] not in kept]
         if strays:
             shown = ", ".join(strays[:6]) + (f" and {len(strays) - 6} more" if len(strays) > 6 else "")
             notes.append(f"{self.path}: left out {len(strays)} part(s) not in the manifest: {shown}; they do "
                          "not belong to this run (remove them)")
+        if beyond:
+            count = len(self.manifest_participants(manifest) or [])
+            notes.append(f"{self.path}: the manifest records the SHA-256 of the parts of participant(s) "
+                         f"{', '.join(map(str, beyond))}, beyond its {count} participant(s): this run wrote "
+                         f"them, but they were left out (was 'participants' in {MANIFEST} lowered?); set it "
+                         f"back to {beyond[-1] + 1} to read them")
         expected = self.manifest_participants(manifest) or []
         sums = self.recorded_checksums(manifest)
         unverified = [index for index in expected if index not in sums]
@@ -239,6 +249,14 @@ class RunRecord:
         if manifest.get("executor") == "live" and manifest.get("status") != "complete":
             notes.append(self._live_progress_note(manifest))
         return notes
+
+    def _checksummed_beyond_count(self, manifest: Mapping[str, Any]) -> list[int]:
+        """The participants whose parts' SHA-256 the manifest records but whose parts it does not
+        promise (its ``participants`` lowered after the run wrote them), in order."""
+        expected = self.manifest_participants(manifest)
+        if expected is None:
+            return []
+        return sorted(set(self.recorded_checksums(manifest)) - set(expected))
 
     def _live_progress_note(self, manifest: Mapping[str, Any]) -> str:
         """How far an unfinished ``nudge study`` folder got: its participants finished, its trials

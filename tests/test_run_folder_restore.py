@@ -15,6 +15,7 @@ from click.testing import CliRunner
 
 from nudgecli.cli import main
 from nudgecli.config import experiment_from_toml, load_experiment
+from nudgecli.run_folder_record import RunRecord
 from nudgecli.runs.study import run_study
 from nudgecli.store import RunFolder
 
@@ -98,3 +99,42 @@ def test_a_resume_with_another_seed_is_still_refused(tmp_path, seeded_run):
                                        "--out", str(run), "--resume"])
     assert result.exit_code == 1
     assert "seed: 99 in the manifest, 98 now" in result.output and "experiment.seed" not in result.output
+
+
+# --- a lowered participant count ----------------------------------------------------------------------
+
+def test_a_lowered_participant_count_names_the_checksummed_participants_left_out(tmp_path, seeded_run):
+    run = copy_run(seeded_run, tmp_path / "run")
+    manifest = json.loads((run / "manifest.json").read_text())
+    manifest["participants"] = 1
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    result = CliRunner().invoke(main, ["analyze", str(run), "--out", str(tmp_path / "analysis")])
+    assert result.exit_code == 0, result.output
+    notes = [line for line in result.output.splitlines() if line.startswith("Note:")]
+    expected = (f"Note: {run}: the manifest records the SHA-256 of the parts of participant(s) 1, beyond its "
+                "1 participant(s): this run wrote them, but they were left out (was 'participants' in "
+                "manifest.json lowered?); set it back to 2 to read them")
+    assert expected in notes, notes
+    # its parts are this run's: not called strays that "do not belong to this run"
+    assert not any("do not belong" in note for note in notes), notes
+
+
+def test_the_beyond_count_note_names_each_checksummed_participant_and_strays_apart(tmp_path):
+    (tmp_path / "trials").mkdir()
+    for index in (1, 3, 4):
+        (tmp_path / "trials" / f"part-{index:04d}.parquet").write_bytes(b"")
+    manifest = {"participants": 1, "checksums": {"0": {}, "2": {}, "3": {}}}
+    notes = RunRecord(tmp_path).integrity_notes(manifest)
+    assert notes == [
+        f"{tmp_path}: left out 2 part(s) not in the manifest: trials/part-0001.parquet, "
+        "trials/part-0004.parquet; they do not belong to this run (remove them)",
+        f"{tmp_path}: the manifest records the SHA-256 of the parts of participant(s) 2, 3, beyond its "
+        "1 participant(s): this run wrote them, but they were left out (was 'participants' in "
+        "manifest.json lowered?); set it back to 4 to read them",
+    ]
+    # within the count, nothing is beyond it (participant 1's parts are unverified, another note)
+    sums = {"0": {}, "2": {}, "3": {}}
+    within = RunRecord(tmp_path).integrity_notes({"participants": 4, "checksums": sums})
+    assert within[0] == (f"{tmp_path}: left out 1 part(s) not in the manifest: trials/part-0004.parquet; "
+                         "they do not belong to this run (remove them)")
+    assert len(within) == 2 and "no SHA-256 of the parts of 1 participant(s)" in within[1]
