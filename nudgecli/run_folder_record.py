@@ -363,7 +363,10 @@ class RunRecord:
         manifest = manifest if manifest is not None else self.read_manifest()
         people = manifest.get(PEOPLE_KEY)
         file = resume_people(self.path, people, people.get("file")) if isinstance(people, dict) else None
-        return simulate_resume_command(str(self.path / CONFIG), self.path, manifest.get("seed"),
+        # a lost config.toml: the experiment the manifest names (a resume writes config.toml again)
+        experiment = str(self.path / CONFIG) if (self.path / CONFIG).is_file() else \
+            str(manifest.get("experiment") or "EXPERIMENT")
+        return simulate_resume_command(experiment, self.path, manifest.get("seed"),
                                        manifest.get("participants"), people=file)
 
     def unvouched_parts(self, manifest: Mapping[str, Any],
@@ -460,15 +463,17 @@ class RunRecord:
 
     def config_toml_warning(self, config: ExperimentConfig) -> str | None:
         """What a resume that writes ``config`` (the manifest's experiment, with the run's seed) to
-        config.toml again says of the one there: it held the experiment's own seed rather than the
-        run's (written before config.toml recorded the --seed), or it differed (or was missing);
+        config.toml again says of the one there: it was missing, it held the experiment's own seed
+        rather than the run's (written before config.toml recorded the --seed), or it differed;
         ``None`` when it holds ``config`` already."""
         path = self.path / CONFIG
-        text = path.read_text(encoding="utf-8") if path.is_file() else None
+        if not path.is_file():
+            return f"{path} was missing; written again from the experiment in the manifest"
+        text = path.read_text(encoding="utf-8")
         if text == config.to_toml():
             return None
         try:
-            on_disk = None if text is None else experiment_from_toml(text, str(path))
+            on_disk = experiment_from_toml(text, str(path))
         except (NudgeError, ValueError):
             on_disk = None
         if on_disk is not None and [difference.split(":")[0] for difference in experiment_differences(

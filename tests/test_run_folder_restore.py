@@ -138,3 +138,26 @@ def test_the_beyond_count_note_names_each_checksummed_participant_and_strays_apa
     assert within[0] == (f"{tmp_path}: left out 1 part(s) not in the manifest: trials/part-0004.parquet; "
                          "they do not belong to this run (remove them)")
     assert len(within) == 2 and "no SHA-256 of the parts of 1 participant(s)" in within[1]
+# --- a lost config.toml -------------------------------------------------------------------------------
+
+def test_a_lost_config_toml_is_restored_with_the_experiment_the_manifest_names(tmp_path, seeded_run):
+    run = copy_run(seeded_run, tmp_path / "run")
+    (run / "config.toml").unlink()
+    _drop_participant(run, 1)
+    result = CliRunner().invoke(main, ["analyze", str(run)])
+    assert result.exit_code == 1
+    command = result.output.split("`")[1]
+    assert shlex.split(command)[:3] == ["nudge", "simulate", "smoke"], command
+    warning = _run_printed(command)
+    assert f"Warning: {run / 'config.toml'} was missing; written again from the experiment in the manifest" \
+        in warning and "differed" not in warning
+    assert (run / "config.toml").read_text() == (seeded_run / "config.toml").read_text()
+    pd.testing.assert_frame_equal(_trials(run), _trials(seeded_run))
+
+
+def test_an_edited_config_toml_still_says_it_differed(tmp_path, seeded_run):
+    run = copy_run(seeded_run, tmp_path / "run")
+    (run / "config.toml").write_text((run / "config.toml").read_text() + "\n# edited\n")
+    _drop_participant(run, 1)
+    warning = _run_printed(RunFolder(run).resume_command())
+    assert "differed from the experiment in the manifest; rewritten from it" in warning
