@@ -672,7 +672,10 @@ def test_a_design_coordinate_picks_a_value_by_its_whole_part() -> None:
     # the coordinate of k values runs over [0, k]: value i owns [i, i + 1), the top end the last
     assert [map_sample(choices, x) for x in (0.0, 0.99, 1.0, 1.6, 2.5, 3.0)] == ["a", "a", "b", "b", "c", "c"]
     whole = Range(low=1.0, high=5.0, integer=True)
-    assert [map_sample(whole, x) for x in (1.0, 3.7, 4.999, 5.0)] == [1, 3, 4, 5]
+    # the integers 1..5 are five values: the coordinate runs over [1, 6], integer i owns [i, i + 1)
+    assert [map_sample(whole, x) for x in (1.0, 3.7, 4.999, 5.0, 5.999, 6.0)] == [1, 3, 4, 5, 5, 5]
+    assert salib_problem(SweepFile(experiment="unused", design=Design(method="sobol"),
+                                   parameters={"a.n": whole}))["bounds"] == [[1.0, 6.0]]
     assert isinstance(map_sample(whole, 3.7), int) and map_sample(Range(low=1.0, high=5.0), 3.7) == 3.7
     spec = SweepFile(experiment="unused", design=Design(method="sobol", samples=64, seed=1),
                      parameters={"a.k": choices, "b.x": Range(low=-1.0, high=2.0)})

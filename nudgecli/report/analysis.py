@@ -224,14 +224,15 @@ def analysed_metrics_path(folder: str | Path) -> Path | None:
     return path if path is not None and path.is_file() else None
 
 
-def _load_table(source: Path, drop_duplicates: bool, notes: list[str],
-                min_conditions: int = 1) -> tuple[pd.DataFrame, list[str], int]:
+def _load_table(source: Path, drop_duplicates: bool, notes: list[str], min_conditions: int = 1,
+                chosen: Sequence[str] | None = None) -> tuple[pd.DataFrame, list[str], int]:
     """A checked metrics table (at least ``min_conditions`` conditions), its metric columns, and
-    how many repeated trial rows were dropped."""
+    how many repeated trial rows were dropped (``chosen``: the ``--metric`` names, the only
+    columns that must then be numeric)."""
     table = read_metrics_table(source)
     rows_read = len(table)
     first_row = 2 if source.suffix.lower() == ".csv" else 1
-    metric_columns = validate_metrics_table(table, str(source), first_row, min_conditions)
+    metric_columns = validate_metrics_table(table, str(source), first_row, min_conditions, chosen or None)
     table, _ = drop_or_refuse_duplicates(table, source, first_row, drop_duplicates, notes)
     return table, metric_columns, rows_read - len(table)
 
@@ -257,21 +258,23 @@ def _load_source(source: Path, plan: AnalysisPlan,
 
 
 def load_source(source: Path, plan: AnalysisPlan, min_conditions: int = 1, *, drop_duplicates: bool = False,
-                notes: list[str] | None = None) -> tuple[pd.DataFrame, list[str], Path]:
+                notes: list[str] | None = None,
+                metrics: Sequence[str] | None = None) -> tuple[pd.DataFrame, list[str], Path]:
     """The metrics table, its metric columns and the default output folder of a source.
 
     A run folder's metrics are computed with ``plan``'s definitions; a table is read and checked
     as ``nudge analyze`` checks it (:func:`~nudgecli.report.tables.validate_metrics_table`, at
     least ``min_conditions`` conditions; repeated trial rows refused, or dropped with
     ``drop_duplicates``: :func:`~nudgecli.report.tables.drop_or_refuse_duplicates`). What was left
-    out goes to ``notes``.
+    out goes to ``notes``. With ``metrics`` (``--metric``) only those of a table's columns must be
+    numeric; its other non-numeric columns are left out.
     """
     notes = [] if notes is None else notes
     if not source.exists():
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
     if source.is_dir():
         return _load_source(source, plan, notes)
-    table, metric_columns, _ = _load_table(source, drop_duplicates, notes, min_conditions)
+    table, metric_columns, _ = _load_table(source, drop_duplicates, notes, min_conditions, metrics)
     return table, metric_columns, analysis_folder(source)
 
 
@@ -418,7 +421,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         changed = True
     else:
         sha256 = file_sha256(source)  # before reading: a table edited meanwhile is never taken for this one
-        table, available, dropped = _load_table(source, drop_duplicates, notes)
+        table, available, dropped = _load_table(source, drop_duplicates, notes, chosen=metrics)
         changed = dropped > 0
         table_read = table_read_record(sha256, len(table) + dropped, drop_duplicates, dropped)
     # before anything is recorded: a plan whose conditions are not the data's is refused

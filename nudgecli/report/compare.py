@@ -484,13 +484,13 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
 
     chosen = load_plan(plan_of_source(simulated) if plan is None else plan)
     sim_table, sim_metrics, _ = load_source(Path(simulated), chosen, min_conditions=1,
-                                            drop_duplicates=drop_duplicates, notes=notes)
+                                            drop_duplicates=drop_duplicates, notes=notes, metrics=metrics)
     real_path = Path(real)
     if real_path.is_dir():
         raise DataError(f"{real_path} is a folder; REAL must be a metrics table of real trials (.csv or "
                         ".parquet, one row per trial with participant, condition and metric columns)")
     real_table, real_metrics, _ = load_source(real_path, chosen, min_conditions=1,
-                                              drop_duplicates=drop_duplicates, notes=notes)
+                                              drop_duplicates=drop_duplicates, notes=notes, metrics=metrics)
     selected = shared_metrics(sim_metrics, real_metrics, metrics)
     sim_table = apply_filters(sim_table, chosen.filters)
     real_table = apply_filters(real_table, chosen.filters)

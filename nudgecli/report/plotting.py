@@ -355,10 +355,13 @@ def _read_metrics_csv(path: Path) -> pd.DataFrame:
     return table
 
 
-def _read_table(path: Path) -> pd.DataFrame:
-    """A metrics table an analysis named, read and checked as ``nudge analyze`` reads one."""
+def _read_table(path: Path, stats: Mapping[str, Any]) -> pd.DataFrame:
+    """A metrics table an analysis named, read and checked as ``nudge analyze`` reads one: only the
+    metrics its ``stats`` holds must be numeric (a text column left out by ``--metric`` is ignored)."""
     table = read_metrics_table(path)
-    validate_metrics_table(table, str(path))
+    entries = stats.get("metrics") or []
+    analysed = [str(entry.get("metric")) for entry in entries if isinstance(entry, Mapping)]
+    validate_metrics_table(table, str(path), chosen=analysed)
     return table
 
 
@@ -387,7 +390,7 @@ def _table_as_analysed(path: Path, folder: Path, stats: Mapping[str, Any],
         return _read_metrics_csv(path), path
     record = recorded_table_read(stats, str(stats_path))
     if record is None:
-        table = _read_table(path)
+        table = _read_table(path, stats)
         if find_duplicate_trials(table)[1].any():
             raise DataError(f"{path} holds repeated trial rows and {stats_path} (written by an older nudge) "
                             "does not record whether its analysis dropped them; run "
@@ -395,7 +398,7 @@ def _table_as_analysed(path: Path, folder: Path, stats: Mapping[str, Any],
         return table, path
     check_table_is_analysed(path, record, stats_path)
     if stats.get("metrics_table") != METRICS_CSV:  # analysed as it is: these very bytes
-        return _read_table(path), path
+        return _read_table(path, stats), path
     if not own_copy.is_file():
         command = analyze_command(path, folder, record["drop_duplicates"])
         raise RunFolderError(f"{own_copy} is gone: it held the rows of {path} that {stats_path} was "
@@ -454,7 +457,7 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
         stats_path = folder / STATS_JSON
         stats = read_stats(stats_path)
         analysis_copy = metrics_path.name == METRICS_CSV
-        table = _read_metrics_csv(metrics_path) if analysis_copy else _read_table(metrics_path)
+        table = _read_metrics_csv(metrics_path) if analysis_copy else _read_table(metrics_path, stats)
         metrics_name = str(metrics_path)
     record = recorded_checksum(stats, str(stats_path))
     table = apply_filters(table, record.get("filters") or {})

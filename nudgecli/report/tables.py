@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import contextlib
 import csv
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -379,7 +379,7 @@ def _as_boolean(series: pd.Series) -> pd.Series | None:
 
 
 def validate_metrics_table(table: pd.DataFrame, source: str, first_row: int = 2,
-                           min_conditions: int = 1) -> list[str]:
+                           min_conditions: int = 1, chosen: Collection[str] | None = None) -> list[str]:
     """Check a metrics table and return its metric columns.
 
     Boolean columns with blanks (``True``, ``False``, empty) are converted in place to nullable
@@ -395,14 +395,23 @@ def validate_metrics_table(table: pd.DataFrame, source: str, first_row: int = 2,
         The row number messages give the table's first row (2 for a CSV: line 1 is the header).
     min_conditions
         Fewest conditions the table must hold.
+    chosen
+        The metrics asked for (``--metric``); ``None``: every metric column. Only a chosen column
+        must be numeric: one that is not, and not chosen, is ignored (left out of the result).
+
+    Returns
+    -------
+    list of str
+        The numeric metric columns (every column but :data:`NON_METRIC_COLUMNS`, less the
+        non-numeric ones not chosen), in the table's order.
 
     Raises
     ------
     DataError
         A missing or incomplete ``participant``/``condition`` column, no metric column, a
-        non-numeric metric column, an infinite value, condition labels differing only by case or
-        surrounding spaces, or fewer than ``min_conditions`` conditions (a single condition is
-        analysed descriptively).
+        non-numeric metric column (a chosen one, with ``chosen``), an infinite value, condition
+        labels differing only by case or surrounding spaces, or fewer than ``min_conditions``
+        conditions (a single condition is analysed descriptively).
     """
     for column in ("participant", "condition"):
         if column not in table.columns:
@@ -418,20 +427,25 @@ def validate_metrics_table(table: pd.DataFrame, source: str, first_row: int = 2,
     if not metric_columns:
         raise DataError(f"{source} has no metric columns; add one numeric column per metric "
                         f"(e.g. {', '.join(METRIC_NAMES[:3])})")
+    numeric_columns: list[str] = []
     for column in metric_columns:
         if table[column].dtype == object and (converted := _as_boolean(table[column])) is not None:
             table[column] = converted
         if not _is_numeric(table[column]):
+            if chosen is not None and column not in chosen:
+                continue  # not analysed: --metric picked others
             culprit = _first_non_number(table[column], first_row)
+            fix = "leave it out of --metric" if chosen is not None else "pick the metrics with --metric"
             raise DataError(f"{source}: metric column {column!r} is not numeric{culprit}; make it numeric, "
-                            "remove it, or pick the metrics with --metric")
-    _check_finite(table, metric_columns, source, first_row)
+                            f"remove it, or {fix}")
+        numeric_columns.append(column)
+    _check_finite(table, numeric_columns, source, first_row)
     check_condition_labels(table, source)
     conditions = sorted({str(value) for value in table["condition"].dropna().unique()})
     if len(conditions) < min_conditions:
         raise DataError(f"{source}: column 'condition' holds {len(conditions)} condition(s); "
                         f"this needs at least {min_conditions}")
-    return metric_columns
+    return numeric_columns
 
 
 def drop_or_refuse_duplicates(table: pd.DataFrame, source: Path, first_row: int, drop_duplicates: bool,

@@ -22,9 +22,10 @@ A sweep file is TOML::
     "model.epsilon" = [0.05, 0.1, 0.2]                       # shorthand for { values = [...] }
 
 A grid takes every combination of the parameters' values (ranges are refused). Sobol and Morris
-designs sample the unit hypercube with SALib: a range maps linearly (an integer range takes the
-floor, so each integer gets an equal share); a set of ``k`` values is the range ``[0, k)`` and
-takes the value at the floor. Every point is validated as an experiment before anything runs.
+designs sample the unit hypercube with SALib: a range maps linearly; a set of ``k`` values is
+the range ``[0, k]`` and takes the value at the floor (the top end the last); an integer range
+is the set of its integers ``ceil(low)..floor(high)``, each with an equal share, never one
+outside the bounds. Every point is validated as an experiment before anything runs.
 """
 
 from __future__ import annotations
@@ -64,7 +65,14 @@ class Range(_Model):
     def _check(self) -> Range:
         if not self.low < self.high:
             raise ValueError(f"low must be below high, got low={self.low:g}, high={self.high:g}")
+        if self.integer and math.ceil(self.low) > math.floor(self.high):
+            raise ValueError(f"no integer lies between low={self.low:g} and high={self.high:g}; "
+                             "widen the range or drop integer = true")
         return self
+
+    def integers(self) -> tuple[int, int]:
+        """An integer range's first and last integer: ``ceil(low)`` and ``floor(high)``."""
+        return math.ceil(self.low), math.floor(self.high)
 
 
 class Values(_Model):
@@ -211,10 +219,14 @@ def load_sweep(name_or_path: str) -> Sweep:
 
 
 def salib_problem(spec: SweepFile) -> dict[str, Any]:
-    """SALib's problem: one variable per parameter, a range's bounds or ``[0, k]`` for k values."""
+    """SALib's problem: one variable per parameter, a range's bounds, ``[0, k]`` for k values and
+    ``[first, last + 1]`` for an integer range whose integers run from ``first`` to ``last``."""
     bounds = []
     for value in spec.parameters.values():
-        if isinstance(value, Range):
+        if isinstance(value, Range) and value.integer:
+            first, last = value.integers()
+            bounds.append([float(first), float(last + 1)])
+        elif isinstance(value, Range):
             bounds.append([value.low, value.high])
         else:
             bounds.append([0.0, float(len(value.values))])
@@ -222,11 +234,18 @@ def salib_problem(spec: SweepFile) -> dict[str, Any]:
 
 
 def map_sample(value: Range | Values, x: float) -> Any:
-    """The parameter value of the design coordinate ``x`` (in the problem's units)."""
+    """The parameter value of the design coordinate ``x`` (in the problem's units).
+
+    A set of ``k`` values and an integer range share one rule: the coordinate's whole part picks
+    the value, so each of the ``k`` values (each integer ``first..last``) owns an equal share
+    ``[i, i + 1)`` of the bounds, and the top end (``u = 1``) the last one. In the unit
+    coordinate ``u`` an integer range gives ``first + floor(u n)``, ``n = last - first + 1``.
+    """
     if isinstance(value, Values):
         return value.values[min(math.floor(x), len(value.values) - 1)]
     if value.integer:
-        return min(math.floor(x), math.floor(value.high))
+        first, last = value.integers()
+        return max(first, min(math.floor(x), last))
     return float(x)
 
 

@@ -1,0 +1,110 @@
+"""Sweep files: the integer rule of sampled designs, the keys a sweep refuses, where its paths
+resolve, and the one error line of a bad sweep file (nudgecli.runs.sweep, ``nudge sweep``)."""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+from hypothesis import given
+from hypothesis import strategies as st
+
+from nudgecli.cli import main
+from nudgecli.runs.sweep import Design, Range, SweepFile, design_values, map_sample, salib_problem
+
+HEAD = """\
+experiment = "smoke"
+replications = 1
+seed = 3
+{extra}
+[design]
+method = "{method}"
+
+[parameters]
+"""
+
+
+def _sweep(folder: Path, parameters: str, *, extra: str = "", method: str = "grid") -> Path:
+    path = folder / "s.toml"
+    path.write_text(HEAD.format(extra=extra, method=method) + parameters)
+    return path
+
+
+def _integers(low: float, high: float, method: str, **design: int) -> list[int]:
+    spec = SweepFile(experiment="unused", design=Design(method=method, **design),  # type: ignore[arg-type]
+                     parameters={"study.participants": Range(low=low, high=high, integer=True)})
+    return [p["study.participants"] for p in design_values(spec)[0]]
+
+
+def _error_line(args: list[str]) -> str:
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1, result.output
+    assert "Traceback" not in result.output
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert len(lines) == 1 and lines[0].startswith("Error: "), result.output
+    return lines[0]
+
+
+# --- 1: an integer range gives every integer in it an equal share ------------------------------
+
+def test_an_integer_range_gives_each_integer_an_equal_share_of_the_unit_interval() -> None:
+    # brute force: 6000 evenly spaced coordinates of [0, 1) through the problem's bounds; the six
+    # integers 4..9 must own 1000 each (the floor over [4, 9] gave 9 none, 4..8 1200 each)
+    whole = Range(low=4, high=9, integer=True)
+    spec = SweepFile(experiment="unused", design=Design(method="sobol"),
+                     parameters={"study.participants": whole})
+    (low, high), = salib_problem(spec)["bounds"]
+    counts = Counter(map_sample(whole, low + (k / 6000) * (high - low)) for k in range(6000))
+    assert counts == {n: 1000 for n in range(4, 10)}
+    assert map_sample(whole, high) == 9  # the top of the interval: the last integer
+
+
+def test_sobol_over_an_integer_range_draws_every_integer_of_it() -> None:
+    drawn = _integers(4, 9, "sobol", samples=64, seed=0)
+    assert len(drawn) == 64 * 3 and set(drawn) == set(range(4, 10))
+    assert all(isinstance(n, int) for n in drawn)
+
+
+@pytest.mark.parametrize("levels", [2, 4, 6, 8])
+def test_morris_levels_of_an_integer_range_follow_the_documented_rule(levels: int) -> None:
+    # level k of L is u = k / (L - 1), which gives ceil(low) + floor(u n), the last level the last
+    # integer (n = 6 integers 4..9); L = n levels visit every integer once. (Odd L: SALib's own
+    # grid is not k / (L - 1) and it warns that the sample may be biased.)
+    n = 6
+    expected = {min(4 + math.floor(k * n / (levels - 1)), 9) for k in range(levels)}
+    drawn = set(_integers(4, 9, "morris", samples=12, levels=levels, seed=1))
+    assert drawn == expected
+    if levels == n:
+        assert drawn == set(range(4, 10))
+
+
+def test_an_integer_range_never_leaves_its_bounds() -> None:
+    assert set(_integers(2.5, 3.5, "sobol", samples=16)) == {3}  # the floor over [2.5, 3.5] gave 2
+    assert set(_integers(2.5, 4.5, "morris", samples=8, levels=4)) <= {3, 4}
+
+
+@given(low=st.floats(-50, 50), width=st.floats(0.01, 30), u=st.floats(0, 1))
+def test_an_integer_range_maps_every_coordinate_to_an_integer_inside_it(low: float, width: float,
+                                                                        u: float) -> None:
+    high = low + width
+    if math.ceil(low) > math.floor(high) or not low < high:
+        return  # no integer inside: refused, tested below
+    whole = Range(low=low, high=high, integer=True)
+    spec = SweepFile(experiment="unused", design=Design(method="sobol"), parameters={"a.n": whole})
+    (lo, hi), = salib_problem(spec)["bounds"]
+    value = map_sample(whole, lo + u * (hi - lo))
+    assert isinstance(value, int) and math.ceil(low) <= value <= math.floor(high)
+    count = math.floor(high) - math.ceil(low) + 1
+    assert value == min(math.ceil(low) + math.floor(u * count), math.floor(high)) or \
+        abs(u * count - round(u * count)) < 1e-9  # at a share's edge rounding may pick either side
+
+
+def test_an_integer_range_without_an_integer_is_refused(tmp_path: Path) -> None:
+    path = _sweep(tmp_path, '"study.participants" = { low = 2.2, high = 2.8, integer = true }\n',
+                  method="sobol")
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert "study.participants" in line and "no integer" in line
+    assert not (tmp_path / "out").exists()
