@@ -108,3 +108,17 @@ def test_an_integer_range_without_an_integer_is_refused(tmp_path: Path) -> None:
     line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
     assert "study.participants" in line and "no integer" in line
     assert not (tmp_path / "out").exists()
+
+
+# --- 2: the experiment's seed is not a sweep parameter --------------------------------------------
+
+@pytest.mark.parametrize(("parameters", "extra"), [
+    ('"experiment.seed" = [1, 2]\n', ""),
+    ('"inference.kappa" = [0.6]\n', 'set = ["experiment.seed=5"]\n'),
+])
+def test_a_swept_or_set_experiment_seed_is_refused(tmp_path: Path, parameters: str, extra: str) -> None:
+    path = _sweep(tmp_path, parameters, extra=extra)
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert str(path) in line and "experiment.seed" in line
+    assert "seed =" in line and "--seed" in line and "replications" in line
+    assert not (tmp_path / "out").exists()

@@ -117,12 +117,27 @@ class SweepFile(_Model):
         for key in self.parameters:
             if key.count(".") != 1:
                 raise ValueError(f"parameter {key!r}: write it as section.key, e.g. inference.kappa")
+        fixed = [set_key(entry) for entry in self.set]
+        if SEED_KEY in self.parameters or SEED_KEY in fixed:
+            where = "under [parameters]" if SEED_KEY in self.parameters else "in set"
+            raise ValueError(f"{SEED_KEY} {where}: a sweep does not use the experiment's seed; every point "
+                             "runs the same replication seeds, drawn from the sweep file's seed (seed = "
+                             f"{self.seed}) or --seed; for more independent seeds raise replications")
         if self.design.method == "grid":
             ranges = [k for k, v in self.parameters.items() if isinstance(v, Range)]
             if ranges:
                 raise ValueError(f"a grid needs values, not ranges ({', '.join(ranges)}); list the values "
                                  "or use method = \"sobol\" or \"morris\"")
         return self
+
+
+#: The experiment key a sweep refuses: the replications' seeds come from the sweep's own seed.
+SEED_KEY = "experiment.seed"
+
+
+def set_key(entry: str) -> str:
+    """The key of a ``set`` entry, ``"inference.kappa = 0.3"`` -> ``"inference.kappa"``."""
+    return ".".join(part.strip() for part in entry.partition("=")[0].split("."))
 
 
 @dataclass(frozen=True)
