@@ -201,3 +201,17 @@ def test_a_factory_that_is_not_a_module_name_is_refused(tmp_path, factory):
     folder = _folder(tmp_path / "a", 0.25)
     with pytest.raises(PolicyError, match="module:attribute"):
         load_factory(_spec(folder, factory))
+
+
+def test_an_edit_within_the_same_second_and_of_the_same_size_is_loaded_again(tmp_path, monkeypatch):
+    # Python's bytecode cache checks a source's whole seconds and size: it alone would keep the old code
+    monkeypatch.setattr(sys, "dont_write_bytecode", False)
+    folder = _folder(tmp_path / "a", 0.25)
+    path = folder / "policies" / "threshold.py"
+    second = 1_700_000_000 * 10**9
+    os.utime(path, ns=(second, second))
+    assert sys.modules[load_factory(_spec(folder)).__module__].WEIGHT == 0.25
+    assert list((folder / "policies" / "__pycache__").glob("threshold.*.pyc"))
+    path.write_text(POLICY.format(weight=0.75))  # the same length
+    os.utime(path, ns=(second + 1000, second + 1000))
+    assert sys.modules[load_factory(_spec(folder)).__module__].WEIGHT == 0.75

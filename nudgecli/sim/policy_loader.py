@@ -11,7 +11,8 @@ that folder's own (``_nudge_policies_<digest of the folder>``, whose ``__path__`
 - packages (with or without ``__init__.py``) and relative imports inside them work as usual;
 - an edited file is imported again: the size and modification time of every file imported under
   the folder's package are recorded, and when one has changed (or gone) the folder's modules are
-  all dropped and imported afresh (:func:`import_policy_module` with ``reload_changed``).
+  all dropped and imported afresh (:func:`import_policy_module` with ``reload_changed``), the
+  changed files' cached bytecode removed (it is checked against whole seconds and the size only).
 
 Worker processes (``--workers``, dask) call the same function with the same folder, so they import
 the same files.
@@ -19,6 +20,7 @@ the same files.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
 import importlib.machinery
@@ -58,8 +60,9 @@ def import_policy_module(module_name: str, folder: str | None, *, reload_changed
         return importlib.import_module(module_name)
     root = private_package_name(folder)
     with _LOCK:
-        if reload_changed and _changed(root):
-            _forget(root)
+        changed = _changed(root) if reload_changed else []
+        if changed:
+            _forget(root, changed)
         qualified = f"{root}.{module_name}"
         module = sys.modules.get(qualified)
         if module is None:
@@ -111,20 +114,27 @@ def _file_stats(root: str) -> dict[str, tuple[int, int]]:
     return stats
 
 
-def _changed(root: str) -> bool:
-    """Whether a file imported under ``root`` has been edited or removed since."""
+def _changed(root: str) -> list[str]:
+    """The files imported under ``root`` that have been edited or removed since."""
+    changed = []
     for path, (mtime_ns, size) in _IMPORTED_FILES.get(root, {}).items():
         try:
             found = os.stat(path)
         except OSError:
-            return True
+            changed.append(path)
+            continue
         if (found.st_mtime_ns, found.st_size) != (mtime_ns, size):
-            return True
-    return False
+            changed.append(path)
+    return changed
 
 
-def _forget(root: str) -> None:
-    """Drop every module imported under ``root`` so the next import reads the files again."""
+def _forget(root: str, changed: list[str]) -> None:
+    """Drop every module imported under ``root`` so the next import reads the files again, and the
+    bytecode cached for the ``changed`` files: Python checks it against a source's whole seconds and
+    size, so an edit within the same second that keeps the size would run the old code."""
+    for path in changed:
+        with contextlib.suppress(OSError, ValueError, NotImplementedError):  # none cached
+            os.remove(importlib.util.cache_from_source(path))
     for name in [name for name in sys.modules if name == root or name.startswith(root + ".")]:
         del sys.modules[name]
     _IMPORTED_FILES.pop(root, None)
