@@ -11,16 +11,20 @@ import errno
 import io
 import json
 import os
+import signal
 import socket
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
 import pytest
-from cli_helpers import one_error_line
+from cli_helpers import one_error_line, wait_for
 from click.testing import CliRunner
 
 from nudgecli import locks
 from nudgecli.cli import main
+from nudgecli.cores import available_cores
 from nudgecli.errors import WriteError
 from nudgecli.run_folder_names import LOCK
 
@@ -86,3 +90,93 @@ def test_a_lock_taken_over_on_a_full_disk_leaves_no_emptied_file(tmp_path, full_
     with pytest.raises(WriteError):
         locks.acquire_lock_file(lock_path, None)
     assert not lock_path.exists()
+
+
+# --- Ctrl-C while figures are written ------------------------------------------------------------
+
+ROOT = Path(__file__).resolve().parents[1]
+#: ``nudge run smoke`` through the program's entry point, its figures' writers slowed (each
+#: ``savefig`` first leaves a file named by its pid in MARKS, then sleeps) or, with ``at-fork``,
+#: Ctrl-C sent to the whole process group the moment the first figure writer is forked, from
+#: the parent's own after-fork hook (where the interpreter cannot raise it).
+_RUN_SCRIPT = """
+import os, signal, sys, time
+from pathlib import Path
+from matplotlib.figure import Figure
+from nudgecli import cli
+from nudgecli.report import figures
+
+out, marks, mode = sys.argv[1:4]
+armed = []
+writing = figures.save_figures
+
+def save_figures(*args, **kwargs):
+    armed.append(True)
+    return writing(*args, **kwargs)
+
+def ctrl_c_at_first_fork():
+    if armed and armed.pop():
+        os.killpg(0, signal.SIGINT)
+
+savefig = Figure.savefig
+
+def slow_savefig(self, *args, **kwargs):
+    Path(marks, str(os.getpid())).touch()
+    time.sleep(60)
+    return savefig(self, *args, **kwargs)
+
+figures.save_figures = save_figures
+if mode == "at-fork":
+    os.register_at_fork(after_in_parent=ctrl_c_at_first_fork)
+else:
+    Figure.savefig = slow_savefig
+sys.argv = ["nudge", "run", "smoke", "--participants", "2", "--out", out]
+cli.entry_point()
+"""
+
+needs_forked_writers = pytest.mark.skipif(available_cores() < 2 or not hasattr(os, "fork"),
+                                          reason="figures are forked only with two cores")
+
+
+def _run_interrupted(tmp_path: Path, mode: str) -> tuple[int, str, set[int]]:
+    """Exit status and stderr of the script's ``nudge run`` after Ctrl-C, and the writers' pids."""
+    marks = tmp_path / "marks"
+    marks.mkdir()
+    # a session of its own: Ctrl-C in a terminal reaches the whole process group, children included
+    proc = subprocess.Popen([sys.executable, "-c", _RUN_SCRIPT, str(tmp_path / "run"), str(marks), mode],
+                            env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        if mode == "while-writing":
+            wait_for(lambda: len(list(marks.iterdir())) >= 2 or proc.poll() is not None, timeout=120)
+            os.killpg(proc.pid, signal.SIGINT)
+        stderr = proc.communicate(timeout=120)[1]
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    return proc.returncode, stderr, {int(mark.name) for mark in marks.iterdir()}
+
+
+def _ended(pid: int) -> bool:
+    """Whether process ``pid`` has ended (gone, or a zombie waiting to be reaped)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0] in ("Z", "X")
+    except (FileNotFoundError, ProcessLookupError):
+        return True
+
+
+@needs_forked_writers
+@pytest.mark.parametrize("mode", ["while-writing", "at-fork"])
+def test_ctrl_c_while_figures_are_written_exits_130_with_the_resume_hint(tmp_path, mode):
+    code, stderr, writers = _run_interrupted(tmp_path, mode)
+    assert code == 130, stderr
+    out = tmp_path / "run"
+    assert (f"Interrupted: {out} keeps its 2 finished participant(s); resume with: nudge simulate smoke "
+            f"--out {out} --participants 2 --resume") in stderr
+    # the writers ignore Ctrl-C (the parent ends them): no child's traceback, no line but the hint's
+    assert "Traceback" not in stderr and "Process nudge-figures" not in stderr, stderr
+    assert "Aborted" not in stderr and "Exception ignored" not in stderr, stderr
+    if mode == "while-writing":
+        assert len(writers) >= 2 and os.getpid() not in writers
+        wait_for(lambda: all(_ended(pid) for pid in writers), timeout=30)

@@ -2,7 +2,8 @@
 
 :func:`save_figures` writes several figures' files at once in forked processes: a figure's
 drawing and encoding (about 0.3-0.6 s a file at 300 dpi) is single-threaded, and ``nudge run``
-and ``nudge plot`` write ten files one after the other while the other cores wait.
+and ``nudge plot`` write ten files one after the other while the other cores wait. Ctrl-C is the
+parent's: the children ignore it, and the parent ends them and raises ``KeyboardInterrupt``.
 """
 
 from __future__ import annotations
@@ -10,8 +11,9 @@ from __future__ import annotations
 import contextlib
 import gc
 import os
+import signal
 import threading
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
@@ -25,6 +27,9 @@ from nudgecli.store import atomic_path
 
 SUPPORTED_FORMATS = ("png", "pdf", "svg")
 PNG_DPI = 300
+#: What ends a command (Ctrl-C, and SIGTERM, which ``nudge`` handles as Ctrl-C): held back while
+#: the figures' writers are forked.
+_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 #: Metadata that would make the files differ from run to run (dates, versions): left out.
 _METADATA: dict[str, dict[str, Any]] = {
     "png": {"Software": None},
@@ -134,16 +139,17 @@ def save_figures(figures: Mapping[str, Figure], out_dir: str | os.PathLike[str],
     gc.freeze()
     next_figure = context.Value("i", 0)
     children = []
-    for _ in range(workers):
-        receive, send = context.Pipe(duplex=False)
-        child = context.Process(target=_write_figures, args=(figures, fmts, out_dir, dpi, next_figure, send),
-                                daemon=True, name="nudge-figures")
-        child.start()
-        send.close()
-        children.append((child, receive))
     outcomes: dict[int, tuple[str, Any]] = {}
     try:
-        for child, receive in children:
+        with _stop_signals_held():  # Ctrl-C now is raised as the block ends, inside this try
+            for _ in range(workers):
+                receive, send = context.Pipe(duplex=False)
+                child = context.Process(target=_write_figures, daemon=True, name="nudge-figures",
+                                        args=(figures, fmts, out_dir, dpi, next_figure, send))
+                child.start()
+                send.close()
+                children.append((child, receive))
+        for child, receive in children:  # Ctrl-C while waiting ends the children in `finally`
             with contextlib.suppress(EOFError):  # a child that died without a word (killed)
                 outcomes.update(receive.recv())
             child.join()
@@ -166,7 +172,15 @@ def save_figures(figures: Mapping[str, Figure], out_dir: str | os.PathLike[str],
 def _write_figures(figures: Mapping[str, Figure], formats: Sequence[str], out_dir: str | os.PathLike[str],
                    dpi: int, next_figure: Any, send: Connection) -> None:
     """A child of :func:`save_figures`: write the next unwritten figure until none is left (a slow
-    one then holds up no other); send back ``{index: (status, its paths or the failure)}``."""
+    one then holds up no other); send back ``{index: (status, its paths or the failure)}``.
+
+    Ctrl-C (sent to the whole process group by a terminal) is ignored here: the parent ends its
+    children; SIGTERM (the parent's ``terminate``) ends this one at once. Both were held back
+    since the fork (:func:`_stop_signals_held`), and are let through once this process's own
+    handling is set."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # ignoring discards a Ctrl-C held since the fork
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)
     stems = list(figures)
     outcomes: dict[int, tuple[str, Any]] = {}
     while True:
@@ -183,6 +197,23 @@ def _write_figures(figures: Mapping[str, Figure], formats: Sequence[str], out_di
         outcomes[index] = ("ok", [str(path) for path in paths])
     send.send(outcomes)
     send.close()
+
+
+@contextlib.contextmanager
+def _stop_signals_held() -> Iterator[None]:
+    """Hold back Ctrl-C and SIGTERM for the block; one that came meanwhile is raised as it ends.
+
+    Forking runs the interpreter's after-fork hooks (``logging``'s among them), and a
+    ``KeyboardInterrupt`` raised inside one is only reported ("Exception ignored in ...") and then
+    lost: the command went on, or, its children interrupted too, failed with their exit codes.
+    A child forked meanwhile starts with both held, and so cannot be interrupted before it has
+    set its own handling (:func:`_write_figures`).
+    """
+    held = signal.pthread_sigmask(signal.SIG_BLOCK, _STOP_SIGNALS)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, held)
 
 
 def _can_fork() -> bool:
