@@ -32,3 +32,5 @@ QUESTIONNAIRE_SCORES_CSV = "questionnaire_scores.csv"
 QUESTIONNAIRES_CSV = "questionnaires.csv"
 #: The folder ``nudge plot`` (and a batch) writes its figures into.
 FIGURES_DIR = "figures"
+#: The formats figures are written in (``--formats``; a run's ``figures/`` holds them).
+FIGURE_FORMATS = ("png", "pdf", "svg")

@@ -9,6 +9,7 @@ The names of the files are in :mod:`nudgecli.run_folder_names`.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 from collections.abc import Iterable, Mapping, Sequence
@@ -19,7 +20,16 @@ from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
 from nudgecli.errors import DataError, NudgeError, RunFolderError
 from nudgecli.parquet_reader import read_parquet
-from nudgecli.run_folder_names import CONFIG, LAYOUTS, MANIFEST, METRICS_CSV, PART_KINDS, PARTICIPANTS
+from nudgecli.run_folder_names import (
+    CONFIG,
+    FIGURE_FORMATS,
+    FIGURES_DIR,
+    LAYOUTS,
+    MANIFEST,
+    METRICS_CSV,
+    PART_KINDS,
+    PARTICIPANTS,
+)
 
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
     import pandas as pd
@@ -57,6 +67,19 @@ def readable_parquet(part: Path) -> bool:
     except Exception:  # pyarrow raises several types for broken files
         return False
     return True
+
+
+def remove_run_figures(folder: Path) -> None:
+    """Remove a run's figures (``figures/*.png``, ``.pdf`` and ``.svg``), and ``figures/`` once empty:
+    what ``--force`` replaces with the run (another file a person put there stays, and its folder)."""
+    figures = folder / FIGURES_DIR
+    if not figures.is_dir():
+        return
+    for path in figures.iterdir():
+        if path.suffix.lower().lstrip(".") in FIGURE_FORMATS and path.is_file():
+            path.unlink()
+    with contextlib.suppress(OSError):  # not empty: a file of the person's own
+        figures.rmdir()
 
 
 def _flatten(data: Any, prefix: str = "") -> dict[str, Any]:

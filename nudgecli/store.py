@@ -62,7 +62,7 @@ from nudgecli.run_folder_names import (
     STATS_JSON,
     SUMMARY_MD,
 )
-from nudgecli.run_folder_record import RunRecord, file_sha256, part_name
+from nudgecli.run_folder_record import RunRecord, file_sha256, part_name, remove_run_figures
 
 if TYPE_CHECKING:  # pandas and pyarrow load on first use, after a batch has started its workers
     import pandas as pd
@@ -533,6 +533,7 @@ class RunFolder(RunRecord):
         for name in (MANIFEST, CONFIG, PARTICIPANTS, LAYOUTS, METRICS_CSV, STATS_JSON, STATS_CSV,
                      SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV):
             (self.path / name).unlink(missing_ok=True)
+        remove_run_figures(self.path)  # the old run's figures would stand beside the new run's tables
         from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
         from nudgecli.sim.people_file import remove_copy
 

@@ -108,3 +108,22 @@ def test_an_atomic_file_gets_the_umasks_permissions_and_a_failed_one_leaves_noth
         fail(tmp)
     assert (tmp_path / "b.txt").read_text() == "old"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "b.txt"]  # no temporary left
+
+
+def test_force_removes_the_old_runs_figures_and_keeps_a_persons_file(tmp_path: Path) -> None:
+    # the old run's figures beside the new run's tables would show a run the folder no longer holds
+    from nudgecli.config import load_experiment
+    from nudgecli.runs.study import run_study
+
+    out = tmp_path / "run"
+    run_study(load_experiment("smoke"), out, participants=1)
+    figures = out / "figures"
+    figures.mkdir()
+    for name in ("fig3.png", "fig5.PDF", "trajectory.svg", "notes.txt"):
+        (figures / name).write_text("old")
+    run_study(load_experiment("smoke"), out, participants=1, seed=3, force=True)
+    assert sorted(p.name for p in figures.iterdir()) == ["notes.txt"]
+    (figures / "notes.txt").unlink()
+    (figures / "fig4.png").write_text("old")
+    run_study(load_experiment("smoke"), out, participants=1, seed=4, force=True)
+    assert not figures.exists()
