@@ -215,3 +215,16 @@ def test_an_edit_within_the_same_second_and_of_the_same_size_is_loaded_again(tmp
     path.write_text(POLICY.format(weight=0.75))  # the same length
     os.utime(path, ns=(second + 1000, second + 1000))
     assert sys.modules[load_factory(_spec(folder)).__module__].WEIGHT == 0.75
+
+
+def test_the_api_in_one_process_with_workers_runs_each_folders_own_policy(tmp_path):
+    import nudgecli
+
+    alphas = {}
+    for name, weight in (("a", 0.25), ("b", 0.75)):
+        folder = _folder(tmp_path / name, weight)
+        for workers in (1, 2):
+            out = tmp_path / f"run-{name}-{workers}"
+            nudgecli.simulate(folder / "mine.toml", workers=workers, out=out)
+            alphas[name, workers] = _alphas(out)
+    assert alphas == {("a", 1): {0.25}, ("a", 2): {0.25}, ("b", 1): {0.75}, ("b", 2): {0.75}}
