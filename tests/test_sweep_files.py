@@ -13,7 +13,10 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from nudgecli.cli import main
-from nudgecli.runs.sweep import Design, Range, SweepFile, design_values, map_sample, salib_problem
+from nudgecli.config_files import list_presets
+from nudgecli.errors import ConfigError
+from nudgecli.report.plans import load_plan
+from nudgecli.runs.sweep import Design, Range, SweepFile, design_values, load_sweep, map_sample, salib_problem
 
 HEAD = """\
 experiment = "smoke"
@@ -122,3 +125,53 @@ def test_a_swept_or_set_experiment_seed_is_refused(tmp_path: Path, parameters: s
     assert str(path) in line and "experiment.seed" in line
     assert "seed =" in line and "--seed" in line and "replications" in line
     assert not (tmp_path / "out").exists()
+
+
+# --- 3: relative paths are to the sweep file's folder ---------------------------------------------
+
+def test_a_relative_experiment_path_is_looked_for_beside_the_sweep_file_only(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    smoke = list_presets("experiments")["smoke"].read_text()
+    (tmp_path / "experiments").mkdir()
+    (tmp_path / "experiments" / "smoke.toml").write_text(smoke)  # in the current folder only
+    (tmp_path / "sweeps").mkdir()
+    path = tmp_path / "sweeps" / "s.toml"
+    path.write_text(HEAD.format(extra="", method="grid").replace('"smoke"', '"experiments/smoke.toml"')
+                    + '"inference.kappa" = [0.6]\n')
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ConfigError) as caught:
+        load_sweep(str(path))
+    message = str(caught.value)
+    assert str(path) in message and "experiment" in message
+    assert str(tmp_path / "sweeps" / "experiments" / "smoke.toml") in message
+    # beside the sweep file it is found, from any folder
+    (tmp_path / "sweeps" / "experiments").mkdir()
+    (tmp_path / "sweeps" / "experiments" / "smoke.toml").write_text(smoke)
+    monkeypatch.chdir(tmp_path / "experiments")
+    assert load_sweep(str(path)).points[0].config.inference.kappa == 0.6
+
+
+def test_a_plan_beside_the_sweep_file_is_found_from_any_folder(tmp_path: Path,
+                                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    (tmp_path / "study").mkdir()
+    (tmp_path / "elsewhere").mkdir()
+    (tmp_path / "study" / "myplan.toml").write_text(list_presets("analysis")["paper"].read_text())
+    path = _sweep(tmp_path / "study", '"inference.kappa" = [0.6]\n', extra='plan = "myplan.toml"\n')
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    plan = load_sweep(str(path)).spec.plan
+    assert plan is not None and Path(plan).resolve() == (tmp_path / "study" / "myplan.toml").resolve()
+    assert load_plan(plan) == load_plan("paper")
+
+
+def test_a_missing_plan_names_the_sweep_file_the_field_and_where_it_looked(tmp_path: Path) -> None:
+    path = _sweep(tmp_path, '"inference.kappa" = [0.6]\n', extra='plan = "nope.toml"\n')
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert str(path) in line and "plan" in line and str(tmp_path / "nope.toml") in line
+
+
+def test_presets_by_name_still_work_for_experiment_and_plan(tmp_path: Path,
+                                                           monkeypatch: pytest.MonkeyPatch) -> None:
+    path = _sweep(tmp_path, '"inference.kappa" = [0.6]\n', extra='plan = "study-code"\n')
+    monkeypatch.chdir(tmp_path)
+    loaded = load_sweep(str(path))
+    assert loaded.spec.plan == "study-code" and loaded.points[0].config.experiment.name == "smoke"

@@ -167,11 +167,22 @@ def _check_choices(folder: Path, inputs: Any, conditions: Sequence[str], trial: 
 
     check_reference(reference, conditions)
     if trial is not None and inputs.trials is not None:
-        known = set(zip(inputs.trials["participant"], inputs.trials["trial"], strict=True))
-        if tuple(trial) not in known:
-            last_participant, last_trial = inputs.trials["participant"].max(), inputs.trials["trial"].max()
-            raise ConfigError(f"--trial {trial[0]}:{trial[1]}: no such trial in {folder} "
-                              f"(participants 0-{last_participant}, trials 0-{last_trial})")
+        _check_trial(folder, inputs.trials, trial)
+
+
+def _check_trial(folder: Path, trials: Any, trial: tuple[int, int]) -> None:
+    """``trial`` a (participant, trial) of ``trials`` (a run's trial table), else ``nudge plot``'s error.
+
+    Raises
+    ------
+    ConfigError
+        No such trial: one line naming the run's participants and trials.
+    """
+    known = set(zip(trials["participant"], trials["trial"], strict=True))
+    if tuple(trial) not in known:
+        last_participant, last_trial = trials["participant"].max(), trials["trial"].max()
+        raise ConfigError(f"--trial {trial[0]}:{trial[1]}: no such trial in {folder} "
+                          f"(participants 0-{last_participant}, trials 0-{last_trial})")
 
 
 def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | AnalysisPlan | None = None,
@@ -185,8 +196,9 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
     source
         An :class:`Analysis`, an analysed :class:`Run`, or ``nudge plot``'s RUN.
     plan
-        Analyse ``source`` with this plan first (``--plan``); default: plot the existing analysis
-        with the plan it records.
+        Analyse ``source`` with this plan first (``--plan``), once every other choice is checked,
+        so that a refused plot leaves the existing analysis as it was; default: plot the existing
+        analysis with the plan it records.
     out
         The figures' folder; default ``figures/`` in the run or analysis folder.
     formats
@@ -204,7 +216,6 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
         ``nudge plot``'s errors; a folder made only for the figures is removed again.
     """
     from nudgecli.locks import run_lock
-    from nudgecli.report.analysis import analyze as analyze_source
     from nudgecli.report.plans import load_plan
     from nudgecli.report.plotting import default_out, parse_formats, parse_trial, plot_folder
 
@@ -218,8 +229,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
     else:
         analysis_plan = load_plan(plan_of(folder, plan))
         if plan is not None:
-            # analyze takes the locks of what it writes
-            analyze_source(folder, plan=analysis_plan, reference=reference)
+            _analyse_first(folder, analysis_plan, trial_key, out, force, reference)
     # lock only the folder written: the figures' folder given by out (a read-only source is then
     # only read), else the run or analysis folder that holds figures/ (which analyze locks)
     written_folder: Path | None = None  # None: not a plottable source; plot_folder says why
@@ -241,6 +251,32 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
                 and not any(written_folder.iterdir()):
             written_folder.rmdir()  # made only to hold the lock: a failed plot leaves nothing behind
         raise
+
+
+def _analyse_first(folder: Path, plan: AnalysisPlan, trial: tuple[int, int] | None, out: str | Path | None,
+                   force: bool, reference: str | None) -> None:
+    """``nudge plot --plan``: analyse the source with ``plan`` after checking what the plot can check
+    before (the trial, the figures' folder), so that a plot refused for them rewrites nothing.
+
+    The source is analysed as ``nudge analyze`` does (into the run folder, the table's
+    ``<table>-analysis/``); ``analyze`` takes the locks of what it writes.
+    """
+    from nudgecli.report.analysis import analyze as analyze_source
+
+    if trial is not None:
+        _check_trial_of_run(folder, trial)
+    if out is not None:
+        _check_figures_folder(folder, out, force)
+    analyze_source(folder, plan=plan, reference=reference)
+
+
+def _check_trial_of_run(folder: Path, trial: tuple[int, int]) -> None:
+    """``--trial`` a trial of the run ``folder`` (anything else: ``nudge plot`` says what it is)."""
+    from nudgecli.store import RunFolder
+
+    run = RunFolder(folder)
+    if folder.is_dir() and run.is_run() and run.has_completed_participant():
+        _check_trial(folder, run.read_trials(), trial)
 
 
 def _check_figures_folder(source: Path, out: str | Path, force: bool) -> None:

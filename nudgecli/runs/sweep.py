@@ -42,8 +42,8 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from nudgecli.config import ExperimentConfig, load_experiment
-from nudgecli.config_files import format_validation_error, preset_dir, resolve_plan
-from nudgecli.errors import ConfigError
+from nudgecli.config_files import format_validation_error, list_presets, preset_dir, resolve_plan
+from nudgecli.errors import ConfigError, did_you_mean
 
 #: Where the shipped example sweeps live (beside the experiment presets, in their own folder so
 #: that ``nudge presets`` does not list them as experiments).
@@ -192,6 +192,31 @@ def resolve_sweep(name_or_path: str) -> Path:
                       + (f" or one of the shipped sweeps: {', '.join(names)}" if names else ""))
 
 
+def beside_sweep(path: Path, field: str, written: str, kind: Literal["experiments", "analysis"]) -> str:
+    """The sweep file's ``experiment`` or ``plan``: a preset by name, else a file, a relative path
+    being to the sweep file's folder (never the current one).
+
+    Raises
+    ------
+    ConfigError
+        Neither a preset nor a file: names the sweep file, the field and where it looked.
+    """
+    presets = list_presets(kind)
+    looks_like_path = written.endswith(".toml") or "/" in written or "\\" in written
+    if written in presets and not looks_like_path:
+        return written
+    target = path.parent / Path(written).expanduser()
+    if target.is_file():
+        return str(target)
+    if looks_like_path:
+        raise ConfigError(f"{path}: {field}: no file {target} (a relative path is to the sweep file's "
+                          "folder)")
+    what = "an experiment" if kind == "experiments" else "an analysis plan"
+    hint = did_you_mean(written, presets)
+    raise ConfigError(f"{path}: {field}: {written!r} is neither {what} preset{hint} nor a file beside the "
+                      f"sweep file ({target}); presets: {', '.join(presets)}")
+
+
 def load_sweep(name_or_path: str) -> Sweep:
     """Read a sweep file, build its design and validate every point's experiment.
 
@@ -212,13 +237,11 @@ def load_sweep(name_or_path: str) -> Sweep:
         spec = SweepFile.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, str(path), SweepFile)) from None
-    experiment = spec.experiment
-    beside = path.parent / experiment
-    if experiment.endswith(".toml") and beside.is_file():
-        experiment = str(beside)
+    experiment = beside_sweep(path, "experiment", spec.experiment, "experiments")
     base = load_experiment(experiment, spec.set)  # fails early on a bad experiment or --set
+    plan = None if spec.plan is None else beside_sweep(path, "plan", spec.plan, "analysis")
     # the plan rule of replicate and power: the plan given, else the one named like the experiment
-    spec = spec.model_copy(update={"plan": resolve_plan(spec.plan, experiment=base.experiment.name)})
+    spec = spec.model_copy(update={"plan": resolve_plan(plan, experiment=base.experiment.name)})
     values, problem, samples = design_values(spec)
     points = []
     for index, assignment in enumerate(values):
