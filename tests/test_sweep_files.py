@@ -175,3 +175,43 @@ def test_presets_by_name_still_work_for_experiment_and_plan(tmp_path: Path,
     monkeypatch.chdir(tmp_path)
     loaded = load_sweep(str(path))
     assert loaded.spec.plan == "study-code" and loaded.points[0].config.experiment.name == "smoke"
+
+
+# --- 4: one readable line for a bad sweep file ----------------------------------------------------
+
+@pytest.mark.parametrize(("parameter", "expected"), [
+    ('"inference.kappa" = []', "at least one value"),
+    ('"inference.kappa" = { low = 0.8, high = 0.5 }', "low must be below high"),
+    ('"inference.kappa" = { low = nan, high = 0.5 }', "finite"),
+    ('"inference.kappa" = "abc"', "a list of values"),
+    ('"inference.kappa" = { low = 0.5, high = 0.8, values = [0.6] }', "not both"),
+    ('"inference.kappa" = { low = 0.5 }', "high"),
+])
+def test_a_bad_parameter_gets_one_plain_line(tmp_path: Path, parameter: str, expected: str) -> None:
+    path = _sweep(tmp_path, parameter + "\n", method="sobol")
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert f"{path}: parameters.inference.kappa: " in line and expected in line
+    assert "function-after" not in line and "more problem" not in line and "Range" not in line
+
+
+def test_a_bad_set_entry_names_the_sweep_files_set_not_a_set_option(tmp_path: Path) -> None:
+    path = _sweep(tmp_path, '"inference.kappa" = [0.6]\n', extra='set = ["inference.kapa=0.3"]\n')
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert line.startswith(f"Error: {path}: set: inference.kapa=0.3: ") and "--set" not in line
+    assert "kappa" in line  # the suggestion stays
+
+
+def test_a_key_both_set_and_swept_is_refused(tmp_path: Path) -> None:
+    path = _sweep(tmp_path, '"inference.kappa" = [0.6, 0.7]\n', extra='set = ["inference.kappa = 0.3"]\n')
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert str(path) in line and "inference.kappa" in line and "set" in line and "[parameters]" in line
+
+
+def test_an_experiment_file_given_as_the_sweep_file_is_named_as_such(tmp_path: Path) -> None:
+    line = _error_line(["sweep", str(list_presets("experiments")["smoke"]), "--out", str(tmp_path / "out")])
+    assert "looks like an experiment file, not a sweep file" in line and "valid string" not in line
+
+
+def test_a_folder_given_as_the_sweep_file_is_named_a_folder(tmp_path: Path) -> None:
+    line = _error_line(["sweep", str(tmp_path), "--out", str(tmp_path / "out")])
+    assert f"{tmp_path} is a folder" in line and "does not exist" not in line

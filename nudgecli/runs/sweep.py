@@ -21,11 +21,13 @@ A sweep file is TOML::
     "disambiguation.window" = { values = [3, 5] }            # a set of values (any design)
     "model.epsilon" = [0.05, 0.1, 0.2]                       # shorthand for { values = [...] }
 
-A grid takes every combination of the parameters' values (ranges are refused). Sobol and Morris
-designs sample the unit hypercube with SALib: a range maps linearly; a set of ``k`` values is
-the range ``[0, k]`` and takes the value at the floor (the top end the last); an integer range
-is the set of its integers ``ceil(low)..floor(high)``, each with an equal share, never one
-outside the bounds. Every point is validated as an experiment before anything runs.
+A grid takes every combination of the parameters' values (ranges are refused; ``samples`` and
+``levels`` unused). Sobol and Morris designs sample the unit hypercube with SALib: a range maps
+linearly; a set of ``k`` values is the range ``[0, k]`` and takes the value at the floor (the top
+end the last); an integer range is the set of its integers ``ceil(low)..floor(high)``, each with
+an equal share, never one outside the bounds. ``experiment.seed`` is refused (the replications'
+seeds come from the sweep's ``seed``), and so is a key both in ``set`` and under
+``[parameters]``. Every point is validated as an experiment before anything runs.
 """
 
 from __future__ import annotations
@@ -42,7 +44,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from nudgecli.config import ExperimentConfig, load_experiment
-from nudgecli.config_files import format_validation_error, list_presets, preset_dir, resolve_plan
+from nudgecli.config_files import as_written, format_validation_error, list_presets, preset_dir, resolve_plan
 from nudgecli.errors import ConfigError, did_you_mean
 
 #: Where the shipped example sweeps live (beside the experiment presets, in their own folder so
@@ -57,8 +59,8 @@ class _Model(BaseModel):
 class Range(_Model):
     """A continuous (or integer) range to sample."""
 
-    low: float
-    high: float
+    low: float = Field(allow_inf_nan=False)
+    high: float = Field(allow_inf_nan=False)
     integer: bool = False
 
     @model_validator(mode="after")
@@ -104,10 +106,13 @@ class SweepFile(_Model):
     @model_validator(mode="before")
     @classmethod
     def _shorthand(cls, data: Any) -> Any:
+        if isinstance(data, dict) and isinstance(data.get("experiment"), dict):
+            raise ValueError("this looks like an experiment file, not a sweep file (it has an [experiment] "
+                             "table); a sweep file names its experiment, e.g. experiment = \"smoke\", and "
+                             "has [design] and [parameters] (docs/batches.md)")
         if isinstance(data, dict) and isinstance(data.get("parameters"), dict):
             data = dict(data)
-            data["parameters"] = {k: {"values": v} if isinstance(v, list) else v
-                                  for k, v in data["parameters"].items()}
+            data["parameters"] = {k: parameter(k, v) for k, v in data["parameters"].items()}
         return data
 
     @model_validator(mode="after")
@@ -123,6 +128,10 @@ class SweepFile(_Model):
             raise ValueError(f"{SEED_KEY} {where}: a sweep does not use the experiment's seed; every point "
                              "runs the same replication seeds, drawn from the sweep file's seed (seed = "
                              f"{self.seed}) or --seed; for more independent seeds raise replications")
+        both = [key for key in fixed if key in self.parameters]
+        if both:
+            raise ValueError(f"{both[0]} is both in set and under [parameters]; keep it in one place: set "
+                             "fixes a key at every point, [parameters] varies it")
         if self.design.method == "grid":
             ranges = [k for k, v in self.parameters.items() if isinstance(v, Range)]
             if ranges:
@@ -138,6 +147,41 @@ SEED_KEY = "experiment.seed"
 def set_key(entry: str) -> str:
     """The key of a ``set`` entry, ``"inference.kappa = 0.3"`` -> ``"inference.kappa"``."""
     return ".".join(part.strip() for part in entry.partition("=")[0].split("."))
+
+
+def parameter(key: str, written: Any) -> Any:
+    """One ``[parameters]`` entry as written -> a :class:`Values` or :class:`Range`.
+
+    A list is a set of values, a table with ``values`` too, a table with ``low`` and ``high`` a
+    range. Checked here, one entry at a time, so that a mistake is named by its key in words
+    (validating the union would report pydantic's attempts at both types).
+
+    Raises
+    ------
+    ValueError
+        ``parameters.<key>: ...`` with the fix.
+    """
+    if isinstance(written, Range | Values):
+        return written
+    where = f"parameters.{key}"
+    if isinstance(written, list):
+        written = {"values": written}
+    if not isinstance(written, dict):
+        raise ValueError(f"{where}: give a list of values, e.g. [0.6, 0.7], or a range, e.g. "
+                         f"{{ low = 0.5, high = 0.8 }} (got {as_written(written)})")
+    if "values" in written and {"low", "high", "integer"} & written.keys():
+        raise ValueError(f"{where}: give either values or low and high, not both")
+    if "values" in written and isinstance(written["values"], list) and not written["values"]:
+        raise ValueError(f"{where}: an empty list; give at least one value, e.g. [0.6, 0.7]")
+    model: type[Range] | type[Values] = Values if "values" in written else Range
+    missing = [bound for bound in ("low", "high") if bound not in written]
+    if model is Range and missing:
+        raise ValueError(f"{where}: a range needs low and high, e.g. {{ low = 0.5, high = 0.8 }} (missing: "
+                         f"{' and '.join(missing)}), or a list of values")
+    try:
+        return model.model_validate(written)
+    except ValidationError as exc:
+        raise ValueError(format_validation_error(exc, where, model)) from None
 
 
 @dataclass(frozen=True)
@@ -184,6 +228,11 @@ def resolve_sweep(name_or_path: str) -> Path:
     candidate = Path(name_or_path)
     if candidate.is_file():
         return candidate
+    if candidate.is_dir():
+        inside = sorted(p.name for p in candidate.glob("*.toml"))
+        raise ConfigError(f"{name_or_path} is a folder, not a sweep file; give a .toml sweep file"
+                          + (f" (it holds {', '.join(inside[:5])}{', ...' if len(inside) > 5 else ''})"
+                             if inside else ""))
     shipped = preset_dir("experiments") / SWEEP_FOLDER
     names = sorted(p.stem for p in shipped.glob("*.toml")) if shipped.is_dir() else []
     if name_or_path in names:
@@ -238,7 +287,11 @@ def load_sweep(name_or_path: str) -> Sweep:
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, str(path), SweepFile)) from None
     experiment = beside_sweep(path, "experiment", spec.experiment, "experiments")
-    base = load_experiment(experiment, spec.set)  # fails early on a bad experiment or --set
+    load_experiment(experiment)  # a bad experiment file fails early, named as itself
+    try:
+        base = load_experiment(experiment, spec.set)
+    except ConfigError as exc:
+        raise ConfigError(f"{path}: set: {str(exc).removeprefix('--set ')}") from None
     plan = None if spec.plan is None else beside_sweep(path, "plan", spec.plan, "analysis")
     # the plan rule of replicate and power: the plan given, else the one named like the experiment
     spec = spec.model_copy(update={"plan": resolve_plan(plan, experiment=base.experiment.name)})
@@ -251,7 +304,7 @@ def load_sweep(name_or_path: str) -> Sweep:
         except ConfigError as exc:
             shown = ", ".join(f"{k}={v!r}" for k, v in assignment.items())
             raise ConfigError(f"{path}: design point {index} ({shown}) is not a valid experiment: "
-                              f"{exc}") from None
+                              f"{str(exc).removeprefix('--set ')}") from None
         points.append(DesignPoint(index=index, parameters=assignment, config=config))
     return Sweep(source=path, spec=spec, points=points, problem=problem, samples=samples)
 
