@@ -6,6 +6,7 @@ made by that earlier reading from the canonical tables beside it)."""
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import shutil
@@ -84,12 +85,15 @@ def test_canonical_integer_labels_give_the_outputs_they_gave_before(tables: Path
 
 
 def without_table_read(path: Path) -> bytes:
-    """A file's bytes; ``stats.json``'s as written without its record of the table read (which
-    came after the expected files: report/table_read.py), every other byte as it is."""
+    """A file's bytes; ``stats.json``'s as written without its records of the table read and of
+    the scores file (which came after the expected files: report/table_read.py,
+    report/questionnaires.py), every other byte as it is."""
     if path.name != "stats.json":
         return path.read_bytes()
     stats = json.loads(path.read_text(encoding="utf-8"))
     assert set(stats.pop("table_read")) == {"sha256", "rows", "drop_duplicates", "duplicates_dropped"}
+    scores = (path.parent / "questionnaire_scores.csv").read_bytes()
+    assert stats.pop("questionnaire_scores_checksum")["digest"] == hashlib.sha256(scores).hexdigest()
     return (json.dumps(stats, indent=2, allow_nan=False) + "\n").encode("utf-8")
 
 

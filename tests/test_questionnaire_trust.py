@@ -1,11 +1,14 @@
 """Questionnaires taken on trust no more, through the command line: a response given twice, or a
 misspelt NASA-TLX column, is refused with one ``Error:`` line and the analysis already there is
-left as it was.
+left as it was; ``plot`` draws only the questionnaire scores its analysis wrote (``stats.json``
+records their SHA-256), and refuses scores that are stale, edited or gone.
 
 Each test was seen failing with its fix removed."""
 
 from __future__ import annotations
 
+import hashlib
+import json
 import shutil
 from pathlib import Path
 
@@ -68,3 +71,62 @@ def test_bad_answers_are_one_error_line_and_the_analysis_is_kept(analysed: Path,
     assert result.exit_code == 1
     assert one_error_line(result.output).startswith(f"Error: {tmp_path / expected}")
     assert files_of(folder) == before
+
+
+# --- plot draws the scores of the analysis it plots, or refuses ---------------------------------------
+
+def _plot(folder: Path) -> Result:
+    return invoke("plot", str(folder), "--formats", "png")
+
+
+def test_plot_draws_the_scores_the_analysis_wrote(analysed: Path, tmp_path: Path) -> None:
+    folder = tmp_path / "study-analysis"
+    stats = json.loads((folder / "stats.json").read_text(encoding="utf-8"))
+    written = (folder / "questionnaire_scores.csv").read_bytes()
+    # the record is the SHA-256 of the file's bytes, and its rows
+    expected = {"algorithm": "sha256", "rows": len(pd.read_csv(ANSWERS)),
+                "digest": hashlib.sha256(written).hexdigest()}
+    assert stats["questionnaire_scores_checksum"] == expected
+    result = _plot(folder)
+    assert result.exit_code == 0, result.output
+    assert (folder / "figures" / "questionnaires.png").is_file()
+
+
+def test_an_analysis_without_questionnaires_records_no_scores(tmp_path: Path) -> None:
+    table = tmp_path / "study.csv"
+    shutil.copy(TABLE, table)
+    assert invoke("analyze", str(table), "--bootstrap", "50").exit_code == 0
+    stats = json.loads((tmp_path / "study-analysis" / "stats.json").read_text(encoding="utf-8"))
+    assert "questionnaire_scores_checksum" not in stats
+
+
+def _edit_a_score(folder: Path) -> None:
+    scores = (folder / "questionnaire_scores.csv").read_text(encoding="utf-8").splitlines()
+    cells = scores[1].split(",")
+    cells[scores[0].split(",").index("tlx_raw")] = "99"  # a hand edit of one response's raw TLX
+    edited = "\n".join([scores[0], ",".join(cells), *scores[2:]]) + "\n"
+    (folder / "questionnaire_scores.csv").write_text(edited, encoding="utf-8")
+
+
+@pytest.mark.parametrize(("damage", "expected"), [
+    ("stale", "study-analysis/questionnaire_scores.csv is not from the analysis in "),
+    ("edited", "study-analysis/questionnaire_scores.csv does not match "),
+    ("deleted", "study-analysis/stats.json records questionnaire scores, but "),
+])
+def test_plot_refuses_scores_the_analysis_did_not_write(analysed: Path, tmp_path: Path, damage: str,
+                                                        expected: str) -> None:
+    folder = tmp_path / "study-analysis"
+    assert _plot(folder).exit_code == 0  # the figures drawn from the analysis with questionnaires
+    if damage == "stale":  # analysed again without them: the old scores are no part of this analysis
+        assert invoke("analyze", str(analysed), "--bootstrap", "50").exit_code == 0
+    elif damage == "edited":
+        _edit_a_score(folder)
+    else:
+        (folder / "questionnaire_scores.csv").unlink()
+    before = files_of(folder)
+    result = _plot(folder)
+    assert result.exit_code == 1
+    line = one_error_line(result.output)
+    assert line.startswith(f"Error: {tmp_path / expected}")
+    assert "nudge analyze" in line and "--questionnaires" in line  # the fix
+    assert files_of(folder) == before  # the figures drawn before are left as they were

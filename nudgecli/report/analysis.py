@@ -66,10 +66,13 @@ from nudgecli.report.metrics import (
 from nudgecli.report.pair_display import check_reference
 from nudgecli.report.plans import AnalysisPlan, check_plan_conditions, load_plan
 from nudgecli.report.questionnaires import (
+    SCORES_CHECKSUM_KEY,
     check_respondents,
     questionnaire_scores,
     read_questionnaires,
     score_columns,
+    scores_checksum,
+    scores_csv,
 )
 from nudgecli.report.stats import ComparisonOptions, order_conditions
 from nudgecli.report.stats_document import compare_conditions, json_ready, stats_csv, stats_table
@@ -450,6 +453,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     source_from_out = Path(os.path.relpath(source.resolve(), out_dir.resolve()))
     stats["metrics_table"] = METRICS_CSV if changed else str(source_from_out)
     stats[CHECKSUM_KEY] = metrics_checksum(filtered, trial_selected, plan.filters)
+    if scores is not None:  # plot draws only the scores file this analysis writes
+        stats[SCORES_CHECKSUM_KEY] = scores_checksum(scores)
     if table_read is not None:
         stats[TABLE_READ_KEY] = table_read
     stats = json_ready(stats)
@@ -555,7 +560,7 @@ def _write_analysis(out_dir: Path, metrics: pd.DataFrame | None, stats: dict[str
     outputs = {STATS_JSON: json.dumps(stats, indent=2, allow_nan=False) + "\n", STATS_CSV: stats_csv(tidy),
                SUMMARY_MD: summary}
     if scores is not None:
-        outputs[QUESTIONNAIRE_SCORES_CSV] = scores.to_csv(index=False)
+        outputs[QUESTIONNAIRE_SCORES_CSV] = scores_csv(scores)  # the bytes stats.json records
     for name in ([METRICS_CSV] if metrics is not None else []) + list(outputs):
         check_not_an_input(out_dir / name)  # all of them first: never a half-replaced analysis
     if metrics is not None:

@@ -8,7 +8,9 @@ which figures the data allow (:func:`draw_figures`) and writes them (:func:`writ
 Sources:
 
 - a run folder analysed with ``nudge analyze``: ``metrics.csv``, ``stats.json``, the trial table,
-  the step log and the layouts (Fig. 5 and the trajectory), ``questionnaire_scores.csv`` if present;
+  the step log and the layouts (Fig. 5 and the trajectory), ``questionnaire_scores.csv`` if its
+  analysis wrote it (its SHA-256 in ``stats.json``:
+  :func:`~nudgecli.report.questionnaires.read_analysed_scores`);
 - an analysed metrics table, given as the table itself or as its analysis folder (the folder
   that holds its ``stats.json`` and ``metrics.csv``): box plots only. The table itself is drawn
   only when it is the one analysed, byte for byte (:mod:`nudgecli.report.table_read`).
@@ -38,6 +40,7 @@ from nudgecli.report.checksum import recorded_checksum, verify_metrics
 from nudgecli.report.figures import TrialLayout
 from nudgecli.report.metrics import apply_filters
 from nudgecli.report.pair_display import check_reference
+from nudgecli.report.questionnaires import read_analysed_scores
 from nudgecli.report.stats import ComparisonOptions
 from nudgecli.report.style import condition_display_name
 from nudgecli.report.table_read import analyze_command, check_table_is_analysed, recorded_table_read
@@ -50,7 +53,7 @@ from nudgecli.report.tables import (
 )
 from nudgecli.report.trial_selection import choose_figure5_trial, trial_groups
 from nudgecli.report.trial_steps import TrialKey
-from nudgecli.run_folder_names import FIGURES_DIR, METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_JSON
+from nudgecli.run_folder_names import FIGURES_DIR, METRICS_CSV, STATS_JSON
 from nudgecli.store import RunFolder
 
 #: The step-log columns the default rule of Fig. 5's trial reads (every participant's).
@@ -428,7 +431,8 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
     RunFolderError
         Not a run folder, a table or an analysis folder, or not analysed yet.
     DataError
-        Invalid ``stats.json``, or statistics computed from other metrics than those present.
+        Invalid ``stats.json``, statistics computed from other metrics than those present, or
+        questionnaire scores the analysis did not write (stale, edited or gone).
     """
     path = Path(source)
     if path.is_file():
@@ -463,9 +467,8 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
     table = apply_filters(table, record.get("filters") or {})
     verify_metrics(stats, table, str(stats_path), metrics_name)
 
-    questionnaires = None
-    if (folder / QUESTIONNAIRE_SCORES_CSV).is_file():
-        questionnaires = read_csv_labels(folder / QUESTIONNAIRE_SCORES_CSV)
+    # the scores this analysis wrote, or a refusal: never a stale or edited file's
+    questionnaires = read_analysed_scores(folder, stats, str(stats_path))
     return FigureInputs(metrics=table, stats=stats, questionnaires=questionnaires,
                         **_run_fields(RunFolder(folder), trial))
 

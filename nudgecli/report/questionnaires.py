@@ -37,18 +37,26 @@ Scores:
 - ``likert_<item>``: the item's rating.
 
 The scores get the same statistics as the trial metrics (:mod:`nudgecli.report.stats`), with
-responses in place of trials.
+responses in place of trials. ``nudge analyze`` writes them as ``questionnaire_scores.csv``
+(:func:`scores_csv`) and records the file's SHA-256 in ``stats.json`` (:func:`scores_checksum`),
+as it records the metrics' (:mod:`nudgecli.report.checksum`); ``nudge plot`` draws only scores
+that match the record (:func:`read_analysed_scores`): a scores file left by an earlier analysis
+with questionnaires, or edited by hand, is refused, never drawn beside statistics it is not of.
 """
 
 from __future__ import annotations
 
+import hashlib
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.tables import is_canonical_integer, label_text, read_csv_labels
+from nudgecli.run_folder_names import QUESTIONNAIRE_SCORES_CSV
 
 TLX_SUBSCALES = ("mental", "physical", "temporal", "performance", "effort", "frustration")
 TLX_RATING_COLUMNS = tuple(f"tlx_{s}" for s in TLX_SUBSCALES)
@@ -60,6 +68,9 @@ TLX_COMPARISONS = 15
 LIKERT_PREFIX = "likert_"
 LIKERT_RANGE = (1, 7)
 TLX_RANGE = (0.0, 100.0)
+#: ``stats.json``'s record of the scores file its analysis wrote (:func:`scores_checksum`).
+SCORES_CHECKSUM_KEY = "questionnaire_scores_checksum"
+SCORES_ALGORITHM = "sha256"
 
 
 def read_questionnaires(path: str | Path) -> pd.DataFrame:
@@ -332,3 +343,73 @@ def _other_spellings(strangers: list[str], known: set[str], run: str) -> str:
 def score_columns(scores: pd.DataFrame) -> list[str]:
     """The score columns of :func:`questionnaire_scores`' result (everything but the ids)."""
     return [c for c in scores.columns if c not in ("participant", "condition", "block")]
+
+
+def scores_csv(scores: pd.DataFrame) -> str:
+    """The text of ``questionnaire_scores.csv``: the one spelling that is written and checksummed.
+
+    Parameters
+    ----------
+    scores
+        The table of :func:`questionnaire_scores`, one row per response.
+    """
+    return scores.to_csv(index=False)
+
+
+def scores_checksum(scores: pd.DataFrame) -> dict[str, Any]:
+    """``stats.json``'s record of the scores file an analysis writes: ``algorithm``, ``rows`` and
+    the hex ``digest`` of the file's bytes (:func:`scores_csv` as UTF-8).
+
+    Parameters
+    ----------
+    scores
+        The table of :func:`questionnaire_scores` that the analysis writes.
+    """
+    data = scores_csv(scores).encode("utf-8")
+    return {"algorithm": SCORES_ALGORITHM, "rows": len(scores),
+            "digest": hashlib.new(SCORES_ALGORITHM, data).hexdigest()}
+
+
+def read_analysed_scores(folder: str | Path, stats: Mapping[str, Any], where: str) -> pd.DataFrame | None:
+    """The questionnaire scores of the analysis in ``folder``: its ``questionnaire_scores.csv``,
+    read only if its bytes are those ``stats.json`` records (:func:`scores_checksum`).
+
+    Parameters
+    ----------
+    folder
+        The analysis folder (a run folder, ``<table>-analysis/``, an ``--out``).
+    stats
+        Its ``stats.json`` document.
+    where
+        The ``stats.json`` path, for the messages.
+
+    Returns
+    -------
+    pd.DataFrame or None
+        The scores, labels as written; ``None`` when the analysis has none and there is no file.
+
+    Raises
+    ------
+    DataError
+        A scores file that the analysis did not write (it records none: analysed without
+        questionnaires, or by an older nudge), a file whose bytes differ from the record (edited,
+        or of another analysis), a recorded file that is gone, or a malformed record.
+    """
+    path = Path(folder) / QUESTIONNAIRE_SCORES_CSV
+    record = stats.get(SCORES_CHECKSUM_KEY)
+    again = "run `nudge analyze` on the source with --questionnaires ANSWERS.csv again"
+    if record is None:
+        if not path.is_file():
+            return None
+        raise DataError(f"{path} is not from the analysis in {where}, which records no questionnaire scores "
+                        f"(analysed without --questionnaires, or by an older nudge); {again} to plot them, "
+                        f"or delete {path}")
+    if not (isinstance(record, Mapping) and record.get("algorithm") == SCORES_ALGORITHM
+            and isinstance(record.get("digest"), str)):
+        raise DataError(f"{where}: its `{SCORES_CHECKSUM_KEY}` is malformed; {again}")
+    if not path.is_file():
+        raise DataError(f"{where} records questionnaire scores, but {path} is gone; {again}")
+    if hashlib.new(SCORES_ALGORITHM, path.read_bytes()).hexdigest() != record["digest"]:
+        raise DataError(f"{path} does not match {where}: the scores were edited, or written by another "
+                        f"analysis; {again} before plotting")
+    return read_csv_labels(path)
