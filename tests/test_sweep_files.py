@@ -215,3 +215,11 @@ def test_an_experiment_file_given_as_the_sweep_file_is_named_as_such(tmp_path: P
 def test_a_folder_given_as_the_sweep_file_is_named_a_folder(tmp_path: Path) -> None:
     line = _error_line(["sweep", str(tmp_path), "--out", str(tmp_path / "out")])
     assert f"{tmp_path} is a folder" in line and "does not exist" not in line
+
+
+# --- 5: the help names the default folder a sweep writes ------------------------------------------
+
+def test_the_sweep_help_names_its_default_folder() -> None:
+    result = CliRunner().invoke(main, ["sweep", "--help"], terminal_width=200)
+    assert "results/<sweep file>-sweep-<UTC time>" in result.output
+    assert "<experiment>-<command>" not in result.output

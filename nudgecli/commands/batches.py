@@ -3,6 +3,7 @@ workers or a dask cluster)."""
 
 from __future__ import annotations
 
+import functools
 import json
 import sys
 from collections.abc import Callable
@@ -16,11 +17,12 @@ from nudgecli.commands.common import INTERRUPT_HINT, PEOPLE_HELP, SET_HELP, echo
 
 # --- replicate / power / sweep -------------------------------------------------------------
 
-def _batch_options(func: Any) -> Any:
-    """The options every batch command shares (executor, output folder, resume, size check)."""
+def _batch_options(func: Any, out_default: str = "results/<experiment>-<command>-<UTC time>") -> Any:
+    """The options every batch command shares (executor, output folder, resume, size check);
+    ``out_default`` is the folder ``--out`` defaults to, as its help shows it."""
     options = [
         click.option("--out", type=click.Path(file_okay=False),
-                     help="Batch folder [default: results/<experiment>-<command>-<UTC time>]."),
+                     help=f"Batch folder [default: {out_default}]."),
         click.option("--workers", type=int, default=1, show_default=True, help="Local worker processes."),
         click.option("--scheduler", envvar="DASK_SCHEDULER_ADDRESS",
                      help="dask.distributed scheduler address (or DASK_SCHEDULER_ADDRESS); needs "
@@ -179,7 +181,7 @@ def power_command(experiment: str, counts: str, replications: int, seed: int | N
 @click.argument("sweep_file")
 @click.option("--replications", "-R", type=int, help="Studies per design point [default: the file's].")
 @click.option("--seed", type=int, help="Master seed of the replications [default: the file's].")
-@_batch_options
+@functools.partial(_batch_options, out_default="results/<sweep file>-sweep-<UTC time>")
 def sweep_command(sweep_file: str, replications: int | None, seed: int | None, out: str | None, workers: int,
                   scheduler: str | None, resume: bool, force: bool, yes: bool, output_format: str) -> None:
     """Run a sweep file (grid, Sobol or Morris design over experiment keys); see the README for the format."""
