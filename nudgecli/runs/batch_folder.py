@@ -20,7 +20,7 @@ import os
 import re
 import shutil
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -198,6 +198,40 @@ def remove_outputs(folder: Path) -> None:
             raise write_error(path, exc) from exc
     with contextlib.suppress(OSError):
         (folder / FIGURES_DIR).rmdir()
+
+
+def check_inputs_kept(folder: Path, inputs: Iterable[tuple[str, object]]) -> None:
+    """Refuse a batch into ``folder`` that would write over, or remove, one of the files it reads.
+
+    The rule of every command (:func:`nudgecli.outputs.check_not_an_input`: no output replaces an
+    input) applied before any work to every file a batch writes in its folder or removes there
+    when it replaces another batch: ``batch.json``, its record, every table and figure of any
+    batch kind (:func:`output_files`) and the parts under ``tasks/`` and ``analyses/``. The copy of
+    the people file a batch keeps (``people/<its name>``) is not one of them: a resume may name it
+    (:func:`nudgecli.sim.people_file.keep_copy` never writes over it with other bytes).
+
+    Parameters
+    ----------
+    folder
+        The batch folder (``--out``).
+    inputs
+        ``(how the user gave it, what they gave)``: ``("--people", "p.csv")``; what is not an
+        existing file (a preset's name, a loaded plan, ``None``) is skipped.
+
+    Raises
+    ------
+    WriteError
+        An output is (the same file as) an input: names both, and how the input was given.
+    """
+    from nudgecli.outputs import check_not_an_input, command_inputs, declare_input
+
+    with command_inputs():
+        for label, path in inputs:
+            if isinstance(path, str | Path):
+                declare_input(f"{label} {path}", path)
+        parts = [p for name in ("tasks", "analyses") for p in (folder / name).rglob("*")]
+        for target in (folder / BATCH_MANIFEST, folder / PART_RECORD, *output_files(folder), *parts):
+            check_not_an_input(target)
 
 
 #: JSON's names of what Python's json module reads, for a damaged manifest's message.

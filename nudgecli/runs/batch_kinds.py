@@ -20,7 +20,7 @@ from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError
 from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.runs.batch import Batch, BatchRun, Point, run_batch, single_point
-from nudgecli.runs.batch_folder import BATCH_FIGURES, BATCH_MANIFEST, BATCH_TABLES
+from nudgecli.runs.batch_folder import BATCH_FIGURES, BATCH_MANIFEST, BATCH_TABLES, check_inputs_kept
 from nudgecli.runs.study import checked_plan
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, people_of
@@ -148,6 +148,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     config = _load(experiment, overrides, participants)
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
     record, chosen_people = _people_fields(people, out, bool(options.get("resume")))
+    check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)])
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name, **record}, chosen_people)
@@ -186,6 +187,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     config = _load(experiment, overrides, None)
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
     record, chosen_people = _people_fields(people, out, bool(options.get("resume")))
+    check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)])
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name, **record}, chosen_people)
@@ -220,6 +222,11 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     chosen = checked_plan(spec.plan, [p.config for p in loaded.points])
     points = tuple(Point(p.index, p.parameters, p.config, (p.config.study.participants,))
                    for p in loaded.points)
+    # its experiment and plan as the sweep file names them, a relative path being to its folder
+    named = [(f"the sweep file's {field}", written) for field in ("experiment", "plan")
+             if isinstance(written := getattr(spec, field), str)]
+    beside = [(label, loaded.source.parent / written) for label, written in named]
+    check_inputs_kept(Path(out), [("SWEEP_FILE", loaded.source), *named, *beside])
     batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen,
                   {"design": spec.design.model_dump(mode="json"), "experiment": spec.experiment})
     run = run_batch(batch, out, prepare=import_outputs, **options)
