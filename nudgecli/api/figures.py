@@ -196,8 +196,9 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
     source
         An :class:`Analysis`, an analysed :class:`Run`, or ``nudge plot``'s RUN.
     plan
-        Analyse ``source`` with this plan first (``--plan``), once every other choice is checked,
-        so that a refused plot leaves the existing analysis as it was; default: plot the existing
+        Analyse ``source`` with this plan first (``--plan``; a table's analysis folder: the table
+        its ``stats.json`` names, into that folder), once every other choice is checked, so that
+        a refused plot leaves the existing analysis as it was; default: plot the existing
         analysis with the plan it records.
     out
         The figures' folder; default ``figures/`` in the run or analysis folder.
@@ -258,16 +259,59 @@ def _analyse_first(folder: Path, plan: AnalysisPlan, trial: tuple[int, int] | No
     """``nudge plot --plan``: analyse the source with ``plan`` after checking what the plot can check
     before (the trial, the figures' folder), so that a plot refused for them rewrites nothing.
 
-    The source is analysed as ``nudge analyze`` does (into the run folder, the table's
-    ``<table>-analysis/``); ``analyze`` takes the locks of what it writes.
+    A run folder or a table is analysed as ``nudge analyze`` does (into the run folder, the
+    table's ``<table>-analysis/``); a table's analysis folder is the table its ``stats.json``
+    names (:func:`nudgecli.report.analysis_folders.analysed_table`), analysed again into that
+    folder with the ``--drop-duplicates`` it was analysed with. ``analyze`` takes the locks of
+    what it writes.
     """
     from nudgecli.report.analysis import analyze as analyze_source
 
+    table, drop_duplicates = _table_of_analysis_folder(folder)
     if trial is not None:
         _check_trial_of_run(folder, trial)
     if out is not None:
         _check_figures_folder(folder, out, force)
-    analyze_source(folder, plan=plan, reference=reference)
+    if table is None:
+        analyze_source(folder, plan=plan, reference=reference)
+    else:
+        analyze_source(table, plan=plan, out=folder, reference=reference, drop_duplicates=drop_duplicates)
+
+
+def _table_of_analysis_folder(folder: Path) -> tuple[Path | None, bool]:
+    """The metrics table a table's analysis folder holds the analysis of, and whether it was
+    analysed with ``--drop-duplicates``; ``(None, False)`` for anything else (a run folder, a
+    table, a folder ``nudge plot`` refuses and names).
+
+    Raises
+    ------
+    RunFolderError
+        The folder's ``stats.json`` names no table that is still there (the table's analysis
+        changed its rows and no table beside the folder has the bytes it read).
+    DataError
+        Its ``table_read`` record is malformed.
+    """
+    from nudgecli.errors import RunFolderError
+    from nudgecli.report.analysis_folders import analysed_table
+    from nudgecli.report.plotting import read_stats
+    from nudgecli.report.table_read import recorded_table_read
+    from nudgecli.run_folder_names import STATS_JSON
+    from nudgecli.store import is_run_folder
+
+    stats_path = folder / STATS_JSON
+    if not folder.is_dir() or is_run_folder(folder) or not stats_path.is_file():
+        return None, False
+    record = recorded_table_read(read_stats(stats_path), str(stats_path))
+    table = analysed_table(folder)
+    if table is None and record is None:  # metrics.csv with nothing naming its table
+        raise RunFolderError(f"{folder}: its {STATS_JSON} names no metrics table that --plan could analyse "
+                             "again (the analysis of a run written there, or of a table by an older nudge); "
+                             "give `nudge plot --plan` the run folder or the metrics table itself")
+    if table is None or not table.is_file():
+        raise RunFolderError(f"{folder}: --plan analyses the metrics table its {STATS_JSON} was computed "
+                             "from, and that table is not there (moved, or edited since); analyse the "
+                             f"table with `nudge analyze TABLE --plan PLAN --out {folder}`, then plot")
+    return table, bool(record is not None and record["drop_duplicates"])
 
 
 def _check_trial_of_run(folder: Path, trial: tuple[int, int]) -> None:
