@@ -18,6 +18,7 @@ from click.testing import CliRunner, Result
 
 from nudgecli.cli import main
 from nudgecli.errors import RunFolderError
+from nudgecli.report.analysis import analysed_metrics_path
 from nudgecli.report.analysis_folders import analysed_table, analysis_folder, check_folder_is_the_tables
 
 TABLE = Path(__file__).parent / "data" / "metrics_two_conditions.csv"
@@ -149,5 +150,27 @@ def test_check_folder_is_the_tables_accepts_the_same_file_by_another_name(tmp_pa
     check_folder_is_the_tables(tmp_path / "." / "study.csv", folder)
     (tmp_path / "study.pq").hardlink_to(csv)  # one file: its analysis is this one's
     check_folder_is_the_tables(tmp_path / "study.pq", folder)
-    with pytest.raises(RunFolderError, match="holds the analysis of .*study.csv, not of .*study.parquet"):
+    with pytest.raises(RunFolderError, match=r"holds the analysis of .*study\.csv, not of .*study\.parquet"):
         check_folder_is_the_tables(_study_parquet(tmp_path), folder)
+
+
+def test_a_metrics_csv_left_by_an_earlier_analysis_is_not_drawn_for_the_table_named_now(tmp_path):
+    """study-code's filters changed the table (metrics.csv written); the paper plan then analyses it
+    as it is (stats.json names study.csv) and leaves that metrics.csv in the folder: plotting the
+    folder draws the table stats.json names, not the earlier analysis's rows."""
+    table = pd.read_csv(TABLE)
+    table.loc[0, "mode_switches"] = 50  # over study-code's filter of at most 10 mode switches
+    csv = tmp_path / "study.csv"
+    table.to_csv(csv, index=False)
+    folder = tmp_path / "study-analysis"
+    assert _nudge("analyze", csv, "--plan", "study-code").exit_code == 0
+    assert _metrics_table(folder) == "metrics.csv"
+    assert _nudge("analyze", csv, "--plan", "paper").exit_code == 0
+    assert _metrics_table(folder) == "../study.csv" and (folder / "metrics.csv").is_file()
+    assert analysed_metrics_path(folder) == folder / "../study.csv"
+    result = _nudge("plot", folder, "--formats", "png")
+    assert result.exit_code == 0, result.output
+    (folder / "stats.json").write_text(json.dumps({"metrics_table": "../gone.csv"}))
+    assert analysed_metrics_path(folder) == folder / "metrics.csv"  # the checksum then refuses it
+    (folder / "stats.json").write_text("{}")  # an older nudge's: metrics.csv
+    assert analysed_metrics_path(folder) == folder / "metrics.csv"

@@ -213,18 +213,20 @@ def comparison_options(plan: AnalysisPlan, seed: int | None = None,
 
 
 def analysed_metrics_path(folder: str | Path) -> Path | None:
-    """The metrics table an analysis folder's statistics came from: its ``metrics.csv``, else the
-    table ``stats.json``'s ``metrics_table`` names (a table analysed as it is is not copied);
-    ``None`` when there is neither."""
+    """The metrics table an analysis folder's statistics came from: the table ``stats.json``'s
+    ``metrics_table`` names (a table analysed as it is is not copied), else its ``metrics.csv``;
+    ``None`` when there is neither.
+
+    The named table comes first: a ``metrics.csv`` an earlier analysis wrote (a plan whose filters
+    changed the table) stays in the folder when the next analysis takes the table as it is."""
     folder = Path(folder)
-    if (folder / METRICS_CSV).is_file():
-        return folder / METRICS_CSV
     try:
         named = json.loads((folder / STATS_JSON).read_text(encoding="utf-8")).get("metrics_table")
     except (OSError, ValueError, AttributeError):
-        return None
-    path = folder / named if isinstance(named, str) else None
-    return path if path is not None and path.is_file() else None
+        named = None
+    if isinstance(named, str) and named != METRICS_CSV and (folder / named).is_file():
+        return folder / named
+    return folder / METRICS_CSV if (folder / METRICS_CSV).is_file() else None
 
 
 def _load_table(source: Path, drop_duplicates: bool, notes: list[str], min_conditions: int = 1,
