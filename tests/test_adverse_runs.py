@@ -27,6 +27,7 @@ from nudgecli.cli import main
 from nudgecli.cores import available_cores
 from nudgecli.errors import WriteError
 from nudgecli.run_folder_names import LOCK
+from nudgecli.runs import study as study_module
 
 
 class _FullDiskFile(io.FileIO):
@@ -180,3 +181,57 @@ def test_ctrl_c_while_figures_are_written_exits_130_with_the_resume_hint(tmp_pat
     if mode == "while-writing":
         assert len(writers) >= 2 and os.getpid() not in writers
         wait_for(lambda: all(_ended(pid) for pid in writers), timeout=30)
+
+
+# --- DASK_SCHEDULER_ADDRESS beside --workers ---------------------------------------------------
+
+
+@pytest.fixture()
+def nothing_listening(monkeypatch: pytest.MonkeyPatch) -> str:
+    """A local address where no process listens; the shipped wait for a scheduler, shortened."""
+    monkeypatch.setattr(study_module, "SCHEDULER_TIMEOUT_S", 1.5)
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    return f"tcp://127.0.0.1:{port}"
+
+
+def _run_with_environment_scheduler(address: str, args: list[str]) -> Any:
+    return CliRunner(env={"DASK_SCHEDULER_ADDRESS": address}).invoke(main, args)
+
+
+@pytest.mark.parametrize("command", [["replicate", "smoke", "-R", "1"], ["simulate", "smoke"]])
+def test_an_explicit_workers_wins_over_the_scheduler_of_the_environment(tmp_path, nothing_listening, command):
+    out = tmp_path / "out"
+    result = _run_with_environment_scheduler(
+        nothing_listening, [*command, "--participants", "2", "--workers", "2", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    record = out / ("batch.json" if command[0] == "replicate" else "manifest.json")
+    assert json.loads(record.read_text())["executor"] == "processes:2"
+    assert ("Note: --workers given: running on local workers, not on the dask scheduler "
+            f"DASK_SCHEDULER_ADDRESS names ({nothing_listening})") in result.output
+
+
+@pytest.mark.parametrize("command", [["replicate", "smoke", "-R", "1"], ["power", "smoke", "-R", "1"],
+                                     ["simulate", "smoke"]])
+def test_an_unreachable_scheduler_of_the_environment_is_named_as_the_variable(tmp_path, nothing_listening,
+                                                                              command):
+    out = tmp_path / "out"
+    args = [*command, "--participants", "2", "--out", str(out)]
+    line = one_error_line(_run_with_environment_scheduler(nothing_listening, args).output)
+    assert line.startswith(f"Error: DASK_SCHEDULER_ADDRESS={nothing_listening} (from the environment): "
+                           "cannot connect")
+    assert line.endswith("or unset DASK_SCHEDULER_ADDRESS (or give --workers N) to run on local workers")
+    assert "--scheduler" not in line
+    assert not out.exists()
+
+
+def test_a_scheduler_on_the_command_line_still_wins_over_workers(tmp_path, nothing_listening):
+    out = tmp_path / "out"
+    result = _run_with_environment_scheduler(
+        "tcp://127.0.0.1:1", ["replicate", "smoke", "-R", "1", "--participants", "2", "--workers", "2",
+                              "--scheduler", nothing_listening, "--out", str(out)])
+    line = one_error_line(result.output)
+    assert result.exit_code == 1
+    assert line.startswith(f"Error: --scheduler {nothing_listening}: cannot connect")
+    assert not out.exists()

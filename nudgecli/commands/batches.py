@@ -25,8 +25,8 @@ def _batch_options(func: Any, out_default: str = "results/<experiment>-<command>
                      help=f"Batch folder [default: {out_default}]."),
         click.option("--workers", type=int, default=1, show_default=True, help="Local worker processes."),
         click.option("--scheduler", envvar="DASK_SCHEDULER_ADDRESS",
-                     help="dask.distributed scheduler address (or DASK_SCHEDULER_ADDRESS); needs "
-                          "nudgecli[cluster]."),
+                     help="dask.distributed scheduler address (or DASK_SCHEDULER_ADDRESS, unless --workers "
+                          "is given); needs nudgecli[cluster]."),
         click.option("--resume", is_flag=True, help="Finish an interrupted batch in --out (same settings)."),
         click.option("--force", is_flag=True, help="Replace a batch that already is in --out."),
         click.option("--yes", is_flag=True, help="Run a batch above the size limit (see the README)."),
@@ -41,10 +41,12 @@ def _batch_options(func: Any, out_default: str = "results/<experiment>-<command>
 def _run_batch_command(label: str, run: Any, out: str | None, default_name: str, output_format: str,
                        **kwargs: Any) -> None:
     from nudgecli.api import progress_line
+    from nudgecli.commands.scheduler_choice import chosen_scheduler
     from nudgecli.store import default_run_dir
 
-    target = Path(out) if out else default_run_dir(default_name)
     ctx = click.get_current_context()
+    kwargs["scheduler"] = chosen_scheduler(ctx, kwargs["scheduler"])  # --workers wins over the environment
+    target = Path(out) if out else default_run_dir(default_name)
     ctx.meta[INTERRUPT_HINT] = _batch_interrupt_hint(target, ctx)
     # the progress line (rate and ETA) is for a person: where a script reads stdout (json, csv), only on a
     # terminal, as the other commands' progress bars

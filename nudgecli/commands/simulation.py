@@ -110,7 +110,8 @@ def _print_study_summary(run: Any) -> None:
 @click.option("--participants", type=int, help="Number of participants [default: the experiment's].")
 @click.option("--workers", type=int, default=1, show_default=True, help="Local worker processes.")
 @click.option("--scheduler", envvar="DASK_SCHEDULER_ADDRESS",
-              help="dask.distributed scheduler address (or DASK_SCHEDULER_ADDRESS); needs nudgecli[cluster].")
+              help="dask.distributed scheduler address (or DASK_SCHEDULER_ADDRESS, unless --workers is "
+                   "given); needs nudgecli[cluster].")
 @click.option("--resume", is_flag=True, help="Finish an interrupted run in --out (same experiment and seed).")
 @click.option("--force", is_flag=True, help="Replace a run that already is in --out.")
 @click.option("--yes", is_flag=True, help=YES_HELP)
@@ -120,6 +121,9 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
                      workers: int, scheduler: str | None, resume: bool, force: bool, yes: bool,
                      overrides: tuple[str, ...], people: str | None) -> None:
     """Simulate a study: EXPERIMENT is a preset (paper, study-code, smoke) or a TOML file."""
+    from nudgecli.commands.scheduler_choice import chosen_scheduler
+
+    scheduler = chosen_scheduler(click.get_current_context(), scheduler)  # --workers wins over the variable
     run = _simulate(experiment, out, seed, participants, workers, scheduler, resume, force, overrides,
                     confirm=yes, people=people)
     _print_study_summary(run)
