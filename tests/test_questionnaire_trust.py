@@ -130,3 +130,24 @@ def test_plot_refuses_scores_the_analysis_did_not_write(analysed: Path, tmp_path
     assert line.startswith(f"Error: {tmp_path / expected}")
     assert "nudge analyze" in line and "--questionnaires" in line  # the fix
     assert files_of(folder) == before  # the figures drawn before are left as they were
+
+
+@pytest.mark.parametrize("given", ["table", "folder"])
+def test_plot_with_a_plan_refuses_an_analysis_with_questionnaires(analysed: Path, tmp_path: Path,
+                                                                  given: str) -> None:
+    # --plan analyses again without the answers (their file is not recorded): the folder would hold
+    # one analysis's metrics beside another's scores; it is refused and left as it was
+    folder = tmp_path / "study-analysis"
+    before = files_of(folder)
+    source = analysed if given == "table" else folder
+    result = invoke("plot", str(source), "--plan", "study-code")
+    assert result.exit_code == 1
+    line = one_error_line(result.output)
+    assert f"{folder} holds questionnaire scores (questionnaire_scores.csv)" in line
+    assert f"`nudge analyze {analysed} --plan study-code --questionnaires ANSWERS.csv`" in line
+    assert files_of(folder) == before
+    # analysed again with the plan and the answers, it plots
+    result = invoke("analyze", str(analysed), "--plan", "study-code", "--questionnaires", str(ANSWERS),
+                    "--bootstrap", "50")
+    assert result.exit_code == 0, result.output
+    assert invoke("plot", str(folder)).exit_code == 0

@@ -217,7 +217,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
         ``nudge plot``'s errors; a folder made only for the figures is removed again.
     """
     from nudgecli.locks import run_lock
-    from nudgecli.report.plans import load_plan
+    from nudgecli.report.plans import AnalysisPlan, load_plan
     from nudgecli.report.plotting import default_out, parse_formats, parse_trial, plot_folder
 
     chosen_formats = parse_formats(formats) if isinstance(formats, str) else tuple(formats)
@@ -230,7 +230,8 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
     else:
         analysis_plan = load_plan(plan_of(folder, plan))
         if plan is not None:
-            _analyse_first(folder, analysis_plan, trial_key, out, force, reference)
+            shown = analysis_plan.name if isinstance(plan, AnalysisPlan) else str(plan)
+            _analyse_first(folder, analysis_plan, trial_key, out, force, reference, shown)
     # lock only the folder written: the figures' folder given by out (a read-only source is then
     # only read), else the run or analysis folder that holds figures/ (which analyze locks)
     written_folder: Path | None = None  # None: not a plottable source; plot_folder says why
@@ -255,7 +256,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
 
 
 def _analyse_first(folder: Path, plan: AnalysisPlan, trial: tuple[int, int] | None, out: str | Path | None,
-                   force: bool, reference: str | None) -> None:
+                   force: bool, reference: str | None, shown_plan: str) -> None:
     """``nudge plot --plan``: analyse the source with ``plan`` after checking what the plot can check
     before (the trial, the figures' folder), so that a plot refused for them rewrites nothing.
 
@@ -272,10 +273,27 @@ def _analyse_first(folder: Path, plan: AnalysisPlan, trial: tuple[int, int] | No
         _check_trial_of_run(folder, trial)
     if out is not None:
         _check_figures_folder(folder, out, force)
+    _check_no_questionnaires(folder, table, shown_plan)
     if table is None:
         analyze_source(folder, plan=plan, reference=reference)
     else:
         analyze_source(table, plan=plan, out=folder, reference=reference, drop_duplicates=drop_duplicates)
+
+
+def _check_no_questionnaires(folder: Path, table: Path | None, shown_plan: str) -> None:
+    """Refuse ``--plan`` where the analysis it replaces has questionnaire scores: the analysis
+    again would be without them (their answers file is not recorded), and a plot would draw the
+    trial metrics of one analysis beside the scores of another."""
+    from nudgecli.report.analysis_folders import analysis_folder
+    from nudgecli.run_folder_names import QUESTIONNAIRE_SCORES_CSV
+
+    written = folder if table is not None or folder.is_dir() else analysis_folder(folder)
+    if (written / QUESTIONNAIRE_SCORES_CSV).is_file():
+        source = table if table is not None else folder
+        raise ConfigError(
+            f"{written} holds questionnaire scores ({QUESTIONNAIRE_SCORES_CSV}) of an analysis with "
+            "--questionnaires, and plot --plan analyses without them: analyse it with `nudge analyze "
+            f"{source} --plan {shown_plan} --questionnaires ANSWERS.csv`, then `nudge plot {folder}`")
 
 
 def _table_of_analysis_folder(folder: Path) -> tuple[Path | None, bool]:
