@@ -8,7 +8,6 @@ folder.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,7 +19,13 @@ from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError
 from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.runs.batch import Batch, BatchRun, Point, run_batch, single_point
-from nudgecli.runs.batch_folder import BATCH_FIGURES, BATCH_MANIFEST, BATCH_TABLES, check_inputs_kept
+from nudgecli.runs.batch_folder import (
+    BATCH_FIGURES,
+    BATCH_MANIFEST,
+    BATCH_TABLES,
+    check_inputs_kept,
+    read_manifest,
+)
 from nudgecli.runs.study import checked_plan
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, people_of
@@ -113,14 +118,9 @@ def _people_fields(people: People | str | Path | None, out: str | Path,
     """The people file's record for the batch's description (nothing without one, so a batch of the
     population describes itself as before) and the people; a resumed batch must have the same."""
     chosen = people_of(people)
-    manifest = Path(out) / BATCH_MANIFEST
-    if resume and manifest.is_file():
-        try:
-            recorded = json.loads(manifest.read_text(encoding="utf-8"))["batch"].get(PEOPLE_KEY)
-        except (ValueError, KeyError, TypeError, AttributeError):
-            recorded = None  # an unreadable manifest is the prepare rule's to refuse
-        else:
-            check_same_people(recorded, chosen, out)
+    old = read_manifest(Path(out) / BATCH_MANIFEST)[0] if resume else None
+    if old is not None:  # a damaged manifest is the prepare rule's to refuse
+        check_same_people(old["batch"].get(PEOPLE_KEY), chosen, out)
     if chosen is None:
         return {}, None
     return {PEOPLE_KEY: chosen.record()}, chosen
