@@ -272,15 +272,24 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     The rule is the run folder's (:func:`nudgecli.store.prepare_mode`); a folder that is not empty
     but holds no batch is written into with ``force``, not cleared. Once the folder is accepted it
     keeps the batch's ``people`` file, byte for byte (:func:`nudgecli.sim.people_file.keep_copy`;
-    a resume puts back a missing or edited copy)."""
+    a resume puts back a missing or edited copy). Replacing a batch removes all it wrote
+    (:func:`remove_outputs`); a damaged manifest (:func:`read_manifest`) is refused unless ``force``,
+    which replaces its batch.
+
+    Raises
+    ------
+    RunFolderError
+        The folder holds a batch (and neither ``resume`` nor ``force``), a different batch to
+        resume, a damaged manifest without ``force``, or other files without ``force``.
+    """
     manifest = folder / BATCH_MANIFEST
     old, damage = read_manifest(manifest)
     if damage is not None and not force:  # a batch is there, but what it was is lost: only --force helps
         raise RunFolderError(f"{manifest}: damaged ({damage}); which batch the folder holds is unknown, "
                              "so it cannot be resumed: use --force to replace it (its tasks are computed "
                              "again), or choose another --out")
-    held = (None if old is None and damage is None else "its batch.json damaged" if old is None
-            else f"{old['batch'].get('kind')}, {old.get('status')}")
+    held = "its batch.json damaged" if damage is not None else \
+        None if old is None else f"{old['batch'].get('kind')}, {old.get('status')}"
     mode = prepare_mode(folder, held, resume, force, kind="batch")
     if old is not None and mode == "resume":
         if old.get("batch") != json.loads(json.dumps(description)):
