@@ -3,10 +3,15 @@ puts this folder on the path, as for ``live_helpers``)."""
 
 from __future__ import annotations
 
+import hashlib
 import shutil
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
+
+from click.testing import CliRunner, Result
+
+from nudgecli.cli import main
 
 
 def one_error_line(output: str) -> str:
@@ -15,6 +20,25 @@ def one_error_line(output: str) -> str:
     assert len(lines) == 1 and lines[0].startswith("Error: "), output
     assert "Traceback" not in output
     return lines[0]
+
+
+def nudge(*args: str | Path) -> Result:
+    """``nudge ARGS`` in this process (paths given as they are)."""
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+def stderr_error_line(result: Result) -> str:
+    """The single ``Error: ...`` line a failed command wrote on stderr (exit 1)."""
+    assert result.exit_code == 1, (result.output, result.exception)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: "), result.stderr
+    return lines[0]
+
+
+def file_digests(folder: Path, names: Iterable[str]) -> dict[str, str]:
+    """The SHA-256 of each of the files ``names`` in ``folder`` that exists."""
+    return {name: hashlib.sha256((folder / name).read_bytes()).hexdigest()
+            for name in names if (folder / name).is_file()}
 
 
 def wait_for(predicate: Callable[[], object], timeout: float = 60.0) -> None:

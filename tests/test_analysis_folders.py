@@ -14,9 +14,8 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from click.testing import CliRunner, Result
+from cli_helpers import file_digests, nudge, stderr_error_line
 
-from nudgecli.cli import main
 from nudgecli.errors import RunFolderError
 from nudgecli.report.analysis import analysed_metrics_path
 from nudgecli.report.analysis_folders import analysed_table, analysis_folder, check_folder_is_the_tables
@@ -25,20 +24,11 @@ TABLE = Path(__file__).parent / "data" / "metrics_two_conditions.csv"
 ANALYSIS_FILES = ("stats.json", "stats.csv", "summary.md", "metrics.csv")
 
 
-def _nudge(*args: str | Path) -> Result:
-    return CliRunner().invoke(main, [str(a) for a in args])
-
-
-def _error_line(result: Result) -> str:
-    assert result.exit_code == 1, (result.output, result.exception)
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("Error: "), result.stderr
-    return lines[0]
+_nudge, _error_line = nudge, stderr_error_line
 
 
 def _digests(folder: Path) -> dict[str, str]:
-    return {name: hashlib.sha256((folder / name).read_bytes()).hexdigest()
-            for name in ANALYSIS_FILES if (folder / name).is_file()}
+    return file_digests(folder, ANALYSIS_FILES)
 
 
 def _study_csv(folder: Path, repeated_rows: int = 0) -> Path:

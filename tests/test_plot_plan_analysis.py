@@ -9,7 +9,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import json
 import shutil
 from pathlib import Path
@@ -17,9 +16,8 @@ from typing import Any
 
 import pandas as pd
 import pytest
-from click.testing import CliRunner, Result
+from cli_helpers import file_digests, nudge, stderr_error_line
 
-from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.report.analysis import analyze
 from nudgecli.runs.study import run_study
@@ -36,20 +34,11 @@ def analysed_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return run.path
 
 
-def _nudge(*args: str | Path) -> Result:
-    return CliRunner().invoke(main, [str(a) for a in args])
-
-
-def _error_line(result: Result) -> str:
-    assert result.exit_code == 1, (result.output, result.exception)
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("Error: "), result.stderr
-    return lines[0]
+_nudge, _error_line = nudge, stderr_error_line
 
 
 def _digests(folder: Path) -> dict[str, str]:
-    return {name: hashlib.sha256((folder / name).read_bytes()).hexdigest()
-            for name in RECORDS if (folder / name).is_file()}
+    return file_digests(folder, RECORDS)
 
 
 def _stats(folder: Path) -> dict[str, Any]:
