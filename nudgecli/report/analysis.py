@@ -200,7 +200,7 @@ def _check_filters(plan: AnalysisPlan, available: Sequence[str]) -> None:
     known = set(METRIC_NAMES) | set(available)
     for name in plan.filters:
         if name not in known:
-            raise ConfigError(f"analysis plan {plan.name!r}: [filters] names unknown metric {name!r}"
+            raise ConfigError(f"{plan.label}: [filters] names unknown metric {name!r}"
                               f"{did_you_mean(name, sorted(known))}")
 
 
@@ -288,13 +288,6 @@ def _study_conditions(manifest: dict[str, Any] | None) -> list[str]:
     study = ((manifest or {}).get("config") or {}).get("study") or {}
     listed = study.get("conditions") if isinstance(study, dict) else None
     return [str(c) for c in listed] if isinstance(listed, list | tuple) else []
-
-
-def _plan_label(plan: str | Path | AnalysisPlan, loaded: AnalysisPlan) -> str:
-    """How a plan is recorded in a manifest: a preset's name, or a plan file's absolute path."""
-    if isinstance(plan, str | Path) and Path(plan).suffix.lower() == ".toml":
-        return str(Path(plan).resolve())
-    return loaded.name
 
 
 def _excluded_notes(table: pd.DataFrame) -> list[str]:
@@ -430,10 +423,9 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         changed = dropped > 0
         table_read = table_read_record(sha256, len(table) + dropped, drop_duplicates, dropped)
     # before anything is recorded: a plan whose conditions are not the data's is refused
-    check_plan_conditions(plan, _plan_label(plan_arg, plan), table["condition"].astype(str).unique(),
-                          str(source))
+    check_plan_conditions(plan, plan.label, table["condition"].astype(str).unique(), str(source))
     if source.is_dir():
-        _record_plan(run, manifest, plan_arg, plan, out_dir)
+        _record_plan(run, manifest, plan, out_dir)
     _check_filters(plan, available)
     scores, score_names = _read_scores(questionnaires, table, source)
     selected = _select_metrics(metrics, [*available, *score_names])
@@ -489,13 +481,13 @@ def _recorded_plan(manifest: dict[str, Any] | None) -> str:
     return resolve_plan(None, recorded=known.get("plan"), experiment=str(known.get("experiment", "")))
 
 
-def _record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan_arg: str | Path | AnalysisPlan,
-                 plan: AnalysisPlan, out_dir: Path) -> None:
+def _record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan: AnalysisPlan,
+                 out_dir: Path) -> None:
     """Record the plan in a finished run's manifest that has none, for the next analysis: only where
     this analysis writes anyway (the run folder as its output folder)."""
     if run is not None and manifest is not None and "participants" in manifest and \
             "plan" not in manifest and out_dir.resolve() == run.path.resolve():
-        manifest["plan"] = _plan_label(plan_arg, plan)
+        manifest["plan"] = plan.label
         run.write_manifest(manifest)
 
 

@@ -45,7 +45,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator
 
 from nudgecli.config_files import format_validation_error, list_presets, read_toml, resolve_preset
 from nudgecli.errors import ConfigError, did_you_mean
@@ -167,6 +167,20 @@ class AnalysisPlan(_Section):
     stats: StatsSettings = Field(default_factory=StatsSettings)
     bootstrap: BootstrapSettings = Field(default_factory=BootstrapSettings)
     questionnaires: QuestionnaireSettings = Field(default_factory=QuestionnaireSettings)
+    # the TOML file :func:`load_plan` read it from (absolute); None for a preset or a plan made in code
+    _file: Path | None = PrivateAttr(default=None)
+
+    def __eq__(self, other: object) -> bool:
+        # a plan is its settings: two files holding the same plan are the same plan
+        if not isinstance(other, AnalysisPlan):
+            return NotImplemented
+        return self.__dict__ == other.__dict__
+
+    @property
+    def label(self) -> str:
+        """How every message and a run's manifest name the plan: the absolute path of the file it
+        was read from (its ``name`` may be a copied preset's), else its ``name`` (a preset's)."""
+        return self.name if self._file is None else str(self._file)
 
     def comparison_options(self, seed: int | None = None) -> ComparisonOptions:
         """The plan's ``[stats]`` and ``[bootstrap]`` as :class:`~nudgecli.report.stats.ComparisonOptions`.
@@ -279,6 +293,7 @@ def load_plan(plan: str | Path | AnalysisPlan) -> AnalysisPlan:
     Returns
     -------
     AnalysisPlan
+        Read from a file, it remembers the file (:attr:`AnalysisPlan.label`, which messages name).
 
     Raises
     ------
@@ -290,4 +305,7 @@ def load_plan(plan: str | Path | AnalysisPlan) -> AnalysisPlan:
     path = resolve_preset(str(plan), "analysis")
     data = read_toml(path)
     data.setdefault("name", path.stem)
-    return plan_from_dict(data, source=str(path))
+    loaded = plan_from_dict(data, source=str(path))
+    if list_presets("analysis").get(str(plan)) != path:  # a file, not a preset: messages name the file
+        loaded._file = path.resolve()
+    return loaded

@@ -1,0 +1,62 @@
+"""An analysis plan's errors: a plan read from a file is named by its file in every message (its
+``name`` may be a copied preset's), ``analyze --bootstrap`` has the plan's lower bound, and a
+plan's numbers must be numbers."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from cli_helpers import nudge, one_error_line
+
+from nudgecli.config_files import list_presets
+from nudgecli.report.plans import load_plan
+
+TWO_CONDITIONS = Path(__file__).with_name("data") / "metrics_two_conditions.csv"
+PAPER = list_presets("analysis")["paper"]
+
+
+def _table(tmp_path: Path) -> Path:
+    return Path(shutil.copy(TWO_CONDITIONS, tmp_path / "pp.csv"))
+
+
+def _paper_copy(path: Path, old: str = "", new: str = "") -> Path:
+    """The paper preset, edited (``name = "paper"`` kept, as a user's copy keeps it)."""
+    text = PAPER.read_text(encoding="utf-8")
+    assert old in text
+    path.write_text(text.replace(old, new), encoding="utf-8")
+    return path
+
+
+# --- a plan file is named by its file ------------------------------------------------------------
+
+
+def test_a_plan_file_is_labelled_by_its_path_and_a_preset_by_its_name(tmp_path, monkeypatch):
+    copy = _paper_copy(tmp_path / "mine.toml")
+    assert load_plan(copy).label == str(copy.resolve())
+    monkeypatch.chdir(tmp_path)
+    assert load_plan("mine.toml").label == str(copy.resolve())  # relative: still the one file
+    assert load_plan("paper").label == "paper"
+    # where it was read from is not part of the plan: the copy is the same plan as the preset
+    assert load_plan(copy) == load_plan("paper")
+    assert load_plan(copy).name == "paper"
+
+
+@pytest.mark.parametrize("command", ["analyze", "plot"])
+def test_a_plan_file_misnaming_a_condition_is_named_by_its_file(tmp_path, command):
+    """plot --plan hands analyze the loaded plan: its error named the plan's ``name`` ('paper')."""
+    plan = _paper_copy(tmp_path / "p_cond.toml", '"control"]', '"controll"]')
+    table = _table(tmp_path)
+    line = one_error_line(nudge(command, table, "--plan", plan).output)
+    assert line.startswith(f"Error: {plan.resolve()}: conditions names 'controll', which {table} does not "
+                           "hold (did you mean 'control'?)"), line
+    assert not (tmp_path / "pp-analysis").exists()
+
+
+@pytest.mark.parametrize("command", ["analyze", "plot"])
+def test_a_plan_file_filtering_an_unknown_metric_is_named_by_its_file(tmp_path, command):
+    plan = _paper_copy(tmp_path / "p_filt.toml", "[filters]", "[filters]\nmode_switches_max = 10")
+    line = one_error_line(nudge(command, _table(tmp_path), "--plan", plan).output)
+    assert line == (f"Error: {plan.resolve()}: [filters] names unknown metric 'mode_switches_max' "
+                    "(did you mean 'mode_switches'?)"), line
