@@ -114,14 +114,26 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     if "=" not in text:
         raise ConfigError(f"--set {text!r}: expected section.key=value, e.g. --set study.participants=4")
     key, raw = text.split("=", 1)
-    path = [p.strip() for p in key.strip().split(".") if p.strip()]
-    if len(path) < 2:
+    path = settable_path(key)
+    if path is None:
         raise ConfigError(f"--set {text!r}: name the section and the key, e.g. disambiguation.window=5")
     try:
         value = tomllib.loads(f"v = {raw.strip()}")["v"]
     except tomllib.TOMLDecodeError:
         value = raw.strip()
     return path, value
+
+
+def settable_path(key: str) -> list[str] | None:
+    """The path of a key ``--set`` can set: ``"policies.threshold.params.weight"`` -> its parts.
+
+    The one rule of what a settable key is, for ``--set`` and a sweep file's ``[parameters]``: the
+    parts between dots, stripped, empty ones dropped; at least a section and a key, any depth below
+    (a custom policy's ``policies.NAME.params.KEY``). ``None`` when fewer than two parts remain.
+    Whether the key exists is the experiment's validation to say (with its "did you mean").
+    """
+    path = [part.strip() for part in key.strip().split(".") if part.strip()]
+    return path if len(path) >= 2 else None
 
 
 def apply_override(data: dict[str, Any], path: list[str], value: Any) -> None:

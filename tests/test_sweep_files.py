@@ -11,12 +11,23 @@ import pytest
 from click.testing import CliRunner
 from hypothesis import given
 from hypothesis import strategies as st
+from pydantic import ValidationError
 
 from nudgecli.cli import main
-from nudgecli.config_files import list_presets
+from nudgecli.config import load_experiment
+from nudgecli.config_files import list_presets, parse_override
 from nudgecli.errors import ConfigError
 from nudgecli.report.plans import load_plan
-from nudgecli.runs.sweep import Design, Range, SweepFile, design_values, load_sweep, map_sample, salib_problem
+from nudgecli.runs.sweep import (
+    Design,
+    Range,
+    SweepFile,
+    Values,
+    design_values,
+    load_sweep,
+    map_sample,
+    salib_problem,
+)
 
 HEAD = """\
 experiment = "smoke"
@@ -117,6 +128,7 @@ def test_an_integer_range_without_an_integer_is_refused(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize(("parameters", "extra"), [
     ('"experiment.seed" = [1, 2]\n', ""),
+    ('" experiment . seed" = [1, 2]\n', ""),  # read as --set reads it: the same key
     ('"inference.kappa" = [0.6]\n', 'set = ["experiment.seed=5"]\n'),
 ])
 def test_a_swept_or_set_experiment_seed_is_refused(tmp_path: Path, parameters: str, extra: str) -> None:
@@ -223,3 +235,97 @@ def test_the_sweep_help_names_its_default_folder() -> None:
     result = CliRunner().invoke(main, ["sweep", "--help"], terminal_width=200)
     assert "results/<sweep file>-sweep-<UTC time>" in result.output
     assert "<experiment>-<command>" not in result.output
+
+
+# --- 6: a sweep varies any key --set accepts, a custom policy's parameter too ---------------------
+
+THRESHOLD = "policies.threshold.params.threshold"
+
+
+def _custom_sweep(folder: Path, parameters: str, method: str = "grid") -> Path:
+    """A sweep over the shipped custom-policy experiment (its policy module beside it)."""
+    path = folder / "s.toml"
+    design = f'method = "{method}"' + ("\nsamples = 2\nlevels = 4" if method != "grid" else "")
+    path.write_text(f'experiment = "{list_presets("experiments")["custom-policy"]}"\nreplications = 1\n\n'
+                    f"[design]\n{design}\n\n[parameters]\n{parameters}")
+    return path
+
+
+def test_a_custom_policys_parameter_is_swept_over_a_list_of_values(tmp_path: Path) -> None:
+    loaded = load_sweep(str(_custom_sweep(tmp_path, f'"{THRESHOLD}" = {{ values = [0.5, 0.9] }}\n')))
+    assert [p.parameters for p in loaded.points] == [{THRESHOLD: 0.5}, {THRESHOLD: 0.9}]
+    # each point's experiment is what --set gives: the swept value, the other parameter kept
+    for point in loaded.points:
+        config = load_experiment(str(list_presets("experiments")["custom-policy"]),
+                                 [f"{THRESHOLD}={point.parameters[THRESHOLD]}"])
+        assert point.config == config
+        assert point.config.policies is not None
+        assert point.config.policies["threshold"].params == {"threshold": point.parameters[THRESHOLD],
+                                                             "weight": 0.5}
+
+
+@pytest.mark.parametrize("method", ["sobol", "morris"])
+def test_a_custom_policys_parameter_is_swept_over_a_range(tmp_path: Path, method: str) -> None:
+    path = _custom_sweep(tmp_path, f'"{THRESHOLD}" = {{ low = 0.5, high = 0.9 }}\n'
+                                   '"policies.threshold.params.weight" = [0.25, 0.75]\n', method)
+    loaded = load_sweep(str(path))
+    assert loaded.problem is not None and loaded.problem["names"][0] == THRESHOLD
+    drawn = [p.parameters[THRESHOLD] for p in loaded.points]
+    assert len(set(drawn)) > 1 and all(0.5 <= t <= 0.9 for t in drawn)
+    for point in loaded.points:
+        assert point.config.policies is not None
+        weight = point.parameters["policies.threshold.params.weight"]
+        assert point.config.policies["threshold"].params == {"threshold": point.parameters[THRESHOLD],
+                                                             "weight": weight}
+
+
+def test_a_point_whose_policy_refuses_its_parameter_is_named_before_anything_runs(tmp_path: Path) -> None:
+    # the check --set gives (nudge simulate --set policies.threshold.params.weight=2 is refused by the
+    # policy itself), at every point, before a folder exists
+    path = _custom_sweep(tmp_path, '"policies.threshold.params.weight" = [0.5, 2.0]\n')
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert str(path) in line and "design point 1" in line and "weight" in line
+    assert "weight must lie in [0, 1], got 2" in line
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_parameter_the_policy_does_not_take_is_named_with_its_signature(tmp_path: Path) -> None:
+    path = _custom_sweep(tmp_path, '"policies.threshold.params.treshold" = [0.5]\n')
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert "design point 0" in line and "treshold" in line and "signature" in line
+
+
+@pytest.mark.parametrize(("key", "expected"), [
+    ("inference.kapa", "(did you mean 'kappa'?)"),
+    ("polices.threshold.params.threshold", "(did you mean 'policies'?)"),
+])
+def test_a_wrong_key_still_gets_the_did_you_mean(tmp_path: Path, key: str, expected: str) -> None:
+    path = _custom_sweep(tmp_path, f'"{key}" = [0.5]\n')
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert str(path) in line and key in line and expected in line
+
+
+@pytest.mark.parametrize("key", ["kappa", "inference.", ". kappa", "inference..", ""])
+def test_a_key_without_a_section_and_a_key_is_refused_as_set_refuses_it(tmp_path: Path, key: str) -> None:
+    path = _sweep(tmp_path, f'"{key}" = [0.5]\n')
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert f"parameter {key!r}" in line and "section.key" in line
+    with pytest.raises(ConfigError, match="name the section and the key"):
+        parse_override(f"{key}=0.5")
+
+
+@given(st.lists(st.text(alphabet="ab. ", max_size=4), min_size=1, max_size=4).map(".".join))
+def test_a_sweep_takes_exactly_the_keys_set_takes(key: str) -> None:
+    try:
+        parse_override(f"{key}=1")
+    except ConfigError:
+        takes = False
+    else:
+        takes = True
+    try:
+        SweepFile(experiment="unused", parameters={key: Values(values=[1])})
+    except ValidationError:
+        swept = False
+    else:
+        swept = True
+    assert swept == takes

@@ -15,7 +15,7 @@ A sweep file is TOML::
     levels = 4                    # morris: grid levels
     seed = 0                      # the design's own seed (Sobol scrambling, Morris trajectories)
 
-    [parameters]                  # experiment keys (section.key)
+    [parameters]                  # any key --set takes (section.key, or deeper)
     "inference.kappa" = { low = 0.5, high = 0.8 }            # a range (sobol, morris)
     "study.participants" = { low = 4, high = 9, integer = true }
     "disambiguation.window" = { values = [3, 5] }            # a set of values (any design)
@@ -44,8 +44,15 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from nudgecli.config import ExperimentConfig, load_experiment
-from nudgecli.config_files import as_written, format_validation_error, list_presets, preset_dir, resolve_plan
-from nudgecli.errors import ConfigError, did_you_mean
+from nudgecli.config_files import (
+    as_written,
+    format_validation_error,
+    list_presets,
+    preset_dir,
+    resolve_plan,
+    settable_path,
+)
+from nudgecli.errors import ConfigError, PolicyError, did_you_mean
 
 #: Where the shipped example sweeps live (beside the experiment presets, in their own folder so
 #: that ``nudge presets`` does not list them as experiments).
@@ -119,16 +126,18 @@ class SweepFile(_Model):
     def _check(self) -> SweepFile:
         if not self.parameters:
             raise ValueError("name at least one parameter under [parameters]")
-        for key in self.parameters:
-            if key.count(".") != 1:
-                raise ValueError(f"parameter {key!r}: write it as section.key, e.g. inference.kappa")
+        for key in self.parameters:  # any key --set takes (one rule: config_files.settable_path)
+            if settable_path(key) is None:
+                raise ValueError(f"parameter {key!r}: write it as section.key (any key --set takes), e.g. "
+                                 "inference.kappa or policies.NAME.params.KEY")
+        swept = [set_key(key) for key in self.parameters]
         fixed = [set_key(entry) for entry in self.set]
-        if SEED_KEY in self.parameters or SEED_KEY in fixed:
-            where = "under [parameters]" if SEED_KEY in self.parameters else "in set"
+        if SEED_KEY in swept or SEED_KEY in fixed:
+            where = "under [parameters]" if SEED_KEY in swept else "in set"
             raise ValueError(f"{SEED_KEY} {where}: a sweep does not use the experiment's seed; every point "
                              "runs the same replication seeds, drawn from the sweep file's seed (seed = "
                              f"{self.seed}) or --seed; for more independent seeds raise replications")
-        both = [key for key in fixed if key in self.parameters]
+        both = [key for key in fixed if key in swept]
         if both:
             raise ValueError(f"{both[0]} is both in set and under [parameters]; keep it in one place: set "
                              "fixes a key at every point, [parameters] varies it")
@@ -145,8 +154,9 @@ SEED_KEY = "experiment.seed"
 
 
 def set_key(entry: str) -> str:
-    """The key of a ``set`` entry, ``"inference.kappa = 0.3"`` -> ``"inference.kappa"``."""
-    return ".".join(part.strip() for part in entry.partition("=")[0].split("."))
+    """The key of a ``set`` entry or a parameter as ``--set`` reads it: ``"inference.kappa = 0.3"``
+    and ``"inference . kappa"`` -> ``"inference.kappa"`` (empty when it names no settable key)."""
+    return ".".join(settable_path(entry.partition("=")[0]) or [])
 
 
 def parameter(key: str, written: Any) -> Any:
@@ -273,7 +283,8 @@ def load_sweep(name_or_path: str) -> Sweep:
     ------
     ConfigError
         Syntax, unknown key, bad range, an unknown experiment, or a point whose experiment is
-        invalid (naming the file, the parameter and the value).
+        invalid or whose own policy refuses its parameters (naming the file, the parameter and the
+        value).
     """
     path = resolve_sweep(name_or_path)
     try:
@@ -301,12 +312,29 @@ def load_sweep(name_or_path: str) -> Sweep:
         overrides = [*spec.set, *(f"{k}={json.dumps(v)}" for k, v in assignment.items())]
         try:
             config = load_experiment(experiment, overrides)
-        except ConfigError as exc:
+            check_policies(config)
+        except (ConfigError, PolicyError) as exc:
             shown = ", ".join(f"{k}={v!r}" for k, v in assignment.items())
             raise ConfigError(f"{path}: design point {index} ({shown}) is not a valid experiment: "
                               f"{str(exc).removeprefix('--set ')}") from None
         points.append(DesignPoint(index=index, parameters=assignment, config=config))
     return Sweep(source=path, spec=spec, points=points, problem=problem, samples=samples)
+
+
+def check_policies(config: ExperimentConfig) -> None:
+    """Make each of the experiment's own policies once with its parameters, the check ``nudge
+    simulate --set`` gives before any work (``checked_policy_specs``), so that a point whose
+    parameters its policy refuses stops the sweep before a folder exists, not in its first task.
+
+    Raises
+    ------
+    PolicyError
+        The policy does not import, does not take a parameter, or refuses a value.
+    """
+    if config.policies:  # the registry is imported only for an experiment with policies of its own
+        from nudgecli.sim.policy_registry import checked_policy_specs
+
+        checked_policy_specs(config)
 
 
 def salib_problem(spec: SweepFile) -> dict[str, Any]:
