@@ -1,7 +1,8 @@
 """A CSV table whose rows have fewer fields than its header (a last line cut off in a copy, a row
-that lost cells) is refused with one line naming the file and the line, by every command that
-reads a real table from CSV; complete rows with empty cells, blank lines and other delimiters
-are read as before."""
+that lost cells) or more (a separator at the end of each line, which pandas would read as a row
+label and shift every cell one column) is refused with one line naming the file and the line, by
+every command that reads a real table from CSV; complete rows with empty cells, blank lines and
+other delimiters are read as before."""
 
 from __future__ import annotations
 
@@ -14,9 +15,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from nudgecli.cli import main
+from nudgecli.csv_rows import refuse_uneven_rows
 from nudgecli.errors import DataError
 from nudgecli.report.questionnaires import read_questionnaires
-from nudgecli.report.tables import read_csv_labels, read_metrics_table, refuse_short_rows
+from nudgecli.report.tables import read_csv_labels, read_metrics_table
 
 DATA = Path(__file__).parent / "data"
 TABLE = DATA / "metrics_two_conditions.csv"
@@ -116,7 +118,7 @@ def test_a_short_row_is_found_at_its_line_by_a_plain_count(tmp_path: Path, rows:
     frame = pd.DataFrame(rows, columns=["participant", "condition", "m1", "m2"])
     source = tmp_path / "h.csv"
     frame.to_csv(source, index=False)
-    refuse_short_rows(source, ",")  # every row written in full: nothing to refuse
+    refuse_uneven_rows(source, ",")  # every row written in full: nothing to refuse
     # cut one row to its first `keep` cells; its line by counting the written lines before it
     cut_at = min(cut_at, len(rows) - 1)
     short = pd.DataFrame([r[:keep] for r in rows[cut_at:cut_at + 1]])
@@ -126,7 +128,90 @@ def test_a_short_row_is_found_at_its_line_by_a_plain_count(tmp_path: Path, rows:
     line = (before + short.to_csv(index=False, header=False)).count("\n")
     only_blank = keep == 1 and rows[cut_at][0] == ""  # a lone empty cell is a blank line to pandas
     if only_blank:
-        refuse_short_rows(source, ",")
+        refuse_uneven_rows(source, ",")
         return
     with pytest.raises(DataError, match=f"line {line} has {keep} of 4 fields"):
-        refuse_short_rows(source, ",")
+        refuse_uneven_rows(source, ",")
+
+
+def long_copy(path: Path, extra: str = ",", rows: slice = slice(1, None)) -> Path:
+    """TABLE with ``extra`` added to the end of the data lines ``rows`` (line 1 is the header)."""
+    lines = TABLE.read_text(encoding="utf-8").splitlines()
+    lines[rows] = [line + extra for line in lines[rows]]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def test_every_row_one_field_longer_than_the_header_is_refused_not_shifted(tmp_path: Path) -> None:
+    # pandas would take `participant` from the first field as the row label and read each
+    # condition as a participant, each block as a condition, ...
+    source = tmp_path / "study.csv"
+    source.write_bytes(TABLE.read_bytes())
+    assert CliRunner().invoke(main, ["analyze", str(source)]).exit_code == 0
+    analysed = {p.name: p.read_bytes() for p in (tmp_path / "study-analysis").iterdir()}
+    long_copy(source, ",1")
+    message = one_error_line(["analyze", str(source)])
+    expected = f"{source}: line 2 has {WIDTH + 1} fields, the header {WIDTH} (and 47 more line(s) like it)"
+    assert expected in message
+    assert {p.name: p.read_bytes() for p in (tmp_path / "study-analysis").iterdir()} == analysed
+    real = long_copy(tmp_path / "real.csv")
+    message = one_error_line(["compare", str(TABLE), str(real), "--resamples", "0"])
+    assert f"real.csv: line 2 has {WIDTH + 1} fields, the header {WIDTH}" in message
+
+
+def test_a_first_column_of_row_numbers_is_no_excuse(tmp_path: Path) -> None:
+    # the row labels pandas would take (0, 1, 2, ...) are its default ones: only the widths tell
+    source = tmp_path / "numbered.csv"
+    source.write_text("participant,condition,completion_time\n0,1,a,3.5\n1,1,b,4.5\n2,2,a,5.5\n",
+                      encoding="utf-8")
+    with pytest.raises(DataError, match=r"numbered.csv: line 2 has 4 fields, the header 3 \(and 2 more"):
+        read_csv_labels(source)
+
+
+def test_a_long_row_further_down_is_named_by_the_files_own_line(tmp_path: Path) -> None:
+    # a quoted line break above it: pandas' parser error counts rows, the file has one line more
+    text = ('participant,condition,note,completion_time\n1,a,"two\nlines",3.5\n2,b,x,4.5\n'
+            "3,a,y,5.5,9\n4,b,z,6.5\n")
+    source = tmp_path / "t.csv"
+    source.write_text(text, encoding="utf-8")
+    with pytest.raises(DataError, match=r"t.csv: line 5 has 5 fields, the header 4; a row longer than the "
+                                        r"header would shift its cells"):
+        read_metrics_table(source)
+
+
+def test_the_first_uneven_line_is_the_one_named(tmp_path: Path) -> None:
+    source = long_copy(tmp_path / "study.csv", ",7", slice(10, 11))  # line 11 long
+    with source.open("a", encoding="utf-8") as handle:
+        handle.write("2,control\n")  # and a cut last line below it
+    with pytest.raises(DataError, match="line 11 has 8 fields, the header 7;"):
+        read_metrics_table(source)
+    source = long_copy(tmp_path / "study.csv", ",7", slice(30, 31))
+    lines = source.read_text(encoding="utf-8").splitlines()
+    lines[4] = "1,disambiguation"  # a short line 5 above the long line 31
+    source.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(DataError, match="line 5 has 2 of 7 fields;"):
+        read_metrics_table(source)
+
+
+def test_a_header_and_rows_of_one_width_with_a_trailing_separator_are_read(tmp_path: Path) -> None:
+    source = tmp_path / "t.csv"
+    source.write_text("participant,condition,completion_time,\n1,a,3.5,\n2,b,4.5,\n", encoding="utf-8")
+    table = read_csv_labels(source)
+    assert list(table["participant"]) == [1, 2] and list(table["completion_time"]) == [3.5, 4.5]
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(rows=st.lists(st.lists(CELL, min_size=4, max_size=4), min_size=1, max_size=8),
+       extra=st.lists(CELL, min_size=1, max_size=3), long_at=st.integers(0, 8))
+def test_a_long_row_is_found_at_its_line_by_a_plain_count(tmp_path: Path, rows: list[list[str]],
+                                                          extra: list[str], long_at: int) -> None:
+    frame = pd.DataFrame(rows, columns=["participant", "condition", "m1", "m2"])
+    long_at = min(long_at, len(rows) - 1)
+    before = frame.iloc[:long_at].to_csv(index=False)
+    long = pd.DataFrame([rows[long_at] + extra]).to_csv(index=False, header=False)
+    after = frame.iloc[long_at + 1:].to_csv(index=False, header=False)
+    source = tmp_path / "h.csv"
+    source.write_text(before + long + after, encoding="utf-8")
+    line = (before + long).count("\n")
+    with pytest.raises(DataError, match=f"line {line} has {4 + len(extra)} fields, the header 4"):
+        refuse_uneven_rows(source, ",")

@@ -14,8 +14,9 @@ every label is a canonical integer (``7``, ``12``, ``-3``: the text Python write
 read as integers, as it always was; a column with any other label (``07``, ``P7``, ``+3``,
 ``7.0``) is read as text, exactly as written (:func:`read_csv_labels`, the one owner of that rule
 for every real table: metrics tables, ``metrics.csv`` read back, questionnaires). It also refuses a
-row with fewer fields than the header (:func:`refuse_short_rows`: a file whose last line was cut
-off), which pandas would read with its missing cells empty. A Parquet table's columns keep the
+row with fewer fields than the header (a file whose last line was cut off), which pandas would
+read with its missing cells empty, and rows with more (which pandas would shift by a column), by
+:func:`nudgecli.csv_rows.read_csv_whole_rows`, the rule of every user CSV. A Parquet table's columns keep the
 types they were stored with.
 """
 
@@ -31,6 +32,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.report.metrics import ID_COLUMNS, METRIC_NAMES
@@ -108,8 +110,8 @@ def labels_as_written(labels: pd.Series) -> pd.Series:
 def read_csv_labels(path: str | Path, dtype: dict[str, object] | None = None,
                     **options: object) -> pd.DataFrame:
     """``pandas.read_csv`` of a real table with its :data:`LABEL_COLUMNS` kept as written
-    (:func:`labels_as_written`): the one reading of a real table's labels, and the one place a
-    row with fewer fields than the header is refused (:func:`refuse_short_rows`).
+    (:func:`labels_as_written`): the one reading of a real table's labels, refusing a row with
+    fewer or more fields than the header (:func:`nudgecli.csv_rows.read_csv_whole_rows`).
 
     Parameters
     ----------
@@ -123,66 +125,14 @@ def read_csv_labels(path: str | Path, dtype: dict[str, object] | None = None,
     Raises
     ------
     DataError
-        A row with fewer fields than the header.
+        A row with fewer or more fields than the header.
     """
     as_text = {column: object for column in LABEL_COLUMNS}  # a column the table lacks is ignored
-    table = pd.read_csv(path, dtype={**as_text, **(dtype or {})}, **options)  # type: ignore[call-overload]
-    # pandas fills a row cut short with missing cells, so its last cell is missing: only then look
-    if len(table.columns) and table.iloc[:, -1].isna().any():
-        refuse_short_rows(path, str(options.get("sep") or ","))
+    table = read_csv_whole_rows(path, dtype={**as_text, **(dtype or {})}, **options)
     for column in LABEL_COLUMNS:
         if column in table.columns:
             table[column] = labels_as_written(table[column])
     return table
-
-
-def refuse_short_rows(path: str | Path, delimiter: str) -> None:
-    """Refuse a CSV row with fewer fields than the header: pandas reads it with its missing cells
-    empty, so a file whose last line was cut off (``1,disambig``) would add a fake row, here a
-    fake condition. A row of empty cells written out (``,,,``) is complete; blank lines are
-    skipped, as pandas skips them. The one check of every real table read as CSV
-    (:func:`read_csv_labels`).
-
-    Parameters
-    ----------
-    path
-        The CSV file.
-    delimiter
-        Its field separator.
-
-    Raises
-    ------
-    DataError
-        Naming the file, the first short line (physical line number), its fields and the header's.
-    """
-    first: tuple[int, int] | None = None  # (line, fields) of the first short row
-    n_short = width = 0
-    last_is_short = False
-    try:
-        with open(path, encoding="utf-8-sig", errors="replace", newline="") as handle:
-            reader = csv.reader(handle, delimiter=delimiter)
-            for row in reader:
-                if len(row) <= 1 and not "".join(row).strip():
-                    continue  # a blank (or white-space) line: pandas skips it
-                if not width:
-                    width = len(row)  # the header
-                    continue
-                last_is_short = len(row) < width
-                if last_is_short:
-                    n_short += 1
-                    first = first or (reader.line_num, len(row))
-    except (csv.Error, OSError) as exc:
-        raise DataError(f"{path} cannot be read as a csv table: {exc}") from None
-    if first is None:
-        return
-    line, fields = first
-    if n_short == 1 and last_is_short:
-        raise DataError(f"{path}: line {line} has {fields} of {width} fields; the file looks cut off: "
-                        "complete that line or remove it")
-    more = f" (and {n_short - 1} more line(s) like it)" if n_short > 1 else ""
-    raise DataError(f"{path}: line {line} has {fields} of {width} fields{more}; the file looks cut off or "
-                    "a row lost cells: write every field of each row (an empty cell still needs its "
-                    "separator) or remove the line")
 
 
 def read_metrics_table(path: str | Path) -> pd.DataFrame:
