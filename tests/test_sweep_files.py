@@ -85,8 +85,8 @@ def test_sobol_over_an_integer_range_draws_every_integer_of_it() -> None:
 @pytest.mark.parametrize("levels", [2, 4, 6, 8])
 def test_morris_levels_of_an_integer_range_follow_the_documented_rule(levels: int) -> None:
     # level k of L is u = k / (L - 1), which gives ceil(low) + floor(u n), the last level the last
-    # integer (n = 6 integers 4..9); L = n levels visit every integer once. (Odd L: SALib's own
-    # grid is not k / (L - 1) and it warns that the sample may be biased.)
+    # integer (n = 6 integers 4..9); L = n levels visit every integer once. (Odd L is refused: SALib's
+    # own grid is then not k / (L - 1), tested below.)
     n = 6
     expected = {min(4 + math.floor(k * n / (levels - 1)), 9) for k in range(levels)}
     drawn = set(_integers(4, 9, "morris", samples=12, levels=levels, seed=1))
@@ -329,3 +329,31 @@ def test_a_sweep_takes_exactly_the_keys_set_takes(key: str) -> None:
     else:
         swept = True
     assert swept == takes
+
+
+# --- 7: Morris takes an even number of levels only ------------------------------------------------
+
+@pytest.mark.parametrize("levels", [3, 5, 7])
+def test_odd_morris_levels_are_refused_in_one_line(tmp_path: Path, levels: int) -> None:
+    path = _sweep(tmp_path, '"inference.kappa" = { low = 0.5, high = 0.8 }\n', method="morris")
+    path.write_text(path.read_text().replace('method = "morris"', f'method = "morris"\nlevels = {levels}'))
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert f"{path}: design.levels: " in line and "even" in line and f"got {levels}" in line
+    assert f"{levels - 1} or {levels + 1}" in line
+    assert not (tmp_path / "out").exists()
+
+
+def test_levels_unused_by_a_design_are_not_checked() -> None:
+    assert Design(method="sobol", levels=5).levels == 5  # sobol and grid ignore levels
+    assert Design(method="grid", levels=3).levels == 3
+
+
+@pytest.mark.parametrize("levels", [2, 4, 6, 10])
+def test_even_morris_levels_put_every_coordinate_on_the_k_over_l_minus_1_grid(levels: int) -> None:
+    # brute force over every drawn coordinate of two unit ranges: u (L - 1) is a whole k in 0..L-1
+    spec = SweepFile(experiment="unused", design=Design(method="morris", samples=20, levels=levels, seed=3),
+                     parameters={"a.x": Range(low=0, high=1), "a.y": Range(low=0, high=1)})
+    samples = design_values(spec)[2]
+    assert samples is not None and samples.shape == (20 * 3, 2)
+    steps = samples * (levels - 1)
+    assert abs(steps - steps.round()).max() < 1e-9 and steps.min() >= 0 and steps.max() <= levels - 1

@@ -12,7 +12,7 @@ A sweep file is TOML::
     [design]
     method = "sobol"              # "grid", "sobol" or "morris"
     samples = 8                   # sobol: base samples N (N (D + 2) points); morris: trajectories
-    levels = 4                    # morris: grid levels
+    levels = 4                    # morris: grid levels (even; SALib)
     seed = 0                      # the design's own seed (Sobol scrambling, Morris trajectories)
 
     [parameters]                  # any key --set takes (section.key, or deeper)
@@ -97,6 +97,18 @@ class Design(_Model):
     samples: int = Field(default=8, ge=1, le=100_000)
     levels: int = Field(default=4, ge=2, le=100)
     seed: int = Field(default=0, ge=0)
+
+    @model_validator(mode="after")
+    def _even_levels(self) -> Design:
+        # SALib's Morris sampler wants even levels (SALib/SALib, src/SALib/sample/morris/morris.py,
+        # ``sample``: "num_levels ... (should be even)"; ``_check_if_num_levels_is_even`` only warns
+        # "sample may be biased"): its start points are int(L / 2) evenly spaced points of
+        # [0, 1 - delta], delta = L / (2 (L - 1)), on the k / (L - 1) grid for even L only
+        if self.method == "morris" and self.levels % 2:
+            raise ValueError(f"levels: Morris needs an even number of levels (SALib's grid k / (levels - 1) "
+                             f"holds for even levels only), got {self.levels}; use {self.levels - 1} or "
+                             f"{self.levels + 1}")
+        return self
 
 
 class SweepFile(_Model):
