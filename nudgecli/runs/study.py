@@ -18,7 +18,7 @@ import os
 import pickle
 import sys
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,6 +45,13 @@ from nudgecli.sim.calibration_io import write_sessions
 from nudgecli.sim.counterbalance import design_record
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, keep_copy, people_of
+from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
+from nudgecli.sim.policy_files import (
+    check_same_policy_files,
+    keep_policy_copies,
+    loaded_policy_files,
+    policy_record,
+)
 from nudgecli.sim.policy_registry import constant_metrics_of
 from nudgecli.sim.study import (
     ParticipantColumns,
@@ -329,13 +336,14 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     config = config.model_copy(update={"experiment": config.experiment.model_copy(update={"seed": seed})})
     check_physiology_logs(config)
     people = people_of(people)  # a bad people file is refused before the folder is touched
+    policy_files = loaded_policy_files(config)  # the policy code the run keeps a copy of
     if plan is not None:  # refused before anything is simulated or written
         checked_plan(plan, [config])
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
     try:
         with run_lock(out):
             return _run_locked(RunFolder(out), config, seed, n, workers, scheduler, client, resume, force,
-                               progress, plan, people)
+                               progress, plan, people, policy_files)
     except BaseException:
         if client is not None:
             client.close()
@@ -345,12 +353,11 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
 def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, workers: int,
                 scheduler: str | None, client: Any, resume: bool, force: bool,
                 progress: Callable[[int, int], None] | None, plan_name: str | None,
-                people: People | None = None) -> StudyRun:
+                people: People | None = None, policy_files: Mapping[str, bytes] | None = None) -> StudyRun:
     """:func:`run_study` once the folder's lock is held (``client``: the connected dask client, or None)."""
     mode = folder.prepare(config, seed, n, resume=resume, force=force)
-    if mode == "resume":
-        check_same_people(folder.read_manifest().get(PEOPLE_KEY), people, folder.path)
-    keep_copy(people, folder.path)  # the people file travels with the run: its resume command names the copy
+    policy_files = policy_files or {}
+    _keep_inputs(folder, mode == "resume", config, people, policy_files)
     done = set(folder.completed_participants()) & set(range(n)) if mode == "resume" else set()
     if mode == "resume":
         # keep only the parts the manifest vouches for (the SHA-256 recorded when this run wrote
@@ -377,6 +384,8 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                      CONSTANT_METRICS_KEY: {c: sorted(m) for c, m in constant_metrics_of(config).items()}})
     if people is not None:
         manifest[PEOPLE_KEY] = people.record()
+    if policy_files:
+        manifest[POLICY_FILES_KEY] = policy_record(policy_files)
     if plan_name is not None or "plan" not in manifest:
         manifest["plan"] = resolve_plan(plan_name, experiment=config.experiment.name)
     manifest[FILE_CHECKSUMS] = {LAYOUTS: folder.write_layouts(plan.layouts_frame())}  # read back by plot
@@ -421,6 +430,21 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     folder.write_manifest(manifest)
     return StudyRun(path=folder.path, experiment=config.experiment.name, mode=mode, participants=n,
                     computed=todo, trials=folder.read_trials())
+
+
+def _keep_inputs(folder: RunFolder, resuming: bool, config: ExperimentConfig, people: People | None,
+                 policy_files: Mapping[str, bytes]) -> None:
+    """Refuse a resume with other people or other policy code than the run was simulated with, then
+    keep exact copies of both in the run folder: its resume command names the people file's copy,
+    and its ``config.toml`` imports the policy modules' copies (``policy_files``:
+    :func:`~nudgecli.sim.policy_files.loaded_policy_files`)."""
+    if resuming:
+        recorded = folder.read_manifest()
+        check_same_people(recorded.get(PEOPLE_KEY), people, folder.path)
+        check_same_policy_files(recorded.get(POLICY_FILES_KEY), policy_files, config.policy_search_path,
+                                folder.path)
+    keep_copy(people, folder.path)
+    keep_policy_copies(policy_files, folder.path)
 
 
 def _finite_or_none(value: float) -> float | None:

@@ -75,6 +75,14 @@ def import_policy_module(module_name: str, folder: str | None, *, reload_changed
         return module
 
 
+def imported_files(folder: str) -> list[Path]:
+    """The files of ``folder``'s modules imported in this process (by :func:`import_policy_module`),
+    sorted: the code a run of an experiment in ``folder`` runs (a run folder keeps their copies,
+    :mod:`nudgecli.sim.policy_files`). Packages without ``__init__.py`` have no file of their own."""
+    with _LOCK:
+        return sorted(Path(path) for path in _IMPORTED_FILES.get(private_package_name(folder), {}))
+
+
 def module_file(folder: str, module_name: str) -> Path | None:
     """The file of ``module_name`` in ``folder`` (a module's ``.py`` or a package's ``__init__.py``;
     the packages above it may be folders without one), or ``None`` when it is not there."""

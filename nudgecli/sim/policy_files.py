@@ -1,0 +1,133 @@
+"""The policy modules a run keeps: an exact copy of each file of a researcher's own policies that the
+experiment imported from its folder, so that the run folder is self-contained.
+
+A run of ``experiments/custom-policy.toml`` imports ``policies.threshold`` from
+``experiments/policies/threshold.py`` (:mod:`nudgecli.sim.policy_loader`). The run folder ``R``
+keeps that file's bytes as ``R/policies/threshold.py`` (the same path relative to the folder) and
+its SHA-256 in the manifest (:data:`MANIFEST_KEY`). Its ``R/config.toml`` then finds the copy
+where it finds any policy module, beside itself, so the resume command every damaged or
+interrupted run prints (``nudge simulate R/config.toml --out R ... --resume``) works from any
+folder. A resume whose modules differ from the recorded ones is refused naming the file: its
+trials would be a mix of two policies. This is the people file's rule
+(:func:`nudgecli.sim.people_file.keep_copy`) for policy code.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from nudgecli.errors import ConfigError, DataError
+from nudgecli.run_folder_names import FIGURES_DIR, PART_KINDS, PEOPLE_DIR
+from nudgecli.sim.policy_loader import imported_files
+from nudgecli.sim.policy_registry import load_factory, policy_specs
+
+if TYPE_CHECKING:
+    from nudgecli.config import ExperimentConfig
+
+#: The manifest's record of the copies: ``{relative path: SHA-256}``.
+MANIFEST_KEY = "policy_files"
+#: The run folder's own folders, which a policy package of the same name would write into.
+RUN_FOLDERS = frozenset({PEOPLE_DIR, FIGURES_DIR, "calibration", *PART_KINDS})
+
+
+def loaded_policy_files(config: ExperimentConfig) -> dict[str, bytes]:
+    """The files of the experiment's own policy modules imported from its folder, by their path
+    relative to the folder (``policies/threshold.py``, POSIX separators) -> their bytes; empty
+    without such modules (none of its own, or all imported from ``sys.path``).
+
+    Each condition's factory is imported first (an edited file afresh, as the experiment's checks
+    do), so the files are those the run will run.
+
+    Raises
+    ------
+    PolicyError
+        A module that does not import (:func:`~nudgecli.sim.policy_registry.load_factory`).
+    ConfigError
+        A module whose top folder is named like one of a run folder's own (``trials``, ``people``,
+        ...): its copy would be written among the run's tables.
+    """
+    specs = policy_specs(config)
+    folder = config.policy_search_path
+    if folder is None or not specs:
+        return {}
+    for spec in specs:
+        load_factory(spec)
+    base = Path(folder).resolve()
+    files: dict[str, bytes] = {}
+    for path in imported_files(folder):
+        try:
+            relative = path.resolve().relative_to(base)
+        except ValueError:  # not under the folder: nothing the run folder could mirror
+            continue
+        if relative.parts[0] in RUN_FOLDERS:
+            top = relative.parts[0]
+            raise ConfigError(f"{path}: a policy package named {top!r} would be copied into the run "
+                              f"folder's own {top}/; rename the package (and its factory's "
+                              "module) in the experiment's folder")
+        files[relative.as_posix()] = path.read_bytes()
+    return files
+
+
+def policy_record(files: Mapping[str, bytes]) -> dict[str, str]:
+    """The manifest's :data:`MANIFEST_KEY` entry of ``files``: relative path -> SHA-256 (hex)."""
+    return {name: hashlib.sha256(data).hexdigest() for name, data in sorted(files.items())}
+
+
+def check_same_policy_files(recorded: object, files: Mapping[str, bytes], source: str | None,
+                            where: str | Path) -> None:
+    """Refuse to resume the run ``where`` with policy modules other than it was simulated with.
+
+    Parameters
+    ----------
+    recorded
+        The manifest's :data:`MANIFEST_KEY` entry, read from disk; not a mapping (a run without
+        policies of its own, or of an older nudge that kept no copies): nothing to compare.
+    files
+        The modules the experiment now loads (:func:`loaded_policy_files`).
+    source
+        The folder they are loaded from (the experiment file's), to name the file.
+    where
+        The run folder.
+
+    Raises
+    ------
+    DataError
+        The first file (by its relative path) whose SHA-256 differs, or that one side lacks.
+    """
+    if not isinstance(recorded, Mapping):
+        return
+    now = policy_record(files)
+    for name in sorted({*map(str, recorded), *now}):
+        if recorded.get(name) == now.get(name):
+            continue
+        shown = Path(source or ".") / name
+        if name not in now:
+            what = (f"{where} was simulated with the policy module {name}, which its experiment no longer "
+                    "imports")
+        elif name not in recorded:
+            what = f"{shown} is a policy module the run was not simulated with"
+        else:
+            what = (f"{shown} is not the policy module {where} was simulated with (its SHA-256 differs from "
+                    "the manifest's)")
+        raise DataError(f"{what}: resuming would mix two policies in one run; put the file back as it was "
+                        f"(the run keeps its copy as {Path(where) / name}) and resume with the run's own "
+                        f"config.toml, or start again with --force")
+
+
+def keep_policy_copies(files: Mapping[str, bytes], folder: str | Path) -> None:
+    """Keep ``files`` (:func:`loaded_policy_files`) in the run folder under their relative paths,
+    each written atomically; a copy that holds these bytes already is left alone (a resume from the
+    run's own ``config.toml`` imports the copies themselves)."""
+    if not files:
+        return
+    from nudgecli.store import write_bytes_atomic  # the folders' writer; it imports the config
+
+    for name, data in files.items():
+        target = Path(folder) / name
+        if target.is_file() and target.read_bytes() == data:
+            continue
+        target.parent.mkdir(parents=True, exist_ok=True)
+        write_bytes_atomic(target, data)
