@@ -357,3 +357,28 @@ def test_even_morris_levels_put_every_coordinate_on_the_k_over_l_minus_1_grid(le
     assert samples is not None and samples.shape == (20 * 3, 2)
     steps = samples * (levels - 1)
     assert abs(steps - steps.round()).max() < 1e-9 and steps.min() >= 0 and steps.max() <= levels - 1
+
+
+# --- 8: a name that is both a preset and a file beside the sweep file is ambiguous ----------------
+
+@pytest.mark.parametrize(("field", "name", "kind"), [("experiment", "smoke", "experiments"),
+                                                    ("plan", "paper", "analysis")])
+def test_a_name_both_a_preset_and_a_file_beside_the_sweep_file_is_refused_naming_both(
+        tmp_path: Path, field: str, name: str, kind: str) -> None:
+    preset = list_presets(kind)[name]  # type: ignore[arg-type]
+    (tmp_path / name).write_text(preset.read_text())  # a file of that name, without .toml
+    extra = f'plan = "{name}"\n' if field == "plan" else ""
+    path = _sweep(tmp_path, '"inference.kappa" = [0.6]\n', extra=extra)
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert line.startswith(f"Error: {path}: {field}: ")
+    assert str(preset) in line and str(tmp_path / name) in line  # both candidates, by their paths
+    assert f"./{name}" in line  # how to name the file
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_file_beside_the_sweep_file_written_as_a_path_is_taken_over_the_preset(tmp_path: Path) -> None:
+    smoke = list_presets("experiments")["smoke"].read_text()
+    (tmp_path / "smoke").write_text(smoke.replace('name = "smoke"', 'name = "mine"'))
+    path = _sweep(tmp_path, '"inference.kappa" = [0.6]\n')
+    path.write_text(path.read_text().replace('"smoke"', '"./smoke"'))
+    assert load_sweep(str(path)).points[0].config.experiment.name == "mine"

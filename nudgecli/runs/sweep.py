@@ -267,16 +267,24 @@ def beside_sweep(path: Path, field: str, written: str, kind: Literal["experiment
     """The sweep file's ``experiment`` or ``plan``: a preset by name, else a file, a relative path
     being to the sweep file's folder (never the current one).
 
+    A bare name (no ``.toml``, no folder) that is both a preset and a file beside the sweep file
+    is ambiguous, and refused: neither the preset rule nor the path rule says which was meant.
+
     Raises
     ------
     ConfigError
-        Neither a preset nor a file: names the sweep file, the field and where it looked.
+        Neither a preset nor a file, or both: names the sweep file, the field and where it looked.
     """
     presets = list_presets(kind)
     looks_like_path = written.endswith(".toml") or "/" in written or "\\" in written
-    if written in presets and not looks_like_path:
-        return written
     target = path.parent / Path(written).expanduser()
+    if written in presets and not looks_like_path:
+        if target.is_file():
+            what = "experiment" if kind == "experiments" else "analysis plan"
+            raise ConfigError(f"{path}: {field}: {written!r} is both the {what} preset {written} "
+                              f"({presets[written]}) and the file {target} beside the sweep file; write "
+                              f'"./{written}" for the file, or rename the file to use the preset')
+        return written
     if target.is_file():
         return str(target)
     if looks_like_path:
