@@ -90,7 +90,7 @@ def format_args(tmp_path: Path) -> dict[str, list[str]]:
         f"{i / 10:.1f},0,{'Soft Puff' if 10 <= i < 15 else 'Zero Band'},{min(max(i - 10, 0), 5)},0,0,0\n"
         for i in range(30)))
     return {
-        "analyze": ["analyze", str(TABLE), "--out", str(tmp_path / "analysis"), "--bootstrap", "50"],
+        "analyze": ["analyze", str(TABLE), "--out", str(tmp_path / "analysis"), "--bootstrap", "100"],
         "bench": ["bench", "--only", "model", "--repeats", "1", "--baseline-repeats", "1"],
         "compare": ["compare", str(TABLE), str(TABLE), "--resamples", "0", "--out", str(tmp_path / "compare"),
                     "--formats", "png"],
@@ -429,7 +429,7 @@ def without_stderr(command_line: str) -> subprocess.CompletedProcess:
 def test_commands_work_with_stderr_closed(tmp_path, command):
     out = tmp_path / "out"
     args = {"simulate": ["simulate", "smoke", "--participants", "2"],
-            "analyze": ["analyze", str(TABLE), "--bootstrap", "50"],
+            "analyze": ["analyze", str(TABLE), "--bootstrap", "100"],
             "replicate": ["replicate", "smoke", "-R", "1", "--participants", "2"]}[command]
     line = " ".join(shlex.quote(a) for a in [*NUDGE, *args, "--out", str(out)])
     done = without_stderr(line)
@@ -457,7 +457,7 @@ def test_a_refusal_with_stderr_closed_is_clean(tmp_path):
 def analysed_table(tmp_path_factory: pytest.TempPathFactory) -> Path:
     table = tmp_path_factory.mktemp("table") / "study.csv"
     table.write_text(TABLE.read_text())
-    assert invoke(["analyze", str(table), "--bootstrap", "50"]).exit_code == 0
+    assert invoke(["analyze", str(table), "--bootstrap", "100"]).exit_code == 0
     return table
 
 
@@ -465,7 +465,7 @@ def analysed_table(tmp_path_factory: pytest.TempPathFactory) -> Path:
 def analysed_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     run = tmp_path_factory.mktemp("run") / "run"
     assert invoke(["simulate", "smoke", "--participants", "2", "--out", str(run)]).exit_code == 0
-    assert invoke(["analyze", str(run), "--bootstrap", "50"]).exit_code == 0
+    assert invoke(["analyze", str(run), "--bootstrap", "100"]).exit_code == 0
     return run
 
 

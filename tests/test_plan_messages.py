@@ -4,6 +4,7 @@ plan's numbers must be numbers."""
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -11,7 +12,7 @@ import pytest
 from cli_helpers import nudge, one_error_line
 
 from nudgecli.config_files import list_presets
-from nudgecli.report.plans import load_plan
+from nudgecli.report.plans import MIN_RESAMPLES, load_plan
 
 TWO_CONDITIONS = Path(__file__).with_name("data") / "metrics_two_conditions.csv"
 PAPER = list_presets("analysis")["paper"]
@@ -60,3 +61,35 @@ def test_a_plan_file_filtering_an_unknown_metric_is_named_by_its_file(tmp_path, 
     line = one_error_line(nudge(command, _table(tmp_path), "--plan", plan).output)
     assert line == (f"Error: {plan.resolve()}: [filters] names unknown metric 'mode_switches_max' "
                     "(did you mean 'mode_switches'?)"), line
+
+
+# --- analyze --bootstrap has a plan's lower bound ---------------------------------------------------
+
+
+@pytest.mark.parametrize("resamples", [1, MIN_RESAMPLES - 1])
+def test_analyze_refuses_fewer_resamples_than_a_plan_allows(tmp_path, resamples):
+    """``--bootstrap 1`` printed an 'interval' of one resample's value, off the median it surrounds."""
+    table = _table(tmp_path)
+    result = nudge("analyze", table, "--bootstrap", resamples)
+    assert one_error_line(result.output) == (
+        f"Error: --bootstrap {resamples}: at least {MIN_RESAMPLES} bootstrap resamples (an interval of fewer "
+        "is a few resamples' values), as in a plan's [bootstrap] resamples; 2000 is the usual number")
+    assert not (tmp_path / "pp-analysis").exists()
+    # the plan file's bound is the same number
+    plan = _paper_copy(tmp_path / "few.toml", "resamples = 2000", f"resamples = {resamples}")
+    assert "resamples" in one_error_line(nudge("analyze", table, "--plan", plan).output)
+
+
+def test_analyze_takes_as_few_resamples_as_a_plan_allows(tmp_path):
+    plan = _paper_copy(tmp_path / "fewest.toml", "resamples = 2000", f"resamples = {MIN_RESAMPLES}")
+    table = _table(tmp_path)
+    by_plan = nudge("analyze", table, "--plan", plan, "--format", "json", "--out", tmp_path / "plan")
+    by_flag = nudge("analyze", table, "--bootstrap", MIN_RESAMPLES, "--format", "json",
+                    "--out", tmp_path / "flag")
+    assert by_plan.exit_code == 0 and by_flag.exit_code == 0, (by_plan.output, by_flag.output)
+    assert json.loads(by_flag.stdout)["metrics"][0]["ci"]["resamples"] == MIN_RESAMPLES
+    assert json.loads(by_plan.stdout)["metrics"] == json.loads(by_flag.stdout)["metrics"]
+
+
+def test_the_help_of_bootstrap_states_the_bound():
+    assert f"at least {MIN_RESAMPLES}" in " ".join(nudge("analyze", "--help").output.split())

@@ -39,7 +39,7 @@ def analysed(tmp_path: Path) -> Path:
     """A copy of the two-condition table, analysed with its (valid) answers; returns the table."""
     table = tmp_path / "study.csv"
     shutil.copy(TABLE, table)
-    result = invoke("analyze", str(table), "--questionnaires", str(ANSWERS), "--bootstrap", "50")
+    result = invoke("analyze", str(table), "--questionnaires", str(ANSWERS), "--bootstrap", "100")
     assert result.exit_code == 0, result.output
     return table
 
@@ -67,7 +67,7 @@ def test_bad_answers_are_one_error_line_and_the_analysis_is_kept(analysed: Path,
     folder = tmp_path / "study-analysis"
     before = files_of(folder)
     result = invoke("analyze", str(analysed), "--questionnaires", str(_bad_answers(tmp_path, kind)),
-                    "--bootstrap", "50")
+                    "--bootstrap", "100")
     assert result.exit_code == 1
     assert one_error_line(result.output).startswith(f"Error: {tmp_path / expected}")
     assert files_of(folder) == before
@@ -95,7 +95,7 @@ def test_plot_draws_the_scores_the_analysis_wrote(analysed: Path, tmp_path: Path
 def test_an_analysis_without_questionnaires_records_no_scores(tmp_path: Path) -> None:
     table = tmp_path / "study.csv"
     shutil.copy(TABLE, table)
-    assert invoke("analyze", str(table), "--bootstrap", "50").exit_code == 0
+    assert invoke("analyze", str(table), "--bootstrap", "100").exit_code == 0
     stats = json.loads((tmp_path / "study-analysis" / "stats.json").read_text(encoding="utf-8"))
     assert "questionnaire_scores_checksum" not in stats
 
@@ -118,7 +118,7 @@ def test_plot_refuses_scores_the_analysis_did_not_write(analysed: Path, tmp_path
     folder = tmp_path / "study-analysis"
     assert _plot(folder).exit_code == 0  # the figures drawn from the analysis with questionnaires
     if damage == "stale":  # analysed again without them: the old scores are no part of this analysis
-        assert invoke("analyze", str(analysed), "--bootstrap", "50").exit_code == 0
+        assert invoke("analyze", str(analysed), "--bootstrap", "100").exit_code == 0
     elif damage == "edited":
         _edit_a_score(folder)
     else:
@@ -148,6 +148,6 @@ def test_plot_with_a_plan_refuses_an_analysis_with_questionnaires(analysed: Path
     assert files_of(folder) == before
     # analysed again with the plan and the answers, it plots
     result = invoke("analyze", str(analysed), "--plan", "study-code", "--questionnaires", str(ANSWERS),
-                    "--bootstrap", "50")
+                    "--bootstrap", "100")
     assert result.exit_code == 0, result.output
     assert invoke("plot", str(folder)).exit_code == 0

@@ -261,6 +261,6 @@ def test_a_plan_file_without_a_name_is_named_after_the_file(tmp_path: Path) -> N
 
 
 def test_a_bootstrap_of_zero_resamples_is_refused_before_anything_is_written(tmp_path: Path) -> None:
-    with pytest.raises(ConfigError, match="--bootstrap must be at least 1, got 0"):
+    with pytest.raises(ConfigError, match="--bootstrap 0: at least 100 bootstrap resamples"):
         analyze(METRICS_CSV, out=tmp_path / "out", bootstrap=0)
     assert not (tmp_path / "out").exists()

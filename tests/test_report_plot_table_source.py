@@ -111,7 +111,7 @@ def test_stats_json_records_what_the_analysis_did_to_the_rows_it_read(tmp_path, 
     table = pd.read_csv(TABLE)
     source = tmp_path / "study.csv"
     pd.concat([table, table.iloc[:repeats]]).to_csv(source, index=False)
-    args = ["analyze", str(source), "--bootstrap", "20"] + (["--drop-duplicates"] if flag else [])
+    args = ["analyze", str(source), "--bootstrap", "100"] + (["--drop-duplicates"] if flag else [])
     assert CliRunner().invoke(main, args).exit_code == 0
     record = stats_of(tmp_path / "study-analysis")["table_read"]
     assert record == {"sha256": hashlib.sha256(source.read_bytes()).hexdigest(), "rows": len(table) + repeats,
@@ -127,7 +127,7 @@ def test_a_run_folders_analysis_records_no_table(tmp_path):
 
     run = synthetic_run(tmp_path / "run", {"control": 0, "disambiguation": 3}, n_participants=3,
                         trials_per_condition=2, seed=1, max_steps=30, switch_probability=lambda extra: 0.2)
-    result = CliRunner().invoke(main, ["analyze", str(run), "--bootstrap", "20"])
+    result = CliRunner().invoke(main, ["analyze", str(run), "--bootstrap", "100"])
     assert result.exit_code == 0, result.output
     assert "table_read" not in stats_of(run) and "metrics_checksum" in stats_of(run)
 
@@ -142,7 +142,7 @@ def older_analysis(folder: Path) -> None:
 def test_an_older_analysis_of_a_table_as_it_is_is_still_drawn(tmp_path):
     source = tmp_path / "study.csv"
     source.write_bytes(TABLE.read_bytes())
-    assert CliRunner().invoke(main, ["analyze", str(source), "--bootstrap", "20"]).exit_code == 0
+    assert CliRunner().invoke(main, ["analyze", str(source), "--bootstrap", "100"]).exit_code == 0
     older_analysis(tmp_path / "study-analysis")
     assert plot(source, tmp_path / "figures").exit_code == 0
     table = pd.read_csv(source)
@@ -188,7 +188,7 @@ def test_a_parquet_tables_record_is_the_sha256_of_its_bytes_and_an_edit_is_refus
     source = tmp_path / "study.parquet"
     table = pd.read_csv(TABLE)
     table.to_parquet(source, index=False)
-    assert CliRunner().invoke(main, ["analyze", str(source), "--bootstrap", "20"]).exit_code == 0
+    assert CliRunner().invoke(main, ["analyze", str(source), "--bootstrap", "100"]).exit_code == 0
     record = stats_of(tmp_path / "study-analysis")["table_read"]
     assert record["sha256"] == hashlib.sha256(source.read_bytes()).hexdigest()
     assert record["rows"] == len(table) and record["duplicates_dropped"] == 0

@@ -80,7 +80,7 @@ def test_analyze_refuses_answers_of_07_for_a_table_whose_participant_is_7(tmp_pa
     first = answers["participant"].iloc[0]
     padded = answers.assign(participant=answers["participant"].map(lambda p: f"0{p}" if p == first else p))
     padded.to_csv(tmp_path / "q.csv", index=False)
-    args = ["analyze", str(table), "--questionnaires", str(tmp_path / "q.csv"), "--bootstrap", "20"]
+    args = ["analyze", str(table), "--questionnaires", str(tmp_path / "q.csv"), "--bootstrap", "100"]
     result = CliRunner().invoke(main, args)
     assert result.exit_code != 0 and result.output.count("\n") == 1
     assert f"respondent(s) '0{first}' are not participants of {table}" in result.output

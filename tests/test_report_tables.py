@@ -201,7 +201,7 @@ def test_plot_finds_the_table_an_analysis_folder_did_not_copy(tmp_path):
     from nudgecli.bench.analyze import synthetic_metrics_table
 
     source = write(tmp_path / "full.csv", synthetic_metrics_table(400, 6))
-    result = analyze(source, bootstrap=50)
+    result = analyze(source, bootstrap=100)
     assert not (result.out / "metrics.csv").exists()
     plotted = CliRunner().invoke(main, ["plot", str(result.out), "--formats", "png"])
     assert plotted.exit_code == 0, plotted.output

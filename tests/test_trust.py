@@ -115,11 +115,11 @@ def _collisions(tmp_path: Path, smoke_run: Path) -> dict[str, tuple[list[str], P
     return {
         # dropping the repeated row changes the table, so the analysis writes metrics.csv
         "analyze": (["analyze", str(folder / "metrics.csv"), "--out", str(folder), "--drop-duplicates",
-                     "--force", "--bootstrap", "50"], folder / "metrics.csv"),
+                     "--force", "--bootstrap", "100"], folder / "metrics.csv"),
         # answers in a file named like the scores: the last output, refused before the first is written
         "analyze-scores": (["analyze", str(TABLE), "--questionnaires",
                             str(folder / "questionnaire_scores.csv"), "--out", str(folder), "--force",
-                            "--bootstrap", "50"], folder / "questionnaire_scores.csv"),
+                            "--bootstrap", "100"], folder / "questionnaire_scores.csv"),
         "compare": (["compare", str(folder / "compare.csv"), str(TABLE), "--resamples", "0", "--formats",
                      "png", "--out", str(folder), "--force"], folder / "compare.csv"),
         "fit": (["fit", str(calibration), "--out", str(log)], log),
@@ -206,7 +206,7 @@ def test_a_folder_of_parts_alone_is_analysed_with_a_note(tmp_path, smoke_run):
 # --- 4. a folder of another run, or not empty, needs --force ---------------------------------------
 
 def _out_args(command: str, source: Path, out: Path) -> list[str]:
-    return {"analyze": ["analyze", str(source), "--bootstrap", "50"],
+    return {"analyze": ["analyze", str(source), "--bootstrap", "100"],
             "compare": ["compare", str(source), str(TABLE), "--resamples", "0", "--formats", "png"],
             "validate": ["validate", "--simulations", "1", "--mc-queries", "0"],
             "plot": ["plot", str(source), "--formats", "png"]}[command] + ["--out", str(out)]
@@ -241,8 +241,8 @@ def test_a_commands_own_folders_need_no_force(tmp_path, analysed_run):
     table = tmp_path / "study.csv"
     shutil.copy(TABLE, table)
     for args in (["analyze", str(run), "--out", str(run)],  # the run folder is the run's own
-                 ["analyze", str(table), "--bootstrap", "50"],  # study-analysis/, made ...
-                 ["analyze", str(table), "--bootstrap", "50", "--out", str(tmp_path / "study-analysis")],
+                 ["analyze", str(table), "--bootstrap", "100"],  # study-analysis/, made ...
+                 ["analyze", str(table), "--bootstrap", "100", "--out", str(tmp_path / "study-analysis")],
                  ["plot", str(run), "--formats", "png", "--out", str(run / "figures")]):
         result = invoke(args)
         assert result.exit_code == 0, (args, result.output)

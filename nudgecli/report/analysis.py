@@ -64,7 +64,13 @@ from nudgecli.report.metrics import (
     trial_metrics_by_participant,
 )
 from nudgecli.report.pair_display import check_reference
-from nudgecli.report.plans import AnalysisPlan, check_plan_conditions, load_plan
+from nudgecli.report.plans import (
+    MIN_RESAMPLES,
+    AnalysisPlan,
+    check_plan_conditions,
+    check_resamples,
+    load_plan,
+)
 from nudgecli.report.questionnaires import (
     SCORES_CHECKSUM_KEY,
     check_respondents,
@@ -362,8 +368,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
     source = Path(source)
     if not source.exists():
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
-    if bootstrap is not None and bootstrap < 1:
-        raise ConfigError(f"--bootstrap must be at least 1, got {bootstrap}")
+    check_resamples(bootstrap, "--bootstrap", MIN_RESAMPLES)  # the bounds of a plan's resamples
     out_dir = Path(out) if out is not None else (source if source.is_dir() else analysis_folder(source))
     if out_dir.exists() and not out_dir.is_dir():
         raise DataError(f"--out {out_dir} is a file; give a folder")

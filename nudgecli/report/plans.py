@@ -56,17 +56,27 @@ from nudgecli.report.metric_names import METRIC_NAMES
 #: resample holds a row of indices per participant in memory, so more would exhaust it.
 MAX_RESAMPLES = 1_000_000
 
+#: The fewest bootstrap resamples of an analysis (a plan's ``[bootstrap] resamples``, ``analyze
+#: --bootstrap``): the interval's ends are percentiles of the resampled differences, and with
+#: fewer resamples they are a few draws' values (one resample: the interval is a single point).
+MIN_RESAMPLES = 100
 
-def check_resamples(resamples: int | None, option: str) -> None:
-    """Refuse more than :data:`MAX_RESAMPLES` bootstrap resamples given as ``option``, before any work.
+
+def check_resamples(resamples: int | None, option: str, minimum: int = 0) -> None:
+    """Refuse bootstrap resamples given as ``option`` above :data:`MAX_RESAMPLES` or below
+    ``minimum`` (:data:`MIN_RESAMPLES` for an analysis), before any work.
 
     Raises
     ------
     ConfigError
-        ``resamples`` is above the cap.
+        ``resamples`` is outside the bounds.
     """
     if resamples is not None and resamples > MAX_RESAMPLES:
         raise ConfigError(f"{option} {resamples:,}: at most {MAX_RESAMPLES:,} bootstrap resamples; "
+                          "2000 is the usual number")
+    if resamples is not None and resamples < minimum:
+        raise ConfigError(f"{option} {resamples:,}: at least {minimum:,} bootstrap resamples (an interval "
+                          "of fewer is a few resamples' values), as in a plan's [bootstrap] resamples; "
                           "2000 is the usual number")
 
 #: The p-value adjustments ``statsmodels.stats.multitest.multipletests`` accepts, plus ``none``.
@@ -140,7 +150,7 @@ class StatsSettings(_Section):
 class BootstrapSettings(_Section):
     """The cluster bootstrap of the median difference (participants are resampled)."""
 
-    resamples: int = Field(default=2000, ge=100, le=MAX_RESAMPLES)
+    resamples: int = Field(default=2000, ge=MIN_RESAMPLES, le=MAX_RESAMPLES)
     level: float = Field(default=0.95, gt=0, lt=1)
     seed: int = Field(default=0, ge=0)
 
