@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.errors import DataError
 from nudgecli.report.habit_cells import (
     HABIT_RATE_HZ,
@@ -84,25 +85,36 @@ def _log_delimiter(path: Path) -> str:
 
 def _read_log_frame(path: Path) -> tuple[pd.DataFrame, str]:
     """The log as text, with its time column's name; a :class:`DataError` for an unreadable file,
-    missing columns (naming those its header holds) or no rows."""
+    missing columns (naming those its header holds), a row with fewer or more fields than the
+    header (a log cut off: its last sample would be read with no switch) or no rows."""
+    delimiter = _log_delimiter(path)
     try:
-        frame = pd.read_csv(path, sep=_log_delimiter(path), dtype=str, keep_default_na=False)
+        # the header first: one that lacks a column makes every row look long, and the column is the fix
+        time_column = _log_time_column(path, pd.read_csv(path, sep=delimiter, nrows=0).columns)
+        frame = read_csv_whole_rows(path, sep=delimiter, dtype=str, keep_default_na=False)
     except (UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise DataError(f"{path}: not a readable CSV log ({exc})") from None
     frame.columns = [str(c).strip() for c in frame.columns]
-    time_column = next((c for c in LOG_TIME_NAMES if c in frame.columns), None)
-    needed = ["t (or time)"] if time_column is None else []
-    needed += [c for c in LOG_REQUIRED if c not in frame.columns]
-    if needed or time_column is None:  # (no time column is always in needed)
-        found = ", ".join(repr(c) for c in frame.columns)
-        plural = "" if len(frame.columns) == 1 else "s"
-        raise DataError(f"{path}: no {', '.join(needed)} column(s); its header holds {len(frame.columns)} "
-                        f"column{plural}, {found}; a real log needs t, trial, label, x, y, theta and "
-                        "mode_switch (participant and layout optional), separated by commas (or ;, tab "
-                        "or |), one row per sample or event")
     if frame.empty:
         raise DataError(f"{path}: no rows; a real log needs at least two samples per trial")
     return frame, time_column
+
+
+def _log_time_column(path: Path, header: pd.Index) -> str:
+    """The name of the time column of a log whose header holds ``header``; a :class:`DataError`
+    naming the columns a log needs that it lacks, and those it holds."""
+    columns = [str(c).strip() for c in header]
+    time_column = next((c for c in LOG_TIME_NAMES if c in columns), None)
+    needed = ["t (or time)"] if time_column is None else []
+    needed += [c for c in LOG_REQUIRED if c not in columns]
+    if needed or time_column is None:  # (no time column is always in needed)
+        found = ", ".join(repr(c) for c in columns)
+        plural = "" if len(columns) == 1 else "s"
+        raise DataError(f"{path}: no {', '.join(needed)} column(s); its header holds {len(columns)} "
+                        f"column{plural}, {found}; a real log needs t, trial, label, x, y, theta and "
+                        "mode_switch (participant and layout optional), separated by commas (or ;, tab "
+                        "or |), one row per sample or event")
+    return time_column
 
 
 def _parse_log(path: Path, frame: pd.DataFrame, time_column: str) -> _Log:

@@ -19,6 +19,7 @@ from pathlib import Path
 import pandas as pd
 
 from nudgecli.config import PopulationSection
+from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.habits import HABIT_KEYS, HABITS, measure_habits, source_cells, summarise_habits
 from nudgecli.sim.twin_fit import HabitFigures, assumed_onset_samples, fit_twin
@@ -109,12 +110,13 @@ def table_source(path: Path) -> SourceHabits:
     Raises
     ------
     DataError
-        A trial table, no participant rows, an unknown habit or unit, a negative or missing
-        median, a habit listed twice for one participant, or a participant with no trials (``n``
+        A row with fewer or more fields than the header (a table cut off), a trial table, no
+        participant rows, an unknown habit or unit, a negative or missing median, a habit
+        listed twice for one participant, or a participant with no trials (``n``
         0 for every habit).
     """
     try:
-        table = pd.read_csv(path, dtype=str, keep_default_na=False, sep=None, engine="python")
+        table = read_csv_whole_rows(path, dtype=str, keep_default_na=False, sep=None, engine="python")
     except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: not a habits table ({exc})") from None
     table.columns = [str(c).strip().lower() for c in table.columns]

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.errors import DataError
 from nudgecli.model.interface import LABELS, NO_INPUT_LABEL
 from nudgecli.sim.calibration_io import (
@@ -56,11 +57,13 @@ def unquote(value: object) -> str:
 
 
 def _read_csv(path: Path, columns: tuple[str, ...], what: str) -> pd.DataFrame:
-    """Read a CSV as strings, checking that it exists, is not empty and has ``columns``."""
+    """Read a CSV as strings, checking that it exists, is not empty, has ``columns`` and no row
+    with fewer or more fields than the header (a log cut off: its last prompt row, its command
+    missing, would be read as a clearing row)."""
     if not path.is_file():
         raise DataError(f"{path}: no such file; {what} needs it")
     try:
-        frame = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=False)
+        frame = read_csv_whole_rows(path, dtype=str, keep_default_na=False, skipinitialspace=False)
     except pd.errors.EmptyDataError:
         raise DataError(f"{path}: the file is empty; expected a header with columns "
                         f"{', '.join(columns)} and one row per message") from None
