@@ -151,9 +151,9 @@ def refuse_uneven_rows(path: str | Path, delimiter: str) -> None:
         line, fields = first_long
         more = f" (and {n_long - 1} more line(s) like it)" if n_long > 1 else ""
         raise DataError(f"{path}: line {line} has {fields} fields, the header {width}{more}; a row longer "
-                        "than the header would shift its cells into the wrong columns: remove the extra "
-                        "field (a separator at the end of the line too), or quote a cell that holds the "
-                        "separator")
+                        "than the header would shift its cells into the wrong columns: name the column the "
+                        "header lacks, remove the extra field (a separator at the end of the line too), or "
+                        "quote a cell that holds the separator")
     if not n_short:
         return
     line, fields = first_short
