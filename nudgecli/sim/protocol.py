@@ -293,6 +293,9 @@ class TrialSession:
 
     def _set_belief(self, belief: np.ndarray) -> None:
         """Replace the belief and refresh what depends on it only (most steps leave it alone)."""
+        # read-only: a policy's view is this session, and a write into view.belief would corrupt the
+        # inference; one flag per update (every update makes a new array), not a copy per step
+        belief.setflags(write=False)
         self.belief = belief
         self.entropy = float(normalised_entropy(belief))
         self.leader = unique_argmax(belief)
