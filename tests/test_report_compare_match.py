@@ -1,9 +1,11 @@
 """``--match SIMULATED=REAL`` pairs conditions one to one: a REAL label the real table lacks is
-refused with a "did you mean" (as an unknown SIMULATED one is), and so is a pairing that would
-compare two simulated conditions as one real condition (their trials pooled)."""
+refused with a "did you mean" (as an unknown SIMULATED one is), and so are two pairings that name
+one real condition (their trials would be pooled). A simulated condition left unpaired whose name
+a pairing gives another is left out, with a note, rather than pooled with it."""
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
@@ -38,17 +40,35 @@ def test_a_real_label_the_real_table_lacks_is_refused_with_did_you_mean() -> Non
         align_conditions(SIMULATED, REAL, {"control": "nope"})
 
 
-def test_two_simulated_conditions_paired_with_one_real_one_are_refused() -> None:
-    # the real table's own `control` would take the simulated control and disambiguation: 16 trials
-    with pytest.raises(DataError, match=r"^--match disambiguation=control: the simulated conditions "
-                                        r"'disambiguation' and 'control' of sim.csv would all be compared as "
-                                        r"the real condition 'control'.*--match control=REAL pairs "
-                                        r"'control'"):
-        align_conditions(SIMULATED, REAL, {"disambiguation": "control"}, names=("sim.csv", "real.csv"))
+def test_two_matches_naming_one_real_condition_are_refused() -> None:
     real_one = table({"pooled": 3}, prefix="r")
     with pytest.raises(DataError, match=r"^--match disambiguation=pooled --match control=pooled: the "
-                                        r"simulated conditions 'disambiguation' and 'control'"):
-        align_conditions(SIMULATED, real_one, {"disambiguation": "pooled", "control": "pooled"})
+                                        r"simulated conditions 'disambiguation' and 'control' of sim.csv "
+                                        r"would all be compared as the real condition 'pooled'"):
+        align_conditions(SIMULATED, real_one, {"disambiguation": "pooled", "control": "pooled"},
+                         names=("sim.csv", "real.csv"))
+    with pytest.raises(DataError, match=r"^--match disambiguation=control --match control=control: "):
+        align_conditions(SIMULATED, REAL, {"disambiguation": "control", "control": "control"})
+
+
+def test_an_unmatched_condition_whose_name_a_match_takes_is_left_out_with_a_note() -> None:
+    # a real table with control alone: the simulated disambiguation is compared with it, and the
+    # simulated control (8 trials, rows 8-15), which would have been pooled with it, is left out
+    real_control = table({"control": 3}, prefix="r")
+    notes: list[str] = []
+    sim, real, shared = align_conditions(SIMULATED, real_control, {"disambiguation": "control"},
+                                         names=("sim.csv", "real.csv"), notes=notes)
+    assert shared == ["control"] and real.equals(real_control)
+    assert list(sim["condition"]) == ["control"] * 8 and list(sim["completion_time"]) == list(range(8))
+    assert notes == ["condition 'control' of the simulated source (sim.csv) is left out: --match "
+                     "disambiguation=control compares 'disambiguation' as the real 'control'; pair it with "
+                     "--match control=REAL to compare it too"]
+    # the real table's own disambiguation, its simulated one matched away, is noted as unpaired
+    notes.clear()
+    sim, _, shared = align_conditions(SIMULATED, REAL, {"disambiguation": "control"}, notes=notes)
+    assert shared == ["control"] and sorted(sim["completion_time"]) == list(range(8))
+    assert notes[0].startswith("condition 'disambiguation' is only in the real table (real): not compared")
+    assert notes[1].startswith("condition 'control' of the simulated source (simulated) is left out")
 
 
 def test_pairings_one_to_one_are_kept_as_given() -> None:
@@ -67,9 +87,24 @@ def test_the_cli_refuses_both_in_one_line_and_writes_nothing(tmp_path: Path) -> 
     SIMULATED.to_csv(tmp_path / "sim.csv", index=False)
     REAL.to_csv(tmp_path / "real.csv", index=False)
     sources = [str(tmp_path / "sim.csv"), str(tmp_path / "real.csv")]
-    for match in ("control=nope", "disambiguation=control"):
-        result = CliRunner().invoke(main, ["compare", *sources, "--match", match, "--resamples", "0",
+    for matches in (["control=nope"], ["disambiguation=control", "control=control"]):
+        given = [word for match in matches for word in ("--match", match)]
+        result = CliRunner().invoke(main, ["compare", *sources, *given, "--resamples", "0",
                                            "--out", str(tmp_path / "o")])
         assert result.exit_code == 1, result.output
         assert result.stderr.startswith("Error: --match ") and result.stderr.count("\n") == 1, result.stderr
         assert not (tmp_path / "o").exists()
+
+
+def test_the_cli_compares_the_matched_condition_and_notes_the_one_left_out(tmp_path: Path) -> None:
+    SIMULATED.to_csv(tmp_path / "sim.csv", index=False)
+    table({"control": 3}, prefix="r").to_csv(tmp_path / "real.csv", index=False)
+    sources = [str(tmp_path / "sim.csv"), str(tmp_path / "real.csv")]
+    result = CliRunner().invoke(main, ["compare", *sources, "--match", "disambiguation=control",
+                                       "--resamples", "0", "--format", "csv"])
+    assert result.exit_code == 0, result.output
+    assert result.stderr == (f"Note: condition 'control' of the simulated source ({tmp_path / 'sim.csv'}) is "
+                             "left out: --match disambiguation=control compares 'disambiguation' as the real "
+                             "'control'; pair it with --match control=REAL to compare it too\n")
+    compared = pd.read_csv(io.StringIO(result.stdout))
+    assert list(compared["condition"]) == ["control"] and list(compared["n_simulated"]) == [8]

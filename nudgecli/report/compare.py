@@ -106,10 +106,13 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
         Metrics tables with a ``condition`` column.
     condition_map
         Simulated condition -> the real table's name for it (e.g. ``{"none": "no assistance"}``).
+        A simulated condition not in it whose name a pairing gives another (``control`` beside
+        ``{"disambiguation": "control"}``) is left out, not pooled with that other.
     names
         How the messages name the two sources (e.g. their paths).
     notes
-        Receives a line for each condition one table holds alone (it is not compared).
+        Receives a line for each condition one table holds alone and each simulated condition
+        left out (neither is compared).
 
     Returns
     -------
@@ -122,7 +125,7 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
     ------
     DataError
         A ``condition_map`` key that is not a simulated condition or value that is not a real one,
-        two simulated conditions paired with one real condition, two conditions left unpaired
+        two pairings that name one real condition, two conditions left unpaired
         whose labels differ in case or spaces only (``control`` and ``Control ``: the same
         condition spelled two ways, which would be dropped silently), or no shared condition.
     """
@@ -132,8 +135,12 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
     real_conditions = list(dict.fromkeys(real["condition"]))
     mapping = dict(condition_map or {})
     _check_matches(mapping, sim_conditions, real_conditions, names)
+    paired_with = {label: key for key, label in mapping.items()}  # real condition -> its simulated one
+    left_out = [c for c in sim_conditions if c not in mapping and c in paired_with]  # else pooled
+    if left_out:
+        simulated = simulated[~simulated["condition"].isin(left_out)]
     simulated = simulated.assign(condition=simulated["condition"].map(lambda c: mapping.get(c, c)))
-    renamed = {mapping.get(c, c): c for c in sim_conditions}  # the simulated label of each, as given
+    renamed = {mapping.get(c, c): c for c in sim_conditions if c not in left_out}  # each simulated label
     real_only = [c for c in real_conditions if c not in renamed]
     sim_only = [c for c in renamed if c not in set(real_conditions)]
     _refuse_near_identical(sim_only, real_only, renamed, names)
@@ -148,14 +155,17 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
                   f"--match SIMULATED={c}" for c in sorted(real_only)]
         notes += [f"condition {renamed[c]!r} is only in the simulated source ({names[0]}): not compared; "
                   f"pair it with --match {renamed[c]}=REAL" for c in sorted(sim_only)]
+        notes += [f"condition {c!r} of the simulated source ({names[0]}) is left out: "
+                  f"{shell_words(['--match', f'{paired_with[c]}={c}'])} compares {paired_with[c]!r} as the "
+                  f"real {c!r}; pair it with --match {c}=REAL to compare it too" for c in left_out]
     return (simulated[simulated["condition"].isin(shared)], real[real["condition"].isin(shared)], shared)
 
 
 def _check_matches(mapping: Mapping[str, str], sim_conditions: Sequence[str], real_conditions: Sequence[str],
                    names: tuple[str, str]) -> None:
     """Refuse a ``--match SIMULATED=REAL`` whose SIMULATED the simulated table lacks, whose REAL
-    the real table lacks (each with "did you mean"), or that pairs a second simulated condition
-    with one real condition (their trials would be pooled into one condition).
+    the real table lacks (each with "did you mean"), or two that pair simulated conditions with
+    one real condition (their trials would be pooled into one condition).
 
     Parameters
     ----------
@@ -175,19 +185,16 @@ def _check_matches(mapping: Mapping[str, str], sim_conditions: Sequence[str], re
             raise DataError(f"--match {key}={label}: the real table ({names[1]}) has no condition {label!r}"
                             f"{did_you_mean(label, real_conditions)}; its conditions: "
                             f"{', '.join(real_conditions)}")
-    paired: dict[str, list[str]] = {}  # real condition -> the simulated conditions compared as it
-    for condition in sim_conditions:
-        paired.setdefault(mapping.get(condition, condition), []).append(condition)
+    paired: dict[str, list[str]] = {}  # real condition -> the simulated conditions matched with it
+    for key, label in mapping.items():
+        paired.setdefault(label, []).append(key)
     for label, pooled in paired.items():
         if len(pooled) > 1:
-            given = " ".join(shell_words(["--match", f"{c}={label}"]) for c in pooled if c in mapping)
-            unpaired = [c for c in pooled if c not in mapping]  # at most one: compared under its own name
-            fix = (f"; {shell_words(['--match', f'{unpaired[0]}=REAL'])} pairs {unpaired[0]!r} with another"
-                   if unpaired else "")
+            given = " ".join(shell_words(["--match", f"{c}={label}"]) for c in pooled)
             listed = ", ".join(repr(c) for c in pooled[:-1]) + f" and {pooled[-1]!r}"
             raise DataError(f"{given}: the simulated conditions {listed} of {names[0]} would all be compared "
                             f"as the real condition {label!r}, their trials pooled into one; pair each "
-                            f"simulated condition with a real condition of its own{fix}")
+                            "simulated condition with a real condition of its own")
 
 
 def _same_label(label: str) -> str:
