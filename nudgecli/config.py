@@ -14,6 +14,7 @@ people's are written in :mod:`nudgecli.config_people`), :func:`load_experiment`,
 from __future__ import annotations
 
 import functools
+import json
 import tomllib
 from typing import Annotated, Any, Literal, TypeVar, cast
 
@@ -395,6 +396,11 @@ class ExperimentConfig(Section):
     def _check_policy_sections(self) -> ExperimentConfig:
         own = self.policies or {}
         for name in own:
+            if not name.strip() or name != name.strip():
+                # a blank name makes a condition no table, plan or figure can name
+                raise ValueError(f"policies: [policies.{json.dumps(name)}] has no name a condition can go by "
+                                 "(empty, or spaces around it); name it, e.g. [policies.threshold], and list "
+                                 "that name in study.conditions")
             if name in CONDITION_NAMES:
                 raise ValueError(f"[policies.{name}] reuses the built-in policy's name {name!r}; give your "
                                  "policy a name of its own")
