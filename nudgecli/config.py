@@ -392,6 +392,17 @@ class ExperimentConfig(Section):
     model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=True, populate_by_name=True,
                               defer_build=True)
 
+    @model_validator(mode="before")
+    @classmethod
+    def _no_search_path(cls, data: Any) -> Any:
+        # set by load_experiment from the file's own folder; a file or --set naming another folder
+        # would run other code than the experiment's folder holds
+        if isinstance(data, dict) and "policy_search_path" in data:
+            raise ValueError("unknown key 'policy_search_path': it is internal (a policy module is "
+                             "imported from the experiment file's folder, then from sys.path: "
+                             "docs/policies.md); remove it")
+        return data
+
     @model_validator(mode="after")
     def _check_policy_sections(self) -> ExperimentConfig:
         own = self.policies or {}
@@ -461,14 +472,14 @@ def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = 
     try:
         ExperimentConfig.model_validate(data)
     except ValidationError as exc:
-        raise ConfigError(format_validation_error(exc, str(path), ExperimentConfig)) from None
+        raise ConfigError(format_validation_error(exc, str(path), ExperimentConfig, data)) from None
     for text in overrides:
         key, value = parse_override(text)
         apply_override(data, key, value)
         try:
             ExperimentConfig.model_validate(data)
         except ValidationError as exc:
-            raise ConfigError(format_validation_error(exc, f"--set {text}", ExperimentConfig)) from None
+            raise ConfigError(format_validation_error(exc, f"--set {text}", ExperimentConfig, data)) from None
     config = ExperimentConfig.model_validate(data)
     if config.policies:  # a researcher's policy modules are imported from beside the experiment file
         config = config.model_copy(update={"policy_search_path": str(path.resolve().parent)})
@@ -484,7 +495,7 @@ def experiment_from_toml(text: str, source: str = "config.toml") -> ExperimentCo
     try:
         return ExperimentConfig.model_validate(data)
     except ValidationError as exc:
-        raise ConfigError(format_validation_error(exc, source, ExperimentConfig)) from None
+        raise ConfigError(format_validation_error(exc, source, ExperimentConfig, data)) from None
 
 
 SectionT = TypeVar("SectionT", bound=Section)

@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import json
 import tomllib
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Literal, TypeVar
+from types import UnionType
+from typing import Any, Literal, TypeVar, Union, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
@@ -146,20 +148,57 @@ def apply_override(data: dict[str, Any], path: list[str], value: Any) -> None:
     node[path[-1]] = value
 
 
-def _field_names(model: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
-    """The field names of the (nested) model at ``loc`` (for "did you mean")."""
-    current: Any = model
-    for part in loc:
-        field = current.model_fields.get(part) if isinstance(part, str) else None
-        annotation = field.annotation if field is not None else None
+def _section_type(annotation: Any) -> Any:
+    """``annotation`` without ``| None`` (an optional section is its section)."""
+    args = [arg for arg in get_args(annotation) if arg is not type(None)]
+    is_union = get_origin(annotation) in (Union, UnionType)
+    return args[0] if is_union and len(args) == 1 else annotation
+
+
+def _walk(model: type[BaseModel], loc: tuple[Any, ...]) -> tuple[type[BaseModel], list[int]]:
+    """The (nested) model at ``loc``, and the places in ``loc`` that name an entry of a table of
+    sections (``[policies.NAME]``, a ``dict[str, Section]``: its key is a name, not a field)."""
+    current, names, place = model, [], 0
+    while place < len(loc):
+        field = current.model_fields.get(loc[place]) if isinstance(loc[place], str) else None
+        annotation = _section_type(field.annotation) if field is not None else None
+        if get_origin(annotation) is dict and place + 1 < len(loc):
+            annotation = _section_type(get_args(annotation)[1])
+            names.append(place + 1)
+            place += 1
         if not (isinstance(annotation, type) and issubclass(annotation, BaseModel)):
             break
-        current = annotation
-    return [field.alias or name for name, field in current.model_fields.items()]
+        current, place = annotation, place + 1
+    return current, names
 
 
-def format_validation_error(exc: ValidationError, source: str, model: type[BaseModel]) -> str:
-    """One readable line naming the file, the field and the fix."""
+def _field_names(model: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
+    """The field names of the (nested) model at ``loc`` (for "did you mean"), less the internal ones
+    a file never holds (``exclude``: not written out)."""
+    current, _ = _walk(model, loc)
+    return [field.alias or name for name, field in current.model_fields.items() if not field.exclude]
+
+
+def _entry_hint(loc: tuple[Any, ...], model: type[BaseModel], data: Mapping[str, Any] | None) -> str:
+    """``" (did you mean 'threshold'?)"`` where ``loc`` runs through an entry of a table of sections
+    that another entry's name resembles (``policies.thresold``, new, beside ``policies.threshold``):
+    a misspelt name makes a new entry, whose required keys are then missing."""
+    _, names = _walk(model, loc)
+    for place in names:
+        table: Any = data
+        for part in loc[:place]:
+            table = table.get(part) if isinstance(table, Mapping) else None
+        if isinstance(table, Mapping):
+            hint = did_you_mean(str(loc[place]), [name for name in table if name != loc[place]])
+            if hint:
+                return f"; {str(loc[place])!r} is no entry of {'.'.join(map(str, loc[:place]))} yet{hint}"
+    return ""
+
+
+def format_validation_error(exc: ValidationError, source: str, model: type[BaseModel],
+                            data: Mapping[str, Any] | None = None) -> str:
+    """One readable line naming the file, the field and the fix (``data``: what was validated, for
+    the "did you mean" of a misspelt entry name of a table of sections, :func:`_entry_hint`)."""
     first = exc.errors()[0]
     loc = tuple(first["loc"])
     where = ".".join(str(p) for p in loc)
@@ -178,6 +217,8 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
     elif first["type"] == "missing" and loc and isinstance(loc[-1], int):
         where = ".".join(str(p) for p in loc[:-1])  # "rest_s.1: Field required": a value too few
         message = "too few values"
+    elif first["type"] == "missing":
+        message += _entry_hint(loc, model, data)
     shown = "" if isinstance(value, dict) else f" (got {as_written(value)})"
     more = f" (and {len(exc.errors()) - 1} more problem(s))" if len(exc.errors()) > 1 else ""
     return f"{source}: {where + ': ' if where else ''}{message}{shown}{more}"
