@@ -30,21 +30,33 @@ class Section(BaseModel):
             return data
         for name, value in data.items():
             field = cls.model_fields.get(name)
-            if field is None or admits(field.annotation, bool) or not (
-                    admits(field.annotation, float) or admits(field.annotation, int)):
+            if field is None:
                 continue
-            items = value if isinstance(value, list | tuple) else (value,)
-            if any(isinstance(item, bool) for item in items):
-                shown = str(value).lower() if isinstance(value, bool) else "a list with true/false"
-                raise ValueError(f"{name} = {shown}: give a number, not true/false")
-            # a scalar given for a list is pydantic's to name ("should be a list")
-            numbers = () if items is not value and holds_sequence(field.annotation) else items
-            if not admits(field.annotation, str) and any(isinstance(item, str) for item in numbers):
-                shown = json.dumps(value, ensure_ascii=False)
-                raise ValueError(f"{name}: give a number, not text: no quotes (got {shown})")
-            if not admits(field.annotation, float) and any(isinstance(item, float) for item in numbers):
-                raise ValueError(f"{name}: give a whole number, no decimal point (got {json.dumps(value)})")
+            if get_origin(field.annotation) is dict and isinstance(value, dict):
+                # a table of numbers (an analysis plan's [filters]): each entry is a number
+                for key, entry in value.items():
+                    _check_number_as_written(f"{name}.{key}", get_args(field.annotation)[1], entry)
+            else:
+                _check_number_as_written(name, field.annotation, value)
         return data
+
+
+def _check_number_as_written(name: str, annotation: Any, value: Any) -> None:
+    """Refuse true/false, text, or a decimal for a whole number where the field ``name`` of type
+    ``annotation`` takes a number (:meth:`Section._numbers_as_written`)."""
+    if admits(annotation, bool) or not (admits(annotation, float) or admits(annotation, int)):
+        return
+    items = value if isinstance(value, list | tuple) else (value,)
+    if any(isinstance(item, bool) for item in items):
+        shown = str(value).lower() if isinstance(value, bool) else "a list with true/false"
+        raise ValueError(f"{name} = {shown}: give a number, not true/false")
+    # a scalar given for a list is pydantic's to name ("should be a list")
+    numbers = () if items is not value and holds_sequence(annotation) else items
+    if not admits(annotation, str) and any(isinstance(item, str) for item in numbers):
+        shown = json.dumps(value, ensure_ascii=False)
+        raise ValueError(f"{name}: give a number, not text: no quotes (got {shown})")
+    if not admits(annotation, float) and any(isinstance(item, float) for item in numbers):
+        raise ValueError(f"{name}: give a whole number, no decimal point (got {json.dumps(value)})")
 
 
 def admits(annotation: Any, kind: type) -> bool:

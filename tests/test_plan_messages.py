@@ -93,3 +93,34 @@ def test_analyze_takes_as_few_resamples_as_a_plan_allows(tmp_path):
 
 def test_the_help_of_bootstrap_states_the_bound():
     assert f"at least {MIN_RESAMPLES}" in " ".join(nudge("analyze", "--help").output.split())
+
+
+# --- a plan's numbers are numbers ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("old", "new", "message"), [
+    ("kruskal_alpha = 0.05", 'kruskal_alpha = "0.05"',
+     'stats.kruskal_alpha: give a number, not text: no quotes (got "0.05")'),
+    ("level = 0.95", "level = true", "bootstrap: level = true: give a number, not true/false"),
+    ("seed = 0", 'seed = "0"', 'bootstrap.seed: give a number, not text: no quotes (got "0")'),
+    ("resamples = 2000", "resamples = 2000.0", "bootstrap.resamples: give a whole number, no decimal point "
+                                               "(got 2000.0)"),
+    ("star_thresholds = [0.05, 0.01, 0.001]", 'star_thresholds = [0.05, "0.01", 0.001]',
+     'stats.star_thresholds: give a number, not text: no quotes (got [0.05, "0.01", 0.001])'),
+    ("[filters]", '[filters]\nmode_switches = "10"',
+     'filters.mode_switches: give a number, not text: no quotes (got "10")'),
+    ("[filters]", "[filters]\nmode_switches = true",
+     "filters.mode_switches = true: give a number, not true/false"),
+])
+def test_a_plan_number_written_as_text_or_true_is_refused(tmp_path, old, new, message):
+    """pydantic's lax reading took ``kruskal_alpha = "0.05"`` for 0.05: a quoted value was used."""
+    plan = _paper_copy(tmp_path / "typed.toml", old, new)
+    line = one_error_line(nudge("analyze", _table(tmp_path), "--plan", plan).output)
+    assert line == f"Error: {plan}: {message}", line
+    assert not (tmp_path / "pp-analysis").exists()
+
+
+def test_a_plan_takes_a_whole_number_where_a_decimal_is_asked(tmp_path):
+    plan = _paper_copy(tmp_path / "whole.toml", "[filters]", "[filters]\nmode_switches = 10")
+    assert load_plan(plan).filters == {"mode_switches": 10.0}
+    assert load_plan(_paper_copy(tmp_path / "w.toml", "level = 0.95", "level = 0.9")).bootstrap.level == 0.9

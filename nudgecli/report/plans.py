@@ -45,8 +45,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationError, field_validator
+from pydantic import Field, PrivateAttr, ValidationError, field_validator
 
+from nudgecli.config_base import Section
 from nudgecli.config_files import format_validation_error, list_presets, read_toml, resolve_preset
 from nudgecli.errors import ConfigError, did_you_mean
 from nudgecli.report.comparison_options import ComparisonOptions
@@ -87,8 +88,9 @@ P_ADJUST_METHODS = (
 
 
 
-class _Section(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+class _Section(Section):
+    """A plan's table: an experiment section's rules (unknown keys refused, numbers as written:
+    ``kruskal_alpha = "0.05"`` or ``seed = true`` is refused, not read as 0.05 or 1)."""
 
 
 class MetricDefinitions(_Section):
