@@ -74,6 +74,10 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
     from nudgecli.store import default_run_dir, simulate_resume_command
 
     config = api.experiment_config(experiment, overrides)
+    if command == "run" and plan is None:  # the plan `run` analyses with, refused before simulating
+        from nudgecli.api.run_plan import check_run_plan
+
+        check_run_plan(config)
     target = Path(out) if out else default_run_dir(config.experiment.name)
 
     def resume_commands(people_named: str | None) -> list[str]:

@@ -274,6 +274,29 @@ def checked_plan(plan: str | AnalysisPlan, configs: Sequence[ExperimentConfig]) 
     return chosen
 
 
+def checked_default_plan(config: ExperimentConfig) -> AnalysisPlan:
+    """The plan ``nudge run`` analyses with when no ``--plan`` is given (the one named like the
+    experiment, else ``paper``: :func:`~nudgecli.config_files.resolve_plan`), checked against the
+    experiment's conditions (:func:`checked_plan`) before anything is simulated.
+
+    Raises
+    ------
+    ConfigError
+        The plan's refusal, with the fix: a plan of one's own for these conditions, given with
+        ``--plan``.
+    """
+    name = resolve_plan(None, experiment=config.experiment.name)
+    try:
+        return checked_plan(name, [config])
+    except ConfigError as exc:
+        why = ("it is the plan named like the experiment" if name == config.experiment.name else
+               f"no analysis plan is named like experiment {config.experiment.name!r}, so it is the default")
+        conditions = ", ".join(f'"{c}"' for c in config.study.conditions)
+        raise ConfigError(f"{exc} ({why}); nothing was simulated: write a plan for these conditions (copy "
+                          f"the custom-policy plan, analysis/custom-policy.toml, with conditions = "
+                          f"[{conditions}]) and pass it with --plan PLAN.toml") from None
+
+
 def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, participants: int | None = None,
               workers: int = 1, scheduler: str | None = None, resume: bool = False, force: bool = False,
               progress: Callable[[int, int], None] | None = None, plan: str | None = None,
