@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.csv_rows import read_csv_whole_rows
+from nudgecli.csv_text import decimal_comma_advice, not_utf8_message
 from nudgecli.errors import DataError
 from nudgecli.report.habit_cells import (
     HABIT_RATE_HZ,
@@ -87,12 +88,14 @@ def _read_log_frame(path: Path) -> tuple[pd.DataFrame, str]:
     """The log as text, with its time column's name; a :class:`DataError` for an unreadable file,
     missing columns (naming those its header holds), a row with fewer or more fields than the
     header (a log cut off: its last sample would be read with no switch) or no rows."""
-    delimiter = _log_delimiter(path)
     try:
+        delimiter = _log_delimiter(path)
         # the header first: one that lacks a column makes every row look long, and the column is the fix
         time_column = _log_time_column(path, pd.read_csv(path, sep=delimiter, nrows=0).columns)
         frame = read_csv_whole_rows(path, sep=delimiter, dtype=str, keep_default_na=False)
-    except (UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+    except UnicodeDecodeError:
+        raise DataError(not_utf8_message(path)) from None
+    except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise DataError(f"{path}: not a readable CSV log ({exc})") from None
     frame.columns = [str(c).strip() for c in frame.columns]
     if frame.empty:
@@ -127,12 +130,13 @@ def _parse_log(path: Path, frame: pd.DataFrame, time_column: str) -> _Log:
         bad = values.isna() | ~np.isfinite(values.to_numpy(dtype=float))
         if bad.any():
             i = int(np.flatnonzero(bad.to_numpy())[0])
-            text = frame[column].iloc[i].strip()
-            # a spreadsheet with a decimal comma writes 0,5 (and semicolons between the columns)
-            comma = pd.to_numeric(text.replace(",", "."), errors="coerce")
-            hint = f" (a decimal comma? write {text.replace(',', '.')})" if not pd.isna(comma) else ""
-            raise DataError(f"{row_name(i)}: {column} {frame[column].iloc[i]!r} is not a number{hint}; every "
-                            "row needs its time and the robot's pose")
+            if np.isinf(values.iloc[i]):  # 'inf' is a number to pandas, but no time or place
+                problem = "is infinite, and infinite values are not times or poses"
+            else:  # a spreadsheet with a decimal comma writes 0,5 (and semicolons between the columns)
+                advice = decimal_comma_advice(frame[column].iloc[i])
+                problem = f"is not a number{f' ({advice})' if advice else ''}"
+            raise DataError(f"{row_name(i)}: {column} {frame[column].iloc[i]!r} {problem}; every row needs "
+                            "its time and the robot's pose")
         numbers[column] = values.to_numpy(dtype=float)
     kinds = label_kinds(frame["label"], row_name)
     participant = frame["participant"].str.strip() if "participant" in frame.columns else \

@@ -515,7 +515,8 @@ def format_habits(result: HabitsResult) -> str:
     medians, one row per participant (or trial)."""
     comparison = result.comparison().set_index("habit") if result.reference is not None else None
     count = result.people["participant"].nunique()
-    lines = [f"Operating habits of {result.source} (HABITS.md definitions, {count} participants)", ""]
+    people = f"{count} participant{'' if count == 1 else 's'}"
+    lines = [f"Operating habits of {result.source} (HABITS.md definitions, {people})", ""]
     header = f"{'habit':<50} {'n':>6} {'median [q25, q75]':>20} {'people':>12}"
     if comparison is not None and result.reference is not None:
         name = str(result.reference.get("name", "reference")) + " median"

@@ -33,6 +33,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from nudgecli.csv_rows import read_csv_whole_rows
+from nudgecli.csv_text import decimal_comma_advice, not_utf8_message
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.report.metrics import ID_COLUMNS, METRIC_NAMES
@@ -160,7 +161,9 @@ def read_metrics_table(path: str | Path) -> pd.DataFrame:
     except pd.errors.EmptyDataError:
         raise DataError(f"{path} is empty; a metrics table needs a header (participant, condition, "
                         "metrics) and one row per trial") from None
-    except (pd.errors.ParserError, UnicodeDecodeError, OSError, ValueError, pa.ArrowException) as exc:
+    except UnicodeDecodeError:
+        raise DataError(not_utf8_message(path)) from None
+    except (pd.errors.ParserError, OSError, ValueError, pa.ArrowException) as exc:
         raise DataError(f"{path} cannot be read as a {suffix[1:]} table: {exc}") from None
     if table.empty:
         raise DataError(f"{path} has no rows; a metrics table needs one row per trial")
@@ -306,14 +309,17 @@ def _check_finite(table: pd.DataFrame, metric_columns: Sequence[str], source: st
 
 def _first_non_number(series: pd.Series, first_row: int) -> str:
     """`` (row R holds 'VALUE')``: the first cell of a non-numeric column that is not a number
-    (a blank is a missing value, not the culprit); empty if none can be singled out."""
+    (a blank is a missing value, not the culprit), with the decimal-comma advice where it is one
+    (:func:`nudgecli.csv_text.decimal_comma_advice`); empty if none can be singled out."""
     present = series.notna().to_numpy()
     numbers = pd.to_numeric(series, errors="coerce").notna().to_numpy()
     culprits = np.flatnonzero(present & ~numbers)
     if not culprits.size:
         return ""
     more = f", and {culprits.size - 1} more cell(s)" if culprits.size > 1 else ""
-    return f" (row {int(culprits[0]) + first_row} holds {series.iloc[int(culprits[0])]!r}{more})"
+    value = series.iloc[int(culprits[0])]
+    advice = decimal_comma_advice(value) if isinstance(value, str) else None
+    return f" (row {int(culprits[0]) + first_row} holds {value!r}{more}{'; ' + advice if advice else ''})"
 
 
 def _is_numeric(series: pd.Series) -> bool:
