@@ -30,6 +30,7 @@ from nudgecli.run_folder_names import (
     PART_KINDS,
     PARTICIPANTS,
 )
+from nudgecli.sim.counterbalance import order_choice
 
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
     import pandas as pd
@@ -102,6 +103,20 @@ _ABSENT = object()
 _EXPERIMENT_SEED = "experiment.seed"
 
 
+def _order_flag(manifest: Mapping[str, Any], key: str, entry: Mapping[str, Any]) -> str | None:
+    """The ``--condition-order`` that continues live participant ``key``'s session: their recorded
+    order of blocks when it is not the one the manifest's experiment assigns them by itself."""
+    study = (manifest.get("config") or {}).get("study") or {}
+    recorded = entry.get("condition_order")
+    if not isinstance(recorded, list) or not study.get("conditions"):
+        return None
+    try:
+        return order_choice([str(c) for c in study["conditions"]], str(study.get("counterbalancing")),
+                            int(key), [str(c) for c in recorded])
+    except (NudgeError, ValueError, IndexError):  # a damaged manifest: the order as recorded
+        return ",".join(str(c) for c in recorded)
+
+
 def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -> list[str]:
     """``key: OLD in the manifest, NEW now`` for every key of two resolved experiments that differs.
 
@@ -150,9 +165,23 @@ class RunRecord:
         if not self.is_run():
             raise RunFolderError(f"{self.path}: not a run folder (no {MANIFEST}); run `nudge simulate` first")
         try:
-            return json.loads(self.manifest_path.read_text(encoding="utf-8"))
-        except json.JSONDecodeError as exc:
-            raise RunFolderError(f"{self.manifest_path}: unreadable manifest ({exc})") from exc
+            manifest = json.loads(self.manifest_path.read_text(encoding="utf-8"))
+        except ValueError as exc:  # not JSON, or not UTF-8 text
+            raise self._unreadable_manifest(str(exc)) from exc
+        if not isinstance(manifest, dict):
+            raise self._unreadable_manifest(f"a JSON {type(manifest).__name__}, not an object")
+        return manifest
+
+    def _unreadable_manifest(self, why: str) -> RunFolderError:
+        """The refusal of a manifest that cannot be read (``why``), with what restores it: nothing
+        else records the run's participants and checksums, so its ``--resume`` cannot read it either."""
+        return RunFolderError(f"{self.manifest_path}: unreadable manifest ({why}); the run cannot be read or "
+                              f"resumed without it: put the file back from a copy, or simulate the run again: "
+                              f"`{self._simulate_again_command()}` (with the --seed it was run with)")
+
+    def _simulate_again_command(self) -> str:
+        """The command that simulates the run again into its folder, replacing what is there."""
+        return f"nudge simulate {self.path / CONFIG} --out {self.path} --force"
 
     def manifest_to_read(self) -> dict[str, Any]:
         """:meth:`read_manifest` for a reader that does not change it (a table read a participant's
@@ -356,9 +385,11 @@ class RunRecord:
             Layouts that are not a readable Parquet file (a truncated file).
         """
         path = self.path / LAYOUTS
-        if not path.is_file():
-            raise RunFolderError(f"{self.path}: no {LAYOUTS}; the run folder is incomplete")
         manifest = self.read_manifest() if self.is_run() else {}
+        if not path.is_file():
+            fix = self.resume_command(manifest) if manifest else "nudge simulate ... --resume"
+            raise RunFolderError(f"{self.path}: no {LAYOUTS}; the run folder is incomplete; write it again "
+                                 f"with `{fix}`")
         files = manifest.get(FILE_CHECKSUMS)
         recorded = files.get(LAYOUTS) if isinstance(files, Mapping) else None
         data = path.read_bytes()
@@ -414,13 +445,20 @@ class RunRecord:
     def check_vouched(self, manifest: Mapping[str, Any]) -> None:
         """Refuse a run whose manifest records the parts' SHA-256 (this nudge's manifests do) but
         not those of every participant it promises: parts no record vouches for were not written
-        by this run (a manifest of an older nudge records none: :meth:`integrity_notes` says so).
+        by this run (a manifest of an older nudge records none: :meth:`integrity_notes` says so);
+        and a run whose file the manifest records the SHA-256 of (``files``: ``layouts.parquet``,
+        ``participants.parquet``) is gone.
 
         Raises
         ------
         RunFolderError
-            Names the parts and the command that simulates them again.
+            Names the parts or files and the command that simulates or writes them again.
         """
+        files = manifest.get(FILE_CHECKSUMS)
+        gone = [name for name in files if not (self.path / name).is_file()] if isinstance(files, Mapping) else []
+        if gone:  # a run file the manifest records (participants.parquet, layouts.parquet)
+            raise RunFolderError(f"{self.path} is incomplete: {', '.join(f'{name} (missing)' for name in gone)}; "
+                                 f"restore with `{self.resume_command(manifest)}`")
         if "checksums" not in manifest or manifest.get("executor") == "live":
             return
         sums = self.recorded_checksums(manifest)
@@ -443,7 +481,7 @@ class RunRecord:
                         for p in (self.path / kind).glob("part-*.parquet") if p.stem.split("-")[1].isdigit()})
         if not found or not any((self.path / trace).exists() for trace in RUN_TRACES):
             return None
-        fix = f"nudge simulate {self.path / CONFIG} --out {self.path} --force"
+        fix = self._simulate_again_command()
         return RunFolderError(f"{self.path}: no {MANIFEST}: nothing shows how many participants the run "
                               f"has (parts of {len(found)} found) nor that its parts are its own, so it "
                               f"cannot be read as complete; put {MANIFEST} back, or simulate the run again: "
@@ -523,20 +561,27 @@ class RunRecord:
         """How to continue a ``nudge study`` folder's session: the ``nudge study ... --resume``
         command with the folder's experiment (its config.toml: the --set values are in it) and seed,
         and the participant's ID where one session is meant (``participants``, else the one
-        unfinished session), ``ID`` otherwise."""
+        unfinished session), ``ID`` otherwise; with the participant's ``--condition-order`` when
+        their recorded order is not the one the experiment assigns them by itself."""
         from nudgecli.store import study_resume_command  # store builds on this module
 
         entries = {str(key): entry for key, entry in (manifest.get("live") or {}).items()
                    if isinstance(entry, Mapping) and entry.get("participant_id")}
         keys = [str(index) for index in participants] or \
             [key for key, entry in entries.items() if entry.get("status") != "complete"]
-        ids = [str(entries[key]["participant_id"]) for key in keys if key in entries]
+        keys = [key for key in keys if key in entries]
+        ids = [str(entries[key]["participant_id"]) for key in keys]
+        orders = {key: _order_flag(manifest, key, entries[key]) for key in keys}
         seed = manifest.get("seed")
         command = study_resume_command(str(self.path / CONFIG), ids[0] if len(ids) == 1 else "ID", self.path,
+                                       condition_order=orders[keys[0]] if len(keys) == 1 else None,
                                        seed=seed if isinstance(seed, int) else None)
-        among = f" (ID: one of {', '.join(ids)})" if len(ids) > 1 else ""
-        return (f"continue the participant's session with `{command}`{among}, adding the --condition-order "
-                "it was started with, if any")
+        among = ""
+        if len(ids) > 1:
+            named = [f"{pid} with --condition-order {orders[key]}" if orders[key] else pid
+                     for key, pid in zip(keys, ids, strict=True)]
+            among = f" (ID: one of {', '.join(named)})"
+        return f"continue the participant's session with `{command}`{among}"
 
     def no_parts_message(self, kind: str, manifest: Mapping[str, Any] | None) -> str:
         """Why the folder has no part of ``kind`` to read, and the command that writes them: a

@@ -63,7 +63,7 @@ def test_two_conditions_keep_the_papers_rotation():
         rotation = conditions[shift:] + conditions[:shift]
         for design in ("williams", "rotation"):
             assert participant_order(conditions, design, participant) == rotation
-    flipped = participant_order(conditions, "williams", 4, first_condition="control")
+    flipped = participant_order(conditions, "williams", 4, condition_order=["control", "disambiguation"])
     assert flipped == ["control", "disambiguation"]
 
 

@@ -215,11 +215,12 @@ def test_condition_order_sets_the_first_block_and_keeps_the_blocks():
     config = load_experiment("paper")
     layouts = build_layouts(config, 5)
     default = participant_schedule(config, 5, 0, layouts)
-    flipped = participant_schedule(config, 5, 0, layouts, first_condition="control")
+    flipped = participant_schedule(config, 5, 0, layouts, condition_order=["control", "disambiguation"])
     assert default[0].condition == "disambiguation" and flipped[0].condition == "control"
     blocks = {(s.condition, s.layout_index) for s in default}
     assert {(s.condition, s.layout_index) for s in flipped} == blocks
-    assert participant_schedule(config, 5, 0, layouts, first_condition="disambiguation") == default
+    own_order = ["disambiguation", "control"]
+    assert participant_schedule(config, 5, 0, layouts, condition_order=own_order) == default
 
 
 def test_study_command_mistakes_are_one_error_line(tmp_path):

@@ -10,11 +10,13 @@ from nudgecli.config import ExperimentConfig, load_experiment
 from nudgecli.errors import ConfigError
 from nudgecli.live.records import LiveFolder
 from nudgecli.live.session import LiveSession, participant_index
+from nudgecli.sim.counterbalance import check_design_order
 from nudgecli.store import study_resume_command
 
 
-def first_condition(config: ExperimentConfig, condition_order: str | None) -> str | None:
-    """The first condition of ``--condition-order A,B`` (checked against the experiment), or ``None``."""
+def chosen_order(config: ExperimentConfig, experiment: str, condition_order: str | None) -> list[str] | None:
+    """The conditions of ``--condition-order A,B,...``, checked to be one of the orders the
+    experiment's counterbalancing assigns (any participant's), or ``None``."""
     if condition_order is None:
         return None
     names = [name.strip() for name in condition_order.split(",") if name.strip()]
@@ -24,13 +26,12 @@ def first_condition(config: ExperimentConfig, condition_order: str | None) -> st
             f"--condition-order {condition_order!r}: name each condition of the experiment once, "
             f"e.g. {','.join(known)}"
         )
-    shift = known.index(names[0])
-    if names != known[shift:] + known[:shift]:
+    try:
+        return check_design_order(known, config.study.counterbalancing, names)
+    except ConfigError as exc:
         raise ConfigError(
-            f"--condition-order {condition_order!r}: blocks alternate in the experiment's order "
-            f"({','.join(known)}); give a rotation of it"
-        )
-    return names[0]
+            f"--condition-order {condition_order!r}: {exc} in [study] of {experiment}; give one of them"
+        ) from None
 
 
 def build_session(
@@ -53,7 +54,7 @@ def build_session(
         seed,
         participant_id,
         LiveFolder(target),
-        first_condition=first_condition(config, condition_order),
+        condition_order=chosen_order(config, experiment, condition_order),
         resume=resume,
     )
 

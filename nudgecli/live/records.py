@@ -34,6 +34,7 @@ import contextlib
 import os
 import re
 import secrets
+import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -46,6 +47,7 @@ from nudgecli.errors import LockError, RunFolderError
 from nudgecli.locks import acquire_lock_file, describe_holder, read_holder, run_lock
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import CONFIG, LOCK, QUESTIONNAIRES_CSV
+from nudgecli.sim.counterbalance import order_choice
 from nudgecli.sim.study import StudyLayout, layouts_frame
 from nudgecli.store import (
     RunFolder,
@@ -133,22 +135,31 @@ class LiveFolder:
         participant: int,
         participant_id: str,
         trials_per_participant: int,
+        condition_order: list[str],
         resume: bool,
     ) -> dict[str, Any]:
         """Create the folder or join the live study in it; return the participant's manifest entry.
+
+        The folder's config.toml and manifest record the experiment with the seed used (``seed``,
+        a ``--seed`` or the experiment's own), as ``nudge simulate`` records it; a folder made
+        before, whose config.toml holds the experiment's own seed, is still joined with the
+        same experiment and ``--seed`` (its config.toml is rewritten with the seed used).
+        ``condition_order`` is the participant's order of blocks, recorded in their entry.
 
         Raises
         ------
         RunFolderError
             The folder holds a simulated run, another experiment or seed, a non-run, or (without
-            ``resume``) this participant already; or ``resume`` with nothing to resume.
+            ``resume``) this participant already; the participant's index belongs to another ID;
+            ``resume`` with nothing to resume, or with another condition order than the recorded one.
         """
         existed = self.path.exists()
         try:
             self.lock_participant(participant, participant_id)
             with folder_lock(self.path):
                 return self._open_locked(
-                    config, seed, layouts, participant, participant_id, trials_per_participant, resume
+                    config, seed, layouts, participant, participant_id, trials_per_participant,
+                    condition_order, resume,
                 )
         except BaseException:
             self.release()
@@ -211,46 +222,33 @@ class LiveFolder:
         participant: int,
         participant_id: str,
         trials_per_participant: int,
+        condition_order: list[str],
         resume: bool,
     ) -> dict[str, Any]:
         run, key = self.run, str(participant)
-        config_text = config.to_toml()
+        # config.toml records the seed used, so `nudge study RUN/config.toml` runs the same study
+        used = config.model_copy(update={"experiment": config.experiment.model_copy(update={"seed": seed})})
+        config_text = used.to_toml()
         if run.is_run():
             manifest = run.read_manifest()
-            if manifest.get("executor") != EXECUTOR:
-                raise RunFolderError(
-                    f"{self.path}: holds a simulated run; record live sessions in another --out"
-                )
-            config_path = self.path / CONFIG
-            old = config_path.read_text(encoding="utf-8") if config_path.is_file() else ""
-            if old != config_text or manifest.get("seed") != seed:
-                raise RunFolderError(
-                    f"{self.path}: holds live sessions of another experiment, --set or seed; "
-                    "use the same ones, or choose another --out"
-                )
             entry = manifest.setdefault("live", {}).get(key)
-            if entry is not None and not resume:
-                raise RunFolderError(
-                    f"{self.path}: participant {participant_id} (index {participant}) is already "
-                    "recorded there; add --resume to continue their session, or give another "
-                    "--participant"
-                )
-            if entry is not None and entry.get("participant_id") != participant_id:
-                raise RunFolderError(
-                    f"{self.path}: index {participant} belongs to participant "
-                    f"{entry.get('participant_id')}, not {participant_id}"
-                )
-            if entry is None and resume:
-                raise RunFolderError(
-                    f"{self.path}: no session of participant {participant_id} to resume; drop --resume"
-                )
+            own_seed_toml = self._check_joined(
+                manifest, config, seed, config_text, participant, participant_id, resume, entry
+            )
+            if entry is not None and entry.get("condition_order", condition_order) != condition_order:
+                raise RunFolderError(self._other_order_message(config, participant, participant_id, entry))
+            if own_seed_toml:  # a folder made before config.toml recorded the seed used
+                write_text_atomic(self.path / CONFIG, config_text)
+                print(f"Warning: {self.path / CONFIG} held the experiment's own seed "
+                      f"({config.experiment.seed}), not the one the sessions use ({seed}); rewritten with it",
+                      file=sys.stderr)
         else:
             prepare_mode(self.path, None, resume, False, own_file=_is_lock_file, can_force=False,
                          resume_first=True)
             self.path.mkdir(parents=True, exist_ok=True)
             write_text_atomic(self.path / CONFIG, config_text)
             run.write_layouts(layouts_frame(layouts))
-            manifest = new_manifest(config, seed, 0, trials_per_participant)
+            manifest = new_manifest(used, seed, 0, trials_per_participant)
             manifest.update({"status": "running", "completed": [], "executor": EXECUTOR, "live": {}})
             entry = None
         if entry is None:
@@ -263,11 +261,79 @@ class LiveFolder:
                 "started": utc_now(),
             }
             manifest["live"][key] = entry
+        entry["condition_order"] = condition_order
         manifest["participants"] = len(manifest["live"])
         self.manifest = manifest
         self.entry = entry
         self.save(participant, status_of_participant="running")
         return entry
+
+    def _check_joined(
+        self,
+        manifest: dict[str, Any],
+        config: ExperimentConfig,
+        seed: int,
+        config_text: str,
+        participant: int,
+        participant_id: str,
+        resume: bool,
+        entry: dict[str, Any] | None,
+    ) -> bool:
+        """Refuse to join a folder of a simulated run, of another experiment or seed, or with the
+        participant's index taken by another ID, recorded without ``resume``, or missing with it.
+        Returns whether config.toml holds the experiment's own seed rather than ``seed`` (a folder
+        made before it recorded the seed used)."""
+        if manifest.get("executor") != EXECUTOR:
+            raise RunFolderError(f"{self.path}: holds a simulated run; record live sessions in another --out")
+        config_path = self.path / CONFIG
+        old = config_path.read_text(encoding="utf-8") if config_path.is_file() else ""
+        own_seed_toml = old != config_text and old == config.to_toml()
+        if (old != config_text and not own_seed_toml) or manifest.get("seed") != seed:
+            raise RunFolderError(
+                f"{self.path}: holds live sessions of another experiment, --set or seed; "
+                "use the same ones, or choose another --out"
+            )
+        recorded_id = None if entry is None else entry.get("participant_id")
+        if entry is not None and recorded_id != participant_id:
+            raise RunFolderError(
+                f"{self.path}: index {participant} belongs to participant {recorded_id}, not "
+                f"{participant_id} (IDs with the same number are one participant); continue "
+                f"{recorded_id}'s session with --participant {recorded_id} --resume"
+                f"{self._order_option(config, participant, entry)}, or give another participant number"
+            )
+        if entry is not None and not resume:
+            raise RunFolderError(
+                f"{self.path}: participant {participant_id} (index {participant}) is already "
+                f"recorded there; add --resume{self._order_option(config, participant, entry)} to "
+                "continue their session, or give another --participant"
+            )
+        if entry is None and resume:
+            raise RunFolderError(
+                f"{self.path}: no session of participant {participant_id} to resume; drop --resume"
+            )
+        return own_seed_toml
+
+    def _other_order_message(
+        self, config: ExperimentConfig, participant: int, participant_id: str, entry: dict[str, Any]
+    ) -> str:
+        """Why a resume with another condition order than the recorded one is refused, and the
+        ``--condition-order`` (or none) that continues the session."""
+        recorded = ",".join(str(name) for name in entry["condition_order"])
+        option = self._order_option(config, participant, entry)
+        fix = f"resume with{option}" if option else "resume without --condition-order"
+        return (f"{self.path}: participant {participant_id} (index {participant}) was started with the "
+                f"condition order {recorded}; {fix}")
+
+    @staticmethod
+    def _order_option(config: ExperimentConfig, participant: int, entry: dict[str, Any]) -> str:
+        """`` --condition-order A,B`` when the participant's recorded order is not the one the
+        experiment assigns them by itself (so a resume needs it), else ``""``."""
+        recorded = entry.get("condition_order")
+        if not isinstance(recorded, list):  # recorded before the order was
+            return ""
+        choice = order_choice([str(c) for c in config.study.conditions], config.study.counterbalancing,
+                              participant, [str(name) for name in recorded])
+        return "" if choice is None else f" --condition-order {choice}"
 
     # --- checkpoints --------------------------------------------------------------------------
 

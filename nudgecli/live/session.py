@@ -26,6 +26,7 @@ import dataclasses
 import json
 import re
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -135,8 +136,9 @@ class LiveSession:
         The participant's ID (its number is their index, :func:`participant_index`).
     folder
         Where the session is recorded.
-    first_condition
-        The condition of the first evaluation block (``None``: rotate with the index).
+    condition_order
+        The order of the conditions' blocks, one of the experiment's counterbalancing orders
+        (``None``: the one the design assigns the participant's index).
     resume
         Continue this participant's session in ``folder``.
     plan
@@ -149,7 +151,7 @@ class LiveSession:
         seed: int,
         participant_id: str,
         folder: LiveFolder,
-        first_condition: str | None = None,
+        condition_order: Sequence[str] | None = None,
         resume: bool = False,
         plan: StudyPlan | None = None,
     ) -> None:
@@ -157,11 +159,6 @@ class LiveSession:
             raise ConfigError(
                 f"calibration.rate_hz ({config.calibration.rate_hz:g}) must equal study.rate_hz "
                 f"({config.study.rate_hz:g}) in a live session: the input is sampled at one rate"
-            )
-        if first_condition is not None and first_condition not in config.study.conditions:
-            raise ConfigError(
-                f"--condition-order: {first_condition!r} is not a condition of the experiment "
-                f"({', '.join(config.study.conditions)})"
             )
         self.config, self.seed, self.folder = config, seed, folder
         self.participant_id = participant_id
@@ -171,15 +168,14 @@ class LiveSession:
         self.handover_s = live_handover_idle_s(config)
         self.handover_steps = handover_steps(self.handover_s, self.settings.dt)
         self.schedule = participant_schedule(
-            config, seed, self.index, self.plan.layouts, first_condition=first_condition
+            config, seed, self.index, self.plan.layouts, condition_order=condition_order
         )
         self.input = LiveInput.from_interface(config.interface)
         self.entry = folder.open(
-            config, seed, self.plan.layouts, self.index, participant_id, len(self.schedule), resume
+            config, seed, self.plan.layouts, self.index, participant_id, len(self.schedule),
+            _condition_order(self.schedule), resume,
         )
-        self.entry.update(
-            {"condition_order": _condition_order(self.schedule), "handover_idle_s": self.handover_s}
-        )
+        self.entry["handover_idle_s"] = self.handover_s
         trials, steps = folder.read_participant_tables(self.index, self.entry["completed_trials"])
         self.trials = trials if trials is not None else pd.DataFrame()
         self.steps = steps if steps is not None else pd.DataFrame(columns=list(STEP_COLUMNS))

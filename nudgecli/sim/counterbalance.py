@@ -84,16 +84,39 @@ def condition_orders(k: int, design: str) -> list[list[int]]:
 
 
 def participant_order(conditions: Sequence[str], design: str, participant: int,
-                      first_condition: str | None = None) -> list[str]:
-    """Participant ``participant``'s condition order: order ``participant mod n_orders``, or, given
-    ``first_condition`` (a live session's choice), the design's first order that starts with it."""
+                      condition_order: Sequence[str] | None = None) -> list[str]:
+    """Participant ``participant``'s condition order: order ``participant mod n_orders`` of the
+    design, or ``condition_order`` (a live session's ``--condition-order``), which must be one of
+    the design's orders (:func:`check_design_order`)."""
+    if condition_order is not None:
+        return check_design_order(conditions, design, condition_order)
     orders = condition_orders(len(conditions), design)
-    if first_condition is None:
-        row = orders[participant % len(orders)]
-    else:
-        start = list(conditions).index(first_condition)
-        row = next(r for r in orders if r[0] == start)
-    return [conditions[c] for c in row]
+    return [conditions[c] for c in orders[participant % len(orders)]]
+
+
+def check_design_order(conditions: Sequence[str], design: str, condition_order: Sequence[str]) -> list[str]:
+    """``condition_order`` as a list, when it is one of the orders the design assigns.
+
+    Raises
+    ------
+    ConfigError
+        The order is not one of the design's (the message lists them).
+    """
+    named = [[conditions[c] for c in row] for row in condition_orders(len(conditions), design)]
+    order = list(condition_order)
+    if order not in named:
+        raise ConfigError(f"{','.join(order)} is not one of the orders of counterbalancing = '{design}' "
+                          f"({'; '.join(','.join(row) for row in named)})")
+    return order
+
+
+def order_choice(conditions: Sequence[str], design: str, participant: int,
+                 condition_order: Sequence[str]) -> str | None:
+    """The ``--condition-order`` value that gives participant ``participant`` ``condition_order``
+    (comma-joined), or ``None`` when it is the order the design assigns them by itself."""
+    if list(condition_order) == participant_order(conditions, design, participant):
+        return None
+    return ",".join(condition_order)
 
 
 def design_record(conditions: Sequence[str], design: str, participants: int) -> dict[str, object]:

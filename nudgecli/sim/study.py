@@ -110,7 +110,8 @@ def layouts_frame(layouts: Iterable[StudyLayout]) -> pd.DataFrame:
 
 
 def participant_schedule(config: ExperimentConfig, seed: int, participant: int,
-                         layouts: list[StudyLayout], first_condition: str | None = None) -> list[TrialSpec]:
+                         layouts: list[StudyLayout],
+                         condition_order: Sequence[str] | None = None) -> list[TrialSpec]:
     """The participant's trials in the order they do them.
 
     Each condition's trials are shuffled into ``blocks_per_condition`` blocks; the blocks of the
@@ -120,8 +121,8 @@ def participant_schedule(config: ExperimentConfig, seed: int, participant: int,
     in the paper). Each trial's true goal is one
     of its layout's goals, uniformly, drawn from the trial's own seed branch
     (``participant/i/trial/t/true_goal``), so nothing can favour a goal by its index.
-    ``first_condition`` (a live session's ``--condition-order``) takes the design's first order
-    that starts with that condition; the blocks and true goals stay those of the participant's seed.
+    ``condition_order`` (a live session's ``--condition-order``, one of the design's orders) replaces
+    the participant's order; the blocks and true goals stay those of the participant's seed.
     """
     study = config.study
     rng = generator(seed, "participant", participant, "schedule")
@@ -134,7 +135,7 @@ def participant_schedule(config: ExperimentConfig, seed: int, participant: int,
         blocks_by_condition[condition] = [[mine[k] for k in order[b * size:(b + 1) * size]]
                                           for b in range(n_blocks)]
     conditions = participant_order([str(c) for c in study.conditions], study.counterbalancing, participant,
-                                   first_condition)
+                                   condition_order)
     specs: list[TrialSpec] = []
     block_number = 0
     for b in range(n_blocks):
