@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 from nudgecli.api.folders import FolderOwner, remove_if_made, temporary_folder
 from nudgecli.api.run import ProgressCallback, Run
-from nudgecli.errors import DataError
+from nudgecli.errors import DataError, NudgeError
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -24,6 +24,9 @@ if TYPE_CHECKING:
 #: The file a metrics DataFrame given to :func:`analyze` is written to, in the analysis folder
 #: (Parquet: the values exactly as given), so the analysis can be plotted and read again.
 DATAFRAME_TABLE = "metrics.parquet"
+
+#: What an error about a metrics DataFrame's table calls it (the table is a copy the caller never named).
+FRAME_NAME = "the metrics DataFrame"
 
 #: The columns of :attr:`Analysis.tests`, one row per metric.
 TEST_COLUMNS = ("metric", "kruskal_statistic", "kruskal_p", "p_adjust", "participant_test",
@@ -168,11 +171,20 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     """
     import pandas as pd
 
+    from nudgecli.api import arguments
     from nudgecli.outputs import check_output_folder
     from nudgecli.report.analysis import analysis_folder
     from nudgecli.report.analysis import analyze as analyze_source
     from nudgecli.report.plans import check_resamples
 
+    metrics = arguments.texts("metrics", metrics, optional=True)
+    questionnaires = arguments.path("questionnaires", questionnaires, optional=True)
+    bootstrap = arguments.whole_number("bootstrap", bootstrap, optional=True, minimum=1)
+    out = arguments.path("out", out, optional=True)
+    seed = arguments.whole_number("seed", seed, optional=True, minimum=0)
+    reference = arguments.text("reference", reference, optional=True)
+    arguments.switches(drop_duplicates=drop_duplicates, force=force)
+    progress = arguments.callback("progress", progress)
     check_resamples(bootstrap, "--bootstrap")
     path = source.path if isinstance(source, Run) else source
     if out is not None:  # the run folder itself, or the table's analysis folder, is the source's own
@@ -215,7 +227,10 @@ def _analyze_frame(frame: pd.DataFrame, out: str | Path | None, options: dict[st
         except (ValueError, TypeError, ArrowException) as exc:  # columns Parquet cannot hold
             raise DataError(f"metrics DataFrame: cannot be stored as a table ({exc}); give one row per "
                             "trial with participant, condition and numeric metric columns") from None
-        result = analyze_source(table, out=folder, **options)
+        try:
+            result = analyze_source(table, out=folder, **options)
+        except NudgeError as exc:  # the table is this call's copy of the frame: name what was given
+            raise type(exc)(str(exc).replace(str(table), FRAME_NAME)) from None
     except BaseException:
         if made:
             remove_if_made(folder, True)

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from nudgecli import command_defaults as defaults
+from nudgecli.api import arguments
 from nudgecli.api.folders import FolderOwner, remove_if_made, temporary_folder
 from nudgecli.api.run import Overrides, ProgressCallback, override_texts
 
@@ -75,19 +76,29 @@ def holds_batch(folder: str | Path) -> bool:
     """Whether ``folder`` holds a batch (its manifest): one a resumed command would finish."""
     from nudgecli.runs.batch_folder import BATCH_MANIFEST
 
-    return (Path(folder) / BATCH_MANIFEST).is_file()
+    return (Path(arguments.path("folder", folder)) / BATCH_MANIFEST).is_file()
 
 
 def progress_line(label: str) -> ProgressCallback:
     """The progress the batch commands print on stderr: tasks done, rate and ETA (``label: ...``)."""
     from nudgecli.runs.executors import Progress
 
-    return Progress(label)
+    return Progress(arguments.text("label", label))
 
 
 def _run(work: Callable[..., BatchResult], out: str | Path | None, label: str,
          progress: ProgressCallback | None, log: Callable[[str], None] | None, **kwargs: Any) -> Batch:
-    """Run one batch kind into ``out`` (or a temporary folder, removed again when it fails)."""
+    """Run one batch kind into ``out`` (or a temporary folder, removed again when it fails), once the
+    arguments the kinds share have their Python types (:mod:`nudgecli.api.arguments`)."""
+    out = arguments.path("out", out, optional=True)
+    progress, log = arguments.callback("progress", progress), arguments.callback("log", log)
+    kwargs["workers"] = arguments.whole_number("workers", kwargs["workers"])
+    kwargs["seed"] = arguments.whole_number("seed", kwargs["seed"], optional=True)
+    kwargs["scheduler"] = arguments.text("scheduler", kwargs["scheduler"], optional=True)
+    for name in ("resume", "force", "confirm"):
+        arguments.switch(name, kwargs[name])
+    if "people" in kwargs:
+        kwargs["people"] = arguments.people_file(kwargs["people"])
     temporary = out is None
     target = temporary_folder(label) if out is None else Path(out)
     try:
@@ -132,7 +143,8 @@ def replicate(experiment: str | Path, replications: int, *, seed: int | None = N
     from nudgecli.runs.batch_kinds import replicate as replicate_batch
 
     return _run(replicate_batch, out, "replicate", progress, log, experiment=str(experiment),
-                replications=replications, seed=seed, plan=plan, participants=participants,
+                replications=arguments.whole_number("replications", replications), seed=seed, plan=plan,
+                participants=arguments.whole_number("participants", participants, optional=True),
                 overrides=override_texts(overrides), workers=workers, scheduler=scheduler, resume=resume,
                 force=force, confirm=confirm, people=people)
 
@@ -164,9 +176,11 @@ def power(experiment: str | Path, participants: Sequence[int], replications: int
     from nudgecli.runs.batch_kinds import power as power_batch
 
     return _run(power_batch, out, "power", progress, log, experiment=str(experiment),
-                participant_counts=list(participants), replications=replications, seed=seed, plan=plan,
-                overrides=override_texts(overrides), target=target, workers=workers, scheduler=scheduler,
-                resume=resume, force=force, confirm=confirm, people=people)
+                participant_counts=arguments.whole_numbers("participants", participants),
+                replications=arguments.whole_number("replications", replications), seed=seed, plan=plan,
+                overrides=override_texts(overrides), target=arguments.real_number("target", target),
+                workers=workers, scheduler=scheduler, resume=resume, force=force, confirm=confirm,
+                people=people)
 
 
 def sweep(sweep_file: str | Path, *, replications: int | None = None, seed: int | None = None,
@@ -186,6 +200,7 @@ def sweep(sweep_file: str | Path, *, replications: int | None = None, seed: int 
     """
     from nudgecli.runs.batch_kinds import sweep as sweep_batch
 
-    return _run(sweep_batch, out, "sweep", progress, log, sweep_file=str(sweep_file),
-                replications=replications, seed=seed, workers=workers, scheduler=scheduler, resume=resume,
-                force=force, confirm=confirm)
+    return _run(sweep_batch, out, "sweep", progress, log,
+                sweep_file=str(arguments.path("sweep_file", sweep_file)),
+                replications=arguments.whole_number("replications", replications, optional=True), seed=seed,
+                workers=workers, scheduler=scheduler, resume=resume, force=force, confirm=confirm)

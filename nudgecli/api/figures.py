@@ -12,6 +12,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from nudgecli.api import arguments
 from nudgecli.api.analysis import Analysis
 from nudgecli.api.run import Run
 from nudgecli.errors import ConfigError, NudgeError, did_you_mean
@@ -32,8 +33,12 @@ def plan_of(source: str | Path, plan: str | Path | AnalysisPlan | None = None) -
     run folder's manifest records, else the one named like its experiment, else ``paper``
     (:func:`nudgecli.config_files.resolve_plan`)."""
     from nudgecli.config_files import resolve_plan
+    from nudgecli.report.plans import AnalysisPlan
     from nudgecli.store import RunFolder
 
+    source = arguments.path("source", source)
+    if plan is not None and not isinstance(plan, AnalysisPlan):
+        plan = arguments.path("plan", plan)  # a preset's name or a plan file
     manifest: Any = {}
     folder = RunFolder(Path(source))
     if plan is None and Path(source).is_dir() and folder.is_run():
@@ -55,7 +60,7 @@ def _folder_of(analysis: Analysis | Run | str | Path) -> Path:
 
 
 def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axes | None = None,
-         trial: tuple[int, int] | None = None, reference: str | None = None) -> Figure:
+         trial: str | tuple[int, int] | None = None, reference: str | None = None) -> Figure:
     """Draw one figure of an analysis, as ``nudge plot`` draws it, without writing a file.
 
     Parameters
@@ -71,7 +76,7 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         Axes of one's own to draw one panel into: a metric's box plot, ``fig5`` or ``trajectory``;
         default a new figure.
     trial
-        ``(participant, trial)`` of Fig. 5 and the trajectory (``--trial``).
+        ``(participant, trial)`` or ``"P:T"`` of Fig. 5 and the trajectory (``--trial``).
     reference
         Brackets only for this condition's pairs (``--reference``).
 
@@ -98,11 +103,14 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
     )
     from nudgecli.report.style import figure_style
 
+    trial_key = arguments.trial(trial)
+    figure = arguments.text("figure", figure)
+    reference = arguments.text("reference", reference, optional=True)
     folder = _folder_of(analysis)
-    inputs = read_inputs(folder, trial)
+    inputs = read_inputs(folder, trial_key)
     chosen = load_plan(plan_of(folder, analysis.plan if isinstance(analysis, Analysis) else None))
     conditions = figures.resolve_conditions(inputs.metrics, inputs.stats)
-    _check_choices(folder, inputs, conditions, trial, reference)
+    _check_choices(folder, inputs, conditions, trial_key, reference)
     metrics = drawn_metrics(inputs)
     if figure in metrics:
         with figure_style():
@@ -110,7 +118,7 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
             artists = figures.metric_boxplot(inputs.metrics, figure, entry, ax=ax, conditions=conditions,
                                              star_rule=chosen.comparison_options(), reference=reference)
         return artists.ax.figure  # type: ignore[return-value]  # a Figure: axes_or_new makes no SubFigure
-    plan = PlotPlan(out_dir=folder, trial=trial, star_rule=chosen.comparison_options(),
+    plan = PlotPlan(out_dir=folder, trial=trial_key, star_rule=chosen.comparison_options(),
                     item_labels=chosen.questionnaires.labels, reference=reference)
     available = _figures_of(inputs, metrics)
     if figure not in available:
@@ -118,7 +126,7 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         raise ConfigError(f"figure {figure!r}: not a figure of {folder}; choose one of "
                           f"{', '.join(choices)}{did_you_mean(figure, choices)}")
     if ax is not None and figure in ("fig5", "trajectory") and inputs.path_layouts is None:
-        return _trial_into(inputs, figure, trial, ax)
+        return _trial_into(inputs, figure, trial_key, ax)
     if ax is not None:
         raise ConfigError(f"figure {figure!r} has several panels, which one axes cannot hold; to draw into "
                           f"ax give one metric's panel ({', '.join(metrics)}), fig5 or trajectory")
@@ -218,11 +226,13 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
     """
     from nudgecli.locks import run_lock
     from nudgecli.report.plans import AnalysisPlan, load_plan
-    from nudgecli.report.plotting import default_out, parse_formats, parse_trial, plot_folder
+    from nudgecli.report.plotting import default_out, plot_folder
 
-    chosen_formats = parse_formats(formats) if isinstance(formats, str) else tuple(formats)
-    trial_key = parse_trial(trial) if isinstance(trial, str) or trial is None \
-        else (int(trial[0]), int(trial[1]))
+    chosen_formats = arguments.formats(formats)
+    trial_key = arguments.trial(trial)
+    out = arguments.path("out", out, optional=True)
+    reference = arguments.text("reference", reference, optional=True)
+    force = arguments.switch("force", force)
     folder = _folder_of(source)
     if isinstance(source, Analysis) and plan is None:
         plan = source.plan
@@ -378,7 +388,8 @@ def analyze_and_plot(run: Run | str | Path, *, plan: str | Path | None = None,
     from nudgecli.report.plans import load_plan
     from nudgecli.report.plotting import plot_folder
 
-    opened = run if isinstance(run, Run) else Run.open(run)
+    opened = run if isinstance(run, Run) else Run.open(arguments.path("run", run))
+    log = arguments.callback("log", log)
     chosen: str | Path = resolve_plan(plan, experiment=opened.experiment)
     if log is not None:
         log(f"analysing with the {chosen!r} plan")

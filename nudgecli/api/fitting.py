@@ -49,11 +49,15 @@ def fit(calibration_dir: str | Path, *, out: str | Path | None = None, force: bo
         An existing ``out`` without ``force``, an ``out`` that is one of the logs, an unwritable
         folder, unreadable logs; checked before anything is written.
     """
+    from nudgecli.api import arguments
     from nudgecli.outputs import check_output_file, command_inputs, declare_input
     from nudgecli.sim.calibration_profile import fit_calibration_dir, write_profile
     from nudgecli.store import check_writable
 
-    folder = Path(calibration_dir)
+    folder = Path(arguments.path("calibration_dir", calibration_dir))
+    out = arguments.path("out", out, optional=True)
+    force = arguments.switch("force", force)
+    variant = arguments.text("variant", variant)
     with command_inputs():  # the logs are this call's inputs only
         if out is not None:
             declare_input("CALIBRATION_DIR", *(folder.rglob("*") if folder.is_dir() else ()))  # never out
@@ -131,14 +135,17 @@ def fit_people(sources: str | Path | Sequence[str | Path], *, out: str | Path | 
     """
     import pandas as pd
 
+    from nudgecli.api import arguments
     from nudgecli.outputs import check_output_file, command_inputs, declare_input
     from nudgecli.report.twin_sources import twins_of_sources
     from nudgecli.sim.people_file import LIST_SEPARATOR, PEOPLE_COLUMNS, people_csv
     from nudgecli.sim.twins import TWIN_PARAMETERS
     from nudgecli.store import check_writable, write_text_atomic
 
-    named: list[str | Path] = [str(sources)] if isinstance(sources, str | Path) \
-        else [str(source) for source in sources]
+    # one path, or a list of them; anything else (a number, None) is refused as a path
+    listed = sources if isinstance(sources, Sequence) and not isinstance(sources, str) else [sources]
+    named: list[str | Path] = [str(arguments.path("sources", source)) for source in listed]
+    out, force = arguments.path("out", out, optional=True), arguments.switch("force", force)
     target = None if out is None else Path(out)
     with command_inputs():  # the sources are this call's inputs only
         if target is not None:

@@ -96,14 +96,18 @@ def plot_population(experiment: str | Path, *,
         ``nudge plot-population``'s errors (size limit, formats, experiment, ``out``), before the
         calibrations and before anything is written.
     """
+    from nudgecli.api import arguments
     from nudgecli.api.run import experiment_config
-    from nudgecli.report.plotting import parse_formats
     from nudgecli.runs.size import MAX_CALIBRATIONS_WITHOUT_YES, check_size
     from nudgecli.sim.real_population import coverage_table, simulated_diagonals, simulated_habits
 
+    participants = arguments.whole_number("participants", participants, minimum=1)
+    seed = arguments.whole_number("seed", seed, optional=True, minimum=0)
+    out = arguments.path("out", out, optional=True)
+    force, yes = arguments.switch("force", force), arguments.switch("yes", yes)
     check_size(participants, yes, limit=MAX_CALIBRATIONS_WITHOUT_YES,
                work="calibrate {} simulated participants", fix="fewer --participants")
-    chosen = parse_formats(formats) if isinstance(formats, str) else tuple(formats)
+    chosen = arguments.formats(formats)
     config = experiment_config(experiment, overrides=overrides)
     if out is not None:
         from nudgecli.outputs import check_output_folder

@@ -127,15 +127,16 @@ def override_texts(overrides: Overrides | None) -> tuple[str, ...]:
     Raises
     ------
     ConfigError
-        A value TOML cannot hold (``None``, an object), or overrides given as one string.
+        A value TOML cannot hold (``None``, an object), or overrides given as one string or as
+        anything else that is neither a mapping nor a list.
     """
     if overrides is None:
         return ()
-    if isinstance(overrides, str):
-        raise ConfigError(f"overrides={overrides!r}: give a list of KEY=VALUE texts or a mapping, "
-                          "e.g. {'disambiguation.window': 5}")
     if isinstance(overrides, Mapping):
         return tuple(f"{key}={toml_literal(value, key)}" for key, value in overrides.items())
+    if isinstance(overrides, str) or not isinstance(overrides, Sequence):  # a text is no list of texts
+        raise ConfigError(f"overrides={overrides!r}: give a list of KEY=VALUE texts or a mapping, "
+                          "e.g. {'disambiguation.window': 5}")
     return tuple(str(text) for text in overrides)
 
 
@@ -204,7 +205,8 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
         Experiment fields to change, ``{"disambiguation.window": 5}`` or ``["disambiguation.window=5"]``
         (``--set``); only with an experiment given by name or file.
     people
-        A people file (``nudge fit-people``, ``--people``): participant ``i`` is the twin of person
+        A people file (``nudge fit-people``, ``--people``), or the :class:`~nudgecli.api.fitting.FittedPeople`
+        of ``fit_people(..., out=...)`` for the file it wrote: participant ``i`` is the twin of person
         ``i mod P``, the rest of their physiology drawn as usual.
     progress
         Called with (trials done, trials in all) as participants finish; default silent.
@@ -227,9 +229,14 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
         Invalid experiment, override, count, seed or folder, with the message of ``nudge``'s
         ``Error:`` line; nothing is written then.
     """
+    from nudgecli.api import arguments
     from nudgecli.config import ExperimentConfig
     from nudgecli.runs.study import run_study
 
+    options = arguments.run_options(workers=workers, seed=seed, scheduler=scheduler, people=people,
+                                    progress=progress, resume=resume, force=force, confirm=confirm)
+    participants = arguments.whole_number("participants", participants, optional=True)
+    out, plan = arguments.path("out", out, optional=True), arguments.text("plan", plan, optional=True)
     if isinstance(experiment, ExperimentConfig):
         if overrides:
             raise ConfigError("overrides= applies to an experiment given by name or file; give them to "
@@ -241,9 +248,7 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
     target = temporary_folder(config.experiment.name) if out is None else Path(out)
     made = temporary or not target.exists()
     try:
-        study = run_study(config, target, seed=seed, participants=participants, workers=workers,
-                          scheduler=scheduler, resume=resume, force=force, progress=progress, plan=plan,
-                          confirm=confirm, people=people)
+        study = run_study(config, target, participants=participants, plan=plan, **options)
     except BaseException:
         # a folder this call made is removed whole (a temporary one) or when still empty (--out)
         if temporary or (made and target.is_dir() and not any(target.iterdir())):

@@ -97,11 +97,14 @@ def habits(source: Run | str | Path, *, by: str = "participant", compare: str | 
     NudgeError
         An unreadable source or reference, nothing to measure, a bad ``by``.
     """
+    from nudgecli.api import arguments
     from nudgecli.report.habits import habits_of
 
+    by = arguments.text("by", by)
+    reference = arguments.path("compare", compare, optional=True)
     if by not in ("participant", "trial"):
         raise ConfigError(f"--by {by!r}: choose participant or trial")
-    return Habits(habits_of(_path_of(source), by=by, compare=compare))
+    return Habits(habits_of(_path_of(source), by=by, compare=None if reference is None else str(reference)))
 
 
 @dataclass(frozen=True)
@@ -147,8 +150,10 @@ class ComparisonResult:
 def parse_matches(matches: Sequence[str]) -> dict[str, str]:
     """``("none=no assistance", ...)`` -> ``{"none": "no assistance"}``, the labels as written (a
     table's label may end in a space, and ``--match 'control=Control '`` must pair it)."""
+    from nudgecli.api import arguments
+
     mapping: dict[str, str] = {}
-    for text in matches:
+    for text in arguments.texts("match", matches) or ():
         simulated, sep, real = text.partition("=")
         if not sep or not simulated.strip() or not real.strip():
             raise ConfigError(f"--match {text!r}: expected SIMULATED=REAL, e.g. --match none='no assistance'")
@@ -188,11 +193,19 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
     NudgeError
         ``nudge compare``'s errors, before anything is written.
     """
+    from nudgecli.api import arguments
     from nudgecli.report.compare import CompareOptions, compare_sources, write_comparison
     from nudgecli.report.plans import check_resamples
-    from nudgecli.report.plotting import parse_formats
 
-    chosen_formats = parse_formats(formats) if isinstance(formats, str) else tuple(formats)
+    real = arguments.path("real", real)
+    metrics = arguments.texts("metrics", metrics, optional=True)
+    resamples = arguments.whole_number("resamples", resamples, minimum=0)
+    level = arguments.real_number("level", level)
+    seed = arguments.whole_number("seed", seed, minimum=0)
+    drop_duplicates = arguments.switch("drop_duplicates", drop_duplicates)
+    force = arguments.switch("force", force)
+    out = arguments.path("out", out, optional=True)
+    chosen_formats = arguments.formats(formats)
     check_resamples(resamples, "--resamples")
     if not 0.5 < level < 1.0:
         raise ConfigError(f"--level must be between 0.5 and 1 (both excluded), got {level}")

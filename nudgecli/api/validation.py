@@ -124,14 +124,20 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         ``nudge validate``'s errors (bad settings, over the size limit, an unusable ``out``),
         before anything is written.
     """
+    from nudgecli.api import arguments
     from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size
     from nudgecli.sim import validation
 
+    counts = {name: arguments.whole_number(name, value) for name, value in (
+        ("simulations", simulations), ("min_goals", min_goals), ("max_goals", max_goals), ("states", states),
+        ("seed", seed), ("mc_queries", mc_queries))}
+    arguments.switches(all_readings=all_readings, force=force, yes=yes)
+    out, progress = arguments.path("out", out, optional=True), arguments.callback("progress", progress)
     if all_readings and reading != defaults.VALIDATION_READING:
         raise ConfigError(READINGS_EXCLUDE)
     settings = validation.ValidationSettings(
-        simulations=simulations, min_goals=min_goals, max_goals=max_goals, states=states, seed=seed,
-        mc_queries=mc_queries, reading=reading, belief_concentration=belief_concentration)
+        **counts, reading=arguments.text("reading", reading),
+        belief_concentration=arguments.real_number("belief_concentration", belief_concentration))
     names = list(validation.READINGS) if all_readings else [reading]
     for name in names:
         replace(settings, reading=name).check()

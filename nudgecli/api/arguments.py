@@ -1,0 +1,247 @@
+"""The Python types of the API's arguments, refused as :class:`~nudgecli.errors.ConfigError`.
+
+On the command line argparse turns each option's text into its type; a notebook passes Python
+objects, so the functions of :mod:`nudgecli.api` check each argument's type here before any
+work, and a wrong one (``participants="2"``, ``seed=1.5``, a number for a path) is one ``Error:``
+line naming the argument as it is written in Python (``participants=``) and what to give instead.
+This module owns that wording; the ranges (``participants`` at least 1, ...) stay with the rules
+that own them, whose messages are the command line's (docs/api.md).
+"""
+
+from __future__ import annotations
+
+import numbers
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, Literal, overload
+
+from nudgecli.errors import ConfigError
+
+
+def _refuse(name: str, value: object, wanted: str) -> ConfigError:
+    """The error of argument ``name`` given ``value`` where ``wanted`` (``"a whole number"``) is needed."""
+    return ConfigError(f"{name}={value!r}: {name}= takes {wanted}, not {type(value).__name__}")
+
+
+@overload
+def whole_number(name: str, value: object, *, optional: Literal[False] = False,
+                 minimum: int | None = None) -> int: ...
+@overload
+def whole_number(name: str, value: object, *, optional: bool, minimum: int | None = None) -> int | None: ...
+def whole_number(name: str, value: object, *, optional: bool = False,
+                 minimum: int | None = None) -> int | None:
+    """``value`` as an ``int`` (a Python or NumPy integer; never a bool, a float or a text).
+
+    ``minimum`` is for the ranges the command line's option type holds (``click.IntRange``), which
+    no other rule checks again; a range a rule of the work owns is that rule's to refuse.
+
+    Raises
+    ------
+    ConfigError
+        Anything else (``None`` too, unless ``optional``), or below ``minimum``.
+    """
+    if value is None and optional:
+        return None
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        raise _refuse(name, value, "a whole number (an int)" + (" or None" if optional else ""))
+    if minimum is not None and value < minimum:
+        raise _refuse(name, value, f"a whole number of at least {minimum}")
+    return int(value)
+
+
+def whole_numbers(name: str, values: object) -> list[int]:
+    """``values`` as a list of ``int`` (a list or tuple of whole numbers, e.g. ``[6, 9, 12]``).
+
+    Raises
+    ------
+    ConfigError
+        Not a sequence (a text, a single number), or an item that is no whole number.
+    """
+    if isinstance(values, str | bytes) or not isinstance(values, Sequence):
+        raise _refuse(name, values, "a list of whole numbers, e.g. [6, 9, 12]")
+    if any(isinstance(value, bool) or not isinstance(value, numbers.Integral) for value in values):
+        raise _refuse(name, values, "a list of whole numbers, e.g. [6, 9, 12]")
+    return [int(value) for value in values]
+
+
+def real_number(name: str, value: object, *, between: tuple[float, float] | None = None) -> float:
+    """``value`` as a ``float`` (an int or a float; never a bool or a text), strictly inside
+    ``between`` where given (the command line's ``click.FloatRange``).
+
+    Raises
+    ------
+    ConfigError
+        Anything else, NaN, or outside ``between``.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or value != value:  # NaN
+        raise _refuse(name, value, "a number")
+    number = float(value)
+    if between is not None and not between[0] < number < between[1]:
+        raise _refuse(name, value, f"a number between {between[0]} and {between[1]} (both excluded)")
+    return number
+
+
+def texts(name: str, values: object, *, optional: bool = False) -> list[str] | None:
+    """``values`` as a list of ``str`` (a list or tuple of texts, e.g. ``["completion_time"]``).
+
+    Raises
+    ------
+    ConfigError
+        A single text (which would read as its letters), a number, or an item that is no text.
+    """
+    if values is None and optional:
+        return None
+    if isinstance(values, str) or not isinstance(values, Sequence) \
+            or not all(isinstance(value, str) for value in values):
+        raise _refuse(name, values, "a list of texts, e.g. ['a', 'b']" + (" or None" if optional else ""))
+    return list(values)
+
+
+def switch(name: str, value: object) -> bool:
+    """``value``, which must be ``True`` or ``False`` (``force=``, ``confirm=``, ...).
+
+    Raises
+    ------
+    ConfigError
+        Anything else (a text such as ``"yes"`` is not read as true).
+    """
+    if not isinstance(value, bool):
+        raise _refuse(name, value, "True or False")
+    return value
+
+
+@overload
+def text(name: str, value: object, *, optional: Literal[False] = False) -> str: ...
+@overload
+def text(name: str, value: object, *, optional: bool) -> str | None: ...
+def text(name: str, value: object, *, optional: bool = False) -> str | None:
+    """``value``, which must be a ``str`` (or ``None`` where ``optional``).
+
+    Raises
+    ------
+    ConfigError
+        Anything else.
+    """
+    if value is None and optional:
+        return None
+    if not isinstance(value, str):
+        raise _refuse(name, value, "a text (a str)" + (" or None" if optional else ""))
+    return value
+
+
+@overload
+def path(name: str, value: object, *, optional: Literal[False] = False) -> str | Path: ...
+@overload
+def path(name: str, value: object, *, optional: bool) -> str | Path | None: ...
+def path(name: str, value: object, *, optional: bool = False) -> str | Path | None:
+    """``value``, which must be a path: a ``str`` or an ``os.PathLike`` (or ``None`` where ``optional``).
+
+    Raises
+    ------
+    ConfigError
+        Anything else.
+    """
+    if value is None and optional:
+        return None
+    if isinstance(value, str):
+        return value
+    if isinstance(value, os.PathLike):
+        return Path(value)
+    raise _refuse(name, value, "a path (a str or a pathlib.Path)" + (" or None" if optional else ""))
+
+
+def formats(value: object) -> tuple[str, ...]:
+    """``formats=`` as figure formats: one text ``"png,pdf"`` (``--formats``, checked by
+    :func:`~nudgecli.report.plotting.parse_formats`) or a list of texts.
+
+    Raises
+    ------
+    ConfigError
+        Neither, or an unknown format in the text.
+    """
+    from nudgecli.report.plotting import parse_formats
+
+    if isinstance(value, str):
+        return parse_formats(value)
+    return tuple(texts("formats", value) or ())
+
+
+def trial(value: object) -> tuple[int, int] | None:
+    """``trial=`` as ``(participant, trial)``: a pair of whole numbers, or ``"P:T"`` as ``--trial``
+    takes it (read by :func:`~nudgecli.report.plotting.parse_trial`), or ``None``.
+
+    Raises
+    ------
+    ConfigError
+        Anything else (a text that is not ``P:T`` gets ``--trial``'s message).
+    """
+    from nudgecli.report.plotting import parse_trial
+
+    if value is None or isinstance(value, str):
+        return parse_trial(value)
+    if isinstance(value, Sequence) and len(value) == 2 \
+            and all(isinstance(part, numbers.Integral) and not isinstance(part, bool) for part in value):
+        return int(value[0]), int(value[1])
+    raise _refuse("trial", value, "(participant, trial) or 'PARTICIPANT:TRIAL', e.g. (0, 12) or '0:12'")
+
+
+def switches(**values: object) -> None:
+    """Each of ``values`` (``force=force, yes=yes``) must be ``True`` or ``False`` (:func:`switch`)."""
+    for name, value in values.items():
+        switch(name, value)
+
+
+def run_options(*, workers: object, seed: object, scheduler: object, people: object, progress: object,
+                resume: object, force: object, confirm: object) -> dict[str, Any]:
+    """The options of a simulated study (:func:`~nudgecli.runs.study.run_study`'s keywords of the
+    same names), their types checked: local workers, the master seed, a scheduler's address, the
+    people file, the progress callback and the resume, force and confirm switches.
+
+    Raises
+    ------
+    ConfigError
+        The first of them of a wrong type.
+    """
+    switches(resume=resume, force=force, confirm=confirm)
+    return {"workers": whole_number("workers", workers), "seed": whole_number("seed", seed, optional=True),
+            "scheduler": text("scheduler", scheduler, optional=True), "people": people_file(people),
+            "progress": callback("progress", progress), "resume": resume, "force": force, "confirm": confirm}
+
+
+def callback(name: str, value: object) -> Any:
+    """``value``, which must be callable or ``None`` (``progress=``, ``log=``).
+
+    Raises
+    ------
+    ConfigError
+        Anything else, before the work whose progress it would be told.
+    """
+    if value is not None and not callable(value):
+        raise _refuse(name, value, "a function or None")
+    return value
+
+
+def people_file(value: object) -> Any:
+    """``people=`` as a run takes it: a people file's path, the :class:`~nudgecli.sim.people_file.People`
+    read from one, or ``None``; a :class:`~nudgecli.api.fitting.FittedPeople` stands for the file
+    :func:`~nudgecli.api.fitting.fit_people` wrote (``out=``).
+
+    Raises
+    ------
+    ConfigError
+        A ``FittedPeople`` that wrote no file, its ``.table`` (a DataFrame), or anything else that is
+        no path: the message says to pass the file ``fit_people(..., out=...)`` writes.
+    """
+    from nudgecli.api.fitting import FittedPeople
+    from nudgecli.sim.people_file import People
+
+    if value is None or isinstance(value, People):
+        return value
+    if isinstance(value, FittedPeople) and value.files:
+        return value.files[0]
+    if isinstance(value, str | os.PathLike):
+        return value
+    raise ConfigError(f"people={type(value).__name__}: people= takes a people file's path; write the "
+                      "people with nudgecli.fit_people(sources, out='people.csv') and pass "
+                      "people='people.csv' (or the FittedPeople it returns)")
