@@ -13,8 +13,9 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
+from nudgecli.api.tables import parse_matches
 from nudgecli.cli import main
-from nudgecli.errors import DataError
+from nudgecli.errors import ConfigError, DataError
 from nudgecli.report.compare import align_conditions
 
 
@@ -108,3 +109,25 @@ def test_the_cli_compares_the_matched_condition_and_notes_the_one_left_out(tmp_p
                              "'control'; pair it with --match control=REAL to compare it too\n")
     compared = pd.read_csv(io.StringIO(result.stdout))
     assert list(compared["condition"]) == ["control"] and list(compared["n_simulated"]) == [8]
+
+
+def test_a_simulated_condition_matched_twice_is_refused_naming_both() -> None:
+    # the last pairing silently won before: control was compared as the real control
+    with pytest.raises(ConfigError, match=r"^--match control=disambiguation --match control=control: the "
+                                          r"simulated condition 'control' is matched twice, with "
+                                          r"'disambiguation' and 'control'; keep the --match you mean$"):
+        parse_matches(["control=disambiguation", "none=x", "control=control"])
+    assert parse_matches(["control=control", "control=control"]) == {"control": "control"}  # one pairing
+    with pytest.raises(ConfigError, match=r"^--match 'a=no help' --match a=none: "):
+        parse_matches(["a=no help", "a=none"])  # quoted as a shell takes it
+
+
+def test_the_cli_refuses_a_simulated_condition_matched_twice_in_one_line(tmp_path: Path) -> None:
+    SIMULATED.to_csv(tmp_path / "sim.csv", index=False)
+    REAL.to_csv(tmp_path / "real.csv", index=False)
+    result = CliRunner().invoke(main, ["compare", str(tmp_path / "sim.csv"), str(tmp_path / "real.csv"),
+                                       "--match", "control=disambiguation", "--match", "control=control",
+                                       "--resamples", "0", "--out", str(tmp_path / "o")])
+    assert result.exit_code == 1, result.output
+    assert result.stderr.startswith("Error: --match control=disambiguation --match control=control: ")
+    assert result.stderr.count("\n") == 1 and not (tmp_path / "o").exists()

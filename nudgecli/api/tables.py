@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 from nudgecli import command_defaults as defaults
 from nudgecli.api.run import Run
-from nudgecli.errors import ConfigError
+from nudgecli.errors import ConfigError, shell_words
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -149,7 +149,14 @@ class ComparisonResult:
 
 def parse_matches(matches: Sequence[str]) -> dict[str, str]:
     """``("none=no assistance", ...)`` -> ``{"none": "no assistance"}``, the labels as written (a
-    table's label may end in a space, and ``--match 'control=Control '`` must pair it)."""
+    table's label may end in a space, and ``--match 'control=Control '`` must pair it).
+
+    Raises
+    ------
+    ConfigError
+        A text that is not ``SIMULATED=REAL``, or a simulated condition matched with two real ones
+        (naming both ``--match``; the same pairing given twice is one pairing).
+    """
     from nudgecli.api import arguments
 
     mapping: dict[str, str] = {}
@@ -157,6 +164,10 @@ def parse_matches(matches: Sequence[str]) -> dict[str, str]:
         simulated, sep, real = text.partition("=")
         if not sep or not simulated.strip() or not real.strip():
             raise ConfigError(f"--match {text!r}: expected SIMULATED=REAL, e.g. --match none='no assistance'")
+        if mapping.get(simulated, real) != real:  # else the last --match would silently win
+            given = shell_words(["--match", f"{simulated}={mapping[simulated]}", "--match", text])
+            raise ConfigError(f"{given}: the simulated condition {simulated!r} is matched twice, with "
+                              f"{mapping[simulated]!r} and {real!r}; keep the --match you mean")
         mapping[simulated] = real
     return mapping
 
