@@ -30,7 +30,7 @@ from nudgecli.run_folder_names import (
     PART_KINDS,
     PARTICIPANTS,
 )
-from nudgecli.sim.counterbalance import order_choice
+from nudgecli.sim.counterbalance import recorded_order_choice
 
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
     import pandas as pd
@@ -101,20 +101,6 @@ def _shown(value: Any) -> str:
 _ABSENT = object()
 #: The key of an experiment's own seed (the seed of a run without --seed).
 _EXPERIMENT_SEED = "experiment.seed"
-
-
-def _order_flag(manifest: Mapping[str, Any], key: str, entry: Mapping[str, Any]) -> str | None:
-    """The ``--condition-order`` that continues live participant ``key``'s session: their recorded
-    order of blocks when it is not the one the manifest's experiment assigns them by itself."""
-    study = (manifest.get("config") or {}).get("study") or {}
-    recorded = entry.get("condition_order")
-    if not isinstance(recorded, list) or not study.get("conditions"):
-        return None
-    try:
-        return order_choice([str(c) for c in study["conditions"]], str(study.get("counterbalancing")),
-                            int(key), [str(c) for c in recorded])
-    except (NudgeError, ValueError, IndexError):  # a damaged manifest: the order as recorded
-        return ",".join(str(c) for c in recorded)
 
 
 def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -> list[str]:
@@ -558,29 +544,25 @@ class RunRecord:
                                  "simulate into another --out (neither --resume nor --force applies to them)")
 
     def continue_session_hint(self, manifest: Mapping[str, Any], participants: Iterable[int] = ()) -> str:
-        """How to continue a ``nudge study`` folder's session: the ``nudge study ... --resume``
-        command with the folder's experiment (its config.toml: the --set values are in it) and seed,
-        and the participant's ID where one session is meant (``participants``, else the one
-        unfinished session), ``ID`` otherwise; with the participant's ``--condition-order`` when
-        their recorded order is not the one the experiment assigns them by itself."""
+        """How to continue a ``nudge study`` folder's session: ``nudge study RUN/config.toml ... --resume``
+        (config.toml holds the --set values) with its seed, the ID where one session is meant
+        (``participants``, else the one unfinished), ``ID`` otherwise, and a non-default --condition-order."""
         from nudgecli.store import study_resume_command  # store builds on this module
 
         entries = {str(key): entry for key, entry in (manifest.get("live") or {}).items()
                    if isinstance(entry, Mapping) and entry.get("participant_id")}
         keys = [str(index) for index in participants] or \
             [key for key, entry in entries.items() if entry.get("status") != "complete"]
-        keys = [key for key in keys if key in entries]
-        ids = [str(entries[key]["participant_id"]) for key in keys]
-        orders = {key: _order_flag(manifest, key, entries[key]) for key in keys}
+        orders = {str(entry["participant_id"]): recorded_order_choice(manifest.get("config"), int(key),
+                                                                      entry.get("condition_order"))
+                  for key, entry in entries.items() if key in keys}  # the --condition-order each needs
+        ids = list(orders)
         seed = manifest.get("seed")
         command = study_resume_command(str(self.path / CONFIG), ids[0] if len(ids) == 1 else "ID", self.path,
-                                       condition_order=orders[keys[0]] if len(keys) == 1 else None,
+                                       condition_order=orders[ids[0]] if len(ids) == 1 else None,
                                        seed=seed if isinstance(seed, int) else None)
-        among = ""
-        if len(ids) > 1:
-            named = [f"{pid} with --condition-order {orders[key]}" if orders[key] else pid
-                     for key, pid in zip(keys, ids, strict=True)]
-            among = f" (ID: one of {', '.join(named)})"
+        named = [f"{pid} with --condition-order {orders[pid]}" if orders[pid] else pid for pid in ids]
+        among = f" (ID: one of {', '.join(named)})" if len(ids) > 1 else ""
         return f"continue the participant's session with `{command}`{among}"
 
     def no_parts_message(self, kind: str, manifest: Mapping[str, Any] | None) -> str:

@@ -31,6 +31,7 @@ from nudgecli.sim.counterbalance import (
     condition_orders,
     order_choice,
     participant_order,
+    recorded_order_choice,
 )
 from nudgecli.sim.study import build_layouts, participant_schedule
 
@@ -88,6 +89,18 @@ def test_order_choice_names_only_an_order_the_design_would_not_assign_by_itself(
             order = [conditions[c] for c in row]
             expected = None if row == rows[participant] else ",".join(order)
             assert order_choice(conditions, "williams-pair", participant, order) == expected
+
+
+def test_an_order_a_manifest_records_is_named_only_when_a_resume_needs_it():
+    experiment = {"study": {"conditions": ["disambiguation", "blending", "threshold"],
+                            "counterbalancing": "williams-pair"}}
+    assert recorded_order_choice(experiment, 3, MIRROR) is None  # P03's own order
+    assert recorded_order_choice(experiment, 4, MIRROR) == ",".join(MIRROR)
+    # a damaged manifest: the order as recorded (a resume with it is checked by the folder), or none
+    damaged = {"study": {**experiment["study"], "counterbalancing": "latin"}}
+    assert recorded_order_choice(damaged, 3, MIRROR) == ",".join(MIRROR)
+    assert recorded_order_choice(experiment, 3, None) is None
+    assert recorded_order_choice(["not", "a", "table"], 3, MIRROR) is None
 
 
 def test_the_mirror_order_of_the_report_is_accepted_and_runs_the_blocks_in_that_order(tmp_path):

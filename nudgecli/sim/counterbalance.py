@@ -15,7 +15,7 @@ condition ``i mod 2``, the paper's rotation.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 from nudgecli.errors import ConfigError
 
@@ -117,6 +117,21 @@ def order_choice(conditions: Sequence[str], design: str, participant: int,
     if list(condition_order) == participant_order(conditions, design, participant):
         return None
     return ",".join(condition_order)
+
+
+def recorded_order_choice(experiment: object, participant: int, recorded: object) -> str | None:
+    """:func:`order_choice` of an order a run's manifest records for a participant (``experiment``:
+    the manifest's ``config``); ``None`` when none is recorded, the recorded order itself when the
+    recorded design cannot tell (a damaged manifest)."""
+    study = experiment.get("study") if isinstance(experiment, Mapping) else None
+    if not isinstance(recorded, list) or not isinstance(study, Mapping) or not study.get("conditions"):
+        return None
+    order = [str(name) for name in recorded]
+    try:
+        return order_choice([str(c) for c in study["conditions"]], str(study.get("counterbalancing")),
+                            participant, order)
+    except (ConfigError, TypeError, IndexError):
+        return ",".join(order)
 
 
 def design_record(conditions: Sequence[str], design: str, participants: int) -> dict[str, object]:
