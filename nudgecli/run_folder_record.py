@@ -151,23 +151,11 @@ class RunRecord:
         if not self.is_run():
             raise RunFolderError(f"{self.path}: not a run folder (no {MANIFEST}); run `nudge simulate` first")
         try:
-            manifest = json.loads(self.manifest_path.read_text(encoding="utf-8"))
-        except ValueError as exc:  # not JSON, or not UTF-8 text
-            raise self._unreadable_manifest(str(exc)) from exc
-        if not isinstance(manifest, dict):
-            raise self._unreadable_manifest(f"a JSON {type(manifest).__name__}, not an object")
-        return manifest
-
-    def _unreadable_manifest(self, why: str) -> RunFolderError:
-        """The refusal of a manifest that cannot be read (``why``), with what restores it: nothing
-        else records the run's participants and checksums, so its ``--resume`` cannot read it either."""
-        return RunFolderError(f"{self.manifest_path}: unreadable manifest ({why}); the run cannot be read or "
-                              f"resumed without it: put the file back from a copy, or simulate the run again: "
-                              f"`{self._simulate_again_command()}` (with the --seed it was run with)")
-
-    def _simulate_again_command(self) -> str:
-        """The command that simulates the run again into its folder, replacing what is there."""
-        return f"nudge simulate {self.path / CONFIG} --out {self.path} --force"
+            return json.loads(self.manifest_path.read_text(encoding="utf-8"))
+        except ValueError as exc:  # not JSON, or not UTF-8: nothing else records the run's participants
+            fix = f"put it back from a copy, or delete it and simulate again: `{self.lost_run_command()}`"
+            raise RunFolderError(f"{self.manifest_path}: unreadable manifest ({exc}); neither reading nor "
+                                 f"--resume can use the run without it: {fix} (with its --seed)") from exc
 
     def manifest_to_read(self) -> dict[str, Any]:
         """:meth:`read_manifest` for a reader that does not change it (a table read a participant's
@@ -370,12 +358,11 @@ class RunRecord:
         DataError
             Layouts that are not a readable Parquet file (a truncated file).
         """
-        path = self.path / LAYOUTS
-        manifest = self.read_manifest() if self.is_run() else {}
+        path, manifest = self.path / LAYOUTS, self.read_manifest() if self.is_run() else {}
+        fix = self.resume_command(manifest) if manifest else "nudge simulate ... --resume"
         if not path.is_file():
-            fix = self.resume_command(manifest) if manifest else "nudge simulate ... --resume"
-            raise RunFolderError(f"{self.path}: no {LAYOUTS}; the run folder is incomplete; write it again "
-                                 f"with `{fix}`")
+            raise RunFolderError(f"{self.path}: no {LAYOUTS}; the run folder is incomplete; restore it with "
+                                 f"`{fix}`")
         files = manifest.get(FILE_CHECKSUMS)
         recorded = files.get(LAYOUTS) if isinstance(files, Mapping) else None
         data = path.read_bytes()
@@ -386,7 +373,6 @@ class RunRecord:
         try:
             return read_parquet(data)
         except Exception as exc:  # pyarrow raises several types for broken files
-            fix = self.resume_command(manifest) if manifest else "nudge simulate ... --resume"
             raise DataError(f"{path} is not a readable Parquet file ({exc}); write it again with "
                             f"`{fix}`") from None
 
@@ -430,21 +416,17 @@ class RunRecord:
 
     def check_vouched(self, manifest: Mapping[str, Any]) -> None:
         """Refuse a run whose manifest records the parts' SHA-256 (this nudge's manifests do) but
-        not those of every participant it promises: parts no record vouches for were not written
-        by this run (a manifest of an older nudge records none: :meth:`integrity_notes` says so);
-        and a run whose file the manifest records the SHA-256 of (``files``: ``layouts.parquet``,
-        ``participants.parquet``) is gone.
+        not those of every participant it promises (parts not written by this run; an older nudge's
+        records none: :meth:`integrity_notes`), or a run file it records (``files``) that is gone.
 
         Raises
         ------
         RunFolderError
             Names the parts or files and the command that simulates or writes them again.
         """
-        files = manifest.get(FILE_CHECKSUMS)
-        gone = [name for name in files if not (self.path / name).is_file()] if isinstance(files, Mapping) else []
-        if gone:  # a run file the manifest records (participants.parquet, layouts.parquet)
-            raise RunFolderError(f"{self.path} is incomplete: {', '.join(f'{name} (missing)' for name in gone)}; "
-                                 f"restore with `{self.resume_command(manifest)}`")
+        if gone := [name for name in manifest.get(FILE_CHECKSUMS) or {} if not (self.path / name).is_file()]:
+            raise RunFolderError(f"{self.path} is incomplete: {' and '.join(gone)} (missing); restore with "
+                                 f"`{self.resume_command(manifest)}`")
         if "checksums" not in manifest or manifest.get("executor") == "live":
             return
         sums = self.recorded_checksums(manifest)
@@ -457,6 +439,9 @@ class RunRecord:
                                  f"they are this run's (copied in from another run?); simulate them again "
                                  f"with `{self.resume_command(manifest)}`")
 
+    def lost_run_command(self) -> str:
+        return f"nudge simulate {self.path / CONFIG} --out {self.path} --force"  # a run without its manifest
+
     def lost_manifest_error(self) -> RunFolderError | None:
         """The refusal of a folder that holds a run's parts and another of its files
         (:data:`RUN_TRACES`) but no manifest: nothing shows which participants the run has, nor
@@ -467,7 +452,7 @@ class RunRecord:
                         for p in (self.path / kind).glob("part-*.parquet") if p.stem.split("-")[1].isdigit()})
         if not found or not any((self.path / trace).exists() for trace in RUN_TRACES):
             return None
-        fix = self._simulate_again_command()
+        fix = self.lost_run_command()
         return RunFolderError(f"{self.path}: no {MANIFEST}: nothing shows how many participants the run "
                               f"has (parts of {len(found)} found) nor that its parts are its own, so it "
                               f"cannot be read as complete; put {MANIFEST} back, or simulate the run again: "
