@@ -5,6 +5,7 @@ plan's numbers must be numbers."""
 from __future__ import annotations
 
 import json
+import re
 import shutil
 from pathlib import Path
 
@@ -12,6 +13,7 @@ import pytest
 from cli_helpers import nudge, one_error_line
 
 from nudgecli.config_files import list_presets
+from nudgecli.errors import ConfigError
 from nudgecli.report.plans import MIN_RESAMPLES, load_plan
 
 TWO_CONDITIONS = Path(__file__).with_name("data") / "metrics_two_conditions.csv"
@@ -124,3 +126,30 @@ def test_a_plan_takes_a_whole_number_where_a_decimal_is_asked(tmp_path):
     plan = _paper_copy(tmp_path / "whole.toml", "[filters]", "[filters]\nmode_switches = 10")
     assert load_plan(plan).filters == {"mode_switches": 10.0}
     assert load_plan(_paper_copy(tmp_path / "w.toml", "level = 0.95", "level = 0.9")).bootstrap.level == 0.9
+
+
+# --- a plan handed over loaded is named by its file too --------------------------------------------
+
+
+def test_a_loaded_plan_file_misnaming_the_experiments_conditions_is_named_by_its_file(tmp_path):
+    """The batches hand checked_plan the plan as given; a loaded one was named by its name field."""
+    from nudgecli.config import load_experiment
+    from nudgecli.runs.study import checked_plan
+
+    plan = _paper_copy(tmp_path / "p_cond.toml", '"control"]', '"controll"]')
+    with pytest.raises(ConfigError, match=rf"^{re.escape(str(plan.resolve()))}: conditions names 'controll', "
+                                          "which experiment smoke does not hold"):
+        checked_plan(load_plan(plan), [load_experiment("smoke")])
+
+
+def test_save_figures_with_a_loaded_plan_file_suggests_that_file(tmp_path):
+    """plot --plan refuses an analysis with questionnaire scores and names the analyze command to
+    run: with a loaded plan it named the plan's name field ('paper'), another plan than the file."""
+    from nudgecli.api.figures import save_figures
+
+    table = _table(tmp_path)
+    assert nudge("analyze", table, "--bootstrap", MIN_RESAMPLES).exit_code == 0
+    (tmp_path / "pp-analysis" / "questionnaire_scores.csv").write_text("participant,condition\n")
+    plan = _paper_copy(tmp_path / "mine.toml")
+    with pytest.raises(ConfigError, match=rf"--plan {re.escape(str(plan.resolve()))} --questionnaires"):
+        save_figures(table, plan=load_plan(plan))

@@ -240,7 +240,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
     else:
         analysis_plan = load_plan(plan_of(folder, plan))
         if plan is not None:
-            shown = analysis_plan.name if isinstance(plan, AnalysisPlan) else str(plan)
+            shown = analysis_plan.label if isinstance(plan, AnalysisPlan) else str(plan)
             _analyse_first(folder, analysis_plan, trial_key, out, force, reference, shown)
     # lock only the folder written: the figures' folder given by out (a read-only source is then
     # only read), else the run or analysis folder that holds figures/ (which analyze locks)

@@ -268,7 +268,7 @@ def checked_plan(plan: str | AnalysisPlan, configs: Sequence[ExperimentConfig]) 
     from nudgecli.report.plans import check_plan_conditions, load_plan
 
     chosen = load_plan(plan)
-    label = str(plan) if isinstance(plan, str) else chosen.name
+    label = str(plan) if isinstance(plan, str) else chosen.label
     for config in configs:
         check_plan_conditions(chosen, label, config.study.conditions, f"experiment {config.experiment.name}")
     return chosen
