@@ -110,7 +110,7 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
 @click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
               show_default=True, help="What to print on stdout: the coverage table.")
 @click.option("--yes", is_flag=True,
-              help="Calibrate more participants than the size limit allows without asking.")
+              help="Calibrate more participants than the size limit allows (docs/reliability.md).")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
 def plot_population_command(experiment: str, participants: int, seed: int | None, out: str, force: bool,
                             formats: str, output_format: str, yes: bool, overrides: tuple[str, ...]) -> None:

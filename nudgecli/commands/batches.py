@@ -29,7 +29,7 @@ def _batch_options(func: Any, out_default: str = "results/<experiment>-<command>
                           "is given); needs nudgecli[cluster]."),
         click.option("--resume", is_flag=True, help="Finish an interrupted batch in --out (same settings)."),
         click.option("--force", is_flag=True, help="Replace a batch that already is in --out."),
-        click.option("--yes", is_flag=True, help="Run a batch above the size limit (see the README)."),
+        click.option("--yes", is_flag=True, help="Run a batch above the size limit (docs/batches.md)."),
         click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]),
                      default="table", show_default=True, help="What to print on stdout."),
     ]

@@ -11,6 +11,7 @@ from typing import Any
 
 import click
 
+from nudgecli.errors import ConfigError
 from nudgecli.outputs import command_inputs, declare_input
 
 #: ``ctx.meta`` key of a callable returning what to tell the user after Ctrl-C (how to resume).
@@ -19,7 +20,7 @@ INTERRUPT_HINT = "nudge.interrupt_hint"
 EXIT_INTERRUPTED = 130
 
 SET_HELP = "Override one experiment field, e.g. --set disambiguation.window=5 (repeatable)."
-YES_HELP = "Simulate more trials than the size limit allows without asking (see the README)."
+YES_HELP = "Simulate a study above the size limit (docs/reliability.md)."
 PEOPLE_HELP = ("Simulate the twins of a people file (nudge fit-people): participant i has the habits of "
                "person i mod P, the rest of their physiology drawn as usual.")
 FORCE_HELP = ("Write into --out even when it is not empty or holds a run (files of the same names are "
@@ -95,10 +96,12 @@ def declaring_inputs(command: click.Command) -> click.Command:
     """``command``, its callback run with the files it reads declared
     (:func:`nudgecli.outputs.declare_input`): the values of its path arguments and options and of
     :data:`FILE_OPTIONS`, ``--out`` aside. So no command replaces a file it read with an output,
-    whoever wrote the command (:func:`nudgecli.store.atomic_path` refuses)."""
+    whoever wrote the command (:func:`nudgecli.store.atomic_path` refuses). An empty ``--out``
+    (``--out ""``, a variable left unset) is refused here, for every command, before any work."""
     callback = command.callback
     if callback is None or getattr(callback, "declares_inputs", False):
         return command
+    out_required = any(param.name == "out" and param.required for param in command.params)
     named = [(param.name, param.opts[-1] if isinstance(param, click.Option) else param.human_readable_name)
              for param in command.params
              if param.name not in (None, "out") and (isinstance(param.type, click.Path)
@@ -106,6 +109,9 @@ def declaring_inputs(command: click.Command) -> click.Command:
 
     @functools.wraps(callback)
     def run(*args: Any, **kwargs: Any) -> Any:
+        if kwargs.get("out") == "":  # a path would make it the current folder, or no file at all
+            raise ConfigError('--out "": an empty path; name the folder or file to write'
+                              + ("" if out_required else ", or leave --out out for the default"))
         with command_inputs():
             for name, label in named:
                 value = kwargs.get(str(name))

@@ -111,7 +111,8 @@ def _validation_readings() -> list[str]:
                    "(readings.json with --all-readings).")
 @click.option("--format", "output_format", type=click.Choice(["table", "json"]), default="table",
               show_default=True, help="What to print on stdout.")
-@click.option("--yes", is_flag=True, help="Run more queries than the size limit allows without asking.")
+@click.option("--yes", is_flag=True,
+              help="Run more queries than the size limit allows (docs/reliability.md).")
 @click.option("--force", is_flag=True, help=FORCE_HELP)
 def validate_command(simulations: int, min_goals: int, max_goals: int, states: int, seed: int,
                      belief_concentration: float, mc_queries: int, reading: str, all_readings: bool,

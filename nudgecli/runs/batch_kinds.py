@@ -26,7 +26,7 @@ from nudgecli.runs.batch_folder import (
     check_inputs_kept,
     read_manifest,
 )
-from nudgecli.runs.study import checked_plan
+from nudgecli.runs.study import checked_plan, with_participants
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, people_of
 from nudgecli.store import write_text_atomic
@@ -104,13 +104,7 @@ def import_outputs() -> None:
 def _load(experiment: str, overrides: Sequence[str], participants: int | None) -> ExperimentConfig:
     from nudgecli.config import load_experiment
 
-    config = load_experiment(experiment, tuple(overrides))
-    if participants is not None:
-        if participants < 1:
-            raise ConfigError(f"--participants must be at least 1, got {participants}")
-        study = config.study.model_copy(update={"participants": participants})
-        config = config.model_copy(update={"study": study})
-    return config
+    return with_participants(load_experiment(experiment, tuple(overrides)), participants)
 
 
 def _people_fields(people: People | str | Path | None, out: str | Path,
@@ -185,6 +179,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     if not 0 < target < 1:
         raise ConfigError(f"--target must be between 0 and 1, got {target}")
     config = _load(experiment, overrides, None)
+    with_participants(config, counts[-1])  # the largest study within study.participants' bound
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
     record, chosen_people = _people_fields(people, out, bool(options.get("resume")))
     check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)])

@@ -261,6 +261,29 @@ class StudyRun:
     trials: pd.DataFrame
 
 
+def with_participants(config: ExperimentConfig, participants: int | None) -> ExperimentConfig:
+    """``config`` with ``--participants`` as its study's participant count (``None``: as it is),
+    within the bounds of ``study.participants``, the ones ``--set study.participants=N`` meets.
+
+    Raises
+    ------
+    ConfigError
+        A count below 1 or above the field's bound (10,000), naming both spellings.
+    """
+    if participants is None:
+        return config
+    if participants < 1:
+        raise ConfigError(f"--participants must be at least 1, got {participants}")
+    from pydantic import ValidationError
+
+    try:  # the field's own bound, so --participants and --set study.participants are one rule
+        type(config.study).model_validate({**config.study.model_dump(), "participants": participants})
+    except ValidationError as exc:
+        raise ConfigError(f"--participants {participants}: study.participants: {exc.errors()[0]['msg']} "
+                          "(as with --set study.participants); give fewer participants") from None
+    return config.model_copy(update={"study": config.study.model_copy(update={"participants": participants})})
+
+
 def checked_plan(plan: str | AnalysisPlan, configs: Sequence[ExperimentConfig]) -> AnalysisPlan:
     """The plan of a run or a batch, loaded, and refused where it cannot load or its ``conditions``
     misname the conditions its studies will hold (their experiments'):
@@ -349,11 +372,8 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     if seed < 0:
         raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
     n = config.study.participants if participants is None else participants
-    if n < 1:
-        raise ConfigError(f"--participants must be at least 1, got {n}")
+    config = with_participants(config, participants)
     check_study_size(config, n, confirm)  # trials and steps, before the folder is touched
-    if participants is not None:
-        config = config.model_copy(update={"study": config.study.model_copy(update={"participants": n})})
     # config.toml is the resolved experiment: it records the seed used, so simulating it again
     # (`nudge simulate RUN/config.toml`) gives the same tables
     config = config.model_copy(update={"experiment": config.experiment.model_copy(update={"seed": seed})})
