@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 from nudgecli.errors import RunFolderError
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import FIGURES_DIR, PEOPLE_DIR
-from nudgecli.run_folder_record import file_sha256, part_name, readable_parquet
+from nudgecli.run_folder_record import experiment_differences, file_sha256, part_name, readable_parquet
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, keep_copy, remove_copy
 from nudgecli.store import (
@@ -265,6 +265,43 @@ def read_manifest(manifest: Path) -> tuple[dict[str, Any] | None, str | None]:
     return document, None
 
 
+def _by_point(description: Mapping[str, Any], lift: bool) -> dict[str, Any]:
+    """``description`` with its ``points`` list keyed by point (``point 3``), or, with ``lift`` (a
+    batch of one point: replicate, power), that point's fields at the top (``participants``)."""
+    keyed = {key: value for key, value in description.items() if key != "points"}
+    points = description.get("points")
+    if not isinstance(points, list):
+        return {**keyed, "points": points}
+    if lift:
+        return {**keyed, **{key: value for key, value in points[0].items() if key != "index"}}
+    return {**keyed, **{f"point {point.get('index', i) if isinstance(point, dict) else i}": point
+                        for i, point in enumerate(points)}}
+
+
+def batch_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -> list[str]:
+    """What differs between the batch ``batch.json`` describes and the one asked now, one
+    ``key: OLD in the manifest, NEW now`` each (the wording of a run's resume,
+    :func:`nudgecli.run_folder_record.experiment_differences`).
+
+    A point's fields are named by point (``point 2.parameters.inference.kappa``), or plainly where
+    both batches have one point (``participants``). A point's ``study`` is a digest of its
+    experiment (every setting but the participant count), which ``batch.json`` does not hold:
+    where it differs, the difference says so.
+
+    Parameters
+    ----------
+    recorded
+        The manifest's ``batch`` description.
+    current
+        The description of the batch now (:meth:`nudgecli.runs.batch.Batch.describe`).
+    """
+    points = (recorded.get("points"), current.get("points"))
+    lift = all(isinstance(p, list) and len(p) == 1 and isinstance(p[0], dict) for p in points)
+    return [f"{difference} (a digest of the experiment's settings: the experiment or a --set differs)"
+            if difference.split(":")[0].split(".")[-1] == "study" else difference
+            for difference in experiment_differences(_by_point(recorded, lift), _by_point(current, lift))]
+
+
 def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool,
                    people: People | None = None) -> str:
     """Make ``folder`` ready for the batch; ``"new"`` or ``"resume"`` (same description required).
@@ -292,9 +329,11 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
         None if old is None else f"{old['batch'].get('kind')}, {old.get('status')}"
     mode = prepare_mode(folder, held, resume, force, kind="batch")
     if old is not None and mode == "resume":
-        if old.get("batch") != json.loads(json.dumps(description)):
-            raise RunFolderError(f"{folder}: holds a different batch (experiment, design, seed, "
-                                 "replications or plan); resume it with the same settings, or use --force")
+        if differences := batch_differences(old["batch"], description):
+            shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
+                                                  if len(differences) > 8 else "")
+            raise RunFolderError(f"{folder}: holds a different batch ({shown}); resume it with the same "
+                                 "settings, or use --force")
         # what writers killed mid-write left (the batch's lock is held: no live writer owns them)
         own = [folder / name for name in ("tasks", "analyses", FIGURES_DIR, PEOPLE_DIR)]
         remove_temporaries((folder, *own, *(folder / "tasks").glob("*/")))

@@ -185,11 +185,19 @@ def check_same_people(recorded: dict[str, Any] | None, people: People | None, wh
     Raises
     ------
     DataError
-        The people file's name or SHA-256 differs from the recorded one, or one of the two has none.
+        The people file's name or SHA-256 differs from the recorded one, or one of the two has none
+        (a file of the same bytes under another name is named as such).
     """
     now = people.record() if people is not None else None
     if (recorded or None) == now:
         return
+
+    if recorded and now and recorded.get("sha256") == now["sha256"]:  # the same people, named otherwise
+        raise DataError(f"{where}: was simulated with --people {recorded.get('file')}; "
+                        f"--people {now['file']} holds the same bytes (sha256 {now['sha256'][:12]}...), "
+                        "only its name differs, and "
+                        f"the folder records its people file by name (its copy is {PEOPLE_DIR}/"
+                        f"{recorded.get('file')}): resume with --people {recorded.get('file')}")
 
     def said(record: dict[str, Any] | None) -> str:
         return "the population's people (no --people)" if record is None else \

@@ -1,0 +1,94 @@
+"""What a batch ``--resume`` says: a refused resume names each setting that differs (the wording of
+a run's resume), and a people file of the same bytes under another name is named as such."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from batch_helpers import files_of
+from cli_helpers import one_error_line
+from click.testing import CliRunner
+from people_helpers import PEOPLE_BYTES
+
+from nudgecli.cli import main
+from nudgecli.runs.batch_folder import batch_differences
+
+REPLICATE = ("replicate", "smoke", "-R", "2", "--seed", "9", "--participants", "2",
+             "--set", "disambiguation.window=5")
+TABLES = ("replications.csv", "conditions.csv", "summary.csv")
+
+
+def invoke(*args: str | Path):
+    return CliRunner().invoke(main, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def batch(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("finished") / "batch"
+    made = invoke(*REPLICATE, "--out", folder)
+    assert made.exit_code == 0, made.output
+    return folder
+
+
+def _point(participants: list[int], study: str = "aa", **parameters: float) -> dict:
+    return {"index": 0, "parameters": parameters, "participants": participants, "study": study}
+
+
+def _described(*points: dict, seed: int = 9, replications: int = 6) -> dict:
+    return {"kind": "replicate", "replications": replications, "seed": seed,
+            "points": [dict(p, index=i) for i, p in enumerate(points)], "experiment": "paper"}
+
+
+# --- naming each setting that differs ----------------------------------------------------------
+
+
+def test_the_differences_of_a_one_point_batch_are_named_by_their_setting() -> None:
+    recorded = _described(_point([3]))
+    assert batch_differences(recorded, recorded) == []
+    assert batch_differences(recorded, _described(_point([4]))) == [
+        "participants: [3] in the manifest, [4] now"]
+    assert batch_differences(recorded, _described(_point([3]), seed=7, replications=2)) == [
+        "replications: 6 in the manifest, 2 now", "seed: 9 in the manifest, 7 now"]
+    # a tuple is what Batch.describe gives, a list what batch.json holds: the same setting
+    now = _described(_point([3]))
+    now["points"][0]["participants"] = (3,)
+    assert batch_differences(recorded, now) == []
+
+
+def test_a_sweeps_differences_are_named_by_point_and_a_changed_experiment_says_so() -> None:
+    recorded = _described(_point([4], **{"inference.kappa": 0.5}), _point([4], **{"inference.kappa": 0.8}))
+    now = _described(_point([4], **{"inference.kappa": 0.5}), _point([4], **{"inference.kappa": 0.7}))
+    assert batch_differences(recorded, now) == [
+        "point 1.parameters.inference.kappa: 0.8 in the manifest, 0.7 now"]
+    (study,) = batch_differences(_described(_point([3], "aa")), _described(_point([3], "bb")))
+    assert study.startswith('study: "aa" in the manifest, "bb" now') and "experiment" in study
+
+
+def test_a_refused_resume_names_the_participant_count_alone_and_touches_nothing(tmp_path, batch) -> None:
+    folder = tmp_path / "batch"
+    shutil.copytree(batch, folder)
+    before = files_of(folder)
+    changed = [*REPLICATE[:-3], "3", *REPLICATE[-2:]]  # --participants 3
+    result = invoke(*changed, "--out", folder, "--resume")
+    assert result.exit_code == 1
+    line = one_error_line(result.output)
+    assert "(participants: [2] in the manifest, [3] now)" in line
+    assert "seed" not in line and "replications" not in line
+    assert files_of(folder) == before
+
+
+def test_a_people_file_of_the_same_bytes_under_another_name_is_named_as_such(tmp_path, monkeypatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    Path("people.csv").write_bytes(PEOPLE_BYTES)
+    Path("people_copy.csv").write_bytes(PEOPLE_BYTES)
+    replicate = ("replicate", "smoke", "-R", "1", "--participants", "2", "--out", "b")
+    assert invoke(*replicate, "--people", "people.csv").exit_code == 0
+    before = files_of(tmp_path / "b")
+    result = invoke(*replicate, "--people", "people_copy.csv", "--resume")
+    assert result.exit_code == 1
+    line = one_error_line(result.output)
+    assert "people_copy.csv holds the same bytes" in line and "only its name differs" in line
+    assert "resume with --people people.csv" in line
+    assert files_of(tmp_path / "b") == before
