@@ -1,5 +1,6 @@
 """What a batch ``--resume`` says: a refused resume names each setting that differs (the wording of
-a run's resume), and a people file of the same bytes under another name is named as such."""
+a run's resume), a people file of the same bytes under another name is named as such, and parts
+deleted since the batch wrote them are named before they are computed again."""
 
 from __future__ import annotations
 
@@ -92,3 +93,29 @@ def test_a_people_file_of_the_same_bytes_under_another_name_is_named_as_such(tmp
     assert "people_copy.csv holds the same bytes" in line and "only its name differs" in line
     assert "resume with --people people.csv" in line
     assert files_of(tmp_path / "b") == before
+
+
+# --- naming the parts computed again -----------------------------------------------------------
+
+
+def test_parts_deleted_since_they_were_written_are_named_and_computed_again(tmp_path, batch) -> None:
+    folder = tmp_path / "batch"
+    shutil.copytree(batch, folder)
+    task = sorted((folder / "tasks").glob("*/part-0001.parquet"))[0]
+    analysis = sorted((folder / "analyses").glob("*.json"))[-1]
+    task.unlink()
+    analysis.unlink()
+    result = invoke(*REPLICATE, "--out", folder, "--resume")
+    assert result.exit_code == 0, result.output
+    named = f"{task.relative_to(folder).as_posix()}, analyses/{analysis.name}: missing"
+    assert named in result.stderr
+    assert "(2 tasks computed now)" in result.stderr
+    for table in TABLES:
+        assert (folder / table).read_bytes() == (batch / table).read_bytes(), table
+
+
+def test_a_new_batch_warns_of_nothing_missing(tmp_path) -> None:
+    # the parts of tasks not yet computed are not missing: only what the record holds can be
+    result = invoke("replicate", "smoke", "-R", "1", "--participants", "2", "--out", tmp_path / "b")
+    assert result.exit_code == 0, result.output
+    assert "Warning" not in result.stderr

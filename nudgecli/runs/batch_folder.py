@@ -127,6 +127,8 @@ class PartRecord:
                 self.sums[match.group(2)] = match.group(1)
         #: Parts on disk that the record does not vouch for, as they were met (for the warning).
         self.refused: list[str] = []
+        #: Parts the record holds that are no longer on disk (deleted since), as they were met.
+        self.missing: list[str] = []
 
     def _name(self, part: Path) -> str:
         return part.relative_to(self.folder).as_posix()
@@ -134,6 +136,8 @@ class PartRecord:
     def vouches(self, part: Path, readable: Callable[[Path], bool] = readable_parquet) -> bool:
         """Whether ``part`` is on disk, readable, and has the SHA-256 the record holds of it."""
         if not part.is_file():
+            if self._name(part) in self.sums:  # written by this batch, gone since (not merely unfinished)
+                self.missing.append(self._name(part))
             return False
         recorded = self.sums.get(self._name(part))
         if recorded is not None and file_sha256(part) == recorded and readable(part):
@@ -142,12 +146,17 @@ class PartRecord:
         return False
 
     def warn_refused(self) -> None:
-        """Say on stderr which parts on disk are computed again, not being vouched for."""
+        """Say on stderr which parts are computed again: those on disk not vouched for, and those
+        the record holds that are missing (a part never written, of an unfinished task, is neither)."""
+        def shown(parts: list[str]) -> str:
+            return ", ".join(parts[:6]) + (f" and {len(parts) - 6} more" if len(parts) > 6 else "")
+
         if self.refused:
-            shown = ", ".join(self.refused[:6]) + (f" and {len(self.refused) - 6} more"
-                                                   if len(self.refused) > 6 else "")
-            print(f"Warning: {self.folder}: {shown}: not vouched for by {PART_RECORD} (not as this batch "
-                  "wrote them); computing them again", file=sys.stderr)
+            print(f"Warning: {self.folder}: {shown(self.refused)}: not vouched for by {PART_RECORD} (not as "
+                  "this batch wrote them); computing them again", file=sys.stderr)
+        if self.missing:
+            print(f"Warning: {self.folder}: {shown(self.missing)}: missing (written by this batch, as "
+                  f"{PART_RECORD} records, and deleted since); computing them again", file=sys.stderr)
 
     def write_parquet(self, part: Path, frame: pd.DataFrame) -> None:
         """Write a task's part atomically, then record it."""
