@@ -67,14 +67,17 @@ def whole_numbers(name: str, values: object) -> list[int]:
 
 def real_number(name: str, value: object, *, between: tuple[float, float] | None = None) -> float:
     """``value`` as a ``float`` (an int or a float; never a bool or a text), strictly inside
-    ``between`` where given (the command line's ``click.FloatRange``).
+    ``between`` where given (the command line's ``click.FloatRange``; NaN is outside it).
+
+    A NaN without ``between`` is the argument's own check's to refuse (with the wording the command
+    line gives, as ``validate``'s ``--belief-concentration``): here it is of the right type.
 
     Raises
     ------
     ConfigError
-        Anything else, NaN, or outside ``between``.
+        Anything else, or outside ``between``.
     """
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or value != value:  # NaN
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise _refuse(name, value, "a number")
     number = float(value)
     if between is not None and not between[0] < number < between[1]:
