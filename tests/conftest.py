@@ -3,9 +3,22 @@
 from __future__ import annotations
 
 import signal
+import tempfile
+from pathlib import Path
+
+import pytest
 
 # Tests that press Ctrl-C on a child nudge (SIGINT) need the child to take it. A shell that starts
 # a job in the background without job control (`pytest &` in a script) ignores SIGINT for it, and
 # every process started from it would inherit that and never be interrupted; a handler here is
 # reset to the default in each child, so they take Ctrl-C however the suite was started.
 signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+@pytest.fixture()
+def private_tmp(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """The system's temporary directory for this test alone (what the API makes there is seen)."""
+    folder = tmp_path / "system-tmp"
+    folder.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(folder))
+    return folder

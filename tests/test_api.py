@@ -10,7 +10,6 @@ import math
 import os
 import subprocess
 import sys
-import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -46,15 +45,6 @@ def smoke(tmp_path_factory: pytest.TempPathFactory) -> tuple[api.Run, api.Analys
     folder = tmp_path_factory.mktemp("api") / "run"
     run = api.simulate("smoke", participants=2, seed=7, out=folder)
     return run, api.analyze(run)
-
-
-@pytest.fixture()
-def private_tmp(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """The system's temporary directory for this test alone (what the API makes there is seen)."""
-    folder = tmp_path / "system-tmp"
-    folder.mkdir()
-    monkeypatch.setattr(tempfile, "tempdir", str(folder))
-    return folder
 
 
 # --- import cost ---------------------------------------------------------------------------------

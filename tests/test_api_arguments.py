@@ -4,7 +4,6 @@ input raises nudgecli.NudgeError"), naming the argument as Python writes it, bef
 from __future__ import annotations
 
 import inspect
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -26,15 +25,6 @@ def smoke(tmp_path_factory: pytest.TempPathFactory) -> api.Run:
     run = api.simulate("smoke", participants=2, seed=7, out=tmp_path_factory.mktemp("arguments") / "run")
     api.analyze(run)
     return run
-
-
-@pytest.fixture()
-def private_tmp(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """The system's temporary directory for this test alone (what the API makes there is seen)."""
-    folder = tmp_path / "system-tmp"
-    folder.mkdir()
-    monkeypatch.setattr(tempfile, "tempdir", str(folder))
-    return folder
 
 
 # --- the cases of the report, message by message -------------------------------------------------
