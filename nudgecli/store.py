@@ -536,8 +536,11 @@ class RunFolder(RunRecord):
         remove_run_figures(self.path)  # the old run's figures would stand beside the new run's tables
         from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
         from nudgecli.sim.people_file import remove_copy
+        from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
+        from nudgecli.sim.policy_files import remove_policy_copies
 
         remove_copy(self.path, None if manifest is None else manifest.get(PEOPLE_KEY))
+        remove_policy_copies(self.path, None if manifest is None else manifest.get(POLICY_FILES_KEY))
         calibration = self.path / "calibration"
         if calibration.is_dir():
             for log in calibration.glob("participant-*/*.csv"):

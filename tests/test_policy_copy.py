@@ -128,3 +128,19 @@ def test_the_check_compares_every_recorded_and_loaded_file() -> None:
         with pytest.raises(DataError):
             check_same_policy_files(recorded, changed, "/exp", "run")
 
+
+
+def test_force_removes_the_replaced_runs_policy_copies(simulated: Path, tmp_path: Path) -> None:
+    # the copies are the replaced run's inputs: left behind, they would look like the new run's
+    (simulated / "policies" / "notes.txt").write_text("mine")
+    replaced = nudge("simulate", "smoke", "--participants", "1", "--out", simulated, "--force")
+    assert replaced.exit_code == 0, replaced.output
+    copies = simulated / "policies"
+    assert sorted(p.relative_to(copies).as_posix() for p in copies.rglob("*")) == ["notes.txt"]
+    (simulated / "policies" / "notes.txt").unlink()
+    experiment = tmp_path / "exp" / "mine.toml"
+    again = nudge("simulate", experiment, "--out", simulated, "--force")
+    assert again.exit_code == 0, again.output
+    again = nudge("simulate", "smoke", "--participants", "1", "--out", simulated, "--force")
+    assert again.exit_code == 0, again.output
+    assert not (simulated / "policies").exists()

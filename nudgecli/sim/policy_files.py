@@ -14,7 +14,9 @@ trials would be a mix of two policies. This is the people file's rule
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import importlib.util
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -131,3 +133,24 @@ def keep_policy_copies(files: Mapping[str, bytes], folder: str | Path) -> None:
             continue
         target.parent.mkdir(parents=True, exist_ok=True)
         write_bytes_atomic(target, data)
+
+
+def remove_policy_copies(folder: str | Path, recorded: object) -> None:
+    """Remove the policy copies a run's manifest records (its :data:`MANIFEST_KEY` entry), their
+    cached bytecode and the folders they leave empty: what ``--force`` replaces with the run (a file
+    of the person's own there stays, and an entry that would reach outside the folder is skipped)."""
+    if not isinstance(recorded, Mapping):
+        return
+    root = Path(folder).resolve()
+    for name in recorded:
+        target = (root / str(name)).resolve()
+        if root not in target.parents or not target.is_file():
+            continue
+        target.unlink()
+        with contextlib.suppress(OSError, ValueError, NotImplementedError):  # none cached
+            Path(importlib.util.cache_from_source(str(target))).unlink()
+        for parent in [target.parent / "__pycache__", *target.parents]:
+            if parent == root:
+                break
+            with contextlib.suppress(OSError):  # not empty: kept
+                parent.rmdir()
