@@ -354,9 +354,10 @@ def test_the_size_limits_allow_the_limit_itself_and_refuse_one_more() -> None:
 
 @pytest.mark.parametrize(("args", "limit"), [
     (["replicate", "smoke", "-R", "1000000000000"], f"more than {MAX_TRIALS_WITHOUT_YES:,}"),
-    (["power", "smoke", "--participants", "2,100000000", "-R", "3"], f"more than {MAX_TRIALS_WITHOUT_YES:,}"),
-    (["simulate", "smoke", "--participants", "100000000"], f"more than {MAX_TRIALS_WITHOUT_YES:,}"),
-    (["run", "smoke", "--participants", "100000000"], f"more than {MAX_TRIALS_WITHOUT_YES:,}"),
+    # (counts within the participant bound, 10,000: above it the bound refuses them first)
+    (["power", "smoke", "--participants", "2,10000", "-R", "30"], f"more than {MAX_TRIALS_WITHOUT_YES:,}"),
+    (["simulate", "paper", "--participants", "10000"], f"more than {MAX_TRIALS_WITHOUT_YES:,}"),
+    (["run", "paper", "--participants", "10000"], f"more than {MAX_TRIALS_WITHOUT_YES:,}"),
     (["plot-population", "smoke", "--participants", "100000000"], "calibrate 100,000,000 simulated"),
     (["validate", "--simulations", "100000000"], "run 20,000,000,000 queries"),
     (["analyze", str(TABLE), "--bootstrap", "1000000000"], "at most 1,000,000 bootstrap resamples"),
