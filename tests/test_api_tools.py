@@ -77,6 +77,15 @@ def test_presets_prints_the_tables_rows_under_their_headings() -> None:
     assert [text.strip() for _, text in printed] == [text.strip() for text in table["description"]]
 
 
+def test_presets_starts_every_description_in_one_column_past_the_longest_name() -> None:
+    table = nudgecli.presets()
+    longest = max(table["name"], key=len)
+    assert len(longest) > 12  # custom-policy: longer than the column was
+    rows = [line for line in cli(["presets"]).stdout.splitlines() if line.startswith("  ")]
+    starts = {line.index(description) for line, description in zip(rows, table["description"], strict=True)}
+    assert starts == {2 + len(longest) + 1}
+
+
 # --- validate ------------------------------------------------------------------------------------
 
 

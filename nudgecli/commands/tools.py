@@ -19,10 +19,12 @@ def presets_command() -> None:
     from nudgecli.api.presets import PRESET_KINDS, presets
 
     table = presets()
+    # one column for both headings, as wide as the longest name (custom-policy is 13 letters)
+    width = max((len(name) for name in table["name"]), default=0)
     for kind, title in PRESET_KINDS.items():
         click.echo(f"{title}:")
         for row in table[table["kind"] == kind].itertuples(index=False):
-            click.echo(f"  {row.name:<12} {row.description}")
+            click.echo(f"  {row.name:<{width}} {row.description}")
 
 
 # --- bench ---------------------------------------------------------------------------------
