@@ -13,6 +13,7 @@ naming the file, the participant and the field.
 
 from __future__ import annotations
 
+import csv
 import math
 from pathlib import Path
 
@@ -20,6 +21,7 @@ import pandas as pd
 
 from nudgecli.config import PopulationSection
 from nudgecli.csv_rows import read_csv_whole_rows
+from nudgecli.csv_text import not_utf8_message
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.habits import HABIT_KEYS, HABITS, measure_habits, source_cells, summarise_habits
 from nudgecli.sim.twin_fit import HabitFigures, assumed_onset_samples, fit_twin
@@ -37,10 +39,18 @@ def _is_habits_table(path: Path) -> bool:
     """Whether a CSV file's header is a habits table's (``habit`` and ``median`` columns), not a log's."""
     try:
         header = pd.read_csv(path, nrows=0, sep=None, engine="python").columns
-    except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
+    except (ValueError, pd.errors.ParserError, UnicodeDecodeError, csv.Error):  # csv.Error: no delimiter
         return False
     names = {str(c).strip().lower() for c in header}
     return {"habit", "median"} <= names
+
+
+def _is_json(path: Path) -> bool:
+    """Whether a file's text starts as JSON does (``{`` or ``[``, as ``nudge habits --format json``
+    writes): no CSV log or table starts so, and read as CSV its lines give pandas' errors."""
+    with path.open("rb") as file:
+        start = file.read(4096).lstrip(b"\xef\xbb\xbf \t\r\n")  # a BOM, then blank space
+    return start[:1] in (b"{", b"[")
 
 
 def _figure(value: object) -> float:
@@ -117,8 +127,10 @@ def table_source(path: Path) -> SourceHabits:
     """
     try:
         table = read_csv_whole_rows(path, dtype=str, keep_default_na=False, sep=None, engine="python")
-    except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
-        raise DataError(f"{path}: not a habits table ({exc})") from None
+    except UnicodeDecodeError:
+        raise DataError(not_utf8_message(path)) from None
+    except (ValueError, pd.errors.ParserError, csv.Error) as exc:
+        raise DataError(f"{path}: not a habits table ({str(exc).strip()})") from None
     table.columns = [str(c).strip().lower() for c in table.columns]
     missing = [c for c in TABLE_COLUMNS if c not in table.columns]
     if missing:
@@ -150,6 +162,9 @@ def table_source(path: Path) -> SourceHabits:
 def source_habits(source: str | Path) -> SourceHabits:
     """Each participant's habits of ``source`` (a run folder, a real log, or a habits table)."""
     path = Path(source)
+    if path.is_file() and _is_json(path):
+        raise DataError(f"{path}: a JSON file; fit-people reads the CSV table that `nudge habits --by "
+                        "participant --format csv` writes (or a real log's CSV, or a run folder)")
     if path.is_file() and _is_habits_table(path):
         return table_source(path)
     return measured_source(path)
