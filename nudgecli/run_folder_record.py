@@ -424,7 +424,12 @@ class RunRecord:
         RunFolderError
             Names the parts or files and the command that simulates or writes them again.
         """
-        if gone := [name for name in manifest.get(FILE_CHECKSUMS) or {} if not (self.path / name).is_file()]:
+        files = manifest.get(FILE_CHECKSUMS) or {}
+        if not isinstance(files, Mapping):  # iterated below: a bare number would be a traceback
+            raise RunFolderError(f"{self.manifest_path}: '{FILE_CHECKSUMS}' = {json.dumps(files)[:60]} is "
+                                 "damaged (expected file name -> SHA-256); restore the manifest, or simulate "
+                                 "the run again with --force")
+        if gone := [name for name in files if not (self.path / name).is_file()]:
             raise RunFolderError(f"{self.path} is incomplete: {' and '.join(gone)} (missing); restore with "
                                  f"`{self.resume_command(manifest)}`")
         if "checksums" not in manifest or manifest.get("executor") == "live":
