@@ -334,8 +334,8 @@ def test_habits_and_compare_are_what_the_commands_print(smoke: Smoke, tmp_path: 
     pooled = found.pooled.set_index("habit")
     assert (pooled["n"] == found.events.groupby("habit").size().reindex(pooled.index)).all()
     real = analysis.path / "metrics.csv"
-    side = api.compare(run, real, resamples=20, out=tmp_path / "api", formats="svg")
-    printed = cli(["compare", str(run.path), str(real), "--resamples", "20", "--format", "csv",
+    side = api.compare(run, real, resamples=100, out=tmp_path / "api", formats="svg")
+    printed = cli(["compare", str(run.path), str(real), "--resamples", "100", "--format", "csv",
                    "--out", str(tmp_path / "cli"), "--formats", "svg"])
     assert printed.stdout == side.table.to_csv(index=False)
     assert (tmp_path / "api" / "compare.csv").read_bytes() == (tmp_path / "cli" / "compare.csv").read_bytes()

@@ -69,7 +69,7 @@ def analyze_real() -> None:
 
 
 def compare_real() -> str:
-    result = nudge("compare", "simulated.csv", "real.csv", "--resamples", "50", "--out", "cmp",
+    result = nudge("compare", "simulated.csv", "real.csv", "--resamples", "100", "--out", "cmp",
                    "--formats", "svg", "--format", "json", "--drop-duplicates")
     assert result.exit_code == 0, result.output
     return result.stdout

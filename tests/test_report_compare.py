@@ -15,8 +15,9 @@ from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from nudgecli import api
 from nudgecli.cli import main
-from nudgecli.errors import DataError
+from nudgecli.errors import ConfigError, DataError
 from nudgecli.report.compare import (
     CompareOptions,
     align_conditions,
@@ -25,6 +26,7 @@ from nudgecli.report.compare import (
     shared_metrics,
     weighted_distances,
 )
+from nudgecli.report.plans import MIN_RESAMPLES
 from nudgecli.rng import generator
 
 
@@ -222,6 +224,27 @@ def test_cli_compare_errors_are_one_line(tmp_path: Path) -> None:
         result = runner.invoke(main, args)
         assert result.exit_code == 1, (args, result.output)
         assert result.stderr.startswith("Error: ") and result.stderr.count("\n") == 1, result.stderr
+
+
+@pytest.mark.parametrize("resamples", [1, 20, MIN_RESAMPLES - 1])
+def test_compare_refuses_fewer_resamples_than_a_plan_allows(tmp_path: Path, resamples: int) -> None:
+    sim, real = _write(tmp_path)
+    result = CliRunner().invoke(main, ["compare", str(sim), str(real), "--resamples", str(resamples),
+                                       "--out", str(tmp_path / "out")])
+    assert result.exit_code == 1, result.output
+    assert result.stderr == (f"Error: --resamples {resamples}: at least {MIN_RESAMPLES} bootstrap resamples "
+                             "(an interval of fewer is a few resamples' values), as in a plan's [bootstrap] "
+                             "resamples; 2000 is the usual number\n")
+    assert not (tmp_path / "out").exists()
+    with pytest.raises(ConfigError, match=f"^--resamples {resamples}: at least {MIN_RESAMPLES} "):
+        api.compare(sim, real, resamples=resamples)
+
+
+def test_compare_takes_no_resamples_or_as_few_as_a_plan_allows(tmp_path: Path) -> None:
+    sim, real = _write(tmp_path)
+    assert api.compare(sim, real, resamples=0).table["valid_resamples"].eq(0).all()  # 0: no intervals
+    fewest = api.compare(sim, real, resamples=MIN_RESAMPLES, metrics=["completion_time"])
+    assert fewest.table["valid_resamples"].eq(MIN_RESAMPLES).all()
 
 
 def test_importing_the_comparison_does_not_import_scipy_stats() -> None:

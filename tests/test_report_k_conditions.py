@@ -460,7 +460,7 @@ def test_compare_real_and_simulated_tables_of_four_conditions(tmp_path: Path) ->
     real = table(1.0)
     real.to_csv(tmp_path / "real.csv", index=False)
     result = CliRunner().invoke(main, ["compare", str(tmp_path / "sim.csv"), str(tmp_path / "real.csv"),
-                                       "--format", "json", "--resamples", "50",
+                                       "--format", "json", "--resamples", "100",
                                        "--out", str(tmp_path / "cmp"), "--formats", "png"])
     assert result.exit_code == 0, result.output
     document = json.loads((tmp_path / "cmp" / "compare.json").read_text())

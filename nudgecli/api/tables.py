@@ -192,7 +192,8 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
     match
         Simulated condition -> the real table's name for it: a mapping, or ``SIMULATED=REAL`` texts.
     resamples, level, seed
-        The cluster bootstrap of the distances (0 resamples: no intervals).
+        The cluster bootstrap of the distances (0 resamples: no intervals; else at least
+        :data:`nudgecli.report.plans.MIN_RESAMPLES`, as in a plan).
     drop_duplicates
         Keep the first of repeated trial rows instead of refusing them.
     out, formats, force
@@ -206,7 +207,7 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
     """
     from nudgecli.api import arguments
     from nudgecli.report.compare import CompareOptions, compare_sources, write_comparison
-    from nudgecli.report.plans import check_resamples
+    from nudgecli.report.plans import MIN_RESAMPLES, check_resamples
 
     real = arguments.path("real", real)
     metrics = arguments.texts("metrics", metrics, optional=True)
@@ -217,7 +218,7 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
     force = arguments.switch("force", force)
     out = arguments.path("out", out, optional=True)
     chosen_formats = arguments.formats(formats)
-    check_resamples(resamples, "--resamples")
+    check_resamples(resamples or None, "--resamples", MIN_RESAMPLES)  # 0 asks for no intervals
     if not 0.5 < level < 1.0:
         raise ConfigError(f"--level must be between 0.5 and 1 (both excluded), got {level}")
     condition_map = dict(match) if isinstance(match, Mapping) else parse_matches(match or ())

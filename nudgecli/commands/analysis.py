@@ -181,7 +181,8 @@ def habits_command(source: str, by: str, output_format: str, compare: str | None
               help="Figure formats with --out: png, pdf, svg.")
 @click.option("--resamples", type=click.IntRange(min=0), default=defaults.COMPARE_RESAMPLES,
               show_default=True,
-              help="Cluster-bootstrap resamples of the distances (0: no intervals).")
+              help="Cluster-bootstrap resamples of the distances, at least 100 as in a plan "
+                   "(0: no intervals).")
 @click.option("--level", type=click.FloatRange(0.5, 1.0, min_open=True, max_open=True),
               default=defaults.COMPARE_LEVEL,
               show_default=True, help="Level of the bootstrap intervals.")
