@@ -29,6 +29,7 @@ from nudgecli.runs.batch_folder import (
 from nudgecli.runs.study import checked_plan, with_participants
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, people_of
+from nudgecli.sim.policy_registry import checked_policy_specs
 from nudgecli.store import write_text_atomic
 
 if TYPE_CHECKING:  # the statistics, summaries and figures load beside the batch's workers (import_outputs)
@@ -102,9 +103,14 @@ def import_outputs() -> None:
 
 
 def _load(experiment: str, overrides: Sequence[str], participants: int | None) -> ExperimentConfig:
+    """The experiment with its overrides, its own policies made once and checked
+    (:func:`~nudgecli.sim.policy_registry.checked_policy_specs`, as ``nudge simulate`` and a sweep
+    check them), so a parameter its policy refuses stops the batch before a folder exists."""
     from nudgecli.config import load_experiment
 
-    return with_participants(load_experiment(experiment, tuple(overrides)), participants)
+    config = with_participants(load_experiment(experiment, tuple(overrides)), participants)
+    checked_policy_specs(config)
+    return config
 
 
 def _people_fields(people: People | str | Path | None, out: str | Path,

@@ -53,6 +53,7 @@ from nudgecli.config_files import (
     settable_path,
 )
 from nudgecli.errors import ConfigError, PolicyError, did_you_mean
+from nudgecli.sim.policy_registry import checked_policy_specs
 
 #: Where the shipped example sweeps live (beside the experiment presets, in their own folder so
 #: that ``nudge presets`` does not list them as experiments).
@@ -332,29 +333,13 @@ def load_sweep(name_or_path: str) -> Sweep:
         overrides = [*spec.set, *(f"{k}={json.dumps(v)}" for k, v in assignment.items())]
         try:
             config = load_experiment(experiment, overrides)
-            check_policies(config)
+            checked_policy_specs(config)  # the check nudge simulate gives: refused before a folder exists
         except (ConfigError, PolicyError) as exc:
             shown = ", ".join(f"{k}={v!r}" for k, v in assignment.items())
             raise ConfigError(f"{path}: design point {index} ({shown}) is not a valid experiment: "
                               f"{str(exc).removeprefix('--set ')}") from None
         points.append(DesignPoint(index=index, parameters=assignment, config=config))
     return Sweep(source=path, spec=spec, points=points, problem=problem, samples=samples)
-
-
-def check_policies(config: ExperimentConfig) -> None:
-    """Make each of the experiment's own policies once with its parameters, the check ``nudge
-    simulate --set`` gives before any work (``checked_policy_specs``), so that a point whose
-    parameters its policy refuses stops the sweep before a folder exists, not in its first task.
-
-    Raises
-    ------
-    PolicyError
-        The policy does not import, does not take a parameter, or refuses a value.
-    """
-    if config.policies:  # the registry is imported only for an experiment with policies of its own
-        from nudgecli.sim.policy_registry import checked_policy_specs
-
-        checked_policy_specs(config)
 
 
 def salib_problem(spec: SweepFile) -> dict[str, Any]:

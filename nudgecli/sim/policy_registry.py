@@ -266,7 +266,8 @@ def policy_specs(config: ExperimentConfig) -> tuple[PolicySpec, ...]:
 
 def checked_policy_specs(config: ExperimentConfig) -> tuple[PolicySpec, ...]:
     """:func:`policy_specs`, each imported, made once and checked (:func:`check_custom_policy`), so
-    a policy that cannot run is refused before any work starts."""
+    a policy that cannot run is refused before any work starts: the one check of ``nudge simulate``
+    (through its protocol settings), ``replicate``, ``power`` and every point of a ``sweep``."""
     specs = policy_specs(config)
     for spec in specs:
         check_custom_policy(spec)
