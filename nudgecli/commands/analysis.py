@@ -101,7 +101,8 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
 @click.argument("experiment")
 @click.option("--participants", type=click.IntRange(min=1), default=defaults.POPULATION_PARTICIPANTS,
               show_default=True, help="Simulated participants to calibrate.")
-@click.option("--seed", type=int, default=None, help="Master seed [default: the experiment's].")
+@click.option("--seed", type=click.IntRange(min=0), default=None,
+              help="Master seed [default: the experiment's].")
 @click.option("--out", type=click.Path(file_okay=False, path_type=str), default=".", show_default=True,
               help="Folder for population.csv, population_habits.csv and the figure population.<format>; "
                    "one holding other files needs --force.")
