@@ -64,3 +64,12 @@ def test_the_yes_help_promises_no_question(command) -> None:
     result = invoke(command, "--help")
     assert result.exit_code == 0
     assert "--yes" in result.output and "without asking" not in result.output
+
+
+def test_the_condition_order_help_names_the_counterbalancing_design() -> None:
+    result = invoke("study", "--help")
+    assert result.exit_code == 0
+    text = " ".join(result.output.split())  # click wraps the help
+    assert "--condition-order A,B,..." in text
+    assert "rotates" not in text
+    assert "any order the experiment's [study] counterbalancing design assigns" in text

@@ -186,9 +186,10 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
 @click.option("--out", type=click.Path(file_okay=False),
               help="Run folder, shared by the participants of one study "
                    "[default: results/<experiment>-live].")
-@click.option("--condition-order", metavar="A,B",
-              help="The order of the conditions' blocks, e.g. control,disambiguation [default: rotates "
-                   "with the participant's number, as in the experiment].")
+@click.option("--condition-order", metavar="A,B,...",
+              help="The order of the conditions' blocks, e.g. control,disambiguation: any order the "
+                   "experiment's [study] counterbalancing design assigns, another participant's included "
+                   "[default: the order it assigns this participant's number].")
 @click.option("--seed", type=int, help="Master seed [default: the experiment's].")
 @click.option("--resume", is_flag=True, help="Continue this participant's session at their next trial.")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
