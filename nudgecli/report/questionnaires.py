@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from nudgecli.csv_text import not_utf8_message
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.tables import is_canonical_integer, label_text, read_csv_labels
 from nudgecli.run_folder_names import QUESTIONNAIRE_SCORES_CSV
@@ -90,7 +91,9 @@ def read_questionnaires(path: str | Path) -> pd.DataFrame:
         table = read_csv_labels(path)
     except pd.errors.EmptyDataError:
         raise DataError(f"{path} is empty; it needs a header row and one row per response") from None
-    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError:
+        raise DataError(not_utf8_message(path)) from None
+    except pd.errors.ParserError as exc:
         raise DataError(f"{path} is not a readable CSV file: {exc}") from None
     return table
 

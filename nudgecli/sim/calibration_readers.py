@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.csv_rows import read_csv_whole_rows
+from nudgecli.csv_text import not_utf8_message
 from nudgecli.errors import DataError
 from nudgecli.model.interface import LABELS, NO_INPUT_LABEL
 from nudgecli.sim.calibration_io import (
@@ -67,7 +68,9 @@ def _read_csv(path: Path, columns: tuple[str, ...], what: str) -> pd.DataFrame:
     except pd.errors.EmptyDataError:
         raise DataError(f"{path}: the file is empty; expected a header with columns "
                         f"{', '.join(columns)} and one row per message") from None
-    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError:
+        raise DataError(not_utf8_message(path)) from None
+    except pd.errors.ParserError as exc:
         raise DataError(f"{path}: not a readable CSV file ({str(exc).splitlines()[0]})") from None
     frame.columns = [str(c).strip() for c in frame.columns]
     missing = [c for c in columns if c not in frame.columns]

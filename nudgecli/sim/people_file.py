@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from nudgecli.csv_text import not_utf8_message
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.run_folder_names import PEOPLE_DIR
 from nudgecli.sim.twins import INTEGER_PARAMETERS, TWIN_PARAMETERS, Twin, parameter_is_valid
@@ -134,8 +135,8 @@ def read_people(path: str | Path) -> People:
     data = path.read_bytes()
     try:
         text = data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise DataError(f"{path}: not a people file (not UTF-8 text: {exc})") from None
+    except UnicodeDecodeError:
+        raise DataError(not_utf8_message(path)) from None
     reader = csv.DictReader(io.StringIO(text))
     header = [name.strip() for name in (reader.fieldnames or [])]
     if not header:
