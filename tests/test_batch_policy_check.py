@@ -40,3 +40,12 @@ def test_a_refused_value_leaves_an_existing_batch_as_it_was(tmp_path, flag):
     result = CliRunner().invoke(main, [*COMMANDS["replicate"], "--set", REFUSED, "--out", str(out), flag])
     _one_error_line(result, "weight must lie in [0, 1], got 2")
     assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+
+
+@pytest.mark.parametrize("command", ["simulate", "run"])
+def test_a_run_refuses_a_value_its_policy_refuses_before_a_folder_exists(tmp_path, command):
+    out = tmp_path / "run"
+    result = CliRunner().invoke(main, [command, str(EXAMPLE), "--participants", "2", "--set", REFUSED,
+                                       "--out", str(out)])
+    _one_error_line(result, "condition 'threshold'", "weight must lie in [0, 1], got 2")
+    assert not out.exists()

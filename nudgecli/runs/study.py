@@ -52,7 +52,7 @@ from nudgecli.sim.policy_files import (
     loaded_policy_files,
     policy_record,
 )
-from nudgecli.sim.policy_registry import constant_metrics_of
+from nudgecli.sim.policy_registry import checked_policy_specs, constant_metrics_of
 from nudgecli.sim.study import (
     ParticipantColumns,
     ParticipantResult,
@@ -380,6 +380,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     check_physiology_logs(config)
     people = people_of(people)  # a bad people file is refused before the folder is touched
     policy_files = loaded_policy_files(config)  # the policy code the run keeps a copy of
+    checked_policy_specs(config)  # a value the policy refuses: refused before the folder is touched
     if plan is not None:  # refused before anything is simulated or written
         checked_plan(plan, [config])
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
