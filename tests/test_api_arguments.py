@@ -119,7 +119,7 @@ def _valid_calls(run: Path, out: Path) -> dict[str, dict[str, Any]]:
         "save_figures": {"source": run, "out": out},
         "analyze_and_plot": {"run": run},
         "habits": {"source": run},
-        "compare": {"simulated": run, "real": run / "metrics.csv", "resamples": 10, "out": out},
+        "compare": {"simulated": run, "real": run / "metrics.csv", "resamples": 100, "out": out},
         "parse_matches": {"matches": ["a=b"]},
         "replicate": {"experiment": "smoke", "replications": 1, "participants": 2, "out": out},
         "power": {"experiment": "smoke", "participants": [2], "replications": 1, "out": out},

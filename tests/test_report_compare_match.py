@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
+from nudgecli import api
 from nudgecli.api.tables import parse_matches
 from nudgecli.cli import main
 from nudgecli.errors import ConfigError, DataError
@@ -120,6 +121,14 @@ def test_a_simulated_condition_matched_twice_is_refused_naming_both() -> None:
     assert parse_matches(["control=control", "control=control"]) == {"control": "control"}  # one pairing
     with pytest.raises(ConfigError, match=r"^--match 'a=no help' --match a=none: "):
         parse_matches(["a=no help", "a=none"])  # quoted as a shell takes it
+
+
+def test_a_match_of_the_wrong_type_names_the_argument_of_the_function_called(tmp_path: Path) -> None:
+    # parse_matches' argument is matches=, compare's is match=: each message names the one given
+    with pytest.raises(ConfigError, match=r"^matches=3: matches= takes a list of texts"):
+        parse_matches(3)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError, match=r"^match=3: match= takes a list of texts"):
+        api.compare(tmp_path / "sim.csv", tmp_path / "real.csv", match=3)  # type: ignore[arg-type]
 
 
 def test_the_cli_refuses_a_simulated_condition_matched_twice_in_one_line(tmp_path: Path) -> None:

@@ -160,7 +160,7 @@ def parse_matches(matches: Sequence[str]) -> dict[str, str]:
     from nudgecli.api import arguments
 
     mapping: dict[str, str] = {}
-    for text in arguments.texts("match", matches) or ():
+    for text in arguments.texts("matches", matches) or ():
         simulated, sep, real = text.partition("=")
         if not sep or not simulated.strip() or not real.strip():
             raise ConfigError(f"--match {text!r}: expected SIMULATED=REAL, e.g. --match none='no assistance'")
@@ -221,7 +221,8 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
     check_resamples(resamples or None, "--resamples", MIN_RESAMPLES)  # 0 asks for no intervals
     if not 0.5 < level < 1.0:
         raise ConfigError(f"--level must be between 0.5 and 1 (both excluded), got {level}")
-    condition_map = dict(match) if isinstance(match, Mapping) else parse_matches(match or ())
+    condition_map = dict(match) if isinstance(match, Mapping) \
+        else parse_matches(arguments.texts("match", match, optional=True) or ())  # named as compare's
     made = out is not None and not Path(out).exists()
     try:
         if out is not None:  # before the bootstrap, which takes a while
