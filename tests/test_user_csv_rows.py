@@ -117,3 +117,23 @@ def test_a_habits_table_cut_before_its_upper_quartile_is_refused(tmp_path: Path)
                                                                  tmp_path / "people.csv"))
     table.write_text(tabs, encoding="utf-8")
     assert nudge("fit-people", table, "--out", tmp_path / "people.csv").exit_code == 0
+
+
+def test_a_log_pandas_cannot_parse_is_named_in_one_line(tmp_path: Path,
+                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    # pandas' tokenizer messages end in a line break, which made the refusal two lines
+    import pandas as pd
+
+    from nudgecli.report import habit_logs
+
+    log = tmp_path / "log.csv"
+    log.write_text("t,x\n0,1\n")
+
+    def unparsable(*args: object, **kwargs: object) -> None:
+        raise pd.errors.ParserError("Error tokenizing data. C error: Expected 2 fields in line 3, saw 3\n")
+
+    monkeypatch.setattr(habit_logs.pd, "read_csv", unparsable)
+    with pytest.raises(DataError) as refused:
+        habit_logs._read_log_frame(log)
+    assert str(refused.value) == (f"{log}: not a readable CSV log (Error tokenizing data. C error: "
+                                  "Expected 2 fields in line 3, saw 3)")

@@ -96,7 +96,7 @@ def _read_log_frame(path: Path) -> tuple[pd.DataFrame, str]:
     except UnicodeDecodeError:
         raise DataError(not_utf8_message(path)) from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
-        raise DataError(f"{path}: not a readable CSV log ({exc})") from None
+        raise DataError(f"{path}: not a readable CSV log ({str(exc).strip()})") from None
     frame.columns = [str(c).strip() for c in frame.columns]
     if frame.empty:
         raise DataError(f"{path}: no rows; a real log needs at least two samples per trial")
