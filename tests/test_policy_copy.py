@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import py_compile
 import shlex
 import shutil
 from pathlib import Path
@@ -133,6 +134,8 @@ def test_the_check_compares_every_recorded_and_loaded_file() -> None:
 def test_force_removes_the_replaced_runs_policy_copies(simulated: Path, tmp_path: Path) -> None:
     # the copies are the replaced run's inputs: left behind, they would look like the new run's
     (simulated / "policies" / "notes.txt").write_text("mine")
+    # the bytecode a resume from the run's config.toml caches for a copy goes with it
+    py_compile.compile(str(simulated / "policies" / "threshold.py"), doraise=True)
     replaced = nudge("simulate", "smoke", "--participants", "1", "--out", simulated, "--force")
     assert replaced.exit_code == 0, replaced.output
     copies = simulated / "policies"

@@ -16,14 +16,13 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import importlib.util
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from nudgecli.errors import ConfigError, DataError
 from nudgecli.run_folder_names import FIGURES_DIR, PART_KINDS, PEOPLE_DIR
-from nudgecli.sim.policy_loader import imported_files
+from nudgecli.sim.policy_loader import imported_files, remove_cached_bytecode
 from nudgecli.sim.policy_registry import load_factory, policy_specs
 
 if TYPE_CHECKING:
@@ -147,8 +146,7 @@ def remove_policy_copies(folder: str | Path, recorded: object) -> None:
         if root not in target.parents or not target.is_file():
             continue
         target.unlink()
-        with contextlib.suppress(OSError, ValueError, NotImplementedError):  # none cached
-            Path(importlib.util.cache_from_source(str(target))).unlink()
+        remove_cached_bytecode(target)
         for parent in [target.parent / "__pycache__", *target.parents]:
             if parent == root:
                 break

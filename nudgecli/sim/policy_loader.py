@@ -141,8 +141,22 @@ def _forget(root: str, changed: list[str]) -> None:
     bytecode cached for the ``changed`` files: Python checks it against a source's whole seconds and
     size, so an edit within the same second that keeps the size would run the old code."""
     for path in changed:
-        with contextlib.suppress(OSError, ValueError, NotImplementedError):  # none cached
-            os.remove(importlib.util.cache_from_source(path))
+        remove_cached_bytecode(path)
     for name in [name for name in sys.modules if name == root or name.startswith(root + ".")]:
         del sys.modules[name]
     _IMPORTED_FILES.pop(root, None)
+
+
+def remove_cached_bytecode(source: str | Path) -> None:
+    """Remove the bytecode Python cached for the module file ``source``, where there is any.
+
+    No cache is not an error: the file was never imported, or bytecode is not written
+    (``PYTHONDONTWRITEBYTECODE``: ``OSError`` on removal), the interpreter caches none
+    (``NotImplementedError``: no ``cache_tag``) or the path has no cache location (``ValueError``).
+    """
+    try:
+        cached = importlib.util.cache_from_source(str(source))
+    except (NotImplementedError, ValueError):
+        return
+    with contextlib.suppress(OSError):
+        os.remove(cached)
