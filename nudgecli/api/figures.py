@@ -172,25 +172,11 @@ def _check_choices(folder: Path, inputs: Any, conditions: Sequence[str], trial: 
                    reference: str | None) -> None:
     """``reference`` a condition drawn and ``trial`` a trial of the run (``nudge plot``'s checks)."""
     from nudgecli.report.pair_display import check_reference
+    from nudgecli.report.plotting import check_trial
 
     check_reference(reference, conditions)
     if trial is not None and inputs.trials is not None:
-        _check_trial(folder, inputs.trials, trial)
-
-
-def _check_trial(folder: Path, trials: Any, trial: tuple[int, int]) -> None:
-    """``trial`` a (participant, trial) of ``trials`` (a run's trial table), else ``nudge plot``'s error.
-
-    Raises
-    ------
-    ConfigError
-        No such trial: one line naming the run's participants and trials.
-    """
-    known = set(zip(trials["participant"], trials["trial"], strict=True))
-    if tuple(trial) not in known:
-        last_participant, last_trial = trials["participant"].max(), trials["trial"].max()
-        raise ConfigError(f"--trial {trial[0]}:{trial[1]}: no such trial in {folder} "
-                          f"(participants 0-{last_participant}, trials 0-{last_trial})")
+        check_trial(folder, inputs.trials, trial)
 
 
 def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | AnalysisPlan | None = None,
@@ -344,11 +330,12 @@ def _table_of_analysis_folder(folder: Path) -> tuple[Path | None, bool]:
 
 def _check_trial_of_run(folder: Path, trial: tuple[int, int]) -> None:
     """``--trial`` a trial of the run ``folder`` (anything else: ``nudge plot`` says what it is)."""
+    from nudgecli.report.plotting import check_trial
     from nudgecli.store import RunFolder
 
     run = RunFolder(folder)
     if folder.is_dir() and run.is_run() and run.has_completed_participant():
-        _check_trial(folder, run.read_trials(), trial)
+        check_trial(folder, run.read_trials(), trial)
 
 
 def _check_figures_folder(source: Path, out: str | Path, force: bool) -> None:

@@ -36,6 +36,7 @@ from matplotlib.figure import Figure
 from nudgecli.errors import ConfigError, DataError, RunFolderError
 from nudgecli.report import figures
 from nudgecli.report.analysis import analysed_metrics_path
+from nudgecli.report.analysis_folders import analysis_folder
 from nudgecli.report.checksum import recorded_checksum, verify_metrics
 from nudgecli.report.figures import TrialLayout
 from nudgecli.report.metrics import apply_filters
@@ -325,6 +326,21 @@ def read_stats(path: Path) -> dict[str, Any]:
     return stats
 
 
+def check_trial(source: str | Path, trials: pd.DataFrame, trial: TrialKey) -> None:
+    """``trial`` is a (participant, trial) of ``trials`` (a run's trial table), else ``--trial``'s error.
+
+    Raises
+    ------
+    ConfigError
+        No such trial: one line naming the run's participants and trials.
+    """
+    known = set(zip(trials["participant"], trials["trial"], strict=True))
+    if tuple(trial) not in known:
+        last_participant, last_trial = trials["participant"].max(), trials["trial"].max()
+        raise ConfigError(f"--trial {trial[0]}:{trial[1]}: no such trial in {source} "
+                          f"(participants 0-{last_participant}, trials 0-{last_trial})")
+
+
 def analysis_folder_of_table(table: Path) -> Path:
     """The folder holding a table's ``stats.json``: ``<stem>-analysis/`` beside it, else its own folder.
 
@@ -333,7 +349,7 @@ def analysis_folder_of_table(table: Path) -> Path:
     RunFolderError
         Neither holds a ``stats.json``.
     """
-    for folder in (table.parent / f"{table.stem}-analysis", table.parent):
+    for folder in (analysis_folder(table), table.parent):
         if (folder / STATS_JSON).is_file():
             return folder
     raise RunFolderError(f"{table}: not analysed yet (no {STATS_JSON} beside it); "
@@ -563,17 +579,13 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
     inputs = read_inputs(source, trial)
     check_reference(reference, figures.resolve_conditions(inputs.metrics, inputs.stats))
     if trial is not None and inputs.trials is not None:
-        known = set(zip(inputs.trials["participant"], inputs.trials["trial"], strict=True))
-        if trial not in known:
-            last_participant, last_trial = inputs.trials["participant"].max(), inputs.trials["trial"].max()
-            raise ConfigError(f"--trial {trial[0]}:{trial[1]}: no such trial in {source} "
-                              f"(participants 0-{last_participant}, trials 0-{last_trial})")
+        check_trial(source, inputs.trials, trial)
     plan = PlotPlan(out_dir=Path(out) if out is not None else default_out(source), formats=tuple(formats),
                     trial=trial, star_rule=star_rule or ComparisonOptions(),
                     item_labels=dict(item_labels or {}), reference=reference)
     return write_figures(inputs, plan)
 
 
-__all__ = ["FigureInputs", "PlotPlan", "TrialPanel", "draw_figures", "drawn_metrics", "layouts_by_trial",
-           "metric_figure_groups", "parse_formats", "parse_trial", "plot_folder", "read_inputs", "read_stats",
-           "trial_panel", "write_figures"]
+__all__ = ["FigureInputs", "PlotPlan", "TrialPanel", "check_trial", "draw_figures", "drawn_metrics",
+           "layouts_by_trial", "metric_figure_groups", "parse_formats", "parse_trial", "plot_folder",
+           "read_inputs", "read_stats", "trial_panel", "write_figures"]

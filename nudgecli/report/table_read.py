@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from nudgecli.errors import DataError
+from nudgecli.report.analysis_folders import analysis_folder
 from nudgecli.report.tables import find_duplicate_trials, read_metrics_table
 from nudgecli.run_folder_record import file_sha256
 
@@ -71,7 +72,7 @@ def recorded_table_read(stats: Mapping[str, Any], where: str) -> dict[str, Any] 
 
 def analyze_command(table: Path, folder: Path, drop_duplicates: bool) -> str:
     """The ``nudge analyze`` command that analyses ``table`` again into ``folder`` as before."""
-    beside = folder.resolve() == table.resolve().with_name(f"{table.stem}-analysis")
+    beside = folder.resolve() == analysis_folder(table.resolve())
     out = "" if beside else f" --out {folder}"
     return f"nudge analyze {table}{out}{' --drop-duplicates' if drop_duplicates else ''}"
 
