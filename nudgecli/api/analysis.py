@@ -175,7 +175,7 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     from nudgecli.outputs import check_output_folder
     from nudgecli.report.analysis import analysis_folder
     from nudgecli.report.analysis import analyze as analyze_source
-    from nudgecli.report.plans import check_resamples
+    from nudgecli.report.plans import MIN_RESAMPLES, check_resamples
 
     metrics = arguments.texts("metrics", metrics, optional=True)
     questionnaires = arguments.path("questionnaires", questionnaires, optional=True)
@@ -185,7 +185,7 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     reference = arguments.text("reference", reference, optional=True)
     arguments.switches(drop_duplicates=drop_duplicates, force=force)
     progress = arguments.callback("progress", progress)
-    check_resamples(bootstrap, "--bootstrap")
+    check_resamples(bootstrap, "--bootstrap", MIN_RESAMPLES)  # the analysis's own bounds, before --out's
     path = source.path if isinstance(source, Run) else source
     if out is not None:  # the run folder itself, or the table's analysis folder, is the source's own
         own = [path, analysis_folder(Path(path))] if isinstance(path, str | Path) else []
