@@ -15,6 +15,7 @@ from nudgecli.errors import ProbabilityTableError
 from nudgecli.model import candidates as cand
 from nudgecli.model import disambiguation as dis
 from nudgecli.model import information as mi
+from nudgecli.model import portable_math
 from nudgecli.model.human_actions import DistinctActionRows, action_likelihood
 from nudgecli.model.interface import default_distortion_table, default_mapping_table, observation_model
 from nudgecli.model.log_terms import xlogy as model_xlogy
@@ -497,7 +498,10 @@ def test_model_tables_are_the_per_state_products_bit_for_bit(rows: str) -> None:
             pool.reshape(n_goals, N_STATES, 4)
     mapping, distortion = rng.dirichlet(np.ones(4), size=(3, 4)), rng.dirichlet(np.ones(4), size=4)
     modes = np.arange(N_STATES) % 3
-    per_state = (p_a[:, :, None, :] @ observation_model(mapping, distortion)[modes])[:, :, 0, :]
+    # the products as the model makes them (portable_math.matmul: the same order of additions on
+    # every CPU, which test_model_portable_math holds to loops); the claim here is the gather
+    measured = observation_model(mapping, distortion)[modes]
+    per_state = portable_math.matmul(p_a[:, :, None, :], measured)[:, :, 0, :]
     for table in (p_a, DistinctActionRows.of(p_a)):
         model = dis.DisambiguationModel(GOAL_CELLS, table, mapping, distortion)
         assert model.likelihood.tobytes() == per_state.tobytes()
@@ -510,11 +514,10 @@ def test_model_tables_are_the_per_state_products_bit_for_bit(rows: str) -> None:
         states = np.r_[rng.integers(N_STATES, size=40), 7, 7]
         weights = rng.dirichlet(np.ones(n_goals))
         rows = per_state.transpose(1, 0, 2)[states].reshape(len(states), -1)
-        marginal = rows @ (weights[:, None, None] * np.eye(4)).reshape(-1, 4)
-        # the model's x log x (numpy's log): scipy's is the C library's, which numpy's SIMD log on
-        # AVX-512 processors differs from in the last bit (test_model_log_terms holds the two
-        # equal where they are); the claim here is the gather, not the logarithm
-        conditional = model_xlogy(per_state, per_state).sum(axis=-1).T[states] @ weights
+        marginal = portable_math.matmul(rows, (weights[:, None, None] * np.eye(4)).reshape(-1, 4))
+        # the model's x log x (test_model_log_terms holds it to scipy's); the claim here is the
+        # gather, not the logarithm
+        conditional = portable_math.matmul(model_xlogy(per_state, per_state).sum(axis=-1).T[states], weights)
         expected = np.maximum(conditional - model_xlogy(marginal, marginal).sum(axis=-1), 0.0)
         assert model.mutual_information(weights, states).tobytes() == expected.tobytes()
         assert model.mutual_information(weights, np.array([], dtype=int)).shape == (0,)

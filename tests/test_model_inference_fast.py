@@ -9,6 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from nudgecli.model import portable_math
 from nudgecli.model.inference import _belief_entropy, bayes_update, normalised_entropy
 from nudgecli.model.log_terms import xlogy
 
@@ -101,4 +102,4 @@ def test_many_random_updates_of_every_size_match_the_array_rule() -> None:
     assert bayes_update(belief, np.array([0.4])).tolist() == array_update(belief, np.array([0.4])).tolist()
     stay = np.full((3, 3), 0.05) + np.eye(3) * 0.85
     assert bayes_update(belief, np.array([0.2, 0.3, 0.5]), stay).tolist() == array_update(
-        belief @ stay, np.array([0.2, 0.3, 0.5])).tolist()
+        portable_math.matmul(belief, stay), np.array([0.2, 0.3, 0.5])).tolist()

@@ -38,19 +38,14 @@ def xlogy_loop(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return out
 
 
-def assert_same(actual: np.ndarray, expected: np.ndarray, y: np.ndarray) -> None:
-    """Bit for bit (signed zeros and NaN included) where numpy's log is the C library's, as on
-    x86-64 without AVX-512; within 2 units in the last place where numpy uses its own SIMD log."""
+def assert_same(actual: np.ndarray, expected: np.ndarray) -> None:
+    """Bit for bit, signed zeros and NaN included: the logs are the C library's on every CPU (numpy's
+    own SIMD log, on AVX-512, differs from it in the last bit now and then)."""
     actual, expected = np.broadcast_arrays(np.asarray(actual, dtype=float), np.asarray(expected, dtype=float))
-    y = np.broadcast_to(np.asarray(y, dtype=float), actual.shape)
     assert np.array_equal(np.isnan(actual), np.isnan(expected))
     numbers = ~np.isnan(expected)
     assert np.array_equal(np.signbit(actual[numbers]), np.signbit(expected[numbers]))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        libm = np.array([np.log(v) == libm_log(v) or math.isnan(v) for v in y.ravel()], dtype=bool)
-    exact = numbers & libm.reshape(y.shape)
-    assert np.array_equal(actual[exact], expected[exact])
-    np.testing.assert_array_max_ulp(actual[numbers & ~exact], expected[numbers & ~exact], maxulp=2)
+    assert np.array_equal(actual[numbers], expected[numbers])
 
 
 floats = st.one_of(st.sampled_from(SPECIAL), st.floats(allow_nan=True, allow_infinity=True),
@@ -62,8 +57,8 @@ def test_special_values_in_every_pairing():
     x, y = np.meshgrid(np.array(SPECIAL), np.array(SPECIAL), indexing="ij")
     with np.errstate(divide="ignore", invalid="ignore"):
         actual = xlogy(x, y)
-    assert_same(actual, xlogy_loop(x, y), y)
-    assert_same(actual, scipy.special.xlogy(x, y), y)
+    assert_same(actual, xlogy_loop(x, y))
+    assert_same(actual, scipy.special.xlogy(x, y))
     assert xlogy(-0.0, 3.0) == 0.0 and not math.copysign(1.0, xlogy(-0.0, 3.0)) < 0  # +0, as scipy
     assert math.isnan(xlogy(0.0, math.nan)) and xlogy(0.0, math.inf) == 0.0 and xlogy(0.0, -1.0) == 0.0
     with np.errstate(divide="ignore"):  # numpy warns of the -inf (scipy does not)
@@ -80,8 +75,8 @@ def test_xlogy_is_the_loop_and_scipys_with_broadcasting(x, y):
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         actual = xlogy(x, y)
         assert np.shape(actual) == shape
-        assert_same(actual, xlogy_loop(x, y), y)
-        assert_same(actual, scipy.special.xlogy(x, y), y)
+        assert_same(actual, xlogy_loop(x, y))
+        assert_same(actual, scipy.special.xlogy(x, y))
 
 
 @settings(max_examples=200, deadline=None)
@@ -90,8 +85,8 @@ def test_xlogy_is_the_loop_and_scipys_with_broadcasting(x, y):
 def test_p_log_p_of_one_array_is_the_two_array_rule(p):
     # xlogy(p, p) takes its own path (no NaN test of y): the same values as two arrays
     actual = xlogy(p, p)
-    assert_same(actual, xlogy(p, p.copy()), p)
-    assert_same(actual, xlogy_loop(p, p), p)
+    assert_same(actual, xlogy(p, p.copy()))
+    assert_same(actual, xlogy_loop(p, p))
     assert np.all(actual <= 0.0) and np.all(actual[p == 0] == 0.0)
 
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from nudgecli.model import portable_math
 from nudgecli.model.ties import tied_indices
 from nudgecli.model.world import (
     CELL_HEIGHT,
@@ -81,7 +82,7 @@ def distance_weight(distance: float | np.ndarray, knee: float, drop: float) -> f
     """
     d = np.asarray(distance, dtype=float)
     near = 1.0 - drop * d / knee
-    far = (1.0 - drop) * np.exp(-np.maximum(d - knee, 0.0))
+    far = (1.0 - drop) * portable_math.exp(-np.maximum(d - knee, 0.0))
     w = np.where(d <= knee, near, far)
     return float(w) if w.ndim == 0 else w
 

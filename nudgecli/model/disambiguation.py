@@ -11,6 +11,7 @@ from typing import Literal
 
 import numpy as np
 
+from nudgecli.model import portable_math
 from nudgecli.model.candidates import Candidates, global_candidates, mode_candidates, window_table
 from nudgecli.model.disambiguation_settings import DisambiguationSettings
 from nudgecli.model.human_actions import DistinctActionRows
@@ -83,7 +84,7 @@ def _rows_likelihood(rows: np.ndarray, row_modes: np.ndarray, mapping: np.ndarra
     measured_given_action = _measured_given_action(mapping, distortion)  # (M, A, F)
     # (U, 1, A) @ (U, A, F) -> (U, 1, F): per pair the same (1, A) @ (A, F) product as per state,
     # whichever other rows are stacked with it (DisambiguationModel.of_layouts stacks layouts')
-    return (rows[:, None, :] @ measured_given_action[row_modes])[:, 0, :]
+    return portable_math.matmul(rows[:, None, :], measured_given_action[row_modes])[:, 0, :]
 
 
 def _measured_given_action(mapping: np.ndarray, distortion: np.ndarray) -> np.ndarray:
@@ -118,9 +119,9 @@ def _distance(weights: np.ndarray, goals: np.ndarray, positions: np.ndarray, kin
     if kind == "expected":
         dx = positions[:, 0:1] - goals[:, 0]
         dy = positions[:, 1:2] - goals[:, 1]
-        return np.sqrt(dx * dx + dy * dy) @ weights
+        return portable_math.matmul(np.sqrt(dx * dx + dy * dy), weights)
     if kind == "to_mean":
-        mean = weights @ goals
+        mean = portable_math.matmul(weights, goals)
         dx = positions[:, 0] - mean[0]
         dy = positions[:, 1] - mean[1]
         return np.sqrt(dx * dx + dy * dy)
@@ -308,8 +309,8 @@ class DisambiguationModel:
         rows = self._distinct.take(rows_of, axis=0).reshape(rows_of.shape[0], rows_of.shape[1] * n_labels)
         # sum_g w_g p(f | g, s) as one product with the (G * F, F) matrix kron(w, I_F).
         spread = (weights[:, None, None] * np.eye(n_labels)).reshape(-1, n_labels)
-        marginal = rows @ spread  # (C, F)
-        conditional = self._xlogx_distinct.take(rows_of) @ weights  # (C,)
+        marginal = portable_math.matmul(rows, spread)  # (C, F)
+        conditional = portable_math.matmul(self._xlogx_distinct.take(rows_of), weights)  # (C,)
         return np.maximum(conditional - xlogy(marginal, marginal).sum(axis=-1), 0.0)
 
 

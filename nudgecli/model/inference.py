@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from nudgecli.model import portable_math
 from nudgecli.model.log_terms import xlogy
 
 
@@ -27,7 +29,7 @@ def predict_belief(belief: np.ndarray, goal_transition: np.ndarray | None = None
         ``(G,)``.
     """
     b = np.asarray(belief, dtype=float)
-    return b if goal_transition is None else b @ np.asarray(goal_transition, dtype=float)
+    return b if goal_transition is None else portable_math.matmul(b, np.asarray(goal_transition, dtype=float))
 
 
 def bayes_update(belief: np.ndarray, likelihood: np.ndarray,
@@ -107,7 +109,7 @@ def normalised_entropy(belief: np.ndarray) -> np.ndarray | float:
         ratio = _belief_entropy(b) / _log_goals(n_goals)
         return 0.0 if ratio < 0.0 else 1.0 if ratio > 1.0 else ratio
     entropy = -xlogy(b, b).sum(axis=-1)
-    return np.clip(entropy / np.log(n_goals), 0.0, 1.0)
+    return np.clip(entropy / _log_goals(n_goals), 0.0, 1.0)
 
 
 #: Beliefs of up to this many goals are summed as numpy sums them, element after element (its
@@ -120,25 +122,25 @@ def _belief_entropy(belief: np.ndarray) -> float:
 
     Every belief update of a trial asks for it, and xlogy's masked array calls on four numbers
     cost ten times the arithmetic. Without a zero entry (xlogy's one special case; NaN gives NaN
-    either way) and for ``G <= 7``, the logs are numpy's own (``np.log`` of the array: the same
-    function, SIMD on AVX-512, as xlogy's), each product one IEEE multiply as numpy's, and the
+    either way) and for ``G <= 7``, the logs are the C library's as xlogy's
+    (:mod:`nudgecli.model.portable_math`), each product one IEEE multiply as numpy's, and the
     terms are added in numpy's order for fewer than 8 elements (the first, then the others in
     turn). ``tests/test_model_inference_fast.py`` holds it to the array rule.
     """
     values = belief.tolist()
     if len(values) > _SEQUENTIAL_SUM_MAX or 0.0 in values:
         return float(-xlogy(belief, belief).sum())
-    logs = np.log(belief).tolist()
-    total = values[0] * logs[0]
-    for value, log in zip(values[1:], logs[1:], strict=True):
-        total += value * log
+    log = math.log  # every entry is positive here
+    total = values[0] * log(values[0])
+    for value in values[1:]:
+        total += value * log(value)
     return -total
 
 
 @functools.cache
 def _log_goals(n_goals: int) -> float:
-    """``log |G|`` as numpy computes it (so one belief's ratio is bit for bit a batch's)."""
-    return float(np.log(n_goals))
+    """``log |G|`` from the C library, shared by one belief's ratio and a batch's."""
+    return math.log(n_goals)
 
 
 @dataclass(frozen=True)
@@ -178,7 +180,7 @@ class DecayCounters:
 
 def decay_weight(k: int | np.ndarray, rate: float, cap: int) -> float | np.ndarray:
     """Mixing weight towards uniform of the ``k``-th decaying sample: ``1 - exp(-rate min(k, cap))``."""
-    return -np.expm1(-rate * np.minimum(k, cap))
+    return -portable_math.expm1(-rate * np.minimum(k, cap))
 
 
 def decay_on_empty_sample(belief: np.ndarray, counters: DecayCounters,

@@ -16,6 +16,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from nudgecli.errors import ProbabilityTableError
+from nudgecli.model import portable_math
 from nudgecli.model.world import MODE_NAMES, N_MODES
 
 LABELS = ("Hard Puff", "Hard Sip", "Soft Puff", "Soft Sip")
@@ -269,4 +270,4 @@ def observation_model(mapping: np.ndarray, distortion: np.ndarray) -> np.ndarray
     np.ndarray
         ``(M, A, F)`` over measured labels.
     """
-    return mapping @ distortion
+    return portable_math.matmul(mapping, distortion)

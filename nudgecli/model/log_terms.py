@@ -2,8 +2,9 @@
 
 numpy only. scipy.special's ``xlogy`` gives the same values, but importing scipy.special costs a
 process about 0.2 s (it loads numpy.testing, numpy.f2py and numpy.ma through its array-API layer),
-and a study's worker needs nothing else from it. The values are scipy's bit for bit wherever
-numpy's ``log`` is the C library's, as on x86-64 without AVX-512 (tests hold the two equal).
+and a study's worker needs nothing else from it. The logs are the C library's
+(:mod:`nudgecli.model.portable_math`), as scipy's are, so the values are scipy's bit for bit on
+every CPU (tests hold the two equal).
 """
 
 from __future__ import annotations
@@ -11,6 +12,8 @@ from __future__ import annotations
 from typing import overload
 
 import numpy as np
+
+from nudgecli.model import portable_math
 
 
 @overload
@@ -42,12 +45,17 @@ def xlogy(x: np.ndarray | float, y: np.ndarray | float) -> np.ndarray | float:
     y = x if same else np.asarray(y, dtype=float)
     # log only where it is used: a zero x never meets log(0), and numpy warns of log(0) or log(-1)
     # only where the product is -inf or NaN
+    if same and x.ndim and x.size and x.min() > 0.0:  # p log p of a belief or marginal without zeros
+        out = np.empty_like(x)  # laid out as x, as below
+        out[...] = portable_math.log(x)
+        return np.multiply(x, out, out=out)
     used = x.astype(bool) if same else x.astype(bool) | np.isnan(y)  # x != 0 (NaN too), faster
     # equal shapes: the output laid out in memory as x is, as a ufunc's (scipy's) would be, so that
     # a sum over it adds in the same order (and np.broadcast_shapes, slow beside the small belief
     # of every update, is not needed)
     out = (np.zeros_like(x) if same or x.shape == y.shape
            else np.zeros(np.broadcast_shapes(x.shape, y.shape)))
-    np.log(y, out=out, where=used)
+    used = np.broadcast_to(used, out.shape)
+    out[used] = portable_math.log(np.broadcast_to(y, out.shape)[used])
     np.multiply(x, out, out=out, where=used)
     return out if out.ndim else float(out)

@@ -32,6 +32,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from nudgecli.model import portable_math
 from nudgecli.model.inference import predict_belief
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, SOFT_PUFF, SOFT_SIP, switch_mode
 from nudgecli.model.ties import DEFAULT_TIE_RTOL, tied_with_max
@@ -227,7 +228,7 @@ def matlab_kl_bits(projected: np.ndarray, baseline: np.ndarray) -> np.ndarray:
     p = np.asarray(projected, dtype=float)
     q = np.asarray(baseline, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
-        terms = p * np.log2(q / p + MATLAB_REALMIN)
+        terms = p * portable_math.log2(q / p + MATLAB_REALMIN)
     return -np.nansum(terms, axis=-1)
 
 

@@ -14,6 +14,7 @@ import numpy as np
 
 from nudgecli.config import PopulationSection
 from nudgecli.errors import DataError
+from nudgecli.model import portable_math
 from nudgecli.model.interface import LABELS, N_LABELS, ZERO_THRESHOLD, label_pressure
 from nudgecli.sim.calibration_io import DistortionSession, distortion_windows
 from nudgecli.sim.participants import MAX_DRIFT_CORRELATION, MIN_SPREAD, Participant, mapping_with_error
@@ -271,7 +272,7 @@ def participant_from_log(source: str | Path | DistortionSession | pd.DataFrame, 
 
     if delays.size:
         reaction = float(np.median(delays))
-        log_delays = np.log(delays)
+        log_delays = portable_math.log(delays)
         log_sd = float(1.4826 * np.median(np.abs(log_delays - np.median(log_delays))))
     else:
         reaction, log_sd = midpoint(pop.reaction_s), pop.reaction_log_sd

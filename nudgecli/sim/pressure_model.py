@@ -29,6 +29,8 @@ from functools import cache
 
 import numpy as np
 
+from nudgecli.model import portable_math
+
 #: Sign of each intended label's pressure: puffs negative, sips positive.
 LABEL_SIGN = np.array([-1.0, 1.0, -1.0, 1.0])
 #: Whether each label is a hard one.
@@ -71,19 +73,18 @@ def lognormal_delays(median: float, log_sd: float, n: int, rng: np.random.Genera
 
     The one delay law of a person's reactions, in calibration prompts and in the task.
     """
-    return median * np.exp(log_sd * rng.standard_normal(n))
+    return median * portable_math.exp(log_sd * rng.standard_normal(n))
 
 
 def lognormal_delay(median: float, log_sd: float, rng: np.random.Generator) -> float:
     """One delay of :func:`lognormal_delays`: ``float(lognormal_delays(median, log_sd, 1, rng)[0])``
     bit for bit, from the same draw of size 1.
 
-    The exponential stays numpy's (on a ``(1,)`` array, as there: with AVX-512 it can differ from
-    ``math.exp`` in the last bit); the product with ``median`` is a Python float's, the same IEEE
-    multiplication without a third array (a person's reaction is drawn hundreds of times a trial
-    set).
+    The exponential is the C library's, as there (:mod:`nudgecli.model.portable_math`); the
+    products are Python floats', the same IEEE multiplications without arrays (a person's reaction
+    is drawn hundreds of times a trial set).
     """
-    return median * float(np.exp(log_sd * rng.standard_normal(1))[0])
+    return median * portable_math.exp(log_sd * float(rng.standard_normal(1)[0]))
 
 
 def drift_normals(innovations: np.ndarray, correlation: float, previous: float | None = None) -> np.ndarray:
