@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
@@ -70,6 +71,8 @@ def test_unique_argmax_is_the_array_rule_in_plain_floats(values: list[float]) ->
 @given(st.one_of(near_ties, anything))
 @example([-np.inf, -np.inf, 0.5 - np.inf])  # every value -inf: all tied (the threshold is -inf itself)
 @example([np.inf, 1.0])  # an infinite maximum: none (inf - inf is NaN)
+@example([-1.7976931348623157e308, 1.0 - 1.7976931348623157e308])  # the threshold overflows to -inf
+@pytest.mark.filterwarnings("error")  # that overflow is the rule's, not a fault to warn of
 def test_tied_indices_are_the_array_rules_ties_in_plain_floats(values: list[float]) -> None:
     array = np.array(values, dtype=float)
     assert tied_indices(array) == np.flatnonzero(tied_with_max(array)).tolist()

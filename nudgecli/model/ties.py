@@ -39,7 +39,8 @@ def tied_with_max(values: np.ndarray, rtol: float = DEFAULT_TIE_RTOL,
     masked = v if valid is None else np.where(valid, v, -np.inf)
     best = _last_axis_max(masked)
     slack = rtol * np.maximum(1.0, np.abs(best))
-    with np.errstate(invalid="ignore"):
+    # inf - inf is NaN (nothing tied with an infinite maximum); near -max, the threshold rounds to -inf
+    with np.errstate(invalid="ignore", over="ignore"):
         return masked >= best - slack
 
 
