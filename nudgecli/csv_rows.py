@@ -39,8 +39,8 @@ def read_csv_whole_rows(path: str | Path, **options: Any) -> pd.DataFrame:
     path
         The CSV file.
     options
-        Passed on to ``pandas.read_csv`` (``sep``: a delimiter, or ``None`` for pandas' sniffing
-        of the first line, which is then the delimiter counted with).
+        Passed on to ``pandas.read_csv`` (``sep``: a delimiter, a comma when absent as for pandas,
+        or ``None`` for pandas' sniffing of the first line; the rows are counted with the same one).
 
     Returns
     -------
@@ -54,13 +54,15 @@ def read_csv_whole_rows(path: str | Path, **options: Any) -> pd.DataFrame:
     pandas.errors.ParserError, pandas.errors.EmptyDataError, UnicodeDecodeError, OSError
         As ``pandas.read_csv`` raises them for anything else (the caller words them).
     """
+    # pandas' own default: no sep is a comma; only sep=None is its sniffing of the first line
+    sep = options.get("sep", ",")
     try:
         table = pd.read_csv(path, **options)
     except pd.errors.ParserError:
         # pandas refuses a long row below the first one: name the line as the file counts it
-        refuse_uneven_rows(path, _delimiter(path, options.get("sep")))
+        refuse_uneven_rows(path, _delimiter(path, sep))
         raise
-    delimiter = _delimiter(path, options.get("sep"))
+    delimiter = _delimiter(path, sep)
     # pandas makes an implicit index exactly when the first row is longer than the header (its
     # row labels can look like the default 0, 1, 2, ..., so the first row is what is looked at)
     if _first_row_is_long(path, delimiter) or (len(table.columns) and _has_empty_cell(table.iloc[:, -1])):
@@ -91,9 +93,9 @@ def _first_row_is_long(path: str | Path, delimiter: str) -> bool:
 
 
 def _delimiter(path: str | Path, sep: object) -> str:
-    """The field separator pandas read ``path`` with: ``sep`` as given (a comma when absent),
-    or for ``sep=None`` the one ``csv.Sniffer`` finds in the first line, as pandas' sniffing
-    does (a comma where it finds none)."""
+    """The field separator pandas read ``path`` with: ``sep`` as given (the caller passes a comma
+    when its options name none, pandas' default), or for ``sep=None`` the one ``csv.Sniffer``
+    finds in the first line, as pandas' sniffing does (a comma where it finds none)."""
     if sep is not None:
         return str(sep)
     try:
