@@ -158,7 +158,7 @@ def test_without_a_block_column_a_repeated_response_is_refused_naming_both_rows(
 
 
 @pytest.mark.parametrize(("column", "suggestion"), [
-    ("tlx_mentl", "tlx_mental"), ("tlx_weight_efort", "tlx_weight_effort"), ("TLX_Mental", "tlx_mental"),
+    ("tlx_mentl", "tlx_mental"), ("tlx_weight_efort", "tlx_weight_effort"), ("TLX_Mentl", "tlx_mental"),
     ("tlx_overall_score", None),
 ])
 def test_an_unknown_tlx_column_is_refused_with_a_suggestion(column: str, suggestion: str | None) -> None:

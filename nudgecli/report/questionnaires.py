@@ -25,7 +25,10 @@ column                      content
 An empty cell is a missing answer: that score is missing for that response. Each participant
 answers once per condition (with a ``block`` column: once per condition and block): a second row
 for the same participant and condition (and block), repeated or conflicting, is refused, naming
-both rows. A column named ``tlx_*`` (in any case) that is none of the above is refused with the
+both rows. Column names are matched in any case (``Participant``, ``TLX_Mental``, ``Likert_Q3``, as
+survey exports and spreadsheets capitalise them) and the scores are named in lower case
+(``likert_q3``); two columns whose names differ only in case are refused, naming both. A column
+named ``tlx_*`` that is none of the above is refused with the
 nearest name: a misspelt subscale would otherwise be left out of the scores unseen. A
 respondent who is not a participant of the analysed run is refused by :func:`check_respondents`.
 Participant and block labels follow the tables' one rule (:mod:`nudgecli.report.tables`): kept
@@ -69,6 +72,8 @@ TLX_COMPARISONS = 15
 LIKERT_PREFIX = "likert_"
 LIKERT_RANGE = (1, 7)
 TLX_RANGE = (0.0, 100.0)
+#: The response's id columns: ``participant`` and ``condition`` required, ``block`` optional.
+ID_COLUMNS = ("participant", "condition", "block")
 #: ``stats.json``'s record of the scores file its analysis wrote (:func:`scores_checksum`).
 SCORES_CHECKSUM_KEY = "questionnaire_scores_checksum"
 SCORES_ALGORITHM = "sha256"
@@ -126,13 +131,37 @@ def _plain(value: float) -> str:
     return str(int(number)) if number.is_integer() else repr(number)
 
 
+def _lower_case_names(table: pd.DataFrame, source: str) -> pd.DataFrame:
+    """``table`` with its id, ``tlx_*`` and ``likert_*`` columns named in lower case, the one
+    spelling the rest of this module matches (other columns are left as they are).
+
+    Raises
+    ------
+    DataError
+        Two of those columns whose names differ only in case (``tlx_mental`` and ``TLX_Mental``):
+        which one holds the answers cannot be told.
+    """
+    written_as: dict[str, str] = {}
+    for column in table.columns:
+        name = str(column)
+        lower = name.lower()
+        if lower not in ID_COLUMNS and not lower.startswith((TLX_PREFIX, LIKERT_PREFIX)):
+            continue
+        if lower in written_as:
+            raise DataError(f"{source}: columns {written_as[lower]!r} and {name!r} differ only in case, "
+                            "and column names are matched in any case; keep one of the two")
+        written_as[lower] = name
+    return table.rename(columns={name: lower for lower, name in written_as.items() if name != lower})
+
+
 def _check_tlx_names(table: pd.DataFrame, source: str) -> None:
     """Refuse a ``tlx_*`` column (in any case) that is not one of :data:`TLX_COLUMNS`, with the
-    nearest name: a misspelt ``tlx_mentl`` beside the six ratings would be dropped unseen."""
+    nearest name: a misspelt ``tlx_mentl`` beside the six ratings would be dropped unseen. Names
+    as written (before :func:`_lower_case_names`), so that the message quotes the file."""
     unknown = [str(c) for c in table.columns
-               if str(c).lower().startswith(TLX_PREFIX) and str(c) not in TLX_COLUMNS]
+               if str(c).lower().startswith(TLX_PREFIX) and str(c).lower() not in TLX_COLUMNS]
     if unknown:
-        hint = did_you_mean(unknown[0], TLX_COLUMNS)
+        hint = did_you_mean(unknown[0].lower(), TLX_COLUMNS)
         raise DataError(f"{source}: unknown NASA-TLX column {unknown[0]!r}{hint}; "
                         f"rename it or remove it (the TLX columns are {', '.join(TLX_RATING_COLUMNS)}, "
                         "tlx_pair_1..tlx_pair_15 or tlx_weight_<subscale>)")
@@ -200,11 +229,12 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
     """
     if table.empty:
         raise DataError(f"{source} has no rows; it needs one row per questionnaire response")
-    for column in ("participant", "condition"):
+    _check_tlx_names(table, source)
+    table = _lower_case_names(table, source)
+    for column in ID_COLUMNS[:2]:
         if column not in table.columns:
             raise DataError(f"{source} has no {column!r} column; add it (one value per response row)")
-    _check_tlx_names(table, source)
-    ids = [c for c in ("participant", "condition", "block") if c in table.columns]
+    ids = [c for c in ID_COLUMNS if c in table.columns]
     scores = table[ids].copy()
     scores["condition"] = scores["condition"].astype(str)
 
