@@ -1,8 +1,9 @@
 """What to tell a researcher whose CSV file a spreadsheet wrote in its locale's way: text that is
 not UTF-8 (latin-1 or Windows-1252, as a European spreadsheet saves "CSV") and numbers written
 with a decimal comma (``0,5``, with semicolons between the columns). The one wording of that
-advice for every reader of a user table (metrics tables, real habit logs); it sits outside
-``report/`` and ``sim/`` so that both can use it.
+advice for every reader of a user table (metrics tables, real habit logs), and the test for a
+JSON file given where a CSV is read (:func:`starts_as_json`); it sits outside ``report/`` and
+``sim/`` so that both can use it.
 """
 
 from __future__ import annotations
@@ -58,3 +59,12 @@ def not_utf8_message(path: Path) -> str:
     except OSError:  # gone since its reading failed: say what is known
         pass
     return f"{path}: not UTF-8 text; {fix}"
+
+
+def starts_as_json(path: Path) -> bool:
+    """Whether a file's text starts as JSON does (``{`` or ``[``, as ``nudge habits --format json``
+    and a run's ``manifest.json`` do): no CSV log or table starts so, and read as CSV its lines give
+    the column messages of a log, not what the file is."""
+    with path.open("rb") as file:
+        start = file.read(4096).lstrip(b"\xef\xbb\xbf \t\r\n")  # a BOM, then blank space
+    return start[:1] in (b"{", b"[")

@@ -33,7 +33,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from nudgecli.errors import DataError, did_you_mean
+from nudgecli.csv_text import starts_as_json
+from nudgecli.errors import DataError, did_you_mean, shell_words
 from nudgecli.reference import PACKAGED_REFERENCES, packaged_reference
 from nudgecli.report.habit_cells import (
     HABIT_RATE_HZ,
@@ -46,6 +47,7 @@ from nudgecli.report.habit_cells import (
 )
 from nudgecli.report.habit_deadband import deadband_events
 from nudgecli.report.habit_logs import read_log_cells
+from nudgecli.run_folder_names import MANIFEST
 
 #: Blows are merged across neutral gaps of at most this long (HABITS.md).
 MERGE_GAP_S = 0.25
@@ -306,7 +308,21 @@ def source_cells(source: str | Path) -> tuple[pd.DataFrame, float, str]:
         return cells, rate, "run"
     if not path.exists():
         raise DataError(f"{path}: no such file or folder; give a run folder or a real log (CSV)")
+    if path.is_file() and starts_as_json(path):
+        raise DataError(_json_source_message(path))
     return read_log_cells(path), HABIT_RATE_HZ, "log"
+
+
+def _json_source_message(path: Path) -> str:
+    """What habits says of a JSON file given as its source: what it reads, and the likely intent (a
+    run folder's own JSON: the folder; else a ``--format json`` output: ``--compare``)."""
+    reads = (f"{path}: a JSON file; habits reads a run folder or a real log's CSV (t, trial, label, x, y, "
+             "theta, mode_switch)")
+    if (path.parent / MANIFEST).is_file():
+        return f"{reads}; for the run this file belongs to, give the run folder itself: " \
+               f"{shell_words(['nudge', 'habits', str(path.parent)])}"
+    return (f"{reads}; a JSON that `nudge habits --format json` wrote is read as a reference printed beside "
+            f"a source: {shell_words(['nudge', 'habits', 'SOURCE', '--compare', str(path)])}")
 
 
 # --- summaries ---------------------------------------------------------------------------------

@@ -21,7 +21,7 @@ import pandas as pd
 
 from nudgecli.config import PopulationSection
 from nudgecli.csv_rows import read_csv_whole_rows
-from nudgecli.csv_text import not_utf8_message
+from nudgecli.csv_text import not_utf8_message, starts_as_json
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.habits import HABIT_KEYS, HABITS, measure_habits, source_cells, summarise_habits
 from nudgecli.sim.twin_fit import HabitFigures, assumed_onset_samples, fit_twin
@@ -43,14 +43,6 @@ def _is_habits_table(path: Path) -> bool:
         return False
     names = {str(c).strip().lower() for c in header}
     return {"habit", "median"} <= names
-
-
-def _is_json(path: Path) -> bool:
-    """Whether a file's text starts as JSON does (``{`` or ``[``, as ``nudge habits --format json``
-    writes): no CSV log or table starts so, and read as CSV its lines give pandas' errors."""
-    with path.open("rb") as file:
-        start = file.read(4096).lstrip(b"\xef\xbb\xbf \t\r\n")  # a BOM, then blank space
-    return start[:1] in (b"{", b"[")
 
 
 def _figure(value: object) -> float:
@@ -162,7 +154,7 @@ def table_source(path: Path) -> SourceHabits:
 def source_habits(source: str | Path) -> SourceHabits:
     """Each participant's habits of ``source`` (a run folder, a real log, or a habits table)."""
     path = Path(source)
-    if path.is_file() and _is_json(path):
+    if path.is_file() and starts_as_json(path):
         raise DataError(f"{path}: a JSON file; fit-people reads the CSV table that `nudge habits --by "
                         "participant --format csv` writes (or a real log's CSV, or a run folder)")
     if path.is_file() and _is_habits_table(path):
