@@ -12,12 +12,32 @@ import hashlib
 
 import numpy as np
 
+from nudgecli.errors import ConfigError
+
 
 @functools.lru_cache(maxsize=256)  # a few names, hashed for every trial's stream
 def _word_key(name: str) -> int:
     """A stable 32-bit integer for a branch name (independent of Python's hash seed)."""
     digest = hashlib.sha256(name.encode("utf-8")).digest()
     return int.from_bytes(digest[:4], "little")
+
+
+def check_seed(seed: int | None) -> None:
+    """Refuse a negative master seed (a ``SeedSequence`` takes none): the one rule and wording of
+    ``--seed`` for every command and API function that takes a seed.
+
+    Parameters
+    ----------
+    seed
+        The seed given, or ``None`` for the experiment's or the plan's (checked where it is read).
+
+    Raises
+    ------
+    ConfigError
+        ``seed`` below 0.
+    """
+    if seed is not None and seed < 0:
+        raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
 
 
 def seed_sequence(master_seed: int, *path: str | int) -> np.random.SeedSequence:

@@ -29,7 +29,7 @@ from nudgecli.commands.common import FORCE_HELP, SET_HELP, echo_json, info, prog
                    "to three conditions, a compact letter display from four].")
 @click.option("--questionnaires", type=click.Path(dir_okay=False, path_type=str), default=None,
               help="Questionnaire CSV (NASA-TLX, Likert) analysed alongside.")
-@click.option("--seed", type=click.IntRange(min=0), default=None,
+@click.option("--seed", type=int, default=None,
               help="Bootstrap seed [default: the plan's].")
 @click.option("--bootstrap", "bootstrap", type=click.IntRange(min=1), default=None, metavar="N",
               help="Bootstrap resamples of the intervals, at least 100 as in a plan [default: the plan's].")
@@ -101,7 +101,7 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
 @click.argument("experiment")
 @click.option("--participants", type=click.IntRange(min=1), default=defaults.POPULATION_PARTICIPANTS,
               show_default=True, help="Simulated participants to calibrate.")
-@click.option("--seed", type=click.IntRange(min=0), default=None,
+@click.option("--seed", type=int, default=None,
               help="Master seed [default: the experiment's].")
 @click.option("--out", type=click.Path(file_okay=False, path_type=str), default=".", show_default=True,
               help="Folder for population.csv, population_habits.csv and the figure population.<format>; "
@@ -187,7 +187,7 @@ def habits_command(source: str, by: str, output_format: str, compare: str | None
 @click.option("--level", type=click.FloatRange(0.5, 1.0, min_open=True, max_open=True),
               default=defaults.COMPARE_LEVEL,
               show_default=True, help="Level of the bootstrap intervals.")
-@click.option("--seed", type=click.IntRange(min=0), default=defaults.COMPARE_SEED, show_default=True,
+@click.option("--seed", type=int, default=defaults.COMPARE_SEED, show_default=True,
               help="Bootstrap seed.")
 @click.option("--drop-duplicates", is_flag=True,
               help="Keep the first of repeated trial rows of a table instead of refusing them.")

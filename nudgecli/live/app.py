@@ -10,6 +10,7 @@ from nudgecli.config import ExperimentConfig, load_experiment
 from nudgecli.errors import ConfigError
 from nudgecli.live.records import LiveFolder
 from nudgecli.live.session import LiveSession, participant_index
+from nudgecli.rng import check_seed
 from nudgecli.sim.counterbalance import check_design_order
 from nudgecli.store import study_resume_command
 
@@ -46,8 +47,7 @@ def build_session(
     """The participant's session, its run folder opened (created, joined or resumed)."""
     config = load_experiment(experiment, tuple(overrides))
     seed = config.experiment.seed if seed is None else seed
-    if seed < 0:
-        raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
+    check_seed(seed)
     target = Path(out) if out else Path("results") / f"{config.experiment.name}-live"
     return LiveSession(
         config,

@@ -17,6 +17,7 @@ from nudgecli import command_defaults as defaults
 from nudgecli.config import ExperimentConfig
 from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError
+from nudgecli.rng import check_seed
 from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.runs.batch import Batch, BatchRun, Point, run_batch, single_point
 from nudgecli.runs.batch_folder import (
@@ -129,8 +130,7 @@ def _people_fields(people: People | str | Path | None, out: str | Path,
 def _check(replications: int, seed: int | None) -> None:
     if replications < 1:
         raise ConfigError(f"--replications must be at least 1, got {replications}")
-    if seed is not None and seed < 0:
-        raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
+    check_seed(seed)
 
 
 def replicate(experiment: str, replications: int, out: str | Path, *, seed: int | None = None,

@@ -29,6 +29,7 @@ from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
+from nudgecli.rng import check_seed
 from nudgecli.run_folder_names import LAYOUTS, PARTICIPANTS
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, FILE_CHECKSUMS
 from nudgecli.runs.size import check_study_size
@@ -369,8 +370,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     if workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {workers}")
     seed = config.experiment.seed if seed is None else seed
-    if seed < 0:
-        raise ConfigError(f"--seed must be a non-negative integer, got {seed}")
+    check_seed(seed)
     n = config.study.participants if participants is None else participants
     config = with_participants(config, participants)
     check_study_size(config, n, confirm)  # trials and steps, before the folder is touched

@@ -14,6 +14,7 @@ from nudgecli.errors import ConfigError
 from nudgecli.model.information import Weighting
 from nudgecli.model.mdp import DEFAULT_GAMMA
 from nudgecli.model.world import N_CELLS_X, N_CELLS_Y
+from nudgecli.rng import check_seed
 from nudgecli.sim.validation.readings import READINGS, TWO_GOAL_REST, TWO_GOAL_SPLIT, get_reading
 from nudgecli.sim.validation.world import N_VALIDATION_MODES
 
@@ -101,8 +102,7 @@ class ValidationSettings:
         reading = get_reading(self.reading)
         if self.simulations < 1:
             raise ConfigError(f"--simulations must be at least 1 (got {self.simulations})")
-        if self.seed < 0:
-            raise ConfigError(f"--seed must be a non-negative integer (got {self.seed})")
+        check_seed(self.seed)
         if self.min_goals < 2:
             raise ConfigError(
                 f"--min-goals must be at least 2 (got {self.min_goals}): disambiguation needs two goals")
