@@ -63,7 +63,9 @@ from nudgecli.rng import seed_sequence
 from nudgecli.runs.batch_folder import (
     BATCH_MANIFEST,
     PartRecord,
+    PolicyCopies,
     analysis_part,
+    policy_copies,
     prepare_folder,
     read_json,
     read_study_metrics,
@@ -96,7 +98,6 @@ if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analy
     import pandas as pd
 
     from nudgecli.report.plans import AnalysisPlan
-
 
 
 # --- the batch ---------------------------------------------------------------------------------
@@ -346,13 +347,14 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     check_batch_size(batch, size, confirm)  # trials, then steps: before anything is built
     for point in batch.points:
         check_physiology_logs(point.config)
+    copies = policy_copies(point.config for point in batch.points)  # kept in the folder, as a run's
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
     folder = Path(out)
     made = not folder.exists()
     try:
         with run_lock(folder):
-            return _run_batch_locked(batch, folder, size, workers, client, resume, force, progress, log,
-                                     prepare)
+            return _run_batch_locked(batch, folder, size, workers, client, resume, force, copies, progress,
+                                     log, prepare)
     except BaseException:
         if made and folder.is_dir() and not any(folder.iterdir()):
             folder.rmdir()  # made only for this batch, which was refused: leave nothing behind
@@ -363,10 +365,10 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
 
 
 def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: int, client: Any, resume: bool,
-                      force: bool, progress: Callable[[int, int], None] | None,
+                      force: bool, copies: PolicyCopies, progress: Callable[[int, int], None] | None,
                       log: Callable[[str], None] | None, prepare: Callable[[], object] | None) -> BatchRun:
-    """:func:`run_batch` once the batch folder's lock is held."""
-    mode = prepare_folder(folder, batch.describe(), resume=resume, force=force, people=batch.people)
+    """:func:`run_batch` once the batch folder's lock is held (``copies``: the policy code it keeps)."""
+    mode = prepare_folder(folder, batch.describe(), resume, force, batch.people, copies)
     if log is not None:  # only now: a refusal is its one error line
         log(f"batch: {size.describe()}")
     graph = build_graph(batch)
@@ -379,6 +381,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
         "participant_tasks": graph.participant_tasks,
         "analyses": len(graph.analyses),
         "trials": graph.trials,
+        **copies.record(),
     }
     write_json_atomic(folder / BATCH_MANIFEST, manifest)
     started = time.perf_counter()

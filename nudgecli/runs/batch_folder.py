@@ -21,6 +21,7 @@ import re
 import shutil
 import sys
 from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -30,6 +31,15 @@ from nudgecli.run_folder_names import FIGURES_DIR, PEOPLE_DIR
 from nudgecli.run_folder_record import experiment_differences, file_sha256, part_name, readable_parquet
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, keep_copy, remove_copy
+from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
+from nudgecli.sim.policy_files import (
+    check_same_policy_files,
+    keep_policy_copies,
+    loaded_policy_files,
+    policy_record,
+    remove_policy_copies,
+)
+from nudgecli.sim.policy_registry import policy_specs
 from nudgecli.store import (
     prepare_mode,
     remove_temporaries,
@@ -41,6 +51,8 @@ from nudgecli.store import (
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
     import pandas as pd
 
+    from nudgecli.config import ExperimentConfig
+
 BATCH_MANIFEST = "batch.json"
 #: The record of the batch's parts: one ``<SHA-256>  <path in the folder>`` line per part written.
 PART_RECORD = "checksums.sha256"
@@ -51,6 +63,59 @@ _RECORD_LINE = re.compile(r"([0-9a-f]{64})  ([^\n]+)")
 BATCH_TABLES = ("replications", "conditions", "summary", "power", "smallest_n", "sweep", "points",
                 "sensitivity")
 BATCH_FIGURES = ("forest", "power", "sweep", "sensitivity")
+#: The batch folder's own folders, which a policy package of the same name would write into.
+BATCH_FOLDERS = frozenset({"tasks", "analyses", PEOPLE_DIR, FIGURES_DIR})
+
+
+@dataclass(frozen=True)
+class PolicyCopies:
+    """The policy modules of a researcher's own that a batch's experiments import from their folder,
+    which the batch folder keeps, as a run folder does (:mod:`nudgecli.sim.policy_files`): each
+    file's exact copy under its relative path (``policies/threshold.py``) and its SHA-256 in
+    ``batch.json`` (:meth:`record`, beside the batch's description, not in it: what a resume
+    compares as settings is as before, and a batch of an older nudge, which kept none, resumes).
+
+    Attributes
+    ----------
+    files
+        Relative path -> the file's bytes (:func:`~nudgecli.sim.policy_files.loaded_policy_files`).
+    source
+        The folder they are imported from (the experiment file's), to name a file that differs.
+    """
+
+    files: Mapping[str, bytes] = field(default_factory=dict)
+    source: str | None = None
+
+    def record(self) -> dict[str, dict[str, str]]:
+        """``batch.json``'s entry of the copies (``policy_files``: relative path -> SHA-256); none
+        without copies (a batch of built-in policies records nothing, as before)."""
+        return {POLICY_FILES_KEY: policy_record(self.files)} if self.files else {}
+
+
+def policy_copies(configs: Iterable[ExperimentConfig]) -> PolicyCopies:
+    """The policy modules the batch's experiments (one per design point) import from their folder.
+
+    Points whose policies name the same factories import the same modules (a sweep over a policy's
+    parameters), so each set of factories is loaded once.
+
+    Raises
+    ------
+    PolicyError
+        A module that does not import.
+    ConfigError
+        A policy package named like one of the batch folder's own (:data:`BATCH_FOLDERS`).
+    """
+    files: dict[str, bytes] = {}
+    source: str | None = None
+    loaded: set[tuple[str | None, tuple[str, ...]]] = set()
+    for config in configs:
+        factories = (config.policy_search_path, tuple(spec.factory for spec in policy_specs(config)))
+        if factories in loaded:
+            continue
+        loaded.add(factories)
+        files.update(loaded_policy_files(config, BATCH_FOLDERS, "batch"))
+        source = source or config.policy_search_path
+    return PolicyCopies(files, source if files else None)
 
 
 def task_part(folder: Path, study: str, participant: int) -> Path:
@@ -312,22 +377,28 @@ def batch_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -
 
 
 def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool,
-                   people: People | None = None) -> str:
+                   people: People | None = None, policies: PolicyCopies | None = None) -> str:
     """Make ``folder`` ready for the batch; ``"new"`` or ``"resume"`` (same description required).
 
     The rule is the run folder's (:func:`nudgecli.store.prepare_mode`); a folder that is not empty
     but holds no batch is written into with ``force``, not cleared. Once the folder is accepted it
-    keeps the batch's ``people`` file, byte for byte (:func:`nudgecli.sim.people_file.keep_copy`;
-    a resume puts back a missing or edited copy). Replacing a batch removes all it wrote
-    (:func:`remove_outputs`); a damaged manifest (:func:`read_manifest`) is refused unless ``force``,
-    which replaces its batch.
+    keeps the batch's ``people`` file and its ``policies``' modules, byte for byte
+    (:func:`nudgecli.sim.people_file.keep_copy`,
+    :func:`nudgecli.sim.policy_files.keep_policy_copies`; a resume puts back a missing copy).
+    Replacing a batch removes all it wrote (:func:`remove_outputs`) and the copies its manifest
+    records; a damaged manifest (:func:`read_manifest`) is refused unless ``force``, which replaces
+    its batch.
 
     Raises
     ------
     RunFolderError
         The folder holds a batch (and neither ``resume`` nor ``force``), a different batch to
         resume, a damaged manifest without ``force``, or other files without ``force``.
+    DataError
+        A resume whose policy modules differ from those ``batch.json`` records (names the file:
+        the batch would mix two policies), before anything is touched.
     """
+    policies = policies or PolicyCopies()
     manifest = folder / BATCH_MANIFEST
     old, damage = read_manifest(manifest)
     if damage is not None and not force:  # a batch is there, but what it was is lost: only --force helps
@@ -343,18 +414,22 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
                                                   if len(differences) > 8 else "")
             raise RunFolderError(f"{folder}: holds a different batch ({shown}); resume it with the same "
                                  "settings, or use --force")
+        check_same_policy_files(old.get(POLICY_FILES_KEY), policies.files, policies.source, folder, "batch")
         # what writers killed mid-write left (the batch's lock is held: no live writer owns them)
         own = [folder / name for name in ("tasks", "analyses", FIGURES_DIR, PEOPLE_DIR)]
         remove_temporaries((folder, *own, *(folder / "tasks").glob("*/")))
         keep_copy(people, folder)
+        keep_policy_copies(policies.files, folder)
         return "resume"
     if mode == "replace":  # every output of the old batch goes, before any work: none outlives it
         remove_outputs(folder)
         # of people/, the old batch's copy of its people file goes; other files there stay
         described = None if old is None else old.get("batch")
         remove_copy(folder, described.get(PEOPLE_KEY) if isinstance(described, dict) else None)
+        remove_policy_copies(folder, None if old is None else old.get(POLICY_FILES_KEY))
         manifest.unlink()
     (folder / PART_RECORD).unlink(missing_ok=True)  # a new batch: no line left there vouches for a part
     folder.mkdir(parents=True, exist_ok=True)
     keep_copy(people, folder)
+    keep_policy_copies(policies.files, folder)
     return "new"

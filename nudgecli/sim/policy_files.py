@@ -34,21 +34,24 @@ MANIFEST_KEY = "policy_files"
 RUN_FOLDERS = frozenset({PEOPLE_DIR, FIGURES_DIR, "calibration", *PART_KINDS})
 
 
-def loaded_policy_files(config: ExperimentConfig) -> dict[str, bytes]:
+def loaded_policy_files(config: ExperimentConfig, own_folders: frozenset[str] = RUN_FOLDERS,
+                        kind: str = "run") -> dict[str, bytes]:
     """The files of the experiment's own policy modules imported from its folder, by their path
     relative to the folder (``policies/threshold.py``, POSIX separators) -> their bytes; empty
     without such modules (none of its own, or all imported from ``sys.path``).
 
     Each condition's factory is imported first (an edited file afresh, as the experiment's checks
-    do), so the files are those the run will run.
+    do), so the files are those the run will run. ``own_folders`` are the folders of the ``kind``
+    of folder that keeps the copies (a run's, :data:`RUN_FOLDERS`; a batch's,
+    :data:`nudgecli.runs.batch_folder.BATCH_FOLDERS`).
 
     Raises
     ------
     PolicyError
         A module that does not import (:func:`~nudgecli.sim.policy_registry.load_factory`).
     ConfigError
-        A module whose top folder is named like one of a run folder's own (``trials``, ``people``,
-        ...): its copy would be written among the run's tables.
+        A module whose top folder is named like one of ``own_folders`` (a run's ``trials``,
+        ``people``, ...): its copy would be written among the folder's own files.
     """
     specs = policy_specs(config)
     folder = config.policy_search_path
@@ -63,9 +66,9 @@ def loaded_policy_files(config: ExperimentConfig) -> dict[str, bytes]:
             relative = path.resolve().relative_to(base)
         except ValueError:  # not under the folder: nothing the run folder could mirror
             continue
-        if relative.parts[0] in RUN_FOLDERS:
+        if relative.parts[0] in own_folders:
             top = relative.parts[0]
-            raise ConfigError(f"{path}: a policy package named {top!r} would be copied into the run "
+            raise ConfigError(f"{path}: a policy package named {top!r} would be copied into the {kind} "
                               f"folder's own {top}/; rename the package (and its factory's "
                               "module) in the experiment's folder")
         files[relative.as_posix()] = path.read_bytes()
@@ -78,8 +81,9 @@ def policy_record(files: Mapping[str, bytes]) -> dict[str, str]:
 
 
 def check_same_policy_files(recorded: object, files: Mapping[str, bytes], source: str | None,
-                            where: str | Path) -> None:
-    """Refuse to resume the run ``where`` with policy modules other than it was simulated with.
+                            where: str | Path, kind: str = "run") -> None:
+    """Refuse to resume the run (or the batch, ``kind``) ``where`` with policy modules other than it
+    was simulated with.
 
     Parameters
     ----------
@@ -91,7 +95,10 @@ def check_same_policy_files(recorded: object, files: Mapping[str, bytes], source
     source
         The folder they are loaded from (the experiment file's), to name the file.
     where
-        The run folder.
+        The run folder (the batch folder).
+    kind
+        ``run`` or ``batch``: which folder it is (a run is resumed with its own ``config.toml``,
+        which imports the copies; a batch with its experiment).
 
     Raises
     ------
@@ -109,13 +116,14 @@ def check_same_policy_files(recorded: object, files: Mapping[str, bytes], source
             what = (f"{where} was simulated with the policy module {name}, which its experiment no longer "
                     "imports")
         elif name not in recorded:
-            what = f"{shown} is a policy module the run was not simulated with"
+            what = f"{shown} is a policy module the {kind} was not simulated with"
         else:
             what = (f"{shown} is not the policy module {where} was simulated with (its SHA-256 differs from "
                     "the manifest's)")
-        raise DataError(f"{what}: resuming would mix two policies in one run; put the file back as it was "
-                        f"(the run keeps its copy as {Path(where) / name}) and resume with the run's own "
-                        f"config.toml, or start again with --force")
+        how = "resume with the run's own config.toml" if kind == "run" else "resume"
+        raise DataError(f"{what}: resuming would mix two policies in one {kind}; put the file back as it "
+                        f"was (the {kind} keeps its copy as {Path(where) / name}) and {how}, or start "
+                        "again with --force")
 
 
 def keep_policy_copies(files: Mapping[str, bytes], folder: str | Path) -> None:

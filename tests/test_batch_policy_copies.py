@@ -1,0 +1,214 @@
+"""A batch of a researcher's own policy keeps its policy code, as a run folder does: an exact copy of
+each module file the experiment imported from its folder, under the same relative path in the batch
+folder, with its SHA-256 in ``batch.json`` (``policy_files``); a resume with a module that differs
+from the recorded one is refused naming the file and touches nothing, and ``--force`` removes the
+copies the replaced batch recorded (docs/batches.md)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from cli_helpers import nudge, one_error_line
+
+from nudgecli.errors import ConfigError
+from nudgecli.runs.batch_folder import BATCH_FOLDERS, BATCH_MANIFEST
+from nudgecli.sim.policy_files import RUN_FOLDERS, loaded_policy_files
+
+ROOT = Path(__file__).resolve().parents[1]
+
+STUDY = """
+[experiment]
+name = "{name}"
+
+[study]
+participants = 2
+conditions = ["control", "{policy}"]
+goal_counts = [3]
+corners = ["tr"]
+start_modes = ["x"]
+blocks_per_condition = 1
+"""
+POLICY = """
+[policies.threshold]
+factory = "{package}.threshold:ThresholdAssist"
+params = {{ threshold = 0.6, weight = 0.5 }}
+"""
+BLENDING = """
+[blending]
+gate = "gap"
+gap = 0.4
+"""
+SWEEP = """
+experiment = "mine.toml"
+plan = "mine-plan.toml"
+replications = 1
+seed = 3
+
+[design]
+method = "grid"
+
+[parameters]
+"policies.threshold.params.threshold" = { values = [0.5, 0.7] }
+"""
+
+
+# the shipped custom-policy plan, for the two conditions of these experiments
+PLAN = (ROOT / "analysis" / "custom-policy.toml").read_text().replace(
+    'name = "custom-policy"', 'name = "{name}"').replace(
+    'conditions = ["disambiguation", "blending", "threshold"]', 'conditions = ["control", "{policy}"]')
+
+
+def experiment_folder(root: Path, package: str = "policies") -> Path:
+    """``root/mine.toml``, ``root/plain.toml`` (no policy of its own), their plans
+    (``root/<name>-plan.toml``), ``root/sweep.toml`` (over mine's threshold) and the shipped
+    threshold policy as ``root/<package>/``."""
+    root.mkdir(parents=True)
+    shutil.copytree(ROOT / "experiments" / "policies", root / package,
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    mine = STUDY.format(name="mine", policy="threshold") + POLICY.format(package=package)
+    (root / "mine.toml").write_text(mine)
+    (root / "plain.toml").write_text(STUDY.format(name="plain", policy="blending") + BLENDING)
+    (root / "sweep.toml").write_text(SWEEP)
+    for name, policy in (("mine", "threshold"), ("plain", "blending")):
+        (root / f"{name}-plan.toml").write_text(PLAN.format(name=name, policy=policy))
+    return root / "mine.toml"
+
+
+def command(kind: str, experiment: Path, out: Path, *flags: str) -> list[str | Path]:
+    """``nudge KIND`` of ``experiment`` (the sweep file beside it for ``sweep``) into ``out``."""
+    if kind == "sweep":
+        return ["sweep", experiment.parent / "sweep.toml", "--out", out, *flags]
+    counts = ["--participants", "2,3"] if kind == "power" else ["--participants", "2"]
+    plan = experiment.with_name(f"{experiment.stem}-plan.toml")
+    return [kind, experiment, "-R", "1", *counts, "--plan", plan, "--out", out, *flags]
+
+
+def snapshot(folder: Path) -> dict[str, bytes]:
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file() and "__pycache__" not in p.parts}
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+@pytest.fixture
+def experiment(tmp_path: Path) -> Path:
+    return experiment_folder(tmp_path / "exp")
+
+
+@pytest.mark.parametrize("kind", ["replicate", "power", "sweep"])
+def test_a_batch_keeps_exact_copies_of_its_policy_modules_with_their_sha256(
+        experiment: Path, tmp_path: Path, kind: str) -> None:
+    out = tmp_path / "batch"
+    made = nudge(*command(kind, experiment, out))
+    assert made.exit_code == 0, made.output
+    source = experiment.parent / "policies"
+    for name in ("__init__.py", "threshold.py"):
+        assert (out / "policies" / name).read_bytes() == (source / name).read_bytes()
+    manifest = json.loads((out / BATCH_MANIFEST).read_text())
+    assert manifest["policy_files"] == {f"policies/{name}": sha256(source / name)
+                                        for name in ("__init__.py", "threshold.py")}
+    # the record is the manifest's own, not the batch's description: what a resume compares as
+    # settings is as before, so a batch of an older nudge (no record) still resumes
+    assert "policy_files" not in manifest["batch"]
+
+
+def test_a_batch_without_policies_of_its_own_keeps_no_copies(experiment: Path, tmp_path: Path) -> None:
+    out = tmp_path / "batch"
+    made = nudge(*command("replicate", experiment.parent / "plain.toml", out))
+    assert made.exit_code == 0, made.output
+    assert not (out / "policies").exists()
+    assert "policy_files" not in json.loads((out / BATCH_MANIFEST).read_text())
+
+
+def test_a_resume_with_an_edited_module_is_refused_naming_it_and_leaves_the_batch(
+        experiment: Path, tmp_path: Path) -> None:
+    out = tmp_path / "batch"
+    made = nudge(*command("replicate", experiment, out))
+    assert made.exit_code == 0, made.output
+    before = snapshot(out)
+    original = experiment.parent / "policies" / "threshold.py"
+    original.write_text(original.read_text() + "\n# tuned since\n")
+    refused = nudge(*command("replicate", experiment, out, "--resume"))
+    assert refused.exit_code == 1
+    line = one_error_line(refused.stderr)
+    assert str(original) in line and "mix two policies in one batch" in line
+    assert str(out / "policies" / "threshold.py") in line
+    assert snapshot(out) == before
+
+
+def test_a_resume_with_the_same_modules_finishes_the_batch_with_the_same_tables(
+        experiment: Path, tmp_path: Path) -> None:
+    out = tmp_path / "batch"
+    made = nudge(*command("replicate", experiment, out))
+    assert made.exit_code == 0, made.output
+    tables = {name: (out / name).read_bytes() for name in ("replications.csv", "summary.csv")}
+    for part in (out / "analyses").glob("*.json"):
+        part.unlink()  # the resume computes them again
+    copy = out / "policies" / "threshold.py"
+    copy.unlink()  # and puts back a copy that went missing
+    resumed = nudge(*command("replicate", experiment, out, "--resume"))
+    assert resumed.exit_code == 0, resumed.output
+    assert {name: (out / name).read_bytes() for name in tables} == tables
+    assert copy.read_bytes() == (experiment.parent / "policies" / "threshold.py").read_bytes()
+
+
+def test_a_batch_of_an_older_nudge_without_a_record_resumes_and_records_its_copies(
+        experiment: Path, tmp_path: Path) -> None:
+    out = tmp_path / "batch"
+    made = nudge(*command("replicate", experiment, out))
+    assert made.exit_code == 0, made.output
+    manifest = json.loads((out / BATCH_MANIFEST).read_text())
+    recorded = manifest.pop("policy_files")
+    (out / BATCH_MANIFEST).write_text(json.dumps(manifest))
+    shutil.rmtree(out / "policies")
+    resumed = nudge(*command("replicate", experiment, out, "--resume"))
+    assert resumed.exit_code == 0, resumed.output
+    assert json.loads((out / BATCH_MANIFEST).read_text())["policy_files"] == recorded
+    assert (out / "policies" / "threshold.py").is_file()
+
+
+def test_force_removes_the_replaced_batchs_policy_copies_and_keeps_other_files(
+        experiment: Path, tmp_path: Path) -> None:
+    out = tmp_path / "batch"
+    made = nudge(*command("replicate", experiment, out))
+    assert made.exit_code == 0, made.output
+    (out / "policies" / "notes.txt").write_text("mine")
+    replaced = nudge(*command("replicate", experiment.parent / "plain.toml", out, "--force"))
+    assert replaced.exit_code == 0, replaced.output
+    assert sorted(p.relative_to(out / "policies").as_posix() for p in (out / "policies").rglob("*")) \
+        == ["notes.txt"]
+    (out / "policies" / "notes.txt").unlink()
+    again = nudge(*command("replicate", experiment, out, "--force"))
+    assert again.exit_code == 0, again.output
+    again = nudge(*command("replicate", experiment.parent / "plain.toml", out, "--force"))
+    assert again.exit_code == 0, again.output
+    assert not (out / "policies").exists()
+
+
+@pytest.mark.parametrize("package", ["tasks", "analyses"])
+def test_a_policy_package_named_like_a_batch_folders_own_is_refused_before_the_folder_is_made(
+        tmp_path: Path, package: str) -> None:
+    experiment = experiment_folder(tmp_path / "exp", package=package)
+    refused = nudge(*command("replicate", experiment, tmp_path / "batch"))
+    assert refused.exit_code == 1
+    line = one_error_line(refused.stderr)
+    assert f"{package!r}" in line and "batch folder" in line
+    assert not (tmp_path / "batch").exists()
+
+
+def test_the_batch_folders_own_folders_are_reserved_beside_the_run_folders(tmp_path: Path) -> None:
+    from nudgecli.config import load_experiment
+
+    assert {"tasks", "analyses", "people", "figures"} <= BATCH_FOLDERS
+    config = load_experiment(str(experiment_folder(tmp_path / "exp", package="tasks")))
+    assert "tasks" not in RUN_FOLDERS
+    assert set(loaded_policy_files(config)) == {"tasks/__init__.py", "tasks/threshold.py"}  # a run's
+    with pytest.raises(ConfigError, match="batch folder's own tasks/"):
+        loaded_policy_files(config, BATCH_FOLDERS, "batch")
+
