@@ -176,14 +176,12 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     from nudgecli.report.analysis import analysis_folder
     from nudgecli.report.analysis import analyze as analyze_source
     from nudgecli.report.plans import MIN_RESAMPLES, check_resamples
-    from nudgecli.rng import check_seed
 
     metrics = arguments.texts("metrics", metrics, optional=True)
     questionnaires = arguments.path("questionnaires", questionnaires, optional=True)
     bootstrap = arguments.whole_number("bootstrap", bootstrap, optional=True, minimum=1)
     out = arguments.path("out", out, optional=True)
-    seed = arguments.whole_number("seed", seed, optional=True)
-    check_seed(seed)
+    seed = arguments.seed(seed, optional=True)
     reference = arguments.text("reference", reference, optional=True)
     arguments.switches(drop_duplicates=drop_duplicates, force=force)
     progress = arguments.callback("progress", progress)

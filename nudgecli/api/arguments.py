@@ -50,6 +50,26 @@ def whole_number(name: str, value: object, *, optional: bool = False,
     return int(value)
 
 
+@overload
+def seed(value: object, *, optional: Literal[False] = False) -> int: ...
+@overload
+def seed(value: object, *, optional: bool) -> int | None: ...
+def seed(value: object, *, optional: bool = False) -> int | None:
+    """``value`` as a master seed: a whole number (:func:`whole_number`) that the seed's rule,
+    :func:`nudgecli.rng.check_seed`, takes, refused in the words of every command's ``--seed``.
+
+    Raises
+    ------
+    ConfigError
+        Not a whole number (``None`` too, unless ``optional``), or negative.
+    """
+    from nudgecli.rng import check_seed  # numpy's import, only where a seed is given
+
+    number = whole_number("seed", value, optional=optional)
+    check_seed(number)
+    return number
+
+
 def whole_numbers(name: str, values: object) -> list[int]:
     """``values`` as a list of ``int`` (a list or tuple of whole numbers, e.g. ``[6, 9, 12]``).
 

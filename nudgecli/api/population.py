@@ -98,13 +98,11 @@ def plot_population(experiment: str | Path, *,
     """
     from nudgecli.api import arguments
     from nudgecli.api.run import experiment_config
-    from nudgecli.rng import check_seed
     from nudgecli.runs.size import MAX_CALIBRATIONS_WITHOUT_YES, check_size
     from nudgecli.sim.real_population import coverage_table, simulated_diagonals, simulated_habits
 
     participants = arguments.whole_number("participants", participants, minimum=1)
-    seed = arguments.whole_number("seed", seed, optional=True)
-    check_seed(seed)
+    seed = arguments.seed(seed, optional=True)
     out = arguments.path("out", out, optional=True)
     force, yes = arguments.switch("force", force), arguments.switch("yes", yes)
     check_size(participants, yes, limit=MAX_CALIBRATIONS_WITHOUT_YES,

@@ -208,14 +208,12 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
     from nudgecli.api import arguments
     from nudgecli.report.compare import CompareOptions, compare_sources, write_comparison
     from nudgecli.report.plans import MIN_RESAMPLES, check_resamples
-    from nudgecli.rng import check_seed
 
     real = arguments.path("real", real)
     metrics = arguments.texts("metrics", metrics, optional=True)
     resamples = arguments.whole_number("resamples", resamples, minimum=0)
     level = arguments.real_number("level", level)
-    seed = arguments.whole_number("seed", seed)
-    check_seed(seed)
+    seed = arguments.seed(seed)
     drop_duplicates = arguments.switch("drop_duplicates", drop_duplicates)
     force = arguments.switch("force", force)
     out = arguments.path("out", out, optional=True)
