@@ -2,7 +2,8 @@
 each module file the experiment imported from its folder, under the same relative path in the batch
 folder, with its SHA-256 in ``batch.json`` (``policy_files``); a resume with a module that differs
 from the recorded one is refused naming the file and touches nothing, and ``--force`` removes the
-copies the replaced batch recorded (docs/batches.md)."""
+copies the replaced batch recorded (docs/batches.md). Also: the one reading of a batch's recorded
+people entry (:func:`nudgecli.runs.batch_folder.recorded_people`)."""
 
 from __future__ import annotations
 
@@ -14,8 +15,9 @@ from pathlib import Path
 import pytest
 from cli_helpers import nudge, one_error_line
 
+from nudgecli.api.resuming import people_to_resume
 from nudgecli.errors import ConfigError
-from nudgecli.runs.batch_folder import BATCH_FOLDERS, BATCH_MANIFEST
+from nudgecli.runs.batch_folder import BATCH_FOLDERS, BATCH_MANIFEST, recorded_people
 from nudgecli.sim.policy_files import RUN_FOLDERS, loaded_policy_files
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -212,3 +214,30 @@ def test_the_batch_folders_own_folders_are_reserved_beside_the_run_folders(tmp_p
     with pytest.raises(ConfigError, match="batch folder's own tasks/"):
         loaded_policy_files(config, BATCH_FOLDERS, "batch")
 
+
+# --- the recorded people entry: one reading for the resume hint and the resume check ----------
+
+PEOPLE = {"file": "p.csv", "sha256": "ab" * 32}
+
+
+@pytest.mark.parametrize(("text", "expected"), [
+    (None, (False, None)),  # no batch.json
+    ("{not json", (False, None)),
+    ("[1, 2]", (False, None)),
+    ('{"batch": 3}', (False, None)),
+    ('{"batch": {"kind": "replicate"}}', (True, None)),  # a batch of the population's people
+    (json.dumps({"batch": {"people": PEOPLE}, "people": "not this one"}), (True, PEOPLE)),
+])
+def test_recorded_people_reads_the_batch_descriptions_entry(tmp_path: Path, text: str | None,
+                                                             expected: tuple[bool, object]) -> None:
+    if text is not None:
+        (tmp_path / BATCH_MANIFEST).write_text(text)
+    assert recorded_people(tmp_path) == expected
+
+
+def test_the_resume_hint_names_the_batchs_copy_of_its_people_file(tmp_path: Path) -> None:
+    (tmp_path / BATCH_MANIFEST).write_text(json.dumps({"batch": {"people": PEOPLE}}))
+    assert people_to_resume(tmp_path, "typed.csv") == "typed.csv"  # no copy written yet
+    (tmp_path / "people").mkdir()
+    (tmp_path / "people" / "p.csv").write_text("x")
+    assert people_to_resume(tmp_path, "typed.csv") == str(tmp_path / "people" / "p.csv")

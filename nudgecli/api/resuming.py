@@ -14,21 +14,18 @@ from pathlib import Path
 
 
 def _recorded_people(folder: Path) -> object:
-    """The people file a run's (``manifest.json``) or a batch's (``batch.json``, under ``batch``)
-    manifest records; ``None`` where neither is there or readable yet (anything else as read)."""
+    """The people file a run's (``manifest.json``) or a batch's (``batch.json``, under ``batch``:
+    :func:`nudgecli.runs.batch_folder.recorded_people`) manifest records; ``None`` where neither is
+    there or readable yet (anything else as read)."""
     from nudgecli.run_folder_names import MANIFEST
-    from nudgecli.runs.batch_folder import BATCH_MANIFEST
+    from nudgecli.runs.batch_folder import recorded_people
     from nudgecli.sim.people_file import MANIFEST_KEY
 
-    for name, section in ((MANIFEST, None), (BATCH_MANIFEST, "batch")):
-        try:
-            document = json.loads((folder / name).read_text(encoding="utf-8"))
-        except (OSError, ValueError):  # absent, or half-written by the process interrupted
-            continue
-        if section is not None:
-            document = document.get(section) if isinstance(document, dict) else None
-        return document.get(MANIFEST_KEY) if isinstance(document, dict) else None
-    return None
+    try:
+        document = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):  # absent, or half-written by the process interrupted: a batch's?
+        return recorded_people(folder)[1]
+    return document.get(MANIFEST_KEY) if isinstance(document, dict) else None
 
 
 def people_to_resume(folder: str | Path, typed: str | None) -> str | None:

@@ -339,6 +339,16 @@ def read_manifest(manifest: Path) -> tuple[dict[str, Any] | None, str | None]:
     return document, None
 
 
+def recorded_people(folder: Path) -> tuple[bool, Any]:
+    """Whether ``folder``'s ``batch.json`` describes a batch (:func:`read_manifest`: absent or
+    damaged, it does not), and the people file's entry its description records (``None``: a batch
+    of the population's people; anything else as read). The one reading of it, for the resume
+    check (:func:`nudgecli.sim.people_file.check_same_people`) and the resume command's
+    ``--people`` (:mod:`nudgecli.api.resuming`)."""
+    old, _ = read_manifest(folder / BATCH_MANIFEST)
+    return (False, None) if old is None else (True, old["batch"].get(PEOPLE_KEY))
+
+
 def _by_point(description: Mapping[str, Any], lift: bool) -> dict[str, Any]:
     """``description`` with its ``points`` list keyed by point (``point 3``), or, with ``lift`` (a
     batch of one point: replicate, power), that point's fields at the top (``participants``)."""

@@ -22,10 +22,9 @@ from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.runs.batch import Batch, BatchRun, Point, run_batch, single_point
 from nudgecli.runs.batch_folder import (
     BATCH_FIGURES,
-    BATCH_MANIFEST,
     BATCH_TABLES,
     check_inputs_kept,
-    read_manifest,
+    recorded_people,
 )
 from nudgecli.runs.study import checked_plan, with_participants
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
@@ -119,9 +118,9 @@ def _people_fields(people: People | str | Path | None, out: str | Path,
     """The people file's record for the batch's description (nothing without one, so a batch of the
     population describes itself as before) and the people; a resumed batch must have the same."""
     chosen = people_of(people)
-    old = read_manifest(Path(out) / BATCH_MANIFEST)[0] if resume else None
-    if old is not None:  # a damaged manifest is the prepare rule's to refuse
-        check_same_people(old["batch"].get(PEOPLE_KEY), chosen, out)
+    described, recorded = recorded_people(Path(out)) if resume else (False, None)
+    if described:  # a damaged manifest is the prepare rule's to refuse
+        check_same_people(recorded, chosen, out)
     if chosen is None:
         return {}, None
     return {PEOPLE_KEY: chosen.record()}, chosen
