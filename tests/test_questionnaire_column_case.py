@@ -76,3 +76,13 @@ def test_analyze_reads_a_capitalised_questionnaire(tmp_path: Path) -> None:
     assert result.exit_code == 0, result.output
     name = "questionnaire_scores.csv"
     assert (tmp_path / "shouted" / name).read_bytes() == (tmp_path / "plain" / name).read_bytes()
+
+
+def test_a_column_written_twice_is_refused_not_scored_as_a_second_item(tmp_path: Path) -> None:
+    # pandas reads the second 'likert_q3' as 'likert_q3.1', which was scored as an item of its own
+    source = tmp_path / "answers.csv"
+    source.write_text("participant,condition,likert_q3,likert_q3\n1,a,4,5\n2,a,3,6\n", encoding="utf-8")
+    with pytest.raises(DataError, match=r"more than one column of one name: 'likert_q3' \(columns 3 and 4\)"):
+        read_questionnaires(source)
+    source.write_text("\nparticipant,condition,likert_q3\n1,a,4\n", encoding="utf-8")  # a blank first line
+    assert list(read_questionnaires(source).columns) == ["participant", "condition", "likert_q3"]

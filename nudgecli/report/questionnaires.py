@@ -27,7 +27,7 @@ answers once per condition (with a ``block`` column: once per condition and bloc
 for the same participant and condition (and block), repeated or conflicting, is refused, naming
 both rows. Column names are matched in any case (``Participant``, ``TLX_Mental``, ``Likert_Q3``, as
 survey exports and spreadsheets capitalise them) and the scores are named in lower case
-(``likert_q3``); two columns whose names differ only in case are refused, naming both. A column
+(``likert_q3``); a column named twice, in one case or two, is refused, naming both. A column
 named ``tlx_*`` that is none of the above is refused with the
 nearest name: a misspelt subscale would otherwise be left out of the scores unseen. A
 respondent who is not a participant of the analysed run is refused by :func:`check_respondents`.
@@ -59,7 +59,7 @@ import pandas as pd
 
 from nudgecli.csv_text import not_utf8_message
 from nudgecli.errors import DataError, did_you_mean
-from nudgecli.report.tables import is_canonical_integer, label_text, read_csv_labels
+from nudgecli.report.tables import check_unique_columns, is_canonical_integer, label_text, read_csv_labels
 from nudgecli.run_folder_names import QUESTIONNAIRE_SCORES_CSV
 
 TLX_SUBSCALES = ("mental", "physical", "temporal", "performance", "effort", "frustration")
@@ -86,13 +86,16 @@ def read_questionnaires(path: str | Path) -> pd.DataFrame:
     Raises
     ------
     DataError
-        The file is missing, empty or not CSV.
+        The file is missing, empty or not CSV, or names a column twice.
     """
     path = Path(path)
     if not path.is_file():
         raise DataError(f"questionnaire file {path} does not exist; give a CSV file with participant, "
                         "condition and tlx_*/likert_* columns")
     try:
+        # the header as written: pandas names a repeated column `likert_q3.1`, scored as an item of its own
+        header = pd.read_csv(path, header=None, nrows=1, dtype=str, keep_default_na=False).iloc[0]
+        check_unique_columns(header.tolist(), path)
         table = read_csv_labels(path)
     except pd.errors.EmptyDataError:
         raise DataError(f"{path} is empty; it needs a header row and one row per response") from None
