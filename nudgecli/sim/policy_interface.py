@@ -35,10 +35,11 @@ A minimal policy (assist only when the leading goal's probability passes a thres
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, runtime_checkable
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, TypeVar, runtime_checkable
 
 import numpy as np
 
@@ -50,12 +51,16 @@ if TYPE_CHECKING:
     from nudgecli.model.disambiguation import DisambiguationModel
     from nudgecli.sim.protocol import ProtocolSettings
 
+#: An object a policy's view shows (:func:`read_only_view`).
+SourceT = TypeVar("SourceT")
+
 #: A command ``(vx, vy, omega)``: units/s along x and y, rad/s (a tuple or a ``(3,)`` array).
 Command = tuple[float, float, float] | np.ndarray
 
 
 class StepView(Protocol):
-    """What a policy sees at a step (read-only; the trial's session provides it).
+    """What a policy sees at a step: the trial's session, live, through a :class:`ReadOnlyView`
+    (assigning or deleting an attribute raises, and its arrays are read-only).
 
     Attributes
     ----------
@@ -121,6 +126,55 @@ class StepView(Protocol):
     def state(self) -> int: ...
 
 
+class ReadOnlyView:
+    """A live view of an object that a policy may read but not change (its trial's ``view``).
+
+    Made by :func:`read_only_view`: it shares its source's attribute dictionary (one ``__dict__``
+    for both), so each read sees the source as it is now at a plain attribute read's cost (the trial
+    loop is hot: no copy per step, no property per attribute), while assigning or deleting any
+    attribute raises :class:`AttributeError` naming it: a policy acts only through what it returns.
+    """
+
+    __slots__ = ()
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError(_read_only_message(name))
+
+    def __delattr__(self, name: str) -> None:
+        raise AttributeError(_read_only_message(name))
+
+
+def _read_only_message(name: str) -> str:
+    return (f"the view is read-only: a policy cannot set view.{name} (it acts only through the "
+            "Assistance or AutonomyTurn it returns)")
+
+
+@functools.cache
+def _read_only_class(source_class: type) -> type:
+    """``source_class`` with :class:`ReadOnlyView`'s assignment rule first (its properties kept)."""
+    return type(f"ReadOnly{source_class.__name__}", (ReadOnlyView, source_class), {"__slots__": ()})
+
+
+def read_only_view(source: SourceT) -> SourceT:
+    """A :class:`ReadOnlyView` of ``source``: its attributes and properties, live, none assignable.
+
+    ``source`` keeps its own attributes in a ``__dict__``; the view holds that dictionary, so it
+    lives as long as the view does. Keep the view outside that dictionary (a slot of ``source``):
+    inside it, the two would be a reference cycle only the garbage collector frees.
+    """
+    source_class: type = type(source)
+    view: SourceT = object.__new__(_read_only_class(source_class))
+    object.__setattr__(view, "__dict__", source.__dict__)
+    return view
+
+
+def read_only_array(array: np.ndarray) -> np.ndarray:
+    """``array`` as a read-only numpy view (the same values; ``array`` itself stays as it was)."""
+    view = array.view()
+    view.setflags(write=False)
+    return view
+
+
 class Assistance(NamedTuple):
     """What a policy does in one step of the human's turn.
 
@@ -169,13 +223,14 @@ class Assistance(NamedTuple):
 QuietRun = tuple[int, Assistance]
 
 
-class AtStep:
+class AtStep(ReadOnlyView):
     """``view`` as it would be at ``step`` of a quiet run (every other attribute is the view's own):
-    what a policy's ``assist_quiet`` passes to :meth:`Policy.assist` for a later step of the run."""
+    what a policy's ``assist_quiet`` passes to :meth:`Policy.assist` for a later step of the run;
+    read-only as the view is."""
 
     def __init__(self, view: StepView, step: int) -> None:
-        self._view = view
-        self.step = step
+        object.__setattr__(self, "_view", view)
+        object.__setattr__(self, "step", step)
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._view, name)

@@ -73,7 +73,7 @@ from nudgecli.model.world import (
     World,
 )
 from nudgecli.sim.behaviour_settings import BehaviourSettings
-from nudgecli.sim.policy_interface import QuietRun
+from nudgecli.sim.policy_interface import QuietRun, read_only_array, read_only_view
 from nudgecli.sim.policy_registry import PolicySpec, checked_policy_specs, make_policy
 from nudgecli.sim.step_record import StepRecording, step_columns
 from nudgecli.steplog import (
@@ -250,6 +250,9 @@ class TrialSession:
     human_switches: int = 0
     rows: list[tuple[Any, ...]] = field(default_factory=list)
     world: World | None = None
+    # _policy_view, what its policy is handed (this session, live, read-only): a slot, since the view
+    # shares __dict__ and would be a reference cycle there
+    __slots__ = ("__dict__", "_policy_view")
 
     def __post_init__(self) -> None:
         if self.world is None:
@@ -259,6 +262,7 @@ class TrialSession:
             self.world = GridWorld(layout, self.settings.success_distance, self.settings.success_angle)
         world = self.world
         self.policy = make_policy(self.spec.condition, self.settings)
+        self._policy_view = read_only_view(self)
         self.assisted = bool(self.policy.infers)
         self.turn_taking = bool(self.policy.takes_turns)
         # the optional hook through which a policy answers a person's mode switch
@@ -274,8 +278,9 @@ class TrialSession:
         self.measured = NO_INPUT  # this step's measured label and command (what a policy sees)
         self.u_h: Command = _ZERO3
         self.mode = int(world.start_mode)
-        self.goal_poses = world.goal_poses
-        self.goal_transition = goal_transition_matrix(n_goals, self.settings.goal_stay)
+        self.goal_poses = read_only_array(world.goal_poses)
+        transition = goal_transition_matrix(n_goals, self.settings.goal_stay)
+        self.goal_transition = None if transition is None else read_only_array(transition)
         self._set_belief(np.full(n_goals, 1.0 / n_goals))
         self._start_human_turn()
 
@@ -293,7 +298,7 @@ class TrialSession:
 
     def _set_belief(self, belief: np.ndarray) -> None:
         """Replace the belief and refresh what depends on it only (most steps leave it alone)."""
-        # read-only: a policy's view is this session, and a write into view.belief would corrupt the
+        # read-only: a policy's view reads this session, and a write into view.belief would corrupt the
         # inference; one flag per update (every update makes a new array), not a copy per step
         belief.setflags(write=False)
         self.belief = belief
@@ -361,7 +366,7 @@ class TrialSession:
         elif measured in (HARD_PUFF, HARD_SIP) and not self.locked:
             requested = interface.switch_mode(mode_before, measured)
             # a policy that answers mode switches (a request for its choice) may send it elsewhere
-            chosen = self.choose_mode(self, requested) if self.choose_mode is not None else None
+            chosen = self.choose_mode(self._policy_view, requested) if self.choose_mode is not None else None
             self.mode = requested if chosen is None else chosen
             self.locked = True
             self.human_switches += 1
@@ -372,7 +377,7 @@ class TrialSession:
         initiated_at = self.initiated_at
         self.idle = 0 if commanded or initiated_at < 0 else self.idle + 1
         self.measured, self.u_h = measured, u_h
-        u_f, u_a, alpha, inferred = self.policy.assist(self)
+        u_f, u_a, alpha, inferred = self.policy.assist(self._policy_view)
         # _record's row, written out
         self.rows.append((step, HUMAN_TURN, x, y, theta, mode_before, state, intended, pressure, measured,
                           u_h, u_a, alpha, inferred, self.belief, self.entropy, events))
@@ -417,7 +422,7 @@ class TrialSession:
         elif self.assist_quiet is None:
             ran = self._quiet_steps_one_by_one(steps, state, counting)
         else:
-            ran = self._quiet_runs(self.assist_quiet(self, steps), steps, state, counting)
+            ran = self._quiet_runs(self.assist_quiet(self._policy_view, steps), steps, state, counting)
         self._hand_over_when_idle()
         return 1 + ran
 
@@ -426,12 +431,12 @@ class TrialSession:
         at each; how many ran (it stops before a step whose command moves the robot)."""
         # what no step of the run changes, read once (the pose, mode and belief stand; the policy
         # sees the step and the idle count move)
-        assist, append = self.policy.assist, self.rows.append
+        assist, append, view = self.policy.assist, self.rows.append, self._policy_view
         x, y, theta, mode, belief, entropy = self.x, self.y, self.theta, self.mode, self.belief, self.entropy
         step = self.step
         ran = 0
         while ran < steps:
-            u_f, u_a, alpha, inferred = assist(self)
+            u_f, u_a, alpha, inferred = assist(view)
             if u_f is not _ZERO3 and any(u_f):  # the policy moves the robot: the steps run one by one
                 break
             # _record's row, written out
@@ -489,7 +494,7 @@ class TrialSession:
 
     def _start_autonomy_turn(self) -> None:
         """The policy chooses what its turn does (Algorithm 1, lines 10-15, for the paper's two)."""
-        plan = self.policy.start_turn(self)
+        plan = self.policy.start_turn(self._policy_view)
         self.turn = AUTONOMY_TURN
         self.autonomy_turns += 1
         events = [HANDOVER_TO_AUTONOMY, *plan.events]
