@@ -4,13 +4,13 @@ tables do not depend on the executor, and every way a policy can be wrong is one
 from __future__ import annotations
 
 import json
-import textwrap
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from policy_helpers import policy_experiment
 
 from nudgecli.cli import main
 from nudgecli.config import load_experiment
@@ -100,29 +100,10 @@ class Mine:
         return AutonomyTurn.stay()
 """
 
-EXPERIMENT = """
-[experiment]
-name = "mine"
-
-[study]
-participants = 1
-conditions = ["control", "mine"]
-goal_counts = [3]
-corners = ["tr"]
-start_modes = ["x"]
-blocks_per_condition = 1
-
-[policies.mine]
-factory = "{factory}"
-params = {params}
-"""
-
 
 def _experiment(tmp_path: Path, module: str, factory: str = "mymodule:Mine", params: str = "{}") -> Path:
-    (tmp_path / "mymodule.py").write_text(textwrap.dedent(module))
-    path = tmp_path / "mine.toml"
-    path.write_text(EXPERIMENT.format(factory=factory, params=params))
-    return path
+    return policy_experiment(tmp_path, {"mine": factory}, modules={"mymodule.py": module},
+                             params={"mine": params})
 
 
 def _simulate(tmp_path: Path, experiment: Path, *extra: str):
@@ -197,17 +178,15 @@ def test_a_policy_that_fails_at_run_time_is_one_error_line_and_the_run_is_interr
 
 
 def test_a_condition_that_names_no_policy_points_to_policy_sections(tmp_path):
-    path = tmp_path / "mine.toml"
-    path.write_text(EXPERIMENT.format(factory="mymodule:Mine", params="{}").replace(
-        'conditions = ["control", "mine"]', 'conditions = ["control", "mien"]'))
+    path = policy_experiment(tmp_path, {"mine": "mymodule:Mine"}, params={"mine": "{}"},
+                             conditions=["control", "mien"])
     _, result = _simulate(tmp_path, path)
     _one_error_line(result, "unknown condition 'mien'", "did you mean 'mine'", "[policies.mien]")
 
 
 def test_a_policy_section_may_not_reuse_a_built_in_name(tmp_path):
-    path = tmp_path / "mine.toml"
-    path.write_text(EXPERIMENT.format(factory="mymodule:Mine", params="{}").replace(
-        "[policies.mine]", "[policies.control]"))
+    path = policy_experiment(tmp_path, {"control": "mymodule:Mine"}, params={"control": "{}"},
+                             conditions=["control", "mine"])
     _, result = _simulate(tmp_path, path)
     _one_error_line(result, "[policies.control]", "built-in")
 

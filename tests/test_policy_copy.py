@@ -16,37 +16,20 @@ from pathlib import Path
 import pandas as pd
 import pytest
 from cli_helpers import nudge, one_error_line
+from policy_helpers import policy_experiment
 
 from nudgecli.errors import DataError
 from nudgecli.sim.policy_files import check_same_policy_files, policy_record
 
 ROOT = Path(__file__).resolve().parents[1]
 
-EXPERIMENT = """
-[experiment]
-name = "mine"
-
-[study]
-participants = 2
-conditions = ["control", "threshold"]
-goal_counts = [3]
-corners = ["tr"]
-start_modes = ["x"]
-blocks_per_condition = 1
-
-[policies.threshold]
-factory = "{package}.threshold:ThresholdAssist"
-params = {{ threshold = 0.6, weight = 0.5 }}
-"""
-
-
 def experiment_folder(root: Path, package: str = "policies") -> Path:
     """``root/mine.toml`` and the shipped threshold policy as ``root/<package>/``."""
     root.mkdir(parents=True)
     shutil.copytree(ROOT / "experiments" / "policies", root / package,
                     ignore=shutil.ignore_patterns("__pycache__"))
-    (root / "mine.toml").write_text(EXPERIMENT.format(package=package))
-    return root / "mine.toml"
+    return policy_experiment(root, {"threshold": f"{package}.threshold:ThresholdAssist"},
+                             params={"threshold": "{ threshold = 0.6, weight = 0.5 }"}, participants=2)
 
 
 def snapshot(folder: Path) -> dict[str, bytes]:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
+from policy_helpers import policy_experiment
 
 from nudgecli.cli import main
 from nudgecli.config import load_experiment
@@ -37,32 +38,13 @@ class ThresholdAssist:
         return AutonomyTurn.stay()
 """
 
-EXPERIMENT = """
-[experiment]
-name = "mine"
-
-[study]
-participants = 1
-conditions = ["control", "threshold"]
-goal_counts = [3]
-corners = ["tr"]
-start_modes = ["x"]
-blocks_per_condition = 1
-
-[policies.threshold]
-factory = "{factory}"
-"""
-
-
 def _folder(root: Path, weight: float, *, package: bool = True,
             factory: str = "policies.threshold:ThresholdAssist") -> Path:
     """An experiment folder with ``policies/threshold.py`` whose policy's alpha is ``weight``."""
-    root.mkdir(parents=True, exist_ok=True)
-    (root / "policies").mkdir(exist_ok=True)
+    modules = {"policies/threshold.py": POLICY.format(weight=weight)}
     if package:
-        (root / "policies" / "__init__.py").write_text("")
-    (root / "policies" / "threshold.py").write_text(POLICY.format(weight=weight))
-    (root / "mine.toml").write_text(EXPERIMENT.format(factory=factory))
+        modules["policies/__init__.py"] = ""
+    policy_experiment(root, {"threshold": factory}, modules=modules)
     return root
 
 
