@@ -34,3 +34,7 @@ QUESTIONNAIRES_CSV = "questionnaires.csv"
 FIGURES_DIR = "figures"
 #: The formats figures are written in (``--formats``; a run's ``figures/`` holds them).
 FIGURE_FORMATS = ("png", "pdf", "svg")
+#: What ``nudge plot`` records in the folder it wrote its figures into: the names of the files it
+#: wrote (:mod:`nudgecli.report.figure_records`), so that the next plot there removes those it
+#: does not write again, and never a file of the person's own.
+FIGURES_RECORD = ".nudge-figures.json"

@@ -24,6 +24,7 @@ from nudgecli.run_folder_names import (
     CONFIG,
     FIGURE_FORMATS,
     FIGURES_DIR,
+    FIGURES_RECORD,
     LAYOUTS,
     MANIFEST,
     METRICS_CSV,
@@ -70,15 +71,22 @@ def readable_parquet(part: Path) -> bool:
     return True
 
 
+def is_figure_file(path: Path) -> bool:
+    """Whether ``path`` is a figure's file: a plain file in one of :data:`FIGURE_FORMATS`."""
+    return path.suffix.lower().lstrip(".") in FIGURE_FORMATS and path.is_file()
+
+
 def remove_run_figures(folder: Path) -> None:
-    """Remove a run's figures (``figures/*.png``, ``.pdf`` and ``.svg``), and ``figures/`` once empty:
-    what ``--force`` replaces with the run (another file a person put there stays, and its folder)."""
+    """Remove a run's figures (``figures/*.png``, ``.pdf`` and ``.svg``) and ``nudge plot``'s record of
+    them, and ``figures/`` once empty: what ``--force`` replaces with the run (another file a
+    person put there stays, and its folder)."""
     figures = folder / FIGURES_DIR
     if not figures.is_dir():
         return
     for path in figures.iterdir():
-        if path.suffix.lower().lstrip(".") in FIGURE_FORMATS and path.is_file():
+        if is_figure_file(path):
             path.unlink()
+    (figures / FIGURES_RECORD).unlink(missing_ok=True)
     with contextlib.suppress(OSError):  # not empty: a file of the person's own
         figures.rmdir()
 

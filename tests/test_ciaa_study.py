@@ -15,6 +15,7 @@ from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.report.analysis import analyze
 from nudgecli.report.metrics import trial_metrics
+from nudgecli.run_folder_names import FIGURES_RECORD
 from nudgecli.runs.study import run_study
 from nudgecli.sim.ciaa import packaged_task, subject_schedule
 from nudgecli.store import RunFolder
@@ -108,7 +109,7 @@ def test_plot_draws_the_trajectory_along_the_path_and_the_measures(ciaa_run, tmp
     result = CliRunner().invoke(main, ["plot", str(ciaa_run), "--formats", "png", "--out", str(tmp_path),
                                        "--trial", "1:3"])
     assert result.exit_code == 0, result.output
-    assert {p.name for p in tmp_path.iterdir()} == {"trajectory.png", "measures.png"}
+    assert {p.name for p in tmp_path.iterdir()} == {"trajectory.png", "measures.png", FIGURES_RECORD}
     result = CliRunner().invoke(main, ["plot", str(ciaa_run), "--out", str(tmp_path), "--trial", "1:12",
                                        "--force"])  # --out holds the first figures now
     assert result.exit_code == 1 and "no such trial" in result.stderr

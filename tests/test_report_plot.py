@@ -26,6 +26,7 @@ from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.report import figures
 from nudgecli.report.analysis import analyze
+from nudgecli.report.figure_records import recorded_figures
 from nudgecli.report.figures import (
     FIGURE3_METRICS,
     FIGURE4_METRICS,
@@ -39,6 +40,7 @@ from nudgecli.report.figures import (
 from nudgecli.report.plotting import analysis_folder_of_table, layouts_by_trial
 from nudgecli.report.style import condition_display_name, figure_style
 from nudgecli.report.trial_selection import choose_figure5_trial
+from nudgecli.run_folder_names import FIGURES_RECORD
 from nudgecli.runs.study import run_study
 from nudgecli.store import RunFolder
 
@@ -125,10 +127,15 @@ def _expected_stars(entry: dict[str, Any]) -> list[str]:
     return sorted(row["stars"] for row in entry["stars"] if row["stars"])
 
 
+def _figure_paths(folder: Path) -> list[Path]:
+    """The files in a folder but plot's record of the figures it wrote (``FIGURES_RECORD``)."""
+    return sorted(path for path in folder.iterdir() if path.name != FIGURES_RECORD)
+
+
 def _written_files(folder: Path) -> dict[str, set[str]]:
     """``stem -> {suffixes}`` of the files in a folder (no hidden temporaries expected)."""
     found: dict[str, set[str]] = {}
-    for path in folder.iterdir():
+    for path in _figure_paths(folder):
         found.setdefault(path.stem, set()).add(path.suffix.lstrip("."))
     return found
 
@@ -148,13 +155,15 @@ def test_plot_writes_every_figure_as_png_and_pdf_into_run_figures(default_plot: 
     assert default_plot.exit_code == 0, (default_plot.output, default_plot.exception)
     folder = analysed_run / "figures"
     assert _written_files(folder) == {stem: {"png", "pdf"} for stem in ALL_STEMS}
-    _assert_valid_files(sorted(folder.iterdir()))
+    _assert_valid_files(_figure_paths(folder))
 
 
 def test_plot_lists_exactly_the_written_paths_on_stdout(default_plot: Result, analysed_run: Path) -> None:
     listed = [Path(line) for line in default_plot.stdout.splitlines()]
     assert len(listed) == len(set(listed)) == 2 * len(ALL_STEMS)
-    assert set(listed) == set((analysed_run / "figures").iterdir())
+    assert set(listed) == set(_figure_paths(analysed_run / "figures"))
+    # and plot's record of them, for the next plot there to remove those it does not draw again
+    assert recorded_figures(analysed_run / "figures") == (sorted(path.name for path in listed), None)
 
 
 def test_plot_out_elsewhere_with_svg_leaves_the_run_folder_alone(analysed_run: Path, tmp_path: Path) -> None:
@@ -164,8 +173,8 @@ def test_plot_out_elsewhere_with_svg_leaves_the_run_folder_alone(analysed_run: P
     result = _plot(str(run), "--out", str(out), "--formats", "png,svg")
     assert result.exit_code == 0, (result.output, result.exception)
     assert _written_files(out) == {stem: {"png", "svg"} for stem in ALL_STEMS}
-    assert {Path(line) for line in result.stdout.splitlines()} == set(out.iterdir())
-    _assert_valid_files(sorted(out.iterdir()))
+    assert {Path(line) for line in result.stdout.splitlines()} == set(_figure_paths(out))
+    _assert_valid_files(_figure_paths(out))
     assert not (run / "figures").exists()
 
 
@@ -337,7 +346,7 @@ def test_run_smoke_leaves_stats_summary_metrics_and_figures_and_prints_the_folde
     assert json.loads((out / "stats.json").read_text(encoding="utf-8"))["conditions"] == list(CONDITIONS)
     assert _written_files(out / "figures") == {stem: {"png", "pdf"}
                                                for stem in ALL_STEMS - {"questionnaires"}}
-    _assert_valid_files(sorted((out / "figures").iterdir()))
+    _assert_valid_files(_figure_paths(out / "figures"))
 
 
 def test_run_plots_with_the_plan_it_analysed_with(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -182,7 +182,7 @@ def _check_choices(folder: Path, inputs: Any, conditions: Sequence[str], trial: 
 def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | AnalysisPlan | None = None,
                  out: str | Path | None = None, formats: str | Sequence[str] = ("png", "pdf"),
                  trial: str | tuple[int, int] | None = None, reference: str | None = None,
-                 force: bool = False) -> list[Path]:
+                 force: bool = False, log: Callable[[str], None] | None = None) -> list[Path]:
     """Write every figure of ``source`` in every format, as ``nudge plot`` does; the files written.
 
     Parameters
@@ -204,6 +204,9 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
         As :func:`plot`'s.
     force
         Write into an ``out`` that is not empty.
+    log
+        Receives the line naming the figures an earlier plot wrote into the folder and this one
+        did not, which are removed once all of this plot's are written.
 
     Raises
     ------
@@ -219,6 +222,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
     out = arguments.path("out", out, optional=True)
     reference = arguments.text("reference", reference, optional=True)
     force = arguments.switch("force", force)
+    log = arguments.callback("log", log)
     folder = _folder_of(source)
     if isinstance(source, Analysis) and plan is None:
         plan = source.plan
@@ -243,7 +247,8 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
                 _check_figures_folder(folder, out, force)
             return plot_folder(folder, out, chosen_formats, trial_key,
                                star_rule=analysis_plan.comparison_options(),
-                               item_labels=analysis_plan.questionnaires.labels, reference=reference)
+                               item_labels=analysis_plan.questionnaires.labels, reference=reference,
+                               log=log)
     except BaseException:
         if made and written_folder is not None and written_folder.is_dir() \
                 and not any(written_folder.iterdir()):
@@ -362,7 +367,8 @@ def analyze_and_plot(run: Run | str | Path, *, plan: str | Path | None = None,
     plan
         The analysis plan (default: the one named like the run's experiment, else ``paper``).
     log
-        Receives the line naming the plan chosen, before the analysis.
+        Receives the line naming the plan chosen, before the analysis, and the line naming the
+        figures of an earlier plot removed (:func:`save_figures`).
 
     Returns
     -------
@@ -384,5 +390,5 @@ def analyze_and_plot(run: Run | str | Path, *, plan: str | Path | None = None,
     with run_lock(opened.path):
         result = analyze_source(opened.path, plan=chosen)
         written = plot_folder(opened.path, star_rule=analysis_plan.comparison_options(),
-                              item_labels=analysis_plan.questionnaires.labels)
+                              item_labels=analysis_plan.questionnaires.labels, log=log)
     return Analysis(result, opened.path, chosen, keep_alive=opened), written

@@ -89,7 +89,7 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
     from nudgecli import api
 
     written = api.save_figures(run, plan=plan, out=out, formats=formats, trial=trial, reference=reference,
-                               force=force)
+                               force=force, log=info)
     for path in written:
         click.echo(str(path))
 

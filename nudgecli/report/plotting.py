@@ -24,7 +24,7 @@ are compared by letters, or by the brackets of a reference condition (``--refere
 from __future__ import annotations
 
 import json
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -38,6 +38,7 @@ from nudgecli.report import figures
 from nudgecli.report.analysis import analysed_metrics_path
 from nudgecli.report.analysis_folders import analysis_folder
 from nudgecli.report.checksum import recorded_checksum, verify_metrics
+from nudgecli.report.figure_records import replace_earlier_figures
 from nudgecli.report.figures import TrialLayout
 from nudgecli.report.metrics import apply_filters
 from nudgecli.report.pair_display import check_reference
@@ -160,6 +161,8 @@ class PlotPlan:
     reference
         The box plots' brackets only for this condition's pairs (``--reference``); ``None``:
         every significant pair up to three conditions, letters from four.
+    log
+        Receives the line naming an earlier plot's figures removed from ``out_dir``.
     """
 
     out_dir: Path
@@ -169,6 +172,7 @@ class PlotPlan:
     star_rule: ComparisonOptions = field(default_factory=ComparisonOptions)
     item_labels: Mapping[str, str] = field(default_factory=dict)
     reference: str | None = None
+    log: Callable[[str], None] | None = None
 
 
 def drawn_metrics(inputs: FigureInputs) -> list[str]:
@@ -302,10 +306,12 @@ def draw_path_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]
 def write_figures(inputs: FigureInputs, plan: PlotPlan) -> list[Path]:
     """Draw every figure (:func:`draw_figures`, or :func:`draw_path_figures` for a path-world run)
     and write each in every format, the files at once on the cores there are
-    (:func:`~nudgecli.report.figures.output.save_figures`); return the files."""
-    figures.check_formats(plan.formats)
+    (:func:`~nudgecli.report.figures.output.save_figures`); return the files. Then an earlier plot's
+    figures there that this one did not write are removed (:mod:`nudgecli.report.figure_records`)."""
+    formats = figures.check_formats(plan.formats)
     drawn = draw_path_figures(inputs, plan) if inputs.path_layouts is not None else draw_figures(inputs, plan)
-    return figures.save_figures(drawn, plan.out_dir, plan.formats)
+    return replace_earlier_figures(plan.out_dir, list(drawn), formats,
+                                   lambda: figures.save_figures(drawn, plan.out_dir, formats), plan.log)
 
 
 # --- reading a source ----------------------------------------------------------------------------
@@ -549,7 +555,8 @@ def default_out(source: str | Path) -> Path:
 
 def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequence[str] = ("png", "pdf"),
                 trial: TrialKey | None = None, *, star_rule: ComparisonOptions | None = None,
-                item_labels: Mapping[str, str] | None = None, reference: str | None = None) -> list[Path]:
+                item_labels: Mapping[str, str] | None = None, reference: str | None = None,
+                log: Callable[[str], None] | None = None) -> list[Path]:
     """Draw and write every figure a source's data allow; return the files written.
 
     Parameters
@@ -570,6 +577,8 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
         Questionnaire item labels (the plan's ``[questionnaires] labels``).
     reference
         Compare the box plots' conditions with this one only (``--reference``).
+    log
+        Receives the line naming an earlier plot's figures removed (:func:`write_figures`).
 
     Raises
     ------
@@ -582,7 +591,7 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
         check_trial(source, inputs.trials, trial)
     plan = PlotPlan(out_dir=Path(out) if out is not None else default_out(source), formats=tuple(formats),
                     trial=trial, star_rule=star_rule or ComparisonOptions(),
-                    item_labels=dict(item_labels or {}), reference=reference)
+                    item_labels=dict(item_labels or {}), reference=reference, log=log)
     return write_figures(inputs, plan)
 
 

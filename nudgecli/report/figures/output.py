@@ -49,6 +49,11 @@ def check_formats(formats: Sequence[str]) -> tuple[str, ...]:
     return fmts
 
 
+def figure_file(out_dir: str | os.PathLike[str], stem: str, fmt: str) -> Path:
+    """The file :func:`save_figure` writes a figure ``stem`` into in format ``fmt``: ``<stem>.<fmt>``."""
+    return Path(out_dir) / f"{stem}.{fmt}"
+
+
 def save_figure(fig: Figure, out_dir: str | os.PathLike[str], stem: str,
                 formats: Sequence[str] = ("png", "pdf"), *, dpi: int = PNG_DPI) -> list[Path]:
     """Write a figure in each format, atomically (:func:`nudgecli.store.atomic_path`).
@@ -81,7 +86,7 @@ def save_figure(fig: Figure, out_dir: str | os.PathLike[str], stem: str,
     written = []
     with figure_style():
         for fmt in fmts:
-            target = out / f"{stem}.{fmt}"
+            target = figure_file(out, stem, fmt)
             with atomic_path(target) as tmp, open(tmp, "wb") as handle:
                 fig.savefig(handle, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
             written.append(target)

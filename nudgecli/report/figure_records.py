@@ -1,0 +1,121 @@
+"""What ``nudge plot`` wrote into a figures' folder, so that the next plot there leaves no stale figure.
+
+A plot records the names of the files it wrote in :data:`~nudgecli.run_folder_names.FIGURES_RECORD`
+beside them (JSON, written atomically). The next plot into that folder, once it has written all
+its files, removes those of the record it did not write again (another ``--formats``, a plan or
+source without Fig. 5, a table instead of a run): a researcher would otherwise read a figure of an
+earlier plot as one of this one. Only recorded names are removed, and only where they are still a
+figure's file (:func:`nudgecli.run_folder_record.is_figure_file`, the rule by which ``simulate
+--force`` removes a replaced run's figures): a file the person put there is never in the record.
+
+Before writing into a folder that holds files, the record is widened to the files about to be
+written, so that a plot that fails or is interrupted half-way leaves its earlier figures where
+they were and every file it did write named for the next plot to remove.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from nudgecli.report.figures.output import figure_file
+from nudgecli.run_folder_names import FIGURES_RECORD, LOCK
+from nudgecli.run_folder_record import is_figure_file
+from nudgecli.store import write_json_atomic
+
+#: The record's key of the file names (a list of names, no folders).
+RECORD_KEY = "written"
+
+
+def recorded_figures(folder: Path) -> tuple[list[str], str | None]:
+    """The file names the record in ``folder`` holds, and why it could not be read (``None``: read
+    or absent; an absent record holds no names).
+
+    Parameters
+    ----------
+    folder
+        A figures' folder.
+
+    Returns
+    -------
+    tuple[list[str], str | None]
+        The recorded names (no names where the record is unreadable), and the reason it is.
+    """
+    path = folder / FIGURES_RECORD
+    if not path.is_file():
+        return [], None
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        return [], f"cannot be read ({exc})"
+    names = record.get(RECORD_KEY) if isinstance(record, dict) else None
+    if not isinstance(names, list) or not all(isinstance(name, str) for name in names):
+        return [], f"holds no list of file names under {RECORD_KEY!r}"
+    return names, None
+
+
+def _write_record(folder: Path, names: Sequence[str]) -> None:
+    write_json_atomic(folder / FIGURES_RECORD, {RECORD_KEY: sorted(set(names))})
+
+
+def _removable(folder: Path, name: str) -> bool:
+    """Whether a recorded ``name`` is a figure's file right in ``folder`` (a record edited to name
+    ``../x.png`` or a folder removes nothing)."""
+    return Path(name).name == name and name not in ("", ".", "..") and is_figure_file(folder / name)
+
+
+def _holds_files(folder: Path) -> bool:
+    """Whether ``folder`` exists and holds anything but the lock (a folder made for the plot holds
+    only the lock: a failed plot leaves it empty, to be removed)."""
+    return folder.is_dir() and any(entry.name != LOCK for entry in folder.iterdir())
+
+
+def removed_line(folder: Path, removed: Sequence[Path]) -> str:
+    """The line that names the earlier plot's figures removed from ``folder``."""
+    return (f"removed {len(removed)} figure file(s) an earlier `nudge plot` wrote into {folder} and this "
+            f"one did not draw: {', '.join(path.name for path in removed)}")
+
+
+def replace_earlier_figures(folder: Path, stems: Sequence[str], formats: Sequence[str],
+                            write: Callable[[], list[Path]],
+                            log: Callable[[str], None] | None = None) -> list[Path]:
+    """Write a plot's figures with ``write`` into ``folder``, then remove those of the earlier plot
+    there that this one did not write, and record this plot's files.
+
+    Parameters
+    ----------
+    folder
+        The figures' folder.
+    stems, formats
+        The figures ``write`` writes (``stem -> <stem>.<fmt>`` for each format): recorded before it
+        runs, so that what a failed ``write`` left is named for the next plot.
+    write
+        Writes the figures; returns the files written.
+    log
+        Receives :func:`removed_line` where earlier figures were removed, and a line where the
+        earlier record could not be read (then nothing is removed).
+
+    Returns
+    -------
+    list[Path]
+        ``write``'s files.
+    """
+    earlier, unreadable = recorded_figures(folder)
+    if unreadable is not None and log is not None:
+        log(f"{folder / FIGURES_RECORD} {unreadable}: no earlier figure is removed; it is written again")
+    planned = [figure_file(folder, stem, fmt).name for stem in stems for fmt in formats]
+    if _holds_files(folder):  # a new folder (the lock aside) has no earlier figures: left as it was
+        _write_record(folder, [*earlier, *planned])
+    written = write()
+    kept = {path.name for path in written}
+    removed = [folder / name for name in sorted(set(earlier) - kept) if _removable(folder, name)]
+    for path in removed:
+        path.unlink()
+    _write_record(folder, sorted(kept))
+    if removed and log is not None:
+        log(removed_line(folder, removed))
+    return written
+
+
+__all__ = ["RECORD_KEY", "recorded_figures", "removed_line", "replace_earlier_figures"]
