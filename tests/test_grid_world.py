@@ -12,7 +12,9 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from nudgecli.model.world import (
+    HEADING_STEP,
     INTER_GOAL_MIN_CELLS,
+    N_HEADINGS,
     X_MAX,
     X_MIN,
     Y_MAX,
@@ -116,3 +118,16 @@ def test_a_goal_is_reached_by_the_rule_at_the_edge_of_the_tolerance(distance, go
             expected = index
             break
     assert world.goal_reached(x, y, gth) == expected
+
+
+def test_a_heading_a_last_bit_short_of_a_goals_heading_is_that_heading() -> None:
+    # a turn onto pi/2 (heading 2, the lower edge of its bin) stops a last bit short of it: the robot
+    # is at the goal's heading, not in the bin below; 2 pi less a bit is heading 0
+    for h in range(N_HEADINGS):
+        edge = h * HEADING_STEP
+        for theta in (edge, math.nextafter(edge, -math.inf), math.nextafter(math.nextafter(edge, 0.0), 0.0),
+                      math.nextafter(edge, math.inf)):
+            assert discretise(20.0, 20.0, theta)[2] == h, (h, theta)
+        # clearly below the edge stays below (a millionth of a radian is far from rounding)
+        assert discretise(20.0, 20.0, edge - 1e-6)[2] == (h - 1) % N_HEADINGS
+    assert discretise(20.0, 20.0, math.nextafter(2.0 * math.pi, 0.0))[2] == 0

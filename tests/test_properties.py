@@ -88,5 +88,6 @@ def test_clamp_and_discretise_are_the_min_max_rules(x: float, y: float, theta: f
     assert world.clamp_position(x, y) == (min(max(x, low_x), high_x), min(max(y, low_y), high_y))
     i = min(max(math.floor((x - world.X_MIN) / world.CELL_WIDTH), 0), world.N_CELLS_X - 1)
     j = min(max(math.floor((y - world.Y_MIN) / world.CELL_HEIGHT), 0), world.N_CELLS_Y - 1)
-    h = math.floor((theta % (2 * math.pi)) / world.HEADING_STEP) % world.N_HEADINGS
+    # a heading within 1e-9 of a bin's lower edge (in bins) is in that bin
+    h = math.floor((theta % (2 * math.pi)) / world.HEADING_STEP + 1e-9) % world.N_HEADINGS
     assert world.discretise(x, y, theta) == (i, j, h)

@@ -131,8 +131,8 @@ def test_handover_only_after_the_idle_time(paper):
         assert autonomy["event"].iloc[0].startswith("handover_to_autonomy")
         commands = (human[["u_h_x", "u_h_y", "u_h_theta"]].abs().sum(axis=1) > 0) | \
             human["event"].str.contains("mode_switch_human")
-        # the last idle_needed + 1 steps of the turn carry no command: the idle time handed it over
-        assert not commands.iloc[-(idle_needed + 1):].any()
+        # the last idle_needed steps of the turn carry no command: the idle time handed it over
+        assert not commands.iloc[-idle_needed:].any()
         assert commands.any(), "a human turn hands over only after the human has given an input"
     assert handed_over >= 1
 
@@ -457,17 +457,17 @@ def test_the_autonomy_hands_back_at_exactly_the_arrival_tolerance(paper):
 
 def test_idle_steps_count_from_the_turns_first_input(paper):
     # samples without input before the turn's first input are not idle time; from a first input
-    # that commands nothing (a deadband sample) the turn passes once the idle count exceeds 3
+    # that commands nothing (a deadband sample) the turn passes once the idle count reaches 3: 0.3 s
+    # without a command (the paper: handover after not issuing commands for the idle time)
     session = session_of(paper, "disambiguation", handover=3)
     for _ in range(10):
         session.human_step(NO_INPUT, 0.0)
     assert session.turn == "human" and session.idle == 0
     session.human_step(SOFT_PUFF, -0.4)  # the puff deadband: an input, no command
     assert session.idle == 1
-    for expected_idle in (2, 3):
-        session.human_step(NO_INPUT, 0.0)
-        assert session.turn == "human" and session.idle == expected_idle
-    session.human_step(NO_INPUT, 0.0)  # the 4th idle step: 4 > 3
+    session.human_step(NO_INPUT, 0.0)
+    assert session.turn == "human" and session.idle == 2
+    session.human_step(NO_INPUT, 0.0)  # the 3rd idle step: 0.3 s without a command
     assert session.turn == "autonomy" and session.autonomy_turns == 1
 
 

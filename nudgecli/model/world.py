@@ -103,14 +103,24 @@ def heading_angle(h: np.ndarray | int) -> np.ndarray | float:
     return np.asarray(h) * HEADING_STEP
 
 
+#: How close, in units of a grid's spacing, a coordinate counts as on one of its marks: a robot turned
+#: onto a goal's or a target's heading (a multiple of 45 degrees) stops a last bit or two short of it.
+MARK_TOLERANCE = 1e-9
+
+
 def discretise(x: float, y: float, theta: float) -> tuple[int, int, int]:
-    """The cell and heading of a continuous pose: nearest cell centre, ``floor(theta / 45 deg)``."""
+    """The cell and heading of a continuous pose: nearest cell centre, ``floor(theta / 45 deg)``.
+
+    A heading within :data:`MARK_TOLERANCE` of a bin's lower edge is in that bin: the edges are the
+    goals' and the nudges' headings, which a turn reaches up to rounding (``pi/2`` less one last bit
+    is the goal's heading 2, not heading 1).
+    """
     # plain floats and comparisons (min/max calls cost more than the rule): this runs every simulated step
     i = math.floor((x - X_MIN) / CELL_WIDTH)
     i = 0 if i < 0 else N_CELLS_X - 1 if i > N_CELLS_X - 1 else i
     j = math.floor((y - Y_MIN) / CELL_HEIGHT)
     j = 0 if j < 0 else N_CELLS_Y - 1 if j > N_CELLS_Y - 1 else j
-    h = math.floor((theta % (2.0 * math.pi)) / HEADING_STEP) % N_HEADINGS
+    h = math.floor((theta % (2.0 * math.pi)) / HEADING_STEP + MARK_TOLERANCE) % N_HEADINGS
     return i, j, h
 
 
@@ -417,5 +427,5 @@ def grid_next_mark(coordinate: float, direction: float, axis: int) -> float:
 def next_multiple(coordinate: float, direction: float, origin: float, width: float) -> float:
     """The next point ``origin + k width`` strictly beyond ``coordinate`` in ``direction`` (a sign)."""
     u = (coordinate - origin) / width
-    k = math.floor(u + 1e-9) + 1 if direction > 0 else math.ceil(u - 1e-9) - 1
+    k = math.floor(u + MARK_TOLERANCE) + 1 if direction > 0 else math.ceil(u - MARK_TOLERANCE) - 1
     return origin + k * width

@@ -388,12 +388,12 @@ class TrialSession:
             if self.reached >= 0:
                 return
             # _hand_over_when_idle, written out (not reached: finished only at the time limit)
-            if self.turn_taking and self.idle > self.handover_idle_steps and step < s.time_limit_steps:
+            if self.turn_taking and self.idle >= self.handover_idle_steps and step < s.time_limit_steps:
                 self._start_autonomy_turn()
 
     def _hand_over_when_idle(self) -> None:
         """The turn passes to the autonomy once the person has been idle for long enough."""
-        if (self.turn_taking and self.initiated_at >= 0 and self.idle > self.handover_idle_steps
+        if (self.turn_taking and self.initiated_at >= 0 and self.idle >= self.handover_idle_steps
                 and not self.finished):
             self._start_autonomy_turn()
 
@@ -414,8 +414,8 @@ class TrialSession:
             return 1
         state, counting = world.state(*pose, self.mode), self.initiated_at >= 0
         steps = min(limit - 1, s.time_limit_steps - self.step)
-        if self.turn_taking and counting:  # it passes at the step whose idle count exceeds the threshold
-            steps = min(steps, self.handover_idle_steps + 1 - self.idle)
+        if self.turn_taking and counting:  # it passes at the step whose idle count reaches the threshold
+            steps = min(steps, self.handover_idle_steps - self.idle)
         self.measured, self.u_h = NO_INPUT, _ZERO3
         if steps <= 0:
             ran = 0

@@ -135,5 +135,6 @@ def run_world_trial(spec: TrialSpec, settings: ProtocolSettings, world: World, p
 
 
 def handover_steps(handover_idle_s: float, dt: float) -> int:
-    """Idle steps that hand the turn over: the turn passes once the idle count exceeds this."""
+    """Idle steps that hand the turn over: the turn passes once the idle count reaches this, after
+    ``handover_idle_s`` without a command (to the nearest step)."""
     return max(1, round(handover_idle_s / dt))
