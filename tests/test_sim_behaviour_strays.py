@@ -226,8 +226,11 @@ def test_the_switch_and_the_thresholds_come_from_the_experiment() -> None:
 #: steps then differed only in the last bits of the belief, entropy and alpha, and of the
 #: autonomy's command and the pose they move (at most 4e-14), its trials only in
 #: ``final_entropy``; the same rows and events. ciaa-teleop has no belief, and kept its digests.
+#: smoke's were made a third time the same day when a heading at a bin's edge became that bin's
+#: and the handover came on time: two model fixes that change every turn-taking run, so from then
+#: on they pin the switched-off person under today's model, no longer the earlier code's tables.
 BEFORE = {("ciaa-teleop", 2): {"steps": "5e8c3f6da595d889", "trials": "b3bc61ccc699bc50"},
-          ("smoke", 1): {"steps": "60cec2ac2e86cc74", "trials": "7b79dbff63895ad2"}}
+          ("smoke", 1): {"steps": "723dbd37460f6f6a", "trials": "328865047e24962b"}}
 
 
 def run_digests(out: Path) -> dict[str, str]:
