@@ -1,7 +1,8 @@
 """The printed and written summaries of an analysis: the plain-text table ``nudge analyze`` prints
 (:func:`format_table`) and ``summary.md`` (:func:`format_summary`), both from
 :func:`~nudgecli.report.stats_document.stats_table`'s tidy table of ``stats.json``; numbers and
-p-values are formatted one way everywhere (:func:`format_value`, :func:`format_p`).
+p-values are formatted one way everywhere (:func:`format_value`, :func:`format_p`): a printed
+p-value is never on the other side of a plan's threshold than the p its stars were given for.
 
 A condition a metric is not applicable to (:mod:`nudgecli.report.not_applicable`) shows
 :data:`NOT_APPLICABLE_CELL` in its cells and in those of its pairs. ``summary.md`` shows the pairs
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
@@ -41,11 +43,76 @@ def format_value(value: Any) -> str:
     return f"{value:.3g}"
 
 
-def format_p(p: float | None) -> str:
-    """A p-value for a table: ``<0.001`` below 0.001, else 3 decimals; ``-`` when missing."""
+#: The thresholds a p-value printed without a plan keeps its side of: the star thresholds of every
+#: shipped plan, whose Kruskal-Wallis alpha is 0.05 as well.
+P_THRESHOLDS: tuple[float, ...] = (0.05, 0.01, 0.001)
+#: Below this a p-value prints as ``<0.001`` (``p < 0.001`` in a sentence).
+P_FLOOR = 0.001
+#: Decimals of a p-value far from every threshold.
+P_DECIMALS = 3
+
+
+def plan_p_thresholds(plan: AnalysisPlan) -> tuple[float, ...]:
+    """The thresholds a plan's p-values are judged against: its star thresholds, then its
+    Kruskal-Wallis alpha (the gate of the stars)."""
+    return (*plan.stats.star_thresholds, plan.stats.kruskal_alpha)
+
+
+def _same_side(text: str, p: float, threshold: float) -> bool:
+    """Whether the printed ``text`` lies on the same side of ``threshold`` as ``p`` (or on it
+    exactly when ``p`` is): then it meets ``p < t`` and ``p <= t`` exactly when ``p`` does.
+
+    The threshold is read as written in the plan (its shortest repr, e.g. ``0.05``), the decimal a
+    reader compares the printed value with; ``p`` is compared as the stars compare it (as floats).
+    """
+    printed = Decimal(text) - Decimal(repr(float(threshold)))
+    exact = (p > threshold) - (p < threshold)
+    return (printed > 0) - (printed < 0) == exact
+
+
+def format_p(p: float | None, thresholds: Sequence[float] = P_THRESHOLDS) -> str:
+    """A p-value for a table: ``<0.001`` below 0.001, ``-`` when missing, else 3 decimals or as
+    many more as keep it on its side of every threshold.
+
+    Rounding alone would print p = 0.009976 as ``0.010`` beside ``**`` (p < .01), and p = 0.0104
+    as ``0.010``, which under the study code's ``p <= .01`` reads as two stars while it has one.
+    So the value is printed to 3 decimals, or to the fewest more for which the rounded value is
+    below, on or above each threshold exactly as ``p`` is (``0.00998``, ``0.0104``): correctly
+    rounded, and right under ``<`` and ``<=`` alike. Rounding toward zero instead would hold only
+    for ``<`` (``0.0104`` -> ``0.010`` again reads as meeting ``<= .01``) and prints 0.009976 as
+    ``0.009``. A p on a float next to a threshold takes all its digits (at most its repr's).
+
+    Parameters
+    ----------
+    p
+        The p-value (``None`` or NaN: missing).
+    thresholds
+        The plan's star thresholds and Kruskal-Wallis alpha (:func:`plan_p_thresholds`); those
+        below :data:`P_FLOOR` say nothing ``<0.001`` could contradict.
+
+    Returns
+    -------
+    str
+        ``-``, ``<0.001``, or the decimal (``0.012``, ``0.00998``).
+    """
     if p is None or not math.isfinite(p):
         return "-"
-    return "<0.001" if p < 0.001 else f"{p:.3f}"
+    p = float(p)  # a numpy float's repr names its type
+    if p < P_FLOOR:
+        return "<0.001"
+    # repr(p) ends the search: no float other than t has its shortest repr on or across t's
+    decimals = len(repr(p).partition(".")[2])
+    for places in range(P_DECIMALS, max(decimals, P_DECIMALS) + 1):
+        text = f"{p:.{places}f}"
+        if all(_same_side(text, p, t) for t in thresholds):
+            return text
+    return repr(p)
+
+
+def _p_clause(p: float | None, thresholds: Sequence[float]) -> str:
+    """A p-value in a sentence: ``p = 0.012``, ``p < 0.001``."""
+    text = format_p(p, thresholds)
+    return "p < 0.001" if text == "<0.001" else f"p = {text}"
 
 
 def _median_iqr(median: Any, q1: Any, q3: Any) -> str:
@@ -99,7 +166,8 @@ def _side(row: Mapping[str, Any], side: str) -> str:
     return _median_iqr(row[f"median_{side}"], row[f"q1_{side}"], row[f"q3_{side}"])
 
 
-def format_table(table: pd.DataFrame, conditions: Sequence[str], reference: str | None = None) -> str:
+def format_table(table: pd.DataFrame, conditions: Sequence[str], reference: str | None = None, *,
+                 thresholds: Sequence[float] = P_THRESHOLDS) -> str:
     """A plain-text table of the statistics: one row per metric x pair of conditions.
 
     Parameters
@@ -111,6 +179,8 @@ def format_table(table: pd.DataFrame, conditions: Sequence[str], reference: str 
     reference
         Only the pairs of this condition (``--reference``; three or more conditions), as
         ``summary.md`` and the figures show them; ``stats.csv`` keeps every pair.
+    thresholds
+        The analysis plan's (:func:`plan_p_thresholds`): each p keeps its side of them (:func:`format_p`).
 
     Columns: median [q1, q3] of both conditions, Kruskal-Wallis p, Conover p, stars, the
     participant-level p, the effect size and the median difference with its interval. A pair
@@ -138,13 +208,14 @@ def format_table(table: pd.DataFrame, conditions: Sequence[str], reference: str 
         if _left_out(r):
             # with two conditions the participant-level test and its effect are the pair's own
             own = NOT_APPLICABLE_CELL
-            row += [_side(r, "a"), _side(r, "b"), format_p(r["kruskal_p"]), own, own,
-                    own if two else format_p(r["participant_p"]),
+            row += [_side(r, "a"), _side(r, "b"), format_p(r["kruskal_p"], thresholds), own, own,
+                    own if two else format_p(r["participant_p"], thresholds),
                     own if two else _effect(r["effect_size_name"], r["effect_size"]), own]
         else:
             row += [_median_iqr(r["median_a"], r["q1_a"], r["q3_a"]),
-                    _median_iqr(r["median_b"], r["q1_b"], r["q3_b"]), format_p(r["kruskal_p"]),
-                    format_p(r["conover_p"]), r["stars"] or "ns", format_p(r["participant_p"]),
+                    _median_iqr(r["median_b"], r["q1_b"], r["q3_b"]), format_p(r["kruskal_p"], thresholds),
+                    format_p(r["conover_p"], thresholds), r["stars"] or "ns",
+                    format_p(r["participant_p"], thresholds),
                     _effect(r["effect_size_name"], r["effect_size"]),
                     _interval(r["difference"], r["ci_low"], r["ci_high"])]
         rows.append(row)
@@ -202,14 +273,16 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
     for metric, pairs_of_metric in table.groupby("metric", sort=False):
         reasons = (not_applicable or {}).get(str(metric), {})
         lines += _metric_section(str(metric), pairs_of_metric, descriptives[descriptives["metric"] == metric],
-                                 many, display, reference, reasons)
+                                 many, display, reference, reasons, plan_p_thresholds(plan))
     return "\n".join(lines) + "\n"
 
 
 def _metric_section(metric: str, pairs_of_metric: pd.DataFrame, own: pd.DataFrame, many: bool,
-                    display: PairDisplay, reference: str | None, reasons: Mapping[str, str]) -> list[str]:
+                    display: PairDisplay, reference: str | None, reasons: Mapping[str, str],
+                    thresholds: Sequence[float]) -> list[str]:
     """One metric's lines of ``summary.md``: its tests, the conditions left out of them, its
-    descriptives (with letters) and its pairs (``own``: its rows of the condition table)."""
+    descriptives (with letters) and its pairs (``own``: its rows of the condition table;
+    ``thresholds``: the plan's, :func:`plan_p_thresholds`)."""
     first = pairs_of_metric.iloc[0]
     compared = [str(r["condition"]) for r in own.to_dict("records") if not is_not_applicable(r["n"])]
     lines = ["", f"## {metric}", ""]
@@ -218,11 +291,11 @@ def _metric_section(metric: str, pairs_of_metric: pd.DataFrame, own: pd.DataFram
     else:
         lines.append(
             f"Kruskal-Wallis H = {format_value(first['kruskal_statistic'])}, "
-            f"p = {format_p(first['kruskal_p'])}. "
+            f"{_p_clause(first['kruskal_p'], thresholds)}. "
             f"Participant level ({first['participant_test']}, {int(first['n_participants'])} "
             "participants): "
             f"statistic = {format_value(first['participant_statistic'])}, "
-            f"p = {format_p(first['participant_p'])}. "
+            f"{_p_clause(first['participant_p'], thresholds)}. "
             f"Effect size: {_effect(first['effect_size_name'], first['effect_size'])}"
             + (f", epsilon-squared = {format_value(first['epsilon_squared'])}." if many else "."))
     left_out = [str(r["condition"]) for r in own.to_dict("records") if is_not_applicable(r["n"])]
@@ -247,18 +320,19 @@ def _metric_section(metric: str, pairs_of_metric: pd.DataFrame, own: pd.DataFram
               "difference of medians", f"{first['ci_level']:.0%} CI"]
     if many:
         header += [f"Wilcoxon p ({first['p_adjust']})", "effect"]
-    return [*lines, "", _render(header, [_pair_cells(r, many) for r in shown], markdown=True)]
+    return [*lines, "", _render(header, [_pair_cells(r, many, thresholds) for r in shown], markdown=True)]
 
 
-def _pair_cells(r: Mapping[str, Any], many: bool) -> list[str]:
+def _pair_cells(r: Mapping[str, Any], many: bool, thresholds: Sequence[float]) -> list[str]:
     """One pair's row of ``summary.md``'s comparisons (:data:`NOT_APPLICABLE_CELL` for a pair
     holding a condition left out)."""
     if _left_out(r):
         return [f"{r['a']} - {r['b']}"] + [NOT_APPLICABLE_CELL] * (7 if many else 5)
-    return ([f"{r['a']} - {r['b']}", format_p(r["conover_p"]), format_p(r["conover_p_unadjusted"]),
+    return ([f"{r['a']} - {r['b']}", format_p(r["conover_p"], thresholds),
+             format_p(r["conover_p_unadjusted"], thresholds),
              r["stars"] or "ns", format_value(r["difference"]),
              f"[{format_value(r['ci_low'])}, {format_value(r['ci_high'])}]"]
-            + ([format_p(r["pairwise_p"]),
+            + ([format_p(r["pairwise_p"], thresholds),
                 _effect(r["pairwise_effect_size_name"], r["pairwise_effect_size"])] if many else []))
 
 
