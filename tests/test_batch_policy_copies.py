@@ -241,3 +241,74 @@ def test_the_resume_hint_names_the_batchs_copy_of_its_people_file(tmp_path: Path
     (tmp_path / "people").mkdir()
     (tmp_path / "people" / "p.csv").write_text("x")
     assert people_to_resume(tmp_path, "typed.csv") == str(tmp_path / "people" / "p.csv")
+
+
+# --- --force into a folder of the person's own files ------------------------------------------
+
+def user_folder(tmp_path: Path, text: str) -> Path:
+    """A folder that holds no run or batch, with the person's own ``policies/threshold.py``."""
+    folder = tmp_path / "mine-folder"
+    (folder / "policies").mkdir(parents=True)
+    (folder / "policies" / "threshold.py").write_text(text)
+    (folder / "notes.txt").write_text("my notes")
+    return folder
+
+
+def run_command(experiment: Path, out: Path, *flags: str) -> list[str | Path]:
+    """``nudge simulate`` of ``experiment`` into ``out``."""
+    return ["simulate", experiment, "--participants", "2", "--out", out, *flags]
+
+
+@pytest.mark.parametrize("kind", ["replicate", "sweep", "simulate"])
+def test_force_into_a_folder_with_a_users_file_at_a_copys_path_is_refused_and_touches_nothing(
+        experiment: Path, tmp_path: Path, kind: str) -> None:
+    folder = user_folder(tmp_path, "# my own threshold, not the experiment's\n")
+    before = snapshot(folder)
+    words = run_command(experiment, folder, "--force") if kind == "simulate" else \
+        command(kind, experiment, folder, "--force")
+    refused = nudge(*words)
+    assert refused.exit_code == 1, refused.output
+    line = one_error_line(refused.stderr)
+    assert str(folder / "policies" / "threshold.py") in line and "never writes over it" in line
+    assert "policies/threshold.py" in line and ("batch" in line) == (kind != "simulate")
+    assert snapshot(folder) == before
+
+
+def test_a_users_file_where_a_copys_folder_goes_is_refused(experiment: Path, tmp_path: Path) -> None:
+    folder = tmp_path / "mine-folder"
+    folder.mkdir()
+    (folder / "policies").write_text("a file named policies")
+    refused = nudge(*command("replicate", experiment, folder, "--force"))
+    assert refused.exit_code == 1
+    line = one_error_line(refused.stderr)  # before: "policies: File exists", from the copy's mkdir
+    assert line.startswith(f"Error: {folder / 'policies'}: a file of your own")
+    assert "never writes over it" in line
+    assert snapshot(folder) == {"policies": b"a file named policies"}
+
+
+@pytest.mark.parametrize("kind", ["replicate", "simulate"])
+def test_force_into_a_folder_whose_file_holds_the_copys_bytes_runs_and_leaves_the_rest(
+        experiment: Path, tmp_path: Path, kind: str) -> None:
+    source = experiment.parent / "policies" / "threshold.py"
+    folder = user_folder(tmp_path, source.read_text())
+    words = run_command(experiment, folder, "--force") if kind == "simulate" else \
+        command(kind, experiment, folder, "--force")
+    made = nudge(*words)
+    assert made.exit_code == 0, made.output
+    assert (folder / "policies" / "threshold.py").read_bytes() == source.read_bytes()
+    assert (folder / "notes.txt").read_text() == "my notes"
+
+
+@pytest.mark.parametrize("kind", ["replicate", "simulate"])
+def test_force_over_its_own_kind_replaces_an_edited_recorded_copy(
+        experiment: Path, tmp_path: Path, kind: str) -> None:
+    """A copy the folder's manifest records is the folder's own, not the person's: --force
+    replaces it with the new experiment's module (the rule refuses only unrecorded files)."""
+    out = tmp_path / "out"
+    words = run_command(experiment, out) if kind == "simulate" else command(kind, experiment, out)
+    assert nudge(*words).exit_code == 0
+    copy = out / "policies" / "threshold.py"
+    copy.write_text(copy.read_text() + "\n# edited in the folder\n")
+    again = nudge(*words, "--force")
+    assert again.exit_code == 0, again.output
+    assert copy.read_bytes() == (experiment.parent / "policies" / "threshold.py").read_bytes()

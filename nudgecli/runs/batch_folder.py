@@ -33,6 +33,7 @@ from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, keep_copy, remove_copy
 from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
 from nudgecli.sim.policy_files import (
+    check_copies_placeable,
     check_same_policy_files,
     keep_policy_copies,
     loaded_policy_files,
@@ -407,6 +408,9 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     DataError
         A resume whose policy modules differ from those ``batch.json`` records (names the file:
         the batch would mix two policies), before anything is touched.
+    RunFolderError
+        A policy copy's path holds a file of the person's own
+        (:func:`~nudgecli.sim.policy_files.check_copies_placeable`), before anything is touched.
     """
     policies = policies or PolicyCopies()
     manifest = folder / BATCH_MANIFEST
@@ -418,13 +422,17 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     held = "its batch.json damaged" if damage is not None else \
         None if old is None else f"{old['batch'].get('kind')}, {old.get('status')}"
     mode = prepare_mode(folder, held, resume, force, kind="batch")
+    copies = None if old is None else old.get(POLICY_FILES_KEY)  # the policy copies the folder records
     if old is not None and mode == "resume":
         if differences := batch_differences(old["batch"], description):
             shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                   if len(differences) > 8 else "")
             raise RunFolderError(f"{folder}: holds a different batch ({shown}); resume it with the same "
                                  "settings, or use --force")
-        check_same_policy_files(old.get(POLICY_FILES_KEY), policies.files, policies.source, folder, "batch")
+        check_same_policy_files(copies, policies.files, policies.source, folder, "batch")
+    # before anything is removed: a copy's path holding a file of the person's own stops the batch
+    check_copies_placeable(policies.files, folder, copies, "batch")
+    if old is not None and mode == "resume":
         # what writers killed mid-write left (the batch's lock is held: no live writer owns them)
         own = [folder / name for name in ("tasks", "analyses", FIGURES_DIR, PEOPLE_DIR)]
         remove_temporaries((folder, *own, *(folder / "tasks").glob("*/")))
@@ -436,7 +444,7 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
         # of people/, the old batch's copy of its people file goes; other files there stay
         described = None if old is None else old.get("batch")
         remove_copy(folder, described.get(PEOPLE_KEY) if isinstance(described, dict) else None)
-        remove_policy_copies(folder, None if old is None else old.get(POLICY_FILES_KEY))
+        remove_policy_copies(folder, copies)
         manifest.unlink()
     (folder / PART_RECORD).unlink(missing_ok=True)  # a new batch: no line left there vouches for a part
     folder.mkdir(parents=True, exist_ok=True)
