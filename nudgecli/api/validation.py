@@ -102,8 +102,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
     min_goals, max_goals
         |G| steps cyclically from ``min_goals`` to ``max_goals``.
     states
-        |S| = 2 modes x W x H cells of the two-mode world; another than the default is refused
-        with the three-mode reading alone, and noted with ``all_readings``.
+        |S| = 2 modes x W x H cells of the two-mode world (not for the three-mode reading alone).
     seed
         Master seed of the whole validation.
     belief_concentration
@@ -131,7 +130,6 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
     from nudgecli.api import arguments
     from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size
     from nudgecli.sim import validation
-    from nudgecli.sim.validation.settings import states_note
 
     counts = {name: arguments.whole_number(name, value) for name, value in (
         ("simulations", simulations), ("min_goals", min_goals), ("max_goals", max_goals), ("states", states),
@@ -144,7 +142,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         **counts, reading=arguments.text("reading", reading),
         belief_concentration=arguments.real_number("belief_concentration", belief_concentration))
     names = list(validation.READINGS) if all_readings else [reading]
-    note = states_note(counts["states"], names)
+    note = validation.settings.states_note(counts["states"], names)  # before any work
     for name in names:
         replace(settings, reading=name).check()
     check_size(simulations * states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
