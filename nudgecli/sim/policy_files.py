@@ -127,14 +127,15 @@ def check_same_policy_files(recorded: object, files: Mapping[str, bytes], source
 
 
 def check_copies_placeable(files: Mapping[str, bytes], folder: str | Path, recorded: object,
-                           kind: str = "run") -> None:
+                           kind: str = "run", what: str = "policy module") -> None:
     """Refuse to keep ``files`` in ``folder`` where one of their paths holds something of the
     person's own: a file with other bytes (or a folder, or a file where a copy's folder goes) that
     the folder's manifest does not record as a copy (``recorded``: its :data:`MANIFEST_KEY` entry,
     ``None`` without one). ``--force`` into a folder that is not a run (or a batch) writes into it
     rather than clearing it, and :func:`keep_policy_copies` would write over such a file; a file
     that holds the copy's bytes already is left alone, and a recorded copy is the folder's own (a
-    replacement removes it, a resume puts it back). Checked before the folder is touched.
+    replacement removes it, a resume puts it back). Checked before the folder is touched. ``what``
+    names the copies in the message (a batch's experiment and plan are ``input`` copies).
 
     Raises
     ------
@@ -153,8 +154,8 @@ def check_copies_placeable(files: Mapping[str, bytes], folder: str | Path, recor
         if blocked is None and (not target.exists() or (target.is_file() and target.read_bytes() == data)):
             continue
         shown = blocked or target
-        raise RunFolderError(f"{shown}: a file of your own where the {kind} keeps its copy of the policy "
-                             f"module {name} (not one its manifest records); the {kind} never writes over "
+        raise RunFolderError(f"{shown}: a file of your own where the {kind} keeps its copy of the {what} "
+                             f"{name} (not one its manifest records); the {kind} never writes over "
                              "it: move it out of the folder, or choose another --out")
 
 
