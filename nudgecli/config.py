@@ -183,7 +183,7 @@ class ModelSection(Section):
     """``[model]``: the human model the agent assumes (goal MDPs, epsilon-greedy policy, tables)."""
 
     # the study's values, where the goal MDPs are defined (nudgecli.model.mdp)
-    epsilon: Annotated[float, Field(ge=0, lt=1)] = DEFAULT_HUMAN_EPSILON
+    epsilon: float = Field(default=DEFAULT_HUMAN_EPSILON, description="Eq. 1's epsilon, in (0, 1).")
     gamma: Annotated[float, Field(gt=0, lt=1)] = DEFAULT_GAMMA
     move_reward: float = MDPRewards.move
     mode_switch_reward: float = MDPRewards.mode_switch
@@ -194,6 +194,19 @@ class ModelSection(Section):
         description="fitted: tables estimated from each participant's (simulated) calibration; "
         "default: 0.8 one-hot + 0.2 uniform for everyone.")
     default_table_noise: Probability = DEFAULT_TABLE_NOISE
+
+    @field_validator("epsilon")
+    @classmethod
+    def _epsilon_in_open_interval(cls, epsilon: float) -> float:
+        # at 0 a label that no goal's optimal action gives (with noiseless tables) is impossible
+        # under every goal and the Bayesian update cannot normalise; NaN fails the comparison too.
+        # Any epsilon > 0 keeps every label possible whatever default_table_noise is (tests pin it)
+        if not 0.0 < epsilon < 1.0:
+            raise ValueError("must lie in (0, 1), both ends excluded (the paper's Eq. 1): at 0 the assumed "
+                             "person takes only each goal's optimal action, so an input no goal's optimal "
+                             "action gives has zero probability under every goal and goal inference stops; "
+                             "at 1 the inputs say nothing about the goal; e.g. 0.1")
+        return epsilon
 
 
 class InferenceSection(Section):

@@ -188,9 +188,12 @@ def test_force_removes_the_replaced_batchs_policy_copies_and_keeps_other_files(
     (out / "policies" / "notes.txt").unlink()
     again = nudge(*command("replicate", experiment, out, "--force"))
     assert again.exit_code == 0, again.output
+    assert (out / "experiment.toml").is_file() and (out / "plan.toml").is_file()
     again = nudge(*command("replicate", experiment.parent / "plain.toml", out, "--force"))
     assert again.exit_code == 0, again.output
     assert not (out / "policies").exists()
+    # the replaced batch's experiment and plan go too; a batch of built-in policies keeps none
+    assert not (out / "experiment.toml").exists() and not (out / "plan.toml").exists()
 
 
 @pytest.mark.parametrize("package", ["tasks", "analyses"])
@@ -241,3 +244,153 @@ def test_the_resume_hint_names_the_batchs_copy_of_its_people_file(tmp_path: Path
     (tmp_path / "people").mkdir()
     (tmp_path / "people" / "p.csv").write_text("x")
     assert people_to_resume(tmp_path, "typed.csv") == str(tmp_path / "people" / "p.csv")
+
+
+# --- --force into a folder of the person's own files ------------------------------------------
+
+def user_folder(tmp_path: Path, text: str) -> Path:
+    """A folder that holds no run or batch, with the person's own ``policies/threshold.py``."""
+    folder = tmp_path / "mine-folder"
+    (folder / "policies").mkdir(parents=True)
+    (folder / "policies" / "threshold.py").write_text(text)
+    (folder / "notes.txt").write_text("my notes")
+    return folder
+
+
+def run_command(experiment: Path, out: Path, *flags: str) -> list[str | Path]:
+    """``nudge simulate`` of ``experiment`` into ``out``."""
+    return ["simulate", experiment, "--participants", "2", "--out", out, *flags]
+
+
+@pytest.mark.parametrize("kind", ["replicate", "sweep", "simulate"])
+def test_force_into_a_folder_with_a_users_file_at_a_copys_path_is_refused_and_touches_nothing(
+        experiment: Path, tmp_path: Path, kind: str) -> None:
+    folder = user_folder(tmp_path, "# my own threshold, not the experiment's\n")
+    before = snapshot(folder)
+    words = run_command(experiment, folder, "--force") if kind == "simulate" else \
+        command(kind, experiment, folder, "--force")
+    refused = nudge(*words)
+    assert refused.exit_code == 1, refused.output
+    line = one_error_line(refused.stderr)
+    assert str(folder / "policies" / "threshold.py") in line and "never writes over it" in line
+    assert "policies/threshold.py" in line and ("batch" in line) == (kind != "simulate")
+    assert snapshot(folder) == before
+
+
+def test_a_users_file_where_a_copys_folder_goes_is_refused(experiment: Path, tmp_path: Path) -> None:
+    folder = tmp_path / "mine-folder"
+    folder.mkdir()
+    (folder / "policies").write_text("a file named policies")
+    refused = nudge(*command("replicate", experiment, folder, "--force"))
+    assert refused.exit_code == 1
+    line = one_error_line(refused.stderr)  # before: "policies: File exists", from the copy's mkdir
+    assert line.startswith(f"Error: {folder / 'policies'}: a file of your own")
+    assert "never writes over it" in line
+    assert snapshot(folder) == {"policies": b"a file named policies"}
+
+
+@pytest.mark.parametrize("kind", ["replicate", "simulate"])
+def test_force_into_a_folder_whose_file_holds_the_copys_bytes_runs_and_leaves_the_rest(
+        experiment: Path, tmp_path: Path, kind: str) -> None:
+    source = experiment.parent / "policies" / "threshold.py"
+    folder = user_folder(tmp_path, source.read_text())
+    words = run_command(experiment, folder, "--force") if kind == "simulate" else \
+        command(kind, experiment, folder, "--force")
+    made = nudge(*words)
+    assert made.exit_code == 0, made.output
+    assert (folder / "policies" / "threshold.py").read_bytes() == source.read_bytes()
+    assert (folder / "notes.txt").read_text() == "my notes"
+
+
+@pytest.mark.parametrize("kind", ["replicate", "simulate"])
+def test_force_over_its_own_kind_replaces_an_edited_recorded_copy(
+        experiment: Path, tmp_path: Path, kind: str) -> None:
+    """A copy the folder's manifest records is the folder's own, not the person's: --force
+    replaces it with the new experiment's module (the rule refuses only unrecorded files)."""
+    out = tmp_path / "out"
+    words = run_command(experiment, out) if kind == "simulate" else command(kind, experiment, out)
+    assert nudge(*words).exit_code == 0
+    copy = out / "policies" / "threshold.py"
+    copy.write_text(copy.read_text() + "\n# edited in the folder\n")
+    again = nudge(*words, "--force")
+    assert again.exit_code == 0, again.output
+    assert copy.read_bytes() == (experiment.parent / "policies" / "threshold.py").read_bytes()
+
+
+# --- a batch resumes from its own folder ------------------------------------------------------
+
+def interrupted_batch(kind: str, experiment: Path, monkeypatch: pytest.MonkeyPatch,
+                      *flags: str) -> list[str]:
+    """Run ``nudge KIND`` from the experiment's folder with paths as typed there (``mine.toml``,
+    ``--out batch``), Ctrl-C'd after its first task; the words of the resume command it printed."""
+    import shlex
+
+    from nudgecli.runs.batch_folder import PartRecord
+
+    monkeypatch.chdir(experiment.parent)
+    original = PartRecord.write_parquet
+    calls: list[int] = []
+
+    def interrupted(self: PartRecord, *args: object) -> None:
+        if calls:
+            raise KeyboardInterrupt
+        calls.append(1)
+        original(self, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(PartRecord, "write_parquet", interrupted)
+    typed = command(kind, experiment, Path("batch"))
+    words = [str(w).replace(str(experiment.parent) + "/", "") for w in typed]
+    result = nudge(*words, *flags)
+    monkeypatch.setattr(PartRecord, "write_parquet", original)
+    assert result.exit_code == 130, result.output
+    return shlex.split(result.output.split("resume with: ")[1].strip().splitlines()[0])
+
+
+@pytest.mark.parametrize("kind", ["replicate", "power"])
+def test_a_batchs_printed_resume_command_works_from_another_folder_with_the_experiment_gone(
+        experiment: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, kind: str) -> None:
+    whole = tmp_path / "whole"
+    made = nudge(*command(kind, experiment, whole, "--set", "study.time_limit_s=40"))
+    assert made.exit_code == 0, made.output
+    words = interrupted_batch(kind, experiment, monkeypatch, "--set", "study.time_limit_s=40")
+    batch = experiment.parent / "batch"
+    assert words[:3] == ["nudge", kind, "batch/experiment.toml"]
+    assert words[words.index("--plan") + 1] == "batch/plan.toml" and "--set" not in words
+    moved = tmp_path / "moved"
+    shutil.move(batch, moved / "batch")  # the batch as well: the command names it from its parent
+    shutil.rmtree(experiment.parent)  # the experiment, its plan and its policies are gone
+    monkeypatch.chdir(moved)  # another folder than the one the batch was started in
+    resumed = nudge(*words[1:])
+    assert resumed.exit_code == 0, resumed.output
+    tables = sorted(p.name for p in whole.glob("*.csv"))
+    assert tables and {name: (moved / "batch" / name).read_bytes() for name in tables} == \
+        {name: (whole / name).read_bytes() for name in tables}
+    manifest = json.loads((moved / "batch" / BATCH_MANIFEST).read_text())
+    assert manifest["inputs"] == {name: sha256(moved / "batch" / name)
+                                  for name in ("experiment.toml", "plan.toml")}
+
+
+def test_a_resume_puts_back_a_lost_experiment_copy_and_leaves_one_there(
+        experiment: Path, tmp_path: Path) -> None:
+    out = tmp_path / "batch"
+    assert nudge(*command("replicate", experiment, out)).exit_code == 0
+    kept = (out / "experiment.toml").read_bytes()
+    (out / "experiment.toml").unlink()
+    (out / "plan.toml").write_text((out / "plan.toml").read_text() + "# a note of mine\n")
+    noted = (out / "plan.toml").read_bytes()
+    resumed = nudge(*command("replicate", experiment, out, "--resume"))
+    assert resumed.exit_code == 0, resumed.output
+    assert (out / "experiment.toml").read_bytes() == kept
+    assert (out / "plan.toml").read_bytes() == noted  # a resume never writes over a file it may read
+
+
+def test_force_into_a_folder_with_a_users_experiment_toml_is_refused_and_touches_nothing(
+        experiment: Path, tmp_path: Path) -> None:
+    folder = tmp_path / "mine-folder"
+    folder.mkdir()
+    (folder / "experiment.toml").write_text("# my own experiment\n")
+    refused = nudge(*command("replicate", experiment, folder, "--force"))
+    assert refused.exit_code == 1
+    line = one_error_line(refused.stderr)
+    assert line.startswith(f"Error: {folder / 'experiment.toml'}: a file of your own") and "input" in line
+    assert snapshot(folder) == {"experiment.toml": b"# my own experiment\n"}

@@ -37,11 +37,14 @@ class Validation:
         Whether every reading ran (``--all-readings``): the printed table is then one row per reading.
     files
         The files written (with ``out``).
+    notes
+        What to tell the person beside the results, a line each (an option some readings ignore).
     """
 
     results: tuple[ValidationResult, ...]
     all_readings: bool
     files: list[Path] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     def summary(self) -> dict[str, Any]:
         """The one reading's JSON summary (``validation.json``); with ``all_readings`` the first's."""
@@ -99,7 +102,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
     min_goals, max_goals
         |G| steps cyclically from ``min_goals`` to ``max_goals``.
     states
-        |S| = 2 modes x W x H cells of the two-mode world.
+        |S| = 2 modes x W x H cells of the two-mode world (not for the three-mode reading alone).
     seed
         Master seed of the whole validation.
     belief_concentration
@@ -139,6 +142,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         **counts, reading=arguments.text("reading", reading),
         belief_concentration=arguments.real_number("belief_concentration", belief_concentration))
     names = list(validation.READINGS) if all_readings else [reading]
+    note = validation.settings.states_note(counts["states"], names)  # before any work
     for name in names:
         replace(settings, reading=name).check()
     check_size(simulations * states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
@@ -152,7 +156,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         results = validation.run_all_readings(settings, names, progress=progress)
     else:
         results = [validation.run_validation(settings, progress=progress)]
-    made = Validation(tuple(results), all_readings)
+    made = Validation(tuple(results), all_readings, notes=[note] if note else [])
     if out is not None:
         if all_readings:
             made.files.extend(validation.save_readings(results, out))

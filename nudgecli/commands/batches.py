@@ -73,21 +73,26 @@ def rerun_command(ctx: click.Context, target: Path, people: str | None = None) -
     """The command line that resumes the interrupted command of ``ctx`` into ``target``: its
     arguments and the options given on the command line (``--people`` naming ``people`` where
     given), ``--out target`` and ``--resume`` (``--force`` dropped: it would delete what was
-    finished)."""
+    finished). Where the batch folder keeps its experiment and plan
+    (:func:`nudgecli.runs.batch_folder.kept_inputs`: a batch of policies of its own), it names
+    those instead (the experiment resolved, so without ``--set``): they import the batch's own
+    policy copies, so the command works from any folder, the experiment's moved or gone."""
     from click.core import ParameterSource
 
+    from nudgecli.runs.batch_folder import kept_inputs
     from nudgecli.store import resume_command
 
+    kept = {name: str(path) for name, path in kept_inputs(target).items()}
     arguments: list[str] = []
-    options: list[str] = []
+    options: list[str] = ["--plan", kept["plan"]] if "plan" in kept else []
     for param in ctx.command.params:
         name = param.name or ""
         value = people if name == "people" and people is not None else ctx.params.get(name)
         if isinstance(param, click.Argument):
-            arguments.append(str(value))
+            arguments.append(kept.get(name, str(value)))
             continue
         given = ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE
-        if name in ("out", "resume", "force") or not given:
+        if name in ("out", "resume", "force") or not given or (kept and name in ("plan", "overrides")):
             continue
         flag = max(param.opts, key=len)  # the long name: --replications, not -R
         if getattr(param, "is_flag", False):

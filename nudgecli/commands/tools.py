@@ -137,6 +137,8 @@ def validate_command(simulations: int, min_goals: int, max_goals: int, states: i
         bar.close()
     runs = len(result.results)
     info(f"validation: {simulations * runs} simulations in {time.perf_counter() - start:.1f} s")
+    for note in result.notes:
+        info(f"Note: {note}")
     if output_format == "json":
         echo_json(result.to_json())
     else:

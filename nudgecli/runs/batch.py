@@ -347,7 +347,7 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     check_batch_size(batch, size, confirm)  # trials, then steps: before anything is built
     for point in batch.points:
         check_physiology_logs(point.config)
-    copies = policy_copies(point.config for point in batch.points)  # kept in the folder, as a run's
+    copies = policy_copies(batch)  # the policy code (and inputs) kept in the folder, as a run's
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
     folder = Path(out)
     made = not folder.exists()

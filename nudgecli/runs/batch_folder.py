@@ -33,6 +33,7 @@ from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, keep_copy, remove_copy
 from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
 from nudgecli.sim.policy_files import (
+    check_copies_placeable,
     check_same_policy_files,
     keep_policy_copies,
     loaded_policy_files,
@@ -51,7 +52,7 @@ from nudgecli.store import (
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
     import pandas as pd
 
-    from nudgecli.config import ExperimentConfig
+    from nudgecli.runs.batch import Batch
 
 BATCH_MANIFEST = "batch.json"
 #: The record of the batch's parts: one ``<SHA-256>  <path in the folder>`` line per part written.
@@ -65,6 +66,13 @@ BATCH_TABLES = ("replications", "conditions", "summary", "power", "smallest_n", 
 BATCH_FIGURES = ("forest", "power", "sweep", "sensitivity")
 #: The batch folder's own folders, which a policy package of the same name would write into.
 BATCH_FOLDERS = frozenset({"tasks", "analyses", PEOPLE_DIR, FIGURES_DIR})
+#: A replicate's or power's own experiment (resolved: its ``--set`` applied) and analysis plan,
+#: kept in the folder as a run keeps its ``config.toml``: the experiment imports the policy copies
+#: beside it, so the batch resumes from its folder alone (:func:`kept_inputs`).
+EXPERIMENT_COPY = "experiment.toml"
+PLAN_COPY = "plan.toml"
+#: ``batch.json``'s record of those two files: ``{name: SHA-256}``.
+INPUTS_KEY = "inputs"
 
 
 @dataclass(frozen=True)
@@ -85,18 +93,24 @@ class PolicyCopies:
 
     files: Mapping[str, bytes] = field(default_factory=dict)
     source: str | None = None
+    inputs: Mapping[str, bytes] = field(default_factory=dict)
 
     def record(self) -> dict[str, dict[str, str]]:
-        """``batch.json``'s entry of the copies (``policy_files``: relative path -> SHA-256); none
-        without copies (a batch of built-in policies records nothing, as before)."""
-        return {POLICY_FILES_KEY: policy_record(self.files)} if self.files else {}
+        """``batch.json``'s entries of the copies (``policy_files``: relative path -> SHA-256; and
+        ``inputs``, :data:`INPUTS_KEY`); none without copies."""
+        return {**({POLICY_FILES_KEY: policy_record(self.files)} if self.files else {}),
+                **({INPUTS_KEY: policy_record(self.inputs)} if self.inputs else {})}
 
 
-def policy_copies(configs: Iterable[ExperimentConfig]) -> PolicyCopies:
-    """The policy modules the batch's experiments (one per design point) import from their folder.
+def policy_copies(batch: Batch) -> PolicyCopies:
+    """What the batch folder keeps of ``batch``'s code and inputs: the policy modules the batch's
+    experiments (one per design point) import from their folder and, for a batch of one point
+    (replicate, power) whose experiment has policies of its own, the experiment and the plan
+    (:data:`EXPERIMENT_COPY`, :data:`PLAN_COPY`) that import those copies again on a resume.
 
     Points whose policies name the same factories import the same modules (a sweep over a policy's
-    parameters), so each set of factories is loaded once.
+    parameters), so each set of factories is loaded once. A sweep keeps no experiment: each point
+    is its own, made from the sweep file.
 
     Raises
     ------
@@ -105,17 +119,37 @@ def policy_copies(configs: Iterable[ExperimentConfig]) -> PolicyCopies:
     ConfigError
         A policy package named like one of the batch folder's own (:data:`BATCH_FOLDERS`).
     """
+    from nudgecli.config_files import dump_toml
+
     files: dict[str, bytes] = {}
     source: str | None = None
     loaded: set[tuple[str | None, tuple[str, ...]]] = set()
-    for config in configs:
+    for config in (point.config for point in batch.points):
         factories = (config.policy_search_path, tuple(spec.factory for spec in policy_specs(config)))
         if factories in loaded:
             continue
         loaded.add(factories)
         files.update(loaded_policy_files(config, BATCH_FOLDERS, "batch"))
         source = source or config.policy_search_path
-    return PolicyCopies(files, source if files else None)
+    if not files or batch.kind == "sweep":
+        return PolicyCopies(files, source if files else None)
+    plan = dump_toml(batch.plan.model_dump(mode="json", exclude_none=True))
+    inputs = {EXPERIMENT_COPY: batch.points[0].config.to_toml(), PLAN_COPY: plan}
+    return PolicyCopies(files, source, {name: text.encode("utf-8") for name, text in inputs.items()})
+
+
+def kept_inputs(folder: Path) -> dict[str, Path]:
+    """The experiment and plan ``folder``'s batch keeps (``{"experiment": FOLDER/experiment.toml,
+    "plan": FOLDER/plan.toml}``), each where its ``batch.json`` records it and it is there; empty
+    otherwise (a batch without policies of its own, a sweep, a batch of an older nudge). A resume
+    of them imports the batch's own policy copies, from any folder: what the command that resumes
+    the batch names."""
+    old, _ = read_manifest(folder / BATCH_MANIFEST)
+    recorded = old.get(INPUTS_KEY) if old is not None else None
+    if not isinstance(recorded, Mapping):
+        return {}
+    return {label: folder / name for label, name in (("experiment", EXPERIMENT_COPY), ("plan", PLAN_COPY))
+            if name in recorded and (folder / name).is_file()}
 
 
 def task_part(folder: Path, study: str, participant: int) -> Path:
@@ -395,9 +429,11 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     keeps the batch's ``people`` file and its ``policies``' modules, byte for byte
     (:func:`nudgecli.sim.people_file.keep_copy`,
     :func:`nudgecli.sim.policy_files.keep_policy_copies`; a resume puts back a missing copy).
-    Replacing a batch removes all it wrote (:func:`remove_outputs`) and the copies its manifest
-    records; a damaged manifest (:func:`read_manifest`) is refused unless ``force``, which replaces
-    its batch.
+    A batch of one point keeps its experiment and plan as well (``policies.inputs``,
+    :func:`policy_copies`): a resume puts back a lost one and never writes over one there (it may
+    be what the resume read). Replacing a batch removes all it wrote (:func:`remove_outputs`) and
+    the copies (and inputs) its manifest records; a damaged manifest (:func:`read_manifest`) is
+    refused unless ``force``, which replaces its batch.
 
     Raises
     ------
@@ -407,6 +443,9 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     DataError
         A resume whose policy modules differ from those ``batch.json`` records (names the file:
         the batch would mix two policies), before anything is touched.
+    RunFolderError
+        A policy copy's path holds a file of the person's own
+        (:func:`~nudgecli.sim.policy_files.check_copies_placeable`), before anything is touched.
     """
     policies = policies or PolicyCopies()
     manifest = folder / BATCH_MANIFEST
@@ -418,28 +457,37 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     held = "its batch.json damaged" if damage is not None else \
         None if old is None else f"{old['batch'].get('kind')}, {old.get('status')}"
     mode = prepare_mode(folder, held, resume, force, kind="batch")
+    copies = None if old is None else old.get(POLICY_FILES_KEY)  # the policy copies the folder records
+    inputs = None if old is None else old.get(INPUTS_KEY)
     if old is not None and mode == "resume":
         if differences := batch_differences(old["batch"], description):
             shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                   if len(differences) > 8 else "")
             raise RunFolderError(f"{folder}: holds a different batch ({shown}); resume it with the same "
                                  "settings, or use --force")
-        check_same_policy_files(old.get(POLICY_FILES_KEY), policies.files, policies.source, folder, "batch")
+        check_same_policy_files(copies, policies.files, policies.source, folder, "batch")
+    # before anything is removed: a copy's path holding a file of the person's own stops the batch
+    check_copies_placeable(policies.files, folder, copies, "batch")
+    if old is not None and mode == "resume":
         # what writers killed mid-write left (the batch's lock is held: no live writer owns them)
         own = [folder / name for name in ("tasks", "analyses", FIGURES_DIR, PEOPLE_DIR)]
         remove_temporaries((folder, *own, *(folder / "tasks").glob("*/")))
         keep_copy(people, folder)
         keep_policy_copies(policies.files, folder)
+        # a lost experiment or plan is put back; one there is the batch's (it may be what resumes it)
+        keep_policy_copies({n: d for n, d in policies.inputs.items() if not (folder / n).exists()}, folder)
         return "resume"
+    check_copies_placeable(policies.inputs, folder, inputs, "batch", "input")
     if mode == "replace":  # every output of the old batch goes, before any work: none outlives it
         remove_outputs(folder)
         # of people/, the old batch's copy of its people file goes; other files there stay
         described = None if old is None else old.get("batch")
         remove_copy(folder, described.get(PEOPLE_KEY) if isinstance(described, dict) else None)
-        remove_policy_copies(folder, None if old is None else old.get(POLICY_FILES_KEY))
+        remove_policy_copies(folder, copies)
+        remove_policy_copies(folder, inputs)
         manifest.unlink()
     (folder / PART_RECORD).unlink(missing_ok=True)  # a new batch: no line left there vouches for a part
     folder.mkdir(parents=True, exist_ok=True)
     keep_copy(people, folder)
-    keep_policy_copies(policies.files, folder)
+    keep_policy_copies({**policies.files, **policies.inputs}, folder)
     return "new"

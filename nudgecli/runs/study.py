@@ -48,6 +48,7 @@ from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, keep_copy, people_of
 from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
 from nudgecli.sim.policy_files import (
+    check_copies_placeable,
     check_same_policy_files,
     keep_policy_copies,
     loaded_policy_files,
@@ -399,8 +400,8 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                 progress: Callable[[int, int], None] | None, plan_name: str | None,
                 people: People | None = None, policy_files: Mapping[str, bytes] | None = None) -> StudyRun:
     """:func:`run_study` once the folder's lock is held (``client``: the connected dask client, or None)."""
+    policy_files = _placeable_copies(folder, policy_files or {})  # before the folder is touched
     mode = folder.prepare(config, seed, n, resume=resume, force=force)
-    policy_files = policy_files or {}
     _keep_inputs(folder, mode == "resume", config, people, policy_files)
     done = set(folder.completed_participants()) & set(range(n)) if mode == "resume" else set()
     if mode == "resume":
@@ -474,6 +475,17 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     folder.write_manifest(manifest)
     return StudyRun(path=folder.path, experiment=config.experiment.name, mode=mode, participants=n,
                     computed=todo, trials=folder.read_trials())
+
+
+def _placeable_copies(folder: RunFolder, policy_files: Mapping[str, bytes]) -> Mapping[str, bytes]:
+    """``policy_files``, once none of their copies would write over a file of the person's own in
+    ``folder`` (:func:`~nudgecli.sim.policy_files.check_copies_placeable`; the copies a run there
+    records are its own); checked before the folder is prepared."""
+    if policy_files:
+        held = folder.read_manifest() if folder.is_run() else None
+        check_copies_placeable(policy_files, folder.path,
+                               held.get(POLICY_FILES_KEY) if isinstance(held, dict) else None)
+    return policy_files
 
 
 def _keep_inputs(folder: RunFolder, resuming: bool, config: ExperimentConfig, people: People | None,

@@ -20,7 +20,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from nudgecli.errors import ConfigError, DataError
+from nudgecli.errors import ConfigError, DataError, RunFolderError
 from nudgecli.run_folder_names import FIGURES_DIR, PART_KINDS, PEOPLE_DIR
 from nudgecli.sim.policy_loader import imported_files, remove_cached_bytecode
 from nudgecli.sim.policy_registry import load_factory, policy_specs
@@ -124,6 +124,39 @@ def check_same_policy_files(recorded: object, files: Mapping[str, bytes], source
         raise DataError(f"{what}: resuming would mix two policies in one {kind}; put the file back as it "
                         f"was (the {kind} keeps its copy as {Path(where) / name}) and {how}, or start "
                         "again with --force")
+
+
+def check_copies_placeable(files: Mapping[str, bytes], folder: str | Path, recorded: object,
+                           kind: str = "run", what: str = "policy module") -> None:
+    """Refuse to keep ``files`` in ``folder`` where one of their paths holds something of the
+    person's own: a file with other bytes (or a folder, or a file where a copy's folder goes) that
+    the folder's manifest does not record as a copy (``recorded``: its :data:`MANIFEST_KEY` entry,
+    ``None`` without one). ``--force`` into a folder that is not a run (or a batch) writes into it
+    rather than clearing it, and :func:`keep_policy_copies` would write over such a file; a file
+    that holds the copy's bytes already is left alone, and a recorded copy is the folder's own (a
+    replacement removes it, a resume puts it back). Checked before the folder is touched. ``what``
+    names the copies in the message (a batch's experiment and plan are ``input`` copies).
+
+    Raises
+    ------
+    RunFolderError
+        The first such path, by its relative path: names it, the module and the fix.
+    """
+    root = Path(folder)
+    own = set(map(str, recorded)) if isinstance(recorded, Mapping) else set()
+    for name, data in sorted(files.items()):
+        if name in own:
+            continue
+        target = root / name
+        parents = [parent for parent in target.parents if root in parent.parents]
+        blocked = next((parent for parent in reversed(parents) if parent.exists() and not parent.is_dir()),
+                       None)
+        if blocked is None and (not target.exists() or (target.is_file() and target.read_bytes() == data)):
+            continue
+        shown = blocked or target
+        raise RunFolderError(f"{shown}: a file of your own where the {kind} keeps its copy of the {what} "
+                             f"{name} (not one its manifest records); the {kind} never writes over "
+                             "it: move it out of the folder, or choose another --out")
 
 
 def keep_policy_copies(files: Mapping[str, bytes], folder: str | Path) -> None:

@@ -4,6 +4,7 @@ Monte-Carlo convergence study's sample counts, checked when made."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -13,7 +14,7 @@ from nudgecli import command_defaults as defaults
 from nudgecli.errors import ConfigError
 from nudgecli.model.information import Weighting
 from nudgecli.model.mdp import DEFAULT_GAMMA
-from nudgecli.model.world import N_CELLS_X, N_CELLS_Y
+from nudgecli.model.world import N_CELLS_X, N_CELLS_Y, N_HEADINGS, N_MODES, N_STATES
 from nudgecli.rng import check_seed
 from nudgecli.sim.validation.readings import READINGS, TWO_GOAL_REST, TWO_GOAL_SPLIT, get_reading
 from nudgecli.sim.validation.world import N_VALIDATION_MODES
@@ -179,4 +180,43 @@ class ValidationSettings:
         return data
 
 
-__all__ = ["DEFAULT_MC_SAMPLES", "MAX_MC_SAMPLES", "MC_VARIANTS", "ValidationSettings"]
+def states_note(states: int, readings: Sequence[str]) -> str | None:
+    """Whether ``--states`` applies to the readings run: it sizes the two-mode world alone.
+
+    As ``--reading`` beside ``--all-readings``, ``--states`` counts as given when it differs from
+    its default. Refused where no reading run has the two-mode world (``--reading three-mode``);
+    where some have, a note that the three-mode ones keep the study's world.
+
+    Parameters
+    ----------
+    states
+        ``--states``.
+    readings
+        Names of the readings run.
+
+    Returns
+    -------
+    str | None
+        The note (without its ``Note:``) when some readings ignore ``states``, else ``None``.
+
+    Raises
+    ------
+    ConfigError
+        ``states`` given and every reading has the three-mode world.
+    """
+    if states == defaults.VALIDATION_STATES:
+        return None
+    own_world = [name for name in readings if get_reading(name).world == "three-mode"]
+    world = (f"the study's {N_CELLS_X} x {N_CELLS_Y} cells x {N_HEADINGS} headings x {N_MODES} modes "
+             f"({N_STATES} states)")
+    if own_world and len(own_world) == len(readings):
+        raise ConfigError(f"--states {states} does not apply to --reading {own_world[0]}: its world is "
+                          f"{world}; leave --states out, or choose a two-mode reading "
+                          "(e.g. --reading dirichlet)")
+    if own_world:
+        return (f"--states {states} sizes the two-mode readings' world; the {', '.join(own_world)} row "
+                f"keeps {world}")
+    return None
+
+
+__all__ = ["DEFAULT_MC_SAMPLES", "MAX_MC_SAMPLES", "MC_VARIANTS", "ValidationSettings", "states_note"]

@@ -1,0 +1,89 @@
+"""``nudge validate --states`` sizes the two-mode world only; the three-mode reading has the study's.
+
+``--reading three-mode --states 50`` is one ``Error:`` line (as ``--reading`` beside
+``--all-readings`` is refused rather than ignored); with ``--all-readings`` ``--states`` still sizes
+the two-mode rows, so a ``Note:`` line says the three-mode row keeps its own world. Before, both
+took ``--states`` and ignored it for the three-mode world. Seen failing before the fix.
+"""
+
+from __future__ import annotations
+
+import pytest
+from cli_helpers import one_error_line
+from click.testing import CliRunner
+
+from nudgecli import command_defaults as defaults
+from nudgecli.api.validation import validate
+from nudgecli.cli import main
+from nudgecli.errors import ConfigError
+from nudgecli.sim.validation.readings import READINGS
+from nudgecli.sim.validation.settings import states_note
+
+SMALL = ["validate", "--simulations", "1", "--min-goals", "3", "--max-goals", "3", "--mc-queries", "0"]
+
+
+def _never(*args: object, **kwargs: object) -> None:
+    raise AssertionError("the validation ran before the option check")
+
+
+@pytest.mark.parametrize("states", ["50", "72", "2400"])
+def test_states_with_the_three_mode_reading_is_one_error_line(tmp_path, monkeypatch, states: str) -> None:
+    monkeypatch.setattr("nudgecli.sim.validation.run_validation", _never)
+    out = tmp_path / "v"
+    result = CliRunner().invoke(main, [*SMALL, "--reading", "three-mode", "--states", states,
+                                       "--out", str(out)])
+    line = one_error_line(result.output)
+    assert result.exit_code == 1
+    assert f"--states {states}" in line and "three-mode" in line and "2400" in line
+    assert not out.exists()
+
+
+def test_the_api_refuses_states_with_the_three_mode_reading() -> None:
+    with pytest.raises(ConfigError, match="--states 72 does not apply to --reading three-mode"):
+        validate(simulations=1, min_goals=3, max_goals=3, states=72, mc_queries=0, reading="three-mode")
+
+
+def test_the_three_mode_reading_without_states_runs(monkeypatch) -> None:
+    ran = []
+    monkeypatch.setattr("nudgecli.sim.validation.run_validation",
+                        lambda settings, progress: ran.append(settings))
+    monkeypatch.setattr("nudgecli.api.validation.Validation.text", lambda self: "")
+    result = CliRunner().invoke(main, [*SMALL, "--reading", "three-mode"])
+    assert result.exit_code == 0, result.output
+    assert [s.reading for s in ran] == ["three-mode"] and "Note" not in result.output
+
+
+def test_all_readings_with_states_notes_that_the_three_mode_row_keeps_its_world(monkeypatch) -> None:
+    seen = []
+    monkeypatch.setattr("nudgecli.sim.validation.run_all_readings",
+                        lambda settings, names, progress: seen.append((settings, names)) or [])
+    monkeypatch.setattr("nudgecli.api.validation.Validation.text", lambda self: "the table")
+    result = CliRunner().invoke(main, [*SMALL, "--all-readings", "--states", "72"])
+    assert result.exit_code == 0, result.output
+    notes = [line for line in result.stderr.splitlines() if line.startswith("Note: ")]
+    assert len(notes) == 1 and "--states 72" in notes[0] and "three-mode" in notes[0] and "2400" in notes[0]
+    assert result.stdout.strip() == "the table"
+    (settings, names), = seen
+    assert settings.states == 72 and names == list(READINGS)
+
+
+def test_all_readings_without_states_has_no_note(monkeypatch) -> None:
+    monkeypatch.setattr("nudgecli.sim.validation.run_all_readings", lambda settings, names, progress: [])
+    monkeypatch.setattr("nudgecli.api.validation.Validation.text", lambda self: "the table")
+    result = CliRunner().invoke(main, [*SMALL, "--all-readings"])
+    assert result.exit_code == 0, result.output
+    assert "Note" not in result.output
+
+
+@pytest.mark.parametrize("names", [["dirichlet"], ["two-goal", "lambda-1"], list(READINGS)])
+def test_the_default_states_needs_no_word(names: list[str]) -> None:
+    assert states_note(defaults.VALIDATION_STATES, names) is None
+
+
+def test_states_for_two_mode_readings_alone_needs_no_word() -> None:
+    assert states_note(72, [name for name, r in READINGS.items() if r.world == "two-mode"]) is None
+
+
+def test_states_for_the_three_mode_reading_alone_is_refused() -> None:
+    with pytest.raises(ConfigError, match="--states 50 does not apply"):
+        states_note(50, ["three-mode"])
