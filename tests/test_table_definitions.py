@@ -115,7 +115,9 @@ def test_a_success_column_that_is_not_a_trials_success_is_not_used() -> None:
     assert trial_success(table) is None
     defined = apply_plan_definitions(table, load_plan("paper"), ["completion_time"])
     assert defined.table is table and not defined.changed
-    assert "own definitions were used for completion_time" in str(defined.line)
+    assert "completion_time is the table's own: it has no success column" in str(defined.line)
+    # under all_trials every time the table holds counts: nothing to say
+    assert apply_plan_definitions(table, load_plan("study-code"), ["completion_time"]).line is None
 
 
 def test_no_plan_defined_metric_analysed_says_nothing() -> None:

@@ -89,33 +89,33 @@ def apply_plan_definitions(table: pd.DataFrame, plan: AnalysisPlan,
     """
     definitions = plan.metrics
     success = trial_success(table)
-    applied: str | None = None
-    own = [m for m in PLAN_DEFINED if m in analysed and m != "completion_time"]
-    times_left_out = 0  # failed trials without a time, where the plan wants every trial's
+    parts: list[str] = []
+    caveat: str | None = None  # why completion_time is the table's own, where it is
     changed = False
     if "completion_time" in analysed and "completion_time" in table.columns:
         times = pd.to_numeric(table["completion_time"]).astype("Float64").to_numpy(float, na_value=np.nan)
-        if success is None:
-            own.append("completion_time")  # no success column to tell which trials count
-        elif definitions.completion_time == "successful_trials":
+        wanted = f"plan {plan.label}'s completion_time = {definitions.completion_time!r}"
+        if definitions.completion_time == "successful_trials" and success is None:
+            caveat = (f"completion_time is the table's own: it has no success column of True/False (or 1/0) "
+                      f"to keep successful trials' times only by, as {wanted} does")
+        elif definitions.completion_time == "successful_trials" and success is not None:
             kept = successful_only(times, success)
             dropped = int(np.count_nonzero(np.isnan(kept) & ~np.isnan(times)))
-            applied = (f"completion_time over successful trials only (by its success column: "
-                       f"{dropped} other trials' times left out), as plan {plan.label} defines it")
+            parts.append(f"completion_time over successful trials only (by its success column: "
+                         f"{dropped} other trials' times left out), as plan {plan.label} defines it")
             if dropped:
                 table = table.copy(deep=False)  # a new column, the others shared: no copy of a large table
                 table["completion_time"] = kept
                 changed = True
-        else:
-            failed = ~success.fillna(True).to_numpy(bool)
-            times_left_out = int(np.count_nonzero(np.isnan(times[failed])))
-    parts = [applied] if applied else []
+        elif success is not None:  # all_trials: the times of failed trials must be there
+            missing = int(np.count_nonzero(np.isnan(times[~success.fillna(True).to_numpy(bool)])))
+            if missing:
+                caveat = (f"completion_time is the table's own: {missing} failed trials have no time in it, "
+                          f"and {wanted} counts them (analyse the run folder for those times)")
+    own = [m for m in PLAN_DEFINED if m in analysed and m != "completion_time"]
     if own:
         names = ", ".join(f"{m} = {getattr(definitions, PLAN_DEFINED[m])!r}" for m in own)
         parts.append(f"the table's own definitions were used for {', '.join(own)} (plan {plan.label}'s "
                      f"{names} are computed from a run folder's trials and steps)")
-    if times_left_out:
-        parts.append(f"completion_time is the table's own: {times_left_out} failed trials have no time in "
-                     f"it, and plan {plan.label}'s completion_time = 'all_trials' counts them (analyse the "
-                     "run folder for those times)")
+    parts += [caveat] if caveat else []
     return TableDefinitions(table, changed, "; ".join(parts) if parts else None)
