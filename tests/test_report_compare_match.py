@@ -105,9 +105,10 @@ def test_the_cli_compares_the_matched_condition_and_notes_the_one_left_out(tmp_p
     result = CliRunner().invoke(main, ["compare", *sources, "--match", "disambiguation=control",
                                        "--resamples", "0", "--format", "csv"])
     assert result.exit_code == 0, result.output
-    assert result.stderr == (f"Note: condition 'control' of the simulated source ({tmp_path / 'sim.csv'}) is "
-                             "left out: --match disambiguation=control compares 'disambiguation' as the real "
-                             "'control'; pair it with --match control=REAL to compare it too\n")
+    notes = [line for line in result.stderr.splitlines(True) if line.startswith("Note: condition ")]
+    assert notes == [(f"Note: condition 'control' of the simulated source ({tmp_path / 'sim.csv'}) is "
+                      "left out: --match disambiguation=control compares 'disambiguation' as the real "
+                      "'control'; pair it with --match control=REAL to compare it too\n")]
     compared = pd.read_csv(io.StringIO(result.stdout))
     assert list(compared["condition"]) == ["control"] and list(compared["n_simulated"]) == [8]
 

@@ -168,7 +168,7 @@ def test_compare_says_which_conditions_one_table_holds_alone(tmp_path):
                                        "--format", "json"])
     assert result.exit_code == 0, result.output
     assert json.loads(result.stdout)["conditions"] == ["disambiguation", "control"]
-    notes = [line for line in result.stderr.splitlines() if line.startswith("Note: ")]
+    notes = [line for line in result.stderr.splitlines() if line.startswith("Note: condition ")]
     assert notes == [
         f"Note: condition 'blending' is only in the real table ({real}): not compared; pair it with "
         "--match SIMULATED=blending",

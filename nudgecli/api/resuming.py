@@ -1,4 +1,5 @@
-"""What a command that resumes an interrupted run or batch folder names: the ``--people`` file.
+"""What a command that resumes an interrupted run or batch folder names: the ``--people`` file,
+and a batch's own experiment and plan files.
 
 A run or batch made with ``--people`` keeps an exact copy of the file in its folder
 (``people/<name>``, :func:`nudgecli.sim.people_file.keep_copy`); the command that resumes it names
@@ -51,4 +52,21 @@ def people_to_resume(folder: str | Path, typed: str | None) -> str | None:
     return resume_people(folder, _recorded_people(Path(folder)), typed)
 
 
-__all__ = ["people_to_resume"]
+def inputs_to_resume(folder: str | Path) -> dict[str, str]:
+    """The experiment and plan files the command that resumes batch ``folder`` names in place of
+    the ones typed, where the folder keeps them (a batch of policies of its own:
+    :func:`nudgecli.runs.batch_folder.kept_inputs`): they import the batch's own policy copies, so
+    the command works from any folder.
+
+    Returns
+    -------
+    dict[str, str]
+        ``{"experiment": path, "plan": path}`` for those kept (paths by ``folder`` as given); empty
+        where none is.
+    """
+    from nudgecli.runs.batch_folder import kept_inputs
+
+    return {name: str(path) for name, path in kept_inputs(Path(folder)).items()}
+
+
+__all__ = ["inputs_to_resume", "people_to_resume"]

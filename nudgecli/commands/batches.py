@@ -74,15 +74,15 @@ def rerun_command(ctx: click.Context, target: Path, people: str | None = None) -
     arguments and the options given on the command line (``--people`` naming ``people`` where
     given), ``--out target`` and ``--resume`` (``--force`` dropped: it would delete what was
     finished). Where the batch folder keeps its experiment and plan
-    (:func:`nudgecli.runs.batch_folder.kept_inputs`: a batch of policies of its own), it names
+    (:func:`nudgecli.api.resuming.inputs_to_resume`: a batch of policies of its own), it names
     those instead (the experiment resolved, so without ``--set``): they import the batch's own
     policy copies, so the command works from any folder, the experiment's moved or gone."""
     from click.core import ParameterSource
 
-    from nudgecli.runs.batch_folder import kept_inputs
+    from nudgecli.api.resuming import inputs_to_resume
     from nudgecli.store import resume_command
 
-    kept = {name: str(path) for name, path in kept_inputs(target).items()}
+    kept = inputs_to_resume(target)
     arguments: list[str] = []
     options: list[str] = ["--plan", kept["plan"]] if "plan" in kept else []
     for param in ctx.command.params:

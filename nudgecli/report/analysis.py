@@ -17,6 +17,8 @@ values are an error naming rows and columns, condition labels that differ only b
 surrounding spaces are an error with a "did you mean"; a CSV's delimiter is sniffed
 (:mod:`nudgecli.report.tables`).
 
+A table is taken under the plan's metric definitions as far as its own columns allow, the rest
+being the table's own, said in a note (:mod:`nudgecli.report.table_definitions`).
 The plan's filters apply, then the statistics (:mod:`nudgecli.report.stats_document`) and the
 summary (:mod:`nudgecli.report.summary`). A run folder's metrics that its conditions make constant
 by construction are left out of their tests for those conditions
@@ -83,6 +85,7 @@ from nudgecli.report.questionnaires import (
 from nudgecli.report.stats import ComparisonOptions, order_conditions
 from nudgecli.report.stats_document import compare_conditions, json_ready, stats_csv, stats_table
 from nudgecli.report.summary import format_summary
+from nudgecli.report.table_definitions import apply_plan_definitions
 from nudgecli.report.table_read import TABLE_READ_KEY, table_read_record
 from nudgecli.report.tables import (
     NON_METRIC_COLUMNS,
@@ -278,7 +281,9 @@ def load_source(source: Path, plan: AnalysisPlan, min_conditions: int = 1, *, dr
     least ``min_conditions`` conditions; repeated trial rows refused, or dropped with
     ``drop_duplicates``: :func:`~nudgecli.report.tables.drop_or_refuse_duplicates`). What was left
     out goes to ``notes``. With ``metrics`` (``--metric``) only those of a table's columns must be
-    numeric; its other non-numeric columns are left out.
+    numeric; its other non-numeric columns are left out. A table is taken under ``plan``'s metric
+    definitions as far as its columns allow, and what it defines itself is said in ``notes``
+    (:func:`~nudgecli.report.table_definitions.apply_plan_definitions`).
     """
     notes = [] if notes is None else notes
     if not source.exists():
@@ -286,7 +291,9 @@ def load_source(source: Path, plan: AnalysisPlan, min_conditions: int = 1, *, dr
     if source.is_dir():
         return _load_source(source, plan, notes)
     table, metric_columns, _ = _load_table(source, drop_duplicates, notes, min_conditions, metrics)
-    return table, metric_columns, analysis_folder(source)
+    defined = apply_plan_definitions(table, plan, metrics or metric_columns)
+    notes += [f"{source}: {defined.line}"] if defined.line else []
+    return defined.table, metric_columns, analysis_folder(source)
 
 
 def _study_conditions(manifest: dict[str, Any] | None) -> list[str]:
@@ -436,6 +443,11 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     selected = _select_metrics(metrics, [*available, *score_names])
     trial_selected = [m for m in selected if m in available]
     score_selected = [m for m in selected if m in score_names]
+    definitions_line = None
+    if not source.is_dir():  # a run's metrics were computed with the plan's definitions already
+        defined = apply_plan_definitions(table, plan, trial_selected)
+        table, changed, definitions_line = defined.table, changed or defined.changed, defined.line
+        notes += [f"{source}: {definitions_line}"] if definitions_line else []
 
     filtered, changed = _filtered(table, plan, changed)
     conditions = order_conditions(filtered["condition"].cat.categories,
@@ -461,6 +473,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     notes += _excluded_notes(tidy)
     summary = format_summary(tidy, stats["conditions"], plan, source_from_out, n_trials=len(filtered),
                              n_participants=filtered["participant"].nunique(), reference=reference,
+                             definitions=definitions_line,
                              not_applicable={e["metric"]: e.get("not_applicable_reasons") or {}
                                              for e in stats["metrics"]})
 

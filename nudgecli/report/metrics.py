@@ -224,7 +224,7 @@ def metrics_frame(trials: pd.DataFrame, values: Mapping[str, np.ndarray], *,
         reached = pd.array(values["last_inferred_goal"] == trials["true_goal"].to_numpy(), dtype="boolean")
     duration = pd.to_numeric(trials["duration_s"]).astype(float).to_numpy()
     if completion_time == "successful_trials":
-        duration = np.where(reached.fillna(False).to_numpy(bool), duration, np.nan)
+        duration = successful_only(duration, reached)
     # built in one go (a column at a time cost a block insertion each)
     columns: dict[str, Any] = {name: trials[name].array for name in ID_COLUMNS}
     columns.update({
@@ -240,6 +240,28 @@ def metrics_frame(trials: pd.DataFrame, values: Mapping[str, np.ndarray], *,
         "wrong_goal": wrong_goal(trials),
     })
     return pd.DataFrame(columns)
+
+
+def successful_only(times: np.ndarray, success: pd.arrays.BooleanArray) -> np.ndarray:
+    """The paper's completion time (``completion_time = "successful_trials"``): a trial's time where
+    it succeeded, missing elsewhere (a failed trial, or one whose success is unknown).
+
+    The one place of the rule: a run's metrics (:func:`metrics_frame`) and a metrics table's
+    (:mod:`nudgecli.report.table_definitions`) both go through it.
+
+    Parameters
+    ----------
+    times
+        ``(T,)`` float seconds.
+    success
+        ``(T,)`` nullable booleans.
+
+    Returns
+    -------
+    np.ndarray
+        ``(T,)`` float: ``times`` where ``success`` is True, NaN elsewhere.
+    """
+    return np.where(success.fillna(False).to_numpy(bool), times, np.nan)
 
 
 def wrong_goal(trials: pd.DataFrame) -> pd.arrays.BooleanArray:
