@@ -22,12 +22,6 @@ def nudge(*args: str):
     return CliRunner().invoke(main, [*args])
 
 
-def files_of(folder: Path) -> dict[str, bytes]:
-    """Every file under ``folder`` but the lock (relative path -> bytes)."""
-    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
-            if p.is_file() and p.name != ".nudge.lock"}
-
-
 def an_old_batch(folder: Path, kind: str = "power") -> None:
     """A folder holding every output any batch kind writes, as a finished ``kind`` batch left it,
     and two files of the user's own (one among the figures)."""

@@ -53,3 +53,9 @@ def copy_run(source: Path, target: Path) -> Path:
     """A copy of the run folder ``source`` at ``target`` (for tests that damage a run)."""
     shutil.copytree(source, target)
     return target
+
+
+def files_of(folder: Path) -> dict[str, bytes]:
+    """Every file under ``folder`` but the lock (relative path -> bytes)."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file() and p.name != ".nudge.lock"}

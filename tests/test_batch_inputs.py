@@ -6,8 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from batch_helpers import REPLICATE, an_old_batch, files_of, nudge
-from cli_helpers import one_error_line
+from batch_helpers import REPLICATE, an_old_batch, nudge
+from cli_helpers import files_of, one_error_line
 from people_helpers import PEOPLE_BYTES
 
 from nudgecli.errors import WriteError

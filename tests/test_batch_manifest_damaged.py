@@ -7,8 +7,8 @@ import json
 from pathlib import Path
 
 import pytest
-from batch_helpers import REPLICATE, USERS_FILES, an_old_batch, files_of, nudge
-from cli_helpers import one_error_line
+from batch_helpers import REPLICATE, USERS_FILES, an_old_batch, nudge
+from cli_helpers import files_of, one_error_line
 
 from nudgecli.errors import RunFolderError
 from nudgecli.runs.batch_folder import prepare_folder

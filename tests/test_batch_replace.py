@@ -8,7 +8,8 @@ import json
 from pathlib import Path
 
 import pytest
-from batch_helpers import REPLICATE, USERS_FILES, an_old_batch, files_of, nudge
+from batch_helpers import REPLICATE, USERS_FILES, an_old_batch, nudge
+from cli_helpers import files_of
 
 from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.runs import batch as batch_module

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from cli_helpers import copy_run, one_error_line
+from cli_helpers import copy_run, files_of, one_error_line
 from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -38,11 +38,6 @@ from nudgecli.model.world import N_MODES
 from nudgecli.runs.study import run_study
 
 NOISELESS = ["--set", "model.tables=\"default\"", "--set", "model.default_table_noise=0"]
-
-
-def files_of(folder: Path) -> dict[str, bytes]:
-    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
-            if p.is_file() and p.name != ".nudge.lock"}
 
 
 @pytest.fixture(scope="module")

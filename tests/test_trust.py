@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from cli_helpers import copy_run, one_error_line
+from cli_helpers import copy_run, files_of, one_error_line
 from click.testing import CliRunner
 from hypothesis import given
 from hypothesis import strategies as st
@@ -40,12 +40,6 @@ PARTS = ("trials", "steps", "participants")
 
 def invoke(args: list[str]):
     return CliRunner().invoke(main, args)
-
-
-def files_of(folder: Path) -> dict[str, bytes]:
-    """Every file under ``folder`` (the lock aside) by its relative path, with its bytes."""
-    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
-            if p.is_file() and p.name != ".nudge.lock"}
 
 
 @pytest.fixture(scope="module")
