@@ -202,7 +202,6 @@ def test_plot_finds_the_table_an_analysis_folder_did_not_copy(tmp_path):
     from nudgecli.bench.analyze import synthetic_metrics_table
 
     frame = synthetic_metrics_table(400, 6)
-    frame.loc[~frame["success"], "completion_time"] = None  # as the paper plan analyses it: kept as it is
     source = write(tmp_path / "full.csv", frame)
     result = analyze(source, bootstrap=100)
     assert not (result.out / "metrics.csv").exists()

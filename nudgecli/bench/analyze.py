@@ -36,7 +36,9 @@ def synthetic_metrics_table(rows: int, participants: int, seed: int = BENCH_SEED
 
     Participant ``p`` has ``rows / participants`` trials (half per condition, the remainder
     spread over the first participants), a participant level and a condition effect; the
-    metrics have the types and ranges of real ones (fractions, counts, seconds, booleans).
+    metrics have the types and ranges of real ones (fractions, counts, seconds, booleans). A failed
+    trial has no completion time, as in the table ``nudge analyze`` writes of a run under the paper
+    plan (whose completion time counts successful trials only), so the plan leaves it as it is.
 
     Returns
     -------
@@ -52,7 +54,7 @@ def synthetic_metrics_table(rows: int, participants: int, seed: int = BENCH_SEED
     level = rng.normal(0.0, 1.0, participants)[participant]
     effect = np.where(control, 0.3, 0.0)
     completion = np.exp(3.0 + 0.2 * level + effect + rng.normal(0.0, 0.4, rows)).round(1)
-    return pd.DataFrame({
+    table = pd.DataFrame({
         "participant": participant,
         "condition": np.where(control, "control", "disambiguation"),
         "block": trial // 8,
@@ -65,6 +67,8 @@ def synthetic_metrics_table(rows: int, participants: int, seed: int = BENCH_SEED
         "human_turns": 1 + rng.poisson(2.0 + effect),
         "success": rng.random(rows) < 0.9 - 0.1 * effect,
     })
+    table["completion_time"] = table["completion_time"].where(table["success"])
+    return table
 
 
 def figure_analyze(options: BenchOptions) -> dict[str, Any]:
