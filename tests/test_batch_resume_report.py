@@ -8,8 +8,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from batch_helpers import files_of
-from cli_helpers import one_error_line
+from cli_helpers import files_of, one_error_line
 from click.testing import CliRunner
 from people_helpers import PEOPLE_BYTES
 
