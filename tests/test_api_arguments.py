@@ -223,3 +223,11 @@ def test_real_numbers_texts_switches_and_trials() -> None:
         with pytest.raises(ConfigError, match=r"^trial="):
             arguments.trial(value)
     assert arguments.formats("png,pdf") == ("png", "pdf") and arguments.formats(["svg"]) == ("svg",)
+
+
+def test_a_whole_number_below_its_least_says_the_number_not_its_type() -> None:
+    with pytest.raises(ConfigError) as raised:
+        arguments.whole_number("participants", 0, minimum=1)
+    assert str(raised.value) == "participants=0: participants= takes a whole number of at least 1, not 0"
+    with pytest.raises(ConfigError, match=r"takes a whole number \(an int\), not str$"):
+        arguments.whole_number("participants", "3")

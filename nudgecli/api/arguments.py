@@ -19,9 +19,10 @@ from typing import Any, Literal, overload
 from nudgecli.errors import ConfigError
 
 
-def _refuse(name: str, value: object, wanted: str) -> ConfigError:
-    """The error of argument ``name`` given ``value`` where ``wanted`` (``"a whole number"``) is needed."""
-    return ConfigError(f"{name}={value!r}: {name}= takes {wanted}, not {type(value).__name__}")
+def _refuse(name: str, value: object, wanted: str, got: str | None = None) -> ConfigError:
+    """The error of argument ``name`` given ``value`` where ``wanted`` (``"a whole number"``) is needed;
+    ``got`` says what was given instead (its type's name when absent)."""
+    return ConfigError(f"{name}={value!r}: {name}= takes {wanted}, not {got or type(value).__name__}")
 
 
 @overload
@@ -46,7 +47,7 @@ def whole_number(name: str, value: object, *, optional: bool = False,
     if isinstance(value, bool) or not isinstance(value, numbers.Integral):
         raise _refuse(name, value, "a whole number (an int)" + (" or None" if optional else ""))
     if minimum is not None and value < minimum:
-        raise _refuse(name, value, f"a whole number of at least {minimum}")
+        raise _refuse(name, value, f"a whole number of at least {minimum}", got=repr(value))
     return int(value)
 
 
