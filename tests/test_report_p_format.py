@@ -190,3 +190,17 @@ def test_printed_table_takes_the_plans_thresholds() -> None:
     assert row.split()[7:9] == ["0.01501", "0.010"]
     (row,) = format_table(table, list(BORDER)).splitlines()[2:]
     assert row.split()[7:9] == ["0.015", "0.00998"]
+
+
+def test_the_apis_printed_table_takes_its_plans_thresholds(tmp_path: Path) -> None:
+    # nudge analyze's printed table (Analysis.table) with a plan gating at 0.015: the Kruskal-Wallis p
+    # 0.01501 is printed on its side of it, as summary.md prints it
+    from nudgecli import api
+
+    border = tmp_path / "border.csv"
+    border_data().to_csv(border, index=False)
+    gated = AnalysisPlan(stats=StatsSettings(kruskal_alpha=0.015))
+    analysis = api.analyze(border, plan=gated, out=tmp_path / "A", bootstrap=100)
+    (row,) = [line.split() for line in analysis.table().splitlines() if line.startswith("m ")]
+    assert row[7] == "0.01501"
+    assert "p = 0.01501" in analysis.summary()

@@ -116,7 +116,8 @@ class Analysis(FolderOwner):
         """The plain-text table ``nudge analyze`` prints (only ``reference``'s pairs when given)."""
         from nudgecli.report.summary import format_table
 
-        return format_table(self.result.table, self.conditions, reference)
+        return format_table(self.result.table, self.conditions, reference,
+                            thresholds=self.result.p_thresholds)
 
     def __repr__(self) -> str:
         return (f"Analysis({len(self.result.stats['metrics'])} metrics, conditions {self.conditions}, "

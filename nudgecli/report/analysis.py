@@ -84,7 +84,7 @@ from nudgecli.report.questionnaires import (
 )
 from nudgecli.report.stats import ComparisonOptions, order_conditions
 from nudgecli.report.stats_document import compare_conditions, json_ready, stats_csv, stats_table
-from nudgecli.report.summary import format_summary
+from nudgecli.report.summary import P_THRESHOLDS, format_summary, plan_p_thresholds
 from nudgecli.report.table_definitions import apply_plan_definitions
 from nudgecli.report.table_read import TABLE_READ_KEY, table_read_record
 from nudgecli.report.tables import (
@@ -121,6 +121,9 @@ class AnalysisResult:
     notes
         What was excluded or changed (duplicates dropped, participants left out of a test),
         one line each, for stderr.
+    p_thresholds
+        The plan's star thresholds and Kruskal-Wallis alpha, which a printed p-value must not be
+        rounded across (:func:`nudgecli.report.summary.plan_p_thresholds`).
     """
 
     out: Path
@@ -131,6 +134,7 @@ class AnalysisResult:
     summary: str
     questionnaires: pd.DataFrame | None = field(default=None)
     notes: list[str] = field(default_factory=list)
+    p_thresholds: tuple[float, ...] = P_THRESHOLDS
 
 
 def read_run(folder: str | Path, notes: list[str] | None = None
@@ -481,7 +485,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     written = _write_analysis(out_dir, filtered[metrics_columns] if changed else None, stats, tidy, summary,
                               scores)
     return AnalysisResult(out=out_dir, files=written, metrics=filtered, stats=stats, table=tidy,
-                          summary=summary, questionnaires=scores, notes=notes)
+                          summary=summary, questionnaires=scores, notes=notes,
+                          p_thresholds=plan_p_thresholds(plan))
 
 
 def plan_of_source(source: str | Path) -> str:
