@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from cli_helpers import files_of
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -49,8 +50,7 @@ def _nudge(env: dict[str, str], *arguments: str) -> None:
 
 def _tables(run: Path) -> dict[str, bytes]:
     """Every file of a run or analysis folder but the manifest, whose times differ by nature."""
-    return {str(path.relative_to(run)): path.read_bytes() for path in sorted(run.rglob("*"))
-            if path.is_file() and path.name != "manifest.json"}
+    return {name: data for name, data in files_of(run).items() if Path(name).name != "manifest.json"}
 
 
 @pytest.mark.parametrize("preset", ["baselines", "study-code"])
