@@ -15,6 +15,7 @@ from nudgecli import bench
 from nudgecli.bench import analyze, common, scale
 from nudgecli.bench import model as figures
 from nudgecli.cli import main
+from nudgecli.errors import NudgeError
 
 
 def test_run_bench_rows_have_the_columns() -> None:
@@ -112,6 +113,38 @@ def test_select_figures_groups() -> None:
     assert not set(model) & set(bench.STUDY_FIGURES)
     with pytest.raises(ValueError, match="only must be"):
         bench.select_figures("everything")
+
+
+def test_scale_worker_counts_hold_one_and_never_exceed_the_cores(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(scale, "available_cores", lambda: 16)
+    assert scale.scale_worker_counts() == list(range(1, 17))
+    # 1 is always timed (every efficiency is against it); repeats and order do not matter
+    assert scale.scale_worker_counts([16, 4, 8, 4]) == [1, 4, 8, 16]
+    names = [f.__name__ for f in scale.scale_figures([2, 16])]
+    assert names[:4] == ["figure_scale_study_1", "figure_scale_study_2", "figure_scale_study_16",
+                         "figure_scale_study_dask"]
+    assert names[4:8] == ["figure_scale_sweep_1", "figure_scale_sweep_2", "figure_scale_sweep_16",
+                          "figure_scale_sweep_dask"]
+    for wrong in ([0, 2], [17]):
+        with pytest.raises(NudgeError, match=r"from 1 to the 16 cores.*\(not " + str(wrong[0]) + r"\)"):
+            scale.scale_worker_counts(wrong)
+
+
+def test_bench_scale_workers_option(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(scale, "available_cores", lambda: 4)
+    chosen: list[Any] = []
+    monkeypatch.setattr(bench, "run_bench", lambda options, figures, progress: chosen.append(figures) or [])
+    runner = CliRunner()
+    result = runner.invoke(main, ["bench", "--only", "scale", "--scale-workers", "4,2", "--format", "json"])
+    assert result.exit_code == 0, result.output
+    assert [f.__name__ for f in chosen[0]][:3] == ["figure_scale_study_1", "figure_scale_study_2",
+                                                   "figure_scale_study_4"]
+    result = runner.invoke(main, ["bench", "--only", "scale", "--scale-workers", "1,8"])
+    assert result.exit_code == 1 and "Error: --scale-workers 1,8: every count" in result.output
+    result = runner.invoke(main, ["bench", "--scale-workers", "1,2"])  # not the scale figures
+    assert result.exit_code == 2 and "add --only scale" in result.output
+    result = runner.invoke(main, ["bench", "--only", "scale", "--scale-workers", "two"])
+    assert result.exit_code == 2 and "comma-separated integers, e.g. 1,2,4,8,16" in result.output
 
 
 def test_bench_command_only(monkeypatch: pytest.MonkeyPatch) -> None:

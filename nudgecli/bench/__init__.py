@@ -28,7 +28,7 @@ what they share (options, row, timing) in :mod:`~nudgecli.bench.common`.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from nudgecli.bench.analyze import figure_analyze
@@ -66,7 +66,7 @@ FIGURES: list[Figure] = [
 ]
 
 
-def select_figures(only: str = "all") -> list[Figure]:
+def select_figures(only: str = "all", scale_workers: Sequence[int] | None = None) -> list[Figure]:
     """The figures of one group.
 
     Parameters
@@ -77,11 +77,16 @@ def select_figures(only: str = "all") -> list[Figure]:
         end to end against the trial loop, and a power analysis: about three and a half minutes) or
         ``analyze``
         (``ANALYZE_FIGURES``, about a minute); the last three are not part of ``all``.
+    scale_workers
+        ``scale`` only: the worker counts to time (``None``: 1 to the cores; see
+        :func:`~nudgecli.bench.scale.scale_worker_counts`).
 
     Raises
     ------
     ValueError
-        For any other value.
+        For any other value of ``only``.
+    NudgeError
+        For a worker count below 1 or above the cores.
 
     Returns
     -------
@@ -91,7 +96,7 @@ def select_figures(only: str = "all") -> list[Figure]:
     if only == "all":
         return list(FIGURES)
     if only == "scale":
-        return scale_figures()
+        return scale_figures(scale_workers)
     if only == "analyze":
         return list(ANALYZE_FIGURES)
     if only == "pipeline":

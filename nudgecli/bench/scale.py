@@ -10,6 +10,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +30,7 @@ from nudgecli.bench.targets import (
     WORKER_MEMORY_TARGET_MB,
 )
 from nudgecli.config import load_experiment
+from nudgecli.errors import NudgeError
 
 _SCALE_TIMES: dict[tuple[str, str], float] = {}
 
@@ -220,12 +222,35 @@ def figure_replicate_throughput(options: BenchOptions) -> dict[str, Any]:
                f"{available_cores()} cores; baseline = the wall time at the target rate")
 
 
-def scale_figures() -> list[Figure]:
-    """Both workloads on 1..cores local workers, then on a local dask cluster; then the end-to-end
-    replication throughput."""
+def scale_worker_counts(counts: Sequence[int] | None = None) -> list[int]:
+    """The worker counts the scale figures time: ``counts`` in increasing order without repeats,
+    always with 1 (every efficiency is against the 1-worker run); ``None``: 1 to the cores.
+
+    Raises
+    ------
+    NudgeError
+        When a count is below 1 or above the cores this process may use (its efficiency would
+        measure the machine's oversubscription, not the batch).
+    """
+    cores = available_cores()
+    if counts is None:
+        return list(range(1, cores + 1))
+    wrong = [n for n in counts if not 1 <= n <= cores]
+    if wrong:
+        raise NudgeError(f"--scale-workers {','.join(map(str, counts))}: every count must be from 1 to "
+                         f"the {cores} cores this process may use (not {', '.join(map(str, wrong))}); "
+                         "e.g. --scale-workers 1,2,4,8,16 on 16 cores")
+    return sorted({1, *counts})
+
+
+def scale_figures(worker_counts: Sequence[int] | None = None) -> list[Figure]:
+    """Both workloads on ``scale_worker_counts(worker_counts)`` local workers (default 1..cores),
+    then on a local dask cluster of one worker per core; then the end-to-end replication
+    throughput."""
+    counts = scale_worker_counts(worker_counts)
     figures: list[Figure] = []
     for workload in ("study", "sweep"):
-        figures += [scale_figure(workload, w) for w in range(1, available_cores() + 1)]
+        figures += [scale_figure(workload, w) for w in counts]
         figures.append(scale_dask_figure(workload))
     figures.append(figure_replicate_throughput)
     return figures

@@ -13,7 +13,7 @@ from typing import Any
 import click
 
 from nudgecli import command_defaults as defaults
-from nudgecli.commands.common import INTERRUPT_HINT, PEOPLE_HELP, SET_HELP, echo_json, info
+from nudgecli.commands.common import INTERRUPT_HINT, PEOPLE_HELP, SET_HELP, comma_integers, echo_json, info
 
 # --- replicate / power / sweep -------------------------------------------------------------
 
@@ -151,13 +151,6 @@ def replicate_command(experiment: str, replications: int, seed: int | None, plan
                        resume=resume, force=force, confirm=yes, people=people)
 
 
-def _counts(text: str) -> list[int]:
-    try:
-        return [int(part) for part in text.split(",") if part.strip()]
-    except ValueError:
-        raise click.BadParameter(f"{text!r}: give comma-separated integers, e.g. 6,9,12,18,24") from None
-
-
 @click.command("power")
 @click.argument("experiment")
 @click.option("--participants", "counts", required=True, metavar="N,N,...",
@@ -179,9 +172,10 @@ def power_command(experiment: str, counts: str, replications: int, seed: int | N
     from nudgecli.api import power
 
     _run_batch_command("power", power, out, f"{_experiment_name(experiment)}-power", output_format,
-                       experiment=experiment, participants=_counts(counts), replications=replications,
-                       seed=seed, plan=plan, overrides=overrides, target=target, workers=workers,
-                       scheduler=scheduler, resume=resume, force=force, confirm=yes, people=people)
+                       experiment=experiment, participants=comma_integers(counts, "6,9,12,18,24"),
+                       replications=replications, seed=seed, plan=plan, overrides=overrides, target=target,
+                       workers=workers, scheduler=scheduler, resume=resume, force=force, confirm=yes,
+                       people=people)
 
 
 @click.command("sweep")

@@ -9,7 +9,7 @@ import click
 
 import nudgecli
 from nudgecli import command_defaults as defaults
-from nudgecli.commands.common import FORCE_HELP, echo_json, info, progress_bar
+from nudgecli.commands.common import FORCE_HELP, comma_integers, echo_json, info, progress_bar
 
 # --- presets -------------------------------------------------------------------------------
 
@@ -50,6 +50,9 @@ def presets_command() -> None:
 @click.option("--scale-studies", type=click.IntRange(min=2), default=defaults.BENCH_SCALE_STUDIES,
               show_default=True,
               help="Scale figures: studies of the many-studies workload (smoke preset).")
+@click.option("--scale-workers", metavar="N,N,...", default=None,
+              help="Scale figures: the worker counts to time, e.g. 1,2,4,8,16 (1 is always timed: every "
+                   "efficiency is against it) [default: every count from 1 to the cores].")
 @click.option("--repeats", type=click.IntRange(min=1), default=defaults.BENCH_REPEATS, show_default=True,
               help="Batches of each fast measurement (the best is reported).")
 @click.option("--baseline-repeats", type=click.IntRange(min=1), default=defaults.BENCH_BASELINE_REPEATS,
@@ -59,8 +62,8 @@ def presets_command() -> None:
               show_default=True,
               help="Runs of the study plan build and of one participant's trials, about 1 s each "
                    "(the best is reported).")
-def bench_command(output_format: str, only: str, scale_participants: int, scale_studies: int, repeats: int,
-                  baseline_repeats: int, study_repeats: int) -> None:
+def bench_command(output_format: str, only: str, scale_participants: int, scale_studies: int,
+                  scale_workers: str | None, repeats: int, baseline_repeats: int, study_repeats: int) -> None:
     """Performance figures of the model and the study, each against a baseline measured in the same run."""
     from nudgecli.bench import BenchOptions, format_table, run_bench, select_figures
     from nudgecli.bench.common import uncompiled_modules_warning
@@ -70,7 +73,10 @@ def bench_command(output_format: str, only: str, scale_participants: int, scale_
         info(warning)
     options = BenchOptions(repeats=repeats, baseline_repeats=baseline_repeats, study_repeats=study_repeats,
                            scale_participants=scale_participants, scale_studies=scale_studies)
-    rows = run_bench(options, figures=select_figures(only), progress=info)
+    if scale_workers is not None and only != "scale":
+        raise click.UsageError("--scale-workers times the scale figures: add --only scale")
+    counts = None if scale_workers is None else comma_integers(scale_workers, "1,2,4,8,16")
+    rows = run_bench(options, figures=select_figures(only, counts), progress=info)
     if output_format == "json":
         echo_json(rows)
     else:
