@@ -43,7 +43,7 @@ from nudgecli.runs import size as size_module
 from nudgecli.runs.batch import replication_seed
 from nudgecli.runs.batch_kinds import replicate
 from nudgecli.runs.batch_tasks import layout_key
-from nudgecli.runs.executors import Progress
+from nudgecli.runs.progress import Progress
 from nudgecli.runs.study import build_plan_on
 from nudgecli.runs.sweep import Design, Range, SweepFile, design_values, load_sweep
 from nudgecli.sim.study import StudyPlan, simulate_participant

@@ -81,7 +81,7 @@ def holds_batch(folder: str | Path) -> bool:
 
 def progress_line(label: str) -> ProgressCallback:
     """The progress the batch commands print on stderr: tasks done, rate and ETA (``label: ...``)."""
-    from nudgecli.runs.executors import Progress
+    from nudgecli.runs.progress import Progress
 
     return Progress(arguments.text("label", label))
 

@@ -187,8 +187,10 @@ def import_batch() -> None:
     (the figure excludes the workers' imports): the participant tasks' modules and the analysis
     tasks' (pandas and the statistics, about 1 s, which a fresh worker otherwise pays on its first
     analysis chunk, as the process pool's workers, forked from a process that has them, do not)."""
-    import nudgecli.report.replication
     import nudgecli.runs.batch  # noqa: F401
+    from nudgecli.runs.batch_tasks import import_analysis_modules
+
+    import_analysis_modules()
 
 
 def figure_replicate_throughput(options: BenchOptions) -> dict[str, Any]:

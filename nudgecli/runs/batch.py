@@ -15,8 +15,9 @@ make up the graph, all submitted to one executor:
   ``nudge analyze``) of the first ``n`` participants, submitted as soon as they are done. On the
   process pool it runs in this process, in a thread beside the workers (a job marked ``here``,
   :mod:`nudgecli.runs.executors`), which otherwise only waits for them: the statistics' modules
-  are imported once, while the trials run, and never into a worker, and nothing of an analysis
-  waits for a worker. On dask its metrics are split into as many chunks as there are workers
+  are imported there at the start, while the trials run, and an analysis waits for no worker;
+  only where the thread falls behind (many workers) does an idle worker take one (``overflow``).
+  On dask its metrics are split into as many chunks as there are workers
   (each metric's statistics are its own), one task each, and the chunks' documents merged in
   order (:func:`~nudgecli.runs.batch_tasks.merge_analysis_chunks`), so a batch's last analysis
   does not run on one worker while the others wait. Its input is the parts this process wrote in
@@ -74,6 +75,7 @@ from nudgecli.runs.batch_folder import (
 )
 from nudgecli.runs.batch_tasks import (
     analysis_design,
+    import_analysis_modules,
     install_plan_of_files,
     layout_key,
     merge_analysis_chunks,
@@ -83,12 +85,7 @@ from nudgecli.runs.batch_tasks import (
 )
 from nudgecli.runs.executors import Executor, Job, ProcessExecutor, make_executor
 from nudgecli.runs.size import SizeEstimate, check_batch_size, size_estimate, trials_per_participant
-from nudgecli.runs.study import (
-    connect_scheduler,
-    contiguous_chunks,
-    executor_name,
-    solve_layout_chunk_into,
-)
+from nudgecli.runs.study import connect_scheduler, contiguous_chunks, executor_name, solve_layout_chunk_into
 from nudgecli.sim.people_file import People
 from nudgecli.sim.study import build_layouts, check_physiology_logs
 from nudgecli.store import provenance, utc_now, write_json_atomic
@@ -408,8 +405,11 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
     """Submit every unfinished task, write each result as it comes; returns the tasks computed."""
     run = _GraphRun(batch, graph, folder, executor)
     try:
+        if run.waiting and isinstance(executor, ProcessExecutor):  # the analyses' imports, beside the trials
+            executor.warm(Job(_WARM, import_analysis_modules, (), here=True))
+            run.in_flight += 1
         if prepare is not None and isinstance(executor, ProcessExecutor):
-            executor.submit(Job(_PREPARE, _quietly, (prepare,), here=True))  # first in this process's thread
+            executor.submit(Job(_PREPARE, _quietly, (prepare,), here=True))  # then the command's own
             run.in_flight += 1
         run.submit_first()
         if progress:
@@ -522,7 +522,7 @@ class _GraphRun:
                 key = f"{analysis.key}-m{c:02d}"
                 self.analysis_jobs[key] = (analysis.key, c, len(chunks))
                 self.executor.submit(Job(key, run_analysis_task, (data, self.batch.plan, names, *design),
-                                         here=True))
+                                         here=True, overflow=True))
                 self.in_flight += 1
         waiting = {a.study for a in self.waiting}
         for study in [s for s in self.written if s not in waiting]:
@@ -531,7 +531,7 @@ class _GraphRun:
     def take(self, job: Job, result: Any) -> bool:
         """Write a finished task's part (submitting what it unblocks); whether it was a task of
         the batch's tables (a layout task and the command's preparation are not)."""
-        if job.key == _PREPARE:
+        if job.key in (_PREPARE, _WARM):
             return False
         if job.key in self.layout_jobs:
             self.take_layouts(job.key, result)
@@ -572,8 +572,8 @@ class _GraphRun:
         self.submit_participants(study)
 
 
-#: The key of the job that runs ``run_batch``'s ``prepare``.
-_PREPARE = "prepare"
+#: The keys of the jobs that run ``run_batch``'s ``prepare`` and import the analyses' modules.
+_PREPARE, _WARM = "prepare", "import-analysis-modules"
 
 
 def _quietly(prepare: Callable[[], object]) -> None:

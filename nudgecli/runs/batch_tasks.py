@@ -193,6 +193,12 @@ def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequ
     return analyse_replication(metrics, analysis, names, study_conditions, not_applicable or {})
 
 
+def import_analysis_modules() -> None:
+    """Import what :func:`run_analysis_task` uses (pandas, scipy.stats, scikit-posthocs: about a
+    second), so that a process's first analysis does not pay for it."""
+    import nudgecli.report.replication  # noqa: F401
+
+
 def analysis_design(config: ExperimentConfig) -> tuple[tuple[str, ...], dict[str, tuple[str, ...]]]:
     """A study's conditions and, per metric, those its policies make constant: what
     :func:`run_analysis_task` takes after the metrics' names."""

@@ -10,28 +10,29 @@ it can send each worker the tasks whose data it already holds: a worker gets, in
 without affinity, a task of an affinity it has served recently, else a task of the affinity the
 fewest workers hold. A job marked ``here`` (a batch's analyses) runs in the pool's own process, in
 one thread beside the workers, where the process would otherwise only wait for them: its modules
-(scipy.stats, for the analyses) are then imported once, while the workers run trials, and never
-into a worker, whose memory stays that of its trials. Its workers exit when the parent dies
-(:func:`nudgecli.runs.study_tasks.die_with_parent`) and report their peak memory when they close.
-:class:`Progress` prints a batch's progress on stderr.
+(scipy.stats, for the analyses) are then imported once, while the workers run trials, and not
+into a worker, whose memory stays that of its trials. On many workers that one thread falls
+behind (a 16-core machine's workers finish studies faster than it analyses them), so a ``here``
+job marked ``overflow`` goes to a worker that has nothing else to do when waiting for the thread
+would take longer than the worker's imports (:meth:`ProcessExecutor.warm`). Its workers exit when
+the parent dies (:func:`nudgecli.runs.study_tasks.die_with_parent`) and report their peak memory
+when they close. A batch's progress line is :class:`nudgecli.runs.progress.Progress`.
 """
 
 from __future__ import annotations
 
 import contextlib
-import math
 import os
 import pickle
 import shutil
 import signal
-import sys
 import tempfile
 import time
 from collections import OrderedDict, deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
-from typing import Any, TextIO
+from typing import Any
 
 from nudgecli.errors import (
     NudgeError,
@@ -61,8 +62,9 @@ class Job:
     ``affinity`` names what the task shares with others (for a participant task, the study's
     layouts): executors keep tasks of equal affinity together. ``None`` marks a task that may
     run anywhere and goes first (an analysis, which finishes a replication). ``here`` asks the
-    process pool to run it in this process, beside its workers (see the module's note); other
-    executors run it as any job.
+    process pool to run it in this process, beside its workers (see the module's note), and
+    ``overflow`` lets it go to an idle worker when this process is behind; other executors run it
+    as any job.
     """
 
     key: str
@@ -70,6 +72,7 @@ class Job:
     args: tuple[Any, ...]
     affinity: str | None = None
     here: bool = False
+    overflow: bool = False
 
 
 def execute(job: Job) -> Any:
@@ -179,6 +182,8 @@ class _Slot:
     conn: Connection
     inflight: dict[str, Job] = field(default_factory=dict)
     holds: OrderedDict[str, None] = field(default_factory=OrderedDict)
+    #: whether it has run an overflow job (so holds what they import)
+    overflowed: bool = False
 
 
 class ProcessExecutor:
@@ -204,6 +209,12 @@ class ProcessExecutor:
         #: The largest worker's peak resident memory in MB, known after :meth:`close`.
         self.peak_rss_mb: float | None = None
         self._here = HereThread()  # started on its first job: after the workers are forked
+        self._here_waiting: deque[Job] = deque()  # ``here`` jobs not yet handed to the thread
+        self._warm_key: str | None = None
+        #: seconds of the :meth:`warm` job (a worker's imports before its first overflow job), and
+        #: of each overflow job that ran in this process
+        self._warm_s: float | None = None
+        self._overflow_s: list[float] = []
         for _ in range(workers):
             parent_end, child_end = context.Pipe(duplex=True)
             process = context.Process(target=_pool_worker, args=(child_end, os.getpid()), daemon=True,
@@ -240,9 +251,18 @@ class ProcessExecutor:
     def spread(self, affinity: str) -> None:
         """Nothing to do: an idle worker already takes jobs of the affinity the fewest workers hold."""
 
+    def warm(self, job: Job) -> None:
+        """Run ``job`` (a ``here`` job that imports what the overflow jobs use) in this process's
+        thread before the ``here`` jobs submitted after it. The seconds it takes stand for what a
+        worker spends before its first overflow job: a worker takes one only when the overflow
+        jobs waiting for the thread would keep it busier than that (:meth:`_overflow_pays`)."""
+        self._warm_key = job.key
+        self.submit(job)
+
     def submit(self, job: Job) -> None:
         if job.here:
-            self._here.submit(job)
+            self._here_waiting.append(job)
+            self._feed_here()
         elif job.affinity is None:
             self._free.append(job)
         else:
@@ -256,7 +276,7 @@ class ProcessExecutor:
                 return self._take(slot, key)
         candidates = [key for key, jobs in self._pending.items() if jobs]
         if not candidates:
-            return None
+            return self._take_overflow(slot) if not slot.inflight and self._overflow_pays(slot) else None
         holders = {key: sum(key in s.holds for s in self._slots) for key in candidates}
         key = min(candidates, key=lambda k: (holders[k], -len(self._pending[k])))
         return self._take(slot, key)
@@ -266,6 +286,32 @@ class ProcessExecutor:
         if not self._pending[key]:
             del self._pending[key]
         self._hold(slot, key)
+        return job
+
+    def _feed_here(self) -> None:
+        """Hand the thread its next ``here`` job when it has none (one at a time, so that the
+        jobs waiting stay here, where an idle worker can take an overflow job)."""
+        if self._here_waiting and not self._here.running:
+            self._here.submit(self._here_waiting.popleft())
+
+    def _overflow_pays(self, slot: _Slot) -> bool:
+        """Whether the idle worker ``slot`` is to take an overflow job waiting for this process's
+        thread: it has run one before (its imports are done), or the overflow jobs waiting would
+        take the thread longer (their count times the mean seconds of those it ran) than the
+        :meth:`warm` job took. Until both are measured, none goes."""
+        waiting = sum(job.overflow for job in self._here_waiting)
+        if not waiting or slot.overflowed:
+            return waiting > 0
+        if self._warm_s is None or not self._overflow_s:
+            return False
+        return waiting * sum(self._overflow_s) / len(self._overflow_s) > self._warm_s
+
+    def _take_overflow(self, slot: _Slot) -> Job:
+        """The last overflow job waiting for the thread (the one that would wait longest), for ``slot``."""
+        index = max(i for i, job in enumerate(self._here_waiting) if job.overflow)
+        job = self._here_waiting[index]
+        del self._here_waiting[index]
+        slot.overflowed = True
         return job
 
     @staticmethod
@@ -333,6 +379,12 @@ class ProcessExecutor:
             self._fill()
             finished = self._here.finished()
             if finished is not None:
+                job = finished[0]
+                if job.key == self._warm_key:
+                    self._warm_s = self._here.last_seconds
+                elif job.overflow:
+                    self._overflow_s.append(self._here.last_seconds)
+                self._feed_here()
                 return finished
             busy: dict[Any, _Slot | None] = {slot.conn: slot for slot in self._slots if slot.inflight}
             if self._here.running:
@@ -361,6 +413,7 @@ class ProcessExecutor:
                 return job, payload
 
     def close(self) -> None:
+        self._here_waiting.clear()
         self._here.close()
         for slot in self._slots:
             with contextlib.suppress(OSError, ValueError):
@@ -382,6 +435,7 @@ class ProcessExecutor:
     def abort(self) -> None:
         """End the workers now (Ctrl-C, a failed task): a running task is not waited for, so the
         command exits at once instead of after :meth:`close`'s farewell (up to 6 s)."""
+        self._here_waiting.clear()
         self._here.close()
         for slot in self._slots:
             with contextlib.suppress(OSError, ValueError, AttributeError):
@@ -484,59 +538,6 @@ class DaskExecutor:
 
 
 Executor = SerialExecutor | ProcessExecutor | DaskExecutor
-
-
-# --- progress ----------------------------------------------------------------------------------
-
-class Progress:
-    """Progress on a stream: tasks done, rate and ETA, one line every ``interval`` seconds.
-
-    On a terminal the line is rewritten in place (every 0.5 s); otherwise (a log, CI) a new line
-    is written at most every ``interval`` seconds, and always for the last task.
-    """
-
-    def __init__(self, label: str, stream: TextIO | None = None, interval: float = 5.0,
-                 clock: Callable[[], float] = time.monotonic) -> None:
-        self.label = label
-        self.stream = stream if stream is not None else sys.stderr
-        self.clock = clock
-        self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
-        self.interval = 0.5 if self.tty else interval
-        self.start = clock()
-        self.first_done: int | None = None
-        self.last = -math.inf
-
-    def line(self, done: int, total: int) -> str:
-        """``label: done/total tasks (pct), rate tasks/s, ETA ...`` (the rate counts this session only)."""
-        if self.first_done is None:
-            self.first_done = done
-        elapsed = self.clock() - self.start
-        new = done - self.first_done
-        rate = new / elapsed if elapsed > 0 and new > 0 else 0.0
-        eta = format_duration((total - done) / rate) if rate > 0 else "unknown"
-        pct = 100.0 * done / total if total else 100.0
-        return f"{self.label}: {done}/{total} tasks ({pct:.0f}%), {rate:.2f} tasks/s, ETA {eta}"
-
-    def __call__(self, done: int, total: int) -> None:
-        text = self.line(done, total)
-        now = self.clock()
-        if done < total and now - self.last < self.interval:
-            return
-        self.last = now
-        if self.tty:
-            self.stream.write("\r" + text + ("\n" if done >= total else ""))
-        else:
-            self.stream.write(text + "\n")
-        self.stream.flush()
-
-
-def format_duration(seconds: float) -> str:
-    """Seconds as "42 s", "3.5 min" or "1.2 h"."""
-    if seconds < 60:
-        return f"{seconds:.0f} s"
-    if seconds < 3600:
-        return f"{seconds / 60:.1f} min"
-    return f"{seconds / 3600:.1f} h"
 
 
 def make_executor(workers: int, client: Any) -> Executor:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import contextlib
 import threading
+import time
 from collections import deque
 from multiprocessing.connection import Connection
 from typing import TYPE_CHECKING, Any
@@ -24,11 +25,13 @@ class HereThread:
 
     def __init__(self) -> None:
         self._executor: Any = None
-        self._done: deque[tuple[Job, bool, Any]] = deque()
+        self._done: deque[tuple[Job, bool, Any, float]] = deque()
         self._lock = threading.Lock()
         self.wakeup: Connection | None = None
         self._signal: Connection | None = None
         self.running = 0
+        #: The seconds the job :meth:`finished` last gave back ran.
+        self.last_seconds = 0.0
 
     def submit(self, job: Job) -> None:
         if self._executor is None:
@@ -41,10 +44,11 @@ class HereThread:
         self._executor.submit(self._run, job)
 
     def _run(self, job: Job) -> None:
+        start = time.perf_counter()
         try:
-            outcome = (job, True, job.func(*job.args))
+            outcome = (job, True, job.func(*job.args), time.perf_counter() - start)
         except BaseException as exc:  # handed to next_result, which raises it as the job's own
-            outcome = (job, False, exc)
+            outcome = (job, False, exc, time.perf_counter() - start)
         with self._lock:
             self._done.append(outcome)
         assert self._signal is not None
@@ -52,11 +56,12 @@ class HereThread:
             self._signal.send_bytes(b"1")
 
     def finished(self) -> tuple[Job, Any] | None:
-        """A finished job and its result, or None; a job that failed raises its exception here."""
+        """A finished job and its result, or None; a job that failed raises its exception here.
+        The seconds it ran are then in :attr:`last_seconds`."""
         with self._lock:
             if not self._done:
                 return None
-            job, ok, payload = self._done.popleft()
+            job, ok, payload, self.last_seconds = self._done.popleft()
         assert self.wakeup is not None
         self.wakeup.recv_bytes()  # its byte: the pipe holds one per job not yet taken
         self.running -= 1

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError
-from nudgecli.runs.executors import format_duration
+from nudgecli.runs.progress import format_duration
 
 if TYPE_CHECKING:
     from nudgecli.runs.batch import Batch
