@@ -81,17 +81,20 @@ _UMASK = _read_umask()
 
 
 @contextlib.contextmanager
-def atomic_path(path: str | Path) -> Iterator[Path]:
+def atomic_path(path: str | Path, durable: bool = True) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; if the block succeeds, flush it to disk and rename
     it onto ``path``, so readers see the old file or the new one, never part of one.
 
     Every file the toolkit writes goes through here; so it refuses to replace a file the running
-    command read (:func:`nudgecli.outputs.check_not_an_input`).
+    command read (:func:`nudgecli.outputs.check_not_an_input`). ``durable=False`` skips the flush
+    to disk (fsync) where a record of the file's SHA-256 finds a file a power cut left short (a
+    batch's parts, :class:`~nudgecli.runs.batch_folder.PartRecord`); a killed process cannot.
     """
     target = Path(path)
     check_not_an_input(target)
     try:
-        target.parent.mkdir(parents=True, exist_ok=True)
+        if not target.parent.is_dir():  # a stat: much cheaper than mkdir's call on every write
+            target.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(target), suffix=".tmp", dir=target.parent)
         os.close(fd)
     except OSError as exc:
@@ -100,8 +103,9 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     try:
         os.chmod(tmp_path, 0o666 & ~_UMASK)
         yield tmp_path
-        with open(tmp_path, "rb") as handle:
-            os.fsync(handle.fileno())
+        if durable:
+            with open(tmp_path, "rb") as handle:
+                os.fsync(handle.fileno())
         os.replace(tmp_path, target)
     except OSError as exc:
         raise write_error(target, exc) from exc
@@ -169,15 +173,21 @@ def write_text_atomic(path: str | Path, text: str) -> None:
         tmp.write_text(text, encoding="utf-8", newline="")
 
 
-def write_bytes_atomic(path: str | Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically, byte for byte."""
-    with atomic_path(path) as tmp:
+def write_bytes_atomic(path: str | Path, data: bytes, durable: bool = True) -> None:
+    """Write ``data`` to ``path`` atomically, byte for byte (``durable``: see :func:`atomic_path`)."""
+    with atomic_path(path, durable) as tmp:
         tmp.write_bytes(data)
 
 
+def json_text(data: Any) -> str:
+    """``data`` as the toolkit writes JSON files: indented by 2, one newline at the end."""
+    return json.dumps(data, indent=2) + "\n"
+
+
 def write_json_atomic(path: str | Path, data: Any) -> None:
-    """Write ``data`` as indented JSON to ``path`` atomically."""
-    write_text_atomic(path, json.dumps(data, indent=2) + "\n")
+    """Write ``data`` as indented JSON (:func:`json_text`) to ``path`` atomically."""
+    write_text_atomic(path, json_text(data))
+
 
 
 def write_parquet_atomic(path: str | Path, frame: pd.DataFrame) -> str:

@@ -5,6 +5,8 @@ where it runs never changes a batch's tables."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -15,6 +17,8 @@ from nudgecli.report.plans import load_plan
 from nudgecli.runs import batch as batch_module
 from nudgecli.runs.batch import Batch, run_batch, single_point
 from nudgecli.runs.executors import Job, ProcessExecutor
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _napping_pid(seconds: float) -> int:
@@ -114,3 +118,33 @@ class _LoggingAnalysis:
 
     def __call__(self, *args: object) -> object:
         return _recording_analysis(self.log, *args)
+
+
+def test_the_warm_up_imports_what_an_analysis_uses_and_no_figures(tmp_path: Path) -> None:
+    """A process's first analysis (the pool's thread after :func:`import_analysis_modules`, or a
+    worker that takes an overflow job) imports nothing more of the libraries or the report, and
+    no process imports matplotlib to analyse (0.5-1.5 s and tens of MB a worker)."""
+    config = load_experiment("smoke")
+    batch = Batch("replicate", single_point(config, (config.study.participants,)), 1, 3, load_plan("paper"))
+    run_batch(batch, tmp_path / "batch", workers=1)
+    script = (
+        "import sys\n"
+        "from pathlib import Path\n"
+        "from nudgecli.config import load_experiment\n"
+        "from nudgecli.report.plans import load_plan\n"
+        "from nudgecli.runs.batch_folder import read_study_metrics\n"
+        "from nudgecli.runs.batch_tasks import analysis_design, import_analysis_modules, run_analysis_task\n"
+        "folder = Path(sys.argv[1])\n"
+        "data = read_study_metrics(folder, next((folder / 'tasks').iterdir()).name, 2, None)\n"
+        "import_analysis_modules()\n"
+        "before = set(sys.modules)\n"
+        "plan, design = load_plan('paper'), analysis_design(load_experiment('smoke'))\n"
+        "run_analysis_task(data, plan, list(plan.metrics.include), *design)\n"
+        "heavy = ('nudgecli', 'scipy', 'pandas', 'pyarrow', 'matplotlib', 'scikit_posthocs')\n"
+        "print('NEW', sorted(m for m in set(sys.modules) - before if m.split('.')[0] in heavy))\n"
+        "print('MATPLOTLIB', 'matplotlib' in sys.modules)\n")
+    result = subprocess.run([sys.executable, "-c", script, str(tmp_path / "batch")], cwd=ROOT,
+                            capture_output=True, text=True, timeout=300,
+                            env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert result.returncode == 0, result.stderr
+    assert "NEW []" in result.stdout and "MATPLOTLIB False" in result.stdout, result.stdout

@@ -16,19 +16,19 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from matplotlib.artist import Artist
-from matplotlib.axes import Axes
-from matplotlib.figure import Figure, SubFigure
-from matplotlib.lines import Line2D
-from matplotlib.text import Text
-from matplotlib.transforms import offset_copy
 
 from nudgecli.errors import DataError
 from nudgecli.report.stats import ComparisonOptions, is_significant, significance_stars
-from nudgecli.report.style import STAR_FONT_PT
+
+if TYPE_CHECKING:  # matplotlib loads where brackets are drawn: an analysis (summary.md's letters) needs none
+    from matplotlib.artist import Artist
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+    from matplotlib.text import Text
 
 #: The paper's star rule (stars at p < .05/.01/.001, Kruskal-Wallis gate at .05).
 DEFAULT_STAR_RULE = ComparisonOptions()
@@ -179,6 +179,8 @@ def bracket_levels(positions: Mapping[str, float], comparisons: Iterable[Bracket
 
 def _root_figure(ax: Axes) -> Figure:
     """The top-level figure holding ``ax`` (through any subfigures)."""
+    from matplotlib.figure import Figure, SubFigure
+
     fig: Any = ax.get_figure()
     while isinstance(fig, SubFigure):
         fig = fig.get_figure()
@@ -206,7 +208,7 @@ def top_of_data(ax: Axes, data_top: float | None = None) -> float:
     return max(float(data_top), lo)
 
 def draw_brackets(ax: Axes, positions: Mapping[str, float], comparisons: Iterable[Bracket], *,
-                  data_top: float | None = None, fontsize: float = STAR_FONT_PT, color: str = "black",
+                  data_top: float | None = None, fontsize: float | None = None, color: str = "black",
                   linewidth: float = 0.8, show_ns: bool = False, pad_frac: float = 0.03,
                   tick_frac: float = 0.025, gap_frac: float = 0.015) -> list[Artist]:
     """Draw significance brackets above the data and make room for them.
@@ -223,7 +225,7 @@ def draw_brackets(ax: Axes, positions: Mapping[str, float], comparisons: Iterabl
     data_top
         The highest y value of the data; default the top of the axes' data limits.
     fontsize
-        Size of the stars in points.
+        Size of the stars in points (default :data:`nudgecli.report.style.STAR_FONT_PT`).
     color, linewidth
         Bracket colour and line width.
     show_ns
@@ -243,6 +245,9 @@ def draw_brackets(ax: Axes, positions: Mapping[str, float], comparisons: Iterabl
     DataError
         A comparison names a group that is not in ``positions``.
     """
+    from nudgecli.report.style import STAR_FONT_PT
+
+    fontsize = STAR_FONT_PT if fontsize is None else fontsize
     drawn = _drawn_spans(positions, comparisons, show_ns)
     if not drawn:
         return []
@@ -277,6 +282,9 @@ def _draw_bracket(ax: Axes, x1: float, x2: float, y: float, leg: float, label: s
                   color: str, linewidth: float) -> tuple[Line2D, Text]:
     """One bracket from ``x1`` to ``x2`` with its bar at ``y`` and legs ``leg`` long (data units),
     its label centred on the bar: stars pulled down onto it, ``n.s.`` smaller, just above it."""
+    from matplotlib.lines import Line2D
+    from matplotlib.transforms import offset_copy
+
     line = Line2D([x1, x1, x2, x2], [y - leg, y, y, y - leg], color=color, linewidth=linewidth,
                   solid_joinstyle="miter", clip_on=False)
     ax.add_line(line)

@@ -194,8 +194,11 @@ def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequ
 
 
 def import_analysis_modules() -> None:
-    """Import what :func:`run_analysis_task` uses (pandas, scipy.stats, scikit-posthocs: about a
-    second), so that a process's first analysis does not pay for it."""
+    """Import what :func:`run_analysis_task` uses (pandas, pyarrow, scipy.special and the report's
+    modules: about half a second), so that a process's first analysis does not pay for it."""
+    import scipy.special  # noqa: F401
+
+    import nudgecli.report.analysis
     import nudgecli.report.replication  # noqa: F401
 
 
