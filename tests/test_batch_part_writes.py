@@ -30,7 +30,7 @@ def test_a_batch_part_is_recorded_with_its_sha256_and_not_forced_to_disk(monkeyp
     real_fsync = os.fsync
     monkeypatch.setattr(os, "fsync", lambda fd: synced.append(fd) or real_fsync(fd))
     record = PartRecord(tmp_path)
-    record.write_parquet(tmp_path / "tasks" / "s" / "part-0000.parquet", _frame())  # its folder is made
+    record.write(tmp_path / "tasks/s/part-0000.parquet", parquet_bytes(_frame()))  # its folder is made
     record.write_json(tmp_path / "analyses" / "s-n0002.json", {"p": 0.5})
     assert synced == []
     lines = (tmp_path / PART_RECORD).read_text().splitlines()

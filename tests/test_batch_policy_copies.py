@@ -328,7 +328,7 @@ def interrupted_batch(kind: str, experiment: Path, monkeypatch: pytest.MonkeyPat
     from nudgecli.runs.batch_folder import PartRecord
 
     monkeypatch.chdir(experiment.parent)
-    original = PartRecord.write_parquet
+    original = PartRecord.write
     calls: list[int] = []
 
     def interrupted(self: PartRecord, *args: object) -> None:
@@ -337,11 +337,11 @@ def interrupted_batch(kind: str, experiment: Path, monkeypatch: pytest.MonkeyPat
         calls.append(1)
         original(self, *args)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(PartRecord, "write_parquet", interrupted)
+    monkeypatch.setattr(PartRecord, "write", interrupted)
     typed = command(kind, experiment, Path("batch"))
     words = [str(w).replace(str(experiment.parent) + "/", "") for w in typed]
     result = nudge(*words, *flags)
-    monkeypatch.setattr(PartRecord, "write_parquet", original)
+    monkeypatch.setattr(PartRecord, "write", original)
     assert result.exit_code == 130, result.output
     return shlex.split(result.output.split("resume with: ")[1].strip().splitlines()[0])
 

@@ -97,7 +97,7 @@ def test_ctrl_c_of_a_batch_names_the_copy_and_resumes_from_another_folder(
         typed_here: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     whole, batch = tmp_path / "whole", tmp_path / "batch"
     assert nudge(*REPLICATE, "--out", str(whole)).exit_code == 0
-    resume_from_elsewhere(REPLICATE, batch, batch_folder.PartRecord, "write_parquet", tmp_path, monkeypatch)
+    resume_from_elsewhere(REPLICATE, batch, batch_folder.PartRecord, "write", tmp_path, monkeypatch)
     for table in BATCH_TABLES:
         assert (batch / table).read_bytes() == (whole / table).read_bytes(), table
 

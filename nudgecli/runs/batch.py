@@ -17,13 +17,13 @@ make up the graph, all submitted to one executor:
   :mod:`nudgecli.runs.executors`), which otherwise only waits for them: the statistics' modules
   are imported there at the start, while the trials run, and an analysis waits for no worker;
   only where the thread falls behind (many workers) does an idle worker take one (``overflow``).
-  On dask its metrics are split into as many chunks as there are workers
-  (each metric's statistics are its own), one task each, and the chunks' documents merged in
-  order (:func:`~nudgecli.runs.batch_tasks.merge_analysis_chunks`), so a batch's last analysis
-  does not run on one worker while the others wait. Its input is the parts this process wrote in
-  this run (kept while an analysis of the study waits) or, after ``--resume``, read back from
-  their files. What the command needs after the batch (its figures' modules) is imported the same
-  way, beside the workers (``run_batch``'s ``prepare``).
+  On dask its metrics are split into as many chunks as there are workers (each metric's
+  statistics are its own), one task each, the chunks' documents merged in order
+  (:func:`~nudgecli.runs.batch_tasks.merge_analysis_chunks`), so a batch's last analysis
+  does not run on one worker while the others wait. Its input is the parts written in this run
+  (kept while an analysis of the study waits) or, after ``--resume``, read from their files.
+  What the command needs after the batch (its figures' modules) is imported the same way, beside
+  the workers (``run_batch``'s ``prepare``).
 
 Layouts and their solved goal MDPs (the :class:`~nudgecli.sim.study.StudyPlan`) are kept in a
 small cache in each worker (:mod:`nudgecli.runs.batch_tasks`: the tasks and the cache, keyed by
@@ -37,12 +37,11 @@ chunk pickled into a file), and every worker assembles the plan from those files
 (:func:`~nudgecli.runs.batch_tasks.install_plan_of_files`) before the study's participant tasks.
 On dask, whose workers need not share this machine's files, every worker builds the plan itself
 (faster than sending it to many workers) and the study's tasks are hinted to none.
-Every result is written by this process as an atomic part file (``tasks/``, ``analyses/``), so
-``--resume`` finishes an interrupted batch without recomputing a finished task, and the tables
-assembled from the parts are the same for any executor and number of workers. The executors
-themselves are in :mod:`nudgecli.runs.executors`, the batch folder's parts and prepare rule in
-:mod:`nudgecli.runs.batch_folder`, and the commands that build and run the three kinds of batch
-(``replicate``, ``power``, ``sweep``) in :mod:`nudgecli.runs.batch_kinds`.
+Every result is written by this process as an atomic part file (``tasks/``, ``analyses/``; a
+part's bytes built in its worker on many, :data:`~nudgecli.runs.batch_tasks.PART_BUILDING_WORKERS`),
+so ``--resume`` finishes an interrupted batch without recomputing a finished task, and the tables
+from the parts are the same for any executor and number of workers. Executors: :mod:`.executors`;
+the folder's parts: :mod:`.batch_folder`; the three kinds of batch: :mod:`.batch_kinds`.
 """
 
 from __future__ import annotations
@@ -74,6 +73,7 @@ from nudgecli.runs.batch_folder import (
     task_part,
 )
 from nudgecli.runs.batch_tasks import (
+    PART_BUILDING_WORKERS,
     analysis_design,
     import_analysis_modules,
     install_plan_of_files,
@@ -392,9 +392,8 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
             write_json_atomic(folder / BATCH_MANIFEST, manifest)
         raise
     stats = {key: read_json(analysis_part(folder, key)) for key in sorted(graph.analyses)}
-    peak = getattr(executor, "peak_rss_mb", None)
-    manifest.update({"status": "complete", "finished": utc_now(),
-                     "wall_s": round(time.perf_counter() - started, 3),
+    peak, wall = getattr(executor, "peak_rss_mb", None), round(time.perf_counter() - started, 3)
+    manifest.update({"status": "complete", "finished": utc_now(), "wall_s": wall,
                      "worker_peak_rss_mb": None if peak is None else round(peak, 1)})
     write_json_atomic(folder / BATCH_MANIFEST, manifest)
     return BatchRun(folder, mode, graph, size, stats, computed, peak)
@@ -408,8 +407,8 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
         if run.waiting and isinstance(executor, ProcessExecutor):  # the analyses' imports, beside the trials
             executor.warm(Job(_WARM, import_analysis_modules, (), here=True))
             run.in_flight += 1
-        if prepare is not None and isinstance(executor, ProcessExecutor):
-            executor.submit(Job(_PREPARE, _quietly, (prepare,), here=True))  # then the command's own
+        if prepare is not None and isinstance(executor, ProcessExecutor):  # then the command's own
+            executor.submit(Job(_PREPARE, _quietly, (prepare,), here=True))
             run.in_flight += 1
         run.submit_first()
         if progress:
@@ -494,9 +493,10 @@ class _GraphRun:
 
     def submit_participants(self, study: Study) -> None:
         twins = () if self.batch.people is None else self.batch.people.twins  # (not the file's bytes)
+        built = isinstance(self.executor, ProcessExecutor) and self.executor.workers >= PART_BUILDING_WORKERS
         for i in sorted(self.remaining[study.key]):
             self.executor.submit(Job(f"{study.key}-p{i:04d}", run_participant_task,
-                                     (study.config, study.seed, i, self.definitions, twins),
+                                     (study.config, study.seed, i, self.definitions, twins, built),
                                      affinity=study.layouts))
         self.in_flight += len(self.remaining[study.key])
 
@@ -546,8 +546,8 @@ class _GraphRun:
             self.record.write_json(analysis_part(self.folder, key), document)
             return True
         study_name, index = job.key.rsplit("-p", 1)  # a participant task
-        frame = result.frame()
-        self.record.write_parquet(task_part(self.folder, study_name, int(index)), frame)
+        frame, data = result.part()
+        self.record.write(task_part(self.folder, study_name, int(index)), data)
         self.written.setdefault(study_name, {})[int(index)] = frame
         self.remaining[study_name].discard(int(index))
         self.submit_ready()

@@ -266,15 +266,11 @@ class PartRecord:
             print(f"Warning: {self.folder}: {shown(self.missing)}: missing (written by this batch, as "
                   f"{PART_RECORD} records, and deleted since); computing them again", file=sys.stderr)
 
-    def write_parquet(self, part: Path, frame: pd.DataFrame) -> None:
-        """Write a task's part atomically, then record it."""
-        self._write(part, parquet_bytes(frame))
-
     def write_json(self, part: Path, document: Any) -> None:
         """Write an analysis's part atomically, then record it."""
-        self._write(part, json_text(document).encode("utf-8"))
+        self.write(part, json_text(document).encode("utf-8"))
 
-    def _write(self, part: Path, data: bytes) -> None:
+    def write(self, part: Path, data: bytes) -> None:
         """Write ``data`` to ``part`` atomically, then append its line to the record.
 
         Neither is forced to disk (fsync, a third of the batch process's time per part on some

@@ -5,9 +5,10 @@ their solved goal MDPs, :class:`~nudgecli.sim.study.StudyPlan`), which each work
 small cache keyed by what the plan depends on (:func:`layout_key`), so a plan is built once per
 worker, not once per task, and computes the participant's step-based metrics with numpy
 (:mod:`nudgecli.report.step_metrics`): a worker that runs only participant tasks never imports
-pandas, and the process that writes the part makes the metrics table
-(:meth:`ParticipantMetrics.frame`). An analysis task computes a replication's statistics. The
-graph that submits them is :mod:`nudgecli.runs.batch`.
+pandas, and the process that writes the part makes the metrics table and the part's bytes
+(:meth:`ParticipantMetrics.part`), except on :data:`PART_BUILDING_WORKERS` pool workers or more,
+whose results come faster than one process builds parts. An analysis task computes a
+replication's statistics. The graph that submits them is :mod:`nudgecli.runs.batch`.
 """
 
 from __future__ import annotations
@@ -126,6 +127,18 @@ class ParticipantMetrics:
     trials: list[dict[str, Any]]
     values: dict[str, np.ndarray]
     definitions: dict[str, str]
+    #: the metrics table and its Parquet bytes, once :meth:`part` has built them
+    built: tuple[pd.DataFrame, bytes] | None = None
+
+    def part(self) -> tuple[pd.DataFrame, bytes]:
+        """The metrics table (:meth:`frame`) and the bytes of its part
+        (:func:`~nudgecli.runs.batch_folder.parquet_bytes`), built once, where first asked for."""
+        if self.built is None:
+            from nudgecli.runs.batch_folder import parquet_bytes
+
+            frame = self.frame()
+            self.built = (frame, parquet_bytes(frame))
+        return self.built
 
     def frame(self) -> pd.DataFrame:
         """The metrics table (:func:`nudgecli.report.metrics.metrics_frame`): one row per trial,
@@ -169,14 +182,26 @@ def participant_metrics(plan: StudyPlan, index: int, definitions: Mapping[str, s
     return ParticipantMetrics(result.trials, values, dict(definitions))
 
 
+#: From this many pool workers on, participant tasks build their parts in their workers
+#: (:func:`run_participant_task`'s ``build_part``): a part takes the writing process 10-15 ms
+#: (its table, then Parquet), a ``smoke`` participant a worker about 45 ms, so from about four
+#: workers on one process could not keep up. Below it, workers never import pandas and pyarrow
+#: (about 75 MB each).
+PART_BUILDING_WORKERS = 4
+
+
 def run_participant_task(config: ExperimentConfig, seed: int, index: int, definitions: Mapping[str, str],
-                         people: Sequence[Twin] = ()) -> ParticipantMetrics:
+                         people: Sequence[Twin] = (), build_part: bool = False) -> ParticipantMetrics:
     """A participant task, with this worker's cached plan of the study (``people``: the batch's
-    twins of real people, :attr:`~nudgecli.sim.study.StudyPlan.people`)."""
+    twins of real people, :attr:`~nudgecli.sim.study.StudyPlan.people`); ``build_part``: its part
+    built here (:meth:`ParticipantMetrics.part`), and only that sent back."""
     tune_allocator()
     plan = cached_plan(config, seed)
-    return participant_metrics(dataclasses.replace(plan, people=tuple(people)) if people else plan, index,
-                               definitions)
+    metrics = participant_metrics(dataclasses.replace(plan, people=tuple(people)) if people else plan, index,
+                                  definitions)
+    if not build_part:
+        return metrics
+    return ParticipantMetrics([], {}, metrics.definitions, metrics.part())
 
 
 def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str],
