@@ -5,6 +5,7 @@ where it runs never changes a batch's tables."""
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -148,3 +149,19 @@ def test_the_warm_up_imports_what_an_analysis_uses_and_no_figures(tmp_path: Path
                             env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert result.returncode == 0, result.stderr
     assert "NEW []" in result.stdout and "MATPLOTLIB False" in result.stdout, result.stdout
+
+
+def _blocked_signals() -> set[int]:
+    return set(signal.pthread_sigmask(signal.SIG_BLOCK, []))
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="POSIX signal masks")
+def test_the_pools_own_thread_leaves_ctrl_c_to_the_main_thread() -> None:
+    executor = ProcessExecutor(1)
+    try:
+        executor.submit(Job("mask", _blocked_signals, (), here=True))
+        _, blocked = executor.next_result()
+    finally:
+        executor.close()
+    assert {signal.SIGINT, signal.SIGTERM} <= blocked
+    assert signal.SIGINT not in _blocked_signals()  # the main thread's own mask is untouched

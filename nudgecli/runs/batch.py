@@ -15,7 +15,7 @@ make up the graph, all submitted to one executor:
   ``nudge analyze``) of the first ``n`` participants, submitted as soon as they are done. On the
   process pool it runs in this process, in a thread beside the workers (a job marked ``here``,
   :mod:`nudgecli.runs.executors`), which otherwise only waits for them: the statistics' modules
-  are imported there at the start, while the trials run, and an analysis waits for no worker;
+  are imported there after the first part, while the trials run, and no analysis waits for a worker;
   only where the thread falls behind (many workers) does an idle worker take one (``overflow``).
   On dask its metrics are split into as many chunks as there are workers (each metric's
   statistics are its own), one task each, the chunks' documents merged in order
@@ -404,9 +404,6 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
     """Submit every unfinished task, write each result as it comes; returns the tasks computed."""
     run = _GraphRun(batch, graph, folder, executor)
     try:
-        if run.waiting and isinstance(executor, ProcessExecutor):  # the analyses' imports, beside the trials
-            executor.warm(Job(_WARM, import_analysis_modules, (), here=True))
-            run.in_flight += 1
         if prepare is not None and isinstance(executor, ProcessExecutor):  # then the command's own
             executor.submit(Job(_PREPARE, _quietly, (prepare,), here=True))
             run.in_flight += 1
@@ -445,14 +442,14 @@ class _GraphRun:
         self.record.warn_refused()
         self.total = graph.participant_tasks + len(graph.analyses)
         self.done = self.total - sum(len(v) for v in self.remaining.values()) - len(self.waiting)
-        self.metrics = list(batch.plan.metrics.include)
-        self.definitions = metric_definitions(batch.plan)
-        self.in_flight = 0
+        self.metrics, self.definitions = list(batch.plan.metrics.include), metric_definitions(batch.plan)
+        #: the analyses' imports go beside the trials once this process has written a first part (and
+        #: so imported pandas and pyarrow: begun beside those imports, a Ctrl-C was lost in 1 run of 20)
+        self.in_flight, self.warm = 0, bool(self.waiting)
         #: layout tasks: job key -> (study, chunk); the files of a study's finished chunks by index
         self.layout_jobs: dict[str, tuple[str, int]] = {}
         self.solved: dict[str, dict[int, str]] = {}
-        #: analysis tasks: job key -> (analysis, chunk of its metrics, its chunks); an analysis's
-        #: finished chunks by index
+        #: analysis tasks: job key -> (analysis, chunk of its metrics, its chunks); its finished chunks
         self.analysis_jobs: dict[str, tuple[str, int, int]] = {}
         self.analysed: dict[str, dict[int, dict[str, Any]]] = {}
         #: study key -> the metrics parts written in this run, by participant, while an analysis of
@@ -549,6 +546,9 @@ class _GraphRun:
         frame, data = result.part()
         self.record.write(task_part(self.folder, study_name, int(index)), data)
         self.written.setdefault(study_name, {})[int(index)] = frame
+        if self.warm and isinstance(self.executor, ProcessExecutor):
+            self.warm, self.in_flight = False, self.in_flight + 1
+            self.executor.warm(Job(_WARM, import_analysis_modules, (), here=True))
         self.remaining[study_name].discard(int(index))
         self.submit_ready()
         return True

@@ -4,6 +4,7 @@ a thread of the pool's own process, beside its workers (:class:`~nudgecli.runs.e
 from __future__ import annotations
 
 import contextlib
+import signal
 import threading
 import time
 from collections import deque
@@ -39,7 +40,8 @@ class HereThread:
             from multiprocessing import Pipe
 
             self.wakeup, self._signal = Pipe(duplex=False)
-            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="nudge-here")
+            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="nudge-here",
+                                                initializer=_leave_signals_to_the_main_thread)
         self.running += 1
         self._executor.submit(self._run, job)
 
@@ -73,3 +75,13 @@ class HereThread:
         """Take no more jobs; a running one finishes in its thread (it cannot be interrupted)."""
         if self._executor is not None:
             self._executor.shutdown(wait=False, cancel_futures=True)
+
+
+def _leave_signals_to_the_main_thread() -> None:
+    """Block Ctrl-C and SIGTERM in this thread, so that the kernel delivers them to the main thread.
+
+    Python raises a signal's exception in the main thread only; one delivered to this thread
+    instead would not wake the main thread from its wait on the workers' pipes, and the
+    command would answer a Ctrl-C only when the next result came."""
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
