@@ -165,3 +165,18 @@ def test_the_pools_own_thread_leaves_ctrl_c_to_the_main_thread() -> None:
         executor.close()
     assert {signal.SIGINT, signal.SIGTERM} <= blocked
     assert signal.SIGINT not in _blocked_signals()  # the main thread's own mask is untouched
+
+
+def test_a_resumed_batch_with_only_analyses_left_warms_up_too(monkeypatch: pytest.MonkeyPatch,
+                                                             tmp_path: Path) -> None:
+    config = load_experiment("smoke")
+    batch = Batch("replicate", single_point(config, (config.study.participants,)), 3, 6, load_plan("paper"))
+    whole = run_batch(batch, tmp_path / "batch", workers=1)
+    for document in (tmp_path / "batch" / "analyses").iterdir():
+        document.unlink()  # every part is there; the analyses are to do again
+    warmed: list[str] = []
+    warm_up = batch_module.import_analysis_modules
+    monkeypatch.setattr(batch_module, "import_analysis_modules", lambda: warmed.append("warm") or warm_up())
+    resumed = run_batch(batch, tmp_path / "batch", workers=2, resume=True)
+    assert warmed == ["warm"]  # once, so an analysis may overflow to an idle worker
+    assert resumed.computed == 3 and resumed.stats == whole.stats

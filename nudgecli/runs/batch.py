@@ -258,12 +258,9 @@ def estimate(graph: Graph, workers: int) -> SizeEstimate:
 
 
 def estimate_batch(batch: Batch, workers: int) -> SizeEstimate:
-    """:func:`estimate` of the batch's graph without building it: constant memory in the replications.
-
-    Every replication has the same studies up to their seeds (points with equal experiments
-    share a study whatever the seed), so one replication's counts times ``R`` are the graph's.
-    This is what the size guard checks before anything is built.
-    """
+    """:func:`estimate` of the batch's graph without building it (what the size guard checks first):
+    every replication has the same studies up to their seeds (points with equal experiments share
+    a study whatever the seed), so one replication's counts times ``R`` are the graph's."""
     participants: dict[str, int] = {}  # one replication's studies: normalised experiment -> participants
     per_trial: dict[str, int] = {}
     analysed: set[tuple[str, int]] = set()
@@ -427,8 +424,7 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
 
 
 class _GraphRun:
-    """One run of the batch's graph: what is left to compute, what is in flight, and the layout
-    tasks' results of the studies whose plan is being assembled."""
+    """One run of the batch's graph: what is left, what is in flight, the layout tasks' results."""
 
     def __init__(self, batch: Batch, graph: Graph, folder: Path, executor: Executor) -> None:
         self.batch, self.graph, self.folder, self.executor = batch, graph, folder, executor
@@ -461,9 +457,8 @@ class _GraphRun:
         (:func:`shares_plan`); then the analyses whose participants are all done.
 
         A plan is shared only on the process pool, whose workers share this machine's files. On
-        dask, sending the 22 MB plan to every worker (``Client.run``) took 0.22 s to 2 workers
-        and 2.1 s to 16, growing with the workers, while a worker builds it in about 0.18 s; so
-        there every worker builds the study's plan itself, and its tasks go to any worker."""
+        dask, sending the 22 MB plan to every worker (``Client.run``) took 0.22 s to 2 workers and
+        2.1 s to 16, while a worker builds it in about 0.18 s: there each worker builds it."""
         busy = sum(1 for study in self.graph.studies.values() if self.remaining[study.key])
         for study in self.graph.studies.values():
             if not shares_plan(study, len(self.remaining[study.key]), busy, self.executor.workers):
@@ -513,6 +508,7 @@ class _GraphRun:
         for analysis in submitted:
             data = read_study_metrics(self.folder, analysis.study, analysis.participants,
                                       self.written.get(analysis.study))
+            self.warm_up()  # (a resumed batch may have only analyses left)
             design = analysis_design(self.graph.studies[analysis.study].config)
             self.analysed[analysis.key] = {}
             for c, names in enumerate(chunks):
@@ -546,12 +542,16 @@ class _GraphRun:
         frame, data = result.part()
         self.record.write(task_part(self.folder, study_name, int(index)), data)
         self.written.setdefault(study_name, {})[int(index)] = frame
+        self.remaining[study_name].discard(int(index))
+        self.warm_up()
+        self.submit_ready()
+        return True
+
+    def warm_up(self) -> None:
+        """Once: the analyses' imports in the pool's thread (after a part is written or read here)."""
         if self.warm and isinstance(self.executor, ProcessExecutor):
             self.warm, self.in_flight = False, self.in_flight + 1
             self.executor.warm(Job(_WARM, import_analysis_modules, (), here=True))
-        self.remaining[study_name].discard(int(index))
-        self.submit_ready()
-        return True
 
     def take_layouts(self, key: str, path: str) -> None:
         """Keep the file of a chunk of solved layouts; once a study has all of them, send its plan
