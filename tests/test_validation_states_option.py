@@ -75,9 +75,20 @@ def test_all_readings_without_states_has_no_note(monkeypatch) -> None:
     assert "Note" not in result.output
 
 
-@pytest.mark.parametrize("names", [["dirichlet"], ["two-goal", "lambda-1"], list(READINGS)])
-def test_the_default_states_needs_no_word(names: list[str]) -> None:
-    assert states_note(defaults.VALIDATION_STATES, names) is None
+@pytest.mark.parametrize("names", [["dirichlet"], ["two-goal", "lambda-1"], list(READINGS), ["three-mode"]])
+def test_states_not_given_needs_no_word(names: list[str]) -> None:
+    assert states_note(None, names) is None
+
+
+def test_states_given_as_its_default_is_still_given(monkeypatch) -> None:
+    # 200 typed out is as much a request for a 10 x 10 two-mode world as 50 is
+    monkeypatch.setattr("nudgecli.sim.validation.run_validation", _never)
+    result = CliRunner().invoke(main, [*SMALL, "--reading", "three-mode", "--states",
+                                       str(defaults.VALIDATION_STATES)])
+    assert result.exit_code == 1 and f"--states {defaults.VALIDATION_STATES} does not apply" in result.output
+    with pytest.raises(ConfigError, match="does not apply to --reading three-mode"):
+        validate(simulations=1, min_goals=3, max_goals=3, states=defaults.VALIDATION_STATES, mc_queries=0,
+                 reading="three-mode")
 
 
 def test_states_for_two_mode_readings_alone_needs_no_word() -> None:

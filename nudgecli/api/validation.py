@@ -88,7 +88,7 @@ def reading_names() -> list[str]:
 
 def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
              min_goals: int = defaults.VALIDATION_MIN_GOALS, max_goals: int = defaults.VALIDATION_MAX_GOALS,
-             states: int = defaults.VALIDATION_STATES, seed: int = defaults.VALIDATION_SEED,
+             states: int | None = None, seed: int = defaults.VALIDATION_SEED,
              belief_concentration: float = defaults.VALIDATION_BELIEF_CONCENTRATION,
              mc_queries: int = defaults.VALIDATION_MC_QUERIES, reading: str = defaults.VALIDATION_READING,
              all_readings: bool = False, out: str | Path | None = None, force: bool = False,
@@ -102,7 +102,9 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
     min_goals, max_goals
         |G| steps cyclically from ``min_goals`` to ``max_goals``.
     states
-        |S| = 2 modes x W x H cells of the two-mode world (not for the three-mode reading alone).
+        |S| = 2 modes x W x H cells of the two-mode world; ``None``: 200 (a 10 x 10 grid), and not
+        given. Given (even as 200), it is refused with the three-mode reading alone, whose world is
+        the study's.
     seed
         Master seed of the whole validation.
     belief_concentration
@@ -132,8 +134,9 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
     from nudgecli.sim import validation
 
     counts = {name: arguments.whole_number(name, value) for name, value in (
-        ("simulations", simulations), ("min_goals", min_goals), ("max_goals", max_goals), ("states", states),
-        ("seed", seed), ("mc_queries", mc_queries))}
+        ("simulations", simulations), ("min_goals", min_goals), ("max_goals", max_goals),
+        ("states", defaults.VALIDATION_STATES if states is None else states), ("seed", seed),
+        ("mc_queries", mc_queries))}
     arguments.switches(all_readings=all_readings, force=force, yes=yes)
     out, progress = arguments.path("out", out, optional=True), arguments.callback("progress", progress)
     if all_readings and reading != defaults.VALIDATION_READING:
@@ -142,10 +145,10 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         **counts, reading=arguments.text("reading", reading),
         belief_concentration=arguments.real_number("belief_concentration", belief_concentration))
     names = list(validation.READINGS) if all_readings else [reading]
-    note = validation.settings.states_note(counts["states"], names)  # before any work
+    note = validation.settings.states_note(None if states is None else counts["states"], names)  # first
     for name in names:
         replace(settings, reading=name).check()
-    check_size(simulations * states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
+    check_size(simulations * counts["states"] * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
                work="run {} queries (worlds x states x readings)", fix="fewer --simulations or --states")
     if out is not None:
         from nudgecli.outputs import check_output_folder

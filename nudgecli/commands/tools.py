@@ -100,8 +100,9 @@ def _validation_readings() -> list[str]:
               show_default=True, help="Fewest goals |G| (at least 2).")
 @click.option("--max-goals", type=int, default=defaults.VALIDATION_MAX_GOALS, show_default=True,
               help="Most goals |G|; |G| steps cyclically from --min-goals to --max-goals.")
-@click.option("--states", type=int, default=defaults.VALIDATION_STATES, show_default=True,
-              help="|S| = 2 modes x W x H cells of the two-mode world (200: a 10 x 10 grid).")
+@click.option("--states", type=int, default=None,
+              help="|S| = 2 modes x W x H cells of the two-mode world; not for --reading three-mode, "
+                   f"whose world is the study's [default: {defaults.VALIDATION_STATES}, a 10 x 10 grid].")
 @click.option("--seed", type=int, default=defaults.VALIDATION_SEED, show_default=True,
               help="Master seed of the whole validation.")
 @click.option("--belief-concentration", type=float, default=defaults.VALIDATION_BELIEF_CONCENTRATION,
@@ -122,7 +123,7 @@ def _validation_readings() -> list[str]:
 @click.option("--yes", is_flag=True,
               help="Run more queries than the size limit allows (docs/reliability.md).")
 @click.option("--force", is_flag=True, help=FORCE_HELP)
-def validate_command(simulations: int, min_goals: int, max_goals: int, states: int, seed: int,
+def validate_command(simulations: int, min_goals: int, max_goals: int, states: int | None, seed: int,
                      belief_concentration: float, mc_queries: int, reading: str, all_readings: bool,
                      out: str | None, output_format: str, yes: bool, force: bool) -> None:
     """The paper's simulation-based validation of D(s): its argmax vs a one-step ground truth."""

@@ -180,17 +180,16 @@ class ValidationSettings:
         return data
 
 
-def states_note(states: int, readings: Sequence[str]) -> str | None:
+def states_note(states: int | None, readings: Sequence[str]) -> str | None:
     """Whether ``--states`` applies to the readings run: it sizes the two-mode world alone.
 
-    As ``--reading`` beside ``--all-readings``, ``--states`` counts as given when it differs from
-    its default. Refused where no reading run has the two-mode world (``--reading three-mode``);
-    where some have, a note that the three-mode ones keep the study's world.
+    Refused where it is given and no reading run has the two-mode world (``--reading
+    three-mode``); where some have, a note that the three-mode ones keep the study's world.
 
     Parameters
     ----------
     states
-        ``--states``.
+        ``--states``; ``None`` where it is not given.
     readings
         Names of the readings run.
 
@@ -204,7 +203,7 @@ def states_note(states: int, readings: Sequence[str]) -> str | None:
     ConfigError
         ``states`` given and every reading has the three-mode world.
     """
-    if states == defaults.VALIDATION_STATES:
+    if states is None:
         return None
     own_world = [name for name in readings if get_reading(name).world == "three-mode"]
     world = (f"the study's {N_CELLS_X} x {N_CELLS_Y} cells x {N_HEADINGS} headings x {N_MODES} modes "
