@@ -148,7 +148,7 @@ def _wrong_values(function: str, parameter: inspect.Parameter) -> list[object]:
     optional = "None" in annotation or parameter.default is None
     if annotation in ("int", "int | None"):
         values: list[object] = ["2", 2.5, True]
-    elif annotation == "float":
+    elif annotation in ("float", "float | None"):
         values = ["0.5", float("nan")]
     elif annotation == "bool":
         values = ["yes", 1]

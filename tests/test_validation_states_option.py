@@ -1,4 +1,5 @@
 """``nudge validate --states`` sizes the two-mode world only; the three-mode reading has the study's.
+(``--belief-concentration`` likewise shapes the Dirichlet readings' beliefs only.)
 
 ``--reading three-mode --states 50`` is one ``Error:`` line (as ``--reading`` beside
 ``--all-readings`` is refused rather than ignored); with ``--all-readings`` ``--states`` still sizes
@@ -98,3 +99,40 @@ def test_states_for_two_mode_readings_alone_needs_no_word() -> None:
 def test_states_for_the_three_mode_reading_alone_is_refused() -> None:
     with pytest.raises(ConfigError, match="--states 50 does not apply"):
         states_note(50, ["three-mode"])
+
+
+def test_belief_concentration_with_the_two_goal_reading_is_one_error_line(tmp_path, monkeypatch) -> None:
+    # the two-goal reading splits each query's belief between two goals: no Dirichlet to shape
+    monkeypatch.setattr("nudgecli.sim.validation.run_validation", _never)
+    out = tmp_path / "v"
+    result = CliRunner().invoke(main, [*SMALL, "--reading", "two-goal", "--belief-concentration", "5",
+                                       "--out", str(out)])
+    line = one_error_line(result.output)
+    assert result.exit_code == 1 and not out.exists()
+    assert "--belief-concentration 5 does not apply to --reading two-goal" in line and "two goals" in line
+    with pytest.raises(ConfigError, match="--belief-concentration 1 does not apply"):
+        validate(simulations=1, min_goals=3, max_goals=3, belief_concentration=1.0, mc_queries=0,
+                 reading="two-goal")
+
+
+def test_all_readings_with_belief_concentration_notes_the_two_goal_row(monkeypatch) -> None:
+    seen = []
+    monkeypatch.setattr("nudgecli.sim.validation.run_all_readings",
+                        lambda settings, names, progress: seen.append(settings) or [])
+    monkeypatch.setattr("nudgecli.api.validation.Validation.text", lambda self: "the table")
+    result = CliRunner().invoke(main, [*SMALL, "--all-readings", "--belief-concentration", "5"])
+    assert result.exit_code == 0, result.output
+    notes = [line for line in result.stderr.splitlines() if line.startswith("Note: ")]
+    assert len(notes) == 1 and "--belief-concentration 5" in notes[0] and "two-goal row" in notes[0]
+    assert seen[0].belief_concentration == 5.0
+
+
+def test_the_two_goal_reading_without_belief_concentration_runs(monkeypatch) -> None:
+    ran = []
+    monkeypatch.setattr("nudgecli.sim.validation.run_validation",
+                        lambda settings, progress: ran.append(settings))
+    monkeypatch.setattr("nudgecli.api.validation.Validation.text", lambda self: "")
+    result = CliRunner().invoke(main, [*SMALL, "--reading", "two-goal"])
+    assert result.exit_code == 0, result.output
+    assert ran[0].belief_concentration == defaults.VALIDATION_BELIEF_CONCENTRATION
+    assert "Note" not in result.output

@@ -89,7 +89,7 @@ def reading_names() -> list[str]:
 def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
              min_goals: int = defaults.VALIDATION_MIN_GOALS, max_goals: int = defaults.VALIDATION_MAX_GOALS,
              states: int | None = None, seed: int = defaults.VALIDATION_SEED,
-             belief_concentration: float = defaults.VALIDATION_BELIEF_CONCENTRATION,
+             belief_concentration: float | None = None,
              mc_queries: int = defaults.VALIDATION_MC_QUERIES, reading: str = defaults.VALIDATION_READING,
              all_readings: bool = False, out: str | Path | None = None, force: bool = False,
              yes: bool = False, progress: Callable[[int, int], None] | None = None) -> Validation:
@@ -108,7 +108,8 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
     seed
         Master seed of the whole validation.
     belief_concentration
-        Query beliefs are Dirichlet(c).
+        Query beliefs are Dirichlet(c); ``None``: 1, and not given. Given, it is refused with the
+        two-goal reading alone, whose beliefs are split between two goals.
     mc_queries
         Queries of the Monte-Carlo convergence study (0 skips it).
     reading
@@ -141,11 +142,15 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
     out, progress = arguments.path("out", out, optional=True), arguments.callback("progress", progress)
     if all_readings and reading != defaults.VALIDATION_READING:
         raise ConfigError(READINGS_EXCLUDE)
+    concentration = (defaults.VALIDATION_BELIEF_CONCENTRATION if belief_concentration is None
+                     else belief_concentration)
     settings = validation.ValidationSettings(
         **counts, reading=arguments.text("reading", reading),
-        belief_concentration=arguments.real_number("belief_concentration", belief_concentration))
+        belief_concentration=arguments.real_number("belief_concentration", concentration))
     names = list(validation.READINGS) if all_readings else [reading]
-    note = validation.settings.states_note(None if states is None else counts["states"], names)  # first
+    notes = [validation.settings.states_note(None if states is None else counts["states"], names),
+             validation.settings.concentration_note(
+                 None if belief_concentration is None else settings.belief_concentration, names)]  # first
     for name in names:
         replace(settings, reading=name).check()
     check_size(simulations * counts["states"] * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
@@ -159,7 +164,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         results = validation.run_all_readings(settings, names, progress=progress)
     else:
         results = [validation.run_validation(settings, progress=progress)]
-    made = Validation(tuple(results), all_readings, notes=[note] if note else [])
+    made = Validation(tuple(results), all_readings, notes=[note for note in notes if note])
     if out is not None:
         if all_readings:
             made.files.extend(validation.save_readings(results, out))

@@ -105,9 +105,10 @@ def _validation_readings() -> list[str]:
                    f"whose world is the study's [default: {defaults.VALIDATION_STATES}, a 10 x 10 grid].")
 @click.option("--seed", type=int, default=defaults.VALIDATION_SEED, show_default=True,
               help="Master seed of the whole validation.")
-@click.option("--belief-concentration", type=float, default=defaults.VALIDATION_BELIEF_CONCENTRATION,
-              show_default=True,
-              help="Query beliefs are Dirichlet(c): 1 spreads them evenly, large c makes them near uniform.")
+@click.option("--belief-concentration", type=float, default=None,
+              help="Query beliefs are Dirichlet(c): 1 spreads them evenly, large c makes them near uniform; "
+                   "not for --reading two-goal, whose beliefs are split between two goals "
+                   f"[default: {defaults.VALIDATION_BELIEF_CONCENTRATION:g}].")
 @click.option("--mc-queries", type=int, default=defaults.VALIDATION_MC_QUERIES, show_default=True,
               help="Queries of the Monte-Carlo convergence study (0 skips it).")
 @click.option("--reading", type=click.Choice(list(_validation_readings())),
@@ -124,7 +125,7 @@ def _validation_readings() -> list[str]:
               help="Run more queries than the size limit allows (docs/reliability.md).")
 @click.option("--force", is_flag=True, help=FORCE_HELP)
 def validate_command(simulations: int, min_goals: int, max_goals: int, states: int | None, seed: int,
-                     belief_concentration: float, mc_queries: int, reading: str, all_readings: bool,
+                     belief_concentration: float | None, mc_queries: int, reading: str, all_readings: bool,
                      out: str | None, output_format: str, yes: bool, force: bool) -> None:
     """The paper's simulation-based validation of D(s): its argmax vs a one-step ground truth."""
     import time

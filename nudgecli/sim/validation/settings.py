@@ -4,7 +4,7 @@ Monte-Carlo convergence study's sample counts, checked when made."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -181,41 +181,66 @@ class ValidationSettings:
 
 
 def states_note(states: int | None, readings: Sequence[str]) -> str | None:
-    """Whether ``--states`` applies to the readings run: it sizes the two-mode world alone.
+    """Whether ``--states`` applies to the readings run: it sizes the two-mode world alone
+    (:func:`_unused_option_note`; ``states``: ``None`` where it is not given)."""
+    world = (f"the study's {N_CELLS_X} x {N_CELLS_Y} cells x {N_HEADINGS} headings x {N_MODES} modes "
+             f"({N_STATES} states)")
+    return _unused_option_note(
+        f"--states {states}", states is not None, readings,
+        lambda name: get_reading(name).world == "three-mode",
+        f"its world is {world}", "the two-mode readings' world", f"keeps {world}",
+        "a two-mode reading (e.g. --reading dirichlet)")
 
-    Refused where it is given and no reading run has the two-mode world (``--reading
-    three-mode``); where some have, a note that the three-mode ones keep the study's world.
+
+def concentration_note(concentration: float | None, readings: Sequence[str]) -> str | None:
+    """Whether ``--belief-concentration`` applies to the readings run: it shapes the Dirichlet
+    beliefs alone (:func:`_unused_option_note`; ``None`` where it is not given)."""
+    return _unused_option_note(
+        f"--belief-concentration {concentration:g}" if concentration is not None else "",
+        concentration is not None, readings, lambda name: get_reading(name).belief == "two-goal",
+        "its beliefs split between two goals", "the Dirichlet readings' beliefs",
+        "keeps its beliefs split between two goals", "a Dirichlet reading (e.g. --reading dirichlet)")
+
+
+def _unused_option_note(option: str, given: bool, readings: Sequence[str], ignores: Callable[[str], bool],
+                        why: str, shapes: str, keeps: str, instead: str) -> str | None:
+    """An option that some readings do not use: refused where it is given and no reading run uses
+    it; where some do, a note that the others keep their own.
 
     Parameters
     ----------
-    states
-        ``--states``; ``None`` where it is not given.
+    option
+        The option as given (``--states 50``).
+    given
+        Whether it was given (an option left at its default is not).
     readings
         Names of the readings run.
+    ignores
+        Whether the named reading does not use the option.
+    why, shapes, keeps, instead
+        The error's reason and advice (``--reading X: <why>; leave it out, or choose <instead>``)
+        and the note's words (``<option> sizes <shapes>; the X row <keeps>``).
 
     Returns
     -------
     str | None
-        The note (without its ``Note:``) when some readings ignore ``states``, else ``None``.
+        The note (without its ``Note:``) when some readings ignore the option, else ``None``.
 
     Raises
     ------
     ConfigError
-        ``states`` given and every reading has the three-mode world.
+        The option given and every reading ignores it.
     """
-    if states is None:
+    if not given:
         return None
-    own_world = [name for name in readings if get_reading(name).world == "three-mode"]
-    world = (f"the study's {N_CELLS_X} x {N_CELLS_Y} cells x {N_HEADINGS} headings x {N_MODES} modes "
-             f"({N_STATES} states)")
-    if own_world and len(own_world) == len(readings):
-        raise ConfigError(f"--states {states} does not apply to --reading {own_world[0]}: its world is "
-                          f"{world}; leave --states out, or choose a two-mode reading "
-                          "(e.g. --reading dirichlet)")
-    if own_world:
-        return (f"--states {states} sizes the two-mode readings' world; the {', '.join(own_world)} row "
-                f"keeps {world}")
+    own = [name for name in readings if ignores(name)]
+    if own and len(own) == len(readings):
+        raise ConfigError(f"{option} does not apply to --reading {own[0]}: {why}; leave "
+                          f"{option.split()[0]} out, or choose {instead}")
+    if own:
+        return f"{option} sets {shapes}; the {', '.join(own)} row {keeps}"
     return None
 
 
-__all__ = ["DEFAULT_MC_SAMPLES", "MAX_MC_SAMPLES", "MC_VARIANTS", "ValidationSettings", "states_note"]
+__all__ = ["DEFAULT_MC_SAMPLES", "MAX_MC_SAMPLES", "MC_VARIANTS", "ValidationSettings", "concentration_note",
+           "states_note"]
