@@ -116,7 +116,7 @@ def test_stats_json_records_what_the_analysis_did_to_the_rows_it_read(tmp_path, 
     assert CliRunner().invoke(main, args).exit_code == 0
     record = stats_of(tmp_path / "study-analysis")["table_read"]
     assert record == {"sha256": hashlib.sha256(source.read_bytes()).hexdigest(), "rows": len(table) + repeats,
-                      "drop_duplicates": flag, "duplicates_dropped": repeats}
+                      "drop_duplicates": flag, "duplicates_dropped": repeats, "table": "../study.csv"}
     # a table analysed as it is is drawn from itself, one whose rows were dropped from metrics.csv
     assert (tmp_path / "study-analysis" / "metrics.csv").is_file() == (repeats > 0)
     assert plot(source, tmp_path / "figures").exit_code == 0
@@ -199,3 +199,18 @@ def test_a_parquet_tables_record_is_the_sha256_of_its_bytes_and_an_edit_is_refus
     result = plot(source, tmp_path / "again")
     assert result.exit_code != 0 and not (tmp_path / "again").exists()
     assert f"({len(table)} rows when analysed; {len(table)} rows now; its SHA-256 differs)" in result.output
+
+
+def test_plot_plan_of_an_analysis_written_elsewhere_finds_the_changed_table(analysed_with_duplicates,
+                                                                            tmp_path):
+    # the analysis changed the table (repeated rows dropped) and lives away from it: its record
+    # names the table, so --plan can analyse it again (it looked beside the folder only)
+    folder = tmp_path / "analyses" / "first"
+    args = ["analyze", str(analysed_with_duplicates), "--drop-duplicates", "--out", str(folder)]
+    assert CliRunner().invoke(main, args).exit_code == 0
+    assert stats_of(folder)["table_read"]["table"] == "../../study.csv"
+    result = CliRunner().invoke(main, ["plot", str(folder), "--plan", "paper", "--formats", "png"])
+    assert result.exit_code == 0, result.output
+    analysed_with_duplicates.write_text(analysed_with_duplicates.read_text() + "\n")  # edited since
+    result = CliRunner().invoke(main, ["plot", str(folder), "--plan", "paper", "--formats", "png"])
+    assert result.exit_code == 1 and "that table is not there (moved, or edited since)" in result.output

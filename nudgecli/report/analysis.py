@@ -430,6 +430,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         plan_arg = _recorded_plan(manifest)
     plan = load_plan(plan_arg)
     table_read: dict[str, Any] | None = None  # what was done to a table's rows, for `nudge plot`
+    # the source as seen from the output folder: no machine's path in what is written
+    source_from_out = Path(os.path.relpath(source.resolve(), out_dir.resolve()))
     if source.is_dir():
         table, available, _ = _load_source(source, plan, notes)
         changed = True
@@ -437,7 +439,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         sha256 = file_sha256(source)  # before reading: a table edited meanwhile is never taken for this one
         table, available, dropped = _load_table(source, drop_duplicates, notes, chosen=metrics)
         changed = dropped > 0
-        table_read = table_read_record(sha256, len(table) + dropped, drop_duplicates, dropped)
+        table_read = table_read_record(sha256, len(table) + dropped, drop_duplicates, dropped,
+                                       source_from_out)
     # before anything is recorded: a plan whose conditions are not the data's is refused
     check_plan_conditions(plan, plan.label, table["condition"].astype(str).unique(), str(source))
     if source.is_dir():
@@ -464,8 +467,6 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     options = comparison_options(plan, seed, bootstrap)
     stats = _statistics(filtered, trial_selected, scores, score_selected, conditions, options, progress,
                         not_applicable)
-    # the source as seen from the output folder: no machine's path in what is written
-    source_from_out = Path(os.path.relpath(source.resolve(), out_dir.resolve()))
     stats["metrics_table"] = METRICS_CSV if changed else str(source_from_out)
     stats[CHECKSUM_KEY] = metrics_checksum(filtered, trial_selected, plan.filters)
     if scores is not None:  # plot draws only the scores file this analysis writes

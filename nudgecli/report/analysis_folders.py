@@ -46,7 +46,8 @@ def analysed_table(folder: Path) -> Path | None:
 
     ``metrics_table`` names it (relative to the folder) when the table was analysed as it is. When
     it names the folder's own ``metrics.csv`` (the analysis changed the table), the table is the one
-    beside the folder (:func:`tables_beside`) whose SHA-256 is ``table_read``'s.
+    ``table_read`` names (relative to the folder) while its SHA-256 is the record's, else (a record
+    of an older nudge, or a table moved) the one beside the folder (:func:`tables_beside`) with it.
 
     Returns
     -------
@@ -68,7 +69,10 @@ def analysed_table(folder: Path) -> Path | None:
     sha256 = record.get("sha256") if isinstance(record, dict) else None
     if not isinstance(sha256, str):
         return None  # a run's analysis, or one of an older nudge: nothing says which table
-    return next((table for table in tables_beside(folder) if file_sha256(table) == sha256), None)
+    named = record.get("table") if isinstance(record, dict) else None
+    candidates = [Path(os.path.normpath(folder / named))] if isinstance(named, str) else []
+    candidates += tables_beside(folder)
+    return next((table for table in candidates if table.is_file() and file_sha256(table) == sha256), None)
 
 
 def _same_file(a: Path, b: Path) -> bool:

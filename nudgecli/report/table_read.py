@@ -6,7 +6,9 @@ The record (key ``table_read``, written for a metrics table, not for a run folde
   while it was read is then one ``nudge plot`` refuses, never one it takes for the analysed one);
 - ``rows``: the rows the table held as read (before repeated trial rows were dropped);
 - ``drop_duplicates``: whether ``--drop-duplicates`` was given;
-- ``duplicates_dropped``: how many repeated trial rows were dropped.
+- ``duplicates_dropped``: how many repeated trial rows were dropped;
+- ``table``: the table's path as seen from the analysis folder (since 2026-11-28), so that
+  ``nudge plot FOLDER --plan`` finds a changed table wherever the analysis was written.
 
 ``nudge plot TABLE`` draws a table only when its bytes are the ones analysed
 (:func:`check_table_is_analysed`), so a row added afterwards, even one that exactly repeats a
@@ -30,8 +32,8 @@ from nudgecli.run_folder_record import file_sha256
 TABLE_READ_KEY = "table_read"
 
 
-def table_read_record(sha256: str, rows_read: int, drop_duplicates: bool,
-                      duplicates_dropped: int) -> dict[str, Any]:
+def table_read_record(sha256: str, rows_read: int, drop_duplicates: bool, duplicates_dropped: int,
+                      table: Path) -> dict[str, Any]:
     """The ``stats.json`` record of the table an analysis read (see the module docstring).
 
     Parameters
@@ -44,9 +46,11 @@ def table_read_record(sha256: str, rows_read: int, drop_duplicates: bool,
         Whether repeated trial rows were to be dropped (``--drop-duplicates``).
     duplicates_dropped
         How many were.
+    table
+        The table's path relative to the analysis folder.
     """
     return {"sha256": sha256, "rows": int(rows_read), "drop_duplicates": bool(drop_duplicates),
-            "duplicates_dropped": int(duplicates_dropped)}
+            "duplicates_dropped": int(duplicates_dropped), "table": Path(table).as_posix()}
 
 
 def recorded_table_read(stats: Mapping[str, Any], where: str) -> dict[str, Any] | None:
