@@ -41,3 +41,19 @@ def test_a_batch_part_is_recorded_with_its_sha256_and_not_forced_to_disk(monkeyp
     assert again.vouches(tmp_path / "tasks/s/part-0000.parquet")
     store.write_json_atomic(tmp_path / "batch.json", {})  # any other file is flushed to disk
     assert len(synced) == 1
+
+
+@pytest.mark.parametrize("tail", ["3b98e3", "\0\0\0\0"])  # a torn line; the zeros a power cut can leave
+def test_the_first_line_after_a_torn_one_starts_a_line_of_its_own(tmp_path: Path, tail: str) -> None:
+    record = PartRecord(tmp_path)
+    first, second = tmp_path / "tasks/s/part-0000.parquet", tmp_path / "tasks/s/part-0001.parquet"
+    record.write(first, parquet_bytes(_frame()))
+    with open(tmp_path / PART_RECORD, "a") as handle:
+        handle.write(tail)
+    resumed = PartRecord(tmp_path)
+    resumed.write(second, parquet_bytes(_frame().head(1)))
+    resumed.write_json(tmp_path / "analyses/s-n0002.json", {"p": 0.5})
+    again = PartRecord(tmp_path)  # the next resume vouches for both parts: neither is computed again
+    assert again.vouches(first) and again.vouches(second)
+    assert again.vouches(tmp_path / "analyses/s-n0002.json", lambda path: True)
+    assert (tmp_path / PART_RECORD).read_text().splitlines()[1] == tail

@@ -144,7 +144,9 @@ def test_bench_scale_workers_option(monkeypatch: pytest.MonkeyPatch) -> None:
     result = runner.invoke(main, ["bench", "--scale-workers", "1,2"])  # not the scale figures
     assert result.exit_code == 2 and "add --only scale" in result.output
     result = runner.invoke(main, ["bench", "--only", "scale", "--scale-workers", "two"])
-    assert result.exit_code == 2 and "comma-separated integers, e.g. 1,2,4,8,16" in result.output
+    assert result.exit_code == 2 and "--scale-workers: 'two': give comma-separated integers" in result.output
+    result = runner.invoke(main, ["bench", "--only", "scale", "--scale-workers", ","])  # no count at all
+    assert result.exit_code == 1 and "Error: --scale-workers: no worker count given" in result.output
 
 
 def test_bench_command_only(monkeypatch: pytest.MonkeyPatch) -> None:

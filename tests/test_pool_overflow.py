@@ -8,6 +8,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -155,15 +156,21 @@ def _blocked_signals() -> set[int]:
     return set(signal.pthread_sigmask(signal.SIG_BLOCK, []))
 
 
+def _thread_facts() -> tuple[set[int], bool, str]:
+    thread = threading.current_thread()
+    return _blocked_signals(), thread.daemon, thread.name
+
+
 @pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="POSIX signal masks")
-def test_the_pools_own_thread_leaves_ctrl_c_to_the_main_thread() -> None:
+def test_the_pools_own_thread_leaves_ctrl_c_to_the_main_thread_and_never_holds_the_exit() -> None:
     executor = ProcessExecutor(1)
     try:
-        executor.submit(Job("mask", _blocked_signals, (), here=True))
-        _, blocked = executor.next_result()
+        executor.submit(Job("mask", _thread_facts, (), here=True))
+        _, (blocked, daemon, name) = executor.next_result()
     finally:
         executor.close()
     assert {signal.SIGINT, signal.SIGTERM} <= blocked
+    assert daemon and name == "nudge-here"  # an interrupted command does not wait for its job
     assert signal.SIGINT not in _blocked_signals()  # the main thread's own mask is untouched
 
 

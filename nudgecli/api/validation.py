@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from nudgecli.sim.validation.runner import ValidationResult
+    from nudgecli.sim.validation.settings import ValidationSettings
 
 #: The message of a reading named beside ``all_readings`` (``nudge validate``'s usage error).
 READINGS_EXCLUDE = "--reading and --all-readings exclude each other"
@@ -134,26 +135,11 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
     from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size
     from nudgecli.sim import validation
 
-    counts = {name: arguments.whole_number(name, value) for name, value in (
-        ("simulations", simulations), ("min_goals", min_goals), ("max_goals", max_goals),
-        ("states", defaults.VALIDATION_STATES if states is None else states), ("seed", seed),
-        ("mc_queries", mc_queries))}
+    settings, names, notes = _checked_settings(simulations, min_goals, max_goals, states, seed,
+                                               belief_concentration, mc_queries, reading, all_readings)
     arguments.switches(all_readings=all_readings, force=force, yes=yes)
     out, progress = arguments.path("out", out, optional=True), arguments.callback("progress", progress)
-    if all_readings and reading != defaults.VALIDATION_READING:
-        raise ConfigError(READINGS_EXCLUDE)
-    concentration = (defaults.VALIDATION_BELIEF_CONCENTRATION if belief_concentration is None
-                     else belief_concentration)
-    settings = validation.ValidationSettings(
-        **counts, reading=arguments.text("reading", reading),
-        belief_concentration=arguments.real_number("belief_concentration", concentration))
-    names = list(validation.READINGS) if all_readings else [reading]
-    notes = [validation.settings.states_note(None if states is None else counts["states"], names),
-             validation.settings.concentration_note(
-                 None if belief_concentration is None else settings.belief_concentration, names)]  # first
-    for name in names:
-        replace(settings, reading=name).check()
-    check_size(simulations * counts["states"] * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
+    check_size(simulations * settings.states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
                work="run {} queries (worlds x states x readings)", fix="fewer --simulations or --states")
     if out is not None:
         from nudgecli.outputs import check_output_folder
@@ -164,7 +150,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         results = validation.run_all_readings(settings, names, progress=progress)
     else:
         results = [validation.run_validation(settings, progress=progress)]
-    made = Validation(tuple(results), all_readings, notes=[note for note in notes if note])
+    made = Validation(tuple(results), all_readings, notes=notes)
     if out is not None:
         if all_readings:
             made.files.extend(validation.save_readings(results, out))
@@ -174,3 +160,31 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
             made.files.extend(validation.save_validation(results[0], out))
             made.files.extend(plot_validation(made.summary(), out))
     return made
+
+
+def _checked_settings(simulations: int, min_goals: int, max_goals: int, states: int | None, seed: int,
+                      belief_concentration: float | None, mc_queries: int, reading: str,
+                      all_readings: bool) -> tuple[ValidationSettings, list[str], list[str]]:
+    """:func:`validate`'s settings checked, the readings to run and the notes on options some of
+    them do not use (``None``: an option not given). Before any work."""
+    from nudgecli.api import arguments
+    from nudgecli.sim import validation
+
+    counts = {name: arguments.whole_number(name, value) for name, value in (
+        ("simulations", simulations), ("min_goals", min_goals), ("max_goals", max_goals),
+        ("states", defaults.VALIDATION_STATES if states is None else states), ("seed", seed),
+        ("mc_queries", mc_queries))}
+    if all_readings and reading != defaults.VALIDATION_READING:
+        raise ConfigError(READINGS_EXCLUDE)
+    concentration = (defaults.VALIDATION_BELIEF_CONCENTRATION if belief_concentration is None
+                     else belief_concentration)
+    settings = validation.ValidationSettings(
+        **counts, reading=arguments.text("reading", reading),
+        belief_concentration=arguments.real_number("belief_concentration", concentration))
+    names = list(validation.READINGS) if all_readings else [reading]
+    notes = [validation.settings.states_note(None if states is None else settings.states, names),
+             validation.settings.concentration_note(
+                 None if belief_concentration is None else settings.belief_concentration, names)]
+    for name in names:
+        replace(settings, reading=name).check()
+    return settings, names, [note for note in notes if note]

@@ -231,12 +231,14 @@ def scale_worker_counts(counts: Sequence[int] | None = None) -> list[int]:
     Raises
     ------
     NudgeError
-        When a count is below 1 or above the cores this process may use (its efficiency would
-        measure the machine's oversubscription, not the batch).
+        When no count is given, or one is below 1 or above the cores this process may use (its
+        efficiency would measure the machine's oversubscription, not the batch).
     """
     cores = available_cores()
     if counts is None:
         return list(range(1, cores + 1))
+    if not counts:
+        raise NudgeError(f"--scale-workers: no worker count given; e.g. --scale-workers 1,2 on {cores} cores")
     wrong = [n for n in counts if not 1 <= n <= cores]
     if wrong:
         raise NudgeError(f"--scale-workers {','.join(map(str, counts))}: every count must be from 1 to "

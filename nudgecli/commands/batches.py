@@ -171,8 +171,9 @@ def power_command(experiment: str, counts: str, replications: int, seed: int | N
     """Power curves: the chance of a significant difference in the paper's direction per participant count."""
     from nudgecli.api import power
 
+    counted = comma_integers(counts, "--participants", "6,9,12,18,24")
     _run_batch_command("power", power, out, f"{_experiment_name(experiment)}-power", output_format,
-                       experiment=experiment, participants=comma_integers(counts, "6,9,12,18,24"),
+                       experiment=experiment, participants=counted,
                        replications=replications, seed=seed, plan=plan, overrides=overrides, target=target,
                        workers=workers, scheduler=scheduler, resume=resume, force=force, confirm=yes,
                        people=people)

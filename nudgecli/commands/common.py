@@ -61,13 +61,14 @@ def _strict_scalar(value: Any) -> Any:
     raise TypeError(f"not JSON serialisable: {type(value).__name__}")
 
 
-def comma_integers(text: str, example: str) -> list[int]:
-    """The integers of a comma-separated option value (``"6,9,12"``); a click usage error naming
-    ``example`` for anything else."""
+def comma_integers(text: str, option: str, example: str) -> list[int]:
+    """The integers of the comma-separated value of ``option`` (``"6,9,12"``); a click usage error
+    naming the option and ``example`` for anything else."""
     try:
         return [int(part) for part in text.split(",") if part.strip()]
     except ValueError:
-        raise click.BadParameter(f"{text!r}: give comma-separated integers, e.g. {example}") from None
+        raise click.BadParameter(f"{text!r}: give comma-separated integers, e.g. {example}",
+                                 param_hint=option) from None
 
 
 def info(message: str) -> None:

@@ -75,7 +75,7 @@ def bench_command(output_format: str, only: str, scale_participants: int, scale_
                            scale_participants=scale_participants, scale_studies=scale_studies)
     if scale_workers is not None and only != "scale":
         raise click.UsageError("--scale-workers times the scale figures: add --only scale")
-    counts = None if scale_workers is None else comma_integers(scale_workers, "1,2,4,8,16")
+    counts = None if scale_workers is None else comma_integers(scale_workers, "--scale-workers", "1,2,4,8,16")
     rows = run_bench(options, figures=select_figures(only, counts), progress=info)
     if output_format == "json":
         echo_json(rows)

@@ -210,7 +210,8 @@ class PartRecord:
     A part is recorded once it is in place, so a part without a line (killed between the two,
     copied in from another batch) or whose bytes no longer give its line's SHA-256 (edited,
     truncated) is not vouched for, and is computed again. A torn last line (a kill while
-    appending) vouches for nothing. Later lines of a path replace earlier ones.
+    appending, or the zeros a power cut can leave) vouches for nothing, and the first line this
+    record appends starts on a line of its own. Later lines of a path replace earlier ones.
 
     Parameters
     ----------
@@ -233,6 +234,8 @@ class PartRecord:
             match = _RECORD_LINE.fullmatch(line)
             if match:
                 self.sums[match.group(2)] = match.group(1)
+        #: what ends a torn last line before the first line appended (it would glue onto it)
+        self._line_break = "\n" if text and not text.endswith("\n") else ""
         #: Parts on disk that the record does not vouch for, as they were met (for the warning).
         self.refused: list[str] = []
         #: Parts the record holds that are no longer on disk (deleted since), as they were met.
@@ -281,7 +284,8 @@ class PartRecord:
         name = self._name(part)
         try:
             with open(self.path, "a", encoding="utf-8") as handle:
-                handle.write(f"{hashlib.sha256(data).hexdigest()}  {name}\n")
+                handle.write(f"{self._line_break}{hashlib.sha256(data).hexdigest()}  {name}\n")
+            self._line_break = ""
         except OSError as exc:
             raise write_error(self.path, exc) from exc
 

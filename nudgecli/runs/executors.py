@@ -10,8 +10,8 @@ it can send each worker the tasks whose data it already holds: a worker gets, in
 without affinity, a task of an affinity it has served recently, else a task of the affinity the
 fewest workers hold. A job marked ``here`` (a batch's analyses) runs in the pool's own process, in
 one thread beside the workers, where the process would otherwise only wait for them: its modules
-(scipy.stats, for the analyses) are then imported once, while the workers run trials, and not
-into a worker, whose memory stays that of its trials. On many workers that one thread falls
+(pandas and the statistics, for the analyses) are then imported once, while the workers run
+trials, and not into a worker, whose memory stays that of its trials. On many workers that one thread falls
 behind (a 16-core machine's workers finish studies faster than it analyses them), so a ``here``
 job marked ``overflow`` goes to a worker that has nothing else to do when waiting for the thread
 would take longer than the worker's imports (:meth:`ProcessExecutor.warm`). Its workers exit when

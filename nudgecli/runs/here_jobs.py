@@ -4,6 +4,7 @@ a thread of the pool's own process, beside its workers (:class:`~nudgecli.runs.e
 from __future__ import annotations
 
 import contextlib
+import queue
 import signal
 import threading
 import time
@@ -21,11 +22,12 @@ class HereThread:
     A finished job's result (or exception) waits in :meth:`finished`, and a byte on a pipe
     (:attr:`wakeup`) wakes :meth:`ProcessExecutor.next_result`, which waits on it with the
     workers' pipes. The thread starts with the first job, after the workers are forked (a fork
-    while it imports could leave a worker holding an import lock no one releases).
+    while it imports could leave a worker holding an import lock no one releases). It is a daemon:
+    a command that ends (Ctrl-C, a failure) does not wait for its job, which writes nothing.
     """
 
     def __init__(self) -> None:
-        self._executor: Any = None
+        self._jobs: queue.SimpleQueue[Job | None] | None = None
         self._done: deque[tuple[Job, bool, Any, float]] = deque()
         self._lock = threading.Lock()
         self.wakeup: Connection | None = None
@@ -35,15 +37,20 @@ class HereThread:
         self.last_seconds = 0.0
 
     def submit(self, job: Job) -> None:
-        if self._executor is None:
-            from concurrent.futures import ThreadPoolExecutor
+        if self._jobs is None:
             from multiprocessing import Pipe
 
             self.wakeup, self._signal = Pipe(duplex=False)
-            self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="nudge-here",
-                                                initializer=_leave_signals_to_the_main_thread)
+            self._jobs = queue.SimpleQueue()
+            threading.Thread(target=self._serve, args=(self._jobs,), name="nudge-here", daemon=True).start()
         self.running += 1
-        self._executor.submit(self._run, job)
+        self._jobs.put(job)
+
+    def _serve(self, jobs: queue.SimpleQueue[Job | None]) -> None:
+        """The thread: run the jobs in the order they came, until :meth:`close`'s ``None``."""
+        _leave_signals_to_the_main_thread()
+        while (job := jobs.get()) is not None:
+            self._run(job)
 
     def _run(self, job: Job) -> None:
         start = time.perf_counter()
@@ -72,9 +79,11 @@ class HereThread:
         return job, payload
 
     def close(self) -> None:
-        """Take no more jobs; a running one finishes in its thread (it cannot be interrupted)."""
-        if self._executor is not None:
-            self._executor.shutdown(wait=False, cancel_futures=True)
+        """Take no more jobs: the thread ends after the job it runs (which cannot be interrupted,
+        and which the process does not wait for when it exits)."""
+        if self._jobs is not None:
+            self._jobs.put(None)
+            self._jobs = None
 
 
 def _leave_signals_to_the_main_thread() -> None:
