@@ -189,7 +189,6 @@ def write_json_atomic(path: str | Path, data: Any) -> None:
     write_text_atomic(path, json_text(data))
 
 
-
 def write_parquet_atomic(path: str | Path, frame: pd.DataFrame) -> str:
     """Write ``frame`` to ``path`` as Parquet atomically (no index); the file's SHA-256 (hex)."""
     with atomic_path(path) as tmp:

@@ -44,14 +44,17 @@ def test_the_api_refuses_states_with_the_three_mode_reading() -> None:
         validate(simulations=1, min_goals=3, max_goals=3, states=72, mc_queries=0, reading="three-mode")
 
 
-def test_the_three_mode_reading_without_states_runs(monkeypatch) -> None:
+@pytest.mark.parametrize("reading", ["three-mode", "two-goal"])
+def test_a_reading_without_the_option_it_ignores_runs_with_the_defaults(monkeypatch, reading: str) -> None:
     ran = []
     monkeypatch.setattr("nudgecli.sim.validation.run_validation",
                         lambda settings, progress: ran.append(settings))
     monkeypatch.setattr("nudgecli.api.validation.Validation.text", lambda self: "")
-    result = CliRunner().invoke(main, [*SMALL, "--reading", "three-mode"])
+    result = CliRunner().invoke(main, [*SMALL, "--reading", reading])
     assert result.exit_code == 0, result.output
-    assert [s.reading for s in ran] == ["three-mode"] and "Note" not in result.output
+    assert [s.reading for s in ran] == [reading] and "Note" not in result.output
+    assert ran[0].states == defaults.VALIDATION_STATES
+    assert ran[0].belief_concentration == defaults.VALIDATION_BELIEF_CONCENTRATION
 
 
 def test_all_readings_with_states_notes_that_the_three_mode_row_keeps_its_world(monkeypatch) -> None:
@@ -125,14 +128,3 @@ def test_all_readings_with_belief_concentration_notes_the_two_goal_row(monkeypat
     notes = [line for line in result.stderr.splitlines() if line.startswith("Note: ")]
     assert len(notes) == 1 and "--belief-concentration 5" in notes[0] and "two-goal row" in notes[0]
     assert seen[0].belief_concentration == 5.0
-
-
-def test_the_two_goal_reading_without_belief_concentration_runs(monkeypatch) -> None:
-    ran = []
-    monkeypatch.setattr("nudgecli.sim.validation.run_validation",
-                        lambda settings, progress: ran.append(settings))
-    monkeypatch.setattr("nudgecli.api.validation.Validation.text", lambda self: "")
-    result = CliRunner().invoke(main, [*SMALL, "--reading", "two-goal"])
-    assert result.exit_code == 0, result.output
-    assert ran[0].belief_concentration == defaults.VALIDATION_BELIEF_CONCENTRATION
-    assert "Note" not in result.output
