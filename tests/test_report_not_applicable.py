@@ -98,8 +98,12 @@ def test_a_condition_left_out_is_out_of_every_test_of_the_metric() -> None:
     # intervals of the three others' pairs only; z's descriptives are null, its reason recorded
     intervals = entry["ci"]["pairs"]
     assert [p["low"] is None for p in intervals] == ["z" in (p["a"], p["b"]) for p in intervals]
-    assert all(entry[key]["z"] is None for key in ("n", "mean", "median", "q1", "q3"))
+    assert all(entry[key]["z"] is None for key in ("n", "mean", "median", "q1", "q3", "mean_rank"))
     assert entry["n"]["w"] == 35
+    # the mean ranks: the three others' trials ranked together, without z's
+    ranks = scipy.stats.rankdata(np.concatenate(groups))
+    assert [entry["mean_rank"][c] for c in kept] == pytest.approx(
+        [ranks[35 * j:35 * (j + 1)].mean() for j in range(3)], rel=1e-15)
     assert entry["not_applicable"] == ["z"] and entry["not_applicable_reasons"] == {"z": "not applicable"}
 
 

@@ -222,3 +222,25 @@ def test_every_fast_path_of_the_signed_rank_test_runs_without_scipy_stats() -> N
     result = run_refusing(script, ["scipy.stats"])
     assert result.returncode == 0, result.stderr
     assert result.stdout.split() == ["True"]
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 2), st.integers(-3, 3)), min_size=1, max_size=40), st.randoms())
+def test_condition_mean_ranks_are_the_mean_of_scipys_ranks_whatever_the_order(
+        rows: list[tuple[int, int]], shuffle: object) -> None:
+    positions = np.array([p for p, _ in rows])
+    values = np.array([float(v) for _, v in rows])
+    means = rank_tests.condition_mean_ranks(values, positions, 4)  # condition 3 never has values
+    ranks = scipy.stats.rankdata(values)
+    for j in range(4):
+        if (positions == j).any():
+            assert means[j] == pytest.approx(ranks[positions == j].mean(), rel=1e-15)
+        else:
+            assert math.isnan(means[j])
+    # every rank counted once: the rank sums add up to N (N + 1) / 2
+    counts = np.bincount(positions, minlength=4)
+    assert float(np.nansum(means * counts)) == pytest.approx(len(rows) * (len(rows) + 1) / 2)
+    order = list(range(len(rows)))
+    shuffle.shuffle(order)  # type: ignore[attr-defined]
+    assert np.array_equal(rank_tests.condition_mean_ranks(values[order], positions[order], 4), means,
+                          equal_nan=True)

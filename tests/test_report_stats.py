@@ -317,9 +317,15 @@ def test_stats_document_schema_and_tidy_table() -> None:
                                           ComparisonOptions(bootstrap_resamples=200)))
     assert list(stats) == ["conditions", "metrics"] and stats["conditions"] == ["a", "b", "c"]
     entry = stats["metrics"][0]
-    assert list(entry) == ["metric", "n", "mean", "median", "q1", "q3", "kruskal", "conover", "p_adjust",
-                           "stars", "participant_level", "effect_size", "ci"]
+    assert list(entry) == ["metric", "n", "mean", "median", "q1", "q3", "mean_rank", "kruskal", "conover",
+                           "p_adjust", "stars", "participant_level", "effect_size", "ci"]
     assert entry["n"] == {"a": 8, "b": 9, "c": 7}
+    # the mean ranks of all trials ranked together (scipy's average ranks), each condition's mean
+    pooled = np.concatenate([np.asarray(GROUPS[c], dtype=float) for c in ("a", "b", "c")])
+    ranks = scipy.stats.rankdata(pooled)
+    ends = np.cumsum([len(GROUPS[c]) for c in ("a", "b", "c")])
+    expected = [ranks[start:end].mean() for start, end in zip([0, *ends[:-1]], ends, strict=True)]
+    assert [entry["mean_rank"][c] for c in ("a", "b", "c")] == pytest.approx(expected, rel=1e-15)
     assert set(entry["kruskal"]) == {"statistic", "p"}
     assert all(set(r) == {"a", "b", "p", "p_unadjusted"} for r in entry["conover"])
     assert len(entry["ci"]["pairs"]) == 3

@@ -614,13 +614,34 @@ def test_a_replication_is_significant_at_the_trial_level_only_when_both_tests_ar
         (row,) = replication_rows(entries, {"s": document}, plan).to_dict("records")
         verdicts[kruskal_p, conover_p] = row["trial_significant"]
     assert verdicts == {(0.01, 0.01): True, (0.01, 0.2): False, (0.2, 0.01): False, (0.2, 0.2): False}
-    # equal medians: the direction is the sign of the difference of the means
+    # a document written before the mean ranks were recorded: the medians, then (tied) the means
+    del entry["mean_rank"]
     entry["median"]["b"] = entry["median"]["a"]
     for mean_b, direction in [(entry["mean"]["a"] - 1.0, +1), (entry["mean"]["a"] + 1.0, -1),
                               (entry["mean"]["a"], 0)]:
         entry["mean"]["b"] = mean_b
         (row,) = replication_rows(entries, {"s": document}, plan).to_dict("records")
         assert row["trial_direction"] == direction, mean_b
+
+
+def test_the_trial_direction_is_the_mean_ranks_where_medians_tie_and_means_disagree() -> None:
+    # medians tie at 1; b's mean is higher (one 10) but its mean rank lower (two 0s). Ranked
+    # together by hand: the two 0s share ranks 1-2 (1.5), the seventeen 1s ranks 3-19 (11), the 10
+    # rank 20; so a's mean rank is 11 and b's (2 x 1.5 + 7 x 11 + 20) / 10 = 10: a is higher
+    values = {"a": [1.0] * 10, "b": [0.0, 0.0, *[1.0] * 7, 10.0]}
+    table = pd.DataFrame([{"participant": k % 5, "condition": c, "value": v}
+                          for c, vs in values.items() for k, v in enumerate(vs)])
+    plan = AnalysisPlan(conditions=("a", "b"), bootstrap={"resamples": 100})
+    document = analyse_replication(table, plan, ["value"])
+    entry = document["metrics"][0]
+    assert entry["mean_rank"] == {"a": 11.0, "b": 10.0}
+    assert entry["median"] == {"a": 1.0, "b": 1.0} and entry["mean"]["b"] > entry["mean"]["a"]
+    entries = pd.DataFrame([{"point": 0, "replication": 0, "seed": 0, "participants": 5, "analysis": "s"}])
+    (row,) = replication_rows(entries, {"s": document}, plan).to_dict("records")
+    assert row["trial_direction"] == +1
+    entry["mean_rank"] = {"a": 10.0, "b": 10.0}
+    (row,) = replication_rows(entries, {"s": document}, plan).to_dict("records")
+    assert row["trial_direction"] == 0
 
 
 def test_morris_mu_star_of_a_linear_model_is_its_slope_times_the_range() -> None:

@@ -71,6 +71,38 @@ def average_ranks(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ranks, counts
 
 
+def condition_mean_ranks(values: np.ndarray, positions: np.ndarray, n_conditions: int) -> np.ndarray:
+    """Each condition's mean rank among all the values (average ranks for ties): what
+    Kruskal-Wallis and Conover's test compare, so the sign of a pair's difference is the direction
+    a significant result of theirs has.
+
+    Parameters
+    ----------
+    values
+        ``(N,)`` finite numbers: every compared condition's values.
+    positions
+        ``(N,)`` int, each value's condition, ``0 <= position < n_conditions``.
+    n_conditions
+        ``k``, the number of conditions.
+
+    Returns
+    -------
+    np.ndarray
+        ``(k,)`` float, NaN for a condition without values. The rank sums are exact (half-integers
+        far below 2^53 for any table that fits in memory), so each mean is the correctly rounded
+        quotient whatever the order of the values.
+    """
+    values = np.asarray(values, dtype=np.float64)
+    positions = np.asarray(positions, dtype=np.intp)
+    counts = np.bincount(positions, minlength=n_conditions)
+    means = np.full(n_conditions, np.nan)
+    if values.size:
+        sums = np.bincount(positions, weights=average_ranks(values)[0], minlength=n_conditions)
+        present = counts > 0
+        means[present] = sums[present] / counts[present]
+    return means
+
+
 def _exact_ties(counts: np.ndarray) -> np.ndarray | None:
     """``t**3 - t`` of the tie counts as float64 (as scipy computes it), or None where the
     vectorised power is not the exact integer cube (then the sums could differ from scipy's)."""

@@ -13,8 +13,8 @@ results:
   the pair are both significant at the plan's ``kruskal_alpha`` (with its comparison, as the
   stars), *at the participant level* when the pair's paired test's p is (two conditions: the
   Wilcoxon test; more: the pair's post-hoc Wilcoxon test, adjusted as the Conover p); its
-  *direction* is the sign of ``a - b`` (trial level: the difference of medians, or of means where
-  the medians tie; participant level: the pair's rank-biserial r);
+  *direction* is the sign of ``a - b`` (trial level: the difference of the conditions' mean ranks,
+  which the two tests compare; participant level: the pair's rank-biserial r);
 - pooled effect sizes are the mean over replications with the 2.5 and 97.5 percentiles of the
   replications' values (where 95 % of replications of this study land);
 - power is the fraction of replications significant in the paper's direction (either
@@ -93,6 +93,22 @@ def _sign(value: float | None) -> int:
     return 1 if value > 0 else -1
 
 
+def trial_direction(row: Mapping[str, Any]) -> int:
+    """The direction of a pair's trial-level tests: the sign of ``a - b`` of the conditions' mean
+    ranks, which is what Kruskal-Wallis and Conover's test compare (+1, -1, or 0 for equal or
+    missing).
+
+    ``row`` is a :func:`~nudgecli.report.stats_document.stats_table` row. A document written before
+    the mean ranks were recorded falls back to the difference of medians, then of means where the
+    medians tie (with tied medians a few outliers can move the means against the ranks).
+    """
+    ranks = _difference(row.get("mean_rank_a"), row.get("mean_rank_b"))
+    if ranks is not None and math.isfinite(ranks):
+        return _sign(ranks)
+    sign = _sign(_difference(row["median_a"], row["median_b"]))
+    return sign if sign != 0 else _sign(_difference(row["mean_a"], row["mean_b"]))
+
+
 def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]], plan: AnalysisPlan,
                      points: pd.DataFrame | None = None) -> pd.DataFrame:
     """One row per (entry, metric, pair of conditions): the replication's tests and their verdicts.
@@ -128,9 +144,7 @@ def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
             if "pairwise_p" in row:  # more than two conditions: the pair's post-hoc test, not the omnibus
                 row.update(participant_p=row["pairwise_p"], effect_size_name=row["pairwise_effect_size_name"],
                            effect_size=row["pairwise_effect_size"])
-            trial_sign = _sign(_difference(row["median_a"], row["median_b"]))
-            if trial_sign == 0:
-                trial_sign = _sign(_difference(row["mean_a"], row["mean_b"]))
+            trial_sign = trial_direction(row)
             rows.append({
                 "point": entry["point"], "replication": entry["replication"], "seed": entry["seed"],
                 "participants": entry["participants"], "metric": row["metric"], "a": a, "b": b,

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from typing import Any, Literal
 
 import numpy as np
@@ -45,7 +45,7 @@ import pandas as pd
 from nudgecli.model.conditions import PAPER_CONDITIONS
 from nudgecli.report.comparison_options import ComparisonOptions as ComparisonOptions  # re-exported
 from nudgecli.report.p_adjust import NATIVE_ADJUSTMENTS
-from nudgecli.report.rank_tests import conover_exact, kruskal_exact
+from nudgecli.report.rank_tests import condition_mean_ranks, conover_exact, kruskal_exact
 
 #: Adjustments that leave a single p-value unchanged (``multipletests`` with one test).
 _IDENTITY_ON_ONE_TEST = frozenset({"bonferroni", "sidak", "holm-sidak", "holm", "simes-hochberg", "hommel",
@@ -162,6 +162,33 @@ def descriptive_columns(data: pd.DataFrame, metric: str, conditions: Sequence[st
             if label in position:
                 columns[name][position[label]] = value
     return columns
+
+
+def mean_rank_column(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
+                     compared: Collection[str] | None = None, condition: str = "condition",
+                     tidy: pd.DataFrame | None = None) -> np.ndarray:
+    """Each condition's mean rank among the trials of the compared conditions, ranked together
+    (:func:`~nudgecli.report.rank_tests.condition_mean_ranks`): the ranks Kruskal-Wallis and
+    Conover's test compare.
+
+    Parameters
+    ----------
+    compared
+        The conditions ranked together (all of ``conditions`` when ``None``); the others get NaN.
+    tidy
+        :func:`tidy_values` of the arguments, when the caller holds it.
+
+    Returns
+    -------
+    np.ndarray
+        ``(k,)`` float in the conditions' order, NaN for a condition not compared or without values.
+    """
+    values, positions = _value_arrays(data, metric, conditions, condition, tidy)
+    if compared is not None:
+        chosen = set(compared)
+        kept = np.isin(positions, [j for j, c in enumerate(conditions) if c in chosen])
+        values, positions = values[kept], positions[kept]
+    return condition_mean_ranks(values, positions, len(conditions))
 
 
 def kruskal_wallis(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,

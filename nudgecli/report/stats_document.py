@@ -2,9 +2,10 @@
 (:func:`compare_conditions`), and read back as tidy tables for the printed table, ``summary.md``,
 ``stats.csv`` and the replication summaries (:func:`stats_table`, :func:`condition_table`).
 
-With two conditions the document holds exactly the keys it always held (the reference run pins
-it); the keys of the pairwise participant-level tests and of epsilon-squared appear with three or
-more.
+Each metric's entry has the same keys whatever the number of conditions (the reference run pins
+them), but for the pairwise participant-level tests and epsilon-squared, which appear with three or
+more. ``mean_rank`` (each condition's mean rank, the trials of the compared conditions ranked
+together) was added after the first documents: a reader of an older document finds none.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from nudgecli.report.stats import (
     epsilon_squared,
     is_significant,
     kruskal_wallis,
+    mean_rank_column,
     python_scalar,
     significance_stars,
     tidy_values,
@@ -58,7 +60,10 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
     Returns
     -------
     dict
-        ``metric, n, mean, median, q1, q3`` (each ``{condition: value}``), ``kruskal``,
+        ``metric, n, mean, median, q1, q3, mean_rank`` (each ``{condition: value}``; the mean
+        rank among the trials of the compared conditions, ranked together as the tests rank
+        them, so the sign of a pair's difference is the direction of a significant Conover
+        result), ``kruskal``,
         ``conover`` (list of ``a, b, p, p_unadjusted``), ``p_adjust``, ``stars`` (list of
         ``a, b, stars``), ``participant_level``, ``effect_size``, ``ci``; with conditions left out,
         their values missing and ``not_applicable``, ``not_applicable_reasons``
@@ -70,6 +75,10 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
     descriptives = {column: dict(zip(conditions, map(python_scalar, values), strict=True))
                     for column, values in columns.items()}
     reasons = not_applicable_reasons(descriptives["n"], conditions, not_applicable)
+    # ranked among the compared conditions only, as the tests rank them (NaN for the others)
+    ranks = mean_rank_column(data, metric, conditions, compared=[c for c in conditions if c not in reasons],
+                             condition=condition, tidy=tidy)
+    descriptives["mean_rank"] = dict(zip(conditions, ranks.tolist(), strict=True))
     if not reasons:
         return _compared_entry(data, metric, conditions, descriptives, options, many=len(conditions) > 2,
                                participant=participant, condition=condition, tidy=tidy)
@@ -202,8 +211,10 @@ def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
     Returns
     -------
     pd.DataFrame
-        Columns :data:`STATS_CSV_COLUMNS`, then ``mean_a, mean_b, participant_note, ci_seed,
-        ci_resamples``, then with more than two conditions :data:`K_CONDITION_CSV_COLUMNS` (the
+        Columns :data:`STATS_CSV_COLUMNS`, then ``mean_a, mean_b, mean_rank_a, mean_rank_b,
+        participant_note, ci_seed, ci_resamples`` (the mean ranks ``None`` in a document written
+        before they were recorded), then with more than two conditions
+        :data:`K_CONDITION_CSV_COLUMNS` (the
         ``participant_*`` and ``effect_size*`` columns stay the omnibus Friedman test and Kendall's
         W; ``pairwise_*`` are the pair's Wilcoxon test and rank-biserial r). With a single
         condition, one row per metric with ``b`` ``None`` and only ``metric, a, b, n_a, median_a,
@@ -225,6 +236,7 @@ def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
                          **extra})
             continue
         posthoc = {(r["a"], r["b"]): r for r in entry["conover"]}
+        ranks = entry.get("mean_rank", {})  # a document of an older nudge has none
         stars = {(r["a"], r["b"]): r["stars"] for r in entry["stars"]}
         for interval in ci["pairs"]:
             a, b = interval["a"], interval["b"]
@@ -246,6 +258,7 @@ def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
                 "difference": interval["difference"], "ci_low": interval["low"],
                 "ci_high": interval["high"], "ci_level": ci["level"],
                 "mean_a": entry["mean"][a], "mean_b": entry["mean"][b],
+                "mean_rank_a": ranks.get(a), "mean_rank_b": ranks.get(b),
                 **extra,
                 **(_pairwise_columns(entry, a, b) if many else {}),
             })
