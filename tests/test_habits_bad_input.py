@@ -224,3 +224,36 @@ def test_a_decimal_comma_is_named(tmp_path: Path) -> None:
     rows = [(0.0, 1, "Zero Band", 0, 0, 0, 0), ("0,5", 1, "Soft Puff", 0, 0, 0, 0)]
     line = refused(tmp_path, str(write_log(tmp_path / "comma.csv", rows, ";")))
     assert "row 3: t '0,5' is not a number (a decimal comma? write 0.5)" in line, line
+
+
+# --- the layout column ---------------------------------------------------------------------------
+
+
+def with_layouts(layouts: list[str]) -> list[tuple]:
+    """ROWS with a layout column: ``layouts[i]`` on row i."""
+    return [(*row, layout) for row, layout in zip(ROWS, layouts, strict=True)]
+
+
+@pytest.mark.parametrize(("changed", "layout", "expected"), [
+    (range(7), "2.5", "row 2: layout '2.5' is not a trial index of the CIAA task"),
+    ([2], "-1", "row 4: layout '-1' is not a trial index of the CIAA task"),
+    ([6], "999", "row 8: layout '999' is not a trial index of the CIAA task"),
+    ([3], "", "row 5: layout '' is not a trial index of the CIAA task"),
+    ([3, 4], "7", "row 5: layout '7' differs from the '6' of row 2, where trial '1' of participant 'log' "
+                  "starts; a trial runs on one layout"),
+])
+def test_a_layout_that_is_no_index_or_changes_within_a_trial_is_named_by_its_row(
+        tmp_path: Path, changed: list[int], layout: str, expected: str) -> None:
+    # before: only a trial's first row was checked, and 2.5 read as layout 2 (exit 0)
+    layouts = [layout if i in changed else "6" for i in range(len(ROWS))]
+    log = write_log(tmp_path / "log.csv", with_layouts(layouts), columns=(*COLUMNS, "layout"))
+    line = refused(tmp_path, str(log))
+    assert line.startswith(f"Error: {log}, {expected}"), line
+    fix = "give each row the CIAA task's trial index (a whole number, 0-35) of the layout its trial runs on"
+    assert fix in line, line
+
+
+def test_a_layout_on_every_row_of_a_trial_is_measured(tmp_path: Path) -> None:
+    log = write_log(tmp_path / "log.csv", with_layouts(["6"] * len(ROWS)), columns=(*COLUMNS, "layout"))
+    result = habits(str(log), "--format", "csv")
+    assert result.exit_code == 0, result.output

@@ -225,11 +225,36 @@ def _check_log_size(log: _Log, new_trial: np.ndarray, rate_hz: float) -> None:
                         "parts (a file per participant or per session)")
 
 
+def _check_layouts(log: _Log, new_trial: np.ndarray, indices: set[int]) -> None:
+    """Refuse a ``layout`` that is not one of the CIAA task's trial ``indices`` (empty, not a
+    number, fractional, out of range) or that changes within a trial, naming its row: every row of
+    a trial holds the trial's one layout."""
+    if log.layout is None:
+        return
+    values = log.layout.to_numpy(dtype=float)
+    valid = np.isin(values, list(indices))  # a NaN or a fraction is no index
+    trial_first = np.flatnonzero(new_trial)[np.cumsum(new_trial) - 1]  # each row's trial's first row
+    bad = ~valid | (values != values[trial_first])
+    if not bad.any():
+        return
+    i = int(np.flatnonzero(bad)[0])
+    first = int(trial_first[i])
+    word = log.frame["layout"].iloc[i]
+    fix = (f"give each row the CIAA task's trial index (a whole number, {min(indices)}-{max(indices)}) of "
+           "the layout its trial runs on")
+    if valid[i]:  # a known index, but not the trial's (whose first row is a known one)
+        trials = log.frame["layout"].iloc[first]
+        raise DataError(f"{log.row_name(i)}: layout {word!r} differs from the {trials!r} of row {first + 2}, "
+                        f"where trial {log.trial.iloc[i]!r} of participant {log.participant.iloc[i]!r} "
+                        f"starts; a trial runs on one layout: {fix}")
+    raise DataError(f"{log.row_name(i)}: layout {word!r} is not a trial index of the CIAA task; {fix}")
+
+
 def _trial_cells(log: _Log, lo: int, hi: int, rate_hz: float, all_waypoints: dict[int, np.ndarray],
                  start_modes: dict[int, int]) -> pd.DataFrame:
     """The cells of one trial, rows ``lo`` to ``hi`` (exclusive), read every ``1 / rate_hz`` s
     from its first row by zero-order hold."""
-    time, participant, trial, row_name = log.time, log.participant, log.trial, log.row_name
+    time, participant, trial = log.time, log.participant, log.trial
     dt = 1.0 / rate_hz
     rel = time[lo:hi] - time[lo]
     reads = math.floor(rel[-1] / dt + TIME_SLACK) + 1
@@ -248,14 +273,11 @@ def _trial_cells(log: _Log, lo: int, hi: int, rate_hz: float, all_waypoints: dic
     known = False
     start_mode = -1
     at_waypoint = np.zeros(reads - 1, dtype=bool)
-    if log.layout is not None:
-        index = log.layout.iloc[lo]
-        if pd.isna(index) or int(index) not in all_waypoints:
-            raise DataError(f"{row_name(int(lo))}: layout {log.frame['layout'].iloc[lo]!r} is not a trial "
-                            f"index of the CIAA task (0-{max(all_waypoints)})")
+    if log.layout is not None:  # one known index per trial (_check_layouts)
+        index = int(log.layout.iloc[lo])
         known = True
-        start_mode = start_modes[int(index)]
-        at_waypoint = on_waypoints(pose[1:, :2], np.full(reads - 1, int(index)), all_waypoints)
+        start_mode = start_modes[index]
+        at_waypoint = on_waypoints(pose[1:, :2], np.full(reads - 1, index), all_waypoints)
     # each switch comes from where the one before it went (the first: the layout's start mode)
     went_to = log.switch_to[rows]
     came_from = np.concatenate(([start_mode], went_to[:-1]))
@@ -276,19 +298,19 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
     (the robot's pose after the row), ``mode_switch`` (non-empty and not ``0``/``false``: a mode
     switch fired at this time; a mode word, ``x``/``y``/``theta``, says where it went, which undone
     switches need); optional ``participant`` (default: the file's name) and ``layout``
-    (the CIAA task's trial index, whose waypoints mark the stops; without it stops at a waypoint
-    are not measured). Each row holds the whole state from its time on, so an event-driven log
-    (a row per change) and a sampled one read alike. A trial starts at its first row; its cells
-    are read at ``t0, t0 + 0.1, ...`` up to its last row; a switch belongs to the first cell read
-    at or after it.
+    (the CIAA task's trial index, whose waypoints mark the stops, the same on every row of a trial;
+    without it stops at a waypoint are not measured). Each row holds the whole state from its time
+    on, so an event-driven log (a row per change) and a sampled one read alike. A trial starts at
+    its first row; its cells are read at ``t0, t0 + 0.1, ...`` up to its last row; a switch belongs
+    to the first cell read at or after it.
 
     Raises
     ------
     DataError
         No time stamps or labels, an unknown label, a time that is not a number or goes back, a
         pose missing, a trial shorter than one cell, or one longer than :data:`MAX_TRIAL_S` or a log
-        of more than :data:`MAX_LOG_CELLS` cells (checked before any cell is built): naming the
-        file and the row.
+        of more than :data:`MAX_LOG_CELLS` cells (checked before any cell is built), a layout that is
+        no trial index of the task or changes within a trial: naming the file and the row.
     """
     path = Path(path)
     frame, time_column = _read_log_frame(path)
@@ -300,6 +322,7 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
     task = task_layouts(packaged_task())
     all_waypoints = {index: lay.waypoints for index, lay in task.items()}
     start_modes = {index: lay.start_mode for index, lay in task.items()}
+    _check_layouts(log, new_trial, set(all_waypoints))
     bounds = np.append(np.flatnonzero(new_trial), len(frame))
     pieces = [_trial_cells(log, lo, hi, rate_hz, all_waypoints, start_modes)
               for lo, hi in itertools.pairwise(bounds)]
