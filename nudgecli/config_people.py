@@ -13,6 +13,19 @@ from pydantic import Field, model_validator
 
 from nudgecli.config_base import PositiveFloat, Section, check_range
 
+#: The limits ``[population]`` checks each range against (``lo <= low <= high <= hi``): the one
+#: place they are written (a people file's value is checked, and its message named, by them too).
+POPULATION_RANGES: dict[str, tuple[float, float]] = {
+    "soft_puff_level": (0.0, 1.5), "soft_sip_level": (0.0, 1.5), "hard_puff_level": (0.0, 1.5),
+    "hard_sip_level": (0.0, 1.5), "soft_spread": (0.0, 1.0), "hard_spread": (0.0, 1.0),
+    "onset_ramp_samples": (0, 20), "mapping_error": (0.0, 0.75), "epsilon": (0.0, 1.0),
+    "rest_s": (0.0, 60.0), "operate_s": (0.1, 120.0), "action_pause_s": (0.0, 10.0),
+    "hard_blow_s": (0.1, 5.0), "reaction_s": (0.0, 10.0), "handover_idle_s": (0.1, 30.0),
+    "drift_correlation": (0.0, 0.99), "planning_s": (0.0, 60.0), "event_reaction_s": (0.0, 10.0),
+    "event_reaction_log_sd": (0.0, 2.0), "hold_on_s": (0.0, 5.0), "hard_peak_s": (0.0, 5.0),
+    "offset_ramp_samples": (0, 20), "deadband_share": (0.0, 0.9), "deadband_stray_s": (0.0, 5.0),
+}
+
 
 class PopulationSection(Section):
     """``[population]``: the ranges each simulated participant's true physiology and habits are drawn from.
@@ -197,16 +210,7 @@ class PopulationSection(Section):
 
     @model_validator(mode="after")
     def _check(self) -> PopulationSection:
-        for name, (lo, hi) in {
-            "soft_puff_level": (0.0, 1.5), "soft_sip_level": (0.0, 1.5), "hard_puff_level": (0.0, 1.5),
-            "hard_sip_level": (0.0, 1.5), "soft_spread": (0.0, 1.0), "hard_spread": (0.0, 1.0),
-            "onset_ramp_samples": (0, 20), "mapping_error": (0.0, 0.75), "epsilon": (0.0, 1.0),
-            "rest_s": (0.0, 60.0), "operate_s": (0.1, 120.0), "action_pause_s": (0.0, 10.0),
-            "hard_blow_s": (0.1, 5.0), "reaction_s": (0.0, 10.0), "handover_idle_s": (0.1, 30.0),
-            "drift_correlation": (0.0, 0.99), "planning_s": (0.0, 60.0), "event_reaction_s": (0.0, 10.0),
-            "event_reaction_log_sd": (0.0, 2.0), "hold_on_s": (0.0, 5.0), "hard_peak_s": (0.0, 5.0),
-            "offset_ramp_samples": (0, 20), "deadband_share": (0.0, 0.9), "deadband_stray_s": (0.0, 5.0),
-        }.items():
+        for name, (lo, hi) in POPULATION_RANGES.items():
             check_range(name, getattr(self, name), lo, hi)
         return self
 

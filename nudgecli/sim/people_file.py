@@ -28,7 +28,7 @@ from typing import Any
 from nudgecli.csv_text import not_utf8_message
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.run_folder_names import PEOPLE_DIR
-from nudgecli.sim.twins import INTEGER_PARAMETERS, TWIN_PARAMETERS, Twin, parameter_is_valid
+from nudgecli.sim.twins import INTEGER_PARAMETERS, TWIN_PARAMETERS, Twin, parameter_is_valid, parameter_needs
 
 #: The columns of a people file, in order.
 PEOPLE_COLUMNS = ("person", "source", "participant", *TWIN_PARAMETERS, "from_population")
@@ -89,9 +89,8 @@ def _parse_value(path: Path, where: str, name: str, text: str) -> float:
     except ValueError:
         raise DataError(f"{path}: {where}: {name}: {text!r} is not a number") from None
     if not parameter_is_valid(name, value):
-        kind = "a whole number of samples" if name in INTEGER_PARAMETERS else "a value"
-        raise DataError(f"{path}: {where}: {name}: {text} is out of its valid range (needs {kind} that "
-                        f"[population] {name} accepts)")
+        raise DataError(f"{path}: {where}: {name}: {text} is out of its valid range (needs "
+                        f"{parameter_needs(name)})")
     return int(value) if name in INTEGER_PARAMETERS else value
 
 

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from nudgecli.config import PopulationSection
+from nudgecli.config_base import plain
+from nudgecli.config_people import POPULATION_RANGES
 from nudgecli.errors import ConfigError
 from nudgecli.sim.participants import Participant
 
@@ -65,6 +67,15 @@ def parameter_is_valid(name: str, value: float) -> bool:
     except (ValueError, ConfigError):  # pydantic's ValidationError is a ValueError
         return False
     return True
+
+
+def parameter_needs(name: str) -> str:
+    """What a value of ``name`` must be, for a message about one the simulation refuses
+    (:func:`parameter_is_valid`): ``"a value with 0.0 <= deadband_share <= 0.9"``, the limits of
+    ``[population]``'s check (:data:`~nudgecli.config_people.POPULATION_RANGES`)."""
+    kind = "a whole number of samples" if name in INTEGER_PARAMETERS else "a value"
+    lo, hi = POPULATION_RANGES[name]
+    return f"{kind} with {plain(lo)} <= {name} <= {plain(hi)}, as [population] {name} accepts"
 
 
 def apply_twin(drawn: Participant, twin: Twin) -> Participant:
