@@ -68,7 +68,8 @@ def test_the_reactions_log_sd_is_read_back_from_a_lognormals_quartiles(median: f
     # the quartiles of scipy's log-normal, measured a reaction's offset later
     offset = HABIT_OFFSETS_S["reaction_stop_to_switch"]
     q25, q75 = stats.lognorm(s=log_sd, scale=median).ppf([0.25, 0.75]) + offset
-    habits = {"reaction_stop_to_switch": HabitFigures(50, median + offset, float(q25), float(q75))}
+    figures = HabitFigures(50, median + offset, float(q25), float(q75))
+    habits = {"reaction_stop_to_switch": figures, "reaction_switch_to_motion": figures}
     fitted = fit_twin(habits, onset_samples=2)
     assert fitted["event_reaction_log_sd"] == pytest.approx(log_sd, abs=1e-6)  # rounded to 1e-6
     assert fitted["event_reaction_s"] == pytest.approx(median, abs=1e-6)
@@ -86,12 +87,26 @@ def test_what_a_source_lacks_or_the_simulation_refuses_is_left_to_the_population
     del habits["hold_on_per_trial"]
     habits["first_command_latency"] = HabitFigures(12, 75.0)  # [population] planning_s accepts up to 60 s
     habits["reaction_switch_to_motion"] = HabitFigures(3, 1.3, 0.9, 1.5)  # too few events for quartiles
-    del habits["reaction_stop_to_switch"]
     fitted = fit_twin(habits, onset_samples=2)
     assert "hold_on_s" not in fitted and "planning_s" not in fitted
-    assert "event_reaction_log_sd" not in fitted and fitted["event_reaction_s"] == pytest.approx(1.2)
+    assert "event_reaction_log_sd" not in fitted and fitted["event_reaction_s"] == pytest.approx(1.1)
     twin = Twin("p1", "log.csv", fitted)
     assert twin.from_population == ("planning_s", "event_reaction_log_sd", "hold_on_s")
+
+
+@pytest.mark.parametrize("missing", ["reaction_stop_to_switch", "reaction_switch_to_motion"])
+def test_the_reaction_parameters_need_both_reactions(missing: str) -> None:
+    """The rule is the mean of the two reactions' medians (and of their spreads): with one of
+    them missing (a log without its layout has no stop -> switch) both parameters are the
+    population's, not one reaction's."""
+    habits = {name: figures for name, figures in HABITS.items() if name != missing}
+    fitted = fit_twin(habits, onset_samples=2)
+    assert "event_reaction_s" not in fitted and "event_reaction_log_sd" not in fitted
+    assert Twin("p1", "log.csv", fitted).from_population == ("event_reaction_s", "event_reaction_log_sd")
+    # too few events for one reaction's quartiles: the spread is the population's, the median is not
+    habits = {**HABITS, missing: dataclasses.replace(HABITS[missing], n=3)}
+    fitted = fit_twin(habits, onset_samples=2)
+    assert "event_reaction_log_sd" not in fitted and fitted["event_reaction_s"] == pytest.approx(1.1)
 
 
 def test_the_hold_on_per_stop_is_read_one_for_one_before_the_per_trial_sum() -> None:

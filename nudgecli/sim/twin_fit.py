@@ -8,9 +8,10 @@ person's physiology, which a habits table does not hold. The rules, one per para
 
 - ``planning_s``: the first-command latency's median, less its offset (0 s);
 - ``event_reaction_s``: the mean over the two reactions (a stop at a waypoint -> the next switch,
-  a switch -> the robot moves again) of the median less its offset (0.1 s each);
+  a switch -> the robot moves again) of the median less its offset (0.1 s each); both are needed
+  (a log without its layout has no stop -> switch);
 - ``event_reaction_log_sd``: the same reactions' quartiles, less the offset, read as a log-normal's:
-  ``ln(q75 / q25) / (2 z_0.75)``, averaged over the reactions with at least
+  ``ln(q75 / q25) / (2 z_0.75)``, averaged over the two; both need at least
   :data:`MIN_EVENTS_FOR_QUARTILES` events;
 - ``hard_peak_s``: the median time in the hard band per excursion (offset 0: the peak is the
   time in the hard band);
@@ -97,21 +98,27 @@ def assumed_onset_samples(population: PopulationSection) -> int:
 
 
 def _reaction_median(habits: Mapping[str, HabitFigures]) -> float | None:
-    values = [habits[h].median - HABIT_OFFSETS_S[h] for h in PARAMETER_HABITS["event_reaction_s"]
-              if h in habits]
-    return sum(values) / len(values) if values else None
+    """The mean of both reactions' medians less their offsets; None without both (one reaction
+    alone is not the documented rule's figure)."""
+    needed = PARAMETER_HABITS["event_reaction_s"]
+    if not all(h in habits for h in needed):
+        return None
+    return sum(habits[h].median - HABIT_OFFSETS_S[h] for h in needed) / len(needed)
 
 
 def _reaction_log_sd(habits: Mapping[str, HabitFigures]) -> float | None:
+    """The mean of both reactions' log-normal spreads; None unless both have quartiles to read
+    (:data:`MIN_EVENTS_FOR_QUARTILES` events, quartiles above their offset)."""
     spreads = []
     for habit in PARAMETER_HABITS["event_reaction_log_sd"]:
         figures = habits.get(habit)
         if figures is None or figures.n < MIN_EVENTS_FOR_QUARTILES:
-            continue
+            return None
         lo, hi = figures.q25 - HABIT_OFFSETS_S[habit], figures.q75 - HABIT_OFFSETS_S[habit]
-        if math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo <= hi:
-            spreads.append(math.log(hi / lo) / (2.0 * Z_QUARTILE))
-    return sum(spreads) / len(spreads) if spreads else None
+        if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo <= hi):
+            return None
+        spreads.append(math.log(hi / lo) / (2.0 * Z_QUARTILE))
+    return sum(spreads) / len(spreads)
 
 
 def fit_twin(habits: Mapping[str, HabitFigures], *, onset_samples: int, stops: int | None = None,
