@@ -8,6 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from cli_helpers import nudge, stderr_error_line
 
 from nudgecli.errors import DataError
 from nudgecli.sim.people_file import read_people
@@ -28,3 +29,20 @@ def test_a_value_out_of_range_names_the_range_population_accepts(tmp_path: Path,
         read_people(path)
     for word in words:
         assert word in str(caught.value), caught.value
+
+
+def test_a_folder_given_as_the_people_file_is_named_a_folder_with_the_file_to_give(tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "manifest.json").write_text("{}")
+    result = nudge("simulate", "smoke", "--people", run, "--out", tmp_path / "out")
+    line = stderr_error_line(result)
+    assert f"{run}: a run folder, not a people file" in line, line
+    assert f"`nudge fit-people {run} --out people.csv`" in line, line  # a command that works as written
+    assert not (tmp_path / "out").exists()
+    (run / "people").mkdir()
+    (run / "people" / "pilots.csv").write_text(HEADER + "0,x,A,0.1,1,\n")
+    with pytest.raises(DataError, match=r"give the people file it keeps: --people \S+pilots\.csv$"):
+        read_people(run)
+    with pytest.raises(DataError, match="a folder, not a people file; give a people file's path"):
+        read_people(run / "people")

@@ -27,7 +27,7 @@ from typing import Any
 
 from nudgecli.csv_text import not_utf8_message
 from nudgecli.errors import DataError, did_you_mean
-from nudgecli.run_folder_names import PEOPLE_DIR
+from nudgecli.run_folder_names import MANIFEST, PEOPLE_DIR
 from nudgecli.sim.twins import INTEGER_PARAMETERS, TWIN_PARAMETERS, Twin, parameter_is_valid, parameter_needs
 
 #: The columns of a people file, in order.
@@ -118,6 +118,22 @@ def _row_twin(path: Path, row: dict[str, str], position: int, present: Sequence[
     return Twin(participant=participant, source=row["source"].strip(), parameters=parameters)
 
 
+def _folder_message(path: Path) -> str:
+    """The line for a folder given as a people file: the copy of one it keeps (a run or batch
+    folder's ``people/<name>``), else how to make one (from a run folder's participants)."""
+    kept = path / PEOPLE_DIR
+    copies = sorted(item for item in kept.iterdir() if item.is_file()) if kept.is_dir() else []
+    what = "a run folder" if (path / MANIFEST).is_file() else "a folder"
+    if copies:
+        return (f"{path}: {what}, not a people file; give the people file it keeps: --people "
+                f"{' or '.join(str(copy) for copy in copies)}")
+    if (path / MANIFEST).is_file():
+        return (f"{path}: {what}, not a people file; make one of its participants with `nudge fit-people "
+                f"{path} --out people.csv`, then give --people people.csv")
+    return (f"{path}: {what}, not a people file; give a people file's path (make one with `nudge "
+            "fit-people SOURCE... --out people.csv`)")
+
+
 def read_people(path: str | Path) -> People:
     """The people file at ``path``.
 
@@ -128,6 +144,8 @@ def read_people(path: str | Path) -> People:
         the file, the person and the field).
     """
     path = Path(path)
+    if path.is_dir():
+        raise DataError(_folder_message(path))
     if not path.is_file():
         raise DataError(f"{path}: no such people file; make one with `nudge fit-people SOURCE... --out "
                         f"{path.name}`")
