@@ -1,4 +1,5 @@
-"""`nudge fit --out` over an existing profile is refused without `--force` (issue 38's leftovers)."""
+"""`nudge fit --out` over an existing profile is refused without `--force` (issue 38's leftovers);
+a failed `nudge fit` or `fit-people` makes none of the folders of its `--out`."""
 
 from __future__ import annotations
 
@@ -10,6 +11,8 @@ from click.testing import CliRunner
 from run_builders import hard_puff_mapping
 
 from nudgecli.cli import main
+
+PILOT = Path(__file__).resolve().parents[1] / "experiments" / "pilots" / "pilot-1.csv"
 
 
 def _invoke(args: list[str]):
@@ -42,3 +45,19 @@ def test_fit_refuses_to_replace_a_profile_without_force(tmp_path, calibration_di
     assert '"p_phi_given_a"' in target.read_text()
     fresh = _invoke(["fit", str(calibration_dir), "--out", str(tmp_path / "new.json")])
     assert fresh.exit_code == 0 and (tmp_path / "new.json").is_file()
+
+
+@pytest.mark.parametrize("command", ["fit", "fit-people"])
+def test_a_failed_fit_makes_no_folder_of_its_out(tmp_path: Path, command: str) -> None:
+    # before: the folders of --out were made (to check that they are writable) before the sources were read
+    refused = _invoke([command, str(tmp_path / "nothere"), "--out", str(tmp_path / "new" / "sub" / "p.out")])
+    assert refused.exit_code == 1 and "no such" in one_error_line(refused.output), refused.output
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_fit_and_fit_people_make_the_folders_of_their_out_when_they_write(tmp_path: Path,
+                                                                          calibration_dir: Path) -> None:
+    for args, out in ((["fit", str(calibration_dir)], tmp_path / "a" / "b" / "p.json"),
+                      (["fit-people", str(PILOT)], tmp_path / "c" / "d" / "people.csv")):
+        result = _invoke([*args, "--out", str(out)])
+        assert result.exit_code == 0 and out.is_file(), result.output

@@ -19,6 +19,18 @@ if TYPE_CHECKING:
     from nudgecli.sim.calibration_profile import CalibrationProfile
 
 
+def _check_out_writable(target: Path) -> None:
+    """Fail now, before the sources are read, if ``target`` cannot be written, making no folder: a
+    missing folder of it is checked at the nearest folder above that exists, and made only when
+    ``target`` is written (a failed call leaves nothing behind)."""
+    from nudgecli.store import check_writable
+
+    folder = target.absolute().parent
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    check_writable(folder)
+
+
 def fit(calibration_dir: str | Path, *, out: str | Path | None = None, force: bool = False,
         variant: str = "auto") -> CalibrationProfile:
     """Fit p(phi_i | a) and p(phi_m | phi_i) from one participant's calibration logs, as ``nudge fit``.
@@ -52,7 +64,6 @@ def fit(calibration_dir: str | Path, *, out: str | Path | None = None, force: bo
     from nudgecli.api import arguments
     from nudgecli.outputs import check_output_file, command_inputs, declare_input
     from nudgecli.sim.calibration_profile import fit_calibration_dir, write_profile
-    from nudgecli.store import check_writable
 
     folder = Path(arguments.path("calibration_dir", calibration_dir))
     out = arguments.path("out", out, optional=True)
@@ -62,7 +73,7 @@ def fit(calibration_dir: str | Path, *, out: str | Path | None = None, force: bo
         if out is not None:
             declare_input("CALIBRATION_DIR", *(folder.rglob("*") if folder.is_dir() else ()))  # never out
             check_output_file(out, force=force)  # a profile fitted before is replaced only with force
-            check_writable(Path(out).parent)
+            _check_out_writable(Path(out))
         result = fit_calibration_dir(folder, variant)
         if out is not None:
             write_profile(result.profile, Path(out))
@@ -140,7 +151,7 @@ def fit_people(sources: str | Path | Sequence[str | Path], *, out: str | Path | 
     from nudgecli.report.twin_sources import twins_of_sources
     from nudgecli.sim.people_file import LIST_SEPARATOR, PEOPLE_COLUMNS, people_csv
     from nudgecli.sim.twins import TWIN_PARAMETERS
-    from nudgecli.store import check_writable, write_text_atomic
+    from nudgecli.store import write_text_atomic
 
     # one path, or a list of them; anything else (a number, None) is refused as a path
     listed = sources if isinstance(sources, Sequence) and not isinstance(sources, str) else [sources]
@@ -151,7 +162,7 @@ def fit_people(sources: str | Path | Sequence[str | Path], *, out: str | Path | 
         if target is not None:
             declare_input("SOURCE", *named)  # out never replaces a source
             check_output_file(target, force=force)
-            check_writable(target.parent if str(target.parent) else Path.cwd())
+            _check_out_writable(target)
         twins = twins_of_sources(named)
         if target is not None:
             write_text_atomic(target, people_csv(twins))
