@@ -225,6 +225,18 @@ def test_real_numbers_texts_switches_and_trials() -> None:
     assert arguments.formats("png,pdf") == ("png", "pdf") and arguments.formats(["svg"]) == ("svg",)
 
 
+@pytest.mark.parametrize(("value", "got"), [
+    (("0", "1"), "a tuple of str and str: its two items must be whole numbers (int)"),
+    ([0, 1.0], "a list of int and float: its two items must be whole numbers (int)"),
+    ((3,), "a tuple of 1 item"), ((3, 12, 1), "a tuple of 3 items"), (5, "int")])
+def test_a_trial_that_is_no_pair_of_whole_numbers_says_what_is_wrong(value: object, got: str) -> None:
+    # before: "..., not tuple" for a tuple of texts, which is a tuple
+    with pytest.raises(ConfigError) as raised:
+        arguments.trial(value)
+    assert str(raised.value) == (f"trial={value!r}: trial= takes (participant, trial) or "
+                                 f"'PARTICIPANT:TRIAL', e.g. (0, 12) or '0:12', not {got}")
+
+
 def test_a_whole_number_below_its_least_says_the_number_not_its_type() -> None:
     with pytest.raises(ConfigError) as raised:
         arguments.whole_number("participants", 0, minimum=1)

@@ -204,10 +204,18 @@ def trial(value: object) -> tuple[int, int] | None:
 
     if value is None or isinstance(value, str):
         return parse_trial(value)
-    if isinstance(value, Sequence) and len(value) == 2 \
-            and all(isinstance(part, numbers.Integral) and not isinstance(part, bool) for part in value):
-        return int(value[0]), int(value[1])
-    raise _refuse("trial", value, "(participant, trial) or 'PARTICIPANT:TRIAL', e.g. (0, 12) or '0:12'")
+    got = None
+    if isinstance(value, Sequence):  # say what is wrong with the pair: its length, or its items' types
+        kind = type(value).__name__
+        if len(value) != 2:
+            got = f"a {kind} of {len(value)} item{'' if len(value) == 1 else 's'}"
+        elif all(isinstance(part, numbers.Integral) and not isinstance(part, bool) for part in value):
+            return int(value[0]), int(value[1])
+        else:
+            got = (f"a {kind} of {type(value[0]).__name__} and {type(value[1]).__name__}: its two items "
+                   "must be whole numbers (int)")
+    raise _refuse("trial", value, "(participant, trial) or 'PARTICIPANT:TRIAL', e.g. (0, 12) or '0:12'",
+                  got=got)
 
 
 def switches(**values: object) -> None:
