@@ -291,6 +291,23 @@ def test_moving_cells_and_waypoint_stops_of_a_run_are_read_from_its_poses(ciaa_r
     assert cells["at_waypoint"][cells["moving"]].mean() < 0.5
 
 
+def test_a_grid_world_run_has_no_waypoint_stops_to_react_to(tmp_path: Path) -> None:
+    """The grid world has no waypoints: a motion run that reaches another cell (a hard blow's soft
+    onset, the autonomy's motion) is no stop at a waypoint, so stop -> switch is not measured and
+    not printed, as for a real log without its layout."""
+    out = tmp_path / "smoke"
+    result = CliRunner().invoke(main, ["simulate", "smoke", "--participants", "2", "--seed", "11",
+                                       "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    cells, rate = run_folder_cells(out)
+    assert not cells["at_waypoint"].any() and not cells["waypoints_known"].any()
+    habits = set(measure_habits(cells, rate)["habit"])
+    assert "reaction_stop_to_switch" not in habits and "reaction_switch_to_motion" in habits
+    printed = CliRunner().invoke(main, ["habits", str(out)])
+    assert printed.exit_code == 0, printed.output
+    assert "robot stops at a waypoint" not in printed.output and "stop>switch" not in printed.output
+
+
 def test_the_cli_prints_table_json_and_csv_with_the_reference(ciaa_run: Path) -> None:
     runner = CliRunner()
     table = runner.invoke(main, ["habits", str(ciaa_run), "--compare", "ciaa-people"])

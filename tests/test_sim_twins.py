@@ -26,6 +26,7 @@ from nudgecli.sim.people_file import People, check_same_people, people_csv, read
 from nudgecli.sim.study import study_participant
 from nudgecli.sim.twin_fit import (
     PARAMETER_HABITS,
+    STOP_PARAMETERS,
     HabitFigures,
     assumed_onset_samples,
     fit_twin,
@@ -107,6 +108,14 @@ def test_the_reaction_parameters_need_both_reactions(missing: str) -> None:
     habits = {**HABITS, missing: dataclasses.replace(HABITS[missing], n=3)}
     fitted = fit_twin(habits, onset_samples=2)
     assert "event_reaction_log_sd" not in fitted and fitted["event_reaction_s"] == pytest.approx(1.1)
+
+
+def test_a_grid_world_source_leaves_the_parameters_read_from_stops_to_the_population() -> None:
+    habits = {**HABITS, "hold_on_per_stop": HabitFigures(40, 0.3)}
+    fitted = fit_twin(habits, onset_samples=2, waypoints=False)
+    assert Twin("p1", "run", fitted).from_population == STOP_PARAMETERS
+    assert fitted == {name: value for name, value in fit_twin(habits, onset_samples=2).items()
+                      if name not in STOP_PARAMETERS}
 
 
 def test_the_hold_on_per_stop_is_read_one_for_one_before_the_per_trial_sum() -> None:

@@ -62,6 +62,23 @@ def test_twins_of_a_run_folder_and_of_its_habits_table_are_the_same(run_folder: 
     assert result.stdout.splitlines()[3].startswith("person 3: habits.csv participant 1: ")
 
 
+@pytest.mark.parametrize("preset", ["smoke", "paper"])
+def test_twins_of_a_grid_world_run_draw_the_parameters_read_from_stops(tmp_path: Path, preset: str) -> None:
+    """The grid world's robot stops at every cell, not at the CIAA task's waypoints the reaction
+    and hold-on offsets were derived on: those three parameters are the population's, the others
+    are fitted, and the output lists them."""
+    out = tmp_path / preset
+    run_study(load_experiment(preset), out, seed=11, participants=2)
+    twins = twins_of_sources([out])
+    assert len(twins) == 2
+    stops = {"event_reaction_s", "event_reaction_log_sd", "hold_on_s"}
+    for twin in twins:
+        assert stops <= set(twin.from_population) and "planning_s" in twin.parameters
+    printed = nudge("fit-people", str(out), "--out", str(tmp_path / "people.csv"))
+    assert printed.exit_code == 0, printed.output
+    assert "from the population: event_reaction_s, event_reaction_log_sd, hold_on_s" in printed.output
+
+
 def test_simulate_with_people_simulates_exactly_those_people_and_guards_the_resume(run_folder: Path,
                                                                                    tmp_path: Path) -> None:
     people_file = tmp_path / "people.csv"

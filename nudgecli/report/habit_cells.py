@@ -60,8 +60,7 @@ def cell_runs(mask: np.ndarray, new_trial: np.ndarray) -> tuple[np.ndarray, np.n
 
 # --- sources: a run folder ---------------------------------------------------------------------
 
-_HABIT_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "mode", "cell_x", "cell_y", "heading",
-                       "phi_m", "event"]
+_HABIT_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "mode", "phi_m", "event"]
 _TRIAL_COLUMNS = ["participant", "trial", "layout", "final_x", "final_y", "final_theta"]
 #: Participants whose step parts a run's cells are made from at once (about 13 MB of steps each
 #: for the paper's 48 trials): few enough to bound memory, enough that each read's cost is shared.
@@ -105,13 +104,21 @@ def on_waypoints(position: np.ndarray, layouts: np.ndarray,
     return at
 
 
+def source_has_waypoints(source: str | Path) -> bool:
+    """Whether the robot of a habits source stops at the CIAA task's waypoints: a real log, a
+    habits table or a CIAA run folder; not a grid-world run folder (``paper``, ``smoke``, a
+    ``nudge study`` session), whose robot stops in any cell."""
+    path = Path(source)
+    return not (path.is_dir() and is_run_folder(path)) or RunFolder(path).read_config().world.kind == "ciaa"
+
+
 def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
     """The cells of a run folder (``nudge simulate`` / ``run`` / ``study``): its steps.
 
     The pose after a step is the next step's, or the trial's final pose; a switch is the person's
     (``mode_switch_human``); a motion run ends at a waypoint when its last pose is one of the
-    CIAA layout's waypoints, or in the grid world when the robot's cell and heading differ from
-    where the run began.
+    CIAA layout's waypoints; the grid world has none (``waypoints_known`` False, as a real log
+    without its layout: no stop -> switch is measured).
 
     Returns
     -------
@@ -164,19 +171,10 @@ def _trial_cells(run: RunFolder, steps: pd.DataFrame, trials: pd.DataFrame,
     after = np.roll(pose, -1, axis=0)
     after[last] = final.loc[last, ["final_x", "final_y", "final_theta"]].to_numpy(dtype=float)
     moving = pose_changes(pose, after)
-    if waypoints is not None:
-        at_waypoint = on_waypoints(after[:, :2], final["layout"].to_numpy(dtype=int), waypoints)
-    else:
-        # the grid world has no waypoints: a stop counts where the robot arrived in another cell
-        state = steps[["cell_x", "cell_y", "heading"]].to_numpy(dtype=np.int64)
-        state_after = np.roll(state, -1, axis=0)
-        state_after[last] = -1  # the trial ended: no switch can follow
-        new_trial = np.concatenate(([True], last[:-1]))
-        run_starts, _ = cell_runs(moving, new_trial)
-        marker = np.full(n, -1)
-        marker[run_starts] = run_starts
-        began = np.maximum.accumulate(marker) if n else marker
-        at_waypoint = moving & (state_after != state[np.maximum(began, 0)]).any(axis=1)
+    # the grid world has no waypoints: its motion runs end in any cell (a hard blow's soft onset,
+    # the autonomy's motion), none a stop where the plan changes, so stop -> switch is not measured
+    at_waypoint = np.zeros(n, dtype=bool) if waypoints is None else \
+        on_waypoints(after[:, :2], final["layout"].to_numpy(dtype=int), waypoints)
     # each distinct mode name looked up once (-1: missing or unknown)
     codes, names = pd.factorize(steps["mode"])
     mode = np.array([*(MODE_NAMES.index(name) if name in MODE_NAMES else -1 for name in names), -1])[codes]
@@ -186,5 +184,6 @@ def _trial_cells(run: RunFolder, steps: pd.DataFrame, trials: pd.DataFrame,
         "participant": steps["participant"], "trial": steps["trial"],
         "kind": label_kinds(steps["phi_m"], str(run.path / "steps")),
         "moving": moving, "switch": has_event(steps["event"], MODE_SWITCH_HUMAN),
-        "at_waypoint": at_waypoint, "waypoints_known": True, "switch_from": mode, "switch_to": mode_after,
+        "at_waypoint": at_waypoint, "waypoints_known": waypoints is not None, "switch_from": mode,
+        "switch_to": mode_after,
     })

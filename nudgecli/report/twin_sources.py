@@ -23,6 +23,7 @@ from nudgecli.config import PopulationSection
 from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.csv_text import not_utf8_message, starts_as_json
 from nudgecli.errors import DataError, did_you_mean
+from nudgecli.report.habit_cells import source_has_waypoints
 from nudgecli.report.habits import HABIT_KEYS, HABITS, measure_habits, source_cells, summarise_habits
 from nudgecli.sim.twin_fit import HabitFigures, assumed_onset_samples, fit_twin
 from nudgecli.sim.twins import Twin
@@ -179,7 +180,9 @@ def twins_of_sources(sources: list[str | Path], population: PopulationSection | 
     twins = []
     for source in sources:
         name = Path(source).name
-        for participant, habits in source_habits(source).items():
+        found = source_habits(source)
+        waypoints = source_has_waypoints(source)  # a grid-world run's stops are not the fit's
+        for participant, habits in found.items():
             twins.append(Twin(participant=participant, source=name,
-                              parameters=fit_twin(habits, onset_samples=onset)))
+                              parameters=fit_twin(habits, onset_samples=onset, waypoints=waypoints)))
     return twins

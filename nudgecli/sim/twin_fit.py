@@ -28,8 +28,9 @@ person's physiology, which a habits table does not hold. The rules, one per para
   soft-blow time in the deadband and the median deadband run inside a soft blow, less their
   offsets (0: :data:`nudgecli.sim.habit_ranges.DEADBAND_PARAMETERS`, one for one).
 
-A parameter whose habit the source lacks, or whose fitted value lies outside what the
-simulation accepts, is left to the population's draw, and the twin lists it in
+A parameter whose habit the source lacks, whose fitted value lies outside what the simulation
+accepts, or that is read from stops (:data:`STOP_PARAMETERS`) of a grid-world run, is left to the
+population's draw, and the twin lists it in
 :attr:`~nudgecli.sim.twins.Twin.from_population`.
 """
 
@@ -54,6 +55,11 @@ PARAMETER_HABITS: dict[str, tuple[str, ...]] = {
     "offset_ramp_samples": ("hard_blow_whole", "hard_band_per_excursion"),
     **{parameter: (habit,) for parameter, habit in DEADBAND_PARAMETERS.items()},
 }
+#: The parameters read from the robot's stops (the reactions to a stop and to a switch, the hold-on
+#: after a stop), whose offsets are the CIAA task's, where the robot stops at its layout's waypoints.
+#: A grid-world run has none: its robot stops in any cell (a hard blow's soft onset moves it a cell
+#: right before its own switch), and these read 0.3-0.8 s off there, so they are the population's.
+STOP_PARAMETERS = ("event_reaction_s", "event_reaction_log_sd", "hold_on_s")
 #: Fewer events than this give no quartiles worth reading a spread from.
 MIN_EVENTS_FOR_QUARTILES = 4
 #: The habits' cell length, s (HABITS.md's 10 Hz view).
@@ -122,7 +128,7 @@ def _reaction_log_sd(habits: Mapping[str, HabitFigures]) -> float | None:
 
 
 def fit_twin(habits: Mapping[str, HabitFigures], *, onset_samples: int, stops: int | None = None,
-             cell_s: float = CELL_S) -> dict[str, float]:
+             cell_s: float = CELL_S, waypoints: bool = True) -> dict[str, float]:
     """The parameters one participant's habits set (the rules of the module's docstring).
 
     Parameters
@@ -135,6 +141,9 @@ def fit_twin(habits: Mapping[str, HabitFigures], *, onset_samples: int, stops: i
         Stops per trial (:func:`stops_per_trial` by default).
     cell_s
         The habits' cell length, s.
+    waypoints
+        Whether the source's robot stops at the CIAA task's waypoints (a real log, a CIAA run);
+        False (a grid-world run) leaves :data:`STOP_PARAMETERS` to the population.
 
     Returns
     -------
@@ -163,6 +172,8 @@ def fit_twin(habits: Mapping[str, HabitFigures], *, onset_samples: int, stops: i
     for parameter, habit in DEADBAND_PARAMETERS.items():
         if habit in habits:
             fitted[parameter] = habits[habit].median - HABIT_OFFSETS_S[habit]
+    if not waypoints:
+        fitted.update(dict.fromkeys(STOP_PARAMETERS))
     return {name: round(value, 6) if name not in INTEGER_PARAMETERS else int(value)
             for name, value in fitted.items() if value is not None and parameter_is_valid(name, value)}
 
