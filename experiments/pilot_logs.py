@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from nudgecli.errors import NudgeError, RunFolderError
 from nudgecli.model.world import MODE_NAMES
 from nudgecli.store import RunFolder
 
@@ -67,10 +68,24 @@ def participant_log(steps: pd.DataFrame, trials: pd.DataFrame, name: str, dt: fl
 
 
 def write_pilot_logs(run: Path, out: Path) -> list[Path]:
-    """``out/pilot-<k>.csv`` for each participant ``k - 1`` of the run folder ``run``."""
+    """``out/pilot-<k>.csv`` for each participant ``k - 1`` of the run folder ``run``.
+
+    Raises
+    ------
+    RunFolderError
+        ``run`` is not a complete run folder, or a run of another world than the CIAA task's (its
+        layout indices are no CIAA trials, which ``nudge habits`` would read the waypoints of);
+        nothing is written.
+    """
     folder = RunFolder(run)
+    folder.check_complete()  # not a run folder, or one still running: its own message
+    config = folder.read_config()
+    if config.world.kind != "ciaa":
+        raise RunFolderError(f"{run}: a run of the {config.world.kind} world (experiment "
+                             f"{config.experiment.name!r}); a pilot log's layout column is a CIAA trial, so "
+                             "give a ciaa-teleop run folder (`nudge simulate ciaa-teleop --out FOLDER`)")
     steps, trials = folder.read_steps(), folder.read_trials()
-    dt = 1.0 / float(folder.read_config().study.rate_hz)
+    dt = 1.0 / float(config.study.rate_hz)
     out.mkdir(parents=True, exist_ok=True)
     written = []
     for participant in sorted(steps["participant"].unique()):
@@ -88,7 +103,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("run", type=Path, help="A ciaa-teleop run folder (nudge simulate ciaa-teleop).")
     parser.add_argument("--out", type=Path, required=True, help="Folder for pilot-<k>.csv.")
     args = parser.parse_args(argv)
-    for path in write_pilot_logs(args.run, args.out):
+    try:
+        written = write_pilot_logs(args.run, args.out)
+    except NudgeError as exc:
+        print(f"Error: {exc}", file=sys.stderr)
+        return 1
+    for path in written:
         print(path)
     return 0
 
