@@ -1,6 +1,7 @@
 """What to tell a researcher whose CSV file a spreadsheet wrote in its locale's way: text that is
 not UTF-8 (latin-1 or Windows-1252, as a European spreadsheet saves "CSV") and numbers written
-with a decimal comma (``0,5``, with semicolons between the columns). The one wording of that
+with a decimal comma (``0,5``, with semicolons between the columns, which
+:func:`header_delimiter` finds). The one wording of that
 advice for every reader of a user table (metrics tables, real habit logs), and the test for a
 JSON file given where a CSV is read (:func:`starts_as_json`); it sits outside ``report/`` and
 ``sim/`` so that both can use it.
@@ -8,9 +9,15 @@ JSON file given where a CSV is read (:func:`starts_as_json`); it sits outside ``
 
 from __future__ import annotations
 
+import csv
 import math
 import re
+from collections.abc import Callable
 from pathlib import Path
+
+#: The delimiters a CSV file of a researcher's may use, in the order tried: a spreadsheet in a
+#: locale with a decimal comma writes semicolons.
+DELIMITERS = (",", ";", "\t", "|")
 
 #: A number as a spreadsheet in a decimal-comma locale writes it: 0,5, -1,25, ,5, 1,5E-03.
 _DECIMAL_COMMA = re.compile(r"[+-]?\d*,\d+(?:[eE][+-]?\d+)?")
@@ -33,6 +40,18 @@ def decimal_comma_advice(text: str) -> str | None:
     if not math.isfinite(float(pointed)):  # 1,5e999
         return None
     return f"a decimal comma? write {pointed}"
+
+
+def header_delimiter(header: str, fits: Callable[[set[str]], bool]) -> str:
+    """The first of :data:`DELIMITERS` under which the ``header`` line's column names (stripped)
+    ``fits`` (say, holds every required column), else a comma (for the error to say what the
+    header holds). The one rule of the readers of a user's table whose columns are known (real
+    logs, people files)."""
+    for delimiter in DELIMITERS:
+        names = next(csv.reader([header], delimiter=delimiter), [])
+        if fits({name.strip() for name in names}):
+            return delimiter
+    return ","
 
 
 def not_utf8_message(path: Path) -> str:

@@ -46,3 +46,16 @@ def test_a_folder_given_as_the_people_file_is_named_a_folder_with_the_file_to_gi
         read_people(run)
     with pytest.raises(DataError, match="a folder, not a people file; give a people file's path"):
         read_people(run / "people")
+
+
+def test_a_spreadsheets_semicolons_are_read_and_its_decimal_commas_named(tmp_path: Path) -> None:
+    commas = tmp_path / "people.csv"
+    commas.write_text(HEADER + '0,x,A,0.1,1,\n1,x,B,,2,"deadband_share"\n')
+    semicolons = tmp_path / "semicolons.csv"
+    semicolons.write_text(HEADER.replace(",", ";") + '0;x;A;0.1;1;\n1;x;B;;2;"deadband_share"\n')
+    assert read_people(semicolons).twins == read_people(commas).twins
+    semicolons.write_text(HEADER.replace(",", ";") + "0;x;A;0,1;1;\n")
+    with pytest.raises(DataError) as caught:
+        read_people(semicolons)
+    assert str(caught.value) == (f"{semicolons}: person 0 (participant 'A'): deadband_share: '0,1' is not a "
+                                 "number (a decimal comma? write 0.1)")

@@ -3,7 +3,6 @@ resampled by zero-order hold into HABITS.md's cells (:mod:`nudgecli.report.habit
 
 from __future__ import annotations
 
-import csv
 import itertools
 import math
 from dataclasses import dataclass
@@ -14,7 +13,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.csv_rows import read_csv_whole_rows
-from nudgecli.csv_text import decimal_comma_advice, not_utf8_message
+from nudgecli.csv_text import decimal_comma_advice, header_delimiter, not_utf8_message
 from nudgecli.errors import DataError
 from nudgecli.report.habit_cells import (
     HABIT_RATE_HZ,
@@ -27,9 +26,6 @@ from nudgecli.report.habit_cells import (
 #: The columns of a real log (CSV): required, and optional with what they give.
 LOG_REQUIRED = ("trial", "label", "x", "y", "theta", "mode_switch")
 LOG_TIME_NAMES = ("t", "time")
-#: The delimiters a log may use, the first one whose header names every column winning (a
-#: spreadsheet in a locale with a decimal comma writes semicolons).
-LOG_DELIMITERS = (",", ";", "\t", "|")
 #: The longest a trial may last (s): the CIAA task's trials stop at 50 s, so a longer one is a time
 #: stamp out of place (milliseconds, a clock's epoch), whose cells would fill the memory (1e7 s is
 #: 1e8 cells, gigabytes).
@@ -73,15 +69,11 @@ def _names_log_columns(names: set[str]) -> bool:
 
 
 def _log_delimiter(path: Path) -> str:
-    """The first of :data:`LOG_DELIMITERS` under which the header line names every column a log
-    needs (a comma where none does, for the error to say what the header holds)."""
+    """The delimiter under which the header line names every column a log needs
+    (:func:`~nudgecli.csv_text.header_delimiter`)."""
     with path.open(encoding="utf-8", newline="") as file:
         header = file.readline()
-    for delimiter in LOG_DELIMITERS:
-        names = next(csv.reader([header], delimiter=delimiter), [])
-        if _names_log_columns({name.strip() for name in names}):
-            return delimiter
-    return ","
+    return header_delimiter(header, _names_log_columns)
 
 
 def _read_log_frame(path: Path) -> tuple[pd.DataFrame, str]:

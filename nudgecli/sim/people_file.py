@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from nudgecli.csv_text import not_utf8_message
+from nudgecli.csv_text import decimal_comma_advice, header_delimiter, not_utf8_message
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.run_folder_names import MANIFEST, PEOPLE_DIR
 from nudgecli.sim.twins import INTEGER_PARAMETERS, TWIN_PARAMETERS, Twin, parameter_is_valid, parameter_needs
@@ -87,7 +87,9 @@ def _parse_value(path: Path, where: str, name: str, text: str) -> float:
     try:
         value = float(text)
     except ValueError:
-        raise DataError(f"{path}: {where}: {name}: {text!r} is not a number") from None
+        advice = decimal_comma_advice(text)
+        raise DataError(f"{path}: {where}: {name}: {text!r} is not a number"
+                        f"{f' ({advice})' if advice else ''}") from None
     if not parameter_is_valid(name, value):
         raise DataError(f"{path}: {where}: {name}: {text} is out of its valid range (needs "
                         f"{parameter_needs(name)})")
@@ -154,7 +156,9 @@ def read_people(path: str | Path) -> People:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise DataError(not_utf8_message(path)) from None
-    reader = csv.DictReader(io.StringIO(text))
+    # a spreadsheet in a locale with a decimal comma saves it with semicolons between the columns
+    delimiter = header_delimiter(text.partition("\n")[0], set(REQUIRED_COLUMNS).issubset)
+    reader = csv.DictReader(io.StringIO(text), delimiter=delimiter)
     header = [name.strip() for name in (reader.fieldnames or [])]
     if not header:
         raise DataError(f"{path}: empty; a people file has the columns {', '.join(PEOPLE_COLUMNS)}")
