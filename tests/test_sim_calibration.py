@@ -357,6 +357,32 @@ def test_fitting_a_folder_of_participants_names_them(tmp_path):
     assert f"nudge fit {tmp_path / 'p01'}" in result.output
 
 
+def test_fitting_a_run_folder_names_its_participants_calibration_folders(tmp_path: Path) -> None:
+    # before: the files a session needs, without a word of RUN/calibration/participant-NNNN, which holds them
+    run = tmp_path / "run"
+    (run / "trials").mkdir(parents=True)
+    (run / "manifest.json").write_text("{}")
+
+    def refused(folder: Path) -> str:
+        result = CliRunner().invoke(main, ["fit", str(folder), "--out", str(tmp_path / "p.json")])
+        assert result.exit_code == 1 and result.stderr.count("Error:") == 1, result.output
+        return result.stderr.strip()
+
+    assert "a run folder without calibration logs" in refused(run)
+    for index in (0, 1):
+        (run / "calibration" / f"participant-000{index}").mkdir(parents=True)
+        (run / "calibration" / f"participant-000{index}" / "mapping_prompts.csv").write_text("t,action\n")
+    calibration = run / "calibration"
+    assert refused(run) == (
+        f"Error: {run}: a run folder; its 2 participants' simulated calibration logs are in {calibration}/ "
+        f"(participant-0000 to participant-0001); fit one at a time, e.g. "
+        f"`nudge fit {calibration / 'participant-0000'}`")
+    assert refused(calibration) == (
+        f"Error: {calibration}: holds the calibration folders of several participants (participant-0000, "
+        f"participant-0001); fit one at a time, e.g. `nudge fit {calibration / 'participant-0000'}`")
+    assert not (tmp_path / "p.json").exists()
+
+
 def test_a_distortion_blow_rises_through_the_participants_onset_ramp() -> None:
     # the ramp counts samples from each blow's start: (j + 1) / (k + 1) of the level for j < k
     steady = Participant(

@@ -378,17 +378,41 @@ def read_sessions(folder: str | Path, variant: str = AUTO_VARIANT
     mapping = read_mapping_session(folder)
     distortion = read_distortion_session(folder, variant)
     if mapping is None and distortion is None:
-        participants = sorted(child.name for child in folder.iterdir() if child.is_dir() and (
-            (child / STUDY_MAPPING_FOLDER).is_dir() or (child / STUDY_DISTORTION_FOLDER).is_dir()))
-        if participants:
-            raise DataError(f"{folder}: holds the calibration folders of several participants "
-                            f"({', '.join(participants)}); fit one at a time, e.g. "
-                            f"`nudge fit {folder / participants[0]}`")
-        raise DataError(
-            f"{folder}: no calibration session found; expected {STUDY_MAPPING_FOLDER}/"
-            f"{STUDY_FILES['mapping_prompts']} + {STUDY_FILES['mapping_responses']} and/or "
-            f"{STUDY_DISTORTION_FOLDER}/{STUDY_FILES['distortion_prompts']} + "
-            f"{STUDY_FILES['distortion_stream']}, the sibling study's <id>_{CIAA_MAPPING_SUFFIX}/ and/or "
-            f"<id>_{CIAA_DISTORTION_SUFFIX}/ with the same files, or the tidy "
-            f"{', '.join(TIDY_FILES.values())}")
+        raise _no_session(folder)
     return mapping, distortion
+
+
+def _holds_session(folder: Path) -> bool:
+    """Whether ``folder`` looks like one participant's calibration folder (a session's subfolder, or
+    a tidy prompts file)."""
+    return (folder / STUDY_MAPPING_FOLDER).is_dir() or (folder / STUDY_DISTORTION_FOLDER).is_dir() or \
+        any((folder / TIDY_FILES[key]).is_file() for key in ("mapping_prompts", "distortion_prompts"))
+
+
+def _no_session(folder: Path) -> DataError:
+    """The error of a ``folder`` without a session: it holds several participants' folders (a run
+    folder: in its ``calibration/``), fit one; else the files a session needs."""
+    from nudgecli.store import RunFolder, is_run_folder
+
+    run = is_run_folder(folder)
+    where = RunFolder(folder).calibration_dir(0).parent if run else folder  # a run's calibration/
+    children = where.iterdir() if where.is_dir() else ()
+    participants = sorted(child.name for child in children if child.is_dir() and _holds_session(child))
+    example = "" if not participants else f"fit it with `nudge fit {where / participants[0]}`" \
+        if len(participants) == 1 else f"fit one at a time, e.g. `nudge fit {where / participants[0]}`"
+    if run and participants:
+        held = (f"its {len(participants)} participants' simulated calibration logs are in {where}/ "
+                f"({participants[0]} to {participants[-1]})") if len(participants) > 1 else \
+            f"its participant's simulated calibration logs are in {where / participants[0]}"
+        return DataError(f"{folder}: a run folder; {held}; {example}")
+    if participants:
+        return DataError(f"{folder}: holds the calibration folders of several participants "
+                         f"({', '.join(participants)}); {example}")
+    which = f"a run folder without calibration logs (no {where}/participant-NNNN); " if run else ""
+    return DataError(
+        f"{folder}: {which}no calibration session found; expected {STUDY_MAPPING_FOLDER}/"
+        f"{STUDY_FILES['mapping_prompts']} + {STUDY_FILES['mapping_responses']} and/or "
+        f"{STUDY_DISTORTION_FOLDER}/{STUDY_FILES['distortion_prompts']} + "
+        f"{STUDY_FILES['distortion_stream']}, the sibling study's <id>_{CIAA_MAPPING_SUFFIX}/ and/or "
+        f"<id>_{CIAA_DISTORTION_SUFFIX}/ with the same files, or the tidy "
+        f"{', '.join(TIDY_FILES.values())}")
