@@ -22,12 +22,11 @@ from pydantic import ConfigDict, Field, ValidationError, field_validator, model_
 
 from nudgecli.config_base import PositiveFloat, Probability, Section
 from nudgecli.config_files import (
-    apply_override,
     dump_toml,
     format_validation_error,
-    parse_override,
     read_toml,
     resolve_preset,
+    validate_overridden,
 )
 from nudgecli.config_people import BehaviourSection, CalibrationSection, PopulationSection
 from nudgecli.errors import ConfigError, did_you_mean
@@ -444,7 +443,7 @@ class ExperimentConfig(Section):
                 key, value = example.split(" = ")
                 raise ValueError(f"study.conditions lists {condition!r} but there is no [{condition}] "
                                  f"section with its settings; add one, e.g. [{condition}] {example} (or "
-                                 f"--set {condition}.{key}={value.strip(chr(34))} before the conditions)")
+                                 f"--set {condition}.{key}={value.strip(chr(34))})")
         return self
 
     @model_validator(mode="after")
@@ -473,7 +472,7 @@ class ExperimentConfig(Section):
 
 
 def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = ()) -> ExperimentConfig:
-    """Read an experiment preset or file, apply ``--set`` overrides, validate.
+    """Read an experiment preset or file, check it, apply the ``--set`` overrides together, validate.
 
     Raises
     ------
@@ -486,14 +485,7 @@ def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = 
         ExperimentConfig.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, str(path), ExperimentConfig, data)) from None
-    for text in overrides:
-        key, value = parse_override(text)
-        apply_override(data, key, value)
-        try:
-            ExperimentConfig.model_validate(data)
-        except ValidationError as exc:
-            raise ConfigError(format_validation_error(exc, f"--set {text}", ExperimentConfig, data)) from None
-    config = ExperimentConfig.model_validate(data)
+    config = validate_overridden(ExperimentConfig, data, overrides)
     if config.policies:  # a researcher's policy modules are imported from beside the experiment file
         config = config.model_copy(update={"policy_search_path": str(path.resolve().parent)})
     return config

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import json
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from copy import deepcopy
 from pathlib import Path
 from types import UnionType
 from typing import Any, Literal, TypeVar, Union, get_args, get_origin
@@ -17,6 +18,9 @@ from nudgecli.errors import ConfigError, did_you_mean
 
 #: A plan as a command holds it: a preset name, a path or a loaded plan (:func:`resolve_plan`).
 PlanT = TypeVar("PlanT")
+ModelT = TypeVar("ModelT", bound=BaseModel)
+#: A parsed ``--set``: its text, its key's path and its value.
+Override = tuple[str, list[str], Any]
 
 
 def preset_dir(kind: Literal["experiments", "analysis"]) -> Path:
@@ -146,6 +150,59 @@ def apply_override(data: dict[str, Any], path: list[str], value: Any) -> None:
             raise ConfigError(f"--set {'.'.join(path)}: {part!r} is not a section")
         node = child
     node[path[-1]] = value
+
+
+def validate_overridden(model: type[ModelT], data: dict[str, Any], overrides: Sequence[str]) -> ModelT:
+    """``data`` (a file's, checked on its own) with every ``--set`` applied, then validated once.
+
+    The overrides make one setup together, whatever their order (the later of two of one key wins):
+    a step on the way need not be valid (``study.start_modes=["x"]`` before
+    ``study.blocks_per_condition=1``, 8 trials in 3 blocks). A problem that remains names the
+    overrides at fault (:func:`_at_fault`), its field and its fix, in one line.
+    """
+    parsed = [(text, *parse_override(text)) for text in overrides]
+    final = _overridden(data, parsed)
+    try:
+        return model.model_validate(final)
+    except ValidationError as exc:
+        source = "--set " + " and ".join(_at_fault(model, data, parsed, _problem(exc)))
+        raise ConfigError(format_validation_error(exc, source, model, final)) from None
+
+
+def _overridden(data: dict[str, Any], parsed: Sequence[Override]) -> dict[str, Any]:
+    """A copy of ``data`` with ``parsed`` applied in order."""
+    copy = deepcopy(data)
+    for _, path, value in parsed:
+        apply_override(copy, path, value)
+    return copy
+
+
+def _problem(exc: ValidationError) -> tuple[Any, ...]:
+    """The first problem of ``exc``: its place, kind and message (what its one line reports)."""
+    first = exc.errors()[0]
+    return tuple(first["loc"]), first["type"], first["msg"]
+
+
+def _at_fault(model: type[BaseModel], data: dict[str, Any], parsed: Sequence[Override],
+              problem: tuple[Any, ...]) -> list[str]:
+    """The texts of the overrides at fault for ``problem``: each without which it goes or changes
+    (not one a later override of the same key replaced); where none alone is (one value given
+    twice), those whose key holds the problem's place or lies in it; else all of them."""
+    alone = []
+    for index, (text, _, _) in enumerate(parsed):
+        try:
+            model.model_validate(_overridden(data, [*parsed[:index], *parsed[index + 1:]]))
+        except ValidationError as exc:
+            if _problem(exc) == problem:
+                continue
+        except ConfigError:  # a later key inside a value only this one made a section
+            pass
+        alone.append(text)
+    if alone:
+        return alone
+    place = [str(part) for part in problem[0]]
+    near = [text for text, path, _ in parsed if path[:len(place)] == place[:len(path)]]
+    return near or [text for text, _, _ in parsed]
 
 
 def _section_type(annotation: Any) -> Any:

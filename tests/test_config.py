@@ -144,3 +144,84 @@ def test_an_unknown_key_suggests_the_nearest_of_its_own_section() -> None:
         load_experiment("paper", ["study.participnts=3"])
     with pytest.raises(ConfigError, match=r"unknown key 'study.zzz'; known keys: participants, "):
         load_experiment("paper", ["study.zzz=3"])
+
+
+#: A few trials per condition of the custom-policy experiment, in an order whose first steps are no
+#: valid experiment on their own (4 trials of a condition in 3 blocks) until the last one.
+FEW_TRIALS = ("study.goal_counts=[3,4]", 'study.corners=["tr","bl"]', 'study.start_modes=["x"]',
+              "study.shared_layouts=1", "study.blocks_per_condition=1")
+
+
+@pytest.mark.parametrize("order", [FEW_TRIALS, FEW_TRIALS[::-1], FEW_TRIALS[2:] + FEW_TRIALS[:2]])
+def test_overrides_are_applied_together_then_checked_once(order: tuple[str, ...]) -> None:
+    # each was checked as it was applied: blocks_per_condition=1 had to come first
+    config = load_experiment("custom-policy", order)
+    assert config.study.trials_per_condition == 4 and config.study.blocks_per_condition == 1
+    assert config == load_experiment("custom-policy", FEW_TRIALS[::-1])
+
+
+def test_the_api_takes_the_overrides_in_any_order() -> None:
+    import nudgecli
+
+    config = nudgecli.experiment_config("custom-policy", overrides={
+        "study.goal_counts": [3, 4], "study.corners": ["tr", "bl"], "study.start_modes": ["x"],
+        "study.shared_layouts": 1, "study.blocks_per_condition": 1})
+    assert config.study.corners == ("tr", "bl") and config.study.blocks_per_condition == 1
+
+
+@pytest.mark.parametrize("first", [True, False])
+def test_a_bad_override_is_named_wherever_it_stands(first: bool) -> None:
+    overrides = ["study.participants=abc", "experiment.seed=3", "study.participnts=3"]
+    with pytest.raises(ConfigError) as info:
+        load_experiment("paper", overrides if first else overrides[::-1])
+    assert str(info.value).startswith("--set study.participants=abc: study.participants: ")
+    with pytest.raises(ConfigError) as info:
+        load_experiment("paper", ["experiment.seed=3", "study.participnts=3", "study.shared_layouts=1"])
+    assert str(info.value).startswith("--set study.participnts=3: unknown key 'study.participnts' "
+                                      "(did you mean 'participants'?)")
+
+
+def test_the_overrides_at_fault_together_are_named_and_the_others_not() -> None:
+    # each alone divides the paper's 24 trials (3 blocks of 36, 8 of 24); together 8 blocks of 36 do not
+    with pytest.raises(ConfigError) as info:
+        load_experiment("paper", ["study.blocks_per_condition=8", "experiment.seed=3",
+                                  "study.goal_counts=[3,4,5]"])
+    assert str(info.value) == ("--set study.blocks_per_condition=8 and study.goal_counts=[3,4,5]: study: "
+                               "blocks_per_condition=8 does not divide the 36 trials of each condition")
+    # the same bad value twice: neither alone is at fault, both are named
+    with pytest.raises(ConfigError) as info:
+        load_experiment("paper", ["assistance.rho3=2", "experiment.seed=3", "assistance.rho3=2"])
+    assert str(info.value).startswith("--set assistance.rho3=2 and assistance.rho3=2: assistance.rho3: ")
+
+
+def test_the_last_override_of_a_key_wins() -> None:
+    for first, last in (("abc", 3), (3, 5)):
+        overrides = [f"study.participants={first}", f"study.participants={last}"]
+        assert load_experiment("paper", overrides).study.participants == last
+
+
+def test_a_policy_section_set_after_its_condition_is_taken() -> None:
+    config = load_experiment("paper", ['study.conditions=["blending","control"]', "blending.gate=gap"])
+    assert config.blending is not None and config.blending.gate == "gap"
+    with pytest.raises(ConfigError) as info:
+        load_experiment("paper", ['study.conditions=["blending","control"]', "experiment.seed=3"])
+    message = str(info.value)
+    assert message.startswith('--set study.conditions=["blending","control"]: ') and "before" not in message
+
+
+@pytest.mark.parametrize("command", [["simulate"], ["replicate", "-R", "1"], ["power", "-R", "1"]])
+def test_every_command_takes_the_overrides_in_any_order(command: list[str], tmp_path) -> None:
+    sets = [word for text in FEW_TRIALS for word in ("--set", text)]
+    result = CliRunner().invoke(main, [command[0], "custom-policy", *command[1:], "--participants", "2",
+                                       *sets, "--out", str(tmp_path / "out")])
+    assert result.exit_code == 0, result.output
+
+
+def test_a_sweeps_set_and_parameters_are_taken_in_any_order(tmp_path) -> None:
+    from nudgecli.runs.sweep import load_sweep
+
+    path = tmp_path / "s.toml"
+    # the fixed overrides first, then each point's parameters: all applied, then checked
+    path.write_text(f'experiment = "custom-policy"\nreplications = 1\nset = {list(FEW_TRIALS)!r}\n'
+                    '[design]\nmethod = "grid"\n[parameters]\n"study.participants" = [2, 3]\n')
+    assert [point.config.study.trials_per_condition for point in load_sweep(str(path)).points] == [4, 4]
