@@ -7,9 +7,10 @@ Part of :class:`nudgecli.config.ExperimentConfig`; import them from :mod:`nudgec
 
 from __future__ import annotations
 
+import json
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field, field_validator, model_validator
 
 from nudgecli.config_base import PositiveFloat, Section, check_range
 
@@ -207,6 +208,14 @@ class PopulationSection(Section):
         description="Calibration folders with a p(phi_m | phi_i) session (study export or tidy format): "
         "participant k takes the pressure physiology recorded in the k-th, the others are drawn; "
         "habits are always drawn. Relative paths are relative to the working directory.")
+
+    @field_validator("physiology_logs", mode="before")
+    @classmethod
+    def _folders(cls, value: object) -> object:
+        if isinstance(value, str):  # one folder's path, not a list of them
+            raise ValueError(f"should be a list of folders of calibration logs (one per participant), e.g. "
+                             f"[{json.dumps(value)}]")
+        return value
 
     @model_validator(mode="after")
     def _check(self) -> PopulationSection:

@@ -1,7 +1,8 @@
 """A people file (``--people``) given as a researcher may have it: a value out of range names the
 range ``[population]`` checks, a folder is said to be one (with the file to give instead), a
 spreadsheet's semicolons and decimal commas are read or named as such, and a file with more people
-than the study simulates names those left out."""
+than the study simulates names those left out; so do more ``population.physiology_logs`` than
+participants, and a value there that is not a list of folders says what the list takes."""
 
 from __future__ import annotations
 
@@ -59,3 +60,16 @@ def test_a_spreadsheets_semicolons_are_read_and_its_decimal_commas_named(tmp_pat
         read_people(semicolons)
     assert str(caught.value) == (f"{semicolons}: person 0 (participant 'A'): deadband_share: '0,1' is not a "
                                  "number (a decimal comma? write 0.1)")
+
+
+@pytest.mark.parametrize("given", ["string", "file", "missing"])
+def test_physiology_logs_say_they_take_a_list_of_folders(tmp_path: Path, given: str) -> None:
+    log = tmp_path / "p_phm_given_phi.csv"
+    log.write_text("t,label\n")
+    value = {"string": f'"{log}"', "file": f'["{log}"]', "missing": f'["{tmp_path / "nope"}"]'}[given]
+    result = nudge("simulate", "smoke", "--set", f"population.physiology_logs={value}", "--out", tmp_path / "out")
+    line = stderr_error_line(result)
+    assert "folders of calibration logs" in line, line
+    assert {"string": "should be a list of folders", "file": "a file, not a folder",
+            "missing": "no such folder"}[given] in line, line
+    assert "e.g. [0.5, 1.0]" not in line and not (tmp_path / "out").exists()
