@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 from click.testing import CliRunner
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -180,3 +181,26 @@ def test_the_comparison_with_the_reference_and_its_pooled_only_shares(tmp_path: 
     pooled = frame[frame["scope"] == "pooled"].set_index("habit")
     assert pooled.loc["deadband_then_soft", "median"] == 1.0
     assert pooled.loc["deadband_then_soft", "reference_median"] == 0.8
+
+
+@pytest.mark.parametrize("pilot", ["pilot-1", "pilot-2", "pilot-3"])
+def test_a_printed_comparison_reads_as_it_was_decided(pilot: str) -> None:
+    # before: pilot-1's share of pauses > 1 s (0.0495) printed 0.05 beside 0.05-0.65 and "no",
+    # HABITS.md's 0.045 as 0.04, and the last header cut to people_in
+    log = Path(__file__).resolve().parents[1] / "experiments" / "pilots" / f"{pilot}.csv"
+    result = CliRunner().invoke(main, ["habits", str(log), "--compare", "ciaa-people"])
+    assert result.exit_code == 0, result.output
+    lines = result.stdout.splitlines()
+    assert lines[2].split()[-3:] == ["people", "inside", "people_inside"]
+    compared = 0
+    for line in lines[3:]:
+        fields = line.split()
+        if len(fields) < 5 or fields[-2] not in ("yes", "no"):
+            continue
+        median = float(line[58:78].split()[0])  # the median column, after the habit and n
+        low, high = (float(v) for v in fields[-3].split("-"))
+        assert (low <= median <= high) == (fields[-2] == "yes"), line
+        compared += 1
+    assert compared >= 10
+    deadband = next(line for line in lines if line.startswith("share of soft-blow time in the deadband"))
+    assert "0.045-0.210" in deadband

@@ -526,6 +526,19 @@ def _fmt(value: Any, digits: int = 2) -> str:
     return "-" if value is None or (isinstance(value, float) and math.isnan(value)) else f"{value:.{digits}f}"
 
 
+def _own_digits(*values: float) -> int:
+    """The fewest decimals (2 to 6) at which each of ``values`` reads as written (HABITS.md's 0.045)."""
+    return next((d for d in range(2, 7)
+                 if all(math.isnan(v) or abs(float(f"{v:.{d}f}") - v) < 1e-12 for v in values)), 6)
+
+
+def _digits_reading(median: float, low: str, high: str, inside: bool) -> int:
+    """The fewest decimals (2 to 9) at which ``median`` printed reads inside the printed range
+    ``low``-``high`` exactly when it is ``inside`` (0.0496 is outside 0.05-0.65, so not 0.05)."""
+    reads = (d for d in range(2, 9) if (float(low) <= float(f"{median:.{d}f}") <= float(high)) == inside)
+    return next(reads, 9)
+
+
 def format_habits(result: HabitsResult) -> str:
     """The table of ``--format table``: pooled habits (with the reference beside them), then the units'
     medians, one row per participant (or trial)."""
@@ -533,24 +546,28 @@ def format_habits(result: HabitsResult) -> str:
     count = result.people["participant"].nunique()
     people = f"{count} participant{'' if count == 1 else 's'}"
     lines = [f"Operating habits of {result.source} (HABITS.md definitions, {people})", ""]
-    header = f"{'habit':<50} {'n':>6} {'median [q25, q75]':>20} {'people':>12}"
+    header = f"{'habit':<50} {'n':>6} {'median [q25, q75]':>20} {'people':>14}"
     if comparison is not None and result.reference is not None:
         name = str(result.reference.get("name", "reference")) + " median"
-        header += f"   {name:>22} {'people':>12} inside people_in"
+        header += f"   {name:>22} {'people':>14} inside people_inside"
     lines.append(header)
     for row in result.pooled.itertuples():
         habit = _BY_KEY[str(row.habit)]
-        quartiles = "" if habit.share else f" [{_fmt(row.q25)}, {_fmt(row.q75)}]"
-        line = (f"{habit.label:<50} {int(row.n):>6} {_fmt(row.median) + quartiles:>20} "
-                f"{_fmt(row.people_min) + '-' + _fmt(row.people_max):>12}")
+        digits, compared = 2, ""  # a row's measured values get enough digits to read as compared
         if comparison is not None and habit.key in comparison.index:
             ref = comparison.loc[habit.key]
+            own = _own_digits(ref["reference_median"], ref["reference_min"], ref["reference_max"])
+            low, high = _fmt(ref["reference_min"], own), _fmt(ref["reference_max"], own)
+            if ref["inside"] is not None:
+                digits = _digits_reading(float(row.median), low, high, bool(ref["inside"]))
             inside = "-" if ref["inside"] is None else "yes" if ref["inside"] else "no"
             people_in = "-" if math.isnan(ref["people_inside"]) else f"{ref['people_inside']:.0%}"
-            people_range = ("-" if math.isnan(ref["reference_min"])
-                            else _fmt(ref["reference_min"]) + "-" + _fmt(ref["reference_max"]))
-            line += f"   {_fmt(ref['reference_median']):>22} {people_range:>12} {inside:>6} {people_in:>8}"
-        lines.append(line)
+            people_range = "-" if math.isnan(ref["reference_min"]) else f"{low}-{high}"
+            compared = (f"   {_fmt(ref['reference_median'], own):>22} {people_range:>14} {inside:>6} "
+                        f"{people_in:>13}")
+        quartiles = "" if habit.share else f" [{_fmt(row.q25, digits)}, {_fmt(row.q75, digits)}]"
+        lines.append(f"{habit.label:<50} {int(row.n):>6} {_fmt(row.median, digits) + quartiles:>20} "
+                     f"{_fmt(row.people_min, digits) + '-' + _fmt(row.people_max, digits):>14}" + compared)
     keys = ["participant"] if result.by == "participant" else ["participant", "trial"]
     wide = result.units.pivot_table(index=keys, columns="habit", values="median", sort=False)
     wide = wide[[h.key for h in HABITS if h.key in wide.columns]]
