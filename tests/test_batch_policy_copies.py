@@ -192,8 +192,9 @@ def test_force_removes_the_replaced_batchs_policy_copies_and_keeps_other_files(
     again = nudge(*command("replicate", experiment.parent / "plain.toml", out, "--force"))
     assert again.exit_code == 0, again.output
     assert not (out / "policies").exists()
-    # the replaced batch's experiment and plan go too; a batch of built-in policies keeps none
-    assert not (out / "experiment.toml").exists() and not (out / "plan.toml").exists()
+    # the replaced batch's experiment and plan go too: the new batch keeps its own (importing nothing)
+    kept = (out / "experiment.toml").read_text()
+    assert 'name = "plain"' in kept and "ThresholdAssist" not in kept and (out / "plan.toml").is_file()
 
 
 @pytest.mark.parametrize("package", ["tasks", "analyses"])
@@ -346,9 +347,11 @@ def interrupted_batch(kind: str, experiment: Path, monkeypatch: pytest.MonkeyPat
     return shlex.split(result.output.split("resume with: ")[1].strip().splitlines()[0])
 
 
-@pytest.mark.parametrize("kind", ["replicate", "power"])
+@pytest.mark.parametrize(("kind", "name"), [("replicate", "mine"), ("power", "mine"), ("replicate", "plain")])
 def test_a_batchs_printed_resume_command_works_from_another_folder_with_the_experiment_gone(
-        experiment: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, kind: str) -> None:
+        experiment: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, kind: str, name: str) -> None:
+    # mine.toml has a policy of its own, plain.toml only built-in ones: both batches keep their inputs
+    experiment = experiment.with_name(f"{name}.toml")
     whole = tmp_path / "whole"
     made = nudge(*command(kind, experiment, whole, "--set", "study.time_limit_s=40"))
     assert made.exit_code == 0, made.output

@@ -181,8 +181,10 @@ def test_a_running_batch_is_locked_and_ctrl_c_prints_the_command_that_resumes_it
     manifest = json.loads((out / "batch.json").read_text())
     assert manifest["status"] == "interrupted"  # not left "running"
     command = stderr.split("resume with: ")[1].strip().splitlines()[0]
-    assert command == ("nudge replicate smoke --replications 20 --seed 4 --participants 2 --workers 2 "
-                       f"--format csv --out {out} --resume")
+    # the batch's own experiment and plan (every replicate and power batch keeps them), so the
+    # command works from any folder
+    assert command == (f"nudge replicate {out}/experiment.toml --plan {out}/plan.toml --replications 20 "
+                       f"--seed 4 --participants 2 --workers 2 --format csv --out {out} --resume")
     resumed = invoke(shlex.split(command)[1:])
     assert resumed.exit_code == 0, resumed.output
     assert json.loads((out / "batch.json").read_text())["status"] == "complete"

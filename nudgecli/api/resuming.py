@@ -54,7 +54,7 @@ def people_to_resume(folder: str | Path, typed: str | None) -> str | None:
 
 def inputs_to_resume(folder: str | Path) -> dict[str, str]:
     """The experiment and plan files the command that resumes batch ``folder`` names in place of
-    the ones typed, where the folder keeps them (a batch of policies of its own:
+    the ones typed, where the folder keeps them (a replicate or power batch:
     :func:`nudgecli.runs.batch_folder.kept_inputs`): they import the batch's own policy copies, so
     the command works from any folder.
 

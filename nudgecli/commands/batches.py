@@ -74,7 +74,7 @@ def rerun_command(ctx: click.Context, target: Path, people: str | None = None) -
     arguments and the options given on the command line (``--people`` naming ``people`` where
     given), ``--out target`` and ``--resume`` (``--force`` dropped: it would delete what was
     finished). Where the batch folder keeps its experiment and plan
-    (:func:`nudgecli.api.resuming.inputs_to_resume`: a batch of policies of its own), it names
+    (:func:`nudgecli.api.resuming.inputs_to_resume`: a replicate or power batch), it names
     those instead (the experiment resolved, so without ``--set``): they import the batch's own
     policy copies, so the command works from any folder, the experiment's moved or gone."""
     from click.core import ParameterSource

@@ -106,8 +106,9 @@ class PolicyCopies:
 def policy_copies(batch: Batch) -> PolicyCopies:
     """What the batch folder keeps of ``batch``'s code and inputs: the policy modules the batch's
     experiments (one per design point) import from their folder and, for a batch of one point
-    (replicate, power) whose experiment has policies of its own, the experiment and the plan
-    (:data:`EXPERIMENT_COPY`, :data:`PLAN_COPY`) that import those copies again on a resume.
+    (replicate, power), the experiment and the plan (:data:`EXPERIMENT_COPY`, :data:`PLAN_COPY`):
+    a resume reads them from the folder, wherever it is run and whatever became of the files
+    typed, and they import the policy copies again.
 
     Points whose policies name the same factories import the same modules (a sweep over a policy's
     parameters), so each set of factories is loaded once. A sweep keeps no experiment: each point
@@ -132,7 +133,7 @@ def policy_copies(batch: Batch) -> PolicyCopies:
         loaded.add(factories)
         files.update(loaded_policy_files(config, BATCH_FOLDERS, "batch"))
         source = source or config.policy_search_path
-    if not files or batch.kind == "sweep":
+    if batch.kind == "sweep":
         return PolicyCopies(files, source if files else None)
     plan = dump_toml(batch.plan.model_dump(mode="json", exclude_none=True))
     inputs = {EXPERIMENT_COPY: batch.points[0].config.to_toml(), PLAN_COPY: plan}
@@ -142,9 +143,8 @@ def policy_copies(batch: Batch) -> PolicyCopies:
 def kept_inputs(folder: Path) -> dict[str, Path]:
     """The experiment and plan ``folder``'s batch keeps (``{"experiment": FOLDER/experiment.toml,
     "plan": FOLDER/plan.toml}``), each where its ``batch.json`` records it and it is there; empty
-    otherwise (a batch without policies of its own, a sweep, a batch of an older nudge). A resume
-    of them imports the batch's own policy copies, from any folder: what the command that resumes
-    the batch names."""
+    otherwise (a sweep, a batch of an older nudge). A resume of them works from any folder (and
+    imports the batch's own policy copies): what the command that resumes the batch names."""
     old, _ = read_manifest(folder / BATCH_MANIFEST)
     recorded = old.get(INPUTS_KEY) if old is not None else None
     if not isinstance(recorded, Mapping):
