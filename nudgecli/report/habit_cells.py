@@ -39,8 +39,8 @@ LABEL_KINDS = {"": NEUTRAL, **{name: _KIND_OF_CODE.get(code, NEUTRAL) for name, 
 #: per cell, trials contiguous and in time order): ``kind`` (:data:`NEUTRAL` ...), ``moving``,
 #: ``switch`` (a mode switch fired in the cell), ``at_waypoint`` (after this cell the robot stands
 #: at a waypoint; read at the last cell of a motion run) and ``waypoints_known`` (False where a real
-#: log names no layout); optional ``switch_from`` / ``switch_to``: a switch cell's mode before and
-#: after (0 x, 1 y, 2 theta; -1 unknown).
+#: log names no layout, and in the grid world, which has none); optional ``switch_from`` /
+#: ``switch_to``: a switch cell's mode before and after (0 x, 1 y, 2 theta; -1 unknown).
 CELL_COLUMNS = ("participant", "trial", "kind", "moving", "switch", "at_waypoint", "waypoints_known")
 
 

@@ -12,8 +12,8 @@ sip-and-puff users), in the toolkit's 10 Hz view:
   :data:`MERGE_GAP_S` (one or two cells at 10 Hz); a **hard blow** holds at least one Hard cell;
 - a **moving** cell is one across which the robot's pose changed;
 - a motion run **ends at a waypoint** when its last pose is one of the world's waypoints (the CIAA
-  world's path, or a real log's layout), or, in the paper's grid world, when the robot arrived in
-  another cell than the one the run began in.
+  world's path, or a real log's layout); the paper's grid world has none, so a grid-world run, like
+  a log without its layout, has no stop -> switch reaction.
 
 The habits (:data:`HABITS`) are measured per event and summarised per participant (or trial) and
 pooled; ``people`` is the range of the participants' own medians, as HABITS.md gives it.
