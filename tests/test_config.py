@@ -225,3 +225,17 @@ def test_a_sweeps_set_and_parameters_are_taken_in_any_order(tmp_path) -> None:
     path.write_text(f'experiment = "custom-policy"\nreplications = 1\nset = {list(FEW_TRIALS)!r}\n'
                     '[design]\nmethod = "grid"\n[parameters]\n"study.participants" = [2, 3]\n')
     assert [point.config.study.trials_per_condition for point in load_sweep(str(path)).points] == [4, 4]
+
+
+def test_a_sweeps_set_that_needs_the_points_parameters_is_taken(tmp_path) -> None:
+    from nudgecli.runs.sweep import load_sweep
+
+    path = tmp_path / "s.toml"
+    # without blocks_per_condition, the set leaves 4 trials in 3 blocks: valid at every point only
+    # together with the parameter; the plan is still the one named like the experiment
+    fixed = [item for item in FEW_TRIALS if "blocks_per_condition" not in item]
+    path.write_text(f'experiment = "custom-policy"\nreplications = 1\nset = {fixed!r}\n'
+                    '[design]\nmethod = "grid"\n[parameters]\n"study.blocks_per_condition" = [1, 2, 4]\n')
+    sweep = load_sweep(str(path))
+    assert [point.config.study.blocks_per_condition for point in sweep.points] == [1, 2, 4]
+    assert sweep.spec.plan == "custom-policy"

@@ -320,13 +320,11 @@ def load_sweep(name_or_path: str) -> Sweep:
         raise ConfigError(format_validation_error(exc, str(path), SweepFile)) from None
     experiment = beside_sweep(path, "experiment", spec.experiment, "experiments")
     load_experiment(experiment)  # a bad experiment file fails early, named as itself
+    base, set_alone = None, None
     try:
         base = load_experiment(experiment, spec.set)
-    except ConfigError as exc:
-        raise ConfigError(f"{path}: set: {str(exc).removeprefix('--set ')}") from None
-    plan = None if spec.plan is None else beside_sweep(path, "plan", spec.plan, "analysis")
-    # the plan rule of replicate and power: the plan given, else the one named like the experiment
-    spec = spec.model_copy(update={"plan": resolve_plan(plan, experiment=base.experiment.name)})
+    except ConfigError as exc:  # it may need a point's parameters (blocks that divide the trials)
+        set_alone = ConfigError(f"{path}: set: {str(exc).removeprefix('--set ')}")
     values, problem, samples = design_values(spec)
     points = []
     for index, assignment in enumerate(values):
@@ -335,10 +333,19 @@ def load_sweep(name_or_path: str) -> Sweep:
             config = load_experiment(experiment, overrides)
             checked_policy_specs(config)  # the check nudge simulate gives: refused before a folder exists
         except (ConfigError, PolicyError) as exc:
+            if set_alone is not None:  # what the set gets wrong whatever the point: said of the set
+                raise set_alone from None
             shown = ", ".join(f"{k}={v!r}" for k, v in assignment.items())
             raise ConfigError(f"{path}: design point {index} ({shown}) is not a valid experiment: "
                               f"{str(exc).removeprefix('--set ')}") from None
         points.append(DesignPoint(index=index, parameters=assignment, config=config))
+    if base is None and not points and set_alone is not None:
+        raise set_alone
+    plan = None if spec.plan is None else beside_sweep(path, "plan", spec.plan, "analysis")
+    # the plan rule of replicate and power: the plan given, else the one named like the experiment
+    # (as the set names it; where the set needs the parameters, as the first point does)
+    name = (base if base is not None else points[0].config).experiment.name
+    spec = spec.model_copy(update={"plan": resolve_plan(plan, experiment=name)})
     return Sweep(source=path, spec=spec, points=points, problem=problem, samples=samples)
 
 
