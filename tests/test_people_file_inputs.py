@@ -67,9 +67,55 @@ def test_physiology_logs_say_they_take_a_list_of_folders(tmp_path: Path, given: 
     log = tmp_path / "p_phm_given_phi.csv"
     log.write_text("t,label\n")
     value = {"string": f'"{log}"', "file": f'["{log}"]', "missing": f'["{tmp_path / "nope"}"]'}[given]
-    result = nudge("simulate", "smoke", "--set", f"population.physiology_logs={value}", "--out", tmp_path / "out")
+    result = nudge("simulate", "smoke", "--set", f"population.physiology_logs={value}",
+                   "--out", tmp_path / "out")
     line = stderr_error_line(result)
     assert "folders of calibration logs" in line, line
     assert {"string": "should be a list of folders", "file": "a file, not a folder",
             "missing": "no such folder"}[given] in line, line
     assert "e.g. [0.5, 1.0]" not in line and not (tmp_path / "out").exists()
+
+
+def _three_people(tmp_path: Path) -> Path:
+    path = tmp_path / "people.csv"
+    path.write_text(HEADER + "0,x,A,0.1,1,\n1,x,B,0.1,1,\n2,x,C,0.2,0,\n")
+    return path
+
+
+def test_people_no_participant_takes_are_named_in_a_note(tmp_path: Path) -> None:
+    people = _three_people(tmp_path)
+    result = nudge("simulate", "smoke", "--people", people, "--out", tmp_path / "run")  # 2 participants
+    assert result.exit_code == 0, result.output
+    note = ("Note: people.csv has 3 people; the study simulates 2, so person 2 (C) is left out; "
+            "--participants 3 simulates all")
+    assert note in result.stderr.splitlines(), result.stderr
+    again = nudge("simulate", "smoke", "--people", people, "--out", tmp_path / "run")
+    assert "already holds a run" in stderr_error_line(again)  # a refusal stays one line
+    power = nudge("power", "smoke", "--participants", "2", "-R", "1", "--people", people,
+                  "--out", tmp_path / "power")
+    assert power.exit_code == 0, power.output
+    assert ("Note: people.csv has 3 people; the largest study simulates 2, so person 2 (C) is left out; a "
+            "count of 3 in --participants simulates all") in power.stderr.splitlines(), power.stderr
+
+
+def test_the_api_tells_the_note_to_log_and_all_people_taken_need_none(tmp_path: Path) -> None:
+    import nudgecli
+
+    people, lines = _three_people(tmp_path), []
+    nudgecli.simulate("smoke", participants=1, people=people, out=tmp_path / "one", log=lines.append)
+    assert lines == ["Note: people.csv has 3 people; the study simulates 1, so person 1 (B), person 2 (C) "
+                     "are left out; --participants 3 simulates all"]
+    lines.clear()
+    nudgecli.simulate("smoke", participants=3, people=people, out=tmp_path / "all", log=lines.append)
+    assert lines == []
+
+
+def test_physiology_logs_no_participant_takes_are_named_in_a_note() -> None:
+    from nudgecli.config import load_experiment
+    from nudgecli.sim.study import left_out_notes
+
+    config = load_experiment("smoke", ("population.physiology_logs=['a', 'b', 'c']",))
+    assert left_out_notes(config, 2) == (
+        "population.physiology_logs lists 3 folders; the study simulates 2, so physiology_logs[2] (c) is "
+        "left out; --participants 3 simulates all",)
+    assert left_out_notes(config, 3) == ()

@@ -225,10 +225,10 @@ def switches(**values: object) -> None:
 
 
 def run_options(*, workers: object, seed: object, scheduler: object, people: object, progress: object,
-                resume: object, force: object, confirm: object) -> dict[str, Any]:
+                resume: object, force: object, confirm: object, log: object = None) -> dict[str, Any]:
     """The options of a simulated study (:func:`~nudgecli.runs.study.run_study`'s keywords of the
     same names), their types checked: local workers, the master seed, a scheduler's address, the
-    people file, the progress callback and the resume, force and confirm switches.
+    people file, the progress and log callbacks and the resume, force and confirm switches.
 
     Raises
     ------
@@ -238,7 +238,8 @@ def run_options(*, workers: object, seed: object, scheduler: object, people: obj
     switches(resume=resume, force=force, confirm=confirm)
     return {"workers": whole_number("workers", workers), "seed": whole_number("seed", seed, optional=True),
             "scheduler": text("scheduler", scheduler, optional=True), "people": people_file(people),
-            "progress": callback("progress", progress), "resume": resume, "force": force, "confirm": confirm}
+            "progress": callback("progress", progress), "log": callback("log", log), "resume": resume,
+            "force": force, "confirm": confirm}
 
 
 def callback(name: str, value: object) -> Any:

@@ -186,7 +186,8 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
              seed: int | None = None, workers: int = 1, out: str | Path | None = None,
              overrides: Overrides | None = None, people: str | Path | None = None,
              progress: ProgressCallback | None = None, scheduler: str | None = None, resume: bool = False,
-             force: bool = False, plan: str | None = None, confirm: bool = False) -> Run:
+             force: bool = False, plan: str | None = None, confirm: bool = False,
+             log: Callable[[str], None] | None = None) -> Run:
     """Simulate a study, as ``nudge simulate`` does.
 
     Parameters
@@ -210,6 +211,8 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
         ``i mod P``, the rest of their physiology drawn as usual.
     progress
         Called with (trials done, trials in all) as participants finish; default silent.
+    log
+        Called with the lines ``nudge simulate`` writes on stderr (a ``Note:``); default silent.
     scheduler
         A dask.distributed scheduler's address (overrides ``workers``).
     resume, force
@@ -234,7 +237,7 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
     from nudgecli.runs.study import run_study
 
     options = arguments.run_options(workers=workers, seed=seed, scheduler=scheduler, people=people,
-                                    progress=progress, resume=resume, force=force, confirm=confirm)
+                                    progress=progress, resume=resume, force=force, confirm=confirm, log=log)
     participants = arguments.whole_number("participants", participants, optional=True)
     out, plan = arguments.path("out", out, optional=True), arguments.text("plan", plan, optional=True)
     if isinstance(experiment, ExperimentConfig):

@@ -93,7 +93,7 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
     try:
         return api.simulate(config, out=target, seed=seed, participants=participants, workers=workers,
                             scheduler=scheduler, resume=resume, force=force, progress=update, plan=plan,
-                            confirm=confirm, people=people)
+                            confirm=confirm, people=people, log=info)
     except BaseException:
         if not out and target.is_dir() and not any(target.iterdir()):
             target.rmdir()  # the default folder made for this run, still empty: leave nothing behind

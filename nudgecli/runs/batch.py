@@ -132,6 +132,8 @@ class Batch:
         Twins of real people (``--people``): participant ``i`` of every study has the habits of
         person ``i mod P`` (:func:`nudgecli.sim.study.study_participant`); the batch folder keeps
         the file's bytes (``people/<its name>``).
+    notes
+        Told once the folder is prepared (people no study takes, :func:`nudgecli.sim.study.left_out_notes`).
     """
 
     kind: Literal["replicate", "power", "sweep"]
@@ -141,18 +143,15 @@ class Batch:
     plan: AnalysisPlan
     extra: dict[str, Any] = field(default_factory=dict)
     people: People | None = None
+    notes: tuple[str, ...] = ()
 
     def describe(self) -> dict[str, Any]:
         """What identifies the batch (a resumed batch must describe itself identically)."""
-        return {
-            "kind": self.kind,
-            "replications": self.replications,
-            "seed": self.seed,
-            "plan": self.plan.model_dump(mode="json"),
-            "points": [{"index": p.index, "parameters": p.parameters, "participants": list(p.participants),
-                        "study": study_key(p.config, 0)} for p in self.points],
-            **self.extra,
-        }
+        return {"kind": self.kind, "replications": self.replications, "seed": self.seed,
+                "plan": self.plan.model_dump(mode="json"), "points": [
+                    {"index": p.index, "parameters": p.parameters, "participants": list(p.participants),
+                     "study": study_key(p.config, 0)} for p in self.points],
+                **self.extra}
 
 
 def replication_seed(master_seed: int, replication: int) -> int:
@@ -364,7 +363,8 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     """:func:`run_batch` once the batch folder's lock is held (``copies``: the policy code it keeps)."""
     mode = prepare_folder(folder, batch.describe(), resume, force, batch.people, copies)
     if log is not None:  # only now: a refusal is its one error line
-        log(f"batch: {size.describe()}")
+        for line in (f"batch: {size.describe()}", *(f"Note: {note}" for note in batch.notes)):
+            log(line)
     graph = build_graph(batch)
     manifest: dict[str, Any] = {
         "batch": batch.describe(),

@@ -30,6 +30,7 @@ from nudgecli.runs.study import checked_plan, with_participants
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, people_of
 from nudgecli.sim.policy_registry import checked_policy_specs
+from nudgecli.sim.study import left_out_notes
 from nudgecli.store import write_text_atomic
 
 if TYPE_CHECKING:  # the statistics, summaries and figures load beside the batch's workers (import_outputs)
@@ -150,7 +151,8 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)])
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
-                  {"experiment": config.experiment.name, **record}, chosen_people)
+                  {"experiment": config.experiment.name, **record}, chosen_people,
+                  left_out_notes(config, config.study.participants, chosen_people, study="each replication"))
     run = run_batch(batch, out, prepare=import_outputs, **options)
     from nudgecli.report.figures.replication import forest_figure
     from nudgecli.report.replication import condition_values, replication_rows, summarise
@@ -190,7 +192,9 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)])
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
-                  {"experiment": config.experiment.name, **record}, chosen_people)
+                  {"experiment": config.experiment.name, **record}, chosen_people,
+                  left_out_notes(config, counts[-1], chosen_people, study="the largest study",
+                                 fix="a count of {} in --participants"))
     run = run_batch(batch, out, prepare=import_outputs, **options)
     from nudgecli.report.figures.replication import power_figure
     from nudgecli.report.replication import power_table, replication_rows, smallest_n

@@ -61,6 +61,7 @@ from nudgecli.sim.study import (
     StudyPlan,
     build_layouts,
     check_physiology_logs,
+    left_out_notes,
     simulate_participant_columns,
 )
 from nudgecli.store import RunFolder, new_manifest, utc_now
@@ -325,7 +326,8 @@ def checked_default_plan(config: ExperimentConfig) -> AnalysisPlan:
 def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, participants: int | None = None,
               workers: int = 1, scheduler: str | None = None, resume: bool = False, force: bool = False,
               progress: Callable[[int, int], None] | None = None, plan: str | None = None,
-              confirm: bool = False, people: People | str | Path | None = None) -> StudyRun:
+              confirm: bool = False, people: People | str | Path | None = None,
+              log: Callable[[str], None] | None = None) -> StudyRun:
     """Simulate a study into the run folder ``out``.
 
     Parameters
@@ -355,6 +357,9 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
         has the habits of person ``i mod P``; recorded in the manifest (file name and SHA-256), its
         bytes copied into ``out/people/`` (what the resume command names), and ``resume`` refuses
         other people.
+    log
+        Called with a line for the user (a ``Note:`` of people or physiology logs no participant
+        takes, :func:`~nudgecli.sim.study.left_out_notes`) once the folder is prepared.
 
     Returns
     -------
@@ -388,7 +393,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     try:
         with run_lock(out):
             return _run_locked(RunFolder(out), config, seed, n, workers, scheduler, client, resume, force,
-                               progress, plan, people, policy_files)
+                               progress, plan, people, policy_files, log)
     except BaseException:
         if client is not None:
             client.close()
@@ -398,11 +403,12 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
 def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, workers: int,
                 scheduler: str | None, client: Any, resume: bool, force: bool,
                 progress: Callable[[int, int], None] | None, plan_name: str | None,
-                people: People | None = None, policy_files: Mapping[str, bytes] | None = None) -> StudyRun:
+                people: People | None = None, policy_files: Mapping[str, bytes] | None = None,
+                log: Callable[[str], None] | None = None) -> StudyRun:
     """:func:`run_study` once the folder's lock is held (``client``: the connected dask client, or None)."""
     policy_files = _placeable_copies(folder, policy_files or {})  # before the folder is touched
     mode = folder.prepare(config, seed, n, resume=resume, force=force)
-    _keep_inputs(folder, mode == "resume", config, people, policy_files)
+    _keep_inputs(folder, mode == "resume", config, people, policy_files, log)
     done = set(folder.completed_participants()) & set(range(n)) if mode == "resume" else set()
     if mode == "resume":
         # keep only the parts the manifest vouches for (the SHA-256 recorded when this run wrote
@@ -415,8 +421,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                   file=sys.stderr)
             done -= set(unvouched)
     plan = build_plan_on(config, seed, workers, client)
-    if people is not None:
-        plan = dataclasses.replace(plan, people=people.twins)
+    plan = plan if people is None else dataclasses.replace(plan, people=people.twins)
     trials_per = plan.trials_per_participant()
     manifest = folder.read_manifest() if mode == "resume" else new_manifest(config, seed, n, trials_per)
     if plan.paths is None:  # the CIAA world takes its subjects' block orders from the task file
@@ -489,11 +494,12 @@ def _placeable_copies(folder: RunFolder, policy_files: Mapping[str, bytes]) -> M
 
 
 def _keep_inputs(folder: RunFolder, resuming: bool, config: ExperimentConfig, people: People | None,
-                 policy_files: Mapping[str, bytes]) -> None:
+                 policy_files: Mapping[str, bytes], log: Callable[[str], None] | None = None) -> None:
     """Refuse a resume with other people or other policy code than the run was simulated with, then
     keep exact copies of both in the run folder: its resume command names the people file's copy,
     and its ``config.toml`` imports the policy modules' copies (``policy_files``:
-    :func:`~nudgecli.sim.policy_files.loaded_policy_files`)."""
+    :func:`~nudgecli.sim.policy_files.loaded_policy_files`); then tell ``log`` the people (and
+    physiology logs) no participant takes (the folder prepared: a refusal is its one error line)."""
     if resuming:
         recorded = folder.read_manifest()
         check_same_people(recorded.get(PEOPLE_KEY), people, folder.path)
@@ -501,6 +507,9 @@ def _keep_inputs(folder: RunFolder, resuming: bool, config: ExperimentConfig, pe
                                 folder.path)
     keep_copy(people, folder.path)
     keep_policy_copies(policy_files, folder.path)
+    if log is not None:
+        for note in left_out_notes(config, config.study.participants, people):
+            log(f"Note: {note}")
 
 
 def _finite_or_none(value: float) -> float | None:

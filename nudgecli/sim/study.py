@@ -36,6 +36,7 @@ from nudgecli.sim.ciaa import packaged_task, subject_schedule, task_layouts
 from nudgecli.sim.counterbalance import participant_order
 from nudgecli.sim.participant_fitting import participant_from_log
 from nudgecli.sim.participants import Participant, draw_participant
+from nudgecli.sim.people_file import People
 from nudgecli.sim.protocol import ProtocolSettings, TrialSpec
 from nudgecli.sim.step_record import StepRecording, step_columns
 from nudgecli.sim.trials import TrialResult, run_trial, run_world_trial
@@ -316,6 +317,32 @@ def check_physiology_logs(config: ExperimentConfig) -> None:
             raise ConfigError(f"population.physiology_logs[{position}] = {folder!r}: {what}; the list takes "
                               "folders of calibration logs, each a participant's (with p_phm_given_phi/)")
         participant_from_log(folder, index=position, population=config.population)
+
+
+def left_out_notes(config: ExperimentConfig, participants: int, people: People | None = None, *,
+                   study: str = "the study", fix: str = "--participants {}") -> tuple[str, ...]:
+    """What a study of ``participants`` leaves out of its inputs, a note each: the people of a people
+    file past the first ``participants`` (participant ``i`` is person ``i mod P``) and the
+    ``population.physiology_logs`` folders past them (participant ``k`` takes the ``k``-th).
+
+    A note, not an error: a power curve's smaller studies rightly take the first ones. ``study``
+    names the study of ``participants`` (``"the largest study"``); ``fix`` is the option that
+    simulates all, ``{}`` the count it needs.
+    """
+    sources = [] if people is None else [(f"{people.name} has {len(people.twins)} people", [
+        f"person {i} ({twin.participant})" for i, twin in enumerate(people.twins)])]
+    logs = config.population.physiology_logs
+    sources.append((f"population.physiology_logs lists {len(logs)} folders",
+                    [f"physiology_logs[{k}] ({folder})" for k, folder in enumerate(logs)]))
+    notes = []
+    for has, named in sources:
+        left = named[participants:]
+        if left:
+            shown = ", ".join(left[:5]) + (f" and {len(left) - 5} more" if len(left) > 5 else "")
+            verb = "is" if len(left) == 1 else "are"
+            notes.append(f"{has}; {study} simulates {participants}, so {shown} {verb} left out; "
+                         f"{fix.format(len(named))} simulates all")
+    return tuple(notes)
 
 
 #: The cyclic garbage collector's first threshold during a participant's trials (Python's is 700).
