@@ -20,6 +20,7 @@ from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
 from nudgecli.errors import DataError, NudgeError, RunFolderError
 from nudgecli.parquet_reader import read_parquet
+from nudgecli.run_folder_live import LiveRecord
 from nudgecli.run_folder_names import (
     CONFIG,
     FIGURE_FORMATS,
@@ -31,7 +32,6 @@ from nudgecli.run_folder_names import (
     PART_KINDS,
     PARTICIPANTS,
 )
-from nudgecli.sim.counterbalance import recorded_order_choice
 
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
     import pandas as pd
@@ -131,7 +131,7 @@ def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, An
 _Checksums = dict[int, dict[str, str]]
 
 
-class RunRecord:
+class RunRecord(LiveRecord):
     """What a run folder on disk records and holds (read and checked, never written).
 
     Parameters
@@ -157,13 +157,16 @@ class RunRecord:
     def read_manifest(self) -> dict[str, Any]:
         """The manifest, or a ``RunFolderError`` naming the problem."""
         if not self.is_run():
-            raise RunFolderError(f"{self.path}: not a run folder (no {MANIFEST}); run `nudge simulate` first")
+            fix = self.restore_manifest_advice() if self.live_signs() else "run `nudge simulate` first"
+            raise RunFolderError(f"{self.path}: not a run folder (no {MANIFEST}); {fix}")
         try:
             return json.loads(self.manifest_path.read_text(encoding="utf-8"))
         except ValueError as exc:  # not JSON, or not UTF-8: nothing else records the run's participants
-            fix = f"put it back from a copy, or delete it and simulate again: `{self.lost_run_command()}`"
+            fix = self.restore_manifest_advice() if self.live_signs() else (
+                f"put it back from a copy, or delete it and simulate again: `{self.lost_run_command()}` "
+                "(with its --seed)")
             raise RunFolderError(f"{self.manifest_path}: unreadable manifest ({exc}); neither reading nor "
-                                 f"--resume can use the run without it: {fix} (with its --seed)") from exc
+                                 f"--resume can use the run without it: {fix}") from exc
 
     def manifest_to_read(self) -> dict[str, Any]:
         """:meth:`read_manifest` for a reader that does not change it (a table read a participant's
@@ -291,18 +294,6 @@ class RunRecord:
         if expected is None:
             return []
         return sorted(set(self.recorded_checksums(manifest)) - set(expected))
-
-    def _live_progress_note(self, manifest: Mapping[str, Any]) -> str:
-        """How far an unfinished ``nudge study`` folder got: its participants finished, its trials
-        recorded (the manifest's ``live`` entries are the truth about both)."""
-        entries = dict(manifest.get("live") or {})
-        finished = sum(entry.get("status") == "complete" for entry in entries.values())
-        done = {key: len(entry.get("completed_trials") or []) for key, entry in entries.items()}
-        under_way = ", ".join(f"{entries[key].get('participant_id', key)} with {done[key]} trial(s)"
-                              for key in sorted(entries, key=int) if entries[key].get("status") != "complete")
-        return (f"{self.path}: a live study still under way: {finished} of {len(entries)} participant(s) "
-                f"finished, {sum(done.values())} trial(s) recorded (unfinished: {under_way}); the "
-                "statistics are of the trials recorded so far")
 
     def read_config(self) -> ExperimentConfig:
         """The resolved experiment the run was made with."""
@@ -465,11 +456,12 @@ class RunRecord:
                         for p in (self.path / kind).glob("part-*.parquet") if p.stem.split("-")[1].isdigit()})
         if not found or not any((self.path / trace).exists() for trace in RUN_TRACES):
             return None
-        fix = self.lost_run_command()
+        fix = self.restore_manifest_advice() if self.live_signs() else (
+            f"put {MANIFEST} back, or simulate the run again: `{self.lost_run_command()}` (with the --seed "
+            "it was run with)")
         return RunFolderError(f"{self.path}: no {MANIFEST}: nothing shows how many participants the run "
                               f"has (parts of {len(found)} found) nor that its parts are its own, so it "
-                              f"cannot be read as complete; put {MANIFEST} back, or simulate the run again: "
-                              f"`{fix}` (with the --seed it was run with)")
+                              f"cannot be read as complete; {fix}")
 
     def unrecorded_note(self) -> str:
         """What a reader of a folder of parts without a manifest (assembled by hand) is told."""
@@ -526,42 +518,6 @@ class RunRecord:
             return (f"{path} held the experiment's own seed ({on_disk.experiment.seed}), not the one the "
                     f"run used ({config.experiment.seed}); rewritten with it")
         return f"{path} differed from the experiment in the manifest; rewritten from it"
-
-    def refuse_live_sessions(self, manifest: Mapping[str, Any] | None) -> None:
-        """Refuse to simulate into a ``nudge study`` folder (its manifest's executor is ``live``):
-        it holds a real person's sessions, which ``--force`` would delete and ``--resume`` would
-        take over (``nudge study`` refuses a simulated folder the same way).
-
-        Raises
-        ------
-        RunFolderError
-            The folder holds live sessions.
-        """
-        if manifest is not None and manifest.get("executor") == "live":
-            raise RunFolderError(f"{self.path}: holds live sessions of a person (recorded by `nudge study`); "
-                                 "simulate into another --out (neither --resume nor --force applies to them)")
-
-    def continue_session_hint(self, manifest: Mapping[str, Any], participants: Iterable[int] = ()) -> str:
-        """How to continue a ``nudge study`` folder's session: ``nudge study RUN/config.toml ... --resume``
-        (config.toml holds the --set values) with its seed, the ID where one session is meant
-        (``participants``, else the one unfinished), ``ID`` otherwise, and a non-default --condition-order."""
-        from nudgecli.store import study_resume_command  # store builds on this module
-
-        entries = {str(key): entry for key, entry in (manifest.get("live") or {}).items()
-                   if isinstance(entry, Mapping) and entry.get("participant_id")}
-        keys = [str(index) for index in participants] or \
-            [key for key, entry in entries.items() if entry.get("status") != "complete"]
-        orders = {str(entry["participant_id"]): recorded_order_choice(manifest.get("config"), int(key),
-                                                                      entry.get("condition_order"))
-                  for key, entry in entries.items() if key in keys}  # the --condition-order each needs
-        ids = list(orders)
-        seed = manifest.get("seed")
-        command = study_resume_command(str(self.path / CONFIG), ids[0] if len(ids) == 1 else "ID", self.path,
-                                       condition_order=orders[ids[0]] if len(ids) == 1 else None,
-                                       seed=seed if isinstance(seed, int) else None)
-        named = [f"{pid} with --condition-order {orders[pid]}" if orders[pid] else pid for pid in ids]
-        among = f" (ID: one of {', '.join(named)})" if len(ids) > 1 else ""
-        return f"continue the participant's session with `{command}`{among}"
 
     def no_parts_message(self, kind: str, manifest: Mapping[str, Any] | None) -> str:
         """Why the folder has no part of ``kind`` to read, and the command that writes them: a

@@ -1,0 +1,123 @@
+"""What marks a run folder as a ``nudge study`` (live) folder, and what its reader is told of it.
+
+A live folder holds a real person's trials, which no command can make again: :class:`LiveRecord`
+(a base of :class:`nudgecli.run_folder_record.RunRecord`) finds its signs even without a readable
+manifest, refuses to simulate into it, and names how to continue or restore it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+from nudgecli.errors import RunFolderError
+from nudgecli.run_folder_names import CONFIG, MANIFEST, QUESTIONNAIRES_CSV
+from nudgecli.sim.counterbalance import recorded_order_choice
+
+#: The executor a ``nudge study`` folder's manifest records.
+LIVE_EXECUTOR = "live"
+#: What ``nudge study`` leaves in its folder beside the parts: a participant's lock and page token.
+_PARTICIPANT_FILES = ".nudge-participant-*"
+
+
+def _recorded_live(part: Path) -> bool:
+    """Whether a participants part records a live session (its ``source`` is ``live``)."""
+    from nudgecli.parquet_reader import read_parquet
+
+    try:
+        return bool((read_parquet(part.read_bytes(), ["source"])["source"] == LIVE_EXECUTOR).any())
+    except Exception:  # an unreadable part, or one without the column: no sign
+        return False
+
+
+class LiveRecord:
+    """The live-study side of a run folder (``path``): its signs, the refusal to simulate into it,
+    and the hints that continue a session or restore its files."""
+
+    path: Path
+
+    def live_signs(self) -> list[str]:
+        """What shows the folder holds a live study, found without reading its manifest as JSON:
+        ``questionnaires.csv`` (the answers ``nudge study`` records), a participant's lock or page
+        token, a manifest (even a damaged one) that names the executor ``live``, a participants part
+        recorded live (the first only); empty for none."""
+        signs = [QUESTIONNAIRES_CSV] if (self.path / QUESTIONNAIRES_CSV).is_file() else []
+        signs += sorted(p.name for p in self.path.glob(_PARTICIPANT_FILES))[:2]
+        try:
+            text = (self.path / MANIFEST).read_bytes()
+        except OSError:
+            text = b""
+        if b'"executor": "live"' in text:
+            signs.append(f"{MANIFEST} naming the executor live")
+        first = next(iter(sorted((self.path / "participants").glob("part-*.parquet"))), None)
+        if first is not None and _recorded_live(first):
+            signs.append(f"participants/{first.name} of a live session")
+        return signs
+
+    def is_live(self, manifest: Mapping[str, Any] | None) -> bool:
+        """Whether the folder holds a live study: its ``manifest`` says so, or (without one) its signs."""
+        if manifest is not None:
+            return manifest.get("executor") == LIVE_EXECUTOR
+        return bool(self.live_signs())
+
+    def restore_manifest_advice(self) -> str:
+        """What the reader of a live folder whose manifest is lost or damaged is told to do (never
+        to simulate again: that would replace the person's trials with simulated ones)."""
+        return (f"it holds a live study ({', '.join(self.live_signs())}): put {MANIFEST} back from a copy "
+                "(a person's trials cannot be simulated again; never simulate into this folder)")
+
+    def refuse_live_sessions(self, manifest: Mapping[str, Any] | None) -> None:
+        """Refuse to simulate into a ``nudge study`` folder (its manifest's executor is ``live``; with
+        no manifest, :meth:`live_signs`): it holds a real person's sessions, which ``--force`` would
+        delete and ``--resume`` would take over (``nudge study`` refuses a simulated folder the same
+        way).
+
+        Raises
+        ------
+        RunFolderError
+            The folder holds live sessions.
+        """
+        if manifest is not None and manifest.get("executor") == LIVE_EXECUTOR:
+            raise RunFolderError(f"{self.path}: holds live sessions of a person (recorded by `nudge study`); "
+                                 "simulate into another --out (neither --resume nor --force applies to them)")
+        if manifest is None and (signs := self.live_signs()):
+            raise RunFolderError(f"{self.path}: holds a live study of a person ({', '.join(signs)}) and no "
+                                 f"readable {MANIFEST}; simulate into another --out (neither --resume nor "
+                                 f"--force applies to it), and put {MANIFEST} back from a copy")
+
+    def continue_session_hint(self, manifest: Mapping[str, Any], participants: Iterable[int] = ()) -> str:
+        """How to continue a ``nudge study`` folder's session: ``nudge study RUN/config.toml ... --resume``
+        (config.toml holds the --set values) with its seed, the ID where one session is meant
+        (``participants``, else the one unfinished), ``ID`` otherwise, and a non-default --condition-order."""
+        from nudgecli.store import study_resume_command  # store builds on this module
+
+        entries = {str(key): entry for key, entry in (manifest.get("live") or {}).items()
+                   if isinstance(entry, Mapping) and entry.get("participant_id")}
+        keys = [str(index) for index in participants] or \
+            [key for key, entry in entries.items() if entry.get("status") != "complete"]
+        orders = {str(entry["participant_id"]): recorded_order_choice(manifest.get("config"), int(key),
+                                                                      entry.get("condition_order"))
+                  for key, entry in entries.items() if key in keys}  # the --condition-order each needs
+        ids = list(orders)
+        seed = manifest.get("seed")
+        command = study_resume_command(str(self.path / CONFIG), ids[0] if len(ids) == 1 else "ID", self.path,
+                                       condition_order=orders[ids[0]] if len(ids) == 1 else None,
+                                       seed=seed if isinstance(seed, int) else None)
+        named = [f"{pid} with --condition-order {orders[pid]}" if orders[pid] else pid for pid in ids]
+        among = f" (ID: one of {', '.join(named)})" if len(ids) > 1 else ""
+        return f"continue the participant's session with `{command}`{among}"
+
+
+    def _live_progress_note(self, manifest: Mapping[str, Any]) -> str:
+        """How far an unfinished ``nudge study`` folder got: its participants finished, its trials
+        recorded (the manifest's ``live`` entries are the truth about both)."""
+        entries = dict(manifest.get("live") or {})
+        finished = sum(entry.get("status") == "complete" for entry in entries.values())
+        done = {key: len(entry.get("completed_trials") or []) for key, entry in entries.items()}
+        under_way = ", ".join(f"{entries[key].get('participant_id', key)} with {done[key]} trial(s)"
+                              for key in sorted(entries, key=int) if entries[key].get("status") != "complete")
+        return (f"{self.path}: a live study still under way: {finished} of {len(entries)} participant(s) "
+                f"finished, {sum(done.values())} trial(s) recorded (unfinished: {under_way}); the "
+                "statistics are of the trials recorded so far")
+
