@@ -7,7 +7,7 @@ from pathlib import Path
 
 from nudgecli import command_defaults as defaults
 from nudgecli.config import ExperimentConfig, load_experiment
-from nudgecli.errors import ConfigError
+from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.live.records import LiveFolder
 from nudgecli.live.session import LiveSession, participant_index
 from nudgecli.rng import check_seed
@@ -103,12 +103,19 @@ def run_live_study(
         # on --resume the stored token: the participant's tab, still open, reconnects by itself
         token = session.folder.page_token(session.index, resume)
         serve(session, sock, announce=announce, token=token, log=log)
+    except NudgeError as exc:  # recording failed: the server stopped at once
+        failure: NudgeError | None = exc
+    else:
+        failure = None
     finally:
         session.folder.release()
-    if session.phase != "done":
+    if session.phase != "done" or failure is not None:
         command = study_resume_command(
             experiment, participant_id, session.folder.path, port, condition_order, seed, overrides
         )
+        if failure is not None:
+            raise type(failure)(f"{failure}; the server stopped (a trial under way is run again): "
+                                f"once that is fixed, continue with: {command}") from None
         log(f"stopped before the end of the session; continue at the next trial with: {command}")
     log(f"run folder: {session.folder.path}")
     return session

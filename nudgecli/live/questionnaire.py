@@ -5,14 +5,19 @@ and as the rows of ``questionnaires.csv`` that ``nudge analyze --questionnaires`
 from __future__ import annotations
 
 import math
+from pathlib import Path
 from typing import Any
 
+import pandas as pd
+
+from nudgecli.errors import DataError
 from nudgecli.report.questionnaires import (
     LIKERT_PREFIX,
     LIKERT_RANGE,
     TLX_RANGE,
     TLX_RATING_COLUMNS,
     TLX_SUBSCALES,
+    read_questionnaires,
 )
 
 #: The study's post-block Likert items (study-software-notes, post_task_likert_analysis.py).
@@ -43,6 +48,49 @@ TLX_QUESTIONS = {
         "very high",
     ),
 }
+
+
+#: The columns of a row of ``questionnaires.csv`` as ``nudge study`` writes it.
+ROW_COLUMNS = ("participant", "condition", "block", *TLX_RATING_COLUMNS,
+               *(f"{LIKERT_PREFIX}{item}" for item in LIKERT_ITEMS))
+#: What to do with a live folder's damaged answers file.
+RESTORE_ANSWERS = "restore it from a backup (a person's answers cannot be asked again)"
+
+
+def read_answers(path: Path) -> pd.DataFrame:
+    """A live folder's answers file (``questionnaires.csv``) read as ``nudge analyze --questionnaires``
+    reads it (:func:`~nudgecli.report.questionnaires.read_questionnaires`: an empty or cut-off file
+    refused), checked to hold the columns ``nudge study`` writes (:data:`ROW_COLUMNS`).
+
+    Raises
+    ------
+    DataError
+        The file cannot be read, or lacks a column (re-saved with another separator, or edited).
+    """
+    try:
+        table = read_questionnaires(path)
+    except DataError as exc:
+        raise DataError(f"{exc}; it holds the answers nudge study records: {RESTORE_ANSWERS}") from None
+    missing = [column for column in ROW_COLUMNS if column not in table.columns]
+    if missing:
+        header = ",".join(str(column) for column in table.columns)
+        raise DataError(f"{path}: not the comma-separated table nudge study writes (no column "
+                        f"{', '.join(missing[:3])}{' ...' if len(missing) > 3 else ''}; its header reads "
+                        f"{header[:80]!r}): save it again as comma-separated CSV with the columns "
+                        f"{','.join(ROW_COLUMNS)}, or {RESTORE_ANSWERS}")
+    return table
+
+
+def merged_answers(old: pd.DataFrame | None, rows: list[dict[str, Any]]) -> pd.DataFrame:
+    """``old`` answers (:func:`read_answers`; ``None``: none yet) with ``rows`` added, each replacing
+    the row of its participant and block, sorted by participant and block."""
+    new = pd.DataFrame(rows)
+    if old is not None:
+        keys = {(str(row["participant"]), str(row["block"])) for row in rows}
+        keep = [(str(p), str(b)) not in keys for p, b in zip(old["participant"], old["block"], strict=True)]
+        new = pd.concat([old[keep], new], ignore_index=True)
+    return new.sort_values(["participant", "block"], key=lambda c: pd.to_numeric(c, errors="coerce"),
+                           kind="stable", ignore_index=True)
 
 
 def questionnaire_form() -> dict[str, Any]:

@@ -31,6 +31,7 @@ participant's checkpoint never drops another's.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import re
 import secrets
@@ -43,7 +44,8 @@ from typing import Any
 import pandas as pd
 
 from nudgecli.config import ExperimentConfig
-from nudgecli.errors import LockError, RunFolderError
+from nudgecli.errors import LockError, NudgeError, RunFolderError
+from nudgecli.live.questionnaire import merged_answers, read_answers
 from nudgecli.locks import acquire_lock_file, describe_holder, read_holder, run_lock
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import CONFIG, LOCK, QUESTIONNAIRES_CSV
@@ -55,6 +57,7 @@ from nudgecli.store import (
     part_name,
     prepare_mode,
     utc_now,
+    write_error,
     write_parquet_atomic,
     write_text_atomic,
 )
@@ -83,6 +86,11 @@ def participant_token_name(participant: int) -> str:
 #: What a stored token must look like to be used again (``secrets.token_urlsafe(16)`` gives 22
 #: such characters); anything else (an edited or truncated file) is replaced by a new token.
 _TOKEN_PATTERN = re.compile(r"[A-Za-z0-9_-]{22,64}")
+
+
+def unsaved_answers_name(participant: int) -> str:
+    """The file of a participant's answers that could not be written to ``questionnaires.csv``."""
+    return f"questionnaires-unsaved-{participant:04d}.csv"
 
 
 def _is_lock_file(name: str) -> bool:
@@ -262,6 +270,7 @@ class LiveFolder:
             }
             manifest["live"][key] = entry
         entry["condition_order"] = condition_order
+        self._take_in_unsaved_answers(participant, entry)
         manifest["participants"] = len(manifest["live"])
         self.manifest = manifest
         self.entry = entry
@@ -396,18 +405,56 @@ class LiveFolder:
         self.forget_page_token(participant)
 
     def write_questionnaire(self, participant: int, row: dict[str, Any]) -> None:
-        """Add (or replace) one participant's answers for one block in ``questionnaires.csv``."""
-        path = self.path / QUESTIONNAIRES_CSV
-        new = pd.DataFrame([row])
-        with folder_lock(self.path):  # the file is shared by the participants of the folder
-            if path.is_file():
-                old = pd.read_csv(path)
-                keep = ~((old["participant"] == row["participant"]) & (old["block"] == row["block"]))
-                new = pd.concat([old[keep], new], ignore_index=True).sort_values(["participant", "block"])
-            write_text_atomic(path, new.to_csv(index=False))
+        """Add (or replace) one participant's answers for one block in ``questionnaires.csv``.
+
+        Raises
+        ------
+        NudgeError
+            The file cannot be read (:func:`~nudgecli.live.questionnaire.read_answers`) or written,
+            or the folder's lock not taken: the answers are then kept in the participant's
+            :func:`unsaved_answers_name` file (named in the message), taken in by the next resume.
+        """
+        try:
+            with folder_lock(self.path):  # the file is shared by the participants of the folder
+                self._add_answers([row])
+        except (NudgeError, OSError) as exc:
+            raise self._answers_kept(participant, row, exc) from None
         entry = self.entry
         entry["questionnaire_blocks"] = sorted({*entry["questionnaire_blocks"], int(row["block"])})
         self.save(participant)
+
+    def _add_answers(self, rows: list[dict[str, Any]]) -> None:
+        """Write ``rows`` into ``questionnaires.csv`` (the folder's lock held)."""
+        path = self.path / QUESTIONNAIRES_CSV
+        old = read_answers(path) if path.is_file() else None
+        write_text_atomic(path, merged_answers(old, rows).to_csv(index=False))
+
+    def _answers_kept(self, participant: int, row: dict[str, Any], exc: NudgeError | OSError) -> NudgeError:
+        """The error of answers that could not be written to ``questionnaires.csv``: they are added
+        to the participant's unsaved-answers file, or (that failing too) given in the message."""
+        error = exc if isinstance(exc, NudgeError) else write_error(self.path / QUESTIONNAIRES_CSV, exc)
+        side = self.path / unsaved_answers_name(participant)
+        try:
+            kept = read_answers(side) if side.is_file() else None
+            write_text_atomic(side, merged_answers(kept, [row]).to_csv(index=False))
+            where = f"the answers of block {row['block']} are kept in {side} (the next --resume adds them)"
+        except (NudgeError, OSError):
+            where = f"the answers of block {row['block']} could not be kept in a file: {json.dumps(row)}"
+        return type(error)(f"{error}; {where}")
+
+    def _take_in_unsaved_answers(self, participant: int, entry: dict[str, Any]) -> None:
+        """On joining: check ``questionnaires.csv``, and add the answers a failed write kept in the
+        participant's unsaved-answers file (the folder's lock held)."""
+        path, side = self.path / QUESTIONNAIRES_CSV, self.path / unsaved_answers_name(participant)
+        if path.is_file():
+            read_answers(path)
+        if not side.is_file():
+            return
+        rows = read_answers(side).to_dict("records")
+        self._add_answers(rows)
+        blocks = {int(row["block"]) for row in rows}
+        entry["questionnaire_blocks"] = sorted({*entry["questionnaire_blocks"], *blocks})
+        side.unlink()
 
     # --- the page's token -----------------------------------------------------------------------
 

@@ -49,6 +49,7 @@ from aiohttp import WSCloseCode, WSMsgType, web
 
 from nudgecli.live.messages import INPUT_TYPES, MAX_MESSAGE_BYTES, check_message
 from nudgecli.live.session import LiveSession
+from nudgecli.store import write_error
 
 HOST = "127.0.0.1"
 #: Host names the server answers to (with its port): its address and the machine's own name for it.
@@ -138,6 +139,9 @@ class ServerLog:
 
 
 TIME_KEY = web.AppKey("time", SessionTime)
+#: The failure that stopped the server (at most one), and how to stop it.
+FAILURE_KEY: web.AppKey[list[Exception]] = web.AppKey("failure")
+STOP_KEY: web.AppKey[Callable[[], None]] = web.AppKey("stop")
 LOG_KEY = web.AppKey("log", ServerLog)
 
 
@@ -201,6 +205,29 @@ class SteppedClock:
 async def _broadcast(app: web.Application, message: dict[str, Any]) -> None:
     for ws in app[SOCKETS_KEY].open:
         await _send(ws, message)
+
+
+STOPPED = "the study server stopped: the session could not be recorded; the experimenter will continue it"
+
+
+def recording_failure(exc: Exception) -> Exception:
+    """What stops the server when recording the session fails: a :class:`NudgeError` as it is, an
+    ``OSError`` (a write) as the :class:`~nudgecli.errors.WriteError` naming its file; anything else
+    (a bug) as it is."""
+    if isinstance(exc, OSError) and not isinstance(exc, ConnectionError):
+        return write_error(exc.filename or "the run folder", exc)
+    return exc
+
+
+async def _fail(app: web.Application, exc: Exception) -> None:
+    """Recording the session failed: keep the first failure, tell every page, close them, and stop
+    the server (``create_app``'s ``stop``); ``serve`` then raises it."""
+    if app[FAILURE_KEY]:
+        return
+    app[FAILURE_KEY].append(recording_failure(exc))
+    await _broadcast(app, {"type": "error", "message": STOPPED, "stopped": True})
+    await _close_pages(app)
+    app[STOP_KEY]()
 
 
 async def _ticker(app: web.Application) -> None:
@@ -303,7 +330,11 @@ async def _websocket(request: web.Request) -> web.WebSocketResponse:
             if data["type"] in INPUT_TYPES and sockets.controller is not ws:
                 await _reply_error(ws, MONITORING if role == MONITOR else WATCHING)
                 continue
-            reply = session.handle(data, session_time.now())
+            try:
+                reply = session.handle(data, session_time.now())
+            except Exception as exc:  # a record not written: the server stops, the page is told
+                await _fail(app, exc)
+                break
             if reply is not None:
                 await _send(ws, reply)
             if data["type"] in ("start", "skip", "questionnaire") or (
@@ -339,9 +370,11 @@ def create_app(
     clock: Clock | None = None,
     token: str | None = None,
     log: Callable[[str], None] = _stderr_line,
+    stop: Callable[[], None] = lambda: None,
 ) -> web.Application:
     """The aiohttp application of one live session (``clock``: real time at the protocol rate;
-    ``token``: the session's token, random when ``None``; ``log``: the console's lines)."""
+    ``token``: the session's token, random when ``None``; ``log``: the console's lines; ``stop``:
+    stops the server when recording the session failed, the failure in ``app[FAILURE_KEY]``)."""
     app = web.Application(middlewares=[_guard])
     app[SESSION_KEY] = session
     app[TOKEN_KEY] = token or secrets.token_urlsafe(16)
@@ -349,6 +382,8 @@ def create_app(
     app[TIME_KEY] = SessionTime(app[CLOCK_KEY])
     app[LOG_KEY] = ServerLog(log)
     app[SOCKETS_KEY] = Sockets()
+    app[FAILURE_KEY] = []
+    app[STOP_KEY] = stop
     app.router.add_get("/", _index)
     app.router.add_get("/ws", _websocket)
     app.router.add_static("/static/", static_dir())
@@ -392,8 +427,14 @@ def serve(
 ) -> None:
     """Serve the session on the listening socket ``sock`` (:func:`bind`) until interrupted;
     ``announce`` gets the page's address (with ``token``, random when ``None``) once the server
-    answers, ``log`` the console's lines (the monitor page's address first)."""
-    app = create_app(session, token=token, log=log)
+    answers, ``log`` the console's lines (the monitor page's address first).
+
+    Raises
+    ------
+    Exception
+        Recording the session failed (:func:`recording_failure`): the server stopped at once.
+    """
+    app = create_app(session, token=token, log=log, stop=_stop_soon)
     address = page_address(sock.getsockname()[1], app[TOKEN_KEY])
 
     def answering(_: str) -> None:
@@ -401,3 +442,14 @@ def serve(
         log(f"a read-only monitor page for the experimenter: {address}&role={MONITOR}")
 
     web.run_app(app, sock=sock, print=answering, handle_signals=True)
+    if app[FAILURE_KEY]:
+        raise app[FAILURE_KEY][0]
+
+
+def _stop_soon() -> None:
+    """Stop ``web.run_app`` as Ctrl-C does (its loop ends on ``GracefulExit``)."""
+
+    def stop() -> None:
+        raise web.GracefulExit
+
+    asyncio.get_running_loop().call_soon(stop)

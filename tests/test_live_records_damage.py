@@ -1,0 +1,128 @@
+"""A live folder's records damaged or not writable: one error line naming the file, nothing of the
+person's lost (a trial or an answer cannot be asked again), and the server stops at once, telling
+the page, rather than freezing."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip install '.[study]'")
+
+from aiohttp.test_utils import TestClient, TestServer
+from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS, play_session
+
+from nudgecli.errors import DataError, NudgeError
+from nudgecli.live.app import build_session
+from nudgecli.live.records import unsaved_answers_name
+from nudgecli.live.server import FAILURE_KEY, STOPPED, SteppedClock, create_app
+from nudgecli.live.session import LiveSession
+from nudgecli.report.questionnaires import read_questionnaires
+
+TOKEN = "damage-token"
+OVERRIDES = TWO_TRIALS + DEFAULT_TABLES
+
+
+def _manifest(folder: Path) -> dict:
+    return json.loads((folder / "manifest.json").read_text())
+
+
+def _at_second_questionnaire(out: Path) -> LiveSession:
+    """P02's session with block 0's answers recorded, waiting for block 1's questionnaire."""
+    session = build_session("paper", "P02", out, overrides=OVERRIDES)
+    play_session(session, lambda s: s.phase == "questionnaire" and len(s.entry["questionnaire_blocks"]) == 1)
+    assert session.phase == "questionnaire"
+    return session
+
+
+def _resume(out: Path) -> LiveSession:
+    return build_session("paper", "P02", out, resume=True, overrides=OVERRIDES)
+
+
+class Page:
+    """A participant's page on the websocket: its error messages, and whether it was closed."""
+
+    def __init__(self, ws) -> None:
+        self.ws = ws
+        self.errors: list[dict] = []
+
+    async def read_until(self, done) -> dict | None:
+        while True:
+            message = await self.ws.receive(timeout=10)
+            if message.type.name != "TEXT":
+                return None  # closed by the server
+            data = json.loads(message.data)
+            if data["type"] == "error":
+                self.errors.append(data)
+            if done(data):
+                return data
+
+
+async def _serve(session: LiveSession, script) -> tuple[list[Exception], list[str], Page]:
+    """Serve ``session`` with a stepped clock, open a participant's page and run ``script(page,
+    clock)``; the failures that stopped the server, the times it was told to stop, the page."""
+    clock = SteppedClock(session.settings.dt)
+    stops: list[str] = []
+    app = create_app(session, clock, token=TOKEN, log=lambda line: None, stop=lambda: stops.append("stop"))
+    async with TestClient(TestServer(app)) as client:
+        ws = await client.ws_connect(f"/ws?token={TOKEN}",
+                                     headers={"Origin": f"http://127.0.0.1:{client.server.port}"})
+        page = Page(ws)
+        await page.read_until(lambda m: m["type"] == "state")
+        await script(page, clock)
+        failures = list(app[FAILURE_KEY])
+    return failures, stops, page
+
+
+# --- 1: questionnaires.csv ---------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("damage, words", [
+    (lambda text: text.replace(",", ";"), "not the comma-separated table nudge study writes"),
+    (lambda text: "", "is empty"),
+    (lambda text: text.splitlines()[0] + "\n2,disambiguation,0,50.0,40", "looks cut off"),
+])
+def test_a_damaged_answers_file_is_refused_when_the_session_resumes(tmp_path, damage, words):
+    out = tmp_path / "live2"
+    _at_second_questionnaire(out).folder.release()
+    path = out / "questionnaires.csv"
+    path.write_text(damage(path.read_text()))
+    before, manifest = path.read_bytes(), _manifest(out)
+    with pytest.raises(DataError) as refused:
+        _resume(out)
+    message = str(refused.value)
+    assert str(path) in message and words in message and "\n" not in message
+    assert path.read_bytes() == before and _manifest(out) == manifest
+
+
+async def _answer(page: Page, clock: SteppedClock) -> None:
+    await page.ws.send_json({"type": "questionnaire", "answers": ANSWERS})
+    await page.read_until(lambda m: False)  # until the server closes the page
+
+
+def test_answers_that_cannot_be_written_are_kept_and_taken_in_by_the_resume(tmp_path):
+    out = tmp_path / "live2"
+    session = _at_second_questionnaire(out)
+    path = out / "questionnaires.csv"
+    good = path.read_text()
+    path.write_text(good.replace(",", ";"))  # a spreadsheet re-saved it during the session
+    failures, stops, page = asyncio.run(_serve(session, _answer))
+    assert stops == ["stop"] and [e["message"] for e in page.errors] == [STOPPED]
+    side = out / unsaved_answers_name(2)
+    assert len(failures) == 1 and isinstance(failures[0], NudgeError)
+    assert str(path) in str(failures[0]) and f"kept in {side}" in str(failures[0])
+    kept = read_questionnaires(side)
+    assert kept[["participant", "block"]].astype(str).values.tolist() == [["2", "1"]]
+    assert kept["likert_q3"].tolist() == [ANSWERS["likert_q3"]]
+    session.folder.release()
+
+    path.write_text(good)  # restored from a backup
+    resumed = _resume(out)
+    table = read_questionnaires(path)
+    assert table[["participant", "block"]].astype(str).values.tolist() == [["2", "0"], ["2", "1"]]
+    assert resumed.entry["questionnaire_blocks"] == [0, 1] and not side.exists()
+    assert _manifest(out)["live"]["2"]["questionnaire_blocks"] == [0, 1]
+    resumed.folder.release()
