@@ -321,3 +321,39 @@ def test_a_view_at_a_later_step_of_a_quiet_run_is_read_only_too() -> None:
     for name in ("x", "step"):
         with pytest.raises(AttributeError, match=rf"cannot set view\.{name} "):
             setattr(later, name, 0)
+
+
+@pytest.mark.parametrize(("statement", "name"), [
+    ("view.rows.append(view.rows[-1])", "rows"), ("view.rows.clear()", "rows"),
+    ("view.pending_events.append('x')", "pending_events"),
+    ("view.human_step(-1, 0.0)", "human_step"), ("view.autonomy_step()", "autonomy_step"),
+    ("view._set_belief(view.belief)", "_set_belief"), ("view.summary()", "summary"),
+])
+def test_the_sessions_records_and_methods_are_not_in_the_view(tmp_path: Path, statement: str,
+                                                              name: str) -> None:
+    # a list the view handed out could be appended to, and a method called through the view would
+    # act on the session (human_step appends its row before any assignment refuses)
+    out, result = _simulate(tmp_path, assist=statement)
+    error = _error_line(result)
+    assert f"assist raised AttributeError: a policy's view has no {name}: " in error, error
+    assert not (out / "trials").exists()
+
+
+@pytest.mark.parametrize("statement", ["view.model.p_a_given_sg[0, 0, 0] = 1.0",
+                                       "view.model.mapping[0, 0, 0] = 1.0",
+                                       "view.model.goal_positions('world')[0, 0] = 9.0",
+                                       "view.model.goal_cells[0, 0] = 3"])
+def test_the_models_arrays_are_read_only_to_a_policy(tmp_path: Path, statement: str) -> None:
+    # the model is shared by the participant's trials, and its action table by the layout's solution
+    _, result = _simulate(tmp_path, assist=statement)
+    error = _error_line(result)
+    assert "assist raised ValueError" in error and "read-only" in error, error
+
+
+def test_a_hidden_name_raises_on_reading_and_on_assigning() -> None:
+    view = read_only_view(TrialSession.__new__(TrialSession))
+    for name in ("human_step", "rows", "recording"):
+        with pytest.raises(AttributeError, match=f"has no {name}"):
+            getattr(view, name)
+    with pytest.raises(AttributeError, match=r"cannot set view\.rows"):
+        view.rows = []  # type: ignore[misc]

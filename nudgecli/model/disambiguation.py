@@ -23,6 +23,7 @@ from nudgecli.model.interface import (
     validate_mapping_table,
 )
 from nudgecli.model.log_terms import xlogy
+from nudgecli.model.read_only import read_only_array
 from nudgecli.model.ties import first_argmax
 from nudgecli.model.world import cell_centre
 
@@ -202,14 +203,17 @@ class DisambiguationModel:
         """Set every field: ``(G, 2)`` int cells, ``(U, F)`` distinct likelihoods, their ``(U,)``
         ``sum_f p log p`` and the ``(G, 2)`` goals' cell centres."""
         set_ = object.__setattr__  # frozen dataclass: derived fields are set once, here
-        set_(self, "goal_cells", cells)
-        set_(self, "p_a_given_sg", actions.table)
-        set_(self, "mapping", np.asarray(mapping, dtype=float))
-        set_(self, "distortion", np.asarray(distortion, dtype=float))
-        set_(self, "_distinct", distinct)
-        set_(self, "_xlogx_distinct", xlogx_distinct)
-        set_(self, "_index", actions.index)
-        set_(self, "_goal_positions", {"cells": cells.astype(float), "world": world_goals})
+        # read-only: a policy's view reaches the model, whose arrays a participant's trials share
+        # (and the solved layout's action table, every participant's in the worker)
+        fixed = read_only_array
+        set_(self, "goal_cells", fixed(cells))
+        set_(self, "p_a_given_sg", fixed(actions.table))
+        set_(self, "mapping", fixed(np.asarray(mapping, dtype=float)))
+        set_(self, "distortion", fixed(np.asarray(distortion, dtype=float)))
+        set_(self, "_distinct", fixed(distinct))
+        set_(self, "_xlogx_distinct", fixed(xlogx_distinct))
+        set_(self, "_index", fixed(actions.index))
+        set_(self, "_goal_positions", {"cells": fixed(cells.astype(float)), "world": fixed(world_goals)})
 
     @classmethod
     def of_layouts(cls, goal_cells: Sequence[np.ndarray],

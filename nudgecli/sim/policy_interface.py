@@ -45,6 +45,7 @@ import numpy as np
 
 from nudgecli.model import assistance
 from nudgecli.model.interface import NO_COMMAND
+from nudgecli.model.read_only import read_only_array as read_only_array  # the policies' owner
 from nudgecli.steplog import NO_GOAL
 
 if TYPE_CHECKING:
@@ -149,10 +150,37 @@ def _read_only_message(name: str) -> str:
             "Assistance or AutonomyTurn it returns)")
 
 
+#: What a view never hands a policy, beside its source's methods: the records the source keeps of
+#: the trial (a list a policy could append to or clear).
+HIDDEN_RECORDS = ("rows", "pending_events")
+
+
+class _Hidden:
+    """A name of the source that its view does not hand out: reading it raises AttributeError
+    (a data descriptor on the view's class, so it comes before the shared ``__dict__``)."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def __get__(self, view: object, owner: type | None = None) -> Any:
+        raise AttributeError(f"a policy's view has no {self.name}: it reads the trial's state "
+                             "(docs/policies.md, 'What a policy sees') and acts only through the "
+                             "Assistance or AutonomyTurn it returns")
+
+    def __set__(self, view: object, value: Any) -> None:
+        raise AttributeError(_read_only_message(self.name))
+
+
 @functools.cache
 def _read_only_class(source_class: type) -> type:
-    """``source_class`` with :class:`ReadOnlyView`'s assignment rule first (its properties kept)."""
-    return type(f"ReadOnly{source_class.__name__}", (ReadOnlyView, source_class), {"__slots__": ()})
+    """``source_class`` with :class:`ReadOnlyView`'s assignment rule first (its properties kept),
+    and neither its methods (a method called through the view would act on the source) nor
+    :data:`HIDDEN_RECORDS` reachable."""
+    hidden = {name for name in dir(source_class) if not name.startswith("__")
+              and callable(getattr(source_class, name)) and not isinstance(getattr(source_class, name), type)}
+    hidden.update(HIDDEN_RECORDS)
+    namespace: dict[str, Any] = {"__slots__": (), **{name: _Hidden(name) for name in sorted(hidden)}}
+    return type(f"ReadOnly{source_class.__name__}", (ReadOnlyView, source_class), namespace)
 
 
 def read_only_view(source: SourceT) -> SourceT:
@@ -165,13 +193,6 @@ def read_only_view(source: SourceT) -> SourceT:
     source_class: type = type(source)
     view: SourceT = object.__new__(_read_only_class(source_class))
     object.__setattr__(view, "__dict__", source.__dict__)
-    return view
-
-
-def read_only_array(array: np.ndarray) -> np.ndarray:
-    """``array`` as a read-only numpy view (the same values; ``array`` itself stays as it was)."""
-    view = array.view()
-    view.setflags(write=False)
     return view
 
 
