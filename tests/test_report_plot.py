@@ -636,3 +636,21 @@ def test_compare_takes_the_simulated_runs_plan_by_the_same_rule(
     with pytest.raises(RuntimeError):
         compare.compare_sources(run, tmp_path / "real.csv")
     assert asked == [expected]
+
+
+@pytest.mark.parametrize(("condition", "shown"), [
+    ("disambiguation", "Disambiguation"), ("turn-taking", "Turn Taking"), ("mode-switch", "Mode Switch"),
+    ("my_policy", "My Policy"), ("NASA-TLX", "NASA TLX"), ("iPad", "iPad"), ("DS2_fast", "DS2 Fast"),
+    ("p300", "P300"),
+])
+def test_a_conditions_shown_name_keeps_the_capitals_it_was_given(condition: str, shown: str) -> None:
+    # title case made NASA-TLX 'Nasa Tlx' and iPad 'Ipad'; a word in lower case is still capitalised
+    assert condition_display_name(condition) == shown
+
+
+def test_an_unknown_metrics_label_keeps_the_capitals_it_was_given() -> None:
+    from nudgecli.report.figures.boxplots import METRIC_SPECS, metric_spec
+
+    assert metric_spec("tlx_NASA_raw").label == "Tlx NASA raw"  # capitalize() made it 'Tlx nasa raw'
+    assert metric_spec("first_input_latency").label == "First input latency"
+    assert metric_spec("mode_switches") == METRIC_SPECS["mode_switches"]

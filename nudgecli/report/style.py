@@ -129,11 +129,14 @@ def figure_style(overrides: dict[str, Any] | None = None) -> Iterator[None]:
 
 
 def condition_display_name(condition: str) -> str:
-    """The name shown for a condition: known names as in the paper, others in title case."""
+    """The name shown for a condition: known names as in the paper; others with ``_`` and ``-`` as
+    spaces and each word in lower case capitalised (``turn-taking``: Turn Taking), a word with a
+    capital kept as written (``NASA-TLX``: NASA TLX, ``iPad``, where title case gave Nasa Tlx, Ipad)."""
     key = str(condition).strip().lower()
     if key in CONDITION_DISPLAY_NAMES:
         return CONDITION_DISPLAY_NAMES[key]
-    return str(condition).replace("_", " ").replace("-", " ").title()
+    words = str(condition).replace("_", " ").replace("-", " ").split(" ")
+    return " ".join(word[:1].upper() + word[1:] if word.islower() else word for word in words)
 
 
 def condition_colours(conditions: Sequence[str]) -> dict[str, str]:

@@ -105,8 +105,12 @@ FIGURE4_METRICS = ("mode_switches", "human_effort", "completion_time")
 
 
 def metric_spec(metric: str) -> MetricSpec:
-    """The known spec of ``metric``, else its name as the label."""
-    return METRIC_SPECS.get(metric, MetricSpec(metric, metric.replace("_", " ").capitalize()))
+    """The known spec of ``metric``, else its name as the label: ``_`` as spaces and the first
+    letter capitalised, the rest as written (``tlx_NASA_raw``: Tlx NASA raw)."""
+    if metric in METRIC_SPECS:
+        return METRIC_SPECS[metric]
+    label = metric.replace("_", " ")
+    return MetricSpec(metric, label[:1].upper() + label[1:])
 
 
 @dataclass
