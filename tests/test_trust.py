@@ -493,3 +493,30 @@ def test_the_manifest_records_the_sha256_of_the_layouts_and_the_participants_tab
     files = json.loads((smoke_run / "manifest.json").read_text())["files"]
     for name in ("layouts.parquet", "participants.parquet"):
         assert files[name] == hashlib.sha256((smoke_run / name).read_bytes()).hexdigest()
+
+
+def test_a_resumed_runs_part_changed_since_written_is_simulated_again_and_said(
+        tmp_path: Path, capfd: pytest.CaptureFixture[str]) -> None:
+    import nudgecli
+
+    out = tmp_path / "run"
+    nudgecli.simulate("smoke", out=out)
+    part = out / "trials" / "part-0000.parquet"
+    original = part.read_bytes()
+    edited = pd.read_parquet(part)
+    edited.loc[0, "duration_s"] = 1.25  # a hand edit: the manifest's SHA-256 no longer vouches for it
+    edited.to_parquet(part, index=False)
+    capfd.readouterr()
+    said: list[str] = []
+    nudgecli.simulate("smoke", out=out, resume=True, log=said.append)
+    assert [line for line in said if "not vouched for" in line] == [
+        f"Warning: {out}: trials/part-0000.parquet (changed since written): not vouched for by the manifest "
+        "(not as this run wrote them); simulating participant(s) 0 again"]
+    assert part.read_bytes() == original  # simulated again: the part the seed gives
+    edited.to_parquet(part, index=False)
+    nudgecli.simulate("smoke", out=out, resume=True)  # without log=: the API prints nothing
+    assert capfd.readouterr().err == "" and part.read_bytes() == original
+    # the command says it on stderr
+    edited.to_parquet(part, index=False)
+    result = CliRunner().invoke(main, ["simulate", "smoke", "--out", str(out), "--resume"])
+    assert result.exit_code == 0 and "not vouched for by the manifest" in result.stderr

@@ -16,7 +16,6 @@ import itertools
 import math
 import os
 import pickle
-import sys
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -411,15 +410,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     _keep_inputs(folder, mode == "resume", config, people, policy_files, log)
     done = set(folder.completed_participants()) & set(range(n)) if mode == "resume" else set()
     if mode == "resume":
-        # keep only the parts the manifest vouches for (the SHA-256 recorded when this run wrote
-        # them); the others are simulated again, a participant being a pure function of the seed
-        unvouched = folder.unvouched_parts(folder.read_manifest(), sorted(done))
-        if unvouched:
-            listed = ", ".join(part for parts in unvouched.values() for part in parts)
-            print(f"Warning: {folder.path}: {listed}: not vouched for by the manifest (not as this run wrote "
-                  f"them); simulating participant(s) {', '.join(map(str, sorted(unvouched)))} again",
-                  file=sys.stderr)
-            done -= set(unvouched)
+        done -= _unvouched_participants(folder, done, log)
     plan = build_plan_on(config, seed, workers, client)
     plan = plan if people is None else dataclasses.replace(plan, people=people.twins)
     trials_per = plan.trials_per_participant()
@@ -480,6 +471,18 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     folder.write_manifest(manifest)
     return StudyRun(path=folder.path, experiment=config.experiment.name, mode=mode, participants=n,
                     computed=todo, trials=folder.read_trials())
+
+
+def _unvouched_participants(folder: RunFolder, done: set[int], log: Callable[[str], None] | None) -> set[int]:
+    """The finished participants of a resumed run whose parts the manifest does not vouch for (the
+    SHA-256 recorded when this run wrote them): they are simulated again, a participant being a pure
+    function of the seed. ``log`` (the command's stderr, an API caller's ``log=``) is told which."""
+    unvouched = folder.unvouched_parts(folder.read_manifest(), sorted(done))
+    if unvouched and log is not None:
+        listed = ", ".join(part for parts in unvouched.values() for part in parts)
+        log(f"Warning: {folder.path}: {listed}: not vouched for by the manifest (not as this run wrote "
+            f"them); simulating participant(s) {', '.join(map(str, sorted(unvouched)))} again")
+    return set(unvouched)
 
 
 def _placeable_copies(folder: RunFolder, policy_files: Mapping[str, bytes]) -> Mapping[str, bytes]:
