@@ -520,3 +520,18 @@ def test_a_resumed_runs_part_changed_since_written_is_simulated_again_and_said(
     edited.to_parquet(part, index=False)
     result = CliRunner().invoke(main, ["simulate", "smoke", "--out", str(out), "--resume"])
     assert result.exit_code == 0 and "not vouched for by the manifest" in result.stderr
+
+
+def test_a_batch_resumed_through_the_api_tells_log_what_it_computes_again(
+        tmp_path: Path, batch: Path, capfd: pytest.CaptureFixture[str]) -> None:
+    import nudgecli
+
+    folder = copy_run(batch, tmp_path / "batch")
+    part = _edit_an_analysis(folder)
+    capfd.readouterr()
+    said: list[str] = []
+    nudgecli.replicate("smoke", replications=2, participants=2, out=folder, resume=True, log=said.append)
+    assert any(line.startswith("Warning: ") and f"{part}: not vouched for by checksums.sha256" in line
+               for line in said), said
+    assert "not vouched for" not in capfd.readouterr().err  # the API prints nothing of its own
+    assert (folder / "summary.csv").read_bytes() == (batch / "summary.csv").read_bytes()

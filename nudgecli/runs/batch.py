@@ -62,6 +62,7 @@ from nudgecli.locks import run_lock
 from nudgecli.rng import seed_sequence
 from nudgecli.runs.batch_folder import (
     BATCH_MANIFEST,
+    Log,
     PartRecord,
     PolicyCopies,
     analysis_part,
@@ -82,6 +83,7 @@ from nudgecli.runs.batch_tasks import (
     metric_definitions,
     run_analysis_task,
     run_participant_task,
+    shares_plan,
 )
 from nudgecli.runs.executors import Executor, Job, ProcessExecutor, make_executor
 from nudgecli.runs.size import SizeEstimate, check_batch_size, size_estimate, trials_per_participant
@@ -381,7 +383,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     started = time.perf_counter()
     try:
         executor = make_executor(workers, client)
-        computed = _run_graph(batch, graph, folder, executor, progress, prepare)
+        computed = _run_graph(batch, graph, folder, executor, progress, prepare, log)
     except BaseException:
         # an interrupted batch (Ctrl-C, a failed task, a write error) must not read as running
         manifest.update({"status": "interrupted", "interrupted": utc_now()})
@@ -397,9 +399,10 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
 
 
 def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
-               progress: Callable[[int, int], None] | None, prepare: Callable[[], object] | None) -> int:
+               progress: Callable[[int, int], None] | None, prepare: Callable[[], object] | None,
+               log: Log) -> int:
     """Submit every unfinished task, write each result as it comes; returns the tasks computed."""
-    run = _GraphRun(batch, graph, folder, executor)
+    run = _GraphRun(batch, graph, folder, executor, log)
     try:
         if prepare is not None and isinstance(executor, ProcessExecutor):  # then the command's own
             executor.submit(Job(_PREPARE, _quietly, (prepare,), here=True))
@@ -426,7 +429,7 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
 class _GraphRun:
     """One run of the batch's graph: what is left, what is in flight, the layout tasks' results."""
 
-    def __init__(self, batch: Batch, graph: Graph, folder: Path, executor: Executor) -> None:
+    def __init__(self, batch: Batch, graph: Graph, folder: Path, executor: Executor, log: Log = None) -> None:
         self.batch, self.graph, self.folder, self.executor = batch, graph, folder, executor
         #: study key -> its participants without a part the record vouches for; the analyses without one
         self.record = PartRecord(folder)
@@ -435,7 +438,7 @@ class _GraphRun:
                           for study in graph.studies.values()}
         self.waiting = [a for a in graph.analyses.values()
                         if not self.record.vouches(analysis_part(folder, a.key), readable_stats)]
-        self.record.warn_refused()
+        self.record.warn_refused(log)  # the command's stderr, an API caller's log=
         self.total = graph.participant_tasks + len(graph.analyses)
         self.done = self.total - sum(len(v) for v in self.remaining.values()) - len(self.waiting)
         self.metrics, self.definitions = list(batch.plan.metrics.include), metric_definitions(batch.plan)
@@ -454,7 +457,7 @@ class _GraphRun:
 
     def submit_first(self) -> None:
         """Each study's participant tasks, or its layout tasks where its plan is shared
-        (:func:`shares_plan`); then the analyses whose participants are all done.
+        (:func:`~nudgecli.runs.batch_tasks.shares_plan`); then the analyses whose participants are all done.
 
         A plan is shared only on the process pool, whose workers share this machine's files. On
         dask, sending the 22 MB plan to every worker (``Client.run``) took 0.22 s to 2 workers and
@@ -580,19 +583,6 @@ def _quietly(prepare: Callable[[], object]) -> None:
     """Run ``prepare``; a failure is the command's to meet when it does the same after the batch."""
     with contextlib.suppress(Exception):
         prepare()
-
-
-def shares_plan(study: Study, unfinished: int, studies: int, workers: int) -> bool:
-    """Whether the study's layouts are solved in layout tasks and its plan sent to every worker.
-
-    Only where several workers would otherwise each solve all of them: a grid-world study (the
-    CIAA world has no MDPs to solve) with at least as many unfinished participant tasks as there
-    are workers, in a batch of fewer ``studies`` (with work left) than workers, so that the
-    study's tasks spread over most of them. With as many studies as workers, each study stays
-    on one or two workers (the pool sends a study's tasks to the workers that hold its plan),
-    and sending every plan to every worker would cost more than it saves.
-    """
-    return workers > 1 and unfinished >= workers and studies < workers and study.config.world.kind != "ciaa"
 
 
 def single_point(config: ExperimentConfig, participants: Sequence[int]) -> tuple[Point, ...]:

@@ -20,7 +20,6 @@ import io
 import json
 import re
 import shutil
-import sys
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,6 +55,9 @@ if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its wo
     from nudgecli.runs.batch import Batch
 
 BATCH_MANIFEST = "batch.json"
+#: Where a batch's lines for the user go: the command's stderr, an API caller's ``log=``, or nowhere.
+Log = Callable[[str], None] | None
+
 #: The record of the batch's parts: one ``<SHA-256>  <path in the folder>`` line per part written.
 PART_RECORD = "checksums.sha256"
 _RECORD_LINE = re.compile(r"([0-9a-f]{64})  ([^\n]+)")
@@ -256,18 +258,19 @@ class PartRecord:
         self.refused.append(self._name(part))
         return False
 
-    def warn_refused(self) -> None:
-        """Say on stderr which parts are computed again: those on disk not vouched for, and those
-        the record holds that are missing (a part never written, of an unfinished task, is neither)."""
+    def warn_refused(self, log: Log) -> None:
+        """Tell ``log`` (the command's stderr, an API caller's ``log=``) which parts are computed
+        again: those on disk not vouched for, and those the record holds that are missing (a part
+        never written, of an unfinished task, is neither)."""
         def shown(parts: list[str]) -> str:
             return ", ".join(parts[:6]) + (f" and {len(parts) - 6} more" if len(parts) > 6 else "")
 
-        if self.refused:
-            print(f"Warning: {self.folder}: {shown(self.refused)}: not vouched for by {PART_RECORD} (not as "
-                  "this batch wrote them); computing them again", file=sys.stderr)
-        if self.missing:
-            print(f"Warning: {self.folder}: {shown(self.missing)}: missing (written by this batch, as "
-                  f"{PART_RECORD} records, and deleted since); computing them again", file=sys.stderr)
+        if log is not None and self.refused:
+            log(f"Warning: {self.folder}: {shown(self.refused)}: not vouched for by {PART_RECORD} (not as "
+                "this batch wrote them); computing them again")
+        if log is not None and self.missing:
+            log(f"Warning: {self.folder}: {shown(self.missing)}: missing (written by this batch, as "
+                f"{PART_RECORD} records, and deleted since); computing them again")
 
     def write_json(self, part: Path, document: Any) -> None:
         """Write an analysis's part atomically, then record it."""

@@ -42,6 +42,7 @@ if TYPE_CHECKING:  # pandas and the statistics (scipy.stats, scikit-posthocs) lo
     import pandas as pd
 
     from nudgecli.report.plans import AnalysisPlan
+    from nudgecli.runs.batch import Study  # batch imports this module
 
 #: Study plans (layouts + solved MDPs, about 20 MB at the paper's 48 layouts) a worker keeps; the
 #: process pool's dispatch mirrors this cache.
@@ -251,3 +252,16 @@ def merge_analysis_chunks(documents: Sequence[Mapping[str, Any]]) -> dict[str, A
     if any(list(d["conditions"]) != conditions for d in documents):
         raise ValueError("stats documents of different conditions cannot be merged")
     return {"conditions": conditions, "metrics": [entry for d in documents for entry in d["metrics"]]}
+
+
+def shares_plan(study: Study, unfinished: int, studies: int, workers: int) -> bool:
+    """Whether the study's layouts are solved in layout tasks and its plan sent to every worker.
+
+    Only where several workers would otherwise each solve all of them: a grid-world study (the
+    CIAA world has no MDPs to solve) with at least as many unfinished participant tasks as there
+    are workers, in a batch of fewer ``studies`` (with work left) than workers, so that the
+    study's tasks spread over most of them. With as many studies as workers, each study stays
+    on one or two workers (the pool sends a study's tasks to the workers that hold its plan),
+    and sending every plan to every worker would cost more than it saves.
+    """
+    return workers > 1 and unfinished >= workers and studies < workers and study.config.world.kind != "ciaa"
