@@ -126,3 +126,85 @@ def test_answers_that_cannot_be_written_are_kept_and_taken_in_by_the_resume(tmp_
     assert resumed.entry["questionnaire_blocks"] == [0, 1] and not side.exists()
     assert _manifest(out)["live"]["2"]["questionnaire_blocks"] == [0, 1]
     resumed.folder.release()
+
+
+# --- 2: a checkpoint that cannot be written ------------------------------------------------------------
+
+
+async def _trial_until_stopped(page: Page, clock: SteppedClock) -> None:
+    for message in ({"type": "start"}, {"type": "skip"}, {"type": "start"}):
+        await page.ws.send_json(message)
+    while not page.ws.closed:  # the trial runs to its time limit, then its checkpoint fails
+        clock.release()
+        if await page.read_until(lambda m: m["type"] == "state") is None:
+            break
+
+
+def test_a_checkpoint_that_cannot_be_written_stops_the_server_and_tells_the_page(tmp_path, monkeypatch):
+    import nudgecli.live.records as records
+
+    def full_disk(path, frame):
+        raise OSError(28, "No space left on device", str(path))
+
+    session = build_session("paper", "P02", tmp_path / "live2", overrides=OVERRIDES)
+    monkeypatch.setattr(records, "write_parquet_atomic", full_disk)
+    failures, stops, page = asyncio.run(_serve(session, _trial_until_stopped))
+    assert stops == ["stop"] and [e["message"] for e in page.errors] == [STOPPED]
+    assert len(failures) == 1 and isinstance(failures[0], NudgeError)
+    assert "steps/part-0002.parquet" in str(failures[0]) and "No space left on device" in str(failures[0])
+    session.folder.release()
+
+
+def test_the_study_command_stops_at_once_with_one_error_line_and_the_resume_command(tmp_path):
+    """Over the real server: the manifest overwritten during a trial (its checkpoint cannot be
+    written) ends the command with one Error line and the resume command, exit 1."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    from test_live_server import _free_port
+
+    out, port = tmp_path / "live2", _free_port()
+    sets = [arg for item in (*OVERRIDES, "study.time_limit_s=1") for arg in ("--set", item)]
+    process = subprocess.Popen(
+        [sys.executable, "-m", "nudgecli.cli", "study", "paper", "--participant", "P02", "--port", str(port),
+         "--out", str(out), *sets],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+    try:
+        told = asyncio.run(asyncio.wait_for(_trial_with_a_damaged_manifest(port, process, out), 60))
+        _, stderr = process.communicate(timeout=30)
+    finally:
+        if process.poll() is None:
+            process.send_signal(signal.SIGKILL)
+            process.wait()
+    assert told == STOPPED
+    errors = [line for line in stderr.splitlines() if line.startswith("Error:")]
+    assert process.returncode == 1 and len(errors) == 1 and "Traceback" not in stderr
+    assert "manifest.json" in errors[0] and "--participant P02" in errors[0]
+    assert errors[0].endswith("--resume")
+
+
+async def _trial_with_a_damaged_manifest(port: int, process, out: Path) -> str:
+    import aiohttp
+
+    address = process.stdout.readline().strip()
+    token = address.split("token=")[1]
+    async with aiohttp.ClientSession() as http:
+        ws = await http.ws_connect(f"http://127.0.0.1:{port}/ws?token={token}",
+                                   headers={"Origin": f"http://127.0.0.1:{port}"})
+        for message in ({"type": "start"}, {"type": "skip"}, {"type": "start"}):
+            await ws.send_json(message)
+        damaged = False
+        while True:
+            message = await ws.receive(timeout=20)
+            if message.type.name != "TEXT":
+                return ""
+            data = json.loads(message.data)
+            if data["type"] == "state" and data["phase"] == "trial" and not damaged:
+                (out / "manifest.json").write_text('{"oops')  # overwritten during the trial
+                damaged = True
+            if data["type"] == "error":
+                return data["message"]

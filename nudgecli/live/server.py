@@ -236,7 +236,11 @@ async def _ticker(app: web.Application) -> None:
         await clock.wait()
         if app[SOCKETS_KEY].controller is None:
             continue  # no participant's page: the session waits (a trial left mid-way was abandoned)
-        session.tick(session_time.now())
+        try:
+            session.tick(session_time.now())
+        except Exception as exc:  # a checkpoint not written: the server stops, the page is told
+            await _fail(app, exc)
+            return
         app[LOG_KEY].session_changed(session)
         await _broadcast(app, session.view())
 

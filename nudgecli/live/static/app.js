@@ -16,6 +16,7 @@ let lastAxis = undefined;
 let role = null;          // "controller" (this page drives the session), "watcher" or "monitor"
 let everConnected = false;
 let lastError = "";       // the server's last error reply (tests read it)
+let stoppedBecause = "";  // why the server stopped (it could not record the session), when it says
 
 function send(message) {
   // a watching page sends no input (the server would refuse it); a ping is fine
@@ -28,14 +29,14 @@ function connect() {
     (MONITOR ? "&role=monitor" : ""));
   const badge = document.getElementById("connection");
   ws.onopen = () => {
-    everConnected = true;
+    everConnected = true; stoppedBecause = "";
     badge.textContent = "connected"; badge.className = "online"; lastAxis = undefined;
     document.getElementById("lost").classList.remove("shown");
   };
   ws.onclose = () => {
     role = null;
     badge.textContent = "disconnected: reconnecting…"; badge.className = "offline";
-    document.getElementById("lost-help").textContent = everConnected ?
+    document.getElementById("lost-help").textContent = stoppedBecause ? stoppedBecause : everConnected ?
       "The connection to the study server was lost. Keep this page open: it reconnects by itself " +
       "when the server is back. If nothing happens, tell the experimenter." :
       "Cannot reach the study server. Open the exact address the server printed (it ends in " +
@@ -53,6 +54,7 @@ function connect() {
       if (state) render();
     } else if (message.type === "error") {
       lastError = message.message;
+      if (message.stopped) stoppedBecause = `${message.message}. Tell the experimenter.`;
       document.getElementById(state && state.phase === "questionnaire" ? "q-error" : "notice").textContent =
         message.message;
     }
