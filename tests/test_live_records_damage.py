@@ -208,3 +208,24 @@ async def _trial_with_a_damaged_manifest(port: int, process, out: Path) -> str:
                 damaged = True
             if data["type"] == "error":
                 return data["message"]
+
+
+# --- 3: a finished participant ------------------------------------------------------------------------
+
+
+def _fingerprint(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize("resume", [True, False])
+def test_a_finished_participant_is_not_opened_again(tmp_path, resume):
+    out = tmp_path / "live2"
+    session = build_session("paper", "P02", out, overrides=OVERRIDES)
+    play_session(session, lambda s: False)
+    assert session.phase == "done"
+    session.folder.release()
+    before = _fingerprint(out)
+    with pytest.raises(NudgeError, match="P02's session is complete") as refused:
+        build_session("paper", "P02", out, resume=resume, overrides=OVERRIDES)
+    assert "\n" not in str(refused.value)
+    assert _fingerprint(out) == before and _manifest(out)["status"] == "complete"

@@ -310,6 +310,12 @@ class LiveFolder:
                 f"{recorded_id}'s session with --participant {recorded_id} --resume"
                 f"{self._order_option(config, participant, entry)}, or give another participant number"
             )
+        if entry is not None and entry.get("status") == "complete":
+            raise RunFolderError(
+                f"{self.path}: participant {participant_id}'s session is complete (all their trials and "
+                f"questionnaires are recorded); nothing to resume: analyse it with `nudge analyze "
+                f"{self.path}`, or give another --participant"
+            )
         if entry is not None and not resume:
             raise RunFolderError(
                 f"{self.path}: participant {participant_id} (index {participant}) is already "
