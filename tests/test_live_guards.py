@@ -21,7 +21,7 @@ from click.testing import CliRunner
 from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS
 
 from nudgecli.cli import main
-from nudgecli.errors import LockError
+from nudgecli.errors import LockError, RunFolderError
 from nudgecli.live.app import build_session
 from nudgecli.live.messages import check_message
 from nudgecli.live.server import WATCHING, SteppedClock, create_app
@@ -84,8 +84,11 @@ def test_participants_finishing_trials_interleaved_keep_both_in_the_manifest(tmp
     manifest = _manifest(out)
     assert manifest["completed"] == [7, 8] and manifest["status"] == "complete"
     assert {k: e["completed_trials"] for k, e in manifest["live"].items()} == {"7": [0, 1], "8": [0, 1]}
-    # resumed from disk, P07 has nothing left to run (no trial re-run, no data discarded)
-    assert build_session("paper", "P07", out, overrides=OVERRIDES, resume=True).next_trial is None
+    # P07 has nothing left to run: a resume is refused (no trial re-run, no data discarded, the
+    # study stays complete)
+    with pytest.raises(RunFolderError, match="P07's session is complete"):
+        build_session("paper", "P07", out, overrides=OVERRIDES, resume=True)
+    assert _manifest(out)["status"] == "complete"
 
 
 def _start_server(out, participant: str, port: int) -> subprocess.Popen:
