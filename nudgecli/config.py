@@ -18,12 +18,21 @@ import json
 import tomllib
 from typing import Annotated, Any, Literal, TypeVar, cast
 
-from pydantic import ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    ConfigDict,
+    Field,
+    SerializerFunctionWrapHandler,
+    ValidationError,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 
 from nudgecli.config_base import PositiveFloat, Probability, Section
 from nudgecli.config_files import (
     dump_toml,
     format_validation_error,
+    parse_override,
     read_toml,
     resolve_preset,
     validate_overridden,
@@ -32,6 +41,7 @@ from nudgecli.config_people import BehaviourSection, CalibrationSection, Populat
 from nudgecli.errors import ConfigError, did_you_mean
 from nudgecli.model.conditions import PAPER_CONDITIONS, POLICIES
 from nudgecli.model.disambiguation_settings import DisambiguationSettings
+from nudgecli.model.hindsight import BLEND_PROB_DIFF_REQUIRED
 from nudgecli.model.human_actions import DEFAULT_HUMAN_EPSILON
 from nudgecli.model.interface import (
     DEFAULT_TABLE_NOISE,
@@ -279,14 +289,34 @@ class AssistanceSection(Section):
 class BlendingPolicySection(Section):
     """``[blending]``: the ``blending`` condition, policy blending without turn-taking.
 
-    alpha is the paper's piecewise rule of ``[assistance]`` (``rho1_factor``, ``rho2_factor``,
-    ``rho3`` and its gates); ``gate = "gap"`` also zeroes it unless the two highest beliefs differ
-    by more than ``gap`` (the open hindsight-optimisation code's confidence gate, 0.4).
+    ``kind = "convex"``: alpha is the paper's piecewise rule of ``[assistance]`` (``rho1_factor``,
+    ``rho2_factor``, ``rho3`` and its gates); ``kind = "additive"``: ADA's blend, the leading goal's
+    whole Huber-cost assistance. ``gate = "gap"`` (the default, as ADA's code always gates) assists
+    only while the two highest beliefs differ by more than ``gap`` (unset: ADA's
+    ``BLEND_PROB_DIFF_REQUIRED``, 0.4); ``gate = "none"`` never gates (a ``gap`` beside it is
+    refused, not ignored; the additive blend then assists a unique leader only).
     """
 
     kind: Literal["convex", "additive"] = "convex"
-    gate: Literal["none", "gap"] = "none"
-    gap: Annotated[float, Field(ge=0, lt=1)] = 0.4
+    gate: Literal["none", "gap"] = "gap"
+    gap: Annotated[float, Field(ge=0, lt=1)] = BLEND_PROB_DIFF_REQUIRED
+
+    @model_validator(mode="before")
+    @classmethod
+    def _gap_of_gate(cls, data: Any) -> Any:
+        # the gap belongs to the gate: given without it, it was silently ignored
+        if isinstance(data, dict) and data.get("gate", "gap") == "none" and "gap" in data:
+            raise ValueError(f"gap: {data['gap']} is not used with gate = \"none\" (no gate); remove gap, "
+                             "or set gate = \"gap\" to assist only while the top goal leads by more than gap")
+        return data
+
+    @model_serializer(mode="wrap")
+    def _no_gap_without_gate(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        # a run folder's config.toml must load again: without the gate its gap is no setting
+        data = cast(dict[str, Any], handler(self))
+        if self.gate == "none":
+            data.pop("gap", None)
+        return data
 
 
 class ModeSwitchSection(Section):
@@ -485,10 +515,25 @@ def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = 
         ExperimentConfig.model_validate(data)
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, str(path), ExperimentConfig, data)) from None
-    config = validate_overridden(ExperimentConfig, data, overrides)
+    config = validate_overridden(ExperimentConfig, _gap_off_with_its_gate(data, overrides), overrides)
     if config.policies:  # a researcher's policy modules are imported from beside the experiment file
         config = config.model_copy(update={"policy_search_path": str(path.resolve().parent)})
     return config
+
+
+def _gap_off_with_its_gate(data: dict[str, Any], overrides: list[str] | tuple[str, ...]) -> dict[str, Any]:
+    """``data`` without its ``[blending] gap`` where ``--set blending.gate=none`` turns its gate off
+    (a sweep over the gate, or a preset's gap): the gap goes with the gate it belongs to. A gap
+    written beside ``gate = "none"`` in one file, or given by ``--set`` with it, is still refused."""
+    gate = gap = None
+    for text in overrides:
+        path, value = parse_override(text)
+        gate = value if path == ["blending", "gate"] else gate
+        gap = value if path == ["blending", "gap"] else gap
+    blending = data.get("blending")
+    if gate != "none" or gap is not None or not isinstance(blending, dict) or "gap" not in blending:
+        return data
+    return {**data, "blending": {k: v for k, v in blending.items() if k != "gap"}}
 
 
 def experiment_from_toml(text: str, source: str = "config.toml") -> ExperimentConfig:

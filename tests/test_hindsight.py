@@ -18,6 +18,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from nudgecli.model import hindsight as hs
+from nudgecli.model.ties import tied_indices
 
 # The source's constants, typed again: HuberAssistancePolicy's Huber constants and divisors,
 # AssistancePolicyOneTarget.ACTION_APPLY_TIME, UserInputListener's weightings.
@@ -351,8 +352,9 @@ def test_the_blend_adds_the_leader_s_full_command() -> None:
     assert np.array_equal(blended(U_H, [0.5, 0.25, 0.25], COMMANDS), U_H)
     # the lead is over the second goal, not the last: 0.45 - 0.45 = 0, not 0.45 - 0.1
     assert np.array_equal(blended(U_H, [0.45, 0.45, 0.1], COMMANDS, 0.3), U_H)
-    # a negative threshold assists even at a tie, with the first maximum (np.argmax)
-    assert blended(U_H, [0.4, 0.4, 0.2], COMMANDS, -0.1) == pytest.approx(U_H + COMMANDS[0])
+    # a tie for the highest belief assists no goal, even past a negative threshold: none is
+    # favoured by its index (nudgecli.model.ties.unique_argmax)
+    assert np.array_equal(blended(U_H, [0.4, 0.4, 0.2], COMMANDS, -0.1), U_H)
     # one goal always passes
     assert blended(U_H, [0.2], COMMANDS[:1]) == pytest.approx(U_H + COMMANDS[0])
     assert hs.BLEND_PROB_DIFF_REQUIRED == 0.4
@@ -361,7 +363,8 @@ def test_the_blend_adds_the_leader_s_full_command() -> None:
 @given(belief=st.lists(st.floats(0.0, 1.0), min_size=3, max_size=3), threshold=st.floats(-0.5, 1.0))
 def test_the_blend_is_the_person_or_the_person_plus_the_leader(belief: list[float], threshold: float) -> None:
     out = blended(U_H, belief, COMMANDS, threshold)
-    leader = max(range(3), key=lambda g: (belief[g], -g))  # the first maximum
+    leader = max(range(3), key=lambda g: (belief[g], -g))
     lead = belief[leader] - max(belief[g] for g in range(3) if g != leader)
-    expected = U_H + COMMANDS[leader] if lead > threshold else U_H
+    unique = len(tied_indices(belief)) == 1  # a tie for the maximum assists no goal
+    expected = U_H + COMMANDS[leader] if lead > threshold and unique else U_H
     assert np.array_equal(out, expected)

@@ -274,7 +274,7 @@ def test_blending_with_the_gap_gate_gives_alpha_0_when_p1_minus_p2_is_at_most_th
 
 
 def test_the_gap_gate_is_read_from_the_blending_section():
-    config = experiment_from_toml(POLICY_TOML.replace('gate = "gap"', 'gate = "none"'))
+    config = experiment_from_toml(POLICY_TOML.replace('gate = "gap"\ngap = 0.4', 'gate = "none"'))
     assert ProtocolSettings.from_config(config).blending_gap is None
     assert ProtocolSettings.from_config(experiment_from_toml(POLICY_TOML)).blending_gap == 0.4
 

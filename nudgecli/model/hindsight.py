@@ -41,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from nudgecli.model.policies import confidence_gap
+from nudgecli.model.ties import unique_argmax
 from nudgecli.model.world import turn_between
 
 # --- the source's constants ---------------------------------------------------------------------
@@ -358,8 +359,9 @@ def ada_blend_goal(belief: np.ndarray | Sequence[float],
     """The goal whose whole assistance ADA's additive blend adds to the person's command
     (``AdaAssistancePolicy.get_blend_action``), or -1 for none (direct teleoperation).
 
-    The most likely goal (``argmax``, the first maximum) when :func:`blend_confident` holds;
-    ``threshold=None`` has no gate (the most likely goal always).
+    The most likely goal when :func:`blend_confident` holds; ``threshold=None`` has no gate (the
+    most likely goal whenever one leads: none when two or more tie for the highest belief, which
+    the gate's strict lead never passes either, :func:`nudgecli.model.ties.unique_argmax`).
 
     Parameters
     ----------
@@ -375,4 +377,4 @@ def ada_blend_goal(belief: np.ndarray | Sequence[float],
     b = np.asarray(belief, dtype=float).reshape(-1)
     if b.size == 0 or (threshold is not None and not blend_confident(b, threshold)):
         return -1
-    return int(np.argmax(b))
+    return unique_argmax(b)

@@ -1,0 +1,86 @@
+"""The built-in policies' settings as their sources define them: ``[blending]``'s gate (on by
+default, as ADA's code gates; a ``gap`` with no gate to use it refused), the sections a ``--set``
+supplies, the coupling of additive blending to ``[hindsight]``, the paper's rho_i in [0, 1] and
+the Gopinath projection's 0.1 s updates at any step rate (docs/baselines.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_helpers import nudge, stderr_error_line
+
+from nudgecli.config import experiment_from_toml, load_experiment
+from nudgecli.errors import ConfigError
+from nudgecli.model import hindsight
+from nudgecli.model.interface import NO_INPUT, SOFT_PUFF
+from nudgecli.sim.protocol import ProtocolSettings, TrialSession
+from nudgecli.steplog import NO_GOAL
+from tests.test_policies import POLICY_TOML, _layout_model, _spec
+
+BLENDING = '[blending]\ngate = "gap"\ngap = 0.4\n'
+
+
+def _blending_step(toml: str, belief: np.ndarray, pressure: float = 0.0) -> dict:
+    """The row of one step of a ``blending`` trial from layout 5's start with ``belief``."""
+    settings_ = ProtocolSettings.from_config(experiment_from_toml(toml))
+    layout, model = _layout_model(5)
+    session = TrialSession(_spec("blending", layout), settings_, model, 10, np.random.default_rng(2))
+    session._set_belief(belief)
+    session.human_step(SOFT_PUFF if pressure else NO_INPUT, pressure)
+    return {c: v[-1] for c, v in session.columns.items()}
+
+
+# --- 1. [blending]'s gate ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("kind", ["convex", "additive"])
+def test_a_blending_section_without_gate_is_gated_by_adas_gap(kind: str) -> None:
+    toml = POLICY_TOML.replace(BLENDING, f'[blending]\nkind = "{kind}"\n')
+    gap = ProtocolSettings.from_config(experiment_from_toml(toml)).blending_gap
+    assert gap == hindsight.BLEND_PROB_DIFF_REQUIRED
+    # p1 - p2 = 0.3 <= 0.4: no assistance, although the paper's ramp alone (p1 > 1.1 / 3) assists
+    row = _blending_step(toml, np.array([0.6, 0.3, 0.1]), -0.2)
+    assert row["alpha"] == 0.0
+    given = POLICY_TOML.replace(BLENDING, f'[blending]\nkind = "{kind}"\ngap = 0.2\n')  # the gate's own gap
+    assert ProtocolSettings.from_config(experiment_from_toml(given)).blending_gap == 0.2
+
+
+@pytest.mark.parametrize("gap", ["0.4", "0.2"])
+def test_a_gap_without_the_gate_that_uses_it_is_one_error_line(tmp_path: Path, gap: str) -> None:
+    path = tmp_path / "mine.toml"
+    path.write_text(POLICY_TOML.replace(BLENDING, f'[blending]\ngate = "none"\ngap = {gap}\n'))
+    with pytest.raises(ConfigError) as refused:
+        load_experiment(str(path))
+    assert str(refused.value).startswith(f"{path}: blending.gap: {gap} is not used with gate = \"none\"")
+    refused_cli = nudge("simulate", path, "--participants", "1", "--out", tmp_path / "run")
+    assert "remove gap" in stderr_error_line(refused_cli)
+    assert not (tmp_path / "run").exists()
+    # by --set: a gap given with the gate turned off is refused; turning a file's gate off takes
+    # its gap with it (a preset's, or a sweep's point), as the file's own key would go
+    named = r"^--set blending\.gate=none and blending\.gap=0\.3: blending\.gap: 0\.3 is not used"
+    with pytest.raises(ConfigError, match=named):
+        load_experiment("baselines", ["blending.gate=none", "blending.gap=0.3"])
+    ungated = load_experiment("baselines", ["blending.gate=none"])
+    assert ungated.blending is not None and ungated.blending.gate == "none"
+    assert ProtocolSettings.from_config(ungated).blending_gap is None
+
+
+def test_no_gate_runs_and_round_trips_through_the_run_folders_toml() -> None:
+    config = experiment_from_toml(POLICY_TOML.replace(BLENDING, '[blending]\ngate = "none"\n'))
+    assert ProtocolSettings.from_config(config).blending_gap is None
+    assert experiment_from_toml(config.to_toml()) == config
+    gated = experiment_from_toml(POLICY_TOML.replace(BLENDING, "[blending]\n"))
+    assert experiment_from_toml(gated.to_toml()) == gated and gated.blending.gap == 0.4  # type: ignore[union-attr]
+
+
+def test_additive_blending_without_a_gate_assists_no_goal_on_a_tie() -> None:
+    # a uniform belief (every trial's first step) favours no goal by its index
+    assert hindsight.ada_blend_goal(np.full(3, 1 / 3), None) == NO_GOAL
+    assert hindsight.ada_blend_goal(np.array([0.4, 0.4, 0.2]), None) == NO_GOAL
+    assert hindsight.ada_blend_goal(np.array([0.2, 0.5, 0.3]), None) == 1
+    toml = POLICY_TOML.replace(BLENDING, '[blending]\nkind = "additive"\ngate = "none"\n')
+    row = _blending_step(toml, np.full(3, 1 / 3))
+    assert row["alpha"] == 0.0 and row["inferred_goal"] == NO_GOAL
+    row = _blending_step(toml, np.array([0.2, 0.5, 0.3]))
+    assert row["alpha"] == 1.0 and row["inferred_goal"] == 1
