@@ -511,14 +511,26 @@ def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = 
     """
     path = resolve_preset(name_or_path, "experiments")
     data = read_toml(path)
-    try:
-        ExperimentConfig.model_validate(data)
+    try:  # the file on its own, but for a condition's section that only the overrides write
+        ExperimentConfig.model_validate(_with_sections_set(data, overrides))
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, str(path), ExperimentConfig, data)) from None
     config = validate_overridden(ExperimentConfig, _gap_off_with_its_gate(data, overrides), overrides)
     if config.policies:  # a researcher's policy modules are imported from beside the experiment file
         config = config.model_copy(update={"policy_search_path": str(path.resolve().parent)})
     return config
+
+
+def _with_sections_set(data: dict[str, Any], overrides: list[str] | tuple[str, ...]) -> dict[str, Any]:
+    """``data`` with an empty table for each condition's section (``[blending]``, ``[mode-switch]``,
+    ``[hindsight]``) it lacks and a ``--set`` writes into (``--set blending.gate=gap``): the file's
+    only fault is then no fault, and any other is still the file's own."""
+    written = {path[0] for path, _ in map(parse_override, overrides)}
+    missing: dict[str, Any] = {}
+    for spellings in ({condition, field} for condition, field in CONDITION_SECTIONS.items()):
+        if spellings & written and not spellings & data.keys():  # [mode-switch] or mode_switch
+            missing[min(spellings & written)] = {}
+    return {**data, **missing} if missing else data
 
 
 def _gap_off_with_its_gate(data: dict[str, Any], overrides: list[str] | tuple[str, ...]) -> dict[str, Any]:

@@ -84,3 +84,54 @@ def test_additive_blending_without_a_gate_assists_no_goal_on_a_tie() -> None:
     assert row["alpha"] == 0.0 and row["inferred_goal"] == NO_GOAL
     row = _blending_step(toml, np.array([0.2, 0.5, 0.3]))
     assert row["alpha"] == 1.0 and row["inferred_goal"] == 1
+
+
+# --- 2. a condition's section that --set supplies ---------------------------------------------------
+
+NO_SECTION = """[experiment]
+name = "t"
+seed = 1
+[study]
+participants = 2
+conditions = ["disambiguation", "{condition}"]
+goal_counts = [3]
+corners = ["tr"]
+start_modes = ["x"]
+blocks_per_condition = 1
+time_limit_s = 5.0
+"""
+
+
+@pytest.mark.parametrize(("condition", "override"), [
+    ("blending", "blending.gate=gap"), ("mode-switch", "mode-switch.criterion=paper-mi"),
+    ("mode-switch", "mode_switch.trigger=request"), ("hindsight", "hindsight.assist=always")])
+def test_the_missing_sections_suggested_set_supplies_it(tmp_path: Path, condition: str,
+                                                         override: str) -> None:
+    path = tmp_path / "nosec.toml"
+    path.write_text(NO_SECTION.format(condition=condition))
+    with pytest.raises(ConfigError) as refused:
+        load_experiment(str(path))
+    suggested = str(refused.value).rpartition("--set ")[2].rstrip(")")
+    assert str(refused.value).startswith(f"{path}: study.conditions lists {condition!r}")
+    for given in (suggested, override):  # the one the error suggests, and another key of the section
+        config = load_experiment(str(path), [given])
+        assert getattr(config, condition.replace("-", "_")) is not None
+
+
+def test_a_file_with_another_fault_is_still_named_as_itself(tmp_path: Path) -> None:
+    path = tmp_path / "nosec.toml"
+    path.write_text(NO_SECTION.format(condition="blending").replace("seed = 1", "seed = -1"))
+    with pytest.raises(ConfigError, match=r"nosec\.toml: experiment\.seed"):
+        load_experiment(str(path), ["blending.gate=gap"])
+    # a --set of another condition's section supplies nothing
+    path.write_text(NO_SECTION.format(condition="blending"))
+    with pytest.raises(ConfigError, match=r"nosec\.toml: study\.conditions lists 'blending'"):
+        load_experiment(str(path), ["hindsight.assist=always"])
+
+
+def test_simulate_takes_the_suggested_set(tmp_path: Path) -> None:
+    path = tmp_path / "nosec.toml"
+    path.write_text(NO_SECTION.format(condition="blending"))
+    done = nudge("simulate", path, "--out", tmp_path / "ns", "--set", "blending.gate=gap")
+    assert done.exit_code == 0, done.output
+    assert (tmp_path / "ns" / "config.toml").read_text().count("[blending]") == 1
