@@ -291,7 +291,9 @@ class BlendingPolicySection(Section):
 
     ``kind = "convex"``: alpha is the paper's piecewise rule of ``[assistance]`` (``rho1_factor``,
     ``rho2_factor``, ``rho3`` and its gates); ``kind = "additive"``: ADA's blend, the leading goal's
-    whole Huber-cost assistance. ``gate = "gap"`` (the default, as ADA's code always gates) assists
+    whole Huber-cost assistance, with ``[hindsight]``'s ``strength`` and ``zone`` (set or derived):
+    ADA's blend and its hindsight policy add one and the same assistance per goal, so those two
+    keys change this condition too. ``gate = "gap"`` (the default, as ADA's code always gates) assists
     only while the two highest beliefs differ by more than ``gap`` (unset: ADA's
     ``BLEND_PROB_DIFF_REQUIRED``, 0.4); ``gate = "none"`` never gates (a ``gap`` beside it is
     refused, not ignored; the additive blend then assists a unique leader only).

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from cli_helpers import nudge, stderr_error_line
 
-from nudgecli.config import experiment_from_toml, load_experiment
+from nudgecli.config import BlendingPolicySection, experiment_from_toml, load_experiment
 from nudgecli.errors import ConfigError
 from nudgecli.model import hindsight
 from nudgecli.model.interface import NO_INPUT, SOFT_PUFF
@@ -135,3 +135,19 @@ def test_simulate_takes_the_suggested_set(tmp_path: Path) -> None:
     done = nudge("simulate", path, "--out", tmp_path / "ns", "--set", "blending.gate=gap")
     assert done.exit_code == 0, done.output
     assert (tmp_path / "ns" / "config.toml").read_text().count("[blending]") == 1
+
+
+# --- 3. additive blending shares [hindsight]'s assistance ------------------------------------------
+
+def test_additive_blending_uses_hindsights_strength_and_zone_and_says_so() -> None:
+    toml = POLICY_TOML.replace(BLENDING, '[blending]\nkind = "additive"\n')
+    belief = np.array([0.1, 0.8, 0.1])
+    source = _blending_step(toml, belief)
+    doubled = _blending_step(toml.replace("[hindsight]", "[hindsight]\nstrength = 0.612"), belief)
+    # ADA's blend adds the one-goal assistance its hindsight policy sums: one strength for both
+    assert 1.9 < doubled["u_a_x"] / source["u_a_x"] <= 2.0
+    zoned = _blending_step(toml.replace("[hindsight]", "[hindsight]\nzone = 40.0"), belief)
+    assert zoned["u_a_x"] != source["u_a_x"]
+    assert "[hindsight]" in (BlendingPolicySection.__doc__ or "")
+    docs = (Path(__file__).resolve().parents[1] / "docs" / "baselines.md").read_text()
+    assert "`[hindsight] strength` and `zone` set the\nadditive blend's assistance" in docs

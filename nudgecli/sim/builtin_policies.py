@@ -200,7 +200,8 @@ class Blending(PaperBlending):
     and ADA's gate, this toolkit's choice. ``additive`` is ADA's own blend
     (``AdaAssistancePolicy.get_blend_action``): every step while the gate passes (one goal always
     passes), the most likely goal's whole Huber-cost assistance
-    (:func:`nudgecli.model.hindsight.goal_command`) is added to the person's command (alpha 1).
+    (:func:`nudgecli.model.hindsight.goal_command`, with ``[hindsight]``'s ``strength`` and ``zone``
+    as in ADA, whose blend and hindsight share it) is added to the person's command (alpha 1).
     """
 
     takes_turns = False
