@@ -151,3 +151,13 @@ def test_additive_blending_uses_hindsights_strength_and_zone_and_says_so() -> No
     assert "[hindsight]" in (BlendingPolicySection.__doc__ or "")
     docs = (Path(__file__).resolve().parents[1] / "docs" / "baselines.md").read_text()
     assert "`[hindsight] strength` and `zone` set the\nadditive blend's assistance" in docs
+
+
+# --- 4. the baselines preset's trial count as the docs quote it -------------------------------------
+
+def test_the_docs_quote_the_baselines_trial_count_of_four_participants() -> None:
+    config = load_experiment("baselines")
+    trials = 4 * len(config.study.conditions) * config.study.trials_per_condition
+    docs = (Path(__file__).resolve().parents[1] / "docs" / "baselines.md").read_text()
+    assert trials == 1344
+    assert "`nudge simulate baselines --participants 4 --workers 2` runs 1344 trials" in docs
