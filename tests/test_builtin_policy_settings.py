@@ -14,7 +14,9 @@ from cli_helpers import nudge, stderr_error_line
 from nudgecli.config import BlendingPolicySection, experiment_from_toml, load_experiment
 from nudgecli.errors import ConfigError
 from nudgecli.model import hindsight
-from nudgecli.model.interface import NO_INPUT, SOFT_PUFF
+from nudgecli.model.interface import NO_INPUT, SOFT_PUFF, SOFT_SIP
+from nudgecli.model.mode_criteria import gopinath_disamb_metric
+from nudgecli.model.world import N_CELLS_X, N_CELLS_Y, N_HEADINGS, N_MODES, cell_centre, state_index
 from nudgecli.sim.protocol import ProtocolSettings, TrialSession
 from nudgecli.steplog import NO_GOAL
 from tests.test_policies import POLICY_TOML, _layout_model, _spec
@@ -151,6 +153,52 @@ def test_additive_blending_uses_hindsights_strength_and_zone_and_says_so() -> No
     assert "[hindsight]" in (BlendingPolicySection.__doc__ or "")
     docs = (Path(__file__).resolve().parents[1] / "docs" / "baselines.md").read_text()
     assert "`[hindsight] strength` and `zone` set the\nadditive blend's assistance" in docs
+
+
+# --- 5. the Gopinath projection: one update per 0.1 s at any rate ----------------------------------
+
+def _projected(belief: np.ndarray, p: np.ndarray, label: int, updates: int) -> np.ndarray:
+    """``belief`` after ``updates`` Bayes updates with ``label`` (``p``: (G, F)), in a loop."""
+    b = belief.copy()
+    for _ in range(updates):
+        b = b * p[:, label]
+        b = b / b.sum()
+    return b
+
+
+def _gopinath_choice(belief: np.ndarray, likelihood: np.ndarray, mode: int, per_second: int) -> int:
+    """The MATLAB's mode (current mode on ties) with ``per_second`` updates a projected second."""
+    scores = np.array([sum(float(gopinath_disamb_metric(_projected(belief, p, label, per_second),
+                                                         _projected(belief, p, label, 2 * per_second)))
+                           for label in (SOFT_PUFF, SOFT_SIP)) for p in likelihood])
+    best = scores.max()  # a tie: within 1e-9 of the best, relative (nudgecli.model.ties)
+    tied = [m for m in range(len(scores)) if scores[m] >= best - 1e-9 * max(1.0, abs(best))]
+    return mode if mode in tied else tied[0]
+
+
+def test_gopinath2017_projects_one_update_per_tenth_of_a_second_at_20_hz() -> None:
+    toml = POLICY_TOML.replace('criterion = "paper-mi"', 'criterion = "gopinath2017"')
+    config = experiment_from_toml(toml.replace("[blending]", "rate_hz = 20.0\n[blending]"))
+    settings_ = ProtocolSettings.from_config(config)
+    assert settings_.dt == 0.05
+    layout, model = _layout_model(3)
+    rng = np.random.default_rng(0)
+    told_apart = 0
+    for _ in range(200):
+        i, j = int(rng.integers(N_CELLS_X)), int(rng.integers(N_CELLS_Y))
+        h, m = int(rng.integers(N_HEADINGS)), int(rng.integers(N_MODES))
+        belief = rng.dirichlet(np.ones(3))
+        states = [int(state_index(i, j, h, mode)) for mode in range(N_MODES)]
+        likelihood = model.likelihood[:, states, :].transpose(1, 0, 2)
+        expected = _gopinath_choice(belief, likelihood, m, 10)  # t_stamps = 0:0.1:1, whatever the rate
+        session = TrialSession(_spec("mode-switch", layout), settings_, model, 10, np.random.default_rng(1))
+        session.x, session.y = (float(v) for v in cell_centre(i, j))
+        session.theta, session.mode = h * np.pi / 4, m
+        session._set_belief(belief)
+        session._start_autonomy_turn()
+        assert session.mode == expected, (belief, m)
+        told_apart += _gopinath_choice(belief, likelihood, m, 20) != expected  # one update a 20 Hz step
+    assert told_apart >= 1  # the pairs include some where an update per step picks another mode
 
 
 # --- 4. the baselines preset's trial count as the docs quote it -------------------------------------

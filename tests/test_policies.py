@@ -116,10 +116,12 @@ def _spec(condition: str, layout: object) -> TrialSpec:
     return TrialSpec(participant=0, condition=condition, block=0, trial=0, layout_index=0, layout=layout)
 
 
-def _brute_force_scores(criterion: str, belief: np.ndarray, likelihood: np.ndarray, dt: float) -> np.ndarray:
+def _brute_force_scores(criterion: str, belief: np.ndarray, likelihood: np.ndarray) -> np.ndarray:
     """Per mode (rows of ``likelihood``: (M, G, F)), higher is better: the mutual information by
     explicit loops, or the 2017 criteria of beliefs projected by repeated Bayes updates in loops
-    (their formulas are held to the published MATLAB by tests/test_mode_criteria.py)."""
+    (their formulas are held to the published MATLAB by tests/test_mode_criteria.py), one update
+    per 0.1 s of the projection whatever the study's rate (the MATLAB's ``t_stamps = 0:0.1:1``:
+    10 updates for 1 s, 20 for 2 s)."""
     def project(p: np.ndarray, label: int, steps: int) -> np.ndarray:
         b = belief.copy()
         for _ in range(steps):
@@ -141,20 +143,23 @@ def _brute_force_scores(criterion: str, belief: np.ndarray, likelihood: np.ndarr
                 expected_entropy += marginal * -sum(q * math.log(q) for q in posterior if q > 0)
             scores.append(prior_entropy - expected_entropy)
         elif criterion == "gopinath2017":  # 1 s and 2 s projections, + and - motion summed
-            scores.append(sum(float(mode_criteria.gopinath_disamb_metric(project(p, label, round(1 / dt)),
-                                                                           project(p, label, round(2 / dt))))
+            scores.append(sum(float(mode_criteria.gopinath_disamb_metric(project(p, label, 10),
+                                                                           project(p, label, 20)))
                               for label in (SOFT_PUFF, SOFT_SIP)))
         else:  # KL(projected 1 s || current) in bits, averaged over + and - motion
             kls = [sum(q * math.log2(q / b)
-                       for q, b in zip(project(p, label, round(1 / dt)), belief, strict=True) if q > 0)
+                       for q, b in zip(project(p, label, 10), belief, strict=True) if q > 0)
                    for label in (SOFT_PUFF, SOFT_SIP)]
             scores.append(sum(kls) / 2)
     return np.array(scores)
 
 
+@pytest.mark.parametrize("rate_hz", [10.0, 20.0])  # the 2017 projections: 0.1 s updates at any rate
 @pytest.mark.parametrize("criterion", ["paper-mi", "gopinath2017", "gopinath2017-kl"])
-def test_mode_switch_selects_the_mode_its_criterion_ranks_best(criterion):
-    config = experiment_from_toml(POLICY_TOML.replace('criterion = "paper-mi"', f'criterion = "{criterion}"'))
+def test_mode_switch_selects_the_mode_its_criterion_ranks_best(criterion, rate_hz):
+    toml = POLICY_TOML.replace('criterion = "paper-mi"', f'criterion = "{criterion}"')
+    config = experiment_from_toml(toml.replace("[blending]", f"rate_hz = {rate_hz}\n[blending]"))
+    assert config.study.rate_hz == rate_hz
     settings_ = ProtocolSettings.from_config(config)
     layout, model = _layout_model(3)
     rng = np.random.default_rng(0)
@@ -170,8 +175,7 @@ def test_mode_switch_selects_the_mode_its_criterion_ranks_best(criterion):
         session._set_belief(belief)
         session._start_autonomy_turn()
         states = [int(state_index(i, j, h, mode)) for mode in range(N_MODES)]
-        scores = _brute_force_scores(criterion, belief, model.likelihood[:, states, :].transpose(1, 0, 2),
-                                     settings_.dt)
+        scores = _brute_force_scores(criterion, belief, model.likelihood[:, states, :].transpose(1, 0, 2))
         best = scores.max()
         # the modes whose score ties the best (two modes can give the same label distributions)
         tied = [mode for mode in range(N_MODES)
@@ -473,7 +477,7 @@ def test_on_request_a_persons_switch_goes_to_the_criterions_best_other_mode():
         # the belief the choice saw: after this step's update (the hard puff is an observation)
         mode_only = [state - state % N_MODES + m for m in range(N_MODES)]  # the same cell and heading
         likelihood = model.likelihood[:, mode_only, :].transpose(1, 0, 2)
-        scores = _brute_force_scores("paper-mi", session.belief, likelihood, session.settings.dt)
+        scores = _brute_force_scores("paper-mi", session.belief, likelihood)
         others = [m for m in range(N_MODES) if m != mode]
         best = max(scores[m] for m in others)
         tied = [m for m in others if math.isclose(scores[m], best, rel_tol=1e-6, abs_tol=1e-9)]

@@ -50,7 +50,8 @@ GOPINATH_LONG_HORIZON_S = 2.0
 #: ``projection_time = 1`` in ``R2/compute_projected_kl_R2.m``: the KL variant's one horizon, seconds.
 GOPINATH_KL_HORIZON_S = 1.0
 #: ``delta_t = 0.1`` in ``R2/SimulateTraj_R2_With_Blending.m``: the step of the projection loop of
-#: ``R2/compute_pg_projection_R2.m`` (``t_stamps = 0:delta_t:projection_time``, one update a step).
+#: ``R2/compute_pg_projection_R2.m`` (``t_stamps = 0:delta_t:projection_time``, one update a step):
+#: the projections' update interval whatever the study's step rate (``select_mode``).
 GOPINATH_PROJECTION_DT_S = 0.1
 #: MATLAB's ``realmin`` (``2^-1022``, the smallest normal double), which ``Utils/compute_kl_div.m``
 #: adds to the ratio inside the logarithm: a goal the projection holds and the current belief

@@ -292,7 +292,8 @@ def select_mode(view: StepView, criterion: str, requested: int | None = None) ->
     - ``paper-mi``: the seed paper's D(s) (Eq. 15) over those states; its distance term is the
       same for each, so this is Eq. 13's mutual information.
     - ``gopinath2017``: Gopinath & Argall's disambiguation metric of beliefs projected 1 s and 2 s
-      along each mode's motion (:func:`nudgecli.model.mode_criteria.gopinath_disambiguation`).
+      along each mode's motion (:func:`nudgecli.model.mode_criteria.gopinath_disambiguation`), one
+      update per 0.1 s (the MATLAB's), not per step of the study.
     - ``gopinath2017-kl``: its KL variant, KL(belief projected 1 s || current belief).
     - ``herlant2016``: the mode the time-optimal plan to ``g'`` uses next (Herlant et al. 2016);
       without a unique ``g'`` the mode is kept. On a request: the plan's first dimension other
@@ -321,7 +322,8 @@ def select_mode(view: StepView, criterion: str, requested: int | None = None) ->
     likelihood = view.model.likelihood[:, candidates.states, :].transpose(1, 0, 2)  # (M, G, F)
 
     def projected(horizon_s: float) -> np.ndarray:
-        steps = mode_criteria.horizon_steps(horizon_s, s.dt)
+        # the MATLAB's loop: one update per 0.1 s of the horizon whatever the study's step rate
+        steps = mode_criteria.horizon_steps(horizon_s, mode_criteria.GOPINATH_PROJECTION_DT_S)
         return mode_criteria.project_beliefs(view.belief, likelihood, steps=steps,
                                              goal_transition=view.goal_transition)
 
