@@ -209,3 +209,20 @@ def test_the_docs_quote_the_baselines_trial_count_of_four_participants() -> None
     docs = (Path(__file__).resolve().parents[1] / "docs" / "baselines.md").read_text()
     assert trials == 1344
     assert "`nudge simulate baselines --participants 4 --workers 2` runs 1344 trials" in docs
+
+
+# --- 7. the baselines preset's header comment ------------------------------------------------------
+
+def test_the_baselines_presets_header_comment_matches_its_settings() -> None:
+    import re
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "experiments" / "baselines.toml").read_text()
+    header = text.split("\n[", 1)[0]
+    config = load_experiment("baselines")
+    words = {5: "five", 6: "six", 7: "seven", 8: "eight"}
+    found = re.search(r"under (\w+) assistance conditions \(([\w/.]+)\)", header)
+    assert found and found.group(1) == words[len(config.study.conditions)]
+    assert (root / found.group(2)).is_file() and "class Blending" in (root / found.group(2)).read_text()
+    for condition in config.study.conditions:
+        assert re.search(rf"^#   ([\w-]+, )*{re.escape(condition)}[ ,]", header, re.M), condition
+    assert config.mode_switch is not None and f"({config.mode_switch.criterion} below)" in header
