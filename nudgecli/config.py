@@ -479,6 +479,22 @@ class ExperimentConfig(Section):
         return self
 
     @model_validator(mode="after")
+    def _check_alpha_ramp(self) -> ExperimentConfig:
+        # the paper's rho_i = rho_i_factor / G are thresholds on the top belief, so lie in [0, 1]:
+        # above 1 the ramp never opens (alpha 0 throughout) for that goal count
+        if self.world.kind != "grid":
+            return self
+        ass, fewest = self.assistance, min(self.study.goal_counts)
+        if max(ass.rho1_factor, ass.rho2_factor) > fewest:
+            raise ValueError(f"assistance.rho1_factor = {ass.rho1_factor:g} and rho2_factor = "
+                             f"{ass.rho2_factor:g} over {fewest} goals (study.goal_counts) give rho_1 = "
+                             f"{ass.rho1_factor / fewest:.3g} and rho_2 = {ass.rho2_factor / fewest:.3g}, "
+                             "thresholds on the top belief, which the paper keeps in [0, 1] (above 1 the "
+                             f"ramp never completes or never opens); keep both factors at most {fewest}, the "
+                             "fewest goals")
+        return self
+
+    @model_validator(mode="after")
     def _check_tolerances(self) -> ExperimentConfig:
         if self.world.kind == "ciaa":
             # one step must not carry the robot across a snapping window (2 tolerances wide)

@@ -226,3 +226,24 @@ def test_the_baselines_presets_header_comment_matches_its_settings() -> None:
     for condition in config.study.conditions:
         assert re.search(rf"^#   ([\w-]+, )*{re.escape(condition)}[ ,]", header, re.M), condition
     assert config.mode_switch is not None and f"({config.mode_switch.criterion} below)" in header
+
+
+# --- 8. the paper's rho_i in [0, 1] ----------------------------------------------------------------
+
+@pytest.mark.parametrize(("overrides", "goals"), [
+    (("assistance.rho1_factor=3.5", "assistance.rho2_factor=4.5"), 3),
+    (("assistance.rho2_factor=3.5",), 3),  # rho_1 = 0.37 is fine, rho_2 = 1.17 is not
+    (("study.goal_counts=[2, 4]", "assistance.rho2_factor=2.5"), 2)])  # the fewest goals count
+def test_a_rho_factor_above_the_goal_count_is_one_error_line(tmp_path: Path, overrides: tuple[str, ...],
+                                                             goals: int) -> None:
+    sets = [arg for text in overrides for arg in ("--set", text)]
+    refused = nudge("simulate", "paper", "--participants", "2", *sets, "--out", tmp_path / "run")
+    line = stderr_error_line(refused)
+    assert "assistance.rho1_factor" in line and "rho2_factor" in line and "[0, 1]" in line
+    assert f"keep both factors at most {goals}" in line and not (tmp_path / "run").exists()
+
+
+def test_rho_factors_up_to_the_fewest_goals_are_taken() -> None:
+    config = load_experiment("paper", ["assistance.rho1_factor=2.0", "assistance.rho2_factor=3.0"])
+    assert config.assistance.rho2_factor / min(config.study.goal_counts) == 1.0
+    load_experiment("ciaa-teleop", ["assistance.rho2_factor=9.0"])  # no goal inference in that world
