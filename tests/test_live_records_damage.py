@@ -134,20 +134,20 @@ def test_answers_that_cannot_be_written_are_kept_and_taken_in_by_the_resume(tmp_
 async def _trial_until_stopped(page: Page, clock: SteppedClock) -> None:
     for message in ({"type": "start"}, {"type": "skip"}, {"type": "start"}):
         await page.ws.send_json(message)
-    while not page.ws.closed:  # the trial runs to its time limit, then its checkpoint fails
+    for _ in range(1000):  # the trial runs to its time limit, then its checkpoint fails
         clock.release()
         if await page.read_until(lambda m: m["type"] == "state") is None:
             break
 
 
 def test_a_checkpoint_that_cannot_be_written_stops_the_server_and_tells_the_page(tmp_path, monkeypatch):
-    import nudgecli.live.records as records
+    import pandas as pd
 
-    def full_disk(path, frame):
-        raise OSError(28, "No space left on device", str(path))
+    def full_disk(frame, path, **options):
+        raise OSError(28, "No space left on device")
 
     session = build_session("paper", "P02", tmp_path / "live2", overrides=OVERRIDES)
-    monkeypatch.setattr(records, "write_parquet_atomic", full_disk)
+    monkeypatch.setattr(pd.DataFrame, "to_parquet", full_disk)
     failures, stops, page = asyncio.run(_serve(session, _trial_until_stopped))
     assert stops == ["stop"] and [e["message"] for e in page.errors] == [STOPPED]
     assert len(failures) == 1 and isinstance(failures[0], NudgeError)
@@ -229,3 +229,62 @@ def test_a_finished_participant_is_not_opened_again(tmp_path, resume):
         build_session("paper", "P02", out, resume=resume, overrides=OVERRIDES)
     assert "\n" not in str(refused.value)
     assert _fingerprint(out) == before and _manifest(out)["status"] == "complete"
+
+
+# --- 4: the parts' checksums ----------------------------------------------------------------------------
+
+
+def test_the_manifest_records_each_parts_sha256_as_simulate_does(tmp_path):
+    from nudgecli.run_folder_names import PART_KINDS
+    from nudgecli.run_folder_record import file_sha256
+
+    out = tmp_path / "live2"
+    session = build_session("paper", "P02", out, overrides=OVERRIDES)
+    play_session(session, lambda s: False)
+    session.folder.release()
+    assert _manifest(out)["checksums"] == {
+        "2": {kind: file_sha256(out / kind / "part-0002.parquet") for kind in PART_KINDS}
+    }
+
+
+def _edit_manifest(out: Path, edit) -> None:
+    manifest = _manifest(out)
+    edit(manifest)
+    (out / "manifest.json").write_text(json.dumps(manifest, indent=2))
+
+
+def _flip_success(out: Path) -> None:
+    import pandas as pd
+
+    part = out / "trials" / "part-0002.parquet"
+    table = pd.read_parquet(part)
+    table.loc[0, "success"] = not table.loc[0, "success"]
+    table.to_parquet(part, index=False)
+
+
+def _truncate_without_record(out: Path) -> None:
+    _edit_manifest(out, lambda manifest: manifest.pop("checksums"))  # a folder of an older nudge
+    part = out / "steps" / "part-0002.parquet"
+    part.write_bytes(part.read_bytes()[:200])
+
+
+@pytest.mark.parametrize("damage, words", [
+    (_flip_success, "trials/part-0002.parquet changed since it was written"),
+    (lambda out: (out / "steps" / "part-0002.parquet").unlink(),
+     "steps/part-0002.parquet is missing, but the manifest records 2 trial(s) of participant P02"),
+    (lambda out: _edit_manifest(out, lambda m: m["live"]["2"]["completed_trials"].append(5)),
+     "trials/part-0002.parquet holds no rows of trial(s) 5, which the manifest lists as completed"),
+    (lambda out: (out / "questionnaires.csv").unlink(),
+     "questionnaires.csv is missing, but the manifest records the answers of participant P02 to block(s) 0"),
+    (_truncate_without_record, "steps/part-0002.parquet is not a readable part of a live session"),
+])
+def test_a_resume_refuses_records_that_do_not_match_the_manifest(tmp_path, damage, words):
+    out = tmp_path / "live2"
+    _at_second_questionnaire(out).folder.release()
+    damage(out)
+    before = _fingerprint(out)
+    with pytest.raises(NudgeError) as refused:
+        _resume(out)
+    message = str(refused.value)
+    assert words in message and "restore it from a backup" in message and "\n" not in message, message
+    assert _fingerprint(out) == before

@@ -21,12 +21,14 @@ from aiohttp.test_utils import TestClient, TestServer
 from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS, as_samples, recorded_stream, transition
 
 from nudgecli.live.app import build_session
+from nudgecli.live.records import LiveFolder
 from nudgecli.live.server import SteppedClock, create_app
 from nudgecli.live.session import LiveSession, live_handover_idle_s
 from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.interface import default_distortion_table, default_mapping_table
 from nudgecli.report.analysis import analyze
 from nudgecli.rng import generator
+from nudgecli.run_folder_record import file_sha256
 from nudgecli.sim.protocol import ProtocolSettings, TrialSession
 from nudgecli.sim.study import StudyPlan, participant_schedule
 from nudgecli.sim.trials import handover_steps
@@ -170,18 +172,40 @@ def test_server_replays_a_recorded_stream_exactly(tmp_path):
     assert {"completion_time", "tlx_raw", "likert_q3"} <= set(result.table["metric"])
 
 
-def test_a_crash_between_writes_loses_only_the_running_trial(tmp_path):
+class _CrashError(Exception):
+    """The process dies here."""
+
+
+def test_a_crash_between_writes_loses_only_the_running_trial(tmp_path, monkeypatch):
     out = tmp_path / "run"
     session = build_session("paper", "P01", out, overrides=TWO_TRIALS + DEFAULT_TABLES)
     streams = _streams(3, 2, 60)
     asyncio.run(_play_trials(session, streams, stop_in_trial=1))
-    before = pd.read_parquet(out / "steps" / "part-0001.parquet")
-    # a crash after the steps part of trial 1 was written but before its trial row and manifest
-    extra = before.assign(trial=1)
-    pd.concat([before, extra], ignore_index=True).to_parquet(out / "steps" / "part-0001.parquet", index=False)
+    steps_part = out / "steps" / "part-0001.parquet"
+    before = pd.read_parquet(steps_part)
+    # a crash after trial 1's parts were renamed into place, before the manifest listed trial 1
+    save = LiveFolder.save
+
+    def crash(folder, participant, status_of_participant=None, add_seconds=0.0):
+        if add_seconds:  # the checkpoint's last manifest update
+            raise _CrashError
+        save(folder, participant, status_of_participant, add_seconds)
+
+    monkeypatch.setattr(LiveFolder, "save", crash)
+    session.handle({"type": "start"}, 0.0)
+    with pytest.raises(_CrashError):
+        while True:
+            session.tick(0.0)
+    monkeypatch.undo()
+    assert set(pd.read_parquet(steps_part)["trial"]) == {0, 1}
     resumed = build_session("paper", "P01", out, overrides=TWO_TRIALS + DEFAULT_TABLES, resume=True)
     assert resumed.next_trial is not None and resumed.next_trial.trial == 1
     pd.testing.assert_frame_equal(resumed.steps, before)
+    # the parts are written again without trial 1's rows, and the manifest records them
+    pd.testing.assert_frame_equal(pd.read_parquet(steps_part), before)
+    sums = json.loads((out / "manifest.json").read_text())["checksums"]["1"]
+    assert sums["steps"] == file_sha256(steps_part)
+    assert sums["trials"] == file_sha256(out / "trials" / "part-0001.parquet")
     with pytest.raises(Exception, match="already recorded"):
         build_session("paper", "P01", out, overrides=TWO_TRIALS + DEFAULT_TABLES)
     with pytest.raises(Exception, match="another experiment"):

@@ -5,7 +5,10 @@ The folder is the one ``nudge simulate`` writes (:mod:`nudgecli.store`), so ``nu
 experiment and seed). Per participant ``i``:
 
 - ``trials/part-iiii.parquet`` and ``steps/part-iiii.parquet``: every completed evaluation
-  trial, rewritten atomically after each trial (steps first, then trials, then the manifest);
+  trial, rewritten atomically after each trial (both written, their SHA-256 noted in the
+  participant's entry, renamed into place, then the manifest listing the trial and recording the
+  SHA-256 under ``checksums`` as ``nudge simulate`` does; :mod:`nudgecli.live.record_checks`
+  checks them on resume);
 - ``participants/part-iiii.parquet``: written when the participant's session is complete (a
   participant counts as complete when its three parts exist, as for a simulated run);
 - ``calibration/participant-iiii/``: the calibration logs in the tidy format (``nudge fit`` reads
@@ -46,13 +49,23 @@ import pandas as pd
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import LockError, NudgeError, RunFolderError
 from nudgecli.live.questionnaire import merged_answers, read_answers
+from nudgecli.live.record_checks import (
+    CHECKSUMS,
+    TRIAL_PARTS,
+    WRITING,
+    CheckedParts,
+    check_answered_blocks,
+    check_trial_parts,
+    recorded_sums,
+)
 from nudgecli.locks import acquire_lock_file, describe_holder, read_holder, run_lock
-from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import CONFIG, LOCK, QUESTIONNAIRES_CSV
+from nudgecli.run_folder_record import file_sha256
 from nudgecli.sim.counterbalance import order_choice
 from nudgecli.sim.study import StudyLayout, layouts_frame
 from nudgecli.store import (
     RunFolder,
+    atomic_path,
     new_manifest,
     part_name,
     prepare_mode,
@@ -131,6 +144,9 @@ class LiveFolder:
         self.path = self.run.path
         self.manifest: dict[str, Any] = {}
         self.entry: dict[str, Any] = {}
+        #: The SHA-256 of the participant's parts as written (kind -> hex), recorded in the manifest.
+        self.sums: dict[str, str] = {}
+        self._parts: CheckedParts | None = None
         self._lock_path: Path | None = None
 
     # --- opening ------------------------------------------------------------------------------
@@ -245,6 +261,11 @@ class LiveFolder:
             )
             if entry is not None and entry.get("condition_order", condition_order) != condition_order:
                 raise RunFolderError(self._other_order_message(config, participant, participant_id, entry))
+            if entry is not None:  # a resume: the participant's records must be as the manifest says
+                self._parts = check_trial_parts(self.path, manifest, participant, entry)
+                check_answered_blocks(self.path, participant, entry)
+                self.sums = recorded_sums(manifest, participant)
+                self._rewrite_crashed_parts(participant, entry)
             if own_seed_toml:  # a folder made before config.toml recorded the seed used
                 write_text_atomic(self.path / CONFIG, config_text)
                 print(f"Warning: {self.path / CONFIG} held the experiment's own seed "
@@ -313,7 +334,7 @@ class LiveFolder:
         if entry is not None and entry.get("status") == "complete":
             raise RunFolderError(
                 f"{self.path}: participant {participant_id}'s session is complete (all their trials and "
-                f"questionnaires are recorded); nothing to resume: analyse it with `nudge analyze "
+                f"questionnaires are recorded) and nothing is left to run: analyse it with `nudge analyze "
                 f"{self.path}`, or give another --participant"
             )
         if entry is not None and not resume:
@@ -369,6 +390,8 @@ class LiveFolder:
         with folder_lock(self.path):
             m = self.run.read_manifest() if self.run.is_run() else self.manifest
             m.setdefault("live", {})[key] = entry
+            if self.sums:
+                m.setdefault(CHECKSUMS, {})[key] = dict(self.sums)
             timings = m.setdefault("timings_s", {})
             if add_seconds:
                 timings[key] = round(timings.get(key, 0.0) + add_seconds, 3)
@@ -381,29 +404,51 @@ class LiveFolder:
     def read_participant_tables(
         self, participant: int, completed: list[int]
     ) -> tuple[pd.DataFrame | None, pd.DataFrame | None]:
-        """The participant's trials and steps of the ``completed`` trials (``None`` if no part yet)."""
-        tables: list[pd.DataFrame | None] = []
-        for kind in ("trials", "steps"):
-            path = self.path / kind / part_name(participant)
-            if not path.is_file():
-                tables.append(None)
-                continue
-            frame = read_parquet(path)
-            tables.append(frame[frame["trial"].isin(completed)].reset_index(drop=True))
-        return tables[0], tables[1]
+        """The participant's trials and steps of the ``completed`` trials (``None`` if no part yet),
+        as checked when their session was resumed (:func:`~nudgecli.live.record_checks.check_trial_parts`)."""
+        if self._parts is None:
+            return None, None  # a new participant: no part yet
+        tables = [self._parts.tables[kind] for kind in TRIAL_PARTS]
+        return tuple(t if t is None else t[t["trial"].isin(completed)].reset_index(drop=True)
+                     for t in tables)  # type: ignore[return-value]
+
+    def _rewrite_crashed_parts(self, participant: int, entry: dict[str, Any]) -> None:
+        """Write again the parts a crash left holding the rows of a trial the manifest does not list
+        (renamed into place, the manifest not yet updated), without those rows, and record them."""
+        assert self._parts is not None
+        for kind in self._parts.rewrite:
+            frame = self._parts.tables[kind]
+            assert frame is not None
+            self.sums[kind] = write_parquet_atomic(self.path / kind / part_name(participant), frame)
+        entry.pop(WRITING, None)
 
     def write_trial(
         self, participant: int, trials: pd.DataFrame, steps: pd.DataFrame, trial: int, wall_s: float
     ) -> None:
-        """Checkpoint after a trial: steps, trials, then the manifest naming ``trial`` complete."""
-        write_parquet_atomic(self.path / "steps" / part_name(participant), steps)
-        write_parquet_atomic(self.path / "trials" / part_name(participant), trials)
+        """Checkpoint after a trial: both parts written to temporary files, their SHA-256 recorded in
+        the entry as being written (:data:`~nudgecli.live.record_checks.WRITING`), the parts renamed
+        into place, then the manifest naming ``trial`` complete with the parts' SHA-256."""
+        name = part_name(participant)
+        with atomic_path(self.path / "steps" / name) as steps_tmp, \
+                atomic_path(self.path / "trials" / name) as trials_tmp:
+            sums: dict[str, str] = {}
+            for kind, frame, tmp in (("steps", steps, steps_tmp), ("trials", trials, trials_tmp)):
+                try:
+                    frame.to_parquet(tmp, index=False)
+                    sums[kind] = file_sha256(tmp)
+                except OSError as exc:  # named by its part, not by the last one opened
+                    raise write_error(self.path / kind / name, exc) from exc
+            self.entry[WRITING] = {"trial": trial, **sums}
+            self.save(participant)
+        self.entry.pop(WRITING)
+        self.sums.update(sums)
         self.entry["completed_trials"] = sorted({*self.entry["completed_trials"], trial})
         self.save(participant, add_seconds=wall_s)
 
     def write_participant(self, participant: int, record: pd.DataFrame) -> None:
         """The participant's session is complete: their participants part, then the manifest."""
-        write_parquet_atomic(self.path / "participants" / part_name(participant), record)
+        self.sums["participants"] = write_parquet_atomic(self.path / "participants" / part_name(participant),
+                                                         record)
         self.save(participant, status_of_participant="complete")
         with folder_lock(self.path):  # another participant may finish at the same moment
             self.run.write_participants_table()
