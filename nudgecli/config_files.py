@@ -4,9 +4,11 @@ TOML reading and writing, ``--set`` overrides and the one-line message of a vali
 from __future__ import annotations
 
 import json
+import re
 import tomllib
 from collections.abc import Mapping, Sequence
 from copy import deepcopy
+from datetime import date, datetime, time
 from pathlib import Path
 from types import UnionType
 from typing import Any, Literal, TypeVar, Union, get_args, get_origin
@@ -294,7 +296,8 @@ def dump_toml(data: dict[str, Any]) -> str:
     """A small TOML writer for nested dicts of scalars and lists (what our configs hold).
 
     A dict is a table ``[a]``, a dict inside it ``[a.b]`` (a table holding only tables gets no
-    header of its own), and so on at any depth.
+    header of its own), and so on at any depth; a dict inside a list an inline table. What it
+    writes, ``tomllib`` reads back as ``data`` (a test checks any text as a key or a string).
     """
     lines: list[str] = []
     _dump_table(data, (), lines)
@@ -306,22 +309,46 @@ def _dump_table(table: dict[str, Any], path: tuple[str, ...], lines: list[str]) 
     if path and (scalars or len(scalars) == len(table)):
         if lines:
             lines.append("")
-        lines.append(f"[{'.'.join(path)}]")
+        lines.append(f"[{'.'.join(toml_key(part) for part in path)}]")
     for key, value in scalars.items():
-        lines.append(f"{key} = {_toml_value(value)}")
+        lines.append(f"{toml_key(key)} = {toml_value(value)}")
     for key, value in table.items():
         if isinstance(value, dict):
             _dump_table(value, (*path, key), lines)
 
 
-def _toml_value(value: Any) -> str:
+#: TOML's escapes in a basic string: the backslash, the quotation mark and every control character
+#: (U+0000-U+001F, U+007F), the usual ones by their short escape and the others as ``\uXXXX``.
+_STRING_ESCAPES = {**{code: f"\\u{code:04X}" for code in [*range(0x20), 0x7F]},
+                   **{ord(c): e for c, e in {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\t": "\\t",
+                                               "\n": "\\n", "\f": "\\f", "\r": "\\r"}.items()}}
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
+def toml_key(key: str) -> str:
+    """``key`` as a TOML key: bare where it is one (``A-Za-z0-9_-``), else a quoted string."""
+    return key if _BARE_KEY.fullmatch(key) else _toml_string(key)
+
+
+def _toml_string(text: str) -> str:
+    return f'"{text.translate(_STRING_ESCAPES)}"'
+
+
+def toml_value(value: Any) -> str:
+    """``value`` as TOML writes it: the one rendering of a value, for :func:`dump_toml` and for a
+    ``--set`` text built from a value (a sweep's point); a dict is an inline table."""
     if isinstance(value, bool):
         return "true" if value else "false"
-    if isinstance(value, int | float):
-        return repr(value)
+    if isinstance(value, int):
+        return int.__repr__(value)
+    if isinstance(value, float):
+        return float.__repr__(value)  # inf, nan and 1e+16 are TOML's spelling too
     if isinstance(value, str):
-        escaped = value.replace("\\", "\\\\").replace('"', '\\"')
-        return f'"{escaped}"'
+        return _toml_string(value)
+    if isinstance(value, datetime | date | time):
+        return value.isoformat()
     if isinstance(value, list | tuple):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{toml_key(k)} = {toml_value(v)}" for k, v in value.items()) + "}"
     raise TypeError(f"cannot write {type(value).__name__} to TOML")
