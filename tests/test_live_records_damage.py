@@ -288,3 +288,49 @@ def test_a_resume_refuses_records_that_do_not_match_the_manifest(tmp_path, damag
     message = str(refused.value)
     assert words in message and "restore it from a backup" in message and "\n" not in message, message
     assert _fingerprint(out) == before
+
+
+# --- 5: a resume with other settings --------------------------------------------------------------------
+
+
+def _stopped_after_first_trial(out: Path) -> None:
+    session = build_session("paper", "P02", out, overrides=OVERRIDES)
+    play_session(session, lambda s: len(s.entry["completed_trials"]) == 1)
+    session.folder.release()
+
+
+@pytest.mark.parametrize("options, named", [
+    ({"overrides": (*OVERRIDES, "study.time_limit_s=5")}, "study.time_limit_s: 4.0 in the manifest, 5.0 now"),
+    ({"overrides": OVERRIDES, "seed": 12}, "seed: 2022 in the manifest, 12 now"),
+])
+def test_a_resume_with_other_settings_names_them_and_the_command_that_continues(tmp_path, options, named):
+    from nudgecli.store import study_resume_command
+
+    out = tmp_path / "live2"
+    _stopped_after_first_trial(out)
+    before = _fingerprint(out)
+    with pytest.raises(NudgeError) as refused:
+        build_session("paper", "P02", out, resume=True, **options)
+    message = str(refused.value)
+    command = study_resume_command(str(out / "config.toml"), "P02", out)
+    assert named in message and f"`{command}`" in message and "\n" not in message, message
+    assert _fingerprint(out) == before
+    resumed = build_session(str(out / "config.toml"), "P02", out, resume=True)  # the advice works
+    assert resumed.entry["completed_trials"] == [0]
+    resumed.folder.release()
+
+
+def test_a_deleted_config_toml_is_written_again_and_an_edited_one_is_named(tmp_path, capsys):
+    out = tmp_path / "live2"
+    _stopped_after_first_trial(out)
+    config = out / "config.toml"
+    text = config.read_text()
+    config.unlink()
+    _resume(out).folder.release()  # the original command still continues the session
+    assert config.read_text() == text and "was missing" in capsys.readouterr().err
+    config.write_text(text.replace("time_limit_s = 4.0", "time_limit_s = 6.0"))
+    with pytest.raises(NudgeError) as refused:
+        build_session(str(config), "P02", out, resume=True)
+    message = str(refused.value)
+    assert "study.time_limit_s: 4.0 in the manifest, 6.0 now" in message, message
+    assert f"{config} was edited" in message, message

@@ -69,6 +69,7 @@ from nudgecli.store import (
     new_manifest,
     part_name,
     prepare_mode,
+    study_resume_command,
     utc_now,
     write_error,
     write_parquet_atomic,
@@ -256,7 +257,7 @@ class LiveFolder:
         if run.is_run():
             manifest = run.read_manifest()
             entry = manifest.setdefault("live", {}).get(key)
-            own_seed_toml = self._check_joined(
+            config_toml_warning = self._check_joined(
                 manifest, config, seed, config_text, participant, participant_id, resume, entry
             )
             if entry is not None and entry.get("condition_order", condition_order) != condition_order:
@@ -266,11 +267,9 @@ class LiveFolder:
                 check_answered_blocks(self.path, participant, entry)
                 self.sums = recorded_sums(manifest, participant)
                 self._rewrite_crashed_parts(participant, entry)
-            if own_seed_toml:  # a folder made before config.toml recorded the seed used
+            if config_toml_warning is not None:  # the manifest's experiment: put config.toml back
                 write_text_atomic(self.path / CONFIG, config_text)
-                print(f"Warning: {self.path / CONFIG} held the experiment's own seed "
-                      f"({config.experiment.seed}), not the one the sessions use ({seed}); rewritten with it",
-                      file=sys.stderr)
+                print(f"Warning: {config_toml_warning}", file=sys.stderr)
         else:
             prepare_mode(self.path, None, resume, False, own_file=_is_lock_file, can_force=False,
                          resume_first=True)
@@ -308,21 +307,21 @@ class LiveFolder:
         participant_id: str,
         resume: bool,
         entry: dict[str, Any] | None,
-    ) -> bool:
-        """Refuse to join a folder of a simulated run, of another experiment or seed, or with the
-        participant's index taken by another ID, recorded without ``resume``, or missing with it.
-        Returns whether config.toml holds the experiment's own seed rather than ``seed`` (a folder
-        made before it recorded the seed used)."""
+    ) -> str | None:
+        """Refuse to join a folder of a simulated run, of another experiment or seed (naming each
+        key that differs from the manifest's), or with the participant's index taken by another
+        ID, recorded without ``resume``, or missing with it. Returns the warning to print when
+        config.toml is rewritten from the experiment (it held the experiment's own seed, a folder
+        made before it recorded the seed used; or it was missing or edited), else ``None``."""
         if manifest.get("executor") != EXECUTOR:
             raise RunFolderError(f"{self.path}: holds a simulated run; record live sessions in another --out")
-        config_path = self.path / CONFIG
-        old = config_path.read_text(encoding="utf-8") if config_path.is_file() else ""
-        own_seed_toml = old != config_text and old == config.to_toml()
-        if (old != config_text and not own_seed_toml) or manifest.get("seed") != seed:
-            raise RunFolderError(
-                f"{self.path}: holds live sessions of another experiment, --set or seed; "
-                "use the same ones, or choose another --out"
-            )
+        # the manifest is the record of the study's settings, as for a simulated run's resume
+        differences = [difference for difference in
+                       self.run.resume_differences(manifest, config, seed, manifest.get("participants", 0))
+                       if not difference.startswith("nudgecli version:")]
+        if differences:
+            raise RunFolderError(self._other_settings_message(manifest, differences, config, participant,
+                                                              participant_id, entry))
         recorded_id = None if entry is None else entry.get("participant_id")
         if entry is not None and recorded_id != participant_id:
             raise RunFolderError(
@@ -347,7 +346,34 @@ class LiveFolder:
             raise RunFolderError(
                 f"{self.path}: no session of participant {participant_id} to resume; drop --resume"
             )
-        return own_seed_toml
+        config_path = self.path / CONFIG
+        old = config_path.read_text(encoding="utf-8") if config_path.is_file() else None
+        if old == config_text:
+            return None
+        if old == config.to_toml():
+            return (f"{config_path} held the experiment's own seed ({config.experiment.seed}), not the one "
+                    f"the sessions use ({seed}); rewritten with it")
+        return self.run.config_toml_warning(
+            config.model_copy(update={"experiment": config.experiment.model_copy(update={"seed": seed})}))
+
+    def _other_settings_message(self, manifest: dict[str, Any], differences: list[str],
+                                config: ExperimentConfig, participant: int, participant_id: str,
+                                entry: dict[str, Any] | None) -> str:
+        """Why joining with other settings than the manifest's is refused: each key that differs,
+        and the command with the folder's config.toml (it holds the --set values and the seed)."""
+        more = len(differences) - 6
+        shown = "; ".join(differences[:6]) + (f"; and {more} more" if more > 0 else "")
+        config_path = self.path / CONFIG
+        option = self._order_option(config, participant, entry) if entry is not None else ""
+        command = study_resume_command(str(config_path), participant_id, self.path,
+                                       condition_order=option.removeprefix(" --condition-order ") or None)
+        command = command if entry is not None else command.removesuffix(" --resume")
+        if not config_path.is_file():
+            fix = f"use the experiment, --set values and seed the manifest records ({config_path} is missing)"
+        else:  # an edited config.toml is named: the command below runs it
+            fix = f"{self.run._edited_config_hint(manifest)}use the same ones: `{command}`"
+        return (f"{self.path}: holds live sessions of another experiment, --set or seed ({shown}); {fix}, "
+                "or choose another --out")
 
     def _other_order_message(
         self, config: ExperimentConfig, participant: int, participant_id: str, entry: dict[str, Any]
