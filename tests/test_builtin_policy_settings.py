@@ -247,3 +247,15 @@ def test_rho_factors_up_to_the_fewest_goals_are_taken() -> None:
     config = load_experiment("paper", ["assistance.rho1_factor=2.0", "assistance.rho2_factor=3.0"])
     assert config.assistance.rho2_factor / min(config.study.goal_counts) == 1.0
     load_experiment("ciaa-teleop", ["assistance.rho2_factor=9.0"])  # no goal inference in that world
+
+
+# --- 9. the help texts name every preset, by pointing to nudge presets ----------------------------
+
+@pytest.mark.parametrize(("command", "kind"), [("simulate", "experiments"), ("analyze", "analysis")])
+def test_the_help_lists_no_preset_subset_and_points_to_nudge_presets(command: str, kind: str) -> None:
+    from nudgecli.config_files import list_presets
+    shown = " ".join(nudge(command, "--help").output.split())
+    assert "a preset (`nudge presets` lists them)" in shown
+    listed = nudge("presets").output
+    for name in list_presets(kind):  # the one list: every preset of the kind is there
+        assert f"  {name} " in listed

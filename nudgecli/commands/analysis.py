@@ -14,7 +14,7 @@ from nudgecli.commands.common import FORCE_HELP, SET_HELP, echo_json, info, prog
 @click.command("analyze")
 @click.argument("source", type=click.Path(path_type=str))
 @click.option("--plan", "plan", default=None, metavar="PLAN",
-              help="Analysis plan: a preset (paper, study-code, ciaa-teleop) or a TOML file [default: the "
+              help="Analysis plan: a preset (`nudge presets` lists them) or a TOML file [default: the "
                    "plan recorded in the run folder, else the plan named like the run's experiment, else "
                    "paper].")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=str), default=None,

@@ -124,7 +124,7 @@ def _print_study_summary(run: Any) -> None:
 def simulate_command(experiment: str, out: str | None, seed: int | None, participants: int | None,
                      workers: int, scheduler: str | None, resume: bool, force: bool, yes: bool,
                      overrides: tuple[str, ...], people: str | None) -> None:
-    """Simulate a study: EXPERIMENT is a preset (paper, study-code, smoke) or a TOML file."""
+    """Simulate a study: EXPERIMENT is a preset (`nudge presets` lists them) or a TOML file."""
     from nudgecli.commands.scheduler_choice import chosen_scheduler
 
     scheduler = chosen_scheduler(click.get_current_context(), scheduler)  # --workers wins over the variable
