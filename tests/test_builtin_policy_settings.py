@@ -259,3 +259,22 @@ def test_the_help_lists_no_preset_subset_and_points_to_nudge_presets(command: st
     listed = nudge("presets").output
     for name in list_presets(kind):  # the one list: every preset of the kind is there
         assert f"  {name} " in listed
+
+
+# --- 6. docs/baselines.md says where its rates come from and which pairs each Holm family holds ----
+
+def test_the_baselines_docs_name_the_rates_source_and_each_metrics_holm_family() -> None:
+    import pandas as pd
+    root = Path(__file__).resolve().parents[1]
+    docs = " ".join((root / "docs" / "baselines.md").read_text().split())
+    stats = pd.read_csv(root / "results" / "baselines" / "stats.csv")
+    pairs = stats.dropna(subset=["conover_p"]).groupby("metric").size()
+    assert "Holm over all 21 pairs" not in docs
+    assert f"the {pairs.max()} of the seven conditions" in docs
+    engagement, effort = pairs["assistance_engagement"], pairs["human_effort"]
+    assert f"{engagement} for engagement and {effort} for human effort" in docs
+    assert pairs["human_turns"] == pairs["assistance_strength"] == pairs["human_effort"]
+    # conditions.csv holds each study's median of the 0/1 success, not its rate: the docs say so
+    conditions = pd.read_csv(root / "results" / "baselines" / "replicate" / "conditions.csv")
+    assert set(conditions.loc[conditions["metric"] == "success", "value"]) <= {0.0, 1.0}
+    assert "is 1.0 or 0.0, not a rate" in docs and '.groupby(["study", "condition"])[["success",' in docs
