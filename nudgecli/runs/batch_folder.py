@@ -323,13 +323,15 @@ def remove_outputs(folder: Path) -> None:
         (folder / FIGURES_DIR).rmdir()
 
 
-def check_inputs_kept(folder: Path, inputs: Iterable[tuple[str, object]]) -> None:
+def check_inputs_kept(folder: Path, inputs: Iterable[tuple[str, object]], force: bool = False) -> None:
     """Refuse a batch into ``folder`` that would write over, or remove, one of the files it reads.
 
     The rule of every command (:func:`nudgecli.outputs.check_not_an_input`: no output replaces an
     input) applied before any work to every file a batch writes in its folder or removes there
     when it replaces another batch: ``batch.json``, its record, every table and figure of any
-    batch kind (:func:`output_files`) and the parts under ``tasks/`` and ``analyses/``. The copy of
+    batch kind (:func:`output_files`), the parts under ``tasks/`` and ``analyses/`` and, with
+    ``force``, the experiment and plan the old batch keeps (its ``inputs``, :data:`INPUTS_KEY`:
+    replacing it removes them; a resume never writes over them, so it may name them). The copy of
     the people file a batch keeps (``people/<its name>``) is not one of them: a resume may name it
     (:func:`nudgecli.sim.people_file.keep_copy` never writes over it with other bytes).
 
@@ -340,6 +342,8 @@ def check_inputs_kept(folder: Path, inputs: Iterable[tuple[str, object]]) -> Non
     inputs
         ``(how the user gave it, what they gave)``: ``("--people", "p.csv")``; what is not an
         existing file (a preset's name, a loaded plan, ``None``) is skipped.
+    force
+        ``--force``: the batch replaces the one in ``folder``, and removes its kept inputs.
 
     Raises
     ------
@@ -353,7 +357,11 @@ def check_inputs_kept(folder: Path, inputs: Iterable[tuple[str, object]]) -> Non
             if isinstance(path, str | Path):
                 declare_input(f"{label} {path}", path)
         parts = [p for name in ("tasks", "analyses") for p in (folder / name).rglob("*")]
-        for target in (folder / BATCH_MANIFEST, folder / PART_RECORD, *output_files(folder), *parts):
+        old, _ = read_manifest(folder / BATCH_MANIFEST) if force else (None, None)
+        kept = old.get(INPUTS_KEY) if old is not None else None  # what the replacement removes of them
+        removed = [folder / str(name) for name in kept] if isinstance(kept, Mapping) else []
+        for target in (folder / BATCH_MANIFEST, folder / PART_RECORD, *output_files(folder), *parts,
+                       *removed):
             check_not_an_input(target)
 
 

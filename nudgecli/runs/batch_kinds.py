@@ -148,7 +148,8 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     config = _load(experiment, overrides, participants)
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
     record, chosen_people = _people_fields(people, out, bool(options.get("resume")))
-    check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)])
+    check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)],
+                      bool(options.get("force")))
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name, **record}, chosen_people,
@@ -189,7 +190,8 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     with_participants(config, counts[-1])  # the largest study within study.participants' bound
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
     record, chosen_people = _people_fields(people, out, bool(options.get("resume")))
-    check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)])
+    check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)],
+                      bool(options.get("force")))
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name, **record}, chosen_people,
@@ -230,7 +232,8 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     named = [(f"the sweep file's {field}", written) for field in ("experiment", "plan")
              if isinstance(written := getattr(spec, field), str)]
     beside = [(label, loaded.source.parent / written) for label, written in named]
-    check_inputs_kept(Path(out), [("SWEEP_FILE", loaded.source), *named, *beside])
+    check_inputs_kept(Path(out), [("SWEEP_FILE", loaded.source), *named, *beside],
+                      bool(options.get("force")))
     batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen,
                   {"design": spec.design.model_dump(mode="json"), "experiment": spec.experiment})
     run = run_batch(batch, out, prepare=import_outputs, **options)
