@@ -506,7 +506,7 @@ def test_sobol_indices_of_the_ishigami_function_through_the_sweep_machinery():
     assert problem is not None and samples is not None and len(points) == 4096 * 5
     x = np.array([[p[f"ishigami.x{k}"] for k in (1, 2, 3)] for p in points])
     y = np.sin(x[:, 0]) + a * np.sin(x[:, 1]) ** 2 + b * x[:, 2] ** 4 * np.sin(x[:, 0])
-    outputs = pd.DataFrame({"point": np.arange(len(y)), "metric": "ishigami", "y": y})
+    outputs = pd.DataFrame({"point": np.arange(len(y)), "metric": "ishigami", "a": "a", "b": "b", "y": y})
     indices = sensitivity("sobol", problem, samples, outputs, seed=1).set_index(["parameter", "index"])
     for (name, index), value in analytic.items():
         got, conf = indices.loc[(f"ishigami.{name}", index), ["value", "conf"]]
@@ -514,7 +514,8 @@ def test_sobol_indices_of_the_ishigami_function_through_the_sweep_machinery():
 
 
 def test_point_outputs_average_the_replications_of_each_point():
-    rows = pd.DataFrame({"point": [0, 0, 1, 1], "metric": "m", "difference": [1.0, 3.0, -2.0, 0.0]})
+    rows = pd.DataFrame({"point": [0, 0, 1, 1], "metric": "m", "a": "a", "b": "b",
+                         "difference": [1.0, 3.0, -2.0, 0.0]})
     assert point_outputs(rows)["y"].tolist() == [2.0, -1.0]
 
 
@@ -550,6 +551,44 @@ def test_smallest_n_is_the_first_count_whose_power_reaches_the_target() -> None:
     assert smallest_n(curve, target=0.8).set_index("level")["participants"].to_dict() == {
         "trial": 9, "participant": 9}
     assert smallest_n(curve, target=0.5).set_index("level").loc["trial", "participants"] == 6
+
+
+def test_smallest_n_is_per_pair_of_conditions_and_an_integer() -> None:
+    # three conditions: the paper's pair never reaches the target, another pair does at 2; each
+    # pair gets its own row with its a, b (never the best of the pairs under the metric's name)
+    rows = pd.concat([power_rows({2: [True] * 3, 3: [True] * 3}, a="disambiguation", b="teleoperation"),
+                      power_rows({2: [False] * 3, 3: [False] * 3})])
+    smallest = smallest_n(power_table(rows), target=0.6)
+    assert list(smallest.columns) == ["metric", "a", "b", "level", "participants"]
+    by_pair = smallest.set_index(["a", "b", "level"])["participants"]
+    assert by_pair[("disambiguation", "teleoperation", "trial")] == 2
+    assert by_pair[("disambiguation", "control", "trial")] is None
+    assert "mode_switches,disambiguation,teleoperation,trial,2\n" in smallest.to_csv(index=False)
+
+
+def test_point_outputs_and_sensitivity_keep_the_pairs_apart() -> None:
+    # two pairs whose differences move oppositely with x: pooled, Y would be flat in x
+    rows = pd.DataFrame({"point": [0, 0, 1, 1], "metric": "m", "a": ["p", "q"] * 2, "b": "c",
+                         "difference": [1.0, -1.0, 3.0, -3.0]})
+    outputs = point_outputs(rows)
+    assert outputs.set_index(["point", "a"])["y"].to_dict() == {(0, "p"): 1.0, (0, "q"): -1.0,
+                                                               (1, "p"): 3.0, (1, "q"): -3.0}
+    spec = SweepFile(experiment="unused", design=Design(method="morris", samples=2, levels=4, seed=2),
+                     parameters={"p.x": Range(low=0.0, high=1.0)})
+    points, problem, samples = design_values(spec)
+    assert problem is not None and samples is not None
+    xs = samples[:, 0]
+    rows = pd.DataFrame({"point": np.repeat(np.arange(len(points)), 2), "metric": "m",
+                         "a": ["p", "q"] * len(points), "b": "c",
+                         "difference": np.column_stack([xs, -2 * xs]).ravel()})
+    indices = sensitivity("morris", problem, samples, point_outputs(rows), levels=4)
+    mu = indices[indices["index"] == "mu"].set_index("a")["value"]
+    assert mu.to_dict() == pytest.approx({"p": 1.0, "q": -2.0})
+    assert set(indices["b"]) == {"c"}
+    from nudgecli.report.figures.replication import sensitivity_figure
+
+    titles = [ax.get_title() for ax in sensitivity_figure(indices).get_axes()]
+    assert titles == ["m (p - c)", "m (q - c)"]
 
 
 def test_power_counts_only_the_papers_direction_of_either_order_of_the_pair() -> None:
@@ -598,7 +637,8 @@ def test_summarise_counts_directions_and_pools_effects_over_replications() -> No
 
 
 def test_point_outputs_average_the_column_asked_for() -> None:
-    rows = pd.DataFrame({"point": [0, 0, 1, 1], "metric": "m", "difference": [1.0, 3.0, -2.0, 0.0],
+    rows = pd.DataFrame({"point": [0, 0, 1, 1], "metric": "m", "a": "a", "b": "b",
+                         "difference": [1.0, 3.0, -2.0, 0.0],
                          "effect_size": [0.5, 0.1, -0.2, -0.4]})
     assert point_outputs(rows, "effect_size")["y"].tolist() == pytest.approx([0.3, -0.3])
 
@@ -654,7 +694,8 @@ def test_morris_mu_star_of_a_linear_model_is_its_slope_times_the_range() -> None
                                  for k, lo, hi in zip((1, 2, 3), lows, highs, strict=True)})
     points, problem, samples = design_values(spec)
     assert problem is not None and samples is not None and len(points) == 10 * 4
-    outputs = pd.DataFrame({"point": np.arange(len(points)), "metric": "linear", "y": samples @ slopes})
+    outputs = pd.DataFrame({"point": np.arange(len(points)), "metric": "linear", "a": "a", "b": "b",
+                            "y": samples @ slopes})
     indices = sensitivity("morris", problem, samples, outputs, levels=6).set_index(["parameter", "index"])
     for k, (slope, lo, hi) in enumerate(zip(slopes, lows, highs, strict=True), start=1):
         assert indices.loc[(f"p.x{k}", "mu_star"), "value"] == pytest.approx(abs(slope) * (hi - lo))

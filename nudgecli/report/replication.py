@@ -294,21 +294,30 @@ def power_table(rows: pd.DataFrame, directions: Mapping[str, int | None] | None 
 
 
 def smallest_n(power: pd.DataFrame, target: float = POWER_TARGET) -> pd.DataFrame:
-    """Per metric and level: the smallest participant count whose power reaches ``target``
-    (``None``: not reached at any count tried)."""
+    """Per metric, pair of conditions and level (in :func:`power_table`'s order): the smallest
+    participant count whose power reaches ``target`` (``None``: not reached at any count tried).
+
+    Returns
+    -------
+    pd.DataFrame
+        ``metric, a, b, level, participants``; ``participants`` an integer or ``None`` (an object
+        column, so that the CSV writes ``9``, not ``9.0``).
+    """
     out = []
-    for (metric, level), group in power.groupby(["metric", "level"], sort=False):
+    for (metric, a, b, level), group in power.groupby(["metric", "a", "b", "level"], sort=False):
         reached = group.loc[group["power"] >= target, "participants"]
-        out.append({"metric": metric, "level": level,
+        out.append({"metric": metric, "a": a, "b": b, "level": level,
                     "participants": int(reached.min()) if len(reached) else None})
-    return pd.DataFrame(out)
+    return pd.DataFrame(out, columns=["metric", "a", "b", "level", "participants"], dtype=object)
 
 
 # --- sensitivity -------------------------------------------------------------------------------
 
 def point_outputs(rows: pd.DataFrame, value: str = "difference") -> pd.DataFrame:
-    """Per (point, metric): the mean over replications of ``value`` (the model output Y)."""
-    return (rows.groupby(["point", "metric"], sort=True)[value].mean().rename("y").reset_index())
+    """Per (point, metric, pair of conditions ``a, b``): the mean over replications of ``value``
+    (the model output Y), one output per pair (never pooled over the pairs of more conditions)."""
+    return (rows.groupby(["point", "metric", "a", "b"], sort=False)[value].mean().rename("y")
+            .reset_index())
 
 
 def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outputs: pd.DataFrame,
@@ -324,22 +333,24 @@ def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outpu
     samples
         ``(n_points, D)`` the design in the problem's units, in point order.
     outputs
-        ``point, metric, y`` (:func:`point_outputs`): one output per metric and point.
+        ``point, metric, a, b, y`` (:func:`point_outputs`): one output per metric, pair of
+        conditions and point.
     levels
         Morris grid levels.
     seed
         The master seed of SALib's bootstrap of the intervals (the batch's): each metric's
-        bootstrap draws from its own branch ``generator(seed, "sensitivity", metric)``, so equal
-        seeds give equal intervals (SALib itself takes a seed of 0 for "unseeded").
+        bootstrap draws from its own branch ``generator(seed, "sensitivity", metric)`` (the same
+        for each pair of the metric), so equal seeds give equal intervals (SALib itself takes a
+        seed of 0 for "unseeded").
 
     Returns
     -------
     pd.DataFrame
-        ``metric, parameter, index, value, conf`` (``index``: S1, ST or mu_star, sigma, mu); a
-        metric whose output is missing at some point is left out.
+        ``metric, a, b, parameter, index, value, conf`` (``index``: S1, ST or mu_star, sigma, mu);
+        a metric and pair whose output is missing at some point is left out.
     """
     out = []
-    for metric, group in outputs.groupby("metric", sort=False):
+    for (metric, a, b), group in outputs.groupby(["metric", "a", "b"], sort=False):
         y = group.sort_values("point")["y"].to_numpy(dtype=float)
         if y.size != samples.shape[0] or not np.all(np.isfinite(y)):
             continue
@@ -362,7 +373,7 @@ def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outpu
                            "mu": ("mu", None)}
         for k, name in enumerate(problem["names"]):
             for index, (key, conf) in indices.items():
-                out.append({"metric": metric, "parameter": name, "index": index,
+                out.append({"metric": metric, "a": a, "b": b, "parameter": name, "index": index,
                             "value": float(np.asarray(result[key])[k]),
                             "conf": float(np.asarray(result[conf])[k]) if conf else math.nan})
-    return pd.DataFrame(out, columns=["metric", "parameter", "index", "value", "conf"])
+    return pd.DataFrame(out, columns=["metric", "a", "b", "parameter", "index", "value", "conf"])

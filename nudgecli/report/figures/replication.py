@@ -297,15 +297,18 @@ def sweep_figure(rows: pd.DataFrame, parameters: Sequence[str]) -> Figure:
     return fig
 
 
-def sensitivity_panel(indices: pd.DataFrame, *, ax: Axes | None = None) -> Axes:
+def sensitivity_panel(indices: pd.DataFrame, *, ax: Axes | None = None, title: str | None = None) -> Axes:
     """Bars of one metric's sensitivity indices (S1, ST, mu*, sigma) with their 95 % intervals.
 
     Parameters
     ----------
     indices
-        The metric's rows of :func:`~nudgecli.report.replication.sensitivity`.
+        The rows of one metric and pair of conditions of
+        :func:`~nudgecli.report.replication.sensitivity`.
     ax
         Axes to draw on; default a new figure's.
+    title
+        The panel's title; default the metric.
     """
     ax = axes_or_new(ax, PANEL_FIGSIZE)
     group = indices[indices["index"].isin(["S1", "ST", "mu_star", "sigma"])]
@@ -318,16 +321,20 @@ def sensitivity_panel(indices: pd.DataFrame, *, ax: Axes | None = None) -> Axes:
         ax.bar(np.arange(len(names)) + k * width, sub["value"], width, yerr=conf, label=kind, capsize=2)
     ax.set_xticks(np.arange(len(names)) + width * (len(kinds) - 1) / 2, names, rotation=30, ha="right",
                   fontsize=6)
-    ax.set_title(str(indices["metric"].iloc[0]), fontsize=9)
+    ax.set_title(title or str(indices["metric"].iloc[0]), fontsize=9)
     return ax
 
 
 def sensitivity_figure(indices: pd.DataFrame) -> Figure:
-    """:func:`sensitivity_panel` per metric of :func:`~nudgecli.report.replication.sensitivity`'s table."""
-    metrics = list(dict.fromkeys(indices["metric"]))
-    fig, axes = _grid(len(metrics))
-    for ax, metric in zip(axes, metrics, strict=True):
-        sensitivity_panel(indices[indices["metric"] == metric], ax=ax)
+    """:func:`sensitivity_panel` per metric and pair of conditions of
+    :func:`~nudgecli.report.replication.sensitivity`'s table (the pair in the title with more than
+    two conditions)."""
+    panels = _pair_groups(indices)
+    show_pair = not _one_pair_per_metric(indices)
+    fig, axes = _grid(len(panels))
+    for ax, (metric, a, b) in zip(axes, panels, strict=True):
+        sensitivity_panel(_of(indices, metric, a, b), ax=ax,
+                          title=f"{metric} ({a} - {b})" if show_pair else None)
     if axes:
         axes[0].legend(fontsize=6)
     return fig
