@@ -7,18 +7,19 @@ manifest, refuses to simulate into it, and names how to continue or restore it.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from nudgecli.errors import RunFolderError
-from nudgecli.run_folder_names import CONFIG, MANIFEST, QUESTIONNAIRES_CSV
+from nudgecli.errors import RunFolderError, shell_words
+from nudgecli.run_folder_names import CONFIG, LAYOUTS, MANIFEST, PART_KINDS, QUESTIONNAIRES_CSV
 from nudgecli.sim.counterbalance import recorded_order_choice
 
 #: The executor a ``nudge study`` folder's manifest records.
 LIVE_EXECUTOR = "live"
-#: What ``nudge study`` leaves in its folder beside the parts: a participant's lock and page token.
-_PARTICIPANT_FILES = ".nudge-participant-*"
+#: What ``nudge study`` leaves in its folder beside the parts: a participant's lock and page token,
+#: answers it could not add to questionnaires.csv.
+_PARTICIPANT_FILES = (".nudge-participant-*", "questionnaires-unsaved-*.csv")
 
 
 def _recorded_live(part: Path) -> bool:
@@ -43,7 +44,8 @@ class LiveRecord:
         token, a manifest (even a damaged one) that names the executor ``live``, a participants part
         recorded live (the first only); empty for none."""
         signs = [QUESTIONNAIRES_CSV] if (self.path / QUESTIONNAIRES_CSV).is_file() else []
-        signs += sorted(p.name for p in self.path.glob(_PARTICIPANT_FILES))[:2]
+        for pattern in _PARTICIPANT_FILES:
+            signs += sorted(p.name for p in self.path.glob(pattern))[:2]
         try:
             text = (self.path / MANIFEST).read_bytes()
         except OSError:
@@ -66,6 +68,35 @@ class LiveRecord:
         to simulate again: that would replace the person's trials with simulated ones)."""
         return (f"it holds a live study ({', '.join(self.live_signs())}): put {MANIFEST} back from a copy "
                 "(a person's trials cannot be simulated again; never simulate into this folder)")
+
+    def live_parts(self, manifest: Mapping[str, Any]) -> dict[int, list[str]]:
+        """Participant -> the part kinds a ``nudge study`` folder's manifest promises: the trials and
+        steps of one with recorded trials (rewritten after each), the participants part of one finished."""
+        expected: dict[int, list[str]] = {}
+        for key, entry in (manifest.get("live") or {}).items():
+            kinds = [kind for kind in PART_KINDS
+                     if kind != "participants" or entry.get("status") == "complete"]
+            expected[int(key)] = kinds if entry.get("completed_trials") else \
+                [kind for kind in kinds if kind == "participants"]
+        return expected
+
+    def restore_from_backup(self, names: Sequence[str]) -> str:
+        """The advice for a live folder's lost or damaged part (or file): a person's trial cannot be
+        run again, so only a backup brings it back."""
+        return (f"restore {' and '.join(names)} from a backup of {self.path}: a person's trials cannot be "
+                "run again (neither nudge study --resume nor a simulation brings a part back)")
+
+    def rebuild_layouts_hint(self, manifest: Mapping[str, Any]) -> str:
+        """How a live folder's lost or damaged ``layouts.parquet`` is written again: the layouts follow
+        from the experiment and its seed alone, so a one-participant simulation elsewhere writes
+        the same file, byte for byte."""
+        scratch = self.path.with_name(f"{self.path.name}-layouts")
+        seed = manifest.get("seed")
+        command = shell_words(["nudge", "simulate", str(self.path / CONFIG), "--participants", "1",
+                               *(["--seed", str(seed)] if isinstance(seed, int) else []),
+                               "--out", str(scratch)])
+        return (f"restore it from a backup, or write it again (the layouts follow from the experiment and "
+                f"its seed alone): `{command}`, then copy {scratch / LAYOUTS} into {self.path}")
 
     def refuse_live_sessions(self, manifest: Mapping[str, Any] | None) -> None:
         """Refuse to simulate into a ``nudge study`` folder (its manifest's executor is ``live``; with

@@ -261,8 +261,8 @@ class RunRecord(LiveRecord):
     def integrity_notes(self, manifest: Mapping[str, Any]) -> list[str]:
         """What a reader of the run should be told: stray parts left out, participants left out
         whose parts the manifest checksummed beyond its count (a count lowered by hand), parts
-        without a recorded SHA-256 (a manifest of an older nudge, or a ``nudge study`` folder)
-        that were not verified."""
+        without a recorded SHA-256 (a manifest of an older nudge; in a ``nudge study`` folder, a
+        participant an older nudge recorded) that were not verified."""
         notes = []
         beyond = self._checksummed_beyond_count(manifest)
         kept = {part_name(index) for index in beyond}  # named by the note of their own below
@@ -277,10 +277,12 @@ class RunRecord(LiveRecord):
                          f"{', '.join(map(str, beyond))}, beyond its {count} participant(s): this run wrote "
                          f"them, but they were left out (was 'participants' in {MANIFEST} lowered?); set it "
                          f"back to {beyond[-1] + 1} to read them")
-        expected = self.manifest_participants(manifest) or []
         sums = self.recorded_checksums(manifest)
+        # a live folder: its participants with parts (one recorded by an older nudge has no SHA-256)
+        expected = [index for index, kinds in self.live_parts(manifest).items() if kinds] \
+            if manifest.get("executor") == "live" else self.manifest_participants(manifest) or []
         unverified = [index for index in expected if index not in sums]
-        if unverified and manifest.get("executor") != "live":
+        if unverified:
             notes.append(f"{self.path}: the manifest records no SHA-256 of the parts of {len(unverified)} "
                          "participant(s) (written by an older nudge); they were read unverified")
         if manifest.get("executor") == "live" and manifest.get("status") != "complete":
@@ -359,21 +361,22 @@ class RunRecord(LiveRecord):
         """
         path, manifest = self.path / LAYOUTS, self.read_manifest() if self.is_run() else {}
         fix = self.resume_command(manifest) if manifest else "nudge simulate ... --resume"
+        # a live folder's: made again from the experiment and its seed (never by a simulation there)
+        rebuild = self.rebuild_layouts_hint(manifest) if manifest.get("executor") == "live" else None
+        again = rebuild or f"write it again with `{fix}`"
         if not path.is_file():
-            raise RunFolderError(f"{self.path}: no {LAYOUTS}; the run folder is incomplete; restore it with "
-                                 f"`{fix}`")
+            raise RunFolderError(f"{self.path}: no {LAYOUTS}; the run folder is incomplete; "
+                                 f"{rebuild or f'restore it with `{fix}`'}")
         files = manifest.get(FILE_CHECKSUMS)
         recorded = files.get(LAYOUTS) if isinstance(files, Mapping) else None
         data = path.read_bytes()
         if recorded is not None and hashlib.sha256(data).hexdigest() != recorded:
             raise RunFolderError(f"{self.path}: {LAYOUTS} changed since it was written (its SHA-256 differs "
-                                 f"from the one in the manifest); write it again with "
-                                 f"`{self.resume_command(manifest)}`")
+                                 f"from the one in the manifest); {again}")
         try:
             return read_parquet(data)
         except Exception as exc:  # pyarrow raises several types for broken files
-            raise DataError(f"{path} is not a readable Parquet file ({exc}); write it again with "
-                            f"`{fix}`") from None
+            raise DataError(f"{path} is not a readable Parquet file ({exc}); {again}") from None
 
     def resume_command(self, manifest: Mapping[str, Any] | None = None) -> str:
         """The command that finishes or repairs this run (``nudge simulate ... --resume``), with
@@ -393,6 +396,25 @@ class RunRecord(LiveRecord):
             str(manifest.get("experiment") or "EXPERIMENT")
         return simulate_resume_command(experiment, self.path, manifest.get("seed"),
                                        manifest.get("participants"), people=file)
+
+    def part_fix(self, manifest: Mapping[str, Any] | None, part: Path, verb: str) -> str:
+        """What brings back a damaged ``part``: ``VERB with `nudge simulate ... --resume```; in a live
+        folder, a backup (a person's trial cannot be run again)."""
+        from nudgecli.store import simulate_resume_command  # store builds on this module
+
+        if manifest is not None and manifest.get("executor") == "live":
+            from nudgecli.live.record_checks import WRITING  # a checkpoint's record of the parts it renames
+
+            index = int(part.stem.split("-")[1])
+            writing = ((manifest.get("live") or {}).get(str(index)) or {}).get(WRITING) or {}
+            if part.is_file() and writing.get(part.parent.name) == file_sha256(part):
+                # the session stopped between renaming its parts and recording them: its resume takes them
+                return (f"the session stopped while recording a trial; "
+                        f"{self.continue_session_hint(manifest, [index])}")
+            return self.restore_from_backup([f"{part.parent.name}/{part.name}"])
+        fix = self.resume_command(manifest) if manifest is not None else \
+            simulate_resume_command("EXPERIMENT", self.path)
+        return f"{verb} with `{fix}`"
 
     def unvouched_parts(self, manifest: Mapping[str, Any],
                         participants: Iterable[int]) -> dict[int, list[str]]:
@@ -428,20 +450,26 @@ class RunRecord(LiveRecord):
             raise RunFolderError(f"{self.manifest_path}: '{FILE_CHECKSUMS}' = {json.dumps(files)[:60]} is "
                                  "damaged (expected file name -> SHA-256); restore the manifest, or simulate "
                                  "the run again with --force")
+        live = manifest.get("executor") == "live"
         if gone := [name for name in files if not (self.path / name).is_file()]:
-            raise RunFolderError(f"{self.path} is incomplete: {' and '.join(gone)} (missing); restore with "
-                                 f"`{self.resume_command(manifest)}`")
-        if "checksums" not in manifest or manifest.get("executor") == "live":
+            fix = f"restore with `{self.resume_command(manifest)}`" if not live else \
+                self.rebuild_layouts_hint(manifest) if gone == [LAYOUTS] else self.restore_from_backup(gone)
+            raise RunFolderError(f"{self.path} is incomplete: {' and '.join(gone)} (missing); {fix}")
+        if "checksums" not in manifest:
             return
         sums = self.recorded_checksums(manifest)
-        unrecorded = [f"{kind}/{part_name(index)}" for index in self.manifest_participants(manifest) or []
-                      for kind in PART_KINDS if kind not in sums.get(index, {})]
+        # a live folder: the parts of its participants recorded with SHA-256 (an older nudge recorded none)
+        expected = {index: kinds for index, kinds in self.live_parts(manifest).items() if index in sums} \
+            if live else {index: PART_KINDS for index in self.manifest_participants(manifest) or []}
+        unrecorded = [f"{kind}/{part_name(index)}" for index, kinds in expected.items()
+                      for kind in kinds if kind not in sums.get(index, {})]
         if unrecorded:
             shown = ", ".join(unrecorded[:6]) + (f" and {len(unrecorded) - 6} more" if len(unrecorded) > 6
                                                  else "")
+            fix = self.restore_from_backup(unrecorded[:6]) if live else \
+                f"simulate them again with `{self.resume_command(manifest)}`"
             raise RunFolderError(f"{self.path}: the manifest records no SHA-256 of {shown}: nothing shows "
-                                 f"they are this run's (copied in from another run?); simulate them again "
-                                 f"with `{self.resume_command(manifest)}`")
+                                 f"they are this run's (copied in from another run?); {fix}")
 
     def lost_run_command(self) -> str:
         return f"nudge simulate {self.path / CONFIG} --out {self.path} --force"  # a run without its manifest

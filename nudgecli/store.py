@@ -62,7 +62,7 @@ from nudgecli.run_folder_names import (
     STATS_JSON,
     SUMMARY_MD,
 )
-from nudgecli.run_folder_record import RunRecord, file_sha256, part_name, remove_run_figures
+from nudgecli.run_folder_record import RunRecord, file_sha256, part_name, readable_parquet, remove_run_figures
 
 if TYPE_CHECKING:  # pandas and pyarrow load on first use, after a batch has started its workers
     import pandas as pd
@@ -381,21 +381,21 @@ class RunFolder(RunRecord):
         return manifest
 
     def _check_live(self, manifest: dict[str, Any]) -> dict[str, Any]:
-        """:meth:`check_complete` of a ``nudge study`` folder: every participant with recorded
-        trials has readable trials and steps parts (rewritten after each trial), and a finished
-        one its participants part; a session still under way is analysed as far as it got."""
-        expected: dict[int, list[str]] = {}
-        for key, entry in (manifest.get("live") or {}).items():
-            kinds = [kind for kind in PART_KINDS
-                     if kind != "participants" or entry.get("status") == "complete"]
-            if not entry.get("completed_trials"):
-                kinds = [kind for kind in kinds if kind == "participants"]
-            expected[int(key)] = kinds
-        missing = self._unusable_parts(expected)
+        """:meth:`check_complete` of a ``nudge study`` folder: its layouts are readable, every
+        participant with recorded trials has readable trials and steps parts (rewritten after each
+        trial), and a finished one its participants part, each vouched for as a simulated run's
+        (:meth:`check_vouched`); a session still under way is analysed as far as it got."""
+        layouts = self.path / LAYOUTS
+        if not readable_parquet(layouts):
+            state = "unreadable" if layouts.is_file() else "missing"
+            raise RunFolderError(f"{self.path} is incomplete: {LAYOUTS} ({state}); "
+                                 f"{self.rebuild_layouts_hint(manifest)}")
+        missing = self._unusable_parts(self.live_parts(manifest))
         if missing:
             listed = "; ".join(f"participant {p}: {', '.join(parts)}" for p, parts in sorted(missing.items()))
-            raise RunFolderError(f"{self.path} is incomplete: {listed}; a live session rewrites these after "
-                                 f"each trial: {self.continue_session_hint(manifest, sorted(missing))}")
+            names = [part.split(" (")[0] for parts in missing.values() for part in parts]
+            raise RunFolderError(f"{self.path} is incomplete: {listed}; {self.restore_from_backup(names)}")
+        self.check_vouched(manifest)
         return manifest
 
     def read_table(self, kind: str, columns: Sequence[str] | None = None,
@@ -448,14 +448,12 @@ class RunFolder(RunRecord):
             if recorded is not None and hashlib.sha256(data).hexdigest() != recorded:
                 raise RunFolderError(
                     f"{self.path}: {kind}/{part.name} changed since it was written (its SHA-256 differs "
-                    f"from the one in the manifest); restore it with `{self.resume_command(manifest)}`")
+                    f"from the one in the manifest); {self.part_fix(manifest, part, 'restore it')}")
             try:
                 names = parquet_column_names(data)
             except Exception as exc:  # pyarrow raises several types for broken files
-                fix = (self.resume_command() if self.is_run() else
-                       simulate_resume_command("EXPERIMENT", self.path))
-                raise DataError(f"{part} is not a readable Parquet file ({exc}); rewrite it with "
-                                f"`{fix}`") from None
+                raise DataError(f"{part} is not a readable Parquet file ({exc}); "
+                                f"{self.part_fix(manifest, part, 'rewrite it')}") from None
             missing = [c for c in columns or () if c not in names]
             if missing:
                 raise DataError(f"{part} lacks the column(s) {', '.join(missing)}; it was written by "

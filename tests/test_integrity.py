@@ -496,15 +496,20 @@ def test_a_manifest_with_no_participants_is_one_error_line_not_an_empty_run(tmp_
         assert "participants = 0 is not a whole number" in line and "manifest.json" in line, command
 
 
-def test_a_live_study_folder_gets_no_unverified_note(tmp_path):
+def test_a_live_study_folder_is_noted_unverified_only_where_it_records_no_sha256(tmp_path):
     from nudgecli.run_folder_record import RunRecord
 
     record = RunRecord(tmp_path)
-    # a `nudge study` folder records no SHA-256 by design: nothing to tell its reader once finished,
-    # and while under way only how far it got
-    finished = {"executor": "live", "status": "complete",
-                "live": {"0": {"status": "complete"}, "1": {"status": "complete"}}}
-    assert record.integrity_notes(finished) == []
+    # a `nudge study` folder records its parts' SHA-256 as a simulated run does: nothing to tell its
+    # reader once finished, and while under way only how far it got; one of an older nudge, which
+    # recorded none, is read unverified (said once)
+    entries = {"0": {"status": "complete", "completed_trials": [0]}, "1": {"status": "complete"}}
+    sums = {"0": dict.fromkeys(("trials", "steps", "participants"), "0" * 64),
+            "1": {"participants": "0" * 64}}
+    finished = {"executor": "live", "status": "complete", "live": entries}
+    assert record.integrity_notes({**finished, "checksums": sums}) == []
+    older = record.integrity_notes(finished)
+    assert len(older) == 1 and "no SHA-256 of the parts of 2 participant(s)" in older[0], older
     under_way = record.integrity_notes({"executor": "live", "live": {"0": {}, "1": {}}})
     assert len(under_way) == 1 and "still under way" in under_way[0] and "SHA-256" not in under_way[0]
     notes = record.integrity_notes({"executor": "serial", "participants": 2})

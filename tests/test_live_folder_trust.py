@@ -3,6 +3,9 @@ damaged files are named with advice that keeps them, and nothing simulates over 
 
 from __future__ import annotations
 
+import json
+import re
+import shlex
 import shutil
 from pathlib import Path
 
@@ -10,11 +13,14 @@ import pytest
 
 pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip install '.[study]'")
 
+import pandas as pd
 from click.testing import CliRunner
 from live_helpers import DEFAULT_TABLES, TWO_TRIALS, play_session
 
 from nudgecli.cli import main
 from nudgecli.live.app import build_session
+from nudgecli.run_folder_names import PART_KINDS
+from nudgecli.run_folder_record import file_sha256
 
 OVERRIDES = TWO_TRIALS + DEFAULT_TABLES
 
@@ -68,3 +74,90 @@ def test_a_live_folder_without_its_manifest_is_never_advised_or_allowed_a_simula
             line = _one_error(_nudge(command, str(live / "config.toml"), "--out", str(live), flag))
             assert "live study" in line, line
             assert _files(live) == before, (command, flag)
+
+
+def _edit_manifest(folder: Path, edit) -> None:
+    path = folder / "manifest.json"
+    manifest = json.loads(path.read_text(encoding="utf-8"))
+    edit(manifest)
+    path.write_text(json.dumps(manifest, indent=2), encoding="utf-8")
+
+
+def _record_checksums(folder: Path) -> None:
+    """Record each part's SHA-256 in the manifest, in simulate's key and format (``nudge study``
+    records it after each trial)."""
+    def edit(manifest: dict) -> None:
+        manifest["checksums"] = {key: {kind: file_sha256(part) for kind in PART_KINDS
+                                       if (part := folder / kind / f"part-{int(key):04d}.parquet").is_file()}
+                                 for key in manifest["live"]}
+
+    _edit_manifest(folder, edit)
+
+
+def test_a_live_folder_of_an_older_nudge_is_read_with_a_note_that_its_parts_are_unverified(live):
+    _edit_manifest(live, lambda manifest: manifest.pop("checksums", None))
+    result = _nudge("analyze", str(live))
+    assert result.exit_code == 0, result.output
+    assert f"Note: {live}: the manifest records no SHA-256 of the parts of 1 participant(s) (written by an " \
+           "older nudge); they were read unverified" in result.output
+
+
+@pytest.mark.parametrize("command", ["analyze", "habits"])
+def test_a_live_folders_parts_are_verified_and_a_damaged_one_is_restored_from_a_backup(live, command):
+    _record_checksums(live)
+    assert _nudge("analyze", str(live)).exit_code == 0  # plot draws the metrics analyze wrote
+    result = _nudge(command, str(live))  # habits: nothing to measure in a session without input
+    assert "unverified" not in result.output and "SHA-256" not in result.output, result.output
+    part = live / "trials" / "part-0001.parquet"
+    kept = part.read_bytes()
+    changed = pd.read_parquet(part)
+    changed.loc[0, "success"] = not changed.loc[0, "success"]
+    changed.to_parquet(part, index=False)
+    # plot draws the metrics analyze wrote (their checksum verified), the parts only for --trial
+    line = _one_error(_nudge(command, str(live), *(["--trial", "1:0"] if command == "plot" else [])))
+    assert "trials/part-0001.parquet changed since it was written" in line, line
+    assert "restore trials/part-0001.parquet from a backup" in line and "--resume`" not in line, line
+    part.unlink()
+    line = _one_error(_nudge(command, str(live)))
+    assert "trials/part-0001.parquet (missing); restore trials/part-0001.parquet from a backup" in line, line
+    assert "--resume`" not in line, line
+    part.write_bytes(kept)
+    _edit_manifest(live, lambda manifest: manifest["checksums"]["1"].pop("steps"))
+    line = _one_error(_nudge(command, str(live)))
+    assert "records no SHA-256 of steps/part-0001.parquet" in line and "from a backup" in line, line
+
+
+@pytest.mark.parametrize("damage", ["deleted", "truncated"])
+def test_a_live_folders_layouts_are_checked_and_the_command_named_writes_them_again(live, damage):
+    assert _nudge("analyze", str(live)).exit_code == 0
+    layouts = live / "layouts.parquet"
+    kept = layouts.read_bytes()
+    if damage == "deleted":
+        layouts.unlink()
+    else:
+        layouts.write_bytes(kept[:100])
+    commands = (("analyze",), ("plot",), ("plot", "--trial", "1:0"), ("habits",))
+    lines = [_one_error(_nudge(args[0], str(live), *args[1:])) for args in commands]
+    for line in lines:
+        assert "layouts.parquet" in line and "--resume" not in line and "--force" not in line, line
+    command = re.search(r"`(nudge simulate [^`]*)`", lines[0])
+    assert command is not None, lines[0]
+    assert _nudge(*shlex.split(command.group(1))[1:]).exit_code == 0
+    shutil.copy(live.with_name(f"{live.name}-layouts") / "layouts.parquet", layouts)
+    assert layouts.read_bytes() == kept
+    assert _nudge("plot", str(live), "--trial", "1:0").exit_code == 0
+
+
+def test_a_part_a_stopped_checkpoint_renamed_into_place_is_named_with_the_resume_not_a_backup(live):
+    _record_checksums(live)
+    part = live / "trials" / "part-0001.parquet"
+    pd.read_parquet(part).iloc[:1].to_parquet(part, index=False)  # bytes its manifest does not record
+
+    def stopped(manifest: dict) -> None:  # the checkpoint noted them before renaming (then stopped)
+        manifest["live"]["1"].update(status="running", writing_parts={"trials": file_sha256(part)})
+        manifest["status"] = "running"
+
+    _edit_manifest(live, stopped)
+    line = _one_error(_nudge("analyze", str(live)))
+    assert "the session stopped while recording a trial; continue the participant's session with " \
+           "`nudge study" in line and "--participant P01" in line and "backup" not in line, line
