@@ -5,6 +5,7 @@ input changed since the batch wrote it is refused naming the file (docs/batches.
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -62,3 +63,39 @@ def test_a_resume_of_the_kept_inputs_still_works(batch: Path) -> None:
     resumed = nudge("replicate", str(batch / "experiment.toml"), "--plan", str(batch / "plan.toml"),
                     "-R", "2", "--participants", "2", "--out", str(batch), "--resume")
     assert resumed.exit_code == 0, resumed.output
+
+
+# --- a resume checks the kept inputs against batch.json --------------------------------------------
+
+
+def edited_plan(batch: Path) -> Path:
+    plan = batch / "plan.toml"
+    plan.write_text(plan.read_text(encoding="utf-8").replace("kruskal_alpha = 0.05", "kruskal_alpha = 0.1"))
+    return plan
+
+
+@pytest.mark.parametrize("how", ["typed", "kept"])
+def test_a_resume_refuses_an_edited_kept_input(batch: Path, how: str) -> None:
+    plan = edited_plan(batch)
+    given = ("smoke",) if how == "typed" else (str(batch / "experiment.toml"), "--plan", str(plan))
+    line = refused_untouched(("replicate", *given, "-R", "2", "--participants", "2", "--out", str(batch),
+                              "--resume"), batch, f"{plan}: changed since the batch wrote it")
+    assert "delete it and resume with the command that started the batch" in line
+
+
+def test_a_deleted_kept_input_is_written_again_by_the_starting_command(batch: Path) -> None:
+    original = (batch / "plan.toml").read_bytes()
+    edited_plan(batch).unlink()
+    resumed = nudge(*REPLICATE, "--out", str(batch), "--resume")
+    assert resumed.exit_code == 0, resumed.output
+    assert (batch / "plan.toml").read_bytes() == original
+
+
+def test_a_resume_refuses_an_experiment_file_not_the_batchs_own(batch: Path) -> None:
+    # a batch of an older nudge recorded no inputs: an experiment.toml there is the person's
+    manifest = json.loads((batch / "batch.json").read_text(encoding="utf-8"))
+    del manifest["inputs"]
+    (batch / "batch.json").write_text(json.dumps(manifest))
+    (batch / "experiment.toml").write_text("# mine\n")
+    refused_untouched((*REPLICATE, "--out", str(batch), "--resume"), batch,
+                      f"{batch / 'experiment.toml'}: a file of your own where the batch keeps its copy")

@@ -443,6 +443,44 @@ def batch_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -
             for difference in experiment_differences(_by_point(recorded, lift), _by_point(current, lift))]
 
 
+def check_kept_inputs(folder: Path, recorded: object, inputs: Mapping[str, bytes]) -> None:
+    """Refuse to resume the batch in ``folder`` where the experiment or plan it keeps
+    (:data:`EXPERIMENT_COPY`, :data:`PLAN_COPY`) is not as it wrote them: a file whose SHA-256
+    differs from the one ``batch.json`` records (``recorded``, its :data:`INPUTS_KEY` entry), unless
+    only its comments or layout changed (the batch's ``inputs`` now are the recorded bytes, and the
+    file reads as the same TOML: a note of the person's own); or, where it records none (a batch of
+    an older nudge), a file of the person's own with other bytes than the batch's
+    (:func:`~nudgecli.sim.policy_files.check_copies_placeable`). Checked before the settings are
+    compared: an edited copy may be what the resume read. A missing one is no fault (the resume
+    writes it again).
+
+    Raises
+    ------
+    RunFolderError
+        The first such file: names it, what is wrong and the fix.
+    """
+    import tomllib
+
+    def same_settings(kept: Path, now: bytes | None, digest: object) -> bool:
+        try:
+            return now is not None and hashlib.sha256(now).hexdigest() == digest and \
+                tomllib.loads(kept.read_text(encoding="utf-8")) == tomllib.loads(now.decode("utf-8"))
+        except (OSError, ValueError):  # unreadable, not TOML: not the batch's
+            return False
+
+    recorded_sums = {str(k): v for k, v in recorded.items()} if isinstance(recorded, Mapping) else {}
+    for name, digest in sorted(recorded_sums.items()):
+        kept = folder / name
+        if kept.is_file() and file_sha256(kept) != digest and \
+                not same_settings(kept, inputs.get(name), digest):
+            raise RunFolderError(f"{kept}: changed since the batch wrote it (its SHA-256 differs from the "
+                                 f"one {BATCH_MANIFEST} records in {INPUTS_KEY!r}), so the batch would not "
+                                 "resume with what made its results; delete it and resume with the command "
+                                 "that started the batch (it writes the file again), or put it back from a "
+                                 "backup")
+    check_copies_placeable(inputs, folder, recorded, "batch", "input")
+
+
 def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool,
                    people: People | None = None, policies: PolicyCopies | None = None) -> str:
     """Make ``folder`` ready for the batch; ``"new"`` or ``"resume"`` (same description required).
@@ -482,7 +520,8 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     mode = prepare_mode(folder, held, resume, force, kind="batch")
     copies = None if old is None else old.get(POLICY_FILES_KEY)  # the policy copies the folder records
     inputs = None if old is None else old.get(INPUTS_KEY)
-    if old is not None and mode == "resume":
+    if old is not None and mode == "resume":  # its experiment and plan first: one may be what resumes it
+        check_kept_inputs(folder, inputs, policies.inputs)
         if differences := batch_differences(old["batch"], description):
             shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                   if len(differences) > 8 else "")
