@@ -213,6 +213,22 @@ def test_a_bad_set_entry_names_the_sweep_files_set_not_a_set_option(tmp_path: Pa
     assert "kappa" in line  # the suggestion stays
 
 
+@pytest.mark.parametrize(("hard", "expected"), [
+    # the set alone is invalid (soft 0.6 above the default hard threshold), but point 1 runs with it:
+    # point 0 (hard 0.5) is at fault, and named
+    ("[0.5, 0.9]", "design point 0 (interface.hard_threshold=0.5) is not a valid experiment: "),
+    ("[0.9, 0.5]", "design point 1 (interface.hard_threshold=0.5) is not a valid experiment: "),
+    # every point fails: the set is at fault whatever the point
+    ("[0.5, 0.55]", "set: interface.soft_threshold=0.6: "),
+])
+def test_a_set_is_blamed_only_when_every_point_fails(tmp_path: Path, hard: str, expected: str) -> None:
+    path = _sweep(tmp_path, f'"interface.hard_threshold" = {hard}\n',
+                  extra='set = ["interface.soft_threshold=0.6"]\n')
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert line.startswith(f"Error: {path}: {expected}"), line
+    assert "soft_threshold <= hard_threshold" in line
+
+
 def test_a_key_both_set_and_swept_is_refused(tmp_path: Path) -> None:
     path = _sweep(tmp_path, '"inference.kappa" = [0.6, 0.7]\n', extra='set = ["inference.kappa = 0.3"]\n')
     line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])

@@ -326,27 +326,43 @@ def load_sweep(name_or_path: str) -> Sweep:
     except ConfigError as exc:  # it may need a point's parameters (blocks that divide the trials)
         set_alone = ConfigError(f"{path}: set: {str(exc).removeprefix('--set ')}")
     values, problem, samples = design_values(spec)
-    points = []
-    for index, assignment in enumerate(values):
-        overrides = [*spec.set, *(f"{k}={json.dumps(v)}" for k, v in assignment.items())]
-        try:
-            config = load_experiment(experiment, overrides)
-            checked_policy_specs(config)  # the check nudge simulate gives: refused before a folder exists
-        except (ConfigError, PolicyError) as exc:
-            if set_alone is not None:  # what the set gets wrong whatever the point: said of the set
-                raise set_alone from None
-            shown = ", ".join(f"{k}={v!r}" for k, v in assignment.items())
-            raise ConfigError(f"{path}: design point {index} ({shown}) is not a valid experiment: "
-                              f"{str(exc).removeprefix('--set ')}") from None
-        points.append(DesignPoint(index=index, parameters=assignment, config=config))
-    if base is None and not points and set_alone is not None:
-        raise set_alone
+    points = _design_points(path, experiment, spec.set, values, set_alone)
     plan = None if spec.plan is None else beside_sweep(path, "plan", spec.plan, "analysis")
     # the plan rule of replicate and power: the plan given, else the one named like the experiment
     # (as the set names it; where the set needs the parameters, as the first point does)
     name = (base if base is not None else points[0].config).experiment.name
     spec = spec.model_copy(update={"plan": resolve_plan(plan, experiment=name)})
     return Sweep(source=path, spec=spec, points=points, problem=problem, samples=samples)
+
+
+def _design_points(path: Path, experiment: str, fixed: list[str], values: list[dict[str, Any]],
+                   set_alone: ConfigError | None) -> list[DesignPoint]:
+    """Every point's experiment: the sweep file's ``set`` (``fixed``), then the point's parameters.
+
+    A failing point is named with its values (the first that fails), unless every point fails and
+    the set is invalid on its own (``set_alone``): then the set is at fault whatever the point, and
+    its own error is raised. A set that only some points' parameters make valid is no fault of it.
+    """
+    points: list[DesignPoint] = []
+    first: ConfigError | None = None
+    for index, assignment in enumerate(values):
+        overrides = [*fixed, *(f"{k}={json.dumps(v)}" for k, v in assignment.items())]
+        try:
+            config = load_experiment(experiment, overrides)
+            checked_policy_specs(config)  # the check nudge simulate gives: refused before a folder exists
+        except (ConfigError, PolicyError) as exc:
+            shown = ", ".join(f"{k}={v!r}" for k, v in assignment.items())
+            first = first or ConfigError(f"{path}: design point {index} ({shown}) is not a valid experiment: "
+                                         f"{str(exc).removeprefix('--set ')}")
+            if set_alone is None or points:  # a point's own fault: no need to try the rest
+                raise first from None
+            continue
+        if first is not None:  # this point is valid with the set: the first failing one is at fault
+            raise first from None
+        points.append(DesignPoint(index=index, parameters=assignment, config=config))
+    if first is not None:
+        raise (set_alone or first) from None
+    return points
 
 
 def salib_problem(spec: SweepFile) -> dict[str, Any]:
