@@ -26,6 +26,7 @@ from nudgecli.runs.sweep import (
     design_values,
     load_sweep,
     map_sample,
+    point_overrides,
     salib_problem,
 )
 
@@ -293,6 +294,26 @@ def test_a_custom_policys_parameter_is_swept_over_a_range(tmp_path: Path, method
         weight = point.parameters["policies.threshold.params.weight"]
         assert point.config.policies["threshold"].params == {"threshold": point.parameters[THRESHOLD],
                                                              "weight": weight}
+
+
+def test_a_table_is_a_parameter_value_as_it_is_a_set_value(tmp_path: Path) -> None:
+    # a whole params table per point, as --set 'policies.threshold.params={threshold=0.5}' gives it
+    loaded = load_sweep(str(_custom_sweep(
+        tmp_path, '"policies.threshold.params" = [{threshold=0.5}, {threshold=0.9, weight=0.2}]\n')))
+    params = [point.config.policies["threshold"].params for point in loaded.points]
+    assert params == [{"threshold": 0.5}, {"threshold": 0.9, "weight": 0.2}]
+
+
+_TOML_VALUES = st.recursive(
+    st.one_of(st.text(), st.booleans(), st.integers(-(2**63), 2**63 - 1), st.floats(allow_nan=False)),
+    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(st.text(), inner, max_size=3), max_leaves=6)
+
+
+@given(value=_TOML_VALUES)
+def test_every_value_reaches_a_point_as_written(value: object) -> None:
+    # a point's override text is what --set reads back as the value itself
+    (text,) = point_overrides([], {"study.x": value})
+    assert parse_override(text) == (["study", "x"], value)
 
 
 def test_a_point_whose_policy_refuses_its_parameter_is_named_before_anything_runs(tmp_path: Path) -> None:

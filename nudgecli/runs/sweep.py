@@ -33,7 +33,6 @@ seeds come from the sweep's ``seed``), and so is a key both in ``set`` and under
 from __future__ import annotations
 
 import itertools
-import json
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -51,6 +50,7 @@ from nudgecli.config_files import (
     preset_dir,
     resolve_plan,
     settable_path,
+    toml_value,
 )
 from nudgecli.errors import ConfigError, PolicyError, did_you_mean
 from nudgecli.sim.policy_registry import checked_policy_specs
@@ -335,6 +335,13 @@ def load_sweep(name_or_path: str) -> Sweep:
     return Sweep(source=path, spec=spec, points=points, problem=problem, samples=samples)
 
 
+def point_overrides(fixed: list[str], assignment: dict[str, Any]) -> list[str]:
+    """A point's ``--set`` texts: the sweep file's ``set``, then each parameter as ``key=value``,
+    the value as the TOML writer renders it (a table an inline table), so ``--set`` reads back
+    every TOML value a parameter can take."""
+    return [*fixed, *(f"{key}={toml_value(value)}" for key, value in assignment.items())]
+
+
 def _design_points(path: Path, experiment: str, fixed: list[str], values: list[dict[str, Any]],
                    set_alone: ConfigError | None) -> list[DesignPoint]:
     """Every point's experiment: the sweep file's ``set`` (``fixed``), then the point's parameters.
@@ -346,9 +353,8 @@ def _design_points(path: Path, experiment: str, fixed: list[str], values: list[d
     points: list[DesignPoint] = []
     first: ConfigError | None = None
     for index, assignment in enumerate(values):
-        overrides = [*fixed, *(f"{k}={json.dumps(v)}" for k, v in assignment.items())]
         try:
-            config = load_experiment(experiment, overrides)
+            config = load_experiment(experiment, point_overrides(fixed, assignment))
             checked_policy_specs(config)  # the check nudge simulate gives: refused before a folder exists
         except (ConfigError, PolicyError) as exc:
             shown = ", ".join(f"{k}={v!r}" for k, v in assignment.items())
