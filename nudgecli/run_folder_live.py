@@ -38,6 +38,13 @@ class LiveRecord:
 
     path: Path
 
+    @staticmethod
+    def study_under_way(manifest: Mapping[str, Any] | None) -> bool:
+        """Whether ``manifest`` is a ``nudge study`` folder's whose study is still under way (analysed
+        as far as it got)."""
+        return manifest is not None and manifest.get("executor") == LIVE_EXECUTOR and \
+            manifest.get("status") != "complete"
+
     def live_signs(self) -> list[str]:
         """What shows the folder holds a live study, found without reading its manifest as JSON:
         ``questionnaires.csv`` (the answers ``nudge study`` records), a participant's lock or page

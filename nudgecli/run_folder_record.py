@@ -285,7 +285,7 @@ class RunRecord(LiveRecord):
         if unverified:
             notes.append(f"{self.path}: the manifest records no SHA-256 of the parts of {len(unverified)} "
                          "participant(s) (written by an older nudge); they were read unverified")
-        if manifest.get("executor") == "live" and manifest.get("status") != "complete":
+        if self.study_under_way(manifest):
             notes.append(self._live_progress_note(manifest))
         return notes
 

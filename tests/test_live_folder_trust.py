@@ -161,3 +161,31 @@ def test_a_part_a_stopped_checkpoint_renamed_into_place_is_named_with_the_resume
     line = _one_error(_nudge("analyze", str(live)))
     assert "the session stopped while recording a trial; continue the participant's session with " \
            "`nudge study" in line and "--participant P01" in line and "backup" not in line, line
+
+
+@pytest.fixture(scope="module")
+def under_way(tmp_path_factory) -> Path:
+    """A live folder whose study is under way: P01's two trials recorded, the questionnaire of the
+    first block (control) answered, the second's (disambiguation) not yet."""
+    out = tmp_path_factory.mktemp("live") / "study"
+    session = build_session("paper", "P01", out, overrides=OVERRIDES)
+    play_session(session, lambda s: len(s.entry["completed_trials"]) >= 2)
+    session.folder.release()
+    assert len(session.entry["questionnaire_blocks"]) == 1
+    return out
+
+
+def test_the_answers_of_a_study_under_way_are_analysed_as_far_as_they_got(under_way, tmp_path):
+    live = tmp_path / "study"
+    shutil.copytree(under_way, live)
+    answers = live / "questionnaires.csv"
+    result = _nudge("analyze", str(live), "--questionnaires", str(answers))
+    assert result.exit_code == 0, result.output
+    assert f"Note: {answers}: no answers yet in condition(s) disambiguation of the study under way" \
+           in result.output, result.output
+    assert (live / "questionnaire_scores.csv").is_file()
+    assert _nudge("plot", str(live)).exit_code == 0
+    # a finished study's answers missing a condition are another study's: refused as before
+    _edit_manifest(live, lambda manifest: manifest.update(status="complete"))
+    line = _one_error(_nudge("analyze", str(live), "--questionnaires", str(answers)))
+    assert "conditions ['control'] differ from those of" in line, line

@@ -446,7 +446,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     if source.is_dir():
         _record_plan(run, manifest, plan, out_dir)
     _check_filters(plan, available)
-    scores, score_names = _read_scores(questionnaires, table, source)
+    scores, score_names = _read_scores(questionnaires, table, source, RunFolder.study_under_way(manifest),
+                                       notes)
     selected = _select_metrics(metrics, [*available, *score_names])
     trial_selected = [m for m in selected if m in available]
     score_selected = [m for m in selected if m in score_names]
@@ -515,17 +516,22 @@ def _record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan: A
         run.write_manifest(manifest)
 
 
-def _read_scores(questionnaires: str | Path | None, table: pd.DataFrame,
-                 source: Path) -> tuple[pd.DataFrame | None, list[str]]:
+def _read_scores(questionnaires: str | Path | None, table: pd.DataFrame, source: Path, under_way: bool,
+                 notes: list[str]) -> tuple[pd.DataFrame | None, list[str]]:
     """The questionnaire scores (``None`` without a questionnaire table) and their score columns,
-    checked against the trials: the same conditions, respondents among the participants."""
+    checked against the trials: the same conditions (of a live study still ``under_way``, those
+    answered so far, with a note), respondents among the participants."""
     if questionnaires is None:
         return None, []
     scores = questionnaire_scores(read_questionnaires(questionnaires), source=str(questionnaires))
     score_names = score_columns(scores)
     trial_conditions = set(table["condition"].astype(str))
     score_conditions = set(scores["condition"])
-    if score_conditions != trial_conditions:
+    if under_way and score_conditions < trial_conditions:
+        notes.append(f"{questionnaires}: no answers yet in condition(s) "
+                     f"{', '.join(sorted(trial_conditions - score_conditions))} of the study under way; "
+                     "the questionnaires are analysed as far as they got")
+    elif score_conditions != trial_conditions:
         raise DataError(f"{questionnaires}: conditions {sorted(score_conditions)} differ from those of "
                         f"{source} {sorted(trial_conditions)}; name the conditions the same way")
     check_respondents(scores, table["participant"], str(questionnaires), str(source))
