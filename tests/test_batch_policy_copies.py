@@ -144,6 +144,27 @@ def test_a_resume_with_an_edited_module_is_refused_naming_it_and_leaves_the_batc
     assert snapshot(out) == before
 
 
+def test_an_edited_copy_is_refused_with_advice_that_restores_it(experiment: Path, tmp_path: Path) -> None:
+    out = tmp_path / "batch"
+    assert nudge(*command("replicate", experiment, out)).exit_code == 0
+    copy = out / "policies" / "threshold.py"
+    kept = copy.read_bytes()
+    copy.write_bytes(kept + b"# x\n")
+    before = snapshot(out)
+    # the command a Ctrl-C'd batch prints: the folder's own experiment, which imports the copy
+    refused = nudge("replicate", out / "experiment.toml", "-R", "1", "--participants", "2", "--plan",
+                    out / "plan.toml", "--out", out, "--resume")
+    assert refused.exit_code == 1
+    line = one_error_line(refused.stderr)
+    assert str(copy) in line and "put the file back" not in line, line  # not: restore it from itself
+    assert "delete it and resume with the command that started the batch" in line, line
+    assert snapshot(out) == before
+    copy.unlink()  # the advice works
+    resumed = nudge(*command("replicate", experiment, out, "--resume"))
+    assert resumed.exit_code == 0, resumed.output
+    assert copy.read_bytes() == kept
+
+
 def test_a_resume_with_the_same_modules_finishes_the_batch_with_the_same_tables(
         experiment: Path, tmp_path: Path) -> None:
     out = tmp_path / "batch"

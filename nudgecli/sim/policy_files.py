@@ -120,10 +120,23 @@ def check_same_policy_files(recorded: object, files: Mapping[str, bytes], source
         else:
             what = (f"{shown} is not the policy module {where} was simulated with (its SHA-256 differs from "
                     "the manifest's)")
-        how = "resume with the run's own config.toml" if kind == "run" else "resume"
-        raise DataError(f"{what}: resuming would mix two policies in one {kind}; put the file back as it "
-                        f"was (the {kind} keeps its copy as {Path(where) / name}) and {how}, or start "
-                        "again with --force")
+        copy = Path(where) / name
+        if _same_path(shown, copy):  # the copy itself was edited (resumed from the folder's own files)
+            fix = (f"delete it and resume with the command that started the {kind} (it imports the module "
+                   "from the experiment's own folder and writes the copy again), or copy the module back "
+                   "from the experiment's own folder")
+        else:
+            how = "resume with the run's own config.toml" if kind == "run" else "resume"
+            fix = f"put the file back as it was (copy it from the {kind}'s copy, {copy}) and {how}"
+        raise DataError(f"{what}: resuming would mix two policies in one {kind}; {fix}, or start again "
+                        "with --force")
+
+
+def _same_path(a: Path, b: Path) -> bool:
+    try:
+        return a.resolve() == b.resolve()
+    except OSError:
+        return False
 
 
 def check_copies_placeable(files: Mapping[str, bytes], folder: str | Path, recorded: object,
