@@ -923,6 +923,18 @@ def test_workers_exit_when_their_parent_is_killed(tmp_path, command):
     proc.communicate(timeout=10)
 
 
+@pytest.mark.parametrize("target", ["0", "1", "1.5", "-0.2"])
+def test_a_power_target_outside_the_open_interval_is_refused_in_words(tmp_path, target: str) -> None:
+    # a power of 1 is never reached with certainty and 0 always: --target says "strictly"
+    result = CliRunner().invoke(main, ["power", "smoke", "--participants", "2,3", "-R", "2", "--out",
+                                       str(tmp_path / "p"), "--target", target])
+    assert result.exit_code != 0 and "Traceback" not in result.output
+    assert f"Error: Invalid value for '--target': {float(target)} is not in the range 0<x<1." in result.output
+    assert not (tmp_path / "p").exists()
+    shown = CliRunner().invoke(main, ["power", "--help"]).output
+    assert "strictly between 0 and 1" in " ".join(shown.split())
+
+
 def test_replicate_and_power_commands_print_their_tables(tmp_path, monkeypatch):
     from nudgecli.report import replication
 

@@ -159,8 +159,9 @@ def replicate_command(experiment: str, replications: int, seed: int | None, plan
 @click.option("--seed", type=int, help="Master seed of the replications [default: the experiment's].")
 @click.option("--plan", default=None, metavar="PLAN",
               help="Analysis plan of each study [default: the plan named like the experiment, else paper].")
-@click.option("--target", type=float, default=defaults.POWER_TARGET,
-              show_default=True, help="The power to reach.")
+@click.option("--target", type=click.FloatRange(0, 1, min_open=True, max_open=True),
+              default=defaults.POWER_TARGET, show_default=True,
+              help="The power to reach (smallest_n.csv), strictly between 0 and 1.")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
 @click.option("--people", metavar="PEOPLE.csv", default=None, help=PEOPLE_HELP)
 @_batch_options
