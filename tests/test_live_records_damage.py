@@ -334,3 +334,20 @@ def test_a_deleted_config_toml_is_written_again_and_an_edited_one_is_named(tmp_p
     message = str(refused.value)
     assert "study.time_limit_s: 4.0 in the manifest, 6.0 now" in message, message
     assert f"{config} was edited" in message, message
+
+
+# --- 6: an experiment of another world ------------------------------------------------------------------
+
+
+def test_an_experiment_of_another_world_is_refused_before_anything_is_recorded(tmp_path):
+    from click.testing import CliRunner
+
+    from nudgecli.cli import main
+
+    out = tmp_path / "live_ciaa"
+    result = CliRunner().invoke(main, ["study", "ciaa-teleop", "--participant", "P01", "--out", str(out),
+                                       "--port", "18799", "--set", "model.tables=default"])
+    errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert result.exit_code == 1 and len(errors) == 1, result.output
+    assert "runs only the grid world's experiments" in errors[0] and "ciaa" in errors[0], errors[0]
+    assert not out.exists()

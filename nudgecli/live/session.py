@@ -160,6 +160,12 @@ class LiveSession:
                 f"calibration.rate_hz ({config.calibration.rate_hz:g}) must equal study.rate_hz "
                 f"({config.study.rate_hz:g}) in a live session: the input is sampled at one rate"
             )
+        if config.world.kind != "grid":
+            raise ConfigError(
+                f"world.kind = {config.world.kind!r} in experiment {config.experiment.name}: the study page "
+                "runs only the grid world's experiments (world.kind = \"grid\", e.g. paper); simulate this "
+                "one with nudge simulate"
+            )
         self.config, self.seed, self.folder = config, seed, folder
         self.participant_id = participant_id
         self.index = participant_index(participant_id)
