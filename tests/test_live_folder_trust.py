@@ -189,3 +189,20 @@ def test_the_answers_of_a_study_under_way_are_analysed_as_far_as_they_got(under_
     _edit_manifest(live, lambda manifest: manifest.update(status="complete"))
     line = _one_error(_nudge("analyze", str(live), "--questionnaires", str(answers)))
     assert "conditions ['control'] differ from those of" in line, line
+
+
+def test_plot_draws_a_recorded_trial_of_a_study_under_way_and_refuses_one_not_recorded(under_way, tmp_path):
+    live = tmp_path / "study"
+    shutil.copytree(under_way, live)
+    assert _nudge("analyze", str(live)).exit_code == 0
+    result = _nudge("plot", str(live), "--trial", "1:1")
+    assert result.exit_code == 0 and (live / "figures" / "trajectory.png").is_file(), result.output
+    line = _one_error(_nudge("plot", str(live), "--trial", "9:9"))
+    assert "--trial 9:9: no such trial in" in line, line
+
+
+def test_plot_of_a_finished_live_study_names_a_lost_part(live):
+    assert _nudge("analyze", str(live)).exit_code == 0
+    (live / "steps" / "part-0001.parquet").unlink()
+    line = _one_error(_nudge("plot", str(live)))
+    assert "steps/part-0001.parquet (missing); restore steps/part-0001.parquet from a backup" in line, line

@@ -496,11 +496,12 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
 
 
 def _run_fields(run: RunFolder, trial: TrialKey | None) -> dict[str, Any]:
-    """:class:`FigureInputs`' fields of a run (none of a table): its trials, layouts and the
-    trial its figures show (``trial``, else the default rule's), with its participant's steps."""
-    if not (run.is_run() and run.has_completed_participant()):
+    """:class:`FigureInputs`' fields of a run (none of a table; a live study: its trials recorded so
+    far): trials, layouts, the trial shown (``trial``, else the default rule's) and its steps."""
+    manifest = run.read_manifest() if run.is_run() else None
+    if manifest is None or not (run.has_completed_participant() or run.is_live(manifest)):
         return {}
-    if "participants" in run.read_manifest():
+    if "participants" in manifest:
         run.check_complete()  # a damaged run named with the command that restores it, as analyze names it
     trials = run.read_trials()
     layout_table = run.read_layouts()
@@ -511,8 +512,7 @@ def _run_fields(run: RunFolder, trial: TrialKey | None) -> dict[str, Any]:
     else:
         fields["layouts"] = layouts_by_trial(trials, layout_table)
         chosen = trial if trial is not None else choose_figure5_trial(_ChoiceSteps(run, trials), trials)
-    # (a trial not in the run reads nothing: the caller names the run's trials)
-    known = chosen[0] in set(trials["participant"].astype(int))
+    known = chosen[0] in set(trials["participant"].astype(int))  # else nothing read: the caller names it
     fields["steps"] = run.read_table("steps", participants=[chosen[0]]) if known else pd.DataFrame()
     fields["trial"] = chosen
     return fields
