@@ -296,6 +296,22 @@ def test_a_custom_policys_parameter_is_swept_over_a_range(tmp_path: Path, method
                                                              "weight": weight}
 
 
+def test_sweep_help_names_the_page_of_the_format() -> None:
+    shown = " ".join(CliRunner().invoke(main, ["sweep", "--help"]).output.split())
+    assert "see docs/batches.md for the format" in shown and "README" not in shown
+
+
+def test_a_later_set_wins_and_a_later_table_replaces_an_earlier_nested_key() -> None:
+    # the rule docs/batches.md states for --set and a sweep's set then parameters
+    custom = str(list_presets("experiments")["custom-policy"])
+    params = [load_experiment(custom, overrides).policies["threshold"].params for overrides in (
+        ["policies.threshold.params.weight=0.1", "policies.threshold.params={threshold=0.7}"],
+        ["policies.threshold.params={threshold=0.7}", "policies.threshold.params.weight=0.1"],
+        ["policies.threshold.params.weight=0.1", "policies.threshold.params.weight=0.3"])]
+    assert params == [{"threshold": 0.7}, {"threshold": 0.7, "weight": 0.1},
+                      {"threshold": 0.6, "weight": 0.3}]
+
+
 def test_a_table_is_a_parameter_value_as_it_is_a_set_value(tmp_path: Path) -> None:
     # a whole params table per point, as --set 'policies.threshold.params={threshold=0.5}' gives it
     loaded = load_sweep(str(_custom_sweep(

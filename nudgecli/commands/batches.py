@@ -187,7 +187,8 @@ def power_command(experiment: str, counts: str, replications: int, seed: int | N
 @functools.partial(_batch_options, out_default="results/<sweep file>-sweep-<UTC time>")
 def sweep_command(sweep_file: str, replications: int | None, seed: int | None, out: str | None, workers: int,
                   scheduler: str | None, resume: bool, force: bool, yes: bool, output_format: str) -> None:
-    """Run a sweep file (grid, Sobol or Morris design over experiment keys); see the README for the format."""
+    """Run a sweep file (grid, Sobol or Morris design over experiment keys); see docs/batches.md
+    for the format."""
     from nudgecli.api import sweep
 
     _run_batch_command("sweep", sweep, out, f"{_experiment_name(sweep_file)}-sweep", output_format,
