@@ -236,6 +236,23 @@ def test_a_key_both_set_and_swept_is_refused(tmp_path: Path) -> None:
     assert str(path) in line and "inference.kappa" in line and "set" in line and "[parameters]" in line
 
 
+def test_a_set_key_inside_a_swept_table_is_refused(tmp_path: Path) -> None:
+    # the points' tables come after the set and would drop its weight at every point
+    tables = '"policies.threshold.params" = [{threshold=0.5}, {threshold=0.9}]'
+    path = _custom_sweep(tmp_path, tables + "\n")
+    fixed = 'set = ["policies.threshold.params.weight=0.1"]'
+    path.write_text(path.read_text().replace("replications = 1\n", f"replications = 1\n{fixed}\n"))
+    line = _error_line(["sweep", str(path), "--out", str(tmp_path / "out")])
+    assert line.startswith(f"Error: {path}: policies.threshold.params.weight in set lies inside "
+                           "policies.threshold.params, which [parameters] sets whole"), line
+    assert "give weight in each of policies.threshold.params's values" in line
+    # the other way round, a key inside a table the set fixes, is varied within it
+    path.write_text(path.read_text().replace(tables, '"policies.threshold.params.weight" = [0.2, 0.4]')
+                    .replace("params.weight=0.1", "params={threshold=0.7}"))
+    params = [point.config.policies["threshold"].params for point in load_sweep(str(path)).points]
+    assert params == [{"threshold": 0.7, "weight": 0.2}, {"threshold": 0.7, "weight": 0.4}]
+
+
 def test_an_experiment_file_given_as_the_sweep_file_is_named_as_such(tmp_path: Path) -> None:
     line = _error_line(["sweep", str(list_presets("experiments")["smoke"]), "--out", str(tmp_path / "out")])
     assert "looks like an experiment file, not a sweep file" in line and "valid string" not in line

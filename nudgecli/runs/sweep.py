@@ -27,7 +27,8 @@ linearly; a set of ``k`` values is the range ``[0, k]`` and takes the value at t
 end the last); an integer range is the set of its integers ``ceil(low)..floor(high)``, each with
 an equal share, never one outside the bounds. ``experiment.seed`` is refused (the replications'
 seeds come from the sweep's ``seed``), and so is a key both in ``set`` and under
-``[parameters]``. Every point is validated as an experiment before anything runs.
+``[parameters]``, or in ``set`` inside a table ``[parameters]`` sets whole (which would drop it).
+Every point is validated as an experiment before anything runs.
 """
 
 from __future__ import annotations
@@ -154,6 +155,13 @@ class SweepFile(_Model):
         if both:
             raise ValueError(f"{both[0]} is both in set and under [parameters]; keep it in one place: set "
                              "fixes a key at every point, [parameters] varies it")
+        # the points' parameters come after the set: a swept table would replace a key set inside it
+        inside = [(key, table) for key in fixed for table in swept if key.startswith(table + ".")]
+        if inside:
+            key, table = inside[0]
+            raise ValueError(f"{key} in set lies inside {table}, which [parameters] sets whole at every "
+                             f"point, so the set's value would be dropped; give "
+                             f"{key.removeprefix(table + '.')} in each of {table}'s values instead")
         if self.design.method == "grid":
             ranges = [k for k, v in self.parameters.items() if isinstance(v, Range)]
             if ranges:
