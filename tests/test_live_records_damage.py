@@ -351,3 +351,19 @@ def test_an_experiment_of_another_world_is_refused_before_anything_is_recorded(t
     assert result.exit_code == 1 and len(errors) == 1, result.output
     assert "runs only the grid world's experiments" in errors[0] and "ciaa" in errors[0], errors[0]
     assert not out.exists()
+
+
+# --- 7: answers of unknown names ----------------------------------------------------------------------
+
+
+def test_answers_of_unknown_names_are_refused_naming_them(tmp_path):
+    session = _at_second_questionnaire(tmp_path / "live2")
+    before = (tmp_path / "live2" / "questionnaires.csv").read_bytes()
+    for extra, named in (({"likert_q11": 4}, "'likert_q11'"),
+                         ({"tlx_mentl": 30}, "'tlx_mentl' (did you mean 'tlx_mental'?)")):
+        reply = session.handle({"type": "questionnaire", "answers": {**ANSWERS, **extra}}, 0.0)
+        assert reply is not None and reply["type"] == "error", reply
+        assert f"unknown answer(s) {named}" in reply["message"], reply
+    assert session.phase == "questionnaire" and session.entry["questionnaire_blocks"] == [0]
+    assert (tmp_path / "live2" / "questionnaires.csv").read_bytes() == before
+    session.folder.release()

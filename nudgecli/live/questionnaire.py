@@ -10,8 +10,9 @@ from typing import Any
 
 import pandas as pd
 
-from nudgecli.errors import DataError
+from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.questionnaires import (
+    ID_COLUMNS,
     LIKERT_PREFIX,
     LIKERT_RANGE,
     TLX_RANGE,
@@ -51,7 +52,7 @@ TLX_QUESTIONS = {
 
 
 #: The columns of a row of ``questionnaires.csv`` as ``nudge study`` writes it.
-ROW_COLUMNS = ("participant", "condition", "block", *TLX_RATING_COLUMNS,
+ROW_COLUMNS = (*ID_COLUMNS, *TLX_RATING_COLUMNS,
                *(f"{LIKERT_PREFIX}{item}" for item in LIKERT_ITEMS))
 #: What to do with a live folder's damaged answers file.
 RESTORE_ANSWERS = "restore it from a backup (a person's answers cannot be asked again)"
@@ -115,8 +116,14 @@ def questionnaire_form() -> dict[str, Any]:
 def questionnaire_row(answers: dict[str, Any]) -> dict[str, Any] | str:
     """The answers as ``tlx_*`` and ``likert_*`` cells, or a message for the page saying what is missing.
 
-    Every TLX rating must be a number in 0-100 and every Likert answer an integer in 1-7.
+    Every TLX rating must be a number in 0-100 and every Likert answer an integer in 1-7; an answer
+    of another name (``likert_q11``, ``tlx_mentl``) is refused, naming it, not dropped.
     """
+    known = ROW_COLUMNS[len(ID_COLUMNS):]
+    unknown = [str(name) for name in answers if name not in known]
+    if unknown:
+        return (f"unknown answer(s) {', '.join(repr(name[:40]) for name in unknown[:3])}"
+                f"{did_you_mean(unknown[0], known)}; the questionnaire's answers are {', '.join(known)}")
     row: dict[str, Any] = {}
     for subscale, column in zip(TLX_SUBSCALES, TLX_RATING_COLUMNS, strict=True):
         value = _number(answers.get(column))
