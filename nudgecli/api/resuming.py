@@ -69,4 +69,23 @@ def inputs_to_resume(folder: str | Path) -> dict[str, str]:
     return {name: str(path) for name, path in kept_inputs(Path(folder)).items()}
 
 
-__all__ = ["inputs_to_resume", "people_to_resume"]
+def recordings_base(folder: str | Path) -> str | None:
+    """The folder the command that resumes batch ``folder`` must run from: the current one, where
+    the experiment the batch keeps names a ``population.physiology_logs`` recording by a relative
+    path (read from the current folder; from elsewhere the resume is refused, or would take another
+    recording: :data:`nudgecli.runs.batch_folder.RECORDINGS_KEY`); ``None`` where it names none so."""
+    import tomllib
+
+    from nudgecli.runs.batch_folder import kept_inputs
+
+    kept = kept_inputs(Path(folder)).get("experiment")
+    try:
+        population = tomllib.loads(kept.read_text(encoding="utf-8")).get("population") if kept else None
+    except (OSError, ValueError):
+        return None
+    logs = population.get("physiology_logs") if isinstance(population, dict) else None
+    relative = isinstance(logs, list) and any(not Path(str(log)).is_absolute() for log in logs)
+    return str(Path.cwd()) if relative else None
+
+
+__all__ = ["inputs_to_resume", "people_to_resume", "recordings_base"]

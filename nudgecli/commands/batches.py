@@ -108,15 +108,19 @@ def rerun_command(ctx: click.Context, target: Path, people: str | None = None) -
 def _batch_interrupt_hint(target: Path, ctx: click.Context) -> Callable[[], str]:
     """What to say after Ctrl-C of the batch command of ``ctx`` into ``target``: the command that
     resumes it, naming the copy of ``--people`` the folder keeps where it has been written (else
-    the file as typed)."""
+    the file as typed), and on a line of its own the folder to run it from where the experiment
+    names a recording by a relative path (:func:`nudgecli.api.resuming.recordings_base`)."""
 
     def hint() -> str:
         from nudgecli.api import holds_batch
-        from nudgecli.api.resuming import people_to_resume
+        from nudgecli.api.resuming import people_to_resume, recordings_base
 
         if holds_batch(target):
             command = rerun_command(ctx, target, people_to_resume(target, ctx.params.get("people")))
-            return f"{target} keeps its finished tasks; resume with: {command}"
+            base = recordings_base(target)
+            where = "" if base is None else (f"\n(run it from {base}: population.physiology_logs names its "
+                                             "recordings by paths relative to that folder)")
+            return f"{target} keeps its finished tasks; resume with: {command}{where}"
         return "nothing was computed yet; run the command again"
 
     return hint

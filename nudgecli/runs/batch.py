@@ -71,6 +71,7 @@ from nudgecli.runs.batch_folder import (
     read_json,
     read_study_metrics,
     readable_stats,
+    recordings,
     task_part,
 )
 from nudgecli.runs.batch_tasks import (
@@ -152,7 +153,7 @@ class Batch:
         return {"kind": self.kind, "replications": self.replications, "seed": self.seed,
                 "plan": self.plan.model_dump(mode="json"), "points": [
                     {"index": p.index, "parameters": p.parameters, "participants": list(p.participants),
-                     "study": study_key(p.config, 0)} for p in self.points],
+                     "study": study_key(p.config, 0), **recordings(p.config)} for p in self.points],
                 **self.extra}
 
 

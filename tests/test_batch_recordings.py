@@ -1,0 +1,84 @@
+"""A batch records a digest of the files of each ``population.physiology_logs`` recording in its
+description: a resume that would take another recording (a relative path read from another folder)
+is refused naming it, and the resume command a Ctrl-C'd batch prints says where to run it from
+(docs/batches.md)."""
+
+from __future__ import annotations
+
+import shlex
+import shutil
+from pathlib import Path
+
+import pytest
+from cli_helpers import files_of, nudge, one_error_line
+
+from nudgecli.runs.batch_folder import BATCH_MANIFEST, PartRecord
+
+RECORDING = "population.physiology_logs=['pilot/calibration/participant-0000']"
+BATCH = ("replicate", "smoke", "-R", "2", "--participants", "2", "--set", RECORDING)
+
+
+@pytest.fixture(scope="module")
+def started(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """``a/``: a pilot run ``a/pilot`` and another, ``a/b/pilot`` (another seed), and a finished batch
+    ``a/B`` that took ``pilot/calibration/participant-0000`` typed in ``a``."""
+    root = tmp_path_factory.mktemp("recordings") / "a"
+    for out, seed in ((root / "pilot", "7"), (root / "b" / "pilot", "123")):
+        made = nudge("simulate", "smoke", "--participants", "1", "--seed", seed, "--out", str(out))
+        assert made.exit_code == 0, made.output
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(root)
+        done = nudge(*BATCH, "--out", "B")
+    assert done.exit_code == 0, done.output
+    return root
+
+
+@pytest.fixture()
+def root(started: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    copy = Path(shutil.copytree(started, tmp_path / "a"))
+    monkeypatch.chdir(copy)
+    return copy
+
+
+def test_the_batch_records_each_recordings_digest(root: Path) -> None:
+    import json
+
+    point = json.loads((root / "B" / BATCH_MANIFEST).read_text())["batch"]["points"][0]
+    assert len(point["physiology_logs"]) == 1
+
+
+def test_a_resume_from_another_folder_that_would_take_another_recording_is_refused(
+        root: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(root / "b")
+    before = files_of(root / "B")
+    refused = nudge("replicate", "../B/experiment.toml", "--plan", "../B/plan.toml", "-R", "2",
+                    "--participants", "2", "--out", "../B", "--resume")
+    assert refused.exit_code == 1, refused.output
+    line = one_error_line(refused.output)
+    assert "physiology_logs" in line and "resume from the folder the batch was started in" in line, line
+    assert files_of(root / "B") == before
+    monkeypatch.chdir(root)  # from where it was started, the same command resumes it
+    resumed = nudge("replicate", "B/experiment.toml", "--plan", "B/plan.toml", "-R", "2",
+                    "--participants", "2", "--out", "B", "--resume")
+    assert resumed.exit_code == 0, resumed.output
+
+
+def test_the_printed_resume_command_says_where_to_run_it(root: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    original = PartRecord.write
+    calls: list[int] = []
+
+    def interrupted(self: PartRecord, *args: object) -> None:
+        if calls:
+            raise KeyboardInterrupt
+        calls.append(1)
+        original(self, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(PartRecord, "write", interrupted)
+    result = nudge(*BATCH, "--out", "C")
+    monkeypatch.setattr(PartRecord, "write", original)
+    assert result.exit_code == 130, result.output
+    lines = result.output.split("resume with: ")[1].strip().splitlines()
+    assert f"run it from {root}" in lines[1], lines
+    monkeypatch.chdir(root)
+    resumed = nudge(*shlex.split(lines[0])[1:])
+    assert resumed.exit_code == 0, resumed.output
