@@ -292,8 +292,12 @@ def default_run_dir(experiment: str, root: Path | None = None) -> Path:
 
 def resume_command(words: Sequence[str], target: str | Path, options: Sequence[str] = ()) -> str:
     """The command line suggested to finish interrupted work: ``nudge WORDS --out TARGET OPTIONS
-    --resume``, each word quoted for the shell (every resume command the toolkit prints is built here)."""
-    return shell_words(["nudge", *words, "--out", str(target), *options, "--resume"])
+    --resume``, each word quoted for the shell (every resume command the toolkit prints is built here).
+    A folder starting with ``-`` (``--out=-dash``) is ``./-dash`` in each word naming it or a file in it."""
+    dash = str(target) if str(target).startswith("-") else ""  # else read as an option
+    shown = [f"./{w}" if dash and (w == dash or (w.startswith(dash) and w[len(dash)] in "/" + os.sep)) else w
+             for w in (*words, "--out", str(target), *options)]
+    return shell_words(["nudge", *shown, "--resume"])
 
 
 def simulate_resume_command(experiment: str, target: str | Path, seed: int | None = None,
