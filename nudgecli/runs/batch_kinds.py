@@ -22,6 +22,7 @@ from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.runs.batch import Batch, BatchRun, Point, run_batch, single_point
 from nudgecli.runs.batch_folder import (
     BATCH_FIGURES,
+    BATCH_MANIFEST,
     BATCH_TABLES,
     check_inputs_kept,
     recorded_people,
@@ -121,7 +122,7 @@ def _people_fields(people: People | str | Path | None, out: str | Path,
     chosen = people_of(people)
     described, recorded = recorded_people(Path(out)) if resume else (False, None)
     if described:  # a damaged manifest is the prepare rule's to refuse
-        check_same_people(recorded, chosen, out)
+        check_same_people(recorded, chosen, out, Path(out) / BATCH_MANIFEST, f"batch.{PEOPLE_KEY}")
     if chosen is None:
         return {}, None
     return {PEOPLE_KEY: chosen.record()}, chosen

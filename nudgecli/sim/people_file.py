@@ -20,6 +20,7 @@ import contextlib
 import csv
 import hashlib
 import io
+import json
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -199,17 +200,29 @@ def people_of(people: People | str | Path | None) -> People | None:
     return read_people(people)
 
 
-def check_same_people(recorded: dict[str, Any] | None, people: People | None, where: str | Path) -> None:
+def check_same_people(recorded: object, people: People | None, where: str | Path,
+                      manifest: str | Path | None = None, key: str = MANIFEST_KEY) -> None:
     """Refuse to resume ``where`` with other people than it was simulated with.
 
-    ``recorded`` is the manifest's :data:`MANIFEST_KEY` entry (None: the population's people).
+    ``recorded`` is the manifest's :data:`MANIFEST_KEY` entry (None: the population's people), as
+    read from ``manifest`` (``where``'s ``manifest.json`` unless given) under ``key``.
 
     Raises
     ------
     DataError
-        The people file's name or SHA-256 differs from the recorded one, or one of the two has none
-        (a file of the same bytes under another name is named as such).
+        The entry is damaged (not an object with the file's name and SHA-256: which people the
+        folder holds is unknown); the people file's name or SHA-256 differs from the recorded one,
+        or one of the two has none (a file of the same bytes under another name is named as such).
     """
+    if recorded is not None and recorded != {} and not (
+            isinstance(recorded, dict) and isinstance(recorded.get("file"), str)
+            and isinstance(recorded.get("sha256"), str)):
+        shown = json.dumps(recorded)
+        shown = shown[:60] + "..." if len(shown) > 60 else shown
+        raise DataError(f"{manifest or Path(where) / MANIFEST}: its {key!r} entry, the people file the "
+                        f"folder was simulated with, is damaged ({shown}: not an object with the file's "
+                        "name and sha256), so which people it holds is unknown: start again with --force, "
+                        "or choose another --out")
     now = people.record() if people is not None else None
     if (recorded or None) == now:
         return

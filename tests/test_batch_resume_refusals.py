@@ -1,0 +1,44 @@
+"""A resume into a batch folder that cannot be the batch asked for is one error line saying why, and
+touches nothing: a damaged people entry in ``batch.json``, and a folder holding a batch of another
+kind (named first, before any setting the two kinds describe differently)."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from batch_helpers import REPLICATE
+from cli_helpers import files_of, nudge, one_error_line
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A finished replicate batch of the smoke experiment (2 studies of 2 participants)."""
+    folder = tmp_path_factory.mktemp("refusals") / "B"
+    done = nudge(*REPLICATE, "--out", str(folder))
+    assert done.exit_code == 0, done.output
+    return folder
+
+
+def refused_untouched(args: tuple[str, ...], folder: Path) -> str:
+    before = files_of(folder)
+    refused = nudge(*args)
+    assert refused.exit_code == 1, refused.output
+    assert "Traceback" not in refused.output
+    line = one_error_line(refused.output)
+    assert files_of(folder) == before
+    return line
+
+
+@pytest.mark.parametrize("entry", [5, {"name": 5}, "people.csv"])
+def test_a_damaged_people_entry_is_named(finished: Path, tmp_path: Path, entry: object) -> None:
+    batch = Path(shutil.copytree(finished, tmp_path / "B"))
+    manifest = json.loads((batch / "batch.json").read_text())
+    manifest["batch"]["people"] = entry
+    (batch / "batch.json").write_text(json.dumps(manifest))
+    line = refused_untouched((*REPLICATE, "--out", str(batch), "--resume"), batch)
+    assert line.startswith(f"Error: {batch / 'batch.json'}: its 'batch.people' entry"), line
+    assert "damaged" in line and "--force" in line, line
+
