@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from batch_helpers import REPLICATE
 from cli_helpers import files_of, nudge, one_error_line
+from people_helpers import PEOPLE_BYTES
 
 
 @pytest.fixture(scope="module")
@@ -42,3 +43,14 @@ def test_a_damaged_people_entry_is_named(finished: Path, tmp_path: Path, entry: 
     assert line.startswith(f"Error: {batch / 'batch.json'}: its 'batch.people' entry"), line
     assert "damaged" in line and "--force" in line, line
 
+
+def test_replicate_resume_into_a_power_batch_names_the_kind(tmp_path: Path) -> None:
+    people = tmp_path / "p.csv"
+    people.write_bytes(PEOPLE_BYTES)
+    batch = tmp_path / "P"
+    made = nudge("power", "smoke", "--participants", "2,3", "-R", "1", "--people", str(people),
+                  "--out", str(batch))
+    assert made.exit_code == 0, made.output
+    line = refused_untouched((*REPLICATE, "--out", str(batch), "--resume"), batch)
+    assert line.startswith(f"Error: {batch}: holds a power batch, not a replicate batch"), line
+    assert "people" not in line, line

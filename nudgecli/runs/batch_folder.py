@@ -418,14 +418,17 @@ def read_manifest(manifest: Path) -> tuple[dict[str, Any] | None, str | None]:
     return document, None
 
 
-def recorded_people(folder: Path) -> tuple[bool, Any]:
+def recorded_people(folder: Path, kind: str | None = None) -> tuple[bool, Any]:
     """Whether ``folder``'s ``batch.json`` describes a batch (:func:`read_manifest`: absent or
-    damaged, it does not), and the people file's entry its description records (``None``: a batch
+    damaged, it does not; nor one of another ``kind`` where given, which :func:`prepare_folder`
+    names first), and the people file's entry its description records (``None``: a batch
     of the population's people; anything else as read). The one reading of it, for the resume
     check (:func:`nudgecli.sim.people_file.check_same_people`) and the resume command's
     ``--people`` (:mod:`nudgecli.api.resuming`)."""
     old, _ = read_manifest(folder / BATCH_MANIFEST)
-    return (False, None) if old is None else (True, old["batch"].get(PEOPLE_KEY))
+    if old is None or kind not in (None, old["batch"].get("kind")):
+        return False, None
+    return True, old["batch"].get(PEOPLE_KEY)
 
 
 def _by_point(description: Mapping[str, Any], lift: bool) -> dict[str, Any]:
@@ -546,8 +549,11 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     mode = prepare_mode(folder, held, resume, force, kind="batch")
     copies = None if old is None else old.get(POLICY_FILES_KEY)  # the policy copies the folder records
     inputs = None if old is None else old.get(INPUTS_KEY)
-    if old is not None and mode == "resume":  # its experiment and plan first: one may be what resumes it
-        check_kept_inputs(folder, inputs, policies.inputs)
+    if old is not None and mode == "resume":
+        if (was := old["batch"].get("kind")) != description.get("kind"):  # first: the rest follows
+            raise RunFolderError(f"{folder}: holds a {was} batch, not a {description.get('kind')} batch; "
+                                 f"resume it with `nudge {was} ... --resume`, or use --force to replace it")
+        check_kept_inputs(folder, inputs, policies.inputs)  # before the settings: one may be what resumes it
         if differences := batch_differences(old["batch"], description):
             shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                   if len(differences) > 8 else "")

@@ -115,13 +115,13 @@ def _load(experiment: str, overrides: Sequence[str], participants: int | None) -
     return config
 
 
-def _people_fields(people: People | str | Path | None, out: str | Path,
-                   resume: bool) -> tuple[dict[str, Any], People | None]:
+def _people_fields(people: People | str | Path | None, out: str | Path, resume: bool,
+                   kind: str) -> tuple[dict[str, Any], People | None]:
     """The people file's record for the batch's description (nothing without one, so a batch of the
     population describes itself as before) and the people; a resumed batch must have the same."""
     chosen = people_of(people)
-    described, recorded = recorded_people(Path(out)) if resume else (False, None)
-    if described:  # a damaged manifest is the prepare rule's to refuse
+    described, recorded = recorded_people(Path(out), kind) if resume else (False, None)
+    if described:  # a damaged manifest, or a batch of another kind, is the prepare rule's to refuse
         check_same_people(recorded, chosen, out, Path(out) / BATCH_MANIFEST, f"batch.{PEOPLE_KEY}")
     if chosen is None:
         return {}, None
@@ -148,7 +148,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     _check(replications, seed)
     config = _load(experiment, overrides, participants)
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
-    record, chosen_people = _people_fields(people, out, bool(options.get("resume")))
+    record, chosen_people = _people_fields(people, out, bool(options.get("resume")), "replicate")
     check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)],
                       bool(options.get("force")))
     batch = Batch("replicate", single_point(config, (config.study.participants,)), replications,
@@ -190,7 +190,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     config = _load(experiment, overrides, None)
     with_participants(config, counts[-1])  # the largest study within study.participants' bound
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
-    record, chosen_people = _people_fields(people, out, bool(options.get("resume")))
+    record, chosen_people = _people_fields(people, out, bool(options.get("resume")), "power")
     check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)],
                       bool(options.get("force")))
     batch = Batch("power", single_point(config, counts), replications,
