@@ -73,7 +73,7 @@ def test_a_forced_batch_writes_into_a_non_empty_folder_without_clearing_it(tmp_p
     (folder / "batch.json").write_text('{"batch": {"kind": "sweep"}, "status": "complete"}')
     (folder / "tasks").mkdir()
     assert prepare_folder(folder, {"kind": "sweep"}, resume=True, force=False) == "resume"
-    with pytest.raises(RunFolderError, match="holds a different batch"):
+    with pytest.raises(RunFolderError, match="holds a sweep batch, not a power batch"):
         prepare_folder(folder, {"kind": "power"}, resume=True, force=False)
     assert prepare_folder(folder, {"kind": "power"}, resume=False, force=True) == "new"
     assert not (folder / "batch.json").exists() and not (folder / "tasks").exists()
