@@ -1065,3 +1065,13 @@ def test_a_batch_worker_runs_participant_tasks_without_pandas_or_scipy() -> None
     done = run_refusing(script, ("pandas", "pyarrow", "scikit_posthocs", "scipy"))
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip() == "ok"
+
+
+@pytest.mark.parametrize("target", [0.0, 1.0, 1.5])
+def test_the_apis_power_target_outside_the_open_interval_is_refused_in_words(tmp_path: Path,
+                                                                            target: float) -> None:
+    import nudgecli
+
+    with pytest.raises(nudgecli.NudgeError, match=r"strictly between 0 and 1 \(a power\), got"):
+        nudgecli.power("smoke", [2, 3], 1, target=target, out=tmp_path / "p")
+    assert not (tmp_path / "p").exists()

@@ -186,7 +186,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     if not counts or counts[0] < 2:
         raise ConfigError("--participants: give counts of at least 2, e.g. --participants 6,9,12,18,24")
     if not 0 < target < 1:
-        raise ConfigError(f"--target must be between 0 and 1, got {target}")
+        raise ConfigError(f"--target must be strictly between 0 and 1 (a power), got {target}")
     config = _load(experiment, overrides, None)
     with_participants(config, counts[-1])  # the largest study within study.participants' bound
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
