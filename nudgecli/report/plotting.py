@@ -44,6 +44,7 @@ from nudgecli.report.metrics import apply_filters
 from nudgecli.report.pair_display import check_reference
 from nudgecli.report.questionnaires import read_analysed_scores
 from nudgecli.report.stats import ComparisonOptions
+from nudgecli.report.stats_verify import verify_p_values
 from nudgecli.report.style import condition_display_name
 from nudgecli.report.table_read import analyze_command, check_table_is_analysed, recorded_table_read
 from nudgecli.report.tables import (
@@ -443,8 +444,7 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
     Parameters
     ----------
     source
-        An analysed run folder, an analysed metrics table (CSV/Parquet), or a table's analysis
-        folder.
+        An analysed run folder, an analysed metrics table (CSV/Parquet), or its analysis folder.
     trial
         ``(participant, trial)`` of Fig. 5 and the trajectory; ``None``: the default rule's.
 
@@ -453,8 +453,8 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
     RunFolderError
         Not a run folder, a table or an analysis folder, or not analysed yet.
     DataError
-        Invalid ``stats.json``, statistics computed from other metrics than those present, or
-        questionnaire scores the analysis did not write (stale, edited or gone).
+        Invalid ``stats.json``, statistics computed from other metrics than those present, p-values
+        edited, or questionnaire scores the analysis did not write (stale, edited or gone).
     """
     path = Path(source)
     if path.is_file():
@@ -488,9 +488,9 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
     record = recorded_checksum(stats, str(stats_path))
     table = apply_filters(table, record.get("filters") or {})
     verify_metrics(stats, table, str(stats_path), metrics_name)
-
     # the scores this analysis wrote, or a refusal: never a stale or edited file's
     questionnaires = read_analysed_scores(folder, stats, str(stats_path))
+    verify_p_values(stats, (table, questionnaires), str(stats_path))  # what the brackets draw
     return FigureInputs(metrics=table, stats=stats, questionnaires=questionnaires,
                         **_run_fields(RunFolder(folder), trial))
 
