@@ -20,6 +20,7 @@ from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
 from nudgecli.errors import DataError, NudgeError, RunFolderError
 from nudgecli.parquet_reader import read_parquet
+from nudgecli.run_folder_config import _ABSENT, _EXPERIMENT_SEED, ConfigRecord, _shown, experiment_differences
 from nudgecli.run_folder_live import LiveRecord
 from nudgecli.run_folder_names import (
     CONFIG,
@@ -91,47 +92,11 @@ def remove_run_figures(folder: Path) -> None:
         figures.rmdir()
 
 
-def _flatten(data: Any, prefix: str = "") -> dict[str, Any]:
-    """A nested mapping as ``{"section.key": value}`` (lists stay whole)."""
-    if not isinstance(data, Mapping):
-        return {prefix: data}
-    flat: dict[str, Any] = {}
-    for key, value in data.items():
-        flat.update(_flatten(value, f"{prefix}.{key}" if prefix else str(key)))
-    return flat
-
-
-def _shown(value: Any) -> str:
-    """A value as the user wrote it in TOML or on the command line (JSON spelling)."""
-    return "(absent)" if value is _ABSENT else json.dumps(value)
-
-
-_ABSENT = object()
-#: The key of an experiment's own seed (the seed of a run without --seed).
-_EXPERIMENT_SEED = "experiment.seed"
-
-
-def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -> list[str]:
-    """``key: OLD in the manifest, NEW now`` for every key of two resolved experiments that differs.
-
-    Parameters
-    ----------
-    recorded
-        The experiment the manifest recorded (``manifest["config"]``).
-    current
-        The experiment now (``ExperimentConfig.model_dump(mode="json")``).
-    """
-    old, new = _flatten(recorded), _flatten(json.loads(json.dumps(current)))
-    return [f"{key}: {_shown(old.get(key, _ABSENT))} in the manifest, {_shown(new.get(key, _ABSENT))} now"
-            for key in sorted(old.keys() | new.keys())
-            if old.get(key, _ABSENT) != new.get(key, _ABSENT)]
-
-
 #: A manifest's checksums: participant -> part kind -> SHA-256 (hex).
 _Checksums = dict[int, dict[str, str]]
 
 
-class RunRecord(LiveRecord):
+class RunRecord(LiveRecord, ConfigRecord):
     """What a run folder on disk records and holds (read and checked, never written).
 
     Parameters
@@ -526,27 +491,6 @@ class RunRecord(LiveRecord):
             differences.append(f"nudgecli version: {shown} in the manifest, {__version__} now")
         return differences
 
-    def config_toml_warning(self, config: ExperimentConfig) -> str | None:
-        """What a resume that writes ``config`` (the manifest's experiment, with the run's seed) to
-        config.toml again says of the one there: it was missing, it held the experiment's own seed
-        rather than the run's (written before config.toml recorded the --seed), or it differed;
-        ``None`` when it holds ``config`` already."""
-        path = self.path / CONFIG
-        if not path.is_file():
-            return f"{path} was missing; written again from the experiment in the manifest"
-        text = path.read_text(encoding="utf-8")
-        if text == config.to_toml():
-            return None
-        try:
-            on_disk = experiment_from_toml(text, str(path))
-        except (NudgeError, ValueError):
-            on_disk = None
-        if on_disk is not None and [difference.split(":")[0] for difference in experiment_differences(
-                on_disk.model_dump(mode="json"), config.model_dump(mode="json"))] == [_EXPERIMENT_SEED]:
-            return (f"{path} held the experiment's own seed ({on_disk.experiment.seed}), not the one the "
-                    f"run used ({config.experiment.seed}); rewritten with it")
-        return f"{path} differed from the experiment in the manifest; rewritten from it"
-
     def no_parts_message(self, kind: str, manifest: Mapping[str, Any] | None) -> str:
         """Why the folder has no part of ``kind`` to read, and the command that writes them: a
         ``nudge study`` folder's continues a session (never a simulation: it would be refused)."""
@@ -566,17 +510,30 @@ class RunRecord(LiveRecord):
         return (f"{folder} has no {kind} yet (no {kind}/part-*.parquet); run "
                 f"`nudge simulate EXPERIMENT --out {folder}` first")
 
-    def _edited_config_hint(self, manifest: Mapping[str, Any]) -> str:
-        """``put back ...; `` when the run's ``config.toml`` no longer holds the experiment its
-        manifest recorded (edited after the run started), else nothing."""
-        path = self.path / CONFIG
-        recorded = manifest.get("config")
+    def check_own_manifest(self, manifest: Mapping[str, Any]) -> None:
+        """Refuse a manifest that is another run's (copied over this one's): ``config.toml`` holds
+        another experiment or seed than it records, and no part on disk has the SHA-256 it records
+        (an edited config.toml beside matching parts is :meth:`_edited_config_hint`'s).
+
+        Raises
+        ------
+        RunFolderError
+            Names the manifest as the suspect: a resume would simulate every part again."""
+        recorded, path = manifest.get("config"), self.path / CONFIG
         if not isinstance(recorded, Mapping) or not path.is_file():
-            return ""
+            return
         try:
             on_disk = experiment_from_toml(path.read_text(encoding="utf-8"), str(path))
         except (NudgeError, OSError, ValueError):
-            return f"{path} no longer holds the run's experiment: put back the manifest's values, then "
-        if experiment_differences(recorded, on_disk.model_dump(mode="json")):
-            return f"{path} was edited after the run started: put back the manifest's values, then "
-        return ""
+            return
+        differences = experiment_differences(recorded, on_disk.model_dump(mode="json"))
+        sums = self.recorded_checksums(manifest) if differences else {}
+        parts = [(self.part_path(kind, index), digest) for index, kinds in sums.items()
+                 for kind, digest in kinds.items() if self.part_path(kind, index).is_file()]
+        if not parts or any(file_sha256(part) == digest for part, digest in parts):
+            return
+        shown = "; ".join(differences[:3]).replace(" now", f" in {CONFIG}")
+        raise RunFolderError(f"{self.manifest_path} is not this run's: {CONFIG} differs from the experiment "
+                             f"it records ({shown}) and none of the {len(parts)} part(s) has the SHA-256 it "
+                             f"records (copied in from another run?); put back the run's own {MANIFEST} "
+                             "from a copy (a --resume would simulate every part again as the other run's)")

@@ -22,11 +22,8 @@ readable Parquet files; ``--resume`` recomputes the others, and those whose SHA-
 the one the manifest recorded when they were written. Readers take exactly the parts of the
 participants the manifest promises and verify them against it.
 
-While a command writes a run folder it holds the folder's lock (:func:`nudgecli.locks.run_lock`).
-What a run folder records and holds (the manifest's promises, the parts and their checksums, the
-experiment's differences on resume) is read and checked by
-:class:`nudgecli.run_folder_record.RunRecord`, which :class:`RunFolder` builds on.
-"""
+While a command writes a run folder it holds its lock (:func:`nudgecli.locks.run_lock`). What a run
+folder records and holds is read and checked by :class:`nudgecli.run_folder_record.RunRecord`."""
 
 from __future__ import annotations
 
@@ -369,6 +366,7 @@ class RunFolder(RunRecord):
         manifest = self.read_manifest()
         if manifest.get("executor") == "live":
             return self._check_live(manifest)
+        self.check_own_manifest(manifest)  # another run's: never advise a resume that recomputes the parts
         participants = self.participant_count(manifest)
         missing = self.missing_parts(participants)
         fix = self.resume_command(manifest)
@@ -493,6 +491,7 @@ class RunFolder(RunRecord):
                 f"{manifest.get('experiment')}, {manifest.get('status', 'unknown')}")
         mode = prepare_mode(self.path, held, resume, force)
         if manifest is not None and mode == "resume":
+            self.check_own_manifest(manifest)  # another run's: a resume would simulate every part again
             self.participant_count(manifest)  # a damaged count is named first: no command resumes it
             differences = self.resume_differences(manifest, config, seed, participants)
             if differences:

@@ -1,0 +1,94 @@
+"""How a run folder's ``config.toml`` and its manifest's experiment differ: key by key, and what a
+resume or a reader is told of a ``config.toml`` edited, lost or holding another seed.
+
+:class:`ConfigRecord` is a base of :class:`nudgecli.run_folder_record.RunRecord`.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from nudgecli.config import ExperimentConfig, experiment_from_toml
+from nudgecli.errors import NudgeError
+from nudgecli.run_folder_names import CONFIG
+
+
+def _flatten(data: Any, prefix: str = "") -> dict[str, Any]:
+    """A nested mapping as ``{"section.key": value}`` (lists stay whole)."""
+    if not isinstance(data, Mapping):
+        return {prefix: data}
+    flat: dict[str, Any] = {}
+    for key, value in data.items():
+        flat.update(_flatten(value, f"{prefix}.{key}" if prefix else str(key)))
+    return flat
+
+
+def _shown(value: Any) -> str:
+    """A value as the user wrote it in TOML or on the command line (JSON spelling)."""
+    return "(absent)" if value is _ABSENT else json.dumps(value)
+
+
+_ABSENT = object()
+#: The key of an experiment's own seed (the seed of a run without --seed).
+_EXPERIMENT_SEED = "experiment.seed"
+
+
+def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -> list[str]:
+    """``key: OLD in the manifest, NEW now`` for every key of two resolved experiments that differs.
+
+    Parameters
+    ----------
+    recorded
+        The experiment the manifest recorded (``manifest["config"]``).
+    current
+        The experiment now (``ExperimentConfig.model_dump(mode="json")``).
+    """
+    old, new = _flatten(recorded), _flatten(json.loads(json.dumps(current)))
+    return [f"{key}: {_shown(old.get(key, _ABSENT))} in the manifest, {_shown(new.get(key, _ABSENT))} now"
+            for key in sorted(old.keys() | new.keys())
+            if old.get(key, _ABSENT) != new.get(key, _ABSENT)]
+
+
+class ConfigRecord:
+    """The ``config.toml`` side of a run folder (``path``)."""
+
+    path: Path
+
+    def config_toml_warning(self, config: ExperimentConfig) -> str | None:
+        """What a resume that writes ``config`` (the manifest's experiment, with the run's seed) to
+        config.toml again says of the one there: it was missing, it held the experiment's own seed
+        rather than the run's (written before config.toml recorded the --seed), or it differed;
+        ``None`` when it holds ``config`` already."""
+        path = self.path / CONFIG
+        if not path.is_file():
+            return f"{path} was missing; written again from the experiment in the manifest"
+        text = path.read_text(encoding="utf-8")
+        if text == config.to_toml():
+            return None
+        try:
+            on_disk = experiment_from_toml(text, str(path))
+        except (NudgeError, ValueError):
+            on_disk = None
+        if on_disk is not None and [difference.split(":")[0] for difference in experiment_differences(
+                on_disk.model_dump(mode="json"), config.model_dump(mode="json"))] == [_EXPERIMENT_SEED]:
+            return (f"{path} held the experiment's own seed ({on_disk.experiment.seed}), not the one the "
+                    f"run used ({config.experiment.seed}); rewritten with it")
+        return f"{path} differed from the experiment in the manifest; rewritten from it"
+
+    def _edited_config_hint(self, manifest: Mapping[str, Any]) -> str:
+        """``put back ...; `` when the run's ``config.toml`` no longer holds the experiment its
+        manifest recorded (edited after the run started), else nothing."""
+        path = self.path / CONFIG
+        recorded = manifest.get("config")
+        if not isinstance(recorded, Mapping) or not path.is_file():
+            return ""
+        try:
+            on_disk = experiment_from_toml(path.read_text(encoding="utf-8"), str(path))
+        except (NudgeError, OSError, ValueError):
+            return f"{path} no longer holds the run's experiment: put back the manifest's values, then "
+        if experiment_differences(recorded, on_disk.model_dump(mode="json")):
+            return f"{path} was edited after the run started: put back the manifest's values, then "
+        return ""
