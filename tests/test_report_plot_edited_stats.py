@@ -39,3 +39,21 @@ def test_plot_refuses_p_values_and_stars_edited_by_hand(tmp_path):
     assert result.exit_code == 1 and len(errors) == 1, result.output
     assert errors[0] == (f"Error: {stats_path}: the p-values of completion_time are not those of its metrics "
                          "(the file was edited); run `nudge analyze` on the source again before plotting")
+
+
+def test_a_cut_off_metrics_csv_of_a_run_is_named_with_the_analysis_that_writes_it_again(tmp_path):
+    runner = CliRunner()
+    run = tmp_path / "run"
+    result = runner.invoke(main, ["simulate", "paper", "--participants", "2", "--set",
+                                  "study.blocks_per_condition=1", "--out", str(run)])
+    assert result.exit_code == 0, result.output
+    assert runner.invoke(main, ["analyze", str(run)]).exit_code == 0
+    metrics = run / "metrics.csv"
+    metrics.write_bytes(metrics.read_bytes()[:-40])  # the last row cut short
+    result = runner.invoke(main, ["plot", str(run)])
+    errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert result.exit_code == 1 and len(errors) == 1, result.output
+    assert "looks cut off" in errors[0] and errors[0].endswith(f"write it again with `nudge analyze {run}`")
+    assert "complete that line" not in errors[0], errors[0]
+    assert runner.invoke(main, ["analyze", str(run)]).exit_code == 0
+    assert runner.invoke(main, ["plot", str(run)]).exit_code == 0

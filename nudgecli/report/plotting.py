@@ -41,6 +41,7 @@ from nudgecli.report.checksum import recorded_checksum, verify_metrics
 from nudgecli.report.figure_records import replace_earlier_figures
 from nudgecli.report.figures import TrialLayout
 from nudgecli.report.metrics import apply_filters
+from nudgecli.report.metrics_csv import read_metrics_csv
 from nudgecli.report.pair_display import check_reference
 from nudgecli.report.questionnaires import read_analysed_scores
 from nudgecli.report.stats import ComparisonOptions
@@ -50,7 +51,6 @@ from nudgecli.report.table_read import analyze_command, check_table_is_analysed,
 from nudgecli.report.tables import (
     TABLE_SUFFIXES,
     find_duplicate_trials,
-    read_csv_labels,
     read_metrics_table,
     validate_metrics_table,
 )
@@ -363,24 +363,6 @@ def analysis_folder_of_table(table: Path) -> Path:
                          f"run `nudge analyze {table}` first")
 
 
-def _read_metrics_csv(path: Path) -> pd.DataFrame:
-    """``metrics.csv`` as ``nudge analyze`` wrote it, its floats read back exactly and its labels as
-    written (:func:`~nudgecli.report.tables.read_csv_labels`).
-
-    pandas 3 parses floats exactly by default; pandas 2 needs the round-trip parser for that
-    (its default may differ in the last bit, which the checksum would see).
-    """
-    pandas_3 = int(pd.__version__.split(".")[0]) >= 3
-    exact: dict[str, Any] = {} if pandas_3 else {"float_precision": "round_trip"}
-    try:
-        table = read_csv_labels(path, **exact)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError, ValueError) as exc:
-        raise DataError(f"{path} cannot be read as a metrics table ({exc}); "
-                        "run `nudge analyze` again") from None
-    validate_metrics_table(table, str(path))
-    return table
-
-
 def _read_table(path: Path, stats: Mapping[str, Any]) -> pd.DataFrame:
     """A metrics table an analysis named, read and checked as ``nudge analyze`` reads one: only the
     metrics its ``stats`` holds must be numeric (a text column left out by ``--metric`` is ignored)."""
@@ -413,7 +395,7 @@ def _table_as_analysed(path: Path, folder: Path, stats: Mapping[str, Any],
     """
     own_copy = folder / METRICS_CSV
     if own_copy.is_file() and path.resolve() == own_copy.resolve():
-        return _read_metrics_csv(path), path
+        return read_metrics_csv(path), path
     record = recorded_table_read(stats, str(stats_path))
     if record is None:
         table = _read_table(path, stats)
@@ -429,7 +411,7 @@ def _table_as_analysed(path: Path, folder: Path, stats: Mapping[str, Any],
         command = analyze_command(path, folder, record["drop_duplicates"])
         raise RunFolderError(f"{own_copy} is gone: it held the rows of {path} that {stats_path} was "
                              f"computed from; run `{command}` again before plotting")
-    return _read_metrics_csv(own_copy), own_copy
+    return read_metrics_csv(own_copy), own_copy
 
 
 def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInputs:
@@ -483,7 +465,8 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
         stats_path = folder / STATS_JSON
         stats = read_stats(stats_path)
         analysis_copy = metrics_path.name == METRICS_CSV
-        table = _read_metrics_csv(metrics_path) if analysis_copy else _read_table(metrics_path, stats)
+        again = f"nudge analyze {folder}" if run.is_run() else None  # a run's metrics: analyze writes them
+        table = read_metrics_csv(metrics_path, again) if analysis_copy else _read_table(metrics_path, stats)
         metrics_name = str(metrics_path)
     record = recorded_checksum(stats, str(stats_path))
     table = apply_filters(table, record.get("filters") or {})
