@@ -105,11 +105,11 @@ class LiveRecord:
         return (f"restore it from a backup, or write it again (the layouts follow from the experiment and "
                 f"its seed alone): `{command}`, then copy {scratch / LAYOUTS} into {self.path}")
 
-    def refuse_live_sessions(self, manifest: Mapping[str, Any] | None) -> None:
+    def refuse_live_sessions(self, manifest: Mapping[str, Any] | None, what: str = "simulate") -> None:
         """Refuse to simulate into a ``nudge study`` folder (its manifest's executor is ``live``; with
         no manifest, :meth:`live_signs`): it holds a real person's sessions, which ``--force`` would
         delete and ``--resume`` would take over (``nudge study`` refuses a simulated folder the same
-        way).
+        way; ``what``: the writing the refusal sends elsewhere, as a batch's ``write the batch``).
 
         Raises
         ------
@@ -118,10 +118,10 @@ class LiveRecord:
         """
         if manifest is not None and manifest.get("executor") == LIVE_EXECUTOR:
             raise RunFolderError(f"{self.path}: holds live sessions of a person (recorded by `nudge study`); "
-                                 "simulate into another --out (neither --resume nor --force applies to them)")
+                                 f"{what} into another --out (neither --resume nor --force applies to them)")
         if manifest is None and (signs := self.live_signs()):
             raise RunFolderError(f"{self.path}: holds a live study of a person ({', '.join(signs)}) and no "
-                                 f"readable {MANIFEST}; simulate into another --out (neither --resume nor "
+                                 f"readable {MANIFEST}; {what} into another --out (neither --resume nor "
                                  f"--force applies to it), and put {MANIFEST} back from a copy")
 
     def continue_session_hint(self, manifest: Mapping[str, Any], participants: Iterable[int] = ()) -> str:

@@ -206,3 +206,16 @@ def test_plot_of_a_finished_live_study_names_a_lost_part(live):
     (live / "steps" / "part-0001.parquet").unlink()
     line = _one_error(_nudge("plot", str(live)))
     assert "steps/part-0001.parquet (missing); restore steps/part-0001.parquet from a backup" in line, line
+
+
+@pytest.mark.parametrize("batch", [("replicate", "smoke", "-R", "2", "--participants", "2"),
+                                   ("power", "smoke", "--participants", "2,3", "-R", "2")])
+@pytest.mark.parametrize("flag", ["--force", "--resume"])
+@pytest.mark.parametrize("manifest", ["kept", "deleted"])
+def test_a_batch_never_writes_into_a_live_folder(live, batch, flag, manifest):
+    if manifest == "deleted":
+        (live / "manifest.json").unlink()
+    before = _files(live)
+    line = _one_error(_nudge(*batch, "--out", str(live), flag))
+    assert "live" in line and "write the batch into another --out" in line, line
+    assert _files(live) == before

@@ -28,7 +28,13 @@ from typing import TYPE_CHECKING, Any
 from nudgecli.errors import RunFolderError
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import FIGURES_DIR, PEOPLE_DIR
-from nudgecli.run_folder_record import experiment_differences, file_sha256, part_name, readable_parquet
+from nudgecli.run_folder_record import (
+    RunRecord,
+    experiment_differences,
+    file_sha256,
+    part_name,
+    readable_parquet,
+)
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, keep_copy, remove_copy
 from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
@@ -528,7 +534,8 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     Raises
     ------
     RunFolderError
-        The folder holds a batch (and neither ``resume`` nor ``force``), a different batch to
+        The folder holds a person's live sessions (a ``nudge study`` folder, even with ``force``),
+        a batch (and neither ``resume`` nor ``force``), a different batch to
         resume, a damaged manifest without ``force``, or other files without ``force``.
     DataError
         A resume whose policy modules differ from those ``batch.json`` records (names the file:
@@ -538,6 +545,8 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
         (:func:`~nudgecli.sim.policy_files.check_copies_placeable`), before anything is touched.
     """
     policies = policies or PolicyCopies()
+    record = RunRecord(folder)  # a person's sessions (a nudge study folder): never written into, even forced
+    record.refuse_live_sessions(record.read_manifest() if record.is_run() else None, "write the batch")
     manifest = folder / BATCH_MANIFEST
     old, damage = read_manifest(manifest)
     if damage is not None and not force:  # a batch is there, but what it was is lost: only --force helps
