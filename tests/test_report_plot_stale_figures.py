@@ -4,6 +4,7 @@ removed once all of its own are written; a person's files stay; a failed plot ch
 
 from __future__ import annotations
 
+import hashlib
 import json
 import shutil
 import tempfile
@@ -20,7 +21,7 @@ from nudgecli.config import load_experiment
 from nudgecli.errors import WriteError
 from nudgecli.report import figures
 from nudgecli.report.analysis import analyze
-from nudgecli.report.figure_records import RECORD_KEY, recorded_figures, replace_earlier_figures
+from nudgecli.report.figure_records import RECORD_KEY, SUMS_KEY, recorded_figures, replace_earlier_figures
 from nudgecli.run_folder_names import FIGURES_RECORD
 from nudgecli.run_folder_record import remove_run_figures
 from nudgecli.runs.study import run_study
@@ -50,6 +51,14 @@ def _plot(*args: str | Path) -> Result:
 def _files(folder: Path) -> set[str]:
     """The names in ``folder`` but the plot's record."""
     return {p.name for p in folder.iterdir()} - {FIGURES_RECORD}
+
+
+def _record(folder: Path, names: list[str], written: tuple[str, ...] | None = None) -> None:
+    """A record of ``names``, with the SHA-256 of those of ``written`` (all by default) on disk: the
+    files an earlier plot wrote."""
+    sums = {name: hashlib.sha256((folder / name).read_bytes()).hexdigest() for name in names
+            if (written is None or name in written) and (folder / name).is_file()}
+    (folder / FIGURES_RECORD).write_text(json.dumps({RECORD_KEY: names, SUMS_KEY: sums}))
 
 
 def _names(stems: tuple[str, ...], formats: tuple[str, ...]) -> set[str]:
@@ -139,8 +148,7 @@ def test_only_recorded_figure_files_in_the_folder_are_removed(tmp_path: Path) ->
     for name in ("old.png", "notes.txt", "mine.pdf"):
         (folder / name).write_bytes(b"old")
     (tmp_path / "outside.png").write_bytes(b"not the folder's")
-    (folder / FIGURES_RECORD).write_text(json.dumps(
-        {RECORD_KEY: ["old.png", "notes.txt", "sub.png", "gone.png", "../outside.png", "", "."]}))
+    _record(folder, ["old.png", "notes.txt", "sub.png", "gone.png", "../outside.png", "", "."])
     lines: list[str] = []
     written = replace_earlier_figures(folder, ["fig3"], ["png"], _writer(folder, ["fig3.png"]), lines.append)
     assert written == [folder / "fig3.png"]
@@ -188,7 +196,7 @@ def test_what_stays_is_what_was_there_less_recorded_figures_not_written(
         folder = Path(name)
         for file in present:
             (folder / file).write_bytes(b"old")
-        (folder / FIGURES_RECORD).write_text(json.dumps({RECORD_KEY: sorted(recorded)}))
+        _record(folder, sorted(recorded))
         replace_earlier_figures(folder, [], [], _writer(folder, sorted(written)))
         figure_suffix = {n for n in recorded if n.rsplit(".", 1)[1] in ("png", "pdf", "svg")}
         assert _files(folder) == (present - (figure_suffix - written)) | written
@@ -202,3 +210,37 @@ def test_force_removes_the_record_with_the_runs_figures(tmp_path: Path) -> None:
     (folder / FIGURES_RECORD).write_text(json.dumps({RECORD_KEY: ["fig3.png"]}))
     remove_run_figures(tmp_path)
     assert not folder.exists()  # a record left alone would keep the emptied figures/ there
+
+
+def test_a_recorded_file_whose_bytes_the_plot_did_not_write_is_never_removed(tmp_path: Path) -> None:
+    # a forged (or older nudge's) record naming the person's own figure: no SHA-256 of it, one of
+    # other bytes, or the plot's own figure written over since
+    folder = tmp_path / "figures"
+    folder.mkdir()
+    for name in ("mine.png", "forged.png", "redrawn.png", "old.png"):
+        (folder / name).write_bytes(b"the plot's")
+    _record(folder, ["mine.png", "forged.png", "redrawn.png", "old.png"], written=("redrawn.png", "old.png"))
+    record = json.loads((folder / FIGURES_RECORD).read_text())
+    record[SUMS_KEY]["forged.png"] = hashlib.sha256(b"other bytes").hexdigest()
+    (folder / FIGURES_RECORD).write_text(json.dumps(record))
+    (folder / "redrawn.png").write_bytes(b"the person's drawing over it")
+    lines: list[str] = []
+    replace_earlier_figures(folder, ["fig3"], ["png"], _writer(folder, ["fig3.png"]), lines.append)
+    assert _files(folder) == {"fig3.png", "mine.png", "forged.png", "redrawn.png"}
+    assert lines == [f"removed 1 figure file(s) an earlier `nudge plot` wrote into {folder} and this one "
+                     "did not draw: old.png"]
+
+
+def test_what_a_failed_plot_wrote_is_removed_by_the_next(tmp_path: Path) -> None:
+    folder = tmp_path / "figures"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("mine")
+
+    def half() -> list[Path]:
+        (folder / "fig3.png").write_bytes(b"half a plot")
+        raise WriteError("disk full")
+
+    with pytest.raises(WriteError):
+        replace_earlier_figures(folder, ["fig3", "fig4"], ["png"], half)
+    replace_earlier_figures(folder, ["fig4"], ["png"], _writer(folder, ["fig4.png"]))
+    assert _files(folder) == {"fig4.png", "notes.txt"}

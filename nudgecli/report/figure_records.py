@@ -4,9 +4,12 @@ A plot records the names of the files it wrote in :data:`~nudgecli.run_folder_na
 beside them (JSON, written atomically). The next plot into that folder, once it has written all
 its files, removes those of the record it did not write again (another ``--formats``, a plan or
 source without Fig. 5, a table instead of a run): a researcher would otherwise read a figure of an
-earlier plot as one of this one. Only recorded names are removed, and only where they are still a
+earlier plot as one of this one. Only recorded names are removed, only where they are still a
 figure's file (:func:`nudgecli.run_folder_record.is_figure_file`, the rule by which ``simulate
---force`` removes a replaced run's figures): a file the person put there is never in the record.
+--force`` removes a replaced run's figures), and only where the file's bytes are still those the
+record's SHA-256 says the plot wrote: a file the person put there (or wrote over a figure), or one
+a record edited by hand names, is never removed; nor is one a record of an older nudge, which
+holds no SHA-256, names.
 
 Before writing into a folder that holds files, the record is widened to the files about to be
 written, so that a plot that fails or is interrupted half-way leaves its earlier figures where
@@ -16,16 +19,19 @@ they were and every file it did write named for the next plot to remove.
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Sequence
+import time
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from nudgecli.report.figures.output import figure_file
 from nudgecli.run_folder_names import FIGURES_RECORD, LOCK
-from nudgecli.run_folder_record import is_figure_file
+from nudgecli.run_folder_record import file_sha256, is_figure_file
 from nudgecli.store import write_json_atomic
 
 #: The record's key of the file names (a list of names, no folders).
 RECORD_KEY = "written"
+#: The record's key of the SHA-256 of each file the plot wrote (name -> hex).
+SUMS_KEY = "sha256"
 
 
 def recorded_figures(folder: Path) -> tuple[list[str], str | None]:
@@ -55,14 +61,33 @@ def recorded_figures(folder: Path) -> tuple[list[str], str | None]:
     return names, None
 
 
-def _write_record(folder: Path, names: Sequence[str]) -> None:
-    write_json_atomic(folder / FIGURES_RECORD, {RECORD_KEY: sorted(set(names))})
+def recorded_sums(folder: Path) -> dict[str, str]:
+    """The SHA-256 the record in ``folder`` holds of the files the plot wrote (name -> hex; empty for
+    a record without them: an older nudge's, or an unreadable one)."""
+    try:
+        sums = json.loads((folder / FIGURES_RECORD).read_text(encoding="utf-8")).get(SUMS_KEY)
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, AttributeError):
+        return {}
+    return {str(k): str(v) for k, v in sums.items()} if isinstance(sums, dict) else {}
 
 
-def _removable(folder: Path, name: str) -> bool:
-    """Whether a recorded ``name`` is a figure's file right in ``folder`` (a record edited to name
-    ``../x.png`` or a folder removes nothing)."""
-    return Path(name).name == name and name not in ("", ".", "..") and is_figure_file(folder / name)
+def _write_record(folder: Path, names: Sequence[str], sums: Mapping[str, str]) -> None:
+    """Record ``names`` and, of those, the SHA-256 in ``sums`` (the files the plot wrote)."""
+    kept = sorted(set(names))
+    write_json_atomic(folder / FIGURES_RECORD, {RECORD_KEY: kept,
+                                                SUMS_KEY: {n: sums[n] for n in kept if n in sums}})
+
+
+def _sums_of(paths: Sequence[Path]) -> dict[str, str]:
+    return {path.name: file_sha256(path) for path in paths if path.is_file()}
+
+
+def _removable(folder: Path, name: str, sums: Mapping[str, str]) -> bool:
+    """Whether a recorded ``name`` is a figure's file right in ``folder`` whose bytes are those the
+    record says the plot wrote (a record edited to name ``../x.png``, a folder, or a file of the
+    person's own removes nothing)."""
+    return Path(name).name == name and name not in ("", ".", "..") and is_figure_file(folder / name) \
+        and name in sums and file_sha256(folder / name) == sums[name]
 
 
 def _holds_files(folder: Path) -> bool:
@@ -102,17 +127,26 @@ def replace_earlier_figures(folder: Path, stems: Sequence[str], formats: Sequenc
         ``write``'s files.
     """
     earlier, unreadable = recorded_figures(folder)
+    sums = recorded_sums(folder) if unreadable is None else {}
     if unreadable is not None and log is not None:
         log(f"{folder / FIGURES_RECORD} {unreadable}: no earlier figure is removed; it is written again")
     planned = [figure_file(folder, stem, fmt).name for stem in stems for fmt in formats]
     if _holds_files(folder):  # a new folder (the lock aside) has no earlier figures: left as it was
-        _write_record(folder, [*earlier, *planned])
-    written = write()
+        _write_record(folder, [*earlier, *planned], {n: d for n, d in sums.items() if n not in planned})
+    started = time.time_ns() - 1_000_000_000  # (a file system's clock may lag the process's a little)
+    try:
+        written = write()
+    except BaseException:  # what it did write is recorded as its own, for the next plot to remove
+        if _holds_files(folder):
+            done = [folder / n for n in planned if (folder / n).is_file()
+                    and (folder / n).stat().st_mtime_ns >= started]
+            _write_record(folder, [*earlier, *planned], {**sums, **_sums_of(done)})
+        raise
     kept = {path.name for path in written}
-    removed = [folder / name for name in sorted(set(earlier) - kept) if _removable(folder, name)]
+    removed = [folder / name for name in sorted(set(earlier) - kept) if _removable(folder, name, sums)]
     for path in removed:
         path.unlink()
-    _write_record(folder, sorted(kept))
+    _write_record(folder, sorted(kept), _sums_of(written))
     if removed and log is not None:
         log(removed_line(folder, removed))
     return written
