@@ -27,6 +27,27 @@ def nudge(*args: str | Path) -> Result:
     return CliRunner().invoke(main, [str(a) for a in args])
 
 
+def nudge_interrupted(monkeypatch: object, *args: str | Path) -> Result:
+    """``nudge *args`` of a batch, Ctrl-C'd as it records its second part (its first one written):
+    the interrupted command's result (exit 130, the resume command on its output)."""
+    from nudgecli.runs.batch_folder import PartRecord
+
+    original = PartRecord.write
+    calls: list[int] = []
+
+    def interrupted(self: PartRecord, *parts: object) -> None:
+        if calls:
+            raise KeyboardInterrupt
+        calls.append(1)
+        original(self, *parts)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(PartRecord, "write", interrupted)  # type: ignore[attr-defined]
+    try:
+        return nudge(*args)
+    finally:
+        monkeypatch.setattr(PartRecord, "write", original)  # type: ignore[attr-defined]
+
+
 def stderr_error_line(result: Result) -> str:
     """The single ``Error: ...`` line a failed command wrote on stderr (exit 1)."""
     assert result.exit_code == 1, (result.output, result.exception)

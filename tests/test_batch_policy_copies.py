@@ -13,7 +13,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from cli_helpers import nudge, one_error_line
+from cli_helpers import nudge, nudge_interrupted, one_error_line
 
 from nudgecli.api.resuming import people_to_resume
 from nudgecli.errors import ConfigError
@@ -347,23 +347,10 @@ def interrupted_batch(kind: str, experiment: Path, monkeypatch: pytest.MonkeyPat
     ``--out batch``), Ctrl-C'd after its first task; the words of the resume command it printed."""
     import shlex
 
-    from nudgecli.runs.batch_folder import PartRecord
-
     monkeypatch.chdir(experiment.parent)
-    original = PartRecord.write
-    calls: list[int] = []
-
-    def interrupted(self: PartRecord, *args: object) -> None:
-        if calls:
-            raise KeyboardInterrupt
-        calls.append(1)
-        original(self, *args)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(PartRecord, "write", interrupted)
     typed = command(kind, experiment, Path("batch"))
     words = [str(w).replace(str(experiment.parent) + "/", "") for w in typed]
-    result = nudge(*words, *flags)
-    monkeypatch.setattr(PartRecord, "write", original)
+    result = nudge_interrupted(monkeypatch, *words, *flags)
     assert result.exit_code == 130, result.output
     return shlex.split(result.output.split("resume with: ")[1].strip().splitlines()[0])
 

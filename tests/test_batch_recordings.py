@@ -10,9 +10,9 @@ import shutil
 from pathlib import Path
 
 import pytest
-from cli_helpers import files_of, nudge, one_error_line
+from cli_helpers import files_of, nudge, nudge_interrupted, one_error_line
 
-from nudgecli.runs.batch_folder import BATCH_MANIFEST, PartRecord
+from nudgecli.runs.batch_folder import BATCH_MANIFEST
 
 RECORDING = "population.physiology_logs=['pilot/calibration/participant-0000']"
 BATCH = ("replicate", "smoke", "-R", "2", "--participants", "2", "--set", RECORDING)
@@ -64,18 +64,7 @@ def test_a_resume_from_another_folder_that_would_take_another_recording_is_refus
 
 
 def test_the_printed_resume_command_says_where_to_run_it(root: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    original = PartRecord.write
-    calls: list[int] = []
-
-    def interrupted(self: PartRecord, *args: object) -> None:
-        if calls:
-            raise KeyboardInterrupt
-        calls.append(1)
-        original(self, *args)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(PartRecord, "write", interrupted)
-    result = nudge(*BATCH, "--out", "C")
-    monkeypatch.setattr(PartRecord, "write", original)
+    result = nudge_interrupted(monkeypatch, *BATCH, "--out", "C")
     assert result.exit_code == 130, result.output
     lines = result.output.split("resume with: ")[1].strip().splitlines()
     assert f"run it from {root}" in lines[1], lines

@@ -7,9 +7,8 @@ import shlex
 from pathlib import Path
 
 import pytest
-from cli_helpers import nudge
+from cli_helpers import nudge, nudge_interrupted
 
-from nudgecli.runs.batch_folder import PartRecord
 from nudgecli.store import resume_command
 
 
@@ -25,18 +24,8 @@ def test_a_folder_starting_with_a_dash_is_written_as_a_path() -> None:
 def test_the_printed_resume_command_of_a_dash_folder_works(tmp_path: Path,
                                                            monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.chdir(tmp_path)
-    original = PartRecord.write
-    calls: list[int] = []
-
-    def interrupted(self: PartRecord, *args: object) -> None:
-        if calls:
-            raise KeyboardInterrupt
-        calls.append(1)
-        original(self, *args)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(PartRecord, "write", interrupted)
-    result = nudge("replicate", "smoke", "-R", "2", "--participants", "2", "--out=-dash")
-    monkeypatch.setattr(PartRecord, "write", original)
+    result = nudge_interrupted(monkeypatch, "replicate", "smoke", "-R", "2", "--participants", "2",
+                               "--out=-dash")
     assert result.exit_code == 130, result.output
     words = shlex.split(result.output.split("resume with: ")[1].strip().splitlines()[0])
     resumed = nudge(*words[1:])
