@@ -71,3 +71,24 @@ def test_the_printed_resume_command_says_where_to_run_it(root: Path, monkeypatch
     monkeypatch.chdir(root)
     resumed = nudge(*shlex.split(lines[0])[1:])
     assert resumed.exit_code == 0, resumed.output
+
+
+def test_a_run_records_its_recordings_and_a_resume_that_would_read_another_is_refused(
+        root: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import json
+
+    made = nudge("simulate", "smoke", "--participants", "2", "--set", RECORDING, "--out", "R")
+    assert made.exit_code == 0, made.output
+    manifest = json.loads((root / "R" / "manifest.json").read_text())
+    assert len(manifest["physiology_logs"]) == 1
+    (root / "R" / "trials" / "part-0001.parquet").unlink()  # a participant left to simulate
+    monkeypatch.chdir(root / "b")  # where pilot/ is another recording
+    before = files_of(root / "R")
+    refused = nudge("simulate", "../R/config.toml", "--out", "../R", "--resume")
+    assert refused.exit_code == 1, refused.output
+    line = one_error_line(refused.output)
+    assert "physiology_logs" in line and "resume from the folder the run was started in" in line, line
+    assert files_of(root / "R") == before
+    monkeypatch.chdir(root)
+    resumed = nudge("simulate", "R/config.toml", "--out", "R", "--resume")
+    assert resumed.exit_code == 0, resumed.output

@@ -73,7 +73,7 @@ def recordings_base(folder: str | Path) -> str | None:
     """The folder the command that resumes batch ``folder`` must run from: the current one, where
     the experiment the batch keeps names a ``population.physiology_logs`` recording by a relative
     path (read from the current folder; from elsewhere the resume is refused, or would take another
-    recording: :data:`nudgecli.runs.batch_folder.RECORDINGS_KEY`); ``None`` where it names none so."""
+    recording: :data:`nudgecli.recording_digests.RECORDINGS_KEY`); ``None`` where it names none so."""
     import tomllib
 
     from nudgecli.runs.batch_folder import kept_inputs

@@ -59,6 +59,7 @@ import numpy as np
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
+from nudgecli.recording_digests import recordings
 from nudgecli.rng import seed_sequence
 from nudgecli.runs.batch_folder import (
     BATCH_MANIFEST,
@@ -71,7 +72,6 @@ from nudgecli.runs.batch_folder import (
     read_json,
     read_study_metrics,
     readable_stats,
-    recordings,
     task_part,
 )
 from nudgecli.runs.batch_tasks import (

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 from nudgecli.errors import RunFolderError
 from nudgecli.parquet_reader import read_parquet
+from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY
 from nudgecli.run_folder_names import FIGURES_DIR, PEOPLE_DIR
 from nudgecli.run_folder_record import (
     RunRecord,
@@ -58,7 +59,6 @@ from nudgecli.store import (
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
     import pandas as pd
 
-    from nudgecli.config import ExperimentConfig
     from nudgecli.runs.batch import Batch
 
 BATCH_MANIFEST = "batch.json"
@@ -83,29 +83,6 @@ EXPERIMENT_COPY = "experiment.toml"
 PLAN_COPY = "plan.toml"
 #: ``batch.json``'s record of those two files: ``{name: SHA-256}``.
 INPUTS_KEY = "inputs"
-#: A point's record, in the batch's description, of the recordings its experiment's
-#: ``population.physiology_logs`` names: each folder's :func:`recording_digest`, in order (only where
-#: it names any). The experiment holds their paths as typed, a relative one read from the current
-#: folder: the digest tells a resume from elsewhere that it would take another recording.
-RECORDINGS_KEY = "physiology_logs"
-
-
-def recording_digest(folder: str | Path) -> str:
-    """What identifies a recording folder's contents: the SHA-256 of each file's path in it and of
-    its SHA-256, in path order (16 hex digits, as a study's key)."""
-    root = Path(folder)
-    digest = hashlib.sha256()
-    for path in sorted(p for p in root.rglob("*") if p.is_file()):
-        digest.update(f"{path.relative_to(root).as_posix()}\0{file_sha256(path)}\n".encode())
-    return digest.hexdigest()[:16]
-
-
-def recordings(config: ExperimentConfig) -> dict[str, list[str]]:
-    """A point's :data:`RECORDINGS_KEY` entry of its description (empty without recordings)."""
-    logs = config.population.physiology_logs
-    return {RECORDINGS_KEY: [recording_digest(folder) for folder in logs]} if logs else {}
-
-
 @dataclass(frozen=True)
 class PolicyCopies:
     """The policy modules of a researcher's own that a batch's experiments import from their folder,
@@ -470,9 +447,7 @@ def batch_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -
     points = (recorded.get("points"), current.get("points"))
     lift = all(isinstance(p, list) and len(p) == 1 and isinstance(p[0], dict) for p in points)
     notes = {"study": "a digest of the experiment's settings: the experiment or a --set differs",
-             RECORDINGS_KEY: "digests of the files of each population.physiology_logs folder: a recording "
-                             "differs; a relative path is read from the current folder, so resume from the "
-                             "folder the batch was started in"}
+             RECORDINGS_KEY: RECORDINGS_DIFFER.format(what="batch")}
     return [f"{difference} ({notes[key]})" if (key := difference.split(":")[0].split(".")[-1]) in notes
             else difference
             for difference in experiment_differences(_by_point(recorded, lift), _by_point(current, lift))]

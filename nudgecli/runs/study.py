@@ -28,6 +28,7 @@ from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
+from nudgecli.recording_digests import recordings
 from nudgecli.rng import check_seed
 from nudgecli.run_folder_names import LAYOUTS, PARTICIPANTS
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, FILE_CHECKSUMS
@@ -414,7 +415,9 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     plan = build_plan_on(config, seed, workers, client)
     plan = plan if people is None else dataclasses.replace(plan, people=people.twins)
     trials_per = plan.trials_per_participant()
-    manifest = folder.read_manifest() if mode == "resume" else new_manifest(config, seed, n, trials_per)
+    # a new run records its recordings' digests (a resume compares them: RunRecord.resume_differences)
+    manifest = folder.read_manifest() if mode == "resume" else {**new_manifest(config, seed, n, trials_per),
+                                                               **recordings(config)}
     if plan.paths is None:  # the CIAA world takes its subjects' block orders from the task file
         manifest["counterbalancing"] = design_record(list(config.study.conditions),
                                                      config.study.counterbalancing, n)

@@ -1,0 +1,39 @@
+"""What identifies the recordings an experiment's ``population.physiology_logs`` names: a digest of
+each folder's files. A run's manifest and a batch's description record them, so that a resume that
+would read another recording (a relative path read from another folder, a recording changed since)
+is refused instead of mixing two people's physiology in one study."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from nudgecli.config import ExperimentConfig
+
+#: The record's key (a run's manifest, a batch point's description): each folder's
+#: :func:`recording_digest`, in the order the experiment names them; only where it names any.
+RECORDINGS_KEY = "physiology_logs"
+#: What a difference in the record means, for the line that refuses a resume.
+RECORDINGS_DIFFER = ("digests of the files of each population.physiology_logs folder: a recording differs; "
+                     "a relative path is read from the current folder, so resume from the folder the "
+                     "{what} was started in")
+
+
+def recording_digest(folder: str | Path) -> str:
+    """What identifies a recording folder's contents: the SHA-256 of each file's path in it and of
+    its SHA-256, in path order (16 hex digits, as a study's key)."""
+    from nudgecli.run_folder_record import file_sha256  # which reads the record at resume
+
+    root = Path(folder)
+    digest = hashlib.sha256()
+    for path in sorted(p for p in root.rglob("*") if p.is_file()):
+        digest.update(f"{path.relative_to(root).as_posix()}\0{file_sha256(path)}\n".encode())
+    return digest.hexdigest()[:16]
+
+
+def recordings(config: ExperimentConfig) -> dict[str, list[str]]:
+    """The :data:`RECORDINGS_KEY` record of ``config``'s recordings (empty without recordings)."""
+    logs = config.population.physiology_logs
+    return {RECORDINGS_KEY: [recording_digest(folder) for folder in logs]} if logs else {}
