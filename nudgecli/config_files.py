@@ -318,7 +318,8 @@ def _dump_table(table: dict[str, Any], path: tuple[str, ...], lines: list[str]) 
 
 
 #: TOML's escapes in a basic string: the backslash, the quotation mark and every control character
-#: (U+0000-U+001F, U+007F), the usual ones by their short escape and the others as ``\uXXXX``.
+#: (U+0000-U+001F, U+007F), the usual ones by their short escape and the others as ``\u`` and
+#: four hexadecimal digits (``\u001B``).
 _STRING_ESCAPES = {**{code: f"\\u{code:04X}" for code in [*range(0x20), 0x7F]},
                    **{ord(c): e for c, e in {"\\": "\\\\", '"': '\\"', "\b": "\\b", "\t": "\\t",
                                                "\n": "\\n", "\f": "\\f", "\r": "\\r"}.items()}}

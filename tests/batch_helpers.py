@@ -22,6 +22,13 @@ def nudge(*args: str):
     return CliRunner().invoke(main, [*args])
 
 
+def a_finished_replicate(folder: Path) -> Path:
+    """:data:`REPLICATE` run to its end into ``folder`` (a module's fixture makes it once)."""
+    done = nudge(*REPLICATE, "--out", str(folder))
+    assert done.exit_code == 0, done.output
+    return folder
+
+
 def an_old_batch(folder: Path, kind: str = "power") -> None:
     """A folder holding every output any batch kind writes, as a finished ``kind`` batch left it,
     and two files of the user's own (one among the figures)."""

@@ -9,7 +9,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from batch_helpers import REPLICATE
+from batch_helpers import REPLICATE, a_finished_replicate
 from cli_helpers import files_of, nudge, one_error_line
 from people_helpers import PEOPLE_BYTES
 
@@ -17,10 +17,7 @@ from people_helpers import PEOPLE_BYTES
 @pytest.fixture(scope="module")
 def finished(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A finished replicate batch of the smoke experiment (2 studies of 2 participants)."""
-    folder = tmp_path_factory.mktemp("refusals") / "B"
-    done = nudge(*REPLICATE, "--out", str(folder))
-    assert done.exit_code == 0, done.output
-    return folder
+    return a_finished_replicate(tmp_path_factory.mktemp("refusals") / "B")
 
 
 def refused_untouched(args: tuple[str, ...], folder: Path) -> str:
