@@ -6,8 +6,9 @@ is refused instead of mixing two people's physiology in one study."""
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from nudgecli.config import ExperimentConfig
@@ -37,3 +38,11 @@ def recordings(config: ExperimentConfig) -> dict[str, list[str]]:
     """The :data:`RECORDINGS_KEY` record of ``config``'s recordings (empty without recordings)."""
     logs = config.population.physiology_logs
     return {RECORDINGS_KEY: [recording_digest(folder) for folder in logs]} if logs else {}
+
+
+def compared(recorded: Mapping[str, Any], now: Mapping[str, Any]) -> dict[str, Any]:
+    """``now`` (what a run's manifest or a batch point's description would record now), less its
+    :data:`RECORDINGS_KEY` where ``recorded`` (the one on disk) has none: a record made before
+    recordings were digested (an older run or batch, a live study) is not compared, for a run and a
+    batch alike; one that has it is."""
+    return {key: value for key, value in now.items() if key != RECORDINGS_KEY or RECORDINGS_KEY in recorded}

@@ -20,7 +20,7 @@ from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
 from nudgecli.errors import DataError, NudgeError, RunFolderError
 from nudgecli.parquet_reader import read_parquet
-from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY, recordings
+from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY, compared, recordings
 from nudgecli.run_folder_config import _ABSENT, _EXPERIMENT_SEED, ConfigRecord, _shown, experiment_differences
 from nudgecli.run_folder_live import LiveRecord
 from nudgecli.run_folder_names import (
@@ -487,11 +487,11 @@ class RunRecord(LiveRecord, ConfigRecord):
                 not any(d.startswith("study.participants:") for d in differences):
             differences.append(f"participants: {_shown(manifest.get('participants', _ABSENT))} in the "
                                f"manifest, {participants} now")
-        if RECORDINGS_KEY in manifest:  # recorded by simulate since; a run that named none records none
-            now = recordings(config).get(RECORDINGS_KEY)
-            if manifest[RECORDINGS_KEY] != now:
-                differences.append(f"{RECORDINGS_KEY}: {_shown(manifest[RECORDINGS_KEY])} in the manifest, "
-                                   f"{_shown(now)} now ({RECORDINGS_DIFFER.format(what='run')})")
+        # a run that named none records none; a manifest without the record is not compared
+        now = compared(manifest, recordings(config)).get(RECORDINGS_KEY)
+        if manifest.get(RECORDINGS_KEY) != now:
+            differences.append(f"{RECORDINGS_KEY}: {_shown(manifest.get(RECORDINGS_KEY, _ABSENT))} in the "
+                               f"manifest, {_shown(now)} now ({RECORDINGS_DIFFER.format(what='run')})")
         recorded_version = (manifest.get("versions") or {}).get("nudgecli", _ABSENT)
         if recorded_version != __version__:
             shown = "(absent)" if recorded_version is _ABSENT else str(recorded_version)

@@ -92,3 +92,32 @@ def test_a_run_records_its_recordings_and_a_resume_that_would_read_another_is_re
     monkeypatch.chdir(root)
     resumed = nudge("simulate", "R/config.toml", "--out", "R", "--resume")
     assert resumed.exit_code == 0, resumed.output
+
+
+def _resume_b(*extra: str) -> object:
+    return nudge("replicate", "B/experiment.toml", "--plan", "B/plan.toml", "-R", "2", "--participants", "2",
+                 "--out", "B", "--resume", *extra)
+
+
+def test_a_batch_without_the_record_resumes_as_a_run_without_it(root: Path) -> None:
+    """A batch made before the digests were recorded (its description has no ``physiology_logs``:
+    ``batch.json`` holds no checksum of the description, so removing it is what an older nudge
+    wrote) is not compared, as a run's manifest without it; it resumes."""
+    import json
+
+    manifest = root / "B" / BATCH_MANIFEST
+    document = json.loads(manifest.read_text())
+    del document["batch"]["points"][0]["physiology_logs"]
+    manifest.write_text(json.dumps(document, indent=2))
+    resumed = _resume_b()
+    assert resumed.exit_code == 0, resumed.output
+    made = nudge("simulate", "smoke", "--participants", "2", "--set", RECORDING, "--out", "R")
+    assert made.exit_code == 0, made.output
+    run_manifest = root / "R" / "manifest.json"
+    document = json.loads(run_manifest.read_text())
+    del document["physiology_logs"]
+    run_manifest.write_text(json.dumps(document, indent=2))
+    (root / "R" / "trials" / "part-0001.parquet").unlink()
+    resumed = nudge("simulate", "R/config.toml", "--out", "R", "--resume")
+    assert resumed.exit_code == 0, resumed.output
+

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 from nudgecli.errors import RunFolderError
 from nudgecli.parquet_reader import read_parquet
-from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY
+from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY, compared
 from nudgecli.run_folder_names import FIGURES_DIR, PEOPLE_DIR
 from nudgecli.run_folder_record import (
     RunRecord,
@@ -435,7 +435,8 @@ def batch_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -
     A point's fields are named by point (``point 2.parameters.inference.kappa``), or plainly where
     both batches have one point (``participants``). A point's ``study`` is a digest of its
     experiment (every setting but the participant count), which ``batch.json`` does not hold:
-    where it differs, the difference says so.
+    where it differs, the difference says so. A recorded point without its recordings' digests
+    (a batch of an older nudge) has them not compared (:func:`nudgecli.recording_digests.compared`).
 
     Parameters
     ----------
@@ -445,6 +446,10 @@ def batch_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -
         The description of the batch now (:meth:`nudgecli.runs.batch.Batch.describe`).
     """
     points = (recorded.get("points"), current.get("points"))
+    if isinstance(points[0], list) and isinstance(points[1], list):
+        current = {**current, "points": [
+            compared(was, point) if isinstance(was, Mapping) and isinstance(point, Mapping) else point
+            for was, point in zip(points[0], points[1], strict=False)] + points[1][len(points[0]):]}
     lift = all(isinstance(p, list) and len(p) == 1 and isinstance(p[0], dict) for p in points)
     notes = {"study": "a digest of the experiment's settings: the experiment or a --set differs",
              RECORDINGS_KEY: RECORDINGS_DIFFER.format(what="batch")}
