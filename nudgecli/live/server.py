@@ -5,7 +5,9 @@ aiohttp serves ``static/`` (plain HTML and JavaScript, no build step) and one we
 passes them to the :class:`~nudgecli.live.session.LiveSession` as they arrive, advances the session
 once per protocol step on its own clock, and sends every connected page the state after each step.
 While no page is connected the session does not advance; a trial whose last page closed is
-abandoned (not recorded) and runs again from its start.
+abandoned (not recorded) and runs again from its start. The session runs in a thread of its own,
+one call at a time in the order they come (:func:`_in_session`): a record waiting for the folder's
+lock held by another process holds up only the session, not the server's answers.
 
 Guards (a study page drives a real person's session; other pages on the machine must not):
 
@@ -33,6 +35,7 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
+import functools
 import hmac
 import json
 import secrets
@@ -40,10 +43,11 @@ import socket
 import sys
 import time
 from collections.abc import AsyncIterator, Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeVar
 
 from aiohttp import WSCloseCode, WSMsgType, web
 
@@ -57,6 +61,8 @@ HOST_NAMES = (HOST, "localhost")
 SESSION_KEY = web.AppKey("session", LiveSession)
 CLOCK_KEY: web.AppKey[Clock] = web.AppKey("clock")
 TOKEN_KEY = web.AppKey("token", str)
+#: The session's own thread (one: its calls run one at a time, in the order they were made).
+WORKER_KEY = web.AppKey("worker", ThreadPoolExecutor)
 #: Paths that need the token: the page and the websocket (``/static/`` holds only the page's code).
 GUARDED_PATHS = ("/", "/ws")
 WATCHING = "another page controls this session; this page only watches"
@@ -202,6 +208,30 @@ class SteppedClock:
         return round(self.steps * self.dt, 9)
 
 
+_T = TypeVar("_T")
+
+
+async def _in_session(app: web.Application, call: Callable[[], _T]) -> _T:
+    """Run ``call`` (the session's handling of a message, its step, its view) in the session's own
+    thread. Recording may wait up to :data:`~nudgecli.live.records.FOLDER_LOCK_WAIT_S` for the
+    folder's lock while another process holds it (another participant's server, ``nudge analyze``):
+    the wait holds up only the session's later calls, queued in order behind it, while the server
+    goes on answering pages, monitors and the websockets' heartbeats."""
+    try:
+        future = asyncio.get_running_loop().run_in_executor(app[WORKER_KEY], call)
+    except RuntimeError:  # the server is stopping and the session's thread has ended: none runs there
+        return call()
+    return await future
+
+
+def _stepped(app: web.Application, now: float) -> dict[str, Any]:
+    """One protocol step of the session (in its thread), and the state it leaves."""
+    session = app[SESSION_KEY]
+    session.tick(now)
+    app[LOG_KEY].session_changed(session)
+    return session.view()
+
+
 async def _broadcast(app: web.Application, message: dict[str, Any]) -> None:
     for ws in app[SOCKETS_KEY].open:
         await _send(ws, message)
@@ -231,18 +261,17 @@ async def _fail(app: web.Application, exc: Exception) -> None:
 
 
 async def _ticker(app: web.Application) -> None:
-    session, clock, session_time = app[SESSION_KEY], app[CLOCK_KEY], app[TIME_KEY]
+    clock, session_time = app[CLOCK_KEY], app[TIME_KEY]
     while True:
         await clock.wait()
         if app[SOCKETS_KEY].controller is None:
             continue  # no participant's page: the session waits (a trial left mid-way was abandoned)
         try:
-            session.tick(session_time.now())
+            view = await _in_session(app, functools.partial(_stepped, app, session_time.now()))
         except Exception as exc:  # a checkpoint not written: the server stops, the page is told
             await _fail(app, exc)
             return
-        app[LOG_KEY].session_changed(session)
-        await _broadcast(app, session.view())
+        await _broadcast(app, view)
 
 
 async def _ticker_context(app: web.Application) -> AsyncIterator[None]:
@@ -251,6 +280,8 @@ async def _ticker_context(app: web.Application) -> AsyncIterator[None]:
     task.cancel()
     with contextlib.suppress(asyncio.CancelledError):
         await task
+    # a recording under way in the session's thread ends (written, or its error) before serve returns
+    await asyncio.to_thread(app[WORKER_KEY].shutdown)
 
 
 async def _index(request: web.Request) -> web.FileResponse:
@@ -319,7 +350,7 @@ async def _websocket(request: web.Request) -> web.WebSocketResponse:
     if sockets.controller is ws:
         session_time.go_on()  # a participant's page again: the session's clock runs
     await _send(ws, {"type": "role", "role": sockets.role_of(ws)})
-    await _send(ws, session.view())
+    await _send(ws, await _in_session(app, session.view))
     try:
         async for msg in ws:
             if msg.type != WSMsgType.TEXT:
@@ -334,32 +365,64 @@ async def _websocket(request: web.Request) -> web.WebSocketResponse:
             if data["type"] in INPUT_TYPES and sockets.controller is not ws:
                 await _reply_error(ws, MONITORING if role == MONITOR else WATCHING)
                 continue
+            changes = data["type"] in ("start", "skip", "questionnaire") or (
+                data["type"] == "key" and data["key"] == " "
+            )
             try:
-                reply = session.handle(data, session_time.now())
+                reply, view = await _in_session(app, _handling(app, data, session_time.now(), changes))
             except Exception as exc:  # a record not written: the server stops, the page is told
                 await _fail(app, exc)
                 break
             if reply is not None:
                 await _send(ws, reply)
-            if data["type"] in ("start", "skip", "questionnaire") or (
-                data["type"] == "key" and data["key"] == " "
-            ):
-                log.session_changed(session)
-                await _broadcast(app, session.view())
+            if view is not None:
+                await _broadcast(app, view)
     finally:
         was_controller = sockets.controller is ws
         sockets.pages.pop(ws, None)
         if was_controller:
-            # the controlling page's keys are up; with no participant's page left, the running
-            # trial is abandoned and the session's clock stops
-            successor = sockets.controller
-            session.handle({"type": "blur" if successor is not None else "disconnect"}, session_time.now())
+            successor, now = sockets.controller, session_time.now()
             if successor is None:
                 session_time.pause()
-            else:
-                await _send(successor, {"type": "role", "role": "controller"})
-            await _broadcast(app, session.view())  # a monitor sees the trial abandoned
+            # a task of its own, run to its end even where the page's connection dropped and this
+            # handler is cancelled: the session hears of it all the same
+            task = asyncio.ensure_future(_controller_left(app, successor, now))
+            _LEAVING.add(task)
+            task.add_done_callback(_LEAVING.discard)
+            await asyncio.shield(task)
     return ws
+
+
+#: The tasks telling the session its controlling page left (held here: the loop holds tasks weakly).
+_LEAVING: set[asyncio.Future[None]] = set()
+
+
+async def _controller_left(app: web.Application, successor: web.WebSocketResponse | None, now: float) -> None:
+    """The controlling page closed: its keys are up; with no participant's page left (no
+    ``successor``), the running trial is abandoned (the session's clock stopped)."""
+    left = {"type": "blur" if successor is not None else "disconnect"}
+    _, view = await _in_session(app, _handling(app, left, now, True))
+    if successor is not None:
+        await _send(successor, {"type": "role", "role": "controller"})
+    assert view is not None
+    await _broadcast(app, view)  # a monitor sees the trial abandoned
+
+
+def _handling(
+    app: web.Application, message: dict[str, Any], now: float, changes: bool
+) -> Callable[[], tuple[dict[str, Any] | None, dict[str, Any] | None]]:
+    """The session's handling of ``message`` (for its thread): the reply to the sender, and the
+    state every page is sent where the message ``changes`` what they show (else ``None``)."""
+    session = app[SESSION_KEY]
+
+    def handle() -> tuple[dict[str, Any] | None, dict[str, Any] | None]:
+        reply = session.handle(message, now)
+        if not changes:
+            return reply, None
+        app[LOG_KEY].session_changed(session)
+        return reply, session.view()
+
+    return handle
 
 
 async def _close_pages(app: web.Application) -> None:
@@ -386,6 +449,7 @@ def create_app(
     app[TIME_KEY] = SessionTime(app[CLOCK_KEY])
     app[LOG_KEY] = ServerLog(log)
     app[SOCKETS_KEY] = Sockets()
+    app[WORKER_KEY] = ThreadPoolExecutor(max_workers=1, thread_name_prefix="nudge-study-session")
     app[FAILURE_KEY] = []
     app[STOP_KEY] = stop
     app.router.add_get("/", _index)
