@@ -1,7 +1,7 @@
 """What identifies the recordings an experiment's ``population.physiology_logs`` names: a digest of
-each folder's files. A run's manifest and a batch's description record them, so that a resume that
-would read another recording (a relative path read from another folder, a recording changed since)
-is refused instead of mixing two people's physiology in one study."""
+the files read from each folder. A run's manifest and a batch's description record them, so that a
+resume that would read another recording (a relative path read from another folder, a recording
+changed since) is refused instead of mixing two people's physiology in one study."""
 
 from __future__ import annotations
 
@@ -17,19 +17,23 @@ if TYPE_CHECKING:
 #: :func:`recording_digest`, in the order the experiment names them; only where it names any.
 RECORDINGS_KEY = "physiology_logs"
 #: What a difference in the record means, for the line that refuses a resume.
-RECORDINGS_DIFFER = ("digests of the files of each population.physiology_logs folder: a recording differs; "
-                     "a relative path is read from the current folder, so resume from the folder the "
-                     "{what} was started in")
+RECORDINGS_DIFFER = ("digests of the files read from each population.physiology_logs folder: a recording "
+                     "differs; a relative path is read from the current folder, so resume from the folder "
+                     "the {what} was started in")
 
 
 def recording_digest(folder: str | Path) -> str:
-    """What identifies a recording folder's contents: the SHA-256 of each file's path in it and of
-    its SHA-256, in path order (16 hex digits, as a study's key)."""
+    """What identifies a recording folder's contents: the SHA-256 of the path in it and the SHA-256
+    of each file the participant's reader reads there
+    (:func:`nudgecli.sim.calibration_readers.distortion_session_files`: the distortion session's
+    prompts and stream), in path order (16 hex digits, as a study's key). Another file (notes, a
+    ``.DS_Store``, the mapping session) changes nothing simulated, so nothing here."""
     from nudgecli.run_folder_record import file_sha256  # which reads the record at resume
+    from nudgecli.sim.calibration_readers import distortion_session_files  # pandas: with a recording only
 
     root = Path(folder)
     digest = hashlib.sha256()
-    for path in sorted(p for p in root.rglob("*") if p.is_file()):
+    for path in sorted(distortion_session_files(root) or ()):
         digest.update(f"{path.relative_to(root).as_posix()}\0{file_sha256(path)}\n".encode())
     return digest.hexdigest()[:16]
 

@@ -121,3 +121,47 @@ def test_a_batch_without_the_record_resumes_as_a_run_without_it(root: Path) -> N
     resumed = nudge("simulate", "R/config.toml", "--out", "R", "--resume")
     assert resumed.exit_code == 0, resumed.output
 
+
+def test_a_file_the_reader_does_not_read_leaves_the_recording_as_it_was(root: Path) -> None:
+    """Notes, a Finder's .DS_Store or the mapping session beside the recording change nothing the
+    simulation reads: the batch resumes; another recording's distortion session is refused."""
+    recording = root / "pilot" / "calibration" / "participant-0000"
+    (recording / "notes.txt").write_text("participant was tired\n")
+    (recording / ".DS_Store").write_bytes(b"\0\1\2")
+    with (recording / "mapping_prompts.csv").open("a") as handle:
+        handle.write("\n")
+    resumed = _resume_b()
+    assert resumed.exit_code == 0, resumed.output
+    other = root / "b" / "pilot" / "calibration" / "participant-0000"
+    for name in ("distortion_prompts.csv", "distortion_stream.csv"):
+        shutil.copy(other / name, recording / name)
+    before = files_of(root / "B")
+    refused = _resume_b()
+    assert refused.exit_code == 1, refused.output
+    assert "physiology_logs" in one_error_line(refused.output)
+    assert files_of(root / "B") == before
+
+
+@pytest.mark.parametrize("layout", ["study", "tidy"])
+def test_the_digest_covers_exactly_the_files_the_reader_reads(tmp_path: Path, layout: str) -> None:
+    from nudgecli.recording_digests import recording_digest
+    from nudgecli.sim.calibration_io import STUDY_FILES, TIDY_FILES
+
+    folder = tmp_path / "participant"
+    names, where = (STUDY_FILES, folder / "p_phm_given_phi") if layout == "study" else (TIDY_FILES, folder)
+    mapping = folder / "p_phi_given_a" if layout == "study" else folder
+    for base, keys in ((where, ("distortion_prompts", "distortion_stream")),
+                       (mapping, ("mapping_prompts", "mapping_responses"))):
+        base.mkdir(parents=True, exist_ok=True)
+        for key in keys:
+            (base / names[key]).write_text(f"{key}\n")
+    first = recording_digest(folder)
+    (folder / "notes.txt").write_text("tired\n")
+    (where / ".DS_Store").write_bytes(b"\0")
+    (mapping / names["mapping_responses"]).write_text("edited\n")
+    assert recording_digest(folder) == first
+    for key in ("distortion_prompts", "distortion_stream"):
+        read = where / names[key]
+        read.write_text(read.read_text() + "1\n")
+        assert recording_digest(folder) != first, key
+        first = recording_digest(folder)

@@ -318,6 +318,26 @@ def read_mapping_session(folder: str | Path) -> MappingSession | None:
                           {"prompts": str(prompts_path), "responses": str(responses_path)})
 
 
+def distortion_session_files(folder: str | Path) -> tuple[Path, Path] | None:
+    """The two files :func:`read_distortion_session` reads from ``folder``, its prompts and its
+    stream (study format first, else tidy), or ``None`` if it holds no session: all that a
+    ``population.physiology_logs`` recording gives a participant, so all its digest covers
+    (:func:`nudgecli.recording_digests.recording_digest`).
+
+    Raises
+    ------
+    DataError
+        When one file of the pair is missing (naming the other).
+    """
+    found = _find_session(Path(folder), ("distortion_prompts", "distortion_stream"), STUDY_DISTORTION_FOLDER,
+                          "distortion", "stream")
+    if found is None:
+        return None
+    where, names = (found[0], STUDY_FILES) if found[0] is not None else (found[1], TIDY_FILES)
+    assert where is not None
+    return where / names["distortion_prompts"], where / names["distortion_stream"]
+
+
 def read_distortion_session(folder: str | Path, variant: str = AUTO_VARIANT) -> DistortionSession | None:
     """Read the ``p(phi_m | phi_i)`` session in ``folder`` (study or tidy format), or ``None`` if absent.
 
@@ -335,21 +355,14 @@ def read_distortion_session(folder: str | Path, variant: str = AUTO_VARIANT) -> 
     DataError
         When one file of the pair is missing or a file is malformed (one line naming file and line).
     """
-    folder = Path(folder)
-    found = _find_session(folder, ("distortion_prompts", "distortion_stream"), STUDY_DISTORTION_FOLDER,
-                          "distortion", "stream")
+    found = distortion_session_files(folder)
     if found is None:
         return None
-    study, tidy = found
+    prompts_path, stream_path = found
     what = "the p(phi_m | phi_i) session"
-    if study is not None:
-        prompts_path = study / STUDY_FILES["distortion_prompts"]
-        stream_path = study / STUDY_FILES["distortion_stream"]
+    if prompts_path.name == STUDY_FILES["distortion_prompts"]:
         time_column, label_column, pressure_column = STUDY_TIME_COLUMN, "frame_id", "axes"
     else:
-        assert tidy is not None
-        prompts_path = tidy / TIDY_FILES["distortion_prompts"]
-        stream_path = tidy / TIDY_FILES["distortion_stream"]
         time_column, label_column, pressure_column = "t", "label", "pressure"
     prompts = _read_csv(prompts_path, (time_column, "command"), what)
     prompt_times, commands = _parse_prompts(prompts, prompts_path, time_column, "distortion")
