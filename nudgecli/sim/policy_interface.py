@@ -50,6 +50,7 @@ from nudgecli.steplog import NO_GOAL
 
 if TYPE_CHECKING:
     from nudgecli.model.disambiguation import DisambiguationModel
+    from nudgecli.model.world import World
     from nudgecli.sim.protocol import ProtocolSettings
 
 #: An object a policy's view shows (:func:`read_only_view`).
@@ -102,6 +103,8 @@ class StepView(Protocol):
     settings
         The protocol's knobs (``dt``, the autonomy's ``autonomy_speed`` and ``autonomy_turn_rate``,
         the person's ``human_speed`` and ``human_turn_rate``, ...).
+    world
+        The trial's world, read-only (:class:`WorldView`): its goals, start and pure queries.
     """
 
     x: float
@@ -122,6 +125,7 @@ class StepView(Protocol):
     goal_transition: np.ndarray | None
     rng: np.random.Generator
     settings: ProtocolSettings
+    world: Any  # a WorldView (the view of a session shows the session's world through one)
 
     @property
     def state(self) -> int: ...
@@ -154,6 +158,9 @@ def _read_only_message(name: str) -> str:
 #: the trial (a list a policy could append to or clear).
 HIDDEN_RECORDS = ("rows", "pending_events")
 
+#: Nor the policy itself, or its hooks, as the source holds them (a policy is ``self`` to itself).
+HIDDEN_POLICY = ("policy", "choose_mode", "assist_quiet")
+
 
 class _Hidden:
     """A name of the source that its view does not hand out: reading it raises AttributeError
@@ -171,15 +178,102 @@ class _Hidden:
         raise AttributeError(_read_only_message(self.name))
 
 
+class WorldView(ReadOnlyView):
+    """What a policy sees of its trial's world (``view.world``): the goals, the start and the
+    world's pure queries (:class:`~nudgecli.model.world.World`), read-only.
+
+    Not :meth:`~nudgecli.model.world.World.move` (a path world keeps per-trial state that its moves
+    update: the waypoint reached, whether the turn is done) nor the world's own attributes (its
+    layout, which trials share): reading any other name raises :class:`AttributeError` naming it,
+    and so does assigning one.
+    """
+
+    __slots__ = ("_world",)
+
+    def __init__(self, world: World) -> None:
+        object.__setattr__(self, "_world", world)
+
+    @property
+    def n_goals(self) -> int:
+        """Number of goals of the trial."""
+        return int(self._world.n_goals)
+
+    @property
+    def goal_poses(self) -> np.ndarray:
+        """``(G, 3)`` the goals' poses (read-only)."""
+        return read_only_array(self._world.goal_poses)
+
+    @property
+    def start_pose(self) -> np.ndarray:
+        """``(3,)`` the robot's start pose (read-only)."""
+        return read_only_array(self._world.start_pose)
+
+    @property
+    def start_mode(self) -> int:
+        """The mode the trial starts in."""
+        return int(self._world.start_mode)
+
+    def state(self, x: float, y: float, theta: float, mode: int) -> int:
+        """The discrete state of a pose and mode (``view.state`` is the robot's)."""
+        return self._world.state(x, y, theta, mode)
+
+    def cells(self, state: int) -> tuple[int, int, int]:
+        """``(cell_x, cell_y, heading)`` of a discrete state, as the step log records them."""
+        return self._world.cells(state)
+
+    def goal_reached(self, x: float, y: float, theta: float) -> int:
+        """The goal whose success rule a pose meets, or -1."""
+        return self._world.goal_reached(x, y, theta)
+
+    def next_mark(self, coordinate: float, direction: float, axis: int) -> float:
+        """The next mark a person sees along ``axis`` strictly beyond ``coordinate`` in ``direction``."""
+        return self._world.next_mark(coordinate, direction, axis)
+
+    def holds_still(self, x: float, y: float, theta: float, velocity: Command) -> bool:
+        """Whether a command ``velocity`` leaves the robot at the pose (moves nothing)."""
+        return self._world.holds_still(x, y, theta, velocity)
+
+    def __getattr__(self, name: str) -> Any:
+        raise AttributeError(f"a policy's view of the world has no {name}: it shows the goals, the "
+                             "start and the pure queries (state, cells, goal_reached, next_mark, "
+                             "holds_still; docs/policies.md, 'What a policy sees'), and a policy acts "
+                             "only through the Assistance or AutonomyTurn it returns")
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        raise AttributeError(_read_only_message(f"world.{name}"))
+
+    def __delattr__(self, name: str) -> None:
+        raise AttributeError(_read_only_message(f"world.{name}"))
+
+
+class _ShownAsWorld:
+    """The source's ``world``, as its view shows it: a :class:`WorldView`, made at the first read
+    and kept in the view's own slot while the source's world stays the same object."""
+
+    def __get__(self, view: Any, owner: type | None = None) -> Any:
+        if view is None:
+            return self
+        world, shown = view.__dict__.get("world"), view._shown_world
+        if shown is None or shown._world is not world:
+            shown = None if world is None else WorldView(world)
+            object.__setattr__(view, "_shown_world", shown)
+        return shown
+
+    def __set__(self, view: object, value: Any) -> None:
+        raise AttributeError(_read_only_message("world"))
+
+
 @functools.cache
 def _read_only_class(source_class: type) -> type:
     """``source_class`` with :class:`ReadOnlyView`'s assignment rule first (its properties kept),
-    and neither its methods (a method called through the view would act on the source) nor
-    :data:`HIDDEN_RECORDS` reachable."""
+    neither its methods (a method called through the view would act on the source) nor
+    :data:`HIDDEN_RECORDS` and :data:`HIDDEN_POLICY` reachable, and its ``world`` a
+    :class:`WorldView`."""
     hidden = {name for name in dir(source_class) if not name.startswith("__")
               and callable(getattr(source_class, name)) and not isinstance(getattr(source_class, name), type)}
-    hidden.update(HIDDEN_RECORDS)
-    namespace: dict[str, Any] = {"__slots__": (), **{name: _Hidden(name) for name in sorted(hidden)}}
+    hidden.update(HIDDEN_RECORDS + HIDDEN_POLICY)
+    namespace: dict[str, Any] = {"__slots__": ("_shown_world",), "world": _ShownAsWorld(),
+                                 **{name: _Hidden(name) for name in sorted(hidden)}}
     return type(f"ReadOnly{source_class.__name__}", (ReadOnlyView, source_class), namespace)
 
 
@@ -193,6 +287,7 @@ def read_only_view(source: SourceT) -> SourceT:
     source_class: type = type(source)
     view: SourceT = object.__new__(_read_only_class(source_class))
     object.__setattr__(view, "__dict__", source.__dict__)
+    object.__setattr__(view, "_shown_world", None)
     return view
 
 
