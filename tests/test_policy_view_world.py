@@ -1,8 +1,8 @@
 """A policy's ``view.world`` shows its trial's world read-only (the goals, the start, the pure
 queries of :class:`nudgecli.model.world.World`), never ``move`` or the world's own attributes (a
 path world keeps the trial's waypoint and turn, which its moves update), and the view does not hand
-out the policy object or its hooks: each attempt is one policy error line naming it
-(docs/policies.md), never a changed trial."""
+out the policy object, its hooks or the trial's specification (the true goal): each attempt is
+one policy error line naming it (docs/policies.md), never a changed trial."""
 
 from __future__ import annotations
 
@@ -37,6 +37,8 @@ from tests.test_policy_view_readonly import _error_line, _session, _simulate
     ("view.policy.threshold = 1.0", "AttributeError: a policy's view has no policy: "),
     ("view.choose_mode", "AttributeError: a policy's view has no choose_mode: "),
     ("view.assist_quiet(view, 5)", "AttributeError: a policy's view has no assist_quiet: "),
+    # the trial's specification holds the true goal, which the agent never observes
+    ("view.spec.true_goal", "AttributeError: a policy's view has no spec: "),
 ])
 def test_reaching_past_the_world_view_or_to_the_policy_is_one_policy_error_line(
         tmp_path: Path, statement: str, message: str) -> None:

@@ -161,6 +161,10 @@ HIDDEN_RECORDS = ("rows", "pending_events")
 #: Nor the policy itself, or its hooks, as the source holds them (a policy is ``self`` to itself).
 HIDDEN_POLICY = ("policy", "choose_mode", "assist_quiet")
 
+#: Nor the trial's specification: it holds the person's true goal, which the agent never observes
+#: (a policy that read it would be told the answer its inference is there to find).
+HIDDEN_ANSWERS = ("spec",)
+
 
 class _Hidden:
     """A name of the source that its view does not hand out: reading it raises AttributeError
@@ -267,11 +271,11 @@ class _ShownAsWorld:
 def _read_only_class(source_class: type) -> type:
     """``source_class`` with :class:`ReadOnlyView`'s assignment rule first (its properties kept),
     neither its methods (a method called through the view would act on the source) nor
-    :data:`HIDDEN_RECORDS` and :data:`HIDDEN_POLICY` reachable, and its ``world`` a
-    :class:`WorldView`."""
+    :data:`HIDDEN_RECORDS`, :data:`HIDDEN_POLICY` and :data:`HIDDEN_ANSWERS` reachable, and its
+    ``world`` a :class:`WorldView`."""
     hidden = {name for name in dir(source_class) if not name.startswith("__")
               and callable(getattr(source_class, name)) and not isinstance(getattr(source_class, name), type)}
-    hidden.update(HIDDEN_RECORDS + HIDDEN_POLICY)
+    hidden.update(HIDDEN_RECORDS + HIDDEN_POLICY + HIDDEN_ANSWERS)
     namespace: dict[str, Any] = {"__slots__": ("_shown_world",), "world": _ShownAsWorld(),
                                  **{name: _Hidden(name) for name in sorted(hidden)}}
     return type(f"ReadOnly{source_class.__name__}", (ReadOnlyView, source_class), namespace)
