@@ -3,7 +3,8 @@
 While a command writes a folder it holds the folder's lock (:func:`run_lock`, the file
 ``.nudge.lock`` with the holder's pid, host and command): a second writer is refused with a
 :class:`LockError` naming the holder; a lock left behind by a process of this host that no longer
-runs is taken over with a warning on stderr. ``nudge study`` takes one such lock per participant
+runs is taken over with a warning to the caller's ``log`` (the command's stderr, an API caller's
+``log=``; none printed without one). ``nudge study`` takes one such lock per participant
 (:func:`acquire_lock_file`).
 """
 
@@ -14,7 +15,7 @@ import json
 import os
 import socket
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -87,7 +88,8 @@ def _try_lock(handle: Any) -> bool | None:
 
 
 @contextlib.contextmanager
-def run_lock(folder: str | Path, command: str | None = None) -> Iterator[Path]:
+def run_lock(folder: str | Path, command: str | None = None,
+             log: Callable[[str], None] | None = None) -> Iterator[Path]:
     """Hold the lock of the run folder ``folder`` (made if missing) for the block.
 
     The lock is the file ``folder/.nudge.lock``, locked with ``flock`` while held (so the OS
@@ -101,6 +103,8 @@ def run_lock(folder: str | Path, command: str | None = None) -> Iterator[Path]:
         The run folder (or analysis folder) about to be written.
     command
         What holds it, for the message another writer gets (default: this process's command line).
+    log
+        Gets the warning of a stale lock taken over (:func:`acquire_lock_file`); default silent.
 
     Raises
     ------
@@ -124,7 +128,7 @@ def run_lock(folder: str | Path, command: str | None = None) -> Iterator[Path]:
             _HELD[key][1] -= 1
         return
     lock_path = path / LOCK
-    handle = acquire_lock_file(lock_path, command)
+    handle = acquire_lock_file(lock_path, command, log)
     _HELD[key] = [handle, 1]
     try:
         yield path
@@ -135,8 +139,9 @@ def run_lock(folder: str | Path, command: str | None = None) -> Iterator[Path]:
         handle.close()
 
 
-def acquire_lock_file(lock_path: Path, command: str | None) -> Any:
-    """Open, lock and fill in ``lock_path``; the open file (closing it releases the lock)."""
+def acquire_lock_file(lock_path: Path, command: str | None, log: Callable[[str], None] | None = None) -> Any:
+    """Open, lock and fill in ``lock_path``; the open file (closing it releases the lock). A lock left
+    by a process of this host that no longer holds it is taken over, with a ``Warning:`` line to ``log``."""
     host = socket.gethostname()
     for _ in range(20):
         try:
@@ -169,8 +174,9 @@ def acquire_lock_file(lock_path: Path, command: str | None) -> Any:
                 raise LockError(f"{lock_path.parent}: in use by {describe_holder(holder)}; wait for it "
                                 "to finish or choose another --out")
             state = "no longer running" if not _pid_alive(pid) else "no longer holding it"
-            print(f"Warning: {lock_path.parent}: taking over the stale lock of {describe_holder(holder)}, "
-                  f"{state}", file=sys.stderr)
+            if log is not None:
+                log(f"Warning: {lock_path.parent}: taking over the stale lock of {describe_holder(holder)}, "
+                    f"{state}")
         record = {"pid": os.getpid(), "host": host, "command": command or " ".join(
             [Path(sys.argv[0]).name, *sys.argv[1:]]), "since": utc_now()}
         try:

@@ -32,7 +32,6 @@ import hashlib
 import json
 import os
 import platform
-import sys
 import tempfile
 from collections.abc import Callable, Collection, Iterable, Iterator, Sequence
 from datetime import UTC, datetime
@@ -474,12 +473,12 @@ class RunFolder(RunRecord):
     # --- writing ------------------------------------------------------------------------------
 
     def prepare(self, config: ExperimentConfig, seed: int, participants: int, resume: bool,
-                force: bool) -> str:
+                force: bool, log: Callable[[str], None] | None = None) -> str:
         """Make the folder ready for a run; return ``"new"`` or ``"resume"``.
 
-        The rule is :func:`prepare_mode`'s: ``resume`` requires the same resolved experiment and
-        seed, ``force`` deletes the old run's tables (or the run's file names in a non-empty
-        folder) first; a folder left by a run killed before its manifest starts it afresh.
+        The rule is :func:`prepare_mode`'s: ``resume`` requires the same resolved experiment and seed
+        (``log`` is told of a config.toml put back), ``force`` deletes the old run's tables (or the
+        run's file names in a non-empty folder) first; a run killed before its manifest starts afresh.
         """
         config_text = config.to_toml()
         manifest = self.read_manifest() if self.is_run() else None
@@ -504,7 +503,8 @@ class RunFolder(RunRecord):
             self._remove_temporaries()
             # the manifest's experiment is the run's: put back an edited or lost config.toml
             if (warning := self.config_toml_warning(config)) is not None:
-                print(f"Warning: {warning}", file=sys.stderr)
+                if log is not None:
+                    log(f"Warning: {warning}")
                 write_text_atomic(self.path / CONFIG, config_text)
             return "resume"
         if mode in ("replace", "overwrite"):

@@ -7,7 +7,7 @@ call through this module); an :class:`Analysis` holds what it computed and where
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -127,8 +127,8 @@ class Analysis(FolderOwner):
 def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | AnalysisPlan | None = None,
             metrics: Sequence[str] | None = None, questionnaires: str | Path | None = None,
             bootstrap: int | None = None, out: str | Path | None = None, seed: int | None = None,
-            reference: str | None = None, drop_duplicates: bool = False,
-            progress: ProgressCallback | None = None, force: bool = False) -> Analysis:
+            reference: str | None = None, drop_duplicates: bool = False, force: bool = False,
+            progress: ProgressCallback | None = None, log: Callable[[str], None] | None = None) -> Analysis:
     """Compute the metrics and statistics of ``source``, as ``nudge analyze`` does.
 
     Parameters
@@ -144,8 +144,7 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     questionnaires
         A questionnaire CSV analysed alongside.
     bootstrap, seed
-        Bootstrap resamples and seed of the intervals; default the plan's (2000 and 0 in the
-        shipped plans).
+        Bootstrap resamples and seed of the intervals; default the plan's (shipped: 2000 and 0).
     out
         The folder written; default as ``nudge analyze``: the run folder, ``<table>-analysis/``
         beside a table, and for a DataFrame a temporary folder removed with the :class:`Analysis`.
@@ -153,8 +152,9 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
         ``summary.md`` compares every other condition with this one only.
     drop_duplicates
         Keep the first of repeated trial rows of a table instead of refusing them.
-    progress
-        Called with (metrics done, metrics in all); default silent.
+    progress, log
+        Called with (metrics done, metrics in all), and with the ``Warning:`` line of a stale lock
+        taken over (``nudge analyze``'s stderr); default silent.
     force
         Write into an ``out`` that holds other files or a run (``--force``), or into a table's
         ``<table>-analysis/`` that holds another table's analysis; without it such a folder is
@@ -185,7 +185,7 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     seed = arguments.seed(seed, optional=True)
     reference = arguments.text("reference", reference, optional=True)
     arguments.switches(drop_duplicates=drop_duplicates, force=force)
-    progress = arguments.callback("progress", progress)
+    progress, log = arguments.callback("progress", progress), arguments.callback("log", log)
     check_resamples(bootstrap, "--bootstrap", MIN_RESAMPLES)  # the analysis's own bounds, before --out's
     path = source.path if isinstance(source, Run) else source
     if out is not None:  # the run folder itself, or the table's analysis folder, is the source's own
@@ -194,7 +194,7 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     options: dict[str, Any] = {"plan": plan, "metrics": list(metrics) if metrics is not None else None,
                                "questionnaires": questionnaires, "seed": seed, "bootstrap": bootstrap,
                                "drop_duplicates": drop_duplicates, "progress": progress,
-                               "reference": reference}
+                               "reference": reference, "log": log}
     if isinstance(source, pd.DataFrame):
         return _analyze_frame(source, out, options)
     if isinstance(source, Run):

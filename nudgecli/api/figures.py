@@ -206,7 +206,8 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
         Write into an ``out`` that is not empty.
     log
         Receives the line naming the figures an earlier plot wrote into the folder and this one
-        did not, which are removed once all of this plot's are written.
+        did not, which are removed once all of this plot's are written, and the ``Warning:`` line
+        of a stale lock taken over.
 
     Raises
     ------
@@ -231,7 +232,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
         analysis_plan = load_plan(plan_of(folder, plan))
         if plan is not None:
             shown = analysis_plan.label if isinstance(plan, AnalysisPlan) else str(plan)
-            _analyse_first(folder, analysis_plan, trial_key, out, force, reference, shown)
+            _analyse_first(folder, analysis_plan, trial_key, out, force, reference, shown, log)
     # lock only the folder written: the figures' folder given by out (a read-only source is then
     # only read), else the run or analysis folder that holds figures/ (which analyze locks)
     written_folder: Path | None = None  # None: not a plottable source; plot_folder says why
@@ -242,7 +243,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
             written_folder = default_out(folder).parent
     made = written_folder is not None and not written_folder.exists()
     try:
-        with run_lock(written_folder) if written_folder is not None else contextlib.nullcontext():
+        with run_lock(written_folder, log=log) if written_folder is not None else contextlib.nullcontext():
             if out is not None:  # under the lock: a folder another command is writing is named so
                 _check_figures_folder(folder, out, force)
             return plot_folder(folder, out, chosen_formats, trial_key,
@@ -257,7 +258,8 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
 
 
 def _analyse_first(folder: Path, plan: AnalysisPlan, trial: tuple[int, int] | None, out: str | Path | None,
-                   force: bool, reference: str | None, shown_plan: str) -> None:
+                   force: bool, reference: str | None, shown_plan: str,
+                   log: Callable[[str], None] | None = None) -> None:
     """``nudge plot --plan``: analyse the source with ``plan`` after checking what the plot can check
     before (the trial, the figures' folder), so that a plot refused for them rewrites nothing.
 
@@ -276,9 +278,10 @@ def _analyse_first(folder: Path, plan: AnalysisPlan, trial: tuple[int, int] | No
         _check_figures_folder(folder, out, force)
     _check_no_questionnaires(folder, table, shown_plan)
     if table is None:
-        analyze_source(folder, plan=plan, reference=reference)
+        analyze_source(folder, plan=plan, reference=reference, log=log)
     else:
-        analyze_source(table, plan=plan, out=folder, reference=reference, drop_duplicates=drop_duplicates)
+        analyze_source(table, plan=plan, out=folder, reference=reference, drop_duplicates=drop_duplicates,
+                       log=log)
 
 
 def _check_no_questionnaires(folder: Path, table: Path | None, shown_plan: str) -> None:
@@ -367,8 +370,8 @@ def analyze_and_plot(run: Run | str | Path, *, plan: str | Path | None = None,
     plan
         The analysis plan (default: the one named like the run's experiment, else ``paper``).
     log
-        Receives the line naming the plan chosen, before the analysis, and the line naming the
-        figures of an earlier plot removed (:func:`save_figures`).
+        Receives the line naming the plan chosen, before the analysis, the line naming the figures
+        of an earlier plot removed (:func:`save_figures`) and the warning of a stale lock taken over.
 
     Returns
     -------
@@ -387,7 +390,7 @@ def analyze_and_plot(run: Run | str | Path, *, plan: str | Path | None = None,
     if log is not None:
         log(f"analysing with the {chosen!r} plan")
     analysis_plan = load_plan(chosen)
-    with run_lock(opened.path):
+    with run_lock(opened.path, log=log):
         result = analyze_source(opened.path, plan=chosen)
         written = plot_folder(opened.path, star_rule=analysis_plan.comparison_options(),
                               item_labels=analysis_plan.questionnaires.labels, log=log)

@@ -47,7 +47,7 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
         result = api.analyze(source, plan=plan, out=out, metrics=list(metric_names) or None,
                              questionnaires=questionnaires, seed=seed, bootstrap=bootstrap,
                              drop_duplicates=drop_duplicates, progress=update, reference=reference,
-                             force=force)
+                             force=force, log=info)
     finally:
         bar.close()
     for note in result.notes:

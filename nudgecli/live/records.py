@@ -59,8 +59,8 @@ from nudgecli.live.record_checks import (
     recorded_sums,
 )
 from nudgecli.locks import acquire_lock_file, describe_holder, read_holder, run_lock
-from nudgecli.run_folder_names import CONFIG, LOCK, QUESTIONNAIRES_CSV
-from nudgecli.run_folder_record import file_sha256
+from nudgecli.run_folder_names import CONFIG, LAYOUTS, LOCK, QUESTIONNAIRES_CSV
+from nudgecli.run_folder_record import FILE_CHECKSUMS, file_sha256
 from nudgecli.sim.counterbalance import order_choice
 from nudgecli.sim.study import StudyLayout, layouts_frame
 from nudgecli.store import (
@@ -107,6 +107,11 @@ def unsaved_answers_name(participant: int) -> str:
     return f"questionnaires-unsaved-{participant:04d}.csv"
 
 
+def _warn(line: str) -> None:
+    """A ``Warning:`` line of ``nudge study`` (a stale lock taken over) on its stderr."""
+    print(line, file=sys.stderr)
+
+
 def _is_lock_file(name: str) -> bool:
     return name == LOCK or (name.startswith(".nudge-participant-") and name.endswith(".lock"))
 
@@ -117,7 +122,7 @@ def folder_lock(path: Path, wait_s: float = FOLDER_LOCK_WAIT_S) -> Iterator[None
     deadline = time.monotonic() + wait_s
     while True:
         try:
-            lock = run_lock(path, command="nudge study (manifest update)")
+            lock = run_lock(path, command="nudge study (manifest update)", log=_warn)
             lock.__enter__()
         except LockError:
             if time.monotonic() >= deadline:
@@ -214,7 +219,7 @@ class LiveFolder:
             self._lock_path = lock_path
             return
         try:
-            handle = acquire_lock_file(lock_path, None)
+            handle = acquire_lock_file(lock_path, None, _warn)
         except LockError:
             holder = describe_holder(read_holder(lock_path))
             raise LockError(
@@ -269,15 +274,16 @@ class LiveFolder:
                 self._rewrite_crashed_parts(participant, entry)
             if config_toml_warning is not None:  # the manifest's experiment: put config.toml back
                 write_text_atomic(self.path / CONFIG, config_text)
-                print(f"Warning: {config_toml_warning}", file=sys.stderr)
+                _warn(f"Warning: {config_toml_warning}")
         else:
             prepare_mode(self.path, None, resume, False, own_file=_is_lock_file, can_force=False,
                          resume_first=True)
             self.path.mkdir(parents=True, exist_ok=True)
             write_text_atomic(self.path / CONFIG, config_text)
-            run.write_layouts(layouts_frame(layouts))
+            layouts_sum = run.write_layouts(layouts_frame(layouts))
             manifest = new_manifest(used, seed, 0, trials_per_participant)
             manifest.update({"status": "running", "completed": [], "executor": EXECUTOR, "live": {}})
+            manifest[FILE_CHECKSUMS] = {LAYOUTS: layouts_sum}  # checked by its readers, as simulate's
             entry = None
         if entry is None:
             entry = {

@@ -323,7 +323,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
             seed: int | None = None, *, bootstrap: int | None = None, drop_duplicates: bool = False,
             progress: Callable[[int, int], None] | None = None, reference: str | None = None,
             not_applicable: Mapping[str, Collection[str]] | None = None,
-            force: bool = False) -> AnalysisResult:
+            force: bool = False, log: Callable[[str], None] | None = None) -> AnalysisResult:
     """Compute the metrics and statistics of a run or a metrics table and write them.
 
     Parameters
@@ -361,6 +361,8 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
         Write a table's analysis into its ``<table>-analysis/`` even when that folder holds the
         analysis of another table (``study.parquet``'s in ``study-analysis/``), replacing it;
         without it that is refused (:func:`~nudgecli.report.analysis_folders.check_folder_is_the_tables`).
+    log
+        Gets the warning of a stale lock taken over (:func:`~nudgecli.locks.run_lock`); default silent.
 
     Returns
     -------
@@ -387,7 +389,7 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
     try:
         return _analyze_with_locks(source, plan, out_dir, metrics, questionnaires, seed, bootstrap,
                                    drop_duplicates, progress, reference=reference,
-                                   not_applicable=not_applicable, force=force)
+                                   not_applicable=not_applicable, force=force, log=log)
     except BaseException:
         if made_out and out_dir.is_dir() and not any(out_dir.iterdir()):
             out_dir.rmdir()  # made only for this analysis, which failed: leave nothing behind
@@ -399,17 +401,17 @@ def _analyze_with_locks(source: Path, plan: str | Path | AnalysisPlan | None, ou
                         bootstrap: int | None, drop_duplicates: bool,
                         progress: Callable[[int, int], None] | None, *, reference: str | None = None,
                         not_applicable: Mapping[str, Collection[str]] | None = None,
-                        force: bool = False) -> AnalysisResult:
+                        force: bool = False, log: Callable[[str], None] | None = None) -> AnalysisResult:
     """:func:`analyze` with the run folder's and the output folder's locks held."""
     with contextlib.ExitStack() as locks:
         if is_run_folder(source):
             try:
-                locks.enter_context(run_lock(source))
+                locks.enter_context(run_lock(source, log=log))
             except NudgeWriteError:
                 if out_dir.resolve() == source.resolve():
                     raise
                 # a read-only run folder analysed elsewhere: nobody can be writing it
-        locks.enter_context(run_lock(out_dir))
+        locks.enter_context(run_lock(out_dir, log=log))
         if source.is_file() and not force and out_dir.resolve() == analysis_folder(source).resolve():
             check_folder_is_the_tables(source, out_dir)  # under its lock: study.csv's, not study.parquet's
         return _analyze_locked(source, plan, out_dir, metrics, questionnaires, seed, bootstrap,

@@ -348,7 +348,7 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     folder = Path(out)
     made = not folder.exists()
     try:
-        with run_lock(folder):
+        with run_lock(folder, log=log):
             return _run_batch_locked(batch, folder, size, workers, client, resume, force, copies, progress,
                                      log, prepare)
     except BaseException:

@@ -391,7 +391,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
         checked_plan(plan, [config])
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
     try:
-        with run_lock(out):
+        with run_lock(out, log=log):
             return _run_locked(RunFolder(out), config, seed, n, workers, scheduler, client, resume, force,
                                progress, plan, people, policy_files, log)
     except BaseException:
@@ -407,7 +407,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                 log: Callable[[str], None] | None = None) -> StudyRun:
     """:func:`run_study` once the folder's lock is held (``client``: the connected dask client, or None)."""
     policy_files = _placeable_copies(folder, policy_files or {})  # before the folder is touched
-    mode = folder.prepare(config, seed, n, resume=resume, force=force)
+    mode = folder.prepare(config, seed, n, resume=resume, force=force, log=log)
     _keep_inputs(folder, mode == "resume", config, people, policy_files, log)
     done = set(folder.completed_participants()) & set(range(n)) if mode == "resume" else set()
     if mode == "resume":
