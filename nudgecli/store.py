@@ -140,17 +140,19 @@ def write_error(path: str | Path, exc: OSError) -> WriteError:
 
 
 def check_writable(folder: str | Path) -> None:
-    """Fail now, before any work, if a file cannot be created in ``folder`` (made if missing).
-
-    Raises
-    ------
-    WriteError
-        The folder cannot be made or written (read-only, full, not a folder).
-    """
-    with atomic_path(Path(folder) / ".nudge-write-check") as tmp:
-        tmp.write_bytes(b"")
-    with contextlib.suppress(OSError):
-        (Path(folder) / ".nudge-write-check").unlink()
+    """Fail now, before any work, with a :class:`WriteError` if a file cannot be created in ``folder``
+    (read-only, full, not a folder), making none: the folders made to check it are removed again."""
+    path = Path(folder)
+    missing = [p for p in (path, *path.parents) if not os.path.exists(p)]  # the deepest first
+    try:
+        with atomic_path(path / ".nudge-write-check") as tmp:
+            tmp.write_bytes(b"")
+        with contextlib.suppress(OSError):
+            (path / ".nudge-write-check").unlink()
+    finally:
+        for made in missing:
+            with contextlib.suppress(OSError):
+                made.rmdir()
 
 
 def remove_temporaries(folders: Iterable[Path]) -> None:
@@ -189,8 +191,7 @@ def write_parquet_atomic(path: str | Path, frame: pd.DataFrame) -> str:
     """Write ``frame`` to ``path`` as Parquet atomically (no index); the file's SHA-256 (hex)."""
     with atomic_path(path) as tmp:
         frame.to_parquet(tmp, index=False)
-        digest = file_sha256(tmp)
-    return digest
+        return file_sha256(tmp)  # the block's end renames it into place
 
 
 def library_versions() -> dict[str, str]:

@@ -31,7 +31,7 @@ def queries_csv(result: ValidationResult) -> str:
 
 
 def prepare_out(out_dir: str | os.PathLike[str]) -> Path:
-    """Create the output folder (before any computing) or say why it cannot be used.
+    """Check that the output folder can be written, making none (before any computing), or say why not.
 
     Raises
     ------
