@@ -315,7 +315,7 @@ class RunRecord(LiveRecord, ConfigRecord):
 
     def read_layouts(self) -> pd.DataFrame:
         """The trial layouts, verified against the SHA-256 the manifest recorded when they were
-        written (a manifest of an older nudge, or a ``nudge study`` folder, records none).
+        written (a manifest of an older nudge records none).
 
         Raises
         ------

@@ -148,6 +148,33 @@ def test_a_live_folders_layouts_are_checked_and_the_command_named_writes_them_ag
     assert _nudge("plot", str(live), "--trial", "1:0").exit_code == 0
 
 
+def test_a_live_folders_layouts_edited_by_hand_are_refused_where_they_are_drawn(live):
+    """The manifest records layouts.parquet's SHA-256 as simulate's does (``files``): a file rewritten
+    with one goal moved is refused by plot (it drew the moved goal), named with the command that
+    writes it again; analyze computes nothing from it, as for a simulated run."""
+    layouts = live / "layouts.parquet"
+    kept = layouts.read_bytes()
+    assert _nudge("analyze", str(live)).exit_code == 0
+    frame = pd.read_parquet(layouts)
+    poses = list(frame.at[0, "goal_poses"])
+    poses[0] += 10.0
+    frame.at[0, "goal_poses"] = poses
+    frame.to_parquet(layouts, index=False)
+    before = _files(live)
+    lines = [_one_error(_nudge("plot", str(live), *args)) for args in ((), ("--trial", "1:0"))]
+    for line in lines:
+        assert "layouts.parquet changed since it was written" in line and "--resume" not in line, line
+    assert _files(live) == before
+    command = re.search(r"`(nudge simulate [^`]*)`", lines[0])
+    assert command is not None, lines[0]
+    assert _nudge(*shlex.split(command.group(1))[1:]).exit_code == 0
+    shutil.copy(live.with_name(f"{live.name}-layouts") / "layouts.parquet", layouts)
+    assert layouts.read_bytes() == kept
+    assert _nudge("plot", str(live), "--trial", "1:0").exit_code == 0
+    recorded = json.loads((live / "manifest.json").read_text())["files"]
+    assert recorded == {"layouts.parquet": file_sha256(layouts)}
+
+
 def test_a_part_a_stopped_checkpoint_renamed_into_place_is_named_with_the_resume_not_a_backup(live):
     _record_checksums(live)
     part = live / "trials" / "part-0001.parquet"
