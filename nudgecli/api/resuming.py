@@ -54,15 +54,15 @@ def people_to_resume(folder: str | Path, typed: str | None) -> str | None:
 
 def inputs_to_resume(folder: str | Path) -> dict[str, str]:
     """The experiment and plan files the command that resumes batch ``folder`` names in place of
-    the ones typed, where the folder keeps them (a replicate or power batch:
-    :func:`nudgecli.runs.batch_folder.kept_inputs`): they import the batch's own policy copies, so
+    the ones typed, or a sweep's sweep file, where the folder keeps them
+    (:func:`nudgecli.runs.batch_folder.kept_inputs`): they import the batch's own policy copies, so
     the command works from any folder.
 
     Returns
     -------
     dict[str, str]
-        ``{"experiment": path, "plan": path}`` for those kept (paths by ``folder`` as given); empty
-        where none is.
+        ``{"experiment": path, "plan": path}`` (a replicate or power batch) or ``{"sweep_file":
+        path}`` (a sweep) for those kept (paths by ``folder`` as given); empty where none is.
     """
     from nudgecli.runs.batch_folder import kept_inputs
 

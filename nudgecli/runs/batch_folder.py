@@ -60,6 +60,7 @@ if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its wo
     import pandas as pd
 
     from nudgecli.runs.batch import Batch
+    from nudgecli.runs.sweep import SweepFile
 
 BATCH_MANIFEST = "batch.json"
 #: Where a batch's lines for the user go: the command's stderr, an API caller's ``log=``, or nowhere.
@@ -81,6 +82,8 @@ BATCH_FOLDERS = frozenset({"tasks", "analyses", PEOPLE_DIR, FIGURES_DIR})
 #: beside it, so the batch resumes from its folder alone (:func:`kept_inputs`).
 EXPERIMENT_COPY = "experiment.toml"
 PLAN_COPY = "plan.toml"
+#: A sweep's own sweep file, naming those two (its experiment file kept byte for byte: :func:`sweep_inputs`).
+SWEEP_COPY = "sweep.toml"
 #: ``batch.json``'s record of those two files: ``{name: SHA-256}``.
 INPUTS_KEY = "inputs"
 @dataclass(frozen=True)
@@ -118,8 +121,8 @@ def policy_copies(batch: Batch) -> PolicyCopies:
     typed, and they import the policy copies again.
 
     Points whose policies name the same factories import the same modules (a sweep over a policy's
-    parameters), so each set of factories is loaded once. A sweep keeps no experiment: each point
-    is its own, made from the sweep file.
+    parameters), so each set of factories is loaded once. A sweep keeps its sweep file and the
+    experiment file it names instead (``batch.inputs``, :func:`sweep_inputs`), and the plan.
 
     Raises
     ------
@@ -140,22 +143,38 @@ def policy_copies(batch: Batch) -> PolicyCopies:
         loaded.add(factories)
         files.update(loaded_policy_files(config, BATCH_FOLDERS, "batch"))
         source = source or config.policy_search_path
-    if batch.kind == "sweep":
-        return PolicyCopies(files, source if files else None)
-    plan = dump_toml(batch.plan.model_dump(mode="json", exclude_none=True))
-    inputs = {EXPERIMENT_COPY: batch.points[0].config.to_toml(), PLAN_COPY: plan}
-    return PolicyCopies(files, source, {name: text.encode("utf-8") for name, text in inputs.items()})
+    plan = dump_toml(batch.plan.model_dump(mode="json", exclude_none=True)).encode("utf-8")
+    if batch.kind == "sweep":  # its inputs: a batch_kinds.SweepBatch's (none: a Batch made by hand)
+        kept: Mapping[str, bytes] = getattr(batch, "inputs", {})
+        return PolicyCopies(files, source if files else None, {**kept, PLAN_COPY: plan} if kept else {})
+    return PolicyCopies(files, source, {EXPERIMENT_COPY: batch.points[0].config.to_toml().encode("utf-8"),
+                                        PLAN_COPY: plan})
+
+
+def sweep_inputs(spec: SweepFile, experiment: Path) -> dict[str, bytes]:
+    """What a sweep's folder keeps of its inputs besides its plan: its sweep file (``spec``, as
+    validated: each parameter a table, in the design's order; :data:`SWEEP_COPY`) naming the kept
+    experiment and plan, and the ``experiment`` file it names, byte for byte
+    (:data:`EXPERIMENT_COPY`: a sweep's set and parameters apply to it as written)."""
+    from nudgecli.config_files import dump_toml
+
+    written = spec.model_dump(mode="json", exclude_none=True)
+    sweep = dump_toml({**written, "experiment": EXPERIMENT_COPY, "plan": PLAN_COPY})
+    return {SWEEP_COPY: sweep.encode("utf-8"), EXPERIMENT_COPY: experiment.read_bytes()}
 
 
 def kept_inputs(folder: Path) -> dict[str, Path]:
     """The experiment and plan ``folder``'s batch keeps (``{"experiment": FOLDER/experiment.toml,
-    "plan": FOLDER/plan.toml}``), each where its ``batch.json`` records it and it is there; empty
-    otherwise (a sweep, a batch of an older nudge). A resume of them works from any folder (and
-    imports the batch's own policy copies): what the command that resumes the batch names."""
+    "plan": FOLDER/plan.toml}``), or a sweep its sweep file (``{"sweep_file": FOLDER/sweep.toml}``,
+    which names them), each where its ``batch.json`` records it and it is there; empty otherwise (a
+    batch of an older nudge). A resume of them works from any folder (and imports the batch's own
+    policy copies): what the command that resumes the batch names."""
     old, _ = read_manifest(folder / BATCH_MANIFEST)
     recorded = old.get(INPUTS_KEY) if old is not None else None
     if not isinstance(recorded, Mapping):
         return {}
+    if SWEEP_COPY in recorded:
+        return {"sweep_file": folder / SWEEP_COPY} if (folder / SWEEP_COPY).is_file() else {}
     return {label: folder / name for label, name in (("experiment", EXPERIMENT_COPY), ("plan", PLAN_COPY))
             if name in recorded and (folder / name).is_file()}
 

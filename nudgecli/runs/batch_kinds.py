@@ -8,8 +8,8 @@ folder.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -24,8 +24,11 @@ from nudgecli.runs.batch_folder import (
     BATCH_FIGURES,
     BATCH_MANIFEST,
     BATCH_TABLES,
+    SWEEP_COPY,
     check_inputs_kept,
+    read_manifest,
     recorded_people,
+    sweep_inputs,
 )
 from nudgecli.runs.study import checked_plan, with_participants
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
@@ -38,6 +41,7 @@ if TYPE_CHECKING:  # the statistics, summaries and figures load beside the batch
     import pandas as pd
 
     from nudgecli.report.plans import AnalysisPlan
+    from nudgecli.runs.sweep import Sweep
 
 
 @dataclass
@@ -63,6 +67,14 @@ class BatchResult:
     summary: pd.DataFrame
     tables: dict[str, pd.DataFrame]
     files: list[Path]
+
+
+@dataclass(frozen=True)
+class SweepBatch(Batch):
+    """A sweep's batch, with the inputs its folder keeps beside its plan (its sweep file and the
+    experiment file it names: :func:`~nudgecli.runs.batch_folder.sweep_inputs`)."""
+
+    inputs: Mapping[str, bytes] = field(default_factory=dict, repr=False)
 
 
 def _declared(stems: Sequence[str], declared: Sequence[str]) -> None:
@@ -235,8 +247,9 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     beside = [(label, loaded.source.parent / written) for label, written in named]
     check_inputs_kept(Path(out), [("SWEEP_FILE", loaded.source), *named, *beside],
                       bool(options.get("force")))
-    batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen,
-                  {"design": spec.design.model_dump(mode="json"), "experiment": spec.experiment})
+    described = {"design": spec.design.model_dump(mode="json"), "experiment": _sweep_experiment(out, loaded)}
+    batch = SweepBatch("sweep", points, count, spec.seed if seed is None else seed, chosen, described,
+                       inputs=sweep_inputs(spec, loaded.experiment_file))
     run = run_batch(batch, out, prepare=import_outputs, **options)
     from nudgecli.report.figures.replication import sensitivity_figure, sweep_figure
     from nudgecli.report.replication import (
@@ -264,6 +277,18 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
             figures["sensitivity"] = sensitivity_figure(indices)
     files = _write_tables(run.path, tables) + _figures(run.path, figures)
     return BatchResult(run, rows, tables.get("sensitivity", summary), tables, files)
+
+
+def _sweep_experiment(out: str | Path, loaded: Sweep) -> str:
+    """The experiment a sweep's description names: as its sweep file names it, but for the batch
+    folder's own copy (:data:`~nudgecli.runs.batch_folder.SWEEP_COPY`, which names the kept
+    ``experiment.toml``) as the sweep file that started the batch named it, which ``batch.json``
+    records: a resume from the copy describes the same batch."""
+    folder = Path(out)
+    old, _ = read_manifest(folder / BATCH_MANIFEST) if loaded.source.resolve() == \
+        (folder / SWEEP_COPY).resolve() else (None, None)
+    named = old["batch"].get("experiment") if old is not None else None
+    return named if isinstance(named, str) else loaded.spec.experiment
 
 
 def point_table(batch: Batch) -> pd.DataFrame:

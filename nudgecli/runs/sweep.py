@@ -50,6 +50,7 @@ from nudgecli.config_files import (
     list_presets,
     preset_dir,
     resolve_plan,
+    resolve_preset,
     settable_path,
     toml_value,
 )
@@ -236,6 +237,9 @@ class Sweep:
         Its validated content.
     points
         The design points, in design order.
+    experiment_file
+        The experiment file it names (a preset's own file, or the file beside it), which the batch
+        folder keeps (:func:`nudgecli.runs.batch_folder.sweep_inputs`).
     problem
         SALib's problem (``names``, ``bounds``, ``num_vars``); ``None`` for a grid.
     samples
@@ -246,6 +250,7 @@ class Sweep:
     source: Path
     spec: SweepFile
     points: list[DesignPoint]
+    experiment_file: Path
     problem: dict[str, Any] | None = None
     samples: np.ndarray | None = field(default=None, repr=False)
 
@@ -340,7 +345,8 @@ def load_sweep(name_or_path: str) -> Sweep:
     # (as the set names it; where the set needs the parameters, as the first point does)
     name = (base if base is not None else points[0].config).experiment.name
     spec = spec.model_copy(update={"plan": resolve_plan(plan, experiment=name)})
-    return Sweep(source=path, spec=spec, points=points, problem=problem, samples=samples)
+    return Sweep(source=path, spec=spec, points=points, problem=problem, samples=samples,
+                 experiment_file=resolve_preset(experiment, "experiments"))
 
 
 def point_overrides(fixed: list[str], assignment: dict[str, Any]) -> list[str]:
