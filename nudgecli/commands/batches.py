@@ -73,10 +73,11 @@ def rerun_command(ctx: click.Context, target: Path, people: str | None = None) -
     """The command line that resumes the interrupted command of ``ctx`` into ``target``: its
     arguments and the options given on the command line (``--people`` naming ``people`` where
     given), ``--out target`` and ``--resume`` (``--force`` dropped: it would delete what was
-    finished). Where the batch folder keeps its experiment and plan
-    (:func:`nudgecli.api.resuming.inputs_to_resume`: a replicate or power batch), it names
-    those instead (the experiment resolved, so without ``--set``): they import the batch's own
-    policy copies, so the command works from any folder, the experiment's moved or gone."""
+    finished). Where the batch folder keeps its inputs
+    (:func:`nudgecli.api.resuming.inputs_to_resume`: a replicate or power batch's experiment and
+    plan, a sweep's sweep file), it names those instead (the experiment resolved, so without
+    ``--set``): they import the batch's own policy copies, so the command works from any folder,
+    the inputs moved or gone."""
     from click.core import ParameterSource
 
     from nudgecli.api.resuming import inputs_to_resume

@@ -49,7 +49,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -137,6 +137,9 @@ class Batch:
         the file's bytes (``people/<its name>``).
     notes
         Told once the folder is prepared (people no study takes, :func:`nudgecli.sim.study.left_out_notes`).
+    inputs
+        A sweep's inputs its folder keeps beside its plan, by file name (its sweep file and the
+        experiment file it names: :func:`~nudgecli.runs.batch_folder.sweep_inputs`).
     """
 
     kind: Literal["replicate", "power", "sweep"]
@@ -147,6 +150,7 @@ class Batch:
     extra: dict[str, Any] = field(default_factory=dict)
     people: People | None = None
     notes: tuple[str, ...] = ()
+    inputs: Mapping[str, bytes] = field(default_factory=dict, repr=False)
 
     def describe(self) -> dict[str, Any]:
         """What identifies the batch (a resumed batch must describe itself identically)."""

@@ -144,9 +144,9 @@ def policy_copies(batch: Batch) -> PolicyCopies:
         files.update(loaded_policy_files(config, BATCH_FOLDERS, "batch"))
         source = source or config.policy_search_path
     plan = dump_toml(batch.plan.model_dump(mode="json", exclude_none=True)).encode("utf-8")
-    if batch.kind == "sweep":  # its inputs: a batch_kinds.SweepBatch's (none: a Batch made by hand)
-        kept: Mapping[str, bytes] = getattr(batch, "inputs", {})
-        return PolicyCopies(files, source if files else None, {**kept, PLAN_COPY: plan} if kept else {})
+    if batch.kind == "sweep":  # its inputs (none: a Batch made by hand, as a test makes one)
+        return PolicyCopies(files, source if files else None,
+                            {**batch.inputs, PLAN_COPY: plan} if batch.inputs else {})
     return PolicyCopies(files, source, {EXPERIMENT_COPY: batch.points[0].config.to_toml().encode("utf-8"),
                                         PLAN_COPY: plan})
 

@@ -8,8 +8,8 @@ folder.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -67,14 +67,6 @@ class BatchResult:
     summary: pd.DataFrame
     tables: dict[str, pd.DataFrame]
     files: list[Path]
-
-
-@dataclass(frozen=True)
-class SweepBatch(Batch):
-    """A sweep's batch, with the inputs its folder keeps beside its plan (its sweep file and the
-    experiment file it names: :func:`~nudgecli.runs.batch_folder.sweep_inputs`)."""
-
-    inputs: Mapping[str, bytes] = field(default_factory=dict, repr=False)
 
 
 def _declared(stems: Sequence[str], declared: Sequence[str]) -> None:
@@ -248,8 +240,8 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     check_inputs_kept(Path(out), [("SWEEP_FILE", loaded.source), *named, *beside],
                       bool(options.get("force")))
     described = {"design": spec.design.model_dump(mode="json"), "experiment": _sweep_experiment(out, loaded)}
-    batch = SweepBatch("sweep", points, count, spec.seed if seed is None else seed, chosen, described,
-                       inputs=sweep_inputs(spec, loaded.experiment_file))
+    batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen, described,
+                  inputs=sweep_inputs(spec, loaded.experiment_file))
     run = run_batch(batch, out, prepare=import_outputs, **options)
     from nudgecli.report.figures.replication import sensitivity_figure, sweep_figure
     from nudgecli.report.replication import (
