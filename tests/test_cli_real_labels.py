@@ -86,14 +86,15 @@ def test_canonical_integer_labels_give_the_outputs_they_gave_before(tables: Path
 
 def without_table_read(path: Path) -> bytes:
     """A file's bytes; ``stats.json``'s as written without its records of the table read and of
-    the scores file, and without each metric's mean ranks (which came after the expected files:
-    report/table_read.py, report/questionnaires.py, report/stats_document.py), every other byte as
-    it is."""
+    the scores file, and without each metric's mean ranks and star rule (which came after the
+    expected files: report/table_read.py, report/questionnaires.py, report/stats_document.py),
+    every other byte as it is."""
     if path.name != "stats.json":
         return path.read_bytes()
     stats = json.loads(path.read_text(encoding="utf-8"))
     for entry in stats["metrics"]:
         assert set(entry.pop("mean_rank")) == set(entry["n"])  # one per condition
+        assert set(entry.pop("star_rule")) == {"kruskal_alpha", "thresholds", "comparison"}
     assert set(stats.pop("table_read")) == {"sha256", "rows", "drop_duplicates", "duplicates_dropped",
                                             "table"}
     scores = (path.parent / "questionnaire_scores.csv").read_bytes()

@@ -24,7 +24,7 @@ DATA = Path(__file__).parent / "data"
 METRICS_CSV = DATA / "metrics_two_conditions.csv"
 QUESTIONNAIRES_CSV = DATA / "questionnaires_two_conditions.csv"
 STATS_KEYS = ["metric", "n", "mean", "median", "q1", "q3", "mean_rank", "kruskal", "conover", "p_adjust",
-              "stars", "participant_level", "effect_size", "ci"]
+              "stars", "star_rule", "participant_level", "effect_size", "ci"]
 
 
 def make_run(folder: Path, n_participants: int = 5, trials_per_condition: int = 4, seed: int = 1) -> Path:

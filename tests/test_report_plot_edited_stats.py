@@ -1,12 +1,16 @@
-"""`nudge plot` draws only the p-values its metrics give: a stats.json whose p-values (and the stars
-drawn from them) were edited by hand is refused, not drawn."""
+"""`nudge plot` draws only the p-values its metrics give and the stars those give under the rule
+recorded beside them: a stats.json whose p-values or stars were edited by hand is refused, not
+drawn."""
 
 from __future__ import annotations
 
 import json
 import shutil
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
+import pytest
 from click.testing import CliRunner
 
 from nudgecli.cli import main
@@ -37,8 +41,58 @@ def test_plot_refuses_p_values_and_stars_edited_by_hand(tmp_path):
     result = CliRunner().invoke(main, ["plot", str(table), "--formats", "png"])
     errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
     assert result.exit_code == 1 and len(errors) == 1, result.output
-    assert errors[0] == (f"Error: {stats_path}: the p-values of completion_time are not those of its metrics "
-                         "(the file was edited); run `nudge analyze` on the source again before plotting")
+    assert errors[0] == _refusal(stats_path, "completion_time")
+
+
+def _refusal(stats_path: Path, metric: str) -> str:
+    return (f"Error: {stats_path}: the p-values or stars of {metric} are not those of its metrics (the "
+            "file was edited); run `nudge analyze` on the source again before plotting")
+
+
+def _starred(entry: dict[str, Any]) -> None:
+    for row in entry["stars"]:
+        row["stars"] = "***"  # p-values left as they are
+
+
+def _rule_loosened(entry: dict[str, Any]) -> None:
+    entry["star_rule"]["comparison"] = "<>"
+
+
+def _unstarred(entry: dict[str, Any]) -> None:
+    for row in entry["stars"]:
+        row["stars"] = ""
+
+
+@pytest.mark.parametrize(("metric", "edit"), [
+    ("completion_time", _starred),  # not significant in the reference run: stars added
+    ("human_effort", _unstarred),  # significant there: its stars taken away
+    ("human_effort", _rule_loosened),
+])
+def test_plot_refuses_stars_edited_alone(tmp_path: Path, metric: str,
+                                         edit: Callable[[dict[str, Any]], None]) -> None:
+    table = _analysed(tmp_path)
+    stats_path = tmp_path / "study-analysis" / "stats.json"
+    stats = json.loads(stats_path.read_text(encoding="utf-8"))
+    entry = next(e for e in stats["metrics"] if e["metric"] == metric)
+    before = [row["stars"] for row in entry["stars"]]
+    edit(entry)
+    stats_path.write_text(json.dumps(stats, indent=2), encoding="utf-8")
+    result = CliRunner().invoke(main, ["plot", str(table), "--formats", "png"])
+    errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
+    assert result.exit_code == 1 and errors == [_refusal(stats_path, metric)], (before, result.output)
+
+
+def test_a_document_without_a_star_rule_is_plotted_as_before(tmp_path: Path) -> None:
+    """An older nudge's stats.json records no rule: its p-values are checked, its stars drawn as
+    recorded."""
+    table = _analysed(tmp_path)
+    stats_path = tmp_path / "study-analysis" / "stats.json"
+    stats = json.loads(stats_path.read_text(encoding="utf-8"))
+    for entry in stats["metrics"]:
+        entry.pop("star_rule")
+    stats_path.write_text(json.dumps(stats, indent=2), encoding="utf-8")
+    result = CliRunner().invoke(main, ["plot", str(table), "--formats", "png"])
+    assert result.exit_code == 0, result.output
 
 
 def test_a_cut_off_metrics_csv_of_a_run_is_named_with_the_analysis_that_writes_it_again(tmp_path):

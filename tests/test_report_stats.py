@@ -318,7 +318,8 @@ def test_stats_document_schema_and_tidy_table() -> None:
     assert list(stats) == ["conditions", "metrics"] and stats["conditions"] == ["a", "b", "c"]
     entry = stats["metrics"][0]
     assert list(entry) == ["metric", "n", "mean", "median", "q1", "q3", "mean_rank", "kruskal", "conover",
-                           "p_adjust", "stars", "participant_level", "effect_size", "ci"]
+                           "p_adjust", "stars", "star_rule", "participant_level", "effect_size", "ci"]
+    assert entry["star_rule"] == {"kruskal_alpha": 0.05, "thresholds": [0.05, 0.01, 0.001], "comparison": "<"}
     assert entry["n"] == {"a": 8, "b": 9, "c": 7}
     # the mean ranks of all trials ranked together (scipy's average ranks), each condition's mean
     pooled = np.concatenate([np.asarray(GROUPS[c], dtype=float) for c in ("a", "b", "c")])

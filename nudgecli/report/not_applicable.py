@@ -25,7 +25,7 @@ from typing import Any
 
 import pandas as pd
 
-from nudgecli.report.stats import ComparisonOptions, epsilon_squared, pairs
+from nudgecli.report.stats import ComparisonOptions, epsilon_squared, pairs, star_rule
 
 #: The reason of a condition listed in the analysis' mapping.
 NOT_APPLICABLE = "not applicable"
@@ -161,6 +161,7 @@ def entry_over_conditions(entry: Mapping[str, Any] | None, metric: str,
         "conover": _spread(entry["conover"] if entry is not None else [], conditions, _BLANK_CONOVER),
         "p_adjust": options.p_adjust,
         "stars": _spread(entry["stars"] if entry is not None else [], conditions, _BLANK_STARS),
+        "star_rule": star_rule(options),
         "participant_level": level,
         "effect_size": effect,
         "ci": ci,

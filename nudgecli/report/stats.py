@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Any, Literal
 
 import numpy as np
@@ -403,3 +403,19 @@ def significance_stars(p: float, thresholds: Sequence[float] = (0.05, 0.01, 0.00
 def is_significant(p: float, alpha: float, comparison: Literal["<", "<="] = "<") -> bool:
     """Whether ``p`` is significant at ``alpha`` under the comparison (False for NaN)."""
     return significance_stars(p, (alpha,), comparison) == "*"
+
+
+def star_rule(options: ComparisonOptions) -> dict[str, Any]:
+    """The rule a metric's stars follow (its Kruskal-Wallis gate, thresholds and comparison), as
+    ``stats.json`` records it beside them, so that the stars can be checked against the p-values."""
+    return {"kruskal_alpha": options.kruskal_alpha, "thresholds": list(options.star_thresholds),
+            "comparison": options.star_comparison}
+
+
+def pair_stars(p: float, kruskal_p: float, rule: Mapping[str, Any]) -> str:
+    """A pair's stars under a :func:`star_rule`: those of its (adjusted) Conover ``p``, where the
+    metric's Kruskal-Wallis ``kruskal_p`` passes the gate; ``""`` otherwise."""
+    comparison = rule["comparison"]
+    if not is_significant(kruskal_p, float(rule["kruskal_alpha"]), comparison):
+        return ""
+    return significance_stars(p, [float(t) for t in rule["thresholds"]], comparison)

@@ -5,7 +5,8 @@
 Each metric's entry has the same keys whatever the number of conditions (the reference run pins
 them), but for the pairwise participant-level tests and epsilon-squared, which appear with three or
 more. ``mean_rank`` (each condition's mean rank, the trials of the compared conditions ranked
-together) was added after the first documents: a reader of an older document finds none.
+together) and ``star_rule`` (the rule the ``stars`` follow: :func:`~nudgecli.report.stats.star_rule`)
+were added after the first documents: a reader of an older document finds none.
 """
 
 from __future__ import annotations
@@ -25,11 +26,11 @@ from nudgecli.report.stats import (
     conover_rows,
     descriptive_columns,
     epsilon_squared,
-    is_significant,
     kruskal_wallis,
     mean_rank_column,
+    pair_stars,
     python_scalar,
-    significance_stars,
+    star_rule,
     tidy_values,
 )
 
@@ -105,10 +106,9 @@ def _compared_entry(data: pd.DataFrame, metric: str, conditions: Sequence[str],
     kruskal = kruskal_wallis(data, metric, conditions, condition=condition, tidy=tidy)
     posthoc = conover_rows(data, metric, conditions, p_adjust=options.p_adjust, condition=condition,
                            tidy=tidy)
-    significant = is_significant(kruskal["p"], options.kruskal_alpha, options.star_comparison)
-    stars = [{"a": row["a"], "b": row["b"],
-              "stars": significance_stars(row["p"], options.star_thresholds, options.star_comparison)
-              if significant else ""} for row in posthoc]
+    rule = star_rule(options)
+    stars = [{"a": row["a"], "b": row["b"], "stars": pair_stars(row["p"], kruskal["p"], rule)}
+             for row in posthoc]
     level, effect = participant_level_test(data, metric, conditions, participant=participant,
                                            condition=condition, aggregate=options.participant_aggregate,
                                            p_adjust=options.p_adjust, tidy=tidy)
@@ -125,6 +125,7 @@ def _compared_entry(data: pd.DataFrame, metric: str, conditions: Sequence[str],
         "conover": posthoc,
         "p_adjust": options.p_adjust,
         "stars": stars,
+        "star_rule": rule,
         "participant_level": level,
         "effect_size": effect,
         "ci": {
@@ -153,6 +154,7 @@ def _descriptive_entry(metric: str, descriptives: dict[str, Any],
         "conover": [],
         "p_adjust": options.p_adjust,
         "stars": [],
+        "star_rule": star_rule(options),
         "participant_level": {"test": "none", "aggregate": options.participant_aggregate,
                               "statistic": math.nan, "p": math.nan, "n_participants": 0,
                               "dropped_participants": [], "note": SINGLE_CONDITION_NOTE},

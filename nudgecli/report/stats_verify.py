@@ -1,9 +1,11 @@
-"""Whether a ``stats.json``'s p-values are those of the metrics ``nudge plot`` draws.
+"""Whether a ``stats.json``'s p-values and stars are those of the metrics ``nudge plot`` draws.
 
 ``metrics_checksum`` shows that the statistics were computed from the metrics present; the
 p-values the figures' brackets and stars come from are then computed again from those metrics
 (Kruskal-Wallis and the Conover pairs: milliseconds per metric), so a hand-edited p-value is
-refused instead of drawn.
+refused instead of drawn. The stars are then those of the p-values under the rule the document
+records beside them (``star_rule``; a document of an older nudge records none, and its stars are
+not checked).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ from typing import Any
 import pandas as pd
 
 from nudgecli.errors import DataError
-from nudgecli.report.stats import conover_rows, kruskal_wallis
+from nudgecli.report.stats import conover_rows, kruskal_wallis, pair_stars
 
 #: How far a recorded p-value may be from the one computed again (JSON's round trip keeps floats
 #: exactly; this only allows another machine's last bits).
@@ -32,10 +34,33 @@ def _same(recorded: Any, computed: float) -> bool:
                                                      abs_tol=_TOLERANCE)
 
 
+def _stars_follow_rule(entry: Mapping[str, Any]) -> bool:
+    """Whether the entry's stars are those its (verified) p-values give under its ``star_rule``."""
+    rule = entry.get("star_rule")
+    if rule is None:
+        return True  # a document of an older nudge: no rule recorded, its stars are not checked
+    if not isinstance(rule, Mapping) or rule.get("comparison") not in ("<", "<="):
+        return False
+    kruskal_p = _p_value((entry.get("kruskal") or {}).get("p"))
+    p_values = {_pair(r): _p_value(r.get("p")) for r in entry.get("conover") or []}
+    return all((row.get("stars") or "") == pair_stars(p_values.get(_pair(row), math.nan), kruskal_p, rule)
+               for row in entry.get("stars") or [])
+
+
+def _pair(row: Mapping[str, Any]) -> frozenset[str]:
+    return frozenset((str(row["a"]), str(row["b"])))
+
+
+def _p_value(recorded: Any) -> float:
+    """A recorded p-value (``null`` for NaN) as a float."""
+    return math.nan if recorded is None else float(recorded)
+
+
 def verify_p_values(stats: Mapping[str, Any], tables: Sequence[pd.DataFrame | None], where: str) -> None:
     """Refuse a ``stats.json`` (at ``where``) whose Kruskal-Wallis or Conover p-value of a metric is
     not the one its values in ``tables`` (the verified metrics, the verified questionnaire scores)
-    give: the document was edited.
+    give, or whose stars are not those of its p-values under its ``star_rule``: the document was
+    edited.
 
     Raises
     ------
@@ -60,10 +85,10 @@ def verify_p_values(stats: Mapping[str, Any], tables: Sequence[pd.DataFrame | No
             pairs = {frozenset((r["a"], r["b"])): r["p"] for r in computed}
             omnibus = kruskal_wallis(data, metric, conditions)["p"] if tested else math.nan
             same = _same((entry.get("kruskal") or {}).get("p"), omnibus) and \
-                all(_same(row.get("p"), pairs.get(frozenset((str(row["a"]), str(row["b"]))), math.nan))
-                    for row in rows)
+                all(_same(row.get("p"), pairs.get(_pair(row), math.nan))
+                    for row in rows) and _stars_follow_rule(entry)
         except (KeyError, TypeError, ValueError, AttributeError):
             same = False
         if not same:
-            raise DataError(f"{where}: the p-values of {metric} are not those of its metrics (the file was "
-                            "edited); run `nudge analyze` on the source again before plotting")
+            raise DataError(f"{where}: the p-values or stars of {metric} are not those of its metrics (the "
+                            "file was edited); run `nudge analyze` on the source again before plotting")
