@@ -96,10 +96,10 @@ class Run(FolderOwner):
 
     def success(self) -> pd.DataFrame:
         """Trials, success rate, time-outs and median duration per condition (what ``nudge simulate``
-        prints), one row per condition."""
+        prints), one row per condition, in the order ``nudge analyze`` gives them."""
         from nudgecli.runs.study import success_by_condition
 
-        return success_by_condition(self.trials)
+        return success_by_condition(self.trials, self.config.study.conditions)
 
     def report(self) -> str:
         """The text ``nudge simulate`` prints before the folder: counts and :meth:`success`."""

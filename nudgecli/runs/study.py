@@ -542,14 +542,20 @@ def peak_memory_mb() -> float:
     return max(own, children) / 1024.0
 
 
-def success_by_condition(trials: pd.DataFrame) -> pd.DataFrame:
-    """Trials and success rate per condition (the summary ``nudge simulate`` prints)."""
+def success_by_condition(trials: pd.DataFrame, conditions: Sequence[str] = ()) -> pd.DataFrame:
+    """Trials and success rate per condition (the summary ``nudge simulate`` prints), one row per
+    condition in the toolkit's one order (:func:`~nudgecli.report.stats.order_conditions`, as
+    ``nudge analyze`` orders them: the paper's first, then ``conditions``, the experiment's
+    ``study.conditions``, then the rest by name), not the trials' order of first appearance."""
     import pandas as pd
 
+    from nudgecli.report.stats import order_conditions
+
     grouped = trials.groupby("condition", sort=False)
-    return pd.DataFrame({
+    table = pd.DataFrame({
         "trials": grouped.size(),
         "success_rate": grouped["success"].mean(),
         "timed_out": grouped["timed_out"].sum(),
         "median_duration_s": grouped["duration_s"].median(),
     })
+    return table.loc[order_conditions(table.index, conditions)]
