@@ -68,7 +68,7 @@ def test_a_plan_file_filtering_an_unknown_metric_is_named_by_its_file(tmp_path, 
 # --- analyze --bootstrap has a plan's lower bound ---------------------------------------------------
 
 
-@pytest.mark.parametrize("resamples", [1, MIN_RESAMPLES - 1])
+@pytest.mark.parametrize("resamples", [-1, 0, 1, MIN_RESAMPLES - 1])
 def test_analyze_refuses_fewer_resamples_than_a_plan_allows(tmp_path, resamples):
     """``--bootstrap 1`` printed an 'interval' of one resample's value, off the median it surrounds."""
     table = _table(tmp_path)
@@ -95,6 +95,14 @@ def test_analyze_takes_as_few_resamples_as_a_plan_allows(tmp_path):
 
 def test_the_help_of_bootstrap_states_the_bound():
     assert f"at least {MIN_RESAMPLES}" in " ".join(nudge("analyze", "--help").output.split())
+
+
+def test_the_help_of_bootstrap_states_no_other_bound():
+    """The help showed click's ``[x>=1]`` beside the text's 100: one bound, the plan's, its check
+    the Error line above (0 was a usage error, 50 that line)."""
+    help_text = " ".join(nudge("analyze", "--help").output.split())
+    option = help_text[help_text.index("--bootstrap"):help_text.index("--drop-duplicates")]
+    assert "x>=" not in option, option
 
 
 # --- a plan's numbers are numbers ------------------------------------------------------------------

@@ -180,7 +180,7 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
 
     metrics = arguments.texts("metrics", metrics, optional=True)
     questionnaires = arguments.path("questionnaires", questionnaires, optional=True)
-    bootstrap = arguments.whole_number("bootstrap", bootstrap, optional=True, minimum=1)
+    bootstrap = arguments.whole_number("bootstrap", bootstrap, optional=True)  # its bounds: check_resamples
     out = arguments.path("out", out, optional=True)
     seed = arguments.seed(seed, optional=True)
     reference = arguments.text("reference", reference, optional=True)

@@ -31,7 +31,7 @@ from nudgecli.commands.common import FORCE_HELP, SET_HELP, echo_json, info, prog
               help="Questionnaire CSV (NASA-TLX, Likert) analysed alongside.")
 @click.option("--seed", type=int, default=None,
               help="Bootstrap seed [default: the plan's].")
-@click.option("--bootstrap", "bootstrap", type=click.IntRange(min=1), default=None, metavar="N",
+@click.option("--bootstrap", "bootstrap", type=int, default=None, metavar="N",
               help="Bootstrap resamples of the intervals, at least 100 as in a plan [default: the plan's].")
 @click.option("--drop-duplicates", is_flag=True,
               help="Keep the first of repeated trial rows of a table instead of refusing them.")
