@@ -13,7 +13,8 @@ from nudgecli.api.run import Run
 from nudgecli.runs.study import success_by_condition
 
 #: The baselines experiment's conditions, in its study.conditions' order.
-BASELINES = ["disambiguation", "control", "teleoperation", "blending", "mode-switch", "hindsight", "turn-taking"]
+BASELINES = ["disambiguation", "control", "teleoperation", "blending", "mode-switch", "hindsight",
+             "turn-taking"]
 
 
 def _trials(order: list[str]) -> pd.DataFrame:
@@ -24,7 +25,8 @@ def _trials(order: list[str]) -> pd.DataFrame:
 
 
 def test_the_summary_follows_the_experiment_order_not_the_first_blocks() -> None:
-    blocks = ["turn-taking", "control", "hindsight", "disambiguation", "blending", "mode-switch", "teleoperation"]
+    blocks = ["turn-taking", "control", "hindsight", "disambiguation", "blending", "mode-switch",
+              "teleoperation"]
     table = success_by_condition(_trials(blocks), BASELINES)
     assert list(table.index) == BASELINES
     assert table.index.name == "condition"
