@@ -424,6 +424,7 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
                 computed += 1
                 if progress:
                     progress(run.done, run.total)
+        run.record.write_in_order()  # its lines came in the order the tasks finished
     except BaseException:
         executor.abort()  # Ctrl-C or a failure: do not wait for the running tasks
         raise

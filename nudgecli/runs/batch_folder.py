@@ -4,12 +4,11 @@ prepare rule.
 Every result of a batch is written by the process that runs it as an atomic part file: a
 participant task's per-trial metrics under ``tasks/<study>/``, an analysis's statistics under
 ``analyses/``. Each part's SHA-256 is appended to the batch's record, ``checksums.sha256``
-(:class:`PartRecord`; the format of ``sha256sum``, so ``sha256sum -c checksums.sha256`` checks a
-batch by hand), once the part is in place. ``--resume`` keeps exactly the parts the record vouches
-for (and that are readable: :func:`readable_stats` for an analysis) and computes the others again:
-a missing, truncated or edited part, or one copied in from another batch, never reaches the
-batch's tables; an interrupted batch finishes without recomputing a finished task. The graph and
-its execution are in :mod:`nudgecli.runs.batch`.
+(:class:`~nudgecli.runs.part_record.PartRecord`), once the part is in place. ``--resume`` keeps
+exactly the parts the record vouches for (and that are readable: :func:`readable_stats` for an
+analysis) and computes the others again: a missing, truncated or edited part, or one copied in from
+another batch, never reaches the batch's tables; an interrupted batch finishes without recomputing
+a finished task. The graph and its execution are in :mod:`nudgecli.runs.batch`.
 """
 
 from __future__ import annotations
@@ -18,9 +17,8 @@ import contextlib
 import hashlib
 import io
 import json
-import re
 import shutil
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -34,8 +32,8 @@ from nudgecli.run_folder_record import (
     experiment_differences,
     file_sha256,
     part_name,
-    readable_parquet,
 )
+from nudgecli.runs.part_record import PART_RECORD, Log, PartRecord  # noqa: F401 - the batch folder's names
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, keep_copy, remove_copy
 from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
@@ -49,10 +47,8 @@ from nudgecli.sim.policy_files import (
 )
 from nudgecli.sim.policy_registry import policy_specs
 from nudgecli.store import (
-    json_text,
     prepare_mode,
     remove_temporaries,
-    write_bytes_atomic,
     write_error,
 )
 
@@ -63,12 +59,6 @@ if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its wo
     from nudgecli.runs.sweep import SweepFile
 
 BATCH_MANIFEST = "batch.json"
-#: Where a batch's lines for the user go: the command's stderr, an API caller's ``log=``, or nowhere.
-Log = Callable[[str], None] | None
-
-#: The record of the batch's parts: one ``<SHA-256>  <path in the folder>`` line per part written.
-PART_RECORD = "checksums.sha256"
-_RECORD_LINE = re.compile(r"([0-9a-f]{64})  ([^\n]+)")
 #: Every table a batch kind writes (``<stem>.csv`` in the folder: :mod:`nudgecli.runs.batch_kinds`
 #: writes no other), and every figure (``figures/<stem>.png``): replacing a batch removes them all,
 #: whichever kind it was, and a batch refuses an input of one of these names.
@@ -228,93 +218,6 @@ def parquet_bytes(frame: pd.DataFrame) -> bytes:
     buffer = io.BytesIO()
     frame.to_parquet(buffer, index=False)
     return buffer.getvalue()
-
-
-class PartRecord:
-    """The batch folder's record of its parts (:data:`PART_RECORD`): what ``--resume`` may keep.
-
-    A part is recorded once it is in place, so a part without a line (killed between the two,
-    copied in from another batch) or whose bytes no longer give its line's SHA-256 (edited,
-    truncated) is not vouched for, and is computed again. A torn last line (a kill while
-    appending, or the zeros a power cut can leave) vouches for nothing, and the first line this
-    record appends starts on a line of its own. Later lines of a path replace earlier ones.
-
-    Parameters
-    ----------
-    folder
-        The batch folder.
-    """
-
-    def __init__(self, folder: Path) -> None:
-        self.folder = folder
-        self.path = folder / PART_RECORD
-        self.sums: dict[str, str] = {}
-        try:
-            text = self.path.read_text(encoding="utf-8", errors="replace")
-        except FileNotFoundError:
-            text = ""
-        except OSError as exc:
-            raise RunFolderError(f"{self.path}: cannot be read ({exc.strerror or exc}); use --force to "
-                                 "start the batch again") from None
-        for line in text.splitlines():
-            match = _RECORD_LINE.fullmatch(line)
-            if match:
-                self.sums[match.group(2)] = match.group(1)
-        #: what ends a torn last line before the first line appended (it would glue onto it)
-        self._line_break = "\n" if text and not text.endswith("\n") else ""
-        #: Parts on disk that the record does not vouch for, as they were met (for the warning).
-        self.refused: list[str] = []
-        #: Parts the record holds that are no longer on disk (deleted since), as they were met.
-        self.missing: list[str] = []
-
-    def _name(self, part: Path) -> str:
-        return part.relative_to(self.folder).as_posix()
-
-    def vouches(self, part: Path, readable: Callable[[Path], bool] = readable_parquet) -> bool:
-        """Whether ``part`` is on disk, readable, and has the SHA-256 the record holds of it."""
-        if not part.is_file():
-            if self._name(part) in self.sums:  # written by this batch, gone since (not merely unfinished)
-                self.missing.append(self._name(part))
-            return False
-        recorded = self.sums.get(self._name(part))
-        if recorded is not None and file_sha256(part) == recorded and readable(part):
-            return True
-        self.refused.append(self._name(part))
-        return False
-
-    def warn_refused(self, log: Log) -> None:
-        """Tell ``log`` (the command's stderr, an API caller's ``log=``) which parts are computed
-        again: those on disk not vouched for, and those the record holds that are missing (a part
-        never written, of an unfinished task, is neither)."""
-        def shown(parts: list[str]) -> str:
-            return ", ".join(parts[:6]) + (f" and {len(parts) - 6} more" if len(parts) > 6 else "")
-
-        if log is not None and self.refused:
-            log(f"Warning: {self.folder}: {shown(self.refused)}: not vouched for by {PART_RECORD} (not as "
-                "this batch wrote them); computing them again")
-        if log is not None and self.missing:
-            log(f"Warning: {self.folder}: {shown(self.missing)}: missing (written by this batch, as "
-                f"{PART_RECORD} records, and deleted since); computing them again")
-
-    def write_json(self, part: Path, document: Any) -> None:
-        """Write an analysis's part atomically, then record it."""
-        self.write(part, json_text(document).encode("utf-8"))
-
-    def write(self, part: Path, data: bytes) -> None:
-        """Write ``data`` to ``part`` atomically, then append its line to the record.
-
-        Neither is forced to disk (fsync, a third of the batch process's time per part on some
-        file systems): the record vouches for a part only while its bytes give the line's SHA-256,
-        so a part or a line that a power cut lost is computed again; a killed process loses
-        neither."""
-        write_bytes_atomic(part, data, durable=False)
-        name = self._name(part)
-        try:
-            with open(self.path, "a", encoding="utf-8") as handle:
-                handle.write(f"{self._line_break}{hashlib.sha256(data).hexdigest()}  {name}\n")
-            self._line_break = ""
-        except OSError as exc:
-            raise write_error(self.path, exc) from exc
 
 
 def output_files(folder: Path) -> list[Path]:
