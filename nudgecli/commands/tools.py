@@ -113,7 +113,8 @@ def _validation_readings() -> list[str]:
               help="Queries of the Monte-Carlo convergence study (0 skips it).")
 @click.option("--reading", type=click.Choice(list(_validation_readings())),
               default=defaults.VALIDATION_READING,
-              show_default=True, help="Which reading of the paper's validation paragraph (see the README).")
+              show_default=True,
+              help="Which reading of the paper's validation paragraph (docs/findings.md describes each).")
 @click.option("--all-readings", is_flag=True,
               help="Run every reading on the same worlds and print one row per reading, by |G|.")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=str), default=None,
