@@ -116,7 +116,8 @@ def test_stats_json_records_what_the_analysis_did_to_the_rows_it_read(tmp_path, 
     assert CliRunner().invoke(main, args).exit_code == 0
     record = stats_of(tmp_path / "study-analysis")["table_read"]
     assert record == {"sha256": hashlib.sha256(source.read_bytes()).hexdigest(), "rows": len(table) + repeats,
-                      "drop_duplicates": flag, "duplicates_dropped": repeats, "table": "../study.csv"}
+                      "drop_duplicates": flag, "duplicates_dropped": repeats, "table": "../study.csv",
+                      "plan": "paper", "questionnaires": None}
     # a table analysed as it is is drawn from itself, one whose rows were dropped from metrics.csv
     assert (tmp_path / "study-analysis" / "metrics.csv").is_file() == (repeats > 0)
     assert plot(source, tmp_path / "figures").exit_code == 0
@@ -180,7 +181,7 @@ def test_the_command_to_run_names_an_analysis_folder_of_its_own(tmp_path):
     table = tmp_path / "study.csv"
     assert analyze_command(table, tmp_path / "study-analysis", False) == f"nudge analyze {table}"
     assert analyze_command(table, tmp_path, True) == \
-        f"nudge analyze {table} --out {tmp_path} --drop-duplicates"
+        f"nudge analyze {table} --out {tmp_path} --force --drop-duplicates"
 
 
 def test_a_parquet_tables_record_is_the_sha256_of_its_bytes_and_an_edit_is_refused(tmp_path):

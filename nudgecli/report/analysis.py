@@ -86,7 +86,7 @@ from nudgecli.report.stats import ComparisonOptions, order_conditions
 from nudgecli.report.stats_document import compare_conditions, json_ready, stats_csv, stats_table
 from nudgecli.report.summary import P_THRESHOLDS, format_summary, plan_p_thresholds
 from nudgecli.report.table_definitions import apply_plan_definitions
-from nudgecli.report.table_read import TABLE_READ_KEY, table_read_record
+from nudgecli.report.table_read import TABLE_READ_KEY, analysed_inputs, table_read_record
 from nudgecli.report.tables import (
     NON_METRIC_COLUMNS,
     drop_or_refuse_duplicates,
@@ -442,7 +442,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         table, available, dropped = _load_table(source, drop_duplicates, notes, chosen=metrics)
         changed = dropped > 0
         table_read = table_read_record(sha256, len(table) + dropped, drop_duplicates, dropped,
-                                       source_from_out)
+                                       source_from_out, *analysed_inputs(out_dir, plan.label, questionnaires))
     # before anything is recorded: a plan whose conditions are not the data's is refused
     check_plan_conditions(plan, plan.label, table["condition"].astype(str).unique(), str(source))
     if source.is_dir():

@@ -408,7 +408,7 @@ def _table_as_analysed(path: Path, folder: Path, stats: Mapping[str, Any],
     if stats.get("metrics_table") != METRICS_CSV:  # analysed as it is: these very bytes
         return _read_table(path, stats), path
     if not own_copy.is_file():
-        command = analyze_command(path, folder, record["drop_duplicates"])
+        command = analyze_command(path, folder, record["drop_duplicates"], record)
         raise RunFolderError(f"{own_copy} is gone: it held the rows of {path} that {stats_path} was "
                              f"computed from; run `{command}` again before plotting")
     return read_metrics_csv(own_copy), own_copy

@@ -8,23 +8,29 @@ The record (key ``table_read``, written for a metrics table, not for a run folde
 - ``drop_duplicates``: whether ``--drop-duplicates`` was given;
 - ``duplicates_dropped``: how many repeated trial rows were dropped;
 - ``table``: the table's path as seen from the analysis folder (since 2026-11-28), so that
-  ``nudge plot FOLDER --plan`` finds a changed table wherever the analysis was written.
+  ``nudge plot FOLDER --plan`` finds a changed table wherever the analysis was written;
+- ``plan``: the plan as ``--plan`` takes it: a preset's name, or its file's path as seen from the
+  analysis folder; ``questionnaires``: the ``--questionnaires`` answers file as seen from there,
+  or ``null`` (both since 2026-11-28; a record without them names neither).
 
 ``nudge plot TABLE`` draws a table only when its bytes are the ones analysed
 (:func:`check_table_is_analysed`), so a row added afterwards, even one that exactly repeats a
 trial's key and would be dropped again, is refused, with the ``nudge analyze`` command that
-brings the analysis up to date. The rows drawn are then the analysis's own: its ``metrics.csv``
-where it changed the table, else the table itself; no rule of the analysis is applied a second
-time.
+brings the analysis up to date (:func:`analyze_command`: the plan and questionnaires file the
+analysis used, ``--drop-duplicates`` where it was given or is now needed). The rows drawn are then
+the analysis's own: its ``metrics.csv`` where it changed the table, else the table itself; no rule
+of the analysis is applied a second time.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from nudgecli.errors import DataError
+from nudgecli.config_files import resolve_plan
+from nudgecli.errors import DataError, shell_words
 from nudgecli.report.analysis_folders import analysis_folder
 from nudgecli.report.tables import find_duplicate_trials, read_metrics_table
 from nudgecli.run_folder_record import file_sha256
@@ -33,7 +39,7 @@ TABLE_READ_KEY = "table_read"
 
 
 def table_read_record(sha256: str, rows_read: int, drop_duplicates: bool, duplicates_dropped: int,
-                      table: Path) -> dict[str, Any]:
+                      table: Path, plan: str = "paper", questionnaires: Path | None = None) -> dict[str, Any]:
     """The ``stats.json`` record of the table an analysis read (see the module docstring).
 
     Parameters
@@ -48,9 +54,30 @@ def table_read_record(sha256: str, rows_read: int, drop_duplicates: bool, duplic
         How many were.
     table
         The table's path relative to the analysis folder.
+    plan, questionnaires
+        The plan and the answers file analysed, relative to the analysis folder
+        (:func:`analysed_inputs`).
     """
     return {"sha256": sha256, "rows": int(rows_read), "drop_duplicates": bool(drop_duplicates),
-            "duplicates_dropped": int(duplicates_dropped), "table": Path(table).as_posix()}
+            "duplicates_dropped": int(duplicates_dropped), "table": Path(table).as_posix(), "plan": plan,
+            "questionnaires": None if questionnaires is None else Path(questionnaires).as_posix()}
+
+
+def analysed_inputs(folder: Path, plan_label: str,
+                    questionnaires: str | Path | None) -> tuple[str, Path | None]:
+    """The ``plan`` and ``questionnaires`` of :func:`table_read_record` for an analysis written into
+    ``folder``: a plan read from a file (its label an absolute path) and the answers file as seen
+    from ``folder``, so that the record names no machine's path and holds wherever both are moved."""
+    base = Path(folder).resolve()
+
+    def seen(path: str | Path) -> Path:
+        return Path(os.path.relpath(Path(path).resolve(), base))
+
+    plan = plan_label
+    if Path(plan_label).is_absolute():  # "./" before a file's name alone: never taken for a preset's
+        plan = seen(plan_label).as_posix()
+        plan = plan if "/" in plan else f"./{plan}"
+    return plan, None if questionnaires is None else seen(questionnaires)
 
 
 def recorded_table_read(stats: Mapping[str, Any], where: str) -> dict[str, Any] | None:
@@ -67,18 +94,32 @@ def recorded_table_read(stats: Mapping[str, Any], where: str) -> dict[str, Any] 
         return None
     well_formed = (isinstance(record, Mapping) and isinstance(record.get("sha256"), str)
                    and isinstance(record.get("rows"), int) and isinstance(record.get("drop_duplicates"), bool)
-                   and isinstance(record.get("duplicates_dropped"), int))
+                   and isinstance(record.get("duplicates_dropped"), int)
+                   and isinstance(record.get("plan", ""), str)
+                   and isinstance(record.get("questionnaires"), str | None))
     if not well_formed:
         raise DataError(f"{where}: its `{TABLE_READ_KEY}` is malformed; "
                         "run `nudge analyze` on the table again")
     return dict(record)
 
 
-def analyze_command(table: Path, folder: Path, drop_duplicates: bool) -> str:
-    """The ``nudge analyze`` command that analyses ``table`` again into ``folder`` as before."""
-    beside = folder.resolve() == analysis_folder(table.resolve())
-    out = "" if beside else f" --out {folder}"
-    return f"nudge analyze {table}{out}{' --drop-duplicates' if drop_duplicates else ''}"
+def analyze_command(table: Path, folder: Path, drop_duplicates: bool,
+                    record: Mapping[str, Any] | None = None) -> str:
+    """The ``nudge analyze`` command that analyses ``table`` again into ``folder`` as before: with
+    the plan and the questionnaires file ``record`` (:func:`recorded_table_read`) names, as seen
+    from where ``folder`` is seen (a table's default plan, ``paper``, is not named), and ``--force``
+    with an ``--out`` other than ``<table>-analysis/`` (``nudge plot TABLE`` finds no other than the
+    table's own folder, which holds the table)."""
+    words = ["nudge", "analyze", str(table)]
+    if folder.resolve() != analysis_folder(table.resolve()):  # the table's own folder: never empty
+        words += ["--out", str(folder), "--force"]
+    plan = (record or {}).get("plan")
+    if plan and plan != resolve_plan(None):
+        words += ["--plan", os.path.normpath(folder / plan) if "/" in plan else plan]  # a file's, or a preset
+    questionnaires = (record or {}).get("questionnaires")
+    if questionnaires:
+        words += ["--questionnaires", os.path.normpath(folder / questionnaires)]
+    return shell_words(words + (["--drop-duplicates"] if drop_duplicates else []))
 
 
 def check_table_is_analysed(table: Path, record: Mapping[str, Any], stats_path: Path) -> None:
@@ -115,9 +156,9 @@ def check_table_is_analysed(table: Path, record: Mapping[str, Any], stats_path: 
         then += f", {dropped} repeated trial row(s) dropped"
     raise DataError(f"{table} is not the table {stats_path} was computed from: edited since its analysis "
                     f"({then}; {rows_now}; its SHA-256 differs); run "
-                    f"`{analyze_command(table, stats_path.parent, repeated)}` "
+                    f"`{analyze_command(table, stats_path.parent, repeated, record)}` "
                     "again before plotting")
 
 
-__all__ = ["TABLE_READ_KEY", "analyze_command", "check_table_is_analysed", "recorded_table_read",
-           "table_read_record"]
+__all__ = ["TABLE_READ_KEY", "analysed_inputs", "analyze_command", "check_table_is_analysed",
+           "recorded_table_read", "table_read_record"]
