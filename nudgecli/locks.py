@@ -3,8 +3,9 @@
 While a command writes a folder it holds the folder's lock (:func:`run_lock`, the file
 ``.nudge.lock`` with the holder's pid, host and command): a second writer is refused with a
 :class:`LockError` naming the holder; a lock left behind by a process of this host that no longer
-runs is taken over with a warning to the caller's ``log`` (the command's stderr, an API caller's
-``log=``; none printed without one). ``nudge study`` takes one such lock per participant
+runs, or a lock file that is not a lock record (damaged, edited by hand), is taken over with a
+warning to the caller's ``log`` (the command's stderr, an API caller's ``log=``; none printed
+without one). ``nudge study`` takes one such lock per participant
 (:func:`acquire_lock_file`).
 """
 
@@ -49,6 +50,15 @@ def read_holder(path: Path) -> dict[str, Any]:
     except (OSError, ValueError):
         return {}
     return data if isinstance(data, dict) else {}
+
+
+def _names_no_holder(path: Path) -> bool:
+    """Whether the lock file ``path`` holds something that is not a lock record (:func:`read_holder`
+    reads nothing of it); an empty file is what ``open`` leaves before the record is written."""
+    try:
+        return bool(path.read_bytes().strip()) and not read_holder(path)
+    except OSError:
+        return False
 
 
 def _holder_pid(holder: dict[str, Any]) -> int:
@@ -177,6 +187,9 @@ def acquire_lock_file(lock_path: Path, command: str | None, log: Callable[[str],
             if log is not None:
                 log(f"Warning: {lock_path.parent}: taking over the stale lock of {describe_holder(holder)}, "
                     f"{state}")
+        elif log is not None and _names_no_holder(lock_path):  # damaged or edited: no holder to ask
+            log(f"Warning: {lock_path.parent}: taking over the stale lock {lock_path.name}, which is not a "
+                "lock record (damaged or edited by hand) and names no holder")
         record = {"pid": os.getpid(), "host": host, "command": command or " ".join(
             [Path(sys.argv[0]).name, *sys.argv[1:]]), "since": utc_now()}
         try:
