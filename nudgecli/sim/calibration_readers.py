@@ -318,6 +318,15 @@ def read_mapping_session(folder: str | Path) -> MappingSession | None:
                           {"prompts": str(prompts_path), "responses": str(responses_path)})
 
 
+#: Where :func:`distortion_session_files` finds a ``p(phi_m | phi_i)`` session in a folder, every
+#: layout it reads: for the message of a folder that holds none.
+DISTORTION_LAYOUTS = (
+    f"{STUDY_DISTORTION_FOLDER}/{STUDY_FILES['distortion_prompts']} + {STUDY_FILES['distortion_stream']} "
+    f"(the study's export), the sibling study's <id>_{CIAA_DISTORTION_SUFFIX}/ with the same files, or the "
+    f"tidy {TIDY_FILES['distortion_prompts']} + {TIDY_FILES['distortion_stream']} in the folder or its "
+    f"{STUDY_DISTORTION_FOLDER}/ (a simulated run's calibration/participant-NNNN)")
+
+
 def distortion_session_files(folder: str | Path) -> tuple[Path, Path] | None:
     """The two files :func:`read_distortion_session` reads from ``folder``, its prompts and its
     stream (study format first, else tidy), or ``None`` if it holds no session: all that a

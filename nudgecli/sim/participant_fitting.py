@@ -216,12 +216,11 @@ def _distortion_session(source: str | Path | DistortionSession | pd.DataFrame
     if _is_frame(source):
         return session_from_stream_frame(source), "stream frame"
     # the log readers load with a log to read: a simulated participant's worker never needs them
-    from nudgecli.sim.calibration_readers import read_distortion_session
+    from nudgecli.sim.calibration_readers import DISTORTION_LAYOUTS, read_distortion_session
 
     found = read_distortion_session(source)
     if found is None:
-        raise DataError(f"{source}: no p(phi_m | phi_i) session (p_phm_given_phi/_command_prompt.csv + "
-                        "_joy_sip_puff.csv, or distortion_prompts.csv + distortion_stream.csv)")
+        raise DataError(f"{source}: no p(phi_m | phi_i) session; expected {DISTORTION_LAYOUTS}")
     return found, str(source)
 
 

@@ -313,9 +313,11 @@ def check_physiology_logs(config: ExperimentConfig) -> None:
     """Fail before a run starts if a ``population.physiology_logs`` folder cannot give a participant."""
     for position, folder in enumerate(config.population.physiology_logs):
         if not Path(folder).is_dir():
+            from nudgecli.sim.calibration_readers import DISTORTION_LAYOUTS  # pandas: with a recording only
+
             what = "a file, not a folder" if Path(folder).exists() else "no such folder"
             raise ConfigError(f"population.physiology_logs[{position}] = {folder!r}: {what}; the list takes "
-                              "folders of calibration logs, each a participant's (with p_phm_given_phi/)")
+                              f"folders of calibration logs, each a participant's, with {DISTORTION_LAYOUTS}")
         participant_from_log(folder, index=position, population=config.population)
 
 
