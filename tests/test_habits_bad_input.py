@@ -230,8 +230,10 @@ def test_a_decimal_comma_is_named(tmp_path: Path) -> None:
 
 
 def with_layouts(layouts: list[str]) -> list[tuple]:
-    """ROWS with a layout column: ``layouts[i]`` on row i."""
-    return [(*row, layout) for row, layout in zip(ROWS, layouts, strict=True)]
+    """ROWS with a layout column: ``layouts[i]`` on row i, the poses moved onto layout 6's path
+    (from its start (22.5, 5) to its waypoint (15, 5), then up towards (15, 10))."""
+    return [(t, trial, label, 22.5 - 7.5 * x, 5 + 5 * y, theta, switch, layout)
+            for (t, trial, label, x, y, theta, switch), layout in zip(ROWS, layouts, strict=True)]
 
 
 @pytest.mark.parametrize(("changed", "layout", "expected"), [

@@ -175,6 +175,16 @@ HEADING_TOLERANCE = 0.1
 SUCCESS_DISTANCE = 0.1
 
 
+def path_gaps(position: np.ndarray, waypoints: np.ndarray) -> np.ndarray:
+    """``(N,)`` how far each position ``(N, 2)`` lies from the path through ``waypoints`` ``(W, 2)``:
+    the per-axis (larger of x and y) distance to its nearest leg, as the snap measures it. Its
+    legs are axis-aligned, so a leg's nearest point is the position clipped to the leg. A robot
+    that follows the path stays on it, but for a logged overshoot within ``snap_tolerance``."""
+    low, high = np.minimum(waypoints[:-1], waypoints[1:]), np.maximum(waypoints[:-1], waypoints[1:])
+    nearest = np.clip(position[:, None, :], low[None], high[None])
+    return np.abs(position[:, None, :] - nearest).max(axis=2).min(axis=1)
+
+
 class PathWorld:
     """One trial of the CIAA task: the :class:`~nudgecli.model.world.World` of a path layout.
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -15,6 +16,7 @@ import pandas as pd
 from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.csv_text import decimal_comma_advice, header_delimiter, not_utf8_message
 from nudgecli.errors import DataError
+from nudgecli.model.path_world import SNAP_TOLERANCE, PathLayout, path_gaps
 from nudgecli.report.habit_cells import (
     HABIT_RATE_HZ,
     TIME_SLACK,
@@ -242,6 +244,37 @@ def _check_layouts(log: _Log, new_trial: np.ndarray, indices: set[int]) -> None:
     raise DataError(f"{log.row_name(i)}: layout {word!r} is not a trial index of the CIAA task; {fix}")
 
 
+def _check_poses_on_layouts(log: _Log, new_trial: np.ndarray, task: Mapping[int, PathLayout]) -> None:
+    """Refuse a row whose position is not on its layout's path, or a trial whose first row is not
+    at its layout's start, both within the world's snap tolerance (its waypoints' and path's
+    own): the layout named is not the one the trial ran on, and its waypoints would mark other stops."""
+    if log.layout is None:
+        return
+    layouts = log.layout.to_numpy(dtype=int)  # one known index per trial (_check_layouts)
+    position = np.column_stack((log.numbers["x"], log.numbers["y"]))
+    bad = np.zeros(len(layouts), dtype=bool)
+    for index in np.unique(layouts).tolist():
+        rows = layouts == index
+        waypoints = task[index].waypoints
+        start = np.abs(position[rows] - waypoints[0]).max(axis=1) > SNAP_TOLERANCE
+        bad[rows] = (new_trial[rows] & start) | (path_gaps(position[rows], waypoints) > SNAP_TOLERANCE)
+    if not bad.any():
+        return
+    i = int(np.flatnonzero(bad)[0])
+    word, points = log.frame["layout"].iloc[i].strip(), task[int(layouts[i])].waypoints
+    pose = f"({log.frame['x'].iloc[i].strip()}, {log.frame['y'].iloc[i].strip()})"
+    trial = f"trial {log.trial.iloc[i]!r} of participant {log.participant.iloc[i]!r}"
+    if new_trial[i]:
+        start = f"({points[0][0]:g}, {points[0][1]:g})"
+        problem = f"{trial} starts at {pose}, but layout {word} starts at {start}"
+    else:
+        path = ", ".join(f"({wx:g}, {wy:g})" for wx, wy in points)
+        problem = (f"{pose} of {trial} is not on layout {word}'s path ({path}; within {SNAP_TOLERANCE:g} "
+                   "units on each axis)")
+    raise DataError(f"{log.row_name(i)}, column layout: {problem}; give each row the CIAA task's trial "
+                    "index of the layout its trial ran on, or leave the layout column out")
+
+
 def _trial_cells(log: _Log, lo: int, hi: int, rate_hz: float, all_waypoints: dict[int, np.ndarray],
                  start_modes: dict[int, int]) -> pd.DataFrame:
     """The cells of one trial, rows ``lo`` to ``hi`` (exclusive), read every ``1 / rate_hz`` s
@@ -302,7 +335,8 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
         No time stamps or labels, an unknown label, a time that is not a number or goes back, a
         pose missing, a trial shorter than one cell, or one longer than :data:`MAX_TRIAL_S` or a log
         of more than :data:`MAX_LOG_CELLS` cells (checked before any cell is built), a layout that is
-        no trial index of the task or changes within a trial: naming the file and the row.
+        no trial index of the task or changes within a trial, a trial that does not start at its
+        layout's start or a pose off its path: naming the file and the row.
     """
     path = Path(path)
     frame, time_column = _read_log_frame(path)
@@ -315,6 +349,7 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
     all_waypoints = {index: lay.waypoints for index, lay in task.items()}
     start_modes = {index: lay.start_mode for index, lay in task.items()}
     _check_layouts(log, new_trial, set(all_waypoints))
+    _check_poses_on_layouts(log, new_trial, task)
     bounds = np.append(np.flatnonzero(new_trial), len(frame))
     pieces = [_trial_cells(log, lo, hi, rate_hz, all_waypoints, start_modes)
               for lo, hi in itertools.pairwise(bounds)]

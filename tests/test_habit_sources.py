@@ -1,0 +1,70 @@
+"""Where `nudge habits` and `fit-people` read their sources from: a real log's layouts checked against
+its poses (a trial runs on the layout whose path its poses follow), a run folder read through its
+manifest, a run at another rate measured in HABITS.md's 10 Hz cells, and one format for the shares
+of a `--compare` reference. Each test was seen failing on the code before its fix."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import pytest
+from cli_helpers import one_error_line
+from click.testing import CliRunner
+
+from nudgecli.cli import main
+
+PILOT = Path(__file__).resolve().parents[1] / "experiments" / "pilots" / "pilot-1.csv"
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(main, [*args])
+
+
+def pilot_rows() -> list[dict[str, str]]:
+    with PILOT.open(newline="") as file:
+        return list(csv.DictReader(file))
+
+
+def write_rows(path: Path, rows: list[dict[str, str]]) -> Path:
+    with path.open("w", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    return path
+
+
+# --- a real log's layouts ------------------------------------------------------------------------
+
+
+def test_a_log_whose_trials_start_elsewhere_than_their_layout_is_refused(tmp_path: Path) -> None:
+    # before: every trial labelled layout 0 was measured with layout 0's waypoints (its stop -> switch
+    # row 39 0.70 where the log's own layouts give 50 0.80), no error
+    rows = [{**row, "layout": "0"} for row in pilot_rows()]
+    log = write_rows(tmp_path / "l0.csv", rows)
+    for command in (["habits", str(log)], ["fit-people", str(log), "--out", str(tmp_path / "p.csv")]):
+        result = invoke(*command)
+        assert result.exit_code == 1, result.output
+        line = one_error_line(result.output)
+        assert line == (f"Error: {log}, row 2, column layout: trial '0' of participant 'pilot-1' starts at "
+                        "(7.5, 15.0), but layout 0 starts at (22.5, 5); give each row the CIAA task's trial "
+                        "index of the layout its trial ran on, or leave the layout column out"), line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["l0.csv"]
+
+
+def test_a_log_row_off_its_layouts_path_is_refused(tmp_path: Path) -> None:
+    rows = pilot_rows()
+    assert (rows[3]["x"], rows[3]["y"], rows[3]["layout"]) == ("7.5", "15.0", "34")
+    rows[3]["x"] = "7.65"  # 0.15 units off the first leg (x = 7.5), past the world's 0.1 snap
+    line = one_error_line(invoke("habits", str(write_rows(tmp_path / "off.csv", rows))).output)
+    assert line.startswith(f"Error: {tmp_path / 'off.csv'}, row 5, column layout: (7.65, 15.0) of trial '0' "
+                           "of participant 'pilot-1' is not on layout 34's path ((7.5, 15), (7.5, 10), "
+                           "(15, 10), (15, 5), (22.5, 5); within 0.1 units on each axis)"), line
+
+
+@pytest.mark.parametrize("shift", [0.0, 0.039, 0.0999])
+def test_a_log_on_its_layouts_path_within_the_snap_is_measured(tmp_path: Path, shift: float) -> None:
+    rows = pilot_rows()
+    rows[3]["x"] = f"{7.5 + shift:g}"  # the study's logged overshoot is 0.039 units
+    result = invoke("habits", str(write_rows(tmp_path / "on.csv", rows)), "--format", "csv")
+    assert result.exit_code == 0, result.output
