@@ -265,7 +265,7 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
         names = _field_names(model, loc[:-1])
         hint = did_you_mean(str(loc[-1]), names)
         return f"{source}: unknown key {where!r}{hint or '; known keys: ' + ', '.join(names)}"
-    message = first["msg"].removeprefix("Value error, ")
+    message = problem_words(first)
     value = first.get("input")
     # a section's own check names its field first ("participants: ..."): that is the field's place
     head, sep, rest = message.partition(": ")
@@ -281,6 +281,19 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
     shown = "" if isinstance(value, dict) else f" (got {as_written(value)})"
     more = f" (and {len(exc.errors()) - 1} more problem(s))" if len(exc.errors()) > 1 else ""
     return f"{source}: {where + ': ' if where else ''}{message}{shown}{more}"
+
+
+#: pydantic's bound checks (``Field(ge=..)`` etc.) in the house's words, the bound from their ``ctx``.
+_BOUNDS = {"greater_than_equal": "must be at least {}", "greater_than": "must be greater than {}",
+           "less_than_equal": "must be at most {}", "less_than": "must be less than {}"}
+
+
+def problem_words(problem: Mapping[str, Any]) -> str:
+    """One problem of a ``ValidationError`` (an item of its ``errors()``) in the house's words: a
+    bound as ``must be at most 10000``, a validator's own message without pydantic's prefix."""
+    if problem["type"] in _BOUNDS:
+        return _BOUNDS[problem["type"]].format(*problem.get("ctx", {}).values())
+    return str(problem["msg"]).removeprefix("Value error, ")
 
 
 def as_written(value: Any) -> str:

@@ -50,7 +50,7 @@ def test_participants_over_the_fields_bound_are_refused_as_set_refuses_them(tmp_
     monkeypatch.setattr("nudgecli.runs.batch_kinds.run_batch", started)
     by_set = invoke(*[a.replace("10001", "3") for a in args], "--set", "study.participants=10001",
                     "--out", tmp_path / "set")
-    bound = "study.participants: Input should be less than or equal to 10000"
+    bound = "study.participants: must be at most 10000"
     assert bound in one_error_line(by_set.output)
     result = invoke(*args, "--yes", "--out", tmp_path / "out")  # the size limit is not what refuses it
     assert result.exit_code == 1

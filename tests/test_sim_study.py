@@ -181,7 +181,7 @@ BAD = [
     (["simulate", "smoke", "--set", "study.participnts=3"], "did you mean 'participants'"),
     (["simulate", "smoke", "--set", "study.participants=abc"], "study.participants: give a number, not text"),
     (["simulate", "smoke", "--set", "disambiguation.window=4"], "3 or 5"),
-    (["simulate", "smoke", "--set", "assistance.rho3=2"], "less than or equal to 1"),
+    (["simulate", "smoke", "--set", "assistance.rho3=2"], "must be at most 1.0"),
     (["simulate", "smoke", "--set", "nonsense"], "expected section.key=value"),
 ]
 

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from nudgecli.config import ExperimentConfig
-from nudgecli.config_files import resolve_plan
+from nudgecli.config_files import problem_words, resolve_plan
 from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
@@ -282,8 +282,9 @@ def with_participants(config: ExperimentConfig, participants: int | None) -> Exp
     try:  # the field's own bound, so --participants and --set study.participants are one rule
         type(config.study).model_validate({**config.study.model_dump(), "participants": participants})
     except ValidationError as exc:
-        raise ConfigError(f"--participants {participants}: study.participants: {exc.errors()[0]['msg']} "
-                          "(as with --set study.participants); give fewer participants") from None
+        raise ConfigError(f"--participants {participants}: study.participants: "
+                          f"{problem_words(exc.errors()[0])} (as with --set study.participants); give "
+                          "fewer participants") from None
     return config.model_copy(update={"study": config.study.model_copy(update={"participants": participants})})
 
 
