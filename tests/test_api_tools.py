@@ -261,7 +261,8 @@ def test_plot_population_returns_the_tables_the_command_prints_and_writes(tmp_pa
         assert (tmp_path / "api" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes()
     pd.testing.assert_frame_equal(made.diagonals, pd.read_csv(tmp_path / "api" / "population.csv"),
                                   check_dtype=False)
-    assert [path.name for path in made.files] == ["population.csv", "population_habits.csv", "population.png"]
+    assert [path.name for path in made.files] == ["population.csv", "population_habits.csv", "coverage.txt",
+                                                  "population.png"]
     assert made.title == "smoke: 2 simulated participants (seed 4)"
     assert made.figure().axes  # drawn again without writing
 

@@ -37,7 +37,7 @@ def test_plot_population_writes_into_a_folder_of_its_own_outputs_or_with_force(t
     first = _invoke(["plot-population", "smoke", "--participants", "1", "--formats", "png"])
     assert first.exit_code == 0, first.output
     own = sorted(p.name for p in tmp_path.iterdir())
-    assert own == ["population.csv", "population.png", "population_habits.csv"]
+    assert own == ["coverage.txt", "population.csv", "population.png", "population_habits.csv"]
     (tmp_path / LOCK).write_text("")  # a lock left behind does not count either
     again = _invoke(["plot-population", "smoke", "--participants", "1", "--formats", "png"])
     assert again.exit_code == 0, again.output  # its own earlier outputs are replaced

@@ -21,8 +21,9 @@ if TYPE_CHECKING:
 
     from nudgecli.api.run import Overrides
 
-#: The data files ``plot-population`` writes beside its figure.
-POPULATION_FILES = ("population.csv", "population_habits.csv")
+#: The data files ``plot-population`` writes beside its figure (``coverage.txt``: the coverage table
+#: as the command prints it, :meth:`Population.coverage_text`).
+POPULATION_FILES = ("population.csv", "population_habits.csv", "coverage.txt")
 
 
 @dataclass(frozen=True)
@@ -42,7 +43,8 @@ class Population:
     title
         The figure's title.
     files
-        The files written (with ``out``), data first, then the figure's formats.
+        The files written (with ``out``), data first (``population.csv``, ``population_habits.csv``,
+        ``coverage.txt``), then the figure's formats.
     """
 
     diagonals: pd.DataFrame
@@ -50,6 +52,11 @@ class Population:
     coverage: pd.DataFrame
     title: str
     files: list[Path] = field(default_factory=list)
+
+    def coverage_text(self) -> str:
+        """The coverage table as ``nudge plot-population`` prints it (``--format table``), the bytes
+        of ``coverage.txt``."""
+        return self.coverage.to_string(index=False, float_format=lambda v: f"{v:.3f}") + "\n"
 
     def figure(self) -> Figure:
         """The figure ``nudge plot-population`` saves, as a matplotlib Figure (nothing written)."""
@@ -83,7 +90,8 @@ def plot_population(experiment: str | Path, *,
     seed
         Master seed (default the experiment's).
     out, force, formats
-        Folder for ``population.csv``, ``population_habits.csv`` and ``population.<format>``;
+        Folder for ``population.csv``, ``population_habits.csv``, ``coverage.txt`` and
+        ``population.<format>``;
         ``None`` writes nothing. A folder holding other files needs ``force``.
     yes
         Calibrate more participants than the size limit allows.
@@ -129,6 +137,7 @@ def plot_population(experiment: str | Path, *,
         folder = Path(out)
         write_text_atomic(folder / "population.csv", diagonals.to_csv(index=False))
         write_text_atomic(folder / "population_habits.csv", habits.to_csv(index=False))
-        made.files.extend([folder / "population.csv", folder / "population_habits.csv",
-                           *save_population_figure(diagonals, folder, chosen, title, habits)])
+        write_text_atomic(folder / "coverage.txt", made.coverage_text())
+        made.files.extend([folder / name for name in POPULATION_FILES])
+        made.files.extend(save_population_figure(diagonals, folder, chosen, title, habits))
     return made

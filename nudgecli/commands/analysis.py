@@ -104,8 +104,8 @@ def plot_command(run: str, plan: str | None, out: str | None, formats: str, tria
 @click.option("--seed", type=int, default=None,
               help="Master seed [default: the experiment's].")
 @click.option("--out", type=click.Path(file_okay=False, path_type=str), default=".", show_default=True,
-              help="Folder for population.csv, population_habits.csv and the figure population.<format>; "
-                   "one holding other files needs --force.")
+              help="Folder for population.csv, population_habits.csv, coverage.txt (the table printed) and "
+                   "the figure population.<format>; one holding other files needs --force.")
 @click.option("--force", is_flag=True, help="Write into an --out that holds other files.")
 @click.option("--formats", default="png,pdf", show_default=True, help="Figure formats: png, pdf, svg.")
 @click.option("--format", "output_format", type=click.Choice(["table", "json", "csv"]), default="table",
@@ -128,7 +128,7 @@ def plot_population_command(experiment: str, participants: int, seed: int | None
     elif output_format == "csv":
         click.echo(table.to_csv(index=False), nl=False)
     else:
-        click.echo(table.to_string(index=False, float_format=lambda v: f"{v:.3f}"))
+        click.echo(made.coverage_text(), nl=False)
     for path in made.files:
         info(str(path))
 
