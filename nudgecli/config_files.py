@@ -15,8 +15,8 @@ from typing import Any, Literal, TypeVar, Union, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
-from nudgecli.config_base import plain
-from nudgecli.errors import ConfigError, did_you_mean
+from nudgecli.config_base import admits, plain
+from nudgecli.errors import ConfigError, did_you_mean, shell_words
 
 #: A plan as a command holds it: a preset name, a path or a loaded plan (:func:`resolve_plan`).
 PlanT = TypeVar("PlanT")
@@ -272,7 +272,9 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
     if first["type"] == "value_error" and sep and head in _field_names(model, loc) and head not in loc:
         where, message = f"{where}.{head}" if where else head, rest
     if first["type"] in ("tuple_type", "list_type"):  # TOML has lists; "tuple" is pydantic's word
-        message = "should be a list, e.g. [0.5, 1.0]"
+        what = message if message.startswith("should be a list") else "should be a list"
+        example = list_example(value, _field_at(model, loc))
+        message = f"{what}, e.g. {_as_set(where, example) if source.startswith('--set ') else example}"
     elif first["type"] == "missing" and loc and isinstance(loc[-1], int):
         where = ".".join(str(p) for p in loc[:-1])  # "rest_s.1: Field required": a value too few
         message = "too few values"
@@ -294,6 +296,59 @@ def problem_words(problem: Mapping[str, Any]) -> str:
     if problem["type"] in _BOUNDS:
         return _BOUNDS[problem["type"]].format(*problem.get("ctx", {}).values())
     return str(problem["msg"]).removeprefix("Value error, ")
+
+
+def _field_at(model: type[BaseModel], loc: tuple[Any, ...]) -> Any:
+    """The field at ``loc`` in ``model`` (``None`` where ``loc`` names no field)."""
+    if not loc or not isinstance(loc[-1], str):
+        return None
+    return _walk(model, loc[:-1])[0].model_fields.get(loc[-1])
+
+
+def list_example(value: Any, field: Any) -> str:
+    """A list for a field that was given ``value``, not a list, as TOML writes it: the items
+    ``value`` names where they fit the field (``"[tr]"`` and ``"tr,bl"`` -> ``["tr"]``, ``["tr",
+    "bl"]``: a text item quoted, as a shell drops the quotes of ``["tr"]``), else the field's
+    default, else a list of its item type (``[0.5, 1.0]``)."""
+    item, length = _item_type(field.annotation) if field is not None else (float, None)
+    text = str(value).strip().removeprefix("[").removesuffix("]") if isinstance(value, str) else None
+    named = [_item_value(part.strip().strip("'\"")) for part in (text or "").split(",") if part.strip()]
+    numbers = admits(item, float) or admits(item, int)
+    choices = get_args(item) if get_origin(item) is Literal else ()
+    if isinstance(value, int | float) and not isinstance(value, bool) and numbers:
+        named = [value]
+    fits = all(isinstance(v, str) != numbers and (not choices or v in choices) for v in named)
+    if named and fits and length in (None, len(named)):
+        return toml_value(named)
+    default = field.get_default() if field is not None and not field.is_required() else None
+    if default:
+        return toml_value(list(default))
+    return toml_value(list(choices[:2]) if choices else [0.5, 1.0] if numbers else ["a", "b"])
+
+
+def _item_type(annotation: Any) -> tuple[Any, int | None]:
+    """The type of the items of a list or tuple field (``float`` where it is no sequence) and their
+    number where it is fixed (``tuple[float, float]``: 2)."""
+    annotation = _section_type(annotation)
+    args = get_args(annotation)
+    if get_origin(annotation) not in (tuple, list) or not args:
+        return float, None
+    fixed = get_origin(annotation) is tuple and Ellipsis not in args
+    return args[0], len(args) if fixed else None
+
+
+def _item_value(text: str) -> Any:
+    """One item a text names: a number as TOML reads it, else the text."""
+    try:
+        read = tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+    return read if isinstance(read, int | float) and not isinstance(read, bool) else text
+
+
+def _as_set(key: str, example: str) -> str:
+    """``--set KEY=EXAMPLE`` as a shell reads it back (quoted: a shell drops a bare ``"``)."""
+    return shell_words(["--set", f"{key}={example}"])
 
 
 def as_written(value: Any) -> str:

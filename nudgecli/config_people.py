@@ -7,10 +7,10 @@ Part of :class:`nudgecli.config.ExperimentConfig`; import them from :mod:`nudgec
 
 from __future__ import annotations
 
-import json
 from typing import Annotated, Literal
 
 from pydantic import Field, field_validator, model_validator
+from pydantic_core import PydanticCustomError
 
 from nudgecli.config_base import PositiveFloat, Section, check_range
 
@@ -212,9 +212,11 @@ class PopulationSection(Section):
     @field_validator("physiology_logs", mode="before")
     @classmethod
     def _folders(cls, value: object) -> object:
-        if isinstance(value, str):  # one folder's path, not a list of them
-            raise ValueError(f"should be a list of folders of calibration logs (one per participant), e.g. "
-                             f"[{json.dumps(value)}]")
+        # one folder's path, not a list of them: a list_type problem, whose example (the list the text
+        # names, ["a", "b"] of "a,b") is config_files.format_validation_error's
+        if isinstance(value, str):
+            raise PydanticCustomError("list_type", "should be a list of folders of calibration logs (one per "
+                                      "participant)")
         return value
 
     @model_validator(mode="after")

@@ -603,7 +603,8 @@ def test_ctrl_c_of_a_large_simulation_resumes_with_yes(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize(("override", "said"), [
-    ("population.rest_s=abc", 'population.rest_s: should be a list, e.g. [0.5, 1.0] (got "abc")'),
+    ("population.rest_s=abc",
+     "population.rest_s: should be a list, e.g. --set 'population.rest_s=[0.3, 1.5]' (got \"abc\")"),
     ("population.rest_s=[1]", "population.rest_s: too few values (got [1])"),
     ("study.participants=eight", '(got "eight")'),
     ("study.conditions=[true]", "(got true)"),
