@@ -108,15 +108,42 @@ def import_outputs() -> None:
     import nudgecli.report.replication  # noqa: F401
 
 
-def _load(experiment: str, overrides: Sequence[str], participants: int | None) -> ExperimentConfig:
+def _load(experiment: str, overrides: Sequence[str], participants: int | None, kind: str) -> ExperimentConfig:
     """The experiment with its overrides, its own policies made once and checked
     (:func:`~nudgecli.sim.policy_registry.checked_policy_specs`, as ``nudge simulate`` and a sweep
-    check them), so a parameter its policy refuses stops the batch before a folder exists."""
+    check them), so a parameter its policy refuses stops the batch before a folder exists; one of a
+    single condition is refused too (:func:`check_pairs`)."""
     from nudgecli.config import load_experiment
+    from nudgecli.config_files import resolve_preset
 
     config = with_participants(load_experiment(experiment, tuple(overrides)), participants)
+    check_pairs(config, kind, str(resolve_preset(experiment, "experiments")))
     checked_policy_specs(config)
     return config
+
+
+def check_pairs(config: ExperimentConfig, kind: str, source: str) -> None:
+    """Refuse a batch whose studies hold a single condition, before anything is simulated: every
+    table of ``replicate``, ``power`` and ``sweep`` is of pairs of conditions (significance rates,
+    power, the difference of medians a sweep's points and sensitivity read), and one condition has
+    none. A CIAA study runs ``world.ciaa_conditions``, a grid study ``study.conditions``.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``source`` (the experiment file), the field, its conditions and the fix.
+    """
+    ciaa = config.world.kind == "ciaa"
+    conditions = config.world.ciaa_conditions if ciaa else config.study.conditions
+    if len(conditions) >= 2:
+        return
+    field = "world.ciaa_conditions" if ciaa else "study.conditions"
+    listed = ", ".join(f'"{c}"' for c in conditions)
+    raise ConfigError(f"{source}: {field} = [{listed}]: each study of experiment {config.experiment.name} "
+                      f"holds one condition, so nudge {kind} has no pair of conditions to compare (its "
+                      "tables are of pairs); nothing was simulated: give an experiment of two or more "
+                      "conditions (e.g. the paper preset's study.conditions = [\"disambiguation\", "
+                      "\"control\"]), or use nudge run for one condition's descriptive statistics")
 
 
 def _people_fields(people: People | str | Path | None, out: str | Path, resume: bool,
@@ -150,7 +177,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     ``options`` go to :func:`run_batch`.
     """
     _check(replications, seed)
-    config = _load(experiment, overrides, participants)
+    config = _load(experiment, overrides, participants, "replicate")
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
     record, chosen_people = _people_fields(people, out, bool(options.get("resume")), "replicate")
     check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)],
@@ -191,7 +218,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
         raise ConfigError("--participants: give counts of at least 2, e.g. --participants 6,9,12,18,24")
     if not 0 < target < 1:
         raise ConfigError(f"--target must be strictly between 0 and 1 (a power), got {target}")
-    config = _load(experiment, overrides, None)
+    config = _load(experiment, overrides, None, "power")
     with_participants(config, counts[-1])  # the largest study within study.participants' bound
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
     record, chosen_people = _people_fields(people, out, bool(options.get("resume")), "power")
@@ -227,6 +254,8 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
 
     loaded = load_sweep(sweep_file)
     spec = loaded.spec
+    for point in loaded.points:
+        check_pairs(point.config, "sweep", f"{loaded.source}: experiment {loaded.experiment_file}")
     count = spec.replications if replications is None else replications
     _check(count, seed)
     assert spec.plan is not None  # load_sweep applied the plan rule
