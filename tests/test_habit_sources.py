@@ -6,8 +6,10 @@ of a `--compare` reference. Each test was seen failing on the code before its fi
 from __future__ import annotations
 
 import csv
+import shutil
 from pathlib import Path
 
+import pandas as pd
 import pytest
 from cli_helpers import one_error_line
 from click.testing import CliRunner
@@ -68,3 +70,33 @@ def test_a_log_on_its_layouts_path_within_the_snap_is_measured(tmp_path: Path, s
     rows[3]["x"] = f"{7.5 + shift:g}"  # the study's logged overshoot is 0.039 units
     result = invoke("habits", str(write_rows(tmp_path / "on.csv", rows)), "--format", "csv")
     assert result.exit_code == 0, result.output
+
+
+# --- a run folder is read through its manifest ------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def ciaa_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One participant's `ciaa-teleop` run (12 trials)."""
+    out = tmp_path_factory.mktemp("runs") / "r1"
+    made = invoke("simulate", "ciaa-teleop", "--participants", "1", "--out", str(out))
+    assert made.exit_code == 0, made.output
+    return out
+
+
+def test_a_run_folders_edited_config_toml_changes_no_habit_and_no_fit(tmp_path: Path, ciaa_run: Path) -> None:
+    # before: habits and fit-people read config.toml: its world edited to "grid", the stop -> switch row
+    # was dropped without a word and fit-people took the reactions from the population
+    edited = tmp_path / "d3"
+    shutil.copytree(ciaa_run, edited)
+    config = edited / "config.toml"
+    config.write_text(config.read_text().replace('kind = "ciaa"', 'kind = "grid"'))
+    for folder in (ciaa_run, edited):
+        made = invoke("fit-people", str(folder), "--out", str(tmp_path / f"{folder.name}.csv"))
+        assert made.exit_code == 0, made.output
+        assert "from the population: -" in made.output, made.output
+    own, read = (pd.read_csv(tmp_path / f"{name}.csv").drop(columns="source") for name in ("r1", "d3"))
+    pd.testing.assert_frame_equal(own, read)
+    tables = [invoke("habits", str(folder), "--format", "csv") for folder in (ciaa_run, edited)]
+    assert tables[0].exit_code == 0 and "reaction_stop_to_switch" in tables[0].stdout, tables[0].output
+    assert tables[1].stdout == tables[0].stdout, tables[1].output

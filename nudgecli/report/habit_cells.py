@@ -9,7 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from pydantic import ValidationError
 
+from nudgecli.config import ExperimentConfig
+from nudgecli.config_files import format_validation_error
 from nudgecli.errors import DataError, RunFolderError
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, PUFF_DEADBAND, SIP_DEADBAND, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.world import MODE_NAMES, angle_difference
@@ -104,12 +107,26 @@ def on_waypoints(position: np.ndarray, layouts: np.ndarray,
     return at
 
 
+def run_experiment(run: RunFolder) -> ExperimentConfig:
+    """The experiment a run was made with, as its manifest records it (a run folder is read only
+    through its manifest: an edited ``config.toml`` changes nothing read); a manifest of an older
+    nudge, which records none, leaves its ``config.toml``."""
+    recorded = run.read_manifest().get("config") if run.is_run() else None
+    if not isinstance(recorded, Mapping):
+        return run.read_config()
+    try:
+        return ExperimentConfig.model_validate(recorded)
+    except ValidationError as exc:
+        where = f"{run.manifest_path} (config)"
+        raise RunFolderError(format_validation_error(exc, where, ExperimentConfig, dict(recorded))) from None
+
+
 def source_has_waypoints(source: str | Path) -> bool:
     """Whether the robot of a habits source stops at the CIAA task's waypoints: a real log, a
     habits table or a CIAA run folder; not a grid-world run folder (``paper``, ``smoke``, a
     ``nudge study`` session), whose robot stops in any cell."""
     path = Path(source)
-    return not (path.is_dir() and is_run_folder(path)) or RunFolder(path).read_config().world.kind == "ciaa"
+    return not (path.is_dir() and is_run_folder(path)) or run_experiment(RunFolder(path)).world.kind == "ciaa"
 
 
 def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
@@ -130,7 +147,7 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
         raise RunFolderError(f"{folder}: not a run folder (no manifest.json, steps/ or trials/); give a "
                              "folder written by `nudge simulate`, `nudge run` or `nudge study`, or a CSV log")
     run.check_complete()
-    config = run.read_config()
+    config = run_experiment(run)
     trials = run.read_table("trials", columns=_TRIAL_COLUMNS)
     waypoints = None
     if config.world.kind == "ciaa":
