@@ -9,12 +9,15 @@ import csv
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 from cli_helpers import one_error_line
 from click.testing import CliRunner
 
 from nudgecli.cli import main
+from nudgecli.report.habit_cells import habit_rate_cells, run_folder_cells
+from nudgecli.report.habits import HABITS, habits_of
 
 PILOT = Path(__file__).resolve().parents[1] / "experiments" / "pilots" / "pilot-1.csv"
 
@@ -100,3 +103,36 @@ def test_a_run_folders_edited_config_toml_changes_no_habit_and_no_fit(tmp_path: 
     tables = [invoke("habits", str(folder), "--format", "csv") for folder in (ciaa_run, edited)]
     assert tables[0].exit_code == 0 and "reaction_stop_to_switch" in tables[0].stdout, tables[0].output
     assert tables[1].stdout == tables[0].stdout, tables[1].output
+
+
+# --- a run at another rate is read in HABITS.md's 10 Hz cells ----------------------------------------
+
+
+def doubled(cells: pd.DataFrame) -> pd.DataFrame:
+    """10 Hz cells as a 20 Hz run would give them: each cell twice, its motion and switch in the
+    first half (where the robot then stands, and the mode, are the same after either half)."""
+    twice = cells.loc[cells.index.repeat(2)].reset_index(drop=True)
+    second = np.arange(len(twice)) % 2 == 1
+    twice.loc[second, ["moving", "switch"]] = False
+    twice.loc[second, "switch_from"] = twice.loc[second, "switch_to"]
+    return twice
+
+
+def test_cells_of_20_hz_read_in_10_hz_cells_are_those_of_10_hz(ciaa_run: Path) -> None:
+    cells, rate = run_folder_cells(ciaa_run)
+    assert rate == 10.0
+    assert habit_rate_cells(cells, 10.0) is cells
+    pd.testing.assert_frame_equal(habit_rate_cells(doubled(cells), 20.0), cells, check_dtype=False)
+
+
+def test_a_run_at_20_hz_is_measured_in_10_hz_cells(tmp_path: Path) -> None:
+    # before: measured in its own 0.05 s cells (a hard-band excursion of 0.05 or 0.15 s) and printed
+    # beside the reference's 10 Hz ones with no word
+    out = tmp_path / "y5"
+    made = invoke("simulate", "ciaa-teleop", "--participants", "1", "--set", "study.rate_hz=20",
+                  "--out", str(out))
+    assert made.exit_code == 0, made.output
+    assert run_folder_cells(out)[1] == 10.0
+    events = habits_of(out).events
+    durations = events.loc[events["habit"].isin([h.key for h in HABITS if not h.share]), "value"].to_numpy()
+    assert durations.size and np.allclose(durations * 10, np.round(durations * 10)), sorted(set(durations))

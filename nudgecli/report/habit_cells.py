@@ -140,7 +140,8 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
     Returns
     -------
     tuple
-        The cell table (:data:`CELL_COLUMNS`) and the run's rate (cells per second).
+        The cell table (:data:`CELL_COLUMNS`) in HABITS.md's 10 Hz cells (a run at another rate
+        read in them, :func:`habit_rate_cells`) and their rate.
     """
     run = RunFolder(folder)
     if not is_run_folder(folder):
@@ -164,7 +165,49 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
         parts = iter([(run.read_table("steps", columns=_HABIT_STEP_COLUMNS), trials)])
     cells = pd.concat([_trial_cells(run, steps, part_trials, waypoints) for steps, part_trials in parts],
                       ignore_index=True)
-    return cells, float(config.study.rate_hz)
+    return habit_rate_cells(cells, float(config.study.rate_hz)), HABIT_RATE_HZ
+
+
+def habit_rate_cells(cells: pd.DataFrame, rate_hz: float) -> pd.DataFrame:
+    """A cell table at ``rate_hz`` read in HABITS.md's 10 Hz cells, as a real log is: each trial
+    read at ``0, 0.1, ...`` s by zero-order hold up to its end. A 10 Hz cell has the kind of the
+    cell it starts in, moves when any cell within it moved, ends at a waypoint when its last cell
+    does, and holds a switch that fired at or after its start and before the next (a cell at
+    :data:`HABIT_RATE_HZ` is returned as it is)."""
+    if abs(rate_hz - HABIT_RATE_HZ) <= TIME_SLACK or cells.empty:
+        return cells
+    new_trial = np.ones(len(cells), dtype=bool)
+    new_trial[1:] = (cells["participant"].to_numpy()[1:] != cells["participant"].to_numpy()[:-1]) | \
+        (cells["trial"].to_numpy()[1:] != cells["trial"].to_numpy()[:-1])
+    firsts = np.flatnonzero(new_trial)
+    sizes = np.diff(np.append(firsts, len(cells)))
+    counts = np.floor(sizes / rate_hz * HABIT_RATE_HZ + TIME_SLACK).astype(int)  # reads - 1
+    trial_of = np.repeat(np.arange(len(firsts)), counts)
+    j = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)  # each cell's index
+    scale = rate_hz / HABIT_RATE_HZ
+    lo = firsts[trial_of] + np.floor(j * scale + TIME_SLACK).astype(int)
+    hi = firsts[trial_of] + np.minimum(np.floor((j + 1) * scale + TIME_SLACK).astype(int), sizes[trial_of])
+    moved = np.concatenate(([0], np.cumsum(cells["moving"].to_numpy(dtype=int))))
+    started = hi > firsts[trial_of]  # a cell of the trial has ended by the 10 Hz cell's end
+    ended = np.where(started, hi - 1, lo)  # the last one that has (at 20 Hz, the second within)
+    out = pd.DataFrame({
+        "participant": cells["participant"].to_numpy()[lo], "trial": cells["trial"].to_numpy()[lo],
+        "kind": cells["kind"].to_numpy()[lo], "moving": moved[hi] > moved[lo],
+        "switch": False, "at_waypoint": cells["at_waypoint"].to_numpy()[ended] & started,
+        "waypoints_known": cells["waypoints_known"].to_numpy()[lo]})
+    switches = np.flatnonzero(cells["switch"].to_numpy(dtype=bool))
+    trial = np.searchsorted(firsts, switches, side="right") - 1
+    fired = np.ceil((switches - firsts[trial]) / scale - TIME_SLACK).astype(int)
+    inside = fired < counts[trial]
+    at = (np.cumsum(counts) - counts)[trial[inside]] + fired[inside]
+    out.loc[at, "switch"] = True
+    # the mode at the cell's start and after its end, a switch cell's those of its switch
+    for column, held in (("switch_from", lo), ("switch_to", np.where(hi > lo, hi - 1, lo))):
+        if column in cells.columns:
+            values = cells[column].to_numpy()[held]
+            values[at] = cells[column].to_numpy()[switches[inside]]
+            out[column] = values
+    return out
 
 
 def _trial_cells(run: RunFolder, steps: pd.DataFrame, trials: pd.DataFrame,
