@@ -8,6 +8,8 @@ folder (the run folder by default), ``nudge plot`` reads them and writes the fig
 from __future__ import annotations
 
 MANIFEST = "manifest.json"
+#: A batch folder's manifest (:mod:`nudgecli.runs.batch_folder`): a run and a batch are never mixed.
+BATCH_MANIFEST = "batch.json"
 CONFIG = "config.toml"
 PARTICIPANTS = "participants.parquet"
 LAYOUTS = "layouts.parquet"

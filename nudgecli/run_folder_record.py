@@ -18,12 +18,13 @@ from typing import TYPE_CHECKING, Any
 
 from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
-from nudgecli.errors import DataError, NudgeError, RunFolderError
+from nudgecli.errors import DataError, NudgeError, RunFolderError, shell_words
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY, compared, recordings
 from nudgecli.run_folder_config import _ABSENT, _EXPERIMENT_SEED, ConfigRecord, _shown, experiment_differences
 from nudgecli.run_folder_live import LiveRecord
 from nudgecli.run_folder_names import (
+    BATCH_MANIFEST,
     CONFIG,
     FIGURE_FORMATS,
     FIGURES_DIR,
@@ -119,6 +120,25 @@ class RunRecord(LiveRecord, ConfigRecord):
         """Whether the folder holds a run with a manifest (:func:`nudgecli.store.is_run_folder` is
         the looser test of a folder with any part of a run)."""
         return self.manifest_path.is_file()
+
+    def refuse_other_kind(self, writing: str) -> None:
+        """Refuse to write a ``writing`` (``"run"`` or ``"batch"``) into a folder that holds the other
+        kind (its manifest: a run's ``manifest.json``, a batch's ``batch.json``), ``--force`` and
+        ``--resume`` included: each kind's ``--force`` removes only its own files, so the folder
+        would hold both, and then be resumed and analysed as either.
+
+        Raises
+        ------
+        RunFolderError
+            The folder holds the other kind: names it and the command that removes it.
+        """
+        other, name = ("batch", BATCH_MANIFEST) if writing == "run" else ("run", MANIFEST)
+        if (self.path / name).is_file():
+            folder = f"./{self.path}" if str(self.path).startswith("-") else str(self.path)  # not an option
+            raise RunFolderError(f"{self.path}: holds a {other} ({name}), not a {writing}, and --force "
+                                 f"replaces only a {writing}: delete the {other} first "
+                                 f"(`{shell_words(['rm', '-r', folder])}`, which deletes the folder with "
+                                 "everything in it), or choose another --out")
 
     def read_manifest(self) -> dict[str, Any]:
         """The manifest, or a ``RunFolderError`` naming the problem."""

@@ -475,15 +475,15 @@ class RunFolder(RunRecord):
 
     def prepare(self, config: ExperimentConfig, seed: int, participants: int, resume: bool,
                 force: bool, log: Callable[[str], None] | None = None) -> str:
-        """Make the folder ready for a run; return ``"new"`` or ``"resume"``.
-
-        The rule is :func:`prepare_mode`'s: ``resume`` requires the same resolved experiment and seed
-        (``log`` is told of a config.toml put back), ``force`` deletes the old run's tables (or the
-        run's file names in a non-empty folder) first; a run killed before its manifest starts afresh.
+        """Make the folder ready for a run; ``"new"`` or ``"resume"``. The rule is :func:`prepare_mode`'s:
+        ``resume`` requires the same resolved experiment and seed (``log`` is told of a config.toml put
+        back), ``force`` deletes the old run's tables (or the run's file names in a non-empty folder)
+        first; a run killed before its manifest starts afresh; a batch's folder is refused.
         """
         config_text = config.to_toml()
         manifest = self.read_manifest() if self.is_run() else None
         self.refuse_live_sessions(manifest)  # a person's sessions: neither resumed nor replaced
+        self.refuse_other_kind("run")  # a batch's: --force would leave the batch beside the run
         if manifest is None and resume and not force and self._only_a_start(config_text):
             self._remove_temporaries()  # killed before its manifest: start it afresh
             return "new"

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 from nudgecli.errors import RunFolderError
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY, compared
-from nudgecli.run_folder_names import FIGURES_DIR, PEOPLE_DIR
+from nudgecli.run_folder_names import BATCH_MANIFEST, FIGURES_DIR, PEOPLE_DIR
 from nudgecli.run_folder_record import (
     RunRecord,
     experiment_differences,
@@ -58,7 +58,6 @@ if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its wo
     from nudgecli.runs.batch import Batch
     from nudgecli.runs.sweep import SweepFile
 
-BATCH_MANIFEST = "batch.json"
 #: Every table a batch kind writes (``<stem>.csv`` in the folder: :mod:`nudgecli.runs.batch_kinds`
 #: writes no other), and every figure (``figures/<stem>.png``): replacing a batch removes them all,
 #: whichever kind it was, and a batch refuses an input of one of these names.
@@ -449,6 +448,7 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     policies = policies or PolicyCopies()
     record = RunRecord(folder)  # a person's sessions (a nudge study folder): never written into, even forced
     record.refuse_live_sessions(record.read_manifest() if record.is_run() else None, "write the batch")
+    record.refuse_other_kind("batch")  # a run's folder: --force would leave the run beside the batch
     manifest = folder / BATCH_MANIFEST
     old, damage = read_manifest(manifest)
     if damage is not None and not force:  # a batch is there, but what it was is lost: only --force helps
