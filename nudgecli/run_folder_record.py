@@ -383,6 +383,16 @@ class RunRecord(LiveRecord, ConfigRecord):
         return simulate_resume_command(experiment, self.path, manifest.get("seed"),
                                        manifest.get("participants"), people=file)
 
+    def resume_experiment(self, manifest: Mapping[str, Any]) -> str | None:
+        """The experiment a command that resumes this run names in place of the one typed: its
+        ``config.toml`` where the run keeps copies of its own policy modules (the manifest's
+        ``policy_files``): the resolved experiment, its ``--set`` values in it, importing the copies,
+        so the command works from any folder (docs/policies.md); ``None`` otherwise."""
+        from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
+
+        kept = manifest.get(POLICY_FILES_KEY) and (self.path / CONFIG).is_file()
+        return str(self.path / CONFIG) if kept else None
+
     def part_fix(self, manifest: Mapping[str, Any] | None, part: Path, verb: str) -> str:
         """What brings back a damaged ``part``: ``VERB with `nudge simulate ... --resume```; in a live
         folder, a backup (a person's trial cannot be run again)."""

@@ -44,19 +44,25 @@ def fit_command(calibration_dir: str, out: str | None, force: bool, variant: str
 
 
 def _interrupt_hint(target: Path, people: str | None,
-                    resume_commands: Callable[[str | None], list[str]]) -> Callable[[], str]:
+                    resume_commands: Callable[[str | None, str | None], list[str]]) -> Callable[[], str]:
     """What to say after Ctrl-C of a simulation into ``target``: the commands that resume it
     (``resume_commands`` of the ``--people`` they name: the copy the folder keeps where it has
-    been written, else ``people`` as typed)."""
+    been written, else ``people`` as typed; and of the experiment the run's folder keeps in place
+    of the one typed, :meth:`~nudgecli.run_folder_record.RunRecord.resume_experiment`)."""
 
     def hint() -> str:
         from nudgecli.api.resuming import people_to_resume
+        from nudgecli.errors import NudgeError
         from nudgecli.store import RunFolder
 
         run = RunFolder(target)
         if run.is_run():
             done = len(run.completed_participants())
-            commands = resume_commands(people_to_resume(target, people))
+            try:  # a run of its own policies: its config.toml, which imports the copies
+                kept = run.resume_experiment(run.read_manifest())
+            except NudgeError:
+                kept = None
+            commands = resume_commands(people_to_resume(target, people), kept)
             alternatives = "".join(f" (or, to analyse and plot too: {c})" for c in commands[1:])
             return (f"{target} keeps its {done} finished participant(s); resume with: "
                     f"{commands[0]}{alternatives}")
@@ -80,12 +86,13 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
         check_run_plan(config)
     target = Path(out) if out else default_run_dir(config.experiment.name)
 
-    def resume_commands(people_named: str | None) -> list[str]:
-        commands = [simulate_resume_command(experiment, target, seed, participants, workers, overrides,
+    def resume_commands(people_named: str | None, kept: str | None = None) -> list[str]:
+        named, sets = (kept, ()) if kept else (experiment, overrides)  # the kept one holds the --set values
+        commands = [simulate_resume_command(named, target, seed, participants, workers, sets,
                                             confirm=confirm, people=people_named)]
         if command != "simulate":
-            commands.append(simulate_resume_command(experiment, target, seed, participants, workers,
-                                                    overrides, command, confirm, people_named))
+            commands.append(simulate_resume_command(named, target, seed, participants, workers,
+                                                    sets, command, confirm, people_named))
         return commands
 
     click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, people, resume_commands)
