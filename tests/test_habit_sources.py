@@ -6,6 +6,7 @@ of a `--compare` reference. Each test was seen failing on the code before its fi
 from __future__ import annotations
 
 import csv
+import json
 import shutil
 from pathlib import Path
 
@@ -136,3 +137,34 @@ def test_a_run_at_20_hz_is_measured_in_10_hz_cells(tmp_path: Path) -> None:
     events = habits_of(out).events
     durations = events.loc[events["habit"].isin([h.key for h in HABITS if not h.share]), "value"].to_numpy()
     assert durations.size and np.allclose(durations * 10, np.round(durations * 10)), sorted(set(durations))
+
+
+# --- a reference's shares print as the measured values do ----------------------------------------------
+
+
+def share_row(output: str) -> str:
+    return next(line for line in output.splitlines() if line.startswith("share of pauses > 1 s"))
+
+
+@pytest.mark.parametrize(("median", "people", "printed"), [
+    # a habits JSON's measured values (before: 0.211864 0.049550-0.396907)
+    (0.211864, [0.04955, 0.396907], "0.05 0.05-0.05 0.21 0.05-0.40 yes"),
+    # written ones keep their own decimals (HABITS.md's 0.045), as ciaa-people's 0.23 0.05-0.65
+    (0.23, [0.045, 0.65], "0.05 0.05-0.05 0.230 0.045-0.650 yes"),
+    # a measured range rounded onto the median (0.04955 is above 0.04954): the range gets more decimals
+    (0.04, [0.03, 0.04954], "0.05 0.05-0.05 0.0400 0.0300-0.0495 no"),
+])
+def test_a_references_shares_print_at_the_measured_values_decimals(
+        tmp_path: Path, median: float, people: list[float], printed: str) -> None:
+    reference = tmp_path / "ref.json"
+    entry = {"pooled": {"median": median}, "people": people}
+    reference.write_text(json.dumps({"name": "ref", "habits": {"share_pauses_over_1s": entry}}))
+    result = invoke("habits", str(PILOT), "--compare", str(reference))  # pilot-1's share: 0.0495
+    assert result.exit_code == 0, result.output
+    row = " ".join(share_row(result.output).split())
+    assert " ".join(printed.split()) in row, row
+
+
+def test_the_packaged_references_shares_print_as_before() -> None:
+    row = " ".join(share_row(invoke("habits", str(PILOT), "--compare", "ciaa-people").output).split())
+    assert row.endswith("0.0495 0.0495-0.0495 0.23 0.05-0.65 no 0%"), row

@@ -47,6 +47,7 @@ from nudgecli.report.habit_cells import (
 )
 from nudgecli.report.habit_deadband import deadband_events
 from nudgecli.report.habit_logs import read_log_cells
+from nudgecli.report.habits_digits import compared_digits, fmt
 from nudgecli.run_folder_names import MANIFEST
 
 #: Blows are merged across neutral gaps of at most this long (HABITS.md).
@@ -522,23 +523,6 @@ def summarise_habits(events: pd.DataFrame, source: str, kind: str = "run", by: s
     return HabitsResult(source, kind, by, events, pooled, units, people, reference)
 
 
-def _fmt(value: Any, digits: int = 2) -> str:
-    return "-" if value is None or (isinstance(value, float) and math.isnan(value)) else f"{value:.{digits}f}"
-
-
-def _own_digits(*values: float) -> int:
-    """The fewest decimals (2 to 6) at which each of ``values`` reads as written (HABITS.md's 0.045)."""
-    return next((d for d in range(2, 7)
-                 if all(math.isnan(v) or abs(float(f"{v:.{d}f}") - v) < 1e-12 for v in values)), 6)
-
-
-def _digits_reading(median: float, low: str, high: str, inside: bool) -> int:
-    """The fewest decimals (2 to 9) at which ``median`` printed reads inside the printed range
-    ``low``-``high`` exactly when it is ``inside`` (0.0496 is outside 0.05-0.65, so not 0.05)."""
-    reads = (d for d in range(2, 9) if (float(low) <= float(f"{median:.{d}f}") <= float(high)) == inside)
-    return next(reads, 9)
-
-
 def format_habits(result: HabitsResult) -> str:
     """The table of ``--format table``: pooled habits (with the reference beside them), then the units'
     medians, one row per participant (or trial)."""
@@ -556,18 +540,16 @@ def format_habits(result: HabitsResult) -> str:
         digits, compared = 2, ""  # a row's measured values get enough digits to read as compared
         if comparison is not None and habit.key in comparison.index:
             ref = comparison.loc[habit.key]
-            own = _own_digits(ref["reference_median"], ref["reference_min"], ref["reference_max"])
-            low, high = _fmt(ref["reference_min"], own), _fmt(ref["reference_max"], own)
-            if ref["inside"] is not None:
-                digits = _digits_reading(float(row.median), low, high, bool(ref["inside"]))
+            own, digits = compared_digits(float(row.median), ref)
+            low, high = fmt(ref["reference_min"], own), fmt(ref["reference_max"], own)
             inside = "-" if ref["inside"] is None else "yes" if ref["inside"] else "no"
             people_in = "-" if math.isnan(ref["people_inside"]) else f"{ref['people_inside']:.0%}"
             people_range = "-" if math.isnan(ref["reference_min"]) else f"{low}-{high}"
-            compared = (f"   {_fmt(ref['reference_median'], own):>22} {people_range:>14} {inside:>6} "
+            compared = (f"   {fmt(ref['reference_median'], own):>22} {people_range:>14} {inside:>6} "
                         f"{people_in:>13}")
-        quartiles = "" if habit.share else f" [{_fmt(row.q25, digits)}, {_fmt(row.q75, digits)}]"
-        lines.append(f"{habit.label:<50} {int(row.n):>6} {_fmt(row.median, digits) + quartiles:>20} "
-                     f"{_fmt(row.people_min, digits) + '-' + _fmt(row.people_max, digits):>14}" + compared)
+        quartiles = "" if habit.share else f" [{fmt(row.q25, digits)}, {fmt(row.q75, digits)}]"
+        lines.append(f"{habit.label:<50} {int(row.n):>6} {fmt(row.median, digits) + quartiles:>20} "
+                     f"{fmt(row.people_min, digits) + '-' + fmt(row.people_max, digits):>14}" + compared)
     keys = ["participant"] if result.by == "participant" else ["participant", "trial"]
     wide = result.units.pivot_table(index=keys, columns="habit", values="median", sort=False)
     wide = wide[[h.key for h in HABITS if h.key in wide.columns]]
