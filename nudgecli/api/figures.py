@@ -143,11 +143,11 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
 
 def _figures_of(inputs: Any, metrics: Sequence[str]) -> list[str]:
     """The figures ``nudge plot`` draws of these inputs, by file stem."""
-    from nudgecli.report.plotting import metric_figure_groups
+    from nudgecli.report.plotting import TRIAL_FIGURES, metric_figure_groups
 
     if inputs.path_layouts is not None:
         return ["measures", "trajectory"]
-    return [*metric_figure_groups(metrics), *(["fig5", "trajectory"] if inputs.steps is not None else []),
+    return [*metric_figure_groups(metrics), *(TRIAL_FIGURES if inputs.steps is not None else ()),
             *(["questionnaires"] if inputs.questionnaires is not None else [])]
 
 
@@ -175,8 +175,8 @@ def _check_choices(folder: Path, inputs: Any, conditions: Sequence[str], trial: 
     from nudgecli.report.plotting import check_trial
 
     check_reference(reference, conditions)
-    if trial is not None and inputs.trials is not None:
-        check_trial(folder, inputs.trials, trial)
+    if trial is not None:
+        check_trial(folder, inputs.trials, trial, inputs.steps_missing)
 
 
 def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | AnalysisPlan | None = None,
@@ -337,13 +337,19 @@ def _table_of_analysis_folder(folder: Path) -> tuple[Path | None, bool]:
 
 
 def _check_trial_of_run(folder: Path, trial: tuple[int, int]) -> None:
-    """``--trial`` a trial of the run ``folder`` (anything else: ``nudge plot`` says what it is)."""
+    """``--trial`` a trial of the run ``folder``; refused for a metrics table or its analysis folder,
+    which ``--plan`` analyses again (a run without its step logs, ``analyze`` refuses; anything else:
+    ``nudge plot`` says what it is)."""
     from nudgecli.report.plotting import check_trial
+    from nudgecli.run_folder_names import STATS_JSON
     from nudgecli.store import RunFolder
 
     run = RunFolder(folder)
-    if folder.is_dir() and run.is_run() and run.has_completed_participant():
-        check_trial(folder, run.read_trials(), trial)
+    if folder.is_dir() and run.is_run():
+        if run.has_completed_participant():
+            check_trial(folder, run.read_trials(), trial)
+    elif folder.is_file() or (folder / STATS_JSON).is_file():
+        check_trial(folder, None, trial)
 
 
 def _check_figures_folder(source: Path, out: str | Path, force: bool) -> None:

@@ -9,7 +9,8 @@ figure's file (:func:`nudgecli.run_folder_record.is_figure_file`, the rule by wh
 --force`` removes a replaced run's figures), and only where the file's bytes are still those the
 record's SHA-256 says the plot wrote: a file the person put there (or wrote over a figure), or one
 a record edited by hand names, is never removed; nor is one a record of an older nudge, which
-holds no SHA-256, names.
+holds no SHA-256, names. Figures a plot cannot draw for want of their data, not for a choice
+(Fig. 5 and the trajectory of a run whose step logs are not there), it keeps, recorded, saying so.
 
 Before writing into a folder that holds files, the record is widened to the files about to be
 written, so that a plot that fails or is interrupted half-way leaves its earlier figures where
@@ -104,7 +105,8 @@ def removed_line(folder: Path, removed: Sequence[Path]) -> str:
 
 def replace_earlier_figures(folder: Path, stems: Sequence[str], formats: Sequence[str],
                             write: Callable[[], list[Path]],
-                            log: Callable[[str], None] | None = None) -> list[Path]:
+                            log: Callable[[str], None] | None = None,
+                            keep: tuple[Sequence[str], str] = ((), "")) -> list[Path]:
     """Write a plot's figures with ``write`` into ``folder``, then remove those of the earlier plot
     there that this one did not write, and record this plot's files.
 
@@ -118,8 +120,13 @@ def replace_earlier_figures(folder: Path, stems: Sequence[str], formats: Sequenc
     write
         Writes the figures; returns the files written.
     log
-        Receives :func:`removed_line` where earlier figures were removed, and a line where the
-        earlier record could not be read (then nothing is removed).
+        Receives :func:`removed_line` where earlier figures were removed, a line where the earlier
+        record could not be read (then nothing is removed), and one naming the figures ``keep``
+        spared.
+    keep
+        Stems of earlier figures this plot cannot draw and leaves in place, still recorded, and
+        why (a run whose step logs are not there: the Fig. 5 and trajectory drawn from them are
+        still the run's own).
 
     Returns
     -------
@@ -143,12 +150,17 @@ def replace_earlier_figures(folder: Path, stems: Sequence[str], formats: Sequenc
             _write_record(folder, [*earlier, *planned], {**sums, **_sums_of(done)})
         raise
     kept = {path.name for path in written}
-    removed = [folder / name for name in sorted(set(earlier) - kept) if _removable(folder, name, sums)]
+    left = [name for name in sorted(set(earlier) - kept) if _removable(folder, name, sums)]
+    spared = [name for name in left if Path(name).stem in keep[0]]
+    removed = [folder / name for name in left if name not in spared]
     for path in removed:
         path.unlink()
-    _write_record(folder, sorted(kept), _sums_of(written))
+    _write_record(folder, sorted(kept | set(spared)), {**{n: sums[n] for n in spared}, **_sums_of(written)})
     if removed and log is not None:
         log(removed_line(folder, removed))
+    if spared and log is not None:
+        log(f"kept {len(spared)} figure file(s) an earlier `nudge plot` wrote into {folder}: "
+            f"{', '.join(spared)}; this one cannot draw them: {keep[1]}")
     return written
 
 

@@ -127,6 +127,8 @@ class FigureInputs:
     trial
         The trial of Fig. 5 and the trajectory where ``steps`` were read for it alone (its
         participant's steps: :func:`read_inputs`); ``None``: chosen from ``steps``.
+    steps_missing
+        Why a run has no trial to draw (its step logs are not there), else ``None``.
     """
 
     metrics: pd.DataFrame
@@ -138,6 +140,11 @@ class FigureInputs:
     path_layouts: pd.DataFrame | None = None
     time_limit_s: float | None = None
     trial: TrialKey | None = None
+    steps_missing: str | None = None
+
+
+#: The figures drawn from a run's step logs: an earlier plot's are kept where the logs are not there.
+TRIAL_FIGURES = ("fig5", "trajectory")
 
 
 @dataclass(frozen=True)
@@ -308,11 +315,13 @@ def write_figures(inputs: FigureInputs, plan: PlotPlan) -> list[Path]:
     """Draw every figure (:func:`draw_figures`, or :func:`draw_path_figures` for a path-world run)
     and write each in every format, the files at once on the cores there are
     (:func:`~nudgecli.report.figures.output.save_figures`); return the files. Then an earlier plot's
-    figures there that this one did not write are removed (:mod:`nudgecli.report.figure_records`)."""
+    figures there that this one did not write are removed (:mod:`nudgecli.report.figure_records`),
+    but for the :data:`TRIAL_FIGURES` of a run whose step logs are not there."""
     formats = figures.check_formats(plan.formats)
     drawn = draw_path_figures(inputs, plan) if inputs.path_layouts is not None else draw_figures(inputs, plan)
+    keep = (TRIAL_FIGURES, inputs.steps_missing) if inputs.steps_missing else ((), "")
     return replace_earlier_figures(plan.out_dir, list(drawn), formats,
-                                   lambda: figures.save_figures(drawn, plan.out_dir, formats), plan.log)
+                                   lambda: figures.save_figures(drawn, plan.out_dir, formats), plan.log, keep)
 
 
 # --- reading a source ----------------------------------------------------------------------------
@@ -333,14 +342,20 @@ def read_stats(path: Path) -> dict[str, Any]:
     return stats
 
 
-def check_trial(source: str | Path, trials: pd.DataFrame, trial: TrialKey) -> None:
+def check_trial(source: str | Path, trials: pd.DataFrame | None, trial: TrialKey,
+                steps_missing: str | None = None) -> None:
     """``trial`` is a (participant, trial) of ``trials`` (a run's trial table), else ``--trial``'s error.
 
     Raises
     ------
     ConfigError
-        No such trial: one line naming the run's participants and trials.
+        No such trial: one line naming the run's participants and trials; none at all (``trials``
+        ``None``): one line naming why (``steps_missing``, else a metrics table's analysis).
     """
+    if trials is None:
+        why = steps_missing or f"{source}: the analysis of a metrics table holds no trial's steps"
+        raise ConfigError(f"--trial {trial[0]}:{trial[1]}: {why}, so no trial's Fig. 5 or trajectory can be "
+                          "drawn; plot without --trial")
     known = set(zip(trials["participant"], trials["trial"], strict=True))
     if tuple(trial) not in known:
         last_participant, last_trial = trials["participant"].max(), trials["trial"].max()
@@ -480,10 +495,12 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
 
 def _run_fields(run: RunFolder, trial: TrialKey | None) -> dict[str, Any]:
     """:class:`FigureInputs`' fields of a run (none of a table; a live study: its trials recorded so
-    far): trials, layouts, the trial shown (``trial``, else the default rule's) and its steps."""
+    far): trials, layouts, the trial shown (``trial``, else the default rule's) and its steps; of a
+    run without its step logs, why (``steps_missing``)."""
     manifest = run.read_manifest() if run.is_run() else None
     if manifest is None or not (run.has_completed_participant() or run.is_live(manifest)):
-        return {}
+        why = f"{run.path} holds no step logs (no steps/part-*.parquet; a run kept without them)"
+        return {} if manifest is None else {"steps_missing": why}
     if "participants" in manifest:
         run.check_complete()  # a damaged run named with the command that restores it, as analyze names it
     trials = run.read_trials()
@@ -570,14 +587,14 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
     """
     inputs = read_inputs(source, trial)
     check_reference(reference, figures.resolve_conditions(inputs.metrics, inputs.stats))
-    if trial is not None and inputs.trials is not None:
-        check_trial(source, inputs.trials, trial)
+    if trial is not None:
+        check_trial(source, inputs.trials, trial, inputs.steps_missing)
     plan = PlotPlan(out_dir=Path(out) if out is not None else default_out(source), formats=tuple(formats),
                     trial=trial, star_rule=star_rule or ComparisonOptions(),
                     item_labels=dict(item_labels or {}), reference=reference, log=log)
     return write_figures(inputs, plan)
 
 
-__all__ = ["FigureInputs", "PlotPlan", "TrialPanel", "check_trial", "draw_figures", "drawn_metrics",
-           "layouts_by_trial", "metric_figure_groups", "parse_formats", "parse_trial", "plot_folder",
-           "read_inputs", "read_stats", "trial_panel", "write_figures"]
+__all__ = ["TRIAL_FIGURES", "FigureInputs", "PlotPlan", "TrialPanel", "check_trial", "draw_figures",
+           "drawn_metrics", "layouts_by_trial", "metric_figure_groups", "parse_formats", "parse_trial",
+           "plot_folder", "read_inputs", "read_stats", "trial_panel", "write_figures"]
