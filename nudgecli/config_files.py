@@ -42,14 +42,30 @@ def list_presets(kind: Literal["experiments", "analysis"]) -> dict[str, Path]:
     return {p.stem: p for p in sorted(preset_dir(kind).glob("*.toml"))}
 
 
-def default_plan_name(experiment: str) -> str:
+#: The plan preset of a world whose measures are not the paper's (``world.kind``): a CIAA run has
+#: no assistance to engage and no turns, and is measured as the CIAA study measured its people.
+WORLD_PLANS = {"ciaa": "ciaa-teleop"}
+
+
+def default_plan_name(experiment: str, world: str | None = None) -> str:
     """The analysis plan a run of ``experiment`` is analysed with by default: the plan preset of
-    the same name (``study-code``), else ``paper``."""
-    return experiment if experiment in list_presets("analysis") else "paper"
+    the same name (``study-code``), else the plan of its world (``world.kind``,
+    :data:`WORLD_PLANS`: ``ciaa`` -> ``ciaa-teleop``), else ``paper``."""
+    if experiment in list_presets("analysis"):
+        return experiment
+    return WORLD_PLANS.get(world or "", "paper")
+
+
+def world_kind_of(manifest: Mapping[str, Any] | None) -> str | None:
+    """The ``world.kind`` a run folder's manifest records (its resolved experiment), if any."""
+    config = (manifest or {}).get("config")
+    world = config.get("world") if isinstance(config, Mapping) else None
+    kind = world.get("kind") if isinstance(world, Mapping) else None
+    return kind if isinstance(kind, str) else None
 
 
 def resolve_plan(plan: PlanT | None, *, recorded: str | None = None,
-                 experiment: str | None = None) -> PlanT | str:
+                 experiment: str | None = None, world: str | None = None) -> PlanT | str:
     """The analysis plan a command uses: the one rule of ``analyze``, ``plot``, ``run``,
     ``replicate`` and ``power``.
 
@@ -62,17 +78,19 @@ def resolve_plan(plan: PlanT | None, *, recorded: str | None = None,
         with), if any.
     experiment
         The experiment's name (the run's manifest, or the experiment file's ``[experiment] name``).
+    world
+        The experiment's ``world.kind`` (:func:`world_kind_of` a manifest), if known.
 
     Returns
     -------
-    The plan given, else the recorded one, else the plan named like the experiment
-    (:func:`default_plan_name`), else ``paper``.
+    The plan given, else the recorded one, else the plan named like the experiment, else its
+    world's plan (:func:`default_plan_name`), else ``paper``.
     """
     if plan is not None:
         return plan
     if recorded:
         return recorded
-    return default_plan_name(experiment) if experiment else "paper"
+    return default_plan_name(experiment or "", world)
 
 
 def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) -> Path:

@@ -32,7 +32,7 @@ def plan_of(source: str | Path, plan: str | Path | AnalysisPlan | None = None) -
     """The plan whose star rule and labels the figures of ``source`` use: ``plan``, else the one its
     run folder's manifest records, else the one named like its experiment, else ``paper``
     (:func:`nudgecli.config_files.resolve_plan`)."""
-    from nudgecli.config_files import resolve_plan
+    from nudgecli.config_files import resolve_plan, world_kind_of
     from nudgecli.report.plans import AnalysisPlan
     from nudgecli.store import RunFolder
 
@@ -46,7 +46,8 @@ def plan_of(source: str | Path, plan: str | Path | AnalysisPlan | None = None) -
             manifest = folder.read_manifest()
     if not isinstance(manifest, dict):
         manifest = {}
-    return resolve_plan(plan, recorded=manifest.get("plan"), experiment=str(manifest.get("experiment", "")))
+    return resolve_plan(plan, recorded=manifest.get("plan"), experiment=str(manifest.get("experiment", "")),
+                        world=world_kind_of(manifest))
 
 
 def _folder_of(analysis: Analysis | Run | str | Path) -> Path:
@@ -392,7 +393,7 @@ def analyze_and_plot(run: Run | str | Path, *, plan: str | Path | None = None,
 
     opened = run if isinstance(run, Run) else Run.open(arguments.path("run", run))
     log = arguments.callback("log", log)
-    chosen: str | Path = resolve_plan(plan, experiment=opened.experiment)
+    chosen: str | Path = resolve_plan(plan, experiment=opened.experiment, world=opened.config.world.kind)
     if log is not None:
         log(f"analysing with the {chosen!r} plan")
     analysis_plan = load_plan(chosen)

@@ -49,7 +49,7 @@ from typing import Any
 
 import pandas as pd
 
-from nudgecli.config_files import resolve_plan
+from nudgecli.config_files import resolve_plan, world_kind_of
 from nudgecli.errors import ConfigError, DataError, RunFolderError, did_you_mean
 from nudgecli.errors import WriteError as NudgeWriteError
 from nudgecli.locks import run_lock
@@ -505,7 +505,8 @@ def _recorded_plan(manifest: dict[str, Any] | None) -> str:
     """The plan of a run analysed without ``--plan``: the one its manifest records, else the plan
     named like its experiment; ``paper`` for a table."""
     known = manifest or {}
-    return resolve_plan(None, recorded=known.get("plan"), experiment=str(known.get("experiment", "")))
+    return resolve_plan(None, recorded=known.get("plan"), experiment=str(known.get("experiment", "")),
+                        world=world_kind_of(known))
 
 
 def _record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan: AnalysisPlan,

@@ -178,7 +178,8 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     """
     _check(replications, seed)
     config = _load(experiment, overrides, participants, "replicate")
-    chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
+    chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name, world=config.world.kind),
+                          [config])
     record, chosen_people = _people_fields(people, out, bool(options.get("resume")), "replicate")
     check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)],
                       bool(options.get("force")))
@@ -220,7 +221,8 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
         raise ConfigError(f"--target must be strictly between 0 and 1 (a power), got {target}")
     config = _load(experiment, overrides, None, "power")
     with_participants(config, counts[-1])  # the largest study within study.participants' bound
-    chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name), [config])
+    chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name, world=config.world.kind),
+                          [config])
     record, chosen_people = _people_fields(people, out, bool(options.get("resume")), "power")
     check_inputs_kept(Path(out), [("EXPERIMENT", experiment), ("--plan", plan), ("--people", people)],
                       bool(options.get("force")))

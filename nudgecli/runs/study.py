@@ -303,8 +303,8 @@ def checked_plan(plan: str | AnalysisPlan, configs: Sequence[ExperimentConfig]) 
 
 def checked_default_plan(config: ExperimentConfig) -> AnalysisPlan:
     """The plan ``nudge run`` analyses with when no ``--plan`` is given (the one named like the
-    experiment, else ``paper``: :func:`~nudgecli.config_files.resolve_plan`), checked against the
-    experiment's conditions (:func:`checked_plan`) before anything is simulated.
+    experiment, else its world's, else ``paper``: :func:`~nudgecli.config_files.resolve_plan`),
+    checked against the experiment's conditions (:func:`checked_plan`) before anything is simulated.
 
     Raises
     ------
@@ -312,11 +312,12 @@ def checked_default_plan(config: ExperimentConfig) -> AnalysisPlan:
         The plan's refusal, with the fix: a plan of one's own for these conditions, given with
         ``--plan``.
     """
-    name = resolve_plan(None, experiment=config.experiment.name)
+    name = resolve_plan(None, experiment=config.experiment.name, world=config.world.kind)
     try:
         return checked_plan(name, [config])
     except ConfigError as exc:
         why = ("it is the plan named like the experiment" if name == config.experiment.name else
+               f"it is the plan of world.kind = {config.world.kind!r}" if name != "paper" else
                f"no analysis plan is named like experiment {config.experiment.name!r}, so it is the default")
         conditions = ", ".join(f'"{c}"' for c in config.study.conditions)
         raise ConfigError(f"{exc} ({why}); nothing was simulated: write a plan for these conditions (copy "
@@ -432,7 +433,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     if policy_files:
         manifest[POLICY_FILES_KEY] = policy_record(policy_files)
     if plan_name is not None or "plan" not in manifest:
-        manifest["plan"] = resolve_plan(plan_name, experiment=config.experiment.name)
+        manifest["plan"] = resolve_plan(plan_name, experiment=config.experiment.name, world=config.world.kind)
     manifest[FILE_CHECKSUMS] = {LAYOUTS: folder.write_layouts(plan.layouts_frame())}  # read back by plot
     todo = [i for i in range(n) if i not in done]
     started = time.perf_counter()

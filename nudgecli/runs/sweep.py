@@ -343,8 +343,9 @@ def load_sweep(name_or_path: str) -> Sweep:
     plan = None if spec.plan is None else beside_sweep(path, "plan", spec.plan, "analysis")
     # the plan rule of replicate and power: the plan given, else the one named like the experiment
     # (as the set names it; where the set needs the parameters, as the first point does)
-    name = (base if base is not None else points[0].config).experiment.name
-    spec = spec.model_copy(update={"plan": resolve_plan(plan, experiment=name)})
+    named = (base if base is not None else points[0].config)
+    spec = spec.model_copy(update={"plan": resolve_plan(plan, experiment=named.experiment.name,
+                                                        world=named.world.kind)})
     return Sweep(source=path, spec=spec, points=points, problem=problem, samples=samples,
                  experiment_file=resolve_preset(experiment, "experiments"))
 
