@@ -52,9 +52,17 @@ CONSTANT_METRICS: dict[str, frozenset[str]] = {
 }
 
 
+#: The metrics only a policy that infers the goal gives: a condition whose policy makes both
+#: constant infers no goal (teleoperation, the CIAA study's ``no_assistance``).
+INFERENCE_METRICS = frozenset({"assistance_engagement", "assistance_strength"})
+#: The success definitions that read the inferred goal (``nudgecli.report.plans``' ``success``):
+#: the study software's proxy, never true without inference, so not applicable there.
+INFERRED_SUCCESS = frozenset({"last_inferred_goal"})
+
+
 def not_applicable_metrics(conditions: Sequence[str],
                            constant_metrics: Mapping[str, Collection[str]] | None = None,
-                           ) -> dict[str, tuple[str, ...]]:
+                           *, success: str = "reached_goal") -> dict[str, tuple[str, ...]]:
     """Metric -> the conditions for which it is not applicable (constant by construction).
 
     Parameters
@@ -63,20 +71,25 @@ def not_applicable_metrics(conditions: Sequence[str],
         The study's conditions, in order.
     constant_metrics
         Condition -> the metrics its policy makes constant (an experiment's resolved policies:
-        ``nudgecli.sim.policy_registry.constant_metrics_of``); by default the built-in policies'
-        :data:`CONSTANT_METRICS` under each condition's policy name (aliases resolved), nothing for
-        a condition that names no built-in policy.
+        ``nudgecli.sim.policy_registry.constant_metrics_of``); a condition it does not list (and
+        every condition by default) has the built-in policies' :data:`CONSTANT_METRICS` under its
+        policy name (aliases resolved), nothing if it names no built-in policy.
+    success
+        The plan's success definition: one of :data:`INFERRED_SUCCESS` makes ``success`` not
+        applicable to a condition without inference (:data:`INFERENCE_METRICS` constant).
 
     Returns
     -------
     dict
         Only metrics with at least one such condition; conditions in the study's order.
     """
-    if constant_metrics is None:
-        constant_metrics = {name: CONSTANT_METRICS.get(POLICY_ALIASES.get(name, name), frozenset())
-                            for name in conditions}
+    given = constant_metrics or {}
     table: dict[str, list[str]] = {}
     for condition in conditions:
-        for metric in sorted(constant_metrics.get(condition, ())):
+        constant = set(given[condition] if condition in given else
+                       CONSTANT_METRICS.get(POLICY_ALIASES.get(condition, condition), frozenset()))
+        if success in INFERRED_SUCCESS and constant >= INFERENCE_METRICS:
+            constant.add("success")
+        for metric in sorted(constant):
             table.setdefault(metric, []).append(condition)
     return {metric: tuple(names) for metric, names in sorted(table.items())}

@@ -463,10 +463,10 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     conditions = order_conditions(filtered["condition"].cat.categories,
                                   (*plan.conditions, *_study_conditions(manifest)))
     check_reference(reference, conditions)
-    if not_applicable is None:  # the one place a run's conditions say which metrics are constant
-        # as the run recorded it (its policies'; a run of an older nudge: the built-ins' table)
+    if not_applicable is None:  # the one place: as the run recorded it, else the built-ins' table
         recorded = (manifest or {}).get(CONSTANT_METRICS_KEY)
-        not_applicable = not_applicable_metrics(conditions, recorded) if source.is_dir() else {}
+        not_applicable = (not_applicable_metrics(conditions, recorded, success=plan.metrics.success)
+                          if source.is_dir() else {})
     options = comparison_options(plan, seed, bootstrap)
     stats = _statistics(filtered, trial_selected, scores, score_selected, conditions, options, progress,
                         not_applicable)

@@ -26,6 +26,7 @@ from matplotlib.lines import Line2D
 from nudgecli.errors import DataError
 from nudgecli.report.figures.boxplots import METRIC_FIGSIZE, MetricSpec, metric_boxplot
 from nudgecli.report.figures.common import axes_or_new, panel_letter, stats_by_metric
+from nudgecli.report.not_applicable import not_applicable_of
 from nudgecli.report.style import FULL_WIDTH_IN, HUMAN_COLOUR, figure_style, goal_style
 from nudgecli.steplog import MODE_SWITCH_HUMAN, has_event
 
@@ -289,6 +290,8 @@ def measures_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None = Non
         if "success" in metrics.columns:
             rates = metrics.groupby(metrics["condition"].astype(str), sort=False)["success"].apply(
                 lambda s: pd.to_numeric(s.astype("Float64"), errors="coerce").mean())
-            fig.suptitle("Success rate: " + ", ".join(f"{c} {rates[c]:.0%}" for c in order if c in rates),
-                         x=0.01, ha="left")
+            left_out = not_applicable_of(stats_by_metric(stats).get("success"))  # e.g. an inferred-goal
+            fig.suptitle("Success rate: " + ", ".join(  # success in a condition without inference
+                f"{c} {'n/a' if c in left_out else f'{rates[c]:.0%}'}" for c in order if c in rates),
+                x=0.01, ha="left")
     return fig
