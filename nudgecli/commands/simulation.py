@@ -66,6 +66,9 @@ def _interrupt_hint(target: Path, people: str | None,
             alternatives = "".join(f" (or, to analyse and plot too: {c})" for c in commands[1:])
             return (f"{target} keeps its {done} finished participant(s); resume with: "
                     f"{commands[0]}{alternatives}")
+        if target.is_dir() and any(target.iterdir()):  # its start is written: a plain rerun is refused
+            command = resume_commands(people_to_resume(target, people), None)[0]
+            return f"nothing was simulated yet; {target} holds the run's start: continue with: {command}"
         return "nothing was simulated yet; run the command again"
 
     return hint
