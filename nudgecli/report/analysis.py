@@ -18,23 +18,20 @@ surrounding spaces are an error with a "did you mean"; a CSV's delimiter is snif
 (:mod:`nudgecli.report.tables`).
 
 A table is taken under the plan's metric definitions as far as its own columns allow, the rest
-being the table's own, said in a note (:mod:`nudgecli.report.table_definitions`).
-The plan's filters apply, then the statistics (:mod:`nudgecli.report.stats_document`) and the
-summary (:mod:`nudgecli.report.summary`). A run folder's metrics that its conditions make constant
-by construction are left out of their tests for those conditions
+being the table's own, said in a note (:mod:`nudgecli.report.table_definitions`). The plan's
+filters apply, then the statistics (:mod:`nudgecli.report.stats_document`) and the summary
+(:mod:`nudgecli.report.summary`). A run folder's metrics that its conditions make constant by
+construction are left out of their tests for those conditions
 (:func:`nudgecli.model.conditions.not_applicable_metrics`; :mod:`nudgecli.report.not_applicable`).
-Written
-atomically (temporary file in the same folder, then ``os.replace``), while holding the folder's
-lock (:func:`nudgecli.store.run_lock`), to the run folder, ``<table>-analysis/`` beside a table
-(``study.csv`` gives ``study-analysis/``; one that holds the analysis of another table, such as
-``study.parquet``, is refused without ``force``: :mod:`nudgecli.report.analysis_folders`), or
-``out``: ``stats.json``, ``stats.csv``, ``summary.md``, ``metrics.csv`` (for a run folder, or a
-table the analysis changed; a table analysed as it is is not copied: ``stats.json``'s
-``metrics_table`` names the table the statistics came from, and its ``table_read`` what was done
-to a table's rows,
-:mod:`nudgecli.report.table_read`) and, with questionnaires, ``questionnaire_scores.csv`` (a name of its own:
-``questionnaires.csv`` is the answers ``nudge study`` records). No output replaces an input
-(:func:`nudgecli.outputs.check_not_an_input`: all of them are checked before the first is written).
+Written atomically, holding the folder's lock (:func:`nudgecli.store.run_lock`), to the run folder,
+``<table>-analysis/`` beside a table (``study.csv`` gives ``study-analysis/``; one that holds the
+analysis of another table, such as ``study.parquet``, is refused without ``force``:
+:mod:`nudgecli.report.analysis_folders`), or ``out``: :data:`ANALYSIS_FILES`, ``stats.json`` last
+(:func:`_write_analysis`). ``metrics.csv`` is written for a run folder, or a table the analysis
+changed (``stats.json``'s ``metrics_table`` names the table the statistics came from, and its
+``table_read`` what was done to a table's rows, :mod:`nudgecli.report.table_read`);
+``questionnaire_scores.csv`` with questionnaires (``questionnaires.csv`` is the answers
+``nudge study`` records). No output replaces an input (:func:`nudgecli.outputs.check_not_an_input`).
 """
 
 from __future__ import annotations
@@ -95,7 +92,7 @@ from nudgecli.report.tables import (
 )
 from nudgecli.run_folder_names import METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_CSV, STATS_JSON, SUMMARY_MD
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, file_sha256
-from nudgecli.store import RunFolder, is_run_folder, write_text_atomic
+from nudgecli.store import RunFolder, is_run_folder, write_error, write_text_atomic
 
 
 @dataclass
@@ -104,18 +101,13 @@ class AnalysisResult:
 
     Attributes
     ----------
-    out
-        The folder the files went to.
-    files
-        The files written.
+    out, files
+        The folder the files went to; the files written.
     metrics
         The per-trial metrics (after the plan's filters).
-    stats
-        The ``stats.json`` document (JSON-ready: NaN as ``None``).
-    table
-        ``stats.csv``: one row per metric x pair of conditions.
-    summary
-        ``summary.md``.
+    stats, table, summary
+        The ``stats.json`` document (JSON-ready: NaN as ``None``); ``stats.csv`` (one row per
+        metric x pair of conditions); ``summary.md``.
     questionnaires
         The questionnaire scores, if a questionnaire table was given.
     notes
@@ -152,15 +144,13 @@ def read_run(folder: str | Path, notes: list[str] | None = None
     -------
     (pd.DataFrame, callable)
         ``trials`` with :data:`~nudgecli.report.metrics.TRIAL_COLUMNS`, and a participant -> their
-        steps with :data:`~nudgecli.report.metrics.METRIC_STEP_COLUMNS` (``None`` without any):
-        in a run, their part read when asked (and checked), so one participant's steps are in
-        memory at a time.
+        steps with :data:`~nudgecli.report.metrics.METRIC_STEP_COLUMNS` (``None`` without any): in a
+        run, their part read when asked (and checked), so one participant's steps are in memory at once.
 
     Raises
     ------
     RunFolderError
-        No trial parts yet, or no step parts, or (with a manifest) parts missing or unreadable or
-        the run unfinished.
+        No trial or step parts yet, or (with a manifest) parts missing or unreadable or the run unfinished.
     DataError
         A part is unreadable or lacks a column.
     """
@@ -228,10 +218,9 @@ def comparison_options(plan: AnalysisPlan, seed: int | None = None,
 def analysed_metrics_path(folder: str | Path) -> Path | None:
     """The metrics table an analysis folder's statistics came from: the table ``stats.json``'s
     ``metrics_table`` names (a table analysed as it is is not copied), else its ``metrics.csv``;
-    ``None`` when there is neither.
-
-    The named table comes first: a ``metrics.csv`` an earlier analysis wrote (a plan whose filters
-    changed the table) stays in the folder when the next analysis takes the table as it is."""
+    ``None`` when there is neither. The named table comes first: a ``metrics.csv`` an earlier
+    analysis wrote (a plan whose filters changed the table) stays in the folder when the next
+    analysis takes the table as it is."""
     folder = Path(folder)
     try:
         named = json.loads((folder / STATS_JSON).read_text(encoding="utf-8")).get("metrics_table")
@@ -329,12 +318,12 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
     Parameters
     ----------
     source
-        A run folder (``trials/`` and ``steps/`` Parquet parts) or a metrics table (CSV or
-        Parquet, one row per trial with ``participant``, ``condition`` and metric columns).
+        A run folder (``trials/`` and ``steps/`` Parquet parts) or a metrics table (CSV or Parquet,
+        one row per trial with ``participant``, ``condition`` and metric columns).
     plan
-        An analysis plan: preset name (``paper``, ``study-code``), TOML path, or a plan.
-        Default: the plan recorded in a run folder's manifest (recorded there now if missing and
-        the run folder is the output folder), else ``paper``.
+        An analysis plan: preset name (``paper``, ``study-code``), TOML path, or a plan. Default: the
+        plan recorded in a run folder's manifest (recorded there now if missing and the run folder
+        is the output folder), else ``paper``.
     out
         Output folder; default the run folder, or ``<table>-analysis/`` beside a table.
     metrics
@@ -342,10 +331,8 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
         of the plan's (run folder) or of the table's columns, then every questionnaire score.
     questionnaires
         A questionnaire CSV (:mod:`nudgecli.report.questionnaires`) analysed alongside.
-    seed
-        Bootstrap seed; default the plan's.
-    bootstrap
-        Bootstrap resamples; default the plan's.
+    seed, bootstrap
+        Bootstrap seed and resamples; default the plan's.
     drop_duplicates
         Drop repeated trial rows of a metrics table (keeping the first) instead of refusing them.
     progress
@@ -371,12 +358,10 @@ def analyze(source: str | Path, plan: str | Path | AnalysisPlan | None = None, o
     Raises
     ------
     DataError, RunFolderError, ConfigError
-        Invalid source, table, questionnaire table, metric name, plan or reference condition (one
-        clear message each); a table's analysis folder that holds another table's analysis.
-    LockError
-        Another command is writing the run folder or the output folder.
-    WriteError
-        The output folder cannot be written.
+        Invalid source, table, questionnaire table, metric name, plan or reference condition (one clear
+        message each); a table's analysis folder that holds another table's analysis.
+    LockError, WriteError
+        Another command is writing the run folder or the output folder; it cannot be written.
     """
     source = Path(source)
     if not source.exists():
@@ -577,23 +562,29 @@ def _statistics(filtered: pd.DataFrame, trial_selected: Sequence[str], scores: p
     return stats
 
 
+#: The files an analysis writes into its folder, in this order: ``stats.json``, which every reader
+#: starts from, last (:func:`_write_analysis`).
+ANALYSIS_FILES = (METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV, STATS_JSON)
+
+
 def _write_analysis(out_dir: Path, metrics: pd.DataFrame | None, stats: dict[str, Any], tidy: pd.DataFrame,
                     summary: str, scores: pd.DataFrame | None) -> list[Path]:
-    """Write the analysis files atomically into ``out_dir``: ``metrics.csv`` (when ``metrics`` is
-    given: the analysed table differs from the source), ``stats.json``, ``stats.csv``,
-    ``summary.md`` and, with ``scores``, ``questionnaire_scores.csv``; return them in that order.
-    None of them is written when one of them is an input of the command."""
-    written: list[Path] = []
-    outputs = {STATS_JSON: json.dumps(stats, indent=2, allow_nan=False) + "\n", STATS_CSV: stats_csv(tidy),
-               SUMMARY_MD: summary}
-    if scores is not None:
-        outputs[QUESTIONNAIRE_SCORES_CSV] = scores_csv(scores)  # the bytes stats.json records
-    for name in ([METRICS_CSV] if metrics is not None else []) + list(outputs):
-        check_not_an_input(out_dir / name)  # all of them first: never a half-replaced analysis
-    if metrics is not None:
-        write_text_atomic(out_dir / METRICS_CSV, metrics.to_csv(index=False))
-        written.append(out_dir / METRICS_CSV)
-    for name, text in outputs.items():
-        write_text_atomic(out_dir / name, text)
-        written.append(out_dir / name)
+    """Write :data:`ANALYSIS_FILES` atomically into ``out_dir`` (``metrics.csv`` when ``metrics`` is
+    given: the table analysed differs from the source; ``questionnaire_scores.csv`` with ``scores``)
+    and return them; none when one is an input of the command. The old ``stats.json`` goes first, the
+    new one comes last: a killed analysis leaves none (``nudge plot`` refuses the folder), never one
+    beside another analysis's files."""
+    outputs = {METRICS_CSV: None if metrics is None else metrics.to_csv(index=False),
+               STATS_CSV: stats_csv(tidy), SUMMARY_MD: summary,  # scores: the bytes stats.json records
+               QUESTIONNAIRE_SCORES_CSV: None if scores is None else scores_csv(scores),
+               STATS_JSON: json.dumps(stats, indent=2, allow_nan=False) + "\n"}
+    written = [out_dir / name for name, text in outputs.items() if text is not None]
+    for path in written:
+        check_not_an_input(path)  # all of them first: nothing is replaced when one is an input
+    try:
+        (out_dir / STATS_JSON).unlink(missing_ok=True)
+    except OSError as exc:
+        raise write_error(out_dir / STATS_JSON, exc) from exc
+    for path in written:
+        write_text_atomic(path, outputs[path.name] or "")
     return written
