@@ -93,8 +93,7 @@ from nudgecli.sim.people_file import People
 from nudgecli.sim.study import build_layouts, check_physiology_logs
 from nudgecli.store import provenance, utc_now, write_json_atomic
 
-if TYPE_CHECKING:  # the statistics (scipy.stats, scikit-posthocs) load in analysis tasks only, and
-    # pandas after the workers have started
+if TYPE_CHECKING:  # scipy.stats, scikit-posthocs load in analysis tasks; pandas once workers start
     import pandas as pd
 
     from nudgecli.report.plans import AnalysisPlan
@@ -180,8 +179,7 @@ def study_key(config: ExperimentConfig, seed: int) -> str:
 
 
 @dataclass(frozen=True)
-class Study:
-    """One study of the batch."""
+class Study:  # one study of the batch
 
     key: str
     config: ExperimentConfig
@@ -210,9 +208,8 @@ class Graph:
     analyses
         Analysis key -> analysis.
     entry_rows
-        One row per (point, replication, participant count): ``point, replication, seed,
-        participants, study, analysis`` (:attr:`entries` as a table).
-    """
+        One row per (point, replication, participant count): ``point, replication, seed, participants,
+        study, analysis`` (:attr:`entries` as a table)."""
 
     studies: dict[str, Study]
     analyses: dict[str, Analysis]
@@ -294,13 +291,18 @@ class BatchRun:
     stats: dict[str, dict[str, Any]]
     computed: int
     worker_peak_mb: float | None = None
+    outputs: Any = None  # what run_batch's finish returned (the command's tables and figures)
+
+
+#: What a command writes from its batch (:func:`run_batch`'s ``finish``).
+Finish = Callable[[BatchRun], object] | None
 
 
 def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | None = None,
               resume: bool = False, force: bool = False, confirm: bool = False,
               progress: Callable[[int, int], None] | None = None,
               log: Callable[[str], None] | None = None,
-              prepare: Callable[[], object] | None = None) -> BatchRun:
+              prepare: Callable[[], object] | None = None, finish: Finish = None) -> BatchRun:
     """Run every task of the batch into the folder ``out``.
 
     Parameters
@@ -326,6 +328,10 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
         What the command does after the batch and may do before (e.g. import its figures' modules):
         on the process pool it runs in this process beside the workers, before the first analysis,
         off the batch's critical path; elsewhere it is not called.
+    finish
+        What the command writes from the batch (its tables and figures), its result kept as
+        :attr:`BatchRun.outputs`: ``batch.json`` says ``complete`` only once it has returned, and
+        ``interrupted`` if it fails or is interrupted (a resume writes them again).
 
     Returns
     -------
@@ -354,7 +360,7 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     try:
         with run_lock(folder, log=log):
             return _run_batch_locked(batch, folder, size, workers, client, resume, force, copies, progress,
-                                     log, prepare)
+                                     log, prepare, finish)
     except BaseException:
         if made and folder.is_dir() and not any(folder.iterdir()):
             folder.rmdir()  # made only for this batch, which was refused: leave nothing behind
@@ -366,7 +372,7 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
 
 def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: int, client: Any, resume: bool,
                       force: bool, copies: PolicyCopies, progress: Callable[[int, int], None] | None,
-                      log: Callable[[str], None] | None, prepare: Callable[[], object] | None) -> BatchRun:
+                      log: Log, prepare: Callable[[], object] | None, finish: Finish) -> BatchRun:
     """:func:`run_batch` once the batch folder's lock is held (``copies``: the policy code it keeps)."""
     mode = prepare_folder(folder, batch.describe(), resume, force, batch.people, copies)
     if log is not None:  # only now: a refusal is its one error line
@@ -389,18 +395,21 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     try:
         executor = make_executor(workers, client)
         computed = _run_graph(batch, graph, folder, executor, progress, prepare, log)
+        stats = {key: read_json(analysis_part(folder, key)) for key in sorted(graph.analyses)}
+        peak, wall = getattr(executor, "peak_rss_mb", None), round(time.perf_counter() - started, 3)
+        run = BatchRun(folder, mode, graph, size, stats, computed, peak)
+        run.outputs = None if finish is None else finish(run)  # its tables and figures, before "complete"
     except BaseException:
-        # an interrupted batch (Ctrl-C, a failed task, a write error) must not read as running
+        # an interrupted batch (Ctrl-C, a failed task, a write error, its tables or figures not all
+        # written) must not read as running, nor as complete
         manifest.update({"status": "interrupted", "interrupted": utc_now()})
         with contextlib.suppress(NudgeError, OSError):
             write_json_atomic(folder / BATCH_MANIFEST, manifest)
         raise
-    stats = {key: read_json(analysis_part(folder, key)) for key in sorted(graph.analyses)}
-    peak, wall = getattr(executor, "peak_rss_mb", None), round(time.perf_counter() - started, 3)
     manifest.update({"status": "complete", "finished": utc_now(), "wall_s": wall,
                      "worker_peak_rss_mb": None if peak is None else round(peak, 1)})
     write_json_atomic(folder / BATCH_MANIFEST, manifest)
-    return BatchRun(folder, mode, graph, size, stats, computed, peak)
+    return run
 
 
 def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
@@ -464,10 +473,8 @@ class _GraphRun:
     def submit_first(self) -> None:
         """Each study's participant tasks, or its layout tasks where its plan is shared
         (:func:`~nudgecli.runs.batch_tasks.shares_plan`); then the analyses whose participants are all done.
-
-        A plan is shared only on the process pool, whose workers share this machine's files. On
-        dask, sending the 22 MB plan to every worker (``Client.run``) took 0.22 s to 2 workers and
-        2.1 s to 16, while a worker builds it in about 0.18 s: there each worker builds it."""
+        A plan is shared only on the process pool, whose workers share this machine's files (on dask,
+        sending the 22 MB plan to every worker took 0.22 s to 2, 2.1 s to 16; one builds it in 0.18 s)."""
         busy = sum(1 for study in self.graph.studies.values() if self.remaining[study.key])
         for study in self.graph.studies.values():
             if not shares_plan(study, len(self.remaining[study.key]), busy, self.executor.workers):
@@ -563,11 +570,9 @@ class _GraphRun:
             self.executor.warm(Job(_WARM, import_analysis_modules, (), here=True))
 
     def take_layouts(self, key: str, path: str) -> None:
-        """Keep the file of a chunk of solved layouts; once a study has all of them, send its plan
-        to every worker and submit its participant tasks.
-
-        The workers assemble the plan themselves from the chunks' files, so its 20 MB are neither
-        received nor pickled again here while the workers wait."""
+        """Keep the file of a chunk of solved layouts; once a study has all of them, send its plan to every
+        worker (which assembles it from the chunks' files: its 20 MB are neither received nor pickled
+        again here while the workers wait) and submit its participant tasks."""
         study_key, chunk = self.layout_jobs.pop(key)
         self.solved[study_key][chunk] = path
         if any(owner == study_key for owner, _ in self.layout_jobs.values()):
@@ -585,8 +590,7 @@ class _GraphRun:
 _PREPARE, _WARM = "prepare", "import-analysis-modules"
 
 
-def _quietly(prepare: Callable[[], object]) -> None:
-    """Run ``prepare``; a failure is the command's to meet when it does the same after the batch."""
+def _quietly(prepare: Callable[[], object]) -> None:  # a failure is the command's to meet after the batch
     with contextlib.suppress(Exception):
         prepare()
 

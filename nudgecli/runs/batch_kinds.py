@@ -187,19 +187,22 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
                   config.experiment.seed if seed is None else seed, chosen,
                   {"experiment": config.experiment.name, **record}, chosen_people,
                   left_out_notes(config, config.study.participants, chosen_people, study="each replication"))
-    run = run_batch(batch, out, prepare=import_outputs, **options)
-    from nudgecli.report.figures.replication import forest_figure
-    from nudgecli.report.replication import condition_values, replication_rows, summarise
 
-    rows = replication_rows(run.graph.entries, run.stats, chosen)
-    summarised = summarise(rows)  # the figure reads it with its point column, the table without
-    summary = summarised.drop(columns=["point"])
-    tables = {"replications": rows.drop(columns=["point"]),
-              "conditions": condition_values(run.graph.entries, run.stats).drop(columns=["point"]),
-              "summary": summary}
-    figures = {"forest": forest_figure(rows, summarised)}
-    files = _write_tables(run.path, tables) + _figures(run.path, figures)
-    return BatchResult(run, rows, summary, tables, files)
+    def outputs(run: BatchRun) -> BatchResult:
+        from nudgecli.report.figures.replication import forest_figure
+        from nudgecli.report.replication import condition_values, replication_rows, summarise
+
+        rows = replication_rows(run.graph.entries, run.stats, chosen)
+        summarised = summarise(rows)  # the figure reads it with its point column, the table without
+        summary = summarised.drop(columns=["point"])
+        tables = {"replications": rows.drop(columns=["point"]),
+                  "conditions": condition_values(run.graph.entries, run.stats).drop(columns=["point"]),
+                  "summary": summary}
+        figures = {"forest": forest_figure(rows, summarised)}
+        files = _write_tables(run.path, tables) + _figures(run.path, figures)
+        return BatchResult(run, rows, summary, tables, files)
+
+    return _result(run_batch(batch, out, prepare=import_outputs, finish=outputs, **options))
 
 
 def power(experiment: str, participant_counts: Sequence[int], replications: int, out: str | Path, *,
@@ -231,16 +234,19 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
                   {"experiment": config.experiment.name, **record}, chosen_people,
                   left_out_notes(config, counts[-1], chosen_people, study="the largest study",
                                  fix="a count of {} in --participants"))
-    run = run_batch(batch, out, prepare=import_outputs, **options)
-    from nudgecli.report.figures.replication import power_figure
-    from nudgecli.report.replication import power_table, replication_rows, smallest_n
 
-    rows = replication_rows(run.graph.entries, run.stats, chosen)
-    curves = power_table(rows)
-    smallest = smallest_n(curves, target)
-    tables = {"power": curves, "smallest_n": smallest, "replications": rows.drop(columns=["point"])}
-    files = _write_tables(run.path, tables) + _figures(run.path, {"power": power_figure(curves, target)})
-    return BatchResult(run, rows, curves, tables, files)
+    def outputs(run: BatchRun) -> BatchResult:
+        from nudgecli.report.figures.replication import power_figure
+        from nudgecli.report.replication import power_table, replication_rows, smallest_n
+
+        rows = replication_rows(run.graph.entries, run.stats, chosen)
+        curves = power_table(rows)
+        smallest = smallest_n(curves, target)
+        tables = {"power": curves, "smallest_n": smallest, "replications": rows.drop(columns=["point"])}
+        files = _write_tables(run.path, tables) + _figures(run.path, {"power": power_figure(curves, target)})
+        return BatchResult(run, rows, curves, tables, files)
+
+    return _result(run_batch(batch, out, prepare=import_outputs, finish=outputs, **options))
 
 
 def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, seed: int | None = None,
@@ -273,33 +279,45 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     described = {"design": spec.design.model_dump(mode="json"), "experiment": _sweep_experiment(out, loaded)}
     batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen, described,
                   inputs=sweep_inputs(spec, loaded.experiment_file))
-    run = run_batch(batch, out, prepare=import_outputs, **options)
-    from nudgecli.report.figures.replication import sensitivity_figure, sweep_figure
-    from nudgecli.report.replication import (
-        condition_values,
-        point_outputs,
-        replication_rows,
-        sensitivity,
-        summarise,
-    )
 
-    names = parameter_names(batch)
+    def outputs(run: BatchRun) -> BatchResult:
+        from nudgecli.report.figures.replication import sensitivity_figure, sweep_figure
+        from nudgecli.report.replication import point_outputs, sensitivity
+
+        names = parameter_names(batch)
+        rows, tables = _sweep_tables(run, batch, chosen, names)
+        figures: dict[str, Any] = {"sweep": sweep_figure(rows, names)}
+        if loaded.problem is not None and loaded.samples is not None:
+            indices = sensitivity(spec.design.method, loaded.problem, loaded.samples, point_outputs(rows),
+                                  levels=spec.design.levels, seed=batch.seed)
+            tables["sensitivity"] = indices
+            if not indices.empty:
+                figures["sensitivity"] = sensitivity_figure(indices)
+        files = _write_tables(run.path, tables) + _figures(run.path, figures)
+        return BatchResult(run, rows, tables.get("sensitivity", tables["points"]), tables, files)
+
+    return _result(run_batch(batch, out, prepare=import_outputs, finish=outputs, **options))
+
+
+def _sweep_tables(run: BatchRun, batch: Batch, plan: AnalysisPlan,
+                  names: list[str]) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
+    """A sweep's rows (``replications.csv``) and its tables ``sweep``, ``replications`` and ``points``."""
+    from nudgecli.report.replication import condition_values, replication_rows, summarise
+
     table = point_table(batch).astype(object)
     for name in names:
         table[name] = table[name].map(lambda v: v if isinstance(v, int | float | str | bool) else str(v))
-    rows = replication_rows(run.graph.entries, run.stats, chosen, table)
+    rows = replication_rows(run.graph.entries, run.stats, plan, table)
     summary = summarise(rows).merge(table, on="point", how="left")
     tidy = condition_values(run.graph.entries, run.stats, table)
-    tables = {"sweep": tidy, "replications": rows, "points": summary}
-    figures: dict[str, Any] = {"sweep": sweep_figure(rows, names)}
-    if loaded.problem is not None and loaded.samples is not None:
-        indices = sensitivity(spec.design.method, loaded.problem, loaded.samples, point_outputs(rows),
-                              levels=spec.design.levels, seed=batch.seed)
-        tables["sensitivity"] = indices
-        if not indices.empty:
-            figures["sensitivity"] = sensitivity_figure(indices)
-    files = _write_tables(run.path, tables) + _figures(run.path, figures)
-    return BatchResult(run, rows, tables.get("sensitivity", summary), tables, files)
+    return rows, {"sweep": tidy, "replications": rows, "points": summary}
+
+
+def _result(run: BatchRun) -> BatchResult:
+    """The command's result: what its ``finish`` wrote once the batch's tasks were done
+    (:func:`~nudgecli.runs.batch.run_batch` marks the batch complete only after it)."""
+    assert isinstance(run.outputs, BatchResult)
+    return run.outputs
 
 
 def _sweep_experiment(out: str | Path, loaded: Sweep) -> str:
