@@ -61,6 +61,8 @@ class PartRecord:
         self.refused: list[str] = []
         #: Parts the record holds that are no longer on disk (deleted since), as they were met.
         self.missing: list[str] = []
+        #: The parts of this batch the record vouches for or has written (:meth:`write_in_order`'s lines).
+        self.kept: set[str] = set()
 
     def _name(self, part: Path) -> str:
         return part.relative_to(self.folder).as_posix()
@@ -73,6 +75,7 @@ class PartRecord:
             return False
         recorded = self.sums.get(self._name(part))
         if recorded is not None and file_sha256(part) == recorded and readable(part):
+            self.kept.add(self._name(part))
             return True
         self.refused.append(self._name(part))
         return False
@@ -105,6 +108,7 @@ class PartRecord:
         write_bytes_atomic(part, data, durable=False)
         name = self._name(part)
         self.sums[name] = digest = hashlib.sha256(data).hexdigest()
+        self.kept.add(name)
         try:
             with open(self.path, "a", encoding="utf-8") as handle:
                 handle.write(f"{self._line_break}{digest}  {name}\n")
@@ -113,7 +117,11 @@ class PartRecord:
             raise write_error(self.path, exc) from exc
 
     def write_in_order(self) -> None:
-        """Write the record again, each part once, in path order: once the batch is complete, the
-        same bytes whatever order its tasks finished in (or a resume computed them again in)."""
-        lines = "".join(f"{digest}  {name}\n" for name, digest in sorted(self.sums.items()))
+        """Write the record again from the lines of the batch's parts, each part once, in path order:
+        once the batch is complete, the same bytes whatever order its tasks finished in (or a resume
+        computed them again in). A line of no part of the batch (a torn last line whose path was cut
+        short, as a power cut leaves it; a part of another batch) is left out: ``sha256sum -c
+        --strict`` checks the record."""
+        kept = sorted((name, digest) for name, digest in self.sums.items() if name in self.kept)
+        lines = "".join(f"{digest}  {name}\n" for name, digest in kept)
         write_bytes_atomic(self.path, lines.encode("utf-8"), durable=False)  # (names the path if it fails)
