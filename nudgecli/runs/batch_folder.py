@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 from nudgecli.errors import RunFolderError
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY, compared
-from nudgecli.run_folder_names import BATCH_MANIFEST, FIGURES_DIR, PEOPLE_DIR
+from nudgecli.run_folder_names import BATCH_MANIFEST, FIGURES_DIR, LOCK, PEOPLE_DIR
 from nudgecli.run_folder_record import (
     RunRecord,
     experiment_differences,
@@ -457,7 +457,8 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
                              "again), or choose another --out")
     held = "its batch.json damaged" if damage is not None else \
         None if old is None else f"{old['batch'].get('kind')}, {old.get('status')}"
-    mode = prepare_mode(folder, held, resume, force, kind="batch")
+    start = held is None and _start_again(folder, people, policies)  # killed before its batch.json
+    mode = "new" if start else prepare_mode(folder, held, resume, force, kind="batch")
     copies = None if old is None else old.get(POLICY_FILES_KEY)  # the policy copies the folder records
     inputs = None if old is None else old.get(INPUTS_KEY)
     if old is not None and mode == "resume":
@@ -496,3 +497,49 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     keep_copy(people, folder)
     keep_policy_copies({**policies.files, **policies.inputs}, folder)
     return "new"
+
+
+def _start_files(folder: Path, people: People | None, policies: PolicyCopies) -> dict[str, bytes]:
+    """What :func:`prepare_folder` writes of a new batch before its ``batch.json``, by path in
+    ``folder``: its people copy, its policy copies and its kept inputs."""
+    from nudgecli.sim.people_file import copy_path
+
+    files = {**policies.files, **policies.inputs}
+    if people is not None and people.data:
+        files[copy_path(folder, people.record()).relative_to(folder).as_posix()] = people.data
+    return files
+
+
+def _start_again(folder: Path, people: People | None, policies: PolicyCopies) -> bool:
+    """Whether ``folder`` holds :func:`only_a_start`; if so, its writers' temporaries are removed (the
+    batch's lock is held: no live writer owns them) and the batch starts afresh."""
+    if not only_a_start(folder, people, policies):
+        return False
+    remove_temporaries((folder, *{(folder / name).parent for name in _start_files(folder, people, policies)}))
+    return True
+
+
+def only_a_start(folder: Path, people: People | None, policies: PolicyCopies) -> bool:
+    """Whether ``folder`` holds only the start of this very batch, left by a batch killed before it
+    wrote its ``batch.json`` (a new one, or a ``--force`` replacing another whose old batch was
+    already removed): its lock, some of :func:`_start_files` each with this batch's bytes, and the
+    temporaries of their writers (``.<name>.<random>.tmp``). Such a folder starts the batch afresh,
+    on ``--resume`` or the same command, as a run folder killed before its manifest does
+    (:meth:`nudgecli.store.RunRecord._only_a_start`); a file of the person's own (another name, or
+    other bytes at a copy's path) keeps the folder refused."""
+    if not folder.is_dir():
+        return False
+    files = _start_files(folder, people, policies)
+    folders = {parent for name in files for parent in (folder / name).parents if folder in parent.parents}
+    entries = [p for p in folder.rglob("*") if p.name != LOCK or p.parent != folder]
+    for path in entries:
+        name = path.relative_to(folder).as_posix()
+        temporary = path.name.startswith(".") and path.name.endswith(".tmp") and \
+            (path.parent == folder or path.parent in folders)
+        if path.is_dir() and not path.is_symlink():
+            if path not in folders:
+                return False
+        elif not (temporary and path.is_file()) and not (
+                name in files and path.is_file() and path.read_bytes() == files[name]):
+            return False
+    return bool(entries)
