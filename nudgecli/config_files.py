@@ -96,13 +96,16 @@ def resolve_plan(plan: PlanT | None, *, recorded: str | None = None,
 def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) -> Path:
     """A preset name or a TOML path -> an existing file, or a ``ConfigError`` with suggestions."""
     candidate = Path(name_or_path)
-    if candidate.suffix == ".toml" or candidate.exists():
+    if candidate.suffix == ".toml" or candidate.is_file():
         if not candidate.is_file():
             raise ConfigError(f"{name_or_path}: no such file; give a preset name or a path to a .toml file")
         return candidate
     presets = list_presets(kind)
-    if name_or_path in presets:
+    if name_or_path in presets:  # a preset's name, even beside a folder of that name (a run's --out)
         return presets[name_or_path]
+    if candidate.exists():
+        raise ConfigError(f"{name_or_path}: a folder, not a .toml file; give a preset name or a path to a "
+                          ".toml file")
     what = "an experiment" if kind == "experiments" else "an analysis plan"
     raise ConfigError(
         f"{name_or_path!r} is neither {what} preset nor a file{did_you_mean(name_or_path, presets)}; "
