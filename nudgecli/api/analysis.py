@@ -174,7 +174,7 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
 
     from nudgecli.api import arguments
     from nudgecli.outputs import check_output_folder
-    from nudgecli.report.analysis import analysis_folder
+    from nudgecli.report.analysis import analysis_folder, left_by_a_killed_analysis
     from nudgecli.report.analysis import analyze as analyze_source
     from nudgecli.report.plans import MIN_RESAMPLES, check_resamples
 
@@ -188,9 +188,9 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     progress, log = arguments.callback("progress", progress), arguments.callback("log", log)
     check_resamples(bootstrap, "--bootstrap", MIN_RESAMPLES)  # the analysis's own bounds, before --out's
     path = source.path if isinstance(source, Run) else source
-    if out is not None:  # the run folder itself, or the table's analysis folder, is the source's own
+    if out is not None:  # the source's own folders, or one a killed analysis left, need no --force
         own = [path, analysis_folder(Path(path))] if isinstance(path, str | Path) else []
-        check_output_folder(out, force=force, own=own)
+        check_output_folder(out, force=force, own=own, own_file=left_by_a_killed_analysis(out))
     options: dict[str, Any] = {"plan": plan, "metrics": list(metrics) if metrics is not None else None,
                                "questionnaires": questionnaires, "seed": seed, "bootstrap": bootstrap,
                                "drop_duplicates": drop_duplicates, "progress": progress,

@@ -49,7 +49,7 @@ import pandas as pd
 from nudgecli.config_files import resolve_plan, world_kind_of
 from nudgecli.errors import ConfigError, DataError, RunFolderError, did_you_mean
 from nudgecli.errors import WriteError as NudgeWriteError
-from nudgecli.locks import run_lock
+from nudgecli.locks import LOCK, run_lock
 from nudgecli.model.conditions import not_applicable_metrics
 from nudgecli.outputs import check_not_an_input
 from nudgecli.report.analysis_folders import analysis_folder, check_folder_is_the_tables
@@ -92,7 +92,7 @@ from nudgecli.report.tables import (
 )
 from nudgecli.run_folder_names import METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_CSV, STATS_JSON, SUMMARY_MD
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, file_sha256
-from nudgecli.store import RunFolder, is_run_folder, write_error, write_text_atomic
+from nudgecli.store import RunFolder, is_run_folder, temporary_prefix, write_error, write_text_atomic
 
 
 @dataclass
@@ -567,13 +567,21 @@ def _statistics(filtered: pd.DataFrame, trial_selected: Sequence[str], scores: p
 ANALYSIS_FILES = (METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV, STATS_JSON)
 
 
+def left_by_a_killed_analysis(folder: str | Path) -> Callable[[str], bool]:
+    """Whether a file name in ``folder`` may be left by an analysis killed there (the next replaces or
+    removes it): the lock, an analysis file but ``stats.json`` (a complete analysis is not replaced
+    unasked), a temporary of any of them (:func:`~nudgecli.store.temporary_prefix`)."""
+    return lambda name: name == LOCK or name in ANALYSIS_FILES[:-1] or (name.endswith(".tmp") and any(
+        name.startswith(temporary_prefix(Path(folder) / own)) for own in ANALYSIS_FILES))
+
+
 def _write_analysis(out_dir: Path, metrics: pd.DataFrame | None, stats: dict[str, Any], tidy: pd.DataFrame,
                     summary: str, scores: pd.DataFrame | None) -> list[Path]:
     """Write :data:`ANALYSIS_FILES` atomically into ``out_dir`` (``metrics.csv`` when ``metrics`` is
     given: the table analysed differs from the source; ``questionnaire_scores.csv`` with ``scores``)
     and return them; none when one is an input of the command. The old ``stats.json`` goes first, the
     new one comes last: a killed analysis leaves none (``nudge plot`` refuses the folder), never one
-    beside another analysis's files."""
+    beside another analysis's files. An earlier killed analysis's temporaries are removed."""
     outputs = {METRICS_CSV: None if metrics is None else metrics.to_csv(index=False),
                STATS_CSV: stats_csv(tidy), SUMMARY_MD: summary,  # scores: the bytes stats.json records
                QUESTIONNAIRE_SCORES_CSV: None if scores is None else scores_csv(scores),
@@ -581,8 +589,10 @@ def _write_analysis(out_dir: Path, metrics: pd.DataFrame | None, stats: dict[str
     written = [out_dir / name for name, text in outputs.items() if text is not None]
     for path in written:
         check_not_an_input(path)  # all of them first: nothing is replaced when one is an input
-    try:
-        (out_dir / STATS_JSON).unlink(missing_ok=True)
+    try:  # the lock is held: no live writer owns a temporary
+        for path in [*(p for p in out_dir.glob(".*.tmp") if left_by_a_killed_analysis(out_dir)(p.name)),
+                     out_dir / STATS_JSON]:
+            path.unlink(missing_ok=True)
     except OSError as exc:
         raise write_error(out_dir / STATS_JSON, exc) from exc
     for path in written:
