@@ -38,6 +38,7 @@ from nudgecli.config_files import (
     validate_overridden,
 )
 from nudgecli.config_people import BehaviourSection, CalibrationSection, PopulationSection
+from nudgecli.config_world import WorldSection, check_world_keys
 from nudgecli.errors import ConfigError, did_you_mean
 from nudgecli.model.conditions import PAPER_CONDITIONS, POLICIES
 from nudgecli.model.disambiguation_settings import DisambiguationSettings
@@ -50,7 +51,6 @@ from nudgecli.model.interface import (
     ZERO_THRESHOLD,
 )
 from nudgecli.model.mdp import DEFAULT_GAMMA, MDPRewards
-from nudgecli.model.path_world import HEADING_TOLERANCE, SNAP_TOLERANCE, SUCCESS_DISTANCE
 
 __all__ = [
     "CONDITION_NAMES", "CONDITION_SECTIONS", "AssistanceSection", "BehaviourSection", "BlendingPolicySection",
@@ -369,47 +369,6 @@ class HindsightSection(Section):
     assist: Literal["always", "on-command"] = "always"
 
 
-class WorldSection(Section):
-    """``[world]``: which world the trials run in, and the CIAA path world's constants.
-
-    - ``kind``: ``grid`` is the paper's open workspace with its 10 x 10 x 8 x 3 grid (DESIGN.md
-      section 2.1; the ``[study]`` design of layouts, goals and blocks); ``ciaa`` is the
-      path-constrained teleoperation task of the sibling CIAA study (2020, "Customized Handling
-      of Unintended Interface Operation in Assistive Robots"; its ``TASK.md`` and
-      ``layouts.json``): one known goal, waypoints, one allowed mode and direction per leg, the
-      rotation at the turn waypoint only. In ``ciaa`` the layouts, their order and the
-      conditions come from the task file's ``subject_blocks`` (participant ``i`` runs as subject
-      ``i mod 10`` did), and ``[study]`` keeps ``rate_hz`` and ``time_limit_s`` (the study's 50 s).
-
-    The keys below apply to ``ciaa`` only; their defaults are TASK.md's values:
-
-    - ``ciaa_conditions``: the study's conditions whose blocks are run. Only ``no_assistance``
-      (no inference, no blending, no autonomy) is implemented: 12 trials per participant.
-    - ``linear_speed`` / ``angular_speed``: full speed of a soft command in wall-clock time,
-      1.6 units/s and 0.64 rad/s (TASK.md section 6: 3.9 units and 1.56 rad per simulated second,
-      with the simulator's loop running at about 41 steps of 0.01 s per wall-clock second).
-      They replace ``[interface]`` ``human_speed`` / ``human_turn_rate`` in this world.
-    - ``snap_tolerance``: the robot snaps onto the next waypoint within 0.1 units on both axes;
-      ``heading_tolerance``: onto the goal heading within 0.1 rad (section 4).
-    - ``success_distance``: a success ends within this Manhattan distance of the goal (0.1) and
-      within ``study.time_limit_s`` (section 7).
-    """
-
-    kind: Literal["grid", "ciaa"] = "grid"
-    ciaa_conditions: tuple[Literal["no_assistance"], ...] = ("no_assistance",)
-    linear_speed: PositiveFloat = 1.6
-    angular_speed: PositiveFloat = 0.64
-    snap_tolerance: PositiveFloat = SNAP_TOLERANCE  # TASK.md's (nudgecli.model.path_world)
-    heading_tolerance: PositiveFloat = HEADING_TOLERANCE
-    success_distance: PositiveFloat = SUCCESS_DISTANCE
-
-    @model_validator(mode="after")
-    def _check(self) -> WorldSection:
-        if not self.ciaa_conditions or len(set(self.ciaa_conditions)) != len(self.ciaa_conditions):
-            raise ValueError("ciaa_conditions must be a non-empty list without repeats")
-        return self
-
-
 class ExperimentConfig(Section):
     """A whole experiment file."""
 
@@ -445,6 +404,16 @@ class ExperimentConfig(Section):
             raise ValueError("unknown key 'policy_search_path': it is internal (a policy module is "
                              "imported from the experiment file's folder, then from sys.path: "
                              "docs/policies.md); remove it")
+        return data
+
+    @model_validator(mode="before")
+    @classmethod
+    def _keys_its_world_reads(cls, data: Any) -> Any:
+        # a key the chosen world does not read is refused, never ignored (nudgecli.config_world); before
+        # the sections' own checks, which would advise on what that world never reads
+        if isinstance(data, dict):
+            sections = {"study": StudySection, "interface": InterfaceSection, "world": WorldSection}
+            check_world_keys(data, sections)
         return data
 
     @model_validator(mode="after")

@@ -1,0 +1,129 @@
+"""``[world]``: which world the trials run in, the CIAA path world's constants, and the one rule of
+which keys each world reads (:func:`check_world_keys`): a key the chosen world does not read is an
+error where it is given, never a setting silently ignored."""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from typing import Any, Literal
+
+from pydantic import model_validator
+
+from nudgecli.config_base import PositiveFloat, Section, plain
+from nudgecli.model.path_world import HEADING_TOLERANCE, SNAP_TOLERANCE, SUCCESS_DISTANCE
+
+
+class WorldSection(Section):
+    """``[world]``: which world the trials run in, and the CIAA path world's constants.
+
+    - ``kind``: ``grid`` is the paper's open workspace with its 10 x 10 x 8 x 3 grid (DESIGN.md
+      section 2.1; the ``[study]`` design of layouts, goals and blocks); ``ciaa`` is the
+      path-constrained teleoperation task of the sibling CIAA study (2020, "Customized Handling
+      of Unintended Interface Operation in Assistive Robots"; its ``TASK.md`` and
+      ``layouts.json``): one known goal, waypoints, one allowed mode and direction per leg, the
+      rotation at the turn waypoint only. In ``ciaa`` the layouts, their order and the
+      conditions come from the task file's ``subject_blocks`` (participant ``i`` runs as subject
+      ``i mod 10`` did), and ``[study]`` keeps ``participants``, ``rate_hz`` and ``time_limit_s``
+      (the study's 50 s): the keys of :data:`GRID_ONLY` are refused there unless at their defaults.
+
+    The keys below apply to ``ciaa`` only (:data:`CIAA_ONLY`: refused in ``grid`` unless at their
+    defaults); their defaults are TASK.md's values:
+
+    - ``ciaa_conditions``: the study's conditions whose blocks are run. Only ``no_assistance``
+      (no inference, no blending, no autonomy) is implemented: 12 trials per participant.
+    - ``linear_speed`` / ``angular_speed``: full speed of a soft command in wall-clock time,
+      1.6 units/s and 0.64 rad/s (TASK.md section 6: 3.9 units and 1.56 rad per simulated second,
+      with the simulator's loop running at about 41 steps of 0.01 s per wall-clock second).
+      They replace ``[interface]`` ``human_speed`` / ``human_turn_rate`` in this world.
+    - ``snap_tolerance``: the robot snaps onto the next waypoint within 0.1 units on both axes;
+      ``heading_tolerance``: onto the goal heading within 0.1 rad (section 4).
+    - ``success_distance``: a success ends within this Manhattan distance of the goal (0.1) and
+      within ``study.time_limit_s`` (section 7).
+    """
+
+    kind: Literal["grid", "ciaa"] = "grid"
+    ciaa_conditions: tuple[Literal["no_assistance"], ...] = ("no_assistance",)
+    linear_speed: PositiveFloat = 1.6
+    angular_speed: PositiveFloat = 0.64
+    snap_tolerance: PositiveFloat = SNAP_TOLERANCE  # TASK.md's (nudgecli.model.path_world)
+    heading_tolerance: PositiveFloat = HEADING_TOLERANCE
+    success_distance: PositiveFloat = SUCCESS_DISTANCE
+
+    @model_validator(mode="after")
+    def _check(self) -> WorldSection:
+        if not self.ciaa_conditions or len(set(self.ciaa_conditions)) != len(self.ciaa_conditions):
+            raise ValueError("ciaa_conditions must be a non-empty list without repeats")
+        return self
+
+
+_SCHEDULE = 'world.ciaa_conditions (["no_assistance"]) in the task\'s subject blocks'
+#: The keys the CIAA path world does not read, each with what that world runs instead.
+_DESIGN = ("conditions", "counterbalancing", "shared_layouts", "goal_counts", "corners", "start_modes",
+           "blocks_per_condition")
+GRID_ONLY: dict[str, str] = {
+    **{f"study.{key}": _SCHEDULE for key in _DESIGN},
+    "study.success_distance": "world.success_distance (a Manhattan distance, at any heading)",
+    "study.success_angle": "world.success_distance (a Manhattan distance, at any heading)",
+    "interface.human_speed": "world.linear_speed", "interface.human_turn_rate": "world.angular_speed",
+}
+#: The condition sections (``None`` unless given), which a CIAA run never reads.
+CONDITION_TABLES = ("blending", "mode-switch", "mode_switch", "hindsight", "policies")
+#: The keys the grid world does not read, each with what that world does instead.
+CIAA_ONLY: dict[str, str] = {
+    "world.ciaa_conditions": "runs study.conditions",
+    "world.linear_speed": "reads interface.human_speed",
+    "world.angular_speed": "reads interface.human_turn_rate",
+    "world.snap_tolerance": "has no waypoints to snap onto",
+    "world.heading_tolerance": "reads study.success_angle",
+    "world.success_distance": "reads study.success_distance",
+}
+
+
+def check_world_keys(data: Mapping[str, Any], sections: Mapping[str, Any]) -> None:
+    """Raise ``ValueError`` (one line) where an experiment's raw ``data`` gives a key its world
+    (``world.kind``) does not read a value other than its default, or, in the CIAA world, a
+    condition's section. ``sections``: the section classes by name, whose defaults are compared.
+
+    A value at its default passes: a run folder's ``config.toml`` writes every key (the run's
+    before this rule too), and the default changes nothing the world does.
+    """
+    kind = _given(data.get("world"), "kind", "grid")
+    if kind not in ("grid", "ciaa"):
+        return  # pydantic names the kind
+    ignored = GRID_ONLY if kind == "ciaa" else CIAA_ONLY
+    found = [f"[{name}]" for name in CONDITION_TABLES if kind == "ciaa" and data.get(name) is not None]
+    for dotted in ignored:
+        section_name, key = dotted.split(".")
+        default = sections[section_name].model_fields[key].default
+        value = _given(data.get(section_name), key, default)
+        if not _same(value, default):
+            found.append(f"{dotted} = {json.dumps(plain(value))}")
+    if not found:
+        return
+    them = "it" if len(found) == 1 else "them"
+    keys = [item.split(" = ")[0] for item in found]
+    if kind == "grid":
+        does = "; ".join(f"for {key} it {ignored[key]}" for key in keys)
+        raise ValueError(f"{', '.join(found)}: the grid world (world.kind = \"grid\") does not read {them} "
+                         f"({does}); remove {them}, or set world.kind = \"ciaa\" for the CIAA path "
+                         "world (docs/people.md)")
+    reads = "".join(f", and {ignored[key]} in place of {key}" for key in keys
+                    if ignored.get(key, _SCHEDULE) != _SCHEDULE)
+    raise ValueError(f"{', '.join(found)}: the ciaa world (world.kind = \"ciaa\") does not read {them} "
+                     f"(it runs {_SCHEDULE}{reads}); remove {them}, or set world.kind = \"grid\" for the "
+                     "grid world's study (docs/people.md)")
+
+
+def _given(section: Any, key: str, default: Any) -> Any:
+    """The value a raw section (a table, or a section made in Python) gives ``key``, else ``default``."""
+    if isinstance(section, Mapping):
+        return section.get(key, default)
+    return getattr(section, key, default) if isinstance(section, Section) else default
+
+
+def _same(value: Any, default: Any) -> bool:
+    """Whether a raw ``value`` (TOML's lists) is ``default`` (a section's tuples)."""
+    if isinstance(default, tuple) and isinstance(value, list | tuple):
+        return list(value) == list(default)
+    return type(value) is not bool and value == default
