@@ -16,7 +16,7 @@ from nudgecli.commands.common import FORCE_HELP, SET_HELP, echo_json, info, prog
 @click.option("--plan", "plan", default=None, metavar="PLAN",
               help="Analysis plan: a preset (`nudge presets` lists them) or a TOML file [default: the "
                    "plan recorded in the run folder, else the plan named like the run's experiment, else "
-                   "paper].")
+                   "its world's (ciaa-teleop for the CIAA world), else paper].")
 @click.option("--out", "out", type=click.Path(file_okay=False, path_type=str), default=None,
               help="Folder for stats.json, stats.csv, summary.md (and metrics.csv) [default: the run folder, "
                    "or <table>-analysis/ beside the table].")
@@ -68,7 +68,8 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
 @click.option("--plan", metavar="PLAN", default=None,
               help="Analyse RUN with this plan first (writes metrics.csv and stats.json), then plot "
                    "[default: plot the existing analysis, with the star rule and item labels of the plan "
-                   "recorded in the run folder, else the plan named like the run's experiment, else paper].")
+                   "recorded in the run folder, else the plan named like the run's experiment, else its "
+                   "world's (ciaa-teleop for the CIAA world), else paper].")
 @click.option("--out", type=click.Path(file_okay=False, path_type=str), default=None,
               help="Folder for the figures [default: figures/ in the run or analysis folder].")
 @click.option("--formats", default="png,pdf", show_default=True, help="Comma-separated: png, pdf, svg.")
@@ -168,7 +169,8 @@ def habits_command(source: str, by: str, output_format: str, compare: str | None
 @click.argument("real", type=click.Path(path_type=str))
 @click.option("--plan", metavar="PLAN", default=None,
               help="Analysis plan: the metric definitions of a run folder and the filters of both sources "
-                   "[default: the plan the simulated run records or is named like, else paper].")
+                   "[default: the plan the simulated run records or is named like, else its world's, "
+                   "else paper].")
 @click.option("--metric", "metric_names", multiple=True, metavar="NAME",
               help="Compare only this metric (repeatable) [default: every metric both hold].")
 @click.option("--match", "matches", multiple=True, metavar="SIMULATED=REAL",

@@ -137,7 +137,8 @@ def _experiment_name(experiment: str) -> str:
               help="Independent studies (each its own seed).")
 @click.option("--seed", type=int, help="Master seed of the replications [default: the experiment's].")
 @click.option("--plan", default=None, metavar="PLAN",
-              help="Analysis plan of each study [default: the plan named like the experiment, else paper].")
+              help="Analysis plan of each study [default: the plan named like the experiment, else its "
+                   "world's, else paper].")
 @click.option("--participants", type=int, help="Participants per study [default: the experiment's].")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
 @click.option("--people", metavar="PEOPLE.csv", default=None, help=PEOPLE_HELP)
@@ -163,7 +164,8 @@ def replicate_command(experiment: str, replications: int, seed: int | None, plan
 @click.option("--replications", "-R", type=int, required=True, help="Studies per count.")
 @click.option("--seed", type=int, help="Master seed of the replications [default: the experiment's].")
 @click.option("--plan", default=None, metavar="PLAN",
-              help="Analysis plan of each study [default: the plan named like the experiment, else paper].")
+              help="Analysis plan of each study [default: the plan named like the experiment, else its "
+                   "world's, else paper].")
 @click.option("--target", type=click.FloatRange(0, 1, min_open=True, max_open=True),
               default=defaults.POWER_TARGET, show_default=True,
               help="The power to reach (smallest_n.csv), strictly between 0 and 1.")

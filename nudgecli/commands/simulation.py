@@ -155,7 +155,8 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
 @click.option("--participants", type=int, help="Number of participants [default: the experiment's].")
 @click.option("--workers", type=int, default=1, show_default=True, help="Local worker processes.")
 @click.option("--plan", metavar="PLAN", default=None,
-              help="Analysis plan [default: the plan named like the experiment, else paper].")
+              help="Analysis plan [default: the plan named like the experiment, else its world's, else "
+                   "paper].")
 @click.option("--resume", is_flag=True, help="Finish an interrupted run in --out.")
 @click.option("--force", is_flag=True, help="Replace a run that already is in --out.")
 @click.option("--yes", is_flag=True, help=YES_HELP)
