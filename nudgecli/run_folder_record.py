@@ -35,6 +35,7 @@ from nudgecli.run_folder_names import (
     PART_KINDS,
     PARTICIPANTS,
 )
+from nudgecli.run_folder_state import only_a_start
 
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
     import pandas as pd
@@ -544,6 +545,9 @@ class RunRecord(LiveRecord, ConfigRecord):
             # e.g. a committed reference run: its step logs were left out, its metrics kept
             return (f"{folder} holds metrics but not the step logs they came from; "
                     f"analyse the table instead: `nudge analyze {folder / METRICS_CSV}`")
+        if manifest is None and only_a_start(folder):
+            return (f"{folder} holds only the start of a run killed before it wrote its manifest; start "
+                    f"it again with `{simulate_resume_command('EXPERIMENT', folder)}` (its own settings)")
         return (f"{folder} has no {kind} yet (no {kind}/part-*.parquet); run "
                 f"`nudge simulate EXPERIMENT --out {folder}` first")
 

