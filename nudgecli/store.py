@@ -46,6 +46,7 @@ from nudgecli.outputs import check_not_an_input
 from nudgecli.parquet_reader import parquet_column_names, read_parquet
 from nudgecli.run_folder_names import (
     CONFIG,
+    FIGURES_DIR,
     LAYOUTS,
     LOCK,
     MANIFEST,
@@ -520,8 +521,8 @@ class RunFolder(RunRecord):
         The lock is held, so no live writer owns them.
         """
         calibration = sorted((self.path / "calibration").glob("participant-*"))
-        parts = [self.path / kind for kind in PART_KINDS]
-        remove_temporaries((self.path, self.path / PEOPLE_DIR, *parts, *calibration))
+        parts = [self.path / kind for kind in PART_KINDS]  # and a killed plot's figures' temporaries
+        remove_temporaries((self.path, self.path / PEOPLE_DIR, self.path / FIGURES_DIR, *parts, *calibration))
 
     def _clear(self, manifest: dict[str, Any] | None) -> None:
         """Remove what a run writes (only the run's own files and folders; of ``people/``, only the

@@ -63,3 +63,13 @@ def test_a_folder_with_a_file_of_the_persons_own_in_a_part_folder_is_no_start(ru
     result = nudge(*SIMULATE, "--out", run, "--resume")
     assert "exists and is not empty" in one_error_line(result.output)
     assert (run / "trials" / "notes.txt").read_text() == "mine"
+
+
+@pytest.mark.parametrize("command", [(*SIMULATE, "--resume"), (*SIMULATE, "--force"), ("plot",)])
+def test_figure_temporaries_of_a_killed_plot_are_removed(run: Path, command: tuple[str, ...]) -> None:
+    left = run / "figures" / ".fig3.png.x7y8z9w0.tmp"
+    left.write_bytes(b"half a figure")
+    args = [*command, run] if command == ("plot",) else [*command, "--out", run]
+    result = nudge(*args)
+    assert result.exit_code == 0, result.output
+    assert not left.exists()

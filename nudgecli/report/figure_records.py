@@ -27,7 +27,7 @@ from pathlib import Path
 from nudgecli.report.figures.output import figure_file
 from nudgecli.run_folder_names import FIGURES_RECORD, LOCK
 from nudgecli.run_folder_record import file_sha256, is_figure_file
-from nudgecli.store import write_json_atomic
+from nudgecli.store import remove_temporaries, write_json_atomic
 
 #: The record's key of the file names (a list of names, no folders).
 RECORD_KEY = "written"
@@ -133,6 +133,7 @@ def replace_earlier_figures(folder: Path, stems: Sequence[str], formats: Sequenc
     list[Path]
         ``write``'s files.
     """
+    remove_temporaries((folder,))  # a killed plot's (the caller holds the folder's lock)
     earlier, unreadable = recorded_figures(folder)
     sums = recorded_sums(folder) if unreadable is None else {}
     if unreadable is not None and log is not None:
