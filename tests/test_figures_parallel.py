@@ -82,26 +82,27 @@ def test_one_process_writes_here(smoke_run: Path, tmp_path: Path, monkeypatch: p
 @needs_two_cores
 def test_a_childs_write_error_is_the_commands_error_line(smoke_run: Path, tmp_path: Path,
                                                          monkeypatch: pytest.MonkeyPatch) -> None:
-    save = output.save_figure
+    render = output._render
 
-    def failing(fig: Figure, out_dir: Path, stem: str, *args: object, **kwargs: object) -> list[Path]:
-        if stem in ("fig4", "fig5"):
-            raise WriteError(f"{Path(out_dir) / stem}.png: cannot be written (No space left on device)")
-        return save(fig, out_dir, stem, *args, **kwargs)  # type: ignore[arg-type]
+    def failing(fig: Figure, temporaries: list[Path], targets: list[Path], *args: object) -> None:
+        if targets[0].stem in ("fig4", "fig5"):
+            raise WriteError(f"{targets[0]}: cannot be written (No space left on device)")
+        render(fig, temporaries, targets, *args)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(output, "save_figure", failing)
+    monkeypatch.setattr(output, "_render", failing)
     monkeypatch.setattr(output, "_other_threads_running", lambda: False)
     with pytest.raises(WriteError, match=r"fig4\.png: cannot be written \(No space left on device\)$"):
         output.save_figures(_drawn(smoke_run, tmp_path), tmp_path, ("png",), processes=2)
+    assert sorted(tmp_path.iterdir()) == []  # the figures written are not renamed into place: no file changed
 
 
 @needs_two_cores
 def test_a_childs_crash_names_the_figure_and_the_traceback(smoke_run: Path, tmp_path: Path,
                                                            monkeypatch: pytest.MonkeyPatch) -> None:
-    def broken(fig: Figure, out_dir: Path, stem: str, *args: object, **kwargs: object) -> list[Path]:
-        raise ValueError(f"cannot draw {stem}")
+    def broken(fig: Figure, temporaries: list[Path], targets: list[Path], *args: object) -> None:
+        raise ValueError(f"cannot draw {targets[0].stem}")
 
-    monkeypatch.setattr(output, "save_figure", broken)
+    monkeypatch.setattr(output, "_render", broken)
     monkeypatch.setattr(output, "_other_threads_running", lambda: False)
     expected = r"(?s)writing figure 'fig3' failed in a worker:.*ValueError: cannot draw fig3"
     with pytest.raises(WorkerError, match=expected):

@@ -13,7 +13,7 @@ from cli_helpers import nudge, one_error_line
 
 from nudgecli.config import load_experiment
 from nudgecli.report.analysis import analyze
-from nudgecli.run_folder_names import MANIFEST
+from nudgecli.run_folder_names import FIGURES_RECORD, MANIFEST
 from nudgecli.runs.study import run_study
 
 SIMULATE = ("simulate", "smoke", "--participants", "2", "--seed", "6")
@@ -73,3 +73,15 @@ def test_figure_temporaries_of_a_killed_plot_are_removed(run: Path, command: tup
     result = nudge(*args)
     assert result.exit_code == 0, result.output
     assert not left.exists()
+
+
+def test_a_failed_plot_changes_no_figure_and_leaves_no_temporary(run: Path) -> None:
+    folder = run / "figures"
+    (folder / "trajectory.pdf").unlink()
+    (folder / "trajectory.pdf").mkdir()
+    before = {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()}
+    result = nudge("plot", run, "--formats", "pdf,svg", "--trial", "1:2")
+    line = one_error_line(result.output)
+    assert result.exit_code == 1 and line.startswith("Error: cannot write ") and "Is a directory" in line
+    assert {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()} == before  # the record too
+    assert FIGURES_RECORD in before and not list(folder.glob(".*.tmp"))

@@ -8,6 +8,7 @@ import hashlib
 import json
 import shutil
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -107,7 +108,8 @@ def test_a_failed_plot_changes_no_figure_and_the_next_removes_what_it_left(
     writing = figures.save_figures
 
     def full_after_one_file(drawn, out_dir, formats, **kwargs):  # type: ignore[no-untyped-def]
-        writing({"fig3": drawn["fig3"]}, out_dir, formats)
+        # killed between the renames: fig3.svg renamed into place (and recorded before), no other file
+        writing({"fig3": drawn["fig3"]}, out_dir, formats, **kwargs)
         raise WriteError(f"cannot write {Path(out_dir) / 'fig4.svg'}: no space left on device")
 
     monkeypatch.setattr(figures, "save_figures", full_after_one_file)
@@ -135,7 +137,7 @@ def test_analyze_and_plot_logs_the_figures_it_removed(run: Path) -> None:
 
 
 def _writer(folder: Path, names: list[str]):  # type: ignore[no-untyped-def]
-    def write() -> list[Path]:
+    def write(**how: object) -> list[Path]:  # (no before_rename: nothing recorded before the files)
         for name in names:
             (folder / name).write_bytes(b"new")
         return [folder / name for name in names]
@@ -177,7 +179,7 @@ def test_a_folder_made_for_the_plot_is_left_empty_by_a_failed_plot(tmp_path: Pat
     folder = tmp_path / "new"
     folder.mkdir()
 
-    def fail() -> list[Path]:
+    def fail(**how: object) -> list[Path]:
         raise WriteError("disk full")
 
     with pytest.raises(WriteError):
@@ -236,7 +238,9 @@ def test_what_a_failed_plot_wrote_is_removed_by_the_next(tmp_path: Path) -> None
     folder.mkdir()
     (folder / "notes.txt").write_text("mine")
 
-    def half() -> list[Path]:
+    def half(before_rename: Callable[[dict[str, str]], None]) -> list[Path]:
+        # every file written, recorded, then a failure after the first rename (or a kill)
+        before_rename({"fig3.png": hashlib.sha256(b"half a plot").hexdigest(), "fig4.png": "0" * 64})
         (folder / "fig3.png").write_bytes(b"half a plot")
         raise WriteError("disk full")
 

@@ -12,20 +12,21 @@ a record edited by hand names, is never removed; nor is one a record of an older
 holds no SHA-256, names. Figures a plot cannot draw for want of their data, not for a choice
 (Fig. 5 and the trajectory of a run whose step logs are not there), it keeps, recorded, saying so.
 
-Before writing into a folder that holds files, the record is widened to the files about to be
-written, so that a plot that fails or is interrupted half-way leaves its earlier figures where
-they were and every file it did write named for the next plot to remove.
+A plot writes every file to its temporary first and renames them all into place only once all
+are written (:func:`~nudgecli.report.figures.output.save_figures`): a plot that fails or is
+interrupted before then changes no figure and no record. Just before the renames the record is
+widened to the files about to be renamed (with their SHA-256), so that a kill between two renames
+(a few milliseconds) leaves every new file it did rename named for the next plot to remove.
 """
 
 from __future__ import annotations
 
 import json
-import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from nudgecli.report.figures.output import figure_file
-from nudgecli.run_folder_names import FIGURES_RECORD, LOCK
+from nudgecli.run_folder_names import FIGURES_RECORD
 from nudgecli.run_folder_record import file_sha256, is_figure_file
 from nudgecli.store import remove_temporaries, write_json_atomic
 
@@ -91,12 +92,6 @@ def _removable(folder: Path, name: str, sums: Mapping[str, str]) -> bool:
         and name in sums and file_sha256(folder / name) == sums[name]
 
 
-def _holds_files(folder: Path) -> bool:
-    """Whether ``folder`` exists and holds anything but the lock (a folder made for the plot holds
-    only the lock: a failed plot leaves it empty, to be removed)."""
-    return folder.is_dir() and any(entry.name != LOCK for entry in folder.iterdir())
-
-
 def removed_line(folder: Path, removed: Sequence[Path]) -> str:
     """The line that names the earlier plot's figures removed from ``folder``."""
     return (f"removed {len(removed)} figure file(s) an earlier `nudge plot` wrote into {folder} and this "
@@ -104,7 +99,7 @@ def removed_line(folder: Path, removed: Sequence[Path]) -> str:
 
 
 def replace_earlier_figures(folder: Path, stems: Sequence[str], formats: Sequence[str],
-                            write: Callable[[], list[Path]],
+                            write: Callable[..., list[Path]],
                             log: Callable[[str], None] | None = None,
                             keep: tuple[Sequence[str], str] = ((), "")) -> list[Path]:
     """Write a plot's figures with ``write`` into ``folder``, then remove those of the earlier plot
@@ -113,12 +108,15 @@ def replace_earlier_figures(folder: Path, stems: Sequence[str], formats: Sequenc
     Parameters
     ----------
     folder
-        The figures' folder.
+        The figures' folder (its lock held: the temporaries a killed plot left are removed first).
     stems, formats
-        The figures ``write`` writes (``stem -> <stem>.<fmt>`` for each format): recorded before it
-        runs, so that what a failed ``write`` left is named for the next plot.
+        The figures ``write`` writes (``stem -> <stem>.<fmt>`` for each format).
     write
-        Writes the figures; returns the files written.
+        Writes the figures, every file to its temporary first, and calls its ``before_rename``
+        with the files' SHA-256 (name -> hex) before renaming them all into place
+        (:func:`~nudgecli.report.figures.output.save_figures`); returns the files written. The
+        record then names them, so that a kill between the renames leaves each renamed file
+        named for the next plot to remove; a failure before changes neither figure nor record.
     log
         Receives :func:`removed_line` where earlier figures were removed, a line where the earlier
         record could not be read (then nothing is removed), and one naming the figures ``keep``
@@ -139,17 +137,12 @@ def replace_earlier_figures(folder: Path, stems: Sequence[str], formats: Sequenc
     if unreadable is not None and log is not None:
         log(f"{folder / FIGURES_RECORD} {unreadable}: no earlier figure is removed; it is written again")
     planned = [figure_file(folder, stem, fmt).name for stem in stems for fmt in formats]
-    if _holds_files(folder):  # a new folder (the lock aside) has no earlier figures: left as it was
-        _write_record(folder, [*earlier, *planned], {n: d for n, d in sums.items() if n not in planned})
-    started = time.time_ns() - 1_000_000_000  # (a file system's clock may lag the process's a little)
-    try:
-        written = write()
-    except BaseException:  # what it did write is recorded as its own, for the next plot to remove
-        if _holds_files(folder):
-            done = [folder / n for n in planned if (folder / n).is_file()
-                    and (folder / n).stat().st_mtime_ns >= started]
-            _write_record(folder, [*earlier, *planned], {**sums, **_sums_of(done)})
-        raise
+
+    def before_rename(new_sums: dict[str, str]) -> None:
+        _write_record(folder, [*earlier, *planned],
+                      {**{n: d for n, d in sums.items() if n not in planned}, **new_sums})
+
+    written = write(before_rename=before_rename)
     kept = {path.name for path in written}
     left = [name for name in sorted(set(earlier) - kept) if _removable(folder, name, sums)]
     spared = [name for name in left if Path(name).stem in keep[0]]

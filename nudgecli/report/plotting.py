@@ -313,15 +313,14 @@ def draw_path_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]
 
 def write_figures(inputs: FigureInputs, plan: PlotPlan) -> list[Path]:
     """Draw every figure (:func:`draw_figures`, or :func:`draw_path_figures` for a path-world run)
-    and write each in every format, the files at once on the cores there are
-    (:func:`~nudgecli.report.figures.output.save_figures`); return the files. Then an earlier plot's
-    figures there that this one did not write are removed (:mod:`nudgecli.report.figure_records`),
-    but for the :data:`TRIAL_FIGURES` of a run whose step logs are not there."""
+    and write each in every format at once (:func:`~nudgecli.report.figures.output.save_figures`);
+    return the files. Then an earlier plot's figures there that this one did not write are removed
+    (:mod:`nudgecli.report.figure_records`), but the :data:`TRIAL_FIGURES` of a run without step logs."""
     formats = figures.check_formats(plan.formats)
     drawn = draw_path_figures(inputs, plan) if inputs.path_layouts is not None else draw_figures(inputs, plan)
     keep = (TRIAL_FIGURES, inputs.steps_missing) if inputs.steps_missing else ((), "")
-    return replace_earlier_figures(plan.out_dir, list(drawn), formats,
-                                   lambda: figures.save_figures(drawn, plan.out_dir, formats), plan.log, keep)
+    return replace_earlier_figures(plan.out_dir, list(drawn), formats, lambda **how: figures.save_figures(
+        drawn, plan.out_dir, formats, **how), plan.log, keep)
 
 
 # --- reading a source ----------------------------------------------------------------------------

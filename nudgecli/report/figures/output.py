@@ -1,4 +1,5 @@
-"""Writing figures: each format through :func:`nudgecli.store.atomic_path` (the usual permissions).
+"""Writing figures: each format through :func:`nudgecli.store.atomic_path` (the usual permissions),
+every file to its temporary first and all renamed into place only once all are written.
 
 :func:`save_figures` writes several figures' files at once in forked processes: a figure's
 drawing and encoding (about 0.3-0.6 s a file at 300 dpi) is single-threaded, and ``nudge run``
@@ -9,11 +10,12 @@ parent's: the children ignore it, and the parent ends them and raises ``Keyboard
 from __future__ import annotations
 
 import contextlib
+import errno
 import gc
 import os
 import signal
 import threading
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
@@ -23,7 +25,8 @@ from matplotlib.figure import Figure
 from nudgecli.cores import available_cores
 from nudgecli.errors import ConfigError, failure_from_message, failure_message
 from nudgecli.report.style import figure_style
-from nudgecli.store import atomic_path
+from nudgecli.run_folder_record import file_sha256
+from nudgecli.store import atomic_path, write_error
 
 SUPPORTED_FORMATS = ("png", "pdf", "svg")
 PNG_DPI = 300
@@ -56,7 +59,8 @@ def figure_file(out_dir: str | os.PathLike[str], stem: str, fmt: str) -> Path:
 
 def save_figure(fig: Figure, out_dir: str | os.PathLike[str], stem: str,
                 formats: Sequence[str] = ("png", "pdf"), *, dpi: int = PNG_DPI) -> list[Path]:
-    """Write a figure in each format, atomically (:func:`nudgecli.store.atomic_path`).
+    """Write a figure in each format, atomically (:func:`nudgecli.store.atomic_path`): all the files
+    are renamed into place once every one is written.
 
     Parameters
     ----------
@@ -82,23 +86,21 @@ def save_figure(fig: Figure, out_dir: str | os.PathLike[str], stem: str,
         An unsupported format.
     """
     fmts = check_formats(formats)
-    out = Path(out_dir)
-    written = []
-    with figure_style():
-        for fmt in fmts:
-            target = figure_file(out, stem, fmt)
-            with atomic_path(target) as tmp, open(tmp, "wb") as handle:
-                fig.savefig(handle, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
-            written.append(target)
-    return written
+    targets = [figure_file(out_dir, stem, fmt) for fmt in fmts]
+    with contextlib.ExitStack() as stack:  # every format to its temporary, renamed once all are written
+        _render(fig, [stack.enter_context(atomic_path(target)) for target in targets], targets, fmts, dpi)
+    return targets
 
 
 def save_figures(figures: Mapping[str, Figure], out_dir: str | os.PathLike[str], formats: Sequence[str],
-                 *, dpi: int = PNG_DPI, processes: int | None = None) -> list[Path]:
-    """Write every figure in every format (:func:`save_figure`), the figures spread over forked
-    processes where there are several figures and cores.
+                 *, dpi: int = PNG_DPI, processes: int | None = None,
+                 before_rename: Callable[[dict[str, str]], None] | None = None) -> list[Path]:
+    """Write every figure in every format, the figures spread over forked processes where there
+    are several figures and cores: every file to its temporary (:func:`nudgecli.store.atomic_path`)
+    first, all of them renamed into place only once every one is written, so a failure (a file
+    that cannot be written, an error drawing, Ctrl-C) changes no file and leaves no temporary.
 
-    Every file has the bytes it has when written here: a figure's files are written by one
+    Every file has the bytes :func:`save_figure` gives it: a figure's files are written by one
     process in the order of ``formats`` (a figure drawn once keeps what its layout engine
     computed, so a PDF written after the PNG can differ in the last digit of a position from one
     written first). Without ``fork`` (Windows), with one process, or while another thread of
@@ -117,6 +119,9 @@ def save_figures(figures: Mapping[str, Figure], out_dir: str | os.PathLike[str],
         Resolution of raster output.
     processes
         Processes writing at once; default one per figure, at most the cores this process may use.
+    before_rename
+        Called with each file's name -> SHA-256 once all are written, before the first rename
+        (``nudge plot`` records them: :mod:`nudgecli.report.figure_records`).
 
     Returns
     -------
@@ -131,11 +136,43 @@ def save_figures(figures: Mapping[str, Figure], out_dir: str | os.PathLike[str],
         A file cannot be written (the first file's error, in the order of the returned list).
     """
     fmts = check_formats(formats)
+    targets = {stem: [figure_file(out_dir, stem, fmt) for fmt in fmts] for stem in figures}
+    with contextlib.ExitStack() as stack:  # closed without an error: every temporary renamed into place
+        for target in (path for paths in targets.values() for path in paths):
+            if target.is_dir():  # found now, before any file is drawn or renamed
+                raise write_error(target, IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR)))
+        staged = {stem: [stack.enter_context(atomic_path(path)) for path in paths]
+                  for stem, paths in targets.items()}
+        _render_all(figures, staged, targets, fmts, dpi, processes)
+        if before_rename is not None:
+            before_rename({path.name: file_sha256(tmp) for stem, paths in targets.items()
+                           for path, tmp in zip(paths, staged[stem], strict=True)})
+    return [path for paths in targets.values() for path in paths]
+
+
+def _render(fig: Figure, temporaries: Sequence[Path], targets: Sequence[Path], formats: Sequence[str],
+            dpi: int) -> None:
+    """Write ``fig`` into its temporaries, one per format (what :func:`save_figure` writes)."""
+    with figure_style():
+        for fmt, tmp, target in zip(formats, temporaries, targets, strict=True):
+            try:
+                with open(tmp, "wb") as handle:
+                    fig.savefig(handle, format=fmt, dpi=dpi, metadata=_METADATA[fmt])
+            except OSError as exc:
+                raise write_error(target, exc) from exc
+
+
+def _render_all(figures: Mapping[str, Figure], staged: Mapping[str, list[Path]],
+                targets: Mapping[str, list[Path]], fmts: Sequence[str], dpi: int,
+                processes: int | None) -> None:
+    """Write every figure into its temporaries (:func:`save_figures`), in forked processes where
+    it can; raise the first figure's failure."""
     stems = list(figures)
     workers = min(len(stems), processes or len(stems), available_cores())
     if workers < 2 or not _can_fork() or _other_threads_running():
-        return [path for stem, fig in figures.items()
-                for path in save_figure(fig, out_dir, stem, fmts, dpi=dpi)]
+        for stem, fig in figures.items():
+            _render(fig, staged[stem], targets[stem], fmts, dpi)
+        return
     import multiprocessing
 
     context = multiprocessing.get_context("fork")  # the children draw the figures they inherit
@@ -150,7 +187,7 @@ def save_figures(figures: Mapping[str, Figure], out_dir: str | os.PathLike[str],
             for _ in range(workers):
                 receive, send = context.Pipe(duplex=False)
                 child = context.Process(target=_write_figures, daemon=True, name="nudge-figures",
-                                        args=(figures, fmts, out_dir, dpi, next_figure, send))
+                                        args=(figures, staged, targets, fmts, dpi, next_figure, send))
                 child.start()
                 send.close()
                 children.append((child, receive))
@@ -164,20 +201,19 @@ def save_figures(figures: Mapping[str, Figure], out_dir: str | os.PathLike[str],
                 child.terminate()
             receive.close()
         gc.unfreeze()
-    written: list[Path] = []
     for index, stem in enumerate(stems):
         status, payload = outcomes.get(index, ("error", "a process writing figures exited with code(s) "
                                                         f"{[c.exitcode for c, _ in children]}"))
         if status != "ok":
             raise failure_from_message(status, payload, f"writing figure {stem!r}")
-        written += [Path(path) for path in payload]
-    return written
 
 
-def _write_figures(figures: Mapping[str, Figure], formats: Sequence[str], out_dir: str | os.PathLike[str],
-                   dpi: int, next_figure: Any, send: Connection) -> None:
-    """A child of :func:`save_figures`: write the next unwritten figure until none is left (a slow
-    one then holds up no other); send back ``{index: (status, its paths or the failure)}``.
+def _write_figures(figures: Mapping[str, Figure], staged: Mapping[str, list[Path]],
+                   targets: Mapping[str, list[Path]], formats: Sequence[str], dpi: int, next_figure: Any,
+                   send: Connection) -> None:
+    """A child of :func:`save_figures`: write the next unwritten figure into its temporaries until
+    none is left (a slow one then holds up no other); send back ``{index: (status, None or the
+    failure)}``.
 
     Ctrl-C (sent to the whole process group by a terminal) is ignored here: the parent ends its
     children; SIGTERM (the parent's ``terminate``) ends this one at once. Both were held back
@@ -194,12 +230,13 @@ def _write_figures(figures: Mapping[str, Figure], formats: Sequence[str], out_di
             next_figure.value += 1
         if index >= len(stems):
             break
+        stem = stems[index]
         try:
-            paths = save_figure(figures[stems[index]], out_dir, stems[index], formats, dpi=dpi)
+            _render(figures[stem], staged[stem], targets[stem], formats, dpi)
         except Exception as exc:  # the parent raises it again: one error line
             outcomes[index] = failure_message(exc)
             break
-        outcomes[index] = ("ok", [str(path) for path in paths])
+        outcomes[index] = ("ok", None)
     send.send(outcomes)
     send.close()
 
