@@ -1,10 +1,13 @@
 """How a run folder stands after its writer stopped: only the start of a run (killed before its
-manifest). Read by :class:`nudgecli.run_folder_record.RunRecord` and
+manifest), or a run whose manifest says running (still running, or killed: whether a live process
+holds its lock). Read by :class:`nudgecli.run_folder_record.RunRecord` and
 :class:`nudgecli.store.RunFolder`."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 from nudgecli.run_folder_names import CONFIG, LAYOUTS, LOCK, PART_KINDS, PEOPLE_DIR
 
@@ -25,3 +28,22 @@ def only_a_start(folder: Path, config_text: str | None = None) -> bool:
         return False
     return all(p.name in (CONFIG, LAYOUTS, LOCK, PEOPLE_DIR) or p.name.endswith(".tmp")
                or (p.name in _EMPTIED and p.is_dir() and not any(p.iterdir())) for p in folder.iterdir())
+
+
+def run_state(folder: Path, manifest: Mapping[str, Any]) -> str:
+    """How an unfinished run stands, for a message: ``is running`` while another live process
+    holds its lock (:func:`nudgecli.locks.run_lock`), ``was interrupted`` where its manifest says
+    running but none does (it was killed), else ``is <status>``."""
+    state = str(manifest.get("status", "not finished"))
+    if state != "running":
+        return f"is {state}"
+    from nudgecli.locks import _HELD, _try_lock  # locks builds on store, which builds on this module
+
+    if folder.resolve() in _HELD:  # this command's own lock (it reads the run): no other writer
+        return "was interrupted"
+    try:
+        with open(folder / LOCK, "rb") as handle:  # closing it releases a lock taken here
+            held = _try_lock(handle) is False
+    except OSError:  # no lock file: no command holds the folder
+        held = False
+    return "is running" if held else "was interrupted"

@@ -60,7 +60,7 @@ from nudgecli.run_folder_names import (
     SUMMARY_MD,
 )
 from nudgecli.run_folder_record import RunRecord, file_sha256, part_name, readable_parquet, remove_run_figures
-from nudgecli.run_folder_state import only_a_start
+from nudgecli.run_folder_state import only_a_start, run_state
 
 if TYPE_CHECKING:  # pandas and pyarrow load on first use, after a batch has started its workers
     import pandas as pd
@@ -378,9 +378,8 @@ class RunFolder(RunRecord):
             more = f" and {len(missing) - 5} more participants" if len(missing) > 5 else ""
             raise RunFolderError(f"{self.path} is incomplete: {listed}{more}; restore with `{fix}`")
         if manifest.get("status") != "complete":
-            state = manifest.get("status", "not finished")
-            raise RunFolderError(f"{self.path}: the run is {state} (all parts are there but it did not "
-                                 f"finish); finish it with `{fix}`")
+            raise RunFolderError(f"{self.path}: the run {run_state(self.path, manifest)} (all parts are "
+                                 f"there but it did not finish); finish it with `{fix}`")
         self.check_vouched(manifest)
         return manifest
 

@@ -4,17 +4,21 @@ changes no figure, and an interrupted run's refusal names the command that finis
 
 from __future__ import annotations
 
+import fcntl
 import json
 import shutil
+import socket
 from pathlib import Path
 
 import pytest
 from cli_helpers import nudge, one_error_line
 
 from nudgecli.config import load_experiment
+from nudgecli.errors import RunFolderError
 from nudgecli.report.analysis import analyze
-from nudgecli.run_folder_names import FIGURES_RECORD, MANIFEST
+from nudgecli.run_folder_names import FIGURES_RECORD, LOCK, MANIFEST
 from nudgecli.runs.study import run_study
+from nudgecli.store import RunFolder
 
 SIMULATE = ("simulate", "smoke", "--participants", "2", "--seed", "6")
 
@@ -85,3 +89,28 @@ def test_a_failed_plot_changes_no_figure_and_leaves_no_temporary(run: Path) -> N
     assert result.exit_code == 1 and line.startswith("Error: cannot write ") and "Is a directory" in line
     assert {p.name: p.read_bytes() for p in folder.iterdir() if p.is_file()} == before  # the record too
     assert FIGURES_RECORD in before and not list(folder.glob(".*.tmp"))
+
+
+def test_plot_of_an_incomplete_run_names_the_command_that_restores_it(run: Path) -> None:
+    (run / "steps" / "part-0001.parquet").unlink()
+    (run / "metrics.csv").unlink()
+    line = one_error_line(nudge("plot", run).output)
+    assert "is incomplete" in line and "--resume" in line, line
+
+
+def test_a_run_killed_after_its_last_part_is_said_interrupted(run: Path) -> None:
+    manifest = json.loads((run / MANIFEST).read_text())
+    (run / MANIFEST).write_text(json.dumps({**manifest, "status": "running"}))
+    killed = {"pid": 2**22 + 12345, "host": socket.gethostname(), "command": "nudge simulate"}
+    (run / LOCK).write_text(json.dumps(killed))  # its lock file, of a process that is no more
+    line = nudge("analyze", run).output.strip().splitlines()[-1]
+    assert "interrupted" in line and "is running" not in line and "--resume" in line, line
+
+
+def test_a_run_whose_lock_a_live_process_holds_is_said_running(run: Path) -> None:
+    manifest = json.loads((run / MANIFEST).read_text())
+    (run / MANIFEST).write_text(json.dumps({**manifest, "status": "running"}))
+    with open(run / LOCK, "w") as handle:
+        fcntl.flock(handle.fileno(), fcntl.LOCK_EX)  # as the writing command holds it
+        with pytest.raises(RunFolderError, match=r"the run is running \(all parts .*--resume"):
+            RunFolder(run).check_complete()

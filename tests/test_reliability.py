@@ -172,7 +172,7 @@ def test_analyze_refuses_an_unfinished_run(tmp_path, clean_run):
     manifest = json.loads((run / "manifest.json").read_text())
     manifest["status"] = "running"
     (run / "manifest.json").write_text(json.dumps(manifest))
-    with pytest.raises(RunFolderError, match=r"the run is running.*--resume"):
+    with pytest.raises(RunFolderError, match=r"the run was interrupted.*--resume"):  # no process holds it
         analyze(run)
 
 

@@ -475,6 +475,7 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
             raise RunFolderError(f"{folder}: not a run folder (no manifest.json) and no {METRICS_CSV}; "
                                  "run `nudge simulate` and `nudge analyze` first, or give a metrics table")
         if metrics_path is None or not (folder / STATS_JSON).is_file():
+            run.check_complete() if run.is_run() else None  # incomplete: the command that restores it
             raise RunFolderError(f"{folder}: no metrics yet; run `nudge analyze {folder}` first")
         stats_path = folder / STATS_JSON
         stats = read_stats(stats_path)
