@@ -6,7 +6,8 @@ A sweep file is TOML::
     replications = 4              # studies per design point, the same seeds at every point
     seed = 11                     # master seed of the replications' seeds
     plan = "paper"                # analysis plan (preset or path); default: the plan named
-                                  # like the experiment, else paper (config_files.resolve_plan)
+                                  # like the experiment, else its world's, else paper
+                                  # (config_files.resolve_plan)
     set = ["study.participants=4"]    # fixed overrides applied at every point (optional)
 
     [design]
