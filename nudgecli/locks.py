@@ -77,6 +77,18 @@ def describe_holder(holder: dict[str, Any]) -> str:
             f"since {holder.get('since', '?')})")
 
 
+def held_by_another_process(folder: Path) -> bool:
+    """Whether another live process holds ``folder``'s lock (:func:`run_lock`) now: never where this
+    process holds it, nor where the folder has no lock file."""
+    if folder.resolve() in _HELD:
+        return False
+    try:
+        with open(folder / LOCK, "rb") as handle:  # closing it releases a lock taken here
+            return _try_lock(handle) is False
+    except OSError:  # no lock file: no command holds the folder
+        return False
+
+
 def _try_lock(handle: Any) -> bool | None:
     """Take an exclusive, non-blocking OS lock on an open file.
 

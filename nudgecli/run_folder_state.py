@@ -37,13 +37,7 @@ def run_state(folder: Path, manifest: Mapping[str, Any]) -> str:
     state = str(manifest.get("status", "not finished"))
     if state != "running":
         return f"is {state}"
-    from nudgecli.locks import _HELD, _try_lock  # locks builds on store, which builds on this module
+    from nudgecli.locks import held_by_another_process  # locks builds on store, which builds on this module
 
-    if folder.resolve() in _HELD:  # this command's own lock (it reads the run): no other writer
-        return "was interrupted"
-    try:
-        with open(folder / LOCK, "rb") as handle:  # closing it releases a lock taken here
-            held = _try_lock(handle) is False
-    except OSError:  # no lock file: no command holds the folder
-        held = False
-    return "is running" if held else "was interrupted"
+    # this command's own lock (it reads the run) is no other writer's
+    return "is running" if held_by_another_process(folder) else "was interrupted"
