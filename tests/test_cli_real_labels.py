@@ -96,7 +96,7 @@ def without_table_read(path: Path) -> bytes:
         assert set(entry.pop("mean_rank")) == set(entry["n"])  # one per condition
         assert set(entry.pop("star_rule")) == {"kruskal_alpha", "thresholds", "comparison"}
     assert set(stats.pop("table_read")) == {"sha256", "rows", "drop_duplicates", "duplicates_dropped",
-                                            "table"}
+                                            "table", "plan", "questionnaires"}
     scores = (path.parent / "questionnaire_scores.csv").read_bytes()
     assert stats.pop("questionnaire_scores_checksum")["digest"] == hashlib.sha256(scores).hexdigest()
     return (json.dumps(stats, indent=2, allow_nan=False) + "\n").encode("utf-8")
