@@ -525,7 +525,7 @@ class _GraphRun:
             data = read_study_metrics(self.folder, analysis.study, analysis.participants,
                                       self.written.get(analysis.study))
             self.warm_up()  # (a resumed batch may have only analyses left)
-            design = analysis_design(self.graph.studies[analysis.study].config)
+            design = analysis_design(self.graph.studies[analysis.study].config, self.batch.plan)
             self.analysed[analysis.key] = {}
             for c, names in enumerate(chunks):
                 key = f"{analysis.key}-m{c:02d}"

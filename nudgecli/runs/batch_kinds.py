@@ -33,7 +33,7 @@ from nudgecli.runs.batch_folder import (
 from nudgecli.runs.study import checked_plan, with_participants
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, people_of
-from nudgecli.sim.policy_registry import checked_policy_specs
+from nudgecli.sim.policy_registry import checked_policy_specs, run_conditions
 from nudgecli.sim.study import left_out_notes
 from nudgecli.store import write_text_atomic
 
@@ -126,18 +126,18 @@ def check_pairs(config: ExperimentConfig, kind: str, source: str) -> None:
     """Refuse a batch whose studies hold a single condition, before anything is simulated: every
     table of ``replicate``, ``power`` and ``sweep`` is of pairs of conditions (significance rates,
     power, the difference of medians a sweep's points and sensitivity read), and one condition has
-    none. A CIAA study runs ``world.ciaa_conditions``, a grid study ``study.conditions``.
+    none. The conditions a study runs are :func:`~nudgecli.sim.policy_registry.run_conditions`
+    (``world.ciaa_conditions`` in the CIAA world, ``study.conditions`` in the grid).
 
     Raises
     ------
     ConfigError
         Naming ``source`` (the experiment file), the field, its conditions and the fix.
     """
-    ciaa = config.world.kind == "ciaa"
-    conditions = config.world.ciaa_conditions if ciaa else config.study.conditions
+    conditions = run_conditions(config)
     if len(conditions) >= 2:
         return
-    field = "world.ciaa_conditions" if ciaa else "study.conditions"
+    field = "world.ciaa_conditions" if config.world.kind == "ciaa" else "study.conditions"
     listed = ", ".join(f'"{c}"' for c in conditions)
     raise ConfigError(f"{source}: {field} = [{listed}]: each study of experiment {config.experiment.name} "
                       f"holds one condition, so nudge {kind} has no pair of conditions to compare (its "

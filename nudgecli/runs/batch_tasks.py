@@ -34,7 +34,7 @@ from nudgecli.report.step_metrics import (
 from nudgecli.runs.executors import HELD_AFFINITIES
 from nudgecli.runs.solved_layouts import build_plan, remember_plan
 from nudgecli.runs.study_tasks import tune_allocator
-from nudgecli.sim.policy_registry import not_applicable_of
+from nudgecli.sim.policy_registry import not_applicable_of, run_conditions
 from nudgecli.sim.study import ParticipantColumns, StudyPlan, simulate_participant_columns, trials_frame
 from nudgecli.sim.twins import Twin
 
@@ -228,10 +228,13 @@ def import_analysis_modules() -> None:
     import nudgecli.report.replication  # noqa: F401
 
 
-def analysis_design(config: ExperimentConfig) -> tuple[tuple[str, ...], dict[str, tuple[str, ...]]]:
-    """A study's conditions and, per metric, those its policies make constant: what
-    :func:`run_analysis_task` takes after the metrics' names."""
-    return tuple(config.study.conditions), not_applicable_of(config)
+def analysis_design(config: ExperimentConfig,
+                    analysis: AnalysisPlan) -> tuple[tuple[str, ...], dict[str, tuple[str, ...]]]:
+    """A study's conditions and, per metric, those for which it is not applicable under the plan
+    (constant by its policies, or success defined by an inferred goal a condition never infers):
+    what :func:`run_analysis_task` takes after the metrics' names, so that a replication's document
+    is the ``stats.json`` ``nudge analyze`` writes for the study's run folder under the plan."""
+    return run_conditions(config), not_applicable_of(config, success=analysis.metrics.success)
 
 
 def merge_analysis_chunks(documents: Sequence[Mapping[str, Any]]) -> dict[str, Any]:

@@ -274,8 +274,15 @@ def checked_policy_specs(config: ExperimentConfig) -> tuple[PolicySpec, ...]:
     return specs
 
 
+def run_conditions(config: ExperimentConfig) -> tuple[str, ...]:
+    """The conditions a run of the experiment holds trials of: ``world.ciaa_conditions`` in the
+    CIAA path world (which does not read ``study.conditions``), ``study.conditions`` in the grid."""
+    return tuple(config.world.ciaa_conditions if config.world.kind == "ciaa" else config.study.conditions)
+
+
 def constant_metrics_of(config: ExperimentConfig) -> dict[str, frozenset[str]]:
-    """Condition -> the metrics its policy makes constant by construction.
+    """Condition -> the metrics its policy makes constant by construction, for the conditions the
+    experiment runs (:func:`run_conditions`).
 
     A built-in policy's are its own (``additive`` blending adds strength); a researcher's policy's
     are those of its traits (no turns: human effort and turns; no inference: engagement and
@@ -283,7 +290,7 @@ def constant_metrics_of(config: ExperimentConfig) -> dict[str, frozenset[str]]:
     """
     specs = {spec.condition: spec for spec in policy_specs(config)}
     table: dict[str, frozenset[str]] = {}
-    for condition in config.study.conditions:
+    for condition in run_conditions(config):
         spec = specs.get(condition)
         if spec is None:
             name = policy_name(condition)
@@ -325,7 +332,9 @@ def _blending_strength_is_constant(config: ExperimentConfig) -> bool:
             and all(ass.rho2_factor <= section.gap * (goals - 1) + 1 for goals in config.study.goal_counts))
 
 
-def not_applicable_of(config: ExperimentConfig) -> dict[str, tuple[str, ...]]:
-    """Metric -> the experiment's conditions for which it is not applicable
-    (:func:`~nudgecli.model.conditions.not_applicable_metrics` of :func:`constant_metrics_of`)."""
-    return not_applicable_metrics(config.study.conditions, constant_metrics_of(config))
+def not_applicable_of(config: ExperimentConfig, *, success: str) -> dict[str, tuple[str, ...]]:
+    """Metric -> the experiment's conditions for which it is not applicable under an analysis plan
+    whose success definition is ``success``
+    (:func:`~nudgecli.model.conditions.not_applicable_metrics` of :func:`constant_metrics_of`, the
+    rule ``nudge analyze`` applies to a run folder's recorded table)."""
+    return not_applicable_metrics(run_conditions(config), constant_metrics_of(config), success=success)
