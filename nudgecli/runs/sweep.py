@@ -37,6 +37,7 @@ from __future__ import annotations
 import itertools
 import math
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -402,14 +403,24 @@ def salib_problem(spec: SweepFile) -> dict[str, Any]:
     return {"num_vars": len(spec.parameters), "names": list(spec.parameters), "bounds": bounds}
 
 
-def map_sample(value: Range | Values, x: float) -> Any:
+def map_sample(value: Range | Values, x: float, bounds: Sequence[float] | None = None,
+               levels: int | None = None) -> Any:
     """The parameter value of the design coordinate ``x`` (in the problem's units).
 
     A set of ``k`` values and an integer range share one rule: the coordinate's whole part picks
     the value, so each of the ``k`` values (each integer ``first..last``) owns an equal share
     ``[i, i + 1)`` of the bounds, and the top end (``u = 1``) the last one. In the unit
     coordinate ``u`` an integer range gives ``first + floor(u n)``, ``n = last - first + 1``.
+
+    A Morris coordinate (``levels`` and the problem's ``bounds`` given) is the grid level
+    ``u = j / (L - 1)``, which SALib computes in floats (``4`` comes back ``3.9999999999999996``):
+    the rule is then evaluated on the exact level, ``floor(j k / (L - 1))``, in integers.
     """
+    if levels is not None and bounds is not None and not (isinstance(value, Range) and not value.integer):
+        low, high = bounds
+        level = round((x - low) / (high - low) * (levels - 1))
+        count = round(high - low)  # k values, or n integers: the bounds span one unit per choice
+        x = low + min(level * count // (levels - 1), count - 1)
     if isinstance(value, Values):
         return value.values[min(math.floor(x), len(value.values) - 1)]
     if value.integer:
@@ -440,6 +451,7 @@ def design_values(spec: SweepFile) -> tuple[list[dict[str, Any]], dict[str, Any]
 
         samples = morris.sample(problem, spec.design.samples, num_levels=spec.design.levels,
                                 seed=spec.design.seed)
-    values = [{n: map_sample(spec.parameters[n], float(x)) for n, x in zip(names, row, strict=True)}
-              for row in samples]
+    levels = spec.design.levels if spec.design.method == "morris" else None
+    values = [{n: map_sample(spec.parameters[n], float(x), bounds, levels)
+               for n, x, bounds in zip(names, row, problem["bounds"], strict=True)} for row in samples]
     return values, problem, np.asarray(samples, dtype=float)
