@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import tomllib
 from typing import Annotated, Any, Literal, TypeVar, cast
 
@@ -350,6 +351,27 @@ class CustomPolicySection(Section):
 
     factory: str = Field(min_length=3, pattern=r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
     params: dict[str, Any] = Field(default_factory=dict)
+
+    @field_validator("params")
+    @classmethod
+    def _finite_numbers(cls, params: dict[str, Any]) -> dict[str, Any]:
+        # a run folder records them in config.toml and manifest.json, whose JSON has no nan or inf
+        for name, value in params.items():
+            if not _all_finite(value):
+                raise ValueError(f"{name} = {value}: a policy's parameters are finite numbers (the run "
+                                 "folder records them as JSON, which has no nan or inf); give a number")
+        return params
+
+
+def _all_finite(value: Any) -> bool:
+    """Whether every float in a TOML value (a number, or a list or table of them) is finite."""
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, list | tuple):
+        return all(_all_finite(v) for v in value)
+    if isinstance(value, dict):
+        return all(_all_finite(v) for v in value.values())
+    return True
 
 
 class HindsightSection(Section):
