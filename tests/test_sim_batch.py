@@ -514,8 +514,8 @@ def test_sobol_indices_of_the_ishigami_function_through_the_sweep_machinery():
 
 
 def test_point_outputs_average_the_replications_of_each_point():
-    rows = pd.DataFrame({"point": [0, 0, 1, 1], "metric": "m", "a": "a", "b": "b",
-                         "difference": [1.0, 3.0, -2.0, 0.0]})
+    rows = pd.DataFrame({"point": [0, 0, 1, 1], "replication": [0, 1, 0, 1], "metric": "m", "a": "a",
+                         "b": "b", "difference": [1.0, 3.0, -2.0, 0.0]})
     assert point_outputs(rows)["y"].tolist() == [2.0, -1.0]
 
 
@@ -568,8 +568,8 @@ def test_smallest_n_is_per_pair_of_conditions_and_an_integer() -> None:
 
 def test_point_outputs_and_sensitivity_keep_the_pairs_apart() -> None:
     # two pairs whose differences move oppositely with x: pooled, Y would be flat in x
-    rows = pd.DataFrame({"point": [0, 0, 1, 1], "metric": "m", "a": ["p", "q"] * 2, "b": "c",
-                         "difference": [1.0, -1.0, 3.0, -3.0]})
+    rows = pd.DataFrame({"point": [0, 0, 1, 1], "replication": 0, "metric": "m", "a": ["p", "q"] * 2,
+                         "b": "c", "difference": [1.0, -1.0, 3.0, -3.0]})
     outputs = point_outputs(rows)
     assert outputs.set_index(["point", "a"])["y"].to_dict() == {(0, "p"): 1.0, (0, "q"): -1.0,
                                                                (1, "p"): 3.0, (1, "q"): -3.0}
@@ -578,7 +578,7 @@ def test_point_outputs_and_sensitivity_keep_the_pairs_apart() -> None:
     points, problem, samples = design_values(spec)
     assert problem is not None and samples is not None
     xs = samples[:, 0]
-    rows = pd.DataFrame({"point": np.repeat(np.arange(len(points)), 2), "metric": "m",
+    rows = pd.DataFrame({"point": np.repeat(np.arange(len(points)), 2), "replication": 0, "metric": "m",
                          "a": ["p", "q"] * len(points), "b": "c",
                          "difference": np.column_stack([xs, -2 * xs]).ravel()})
     indices = sensitivity("morris", problem, samples, point_outputs(rows), levels=4)
@@ -637,8 +637,8 @@ def test_summarise_counts_directions_and_pools_effects_over_replications() -> No
 
 
 def test_point_outputs_average_the_column_asked_for() -> None:
-    rows = pd.DataFrame({"point": [0, 0, 1, 1], "metric": "m", "a": "a", "b": "b",
-                         "difference": [1.0, 3.0, -2.0, 0.0],
+    rows = pd.DataFrame({"point": [0, 0, 1, 1], "replication": [0, 1, 0, 1], "metric": "m", "a": "a",
+                         "b": "b", "difference": [1.0, 3.0, -2.0, 0.0],
                          "effect_size": [0.5, 0.1, -0.2, -0.4]})
     assert point_outputs(rows, "effect_size")["y"].tolist() == pytest.approx([0.3, -0.3])
 

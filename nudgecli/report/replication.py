@@ -192,8 +192,10 @@ def condition_values(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
 
 
 def _percentiles(values: pd.Series) -> tuple[float, float, float]:
-    finite = values.dropna().astype(float)
-    if finite.empty:
+    """Mean, 2.5 and 97.5 percentiles over the replications; NaN where some replication's value is
+    undefined (a mean of fewer would stand on other seeds than the point's ``replications``)."""
+    finite = values.astype(float)
+    if finite.empty or finite.isna().any():
         return math.nan, math.nan, math.nan
     return float(finite.mean()), float(np.percentile(finite, 2.5)), float(np.percentile(finite, 97.5))
 
@@ -209,7 +211,9 @@ def summarise(rows: pd.DataFrame) -> pd.DataFrame:
         participant_a_higher, participant_a_lower`` (fractions of replications),
         ``median_kruskal_p, median_conover_p, median_participant_p``, ``effect_size`` (mean r)
         with ``effect_size_low/high`` (2.5/97.5 percentiles over replications) and ``difference``
-        (mean difference of medians) with ``difference_low/high``.
+        (mean difference of medians) with ``difference_low/high``. Each stands on all
+        ``replications``: a median p or pooled value is NaN where the value is undefined (NaN)
+        in some replication (``replications.csv`` shows which), never a summary of fewer.
     """
     out = []
     for (point, n, metric, a, b), group in rows.groupby(["point", "participants", "metric", "a", "b"],
@@ -224,9 +228,9 @@ def summarise(rows: pd.DataFrame) -> pd.DataFrame:
             "trial_a_lower": float((trial & (group["trial_direction"] < 0)).mean()),
             "participant_a_higher": float((level & (group["participant_direction"] > 0)).mean()),
             "participant_a_lower": float((level & (group["participant_direction"] < 0)).mean()),
-            "median_kruskal_p": float(group["kruskal_p"].astype(float).median()),
-            "median_conover_p": float(group["conover_p"].astype(float).median()),
-            "median_participant_p": float(group["participant_p"].astype(float).median()),
+            "median_kruskal_p": float(group["kruskal_p"].astype(float).median(skipna=False)),
+            "median_conover_p": float(group["conover_p"].astype(float).median(skipna=False)),
+            "median_participant_p": float(group["participant_p"].astype(float).median(skipna=False)),
             "effect_size_name": group["effect_size_name"].iloc[0],
             "effect_size": effect, "effect_size_low": effect_low, "effect_size_high": effect_high,
             "difference": diff, "difference_low": diff_low, "difference_high": diff_high,
@@ -314,10 +318,17 @@ def smallest_n(power: pd.DataFrame, target: float = POWER_TARGET) -> pd.DataFram
 # --- sensitivity -------------------------------------------------------------------------------
 
 def point_outputs(rows: pd.DataFrame, value: str = "difference") -> pd.DataFrame:
-    """Per (point, metric, pair of conditions ``a, b``): the mean over replications of ``value``
-    (the model output Y), one output per pair (never pooled over the pairs of more conditions)."""
-    return (rows.groupby(["point", "metric", "a", "b"], sort=False)[value].mean().rename("y")
-            .reset_index())
+    """Per (point, metric, pair of conditions ``a, b``): the mean of ``value`` (the model output Y)
+    over the replications where it is finite at every point, so that Y stands on the same seeds
+    everywhere (common random numbers), one output per pair (never pooled over the pairs of more
+    conditions); ``replications`` counts them (NaN ``y`` where there are none)."""
+    keys = ["point", "metric", "a", "b"]
+    values = rows[value].astype(float)
+    common = np.isfinite(values).groupby([rows[k] for k in ("metric", "a", "b", "replication")],
+                                         sort=False).transform("all")
+    kept = rows[keys].assign(y=values.where(common), replications=common.astype(int))
+    pooled = kept.groupby(keys, sort=False).agg(y=("y", "mean"), replications=("replications", "sum"))
+    return pooled.reset_index()
 
 
 def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outputs: pd.DataFrame,
@@ -333,7 +344,7 @@ def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outpu
     samples
         ``(n_points, D)`` the design in the problem's units, in point order.
     outputs
-        ``point, metric, a, b, y`` (:func:`point_outputs`): one output per metric, pair of
+        ``point, metric, a, b, y, replications`` (:func:`point_outputs`): one output per metric, pair of
         conditions and point.
     levels
         Morris grid levels.
@@ -346,12 +357,15 @@ def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outpu
     Returns
     -------
     pd.DataFrame
-        ``metric, a, b, parameter, index, value, conf`` (``index``: S1, ST or mu_star, sigma, mu);
+        ``metric, a, b, parameter, index, value, conf, replications`` (``index``: S1, ST or
+        mu_star, sigma, mu; ``replications``: how many replications Y averages, the same at every
+        point);
         a metric and pair whose output is missing at some point is left out.
     """
     out = []
     for (metric, a, b), group in outputs.groupby(["metric", "a", "b"], sort=False):
         y = group.sort_values("point")["y"].to_numpy(dtype=float)
+        used = int(group["replications"].min()) if "replications" in group else math.nan
         if y.size != samples.shape[0] or not np.all(np.isfinite(y)):
             continue
         rng = generator(seed, "sensitivity", str(metric))
@@ -375,5 +389,7 @@ def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outpu
             for index, (key, conf) in indices.items():
                 out.append({"metric": metric, "a": a, "b": b, "parameter": name, "index": index,
                             "value": float(np.asarray(result[key])[k]),
-                            "conf": float(np.asarray(result[conf])[k]) if conf else math.nan})
-    return pd.DataFrame(out, columns=["metric", "a", "b", "parameter", "index", "value", "conf"])
+                            "conf": float(np.asarray(result[conf])[k]) if conf else math.nan,
+                            "replications": used})
+    return pd.DataFrame(out, columns=["metric", "a", "b", "parameter", "index", "value", "conf",
+                                      "replications"])
