@@ -46,7 +46,7 @@ import numpy as np
 from nudgecli.model import assistance
 from nudgecli.model.interface import NO_COMMAND
 from nudgecli.model.read_only import read_only_array as read_only_array  # the policies' owner
-from nudgecli.steplog import NO_GOAL
+from nudgecli.steplog import MODE_SELECT, NO_GOAL, NUDGE, STEP
 
 if TYPE_CHECKING:
     from nudgecli.model.disambiguation import DisambiguationModel
@@ -305,8 +305,8 @@ class Assistance(NamedTuple):
     u_a
         ``(3,)`` the assistance's own command (the step log's ``u_a``).
     alpha
-        The assistance's weight in ``command``: ``u_f = alpha u_a + (1 - alpha) u_h`` for a convex
-        blend, ``u_f = u_h + alpha u_a`` for an additive one; 0 when it does not act. The
+        The assistance's weight in ``command``, from 0 to 1: ``u_f = alpha u_a + (1 - alpha) u_h``
+        for a convex blend, ``u_f = u_h + alpha u_a`` for an additive one; 0 when it does not act. The
         engagement and strength metrics read it (a step is engaged when alpha > 0 and ``goal`` is
         the true goal).
     goal
@@ -356,6 +356,10 @@ class AtStep(ReadOnlyView):
         return getattr(self._view, name)
 
 
+#: The step log's events a policy's :class:`AutonomyTurn` may name (the protocol writes the others).
+TURN_EVENTS = (NUDGE, STEP, MODE_SELECT)
+
+
 @dataclass(frozen=True)
 class AutonomyTurn:
     """What the autonomy does in its turn, chosen once when the person hands the turn over.
@@ -368,12 +372,13 @@ class AutonomyTurn:
     mode
         The mode to switch to at the turn's start, or ``None`` to keep the mode.
     events
-        The step log's events of the turn's first step (``nudge``, ``step``, ``mode_select``; the
-        protocol adds ``mode_switch_autonomy`` when ``mode`` changes the mode).
+        The step log's events of the turn's first step, of :data:`TURN_EVENTS` (``nudge``,
+        ``step``, ``mode_select``; the protocol adds ``mode_switch_autonomy`` when ``mode`` changes
+        the mode).
     goal
         The goal the turn acts for (the step log's ``inferred_goal``), -1 for none.
     nudge
-        Whether the turn is a nudge (counted in the trial table's ``nudges``).
+        Whether the turn is a nudge (counted in the trial table's ``nudges``): True or False.
     """
 
     target: np.ndarray | None

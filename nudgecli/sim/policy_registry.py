@@ -26,10 +26,13 @@ from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
 from nudgecli.errors import PolicyError, did_you_mean
 from nudgecli.model.conditions import CONSTANT_METRICS, METRIC_NAMES, not_applicable_metrics, policy_name
 from nudgecli.sim.builtin_policies import BUILTIN_POLICIES
 from nudgecli.sim.policy_interface import (
+    TURN_EVENTS,
     Assistance,
     AutonomyTurn,
     Policy,
@@ -50,6 +53,17 @@ _WITHOUT_INFERENCE = frozenset({"assistance_engagement", "assistance_strength"})
 #: (a stray ``sys.exit()``, which would otherwise end the command quietly with its code);
 #: KeyboardInterrupt is the person's Ctrl-C and stays one.
 POLICY_FAILURES = (Exception, SystemExit)
+
+
+def is_flag(value: Any) -> bool:
+    """Whether ``value`` is True or False: a Python or a numpy bool (not 0 or 1)."""
+    return isinstance(value, (bool, np.bool_))
+
+
+def is_index(value: Any) -> bool:
+    """Whether ``value`` is an integer (numpy's too, ``np.argmax``'s ``np.int64``), not a bool
+    (True is no mode or goal) nor a float (2.0)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
 
 
 @dataclass(frozen=True)
@@ -133,7 +147,7 @@ def check_custom_policy(spec: PolicySpec) -> Policy:
         raise PolicyError(f"{spec.described}: the object it returns lacks {', '.join(missing)} of the policy "
                           "interface (nudgecli.sim.policy_interface.Policy; see docs/policies.md)")
     for name in ("infers", "takes_turns"):
-        if not isinstance(getattr(policy, name), bool):
+        if not is_flag(getattr(policy, name)):
             raise PolicyError(f"{spec.described}: its {name} must be True or False")
     for name in ("assist", "start_turn"):
         if not callable(getattr(policy, name)):
@@ -183,7 +197,7 @@ class CheckedPolicy:
         except POLICY_FAILURES as exc:
             raise PolicyError(f"{self.spec.described}: choose_mode raised "
                               f"{type(exc).__name__}: {exc}") from exc
-        if mode is not None and not (isinstance(mode, numbers.Integral) and 0 <= int(mode) <= 2):
+        if mode is not None and not (is_index(mode) and 0 <= int(mode) <= 2):
             self._fail(f"choose_mode returned {mode!r}; it must be 0, 1, 2 or None")
         return None if mode is None else int(mode)
 
@@ -218,12 +232,18 @@ class CheckedPolicy:
             raise PolicyError(f"{self.spec.described}: {method}: {exc}") from None
         alpha, goal = answer.alpha, answer.goal
         # numpy's scalars are numbers too (np.float32(0.5), np.argmax's np.int64)
-        if not isinstance(alpha, numbers.Real) or not math.isfinite(alpha):
-            self._fail(f"{method} returned alpha {alpha!r}; it must be a finite number")
-        if not isinstance(goal, numbers.Integral) or not -1 <= int(goal) < len(view.goal_poses):
+        if (not isinstance(alpha, numbers.Real) or is_flag(alpha) or not math.isfinite(alpha)
+                or not 0 <= float(alpha) <= 1):
+            self._fail(f"{method} returned alpha {alpha!r}; it must be a number from 0 to 1 (the "
+                       "assistance's weight)")
+        return Assistance(command, u_a, float(alpha), self._checked_goal(goal, view, method))
+
+    def _checked_goal(self, goal: Any, view: StepView, method: str) -> int:
+        """``goal`` as the index of one of the view's goals, or -1 for none."""
+        if not is_index(goal) or not -1 <= int(goal) < len(view.goal_poses):
             self._fail(f"{method} returned goal {goal!r}; it must be -1 or a goal index below "
                        f"{len(view.goal_poses)}")
-        return Assistance(command, u_a, float(alpha), int(goal))
+        return int(goal)
 
     def start_turn(self, view: StepView) -> AutonomyTurn:
         try:
@@ -238,9 +258,21 @@ class CheckedPolicy:
                 checked_pose(plan.target, "its target")
             except ValueError as exc:
                 raise PolicyError(f"{self.spec.described}: start_turn: {exc}") from None
-        if plan.mode is not None and plan.mode not in (0, 1, 2):
-            self._fail(f"start_turn returned mode {plan.mode!r}; it must be 0, 1, 2 or None")
-        return plan
+        mode, events, nudge = plan.mode, plan.events, plan.nudge
+        if mode is not None and not (is_index(mode) and 0 <= int(mode) <= 2):
+            self._fail(f"start_turn returned mode {mode!r}; it must be 0, 1, 2 or None")
+        if isinstance(events, str) or not isinstance(events, Collection):
+            self._fail(f"start_turn returned events {events!r}; they must be a tuple of event names, "
+                       f"e.g. ({TURN_EVENTS[0]!r},)")
+        for event in events:
+            if event not in TURN_EVENTS:
+                self._fail(f"start_turn returned event {event!r}{did_you_mean(event, TURN_EVENTS)}; a "
+                           f"turn's events are {', '.join(TURN_EVENTS)}")
+        if not is_flag(nudge):
+            self._fail(f"start_turn returned nudge {nudge!r}; it must be True or False")
+        goal = self._checked_goal(plan.goal, view, "start_turn")
+        mode = None if mode is None else int(mode)
+        return AutonomyTurn(plan.target, mode, tuple(events), goal, bool(nudge))
 
     def _fail(self, what: str) -> Any:
         raise PolicyError(f"{self.spec.described}: {what}")
