@@ -114,7 +114,10 @@ def test_assigning_to_the_view_is_one_policy_error_line_naming_the_attribute(
 
 
 @pytest.mark.parametrize(("statement", "what"), [("view.goal_poses[0, 0] = 9.0", "goal_poses"),
-                                                 ("view.goal_poses[:] *= 0", "goal_poses")])
+                                                 ("view.goal_poses[:] *= 0", "goal_poses"),
+                                                 # cached on the model the participant's trials share
+                                                 ("view.model.likelihood[...] = 0.25", "likelihood"),
+                                                 ("view.model.mapping[0, 0] = 0.0", "mapping")])
 def test_writing_into_the_goal_poses_is_one_policy_error_line(tmp_path: Path, statement: str,
                                                               what: str) -> None:
     _, result = _simulate(tmp_path, assist=statement)

@@ -265,8 +265,9 @@ class DisambiguationModel:
 
     @cached_property
     def likelihood(self) -> np.ndarray:
-        """``(G, S, F)`` ``p(phi_m | g, s)``: every state's table at once."""
-        return self._distinct.take(self._index, axis=0)
+        """``(G, S, F)`` ``p(phi_m | g, s)``: every state's table at once (read-only: it is cached
+        on the model a participant's trials share, and a policy's view reaches it)."""
+        return read_only_array(self._distinct.take(self._index, axis=0))
 
     def label_likelihood(self, state: int, label: int) -> np.ndarray:
         """``(G,)`` ``p(phi_m = label | g, state)``: ``likelihood[:, state, label]``'s values."""
