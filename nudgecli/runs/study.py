@@ -38,8 +38,11 @@ from nudgecli.runs.study_tasks import (
     _init_worker,
     _run_in_worker,
     die_with_parent,
+    drew_from_global_rng,
+    global_rng_warning,
     process_context,
     simulate_on_worker,
+    simulate_watched,
     tune_allocator,
 )
 from nudgecli.sim.calibration_io import write_sessions
@@ -62,7 +65,6 @@ from nudgecli.sim.study import (
     build_layouts,
     check_physiology_logs,
     left_out_notes,
-    simulate_participant_columns,
 )
 from nudgecli.store import RunFolder, new_manifest, utc_now
 
@@ -132,7 +134,7 @@ SCHEDULER_TIMEOUT_S = 7.0
 
 def _serial(plan: StudyPlan, todo: list[int]) -> Iterator[ParticipantColumns]:
     for index in todo:
-        yield simulate_participant_columns(plan, index)
+        yield simulate_watched(plan, index)
 
 
 #: Participants submitted to the local pool per worker at a time (the one it runs and the next).
@@ -449,7 +451,11 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
             results = _processes(plan, todo, min(workers, len(todo)))
         else:
             results = _serial(plan, todo)
+        warned = False
         for columns in results:
+            if log is not None and not warned and drew_from_global_rng(columns):  # once; tables as simulated
+                log(global_rng_warning(plan, folder.path))
+                warned = True
             # the workers send columns; the tables are made here, in the process that writes them
             result = ParticipantResult.from_columns(columns)
             if result.calibration is not None:

@@ -8,13 +8,19 @@ imports load neither pandas nor pyarrow: a fresh (dask or spawned) worker is rea
 
 from __future__ import annotations
 
+import hashlib
 import os
+import pickle
+import random
 import signal
 import sys
 import threading
 import time
 from typing import TYPE_CHECKING
 
+import numpy as np
+
+from nudgecli.sim.policy_registry import policy_specs
 from nudgecli.sim.study import ParticipantColumns, StudyPlan, simulate_participant_columns
 
 if TYPE_CHECKING:
@@ -91,10 +97,51 @@ def process_context() -> BaseContext:
     return get_context("fork") if os.name == "posix" else get_context("spawn")
 
 
+#: The attribute of a participant's :class:`ParticipantColumns` set when its trials drew from a
+#: global random generator (:func:`simulate_watched`); it travels with the columns to the parent.
+GLOBAL_RNG_MARK = "drew_from_global_rng"
+
+
+def _global_rng_digest() -> bytes:
+    """A digest of numpy's and Python's global random generators' states (reading them draws nothing)."""
+    return hashlib.sha256(pickle.dumps((np.random.get_state(), random.getstate()))).digest()
+
+
+def simulate_watched(plan: StudyPlan, participant_index: int) -> ParticipantColumns:
+    """:func:`simulate_participant_columns`, and for an experiment with policies of its own, whether
+    its trials drew from numpy's or Python's global random generator (``np.random.randint``,
+    ``random.random``): such draws are not a function of the run's seed, so the tables of two runs
+    of one seed (or of ``--workers 1`` and ``2``) differ. The columns then carry
+    :data:`GLOBAL_RNG_MARK` (:func:`drew_from_global_rng`); the tables are unchanged, and the
+    paper's conditions (no policy of the experiment's own) are simulated as they were."""
+    if not policy_specs(plan.config):
+        return simulate_participant_columns(plan, participant_index)
+    before = _global_rng_digest()
+    columns = simulate_participant_columns(plan, participant_index)
+    if _global_rng_digest() != before:
+        setattr(columns, GLOBAL_RNG_MARK, True)
+    return columns
+
+
+def drew_from_global_rng(columns: ParticipantColumns) -> bool:
+    """Whether the participant's trials drew from a global random generator (:func:`simulate_watched`)."""
+    return bool(getattr(columns, GLOBAL_RNG_MARK, False))
+
+
+def global_rng_warning(plan: StudyPlan, where: object) -> str:
+    """The run's one warning line of :func:`drew_from_global_rng`, naming its own policies."""
+    specs = policy_specs(plan.config)
+    named = ", ".join(f"condition {spec.condition!r} (policy {spec.factory})" for spec in specs)
+    return (f"Warning: {where}: {named}: a policy drew from numpy's or Python's global random generator "
+            "(np.random.*, random.*), which the run's seed does not set: the tables differ between runs of "
+            "the same seed and with another --workers; draw from the view's own stream, view.rng, instead "
+            "(docs/policies.md)")
+
+
 def simulate_on_worker(plan: StudyPlan, participant_index: int) -> ParticipantColumns:
-    """:func:`simulate_participant_columns` as a dask task (with :func:`tune_allocator` first)."""
+    """:func:`simulate_watched` as a dask task (with :func:`tune_allocator` first)."""
     tune_allocator()
-    return simulate_participant_columns(plan, participant_index)
+    return simulate_watched(plan, participant_index)
 
 
 def _init_worker(plan: StudyPlan, parent_pid: int) -> None:
@@ -105,4 +152,4 @@ def _init_worker(plan: StudyPlan, parent_pid: int) -> None:
 
 def _run_in_worker(participant_index: int) -> ParticipantColumns:
     assert _WORKER_PLAN is not None, "worker not initialised"
-    return simulate_participant_columns(_WORKER_PLAN, participant_index)
+    return simulate_watched(_WORKER_PLAN, participant_index)
