@@ -45,3 +45,37 @@ def test_a_pooled_value_is_undefined_where_some_replication_is() -> None:
     for column in ("difference", "difference_low", "difference_high", "effect_size", "median_conover_p"):
         assert np.isnan(summary.loc[1, column]), column
     assert summary.loc[1, "median_kruskal_p"] == 0.5
+
+
+def _design(method: str) -> tuple[dict, np.ndarray]:
+    from nudgecli.runs.sweep import Design, Range, SweepFile, design_values
+
+    design = Design(method=method, samples=4, levels=4, seed=0)  # type: ignore[arg-type]
+    spec = SweepFile(experiment="unused", design=design,
+                     parameters={"p.x": Range(low=0.0, high=1.0), "p.z": Range(low=0.0, high=1.0)})
+    _, problem, samples = design_values(spec)
+    assert problem is not None and samples is not None
+    return problem, samples
+
+
+def test_a_metric_undefined_at_some_point_keeps_its_sensitivity_rows_with_nan_indices() -> None:
+    from nudgecli.report.figures.replication import sensitivity_figure
+    from nudgecli.report.replication import sensitivity
+
+    for method, names in (("sobol", {"S1", "ST"}), ("morris", {"mu_star", "sigma", "mu"})):
+        problem, samples = _design(method)
+        y = samples[:, 0].copy()
+        broken = y.copy()
+        broken[1] = math.nan
+        outputs = pd.concat([
+            pd.DataFrame({"point": range(len(y)), "metric": "human_effort", "a": "x", "b": "y", "y": y,
+                          "replications": 3}),
+            pd.DataFrame({"point": range(len(y)), "metric": "completion_time", "a": "x", "b": "y",
+                          "y": broken, "replications": 3})])
+        indices = sensitivity(method, problem, samples, outputs, levels=4)
+        missing = indices[indices["metric"] == "completion_time"]
+        assert set(zip(missing["parameter"], missing["index"], strict=True)) == \
+            {(p, i) for p in ("p.x", "p.z") for i in names}
+        assert missing["value"].isna().all() and missing["conf"].isna().all()
+        assert indices[indices["metric"] == "human_effort"]["value"].notna().all()
+        sensitivity_figure(indices)  # draws the defined metric beside the undefined one

@@ -360,36 +360,50 @@ def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outpu
         ``metric, a, b, parameter, index, value, conf, replications`` (``index``: S1, ST or
         mu_star, sigma, mu; ``replications``: how many replications Y averages, the same at every
         point);
-        a metric and pair whose output is missing at some point is left out.
+        a metric and pair whose output is undefined (or missing) at some point has its rows,
+        with NaN indices.
     """
     out = []
     for (metric, a, b), group in outputs.groupby(["metric", "a", "b"], sort=False):
         y = group.sort_values("point")["y"].to_numpy(dtype=float)
         used = int(group["replications"].min()) if "replications" in group else math.nan
-        if y.size != samples.shape[0] or not np.all(np.isfinite(y)):
-            continue
         rng = generator(seed, "sensitivity", str(metric))
-        # SALib warns (on stderr, mid-output) about degenerate outputs, e.g. a metric constant over
-        # the design divides by its zero spread; its indices are then NaN, which the table shows
-        with warnings.catch_warnings(), np.errstate(all="ignore"):
-            warnings.simplefilter("ignore")
-            if method == "sobol":
-                from SALib.analyze import sobol
-
-                result = sobol.analyze(problem, y, calc_second_order=False, conf_level=0.95, seed=rng)
-                indices: dict[str, tuple[str, str | None]] = {"S1": ("S1", "S1_conf"),
-                                                              "ST": ("ST", "ST_conf")}
-            else:
-                from SALib.analyze import morris
-
-                result = morris.analyze(problem, samples, y, num_levels=levels, conf_level=0.95, seed=rng)
-                indices = {"mu_star": ("mu_star", "mu_star_conf"), "sigma": ("sigma", None),
-                           "mu": ("mu", None)}
+        indices = _salib_indices(method, problem, samples, y, levels, rng)
         for k, name in enumerate(problem["names"]):
-            for index, (key, conf) in indices.items():
+            for index, (values, conf) in indices.items():
                 out.append({"metric": metric, "a": a, "b": b, "parameter": name, "index": index,
-                            "value": float(np.asarray(result[key])[k]),
-                            "conf": float(np.asarray(result[conf])[k]) if conf else math.nan,
-                            "replications": used})
+                            "value": float(values[k]), "conf": float(conf[k]), "replications": used})
     return pd.DataFrame(out, columns=["metric", "a", "b", "parameter", "index", "value", "conf",
                                       "replications"])
+
+
+#: SALib's result keys of each index and of its ``conf`` (``None``: SALib gives none).
+_INDICES: dict[str, dict[str, tuple[str, str | None]]] = {
+    "sobol": {"S1": ("S1", "S1_conf"), "ST": ("ST", "ST_conf")},
+    "morris": {"mu_star": ("mu_star", "mu_star_conf"), "sigma": ("sigma", None), "mu": ("mu", None)},
+}
+
+
+def _salib_indices(method: str, problem: dict[str, Any], samples: np.ndarray, y: np.ndarray, levels: int,
+                   rng: np.random.Generator) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Index name -> (value, conf) per parameter of the output ``y`` (one value per design point);
+    all NaN where ``y`` is undefined or missing at some point (no index is defined then)."""
+    wanted = _INDICES["sobol" if method == "sobol" else "morris"]
+    undefined = np.full(problem["num_vars"], math.nan)
+    if y.size != samples.shape[0] or not np.all(np.isfinite(y)):
+        return {index: (undefined, undefined) for index in wanted}
+    # SALib warns (on stderr, mid-output) about degenerate outputs, e.g. a metric constant over
+    # the design divides by its zero spread; its indices are then NaN, which the table shows
+    with warnings.catch_warnings(), np.errstate(all="ignore"):
+        warnings.simplefilter("ignore")
+        if method == "sobol":
+            from SALib.analyze import sobol
+
+            result = sobol.analyze(problem, y, calc_second_order=False, conf_level=0.95, seed=rng)
+        else:
+            from SALib.analyze import morris
+
+            result = morris.analyze(problem, samples, y, num_levels=levels, conf_level=0.95, seed=rng)
+    return {index: (np.asarray(result[key], dtype=float),
+                    np.asarray(result[conf], dtype=float) if conf else undefined)
+            for index, (key, conf) in wanted.items()}
