@@ -119,3 +119,18 @@ def test_numpys_bools_are_true_or_false_as_pythons_are(tmp_path):
         "takes_turns = False", "takes_turns = np.bool_(False)")
     _, result = _simulate(tmp_path, _experiment(tmp_path, module))
     assert result.exit_code == 0, result.output
+
+
+# --- a trait that raises when read (a property) ----------------------------------------------------
+
+@pytest.mark.parametrize("name", ["takes_turns", "infers", "constant_metrics", "assist_quiet"])
+def test_a_policy_attribute_that_raises_when_read_is_one_error_line(tmp_path, name):
+    module = GOOD + f"""
+    @property
+    def {name}(self):
+        raise RuntimeError("not ready")
+"""
+    module = module.replace(f"    {name} = ", f"    _{name} = ")
+    out, result = _simulate(tmp_path, _experiment(tmp_path, module))
+    _one_error_line(result, DESCRIBED, f"reading its {name} raised RuntimeError: not ready")
+    assert not (out / "trials").exists()

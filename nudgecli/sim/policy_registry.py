@@ -141,19 +141,33 @@ def check_custom_policy(spec: PolicySpec) -> Policy:
     except ValueError:  # no signature to inspect (a builtin): calling it will tell
         pass
     policy = _make(factory, params, spec)
-    missing = [name for name in ("infers", "takes_turns", "assist", "start_turn")
-               if not hasattr(policy, name)]
+    found = {name: policy_attribute(policy, name, spec)
+             for name in ("infers", "takes_turns", "assist", "start_turn", "constant_metrics")}
+    missing = [name for name, value in found.items() if value is _MISSING and name != "constant_metrics"]
     if missing:
         raise PolicyError(f"{spec.described}: the object it returns lacks {', '.join(missing)} of the policy "
                           "interface (nudgecli.sim.policy_interface.Policy; see docs/policies.md)")
     for name in ("infers", "takes_turns"):
-        if not is_flag(getattr(policy, name)):
+        if not is_flag(found[name]):
             raise PolicyError(f"{spec.described}: its {name} must be True or False")
     for name in ("assist", "start_turn"):
-        if not callable(getattr(policy, name)):
+        if not callable(found[name]):
             raise PolicyError(f"{spec.described}: its {name} must be a method")
-    _check_constant_metrics(getattr(policy, "constant_metrics", ()), spec)
+    _check_constant_metrics(() if found["constant_metrics"] is _MISSING else found["constant_metrics"], spec)
     return policy
+
+
+#: What :func:`policy_attribute` answers for an attribute the policy does not have.
+_MISSING = object()
+
+
+def policy_attribute(policy: Any, name: str, spec: PolicySpec) -> Any:
+    """``policy``'s attribute ``name``, or ``_MISSING`` where it has none; reading it is the
+    researcher's code (a property): what it raises is a :class:`PolicyError` naming the attribute."""
+    try:
+        return getattr(policy, name, _MISSING)
+    except POLICY_FAILURES as exc:
+        raise PolicyError(f"{spec.described}: reading its {name} raised {type(exc).__name__}: {exc}") from exc
 
 
 def _check_constant_metrics(value: Any, spec: PolicySpec) -> None:
@@ -185,11 +199,13 @@ class CheckedPolicy:
     def __init__(self, inner: Any, spec: PolicySpec) -> None:
         self.inner = inner
         self.spec = spec
-        self.infers = bool(inner.infers)
-        self.takes_turns = bool(inner.takes_turns)
+        self.infers = bool(policy_attribute(inner, "infers", spec))
+        self.takes_turns = bool(policy_attribute(inner, "takes_turns", spec))
         # the optional hook, checked like the rest; absent when the policy has none
-        self.choose_mode = self._choose_mode if callable(getattr(inner, "choose_mode", None)) else None
-        self.assist_quiet = self._assist_quiet if callable(getattr(inner, "assist_quiet", None)) else None
+        hooks = {name: callable(policy_attribute(inner, name, spec))
+                 for name in ("choose_mode", "assist_quiet")}
+        self.choose_mode = self._choose_mode if hooks["choose_mode"] else None
+        self.assist_quiet = self._assist_quiet if hooks["assist_quiet"] else None
 
     def _choose_mode(self, view: StepView, requested: int) -> int | None:
         try:
