@@ -79,3 +79,19 @@ def test_a_metric_undefined_at_some_point_keeps_its_sensitivity_rows_with_nan_in
         assert missing["value"].isna().all() and missing["conf"].isna().all()
         assert indices[indices["metric"] == "human_effort"]["value"].notna().all()
         sensitivity_figure(indices)  # draws the defined metric beside the undefined one
+
+
+def test_sobol_indices_of_an_output_constant_over_the_design_are_undefined() -> None:
+    from nudgecli.report.replication import sensitivity
+
+    problem, samples = _design("sobol")
+    outputs = pd.DataFrame({"point": range(len(samples)), "metric": "success", "a": "x", "b": "y", "y": 0.25,
+                            "replications": 3})
+    indices = sensitivity("sobol", problem, samples, outputs)
+    assert len(indices) == 4 and indices["value"].isna().all() and indices["conf"].isna().all()
+    # Morris: the elementary effects of a constant are 0, defined
+    problem, samples = _design("morris")
+    outputs = outputs.iloc[:0].reindex(range(len(samples))).assign(
+        point=range(len(samples)), metric="success", a="x", b="y", y=0.25, replications=3)
+    morris = sensitivity("morris", problem, samples, outputs, levels=4).set_index("index")
+    assert (morris.loc[["mu_star", "sigma", "mu"], "value"] == 0).all()

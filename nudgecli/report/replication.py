@@ -387,13 +387,14 @@ _INDICES: dict[str, dict[str, tuple[str, str | None]]] = {
 def _salib_indices(method: str, problem: dict[str, Any], samples: np.ndarray, y: np.ndarray, levels: int,
                    rng: np.random.Generator) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Index name -> (value, conf) per parameter of the output ``y`` (one value per design point);
-    all NaN where ``y`` is undefined or missing at some point (no index is defined then)."""
+    all NaN where ``y`` is undefined or missing at some point, and Sobol's where ``y`` is constant
+    over the design (its shares of a zero variance are 0 / 0; SALib 1.6 returns 0 for them). Morris'
+    elementary effects of a constant output are defined: 0."""
     wanted = _INDICES["sobol" if method == "sobol" else "morris"]
     undefined = np.full(problem["num_vars"], math.nan)
-    if y.size != samples.shape[0] or not np.all(np.isfinite(y)):
+    if y.size != samples.shape[0] or not np.all(np.isfinite(y)) or (method == "sobol" and np.all(y == y[0])):
         return {index: (undefined, undefined) for index in wanted}
-    # SALib warns (on stderr, mid-output) about degenerate outputs, e.g. a metric constant over
-    # the design divides by its zero spread; its indices are then NaN, which the table shows
+    # SALib warns (on stderr, mid-output) about degenerate outputs; silenced here
     with warnings.catch_warnings(), np.errstate(all="ignore"):
         warnings.simplefilter("ignore")
         if method == "sobol":
