@@ -20,7 +20,8 @@ results:
 - power is the fraction of replications significant in the paper's direction (either
   direction for a metric where the paper reports none) with a Clopper-Pearson 95 % interval;
 - sensitivity indices are SALib's (Sobol first and total order, Morris mu*, sigma) of the
-  replication-mean difference of medians at each design point, with SALib's 95 % intervals.
+  replication-mean difference of medians at each design point, with SALib's ``conf``: the
+  half-width 1.96 x the bootstrap standard deviation of the index (NaN for Morris sigma and mu).
 
 Their figures are :mod:`nudgecli.report.figures.replication`'s.
 """
@@ -333,7 +334,8 @@ def point_outputs(rows: pd.DataFrame, value: str = "difference") -> pd.DataFrame
 
 def sensitivity(method: str, problem: dict[str, Any], samples: np.ndarray, outputs: pd.DataFrame,
                 levels: int = 4, seed: int = 0) -> pd.DataFrame:
-    """Sensitivity indices of each output, with SALib's 95 % intervals.
+    """Sensitivity indices of each output, with SALib's ``conf`` (half-width: 1.96 x the standard
+    deviation of the index over its bootstrap; NaN for Morris sigma and mu).
 
     Parameters
     ----------
