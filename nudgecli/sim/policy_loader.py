@@ -93,6 +93,21 @@ def module_file(folder: str, module_name: str) -> Path | None:
     return None
 
 
+def folder_modules(folder: str, depth: int = 3) -> list[str]:
+    """The dotted names of the modules and packages in ``folder`` (down to ``depth`` levels): what
+    a factory may name from there (for a "did you mean" of a misspelt one)."""
+    names: list[str] = []
+    root = Path(folder)
+    for current, folders, files in os.walk(root):
+        parts = Path(current).relative_to(root).parts
+        folders[:] = sorted(name for name in folders if name.isidentifier() and len(parts) < depth)
+        prefix = "".join(f"{part}." for part in parts)
+        names += [prefix + name for name in folders]
+        names += [prefix + name[:-3] for name in sorted(files)
+                  if name.endswith(".py") and name[:-3].isidentifier() and name != "__init__.py"]
+    return names
+
+
 def private_package_name(folder: str) -> str:
     """The private parent package of ``folder``'s modules: one name per resolved folder."""
     digest = hashlib.sha256(str(Path(folder).resolve()).encode()).hexdigest()[:16]

@@ -40,7 +40,7 @@ from nudgecli.sim.policy_interface import (
     checked_command,
     checked_pose,
 )
-from nudgecli.sim.policy_loader import import_policy_module
+from nudgecli.sim.policy_loader import folder_modules, import_policy_module
 
 if TYPE_CHECKING:
     from nudgecli.config import ExperimentConfig
@@ -106,16 +106,31 @@ def load_factory(spec: PolicySpec, *, reload_changed: bool = True) -> Callable[.
         module = import_policy_module(module_name, spec.search_path, reload_changed=reload_changed)
     except POLICY_FAILURES as exc:  # a researcher's module: any failure of its import is theirs to see
         raise PolicyError(f"{where}: cannot import module {module_name!r}: {type(exc).__name__}: {exc} "
-                          "(the module is looked up beside the experiment file, then on sys.path)") from exc
+                          f"{_import_advice(module_name, attribute, spec.search_path, exc)}") from exc
     target: Any = module
     for part in attribute.split("."):
         if not hasattr(target, part):
-            raise PolicyError(f"{where}: module {module_name!r} has no attribute {attribute!r}")
+            public = [name for name in dir(target) if not name.startswith("_")]
+            raise PolicyError(f"{where}: module {module_name!r} has no attribute {attribute!r}"
+                              f"{did_you_mean(part, public)}")
         target = getattr(target, part)
     if not callable(target):
         raise PolicyError(f"{where}: {attribute!r} is not callable; name a class or a function that "
                           "returns a policy")
     return target  # type: ignore[no-any-return]
+
+
+def _import_advice(module_name: str, attribute: str, folder: str | None, exc: BaseException) -> str:
+    """What to do about a module that does not import: name it without ``.py``, or the module of
+    the folder closest to a misspelt name (the named module itself not found)."""
+    where = "(the module is looked up beside the experiment file, then on sys.path)"
+    missing = getattr(exc, "name", None) if isinstance(exc, ModuleNotFoundError) else None
+    if missing is None or not (module_name == missing or module_name.startswith(missing + ".")):
+        return where
+    if module_name.endswith(".py"):
+        return f"{where}; name the module without .py, e.g. '{module_name[:-3]}:{attribute}'"
+    close = did_you_mean(module_name, folder_modules(folder) if folder is not None else ())
+    return f"{where}{close}"
 
 
 def check_custom_policy(spec: PolicySpec) -> Policy:
@@ -136,8 +151,10 @@ def check_custom_policy(spec: PolicySpec) -> Policy:
     try:
         inspect.signature(factory).bind(**params)
     except TypeError as exc:
+        known = inspect.signature(factory).parameters
+        close = "".join(did_you_mean(name, known) for name in sorted(params) if name not in known)
         raise PolicyError(f"{spec.described}: its parameters {sorted(params)} do not fit its signature "
-                          f"{inspect.signature(factory)}: {exc}") from None
+                          f"{inspect.signature(factory)}: {exc}{close}") from None
     except ValueError:  # no signature to inspect (a builtin): calling it will tell
         pass
     policy = _make(factory, params, spec)

@@ -1,0 +1,35 @@
+"""A misspelt factory or parameter of a researcher's policy is one Error line with a "did you mean"
+(docs/policies.md, 'When something is wrong'); a module named with its file's ``.py`` is told to
+name the module."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from policy_helpers import policy_experiment
+
+from tests.test_custom_policy import GOOD, _one_error_line, _simulate
+
+
+def _experiment(tmp_path: Path, factory: str, params: str = "{}") -> Path:
+    return policy_experiment(tmp_path, {"mine": factory}, params={"mine": params},
+                             modules={"mypol/__init__.py": "", "mypol/turns.py": GOOD})
+
+
+@pytest.mark.parametrize(("factory", "words"), [
+    ("mypol.turn:Mine", ["cannot import module 'mypol.turn'", "did you mean 'mypol.turns'?"]),
+    ("mypol.turns:Mien", ["has no attribute 'Mien'", "did you mean 'Mine'?"]),
+    ("mypol.turns.py:Mine", ["cannot import module 'mypol.turns.py'", "name the module without .py",
+                             "'mypol.turns:Mine'"]),
+])
+def test_a_misspelt_factory_gets_its_did_you_mean(tmp_path, factory, words):
+    out, result = _simulate(tmp_path, _experiment(tmp_path, factory))
+    _one_error_line(result, f"condition 'mine' (policy {factory})", *words)
+    assert not out.exists()
+
+
+def test_a_misspelt_parameter_gets_its_did_you_mean(tmp_path):
+    out, result = _simulate(tmp_path, _experiment(tmp_path, "mypol.turns:Mine", "{ wieght = 0.3 }"))
+    _one_error_line(result, "condition 'mine'", "do not fit its signature", "did you mean 'weight'?")
+    assert not out.exists()
