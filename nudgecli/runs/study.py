@@ -50,11 +50,14 @@ from nudgecli.sim.counterbalance import design_record
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, keep_copy, people_of
 from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
+from nudgecli.sim.policy_files import SOURCES_KEY as POLICY_SOURCES_KEY
 from nudgecli.sim.policy_files import (
     check_copies_placeable,
     check_same_policy_files,
+    check_same_policy_sources,
     keep_policy_copies,
     loaded_policy_files,
+    outside_policy_sources,
     policy_record,
 )
 from nudgecli.sim.policy_registry import checked_policy_specs, constant_metrics_of
@@ -390,6 +393,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     check_physiology_logs(config)
     people = people_of(people)  # a bad people file is refused before the folder is touched
     policy_files = loaded_policy_files(config)  # the policy code the run keeps a copy of
+    sources = outside_policy_sources(config)  # and the digests of what it imports from elsewhere
     checked_policy_specs(config)  # a value the policy refuses: refused before the folder is touched
     if plan is not None:  # refused before anything is simulated or written
         checked_plan(plan, [config])
@@ -397,7 +401,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     try:
         with run_lock(out, log=log):
             return _run_locked(RunFolder(out), config, seed, n, workers, scheduler, client, resume, force,
-                               progress, plan, people, policy_files, log)
+                               progress, plan, people, policy_files, log, sources)
     except BaseException:
         if client is not None:
             client.close()
@@ -408,11 +412,12 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                 scheduler: str | None, client: Any, resume: bool, force: bool,
                 progress: Callable[[int, int], None] | None, plan_name: str | None,
                 people: People | None = None, policy_files: Mapping[str, bytes] | None = None,
-                log: Callable[[str], None] | None = None) -> StudyRun:
+                log: Callable[[str], None] | None = None,
+                sources: Mapping[str, str] | None = None) -> StudyRun:
     """:func:`run_study` once the folder's lock is held (``client``: the connected dask client, or None)."""
     policy_files = _placeable_copies(folder, policy_files or {})  # before the folder is touched
     mode = folder.prepare(config, seed, n, resume=resume, force=force, log=log)
-    _keep_inputs(folder, mode == "resume", config, people, policy_files, log)
+    _keep_inputs(folder, mode == "resume", config, people, policy_files, log, sources or {})
     done = set(folder.completed_participants()) & set(range(n)) if mode == "resume" else set()
     if mode == "resume":
         done -= _unvouched_participants(folder, done, log)
@@ -432,8 +437,8 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                      CONSTANT_METRICS_KEY: {c: sorted(m) for c, m in constant_metrics_of(config).items()}})
     if people is not None:
         manifest[PEOPLE_KEY] = people.record()
-    if policy_files:
-        manifest[POLICY_FILES_KEY] = policy_record(policy_files)
+    manifest.update({POLICY_FILES_KEY: policy_record(policy_files)} if policy_files else {})
+    manifest.update({POLICY_SOURCES_KEY: dict(sources)} if sources else {})
     if plan_name is not None or "plan" not in manifest:
         manifest["plan"] = resolve_plan(plan_name, experiment=config.experiment.name, world=config.world.kind)
     manifest[FILE_CHECKSUMS] = {LAYOUTS: folder.write_layouts(plan.layouts_frame())}  # read back by plot
@@ -508,17 +513,21 @@ def _placeable_copies(folder: RunFolder, policy_files: Mapping[str, bytes]) -> M
 
 
 def _keep_inputs(folder: RunFolder, resuming: bool, config: ExperimentConfig, people: People | None,
-                 policy_files: Mapping[str, bytes], log: Callable[[str], None] | None = None) -> None:
+                 policy_files: Mapping[str, bytes], log: Callable[[str], None] | None = None,
+                 sources: Mapping[str, str] | None = None) -> None:
     """Refuse a resume with other people or other policy code than the run was simulated with, then
     keep exact copies of both in the run folder: its resume command names the people file's copy,
     and its ``config.toml`` imports the policy modules' copies (``policy_files``:
     :func:`~nudgecli.sim.policy_files.loaded_policy_files`); then tell ``log`` the people (and
-    physiology logs) no participant takes (the folder prepared: a refusal is its one error line)."""
+    physiology logs) no participant takes (the folder prepared: a refusal is its one error line).
+    ``sources``: the digests of the policy modules imported from elsewhere
+    (:func:`~nudgecli.sim.policy_files.outside_policy_sources`), compared, not copied."""
     if resuming:
         recorded = folder.read_manifest()
         check_same_people(recorded.get(PEOPLE_KEY), people, folder.path)
         check_same_policy_files(recorded.get(POLICY_FILES_KEY), policy_files, config.policy_search_path,
                                 folder.path)
+        check_same_policy_sources(recorded.get(POLICY_SOURCES_KEY), sources or {}, folder.path)
     keep_copy(people, folder.path)
     keep_policy_copies(policy_files, folder.path)
     if log is not None:

@@ -10,26 +10,36 @@ interrupted run prints (``nudge simulate R/config.toml --out R ... --resume``) w
 folder. A resume whose modules differ from the recorded ones is refused naming the file: its
 trials would be a mix of two policies. This is the people file's rule
 (:func:`nudgecli.sim.people_file.keep_copy`) for policy code.
+
+A factory imported from elsewhere (a module on ``sys.path``, a class of the calling script,
+``__main__``) is not copied: the manifest records its SHA-256 only (:data:`SOURCES_KEY`, the
+module's file, or the class's source in ``__main__``), and a resume with another one is refused
+the same way (:func:`check_same_policy_sources`).
 """
 
 from __future__ import annotations
 
 import contextlib
 import hashlib
+import inspect
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from nudgecli.errors import ConfigError, DataError, RunFolderError
+from nudgecli.errors import ConfigError, DataError, PolicyError, RunFolderError
 from nudgecli.run_folder_names import FIGURES_DIR, PART_KINDS, PEOPLE_DIR
-from nudgecli.sim.policy_loader import imported_files, remove_cached_bytecode
-from nudgecli.sim.policy_registry import load_factory, policy_specs
+from nudgecli.sim.policy_loader import imported_files, module_file, remove_cached_bytecode
+from nudgecli.sim.policy_registry import PolicySpec, load_factory, policy_specs
 
 if TYPE_CHECKING:
     from nudgecli.config import ExperimentConfig
 
 #: The manifest's record of the copies: ``{relative path: SHA-256}``.
 MANIFEST_KEY = "policy_files"
+#: The manifest's record of the factories imported from elsewhere: ``{module: SHA-256 of its file}``,
+#: ``{"__main__:Attr": SHA-256 of its source}`` for one of the calling script.
+SOURCES_KEY = "policy_sources"
 #: The run folder's own folders, which a policy package of the same name would write into.
 RUN_FOLDERS = frozenset({PEOPLE_DIR, FIGURES_DIR, "calibration", *PART_KINDS})
 
@@ -58,7 +68,7 @@ def loaded_policy_files(config: ExperimentConfig, own_folders: frozenset[str] = 
     if folder is None or not specs:
         return {}
     for spec in specs:
-        load_factory(spec)
+        _load(spec)
     base = Path(folder).resolve()
     files: dict[str, bytes] = {}
     for path in imported_files(folder):
@@ -73,6 +83,76 @@ def loaded_policy_files(config: ExperimentConfig, own_folders: frozenset[str] = 
                               "module) in the experiment's folder")
         files[relative.as_posix()] = path.read_bytes()
     return files
+
+
+def _load(spec: PolicySpec) -> object:
+    """:func:`load_factory`; a factory of ``__main__`` that is not there says where it can run."""
+    try:
+        return load_factory(spec)
+    except PolicyError as exc:
+        if spec.factory.partition(":")[0] != "__main__":
+            raise
+        raise PolicyError(f"{exc}: a policy of the calling script (__main__) exists only while that script "
+                          "runs; resume the run from the script that started it (nudgecli.simulate(..., "
+                          "resume=True)), or move the policy into a module beside the experiment file "
+                          "(docs/policies.md)") from exc
+
+
+def outside_policy_sources(config: ExperimentConfig) -> dict[str, str]:
+    """The manifest's :data:`SOURCES_KEY` entry: the experiment's own factories whose module is not
+    in its folder (so not copied, :func:`loaded_policy_files`), each module -> the SHA-256 of its
+    file; a factory of ``__main__`` (the calling script) as ``__main__:Attr`` -> the SHA-256 of its
+    source (``inspect.getsource``; ``"unknown"`` where Python has none). Empty without such."""
+    record: dict[str, str] = {}
+    for spec in policy_specs(config):
+        factory = _load(spec)
+        name = spec.factory.partition(":")[0]
+        if config.policy_search_path is not None and module_file(config.policy_search_path, name) is not None:
+            continue
+        if name == "__main__":
+            try:
+                source = inspect.getsource(factory)  # type: ignore[arg-type]
+            except (OSError, TypeError):
+                record[spec.factory] = "unknown"
+                continue
+            record[spec.factory] = hashlib.sha256(source.encode()).hexdigest()
+            continue
+        path = getattr(sys.modules.get(name), "__file__", None)
+        if path is not None and Path(path).is_file():
+            record[name] = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    return dict(sorted(record.items()))
+
+
+def check_same_policy_sources(recorded: object, now: Mapping[str, str], where: str | Path) -> None:
+    """Refuse to resume the run ``where`` when a factory imported from outside the experiment's
+    folder (:func:`outside_policy_sources`) is not the one it was simulated with; ``recorded`` not a
+    mapping (a run of an older nudge, or one without such factories): nothing to compare.
+
+    Raises
+    ------
+    DataError
+        The first module (by name) whose SHA-256 differs, or that one side lacks.
+    """
+    if not isinstance(recorded, Mapping):
+        return
+    for name in sorted({*map(str, recorded), *now}):
+        if recorded.get(name) == now.get(name) != "unknown":
+            continue
+        module = sys.modules.get(name.partition(":")[0])
+        shown = getattr(module, "__file__", None) or name
+        if name.startswith("__main__:"):
+            what = (f"{name}, the calling script's policy, has no source Python can show, so {where} cannot "
+                    "check it is the one it was simulated with" if now.get(name) == "unknown" else
+                    f"{name} ({shown}) is not the policy {where} was simulated with (its source's SHA-256 "
+                    "differs from the manifest's)")
+        elif name not in now:
+            what = (f"{where} was simulated with the policy module {name}, which its experiment no longer "
+                    "imports")
+        else:
+            what = (f"{shown} is not the policy module {where} was simulated with (its SHA-256 differs from "
+                    "the manifest's; nudge keeps no copy of a module imported from sys.path)")
+        raise DataError(f"{what}: resuming would mix two policies in one run; put the module back as it "
+                        "was and resume, or start again with --force")
 
 
 def policy_record(files: Mapping[str, bytes]) -> dict[str, str]:
