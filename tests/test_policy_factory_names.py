@@ -33,3 +33,28 @@ def test_a_misspelt_parameter_gets_its_did_you_mean(tmp_path):
     out, result = _simulate(tmp_path, _experiment(tmp_path, "mypol.turns:Mine", "{ wieght = 0.3 }"))
     _one_error_line(result, "condition 'mine'", "do not fit its signature", "did you mean 'weight'?")
     assert not out.exists()
+
+
+# --- a module of the folder importing another absolutely: the folder is not on sys.path -----------
+
+@pytest.mark.parametrize(("line", "relative"), [
+    ("from mypol.common import W", "from .common import W"),
+    ("import mypol.common", "from . import common"),
+    ("from common import W", "from ..common import W"),
+])
+def test_an_absolute_import_of_a_sibling_module_is_told_its_relative_form(tmp_path, line, relative):
+    experiment = policy_experiment(tmp_path, {"mine": "mypol.quiet:Mine"}, modules={
+        "mypol/__init__.py": "", "mypol/common.py": "W = 1\n", "common.py": "W = 1\n",
+        "mypol/quiet.py": f"{line}\n{GOOD}"})
+    out, result = _simulate(tmp_path, experiment)
+    _one_error_line(result, "cannot import module 'mypol.quiet'", f"mypol/quiet.py line 1 ({line})",
+                    "the experiment's folder is not on sys.path", f"import it relatively: {relative}")
+    assert not out.exists()
+
+
+def test_the_relative_form_imports(tmp_path):
+    experiment = policy_experiment(tmp_path, {"mine": "mypol.quiet:Mine"}, modules={
+        "mypol/__init__.py": "", "mypol/common.py": "W = 1\n",
+        "mypol/quiet.py": f"from .common import W\n{GOOD}"})
+    _, result = _simulate(tmp_path, experiment)
+    assert result.exit_code == 0, result.output

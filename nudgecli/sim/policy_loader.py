@@ -26,8 +26,10 @@ import importlib
 import importlib.machinery
 import importlib.util
 import os
+import re
 import sys
 import threading
+import traceback
 from pathlib import Path
 from types import ModuleType
 
@@ -91,6 +93,38 @@ def module_file(folder: str, module_name: str) -> Path | None:
         if candidate.is_file():
             return candidate
     return None
+
+
+def sibling_import_advice(exc: ModuleNotFoundError, folder: str) -> str:
+    """Where a module of ``folder`` imports another of the folder absolutely (``from mypol.common
+    import W`` in ``mypol/quiet.py``), which the folder not on ``sys.path`` does not find: the
+    file and line that failed and its relative form (``from .common import W``); ``""`` for any
+    other missing module."""
+    missing = exc.name or ""
+    if module_file(folder, missing) is None:
+        return ""
+    root = Path(folder).resolve()
+    frames = [frame for frame in traceback.extract_tb(exc.__traceback__)
+              if Path(frame.filename).resolve().is_relative_to(root)]
+    if not frames:
+        return ""
+    frame = frames[-1]
+    source = Path(frame.filename).resolve().relative_to(root)
+    package = list(source.parent.parts)
+    line = (frame.line or "").strip()
+    found = re.fullmatch(r"from\s+([\w.]+)\s+import\s+(.+)", line)
+    plain = re.fullmatch(r"import\s+([\w.]+)(\s+as\s+\w+)?", line)
+    named = found or plain
+    target = (named.group(1) if named else missing).split(".")
+    shared = 0
+    while shared < min(len(package), len(target)) and package[shared] == target[shared]:
+        shared += 1
+    dots = "." * (len(package) - shared + 1)
+    rest = target[shared:]
+    names = found.group(2) if found else rest.pop() if rest else "..."
+    relative = f"from {dots}{'.'.join(rest)} import {names}"
+    return (f"; {source.as_posix()} line {frame.lineno} ({line}) imports the folder's module {missing!r} "
+            f"absolutely: the experiment's folder is not on sys.path, import it relatively: {relative}")
 
 
 def folder_modules(folder: str, depth: int = 3) -> list[str]:

@@ -40,7 +40,12 @@ from nudgecli.sim.policy_interface import (
     checked_command,
     checked_pose,
 )
-from nudgecli.sim.policy_loader import folder_modules, import_policy_module
+from nudgecli.sim.policy_loader import (
+    folder_modules,
+    import_policy_module,
+    module_file,
+    sibling_import_advice,
+)
 
 if TYPE_CHECKING:
     from nudgecli.config import ExperimentConfig
@@ -121,11 +126,17 @@ def load_factory(spec: PolicySpec, *, reload_changed: bool = True) -> Callable[.
 
 
 def _import_advice(module_name: str, attribute: str, folder: str | None, exc: BaseException) -> str:
-    """What to do about a module that does not import: name it without ``.py``, or the module of
-    the folder closest to a misspelt name (the named module itself not found)."""
+    """What to do about a module that does not import: an absolute import of the folder's own
+    module inside it made relative, a module named without ``.py``, or the module of the folder
+    closest to a misspelt name (the named module itself not found)."""
     where = "(the module is looked up beside the experiment file, then on sys.path)"
     missing = getattr(exc, "name", None) if isinstance(exc, ModuleNotFoundError) else None
-    if missing is None or not (module_name == missing or module_name.startswith(missing + ".")):
+    if missing is None:
+        return where
+    found_in_folder = folder is not None and module_file(folder, module_name) is not None
+    if folder is not None and found_in_folder and isinstance(exc, ModuleNotFoundError):  # an import in it
+        return where + sibling_import_advice(exc, folder)
+    if not (module_name == missing or module_name.startswith(missing + ".")):
         return where
     if module_name.endswith(".py"):
         return f"{where}; name the module without .py, e.g. '{module_name[:-3]}:{attribute}'"
