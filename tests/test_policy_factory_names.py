@@ -58,3 +58,19 @@ def test_the_relative_form_imports(tmp_path):
         "mypol/quiet.py": f"from .common import W\n{GOOD}"})
     _, result = _simulate(tmp_path, experiment)
     assert result.exit_code == 0, result.output
+
+
+# --- a [policies.NAME] section no condition names: a note, not an error --------------------------
+
+def test_a_policy_section_no_condition_names_is_one_note(tmp_path):
+    from nudgecli.config import load_experiment
+    from nudgecli.sim.policy_registry import unused_policy_notes
+
+    experiment = policy_experiment(tmp_path, {"mine": "mypol.turns:Mine", "spare": "nowhere:Broken"},
+                                   conditions=["control", "mine"],
+                                   modules={"mypol/__init__.py": "", "mypol/turns.py": GOOD})
+    config = load_experiment(str(experiment))
+    assert unused_policy_notes(config) == (
+        "[policies.spare] (nowhere:Broken) is not in study.conditions, so not run (nor imported or "
+        "checked); list it in study.conditions to run it",)
+    assert unused_policy_notes(load_experiment(str(experiment), ['study.conditions=["mine", "spare"]'])) == ()

@@ -340,6 +340,20 @@ def policy_specs(config: ExperimentConfig) -> tuple[PolicySpec, ...]:
                  for name in config.study.conditions if name in own)
 
 
+def unused_policy_notes(config: ExperimentConfig) -> tuple[str, ...]:
+    """A note naming the experiment's ``[policies.NAME]`` sections that no condition it runs names
+    (:func:`run_conditions`): they are neither imported nor checked. A note, not an error: a
+    ``--set study.conditions=...`` or a sweep may rightly leave a policy out."""
+    own = config.policies or {}
+    unused = [name for name in own if name not in run_conditions(config)]
+    if not unused:
+        return ()
+    sections = ", ".join(f"[policies.{name}] ({own[name].factory})" for name in unused)
+    verb = "is" if len(unused) == 1 else "are"
+    return (f"{sections} {verb} not in study.conditions, so not run (nor imported or checked); "
+            "list it in study.conditions to run it",)
+
+
 def checked_policy_specs(config: ExperimentConfig) -> tuple[PolicySpec, ...]:
     """:func:`policy_specs`, each imported, made once and checked (:func:`check_custom_policy`), so
     a policy that cannot run is refused before any work starts: the one check of ``nudge simulate``
