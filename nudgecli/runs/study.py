@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.config_files import problem_words, resolve_plan
-from nudgecli.errors import ConfigError, NudgeError
+from nudgecli.errors import ConfigError, NudgeError, PolicyError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.recording_digests import recordings
@@ -57,6 +57,8 @@ from nudgecli.sim.policy_files import (
     check_same_policy_sources,
     keep_policy_copies,
     loaded_policy_files,
+    missing_copies,
+    missing_copy_error,
     outside_policy_sources,
     policy_record,
 )
@@ -392,7 +394,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     config = config.model_copy(update={"experiment": config.experiment.model_copy(update={"seed": seed})})
     check_physiology_logs(config)
     people = people_of(people)  # a bad people file is refused before the folder is touched
-    policy_files = loaded_policy_files(config)  # the policy code the run keeps a copy of
+    policy_files = _loaded_policy_files(config, out)  # the policy code the run keeps a copy of
     sources = outside_policy_sources(config)  # and the digests of what it imports from elsewhere
     checked_policy_specs(config)  # a value the policy refuses: refused before the folder is touched
     if plan is not None:  # refused before anything is simulated or written
@@ -499,6 +501,23 @@ def _unvouched_participants(folder: RunFolder, done: set[int], log: Callable[[st
         log(f"Warning: {folder.path}: {listed}: not vouched for by the manifest (not as this run wrote "
             f"them); simulating participant(s) {', '.join(map(str, sorted(unvouched)))} again")
     return set(unvouched)
+
+
+def _loaded_policy_files(config: ExperimentConfig, out: Path) -> dict[str, bytes]:
+    """:func:`~nudgecli.sim.policy_files.loaded_policy_files`; a module that does not import because
+    it is the run ``out``'s own copy, deleted (a resume from ``out/config.toml``), says so."""
+    try:
+        return loaded_policy_files(config)
+    except PolicyError as exc:
+        folder, missing = RunFolder(out), []
+        if config.policy_search_path is None or not folder.is_run() or \
+                Path(config.policy_search_path).resolve() != folder.path.resolve():
+            raise
+        with contextlib.suppress(NudgeError, OSError):
+            missing = missing_copies(folder.read_manifest().get(POLICY_FILES_KEY), folder.path)
+        if not missing:
+            raise
+        raise missing_copy_error(missing[0], folder.path) from exc
 
 
 def _placeable_copies(folder: RunFolder, policy_files: Mapping[str, bytes]) -> Mapping[str, bytes]:

@@ -187,6 +187,9 @@ def check_same_policy_files(recorded: object, files: Mapping[str, bytes], source
     """
     if not isinstance(recorded, Mapping):
         return
+    missing = missing_copies(recorded, where)
+    if missing and _same_path(Path(source or "."), Path(where)):  # resumed from the run's own copies
+        raise missing_copy_error(missing[0], where, kind)
     now = policy_record(files)
     for name in sorted({*map(str, recorded), *now}):
         if recorded.get(name) == now.get(name):
@@ -210,6 +213,26 @@ def check_same_policy_files(recorded: object, files: Mapping[str, bytes], source
             fix = f"put the file back as it was (copy it from the {kind}'s copy, {copy}) and {how}"
         raise DataError(f"{what}: resuming would mix two policies in one {kind}; {fix}, or start again "
                         "with --force")
+
+
+def missing_copies(recorded: object, where: str | Path) -> list[str]:
+    """The policy copies the manifest's :data:`MANIFEST_KEY` entry ``recorded`` lists that are not
+    in the folder ``where`` (deleted), by their relative path."""
+    if not isinstance(recorded, Mapping):
+        return []
+    return [name for name in sorted(map(str, recorded)) if not (Path(where) / name).is_file()]
+
+
+def missing_copy_error(name: str, where: str | Path, kind: str = "run") -> DataError:
+    """The error of a resume of the run (the batch) ``where`` whose copy of the policy module
+    ``name`` is gone: say so and how to restore it."""
+    copy = Path(where) / name
+    how = (f" (nudge simulate EXPERIMENT --out {where} --resume, EXPERIMENT its experiment file)"
+           if kind == "run" else "")
+    return DataError(f"{copy}: the {kind}'s copy of its policy module {name} is missing; restore it by "
+                     f"resuming with the command that started the {kind}{how}, which imports the module "
+                     "from the experiment's own folder and writes the copy again, or copy the module back to "
+                     f"{copy}")
 
 
 def _same_path(a: Path, b: Path) -> bool:
