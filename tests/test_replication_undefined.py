@@ -95,3 +95,23 @@ def test_sobol_indices_of_an_output_constant_over_the_design_are_undefined() -> 
         point=range(len(samples)), metric="success", a="x", b="y", y=0.25, replications=3)
     morris = sensitivity("morris", problem, samples, outputs, levels=4).set_index("index")
     assert (morris.loc[["mu_star", "sigma", "mu"], "value"] == 0).all()
+
+
+def test_a_pair_holding_a_condition_left_out_of_a_metric_carries_no_kruskal_p() -> None:
+    from nudgecli.report.plans import AnalysisPlan
+    from nudgecli.report.replication import analyse_replication, replication_rows
+
+    rng = np.random.default_rng(4)
+    trials = pd.DataFrame([{"participant": p, "condition": c, "trial": t,
+                            "human_turns": float(rng.integers(0, 5)) + (2.0 if c == "x" else 0.0)}
+                           for p in range(8) for c in ("x", "y", "teleoperation") for t in range(4)])
+    plan = AnalysisPlan(conditions=("x", "y", "teleoperation"), bootstrap={"resamples": 100})
+    document = analyse_replication(trials, plan, ["human_turns"],
+                                   not_applicable={"human_turns": ["teleoperation"]})
+    entries = pd.DataFrame([{"point": 0, "replication": 0, "seed": 0, "participants": 8, "analysis": "s"}])
+    rows = replication_rows(entries, {"s": document}, plan).set_index(["a", "b"])
+    assert rows.loc[("x", "y"), "kruskal_p"] < 0.05
+    for pair in (("x", "teleoperation"), ("y", "teleoperation")):
+        assert np.isnan(rows.loc[pair, "conover_p"]) and np.isnan(rows.loc[pair, "kruskal_p"]), pair
+    summary = summarise(rows.reset_index()).set_index(["a", "b"])
+    assert np.isnan(summary.loc[("x", "teleoperation"), "median_kruskal_p"])

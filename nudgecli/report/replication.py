@@ -134,7 +134,8 @@ def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
         effect_size_name, effect_size, trial_significant, trial_direction,
         participant_significant, participant_direction``; ``participant_p`` and the effect size
         are the pair's (its post-hoc Wilcoxon test and rank-biserial r with more than two
-        conditions).
+        conditions); every p is NaN for a pair holding a condition left out of the metric's tests
+        (:mod:`nudgecli.report.not_applicable`), Kruskal-Wallis' too (it compared the others).
     """
     alpha, comparison = plan.stats.kruskal_alpha, plan.stats.star_comparison
     rows = []
@@ -145,6 +146,8 @@ def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
             if "pairwise_p" in row:  # more than two conditions: the pair's post-hoc test, not the omnibus
                 row.update(participant_p=row["pairwise_p"], effect_size_name=row["pairwise_effect_size_name"],
                            effect_size=row["pairwise_effect_size"])
+            if pd.isna(row["n_a"]) or pd.isna(row["n_b"]):  # a condition the tests left out of the metric
+                row["kruskal_p"] = math.nan  # Kruskal-Wallis compared the others: not this pair's test
             trial_sign = trial_direction(row)
             rows.append({
                 "point": entry["point"], "replication": entry["replication"], "seed": entry["seed"],
