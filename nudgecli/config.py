@@ -16,6 +16,7 @@ from __future__ import annotations
 import functools
 import json
 import math
+import re
 import tomllib
 from typing import Annotated, Any, Literal, TypeVar, cast
 
@@ -349,8 +350,22 @@ class CustomPolicySection(Section):
     (``nudgecli.sim.policy_interface.Policy``; docs/policies.md).
     """
 
-    factory: str = Field(min_length=3, pattern=r"^[A-Za-z_][\w.]*:[A-Za-z_][\w.]*$")
+    factory: str
     params: dict[str, Any] = Field(default_factory=dict)
+
+    @field_validator("factory")
+    @classmethod
+    def _module_and_attribute(cls, factory: str) -> str:
+        if _FACTORY.fullmatch(factory):
+            return factory
+        # the likeliest meaning of what was written: a path, a .py name or a dotted name
+        module, _, name = factory.replace("/", ".").removesuffix(".py").rpartition(":")
+        if not module and "." in name:
+            module, _, name = name.rpartition(".")
+        guess = f"{module.removesuffix('.py')}:{name}"
+        example = guess if _FACTORY.fullmatch(guess) else "mypolicies:Mine"
+        raise ValueError(f"{factory!r} does not name a policy as module:attribute (the module's dotted "
+                         f"import name, a colon, the class or function); e.g. {example!r}")
 
     @field_validator("params")
     @classmethod
@@ -361,6 +376,10 @@ class CustomPolicySection(Section):
                 raise ValueError(f"{name} = {value}: a policy's parameters are finite numbers (the run "
                                  "folder records them as JSON, which has no nan or inf); give a number")
         return params
+
+
+#: A policy's factory: ``module:attribute``, the module's dotted import name.
+_FACTORY = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_][\w.]*")
 
 
 def _all_finite(value: Any) -> bool:
