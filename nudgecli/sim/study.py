@@ -37,6 +37,7 @@ from nudgecli.sim.counterbalance import participant_order
 from nudgecli.sim.participant_fitting import participant_from_log
 from nudgecli.sim.participants import Participant, draw_participant
 from nudgecli.sim.people_file import People
+from nudgecli.sim.policy_registry import unused_policy_notes
 from nudgecli.sim.protocol import ProtocolSettings, TrialSpec
 from nudgecli.sim.step_record import StepRecording, step_columns
 from nudgecli.sim.trials import TrialResult, run_trial, run_world_trial
@@ -324,8 +325,10 @@ def check_physiology_logs(config: ExperimentConfig) -> None:
 def left_out_notes(config: ExperimentConfig, participants: int, people: People | None = None, *,
                    study: str = "the study", fix: str = "--participants {}") -> tuple[str, ...]:
     """What a study of ``participants`` leaves out of its inputs, a note each: the people of a people
-    file past the first ``participants`` (participant ``i`` is person ``i mod P``) and the
-    ``population.physiology_logs`` folders past them (participant ``k`` takes the ``k``-th).
+    file past the first ``participants`` (participant ``i`` is person ``i mod P``), the
+    ``population.physiology_logs`` folders past them (participant ``k`` takes the ``k``-th) and the
+    ``[policies.NAME]`` sections no condition runs
+    (:func:`~nudgecli.sim.policy_registry.unused_policy_notes`).
 
     A note, not an error: a power curve's smaller studies rightly take the first ones. ``study``
     names the study of ``participants`` (``"the largest study"``); ``fix`` is the option that
@@ -344,7 +347,7 @@ def left_out_notes(config: ExperimentConfig, participants: int, people: People |
             verb = "is" if len(left) == 1 else "are"
             notes.append(f"{has}; {study} simulates {participants}, so {shown} {verb} left out; "
                          f"{fix.format(len(named))} simulates all")
-    return tuple(notes)
+    return (*notes, *unused_policy_notes(config))
 
 
 #: The cyclic garbage collector's first threshold during a participant's trials (Python's is 700).
