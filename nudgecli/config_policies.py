@@ -1,0 +1,64 @@
+"""``[policies.NAME]``: a condition that runs a researcher's own policy (docs/policies.md): its
+factory named ``module:attribute`` and its parameters, finite numbers."""
+
+from __future__ import annotations
+
+import math
+import re
+from typing import Any
+
+from pydantic import Field, field_validator
+
+from nudgecli.config_base import Section
+
+
+class CustomPolicySection(Section):
+    """``[policies.NAME]``: a condition ``NAME`` that runs a researcher's own policy.
+
+    ``factory`` names it as ``module:attribute`` (the module is imported from the experiment file's
+    folder, then from ``sys.path``); the attribute is called with ``params`` as keyword arguments
+    once per trial and returns an object with the policy interface
+    (``nudgecli.sim.policy_interface.Policy``; docs/policies.md).
+    """
+
+    factory: str
+    params: dict[str, Any] = Field(default_factory=dict)
+
+    @field_validator("factory")
+    @classmethod
+    def _module_and_attribute(cls, factory: str) -> str:
+        if _FACTORY.fullmatch(factory):
+            return factory
+        # the likeliest meaning of what was written: a path, a .py name or a dotted name
+        module, _, name = factory.replace("/", ".").removesuffix(".py").rpartition(":")
+        if not module and "." in name:
+            module, _, name = name.rpartition(".")
+        guess = f"{module.removesuffix('.py')}:{name}"
+        example = guess if _FACTORY.fullmatch(guess) else "mypolicies:Mine"
+        raise ValueError(f"{factory!r} does not name a policy as module:attribute (the module's dotted "
+                         f"import name, a colon, the class or function); e.g. {example!r}")
+
+    @field_validator("params")
+    @classmethod
+    def _finite_numbers(cls, params: dict[str, Any]) -> dict[str, Any]:
+        # a run folder records them in config.toml and manifest.json, whose JSON has no nan or inf
+        for name, value in params.items():
+            if not _all_finite(value):
+                raise ValueError(f"{name} = {value}: a policy's parameters are finite numbers (the run "
+                                 "folder records them as JSON, which has no nan or inf); give a number")
+        return params
+
+
+#: A policy's factory: ``module:attribute``, the module's dotted import name.
+_FACTORY = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_][\w.]*")
+
+
+def _all_finite(value: Any) -> bool:
+    """Whether every float in a TOML value (a number, or a list or table of them) is finite."""
+    if isinstance(value, float):
+        return math.isfinite(value)
+    if isinstance(value, list | tuple):
+        return all(_all_finite(v) for v in value)
+    if isinstance(value, dict):
+        return all(_all_finite(v) for v in value.values())
+    return True
