@@ -50,17 +50,15 @@ from nudgecli.sim.counterbalance import design_record
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, keep_copy, people_of
 from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
-from nudgecli.sim.policy_files import SOURCES_KEY as POLICY_SOURCES_KEY
 from nudgecli.sim.policy_files import (
     check_copies_placeable,
-    check_same_policy_files,
-    check_same_policy_sources,
+    check_resumed_policies,
     keep_policy_copies,
     loaded_policy_files,
     missing_copies,
     missing_copy_error,
     outside_policy_sources,
-    policy_record,
+    record_policies,
 )
 from nudgecli.sim.policy_registry import checked_policy_specs, constant_metrics_of
 from nudgecli.sim.study import (
@@ -439,8 +437,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                      CONSTANT_METRICS_KEY: {c: sorted(m) for c, m in constant_metrics_of(config).items()}})
     if people is not None:
         manifest[PEOPLE_KEY] = people.record()
-    manifest.update({POLICY_FILES_KEY: policy_record(policy_files)} if policy_files else {})
-    manifest.update({POLICY_SOURCES_KEY: dict(sources)} if sources else {})
+    record_policies(manifest, policy_files, sources or {})
     if plan_name is not None or "plan" not in manifest:
         manifest["plan"] = resolve_plan(plan_name, experiment=config.experiment.name, world=config.world.kind)
     manifest[FILE_CHECKSUMS] = {LAYOUTS: folder.write_layouts(plan.layouts_frame())}  # read back by plot
@@ -541,16 +538,17 @@ def _keep_inputs(folder: RunFolder, resuming: bool, config: ExperimentConfig, pe
     physiology logs) no participant takes (the folder prepared: a refusal is its one error line).
     ``sources``: the digests of the policy modules imported from elsewhere
     (:func:`~nudgecli.sim.policy_files.outside_policy_sources`), compared, not copied."""
+    notes: list[str] = []
     if resuming:
         recorded = folder.read_manifest()
         check_same_people(recorded.get(PEOPLE_KEY), people, folder.path)
-        check_same_policy_files(recorded.get(POLICY_FILES_KEY), policy_files, config.policy_search_path,
-                                folder.path)
-        check_same_policy_sources(recorded.get(POLICY_SOURCES_KEY), sources or {}, folder.path)
+        started = bool(recorded.get("completed")) or folder.has_completed_participant()
+        notes = check_resumed_policies(recorded, policy_files, sources or {}, config.policy_search_path,
+                                       folder.path, started)
     keep_copy(people, folder.path)
     keep_policy_copies(policy_files, folder.path)
     if log is not None:
-        for note in left_out_notes(config, config.study.participants, people):
+        for note in [*notes, *left_out_notes(config, config.study.participants, people)]:
             log(f"Note: {note}")
 
 

@@ -25,7 +25,7 @@ import inspect
 import sys
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from nudgecli.errors import ConfigError, DataError, PolicyError, RunFolderError
 from nudgecli.run_folder_names import FIGURES_DIR, PART_KINDS, PEOPLE_DIR
@@ -153,6 +153,39 @@ def check_same_policy_sources(recorded: object, now: Mapping[str, str], where: s
                     "the manifest's; nudge keeps no copy of a module imported from sys.path)")
         raise DataError(f"{what}: resuming would mix two policies in one run; put the module back as it "
                         "was and resume, or start again with --force")
+
+
+def record_policies(manifest: dict[str, Any], files: Mapping[str, bytes], sources: Mapping[str, str]) -> None:
+    """Set the manifest's :data:`MANIFEST_KEY` (:func:`policy_record` of ``files``) and
+    :data:`SOURCES_KEY` (``sources``, :func:`outside_policy_sources`) entries; either is left out
+    when empty (the paper's runs have neither)."""
+    for key, entry in ((MANIFEST_KEY, policy_record(files)), (SOURCES_KEY, dict(sources))):
+        if entry:
+            manifest[key] = entry
+        else:
+            manifest.pop(key, None)
+
+
+def check_resumed_policies(manifest: Mapping[str, Any], files: Mapping[str, bytes],
+                           sources: Mapping[str, str], source: str | None, where: str | Path,
+                           started: bool) -> list[str]:
+    """Refuse to resume the run ``where`` (its ``manifest``) with other policy code than it was
+    simulated with (:func:`check_same_policy_files`, :func:`check_same_policy_sources`) once a
+    participant has finished (``started``). Before, there is nothing to mix: the run takes the code
+    the experiment imports now (a policy that raised in the first participant, fixed), the copies it
+    no longer imports are removed, and the returned note (empty when nothing changed) says so.
+    """
+    if started:
+        check_same_policy_files(manifest.get(MANIFEST_KEY), files, source, where)
+        check_same_policy_sources(manifest.get(SOURCES_KEY), sources, where)
+        return []
+    recorded = manifest.get(MANIFEST_KEY)
+    if (recorded or {}) == policy_record(files) and (manifest.get(SOURCES_KEY) or {}) == dict(sources):
+        return []
+    if isinstance(recorded, Mapping):
+        remove_policy_copies(where, {name: digest for name, digest in recorded.items() if name not in files})
+    return [f"{where}: no participant had finished, so the run is resumed with its policy code as the "
+            "experiment imports it now (its copies replaced)"]
 
 
 def policy_record(files: Mapping[str, bytes]) -> dict[str, str]:
