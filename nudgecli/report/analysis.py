@@ -111,8 +111,7 @@ class AnalysisResult:
     questionnaires
         The questionnaire scores, if a questionnaire table was given.
     notes
-        What was excluded or changed (duplicates dropped, participants left out of a test),
-        one line each, for stderr.
+        What was excluded or changed (duplicates dropped, participants left out of a test), a line each.
     p_thresholds
         The plan's star thresholds and Kruskal-Wallis alpha, which a printed p-value must not be
         rounded across (:func:`nudgecli.report.summary.plan_p_thresholds`).
@@ -131,8 +130,7 @@ class AnalysisResult:
 
 def read_run(folder: str | Path, notes: list[str] | None = None
              ) -> tuple[pd.DataFrame, Callable[[int], pd.DataFrame | None]]:
-    """The trial table of a run folder and its step log one participant at a time (only the
-    columns the metrics use).
+    """The trial table of a run folder and its step log one participant at a time (the metrics' columns).
 
     With a manifest, exactly the parts of the participants it promises are read, each verified
     against the SHA-256 the manifest recorded (:meth:`nudgecli.store.RunFolder.read_table`);
@@ -413,9 +411,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     notes: list[str] = []
     run = RunFolder(source) if source.is_dir() else None
     manifest = run.read_manifest() if run is not None and run.is_run() else None
-    if plan_arg is None:
-        plan_arg = _recorded_plan(manifest)
-    plan = load_plan(plan_arg)
+    plan = load_plan(_recorded_plan(manifest) if plan_arg is None else plan_arg)
     table_read: dict[str, Any] | None = None  # what was done to a table's rows, for `nudge plot`
     # the source as seen from the output folder: no machine's path in what is written
     source_from_out = Path(os.path.relpath(source.resolve(), out_dir.resolve()))
@@ -428,8 +424,12 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         changed = dropped > 0
         table_read = table_read_record(sha256, len(table) + dropped, drop_duplicates, dropped,
                                        source_from_out, *analysed_inputs(out_dir, plan.label, questionnaires))
-    # before anything is recorded: a plan whose conditions are not the data's is refused
-    check_plan_conditions(plan, plan.label, table["condition"].astype(str).unique(), str(source))
+    try:  # before anything is recorded: a plan whose conditions are not the data's is refused
+        check_plan_conditions(plan, plan.label, table["condition"].astype(str).unique(), str(source))
+    except ConfigError as exc:  # the run's recorded plan, no --plan given: the fix `nudge run` gives
+        from nudgecli.runs.study import own_plan_advice
+        fix = own_plan_advice(table["condition"].astype(str).unique())
+        raise exc if plan_arg is not None else ConfigError(f"{exc}; no --plan was given: {fix}") from None
     if source.is_dir():
         _record_plan(run, manifest, plan, out_dir)
     _check_filters(plan, available)

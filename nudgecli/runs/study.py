@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import itertools
+import json
 import math
 import os
 import pickle
@@ -324,10 +325,14 @@ def checked_default_plan(config: ExperimentConfig) -> AnalysisPlan:
         why = ("it is the plan named like the experiment" if name == config.experiment.name else
                f"it is the plan of world.kind = {config.world.kind!r}" if name != "paper" else
                f"no analysis plan is named like experiment {config.experiment.name!r}, so it is the default")
-        conditions = ", ".join(f'"{c}"' for c in config.study.conditions)
-        raise ConfigError(f"{exc} ({why}); nothing was simulated: write a plan for these conditions (copy "
-                          f"the custom-policy plan, analysis/custom-policy.toml, with conditions = "
-                          f"[{conditions}]) and pass it with --plan PLAN.toml") from None
+        raise ConfigError(f"{exc} ({why}); nothing was simulated: "
+                          f"{own_plan_advice(config.study.conditions)}") from None
+
+
+def own_plan_advice(conditions: Sequence[str]) -> str:
+    """The fix of a default plan that cannot analyse ``conditions`` (nudge run; analyze without --plan)."""
+    return ("write a plan for these conditions (copy the custom-policy plan, analysis/custom-policy.toml, "
+            f"with conditions = {json.dumps(list(map(str, conditions)))}) and pass it with --plan PLAN.toml")
 
 
 def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, participants: int | None = None,
