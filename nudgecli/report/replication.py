@@ -146,8 +146,6 @@ def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
             if "pairwise_p" in row:  # more than two conditions: the pair's post-hoc test, not the omnibus
                 row.update(participant_p=row["pairwise_p"], effect_size_name=row["pairwise_effect_size_name"],
                            effect_size=row["pairwise_effect_size"])
-            if pd.isna(row["n_a"]) or pd.isna(row["n_b"]):  # a condition the tests left out of the metric
-                row["kruskal_p"] = math.nan  # Kruskal-Wallis compared the others: not this pair's test
             trial_sign = trial_direction(row)
             rows.append({
                 "point": entry["point"], "replication": entry["replication"], "seed": entry["seed"],

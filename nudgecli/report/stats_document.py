@@ -204,6 +204,11 @@ K_CONDITION_CSV_COLUMNS = (
 )
 
 
+#: The columns of a pair's row that are the metric's omnibus tests (of every compared condition),
+#: not the pair's own: missing for a pair holding a condition the tests left out.
+_OMNIBUS_COLUMNS = ("kruskal_statistic", "kruskal_p", "participant_statistic", "participant_p", "effect_size")
+
+
 def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
     """``stats.json`` as a tidy table: one row per metric x pair of conditions.
 
@@ -265,6 +270,10 @@ def stats_table(stats: dict[str, Any]) -> pd.DataFrame:
                 **(_pairwise_columns(entry, a, b) if many else {}),
             })
     table = pd.DataFrame(rows)
+    if "n_b" in table:
+        # a pair holding a condition left out of the metric: the omnibus tests compared the others
+        left_out = table["n_a"].isna() | table["n_b"].isna()
+        table.loc[left_out, [c for c in _OMNIBUS_COLUMNS if c in table]] = None
     for column in ("n_a", "n_b"):  # a count missing for a condition left out stays a count
         if column in table and table[column].isna().any():
             table[column] = table[column].astype("Int64")
