@@ -39,6 +39,7 @@ from tests.test_policy_view_readonly import _error_line, _session, _simulate
     ("view.assist_quiet(view, 5)", "AttributeError: a policy's view has no assist_quiet: "),
     # the trial's specification holds the true goal, which the agent never observes
     ("view.spec.true_goal", "AttributeError: a policy's view has no spec: "),
+    ("view.columns", "AttributeError: a policy's view has no columns: "),  # the session's step log
 ])
 def test_reaching_past_the_world_view_or_to_the_policy_is_one_policy_error_line(
         tmp_path: Path, statement: str, message: str) -> None:

@@ -94,8 +94,8 @@ class StepView(Protocol):
     initiated_at
         The step of the turn's first measured input, -1 before it.
     model
-        The agent's model of this participant in this layout (``p(phi_m | g, s)``), ``None`` for a
-        policy that does not infer.
+        The agent's model of this participant in this layout (``p(phi_m | g, s)``), whether the
+        policy infers or not (a criterion may read it); ``None`` where the trial has none.
     goal_transition
         ``(G, G)`` ``p(g_t | g_{t-1})`` of Eq. 6, or ``None`` for the identity (the paper's).
     rng
@@ -156,7 +156,7 @@ def _read_only_message(name: str) -> str:
 
 #: What a view never hands a policy, beside its source's methods: the records the source keeps of
 #: the trial (a list a policy could append to or clear).
-HIDDEN_RECORDS = ("rows", "pending_events")
+HIDDEN_RECORDS = ("rows", "pending_events", "columns")
 
 #: Nor the policy itself, or its hooks, as the source holds them (a policy is ``self`` to itself).
 HIDDEN_POLICY = ("policy", "choose_mode", "assist_quiet")
