@@ -168,7 +168,8 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     ------
     NudgeError
         Invalid source, plan, metric, questionnaire table or reference (``nudge``'s ``Error:`` line);
-        a folder this call made is removed again.
+        a folder this call made is removed again, and one given as ``out`` is left as it was
+        (a DataFrame's previous table there put back byte for byte).
     """
     import pandas as pd
 
@@ -208,19 +209,20 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
 
 def _analyze_frame(frame: pd.DataFrame, out: str | Path | None, options: dict[str, Any]) -> Analysis:
     """:func:`analyze` of a DataFrame: written as :data:`DATAFRAME_TABLE` into the analysis folder
-    (``out`` or a temporary one) and analysed from there."""
+    (``out`` or a temporary one) and analysed from there; on failure the folder is left as it was
+    (a previous analysis's table put back byte for byte)."""
     from pyarrow.lib import ArrowException
 
     from nudgecli.report.analysis import analyze as analyze_source
-    from nudgecli.store import write_parquet_atomic
+    from nudgecli.store import write_bytes_atomic, write_parquet_atomic
 
     temporary = out is None
     folder = temporary_folder("analysis") if out is None else Path(out)
     made = temporary or not folder.exists()
     table = folder / DATAFRAME_TABLE
-    had_table = table.exists()
     if folder.exists() and not folder.is_dir():
         raise DataError(f"--out {folder} is a file; give a folder")
+    previous = table.read_bytes() if table.is_file() else None  # put back if this analysis fails
     try:
         folder.mkdir(parents=True, exist_ok=True)
         try:
@@ -235,7 +237,9 @@ def _analyze_frame(frame: pd.DataFrame, out: str | Path | None, options: dict[st
     except BaseException:
         if made:
             remove_if_made(folder, True)
-        elif not had_table:
+        elif previous is None:
             table.unlink(missing_ok=True)
+        else:
+            write_bytes_atomic(table, previous)
         raise
     return Analysis(result, table, options["plan"], temporary=temporary)
