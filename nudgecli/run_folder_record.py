@@ -147,13 +147,18 @@ class RunRecord(LiveRecord, ConfigRecord):
             fix = self.restore_manifest_advice() if self.live_signs() else "run `nudge simulate` first"
             raise RunFolderError(f"{self.path}: not a run folder (no {MANIFEST}); {fix}")
         try:
-            return json.loads(self.manifest_path.read_text(encoding="utf-8"))
+            document = json.loads(self.manifest_path.read_text(encoding="utf-8"))
+            if isinstance(document, dict):
+                return document
+            from nudgecli.runs.batch_folder import _JSON_TYPES  # batch.json's words for the same damage
+            damage = f"{_JSON_TYPES.get(type(document), 'not an object')}, not a JSON object"
         except ValueError as exc:  # not JSON, or not UTF-8: nothing else records the run's participants
-            fix = self.restore_manifest_advice() if self.live_signs() else (
-                f"put it back from a copy, or delete it and simulate again: `{self.lost_run_command()}` "
-                "(with its --seed)")
-            raise RunFolderError(f"{self.manifest_path}: unreadable manifest ({exc}); neither reading nor "
-                                 f"--resume can use the run without it: {fix}") from exc
+            damage = str(exc)
+        fix = self.restore_manifest_advice() if self.live_signs() else (
+            f"put it back from a copy, or delete it and simulate again: `{self.lost_run_command()}` "
+            "(with its --seed)")
+        raise RunFolderError(f"{self.manifest_path}: unreadable manifest ({damage}); neither reading nor "
+                             f"--resume can use the run without it: {fix}")
 
     def manifest_to_read(self) -> dict[str, Any]:
         """:meth:`read_manifest` for a reader that does not change it (a table read a participant's
