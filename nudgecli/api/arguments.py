@@ -164,10 +164,14 @@ def path(name: str, value: object, *, optional: bool = False) -> str | Path | No
     Raises
     ------
     ConfigError
-        Anything else.
+        Anything else, or an empty text (a path would make it the current folder, as ``--out ""``).
     """
     if value is None and optional:
         return None
+    if value == "":
+        raise ConfigError(f"{name}='': an empty path; name the folder or file to "
+                          + ("write" if name == "out" else "read")
+                          + (f", or leave {name}= out (None) for the default" if optional else ""))
     if isinstance(value, str):
         return value
     if isinstance(value, os.PathLike):
