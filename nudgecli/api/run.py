@@ -60,13 +60,16 @@ class Run(FolderOwner):
 
         Raises
         ------
+        ConfigError
+            ``path`` is not a path (a str or a pathlib.Path), or is empty.
         RunFolderError
             Not a run folder.
         """
+        from nudgecli.api import arguments
         from nudgecli.errors import RunFolderError
         from nudgecli.store import RunFolder
 
-        folder = RunFolder(Path(path))
+        folder = RunFolder(Path(arguments.path("path", path)))
         if not folder.is_run():
             raise RunFolderError(f"{path}: not a run folder (no manifest.json); give a folder made by "
                                  "`nudge simulate`")
