@@ -137,12 +137,10 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
         A :class:`Run`, a run folder, a metrics table's path (CSV/Parquet), or a metrics DataFrame
         (one row per trial: ``participant``, ``condition`` and metric columns).
     plan
-        An analysis plan: a preset (``paper``, ``study-code``), a TOML file or a loaded plan;
-        default the run's recorded plan, else the one named like its experiment, else ``paper``.
-    metrics
-        Only these metrics, in this order (``--metric``).
-    questionnaires
-        A questionnaire CSV analysed alongside.
+        A preset (``paper``, ``study-code``), a TOML file or a loaded plan; default the run's
+        recorded plan, else the one named like its experiment, else its world's, else ``paper``.
+    metrics, questionnaires
+        Only these metrics, in this order (``--metric``); a questionnaire CSV analysed alongside.
     bootstrap, seed
         Bootstrap resamples and seed of the intervals; default the plan's (shipped: 2000 and 0).
     out
