@@ -8,6 +8,23 @@ import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+#: The module source of a policy that only passes the person's command on (``Quiet``): what a test of
+#: the harness around a policy needs, whatever the policy does.
+QUIET_POLICY = """
+from nudgecli.sim.policy_interface import Assistance, AutonomyTurn
+
+
+class Quiet:
+    infers = True
+    takes_turns = False
+
+    def assist(self, view):
+        return Assistance(view.u_h)
+
+    def start_turn(self, view):
+        return AutonomyTurn.stay()
+"""
+
 
 def policy_experiment(folder: Path, factories: Mapping[str, str], *, modules: Mapping[str, str] | None = None,
                       params: Mapping[str, str] | None = None, conditions: Sequence[str] | None = None,

@@ -9,22 +9,9 @@ import json
 from pathlib import Path
 
 from cli_helpers import nudge, one_error_line
-from policy_helpers import policy_experiment
+from policy_helpers import QUIET_POLICY, policy_experiment
 
-POLICY = """
-from nudgecli.sim.policy_interface import Assistance, AutonomyTurn
-
-
-class Quiet:
-    infers = True
-    takes_turns = False
-
-    def assist(self, view):
-        return Assistance(view.u_h)
-
-    def start_turn(self, view):
-        return AutonomyTurn.stay()
-"""
+POLICY = QUIET_POLICY
 
 ADVICE = ('write a plan for these conditions (copy the custom-policy plan, analysis/custom-policy.toml, '
           'with conditions = ["control", "quiet"]) and pass it with --plan PLAN.toml')

@@ -8,22 +8,9 @@ from pathlib import Path
 
 import pytest
 from cli_helpers import nudge, one_error_line
-from policy_helpers import policy_experiment
+from policy_helpers import QUIET_POLICY, policy_experiment
 
-POLICY = """
-from nudgecli.sim.policy_interface import Assistance, AutonomyTurn
-
-
-class Quiet:
-    infers = True
-    takes_turns = False
-
-    def assist(self, view):
-        return Assistance(view.u_h)
-
-    def start_turn(self, view):
-        return AutonomyTurn.stay()
-"""
+POLICY = QUIET_POLICY
 
 
 def test_a_resume_without_the_runs_policy_copy_says_it_is_missing_and_how_to_restore_it(

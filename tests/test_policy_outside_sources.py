@@ -14,22 +14,9 @@ from pathlib import Path
 
 import pytest
 from cli_helpers import nudge, one_error_line
-from policy_helpers import policy_experiment
+from policy_helpers import QUIET_POLICY, policy_experiment
 
-POLICY = """
-from nudgecli.sim.policy_interface import Assistance, AutonomyTurn
-
-
-class Mine:
-    infers = True
-    takes_turns = False
-
-    def assist(self, view):
-        return Assistance(view.u_h)
-
-    def start_turn(self, view):
-        return AutonomyTurn.stay()
-"""
+POLICY = QUIET_POLICY.replace("class Quiet:", "class Mine:")
 
 
 def test_a_resume_after_a_sys_path_policy_module_changed_is_refused_naming_it(
