@@ -140,12 +140,7 @@ def test_a_live_folders_layouts_are_checked_and_the_command_named_writes_them_ag
     lines = [_one_error(_nudge(args[0], str(live), *args[1:])) for args in commands]
     for line in lines:
         assert "layouts.parquet" in line and "--resume" not in line and "--force" not in line, line
-    command = re.search(r"`(nudge simulate [^`]*)`", lines[0])
-    assert command is not None, lines[0]
-    assert _nudge(*shlex.split(command.group(1))[1:]).exit_code == 0
-    shutil.copy(live.with_name(f"{live.name}-layouts") / "layouts.parquet", layouts)
-    assert layouts.read_bytes() == kept
-    assert _nudge("plot", str(live), "--trial", "1:0").exit_code == 0
+    _restore_as_named(live, lines[0], kept)
 
 
 def test_a_live_folders_layouts_edited_by_hand_are_refused_where_they_are_drawn(live):
@@ -165,12 +160,7 @@ def test_a_live_folders_layouts_edited_by_hand_are_refused_where_they_are_drawn(
     for line in lines:
         assert "layouts.parquet changed since it was written" in line and "--resume" not in line, line
     assert _files(live) == before
-    command = re.search(r"`(nudge simulate [^`]*)`", lines[0])
-    assert command is not None, lines[0]
-    assert _nudge(*shlex.split(command.group(1))[1:]).exit_code == 0
-    shutil.copy(live.with_name(f"{live.name}-layouts") / "layouts.parquet", layouts)
-    assert layouts.read_bytes() == kept
-    assert _nudge("plot", str(live), "--trial", "1:0").exit_code == 0
+    _restore_as_named(live, lines[0], kept)
     recorded = json.loads((live / "manifest.json").read_text())["files"]
     assert recorded == {"layouts.parquet": file_sha256(layouts)}
 
@@ -246,3 +236,15 @@ def test_a_batch_never_writes_into_a_live_folder(live, batch, flag, manifest):
     line = _one_error(_nudge(*batch, "--out", str(live), flag))
     assert "live" in line and "write the batch into another --out" in line, line
     assert _files(live) == before
+
+
+def _restore_as_named(live: Path, line: str, kept: bytes) -> None:
+    """Run the command ``line`` names to write the layouts again (beside the live folder), put them
+    back, and check they are the bytes ``kept`` and that plot draws again."""
+    command = re.search(r"`(nudge simulate [^`]*)`", line)
+    assert command is not None, line
+    assert _nudge(*shlex.split(command.group(1))[1:]).exit_code == 0
+    layouts = live / "layouts.parquet"
+    shutil.copy(live.with_name(f"{live.name}-layouts") / "layouts.parquet", layouts)
+    assert layouts.read_bytes() == kept
+    assert _nudge("plot", str(live), "--trial", "1:0").exit_code == 0
