@@ -99,6 +99,17 @@ def remove_run_figures(folder: Path) -> None:
 _Checksums = dict[int, dict[str, str]]
 
 
+
+#: JSON's names of what Python's json module reads, for a damaged manifest's message (a run's or a
+#: batch's).
+JSON_TYPES = {list: "an array", str: "a string", int: "a number", float: "a number", bool: "true or false",
+              type(None): "null"}
+
+
+def json_kind(document: object) -> str:
+    """What a JSON document that should be an object is, in JSON's words (``"an array"``)."""
+    return JSON_TYPES.get(type(document), "not an object")
+
 class RunRecord(LiveRecord, ConfigRecord):
     """What a run folder on disk records and holds (read and checked, never written).
 
@@ -150,8 +161,7 @@ class RunRecord(LiveRecord, ConfigRecord):
             document = json.loads(self.manifest_path.read_text(encoding="utf-8"))
             if isinstance(document, dict):
                 return document
-            from nudgecli.runs.batch_folder import _JSON_TYPES  # batch.json's words for the same damage
-            damage = f"{_JSON_TYPES.get(type(document), 'not an object')}, not a JSON object"
+            damage = f"{json_kind(document)}, not a JSON object"  # batch.json's words for the same damage
         except ValueError as exc:  # not JSON, or not UTF-8: nothing else records the run's participants
             damage = str(exc)
         fix = self.restore_manifest_advice() if self.live_signs() else (

@@ -31,6 +31,7 @@ from nudgecli.run_folder_record import (
     RunRecord,
     experiment_differences,
     file_sha256,
+    json_kind,
     part_name,
 )
 from nudgecli.runs.part_record import PART_RECORD, Log, PartRecord  # noqa: F401 - the batch folder's names
@@ -291,10 +292,6 @@ def check_inputs_kept(folder: Path, inputs: Iterable[tuple[str, object]], force:
             check_not_an_input(target)
 
 
-#: JSON's names of what Python's json module reads, for a damaged manifest's message.
-_JSON_TYPES = {list: "an array", str: "a string", int: "a number", float: "a number", bool: "true or false",
-               type(None): "null"}
-
 
 def read_manifest(manifest: Path) -> tuple[dict[str, Any] | None, str | None]:
     """The batch folder's manifest (``batch.json``) and what damages it, if anything.
@@ -313,11 +310,11 @@ def read_manifest(manifest: Path) -> tuple[dict[str, Any] | None, str | None]:
     except (OSError, ValueError) as exc:  # UnicodeDecodeError is a ValueError
         return None, f"not readable as JSON: {exc}"
     if not isinstance(document, dict):
-        return None, f"{_JSON_TYPES.get(type(document), 'not an object')}, not a JSON object"
+        return None, f"{json_kind(document)}, not a JSON object"
     described = document.get("batch")
     if not isinstance(described, dict):
         shown = "missing" if described is None else \
-            f"{_JSON_TYPES.get(type(described), 'not an object')}, not an object"
+            f"{json_kind(described)}, not an object"
         return None, f'its "batch" entry, the description of the batch, is {shown}'
     return document, None
 
