@@ -176,6 +176,13 @@ def twins_of_sources(sources: list[str | Path], population: PopulationSection | 
     """
     if not sources:
         raise DataError("fit-people: give one or more sources (a real log, a run folder or a habits table)")
+    seen: dict[Path, str | Path] = {}
+    for source in sources:  # the same people twice would count twice in every study of the file
+        where = Path(source).resolve()
+        if where in seen:
+            raise DataError(f"fit-people: {source} is given twice (as {seen[where]} too): its people would be "
+                            "in the people file twice; give each source once")
+        seen[where] = source
     onset = assumed_onset_samples(population or PopulationSection())
     twins = []
     for source in sources:
