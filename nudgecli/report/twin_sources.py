@@ -180,8 +180,8 @@ def twins_of_sources(sources: list[str | Path], population: PopulationSection | 
     for source in sources:  # the same people twice would count twice in every study of the file
         where = Path(source).resolve()
         if where in seen:
-            raise DataError(f"fit-people: {source} is given twice (as {seen[where]} too): its people would be "
-                            "in the people file twice; give each source once")
+            raise DataError(f"fit-people: {source} is given twice (as {seen[where]} too): its people would "
+                            "be in the people file twice; give each source once")
         seen[where] = source
     onset = assumed_onset_samples(population or PopulationSection())
     twins = []
