@@ -7,6 +7,7 @@ import tempfile
 from pathlib import Path
 
 import pytest
+from cli_helpers import nudge
 
 # Tests that press Ctrl-C on a child nudge (SIGINT) need the child to take it. A shell that starts
 # a job in the background without job control (`pytest &` in a script) ignores SIGINT for it, and
@@ -22,3 +23,12 @@ def private_tmp(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     folder.mkdir()
     monkeypatch.setattr(tempfile, "tempdir", str(folder))
     return folder
+
+
+@pytest.fixture(scope="session")
+def analysed_smoke_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Two participants of the smoke experiment (seed 5), analysed. Do not modify: tests damage a copy."""
+    run = tmp_path_factory.mktemp("analysed-smoke") / "run"
+    assert nudge("simulate", "smoke", "--participants", "2", "--seed", "5", "--out", run).exit_code == 0
+    assert nudge("analyze", run, "--bootstrap", "100").exit_code == 0
+    return run

@@ -5,21 +5,11 @@ line where a researcher meets them; the analysis already written stays as it was
 from __future__ import annotations
 
 import shlex
-from pathlib import Path
 
 import pytest
 from cli_helpers import copy_run, file_digests, nudge, one_error_line
 
 ANALYSIS_FILES = ("stats.json", "stats.csv", "summary.md")
-
-
-@pytest.fixture(scope="module")
-def analysed_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """Two participants of the smoke experiment, analysed. Do not modify: tests damage a copy."""
-    run = tmp_path_factory.mktemp("run-files") / "run"
-    assert nudge("simulate", "smoke", "--participants", "2", "--seed", "5", "--out", run).exit_code == 0
-    assert nudge("analyze", run, "--bootstrap", "100").exit_code == 0
-    return run
 
 
 def _command_in(line: str) -> list[str]:
@@ -28,8 +18,8 @@ def _command_in(line: str) -> list[str]:
 
 
 @pytest.mark.parametrize("damage", ["{not json", "\xff\xfe".encode("latin-1").decode("latin-1")])
-def test_an_unreadable_manifest_says_how_to_restore_the_run(tmp_path, analysed_run, damage):
-    run = copy_run(analysed_run, tmp_path / "run")
+def test_an_unreadable_manifest_says_how_to_restore_the_run(tmp_path, analysed_smoke_run, damage):
+    run = copy_run(analysed_smoke_run, tmp_path / "run")
     (run / "manifest.json").write_bytes(damage.encode("latin-1"))
     before = file_digests(run, ANALYSIS_FILES)
     for args in (["analyze", run], ["plot", run], ["simulate", "smoke", "--out", run, "--resume"]):
@@ -46,10 +36,10 @@ def test_an_unreadable_manifest_says_how_to_restore_the_run(tmp_path, analysed_r
 
 
 @pytest.mark.parametrize("name", ["participants.parquet", "layouts.parquet"])
-def test_a_deleted_run_file_the_manifest_records_is_named_with_the_resume_command(tmp_path, analysed_run,
-                                                                                  name):
+def test_a_deleted_run_file_the_manifest_records_is_named_with_the_resume_command(
+        tmp_path, analysed_smoke_run, name):
     """participants.parquet deleted: analyze and plot passed without a word."""
-    run = copy_run(analysed_run, tmp_path / "run")
+    run = copy_run(analysed_smoke_run, tmp_path / "run")
     (run / name).unlink()
     before = file_digests(run, ANALYSIS_FILES)
     for args in (["analyze", run, "--bootstrap", "100"], ["plot", run, "--trial", "0:0", "--formats", "png"]):
@@ -61,15 +51,15 @@ def test_a_deleted_run_file_the_manifest_records_is_named_with_the_resume_comman
     assert not (run / "figures" / "trial_0_0.png").exists()
     # the command it names writes the file again, as it was
     assert nudge(*_command_in(line)[1:]).exit_code == 0
-    assert (run / name).read_bytes() == (analysed_run / name).read_bytes()
+    assert (run / name).read_bytes() == (analysed_smoke_run / name).read_bytes()
     assert nudge("analyze", run, "--bootstrap", "100").exit_code == 0
 
 
-def test_read_layouts_names_the_command_that_writes_them_again(tmp_path, analysed_run):
+def test_read_layouts_names_the_command_that_writes_them_again(tmp_path, analysed_smoke_run):
     """Reached without check_complete (a manifest of an older nudge, which records no files)."""
     from nudgecli.store import RunFolder
 
-    run = copy_run(analysed_run, tmp_path / "run")
+    run = copy_run(analysed_smoke_run, tmp_path / "run")
     (run / "layouts.parquet").unlink()
     with pytest.raises(Exception, match=r"no layouts\.parquet; the run folder is incomplete; restore it with "
                                         r"`nudge simulate .* --resume`$"):
