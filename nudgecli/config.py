@@ -400,7 +400,9 @@ class ExperimentConfig(Section):
         # a key the chosen world does not read is refused, never ignored (nudgecli.config_world); before
         # the sections' own checks, which would advise on what that world never reads
         if isinstance(data, dict):
-            sections = {"study": StudySection, "interface": InterfaceSection, "world": WorldSection}
+            sections = {"study": StudySection, "interface": InterfaceSection, "world": WorldSection,
+                        "model": ModelSection, "inference": InferenceSection,
+                        "disambiguation": DisambiguationSection, "assistance": AssistanceSection}
             check_world_keys(data, sections)
         return data
 

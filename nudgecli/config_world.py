@@ -25,7 +25,9 @@ class WorldSection(Section):
       rotation at the turn waypoint only. In ``ciaa`` the layouts, their order and the
       conditions come from the task file's ``subject_blocks`` (participant ``i`` runs as subject
       ``i mod 10`` did), and ``[study]`` keeps ``participants``, ``rate_hz`` and ``time_limit_s``
-      (the study's 50 s): the keys of :data:`GRID_ONLY` are refused there unless at their defaults.
+      (the study's 50 s): the keys of :data:`GRID_ONLY` are refused there unless at their defaults,
+      and so are the agent's (:data:`AGENT_SECTIONS` but :data:`CIAA_AGENT_KEYS_READ`): its
+      ``no_assistance`` infers no goal, disambiguates nothing and never assists.
 
     The keys below apply to ``ciaa`` only (:data:`CIAA_ONLY`: refused in ``grid`` unless at their
     defaults); their defaults are TASK.md's values:
@@ -69,6 +71,16 @@ GRID_ONLY: dict[str, str] = {
 }
 #: The condition sections (``None`` unless given), which a CIAA run never reads.
 CONDITION_TABLES = ("blending", "mode-switch", "mode_switch", "hindsight", "policies")
+#: The agent's sections. The CIAA world's ``no_assistance`` infers no goal, disambiguates nothing and
+#: never assists, so it reads none of their keys but :data:`CIAA_AGENT_KEYS_READ`.
+AGENT_SECTIONS = ("model", "inference", "disambiguation", "assistance")
+#: The agent's keys a CIAA run reads all the same, as the grid world does: which tables the agent
+#: holds of each participant (fitted from a simulated calibration, whose logs the run folder keeps,
+#: or the defaults with this noise), recorded in ``participants.parquet``
+#: (:func:`nudgecli.sim.study.agent_tables`). The simulated person reads no ``[model]`` key: their
+#: epsilon is their own (``[population]``).
+CIAA_AGENT_KEYS_READ = ("model.tables", "model.default_table_noise")
+_NO_AGENT = "no goal inference, disambiguation or assistance"
 #: The keys the grid world does not read, each with what that world does instead.
 CIAA_ONLY: dict[str, str] = {
     "world.ciaa_conditions": "runs study.conditions",
@@ -80,10 +92,20 @@ CIAA_ONLY: dict[str, str] = {
 }
 
 
+def ciaa_ignored(sections: Mapping[str, Any]) -> dict[str, str]:
+    """The keys the CIAA path world does not read, each with what it runs instead: :data:`GRID_ONLY`
+    and the keys of :data:`AGENT_SECTIONS` (``sections``: their classes by name) but
+    :data:`CIAA_AGENT_KEYS_READ`."""
+    agent = {f"{name}.{key}": _NO_AGENT for name in AGENT_SECTIONS for key in sections[name].model_fields
+             if f"{name}.{key}" not in CIAA_AGENT_KEYS_READ}
+    return {**GRID_ONLY, **agent}
+
+
 def check_world_keys(data: Mapping[str, Any], sections: Mapping[str, Any]) -> None:
     """Raise ``ValueError`` (one line) where an experiment's raw ``data`` gives a key its world
     (``world.kind``) does not read a value other than its default, or, in the CIAA world, a
-    condition's section. ``sections``: the section classes by name, whose defaults are compared.
+    condition's section. ``sections``: the section classes by name (``study``, ``interface``,
+    ``world`` and :data:`AGENT_SECTIONS`), whose defaults are compared.
 
     A value at its default passes: a run folder's ``config.toml`` writes every key (the run's
     before this rule too), and the default changes nothing the world does.
@@ -91,7 +113,7 @@ def check_world_keys(data: Mapping[str, Any], sections: Mapping[str, Any]) -> No
     kind = _given(data.get("world"), "kind", "grid")
     if kind not in ("grid", "ciaa"):
         return  # pydantic names the kind
-    ignored = GRID_ONLY if kind == "ciaa" else CIAA_ONLY
+    ignored = ciaa_ignored(sections) if kind == "ciaa" else CIAA_ONLY
     found = [f"[{name}]" for name in CONDITION_TABLES if kind == "ciaa" and data.get(name) is not None]
     for dotted in ignored:
         section_name, key = dotted.split(".")
@@ -109,7 +131,11 @@ def check_world_keys(data: Mapping[str, Any], sections: Mapping[str, Any]) -> No
                          f"({does}); remove {them}, or set world.kind = \"ciaa\" for the CIAA path "
                          "world (docs/people.md)")
     reads = "".join(f", and {ignored[key]} in place of {key}" for key in keys
-                    if ignored.get(key, _SCHEDULE) != _SCHEDULE)
+                    if ignored.get(key, _SCHEDULE) not in (_SCHEDULE, _NO_AGENT))
+    if any(ignored.get(key) == _NO_AGENT for key in keys):
+        model = any(key.startswith("model.") for key in keys)
+        reads += f", with {_NO_AGENT}" + (
+            " (of [model] it reads tables and default_table_noise only)" if model else "")
     raise ValueError(f"{', '.join(found)}: the ciaa world (world.kind = \"ciaa\") does not read {them} "
                      f"(it runs {_SCHEDULE}{reads}); remove {them}, or set world.kind = \"grid\" for the "
                      "grid world's study (docs/people.md)")
@@ -126,4 +152,6 @@ def _same(value: Any, default: Any) -> bool:
     """Whether a raw ``value`` (TOML's lists) is ``default`` (a section's tuples)."""
     if isinstance(default, tuple) and isinstance(value, list | tuple):
         return list(value) == list(default)
-    return type(value) is not bool and value == default
+    if isinstance(value, bool) or isinstance(default, bool):  # true is no 1, and false is false's default
+        return type(value) is type(default) and value == default
+    return value == default

@@ -246,7 +246,10 @@ def test_a_rho_factor_above_the_goal_count_is_one_error_line(tmp_path: Path, ove
 def test_rho_factors_up_to_the_fewest_goals_are_taken() -> None:
     config = load_experiment("paper", ["assistance.rho1_factor=2.0", "assistance.rho2_factor=3.0"])
     assert config.assistance.rho2_factor / min(config.study.goal_counts) == 1.0
-    load_experiment("ciaa-teleop", ["assistance.rho2_factor=9.0"])  # no goal inference in that world
+    # the CIAA world has no goal inference, so no ramp to bound: it refuses the key it does not read
+    # (nudgecli.config_world), where it was taken and ignored
+    with pytest.raises(ConfigError, match=r"rho2_factor = 9\.0: the ciaa world .* does not read it"):
+        load_experiment("ciaa-teleop", ["assistance.rho2_factor=9.0"])
 
 
 # --- 9. the help texts name every preset, by pointing to nudge presets ----------------------------
