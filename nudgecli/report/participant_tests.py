@@ -46,10 +46,15 @@ SIGN_FLIP_MAX_N = 13
 #: tie counts' sorted layout do not depend on it). The bit-for-bit tests of
 #: :func:`signed_rank_test` against ``scipy.stats.wilcoxon`` (tests/test_report_stats.py,
 #: tests/test_report_metric_once.py) passed on each of these releases (1.15.3, 1.16.3, 1.17.1).
+#: 1.18.1 (Python 3.12 only; compared with 1.17.1 by the functions' sources, 2026-11-29): the same
+#: arithmetic on a numpy array. ``_rankdata`` takes its float dtype from ``xp_result_type`` (float64
+#: for average ranks, as before) and also returns the sorted data, the count of differences is
+#: ``_count_nonmasked`` less the NaN count cast first (whole numbers, exact either way), and the
+#: rest is JAX, CuPy and MArray branches and docs; the bit-for-bit tests above passed on it.
 #: The fast paths run on every release of these series: a patch release that changed the
 #: arithmetic would fail those tests, which run with whatever scipy is installed, rather than
 #: leave every later patch release on the slow path.
-CHECKED_SCIPY_VERSIONS = ("1.15", "1.16", "1.17")
+CHECKED_SCIPY_VERSIONS = ("1.15", "1.16", "1.17", "1.18")
 
 
 def installed_scipy_version() -> str:
