@@ -385,9 +385,10 @@ class RunRecord(LiveRecord, ConfigRecord):
         ``--people`` where the run simulated a people file (a resume without it is refused by the
         people check): the copy the folder keeps, by the folder's path as given (so the command
         works from where it is typed), else (a folder made before copies were kept) the file's
-        name the manifest records."""
+        name the manifest records; for a policy of the calling script, the Python call instead."""
         from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
         from nudgecli.sim.people_file import resume_people
+        from nudgecli.sim.policy_files import script_resume_call
         from nudgecli.store import simulate_resume_command  # store builds on this module
 
         manifest = manifest if manifest is not None else self.read_manifest()
@@ -396,8 +397,11 @@ class RunRecord(LiveRecord, ConfigRecord):
         # a lost config.toml: the experiment the manifest names (a resume writes config.toml again)
         experiment = str(self.path / CONFIG) if (self.path / CONFIG).is_file() else \
             str(manifest.get("experiment") or "EXPERIMENT")
-        return simulate_resume_command(experiment, self.path, manifest.get("seed"),
-                                       manifest.get("participants"), people=file)
+        # a policy of the calling script (__main__) exists only in that script: resumed from Python there
+        call = script_resume_call(manifest, experiment, self.path, manifest.get("seed"),
+                                  manifest.get("participants"), file)
+        return call or simulate_resume_command(experiment, self.path, manifest.get("seed"),
+                                               manifest.get("participants"), people=file)
 
     def resume_experiment(self, manifest: Mapping[str, Any]) -> str | None:
         """The experiment a command that resumes this run names in place of the one typed: its

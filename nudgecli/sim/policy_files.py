@@ -27,8 +27,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from nudgecli.errors import ConfigError, DataError, PolicyError, RunFolderError
-from nudgecli.run_folder_names import FIGURES_DIR, PART_KINDS, PEOPLE_DIR
+from nudgecli.errors import ConfigError, DataError, PolicyError, RunFolderError, did_you_mean
+from nudgecli.run_folder_names import BATCH_MANIFEST, FIGURES_DIR, MANIFEST, PART_KINDS, PEOPLE_DIR
 from nudgecli.sim.policy_loader import imported_files, module_file, remove_cached_bytecode
 from nudgecli.sim.policy_registry import PolicySpec, load_factory, policy_specs
 
@@ -86,23 +86,42 @@ def loaded_policy_files(config: ExperimentConfig, own_folders: frozenset[str] = 
 
 
 def _load(spec: PolicySpec) -> object:
-    """:func:`load_factory`; a factory of ``__main__`` that is not there says where it can run."""
+    """:func:`load_factory`; a factory of ``__main__`` that is not there says where it can run: a
+    run's or batch's own experiment (``R/config.toml``, resumed) from the script that started it,
+    any other from the script that defines it; a misspelt one only its "did you mean"."""
     try:
         return load_factory(spec)
     except PolicyError as exc:
-        if spec.factory.partition(":")[0] != "__main__":
+        module, _, attribute = spec.factory.partition(":")
+        script, name = sys.modules.get("__main__"), attribute.split(".")[0]
+        if module != "__main__" or hasattr(script, name):  # not a missing policy of the calling script
             raise
+        folder = None if spec.search_path is None else Path(spec.search_path)
+        if folder is not None and ((folder / MANIFEST).is_file() or (folder / BATCH_MANIFEST).is_file()):
+            how = ("resume the run from the script that started it (nudgecli.simulate(..., resume=True)), "
+                   "or move the policy into a module beside the experiment file")
+        elif did_you_mean(name, [known for known in dir(script) if not known.startswith("_")]):
+            raise  # a misspelt name: its "did you mean" says it all
+        else:
+            how = ("run the experiment from that script (nudgecli.simulate), or move the policy into a "
+                   "module beside the experiment file")
         raise PolicyError(f"{exc}: a policy of the calling script (__main__) exists only while that script "
-                          "runs; resume the run from the script that started it (nudgecli.simulate(..., "
-                          "resume=True)), or move the policy into a module beside the experiment file "
-                          "(docs/policies.md)") from exc
+                          f"runs; {how} (docs/policies.md)") from exc
 
 
 def outside_policy_sources(config: ExperimentConfig) -> dict[str, str]:
     """The manifest's :data:`SOURCES_KEY` entry: the experiment's own factories whose module is not
     in its folder (so not copied, :func:`loaded_policy_files`), each module -> the SHA-256 of its
     file; a factory of ``__main__`` (the calling script) as ``__main__:Attr`` -> the SHA-256 of its
-    source (``inspect.getsource``; ``"unknown"`` where Python has none). Empty without such."""
+    source (:func:`script_policy_source`). Empty without such.
+
+    Raises
+    ------
+    PolicyError
+        A factory of ``__main__`` whose source Python cannot show (a script read from stdin,
+        ``python - < study.py``, or code run by ``exec``): a run of it could never be resumed (a
+        resume could not check it runs the same policy), so it is refused before any work.
+    """
     record: dict[str, str] = {}
     for spec in policy_specs(config):
         factory = _load(spec)
@@ -110,11 +129,13 @@ def outside_policy_sources(config: ExperimentConfig) -> dict[str, str]:
         if config.policy_search_path is not None and module_file(config.policy_search_path, name) is not None:
             continue
         if name == "__main__":
-            try:
-                source = inspect.getsource(factory)  # type: ignore[arg-type]
-            except (OSError, TypeError):
-                record[spec.factory] = "unknown"
-                continue
+            source = script_policy_source(factory)
+            if source is None:
+                raise PolicyError(f"{spec.described}: Python cannot show the source of this policy of "
+                                  "the calling script (a script read from stdin, python - < script.py, or "
+                                  "code run by exec), so its run could never be checked and resumed; put the "
+                                  "policy in a file: a script run as python script.py, or a module beside "
+                                  "the experiment file (docs/policies.md)")
             record[spec.factory] = hashlib.sha256(source.encode()).hexdigest()
             continue
         path = getattr(sys.modules.get(name), "__file__", None)
@@ -123,10 +144,62 @@ def outside_policy_sources(config: ExperimentConfig) -> dict[str, str]:
     return dict(sorted(record.items()))
 
 
-def check_same_policy_sources(recorded: object, now: Mapping[str, str], where: str | Path) -> None:
-    """Refuse to resume the run ``where`` when a factory imported from outside the experiment's
-    folder (:func:`outside_policy_sources`) is not the one it was simulated with; ``recorded`` not a
-    mapping (a run of an older nudge, or one without such factories): nothing to compare.
+def script_policy_source(factory: object) -> str | None:
+    """The source of a factory of the calling script (``__main__``), what a run records the digest
+    of: ``inspect.getsource``; for a class whose own source Python cannot find but whose methods'
+    it can (a notebook's cell: Python looks for a class in its module's file, which a notebook's
+    ``__main__`` lacks), its name, its methods' sources and its other attributes' values, in name
+    order; ``None`` where neither is there (a script read from stdin, code run by ``exec``)."""
+    try:
+        return inspect.getsource(factory)  # type: ignore[arg-type]
+    except (OSError, TypeError):
+        if not isinstance(factory, type):
+            return None
+    parts = [f"class {factory.__qualname__}"]
+    for name, value in sorted(vars(factory).items()):
+        code = getattr(value, "__func__", getattr(value, "fget", value))  # a static/class method, a property
+        if inspect.isfunction(code):
+            try:
+                parts.append(inspect.getsource(code))
+            except (OSError, TypeError):
+                return None
+        elif not name.startswith("__"):  # a set's order is the hash seed's: its items sorted
+            shown = sorted(map(repr, value)) if isinstance(value, set | frozenset) else value
+            parts.append(f"{name} = {shown!r}" if _plain(shown) else f"{name}: {type(value).__name__}")
+    return "\n".join(parts)
+
+
+def _plain(value: object) -> bool:
+    """Whether ``repr(value)`` is the same in every process: no object's address in it."""
+    if isinstance(value, list | tuple):
+        return all(_plain(item) for item in value)
+    return value is None or isinstance(value, bool | int | float | str)
+
+
+def script_resume_call(manifest: Mapping[str, Any], experiment: str, folder: str | Path, seed: object,
+                       participants: object, people: str | None) -> str | None:
+    """The Python call that resumes the run ``folder`` whose manifest records a policy of the
+    calling script (``__main__:Attr`` in :data:`SOURCES_KEY`): ``nudgecli.simulate(EXPERIMENT,
+    out=..., resume=True)`` run from the script that defines it, the one place that policy exists
+    (a ``nudge simulate`` command cannot import it); ``None`` for any other run."""
+    sources = manifest.get(SOURCES_KEY)
+    own = sorted(str(name) for name in sources if str(name).startswith("__main__:")) \
+        if isinstance(sources, Mapping) else []
+    if not own:
+        return None
+    options = [f"{key}={value!r}" for key, value in (("seed", seed), ("participants", participants),
+                                                     ("people", people)) if value is not None]
+    arguments = ", ".join([repr(str(experiment)), f"out={str(folder)!r}", *options, "resume=True"])
+    return (f"nudgecli.simulate({arguments})  # in the script that defines {', '.join(own)}: a nudge "
+            "command cannot import a policy of the calling script")
+
+
+def check_same_policy_sources(recorded: object, now: Mapping[str, str], where: str | Path,
+                              kind: str = "run") -> None:
+    """Refuse to resume the run (or the batch, ``kind``) ``where`` when a factory imported from
+    outside the experiment's folder (:func:`outside_policy_sources`) is not the one it was simulated
+    with; ``recorded`` not a mapping (a folder of an older nudge, or one without such factories):
+    nothing to compare.
 
     Raises
     ------
@@ -141,8 +214,9 @@ def check_same_policy_sources(recorded: object, now: Mapping[str, str], where: s
         module = sys.modules.get(name.partition(":")[0])
         shown = getattr(module, "__file__", None) or name
         if name.startswith("__main__:"):
-            what = (f"{name}, the calling script's policy, has no source Python can show, so {where} cannot "
-                    "check it is the one it was simulated with" if now.get(name) == "unknown" else
+            what = (f"{where} recorded no source of {name}, the calling script's policy (an older nudge ran "
+                    "it without one), so it cannot check it is the one it was simulated with"
+                    if recorded.get(name) == "unknown" else
                     f"{name} ({shown}) is not the policy {where} was simulated with (its source's SHA-256 "
                     "differs from the manifest's)")
         elif name not in now:
@@ -151,7 +225,7 @@ def check_same_policy_sources(recorded: object, now: Mapping[str, str], where: s
         else:
             what = (f"{shown} is not the policy module {where} was simulated with (its SHA-256 differs from "
                     "the manifest's; nudge keeps no copy of a module imported from sys.path)")
-        raise DataError(f"{what}: resuming would mix two policies in one run; put the module back as it "
+        raise DataError(f"{what}: resuming would mix two policies in one {kind}; put the module back as it "
                         "was and resume, or start again with --force")
 
 
