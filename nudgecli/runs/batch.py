@@ -84,7 +84,9 @@ from nudgecli.runs.batch_tasks import (
     metric_definitions,
     run_analysis_task,
     run_participant_task,
+    run_quietly,
     shares_plan,
+    warn_global_rng,
 )
 from nudgecli.runs.executors import Executor, Job, ProcessExecutor, make_executor
 from nudgecli.runs.size import SizeEstimate, check_batch_size, size_estimate, trials_per_participant
@@ -419,7 +421,7 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
     run = _GraphRun(batch, graph, folder, executor, log)
     try:
         if prepare is not None and isinstance(executor, ProcessExecutor):  # then the command's own
-            executor.submit(Job(_PREPARE, _quietly, (prepare,), here=True))
+            executor.submit(Job(_PREPARE, run_quietly, (prepare,), here=True))
             run.in_flight += 1
         run.submit_first()
         if progress:
@@ -454,6 +456,7 @@ class _GraphRun:
         self.waiting = [a for a in graph.analyses.values()
                         if not self.record.vouches(analysis_part(folder, a.key), readable_stats)]
         self.record.warn_refused(log)  # the command's stderr, an API caller's log=
+        self.log, self.rng_warned = log, False  # a policy's draws from a global generator: told once
         self.total = graph.participant_tasks + len(graph.analyses)
         self.done = self.total - sum(len(v) for v in self.remaining.values()) - len(self.waiting)
         self.metrics, self.definitions = list(batch.plan.metrics.include), metric_definitions(batch.plan)
@@ -556,6 +559,8 @@ class _GraphRun:
             return True
         study_name, index = job.key.rsplit("-p", 1)  # a participant task
         frame, data = result.part()
+        self.rng_warned = warn_global_rng(self.rng_warned, result, self.graph.studies[study_name].config,
+                                          self.folder, self.log)
         self.record.write(task_part(self.folder, study_name, int(index)), data)
         self.written.setdefault(study_name, {})[int(index)] = frame
         self.remaining[study_name].discard(int(index))
@@ -588,11 +593,6 @@ class _GraphRun:
 
 #: The keys of the jobs that run ``run_batch``'s ``prepare`` and import the analyses' modules.
 _PREPARE, _WARM = "prepare", "import-analysis-modules"
-
-
-def _quietly(prepare: Callable[[], object]) -> None:  # a failure is the command's to meet after the batch
-    with contextlib.suppress(Exception):
-        prepare()
 
 
 def single_point(config: ExperimentConfig, participants: Sequence[int]) -> tuple[Point, ...]:

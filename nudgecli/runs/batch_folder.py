@@ -38,11 +38,14 @@ from nudgecli.runs.part_record import PART_RECORD, Log, PartRecord  # noqa: F401
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, keep_copy, remove_copy
 from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
+from nudgecli.sim.policy_files import SOURCES_KEY as POLICY_SOURCES_KEY
 from nudgecli.sim.policy_files import (
     check_copies_placeable,
     check_same_policy_files,
+    check_same_policy_sources,
     keep_policy_copies,
     loaded_policy_files,
+    outside_policy_sources,
     policy_record,
     remove_policy_copies,
 )
@@ -90,17 +93,26 @@ class PolicyCopies:
         Relative path -> the file's bytes (:func:`~nudgecli.sim.policy_files.loaded_policy_files`).
     source
         The folder they are imported from (the experiment file's), to name a file that differs.
+    inputs
+        A batch's own experiment and plan (or a sweep's sweep file), by file name -> their bytes.
+    sources
+        The digests of the policies imported from elsewhere (a module on ``sys.path``, a class of
+        the calling script), compared on resume, not copied, as a run's
+        (:func:`~nudgecli.sim.policy_files.outside_policy_sources`).
     """
 
     files: Mapping[str, bytes] = field(default_factory=dict)
     source: str | None = None
     inputs: Mapping[str, bytes] = field(default_factory=dict)
+    sources: Mapping[str, str] = field(default_factory=dict)
 
     def record(self) -> dict[str, dict[str, str]]:
-        """``batch.json``'s entries of the copies (``policy_files``: relative path -> SHA-256; and
-        ``inputs``, :data:`INPUTS_KEY`); none without copies."""
+        """``batch.json``'s entries of the copies (``policy_files``: relative path -> SHA-256;
+        ``inputs``, :data:`INPUTS_KEY`) and of the policies imported from elsewhere
+        (``policy_sources``: module -> SHA-256); none without them."""
         return {**({POLICY_FILES_KEY: policy_record(self.files)} if self.files else {}),
-                **({INPUTS_KEY: policy_record(self.inputs)} if self.inputs else {})}
+                **({INPUTS_KEY: policy_record(self.inputs)} if self.inputs else {}),
+                **({POLICY_SOURCES_KEY: dict(self.sources)} if self.sources else {})}
 
 
 def policy_copies(batch: Batch) -> PolicyCopies:
@@ -124,6 +136,7 @@ def policy_copies(batch: Batch) -> PolicyCopies:
     from nudgecli.config_files import dump_toml
 
     files: dict[str, bytes] = {}
+    sources: dict[str, str] = {}
     source: str | None = None
     loaded: set[tuple[str | None, tuple[str, ...]]] = set()
     for config in (point.config for point in batch.points):
@@ -132,13 +145,15 @@ def policy_copies(batch: Batch) -> PolicyCopies:
             continue
         loaded.add(factories)
         files.update(loaded_policy_files(config, BATCH_FOLDERS, "batch"))
+        sources.update(outside_policy_sources(config))
         source = source or config.policy_search_path
     plan = dump_toml(batch.plan.model_dump(mode="json", exclude_none=True)).encode("utf-8")
+    sources = dict(sorted(sources.items()))
     if batch.kind == "sweep":  # its inputs (none: a Batch made by hand, as a test makes one)
         return PolicyCopies(files, source if files else None,
-                            {**batch.inputs, PLAN_COPY: plan} if batch.inputs else {})
+                            {**batch.inputs, PLAN_COPY: plan} if batch.inputs else {}, sources)
     return PolicyCopies(files, source, {EXPERIMENT_COPY: batch.points[0].config.to_toml().encode("utf-8"),
-                                        PLAN_COPY: plan})
+                                        PLAN_COPY: plan}, sources)
 
 
 def sweep_inputs(spec: SweepFile, experiment: Path) -> dict[str, bytes]:
@@ -468,7 +483,7 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
                                                   if len(differences) > 8 else "")
             raise RunFolderError(f"{folder}: holds a different batch ({shown}); resume it with the same "
                                  "settings, or use --force")
-        check_same_policy_files(copies, policies.files, policies.source, folder, "batch")
+        _check_same_policies(folder, old, policies)
     # before anything is removed: a copy's path holding a file of the person's own stops the batch
     check_copies_placeable(policies.files, folder, copies, "batch")
     if old is not None and mode == "resume":
@@ -494,6 +509,15 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     keep_copy(people, folder)
     keep_policy_copies({**policies.files, **policies.inputs}, folder)
     return "new"
+
+
+def _check_same_policies(folder: Path, old: Mapping[str, Any], policies: PolicyCopies) -> None:
+    """Refuse to resume the batch in ``folder`` (its ``batch.json``, ``old``) with other policy code
+    than it was simulated with: its copies' modules
+    (:func:`~nudgecli.sim.policy_files.check_same_policy_files`) and the policies imported from
+    elsewhere (:func:`~nudgecli.sim.policy_files.check_same_policy_sources`), as a run's resume."""
+    check_same_policy_files(old.get(POLICY_FILES_KEY), policies.files, policies.source, folder, "batch")
+    check_same_policy_sources(old.get(POLICY_SOURCES_KEY), policies.sources, folder, "batch")
 
 
 def _start_files(folder: Path, people: People | None, policies: PolicyCopies) -> dict[str, bytes]:

@@ -13,12 +13,13 @@ replication's statistics. The graph that submits them is :mod:`nudgecli.runs.bat
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import pickle
 import threading
 from collections import OrderedDict
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -33,9 +34,14 @@ from nudgecli.report.step_metrics import (
 )
 from nudgecli.runs.executors import HELD_AFFINITIES
 from nudgecli.runs.solved_layouts import build_plan, remember_plan
-from nudgecli.runs.study_tasks import tune_allocator
+from nudgecli.runs.study_tasks import (
+    drew_from_global_rng,
+    global_rng_warning,
+    simulate_watched,
+    tune_allocator,
+)
 from nudgecli.sim.policy_registry import not_applicable_of, run_conditions
-from nudgecli.sim.study import ParticipantColumns, StudyPlan, simulate_participant_columns, trials_frame
+from nudgecli.sim.study import ParticipantColumns, StudyPlan, trials_frame
 from nudgecli.sim.twins import Twin
 
 if TYPE_CHECKING:  # pandas and the statistics (scipy.stats, scikit-posthocs) load where used
@@ -123,6 +129,9 @@ class ParticipantMetrics:
         ``(T,)`` each, in the trials' order.
     definitions
         The analysis plan's metric definitions (:func:`metric_definitions`).
+    drew_from_global_rng
+        Whether the participant's trials drew from numpy's or Python's global random generator
+        (:func:`~nudgecli.runs.study_tasks.simulate_watched`, the run's check): the batch warns once.
     """
 
     trials: list[dict[str, Any]]
@@ -130,6 +139,7 @@ class ParticipantMetrics:
     definitions: dict[str, str]
     #: the metrics table and its Parquet bytes, once :meth:`part` has built them
     built: tuple[pd.DataFrame, bytes] | None = None
+    drew_from_global_rng: bool = False
 
     def part(self) -> tuple[pd.DataFrame, bytes]:
         """The metrics table (:meth:`frame`) and the bytes of its part
@@ -163,8 +173,10 @@ TASK_STEP_COLUMNS = METRIC_STEP_COLUMNS + INPUT_STEP_COLUMNS
 
 def simulate_task_participant(plan: StudyPlan, index: int) -> ParticipantColumns:
     """A participant task's trial loop: the participant's trials and the step-log columns its
-    metrics read (:data:`TASK_STEP_COLUMNS`), as plain columns (no frames)."""
-    return simulate_participant_columns(plan, index, step_log_columns=TASK_STEP_COLUMNS)
+    metrics read (:data:`TASK_STEP_COLUMNS`), as plain columns (no frames), watched for draws from
+    a global random generator as a run's participant is
+    (:func:`~nudgecli.runs.study_tasks.simulate_watched`)."""
+    return simulate_watched(plan, index, step_log_columns=TASK_STEP_COLUMNS)
 
 
 def participant_metrics(plan: StudyPlan, index: int, definitions: Mapping[str, str]) -> ParticipantMetrics:
@@ -180,7 +192,8 @@ def participant_metrics(plan: StudyPlan, index: int, definitions: Mapping[str, s
     keys = {name: [row[name] for row in result.trials] for name in STEP_TRIAL_COLUMNS}
     chosen: dict[str, Any] = {name: definitions[name] for name in STEP_DEFINITIONS}
     values = step_metric_arrays(keys, result.steps, **chosen)
-    return ParticipantMetrics(result.trials, values, dict(definitions))
+    return ParticipantMetrics(result.trials, values, dict(definitions),
+                              drew_from_global_rng=drew_from_global_rng(result))
 
 
 #: From this many pool workers on, participant tasks build their parts in their workers
@@ -202,7 +215,26 @@ def run_participant_task(config: ExperimentConfig, seed: int, index: int, defini
                                   definitions)
     if not build_part:
         return metrics
-    return ParticipantMetrics([], {}, metrics.definitions, metrics.part())
+    return ParticipantMetrics([], {}, metrics.definitions, metrics.part(), metrics.drew_from_global_rng)
+
+
+def warn_global_rng(warned: bool, result: ParticipantMetrics, config: ExperimentConfig, where: object,
+                    log: Callable[[str], None] | None) -> bool:
+    """Tell ``log`` once, as a run does, that a participant task of the batch ``where`` drew from a
+    global random generator (``result``'s :attr:`~ParticipantMetrics.drew_from_global_rng`; the
+    run's line, :func:`~nudgecli.runs.study_tasks.global_rng_warning`, of its study's ``config``);
+    whether it has been told (``warned``: by an earlier task). The batch's tables stay as computed."""
+    if warned or log is None or not result.drew_from_global_rng:
+        return warned
+    log(global_rng_warning(config, where))
+    return True
+
+
+def run_quietly(prepare: Callable[[], object]) -> None:
+    """Run a batch command's ``prepare`` (:func:`~nudgecli.runs.batch.run_batch`) beside its workers;
+    a failure is the command's to meet after the batch."""
+    with contextlib.suppress(Exception):
+        prepare()
 
 
 def run_analysis_task(metrics: pd.DataFrame, analysis: AnalysisPlan, names: Sequence[str],

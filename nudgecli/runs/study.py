@@ -463,7 +463,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
         warned = False
         for columns in results:
             if log is not None and not warned and drew_from_global_rng(columns):  # once; tables as simulated
-                log(global_rng_warning(plan, folder.path))
+                log(global_rng_warning(plan.config, folder.path))
                 warned = True
             # the workers send columns; the tables are made here, in the process that writes them
             result = ParticipantResult.from_columns(columns)

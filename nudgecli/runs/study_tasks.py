@@ -16,15 +16,19 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Collection
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from nudgecli.sim.policy_registry import policy_specs
 from nudgecli.sim.study import ParticipantColumns, StudyPlan, simulate_participant_columns
+from nudgecli.steplog import STEP_COLUMNS
 
 if TYPE_CHECKING:
     from multiprocessing.context import BaseContext
+
+    from nudgecli.config import ExperimentConfig
 
 #: Seconds a worker waits between two checks that its parent is alive (where prctl is missing).
 PARENT_POLL_S = 0.5
@@ -107,17 +111,19 @@ def _global_rng_digest() -> bytes:
     return hashlib.sha256(pickle.dumps((np.random.get_state(), random.getstate()))).digest()
 
 
-def simulate_watched(plan: StudyPlan, participant_index: int) -> ParticipantColumns:
+def simulate_watched(plan: StudyPlan, participant_index: int,
+                     step_log_columns: Collection[str] = STEP_COLUMNS) -> ParticipantColumns:
     """:func:`simulate_participant_columns`, and for an experiment with policies of its own, whether
     its trials drew from numpy's or Python's global random generator (``np.random.randint``,
     ``random.random``): such draws are not a function of the run's seed, so the tables of two runs
     of one seed (or of ``--workers 1`` and ``2``) differ. The columns then carry
     :data:`GLOBAL_RNG_MARK` (:func:`drew_from_global_rng`); the tables are unchanged, and the
-    paper's conditions (no policy of the experiment's own) are simulated as they were."""
+    paper's conditions (no policy of the experiment's own) are simulated as they were. A run's
+    participant and a batch's participant task (its metrics' ``step_log_columns``) are watched alike."""
     if not policy_specs(plan.config):
-        return simulate_participant_columns(plan, participant_index)
+        return simulate_participant_columns(plan, participant_index, step_log_columns)
     before = _global_rng_digest()
-    columns = simulate_participant_columns(plan, participant_index)
+    columns = simulate_participant_columns(plan, participant_index, step_log_columns)
     if _global_rng_digest() != before:
         setattr(columns, GLOBAL_RNG_MARK, True)
     return columns
@@ -128,9 +134,10 @@ def drew_from_global_rng(columns: ParticipantColumns) -> bool:
     return bool(getattr(columns, GLOBAL_RNG_MARK, False))
 
 
-def global_rng_warning(plan: StudyPlan, where: object) -> str:
-    """The run's one warning line of :func:`drew_from_global_rng`, naming its own policies."""
-    specs = policy_specs(plan.config)
+def global_rng_warning(config: ExperimentConfig, where: object) -> str:
+    """The one warning line of a run (or a batch) of ``config`` of :func:`drew_from_global_rng`,
+    naming its own policies."""
+    specs = policy_specs(config)
     named = ", ".join(f"condition {spec.condition!r} (policy {spec.factory})" for spec in specs)
     return (f"Warning: {where}: {named}: a policy drew from numpy's or Python's global random generator "
             "(np.random.*, random.*), which the run's seed does not set: the tables differ between runs of "
