@@ -15,6 +15,8 @@ Two rules every command that writes files follows:
   ``nudge plot`` as the other's. ``simulate``, ``run`` and the batches apply the same rule to
   the folder they write (:func:`nudgecli.store.prepare_mode`); ``plot-population`` to its
   ``--out`` (the current folder by default), its own earlier outputs aside.
+- **An output folder is a folder**: a path that names a file is refused before any work, in one
+  message for every command (:func:`check_not_a_file`).
 - **An output file that exists is replaced only with ``--force``** (:func:`check_output_file`):
   ``nudge fit --out PROFILE.json`` does not write over a profile fitted before.
 """
@@ -26,7 +28,7 @@ import os
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
-from nudgecli.errors import RunFolderError, WriteError
+from nudgecli.errors import DataError, RunFolderError, WriteError
 from nudgecli.run_folder_names import LOCK
 
 #: The files the running command read, as it named them: (device, inode) and resolved path ->
@@ -97,6 +99,20 @@ def check_output_file(target: str | Path, *, force: bool) -> None:
     check_not_an_input(path)  # the stronger reason first: --force would not help
     if path.exists() and not force:
         raise RunFolderError(f"{path}: exists; choose another --out or use --force to replace it")
+
+
+def check_not_a_file(folder: str | Path) -> None:
+    """Refuse an output folder's path that names an existing file, before any work: every command's
+    one message for it (writing there would fail later as "File exists", which says nothing of the fix).
+
+    Raises
+    ------
+    DataError
+        ``folder`` exists and is not a folder.
+    """
+    path = Path(folder)
+    if path.exists() and not path.is_dir():
+        raise DataError(f"--out {path} is a file; give a folder")
 
 
 def check_output_folder(folder: str | Path, *, force: bool, own: Iterable[str | Path] = (),

@@ -140,7 +140,8 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
         A preset (``paper``, ``study-code``), a TOML file or a loaded plan; default the run's
         recorded plan, else the one named like its experiment, else its world's, else ``paper``.
     metrics, questionnaires
-        Only these metrics, in this order (``--metric``); a questionnaire CSV analysed alongside.
+        Only these metrics, in this order (``--metric``; ``None``: all of them, and an empty list is
+        refused); a questionnaire CSV analysed alongside.
     bootstrap, seed
         Bootstrap resamples and seed of the intervals; default the plan's (shipped: 2000 and 0).
     out
@@ -177,10 +178,10 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     from nudgecli.report.analysis import analyze as analyze_source
     from nudgecli.report.plans import MIN_RESAMPLES, check_resamples
 
-    metrics = arguments.texts("metrics", metrics, optional=True)
+    metrics = arguments.texts("metrics", metrics, optional=True, empty=False)
     questionnaires = arguments.path("questionnaires", questionnaires, optional=True)
     bootstrap = arguments.whole_number("bootstrap", bootstrap, optional=True)  # its bounds: check_resamples
-    out = arguments.path("out", out, optional=True)
+    out = arguments.out_folder(out)
     seed = arguments.seed(seed, optional=True)
     reference = arguments.text("reference", reference, optional=True)
     arguments.switches(drop_duplicates=drop_duplicates, force=force)
@@ -218,8 +219,6 @@ def _analyze_frame(frame: pd.DataFrame, out: str | Path | None, options: dict[st
     folder = temporary_folder("analysis") if out is None else Path(out)
     made = temporary or not folder.exists()
     table = folder / DATAFRAME_TABLE
-    if folder.exists() and not folder.is_dir():
-        raise DataError(f"--out {folder} is a file; give a folder")
     previous = table.read_bytes() if table.is_file() else None  # put back if this analysis fails
     try:
         folder.mkdir(parents=True, exist_ok=True)

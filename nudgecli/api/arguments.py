@@ -106,19 +106,26 @@ def real_number(name: str, value: object, *, between: tuple[float, float] | None
     return number
 
 
-def texts(name: str, values: object, *, optional: bool = False) -> list[str] | None:
+def texts(name: str, values: object, *, optional: bool = False, empty: bool = True) -> list[str] | None:
     """``values`` as a list of ``str`` (a list or tuple of texts, e.g. ``["completion_time"]``).
+
+    ``empty=False`` refuses an empty list where ``None`` means "all" (``metrics=``): ``[]`` would
+    read as "none", and the work would do all.
 
     Raises
     ------
     ConfigError
-        A single text (which would read as its letters), a number, or an item that is no text.
+        A single text (which would read as its letters), a number, an item that is no text, or an
+        empty list where ``empty`` is false.
     """
     if values is None and optional:
         return None
     if isinstance(values, str) or not isinstance(values, Sequence) \
             or not all(isinstance(value, str) for value in values):
         raise _refuse(name, values, "a list of texts, e.g. ['a', 'b']" + (" or None" if optional else ""))
+    if not values and not empty:
+        raise ConfigError(f"{name}={values!r}: an empty list names none; name at least one"
+                          + (f", or leave {name}= out (None) for all" if optional else ""))
     return list(values)
 
 
@@ -179,6 +186,23 @@ def path(name: str, value: object, *, optional: bool = False) -> str | Path | No
     raise _refuse(name, value, "a path (a str or a pathlib.Path)" + (" or None" if optional else ""))
 
 
+def out_folder(value: object) -> str | Path | None:
+    """``out=`` of a function that writes a folder: a path (:func:`path`) or ``None``, and not a file
+    that exists (:func:`nudgecli.outputs.check_not_a_file`, the message of every command's ``--out``).
+
+    Raises
+    ------
+    NudgeError
+        No path, an empty one, or an existing file.
+    """
+    from nudgecli.outputs import check_not_a_file
+
+    folder = path("out", value, optional=True)
+    if folder is not None:
+        check_not_a_file(folder)
+    return folder
+
+
 def formats(value: object) -> tuple[str, ...]:
     """``formats=`` as figure formats: one text ``"png,pdf"`` (``--formats``, checked by
     :func:`~nudgecli.report.plotting.parse_formats`) or a list of texts.
@@ -193,6 +217,26 @@ def formats(value: object) -> tuple[str, ...]:
     if isinstance(value, str):
         return parse_formats(value)
     return tuple(texts("formats", value) or ())
+
+
+def axes(value: object) -> Any:
+    """``ax=`` as one matplotlib ``Axes`` (``fig.add_subplot()``, one item of ``plt.subplots()``'s
+    array) or ``None``: checked here, where matplotlib would fail deep in its drawing.
+
+    Raises
+    ------
+    ConfigError
+        Anything else: a text, a figure, or several axes (the array of ``plt.subplots(1, 2)``).
+    """
+    from matplotlib.axes import Axes
+
+    if value is None or isinstance(value, Axes):
+        return value
+    wanted = "one matplotlib Axes (e.g. fig.add_subplot()) or None"
+    if isinstance(value, str | bytes) or not hasattr(value, "__len__"):
+        raise _refuse("ax", value, wanted)
+    raise ConfigError(f"ax={type(value).__name__} of {len(value)}: ax= takes {wanted}, not several axes; "
+                      "give one of them, e.g. ax=axes[0]")
 
 
 def trial(value: object) -> tuple[int, int] | None:

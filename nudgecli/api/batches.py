@@ -90,7 +90,7 @@ def _run(work: Callable[..., BatchResult], out: str | Path | None, label: str,
          progress: ProgressCallback | None, log: Callable[[str], None] | None, **kwargs: Any) -> Batch:
     """Run one batch kind into ``out`` (or a temporary folder, removed again when it fails), once the
     arguments the kinds share have their Python types (:mod:`nudgecli.api.arguments`)."""
-    out = arguments.path("out", out, optional=True)
+    out = arguments.out_folder(out)
     progress, log = arguments.callback("progress", progress), arguments.callback("log", log)
     kwargs["workers"] = arguments.whole_number("workers", kwargs["workers"])
     kwargs["seed"] = arguments.whole_number("seed", kwargs["seed"], optional=True)
@@ -99,10 +99,13 @@ def _run(work: Callable[..., BatchResult], out: str | Path | None, label: str,
         arguments.switch(name, kwargs[name])
     if "people" in kwargs:
         kwargs["people"] = arguments.people_file(kwargs["people"])
+    from nudgecli.runs.size import override_named
+
     temporary = out is None
     target = temporary_folder(label) if out is None else Path(out)
     try:
-        result = work(out=target, progress=progress, log=log, **kwargs)
+        with override_named("confirm=True"):  # a refusal of the size guard names this API's parameter
+            result = work(out=target, progress=progress, log=log, **kwargs)
     except BaseException:
         remove_if_made(target, temporary)
         raise
@@ -131,7 +134,7 @@ def replicate(experiment: str | Path, replications: int, *, seed: int | None = N
         The batch folder, kept; ``None``: a temporary one removed with the :class:`Batch`.
     workers, scheduler, resume, force, confirm
         Local workers or a dask scheduler, finish or replace a batch in ``out``, run above the
-        size limit (``--yes``).
+        size limit (``--yes``; the limit's refusal names ``confirm=True``).
     progress, log
         ``progress(done, total)`` over tasks and ``log(line)`` for the batch's size; default silent.
 

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 from nudgecli.api import arguments
 from nudgecli.api.analysis import Analysis
 from nudgecli.api.run import Run
-from nudgecli.errors import ConfigError, NudgeError, did_you_mean
+from nudgecli.errors import ConfigError, NudgeError, did_you_mean, shell_words
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -74,10 +74,11 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         ``trajectory``, ``questionnaires`` (where the data allow them; a path-world run:
         ``measures`` and ``trajectory``), or one metric's name: its box-plot panel alone.
     ax
-        Axes of one's own to draw one panel into: a metric's box plot, ``fig5`` or ``trajectory``;
-        default a new figure.
+        One matplotlib ``Axes`` of one's own to draw one panel into: a metric's box plot, ``fig5``
+        or ``trajectory``; default a new figure. Anything else (a text, an array of axes) is refused.
     trial
-        ``(participant, trial)`` or ``"P:T"`` of Fig. 5 and the trajectory (``--trial``).
+        ``(participant, trial)`` or ``"P:T"`` of Fig. 5 and the trajectory (``--trial``); refused
+        with any other figure, which it would not change.
     reference
         Brackets only for this condition's pairs (``--reference``).
 
@@ -90,7 +91,8 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
     ------
     NudgeError
         Not analysed, an unknown figure or metric, a figure of several panels with ``ax``, an
-        unknown trial or reference (``nudge plot``'s messages).
+        ``ax`` that is not one Axes, a ``trial`` of a figure that is not of one trial, an unknown
+        trial or reference (``nudge plot``'s messages).
     """
     from nudgecli.report import figures
     from nudgecli.report.plans import load_plan
@@ -106,6 +108,7 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
 
     trial_key = arguments.trial(trial)
     figure = arguments.text("figure", figure)
+    ax = arguments.axes(ax)
     reference = arguments.text("reference", reference, optional=True)
     folder = _folder_of(analysis)
     inputs = read_inputs(folder, trial_key)
@@ -113,6 +116,7 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
     conditions = figures.resolve_conditions(inputs.metrics, inputs.stats)
     _check_choices(folder, inputs, conditions, trial_key, reference)
     metrics = drawn_metrics(inputs)
+    _check_figure(folder, figure, trial, _figures_of(inputs, metrics), metrics)
     if figure in metrics:
         with figure_style():
             entry = figures.stats_by_metric(inputs.stats).get(figure)
@@ -121,11 +125,6 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         return artists.ax.figure  # type: ignore[return-value]  # a Figure: axes_or_new makes no SubFigure
     plan = PlotPlan(out_dir=folder, trial=trial_key, star_rule=chosen.comparison_options(),
                     item_labels=chosen.questionnaires.labels, reference=reference)
-    available = _figures_of(inputs, metrics)
-    if figure not in available:
-        choices = [*available, *metrics]
-        raise ConfigError(f"figure {figure!r}: not a figure of {folder}; choose one of "
-                          f"{', '.join(choices)}{did_you_mean(figure, choices)}")
     if ax is not None and figure in ("fig5", "trajectory") and inputs.path_layouts is None:
         return _trial_into(inputs, figure, trial_key, ax)
     if ax is not None:
@@ -140,6 +139,21 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         raise ConfigError(f"figure {figure!r}: this source's data do not give it; choose one of "
                           f"{', '.join(drawn)}")
     return drawn[figure]
+
+
+def _check_figure(folder: Path, figure: str, trial: object, available: Sequence[str],
+                  metrics: Sequence[str]) -> None:
+    """``figure`` one of ``folder``'s figures or a metric's panel, and ``trial`` given only with a
+    figure of one trial: with another it would be ignored, and is refused instead."""
+    from nudgecli.report.plotting import TRIAL_FIGURES
+
+    if figure not in available and figure not in metrics:
+        choices = [*available, *metrics]
+        raise ConfigError(f"figure {figure!r}: not a figure of {folder}; choose one of "
+                          f"{', '.join(choices)}{did_you_mean(figure, choices)}")
+    if trial is not None and figure not in TRIAL_FIGURES:
+        raise ConfigError(f"trial={trial!r}: figure {figure!r} is not of one trial; trial= chooses "
+                          f"the trial of {' and '.join(TRIAL_FIGURES)}: leave it out (None) for {figure!r}")
 
 
 def _figures_of(inputs: Any, metrics: Sequence[str]) -> list[str]:
@@ -221,7 +235,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
 
     chosen_formats = arguments.formats(formats)
     trial_key = arguments.trial(trial)
-    out = arguments.path("out", out, optional=True)
+    out = arguments.out_folder(out)
     reference = arguments.text("reference", reference, optional=True)
     force = arguments.switch("force", force)
     log = arguments.callback("log", log)
@@ -295,10 +309,12 @@ def _check_no_questionnaires(folder: Path, table: Path | None, shown_plan: str) 
     written = folder if table is not None or folder.is_dir() else analysis_folder(folder)
     if (written / QUESTIONNAIRE_SCORES_CSV).is_file():
         source = table if table is not None else folder
+        again = shell_words(["nudge", "analyze", str(source), "--plan", shown_plan, "--questionnaires",
+                             "ANSWERS.csv"])
         raise ConfigError(
             f"{written} holds questionnaire scores ({QUESTIONNAIRE_SCORES_CSV}) of an analysis with "
-            "--questionnaires, and plot --plan analyses without them: analyse it with `nudge analyze "
-            f"{source} --plan {shown_plan} --questionnaires ANSWERS.csv`, then `nudge plot {folder}`")
+            f"--questionnaires, and plot --plan analyses without them: analyse it with `{again}`, then "
+            f"`{shell_words(['nudge', 'plot', str(folder)])}`")
 
 
 def _table_of_analysis_folder(folder: Path) -> tuple[Path | None, bool]:
@@ -331,9 +347,10 @@ def _table_of_analysis_folder(folder: Path) -> tuple[Path | None, bool]:
                              "again (the analysis of a run written there, or of a table by an older nudge); "
                              "give `nudge plot --plan` the run folder or the metrics table itself")
     if table is None or not table.is_file():
+        again = shell_words(["nudge", "analyze", "TABLE", "--plan", "PLAN", "--out", str(folder)])
         raise RunFolderError(f"{folder}: --plan analyses the metrics table its {STATS_JSON} was computed "
                              "from, and that table is not there (moved, or edited since); analyse the "
-                             f"table with `nudge analyze TABLE --plan PLAN --out {folder}`, then plot")
+                             f"table with `{again}`, then plot")
     return table, bool(record is not None and record["drop_duplicates"])
 
 

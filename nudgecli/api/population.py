@@ -106,15 +106,16 @@ def plot_population(experiment: str | Path, *,
     """
     from nudgecli.api import arguments
     from nudgecli.api.run import experiment_config
-    from nudgecli.runs.size import MAX_CALIBRATIONS_WITHOUT_YES, check_size
+    from nudgecli.runs.size import MAX_CALIBRATIONS_WITHOUT_YES, check_size, override_named
     from nudgecli.sim.real_population import coverage_table, simulated_diagonals, simulated_habits
 
     participants = arguments.whole_number("participants", participants, minimum=1)
     seed = arguments.seed(seed, optional=True)
-    out = arguments.path("out", out, optional=True)
+    out = arguments.out_folder(out)
     force, yes = arguments.switch("force", force), arguments.switch("yes", yes)
-    check_size(participants, yes, limit=MAX_CALIBRATIONS_WITHOUT_YES,
-               work="calibrate {} simulated participants", fix="fewer --participants")
+    with override_named("yes=True"):  # the refusal names this API's parameter (--yes on the command line)
+        check_size(participants, yes, limit=MAX_CALIBRATIONS_WITHOUT_YES,
+                   work="calibrate {} simulated participants", fix="fewer --participants")
     chosen = arguments.formats(formats)
     config = experiment_config(experiment, overrides=overrides)
     if out is not None:

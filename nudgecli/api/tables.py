@@ -188,7 +188,7 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
     plan
         The metric definitions and filters (default the simulated run's plan, else ``paper``).
     metrics
-        Only these metrics (default every metric both hold).
+        Only these metrics (default every metric both hold; an empty list is refused).
     match
         Simulated condition -> the real table's name for it: a mapping, or ``SIMULATED=REAL`` texts.
     resamples, level, seed
@@ -210,13 +210,13 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
     from nudgecli.report.plans import MIN_RESAMPLES, check_resamples
 
     real = arguments.path("real", real)
-    metrics = arguments.texts("metrics", metrics, optional=True)
+    metrics = arguments.texts("metrics", metrics, optional=True, empty=False)
     resamples = arguments.whole_number("resamples", resamples, minimum=0)
     level = arguments.real_number("level", level)
     seed = arguments.seed(seed)
     drop_duplicates = arguments.switch("drop_duplicates", drop_duplicates)
     force = arguments.switch("force", force)
-    out = arguments.path("out", out, optional=True)
+    out = arguments.out_folder(out)
     chosen_formats = arguments.formats(formats)
     check_resamples(resamples or None, "--resamples", MIN_RESAMPLES)  # 0 asks for no intervals
     if not 0.5 < level < 1.0:

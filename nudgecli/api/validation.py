@@ -132,15 +132,16 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         before anything is written.
     """
     from nudgecli.api import arguments
-    from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size
+    from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size, override_named
     from nudgecli.sim import validation
 
     settings, names, notes = _checked_settings(simulations, min_goals, max_goals, states, seed,
                                                belief_concentration, mc_queries, reading, all_readings)
     arguments.switches(all_readings=all_readings, force=force, yes=yes)
-    out, progress = arguments.path("out", out, optional=True), arguments.callback("progress", progress)
-    check_size(simulations * settings.states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
-               work="run {} queries (worlds x states x readings)", fix="fewer --simulations or --states")
+    out, progress = arguments.out_folder(out), arguments.callback("progress", progress)
+    with override_named("yes=True"):  # the refusal names this API's parameter (--yes on the command line)
+        check_size(simulations * settings.states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
+                   work="run {} queries (worlds x states x readings)", fix="fewer --simulations or --states")
     if out is not None:
         from nudgecli.outputs import check_output_folder
 

@@ -13,6 +13,7 @@ import click
 
 from nudgecli.errors import ConfigError
 from nudgecli.outputs import command_inputs, declare_input
+from nudgecli.runs.size import YES_OPTION, override_named
 
 #: ``ctx.meta`` key of a callable returning what to tell the user after Ctrl-C (how to resume).
 INTERRUPT_HINT = "nudge.interrupt_hint"
@@ -107,7 +108,8 @@ def declaring_inputs(command: click.Command) -> click.Command:
     (:func:`nudgecli.outputs.declare_input`): the values of its path arguments and options and of
     :data:`FILE_OPTIONS`, ``--out`` aside. So no command replaces a file it read with an output,
     whoever wrote the command (:func:`nudgecli.store.atomic_path` refuses). An empty ``--out``
-    (``--out ""``, a variable left unset) is refused here, for every command, before any work."""
+    (``--out ""``, a variable left unset) is refused here, for every command, before any work; and
+    a refusal of the size guard names ``--yes`` (:func:`nudgecli.runs.size.override_named`)."""
     callback = command.callback
     if callback is None or getattr(callback, "declares_inputs", False):
         return command
@@ -122,7 +124,7 @@ def declaring_inputs(command: click.Command) -> click.Command:
         if kwargs.get("out") == "":  # a path would make it the current folder, or no file at all
             raise ConfigError('--out "": an empty path; name the folder or file to write'
                               + ("" if out_required else ", or leave --out out for the default"))
-        with command_inputs():
+        with command_inputs(), override_named(YES_OPTION):  # the API it calls names confirm=True
             for name, label in named:
                 value = kwargs.get(str(name))
                 for path in value if isinstance(value, tuple | list) else (value,):

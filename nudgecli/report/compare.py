@@ -39,6 +39,7 @@ import pandas as pd
 
 from nudgecli import command_defaults as defaults
 from nudgecli.errors import DataError, did_you_mean, shell_words
+from nudgecli.outputs import check_not_a_file
 from nudgecli.report.analysis import load_source
 from nudgecli.report.plans import AnalysisPlan, load_plan
 from nudgecli.report.stats import order_conditions
@@ -518,8 +519,7 @@ def write_comparison(result: Comparison, out: str | Path) -> list[Path]:
     import json
 
     folder = Path(out)
-    if folder.exists() and not folder.is_dir():
-        raise DataError(f"--out {folder} is a file; give a folder")
+    check_not_a_file(folder)
     files = dict(zip(COMPARISON_FILES, (
         result.table.to_csv(index=False),
         result.medians.to_csv(index=False),

@@ -90,7 +90,8 @@ def read_questionnaires(path: str | Path) -> pd.DataFrame:
     """
     path = Path(path)
     if not path.is_file():
-        raise DataError(f"questionnaire file {path} does not exist; give a CSV file with participant, "
+        what = "is a folder, not a file" if path.is_dir() else "does not exist"
+        raise DataError(f"questionnaire file {path} {what}; give a CSV file with participant, "
                         "condition and tlx_*/likert_* columns")
     try:
         # the header as written: pandas names a repeated column `likert_q3.1`, scored as an item of its own

@@ -15,14 +15,17 @@ refused by name before anything is cleared or written. ``plot-population`` count
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
+from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError
 from nudgecli.runs.progress import format_duration
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # the command line names the override (override_named) without loading the config
+    from nudgecli.config import ExperimentConfig
     from nudgecli.runs.batch import Batch
 
 #: Simulated trials above which a command needs ``--yes`` (``confirm=True``).
@@ -38,6 +41,25 @@ MAX_STEPS_WITHOUT_YES = MAX_TRIALS_WITHOUT_YES * 1_200
 MAX_CALIBRATIONS_WITHOUT_YES = 10_000
 #: Queries (worlds x states x readings) ``validate`` runs without ``--yes`` (about 50 us each).
 MAX_QUERIES_WITHOUT_YES = 10_000_000
+
+
+#: The command line's override of the guard, which its refusals name by default.
+YES_OPTION = "--yes"
+#: The override the refusals name, as the front end that called spells it (``None``: :data:`YES_OPTION`).
+_OVERRIDE: ContextVar[str | None] = ContextVar("size_override", default=None)
+
+
+@contextlib.contextmanager
+def override_named(name: str) -> Iterator[None]:
+    """Within the block, the guard's refusals tell the person to pass ``name`` (the Python API's
+    ``confirm=True``), unless a caller outside named one first: the command line, which calls the
+    API, names :data:`YES_OPTION` around it, and the person at the outermost front end is told."""
+    token = _OVERRIDE.set(name) if _OVERRIDE.get() is None else None
+    try:
+        yield
+    finally:
+        if token is not None:
+            _OVERRIDE.reset(token)
 
 
 # --- a batch's estimate (its "about ..."): the guard itself counts trials and steps ---------------
@@ -179,7 +201,7 @@ def check_size(count: int, confirm: bool, *, limit: int | None = None, work: str
     count
         How much the command would do (trials by default).
     confirm
-        ``--yes`` was given.
+        ``--yes`` was given (the message names it, or the override of :func:`override_named`).
     limit
         The most without ``confirm`` [default: :data:`MAX_TRIALS_WITHOUT_YES`].
     work
@@ -198,5 +220,6 @@ def check_size(count: int, confirm: bool, *, limit: int | None = None, work: str
     if count > most and not confirm:
         extra = f"; {details}" if details else ""
         doing = work.format(f"{count:,}")
-        raise ConfigError(f"this would {doing} (more than {most:,}{extra}); pass --yes to run it, "
+        override = _OVERRIDE.get() or YES_OPTION
+        raise ConfigError(f"this would {doing} (more than {most:,}{extra}); pass {override} to run it, "
                           f"or use {fix}")

@@ -395,7 +395,8 @@ def read_sessions(folder: str | Path, variant: str = AUTO_VARIANT
     """
     folder = Path(folder)
     if not folder.is_dir():
-        raise DataError(f"{folder}: no such folder; give one participant's calibration folder "
+        what = "a file, not a folder" if folder.exists() else "no such folder"
+        raise DataError(f"{folder}: {what}; give one participant's calibration folder "
                         f"(with {STUDY_MAPPING_FOLDER}/ and/or {STUDY_DISTORTION_FOLDER}/)")
     mapping = read_mapping_session(folder)
     distortion = read_distortion_session(folder, variant)

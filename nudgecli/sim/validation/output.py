@@ -10,7 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from nudgecli.errors import ConfigError
+from nudgecli.outputs import check_not_a_file
 from nudgecli.sim.validation.runner import QUERY_COLUMNS, ValidationResult
 from nudgecli.store import check_writable, write_text_atomic
 
@@ -35,14 +35,13 @@ def prepare_out(out_dir: str | os.PathLike[str]) -> Path:
 
     Raises
     ------
-    ConfigError
-        The path is a file.
+    DataError
+        The path is a file (:func:`nudgecli.outputs.check_not_a_file`).
     WriteError
         The folder cannot be created or written (one ``Error:`` line naming the path and cause).
     """
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise ConfigError(f"--out {out} is not a folder; choose a folder path")
+    check_not_a_file(out)
     check_writable(out)  # a file is made and removed: read-only or full folders fail here, before any work
     return out
 
