@@ -8,7 +8,7 @@ rule and item labels are the analysis plan's, chosen as ``nudge plot`` chooses t
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -207,8 +207,8 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
     plan
         Analyse ``source`` with this plan first (``--plan``; a table's analysis folder: the table
         its ``stats.json`` names, into that folder), once every other choice is checked, so that
-        a refused plot leaves the existing analysis as it was; default: plot the existing
-        analysis with the plan it records.
+        a refused plot leaves the existing analysis as it was; the analysis it replaced is put
+        back if the plot then fails; default: plot the existing analysis with the plan it records.
     out
         The figures' folder; default ``figures/`` in the run or analysis folder.
     formats
@@ -229,9 +229,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
     NudgeError
         ``nudge plot``'s errors; a folder made only for the figures is removed again.
     """
-    from nudgecli.locks import run_lock
     from nudgecli.report.plans import AnalysisPlan, load_plan
-    from nudgecli.report.plotting import default_out, plot_folder
 
     chosen_formats = arguments.formats(formats)
     trial_key = arguments.trial(trial)
@@ -240,6 +238,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
     force = arguments.switch("force", force)
     log = arguments.callback("log", log)
     folder = _folder_of(source)
+    analysed_first: contextlib.AbstractContextManager[None] = contextlib.nullcontext()
     if isinstance(source, Analysis) and plan is None:
         plan = source.plan
         analysis_plan = load_plan(plan_of(folder, plan))
@@ -247,7 +246,20 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
         analysis_plan = load_plan(plan_of(folder, plan))
         if plan is not None:
             shown = analysis_plan.label if isinstance(plan, AnalysisPlan) else str(plan)
-            _analyse_first(folder, analysis_plan, trial_key, out, force, reference, shown, log)
+            analysed_first = _analysed_first(folder, analysis_plan, trial_key, out, force, reference, shown,
+                                             log)
+    with analysed_first:  # --plan: the analysis it replaced is put back if the plot fails
+        return _write_figures(folder, out, chosen_formats, trial_key, analysis_plan, reference, force, log)
+
+
+def _write_figures(folder: Path, out: str | Path | None, formats: Sequence[str],
+                   trial: tuple[int, int] | None, analysis_plan: AnalysisPlan, reference: str | None,
+                   force: bool, log: Callable[[str], None] | None) -> list[Path]:
+    """:func:`save_figures` once the source is analysed: the figures' folder locked and checked, the
+    figures drawn and written; a folder made only for them is removed again if that fails."""
+    from nudgecli.locks import run_lock
+    from nudgecli.report.plotting import default_out, plot_folder
+
     # lock only the folder written: the figures' folder given by out (a read-only source is then
     # only read), else the run or analysis folder that holds figures/ (which analyze locks)
     written_folder: Path | None = None  # None: not a plottable source; plot_folder says why
@@ -261,7 +273,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
         with run_lock(written_folder, log=log) if written_folder is not None else contextlib.nullcontext():
             if out is not None:  # under the lock: a folder another command is writing is named so
                 _check_figures_folder(folder, out, force)
-            return plot_folder(folder, out, chosen_formats, trial_key,
+            return plot_folder(folder, out, formats, trial,
                                star_rule=analysis_plan.comparison_options(),
                                item_labels=analysis_plan.questionnaires.labels, reference=reference,
                                log=log)
@@ -272,19 +284,26 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
         raise
 
 
-def _analyse_first(folder: Path, plan: AnalysisPlan, trial: tuple[int, int] | None, out: str | Path | None,
-                   force: bool, reference: str | None, shown_plan: str,
-                   log: Callable[[str], None] | None = None) -> None:
+@contextlib.contextmanager
+def _analysed_first(folder: Path, plan: AnalysisPlan, trial: tuple[int, int] | None, out: str | Path | None,
+                    force: bool, reference: str | None, shown_plan: str,
+                    log: Callable[[str], None] | None = None) -> Iterator[None]:
     """``nudge plot --plan``: analyse the source with ``plan`` after checking what the plot can check
-    before (the trial, the figures' folder), so that a plot refused for them rewrites nothing.
+    before (the trial, the figures' folder), so that a plot refused for them rewrites nothing; then
+    the block (the plot), with the analysis folder's lock held. If the analysis or the block fails,
+    the analysis the folder held is put back as it was
+    (:func:`nudgecli.report.analysis_folders.analysis_restored_on_failure`), and a folder made for
+    this analysis alone is removed: a failed plot leaves the folder as it was.
 
     A run folder or a table is analysed as ``nudge analyze`` does (into the run folder, the
     table's ``<table>-analysis/``); a table's analysis folder is the table its ``stats.json``
     names (:func:`nudgecli.report.analysis_folders.analysed_table`), analysed again into that
-    folder with the ``--drop-duplicates`` it was analysed with. ``analyze`` takes the locks of
-    what it writes.
+    folder with the ``--drop-duplicates`` it was analysed with.
     """
+    from nudgecli.locks import run_lock
     from nudgecli.report.analysis import analyze as analyze_source
+    from nudgecli.report.analysis_folders import analysis_folder, analysis_restored_on_failure
+    from nudgecli.store import is_run_folder
 
     table, drop_duplicates = _table_of_analysis_folder(folder)
     if trial is not None:
@@ -292,11 +311,20 @@ def _analyse_first(folder: Path, plan: AnalysisPlan, trial: tuple[int, int] | No
     if out is not None:
         _check_figures_folder(folder, out, force)
     _check_no_questionnaires(folder, table, shown_plan)
-    if table is None:
-        analyze_source(folder, plan=plan, reference=reference, log=log)
-    else:
-        analyze_source(table, plan=plan, out=folder, reference=reference, drop_duplicates=drop_duplicates,
-                       log=log)
+    written = folder if folder.is_dir() else analysis_folder(folder)
+    made = not written.exists()
+    try:
+        with run_lock(written, log=log), analysis_restored_on_failure(written, run=is_run_folder(written)):
+            if table is None:
+                analyze_source(folder, plan=plan, reference=reference, log=log)
+            else:
+                analyze_source(table, plan=plan, out=folder, reference=reference,
+                               drop_duplicates=drop_duplicates, log=log)
+            yield
+    except BaseException:
+        if made and written.is_dir() and not any(written.iterdir()):
+            written.rmdir()  # made for this analysis alone: a failed plot leaves nothing behind
+        raise
 
 
 def _check_no_questionnaires(folder: Path, table: Path | None, shown_plan: str) -> None:

@@ -66,7 +66,8 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
 @click.command("plot", short_help="Draw the figures of an analysed run or metrics table.")
 @click.argument("run", type=click.Path(path_type=str))
 @click.option("--plan", metavar="PLAN", default=None,
-              help="Analyse RUN with this plan first (writes metrics.csv and stats.json), then plot "
+              help="Analyse RUN with this plan first (writes metrics.csv and stats.json; the analysis "
+                   "replaced is put back if the plot then fails), then plot "
                    "[default: plot the existing analysis, with the star rule and item labels of the plan "
                    "recorded in the run folder, else the plan named like the run's experiment, else its "
                    "world's (ciaa-teleop for the CIAA world), else paper].")

@@ -26,10 +26,11 @@ construction are left out of their tests for those conditions
 Written atomically, holding the folder's lock (:func:`nudgecli.store.run_lock`), to the run folder,
 ``<table>-analysis/`` beside a table (``study.csv`` gives ``study-analysis/``; one that holds the
 analysis of another table, such as ``study.parquet``, is refused without ``force``:
-:mod:`nudgecli.report.analysis_folders`), or ``out``: :data:`ANALYSIS_FILES`, ``stats.json`` last
-(:func:`_write_analysis`). ``metrics.csv`` is written for a run folder, or a table the analysis
-changed (``stats.json``'s ``metrics_table`` names the table the statistics came from, and its
-``table_read`` what was done to a table's rows, :mod:`nudgecli.report.table_read`);
+:mod:`nudgecli.report.analysis_folders`), or ``out``: the folder's
+:data:`~nudgecli.report.analysis_folders.ANALYSIS_FILES`, ``stats.json`` last (:func:`_write_analysis`).
+``metrics.csv`` is written for a run folder, or a table the analysis changed (``stats.json``'s
+``metrics_table`` names the table the statistics came from, and its ``table_read`` what was done to
+a table's rows, :mod:`nudgecli.report.table_read`);
 ``questionnaire_scores.csv`` with questionnaires (``questionnaires.csv`` is the answers
 ``nudge study`` records). No output replaces an input (:func:`nudgecli.outputs.check_not_an_input`).
 """
@@ -49,10 +50,14 @@ import pandas as pd
 from nudgecli.config_files import resolve_plan, world_kind_of
 from nudgecli.errors import ConfigError, DataError, RunFolderError, did_you_mean
 from nudgecli.errors import WriteError as NudgeWriteError
-from nudgecli.locks import LOCK, run_lock
+from nudgecli.locks import run_lock
 from nudgecli.model.conditions import not_applicable_metrics
 from nudgecli.outputs import check_not_an_input
-from nudgecli.report.analysis_folders import analysis_folder, check_folder_is_the_tables
+from nudgecli.report.analysis_folders import (
+    analysis_folder,
+    check_folder_is_the_tables,
+    left_by_a_killed_analysis,
+)
 from nudgecli.report.checksum import CHECKSUM_KEY, metrics_checksum
 from nudgecli.report.metrics import (
     INPUT_STEP_COLUMNS,
@@ -69,6 +74,7 @@ from nudgecli.report.plans import (
     check_plan_conditions,
     check_resamples,
     load_plan,
+    plan_argument,
 )
 from nudgecli.report.questionnaires import (
     SCORES_CHECKSUM_KEY,
@@ -92,7 +98,7 @@ from nudgecli.report.tables import (
 )
 from nudgecli.run_folder_names import METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_CSV, STATS_JSON, SUMMARY_MD
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, file_sha256
-from nudgecli.store import RunFolder, is_run_folder, temporary_prefix, write_error, write_text_atomic
+from nudgecli.store import RunFolder, is_run_folder, write_error, write_text_atomic
 
 
 @dataclass
@@ -423,7 +429,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         table, available, dropped = _load_table(source, drop_duplicates, notes, chosen=metrics)
         changed = dropped > 0
         table_read = table_read_record(sha256, len(table) + dropped, drop_duplicates, dropped,
-                                       source_from_out, *analysed_inputs(out_dir, plan.label, questionnaires))
+                                       source_from_out, *analysed_inputs(out_dir, plan_argument(plan),
+                                                                         questionnaires))
     try:  # before anything is recorded: a plan whose conditions are not the data's is refused
         check_plan_conditions(plan, plan.label, table["condition"].astype(str).unique(), str(source))
     except ConfigError as exc:  # the run's recorded plan, no --plan given: the fix `nudge run` gives
@@ -497,10 +504,12 @@ def _recorded_plan(manifest: dict[str, Any] | None) -> str:
 def _record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan: AnalysisPlan,
                  out_dir: Path) -> None:
     """Record the plan in a finished run's manifest that has none, for the next analysis: only where
-    this analysis writes anyway (the run folder as its output folder)."""
-    if run is not None and manifest is not None and "participants" in manifest and \
+    this analysis writes anyway (the run folder as its output folder), and not a plan built in code,
+    which no ``--plan`` names (:func:`~nudgecli.report.plans.plan_argument`)."""
+    named = plan_argument(plan)
+    if run is not None and manifest is not None and "participants" in manifest and named is not None and \
             "plan" not in manifest and out_dir.resolve() == run.path.resolve():
-        manifest["plan"] = plan.label
+        manifest["plan"] = named
         run.write_manifest(manifest)
 
 
@@ -562,26 +571,14 @@ def _statistics(filtered: pd.DataFrame, trial_selected: Sequence[str], scores: p
     return stats
 
 
-#: The files an analysis writes into its folder, in this order: ``stats.json``, which every reader
-#: starts from, last (:func:`_write_analysis`).
-ANALYSIS_FILES = (METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV, STATS_JSON)
-
-
-def left_by_a_killed_analysis(folder: str | Path) -> Callable[[str], bool]:
-    """Whether a file name in ``folder`` may be left by an analysis killed there (the next replaces or
-    removes it): the lock, an analysis file but ``stats.json`` (a complete analysis is not replaced
-    unasked), a temporary of any of them (:func:`~nudgecli.store.temporary_prefix`)."""
-    return lambda name: name == LOCK or name in ANALYSIS_FILES[:-1] or (name.endswith(".tmp") and any(
-        name.startswith(temporary_prefix(Path(folder) / own)) for own in ANALYSIS_FILES))
-
-
 def _write_analysis(out_dir: Path, metrics: pd.DataFrame | None, stats: dict[str, Any], tidy: pd.DataFrame,
                     summary: str, scores: pd.DataFrame | None) -> list[Path]:
-    """Write :data:`ANALYSIS_FILES` atomically into ``out_dir`` (``metrics.csv`` when ``metrics`` is
-    given: the table analysed differs from the source; ``questionnaire_scores.csv`` with ``scores``)
-    and return them; none when one is an input of the command. The old ``stats.json`` goes first, the
-    new one comes last: a killed analysis leaves none (``nudge plot`` refuses the folder), never one
-    beside another analysis's files. An earlier killed analysis's temporaries are removed."""
+    """Write :data:`~nudgecli.report.analysis_folders.ANALYSIS_FILES` atomically into ``out_dir``
+    (``metrics.csv`` when ``metrics`` is given: the table analysed differs from the source;
+    ``questionnaire_scores.csv`` with ``scores``) and return them; none when one is an input of the
+    command. The old ``stats.json`` goes first, the new one comes last: a killed analysis leaves none
+    (``nudge plot`` refuses the folder, naming the command that completes it), never one beside
+    another analysis's files. An earlier killed analysis's temporaries are removed."""
     outputs = {METRICS_CSV: None if metrics is None else metrics.to_csv(index=False),
                STATS_CSV: stats_csv(tidy), SUMMARY_MD: summary,  # scores: the bytes stats.json records
                QUESTIONNAIRE_SCORES_CSV: None if scores is None else scores_csv(scores),

@@ -8,6 +8,13 @@ rows are then in ``metrics.csv``) the SHA-256 of ``table_read``
 (:mod:`nudgecli.report.table_read`) tells which table beside the folder it was. One table's
 analysis never silently replaces another's (:func:`check_folder_is_the_tables`), and
 ``nudge plot FOLDER --plan PLAN`` knows which table to analyse again.
+
+An analysis writes :data:`ANALYSIS_FILES` with ``stats.json``, which every reader starts from,
+removed first and written last: a folder holding analysis files (or their temporaries) but no
+``stats.json`` holds an analysis cut short (:func:`interrupted_analysis`), which ``nudge plot``
+refuses naming the command that completes it (:func:`check_analysis_complete`). ``nudge plot
+--plan`` analyses again before it draws, and puts the analysis it replaced back when the plot
+then fails (:func:`analysis_restored_on_failure`).
 """
 
 from __future__ import annotations
@@ -15,12 +22,23 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import shutil
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
-from nudgecli.errors import RunFolderError
+from nudgecli.errors import RunFolderError, shell_words
+from nudgecli.locks import LOCK
 from nudgecli.report.tables import TABLE_SUFFIXES
-from nudgecli.run_folder_names import METRICS_CSV, STATS_JSON
+from nudgecli.run_folder_names import (
+    MANIFEST,
+    METRICS_CSV,
+    QUESTIONNAIRE_SCORES_CSV,
+    STATS_CSV,
+    STATS_JSON,
+    SUMMARY_MD,
+)
 from nudgecli.run_folder_record import file_sha256
+from nudgecli.store import temporary_prefix, write_error
 
 #: What a table's default analysis folder adds to its stem: ``study.csv`` -> ``study-analysis/``.
 ANALYSIS_FOLDER_SUFFIX = "-analysis"
@@ -102,5 +120,131 @@ def check_folder_is_the_tables(table: Path, folder: Path) -> None:
                          f"--out {own}), or use --force to replace that analysis")
 
 
-__all__ = ["ANALYSIS_FOLDER_SUFFIX", "analysed_table", "analysis_folder", "check_folder_is_the_tables",
-           "tables_beside"]
+#: The files an analysis writes into its folder, in this order: ``stats.json``, which every reader
+#: starts from, last (:func:`nudgecli.report.analysis.analyze`).
+ANALYSIS_FILES = (METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV, STATS_JSON)
+
+
+def left_by_a_killed_analysis(folder: str | Path) -> Callable[[str], bool]:
+    """Whether a file name in ``folder`` may be left by an analysis killed there (the next replaces or
+    removes it): the lock, an analysis file but ``stats.json`` (a complete analysis is not replaced
+    unasked), a temporary of any of them (:func:`~nudgecli.store.temporary_prefix`) but those this
+    process keeps (:func:`analysis_restored_on_failure`: the analysis it runs must not remove them)."""
+    mine = _kept_suffix()
+    return lambda name: name == LOCK or name in ANALYSIS_FILES[:-1] or (
+        name.endswith(".tmp") and not name.endswith(mine)
+        and any(name.startswith(temporary_prefix(Path(folder) / own)) for own in ANALYSIS_FILES))
+
+
+def interrupted_analysis(folder: Path) -> list[str]:
+    """The files an analysis cut short left in ``folder`` (sorted): its files or their temporaries
+    where there is no ``stats.json`` (written last, removed first); empty for a complete analysis,
+    or a folder no analysis wrote."""
+    if not folder.is_dir() or (folder / STATS_JSON).exists():
+        return []
+    left = left_by_a_killed_analysis(folder)
+    return sorted(path.name for path in folder.iterdir() if path.name != LOCK and left(path.name))
+
+
+def check_analysis_complete(folder: Path, source: Path | None = None) -> None:
+    """Refuse a folder that holds an analysis cut short (:func:`interrupted_analysis`).
+
+    Parameters
+    ----------
+    folder
+        The run folder or analysis folder about to be plotted.
+    source
+        What was analysed there: the run folder or the metrics table; ``None`` (an analysis
+        folder given by itself): the table beside it whose analysis folder it is
+        (:func:`tables_beside`), else a ``TABLE`` for the user to fill in.
+
+    Raises
+    ------
+    RunFolderError
+        One line naming the folder, what the interrupted analysis left and the ``nudge analyze``
+        command that completes it.
+    """
+    left = interrupted_analysis(folder)
+    if not left:
+        return
+    beside = tables_beside(folder)
+    analysed = source if source is not None else beside[0] if len(beside) == 1 else None
+    own = None if analysed is None else analysed if analysed.is_dir() else analysis_folder(analysed)
+    words = ["nudge", "analyze", str(analysed or "TABLE")]
+    if own is None or own.resolve() != folder.resolve():
+        words += ["--out", str(folder)]
+    table_is = "TABLE: the table analysed there; " if analysed is None else ""
+    raise RunFolderError(f"{folder}: its analysis is incomplete ({', '.join(left)} but no {STATS_JSON}: an "
+                         "analysis was interrupted before it finished); complete it with "
+                         f"`{shell_words(words)}` ({table_is}with the options the interrupted analysis was "
+                         "given, such as --plan), then plot")
+
+
+@contextlib.contextmanager
+def analysis_restored_on_failure(folder: Path, *, run: bool = False) -> Iterator[None]:
+    """Put the analysis ``folder`` holds now back as it was if the block fails (``nudge plot
+    --plan``: the plot after the analysis again), ``stats.json`` removed first and put back last;
+    files the block wrote that were not there are removed. The caller holds the folder's lock.
+
+    The files are kept as hard links (a copy where the file system has none) named as
+    temporaries of the files (:func:`~nudgecli.store.temporary_prefix`), which the next analysis
+    removes if this process is killed: an analysis's atomic writes replace a file's name, never
+    the bytes the link holds. ``run``: the folder is a run folder, whose manifest the analysis may
+    record its plan in, kept too.
+
+    Raises
+    ------
+    WriteError
+        The files cannot be kept (nothing has been changed then).
+    """
+    names = [MANIFEST, *ANALYSIS_FILES] if run else list(ANALYSIS_FILES)
+    kept: dict[str, Path] = {}
+    try:
+        for name in names:
+            if (folder / name).is_file():
+                kept[name] = _kept_copy(folder / name)
+    except OSError as exc:
+        _remove(kept.values())
+        raise write_error(folder, exc) from exc
+    try:
+        yield
+    except BaseException:
+        with contextlib.suppress(OSError):  # as far as it goes: stats.json stays away from a mix
+            (folder / STATS_JSON).unlink(missing_ok=True)
+            for name in names:  # a link to the file itself (not replaced) stays, removed below
+                if name in kept:
+                    os.replace(kept[name], folder / name)
+                else:
+                    (folder / name).unlink(missing_ok=True)
+        raise
+    finally:
+        _remove(kept.values())
+
+
+def _kept_copy(path: Path) -> Path:
+    """A hard link to ``path`` (else a copy) named as one of its temporaries (the caller holds the
+    folder's lock: a temporary of that name is one a killed process left)."""
+    kept = path.with_name(f"{temporary_prefix(path)}{_kept_suffix()}")
+    kept.unlink(missing_ok=True)
+    try:
+        os.link(path, kept)
+    except OSError:  # no hard links on this file system: a copy
+        shutil.copy2(path, kept)
+    return kept
+
+
+def _kept_suffix() -> str:
+    """How the names of the files this process keeps end (:func:`_kept_copy`)."""
+    return f"kept-{os.getpid()}.tmp"
+
+
+def _remove(paths: Iterable[Path]) -> None:
+    """Remove the kept files ``paths`` that are still there."""
+    for path in list(paths):
+        with contextlib.suppress(OSError):
+            path.unlink(missing_ok=True)
+
+
+__all__ = ["ANALYSIS_FILES", "ANALYSIS_FOLDER_SUFFIX", "analysed_table", "analysis_folder",
+           "analysis_restored_on_failure", "check_analysis_complete", "check_folder_is_the_tables",
+           "interrupted_analysis", "left_by_a_killed_analysis", "tables_beside"]

@@ -214,6 +214,19 @@ class AnalysisPlan(_Section):
         )
 
 
+def plan_argument(plan: AnalysisPlan) -> str | None:
+    """How ``--plan`` names ``plan``: a preset's name, or the path of the file it was read from
+    (:attr:`AnalysisPlan.label`); ``None`` for a plan built in code (``AnalysisPlan(...)``, or a
+    preset's or a file's plan changed in code), whose settings no preset and no file holds, so
+    that no ``--plan`` can give it again: it is given again from Python.
+    """
+    try:
+        named = load_plan(plan.label) if plan.label in plan_names() or plan._file is not None else None
+    except ConfigError:  # its file gone or broken since it was read: it names this plan no longer
+        return None
+    return plan.label if named == plan else None
+
+
 def check_plan_conditions(plan: AnalysisPlan, plan_label: str, present: Sequence[str], source: str) -> None:
     """Refuse a plan whose ``conditions`` name one the data lacks where the data holds one the
     plan does not name, so that the plan's order would be ignored silently.

@@ -24,7 +24,7 @@ are compared by letters, or by the brackets of a reference condition (``--refere
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -36,7 +36,7 @@ from matplotlib.figure import Figure
 from nudgecli.errors import ConfigError, DataError, RunFolderError
 from nudgecli.report import figures
 from nudgecli.report.analysis import analysed_metrics_path
-from nudgecli.report.analysis_folders import analysis_folder
+from nudgecli.report.analysis_folders import analysis_folder, check_analysis_complete, interrupted_analysis
 from nudgecli.report.checksum import recorded_checksum, verify_metrics
 from nudgecli.report.figure_records import replace_earlier_figures
 from nudgecli.report.figures import TrialLayout
@@ -44,23 +44,21 @@ from nudgecli.report.metrics import apply_filters
 from nudgecli.report.metrics_csv import read_metrics_csv
 from nudgecli.report.pair_display import check_reference
 from nudgecli.report.questionnaires import read_analysed_scores
+from nudgecli.report.run_figure_inputs import layouts_by_trial, representative_trial, run_fields
 from nudgecli.report.stats import ComparisonOptions
 from nudgecli.report.stats_verify import verify_p_values
 from nudgecli.report.style import condition_display_name
-from nudgecli.report.table_read import analyze_command, check_table_is_analysed, recorded_table_read
+from nudgecli.report.table_read import analyze_again, check_table_is_analysed, recorded_table_read
 from nudgecli.report.tables import (
     TABLE_SUFFIXES,
     find_duplicate_trials,
     read_metrics_table,
     validate_metrics_table,
 )
-from nudgecli.report.trial_selection import choose_figure5_trial, trial_groups
+from nudgecli.report.trial_selection import choose_figure5_trial
 from nudgecli.report.trial_steps import TrialKey
 from nudgecli.run_folder_names import FIGURES_DIR, METRICS_CSV, STATS_JSON
-from nudgecli.store import RunFolder
-
-#: The step-log columns the default rule of Fig. 5's trial reads (every participant's).
-FIGURE5_CHOICE_COLUMNS = ("participant", "trial", "step", "turn", "belief", "event")
+from nudgecli.store import RunFolder, is_run_folder
 
 
 def parse_formats(text: str) -> tuple[str, ...]:
@@ -81,27 +79,6 @@ def parse_trial(text: str | None) -> TrialKey | None:
     except ValueError:
         raise ConfigError(f"--trial {text!r}: expected PARTICIPANT:TRIAL, e.g. --trial 0:12") from None
     return participant, trial
-
-
-def layouts_by_trial(trials: pd.DataFrame, layouts: pd.DataFrame) -> dict[TrialKey, TrialLayout]:
-    """``(participant, trial) -> TrialLayout`` through ``trials.layout``; the true goal is the trial's own.
-
-    Parameters
-    ----------
-    trials
-        The trials table (``participant``, ``trial``, ``layout``, ``true_goal``).
-    layouts
-        ``layouts.parquet`` (``layout``, ``goal_poses``, ``start_pose``).
-    """
-    poses = {int(row.layout): (np.asarray(row.goal_poses, dtype=float).reshape(-1, 3),
-                               np.asarray(row.start_pose, dtype=float))
-             for row in layouts.itertuples()}
-    out = {}
-    for p, t, lay, goal in zip(trials["participant"], trials["trial"], trials["layout"], trials["true_goal"],
-                               strict=True):
-        goals, start = poses[int(lay)]
-        out[(int(p), int(t))] = TrialLayout(goals, start, int(goal))
-    return out
 
 
 # --- what is drawn -------------------------------------------------------------------------------
@@ -278,17 +255,6 @@ def draw_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]:
     return out
 
 
-def representative_trial(trials: pd.DataFrame) -> TrialKey:
-    """The default trial to draw in the path world: the successful trial (else any) whose duration is
-    the median one's (the lowest ``(participant, trial)`` among equals)."""
-    pool = trials[trials["success"].astype(bool)] if trials["success"].astype(bool).any() else trials
-    pool = pool.sort_values(["participant", "trial"], kind="stable")
-    durations = pool["duration_s"].to_numpy(float)
-    median = float(np.sort(durations)[(len(durations) - 1) // 2])
-    row = pool.iloc[int(np.flatnonzero(durations == median)[0])]
-    return int(row["participant"]), int(row["trial"])
-
-
 def draw_path_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]:
     """The figures of a CIAA path-world run: the measures and one trial's trajectory along the path."""
     from nudgecli.report.path_figures import measures_figure, path_trajectory_figure
@@ -373,6 +339,7 @@ def analysis_folder_of_table(table: Path) -> Path:
     for folder in (analysis_folder(table), table.parent):
         if (folder / STATS_JSON).is_file():
             return folder
+    check_analysis_complete(analysis_folder(table), table)  # one cut short: the command that completes it
     raise RunFolderError(f"{table}: not analysed yet (no {STATS_JSON} beside it); "
                          f"run `nudge analyze {table}` first")
 
@@ -415,16 +382,16 @@ def _table_as_analysed(path: Path, folder: Path, stats: Mapping[str, Any],
         table = _read_table(path, stats)
         if find_duplicate_trials(table)[1].any():
             raise DataError(f"{path} holds repeated trial rows and {stats_path} (written by an older nudge) "
-                            "does not record whether its analysis dropped them; run "
-                            f"`{analyze_command(path, folder, drop_duplicates=True)}` again before plotting")
+                            f"does not record whether its analysis dropped them; "
+                            f"{analyze_again(path, folder, drop_duplicates=True)} before plotting")
         return table, path
     check_table_is_analysed(path, record, stats_path)
     if stats.get("metrics_table") != METRICS_CSV:  # analysed as it is: these very bytes
         return _read_table(path, stats), path
     if not own_copy.is_file():
-        command = analyze_command(path, folder, record["drop_duplicates"], record)
+        again = analyze_again(path, folder, record["drop_duplicates"], record)
         raise RunFolderError(f"{own_copy} is gone: it held the rows of {path} that {stats_path} was "
-                             f"computed from; run `{command}` again before plotting")
+                             f"computed from; {again} before plotting")
     return read_metrics_csv(own_copy), own_copy
 
 
@@ -434,8 +401,8 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
     Of a run, only the steps of the trial Fig. 5 and the trajectory show are kept: the steps of
     its participant (the whole step log of 300 paper participants was 2.4 GB in memory). The
     trial is ``trial``, else the one the default rule chooses from the columns it reads
-    (:data:`FIGURE5_CHOICE_COLUMNS`; the path world's :func:`representative_trial` from the
-    trials table).
+    (:data:`~nudgecli.report.run_figure_inputs.FIGURE5_CHOICE_COLUMNS`; the path world's
+    :func:`representative_trial` from the trials table).
 
     Parameters
     ----------
@@ -469,6 +436,9 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
         if not folder.is_dir():
             raise RunFolderError(f"{folder}: no such folder or table; give a run folder made by "
                                  "`nudge simulate`, a metrics table or its analysis folder")
+        if interrupted_analysis(folder):  # stats.json removed first and written last: one cut short
+            run.check_complete() if run.is_run() else None  # a damaged run: the command that restores it
+            check_analysis_complete(folder, folder if is_run_folder(folder) else None)
         # an analysis folder holds metrics.csv, or its stats.json names the table it analysed
         metrics_path = analysed_metrics_path(folder)
         if metrics_path is None and not run.is_run():
@@ -490,60 +460,7 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
     questionnaires = read_analysed_scores(folder, stats, str(stats_path))
     verify_p_values(stats, (table, questionnaires), str(stats_path))  # what the brackets draw
     return FigureInputs(metrics=table, stats=stats, questionnaires=questionnaires,
-                        **_run_fields(RunFolder(folder), trial))
-
-
-def _run_fields(run: RunFolder, trial: TrialKey | None) -> dict[str, Any]:
-    """:class:`FigureInputs`' fields of a run (none of a table; a live study: its trials recorded so
-    far): trials, layouts, the trial shown (``trial``, else the default rule's) and its steps; of a
-    run without its step logs, why (``steps_missing``)."""
-    manifest = run.read_manifest() if run.is_run() else None
-    if manifest is None or not (run.has_completed_participant() or run.is_live(manifest)):
-        why = f"{run.path} holds no step logs (no steps/part-*.parquet; a run kept without them)"
-        return {} if manifest is None else {"steps_missing": why}
-    if "participants" in manifest:
-        run.check_complete()  # a damaged run named with the command that restores it, as analyze names it
-    trials = run.read_trials()
-    layout_table = run.read_layouts()
-    fields: dict[str, Any] = {"trials": trials}
-    if "waypoints" in layout_table.columns:  # the CIAA path world
-        fields.update(path_layouts=layout_table, time_limit_s=float(run.read_config().study.time_limit_s))
-        chosen = trial if trial is not None else representative_trial(trials)
-    else:
-        fields["layouts"] = layouts_by_trial(trials, layout_table)
-        chosen = trial if trial is not None else choose_figure5_trial(_ChoiceSteps(run, trials), trials)
-    known = chosen[0] in set(trials["participant"].astype(int))  # else nothing read: the caller names it
-    fields["steps"] = run.read_table("steps", participants=[chosen[0]]) if known else pd.DataFrame()
-    fields["trial"] = chosen
-    return fields
-
-
-class _ChoiceSteps(Mapping[TrialKey, pd.DataFrame]):
-    """A run's trials -> their steps in :data:`FIGURE5_CHOICE_COLUMNS`, read a participant's part at
-    a time as the default rule asks for the trials in order (300 paper participants' belief lists
-    read at once were 1.1 GB). The trials are the trials table's of participants with a steps part."""
-
-    def __init__(self, run: RunFolder, trials: pd.DataFrame) -> None:
-        self.run = run
-        keys = list(zip(trials["participant"].astype(int), trials["trial"].astype(int), strict=True))
-        with_steps = {p for p in {int(p) for p, _ in keys} if run.part_path("steps", p).is_file()}
-        self.trial_keys = [(int(p), int(t)) for p, t in keys if p in with_steps]
-        self.participant: int | None = None
-        self.steps: dict[TrialKey, pd.DataFrame] = {}
-
-    def __getitem__(self, key: TrialKey) -> pd.DataFrame:
-        if key[0] != self.participant:
-            part = self.run.read_table("steps", FIGURE5_CHOICE_COLUMNS, participants=[key[0]])
-            self.steps, self.participant = dict(trial_groups(part)), key[0]
-        if key not in self.steps:  # a trial its participant's part lacks has no steps to measure
-            return pd.DataFrame(columns=list(FIGURE5_CHOICE_COLUMNS))
-        return self.steps[key]
-
-    def __iter__(self) -> Iterator[TrialKey]:
-        return iter(self.trial_keys)
-
-    def __len__(self) -> int:
-        return len(self.trial_keys)
+                        **run_fields(RunFolder(folder), trial))
 
 
 def default_out(source: str | Path) -> Path:

@@ -10,14 +10,17 @@ The record (key ``table_read``, written for a metrics table, not for a run folde
 - ``table``: the table's path as seen from the analysis folder (since 2026-11-28), so that
   ``nudge plot FOLDER --plan`` finds a changed table wherever the analysis was written;
 - ``plan``: the plan as ``--plan`` takes it: a preset's name, or its file's path as seen from the
-  analysis folder; ``questionnaires``: the ``--questionnaires`` answers file as seen from there,
-  or ``null`` (both since 2026-11-28; a record without them names neither).
+  analysis folder; ``null`` for a plan built in code, which no ``--plan`` names
+  (:func:`~nudgecli.report.plans.plan_argument`); ``questionnaires``: the ``--questionnaires``
+  answers file as seen from there, or ``null`` (both since 2026-11-28; a record without them names
+  neither).
 
 ``nudge plot TABLE`` draws a table only when its bytes are the ones analysed
 (:func:`check_table_is_analysed`), so a row added afterwards, even one that exactly repeats a
 trial's key and would be dropped again, is refused, with the ``nudge analyze`` command that
-brings the analysis up to date (:func:`analyze_command`: the plan and questionnaires file the
-analysis used, ``--drop-duplicates`` where it was given or is now needed). The rows drawn are then
+brings the analysis up to date (:func:`analyze_again`: the plan and questionnaires file the
+analysis used, ``--drop-duplicates`` where it was given or is now needed; the call from Python for a
+plan built in code; a record that does not name the plan says so, never naming one). The rows drawn are then
 the analysis's own: its ``metrics.csv`` where it changed the table, else the table itself; no rule
 of the analysis is applied a second time.
 """
@@ -33,13 +36,15 @@ from nudgecli.config_files import resolve_plan
 from nudgecli.errors import DataError, shell_words
 from nudgecli.report.analysis_folders import analysis_folder
 from nudgecli.report.tables import find_duplicate_trials, read_metrics_table
+from nudgecli.run_folder_names import STATS_JSON
 from nudgecli.run_folder_record import file_sha256
 
 TABLE_READ_KEY = "table_read"
 
 
 def table_read_record(sha256: str, rows_read: int, drop_duplicates: bool, duplicates_dropped: int,
-                      table: Path, plan: str = "paper", questionnaires: Path | None = None) -> dict[str, Any]:
+                      table: Path, plan: str | None = "paper",
+                      questionnaires: Path | None = None) -> dict[str, Any]:
     """The ``stats.json`` record of the table an analysis read (see the module docstring).
 
     Parameters
@@ -55,26 +60,28 @@ def table_read_record(sha256: str, rows_read: int, drop_duplicates: bool, duplic
     table
         The table's path relative to the analysis folder.
     plan, questionnaires
-        The plan and the answers file analysed, relative to the analysis folder
-        (:func:`analysed_inputs`).
+        The plan (``None``: built in code) and the answers file analysed, relative to the analysis
+        folder (:func:`analysed_inputs`).
     """
     return {"sha256": sha256, "rows": int(rows_read), "drop_duplicates": bool(drop_duplicates),
             "duplicates_dropped": int(duplicates_dropped), "table": Path(table).as_posix(), "plan": plan,
             "questionnaires": None if questionnaires is None else Path(questionnaires).as_posix()}
 
 
-def analysed_inputs(folder: Path, plan_label: str,
-                    questionnaires: str | Path | None) -> tuple[str, Path | None]:
+def analysed_inputs(folder: Path, plan_label: str | None,
+                    questionnaires: str | Path | None) -> tuple[str | None, Path | None]:
     """The ``plan`` and ``questionnaires`` of :func:`table_read_record` for an analysis written into
     ``folder``: a plan read from a file (its label an absolute path) and the answers file as seen
-    from ``folder``, so that the record names no machine's path and holds wherever both are moved."""
+    from ``folder``, so that the record names no machine's path and holds wherever both are moved
+    (``plan_label`` ``None``: a plan built in code, recorded so)."""
     base = Path(folder).resolve()
 
     def seen(path: str | Path) -> Path:
         return Path(os.path.relpath(Path(path).resolve(), base))
 
     plan = plan_label
-    if Path(plan_label).is_absolute():  # "./" before a file's name alone: never taken for a preset's
+    # "./" before a file's name alone: never taken for a preset's
+    if plan_label is not None and Path(plan_label).is_absolute():
         plan = seen(plan_label).as_posix()
         plan = plan if "/" in plan else f"./{plan}"
     return plan, None if questionnaires is None else seen(questionnaires)
@@ -95,7 +102,7 @@ def recorded_table_read(stats: Mapping[str, Any], where: str) -> dict[str, Any] 
     well_formed = (isinstance(record, Mapping) and isinstance(record.get("sha256"), str)
                    and isinstance(record.get("rows"), int) and isinstance(record.get("drop_duplicates"), bool)
                    and isinstance(record.get("duplicates_dropped"), int)
-                   and isinstance(record.get("plan", ""), str)
+                   and isinstance(record.get("plan", ""), str | None)
                    and isinstance(record.get("questionnaires"), str | None))
     if not well_formed:
         raise DataError(f"{where}: its `{TABLE_READ_KEY}` is malformed; "
@@ -120,6 +127,29 @@ def analyze_command(table: Path, folder: Path, drop_duplicates: bool,
     if questionnaires:
         words += ["--questionnaires", os.path.normpath(folder / questionnaires)]
     return shell_words(words + (["--drop-duplicates"] if drop_duplicates else []))
+
+
+def analyze_again(table: Path, folder: Path, drop_duplicates: bool,
+                  record: Mapping[str, Any] | None = None) -> str:
+    """What to do to analyse ``table`` again into ``folder`` as before, for a message to go on with
+    ``before plotting``: run :func:`analyze_command`'s command; for a plan built in code (``record``'s
+    ``plan`` ``null``), which no ``--plan`` names, call ``nudgecli.analyze`` with it again from
+    Python; where nothing records the plan (a ``stats.json`` of an older nudge), the command names
+    none and the advice says to add the one the table was analysed with."""
+    if record is not None and "plan" in record and record["plan"] is None:
+        arguments = [repr(str(table)), "plan=PLAN"]
+        if folder.resolve() != analysis_folder(table.resolve()):
+            arguments += [f"out={str(folder)!r}", "force=True"]
+        if record.get("questionnaires"):
+            arguments.append(f"questionnaires={os.path.normpath(folder / record['questionnaires'])!r}")
+        arguments += ["drop_duplicates=True"] if drop_duplicates else []
+        return (f"the plan it was analysed with was built in code, which no --plan names: analyse it again "
+                f"from Python with that plan as PLAN, `nudgecli.analyze({', '.join(arguments)})`,")
+    command = analyze_command(table, folder, drop_duplicates, record)
+    if record is None or "plan" not in record:
+        return (f"run `{command}` again (adding the --plan it was analysed with unless that was "
+                f"{resolve_plan(None)}: {folder / STATS_JSON}, of an older nudge, does not record it)")
+    return f"run `{command}` again"
 
 
 def check_table_is_analysed(table: Path, record: Mapping[str, Any], stats_path: Path) -> None:
@@ -155,10 +185,9 @@ def check_table_is_analysed(table: Path, record: Mapping[str, Any], stats_path: 
     if dropped:
         then += f", {dropped} repeated trial row(s) dropped"
     raise DataError(f"{table} is not the table {stats_path} was computed from: edited since its analysis "
-                    f"({then}; {rows_now}; its SHA-256 differs); run "
-                    f"`{analyze_command(table, stats_path.parent, repeated, record)}` "
-                    "again before plotting")
+                    f"({then}; {rows_now}; its SHA-256 differs); "
+                    f"{analyze_again(table, stats_path.parent, repeated, record)} before plotting")
 
 
-__all__ = ["TABLE_READ_KEY", "analysed_inputs", "analyze_command", "check_table_is_analysed",
+__all__ = ["TABLE_READ_KEY", "analysed_inputs", "analyze_again", "analyze_command", "check_table_is_analysed",
            "recorded_table_read", "table_read_record"]
