@@ -161,3 +161,17 @@ def test_the_advice_names_a_recorded_plan_and_no_other(tmp_path):
     assert "does not record it" in analyze_again(table, folder, False, None)  # no record at all
     named = analyze_again(table, folder, False, {"plan": "study-code"})
     assert named == f"run `nudge analyze {table} --plan study-code` again"
+
+
+def test_plot_with_a_plan_built_in_code_over_questionnaire_scores_is_advised_from_python(tmp_path):
+    from nudgecli.api.figures import save_figures
+    from nudgecli.errors import ConfigError
+
+    table = shutil.copy(TABLE, tmp_path / "study.csv")
+    answers = shutil.copy(TABLE.with_name("questionnaires_two_conditions.csv"), tmp_path / "q.csv")
+    assert nudge("analyze", table, "--questionnaires", answers, "--bootstrap", "100").exit_code == 0
+    with pytest.raises(ConfigError) as refused:
+        save_figures(table, plan=AnalysisPlan(bootstrap={"resamples": 100}), formats="png")
+    message = str(refused.value)
+    assert "--plan custom" not in message and "built in code" in message, message
+    assert f"`nudgecli.analyze({str(table)!r}, plan=PLAN, questionnaires='ANSWERS.csv')`" in message, message

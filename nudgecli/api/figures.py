@@ -229,7 +229,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
     NudgeError
         ``nudge plot``'s errors; a folder made only for the figures is removed again.
     """
-    from nudgecli.report.plans import AnalysisPlan, load_plan
+    from nudgecli.report.plans import AnalysisPlan, load_plan, plan_argument
 
     chosen_formats = arguments.formats(formats)
     trial_key = arguments.trial(trial)
@@ -245,7 +245,7 @@ def save_figures(source: Analysis | Run | str | Path, *, plan: str | Path | Anal
     else:
         analysis_plan = load_plan(plan_of(folder, plan))
         if plan is not None:
-            shown = analysis_plan.label if isinstance(plan, AnalysisPlan) else str(plan)
+            shown = plan_argument(analysis_plan) if isinstance(plan, AnalysisPlan) else str(plan)
             analysed_first = _analysed_first(folder, analysis_plan, trial_key, out, force, reference, shown,
                                              log)
     with analysed_first:  # --plan: the analysis it replaced is put back if the plot fails
@@ -286,7 +286,7 @@ def _write_figures(folder: Path, out: str | Path | None, formats: Sequence[str],
 
 @contextlib.contextmanager
 def _analysed_first(folder: Path, plan: AnalysisPlan, trial: tuple[int, int] | None, out: str | Path | None,
-                    force: bool, reference: str | None, shown_plan: str,
+                    force: bool, reference: str | None, shown_plan: str | None,
                     log: Callable[[str], None] | None = None) -> Iterator[None]:
     """``nudge plot --plan``: analyse the source with ``plan`` after checking what the plot can check
     before (the trial, the figures' folder), so that a plot refused for them rewrites nothing; then
@@ -327,22 +327,28 @@ def _analysed_first(folder: Path, plan: AnalysisPlan, trial: tuple[int, int] | N
         raise
 
 
-def _check_no_questionnaires(folder: Path, table: Path | None, shown_plan: str) -> None:
+def _check_no_questionnaires(folder: Path, table: Path | None, shown_plan: str | None) -> None:
     """Refuse ``--plan`` where the analysis it replaces has questionnaire scores: the analysis
     again would be without them (their answers file is not recorded), and a plot would draw the
-    trial metrics of one analysis beside the scores of another."""
+    trial metrics of one analysis beside the scores of another. ``shown_plan``: how ``--plan``
+    names the plan; ``None`` for a plan built in code, which the advice gives from Python."""
     from nudgecli.report.analysis_folders import analysis_folder
     from nudgecli.run_folder_names import QUESTIONNAIRE_SCORES_CSV
 
     written = folder if table is not None or folder.is_dir() else analysis_folder(folder)
     if (written / QUESTIONNAIRE_SCORES_CSV).is_file():
         source = table if table is not None else folder
-        again = shell_words(["nudge", "analyze", str(source), "--plan", shown_plan, "--questionnaires",
-                             "ANSWERS.csv"])
+        if shown_plan is None:  # built in code: no --plan names it
+            fix = ("the plan was built in code, which no --plan names: analyse it from Python with that plan "
+                   f"as PLAN, `nudgecli.analyze({str(source)!r}, plan=PLAN, questionnaires='ANSWERS.csv')`, "
+                   f"then `nudgecli.save_figures({str(folder)!r})`")
+        else:
+            again = shell_words(["nudge", "analyze", str(source), "--plan", shown_plan, "--questionnaires",
+                                 "ANSWERS.csv"])
+            fix = f"analyse it with `{again}`, then `{shell_words(['nudge', 'plot', str(folder)])}`"
         raise ConfigError(
             f"{written} holds questionnaire scores ({QUESTIONNAIRE_SCORES_CSV}) of an analysis with "
-            f"--questionnaires, and plot --plan analyses without them: analyse it with `{again}`, then "
-            f"`{shell_words(['nudge', 'plot', str(folder)])}`")
+            f"--questionnaires, and plot --plan analyses without them: {fix}")
 
 
 def _table_of_analysis_folder(folder: Path) -> tuple[Path | None, bool]:
