@@ -36,14 +36,15 @@ def files_under(folder: Path) -> dict[Path, bytes]:
 # --- out= naming a file ----------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("call", ["replicate", "analyze", "save_figures", "compare", "plot_population",
-                                  "validate"])
+@pytest.mark.parametrize("call", ["simulate", "replicate", "analyze", "save_figures", "compare",
+                                  "plot_population", "validate"])
 def test_an_out_that_is_a_file_gets_the_one_message_of_every_command(analysed_smoke_run: Path,
                                                                     tmp_path: Path, call: str) -> None:
     target = tmp_path / "notes.txt"
     target.write_text("mine\n", encoding="utf-8")
     before = files_under(analysed_smoke_run)
     calls = {
+        "simulate": lambda: nudgecli.simulate("smoke", participants=2, out=target),
         "replicate": lambda: nudgecli.replicate("smoke", 1, participants=2, out=target),
         "analyze": lambda: nudgecli.analyze(analysed_smoke_run, out=target),
         "save_figures": lambda: nudgecli.save_figures(analysed_smoke_run, out=target, formats="png"),
@@ -100,11 +101,13 @@ def test_a_calibration_file_is_named_a_file(tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize(("call", "override"), [
+    (lambda: nudgecli.simulate("smoke", participants=2), "confirm=True"),  # 16 trials, over the limit below
     (lambda: nudgecli.replicate("smoke", 100_000, participants=2), "confirm=True"),
     (lambda: nudgecli.validate(simulations=100_000, min_goals=3, max_goals=3, mc_queries=0), "yes=True"),
     (lambda: nudgecli.plot_population("smoke", participants=100_000), "yes=True"),
-], ids=["replicate", "validate", "plot_population"])
-def test_the_size_guard_names_the_apis_switch(call, override: str) -> None:
+], ids=["simulate", "replicate", "validate", "plot_population"])
+def test_the_size_guard_names_the_apis_switch(call, override: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr("nudgecli.runs.size.MAX_TRIALS_WITHOUT_YES", 10)
     with pytest.raises(ConfigError, match=rf"; pass {override} to run it, or use fewer "):
         call()
 

@@ -185,6 +185,19 @@ def experiment_config(name_or_path: str | Path, overrides: Overrides | None = No
     return load_experiment(str(name_or_path), override_texts(overrides))
 
 
+def _loaded_experiment(experiment: str | Path | ExperimentConfig,
+                       overrides: Overrides | None) -> ExperimentConfig:
+    """``simulate``'s experiment: loaded with ``overrides``, or given loaded (then without them)."""
+    from nudgecli.config import ExperimentConfig
+
+    if not isinstance(experiment, ExperimentConfig):
+        return experiment_config(experiment, overrides)
+    if overrides:
+        raise ConfigError("overrides= applies to an experiment given by name or file; give them to "
+                          "nudgecli.experiment_config(name, overrides) instead")
+    return experiment
+
+
 def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | None = None,
              seed: int | None = None, workers: int = 1, out: str | Path | None = None,
              overrides: Overrides | None = None, people: str | Path | None = None,
@@ -236,25 +249,20 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
         ``Error:`` line; nothing is written then.
     """
     from nudgecli.api import arguments
-    from nudgecli.config import ExperimentConfig
+    from nudgecli.runs.size import override_named
     from nudgecli.runs.study import run_study
 
     options = arguments.run_options(workers=workers, seed=seed, scheduler=scheduler, people=people,
                                     progress=progress, resume=resume, force=force, confirm=confirm, log=log)
     participants = arguments.whole_number("participants", participants, optional=True)
-    out, plan = arguments.path("out", out, optional=True), arguments.text("plan", plan, optional=True)
-    if isinstance(experiment, ExperimentConfig):
-        if overrides:
-            raise ConfigError("overrides= applies to an experiment given by name or file; give them to "
-                              "nudgecli.experiment_config(name, overrides) instead")
-        config = experiment
-    else:
-        config = experiment_config(experiment, overrides)
+    out, plan = arguments.out_folder(out), arguments.text("plan", plan, optional=True)
+    config = _loaded_experiment(experiment, overrides)
     temporary = out is None
     target = temporary_folder(config.experiment.name) if out is None else Path(out)
     made = temporary or not target.exists()
     try:
-        study = run_study(config, target, participants=participants, plan=plan, **options)
+        with override_named("confirm=True"):  # a refusal of the size guard names this API's parameter
+            study = run_study(config, target, participants=participants, plan=plan, **options)
     except BaseException:
         # a folder this call made is removed whole (a temporary one) or when still empty (--out)
         if temporary or (made and target.is_dir() and not any(target.iterdir())):
