@@ -5,7 +5,8 @@ A real pilot study exports such a log per participant; this writes one per simul
 a ``ciaa-teleop`` run folder, so that the example's pipeline runs on files of the real format:
 ``t`` (seconds from the trial's start), ``trial``, ``label`` (the measured label; empty: no input),
 ``x``, ``y``, ``theta`` (the robot's pose at the row's time), ``mode_switch`` (the mode the
-person's switch went to, else 0), ``participant`` and ``layout`` (the CIAA trial index). A row is
+person's switch went to, else 0; ``1`` for a switch in a trial's last step, whose mode no next step
+tells), ``participant`` and ``layout`` (the CIAA trial index). A row is
 written where the label, the pose or the mode changes (and at each trial's start, and ``1 / rate``
 after its last step with the final pose): each row holds the state from its time on, as an
 event-driven log's do. ``nudge habits`` measures such a log as it measures the run folder.
@@ -29,6 +30,8 @@ from nudgecli.errors import NudgeError, RunFolderError
 from nudgecli.model.world import MODE_NAMES
 from nudgecli.store import RunFolder
 
+#: A ``mode_switch`` cell of a switch whose mode is not known (the reader counts it as a switch).
+UNKNOWN_SWITCH = "1"
 #: Decimals of the pose in the log (the world snaps within 0.1 units).
 POSE_DECIMALS = 4
 
@@ -45,8 +48,10 @@ def participant_log(steps: pd.DataFrame, trials: pd.DataFrame, name: str, dt: fl
     trial = steps["trial"].to_numpy()
     last = np.append(trial[1:] != trial[:-1], True)
     first = np.insert(trial[1:] != trial[:-1], 0, True)
-    mode_after = np.roll(steps["mode"].to_numpy(dtype=object), -1)
-    switched = steps["event"].astype(str).str.contains("mode_switch_human").to_numpy() & ~last
+    # a switch in a trial's last step is written too, as one of unknown direction: no next step
+    # tells where it went (the run folder's cells leave its mode unknown alike)
+    switched = steps["event"].astype(str).str.contains("mode_switch_human").to_numpy()
+    mode_after = np.where(last, UNKNOWN_SWITCH, np.roll(steps["mode"].to_numpy(dtype=object), -1))
     rows = pd.DataFrame({"t": steps["t"].to_numpy(dtype=float), "trial": trial,
                          "label": steps["phi_m"].fillna("").astype(str).to_numpy(),
                          "x": steps["x"].to_numpy(dtype=float), "y": steps["y"].to_numpy(dtype=float),
@@ -63,7 +68,7 @@ def participant_log(steps: pd.DataFrame, trials: pd.DataFrame, name: str, dt: fl
     frame["t"] = frame["t"].round(3)
     state = frame[["trial", "label", "x", "y", "theta"]]
     frame = frame[(state != state.shift()).any(axis=1) | frame["keep"]].drop(columns="keep")
-    assert set(frame["mode_switch"]) <= {"0", *MODE_NAMES}
+    assert set(frame["mode_switch"]) <= {"0", UNKNOWN_SWITCH, *MODE_NAMES}
     return frame.assign(participant=name, layout=final.loc[frame["trial"], "layout"].to_numpy())
 
 
