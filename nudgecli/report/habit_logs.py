@@ -133,8 +133,7 @@ def _parse_log(path: Path, frame: pd.DataFrame, time_column: str) -> _Log:
                             "its time and the robot's pose")
         numbers[column] = values.to_numpy(dtype=float)
     kinds = label_kinds(frame["label"], row_name)
-    participant = frame["participant"].str.strip() if "participant" in frame.columns else \
-        pd.Series(path.stem, index=frame.index)
+    participant = _log_participants(path, frame)
     trial = frame["trial"].str.strip()
     switch_word = frame["mode_switch"].str.strip().str.lower()
     switch = ~switch_word.isin(_FALSE_WORDS)
@@ -144,6 +143,25 @@ def _parse_log(path: Path, frame: pd.DataFrame, time_column: str) -> _Log:
         layout = pd.to_numeric(frame["layout"].str.strip(), errors="coerce")
     return _Log(path=path, frame=frame, time=numbers[time_column], numbers=numbers, kinds=kinds,
                 participant=participant, trial=trial, switch=switch, switch_to=switch_to, layout=layout)
+
+
+def _log_participants(path: Path, frame: pd.DataFrame) -> pd.Series:
+    """Each row's participant: the ``participant`` column, or the file's name where the log has
+    none or leaves it blank on every row; a :class:`DataError` naming the first blank cell of a
+    column filled elsewhere (its rows would make a participant of no name)."""
+    if "participant" not in frame.columns:
+        return pd.Series(path.stem, index=frame.index)
+    participant = frame["participant"].str.strip()
+    blank = (participant == "").to_numpy()
+    if blank.all():  # a column exported empty: the file is one person's, as without it
+        return pd.Series(path.stem, index=frame.index)
+    if blank.any():
+        i = int(np.flatnonzero(blank)[0])
+        named = participant.iloc[int(np.flatnonzero(~blank)[0])]
+        raise DataError(f"{_row_name(path, i)}: participant is blank, where other rows name one ({named!r}); "
+                        "give every row its participant, or leave the column out for a log of one person "
+                        "(named after the file)")
+    return participant
 
 
 def _trial_starts(log: _Log) -> np.ndarray:
@@ -322,7 +340,8 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
     or a neutral one: empty, ``Zero Band``, ``input stopped``, ``None``), ``x``, ``y``, ``theta``
     (the robot's pose after the row), ``mode_switch`` (non-empty and not ``0``/``false``: a mode
     switch fired at this time; a mode word, ``x``/``y``/``theta``, says where it went, which undone
-    switches need); optional ``participant`` (default: the file's name) and ``layout``
+    switches need); optional ``participant`` (default, and where it is blank on every row: the
+    file's name; a blank cell in a column filled elsewhere is refused) and ``layout``
     (the CIAA task's trial index, whose waypoints mark the stops, the same on every row of a trial;
     without it stops at a waypoint are not measured). Each row holds the whole state from its time
     on, so an event-driven log (a row per change) and a sampled one read alike. A trial starts at
@@ -332,11 +351,12 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
     Raises
     ------
     DataError
-        No time stamps or labels, an unknown label, a time that is not a number or goes back, a
-        pose missing, a trial shorter than one cell, or one longer than :data:`MAX_TRIAL_S` or a log
-        of more than :data:`MAX_LOG_CELLS` cells (checked before any cell is built), a layout that is
-        no trial index of the task or changes within a trial, a trial that does not start at its
-        layout's start or a pose off its path: naming the file and the row.
+        No time stamps or labels, an unknown label, a blank participant among named ones, a time
+        that is not a number or goes back, a pose missing, a trial shorter than one cell, or one
+        longer than :data:`MAX_TRIAL_S` or a log of more than :data:`MAX_LOG_CELLS` cells (checked
+        before any cell is built), a layout that is no trial index of the task or changes within a
+        trial, a trial that does not start at its layout's start or a pose off its path: naming the
+        file and the row.
     """
     path = Path(path)
     frame, time_column = _read_log_frame(path)
