@@ -12,8 +12,11 @@ from typing import TextIO
 class Progress:
     """Progress on a stream: tasks done, rate and ETA, one line every ``interval`` seconds.
 
-    On a terminal the line is rewritten in place (every 0.5 s); otherwise (a log, CI) a new line
-    is written at most every ``interval`` seconds, and always for the last task.
+    On a terminal the line is rewritten in place (every 0.5 s), padded with spaces to the length
+    of the line it overwrites (a shorter one, "ETA 20 s" after "ETA 16.5 min", would leave the
+    old line's last characters; spaces work on any terminal, where an erase code may not);
+    otherwise (a log, CI) a new line is written at most every ``interval`` seconds, and always
+    for the last task.
     """
 
     def __init__(self, label: str, stream: TextIO | None = None, interval: float = 5.0,
@@ -26,6 +29,7 @@ class Progress:
         self.start = clock()
         self.first_done: int | None = None
         self.last = -math.inf
+        self.shown = 0  # the length of the line on the terminal now (to overwrite it all)
 
     def line(self, done: int, total: int) -> str:
         """``label: done/total tasks (pct), rate tasks/s, ETA ...`` (the rate counts this session only)."""
@@ -45,7 +49,8 @@ class Progress:
             return
         self.last = now
         if self.tty:
-            self.stream.write("\r" + text + ("\n" if done >= total else ""))
+            self.stream.write("\r" + text.ljust(self.shown) + ("\n" if done >= total else ""))
+            self.shown = 0 if done >= total else len(text)
         else:
             self.stream.write(text + "\n")
         self.stream.flush()
