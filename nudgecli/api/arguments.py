@@ -72,17 +72,32 @@ def seed(value: object, *, optional: bool = False) -> int | None:
 
 
 def whole_numbers(name: str, values: object) -> list[int]:
-    """``values`` as a list of ``int`` (a list or tuple of whole numbers, e.g. ``[6, 9, 12]``).
+    """``values`` as a list of ``int``: a list, tuple or other sequence of whole numbers (Python or
+    NumPy integers, e.g. ``[6, 9, 12]``), or a one-dimensional NumPy array of integers.
 
     Raises
     ------
     ConfigError
-        Not a sequence (a text, a single number), or an item that is no whole number.
+        Not a sequence (a text, a single number), an array of more dimensions or of no integer
+        type, or an item that is no whole number (the message names the first such item).
     """
+    wanted = "a list of whole numbers, e.g. [6, 9, 12]"
+    dimensions = getattr(values, "ndim", None)  # a NumPy array (or a pandas Series)
+    if isinstance(dimensions, int) and dimensions >= 1:
+        kind = getattr(getattr(values, "dtype", None), "kind", None)
+        if dimensions > 1:
+            raise _refuse(name, values, wanted, got=f"an array of {dimensions} dimensions")
+        if kind not in ("i", "u"):  # its items would all be refused: say why once
+            raise _refuse(name, values, wanted, got=f"an array of {getattr(values, 'dtype', '?')}")
+        values = list(values)  # type: ignore[call-overload]  # one dimension: its items
     if isinstance(values, str | bytes) or not isinstance(values, Sequence):
-        raise _refuse(name, values, "a list of whole numbers, e.g. [6, 9, 12]")
-    if any(isinstance(value, bool) or not isinstance(value, numbers.Integral) for value in values):
-        raise _refuse(name, values, "a list of whole numbers, e.g. [6, 9, 12]")
+        raise _refuse(name, values, wanted)
+    for index, value in enumerate(values):
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+            kind_name = type(values).__name__
+            article = "an" if kind_name[:1] in "aeiou" else "a"
+            raise _refuse(name, values, wanted, got=f"{article} {kind_name} whose item {index} is {value!r} "
+                                                    f"(a {type(value).__name__})")
     return [int(value) for value in values]
 
 

@@ -40,8 +40,9 @@ class Batch(FolderOwner):
 
     @property
     def summary(self) -> pd.DataFrame:
-        """The table the command prints: per metric and pair (replicate), per count (power), per
-        design point (sweep)."""
+        """The table the command prints: per metric and pair (replicate), per count (power); for a
+        sweep, per design point (a grid: ``points``) or the sensitivity indices (Sobol, Morris:
+        ``sensitivity``)."""
         return self.result.summary
 
     @property
@@ -163,7 +164,8 @@ def power(experiment: str | Path, participants: Sequence[int], replications: int
     Parameters
     ----------
     participants
-        The participant counts (each at least 2), e.g. ``[6, 9, 12]``.
+        The participant counts (each at least 2), e.g. ``[6, 9, 12]`` (a list, a tuple or a
+        one-dimensional NumPy array of integers).
     target
         The power to reach (``smallest_n``).
     experiment, replications, seed, plan, overrides, people
