@@ -9,6 +9,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
+import pytest
 from cli_helpers import nudge, one_error_line
 
 from nudgecli.report.habit_logs import read_log_cells
@@ -50,3 +51,56 @@ def test_an_all_blank_participant_column_is_the_files_name(tmp_path: Path) -> No
     # before: participant '' (the docstring promises the file's name, as without the column)
     log = write_rows(tmp_path / "anna.csv", [{**row, "participant": " "} for row in pilot_rows()])
     assert set(read_log_cells(log)["participant"]) == {"anna"}
+
+
+# --- an edited habits table's impossible values --------------------------------------------------
+
+HABITS_TABLE = """scope,participant,habit,n,median,q25,q75,people_min,people_max
+pooled,,hold_on_per_stop,73,0.2,0.1,0.3,0.2,0.2
+participant,pilot-2,hold_on_per_stop,73,0.2,0.1,0.3,,
+participant,pilot-2,reaction_stop_to_switch,49,1.4,1.1,1.7,,
+participant,pilot-2,deadband_share_soft_blows,2698,0.161601,,,,
+"""
+
+
+def edited_table(tmp_path: Path, habit: str, column: str, value: str) -> Path:
+    """:data:`HABITS_TABLE` with ``column`` of pilot-2's ``habit`` row set to ``value``."""
+    header, *rows = [line.split(",") for line in HABITS_TABLE.splitlines()]
+    for row in rows:
+        if row[0] == "participant" and row[2] == habit:
+            row[header.index(column)] = value
+    path = tmp_path / "habits.csv"
+    path.write_text("\n".join(",".join(row) for row in [header, *rows]) + "\n")
+    return path
+
+
+def test_the_unedited_habits_table_is_fitted(tmp_path: Path) -> None:
+    result = nudge("fit-people", edited_table(tmp_path, "", "n", ""), "--out", tmp_path / "people.csv")
+    assert result.exit_code == 0, result.output
+    with (tmp_path / "people.csv").open(newline="") as file:
+        person = next(csv.DictReader(file))
+    assert (person["hold_on_s"], person["deadband_share"]) == ("0.2", "0.161601")
+
+
+@pytest.mark.parametrize(("habit", "column", "value", "problem"), [
+    # before: a share of 7.3 (a percent) or inf was silently left to the population's draw
+    ("deadband_share_soft_blows", "median", "7.3",
+     "the median 7.3 is above 1, and a share is 0-1 (a percent? 7.3 / 100 is 0.073); "
+     "give the share as a fraction"),
+    ("deadband_share_soft_blows", "median", "inf", "the median inf is infinite; give the measured share"),
+    ("hold_on_per_stop", "median", "inf", "the median inf is infinite; give the measured seconds"),
+    # before: quartiles the wrong way round silently fell back to the population's spread
+    ("reaction_stop_to_switch", "q25", "1.9", "q25 1.9 is above q75 1.7; give the lower quartile in q25 and "
+     "the upper in q75"),
+    ("reaction_stop_to_switch", "q75", "-inf", "the q75 -inf is infinite; give the measured seconds"),
+    # before: n of -3, nan or 2.5 was accepted
+    *[("hold_on_per_stop", "n", n, f"n {n!r} is not a number of events; give the whole number (0 or more) "
+       "`nudge habits --by participant --format csv` writes") for n in ("-3", "nan", "2.5")],
+])
+def test_an_impossible_habits_table_value_is_one_error_line(
+        tmp_path: Path, habit: str, column: str, value: str, problem: str) -> None:
+    table = edited_table(tmp_path, habit, column, value)
+    result = nudge("fit-people", table, "--out", tmp_path / "people.csv")
+    assert result.exit_code == 1, result.output
+    assert one_error_line(result.output) == f"Error: {table}: participant 'pilot-2': {habit}: {problem}"
+    assert not (tmp_path / "people.csv").exists()

@@ -83,6 +83,43 @@ def measured_source(path: Path) -> SourceHabits:
     return {participant: found[participant] for participant in participants}
 
 
+def _events_of(where: str, habit: str, row: pd.Series) -> int | None:
+    """A habits table row's ``n`` (None: no ``n`` column); a :class:`DataError` for one that is no
+    count of events (negative, fractional, not a number, empty)."""
+    if "n" not in row.index:
+        return None
+    n = _figure(row["n"])
+    if not (math.isfinite(n) and n >= 0 and n == int(n)):
+        given = str(row["n"]).strip() or "empty"
+        raise DataError(f"{where}: {habit}: n {given!r} is not a number of events; give the whole number "
+                        "(0 or more) `nudge habits --by participant --format csv` writes")
+    return int(n)
+
+
+def _checked_figure(where: str, habit: str, name: str, given: object) -> float:
+    """A median or quartile of a habits table: a finite, non-negative number, at most 1 for a share
+    (NaN: a quartile left empty); a :class:`DataError` naming it otherwise."""
+    value = _figure(given)
+    text = str(given).strip()
+    if math.isnan(value):
+        if name == "median":
+            raise DataError(f"{where}: {habit}: the median is not a number ({text or 'empty'})")
+        if text.lower() not in ("", "nan"):
+            raise DataError(f"{where}: {habit}: {name} {text!r} is not a number; give seconds, or leave it "
+                            "empty")
+        return value
+    if math.isinf(value):
+        raise DataError(f"{where}: {habit}: the {name} {text} is infinite; give the measured "
+                        f"{'share' if HABIT_UNITS[habit] == 'share' else 'seconds'}")
+    if value < 0:
+        raise DataError(f"{where}: {habit}: the {name} {value:g} is negative; habits are durations or shares")
+    if HABIT_UNITS[habit] == "share" and value > 1:
+        hint = f" (a percent? {value:g} / 100 is {value / 100:g})" if value <= 100 else ""
+        raise DataError(f"{where}: {habit}: the {name} {value:g} is above 1, and a share is 0-1{hint}; give "
+                        "the share as a fraction")
+    return value
+
+
 def _check_row(path: Path, participant: str, habit: str, row: pd.Series) -> HabitFigures | None:
     """One row of a habits table as figures (None: a habit with no event), or a DataError."""
     where = f"{path}: participant {participant!r}"
@@ -92,19 +129,16 @@ def _check_row(path: Path, participant: str, habit: str, row: pd.Series) -> Habi
     if "unit" in row.index and str(row["unit"]).strip() not in ("", "nan", HABIT_UNITS[habit]):
         raise DataError(f"{where}: {habit}: unit {str(row['unit']).strip()!r}; nudge measures it in "
                         f"{HABIT_UNITS[habit]!r}")
-    n = _figure(row["n"]) if "n" in row.index else math.nan
-    median = _figure(row["median"])
+    n = _events_of(where, habit, row)
     if n == 0:
         return None
-    if math.isnan(median):
-        given = str(row["median"]).strip() or "empty"
-        raise DataError(f"{where}: {habit}: the median is not a number ({given})")
-    if median < 0:
-        raise DataError(f"{where}: {habit}: the median {median:g} is negative; habits are durations or "
-                        "shares")
-    quartiles = [_figure(row[c]) if c in row.index else math.nan for c in ("q25", "q75")]
-    return HabitFigures(n=int(n) if math.isfinite(n) else 0, median=median, q25=quartiles[0],
-                        q75=quartiles[1])
+    median = _checked_figure(where, habit, "median", row["median"])
+    q25, q75 = (_checked_figure(where, habit, column, row[column]) if column in row.index else math.nan
+                for column in ("q25", "q75"))
+    if q25 > q75:  # (False where either is NaN)
+        raise DataError(f"{where}: {habit}: q25 {q25:g} is above q75 {q75:g}; give the lower quartile in q25 "
+                        "and the upper in q75")
+    return HabitFigures(n=0 if n is None else n, median=median, q25=q25, q75=q75)
 
 
 def table_source(path: Path) -> SourceHabits:
@@ -114,7 +148,9 @@ def table_source(path: Path) -> SourceHabits:
     ------
     DataError
         A row with fewer or more fields than the header (a table cut off), a trial table, no
-        participant rows, an unknown habit or unit, a negative or missing median, a habit
+        participant rows, an unknown habit or unit, an ``n`` that is no whole number of events, a
+        median or quartile that is no finite non-negative number (a share's above 1: a percent?),
+        quartiles the wrong way round, a habit
         listed twice for one participant, or a participant with no trials (``n``
         0 for every habit).
     """
