@@ -19,7 +19,7 @@ from nudgecli.runs.batch_folder import BATCH_MANIFEST
 
 #: A table before a list: the kept copy keeps the design's order of its parameters (Sobol's dimensions).
 SWEEP = ('experiment = "exp.toml"\nreplications = 2\nseed = 3\nset = ["study.participants=2"]\n'
-         '[design]\nmethod = "sobol"\nsamples = 1\n[parameters]\n'
+         '[design]\nmethod = "sobol"\nsamples = 2\n[parameters]\n'
          '"inference.kappa" = { low = 0.6, high = 0.7 }\n"disambiguation.window" = [3, 5]\n')
 
 

@@ -278,7 +278,7 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
                       bool(options.get("force")))
     described = {"design": spec.design.model_dump(mode="json"), "experiment": _sweep_experiment(out, loaded)}
     batch = Batch("sweep", points, count, spec.seed if seed is None else seed, chosen, described,
-                  inputs=sweep_inputs(spec, loaded.experiment_file))
+                  notes=loaded.notes, inputs=sweep_inputs(spec, loaded.experiment_file))
 
     def outputs(run: BatchRun) -> BatchResult:
         from nudgecli.report.figures.replication import sensitivity_figure, sweep_figure

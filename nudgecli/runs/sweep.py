@@ -37,6 +37,7 @@ from __future__ import annotations
 import itertools
 import math
 import tomllib
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -95,6 +96,13 @@ class Values(_Model):
     values: list[Any] = Field(min_length=1)
 
 
+#: The start of the warning scipy's Sobol' sequence gives for a number of points that is no power of
+#: 2 (scipy/stats/_qmc.py, ``Sobol.random``), which SALib's ``sobol.sample`` passes on.
+SOBOL_BALANCE_WARNING = "The balance properties of Sobol' points require n to be a power of 2"
+#: The fewest base samples of a Sobol design (see :class:`Design`).
+MIN_SOBOL_SAMPLES = 2
+
+
 class Design(_Model):
     """``[design]``."""
 
@@ -113,6 +121,12 @@ class Design(_Model):
             raise ValueError(f"levels: Morris needs an even number of levels (SALib's grid k / (levels - 1) "
                              f"holds for even levels only), got {self.levels}; use {self.levels - 1} or "
                              f"{self.levels + 1}")
+        # SALib samples and analyses N = 1 (it asks for no least N), but its confidence intervals
+        # bootstrap the N base samples: one resampled is always itself, and every conf came out 0
+        if self.method == "sobol" and self.samples < MIN_SOBOL_SAMPLES:
+            raise ValueError(f"samples: a Sobol design needs at least {MIN_SOBOL_SAMPLES} base samples (the "
+                             f"intervals of its indices resample them), got {self.samples}; use a power "
+                             "of 2: 4, 8 or 16")
         return self
 
 
@@ -247,6 +261,8 @@ class Sweep:
     samples
         ``(n_points, D)`` the design in the problem's units (what SALib's analysers take);
         ``None`` for a grid.
+    notes
+        What the batch tells once its folder is prepared (:func:`design_notes`).
     """
 
     source: Path
@@ -255,6 +271,7 @@ class Sweep:
     experiment_file: Path
     problem: dict[str, Any] | None = None
     samples: np.ndarray | None = field(default=None, repr=False)
+    notes: tuple[str, ...] = ()
 
     @property
     def names(self) -> list[str]:
@@ -349,7 +366,19 @@ def load_sweep(name_or_path: str) -> Sweep:
     spec = spec.model_copy(update={"plan": resolve_plan(plan, experiment=named.experiment.name,
                                                         world=named.world.kind)})
     return Sweep(source=path, spec=spec, points=points, problem=problem, samples=samples,
-                 experiment_file=resolve_preset(experiment, "experiments"))
+                 experiment_file=resolve_preset(experiment, "experiments"), notes=design_notes(spec.design))
+
+
+def design_notes(design: Design) -> tuple[str, ...]:
+    """The notes on a design that runs, but not as well as it could: a Sobol design's ``samples``
+    that is no power of 2 (the Sobol' sequence is balanced only for a power of 2 points; scipy
+    warns, and :func:`design_values` silences its warning for this one line)."""
+    n = design.samples
+    if design.method != "sobol" or n & (n - 1) == 0:
+        return ()
+    below = 1 << (n.bit_length() - 1)
+    return (f"design.samples = {n}: a Sobol design is balanced only for a power of 2 base samples; use "
+            f"{below} or {below * 2}",)
 
 
 def point_overrides(fixed: list[str], assignment: dict[str, Any]) -> list[str]:
@@ -444,8 +473,10 @@ def design_values(spec: SweepFile) -> tuple[list[dict[str, Any]], dict[str, Any]
     if spec.design.method == "sobol":
         from SALib.sample import sobol
 
-        samples = sobol.sample(problem, spec.design.samples, calc_second_order=False, scramble=True,
-                               seed=spec.design.seed)
+        with warnings.catch_warnings():  # scipy's, with its source line: design_notes says it once
+            warnings.filterwarnings("ignore", message=SOBOL_BALANCE_WARNING, category=UserWarning)
+            samples = sobol.sample(problem, spec.design.samples, calc_second_order=False, scramble=True,
+                                   seed=spec.design.seed)
     else:
         from SALib.sample import morris
 
