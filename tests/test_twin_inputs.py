@@ -104,3 +104,52 @@ def test_an_impossible_habits_table_value_is_one_error_line(
     assert result.exit_code == 1, result.output
     assert one_error_line(result.output) == f"Error: {table}: participant 'pilot-2': {habit}: {problem}"
     assert not (tmp_path / "people.csv").exists()
+
+
+# --- a source given where another is wanted ------------------------------------------------------
+
+
+@pytest.mark.parametrize("kind", ["log", "habits table"])
+def test_a_log_or_habits_table_given_as_people_names_fit_people(tmp_path: Path, kind: str) -> None:
+    # before: "column 't' (or 'scope') is not a people file's", and the columns a people file has
+    source = write_rows(tmp_path / "pilot.csv", pilot_rows()) if kind == "log" else \
+        edited_table(tmp_path, "", "n", "")
+    first = "t, trial, label, x, y, theta, ..." if kind == "log" else \
+        "scope, participant, habit, n, median, q25, ..."
+    result = nudge("simulate", "smoke", "--participants", "1", "--people", source, "--out", tmp_path / "run")
+    assert result.exit_code == 1, result.output
+    assert one_error_line(result.output) == (
+        f"Error: {source}: not a people file (its columns are {first}; a people file has person, source, "
+        "participant, the parameters and from_population); if it is a real log or a habits table, make a "
+        f"people file of its participants with `nudge fit-people {source} --out people.csv`, then give "
+        "--people people.csv")
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_calibration_session_given_to_fit_people_is_named(tmp_path: Path) -> None:
+    # before: "not a run folder (no manifest.json, steps/ or trials/) ... or a CSV log"
+    session = tmp_path / "andrew"
+    (session / "p_phm_given_phi").mkdir(parents=True)
+    result = nudge("fit-people", session, "--out", tmp_path / "people.csv")
+    assert result.exit_code == 1, result.output
+    assert one_error_line(result.output) == (
+        f"Error: {session}: a calibration session (prompted blows: a person's physiology, not the habits of "
+        "operating the robot); operating habits are measured on a run folder or a real log (CSV); a "
+        "simulation takes a p(phi_m | phi_i) session's physiology as population.physiology_logs (`nudge "
+        f"simulate paper --set \"population.physiology_logs=['{session}']\"`), and `nudge fit {session}` "
+        "fits its interface model")
+
+
+def test_a_batch_folder_given_to_fit_people_is_named(tmp_path: Path) -> None:
+    # before: "not a run folder"; a batch's tasks/ hold per-trial metrics, no step logs to measure
+    batch = tmp_path / "batch"
+    (batch / "tasks").mkdir(parents=True)
+    (batch / "batch.json").write_text("{}")
+    (batch / "experiment.toml").write_text("")
+    result = nudge("fit-people", batch, "--out", tmp_path / "people.csv")
+    assert result.exit_code == 1, result.output
+    assert one_error_line(result.output) == (
+        f"Error: {batch}: a batch folder (nudge replicate, power or sweep), whose tasks/ keep each study's "
+        "per-trial metrics and no step logs; operating habits are measured on a run folder or a real log "
+        f"(CSV): simulate one study of its experiment (`nudge simulate {batch / 'experiment.toml'} --out "
+        "RUN`) and give RUN")

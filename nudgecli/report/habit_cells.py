@@ -13,10 +13,12 @@ from pydantic import ValidationError
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.config_files import format_validation_error
-from nudgecli.errors import DataError, RunFolderError
+from nudgecli.errors import DataError, RunFolderError, shell_words
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, PUFF_DEADBAND, SIP_DEADBAND, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.world import MODE_NAMES, angle_difference
+from nudgecli.run_folder_names import BATCH_MANIFEST
 from nudgecli.sim.calibration_io import STREAM_CODES
+from nudgecli.sim.calibration_readers import holds_calibration_session
 from nudgecli.steplog import MODE_SWITCH_HUMAN, has_event
 from nudgecli.store import RunFolder, is_run_folder
 
@@ -145,8 +147,7 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
     """
     run = RunFolder(folder)
     if not is_run_folder(folder):
-        raise RunFolderError(f"{folder}: not a run folder (no manifest.json, steps/ or trials/); give a "
-                             "folder written by `nudge simulate`, `nudge run` or `nudge study`, or a CSV log")
+        raise RunFolderError(_not_a_run_message(Path(folder)))
     run.check_complete()
     config = run_experiment(run)
     trials = run.read_table("trials", columns=_TRIAL_COLUMNS)
@@ -166,6 +167,29 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
     cells = pd.concat([_trial_cells(run, steps, part_trials, waypoints) for steps, part_trials in parts],
                       ignore_index=True)
     return habit_rate_cells(cells, float(config.study.rate_hz)), HABIT_RATE_HZ
+
+
+def _not_a_run_message(folder: Path) -> str:
+    """The line for a folder given as a habits source that is no run folder: a batch folder (which
+    keeps no step logs) and a calibration session (physiology) are named, with what reads them."""
+    from nudgecli.runs.batch_folder import EXPERIMENT_COPY
+
+    reads = "operating habits are measured on a run folder or a real log (CSV)"
+    if (folder / BATCH_MANIFEST).is_file():  # its tasks/ hold each study's per-trial metrics only
+        experiment = folder / EXPERIMENT_COPY
+        given = str(experiment) if experiment.is_file() else "EXPERIMENT"
+        simulate = shell_words(["nudge", "simulate", given, "--out", "RUN"])
+        return (f"{folder}: a batch folder (nudge replicate, power or sweep), whose tasks/ keep each study's "
+                f"per-trial metrics and no step logs; {reads}: simulate one study of its experiment "
+                f"(`{simulate}`) and give RUN")
+    if holds_calibration_session(folder):  # the quotes as docs/people.md writes the setting
+        simulate = f"nudge simulate paper --set \"population.physiology_logs=['{folder}']\""
+        return (f"{folder}: a calibration session (prompted blows: a person's physiology, not the habits "
+                f"of operating the robot); {reads}; a simulation takes a p(phi_m | phi_i) session's "
+                f"physiology as population.physiology_logs (`{simulate}`), and "
+                f"`{shell_words(['nudge', 'fit', str(folder)])}` fits its interface model")
+    return (f"{folder}: not a run folder (no manifest.json, steps/ or trials/); give a folder written by "
+            "`nudge simulate`, `nudge run` or `nudge study`, or a CSV log")
 
 
 def habit_rate_cells(cells: pd.DataFrame, rate_hz: float) -> pd.DataFrame:

@@ -412,6 +412,12 @@ def _holds_session(folder: Path) -> bool:
         any((folder / TIDY_FILES[key]).is_file() for key in ("mapping_prompts", "distortion_prompts"))
 
 
+def holds_calibration_session(folder: str | Path) -> bool:
+    """Whether ``folder`` looks like one participant's calibration folder (a session's subfolder,
+    or a tidy prompts file): what another command's refusal of it names."""
+    return _holds_session(Path(folder))
+
+
 def _no_session(folder: Path) -> DataError:
     """The error of a ``folder`` without a session: it holds several participants' folders (a run
     folder: in its ``calibration/``), fit one; else the files a session needs."""

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from nudgecli.csv_text import decimal_comma_advice, header_delimiter, not_utf8_message
-from nudgecli.errors import DataError, did_you_mean
+from nudgecli.errors import DataError, did_you_mean, shell_words
 from nudgecli.run_folder_names import MANIFEST, PEOPLE_DIR
 from nudgecli.sim.twins import INTEGER_PARAMETERS, TWIN_PARAMETERS, Twin, parameter_is_valid, parameter_needs
 
@@ -35,6 +35,8 @@ from nudgecli.sim.twins import INTEGER_PARAMETERS, TWIN_PARAMETERS, Twin, parame
 PEOPLE_COLUMNS = ("person", "source", "participant", *TWIN_PARAMETERS, "from_population")
 #: Columns every people file has.
 REQUIRED_COLUMNS = ("person", "source", "participant", "from_population")
+#: The columns only a people file has (a log or a habits table may have ``participant`` too).
+_PEOPLE_OWN_COLUMNS = frozenset(PEOPLE_COLUMNS) - {"source", "participant"}
 #: Separator of the ``from_population`` list.
 LIST_SEPARATOR = ";"
 
@@ -137,6 +139,17 @@ def _folder_message(path: Path) -> str:
             "fit-people SOURCE... --out people.csv`)")
 
 
+def _other_table_message(path: Path, header: Sequence[str]) -> str:
+    """The line for a CSV with none of a people file's own columns (:data:`_PEOPLE_OWN_COLUMNS`):
+    most likely a source of people (a real log, a habits table), which ``nudge fit-people`` makes a
+    people file of."""
+    shown = ", ".join(header[:6]) + (", ..." if len(header) > 6 else "")
+    fit = shell_words(["nudge", "fit-people", str(path), "--out", "people.csv"])
+    return (f"{path}: not a people file (its columns are {shown}; a people file has person, source, "
+            "participant, the parameters and from_population); if it is a real log or a habits table, make "
+            f"a people file of its participants with `{fit}`, then give --people people.csv")
+
+
 def read_people(path: str | Path) -> People:
     """The people file at ``path``.
 
@@ -163,6 +176,8 @@ def read_people(path: str | Path) -> People:
     header = [name.strip() for name in (reader.fieldnames or [])]
     if not header:
         raise DataError(f"{path}: empty; a people file has the columns {', '.join(PEOPLE_COLUMNS)}")
+    if not set(header) & _PEOPLE_OWN_COLUMNS:
+        raise DataError(_other_table_message(path, header))
     for name in header:
         if name not in PEOPLE_COLUMNS:
             raise DataError(f"{path}: column {name!r} is not a people file's"
