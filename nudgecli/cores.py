@@ -12,4 +12,14 @@ def available_cores() -> int:
     return os.cpu_count() or 1
 
 
-__all__ = ["available_cores"]
+def pool_workers(requested: int, tasks: int) -> int:
+    """The worker processes a pool of ``requested`` workers starts for ``tasks`` tasks that can run
+    at once: no more than the tasks (a worker with none would only be forked to wait), at least 1.
+
+    Not capped at :func:`available_cores`: more workers than cores is slower, not wrong, and a
+    researcher may know better (the size estimate says so: :class:`nudgecli.runs.size.SizeEstimate`).
+    """
+    return max(1, min(requested, tasks))
+
+
+__all__ = ["available_cores", "pool_workers"]

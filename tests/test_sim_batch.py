@@ -372,8 +372,10 @@ def test_an_oserror_in_a_task_reaches_the_command_as_itself_on_the_pool_and_on_d
         check(DaskExecutor(client))
 
 
-def test_points_differing_only_in_participants_share_one_study_of_the_largest() -> None:
+def test_points_differing_only_in_participants_share_one_study_of_the_largest(monkeypatch) -> None:
     from nudgecli.runs.batch import Batch, Point, build_graph, estimate, estimate_batch
+
+    monkeypatch.setattr("nudgecli.runs.size.available_cores", lambda: 8)  # 3 workers run at once
 
     config = load_experiment("smoke")
 

@@ -351,7 +351,7 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     """
     if workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {workers}")
-    size = estimate_batch(batch, workers)  # before anything is built: constant memory
+    workers = (size := estimate_batch(batch, workers).on(scheduler)).workers  # its pool; from counts alone
     check_batch_size(batch, size, confirm)  # trials, then steps: before anything is built
     for point in batch.points:
         check_physiology_logs(point.config)

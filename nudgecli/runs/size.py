@@ -21,6 +21,7 @@ from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from nudgecli.cores import available_cores, pool_workers
 from nudgecli.errors import ConfigError
 from nudgecli.runs.progress import format_duration
 
@@ -91,7 +92,14 @@ BYTES_PER_ANALYSIS = 14_000
 
 @dataclass(frozen=True)
 class SizeEstimate:
-    """How big a batch is, and its cost from the figures ``nudge bench`` measures (the constants above)."""
+    """How big a batch is, and its cost from the figures ``nudge bench`` measures (the constants above).
+
+    ``workers`` is the pool the batch starts: the workers asked for, but no more than its
+    participant tasks (:func:`nudgecli.cores.pool_workers`); ``seconds`` shares the work among as
+    many of them as there are ``cores`` to run them (:func:`nudgecli.cores.available_cores`). On a
+    dask scheduler (``on_scheduler``), whose workers are counted only once it is connected, the
+    seconds are those of one worker.
+    """
 
     studies: int
     participant_tasks: int
@@ -100,19 +108,41 @@ class SizeEstimate:
     seconds: float
     bytes: int
     workers: int
+    cores: int = 1
+    on_scheduler: bool = False
 
     def describe(self) -> str:
+        if self.on_scheduler:
+            where = "on one worker (less on the scheduler's workers)"
+        elif self.workers > self.cores:  # told, not refused: more workers than cores is only slower
+            where = f"on {self.workers} worker(s) sharing {self.cores} cores (more workers run no faster)"
+        else:
+            where = f"on {self.workers} worker(s)"
         return (f"{self.studies:,} studies, {self.participant_tasks:,} participant tasks + {self.analyses:,} "
-                f"analyses, {self.trials:,} trials; about {format_duration(self.seconds)} on {self.workers} "
-                f"worker(s) and {self.bytes / 1e6:.1f} MB on disk")
+                f"analyses, {self.trials:,} trials; about {format_duration(self.seconds)} {where} and "
+                f"{self.bytes / 1e6:.1f} MB on disk")
+
+    def on(self, scheduler: str | None) -> SizeEstimate:
+        """This estimate where the batch runs: on this machine's pool (no ``scheduler``) as it is,
+        else on a dask scheduler's workers, whose number is not known before it is connected."""
+        if scheduler is None:
+            return self
+        return size_estimate(self.studies, self.participant_tasks, self.analyses, self.trials, 1,
+                             on_scheduler=True)
 
 
 def size_estimate(studies: int, participant_tasks: int, analyses: int, trials: int,
-                  workers: int) -> SizeEstimate:
-    """A batch's :class:`SizeEstimate` from its counts (:func:`nudgecli.runs.batch.estimate_batch`)."""
-    seconds = SECONDS_FIXED + (trials * SECONDS_PER_TRIAL + analyses * SECONDS_PER_ANALYSIS) / max(1, workers)
+                  workers: int, *, on_scheduler: bool = False) -> SizeEstimate:
+    """A batch's :class:`SizeEstimate` from its counts (:func:`nudgecli.runs.batch.estimate_batch`)
+    for ``workers`` asked for: the pool is no larger than the participant tasks, and no more of
+    its workers run at once than there are cores (on a scheduler: one worker's time)."""
+    pool = pool_workers(workers, participant_tasks)
+    cores = available_cores()
+    running = 1 if on_scheduler else min(pool, cores)
+    seconds = SECONDS_FIXED + (trials * SECONDS_PER_TRIAL + analyses * SECONDS_PER_ANALYSIS) / running
     size = participant_tasks * BYTES_PER_TASK + trials * BYTES_PER_TRIAL + analyses * BYTES_PER_ANALYSIS
-    return SizeEstimate(studies, participant_tasks, analyses, trials, seconds, size, workers)
+    return SizeEstimate(studies, participant_tasks, analyses, trials, seconds, size, pool, cores,
+                        on_scheduler)
 
 
 def trials_per_participant(config: ExperimentConfig) -> int:
