@@ -91,7 +91,7 @@ def test_the_size_guard_counts_steps_before_anything_is_cleared(tmp_path, smoke_
         monkeypatch.setattr(module, name, _never)
     run = copy_run(smoke_run, tmp_path / "run")
     before = files_of(run)
-    result = invoke([*command, "smoke", "--participants", "1",
+    result = invoke([*command, "smoke", "--participants", "2",  # replicate needs 2 (steps: per participant)
                      "--set", f"study.time_limit_s={MAX_TIME_LIMIT_S}",
                      "--set", f"study.rate_hz={MAX_RATE_HZ}", "--out", str(run), "--force"])
     line = one_error_line(result.output)

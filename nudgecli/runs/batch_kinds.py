@@ -159,6 +159,26 @@ def _people_fields(people: People | str | Path | None, out: str | Path, resume: 
     return {PEOPLE_KEY: chosen.record()}, chosen
 
 
+#: The fewest participants a batch analyses a study with: its participant-level test and effect
+#: need two (with one, every participant-level column of the tables was NaN).
+MIN_BATCH_PARTICIPANTS = 2
+
+
+def check_participant_counts(counts: Sequence[int], example: str) -> None:
+    """Refuse a batch that would analyse a study of fewer than :data:`MIN_BATCH_PARTICIPANTS`
+    participants (``power``'s counts, ``replicate``'s study), before anything runs.
+
+    Raises
+    ------
+    ConfigError
+        Naming ``--participants`` and ``example``, what to give instead (``"6,9,12"``: counts).
+    """
+    if not counts or min(counts) < MIN_BATCH_PARTICIPANTS:
+        what = "counts" if "," in example else "a count"
+        raise ConfigError(f"--participants: give {what} of at least {MIN_BATCH_PARTICIPANTS} (one "
+                          f"participant has no participant-level test), e.g. --participants {example}")
+
+
 def _check(replications: int, seed: int | None) -> None:
     if replications < 1:
         raise ConfigError(f"--replications must be at least 1, got {replications}")
@@ -178,6 +198,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     """
     _check(replications, seed)
     config = _load(experiment, overrides, participants, "replicate")
+    check_participant_counts([config.study.participants], "12")  # as power's: one has no participant test
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name, world=config.world.kind),
                           [config])
     record, chosen_people = _people_fields(people, out, bool(options.get("resume")), "replicate")
@@ -218,8 +239,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     """
     _check(replications, seed)
     counts = sorted(set(int(n) for n in participant_counts))
-    if not counts or counts[0] < 2:
-        raise ConfigError("--participants: give counts of at least 2, e.g. --participants 6,9,12,18,24")
+    check_participant_counts(counts, "6,9,12,18,24")
     if not 0 < target < 1:
         raise ConfigError(f"--target must be strictly between 0 and 1 (a power), got {target}")
     config = _load(experiment, overrides, None, "power")
