@@ -36,7 +36,8 @@ _ABSENT = object()
 _EXPERIMENT_SEED = "experiment.seed"
 
 
-def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -> list[str]:
+def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, Any],
+                           source: str = "the manifest") -> list[str]:
     """``key: OLD in the manifest, NEW now`` for every key of two resolved experiments that differs.
 
     Parameters
@@ -45,9 +46,11 @@ def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, An
         The experiment the manifest recorded (``manifest["config"]``).
     current
         The experiment now (``ExperimentConfig.model_dump(mode="json")``).
+    source
+        The file that recorded it, as the differences name it (a batch's ``batch.json``).
     """
     old, new = _flatten(recorded), _flatten(json.loads(json.dumps(current)))
-    return [f"{key}: {_shown(old.get(key, _ABSENT))} in the manifest, {_shown(new.get(key, _ABSENT))} now"
+    return [f"{key}: {_shown(old.get(key, _ABSENT))} in {source}, {_shown(new.get(key, _ABSENT))} now"
             for key in sorted(old.keys() | new.keys())
             if old.get(key, _ABSENT) != new.get(key, _ABSENT)]
 

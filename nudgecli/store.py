@@ -234,7 +234,7 @@ def prepare_mode(path: Path, held: str | None, resume: bool, force: bool, *, kin
     unless ``resume`` (``"resume"``: the caller checks it is the same work) or ``force``
     (``"replace"``: the caller removes the old work). A folder holding other files (than those
     ``own_file`` names: the lock) is refused unless ``force`` (``"overwrite"``). ``resume`` with
-    nothing there is refused. Else ``"new"``.
+    nothing there is refused, and ``resume`` with ``force`` always (they contradict). Else ``"new"``.
 
     Parameters
     ----------
@@ -244,8 +244,12 @@ def prepare_mode(path: Path, held: str | None, resume: bool, force: bool, *, kin
         Refuse ``resume`` into a folder without a ``kind`` before looking at its contents
         (``nudge study``'s order: "nothing to resume" rather than "not empty").
     """
+    if resume and force:  # neither may win quietly: one keeps the finished work, the other deletes it
+        raise RunFolderError(f"{path}: --resume and --force contradict each other (--resume keeps the "
+                             f"{kind}'s finished work, --force deletes it); use --resume alone to finish the "
+                             f"{kind}, or --force alone to start it afresh")
     if held is not None:
-        if resume and not force:
+        if resume:
             return "resume"
         if not force:
             raise RunFolderError(f"{path}: already holds a {kind} ({held}); use --resume to finish it, "

@@ -28,7 +28,7 @@ def test_a_damaged_manifest_is_one_error_line_and_force_replaces_the_batch(tmp_p
         with pytest.raises(RunFolderError, match=r"batch\.json: damaged .*use --force"):
             prepare_folder(folder, {"kind": "replicate"}, resume=resume, force=False)
     assert (folder / "batch.json").read_text() == text  # refused: nothing touched
-    assert prepare_folder(folder, {"kind": "replicate"}, resume=True, force=True) == "new"
+    assert prepare_folder(folder, {"kind": "replicate"}, resume=False, force=True) == "new"
     assert files_of(folder) == USERS_FILES
 
 

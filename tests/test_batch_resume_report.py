@@ -48,9 +48,9 @@ def test_the_differences_of_a_one_point_batch_are_named_by_their_setting() -> No
     recorded = _described(_point([3]))
     assert batch_differences(recorded, recorded) == []
     assert batch_differences(recorded, _described(_point([4]))) == [
-        "participants: [3] in the manifest, [4] now"]
+        "participants: [3] in batch.json, [4] now"]
     assert batch_differences(recorded, _described(_point([3]), seed=7, replications=2)) == [
-        "replications: 6 in the manifest, 2 now", "seed: 9 in the manifest, 7 now"]
+        "replications: 6 in batch.json, 2 now", "seed: 9 in batch.json, 7 now"]
     # a tuple is what Batch.describe gives, a list what batch.json holds: the same setting
     now = _described(_point([3]))
     now["points"][0]["participants"] = (3,)
@@ -61,9 +61,9 @@ def test_a_sweeps_differences_are_named_by_point_and_a_changed_experiment_says_s
     recorded = _described(_point([4], **{"inference.kappa": 0.5}), _point([4], **{"inference.kappa": 0.8}))
     now = _described(_point([4], **{"inference.kappa": 0.5}), _point([4], **{"inference.kappa": 0.7}))
     assert batch_differences(recorded, now) == [
-        "point 1.parameters.inference.kappa: 0.8 in the manifest, 0.7 now"]
+        "point 1.parameters.inference.kappa: 0.8 in batch.json, 0.7 now"]
     (study,) = batch_differences(_described(_point([3], "aa")), _described(_point([3], "bb")))
-    assert study.startswith('study: "aa" in the manifest, "bb" now') and "experiment" in study
+    assert study.startswith('study: "aa" in batch.json, "bb" now') and "experiment" in study
 
 
 def test_a_refused_resume_names_the_participant_count_alone_and_touches_nothing(tmp_path, batch) -> None:
@@ -74,7 +74,7 @@ def test_a_refused_resume_names_the_participant_count_alone_and_touches_nothing(
     result = invoke(*changed, "--out", folder, "--resume")
     assert result.exit_code == 1
     line = one_error_line(result.output)
-    assert "(participants: [2] in the manifest, [3] now)" in line
+    assert "(participants: [2] in batch.json, [3] now)" in line
     assert "seed" not in line and "replications" not in line
     assert files_of(folder) == before
 

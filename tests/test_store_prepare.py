@@ -26,7 +26,6 @@ def _folder(tmp_path: Path, *names: str) -> Path:
 def test_a_folder_that_holds_work_is_resumed_replaced_or_refused(tmp_path: Path) -> None:
     folder = _folder(tmp_path, "batch.json")
     assert prepare_mode(folder, "sweep, complete", resume=True, force=False, kind="batch") == "resume"
-    assert prepare_mode(folder, "sweep, complete", resume=True, force=True, kind="batch") == "replace"
     assert prepare_mode(folder, "sweep, complete", resume=False, force=True, kind="batch") == "replace"
     with pytest.raises(RunFolderError) as refused:
         prepare_mode(folder, "sweep, complete", resume=False, force=False, kind="batch")
@@ -40,7 +39,6 @@ def test_a_folder_with_other_files_needs_force_and_the_lock_does_not_count(tmp_p
     (tmp_path / "out" / "notes.txt").write_text("mine")
     folder = tmp_path / "out"
     assert prepare_mode(folder, None, resume=False, force=True) == "overwrite"
-    assert prepare_mode(folder, None, resume=True, force=True) == "overwrite"
     with pytest.raises(RunFolderError, match=r"not empty; choose another --out or use --force$"):
         prepare_mode(folder, None, resume=False, force=False)
     with pytest.raises(RunFolderError, match=r"exists and is not empty; choose another --out$"):
@@ -49,7 +47,7 @@ def test_a_folder_with_other_files_needs_force_and_the_lock_does_not_count(tmp_p
 
 def test_resume_with_nothing_there_is_refused_in_each_callers_order(tmp_path: Path) -> None:
     with pytest.raises(RunFolderError, match=r"nothing to resume \(no batch there\); drop --resume"):
-        prepare_mode(tmp_path / "missing", None, resume=True, force=True, kind="batch")
+        prepare_mode(tmp_path / "missing", None, resume=True, force=False, kind="batch")
     folder = _folder(tmp_path, "notes.txt")
     with pytest.raises(RunFolderError, match="not empty"):  # simulate, batches: the contents first
         prepare_mode(folder, None, resume=True, force=False)

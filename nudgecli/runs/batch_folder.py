@@ -53,6 +53,7 @@ from nudgecli.sim.policy_registry import policy_specs
 from nudgecli.store import (
     prepare_mode,
     remove_temporaries,
+    resume_command,
     write_error,
 )
 
@@ -360,16 +361,23 @@ def _by_point(description: Mapping[str, Any], lift: bool) -> dict[str, Any]:
                         for i, point in enumerate(points)}}
 
 
+#: Settings of a batch's description that a batch of an older nudge did not record (a power batch's
+#: ``target``, the power its ``smallest_n.csv`` reads): where ``batch.json`` lacks one, a resume takes
+#: the one given now, as it did then, and records it.
+LATER_SETTINGS = ("target",)
+
+
 def batch_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -> list[str]:
     """What differs between the batch ``batch.json`` describes and the one asked now, one
-    ``key: OLD in the manifest, NEW now`` each (the wording of a run's resume,
+    ``key: OLD in batch.json, NEW now`` each (the wording of a run's resume,
     :func:`nudgecli.run_folder_record.experiment_differences`).
 
     A point's fields are named by point (``point 2.parameters.inference.kappa``), or plainly where
     both batches have one point (``participants``). A point's ``study`` is a digest of its
     experiment (every setting but the participant count), which ``batch.json`` does not hold:
     where it differs, the difference says so. A recorded point without its recordings' digests
-    (a batch of an older nudge) has them not compared (:func:`nudgecli.recording_digests.compared`).
+    (a batch of an older nudge) has them not compared (:func:`nudgecli.recording_digests.compared`),
+    nor one of :data:`LATER_SETTINGS` it lacks.
 
     Parameters
     ----------
@@ -378,6 +386,7 @@ def batch_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -
     current
         The description of the batch now (:meth:`nudgecli.runs.batch.Batch.describe`).
     """
+    current = {key: value for key, value in current.items() if key not in LATER_SETTINGS or key in recorded}
     points = (recorded.get("points"), current.get("points"))
     if isinstance(points[0], list) and isinstance(points[1], list):
         current = {**current, "points": [
@@ -388,7 +397,8 @@ def batch_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -
              RECORDINGS_KEY: RECORDINGS_DIFFER.format(what="batch")}
     return [f"{difference} ({notes[key]})" if (key := difference.split(":")[0].split(".")[-1]) in notes
             else difference
-            for difference in experiment_differences(_by_point(recorded, lift), _by_point(current, lift))]
+            for difference in experiment_differences(_by_point(recorded, lift), _by_point(current, lift),
+                                                     BATCH_MANIFEST)]
 
 
 def check_kept_inputs(folder: Path, recorded: object, inputs: Mapping[str, bytes]) -> None:
@@ -436,20 +446,19 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     The rule is the run folder's (:func:`nudgecli.store.prepare_mode`); a folder that is not empty
     but holds no batch is written into with ``force``, not cleared. Once the folder is accepted it
     keeps the batch's ``people`` file and its ``policies``' modules, byte for byte
-    (:func:`nudgecli.sim.people_file.keep_copy`,
-    :func:`nudgecli.sim.policy_files.keep_policy_copies`; a resume puts back a missing copy).
-    A batch of one point keeps its experiment and plan as well (``policies.inputs``,
-    :func:`policy_copies`): a resume puts back a lost one and never writes over one there (it may
-    be what the resume read). Replacing a batch removes all it wrote (:func:`remove_outputs`) and
-    the copies (and inputs) its manifest records; a damaged manifest (:func:`read_manifest`) is
-    refused unless ``force``, which replaces its batch.
+    (:func:`nudgecli.sim.people_file.keep_copy`, :func:`nudgecli.sim.policy_files.keep_policy_copies`;
+    a resume puts back a missing copy). A batch of one point keeps its experiment and plan as well
+    (``policies.inputs``, :func:`policy_copies`): a resume puts back a lost one and never writes over
+    one there (it may be what the resume read). Replacing a batch removes all it wrote
+    (:func:`remove_outputs`) and the copies (and inputs) its manifest records; a damaged manifest
+    (:func:`read_manifest`) is refused unless ``force``, which replaces its batch.
 
     Raises
     ------
     RunFolderError
         The folder holds a person's live sessions (a ``nudge study`` folder, even with ``force``),
-        a batch (and neither ``resume`` nor ``force``), a different batch to
-        resume, a damaged manifest without ``force``, or other files without ``force``.
+        a batch (and neither ``resume`` nor ``force``), ``resume`` with ``force``,
+        a different batch to resume, a damaged manifest without ``force``, or other files without ``force``.
     DataError
         A resume whose policy modules differ from those ``batch.json`` records (names the file:
         the batch would mix two policies), before anything is touched.
@@ -469,7 +478,8 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
                              "again), or choose another --out")
     held = "its batch.json damaged" if damage is not None else \
         None if old is None else f"{old['batch'].get('kind')}, {old.get('status')}"
-    start = held is None and _start_again(folder, people, policies)  # killed before its batch.json
+    # killed before its batch.json: started afresh (--resume with --force: the rule refuses the pair)
+    start = held is None and not (resume and force) and _start_again(folder, people, policies)
     mode = "new" if start else prepare_mode(folder, held, resume, force, kind="batch")
     copies = None if old is None else old.get(POLICY_FILES_KEY)  # the policy copies the folder records
     inputs = None if old is None else old.get(INPUTS_KEY)
@@ -482,7 +492,7 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
             shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                   if len(differences) > 8 else "")
             raise RunFolderError(f"{folder}: holds a different batch ({shown}); resume it with the same "
-                                 "settings, or use --force")
+                                 f"settings{_resume_advice(folder, old['batch'])}, or use --force")
         _check_same_policies(folder, old, policies)
     # before anything is removed: a copy's path holding a file of the person's own stops the batch
     check_copies_placeable(policies.files, folder, copies, "batch")
@@ -529,6 +539,26 @@ def _start_files(folder: Path, people: People | None, policies: PolicyCopies) ->
     if people is not None and people.data:
         files[copy_path(folder, people.record()).relative_to(folder).as_posix()] = people.data
     return files
+
+
+def _resume_advice(folder: Path, recorded: Mapping[str, Any]) -> str:
+    """`` (`nudge sweep FOLDER/sweep.toml --out FOLDER --resume`)``: the command that resumes the sweep
+    in ``folder`` from the sweep file it keeps (:func:`kept_inputs`), with ``--replications`` and
+    ``--seed`` where ``recorded`` (its description) holds others than the file (typed then). Empty
+    for a replicate or power batch, and a sweep of an older nudge (no sweep file kept)."""
+    import tomllib
+
+    kept = kept_inputs(folder).get("sweep_file")
+    if kept is None or recorded.get("kind") != "sweep":
+        return ""
+    try:
+        written = tomllib.loads(kept.read_text(encoding="utf-8"))
+    except (OSError, ValueError):  # unreadable: name both settings
+        written = {}
+    options = [word for key in ("replications", "seed")
+               if key in recorded and recorded[key] != written.get(key)
+               for word in (f"--{key}", str(recorded[key]))]
+    return f" (`{resume_command(['sweep', str(kept)], folder, options)}`)"
 
 
 def _start_again(folder: Path, people: People | None, policies: PolicyCopies) -> bool:

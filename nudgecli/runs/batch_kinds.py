@@ -234,7 +234,8 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
 
     Replication ``r`` simulates its largest study once; each count ``n`` analyses its first
     ``n`` participants. Writes ``power.csv`` (per count, metric and level of test, with the
-    Clopper-Pearson interval), ``smallest_n.csv``, ``replications.csv`` and ``figures/power.png``.
+    Clopper-Pearson interval), ``smallest_n.csv`` (of ``target``, which ``batch.json`` records: a
+    resume with another is refused), ``replications.csv`` and ``figures/power.png``.
     ``people``: twins of real people (a people file, ``--people``), cycled over the participants.
     """
     _check(replications, seed)
@@ -251,7 +252,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
                       bool(options.get("force")))
     batch = Batch("power", single_point(config, counts), replications,
                   config.experiment.seed if seed is None else seed, chosen,
-                  {"experiment": config.experiment.name, **record}, chosen_people,
+                  {"experiment": config.experiment.name, "target": target, **record}, chosen_people,
                   left_out_notes(config, counts[-1], chosen_people, study="the largest study",
                                  fix="a count of {} in --participants"))
 
