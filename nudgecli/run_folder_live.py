@@ -87,6 +87,65 @@ class LiveRecord:
                 [kind for kind in kinds if kind == "participants"]
         return expected
 
+    def live_part_fix(self, manifest: Mapping[str, Any], part: Path) -> str:
+        """What brings back a live folder's ``part`` that disagrees with the manifest: the session's
+        resume where the part is the one a checkpoint noted before renaming it into place (it stopped
+        before the manifest listed the trial: the resume writes the part again without it), else a
+        backup (a person's trial cannot be run again)."""
+        from nudgecli.live.record_checks import WRITING  # a checkpoint's record of the parts it renames
+        from nudgecli.run_folder_record import file_sha256  # run_folder_record builds on this module
+
+        index = int(part.stem.split("-")[1])
+        writing = ((manifest.get("live") or {}).get(str(index)) or {}).get(WRITING) or {}
+        if part.is_file() and writing.get(part.parent.name) == file_sha256(part):
+            hint = self.continue_session_hint(manifest, [index])
+            return f"the session stopped while recording a trial; {hint}"
+        return self.restore_from_backup([f"{part.parent.name}/{part.name}"])
+
+    def check_live_trials(self, manifest: Mapping[str, Any]) -> None:
+        """Refuse a participant's trials or steps part that holds other trials than the manifest's
+        ``completed_trials`` of them (the trials that count), so a reader analyses exactly the trials
+        the manifest lists, as a resume continues after exactly them: a part a session renamed into
+        place before the manifest listed its trial (the participant's first trial included, whose
+        part has no SHA-256 recorded yet), a part changed since written, a manifest edited by hand.
+
+        Raises
+        ------
+        RunFolderError
+            Naming the part, the trials and the fix (:meth:`live_part_fix`).
+        """
+        from nudgecli.live.record_checks import TRIAL_PARTS, recorded_sums
+        from nudgecli.parquet_reader import read_parquet
+        from nudgecli.run_folder_record import file_sha256, part_name  # run_folder_record builds on this
+
+        for key, entry in sorted((manifest.get("live") or {}).items(), key=lambda item: int(item[0])):
+            who = f"participant {entry.get('participant_id', key)}"
+            listed = {int(trial) for trial in entry.get("completed_trials") or []}
+            sums = recorded_sums(manifest, int(key))
+            for kind in TRIAL_PARTS:
+                part = self.path / kind / part_name(int(key))
+                if not part.is_file():
+                    continue  # a missing part is named by the check of the parts the manifest promises
+                name, digest = f"{kind}/{part.name}", file_sha256(part)
+                # the part the manifest vouches for: its list of trials is what disagrees (edited)
+                fix = self.restore_from_backup([MANIFEST]) if sums.get(kind) == digest else \
+                    self.live_part_fix(manifest, part)
+                if kind in sums and digest != sums[kind]:
+                    raise RunFolderError(f"{self.path}: {name} changed since it was written (its SHA-256 "
+                                         f"differs from the one in the manifest); {fix}")
+                try:
+                    found = {int(trial) for trial in read_parquet(part.read_bytes(), ["trial"])["trial"]}
+                except Exception:  # pyarrow raises several types for broken files: named by the part's reader
+                    continue
+                if extra := sorted(found - listed):
+                    raise RunFolderError(f"{self.path}: {name} holds trial(s) {', '.join(map(str, extra))} "
+                                         f"of {who}, which the manifest does not list among their recorded "
+                                         f"trials; {fix}")
+                if lacking := sorted(listed - found):
+                    raise RunFolderError(f"{self.path}: {name} holds no rows of trial(s) "
+                                         f"{', '.join(map(str, lacking))}, which the manifest lists as "
+                                         f"recorded by {who}; {fix}")
+
     def restore_from_backup(self, names: Sequence[str]) -> str:
         """The advice for a live folder's lost or damaged part (or file): a person's trial cannot be
         run again, so only a backup brings it back."""

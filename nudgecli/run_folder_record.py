@@ -419,15 +419,7 @@ class RunRecord(LiveRecord, ConfigRecord):
         from nudgecli.store import simulate_resume_command  # store builds on this module
 
         if manifest is not None and manifest.get("executor") == "live":
-            from nudgecli.live.record_checks import WRITING  # a checkpoint's record of the parts it renames
-
-            index = int(part.stem.split("-")[1])
-            writing = ((manifest.get("live") or {}).get(str(index)) or {}).get(WRITING) or {}
-            if part.is_file() and writing.get(part.parent.name) == file_sha256(part):
-                # the session stopped between renaming its parts and recording them: its resume takes them
-                return (f"the session stopped while recording a trial; "
-                        f"{self.continue_session_hint(manifest, [index])}")
-            return self.restore_from_backup([f"{part.parent.name}/{part.name}"])
+            return self.live_part_fix(manifest, part)
         fix = self.resume_command(manifest) if manifest is not None else \
             simulate_resume_command("EXPERIMENT", self.path)
         return f"{verb} with `{fix}`"

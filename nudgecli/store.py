@@ -403,6 +403,7 @@ class RunFolder(RunRecord):
             names = [part.split(" (")[0] for parts in missing.values() for part in parts]
             raise RunFolderError(f"{self.path} is incomplete: {listed}; {self.restore_from_backup(names)}")
         self.check_vouched(manifest)
+        self.check_live_trials(manifest)  # read as far as the manifest lists each participant's trials
         return manifest
 
     def read_table(self, kind: str, columns: Sequence[str] | None = None,

@@ -10,7 +10,8 @@ without the participant's row) while the manifest lists the block as answered.
 A checkpoint records the SHA-256 of the parts it is about to rename into place in the
 participant's entry (:data:`WRITING`) before it renames them, so a crash between the renames and
 the manifest's update (the running trial's rows on disk, not yet listed) is told apart from an
-edit: such a part is taken, without the unlisted trial's rows, and written again.
+edit: such a part is taken, without the unlisted trial's rows, and written again (any part holding
+rows of a trial the manifest does not list is: the readers of the folder refuse one).
 """
 
 from __future__ import annotations
@@ -87,8 +88,10 @@ def check_trial_parts(folder: Path, manifest: Mapping[str, Any], participant: in
             raise RunFolderError(f"{folder}: {name} holds no rows of trial(s) "
                                  f"{', '.join(map(str, lacking))}, which the manifest lists as completed by "
                                  f"{who}; {RESTORE}")
-        if trials - set(completed) and kind in sums and digest != sums[kind]:
-            checked.rewrite.append(kind)  # a crash after the rename: the unlisted trial is dropped
+        if trials - set(completed):
+            # a crash after the rename (on the first trial too, whose part has no SHA-256 recorded yet):
+            # written again without the unlisted trial, so the part holds exactly the trials listed
+            checked.rewrite.append(kind)
         checked.tables[kind] = frame[frame["trial"].isin(completed)].reset_index(drop=True)
     return checked
 

@@ -171,9 +171,8 @@ def read_run(folder: str | Path, notes: list[str] | None = None
     elif notes is not None and run.lost_manifest_error() is None:  # parts alone: say they are unverified
         notes.append(run.unrecorded_note())
     trials = run.read_table("trials", TRIAL_COLUMNS)
-    if trials.empty:
-        raise RunFolderError(f"{folder}: trials/part-*.parquet hold no trials yet; "
-                             "run `nudge simulate` first")
+    if trials.empty:  # a live study's resume leaves a session's parts empty before its first trial
+        raise RunFolderError(run.no_parts_message("trials", run.manifest_to_read() if run.is_run() else None))
     columns = [*METRIC_STEP_COLUMNS, *INPUT_STEP_COLUMNS]
     if not run.is_run():  # parts put together by hand: any part may hold any participant's steps
         groups = dict(tuple(run.read_table("steps", columns).groupby("participant", sort=False)))
