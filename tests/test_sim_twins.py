@@ -20,7 +20,7 @@ from scipy import stats
 from nudgecli.config import PopulationSection, load_experiment
 from nudgecli.errors import DataError
 from nudgecli.rng import generator
-from nudgecli.sim.habit_ranges import DEADBAND_PARAMETERS, HABIT_OFFSETS_S
+from nudgecli.sim.habit_ranges import DEADBAND_PARAMETERS
 from nudgecli.sim.participants import Participant, draw_participant
 from nudgecli.sim.people_file import People, check_same_people, people_csv, read_people
 from nudgecli.sim.study import study_participant
@@ -28,8 +28,9 @@ from nudgecli.sim.twin_fit import (
     PARAMETER_HABITS,
     STOP_PARAMETERS,
     HabitFigures,
-    assumed_onset_samples,
+    Mechanics,
     fit_twin,
+    fit_twin_with_notes,
     stops_per_trial,
 )
 from nudgecli.sim.twin_recovery import habit_agreement, habit_is_near, parameter_recovery
@@ -48,16 +49,24 @@ HABITS = {
 }
 
 
-def test_the_fit_inverts_the_documented_offsets_by_hand() -> None:
-    fitted = fit_twin(HABITS, onset_samples=2)
+#: What the default population's physiology does between a parameter and its habit (made once).
+MECHANICS = Mechanics()
+
+
+def test_the_fit_inverts_the_offsets_by_hand() -> None:
+    fitted = fit_twin(HABITS, mechanics=MECHANICS)
     z = stats.norm.ppf(0.75)  # scipy's, not the module's NormalDist
     assert fitted["planning_s"] == pytest.approx(2.3)  # offset 0
-    assert fitted["event_reaction_s"] == pytest.approx((1.0 + 1.2) / 2)  # each reaction less 0.1 s
-    spread = (math.log(1.2 / 0.6) + math.log(1.4 / 0.8)) / 2 / (2 * z)
+    shape = round(fitted["hard_peak_s"] / 0.1), int(fitted["offset_ramp_samples"])
+    offsets = MECHANICS.reaction_offsets(*shape)
+    stop, motion = offsets["reaction_stop_to_switch"], offsets["reaction_switch_to_motion"]
+    assert 0.1 < stop < 0.2 and 0.1 < motion < 0.2  # a cell and a fraction of one more (the module's rules)
+    assert fitted["event_reaction_s"] == pytest.approx((1.1 - stop + 1.3 - motion) / 2, abs=1e-6)
+    spread = math.log((1.5 - motion) / (0.9 - motion)) / (2 * z)  # the switch -> motion quartiles
     assert fitted["event_reaction_log_sd"] == pytest.approx(spread, abs=1e-6)
     assert fitted["hold_on_s"] == pytest.approx(0.8 / 4)  # four stops a CIAA trial
-    assert fitted["hard_peak_s"] == pytest.approx(0.2)
-    assert fitted["offset_ramp_samples"] == 4 - 2  # 0.4 s outside the hard band, 2 of them the onset
+    # 0.2 s in the hard band, 0.4 s outside: a ramp sample or so reaches the band, the rest is ramps
+    assert 0.1 <= fitted["hard_peak_s"] < 0.2 and fitted["offset_ramp_samples"] in (1, 2)
     assert fitted["deadband_share"] == pytest.approx(0.08)
     assert fitted["deadband_stray_s"] == pytest.approx(0.2)
     assert set(fitted) == set(TWIN_PARAMETERS)
@@ -66,14 +75,20 @@ def test_the_fit_inverts_the_documented_offsets_by_hand() -> None:
 @settings(max_examples=60, deadline=None)
 @given(median=st.floats(0.3, 2.0), log_sd=st.floats(0.05, 1.0))
 def test_the_reactions_log_sd_is_read_back_from_a_lognormals_quartiles(median: float, log_sd: float) -> None:
-    # the quartiles of scipy's log-normal, measured a reaction's offset later
-    offset = HABIT_OFFSETS_S["reaction_stop_to_switch"]
-    q25, q75 = stats.lognorm(s=log_sd, scale=median).ppf([0.25, 0.75]) + offset
-    figures = HabitFigures(50, median + offset, float(q25), float(q75))
-    habits = {"reaction_stop_to_switch": figures, "reaction_switch_to_motion": figures}
-    fitted = fit_twin(habits, onset_samples=2)
-    assert fitted["event_reaction_log_sd"] == pytest.approx(log_sd, abs=1e-6)  # rounded to 1e-6
+    # the quartiles of scipy's log-normal, measured each reaction's offset later (the offsets of the
+    # pulse the hard blows give)
+    pulse = {"hard_band_per_excursion": HabitFigures(20, 0.2), "hard_blow_whole": HabitFigures(20, 0.5)}
+    shape = fit_twin(pulse, mechanics=MECHANICS)
+    offsets = MECHANICS.reaction_offsets(round(shape["hard_peak_s"] / 0.1), int(shape["offset_ramp_samples"]))
+    habits = {habit: HabitFigures(50, *(stats.lognorm(s=log_sd, scale=median).ppf([0.5, 0.25, 0.75])
+                                         + offsets[habit]).tolist())
+              for habit in ("reaction_stop_to_switch", "reaction_switch_to_motion")}
+    fitted, notes = fit_twin_with_notes({**habits, **pulse}, mechanics=MECHANICS)
     assert fitted["event_reaction_s"] == pytest.approx(median, abs=1e-6)
+    if stats.lognorm(s=log_sd, scale=median).ppf(0.25) >= 0.1:  # a reaction is at least a cell
+        assert fitted["event_reaction_log_sd"] == pytest.approx(log_sd, abs=1e-6)  # rounded to 1e-6
+    else:
+        assert "event_reaction_log_sd" not in fitted and "within a cell" in notes["event_reaction_log_sd"]
 
 
 def test_every_parameter_a_twin_sets_has_its_habits_and_the_deadband_ones_are_the_populations() -> None:
@@ -88,33 +103,36 @@ def test_what_a_source_lacks_or_the_simulation_refuses_is_left_to_the_population
     del habits["hold_on_per_trial"]
     habits["first_command_latency"] = HabitFigures(12, 75.0)  # [population] planning_s accepts up to 60 s
     habits["reaction_switch_to_motion"] = HabitFigures(3, 1.3, 0.9, 1.5)  # too few events for quartiles
-    fitted = fit_twin(habits, onset_samples=2)
+    fitted, notes = fit_twin_with_notes(habits, mechanics=MECHANICS)
     assert "hold_on_s" not in fitted and "planning_s" not in fitted
-    assert "event_reaction_log_sd" not in fitted and fitted["event_reaction_s"] == pytest.approx(1.1)
-    twin = Twin("p1", "log.csv", fitted)
+    assert "event_reaction_log_sd" not in fitted and "event_reaction_s" in fitted
+    twin = Twin("p1", "log.csv", fitted, notes)
     assert twin.from_population == ("planning_s", "event_reaction_log_sd", "hold_on_s")
+    # each with its reason
+    assert "fitted 75" in notes["planning_s"] and "planning_s <= 60" in notes["planning_s"]
+    assert "3 event(s)" in notes["event_reaction_log_sd"]
+    assert notes["hold_on_s"] == "no hold_on_per_stop in the source"
 
 
-@pytest.mark.parametrize("missing", ["reaction_stop_to_switch", "reaction_switch_to_motion"])
-def test_the_reaction_parameters_need_both_reactions(missing: str) -> None:
-    """The rule is the mean of the two reactions' medians (and of their spreads): with one of
-    them missing (a log without its layout has no stop -> switch) both parameters are the
-    population's, not one reaction's."""
-    habits = {name: figures for name, figures in HABITS.items() if name != missing}
-    fitted = fit_twin(habits, onset_samples=2)
-    assert "event_reaction_s" not in fitted and "event_reaction_log_sd" not in fitted
-    assert Twin("p1", "log.csv", fitted).from_population == ("event_reaction_s", "event_reaction_log_sd")
-    # too few events for one reaction's quartiles: the spread is the population's, the median is not
-    habits = {**HABITS, missing: dataclasses.replace(HABITS[missing], n=3)}
-    fitted = fit_twin(habits, onset_samples=2)
-    assert "event_reaction_log_sd" not in fitted and fitted["event_reaction_s"] == pytest.approx(1.1)
+def test_the_reaction_needs_both_reactions_and_its_spread_the_switch_to_motion() -> None:
+    """The reaction is the mean of the two reactions' medians less their offsets: with one of them
+    missing (a log without its layout has no stop -> switch) it is the population's, not one
+    reaction's. The spread is read from switch -> motion alone (module docstring)."""
+    habits = {name: figures for name, figures in HABITS.items() if name != "reaction_stop_to_switch"}
+    fitted, notes = fit_twin_with_notes(habits, mechanics=MECHANICS)
+    assert Twin("p1", "log.csv", fitted).from_population == ("event_reaction_s",)
+    assert "no reaction_stop_to_switch" in notes["event_reaction_s"]
+    habits = {name: figures for name, figures in HABITS.items() if name != "reaction_switch_to_motion"}
+    assert Twin("p1", "log.csv", fit_twin(habits)).from_population == ("event_reaction_s",
+                                                                       "event_reaction_log_sd")
 
 
 def test_a_grid_world_source_leaves_the_parameters_read_from_stops_to_the_population() -> None:
     habits = {**HABITS, "hold_on_per_stop": HabitFigures(40, 0.3)}
-    fitted = fit_twin(habits, onset_samples=2, waypoints=False)
+    fitted, notes = fit_twin_with_notes(habits, mechanics=MECHANICS, waypoints=False)
     assert Twin("p1", "run", fitted).from_population == STOP_PARAMETERS
-    assert fitted == {name: value for name, value in fit_twin(habits, onset_samples=2).items()
+    assert all("grid-world" in notes[name] for name in STOP_PARAMETERS)
+    assert fitted == {name: value for name, value in fit_twin(habits, mechanics=MECHANICS).items()
                       if name not in STOP_PARAMETERS}
 
 
@@ -122,19 +140,22 @@ def test_the_hold_on_per_stop_is_read_one_for_one_before_the_per_trial_sum() -> 
     """A log measured by nudge habits has the hold-on per stop: the parameter is its median; a
     table of HABITS.md's rows only falls back to the per-trial sum over the four stops."""
     per_stop = {**HABITS, "hold_on_per_stop": HabitFigures(40, 0.3)}
-    assert fit_twin(per_stop, onset_samples=2)["hold_on_s"] == pytest.approx(0.3)
-    assert fit_twin(HABITS, onset_samples=2)["hold_on_s"] == pytest.approx(0.8 / 4)
+    assert fit_twin(per_stop, mechanics=MECHANICS)["hold_on_s"] == pytest.approx(0.3)
+    assert fit_twin(HABITS, mechanics=MECHANICS)["hold_on_s"] == pytest.approx(0.8 / 4)
 
 
-def test_a_hard_blow_with_fewer_ramp_samples_than_the_assumed_onset_has_no_offset_ramp() -> None:
+def test_a_hard_blow_with_few_samples_outside_the_band_has_no_offset_ramp() -> None:
+    """A pulse of 0.4 s, 0.3 s of it in the hard band: one sample outside, less than the onset
+    ramps alone leave there on average, so no offset ramp; and the peak is the band less the ramp
+    samples that reach it, at least one sample."""
     habits = {"hard_band_per_excursion": HabitFigures(20, 0.3), "hard_blow_whole": HabitFigures(20, 0.4)}
-    assert fit_twin(habits, onset_samples=2)["offset_ramp_samples"] == 0
-    assert fit_twin(habits, onset_samples=0)["offset_ramp_samples"] == 1
+    fitted = fit_twin(habits, mechanics=MECHANICS)
+    assert fitted["offset_ramp_samples"] == 0 and 0.1 <= fitted["hard_peak_s"] < 0.3
+    one = {"hard_band_per_excursion": HabitFigures(20, 0.1), "hard_blow_whole": HabitFigures(20, 0.2)}
+    assert fit_twin(one, mechanics=MECHANICS)["hard_peak_s"] == pytest.approx(0.1)
 
 
-def test_the_assumed_onset_and_the_stops_come_from_the_population_and_the_task() -> None:
-    assert assumed_onset_samples(PopulationSection()) == 2  # the middle of 1-3
-    assert assumed_onset_samples(PopulationSection(onset_ramp_samples=(0, 1))) == 1
+def test_the_stops_come_from_the_task() -> None:
     from nudgecli.sim.ciaa import packaged_task, task_layouts
 
     counts = {len(layout.waypoints) for layout in task_layouts(packaged_task()).values()}
@@ -168,7 +189,7 @@ def test_a_study_participant_is_the_twin_of_person_i_mod_p() -> None:
 
 
 def _twins() -> list[Twin]:
-    return [Twin("p1", "a.csv", fit_twin(HABITS, onset_samples=2)),
+    return [Twin("p1", "a.csv", fit_twin(HABITS, mechanics=MECHANICS)),
             Twin("p 2", "b,c.csv", {"planning_s": 1.75, "offset_ramp_samples": 0})]
 
 

@@ -8,7 +8,7 @@ call them through this module and print what it returns.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -95,11 +95,15 @@ class FittedPeople:
         ``(P,)``: how many parameters each person has from their own habits.
     files
         The people file written (with ``out``).
+    notes
+        ``(P,)``: per person, parameter -> why it is the population's, or how its fit was bounded
+        (:attr:`nudgecli.sim.twins.Twin.notes`).
     """
 
     table: pd.DataFrame
     fitted: tuple[int, ...]
     files: list[Path] = field(default_factory=list)
+    notes: tuple[Mapping[str, str], ...] = ()
 
     def text(self) -> str:
         """The lines ``nudge fit-people`` prints, one a person: its source and participant, how many
@@ -113,6 +117,14 @@ class FittedPeople:
             lines.append(f"person {row['person']}: {row['source']} participant {row['participant']}: "
                          f"{fitted} parameter(s) from their habits; from the population: {drawn}")
         return "\n".join(lines)
+
+    def note_lines(self) -> list[str]:
+        """One ``Note:`` line per parameter of a person that is the population's or was bounded, and
+        why (``nudge fit-people`` prints them on stderr)."""
+        return [f"Note: person {row['person']} ({row['source']} participant {row['participant']}): "
+                f"{parameter}: {note}"
+                for row, notes in zip(self.table.to_dict(orient="records"), self.notes, strict=True)
+                for parameter, note in notes.items()]
 
 
 def fit_people(sources: str | Path | Sequence[str | Path], *, out: str | Path | None = None,
@@ -172,4 +184,4 @@ def fit_people(sources: str | Path | Sequence[str | Path], *, out: str | Path | 
             for person, twin in enumerate(twins)]
     fitted = tuple(sum(name in twin.parameters for name in TWIN_PARAMETERS) for twin in twins)
     return FittedPeople(pd.DataFrame(rows, columns=list(PEOPLE_COLUMNS)), fitted,
-                        [] if target is None else [target])
+                        [] if target is None else [target], tuple(dict(twin.notes) for twin in twins))

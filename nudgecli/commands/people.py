@@ -23,6 +23,8 @@ def fit_people_command(sources: tuple[str, ...], out: str, force: bool) -> None:
 
     people = fit_people(list(sources), out=out, force=force)
     click.echo(people.text())
+    for line in people.note_lines():
+        info(line)
     info(f"People file: {Path(out)}")
 
 

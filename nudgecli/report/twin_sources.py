@@ -25,7 +25,7 @@ from nudgecli.csv_text import not_utf8_message, starts_as_json
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.habit_cells import source_has_waypoints
 from nudgecli.report.habits import HABIT_KEYS, HABITS, measure_habits, source_cells, summarise_habits
-from nudgecli.sim.twin_fit import HabitFigures, assumed_onset_samples, fit_twin
+from nudgecli.sim.twin_fit import HabitFigures, Mechanics, fit_twin_with_notes
 from nudgecli.sim.twins import Twin
 
 #: Participant label -> habit -> figures, participants in the source's order.
@@ -202,8 +202,8 @@ def source_habits(source: str | Path) -> SourceHabits:
 def twins_of_sources(sources: list[str | Path], population: PopulationSection | None = None) -> list[Twin]:
     """One twin per participant of each source, in order (:func:`~nudgecli.sim.twins.fit_twin`).
 
-    ``population``: the ``[population]`` whose middle onset ramp a hard pulse is fitted with (the
-    defaults when None).
+    ``population``: the ``[population]`` a twin's physiology is drawn from, which the fit's offsets
+    are taken over (:class:`~nudgecli.sim.twin_fit.Mechanics`; the defaults when None).
 
     Raises
     ------
@@ -219,13 +219,13 @@ def twins_of_sources(sources: list[str | Path], population: PopulationSection | 
             raise DataError(f"fit-people: {source} is given twice (as {seen[where]} too): its people would "
                             "be in the people file twice; give each source once")
         seen[where] = source
-    onset = assumed_onset_samples(population or PopulationSection())
+    mechanics = Mechanics(population or PopulationSection())
     twins = []
     for source in sources:
         name = Path(source).name
         found = source_habits(source)
         waypoints = source_has_waypoints(source)  # a grid-world run's stops are not the fit's
         for participant, habits in found.items():
-            twins.append(Twin(participant=participant, source=name,
-                              parameters=fit_twin(habits, onset_samples=onset, waypoints=waypoints)))
+            parameters, notes = fit_twin_with_notes(habits, mechanics=mechanics, waypoints=waypoints)
+            twins.append(Twin(participant=participant, source=name, parameters=parameters, notes=notes))
     return twins

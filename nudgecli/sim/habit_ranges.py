@@ -51,10 +51,13 @@ REAL_HABIT_RANGES: dict[str, tuple[float, float]] = {
                 "hard_band_per_excursion", "hard_blow_whole", "hold_on_per_stop",
                 "deadband_share_soft_blows", "deadband_run_in_soft_blow")
 }
-#: How long after its parameter each habit is measured (the model's mechanics, at 10 Hz): the
-#: first command cell is the blow's first sample (0); a switch is seen the step after it and the
-#: next blow moves the robot from its first sample (0.1); a pulse after a stop reaches the hard
-#: band after one onset sample (0.1).
+#: How long after its parameter each habit is measured (the model's mechanics, at 10 Hz), as the
+#: population's ranges were derived: the first command cell is the blow's first sample (0); a
+#: switch is seen the step after it (0.1); a pulse after a stop reaches the hard band after one
+#: onset sample (0.1). A twin's fit takes off more exactly what the simulator adds, with the
+#: population's onset ramps, levels and spreads (:class:`nudgecli.sim.twin_fit.Mechanics`: on
+#: average 0.14 s for stop -> switch and 0.15 s for switch -> motion, whose soft blow may read no
+#: input for its first samples); the ranges keep these round offsets, within a cell of those.
 HABIT_OFFSETS_S: dict[str, float] = {
     "first_command_latency": 0.0,
     "reaction_stop_to_switch": 0.1,

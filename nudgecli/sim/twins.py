@@ -15,7 +15,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from nudgecli.config import PopulationSection
@@ -44,11 +44,15 @@ class Twin:
         The source's name (a file or folder name).
     parameters
         Parameter -> value, for the parameters of :data:`TWIN_PARAMETERS` fitted from the habits.
+    notes
+        Parameter -> why it is left to the population's draw, or how its fit was bounded (what
+        ``nudge fit-people`` prints; not kept in the people file, so not compared).
     """
 
     participant: str
     source: str
     parameters: Mapping[str, float]
+    notes: Mapping[str, str] = field(default_factory=dict, compare=False)
 
     @property
     def from_population(self) -> tuple[str, ...]:
