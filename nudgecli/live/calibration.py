@@ -18,21 +18,33 @@ Times are seconds on the live session's clock.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from nudgecli.config import CalibrationSection, InterfaceSection
+from nudgecli.errors import RunFolderError
 from nudgecli.model.interface import ACTIONS, LABELS, N_LABELS, label_of_pressure
 from nudgecli.model.world import MODE_NAMES
+from nudgecli.run_folder_record import file_sha256
 from nudgecli.sim.calibration import IMAGE_TO_MODE_ACTION, MAX_REPEAT_ROUNDS, PROMPT_GAP_S
 from nudgecli.sim.calibration_io import (
     ACTION_IMAGES,
     BLOCK_BREAK_COMMAND,
+    TIDY_FILES,
     DistortionSession,
     MappingSession,
     is_counted_code,
+    write_sessions,
 )
+from nudgecli.store import write_error
+
+#: The participant's manifest entry's record of their calibration logs' SHA-256 (file name -> hex),
+#: written when each part ends: a crash during part 2 keeps part 1, and a resume starts at part 2.
+CALIBRATION_FILES = "calibration_files"
 
 #: What the page shows for each action prompt.
 _MOTION_TEXT = {
@@ -229,3 +241,43 @@ class DistortionRecorder:
 
     def progress(self) -> tuple[int, int]:
         return self.index, len(self.labels)
+
+
+def write_calibration_logs(folder: Path, mapping: MappingSession | None,
+                           distortion: DistortionSession | None) -> dict[str, str]:
+    """Write a part's log in the tidy format into ``folder`` (each file atomically); returns each
+    file's SHA-256 (name -> hex), for the manifest.
+
+    Raises
+    ------
+    WriteError
+        A file could not be written, naming the folder.
+    """
+    try:
+        return {path.name: file_sha256(path) for path in write_sessions(folder, mapping, distortion)}
+    except OSError as exc:
+        raise write_error(folder, exc) from exc
+
+
+def mapping_recorded(entry: Mapping[str, Any]) -> bool:
+    """Whether a participant's manifest entry records their calibration part 1 (mapping)."""
+    return TIDY_FILES["mapping_prompts"] in (entry.get(CALIBRATION_FILES) or {})
+
+
+def check_calibration_files(folder: Path, participant: int, entry: Mapping[str, Any]) -> None:
+    """Refuse, on resume, a calibration log missing or changed since the manifest recorded it.
+
+    Raises
+    ------
+    RunFolderError
+        Naming the file.
+    """
+    for name, digest in (entry.get(CALIBRATION_FILES) or {}).items():
+        path = folder / str(name)
+        if path.is_file() and file_sha256(path) == digest:
+            continue
+        what = ("changed since it was written (its SHA-256 differs from the one in the manifest)"
+                if path.is_file() else "is missing")
+        raise RunFolderError(f"{path}: {what}, but the manifest records it as participant "
+                             f"{entry.get('participant_id', participant)}'s calibration; restore it from a "
+                             "backup (a person's calibration cannot be recorded again as it was)")

@@ -5,6 +5,7 @@ and as the rows of ``questionnaires.csv`` that ``nudge analyze --questionnaires`
 from __future__ import annotations
 
 import math
+from collections.abc import Collection, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,6 +21,7 @@ from nudgecli.report.questionnaires import (
     TLX_SUBSCALES,
     read_questionnaires,
 )
+from nudgecli.sim.protocol import TrialSpec
 
 #: The study's post-block Likert items (study-software-notes, post_task_likert_analysis.py).
 LIKERT_ITEMS = {
@@ -82,16 +84,63 @@ def read_answers(path: Path) -> pd.DataFrame:
     return table
 
 
-def merged_answers(old: pd.DataFrame | None, rows: list[dict[str, Any]]) -> pd.DataFrame:
-    """``old`` answers (:func:`read_answers`; ``None``: none yet) with ``rows`` added, each replacing
-    the row of its participant and block, sorted by participant and block."""
+def merged_answers(old: pd.DataFrame | None, rows: list[dict[str, Any]], source: str | Path) -> pd.DataFrame:
+    """``old`` answers (:func:`read_answers` of ``source``; ``None``: none yet) with ``rows`` added,
+    sorted by participant and block. A row whose participant and block ``old`` holds already is
+    taken once when its answers are the same; with other answers it is refused: a recorded answer
+    is never replaced (a person's answers cannot be asked again).
+
+    Raises
+    ------
+    DataError
+        A row's participant and block hold other answers in ``old``, naming both values.
+    """
     new = pd.DataFrame(rows)
     if old is not None:
+        recorded = {(str(p), str(b)): i for i, (p, b) in enumerate(zip(old["participant"], old["block"],
+                                                                        strict=True))}
+        for row in rows:
+            at = recorded.get((str(row["participant"]), str(row["block"])))
+            if at is not None:
+                _check_same_answers(old.iloc[at], row, at, source)
         keys = {(str(row["participant"]), str(row["block"])) for row in rows}
         keep = [(str(p), str(b)) not in keys for p, b in zip(old["participant"], old["block"], strict=True)]
         new = pd.concat([old[keep], new], ignore_index=True)
     return new.sort_values(["participant", "block"], key=lambda c: pd.to_numeric(c, errors="coerce"),
                            kind="stable", ignore_index=True)
+
+
+def _check_same_answers(recorded: pd.Series, row: dict[str, Any], at: int, source: str | Path) -> None:
+    """Refuse ``row`` where it differs from the ``recorded`` row ``at`` (0-based) of ``source``."""
+    for column in ROW_COLUMNS:
+        old, new = recorded.get(column), row.get(column)
+        same = str(old) == str(new) if column in ID_COLUMNS else _number(old) == _number(new)
+        if not same:
+            raise DataError(
+                f"{source}: row {at + 2} already holds participant {row['participant']}'s answers to block "
+                f"{row['block']}, with {column} {old} where the new answers give {new}; a recorded answer "
+                "is never replaced: keep the row the participant gave and remove the other by hand")
+
+
+def complete_blocks(schedule: Sequence[TrialSpec], done: Collection[int]) -> list[int]:
+    """The blocks of ``schedule`` whose trials are all in ``done`` (their questionnaire is due)."""
+    blocks = sorted({spec.block for spec in schedule})
+    return [block for block in blocks
+            if all(spec.trial in done for spec in schedule if spec.block == block)]
+
+
+def answered_blocks(path: Path, participant: int, blocks: Collection[int]) -> set[int]:
+    """The ``blocks`` whose answers of ``participant`` the answers file ``path`` holds (none: no file)."""
+    if not path.is_file():
+        return set()
+    table = read_answers(path)
+    rows = {(str(p), str(b)) for p, b in zip(table["participant"], table["block"], strict=True)}
+    return {block for block in blocks if (str(participant), str(block)) in rows}
+
+
+def answers_line(row: dict[str, Any]) -> str:
+    """One block's answers as the CSV line of ``questionnaires.csv`` (:data:`ROW_COLUMNS`)."""
+    return str(pd.DataFrame([row], columns=list(ROW_COLUMNS)).to_csv(index=False, header=False)).strip()
 
 
 def questionnaire_form() -> dict[str, Any]:

@@ -12,7 +12,7 @@ experiment and seed). Per participant ``i``:
 - ``participants/part-iiii.parquet``: written when the participant's session is complete (a
   participant counts as complete when its three parts exist, as for a simulated run);
 - ``calibration/participant-iiii/``: the calibration logs in the tidy format (``nudge fit`` reads
-  them);
+  them), each part's when it ends, their SHA-256 in the entry's ``calibration_files``;
 - ``questionnaires.csv`` (shared): one row per participant and block, the format
   ``nudge analyze --questionnaires`` reads and ``nudge plot`` draws.
 
@@ -48,7 +48,8 @@ import pandas as pd
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import LockError, NudgeError, RunFolderError
-from nudgecli.live.questionnaire import merged_answers, read_answers
+from nudgecli.live.calibration import CALIBRATION_FILES, check_calibration_files, write_calibration_logs
+from nudgecli.live.questionnaire import answered_blocks, answers_line, merged_answers, read_answers
 from nudgecli.live.record_checks import (
     CHECKSUMS,
     TRIAL_PARTS,
@@ -61,6 +62,7 @@ from nudgecli.live.record_checks import (
 from nudgecli.locks import acquire_lock_file, describe_holder, read_holder, run_lock
 from nudgecli.run_folder_names import CONFIG, LAYOUTS, LOCK, QUESTIONNAIRES_CSV
 from nudgecli.run_folder_record import FILE_CHECKSUMS, file_sha256
+from nudgecli.sim.calibration_io import DistortionSession, MappingSession
 from nudgecli.sim.counterbalance import order_choice
 from nudgecli.sim.study import StudyLayout, layouts_frame
 from nudgecli.store import (
@@ -270,6 +272,7 @@ class LiveFolder:
             if entry is not None:  # a resume: the participant's records must be as the manifest says
                 self._parts = check_trial_parts(self.path, manifest, participant, entry)
                 check_answered_blocks(self.path, participant, entry)
+                check_calibration_files(self.calibration_dir(participant), participant, entry)
                 self.sums = recorded_sums(manifest, participant)
                 self._rewrite_crashed_parts(participant, entry)
             if config_toml_warning is not None:  # the manifest's experiment: put config.toml back
@@ -510,7 +513,7 @@ class LiveFolder:
         """Write ``rows`` into ``questionnaires.csv`` (the folder's lock held)."""
         path = self.path / QUESTIONNAIRES_CSV
         old = read_answers(path) if path.is_file() else None
-        write_text_atomic(path, merged_answers(old, rows).to_csv(index=False))
+        write_text_atomic(path, merged_answers(old, rows, path).to_csv(index=False))
 
     def _answers_kept(self, participant: int, row: dict[str, Any], exc: NudgeError | OSError) -> NudgeError:
         """The error of answers that could not be written to ``questionnaires.csv``: they are added
@@ -519,10 +522,11 @@ class LiveFolder:
         side = self.path / unsaved_answers_name(participant)
         try:
             kept = read_answers(side) if side.is_file() else None
-            write_text_atomic(side, merged_answers(kept, [row]).to_csv(index=False))
+            write_text_atomic(side, merged_answers(kept, [row], side).to_csv(index=False))
             where = f"the answers of block {row['block']} are kept in {side} (the next --resume adds them)"
-        except (NudgeError, OSError):
-            where = f"the answers of block {row['block']} could not be kept in a file: {json.dumps(row)}"
+        except (NudgeError, OSError):  # the answers in the message: JSON, and the line to add by hand
+            where = (f"the answers of block {row['block']} could not be kept in a file: {json.dumps(row)}; "
+                     f"add this line to {self.path / QUESTIONNAIRES_CSV} by hand: {answers_line(row)}")
         return type(error)(f"{error}; {where}")
 
     def _take_in_unsaved_answers(self, participant: int, entry: dict[str, Any]) -> None:
@@ -538,6 +542,29 @@ class LiveFolder:
         blocks = {int(row["block"]) for row in rows}
         entry["questionnaire_blocks"] = sorted({*entry["questionnaire_blocks"], *blocks})
         side.unlink()
+
+    def take_in_answered_blocks(self, participant: int, blocks: list[int]) -> None:
+        """On joining: count as answered the complete ``blocks`` whose answers ``questionnaires.csv``
+        holds already (a crash after they were written, before the manifest recorded the block)."""
+        waiting = set(blocks) - {int(block) for block in self.entry["questionnaire_blocks"]}
+        path = self.path / QUESTIONNAIRES_CSV
+        with folder_lock(self.path):
+            found = answered_blocks(path, participant, waiting) if waiting else set()
+        if found:
+            self.entry["questionnaire_blocks"] = sorted({*self.entry["questionnaire_blocks"], *found})
+            self.save(participant)
+
+    # --- the calibration logs -------------------------------------------------------------------
+
+    def write_calibration(self, participant: int, mapping: MappingSession | None = None,
+                          distortion: DistortionSession | None = None) -> None:
+        """Write a calibration part's log (:func:`~nudgecli.live.calibration.write_calibration_logs`),
+        then the manifest with its SHA-256; with ``distortion``, the participant is ``calibrated``."""
+        sums = write_calibration_logs(self.calibration_dir(participant), mapping, distortion)
+        self.entry[CALIBRATION_FILES] = {**self.entry.get(CALIBRATION_FILES, {}), **sums}
+        if distortion is not None:
+            self.entry["calibrated"] = True
+        self.save(participant)
 
     # --- the page's token -----------------------------------------------------------------------
 

@@ -5,8 +5,9 @@ The session knows nothing of the web: the server (:mod:`nudgecli.live.server`) c
 protocol rate (10 Hz), and sends :meth:`LiveSession.view` back. Phases:
 
 1. ``mapping``: calibration of ``p(phi_i | a)`` (prompt-and-select, keys 1-4);
-2. ``distortion``: calibration of ``p(phi_m | phi_i)`` (prompt-and-produce); then both logs are
-   written in the tidy format and fitted with the estimators of ``nudge fit``, and the agent uses
+2. ``distortion``: calibration of ``p(phi_m | phi_i)`` (prompt-and-produce); each part's log is
+   written in the tidy format when the part ends (a resume after a crash in part 2 starts at
+   part 2), then both are fitted with the estimators of ``nudge fit``, and the agent uses
    those tables for the rest of the session (skipped when the experiment says
    ``model.tables = "default"``);
 3. ``familiarisation``: three practice trials: teleoperation (no blending, no autonomy turn),
@@ -35,9 +36,14 @@ import pandas as pd
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import ConfigError
-from nudgecli.live.calibration import DistortionRecorder, MappingRecorder, action_prompt_text
+from nudgecli.live.calibration import (
+    DistortionRecorder,
+    MappingRecorder,
+    action_prompt_text,
+    mapping_recorded,
+)
 from nudgecli.live.input import KEY_LABELS, LiveInput, key_meanings
-from nudgecli.live.questionnaire import questionnaire_form, questionnaire_row
+from nudgecli.live.questionnaire import complete_blocks, questionnaire_form, questionnaire_row
 from nudgecli.live.records import LiveFolder
 from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.human_actions import DistinctActionRows
@@ -58,7 +64,6 @@ from nudgecli.model.world import (
 )
 from nudgecli.rng import generator, seed_key
 from nudgecli.sim.calibration import estimate_distortion, estimate_mapping
-from nudgecli.sim.calibration_io import write_sessions
 from nudgecli.sim.calibration_readers import read_sessions
 from nudgecli.sim.protocol import ProtocolSettings, TrialSession, TrialSpec
 from nudgecli.sim.study import StudyLayout, StudyPlan, participant_schedule, solve_layouts
@@ -182,6 +187,8 @@ class LiveSession:
             _condition_order(self.schedule), resume,
         )
         self.entry["handover_idle_s"] = self.handover_s
+        complete = complete_blocks(self.schedule, self.entry["completed_trials"])
+        folder.take_in_answered_blocks(self.index, complete)  # a crash left their answers unlisted
         trials, steps = folder.read_participant_tables(self.index, self.entry["completed_trials"])
         self.trials = trials if trials is not None else pd.DataFrame()
         self.steps = steps if steps is not None else pd.DataFrame(columns=list(STEP_COLUMNS))
@@ -214,13 +221,9 @@ class LiveSession:
 
     def _pending_questionnaire(self) -> int | None:
         """A block whose trials are all done but whose questionnaire is not answered."""
-        done = set(self.entry["completed_trials"])
         answered = set(self.entry["questionnaire_blocks"])
-        for block in sorted({spec.block for spec in self.schedule}):
-            specs = [spec for spec in self.schedule if spec.block == block]
-            if all(spec.trial in done for spec in specs) and block not in answered:
-                return block
-        return None
+        complete = complete_blocks(self.schedule, set(self.entry["completed_trials"]))
+        return next((block for block in complete if block not in answered), None)
 
     def _advance(self) -> None:
         """Go to the next phase the participant has not done."""
@@ -291,7 +294,8 @@ class LiveSession:
         if self.phase == "mapping" and self.mapping_recorder is not None:
             self.input.sample()
             self.mapping_recorder.tick(now)
-            if self.mapping_recorder.done:
+            if self.mapping_recorder.done:  # part 1 recorded: a crash in part 2 resumes at part 2
+                self.folder.write_calibration(self.index, mapping=self.mapping_recorder.session())
                 self.phase = "distortion"
         elif self.phase == "distortion" and self.distortion_recorder is not None:
             _, pressure = self.input.sample()
@@ -312,17 +316,11 @@ class LiveSession:
         c = self.config.calibration
         self.mapping_recorder = MappingRecorder.create(c, mapping_rng, source)
         self.distortion_recorder = DistortionRecorder.create(c, self.config.interface, distortion_rng, source)
-        self.phase = "mapping"
+        self.phase = "distortion" if mapping_recorded(self.entry) else "mapping"
 
     def _end_calibration(self) -> None:
-        assert self.mapping_recorder is not None and self.distortion_recorder is not None
-        write_sessions(
-            self.folder.calibration_dir(self.index),
-            self.mapping_recorder.session(),
-            self.distortion_recorder.session(),
-        )
-        self.entry["calibrated"] = True
-        self.folder.save(self.index)
+        assert self.distortion_recorder is not None
+        self.folder.write_calibration(self.index, distortion=self.distortion_recorder.session())
         self._fit_calibration()
         self._advance()
 

@@ -80,7 +80,7 @@ from nudgecli.report.questionnaires import (
     SCORES_CHECKSUM_KEY,
     check_respondents,
     questionnaire_scores,
-    read_questionnaires,
+    read_run_questionnaires,
     score_columns,
     scores_checksum,
     scores_csv,
@@ -519,7 +519,7 @@ def _read_scores(questionnaires: str | Path | None, table: pd.DataFrame, source:
     answered so far, with a note), respondents among the participants."""
     if questionnaires is None:
         return None, []
-    scores = questionnaire_scores(read_questionnaires(questionnaires), source=str(questionnaires))
+    scores = questionnaire_scores(read_run_questionnaires(questionnaires, source, table), str(questionnaires))
     score_names = score_columns(scores)
     trial_conditions = set(table["condition"].astype(str))
     score_conditions = set(scores["condition"])

@@ -50,6 +50,7 @@ with questionnaires, or edited by hand, is refused, never drawn beside statistic
 from __future__ import annotations
 
 import hashlib
+import json
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -60,7 +61,7 @@ import pandas as pd
 from nudgecli.csv_text import not_utf8_message
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.tables import check_unique_columns, is_canonical_integer, label_text, read_csv_labels
-from nudgecli.run_folder_names import QUESTIONNAIRE_SCORES_CSV
+from nudgecli.run_folder_names import MANIFEST, QUESTIONNAIRE_SCORES_CSV, QUESTIONNAIRES_CSV
 
 TLX_SUBSCALES = ("mental", "physical", "temporal", "performance", "effort", "frustration")
 TLX_RATING_COLUMNS = tuple(f"tlx_{s}" for s in TLX_SUBSCALES)
@@ -105,6 +106,65 @@ def read_questionnaires(path: str | Path) -> pd.DataFrame:
     except pd.errors.ParserError as exc:
         raise DataError(f"{path} is not a readable CSV file: {exc}") from None
     return table
+
+
+def read_run_questionnaires(path: str | Path, source: Path, trials: pd.DataFrame) -> pd.DataFrame:
+    """:func:`read_questionnaires` for the analysis of ``source`` with the trials table ``trials``:
+    a live folder's answers file that is not there yet is named as such, and, ``source`` being a
+    run folder, each row's condition is checked against the run's (:func:`check_run_conditions`).
+
+    Raises
+    ------
+    DataError
+        As :func:`read_questionnaires`, or a row's condition contradicts the run's.
+    """
+    path = Path(path)
+    if not path.exists() and source.is_dir() and _is_live_folder(source) and \
+            path.resolve() == (source / QUESTIONNAIRES_CSV).resolve():
+        raise DataError(f"questionnaire file {path} does not exist: no questionnaire of the live study in "
+                        f"{source} has been answered yet (nudge study writes it when a participant answers "
+                        "after their first block); analyse without --questionnaires until then")
+    table = read_questionnaires(path)
+    if source.is_dir():
+        check_run_conditions(table, trials, str(path), str(source))
+    return table
+
+
+def _is_live_folder(folder: Path) -> bool:
+    """Whether ``folder``'s manifest records live sessions (``executor = "live"``)."""
+    try:
+        manifest = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return False
+    return isinstance(manifest, dict) and manifest.get("executor") == "live"
+
+
+def check_run_conditions(table: pd.DataFrame, trials: pd.DataFrame, source: str, run: str) -> None:
+    """Refuse a response whose participant and block are the run's, but whose condition is not the
+    one the run's trials table gives that block (it would be counted under the wrong condition).
+    Labels are matched as the tables read them (:func:`~nudgecli.report.tables.label_text`); a table
+    without a ``block`` column, and rows of blocks the run does not hold, are left to the other checks.
+
+    Raises
+    ------
+    DataError
+        Naming the file, the row, both conditions and the fix.
+    """
+    table = _lower_case_names(table, source)
+    if not {"participant", "condition", "block"} <= set(table.columns) or \
+            not {"participant", "condition", "block"} <= set(trials.columns):
+        return
+    pairs = trials[["participant", "block"]].drop_duplicates().index
+    run_condition = {(label_text(trials.at[i, "participant"]), label_text(trials.at[i, "block"])):
+                     str(trials.at[i, "condition"]) for i in pairs}
+    for row, (participant, block, condition) in enumerate(
+            zip(table["participant"], table["block"], table["condition"], strict=True)):
+        expected = run_condition.get((label_text(participant), label_text(block)))
+        if expected is not None and str(condition) != expected:
+            raise DataError(
+                f"{source}: row {row + 2} gives participant {participant}'s block {block} the condition "
+                f"{condition}, but in {run} that block's trials are of condition {expected}; write "
+                f"{expected} in the row's condition (or correct its participant or block)")
 
 
 def _numeric_column(table: pd.DataFrame, column: str, source: str) -> pd.Series:
