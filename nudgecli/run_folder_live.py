@@ -17,6 +17,8 @@ from nudgecli.sim.counterbalance import recorded_order_choice
 
 #: The executor a ``nudge study`` folder's manifest records.
 LIVE_EXECUTOR = "live"
+#: The key of an analysis's ``stats.json`` recording the trials of a ``nudge study`` folder it saw.
+ANALYSED_TRIALS = "live_completed_trials"
 #: What ``nudge study`` leaves in its folder beside the parts: a participant's lock and page token,
 #: answers it could not add to questionnaires.csv.
 _PARTICIPANT_FILES = (".nudge-participant-*", "questionnaires-unsaved-*.csv")
@@ -63,6 +65,17 @@ class LiveRecord:
         if first is not None and _recorded_live(first):
             signs.append(f"participants/{first.name} of a live session")
         return signs
+
+    @staticmethod
+    def analysed_progress(manifest: Mapping[str, Any] | None) -> dict[str, Any]:
+        """What an analysis of a ``nudge study`` folder records in its ``stats.json`` of how far the
+        study had got (:data:`ANALYSED_TRIALS`: participant -> the trials its manifest listed), so
+        ``plot`` can tell an analysis the study has outgrown; empty for any other source."""
+        if manifest is None or manifest.get("executor") != LIVE_EXECUTOR:
+            return {}
+        entries = manifest.get("live") or {}
+        return {ANALYSED_TRIALS: {str(key): sorted(int(t) for t in entries[key].get("completed_trials") or [])
+                                  for key in sorted(entries, key=int)}}
 
     def is_live(self, manifest: Mapping[str, Any] | None) -> bool:
         """Whether the folder holds a live study: its ``manifest`` says so, or (without one) its signs."""

@@ -18,7 +18,9 @@ from click.testing import CliRunner
 from live_helpers import DEFAULT_TABLES, TWO_TRIALS, play_session
 
 from nudgecli.cli import main
+from nudgecli.errors import ConfigError
 from nudgecli.live.app import build_session
+from nudgecli.report.plotting import check_trial
 from nudgecli.run_folder_record import file_sha256
 
 OVERRIDES = TWO_TRIALS + DEFAULT_TABLES
@@ -121,3 +123,34 @@ def test_plot_of_a_folder_stopped_while_recording_names_the_resume_not_analyze(o
         writing_parts={"trial": 1, "trials": file_sha256(part)}))
     line = _one_error(_nudge("plot", str(live)))  # was: "no metrics yet; run `nudge analyze ...` first"
     assert "the session stopped while recording a trial; continue the participant's session" in line, line
+
+
+def test_plot_refuses_an_analysis_the_study_has_outgrown(one_trial, tmp_path):
+    live = _copy(one_trial, tmp_path)
+    assert _nudge("analyze", str(live)).exit_code == 0
+    stats = json.loads((live / "stats.json").read_text())
+    assert stats["live_completed_trials"] == {"1": [0]}
+    session = build_session("paper", "P01", live, resume=True, overrides=OVERRIDES)
+    play_session(session, lambda s: len(s.entry["completed_trials"]) >= 2)
+    session.folder.release()
+    for args in ((), ("--trial", "1:1")):  # was: Fig. 3/4 of trial 0 beside Fig. 5 of the trials now
+        line = _one_error(_nudge("plot", str(live), *args))
+        assert line == f"Error: {live / 'stats.json'}: the study has recorded more trials since it was " \
+                       f"analysed; run `nudge analyze {live}` again", line
+    assert _nudge("analyze", str(live)).exit_code == 0
+    assert json.loads((live / "stats.json").read_text())["live_completed_trials"] == {"1": [0, 1]}
+
+
+def test_plot_trial_names_the_live_participants_that_exist(one_trial, tmp_path):
+    live = _copy(one_trial, tmp_path)
+    assert _nudge("analyze", str(live)).exit_code == 0
+    line = _one_error(_nudge("plot", str(live), "--trial", "5:0"))  # was: "(participants 0-1, trials 0-0)"
+    assert line.endswith(f"--trial 5:0: no such trial in {live} (participants 1, trials 0)"), line
+
+
+def test_a_missing_trial_names_the_participants_as_they_are_numbered():
+    trials = pd.DataFrame({"participant": [1, 1, 2, 7, 12], "trial": [0, 1, 0, 0, 3]})
+    with pytest.raises(ConfigError, match=r"\(participants 1-2, 7, 12, trials 0-1, 3\)$"):
+        check_trial("R", trials, (5, 0))
+    with pytest.raises(ConfigError, match=r"\(participant 1's trials 0-1\)$"):
+        check_trial("R", trials, (1, 4))

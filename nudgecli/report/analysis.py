@@ -463,6 +463,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
                         not_applicable)
     stats["metrics_table"] = METRICS_CSV if changed else str(source_from_out)
     stats[CHECKSUM_KEY] = metrics_checksum(filtered, trial_selected, plan.filters)
+    stats.update(RunFolder.analysed_progress(manifest))  # a live study's trials: plot refuses it outgrown
     if scores is not None:  # plot draws only the scores file this analysis writes
         stats[SCORES_CHECKSUM_KEY] = scores_checksum(scores)
     if table_read is not None:

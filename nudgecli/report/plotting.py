@@ -24,7 +24,7 @@ are compared by letters, or by the brackets of a reference condition (``--refere
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -46,7 +46,7 @@ from nudgecli.report.pair_display import check_reference
 from nudgecli.report.questionnaires import read_analysed_scores
 from nudgecli.report.run_figure_inputs import layouts_by_trial, representative_trial, run_fields
 from nudgecli.report.stats import ComparisonOptions
-from nudgecli.report.stats_verify import verify_p_values
+from nudgecli.report.stats_verify import check_live_analysis_current, verify_p_values
 from nudgecli.report.style import condition_display_name
 from nudgecli.report.table_read import analyze_again, check_table_is_analysed, recorded_table_read
 from nudgecli.report.tables import (
@@ -323,9 +323,24 @@ def check_trial(source: str | Path, trials: pd.DataFrame | None, trial: TrialKey
                           "drawn; plot without --trial")
     known = set(zip(trials["participant"], trials["trial"], strict=True))
     if tuple(trial) not in known:
-        last_participant, last_trial = trials["participant"].max(), trials["trial"].max()
-        raise ConfigError(f"--trial {trial[0]}:{trial[1]}: no such trial in {source} "
-                          f"(participants 0-{last_participant}, trials 0-{last_trial})")
+        # the participants as they exist (a live study's are numbered from their IDs: 1, 2, 7, 12) and
+        # the trials of the one asked for, where it exists
+        participants = {int(p) for p, _ in known}
+        held = _spans(int(t) for p, t in known if int(p) == trial[0] or trial[0] not in participants)
+        shown = f"participant {trial[0]}'s trials {held}" if trial[0] in participants else \
+            f"participants {_spans(participants)}, trials {held}"
+        raise ConfigError(f"--trial {trial[0]}:{trial[1]}: no such trial in {source} ({shown})")
+
+
+def _spans(numbers: Iterable[int]) -> str:
+    """Whole numbers as their runs, in order: ``0-2``, ``1-2, 7, 12``."""
+    runs: list[list[int]] = []
+    for number in sorted(set(numbers)):
+        if runs and number == runs[-1][-1] + 1:
+            runs[-1].append(number)
+        else:
+            runs.append([number])
+    return ", ".join(f"{run[0]}-{run[-1]}" if len(run) > 1 else str(run[0]) for run in runs)
 
 
 def analysis_folder_of_table(table: Path) -> Path:
@@ -449,6 +464,7 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
             raise RunFolderError(f"{folder}: no metrics yet; run `nudge analyze {folder}` first")
         stats_path = folder / STATS_JSON
         stats = read_stats(stats_path)
+        check_live_analysis_current(stats, run, str(stats_path))  # never a study outgrown since
         analysis_copy = metrics_path.name == METRICS_CSV
         again = f"nudge analyze {folder}" if run.is_run() else None  # a run's metrics: analyze writes them
         table = read_metrics_csv(metrics_path, again) if analysis_copy else _read_table(metrics_path, stats)

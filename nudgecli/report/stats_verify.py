@@ -6,6 +6,9 @@ p-values the figures' brackets and stars come from are then computed again from 
 refused instead of drawn. The stars are then those of the p-values under the rule the document
 records beside them (``star_rule``; a document of an older nudge records none, and its stars are
 not checked).
+
+The analysis of a ``nudge study`` folder records the trials the study had (``live_completed_trials``):
+``plot`` refuses it once the study has recorded others (:func:`check_live_analysis_current`).
 """
 
 from __future__ import annotations
@@ -16,8 +19,11 @@ from typing import Any
 
 import pandas as pd
 
-from nudgecli.errors import DataError
+from nudgecli.errors import DataError, RunFolderError, shell_words
+from nudgecli.report.questionnaires import SCORES_CHECKSUM_KEY
 from nudgecli.report.stats import conover_rows, kruskal_wallis, pair_stars
+from nudgecli.run_folder_live import ANALYSED_TRIALS
+from nudgecli.store import RunFolder
 
 #: How far a recorded p-value may be from the one computed again (JSON's round trip keeps floats
 #: exactly; this only allows another machine's last bits).
@@ -92,3 +98,31 @@ def verify_p_values(stats: Mapping[str, Any], tables: Sequence[pd.DataFrame | No
         if not same:
             raise DataError(f"{where}: the p-values or stars of {metric} are not those of its metrics (the "
                             "file was edited); run `nudge analyze` on the source again before plotting")
+
+
+def check_live_analysis_current(stats: Mapping[str, Any], run: RunFolder, where: str) -> None:
+    """Refuse the analysis (``stats``, at ``where``) of a ``nudge study`` folder ``run`` whose
+    manifest now lists other trials than the analysis saw (its ``live_completed_trials``): its
+    metrics would be drawn beside the trials recorded since. An analysis that records none (of an
+    older nudge), and any other run, are drawn as before.
+
+    Raises
+    ------
+    RunFolderError
+        Naming the ``nudge analyze`` command that analyses the study again.
+    """
+    if ANALYSED_TRIALS not in stats or not run.is_run():
+        return
+    now = RunFolder.analysed_progress(run.manifest_to_read()).get(ANALYSED_TRIALS)
+    recorded = stats[ANALYSED_TRIALS]
+    if now is None or recorded == now:
+        return
+    try:  # each participant's trials then among those now (a record edited by hand: not grown)
+        grown = all(set(trials) <= set(now.get(key, [])) for key, trials in recorded.items())
+    except (AttributeError, TypeError):
+        grown = False
+    what = "has recorded more trials since it was analysed" if grown else \
+        "lists other trials than when it was analysed"
+    with_scores = " with the --questionnaires it was analysed with" if SCORES_CHECKSUM_KEY in stats else ""
+    raise RunFolderError(f"{where}: the study {what}; run "
+                         f"`{shell_words(['nudge', 'analyze', str(run.path)])}` again{with_scores}")
