@@ -3,12 +3,14 @@ puts this folder on the path, as for ``live_helpers``)."""
 
 from __future__ import annotations
 
+import csv
 import hashlib
 import shutil
 import time
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner, Result
 
 from nudgecli.cli import main
@@ -80,3 +82,31 @@ def files_of(folder: Path) -> dict[str, bytes]:
     """Every file under ``folder`` but the lock (relative path -> bytes)."""
     return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*"))
             if p.is_file() and p.name != ".nudge.lock"}
+
+
+def killed_analysis_at(monkeypatch: pytest.MonkeyPatch, name: str, *args: str | Path) -> None:
+    """``nudge analyze ARGS`` stopped as it is about to write ``name`` (the files before it written,
+    those after it not: what a kill -9 leaves, the temporaries aside)."""
+    import nudgecli.report.analysis as analysis_module
+
+    original = analysis_module.write_text_atomic
+
+    def write(path: str | Path, text: str) -> None:
+        if Path(path).name == name:
+            raise KeyboardInterrupt
+        original(path, text)
+
+    monkeypatch.setattr(analysis_module, "write_text_atomic", write)
+    try:
+        assert nudge("analyze", *args).exit_code != 0
+    finally:
+        monkeypatch.setattr(analysis_module, "write_text_atomic", original)
+
+
+def write_csv_rows(path: Path, rows: list[dict[str, str]]) -> Path:
+    """``rows`` written to ``path`` as a CSV file, the first row's keys as the header."""
+    with path.open("w", newline="") as file:
+        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    return path

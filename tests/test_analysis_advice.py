@@ -15,7 +15,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from cli_helpers import file_digests, nudge, one_error_line
+from cli_helpers import file_digests, killed_analysis_at, nudge, one_error_line
 
 import nudgecli.report.analysis as analysis_module
 import nudgecli.report.plotting as plotting
@@ -26,26 +26,11 @@ TABLE = Path(__file__).parent / "data" / "metrics_two_conditions.csv"
 RECORDS = ("metrics.csv", "stats.json", "stats.csv", "summary.md", "manifest.json")
 
 
-def _killed_at(monkeypatch: pytest.MonkeyPatch, name: str, *args: str | Path) -> None:
-    """``nudge analyze ARGS`` stopped as it is about to write ``name`` (what a kill -9 leaves)."""
-    original = analysis_module.write_text_atomic
-
-    def write(path: str | Path, text: str) -> None:
-        if Path(path).name == name:
-            raise KeyboardInterrupt
-        original(path, text)
-
-    monkeypatch.setattr(analysis_module, "write_text_atomic", write)
-    try:
-        assert nudge("analyze", *args).exit_code != 0
-    finally:
-        monkeypatch.setattr(analysis_module, "write_text_atomic", original)
-
 
 def test_plot_of_a_run_whose_analysis_was_killed_names_the_command_that_completes_it(
         analysed_smoke_run, tmp_path, monkeypatch):
     run = shutil.copytree(analysed_smoke_run, tmp_path / "run")
-    _killed_at(monkeypatch, "summary.md", run, "--metric", "completion_time", "--bootstrap", "100")
+    killed_analysis_at(monkeypatch, "summary.md", run, "--metric", "completion_time", "--bootstrap", "100")
     assert (run / "metrics.csv").is_file() and not (run / "stats.json").exists()
     line = one_error_line(nudge("plot", run, "--formats", "png", "--out", tmp_path / "figures").output)
     assert "no metrics yet" not in line and "analysis is incomplete" in line, line
@@ -57,11 +42,12 @@ def test_plot_of_a_run_whose_analysis_was_killed_names_the_command_that_complete
 def test_plot_of_a_tables_killed_analysis_names_the_table_to_analyse(tmp_path, monkeypatch):
     table = shutil.copy(TABLE, tmp_path / "study.csv")
     folder = tmp_path / "study-analysis"
-    _killed_at(monkeypatch, "summary.md", table)
+    killed_analysis_at(monkeypatch, "summary.md", table)
     for given in (table, folder):  # the table, or its analysis folder: analyze takes the table
         line = one_error_line(nudge("plot", given, "--formats", "png").output)
         assert "analysis is incomplete" in line and f"`nudge analyze {table}`" in line, line
-    _killed_at(monkeypatch, "stats.csv", table, "--out", tmp_path / "D")  # nothing there names the table
+    # nothing there names the table
+    killed_analysis_at(monkeypatch, "stats.csv", table, "--out", tmp_path / "D")
     line = one_error_line(nudge("plot", tmp_path / "D", "--formats", "png").output)
     assert f"`nudge analyze TABLE --out {tmp_path / 'D'}` (TABLE: the table analysed there" in line, line
 

@@ -11,9 +11,8 @@ import tempfile
 from pathlib import Path
 
 import pytest
-from cli_helpers import files_of, nudge, one_error_line
+from cli_helpers import files_of, killed_analysis_at, nudge, one_error_line
 
-import nudgecli.report.analysis as analysis_module
 from nudgecli.store import temporary_prefix
 
 REFERENCE = Path(__file__).resolve().parents[1] / "results" / "paper" / "metrics.csv"
@@ -24,22 +23,6 @@ def _table(tmp_path: Path) -> Path:
     shutil.copy(REFERENCE, table)
     return table
 
-
-def _killed_at(monkeypatch: pytest.MonkeyPatch, name: str, *args: str | Path) -> None:
-    """``nudge analyze ARGS`` stopped as it is about to write ``name`` (the files before it written,
-    those after it not: what a kill -9 leaves, the temporaries aside)."""
-    original = analysis_module.write_text_atomic
-
-    def write(path: str | Path, text: str) -> None:
-        if Path(path).name == name:
-            raise KeyboardInterrupt
-        original(path, text)
-
-    monkeypatch.setattr(analysis_module, "write_text_atomic", write)
-    try:
-        assert nudge("analyze", *args).exit_code != 0
-    finally:
-        monkeypatch.setattr(analysis_module, "write_text_atomic", original)
 
 
 def _temporary(folder: Path, of: str) -> Path:
@@ -53,7 +36,7 @@ def _temporary(folder: Path, of: str) -> Path:
 def test_plot_refuses_an_analysis_killed_while_it_replaced_another(tmp_path, monkeypatch, name):
     table = _table(tmp_path)
     assert nudge("analyze", table).exit_code == 0
-    _killed_at(monkeypatch, name, table, "--metric", "completion_time")  # another analysis, cut short
+    killed_analysis_at(monkeypatch, name, table, "--metric", "completion_time")  # another analysis, cut short
     result = nudge("plot", table, "--formats", "png", "--out", tmp_path / "figures")
     assert result.exit_code == 1, result.output
     line = one_error_line(result.output)
@@ -66,7 +49,7 @@ def test_plot_refuses_an_analysis_killed_while_it_replaced_another(tmp_path, mon
 
 def test_analyze_again_into_an_out_folder_a_killed_analysis_left(tmp_path, monkeypatch):
     table, out = _table(tmp_path), tmp_path / "D"
-    _killed_at(monkeypatch, "summary.md", table, "--out", out)
+    killed_analysis_at(monkeypatch, "summary.md", table, "--out", out)
     left = [_temporary(out, "stats.json"), _temporary(out, "summary.md")]
     assert (out / "stats.csv").is_file() and not (out / "stats.json").exists()
     result = nudge("analyze", table, "--out", out)

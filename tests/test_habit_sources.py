@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from cli_helpers import one_error_line
+from cli_helpers import one_error_line, write_csv_rows
 from click.testing import CliRunner
 
 from nudgecli.cli import main
@@ -32,13 +32,6 @@ def pilot_rows() -> list[dict[str, str]]:
         return list(csv.DictReader(file))
 
 
-def write_rows(path: Path, rows: list[dict[str, str]]) -> Path:
-    with path.open("w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-    return path
-
 
 # --- a real log's layouts ------------------------------------------------------------------------
 
@@ -47,7 +40,7 @@ def test_a_log_whose_trials_start_elsewhere_than_their_layout_is_refused(tmp_pat
     # before: every trial labelled layout 0 was measured with layout 0's waypoints (its stop -> switch
     # row 39 0.70 where the log's own layouts give 50 0.80), no error
     rows = [{**row, "layout": "0"} for row in pilot_rows()]
-    log = write_rows(tmp_path / "l0.csv", rows)
+    log = write_csv_rows(tmp_path / "l0.csv", rows)
     for command in (["habits", str(log)], ["fit-people", str(log), "--out", str(tmp_path / "p.csv")]):
         result = invoke(*command)
         assert result.exit_code == 1, result.output
@@ -62,7 +55,7 @@ def test_a_log_row_off_its_layouts_path_is_refused(tmp_path: Path) -> None:
     rows = pilot_rows()
     assert (rows[3]["x"], rows[3]["y"], rows[3]["layout"]) == ("7.5", "15.0", "34")
     rows[3]["x"] = "7.65"  # 0.15 units off the first leg (x = 7.5), past the world's 0.1 snap
-    line = one_error_line(invoke("habits", str(write_rows(tmp_path / "off.csv", rows))).output)
+    line = one_error_line(invoke("habits", str(write_csv_rows(tmp_path / "off.csv", rows))).output)
     assert line.startswith(f"Error: {tmp_path / 'off.csv'}, row 5, column layout: (7.65, 15.0) of trial '0' "
                            "of participant 'pilot-1' is not on layout 34's path ((7.5, 15), (7.5, 10), "
                            "(15, 10), (15, 5), (22.5, 5); within 0.1 units on each axis)"), line
@@ -72,7 +65,7 @@ def test_a_log_row_off_its_layouts_path_is_refused(tmp_path: Path) -> None:
 def test_a_log_on_its_layouts_path_within_the_snap_is_measured(tmp_path: Path, shift: float) -> None:
     rows = pilot_rows()
     rows[3]["x"] = f"{7.5 + shift:g}"  # the study's logged overshoot is 0.039 units
-    result = invoke("habits", str(write_rows(tmp_path / "on.csv", rows)), "--format", "csv")
+    result = invoke("habits", str(write_csv_rows(tmp_path / "on.csv", rows)), "--format", "csv")
     assert result.exit_code == 0, result.output
 
 

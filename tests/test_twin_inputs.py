@@ -10,7 +10,7 @@ import csv
 from pathlib import Path
 
 import pytest
-from cli_helpers import nudge, one_error_line
+from cli_helpers import nudge, one_error_line, write_csv_rows
 
 from nudgecli.report.habit_logs import read_log_cells
 
@@ -23,13 +23,6 @@ def pilot_rows(trials: int = 2) -> list[dict[str, str]]:
         return [row for row in csv.DictReader(file) if int(row["trial"]) < trials]
 
 
-def write_rows(path: Path, rows: list[dict[str, str]]) -> Path:
-    with path.open("w", newline="") as file:
-        writer = csv.DictWriter(file, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-    return path
-
 
 # --- a log's participant column ------------------------------------------------------------------
 
@@ -38,7 +31,7 @@ def test_a_blank_participant_cell_among_named_ones_is_refused(tmp_path: Path) ->
     # before: the trial's rows became a second participant '' (fit-people wrote two people)
     rows = [{**row, "participant": "" if row["trial"] == "1" else row["participant"]} for row in pilot_rows()]
     first_blank = next(i for i, row in enumerate(rows) if row["trial"] == "1") + 2
-    log = write_rows(tmp_path / "blank.csv", rows)
+    log = write_csv_rows(tmp_path / "blank.csv", rows)
     result = nudge("fit-people", log, "--out", tmp_path / "people.csv")
     assert result.exit_code == 1, result.output
     assert one_error_line(result.output) == (
@@ -49,7 +42,7 @@ def test_a_blank_participant_cell_among_named_ones_is_refused(tmp_path: Path) ->
 
 def test_an_all_blank_participant_column_is_the_files_name(tmp_path: Path) -> None:
     # before: participant '' (the docstring promises the file's name, as without the column)
-    log = write_rows(tmp_path / "anna.csv", [{**row, "participant": " "} for row in pilot_rows()])
+    log = write_csv_rows(tmp_path / "anna.csv", [{**row, "participant": " "} for row in pilot_rows()])
     assert set(read_log_cells(log)["participant"]) == {"anna"}
 
 
@@ -112,7 +105,7 @@ def test_an_impossible_habits_table_value_is_one_error_line(
 @pytest.mark.parametrize("kind", ["log", "habits table"])
 def test_a_log_or_habits_table_given_as_people_names_fit_people(tmp_path: Path, kind: str) -> None:
     # before: "column 't' (or 'scope') is not a people file's", and the columns a people file has
-    source = write_rows(tmp_path / "pilot.csv", pilot_rows()) if kind == "log" else \
+    source = write_csv_rows(tmp_path / "pilot.csv", pilot_rows()) if kind == "log" else \
         edited_table(tmp_path, "", "n", "")
     first = "t, trial, label, x, y, theta, ..." if kind == "log" else \
         "scope, participant, habit, n, median, q25, ..."
