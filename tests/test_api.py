@@ -177,7 +177,7 @@ def test_the_api_writes_the_commands_tables_byte_for_byte(smoke: Smoke,
     assert printed.stdout == analysis.table() + "\n"
     assert analysis.summary() == (tmp_path / "cli" / "summary.md").read_text(encoding="utf-8")
     csv = cli(["analyze", str(run.path), "--out", str(tmp_path / "cli-csv"), "--format", "csv"])
-    assert csv.stdout == analysis.pairs.to_csv(index=False)
+    assert csv.stdout == analysis.csv() == (tmp_path / "api" / "stats.csv").read_text(encoding="utf-8")
 
 
 def test_the_tests_frame_holds_each_metrics_kruskal_wallis(smoke: Smoke) -> None:

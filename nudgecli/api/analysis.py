@@ -64,9 +64,19 @@ class Analysis(FolderOwner):
 
     @property
     def pairs(self) -> pd.DataFrame:
-        """``stats.csv``: one row per metric and pair of conditions (medians, Conover p, stars,
-        participant-level test, effect size, bootstrap interval of the difference)."""
+        """One row per metric and pair of conditions: ``stats.csv``'s columns (medians, Conover p,
+        stars, participant-level test, effect size, bootstrap interval of the difference), then
+        columns only ``stats.json`` holds besides (``mean_a``, ``mean_b``, ``mean_rank_a``,
+        ``mean_rank_b``, ``participant_note``, ``ci_seed``, ``ci_resamples``); :meth:`csv` is
+        ``stats.csv`` itself."""
         return self.result.table
+
+    def csv(self) -> str:
+        """The text ``stats.csv`` holds (what ``nudge analyze --format csv`` prints): :attr:`pairs`
+        with ``stats.csv``'s columns only."""
+        from nudgecli.report.stats_document import stats_csv
+
+        return stats_csv(self.result.table)
 
     @functools.cached_property
     def tests(self) -> pd.DataFrame:

@@ -55,7 +55,7 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
     if output_format == "json":
         echo_json(result.stats)
     elif output_format == "csv":
-        click.echo(result.pairs.to_csv(index=False), nl=False)
+        click.echo(result.csv(), nl=False)
     else:
         click.echo(result.table(reference))
     info(str(result.path))

@@ -19,7 +19,8 @@ surrounding spaces are an error with a "did you mean"; a CSV's delimiter is snif
 
 A table is taken under the plan's metric definitions as far as its own columns allow, the rest
 being the table's own, said in a note (:mod:`nudgecli.report.table_definitions`). The plan's
-filters apply, then the statistics (:mod:`nudgecli.report.stats_document`) and the summary
+filters apply, the values they leave out counted in a note (:mod:`nudgecli.report.plan_filters`),
+then the statistics (:mod:`nudgecli.report.stats_document`) and the summary
 (:mod:`nudgecli.report.summary`). A run folder's metrics that its conditions make constant by
 construction are left out of their tests for those conditions
 (:func:`nudgecli.model.conditions.not_applicable_metrics`; :mod:`nudgecli.report.not_applicable`).
@@ -64,10 +65,10 @@ from nudgecli.report.metrics import (
     METRIC_NAMES,
     METRIC_STEP_COLUMNS,
     TRIAL_COLUMNS,
-    apply_filters,
     trial_metrics_by_participant,
 )
 from nudgecli.report.pair_display import check_reference
+from nudgecli.report.plan_filters import apply_plan_filters
 from nudgecli.report.plans import (
     MIN_RESAMPLES,
     AnalysisPlan,
@@ -450,7 +451,9 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         table, changed, definitions_line = defined.table, changed or defined.changed, defined.line
         notes += [f"{source}: {definitions_line}"] if definitions_line else []
 
-    filtered, changed = _filtered(table, plan, changed)
+    filters = apply_plan_filters(table, plan, trial_selected, changed)
+    filtered, changed = filters.table, filters.changed
+    notes += [f"{source}: {filters.line}"] if filters.line else []
     conditions = order_conditions(filtered["condition"].cat.categories,
                                   (*plan.conditions, *_study_conditions(manifest)))
     check_reference(reference, conditions)
@@ -473,7 +476,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     notes += _excluded_notes(tidy)
     summary = format_summary(tidy, stats["conditions"], plan, source_from_out, n_trials=len(filtered),
                              n_participants=filtered["participant"].nunique(), reference=reference,
-                             definitions=definitions_line,
+                             definitions=definitions_line, filters=filters.line,
                              not_applicable={e["metric"]: e.get("not_applicable_reasons") or {}
                                              for e in stats["metrics"]})
 
@@ -533,19 +536,6 @@ def _read_scores(questionnaires: str | Path | None, table: pd.DataFrame, source:
                         f"{source} {sorted(trial_conditions)}; name the conditions the same way")
     check_respondents(scores, table["participant"], str(questionnaires), str(source))
     return scores, score_names
-
-
-def _filtered(table: pd.DataFrame, plan: AnalysisPlan, changed: bool) -> tuple[pd.DataFrame, bool]:
-    """``table`` after the plan's filters, conditions as categories, and whether it now differs
-    from the source (``changed``: it already did)."""
-    if any(name in table.columns for name in plan.filters):
-        filtered = apply_filters(table, plan.filters)
-        changed = changed or not filtered.equals(table)
-    else:
-        filtered = table  # nothing to filter: no copy of a large table
-    if filtered["condition"].dtype != "category":
-        filtered["condition"] = filtered["condition"].astype(str).astype("category")
-    return filtered, changed
 
 
 def _statistics(filtered: pd.DataFrame, trial_selected: Sequence[str], scores: pd.DataFrame | None,

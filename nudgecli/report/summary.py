@@ -225,7 +225,7 @@ def format_table(table: pd.DataFrame, conditions: Sequence[str], reference: str 
 def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: AnalysisPlan, source: Path,
                    n_trials: int, n_participants: int, *, reference: str | None = None,
                    not_applicable: Mapping[str, Mapping[str, str]] | None = None,
-                   definitions: str | None = None) -> str:
+                   definitions: str | None = None, filters: str | None = None) -> str:
     """``summary.md``: the settings, then per metric a line of tests and two markdown tables.
 
     ``table`` is :func:`~nudgecli.report.stats_document.stats_table`'s tidy table of ``stats.json``,
@@ -237,7 +237,9 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
     the analysed run folder or table as seen from the folder ``summary.md`` is written to (``.``:
     that folder itself). ``definitions``: for a table, which of the plan's metric definitions were
     applied and which are the table's own
-    (:func:`~nudgecli.report.table_definitions.apply_plan_definitions`), a line after the plan's.
+    (:func:`~nudgecli.report.table_definitions.apply_plan_definitions`), a line after the plan's;
+    ``filters``: the values the plan's filters left out
+    (:func:`~nudgecli.report.plan_filters.apply_plan_filters`), a line after that.
     """
     settings = plan.stats
     comparison = settings.star_comparison
@@ -250,7 +252,8 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
     many = "pairwise_p" in table.columns  # more than two conditions: the pairs' own participant-level tests
     seed = table["ci_seed"].iloc[0] if len(table) else plan.bootstrap.seed
     if len(conditions) == 1:
-        return _descriptive_summary(table, conditions, plan, source, n_trials, n_participants, definitions)
+        return _descriptive_summary(table, conditions, plan, source, n_trials, n_participants,
+                                    (definitions, filters))
     resamples = table["ci_resamples"].iloc[0] if len(table) else plan.bootstrap.resamples
     display = pair_display(len(conditions), reference)
     lines = [
@@ -260,6 +263,7 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
         f"- plan: {plan.name}; conditions: {', '.join(conditions)}; {n_trials} trials of "
         f"{n_participants} participants",
         *([f"- definitions: {definitions}"] if definitions else []),
+        *([f"- filters: {filters}"] if filters else []),
         f"- trial level: Kruskal-Wallis, then Conover's test ({settings.p_adjust} adjustment); stars "
         f"(one per threshold {thresholds}, p {comparison} threshold) from the Conover p, only when "
         f"Kruskal-Wallis p {comparison} {settings.kruskal_alpha:g}",
@@ -349,15 +353,19 @@ def _letters(pairs_of_metric: pd.DataFrame, compared: Sequence[str]) -> dict[str
 
 
 def _descriptive_summary(table: pd.DataFrame, conditions: Sequence[str], plan: AnalysisPlan, source: Path,
-                         n_trials: int, n_participants: int, definitions: str | None = None) -> str:
-    """``summary.md`` of a single condition: the descriptives per metric and a note (no tests)."""
+                         n_trials: int, n_participants: int,
+                         left_out: tuple[str | None, str | None] = (None, None)) -> str:
+    """``summary.md`` of a single condition: the descriptives per metric and a note (no tests);
+    ``left_out``: :func:`format_summary`'s ``definitions`` and ``filters`` lines."""
     (condition,) = conditions
+    definitions, filters = left_out
     lines = [
         "# Analysis summary",
         "",
         f"- source: `{source}`",
         f"- plan: {plan.name}; condition: {condition}; {n_trials} trials of {n_participants} participants",
         *([f"- definitions: {definitions}"] if definitions else []),
+        *([f"- filters: {filters}"] if filters else []),
         f"- note: {SINGLE_CONDITION_NOTE} (the tests compare conditions)",
         "",
         _render(["metric", "n", "median [q1, q3]", "mean"],

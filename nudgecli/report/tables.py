@@ -310,10 +310,14 @@ def _check_finite(table: pd.DataFrame, metric_columns: Sequence[str], source: st
 def _first_non_number(series: pd.Series, first_row: int) -> str:
     """`` (row R holds 'VALUE')``: the first cell of a non-numeric column that is not a number
     (a blank is a missing value, not the culprit), with the decimal-comma advice where it is one
-    (:func:`nudgecli.csv_text.decimal_comma_advice`); empty if none can be singled out."""
+    (:func:`nudgecli.csv_text.decimal_comma_advice`); empty if none can be singled out. In a
+    column of true/false cells (:func:`_boolean_cells`), only a cell that is neither a number nor
+    true/false is a culprit (``'yes'`` among ``'True'`` and ``'False'``)."""
     present = series.notna().to_numpy()
     numbers = pd.to_numeric(series, errors="coerce").notna().to_numpy()
-    culprits = np.flatnonzero(present & ~numbers)
+    culprits = np.flatnonzero(present & ~numbers & ~_boolean_cells(series))
+    if not culprits.size:  # no true/false among them: every cell that is not a number
+        culprits = np.flatnonzero(present & ~numbers)
     if not culprits.size:
         return ""
     more = f", and {culprits.size - 1} more cell(s)" if culprits.size > 1 else ""
@@ -326,11 +330,23 @@ def _is_numeric(series: pd.Series) -> bool:
     return pd.api.types.is_bool_dtype(series) or pd.api.types.is_numeric_dtype(series)
 
 
+#: The texts a CSV reader takes for true and false (pandas' default ``true_values`` and
+#: ``false_values``): a column of them, blanks aside, is read as booleans.
+BOOLEAN_TEXTS = {"True": True, "TRUE": True, "true": True, "False": False, "FALSE": False, "false": False}
+
+
+def _boolean_cells(series: pd.Series) -> np.ndarray:
+    """``(T,)`` bool: which cells hold true or false, a boolean or its text (:data:`BOOLEAN_TEXTS`):
+    the one rule of a boolean metric's cells."""
+    return np.fromiter((isinstance(v, bool | np.bool_) or (isinstance(v, str) and v in BOOLEAN_TEXTS)
+                        for v in series), dtype=bool, count=len(series))
+
+
 def _as_boolean(series: pd.Series) -> pd.Series | None:
     """A column of True/False with blanks (read by pandas as objects) as nullable booleans, else None."""
     values = series.dropna()
-    if len(values) and all(isinstance(v, bool | np.bool_) for v in values):
-        return series.astype("boolean")
+    if len(values) and _boolean_cells(values).all():
+        return series.map(lambda v: BOOLEAN_TEXTS.get(v, v) if isinstance(v, str) else v).astype("boolean")
     return None
 
 

@@ -1,0 +1,89 @@
+"""A plan's ``[filters]`` applied to the metrics analysed, and the line that says what they left out.
+
+A filter sets a metric to missing where it exceeds the plan's maximum
+(:func:`nudgecli.report.metrics.apply_filters`, the one rule); the trial stays in its other
+metrics. The values each filter removed are counted per metric, and one line says so, as the
+other values the analysis leaves out are said (a ``Note:`` on stderr and a line of
+``summary.md``, :func:`nudgecli.report.summary.format_summary`'s ``filters``): a study-code plan
+that drops 12 of 48 trials' ``mode_switches`` does not do it unseen.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import pandas as pd
+
+from nudgecli.report.metrics import apply_filters
+from nudgecli.report.plans import AnalysisPlan
+
+
+@dataclass(frozen=True)
+class FilteredMetrics:
+    """A metrics table after a plan's filters (:func:`apply_plan_filters`).
+
+    Attributes
+    ----------
+    table
+        The table, each filtered metric missing where it exceeded its maximum; ``condition`` as
+        categories, only those the table holds (an unused category is no condition of the analysis).
+    changed
+        Whether the table now differs from the source (it did already, or a filter removed a value).
+    line
+        What the filters left out of the analysed metrics, one line (``None``: nothing).
+    """
+
+    table: pd.DataFrame
+    changed: bool
+    line: str | None
+
+
+def apply_plan_filters(table: pd.DataFrame, plan: AnalysisPlan, analysed: Sequence[str],
+                       changed: bool) -> FilteredMetrics:
+    """Apply ``plan``'s filters to ``table`` and say what they left out of the ``analysed`` metrics.
+
+    Parameters
+    ----------
+    table
+        The metrics, one row per trial.
+    plan
+        The analysis plan (its ``filters``: metric -> maximum).
+    analysed
+        The metrics analysed: only the values they lost are counted in ``line``.
+    changed
+        Whether ``table`` already differs from the source.
+
+    Returns
+    -------
+    FilteredMetrics
+        ``table`` itself (no copy of a large table) when no filter names one of its columns.
+    """
+    if any(name in table.columns for name in plan.filters):
+        filtered = apply_filters(table, plan.filters)
+        changed = changed or not filtered.equals(table)
+    else:
+        filtered = table
+    if filtered["condition"].dtype != "category":
+        filtered["condition"] = filtered["condition"].astype(str).astype("category")
+    else:  # a DataFrame's categorical condition may name conditions no trial holds
+        filtered["condition"] = filtered["condition"].cat.remove_unused_categories()
+    return FilteredMetrics(filtered, changed, _left_out_line(table, filtered, plan, analysed))
+
+
+def _left_out_line(table: pd.DataFrame, filtered: pd.DataFrame, plan: AnalysisPlan,
+                   analysed: Sequence[str]) -> str | None:
+    """``plan X's [filters] left out N of M <metric> values (above MAX), ...``, or ``None`` when the
+    filters removed none of the analysed metrics' values."""
+    counts = []
+    for name, maximum in plan.filters.items():
+        if name not in analysed or name not in table.columns:
+            continue
+        present = table[name].notna()
+        removed = int((present & filtered[name].isna()).sum())
+        if removed:
+            counts.append(f"{removed} of {int(present.sum())} {name} values (above {maximum:g})")
+    if not counts:
+        return None
+    return (f"plan {plan.label}'s [filters] left out {', '.join(counts)}; each trial stays in its other "
+            "metrics")
