@@ -45,7 +45,7 @@ def test_weighted_tlx_from_pairwise_winners() -> None:
 
 def test_likert_items_and_missing_answers() -> None:
     table = pd.DataFrame([_row(likert_q3=7, likert_q4=1), _row(block=1, likert_q3=None, likert_q4=4)])
-    table.loc[1, "tlx_effort"] = None
+    table.loc[1, [f"tlx_{s}" for s in TLX_SUBSCALES]] = None  # no TLX answered: all six or none
     scores = questionnaire_scores(table)
     assert list(scores.columns) == ["participant", "condition", "block", "tlx_raw", "likert_q3", "likert_q4"]
     assert scores["likert_q3"].tolist()[0] == 7 and math.isnan(scores.loc[1, "likert_q3"])

@@ -22,7 +22,10 @@ column                      content
                             7 strongly agree)
 =========================== =============================================================
 
-An empty cell is a missing answer: that score is missing for that response. Each participant
+An empty cell is a missing answer: that score is missing for that response. The six ratings, the
+15 pairs and the six weights are each answered all or none in a row: a row that leaves some of
+them empty is refused, naming the row and the empty columns (one blank rating would otherwise
+lose the response's TLX scores unseen). Each participant
 answers once per condition (with a ``block`` column: once per condition and block): a second row
 for the same participant and condition (and block), repeated or conflicting, is refused, naming
 both rows. Column names are matched in any case (``Participant``, ``TLX_Mental``, ``Likert_Q3``, as
@@ -253,6 +256,67 @@ def _pair_wins(table: pd.DataFrame, source: str) -> np.ndarray:
     return wins
 
 
+def _tlx_parts(table: pd.DataFrame, source: str) -> tuple[bool, bool, bool]:
+    """Whether ``table`` (its names in lower case) holds the TLX ratings, pairs and weights, each
+    a complete set of columns answered all or none in each row (:func:`_check_all_or_none`).
+
+    Raises
+    ------
+    DataError
+        An incomplete set of columns, pairs beside weights, weights without the ratings, or a row
+        that answers part of a set.
+    """
+    rating_present = [c for c in TLX_RATING_COLUMNS if c in table.columns]
+    if rating_present and len(rating_present) < len(TLX_RATING_COLUMNS):
+        missing = [c for c in TLX_RATING_COLUMNS if c not in table.columns]
+        raise DataError(f"{source}: NASA-TLX needs all six subscales; missing column(s) {', '.join(missing)}")
+    pair_present = [c for c in TLX_PAIR_COLUMNS if c in table.columns]
+    weight_present = [c for c in TLX_WEIGHT_COLUMNS if c in table.columns]
+    if pair_present and weight_present:
+        raise DataError(f"{source} has both tlx_pair_* and tlx_weight_* columns; keep one of the two")
+    for present, expected, kind in ((pair_present, TLX_PAIR_COLUMNS, "pairwise comparison"),
+                                    (weight_present, TLX_WEIGHT_COLUMNS, "weight")):
+        if present and len(present) < len(expected):
+            missing = [c for c in expected if c not in table.columns]
+            raise DataError(f"{source}: incomplete TLX {kind} columns; missing {', '.join(missing)}")
+    if (pair_present or weight_present) and not rating_present:
+        raise DataError(f"{source}: TLX weights without the ratings; add the columns "
+                        f"{', '.join(TLX_RATING_COLUMNS)}")
+    for present, columns, what in ((rating_present, TLX_RATING_COLUMNS, "the six NASA-TLX ratings"),
+                                   (pair_present, TLX_PAIR_COLUMNS, "the 15 TLX pairwise comparisons"),
+                                   (weight_present, TLX_WEIGHT_COLUMNS, "the six TLX weights")):
+        if present:
+            _check_all_or_none(table, columns, what, source)
+    return bool(rating_present), bool(pair_present), bool(weight_present)
+
+
+def _check_all_or_none(table: pd.DataFrame, columns: tuple[str, ...], what: str, source: str) -> None:
+    """Refuse a row that answers some of ``columns`` but not all: ``tlx_raw`` and ``tlx_weighted``
+    need every rating and every comparison, and a score left out for one blank cell would shrink
+    the condition's n unseen. A row that answers none of them is a respondent who skipped that part
+    (its score is missing, as documented).
+
+    Raises
+    ------
+    DataError
+        Naming the file, the first such row, its blank columns and the fix.
+    """
+    blank = np.column_stack([_blank_cells(table[column]) for column in columns])
+    partial = blank.any(axis=1) & ~blank.all(axis=1)
+    if partial.any():
+        row = int(np.flatnonzero(partial)[0])
+        missing = [column for column, empty in zip(columns, blank[row], strict=True) if empty]
+        raise DataError(f"{source}: row {row + 2} answers {len(columns) - len(missing)} of {what} but leaves "
+                        f"{', '.join(missing)} empty; a TLX score needs all of them: fill in the empty "
+                        "cell(s), or leave all of them empty for a respondent who did not answer that part")
+
+
+def _blank_cells(column: pd.Series) -> np.ndarray:
+    """Whether each cell of ``column`` is unanswered: empty, missing or only spaces."""
+    text = column.astype("string").str.strip()
+    return (column.isna().to_numpy() | (text == "").fillna(True).to_numpy())
+
+
 def _weight_wins(table: pd.DataFrame, source: str) -> np.ndarray:
     """``(rows, 6)`` wins per subscale from the ``tlx_weight_*`` columns."""
     wins = np.column_stack([_numeric_column(table, c, source).to_numpy() for c in TLX_WEIGHT_COLUMNS])
@@ -302,23 +366,7 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
     scores = table[ids].copy()
     scores["condition"] = scores["condition"].astype(str)
 
-    rating_present = [c for c in TLX_RATING_COLUMNS if c in table.columns]
-    if rating_present and len(rating_present) < len(TLX_RATING_COLUMNS):
-        missing = [c for c in TLX_RATING_COLUMNS if c not in table.columns]
-        raise DataError(f"{source}: NASA-TLX needs all six subscales; missing column(s) {', '.join(missing)}")
-    pair_present = [c for c in TLX_PAIR_COLUMNS if c in table.columns]
-    weight_present = [c for c in TLX_WEIGHT_COLUMNS if c in table.columns]
-    if pair_present and weight_present:
-        raise DataError(f"{source} has both tlx_pair_* and tlx_weight_* columns; keep one of the two")
-    for present, expected, kind in ((pair_present, TLX_PAIR_COLUMNS, "pairwise comparison"),
-                                    (weight_present, TLX_WEIGHT_COLUMNS, "weight")):
-        if present and len(present) < len(expected):
-            missing = [c for c in expected if c not in table.columns]
-            raise DataError(f"{source}: incomplete TLX {kind} columns; missing {', '.join(missing)}")
-    if (pair_present or weight_present) and not rating_present:
-        raise DataError(f"{source}: TLX weights without the ratings; add the columns "
-                        f"{', '.join(TLX_RATING_COLUMNS)}")
-
+    rating_present, pair_present, weight_present = _tlx_parts(table, source)
     if rating_present:
         ratings = np.column_stack([_numeric_column(table, c, source).to_numpy() for c in TLX_RATING_COLUMNS])
         for index, column in enumerate(TLX_RATING_COLUMNS):
