@@ -324,10 +324,11 @@ def _sweep_tables(run: BatchRun, batch: Batch, plan: AnalysisPlan,
                   names: list[str]) -> tuple[pd.DataFrame, dict[str, pd.DataFrame]]:
     """A sweep's rows (``replications.csv``) and its tables ``sweep``, ``replications`` and ``points``."""
     from nudgecli.report.replication import condition_values, replication_rows, summarise
+    from nudgecli.runs.sweep import parameter_cell
 
     table = point_table(batch).astype(object)
     for name in names:
-        table[name] = table[name].map(lambda v: v if isinstance(v, int | float | str | bool) else str(v))
+        table[name] = table[name].map(parameter_cell)
     rows = replication_rows(run.graph.entries, run.stats, plan, table)
     summary = summarise(rows).merge(table, on="point", how="left")
     tidy = condition_values(run.graph.entries, run.stats, table)

@@ -30,11 +30,16 @@ an equal share, never one outside the bounds. ``experiment.seed`` is refused (th
 seeds come from the sweep's ``seed``), and so is a key both in ``set`` and under
 ``[parameters]``, or in ``set`` inside a table ``[parameters]`` sets whole (which would drop it).
 Every point is validated as an experiment before anything runs.
+
+A parameter's value in the sweep's tables (``sweep.csv``, ``replications.csv``, ``points.csv``) is
+its :func:`parameter_cell`: a number, string or boolean as it is, a table or list as compact JSON
+with sorted keys (``{"threshold":0.5}``, ``[3,4]``), which ``json.loads`` reads back.
 """
 
 from __future__ import annotations
 
 import itertools
+import json
 import math
 import tomllib
 import warnings
@@ -386,6 +391,28 @@ def point_overrides(fixed: list[str], assignment: dict[str, Any]) -> list[str]:
     the value as the TOML writer renders it (a table an inline table), so ``--set`` reads back
     every TOML value a parameter can take."""
     return [*fixed, *(f"{key}={toml_value(value)}" for key, value in assignment.items())]
+
+
+def parameter_cell(value: Any) -> Any:
+    """A swept parameter's value as a cell of the sweep's tables: a number, string or boolean as it
+    is; a table or list (``policies.threshold.params``, ``study.goal_counts``) as compact JSON with
+    sorted keys, which ``json.loads`` reads back (its Python repr, ``{'threshold': 0.5}``, is neither
+    JSON nor TOML). A TOML date or time inside is written as its ISO text."""
+    if isinstance(value, bool | int | float | str):
+        return value
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
+                      default=_json_scalar)
+
+
+def _json_scalar(value: Any) -> Any:
+    """A value JSON has no type for: a numpy number as the number, a TOML date, time or datetime
+    as its ISO text."""
+    if isinstance(value, np.generic):
+        return value.item()
+    isoformat = getattr(value, "isoformat", None)
+    if isoformat is None:
+        raise TypeError(f"{type(value).__name__} is not a TOML value")
+    return str(isoformat())
 
 
 def _design_points(path: Path, experiment: str, fixed: list[str], values: list[dict[str, Any]],
