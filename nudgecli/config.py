@@ -39,6 +39,7 @@ from nudgecli.config_files import (
 )
 from nudgecli.config_people import BehaviourSection, CalibrationSection, PopulationSection
 from nudgecli.config_policies import CustomPolicySection
+from nudgecli.config_switches import dependents_off_with_their_switch, switches_checked
 from nudgecli.config_world import WorldSection, check_world_keys
 from nudgecli.errors import ConfigError, did_you_mean
 from nudgecli.model.conditions import PAPER_CONDITIONS, POLICIES
@@ -235,6 +236,8 @@ class InferenceSection(Section):
         description="action: one Bayesian update per task-level input event (a new blow, or a change of "
         "measured label within a blow), as Algorithm 1 draws one a^t per update; sample: one update per "
         "labelled 10 Hz sample (the study software).")
+    # a key its switch turns off is refused, never ignored (nudgecli.config_switches)
+    _keys_of_its_switches = switches_checked("inference")
 
 
 #: The model's defaults of D(s), which ``[disambiguation]`` takes.
@@ -261,6 +264,8 @@ class DisambiguationSection(Section):
         default=_DISAMBIGUATION.scope,
         description="domain: the states of `domain`; mode-only: the states that "
         "differ from the current one in mode alone (the mode-switch policy always uses these).")
+    # a key its switch turns off is refused, never ignored (nudgecli.config_switches)
+    _keys_of_its_switches = switches_checked("disambiguation")
 
 
 class AssistanceSection(Section):
@@ -279,6 +284,9 @@ class AssistanceSection(Section):
     autonomy_speed: PositiveFloat = 5.0
     autonomy_turn_rate: PositiveFloat = 1.5
     arrival_tolerance: PositiveFloat = 0.1
+
+    # a key its switch turns off is refused, never ignored (nudgecli.config_switches)
+    _keys_of_its_switches = switches_checked("assistance")
 
     @model_validator(mode="after")
     def _check(self) -> AssistanceSection:
@@ -492,7 +500,8 @@ def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = 
         ExperimentConfig.model_validate(_with_sections_set(data, overrides))
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, str(path), ExperimentConfig, data)) from None
-    config = validate_overridden(ExperimentConfig, _gap_off_with_its_gate(data, overrides), overrides)
+    data = dependents_off_with_their_switch(_gap_off_with_its_gate(data, overrides), overrides)
+    config = validate_overridden(ExperimentConfig, data, overrides)
     if config.policies:  # a researcher's policy modules are imported from beside the experiment file
         config = config.model_copy(update={"policy_search_path": str(path.resolve().parent)})
     return config

@@ -129,13 +129,15 @@ def _settings(draw: st.DrawFn) -> list[str]:
     flags = ("event_reactions", "planning", "hard_pulses", "hold_on", "pause_tail", "notice_mode_errors",
              "lean_on_blending", "release_when_dragged")
     overrides = [f"behaviour.{flag}={str(draw(st.booleans())).lower()}" for flag in flags]
+    decay, decay_delay = draw(st.booleans()), draw(st.sampled_from([0, 1, 3, 10]))
     overrides += [
         f"behaviour.decisions={draw(st.sampled_from(['events', 'grid']))}",
         f"behaviour.after_autonomy={draw(st.sampled_from(['replan', 'resume']))}",
         f"behaviour.stall_s={draw(st.sampled_from([0.0, 0.5, 1.0]))}",
         f"inference.update={draw(st.sampled_from(['action', 'sample']))}",
-        f"inference.decay={str(draw(st.booleans())).lower()}",
-        f"inference.decay_delay={draw(st.sampled_from([0, 1, 3, 10]))}",
+        f"inference.decay={str(decay).lower()}",
+        # the delay is the decay's: without it, it is refused (nudgecli.config_switches)
+        *([f"inference.decay_delay={decay_delay}"] if decay else []),
         f"assistance.startup_delay_s={draw(st.sampled_from([0.0, 0.35, 1.0]))}",
         f"assistance.entropy_gate={str(draw(st.booleans())).lower()}",
         f"assistance.distance_weighting={str(draw(st.booleans())).lower()}",
