@@ -292,7 +292,10 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
     head, sep, rest = message.partition(": ")
     if first["type"] == "value_error" and sep and head in _field_names(model, loc) and head not in loc:
         where, message = f"{where}.{head}" if where else head, rest
-    if first["type"] in ("tuple_type", "list_type"):  # TOML has lists; "tuple" is pydantic's word
+    house = _house_words(first, where, source, _field_at(model, loc))
+    if house is not None:
+        message = house
+    elif first["type"] in ("tuple_type", "list_type"):  # TOML has lists; "tuple" is pydantic's word
         what = message if message.startswith("should be a list") else "should be a list"
         example = list_example(value, _field_at(model, loc))
         message = f"{what}, e.g. {_as_set(where, example) if source.startswith('--set ') else example}"
@@ -304,6 +307,75 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
     shown = "" if isinstance(value, dict) else f" (got {as_written(value)})"
     more = f" (and {len(exc.errors()) - 1} more problem(s))" if len(exc.errors()) > 1 else ""
     return f"{source}: {where + ': ' if where else ''}{message}{shown}{more}"
+
+
+def _house_words(problem: Mapping[str, Any], where: str, source: str, field: Any) -> str | None:
+    """A problem of a wrong kind in the house's words with an example of the right one (a choice not
+    among the field's, text given as a number, a list where a table goes, too many values, a TOML
+    date where a number goes); ``None`` for any other problem."""
+    kind, value = problem["type"], problem.get("input")
+    key = where.rsplit(".", 1)[-1] if where else "key"
+    as_set = source.startswith("--set ")
+
+    def example(written: str) -> str:
+        return _as_set(where, written) if as_set else f"{key} = {written}"
+
+    if kind == "literal_error":
+        choices = _choices(problem, field)
+        shown = [repr(c) if isinstance(c, str) else toml_value(c) for c in choices]  # 'exact', 3
+        listed = " or ".join(filter(None, [", ".join(shown[:-1]), shown[-1]]))
+        texts = [c for c in choices if isinstance(c, str)]
+        return f"should be {listed}{closest_choice(value, texts) if isinstance(value, str) else ''}"
+    if kind == "string_type":
+        quoted = toml_value(str(value) if isinstance(value, int | float | bool) else "text")
+        return f"should be text, in quotes: e.g. {example(quoted)}"
+    if kind in ("int_type", "float_type", "int_parsing", "float_parsing") and isinstance(value, date | time):
+        number = "a whole number" if kind.startswith("int") else "a number"
+        return f"should be {number}, not a TOML date or time: e.g. {example(_number_example(field))}"
+    if kind in ("model_type", "dict_type"):
+        table = f"[{where}]" if where else "a table"
+        fix = (f"set its keys, e.g. --set {where or 'SECTION'}.KEY=VALUE" if as_set
+               else f"write {table} once, its keys below it, one per line")
+        return f"should be a table of keys (not a list, nor [[{where}]]): {fix}"
+    if kind == "finite_number":  # inf or nan: no value a setting or a maximum can take
+        return f"should be a finite number (not inf or nan), e.g. {example(_number_example(field))}"
+    if kind in ("too_long", "too_short"):
+        limit = problem.get("ctx", {}).get("max_length" if kind == "too_long" else "min_length")
+        most = "at most" if kind == "too_long" else "at least"
+        written = example(list_example(None, field))
+        return f"too {'many' if kind == 'too_long' else 'few'} values: give {most} {limit}, e.g. {written}"
+    return None
+
+
+def _number_example(field: Any) -> str:
+    """A number for ``field``'s example: its default where that is a finite number, else ``10``."""
+    default = field.get_default() if field is not None and not field.is_required() else None
+    if isinstance(default, int | float) and not isinstance(default, bool) and abs(default) < float("inf"):
+        return toml_value(default)
+    return "10"
+
+
+def _choices(problem: Mapping[str, Any], field: Any) -> list[Any]:
+    """The values a choice field takes: its ``Literal``'s, else those pydantic's message names (an
+    item of a list: ``'x', 'y' or 'theta'``; a number there is unquoted)."""
+    annotation = _section_type(field.annotation) if field is not None else None
+    if get_origin(annotation) is Literal:
+        return list(get_args(annotation))
+    expected = str(problem.get("ctx", {}).get("expected", ""))
+    return [_item_value(part.strip()) if not part.strip().startswith("'") else part.strip().strip("'")
+            for part in re.split(r",| or ", expected) if part.strip()]
+
+
+def closest_choice(value: Any, choices: Sequence[str]) -> str:
+    """``" (did you mean 'williams'?)"``: the choice ``value`` names but for case, else the closest
+    (:func:`~nudgecli.errors.did_you_mean`, compared case-insensitively), else ``""``."""
+    folded = {choice.casefold(): choice for choice in choices}
+    text = str(value).strip().casefold()
+    if text in folded:
+        return f" (did you mean {folded[text]!r}?)"
+    hint = did_you_mean(text, folded)
+    match = re.fullmatch(r" \(did you mean '(.*)'\?\)", hint)
+    return f" (did you mean {folded[match.group(1)]!r}?)" if match else hint
 
 
 #: pydantic's bound checks (``Field(ge=..)`` etc.) in the house's words, the bound from their ``ctx``.
@@ -377,8 +449,8 @@ def as_written(value: Any) -> str:
     ``true`` (JSON's spelling, which TOML shares for these), not ``np.float64(150.0)`` or ``True``."""
     try:
         return json.dumps(plain(value), ensure_ascii=False)
-    except (TypeError, ValueError):  # not JSON (e.g. a date): Python's spelling is the best there is
-        return repr(plain(value))
+    except (TypeError, ValueError):  # not JSON: a date as TOML writes it, else Python's spelling
+        return value.isoformat() if isinstance(value, date | time) else repr(plain(value))
 
 
 def dump_toml(data: dict[str, Any]) -> str:

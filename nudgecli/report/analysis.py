@@ -74,6 +74,7 @@ from nudgecli.report.plans import (
     AnalysisPlan,
     check_plan_conditions,
     check_resamples,
+    left_out_metric_message,
     load_plan,
     plan_argument,
 )
@@ -190,11 +191,14 @@ def read_run(folder: str | Path, notes: list[str] | None = None
     return trials, steps_of
 
 
-def _select_metrics(requested: Sequence[str] | None, available: Sequence[str]) -> list[str]:
+def _select_metrics(requested: Sequence[str] | None, available: Sequence[str],
+                    plan: AnalysisPlan) -> list[str]:
     if not requested:
         return list(available)
     selected: list[str] = []
     for name in requested:
+        if name in METRIC_NAMES and name not in available and name not in plan.metrics.include:
+            raise DataError(left_out_metric_message(plan, name))  # known, but this plan leaves it out
         if name not in available:
             raise DataError(f"unknown metric {name!r}{did_you_mean(name, available)}; available: "
                             f"{', '.join(available)}")
@@ -442,7 +446,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     _check_filters(plan, available)
     scores, score_names = _read_scores(questionnaires, table, source, RunFolder.study_under_way(manifest),
                                        notes)
-    selected = _select_metrics(metrics, [*available, *score_names])
+    selected = _select_metrics(metrics, [*available, *score_names], plan)
     trial_selected = [m for m in selected if m in available]
     score_selected = [m for m in selected if m in score_names]
     definitions_line = None

@@ -6,7 +6,7 @@ path to a TOML file. Layout::
 
     name = "paper"
     description = "..."
-    conditions = ["disambiguation", "control"]   # preferred order (first = "a" of comparisons)
+    conditions = ["disambiguation", "control"]   # order after the paper's two (a pair's "a" is the earlier)
 
     [metrics]
     include = ["assistance_engagement", ...]      # default: all known metrics
@@ -14,8 +14,10 @@ path to a TOML file. Layout::
     strength = "per_step"                         # or "per_turn"
     mode_switches = "any_turn"                    # or "human_turn"
     success = "reached_goal"                      # or "last_inferred_goal"
+    completion_time = "successful_trials"         # or "all_trials" (study software)
 
-    [filters]                                     # metric = inclusive maximum; larger -> missing
+    [filters]                                     # metric = inclusive maximum, a finite number;
+                                                  # larger -> missing
     mode_switches = 10
 
     [stats]
@@ -34,6 +36,12 @@ path to a TOML file. Layout::
     [questionnaires.labels]                      # axis labels of questionnaire items (figures)
     Q3 = "Q3: figured out my goal more easily"
 
+Every definition's default is the paper's (the value shown above; the other is the study
+software's): a plan of the study software's definitions states each (``analysis/study-code.toml``).
+Conditions are ordered the same way everywhere: the paper's ``disambiguation`` and ``control``
+first, then the plan's ``conditions``, then the rest by name; of a pair, ``a`` is the earlier
+(differences are a - b).
+
 Unknown keys are refused with a "did you mean" suggestion naming the file and the key; a
 condition the data lacks, where the plan is meant for that data, by :func:`check_plan_conditions`.
 """
@@ -43,7 +51,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 from pydantic import Field, PrivateAttr, ValidationError, field_validator
 
@@ -111,7 +119,7 @@ class MetricDefinitions(_Section):
     strength: Literal["per_step", "per_turn"] = "per_step"
     mode_switches: Literal["any_turn", "human_turn"] = "any_turn"
     success: Literal["reached_goal", "last_inferred_goal"] = "reached_goal"
-    completion_time: Literal["all_trials", "successful_trials"] = "all_trials"
+    completion_time: Literal["all_trials", "successful_trials"] = "successful_trials"
 
     @field_validator("include")
     @classmethod
@@ -175,7 +183,8 @@ class AnalysisPlan(_Section):
     description: str = ""
     conditions: tuple[str, ...] = ()
     metrics: MetricDefinitions = Field(default_factory=MetricDefinitions)
-    filters: dict[str, float] = Field(default_factory=dict)
+    # finite: a comparison with nan is false for every value, so a nan maximum filtered nothing, unsaid
+    filters: dict[str, Annotated[float, Field(allow_inf_nan=False)]] = Field(default_factory=dict)
     stats: StatsSettings = Field(default_factory=StatsSettings)
     bootstrap: BootstrapSettings = Field(default_factory=BootstrapSettings)
     questionnaires: QuestionnaireSettings = Field(default_factory=QuestionnaireSettings)
@@ -334,3 +343,13 @@ def load_plan(plan: str | Path | AnalysisPlan) -> AnalysisPlan:
     if list_presets("analysis").get(str(plan)) != path:  # a file, not a preset: messages name the file
         loaded._file = path.resolve()
     return loaded
+
+
+def left_out_metric_message(plan: AnalysisPlan, metric: str) -> str:
+    """Why ``plan`` gives no ``metric``, a known metric its ``[metrics] include`` leaves out, and the
+    fix: the shipped plans that include it (``--plan baselines``), else adding it to the plan's list."""
+    including = [name for name in plan_names()
+                 if name != plan.label and metric in load_plan(name).metrics.include]
+    fix = (f"analyse with a plan that includes it: {' or '.join(f'--plan {name}' for name in including)}"
+           if including else f"add {metric!r} to the [metrics] include of a copy of the plan")
+    return f"metric {metric!r} is not in plan {plan.label}'s [metrics] include; {fix}"
