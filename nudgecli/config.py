@@ -28,7 +28,7 @@ from pydantic import (
     model_validator,
 )
 
-from nudgecli.config_base import PositiveFloat, Probability, Section
+from nudgecli.config_base import MAX_RATE_HZ, MAX_TIME_LIMIT_S, PositiveFloat, Probability, Section
 from nudgecli.config_files import (
     dump_toml,
     format_validation_error,
@@ -62,10 +62,13 @@ __all__ = [
 ]
 
 
-#: The fastest step rate a study may simulate, Hz (1 ms steps; the paper's is 10 Hz).
-MAX_RATE_HZ = 1000.0
-#: The longest trial time limit, s (an hour; the paper's is 120 s).
-MAX_TIME_LIMIT_S = 3600.0
+#: The largest size of an MDP reward (``[model]``): the study's lie in -100..100 (goal 100). Within 1e6
+#: the goal MDPs' values (at most a reward over 1 - gamma) stay far from float overflow, and 10^4 times
+#: the study's scale is room for any reward design; -1e308 gave every trial a time-out.
+MAX_REWARD = 1e6
+#: The most samples the Monte Carlo estimator of I(s) may draw (the study software's: 250): its draws
+#: are held at once, so 1e9 asked for 805 GiB; 100,000 is about 80 MiB.
+MAX_MI_SAMPLES = 100_000
 
 
 class ExperimentMeta(Section):
@@ -141,6 +144,11 @@ class StudySection(Section):
     def _check(self) -> StudySection:
         if len(set(self.conditions)) != len(self.conditions) or not self.conditions:
             raise ValueError("conditions must be a non-empty list without repeats")
+        for name in ("goal_counts", "corners", "start_modes"):
+            # a repeat ran its layouts twice, unsaid: the design is each value once
+            values = getattr(self, name)
+            if len(set(values)) != len(values):
+                raise ValueError(f"{name} must be a list without repeats (got {json.dumps(list(values))})")
         if self.counterbalancing == "williams" and len(self.conditions) % 2:
             k = len(self.conditions)
             raise ValueError(f"counterbalancing = 'williams' cannot balance {k} conditions "
@@ -190,16 +198,20 @@ class InterfaceSection(Section):
         return self
 
 
+#: An MDP reward: finite, at most :data:`MAX_REWARD` in size.
+Reward = Annotated[float, Field(ge=-MAX_REWARD, le=MAX_REWARD, allow_inf_nan=False)]
+
+
 class ModelSection(Section):
     """``[model]``: the human model the agent assumes (goal MDPs, epsilon-greedy policy, tables)."""
 
     # the study's values, where the goal MDPs are defined (nudgecli.model.mdp)
     epsilon: float = Field(default=DEFAULT_HUMAN_EPSILON, description="Eq. 1's epsilon, in (0, 1).")
     gamma: Annotated[float, Field(gt=0, lt=1)] = DEFAULT_GAMMA
-    move_reward: float = MDPRewards.move
-    mode_switch_reward: float = MDPRewards.mode_switch
-    bump_reward: float = MDPRewards.bump
-    goal_reward: float = MDPRewards.goal
+    move_reward: Reward = MDPRewards.move
+    mode_switch_reward: Reward = MDPRewards.mode_switch
+    bump_reward: Reward = MDPRewards.bump
+    goal_reward: Reward = MDPRewards.goal
     tables: Literal["fitted", "default"] = Field(
         default="fitted",
         description="fitted: tables estimated from each participant's (simulated) calibration; "
@@ -249,7 +261,7 @@ class DisambiguationSection(Section):
 
     # the defaults are the model's (nudgecli.model.disambiguation.DisambiguationSettings)
     estimator: Literal["exact", "monte_carlo"] = _DISAMBIGUATION.estimator
-    samples: int = Field(default=_DISAMBIGUATION.samples, ge=1)
+    samples: int = Field(default=_DISAMBIGUATION.samples, ge=1, le=MAX_MI_SAMPLES)
     weighting: Literal["belief", "unweighted"] = _DISAMBIGUATION.weighting
     mi_weight: Annotated[float, Field(ge=0)] = _DISAMBIGUATION.mi_weight
     distance_weight: Annotated[float, Field(ge=0)] = _DISAMBIGUATION.distance_weight
@@ -410,7 +422,8 @@ class ExperimentConfig(Section):
         if isinstance(data, dict):
             sections = {"study": StudySection, "interface": InterfaceSection, "world": WorldSection,
                         "model": ModelSection, "inference": InferenceSection,
-                        "disambiguation": DisambiguationSection, "assistance": AssistanceSection}
+                        "disambiguation": DisambiguationSection, "assistance": AssistanceSection,
+                        "behaviour": BehaviourSection}
             check_world_keys(data, sections)
         return data
 

@@ -8,8 +8,19 @@ from typing import Annotated, Any, Literal, get_args, get_origin
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-PositiveFloat = Annotated[float, Field(gt=0)]
-Probability = Annotated[float, Field(ge=0, le=1)]
+#: The fastest step rate a study or a calibration may simulate, Hz (1 ms steps; the paper's is 10 Hz).
+MAX_RATE_HZ = 1000.0
+#: The longest trial time limit, s (an hour; the paper's is 120 s), and the longest any one duration of
+#: a person or a calibration prompt may be: a longer one is no setting a study means, and inf or 1e300
+#: crashed the run (an overflow, or arrays of a negative or astronomical size).
+MAX_TIME_LIMIT_S = 3600.0
+
+# finite: every float field refuses inf and NaN (Section's allow_inf_nan=False); these types say so too,
+# for a field read outside a Section
+PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
+Probability = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
+#: A duration of up to :data:`MAX_TIME_LIMIT_S` seconds, zero allowed.
+Seconds = Annotated[float, Field(ge=0, le=MAX_TIME_LIMIT_S, allow_inf_nan=False)]
 
 
 class Section(BaseModel):
@@ -18,7 +29,10 @@ class Section(BaseModel):
     # defer_build: the validator is built at a section's first validation, not at import; a study's
     # worker receives its config pickled and validates none, its defaults from
     # nudgecli.config.section_defaults (about 25 ms of every start-up)
-    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=True, defer_build=True)
+    # allow_inf_nan=False: inf or NaN is no experiment value; NaN passed every range check and made
+    # every trial time out (model.move_reward = nan), inf crashed runs or gave meaningless tables
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=True, defer_build=True,
+                              allow_inf_nan=False)
 
     @model_validator(mode="before")
     @classmethod
@@ -38,7 +52,19 @@ class Section(BaseModel):
                     _check_number_as_written(f"{name}.{key}", get_args(field.annotation)[1], entry)
             else:
                 _check_number_as_written(name, field.annotation, value)
+                _check_bool_as_written(name, field.annotation, value)
         return data
+
+
+def _check_bool_as_written(name: str, annotation: Any, value: Any) -> None:
+    """Refuse anything but true/false where the field ``name`` of type ``annotation`` takes only a
+    boolean: pydantic's lax mode took "yes", "true" and 1 as true (:meth:`Section._numbers_as_written`)."""
+    if value is None or isinstance(value, bool) or not admits(annotation, bool):
+        return
+    if any(admits(annotation, kind) for kind in (int, float, str)):
+        return  # a field that takes numbers or text too (none today) checks its own values
+    raise ValueError(f"{name} = {json.dumps(plain(value), ensure_ascii=False)}: give true or false "
+                     "(no quotes)")
 
 
 def _check_number_as_written(name: str, annotation: Any, value: Any) -> None:

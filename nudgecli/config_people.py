@@ -12,7 +12,14 @@ from typing import Annotated, Literal
 from pydantic import Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from nudgecli.config_base import PositiveFloat, Section, check_range
+from nudgecli.config_base import MAX_RATE_HZ, MAX_TIME_LIMIT_S, PositiveFloat, Seconds, Section, check_range
+
+#: The most blocks or prompts per label of a simulated calibration: the study's are 6 and 12; 1e8 filled
+#: memory (the logs are arrays of every sample).
+MAX_CALIBRATION_REPEATS = 1000
+#: A duration of more than zero, up to :data:`MAX_TIME_LIMIT_S` seconds (finite: inf gave arrays of
+#: negative size, an overflow, or a hold that never ends).
+PositiveSeconds = Annotated[float, Field(gt=0, le=MAX_TIME_LIMIT_S, allow_inf_nan=False)]
 
 #: The limits ``[population]`` checks each range against (``lo <= low <= high <= hi``): the one
 #: place they are written (a people file's value is checked, and its message named, by them too).
@@ -292,8 +299,8 @@ class BehaviourSection(Section):
     lean_on_blending: bool = True
     release_when_dragged: bool = True
     after_autonomy: Literal["replan", "resume"] = "replan"
-    stall_s: Annotated[float, Field(ge=0)] = 1.0
-    max_hold_s: PositiveFloat = 3.0
+    stall_s: Seconds = 1.0
+    max_hold_s: PositiveSeconds = 3.0
     fine_position_tolerance: PositiveFloat = 0.5
     fine_heading_tolerance: PositiveFloat = 0.15
     rest_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.5
@@ -329,14 +336,16 @@ class CalibrationSection(Section):
     ``blank_s = 1``).
     """
 
-    mapping_blocks: int = Field(default=6, ge=1, description="Blocks of the 12 prompted actions.")
-    prompts_per_label: int = Field(default=12, ge=1)
-    prompt_s: PositiveFloat = 6.0
-    blank_s: PositiveFloat = 1.5
-    answer_timeout_s: PositiveFloat = 10.0
-    answer_clear_s: Annotated[float, Field(ge=0)] = 0.5
-    block_break_s: Annotated[float, Field(ge=0)] = 10.0
-    rate_hz: PositiveFloat = 10.0
+    mapping_blocks: int = Field(default=6, ge=1, le=MAX_CALIBRATION_REPEATS,
+                                description="Blocks of the 12 prompted actions.")
+    prompts_per_label: int = Field(default=12, ge=1, le=MAX_CALIBRATION_REPEATS)
+    prompt_s: PositiveSeconds = 6.0
+    blank_s: PositiveSeconds = 1.5
+    answer_timeout_s: PositiveSeconds = 10.0
+    answer_clear_s: Seconds = 0.5
+    block_break_s: Seconds = 10.0
+    # the study's own bound of its step rate: 1e9 Hz filled memory
+    rate_hz: Annotated[float, Field(gt=0, le=MAX_RATE_HZ, allow_inf_nan=False)] = 10.0
     stream: Literal["fixed_rate", "event_driven"] = "fixed_rate"
     event_step: Annotated[float, Field(gt=0, le=0.1)] = Field(
         default=0.0109, description="Pressure quantisation of the event-driven stream (the sibling study's "

@@ -59,6 +59,7 @@ class WorldSection(Section):
         return self
 
 
+_NO_ASSISTANCE = "no blending or autonomy turn for the person to answer"
 _SCHEDULE = 'world.ciaa_conditions (["no_assistance"]) in the task\'s subject blocks'
 #: The keys the CIAA path world does not read, each with what that world runs instead.
 _DESIGN = ("conditions", "counterbalancing", "shared_layouts", "goal_counts", "corners", "start_modes",
@@ -68,6 +69,13 @@ GRID_ONLY: dict[str, str] = {
     "study.success_distance": "world.success_distance (a Manhattan distance, at any heading)",
     "study.success_angle": "world.success_distance (a Manhattan distance, at any heading)",
     "interface.human_speed": "world.linear_speed", "interface.human_turn_rate": "world.angular_speed",
+    # the person's fine positioning is inside the goal's grid cell, which a path has none of (its
+    # trials pass no goal cell): they follow the waypoints to world.success_distance
+    **{f"behaviour.{key}": "world.success_distance" for key in ("fine_position_tolerance",
+                                                                "fine_heading_tolerance")},
+    # what a person does about blending or the autonomy's turn: no_assistance has neither
+    **{f"behaviour.{key}": _NO_ASSISTANCE for key in ("lean_on_blending", "release_when_dragged",
+                                                      "after_autonomy")},
 }
 #: The condition sections (``None`` unless given), which a CIAA run never reads.
 CONDITION_TABLES = ("blending", "mode-switch", "mode_switch", "hindsight", "policies")
@@ -131,7 +139,10 @@ def check_world_keys(data: Mapping[str, Any], sections: Mapping[str, Any]) -> No
                          f"({does}); remove {them}, or set world.kind = \"ciaa\" for the CIAA path "
                          "world (docs/people.md)")
     reads = "".join(f", and {ignored[key]} in place of {key}" for key in keys
-                    if ignored.get(key, _SCHEDULE) not in (_SCHEDULE, _NO_AGENT))
+                    if ignored.get(key, _SCHEDULE) not in (_SCHEDULE, _NO_AGENT, _NO_ASSISTANCE))
+    answered = [key for key in keys if ignored.get(key) == _NO_ASSISTANCE]
+    if answered:
+        reads += f", with {_NO_ASSISTANCE} ({', '.join(answered)})"
     if any(ignored.get(key) == _NO_AGENT for key in keys):
         model = any(key.startswith("model.") for key in keys)
         reads += f", with {_NO_AGENT}" + (

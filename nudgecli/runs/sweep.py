@@ -79,7 +79,7 @@ class Range(_Model):
 
     low: float = Field(allow_inf_nan=False)
     high: float = Field(allow_inf_nan=False)
-    integer: bool = False
+    integer: bool = Field(default=False, strict=True)  # true or false: "yes" and 1 were taken as true
 
     @model_validator(mode="after")
     def _check(self) -> Range:
