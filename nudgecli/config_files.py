@@ -326,8 +326,13 @@ def _house_words(problem: Mapping[str, Any], where: str, source: str, field: Any
         listed = " or ".join(filter(None, [", ".join(shown[:-1]), shown[-1]]))
         texts = [c for c in choices if isinstance(c, str)]
         return f"should be {listed}{closest_choice(value, texts) if isinstance(value, str) else ''}"
-    if kind == "string_type":
-        quoted = toml_value(str(value) if isinstance(value, int | float | bool) else "text")
+    if kind == "string_type":  # as the user wrote it, in quotes (true, not Python's True)
+        quoted = toml_value(as_written(value) if isinstance(value, int | float | bool) else "text")
+        parent, _, index = where.rpartition(".")
+        if index.isdigit() and parent:  # an item of a list: the example gives the list
+            listed = f"[{quoted}]"
+            return "should be text, in quotes: e.g. " + (
+                _as_set(parent, listed) if as_set else f"{parent.rsplit('.', 1)[-1]} = {listed}")
         return f"should be text, in quotes: e.g. {example(quoted)}"
     if kind in ("int_type", "float_type", "int_parsing", "float_parsing") and isinstance(value, date | time):
         number = "a whole number" if kind.startswith("int") else "a number"

@@ -58,6 +58,14 @@ def test_text_given_as_a_number_is_told_to_quote_it() -> None:
     assert "experiment.name: should be text, in quotes" in line and "'experiment.name=\"2024\"'" in line, line
 
 
+def test_a_list_item_given_as_a_boolean_gets_an_example_of_the_list_as_written() -> None:
+    # before: e.g. --set 'study.conditions.0="True"' (no such --set key, and Python's spelling)
+    with pytest.raises(ConfigError) as raised:
+        load_experiment("smoke", ["study.conditions=[true]"])
+    assert str(raised.value).endswith(
+        """should be text, in quotes: e.g. --set 'study.conditions=["true"]' (got true)""")
+
+
 def test_a_toml_date_where_a_number_goes_is_named_as_a_date_with_a_number_to_write(tmp_path: Path) -> None:
     path = _smoke_copy(tmp_path / "e.toml", "seed = 7", "seed = 1979-05-27")
     line = _error(path=path)
