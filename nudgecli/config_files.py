@@ -292,7 +292,8 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
     head, sep, rest = message.partition(": ")
     if first["type"] == "value_error" and sep and head in _field_names(model, loc) and head not in loc:
         where, message = f"{where}.{head}" if where else head, rest
-    house = _house_words(first, where, source, _field_at(model, loc))
+    listed = _field_at(model, loc[:-1]) if loc and isinstance(loc[-1], int) else None  # an item's list
+    house = _house_words(first, where, source, _field_at(model, loc), listed)
     if house is not None:
         message = house
     elif first["type"] in ("tuple_type", "list_type"):  # TOML has lists; "tuple" is pydantic's word
@@ -309,15 +310,21 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
     return f"{source}: {where + ': ' if where else ''}{message}{shown}{more}"
 
 
-def _house_words(problem: Mapping[str, Any], where: str, source: str, field: Any) -> str | None:
+def _house_words(problem: Mapping[str, Any], where: str, source: str, field: Any,
+                 listed: Any = None) -> str | None:
     """A problem of a wrong kind in the house's words with an example of the right one (a choice not
     among the field's, text given as a number, a list where a table goes, too many values, a TOML
-    date where a number goes); ``None`` for any other problem."""
+    date where a number goes); ``None`` for any other problem. ``listed``: the list field of which
+    ``where`` is an item, whose example is then the whole list (``--set KEY.1=...`` is no key)."""
     kind, value = problem["type"], problem.get("input")
     key = where.rsplit(".", 1)[-1] if where else "key"
     as_set = source.startswith("--set ")
 
     def example(written: str) -> str:
+        parent, _, index = where.rpartition(".")
+        if index.isdigit() and parent and listed is not None:  # an item: the example gives the list
+            whole = list_example(None, listed)
+            return _as_set(parent, whole) if as_set else f"{parent.rsplit('.', 1)[-1]} = {whole}"
         return _as_set(where, written) if as_set else f"{key} = {written}"
 
     if kind == "literal_error":

@@ -66,6 +66,23 @@ def test_a_list_item_given_as_a_boolean_gets_an_example_of_the_list_as_written()
         """should be text, in quotes: e.g. --set 'study.conditions=["true"]' (got true)""")
 
 
+@pytest.mark.parametrize("source", ["--set", "file"])
+def test_an_infinite_list_item_gets_an_example_of_the_whole_list(tmp_path: Path, source: str) -> None:
+    # before: e.g. --set population.rest_s.1=10 (no such key), and "1 = 10" in a file
+    if source == "--set":
+        with pytest.raises(ConfigError) as raised:
+            load_experiment("smoke", ["population.rest_s=[1,inf]"])
+        example = "e.g. --set 'population.rest_s=[0.3, 1.5]' (got Infinity)"
+    else:
+        path = tmp_path / "exp.toml"
+        path.write_text("[population]\nrest_s = [1, nan]\n", encoding="utf-8")
+        with pytest.raises(ConfigError) as raised:
+            load_experiment(str(path))
+        example = "e.g. rest_s = [0.3, 1.5] (got NaN)"
+    said = f"population.rest_s.1: should be a finite number (not inf or nan), {example}"
+    assert str(raised.value).endswith(said)
+
+
 def test_a_toml_date_where_a_number_goes_is_named_as_a_date_with_a_number_to_write(tmp_path: Path) -> None:
     path = _smoke_copy(tmp_path / "e.toml", "seed = 7", "seed = 1979-05-27")
     line = _error(path=path)
