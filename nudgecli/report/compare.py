@@ -41,6 +41,7 @@ from nudgecli import command_defaults as defaults
 from nudgecli.errors import DataError, did_you_mean, shell_words
 from nudgecli.outputs import check_not_a_file
 from nudgecli.report.analysis import load_source
+from nudgecli.report.plan_filters import apply_plan_filters
 from nudgecli.report.plans import AnalysisPlan, load_plan
 from nudgecli.report.stats import order_conditions
 from nudgecli.report.stats_document import json_ready
@@ -479,8 +480,8 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
         Keep the first of repeated trial rows of a table instead of refusing them (as
         ``nudge analyze --drop-duplicates``).
     notes
-        Receives what was left out (duplicates dropped, stray parts of a run folder, a condition
-        one source holds alone), a line each.
+        Receives what was left out (duplicates dropped, stray parts of a run folder, the values the
+        plan's filters removed from each source, a condition one source holds alone), a line each.
 
     Raises
     ------
@@ -488,7 +489,6 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
         Unreadable sources, no shared metric or condition, an unknown metric.
     """
     from nudgecli.report.analysis import plan_of_source
-    from nudgecli.report.metrics import apply_filters
 
     chosen = load_plan(plan_of_source(simulated) if plan is None else plan)
     sim_table, sim_metrics, _ = load_source(Path(simulated), chosen, min_conditions=1,
@@ -500,14 +500,24 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
     real_table, real_metrics, _ = load_source(real_path, chosen, min_conditions=1,
                                               drop_duplicates=drop_duplicates, notes=notes, metrics=metrics)
     selected = shared_metrics(sim_metrics, real_metrics, metrics)
-    sim_table = apply_filters(sim_table, chosen.filters)
-    real_table = apply_filters(real_table, chosen.filters)
+    sim_table = _filtered(sim_table, chosen, selected, simulated, notes)
+    real_table = _filtered(real_table, chosen, selected, real, notes)
     sim_table, real_table, conditions = align_conditions(sim_table, real_table, condition_map,
                                                          names=(str(simulated), str(real)), notes=notes)
     table = compare_tables(sim_table, real_table, selected, conditions, options)
     medians = participant_medians(sim_table, real_table, selected)
     return Comparison(str(simulated), str(real), selected, conditions, table, medians, options,
                       {"simulated": sim_table, "real": real_table})
+
+
+def _filtered(table: pd.DataFrame, plan: AnalysisPlan, compared: Sequence[str], source: str | Path,
+              notes: list[str] | None) -> pd.DataFrame:
+    """``table`` after ``plan``'s filters; the values they left out of the ``compared`` metrics are
+    said in ``notes`` (a line naming ``source``), as ``nudge analyze`` says them."""
+    filters = apply_plan_filters(table, plan, compared, changed=False)
+    if filters.line and notes is not None:
+        notes.append(f"{source}: {filters.line}")
+    return filters.table
 
 
 #: The tables :func:`write_comparison` writes (the figure is :mod:`nudgecli.report.compare_figure`'s).
