@@ -59,4 +59,4 @@ def test_one_sobol_sample_is_one_error_line(tmp_path: Path) -> None:
         load_sweep(str(sweep_file(tmp_path, 1)))
     message = str(raised.value)
     assert "\n" not in message and "design.samples" in message and "at least 2" in message
-    assert Design(method="morris", samples=1).samples == 1  # Morris: one trajectory is a design
+    assert Design(method="morris", samples=2).samples == 2  # Morris: two trajectories are a design

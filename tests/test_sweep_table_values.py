@@ -20,8 +20,9 @@ from nudgecli.report.figures import replication as replication_figures
 from nudgecli.runs import batch_kinds
 from nudgecli.runs.sweep import parameter_cell
 
-#: The custom-policy experiment at the smallest scale: one participant, one layout per condition.
-SMALL = ["study.participants=1", "study.goal_counts=[3]", 'study.corners=["tr"]', 'study.start_modes=["x"]',
+#: The custom-policy experiment at the smallest scale a sweep runs (two participants, the fewest it
+#: analyses), one layout per condition.
+SMALL = ["study.participants=2", "study.goal_counts=[3]", 'study.corners=["tr"]', 'study.start_modes=["x"]',
          "study.blocks_per_condition=1"]
 PARAMS = "policies.threshold.params"
 

@@ -134,8 +134,9 @@ def replicate(experiment: str | Path, replications: int, *, seed: int | None = N
     out
         The batch folder, kept; ``None``: a temporary one removed with the :class:`Batch`.
     workers, scheduler, resume, force, confirm
-        Local workers or a dask scheduler, finish or replace a batch in ``out``, run above the
-        size limit (``--yes``; the limit's refusal names ``confirm=True``).
+        Local workers or a dask scheduler, finish or replace a batch in ``out`` (``resume`` and
+        ``force`` together are refused: one keeps the finished work, the other deletes it), run
+        above the size limit (``--yes``; the limit's refusal names ``confirm=True``).
     progress, log
         ``progress(done, total)`` over tasks and ``log(line)`` for the batch's size; default silent.
 

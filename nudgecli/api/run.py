@@ -232,7 +232,8 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
     scheduler
         A dask.distributed scheduler's address (overrides ``workers``).
     resume, force
-        Finish an interrupted run in ``out``, or replace the run there.
+        Finish an interrupted run in ``out``, or replace the run there; giving both is refused
+        (they contradict: one keeps the finished work, the other deletes it).
     plan
         The analysis plan recorded in the manifest (default: the one named like the experiment).
     confirm

@@ -179,6 +179,28 @@ def check_participant_counts(counts: Sequence[int], example: str) -> None:
                           f"participant has no participant-level test), e.g. --participants {example}")
 
 
+def check_point_participants(loaded: Sweep) -> None:
+    """Refuse a sweep with a design point whose studies hold fewer than
+    :data:`MIN_BATCH_PARTICIPANTS` participants (from the sweep's ``set``, a swept value or the
+    experiment), before anything runs: the rule ``replicate`` and ``power`` apply to their counts.
+
+    Raises
+    ------
+    ConfigError
+        Naming the sweep file, the first such point with its values, and the fix.
+    """
+    for point in loaded.points:
+        count = point.config.study.participants
+        if count >= MIN_BATCH_PARTICIPANTS:
+            continue
+        shown = ", ".join(f"{k}={v!r}" for k, v in point.parameters.items())
+        raise ConfigError(f"{loaded.source}: design point {point.index} ({shown}) has study.participants = "
+                          f"{count}: nudge sweep analyses each point's studies with a participant-level "
+                          f"test, which needs at least {MIN_BATCH_PARTICIPANTS} participants; give "
+                          f"study.participants of at least {MIN_BATCH_PARTICIPANTS} in the sweep's set or "
+                          "its swept values (nothing was simulated)")
+
+
 def _check(replications: int, seed: int | None) -> None:
     if replications < 1:
         raise ConfigError(f"--replications must be at least 1, got {replications}")
@@ -285,6 +307,7 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     spec = loaded.spec
     for point in loaded.points:
         check_pairs(point.config, "sweep", f"{loaded.source}: experiment {loaded.experiment_file}")
+    check_point_participants(loaded)  # as replicate's and power's: one has no participant-level test
     count = spec.replications if replications is None else replications
     _check(count, seed)
     assert spec.plan is not None  # load_sweep applied the plan rule

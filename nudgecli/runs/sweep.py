@@ -13,6 +13,7 @@ A sweep file is TOML::
     [design]
     method = "sobol"              # "grid", "sobol" or "morris"
     samples = 8                   # sobol: base samples N (N (D + 2) points); morris: trajectories
+                                  # (both at least 2)
     levels = 4                    # morris: grid levels (even; SALib)
     seed = 0                      # the design's own seed (Sobol scrambling, Morris trajectories)
 
@@ -106,6 +107,8 @@ class Values(_Model):
 SOBOL_BALANCE_WARNING = "The balance properties of Sobol' points require n to be a power of 2"
 #: The fewest base samples of a Sobol design (see :class:`Design`).
 MIN_SOBOL_SAMPLES = 2
+#: The fewest trajectories of a Morris design (see :class:`Design`).
+MIN_MORRIS_TRAJECTORIES = 2
 
 
 class Design(_Model):
@@ -132,6 +135,13 @@ class Design(_Model):
             raise ValueError(f"samples: a Sobol design needs at least {MIN_SOBOL_SAMPLES} base samples (the "
                              f"intervals of its indices resample them), got {self.samples}; use a power "
                              "of 2: 4, 8 or 16")
+        # SALib's Morris analysis takes sigma as the standard deviation of each elementary effect over
+        # the trajectories (SALib/SALib, src/SALib/analyze/morris.py: np.std(..., ddof=1)), NaN for
+        # one, and its mu_star intervals resample the trajectories: one resampled is always itself
+        if self.method == "morris" and self.samples < MIN_MORRIS_TRAJECTORIES:
+            raise ValueError(f"samples: a Morris design needs at least {MIN_MORRIS_TRAJECTORIES} "
+                             "trajectories (sigma is the spread of the elementary effects over them, and "
+                             f"the intervals of mu_star resample them), got {self.samples}; use 4 to 10")
         return self
 
 
