@@ -314,8 +314,9 @@ def _house_words(problem: Mapping[str, Any], where: str, source: str, field: Any
                  listed: Any = None) -> str | None:
     """A problem of a wrong kind in the house's words with an example of the right one (a choice not
     among the field's, text given as a number, a list where a table goes, too many values, a TOML
-    date where a number goes); ``None`` for any other problem. ``listed``: the list field of which
-    ``where`` is an item, whose example is then the whole list (``--set KEY.1=...`` is no key)."""
+    date where a number goes, anything but true or false for a strict flag); ``None`` for any other
+    problem. ``listed``: the list field of which ``where`` is an item, whose example is then the
+    whole list (``--set KEY.1=...`` is no key)."""
     kind, value = problem["type"], problem.get("input")
     key = where.rsplit(".", 1)[-1] if where else "key"
     as_set = source.startswith("--set ")
@@ -349,6 +350,8 @@ def _house_words(problem: Mapping[str, Any], where: str, source: str, field: Any
         fix = (f"set its keys, e.g. --set {where or 'SECTION'}.KEY=VALUE" if as_set
                else f"write {table} once, its keys below it, one per line")
         return f"should be a table of keys (not a list, nor [[{where}]]): {fix}"
+    if kind in ("bool_type", "bool_parsing"):  # a strict flag (a sweep range's integer): no "yes", no 1
+        return f"should be true or false (no quotes), e.g. {example('true')}"
     if kind == "finite_number":  # inf or nan: no value a setting or a maximum can take
         return f"should be a finite number (not inf or nan), e.g. {example(_number_example(field))}"
     if kind in ("too_long", "too_short"):

@@ -159,5 +159,6 @@ def test_a_sweep_range_integer_refuses_text_and_numbers(tmp_path, value):
     path = tmp_path / "s.toml"
     path.write_text(sweep.replace('"inference.kappa" = { low = 0.5, high = 0.8 }',
                                   f'"study.participants" = {{ low = 1, high = 3, integer = {value} }}'))
-    with pytest.raises(ConfigError, match=r"integer: Input should be a valid boolean"):
+    said = r"integer: should be true or false \(no quotes\), e\.g\. integer = true \(got "
+    with pytest.raises(ConfigError, match=said):
         load_sweep(str(path))
