@@ -38,6 +38,7 @@ import pandas as pd
 
 from nudgecli.model.conditions import PAPER_CONDITIONS
 from nudgecli.report.metrics import apply_filters
+from nudgecli.report.plan_filters import filter_counts
 from nudgecli.report.plans import AnalysisPlan
 from nudgecli.report.stats import is_significant, order_conditions
 from nudgecli.report.stats_document import compare_conditions, condition_table, json_ready, stats_table
@@ -79,13 +80,23 @@ def analyse_replication(metrics: pd.DataFrame, plan: AnalysisPlan, names: Sequen
     not_applicable
         Metric -> the conditions its policies make constant, left out of its tests (as ``nudge
         analyze`` leaves them out).
+
+    Returns
+    -------
+    dict
+        The document, with ``filters`` (:func:`~nudgecli.report.plan_filters.filter_counts`) only
+        where the plan's filters removed values of ``names``: the batch says so once
+        (:func:`~nudgecli.report.plan_filters.replications_left_out_line`).
     """
     from nudgecli.report.analysis import comparison_options
 
     filtered = apply_filters(metrics, plan.filters)
     conditions = order_conditions(filtered["condition"].astype(str), (*plan.conditions, *study_conditions))
-    return json_ready(compare_conditions(filtered, list(names), conditions, comparison_options(plan, None),
-                                         not_applicable=not_applicable or {}))
+    options = comparison_options(plan, None)
+    document = json_ready(compare_conditions(filtered, list(names), conditions, options,
+                                             not_applicable=not_applicable or {}))
+    removed = filter_counts(metrics, filtered, plan, names)
+    return {**document, "filters": removed} if removed else document  # unfiltered: the document as before
 
 
 def _sign(value: float | None) -> int:

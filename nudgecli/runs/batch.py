@@ -69,7 +69,6 @@ from nudgecli.runs.batch_folder import (
     analysis_part,
     policy_copies,
     prepare_folder,
-    read_json,
     read_study_metrics,
     readable_stats,
     task_part,
@@ -82,6 +81,7 @@ from nudgecli.runs.batch_tasks import (
     layout_key,
     merge_analysis_chunks,
     metric_definitions,
+    read_analyses,
     run_analysis_task,
     run_participant_task,
     run_quietly,
@@ -397,7 +397,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     try:
         executor = make_executor(workers, client)
         computed = _run_graph(batch, graph, folder, executor, progress, prepare, log)
-        stats = {key: read_json(analysis_part(folder, key)) for key in sorted(graph.analyses)}
+        stats = read_analyses(folder, sorted(graph.analyses), batch.plan.label, log)  # its filters said
         peak, wall = getattr(executor, "peak_rss_mb", None), round(time.perf_counter() - started, 3)
         run = BatchRun(folder, mode, graph, size, stats, computed, peak)
         run.outputs = None if finish is None else finish(run)  # its tables and figures, before "complete"

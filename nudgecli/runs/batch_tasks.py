@@ -45,6 +45,8 @@ from nudgecli.sim.study import ParticipantColumns, StudyPlan, trials_frame
 from nudgecli.sim.twins import Twin
 
 if TYPE_CHECKING:  # pandas and the statistics (scipy.stats, scikit-posthocs) load where used
+    from pathlib import Path
+
     import pandas as pd
 
     from nudgecli.report.plans import AnalysisPlan
@@ -274,7 +276,8 @@ def merge_analysis_chunks(documents: Sequence[Mapping[str, Any]]) -> dict[str, A
     of one metrics table and plan, each with a consecutive chunk of the metrics), in chunk order.
 
     Each metric is analysed on its own (:func:`~nudgecli.report.stats_document.analyze_metric`),
-    so this is the document one task of all the metrics makes, key for key.
+    so this is the document one task of all the metrics makes, key for key (``filters``, what the
+    plan's filters removed, joined in chunk order and kept only where some chunk has them).
 
     Raises
     ------
@@ -286,7 +289,26 @@ def merge_analysis_chunks(documents: Sequence[Mapping[str, Any]]) -> dict[str, A
     conditions = list(documents[0]["conditions"])
     if any(list(d["conditions"]) != conditions for d in documents):
         raise ValueError("stats documents of different conditions cannot be merged")
-    return {"conditions": conditions, "metrics": [entry for d in documents for entry in d["metrics"]]}
+    merged: dict[str, Any] = {"conditions": conditions,
+                              "metrics": [entry for d in documents for entry in d["metrics"]]}
+    removed = [count for d in documents for count in d.get("filters", ())]
+    return {**merged, "filters": removed} if removed else merged
+
+
+def read_analyses(folder: Path, keys: Sequence[str], label: str,
+                  log: Callable[[str], None] | None) -> dict[str, dict[str, Any]]:
+    """The batch's analyses (key -> stats document, in ``keys``' order) read back from ``folder``,
+    and one ``Note:`` to ``log`` of what the plan ``label``'s filters left out of them
+    (:func:`~nudgecli.report.plan_filters.replications_left_out_line`), as ``nudge analyze`` says
+    it of a run; no note where they removed no value."""
+    from nudgecli.report.plan_filters import replications_left_out_line
+    from nudgecli.runs.batch_folder import analysis_part, read_json
+
+    stats = {key: read_json(analysis_part(folder, key)) for key in keys}
+    line = replications_left_out_line(list(stats.values()), label)
+    if line is not None and log is not None:
+        log(f"Note: {line}")
+    return stats
 
 
 def shares_plan(study: Study, unfinished: int, studies: int, workers: int) -> bool:
