@@ -58,3 +58,12 @@ def test_a_sweeps_tables_write_table_values_as_json(tmp_path: Path, monkeypatch:
         assert sorted(set(cells)) == ['{"threshold":0.5}', '{"threshold":0.9,"weight":0.2}'], name
         assert [json.loads(cell) for cell in sorted(set(cells))] == [{"threshold": 0.5},
                                                                      {"threshold": 0.9, "weight": 0.2}]
+
+
+def test_a_design_points_values_in_a_message_are_its_set_texts() -> None:
+    # a table-valued point was shown as Python's repr ({'threshold': 0.5}), which no --set reads
+    from nudgecli.runs.sweep import point_overrides, point_words
+
+    assignment = {"policies.threshold.params": {"threshold": 0.5}, "study.participants": 1}
+    assert point_words(assignment) == ", ".join(point_overrides([], assignment))
+    assert point_words(assignment) == "policies.threshold.params={threshold = 0.5}, study.participants=1"

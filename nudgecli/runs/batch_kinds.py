@@ -193,7 +193,9 @@ def check_point_participants(loaded: Sweep) -> None:
         count = point.config.study.participants
         if count >= MIN_BATCH_PARTICIPANTS:
             continue
-        shown = ", ".join(f"{k}={v!r}" for k, v in point.parameters.items())
+        from nudgecli.runs.sweep import point_words
+
+        shown = point_words(point.parameters)
         raise ConfigError(f"{loaded.source}: design point {point.index} ({shown}) has study.participants = "
                           f"{count}: nudge sweep analyses each point's studies with a participant-level "
                           f"test, which needs at least {MIN_BATCH_PARTICIPANTS} participants; give "

@@ -403,6 +403,12 @@ def point_overrides(fixed: list[str], assignment: dict[str, Any]) -> list[str]:
     return [*fixed, *(f"{key}={toml_value(value)}" for key, value in assignment.items())]
 
 
+def point_words(assignment: dict[str, Any]) -> str:
+    """A design point's values in a message, as its ``--set`` texts (:func:`point_overrides`) write
+    them: ``study.participants=1, policies.x.params={threshold = 0.5}``, not Python's reprs."""
+    return ", ".join(point_overrides([], assignment))
+
+
 def parameter_cell(value: Any) -> Any:
     """A swept parameter's value as a cell of the sweep's tables: a number, string or boolean as it
     is; a table or list (``policies.threshold.params``, ``study.goal_counts``) as compact JSON with
@@ -440,7 +446,7 @@ def _design_points(path: Path, experiment: str, fixed: list[str], values: list[d
             config = load_experiment(experiment, point_overrides(fixed, assignment))
             checked_policy_specs(config)  # the check nudge simulate gives: refused before a folder exists
         except (ConfigError, PolicyError) as exc:
-            shown = ", ".join(f"{k}={v!r}" for k, v in assignment.items())
+            shown = point_words(assignment)
             first = first or ConfigError(f"{path}: design point {index} ({shown}) is not a valid experiment: "
                                          f"{str(exc).removeprefix('--set ')}")
             if set_alone is None or points:  # a point's own fault: no need to try the rest
