@@ -11,16 +11,15 @@ to the inference only with ``decay = true``; ``nudgecli.model.disambiguation`` r
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 from pydantic import model_validator
 
-from nudgecli.config_base import Section, plain
-from nudgecli.config_files import parse_override
-from nudgecli.config_world import _same
+from nudgecli.config_base import Section
+from nudgecli.config_files import as_written, parse_override
+from nudgecli.config_world import same_as_default
 
 
 @dataclass(frozen=True)
@@ -58,11 +57,6 @@ SWITCHES: tuple[Switch, ...] = (
 )
 
 
-def _toml(value: Any) -> str:
-    """``value`` as TOML writes it (``false``, ``"exact"``, ``0.9``)."""
-    return json.dumps(plain(value))
-
-
 def check_switched_keys(section_name: str, data: Any, section: type[Section]) -> None:
     """Raise ``ValueError`` (one line, the first dependent key its field) where a section's raw
     ``data`` gives a key of :data:`SWITCHES` a value other than its default while its switch is off.
@@ -76,17 +70,18 @@ def check_switched_keys(section_name: str, data: Any, section: type[Section]) ->
     for switch in SWITCHES:
         if switch.section != section_name:
             continue
-        if not _same(data.get(switch.key, defaults[switch.key]), switch.off):
+        if not same_as_default(data.get(switch.key, defaults[switch.key]), switch.off):
             continue
-        given = [key for key in switch.dependents if key in data and not _same(data[key], defaults[key])]
+        given = [key for key in switch.dependents
+                 if key in data and not same_as_default(data[key], defaults[key])]
         if not given:
             continue
         first, others = given[0], given[1:]
-        nor = "".join(f", nor is {key} = {_toml(data[key])}" for key in others)
+        nor = "".join(f", nor is {key} = {as_written(data[key])}" for key in others)
         them = " and ".join(given)
-        raise ValueError(f"{first}: {_toml(data[first])} is not used with {switch.key} = {_toml(switch.off)}"
-                         f"{nor}; remove {them}, or set {section_name}.{switch.key} = {_toml(switch.on)} to "
-                         f"{switch.does}")
+        off, on = as_written(switch.off), as_written(switch.on)
+        raise ValueError(f"{first}: {as_written(data[first])} is not used with {switch.key} = {off}{nor}; "
+                         f"remove {them}, or set {section_name}.{switch.key} = {on} to {switch.does}")
 
 
 def switches_checked(section_name: str) -> Any:
@@ -108,8 +103,8 @@ def dependents_off_with_their_switch(data: dict[str, Any], overrides: list[str] 
     given = {tuple(path): value for path, value in map(parse_override, overrides)}
     result = data
     for switch in SWITCHES:
-        if (switch.section, switch.key) not in given or not _same(given[(switch.section, switch.key)],
-                                                                     switch.off):
+        place = (switch.section, switch.key)
+        if place not in given or not same_as_default(given[place], switch.off):
             continue
         section = result.get(switch.section)
         if not isinstance(section, dict):

@@ -127,7 +127,7 @@ def check_world_keys(data: Mapping[str, Any], sections: Mapping[str, Any]) -> No
         section_name, key = dotted.split(".")
         default = sections[section_name].model_fields[key].default
         value = _given(data.get(section_name), key, default)
-        if not _same(value, default):
+        if not same_as_default(value, default):
             found.append(f"{dotted} = {json.dumps(plain(value))}")
     if not found:
         return
@@ -159,7 +159,7 @@ def _given(section: Any, key: str, default: Any) -> Any:
     return getattr(section, key, default) if isinstance(section, Section) else default
 
 
-def _same(value: Any, default: Any) -> bool:
+def same_as_default(value: Any, default: Any) -> bool:
     """Whether a raw ``value`` (TOML's lists) is ``default`` (a section's tuples)."""
     if isinstance(default, tuple) and isinstance(value, list | tuple):
         return list(value) == list(default)
