@@ -61,13 +61,14 @@ def apply_plan_filters(table: pd.DataFrame, plan: AnalysisPlan, analysed: Sequen
     Returns
     -------
     FilteredMetrics
-        ``table`` itself (no copy of a large table) when no filter names one of its columns.
+        A new table; ``table`` itself is left as it was. When no filter names one of its columns
+        the new table shares ``table``'s metric columns (a shallow copy, not a copy of a large table).
     """
     if any(name in table.columns for name in plan.filters):
         filtered = apply_filters(table, plan.filters)
         changed = changed or not filtered.equals(table)
-    else:
-        filtered = table
+    else:  # a shallow copy: the condition column below is replaced in it, not in the caller's table
+        filtered = table.copy(deep=False)
     if filtered["condition"].dtype != "category":
         filtered["condition"] = filtered["condition"].astype(str).astype("category")
     else:  # a DataFrame's categorical condition may name conditions no trial holds
