@@ -21,6 +21,7 @@ from nudgecli.report.questionnaires import (
     TLX_SUBSCALES,
     read_questionnaires,
 )
+from nudgecli.report.tables import label_text
 from nudgecli.sim.protocol import TrialSpec
 
 #: The study's post-block Likert items (study-software-notes, post_task_likert_analysis.py).
@@ -97,14 +98,14 @@ def merged_answers(old: pd.DataFrame | None, rows: list[dict[str, Any]], source:
     """
     new = pd.DataFrame(rows)
     if old is not None:
-        recorded = {(str(p), str(b)): i for i, (p, b) in enumerate(zip(old["participant"], old["block"],
-                                                                        strict=True))}
+        recorded = {_row_key(p, b): i for i, (p, b) in enumerate(zip(old["participant"], old["block"],
+                                                                      strict=True))}
         for row in rows:
-            at = recorded.get((str(row["participant"]), str(row["block"])))
+            at = recorded.get(_row_key(row["participant"], row["block"]))
             if at is not None:
                 _check_same_answers(old.iloc[at], row, at, source)
-        keys = {(str(row["participant"]), str(row["block"])) for row in rows}
-        keep = [(str(p), str(b)) not in keys for p, b in zip(old["participant"], old["block"], strict=True)]
+        keys = {_row_key(row["participant"], row["block"]) for row in rows}
+        keep = [_row_key(p, b) not in keys for p, b in zip(old["participant"], old["block"], strict=True)]
         new = pd.concat([old[keep], new], ignore_index=True)
     return new.sort_values(["participant", "block"], key=lambda c: pd.to_numeric(c, errors="coerce"),
                            kind="stable", ignore_index=True)
@@ -114,7 +115,7 @@ def _check_same_answers(recorded: pd.Series, row: dict[str, Any], at: int, sourc
     """Refuse ``row`` where it differs from the ``recorded`` row ``at`` (0-based) of ``source``."""
     for column in ROW_COLUMNS:
         old, new = recorded.get(column), row.get(column)
-        same = str(old) == str(new) if column in ID_COLUMNS else _number(old) == _number(new)
+        same = label_text(old) == label_text(new) if column in ID_COLUMNS else _number(old) == _number(new)
         if not same:
             raise DataError(
                 f"{source}: row {at + 2} already holds participant {row['participant']}'s answers to block "
@@ -130,12 +131,20 @@ def complete_blocks(schedule: Sequence[TrialSpec], done: Collection[int]) -> lis
 
 
 def answered_blocks(path: Path, participant: int, blocks: Collection[int]) -> set[int]:
-    """The ``blocks`` whose answers of ``participant`` the answers file ``path`` holds (none: no file)."""
+    """The ``blocks`` whose answers of ``participant`` the answers file ``path`` holds (none: no file),
+    its labels matched as the analysis matches them (:func:`_row_key`): a block column read back as
+    ``1.0`` (beside a blank cell) holds block 1; ``01`` is a label of its own, as in the analysis."""
     if not path.is_file():
         return set()
     table = read_answers(path)
-    rows = {(str(p), str(b)) for p, b in zip(table["participant"], table["block"], strict=True)}
-    return {block for block in blocks if (str(participant), str(block)) in rows}
+    rows = {_row_key(p, b) for p, b in zip(table["participant"], table["block"], strict=True)}
+    return {block for block in blocks if _row_key(participant, block) in rows}
+
+
+def _row_key(participant: object, block: object) -> tuple[str, str]:
+    """A row's participant and block as text, as every table's labels are matched
+    (:func:`~nudgecli.report.tables.label_text`: ``1``, ``1.0`` and ``np.int64(1)`` are ``"1"``)."""
+    return label_text(participant), label_text(block)
 
 
 def answers_line(row: dict[str, Any]) -> str:
