@@ -22,8 +22,7 @@ make up the graph, all submitted to one executor:
   (:func:`~nudgecli.runs.batch_tasks.merge_analysis_chunks`), so a batch's last analysis
   does not run on one worker while the others wait. Its input is the parts written in this run
   (kept while an analysis of the study waits) or, after ``--resume``, read from their files.
-  What the command needs after the batch (its figures' modules) is imported the same way, beside
-  the workers (``run_batch``'s ``prepare``).
+  What the command needs after the batch (its figures' modules) is imported there too (``prepare``).
 
 Layouts and their solved goal MDPs (the :class:`~nudgecli.sim.study.StudyPlan`) are kept in a
 small cache in each worker (:mod:`nudgecli.runs.batch_tasks`: the tasks and the cache, keyed by
@@ -81,6 +80,7 @@ from nudgecli.runs.batch_tasks import (
     layout_key,
     merge_analysis_chunks,
     metric_definitions,
+    participant_tasks_left,
     read_analyses,
     run_analysis_task,
     run_participant_task,
@@ -262,10 +262,10 @@ def estimate(graph: Graph, workers: int) -> SizeEstimate:
                          workers)
 
 
-def estimate_batch(batch: Batch, workers: int) -> SizeEstimate:
+def estimate_batch(batch: Batch, workers: int, tasks_left: int | None = None) -> SizeEstimate:
     """:func:`estimate` of the batch's graph without building it (what the size guard checks first):
-    every replication has the same studies up to their seeds (points with equal experiments share
-    a study whatever the seed), so one replication's counts times ``R`` are the graph's."""
+    every replication has the same studies up to their seeds (points with equal experiments share a
+    study whatever the seed): one replication's counts times ``R``; its pool for ``tasks_left``."""
     participants: dict[str, int] = {}  # one replication's studies: normalised experiment -> participants
     per_trial: dict[str, int] = {}
     analysed: set[tuple[str, int]] = set()
@@ -277,7 +277,7 @@ def estimate_batch(batch: Batch, workers: int) -> SizeEstimate:
     r = batch.replications
     tasks = sum(participants.values())
     trials = sum(n * per_trial[key] for key, n in participants.items())
-    return size_estimate(r * len(participants), r * tasks, r * len(analysed), r * trials, workers)
+    return size_estimate(r * len(participants), r * tasks, r * len(analysed), r * trials, workers, tasks_left)
 
 
 # --- the run -----------------------------------------------------------------------------------
@@ -351,7 +351,7 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     """
     if workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {workers}")
-    workers = (size := estimate_batch(batch, workers).on(scheduler)).workers  # its pool; from counts alone
+    size = estimate_batch(batch, workers).on(scheduler)  # its pool; from counts alone
     check_batch_size(batch, size, confirm)  # trials, then steps: before anything is built
     for point in batch.points:
         check_physiology_logs(point.config)
@@ -377,14 +377,16 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
                       log: Log, prepare: Callable[[], object] | None, finish: Finish) -> BatchRun:
     """:func:`run_batch` once the batch folder's lock is held (``copies``: the policy code it keeps)."""
     mode = prepare_folder(folder, batch.describe(), resume, force, batch.people, copies)
+    graph = build_graph(batch)
+    if mode == "resume" and client is None and workers > 1:  # its pool: the tasks left, not all of them
+        size = estimate_batch(batch, workers, participant_tasks_left(folder, graph.studies.values()))
     if log is not None:  # only now: a refusal is its one error line
         for line in (f"batch: {size.describe()}", *(f"Note: {note}" for note in batch.notes)):
             log(line)
-    graph = build_graph(batch)
     manifest: dict[str, Any] = {
         "batch": batch.describe(),
         "status": "running",
-        "executor": executor_name(workers, client is not None),
+        "executor": executor_name(size.workers, client is not None),
         **provenance(),
         "studies": len(graph.studies),
         "participant_tasks": graph.participant_tasks,
@@ -395,15 +397,14 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     write_json_atomic(folder / BATCH_MANIFEST, manifest)
     started = time.perf_counter()
     try:
-        executor = make_executor(workers, client)
+        executor = make_executor(size.workers, client)
         computed = _run_graph(batch, graph, folder, executor, progress, prepare, log)
         stats = read_analyses(folder, sorted(graph.analyses), batch.plan.label, log)  # its filters said
         peak, wall = getattr(executor, "peak_rss_mb", None), round(time.perf_counter() - started, 3)
         run = BatchRun(folder, mode, graph, size, stats, computed, peak)
         run.outputs = None if finish is None else finish(run)  # its tables and figures, before "complete"
     except BaseException:
-        # an interrupted batch (Ctrl-C, a failed task, a write error, its tables or figures not all
-        # written) must not read as running, nor as complete
+        # interrupted (Ctrl-C, a failed task or write, its outputs not all written): not running, nor complete
         manifest.update({"status": "interrupted", "interrupted": utc_now()})
         with contextlib.suppress(NudgeError, OSError):
             write_json_atomic(folder / BATCH_MANIFEST, manifest)
@@ -469,8 +470,7 @@ class _GraphRun:
         #: analysis tasks: job key -> (analysis, chunk of its metrics, its chunks); its finished chunks
         self.analysis_jobs: dict[str, tuple[str, int, int]] = {}
         self.analysed: dict[str, dict[int, dict[str, Any]]] = {}
-        #: study key -> the metrics parts written in this run, by participant, while an analysis of
-        #: the study waits (its task reads them from here, not from the files)
+        #: study key -> its metrics parts written in this run by participant, read by its waiting analyses
         self.written: dict[str, dict[int, pd.DataFrame]] = {}
 
     def submit_first(self) -> None:

@@ -19,7 +19,7 @@ import hashlib
 import pickle
 import threading
 from collections import OrderedDict
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -322,3 +322,14 @@ def shares_plan(study: Study, unfinished: int, studies: int, workers: int) -> bo
     and sending every plan to every worker would cost more than it saves.
     """
     return workers > 1 and unfinished >= workers and studies < workers and study.config.world.kind != "ciaa"
+
+
+def participant_tasks_left(folder: Path, studies: Iterable[Study]) -> int:
+    """The participant tasks of ``studies`` that the batch in ``folder`` has still to run: those
+    without a part its record vouches for (:meth:`~nudgecli.runs.part_record.PartRecord.vouches`,
+    as the run's own count of what is left); what a resumed batch's pool is sized by."""
+    from nudgecli.runs.batch_folder import PartRecord, task_part
+
+    record = PartRecord(folder)
+    return sum(not record.vouches(task_part(folder, study.key, i))
+               for study in studies for i in range(study.participants))

@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.config_files import problem_words, resolve_plan
+from nudgecli.cores import pool_workers
 from nudgecli.errors import ConfigError, NudgeError, PolicyError
 from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
@@ -392,8 +393,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     n = config.study.participants if participants is None else participants
     config = with_participants(config, participants)
     check_study_size(config, n, confirm)  # trials and steps, before the folder is touched
-    # config.toml is the resolved experiment: it records the seed used, so simulating it again
-    # (`nudge simulate RUN/config.toml`) gives the same tables
+    # config.toml, the resolved experiment, records the seed: simulating it gives the same tables
     config = config.model_copy(update={"experiment": config.experiment.model_copy(update={"seed": seed})})
     check_physiology_logs(config)
     people = people_of(people)  # a bad people file is refused before the folder is touched
@@ -456,8 +456,8 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
             progress(len(done) * trials_per, n * trials_per)
         if client is not None:
             results = _dask(plan, todo, client)
-        elif workers > 1 and len(todo) > 1:
-            results = _processes(plan, todo, min(workers, len(todo)))
+        elif (pool := pool_workers(workers, len(todo))) > 1:  # no more workers than participants left
+            results = _processes(plan, todo, pool)
         else:
             results = _serial(plan, todo)
         warned = False
