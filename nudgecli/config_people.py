@@ -17,6 +17,11 @@ from nudgecli.config_base import MAX_RATE_HZ, MAX_TIME_LIMIT_S, PositiveFloat, S
 #: The most blocks or prompts per label of a simulated calibration: the study's are 6 and 12; 1e8 filled
 #: memory (the logs are arrays of every sample).
 MAX_CALIBRATION_REPEATS = 1000
+#: The most pressure samples one simulated distortion session (Phase 2) may record: its stream at
+#: ``rate_hz`` over ``4 * prompts_per_label`` prompts of ``prompt_s + blank_s`` each. Each key within
+#: its bound, together they reached 3e10 samples (a simulated sample took about 230 bytes at its
+#: peak: 1.6e6 of them 370 MB); the study's are 3,600, 1000 Hz with its prompts 360,000.
+MAX_CALIBRATION_SAMPLES = 1_000_000
 #: A duration of more than zero, up to :data:`MAX_TIME_LIMIT_S` seconds (finite: inf gave arrays of
 #: negative size, an overflow, or a hold that never ends).
 PositiveSeconds = Annotated[float, Field(gt=0, le=MAX_TIME_LIMIT_S, allow_inf_nan=False)]
@@ -350,3 +355,14 @@ class CalibrationSection(Section):
     event_step: Annotated[float, Field(gt=0, le=0.1)] = Field(
         default=0.0109, description="Pressure quantisation of the event-driven stream (the sibling study's "
         "device stepped in about 0.0109).")
+
+    @model_validator(mode="after")
+    def _check_samples(self) -> CalibrationSection:
+        samples = self.rate_hz * 4 * self.prompts_per_label * (self.prompt_s + self.blank_s)  # 4 labels
+        if samples > MAX_CALIBRATION_SAMPLES:
+            raise ValueError(
+                f"rate_hz x 4 labels x prompts_per_label x (prompt_s + blank_s) = {self.rate_hz:g} x 4 x "
+                f"{self.prompts_per_label} x ({self.prompt_s:g} + {self.blank_s:g}) = {samples:,.0f} "
+                f"samples per calibration session, above the limit of {MAX_CALIBRATION_SAMPLES:,} (the "
+                "study's is 3,600); lower one of them")
+        return self

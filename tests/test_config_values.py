@@ -110,10 +110,13 @@ def test_the_bounds_themselves_are_taken():
     config = load_experiment("smoke", [f"model.goal_reward={MAX_REWARD:g}",
                                        f"model.move_reward={-MAX_REWARD:g}",
                                        f"calibration.rate_hz={MAX_RATE_HZ}",
-                                       f"calibration.prompt_s={MAX_TIME_LIMIT_S}",
                                        f"behaviour.max_hold_s={MAX_TIME_LIMIT_S}",
                                        f"calibration.mapping_blocks={MAX_CALIBRATION_REPEATS}"])
     assert config.model.goal_reward == MAX_REWARD and config.calibration.rate_hz == MAX_RATE_HZ
+    # apart: an hour's prompts at 1000 Hz, 12 per label, are above the calibration's samples limit
+    longest = load_experiment("smoke", [f"calibration.prompt_s={MAX_TIME_LIMIT_S}",
+                                        "calibration.prompts_per_label=1"])
+    assert longest.calibration.prompt_s == MAX_TIME_LIMIT_S
 
 
 @pytest.mark.parametrize("setting", ["behaviour.lean_on_blending=false",
