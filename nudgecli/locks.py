@@ -28,7 +28,7 @@ from nudgecli.store import utc_now, write_error
 _HELD: dict[Path, list[Any]] = {}
 
 
-def _pid_alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
     """Whether a process ``pid`` runs on this host."""
     if pid <= 0:
         return False
@@ -191,11 +191,11 @@ def acquire_lock_file(lock_path: Path, command: str | None, log: Callable[[str],
                 raise LockError(
                     f"{lock_path.parent}: locked by {describe_holder(holder)}, another host, which cannot "
                     f"be checked from here; if no nudge command runs there any more, delete {lock_path}")
-            if locked is None and pid != os.getpid() and _pid_alive(pid):  # pragma: no cover - no flock
+            if locked is None and pid != os.getpid() and pid_alive(pid):  # pragma: no cover - no flock
                 handle.close()
                 raise LockError(f"{lock_path.parent}: in use by {describe_holder(holder)}; wait for it "
                                 "to finish or choose another --out")
-            state = "no longer running" if not _pid_alive(pid) else "no longer holding it"
+            state = "no longer running" if not pid_alive(pid) else "no longer holding it"
             if log is not None:
                 log(f"Warning: {lock_path.parent}: taking over the stale lock of {describe_holder(holder)}, "
                     f"{state}")

@@ -14,20 +14,24 @@ removed first and written last: a folder holding analysis files (or their tempor
 ``stats.json`` holds an analysis cut short (:func:`interrupted_analysis`), which ``nudge plot``
 refuses naming the command that completes it (:func:`check_analysis_complete`). ``nudge plot
 --plan`` analyses again before it draws, and puts the analysis it replaced back when the plot
-then fails (:func:`analysis_restored_on_failure`).
+then fails (:func:`analysis_restored_on_failure`); killed meanwhile, the next analysis of the
+folder puts it back (:func:`recover_kept_analysis`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import filecmp
+import glob
 import json
 import os
+import re
 import shutil
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from nudgecli.errors import RunFolderError, shell_words
-from nudgecli.locks import LOCK
+from nudgecli.locks import LOCK, pid_alive
 from nudgecli.report.tables import TABLE_SUFFIXES
 from nudgecli.run_folder_names import (
     MANIFEST,
@@ -197,10 +201,11 @@ def analysis_restored_on_failure(folder: Path, *, run: bool = False) -> Iterator
     WriteError
         The files cannot be kept (nothing has been changed then).
     """
+    recover_kept_analysis(folder)  # what a killed plot kept first: else this one would keep its mix
     names = [MANIFEST, *ANALYSIS_FILES] if run else list(ANALYSIS_FILES)
     kept: dict[str, Path] = {}
-    try:
-        for name in names:
+    try:  # stats.json first: a kept set without it (killed meanwhile) kept a folder without one
+        for name in sorted(names, key=lambda name: name != STATS_JSON):
             if (folder / name).is_file():
                 kept[name] = _kept_copy(folder / name)
     except OSError as exc:
@@ -210,15 +215,97 @@ def analysis_restored_on_failure(folder: Path, *, run: bool = False) -> Iterator
         yield
     except BaseException:
         with contextlib.suppress(OSError):  # as far as it goes: stats.json stays away from a mix
-            (folder / STATS_JSON).unlink(missing_ok=True)
-            for name in names:  # a link to the file itself (not replaced) stays, removed below
-                if name in kept:
-                    os.replace(kept[name], folder / name)
-                else:
-                    (folder / name).unlink(missing_ok=True)
+            _put_back(folder, names, kept)
         raise
     finally:
         _remove(kept.values())
+
+
+def recover_kept_analysis(folder: Path) -> None:
+    """Put back the analysis a ``nudge plot --plan`` killed in ``folder`` kept
+    (:func:`analysis_restored_on_failure`, whose process is no longer running), as that plot would
+    have on failure, unless the folder holds it still; then remove the kept files. The caller holds
+    the folder's lock; every command that writes an analysis there calls it first.
+
+    The files were kept ``stats.json`` first and changed only once all were kept: a kept set whose
+    every file is the folder's own (and ``stats.json`` kept exactly where the folder has one) is the
+    analysis the folder holds (the plot was killed before it changed anything), and is discarded.
+
+    Raises
+    ------
+    WriteError
+        A file cannot be put back or removed.
+    """
+    for _, kept in sorted(_kept_by_dead_processes(folder).items()):
+        try:
+            if MANIFEST in kept and not _only_plan_recorded(kept[MANIFEST], folder / MANIFEST):
+                kept.pop(MANIFEST).unlink()  # changed since by another command: the folder's own stays
+            if not _kept_is_current(folder, kept):
+                _put_back(folder, [MANIFEST, *ANALYSIS_FILES] if MANIFEST in kept else list(ANALYSIS_FILES),
+                          kept)
+            for path in kept.values():  # a link to the file itself is not replaced: it stays until here
+                path.unlink(missing_ok=True)
+        except OSError as exc:
+            raise write_error(folder, exc) from exc
+
+
+def _kept_by_dead_processes(folder: Path) -> dict[int, dict[str, Path]]:
+    """The files processes no longer running kept in ``folder`` (:func:`_kept_copy`): pid -> {name
+    of the file kept: the kept file}."""
+    found: dict[int, dict[str, Path]] = {}
+    if not folder.is_dir():
+        return found
+    for name in (MANIFEST, *ANALYSIS_FILES):
+        prefix = temporary_prefix(folder / name)
+        for path in folder.glob(f"{glob.escape(prefix)}kept-*.tmp"):
+            pid = re.fullmatch(r"kept-(\d+)\.tmp", path.name[len(prefix):])
+            if pid is not None and int(pid[1]) != os.getpid() and not pid_alive(int(pid[1])):
+                found.setdefault(int(pid[1]), {})[name] = path
+    return found
+
+
+def _only_plan_recorded(kept: Path, current: Path) -> bool:
+    """Whether the run manifest ``current`` is the ``kept`` one or differs from it only by the
+    ``plan`` an analysis records in a manifest without one (``nudge analyze``'s only change to a
+    manifest): then the kept one is put back; a manifest another command changed since is not."""
+    try:
+        old, new = (json.loads(path.read_text(encoding="utf-8")) for path in (kept, current))
+    except (OSError, ValueError):
+        return False
+    if not isinstance(old, dict) or not isinstance(new, dict):
+        return False
+    return old == new or ("plan" not in old and old == {k: v for k, v in new.items() if k != "plan"})
+
+
+def _kept_is_current(folder: Path, kept: dict[str, Path]) -> bool:
+    """Whether the files ``kept`` are the folder's own (the same file, or the same bytes where they
+    were copied) and ``stats.json`` was kept exactly where the folder has one."""
+    if (STATS_JSON in kept) != (folder / STATS_JSON).is_file():
+        return False
+    for name, path in kept.items():
+        current = folder / name
+        if not current.is_file() or not (os.path.samefile(path, current)
+                                         or filecmp.cmp(path, current, shallow=False)):
+            return False
+    return True
+
+
+def _put_back(folder: Path, names: list[str], kept: dict[str, Path]) -> None:
+    """Put the files ``kept`` back in ``folder`` and remove its other ``names``: ``stats.json``
+    removed first and put back last, so that it never stands beside a mix of two analyses. A kept
+    link to the file itself is not replaced (``os.replace`` leaves both names): the caller removes it.
+
+    Raises
+    ------
+    OSError
+        A file cannot be put back or removed (the folder then holds no ``stats.json``).
+    """
+    (folder / STATS_JSON).unlink(missing_ok=True)
+    for name in sorted(names, key=lambda name: name == STATS_JSON):
+        if name in kept:
+            os.replace(kept[name], folder / name)
+        else:
+            (folder / name).unlink(missing_ok=True)
 
 
 def _kept_copy(path: Path) -> Path:
@@ -247,4 +334,4 @@ def _remove(paths: Iterable[Path]) -> None:
 
 __all__ = ["ANALYSIS_FILES", "ANALYSIS_FOLDER_SUFFIX", "analysed_table", "analysis_folder",
            "analysis_restored_on_failure", "check_analysis_complete", "check_folder_is_the_tables",
-           "interrupted_analysis", "left_by_a_killed_analysis", "tables_beside"]
+           "interrupted_analysis", "left_by_a_killed_analysis", "recover_kept_analysis", "tables_beside"]
