@@ -50,4 +50,5 @@ def test_replicate_resume_into_a_power_batch_names_the_kind(tmp_path: Path) -> N
     assert made.exit_code == 0, made.output
     line = refused_untouched((*REPLICATE, "--out", str(batch), "--resume"), batch)
     assert line.startswith(f"Error: {batch}: holds a power batch, not a replicate batch"), line
-    assert "people" not in line, line
+    assert "was simulated with" not in line, line  # not the people check (its command names --people)
+    assert f"resume it with `nudge power {batch / 'experiment.toml'} " in line, line

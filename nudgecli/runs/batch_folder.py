@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from nudgecli.errors import RunFolderError
+from nudgecli.errors import DataError, RunFolderError
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY, compared
 from nudgecli.run_folder_names import BATCH_MANIFEST, FIGURES_DIR, LOCK, PEOPLE_DIR
@@ -53,7 +53,6 @@ from nudgecli.sim.policy_registry import policy_specs
 from nudgecli.store import (
     prepare_mode,
     remove_temporaries,
-    resume_command,
     write_error,
 )
 
@@ -484,15 +483,15 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     copies = None if old is None else old.get(POLICY_FILES_KEY)  # the policy copies the folder records
     inputs = None if old is None else old.get(INPUTS_KEY)
     if old is not None and mode == "resume":
-        if (was := old["batch"].get("kind")) != description.get("kind"):  # first: the rest follows
-            raise RunFolderError(f"{folder}: holds a {was} batch, not a {description.get('kind')} batch; "
-                                 f"resume it with `nudge {was} ... --resume`, or use --force to replace it")
+        from nudgecli.runs.batch_resume import resume_advice  # (it reads this module)
+
+        _refuse_another_kind(folder, old["batch"], description)  # first: the rest follows
         check_kept_inputs(folder, inputs, policies.inputs)  # before the settings: one may be what resumes it
         if differences := batch_differences(old["batch"], description):
             shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                   if len(differences) > 8 else "")
             raise RunFolderError(f"{folder}: holds a different batch ({shown}); resume it with the same "
-                                 f"settings{_resume_advice(folder, old['batch'])}, or use --force")
+                                 f"settings{resume_advice(folder, old['batch'])}, or use --force")
         _check_same_policies(folder, old, policies)
     # before anything is removed: a copy's path holding a file of the person's own stops the batch
     check_copies_placeable(policies.files, folder, copies, "batch")
@@ -521,13 +520,29 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     return "new"
 
 
+def _refuse_another_kind(folder: Path, recorded: Mapping[str, Any], description: Mapping[str, Any]) -> None:
+    """Refuse to resume the batch in ``folder`` (``recorded``: its description) as a batch of another
+    kind than it is, naming the command that resumes it (:mod:`nudgecli.runs.batch_resume`)."""
+    from nudgecli.runs.batch_resume import batch_resume_command
+
+    if (was := recorded.get("kind")) != description.get("kind"):
+        command = batch_resume_command(folder, recorded) or f"nudge {was} ... --resume"
+        raise RunFolderError(f"{folder}: holds a {was} batch, not a {description.get('kind')} batch; "
+                             f"resume it with `{command}`, or use --force to replace it")
+
+
 def _check_same_policies(folder: Path, old: Mapping[str, Any], policies: PolicyCopies) -> None:
     """Refuse to resume the batch in ``folder`` (its ``batch.json``, ``old``) with other policy code
     than it was simulated with: its copies' modules
     (:func:`~nudgecli.sim.policy_files.check_same_policy_files`) and the policies imported from
     elsewhere (:func:`~nudgecli.sim.policy_files.check_same_policy_sources`), as a run's resume."""
-    check_same_policy_files(old.get(POLICY_FILES_KEY), policies.files, policies.source, folder, "batch")
-    check_same_policy_sources(old.get(POLICY_SOURCES_KEY), policies.sources, folder, "batch")
+    from nudgecli.runs.batch_resume import with_resume_command
+
+    try:
+        check_same_policy_files(old.get(POLICY_FILES_KEY), policies.files, policies.source, folder, "batch")
+        check_same_policy_sources(old.get(POLICY_SOURCES_KEY), policies.sources, folder, "batch")
+    except DataError as exc:  # named with the command that resumes the batch once the module is back
+        raise DataError(with_resume_command(str(exc), folder)) from None
 
 
 def _start_files(folder: Path, people: People | None, policies: PolicyCopies) -> dict[str, bytes]:
@@ -539,26 +554,6 @@ def _start_files(folder: Path, people: People | None, policies: PolicyCopies) ->
     if people is not None and people.data:
         files[copy_path(folder, people.record()).relative_to(folder).as_posix()] = people.data
     return files
-
-
-def _resume_advice(folder: Path, recorded: Mapping[str, Any]) -> str:
-    """`` (`nudge sweep FOLDER/sweep.toml --out FOLDER --resume`)``: the command that resumes the sweep
-    in ``folder`` from the sweep file it keeps (:func:`kept_inputs`), with ``--replications`` and
-    ``--seed`` where ``recorded`` (its description) holds others than the file (typed then). Empty
-    for a replicate or power batch, and a sweep of an older nudge (no sweep file kept)."""
-    import tomllib
-
-    kept = kept_inputs(folder).get("sweep_file")
-    if kept is None or recorded.get("kind") != "sweep":
-        return ""
-    try:
-        written = tomllib.loads(kept.read_text(encoding="utf-8"))
-    except (OSError, ValueError):  # unreadable: name both settings
-        written = {}
-    options = [word for key in ("replications", "seed")
-               if key in recorded and recorded[key] != written.get(key)
-               for word in (f"--{key}", str(recorded[key]))]
-    return f" (`{resume_command(['sweep', str(kept)], folder, options)}`)"
 
 
 def _start_again(folder: Path, people: People | None, policies: PolicyCopies) -> bool:

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 from nudgecli import command_defaults as defaults
 from nudgecli.config import ExperimentConfig
 from nudgecli.config_files import resolve_plan
-from nudgecli.errors import ConfigError
+from nudgecli.errors import ConfigError, DataError
 from nudgecli.rng import check_seed
 from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.runs.batch import Batch, BatchRun, Point, run_batch, single_point
@@ -30,6 +30,7 @@ from nudgecli.runs.batch_folder import (
     recorded_people,
     sweep_inputs,
 )
+from nudgecli.runs.batch_resume import with_resume_command
 from nudgecli.runs.study import checked_plan, with_participants
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, people_of
@@ -153,7 +154,10 @@ def _people_fields(people: People | str | Path | None, out: str | Path, resume: 
     chosen = people_of(people)
     described, recorded = recorded_people(Path(out), kind) if resume else (False, None)
     if described:  # a damaged manifest, or a batch of another kind, is the prepare rule's to refuse
-        check_same_people(recorded, chosen, out, Path(out) / BATCH_MANIFEST, f"batch.{PEOPLE_KEY}")
+        try:
+            check_same_people(recorded, chosen, out, Path(out) / BATCH_MANIFEST, f"batch.{PEOPLE_KEY}")
+        except DataError as exc:  # named with the command that resumes the batch with its people
+            raise DataError(with_resume_command(str(exc), Path(out))) from None
     if chosen is None:
         return {}, None
     return {PEOPLE_KEY: chosen.record()}, chosen

@@ -1,0 +1,74 @@
+"""The command that resumes a batch folder, as its refusals name it: one owner of its wording for
+``replicate``, ``power`` and ``sweep`` alike (a refused ``--resume`` names the full command that
+would resume the batch, not ``nudge KIND ... --resume``)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from nudgecli.runs.batch_folder import BATCH_MANIFEST, kept_inputs, read_manifest
+from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
+from nudgecli.sim.people_file import resume_people
+from nudgecli.store import resume_command
+
+
+def batch_resume_command(folder: Path, recorded: Mapping[str, Any]) -> str | None:
+    """The command that resumes the batch in ``folder`` (``recorded``: its ``batch.json``
+    description) from the inputs the folder keeps (:func:`~nudgecli.runs.batch_folder.kept_inputs`),
+    so it works from any folder and imports the batch's own policy copies:
+
+    - a sweep: ``nudge sweep FOLDER/sweep.toml --out FOLDER --resume``, with ``--replications``
+      and ``--seed`` where the description holds others than the sweep file (typed then);
+    - a replicate or power batch: ``nudge replicate FOLDER/experiment.toml --replications R --seed S
+      --participants N --plan FOLDER/plan.toml --out FOLDER --resume`` (power: its counts and
+      ``--target``), with ``--people`` naming the folder's copy of its people file.
+
+    ``None`` for a batch of an older nudge (no inputs kept: its ``--set`` values are lost).
+    """
+    kept, kind = kept_inputs(folder), recorded.get("kind")
+    if kind == "sweep" and "sweep_file" in kept:
+        import tomllib
+
+        try:
+            written = tomllib.loads(kept["sweep_file"].read_text(encoding="utf-8"))
+        except (OSError, ValueError):  # unreadable: name both settings
+            written = {}
+        options = [word for key in ("replications", "seed")
+                   if key in recorded and recorded[key] != written.get(key)
+                   for word in (f"--{key}", str(recorded[key]))]
+        return resume_command(["sweep", str(kept["sweep_file"])], folder, options)
+    if kind not in ("replicate", "power") or "experiment" not in kept:
+        return None
+    points = recorded.get("points")
+    counts = points[0].get("participants", []) if isinstance(points, list) and points and \
+        isinstance(points[0], Mapping) else []
+    options = [word for key in ("replications", "seed") if key in recorded
+               for word in (f"--{key}", str(recorded[key]))]
+    options += ["--participants", ",".join(map(str, counts))] if counts else []
+    options += ["--plan", str(kept["plan"])] if "plan" in kept else []
+    options += ["--target", str(recorded["target"])] if kind == "power" and "target" in recorded else []
+    people = recorded.get(PEOPLE_KEY)
+    named = resume_people(folder, people, str(people.get("file"))) if isinstance(people, dict) else None
+    options += ["--people", named] if named else []
+    return resume_command([str(kind), str(kept["experiment"])], folder, options)
+
+
+def resume_advice(folder: Path, recorded: Mapping[str, Any]) -> str:
+    """`` (`nudge KIND ... --out FOLDER --resume`)``: :func:`batch_resume_command` as a refusal
+    names it after its fix; empty where there is none."""
+    command = batch_resume_command(folder, recorded)
+    return "" if command is None else f" (`{command}`)"
+
+
+def with_resume_command(message: str, folder: Path) -> str:
+    """``message`` (a refusal of another module's, whose fix is to resume once its cause is put
+    right) and ``; the command that resumes the batch: `...```: :func:`batch_resume_command` of the
+    batch ``folder``'s ``batch.json`` describes, where there is one."""
+    old, _ = read_manifest(folder / BATCH_MANIFEST)
+    command = None if old is None else batch_resume_command(folder, old["batch"])
+    return message if command is None else f"{message}; the command that resumes the batch: `{command}`"
+
+
+__all__ = ["batch_resume_command", "resume_advice", "with_resume_command"]
