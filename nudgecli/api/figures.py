@@ -68,7 +68,8 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
     ----------
     analysis
         An :class:`Analysis`, an analysed :class:`Run`, or the path ``nudge plot`` takes (an
-        analysed run folder, an analysed metrics table or its analysis folder).
+        analysed run folder, an analysed metrics table or its analysis folder). An Analysis written
+        away from its run (``analyze(run, out=...)``) draws Fig. 5 and the trajectory from the run.
     figure
         ``fig3``, ``fig4`` (the paper's box plots), ``metrics`` (every other metric), ``fig5``,
         ``trajectory``, ``questionnaires`` (where the data allow them; a path-world run:
@@ -102,7 +103,6 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         draw_path_figures,
         drawn_metrics,
         metric_figure_groups,
-        read_inputs,
     )
     from nudgecli.report.style import figure_style
 
@@ -111,8 +111,8 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
     ax = arguments.axes(ax)
     reference = arguments.text("reference", reference, optional=True)
     folder = _folder_of(analysis)
-    inputs = read_inputs(folder, trial_key)
-    chosen = load_plan(plan_of(folder, analysis.plan if isinstance(analysis, Analysis) else None))
+    inputs, analysed = _inputs_of(analysis, folder, figure, trial_key)
+    chosen = load_plan(plan_of(analysed, analysis.plan if isinstance(analysis, Analysis) else None))
     conditions = figures.resolve_conditions(inputs.metrics, inputs.stats)
     _check_choices(folder, inputs, conditions, trial_key, reference)
     metrics = drawn_metrics(inputs)
@@ -139,6 +139,76 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         raise ConfigError(f"figure {figure!r}: this source's data do not give it; choose one of "
                           f"{', '.join(drawn)}")
     return drawn[figure]
+
+
+def _inputs_of(analysis: Analysis | Run | str | Path, folder: Path, figure: str,
+               trial: tuple[int, int] | None) -> tuple[Any, Path]:
+    """The figure inputs of ``analysis`` (its ``folder``), and the folder whose plan it uses: the
+    run of an Analysis written away from it, whose trials and steps are read; else ``folder``."""
+    from nudgecli.report.plotting import TRIAL_FIGURES, read_inputs
+
+    run = _run_analysed_elsewhere(analysis)
+    if run is not None:
+        return _with_run_trials(folder, run, trial), run
+    inputs = read_inputs(folder, trial)
+    if inputs.steps is None and inputs.steps_missing is None and \
+            (figure in TRIAL_FIGURES or trial is not None):  # no run's steps: is it a run's analysis?
+        _check_not_a_runs_analysis_elsewhere(folder, figure)
+    return inputs, folder
+
+
+def _run_analysed_elsewhere(analysis: Analysis | Run | str | Path) -> Path | None:
+    """The run folder of an :class:`Analysis` written away from it (``analyze(run, out=...)``),
+    whose trials and step logs Fig. 5 and the trajectory are drawn from; ``None`` otherwise."""
+    from nudgecli.store import is_run_folder
+
+    if not isinstance(analysis, Analysis) or not analysis.source.is_dir() or \
+            not is_run_folder(analysis.source) or analysis.source.resolve() == analysis.path.resolve():
+        return None
+    return analysis.source
+
+
+def _with_run_trials(folder: Path, run: Path, trial: tuple[int, int] | None) -> Any:
+    """The figure inputs of the analysis in ``folder`` with the trials, layouts and steps of the
+    ``run`` it analysed (:func:`~nudgecli.report.run_figure_inputs.run_fields`), as ``nudge plot
+    RUN`` reads them; a live study grown since its analysis is refused as there."""
+    import dataclasses
+
+    from nudgecli.report.plotting import read_inputs
+    from nudgecli.report.run_figure_inputs import run_fields
+    from nudgecli.report.stats_verify import check_live_analysis_current
+    from nudgecli.run_folder_names import STATS_JSON
+    from nudgecli.store import RunFolder
+
+    inputs = read_inputs(folder, trial)
+    check_live_analysis_current(inputs.stats, RunFolder(run), str(folder / STATS_JSON))
+    return dataclasses.replace(inputs, **run_fields(RunFolder(run), trial))
+
+
+def _check_not_a_runs_analysis_elsewhere(folder: Path, figure: str) -> None:
+    """Refuse a trial's figure of the folder of a run's analysis written away from the run: the
+    folder holds the metrics, not the run's step logs, and names no run to read them from.
+
+    Raises
+    ------
+    ConfigError
+        One line saying how to draw it (the :class:`Analysis` ``analyze`` returned, or the run).
+    """
+    from nudgecli.report.plotting import TRIAL_FIGURES, read_stats
+    from nudgecli.run_folder_names import METRICS_CSV, STATS_JSON
+
+    stats_path = folder / STATS_JSON
+    if not folder.is_dir() or not stats_path.is_file():
+        return
+    stats = read_stats(stats_path)
+    if stats.get("metrics_table") != METRICS_CSV or "table_read" in stats:
+        return  # a metrics table's analysis: plot's own message says it holds no trial's steps
+    shown = figure if figure in TRIAL_FIGURES else "fig5"
+    raise ConfigError(f"figure {shown!r}: {folder} holds an analysis written away from its run (out=), "
+                      "without the run's step logs, and names no run to read them from; draw it from "
+                      f"the Analysis that analyze returned (nudgecli.plot(analysis, {shown!r})), or from "
+                      f"the run analysed in its own folder (nudgecli.analyze(RUN), then "
+                      f"nudgecli.plot(RUN, {shown!r}))")
 
 
 def _check_figure(folder: Path, figure: str, trial: object, available: Sequence[str],
