@@ -515,6 +515,8 @@ def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = 
         raise ConfigError(format_validation_error(exc, str(path), ExperimentConfig, data)) from None
     data = dependents_off_with_their_switch(_gap_off_with_its_gate(data, overrides), overrides)
     config = validate_overridden(ExperimentConfig, data, overrides)
+    logs_set = [text for text in overrides if parse_override(text)[0] == ["population", "physiology_logs"]]
+    config.population.logs_written_in(f"--set {logs_set[-1]}" if logs_set else str(path))  # for its refusal
     if config.policies:  # a researcher's policy modules are imported from beside the experiment file
         config = config.model_copy(update={"policy_search_path": str(path.resolve().parent)})
     return config

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field, field_validator, model_validator
+from pydantic import Field, PrivateAttr, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from nudgecli.config_base import MAX_RATE_HZ, MAX_TIME_LIMIT_S, PositiveFloat, Seconds, Section, check_range
@@ -220,6 +220,19 @@ class PopulationSection(Section):
         description="Calibration folders with a p(phi_m | phi_i) session (study export or tidy format): "
         "participant k takes the pressure physiology recorded in the k-th, the others are drawn; "
         "habits are always drawn. Relative paths are relative to the working directory.")
+
+    #: where ``physiology_logs`` was written: the experiment file, or the ``--set`` that gave it
+    #: (:meth:`logs_written_in`), for the line that refuses a folder that is not there; not a key
+    _logs_source: str | None = PrivateAttr(default=None)
+
+    def logs_written_in(self, source: str) -> None:
+        """Record where ``physiology_logs`` was written (``experiments/x.toml``, ``--set KEY=VALUE``):
+        :func:`nudgecli.config.load_experiment` does, once it has validated the experiment."""
+        self._logs_source = source
+
+    def logs_source(self) -> str | None:
+        """Where ``physiology_logs`` was written (:meth:`logs_written_in`); ``None`` if unknown."""
+        return self._logs_source
 
     @field_validator("physiology_logs", mode="before")
     @classmethod

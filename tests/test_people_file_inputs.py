@@ -72,7 +72,7 @@ def test_physiology_logs_say_they_take_a_list_of_folders(tmp_path: Path, given: 
     line = stderr_error_line(result)
     assert "folders of calibration logs" in line, line
     assert {"string": "should be a list of folders", "file": "a file, not a folder",
-            "missing": "no such folder"}[given] in line, line
+            "missing": "which does not exist"}[given] in line, line
     assert "e.g. [0.5, 1.0]" not in line and not (tmp_path / "out").exists()
 
 

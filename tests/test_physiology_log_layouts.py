@@ -12,7 +12,7 @@ def test_a_missing_physiology_log_folder_names_every_layout_read(tmp_path: Path)
     result = nudge("simulate", "smoke", "--set", f'population.physiology_logs=["{tmp_path / "nope"}"]',
                    "--out", tmp_path / "out")
     line = one_error_line(result.output)
-    assert result.exit_code == 1 and "population.physiology_logs[0]" in line and "no such folder" in line
+    assert result.exit_code == 1 and "population.physiology_logs[0]" in line and "does not exist" in line
     for layout in ("p_phm_given_phi/_command_prompt.csv + _joy_sip_puff.csv", "<id>_p_um_given_ui/",
                    "distortion_prompts.csv + distortion_stream.csv", "calibration/participant-NNNN"):
         assert layout in line, line

@@ -235,7 +235,8 @@ def test_a_study_can_use_a_real_persons_physiology(tmp_path):
 def test_a_missing_physiology_log_fails_before_the_run(tmp_path):
     result = CliRunner().invoke(main, ["simulate", "smoke", "--set", "population.physiology_logs=['nowhere']",
                                        "--out", str(tmp_path / "never")])
-    assert result.exit_code == 1 and result.output.startswith("Error: population.physiology_logs[0]")
+    assert result.exit_code == 1 and result.output.startswith(
+        "Error: --set population.physiology_logs=['nowhere']: population.physiology_logs[0]")
     assert not (tmp_path / "never").exists()
 
 

@@ -316,9 +316,13 @@ def check_physiology_logs(config: ExperimentConfig) -> None:
         if not Path(folder).is_dir():
             from nudgecli.sim.calibration_readers import DISTORTION_LAYOUTS  # pandas: with a recording only
 
-            what = "a file, not a folder" if Path(folder).exists() else "no such folder"
-            raise ConfigError(f"population.physiology_logs[{position}] = {folder!r}: {what}; the list takes "
-                              f"folders of calibration logs, each a participant's, with {DISTORTION_LAYOUTS}")
+            what = f"{folder!r}, a file, not a folder" if Path(folder).exists() else \
+                f"folder {folder!r}, which does not exist"
+            where = config.population.logs_source()  # the experiment file or the --set that named it
+            raise ConfigError(f"{where + ': ' if where else ''}population.physiology_logs[{position}] names "
+                              f"{what} (a relative path is read from the working directory); the list "
+                              "takes folders of calibration logs, each a participant's, with "
+                              f"{DISTORTION_LAYOUTS}")
         participant_from_log(folder, index=position, population=config.population)
 
 
