@@ -1,19 +1,23 @@
 """A refused ``nudge replicate ... --resume`` or ``nudge power ... --resume`` names the full command
 that resumes the batch (from the experiment, plan and people file its folder keeps), as a sweep's
-refusals do: another setting or ``--target``, another batch kind, other people. It once said only
+refusals do: another setting or ``--target``, another batch kind, other people, a changed policy
+module. It once said only
 ``resume it with the same settings`` (or ``nudge power ... --resume``). The command named is one that
 the folder accepts."""
 
 from __future__ import annotations
 
 import shlex
+import textwrap
 from pathlib import Path
 from typing import Any
 
 import pytest
 from cli_helpers import nudge, one_error_line
 from people_helpers import PEOPLE_BYTES
+from policy_helpers import QUIET_POLICY, policy_experiment
 
+from nudgecli.config_files import resolve_preset
 from nudgecli.runs import batch as batch_module
 
 REPLICATE = ("replicate", "smoke", "-R", "2", "--participants", "2", "--seed", "5")
@@ -93,3 +97,23 @@ def test_other_people_name_the_command_with_the_kept_copy(tmp_path: Path) -> Non
     words = named_command(line)
     assert "--people " + str(batch / "people" / "p.csv") in shlex.join(words), words
     accepted(words)
+
+
+@pytest.mark.usefixtures("no_executor")
+def test_a_changed_policy_module_names_the_command(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    library = tmp_path / "lib"
+    library.mkdir()
+    module = library / "syspol_fixa_resume.py"
+    module.write_text(textwrap.dedent(QUIET_POLICY.replace("class Quiet:", "class Mine:")))
+    monkeypatch.syspath_prepend(str(library))
+    experiment = policy_experiment(tmp_path / "exp", {"mine": "syspol_fixa_resume:Mine"}, participants=2)
+    plan = tmp_path / "plan.toml"  # the shipped custom-policy plan, of these conditions
+    plan.write_text(resolve_preset("custom-policy", "analysis").read_text(encoding="utf-8").replace(
+        'conditions = ["disambiguation", "blending", "threshold"]', 'conditions = ["control", "mine"]'))
+    batch = started(tmp_path / "B", "replicate", str(experiment), "-R", "1", "--plan", str(plan))
+    module.write_text(module.read_text() + "\n# edited\n")
+    line = one_error_line(nudge("replicate", experiment, "-R", "1", "--plan", plan, "--out", batch,
+                                "--resume").output)
+    assert str(module) in line and "mix two policies" in line, line
+    words = named_command(line)
+    assert words[:2] == ["replicate", str(batch / "experiment.toml")], words
