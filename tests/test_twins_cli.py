@@ -21,8 +21,8 @@ from cli_helpers import one_error_line
 from click.testing import CliRunner
 
 from nudgecli.cli import main
-from nudgecli.config import load_experiment
-from nudgecli.report.twin_sources import twins_of_sources
+from nudgecli.config import InterfaceSection, load_experiment
+from nudgecli.report.twin_sources import source_interface, twins_of_sources
 from nudgecli.runs.study import run_study
 from nudgecli.sim.people_file import read_people
 from nudgecli.sim.twins import TWIN_PARAMETERS
@@ -53,11 +53,16 @@ def test_twins_of_a_run_folder_and_of_its_habits_table_are_the_same(run_folder: 
     assert result.exit_code == 0, result.output
     people = read_people(tmp_path / "p.csv").twins
     assert len(people) == 4 and [t.source for t in people] == ["run", "run", "habits.csv", "habits.csv"]
-    # the table is the run's habits as printed: the same parameters, to the table's digits
+    # the table is the run's habits as printed: the same parameters, to the table's digits, but for
+    # the reactions, which a run (or a log) gives event by event (the pauses that hide short ones
+    # counted: twin_fit.reaction_observations) and a table as medians
     for measured, tabled in zip(people[:2], people[2:], strict=True):
         assert measured.parameters.keys() == tabled.parameters.keys()
         for name, value in measured.parameters.items():
-            assert tabled.parameters[name] == pytest.approx(value, abs=1e-5), name
+            if name != "event_reaction_s":
+                assert tabled.parameters[name] == pytest.approx(value, abs=1e-5), name
+        assert tabled.parameters["event_reaction_s"] == pytest.approx(measured.parameters["event_reaction_s"],
+                                                                      abs=0.2)
     assert list(people[:2]) == twins_of_sources([run_folder])
     assert result.stdout.splitlines()[3].startswith("person 3: habits.csv participant 1: ")
 
@@ -250,3 +255,19 @@ def test_the_resume_command_names_the_people_file() -> None:
     assert simulate_resume_command("paper", "out dir", people="my people.csv") == \
         "nudge simulate paper --out 'out dir' --people 'my people.csv' --resume"
     assert "--people" not in simulate_resume_command("paper", "out")
+
+
+def test_the_fit_takes_its_offsets_with_the_source_runs_own_thresholds(run_folder: Path,
+                                                                      tmp_path: Path) -> None:
+    """A run made with other thresholds: its pulses reach the hard band at other samples, so the
+    fit's offsets are taken with its ``[interface]``, not the defaults it assumed before."""
+    copy = tmp_path / "run"
+    shutil.copytree(run_folder, copy)
+    manifest = json.loads((copy / "manifest.json").read_text())
+    manifest["config"]["interface"].update(soft_threshold=0.25, hard_threshold=0.7)
+    (copy / "manifest.json").write_text(json.dumps(manifest))
+    interface, _ = source_interface(copy)
+    assert (interface.soft_threshold, interface.hard_threshold) == (0.25, 0.7)
+    assert source_interface(run_folder)[0].hard_threshold == InterfaceSection().hard_threshold
+    own, assumed = twins_of_sources([copy])[0], twins_of_sources([run_folder])[0]
+    assert own.parameters["hard_peak_s"] != assumed.parameters["hard_peak_s"]  # the same habits

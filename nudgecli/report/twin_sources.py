@@ -14,19 +14,30 @@ naming the file, the participant and the field.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import math
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
-from nudgecli.config import PopulationSection
+from nudgecli.config import BehaviourSection, InterfaceSection, PopulationSection
 from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.csv_text import not_utf8_message, starts_as_json
 from nudgecli.errors import DataError, did_you_mean
-from nudgecli.report.habit_cells import source_has_waypoints
-from nudgecli.report.habits import HABIT_KEYS, HABITS, measure_habits, source_cells, summarise_habits
-from nudgecli.sim.twin_fit import HabitFigures, Mechanics, fit_twin_with_notes
+from nudgecli.report.habit_cells import NEUTRAL, run_experiment, source_has_waypoints
+from nudgecli.report.habits import (
+    HABIT_KEYS,
+    HABITS,
+    _cell_arrays,
+    _reaction_events,
+    measure_habits,
+    source_cells,
+    summarise_habits,
+)
+from nudgecli.sim.twin_fit import PARAMETER_HABITS, HabitFigures, Mechanics, fit_twin_with_notes
 from nudgecli.sim.twins import Twin
+from nudgecli.store import RunFolder, is_run_folder
 
 #: Participant label -> habit -> figures, participants in the source's order.
 SourceHabits = dict[str, dict[str, HabitFigures]]
@@ -62,6 +73,42 @@ def _figures_of(people: pd.DataFrame) -> SourceHabits:
     return found
 
 
+#: ``(participant, reaction habit)`` -> each event's ``(value, blow_after, release)``, s.
+Releases = dict[tuple[str, str], list[tuple[float, float, float]]]
+
+
+def reaction_releases(cells: pd.DataFrame, rate_hz: float) -> Releases:
+    """``(participant, reaction habit)`` -> each event in ``nudge habits``' order, ``(value,
+    blow_after, release)``, s: the event as it measures it; from the event's start (the stop; the
+    step after the switch, when it is seen) to the first non-neutral cell after the first neutral
+    one (the next blow, after the hold-on or the pulse); and that release (its neutral cells).
+    ``(value, value, 0)`` where no release comes before the event ends (the twin fit's reactions:
+    :func:`~nudgecli.sim.twin_fit.reaction_observations`)."""
+    c = _cell_arrays(cells, rate_hz)
+    neutral = c.kind == NEUTRAL
+    index = np.arange(c.n)
+
+    def next_at_or_after(mask: np.ndarray) -> np.ndarray:
+        return np.minimum.accumulate(np.where(mask, index, c.n)[::-1])[::-1]
+
+    next_neutral, next_input = next_at_or_after(neutral), next_at_or_after(~neutral)
+    found: Releases = {}
+    for habit, where, values in _reaction_events(c):
+        if habit not in PARAMETER_HABITS["event_reaction_s"]:
+            continue
+        ends = where + np.round(np.asarray(values, float) / c.dt).astype(int)  # the switch; the motion
+        starts = where if habit == "reaction_stop_to_switch" else where + 1
+        for cell, start, end, value in zip(where.tolist(), starts.tolist(), ends.tolist(), values.tolist(),
+                                           strict=True):
+            released = int(next_neutral[start])  # (start < end <= the cell count: a later cell ends it)
+            event = (value, value, 0.0)
+            if released < end:  # the next blow is at or before the event's end, in its trial
+                blow = int(next_input[released])
+                event = (value, round((blow - start) * c.dt, 6), round((blow - released) * c.dt, 6))
+            found.setdefault((str(c.participant[cell]), habit), []).append(event)
+    return found
+
+
 def measured_source(path: Path) -> SourceHabits:
     """A run folder's or a real log's participants' habits, measured as ``nudge habits`` does.
 
@@ -80,6 +127,10 @@ def measured_source(path: Path) -> SourceHabits:
         if participant not in found:
             raise DataError(f"{path}: participant {participant!r}: no trial with input to measure (every "
                             "cell neutral); a twin needs their habits")
+    for (participant, habit), events in reaction_releases(cells, rate).items():
+        values, blow_after, releases = zip(*events, strict=True)
+        found[participant][habit] = dataclasses.replace(found[participant][habit], values=values,
+                                                        blow_after=blow_after, releases=releases)
     return {participant: found[participant] for participant in participants}
 
 
@@ -199,11 +250,24 @@ def source_habits(source: str | Path) -> SourceHabits:
     return measured_source(path)
 
 
+def source_interface(source: str | Path) -> tuple[InterfaceSection, BehaviourSection]:
+    """The ``[interface]`` (its thresholds) and ``[behaviour]`` (its pauses) the source's people
+    acted under, which the fit's offsets are taken with (:class:`~nudgecli.sim.twin_fit.Mechanics`):
+    a run folder's own, as its manifest records them; the defaults for a real log or a habits
+    table, which hold none (a log's labels are the interface's own, thresholds unsaid)."""
+    path = Path(source)
+    if path.is_dir() and is_run_folder(path):
+        config = run_experiment(RunFolder(path))
+        return config.interface, config.behaviour
+    return InterfaceSection(), BehaviourSection()
+
+
 def twins_of_sources(sources: list[str | Path], population: PopulationSection | None = None) -> list[Twin]:
     """One twin per participant of each source, in order (:func:`~nudgecli.sim.twins.fit_twin`).
 
     ``population``: the ``[population]`` a twin's physiology is drawn from, which the fit's offsets
-    are taken over (:class:`~nudgecli.sim.twin_fit.Mechanics`; the defaults when None).
+    are taken over (:class:`~nudgecli.sim.twin_fit.Mechanics`; the defaults when None), with the
+    thresholds and pauses of each source's own interface (:func:`source_interface`).
 
     Raises
     ------
@@ -219,13 +283,19 @@ def twins_of_sources(sources: list[str | Path], population: PopulationSection | 
             raise DataError(f"fit-people: {source} is given twice (as {seen[where]} too): its people would "
                             "be in the people file twice; give each source once")
         seen[where] = source
-    mechanics = Mechanics(population or PopulationSection())
+    population = population or PopulationSection()
+    mechanics: dict[tuple[float, ...], Mechanics] = {}  # per source's interface: a few hundred draws each
     twins = []
     for source in sources:
         name = Path(source).name
         found = source_habits(source)
         waypoints = source_has_waypoints(source)  # a grid-world run's stops are not the fit's
+        interface, behaviour = source_interface(source)
+        thresholds = (interface.zero_threshold, interface.soft_threshold, interface.hard_threshold)
+        key = (*thresholds, behaviour.pause_jitter)
+        if key not in mechanics:
+            mechanics[key] = Mechanics(population, behaviour, thresholds=thresholds)
         for participant, habits in found.items():
-            parameters, notes = fit_twin_with_notes(habits, mechanics=mechanics, waypoints=waypoints)
+            parameters, notes = fit_twin_with_notes(habits, mechanics=mechanics[key], waypoints=waypoints)
             twins.append(Twin(participant=participant, source=name, parameters=parameters, notes=notes))
     return twins

@@ -20,11 +20,18 @@ rules, one per parameter:
   ramp is no pulse (soft blows with a stray Hard cell count as hard blows, and for a person whose
   soft level is near the threshold they are most of them): their lower quartile is read. A fit
   outside ``[population]``'s offset ramps is clamped to them, and the note says so;
-- ``event_reaction_s``: the mean over the two reactions (a stop at a waypoint -> the next switch,
-  a switch -> the robot moves again) of the median less its offset
-  (:meth:`Mechanics.reaction_offsets`: the pulse's onset samples below the hard band before the
-  switch; the step after the switch and the soft blow's samples before it reads input); both are
-  needed (a log without its layout has no stop -> switch);
+- ``event_reaction_s``: from both reactions (a stop at a waypoint -> the next switch, a switch ->
+  the robot moves again; both needed: a log without its layout has no stop -> switch). From a log
+  or a run folder, event by event (:func:`reaction_observations`): a reaction ends at the first
+  blow after a release, which starts when the reaction ends or after the person's own pause,
+  whichever is later, so a release longer than the population's longest pause gives the reaction,
+  and a shorter one only bounds it (a censored observation); an event with no release is no
+  reaction; the median is the censored log-normal likelihood's (:func:`censored_lognormal`). From
+  a habits table (medians only), or with fewer than :data:`MIN_EVENTS_FOR_QUARTILES` reactions
+  read whole: the mean over the two of the median (of the events with a release, where they are
+  given) less its offset (:meth:`Mechanics.reaction_offsets`: the pulse's onset samples below
+  the hard band before the switch; the step after the switch and the soft blow's samples before
+  it reads input), which reads short reactions hidden by a pause as the pause (slow);
 - ``event_reaction_log_sd``: switch -> motion's quartiles, less its offset, read as a
   log-normal's: ``ln(q75 / q25) / (2 z_0.75)``; it needs :data:`MIN_EVENTS_FOR_QUARTILES` events
   and a lower quartile at least a cell above the offset (quicker events are no reactions). Stop ->
@@ -55,8 +62,10 @@ from dataclasses import dataclass, field
 from statistics import NormalDist
 
 import numpy as np
+from scipy.optimize import minimize
+from scipy.stats import norm
 
-from nudgecli.config import PopulationSection
+from nudgecli.config import BehaviourSection, PopulationSection
 from nudgecli.config_people import POPULATION_RANGES
 from nudgecli.model.interface import (
     HARD_PUFF,
@@ -115,12 +124,20 @@ class HabitFigures:
         Events measured.
     median, q25, q75
         Seconds (``q25``/``q75`` NaN where not given).
+    values, blow_after, releases
+        A reaction's events one by one, s (a log or a run; a habits table gives none): each as
+        measured, from its start (the stop; the step after the switch, when it is seen) to the
+        first blow after a release, and that release (neutral cells before the blow; 0 where the
+        event ends before any release).
     """
 
     n: int
     median: float
     q25: float = math.nan
     q75: float = math.nan
+    values: tuple[float, ...] = ()
+    blow_after: tuple[float, ...] = ()
+    releases: tuple[float, ...] = ()
 
 
 def stops_per_trial(waypoints: int = 5) -> int:
@@ -178,14 +195,18 @@ class Mechanics:
     population
         The ``[population]`` a twin's physiology is drawn from.
     thresholds
-        ``(zero, soft, hard)`` of the driver (``[interface]``'s defaults): it switches the mode at a
+        ``(zero, soft, hard)`` of the driver the source's people used (a run folder's own
+        ``[interface]``: ``twins_of_sources``; its defaults by default): it switches the mode at a
         pulse's first sample above ``hard`` (``sim/protocol.py``), and a sample below ``zero`` is no
         input.
+    behaviour
+        The ``[behaviour]`` a twin acts under (its ``pause_jitter``: :meth:`longest_pause_s`).
     cell_s
         The habits' cell length (one simulation step), s.
     """
 
     population: PopulationSection = field(default_factory=PopulationSection)
+    behaviour: BehaviourSection = field(default_factory=BehaviourSection)
     thresholds: tuple[float, float, float] = (ZERO_THRESHOLD, SOFT_THRESHOLD_EARLY, HARD_THRESHOLD_EARLY)
     cell_s: float = CELL_S
     draws: _Draws = field(init=False, repr=False, compare=False)
@@ -220,6 +241,21 @@ class Mechanics:
             first[rows] = np.where(above.any(axis=1), np.argmax(above, axis=1), n)
             inside[rows] = above.sum(axis=1)
         return length, first, inside
+
+    def longest_pause_s(self) -> float:
+        """The longest release a person gives between two blows when nothing is left of a reaction,
+        s: ``[population]``'s longest ``action_pause_s`` at its most jittered (``_decide``: the
+        release is ``max(1, round(action_pause_s * jitter / dt))`` samples, or until the reaction
+        ends if that is later). A longer release ends where the reaction does."""
+        longest = self.population.action_pause_s[1] * (1.0 + self.behaviour.pause_jitter)
+        return max(1, round(longest / self.cell_s)) * self.cell_s
+
+    def blow_offsets(self) -> dict[str, float]:
+        """Reaction habit -> how long after the reaction its next blow reads input, s, on average:
+        after a stop it is a switch pulse, whose first sample reads input; after a switch a soft
+        blow, whose first samples may read none (:meth:`reaction_offsets`)."""
+        return {"reaction_stop_to_switch": 0.0,
+                "reaction_switch_to_motion": float(np.mean(self.draws.motion_wait)) * self.cell_s}
 
     def reaction_offsets(self, peak: int, offset: int) -> dict[str, float]:
         """Reaction habit -> how long after the reaction it is measured, s, on average over the draws:
@@ -261,6 +297,66 @@ def _reaction_spread(figures: HabitFigures, offset_s: float, cell_s: float) -> t
     return math.log(hi / lo) / (2.0 * Z_QUARTILE), ""
 
 
+def released_median(figures: HabitFigures) -> float:
+    """A reaction's median over the events that end in a release, s (the figures' median where they
+    give no events one by one: a habits table). The simulator ends every reaction with a release
+    (``_decide``, ``sim/behaviour.py``: a new blow starts after at least one sample of no input);
+    an event with none is no reaction: a soft blow that strays into the hard band switches the mode
+    as the robot stops (a "stop -> switch" of 0-0.1 s, the pilot run's person 2's quarter)."""
+    released = [value for value, release in zip(figures.values, figures.releases, strict=True) if release > 0]
+    return float(np.median(released)) if released else figures.median
+
+
+def reaction_observations(habits: Mapping[str, HabitFigures],
+                          mechanics: Mechanics) -> tuple[np.ndarray, np.ndarray]:
+    """Both reactions' events as reactions, ``(exact, bounds)``, s, as the simulator makes them
+    (``_saw_event``, ``_decide``, ``sim/behaviour.py``): the next blow starts when the reaction
+    ends or after the person's release, whichever is later. So a release longer than
+    :meth:`Mechanics.longest_pause_s` ends with the reaction (exact: the time to that blow, less
+    :meth:`Mechanics.blow_offsets`); a shorter one may be the person's own pause, which hides a
+    shorter reaction: the reaction is at most the time to the release's start plus the longest
+    pause and half a step (left-censored; a reaction is kept in whole steps). The reaction ends at
+    the first blow after it, whatever that blow is (the switch may come after a blow that went
+    nowhere and a stall, which start another reaction). An event that ends before any release is
+    no reaction (:func:`released_median`)."""
+    longest, offsets = mechanics.longest_pause_s(), mechanics.blow_offsets()
+    exact: list[float] = []
+    bounds: list[float] = []
+    for habit in PARAMETER_HABITS["event_reaction_s"]:
+        figures = habits[habit]
+        for after, release in zip(figures.blow_after, figures.releases, strict=True):
+            if release <= 0:
+                continue
+            if release > longest + 1e-9:
+                exact.append(after - offsets[habit])
+            else:
+                # the reaction is drawn in seconds and kept in whole steps (``round(r / dt)``): a
+                # reaction of at most k steps is one of at most k + 1/2
+                bounds.append(after - release + longest + mechanics.cell_s / 2)
+    return np.array(exact), np.array(bounds)
+
+
+def censored_lognormal(exact: np.ndarray, bounds: np.ndarray, log_sd_range: tuple[float, float],
+                       floor: float) -> tuple[float, float]:
+    """``(median, log_sd)`` of the log-normal most likely to give the ``exact`` values and values
+    at most ``bounds`` (left-censored), its log-sd within ``log_sd_range`` (a person whose reactions
+    are nearly all hidden shows too little of them to tell a spread from a median); values below
+    ``floor`` read as ``floor``."""
+    logs = np.log(np.maximum(exact, floor))
+    log_bounds = np.log(np.maximum(bounds, floor))
+
+    def minus_log_likelihood(point: np.ndarray) -> float:
+        mu, sd = float(point[0]), math.exp(float(point[1]))
+        z = (logs - mu) / sd
+        hidden = norm.logcdf((log_bounds - mu) / sd)
+        return float(np.sum(0.5 * z * z) + len(logs) * math.log(sd) - np.sum(hidden))
+
+    lo, hi = (math.log(bound) for bound in log_sd_range)
+    start = np.array([float(np.median(logs)), (lo + hi) / 2])
+    best = minimize(minus_log_likelihood, start, method="L-BFGS-B", bounds=[(-5.0, 5.0), (lo, hi)])
+    return math.exp(float(best.x[0])), math.exp(float(best.x[1]))
+
+
 def _fit_reactions(habits: Mapping[str, HabitFigures], mechanics: Mechanics,
                    fitted: Mapping[str, float | None], notes: Notes) -> tuple[float | None, float | None]:
     """``(event_reaction_s, event_reaction_log_sd)``: the reactions' medians less their offsets
@@ -281,7 +377,11 @@ def _fit_reactions(habits: Mapping[str, HabitFigures], mechanics: Mechanics,
     if missing:
         notes["event_reaction_s"] = f"no {missing[0]} in the source (the rule is both reactions' mean)"
         return None, log_sd
-    medians = [habits[habit].median - offsets[habit] for habit in PARAMETER_HABITS["event_reaction_s"]]
+    exact, bounds = reaction_observations(habits, mechanics)
+    if len(exact) >= MIN_EVENTS_FOR_QUARTILES:  # events one by one: the censored likelihood's median
+        return censored_lognormal(exact, bounds, population.event_reaction_log_sd, cell_s / 2)[0], log_sd
+    medians = [released_median(habits[habit]) - offsets[habit]
+               for habit in PARAMETER_HABITS["event_reaction_s"]]
     return sum(medians) / len(medians), log_sd
 
 
