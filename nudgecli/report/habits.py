@@ -169,7 +169,7 @@ class _CellArrays:
         return len(self.kind)
 
 
-def _cell_arrays(cells: pd.DataFrame, rate_hz: float) -> _CellArrays:
+def cell_arrays(cells: pd.DataFrame, rate_hz: float) -> _CellArrays:
     """The arrays the measuring steps read, from a cell table
     (:data:`~nudgecli.report.habit_cells.CELL_COLUMNS`)."""
     n = len(cells)
@@ -232,7 +232,7 @@ def _blow_events(c: _CellArrays, gap_cells: int) -> _Events:
     return events + deadband_events(kind, c.new_trial, starts[~hard_blow], ends[~hard_blow], dt)
 
 
-def _reaction_events(c: _CellArrays) -> _Events:
+def reaction_events(c: _CellArrays) -> _Events:
     """Reactions: a stop at a waypoint -> the next switch, and a switch -> the robot moving again."""
     dt, n, trial_id = c.dt, c.n, c.trial_id
     # reactions: motion runs, switches
@@ -289,8 +289,8 @@ def measure_habits(cells: pd.DataFrame, rate_hz: float = HABIT_RATE_HZ,
         :data:`EVENT_COLUMNS`: one row per event, values in seconds (a share habit: 1.0 or 0.0 per
         pause), rounded to the microsecond.
     """
-    c = _cell_arrays(cells, rate_hz)
-    events = _blow_events(c, gap_cells_of(rate_hz, merge_gap_s)) + _reaction_events(c) + \
+    c = cell_arrays(cells, rate_hz)
+    events = _blow_events(c, gap_cells_of(rate_hz, merge_gap_s)) + reaction_events(c) + \
         _undone_switch_events(c)
     frames = [pd.DataFrame({"participant": c.participant[where], "trial": c.trial[where], "habit": habit,
                             "value": np.round(np.asarray(values, float), 6)})

@@ -29,9 +29,9 @@ from nudgecli.report.habit_cells import NEUTRAL, run_experiment, source_has_wayp
 from nudgecli.report.habits import (
     HABIT_KEYS,
     HABITS,
-    _cell_arrays,
-    _reaction_events,
+    cell_arrays,
     measure_habits,
+    reaction_events,
     source_cells,
     summarise_habits,
 )
@@ -84,7 +84,7 @@ def reaction_releases(cells: pd.DataFrame, rate_hz: float) -> Releases:
     one (the next blow, after the hold-on or the pulse); and that release (its neutral cells).
     ``(value, value, 0)`` where no release comes before the event ends (the twin fit's reactions:
     :func:`~nudgecli.sim.twin_fit.reaction_observations`)."""
-    c = _cell_arrays(cells, rate_hz)
+    c = cell_arrays(cells, rate_hz)
     neutral = c.kind == NEUTRAL
     index = np.arange(c.n)
 
@@ -93,7 +93,7 @@ def reaction_releases(cells: pd.DataFrame, rate_hz: float) -> Releases:
 
     next_neutral, next_input = next_at_or_after(neutral), next_at_or_after(~neutral)
     found: Releases = {}
-    for habit, where, values in _reaction_events(c):
+    for habit, where, values in reaction_events(c):
         if habit not in PARAMETER_HABITS["event_reaction_s"]:
             continue
         ends = where + np.round(np.asarray(values, float) / c.dt).astype(int)  # the switch; the motion
