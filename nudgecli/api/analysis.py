@@ -123,9 +123,18 @@ class Analysis(FolderOwner):
         return self.result.summary
 
     def table(self, reference: str | None = None) -> str:
-        """The plain-text table ``nudge analyze`` prints (only ``reference``'s pairs when given)."""
+        """The plain-text table ``nudge analyze`` prints (only ``reference``'s pairs when given).
+
+        Raises
+        ------
+        ConfigError
+            ``reference`` is not one of :attr:`conditions` (as ``analyze(reference=...)`` refuses it).
+        """
+        from nudgecli.api import arguments
+        from nudgecli.report.pair_display import check_reference
         from nudgecli.report.summary import format_table
 
+        check_reference(arguments.text("reference", reference, optional=True), self.conditions)
         return format_table(self.result.table, self.conditions, reference,
                             thresholds=self.result.p_thresholds)
 

@@ -22,7 +22,17 @@ from nudgecli.errors import ConfigError
 def _refuse(name: str, value: object, wanted: str, got: str | None = None) -> ConfigError:
     """The error of argument ``name`` given ``value`` where ``wanted`` (``"a whole number"``) is needed;
     ``got`` says what was given instead (its type's name when absent)."""
-    return ConfigError(f"{name}={value!r}: {name}= takes {wanted}, not {got or type(value).__name__}")
+    return ConfigError(f"{name}={_shown(value)}: {name}= takes {wanted}, not {got or type(value).__name__}")
+
+
+def _shown(value: object) -> str:
+    """``repr(value)``, or for one of many lines or characters (a DataFrame, an array) its type and
+    shape: the error stays one line."""
+    text = repr(value)
+    if "\n" not in text and len(text) <= 80:
+        return text
+    shape = getattr(value, "shape", None)
+    return f"<{type(value).__name__}{'' if shape is None else f' of shape {tuple(shape)}'}>"
 
 
 @overload
@@ -190,15 +200,34 @@ def path(name: str, value: object, *, optional: bool = False) -> str | Path | No
     """
     if value is None and optional:
         return None
+    if isinstance(value, os.PathLike):
+        return Path(value)
+    if not isinstance(value, str):  # first: a DataFrame or an array has no truth value to compare with ""
+        raise _refuse(name, value, "a path (a str or a pathlib.Path)" + (" or None" if optional else ""))
     if value == "":
         raise ConfigError(f"{name}='': an empty path; name the folder or file to "
                           + ("write" if name == "out" else "read")
                           + (f", or leave {name}= out (None) for the default" if optional else ""))
-    if isinstance(value, str):
-        return value
-    if isinstance(value, os.PathLike):
-        return Path(value)
-    raise _refuse(name, value, "a path (a str or a pathlib.Path)" + (" or None" if optional else ""))
+    return value
+
+
+def source_path(name: str, value: object) -> str:
+    """A source to read as its path's text: a :class:`~nudgecli.api.run.Run` (its folder), an
+    :class:`~nudgecli.api.analysis.Analysis` (what it analysed) or a path (:func:`path`).
+
+    Raises
+    ------
+    ConfigError
+        Anything else (a DataFrame, an array, a number), or an empty text.
+    """
+    from nudgecli.api.analysis import Analysis
+    from nudgecli.api.run import Run
+
+    if isinstance(value, Run):
+        return str(value.path)
+    if isinstance(value, Analysis):
+        return str(value.source)
+    return str(path(name, value))
 
 
 def out_folder(value: object) -> str | Path | None:

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:
     import pandas as pd
 
+    from nudgecli.api.run import Run
     from nudgecli.sim.calibration_profile import CalibrationProfile
 
 
@@ -47,7 +48,8 @@ def fit(calibration_dir: str | Path, *, out: str | Path | None = None, force: bo
     force
         Replace an existing ``out``.
     variant
-        ``auto``, ``pilot`` or ``ciaa``: the log format of the p(phi_m | phi_i) stream.
+        ``auto``, ``pilot`` or ``ciaa``: the log format of the p(phi_m | phi_i) stream; anything
+        else is refused before the logs are read.
 
     Returns
     -------
@@ -62,13 +64,18 @@ def fit(calibration_dir: str | Path, *, out: str | Path | None = None, force: bo
         folder, unreadable logs; checked before anything is written.
     """
     from nudgecli.api import arguments
+    from nudgecli.errors import ConfigError
     from nudgecli.outputs import check_output_file, command_inputs, declare_input
+    from nudgecli.sim.calibration_io import AUTO_VARIANT, LOG_VARIANTS
     from nudgecli.sim.calibration_profile import fit_calibration_dir, write_profile
 
     folder = Path(arguments.path("calibration_dir", calibration_dir))
     out = arguments.path("out", out, optional=True)
     force = arguments.switch("force", force)
     variant = arguments.text("variant", variant)
+    if variant not in (AUTO_VARIANT, *LOG_VARIANTS):  # else unread where no session uses it
+        raise ConfigError(f"variant={variant!r}: choose {', '.join((AUTO_VARIANT, *LOG_VARIANTS))} "
+                          "(nudge fit --variant)")
     with command_inputs():  # the logs are this call's inputs only
         if out is not None:
             declare_input("CALIBRATION_DIR", *(folder.rglob("*") if folder.is_dir() else ()))  # never out
@@ -127,7 +134,7 @@ class FittedPeople:
                 for parameter, note in notes.items()]
 
 
-def fit_people(sources: str | Path | Sequence[str | Path], *, out: str | Path | None = None,
+def fit_people(sources: str | Path | Run | Sequence[str | Path | Run], *, out: str | Path | None = None,
                force: bool = False) -> FittedPeople:
     """One simulated person per participant of ``sources``, as ``nudge fit-people``.
 
@@ -137,8 +144,8 @@ def fit_people(sources: str | Path | Sequence[str | Path], *, out: str | Path | 
     Parameters
     ----------
     sources
-        Real logs (the CSV ``nudge habits`` reads), run folders, or tables of
-        ``nudge habits --by participant --format csv``.
+        Real logs (the CSV ``nudge habits`` reads), run folders (or :class:`~nudgecli.api.run.Run`),
+        or tables of ``nudge habits --by participant --format csv``.
     out
         The people file to write (CSV, read by ``--people``); ``None`` writes nothing.
     force
@@ -165,9 +172,9 @@ def fit_people(sources: str | Path | Sequence[str | Path], *, out: str | Path | 
     from nudgecli.sim.twins import TWIN_PARAMETERS
     from nudgecli.store import write_text_atomic
 
-    # one path, or a list of them; anything else (a number, None) is refused as a path
+    # one source, or a list of them; anything else (a number, None, a DataFrame) is refused as a path
     listed = sources if isinstance(sources, Sequence) and not isinstance(sources, str) else [sources]
-    named: list[str | Path] = [str(arguments.path("sources", source)) for source in listed]
+    named: list[str | Path] = [arguments.source_path("sources", source) for source in listed]
     out, force = arguments.path("out", out, optional=True), arguments.switch("force", force)
     target = None if out is None else Path(out)
     with command_inputs():  # the sources are this call's inputs only

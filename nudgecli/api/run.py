@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -58,6 +59,9 @@ class Run(FolderOwner):
     def open(cls, path: str | Path) -> Run:
         """The run folder ``path`` (``nudge simulate``'s, a kept :class:`Run`'s); never removed by it.
 
+        An incomplete run (interrupted) opens too, for its :attr:`path` and :meth:`report`; its
+        tables are refused until it is finished (``simulate(..., out=path, resume=True)``).
+
         Raises
         ------
         ConfigError
@@ -84,7 +88,11 @@ class Run(FolderOwner):
 
     @functools.cached_property
     def trials(self) -> pd.DataFrame:
-        """One row per trial, ``(participants x trials, columns)``: condition, success, duration_s, ..."""
+        """One row per trial, ``(participants x trials, columns)``: condition, success, duration_s, ...
+
+        Of an incomplete run (:meth:`open` of an interrupted one), this and :attr:`steps` and
+        :attr:`participants` raise :class:`~nudgecli.errors.RunFolderError`, naming the command
+        that finishes it."""
         return self._folder().read_trials()
 
     @functools.cached_property
@@ -105,19 +113,32 @@ class Run(FolderOwner):
         return success_by_condition(self.trials, self.config.study.conditions)
 
     def report(self) -> str:
-        """The text ``nudge simulate`` prints before the folder: counts and :meth:`success`."""
-        head = (f"{len(self.trials)} trials, {self.participant_count} participants "
+        """The text ``nudge simulate`` prints before the folder: counts and :meth:`success`; of an
+        incomplete run (interrupted, parts missing), one line saying so and how to finish it."""
+        from nudgecli.errors import RunFolderError
+
+        try:
+            trials = self.trials
+        except RunFolderError as exc:  # the tables' refusal, the reason and the command that finishes it
+            return f"{self.participant_count} participants, not readable: {exc}"
+        head = (f"{len(trials)} trials, {self.participant_count} participants "
                 f"({'resumed, ' if self.mode == 'resume' else ''}{len(self.computed)} simulated now)")
         return head + "\n" + self.success().to_string(float_format=lambda v: f"{v:.3f}")
 
     def _folder(self) -> Any:
+        """The run folder to read a table of, complete: an interrupted run's tables would hold only
+        the participants it finished, so they are refused as ``analyze`` refuses them
+        (:meth:`~nudgecli.store.RunFolder.check_complete`, naming the command that finishes it)."""
         from nudgecli.errors import RunFolderError
         from nudgecli.store import RunFolder
 
         if self.closed:
             raise RunFolderError(f"{self.path}: this run was closed and its temporary folder removed; "
                                  "give simulate(out=...) to keep it")
-        return RunFolder(self.path)
+        folder = RunFolder(self.path)
+        if folder.is_run():
+            folder.check_complete()
+        return folder
 
     def __repr__(self) -> str:
         kept = "temporary" if self.temporary else "kept"
@@ -144,21 +165,39 @@ def override_texts(overrides: Overrides | None) -> tuple[str, ...]:
 
 
 def toml_literal(value: object, key: str = "value") -> str:
-    """``value`` as a TOML literal (``5``, ``0.25``, ``true``, ``"tr"``, ``[3, 4]``)."""
-    if isinstance(value, bool):
+    """``value`` as a TOML literal (``5``, ``0.25``, ``true``, ``"tr"``, ``[3, 4]``, ``{a = 1}``):
+    NumPy's numbers and booleans as Python's, a mapping as an inline table, a sequence or a NumPy
+    array as a list (what ``--set`` takes, written by a notebook)."""
+    import numpy as np  # its scalars and arrays come from a notebook's own computations
+
+    if isinstance(value, bool | np.bool_):
         return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if not math.isfinite(value):
-            return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
-        return repr(value)
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):  # repr of the float itself: NumPy's reads np.float64(50.0)
+        number = float(value)
+        if not math.isfinite(number):
+            return "nan" if math.isnan(number) else ("inf" if number > 0 else "-inf")
+        return repr(number)
     if isinstance(value, str):
         return toml_string(value)
-    if isinstance(value, list | tuple):
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{_toml_key(name, key)} = {toml_literal(item, f'{key}.{name}')}"
+                               for name, item in value.items()) + "}"
+    if isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, Sequence) and not isinstance(value, bytes):
         return "[" + ", ".join(toml_literal(item, key) for item in value) + "]"
-    raise ConfigError(f"--set {key}: {value!r} is not a TOML value; give a number, text, true/false or "
-                      "a list")
+    raise ConfigError(f"--set {key}: {value!r} is not a TOML value; give a number, text, true/false, "
+                      "a list or a mapping")
+
+
+def _toml_key(name: object, key: str) -> str:
+    """``name`` as a key of an inline table: bare where TOML allows it, else quoted."""
+    if not isinstance(name, str):
+        raise ConfigError(f"--set {key}: the key {name!r} is not a text; name the fields with texts")
+    return name if name and all(char.isascii() and (char.isalnum() or char in "-_") for char in name) \
+        else toml_string(name)
 
 
 def toml_string(text: str) -> str:
@@ -269,8 +308,5 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
         if temporary or (made and target.is_dir() and not any(target.iterdir())):
             remove_if_made(target, True)
         raise
-    if participants is not None:
-        section = config.study.model_copy(update={"participants": participants})
-        config = config.model_copy(update={"study": section})
-    return Run(study.path, config, temporary=temporary, mode=study.mode, computed=study.computed,
+    return Run(study.path, study.config, temporary=temporary, mode=study.mode, computed=study.computed,
                participant_count=study.participants, trials=study.trials)

@@ -25,8 +25,12 @@ if TYPE_CHECKING:
     from nudgecli.report.plans import AnalysisPlan
 
 
-def _path_of(source: Run | str | Path) -> str:
-    return str(source.path) if isinstance(source, Run) else str(source)
+def _path_of(source: object, name: str = "source") -> str:
+    """``source``'s path as text (:func:`nudgecli.api.arguments.source_path`): a DataFrame or any
+    other non-path is refused naming the argument ``name``."""
+    from nudgecli.api import arguments
+
+    return arguments.source_path(name, source)
 
 
 @dataclass(frozen=True)
@@ -209,7 +213,7 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
     from nudgecli.report.compare import CompareOptions, compare_sources, write_comparison
     from nudgecli.report.plans import MIN_RESAMPLES, check_resamples
 
-    real = arguments.path("real", real)
+    simulated, real = _path_of(simulated, "simulated"), arguments.path("real", real)
     metrics = arguments.texts("metrics", metrics, optional=True, empty=False)
     resamples = arguments.whole_number("resamples", resamples, minimum=0)
     level = arguments.real_number("level", level)

@@ -264,7 +264,7 @@ class StudyRun:
     """What :func:`run_study` did."""
 
     path: Path
-    experiment: str
+    config: ExperimentConfig  # as simulated: its seed and participant count the run's
     mode: str
     participants: int
     computed: list[int]
@@ -489,7 +489,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                      "wall_s": round(time.perf_counter() - started, 3),
                      "peak_rss_mb": _finite_or_none(round(peak_memory_mb(), 1))})
     folder.write_manifest(manifest)
-    return StudyRun(path=folder.path, experiment=config.experiment.name, mode=mode, participants=n,
+    return StudyRun(path=folder.path, config=config, mode=mode, participants=n,
                     computed=todo, trials=folder.read_trials())
 
 
