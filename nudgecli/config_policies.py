@@ -1,8 +1,11 @@
 """``[policies.NAME]``: a condition that runs a researcher's own policy (docs/policies.md): its
-factory named ``module:attribute`` and its parameters, finite numbers."""
+factory named ``module:attribute`` and its parameters: finite numbers, text, true/false and lists
+or tables of them, which JSON holds unchanged (no dates or times)."""
 
 from __future__ import annotations
 
+import datetime
+import json
 import math
 import re
 from typing import Any
@@ -41,8 +44,15 @@ class CustomPolicySection(Section):
     @field_validator("params")
     @classmethod
     def _finite_numbers(cls, params: dict[str, Any]) -> dict[str, Any]:
-        # a run folder records them in config.toml and manifest.json, whose JSON has no nan or inf
+        # a run folder records them in config.toml and manifest.json, whose JSON has no nan or inf,
+        # nor dates or times: recorded, a date became its text, and that config.toml did not rerun
+        # or resume the run (the policy given "2026-01-31" where it was given a date)
         for name, value in params.items():
+            if _holds_date(value):
+                raise ValueError(f"{name} = {_toml_text(value)}: give text in quotes, not a date or time, "
+                                 f"e.g. {name} = {_toml_text(value, dates_quoted=True)} (the run folder "
+                                 "records a policy's parameters as JSON, which has no dates or times; the "
+                                 "policy reads the text)")
             if not _all_finite(value):
                 raise ValueError(f"{name} = {value}: a policy's parameters are finite numbers (the run "
                                  "folder records them as JSON, which has no nan or inf); give a number")
@@ -51,6 +61,30 @@ class CustomPolicySection(Section):
 
 #: A policy's factory: ``module:attribute``, the module's dotted import name.
 _FACTORY = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_][\w.]*")
+
+
+def _holds_date(value: Any) -> bool:
+    """Whether a TOML value is, or its list or table holds, a date, a time or a date-time."""
+    if isinstance(value, datetime.date | datetime.time):  # a datetime is a date
+        return True
+    if isinstance(value, list | tuple):
+        return any(_holds_date(item) for item in value)
+    if isinstance(value, dict):
+        return any(_holds_date(item) for item in value.values())
+    return False
+
+
+def _toml_text(value: Any, *, dates_quoted: bool = False) -> str:
+    """A parameter's value as TOML writes it (a date ``2026-01-31``, text in quotes), for a message;
+    ``dates_quoted``: its dates and times as text (``"2026-01-31"``), what to write instead."""
+    if isinstance(value, datetime.date | datetime.time):
+        return json.dumps(value.isoformat()) if dates_quoted else value.isoformat()
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_toml_text(item, dates_quoted=dates_quoted) for item in value) + "]"
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{key} = {_toml_text(item, dates_quoted=dates_quoted)}"
+                                for key, item in value.items()) + " }"
+    return json.dumps(value, ensure_ascii=False)
 
 
 def _all_finite(value: Any) -> bool:

@@ -38,7 +38,7 @@ def test_the_example_runs_from_the_command_line_and_its_policy_acts(tmp_path):
     assert stats["conditions"] == ["disambiguation", "blending", "threshold"]
     # the run recorded what each policy makes constant, and the analysis leaves those out
     manifest = json.loads((out / "manifest.json").read_text())
-    assert manifest["constant_metrics"]["threshold"] == ["human_effort", "human_turns"]
+    assert manifest["constant_metrics"]["threshold"] == ["assistance_strength", "human_effort", "human_turns"]
     entries = {entry["metric"]: entry for entry in stats["metrics"]}
     assert entries["human_effort"]["not_applicable"] == ["blending", "threshold"]
     assert entries["human_turns"]["not_applicable"] == ["blending", "threshold"]
@@ -72,7 +72,8 @@ def test_a_custom_policys_tables_are_identical_with_one_and_two_workers_and_dask
 def test_the_example_policy_has_the_interface_and_its_traits_set_the_constant_metrics():
     config = load_experiment(str(EXAMPLE))
     constant = constant_metrics_of(config)  # imports the module from the experiment's folder
-    assert constant["threshold"] == {"human_effort", "human_turns"}  # no turns
+    # no turns; alpha 0 or its weight: a constant strength, which the policy names
+    assert constant["threshold"] == {"assistance_strength", "human_effort", "human_turns"}
     assert constant["disambiguation"] == frozenset()
     # the gap-gated blend's alpha is 0.8 whenever it acts: its strength is constant too
     assert constant["blending"] == {"assistance_strength", "human_effort", "human_turns"}

@@ -18,6 +18,8 @@ class ThresholdAssist:
 
     infers = True  # the protocol runs goal inference (Eq. 7): view.belief is the posterior
     takes_turns = False  # no autonomy turn: the person never hands over
+    # alpha is 0 or weight: the strength (mean alpha where it acts) is weight by construction
+    constant_metrics = frozenset({"assistance_strength"})
 
     def __init__(self, threshold: float = 0.6, weight: float = 0.5) -> None:
         if not 0.0 <= weight <= 1.0:

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import functools
 import math
+import numbers
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, NamedTuple, Protocol, TypeVar, runtime_checkable
@@ -75,7 +76,9 @@ class StepView(Protocol):
     step
         Steps since the trial started (``step * settings.dt`` seconds).
     turn
-        ``"human"`` or ``"autonomy"``.
+        Always ``"human"`` as a policy sees it: :meth:`Policy.assist` and the hooks run in the
+        person's turn, and :meth:`Policy.start_turn` is called as the person hands over, before the
+        turn passes to the autonomy (whose steps the step log's ``turn`` column records).
     goal_poses
         ``(G, 3)`` the layout's goal poses.
     belief
@@ -301,7 +304,9 @@ class Assistance(NamedTuple):
     Attributes
     ----------
     command
-        ``(3,)`` the command executed this step, ``u_f``.
+        ``(3,)`` the command executed this step, ``u_f``: for a researcher's policy at most
+        ``human_speed + autonomy_speed`` units/s (``hypot(vx, vy)``) and ``human_turn_rate +
+        autonomy_turn_rate`` rad/s (:func:`nudgecli.sim.policy_registry.command_limits`).
     u_a
         ``(3,)`` the assistance's own command (the step log's ``u_a``).
     alpha
@@ -368,7 +373,8 @@ class AutonomyTurn:
     ----------
     target
         ``(3,)`` the pose the autonomy drives to at its own speeds (the turn ends within
-        ``arrival_tolerance`` of its position), or ``None``: the turn is one step that does not move.
+        ``arrival_tolerance`` of its position, so it must be inside the workspace less the robot's
+        radius), or ``None``: the turn is one step that does not move.
     mode
         The mode to switch to at the turn's start, or ``None`` to keep the mode.
     events
@@ -453,7 +459,8 @@ def checked_command(value: Any, what: str) -> tuple[float, float, float]:
     Raises
     ------
     ValueError
-        ``value`` is not three finite numbers (``what`` names it in the message).
+        ``value`` is not three finite real numbers of shape ``(3,)`` (``what`` names it in the
+        message).
     """
     return _three_finite(value, what, "vx, vy, omega")
 
@@ -464,19 +471,41 @@ def checked_pose(value: Any, what: str) -> tuple[float, float, float]:
     Raises
     ------
     ValueError
-        ``value`` is not three finite numbers (``what`` names it in the message).
+        ``value`` is not three finite real numbers of shape ``(3,)`` (``what`` names it in the
+        message).
     """
     return _three_finite(value, what, "x, y, theta")
 
 
 def _three_finite(value: Any, what: str, names: str) -> tuple[float, float, float]:
-    """``value`` (3,) as a tuple of finite floats; ``names`` says what the three are."""
-    try:
-        items = tuple(float(v) for v in np.asarray(value, dtype=float).reshape(-1))
-    except (TypeError, ValueError):
-        raise ValueError(f"{what} must be three numbers ({names}), got {value!r}") from None
-    if len(items) != 3:
-        raise ValueError(f"{what} must be three numbers ({names}), got {len(items)}")
+    """``value``, of shape ``(3,)``, as a tuple of finite floats; ``names`` says what the three are.
+
+    Exactly three real numbers, as a mode or a goal is an integer and not a bool: a ``(3, 1)``
+    column or a ``(1, 3)`` row is not flattened (a shape other than the one documented is a
+    mistake, not a command), and True or False (numpy's too) is no coordinate.
+    """
+    if type(value) is tuple and len(value) == 3 and all(type(v) is float for v in value):
+        items = value  # the common answer (drive_towards's, the person's u_h), without numpy
+    else:
+        items = _three_numbers(value, what, names)
     if not all(math.isfinite(v) for v in items):
         raise ValueError(f"{what} must be finite, got {items}")
     return items[0], items[1], items[2]
+
+
+def _three_numbers(value: Any, what: str, names: str) -> tuple[float, float, float]:
+    """``value`` as three floats, refused unless of shape ``(3,)`` and of real numbers, not bools."""
+    wanted = f"{what} must be three numbers ({names})"
+    try:
+        shape = np.shape(value)
+    except (TypeError, ValueError):  # a ragged nesting
+        raise ValueError(f"{wanted}, got {value!r}") from None
+    if not shape:  # a number, None, text
+        raise ValueError(f"{wanted}, got {value!r}")
+    if len(shape) > 1:
+        raise ValueError(f"{wanted} of shape (3,), got shape {shape}")
+    if shape[0] != 3:
+        raise ValueError(f"{wanted}, got {shape[0]}")
+    if not all(isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_)) for v in value):
+        raise ValueError(f"{wanted}: real numbers, not true/false or text, got {value!r}")
+    return float(value[0]), float(value[1]), float(value[2])

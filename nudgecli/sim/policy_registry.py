@@ -30,6 +30,7 @@ import numpy as np
 
 from nudgecli.errors import PolicyError, did_you_mean
 from nudgecli.model.conditions import CONSTANT_METRICS, METRIC_NAMES, not_applicable_metrics, policy_name
+from nudgecli.model.world import ROBOT_RADIUS, X_MAX, X_MIN, Y_MAX, Y_MIN, clamp_position
 from nudgecli.sim.builtin_policies import BUILTIN_POLICIES
 from nudgecli.sim.policy_interface import (
     TURN_EVENTS,
@@ -220,6 +221,24 @@ def _make(factory: Callable[..., Any], params: Mapping[str, Any], spec: PolicySp
         raise PolicyError(f"{spec.described}: making the policy failed: {type(exc).__name__}: {exc}") from exc
 
 
+#: A command's speed may pass its limit by this factor (a speed computed in floating point).
+_LIMIT_TOLERANCE = 1.0 + 1e-9
+
+
+def command_limits(settings: ProtocolSettings) -> tuple[float, float]:
+    """The fastest a policy's command may move (units/s, ``hypot(vx, vy)``) and turn (rad/s,
+    ``|omega|``): the person's full command (``[interface]`` ``human_speed``, ``human_turn_rate``)
+    plus the autonomy's (``[assistance]`` ``autonomy_speed``, ``autonomy_turn_rate``).
+
+    The sum, not the larger of the two: a convex blend (``Assistance.convex``) stays within the
+    larger, but an additive one (``Assistance.additive``, ADA's blend and hindsight among the
+    built-ins) adds an assistance to the person's full command (the baselines' hindsight turns at
+    up to 2.8 rad/s, above either 1.95 or 1.5 alone).
+    """
+    return (settings.human_speed + settings.autonomy_speed,
+            settings.human_turn_rate + settings.autonomy_turn_rate)
+
+
 class CheckedPolicy:
     """A researcher's policy with every answer checked: an exception, a NaN or a command of the
     wrong shape is a :class:`PolicyError` naming the condition and the policy."""
@@ -274,6 +293,8 @@ class CheckedPolicy:
             u_a = checked_command(answer.u_a, "its u_a")
         except ValueError as exc:
             raise PolicyError(f"{self.spec.described}: {method}: {exc}") from None
+        if any(command):  # a command that stands is within any limit (most steps of a person's turn)
+            self._check_speed(command, view.settings, method)
         alpha, goal = answer.alpha, answer.goal
         # numpy's scalars are numbers too (np.float32(0.5), np.argmax's np.int64)
         if (not isinstance(alpha, numbers.Real) or is_flag(alpha) or not math.isfinite(alpha)
@@ -281,6 +302,18 @@ class CheckedPolicy:
             self._fail(f"{method} returned alpha {alpha!r}; it must be a number from 0 to 1 (the "
                        "assistance's weight)")
         return Assistance(command, u_a, float(alpha), self._checked_goal(goal, view, method))
+
+    def _check_speed(self, command: tuple[float, float, float], settings: ProtocolSettings,
+                     method: str) -> None:
+        """Refuse a command faster than the robot is driven by anyone (:func:`command_limits`)."""
+        speed_limit, turn_limit = command_limits(settings)
+        speed, turn = math.hypot(command[0], command[1]), abs(command[2])
+        if speed > speed_limit * _LIMIT_TOLERANCE or turn > turn_limit * _LIMIT_TOLERANCE:
+            self._fail(f"{method} returned command {command}: speed {speed:g} units/s, turn {turn:g} rad/s; "
+                       f"a command may move at most {speed_limit:g} units/s and turn at most {turn_limit:g} "
+                       "rad/s ([interface] human_speed plus [assistance] autonomy_speed, human_turn_rate "
+                       "plus autonomy_turn_rate: the person's full command plus the autonomy's); scale it "
+                       "down (drive_towards gives the autonomy's)")
 
     def _checked_goal(self, goal: Any, view: StepView, method: str) -> int:
         """``goal`` as the index of one of the view's goals, or -1 for none."""
@@ -299,9 +332,10 @@ class CheckedPolicy:
             self._fail(f"start_turn returned {type(plan).__name__}, not an AutonomyTurn")
         if plan.target is not None:
             try:
-                checked_pose(plan.target, "its target")
+                target = checked_pose(plan.target, "its target")
             except ValueError as exc:
                 raise PolicyError(f"{self.spec.described}: start_turn: {exc}") from None
+            self._check_reachable(target, view.settings)
         mode, events, nudge = plan.mode, plan.events, plan.nudge
         if mode is not None and not (is_index(mode) and 0 <= int(mode) <= 2):
             self._fail(f"start_turn returned mode {mode!r}; it must be 0, 1, 2 or None")
@@ -317,6 +351,22 @@ class CheckedPolicy:
         goal = self._checked_goal(plan.goal, view, "start_turn")
         mode = None if mode is None else int(mode)
         return AutonomyTurn(plan.target, mode, tuple(events), goal, bool(nudge))
+
+    def _check_reachable(self, target: tuple[float, float, float], settings: ProtocolSettings) -> None:
+        """Refuse a turn's target the robot cannot arrive at: a turn ends on arrival only, so it would
+        hold the robot at the wall until the trial's time limit. A custom policy runs in the grid
+        world (the path world runs its task's conditions only), whose robot keeps its radius from
+        the workspace's walls."""
+        x, y = target[0], target[1]
+        nearest_x, nearest_y = clamp_position(x, y)
+        if math.hypot(x - nearest_x, y - nearest_y) > settings.arrival_tolerance:
+            self._fail(f"start_turn returned target {target} outside the workspace the robot reaches (x "
+                       f"{X_MIN + ROBOT_RADIUS:g} to {X_MAX - ROBOT_RADIUS:g}, y {Y_MIN + ROBOT_RADIUS:g} to "
+                       f"{Y_MAX - ROBOT_RADIUS:g}: the workspace x {X_MIN:g} to {X_MAX:g}, y {Y_MIN:g} to "
+                       f"{Y_MAX:g}, less the robot's radius {ROBOT_RADIUS:g}); the turn ends only within "
+                       f"[assistance] arrival_tolerance {settings.arrival_tolerance:g} of its target, so it "
+                       "would run to the trial's time limit; give a target inside it, e.g. a goal's pose "
+                       "(view.goal_poses)")
 
     def _fail(self, what: str) -> Any:
         raise PolicyError(f"{self.spec.described}: {what}")
