@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from nudgecli.errors import DataError
 from nudgecli.model.interface import (
     LABELS,
     MOVE_N,
@@ -65,6 +66,48 @@ MAX_REPEAT_ROUNDS = 10
 
 # --- estimators -------------------------------------------------------------------------------
 
+def check_same_clock(prompt_times: np.ndarray, times: np.ndarray, files: dict[str, str], log: str,
+                     event: str) -> None:
+    """Refuse a response log or stream on another clock than its prompts.
+
+    Both estimators pair each prompt with the events nearest in time, so a log on another clock
+    (epoch seconds beside relative prompts) still gives a table: every prompt takes the same
+    event. The pilots' logs share one clock, and each of their prompts holds its own events.
+
+    Parameters
+    ----------
+    prompt_times
+        ``(2K,)`` the prompts' (shown, cleared) times.
+    times
+        ``(N,)`` the events' times, non-decreasing (nothing is checked when ``N == 0``).
+    files
+        The session's files (``"prompts"`` and ``log``), for the message.
+    log, event
+        The events' file key (``"responses"``, ``"stream"``) and what one event is called
+        (``"response"``, ``"stream sample"``).
+
+    Raises
+    ------
+    DataError
+        When the events' span does not overlap the prompts', or no event falls inside a prompt.
+    """
+    if len(times) == 0 or len(prompt_times) == 0:
+        return
+    where, prompts = files.get(log, f"the {log} log"), files.get("prompts", "the prompt log")
+    logs = f"the prompt and {event.split()[0]} logs"  # "the prompt and response logs"
+    first, last = float(prompt_times[0]), float(prompt_times[-1])
+    if float(times[-1]) < first or float(times[0]) > last:
+        raise DataError(f"{where}: {logs} are on different clocks: its times run from "
+                        f"{float(times[0]):.9g} to {float(times[-1]):.9g} s, the prompts' ({prompts}) from "
+                        f"{first:.9g} to {last:.9g} s; export both with the same time base")
+    shown, cleared = prompt_times[0::2], prompt_times[1::2]
+    inside = np.searchsorted(times, shown, side="left") < np.searchsorted(times, cleared, side="right")
+    if not inside.any():
+        raise DataError(f"{where}: no {event} falls inside any prompt (between its showing and its clearing "
+                        f"in {prompts}); {logs} are on different clocks or from different "
+                        "sessions; export both of one session with the same time base")
+
+
 @dataclass(frozen=True)
 class MappingEstimate:
     """``p(phi_i | a, m)`` fitted from a mapping session, and what went into it.
@@ -81,6 +124,10 @@ class MappingEstimate:
         ``(12,)`` showings counted as "no answer" per image.
     unanswered
         Images without any counted answer (their rows fall back to the default table).
+    reused_responses
+        Responses counted for more than one showing. The study's pairing rule does this when a
+        showing got no answer of its own (it takes the nearest one, a neighbour's); the pilots'
+        logs have none (each response counted once), so a fit reports them.
     """
 
     table: np.ndarray
@@ -88,6 +135,14 @@ class MappingEstimate:
     showings: np.ndarray
     missed: np.ndarray
     unanswered: tuple[str, ...]
+    reused_responses: int = 0
+
+    @property
+    def reuse_warning(self) -> str:
+        """What a fit says of :attr:`reused_responses` (when there are any)."""
+        return (f"p(phi_i | a): {self.reused_responses} response(s) counted for more than one prompt (a "
+                "prompt without its own answer took a neighbour's, as the study's pairing rule does); "
+                "check that the response log is complete")
 
 
 def estimate_mapping(session: MappingSession, fallback: np.ndarray | None = None) -> MappingEstimate:
@@ -115,9 +170,11 @@ def estimate_mapping(session: MappingSession, fallback: np.ndarray | None = None
     cleared_times = session.prompt_times[1::2]
     images = np.array([image_index[c] for c in session.prompt_commands[0::2]], dtype=int)
     responses = session.response_times
+    times_used = np.zeros(len(responses), dtype=int)
     if len(responses) == 0:
         np.add.at(missed, images, 1)
     else:
+        check_same_clock(session.prompt_times, responses, session.files, "responses", "response")
         near_shown = nearest_indices(responses, shown_times)
         near_cleared = nearest_indices(responses, cleared_times)
         pairs = zip(images, shown_times, cleared_times, near_shown, near_cleared, strict=True)
@@ -132,6 +189,7 @@ def estimate_mapping(session: MappingSession, fallback: np.ndarray | None = None
                 missed[image] += 1
                 continue
             counts[image, session.response_labels[counted]] += 1
+            times_used[counted] += 1
     showings = len(session.prompt_commands) / PROMPT_ROWS_PER_SHOWING - missed
     table = default_mapping_table() if fallback is None else np.array(fallback, dtype=float)
     unanswered = []
@@ -142,7 +200,7 @@ def estimate_mapping(session: MappingSession, fallback: np.ndarray | None = None
             continue
         row = counts[image] / showings[image] + MAPPING_SMOOTHING
         table[mode, action] = row / row.sum()
-    return MappingEstimate(table, counts, showings, missed, tuple(unanswered))
+    return MappingEstimate(table, counts, showings, missed, tuple(unanswered), int(np.sum(times_used > 1)))
 
 
 @dataclass(frozen=True)
@@ -220,6 +278,7 @@ def estimate_distortion(session: DistortionSession, fallback: np.ndarray | None 
     fallback
         ``(F, F)`` rows used for labels without data (default: the 0.85/0.05 default table).
     """
+    check_same_clock(session.prompt_times, session.stream_times, session.files, "stream", "stream sample")
     counts = prompt_code_counts(session)
     totals = counts.sum(axis=1)
     labels = session.prompt_labels

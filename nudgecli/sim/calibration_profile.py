@@ -120,6 +120,7 @@ def fit_calibration_dir(calibration_dir: str | Path, variant: str = AUTO_VARIANT
         if mapping_estimate.unanswered:
             warnings.append(f"p(phi_i | a): no answer for {', '.join(mapping_estimate.unanswered)}; "
                             "those rows use the default table")
+        warnings += [mapping_estimate.reuse_warning] if mapping_estimate.reused_responses else []
     else:
         mapping = default_mapping_table()
         provenance["p_phi_given_a"] = {"source": "default (no p_phi_given_a session)"}

@@ -198,6 +198,15 @@ def detect_variant(labels: list[str], times: np.ndarray, path: Path | str,
     return PILOT_VARIANT
 
 
+#: The largest pressure magnitude of a stream (DESIGN 2.2: p in [-1, 1], sip positive; the pilots'
+#: logs peak at exactly 1.0), and what a log of each variant may add to it: rounding in the
+#: fixed-rate stream; in the event-driven one a quantisation step (this toolkit's simulated
+#: device steps in 0.0109 and tops out at the step nearest 1, 92 x 0.0109 = 1.0028). A log in
+#: percent (100 at full scale) is beyond either.
+PRESSURE_LIMIT = 1.0
+PRESSURE_TOLERANCE = {PILOT_VARIANT: 1e-6, CIAA_VARIANT: 0.02}
+
+
 def _parse_stream(frame: pd.DataFrame, path: Path, time_column: str, label_column: str,
                   pressure_column: str, variant: str = AUTO_VARIANT
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, str]:
@@ -220,6 +229,12 @@ def _parse_stream(frame: pd.DataFrame, path: Path, time_column: str, label_colum
     if bad.size:
         row = int(bad[0])
         raise DataError(f"{path}: line {row + 2}: {pressure_column} {raw.iloc[row]!r} is not a pressure")
+    outside = np.flatnonzero(np.abs(np.nan_to_num(pressure)) > PRESSURE_LIMIT + PRESSURE_TOLERANCE[detected])
+    if outside.size:  # a log in percent (x100) would fit soft levels in the hard band without a word
+        row = int(outside[0])
+        raise DataError(f"{path}: line {row + 2}: {pressure_column} {raw.iloc[row]!r}: pressure must lie in "
+                        f"[-{PRESSURE_LIMIT:g}, {PRESSURE_LIMIT:g}] (sip positive); is it in percent? "
+                        "divide the column by 100")
     pressure = np.where(np.isfinite(pressure), pressure, np.nan)
     return times, codes, pressure, detected
 
@@ -230,7 +245,8 @@ CIAA_SUBFOLDERS = {STUDY_MAPPING_FOLDER: CIAA_MAPPING_SUFFIX, STUDY_DISTORTION_F
 
 def _candidates(folder: Path, subfolder: str) -> list[Path]:
     """Where a session's files may be: ``folder``, ``folder/subfolder``, or the sibling study's
-    ``folder/<id>_p_ui_given_a`` / ``folder/<id>_p_um_given_ui`` (sorted, first match wins)."""
+    ``folder/<id>_p_ui_given_a`` / ``folder/<id>_p_um_given_ui`` (sorted; a session found in more
+    than one of them is refused by :func:`_find_session`)."""
     found = [folder, folder / subfolder]
     suffix = CIAA_SUBFOLDERS.get(subfolder)
     if suffix is not None and folder.is_dir():
@@ -244,12 +260,10 @@ def _candidates(folder: Path, subfolder: str) -> list[Path]:
     return found
 
 
-def _locate(folder: Path, names: dict[str, str], keys: tuple[str, str], subfolder: str) -> Path | None:
-    """The folder holding both files ``keys`` of a format (see :func:`_candidates`)."""
-    for candidate in _candidates(folder, subfolder):
-        if all((candidate / names[k]).is_file() for k in keys):
-            return candidate
-    return None
+def _locate(folder: Path, names: dict[str, str], keys: tuple[str, str], subfolder: str) -> list[Path]:
+    """Every folder holding both files ``keys`` of a format (see :func:`_candidates`)."""
+    return [candidate for candidate in _candidates(folder, subfolder)
+            if all((candidate / names[k]).is_file() for k in keys)]
 
 
 def _half_present(folder: Path, keys: tuple[str, str], subfolder: str) -> Path | None:
@@ -267,17 +281,36 @@ def _find_session(folder: Path, keys: tuple[str, str], subfolder: str, session: 
     """The folder of a session's file pair in study and in tidy format, ``None`` if it has neither.
 
     A lone file of the pair is an error naming the missing partner (``prompts`` or
-    ``second_file``).
+    ``second_file``); more than one pair (a study export beside tidy files, or two of the places
+    :func:`_candidates` looks) is an error naming them all, as several participants' folders are.
     """
     study = _locate(folder, STUDY_FILES, keys, subfolder)
     tidy = _locate(folder, TIDY_FILES, keys, subfolder)
-    if study is None and tidy is None:
+    if not study and not tidy:
         orphan = _half_present(folder, keys, subfolder)
         if orphan is not None:
             partner = second_file if "prompt" in orphan.name else "prompts"
             raise DataError(f"{orphan}: the {session} session's {partner} file is missing beside it")
         return None
-    return study, tidy
+    found = [(where, STUDY_FILES) for where in study] + [(where, TIDY_FILES) for where in tidy]
+    if len(found) > 1:  # which one to fit is the researcher's choice, never the first match's
+        raise _several_sessions(folder, [where / names[keys[0]] for where, names in found], session)
+    return (study[0] if study else None), (tidy[0] if tidy else None)
+
+
+def _several_sessions(folder: Path, prompts: list[Path], session: str) -> DataError:
+    """The error of a ``folder`` holding more than one ``session`` session (their ``prompts`` files):
+    name them all and say how to fit one."""
+    places = [path.parent for path in prompts]
+    if len(set(places)) == len(places) and folder not in places:  # each alone in a folder of its own
+        advice = " or ".join(f"`nudge fit {where}`" for where in places)
+    else:  # two in one folder, or one in the folder given: that one cannot be fitted alone
+        shared = next(where for where in places if where == folder or places.count(where) > 1)
+        others = [where for where in places if where != shared]
+        advice = f"move the files you do not mean to fit out of {shared}" + \
+            (f", or fit the other with `nudge fit {others[0]}`" if others else "")
+    return DataError(f"{folder}: holds {len(prompts)} {session} sessions ({', '.join(map(str, prompts))}); "
+                     f"fit one at a time: {advice}")
 
 
 def read_mapping_session(folder: str | Path) -> MappingSession | None:
@@ -329,7 +362,7 @@ DISTORTION_LAYOUTS = (
 
 def distortion_session_files(folder: str | Path) -> tuple[Path, Path] | None:
     """The two files :func:`read_distortion_session` reads from ``folder``, its prompts and its
-    stream (study format first, else tidy), or ``None`` if it holds no session: all that a
+    stream (study or tidy format; never both), or ``None`` if it holds no session: all that a
     ``population.physiology_logs`` recording gives a participant, so all its digest covers
     (:func:`nudgecli.recording_digests.recording_digest`).
 
