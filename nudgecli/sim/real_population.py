@@ -52,11 +52,16 @@ SIBLING_DIAGONAL_SPANS: dict[str, tuple[float, float]] = {
     "Hard Puff": (0.53, 0.84), "Hard Sip": (0.54, 0.78), "Soft Puff": (0.80, 0.97), "Soft Sip": (0.31, 0.97),
 }
 #: The pilots' fitted diagonals (``nudge fit ../shared/data/calibration/<pilot>``, fixed 10 Hz stream;
-#: ``deepak`` has no p(phi_m | phi_i) session). deepaktest never produced a soft sip (every Soft
-#: Sip prompt read Hard Sip: his soft-sip level is 1.08), which no range of a "soft" level covers.
+#: ``deepak`` has no p(phi_m | phi_i) session), at full precision: :func:`coverage_table` compares
+#: simulated diagonals with them exactly, and a simulated person at the estimator's ceiling
+#: ``(1 + 0.01) / 1.04 = 0.97115...`` (deepaktest's Hard Sip and Soft Puff) is inside their range.
+#: deepaktest never produced a soft sip (every Soft Sip prompt read Hard Sip: his soft-sip level is
+#: 1.08; his diagonal is the floor ``0.01 / 1.04``), which no range of a "soft" level covers.
 PILOT_DIAGONALS: dict[str, dict[str, float]] = {
-    "andrewtest": {"Hard Puff": 0.933, "Hard Sip": 0.954, "Soft Puff": 0.965, "Soft Sip": 0.698},
-    "deepaktest": {"Hard Puff": 0.903, "Hard Sip": 0.971, "Soft Puff": 0.971, "Soft Sip": 0.010},
+    "andrewtest": {"Hard Puff": 0.9329886373417366, "Hard Sip": 0.9543276926023108,
+                   "Soft Puff": 0.965181557572862, "Soft Sip": 0.6983950395816705},
+    "deepaktest": {"Hard Puff": 0.9031329247675401, "Hard Sip": 0.9711538461538461,
+                   "Soft Puff": 0.9711538461538461, "Soft Sip": 0.009615384615384616},
 }
 #: The pilots' own 10 Hz pressure traces turned into the sibling study's event-driven stream
 #: (:func:`as_event_driven`) and fitted with the study's estimator: how the same real blows count
