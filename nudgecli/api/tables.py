@@ -236,6 +236,7 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
                                  metrics=list(metrics) if metrics else None, condition_map=condition_map,
                                  options=CompareOptions(resamples=resamples, level=level, seed=seed),
                                  drop_duplicates=drop_duplicates, notes=notes)
+        notes += self_comparison_notes(_path_of(simulated), real, result.trials, result.metrics)
         files: list[Path] = []
         if out is not None:
             from nudgecli.report.compare_figure import plot_comparison
@@ -247,6 +248,51 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
             Path(out).rmdir()  # made by the write check only: a refused comparison leaves nothing
         raise
     return ComparisonResult(result, notes, files)
+
+
+def self_comparison_notes(simulated: str | Path, real: str | Path, trials: Mapping[str, pd.DataFrame],
+                          metrics: Sequence[str]) -> list[str]:
+    """A note when ``compare`` sets a table beside itself: both sources the same file, or the same
+    trials (a copy, or a run and its own ``metrics.csv``). Every distance is then 0, which is a
+    legitimate sanity check but no comparison with real people, so it is said, not refused.
+
+    Parameters
+    ----------
+    simulated, real
+        The two sources as given.
+    trials
+        The compared trials, ``{"simulated": ..., "real": ...}`` (after filters and ``--match``).
+    metrics
+        The compared metric columns.
+    """
+    if Path(simulated).resolve() == Path(real).resolve():
+        return [f"{simulated} and {real} are the same file: the table is compared with itself, so every "
+                "distance is 0; give the real people's metrics table as REAL"]
+    if _same_trials(trials["simulated"], trials["real"], metrics):
+        return [f"{simulated} and {real} hold the same trials: the table is compared with itself, so every "
+                "distance is 0; give the real people's metrics table as REAL"]
+    return []
+
+
+def _same_trials(first: pd.DataFrame, second: pd.DataFrame, metrics: Sequence[str]) -> bool:
+    """Whether two trial tables hold the same participants, conditions and metric values (in the
+    same order within each participant and condition; floats to a relative 1e-9, which a table
+    written to CSV and read back keeps)."""
+    import numpy as np  # here, as pandas is: the CLI imports this module
+
+    keys = ["participant", "condition"]
+    columns = [*keys, *metrics]
+    if len(first) != len(second) or any(c not in t.columns for t in (first, second) for c in columns):
+        return False
+    first, second = (t.sort_values(keys, kind="mergesort")[columns].reset_index(drop=True)
+                     for t in (first, second))
+    if not all((first[k].astype(str) == second[k].astype(str)).all() for k in keys):
+        return False
+    try:
+        values = [t[list(metrics)].to_numpy(dtype=float) for t in (first, second)]
+    except (TypeError, ValueError):
+        return False
+    return bool(np.allclose(values[0], values[1], rtol=1e-9, atol=0.0, equal_nan=True))
 
 
 def _check_out(out: str | Path, force: bool, formats: Sequence[str]) -> None:

@@ -21,6 +21,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.ticker import MaxNLocator
 
 from nudgecli.report.figures.common import axes_or_new
 from nudgecli.report.figures.output import save_figure
@@ -82,6 +83,7 @@ def _draw_match(ax: Axes, summary: dict[str, Any]) -> None:
     ax.axhline(100.0, color="#8C8C8C", linewidth=0.8, linestyle=(0, (4, 2)))
     ax.text(goals.min(), 101.5, "paper: 100%", color="#606060", fontsize=8.0, va="bottom", ha="left")
     ax.set_xlabel("number of goals |G|")
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))  # |G| is a count: no ticks at 3.2, 3.4
     ax.set_ylabel("queries (%)")
     ax.set_ylim(0.0, 140.0)
     ax.set_yticks(np.arange(0.0, 101.0, 20.0))
