@@ -28,7 +28,7 @@ import os
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
-from nudgecli.errors import DataError, RunFolderError, WriteError
+from nudgecli.errors import DataError, RunFolderError, WriteError, shell_words
 from nudgecli.run_folder_names import LOCK
 
 #: The files the running command read, as it named them: (device, inode) and resolved path ->
@@ -147,8 +147,9 @@ def check_output_folder(folder: str | Path, *, force: bool, own: Iterable[str | 
     if force or not path.is_dir() or any(_same_folder(path, Path(o)) for o in own):
         return
     if is_run_folder(path) or (path / BATCH_MANIFEST).is_file():
+        plot = shell_words(["nudge", "plot", str(path)])
         raise RunFolderError(f"{path} holds another run (or batch): files written there would be read as "
-                             f"that run's (`nudge plot {path}` would draw them); choose another --out (a new "
+                             f"that run's (`{plot}` would draw them); choose another --out (a new "
                              "or empty folder), or use --force to write there anyway")
     prepare_mode(path, None, resume=False, force=False, own_file=own_file)  # the rule of a non-empty folder
 

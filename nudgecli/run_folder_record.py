@@ -480,7 +480,8 @@ class RunRecord(LiveRecord, ConfigRecord):
                                  f"they are this run's (copied in from another run?); {fix}")
 
     def lost_run_command(self) -> str:
-        return f"nudge simulate {self.path / CONFIG} --out {self.path} --force"  # a run without its manifest
+        return shell_words(["nudge", "simulate", str(self.path / CONFIG), "--out", str(self.path),
+                            "--force"])  # a run without its manifest
 
     def lost_manifest_error(self) -> RunFolderError | None:
         """The refusal of a folder that holds a run's parts and another of its files
@@ -554,13 +555,14 @@ class RunRecord(LiveRecord, ConfigRecord):
                     f"`{simulate_resume_command('EXPERIMENT', folder)}`")
         if (folder / METRICS_CSV).is_file():
             # e.g. a committed reference run: its step logs were left out, its metrics kept
+            analyze_table = shell_words(["nudge", "analyze", str(folder / METRICS_CSV)])
             return (f"{folder} holds metrics but not the step logs they came from; "
-                    f"analyse the table instead: `nudge analyze {folder / METRICS_CSV}`")
+                    f"analyse the table instead: `{analyze_table}`")
         if manifest is None and only_a_start(folder):
             return (f"{folder} holds only the start of a run killed before it wrote its manifest; start "
                     f"it again with `{simulate_resume_command('EXPERIMENT', folder)}` (its own settings)")
         return (f"{folder} has no {kind} yet (no {kind}/part-*.parquet); run "
-                f"`nudge simulate EXPERIMENT --out {folder}` first")
+                f"`{shell_words(['nudge', 'simulate', 'EXPERIMENT', '--out', str(folder)])}` first")
 
     def check_own_manifest(self, manifest: Mapping[str, Any]) -> None:
         """Refuse a manifest that is another run's (copied over this one's): ``config.toml`` holds

@@ -33,8 +33,9 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from nudgecli.errors import ConfigError, DataError, RunFolderError
+from nudgecli.errors import ConfigError, DataError, RunFolderError, shell_words
 from nudgecli.report import figures
+from nudgecli.report.analysed_run import check_analysed_trials
 from nudgecli.report.analysis import analysed_metrics_path
 from nudgecli.report.analysis_folders import analysis_folder, check_analysis_complete, interrupted_analysis
 from nudgecli.report.checksum import recorded_checksum, verify_metrics
@@ -356,7 +357,7 @@ def analysis_folder_of_table(table: Path) -> Path:
             return folder
     check_analysis_complete(analysis_folder(table), table)  # one cut short: the command that completes it
     raise RunFolderError(f"{table}: not analysed yet (no {STATS_JSON} beside it); "
-                         f"run `nudge analyze {table}` first")
+                         f"run `{shell_words(['nudge', 'analyze', str(table)])}` first")
 
 
 def _read_table(path: Path, stats: Mapping[str, Any]) -> pd.DataFrame:
@@ -459,14 +460,15 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
         if metrics_path is None and not run.is_run():
             raise RunFolderError(f"{folder}: not a run folder (no manifest.json) and no {METRICS_CSV}; "
                                  "run `nudge simulate` and `nudge analyze` first, or give a metrics table")
+        analyze_command = shell_words(["nudge", "analyze", str(folder)])  # quoted: pasted as it is
         if metrics_path is None or not (folder / STATS_JSON).is_file():
             run.check_complete() if run.is_run() else None  # incomplete: the command that restores it
-            raise RunFolderError(f"{folder}: no metrics yet; run `nudge analyze {folder}` first")
+            raise RunFolderError(f"{folder}: no metrics yet; run `{analyze_command}` first")
         stats_path = folder / STATS_JSON
         stats = read_stats(stats_path)
         check_live_analysis_current(stats, run, str(stats_path))  # never a study outgrown since
         analysis_copy = metrics_path.name == METRICS_CSV
-        again = f"nudge analyze {folder}" if run.is_run() else None  # a run's metrics: analyze writes them
+        again = analyze_command if run.is_run() else None  # a run's metrics: analyze writes them
         table = read_metrics_csv(metrics_path, again) if analysis_copy else _read_table(metrics_path, stats)
         metrics_name = str(metrics_path)
     record = recorded_checksum(stats, str(stats_path))
@@ -475,8 +477,9 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
     # the scores this analysis wrote, or a refusal: never a stale or edited file's
     questionnaires = read_analysed_scores(folder, stats, str(stats_path))
     verify_p_values(stats, (table, questionnaires), str(stats_path))  # what the brackets draw
-    return FigureInputs(metrics=table, stats=stats, questionnaires=questionnaires,
-                        **run_fields(RunFolder(folder), trial))
+    fields = run_fields(RunFolder(folder), trial)
+    check_analysed_trials(stats, fields.get("trials"), folder, stats_path)  # never another run's statistics
+    return FigureInputs(metrics=table, stats=stats, questionnaires=questionnaires, **fields)
 
 
 def default_out(source: str | Path) -> Path:
