@@ -62,3 +62,30 @@ def test_a_run_folders_advice_quotes_its_folder(spaced):
     assert f"`nudge simulate EXPERIMENT --out '{spaced}'` first" in folder.no_parts_message("trials", None)
     (spaced / "metrics.csv").write_text("participant,condition,x\n0,a,1\n")
     assert f"`nudge analyze '{spaced}/metrics.csv'`" in folder.no_parts_message("trials", None)
+
+
+def test_fit_of_several_sibling_session_folders_quotes_the_one_to_fit(tmp_path):
+    folder = tmp_path / "my logs"
+    for participant in ("p 1", "p2"):
+        (folder / f"{participant}_p_ui_given_a").mkdir(parents=True)
+    with pytest.raises(NudgeError) as raised:
+        nudgecli.fit(folder)
+    assert f"e.g. `nudge fit '{folder}/p 1_p_ui_given_a'`" in str(raised.value)
+
+
+def test_fit_of_several_sessions_quotes_each_folder():
+    from nudgecli.sim.calibration_readers import _several_sessions
+
+    folder = Path("my logs")
+    apart = _several_sessions(folder, [folder / "a 1" / "prompts.csv", folder / "b" / "prompts.csv"], "maps")
+    assert "`nudge fit 'my logs/a 1'` or `nudge fit 'my logs/b'`" in str(apart)
+    shared = _several_sessions(folder, [folder / "prompts.csv", folder / "b 2" / "prompts.csv"], "mapping")
+    assert "fit the other with `nudge fit 'my logs/b 2'`" in str(shared)
+
+
+def test_fit_of_a_folder_of_participants_quotes_the_one_to_fit(tmp_path):
+    folder = tmp_path / "my logs"
+    (folder / "person 1" / "p_phi_given_a").mkdir(parents=True)
+    with pytest.raises(NudgeError) as raised:
+        nudgecli.fit(folder)
+    assert f"fit it with `nudge fit '{folder}/person 1'`" in str(raised.value)

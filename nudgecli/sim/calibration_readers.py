@@ -16,7 +16,7 @@ import pandas as pd
 
 from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.csv_text import not_utf8_message
-from nudgecli.errors import DataError
+from nudgecli.errors import DataError, shell_words
 from nudgecli.model.interface import LABELS, NO_INPUT_LABEL
 from nudgecli.sim.calibration_io import (
     ACTION_IMAGES,
@@ -254,8 +254,9 @@ def _candidates(folder: Path, subfolder: str) -> list[Path]:
                          if child.is_dir() and (child.name == suffix or child.name.endswith("_" + suffix)))
         if len(sibling) > 1:
             names = ", ".join(child.name for child in sibling)
+            fit_first = shell_words(["nudge", "fit", str(sibling[0])])
             raise DataError(f"{folder}: holds the sibling study's session folders of several participants "
-                            f"({names}); fit one at a time, e.g. `nudge fit {sibling[0]}`")
+                            f"({names}); fit one at a time, e.g. `{fit_first}`")
         found += sibling
     return found
 
@@ -303,12 +304,12 @@ def _several_sessions(folder: Path, prompts: list[Path], session: str) -> DataEr
     name them all and say how to fit one."""
     places = [path.parent for path in prompts]
     if len(set(places)) == len(places) and folder not in places:  # each alone in a folder of its own
-        advice = " or ".join(f"`nudge fit {where}`" for where in places)
+        advice = " or ".join(f"`{shell_words(['nudge', 'fit', str(where)])}`" for where in places)
     else:  # two in one folder, or one in the folder given: that one cannot be fitted alone
         shared = next(where for where in places if where == folder or places.count(where) > 1)
         others = [where for where in places if where != shared]
         advice = f"move the files you do not mean to fit out of {shared}" + \
-            (f", or fit the other with `nudge fit {others[0]}`" if others else "")
+            (f", or fit the other with `{shell_words(['nudge', 'fit', str(others[0])])}`" if others else "")
     return DataError(f"{folder}: holds {len(prompts)} {session} sessions ({', '.join(map(str, prompts))}); "
                      f"fit one at a time: {advice}")
 
@@ -460,8 +461,9 @@ def _no_session(folder: Path) -> DataError:
     where = RunFolder(folder).calibration_dir(0).parent if run else folder  # a run's calibration/
     children = where.iterdir() if where.is_dir() else ()
     participants = sorted(child.name for child in children if child.is_dir() and _holds_session(child))
-    example = "" if not participants else f"fit it with `nudge fit {where / participants[0]}`" \
-        if len(participants) == 1 else f"fit one at a time, e.g. `nudge fit {where / participants[0]}`"
+    fit_first = shell_words(["nudge", "fit", str(where / participants[0])]) if participants else ""
+    example = "" if not participants else f"fit it with `{fit_first}`" \
+        if len(participants) == 1 else f"fit one at a time, e.g. `{fit_first}`"
     if run and participants:
         held = (f"its {len(participants)} participants' simulated calibration logs are in {where}/ "
                 f"({participants[0]} to {participants[-1]})") if len(participants) > 1 else \
