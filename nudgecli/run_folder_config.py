@@ -1,19 +1,31 @@
 """How a run folder's ``config.toml`` and its manifest's experiment differ: key by key, and what a
-resume or a reader is told of a ``config.toml`` edited, lost or holding another seed.
+resume or a reader is told of a ``config.toml`` edited, lost or holding another seed; and the
+analysis plan a run records for ``nudge analyze``.
+
+A plan preset is recorded by its name (``"plan": "paper"``); a plan file is kept in the folder as an
+exact copy (:data:`PLAN_COPY`, its SHA-256 in the manifest's :data:`PLAN_SHA256_KEY`), as a batch
+keeps its ``plan.toml``: the file typed may be edited or moved later, and the run's analysis must
+stay the one it was simulated for (:meth:`ConfigRecord.keep_plan`, :meth:`ConfigRecord.recorded_plan`).
 
 :class:`ConfigRecord` is a base of :class:`nudgecli.run_folder_record.RunRecord`.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, MutableMapping
 from pathlib import Path
 from typing import Any
 
 from nudgecli.config import ExperimentConfig, experiment_from_toml
-from nudgecli.errors import NudgeError
-from nudgecli.run_folder_names import CONFIG
+from nudgecli.errors import ConfigError, NudgeError
+from nudgecli.run_folder_names import CONFIG, MANIFEST
+
+#: A run's copy of the plan file it was run with (the manifest's ``plan`` names it, relative to the
+#: run folder), and the manifest key of its SHA-256.
+PLAN_COPY = "plan.toml"
+PLAN_SHA256_KEY = "plan_sha256"
 
 
 def _flatten(data: Any, prefix: str = "") -> dict[str, Any]:
@@ -95,3 +107,51 @@ class ConfigRecord:
         if experiment_differences(recorded, on_disk.model_dump(mode="json")):
             return f"{path} was edited after the run started: put back the manifest's values, then "
         return ""
+
+    def keep_plan(self, manifest: MutableMapping[str, Any], plan: str | None,
+                  config: ExperimentConfig) -> None:
+        """Record the analysis plan of a run of ``config`` in ``manifest``: ``plan`` (``--plan``), else the
+        default one (:func:`~nudgecli.config_files.resolve_plan`); a preset by its name, a plan file (a
+        ``.toml`` path, or a file by that name, as :func:`~nudgecli.config_files.resolve_preset` tells
+        them apart) as an exact copy in the folder (:data:`PLAN_COPY`) with its SHA-256."""
+        from nudgecli.config_files import resolve_plan
+
+        plan = resolve_plan(plan, experiment=config.experiment.name, world=config.world.kind)
+        manifest.pop(PLAN_SHA256_KEY, None)
+        given = Path(plan)
+        if given.suffix != ".toml" and not given.is_file():
+            manifest["plan"] = plan
+            return
+        from nudgecli.store import write_bytes_atomic  # the store imports this module
+
+        data = given.read_bytes()
+        write_bytes_atomic(self.path / PLAN_COPY, data)
+        manifest.update({"plan": PLAN_COPY, PLAN_SHA256_KEY: hashlib.sha256(data).hexdigest()})
+
+    def recorded_plan(self, manifest: Mapping[str, Any]) -> Any:
+        """The manifest's ``plan`` as a reader loads it: the path of the run's copy of its plan file,
+        checked against the SHA-256 the manifest records (:meth:`keep_plan`); else as recorded (a
+        preset's name; a path, of an older nudge; ``None``).
+
+        Raises
+        ------
+        ConfigError
+            The copy is missing or was edited: one line naming it, the manifest's ``plan`` and the
+            fix (``--plan`` overrides it).
+        """
+        recorded = manifest.get("plan")
+        if PLAN_SHA256_KEY not in manifest or not isinstance(recorded, str):
+            return recorded
+        copy = self.path / recorded
+        where = f"{self.path / MANIFEST} 'plan'"
+        try:
+            changed = hashlib.sha256(copy.read_bytes()).hexdigest() != manifest[PLAN_SHA256_KEY]
+        except OSError as exc:
+            raise ConfigError(f"{copy}: the run's copy of its analysis plan ({where}) cannot be read "
+                              f"({exc.strerror or exc}); put it back from a backup, or give --plan PLAN, "
+                              f"which overrides {where}") from None
+        if changed:
+            raise ConfigError(f"{copy}: changed since the run kept it as the plan of {where} (its "
+                              f"SHA-256 differs from the manifest's {PLAN_SHA256_KEY!r}); put it back from a "
+                              f"backup, or give --plan PLAN, which overrides {where}")
+        return str(copy)

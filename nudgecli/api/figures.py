@@ -32,8 +32,8 @@ def plan_of(source: str | Path, plan: str | Path | AnalysisPlan | None = None) -
     """The plan whose star rule and labels the figures of ``source`` use: ``plan``, else the one its
     run folder's manifest records, else the one named like its experiment, else ``paper``
     (:func:`nudgecli.config_files.resolve_plan`)."""
-    from nudgecli.config_files import resolve_plan, world_kind_of
     from nudgecli.report.plans import AnalysisPlan
+    from nudgecli.report.recorded_plans import recorded_plan
     from nudgecli.store import RunFolder
 
     source = arguments.path("source", source)
@@ -46,8 +46,8 @@ def plan_of(source: str | Path, plan: str | Path | AnalysisPlan | None = None) -
             manifest = folder.read_manifest()
     if not isinstance(manifest, dict):
         manifest = {}
-    return resolve_plan(plan, recorded=manifest.get("plan"), experiment=str(manifest.get("experiment", "")),
-                        world=world_kind_of(manifest))
+    # a run's plan file as its kept copy, checked (an edited one, or one that does not load, refused)
+    return plan if plan is not None else recorded_plan(manifest, folder if manifest else None)
 
 
 def _folder_of(analysis: Analysis | Run | str | Path) -> Path:
@@ -174,6 +174,7 @@ def _with_run_trials(folder: Path, run: Path, trial: tuple[int, int] | None) -> 
     RUN`` reads them; a live study grown since its analysis is refused as there."""
     import dataclasses
 
+    from nudgecli.report.analysed_run import check_analysed_trials
     from nudgecli.report.plotting import read_inputs
     from nudgecli.report.run_figure_inputs import run_fields
     from nudgecli.report.stats_verify import check_live_analysis_current
@@ -182,7 +183,9 @@ def _with_run_trials(folder: Path, run: Path, trial: tuple[int, int] | None) -> 
 
     inputs = read_inputs(folder, trial)
     check_live_analysis_current(inputs.stats, RunFolder(run), str(folder / STATS_JSON))
-    return dataclasses.replace(inputs, **run_fields(RunFolder(run), trial))
+    fields = run_fields(RunFolder(run), trial)
+    check_analysed_trials(inputs.stats, fields.get("trials"), run, folder / STATS_JSON)
+    return dataclasses.replace(inputs, **fields)
 
 
 def _check_not_a_runs_analysis_elsewhere(folder: Path, figure: str) -> None:

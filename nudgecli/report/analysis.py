@@ -11,11 +11,13 @@ The source is either
 A run folder must be complete: every participant its manifest promises has readable parts,
 and the run finished (otherwise the error names what is missing and the ``nudge simulate ...
 --resume`` command that restores it). Without ``--plan`` it is analysed with the plan recorded
-in its manifest. A metrics table is checked before analysis: duplicate trials (same
-participant, condition, block and trial) are an error unless ``drop_duplicates``, infinite
-values are an error naming rows and columns, condition labels that differ only by case or
-surrounding spaces are an error with a "did you mean"; a CSV's delimiter is sniffed
-(:mod:`nudgecli.report.tables`).
+in its manifest (a plan file's copy in the run, checked: :mod:`nudgecli.report.recorded_plans`), and
+``stats.json`` records the digest of the run's trials (:mod:`nudgecli.report.analysed_run`: ``nudge
+plot`` never draws the analysis beside another run's trials). A metrics table is checked before
+analysis: duplicate trials (same participant, condition, block and trial) are an error unless
+``drop_duplicates``, infinite values are an error naming rows and columns, condition labels that
+differ only by case or surrounding spaces are an error with a "did you mean"; a CSV's delimiter is
+sniffed (:mod:`nudgecli.report.tables`).
 
 A table is taken under the plan's metric definitions as far as its own columns allow, the rest
 being the table's own, said in a note (:mod:`nudgecli.report.table_definitions`). The plan's
@@ -48,12 +50,12 @@ from typing import Any
 
 import pandas as pd
 
-from nudgecli.config_files import resolve_plan, world_kind_of
 from nudgecli.errors import ConfigError, DataError, RunFolderError, did_you_mean
 from nudgecli.errors import WriteError as NudgeWriteError
 from nudgecli.locks import run_lock
 from nudgecli.model.conditions import not_applicable_metrics
 from nudgecli.outputs import check_not_an_input
+from nudgecli.report.analysed_run import TRIALS_DIGEST_KEY, trials_digest
 from nudgecli.report.analysis_folders import (
     analysis_folder,
     check_folder_is_the_tables,
@@ -88,6 +90,8 @@ from nudgecli.report.questionnaires import (
     scores_checksum,
     scores_csv,
 )
+from nudgecli.report.recorded_plans import plan_of_source as plan_of_source  # its readers import it here
+from nudgecli.report.recorded_plans import record_plan, recorded_plan
 from nudgecli.report.stats import ComparisonOptions, order_conditions
 from nudgecli.report.stats_document import compare_conditions, json_ready, stats_csv, stats_table
 from nudgecli.report.summary import P_THRESHOLDS, format_summary, plan_p_thresholds
@@ -254,9 +258,9 @@ def _load_table(source: Path, drop_duplicates: bool, notes: list[str], min_condi
 
 
 def _load_source(source: Path, plan: AnalysisPlan,
-                 notes: list[str] | None = None) -> tuple[pd.DataFrame, list[str], Path]:
-    """The metrics of a run folder, its metric columns and its default output folder (``notes``:
-    :func:`read_run`'s)."""
+                 notes: list[str] | None = None) -> tuple[pd.DataFrame, list[str], str]:
+    """The metrics of a run folder, its metric columns and the digest of its trials (``stats.json``'s
+    :data:`~nudgecli.report.analysed_run.TRIALS_DIGEST_KEY`; ``notes``: :func:`read_run`'s)."""
     if not source.exists():
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
     if source.is_dir():
@@ -269,7 +273,7 @@ def _load_source(source: Path, plan: AnalysisPlan,
             trials, steps_of, engagement=definitions.engagement, strength=definitions.strength,
             mode_switches=definitions.mode_switches, success=definitions.success,
             completion_time=definitions.completion_time)
-        return metrics, list(definitions.include), source
+        return metrics, list(definitions.include), trials_digest(trials)
     raise AssertionError("_load_source takes run folders; tables go through _load_table")  # pragma: no cover
 
 
@@ -291,7 +295,7 @@ def load_source(source: Path, plan: AnalysisPlan, min_conditions: int = 1, *, dr
     if not source.exists():
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
     if source.is_dir():
-        return _load_source(source, plan, notes)
+        return *_load_source(source, plan, notes)[:2], source
     table, metric_columns, _ = _load_table(source, drop_duplicates, notes, min_conditions, metrics)
     defined = apply_plan_definitions(table, plan, metrics or metric_columns)
     notes += [f"{source}: {defined.line}"] if defined.line else []
@@ -423,20 +427,20 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     notes: list[str] = []
     run = RunFolder(source) if source.is_dir() else None
     manifest = run.read_manifest() if run is not None and run.is_run() else None
-    plan = load_plan(_recorded_plan(manifest) if plan_arg is None else plan_arg)
-    table_read: dict[str, Any] | None = None  # what was done to a table's rows, for `nudge plot`
+    plan = load_plan(recorded_plan(manifest, run) if plan_arg is None else plan_arg)
+    source_record: dict[str, Any] = {}  # the run's trials, or what was done to a table's rows: for plot
     # the source as seen from the output folder: no machine's path in what is written
     source_from_out = Path(os.path.relpath(source.resolve(), out_dir.resolve()))
-    if source.is_dir():
-        table, available, _ = _load_source(source, plan, notes)
-        changed = True
+    if source.is_dir():  # the run's trials recorded: plot never draws them beside another run's
+        table, available, digest = _load_source(source, plan, notes)
+        changed, source_record = True, {TRIALS_DIGEST_KEY: digest}
     else:
         sha256 = file_sha256(source)  # before reading: a table edited meanwhile is never taken for this one
         table, available, dropped = _load_table(source, drop_duplicates, notes, chosen=metrics)
         changed = dropped > 0
-        table_read = table_read_record(sha256, len(table) + dropped, drop_duplicates, dropped,
-                                       source_from_out, *analysed_inputs(out_dir, plan_argument(plan),
-                                                                         questionnaires))
+        source_record[TABLE_READ_KEY] = table_read_record(
+            sha256, len(table) + dropped, drop_duplicates, dropped, source_from_out,
+            *analysed_inputs(out_dir, plan_argument(plan), questionnaires))
     try:  # before anything is recorded: a plan whose conditions are not the data's is refused
         check_plan_conditions(plan, plan.label, table["condition"].astype(str).unique(), str(source))
     except ConfigError as exc:  # the run's recorded plan, no --plan given: the fix `nudge run` gives
@@ -444,7 +448,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         fix = own_plan_advice(table["condition"].astype(str).unique())
         raise exc if plan_arg is not None else ConfigError(f"{exc}; no --plan was given: {fix}") from None
     if source.is_dir():
-        _record_plan(run, manifest, plan, out_dir)
+        record_plan(run, manifest, plan, out_dir)
     _check_filters(plan, available)
     scores, score_names = _read_scores(questionnaires, table, source, RunFolder.study_under_way(manifest),
                                        notes)
@@ -475,8 +479,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     stats.update(RunFolder.analysed_progress(manifest))  # a live study's trials: plot refuses it outgrown
     if scores is not None:  # plot draws only the scores file this analysis writes
         stats[SCORES_CHECKSUM_KEY] = scores_checksum(scores)
-    if table_read is not None:
-        stats[TABLE_READ_KEY] = table_read
+    stats.update(source_record)
     stats = json_ready(stats)
     tidy = stats_table(stats)
     notes += _excluded_notes(tidy)
@@ -492,34 +495,6 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     return AnalysisResult(out=out_dir, files=written, metrics=filtered, stats=stats, table=tidy,
                           summary=summary, questionnaires=scores, notes=notes,
                           p_thresholds=plan_p_thresholds(plan))
-
-
-def plan_of_source(source: str | Path) -> str:
-    """The plan a source is analysed with when none is given (:func:`_recorded_plan` of its
-    manifest: a run folder's recorded plan or its experiment's; ``paper`` for a table)."""
-    path = Path(source)
-    run = RunFolder(path) if path.is_dir() else None
-    return _recorded_plan(run.read_manifest() if run is not None and run.is_run() else None)
-
-
-def _recorded_plan(manifest: dict[str, Any] | None) -> str:
-    """The plan of a run analysed without ``--plan``: the one its manifest records, else the plan
-    named like its experiment; ``paper`` for a table."""
-    known = manifest or {}
-    return resolve_plan(None, recorded=known.get("plan"), experiment=str(known.get("experiment", "")),
-                        world=world_kind_of(known))
-
-
-def _record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan: AnalysisPlan,
-                 out_dir: Path) -> None:
-    """Record the plan in a finished run's manifest that has none, for the next analysis: only where
-    this analysis writes anyway (the run folder as its output folder), and not a plan built in code,
-    which no ``--plan`` names (:func:`~nudgecli.report.plans.plan_argument`)."""
-    named = plan_argument(plan)
-    if run is not None and manifest is not None and "participants" in manifest and named is not None and \
-            "plan" not in manifest and out_dir.resolve() == run.path.resolve():
-        manifest["plan"] = named
-        run.write_manifest(manifest)
 
 
 def _read_scores(questionnaires: str | Path | None, table: pd.DataFrame, source: Path, under_way: bool,

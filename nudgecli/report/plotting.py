@@ -35,6 +35,7 @@ from matplotlib.figure import Figure
 
 from nudgecli.errors import ConfigError, DataError, RunFolderError, shell_words
 from nudgecli.report import figures
+from nudgecli.report.analysed_run import check_analysed_trials
 from nudgecli.report.analysis import analysed_metrics_path
 from nudgecli.report.analysis_folders import analysis_folder, check_analysis_complete, interrupted_analysis
 from nudgecli.report.checksum import recorded_checksum, verify_metrics
@@ -476,8 +477,9 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
     # the scores this analysis wrote, or a refusal: never a stale or edited file's
     questionnaires = read_analysed_scores(folder, stats, str(stats_path))
     verify_p_values(stats, (table, questionnaires), str(stats_path))  # what the brackets draw
-    return FigureInputs(metrics=table, stats=stats, questionnaires=questionnaires,
-                        **run_fields(RunFolder(folder), trial))
+    fields = run_fields(RunFolder(folder), trial)
+    check_analysed_trials(stats, fields.get("trials"), folder, stats_path)  # never another run's statistics
+    return FigureInputs(metrics=table, stats=stats, questionnaires=questionnaires, **fields)
 
 
 def default_out(source: str | Path) -> Path:

@@ -443,8 +443,8 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
     if people is not None:
         manifest[PEOPLE_KEY] = people.record()
     record_policies(manifest, policy_files, sources or {})
-    if plan_name is not None or "plan" not in manifest:
-        manifest["plan"] = resolve_plan(plan_name, experiment=config.experiment.name, world=config.world.kind)
+    if plan_name is not None or "plan" not in manifest:  # a plan file's copy: the run's, edited or moved
+        folder.keep_plan(manifest, plan_name, config)
     manifest[FILE_CHECKSUMS] = {LAYOUTS: folder.write_layouts(plan.layouts_frame())}  # read back by plot
     todo = [i for i in range(n) if i not in done]
     started = time.perf_counter()

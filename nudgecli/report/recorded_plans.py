@@ -1,0 +1,71 @@
+"""The analysis plan a run folder records for ``nudge analyze`` without ``--plan``: read, checked
+and recorded.
+
+A run records its plan in its manifest's ``plan``: a preset's name, or (a plan file) the run's own
+copy of it, checked against the SHA-256 the manifest records
+(:meth:`~nudgecli.run_folder_config.ConfigRecord.recorded_plan`); a manifest of an older nudge may
+name a plan file by its path. A recorded plan that does not load is refused in one line naming the
+manifest's ``plan`` and ``--plan``, which overrides it (:func:`recorded_plan`).
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from nudgecli.config_files import resolve_plan, world_kind_of
+from nudgecli.errors import ConfigError
+from nudgecli.report.plans import AnalysisPlan, load_plan, plan_argument
+from nudgecli.run_folder_names import MANIFEST
+from nudgecli.store import RunFolder
+
+
+def plan_of_source(source: str | Path) -> str:
+    """The plan a source is analysed with when none is given (:func:`recorded_plan` of its
+    manifest: a run folder's recorded plan or its experiment's; ``paper`` for a table)."""
+    path = Path(source)
+    run = RunFolder(path) if path.is_dir() else None
+    return recorded_plan(run.read_manifest() if run is not None and run.is_run() else None, run)
+
+
+def recorded_plan(manifest: Mapping[str, Any] | None, run: RunFolder | None = None) -> str:
+    """The plan of a run analysed without ``--plan``: the one its manifest records (a plan file's
+    copy in the run folder ``run``, checked:
+    :meth:`~nudgecli.run_folder_config.ConfigRecord.recorded_plan`),
+    else the plan named like its experiment; ``paper`` for a table.
+
+    Raises
+    ------
+    ConfigError
+        The recorded plan does not load (a copy edited or lost, a file moved, a name no preset has):
+        one line naming the manifest's ``plan`` and ``--plan``, which overrides it."""
+    known = manifest or {}
+    recorded = run.recorded_plan(known) if run is not None else known.get("plan")
+    plan = resolve_plan(None, recorded=recorded, experiment=str(known.get("experiment", "")),
+                        world=world_kind_of(known))
+    if run is None or not recorded:  # the experiment's plan: a preset that loads
+        return plan
+    try:
+        load_plan(plan)
+    except ConfigError as exc:
+        where = f"{run.path / MANIFEST} 'plan'"
+        raise ConfigError(f"{where} = {json.dumps(known.get('plan'))}: {exc}; correct it there, or give "
+                          f"--plan PLAN, which overrides {where}") from None
+    return plan
+
+
+def record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan: AnalysisPlan,
+                out_dir: Path) -> None:
+    """Record the plan in a finished run's manifest that has none, for the next analysis: only where
+    this analysis writes anyway (the run folder as its output folder), and not a plan built in code,
+    which no ``--plan`` names (:func:`~nudgecli.report.plans.plan_argument`)."""
+    named = plan_argument(plan)
+    if run is not None and manifest is not None and "participants" in manifest and named is not None and \
+            "plan" not in manifest and out_dir.resolve() == run.path.resolve():
+        manifest["plan"] = named
+        run.write_manifest(manifest)
+
+
+__all__ = ["plan_of_source", "record_plan", "recorded_plan"]

@@ -1,0 +1,96 @@
+"""A run keeps the plan file it was run with (``--plan pl/myplan.toml``): a copy in the run folder,
+its SHA-256 in the manifest, as a batch keeps its ``plan.toml``. The file typed may be edited or
+moved later without changing ``nudge analyze RUN``; an edited copy is refused naming the manifest's
+``plan`` and ``--plan``, which overrides it. Presets stay names."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from cli_helpers import nudge, one_error_line
+
+import nudgecli
+
+PLAN = """name = "myplan"
+conditions = ["disambiguation", "control"]
+
+[metrics]
+include = ["completion_time", "human_turns"]
+
+[bootstrap]
+resamples = 100
+"""
+
+
+@pytest.fixture(scope="module")
+def planned_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A one-participant smoke run simulated with a plan file, which was then edited and moved away.
+    Do not modify: tests change a copy."""
+    root = tmp_path_factory.mktemp("planned")
+    plan = root / "pl" / "myplan.toml"
+    plan.parent.mkdir()
+    plan.write_text(PLAN)
+    run = root / "rp"
+    nudgecli.simulate("smoke", participants=1, out=run, plan=str(plan))
+    plan.write_text("not = [a plan")  # edited: not even TOML
+    plan.rename(plan.with_name("moved.toml"))
+    return run
+
+
+def _copy(run: Path, to: Path) -> Path:
+    shutil.copytree(run, to, ignore=shutil.ignore_patterns(".nudge.lock"))
+    return to
+
+
+def _manifest(run: Path) -> dict:
+    return json.loads((run / "manifest.json").read_text())
+
+
+def test_the_run_keeps_a_copy_of_its_plan_file_with_its_sha256(planned_run):
+    manifest = _manifest(planned_run)
+    assert manifest["plan"] == "plan.toml"
+    assert (planned_run / "plan.toml").read_text() == PLAN
+    assert manifest["plan_sha256"] == hashlib.sha256(PLAN.encode()).hexdigest()
+
+
+def test_the_plan_file_edited_and_moved_changes_nothing(planned_run, tmp_path):
+    run = _copy(planned_run, tmp_path / "rp")
+    result = nudge("analyze", run)
+    assert result.exit_code == 0, result.output
+    stats = json.loads((run / "stats.json").read_text())
+    assert [entry["metric"] for entry in stats["metrics"]] == ["completion_time", "human_turns"]
+
+
+def test_an_edited_copy_is_refused_naming_the_manifest_and_plan_overrides_it(planned_run, tmp_path):
+    run = _copy(planned_run, tmp_path / "rp")
+    with (run / "plan.toml").open("a") as copy:
+        copy.write("# edited\n")
+    line = one_error_line(nudge("analyze", run).output)
+    assert line.startswith(f"Error: {run / 'plan.toml'}: changed since the run kept it")
+    assert f"{run / 'manifest.json'} 'plan'" in line and "--plan PLAN" in line
+    assert not (run / "stats.json").exists()
+    assert nudge("analyze", run, "--plan", "paper", "--bootstrap", "100").exit_code == 0
+
+
+@pytest.mark.parametrize("recorded", ["bogus", "gone/myplan.toml"])
+def test_a_recorded_plan_that_does_not_load_names_the_manifest(analysed_smoke_run, tmp_path, recorded):
+    run = _copy(analysed_smoke_run, tmp_path / "run")
+    manifest = _manifest(run)
+    manifest["plan"] = recorded  # an older nudge's path, moved since; or a name edited in
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    result = nudge("analyze", run)
+    assert result.exit_code == 1
+    line = one_error_line(result.output)
+    assert line.startswith(f"Error: {run / 'manifest.json'} 'plan' = \"{recorded}\": ")
+    assert "--plan PLAN, which overrides" in line
+
+
+def test_a_preset_stays_a_name(tmp_path):
+    run = tmp_path / "run"
+    nudgecli.simulate("smoke", participants=1, out=run, plan="paper")
+    assert _manifest(run)["plan"] == "paper" and "plan_sha256" not in _manifest(run)
+    assert not (run / "plan.toml").exists()
