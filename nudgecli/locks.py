@@ -161,6 +161,18 @@ def run_lock(folder: str | Path, command: str | None = None,
         handle.close()
 
 
+def release_inherited_locks() -> None:
+    """In a child forked while this process held locks (:func:`run_lock`): close its copies of the
+    lock files and forget them. An inherited copy keeps the OS lock held for as long as the child
+    lives, so a child outliving its killed parent would keep the folder locked for a dead pid.
+    Closing a copy releases nothing while the parent holds its own (the lock belongs to the open
+    file, shared by both), and the child, holding none, removes no lock file."""
+    for handle, _depth in _HELD.values():
+        with contextlib.suppress(OSError):
+            handle.close()
+    _HELD.clear()
+
+
 def acquire_lock_file(lock_path: Path, command: str | None, log: Callable[[str], None] | None = None) -> Any:
     """Open, lock and fill in ``lock_path``; the open file (closing it releases the lock). A lock left
     by a process of this host that no longer holds it is taken over, with a ``Warning:`` line to ``log``."""

@@ -7,6 +7,9 @@ folder (the run folder by default), ``nudge plot`` reads them and writes the fig
 
 from __future__ import annotations
 
+import re
+from pathlib import Path
+
 MANIFEST = "manifest.json"
 #: A batch folder's manifest (:mod:`nudgecli.runs.batch_folder`): a run and a batch are never mixed.
 BATCH_MANIFEST = "batch.json"
@@ -20,6 +23,26 @@ PEOPLE_DIR = "people"
 LOCK = ".nudge.lock"
 #: The tables written in one part per participant: ``<kind>/part-NNNN.parquet``.
 PART_KINDS = ("trials", "steps", "participants")
+#: A part's file name, the participant in its digits: the one rule that reads a participant from a
+#: name. Another ``part-*.parquet`` (a file manager's ``part-0001 (copy).parquet``) is no part.
+PART_FILE = re.compile(r"part-(\d{4,})\.parquet")
+
+
+def part_name(participant: int) -> str:
+    """The file name of a participant's parts."""
+    return f"part-{participant:04d}.parquet"
+
+
+def numbered_parts(folder: Path) -> dict[int, Path]:
+    """The parts in ``folder`` by participant: its files named :data:`PART_FILE` (none when the
+    folder is missing); other ``part-*.parquet`` files are left out (:func:`stray_part_files`)."""
+    found = (PART_FILE.fullmatch(p.name) for p in sorted(folder.glob("part-*.parquet")))
+    return {int(match[1]): folder / match[0] for match in found if match is not None}
+
+
+def stray_part_files(folder: Path) -> list[Path]:
+    """The files in ``folder`` named like a part (``part-*.parquet``) that are none (:data:`PART_FILE`)."""
+    return [p for p in sorted(folder.glob("part-*.parquet")) if PART_FILE.fullmatch(p.name) is None]
 
 #: What ``nudge analyze`` writes: the metrics, the statistics (JSON, CSV), the summary, and the
 #: questionnaire scores. Outputs have names of their own: no analysis file is named like a record

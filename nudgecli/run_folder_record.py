@@ -16,7 +16,6 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from nudgecli import __version__
 from nudgecli.config import ExperimentConfig, experiment_from_toml
 from nudgecli.errors import DataError, NudgeError, RunFolderError, shell_words
 from nudgecli.parquet_reader import read_parquet
@@ -34,8 +33,11 @@ from nudgecli.run_folder_names import (
     METRICS_CSV,
     PART_KINDS,
     PARTICIPANTS,
+    numbered_parts,
+    part_name,
+    stray_part_files,
 )
-from nudgecli.run_folder_state import only_a_start
+from nudgecli.run_folder_state import only_a_start, repair_advice, simulate_again, version_difference
 
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
     import pandas as pd
@@ -57,11 +59,6 @@ def file_sha256(path: str | Path) -> str:
         for block in iter(lambda: handle.read(1 << 20), b""):
             digest.update(block)
     return digest.hexdigest()
-
-
-def part_name(participant: int) -> str:
-    """The file name of a participant's parts."""
-    return f"part-{participant:04d}.parquet"
 
 
 def readable_parquet(part: Path) -> bool:
@@ -315,15 +312,14 @@ class RunRecord(LiveRecord, ConfigRecord):
         done: set[int] | None = None
         for kind in PART_KINDS:
             folder = self.path / kind
-            found = {int(p.stem.split("-")[1]) for p in folder.glob("part-*.parquet") if readable_parquet(p)}
+            found = {index for index, p in numbered_parts(folder).items() if readable_parquet(p)}
             done = found if done is None else done & found
         return sorted(done or set())
 
     def has_completed_participant(self) -> bool:
         """Whether :meth:`completed_participants` is not empty, reading footers only until the first
         participant whose three parts are readable (a complete run: three, not three per participant)."""
-        on_disk = [{int(p.stem.split("-")[1]): p for p in (self.path / kind).glob("part-*.parquet")}
-                   for kind in PART_KINDS]
+        on_disk = [numbered_parts(self.path / kind) for kind in PART_KINDS]
         candidates = sorted(set(on_disk[0]).intersection(*on_disk[1:]))
         return any(all(readable_parquet(parts[index]) for parts in on_disk) for index in candidates)
 
@@ -414,15 +410,15 @@ class RunRecord(LiveRecord, ConfigRecord):
         return str(self.path / CONFIG) if kept else None
 
     def part_fix(self, manifest: Mapping[str, Any] | None, part: Path, verb: str) -> str:
-        """What brings back a damaged ``part``: ``VERB with `nudge simulate ... --resume```; in a live
-        folder, a backup (a person's trial cannot be run again)."""
-        from nudgecli.store import simulate_resume_command  # store builds on this module
-
+        """What brings back a damaged ``part``: ``VERB with `nudge simulate ... --resume``` (where this
+        nudge resumes the run: :func:`~nudgecli.run_folder_state.repair_advice`); in a live folder, a
+        backup (a person's trial cannot be run again); without a manifest (nothing to resume), a copy."""
         if manifest is not None and manifest.get("executor") == "live":
             return self.live_part_fix(manifest, part)
-        fix = self.resume_command(manifest) if manifest is not None else \
-            simulate_resume_command("EXPERIMENT", self.path)
-        return f"{verb} with `{fix}`"
+        if manifest is not None:
+            return repair_advice(self.path, manifest, self.resume_command(manifest), verb)
+        return (f"{verb.split(' ')[0]} it from an intact copy (no {MANIFEST}: nothing resumes the run), "
+                f"or {simulate_again(self.path, None)}")
 
     def unvouched_parts(self, manifest: Mapping[str, Any],
                         participants: Iterable[int]) -> dict[int, list[str]]:
@@ -460,8 +456,10 @@ class RunRecord(LiveRecord, ConfigRecord):
                                  "the run again with --force")
         live = manifest.get("executor") == "live"
         if gone := [name for name in files if not (self.path / name).is_file()]:
-            fix = f"restore with `{self.resume_command(manifest)}`" if not live else \
-                self.rebuild_layouts_hint(manifest) if gone == [LAYOUTS] else self.restore_from_backup(gone)
+            fix = self.restore_from_backup(gone) if live else \
+                repair_advice(self.path, manifest, self.resume_command(manifest), "restore")
+            if live and gone == [LAYOUTS]:
+                fix = self.rebuild_layouts_hint(manifest)
             raise RunFolderError(f"{self.path} is incomplete: {' and '.join(gone)} (missing); {fix}")
         if "checksums" not in manifest:
             return
@@ -489,8 +487,7 @@ class RunRecord(LiveRecord, ConfigRecord):
         that the parts are its own (``None`` when there is a manifest, or no such trace)."""
         if self.is_run():
             return None
-        found = sorted({int(p.stem.split("-")[1]) for kind in PART_KINDS
-                        for p in (self.path / kind).glob("part-*.parquet") if p.stem.split("-")[1].isdigit()})
+        found = sorted({index for kind in PART_KINDS for index in numbered_parts(self.path / kind)})
         if not found or not any((self.path / trace).exists() for trace in RUN_TRACES):
             return None
         fix = self.restore_manifest_advice() if self.live_signs() else (
@@ -502,8 +499,10 @@ class RunRecord(LiveRecord, ConfigRecord):
 
     def unrecorded_note(self) -> str:
         """What a reader of a folder of parts without a manifest (assembled by hand) is told."""
+        strays = [f"{kind}/{p.name}" for kind in PART_KINDS for p in stray_part_files(self.path / kind)]
+        left_out = f"; left out {', '.join(strays)}: not named part-NNNN.parquet" if strays else ""
         return (f"{self.path} has no {MANIFEST}: nothing shows that its parts are the whole study or "
-                "unchanged; they were analysed as found, unverified")
+                f"unchanged; they were analysed as found, unverified{left_out}")
 
     def resume_differences(self, manifest: Mapping[str, Any], config: ExperimentConfig, seed: int,
                            participants: int) -> list[str]:
@@ -535,10 +534,8 @@ class RunRecord(LiveRecord, ConfigRecord):
         if manifest.get(RECORDINGS_KEY) != now:
             differences.append(f"{RECORDINGS_KEY}: {_shown(manifest.get(RECORDINGS_KEY, _ABSENT))} in the "
                                f"manifest, {_shown(now)} now ({RECORDINGS_DIFFER.format(what='run')})")
-        recorded_version = (manifest.get("versions") or {}).get("nudgecli", _ABSENT)
-        if recorded_version != __version__:
-            shown = "(absent)" if recorded_version is _ABSENT else str(recorded_version)
-            differences.append(f"nudgecli version: {shown} in the manifest, {__version__} now")
+        if (version := version_difference(manifest)) is not None:  # repair_advice knows this refusal
+            differences.append(version)
         return differences
 
     def no_parts_message(self, kind: str, manifest: Mapping[str, Any] | None) -> str:

@@ -5,11 +5,23 @@ holds its lock). Read by :class:`nudgecli.run_folder_record.RunRecord` and
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from nudgecli.run_folder_names import CONFIG, LAYOUTS, LOCK, PART_KINDS, PEOPLE_DIR
+from nudgecli import __version__
+from nudgecli.errors import RunFolderError, shell_words
+from nudgecli.run_folder_names import (
+    CONFIG,
+    FIGURES_DIR,
+    LAYOUTS,
+    LOCK,
+    MANIFEST,
+    PART_KINDS,
+    PARTICIPANTS,
+    PEOPLE_DIR,
+)
 
 #: The folders a run makes before its manifest, and ``--force`` empties: empty, part of a start.
 _EMPTIED = (*PART_KINDS, "calibration")
@@ -41,3 +53,72 @@ def run_state(folder: Path, manifest: Mapping[str, Any]) -> str:
 
     # this command's own lock (it reads the run) is no other writer's
     return "is running" if held_by_another_process(folder) else "was interrupted"
+
+
+def other_version(manifest: Mapping[str, Any]) -> str | None:
+    """The nudgecli version the manifest records when it is not this one (``""``: it records none),
+    else ``None``. This nudge refuses to resume such a run (its settings differ: ``resume_differences``
+    of :class:`~nudgecli.run_folder_record.RunRecord`), so no advice offers that resume."""
+    versions = manifest.get("versions")
+    recorded = versions.get("nudgecli") if isinstance(versions, Mapping) else None
+    return None if recorded == __version__ else str(recorded or "")
+
+
+def version_difference(manifest: Mapping[str, Any]) -> str | None:
+    """``nudgecli version: OLD in the manifest, NEW now`` where :func:`other_version` finds one."""
+    if (old := other_version(manifest)) is None:
+        return None
+    return f"nudgecli version: {old or '(absent)'} in the manifest, {__version__} now"
+
+
+def rerun_command(folder: Path, manifest: Mapping[str, Any] | None) -> str:
+    """The ``nudge simulate ... --force`` that simulates the run in ``folder`` again with this nudge:
+    its experiment (its config.toml where there is one), seed and participants, replacing it."""
+    manifest = manifest or {}
+    experiment = str(folder / CONFIG) if (folder / CONFIG).is_file() else \
+        str(manifest.get("experiment") or "EXPERIMENT")
+    words = ["nudge", "simulate", experiment, "--out", str(folder)]
+    for flag, key in (("--seed", "seed"), ("--participants", "participants")):
+        words += [flag, str(manifest[key])] if manifest.get(key) is not None else []
+    return shell_words([*words, "--force"])
+
+
+def simulate_again(folder: Path, manifest: Mapping[str, Any] | None) -> str:
+    """The advice to simulate the run in ``folder`` again with this nudge (:func:`rerun_command`)."""
+    return f"simulate the run again with this version of nudge: `{rerun_command(folder, manifest)}`"
+
+
+def repair_advice(folder: Path, manifest: Mapping[str, Any], resume: str, verb: str) -> str:
+    """What repairs or finishes the run in ``folder``: ``VERB with `RESUME``` (``resume``: its
+    ``--resume`` command), or, where the run was made by another nudgecli version (whose resume this
+    one refuses), both versions, the install that resumes it, and the simulation again that works."""
+    old = other_version(manifest)
+    if old is None:
+        return f"{verb} with `{resume}`"
+    if not old:
+        return (f"the manifest records no nudgecli version (this is {__version__}, which resumes only its "
+                f"own runs); {simulate_again(folder, manifest)}")
+    return (f"the run was made by nudgecli {old} (this is {__version__}, which resumes only its own runs): "
+            f"to {verb.split(' ')[0]} it, install nudgecli=={old} and run `{resume}`, or "
+            f"{simulate_again(folder, manifest)}")
+
+
+#: What a run writes in its folder: a link in their place is refused (:func:`refuse_links`).
+_RUN_OWN = (*_EMPTIED, PEOPLE_DIR, FIGURES_DIR, MANIFEST, CONFIG, PARTICIPANTS, LAYOUTS)
+
+
+def refuse_links(folder: Path) -> None:
+    """Refuse a run folder where a folder or file the run writes (``trials/``, ``manifest.json``,
+    ...) is a symbolic link: writing, resuming or ``--force`` replacing the run would follow it into
+    another folder (another run's parts). Never followed, never replaced: the person says which.
+
+    Raises
+    ------
+    RunFolderError
+        Names the link and where it points."""
+    for name in _RUN_OWN:
+        path = folder / name
+        if path.is_symlink():
+            raise RunFolderError(f"{path} is a symbolic link (to {os.readlink(path)}); nudge never writes a "
+                                 "run through a link, into another folder: replace the link with a folder "
+                                 "(or file) of its own, or choose another --out")

@@ -44,6 +44,7 @@ from nudgecli.config import ExperimentConfig
 from nudgecli.errors import DataError, RunFolderError, WriteError, shell_words
 from nudgecli.outputs import check_not_an_input
 from nudgecli.parquet_reader import parquet_column_names, read_parquet
+from nudgecli.results_folders import default_run_dir as default_run_dir  # where commands import it
 from nudgecli.run_folder_names import (
     CONFIG,
     FIGURES_DIR,
@@ -58,9 +59,17 @@ from nudgecli.run_folder_names import (
     STATS_CSV,
     STATS_JSON,
     SUMMARY_MD,
+    numbered_parts,
 )
 from nudgecli.run_folder_record import RunRecord, file_sha256, part_name, readable_parquet, remove_run_figures
-from nudgecli.run_folder_state import only_a_start, run_state
+from nudgecli.run_folder_state import (
+    only_a_start,
+    other_version,
+    refuse_links,
+    repair_advice,
+    run_state,
+    simulate_again,
+)
 
 if TYPE_CHECKING:  # pandas and pyarrow load on first use, after a batch has started its workers
     import pandas as pd
@@ -264,35 +273,6 @@ def prepare_mode(path: Path, held: str | None, resume: bool, force: bool, *, kin
     return "overwrite" if occupied else "new"
 
 
-def default_run_dir(experiment: str, root: Path | None = None) -> Path:
-    """A new, empty ``results/<experiment>-<UTC timestamp>/`` under the current directory (or ``root``).
-
-    The folder is created here (``mkdir`` fails if it exists), so two runs started in the same
-    second get different folders: the second gets ``...Z-2``, the third ``...Z-3``, and so on.
-
-    Raises
-    ------
-    WriteError
-        The results folder cannot be created.
-    """
-    stamp = datetime.now(UTC).strftime("%Y%m%dT%H%M%SZ")
-    base = (root or Path("results")) / f"{experiment}-{stamp}"
-    try:
-        base.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise write_error(base.parent, exc) from exc
-    for attempt in range(1, 10_000):
-        candidate = base if attempt == 1 else base.with_name(f"{base.name}-{attempt}")
-        try:
-            candidate.mkdir()
-        except FileExistsError:
-            continue
-        except OSError as exc:
-            raise write_error(candidate, exc) from exc
-        return candidate
-    raise RunFolderError(f"{base.parent}: too many runs named {base.name}; choose --out")
-
-
 def resume_command(words: Sequence[str], target: str | Path, options: Sequence[str] = ()) -> str:
     """The command line suggested to finish interrupted work: ``nudge WORDS --out TARGET OPTIONS
     --resume``, each word quoted for the shell (every resume command the toolkit prints is built here).
@@ -380,10 +360,12 @@ class RunFolder(RunRecord):
             listed = "; ".join(f"participant {p}: {', '.join(parts)}"
                                for p, parts in sorted(missing.items())[:5])
             more = f" and {len(missing) - 5} more participants" if len(missing) > 5 else ""
-            raise RunFolderError(f"{self.path} is incomplete: {listed}{more}; restore with `{fix}`")
+            raise RunFolderError(f"{self.path} is incomplete: {listed}{more}; "
+                                 f"{repair_advice(self.path, manifest, fix, 'restore')}")
         if manifest.get("status") != "complete":
+            finish = repair_advice(self.path, manifest, fix, "finish it")
             raise RunFolderError(f"{self.path}: the run {run_state(self.path, manifest)} (all parts are "
-                                 f"there but it did not finish); finish it with `{fix}`")
+                                 f"there but it did not finish); {finish}")
         self.check_vouched(manifest)
         return manifest
 
@@ -438,35 +420,37 @@ class RunFolder(RunRecord):
             raise lost
         expected = self.manifest_participants(manifest) if manifest is not None else None
         if expected is None:  # every part on disk, of the participants asked
-            found = sorted((self.path / kind).glob("part-*.parquet"))
-            parts = [p for p in found if participants is None or int(p.stem.split("-")[1]) in participants]
+            found = numbered_parts(self.path / kind)  # strays are no parts (unrecorded_note names them)
+            parts = [(i, p) for i, p in found.items() if participants is None or i in participants]
         else:  # the parts the manifest promises, of the participants asked (no other one looked for)
             asked = [index for index in expected if participants is None or index in participants]
-            parts = [part for index in asked if (part := self.part_path(kind, index)).is_file()]
+            parts = [(index, part) for index in asked if (part := self.part_path(kind, index)).is_file()]
         if not parts:
             raise RunFolderError(self.no_parts_message(kind, manifest))
         sums = self.checksums_to_read(manifest) if manifest is not None else {}
         frames = []
-        for part in parts:
+        for index, part in parts:
             try:
                 data = part.read_bytes()
             except OSError as exc:
                 raise DataError(f"{part}: cannot be read ({exc.strerror or exc})") from None
-            recorded = sums.get(int(part.stem.split("-")[1]), {}).get(kind)
+            recorded = sums.get(index, {}).get(kind)
             if recorded is not None and hashlib.sha256(data).hexdigest() != recorded:
                 raise RunFolderError(
                     f"{self.path}: {kind}/{part.name} changed since it was written (its SHA-256 differs "
                     f"from the one in the manifest); {self.part_fix(manifest, part, 'restore it')}")
             try:
                 names = parquet_column_names(data)
+                missing = [c for c in columns or () if c not in names]
+                # a part with no SHA-256 recorded may be damaged past its footer: read it here too
+                frame = None if missing else read_parquet(data, columns)
             except Exception as exc:  # pyarrow raises several types for broken files
-                raise DataError(f"{part} is not a readable Parquet file ({exc}); "
+                raise DataError(f"{part} is not a readable Parquet file ({type(exc).__name__}: {exc}); "
                                 f"{self.part_fix(manifest, part, 'rewrite it')}") from None
-            missing = [c for c in columns or () if c not in names]
-            if missing:
-                raise DataError(f"{part} lacks the column(s) {', '.join(missing)}; it was written by "
-                                "another version of nudge: re-run `nudge simulate` with this version")
-            frames.append(read_parquet(data, columns))
+            if frame is None:
+                raise DataError(f"{part} lacks the column(s) {', '.join(missing)}; it was written by another "
+                                f"version of nudge: {simulate_again(self.path, manifest)}")
+            frames.append(frame)
         import pandas as pd
 
         return pd.concat(frames, ignore_index=True)
@@ -487,6 +471,7 @@ class RunFolder(RunRecord):
         first; a run killed before its manifest starts afresh; a batch's folder is refused.
         """
         config_text = config.to_toml()
+        refuse_links(self.path)  # a linked part folder would have the run written into another folder
         manifest = self.read_manifest() if self.is_run() else None
         self.refuse_live_sessions(manifest)  # a person's sessions: neither resumed nor replaced
         self.refuse_other_kind("run")  # a batch's: --force would leave the batch beside the run
@@ -503,10 +488,12 @@ class RunFolder(RunRecord):
             if differences:
                 shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                       if len(differences) > 8 else "")
-                raise RunFolderError(
-                    f"{self.path}: cannot resume with settings different from those the run started "
-                    f"with ({shown}); {self._edited_config_hint(manifest)}resume it with its own: "
-                    f"`{self.resume_command(manifest)}`, or use --force to replace it")
+                # another version's run: its own resume is refused here too (repair_advice says what works)
+                fix = repair_advice(self.path, manifest, self.resume_command(manifest), "resume it") \
+                    if other_version(manifest) is not None else \
+                    f"resume it with its own: `{self.resume_command(manifest)}`, or use --force to replace it"
+                raise RunFolderError(f"{self.path}: cannot resume with settings different from those the run "
+                                     f"started with ({shown}); {self._edited_config_hint(manifest)}{fix}")
             self._remove_temporaries()
             # the manifest's experiment is the run's: put back an edited or lost config.toml
             if (warning := self.config_toml_warning(config)) is not None:

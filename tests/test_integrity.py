@@ -85,7 +85,7 @@ def test_resume_with_another_seed_or_version_is_refused(tmp_path, smoke_run, mon
     seed = json.loads((run / "manifest.json").read_text())["seed"]
     with pytest.raises(RunFolderError, match=rf"seed: {seed} in the manifest, {seed + 1} now"):
         run_study(load_experiment("smoke"), run, participants=2, seed=seed + 1, resume=True)
-    import nudgecli.run_folder_record as record  # where the resume compares the versions
+    import nudgecli.run_folder_state as record  # where the resume compares the versions
 
     monkeypatch.setattr(record, "__version__", "99.0")
     with pytest.raises(RunFolderError, match=r"nudgecli version: .* in the manifest, 99.0 now"):

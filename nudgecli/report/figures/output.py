@@ -14,6 +14,7 @@ import errno
 import gc
 import os
 import signal
+import sys
 import threading
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from multiprocessing.connection import Connection
@@ -180,6 +181,7 @@ def _render_all(figures: Mapping[str, Figure], staged: Mapping[str, list[Path]],
     # in a child would write to (and so copy) every page of this process's heap it inherited
     gc.freeze()
     next_figure = context.Value("i", 0)
+    parent = os.getpid()  # the children end with this process (_end_with_parent)
     children = []
     outcomes: dict[int, tuple[str, Any]] = {}
     try:
@@ -187,7 +189,7 @@ def _render_all(figures: Mapping[str, Figure], staged: Mapping[str, list[Path]],
             for _ in range(workers):
                 receive, send = context.Pipe(duplex=False)
                 child = context.Process(target=_write_figures, daemon=True, name="nudge-figures",
-                                        args=(figures, staged, targets, fmts, dpi, next_figure, send))
+                                        args=(figures, staged, targets, fmts, dpi, next_figure, send, parent))
                 child.start()
                 send.close()
                 children.append((child, receive))
@@ -210,7 +212,7 @@ def _render_all(figures: Mapping[str, Figure], staged: Mapping[str, list[Path]],
 
 def _write_figures(figures: Mapping[str, Figure], staged: Mapping[str, list[Path]],
                    targets: Mapping[str, list[Path]], formats: Sequence[str], dpi: int, next_figure: Any,
-                   send: Connection) -> None:
+                   send: Connection, parent: int) -> None:
     """A child of :func:`save_figures`: write the next unwritten figure into its temporaries until
     none is left (a slow one then holds up no other); send back ``{index: (status, None or the
     failure)}``.
@@ -218,13 +220,21 @@ def _write_figures(figures: Mapping[str, Figure], staged: Mapping[str, list[Path
     Ctrl-C (sent to the whole process group by a terminal) is ignored here: the parent ends its
     children; SIGTERM (the parent's ``terminate``) ends this one at once. Both were held back
     since the fork (:func:`_stop_signals_held`), and are let through once this process's own
-    handling is set."""
+    handling is set.
+
+    It never outlives ``parent`` (the pid of :func:`save_figures`' process): it closes its copy of
+    the folder's lock (:func:`~nudgecli.locks.release_inherited_locks`), and ends when the parent
+    dies (:func:`_end_with_parent`), even by SIGKILL, which ends no child by itself."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # ignoring discards a Ctrl-C held since the fork
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    from nudgecli.locks import release_inherited_locks  # locks builds on store, as this module does
+
+    release_inherited_locks()
+    _end_with_parent(parent)
     signal.pthread_sigmask(signal.SIG_UNBLOCK, _STOP_SIGNALS)
     stems = list(figures)
     outcomes: dict[int, tuple[str, Any]] = {}
-    while True:
+    while os.getppid() == parent:  # where no death signal is set: the parent gone, no figure more
         with next_figure.get_lock():
             index = next_figure.value
             next_figure.value += 1
@@ -239,6 +249,23 @@ def _write_figures(figures: Mapping[str, Figure], staged: Mapping[str, list[Path
         outcomes[index] = ("ok", None)
     send.send(outcomes)
     send.close()
+
+
+def _end_with_parent(parent: int) -> None:
+    """Have the kernel kill this process when its parent dies (Linux's ``PR_SET_PDEATHSIG``, through
+    ctypes; elsewhere :func:`_write_figures` looks for its parent between figures), and exit now
+    if the parent ``parent`` died before that was set."""
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(Exception):  # no libc to load (a static build): the loop's check remains
+            import ctypes
+
+            ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0)
+    if os.getppid() != parent:
+        os._exit(1)
+
+
+#: prctl's option: the signal the kernel sends this process when its parent ends (linux/prctl.h).
+_PR_SET_PDEATHSIG = 1
 
 
 @contextlib.contextmanager
