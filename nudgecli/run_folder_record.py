@@ -361,10 +361,12 @@ class RunRecord(LiveRecord, ConfigRecord):
         fix = self.resume_command(manifest) if manifest else "nudge simulate ... --resume"
         # a live folder's: made again from the experiment and its seed (never by a simulation there)
         rebuild = self.rebuild_layouts_hint(manifest) if manifest.get("executor") == "live" else None
-        again = rebuild or f"write it again with `{fix}`"
+        advise = (lambda verb: repair_advice(self.path, manifest, fix, verb)) if manifest else \
+            (lambda verb: f"{verb} with `{fix}`")  # another version's run: its resume is refused
+        again = rebuild or advise("write it again")
         if not path.is_file():
             raise RunFolderError(f"{self.path}: no {LAYOUTS}; the run folder is incomplete; "
-                                 f"{rebuild or f'restore it with `{fix}`'}")
+                                 f"{rebuild or advise('restore it')}")
         files = manifest.get(FILE_CHECKSUMS)
         recorded = files.get(LAYOUTS) if isinstance(files, Mapping) else None
         data = path.read_bytes()
@@ -473,7 +475,7 @@ class RunRecord(LiveRecord, ConfigRecord):
             shown = ", ".join(unrecorded[:6]) + (f" and {len(unrecorded) - 6} more" if len(unrecorded) > 6
                                                  else "")
             fix = self.restore_from_backup(unrecorded[:6]) if live else \
-                f"simulate them again with `{self.resume_command(manifest)}`"
+                repair_advice(self.path, manifest, self.resume_command(manifest), "simulate them again")
             raise RunFolderError(f"{self.path}: the manifest records no SHA-256 of {shown}: nothing shows "
                                  f"they are this run's (copied in from another run?); {fix}")
 

@@ -71,9 +71,15 @@ def version_difference(manifest: Mapping[str, Any]) -> str | None:
     return f"nudgecli version: {old or '(absent)'} in the manifest, {__version__} now"
 
 
-def rerun_command(folder: Path, manifest: Mapping[str, Any] | None) -> str:
-    """The ``nudge simulate ... --force`` that simulates the run in ``folder`` again with this nudge:
-    its experiment (its config.toml where there is one), seed and participants, replacing it."""
+def rerun_command(folder: Path, manifest: Mapping[str, Any] | None, resume: str | None = None) -> str:
+    """The ``nudge simulate ... --force`` that simulates the run in ``folder`` again with this nudge,
+    replacing it: its ``--resume`` command ``resume`` with ``--force`` in place of ``--resume`` (the
+    same options: its people file too), else its experiment (its config.toml where there is one),
+    seed and participants."""
+    from nudgecli.store import forced_command  # store builds on this module
+
+    if resume is not None and (forced := forced_command(resume)) is not None:
+        return forced
     manifest = manifest or {}
     experiment = str(folder / CONFIG) if (folder / CONFIG).is_file() else \
         str(manifest.get("experiment") or "EXPERIMENT")
@@ -83,9 +89,9 @@ def rerun_command(folder: Path, manifest: Mapping[str, Any] | None) -> str:
     return shell_words([*words, "--force"])
 
 
-def simulate_again(folder: Path, manifest: Mapping[str, Any] | None) -> str:
+def simulate_again(folder: Path, manifest: Mapping[str, Any] | None, resume: str | None = None) -> str:
     """The advice to simulate the run in ``folder`` again with this nudge (:func:`rerun_command`)."""
-    return f"simulate the run again with this version of nudge: `{rerun_command(folder, manifest)}`"
+    return f"simulate the run again with this version of nudge: `{rerun_command(folder, manifest, resume)}`"
 
 
 def repair_advice(folder: Path, manifest: Mapping[str, Any], resume: str, verb: str) -> str:
@@ -97,10 +103,10 @@ def repair_advice(folder: Path, manifest: Mapping[str, Any], resume: str, verb: 
         return f"{verb} with `{resume}`"
     if not old:
         return (f"the manifest records no nudgecli version (this is {__version__}, which resumes only its "
-                f"own runs); {simulate_again(folder, manifest)}")
+                f"own runs); {simulate_again(folder, manifest, resume)}")
     return (f"the run was made by nudgecli {old} (this is {__version__}, which resumes only its own runs): "
-            f"to {verb.split(' ')[0]} it, install nudgecli=={old} and run `{resume}`, or "
-            f"{simulate_again(folder, manifest)}")
+            f"to {verb if ' ' in verb else f'{verb} it'}, install nudgecli=={old} and run `{resume}`, or "
+            f"{simulate_again(folder, manifest, resume)}")
 
 
 #: What a run writes in its folder: a link in their place is refused (:func:`refuse_links`).

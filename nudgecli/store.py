@@ -283,6 +283,13 @@ def resume_command(words: Sequence[str], target: str | Path, options: Sequence[s
     return shell_words(["nudge", *shown, "--resume"])
 
 
+def forced_command(resume: str) -> str | None:
+    """The command :func:`resume_command` built, with ``--force`` in place of ``--resume``: the same
+    work started afresh over the old (``None`` for a command not built there: a Python call)."""
+    return resume.removesuffix("--resume") + "--force" if resume.startswith("nudge ") and \
+        resume.endswith(" --resume") else None
+
+
 def simulate_resume_command(experiment: str, target: str | Path, seed: int | None = None,
                             participants: int | None = None, workers: int = 1, overrides: Sequence[str] = (),
                             command: str = "simulate", confirm: bool = False,
@@ -448,8 +455,9 @@ class RunFolder(RunRecord):
                 raise DataError(f"{part} is not a readable Parquet file ({type(exc).__name__}: {exc}); "
                                 f"{self.part_fix(manifest, part, 'rewrite it')}") from None
             if frame is None:
+                resume = self.resume_command(manifest) if manifest is not None else None
                 raise DataError(f"{part} lacks the column(s) {', '.join(missing)}; it was written by another "
-                                f"version of nudge: {simulate_again(self.path, manifest)}")
+                                f"version of nudge: {simulate_again(self.path, manifest, resume)}")
             frames.append(frame)
         import pandas as pd
 

@@ -128,3 +128,27 @@ def test_a_linked_run_file_or_folder_is_refused(tmp_path: Path, name: str) -> No
     (run / name).symlink_to(elsewhere)
     line = one_error_line(nudge("simulate", "smoke", "--participants", "1", "--out", run, "--force").output)
     assert "is a symbolic link" in line and name in line
+
+
+def test_another_versions_run_missing_its_layouts_is_told_both_versions(analysed_smoke_run: Path,
+                                                                        tmp_path: Path) -> None:
+    run = tmp_path / "run"
+    shutil.copytree(analysed_smoke_run, run)
+    _of_version(run, "0.0.9")
+    (run / "layouts.parquet").unlink()
+    line = one_error_line(nudge("analyze", run).output)
+    assert "to restore it, install nudgecli==0.0.9" in line and "--seed 5 --participants 2 --force`" in line
+
+
+def test_a_part_lacking_a_column_is_advised_a_simulation_that_is_not_refused(analysed_smoke_run: Path,
+                                                                             tmp_path: Path) -> None:
+    import pandas as pd
+
+    parts = tmp_path / "parts"
+    for kind in ("trials", "steps"):
+        shutil.copytree(analysed_smoke_run / kind, parts / kind)
+    part = parts / "trials" / "part-0000.parquet"
+    pd.read_parquet(part).drop(columns=["success"]).to_parquet(part, index=False)
+    line = one_error_line(nudge("analyze", parts).output)
+    assert "lacks the column(s) success" in line
+    assert line.endswith(f"`nudge simulate EXPERIMENT --out {parts} --force`")  # --force: it holds parts
