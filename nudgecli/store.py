@@ -452,7 +452,8 @@ class RunFolder(RunRecord):
                 # a part with no SHA-256 recorded may be damaged past its footer: read it here too
                 frame = None if missing else read_parquet(data, columns)
             except Exception as exc:  # pyarrow raises several types for broken files
-                raise DataError(f"{part} is not a readable Parquet file ({type(exc).__name__}: {exc}); "
+                cause = " ".join(str(exc).split())  # pyarrow's own lines: one line
+                raise DataError(f"{part} is not a readable Parquet file ({type(exc).__name__}: {cause}); "
                                 f"{self.part_fix(manifest, part, 'rewrite it')}") from None
             if frame is None:
                 resume = self.resume_command(manifest) if manifest is not None else None

@@ -152,3 +152,15 @@ def test_a_part_lacking_a_column_is_advised_a_simulation_that_is_not_refused(ana
     line = one_error_line(nudge("analyze", parts).output)
     assert "lacks the column(s) success" in line
     assert line.endswith(f"`nudge simulate EXPERIMENT --out {parts} --force`")  # --force: it holds parts
+
+
+def test_a_damaged_page_header_is_one_error_line(analysed_smoke_run: Path, tmp_path: Path) -> None:
+    parts = tmp_path / "parts"
+    for kind in ("trials", "steps"):
+        shutil.copytree(analysed_smoke_run / kind, parts / kind)
+    part = parts / "trials" / "part-0001.parquet"
+    data = bytearray(part.read_bytes())
+    data[4:12] = b"\xff" * 8  # the first page's header, just after the magic bytes
+    part.write_bytes(bytes(data))
+    line = one_error_line(nudge("analyze", parts).output)  # pyarrow's message spans lines
+    assert "trials/part-0001.parquet is not a readable Parquet file" in line
