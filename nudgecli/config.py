@@ -28,7 +28,16 @@ from pydantic import (
     model_validator,
 )
 
-from nudgecli.config_base import MAX_RATE_HZ, MAX_TIME_LIMIT_S, PositiveFloat, Probability, Section
+from nudgecli.config_base import (
+    MAX_RATE_HZ,
+    MAX_REWARD,
+    MAX_TIME_LIMIT_S,
+    Discount,
+    PositiveFloat,
+    Probability,
+    Reward,
+    Section,
+)
 from nudgecli.config_files import (
     dump_toml,
     format_validation_error,
@@ -55,17 +64,14 @@ from nudgecli.model.interface import (
 from nudgecli.model.mdp import DEFAULT_GAMMA, MDPRewards
 
 __all__ = [
-    "CONDITION_NAMES", "CONDITION_SECTIONS", "AssistanceSection", "BehaviourSection", "BlendingPolicySection",
+    "CONDITION_NAMES", "CONDITION_SECTIONS", "MAX_REWARD", "AssistanceSection", "BehaviourSection",
+    "BlendingPolicySection",
     "CalibrationSection", "DisambiguationSection", "ExperimentConfig", "ExperimentMeta", "HindsightSection",
     "InferenceSection", "InterfaceSection", "ModeSwitchSection", "ModelSection", "PopulationSection",
     "StudySection", "WorldSection", "experiment_from_toml", "load_experiment",
 ]
 
 
-#: The largest size of an MDP reward (``[model]``): the study's lie in -100..100 (goal 100). Within 1e6
-#: the goal MDPs' values (at most a reward over 1 - gamma) stay far from float overflow, and 10^4 times
-#: the study's scale is room for any reward design; -1e308 gave every trial a time-out.
-MAX_REWARD = 1e6
 #: The most samples the Monte Carlo estimator of I(s) may draw (the study software's: 250): its draws
 #: are held at once, so 1e9 asked for 805 GiB; 100,000 is about 80 MiB.
 MAX_MI_SAMPLES = 100_000
@@ -155,7 +161,15 @@ class StudySection(Section):
                              "(one Williams square needs an even count); use 'williams-pair' (the square and "
                              "its mirror) or list an even number of conditions")
         for g in self.goal_counts:
-            if not 2 <= g <= 8:
+            if g < 2:
+                # one goal fits the goal regions; what a study of it lacks is a choice: the belief is
+                # certain from the start, and at the paper's rho1 = 1.1 / 1 goal alpha stays 0
+                one = ("leaves the agent nothing to infer (its belief is certain from the start, and at the "
+                       "paper's assistance.rho1_factor = 1.1 blending never acts, alpha = 0)")
+                none = "make no layout (a layout has at least one goal, and the agent needs two)"
+                what = one if g == 1 else none
+                raise ValueError(f"goal_counts: {g} goal{'' if g == 1 else 's'} {what}; use 2 to 8")
+            if g > 8:
                 raise ValueError(f"goal_counts: {g} goals do not fit the goal regions; use 2 to 8")
         if not self.goal_counts or not self.corners or not self.start_modes:
             raise ValueError("goal_counts, corners and start_modes must not be empty")
@@ -198,16 +212,18 @@ class InterfaceSection(Section):
         return self
 
 
-#: An MDP reward: finite, at most :data:`MAX_REWARD` in size.
-Reward = Annotated[float, Field(ge=-MAX_REWARD, le=MAX_REWARD, allow_inf_nan=False)]
-
-
 class ModelSection(Section):
-    """``[model]``: the human model the agent assumes (goal MDPs, epsilon-greedy policy, tables)."""
+    """``[model]``: the human model the agent assumes (goal MDPs, epsilon-greedy policy, tables).
+
+    The agent's assumption only: the simulated person plans with their own task costs
+    (``[behaviour]`` ``plan_gamma`` and the ``plan_*_reward`` keys, whose defaults are these
+    defaults) and slips with their own epsilon (``[population]``), so an agent that assumes other
+    costs than the person's is a setting, and a condition without an agent never reads ``[model]``.
+    """
 
     # the study's values, where the goal MDPs are defined (nudgecli.model.mdp)
     epsilon: float = Field(default=DEFAULT_HUMAN_EPSILON, description="Eq. 1's epsilon, in (0, 1).")
-    gamma: Annotated[float, Field(gt=0, lt=1)] = DEFAULT_GAMMA
+    gamma: Discount = DEFAULT_GAMMA
     move_reward: Reward = MDPRewards.move
     mode_switch_reward: Reward = MDPRewards.mode_switch
     bump_reward: Reward = MDPRewards.bump

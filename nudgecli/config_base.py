@@ -14,6 +14,11 @@ MAX_RATE_HZ = 1000.0
 #: a person or a calibration prompt may be: a longer one is no setting a study means, and inf or 1e300
 #: crashed the run (an overflow, or arrays of a negative or astronomical size).
 MAX_TIME_LIMIT_S = 3600.0
+#: The largest size of an MDP reward (``[model]``, ``[behaviour]`` ``plan_*``): the study's lie in
+#: -100..100 (goal 100). Within 1e6 the goal MDPs' values (at most a reward over 1 - gamma) stay far from
+#: float overflow, and 10^4 times the study's scale is room for any reward design; -1e308 gave every
+#: trial a time-out.
+MAX_REWARD = 1e6
 
 # finite: every float field refuses inf and NaN (Section's allow_inf_nan=False); these types say so too,
 # for a field read outside a Section
@@ -21,6 +26,10 @@ PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 Probability = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
 #: A duration of up to :data:`MAX_TIME_LIMIT_S` seconds, zero allowed.
 Seconds = Annotated[float, Field(ge=0, le=MAX_TIME_LIMIT_S, allow_inf_nan=False)]
+#: An MDP reward: finite, at most :data:`MAX_REWARD` in size.
+Reward = Annotated[float, Field(ge=-MAX_REWARD, le=MAX_REWARD, allow_inf_nan=False)]
+#: An MDP's discount, in (0, 1).
+Discount = Annotated[float, Field(gt=0, lt=1)]
 
 
 class Section(BaseModel):

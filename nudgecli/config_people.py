@@ -12,7 +12,17 @@ from typing import Annotated, Literal
 from pydantic import Field, PrivateAttr, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from nudgecli.config_base import MAX_RATE_HZ, MAX_TIME_LIMIT_S, PositiveFloat, Seconds, Section, check_range
+from nudgecli.config_base import (
+    MAX_RATE_HZ,
+    MAX_TIME_LIMIT_S,
+    Discount,
+    PositiveFloat,
+    Reward,
+    Seconds,
+    Section,
+    check_range,
+)
+from nudgecli.model.mdp import DEFAULT_GAMMA, MDPRewards
 
 #: The most blocks or prompts per label of a simulated calibration: the study's are 6 and 12; 1e8 filled
 #: memory (the logs are arrays of every sample).
@@ -251,6 +261,12 @@ class PopulationSection(Section):
         return self
 
 
+#: The ``[behaviour]`` keys of the person's own task costs, which their plan in the grid world is
+#: solved with (``[model]``'s keys of the same names but ``plan_``, the agent's assumption of them).
+PERSON_PLAN_KEYS = ("plan_gamma", "plan_move_reward", "plan_mode_switch_reward", "plan_bump_reward",
+                    "plan_goal_reward")
+
+
 class BehaviourSection(Section):
     """``[behaviour]``: how the simulated person acts in their turn (:mod:`nudgecli.sim.behaviour`).
 
@@ -311,6 +327,15 @@ class BehaviourSection(Section):
       back in the soft band, or, as HABITS.md counts, with the blow's end
       (``nudgecli.sim.behaviour_strays``); ``false``: the drawn pressure as it is, deadband readings
       included.
+
+    The person's own plan: in the grid world they act on the greedy policy of their goal's MDP,
+    solved with their own task costs, ``plan_gamma`` and the rewards ``plan_move_reward``,
+    ``plan_mode_switch_reward``, ``plan_bump_reward`` and ``plan_goal_reward`` (``[model]``'s keys
+    without ``plan_``, which are the agent's assumption of them). Their defaults are ``[model]``'s:
+    a person who plans as the agent assumes, solved once. Set them apart from ``[model]`` to study
+    an agent that assumes the wrong costs (``[model]`` changes the agent only; a condition without
+    an agent, such as ``teleoperation``, does not read it). The CIAA path world's person follows the
+    path's legs and refuses these keys.
     """
 
     decisions: Literal["events", "grid"] = "events"
@@ -334,6 +359,21 @@ class BehaviourSection(Section):
     planning_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.2
     hold_on_jitter: Annotated[float, Field(ge=0, lt=1)] = 0.5
     deadband_strays: bool = True
+    plan_gamma: Discount = Field(
+        default=DEFAULT_GAMMA, description="The discount of the person's own goal MDPs, in (0, 1) (the "
+        "agent assumes model.gamma).")
+    plan_move_reward: Reward = Field(
+        default=MDPRewards.move, description="The person's own reward of a move (the agent assumes "
+        "model.move_reward).")
+    plan_mode_switch_reward: Reward = Field(
+        default=MDPRewards.mode_switch, description="The person's own reward of a mode switch (the agent "
+        "assumes model.mode_switch_reward).")
+    plan_bump_reward: Reward = Field(
+        default=MDPRewards.bump, description="The person's own reward of a move into a wall or another "
+        "goal's cell (the agent assumes model.bump_reward).")
+    plan_goal_reward: Reward = Field(
+        default=MDPRewards.goal, description="The person's own reward of reaching and holding the goal "
+        "pose (the agent assumes model.goal_reward).")
 
 
 class CalibrationSection(Section):

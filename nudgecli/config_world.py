@@ -11,6 +11,7 @@ from typing import Any, Literal
 from pydantic import model_validator
 
 from nudgecli.config_base import PositiveFloat, Section, plain
+from nudgecli.config_people import PERSON_PLAN_KEYS
 from nudgecli.model.path_world import HEADING_TOLERANCE, SNAP_TOLERANCE, SUCCESS_DISTANCE
 
 
@@ -76,6 +77,9 @@ GRID_ONLY: dict[str, str] = {
     # what a person does about blending or the autonomy's turn: no_assistance has neither
     **{f"behaviour.{key}": _NO_ASSISTANCE for key in ("lean_on_blending", "release_when_dragged",
                                                       "after_autonomy")},
+    # the person's own task costs, which solve their goal MDPs in the grid: a path has one plan
+    **{f"behaviour.{key}": "the path's one command plan (its legs, no costs to weigh)"
+       for key in PERSON_PLAN_KEYS},
 }
 #: The condition sections (``None`` unless given), which a CIAA run never reads.
 CONDITION_TABLES = ("blending", "mode-switch", "mode_switch", "hindsight", "policies")
@@ -85,8 +89,9 @@ AGENT_SECTIONS = ("model", "inference", "disambiguation", "assistance")
 #: The agent's keys a CIAA run reads all the same, as the grid world does: which tables the agent
 #: holds of each participant (fitted from a simulated calibration, whose logs the run folder keeps,
 #: or the defaults with this noise), recorded in ``participants.parquet``
-#: (:func:`nudgecli.sim.study.agent_tables`). The simulated person reads no ``[model]`` key: their
-#: epsilon is their own (``[population]``).
+#: (:func:`nudgecli.sim.study.agent_tables`). The simulated person reads no ``[model]`` key in either
+#: world: their epsilon is their own (``[population]``), and so, in the grid, are their plan's costs
+#: (``[behaviour]`` ``plan_*``).
 CIAA_AGENT_KEYS_READ = ("model.tables", "model.default_table_noise")
 _NO_AGENT = "no goal inference, disambiguation or assistance"
 #: The keys the grid world does not read, each with what that world does instead.

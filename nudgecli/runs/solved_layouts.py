@@ -1,13 +1,16 @@
 """A worker's cache of solved layouts: value iteration once per layout and model, not once per study.
 
 A study's plan (:class:`~nudgecli.sim.study.StudyPlan`) solves each of its layouts' goal MDPs
-(:func:`~nudgecli.sim.study.solve_layouts`, about 0.16 s for the paper's 48 layouts). What a
-solution depends on is the layout's goals and the ``[model]`` section, nothing else; the plan
-cache (:mod:`nudgecli.runs.batch_tasks`) is keyed more broadly (every section but those known not
-to draw or solve layouts), so the points of a sweep over, say, a ``[behaviour]`` or ``[blending]``
-key, or ``study.time_limit_s``, draw the same layouts under different plan keys. This cache, keyed
-by exactly what the solver reads (the goal cells and headings, and the whole ``[model]``
-section), gives such a plan the solutions it already has. Replications draw new layouts (the 20
+(:func:`~nudgecli.sim.study.solve_layouts`, about 0.16 s for the paper's 48 layouts) with the
+agent's task costs (``[model]``) and, where they differ, with the simulated person's own
+(``[behaviour]`` ``plan_*``, :func:`~nudgecli.sim.study.person_policies`). What a solution
+depends on is the layout's goals and those costs (:class:`~nudgecli.sim.study.TaskCosts`),
+nothing else; the plan cache (:mod:`nudgecli.runs.batch_tasks`) is keyed more broadly (every
+section but those known not to draw or solve layouts), so the points of a sweep over, say, a
+``[behaviour]`` or ``[blending]`` key, or ``study.time_limit_s``, draw the same layouts under
+different plan keys. This cache, keyed by exactly what the solver reads (the goal cells and
+headings, and the costs), gives such a plan the solutions it already has, and a person whose
+costs are the agent's the agent's solutions. Replications draw new layouts (the 20
 replications of ``replicate paper`` hold 960 distinct layouts), so there it only misses.
 
 :func:`~nudgecli.model.mdp.solve_layout` is a pure function of those inputs, and a solved layout
@@ -24,7 +27,15 @@ from collections.abc import Sequence
 
 from nudgecli.config import ExperimentConfig
 from nudgecli.model.mdp import SolvedLayout
-from nudgecli.sim.study import StudyLayout, StudyPlan, build_layouts, solve_layouts
+from nudgecli.sim.study import (
+    StudyLayout,
+    StudyPlan,
+    TaskCosts,
+    agent_costs,
+    build_layouts,
+    person_policies,
+    solve_layouts,
+)
 
 #: Solved layouts a worker keeps: one ``paper`` study's (48, about 20 MB when no plan holds them).
 SOLVED_CACHE_SIZE = 48
@@ -35,28 +46,32 @@ _SOLVED: OrderedDict[SolveKey, SolvedLayout] = OrderedDict()
 _SOLVED_LOCK = threading.Lock()  # a dask worker may run tasks in several threads
 
 
-def solve_key(config: ExperimentConfig, item: StudyLayout) -> SolveKey:
-    """What a layout's solution depends on: the ``[model]`` section and the goals' cells and headings."""
+def solve_key(config: ExperimentConfig, item: StudyLayout, costs: TaskCosts | None = None) -> SolveKey:
+    """What a layout's solution depends on: the task costs (the agent's, ``[model]``, when ``None``)
+    and the goals' cells and headings."""
     cells = item.layout.goal_cells
-    return (config.model.model_dump_json(), tuple(cells.shape), cells.astype("<i8").tobytes(),
-            item.layout.goal_headings.astype("<i8").tobytes())
+    # repr: each reward, gamma and epsilon as the shortest text that reads back the same float
+    return (repr(agent_costs(config) if costs is None else costs), tuple(cells.shape),
+            cells.astype("<i8").tobytes(), item.layout.goal_headings.astype("<i8").tobytes())
 
 
-def solve_layouts_cached(config: ExperimentConfig, layouts: Sequence[StudyLayout]) -> list[SolvedLayout]:
-    """:func:`~nudgecli.sim.study.solve_layouts` of ``layouts``, each found in this process's cache
-    or solved (the misses together) and remembered.
+def solve_layouts_cached(config: ExperimentConfig, layouts: Sequence[StudyLayout],
+                         costs: TaskCosts | None = None) -> list[SolvedLayout]:
+    """:func:`~nudgecli.sim.study.solve_layouts` of ``layouts`` with ``costs`` (the agent's when
+    ``None``), each found in this process's cache or solved (the misses together) and remembered.
 
     Returns
     -------
     list[SolvedLayout]
         One per layout, in the given order.
     """
-    keys = [solve_key(config, item) for item in layouts]
+    keys = [solve_key(config, item, costs) for item in layouts]
     with _SOLVED_LOCK:
         found = {key: _SOLVED[key] for key in keys if key in _SOLVED}
     missing = [i for i, key in enumerate(keys) if key not in found]
     if missing:
-        for i, solved in zip(missing, solve_layouts(config, [layouts[i] for i in missing]), strict=True):
+        solutions = solve_layouts(config, [layouts[i] for i in missing], costs)
+        for i, solved in zip(missing, solutions, strict=True):
             found[keys[i]] = solved
     remember_solved(keys, [found[key] for key in keys])
     return [found[key] for key in keys]
@@ -85,7 +100,8 @@ def build_plan(config: ExperimentConfig, seed: int) -> StudyPlan:
     if config.world.kind == "ciaa":
         return StudyPlan.build(config, seed)
     layouts = build_layouts(config, seed)
-    return StudyPlan(config=config, seed=seed, layouts=layouts, solved=solve_layouts_cached(config, layouts))
+    return StudyPlan(config=config, seed=seed, layouts=layouts, solved=solve_layouts_cached(config, layouts),
+                     person_policies=person_policies(config, layouts, solve_layouts_cached))
 
 
 def clear_solved() -> None:

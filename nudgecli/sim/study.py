@@ -15,7 +15,7 @@ import contextlib
 import gc
 import json
 import time
-from collections.abc import Collection, Iterable, Iterator, Sequence
+from collections.abc import Callable, Collection, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -153,13 +153,61 @@ def participant_schedule(config: ExperimentConfig, seed: int, participant: int,
     return specs
 
 
-def solve_layouts(config: ExperimentConfig, layouts: list[StudyLayout]) -> list[SolvedLayout]:
-    """Value iteration once per layout (the agent's epsilon-greedy human model included)."""
+@dataclass(frozen=True)
+class TaskCosts:
+    """What a layout's goal MDPs are solved with besides its goals: the rewards, the discount and
+    the epsilon of the epsilon-greedy ``p(a | s, g)`` built on the policy (all :func:`solve_layout`
+    reads).
+
+    Two sets of them: the agent's assumption of the person (``[model]``, :func:`agent_costs`) and
+    the simulated person's own plan (``[behaviour]`` ``plan_*``, :func:`person_costs`).
+    """
+
+    rewards: MDPRewards
+    gamma: float
+    epsilon: float
+
+
+def agent_costs(config: ExperimentConfig) -> TaskCosts:
+    """The task costs the agent assumes the person plans with: ``[model]``'s."""
     m = config.model
-    rewards = MDPRewards(move=m.move_reward, mode_switch=m.mode_switch_reward, bump=m.bump_reward,
-                         goal=m.goal_reward)
-    return [solve_layout(item.layout.goal_cells, item.layout.goal_headings, rewards, m.gamma, m.epsilon)
+    return TaskCosts(MDPRewards(move=m.move_reward, mode_switch=m.mode_switch_reward, bump=m.bump_reward,
+                                goal=m.goal_reward), m.gamma, m.epsilon)
+
+
+def person_costs(config: ExperimentConfig) -> TaskCosts:
+    """The simulated person's own task costs (``[behaviour]`` ``plan_*``), which their plan (their
+    goal's greedy policy) is solved with.
+
+    The epsilon is ``[model]``'s: the person acts on the policy alone (their own slips are their
+    ``[population]`` epsilon), so it changes nothing of theirs, and with it costs equal to the
+    agent's are the agent's, solved once (:func:`person_policies`, the solve cache's key).
+    """
+    b = config.behaviour
+    return TaskCosts(MDPRewards(move=b.plan_move_reward, mode_switch=b.plan_mode_switch_reward,
+                                bump=b.plan_bump_reward, goal=b.plan_goal_reward), b.plan_gamma,
+                     config.model.epsilon)
+
+
+def solve_layouts(config: ExperimentConfig, layouts: Sequence[StudyLayout],
+                  costs: TaskCosts | None = None) -> list[SolvedLayout]:
+    """Value iteration once per layout with ``costs`` (the agent's, ``[model]``, when ``None``: its
+    epsilon-greedy human model included)."""
+    c = agent_costs(config) if costs is None else costs
+    return [solve_layout(item.layout.goal_cells, item.layout.goal_headings, c.rewards, c.gamma, c.epsilon)
             for item in layouts]
+
+
+def person_policies(config: ExperimentConfig, layouts: Sequence[StudyLayout],
+                    solve: Callable[[ExperimentConfig, Sequence[StudyLayout], TaskCosts], list[SolvedLayout]]
+                    = solve_layouts) -> list[np.ndarray] | None:
+    """Each layout's ``(G, S)`` policy of the simulated person's own plan, solved with ``solve``
+    where their task costs (:func:`person_costs`) differ from the agent's; ``None`` where they are
+    the same (the agent's solutions are theirs too, and nothing more is solved)."""
+    costs = person_costs(config)
+    if costs == agent_costs(config):
+        return None
+    return [solved.policy for solved in solve(config, layouts, costs)]
 
 
 def path_layouts_frame(paths: dict[int, PathLayout]) -> pd.DataFrame:
@@ -196,8 +244,10 @@ def path_schedule(config: ExperimentConfig, participant: int,
 class StudyPlan:
     """Everything a worker needs, computed once per study.
 
-    In the grid world: the shared layouts and their solved goal MDPs. In the CIAA world: the
-    task's path layouts (``paths``, by trial index) and their optimal command plans (``policies``).
+    In the grid world: the shared layouts and their solved goal MDPs, the agent's (``solved``,
+    ``[model]``) and, where the simulated person's own task costs differ from them, the person's
+    plans (``person_policies``). In the CIAA world: the task's path layouts (``paths``, by trial
+    index) and their optimal command plans (``policies``).
     """
 
     config: ExperimentConfig
@@ -207,6 +257,9 @@ class StudyPlan:
     paths: dict[int, PathLayout] | None = None
     policies: dict[int, Any] | None = None
     people: tuple[Twin, ...] = ()  # twins of real people (--people): participant i is people[i mod P]
+    #: Each layout's ``(G, S)`` policy the simulated person follows, solved with their own task
+    #: costs (:func:`person_policies`); ``None``: their costs are the agent's, ``solved``'s policies.
+    person_policies: list[np.ndarray] | None = None
 
     @classmethod
     def build(cls, config: ExperimentConfig, seed: int) -> StudyPlan:
@@ -215,13 +268,26 @@ class StudyPlan:
             return cls(config=config, seed=seed, layouts=[], solved=[], paths=paths,
                        policies={k: optimal_policy(lay) for k, lay in paths.items()})
         layouts = build_layouts(config, seed)
-        return cls(config=config, seed=seed, layouts=layouts, solved=solve_layouts(config, layouts))
+        return cls(config=config, seed=seed, layouts=layouts, solved=solve_layouts(config, layouts),
+                   person_policies=person_policies(config, layouts))
 
     @classmethod
     def assemble(cls, config: ExperimentConfig, seed: int, chunks: Sequence[list[SolvedLayout]]) -> StudyPlan:
-        """The grid world's plan from :func:`solve_layout_chunk` results in chunk order (as :meth:`build`)."""
-        return cls(config=config, seed=seed, layouts=build_layouts(config, seed),
-                   solved=[solved for chunk in chunks for solved in chunk])
+        """The grid world's plan from :func:`solve_layout_chunk` results in chunk order (as :meth:`build`).
+
+        The chunks hold the agent's solutions; the person's own plans, where their costs differ
+        (:func:`person_policies`), are solved here (about 0.16 s for the paper's 48 layouts).
+        """
+        layouts = build_layouts(config, seed)
+        return cls(config=config, seed=seed, layouts=layouts,
+                   solved=[solved for chunk in chunks for solved in chunk],
+                   person_policies=person_policies(config, layouts))
+
+    def person_policy(self, layout_index: int) -> np.ndarray:
+        """The ``(G, S)`` policy the simulated person follows in grid layout ``layout_index``."""
+        if self.person_policies is not None:
+            return self.person_policies[layout_index]
+        return self.solved[layout_index].policy
 
     def schedule(self, participant: int) -> list[TrialSpec]:
         """Participant ``participant``'s trials in order."""
@@ -410,7 +476,8 @@ def simulate_participant_columns(plan: StudyPlan, participant_index: int,
                 result = _path_trial(plan, spec, settings, participant, rng, step_log_columns)
             else:
                 result = run_trial(spec, settings, plan.solved[spec.layout_index], models[spec.layout_index],
-                                   participant, rng, step_log_columns)
+                                   participant, rng, step_log_columns,
+                                   person_policy=plan.person_policy(spec.layout_index))
             summaries.append(result.summary)
             recordings.append(result.recording)
     record = participant.to_record()

@@ -69,7 +69,8 @@ def run_session(session: TrialSession, source: InputSource,
 
 def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout, model: DisambiguationModel,
               participant: Participant, rng: np.random.Generator,
-              step_log_columns: Collection[str] = STEP_COLUMNS) -> TrialResult:
+              step_log_columns: Collection[str] = STEP_COLUMNS, *,
+              person_policy: np.ndarray | None = None) -> TrialResult:
     """Simulate one trial with a simulated participant.
 
     Parameters
@@ -79,7 +80,7 @@ def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout,
     settings
         The protocol's knobs (from the experiment).
     solved
-        The layout's solved goal MDPs (``policy (G, S)``: the participant acts on their goal's row).
+        The layout's goal MDPs as the agent's model solves them (``[model]``).
     model
         The agent's model of this participant in this layout (fitted tables, ``p(phi_m | g, s)``).
     participant
@@ -88,6 +89,10 @@ def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout,
         This trial's random stream; the person and the agent each get a child stream of it.
     step_log_columns
         The step log's columns the result keeps (all by default).
+    person_policy
+        ``(G, S)`` the policy of the participant's own plan (their task costs, ``[behaviour]``
+        ``plan_*``), of which they act on their goal's row; ``None``: ``solved.policy`` (their costs
+        are the agent's).
 
     Returns
     -------
@@ -99,7 +104,8 @@ def run_trial(spec: TrialSpec, settings: ProtocolSettings, solved: SolvedLayout,
     goal_cell = int(state_index(int(layout.goal_cells[goal, 0]), int(layout.goal_cells[goal, 1]),
                                 int(layout.goal_headings[goal]), 0)) // N_MODES
     world = GridWorld(layout, settings.success_distance, settings.success_angle)
-    return run_world_trial(spec, settings, world, solved.policy[goal], goal_cell, model, participant, rng,
+    policy = solved.policy if person_policy is None else person_policy
+    return run_world_trial(spec, settings, world, policy[goal], goal_cell, model, participant, rng,
                            step_log_columns)
 
 
