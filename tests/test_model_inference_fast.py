@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nudgecli.model import portable_math
-from nudgecli.model.inference import _belief_entropy, bayes_update, normalised_entropy
+from nudgecli.model.inference import BELIEF_FLOOR, _belief_entropy, bayes_update, normalised_entropy
 from nudgecli.model.log_terms import xlogy
 
 
@@ -61,9 +61,11 @@ def test_the_normalised_entropy_of_one_belief_is_a_batchs_row() -> None:
 # --- one belief's Bayes update (Eq. 7) in plain floats ---------------------------------------------
 
 def array_update(belief: np.ndarray, likelihood: np.ndarray) -> np.ndarray:
-    """Eq. 7 as the array rule computes it: numpy's product, sum and quotient."""
+    """Eq. 7 as the array rule computes it: numpy's product, sum and quotient, a possible goal kept
+    at the floor."""
     unnormalised = belief * likelihood
-    return unnormalised / unnormalised.sum()
+    posterior = unnormalised / unnormalised.sum()
+    return np.where((belief > 0) & (likelihood > 0), np.maximum(posterior, BELIEF_FLOOR), posterior)
 
 
 positives = st.one_of(st.floats(1e-300, 1.0), st.sampled_from([1e-300, 5e-324, 1.0, 0.25, 0.1, 1 / 3]))

@@ -11,6 +11,15 @@ import numpy as np
 from nudgecli.model import portable_math
 from nudgecli.model.log_terms import xlogy
 
+#: The least posterior a goal keeps while its prior and the observation's likelihood under it are
+#: positive. Without it a run of inputs against a goal multiplied its belief down to exactly 0 (past
+#: the smallest float, about 1e-308: some 200 updates at a likelihood ratio of 37, or seconds of
+#: one-sided input under ``inference.update = "sample"``), and a goal at 0 never came back whatever
+#: the person did next. 1e-300 lies far below any belief the presets reach (their smallest is about
+#: 1e-70), whose updates it leaves bit for bit as they were, and far enough above the smallest
+#: normal float that a floored goal's next product is no subnormal.
+BELIEF_FLOOR = 1e-300
+
 
 def predict_belief(belief: np.ndarray, goal_transition: np.ndarray | None = None) -> np.ndarray:
     """The prior for the next step, ``sum_g' b(g') p(g | g')`` (the bracket of Eq. 6).
@@ -48,7 +57,8 @@ def bayes_update(belief: np.ndarray, likelihood: np.ndarray,
     Returns
     -------
     np.ndarray
-        ``(G,)`` the normalised posterior.
+        ``(G,)`` the normalised posterior, in which a goal whose prior and likelihood are positive
+        keeps at least :data:`BELIEF_FLOOR` (so it can recover; the sum stays 1 to the last bit).
 
     Raises
     ------
@@ -61,16 +71,22 @@ def bayes_update(belief: np.ndarray, likelihood: np.ndarray,
             and belief.ndim == 1 and 0 < belief.size <= _SEQUENTIAL_SUM_MAX
             and likelihood.shape == belief.shape):
         return _bayes_update_one(belief, likelihood)
-    unnormalised = predict_belief(belief, goal_transition) * likelihood
+    prior = predict_belief(belief, goal_transition)
+    unnormalised = prior * likelihood
     total = unnormalised.sum()
     if not total > 0.0:
         raise ValueError("the observation has zero probability under every goal")
-    return unnormalised / total
+    posterior = unnormalised / total
+    if posterior.min() < BELIEF_FLOOR:  # rare: a goal nearly ruled out, or one prior or likelihood rules out
+        possible = (prior > 0.0) & (likelihood > 0.0)
+        posterior = np.where(possible, np.maximum(posterior, BELIEF_FLOOR), posterior)
+    return posterior
 
 
 def _bayes_update_one(belief: np.ndarray, likelihood: np.ndarray) -> np.ndarray:
     """Eq. 7 for one ``(G,)`` belief of at most :data:`_SEQUENTIAL_SUM_MAX` goals in plain floats:
-    :func:`bayes_update`'s array rule bit for bit (every new label of a trial asks for it).
+    :func:`bayes_update`'s array rule bit for bit, its floor included (every new label of a trial
+    asks for it).
 
     Each product and quotient is one IEEE operation as numpy's, and the products are added in
     numpy's order for fewer than 8 elements (the first, then the others in turn), so only the
@@ -82,7 +98,11 @@ def _bayes_update_one(belief: np.ndarray, likelihood: np.ndarray) -> np.ndarray:
         total += product
     if not total > 0.0:
         raise ValueError("the observation has zero probability under every goal")
-    return np.array([product / total for product in products])
+    posterior = [product / total for product in products]
+    if min(posterior) < BELIEF_FLOOR:  # rare (see bayes_update): the common update pays one min()
+        posterior = [max(value, BELIEF_FLOOR) if b > 0.0 and p > 0.0 else value
+                     for value, b, p in zip(posterior, belief.tolist(), likelihood.tolist(), strict=True)]
+    return np.array(posterior)
 
 
 def normalised_entropy(belief: np.ndarray) -> np.ndarray | float:
