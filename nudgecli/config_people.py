@@ -244,6 +244,13 @@ class PopulationSection(Section):
         """Where ``physiology_logs`` was written (:meth:`logs_written_in`); ``None`` if unknown."""
         return self._logs_source
 
+    def __eq__(self, other: object) -> bool:
+        # where the list was written is not part of the experiment: pydantic's own equality
+        # compares private attributes too, so a run folder's config.toml read back was unequal
+        if not isinstance(other, PopulationSection):
+            return NotImplemented
+        return type(self) is type(other) and self.__dict__ == other.__dict__
+
     @field_validator("physiology_logs", mode="before")
     @classmethod
     def _folders(cls, value: object) -> object:
