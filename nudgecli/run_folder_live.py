@@ -11,6 +11,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from nudgecli.command_defaults import STUDY_PORT
 from nudgecli.errors import RunFolderError, shell_words
 from nudgecli.run_folder_names import CONFIG, LAYOUTS, MANIFEST, PART_KINDS, QUESTIONNAIRES_CSV
 from nudgecli.sim.counterbalance import recorded_order_choice
@@ -46,6 +47,14 @@ class LiveRecord:
         as far as it got)."""
         return manifest is not None and manifest.get("executor") == LIVE_EXECUTOR and \
             manifest.get("status") != "complete"
+
+    @staticmethod
+    def resume_port(entry: Mapping[str, Any]) -> int | None:
+        """The ``--port`` a command that continues a participant's session names: the port their page
+        was last served on (their manifest entry's ``port``), as the open tab reconnects only there;
+        ``None`` for the default port (the command leaves it out) or an entry that records none."""
+        port = entry.get("port")
+        return port if isinstance(port, int) and not isinstance(port, bool) and port != STUDY_PORT else None
 
     def live_signs(self) -> list[str]:
         """What shows the folder holds a live study, found without reading its manifest as JSON:
@@ -199,7 +208,8 @@ class LiveRecord:
     def continue_session_hint(self, manifest: Mapping[str, Any], participants: Iterable[int] = ()) -> str:
         """How to continue a ``nudge study`` folder's session: ``nudge study RUN/config.toml ... --resume``
         (config.toml holds the --set values) with its seed, the ID where one session is meant
-        (``participants``, else the one unfinished), ``ID`` otherwise, and a non-default --condition-order."""
+        (``participants``, else the one unfinished), ``ID`` otherwise, and a non-default --condition-order
+        and --port (:meth:`resume_port`) of the one session."""
         from nudgecli.store import study_resume_command  # store builds on this module
 
         entries = {str(key): entry for key, entry in (manifest.get("live") or {}).items()
@@ -211,8 +221,9 @@ class LiveRecord:
                   for key, entry in entries.items() if key in keys}  # the --condition-order each needs
         ids = list(orders)
         seed = manifest.get("seed")
+        port = self.resume_port(next(e for k, e in entries.items() if k in keys)) if len(ids) == 1 else None
         command = study_resume_command(str(self.path / CONFIG), ids[0] if len(ids) == 1 else "ID", self.path,
-                                       condition_order=orders[ids[0]] if len(ids) == 1 else None,
+                                       port=port, condition_order=orders[ids[0]] if len(ids) == 1 else None,
                                        seed=seed if isinstance(seed, int) else None)
         named = [f"{pid} with --condition-order {orders[pid]}" if orders[pid] else pid for pid in ids]
         among = f" (ID: one of {', '.join(named)})" if len(ids) > 1 else ""

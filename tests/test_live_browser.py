@@ -309,6 +309,10 @@ def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
             legend = page.inner_text("#legend")
             assert "Space" not in legend and "Hard Puff: switch the mode forward" in legend, legend
             _wait(page, "state.phase === 'ready' && state.ready_for === 'blending'", 10)
+            # the monitor's Skip is off, and a line says where to skip
+            _wait(monitor, "state.phase === 'ready'", 5)
+            assert monitor.is_disabled("#skip") and monitor.is_visible("#ready .watch-only")
+            assert page.is_enabled("#skip") and not page.is_visible("#ready .watch-only")
             page.click("#skip")
             _wait(page, "state.ready_for === 'evaluation'")
             # the ready screen of trial 1 says how the practice went, and that it was the practice
@@ -350,7 +354,23 @@ def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
                 f'About the block you just finished: block 1 of 2, condition "{condition}"'
             )
             _check_unset_sliders(page)
+            # the monitor's form is off (its Submit would do nothing), and a line says where to answer
+            _wait(monitor, "state.phase === 'questionnaire' && document.querySelector('#q-submit')", 5)
+            assert monitor.is_disabled("#q-submit") and monitor.is_disabled("#tlx_mental")
+            assert "answer in the page that controls the session" in monitor.inner_text("#q-watch")
+            assert page.is_enabled("#q-submit") and not page.is_visible("#q-watch")
+            # answers entered and not sent survive a reload of the tab, which asks first
+            page.check("input[name='likert_q3'][value='6']")
+            dialogs: list[str] = []
+            page.once("dialog", lambda dialog: (dialogs.append(dialog.type), dialog.accept()))
+            page.reload()
+            _wait(page, "role === 'controller' && state !== null && state.phase === 'questionnaire' && "
+                        "document.querySelector('#q-submit') !== null")
+            assert dialogs == ["beforeunload"]
+            assert page.inner_text("#tlx_physical-out") == "80"  # set in _check_unset_sliders
+            assert page.is_checked("input[name='likert_q3'][value='6']")
             _answer_questionnaire(page, check_unset=True)
+            assert page.evaluate("sessionStorage.length") == 0  # sent: nothing kept
             _wait(page, "state.phase === 'ready' && state.ready_for === 'evaluation'")
             # a crash between the trials: the server is killed, the open tab says so and waits; the
             # resumed server has the same token, and the same tab (and the monitor) reconnect by themselves
@@ -382,7 +402,14 @@ def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
             page.keyboard.press(" ")
             _wait(page, "state.phase === 'trial'")
             page.keyboard.down("4")
-            page.wait_for_timeout(800)
+            page.wait_for_timeout(400)
+            # the window loses focus with the key down (the server lets go of it); it is still down
+            # when focus returns: the key's repeats tell the server so
+            page.evaluate("window.dispatchEvent(new Event('blur'))")
+            page.wait_for_timeout(300)
+            for _ in range(4):
+                page.keyboard.down("4")  # as the browser's auto-repeat (repeat = true)
+                page.wait_for_timeout(100)
             page.keyboard.up("4")
             typed = _answer_by_keyboard(page)  # the second questionnaire by keyboard alone
             _wait(page, "state.phase === 'done'")
@@ -419,6 +446,11 @@ def test_browser_session_records_a_folder_that_analyze_and_plot_read(tmp_path):
     last_soft = max(i for i, label in enumerate(intended) if label == "Soft Puff")
     assert intended.index("Hard Puff") - last_soft <= 3, intended
     assert first["event"].str.contains("mode_switch_human").sum() == 1  # one blow, one switch
+    # trial 2's sip, released on blur, came back with the key's repeats: two stretches of Soft Sip
+    second = list(steps[steps["trial"] == 1]["phi_i"])
+    stretches = sum(label == "Soft Sip" and (i == 0 or second[i - 1] != "Soft Sip")
+                    for i, label in enumerate(second))
+    assert stretches == 2, second
     # the agent used the tables `nudge fit` fits from the session's calibration logs
     profile = fit_calibration_dir(out / "calibration" / "participant-0001").profile
     record = pd.read_parquet(out / "participants.parquet").iloc[0]

@@ -67,7 +67,7 @@ def test_the_gamepad_axis_is_raw_pressure_without_an_intended_label(config):
     source.axis(0.2)
     source.key(SOFT_SIP, True)  # a key down takes precedence
     assert source.sample()[0] == SOFT_SIP
-    source.release_all()
+    source.key(SOFT_SIP, False)
     assert source.sample() == (NO_INPUT, 0.2)
 
 

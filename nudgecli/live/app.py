@@ -102,6 +102,10 @@ def run_live_study(
         log("open the address below in a browser; Ctrl-C ends the server (resume later with --resume)")
         # on --resume the stored token: the participant's tab, still open, reconnects by itself
         token = session.folder.page_token(session.index, resume)
+        # the port the page is served on: a command that continues the session names it, as the open
+        # tab reconnects only there (after a crash, too: `nudge analyze`'s advice names it)
+        session.entry["port"] = port
+        session.folder.save(session.index)
         serve(session, sock, announce=announce, token=token, log=log)
     except NudgeError as exc:  # recording failed: the server stopped at once
         failure: NudgeError | None = exc
@@ -110,9 +114,9 @@ def run_live_study(
     finally:
         session.folder.release()
     if session.phase != "done" or failure is not None:
-        command = study_resume_command(
-            experiment, participant_id, session.folder.path, port, condition_order, seed, overrides
-        )
+        command = study_resume_command(experiment, participant_id, session.folder.path,
+                                       session.folder.run.resume_port(session.entry), condition_order, seed,
+                                       overrides)
         if failure is not None:
             raise type(failure)(f"{failure}; the server stopped (a trial under way is run again): "
                                 f"once that is fixed, continue with: {command}") from None

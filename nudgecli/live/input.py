@@ -128,9 +128,12 @@ class LiveInput:
         self.axis_value = None if value is None else float(min(max(value, -1.0), 1.0))
 
     def release_all(self) -> None:
-        """Forget held keys (the page lost focus or the connection closed)."""
+        """Forget held keys and the axis (the page lost focus, the connection closed, a trial
+        starts): a page that no longer sends cannot say its blow ended, so none is kept; a page
+        that controls again sends its axis anew."""
         self.held.clear()
         self.pressed.clear()
+        self.axis_value = None
 
     def sample(self) -> tuple[int, float]:
         """This step's ``(intended label or NO_INPUT, signed pressure)``; consumes the presses

@@ -374,7 +374,8 @@ class LiveFolder:
         shown = "; ".join(differences[:6]) + (f"; and {more} more" if more > 0 else "")
         config_path = self.path / CONFIG
         option = self._order_option(config, participant, entry) if entry is not None else ""
-        command = study_resume_command(str(config_path), participant_id, self.path,
+        port = self.run.resume_port(entry or {})  # the open tab reconnects only on its port
+        command = study_resume_command(str(config_path), participant_id, self.path, port,
                                        condition_order=option.removeprefix(" --condition-order ") or None)
         command = command if entry is not None else command.removesuffix(" --resume")
         if not config_path.is_file():
@@ -408,9 +409,8 @@ class LiveFolder:
 
     # --- checkpoints --------------------------------------------------------------------------
 
-    def save(
-        self, participant: int, status_of_participant: str | None = None, add_seconds: float = 0.0
-    ) -> None:
+    def save(self, participant: int, status_of_participant: str | None = None,
+             add_seconds: float = 0.0) -> None:
         """Write this participant's entry into the manifest (the study is complete when every
         participant in it is).
 

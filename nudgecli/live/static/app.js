@@ -12,16 +12,28 @@ const INPUT_PHASES = new Set(["mapping", "distortion", "ready", "trial"]);
 
 let ws = null;
 let state = null;
-let lastAxis = undefined;
+let lastAxis = undefined;   // the axis value the server has from this page (undefined: send it anew)
+const keysDown = new Set(); // input keys the server holds down from this page, as far as it knows
+let unsent = false;       // the questionnaire's form holds answers not sent yet
 let role = null;          // "controller" (this page drives the session), "watcher" or "monitor"
 let everConnected = false;
 let lastError = "";       // the server's last error reply (tests read it)
 let stoppedBecause = "";  // why the server stopped (it could not record the session), when it says
 
-function send(message) {
+function send(message) {  // whether the message went to the server
   // a watching page sends no input (the server would refuse it); a ping is fine
-  if (role !== "controller" && message.type !== "ping") return;
-  if (ws && ws.readyState === WebSocket.OPEN) ws.send(JSON.stringify(message));
+  if (role !== "controller" && message.type !== "ping") return false;
+  if (!ws || ws.readyState !== WebSocket.OPEN) return false;
+  ws.send(JSON.stringify(message));
+  return true;
+}
+
+// The server releases the page's keys and axis when focus is lost, the connection closes or a trial
+// starts; a watching page that comes to control sent none. Then the page forgets what it sent: a key
+// still down is sent again on its next repeat, the axis on the next poll.
+function forgetSentInput() {
+  keysDown.clear();
+  lastAxis = undefined;
 }
 
 function connect() {
@@ -30,7 +42,7 @@ function connect() {
   const badge = document.getElementById("connection");
   ws.onopen = () => {
     everConnected = true; stoppedBecause = "";
-    badge.textContent = "connected"; badge.className = "online"; lastAxis = undefined;
+    badge.textContent = "connected"; badge.className = "online"; forgetSentInput();
     document.getElementById("lost").classList.remove("shown");
   };
   ws.onclose = () => {
@@ -46,14 +58,17 @@ function connect() {
   };
   ws.onmessage = (event) => {
     const message = JSON.parse(event.data);
-    if (message.type === "state") { state = message; render(); }
-    else if (message.type === "role") {
-      role = message.role;
+    if (message.type === "state") {
+      if (!state || state.phase !== message.phase) forgetSentInput();  // a trial's start released them
+      state = message; render();
+    } else if (message.type === "role") {
+      role = message.role; forgetSentInput();
       document.getElementById("watching").classList.toggle("shown", role === "watcher");
       document.getElementById("monitoring").classList.toggle("shown", role === "monitor");
-      if (state) render();
+      if (state) render(); else applyRole();
     } else if (message.type === "error") {
       lastError = message.message;
+      if (state && state.phase === "questionnaire") keepAnswers();  // refused: the answers are still unsent
       if (message.stopped) stoppedBecause = `${message.message}. Tell the experimenter.`;
       document.getElementById(state && state.phase === "questionnaire" ? "q-error" : "notice").textContent =
         message.message;
@@ -67,16 +82,25 @@ document.addEventListener("keydown", (e) => {
   if (state && state.phase === "questionnaire") { questionnaireKey(e); return; }  // the form's keys
   if (!INPUT_KEYS.has(e.key) || isTyping(e)) return;
   e.preventDefault();
-  if (e.repeat) return;  // the key is still down: the server already knows
-  send({ type: "key", key: e.key, down: true });
+  if (e.key === " ") { if (!e.repeat) send({ type: "key", key: e.key, down: true }); return; }  // starts once
+  // a repeat says the key is still down: sent again unless the server is known to hold it
+  if (e.repeat && keysDown.has(e.key)) return;
+  if (send({ type: "key", key: e.key, down: true })) keysDown.add(e.key);
 });
 document.addEventListener("keyup", (e) => {
   if (state && state.phase === "questionnaire") return;
   if (!INPUT_KEYS.has(e.key) || isTyping(e)) return;
   e.preventDefault();
+  keysDown.delete(e.key);
   send({ type: "key", key: e.key, down: false });
 });
-window.addEventListener("blur", () => send({ type: "blur" }));
+window.addEventListener("blur", () => { send({ type: "blur" }); keysDown.clear(); });
+window.addEventListener("focus", forgetSentInput);
+document.addEventListener("visibilitychange", () => { if (document.visibilityState === "visible") forgetSentInput(); });
+window.addEventListener("beforeunload", (e) => {  // closing the tab would lose answers not sent yet
+  if (!unsent || !state || state.phase !== "questionnaire") return;
+  e.preventDefault(); e.returnValue = "";
+});
 
 function isTyping(e) {
   return e.target && (e.target.tagName === "INPUT" && e.target.type === "text");
@@ -88,7 +112,7 @@ function pollGamepad() {
   const value = pad && pad.axes.length > AXIS ? AXIS_SIGN * pad.axes[AXIS] : null;
   const changed = value === null ? lastAxis !== null : (lastAxis === null || lastAxis === undefined ||
     Math.abs(value - lastAxis) > 0.0005);
-  if (changed) { send({ type: "axis", value: value }); lastAxis = value; }
+  if (changed && send({ type: "axis", value: value })) lastAxis = value;  // a dropped one is sent later
   requestAnimationFrame(pollGamepad);
 }
 
@@ -136,6 +160,15 @@ function render() {
   else if (phase === "trial") renderTrial();
   else if (phase === "questionnaire") renderQuestionnaire();
   else if (phase === "done") show("done");
+  if (phase !== "questionnaire") unsent = false;
+  applyRole();
+}
+
+function applyRole() {  // a watching or monitor page shows the session; its form and Skip do nothing
+  const watching = role === "watcher" || role === "monitor";
+  for (const line of document.querySelectorAll(".watch-only")) line.classList.toggle("shown", watching);
+  document.getElementById("skip").disabled = watching;
+  for (const element of document.getElementById("q-form").elements) element.disabled = watching;
 }
 
 function renderCalibration() {
@@ -274,11 +307,16 @@ function renderQuestionnaire() {
     div.innerHTML = html + ` <span class="small">strongly agree</span>`;
     form.appendChild(div);
   }
+  restoreAnswers(form, q.block);
+  form.addEventListener("input", keepAnswers);
+  form.addEventListener("change", keepAnswers);
+  form.addEventListener("pointerup", keepAnswers);
   const submit = document.createElement("button");
   submit.type = "submit"; submit.id = "q-submit"; submit.textContent = "Submit";
   form.appendChild(submit);
   form.onsubmit = (e) => {
     e.preventDefault();
+    if (role !== "controller") return;  // the watch-only line says where to answer
     const answers = {};
     const unset = [];
     for (const item of q.tlx) {
@@ -294,9 +332,45 @@ function renderQuestionnaire() {
       const checked = form.querySelector(`input[name="${item.name}"]:checked`);
       answers[item.name] = checked ? Number(checked.value) : null;
     }
-    send({ type: "questionnaire", answers: answers });
+    if (send({ type: "questionnaire", answers: answers })) forgetAnswers(q.block);
   };
   if (role === "controller") focusItem(0);
+}
+
+// --- answers entered and not sent survive a reload of the tab (kept per session token and block) --
+
+function answersKey(block) { return `nudge-answers:${TOKEN}:${block}`; }
+
+function keepAnswers() {
+  const form = document.getElementById("q-form");
+  const kept = {};
+  for (const input of form.querySelectorAll("input[type=range]")) {
+    if (input.dataset.touched) kept[input.name] = Number(input.value);
+  }
+  for (const input of form.querySelectorAll("input[type=radio]:checked")) kept[input.name] = Number(input.value);
+  unsent = Object.keys(kept).length > 0;
+  try {
+    if (unsent) sessionStorage.setItem(answersKey(formBlock), JSON.stringify(kept));
+    else sessionStorage.removeItem(answersKey(formBlock));
+  } catch (err) { /* no storage (private mode): the beforeunload prompt still warns */ }
+}
+
+function forgetAnswers(block) {
+  unsent = false;
+  try { sessionStorage.removeItem(answersKey(block)); } catch (err) { /* nothing was kept */ }
+}
+
+function restoreAnswers(form, block) {
+  let kept = {};
+  try { kept = JSON.parse(sessionStorage.getItem(answersKey(block)) || "{}") || {}; } catch (err) { kept = {}; }
+  for (const [name, value] of Object.entries(kept)) {
+    const input = form.querySelector(`input[name="${CSS.escape(name)}"][type=range]`) ||
+      form.querySelector(`input[name="${CSS.escape(name)}"][value="${CSS.escape(String(value))}"]`);
+    if (!input) continue;
+    if (input.type === "range") { input.value = value; input.dispatchEvent(new Event("input")); }
+    else input.checked = true;
+  }
+  unsent = Object.keys(kept).length > 0;
 }
 
 // --- the questionnaire by keyboard: arrows move a slider or choose a statement's answer, digits
@@ -326,7 +400,7 @@ function questionnaireKey(e) {
   if (target.type === "radio" && /^[0-9]$/.test(e.key)) {  // a digit answers the statement
     const radio = div.querySelector(`input[type=radio][value="${e.key}"]`);
     e.preventDefault();
-    if (radio) { radio.checked = true; radio.focus(); }
+    if (radio) { radio.checked = true; radio.focus(); keepAnswers(); }
   } else if (e.key === "Enter") {
     e.preventDefault();
     if (index + 1 < items.length) focusItem(index + 1);
