@@ -173,7 +173,7 @@ class StudySection(Section):
                 raise ValueError(f"goal_counts: {g} goals do not fit the goal regions; use 2 to 8")
         if not self.goal_counts or not self.corners or not self.start_modes:
             raise ValueError("goal_counts, corners and start_modes must not be empty")
-        if round(self.time_limit_s * self.rate_hz) < 1:  # the protocol's count of a trial's steps
+        if self.time_limit_steps < 1:  # the protocol's count of a trial's steps
             steps = self.time_limit_s * self.rate_hz
             raise ValueError(f"study.time_limit_s * study.rate_hz = {steps:g} gives "
                              "no step a trial; give a time limit of at least one step (1 / rate_hz s)")
@@ -188,6 +188,12 @@ class StudySection(Section):
     def dt(self) -> float:
         """The length of one step, s (``1 / rate_hz``): the protocol's and the person's clock."""
         return 1.0 / self.rate_hz
+
+    @property
+    def time_limit_steps(self) -> int:
+        """The most steps a trial runs: the whole steps within ``time_limit_s``, rounded down (50.06 s
+        at 10 Hz runs 500, never to 50.1 s); the 1e-9 keeps 120 / 0.1 = 1199.99... whole."""
+        return int(self.time_limit_s / self.dt + 1e-9)  # int() is floor: the limit is positive
 
     @property
     def trials_per_condition(self) -> int:

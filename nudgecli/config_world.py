@@ -8,11 +8,17 @@ import json
 from collections.abc import Mapping
 from typing import Any, Literal
 
-from pydantic import model_validator
+from pydantic import field_validator, model_validator
 
 from nudgecli.config_base import PositiveFloat, Section, plain
 from nudgecli.config_people import PERSON_PLAN_KEYS
-from nudgecli.model.path_world import HEADING_TOLERANCE, SNAP_TOLERANCE, SUCCESS_DISTANCE
+from nudgecli.model.path_world import (
+    HEADING_TOLERANCE,
+    ROTATION,
+    SHORTEST_LEG,
+    SNAP_TOLERANCE,
+    SUCCESS_DISTANCE,
+)
 
 
 class WorldSection(Section):
@@ -34,15 +40,23 @@ class WorldSection(Section):
     defaults); their defaults are TASK.md's values:
 
     - ``ciaa_conditions``: the study's conditions whose blocks are run. Only ``no_assistance``
-      (no inference, no blending, no autonomy) is implemented: 12 trials per participant.
+      (no inference, no blending, no autonomy) is implemented: 12 trials per participant. The
+      study's ``filter_assistance`` and ``corrective_assistance`` (TASK.md section 9) are not
+      simulated, and are refused naming them.
     - ``linear_speed`` / ``angular_speed``: full speed of a soft command in wall-clock time,
       1.6 units/s and 0.64 rad/s (TASK.md section 6: 3.9 units and 1.56 rad per simulated second,
       with the simulator's loop running at about 41 steps of 0.01 s per wall-clock second).
       They replace ``[interface]`` ``human_speed`` / ``human_turn_rate`` in this world.
-    - ``snap_tolerance``: the robot snaps onto the next waypoint within 0.1 units on both axes;
-      ``heading_tolerance``: onto the goal heading within 0.1 rad (section 4).
-    - ``success_distance``: a success ends within this Manhattan distance of the goal (0.1) and
-      within ``study.time_limit_s`` (section 7).
+    - ``snap_tolerance``: the robot snaps onto the next waypoint within 0.1 units on both axes,
+      below half the shortest leg (2.5 units: a larger snap skips half a leg or more, above 5 a
+      whole leg with no input); ``heading_tolerance``: onto the goal heading within 0.1 rad,
+      below half the pi/2 turn (pi/4: above pi/2 the start heading snaps, the turn done with no
+      input) (section 4).
+    - ``success_distance``: the study's analysis rule, a final Manhattan distance to the goal of
+      at most 0.1 (section 7). It is no setting here: a trial succeeds when the robot reaches the
+      goal waypoint within ``study.time_limit_s``, and the goal snap puts it exactly on the goal,
+      so no other distance would change a trial. Any value but 0.1 is refused; the key stays
+      because every run folder's ``config.toml`` writes it.
     """
 
     kind: Literal["grid", "ciaa"] = "grid"
@@ -53,27 +67,61 @@ class WorldSection(Section):
     heading_tolerance: PositiveFloat = HEADING_TOLERANCE
     success_distance: PositiveFloat = SUCCESS_DISTANCE
 
+    @field_validator("ciaa_conditions", mode="before")
+    @classmethod
+    def _unsimulated_conditions(cls, value: Any) -> Any:
+        # the sibling study's assistance conditions are real names, not typos: "did you mean
+        # 'no_assistance'?" misled
+        for name in value if isinstance(value, list | tuple) else ():
+            if name in UNSIMULATED_CONDITIONS:
+                raise ValueError(
+                    f"{json.dumps(name)} is the sibling study's "
+                    f"{UNSIMULATED_CONDITIONS[name]} (TASK.md section 9), which is not simulated; "
+                    'only "no_assistance" is: use ciaa_conditions = ["no_assistance"]')
+        return value
+
     @model_validator(mode="after")
     def _check(self) -> WorldSection:
         if not self.ciaa_conditions or len(set(self.ciaa_conditions)) != len(self.ciaa_conditions):
             raise ValueError("ciaa_conditions must be a non-empty list without repeats")
+        if self.snap_tolerance >= SHORTEST_LEG / 2:
+            raise ValueError(
+                f"snap_tolerance: {self.snap_tolerance:g} units is half the shortest leg ({SHORTEST_LEG:g}) "
+                f"or more: a snap that large skips half a leg or more (above {SHORTEST_LEG:g}, a whole leg "
+                f"with no input); give less than {SHORTEST_LEG / 2:g} (TASK.md's is {SNAP_TOLERANCE:g})")
+        if self.heading_tolerance >= ROTATION / 2:
+            raise ValueError(
+                f"heading_tolerance: {self.heading_tolerance:g} rad is half the pi/2 turn or more: a snap "
+                "that large skips half the turn or more (above pi/2, the start heading snaps onto the "
+                f"goal's, the turn done with no input); give less than pi/4 = {ROTATION / 2:.4f} (TASK.md's "
+                f"is {HEADING_TOLERANCE:g})")
+        if self.success_distance != SUCCESS_DISTANCE:
+            raise ValueError(
+                f"success_distance: {self.success_distance:g} changes nothing: success is reaching the goal "
+                "waypoint, which the goal snap makes exact (distance 0); remove it (only TASK.md's "
+                f"{SUCCESS_DISTANCE:g} is taken, which a run folder's config.toml writes)")
         return self
 
 
+#: The sibling study's conditions that are not simulated (TASK.md section 9), with what they are.
+UNSIMULATED_CONDITIONS = {"filter_assistance": "filter assistance",
+                          "corrective_assistance": "corrective assistance"}
+
+
 _NO_ASSISTANCE = "no blending or autonomy turn for the person to answer"
+#: What the CIAA world's success is instead of a distance or an angle (a snap makes it exact).
+_GOAL_WAYPOINT = "reaching the goal waypoint (its snap puts the robot exactly on the goal pose)"
 _SCHEDULE = 'world.ciaa_conditions (["no_assistance"]) in the task\'s subject blocks'
 #: The keys the CIAA path world does not read, each with what that world runs instead.
 _DESIGN = ("conditions", "counterbalancing", "shared_layouts", "goal_counts", "corners", "start_modes",
            "blocks_per_condition")
 GRID_ONLY: dict[str, str] = {
     **{f"study.{key}": _SCHEDULE for key in _DESIGN},
-    "study.success_distance": "world.success_distance (a Manhattan distance, at any heading)",
-    "study.success_angle": "world.success_distance (a Manhattan distance, at any heading)",
+    "study.success_distance": _GOAL_WAYPOINT, "study.success_angle": _GOAL_WAYPOINT,
     "interface.human_speed": "world.linear_speed", "interface.human_turn_rate": "world.angular_speed",
     # the person's fine positioning is inside the goal's grid cell, which a path has none of (its
-    # trials pass no goal cell): they follow the waypoints to world.success_distance
-    **{f"behaviour.{key}": "world.success_distance" for key in ("fine_position_tolerance",
-                                                                "fine_heading_tolerance")},
+    # trials pass no goal cell): they follow the waypoints to the goal waypoint
+    **{f"behaviour.{key}": _GOAL_WAYPOINT for key in ("fine_position_tolerance", "fine_heading_tolerance")},
     # what a person does about blending or the autonomy's turn: no_assistance has neither
     **{f"behaviour.{key}": _NO_ASSISTANCE for key in ("lean_on_blending", "release_when_dragged",
                                                       "after_autonomy")},

@@ -75,8 +75,11 @@ def test_a_time_limit_that_cannot_be_simulated_is_refused(tmp_path, value):
 
 def test_a_trial_shorter_than_one_step_is_refused():
     with pytest.raises(ConfigError, match=r"study.time_limit_s \* study.rate_hz.*no step"):
-        load_experiment("smoke", ["study.rate_hz=1", "study.time_limit_s=0.5"])  # round(0.5) is 0
-    assert load_experiment("smoke", ["study.rate_hz=1", "study.time_limit_s=0.51"]).study.time_limit_s == 0.51
+        load_experiment("smoke", ["study.rate_hz=1", "study.time_limit_s=0.5"])
+    # a trial runs the whole steps within its limit: 0.99 s at 1 Hz is none (it ran 1 s, past the limit)
+    with pytest.raises(ConfigError, match=r"study.time_limit_s \* study.rate_hz.*no step"):
+        load_experiment("smoke", ["study.rate_hz=1", "study.time_limit_s=0.99"])
+    assert load_experiment("smoke", ["study.rate_hz=1", "study.time_limit_s=1.0"]).study.time_limit_s == 1.0
 
 
 def test_the_rate_range_holds_its_bounds():

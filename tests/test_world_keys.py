@@ -45,7 +45,7 @@ def test_a_key_the_ciaa_world_does_not_read_is_refused(text: str) -> None:
 
 
 @pytest.mark.parametrize(("text", "instead"), [("interface.human_speed=10.0", "world.linear_speed"),
-                                               ("study.success_distance=5.0", "world.success_distance")])
+                                               ("study.success_distance=5.0", "reaching the goal waypoint")])
 def test_the_refusal_names_what_the_ciaa_world_reads_instead(text: str, instead: str) -> None:
     assert f"and {instead}" in _refused("ciaa-teleop", text)
 

@@ -73,6 +73,11 @@ def label_pressure(pressure: np.ndarray | float, soft_threshold: float = SOFT_TH
     ``|p| < zero`` -> ``NO_INPUT``; ``|p| <= soft`` -> Soft; ``|p| > hard`` -> Hard; in between
     -> the puff or sip deadband code.
 
+    ``|p| > 1`` is Hard too, where the sibling study's mapping (TASK.md section 5) has a deadband
+    row: its band edges, which no reading reaches. The device reads full scale at most (the real
+    logs never pass +-1; the pressure model and the event-driven device are clipped at it), so the
+    row labels nothing, and a pressure past full scale is more than hard, not between bands.
+
     Parameters
     ----------
     pressure

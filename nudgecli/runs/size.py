@@ -5,7 +5,7 @@ settings alone (constant memory: no task list, no graph) and refuse more than
 :data:`MAX_TRIALS_WITHOUT_YES` unless ``--yes`` is given, so a typo such as
 ``--participants 100000000`` or ``-R 1000000000000`` fails at once with one line instead of
 filling memory or running for years. They count steps too (:func:`check_study_size`): a trial
-runs up to ``round(time_limit_s * rate_hz)`` steps and a participant's are held in memory
+runs up to ``floor(time_limit_s * rate_hz)`` steps and a participant's are held in memory
 together (about 1 KB a step), so a high ``study.rate_hz`` or a long ``study.time_limit_s`` is
 refused by name before anything is cleared or written. ``plot-population`` counts its calibrations
 (:data:`MAX_CALIBRATIONS_WITHOUT_YES`) and ``validate`` its queries
@@ -154,7 +154,7 @@ def trials_per_participant(config: ExperimentConfig) -> int:
 def steps_per_trial(config: ExperimentConfig) -> int:
     """The most steps a trial runs: its time limit in steps, as the protocol counts them
     (``nudgecli.sim.protocol.ProtocolSettings.time_limit_steps``)."""
-    return round(config.study.time_limit_s / config.study.dt)
+    return config.study.time_limit_steps
 
 
 def check_study_size(config: ExperimentConfig, participants: int, confirm: bool, *,

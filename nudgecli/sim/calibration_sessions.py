@@ -113,9 +113,11 @@ def event_driven_stream(times: np.ndarray, pressure: np.ndarray, interface: Inte
     """The event-driven label stream a device sends for a pressure trace sampled at fixed ticks.
 
     The device's pressure is quantised in ``step`` increments and it sends one message each time
-    the quantised value changes, none while it is steady. Between two ticks the pressure is taken
-    to move linearly, so it passes every quantisation level in between, one message each (at the
-    time of the crossing, labelled by its pressure); a saturated or constant stretch sends nothing.
+    the quantised value changes, none while it is steady; a message reads at most full scale,
+    ``[-1, 1]`` (the level nearest 1 may lie past it, 92 x 0.0109 = 1.0028, and reads 1). Between
+    two ticks the pressure is taken to move linearly, so it passes every quantisation level in
+    between, one message each (at the time of the crossing, labelled by its pressure); a saturated
+    or constant stretch sends nothing.
     When the pressure comes back to zero (a blow ends) the zero-level message is the neutral label
     and an ``input stopped`` message follows it, 0.1 ms later, as the sibling study's driver did.
 
@@ -148,7 +150,9 @@ def event_driven_stream(times: np.ndarray, pressure: np.ndarray, interface: Inte
     message_level = levels[interval] + direction * offsets
     fraction = offsets / counts[interval]
     message_time = times[interval] + fraction * (times[interval + 1] - times[interval])
-    message_pressure = message_level * step
+    # the device reads at most full scale: a level past +-1 (round(1 / 0.0109) = 92 steps is 1.0028)
+    # reads +-1, as the study's saturated device did (TASK.md section 5: pressure in [-1, 1])
+    message_pressure = np.clip(message_level * step, -1.0, 1.0)
     codes = label_pressure(message_pressure, interface.soft_threshold, interface.hard_threshold,
                            interface.zero_threshold)
     stops = np.flatnonzero(message_level == 0) + 1

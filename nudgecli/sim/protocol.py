@@ -134,7 +134,7 @@ class ProtocolSettings:
         path = config.world.kind == "ciaa"
         return cls(
             dt=dt,
-            time_limit_steps=round(study.time_limit_s / dt),
+            time_limit_steps=study.time_limit_steps,
             success_distance=study.success_distance,
             success_angle=study.success_angle,
             soft_threshold=itf.soft_threshold,

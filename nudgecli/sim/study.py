@@ -519,7 +519,7 @@ def _path_trial(plan: StudyPlan, spec: TrialSpec, settings: ProtocolSettings, pa
     assert plan.paths is not None and plan.policies is not None
     w = plan.config.world
     world = PathWorld(plan.paths[spec.layout_index], snap_tolerance=w.snap_tolerance,
-                      heading_tolerance=w.heading_tolerance, success_distance=w.success_distance)
+                      heading_tolerance=w.heading_tolerance)
     policy = plan.policies[spec.layout_index]
     return run_world_trial(spec, settings, world, policy, -1, None, participant, rng, step_log_columns)
 
