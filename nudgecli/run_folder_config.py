@@ -20,11 +20,10 @@ from typing import Any
 
 from nudgecli.config import ExperimentConfig, experiment_from_toml
 from nudgecli.errors import ConfigError, NudgeError
-from nudgecli.run_folder_names import CONFIG, MANIFEST
+from nudgecli.run_folder_names import CONFIG, MANIFEST, PLAN_COPY
 
-#: A run's copy of the plan file it was run with (the manifest's ``plan`` names it, relative to the
-#: run folder), and the manifest key of its SHA-256.
-PLAN_COPY = "plan.toml"
+#: The manifest key of the SHA-256 of a run's copy of its plan file (:data:`PLAN_COPY`, which the
+#: manifest's ``plan`` names, relative to the run folder).
 PLAN_SHA256_KEY = "plan_sha256"
 
 

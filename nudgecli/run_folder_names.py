@@ -19,6 +19,9 @@ LAYOUTS = "layouts.parquet"
 #: The folder that keeps an exact copy (its bytes, under its own name) of the ``--people`` file a
 #: run or a batch simulated, so that its resume command names a file that is there.
 PEOPLE_DIR = "people"
+#: A run's exact copy of the plan file it was run with
+#: (:meth:`nudgecli.run_folder_config.ConfigRecord.keep_plan`).
+PLAN_COPY = "plan.toml"
 #: The run-folder lock (:func:`nudgecli.locks.run_lock`); not part of the run.
 LOCK = ".nudge.lock"
 #: The tables written in one part per participant: ``<kind>/part-NNNN.parquet``.

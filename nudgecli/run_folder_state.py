@@ -21,6 +21,7 @@ from nudgecli.run_folder_names import (
     PART_KINDS,
     PARTICIPANTS,
     PEOPLE_DIR,
+    PLAN_COPY,
 )
 
 #: The folders a run makes before its manifest, and ``--force`` empties: empty, part of a start.
@@ -30,15 +31,15 @@ _EMPTIED = (*PART_KINDS, "calibration")
 def only_a_start(folder: Path, config_text: str | None = None) -> bool:
     """Whether ``folder`` holds only the start of a run (of the one whose config.toml is
     ``config_text``; ``None``: any), left by a run killed before it wrote its manifest: its
-    config.toml, perhaps its layouts, temporaries, and empty part and calibration folders (a
-    ``--force`` killed after clearing the old run leaves those); never a folder holding a file of
-    the person's own."""
+    config.toml, perhaps its layouts and its plan file's copy, temporaries, and empty part and
+    calibration folders (a ``--force`` killed after clearing the old run leaves those); never a
+    folder holding a file of the person's own."""
     config_path = folder / CONFIG
     if not config_path.is_file():
         return False
     if config_text is not None and config_path.read_text(encoding="utf-8") != config_text:
         return False
-    return all(p.name in (CONFIG, LAYOUTS, LOCK, PEOPLE_DIR) or p.name.endswith(".tmp")
+    return all(p.name in (CONFIG, LAYOUTS, LOCK, PEOPLE_DIR, PLAN_COPY) or p.name.endswith(".tmp")
                or (p.name in _EMPTIED and p.is_dir() and not any(p.iterdir())) for p in folder.iterdir())
 
 

@@ -55,6 +55,7 @@ from nudgecli.run_folder_names import (
     PART_KINDS,
     PARTICIPANTS,
     PEOPLE_DIR,
+    PLAN_COPY,
     QUESTIONNAIRE_SCORES_CSV,
     STATS_CSV,
     STATS_JSON,
@@ -538,6 +539,8 @@ class RunFolder(RunRecord):
                      SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV):
             (self.path / name).unlink(missing_ok=True)
         remove_run_figures(self.path)  # the old run's figures would stand beside the new run's tables
+        if manifest is not None and manifest.get("plan") == PLAN_COPY:  # its copy, never a file of one's own
+            (self.path / PLAN_COPY).unlink(missing_ok=True)
         from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
         from nudgecli.sim.people_file import remove_copy
         from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY

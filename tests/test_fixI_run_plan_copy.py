@@ -94,3 +94,20 @@ def test_a_preset_stays_a_name(tmp_path):
     nudgecli.simulate("smoke", participants=1, out=run, plan="paper")
     assert _manifest(run)["plan"] == "paper" and "plan_sha256" not in _manifest(run)
     assert not (run / "plan.toml").exists()
+
+
+def test_force_removes_the_old_runs_plan_copy(planned_run, tmp_path):
+    run = _copy(planned_run, tmp_path / "rp")
+    nudgecli.simulate("smoke", participants=1, out=run, force=True)
+    assert _manifest(run)["plan"] == "paper"  # smoke's default plan
+    assert not (run / "plan.toml").exists()  # the old run's plan would stand beside the new run
+
+
+def test_a_start_killed_after_its_plan_copy_is_only_a_start(planned_run, tmp_path):
+    from nudgecli.run_folder_state import only_a_start
+
+    run = tmp_path / "start"
+    run.mkdir()
+    for name in ("config.toml", "plan.toml", "layouts.parquet"):
+        shutil.copy(planned_run / name, run / name)
+    assert only_a_start(run)
