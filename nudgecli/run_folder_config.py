@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from nudgecli.config import ExperimentConfig, experiment_from_toml
-from nudgecli.errors import ConfigError, NudgeError
+from nudgecli.errors import ConfigError, NudgeError, WriteError
 from nudgecli.run_folder_names import CONFIG, MANIFEST, PLAN_COPY
 
 #: The manifest key of the SHA-256 of a run's copy of its plan file (:data:`PLAN_COPY`, which the
@@ -106,6 +106,27 @@ class ConfigRecord:
         if experiment_differences(recorded, on_disk.model_dump(mode="json")):
             return f"{path} was edited after the run started: put back the manifest's values, then "
         return ""
+
+    def check_plan_not_its_copy(self, plan: str | Path) -> None:
+        """Refuse a run into this folder whose plan file (``plan``: ``--plan``) is the run's own copy of
+        its plan (:data:`PLAN_COPY`), before the folder is touched: the run writes that copy
+        (:meth:`ConfigRecord.keep_plan`), and ``--force`` removes it first; no output replaces a file
+        the command read (:func:`nudgecli.outputs.check_not_an_input`, as a batch refuses it).
+
+        Raises
+        ------
+        WriteError
+            ``plan`` is (the same file as) the folder's plan copy: names both and the fix.
+        """
+        from nudgecli.outputs import check_not_an_input, command_inputs, declare_input
+
+        with command_inputs():  # a preset's name is no file, and is not declared
+            declare_input(f"--plan {plan}", plan)
+            try:
+                check_not_an_input(self.path / PLAN_COPY)
+            except WriteError as exc:
+                raise WriteError(f"{exc}, or give a copy of the plan kept elsewhere as --plan (a resume "
+                                 "without --plan keeps the run's)") from None
 
     def keep_plan(self, manifest: MutableMapping[str, Any], plan: str | None,
                   config: ExperimentConfig) -> None:

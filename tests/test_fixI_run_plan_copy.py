@@ -111,3 +111,35 @@ def test_a_start_killed_after_its_plan_copy_is_only_a_start(planned_run, tmp_pat
     for name in ("config.toml", "plan.toml", "layouts.parquet"):
         shutil.copy(planned_run / name, run / name)
     assert only_a_start(run)
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.parametrize("resume", [False, True])
+def test_the_runs_own_plan_copy_as_plan_is_refused_before_the_run_is_touched(planned_run, tmp_path, resume):
+    run = _copy(planned_run, tmp_path / "rp")
+    before = _snapshot(run)
+    result = nudge("run", "smoke", "--participants", "1", "--out", run, "--plan", run / "plan.toml",
+                   "--resume" if resume else "--force")
+    line = one_error_line(result.output)
+    assert f"{run / 'plan.toml'} is this command's input (--plan {run / 'plan.toml'})" in line
+    assert "an output never replaces a file the command read" in line and "elsewhere as --plan" in line
+    assert _snapshot(run) == before  # --force deleted nothing; the old run is whole
+
+
+def test_the_api_refuses_the_runs_plan_copy_as_plan_too(planned_run, tmp_path):
+    run = _copy(planned_run, tmp_path / "rp")
+    before = _snapshot(run)
+    with pytest.raises(nudgecli.NudgeError, match="is this command's input"):
+        nudgecli.simulate("smoke", participants=1, out=run, plan=str(run / "plan.toml"), force=True)
+    assert _snapshot(run) == before
+
+
+def test_plan_takes_a_path(tmp_path):
+    plan = tmp_path / "myplan.toml"
+    plan.write_text(PLAN)
+    run = tmp_path / "run"
+    nudgecli.simulate("smoke", participants=1, out=run, plan=plan)  # a pathlib.Path, as for out=
+    assert _manifest(run)["plan"] == "plan.toml" and (run / "plan.toml").read_text() == PLAN

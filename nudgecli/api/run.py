@@ -241,7 +241,7 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
              seed: int | None = None, workers: int = 1, out: str | Path | None = None,
              overrides: Overrides | None = None, people: str | Path | None = None,
              progress: ProgressCallback | None = None, scheduler: str | None = None, resume: bool = False,
-             force: bool = False, plan: str | None = None, confirm: bool = False,
+             force: bool = False, plan: str | Path | None = None, confirm: bool = False,
              log: Callable[[str], None] | None = None) -> Run:
     """Simulate a study, as ``nudge simulate`` does.
 
@@ -274,7 +274,8 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
         Finish an interrupted run in ``out``, or replace the run there; giving both is refused
         (they contradict: one keeps the finished work, the other deletes it).
     plan
-        The analysis plan recorded in the manifest (default: the one named like the experiment).
+        The analysis plan recorded in the manifest: a preset's name or a plan file (a ``str`` or a
+        ``pathlib.Path``, which the run keeps a copy of); default: the one named like the experiment.
     confirm
         Simulate a study above the size limit (``--yes``).
 
@@ -295,14 +296,15 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
     options = arguments.run_options(workers=workers, seed=seed, scheduler=scheduler, people=people,
                                     progress=progress, resume=resume, force=force, confirm=confirm, log=log)
     participants = arguments.whole_number("participants", participants, optional=True)
-    out, plan = arguments.out_folder(out), arguments.text("plan", plan, optional=True)
+    out, plan = arguments.out_folder(out), arguments.path("plan", plan, optional=True)  # a preset or a file
     config = _loaded_experiment(experiment, overrides)
     temporary = out is None
     target = temporary_folder(config.experiment.name) if out is None else Path(out)
     made = temporary or not target.exists()
     try:
         with override_named("confirm=True"):  # a refusal of the size guard names this API's parameter
-            study = run_study(config, target, participants=participants, plan=plan, **options)
+            study = run_study(config, target, participants=participants,
+                              plan=None if plan is None else str(plan), **options)
     except BaseException:
         # a folder this call made is removed whole (a temporary one) or when still empty (--out)
         if temporary or (made and target.is_dir() and not any(target.iterdir())):

@@ -111,10 +111,8 @@ def _solve_chunk(args: tuple[ExperimentConfig, int, int, int]) -> list[SolvedLay
 
 def build_plan_on(config: ExperimentConfig, seed: int, workers: int, client: Any = None) -> StudyPlan:
     """:meth:`StudyPlan.build`, with the grid world's layouts solved by ``workers`` short-lived processes,
-    or, given a dask ``client``, by the cluster's workers.
-
-    So a study on many workers does not wait for one process to solve every layout first.
-    """
+    or, given a dask ``client``, by the cluster's workers: a study on many workers does not wait for
+    one process to solve every layout first."""
     if client is not None:
         workers = max(1, len(client.scheduler_info().get("workers", {})))
     if workers <= 1 or config.world.kind == "ciaa":
@@ -402,6 +400,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     checked_policy_specs(config)  # a value the policy refuses: refused before the folder is touched
     if plan is not None:  # refused before anything is simulated or written
         checked_plan(plan, [config])
+        RunFolder(out).check_plan_not_its_copy(plan)  # the copy the run writes, --force removes first
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
     try:
         with run_lock(out, log=log):
