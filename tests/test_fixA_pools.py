@@ -46,14 +46,15 @@ def test_a_resumed_batch_starts_no_more_workers_than_tasks_left(tmp_path: Path,
         raise StopRunError
 
     monkeypatch.setattr(batch_module, "make_executor", no_executor)
-    batch = tmp_path / "B"  # 2 studies of 2 participants: 4 participant tasks
+    batch = tmp_path / "B"  # 1 study of 3 participants: 3 participant tasks
     with pytest.raises(StopRunError):  # batch.json written, no part
-        replicate("smoke", 2, batch, participants=2, workers=8)
-    # each study's participant 0 done: 2 tasks left (the record's word on a part is its owner's)
+        replicate("smoke", 1, batch, participants=3, workers=8)
+    # participant 0 done: 2 tasks left and 1 done, so a count of the done ones is not taken for the
+    # count of those left (the record's word on a part is its owner's)
     monkeypatch.setattr(PartRecord, "vouches", lambda self, part, *_: part.name == part_name(0))
     lines: list[str] = []
     with pytest.raises(StopRunError):
-        replicate("smoke", 2, batch, participants=2, workers=8, resume=True, log=lines.append)
-    assert asked == [4, pool_workers(8, 2)] == [4, 2], asked  # was [4, 4]: all the batch's tasks
+        replicate("smoke", 1, batch, participants=3, workers=8, resume=True, log=lines.append)
+    assert asked == [3, pool_workers(8, 2)] == [3, 2], asked  # was [3, 3]: all the batch's tasks
     assert " on 2 worker(s)" in lines[0], lines[0]
     assert json.loads((batch / "batch.json").read_text())["executor"] == "processes:2"
