@@ -99,3 +99,16 @@ def test_files_kept_by_a_running_process_are_left_alone(analysed_smoke_run, tmp_
     _keep(run, os.getppid())
     recover_kept_analysis(run)
     assert len(_kept(run)) == len(RECORDS)
+
+
+def test_a_stats_json_written_where_the_kept_analysis_had_none_is_removed(analysed_smoke_run, tmp_path,
+                                                                          dead_pid):
+    run = shutil.copytree(analysed_smoke_run, tmp_path / "run")
+    stats = (run / "stats.json").read_text(encoding="utf-8")
+    (run / "stats.json").unlink()  # the folder held no stats.json when the plot kept its analysis
+    before = file_digests(run, RECORDS[:-1])
+    _keep(run, dead_pid, RECORDS[:-1])  # all kept but the stats.json there was none of
+    _replace(run / "stats.json", stats)  # the killed plot's, beside the analysis the folder held
+    recover_kept_analysis(run)
+    assert _kept(run) == [] and file_digests(run, RECORDS[:-1]) == before
+    assert not (run / "stats.json").exists()  # the folder's analysis had none: put back as it was
