@@ -29,7 +29,7 @@ from nudgecli.model.mdp import DEFAULT_GAMMA, MDPRewards
 MAX_CALIBRATION_REPEATS = 1000
 #: The most pressure samples one simulated distortion session (Phase 2) may record: its stream at
 #: ``rate_hz`` over ``4 * prompts_per_label`` prompts of ``prompt_s + blank_s`` each. Each key within
-#: its bound, together they reached 3e10 samples (a simulated sample took about 230 bytes at its
+#: its bound, all at their bounds ask for 2.9e10 samples (a simulated sample took about 230 bytes at its
 #: peak: 1.6e6 of them 370 MB); the study's are 3,600, 1000 Hz with its prompts 360,000.
 MAX_CALIBRATION_SAMPLES = 1_000_000
 #: A duration of more than zero, up to :data:`MAX_TIME_LIMIT_S` seconds (finite: inf gave arrays of

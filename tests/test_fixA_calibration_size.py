@@ -1,6 +1,7 @@
 """A simulated calibration's size as a whole: each ``[calibration]`` key has its bound, but several at
-their bounds together (1000 Hz, 1000 prompts per label, an hour a prompt) asked for 3e10 samples
-and ran out of memory; one check of their product refuses that, naming the keys and the product."""
+their bounds together (1000 Hz, 1000 prompts per label, an hour a prompt and an hour a blank) ask
+for 1000 x 4 x 1000 x 7200 = 2.9e10 samples and ran out of memory; one check of their product
+refuses that, naming the keys and the product (the tested example: 3e7 samples)."""
 
 from __future__ import annotations
 
@@ -29,6 +30,15 @@ def test_the_limit_is_far_above_a_real_calibration() -> None:
     assert study.rate_hz * 4 * study.prompts_per_label * (study.prompt_s + study.blank_s) == 3600
     CalibrationSection(rate_hz=1000)  # the fastest stream with the study's prompts: 360,000 samples
     CalibrationSection(rate_hz=100, prompts_per_label=50, prompt_s=30, blank_s=10)  # 800,000
+
+
+def test_the_limit_itself_is_accepted_and_a_sample_above_it_refused() -> None:
+    at_limit = CalibrationSection(rate_hz=500, prompts_per_label=50, prompt_s=8.5, blank_s=1.5)
+    assert at_limit.rate_hz * 4 * at_limit.prompts_per_label * (at_limit.prompt_s + at_limit.blank_s) \
+        == MAX_CALIBRATION_SAMPLES
+    with pytest.raises(ValueError, match=f"= 1,000,000 samples per calibration session, above the limit "
+                                         f"of {MAX_CALIBRATION_SAMPLES:,}"):  # 1,000,000.1 samples
+        CalibrationSection(rate_hz=500, prompts_per_label=50, prompt_s=8.5000001, blank_s=1.5)
 
 
 @pytest.mark.parametrize("name", sorted(list_presets("experiments")))
