@@ -5,7 +5,6 @@ or tables of them, which JSON holds unchanged (no dates or times)."""
 from __future__ import annotations
 
 import datetime
-import json
 import math
 import re
 from typing import Any
@@ -13,6 +12,7 @@ from typing import Any
 from pydantic import Field, field_validator
 
 from nudgecli.config_base import Section
+from nudgecli.config_files import toml_value
 
 
 class CustomPolicySection(Section):
@@ -75,16 +75,21 @@ def _holds_date(value: Any) -> bool:
 
 
 def _toml_text(value: Any, *, dates_quoted: bool = False) -> str:
-    """A parameter's value as TOML writes it (a date ``2026-01-31``, text in quotes), for a message;
-    ``dates_quoted``: its dates and times as text (``"2026-01-31"``), what to write instead."""
+    """A parameter's value as TOML writes it (a date ``2026-01-31``, text in quotes:
+    :func:`~nudgecli.config_files.toml_value`), for a message; ``dates_quoted``: its dates and times
+    as text (``"2026-01-31"``), what to write instead."""
+    return toml_value(_dates_as_text(value) if dates_quoted else value)
+
+
+def _dates_as_text(value: Any) -> Any:
+    """A TOML value with its dates and times (in its lists and tables too) as their ISO text."""
     if isinstance(value, datetime.date | datetime.time):
-        return json.dumps(value.isoformat()) if dates_quoted else value.isoformat()
+        return value.isoformat()
     if isinstance(value, list | tuple):
-        return "[" + ", ".join(_toml_text(item, dates_quoted=dates_quoted) for item in value) + "]"
+        return [_dates_as_text(item) for item in value]
     if isinstance(value, dict):
-        return "{ " + ", ".join(f"{key} = {_toml_text(item, dates_quoted=dates_quoted)}"
-                                for key, item in value.items()) + " }"
-    return json.dumps(value, ensure_ascii=False)
+        return {key: _dates_as_text(item) for key, item in value.items()}
+    return value
 
 
 def _all_finite(value: Any) -> bool:

@@ -168,7 +168,7 @@ def test_a_column_or_bools_from_a_policy_is_a_policy_error(command):
     ("{ at = 10:30:00 }", ['at = 10:30:00', 'e.g. at = "10:30:00"']),
     ("{ when = 2026-01-31T10:30:00Z }", ['e.g. when = "2026-01-31T10:30:00+00:00"']),
     ('{ days = [2026-01-31, "x"] }', ['days = [2026-01-31, "x"]', 'e.g. days = ["2026-01-31", "x"]']),
-    ("{ t = { from = 2026-01-31 } }", ['e.g. t = { from = "2026-01-31" }']),
+    ("{ t = { from = 2026-01-31 } }", ['e.g. t = {from = "2026-01-31"}']),
 ])
 def test_a_date_or_time_parameter_is_refused_with_what_to_write(tmp_path, params, words):
     out, result = _simulate(tmp_path, _experiment(tmp_path, KEYWORDS,

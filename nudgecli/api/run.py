@@ -7,7 +7,6 @@ call through this module; a :class:`Run` reads its run folder's tables when firs
 from __future__ import annotations
 
 import functools
-import math
 import numbers
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -167,47 +166,38 @@ def override_texts(overrides: Overrides | None) -> tuple[str, ...]:
 def toml_literal(value: object, key: str = "value") -> str:
     """``value`` as a TOML literal (``5``, ``0.25``, ``true``, ``"tr"``, ``[3, 4]``, ``{a = 1}``):
     NumPy's numbers and booleans as Python's, a mapping as an inline table, a sequence or a NumPy
-    array as a list (what ``--set`` takes, written by a notebook)."""
+    array as a list (what ``--set`` takes, written by a notebook), rendered by
+    :func:`nudgecli.config_files.toml_value`, the one rendering of a value."""
+    from nudgecli.config_files import toml_value  # loads pydantic: on first use
+
+    return toml_value(_toml_ready(value, key))
+
+
+def _toml_ready(value: object, key: str) -> Any:
+    """``value`` as the Python value :func:`~nudgecli.config_files.toml_value` writes (a bool, int,
+    float, str, list or dict): NumPy's scalars and arrays converted, and anything TOML cannot hold
+    refused naming the ``--set`` key (``key``)."""
     import numpy as np  # its scalars and arrays come from a notebook's own computations
 
     if isinstance(value, bool | np.bool_):
-        return "true" if value else "false"
+        return bool(value)
     if isinstance(value, numbers.Integral):
-        return str(int(value))
-    if isinstance(value, numbers.Real):  # repr of the float itself: NumPy's reads np.float64(50.0)
-        number = float(value)
-        if not math.isfinite(number):
-            return "nan" if math.isnan(number) else ("inf" if number > 0 else "-inf")
-        return repr(number)
+        return int(value)
+    if isinstance(value, numbers.Real):  # the float itself: NumPy's repr reads np.float64(50.0)
+        return float(value)
     if isinstance(value, str):
-        return toml_string(value)
+        return str(value)
     if isinstance(value, Mapping):
-        return "{" + ", ".join(f"{_toml_key(name, key)} = {toml_literal(item, f'{key}.{name}')}"
-                               for name, item in value.items()) + "}"
+        for name in value:
+            if not isinstance(name, str):
+                raise ConfigError(f"--set {key}: the key {name!r} is not a text; name the fields with texts")
+        return {str(name): _toml_ready(item, f"{key}.{name}") for name, item in value.items()}
     if isinstance(value, np.ndarray):
         value = value.tolist()
     if isinstance(value, Sequence) and not isinstance(value, bytes):
-        return "[" + ", ".join(toml_literal(item, key) for item in value) + "]"
+        return [_toml_ready(item, key) for item in value]
     raise ConfigError(f"--set {key}: {value!r} is not a TOML value; give a number, text, true/false, "
                       "a list or a mapping")
-
-
-def _toml_key(name: object, key: str) -> str:
-    """``name`` as a key of an inline table: bare where TOML allows it, else quoted."""
-    if not isinstance(name, str):
-        raise ConfigError(f"--set {key}: the key {name!r} is not a text; name the fields with texts")
-    return name if name and all(char.isascii() and (char.isalnum() or char in "-_") for char in name) \
-        else toml_string(name)
-
-
-def toml_string(text: str) -> str:
-    """``text`` as a TOML basic string: quotes and backslashes escaped, control characters (DEL too)
-    as ``\\u`` and four hex digits, everything else as it is (JSON's escapes would split a character
-    outside the Basic Multilingual Plane into a surrogate pair, which TOML refuses)."""
-    escaped = "".join(f"\\{char}" if char in '"\\' else
-                      f"\\u{ord(char):04x}" if ord(char) < 0x20 or ord(char) == 0x7F else char
-                      for char in text)
-    return f'"{escaped}"'
 
 
 def experiment_config(name_or_path: str | Path, overrides: Overrides | None = None) -> ExperimentConfig:
