@@ -143,3 +143,13 @@ def test_plan_takes_a_path(tmp_path):
     run = tmp_path / "run"
     nudgecli.simulate("smoke", participants=1, out=run, plan=plan)  # a pathlib.Path, as for out=
     assert _manifest(run)["plan"] == "plan.toml" and (run / "plan.toml").read_text() == PLAN
+
+
+@pytest.mark.parametrize("batch", [lambda plan: nudgecli.replicate("smoke", 1, participants=2, plan=plan),
+                                   lambda plan: nudgecli.power("smoke", [2], 1, plan=plan)])
+def test_a_batch_takes_a_plan_path_and_names_it(tmp_path, batch):
+    plan = tmp_path / "bad.toml"
+    plan.write_text('name = "myplan"\nconditions = ["nope", "control"]\n')
+    with pytest.raises(nudgecli.NudgeError) as raised:  # refused before any study is simulated
+        batch(plan)
+    assert str(raised.value).startswith(f"{plan}: conditions names 'nope'"), raised.value

@@ -230,6 +230,26 @@ def source_path(name: str, value: object) -> str:
     return str(path(name, value))
 
 
+def plan(value: object, *, loaded: bool = True) -> Any:
+    """``plan=`` of a run or a batch: ``None``, a preset's name or a plan file (a ``str`` or an
+    ``os.PathLike``, :func:`path`) as its text, the label its errors name, or, where ``loaded``, a
+    loaded :class:`~nudgecli.report.plans.AnalysisPlan`.
+
+    Raises
+    ------
+    ConfigError
+        Anything else, or an empty text.
+    """
+    if value is None:
+        return None
+    if loaded:
+        from nudgecli.report.plans import AnalysisPlan
+
+        if isinstance(value, AnalysisPlan):
+            return value
+    return str(path("plan", value))
+
+
 def out_folder(value: object) -> str | Path | None:
     """``out=`` of a function that writes a folder: a path (:func:`path`) or ``None``, and not a file
     that exists (:func:`nudgecli.outputs.check_not_a_file`, the message of every command's ``--out``).

@@ -114,7 +114,7 @@ def _run(work: Callable[..., BatchResult], out: str | Path | None, label: str,
 
 
 def replicate(experiment: str | Path, replications: int, *, seed: int | None = None,
-              plan: str | AnalysisPlan | None = None, participants: int | None = None,
+              plan: str | Path | AnalysisPlan | None = None, participants: int | None = None,
               overrides: Overrides | None = None, people: str | Path | None = None,
               out: str | Path | None = None, workers: int = 1, scheduler: str | None = None,
               resume: bool = False, force: bool = False, confirm: bool = False,
@@ -148,14 +148,15 @@ def replicate(experiment: str | Path, replications: int, *, seed: int | None = N
     from nudgecli.runs.batch_kinds import replicate as replicate_batch
 
     return _run(replicate_batch, out, "replicate", progress, log, experiment=str(experiment),
-                replications=arguments.whole_number("replications", replications), seed=seed, plan=plan,
-                participants=arguments.whole_number("participants", participants, optional=True),
+                replications=arguments.whole_number("replications", replications), seed=seed,
+                plan=arguments.plan(plan), participants=arguments.whole_number("participants", participants,
+                                                                               optional=True),
                 overrides=override_texts(overrides), workers=workers, scheduler=scheduler, resume=resume,
                 force=force, confirm=confirm, people=people)
 
 
 def power(experiment: str | Path, participants: Sequence[int], replications: int, *, seed: int | None = None,
-          plan: str | AnalysisPlan | None = None, target: float = defaults.POWER_TARGET,
+          plan: str | Path | AnalysisPlan | None = None, target: float = defaults.POWER_TARGET,
           overrides: Overrides | None = None, people: str | Path | None = None,
           out: str | Path | None = None, workers: int = 1, scheduler: str | None = None, resume: bool = False,
           force: bool = False, confirm: bool = False, progress: ProgressCallback | None = None,
@@ -183,8 +184,9 @@ def power(experiment: str | Path, participants: Sequence[int], replications: int
 
     return _run(power_batch, out, "power", progress, log, experiment=str(experiment),
                 participant_counts=arguments.whole_numbers("participants", participants),
-                replications=arguments.whole_number("replications", replications), seed=seed, plan=plan,
-                overrides=override_texts(overrides), target=arguments.real_number("target", target),
+                replications=arguments.whole_number("replications", replications), seed=seed,
+                plan=arguments.plan(plan), overrides=override_texts(overrides),
+                target=arguments.real_number("target", target),
                 workers=workers, scheduler=scheduler, resume=resume, force=force, confirm=confirm,
                 people=people)
 

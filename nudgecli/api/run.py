@@ -286,15 +286,14 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
     options = arguments.run_options(workers=workers, seed=seed, scheduler=scheduler, people=people,
                                     progress=progress, resume=resume, force=force, confirm=confirm, log=log)
     participants = arguments.whole_number("participants", participants, optional=True)
-    out, plan = arguments.out_folder(out), arguments.path("plan", plan, optional=True)  # a preset or a file
+    out, plan_text = arguments.out_folder(out), arguments.plan(plan, loaded=False)  # a preset or a file
     config = _loaded_experiment(experiment, overrides)
     temporary = out is None
     target = temporary_folder(config.experiment.name) if out is None else Path(out)
     made = temporary or not target.exists()
     try:
         with override_named("confirm=True"):  # a refusal of the size guard names this API's parameter
-            study = run_study(config, target, participants=participants,
-                              plan=None if plan is None else str(plan), **options)
+            study = run_study(config, target, participants=participants, plan=plan_text, **options)
     except BaseException:
         # a folder this call made is removed whole (a temporary one) or when still empty (--out)
         if temporary or (made and target.is_dir() and not any(target.iterdir())):
