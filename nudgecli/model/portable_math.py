@@ -80,8 +80,8 @@ def _elementwise(one: Callable[[float], float], library: Callable[[float], float
     if array.ndim == 0:
         return one(float(array))
     flat = array.ravel().tolist()
-    results = list(map(library, flat)) if array.size and in_domain(array) else [one(value) for value in flat]
-    return np.array(results, dtype=float).reshape(array.shape)
+    results = map(library, flat) if array.size and in_domain(array) else map(one, flat)
+    return np.fromiter(results, dtype=float, count=len(flat)).reshape(array.shape)
 
 
 @overload
