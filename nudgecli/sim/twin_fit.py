@@ -67,6 +67,7 @@ from scipy.stats import norm
 
 from nudgecli.config import BehaviourSection, PopulationSection
 from nudgecli.config_people import POPULATION_RANGES
+from nudgecli.model import portable_math
 from nudgecli.model.interface import (
     HARD_PUFF,
     HARD_SIP,
@@ -342,8 +343,8 @@ def censored_lognormal(exact: np.ndarray, bounds: np.ndarray, log_sd_range: tupl
     at most ``bounds`` (left-censored), its log-sd within ``log_sd_range`` (a person whose reactions
     are nearly all hidden shows too little of them to tell a spread from a median); values below
     ``floor`` read as ``floor``."""
-    logs = np.log(np.maximum(exact, floor))
-    log_bounds = np.log(np.maximum(bounds, floor))
+    logs = portable_math.log(np.maximum(exact, floor))
+    log_bounds = portable_math.log(np.maximum(bounds, floor))
 
     def minus_log_likelihood(point: np.ndarray) -> float:
         mu, sd = float(point[0]), math.exp(float(point[1]))
