@@ -92,7 +92,7 @@ class PopulationSection(Section):
 
     (*) The pilots' logs alone give hard_sip_level [0.80, 1.20], soft_puff_level [0.05, 0.16],
     soft_sip_level [0.05, 0.24] and drift_correlation [0.94, 0.99] (the two people's estimates);
-    these ends are moved to cover twelve real people's calibrations (below).
+    these ends are moved to cover eleven real people's calibrations (below).
 
     ``drift_correlation`` is ``log_drift_correlation``: the lag-1 correlation of the plateau
     samples' deviations from their label's fitted level, over consecutive pairs of one blow that
@@ -103,7 +103,7 @@ class PopulationSection(Section):
     ``hard_blow_s`` are short against the ~1 s idle handover, and a mode-switch blow outlasts the
     onset ramp so it reaches the hard band.
 
-    Checked against twelve real people (issue 14; ``nudgecli.sim.real_population``,
+    Checked against eleven real people (issue 14; ``nudgecli.sim.real_population``,
     ``nudge plot-population``). Their fitted ``p(phi_m | phi_i)`` diagonals: the pilots' (fixed
     10 Hz stream, fitted by ``nudge fit``) Hard Puff 0.90-0.93, Hard Sip 0.95-0.97, Soft Puff
     0.97, Soft Sip 0.70 and 0.01 (deepaktest, who never produced a soft sip); nine sibling-study

@@ -1,4 +1,4 @@
-"""The population against twelve real users' calibrations (issue 14, part 3)."""
+"""The population against eleven real users' calibrations (issue 14, part 3)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,8 @@
 """Real sip-and-puff users as the yardstick of the simulated population (issue 14, part 3).
 
-Twelve real people's prompt-and-produce calibrations are known: the three pilots' logs in
-``../shared/data/calibration/`` (a fixed 10 Hz stream) and nine participants of the sibling study
+Eleven real people's prompt-and-produce calibrations are known: the two pilots' produce sessions
+in ``../shared/data/calibration/`` (andrewtest, deepaktest; a fixed 10 Hz stream; ``deepak`` holds
+a mapping session only) and nine participants of the sibling study
 (2020, CIAA; an event-driven stream, ``../shared/data/ciaa-task/TASK.md``). Their fitted
 ``p(phi_m | phi_i)`` diagonals are the yardstick: a simulated participant calibrated the same way
 should produce a diagonal inside the real people's spread, and the population as a whole should
