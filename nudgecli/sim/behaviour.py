@@ -160,7 +160,8 @@ class SimulatedPerson:
     def __init__(self, participant: Participant, settings: BehaviourSettings, policy: np.ndarray,
                  goal_pose: np.ndarray, goal_cell: int, rng: np.random.Generator, *,
                  world: World | None = None, hands_over: bool = True) -> None:
-        self.participant = participant
+        # the person's per-sample traits (ramps, drift) at this rate: the same person at any rate
+        self.participant = participant.at_sample_period(settings.dt)
         self.world = world
         self.next_mark = world.next_mark if world is not None else next_centre
         self.hands_over = hands_over

@@ -17,7 +17,7 @@ import json
 import math
 from bisect import bisect_right
 from collections.abc import Mapping, Sequence
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import MISSING, dataclass, field, fields, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -58,6 +58,10 @@ CODE_COLUMNS = (HARD_PUFF, HARD_SIP, SOFT_PUFF, SOFT_SIP, PUFF_DEADBAND, SIP_DEA
 MIN_SPREAD = 1e-4
 #: Largest drift correlation (1 would freeze the pressure for the whole blow).
 MAX_DRIFT_CORRELATION = 0.99
+#: The sample period a person's per-sample traits are drawn and fitted at, s: the ramps' sample
+#: counts and the drift's lag-1 correlation are the pilots' 10 Hz logs'
+#: (:meth:`Participant.at_sample_period`).
+TRAIT_SAMPLE_S = 0.1
 
 Thresholds = InterfaceSection | tuple[float, float] | tuple[float, float, float]
 
@@ -109,14 +113,17 @@ class Participant:
     reaction_log_sd
         Standard deviation of the log of the per-prompt delay (0: always ``reaction_s``).
     onset_ramp_samples
-        Samples a blow takes to reach its level (see :func:`ramp_fractions`).
+        Samples a blow takes to reach its level (see :func:`ramp_fractions`), at 10 Hz
+        (:data:`TRAIT_SAMPLE_S`): a duration of ``onset_ramp_samples x 0.1`` s, which
+        :meth:`at_sample_period` turns into samples at another rate.
     mapping_error
         The error rate their ``mapping`` was built with (spread evenly over the wrong labels).
     handover_idle_s
         Idle time after the first input of a turn with which they hand the turn over, seconds.
     drift_correlation
         Lag-1 correlation of their pressure's deviations from tick to tick within a blow
-        (:func:`~nudgecli.sim.pressure_model.drift_normals`; 0: independent samples).
+        (:func:`~nudgecli.sim.pressure_model.drift_normals`; 0: independent samples), at 10 Hz:
+        ``rho ** (dt / 0.1)`` per sample at another rate (:meth:`at_sample_period`).
     planning_s
         Time spent looking at the layout and the mode before a trial's first command, seconds.
     event_reaction_s
@@ -130,7 +137,8 @@ class Participant:
     hard_peak_s
         How long a mode-switch pulse stays at its peak, between its onset and offset ramps, seconds.
     offset_ramp_samples
-        Samples a hard pulse takes to fall from its peak (see :func:`pulse_fractions`).
+        Samples a hard pulse takes to fall from its peak (see :func:`pulse_fractions`), at 10 Hz,
+        as ``onset_ramp_samples``.
     deadband_share
         The share of their soft blows' time their pressure strays into the Soft-Hard deadband
         (``behaviour.deadband_strays``, :mod:`nudgecli.sim.behaviour_strays`). Produces HABITS.md's
@@ -203,6 +211,39 @@ class Participant:
         object.__setattr__(self, "_levels", tuple(abs(v) for v in level.tolist()))
         object.__setattr__(self, "_spreads", tuple(spread.tolist()))
         object.__setattr__(self, "_drift_scale", math.sqrt(1.0 - rho * rho))
+
+    def at_sample_period(self, dt_s: float) -> Participant:
+        """The same person sampled every ``dt_s`` seconds: ``self`` at 10 Hz, otherwise a copy whose
+        per-sample traits (drawn at 10 Hz, :data:`TRAIT_SAMPLE_S`) describe the same durations and drift.
+
+        - the onset and offset ramps keep their durations: ``samples x 0.1`` s is
+          ``round_half_up(samples x 0.1 / dt_s)`` samples, so a blow reaches its level (and a pulse
+          falls from its peak) at the same time within half a sample, and a pulse lasts as long
+          within a sample. Half rounds up so that a one-sample ramp read at 5 Hz stays a ramp, not
+          a jump to the level (both are within a sample of it; a ramp is what the person has).
+        - the drift keeps its correlation over time: a lag of 0.1 s is ``0.1 / dt_s`` samples, so
+          the lag-1 correlation is ``rho ** (dt_s / 0.1)`` (an AR(1) process' correlation over
+          ``k`` steps is ``rho ** k``). At a faster rate it may exceed :data:`MAX_DRIFT_CORRELATION`,
+          the bound of a 10 Hz trait; it stays below 1 for every ``rho`` below 1.
+
+        At 10 Hz ``dt_s / 0.1`` is 1.0 exactly (``1 / 10.0`` is the float ``0.1``), and the person
+        is returned as is: every table at the study's default rate keeps its values bit for bit.
+        """
+        periods = dt_s / TRAIT_SAMPLE_S  # samples of 0.1 s per sample of dt_s
+        if periods == 1.0:
+            return self
+        if not periods > 0.0:
+            raise ValueError(f"dt_s must be positive, got {dt_s}")
+
+        def samples(count: int) -> int:
+            return math.floor(count / periods + 0.5)
+
+        rescaled = replace(self, onset_ramp_samples=samples(self.onset_ramp_samples),
+                           offset_ramp_samples=samples(self.offset_ramp_samples))
+        rho = float(self.drift_correlation) ** periods  # Python's float power: the C library's pow
+        object.__setattr__(rescaled, "drift_correlation", rho)
+        object.__setattr__(rescaled, "_drift_scale", math.sqrt(1.0 - rho * rho))
+        return rescaled
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Participant):

@@ -20,7 +20,11 @@ the pressure *changes*, which is what an event-driven device counts. The driver'
 confusions, deadbands and unintended mode switches emerge from the physiology.
 
 A participant (:class:`nudgecli.sim.participants.Participant`) holds the per-label levels and
-spreads, the onset and offset ramps and ``rho``; these functions turn them into pressures.
+spreads, the onset and offset ramps and ``rho``; these functions turn them into pressures. The ramps'
+sample counts and ``rho`` are a person's at 10 Hz; at another ``study.rate_hz`` the person's
+behaviour samples them as the same durations and the same drift over time
+(:meth:`~nudgecli.sim.participants.Participant.at_sample_period`: ``rho ** (dt / 0.1)``), and these
+functions take the samples they are given.
 """
 
 from __future__ import annotations
