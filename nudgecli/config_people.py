@@ -54,7 +54,8 @@ class PopulationSection(Section):
     """``[population]``: the ranges each simulated participant's true physiology and habits are drawn from.
 
     Every ``[low, high]`` pair is a uniform draw per participant (``onset_ramp_samples`` an integer
-    draw); ``reaction_log_sd`` is one value for everyone. Pressure levels are magnitudes on the
+    draw, in 10 Hz samples like ``offset_ramp_samples``: the same durations at another
+    ``study.rate_hz``); ``reaction_log_sd`` is one value for everyone. Pressure levels are magnitudes on the
     device's scale (sip positive, puff negative in the stream); a level above 1 means the person
     blows harder than the sensor reads, so most samples saturate at 1 the way real hard blows do.
     A blow's per-sample pressure is ``level + spread * z`` (after an onset ramp), clipped to [0, 1]
@@ -180,7 +181,8 @@ class PopulationSection(Section):
     drift_correlation: tuple[float, float] = Field(
         default=(0.56, 0.99),
         description="Lag-1 correlation, from one 10 Hz sample to the next within a blow, of the pressure's "
-        "deviation from its level (0: independent samples). Does not change the per-sample label "
+        "deviation from its level (0: independent samples; rho ** (dt / 0.1) per sample at another "
+        "study.rate_hz). Does not change the per-sample label "
         "probabilities; it sets how often the pressure changes, which an event-driven device counts.")
     planning_s: tuple[float, float] = Field(
         default=(1.32, 2.75),
@@ -207,7 +209,9 @@ class PopulationSection(Section):
         default=(0.10, 0.30),
         description="A mode-switch pulse's time at its peak, s (behaviour.hard_pulses). The pilots held "
         "prompted hard blows for seconds, so nothing there: the real time in the hard band per excursion "
-        "(HABITS.md: 0.10-0.30 s).")
+        "(HABITS.md: 0.10-0.30 s), offset 0. The pulse's ramp samples read Hard too where their fraction "
+        "of a high level passes the hard threshold: the measured time in the hard band is the peak + 0.09 s "
+        "on average (docs/people.md, known limitations).")
     offset_ramp_samples: tuple[int, int] = Field(
         default=(0, 2),
         description="Samples a hard pulse takes to fall from its peak. The pilots' hard blows fell in a "
@@ -296,7 +300,10 @@ class BehaviourSection(Section):
     - ``stall_s``: how long the robot may stand still under a held soft command before the person
       notices, lets go and decides again with a new blow (a deadband reading, a dip to no input,
       a move the world does not allow, a wall); 0: never, the command is held to ``max_hold_s``.
-      No data pin it: one second is a person's visual reaction with room to spare.
+      It sets how long "a soft blow that never moves the robot" lasts, for which HABITS.md has real
+      people's figures (0.40 s [0.20, 0.70], people 0.20-1.25); the 1 s, a person's visual reaction
+      with room to spare, is not fitted to them (``ciaa-teleop``, 50 people of seed 2020: 0.90 s;
+      docs/people.md, "Known limitations of the operating habits").
     - ``max_hold_s``: the longest one command is held before deciding again (blending that never
       lets the robot reach the next cell centre).
     - ``fine_position_tolerance`` / ``fine_heading_tolerance``: the per-axis error (units) and

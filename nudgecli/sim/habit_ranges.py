@@ -24,6 +24,12 @@ nothing in them stops when the pressure strays into the deadband and nothing sho
 like ``hard_peak_s``, these ranges are the real people's, moved by the offset between parameter
 and habit (0 for both: a stray of n samples is a deadband run of n cells, and the stray share is
 the deadband share of the soft blows' cells).
+
+``hard_peak_s``'s offset of 0 is the peak's alone: a pulse's ramp samples read Hard too where their
+fraction of a high level passes the hard threshold, so the measured time in the hard band is the
+peak + 0.09 s on average, and ``planning_s`` and ``event_reaction_s``, extended from the pilots'
+onsets to cover the real medians, also reach below them (docs/people.md, "Known limitations of the
+operating habits", 2026-11-29). The ranges are left as derived: changing them changes every table.
 """
 
 from __future__ import annotations
