@@ -75,7 +75,9 @@ def test_a_refused_resume_names_the_participant_count_alone_and_touches_nothing(
     assert result.exit_code == 1
     line = one_error_line(result.output)
     assert "(participants: [2] in batch.json, [3] now)" in line
-    assert "seed" not in line and "replications" not in line
+    # the differences, before the command that resumes the batch (which names every setting)
+    differences = line.split("holds a different batch (")[1].split("); resume it")[0]
+    assert differences == "participants: [2] in batch.json, [3] now"
     assert files_of(folder) == before
 
 

@@ -21,7 +21,7 @@ import pytest
 from cli_helpers import copy_run, one_error_line, wait_for
 from click.testing import CliRunner
 
-from nudgecli import store
+from nudgecli import results_folders, store
 from nudgecli.cli import main
 from nudgecli.config import load_experiment
 from nudgecli.errors import LockError, RunFolderError, WriteError
@@ -113,12 +113,12 @@ def test_the_lock_is_reentrant_in_one_process_and_released_on_error(tmp_path):
 
 
 def test_two_default_run_folders_started_in_the_same_second_differ(tmp_path, monkeypatch):
-    class FrozenClock(store.datetime):  # type: ignore[misc,valid-type]
+    class FrozenClock(results_folders.datetime):  # type: ignore[misc,valid-type]
         @classmethod
         def now(cls, tz=None):
-            return store.datetime(2026, 1, 2, 3, 4, 5, tzinfo=tz)
+            return results_folders.datetime(2026, 1, 2, 3, 4, 5, tzinfo=tz)
 
-    monkeypatch.setattr(store, "datetime", FrozenClock)
+    monkeypatch.setattr(results_folders, "datetime", FrozenClock)
     first, second = default_run_dir("smoke", tmp_path), default_run_dir("smoke", tmp_path)
     assert first.name == "smoke-20260102T030405Z" and second.name == "smoke-20260102T030405Z-2"
     assert first.is_dir() and second.is_dir()

@@ -80,12 +80,12 @@ from nudgecli.runs.batch_tasks import (
     layout_key,
     merge_analysis_chunks,
     metric_definitions,
-    participant_tasks_left,
     read_analyses,
     run_analysis_task,
     run_participant_task,
     run_quietly,
     shares_plan,
+    tasks_left,
     warn_global_rng,
 )
 from nudgecli.runs.executors import Executor, Job, ProcessExecutor, make_executor
@@ -379,7 +379,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     mode = prepare_folder(folder, batch.describe(), resume, force, batch.people, copies)
     graph = build_graph(batch)
     if mode == "resume" and client is None and workers > 1:  # its pool: the tasks left, not all of them
-        size = estimate_batch(batch, workers, participant_tasks_left(folder, graph.studies.values()))
+        size = estimate_batch(batch, workers, tasks_left(folder, graph))
     if log is not None:  # only now: a refusal is its one error line
         for line in (f"batch: {size.describe()}", *(f"Note: {note}" for note in batch.notes)):
             log(line)

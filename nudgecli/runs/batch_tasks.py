@@ -19,7 +19,7 @@ import hashlib
 import pickle
 import threading
 from collections import OrderedDict
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -50,7 +50,7 @@ if TYPE_CHECKING:  # pandas and the statistics (scipy.stats, scikit-posthocs) lo
     import pandas as pd
 
     from nudgecli.report.plans import AnalysisPlan
-    from nudgecli.runs.batch import Study  # batch imports this module
+    from nudgecli.runs.batch import Graph, Study  # batch imports this module
 
 #: Study plans (layouts + solved MDPs, about 20 MB at the paper's 48 layouts) a worker keeps; the
 #: process pool's dispatch mirrors this cache.
@@ -324,12 +324,17 @@ def shares_plan(study: Study, unfinished: int, studies: int, workers: int) -> bo
     return workers > 1 and unfinished >= workers and studies < workers and study.config.world.kind != "ciaa"
 
 
-def participant_tasks_left(folder: Path, studies: Iterable[Study]) -> int:
-    """The participant tasks of ``studies`` that the batch in ``folder`` has still to run: those
-    without a part its record vouches for (:meth:`~nudgecli.runs.part_record.PartRecord.vouches`,
-    as the run's own count of what is left); what a resumed batch's pool is sized by."""
-    from nudgecli.runs.batch_folder import PartRecord, task_part
+def tasks_left(folder: Path, graph: Graph) -> int:
+    """The tasks the batch in ``folder`` can run at once as it resumes: the participant tasks of
+    ``graph`` without a part its record vouches for
+    (:meth:`~nudgecli.runs.part_record.PartRecord.vouches`, as the run's own count of what is
+    left), and its analyses left whose participants are all done (the others wait for them); what
+    a resumed batch's pool is sized by, so analyses left alone still spread over it."""
+    from nudgecli.runs.batch_folder import PartRecord, analysis_part, readable_stats, task_part
 
     record = PartRecord(folder)
-    return sum(not record.vouches(task_part(folder, study.key, i))
-               for study in studies for i in range(study.participants))
+    left = {(study.key, i) for study in graph.studies.values() for i in range(study.participants)
+            if not record.vouches(task_part(folder, study.key, i))}
+    return len(left) + sum(not record.vouches(analysis_part(folder, a.key), readable_stats)
+                           and not any((a.study, i) in left for i in range(a.participants))
+                           for a in graph.analyses.values())

@@ -95,7 +95,7 @@ class SizeEstimate:
     """How big a batch is, and its cost from the figures ``nudge bench`` measures (the constants above).
 
     ``workers`` is the pool the batch starts: the workers asked for, but no more than its
-    participant tasks left to run (:func:`nudgecli.cores.pool_workers`); ``seconds`` shares the work among as
+    tasks left to run (:func:`nudgecli.cores.pool_workers`); ``seconds`` shares the work among as
     many of them as there are ``cores`` to run them (:func:`nudgecli.cores.available_cores`). On a
     dask scheduler (``on_scheduler``), whose workers are counted only once it is connected, the
     seconds are those of one worker.
@@ -134,9 +134,9 @@ class SizeEstimate:
 def size_estimate(studies: int, participant_tasks: int, analyses: int, trials: int,
                   workers: int, tasks_left: int | None = None, *, on_scheduler: bool = False) -> SizeEstimate:
     """A batch's :class:`SizeEstimate` from its counts (:func:`nudgecli.runs.batch.estimate_batch`)
-    for ``workers`` asked for: the pool is no larger than the participant tasks it runs (``tasks_left``
-    where given: a resumed batch's, else all of them), and no more of its workers run at once than
-    there are cores (on a scheduler: one worker's time)."""
+    for ``workers`` asked for: the pool is no larger than the participant tasks it runs
+    (``tasks_left`` where given: what a resumed batch can run at once, else all of them), and no
+    more of its workers run at once than there are cores (on a scheduler: one worker's time)."""
     pool = pool_workers(workers, participant_tasks if tasks_left is None else tasks_left)
     cores = available_cores()
     running = 1 if on_scheduler else min(pool, cores)
