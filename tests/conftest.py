@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import signal
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from cli_helpers import nudge
@@ -23,6 +25,26 @@ def private_tmp(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     folder.mkdir()
     monkeypatch.setattr(tempfile, "tempdir", str(folder))
     return folder
+
+
+@pytest.fixture
+def solves(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[int]]:
+    """The number of goals of every layout value iteration solves (each call of
+    ``nudgecli.sim.study.solve_layout``), the worker's solved-layout cache emptied before and after."""
+    import nudgecli.sim.study as sim_study
+    from nudgecli.runs.solved_layouts import clear_solved
+
+    clear_solved()
+    calls: list[int] = []
+    solve = sim_study.solve_layout
+
+    def counting(goal_cells: Any, *args: Any, **kwargs: Any) -> Any:
+        calls.append(len(goal_cells))
+        return solve(goal_cells, *args, **kwargs)
+
+    monkeypatch.setattr(sim_study, "solve_layout", counting)
+    yield calls
+    clear_solved()
 
 
 @pytest.fixture(scope="session")

@@ -9,10 +9,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-import nudgecli.sim.study as sim_study
 from nudgecli.config import load_experiment
 from nudgecli.errors import ConfigError
-from nudgecli.runs.solved_layouts import build_plan, clear_solved
+from nudgecli.runs.solved_layouts import build_plan
 from nudgecli.sim.study import StudyPlan, simulate_participant_columns
 
 #: One layout per condition: the smallest study in which teleoperation runs a trial.
@@ -53,22 +52,6 @@ def test_the_persons_own_plan_keys_change_what_they_do():
     assert other_trials != trials
     assert other_trials[0]["timed_out"]  # a myopic plan never weighs the goal's reward
     assert not _same_rows(other_steps, steps)
-
-
-@pytest.fixture
-def solves(monkeypatch) -> list[int]:
-    """The goals of every layout value iteration solves."""
-    clear_solved()
-    calls: list[int] = []
-    solve = sim_study.solve_layout
-
-    def counting(goal_cells, *args, **kwargs):
-        calls.append(len(goal_cells))
-        return solve(goal_cells, *args, **kwargs)
-
-    monkeypatch.setattr(sim_study, "solve_layout", counting)
-    yield calls
-    clear_solved()
 
 
 def test_a_person_who_plans_as_the_agent_assumes_is_solved_once(solves):

@@ -17,22 +17,6 @@ from nudgecli.runs.study import solve_layout_chunk
 from nudgecli.sim.study import StudyPlan, build_layouts
 
 
-@pytest.fixture
-def solves(monkeypatch) -> list[int]:
-    """The number of goals of every layout value iteration solves (each call of ``solve_layout``)."""
-    clear_solved()
-    calls: list[int] = []
-    solve = sim_study.solve_layout
-
-    def counting(goal_cells, *args, **kwargs):
-        calls.append(len(goal_cells))
-        return solve(goal_cells, *args, **kwargs)
-
-    monkeypatch.setattr(sim_study, "solve_layout", counting)
-    yield calls
-    clear_solved()
-
-
 def _assert_same_solutions(plan: StudyPlan, reference: StudyPlan) -> None:
     assert len(plan.solved) == len(reference.solved) > 0
     for mine, theirs in zip(plan.solved, reference.solved, strict=True):
