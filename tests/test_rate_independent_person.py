@@ -69,3 +69,23 @@ def test_a_one_sample_ramp_stays_a_ramp_at_five_hertz() -> None:
     person = replace(PEOPLE[0], onset_ramp_samples=1, offset_ramp_samples=3)
     at_5 = person.at_sample_period(0.2)
     assert (at_5.onset_ramp_samples, at_5.offset_ramp_samples) == (1, 2)  # 0.5 and 1.5 samples, half up
+
+
+def _calibration_rise_s(participant: Participant, rate_hz: float) -> float:
+    """Seconds from the first sample of the calibration session's first blow to its full level."""
+    from nudgecli.config import CalibrationSection, InterfaceSection
+    from nudgecli.sim.calibration_sessions import simulate_distortion_session
+
+    still = replace(participant, pressure_spread=np.zeros(4))  # the blow is its ramp and level (and noise)
+    session = simulate_distortion_session(still, CalibrationSection(rate_hz=rate_hz, prompts_per_label=1),
+                                          InterfaceSection(), np.random.default_rng(3))
+    magnitude = np.abs(np.nan_to_num(session.stream_pressure))
+    first = int(np.flatnonzero(magnitude > 0)[0])
+    blow = magnitude[first:first + int(rate_hz * 2)]
+    return float(np.flatnonzero(blow >= 0.99 * np.median(blow))[0]) / rate_hz  # a ramp's last step: 1 - 1/n
+
+
+@pytest.mark.parametrize("participant", [p for p in PEOPLE if p.onset_ramp_samples >= 2][:3])
+def test_a_calibration_session_blows_with_the_same_ramp_at_any_rate(participant: Participant) -> None:
+    assert _calibration_rise_s(participant, 20.0) == pytest.approx(_calibration_rise_s(participant, 10.0),
+                                                                   abs=0.06)  # half a 10 Hz sample

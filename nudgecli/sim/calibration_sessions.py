@@ -193,6 +193,7 @@ def simulate_distortion_session(participant: Participant, calibration: Calibrati
         and code.
     """
     rate = calibration.rate_hz
+    participant = participant.at_sample_period(1.0 / rate)  # the same ramps and drift in seconds
     period = calibration.prompt_s + calibration.blank_s
     labels = rng.permuted(np.tile(np.arange(N_LABELS), (calibration.prompts_per_label, 1)), axis=1).ravel()
     delays = _reaction_delays(participant, len(labels), rng)
