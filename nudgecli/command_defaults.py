@@ -36,5 +36,10 @@ POPULATION_PARTICIPANTS = 100
 # nudge power (nudgecli.runs.batch_kinds.power)
 POWER_TARGET = 0.8
 
+# nudge fit --variant (nudgecli.sim.calibration_io: the log variants it reads, and auto to detect them)
+PILOT_VARIANT = "pilot"
+CIAA_VARIANT = "ciaa"
+AUTO_VARIANT = "auto"
+
 # nudge study (nudgecli.live.app.run_live_study)
 STUDY_PORT = 8765

@@ -20,7 +20,8 @@ from nudgecli.commands.common import INTERRUPT_HINT, PEOPLE_HELP, SET_HELP, YES_
 @click.option("--out", "out", type=click.Path(dir_okay=False), default=None,
               help="Profile JSON to write [default: ./<folder name>.profile.json].")
 @click.option("--force", is_flag=True, help="Replace the profile --out names if it exists.")
-@click.option("--variant", type=click.Choice(["auto", "pilot", "ciaa"]), default="auto", show_default=True,
+@click.option("--variant", default=defaults.AUTO_VARIANT, show_default=True,
+              type=click.Choice([defaults.AUTO_VARIANT, defaults.PILOT_VARIANT, defaults.CIAA_VARIANT]),
               help="Log format of the p(phi_m | phi_i) stream: pilot (fixed 10 Hz, neutral label 'None'), "
                    "ciaa (the sibling study's event-driven stream, neutral label 'Zero Band'), or auto "
                    "(detect from the neutral label, else from the message timing).")

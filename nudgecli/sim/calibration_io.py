@@ -66,6 +66,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from nudgecli import command_defaults as defaults
 from nudgecli.errors import DataError
 from nudgecli.model.interface import INPUT_STOPPED_LABEL, LABELS, NO_INPUT, NO_INPUT_LABEL, STREAM_LABELS
 
@@ -82,13 +83,13 @@ ACTION_IMAGES = (
 BLOCK_BREAK_COMMAND = "hard_puff_training"
 #: Stream code of the driver's "input stopped" frames (ignored like no-input samples).
 INPUT_STOPPED = -2
-#: The pilots' logs: a fixed-rate (10 Hz) stream whose neutral label is ``None``.
-PILOT_VARIANT = "pilot"
-#: The sibling study's logs: an event-driven stream whose neutral label is ``Zero Band``.
-CIAA_VARIANT = "ciaa"
-#: The log variants ``nudge fit`` reads (``--variant``), and ``auto`` to detect them.
+#: The pilots' logs (a fixed-rate 10 Hz stream whose neutral label is ``None``), the sibling
+#: study's (an event-driven stream whose neutral label is ``Zero Band``), and ``auto`` to detect
+#: them: the names ``nudge fit --variant`` offers, written once in the click layer's defaults.
+PILOT_VARIANT, CIAA_VARIANT = defaults.PILOT_VARIANT, defaults.CIAA_VARIANT
+AUTO_VARIANT = defaults.AUTO_VARIANT
+#: The log variants ``nudge fit`` reads (``--variant``).
 LOG_VARIANTS = (PILOT_VARIANT, CIAA_VARIANT)
-AUTO_VARIANT = "auto"
 #: The sibling study's neutral label (the pilots' is ``None``).
 ZERO_BAND_LABEL = "Zero Band"
 #: Each variant's neutral (no-input) label.
