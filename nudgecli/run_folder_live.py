@@ -14,12 +14,16 @@ from typing import Any
 from nudgecli.command_defaults import STUDY_PORT
 from nudgecli.errors import RunFolderError, shell_words
 from nudgecli.run_folder_names import CONFIG, LAYOUTS, MANIFEST, PART_KINDS, QUESTIONNAIRES_CSV
+from nudgecli.run_folder_state import RUN_OWN, refuse_links
 from nudgecli.sim.counterbalance import recorded_order_choice
 
 #: The executor a ``nudge study`` folder's manifest records.
 LIVE_EXECUTOR = "live"
 #: The key of an analysis's ``stats.json`` recording the trials of a ``nudge study`` folder it saw.
 ANALYSED_TRIALS = "live_completed_trials"
+#: What ``nudge study`` writes in its folder: a link in their place is refused
+#: (:meth:`LiveRecord.refuse_live_links`).
+LIVE_OWN = (*RUN_OWN, QUESTIONNAIRES_CSV)
 #: What ``nudge study`` leaves in its folder beside the parts: a participant's lock and page token,
 #: answers it could not add to questionnaires.csv.
 _PARTICIPANT_FILES = (".nudge-participant-*", "questionnaires-unsaved-*.csv")
@@ -185,6 +189,12 @@ class LiveRecord:
                                "--out", str(scratch)])
         return (f"restore it from a backup, or write it again (the layouts follow from the experiment and "
                 f"its seed alone): `{command}`, then copy {scratch / LAYOUTS} into {self.path}")
+
+    def refuse_live_links(self) -> None:
+        """Refuse a ``nudge study`` folder where a part folder, ``calibration/``, ``questionnaires.csv``
+        or another file it writes (:data:`LIVE_OWN`) is a symbolic link: a person's sessions would be
+        written through it into another folder (:func:`~nudgecli.run_folder_state.refuse_links`)."""
+        refuse_links(self.path, LIVE_OWN)
 
     def refuse_live_sessions(self, manifest: Mapping[str, Any] | None, what: str = "simulate") -> None:
         """Refuse to simulate into a ``nudge study`` folder (its manifest's executor is ``live``; with

@@ -6,7 +6,7 @@ holds its lock). Read by :class:`nudgecli.run_folder_record.RunRecord` and
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -110,22 +110,27 @@ def repair_advice(folder: Path, manifest: Mapping[str, Any], resume: str, verb: 
             f"{simulate_again(folder, manifest, resume)}")
 
 
-#: What a run writes in its folder: a link in their place is refused (:func:`refuse_links`).
-_RUN_OWN = (*_EMPTIED, PEOPLE_DIR, FIGURES_DIR, MANIFEST, CONFIG, PARTICIPANTS, LAYOUTS)
+#: What a run writes in its folder: a link in their place is refused (:func:`refuse_links`). The
+#: other folder kinds name theirs where they are written: a batch's
+#: (:data:`nudgecli.runs.batch_folder.BATCH_OWN`), a ``nudge study`` folder's
+#: (:data:`nudgecli.run_folder_live.LIVE_OWN`), an analysis's
+#: (:data:`nudgecli.report.analysis_folders.ANALYSIS_FILES`) and a plot's ``figures/``.
+RUN_OWN = (*_EMPTIED, PEOPLE_DIR, FIGURES_DIR, MANIFEST, CONFIG, PARTICIPANTS, LAYOUTS)
 
 
-def refuse_links(folder: Path) -> None:
-    """Refuse a run folder where a folder or file the run writes (``trials/``, ``manifest.json``,
-    ...) is a symbolic link: writing, resuming or ``--force`` replacing the run would follow it into
-    another folder (another run's parts). Never followed, never replaced: the person says which.
+def refuse_links(folder: Path, names: Iterable[str] = RUN_OWN) -> None:
+    """Refuse a folder where a folder or file a command writes there (``names``: a run's by default,
+    ``trials/``, ``manifest.json``, ...) is a symbolic link: writing, resuming or ``--force``
+    replacing it would follow the link into another folder (another run's parts). Never followed,
+    never replaced: the person says which.
 
     Raises
     ------
     RunFolderError
         Names the link and where it points."""
-    for name in _RUN_OWN:
+    for name in names:
         path = folder / name
         if path.is_symlink():
-            raise RunFolderError(f"{path} is a symbolic link (to {os.readlink(path)}); nudge never writes a "
-                                 "run through a link, into another folder: replace the link with a folder "
+            raise RunFolderError(f"{path} is a symbolic link (to {os.readlink(path)}); nudge never writes "
+                                 "through a link, into another folder: replace the link with a folder "
                                  "(or file) of its own, or choose another --out")

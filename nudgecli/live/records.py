@@ -84,8 +84,7 @@ EXECUTOR = "live"
 FOLDER_LOCK_WAIT_S = 30.0
 
 #: Participant locks this process holds: lock file -> [open handle, holders]. A process serves one
-#: participant, but may build their session again on resume (tests do, in one process): re-entrant
-#: per process, released when its last holder releases it.
+#: participant, but may build their session again (tests do): re-entrant, released by its last holder.
 _PARTICIPANT_LOCKS: dict[Path, list[Any]] = {}
 
 
@@ -258,6 +257,7 @@ class LiveFolder:
         resume: bool,
     ) -> dict[str, Any]:
         run, key = self.run, str(participant)
+        run.refuse_live_links()  # a linked trials/ would have a person's trials written into another folder
         # config.toml records the seed used, so `nudge study RUN/config.toml` runs the same study
         used = config.model_copy(update={"experiment": config.experiment.model_copy(update={"seed": seed})})
         config_text = used.to_toml()

@@ -61,6 +61,7 @@ from nudgecli.report.analysis_folders import (
     check_folder_is_the_tables,
     left_by_a_killed_analysis,
     recover_kept_analysis,
+    refuse_linked_analysis,
 )
 from nudgecli.report.checksum import CHECKSUM_KEY, metrics_checksum
 from nudgecli.report.metrics import (
@@ -410,6 +411,7 @@ def _analyze_with_locks(source: Path, plan: str | Path | AnalysisPlan | None, ou
                     raise
                 # a read-only run folder analysed elsewhere: nobody can be writing it
         locks.enter_context(run_lock(out_dir, log=log))
+        refuse_linked_analysis(out_dir)  # before anything there is written, or put back
         recover_kept_analysis(out_dir)  # what a killed `nudge plot --plan` kept, before the manifest is read
         if source.is_file() and not force and out_dir.resolve() == analysis_folder(source).resolve():
             check_folder_is_the_tables(source, out_dir)  # under its lock: study.csv's, not study.parquet's

@@ -42,6 +42,7 @@ from nudgecli.run_folder_names import (
     SUMMARY_MD,
 )
 from nudgecli.run_folder_record import file_sha256
+from nudgecli.run_folder_state import refuse_links
 from nudgecli.store import temporary_prefix, write_error
 
 #: What a table's default analysis folder adds to its stem: ``study.csv`` -> ``study-analysis/``.
@@ -129,6 +130,13 @@ def check_folder_is_the_tables(table: Path, folder: Path) -> None:
 ANALYSIS_FILES = (METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV, STATS_JSON)
 
 
+def refuse_linked_analysis(folder: Path) -> None:
+    """Refuse an analysis folder where a file the analysis writes (:data:`ANALYSIS_FILES`) is a
+    symbolic link: the analysis would replace (or a killed plot put back) what the link names
+    (:func:`~nudgecli.run_folder_state.refuse_links`), one ``Error:`` line naming it."""
+    refuse_links(folder, ANALYSIS_FILES)
+
+
 def left_by_a_killed_analysis(folder: str | Path) -> Callable[[str], bool]:
     """Whether a file name in ``folder`` may be left by an analysis killed there (the next replaces or
     removes it): the lock, an analysis file but ``stats.json`` (a complete analysis is not replaced
@@ -201,6 +209,7 @@ def analysis_restored_on_failure(folder: Path, *, run: bool = False) -> Iterator
     WriteError
         The files cannot be kept (nothing has been changed then).
     """
+    refuse_linked_analysis(folder)  # a link is neither kept nor analysed through
     recover_kept_analysis(folder)  # what a killed plot kept first: else this one would keep its mix
     names = [MANIFEST, *ANALYSIS_FILES] if run else list(ANALYSIS_FILES)
     kept: dict[str, Path] = {}
@@ -334,4 +343,5 @@ def _remove(paths: Iterable[Path]) -> None:
 
 __all__ = ["ANALYSIS_FILES", "ANALYSIS_FOLDER_SUFFIX", "analysed_table", "analysis_folder",
            "analysis_restored_on_failure", "check_analysis_complete", "check_folder_is_the_tables",
-           "interrupted_analysis", "left_by_a_killed_analysis", "recover_kept_analysis", "tables_beside"]
+           "interrupted_analysis", "left_by_a_killed_analysis", "recover_kept_analysis",
+           "refuse_linked_analysis", "tables_beside"]

@@ -41,6 +41,7 @@ from nudgecli.report.analysis_folders import analysis_folder, check_analysis_com
 from nudgecli.report.checksum import recorded_checksum, verify_metrics
 from nudgecli.report.figure_records import replace_earlier_figures
 from nudgecli.report.figures import TrialLayout
+from nudgecli.report.figures.output import refuse_linked_figures
 from nudgecli.report.metrics import apply_filters
 from nudgecli.report.metrics_csv import read_metrics_csv
 from nudgecli.report.pair_display import check_reference
@@ -284,6 +285,7 @@ def write_figures(inputs: FigureInputs, plan: PlotPlan) -> list[Path]:
     return the files. Then an earlier plot's figures there that this one did not write are removed
     (:mod:`nudgecli.report.figure_records`), but the :data:`TRIAL_FIGURES` of a run without step logs."""
     formats = figures.check_formats(plan.formats)
+    refuse_linked_figures(plan.out_dir)  # before an earlier plot's temporaries there are removed
     drawn = draw_path_figures(inputs, plan) if inputs.path_layouts is not None else draw_figures(inputs, plan)
     keep = (TRIAL_FIGURES, inputs.steps_missing) if inputs.steps_missing else ((), "")
     return replace_earlier_figures(plan.out_dir, list(drawn), formats, lambda **how: figures.save_figures(

@@ -34,6 +34,7 @@ from nudgecli.run_folder_record import (
     json_kind,
     part_name,
 )
+from nudgecli.run_folder_state import refuse_links
 from nudgecli.runs.part_record import PART_RECORD, Log, PartRecord  # noqa: F401 - the batch folder's names
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, keep_copy, remove_copy
@@ -77,6 +78,8 @@ EXPERIMENT_COPY = "experiment.toml"
 PLAN_COPY = "plan.toml"
 #: A sweep's own sweep file, naming those two (its experiment file kept byte for byte: :func:`sweep_inputs`).
 SWEEP_COPY = "sweep.toml"
+#: What a batch writes in its folder: a link in their place is refused (:func:`refuse_links`).
+BATCH_OWN = (*sorted(BATCH_FOLDERS), BATCH_MANIFEST, PART_RECORD, EXPERIMENT_COPY, PLAN_COPY, SWEEP_COPY)
 #: ``batch.json``'s record of those two files: ``{name: SHA-256}``.
 INPUTS_KEY = "inputs"
 @dataclass(frozen=True)
@@ -455,9 +458,9 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     Raises
     ------
     RunFolderError
-        The folder holds a person's live sessions (a ``nudge study`` folder, even with ``force``),
-        a batch (and neither ``resume`` nor ``force``), ``resume`` with ``force``,
-        a different batch to resume, a damaged manifest without ``force``, or other files without ``force``.
+        A link in place of what the batch writes (:data:`BATCH_OWN`) or a person's live sessions (a
+        ``nudge study`` folder), both even with ``force``; a batch (neither ``resume`` nor ``force``),
+        ``resume`` with ``force``, another batch to resume, a damaged manifest or other files unforced.
     DataError
         A resume whose policy modules differ from those ``batch.json`` records (names the file:
         the batch would mix two policies), before anything is touched.
@@ -466,6 +469,7 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
         (:func:`~nudgecli.sim.policy_files.check_copies_placeable`), before anything is touched.
     """
     policies = policies or PolicyCopies()
+    refuse_links(folder, BATCH_OWN)  # a linked tasks/ would have --force replace another batch's parts
     record = RunRecord(folder)  # a person's sessions (a nudge study folder): never written into, even forced
     record.refuse_live_sessions(record.read_manifest() if record.is_run() else None, "write the batch")
     record.refuse_other_kind("batch")  # a run's folder: --force would leave the run beside the batch
@@ -480,8 +484,7 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     # killed before its batch.json: started afresh (--resume with --force: the rule refuses the pair)
     start = held is None and not (resume and force) and _start_again(folder, people, policies)
     mode = "new" if start else prepare_mode(folder, held, resume, force, kind="batch")
-    copies = None if old is None else old.get(POLICY_FILES_KEY)  # the policy copies the folder records
-    inputs = None if old is None else old.get(INPUTS_KEY)
+    copies, inputs = (None, None) if old is None else (old.get(POLICY_FILES_KEY), old.get(INPUTS_KEY))
     if old is not None and mode == "resume":
         from nudgecli.runs.batch_resume import resume_advice  # (it reads this module)
 

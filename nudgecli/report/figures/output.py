@@ -26,7 +26,9 @@ from matplotlib.figure import Figure
 from nudgecli.cores import available_cores
 from nudgecli.errors import ConfigError, failure_from_message, failure_message
 from nudgecli.report.style import figure_style
+from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.run_folder_record import file_sha256
+from nudgecli.run_folder_state import refuse_links
 from nudgecli.store import atomic_path, write_error
 
 SUPPORTED_FORMATS = ("png", "pdf", "svg")
@@ -51,6 +53,20 @@ def check_formats(formats: Sequence[str]) -> tuple[str, ...]:
         raise ConfigError(f"figure format {shown} is not supported; use one or more of "
                           f"{', '.join(SUPPORTED_FORMATS)} (e.g. --formats png,pdf)")
     return fmts
+
+
+def refuse_linked_figures(out_dir: str | os.PathLike[str]) -> None:
+    """Refuse a ``figures/`` folder that is a symbolic link (a run's, a batch's, an analysis's):
+    its figures would be written (and an earlier plot's removed) in another folder
+    (:func:`~nudgecli.run_folder_state.refuse_links`). A folder given by another name (``--out``)
+    is the person's choice.
+
+    Raises
+    ------
+    RunFolderError
+        Names the link and where it points."""
+    if (folder := Path(out_dir)).name == FIGURES_DIR:
+        refuse_links(folder.parent, (FIGURES_DIR,))
 
 
 def figure_file(out_dir: str | os.PathLike[str], stem: str, fmt: str) -> Path:
@@ -87,6 +103,7 @@ def save_figure(fig: Figure, out_dir: str | os.PathLike[str], stem: str,
         An unsupported format.
     """
     fmts = check_formats(formats)
+    refuse_linked_figures(out_dir)
     targets = [figure_file(out_dir, stem, fmt) for fmt in fmts]
     with contextlib.ExitStack() as stack:  # every format to its temporary, renamed once all are written
         _render(fig, [stack.enter_context(atomic_path(target)) for target in targets], targets, fmts, dpi)
@@ -137,6 +154,7 @@ def save_figures(figures: Mapping[str, Figure], out_dir: str | os.PathLike[str],
         A file cannot be written (the first file's error, in the order of the returned list).
     """
     fmts = check_formats(formats)
+    refuse_linked_figures(out_dir)
     targets = {stem: [figure_file(out_dir, stem, fmt) for fmt in fmts] for stem in figures}
     with contextlib.ExitStack() as stack:  # closed without an error: every temporary renamed into place
         for target in (path for paths in targets.values() for path in paths):
