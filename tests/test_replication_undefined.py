@@ -115,3 +115,26 @@ def test_a_pair_holding_a_condition_left_out_of_a_metric_carries_no_kruskal_p() 
         assert np.isnan(rows.loc[pair, "conover_p"]) and np.isnan(rows.loc[pair, "kruskal_p"]), pair
     summary = summarise(rows.reset_index()).set_index(["a", "b"])
     assert np.isnan(summary.loc[("x", "teleoperation"), "median_kruskal_p"])
+
+
+def test_a_replication_is_significant_as_analyzes_stars_say(monkeypatch) -> None:
+    """Kruskal-Wallis gates at the plan's kruskal_alpha, then a pair's p must pass the first star
+    threshold (nudgecli.report.stats.pair_stars): with kruskal_alpha = 0.1 a Conover p of 0.055
+    under a gate p of 0.0587 has no star in `nudge analyze`, so the replication is not significant
+    (it was, compared with kruskal_alpha alone)."""
+    from nudgecli.report import replication
+    from nudgecli.report.plans import AnalysisPlan
+
+    pairs = [(0.0587, 0.055, 0.07), (0.0587, 0.04, 0.03), (0.2, 0.01, 0.01)]
+    table = pd.DataFrame([{"metric": "completion_time", "a": "x", "b": "y", "median_a": 2.0, "median_b": 1.0,
+                           "mean_a": 2.0, "mean_b": 1.0, "mean_rank_a": 2.0, "mean_rank_b": 1.0,
+                           "difference": 1.0, "ci_low": 0.5, "ci_high": 1.5, "kruskal_p": k, "conover_p": c,
+                           "participant_p": w, "effect_size_name": "rank_biserial", "effect_size": 0.5}
+                          for k, c, w in pairs])
+    monkeypatch.setattr(replication, "stats_table", lambda document: table.iloc[[document]])
+    entries = pd.DataFrame([{"point": 0, "replication": i, "seed": i, "participants": 4, "analysis": f"r{i}"}
+                            for i in range(3)])
+    plan = AnalysisPlan.model_validate({"name": "gate10", "stats": {"kruskal_alpha": 0.1}})
+    rows = replication.replication_rows(entries, {f"r{i}": i for i in range(3)}, plan)
+    assert rows["trial_significant"].tolist() == [False, True, False]
+    assert rows["participant_significant"].tolist() == [False, True, True]

@@ -9,10 +9,12 @@ results:
 
 - every pair of conditions is reported (with ``k`` conditions, ``k (k - 1) / 2`` rows per metric
   and replication);
-- a replication is *significant at the trial level* when Kruskal-Wallis and the Conover p of
-  the pair are both significant at the plan's ``kruskal_alpha`` (with its comparison, as the
-  stars), *at the participant level* when the pair's paired test's p is (two conditions: the
-  Wilcoxon test; more: the pair's post-hoc Wilcoxon test, adjusted as the Conover p); its
+- a replication is *significant at the trial level* when the pair has a star in ``nudge
+  analyze`` (:func:`nudgecli.report.stats.pair_stars`: Kruskal-Wallis passes the plan's
+  ``kruskal_alpha``, then the pair's Conover p its first star threshold, with its comparison),
+  *at the participant level* when the pair's paired test's p passes that first threshold (two
+  conditions: the Wilcoxon test; more: the pair's post-hoc Wilcoxon test, adjusted as the
+  Conover p); its
   *direction* is the sign of ``a - b`` (trial level: the difference of the conditions' mean ranks,
   which the two tests compare; participant level: the pair's rank-biserial r);
 - pooled effect sizes are the mean over replications with the 2.5 and 97.5 percentiles of the
@@ -40,7 +42,7 @@ from nudgecli.model.conditions import PAPER_CONDITIONS
 from nudgecli.report.metrics import apply_filters
 from nudgecli.report.plan_filters import filter_counts
 from nudgecli.report.plans import AnalysisPlan
-from nudgecli.report.stats import is_significant, order_conditions
+from nudgecli.report.stats import is_significant, order_conditions, pair_stars, star_rule
 from nudgecli.report.stats_document import compare_conditions, condition_table, json_ready, stats_table
 from nudgecli.rng import generator
 
@@ -148,7 +150,9 @@ def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
         conditions); every p is NaN for a pair holding a condition left out of the metric's tests
         (:mod:`nudgecli.report.not_applicable`), Kruskal-Wallis' too (it compared the others).
     """
-    alpha, comparison = plan.stats.kruskal_alpha, plan.stats.star_comparison
+    # significant as analyze's stars say it: the Kruskal-Wallis gate, then the first star's level
+    rule, comparison = star_rule(plan.comparison_options()), plan.stats.star_comparison
+    level = plan.stats.star_thresholds[0]
     rows = []
     for entry in entries.to_dict("records"):
         document = stats[entry["analysis"]]
@@ -165,10 +169,9 @@ def replication_rows(entries: pd.DataFrame, stats: Mapping[str, dict[str, Any]],
                 "ci_low": row["ci_low"], "ci_high": row["ci_high"], "kruskal_p": row["kruskal_p"],
                 "conover_p": row["conover_p"], "participant_p": row["participant_p"],
                 "effect_size_name": row["effect_size_name"], "effect_size": row["effect_size"],
-                "trial_significant": is_significant(_nan(row["kruskal_p"]), alpha, comparison)
-                and is_significant(_nan(row["conover_p"]), alpha, comparison),
+                "trial_significant": pair_stars(_nan(row["conover_p"]), _nan(row["kruskal_p"]), rule) != "",
                 "trial_direction": trial_sign,
-                "participant_significant": is_significant(_nan(row["participant_p"]), alpha, comparison),
+                "participant_significant": is_significant(_nan(row["participant_p"]), level, comparison),
                 "participant_direction": _sign(row["effect_size"]),
             })
     return _with_point_parameters(pd.DataFrame(rows), points)
