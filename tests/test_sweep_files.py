@@ -199,6 +199,8 @@ def test_presets_by_name_still_work_for_experiment_and_plan(tmp_path: Path,
     ('"inference.kappa" = "abc"', "a list of values"),
     ('"inference.kappa" = { low = 0.5, high = 0.8, values = [0.6] }', "not both"),
     ('"inference.kappa" = { low = 0.5 }', "high"),
+    ('"inference.kappa" = [0.5, 0.6, 0.5]', "0.5 is given twice"),  # a grid would weigh it twice
+    ('"inference.kappa" = { values = [0, 0] }', "0 is given twice"),
 ])
 def test_a_bad_parameter_gets_one_plain_line(tmp_path: Path, parameter: str, expected: str) -> None:
     path = _sweep(tmp_path, parameter + "\n", method="sobol")

@@ -236,6 +236,12 @@ def parameter(key: str, written: Any) -> Any:
         raise ValueError(f"{where}: give either values or low and high, not both")
     if "values" in written and isinstance(written["values"], list) and not written["values"]:
         raise ValueError(f"{where}: an empty list; give at least one value, e.g. [0.6, 0.7]")
+    if "values" in written and isinstance(written["values"], list):  # a value twice weighs it twice
+        seen = [json.dumps(v, sort_keys=True, default=str) for v in written["values"]]
+        twice = [i for i in range(len(seen)) if seen[i] in seen[:i]]
+        if twice:
+            raise ValueError(f"{where}: {as_written(written['values'][twice[0]])} is given twice; give "
+                             "each value once")
     model: type[Range] | type[Values] = Values if "values" in written else Range
     missing = [bound for bound in ("low", "high") if bound not in written]
     if model is Range and missing:
