@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -88,6 +89,18 @@ def transition(current: Item, wanted: Item) -> list[dict]:
     if wanted[0] == "axis":
         messages.append({"type": "axis", "value": wanted[1]})
     return messages
+
+
+def played_folder(out: Path, until: Callable[[Any], bool], participant: str = "P01") -> Any:
+    """The :class:`nudgecli.live.session.LiveSession` of ``participant`` in a two-trial study
+    (:data:`TWO_TRIALS`, :data:`DEFAULT_TABLES`) written to ``out``, played
+    (:func:`play_session`) until ``until(session)`` holds and its folder released."""
+    from nudgecli.live.app import build_session  # the live server needs aiohttp: a test skips first
+
+    session = build_session("paper", participant, out, overrides=TWO_TRIALS + DEFAULT_TABLES)
+    play_session(session, until)
+    session.folder.release()
+    return session
 
 
 def play_session(session: Any, until: Callable[[Any], bool]) -> None:

@@ -5,19 +5,14 @@ from __future__ import annotations
 
 import pandas as pd
 from click.testing import CliRunner
-from live_helpers import DEFAULT_TABLES, TWO_TRIALS, play_session
+from live_helpers import played_folder
 
 from nudgecli.cli import main
-from nudgecli.live.app import build_session
-
-OVERRIDES = TWO_TRIALS + DEFAULT_TABLES
 
 
 def test_an_answer_whose_condition_contradicts_the_run_is_refused(tmp_path):
     out = tmp_path / "run"
-    session = build_session("paper", "P01", out, overrides=OVERRIDES)
-    play_session(session, lambda s: False)
-    session.folder.release()
+    played_folder(out, lambda s: False)
     path = out / "questionnaires.csv"
     answers = pd.read_csv(path)
     right, wrong = answers.at[0, "condition"], answers.at[1, "condition"]
@@ -34,9 +29,7 @@ def test_an_answer_whose_condition_contradicts_the_run_is_refused(tmp_path):
 
 def test_a_live_folder_without_answers_yet_says_so(tmp_path):
     out = tmp_path / "run"
-    session = build_session("paper", "P01", out, overrides=OVERRIDES)
-    play_session(session, lambda s: s.phase == "questionnaire")
-    session.folder.release()
+    played_folder(out, lambda s: s.phase == "questionnaire")
     path = out / "questionnaires.csv"
     result = CliRunner().invoke(main, ["analyze", str(out), "--questionnaires", str(path)])
     assert result.exit_code != 0

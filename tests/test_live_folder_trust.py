@@ -14,24 +14,18 @@ import pytest
 pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip install '.[study]'")
 
 import pandas as pd
-from click.testing import CliRunner
-from live_helpers import DEFAULT_TABLES, TWO_TRIALS, play_session
+from cli_helpers import nudge as _nudge
+from live_helpers import played_folder
 
-from nudgecli.cli import main
-from nudgecli.live.app import build_session
 from nudgecli.run_folder_names import PART_KINDS
 from nudgecli.run_folder_record import file_sha256
-
-OVERRIDES = TWO_TRIALS + DEFAULT_TABLES
 
 
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory) -> Path:
     """A live folder: P01 finished (two trials, their questionnaires)."""
     out = tmp_path_factory.mktemp("live") / "study"
-    session = build_session("paper", "P01", out, overrides=OVERRIDES)
-    play_session(session, lambda s: False)
-    session.folder.release()
+    played_folder(out, lambda s: False)
     return out
 
 
@@ -40,10 +34,6 @@ def live(recorded, tmp_path) -> Path:
     copy = tmp_path / "study"
     shutil.copytree(recorded, copy)
     return copy
-
-
-def _nudge(*args: str):
-    return CliRunner().invoke(main, list(args))
 
 
 def _one_error(result) -> str:
@@ -185,9 +175,7 @@ def under_way(tmp_path_factory) -> Path:
     """A live folder whose study is under way: P01's two trials recorded, the questionnaire of the
     first block (control) answered, the second's (disambiguation) not yet."""
     out = tmp_path_factory.mktemp("live") / "study"
-    session = build_session("paper", "P01", out, overrides=OVERRIDES)
-    play_session(session, lambda s: len(s.entry["completed_trials"]) >= 2)
-    session.folder.release()
+    session = played_folder(out, lambda s: len(s.entry["completed_trials"]) >= 2)
     assert len(session.entry["questionnaire_blocks"]) == 1
     return out
 

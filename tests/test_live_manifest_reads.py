@@ -14,10 +14,9 @@ import pytest
 pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip install '.[study]'")
 
 import pandas as pd
-from click.testing import CliRunner
-from live_helpers import DEFAULT_TABLES, TWO_TRIALS, play_session
+from cli_helpers import nudge as _nudge
+from live_helpers import DEFAULT_TABLES, TWO_TRIALS, play_session, played_folder
 
-from nudgecli.cli import main
 from nudgecli.errors import ConfigError
 from nudgecli.live.app import build_session
 from nudgecli.report.plotting import check_trial
@@ -30,9 +29,7 @@ OVERRIDES = TWO_TRIALS + DEFAULT_TABLES
 def one_trial(tmp_path_factory) -> Path:
     """A live folder whose study is under way: P01's first trial recorded."""
     out = tmp_path_factory.mktemp("live") / "study"
-    session = build_session("paper", "P01", out, overrides=OVERRIDES)
-    play_session(session, lambda s: len(s.entry["completed_trials"]) >= 1)
-    session.folder.release()
+    played_folder(out, lambda s: len(s.entry["completed_trials"]) >= 1)
     return out
 
 
@@ -40,9 +37,7 @@ def one_trial(tmp_path_factory) -> Path:
 def finished(tmp_path_factory) -> Path:
     """A live folder: P01 finished (two trials, their questionnaires)."""
     out = tmp_path_factory.mktemp("live") / "study"
-    session = build_session("paper", "P01", out, overrides=OVERRIDES)
-    play_session(session, lambda s: False)
-    session.folder.release()
+    played_folder(out, lambda s: False)
     return out
 
 
@@ -50,10 +45,6 @@ def _copy(folder: Path, tmp_path: Path) -> Path:
     copy = tmp_path / "study"
     shutil.copytree(folder, copy)
     return copy
-
-
-def _nudge(*args: str):
-    return CliRunner().invoke(main, list(args))
 
 
 def _one_error(result) -> str:
