@@ -7,6 +7,7 @@ manifest, refuses to simulate into it, and names how to continue or restore it.
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -142,7 +143,7 @@ class LiveRecord:
         """
         from nudgecli.live.record_checks import TRIAL_PARTS, recorded_sums
         from nudgecli.parquet_reader import read_parquet
-        from nudgecli.run_folder_record import file_sha256, part_name  # run_folder_record builds on this
+        from nudgecli.run_folder_record import part_name  # run_folder_record builds on this module
 
         for key, entry in sorted((manifest.get("live") or {}).items(), key=lambda item: int(item[0])):
             who = f"participant {entry.get('participant_id', key)}"
@@ -152,25 +153,26 @@ class LiveRecord:
                 part = self.path / kind / part_name(int(key))
                 if not part.is_file():
                     continue  # a missing part is named by the check of the parts the manifest promises
-                name, digest = f"{kind}/{part.name}", file_sha256(part)
+                data = part.read_bytes()  # once: hashed, then its trials read
+                name, digest = f"{kind}/{part.name}", hashlib.sha256(data).hexdigest()
                 # the part the manifest vouches for: its list of trials is what disagrees (edited)
-                fix = self.restore_from_backup([MANIFEST]) if sums.get(kind) == digest else \
-                    self.live_part_fix(manifest, part)
+                fix = self.restore_from_backup([MANIFEST]) if sums.get(kind) == digest else None
                 if kind in sums and digest != sums[kind]:
                     raise RunFolderError(f"{self.path}: {name} changed since it was written (its SHA-256 "
-                                         f"differs from the one in the manifest); {fix}")
+                                         f"differs from the one in the manifest); "
+                                         f"{self.live_part_fix(manifest, part)}")
                 try:
-                    found = {int(trial) for trial in read_parquet(part.read_bytes(), ["trial"])["trial"]}
+                    found = {int(trial) for trial in read_parquet(data, ["trial"])["trial"]}
                 except Exception:  # pyarrow raises several types for broken files: named by the part's reader
                     continue
                 if extra := sorted(found - listed):
                     raise RunFolderError(f"{self.path}: {name} holds trial(s) {', '.join(map(str, extra))} "
                                          f"of {who}, which the manifest does not list among their recorded "
-                                         f"trials; {fix}")
+                                         f"trials; {fix or self.live_part_fix(manifest, part)}")
                 if lacking := sorted(listed - found):
                     raise RunFolderError(f"{self.path}: {name} holds no rows of trial(s) "
                                          f"{', '.join(map(str, lacking))}, which the manifest lists as "
-                                         f"recorded by {who}; {fix}")
+                                         f"recorded by {who}; {fix or self.live_part_fix(manifest, part)}")
 
     def restore_from_backup(self, names: Sequence[str]) -> str:
         """The advice for a live folder's lost or damaged part (or file): a person's trial cannot be
