@@ -8,7 +8,7 @@ rule and item labels are the analysis plan's, chosen as ``nudge plot`` chooses t
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -153,7 +153,7 @@ def _inputs_of(analysis: Analysis | Run | str | Path, folder: Path, figure: str,
     inputs = read_inputs(folder, trial)
     if inputs.steps is None and inputs.steps_missing is None and \
             (figure in TRIAL_FIGURES or trial is not None):  # no run's steps: is it a run's analysis?
-        _check_not_a_runs_analysis_elsewhere(folder, figure)
+        _check_not_a_runs_analysis_elsewhere(folder, inputs.stats, figure)
     return inputs, folder
 
 
@@ -188,22 +188,21 @@ def _with_run_trials(folder: Path, run: Path, trial: tuple[int, int] | None) -> 
     return dataclasses.replace(inputs, **fields)
 
 
-def _check_not_a_runs_analysis_elsewhere(folder: Path, figure: str) -> None:
+def _check_not_a_runs_analysis_elsewhere(folder: Path, stats: Mapping[str, Any], figure: str) -> None:
     """Refuse a trial's figure of the folder of a run's analysis written away from the run: the
-    folder holds the metrics, not the run's step logs, and names no run to read them from.
+    folder holds the metrics, not the run's step logs, and names no run to read them from
+    (``stats``: its ``stats.json``, as the figure inputs read it).
 
     Raises
     ------
     ConfigError
         One line saying how to draw it (the :class:`Analysis` ``analyze`` returned, or the run).
     """
-    from nudgecli.report.plotting import TRIAL_FIGURES, read_stats
+    from nudgecli.report.plotting import TRIAL_FIGURES
     from nudgecli.run_folder_names import METRICS_CSV, STATS_JSON
 
-    stats_path = folder / STATS_JSON
-    if not folder.is_dir() or not stats_path.is_file():
+    if not folder.is_dir() or not (folder / STATS_JSON).is_file():
         return
-    stats = read_stats(stats_path)
     if stats.get("metrics_table") != METRICS_CSV or "table_read" in stats:
         return  # a metrics table's analysis: plot's own message says it holds no trial's steps
     shown = figure if figure in TRIAL_FIGURES else "fig5"
