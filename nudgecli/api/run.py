@@ -129,11 +129,18 @@ class Run(FolderOwner):
         the participants it finished, so they are refused as ``analyze`` refuses them
         (:meth:`~nudgecli.store.RunFolder.check_complete`, naming the command that finishes it)."""
         from nudgecli.errors import RunFolderError
-        from nudgecli.store import RunFolder
 
         if self.closed:
             raise RunFolderError(f"{self.path}: this run was closed and its temporary folder removed; "
                                  "give simulate(out=...) to keep it")
+        return self._complete_folder
+
+    @functools.cached_property
+    def _complete_folder(self) -> Any:
+        """The run folder, checked complete once (the check opens every part: the three tables,
+        each cached as read, need it once, as a refusal is not cached and is raised again)."""
+        from nudgecli.store import RunFolder
+
         folder = RunFolder(self.path)
         if folder.is_run():
             folder.check_complete()
