@@ -273,7 +273,7 @@ class Mechanics:
         switches = first < length  # a pulse that never reaches the band switches nothing
         return {"reaction_stop_to_switch": float(np.mean(first[switches])) * self.cell_s,
                 "reaction_switch_to_motion": HABIT_OFFSETS_S["reaction_switch_to_motion"]
-                + float(np.mean(self.draws.motion_wait)) * self.cell_s}
+                + self.blow_offsets()["reaction_switch_to_motion"]}
 
 
 # --- the inverse -------------------------------------------------------------------------------
