@@ -232,11 +232,11 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
         if out is not None:  # before the bootstrap, which takes a while
             _check_out(out, force, chosen_formats)
         notes: list[str] = []
-        result = compare_sources(_path_of(simulated), real, plan=plan,
+        result = compare_sources(simulated, real, plan=plan,
                                  metrics=list(metrics) if metrics else None, condition_map=condition_map,
                                  options=CompareOptions(resamples=resamples, level=level, seed=seed),
                                  drop_duplicates=drop_duplicates, notes=notes)
-        notes += self_comparison_notes(_path_of(simulated), real, result.trials, result.metrics)
+        notes += self_comparison_notes(simulated, real, result.trials, result.metrics)
         files: list[Path] = []
         if out is not None:
             from nudgecli.report.compare_figure import plot_comparison
