@@ -63,17 +63,16 @@ from nudgecli.rng import seed_sequence
 from nudgecli.runs.batch_folder import (
     BATCH_MANIFEST,
     Log,
-    PartRecord,
     PolicyCopies,
     analysis_part,
     policy_copies,
     prepare_folder,
     read_study_metrics,
-    readable_stats,
     task_part,
 )
 from nudgecli.runs.batch_tasks import (
     PART_BUILDING_WORKERS,
+    TasksLeft,
     analysis_design,
     import_analysis_modules,
     install_plan_of_files,
@@ -378,8 +377,9 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     """:func:`run_batch` once the batch folder's lock is held (``copies``: the policy code it keeps)."""
     mode = prepare_folder(folder, batch.describe(), resume, force, batch.people, copies)
     graph = build_graph(batch)
+    left = tasks_left(folder, graph)
     if mode == "resume" and client is None and workers > 1:  # its pool: the tasks left, not all of them
-        size = estimate_batch(batch, workers, tasks_left(folder, graph))
+        size = estimate_batch(batch, workers, left.at_once())
     if log is not None:  # only now: a refusal is its one error line
         for line in (f"batch: {size.describe()}", *(f"Note: {note}" for note in batch.notes)):
             log(line)
@@ -398,7 +398,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     started = time.perf_counter()
     try:
         executor = make_executor(size.workers, client)
-        computed = _run_graph(batch, graph, folder, executor, progress, prepare, log)
+        computed = _run_graph(batch, graph, left, folder, executor, progress, prepare, log)
         stats = read_analyses(folder, sorted(graph.analyses), batch.plan.label, log)  # its filters said
         peak, wall = getattr(executor, "peak_rss_mb", None), round(time.perf_counter() - started, 3)
         run = BatchRun(folder, mode, graph, size, stats, computed, peak)
@@ -415,11 +415,11 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     return run
 
 
-def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
+def _run_graph(batch: Batch, graph: Graph, left: TasksLeft, folder: Path, executor: Executor,
                progress: Callable[[int, int], None] | None, prepare: Callable[[], object] | None,
                log: Log) -> int:
     """Submit every unfinished task, write each result as it comes; returns the tasks computed."""
-    run = _GraphRun(batch, graph, folder, executor, log)
+    run = _GraphRun(batch, graph, left, folder, executor, log)
     try:
         if prepare is not None and isinstance(executor, ProcessExecutor):  # then the command's own
             executor.submit(Job(_PREPARE, run_quietly, (prepare,), here=True))
@@ -447,15 +447,11 @@ def _run_graph(batch: Batch, graph: Graph, folder: Path, executor: Executor,
 class _GraphRun:
     """One run of the batch's graph: what is left, what is in flight, the layout tasks' results."""
 
-    def __init__(self, batch: Batch, graph: Graph, folder: Path, executor: Executor, log: Log = None) -> None:
+    def __init__(self, batch: Batch, graph: Graph, left: TasksLeft, folder: Path, executor: Executor,
+                 log: Log = None) -> None:
         self.batch, self.graph, self.folder, self.executor = batch, graph, folder, executor
         #: study key -> its participants without a part the record vouches for; the analyses without one
-        self.record = PartRecord(folder)
-        self.remaining = {study.key: {i for i in range(study.participants)
-                                      if not self.record.vouches(task_part(folder, study.key, i))}
-                          for study in graph.studies.values()}
-        self.waiting = [a for a in graph.analyses.values()
-                        if not self.record.vouches(analysis_part(folder, a.key), readable_stats)]
+        self.record, self.remaining, self.waiting = left.record, left.remaining, left.waiting
         self.record.warn_refused(log)  # the command's stderr, an API caller's log=
         self.log, self.rng_warned = log, False  # a policy's draws from a global generator: told once
         self.total = graph.participant_tasks + len(graph.analyses)

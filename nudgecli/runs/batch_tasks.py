@@ -324,17 +324,34 @@ def shares_plan(study: Study, unfinished: int, studies: int, workers: int) -> bo
     return workers > 1 and unfinished >= workers and studies < workers and study.config.world.kind != "ciaa"
 
 
-def tasks_left(folder: Path, graph: Graph) -> int:
-    """The tasks the batch in ``folder`` can run at once as it resumes: the participant tasks of
-    ``graph`` without a part its record vouches for
-    (:meth:`~nudgecli.runs.part_record.PartRecord.vouches`, as the run's own count of what is
-    left), and its analyses left whose participants are all done (the others wait for them); what
-    a resumed batch's pool is sized by, so analyses left alone still spread over it."""
+@dataclasses.dataclass
+class TasksLeft:
+    """What the batch in a folder has left to run: its ``record`` of the parts
+    (:class:`~nudgecli.runs.part_record.PartRecord`, whose word on each part is the one kept),
+    study key -> its participants without a part the record vouches for (``remaining``), and the
+    analyses without one (``waiting``)."""
+
+    record: Any
+    remaining: dict[str, set[int]]
+    waiting: list[Any]
+
+    def at_once(self) -> int:
+        """The tasks that can run at once: the participant tasks left and the analyses left whose
+        participants are all done (the others wait for them); what a resumed batch's pool is sized
+        by, so analyses left alone still spread over it."""
+        return sum(map(len, self.remaining.values())) + sum(
+            not any(i in self.remaining[a.study] for i in range(a.participants)) for a in self.waiting)
+
+
+def tasks_left(folder: Path, graph: Graph) -> TasksLeft:
+    """What the batch in ``folder`` has left of ``graph``'s tasks: each part checked once, by one
+    record (:meth:`~nudgecli.runs.part_record.PartRecord.vouches`)."""
     from nudgecli.runs.batch_folder import PartRecord, analysis_part, readable_stats, task_part
 
     record = PartRecord(folder)
-    left = {(study.key, i) for study in graph.studies.values() for i in range(study.participants)
-            if not record.vouches(task_part(folder, study.key, i))}
-    return len(left) + sum(not record.vouches(analysis_part(folder, a.key), readable_stats)
-                           and not any((a.study, i) in left for i in range(a.participants))
-                           for a in graph.analyses.values())
+    remaining = {study.key: {i for i in range(study.participants)
+                             if not record.vouches(task_part(folder, study.key, i))}
+                 for study in graph.studies.values()}
+    waiting = [a for a in graph.analyses.values()
+               if not record.vouches(analysis_part(folder, a.key), readable_stats)]
+    return TasksLeft(record, remaining, waiting)
