@@ -535,7 +535,7 @@ def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = 
         ExperimentConfig.model_validate(_with_sections_set(data, overrides))
     except ValidationError as exc:
         raise ConfigError(format_validation_error(exc, str(path), ExperimentConfig, data)) from None
-    data = dependents_off_with_their_switch(_gap_off_with_its_gate(data, overrides), overrides)
+    data = dependents_off_with_their_switch(data, overrides)
     config = validate_overridden(ExperimentConfig, data, overrides)
     logs_set = [text for text in overrides if parse_override(text)[0] == ["population", "physiology_logs"]]
     config.population.logs_written_in(f"--set {logs_set[-1]}" if logs_set else str(path))  # for its refusal
@@ -554,21 +554,6 @@ def _with_sections_set(data: dict[str, Any], overrides: list[str] | tuple[str, .
         if spellings & written and not spellings & data.keys():  # [mode-switch] or mode_switch
             missing[min(spellings & written)] = {}
     return {**data, **missing} if missing else data
-
-
-def _gap_off_with_its_gate(data: dict[str, Any], overrides: list[str] | tuple[str, ...]) -> dict[str, Any]:
-    """``data`` without its ``[blending] gap`` where ``--set blending.gate=none`` turns its gate off
-    (a sweep over the gate, or a preset's gap): the gap goes with the gate it belongs to. A gap
-    written beside ``gate = "none"`` in one file, or given by ``--set`` with it, is still refused."""
-    gate = gap = None
-    for text in overrides:
-        path, value = parse_override(text)
-        gate = value if path == ["blending", "gate"] else gate
-        gap = value if path == ["blending", "gap"] else gap
-    blending = data.get("blending")
-    if gate != "none" or gap is not None or not isinstance(blending, dict) or "gap" not in blending:
-        return data
-    return {**data, "blending": {k: v for k, v in blending.items() if k != "gap"}}
 
 
 def experiment_from_toml(text: str, source: str = "config.toml") -> ExperimentConfig:

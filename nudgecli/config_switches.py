@@ -56,6 +56,14 @@ SWITCHES: tuple[Switch, ...] = (
            "scale alpha by the distance to the goal"),
 )
 
+#: Switches whose section refuses their dependents itself (``[blending]``: ``gap`` beside ``gate =
+#: "none"``, ``BlendingPolicySection``); only the dropping of a file's dependents by a ``--set`` that
+#: turns the switch off (:func:`dependents_off_with_their_switch`) is shared with :data:`SWITCHES`.
+SELF_CHECKED_SWITCHES: tuple[Switch, ...] = (
+    Switch("blending", "gate", "none", "gap", ("gap",),
+           "blend only while the two highest beliefs differ by more than gap"),
+)
+
 
 def check_switched_keys(section_name: str, data: Any, section: type[Section]) -> None:
     """Raise ``ValueError`` (one line, the first dependent key its field) where a section's raw
@@ -102,7 +110,7 @@ def dependents_off_with_their_switch(data: dict[str, Any], overrides: list[str] 
     they belong to. One also given by ``--set`` is kept, and so still refused."""
     given = {tuple(path): value for path, value in map(parse_override, overrides)}
     result = data
-    for switch in SWITCHES:
+    for switch in (*SWITCHES, *SELF_CHECKED_SWITCHES):
         place = (switch.section, switch.key)
         if place not in given or not same_as_default(given[place], switch.off):
             continue
