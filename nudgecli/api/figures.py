@@ -32,13 +32,11 @@ def plan_of(source: str | Path, plan: str | Path | AnalysisPlan | None = None) -
     """The plan whose star rule and labels the figures of ``source`` use: ``plan``, else the one its
     run folder's manifest records, else the one named like its experiment, else ``paper``
     (:func:`nudgecli.config_files.resolve_plan`)."""
-    from nudgecli.report.plans import AnalysisPlan
     from nudgecli.report.recorded_plans import recorded_plan
     from nudgecli.store import RunFolder
 
     source = arguments.path("source", source)
-    if plan is not None and not isinstance(plan, AnalysisPlan):
-        plan = arguments.path("plan", plan)  # a preset's name or a plan file
+    plan = arguments.plan(plan)  # a preset's name, a plan file or a loaded plan
     manifest: Any = {}
     folder = RunFolder(Path(source))
     if plan is None and Path(source).is_dir() and folder.is_run():
