@@ -56,6 +56,7 @@ say why (``nudge fit-people`` prints them).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -442,6 +443,14 @@ def _fit_pulse(habits: Mapping[str, HabitFigures], mechanics: Mechanics,
     return peak_s, offset
 
 
+@functools.cache
+def default_mechanics() -> Mechanics:
+    """The :class:`Mechanics` of the default population, interface and behaviour: drawn once (a few
+    hundred people) and shared by every fit given no ``mechanics`` (a fit only reads it; its pulses
+    are memoised, the same for every fit)."""
+    return Mechanics()
+
+
 def _middle(bounds: tuple[float, float]) -> float:
     return (bounds[0] + bounds[1]) / 2
 
@@ -469,7 +478,7 @@ def fit_twin_with_notes(habits: Mapping[str, HabitFigures], *, mechanics: Mechan
         Parameter -> value for the parameters whose habits are all there and whose value the
         simulation accepts (:func:`parameter_is_valid`), and parameter -> the note on it.
     """
-    mechanics = Mechanics() if mechanics is None else mechanics
+    mechanics = default_mechanics() if mechanics is None else mechanics
     stops = stops_per_trial() if stops is None else stops
     notes: Notes = {}
     fitted: dict[str, float | None] = dict.fromkeys(TWIN_PARAMETERS)
