@@ -7,6 +7,7 @@ from __future__ import annotations
 import datetime
 import math
 import re
+from collections.abc import Iterator
 from typing import Any
 
 from pydantic import Field, field_validator
@@ -48,12 +49,13 @@ class CustomPolicySection(Section):
         # nor dates or times: recorded, a date became its text, and that config.toml did not rerun
         # or resume the run (the policy given "2026-01-31" where it was given a date)
         for name, value in params.items():
-            if _holds_date(value):
+            leaves = list(_leaves(value))  # one walk of the value's lists and tables for both checks
+            if any(isinstance(leaf, datetime.date | datetime.time) for leaf in leaves):  # a datetime: a date
                 raise ValueError(f"{name} = {_toml_text(value)}: give text in quotes, not a date or time, "
                                  f"e.g. {name} = {_toml_text(value, dates_quoted=True)} (the run folder "
                                  "records a policy's parameters as JSON, which has no dates or times; the "
                                  "policy reads the text)")
-            if not _all_finite(value):
+            if not all(math.isfinite(leaf) for leaf in leaves if isinstance(leaf, float)):
                 raise ValueError(f"{name} = {value}: a policy's parameters are finite numbers (the run "
                                  "folder records them as JSON, which has no nan or inf); give a number")
         return params
@@ -63,15 +65,17 @@ class CustomPolicySection(Section):
 _FACTORY = re.compile(r"[A-Za-z_][\w.]*:[A-Za-z_][\w.]*")
 
 
-def _holds_date(value: Any) -> bool:
-    """Whether a TOML value is, or its list or table holds, a date, a time or a date-time."""
-    if isinstance(value, datetime.date | datetime.time):  # a datetime is a date
-        return True
+def _leaves(value: Any) -> Iterator[Any]:
+    """The values of a TOML value that are no list or table: itself, or those its lists and tables
+    hold, at any depth."""
     if isinstance(value, list | tuple):
-        return any(_holds_date(item) for item in value)
-    if isinstance(value, dict):
-        return any(_holds_date(item) for item in value.values())
-    return False
+        for item in value:
+            yield from _leaves(item)
+    elif isinstance(value, dict):
+        for item in value.values():
+            yield from _leaves(item)
+    else:
+        yield value
 
 
 def _toml_text(value: Any, *, dates_quoted: bool = False) -> str:
@@ -90,14 +94,3 @@ def _dates_as_text(value: Any) -> Any:
     if isinstance(value, dict):
         return {key: _dates_as_text(item) for key, item in value.items()}
     return value
-
-
-def _all_finite(value: Any) -> bool:
-    """Whether every float in a TOML value (a number, or a list or table of them) is finite."""
-    if isinstance(value, float):
-        return math.isfinite(value)
-    if isinstance(value, list | tuple):
-        return all(_all_finite(v) for v in value)
-    if isinstance(value, dict):
-        return all(_all_finite(v) for v in value.values())
-    return True
