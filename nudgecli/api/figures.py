@@ -32,20 +32,13 @@ def plan_of(source: str | Path, plan: str | Path | AnalysisPlan | None = None) -
     """The plan whose star rule and labels the figures of ``source`` use: ``plan``, else the one its
     run folder's manifest records, else the one named like its experiment, else ``paper``
     (:func:`nudgecli.config_files.resolve_plan`)."""
-    from nudgecli.report.recorded_plans import recorded_plan
-    from nudgecli.store import RunFolder
+    from nudgecli.report.recorded_plans import plan_of_source
 
     source = arguments.path("source", source)
     plan = arguments.plan(plan)  # a preset's name, a plan file or a loaded plan
-    manifest: Any = {}
-    folder = RunFolder(Path(source))
-    if plan is None and Path(source).is_dir() and folder.is_run():
-        with contextlib.suppress(NudgeError):  # a damaged manifest: plotting says what is wrong
-            manifest = folder.read_manifest()
-    if not isinstance(manifest, dict):
-        manifest = {}
-    # a run's plan file as its kept copy, checked (an edited one, or one that does not load, refused)
-    return plan if plan is not None else recorded_plan(manifest, folder if manifest else None)
+    # a run's plan file as its kept copy, checked (an edited one, or one that does not load, refused);
+    # a damaged manifest is taken as none: plotting says what is wrong
+    return plan if plan is not None else plan_of_source(source, damaged_manifest=True)
 
 
 def _folder_of(analysis: Analysis | Run | str | Path) -> Path:

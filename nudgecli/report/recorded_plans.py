@@ -16,18 +16,28 @@ from pathlib import Path
 from typing import Any
 
 from nudgecli.config_files import resolve_plan, world_kind_of
-from nudgecli.errors import ConfigError
+from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.report.plans import AnalysisPlan, load_plan, plan_argument
 from nudgecli.run_folder_names import MANIFEST
 from nudgecli.store import RunFolder
 
 
-def plan_of_source(source: str | Path) -> str:
+def plan_of_source(source: str | Path, *, damaged_manifest: bool = False) -> str:
     """The plan a source is analysed with when none is given (:func:`recorded_plan` of its
-    manifest: a run folder's recorded plan or its experiment's; ``paper`` for a table)."""
+    manifest: a run folder's recorded plan or its experiment's; ``paper`` for a table).
+
+    ``damaged_manifest``: a manifest that cannot be read is taken as none (a figure's plan, where
+    drawing says what is wrong), not refused."""
     path = Path(source)
     run = RunFolder(path) if path.is_dir() else None
-    return recorded_plan(run.read_manifest() if run is not None and run.is_run() else None, run)
+    manifest = None
+    if run is not None and run.is_run():
+        try:
+            manifest = run.read_manifest()
+        except NudgeError:
+            if not damaged_manifest:
+                raise
+    return recorded_plan(manifest, run)
 
 
 def recorded_plan(manifest: Mapping[str, Any] | None, run: RunFolder | None = None) -> str:
