@@ -452,8 +452,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     if source.is_dir():
         record_plan(run, manifest, plan, out_dir)
     _check_filters(plan, available)
-    scores, score_names = _read_scores(questionnaires, table, source, RunFolder.study_under_way(manifest),
-                                       notes)
+    scores, score_names = _read_scores(questionnaires, table, source, manifest, notes)
     selected = _select_metrics(metrics, [*available, *score_names], plan)
     trial_selected = [m for m in selected if m in available]
     score_selected = [m for m in selected if m in score_names]
@@ -499,14 +498,17 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
                           p_thresholds=plan_p_thresholds(plan))
 
 
-def _read_scores(questionnaires: str | Path | None, table: pd.DataFrame, source: Path, under_way: bool,
+def _read_scores(questionnaires: str | Path | None, table: pd.DataFrame, source: Path,
+                 manifest: Mapping[str, Any] | None,
                  notes: list[str]) -> tuple[pd.DataFrame | None, list[str]]:
     """The questionnaire scores (``None`` without a questionnaire table) and their score columns,
-    checked against the trials: the same conditions (of a live study still ``under_way``, those
-    answered so far, with a note), respondents among the participants."""
+    checked against the trials: the same conditions (of a live study still under way, as its
+    ``manifest`` says, those answered so far, with a note), respondents among the participants."""
     if questionnaires is None:
         return None, []
-    scores = questionnaire_scores(read_run_questionnaires(questionnaires, source, table), str(questionnaires))
+    under_way = RunFolder.study_under_way(manifest)
+    read = read_run_questionnaires(questionnaires, source, table, manifest)  # its manifest, read once
+    scores = questionnaire_scores(read, str(questionnaires))
     score_names = score_columns(scores)
     trial_conditions = set(table["condition"].astype(str))
     score_conditions = set(scores["condition"])

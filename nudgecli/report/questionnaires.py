@@ -53,7 +53,6 @@ with questionnaires, or edited by hand, is refused, never drawn beside statistic
 from __future__ import annotations
 
 import hashlib
-import json
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -64,7 +63,8 @@ import pandas as pd
 from nudgecli.csv_text import not_utf8_message
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.tables import check_unique_columns, is_canonical_integer, label_text, read_csv_labels
-from nudgecli.run_folder_names import MANIFEST, QUESTIONNAIRE_SCORES_CSV, QUESTIONNAIRES_CSV
+from nudgecli.run_folder_live import LIVE_EXECUTOR
+from nudgecli.run_folder_names import QUESTIONNAIRE_SCORES_CSV, QUESTIONNAIRES_CSV
 
 TLX_SUBSCALES = ("mental", "physical", "temporal", "performance", "effort", "frustration")
 TLX_RATING_COLUMNS = tuple(f"tlx_{s}" for s in TLX_SUBSCALES)
@@ -111,9 +111,11 @@ def read_questionnaires(path: str | Path) -> pd.DataFrame:
     return table
 
 
-def read_run_questionnaires(path: str | Path, source: Path, trials: pd.DataFrame) -> pd.DataFrame:
+def read_run_questionnaires(path: str | Path, source: Path, trials: pd.DataFrame,
+                            manifest: Mapping[str, Any] | None = None) -> pd.DataFrame:
     """:func:`read_questionnaires` for the analysis of ``source`` with the trials table ``trials``:
-    a live folder's answers file that is not there yet is named as such, and, ``source`` being a
+    a live folder's answers file that is not there yet is named as such (``manifest``: the run's,
+    as the analysis read it; a live folder's names the executor ``live``), and, ``source`` being a
     run folder, each row's condition is checked against the run's (:func:`check_run_conditions`).
 
     Raises
@@ -122,7 +124,8 @@ def read_run_questionnaires(path: str | Path, source: Path, trials: pd.DataFrame
         As :func:`read_questionnaires`, or a row's condition contradicts the run's.
     """
     path = Path(path)
-    if not path.exists() and source.is_dir() and _is_live_folder(source) and \
+    live = manifest is not None and manifest.get("executor") == LIVE_EXECUTOR
+    if not path.exists() and source.is_dir() and live and \
             path.resolve() == (source / QUESTIONNAIRES_CSV).resolve():
         raise DataError(f"questionnaire file {path} does not exist: no questionnaire of the live study in "
                         f"{source} has been answered yet (nudge study writes it when a participant answers "
@@ -131,15 +134,6 @@ def read_run_questionnaires(path: str | Path, source: Path, trials: pd.DataFrame
     if source.is_dir():
         check_run_conditions(table, trials, str(path), str(source))
     return table
-
-
-def _is_live_folder(folder: Path) -> bool:
-    """Whether ``folder``'s manifest records live sessions (``executor = "live"``)."""
-    try:
-        manifest = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return False
-    return isinstance(manifest, dict) and manifest.get("executor") == "live"
 
 
 def check_run_conditions(table: pd.DataFrame, trials: pd.DataFrame, source: str, run: str) -> None:
