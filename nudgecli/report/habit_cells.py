@@ -123,15 +123,20 @@ def run_experiment(run: RunFolder) -> ExperimentConfig:
         raise RunFolderError(format_validation_error(exc, where, ExperimentConfig, dict(recorded))) from None
 
 
-def source_has_waypoints(source: str | Path) -> bool:
-    """Whether the robot of a habits source stops at the CIAA task's waypoints: a real log, a
-    habits table or a CIAA run folder; not a grid-world run folder (``paper``, ``smoke``, a
-    ``nudge study`` session), whose robot stops in any cell."""
-    path = Path(source)
-    return not (path.is_dir() and is_run_folder(path)) or run_experiment(RunFolder(path)).world.kind == "ciaa"
+def stops_at_waypoints(experiment: ExperimentConfig | None) -> bool:
+    """Whether the robot of a habits source stops at the CIAA task's waypoints: a CIAA run's
+    ``experiment``, or a real log or habits table (``None``: no experiment recorded); not a
+    grid-world run's (``paper``, ``smoke``, a ``nudge study`` session), whose robot stops in any cell."""
+    return experiment is None or experiment.world.kind == "ciaa"
 
 
 def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
+    """:func:`run_folder_cells_with_experiment` without the experiment."""
+    cells, rate, _ = run_folder_cells_with_experiment(folder)
+    return cells, rate
+
+
+def run_folder_cells_with_experiment(folder: str | Path) -> tuple[pd.DataFrame, float, ExperimentConfig]:
     """The cells of a run folder (``nudge simulate`` / ``run`` / ``study``): its steps.
 
     The pose after a step is the next step's, or the trial's final pose; a switch is the person's
@@ -143,7 +148,8 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
     -------
     tuple
         The cell table (:data:`CELL_COLUMNS`) in HABITS.md's 10 Hz cells (a run at another rate
-        read in them, :func:`habit_rate_cells`) and their rate.
+        read in them, :func:`habit_rate_cells`), their rate, and the experiment the run was made
+        with (:func:`run_experiment`, read once: a caller of the cells needs no second read).
     """
     run = RunFolder(folder)
     if not is_run_folder(folder):
@@ -166,7 +172,7 @@ def run_folder_cells(folder: str | Path) -> tuple[pd.DataFrame, float]:
         parts = iter([(run.read_table("steps", columns=_HABIT_STEP_COLUMNS), trials)])
     cells = pd.concat([_trial_cells(run, steps, part_trials, waypoints) for steps, part_trials in parts],
                       ignore_index=True)
-    return habit_rate_cells(cells, float(config.study.rate_hz)), HABIT_RATE_HZ
+    return habit_rate_cells(cells, float(config.study.rate_hz)), HABIT_RATE_HZ, config
 
 
 def _not_a_run_message(folder: Path) -> str:

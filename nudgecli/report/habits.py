@@ -289,7 +289,12 @@ def measure_habits(cells: pd.DataFrame, rate_hz: float = HABIT_RATE_HZ,
         :data:`EVENT_COLUMNS`: one row per event, values in seconds (a share habit: 1.0 or 0.0 per
         pause), rounded to the microsecond.
     """
-    c = cell_arrays(cells, rate_hz)
+    return measure_cell_habits(cell_arrays(cells, rate_hz), rate_hz, merge_gap_s)
+
+
+def measure_cell_habits(c: _CellArrays, rate_hz: float, merge_gap_s: float = MERGE_GAP_S) -> pd.DataFrame:
+    """:func:`measure_habits` of the cells' arrays (:func:`cell_arrays` of them at ``rate_hz``), for a
+    caller that reads the arrays too (built once)."""
     events = _blow_events(c, gap_cells_of(rate_hz, merge_gap_s)) + reaction_events(c) + \
         _undone_switch_events(c)
     frames = [pd.DataFrame({"participant": c.participant[where], "trial": c.trial[where], "habit": habit,

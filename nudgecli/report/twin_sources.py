@@ -17,20 +17,26 @@ import csv
 import dataclasses
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
-from nudgecli.config import BehaviourSection, InterfaceSection, PopulationSection
+from nudgecli.config import BehaviourSection, ExperimentConfig, InterfaceSection, PopulationSection
 from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.csv_text import not_utf8_message, starts_as_json
 from nudgecli.errors import DataError, did_you_mean
-from nudgecli.report.habit_cells import NEUTRAL, run_experiment, source_has_waypoints
+from nudgecli.report.habit_cells import (
+    NEUTRAL,
+    run_experiment,
+    run_folder_cells_with_experiment,
+    stops_at_waypoints,
+)
 from nudgecli.report.habits import (
     HABIT_KEYS,
     HABITS,
     cell_arrays,
-    measure_habits,
+    measure_cell_habits,
     reaction_events,
     source_cells,
     summarise_habits,
@@ -38,6 +44,9 @@ from nudgecli.report.habits import (
 from nudgecli.sim.twin_fit import PARAMETER_HABITS, HabitFigures, Mechanics, fit_twin_with_notes
 from nudgecli.sim.twins import Twin
 from nudgecli.store import RunFolder, is_run_folder
+
+if TYPE_CHECKING:
+    from nudgecli.report.habits import _CellArrays  # what cell_arrays builds
 
 #: Participant label -> habit -> figures, participants in the source's order.
 SourceHabits = dict[str, dict[str, HabitFigures]]
@@ -84,7 +93,11 @@ def reaction_releases(cells: pd.DataFrame, rate_hz: float) -> Releases:
     one (the next blow, after the hold-on or the pulse); and that release (its neutral cells).
     ``(value, value, 0)`` where no release comes before the event ends (the twin fit's reactions:
     :func:`~nudgecli.sim.twin_fit.reaction_observations`)."""
-    c = cell_arrays(cells, rate_hz)
+    return _releases_of(cell_arrays(cells, rate_hz))
+
+
+def _releases_of(c: _CellArrays) -> Releases:
+    """:func:`reaction_releases` of the cells' arrays (:func:`~nudgecli.report.habits.cell_arrays`)."""
     neutral = c.kind == NEUTRAL
     index = np.arange(c.n)
 
@@ -117,21 +130,32 @@ def measured_source(path: Path) -> SourceHabits:
     DataError
         No participants, or a participant with no trial to measure (no input at all).
     """
-    cells, rate, _ = source_cells(path)
+    return _measured(path)[0]
+
+
+def _measured(path: Path) -> tuple[SourceHabits, ExperimentConfig | None]:
+    """:func:`measured_source`, and the experiment of a run folder (``None``: a real log), read once
+    with its cells."""
+    experiment = None
+    if path.is_dir():  # a run folder (source_cells'): its experiment comes with its cells
+        cells, rate, experiment = run_folder_cells_with_experiment(path)
+    else:
+        cells, rate, _ = source_cells(path)
     if cells.empty:
         raise DataError(f"{path}: no participants (no trial to measure)")
-    events = measure_habits(cells, rate)
+    arrays = cell_arrays(cells, rate)  # once: the habits are measured and the releases read from them
+    events = measure_cell_habits(arrays, rate)
     found = _figures_of(summarise_habits(events, str(path)).people) if not events.empty else {}
     participants = [str(p) for p in pd.unique(cells["participant"])]
     for participant in participants:
         if participant not in found:
             raise DataError(f"{path}: participant {participant!r}: no trial with input to measure (every "
                             "cell neutral); a twin needs their habits")
-    for (participant, habit), events in reaction_releases(cells, rate).items():
+    for (participant, habit), events in _releases_of(arrays).items():
         values, blow_after, releases = zip(*events, strict=True)
         found[participant][habit] = dataclasses.replace(found[participant][habit], values=values,
                                                         blow_after=blow_after, releases=releases)
-    return {participant: found[participant] for participant in participants}
+    return {participant: found[participant] for participant in participants}, experiment
 
 
 def _events_of(where: str, habit: str, row: pd.Series) -> int | None:
@@ -241,13 +265,19 @@ def table_source(path: Path) -> SourceHabits:
 
 def source_habits(source: str | Path) -> SourceHabits:
     """Each participant's habits of ``source`` (a run folder, a real log, or a habits table)."""
+    return _habits_and_experiment(source)[0]
+
+
+def _habits_and_experiment(source: str | Path) -> tuple[SourceHabits, ExperimentConfig | None]:
+    """:func:`source_habits`, and the experiment of a run folder (``None``: a log or a table), read
+    once."""
     path = Path(source)
     if path.is_file() and starts_as_json(path):
         raise DataError(f"{path}: a JSON file; fit-people reads the CSV table that `nudge habits --by "
                         "participant --format csv` writes (or a real log's CSV, or a run folder)")
     if path.is_file() and _is_habits_table(path):
-        return table_source(path)
-    return measured_source(path)
+        return table_source(path), None
+    return _measured(path)
 
 
 def source_interface(source: str | Path) -> tuple[InterfaceSection, BehaviourSection]:
@@ -256,10 +286,14 @@ def source_interface(source: str | Path) -> tuple[InterfaceSection, BehaviourSec
     a run folder's own, as its manifest records them; the defaults for a real log or a habits
     table, which hold none (a log's labels are the interface's own, thresholds unsaid)."""
     path = Path(source)
-    if path.is_dir() and is_run_folder(path):
-        config = run_experiment(RunFolder(path))
-        return config.interface, config.behaviour
-    return InterfaceSection(), BehaviourSection()
+    return _interface_of(run_experiment(RunFolder(path)) if path.is_dir() and is_run_folder(path) else None)
+
+
+def _interface_of(experiment: ExperimentConfig | None) -> tuple[InterfaceSection, BehaviourSection]:
+    """:func:`source_interface` of a source's experiment (``None``: a log or a table: the defaults)."""
+    if experiment is None:
+        return InterfaceSection(), BehaviourSection()
+    return experiment.interface, experiment.behaviour
 
 
 def twins_of_sources(sources: list[str | Path], population: PopulationSection | None = None) -> list[Twin]:
@@ -288,9 +322,9 @@ def twins_of_sources(sources: list[str | Path], population: PopulationSection | 
     twins = []
     for source in sources:
         name = Path(source).name
-        found = source_habits(source)
-        waypoints = source_has_waypoints(source)  # a grid-world run's stops are not the fit's
-        interface, behaviour = source_interface(source)
+        found, experiment = _habits_and_experiment(source)  # a run's experiment read once, with its cells
+        waypoints = stops_at_waypoints(experiment)  # a grid-world run's stops are not the fit's
+        interface, behaviour = _interface_of(experiment)
         thresholds = (interface.zero_threshold, interface.soft_threshold, interface.hard_threshold)
         key = (*thresholds, behaviour.pause_jitter)
         if key not in mechanics:
