@@ -14,7 +14,8 @@ import pytest
 import nudgecli.api as api
 from nudgecli.errors import ConfigError
 from nudgecli.runs import batch_kinds
-from nudgecli.runs.sweep import MIN_MORRIS_TRAJECTORIES, Design, load_sweep
+from nudgecli.runs.sweep import Design, load_sweep
+from nudgecli.runs.sweep_file import MIN_MORRIS_TRAJECTORIES
 
 
 def write_sweep(tmp_path: Path, fixed: str, design: str, parameters: str) -> Path:

@@ -29,8 +29,11 @@ linearly; a set of ``k`` values is the range ``[0, k]`` and takes the value at t
 end the last); an integer range is the set of its integers ``ceil(low)..floor(high)``, each with
 an equal share, never one outside the bounds. ``experiment.seed`` is refused (the replications'
 seeds come from the sweep's ``seed``), and so is a key both in ``set`` and under
-``[parameters]``, or in ``set`` inside a table ``[parameters]`` sets whole (which would drop it).
-Every point is validated as an experiment before anything runs.
+``[parameters]``, or in ``set`` inside a table ``[parameters]`` sets whole (which would drop it),
+a Morris set of more values than ``levels`` (a level takes one value: some would never run),
+and a range without ``integer = true`` over a key that takes whole numbers (named as the fix).
+Every point is validated as an experiment before anything runs, and so is every value of a set
+and both ends of a range, which a design need not draw.
 
 A parameter's value in the sweep's tables (``sweep.csv``, ``replications.csv``, ``points.csv``) is
 its :func:`parameter_cell`: a number, string or boolean as it is, a table or list as compact JSON
@@ -50,20 +53,25 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import ValidationError
 
 from nudgecli.config import ExperimentConfig, load_experiment
 from nudgecli.config_files import (
-    as_written,
     format_validation_error,
     list_presets,
     preset_dir,
     resolve_plan,
     resolve_preset,
-    settable_path,
     toml_value,
 )
 from nudgecli.errors import ConfigError, PolicyError, did_you_mean
+from nudgecli.runs.sweep_file import (  # the format, read from here too
+    Design,
+    Range,
+    SweepFile,
+    Values,
+    morris_choice,
+)
 from nudgecli.sim.policy_registry import checked_policy_specs
 
 #: Where the shipped example sweeps live (beside the experiment presets, in their own folder so
@@ -71,188 +79,9 @@ from nudgecli.sim.policy_registry import checked_policy_specs
 SWEEP_FOLDER = "sweeps"
 
 
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class Range(_Model):
-    """A continuous (or integer) range to sample."""
-
-    low: float = Field(allow_inf_nan=False)
-    high: float = Field(allow_inf_nan=False)
-    integer: bool = Field(default=False, strict=True)  # true or false: "yes" and 1 were taken as true
-
-    @model_validator(mode="after")
-    def _check(self) -> Range:
-        if not self.low < self.high:
-            raise ValueError(f"low must be below high, got low={self.low:g}, high={self.high:g}")
-        if self.integer and math.ceil(self.low) > math.floor(self.high):
-            raise ValueError(f"no integer lies between low={self.low:g} and high={self.high:g}; "
-                             "widen the range or drop integer = true")
-        return self
-
-    def integers(self) -> tuple[int, int]:
-        """An integer range's first and last integer: ``ceil(low)`` and ``floor(high)``."""
-        return math.ceil(self.low), math.floor(self.high)
-
-
-class Values(_Model):
-    """An explicit set of values."""
-
-    values: list[Any] = Field(min_length=1)
-
-
 #: The start of the warning scipy's Sobol' sequence gives for a number of points that is no power of
 #: 2 (scipy/stats/_qmc.py, ``Sobol.random``), which SALib's ``sobol.sample`` passes on.
 SOBOL_BALANCE_WARNING = "The balance properties of Sobol' points require n to be a power of 2"
-#: The fewest base samples of a Sobol design (see :class:`Design`).
-MIN_SOBOL_SAMPLES = 2
-#: The fewest trajectories of a Morris design (see :class:`Design`).
-MIN_MORRIS_TRAJECTORIES = 2
-
-
-class Design(_Model):
-    """``[design]``."""
-
-    method: Literal["grid", "sobol", "morris"] = "grid"
-    samples: int = Field(default=8, ge=1, le=100_000)
-    levels: int = Field(default=4, ge=2, le=100)
-    seed: int = Field(default=0, ge=0)
-
-    @model_validator(mode="after")
-    def _even_levels(self) -> Design:
-        # SALib's Morris sampler wants even levels (SALib/SALib, src/SALib/sample/morris/morris.py,
-        # ``sample``: "num_levels ... (should be even)"; ``_check_if_num_levels_is_even`` only warns
-        # "sample may be biased"): its start points are int(L / 2) evenly spaced points of
-        # [0, 1 - delta], delta = L / (2 (L - 1)), on the k / (L - 1) grid for even L only
-        if self.method == "morris" and self.levels % 2:
-            raise ValueError(f"levels: Morris needs an even number of levels (SALib's grid k / (levels - 1) "
-                             f"holds for even levels only), got {self.levels}; use {self.levels - 1} or "
-                             f"{self.levels + 1}")
-        # SALib samples and analyses N = 1 (it asks for no least N), but its confidence intervals
-        # bootstrap the N base samples: one resampled is always itself, and every conf came out 0
-        if self.method == "sobol" and self.samples < MIN_SOBOL_SAMPLES:
-            raise ValueError(f"samples: a Sobol design needs at least {MIN_SOBOL_SAMPLES} base samples (the "
-                             f"intervals of its indices resample them), got {self.samples}; use a power "
-                             "of 2: 4, 8 or 16")
-        # SALib's Morris analysis takes sigma as the standard deviation of each elementary effect over
-        # the trajectories (SALib/SALib, src/SALib/analyze/morris.py: np.std(..., ddof=1)), NaN for
-        # one, and its mu_star intervals resample the trajectories: one resampled is always itself
-        if self.method == "morris" and self.samples < MIN_MORRIS_TRAJECTORIES:
-            raise ValueError(f"samples: a Morris design needs at least {MIN_MORRIS_TRAJECTORIES} "
-                             "trajectories (sigma is the spread of the elementary effects over them, and "
-                             f"the intervals of mu_star resample them), got {self.samples}; use 4 to 10")
-        return self
-
-
-class SweepFile(_Model):
-    """A whole sweep file (see the module docstring)."""
-
-    experiment: str
-    replications: int = Field(default=4, ge=1, le=100_000)
-    seed: int = Field(default=0, ge=0)
-    plan: str | None = None
-    set: list[str] = Field(default_factory=list)
-    design: Design = Field(default_factory=Design)
-    parameters: dict[str, Range | Values]
-
-    @model_validator(mode="before")
-    @classmethod
-    def _shorthand(cls, data: Any) -> Any:
-        if isinstance(data, dict) and isinstance(data.get("experiment"), dict):
-            raise ValueError("this looks like an experiment file, not a sweep file (it has an [experiment] "
-                             "table); a sweep file names its experiment, e.g. experiment = \"smoke\", and "
-                             "has [design] and [parameters] (docs/batches.md)")
-        if isinstance(data, dict) and isinstance(data.get("parameters"), dict):
-            data = dict(data)
-            data["parameters"] = {k: parameter(k, v) for k, v in data["parameters"].items()}
-        return data
-
-    @model_validator(mode="after")
-    def _check(self) -> SweepFile:
-        if not self.parameters:
-            raise ValueError("name at least one parameter under [parameters]")
-        for key in self.parameters:  # any key --set takes (one rule: config_files.settable_path)
-            if settable_path(key) is None:
-                raise ValueError(f"parameter {key!r}: write it as section.key (any key --set takes), e.g. "
-                                 "inference.kappa or policies.NAME.params.KEY")
-        swept = [set_key(key) for key in self.parameters]
-        fixed = [set_key(entry) for entry in self.set]
-        if SEED_KEY in swept or SEED_KEY in fixed:
-            where = "under [parameters]" if SEED_KEY in swept else "in set"
-            raise ValueError(f"{SEED_KEY} {where}: a sweep does not use the experiment's seed; every point "
-                             "runs the same replication seeds, drawn from the sweep file's seed (seed = "
-                             f"{self.seed}) or --seed; for more independent seeds raise replications")
-        both = [key for key in fixed if key in swept]
-        if both:
-            raise ValueError(f"{both[0]} is both in set and under [parameters]; keep it in one place: set "
-                             "fixes a key at every point, [parameters] varies it")
-        # the points' parameters come after the set: a swept table would replace a key set inside it
-        inside = [(key, table) for key in fixed for table in swept if key.startswith(table + ".")]
-        if inside:
-            key, table = inside[0]
-            raise ValueError(f"{key} in set lies inside {table}, which [parameters] sets whole at every "
-                             f"point, so the set's value would be dropped; give "
-                             f"{key.removeprefix(table + '.')} in each of {table}'s values instead")
-        if self.design.method == "grid":
-            ranges = [k for k, v in self.parameters.items() if isinstance(v, Range)]
-            if ranges:
-                raise ValueError(f"a grid needs values, not ranges ({', '.join(ranges)}); list the values "
-                                 "or use method = \"sobol\" or \"morris\"")
-        return self
-
-
-#: The experiment key a sweep refuses: the replications' seeds come from the sweep's own seed.
-SEED_KEY = "experiment.seed"
-
-
-def set_key(entry: str) -> str:
-    """The key of a ``set`` entry or a parameter as ``--set`` reads it: ``"inference.kappa = 0.3"``
-    and ``"inference . kappa"`` -> ``"inference.kappa"`` (empty when it names no settable key)."""
-    return ".".join(settable_path(entry.partition("=")[0]) or [])
-
-
-def parameter(key: str, written: Any) -> Any:
-    """One ``[parameters]`` entry as written -> a :class:`Values` or :class:`Range`.
-
-    A list is a set of values, a table with ``values`` too, a table with ``low`` and ``high`` a
-    range. Checked here, one entry at a time, so that a mistake is named by its key in words
-    (validating the union would report pydantic's attempts at both types).
-
-    Raises
-    ------
-    ValueError
-        ``parameters.<key>: ...`` with the fix.
-    """
-    if isinstance(written, Range | Values):
-        return written
-    where = f"parameters.{key}"
-    if isinstance(written, list):
-        written = {"values": written}
-    if not isinstance(written, dict):
-        raise ValueError(f"{where}: give a list of values, e.g. [0.6, 0.7], or a range, e.g. "
-                         f"{{ low = 0.5, high = 0.8 }} (got {as_written(written)})")
-    if "values" in written and {"low", "high", "integer"} & written.keys():
-        raise ValueError(f"{where}: give either values or low and high, not both")
-    if "values" in written and isinstance(written["values"], list) and not written["values"]:
-        raise ValueError(f"{where}: an empty list; give at least one value, e.g. [0.6, 0.7]")
-    if "values" in written and isinstance(written["values"], list):  # a value twice weighs it twice
-        seen = [json.dumps(v, sort_keys=True, default=str) for v in written["values"]]
-        twice = [i for i in range(len(seen)) if seen[i] in seen[:i]]
-        if twice:
-            raise ValueError(f"{where}: {as_written(written['values'][twice[0]])} is given twice; give "
-                             "each value once")
-    model: type[Range] | type[Values] = Values if "values" in written else Range
-    missing = [bound for bound in ("low", "high") if bound not in written]
-    if model is Range and missing:
-        raise ValueError(f"{where}: a range needs low and high, e.g. {{ low = 0.5, high = 0.8 }} (missing: "
-                         f"{' and '.join(missing)}), or a list of values")
-    try:
-        return model.model_validate(written)
-    except ValidationError as exc:
-        raise ValueError(format_validation_error(exc, where, model)) from None
-
-
 @dataclass(frozen=True)
 class DesignPoint:
     """One point of a design: its index, the swept values and the experiment they give."""
@@ -379,7 +208,12 @@ def load_sweep(name_or_path: str) -> Sweep:
     except ConfigError as exc:  # it may need a point's parameters (blocks that divide the trials)
         set_alone = ConfigError(f"{path}: set: {str(exc).removeprefix('--set ')}")
     values, problem, samples = design_values(spec)
-    points = _design_points(path, experiment, spec.set, values, set_alone)
+    try:
+        points = _design_points(path, experiment, spec.set, values, set_alone)
+    except ConfigError:
+        _refuse_real_ranges_on_whole_numbers(path, experiment, spec)  # the fix, where that is the fault
+        raise
+    _refuse_undrawn_values(path, experiment, spec, points[0].parameters)
     plan = None if spec.plan is None else beside_sweep(path, "plan", spec.plan, "analysis")
     # the plan rule of replicate and power: the plan given, else the one named like the experiment
     # (as the set names it; where the set needs the parameters, as the first point does)
@@ -449,8 +283,7 @@ def _design_points(path: Path, experiment: str, fixed: list[str], values: list[d
     first: ConfigError | None = None
     for index, assignment in enumerate(values):
         try:
-            config = load_experiment(experiment, point_overrides(fixed, assignment))
-            checked_policy_specs(config)  # the check nudge simulate gives: refused before a folder exists
+            config = _checked_point(experiment, fixed, assignment)
         except (ConfigError, PolicyError) as exc:
             shown = point_words(assignment)
             first = first or ConfigError(f"{path}: design point {index} ({shown}) is not a valid experiment: "
@@ -464,6 +297,84 @@ def _design_points(path: Path, experiment: str, fixed: list[str], values: list[d
     if first is not None:
         raise (set_alone or first) from None
     return points
+
+
+def _checked_point(experiment: str, fixed: list[str], assignment: dict[str, Any]) -> ExperimentConfig:
+    """A point's experiment, checked as ``nudge simulate`` checks one (a policy of one's own is made
+    once with the point's parameters), so that a bad point is refused before a folder exists."""
+    config = load_experiment(experiment, point_overrides(fixed, assignment))
+    checked_policy_specs(config)
+    return config
+
+
+def _point_fault(experiment: str, fixed: list[str], assignment: dict[str, Any]) -> str | None:
+    """Why a point's experiment is refused (its ``--set`` text first), or ``None`` when it is valid."""
+    try:
+        _checked_point(experiment, fixed, assignment)
+    except (ConfigError, PolicyError) as exc:
+        return str(exc).removeprefix("--set ")
+    return None
+
+
+def _refuse_real_ranges_on_whole_numbers(path: Path, experiment: str, spec: SweepFile) -> None:
+    """Refuse a range of reals (no ``integer = true``) over a key that takes whole numbers only,
+    naming the fix: ``integer = true``. The key's own refusal of a point ("give a whole number")
+    would send the researcher to the drawn value, which the sweep file does not hold.
+
+    A key takes whole numbers only where, with the sweep's ``set``, it takes an integer of the
+    range but not the same number written as a real (``4`` but not ``4.0``).
+
+    Raises
+    ------
+    ConfigError
+        Naming the sweep file, each such key, and the range with ``integer = true``.
+    """
+    advice = []
+    for key, value in spec.parameters.items():
+        if not isinstance(value, Range) or value.integer:
+            continue
+        first, last = value.integers()
+        if first > last:
+            continue  # no integer inside: integer = true is refused there, so it is no fix
+        whole = (first + last) // 2
+        if (_point_fault(experiment, spec.set, {key: whole}) is None
+                and _point_fault(experiment, spec.set, {key: float(whole)}) is not None):
+            advice.append(f"parameters.{key}: {key} takes whole numbers, and a range without integer = "
+                          f"true gives it real ones; add integer = true: \"{key}\" = {{ low = "
+                          f"{value.low:g}, high = {value.high:g}, integer = true }} (the integers "
+                          f"{first}-{last}, each an equal share)")
+    if advice:
+        raise ConfigError(f"{path}: {'; '.join(advice)}")
+
+
+def _refuse_undrawn_values(path: Path, experiment: str, spec: SweepFile, base: dict[str, Any]) -> None:
+    """Refuse a set's value or a range's end that the experiment does not take, drawn or not.
+
+    Every point is checked, but a Sobol or Morris design need not draw every value of a set (nor a
+    range's ends): one outside the key's bounds passed unseen with some seeds and samples, and
+    was refused with others. Each is checked with the first point's other values (``base``); a
+    grid's points hold every value already.
+
+    Raises
+    ------
+    ConfigError
+        Naming the sweep file, the parameter, the value and the experiment's refusal of it.
+    """
+    if spec.design.method == "grid":
+        return
+    for key, value in spec.parameters.items():
+        if isinstance(value, Values):
+            given = [("the value", choice) for choice in value.values]
+            fix = "correct it or drop it"
+        else:
+            ends = value.integers() if value.integer else (value.low, value.high)
+            given = list(zip(("the range's low end", "the range's high end"), ends, strict=True))
+            fix = f"keep the range within what {key} takes"
+        for what, choice in given:
+            fault = _point_fault(experiment, spec.set, {**base, key: choice})
+            if fault is not None:
+                raise ConfigError(f"{path}: parameters.{key}: {what} {toml_value(choice)} is not valid, "
+                                  f"whether or not this design draws it ({fault}); {fix}")
 
 
 def salib_problem(spec: SweepFile) -> dict[str, Any]:
@@ -498,7 +409,7 @@ def map_sample(value: Range | Values, x: float, bounds: Sequence[float] | None =
         low, high = bounds
         level = round((x - low) / (high - low) * (levels - 1))
         count = round(high - low)  # k values, or n integers: the bounds span one unit per choice
-        x = low + min(level * count // (levels - 1), count - 1)
+        x = low + morris_choice(level, levels, count)
     if isinstance(value, Values):
         return value.values[min(math.floor(x), len(value.values) - 1)]
     if value.integer:
