@@ -29,6 +29,9 @@ PART_KINDS = ("trials", "steps", "participants")
 #: A part's file name, the participant in its digits: the one rule that reads a participant from a
 #: name. Another ``part-*.parquet`` (a file manager's ``part-0001 (copy).parquet``) is no part.
 PART_FILE = re.compile(r"part-(\d{4,})\.parquet")
+#: The folder of a run's simulated calibration logs, a ``participant-NNNN`` folder each
+#: (:mod:`nudgecli.run_folder_calibration`, which records and verifies them).
+CALIBRATION_DIR = "calibration"
 
 
 def part_name(participant: int) -> str:

@@ -24,6 +24,7 @@ from nudgecli.run_folder_config import _ABSENT, _EXPERIMENT_SEED, ConfigRecord, 
 from nudgecli.run_folder_live import LiveRecord
 from nudgecli.run_folder_names import (
     BATCH_MANIFEST,
+    CALIBRATION_DIR,
     CONFIG,
     FIGURE_FORMATS,
     FIGURES_DIR,
@@ -49,7 +50,7 @@ FILE_CHECKSUMS = "files"
 CONSTANT_METRICS_KEY = "constant_metrics"
 #: What a nudge run writes beside its parts: a folder with parts and one of these but no manifest
 #: is a run whose manifest was lost, not a folder of parts assembled by hand.
-RUN_TRACES = (CONFIG, LAYOUTS, PARTICIPANTS, "calibration")
+RUN_TRACES = (CONFIG, LAYOUTS, PARTICIPANTS, CALIBRATION_DIR)
 
 
 def file_sha256(path: str | Path) -> str:
@@ -426,7 +427,11 @@ class RunRecord(LiveRecord, ConfigRecord):
                         participants: Iterable[int]) -> dict[int, list[str]]:
         """Participant -> those of its parts on disk the manifest does not vouch for: no SHA-256
         recorded of it (not written by this run: copied in, or left by another), or one that
-        differs (changed since written). Parts not on disk are :meth:`missing_parts`' business."""
+        differs (changed since written), and a calibration log recorded that is missing or changed
+        (:func:`~nudgecli.run_folder_calibration.changed_calibration_logs`). Parts not on disk are
+        :meth:`missing_parts`' business."""
+        from nudgecli.run_folder_calibration import changed_calibration_logs  # which builds on this module
+
         sums = self.recorded_checksums(manifest)
         unvouched: dict[int, list[str]] = {}
         for participant in participants:
@@ -439,6 +444,8 @@ class RunRecord(LiveRecord, ConfigRecord):
                        "changed since written" if file_sha256(part) != recorded else None)
                 if why is not None:
                     unvouched.setdefault(participant, []).append(f"{kind}/{part.name} ({why})")
+            if logs := changed_calibration_logs(self, manifest, participant):
+                unvouched.setdefault(participant, []).extend(logs)
         return unvouched
 
     def check_vouched(self, manifest: Mapping[str, Any]) -> None:

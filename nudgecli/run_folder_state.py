@@ -13,6 +13,7 @@ from typing import Any
 from nudgecli import __version__
 from nudgecli.errors import RunFolderError, shell_words
 from nudgecli.run_folder_names import (
+    CALIBRATION_DIR,
     CONFIG,
     FIGURES_DIR,
     LAYOUTS,
@@ -25,7 +26,7 @@ from nudgecli.run_folder_names import (
 )
 
 #: The folders a run makes before its manifest, and ``--force`` empties: empty, part of a start.
-_EMPTIED = (*PART_KINDS, "calibration")
+_EMPTIED = (*PART_KINDS, CALIBRATION_DIR)
 
 
 def only_a_start(folder: Path, config_text: str | None = None) -> bool:
@@ -119,15 +120,19 @@ RUN_OWN = (*_EMPTIED, PEOPLE_DIR, FIGURES_DIR, MANIFEST, CONFIG, PARTICIPANTS, L
 
 
 def refuse_links(folder: Path, names: Iterable[str] = RUN_OWN) -> None:
-    """Refuse a folder where a folder or file a command writes there (``names``: a run's by default,
-    ``trials/``, ``manifest.json``, ...) is a symbolic link: writing, resuming or ``--force``
-    replacing it would follow the link into another folder (another run's parts). Never followed,
-    never replaced: the person says which.
+    """Refuse a folder that is itself a symbolic link (an ``--out`` linked to a folder elsewhere), or
+    where a folder or file a command writes there (``names``: a run's by default, ``trials/``,
+    ``manifest.json``, ...) is one: writing, resuming or ``--force`` replacing it would follow the
+    link into another folder (another run's parts). Never followed, never replaced: the person says
+    which (a folder given by a link: its real path).
 
     Raises
     ------
     RunFolderError
         Names the link and where it points."""
+    if folder.is_symlink():
+        raise RunFolderError(f"{folder} is a symbolic link (to {os.readlink(folder)}); nudge never writes "
+                             f"through a link, into another folder: give the real folder, {folder.resolve()}")
     for name in names:
         path = folder / name
         if path.is_symlink():

@@ -45,7 +45,9 @@ from nudgecli.errors import DataError, RunFolderError, WriteError, shell_words
 from nudgecli.outputs import check_not_an_input
 from nudgecli.parquet_reader import parquet_column_names, read_parquet
 from nudgecli.results_folders import default_run_dir as default_run_dir  # where commands import it
+from nudgecli.run_folder_calibration import calibration_dir
 from nudgecli.run_folder_names import (
+    CALIBRATION_DIR,
     CONFIG,
     FIGURES_DIR,
     LAYOUTS,
@@ -521,7 +523,7 @@ class RunFolder(RunRecord):
 
         The lock is held, so no live writer owns them.
         """
-        calibration = sorted((self.path / "calibration").glob("participant-*"))
+        calibration = sorted((self.path / CALIBRATION_DIR).glob("participant-*"))
         parts = [self.path / kind for kind in PART_KINDS]  # and a killed plot's figures' temporaries
         remove_temporaries((self.path, self.path / PEOPLE_DIR, self.path / FIGURES_DIR, *parts, *calibration))
 
@@ -548,7 +550,7 @@ class RunFolder(RunRecord):
 
         remove_copy(self.path, None if manifest is None else manifest.get(PEOPLE_KEY))
         remove_policy_copies(self.path, None if manifest is None else manifest.get(POLICY_FILES_KEY))
-        calibration = self.path / "calibration"
+        calibration = self.path / CALIBRATION_DIR
         if calibration.is_dir():
             for log in calibration.glob("participant-*/*.csv"):
                 log.unlink()
@@ -556,8 +558,8 @@ class RunFolder(RunRecord):
                 folder.rmdir()
 
     def calibration_dir(self, participant: int) -> Path:
-        """Where a participant's simulated calibration logs go."""
-        return self.path / "calibration" / f"participant-{participant:04d}"
+        """Where a participant's simulated calibration logs go (:mod:`nudgecli.run_folder_calibration`)."""
+        return calibration_dir(self.path, participant)
 
     def write_manifest(self, manifest: dict[str, Any]) -> None:
         write_json_atomic(self.manifest_path, manifest)

@@ -78,8 +78,10 @@ EXPERIMENT_COPY = "experiment.toml"
 PLAN_COPY = "plan.toml"
 #: A sweep's own sweep file, naming those two (its experiment file kept byte for byte: :func:`sweep_inputs`).
 SWEEP_COPY = "sweep.toml"
-#: What a batch writes in its folder: a link in their place is refused (:func:`refuse_links`).
-BATCH_OWN = (*sorted(BATCH_FOLDERS), BATCH_MANIFEST, PART_RECORD, EXPERIMENT_COPY, PLAN_COPY, SWEEP_COPY)
+#: What a batch writes in its folder, its tables too (renamed into place, which would replace a link
+#: silently): a link in their place is refused (:func:`refuse_links`).
+BATCH_OWN = (*sorted(BATCH_FOLDERS), BATCH_MANIFEST, PART_RECORD, EXPERIMENT_COPY, PLAN_COPY, SWEEP_COPY,
+             *(f"{stem}.csv" for stem in BATCH_TABLES))
 #: ``batch.json``'s record of those two files: ``{name: SHA-256}``.
 INPUTS_KEY = "inputs"
 @dataclass(frozen=True)

@@ -32,8 +32,10 @@ from nudgecli.locks import run_lock
 from nudgecli.model.mdp import SolvedLayout
 from nudgecli.recording_digests import recordings
 from nudgecli.rng import check_seed
+from nudgecli.run_folder_calibration import write_calibration_logs
 from nudgecli.run_folder_names import LAYOUTS, PARTICIPANTS
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, FILE_CHECKSUMS
+from nudgecli.run_folder_state import refuse_links
 from nudgecli.runs.size import check_study_size
 from nudgecli.runs.solved_layouts import solve_layouts_cached
 from nudgecli.runs.study_tasks import (
@@ -47,7 +49,6 @@ from nudgecli.runs.study_tasks import (
     simulate_watched,
     tune_allocator,
 )
-from nudgecli.sim.calibration_io import write_sessions
 from nudgecli.sim.counterbalance import design_record
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, keep_copy, people_of
@@ -401,6 +402,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     if plan is not None:  # refused before anything is simulated or written
         checked_plan(plan, [config])
         RunFolder(out).check_plan_not_its_copy(plan)  # the copy the run writes, --force removes first
+    refuse_links(Path(out), ())  # a linked --out: refused before anything (its lock) is written through it
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
     try:
         with run_lock(out, log=log):
@@ -436,8 +438,7 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                                                      config.study.counterbalancing, n)
     manifest.update({"status": "running", "completed": sorted(done),
                      "executor": executor_name(workers, bool(scheduler)),
-                     # what each condition's policy makes constant, for the analysis (which need
-                     # not import a researcher's policy to know it)
+                     # what each policy makes constant: an analysis need not import a researcher's policy
                      CONSTANT_METRICS_KEY: {c: sorted(m) for c, m in constant_metrics_of(config).items()}})
     if people is not None:
         manifest[PEOPLE_KEY] = people.record()
@@ -466,8 +467,8 @@ def _run_locked(folder: RunFolder, config: ExperimentConfig, seed: int, n: int, 
                 warned = True
             # the workers send columns; the tables are made here, in the process that writes them
             result = ParticipantResult.from_columns(columns)
-            if result.calibration is not None:
-                write_sessions(folder.calibration_dir(result.participant), *result.calibration)
+            if result.calibration is not None:  # with their SHA-256: verified where read, as the parts are
+                write_calibration_logs(folder.path, manifest, result.participant, result.calibration)
             sums = folder.write_participant_parts(result.participant, result.trials, result.steps,
                                                   result.record)
             manifest.setdefault("checksums", {})[str(result.participant)] = sums

@@ -18,6 +18,7 @@ from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.csv_text import not_utf8_message
 from nudgecli.errors import DataError, shell_words
 from nudgecli.model.interface import LABELS, NO_INPUT_LABEL
+from nudgecli.run_folder_calibration import check_calibration_logs
 from nudgecli.sim.calibration_io import (
     ACTION_IMAGES,
     AUTO_VARIANT,
@@ -327,8 +328,13 @@ def read_mapping_session(folder: str | Path) -> MappingSession | None:
     ------
     DataError
         When one file of the pair is missing or a file is malformed (one line naming file and line).
+    RunFolderError
+        A run's log missing or changed since the run wrote it
+        (:func:`~nudgecli.run_folder_calibration.check_calibration_logs`).
     """
     folder = Path(folder)
+    # a run's logs: read only as the run wrote them
+    check_calibration_logs(folder, (TIDY_FILES["mapping_prompts"], TIDY_FILES["mapping_responses"]))
     found = _find_session(folder, ("mapping_prompts", "mapping_responses"), STUDY_MAPPING_FOLDER, "mapping",
                           "responses")
     if found is None:
@@ -397,7 +403,12 @@ def read_distortion_session(folder: str | Path, variant: str = AUTO_VARIANT) -> 
     ------
     DataError
         When one file of the pair is missing or a file is malformed (one line naming file and line).
+    RunFolderError
+        A run's log missing or changed since the run wrote it
+        (:func:`~nudgecli.run_folder_calibration.check_calibration_logs`).
     """
+    # a run's logs: read only as the run wrote them (the mapping session's are not read here)
+    check_calibration_logs(folder, (TIDY_FILES["distortion_prompts"], TIDY_FILES["distortion_stream"]))
     found = distortion_session_files(folder)
     if found is None:
         return None
