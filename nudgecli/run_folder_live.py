@@ -7,7 +7,6 @@ manifest, refuses to simulate into it, and names how to continue or restore it.
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -141,38 +140,30 @@ class LiveRecord:
         RunFolderError
             Naming the part, the trials and the fix (:meth:`live_part_fix`).
         """
-        from nudgecli.live.record_checks import TRIAL_PARTS, recorded_sums
-        from nudgecli.parquet_reader import read_parquet
-        from nudgecli.run_folder_record import part_name  # run_folder_record builds on this module
+        from nudgecli.live.record_checks import trial_parts
 
         for key, entry in sorted((manifest.get("live") or {}).items(), key=lambda item: int(item[0])):
             who = f"participant {entry.get('participant_id', key)}"
-            listed = {int(trial) for trial in entry.get("completed_trials") or []}
-            sums = recorded_sums(manifest, int(key))
-            for kind in TRIAL_PARTS:
-                part = self.path / kind / part_name(int(key))
-                if not part.is_file():
+            for part in trial_parts(self.path, manifest, int(key), entry, ["trial"]):
+                if part.digest is None:
                     continue  # a missing part is named by the check of the parts the manifest promises
-                data = part.read_bytes()  # once: hashed, then its trials read
-                name, digest = f"{kind}/{part.name}", hashlib.sha256(data).hexdigest()
+                name, where = part.name, part.path
                 # the part the manifest vouches for: its list of trials is what disagrees (edited)
-                fix = self.restore_from_backup([MANIFEST]) if sums.get(kind) == digest else None
-                if kind in sums and digest != sums[kind]:
+                fix = self.restore_from_backup([MANIFEST]) if part.recorded == part.digest else None
+                if part.recorded is not None and part.digest != part.recorded:
                     raise RunFolderError(f"{self.path}: {name} changed since it was written (its SHA-256 "
                                          f"differs from the one in the manifest); "
-                                         f"{self.live_part_fix(manifest, part)}")
-                try:
-                    found = {int(trial) for trial in read_parquet(data, ["trial"])["trial"]}
-                except Exception:  # pyarrow raises several types for broken files: named by the part's reader
+                                         f"{self.live_part_fix(manifest, where)}")
+                if part.frame is None:  # pyarrow raises several types for broken files: the part's reader's
                     continue
-                if extra := sorted(found - listed):
+                if extra := part.extra:
                     raise RunFolderError(f"{self.path}: {name} holds trial(s) {', '.join(map(str, extra))} "
                                          f"of {who}, which the manifest does not list among their recorded "
-                                         f"trials; {fix or self.live_part_fix(manifest, part)}")
-                if lacking := sorted(listed - found):
+                                         f"trials; {fix or self.live_part_fix(manifest, where)}")
+                if lacking := part.lacking:
                     raise RunFolderError(f"{self.path}: {name} holds no rows of trial(s) "
                                          f"{', '.join(map(str, lacking))}, which the manifest lists as "
-                                         f"recorded by {who}; {fix or self.live_part_fix(manifest, part)}")
+                                         f"recorded by {who}; {fix or self.live_part_fix(manifest, where)}")
 
     def restore_from_backup(self, names: Sequence[str]) -> str:
         """The advice for a live folder's lost or damaged part (or file): a person's trial cannot be

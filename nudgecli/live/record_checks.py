@@ -16,7 +16,9 @@ rows of a trial the manifest does not list is: the readers of the folder refuse 
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import hashlib
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +28,7 @@ from nudgecli.errors import RunFolderError
 from nudgecli.live.questionnaire import read_answers
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import QUESTIONNAIRES_CSV
-from nudgecli.run_folder_record import file_sha256, part_name
+from nudgecli.run_folder_record import part_name
 
 #: The participant's entry's record of the parts a checkpoint is renaming into place:
 #: ``{"trial": t, "trials": SHA-256, "steps": SHA-256}``.
@@ -42,6 +44,53 @@ def recorded_sums(manifest: Mapping[str, Any], participant: int) -> dict[str, st
     """The SHA-256 the manifest records of the participant's parts (kind -> hex; empty: none)."""
     sums = (manifest.get(CHECKSUMS) or {}).get(str(participant))
     return {str(k): str(v) for k, v in sums.items()} if isinstance(sums, Mapping) else {}
+
+
+@dataclass(frozen=True)
+class TrialPart:
+    """A participant's trials or steps part as the manifest's checks see it
+    (:func:`trial_parts`): the resume's (:func:`check_trial_parts`) and a reader's
+    (:meth:`~nudgecli.run_folder_live.LiveRecord.check_live_trials`)."""
+
+    kind: str
+    path: Path
+    #: ``kind/part-NNNN.parquet``, as a message names it.
+    name: str
+    #: Its SHA-256 (``None``: no such file).
+    digest: str | None
+    #: The SHA-256 the manifest records of it (``None``: none yet).
+    recorded: str | None
+    #: Its rows (``None``: missing, or unreadable: :attr:`error` says why).
+    frame: pd.DataFrame | None
+    error: str
+    #: The trials it holds that the manifest does not list, and those listed that it holds no rows of.
+    extra: list[int]
+    lacking: list[int]
+
+
+def trial_parts(folder: Path, manifest: Mapping[str, Any], participant: int, entry: Mapping[str, Any],
+                columns: list[str] | None = None) -> Iterator[TrialPart]:
+    """The participant's parts (:data:`TRIAL_PARTS`, in order), each read once (hashed, then its
+    ``columns`` read; ``None``: all), beside the trials their manifest ``entry`` lists as completed."""
+    listed = {int(trial) for trial in entry.get("completed_trials") or []}
+    sums = recorded_sums(manifest, participant)
+    for kind in TRIAL_PARTS:
+        path = folder / kind / part_name(participant)
+        name, recorded = f"{kind}/{path.name}", sums.get(kind)
+        if not path.is_file():
+            yield TrialPart(kind, path, name, None, recorded, None, "", [], [])
+            continue
+        data = path.read_bytes()
+        frame: pd.DataFrame | None = None
+        trials: set[int] = set()
+        error = ""
+        try:
+            frame = read_parquet(data, columns)
+            trials = set(frame["trial"].astype(int).tolist())
+        except Exception as exc:  # pyarrow raises several types for broken files; no trial column
+            frame, error = None, str(exc)
+        yield TrialPart(kind, path, name, hashlib.sha256(data).hexdigest(), recorded, frame, error,
+                        sorted(trials - listed), sorted(listed - trials))
 
 
 class CheckedParts:
@@ -64,35 +113,30 @@ def check_trial_parts(folder: Path, manifest: Mapping[str, Any], participant: in
     """
     who = f"participant {entry.get('participant_id', participant)}"
     completed = [int(trial) for trial in entry.get("completed_trials") or []]
-    sums, writing = recorded_sums(manifest, participant), entry.get(WRITING) or {}
+    writing = entry.get(WRITING) or {}
     checked = CheckedParts()
-    for kind in TRIAL_PARTS:
-        part = folder / kind / part_name(participant)
-        name = f"{kind}/{part.name}"
-        if not part.is_file():
+    for part in trial_parts(folder, manifest, participant, entry):
+        name = part.name
+        if part.digest is None:
             if completed:
                 raise RunFolderError(f"{folder}: {name} is missing, but the manifest records "
                                      f"{len(completed)} trial(s) of {who} in it; {RESTORE}")
             continue
-        digest = file_sha256(part)
-        if kind in sums and digest not in (sums[kind], writing.get(kind)):
+        if part.recorded is not None and part.digest not in (part.recorded, writing.get(part.kind)):
             raise RunFolderError(f"{folder}: {name} changed since it was written (its SHA-256 differs from "
                                  f"the one in the manifest); {RESTORE}")
-        try:
-            frame = read_parquet(part)
-            trials = set(frame["trial"].astype(int))
-        except Exception as exc:  # pyarrow raises several types for broken files; no trial column
+        if part.frame is None:
             raise RunFolderError(f"{folder}: {name} is not a readable part of a live session "
-                                 f"({str(exc)[:120]}); {RESTORE}") from None
-        if lacking := sorted(set(completed) - trials):
+                                 f"({part.error[:120]}); {RESTORE}")
+        if lacking := part.lacking:
             raise RunFolderError(f"{folder}: {name} holds no rows of trial(s) "
                                  f"{', '.join(map(str, lacking))}, which the manifest lists as completed by "
                                  f"{who}; {RESTORE}")
-        if trials - set(completed):
+        if part.extra:
             # a crash after the rename (on the first trial too, whose part has no SHA-256 recorded yet):
             # written again without the unlisted trial, so the part holds exactly the trials listed
-            checked.rewrite.append(kind)
-        checked.tables[kind] = frame[frame["trial"].isin(completed)].reset_index(drop=True)
+            checked.rewrite.append(part.kind)
+        checked.tables[part.kind] = part.frame[part.frame["trial"].isin(completed)].reset_index(drop=True)
     return checked
 
 
