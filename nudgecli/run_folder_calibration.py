@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Collection, Mapping
+from collections.abc import Collection, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -41,7 +41,13 @@ def write_calibration_logs(run: Path, manifest: dict[str, Any], participant: int
     from nudgecli.sim.calibration_io import write_sessions  # numpy and pandas: with a run's logs only
 
     logs = write_sessions(calibration_dir(run, participant), *sessions)
-    manifest.setdefault(CALIBRATION_CHECKSUMS, {})[str(participant)] = {p.name: file_sha256(p) for p in logs}
+    manifest.setdefault(CALIBRATION_CHECKSUMS, {})[str(participant)] = log_digests(logs)
+
+
+def log_digests(logs: Iterable[Path]) -> dict[str, str]:
+    """What a manifest records of calibration ``logs`` just written: file name -> SHA-256 (hex), a
+    simulated run's (:data:`CALIBRATION_CHECKSUMS`) and a ``nudge study`` participant's alike."""
+    return {path.name: file_sha256(path) for path in logs}
 
 
 def recorded_calibration_logs(record: RunRecord, manifest: Mapping[str, Any],

@@ -29,6 +29,7 @@ from nudgecli.config import CalibrationSection, InterfaceSection
 from nudgecli.errors import RunFolderError
 from nudgecli.model.interface import ACTIONS, LABELS, N_LABELS, label_of_pressure
 from nudgecli.model.world import MODE_NAMES
+from nudgecli.run_folder_calibration import log_digests
 from nudgecli.run_folder_record import file_sha256
 from nudgecli.sim.calibration import IMAGE_TO_MODE_ACTION, MAX_REPEAT_ROUNDS, PROMPT_GAP_S
 from nudgecli.sim.calibration_io import (
@@ -254,7 +255,7 @@ def write_calibration_logs(folder: Path, mapping: MappingSession | None,
         A file could not be written, naming the folder.
     """
     try:
-        return {path.name: file_sha256(path) for path in write_sessions(folder, mapping, distortion)}
+        return log_digests(write_sessions(folder, mapping, distortion))
     except OSError as exc:
         raise write_error(folder, exc) from exc
 
