@@ -561,11 +561,12 @@ def test_smallest_n_is_per_pair_of_conditions_and_an_integer() -> None:
     rows = pd.concat([power_rows({2: [True] * 3, 3: [True] * 3}, a="disambiguation", b="teleoperation"),
                       power_rows({2: [False] * 3, 3: [False] * 3})])
     smallest = smallest_n(power_table(rows), target=0.6)
-    assert list(smallest.columns) == ["metric", "a", "b", "level", "participants"]
+    assert list(smallest.columns) == ["metric", "a", "b", "level", "participants", "status"]
     by_pair = smallest.set_index(["a", "b", "level"])["participants"]
     assert by_pair[("disambiguation", "teleoperation", "trial")] == 2
     assert by_pair[("disambiguation", "control", "trial")] is None
-    assert "mode_switches,disambiguation,teleoperation,trial,2\n" in smallest.to_csv(index=False)
+    assert "mode_switches,disambiguation,teleoperation,trial,2,reached\n" in smallest.to_csv(index=False)
+    assert "mode_switches,disambiguation,control,trial,,not reached\n" in smallest.to_csv(index=False)
 
 
 def test_point_outputs_and_sensitivity_keep_the_pairs_apart() -> None:

@@ -21,6 +21,15 @@ results:
   replications' values (where 95 % of replications of this study land);
 - power is the fraction of replications significant in the paper's direction (either
   direction for a metric where the paper reports none) with a Clopper-Pearson 95 % interval;
+- a pair holding a condition left out of the metric's tests in a replication (not applicable to
+  it, or without values there: :mod:`nudgecli.report.not_applicable`) was *not tested* in it
+  (:func:`pair_tested`). A pair no replication tested has no rate and no power (NaN, no interval;
+  ``smallest_n``'s ``status`` reads :data:`NOT_TESTED`), never a rate of 0. Where only some
+  replications tested it, the rates and the power stay over all ``replications`` and count an
+  untested replication as not significant: power is the chance that a study of this design finds
+  the effect, and a study that could not test the pair did not find it (a rate over the tested
+  ones alone would leave out the studies that failed, whose data differ: a condition without
+  values). ``tested`` says how many replications tested the pair;
 - sensitivity indices are SALib's (Sobol first and total order, Morris mu*, sigma) of the
   replication-mean difference of medians at each design point, with SALib's ``conf``: the
   half-width 1.96 x the bootstrap standard deviation of the index (NaN for Morris sigma and mu).
@@ -61,6 +70,11 @@ PAPER_DIRECTIONS: dict[str, int | None] = {
 #: The paper's comparison, ``a - b`` (the one order of conditions puts it first wherever both are present).
 PAPER_PAIR = PAPER_CONDITIONS
 POWER_TARGET = 0.8
+#: ``smallest_n``'s ``status`` of a pair: a count reaches the target, none of those tried does, or
+#: no replication at any count tested the pair (a condition of it left out of the metric's tests).
+REACHED, NOT_REACHED, NOT_TESTED = "reached", "not reached", "not tested"
+#: The p-values of a pair's tests in :func:`replication_rows`.
+_P_COLUMNS = ("kruskal_p", "conover_p", "participant_p")
 
 
 def analyse_replication(metrics: pd.DataFrame, plan: AnalysisPlan, names: Sequence[str],
@@ -216,6 +230,36 @@ def _percentiles(values: pd.Series) -> tuple[float, float, float]:
     return float(finite.mean()), float(np.percentile(finite, 2.5)), float(np.percentile(finite, 97.5))
 
 
+def pair_tested(rows: pd.DataFrame) -> pd.Series:
+    """Per row of :func:`replication_rows`: whether its replication tested its pair of conditions.
+
+    A pair holding a condition left out of the metric's tests (not applicable to it, or without a
+    value in that replication: :func:`~nudgecli.report.not_applicable.not_applicable_reasons`) was
+    not tested: every p of it is NaN, and so is that condition's median. Every p NaN beside both
+    medians is a pair the tests did compare, whose values were all equal (Kruskal-Wallis is then
+    undefined): tested, and not significant. A table without the medians reads a pair whose p-values
+    are all NaN as not tested; one without p-values (verdicts only) as tested.
+
+    Returns
+    -------
+    pd.Series
+        Booleans on ``rows``' index.
+    """
+    given = [c for c in _P_COLUMNS if c in rows.columns]
+    if not given:
+        return pd.Series(True, index=rows.index)
+    untested = rows[given].astype(float).isna().all(axis=1)
+    medians = [c for c in ("median_a", "median_b") if c in rows.columns]
+    if medians:
+        untested &= rows[medians].astype(float).isna().any(axis=1)
+    return ~untested
+
+
+def _rate(flags: pd.Series, replications: int, tested_count: int) -> float:
+    """The fraction of all ``replications`` ``flags`` counts; NaN where none tested the pair."""
+    return float(flags.sum()) / replications if tested_count else math.nan
+
+
 def summarise(rows: pd.DataFrame) -> pd.DataFrame:
     """Per (point, participants, metric, pair): rates of significance in each direction, median p,
     pooled effect sizes.
@@ -223,8 +267,10 @@ def summarise(rows: pd.DataFrame) -> pd.DataFrame:
     Returns
     -------
     pd.DataFrame
-        ``point, participants, metric, a, b, replications, trial_a_higher, trial_a_lower,
-        participant_a_higher, participant_a_lower`` (fractions of replications),
+        ``point, participants, metric, a, b, replications, tested`` (the replications that
+        tested the pair: :func:`pair_tested`), ``trial_a_higher, trial_a_lower,
+        participant_a_higher, participant_a_lower`` (fractions of all replications, an untested
+        one not significant; NaN where none tested the pair: not tested, not never significant),
         ``median_kruskal_p, median_conover_p, median_participant_p``, ``effect_size`` (mean r)
         with ``effect_size_low/high`` (2.5/97.5 percentiles over replications) and ``difference``
         (mean difference of medians) with ``difference_low/high``. Each stands on all
@@ -234,16 +280,19 @@ def summarise(rows: pd.DataFrame) -> pd.DataFrame:
     out = []
     for (point, n, metric, a, b), group in rows.groupby(["point", "participants", "metric", "a", "b"],
                                                         sort=False):
-        trial = group["trial_significant"].astype(bool)
-        level = group["participant_significant"].astype(bool)
+        ran = pair_tested(group)
+        count, total = int(ran.sum()), len(group)
+        trial = group["trial_significant"].astype(bool) & ran
+        level = group["participant_significant"].astype(bool) & ran
         effect, effect_low, effect_high = _percentiles(group["effect_size"])
         diff, diff_low, diff_high = _percentiles(group["difference"])
         out.append({
-            "point": point, "participants": n, "metric": metric, "a": a, "b": b, "replications": len(group),
-            "trial_a_higher": float((trial & (group["trial_direction"] > 0)).mean()),
-            "trial_a_lower": float((trial & (group["trial_direction"] < 0)).mean()),
-            "participant_a_higher": float((level & (group["participant_direction"] > 0)).mean()),
-            "participant_a_lower": float((level & (group["participant_direction"] < 0)).mean()),
+            "point": point, "participants": n, "metric": metric, "a": a, "b": b, "replications": total,
+            "tested": count,
+            "trial_a_higher": _rate(trial & (group["trial_direction"] > 0), total, count),
+            "trial_a_lower": _rate(trial & (group["trial_direction"] < 0), total, count),
+            "participant_a_higher": _rate(level & (group["participant_direction"] > 0), total, count),
+            "participant_a_lower": _rate(level & (group["participant_direction"] < 0), total, count),
             "median_kruskal_p": float(group["kruskal_p"].astype(float).median(skipna=False)),
             "median_conover_p": float(group["conover_p"].astype(float).median(skipna=False)),
             "median_participant_p": float(group["participant_p"].astype(float).median(skipna=False)),
@@ -252,6 +301,36 @@ def summarise(rows: pd.DataFrame) -> pd.DataFrame:
             "difference": diff, "difference_low": diff_low, "difference_high": diff_high,
         })
     return pd.DataFrame(out)
+
+
+def untested_notes(table: pd.DataFrame) -> list[str]:
+    """The batch's notes (each a ``Note:`` line's text) on pairs of conditions some replications
+    did not test, from :func:`summarise`'s or :func:`power_table`'s ``table`` (its ``replications``
+    and ``tested``): how many no replication tested (their rates and power are NaN: "not tested",
+    never 0), and how many only some did (their untested replications count as not significant)."""
+    keys = [c for c in ("point", "participants", "metric", "a", "b") if c in table.columns]
+    pairs = table.drop_duplicates(keys)
+    per = "".join(f", {word}" for column, word in (("point", "design point"), ("participants", "count"))
+                  if column in keys and pairs[column].nunique() > 1)
+    never = pairs[pairs["tested"] == 0]
+    some = pairs[(pairs["tested"] > 0) & (pairs["tested"] < pairs["replications"])]
+    notes = []
+    if len(never):
+        first = never.iloc[0]
+        notes.append(f"{len(never)} of {len(pairs)} pairs of conditions (per metric{per}) were tested in no "
+                     f"replication (e.g. {first['metric']}: {first['a']} - {first['b']}): a condition of "
+                     "theirs is left out of the metric's tests (not applicable to it, or without values), so "
+                     f"their significance rates and power read NaN, {NOT_TESTED}, never 0")
+    if len(some):
+        first = some.iloc[0]
+        at = f" at {first['participants']} participants" if "count" in per else ""
+        many = len(some) > 1
+        notes.append(f"{len(some)} pair{'s' if many else ''} of conditions (per metric{per}) "
+                     f"{'were' if many else 'was'} tested in only some replications (e.g. {first['metric']}: "
+                     f"{first['a']} - {first['b']}, {first['tested']} of {first['replications']}{at}; column "
+                     "tested): a replication that could not test a pair counts as not significant in its "
+                     "rates and power, which stay over all replications")
+    return notes
 
 
 def clopper_pearson(successes: int, trials: int, level: float = 0.95) -> tuple[float, float]:
@@ -290,8 +369,10 @@ def power_table(rows: pd.DataFrame, directions: Mapping[str, int | None] | None 
     Returns
     -------
     pd.DataFrame
-        ``participants, metric, a, b, level (trial|participant), direction, replications,
-        significant, power, low, high`` with the Clopper-Pearson 95 % interval.
+        ``participants, metric, a, b, level (trial|participant), direction, replications, tested,
+        significant, power, low, high`` with the Clopper-Pearson 95 % interval; ``tested``: the
+        replications that tested the pair (:func:`pair_tested`). Power is over all ``replications``,
+        an untested one not significant; NaN with no interval where none tested the pair.
     """
     out = []
     # pairs in the analysis' order of conditions (not by name) within each count and metric
@@ -300,35 +381,42 @@ def power_table(rows: pd.DataFrame, directions: Mapping[str, int | None] | None 
     groups = ranked.groupby(["participants", "metric", "_pair", "a", "b"], sort=True)
     for (n, metric, _, a, b), group in groups:
         wanted = directions.get(metric) if directions is not None else paper_direction(metric, a, b)
+        ran = pair_tested(group)
+        count, total = int(ran.sum()), len(group)
         for level in ("trial", "participant"):
-            significant = group[f"{level}_significant"].astype(bool)
+            significant = group[f"{level}_significant"].astype(bool) & ran
             if wanted is not None:
                 significant &= group[f"{level}_direction"] == wanted
-            k, total = int(significant.sum()), len(group)
-            low, high = clopper_pearson(k, total)
+            k = int(significant.sum())
+            low, high = clopper_pearson(k, total) if count else (math.nan, math.nan)
             out.append({"participants": int(n), "metric": metric, "a": a, "b": b, "level": level,
                         "direction": {None: "either", 1: "a > b", -1: "a < b"}[wanted],
-                        "replications": total, "significant": k, "power": k / total, "low": low,
-                        "high": high})
+                        "replications": total, "tested": count, "significant": k,
+                        "power": k / total if count else math.nan, "low": low, "high": high})
     return pd.DataFrame(out)
 
 
 def smallest_n(power: pd.DataFrame, target: float = POWER_TARGET) -> pd.DataFrame:
     """Per metric, pair of conditions and level (in :func:`power_table`'s order): the smallest
-    participant count whose power reaches ``target`` (``None``: not reached at any count tried).
+    participant count whose power reaches ``target``.
 
     Returns
     -------
     pd.DataFrame
-        ``metric, a, b, level, participants``; ``participants`` an integer or ``None`` (an object
-        column, so that the CSV writes ``9``, not ``9.0``).
+        ``metric, a, b, level, participants, status``; ``participants`` an integer, or ``None``
+        (an object column, so that the CSV writes ``9``, not ``9.0``, and an empty cell) where
+        ``status`` is :data:`NOT_REACHED` (no count tried reaches it) or :data:`NOT_TESTED` (no
+        replication at any count tested the pair: it has no power to reach); else
+        :data:`REACHED`.
     """
     out = []
     for (metric, a, b, level), group in power.groupby(["metric", "a", "b", "level"], sort=False):
         reached = group.loc[group["power"] >= target, "participants"]
+        never = "tested" in group.columns and not (group["tested"] > 0).any()
+        status = REACHED if len(reached) else NOT_TESTED if never else NOT_REACHED
         out.append({"metric": metric, "a": a, "b": b, "level": level,
-                    "participants": int(reached.min()) if len(reached) else None})
-    return pd.DataFrame(out, columns=["metric", "a", "b", "level", "participants"], dtype=object)
+                    "participants": int(reached.min()) if len(reached) else None, "status": status})
+    return pd.DataFrame(out, columns=["metric", "a", "b", "level", "participants", "status"], dtype=object)
 
 
 # --- sensitivity -------------------------------------------------------------------------------

@@ -243,6 +243,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
 
         rows = replication_rows(run.graph.entries, run.stats, chosen)
         summarised = summarise(rows)  # the figure reads it with its point column, the table without
+        _tell_untested(summarised, options)
         summary = summarised.drop(columns=["point"])
         tables = {"replications": rows.drop(columns=["point"]),
                   "conditions": condition_values(run.graph.entries, run.stats).drop(columns=["point"]),
@@ -290,6 +291,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
 
         rows = replication_rows(run.graph.entries, run.stats, chosen)
         curves = power_table(rows)
+        _tell_untested(curves, options)
         smallest = smallest_n(curves, target)
         tables = {"power": curves, "smallest_n": smallest, "replications": rows.drop(columns=["point"])}
         files = _write_tables(run.path, tables) + _figures(run.path, {"power": power_figure(curves, target)})
@@ -336,6 +338,7 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
 
         names = parameter_names(batch)
         rows, tables = _sweep_tables(run, batch, chosen, names)
+        _tell_untested(tables["points"], options)
         figures: dict[str, Any] = {"sweep": sweep_figure(rows, names)}
         if loaded.problem is not None and loaded.samples is not None:
             indices = sensitivity(spec.design.method, loaded.problem, loaded.samples, point_outputs(rows),
@@ -362,6 +365,18 @@ def _sweep_tables(run: BatchRun, batch: Batch, plan: AnalysisPlan,
     summary = summarise(rows).merge(table, on="point", how="left")
     tidy = condition_values(run.graph.entries, run.stats, table)
     return rows, {"sweep": tidy, "replications": rows, "points": summary}
+
+
+def _tell_untested(table: pd.DataFrame, options: dict[str, Any]) -> None:
+    """Say, on the batch's ``log`` (the command's stderr), which pairs of conditions ``table``
+    (a summary or power table) holds that some replications did not test
+    (:func:`nudgecli.report.replication.untested_notes`): their NaN reads "not tested"."""
+    from nudgecli.report.replication import untested_notes
+
+    log = options.get("log")
+    if log is not None:
+        for note in untested_notes(table):
+            log(f"Note: {note}")
 
 
 def _result(run: BatchRun) -> BatchResult:
