@@ -1,5 +1,5 @@
 """What a command that resumes an interrupted run or batch folder names: the ``--people`` file,
-and a batch's own experiment and plan files.
+and a batch's own experiment and plan files (:func:`typed_resume_command`).
 
 A run or batch made with ``--people`` keeps an exact copy of the file in its folder
 (``people/<name>``, :func:`nudgecli.sim.people_file.keep_copy`); the command that resumes it names
@@ -11,6 +11,7 @@ the folder the file's own path was typed in. The rule is
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 
 
@@ -52,21 +53,26 @@ def people_to_resume(folder: str | Path, typed: str | None) -> str | None:
     return resume_people(folder, _recorded_people(Path(folder)), typed)
 
 
-def inputs_to_resume(folder: str | Path) -> dict[str, str]:
-    """The experiment and plan files the command that resumes batch ``folder`` names in place of
-    the ones typed, or a sweep's sweep file, where the folder keeps them
-    (:func:`nudgecli.runs.batch_folder.kept_inputs`): they import the batch's own policy copies, so
-    the command works from any folder.
+def typed_resume_command(folder: str | Path, command: str, arguments: Sequence[tuple[str, str]],
+                         options: Sequence[tuple[str, Sequence[str]]]) -> str:
+    """The command that resumes batch ``folder`` from the command as typed, naming the inputs the
+    folder keeps in place of those typed (:func:`nudgecli.runs.batch_resume.typed_resume_command`,
+    the one builder of the hint after Ctrl-C).
 
-    Returns
-    -------
-    dict[str, str]
-        ``{"experiment": path, "plan": path}`` (a replicate or power batch) or ``{"sweep_file":
-        path}`` (a sweep) for those kept (paths by ``folder`` as given); empty where none is.
+    Parameters
+    ----------
+    folder
+        The folder as the user gave it (``--out``).
+    command
+        ``replicate``, ``power`` or ``sweep``.
+    arguments
+        ``(name, value)`` of each argument, in order.
+    options
+        ``(name, words)`` of each option given on the command line, in order.
     """
-    from nudgecli.runs.batch_folder import kept_inputs
+    from nudgecli.runs.batch_resume import typed_resume_command as from_typed
 
-    return {name: str(path) for name, path in kept_inputs(Path(folder)).items()}
+    return from_typed(Path(folder), command, arguments, options)
 
 
 def recordings_base(folder: str | Path) -> str | None:
@@ -88,4 +94,4 @@ def recordings_base(folder: str | Path) -> str | None:
     return str(Path.cwd()) if relative else None
 
 
-__all__ = ["inputs_to_resume", "people_to_resume", "recordings_base"]
+__all__ = ["people_to_resume", "recordings_base", "typed_resume_command"]

@@ -70,40 +70,31 @@ def _run_batch_command(label: str, run: Any, out: str | None, default_name: str,
 
 
 def rerun_command(ctx: click.Context, target: Path, people: str | None = None) -> str:
-    """The command line that resumes the interrupted command of ``ctx`` into ``target``: its
-    arguments and the options given on the command line (``--people`` naming ``people`` where
-    given), ``--out target`` and ``--resume`` (``--force`` dropped: it would delete what was
-    finished). Where the batch folder keeps its inputs
-    (:func:`nudgecli.api.resuming.inputs_to_resume`: a replicate or power batch's experiment and
-    plan, a sweep's sweep file), it names those instead (the experiment resolved, so without
-    ``--set``): they import the batch's own policy copies, so the command works from any folder,
-    the inputs moved or gone."""
+    """The command line that resumes the interrupted command of ``ctx`` into ``target``
+    (:func:`nudgecli.api.resuming.typed_resume_command`): its arguments and the options given on the
+    command line as typed (``--people`` naming ``people`` where given)."""
     from click.core import ParameterSource
 
-    from nudgecli.api.resuming import inputs_to_resume
-    from nudgecli.store import resume_command
+    from nudgecli.api.resuming import typed_resume_command
 
-    kept = inputs_to_resume(target)
-    arguments: list[str] = []
-    options: list[str] = ["--plan", kept["plan"]] if "plan" in kept else []
+    arguments: list[tuple[str, str]] = []
+    options: list[tuple[str, list[str]]] = []
     for param in ctx.command.params:
         name = param.name or ""
         value = people if name == "people" and people is not None else ctx.params.get(name)
         if isinstance(param, click.Argument):
-            arguments.append(kept.get(name, str(value)))
+            arguments.append((name, str(value)))
             continue
-        given = ctx.get_parameter_source(name) is ParameterSource.COMMANDLINE
-        if name in ("out", "resume", "force") or not given or (kept and name in ("plan", "overrides")):
+        if ctx.get_parameter_source(name) is not ParameterSource.COMMANDLINE:
             continue
         flag = max(param.opts, key=len)  # the long name: --replications, not -R
         if getattr(param, "is_flag", False):
-            options += [flag] if value else []
+            options.append((name, [flag] if value else []))
         elif getattr(param, "multiple", False):
-            for item in value or ():
-                options += [flag, str(item)]
+            options.append((name, [word for item in value or () for word in (flag, str(item))]))
         else:
-            options += [flag, str(value)]
-    return resume_command([ctx.info_name or ctx.command.name or "", *arguments, *options], target)
+            options.append((name, [flag, str(value)]))
+    return typed_resume_command(target, ctx.info_name or ctx.command.name or "", arguments, options)
 
 
 def _batch_interrupt_hint(target: Path, ctx: click.Context) -> Callable[[], str]:

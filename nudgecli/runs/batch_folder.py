@@ -173,13 +173,14 @@ def sweep_inputs(spec: SweepFile, experiment: Path) -> dict[str, bytes]:
     return {SWEEP_COPY: sweep.encode("utf-8"), EXPERIMENT_COPY: experiment.read_bytes()}
 
 
-def kept_inputs(folder: Path) -> dict[str, Path]:
+def kept_inputs(folder: Path, manifest: Mapping[str, Any] | None = None) -> dict[str, Path]:
     """The experiment and plan ``folder``'s batch keeps (``{"experiment": FOLDER/experiment.toml,
     "plan": FOLDER/plan.toml}``), or a sweep its sweep file (``{"sweep_file": FOLDER/sweep.toml}``,
     which names them), each where its ``batch.json`` records it and it is there; empty otherwise (a
     batch of an older nudge). A resume of them works from any folder (and imports the batch's own
-    policy copies): what the command that resumes the batch names."""
-    old, _ = read_manifest(folder / BATCH_MANIFEST)
+    policy copies): what the command that resumes the batch names. ``manifest``: the ``batch.json``
+    its caller read (read here where not given)."""
+    old = manifest if manifest is not None else read_manifest(folder / BATCH_MANIFEST)[0]
     recorded = old.get(INPUTS_KEY) if old is not None else None
     if not isinstance(recorded, Mapping):
         return {}
@@ -490,13 +491,13 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     if old is not None and mode == "resume":
         from nudgecli.runs.batch_resume import resume_advice  # (it reads this module)
 
-        _refuse_another_kind(folder, old["batch"], description)  # first: the rest follows
+        _refuse_another_kind(folder, old, description)  # first: the rest follows
         check_kept_inputs(folder, inputs, policies.inputs)  # before the settings: one may be what resumes it
         if differences := batch_differences(old["batch"], description):
             shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                   if len(differences) > 8 else "")
             raise RunFolderError(f"{folder}: holds a different batch ({shown}); resume it with the same "
-                                 f"settings{resume_advice(folder, old['batch'])}, or use --force")
+                                 f"settings{resume_advice(folder, old['batch'], old)}, or use --force")
         _check_same_policies(folder, old, policies)
     # before anything is removed: a copy's path holding a file of the person's own stops the batch
     check_copies_placeable(policies.files, folder, copies, "batch")
@@ -525,13 +526,13 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     return "new"
 
 
-def _refuse_another_kind(folder: Path, recorded: Mapping[str, Any], description: Mapping[str, Any]) -> None:
-    """Refuse to resume the batch in ``folder`` (``recorded``: its description) as a batch of another
+def _refuse_another_kind(folder: Path, old: Mapping[str, Any], description: Mapping[str, Any]) -> None:
+    """Refuse to resume the batch in ``folder`` (``old``: its ``batch.json``) as a batch of another
     kind than it is, naming the command that resumes it (:mod:`nudgecli.runs.batch_resume`)."""
     from nudgecli.runs.batch_resume import batch_resume_command
 
-    if (was := recorded.get("kind")) != description.get("kind"):
-        command = batch_resume_command(folder, recorded) or f"nudge {was} ... --resume"
+    if (was := old["batch"].get("kind")) != description.get("kind"):
+        command = batch_resume_command(folder, old["batch"], old) or f"nudge {was} ... --resume"
         raise RunFolderError(f"{folder}: holds a {was} batch, not a {description.get('kind')} batch; "
                              f"resume it with `{command}`, or use --force to replace it")
 
@@ -547,7 +548,7 @@ def _check_same_policies(folder: Path, old: Mapping[str, Any], policies: PolicyC
         check_same_policy_files(old.get(POLICY_FILES_KEY), policies.files, policies.source, folder, "batch")
         check_same_policy_sources(old.get(POLICY_SOURCES_KEY), policies.sources, folder, "batch")
     except DataError as exc:  # named with the command that resumes the batch once the module is back
-        raise DataError(with_resume_command(str(exc), folder)) from None
+        raise DataError(with_resume_command(str(exc), folder, old)) from None
 
 
 def _start_files(folder: Path, people: People | None, policies: PolicyCopies) -> dict[str, bytes]:

@@ -1,10 +1,16 @@
-"""The command that resumes a batch folder, as its refusals name it: one owner of its wording for
-``replicate``, ``power`` and ``sweep`` alike (a refused ``--resume`` names the full command that
-would resume the batch, not ``nudge KIND ... --resume``)."""
+"""The command that resumes a batch folder, as its refusals name it and as the hint after Ctrl-C
+names it: one owner of its wording for ``replicate``, ``power`` and ``sweep`` alike (a refused
+``--resume`` names the full command that would resume the batch, not ``nudge KIND ... --resume``).
+
+A refusal builds it from the folder's ``batch.json`` (:func:`batch_resume_command`); the hint after
+Ctrl-C from the command as typed (:func:`typed_resume_command`), its ``batch.json`` perhaps not
+written yet. Either names the inputs the folder keeps in place of those typed
+(:func:`~nudgecli.runs.batch_folder.kept_inputs`) and is printed by
+:func:`~nudgecli.store.resume_command`."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -14,10 +20,12 @@ from nudgecli.sim.people_file import resume_people
 from nudgecli.store import resume_command
 
 
-def batch_resume_command(folder: Path, recorded: Mapping[str, Any]) -> str | None:
+def batch_resume_command(folder: Path, recorded: Mapping[str, Any],
+                         manifest: Mapping[str, Any] | None = None) -> str | None:
     """The command that resumes the batch in ``folder`` (``recorded``: its ``batch.json``
-    description) from the inputs the folder keeps (:func:`~nudgecli.runs.batch_folder.kept_inputs`),
-    so it works from any folder and imports the batch's own policy copies:
+    description; ``manifest``: the whole ``batch.json`` where its caller read it) from the inputs the
+    folder keeps (:func:`~nudgecli.runs.batch_folder.kept_inputs`), so it works from any folder and
+    imports the batch's own policy copies:
 
     - a sweep: ``nudge sweep FOLDER/sweep.toml --out FOLDER --resume``, with ``--replications``
       and ``--seed`` where the description holds others than the sweep file (typed then);
@@ -27,7 +35,7 @@ def batch_resume_command(folder: Path, recorded: Mapping[str, Any]) -> str | Non
 
     ``None`` for a batch of an older nudge (no inputs kept: its ``--set`` values are lost).
     """
-    kept, kind = kept_inputs(folder), recorded.get("kind")
+    kept, kind = kept_inputs(folder, manifest), recorded.get("kind")
     if kind == "sweep" and "sweep_file" in kept:
         import tomllib
 
@@ -55,20 +63,41 @@ def batch_resume_command(folder: Path, recorded: Mapping[str, Any]) -> str | Non
     return resume_command([str(kind), str(kept["experiment"])], folder, options)
 
 
-def resume_advice(folder: Path, recorded: Mapping[str, Any]) -> str:
+def typed_resume_command(folder: Path, command: str, arguments: Sequence[tuple[str, str]],
+                         options: Sequence[tuple[str, Sequence[str]]]) -> str:
+    """The command that resumes the batch ``command`` (``replicate``, ``power``, ``sweep``) interrupted
+    while writing ``folder``, from the command as typed: its ``arguments`` (name, value), the
+    ``options`` given on the command line (name, their words), ``--out folder`` and ``--resume``
+    (``--out``, ``--resume`` and ``--force`` left out: ``--force`` would delete what was finished).
+    Where the folder keeps its inputs (:func:`~nudgecli.runs.batch_folder.kept_inputs`: a replicate
+    or power batch's experiment and plan, a sweep's sweep file), it names those instead, and no
+    ``--plan`` or ``--set`` typed (the kept experiment is the resolved one): they import the batch's
+    own policy copies, so the command works from any folder, the inputs moved or gone."""
+    kept = {name: str(path) for name, path in kept_inputs(folder).items()}
+    words = [kept.get(name, value) for name, value in arguments]
+    words += ["--plan", kept["plan"]] if "plan" in kept else []
+    for name, given in options:
+        if name not in ("out", "resume", "force") and not (kept and name in ("plan", "overrides")):
+            words += given
+    return resume_command([command, *words], folder)
+
+
+def resume_advice(folder: Path, recorded: Mapping[str, Any],
+                  manifest: Mapping[str, Any] | None = None) -> str:
     """`` (`nudge KIND ... --out FOLDER --resume`)``: :func:`batch_resume_command` as a refusal
     names it after its fix; empty where there is none."""
-    command = batch_resume_command(folder, recorded)
+    command = batch_resume_command(folder, recorded, manifest)
     return "" if command is None else f" (`{command}`)"
 
 
-def with_resume_command(message: str, folder: Path) -> str:
+def with_resume_command(message: str, folder: Path, manifest: Mapping[str, Any] | None = None) -> str:
     """``message`` (a refusal of another module's, whose fix is to resume once its cause is put
     right) and ``; the command that resumes the batch: `...```: :func:`batch_resume_command` of the
-    batch ``folder``'s ``batch.json`` describes, where there is one."""
-    old, _ = read_manifest(folder / BATCH_MANIFEST)
-    command = None if old is None else batch_resume_command(folder, old["batch"])
+    batch ``folder``'s ``batch.json`` describes (``manifest``: as its caller read it; read here where
+    not given), where there is one."""
+    old = manifest if manifest is not None else read_manifest(folder / BATCH_MANIFEST)[0]
+    command = None if old is None else batch_resume_command(folder, old["batch"], old)
     return message if command is None else f"{message}; the command that resumes the batch: `{command}`"
 
 
-__all__ = ["batch_resume_command", "resume_advice", "with_resume_command"]
+__all__ = ["batch_resume_command", "resume_advice", "typed_resume_command", "with_resume_command"]
