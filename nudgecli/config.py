@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import tomllib
 from typing import Annotated, Any, Literal, TypeVar, cast
 
@@ -32,11 +33,15 @@ from nudgecli.config_base import (
     MAX_RATE_HZ,
     MAX_REWARD,
     MAX_TIME_LIMIT_S,
+    MAX_TRIAL_STEPS,
     Discount,
+    Distance,
     PositiveFloat,
     Probability,
     Reward,
+    Seconds,
     Section,
+    Speed,
 )
 from nudgecli.config_files import (
     dump_toml,
@@ -75,13 +80,16 @@ __all__ = [
 #: The most samples the Monte Carlo estimator of I(s) may draw (the study software's: 250): its draws
 #: are held at once, so 1e9 asked for 805 GiB; 100,000 is about 80 MiB.
 MAX_MI_SAMPLES = 100_000
+#: The longest experiment name, in UTF-8 bytes: it names the run folder ``results/<name>-<UTC time>``,
+#: and a file name past 255 bytes (most file systems' limit) failed only when the folder was made.
+MAX_NAME_BYTES = 100
 
 
 class ExperimentMeta(Section):
     """``[experiment]``: name and description of the experiment, and its default seed.
 
     ``name`` names the run folder (``results/<name>-<UTC time>``), so it must be a plain name:
-    no path separator, not ``.`` or ``..``, no NUL.
+    no path separator, not ``.`` or ``..``, no NUL, at most :data:`MAX_NAME_BYTES` bytes.
     """
 
     name: str = "experiment"
@@ -95,6 +103,10 @@ class ExperimentMeta(Section):
         if not name or name in (".", "..") or any(c in name for c in "/\\\0"):
             raise ValueError("must be a plain name (no / or \\, not . or .., not empty): it names the run "
                              "folder results/<name>-<time>; e.g. \"pilot-2\"")
+        if (size := len(name.encode())) > MAX_NAME_BYTES:
+            raise ValueError(f"{size} bytes is too long for a name; give at most {MAX_NAME_BYTES} (a plain "
+                             "letter is one byte): it names the run folder results/<name>-<time>, and the "
+                             "file system refuses a longer file name; e.g. \"pilot-2\"")
         return name
 
 
@@ -133,8 +145,9 @@ class StudySection(Section):
     # finite and bounded: inf made a step of 0 s, and 1e6 Hz filled memory a trial at a time
     rate_hz: float = Field(default=10.0, ge=1.0, le=MAX_RATE_HZ, allow_inf_nan=False)
     time_limit_s: float = Field(default=120.0, gt=0.0, le=MAX_TIME_LIMIT_S, allow_inf_nan=False)
-    success_distance: PositiveFloat = 1.0
-    success_angle: PositiveFloat = 0.2
+    success_distance: Distance = 1.0
+    # a heading differs from the goal's by at most pi: a larger angle is every heading
+    success_angle: Annotated[float, Field(gt=0, le=math.pi)] = 0.2
 
     @field_validator("conditions")
     @classmethod
@@ -208,8 +221,8 @@ class InterfaceSection(Section):
     soft_threshold: Probability = SOFT_THRESHOLD_EARLY
     hard_threshold: Probability = HARD_THRESHOLD_EARLY
     zero_threshold: Probability = ZERO_THRESHOLD
-    human_speed: PositiveFloat = 3.0
-    human_turn_rate: PositiveFloat = 1.95
+    human_speed: Speed = 3.0  # world units/s, at most MAX_SPEED (nudgecli.config_base)
+    human_turn_rate: Speed = 1.95  # rad/s
 
     @model_validator(mode="after")
     def _check(self) -> InterfaceSection:
@@ -261,9 +274,10 @@ class InferenceSection(Section):
         default=1.0,
         description="p(g_t = g_{t-1}); 1 is the identity of Eq. 7, else the rest is spread evenly.")
     decay: bool = False
-    decay_delay: int = Field(default=10, ge=0)
+    # counts of a trial's samples, so at most the most a trial has (1e30 overflowed numpy's integers)
+    decay_delay: int = Field(default=10, ge=0, le=MAX_TRIAL_STEPS)
     decay_rate: Annotated[float, Field(ge=0)] = 0.008
-    decay_cap: int = Field(default=1000, ge=1)
+    decay_cap: int = Field(default=1000, ge=1, le=MAX_TRIAL_STEPS)
     kappa: Annotated[float, Field(gt=0, le=1)] = 0.65
     update: Literal["action", "sample"] = Field(
         default="action",
@@ -309,15 +323,15 @@ class AssistanceSection(Section):
     rho2_factor: PositiveFloat = 1.2
     rho3: Probability = 0.8
     entropy_gate: bool = False
-    startup_delay_s: Annotated[float, Field(ge=0)] = 0.0
+    startup_delay_s: Seconds = 0.0  # at most an hour, the longest trial (1e30 hung the run)
     distance_weighting: bool = False
-    distance_knee: PositiveFloat = Field(
+    distance_knee: Distance = Field(
         default=35.0, description="Distance weight: 1 - drop d / knee up to the knee (world units), then "
         "(1 - drop) exp(-(d - knee)) (the study software's values).")
     distance_drop: Annotated[float, Field(ge=0, lt=1)] = 0.4
-    autonomy_speed: PositiveFloat = 5.0
-    autonomy_turn_rate: PositiveFloat = 1.5
-    arrival_tolerance: PositiveFloat = 0.1
+    autonomy_speed: Speed = 5.0
+    autonomy_turn_rate: Speed = 1.5
+    arrival_tolerance: Distance = 0.1
 
     # a key its switch turns off is refused, never ignored (nudgecli.config_switches)
     _keys_of_its_switches = switches_checked("assistance")

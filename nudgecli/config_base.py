@@ -19,6 +19,17 @@ MAX_TIME_LIMIT_S = 3600.0
 #: float overflow, and 10^4 times the study's scale is room for any reward design; -1e308 gave every
 #: trial a time-out.
 MAX_REWARD = 1e6
+#: The most steps (samples) one trial can have: the longest time limit at the fastest rate, 3,600,000;
+#: a count of a trial's samples (``[inference]`` ``decay_delay``, ``decay_cap``) is no larger, and 1e30
+#: overflowed numpy's integers in the worker.
+MAX_TRIAL_STEPS = int(MAX_TIME_LIMIT_S * MAX_RATE_HZ)
+#: The largest distance, world units: the grid workspace is 42 x 34 units (diagonal about 54), so 100
+#: already holds every pair of its points (the study's success distance is 1, its distance knee 35).
+MAX_DISTANCE = 100.0
+#: The fastest speed (world units/s) or turn rate (rad/s): at the fastest step rate (1000 Hz) one step
+#: still moves at most a unit (a grid cell is 4.2 x 3.4) or turns a radian; the study's are 3 and 5
+#: units/s, 1.95 and 1.5 rad/s, and 1e300 ran, writing that command to the step log.
+MAX_SPEED = 1000.0
 
 # finite: every float field refuses inf and NaN (Section's allow_inf_nan=False); these types say so too,
 # for a field read outside a Section
@@ -26,6 +37,10 @@ PositiveFloat = Annotated[float, Field(gt=0, allow_inf_nan=False)]
 Probability = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False)]
 #: A duration of up to :data:`MAX_TIME_LIMIT_S` seconds, zero allowed.
 Seconds = Annotated[float, Field(ge=0, le=MAX_TIME_LIMIT_S, allow_inf_nan=False)]
+#: A positive distance of at most :data:`MAX_DISTANCE` world units.
+Distance = Annotated[float, Field(gt=0, le=MAX_DISTANCE, allow_inf_nan=False)]
+#: A positive speed (units/s) or turn rate (rad/s) of at most :data:`MAX_SPEED`.
+Speed = Annotated[float, Field(gt=0, le=MAX_SPEED, allow_inf_nan=False)]
 #: An MDP reward: finite, at most :data:`MAX_REWARD` in size.
 Reward = Annotated[float, Field(ge=-MAX_REWARD, le=MAX_REWARD, allow_inf_nan=False)]
 #: An MDP's discount, in (0, 1).

@@ -164,7 +164,8 @@ def startup_delay_end(initiated_at: int, dt: float, startup_delay: float) -> int
     """The first step at which :func:`assistance_alpha`'s start-up gate no longer holds alpha at 0:
     the least ``step >= initiated_at`` with ``(step - initiated_at) * dt`` not below ``startup_delay``,
     decided by that very float test (the product is monotone in the step count, so the first step
-    it passes at is found from the estimate ``ceil(startup_delay / dt)`` by a step or two).
+    it passes at is bracketed around the estimate ``ceil(startup_delay / dt)`` and found by bisection,
+    a few dozen tests at most for any finite delay).
 
     Parameters
     ----------
@@ -181,12 +182,27 @@ def startup_delay_end(initiated_at: int, dt: float, startup_delay: float) -> int
     """
     if not dt > 0.0 or not math.isfinite(startup_delay):
         raise ValueError(f"dt must be positive and startup_delay finite, got {dt} and {startup_delay}")
-    count = max(0, math.ceil(startup_delay / dt))
-    while count > 0 and (count - 1) * dt >= startup_delay:
-        count -= 1
-    while count * dt < startup_delay:
-        count += 1
-    return initiated_at + count
+    if startup_delay <= 0.0:
+        return initiated_at
+    estimate = startup_delay / dt
+    if not math.isfinite(estimate):
+        raise ValueError(f"startup_delay / dt = {startup_delay:g} / {dt:g} is more steps than a float holds")
+    # The estimate is off by a step or two either way, but where the floats are sparse (a delay of
+    # 1e30 s) a walk of single steps never moved the product and hung; instead bracket the first
+    # passing count by doubling steps out from the estimate (low fails, high passes), then bisect.
+    high, stride = max(1, math.ceil(estimate)), 1
+    while high * dt < startup_delay:
+        high, stride = high + stride, stride * 2
+    low, stride = high - 1, 1
+    while low * dt >= startup_delay:  # count 0 always fails: the delay is positive
+        low, stride = max(0, low - stride), stride * 2
+    while high - low > 1:
+        middle = (low + high) // 2
+        if middle * dt >= startup_delay:
+            high = middle
+        else:
+            low = middle
+    return initiated_at + high
 
 
 Pose = np.ndarray | tuple[float, float, float]
