@@ -4,7 +4,8 @@ A source is one of
 - a real log in ``nudge habits``' CSV format (:mod:`nudgecli.report.habit_logs`), or a run folder:
   measured here with ``nudge habits``' own functions (:mod:`nudgecli.report.habits`);
 - the per-participant table of ``nudge habits --by participant --format csv`` (its
-  ``participant`` rows; the ``pooled`` rows are ignored): read as it is.
+  ``participant`` rows; the ``pooled`` rows are ignored, a row of another scope or a participant
+  row with no label refused): read as it is.
 
 Either way the result is, per participant in the source's order, habit -> its
 :class:`~nudgecli.sim.twins.HabitFigures`. Bad input is one :class:`~nudgecli.errors.DataError`
@@ -52,6 +53,9 @@ if TYPE_CHECKING:
 SourceHabits = dict[str, dict[str, HabitFigures]]
 #: Columns a habits table must have.
 TABLE_COLUMNS = ("participant", "habit", "median")
+#: The scopes of a habits table's rows, as ``nudge habits --by participant --format csv`` writes
+#: them: one participant's figures (read), or all of them pooled (left out).
+TABLE_SCOPES = ("participant", "pooled")
 #: The unit each habit is given in (``nudge habits --format json``'s ``unit``).
 HABIT_UNITS = {h.key: "share" if h.share else "s" for h in HABITS}
 
@@ -216,13 +220,40 @@ def _check_row(path: Path, participant: str, habit: str, row: pd.Series) -> Habi
     return HabitFigures(n=0 if n is None else n, median=median, q25=q25, q75=q75)
 
 
+def _participant_rows(path: Path, table: pd.DataFrame) -> pd.DataFrame:
+    """A habits table's participant rows (its ``pooled`` rows left out; every row, without a
+    ``scope`` column), or a :class:`DataError` naming the line of the first row whose scope is none
+    of :data:`TABLE_SCOPES` (``Participant`` would drop a person's rows unsaid) or whose participant
+    label is empty (a pooled row of a table without its scope column would make a person '')."""
+    scoped = "scope" in table.columns
+    scopes = table["scope"].str.strip() if scoped else pd.Series("participant", index=table.index)
+    unknown = scopes[~scopes.isin(TABLE_SCOPES)]
+    if not unknown.empty:  # the header is line 1
+        scope, line = str(unknown.iloc[0]), unknown.index[0] + 2
+        raise DataError(f"{path}: line {line}: scope {scope!r} is neither 'participant' nor 'pooled'"
+                        f"{did_you_mean(scope, TABLE_SCOPES)}; write 'participant' for a participant's row "
+                        "or 'pooled' for a row of them all (left out), as `nudge habits --by participant "
+                        "--format csv` does")
+    rows = table[scopes == "participant"]
+    unnamed = rows.index[rows["participant"].str.strip() == ""]
+    if len(unnamed) and scoped:
+        raise DataError(f"{path}: line {unnamed[0] + 2}: a participant row with no participant label; "
+                        "give the participant's label")
+    if len(unnamed):
+        raise DataError(f"{path}: line {unnamed[0] + 2}: no participant label, and no scope column to say "
+                        "the row is a pooled one; give the participant's label, or the scope column `nudge "
+                        "habits --by participant --format csv` writes ('pooled' rows are left out)")
+    return rows
+
+
 def table_source(path: Path) -> SourceHabits:
     """The participants' habits of a ``nudge habits --by participant --format csv`` table.
 
     Raises
     ------
     DataError
-        A row with fewer or more fields than the header (a table cut off), a trial table, no
+        A row with fewer or more fields than the header (a table cut off), a trial table, a
+        scope that is neither ``participant`` nor ``pooled``, a participant row with no label, no
         participant rows, an unknown habit or unit, an ``n`` that is no whole number of events, a
         median or quartile that is no finite non-negative number (a share's above 1: a percent?),
         quartiles the wrong way round, a habit
@@ -243,8 +274,7 @@ def table_source(path: Path) -> SourceHabits:
     if "trial" in table.columns:
         raise DataError(f"{path}: a table per trial; fit-people reads one per participant "
                         "(`nudge habits --by participant --format csv`)")
-    if "scope" in table.columns:
-        table = table[table["scope"].str.strip() == "participant"]
+    table = _participant_rows(path, table)
     if table.empty:
         raise DataError(f"{path}: no participants (no 'participant' rows); give `nudge habits --by "
                         "participant --format csv`")

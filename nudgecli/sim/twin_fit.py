@@ -19,7 +19,9 @@ rules, one per parameter:
   least one sample. A hard blows' median longer than a pulse of the population's longest offset
   ramp is no pulse (soft blows with a stray Hard cell count as hard blows, and for a person whose
   soft level is near the threshold they are most of them): their lower quartile is read. A fit
-  outside ``[population]``'s offset ramps is clamped to them, and the note says so;
+  outside ``[population]``'s offset ramps is clamped to them, and the note says so. A band longer
+  than the pulses drawn hold (:meth:`Mechanics.longest_peak`) is searched as the longest they hold,
+  its peak then moved by the rest: past what the simulation accepts, its note says so;
 - ``event_reaction_s``: from both reactions (a stop at a waypoint -> the next switch, a switch ->
   the robot moves again; both needed: a log without its layout has no stop -> switch). From a log
   or a run folder, event by event (:func:`reaction_observations`): a reaction ends at the first
@@ -219,11 +221,22 @@ class Mechanics:
     def __post_init__(self) -> None:
         object.__setattr__(self, "draws", _draw_people(self.population, self.thresholds))
 
+    def longest_peak(self) -> int:
+        """The longest peak, samples, of a pulse the draws hold with any offset ramp a fit considers:
+        :data:`PULSE_SAMPLES` less the longest onset ramp drawn and :data:`MAX_OFFSET_SAMPLES` (57 for
+        the default population: 5.7 s, beyond the 5 s ``[population] hard_peak_s`` accepts, so that
+        a fit just past that limit is found, and said, as such)."""
+        return PULSE_SAMPLES - int(self.draws.onset.max()) - MAX_OFFSET_SAMPLES
+
     def pulse(self, peak: int, offset: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(length, first, inside)`` per draw, ``(J,)`` each, of a pulse of ``peak`` samples at the
         level and an offset ramp of ``offset`` (``pulse_fractions``, ``blow_pressures``): its
         samples, its first in the hard band (where the mode switches; its length where none is), and
-        its samples there."""
+        its samples there. A pulse longer than the samples drawn is a ValueError (a fit asks for
+        peaks up to :meth:`longest_peak`)."""
+        if int(self.draws.onset.max()) + peak + offset > PULSE_SAMPLES:
+            raise ValueError(f"a pulse of a {peak}-sample peak and a {offset}-sample offset ramp is longer "
+                             f"than the {PULSE_SAMPLES} samples drawn (longest peak: {self.longest_peak()})")
         if (peak, offset) not in self._pulses:
             self._pulses[peak, offset] = self._pulse(peak, offset)
         return self._pulses[peak, offset]
@@ -366,8 +379,11 @@ def _fit_reactions(habits: Mapping[str, HabitFigures], mechanics: Mechanics,
     motion quartiles."""
     peak, offset = fitted.get("hard_peak_s"), fitted.get("offset_ramp_samples")
     population, cell_s = mechanics.population, mechanics.cell_s
+    # a peak longer than the draws hold switches the mode as the longest they hold does: at the
+    # pulse's first sample in the band, on its onset ramp or at its peak's start
     offsets = mechanics.reaction_offsets(
-        max(1, round((_middle(population.hard_peak_s) if peak is None else peak) / cell_s)),
+        min(max(1, round((_middle(population.hard_peak_s) if peak is None else peak) / cell_s)),
+            mechanics.longest_peak()),
         round(_middle(population.offset_ramp_samples)) if offset is None else int(offset))
     log_sd = None
     spread_habit = PARAMETER_HABITS["event_reaction_log_sd"][0]
@@ -397,7 +413,8 @@ def _pulse_length(habits: Mapping[str, HabitFigures], mechanics: Mechanics, band
     if whole is None:
         notes["offset_ramp_samples"] = "no hard_blow_whole in the source"
         return None
-    peak = max(1, round(band_s / mechanics.cell_s))
+    # a peak longer than the draws hold has the same samples outside the band (its ramps') as theirs
+    peak = min(max(1, round(band_s / mechanics.cell_s)), mechanics.longest_peak())
     length, _, inside = mechanics.pulse(peak, mechanics.population.offset_ramp_samples[1])
     longest = band_s + float(np.mean(length - inside) + 1) * mechanics.cell_s  # a cell's slack
     if whole.median > longest + 1e-9 and math.isfinite(whole.q25) and whole.q25 < whole.median:
@@ -423,13 +440,18 @@ def _fit_pulse(habits: Mapping[str, HabitFigures], mechanics: Mechanics,
     band_cells = band.median / cell_s
     whole = _pulse_length(habits, mechanics, band.median, notes)
     offsets = range(MAX_OFFSET_SAMPLES + 1) if whole is not None else [round(_middle((lo, hi)))]
+    # the peaks searched end at the longest the draws hold (5.7 s by default, past the 5 s the
+    # simulation accepts): a longer band is searched as one that long, with the same samples outside
+    # it (a long pulse's ramps, not its peak, set those), and its peak moved by the rest below, as
+    # by what any band still lacks; so a fit past the limit is found and said as for one just past it
+    searched_cells = min(band_cells, mechanics.longest_peak() - 1)
 
     def distance(shape: tuple[int, int]) -> float:
         length, _, inside = mechanics.pulse(*shape)
         outside = 0.0 if whole is None else float(np.mean(length - inside)) - (whole - band.median) / cell_s
-        return (float(np.mean(inside)) - band_cells) ** 2 + outside ** 2
+        return (float(np.mean(inside)) - searched_cells) ** 2 + outside ** 2
 
-    peak, offset = min(((p, o) for o in offsets for p in range(1, round(band_cells) + 2)), key=distance)
+    peak, offset = min(((p, o) for o in offsets for p in range(1, round(searched_cells) + 2)), key=distance)
     # a peak is at least one sample (``SimulatedPerson._start_hold``)
     peak_s = max(peak + band_cells - float(np.mean(mechanics.pulse(peak, offset)[2])), 1.0) * cell_s
     if whole is None:
