@@ -22,7 +22,8 @@ column                      content
                             7 strongly agree)
 =========================== =============================================================
 
-An empty cell is a missing answer: that score is missing for that response. The six ratings, the
+An empty cell is a missing answer: that score is missing for that response; an empty
+``participant`` or ``condition`` is refused, naming the row, as in a metrics table. The six ratings, the
 15 pairs and the six weights are each answered all or none in a row: a row that leaves some of
 them empty is refused, naming the row and the empty columns (one blank rating would otherwise
 lose the response's TLX scores unseen). Each participant
@@ -62,7 +63,13 @@ import pandas as pd
 
 from nudgecli.csv_text import not_utf8_message
 from nudgecli.errors import DataError, did_you_mean
-from nudgecli.report.tables import check_unique_columns, is_canonical_integer, label_text, read_csv_labels
+from nudgecli.report.tables import (
+    check_unique_columns,
+    is_canonical_integer,
+    label_text,
+    read_csv_labels,
+    refuse_empty_cells,
+)
 from nudgecli.run_folder_live import LIVE_EXECUTOR
 from nudgecli.run_folder_names import QUESTIONNAIRE_SCORES_CSV, QUESTIONNAIRES_CSV
 
@@ -148,6 +155,7 @@ def check_run_conditions(table: pd.DataFrame, trials: pd.DataFrame, source: str,
         Naming the file, the row, both conditions and the fix.
     """
     table = _lower_case_names(table, source)
+    _check_ids_given(table, source)  # before conditions are compared: an empty one is no condition
     if not {"participant", "condition", "block"} <= set(table.columns) or \
             not {"participant", "condition", "block"} <= set(trials.columns):
         return
@@ -162,6 +170,15 @@ def check_run_conditions(table: pd.DataFrame, trials: pd.DataFrame, source: str,
                 f"{source}: row {row + 2} gives participant {participant}'s block {block} the condition "
                 f"{condition}, but in {run} that block's trials are of condition {expected}; write "
                 f"{expected} in the row's condition (or correct its participant or block)")
+
+
+def _check_ids_given(table: pd.DataFrame, source: str) -> None:
+    """Refuse a response whose participant or condition is empty, as a trial's is
+    (:func:`~nudgecli.report.tables.refuse_empty_cells`): an empty condition broke the comparison
+    of the conditions with a traceback, an empty participant was named a stranger ``'nan'``."""
+    for column in ID_COLUMNS[:2]:
+        if column in table.columns:
+            refuse_empty_cells(table, column, source)
 
 
 def _numeric_column(table: pd.DataFrame, column: str, source: str) -> pd.Series:
@@ -356,6 +373,7 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
     for column in ID_COLUMNS[:2]:
         if column not in table.columns:
             raise DataError(f"{source} has no {column!r} column; add it (one value per response row)")
+    _check_ids_given(table, source)
     ids = [c for c in ID_COLUMNS if c in table.columns]
     scores = table[ids].copy()
     scores["condition"] = scores["condition"].astype(str)

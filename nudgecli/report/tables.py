@@ -3,11 +3,13 @@
 ``nudge plot`` take it.
 
 Every column other than ``participant``, ``condition``, ``block``, ``trial``, ``layout``,
-``n_goals`` and ``true_goal`` is a metric and must be numeric (booleans count as 0/1). A CSV's
-delimiter is sniffed. Two columns of one name, infinite values and condition labels that differ
-only by case or surrounding spaces are errors naming the columns and rows; repeated trials (same
-participant, condition, block and trial) are an error unless dropped on request
-(:func:`drop_or_refuse_duplicates`).
+``n_goals`` and ``true_goal`` is a metric and must be numeric (booleans count as 0/1): numbers, or
+true/false, not both in one column (refused, naming the first number); an integer too large for
+int64 is read as a float wherever it sits. An empty ``participant`` or ``condition`` is refused,
+naming the row. A CSV's delimiter is sniffed. Two columns of one name, infinite values and
+condition labels that differ only by case or surrounding spaces are errors naming the columns and
+rows; repeated trials (same participant, condition, block and trial) are an error unless dropped
+on request (:func:`drop_or_refuse_duplicates`).
 
 A CSV's label columns (``participant``, ``block``, ``trial``) are kept as written: a column whose
 every label is a canonical integer (``7``, ``12``, ``-3``: the text Python writes for an int64) is
@@ -307,23 +309,61 @@ def _check_finite(table: pd.DataFrame, metric_columns: Sequence[str], source: st
                         "replace them with a number or leave the cell empty (a missing value)")
 
 
-def _first_non_number(series: pd.Series, first_row: int) -> str:
-    """`` (row R holds 'VALUE')``: the first cell of a non-numeric column that is not a number
-    (a blank is a missing value, not the culprit), with the decimal-comma advice where it is one
-    (:func:`nudgecli.csv_text.decimal_comma_advice`); empty if none can be singled out. In a
-    column of true/false cells (:func:`_boolean_cells`), only a cell that is neither a number nor
-    true/false is a culprit (``'yes'`` among ``'True'`` and ``'False'``)."""
+def _why_not_numeric(series: pd.Series, first_row: int) -> tuple[str, str]:
+    """What is wrong with a non-numeric column, and its fix. A column of true/false cells
+    (:func:`_boolean_cells`) and numbers, each a metric's format alone, ``mixes`` them: the first
+    number is named (``row 3 holds '1'``), for the column to be written in one format. Otherwise the
+    first cell that is not a number (a blank is a missing value, not the culprit; among true/false,
+    one that is neither: ``'yes'``), with the decimal-comma advice where it is one
+    (:func:`nudgecli.csv_text.decimal_comma_advice`); none named if none can be singled out."""
     present = series.notna().to_numpy()
     numbers = pd.to_numeric(series, errors="coerce").notna().to_numpy()
-    culprits = np.flatnonzero(present & ~numbers & ~_boolean_cells(series))
+    booleans = _boolean_cells(series)
+    culprits = np.flatnonzero(present & ~numbers & ~booleans)
+    if not culprits.size and booleans.any() and (present & numbers).any():
+        # True or 1 alone is each a success; together the column is neither format (1 and True both
+        # count as 1, but 0.5 or 7 among true/false would be counted too)
+        mixed = np.flatnonzero(present & numbers & ~booleans)
+        value = series.iloc[int(mixed[0])]
+        return (f"mixes true/false with numbers (row {int(mixed[0]) + first_row} holds {value!r})",
+                "write it all as true/false or all as numbers (1 and 0)")
     if not culprits.size:  # no true/false among them: every cell that is not a number
         culprits = np.flatnonzero(present & ~numbers)
     if not culprits.size:
-        return ""
+        return "is not numeric", "make it numeric"
     more = f", and {culprits.size - 1} more cell(s)" if culprits.size > 1 else ""
     value = series.iloc[int(culprits[0])]
     advice = decimal_comma_advice(value) if isinstance(value, str) else None
-    return f" (row {int(culprits[0]) + first_row} holds {value!r}{more}{'; ' + advice if advice else ''})"
+    return (f"is not numeric (row {int(culprits[0]) + first_row} holds {value!r}{more}"
+            f"{'; ' + advice if advice else ''})", "make it numeric")
+
+
+def _beyond_int64(value: object) -> bool:
+    """Whether a cell is an integer outside int64: a Python int, or its text (``99999999999999999999``)."""
+    if isinstance(value, str):
+        text = value.strip()
+        if not (text.lstrip("+-").isascii() and text.lstrip("+-").isdigit()):
+            return False
+        value = int(text)
+    return isinstance(value, int) and not isinstance(value, bool) and \
+        not _INT64_RANGE[0] <= value <= _INT64_RANGE[1]
+
+
+def _large_integers_as_floats(series: pd.Series) -> pd.Series | None:
+    """A column not read as numbers that holds an integer beyond int64 and numbers only, as
+    floats; else ``None``.
+
+    pandas reads such a column as numbers (floats) when a decimal comes first and as text or Python
+    ints otherwise (the large integer in the first row, or no decimal at all), so one value was
+    accepted in row 3 and refused, with no row named, in row 2: read here as the floats it is
+    wherever it sits, like any other number too large for an integer column."""
+    if _is_numeric(series):
+        return None
+    numbers = pd.to_numeric(series, errors="coerce")
+    present = series.notna()
+    if numbers[present].isna().any() or not any(_beyond_int64(v) for v in series[present]):
+        return None
+    return numbers.astype(float)
 
 
 def _is_numeric(series: pd.Series) -> bool:
@@ -348,6 +388,22 @@ def _as_boolean(series: pd.Series) -> pd.Series | None:
     if len(values) and _boolean_cells(values).all():
         return series.map(lambda v: BOOLEAN_TEXTS.get(v, v) if isinstance(v, str) else v).astype("boolean")
     return None
+
+
+def refuse_empty_cells(table: pd.DataFrame, column: str, source: str, first_row: int = 2) -> None:
+    """Refuse an empty cell in ``column``, one a row is counted by (a trial's or a questionnaire
+    response's ``participant`` or ``condition``): the one rule of every real table.
+
+    Raises
+    ------
+    DataError
+        Naming the file, the column, the first such row and the fix.
+    """
+    empty = table[column].isna()
+    if empty.any():
+        row = int(empty.to_numpy().nonzero()[0][0])
+        raise DataError(f"{source}: column {column!r} is empty in row {row + first_row}; fill it in "
+                        "or remove the row")
 
 
 def validate_metrics_table(table: pd.DataFrame, source: str, first_row: int = 2,
@@ -390,11 +446,7 @@ def validate_metrics_table(table: pd.DataFrame, source: str, first_row: int = 2,
             hint = did_you_mean(column, [str(c) for c in table.columns])
             raise DataError(f"{source} has no {column!r} column{hint}; a metrics table needs "
                             "participant, condition and metric columns, one row per trial")
-        empty = table[column].isna()
-        if empty.any():
-            row = int(empty.to_numpy().nonzero()[0][0])
-            raise DataError(f"{source}: column {column!r} is empty in row {row + first_row}; fill it in "
-                            "or remove the row")
+        refuse_empty_cells(table, column, source, first_row)
     metric_columns = [str(c) for c in table.columns if c not in NON_METRIC_COLUMNS]
     if not metric_columns:
         raise DataError(f"{source} has no metric columns; add one numeric column per metric "
@@ -403,13 +455,14 @@ def validate_metrics_table(table: pd.DataFrame, source: str, first_row: int = 2,
     for column in metric_columns:
         if table[column].dtype == object and (converted := _as_boolean(table[column])) is not None:
             table[column] = converted
+        if (numbers := _large_integers_as_floats(table[column])) is not None:
+            table[column] = numbers
         if not _is_numeric(table[column]):
             if chosen is not None and column not in chosen:
                 continue  # not analysed: --metric picked others
-            culprit = _first_non_number(table[column], first_row)
-            fix = "leave it out of --metric" if chosen is not None else "pick the metrics with --metric"
-            raise DataError(f"{source}: metric column {column!r} is not numeric{culprit}; make it numeric, "
-                            f"remove it, or {fix}")
+            wrong, fix = _why_not_numeric(table[column], first_row)
+            choice = "leave it out of --metric" if chosen is not None else "pick the metrics with --metric"
+            raise DataError(f"{source}: metric column {column!r} {wrong}; {fix}, remove it, or {choice}")
         numeric_columns.append(column)
     _check_finite(table, numeric_columns, source, first_row)
     check_condition_labels(table, source)
