@@ -8,13 +8,16 @@ import json
 import math
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import Field, ValidationError, model_validator
 
+from nudgecli.config_base import Section
 from nudgecli.config_files import as_written, format_validation_error, settable_path
 
 
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+class _Model(Section):
+    """A sweep file's table: an experiment section's rules (:class:`~nudgecli.config_base.Section`),
+    unknown keys refused and values as written: pydantic's lax mode read ``replications = true`` as
+    1, ``seed = 11.0`` as 11 and ``low = "0.5"`` as 0.5, which an experiment file refuses."""
 
 
 class Range(_Model):
