@@ -96,7 +96,10 @@ def resolve_plan(plan: PlanT | None, *, recorded: str | None = None,
 def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) -> Path:
     """A preset name or a TOML path -> an existing file, or a ``ConfigError`` with suggestions."""
     candidate = Path(name_or_path)
+    a_folder = f"{name_or_path}: a folder, not a .toml file; give a preset name or a path to a .toml file"
     if candidate.suffix == ".toml" or candidate.is_file():
+        if candidate.is_dir():  # a folder named x.toml is no missing file
+            raise ConfigError(a_folder)
         if not candidate.is_file():
             raise ConfigError(f"{name_or_path}: no such file; give a preset name or a path to a .toml file")
         return candidate
@@ -104,8 +107,7 @@ def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) 
     if name_or_path in presets:  # a preset's name, even beside a folder of that name (a run's --out)
         return presets[name_or_path]
     if candidate.exists():
-        raise ConfigError(f"{name_or_path}: a folder, not a .toml file; give a preset name or a path to a "
-                          ".toml file")
+        raise ConfigError(a_folder)
     what = "an experiment" if kind == "experiments" else "an analysis plan"
     raise ConfigError(
         f"{name_or_path!r} is neither {what} preset nor a file{did_you_mean(name_or_path, presets)}; "
@@ -113,13 +115,14 @@ def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) 
 
 
 def read_toml(path: Path) -> dict[str, Any]:
-    """Parse a TOML file, turning syntax errors into a ``ConfigError`` naming the file."""
+    """Parse a TOML file, turning syntax errors into a ``ConfigError`` naming the file. A leading
+    UTF-8 byte order mark (which Windows editors write) is skipped, as the CSV readers skip it."""
     try:
         data = path.read_bytes()
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read ({exc.strerror})") from exc
     try:
-        text = data.decode("utf-8")
+        text = data.decode("utf-8").removeprefix("\ufeff")  # tomllib reads a BOM as an invalid statement
     except UnicodeDecodeError as exc:  # TOML is UTF-8 (toml.io, "Spec"); say where the first bad byte is
         line = data.count(b"\n", 0, exc.start) + 1
         raise ConfigError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} on line {line}); TOML files "

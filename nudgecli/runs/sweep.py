@@ -45,7 +45,6 @@ from __future__ import annotations
 import itertools
 import json
 import math
-import tomllib
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -60,6 +59,7 @@ from nudgecli.config_files import (
     format_validation_error,
     list_presets,
     preset_dir,
+    read_toml,
     resolve_plan,
     resolve_preset,
     toml_value,
@@ -190,12 +190,7 @@ def load_sweep(name_or_path: str) -> Sweep:
         value).
     """
     path = resolve_sweep(name_or_path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: invalid TOML: {exc}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read the sweep file: {exc}") from None
+    data = read_toml(path)  # the one reading of a TOML file: a BOM skipped, a bad byte named
     try:
         spec = SweepFile.model_validate(data)
     except ValidationError as exc:
