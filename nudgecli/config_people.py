@@ -263,6 +263,12 @@ class PopulationSection(Section):
         if isinstance(value, str):
             raise PydanticCustomError("list_type", "should be a list of folders of calibration logs (one per "
                                       "participant)")
+        # an empty name is the working directory to a path (Path("").is_dir()), so it passed the check
+        # that the folder is there and was read as a recording, refused naming no folder at all
+        for position, folder in enumerate(value if isinstance(value, list | tuple) else ()):
+            if folder == "":
+                raise ValueError(f"entry [{position}] is empty (\"\"); name a participant's folder of "
+                                 "calibration logs there, or remove the entry")
         return value
 
     @model_validator(mode="after")
@@ -406,6 +412,12 @@ class CalibrationSection(Section):
     ``Zero Band`` + ``input stopped`` at the end of each blow; ``nudgecli.sim.calibration.
     event_driven_stream``). The sibling study prompted 4 s with 1 s blank (``prompt_s = 4``,
     ``blank_s = 1``).
+
+    ``prompt_s`` and ``blank_s`` are each at least one sample of the stream, ``1 / rate_hz`` (0.1 s at
+    the study's 10 Hz): the estimator counts a prompt's samples from the one nearest its showing to
+    the one nearest its blank, which a shorter prompt may not hold apart (with no prompt holding a
+    sample, the fit failed); under a shorter blank a blow's release (its first sample at or after the
+    blank) falls after the next prompt's showing, and is counted for that prompt.
     """
 
     mapping_blocks: int = Field(default=6, ge=1, le=MAX_CALIBRATION_REPEATS,
@@ -422,6 +434,26 @@ class CalibrationSection(Section):
     event_step: Annotated[float, Field(gt=0, le=0.1)] = Field(
         default=0.0109, description="Pressure quantisation of the event-driven stream (the sibling study's "
         "device stepped in about 0.0109).")
+
+    @model_validator(mode="after")
+    def _check_sample_durations(self) -> CalibrationSection:
+        # one sample at least, so that a prompt's window (from the sample nearest its showing up to
+        # the one nearest its blank) is never empty, and a blow's release sample (the event-driven
+        # stream's "Zero Band" and "input stopped") stays in its own prompt's blank
+        rate_hz = self.rate_hz  # the calibration stream's, not the study's (its step: StudySection.dt)
+        sample_s = 1.0 / rate_hz
+        for key, why in (("prompt_s", "a prompt may hold no sample to count"),
+                         ("blank_s", "a blow's release may fall in the next prompt")):
+            duration = getattr(self, key)
+            # 1e-5: a bound the message prints (6 digits: 0.333333 s at 3 Hz) passes
+            if duration * rate_hz < 1 - 1e-5:
+                faster = f", or rate_hz >= {1.0 / duration:g}" if 1.0 / duration <= MAX_RATE_HZ else ""
+                raise ValueError(
+                    f"{key} = {duration:g} s is shorter than one sample of the stream at rate_hz = "
+                    f"{rate_hz:g} (1 / rate_hz = {sample_s:g} s), so {why}; give {key} >= "
+                    f"{sample_s:g}{faster} (the study's: {type(self).model_fields[key].default:g} s at "
+                    "10 Hz)")
+        return self
 
     @model_validator(mode="after")
     def _check_samples(self) -> CalibrationSection:

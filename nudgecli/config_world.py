@@ -71,9 +71,10 @@ class WorldSection(Section):
     @classmethod
     def _unsimulated_conditions(cls, value: Any) -> Any:
         # the sibling study's assistance conditions are real names, not typos: "did you mean
-        # 'no_assistance'?" misled
+        # 'no_assistance'?" misled. Only a string can name one: a list or a table is no key of the
+        # dict (unhashable), and pydantic's literal check names it
         for name in value if isinstance(value, list | tuple) else ():
-            if name in UNSIMULATED_CONDITIONS:
+            if isinstance(name, str) and name in UNSIMULATED_CONDITIONS:
                 raise ValueError(
                     f"{json.dumps(name)} is the sibling study's "
                     f"{UNSIMULATED_CONDITIONS[name]} (TASK.md section 9), which is not simulated; "

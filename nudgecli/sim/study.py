@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from nudgecli.config import ExperimentConfig
-from nudgecli.errors import ConfigError
+from nudgecli.errors import ConfigError, DataError
 from nudgecli.model.disambiguation import DisambiguationModel
 from nudgecli.model.interface import default_distortion_table, default_mapping_table
 from nudgecli.model.mdp import MDPRewards, SolvedLayout, solve_layout
@@ -379,17 +379,20 @@ def study_participant(config: ExperimentConfig, seed: int, index: int,
 def check_physiology_logs(config: ExperimentConfig) -> None:
     """Fail before a run starts if a ``population.physiology_logs`` folder cannot give a participant."""
     for position, folder in enumerate(config.population.physiology_logs):
+        where = config.population.logs_source()  # the experiment file or the --set that named it
+        key = f"{where + ': ' if where else ''}population.physiology_logs[{position}]"
         if not Path(folder).is_dir():
             from nudgecli.sim.calibration_readers import DISTORTION_LAYOUTS  # pandas: with a recording only
 
             what = f"{folder!r}, a file, not a folder" if Path(folder).exists() else \
                 f"folder {folder!r}, which does not exist"
-            where = config.population.logs_source()  # the experiment file or the --set that named it
-            raise ConfigError(f"{where + ': ' if where else ''}population.physiology_logs[{position}] names "
-                              f"{what} (a relative path is read from the working directory); the list "
-                              "takes folders of calibration logs, each a participant's, with "
+            raise ConfigError(f"{key} names {what} (a relative path is read from the working directory); the "
+                              "list takes folders of calibration logs, each a participant's, with "
                               f"{DISTORTION_LAYOUTS}")
-        participant_from_log(folder, index=position, population=config.population)
+        try:
+            participant_from_log(folder, index=position, population=config.population)
+        except DataError as exc:  # a folder without a usable recording: named by the key, as one not there
+            raise DataError(f"{key}: {exc}") from None
 
 
 def left_out_notes(config: ExperimentConfig, participants: int, people: People | None = None, *,
