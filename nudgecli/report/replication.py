@@ -392,7 +392,7 @@ def power_table(rows: pd.DataFrame, directions: Mapping[str, int | None] | None 
             out.append({"participants": int(n), "metric": metric, "a": a, "b": b, "level": level,
                         "direction": {None: "either", 1: "a > b", -1: "a < b"}[wanted],
                         "replications": total, "tested": count, "significant": k,
-                        "power": k / total if count else math.nan, "low": low, "high": high})
+                        "power": _rate(significant, total, count), "low": low, "high": high})
     return pd.DataFrame(out)
 
 

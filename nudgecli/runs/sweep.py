@@ -366,6 +366,8 @@ def _refuse_undrawn_values(path: Path, experiment: str, spec: SweepFile, base: d
             given = list(zip(("the range's low end", "the range's high end"), ends, strict=True))
             fix = f"keep the range within what {key} takes"
         for what, choice in given:
+            if type(choice) is type(base[key]) and choice == base[key]:  # the first point, checked already
+                continue
             fault = _point_fault(experiment, spec.set, {**base, key: choice})
             if fault is not None:
                 raise ConfigError(f"{path}: parameters.{key}: {what} {toml_value(choice)} is not valid, "

@@ -162,10 +162,9 @@ def _refuse_values_morris_skips(key: str, count: int, levels: int) -> None:
     whole: its points lie on ``levels`` grid levels, each taking one value (:func:`morris_choice`),
     so a set of more values than levels always leaves some out (and one of at most ``levels``
     values none: the choice moves by at most one value a level)."""
-    taken = {morris_choice(level, levels, count) for level in range(levels)}
-    if len(taken) == count:
+    if count <= levels:
         return
-    skipped = count - len(taken)
+    skipped = count - levels
     enough = count + count % 2  # the levels must be even (Design)
     fix = (f"set levels = {enough} (even, and no fewer than the {count} values)" if
            enough <= MAX_LEVELS else "use method = \"sobol\"")
