@@ -315,6 +315,11 @@ def _several_sessions(folder: Path, prompts: list[Path], session: str) -> DataEr
                      f"fit one at a time: {advice}")
 
 
+#: The tidy logs of each session a run writes (its manifest records their SHA-256).
+_MAPPING_LOGS = (TIDY_FILES["mapping_prompts"], TIDY_FILES["mapping_responses"])
+_DISTORTION_LOGS = (TIDY_FILES["distortion_prompts"], TIDY_FILES["distortion_stream"])
+
+
 def read_mapping_session(folder: str | Path) -> MappingSession | None:
     """Read the ``p(phi_i | a)`` session in ``folder`` (study or tidy format), or ``None`` if absent.
 
@@ -332,9 +337,14 @@ def read_mapping_session(folder: str | Path) -> MappingSession | None:
         A run's log missing or changed since the run wrote it
         (:func:`~nudgecli.run_folder_calibration.check_calibration_logs`).
     """
-    folder = Path(folder)
     # a run's logs: read only as the run wrote them
-    check_calibration_logs(folder, (TIDY_FILES["mapping_prompts"], TIDY_FILES["mapping_responses"]))
+    check_calibration_logs(folder, _MAPPING_LOGS)
+    return _read_mapping_session(Path(folder))
+
+
+def _read_mapping_session(folder: Path) -> MappingSession | None:
+    """:func:`read_mapping_session` once the run's logs were checked (by it, or by
+    :func:`read_sessions` with the other session's)."""
     found = _find_session(folder, ("mapping_prompts", "mapping_responses"), STUDY_MAPPING_FOLDER, "mapping",
                           "responses")
     if found is None:
@@ -408,7 +418,13 @@ def read_distortion_session(folder: str | Path, variant: str = AUTO_VARIANT) -> 
         (:func:`~nudgecli.run_folder_calibration.check_calibration_logs`).
     """
     # a run's logs: read only as the run wrote them (the mapping session's are not read here)
-    check_calibration_logs(folder, (TIDY_FILES["distortion_prompts"], TIDY_FILES["distortion_stream"]))
+    check_calibration_logs(folder, _DISTORTION_LOGS)
+    return _read_distortion_session(folder, variant)
+
+
+def _read_distortion_session(folder: str | Path, variant: str) -> DistortionSession | None:
+    """:func:`read_distortion_session` once the run's logs were checked (by it, or by
+    :func:`read_sessions` with the other session's)."""
     found = distortion_session_files(folder)
     if found is None:
         return None
@@ -437,14 +453,19 @@ def read_sessions(folder: str | Path, variant: str = AUTO_VARIANT
     ------
     DataError
         If ``folder`` does not exist or holds neither session, or a log is malformed.
+    RunFolderError
+        A run's log missing or changed since the run wrote it
+        (:func:`~nudgecli.run_folder_calibration.check_calibration_logs`).
     """
     folder = Path(folder)
     if not folder.is_dir():
         what = "a file, not a folder" if folder.exists() else "no such folder"
         raise DataError(f"{folder}: {what}; give one participant's calibration folder "
                         f"(with {STUDY_MAPPING_FOLDER}/ and/or {STUDY_DISTORTION_FOLDER}/)")
-    mapping = read_mapping_session(folder)
-    distortion = read_distortion_session(folder, variant)
+    # a run's logs, both sessions' at once: one reading of its manifest
+    check_calibration_logs(folder, _MAPPING_LOGS + _DISTORTION_LOGS)
+    mapping = _read_mapping_session(folder)
+    distortion = _read_distortion_session(folder, variant)
     if mapping is None and distortion is None:
         raise _no_session(folder)
     return mapping, distortion
