@@ -214,19 +214,29 @@ class Mechanics:
     thresholds: tuple[float, float, float] = (ZERO_THRESHOLD, SOFT_THRESHOLD_EARLY, HARD_THRESHOLD_EARLY)
     cell_s: float = CELL_S
     draws: _Draws = field(init=False, repr=False, compare=False)
+    # the samples a pulse may take after the longest onset ramp drawn: its peak and offset ramp
+    _after_onset: int = field(init=False, repr=False, compare=False)
     # (peak, offset) -> pulse(peak, offset): a fit asks for a few dozen shapes, every twin the same ones
     _pulses: dict[tuple[int, int], tuple[np.ndarray, np.ndarray, np.ndarray]] = field(
         init=False, repr=False, compare=False, default_factory=dict)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "draws", _draw_people(self.population, self.thresholds))
+        draws = _draw_people(self.population, self.thresholds)
+        object.__setattr__(self, "draws", draws)
+        object.__setattr__(self, "_after_onset", draws.normals.shape[1] - int(draws.onset.max()))
 
     def longest_peak(self) -> int:
         """The longest peak, samples, of a pulse the draws hold with any offset ramp a fit considers:
         :data:`PULSE_SAMPLES` less the longest onset ramp drawn and :data:`MAX_OFFSET_SAMPLES` (57 for
         the default population: 5.7 s, beyond the 5 s ``[population] hard_peak_s`` accepts, so that
         a fit just past that limit is found, and said, as such)."""
-        return PULSE_SAMPLES - int(self.draws.onset.max()) - MAX_OFFSET_SAMPLES
+        return self._after_onset - MAX_OFFSET_SAMPLES
+
+    def peak_samples(self, seconds: float) -> int:
+        """The peak, whole samples (at least one), of a pulse with ``seconds`` at the level, held to
+        :meth:`longest_peak`: a longer peak switches the mode as the longest the draws hold does, and
+        has the same samples outside the hard band (its ramps')."""
+        return min(max(1, round(seconds / self.cell_s)), self.longest_peak())
 
     def pulse(self, peak: int, offset: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(length, first, inside)`` per draw, ``(J,)`` each, of a pulse of ``peak`` samples at the
@@ -234,10 +244,11 @@ class Mechanics:
         samples, its first in the hard band (where the mode switches; its length where none is), and
         its samples there. A pulse longer than the samples drawn is a ValueError (a fit asks for
         peaks up to :meth:`longest_peak`)."""
-        if int(self.draws.onset.max()) + peak + offset > PULSE_SAMPLES:
-            raise ValueError(f"a pulse of a {peak}-sample peak and a {offset}-sample offset ramp is longer "
-                             f"than the {PULSE_SAMPLES} samples drawn (longest peak: {self.longest_peak()})")
         if (peak, offset) not in self._pulses:
+            if peak + offset > self._after_onset:
+                raise ValueError(f"a pulse of a {peak}-sample peak and a {offset}-sample offset ramp is "
+                                 f"longer than the {self.draws.normals.shape[1]} samples drawn (longest "
+                                 f"peak: {self.longest_peak()})")
             self._pulses[peak, offset] = self._pulse(peak, offset)
         return self._pulses[peak, offset]
 
@@ -382,8 +393,7 @@ def _fit_reactions(habits: Mapping[str, HabitFigures], mechanics: Mechanics,
     # a peak longer than the draws hold switches the mode as the longest they hold does: at the
     # pulse's first sample in the band, on its onset ramp or at its peak's start
     offsets = mechanics.reaction_offsets(
-        min(max(1, round((_middle(population.hard_peak_s) if peak is None else peak) / cell_s)),
-            mechanics.longest_peak()),
+        mechanics.peak_samples(_middle(population.hard_peak_s) if peak is None else peak),
         round(_middle(population.offset_ramp_samples)) if offset is None else int(offset))
     log_sd = None
     spread_habit = PARAMETER_HABITS["event_reaction_log_sd"][0]
@@ -414,7 +424,7 @@ def _pulse_length(habits: Mapping[str, HabitFigures], mechanics: Mechanics, band
         notes["offset_ramp_samples"] = "no hard_blow_whole in the source"
         return None
     # a peak longer than the draws hold has the same samples outside the band (its ramps') as theirs
-    peak = min(max(1, round(band_s / mechanics.cell_s)), mechanics.longest_peak())
+    peak = mechanics.peak_samples(band_s)
     length, _, inside = mechanics.pulse(peak, mechanics.population.offset_ramp_samples[1])
     longest = band_s + float(np.mean(length - inside) + 1) * mechanics.cell_s  # a cell's slack
     if whole.median > longest + 1e-9 and math.isfinite(whole.q25) and whole.q25 < whole.median:
@@ -465,11 +475,18 @@ def _fit_pulse(habits: Mapping[str, HabitFigures], mechanics: Mechanics,
     return peak_s, offset
 
 
-@functools.cache
 def default_mechanics() -> Mechanics:
     """The :class:`Mechanics` of the default population, interface and behaviour: drawn once (a few
     hundred people) and shared by every fit given no ``mechanics`` (a fit only reads it; its pulses
     are memoised, the same for every fit)."""
+    return _default_mechanics(PULSE_SAMPLES)
+
+
+@functools.cache
+def _default_mechanics(samples: int) -> Mechanics:
+    """:func:`default_mechanics` of pulses of ``samples`` samples (:data:`PULSE_SAMPLES` when it is
+    called, which the draws are made of): a cache keyed by it hands no caller draws of another
+    length."""
     return Mechanics()
 
 
