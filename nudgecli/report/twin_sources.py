@@ -293,14 +293,9 @@ def table_source(path: Path) -> SourceHabits:
     return found
 
 
-def source_habits(source: str | Path) -> SourceHabits:
-    """Each participant's habits of ``source`` (a run folder, a real log, or a habits table)."""
-    return _habits_and_experiment(source)[0]
-
-
 def _habits_and_experiment(source: str | Path) -> tuple[SourceHabits, ExperimentConfig | None]:
-    """:func:`source_habits`, and the experiment of a run folder (``None``: a log or a table), read
-    once."""
+    """Each participant's habits of ``source`` (a run folder, a real log, or a habits table), and the
+    experiment of a run folder (``None``: a log or a table), read once."""
     path = Path(source)
     if path.is_file() and starts_as_json(path):
         raise DataError(f"{path}: a JSON file; fit-people reads the CSV table that `nudge habits --by "
@@ -336,7 +331,7 @@ def twins_of_sources(sources: list[str | Path], population: PopulationSection | 
     Raises
     ------
     DataError
-        No source, or a bad source (:func:`source_habits`).
+        No source, or a bad source (:func:`_habits_and_experiment`).
     """
     if not sources:
         raise DataError("fit-people: give one or more sources (a real log, a run folder or a habits table)")
