@@ -119,11 +119,13 @@ def read_questionnaires(path: str | Path) -> pd.DataFrame:
 
 
 def read_run_questionnaires(path: str | Path, source: Path, trials: pd.DataFrame,
-                            manifest: Mapping[str, Any] | None = None) -> pd.DataFrame:
+                            manifest: Mapping[str, Any] | None) -> pd.DataFrame:
     """:func:`read_questionnaires` for the analysis of ``source`` with the trials table ``trials``:
     a live folder's answers file that is not there yet is named as such (``manifest``: the run's,
-    as the analysis read it; a live folder's names the executor ``live``), and, ``source`` being a
-    run folder, each row's condition is checked against the run's (:func:`check_run_conditions`).
+    as the analysis read it, ``None`` for a source that is no run folder; a live folder's names the
+    executor ``live``: given always, so that a live study is never taken for another source), and,
+    ``source`` being a run folder, each row's condition is checked against the run's
+    (:func:`check_run_conditions`).
 
     Raises
     ------
