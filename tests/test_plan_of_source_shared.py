@@ -21,4 +21,5 @@ def test_plan_of_a_folder_whose_manifest_is_damaged_is_the_default_where_analysi
 
 def test_plan_of_a_given_plan_is_that_plan(tmp_path: Path):
     (tmp_path / "manifest.json").write_text("{not json", encoding="utf-8")
-    assert plan_of(tmp_path, "paper") == "paper"
+    # a plan other than the default ("paper"), so that a given plan ignored is seen
+    assert plan_of(tmp_path, "baselines") == "baselines"
