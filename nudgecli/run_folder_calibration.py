@@ -22,9 +22,9 @@ if TYPE_CHECKING:
 
 #: The manifest's record of the logs: participant -> log file name -> SHA-256 (hex).
 CALIBRATION_CHECKSUMS = "calibration_checksums"
-#: A live study's record of a participant's logs, in its ``live`` entry (the live session's own:
-#: :data:`nudgecli.live.calibration.CALIBRATION_FILES`, checked here under the same name).
-_LIVE_CALIBRATION_FILES = "calibration_files"
+#: A live study's record of a participant's logs, in its ``live`` entry: log file name -> SHA-256
+#: (hex), written by :mod:`nudgecli.live.records` and checked here and on resume.
+LIVE_CALIBRATION_FILES = "calibration_files"
 _PARTICIPANT_FOLDER = re.compile(r"participant-(\d{4,})")
 
 
@@ -63,7 +63,7 @@ def recorded_calibration_logs(record: RunRecord, manifest: Mapping[str, Any],
     """
     if manifest.get("executor") == "live":
         entry = (manifest.get("live") or {}).get(str(participant))
-        recorded = entry.get(_LIVE_CALIBRATION_FILES) if isinstance(entry, Mapping) else None
+        recorded = entry.get(LIVE_CALIBRATION_FILES) if isinstance(entry, Mapping) else None
     else:
         by_participant = manifest.get(CALIBRATION_CHECKSUMS)
         recorded = by_participant.get(str(participant)) if isinstance(by_participant, Mapping) else \
@@ -83,15 +83,26 @@ def changed_calibration_logs(record: RunRecord, manifest: Mapping[str, Any], par
     missing or changed since written, each as ``calibration/participant-NNNN/NAME (missing)`` or
     ``(changed since written)``."""
     folder = calibration_dir(record.path, participant)
+    recorded = {name: digest for name, digest in
+                (recorded_calibration_logs(record, manifest, participant) or {}).items()
+                if names is None or name in names}
+    return [f"{(folder / name).relative_to(record.path).as_posix()} "
+            f"({'missing' if missing else 'changed since written'})"
+            for name, missing in changed_logs(folder, recorded)]
+
+
+def changed_logs(folder: Path, recorded: Mapping[str, Any]) -> list[tuple[str, bool]]:
+    """The logs of ``recorded`` (log file name -> SHA-256 the manifest records) in ``folder`` that are
+    missing or changed since written, in the record's order: (name, whether missing) each; a
+    simulated run's (:func:`changed_calibration_logs`) and a ``nudge study`` participant's on resume
+    (:func:`nudgecli.live.calibration.check_calibration_files`)."""
     changed = []
-    for name, digest in (recorded_calibration_logs(record, manifest, participant) or {}).items():
-        if names is not None and name not in names:
-            continue
-        path = folder / name
-        why = "missing" if not path.is_file() else \
-            "changed since written" if file_sha256(path) != digest else None
-        if why is not None:
-            changed.append(f"{path.relative_to(record.path).as_posix()} ({why})")
+    for name, digest in recorded.items():
+        path = folder / str(name)
+        if not path.is_file():
+            changed.append((str(name), True))
+        elif file_sha256(path) != digest:
+            changed.append((str(name), False))
     return changed
 
 

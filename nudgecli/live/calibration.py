@@ -29,8 +29,7 @@ from nudgecli.config import CalibrationSection, InterfaceSection
 from nudgecli.errors import RunFolderError
 from nudgecli.model.interface import ACTIONS, LABELS, N_LABELS, label_of_pressure
 from nudgecli.model.world import MODE_NAMES
-from nudgecli.run_folder_calibration import log_digests
-from nudgecli.run_folder_record import file_sha256
+from nudgecli.run_folder_calibration import LIVE_CALIBRATION_FILES, changed_logs, log_digests
 from nudgecli.sim.calibration import IMAGE_TO_MODE_ACTION, MAX_REPEAT_ROUNDS, PROMPT_GAP_S
 from nudgecli.sim.calibration_io import (
     ACTION_IMAGES,
@@ -44,8 +43,9 @@ from nudgecli.sim.calibration_io import (
 from nudgecli.store import write_error
 
 #: The participant's manifest entry's record of their calibration logs' SHA-256 (file name -> hex),
-#: written when each part ends: a crash during part 2 keeps part 1, and a resume starts at part 2.
-CALIBRATION_FILES = "calibration_files"
+#: written when each part ends: a crash during part 2 keeps part 1, and a resume starts at part 2
+#: (the key is :mod:`nudgecli.run_folder_calibration`'s, which checks the logs wherever they are read).
+CALIBRATION_FILES = LIVE_CALIBRATION_FILES
 
 #: What the page shows for each action prompt.
 _MOTION_TEXT = {
@@ -273,12 +273,12 @@ def check_calibration_files(folder: Path, participant: int, entry: Mapping[str, 
     RunFolderError
         Naming the file.
     """
-    for name, digest in (entry.get(CALIBRATION_FILES) or {}).items():
-        path = folder / str(name)
-        if path.is_file() and file_sha256(path) == digest:
-            continue
-        what = ("changed since it was written (its SHA-256 differs from the one in the manifest)"
-                if path.is_file() else "is missing")
+    changed = changed_logs(folder, entry.get(CALIBRATION_FILES) or {})
+    if changed:
+        name, missing = changed[0]
+        path = folder / name
+        what = "is missing" if missing else \
+            "changed since it was written (its SHA-256 differs from the one in the manifest)"
         raise RunFolderError(f"{path}: {what}, but the manifest records it as participant "
                              f"{entry.get('participant_id', participant)}'s calibration; restore it from a "
                              "backup (a person's calibration cannot be recorded again as it was)")
