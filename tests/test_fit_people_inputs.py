@@ -96,3 +96,12 @@ def _refused_with(tmp_path: Path, table: Path, words: list[str]) -> None:
     assert line.startswith(f"Error: {table}: "), line
     for word in words:
         assert word in line, line
+
+
+def test_the_default_mechanics_are_of_the_samples_drawn_when_asked(monkeypatch: pytest.MonkeyPatch) -> None:
+    shipped = twin_fit.PULSE_SAMPLES
+    with monkeypatch.context() as patched:
+        patched.setattr(twin_fit, "PULSE_SAMPLES", 30)
+        assert twin_fit.default_mechanics().draws.normals.shape[1] == 30
+    # was: the draws cached first (30 samples here) handed to every later caller
+    assert twin_fit.default_mechanics().draws.normals.shape[1] == shipped

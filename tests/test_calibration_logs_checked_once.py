@@ -1,21 +1,16 @@
-"""Rules kept in one place, their behaviour the same: a run's and a live study's calibration logs are
-checked by one rule (:func:`nudgecli.run_folder_calibration.changed_logs`), with each check's own
-message; ``read_sessions`` checks a run's logs once for both sessions (one manifest read); and the
-default population's pulse draws are cached by their sample count, so no caller gets draws of
-another length; and a run's questionnaires are read with its manifest always given."""
+"""A run's and a live study's calibration logs are checked by one rule
+(:func:`nudgecli.run_folder_calibration.changed_logs`), with each check's own message, and
+``read_sessions`` checks a run's logs once for both sessions (one manifest read)."""
 
 from __future__ import annotations
 
-import inspect
 from pathlib import Path
 
 import pytest
 
 import nudgecli.sim.calibration_readers as calibration_readers
-import nudgecli.sim.twin_fit as twin_fit
 from nudgecli.errors import RunFolderError
 from nudgecli.live.calibration import CALIBRATION_FILES, check_calibration_files
-from nudgecli.report.questionnaires import read_run_questionnaires
 from nudgecli.run_folder_calibration import LIVE_CALIBRATION_FILES, changed_logs, log_digests
 
 LOGS = Path("calibration") / "participant-0000"
@@ -76,18 +71,3 @@ def test_read_sessions_checks_a_run_s_logs_once_for_both_sessions(analysed_smoke
     assert checked == [ALL_LOGS]  # was: two checks, each parsing the manifest
     calibration_readers.read_distortion_session(analysed_smoke_run / LOGS)  # alone: checks its own
     assert checked[1:] == [{"distortion_prompts.csv", "distortion_stream.csv"}]
-
-
-def test_the_default_mechanics_are_of_the_samples_drawn_when_asked(monkeypatch: pytest.MonkeyPatch) -> None:
-    shipped = twin_fit.PULSE_SAMPLES
-    with monkeypatch.context() as patched:
-        patched.setattr(twin_fit, "PULSE_SAMPLES", 30)
-        assert twin_fit.default_mechanics().draws.normals.shape[1] == 30
-    # was: the draws cached first (30 samples here) handed to every later caller
-    assert twin_fit.default_mechanics().draws.normals.shape[1] == shipped
-
-
-def test_the_questionnaires_of_a_run_are_read_with_its_manifest_given() -> None:
-    # a manifest left out (None) would quietly read a live study as another source
-    manifest = inspect.signature(read_run_questionnaires).parameters["manifest"]
-    assert manifest.default is inspect.Parameter.empty
