@@ -62,7 +62,6 @@ from nudgecli.recording_digests import recordings
 from nudgecli.rng import seed_sequence
 from nudgecli.run_folder_state import refuse_links
 from nudgecli.runs.batch_folder import (
-    BATCH_MANIFEST,
     Log,
     PolicyCopies,
     analysis_part,
@@ -71,6 +70,7 @@ from nudgecli.runs.batch_folder import (
     read_study_metrics,
     task_part,
 )
+from nudgecli.runs.batch_record import BatchRecord
 from nudgecli.runs.batch_tasks import (
     PART_BUILDING_WORKERS,
     TasksLeft,
@@ -93,7 +93,6 @@ from nudgecli.runs.size import SizeEstimate, check_batch_size, size_estimate, tr
 from nudgecli.runs.study import connect_scheduler, contiguous_chunks, executor_name, solve_layout_chunk_into
 from nudgecli.sim.people_file import People
 from nudgecli.sim.study import build_layouts, check_physiology_logs
-from nudgecli.store import provenance, utc_now, write_json_atomic
 
 if TYPE_CHECKING:  # scipy.stats, scikit-posthocs load in analysis tasks; pandas once workers start
     import pandas as pd
@@ -385,18 +384,14 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     if log is not None:  # only now: a refusal is its one error line
         for line in (f"batch: {size.describe()}", *(f"Note: {note}" for note in batch.notes)):
             log(line)
-    manifest: dict[str, Any] = {
-        "batch": batch.describe(),
-        "status": "running",
-        "executor": executor_name(size.workers, client is not None),
-        **provenance(),
-        "studies": len(graph.studies),
-        "participant_tasks": graph.participant_tasks,
-        "analyses": len(graph.analyses),
-        "trials": graph.trials,
-        **copies.record(),
-    }
-    write_json_atomic(folder / BATCH_MANIFEST, manifest)
+    described = {"batch": batch.describe(), "studies": len(graph.studies),
+                 "participant_tasks": graph.participant_tasks, "analyses": len(graph.analyses),
+                 "trials": graph.trials, **copies.record()}
+    executor_named = executor_name(size.workers, client is not None)
+    # a resume with nothing left keeps the record of the run that computed the tasks
+    record = BatchRecord.resumed(folder, described, executor_named, bool(left.at_once())) \
+        if mode == "resume" else BatchRecord(folder, described, executor_named)
+    record.write()
     started = time.perf_counter()
     try:
         executor = make_executor(size.workers, client)
@@ -407,13 +402,10 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
         run.outputs = None if finish is None else finish(run)  # its tables and figures, before "complete"
     except BaseException:
         # interrupted (Ctrl-C, a failed task or write, its outputs not all written): not running, nor complete
-        manifest.update({"status": "interrupted", "interrupted": utc_now()})
         with contextlib.suppress(NudgeError, OSError):
-            write_json_atomic(folder / BATCH_MANIFEST, manifest)
+            record.interrupted()
         raise
-    manifest.update({"status": "complete", "finished": utc_now(), "wall_s": wall,
-                     "worker_peak_rss_mb": None if peak is None else round(peak, 1)})
-    write_json_atomic(folder / BATCH_MANIFEST, manifest)
+    record.complete(computed, wall, peak)
     return run
 
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from nudgecli.errors import DataError, RunFolderError
+from nudgecli.errors import RunFolderError
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY, compared
 from nudgecli.run_folder_names import BATCH_MANIFEST, FIGURES_DIR, LOCK, PEOPLE_DIR
@@ -42,8 +42,6 @@ from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
 from nudgecli.sim.policy_files import SOURCES_KEY as POLICY_SOURCES_KEY
 from nudgecli.sim.policy_files import (
     check_copies_placeable,
-    check_same_policy_files,
-    check_same_policy_sources,
     keep_policy_copies,
     loaded_policy_files,
     outside_policy_sources,
@@ -55,6 +53,7 @@ from nudgecli.store import (
     prepare_mode,
     remove_temporaries,
     write_error,
+    write_json_atomic,
 )
 
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
@@ -305,8 +304,8 @@ def check_inputs_kept(folder: Path, inputs: Iterable[tuple[str, object]], force:
             if isinstance(path, str | Path):
                 declare_input(f"{label} {path}", path)
         parts = [p for name in ("tasks", "analyses") for p in (folder / name).rglob("*")]
-        old, _ = read_manifest(folder / BATCH_MANIFEST) if force else (None, None)
-        kept = old.get(INPUTS_KEY) if old is not None else None  # what the replacement removes of them
+        old, _ = read_manifest(folder / BATCH_MANIFEST)  # what a replacement removes of its inputs:
+        kept = old.get(INPUTS_KEY) if old is not None and (force or replacing(old)) else None
         removed = [folder / str(name) for name in kept] if isinstance(kept, Mapping) else []
         for target in (folder / BATCH_MANIFEST, folder / PART_RECORD, *output_files(folder), *parts,
                        *removed):
@@ -484,21 +483,24 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
                              "again), or choose another --out")
     held = "its batch.json damaged" if damage is not None else \
         None if old is None else f"{old['batch'].get('kind')}, {old.get('status')}"
-    # killed before its batch.json: started afresh (--resume with --force: the rule refuses the pair)
-    start = held is None and not (resume and force) and _start_again(folder, people, policies)
-    mode = "new" if start else prepare_mode(folder, held, resume, force, kind="batch")
+    # killed before its batch.json, or a --force killed while it removed the old batch: only a start,
+    # started afresh (--resume with --force: the rule refuses the pair)
+    start = not (resume and force) and \
+        (replacing(old) or (held is None and _start_again(folder, people, policies)))
+    mode = "replace" if start and old is not None else "new" if start else \
+        prepare_mode(folder, held, resume, force, kind="batch")
     copies, inputs = (None, None) if old is None else (old.get(POLICY_FILES_KEY), old.get(INPUTS_KEY))
     if old is not None and mode == "resume":
-        from nudgecli.runs.batch_resume import resume_advice  # (it reads this module)
+        from nudgecli.runs.batch_resume import check_same_policies, refuse_another_kind, resume_advice
 
-        _refuse_another_kind(folder, old, description)  # first: the rest follows
+        refuse_another_kind(folder, old, description)  # first: the rest follows
         check_kept_inputs(folder, inputs, policies.inputs)  # before the settings: one may be what resumes it
         if differences := batch_differences(old["batch"], description):
             shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                   if len(differences) > 8 else "")
             raise RunFolderError(f"{folder}: holds a different batch ({shown}); resume it with the same "
                                  f"settings{resume_advice(folder, old['batch'], old)}, or use --force")
-        _check_same_policies(folder, old, policies)
+        check_same_policies(folder, old, policies)
     # before anything is removed: a copy's path holding a file of the person's own stops the batch
     check_copies_placeable(policies.files, folder, copies, "batch")
     if old is not None and mode == "resume":
@@ -512,13 +514,7 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
         return "resume"
     check_copies_placeable(policies.inputs, folder, inputs, "batch", "input")
     if mode == "replace":  # every output of the old batch goes, before any work: none outlives it
-        remove_outputs(folder)
-        # of people/, the old batch's copy of its people file goes; other files there stay
-        described = None if old is None else old.get("batch")
-        remove_copy(folder, described.get(PEOPLE_KEY) if isinstance(described, dict) else None)
-        remove_policy_copies(folder, copies)
-        remove_policy_copies(folder, inputs)
-        manifest.unlink()
+        _remove_old_batch(folder, old, copies, inputs)
     (folder / PART_RECORD).unlink(missing_ok=True)  # a new batch: no line left there vouches for a part
     folder.mkdir(parents=True, exist_ok=True)
     keep_copy(people, folder)
@@ -526,29 +522,36 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     return "new"
 
 
-def _refuse_another_kind(folder: Path, old: Mapping[str, Any], description: Mapping[str, Any]) -> None:
-    """Refuse to resume the batch in ``folder`` (``old``: its ``batch.json``) as a batch of another
-    kind than it is, naming the command that resumes it (:mod:`nudgecli.runs.batch_resume`)."""
-    from nudgecli.runs.batch_resume import batch_resume_command
-
-    if (was := old["batch"].get("kind")) != description.get("kind"):
-        command = batch_resume_command(folder, old["batch"], old) or f"nudge {was} ... --resume"
-        raise RunFolderError(f"{folder}: holds a {was} batch, not a {description.get('kind')} batch; "
-                             f"resume it with `{command}`, or use --force to replace it")
+#: ``batch.json``'s status while ``--force`` removes the batch it describes (:func:`replacing`).
+REPLACING = "replacing"
 
 
-def _check_same_policies(folder: Path, old: Mapping[str, Any], policies: PolicyCopies) -> None:
-    """Refuse to resume the batch in ``folder`` (its ``batch.json``, ``old``) with other policy code
-    than it was simulated with: its copies' modules
-    (:func:`~nudgecli.sim.policy_files.check_same_policy_files`) and the policies imported from
-    elsewhere (:func:`~nudgecli.sim.policy_files.check_same_policy_sources`), as a run's resume."""
-    from nudgecli.runs.batch_resume import with_resume_command
+def replacing(old: Mapping[str, Any] | None) -> bool:
+    """Whether ``old`` (a folder's ``batch.json``) records a batch that a ``--force`` was removing
+    when it was killed: the folder holds only a start, whatever is left of the old batch's outputs
+    (any command into it finishes their removal and starts its batch afresh)."""
+    return old is not None and old.get("status") == REPLACING
 
-    try:
-        check_same_policy_files(old.get(POLICY_FILES_KEY), policies.files, policies.source, folder, "batch")
-        check_same_policy_sources(old.get(POLICY_SOURCES_KEY), policies.sources, folder, "batch")
-    except DataError as exc:  # named with the command that resumes the batch once the module is back
-        raise DataError(with_resume_command(str(exc), folder, old)) from None
+
+def _remove_old_batch(folder: Path, old: Mapping[str, Any] | None, copies: object, inputs: object) -> None:
+    """Remove the batch that ``--force`` replaces in ``folder`` (``old``: its ``batch.json``, None
+    where damaged; ``copies`` and ``inputs``: the policy copies and inputs it records): its outputs
+    (:func:`remove_outputs`), its people copy, policy copies, inputs, part record and ``batch.json``.
+
+    ``batch.json`` is marked :data:`REPLACING` first and goes last: a kill in between leaves a folder
+    that reads as a start (:func:`replacing`), never an old table beside a record that says
+    ``complete``, nor a batch whose inputs are gone to be resumed."""
+    manifest = folder / BATCH_MANIFEST
+    if old is not None and not replacing(old):
+        write_json_atomic(manifest, {**old, "status": REPLACING})
+    remove_outputs(folder)
+    # of people/, the old batch's copy of its people file goes; other files there stay
+    described = None if old is None else old.get("batch")
+    remove_copy(folder, described.get(PEOPLE_KEY) if isinstance(described, dict) else None)
+    remove_policy_copies(folder, copies)
+    remove_policy_copies(folder, inputs)
+    (folder / PART_RECORD).unlink(missing_ok=True)  # before batch.json: what is left is only a start
+    manifest.unlink(missing_ok=True)
 
 
 def _start_files(folder: Path, people: People | None, policies: PolicyCopies) -> dict[str, bytes]:

@@ -14,14 +14,18 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from nudgecli.runs.batch_folder import BATCH_MANIFEST, kept_inputs, read_manifest
+from nudgecli.errors import DataError, RunFolderError
+from nudgecli.runs.batch_folder import BATCH_MANIFEST, PolicyCopies, kept_inputs, read_manifest
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import resume_people
+from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
+from nudgecli.sim.policy_files import SOURCES_KEY as POLICY_SOURCES_KEY
+from nudgecli.sim.policy_files import check_same_policy_files, check_same_policy_sources
 from nudgecli.store import resume_command
 
 
-def batch_resume_command(folder: Path, recorded: Mapping[str, Any],
-                         manifest: Mapping[str, Any] | None = None) -> str | None:
+def batch_resume_command(folder: Path, recorded: Mapping[str, Any], manifest: Mapping[str, Any] | None = None,
+                         missing: str | None = None) -> str | None:
     """The command that resumes the batch in ``folder`` (``recorded``: its ``batch.json``
     description; ``manifest``: the whole ``batch.json`` where its caller read it) from the inputs the
     folder keeps (:func:`~nudgecli.runs.batch_folder.kept_inputs`), so it works from any folder and
@@ -33,21 +37,23 @@ def batch_resume_command(folder: Path, recorded: Mapping[str, Any],
       --participants N --plan FOLDER/plan.toml --out FOLDER --resume`` (power: its counts and
       ``--target``), with ``--people`` naming the folder's copy of its people file.
 
-    ``None`` for a batch of an older nudge (no inputs kept: its ``--set`` values are lost).
+    ``None`` for a batch of an older nudge (no inputs kept: its ``--set`` values are lost), or one
+    whose experiment or sweep file copy is gone, unless ``missing`` names the word that stands for
+    it (:func:`resume_advice`).
     """
     kept, kind = kept_inputs(folder, manifest), recorded.get("kind")
-    if kind == "sweep" and "sweep_file" in kept:
+    if kind == "sweep" and ("sweep_file" in kept or missing):
         import tomllib
 
         try:
             written = tomllib.loads(kept["sweep_file"].read_text(encoding="utf-8"))
-        except (OSError, ValueError):  # unreadable: name both settings
+        except (KeyError, OSError, ValueError):  # unreadable: name both settings
             written = {}
         options = [word for key in ("replications", "seed")
                    if key in recorded and recorded[key] != written.get(key)
                    for word in (f"--{key}", str(recorded[key]))]
-        return resume_command(["sweep", str(kept["sweep_file"])], folder, options)
-    if kind not in ("replicate", "power") or "experiment" not in kept:
+        return resume_command(["sweep", str(kept.get("sweep_file", missing))], folder, options)
+    if kind not in ("replicate", "power") or ("experiment" not in kept and not missing):
         return None
     points = recorded.get("points")
     counts = points[0].get("participants", []) if isinstance(points, list) and points and \
@@ -60,7 +66,7 @@ def batch_resume_command(folder: Path, recorded: Mapping[str, Any],
     people = recorded.get(PEOPLE_KEY)
     named = resume_people(folder, people, str(people.get("file"))) if isinstance(people, dict) else None
     options += ["--people", named] if named else []
-    return resume_command([str(kind), str(kept["experiment"])], folder, options)
+    return resume_command([str(kind), str(kept.get("experiment", missing))], folder, options)
 
 
 def typed_resume_command(folder: Path, command: str, arguments: Sequence[tuple[str, str]],
@@ -85,9 +91,15 @@ def typed_resume_command(folder: Path, command: str, arguments: Sequence[tuple[s
 def resume_advice(folder: Path, recorded: Mapping[str, Any],
                   manifest: Mapping[str, Any] | None = None) -> str:
     """`` (`nudge KIND ... --out FOLDER --resume`)``: :func:`batch_resume_command` as a refusal
-    names it after its fix; empty where there is none."""
-    command = batch_resume_command(folder, recorded, manifest)
-    return "" if command is None else f" (`{command}`)"
+    names it after its fix. Where the folder's copy of the experiment (a sweep's file) is gone, the
+    command names ``EXPERIMENT`` (``SWEEP_FILE``) in its place and says so; empty for a batch of
+    another kind."""
+    if (command := batch_resume_command(folder, recorded, manifest)) is not None:
+        return f" (`{command}`)"
+    word = "SWEEP_FILE" if recorded.get("kind") == "sweep" else "EXPERIMENT"
+    if (command := batch_resume_command(folder, recorded, manifest, missing=word)) is None:
+        return ""
+    return f" (`{command}`, {word} the file it ran: the folder keeps no copy of it)"
 
 
 def with_resume_command(message: str, folder: Path, manifest: Mapping[str, Any] | None = None) -> str:
@@ -100,4 +112,26 @@ def with_resume_command(message: str, folder: Path, manifest: Mapping[str, Any] 
     return message if command is None else f"{message}; the command that resumes the batch: `{command}`"
 
 
-__all__ = ["batch_resume_command", "resume_advice", "typed_resume_command", "with_resume_command"]
+def refuse_another_kind(folder: Path, old: Mapping[str, Any], description: Mapping[str, Any]) -> None:
+    """Refuse to resume the batch in ``folder`` (``old``: its ``batch.json``) as a batch of another
+    kind than it is, naming the command that resumes it (:func:`batch_resume_command`)."""
+    if (was := old["batch"].get("kind")) != description.get("kind"):
+        command = batch_resume_command(folder, old["batch"], old) or f"nudge {was} ... --resume"
+        raise RunFolderError(f"{folder}: holds a {was} batch, not a {description.get('kind')} batch; "
+                             f"resume it with `{command}`, or use --force to replace it")
+
+
+def check_same_policies(folder: Path, old: Mapping[str, Any], policies: PolicyCopies) -> None:
+    """Refuse to resume the batch in ``folder`` (its ``batch.json``, ``old``) with other policy code
+    than it was simulated with: its copies' modules
+    (:func:`~nudgecli.sim.policy_files.check_same_policy_files`) and the policies imported from
+    elsewhere (:func:`~nudgecli.sim.policy_files.check_same_policy_sources`), as a run's resume."""
+    try:
+        check_same_policy_files(old.get(POLICY_FILES_KEY), policies.files, policies.source, folder, "batch")
+        check_same_policy_sources(old.get(POLICY_SOURCES_KEY), policies.sources, folder, "batch")
+    except DataError as exc:  # named with the command that resumes the batch once the module is back
+        raise DataError(with_resume_command(str(exc), folder, old)) from None
+
+
+__all__ = ["batch_resume_command", "check_same_policies", "refuse_another_kind", "resume_advice",
+           "typed_resume_command", "with_resume_command"]
