@@ -556,9 +556,10 @@ class RunRecord(LiveRecord, ConfigRecord):
         if manifest is not None and manifest.get("executor") == "live":
             return (f"{folder} holds live sessions with no {kind} recorded yet; "
                     f"{self.continue_session_hint(manifest)}")
+        experiment = str(folder / CONFIG) if (folder / CONFIG).is_file() else "EXPERIMENT"  # its own settings
         if kind == "steps" and (folder / "trials").is_dir() and any((folder / "trials").glob("part-*")):
             return (f"{folder} has trials but no steps/part-*.parquet; finish the run with "
-                    f"`{simulate_resume_command('EXPERIMENT', folder)}`")
+                    f"`{simulate_resume_command(experiment, folder)}`")
         if (folder / METRICS_CSV).is_file():
             # e.g. a committed reference run: its step logs were left out, its metrics kept
             analyze_table = shell_words(["nudge", "analyze", str(folder / METRICS_CSV)])
@@ -566,7 +567,7 @@ class RunRecord(LiveRecord, ConfigRecord):
                     f"analyse the table instead: `{analyze_table}`")
         if manifest is None and only_a_start(folder):
             return (f"{folder} holds only the start of a run killed before it wrote its manifest; start "
-                    f"it again with `{simulate_resume_command('EXPERIMENT', folder)}` (its own settings)")
+                    f"it again with `{simulate_resume_command(experiment, folder)}`")
         return (f"{folder} has no {kind} yet (no {kind}/part-*.parquet); run "
                 f"`{shell_words(['nudge', 'simulate', 'EXPERIMENT', '--out', str(folder)])}` first")
 

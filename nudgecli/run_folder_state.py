@@ -34,13 +34,18 @@ def only_a_start(folder: Path, config_text: str | None = None) -> bool:
     ``config_text``; ``None``: any), left by a run killed before it wrote its manifest: its
     config.toml, perhaps its layouts and its plan file's copy, temporaries, and empty part and
     calibration folders (a ``--force`` killed after clearing the old run leaves those); never a
-    folder holding a file of the person's own."""
+    folder holding a file of the person's own. A run killed as it wrote its config.toml leaves
+    only that file's temporary (beside its lock and those empty folders): a start of any run."""
     config_path = folder / CONFIG
-    if not config_path.is_file():
+    if config_path.is_file():
+        if config_text is not None and config_path.read_text(encoding="utf-8") != config_text:
+            return False
+        kept: tuple[str, ...] = (CONFIG, LAYOUTS, LOCK, PEOPLE_DIR, PLAN_COPY)
+    elif any(folder.glob(f".{CONFIG}.*.tmp")):  # killed as it wrote config.toml: that run's start
+        kept = (LOCK,)
+    else:
         return False
-    if config_text is not None and config_path.read_text(encoding="utf-8") != config_text:
-        return False
-    return all(p.name in (CONFIG, LAYOUTS, LOCK, PEOPLE_DIR, PLAN_COPY) or p.name.endswith(".tmp")
+    return all(p.name in kept or p.name.endswith(".tmp")
                or (p.name in _EMPTIED and p.is_dir() and not any(p.iterdir())) for p in folder.iterdir())
 
 

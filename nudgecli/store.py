@@ -296,12 +296,12 @@ def forced_command(resume: str) -> str | None:
 def simulate_resume_command(experiment: str, target: str | Path, seed: int | None = None,
                             participants: int | None = None, workers: int = 1, overrides: Sequence[str] = (),
                             command: str = "simulate", confirm: bool = False,
-                            people: str | None = None) -> str:
+                            people: str | None = None, plan: str | None = None) -> str:
     """The ``nudge simulate`` (or ``run``) command that resumes a study into ``target`` with the same
     choices (``--yes`` when ``confirm`` let a study above the size limit run; ``people``: the
-    ``--people`` file)."""
+    ``--people`` file; ``plan``: ``nudge run``'s ``--plan``, which ``simulate`` has not)."""
     options = ["--yes"] if confirm else []
-    for flag, value in (("--seed", seed), ("--participants", participants),
+    for flag, value in (("--seed", seed), ("--participants", participants), ("--plan", plan),
                         ("--workers", workers if workers != 1 else None), ("--people", people)):
         options += [flag, str(value)] if value is not None else []
     for override in overrides:
@@ -480,15 +480,17 @@ class RunFolder(RunRecord):
         """Make the folder ready for a run; ``"new"`` or ``"resume"``. The rule is :func:`prepare_mode`'s:
         ``resume`` requires the same resolved experiment and seed (``log`` is told of a config.toml put
         back), ``force`` deletes the old run's tables (or the run's file names in a non-empty folder)
-        first; a run killed before its manifest starts afresh; a batch's folder is refused.
-        """
+        first; a run killed before its manifest starts afresh; a batch's folder is refused."""
         config_text = config.to_toml()
         refuse_links(self.path)  # a linked part folder would have the run written into another folder
         manifest = self.read_manifest() if self.is_run() else None
         self.refuse_live_sessions(manifest)  # a person's sessions: neither resumed nor replaced
         self.refuse_other_kind("run")  # a batch's: --force would leave the batch beside the run
-        if manifest is None and resume and not force and only_a_start(self.path, config_text):
-            self._remove_temporaries()  # killed before its manifest: start it afresh
+        # killed before its manifest: start it afresh (before its config.toml: a plain rerun too)
+        if manifest is None and not force and only_a_start(self.path, config_text) and \
+                (resume or not (self.path / CONFIG).is_file()):
+            self._remove_temporaries()
+            write_text_atomic(self.path / CONFIG, config_text)
             return "new"
         held = (None if manifest is None else
                 f"{manifest.get('experiment')}, {manifest.get('status', 'unknown')}")
@@ -519,10 +521,8 @@ class RunFolder(RunRecord):
         return "new"
 
     def _remove_temporaries(self) -> None:
-        """Remove the temporary files of an interrupted writer (``.<name>.<random>.tmp``).
-
-        The lock is held, so no live writer owns them.
-        """
+        """Remove the temporary files of an interrupted writer (``.<name>.<random>.tmp``): the lock
+        is held, so no live writer owns them."""
         calibration = sorted((self.path / CALIBRATION_DIR).glob("participant-*"))
         parts = [self.path / kind for kind in PART_KINDS]  # and a killed plot's figures' temporaries
         remove_temporaries((self.path, self.path / PEOPLE_DIR, self.path / FIGURES_DIR, *parts, *calibration))
@@ -530,19 +530,19 @@ class RunFolder(RunRecord):
     def _clear(self, manifest: dict[str, Any] | None) -> None:
         """Remove what a run writes (only the run's own files and folders; of ``people/``, only the
         copy the old run's ``manifest`` records: a folder that is not a run may keep the person's
-        own people files there)."""
+        own people files there). The analysis and figures go first, the manifest and config.toml last:
+        killed midway, it is a damaged run or a start, never an analysis without its run."""
         self._remove_temporaries()
+        for name in (STATS_JSON, METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV):
+            (self.path / name).unlink(missing_ok=True)  # stats.json first: an analysis cut short
+        remove_run_figures(self.path)  # the old run's figures would stand beside the new run's tables
         for kind in PART_KINDS:
             folder = self.path / kind
             if folder.is_dir():
                 for p in folder.glob("*.parquet"):
                     p.unlink()
-        for name in (MANIFEST, CONFIG, PARTICIPANTS, LAYOUTS, METRICS_CSV, STATS_JSON, STATS_CSV,
-                     SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV):
+        for name in (PARTICIPANTS, LAYOUTS):
             (self.path / name).unlink(missing_ok=True)
-        remove_run_figures(self.path)  # the old run's figures would stand beside the new run's tables
-        if manifest is not None and manifest.get("plan") == PLAN_COPY:  # its copy, never a file of one's own
-            (self.path / PLAN_COPY).unlink(missing_ok=True)
         from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
         from nudgecli.sim.people_file import remove_copy
         from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
@@ -550,12 +550,14 @@ class RunFolder(RunRecord):
 
         remove_copy(self.path, None if manifest is None else manifest.get(PEOPLE_KEY))
         remove_policy_copies(self.path, None if manifest is None else manifest.get(POLICY_FILES_KEY))
-        calibration = self.path / CALIBRATION_DIR
-        if calibration.is_dir():
-            for log in calibration.glob("participant-*/*.csv"):
-                log.unlink()
-            for folder in calibration.glob("participant-*"):
-                folder.rmdir()
+        for log in (self.path / CALIBRATION_DIR).glob("participant-*/*.csv"):
+            log.unlink()
+        for folder in (self.path / CALIBRATION_DIR).glob("participant-*"):
+            folder.rmdir()
+        for name in (MANIFEST, CONFIG):  # from here on the folder holds only a start
+            (self.path / name).unlink(missing_ok=True)
+        if manifest is not None and manifest.get("plan") == PLAN_COPY:  # its copy, never a file of one's own
+            (self.path / PLAN_COPY).unlink(missing_ok=True)
 
     def calibration_dir(self, participant: int) -> Path:
         """Where a participant's simulated calibration logs go (:mod:`nudgecli.run_folder_calibration`)."""

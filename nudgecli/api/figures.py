@@ -489,7 +489,9 @@ def analyze_and_plot(run: Run | str | Path, *, plan: str | Path | None = None,
     run
         A :class:`Run` or a run folder.
     plan
-        The analysis plan (default: the one named like the run's experiment, else ``paper``).
+        The analysis plan (default: the one the run's manifest records, as ``nudge analyze`` takes it:
+        a resumed ``nudge run --plan X`` is analysed with X again; else the one named like the run's
+        experiment, else ``paper``).
     log
         Receives the line naming the plan chosen, before the analysis, the line naming the figures
         of an earlier plot removed (:func:`save_figures`) and the warning of a stale lock taken over.
@@ -504,10 +506,12 @@ def analyze_and_plot(run: Run | str | Path, *, plan: str | Path | None = None,
     from nudgecli.report.analysis import analyze as analyze_source
     from nudgecli.report.plans import load_plan
     from nudgecli.report.plotting import plot_folder
+    from nudgecli.report.recorded_plans import plan_of_source
 
     opened = run if isinstance(run, Run) else Run.open(arguments.path("run", run))
     log = arguments.callback("log", log)
-    chosen: str | Path = resolve_plan(plan, experiment=opened.experiment, world=opened.config.world.kind)
+    chosen: str | Path = plan_of_source(opened.path) if plan is None else \
+        resolve_plan(plan, experiment=opened.experiment, world=opened.config.world.kind)
     if log is not None:
         log(f"analysing with the {chosen!r} plan")
     analysis_plan = load_plan(chosen)

@@ -68,8 +68,10 @@ def _interrupt_hint(target: Path, people: str | None,
             return (f"{target} keeps its {done} finished participant(s); resume with: "
                     f"{commands[0]}{alternatives}")
         if target.is_dir() and any(target.iterdir()):  # its start is written: a plain rerun is refused
-            command = resume_commands(people_to_resume(target, people), None)[0]
-            return f"nothing was simulated yet; {target} holds the run's start: continue with: {command}"
+            commands = resume_commands(people_to_resume(target, people), None)
+            alternatives = "".join(f" (or, to analyse and plot too: {c})" for c in commands[1:])
+            return (f"nothing was simulated yet; {target} holds the run's start: continue with: "
+                    f"{commands[0]}{alternatives}")
         return "nothing was simulated yet; run the command again"
 
     return hint
@@ -84,11 +86,11 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
     from nudgecli.store import default_run_dir, simulate_resume_command
 
     config = api.experiment_config(experiment, overrides)
+    target = Path(out) if out else default_run_dir(config.experiment.name)
     if command == "run" and plan is None:  # the plan `run` analyses with, refused before simulating
         from nudgecli.api.run_plan import check_run_plan
 
-        check_run_plan(config)
-    target = Path(out) if out else default_run_dir(config.experiment.name)
+        check_run_plan(config, target if resume else None)
 
     def resume_commands(people_named: str | None, kept: str | None = None) -> list[str]:
         named, sets = (kept, ()) if kept else (experiment, overrides)  # the kept one holds the --set values
@@ -96,7 +98,7 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
                                             confirm=confirm, people=people_named)]
         if command != "simulate":
             commands.append(simulate_resume_command(named, target, seed, participants, workers,
-                                                    sets, command, confirm, people_named))
+                                                    sets, command, confirm, people_named, plan))
         return commands
 
     click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, people, resume_commands)

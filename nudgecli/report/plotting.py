@@ -60,6 +60,7 @@ from nudgecli.report.tables import (
 from nudgecli.report.trial_selection import choose_figure5_trial
 from nudgecli.report.trial_steps import TrialKey
 from nudgecli.run_folder_names import FIGURES_DIR, METRICS_CSV, STATS_JSON
+from nudgecli.run_folder_state import only_a_start
 from nudgecli.store import RunFolder, is_run_folder
 
 
@@ -460,6 +461,8 @@ def read_inputs(source: str | Path, trial: TrialKey | None = None) -> FigureInpu
         # an analysis folder holds metrics.csv, or its stats.json names the table it analysed
         metrics_path = analysed_metrics_path(folder)
         if metrics_path is None and not run.is_run():
+            if only_a_start(folder):  # killed before its manifest: the command that starts it again
+                raise RunFolderError(run.no_parts_message("trials", None))
             raise RunFolderError(f"{folder}: not a run folder (no manifest.json) and no {METRICS_CSV}; "
                                  "run `nudge simulate` and `nudge analyze` first, or give a metrics table")
         analyze_command = shell_words(["nudge", "analyze", str(folder)])  # quoted: pasted as it is
