@@ -121,6 +121,12 @@ def read_toml(path: Path) -> dict[str, Any]:
         data = path.read_bytes()
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read ({exc.strerror})") from exc
+    return toml_of_bytes(data, path)
+
+
+def toml_of_bytes(data: bytes, path: Path) -> dict[str, Any]:
+    """:func:`read_toml` of the bytes ``data`` of the file ``path`` (a byte order mark skipped;
+    errors name ``path``)."""
     try:
         text = data.decode("utf-8").removeprefix("\ufeff")  # tomllib reads a BOM as an invalid statement
     except UnicodeDecodeError as exc:  # TOML is UTF-8 (toml.io, "Spec"); say where the first bad byte is

@@ -64,7 +64,7 @@ def test_a_folder_a_force_was_replacing_starts_afresh_on_any_command(tmp_path: P
 def test_a_refused_resume_names_a_command_where_the_experiment_copy_is_gone(tmp_path: Path) -> None:
     recorded = {"kind": "replicate", "replications": 3, "seed": 5,
                 "points": [{"index": 0, "participants": [2], "parameters": {}}]}
-    advice = resume_advice(tmp_path, recorded, {"batch": recorded, "inputs": {}})
+    advice = resume_advice(tmp_path, {"batch": recorded, "inputs": {}})
     # was "": "resume it with the same settings, or use --force", no command
     assert "nudge replicate EXPERIMENT" in advice and "--replications 3 --seed 5" in advice
     assert "--resume" in advice and "the folder keeps no copy" in advice

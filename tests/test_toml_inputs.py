@@ -34,3 +34,16 @@ def test_a_folder_named_like_a_toml_file_is_named_a_folder(tmp_path: Path, kind:
         resolve_preset(str(folder), kind)  # type: ignore[arg-type]
     with pytest.raises(ConfigError, match=r"no such file"):
         resolve_preset(str(tmp_path / "y.toml"), kind)  # type: ignore[arg-type]
+
+
+def test_a_batch_experiment_with_a_byte_order_mark_resumes_after_a_comment_changed(tmp_path: Path) -> None:
+    # the kept copy's comments edited: resumed where both read as the same TOML (was: tomllib
+    # refused the mark, so the batch's own experiment read as "changed since the batch wrote it")
+    import hashlib
+
+    from nudgecli.runs.batch_folder import check_kept_inputs
+
+    typed = "\ufeff[study]\nparticipants = 2\n".encode()
+    (tmp_path / "experiment.toml").write_bytes(typed + b"# a note of the person's own\n")
+    recorded = {"experiment.toml": hashlib.sha256(typed).hexdigest()}
+    check_kept_inputs(tmp_path, recorded, {"experiment.toml": typed})

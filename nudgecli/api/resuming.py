@@ -80,14 +80,14 @@ def recordings_base(folder: str | Path) -> str | None:
     the experiment the batch keeps names a ``population.physiology_logs`` recording by a relative
     path (read from the current folder; from elsewhere the resume is refused, or would take another
     recording: :data:`nudgecli.recording_digests.RECORDINGS_KEY`); ``None`` where it names none so."""
-    import tomllib
-
+    from nudgecli.config_files import read_toml
+    from nudgecli.errors import ConfigError
     from nudgecli.runs.batch_folder import kept_inputs
 
     kept = kept_inputs(Path(folder)).get("experiment")
     try:
-        population = tomllib.loads(kept.read_text(encoding="utf-8")).get("population") if kept else None
-    except (OSError, ValueError):
+        population = read_toml(kept).get("population") if kept else None
+    except ConfigError:
         return None
     logs = population.get("physiology_logs") if isinstance(population, dict) else None
     relative = isinstance(logs, list) and any(not Path(str(log)).is_absolute() for log in logs)

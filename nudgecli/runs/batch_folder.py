@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from nudgecli.errors import RunFolderError
+from nudgecli.errors import ConfigError, RunFolderError
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY, compared
 from nudgecli.run_folder_names import BATCH_MANIFEST, FIGURES_DIR, LOCK, PEOPLE_DIR
@@ -421,13 +421,13 @@ def check_kept_inputs(folder: Path, recorded: object, inputs: Mapping[str, bytes
     RunFolderError
         The first such file: names it, what is wrong and the fix.
     """
-    import tomllib
+    from nudgecli.config_files import read_toml, toml_of_bytes
 
     def same_settings(kept: Path, now: bytes | None, digest: object) -> bool:
         try:
             return now is not None and hashlib.sha256(now).hexdigest() == digest and \
-                tomllib.loads(kept.read_text(encoding="utf-8")) == tomllib.loads(now.decode("utf-8"))
-        except (OSError, ValueError):  # unreadable, not TOML: not the batch's
+                read_toml(kept) == toml_of_bytes(now, kept)
+        except ConfigError:  # unreadable, not TOML: not the batch's
             return False
 
     recorded_sums = {str(k): v for k, v in recorded.items()} if isinstance(recorded, Mapping) else {}
@@ -499,7 +499,7 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
             shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                   if len(differences) > 8 else "")
             raise RunFolderError(f"{folder}: holds a different batch ({shown}); resume it with the same "
-                                 f"settings{resume_advice(folder, old['batch'], old)}, or use --force")
+                                 f"settings{resume_advice(folder, old)}, or use --force")
         check_same_policies(folder, old, policies)
     # before anything is removed: a copy's path holding a file of the person's own stops the batch
     check_copies_placeable(policies.files, folder, copies, "batch")

@@ -14,7 +14,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from nudgecli.errors import DataError, RunFolderError
+from nudgecli.config_files import read_toml
+from nudgecli.errors import ConfigError, DataError, RunFolderError
 from nudgecli.runs.batch_folder import BATCH_MANIFEST, PolicyCopies, kept_inputs, read_manifest
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import resume_people
@@ -24,10 +25,9 @@ from nudgecli.sim.policy_files import check_same_policy_files, check_same_policy
 from nudgecli.store import resume_command
 
 
-def batch_resume_command(folder: Path, recorded: Mapping[str, Any], manifest: Mapping[str, Any] | None = None,
-                         missing: str | None = None) -> str | None:
-    """The command that resumes the batch in ``folder`` (``recorded``: its ``batch.json``
-    description; ``manifest``: the whole ``batch.json`` where its caller read it) from the inputs the
+def batch_resume_command(folder: Path, manifest: Mapping[str, Any], missing: str | None = None) -> str | None:
+    """The command that resumes the batch in ``folder`` (``manifest``: its ``batch.json``, whose
+    ``batch`` describes it) from the inputs the
     folder keeps (:func:`~nudgecli.runs.batch_folder.kept_inputs`), so it works from any folder and
     imports the batch's own policy copies:
 
@@ -41,13 +41,12 @@ def batch_resume_command(folder: Path, recorded: Mapping[str, Any], manifest: Ma
     whose experiment or sweep file copy is gone, unless ``missing`` names the word that stands for
     it (:func:`resume_advice`).
     """
+    recorded = manifest["batch"]
     kept, kind = kept_inputs(folder, manifest), recorded.get("kind")
     if kind == "sweep" and ("sweep_file" in kept or missing):
-        import tomllib
-
         try:
-            written = tomllib.loads(kept["sweep_file"].read_text(encoding="utf-8"))
-        except (KeyError, OSError, ValueError):  # unreadable: name both settings
+            written = read_toml(kept["sweep_file"])
+        except (KeyError, ConfigError):  # unreadable: name both settings
             written = {}
         options = [word for key in ("replications", "seed")
                    if key in recorded and recorded[key] != written.get(key)
@@ -88,16 +87,15 @@ def typed_resume_command(folder: Path, command: str, arguments: Sequence[tuple[s
     return resume_command([command, *words], folder)
 
 
-def resume_advice(folder: Path, recorded: Mapping[str, Any],
-                  manifest: Mapping[str, Any] | None = None) -> str:
+def resume_advice(folder: Path, manifest: Mapping[str, Any]) -> str:
     """`` (`nudge KIND ... --out FOLDER --resume`)``: :func:`batch_resume_command` as a refusal
     names it after its fix. Where the folder's copy of the experiment (a sweep's file) is gone, the
     command names ``EXPERIMENT`` (``SWEEP_FILE``) in its place and says so; empty for a batch of
     another kind."""
-    if (command := batch_resume_command(folder, recorded, manifest)) is not None:
+    if (command := batch_resume_command(folder, manifest)) is not None:
         return f" (`{command}`)"
-    word = "SWEEP_FILE" if recorded.get("kind") == "sweep" else "EXPERIMENT"
-    if (command := batch_resume_command(folder, recorded, manifest, missing=word)) is None:
+    word = "SWEEP_FILE" if manifest["batch"].get("kind") == "sweep" else "EXPERIMENT"
+    if (command := batch_resume_command(folder, manifest, missing=word)) is None:
         return ""
     return f" (`{command}`, {word} the file it ran: the folder keeps no copy of it)"
 
@@ -108,7 +106,7 @@ def with_resume_command(message: str, folder: Path, manifest: Mapping[str, Any] 
     batch ``folder``'s ``batch.json`` describes (``manifest``: as its caller read it; read here where
     not given), where there is one."""
     old = manifest if manifest is not None else read_manifest(folder / BATCH_MANIFEST)[0]
-    command = None if old is None else batch_resume_command(folder, old["batch"], old)
+    command = None if old is None else batch_resume_command(folder, old)
     return message if command is None else f"{message}; the command that resumes the batch: `{command}`"
 
 
@@ -116,7 +114,7 @@ def refuse_another_kind(folder: Path, old: Mapping[str, Any], description: Mappi
     """Refuse to resume the batch in ``folder`` (``old``: its ``batch.json``) as a batch of another
     kind than it is, naming the command that resumes it (:func:`batch_resume_command`)."""
     if (was := old["batch"].get("kind")) != description.get("kind"):
-        command = batch_resume_command(folder, old["batch"], old) or f"nudge {was} ... --resume"
+        command = batch_resume_command(folder, old) or f"nudge {was} ... --resume"
         raise RunFolderError(f"{folder}: holds a {was} batch, not a {description.get('kind')} batch; "
                              f"resume it with `{command}`, or use --force to replace it")
 
