@@ -124,20 +124,31 @@ def repair_advice(folder: Path, manifest: Mapping[str, Any], resume: str, verb: 
 RUN_OWN = (*_EMPTIED, PEOPLE_DIR, FIGURES_DIR, MANIFEST, CONFIG, PARTICIPANTS, LAYOUTS)
 
 
+def refuse_linked_out(folder: Path) -> None:
+    """Refuse an ``--out`` that is itself a symbolic link (to a folder elsewhere), before a run or a
+    batch writes anything (its lock) through it. A run given by a link to ``analyze`` or ``plot`` is
+    the person's choice of folder: only the files and folders inside are checked
+    (:func:`refuse_links`).
+
+    Raises
+    ------
+    RunFolderError
+        Names the link, where it points and the real folder to give."""
+    if folder.is_symlink():
+        raise RunFolderError(f"{folder} is a symbolic link (to {os.readlink(folder)}); nudge never writes "
+                             f"through a link, into another folder: give the real folder, {folder.resolve()}")
+
+
 def refuse_links(folder: Path, names: Iterable[str] = RUN_OWN) -> None:
-    """Refuse a folder that is itself a symbolic link (an ``--out`` linked to a folder elsewhere), or
-    where a folder or file a command writes there (``names``: a run's by default, ``trials/``,
-    ``manifest.json``, ...) is one: writing, resuming or ``--force`` replacing it would follow the
-    link into another folder (another run's parts). Never followed, never replaced: the person says
-    which (a folder given by a link: its real path).
+    """Refuse where a folder or file a command writes in ``folder`` (``names``: a run's by default,
+    ``trials/``, ``manifest.json``, ...) is a symbolic link: writing, resuming or ``--force``
+    replacing it would follow the link into another folder (another run's parts). Never followed,
+    never replaced: the person says which.
 
     Raises
     ------
     RunFolderError
         Names the link and where it points."""
-    if folder.is_symlink():
-        raise RunFolderError(f"{folder} is a symbolic link (to {os.readlink(folder)}); nudge never writes "
-                             f"through a link, into another folder: give the real folder, {folder.resolve()}")
     for name in names:
         path = folder / name
         if path.is_symlink():

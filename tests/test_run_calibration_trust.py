@@ -113,3 +113,16 @@ def test_a_batch_refuses_a_link_at_a_table_name(tmp_path: Path, table: str) -> N
     assert f"{out / table} is a symbolic link (to {mine})" in line
     assert mine.read_text() == "mine\n" and (out / table).is_symlink()
     assert not (out / "batch.json").exists()
+
+
+def test_a_run_given_by_a_link_is_analysed_and_drawn_where_it_points(analysed_smoke_run: Path,
+                                                                    tmp_path: Path) -> None:
+    # only --out is refused as a link; a run named by a link is the person's folder (was: analyze
+    # and plot refused it once the --out rule was put into refuse_links, which they share)
+    real = tmp_path / "real"
+    shutil.copytree(analysed_smoke_run, real)
+    linked = tmp_path / "linked"
+    linked.symlink_to(real, target_is_directory=True)
+    assert nudge("analyze", linked, "--bootstrap", "100").exit_code == 0
+    assert nudge("plot", linked, "--formats", "png").exit_code == 0
+    assert (real / "figures" / "fig3.png").is_file()

@@ -60,7 +60,7 @@ from nudgecli.errors import ConfigError, NudgeError
 from nudgecli.locks import run_lock
 from nudgecli.recording_digests import recordings
 from nudgecli.rng import seed_sequence
-from nudgecli.run_folder_state import refuse_links
+from nudgecli.run_folder_state import refuse_linked_out
 from nudgecli.runs.batch_folder import (
     Log,
     PolicyCopies,
@@ -355,7 +355,7 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
     for point in batch.points:
         check_physiology_logs(point.config)
     copies = policy_copies(batch)  # the policy code (and inputs) kept in the folder, as a run's
-    refuse_links(Path(out), ())  # a linked --out: refused before anything (its lock) is written through it
+    refuse_linked_out(Path(out))  # a linked --out: refused before anything (its lock) is written through it
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
     folder = Path(out)
     made = not folder.exists()

@@ -35,7 +35,7 @@ from nudgecli.rng import check_seed
 from nudgecli.run_folder_calibration import write_calibration_logs
 from nudgecli.run_folder_names import LAYOUTS, PARTICIPANTS
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, FILE_CHECKSUMS
-from nudgecli.run_folder_state import refuse_links
+from nudgecli.run_folder_state import refuse_linked_out
 from nudgecli.runs.size import check_study_size
 from nudgecli.runs.solved_layouts import solve_layouts_cached
 from nudgecli.runs.study_tasks import (
@@ -402,7 +402,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     if plan is not None:  # refused before anything is simulated or written
         checked_plan(plan, [config])
         RunFolder(out).check_plan_not_its_copy(plan)  # the copy the run writes, --force removes first
-    refuse_links(Path(out), ())  # a linked --out: refused before anything (its lock) is written through it
+    refuse_linked_out(Path(out))  # a linked --out: refused before anything (its lock) is written through it
     client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
     try:
         with run_lock(out, log=log):
