@@ -74,10 +74,12 @@ class Batch(FolderOwner):
 
 
 def holds_batch(folder: str | Path) -> bool:
-    """Whether ``folder`` holds a batch (its manifest): one a resumed command would finish."""
-    from nudgecli.runs.batch_folder import BATCH_MANIFEST
+    """Whether ``folder`` holds a batch (its manifest): one a resumed command would finish; not one
+    a ``--force`` was removing (``batch.json`` marked ``replacing``: any command starts afresh)."""
+    from nudgecli.runs.batch_folder import BATCH_MANIFEST, read_manifest, replacing
 
-    return (Path(arguments.path("folder", folder)) / BATCH_MANIFEST).is_file()
+    manifest = Path(arguments.path("folder", folder)) / BATCH_MANIFEST
+    return manifest.is_file() and not replacing(read_manifest(manifest)[0])
 
 
 def progress_line(label: str) -> ProgressCallback:

@@ -101,7 +101,9 @@ def _batch_interrupt_hint(target: Path, ctx: click.Context) -> Callable[[], str]
     """What to say after Ctrl-C of the batch command of ``ctx`` into ``target``: the command that
     resumes it, naming the copy of ``--people`` the folder keeps where it has been written (else
     the file as typed), and on a line of its own the folder to run it from where the experiment
-    names a recording by a relative path (:func:`nudgecli.api.resuming.recordings_base`)."""
+    names a recording by a relative path (:func:`nudgecli.api.resuming.recordings_base`); where the
+    folder holds no batch, or only one a ``--force`` was removing (:func:`nudgecli.api.holds_batch`),
+    that nothing was computed yet."""
 
     def hint() -> str:
         from nudgecli.api import holds_batch

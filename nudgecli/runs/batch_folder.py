@@ -340,14 +340,14 @@ def read_manifest(manifest: Path) -> tuple[dict[str, Any] | None, str | None]:
 
 
 def recorded_people(folder: Path, kind: str | None = None) -> tuple[bool, Any]:
-    """Whether ``folder``'s ``batch.json`` describes a batch (:func:`read_manifest`: absent or
-    damaged, it does not; nor one of another ``kind`` where given, which :func:`prepare_folder`
-    names first), and the people file's entry its description records (``None``: a batch
-    of the population's people; anything else as read). The one reading of it, for the resume
-    check (:func:`nudgecli.sim.people_file.check_same_people`) and the resume command's
-    ``--people`` (:mod:`nudgecli.api.resuming`)."""
+    """Whether ``folder``'s ``batch.json`` describes a batch (:func:`read_manifest`: absent,
+    damaged or :func:`replacing`, it does not; nor one of another ``kind`` where given), and the
+    people file's entry its description records (``None``: a batch of the population's people;
+    anything else as read). The one reading of it, for the resume check
+    (:func:`nudgecli.sim.people_file.check_same_people`) and the resume command's ``--people``
+    (:mod:`nudgecli.api.resuming`): a batch a ``--force`` was removing is no longer there."""
     old, _ = read_manifest(folder / BATCH_MANIFEST)
-    if old is None or kind not in (None, old["batch"].get("kind")):
+    if old is None or replacing(old) or kind not in (None, old["batch"].get("kind")):
         return False, None
     return True, old["batch"].get(PEOPLE_KEY)
 
