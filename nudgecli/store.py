@@ -554,10 +554,10 @@ class RunFolder(RunRecord):
             log.unlink()
         for folder in (self.path / CALIBRATION_DIR).glob("participant-*"):
             folder.rmdir()
+        if manifest is not None and manifest.get("plan") == PLAN_COPY:  # its copy, never a file of one's own
+            (self.path / PLAN_COPY).unlink(missing_ok=True)  # before config.toml: left, it is no start
         for name in (MANIFEST, CONFIG):  # from here on the folder holds only a start
             (self.path / name).unlink(missing_ok=True)
-        if manifest is not None and manifest.get("plan") == PLAN_COPY:  # its copy, never a file of one's own
-            (self.path / PLAN_COPY).unlink(missing_ok=True)
 
     def calibration_dir(self, participant: int) -> Path:
         """Where a participant's simulated calibration logs go (:mod:`nudgecli.run_folder_calibration`)."""
