@@ -487,14 +487,13 @@ class RunFolder(RunRecord):
         self.refuse_live_sessions(manifest)  # a person's sessions: neither resumed nor replaced
         self.refuse_other_kind("run")  # a batch's: --force would leave the batch beside the run
         # killed before its manifest: start it afresh (before its config.toml: a plain rerun too)
-        if manifest is None and not force and only_a_start(self.path, config_text) and \
-                (resume or not (self.path / CONFIG).is_file()):
+        start = manifest is None and not force and only_a_start(self.path, config_text) and \
+            (resume or not (self.path / CONFIG).is_file())
+        if start:
             self._remove_temporaries()
-            write_text_atomic(self.path / CONFIG, config_text)
-            return "new"
         held = (None if manifest is None else
                 f"{manifest.get('experiment')}, {manifest.get('status', 'unknown')}")
-        mode = prepare_mode(self.path, held, resume, force)
+        mode = "new" if start else prepare_mode(self.path, held, resume, force)
         if manifest is not None and mode == "resume":
             self.check_own_manifest(manifest)  # another run's: a resume would simulate every part again
             self.participant_count(manifest)  # a damaged count is named first: no command resumes it

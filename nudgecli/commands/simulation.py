@@ -64,17 +64,20 @@ def _interrupt_hint(target: Path, people: str | None,
             except NudgeError:
                 kept = None
             commands = resume_commands(people_to_resume(target, people), kept)
-            alternatives = "".join(f" (or, to analyse and plot too: {c})" for c in commands[1:])
-            return (f"{target} keeps its {done} finished participant(s); resume with: "
-                    f"{commands[0]}{alternatives}")
+            return f"{target} keeps its {done} finished participant(s); resume with: {_offered(commands)}"
         if target.is_dir() and any(target.iterdir()):  # its start is written: a plain rerun is refused
             commands = resume_commands(people_to_resume(target, people), None)
-            alternatives = "".join(f" (or, to analyse and plot too: {c})" for c in commands[1:])
             return (f"nothing was simulated yet; {target} holds the run's start: continue with: "
-                    f"{commands[0]}{alternatives}")
+                    f"{_offered(commands)}")
         return "nothing was simulated yet; run the command again"
 
     return hint
+
+
+def _offered(commands: list[str]) -> str:
+    """The resume commands a Ctrl-C hint offers: the first (``nudge simulate``), then each other one
+    (``nudge run``'s, which analyses and plots too) as an alternative."""
+    return commands[0] + "".join(f" (or, to analyse and plot too: {c})" for c in commands[1:])
 
 
 def _simulate(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,

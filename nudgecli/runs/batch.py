@@ -379,8 +379,9 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     mode = prepare_folder(folder, batch.describe(), resume, force, batch.people, copies)
     graph = build_graph(batch)
     left = tasks_left(folder, graph)
+    runnable = left.at_once() if mode == "resume" else 0  # the tasks left that can run at once
     if mode == "resume" and client is None and workers > 1:  # its pool: the tasks left, not all of them
-        size = estimate_batch(batch, workers, left.at_once())
+        size = estimate_batch(batch, workers, runnable)
     if log is not None:  # only now: a refusal is its one error line
         for line in (f"batch: {size.describe()}", *(f"Note: {note}" for note in batch.notes)):
             log(line)
@@ -389,7 +390,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
                  "trials": graph.trials, **copies.record()}
     executor_named = executor_name(size.workers, client is not None)
     # a resume with nothing left keeps the record of the run that computed the tasks
-    record = BatchRecord.resumed(folder, described, executor_named, bool(left.at_once())) \
+    record = BatchRecord.resumed(folder, described, executor_named, bool(runnable)) \
         if mode == "resume" else BatchRecord(folder, described, executor_named)
     record.write()
     started = time.perf_counter()
