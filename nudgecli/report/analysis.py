@@ -539,8 +539,9 @@ def _statistics(filtered: pd.DataFrame, trial_selected: Sequence[str], scores: p
                                       not_applicable=not_applicable)["metrics"]
     stats: dict[str, Any] = {"conditions": list(conditions), "metrics": entries}
     if scores is not None and score_selected:
-        stats["metrics"] += compare_conditions(scores, score_selected, conditions, options,
-                                               not_applicable=not_applicable)["metrics"]
+        stats["metrics"] += compare_conditions(scores, score_selected, conditions, options,  # the
+                                               not_applicable=not_applicable,  # trials' participants
+                                               roster=filtered)["metrics"]
     if progress:
         progress(total, total)
     return stats

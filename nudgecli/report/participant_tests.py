@@ -17,7 +17,14 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.report.rank_tests import average_ranks
-from nudgecli.report.stats import adjust_p_values, condition_positions, pairs, python_scalar, tidy_values
+from nudgecli.report.stats import (
+    adjust_p_values,
+    compared_participants,
+    condition_positions,
+    pairs,
+    python_scalar,
+    tidy_values,
+)
 
 # scipy.stats (about 0.5 s of CPU to import) is imported only where scipy's own function runs (an
 # unchecked scipy release, differences that are not all finite or all zero, the Friedman test):
@@ -277,21 +284,27 @@ def _normal_signed_rank_test(d: np.ndarray) -> tuple[float, float]:
 def participant_summaries(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
                           participant: str = "participant", condition: str = "condition",
                           aggregate: Literal["median", "mean"] = "median",
-                          tidy: pd.DataFrame | None = None) -> tuple[pd.DataFrame, list[Any]]:
+                          tidy: pd.DataFrame | None = None,
+                          roster: pd.DataFrame | None = None) -> tuple[pd.DataFrame, list[Any]]:
     """Per-participant medians (or means) per condition, complete participants only.
 
     Parameters
     ----------
     tidy
         :func:`~nudgecli.report.stats.tidy_values` of the arguments with the participants, when
-        the caller holds it (every test of a metric reads the same rows); ``data`` is then not read.
+        the caller holds it (every test of a metric reads the same rows); ``data`` is then read
+        for its participants only (:func:`~nudgecli.report.stats.compared_participants`).
+    roster
+        The table whose participants (of these conditions) are the study's, when not ``data``'s:
+        the trials, for questionnaire scores a participant may not have answered at all.
 
     Returns
     -------
     (pd.DataFrame, list)
         A wide table (index participant, one column per condition in the given order) of the
         participants with a value in every condition, and the participants dropped because
-        they miss a condition.
+        they miss a condition: every participant of ``data``'s rows of these conditions without
+        a value in one of them (its rows there missing, or their values all blank), sorted.
     """
     if tidy is None:
         tidy = tidy_values(data, metric, conditions, condition, participant)
@@ -300,9 +313,12 @@ def participant_summaries(data: pd.DataFrame, metric: str, conditions: Sequence[
         grouped = tidy.groupby(["participant", "condition"], observed=True)["value"]
         wide = grouped.agg(aggregate).unstack("condition")
         wide = wide.reindex(columns=list(conditions))
-    complete = wide.notna().all(axis=1)
-    dropped = [python_scalar(p) for p in wide.index[~complete]]
-    return wide[complete], dropped
+    complete = wide[wide.notna().all(axis=1)]
+    # from the table's participants, not the tidy rows': one without any value of a condition
+    # has no tidy row of it, and is dropped as surely as one missing the condition's rows
+    everyone = compared_participants(data if roster is None else roster, conditions, condition, participant)
+    dropped = [python_scalar(p) for p in everyone.difference(complete.index)]
+    return complete, dropped
 
 
 def _median_table(tidy: pd.DataFrame, conditions: Sequence[str]) -> pd.DataFrame | None:
@@ -454,14 +470,15 @@ def pairwise_wilcoxon(data: pd.DataFrame, metric: str, conditions: Sequence[str]
 def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
                            participant: str = "participant", condition: str = "condition",
                            aggregate: Literal["median", "mean"] = "median", p_adjust: str = "holm",
-                           tidy: pd.DataFrame | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
+                           tidy: pd.DataFrame | None = None,
+                           roster: pd.DataFrame | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
     """The paired test on per-participant summaries and its effect size.
 
     Two conditions: Wilcoxon signed-rank (``scipy.stats.wilcoxon``, defaults: zero differences
     dropped, exact p for small samples) and the matched-pairs rank-biserial correlation of
     ``a - b``. More: Friedman (``scipy.stats.friedmanchisquare``) and Kendall's W, then
     :func:`pairwise_wilcoxon` (adjusted by ``p_adjust``) with each pair's rank-biserial correlation.
-    ``tidy``: as :func:`participant_summaries`'.
+    ``tidy``, ``roster``: as :func:`participant_summaries`'.
 
     Returns
     -------
@@ -473,7 +490,8 @@ def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence
         ``a, b, name, value``, for more).
     """
     wide, dropped = participant_summaries(data, metric, conditions, participant=participant,
-                                          condition=condition, aggregate=aggregate, tidy=tidy)
+                                          condition=condition, aggregate=aggregate, tidy=tidy,
+                                          roster=roster)
     notes = []
     if dropped:
         notes.append(f"{len(dropped)} participant(s) without a value in every condition dropped: "

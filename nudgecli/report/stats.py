@@ -90,12 +90,7 @@ def tidy_values(data: pd.DataFrame, metric: str, conditions: Sequence[str], cond
                 participant: str | None = None) -> pd.DataFrame:
     """A metric's values as every test reads them: ``condition``, ``value`` (and ``participant``)
     rows of the given conditions with a value."""
-    labels = data[condition]
-    if isinstance(labels.dtype, pd.CategoricalDtype):  # fast path for large tables: no string copies
-        labels = labels.cat.rename_categories([str(c) for c in labels.cat.categories])
-    else:
-        labels = labels.astype(str)
-    columns = {"condition": labels, "value": _numeric(data[metric])}
+    columns = {"condition": _condition_labels(data[condition]), "value": _numeric(data[metric])}
     if participant is not None:
         columns["participant"] = data[participant]
     tidy = pd.DataFrame(columns)
@@ -103,6 +98,22 @@ def tidy_values(data: pd.DataFrame, metric: str, conditions: Sequence[str], cond
     if keep.all():  # the usual case: no copy of a large table
         return tidy.reset_index(drop=True)
     return tidy[keep].reset_index(drop=True)
+
+
+def _condition_labels(labels: pd.Series) -> pd.Series:
+    """The condition labels as strings (categories renamed: no string copy of a large table)."""
+    if isinstance(labels.dtype, pd.CategoricalDtype):
+        return labels.cat.rename_categories([str(c) for c in labels.cat.categories])
+    return labels.astype(str)
+
+
+def compared_participants(data: pd.DataFrame, conditions: Sequence[str], condition: str,
+                          participant: str) -> pd.Index:
+    """Every participant with a row in one of the given conditions, a value of the metric or not
+    (:func:`tidy_values` keeps only the rows with a value: a participant all of whose values of
+    a condition are missing is not in it, yet is one the participant-level test leaves out)."""
+    rows = _condition_labels(data[condition]).isin(conditions).to_numpy()
+    return pd.Index(pd.unique(data[participant][rows].dropna()))
 
 
 def pairs(conditions: Sequence[str]) -> list[tuple[str, str]]:

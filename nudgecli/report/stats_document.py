@@ -40,7 +40,8 @@ DEFAULT_OPTIONS = ComparisonOptions()
 
 def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
                    options: ComparisonOptions = DEFAULT_OPTIONS, *, not_applicable: Collection[str] = (),
-                   participant: str = "participant", condition: str = "condition") -> dict[str, Any]:
+                   participant: str = "participant", condition: str = "condition",
+                   roster: pd.DataFrame | None = None) -> dict[str, Any]:
     """All statistics of one metric: one entry of ``stats.json``'s ``metrics`` list.
 
     Parameters
@@ -57,6 +58,10 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
     not_applicable
         The conditions the metric is not applicable to: left out of every test, effect size and
         interval (:mod:`nudgecli.report.not_applicable`), as is a condition without a value of it.
+    roster
+        The table whose participants are the study's, when not ``data``'s (questionnaire scores:
+        the trials): the participant-level test names those of them it left out
+        (:func:`~nudgecli.report.participant_tests.participant_summaries`).
 
     Returns
     -------
@@ -82,7 +87,7 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
     descriptives["mean_rank"] = dict(zip(conditions, ranks.tolist(), strict=True))
     if not reasons:
         return _compared_entry(data, metric, conditions, descriptives, options, many=len(conditions) > 2,
-                               participant=participant, condition=condition, tidy=tidy)
+                               participant=participant, condition=condition, tidy=tidy, roster=roster)
     compared = [c for c in conditions if c not in reasons]
     entry = None
     if len(compared) >= 2:  # the rows of the compared conditions: tidy_values of them
@@ -90,17 +95,18 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
         entry = _compared_entry(data, metric, compared, {k: {c: v[c] for c in compared}
                                                          for k, v in descriptives.items()},
                                 options, many=len(compared) > 2, participant=participant, condition=condition,
-                                tidy=kept)
+                                tidy=kept, roster=roster)
     return entry_over_conditions(entry, metric, descriptives, conditions, reasons, options)
 
 
 def _compared_entry(data: pd.DataFrame, metric: str, conditions: Sequence[str],
                     descriptives: dict[str, dict[str, Any]], options: ComparisonOptions, *, many: bool,
-                    participant: str, condition: str, tidy: pd.DataFrame) -> dict[str, Any]:
+                    participant: str, condition: str, tidy: pd.DataFrame,
+                    roster: pd.DataFrame | None = None) -> dict[str, Any]:
     """:func:`analyze_metric`'s entry of conditions that all have values (``descriptives``: theirs;
     ``many``: with epsilon-squared, as a document of more than two conditions has; ``tidy``:
     :func:`~nudgecli.report.stats.tidy_values` of the metric and these conditions, with the
-    participants)."""
+    participants; ``roster``: :func:`analyze_metric`'s)."""
     if len(conditions) < 2:
         return _descriptive_entry(metric, descriptives, options)
     kruskal = kruskal_wallis(data, metric, conditions, condition=condition, tidy=tidy)
@@ -111,7 +117,7 @@ def _compared_entry(data: pd.DataFrame, metric: str, conditions: Sequence[str],
              for row in posthoc]
     level, effect = participant_level_test(data, metric, conditions, participant=participant,
                                            condition=condition, aggregate=options.participant_aggregate,
-                                           p_adjust=options.p_adjust, tidy=tidy)
+                                           p_adjust=options.p_adjust, tidy=tidy, roster=roster)
     if many:  # (with two, the pair's rank-biserial r says it; stats.json stays as it was)
         effect["kruskal_epsilon_squared"] = epsilon_squared(kruskal["statistic"],
                                                             sum(int(v) for v in descriptives["n"].values()))
@@ -167,12 +173,14 @@ def _descriptive_entry(metric: str, descriptives: dict[str, Any],
 def compare_conditions(data: pd.DataFrame, metrics: Sequence[str], conditions: Sequence[str],
                        options: ComparisonOptions = DEFAULT_OPTIONS, *,
                        not_applicable: Mapping[str, Collection[str]] = NO_EXCLUSIONS,
-                       participant: str = "participant", condition: str = "condition") -> dict[str, Any]:
+                       participant: str = "participant", condition: str = "condition",
+                       roster: pd.DataFrame | None = None) -> dict[str, Any]:
     """The ``stats.json`` document: every metric's statistics.
 
     With a single condition every metric gets its descriptive statistics only (no test, no
     interval; the participant-level ``note`` says so). ``not_applicable`` maps a metric to the
-    conditions it is not applicable to (:func:`analyze_metric`).
+    conditions it is not applicable to, ``roster`` the table of the study's participants when not
+    ``data`` (:func:`analyze_metric`).
 
     Returns
     -------
@@ -183,7 +191,8 @@ def compare_conditions(data: pd.DataFrame, metrics: Sequence[str], conditions: S
     return {
         "conditions": list(conditions),
         "metrics": [analyze_metric(data, m, conditions, options, not_applicable=not_applicable.get(m, ()),
-                                   participant=participant, condition=condition) for m in metrics],
+                                   participant=participant, condition=condition, roster=roster)
+                    for m in metrics],
     }
 
 
