@@ -69,7 +69,9 @@ def test_an_unmatched_condition_whose_name_a_match_takes_is_left_out_with_a_note
     notes.clear()
     sim, _, shared = align_conditions(SIMULATED, REAL, {"disambiguation": "control"}, notes=notes)
     assert shared == ["control"] and sorted(sim["completion_time"]) == list(range(8))
-    assert notes[0].startswith("condition 'disambiguation' is only in the real table (real): not compared")
+    assert notes[0] == ("condition 'disambiguation' of the real table (real) is not compared: --match "
+                        "disambiguation=control compares the simulated 'disambiguation' as the real "
+                        "'control'; pair it with --match SIMULATED=disambiguation")
     assert notes[1].startswith("condition 'control' of the simulated source (simulated) is left out")
 
 

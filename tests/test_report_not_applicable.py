@@ -196,7 +196,8 @@ def test_stats_csv_printed_table_and_summary_show_n_a() -> None:
     assert set(csv.loc[csv["b"] == "y", "n_b"]) == {"35"}  # counts stay integers beside empty cells
     printed = format_table(table, FOUR)
     rows = [line for line in printed.splitlines() if " vs z" in line]
-    assert len(rows) == 3 and all(line.count("n/a") == 4 for line in rows)  # median, Conover, stars, CI
+    # median, Conover, stars, the pair's own Wilcoxon p and r, CI
+    assert len(rows) == 3 and all(line.count("n/a") == 6 for line in rows)
     summary = format_summary(table, FOUR, AnalysisPlan(), Path("t.csv"), n_trials=140, n_participants=7,
                              not_applicable={"value": stats["metrics"][0]["not_applicable_reasons"]})
     assert "Left out of the tests: z (not applicable)." in summary

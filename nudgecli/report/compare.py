@@ -153,8 +153,13 @@ def align_conditions(simulated: pd.DataFrame, real: pd.DataFrame,
                         f"{', '.join(real_conditions)}; pair them with --match SIMULATED=REAL, e.g. "
                         f"--match {sim_conditions[0]}={real_conditions[0]}")
     if notes is not None:
-        notes += [f"condition {c!r} is only in the real table ({names[1]}): not compared; pair it with "
-                  f"--match SIMULATED={c}" for c in sorted(real_only)]
+        for c in sorted(real_only):  # --match SIMULATED=c is offered only while a simulated one is unpaired
+            taken = shell_words(["--match", f"{c}={mapping.get(c)}"])  # the --match its namesake went to
+            why = (f"is only in the real table ({names[1]}): not compared" if c not in mapping else
+                   f"of the real table ({names[1]}) is not compared: {taken} compares the simulated {c!r} as "
+                   f"the real {mapping[c]!r}")
+            notes.append(f"condition {c!r} {why}" + ("" if not (sim_only or left_out)
+                                                     else f"; pair it with --match SIMULATED={c}"))
         notes += [f"condition {renamed[c]!r} is only in the simulated source ({names[0]}): not compared; "
                   f"pair it with --match {renamed[c]}=REAL" for c in sorted(sim_only)]
         notes += [f"condition {c!r} of the simulated source ({names[0]}) is left out: "

@@ -187,7 +187,10 @@ def metric_figure_groups(metrics: Sequence[str]) -> dict[str, tuple[str, ...]]:
 def _trial_title(trials: pd.DataFrame, key: TrialKey) -> str:
     rows = trials.loc[(trials["participant"] == key[0]) & (trials["trial"] == key[1]), "condition"]
     label = f"Participant {key[0]}, trial {key[1]}"
-    return label + (f" ({condition_display_name(str(rows.iloc[0]))})" if not rows.empty else "")
+    if rows.empty:
+        return label
+    # Named as among the run's conditions, so -10 and 10, or offset-10 and offset_10, stay apart.
+    return f"{label} ({condition_display_name(str(rows.iloc[0]), trials['condition'].astype(str).unique())})"
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ printing (hatching, line style) is added by the drawing code.
 from __future__ import annotations
 
 import contextlib
+import re
 from collections.abc import Iterator, Sequence
 from typing import Any, cast
 
@@ -76,7 +77,7 @@ HUMAN_COLOUR = "#000000"
 AUTONOMY_COLOUR = "#8C8C8C"
 HUMAN_TURN_SHADE = "#E3E3E3"
 
-#: Known condition display names; any other condition is shown in title case.
+#: Known condition display names; any other is prettified (see :func:`condition_display_names`).
 CONDITION_DISPLAY_NAMES: dict[str, str] = {
     "disambiguation": "Disambiguation",
     "control": "Control",
@@ -128,15 +129,65 @@ def figure_style(overrides: dict[str, Any] | None = None) -> Iterator[None]:
         yield
 
 
-def condition_display_name(condition: str) -> str:
-    """The name shown for a condition: known names as in the paper; others with ``_`` and ``-`` as
-    spaces and each word in lower case capitalised (``turn-taking``: Turn Taking), a word with a
-    capital kept as written (``NASA-TLX``: NASA TLX, ``iPad``, where title case gave Nasa Tlx, Ipad)."""
-    key = str(condition).strip().lower()
+#: A ``-`` that is a sign, not a word break: at the start or after a break, before a digit or a point.
+_SIGN_MINUS = re.compile(r"(?<![^\s_-])-(?=[\d.])")
+
+
+def _prettified(condition: str) -> str:
+    """``condition`` with ``_`` and ``-`` as spaces and each word in lower case capitalised; a word
+    with a capital kept as written, and a minus sign kept (``gain_-5``: Gain -5, not Gain  5)."""
+    key = condition.strip().lower()
     if key in CONDITION_DISPLAY_NAMES:
         return CONDITION_DISPLAY_NAMES[key]
-    words = str(condition).replace("_", " ").replace("-", " ").split(" ")
+    words = _SIGN_MINUS.sub("\0", condition).replace("_", " ").replace("-", " ").replace("\0", "-").split(" ")
     return " ".join(word[:1].upper() + word[1:] if word.islower() else word for word in words)
+
+
+def _looks_alike(name: str) -> str:
+    """What two shown names are compared by: a reader tells no case or run of spaces apart."""
+    return " ".join(name.split()).casefold()
+
+
+def condition_display_names(conditions: Sequence[str]) -> dict[str, str]:
+    """The name shown for each of ``conditions``, the conditions of one figure or table.
+
+    Known names as in the paper (``disambiguation``: Disambiguation); a researcher's own names
+    prettified (``turn-taking``: Turn Taking, ``NASA-TLX``: NASA TLX, ``iPad`` kept) where that
+    keeps them apart and keeps a leading sign, else shown as written: ``-10`` and ``10`` stay
+    ``-10`` and ``10``, ``offset-10`` and ``offset_10`` stay so rather than both Offset 10.
+
+    Parameters
+    ----------
+    conditions
+        The conditions shown together (each once).
+
+    Returns
+    -------
+    dict
+        ``condition -> shown name``, every shown name distinct.
+    """
+    names = [str(c) for c in conditions]
+    shown = {c: _prettified(c) for c in names}
+    for c in names:
+        if c[:1] in "+-" and not shown[c].startswith(c[:1]):
+            shown[c] = c
+    # Shown as written where names look alike; repeated, since a name shown as written may now look
+    # like another's prettified name (names as written differ, so this ends).
+    while True:
+        seen: dict[str, list[str]] = {}
+        for c in names:
+            seen.setdefault(_looks_alike(shown[c]), []).append(c)
+        alike = [c for group in seen.values() if len(group) > 1 for c in group if shown[c] != c]
+        if not alike:
+            return shown
+        shown.update({c: c for c in alike})
+
+
+def condition_display_name(condition: str, conditions: Sequence[str] = ()) -> str:
+    """The name shown for ``condition`` among ``conditions`` (the others shown with it; see
+    :func:`condition_display_names`)."""
+    together = list(dict.fromkeys([*map(str, conditions), str(condition)]))
+    return condition_display_names(together)[str(condition)]
 
 
 def condition_colours(conditions: Sequence[str]) -> dict[str, str]:

@@ -166,6 +166,20 @@ def _side(row: Mapping[str, Any], side: str) -> str:
     return _median_iqr(row[f"median_{side}"], row[f"q1_{side}"], row[f"q3_{side}"])
 
 
+def _p_adjust(table: pd.DataFrame) -> str:
+    """The adjustment of the pairs' p values (the plan's ``p_adjust``) named in a column header."""
+    return str(table["p_adjust"].iloc[0]) if "p_adjust" in table.columns and len(table) else "adjusted"
+
+
+def _participant_cells(r: Mapping[str, Any], two: bool, thresholds: Sequence[float]) -> list[str]:
+    """A pair's participant-level p and effect size: with two conditions the test of the pair
+    (``participant_p``), with more the pair's own Wilcoxon test (``pairwise_p``)."""
+    if two:
+        return [format_p(r["participant_p"], thresholds), _effect(r["effect_size_name"], r["effect_size"])]
+    return [format_p(r["pairwise_p"], thresholds),
+            _effect(r["pairwise_effect_size_name"], r["pairwise_effect_size"])]
+
+
 def format_table(table: pd.DataFrame, conditions: Sequence[str], reference: str | None = None, *,
                  thresholds: Sequence[float] = P_THRESHOLDS) -> str:
     """A plain-text table of the statistics: one row per metric x pair of conditions.
@@ -182,8 +196,10 @@ def format_table(table: pd.DataFrame, conditions: Sequence[str], reference: str 
     thresholds
         The analysis plan's (:func:`plan_p_thresholds`): each p keeps its side of them (:func:`format_p`).
 
-    Columns: median [q1, q3] of both conditions, Kruskal-Wallis p, Conover p, stars, the
-    participant-level p, the effect size and the median difference with its interval. A pair
+    Columns: median [q1, q3] of both conditions, Kruskal-Wallis p, Conover p, stars, the pair's
+    participant-level p and effect size (two conditions: the Wilcoxon test of the pair; more: the
+    pair's adjusted Wilcoxon p and rank-biserial r, as ``summary.md`` shows them, not the Friedman
+    p and Kendall's W of all conditions) and the median difference with its interval. A pair
     holding a condition left out of the metric shows :data:`NOT_APPLICABLE_CELL` for that
     condition and for the pair's own statistics.
     """
@@ -199,24 +215,24 @@ def format_table(table: pd.DataFrame, conditions: Sequence[str], reference: str 
         header = ["metric", f"{a} median [q1, q3]", f"{b} median [q1, q3]"]
     else:
         header = ["metric", "comparison", "a median [q1, q3]", "b median [q1, q3]"]
-    header += ["KW p", "Conover p", "stars", "participant p", "effect", f"a-b [{level:.0%} CI]"]
+    # two conditions: the participant-level test is the pair's own; more: the pair's Wilcoxon test
+    # (as summary.md shows it), not the omnibus Friedman p and Kendall's W, which no pair owns
+    participant = "participant p" if two else f"Wilcoxon p ({_p_adjust(table)})"
+    header += ["KW p", "Conover p", "stars", participant, "effect", f"a-b [{level:.0%} CI]"]
     rows = []
     for r in table.to_dict("records"):
         if reference is not None and not two and not of_reference(reference, r["a"], r["b"]):
             continue
         row = [r["metric"]] + ([] if two else [f"{r['a']} vs {r['b']}"])
         if _left_out(r):
-            # with two conditions the participant-level test and its effect are the pair's own
+            # the participant-level test and its effect are the pair's own, at any number of conditions
             own = NOT_APPLICABLE_CELL
-            row += [_side(r, "a"), _side(r, "b"), format_p(r["kruskal_p"], thresholds), own, own,
-                    own if two else format_p(r["participant_p"], thresholds),
-                    own if two else _effect(r["effect_size_name"], r["effect_size"]), own]
+            row += [_side(r, "a"), _side(r, "b"), format_p(r["kruskal_p"], thresholds)] + [own] * 5
         else:
             row += [_median_iqr(r["median_a"], r["q1_a"], r["q3_a"]),
                     _median_iqr(r["median_b"], r["q1_b"], r["q3_b"]), format_p(r["kruskal_p"], thresholds),
                     format_p(r["conover_p"], thresholds), r["stars"] or "ns",
-                    format_p(r["participant_p"], thresholds),
-                    _effect(r["effect_size_name"], r["effect_size"]),
+                    *_participant_cells(r, two, thresholds),
                     _interval(r["difference"], r["ci_low"], r["ci_high"])]
         rows.append(row)
     return _render(header, rows, markdown=False)

@@ -45,7 +45,7 @@ from nudgecli.report.style import (
     FULL_WIDTH_IN,
     TICK_FONT_PT,
     condition_colours,
-    condition_display_name,
+    condition_display_names,
     figure_style,
 )
 from nudgecli.report.trial_steps import require_columns
@@ -294,7 +294,8 @@ def _label_conditions(ax: Axes, out: BoxplotArtists, show_n: bool, left_out: Seq
     ("n/a" for the conditions ``left_out``)."""
     order, positions = out.conditions, out.positions
     ax.set_xticks([positions[c] for c in order])
-    names = [condition_display_name(c) for c in order]
+    shown = condition_display_names(order)
+    names = [shown[c] for c in order]
     counts = {c: "n/a" if c in left_out else f"n = {out.n[c]}" for c in order}
     if len(order) <= 2:
         if show_n:

@@ -29,7 +29,7 @@ from nudgecli.report.stats import ComparisonOptions
 from nudgecli.report.style import (
     FULL_WIDTH_IN,
     condition_colours,
-    condition_display_name,
+    condition_display_names,
     condition_hatches,
     figure_style,
 )
@@ -211,6 +211,7 @@ def _draw_bars(ax: Axes, summary: pd.DataFrame, groups: list[Any], order: list[s
     bar containers and each group's highest bar top (mean + SD)."""
     n_cond = len(order)
     colours, hatches = condition_colours(order), condition_hatches(order)
+    names = condition_display_names(order)
     artists: list[Any] = []
     tops: dict[str, float] = {}
     for j, c in enumerate(order):
@@ -227,7 +228,7 @@ def _draw_bars(ax: Axes, summary: pd.DataFrame, groups: list[Any], order: list[s
             continue
         bars = ax.bar(xs, np.asarray(means) - baseline, width=width * 0.92, bottom=baseline,
                       color=to_rgba(colours[c], 0.75), edgecolor="black", linewidth=0.7, hatch=hatches[c],
-                      label=condition_display_name(c), zorder=2)
+                      label=names[c], zorder=2)
         ax.errorbar(xs, means, yerr=sds, fmt="none", ecolor="black", elinewidth=0.9, capsize=2.5,
                     capthick=0.9, zorder=3)
         artists.append(bars)
@@ -311,8 +312,9 @@ def questionnaire_figure(tlx_df: pd.DataFrame | None = None, likert_df: pd.DataF
                                star_rule=star_rule)
             if len(tables) > 1:
                 panel_letter(ax, i)
+        names = condition_display_names(order)
         fig.legend(handles=[Patch(facecolor=to_rgba(condition_colours(order)[c], 0.75), edgecolor="black",
-                                  hatch=condition_hatches(order)[c], label=condition_display_name(c))
+                                  hatch=condition_hatches(order)[c], label=names[c])
                             for c in order], loc="outside upper center", ncols=len(order))
         group_labels = {ax: [group_label(g, item_labels) for g in pd.unique(df.iloc[:, 1])]
                         for ax, df in zip(axes, longs, strict=True)}
