@@ -4,11 +4,16 @@ and a metrics table's blank cells are counted in a note."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 
+from nudgecli.report.analysis import analyze
 from nudgecli.report.participant_tests import participant_level_test, participant_summaries
+from nudgecli.report.plans import load_plan
 from nudgecli.report.stats_document import compare_conditions
+from nudgecli.report.table_definitions import apply_plan_definitions
 
 CONDITIONS = ["control", "disambiguation", "Blend-30"]
 
@@ -51,3 +56,41 @@ def test_a_participant_without_questionnaire_answers_is_named_dropped() -> None:
     # without the trials, only the scores' own participants are known
     alone = compare_conditions(scores, ["tlx_raw"], CONDITIONS)["metrics"][0]["participant_level"]
     assert alone["dropped_participants"] == ["P3"]
+
+
+def _trials_with_blanks() -> pd.DataFrame:
+    """Trials with a success column: P1's first control trial succeeded with no time, P2's failed
+    (no time, as the paper defines it), P4's second disambiguation trial has no mode_switches."""
+    trials = _trials().assign(success=1, mode_switches=3.0)
+    first_control = (trials["condition"] == "control") & (trials["trial"] == 1)
+    trials.loc[first_control & (trials["participant"] == "P1"), "completion_time"] = np.nan
+    failed = first_control & (trials["participant"] == "P2")
+    trials.loc[failed, ["completion_time", "success"]] = [np.nan, 0]
+    trials.loc[(trials["participant"] == "P4") & (trials["condition"] == "disambiguation")
+               & (trials["trial"] == 2), "mode_switches"] = np.nan
+    return trials
+
+
+def test_blank_cells_are_counted_once_and_named() -> None:
+    trials = _trials_with_blanks()
+    trials["human_effort"] = np.where(trials["condition"] == "control", np.nan, 1.0)  # not measured there
+    for plan in ("paper", "study-code"):  # failed trials' times: left out, or the table's own
+        defined = apply_plan_definitions(trials, load_plan(plan), ["completion_time", "mode_switches",
+                                                                   "human_effort"])
+        assert defined.blanks == ("blank cells left out: completion_time 1 of a trial not failed "
+                                  "(P1 control trial 1), mode_switches 1 (P4 disambiguation trial 2); "
+                                  "each trial stays in its other metrics")
+    defined = apply_plan_definitions(trials.drop(columns="success"), load_plan("paper"), ["completion_time"])
+    assert defined.blanks is not None and "completion_time 2 (P1 control trial 1; P2 control trial 1)" \
+        in defined.blanks  # no success column: every blank time is one
+    assert apply_plan_definitions(_trials(), load_plan("paper"), ["completion_time"]).blanks is None
+
+
+def test_analyze_says_a_tables_blank_cells(tmp_path: Path) -> None:
+    table = tmp_path / "study.csv"
+    _trials_with_blanks().to_csv(table, index=False)
+    result = analyze(table, out=tmp_path / "out", metrics=["completion_time", "mode_switches"], bootstrap=100)
+    blanks = [n for n in result.notes if "blank cells left out" in n]
+    assert blanks == [f"{table}: blank cells left out: completion_time 1 of a trial not failed "
+                      "(P1 control trial 1), mode_switches 1 (P4 disambiguation trial 2); "
+                      "each trial stays in its other metrics"]

@@ -299,7 +299,7 @@ def load_source(source: Path, plan: AnalysisPlan, min_conditions: int = 1, *, dr
         return *_load_source(source, plan, notes)[:2], source
     table, metric_columns, _ = _load_table(source, drop_duplicates, notes, min_conditions, metrics)
     defined = apply_plan_definitions(table, plan, metrics or metric_columns)
-    notes += [f"{source}: {defined.line}"] if defined.line else []
+    notes += [f"{source}: {line}" for line in (defined.line, defined.blanks) if line]
     return defined.table, metric_columns, analysis_folder(source)
 
 
@@ -460,7 +460,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     if not source.is_dir():  # a run's metrics were computed with the plan's definitions already
         defined = apply_plan_definitions(table, plan, trial_selected)
         table, changed, definitions_line = defined.table, changed or defined.changed, defined.line
-        notes += [f"{source}: {definitions_line}"] if definitions_line else []
+        notes += [f"{source}: {line}" for line in (definitions_line, defined.blanks) if line]
 
     filters = apply_plan_filters(table, plan, trial_selected, changed)
     filtered, changed = filters.table, filters.changed

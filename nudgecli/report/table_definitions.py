@@ -16,6 +16,11 @@ step log, ``success`` from its trial table (the goal reached, or the last inferr
 ``completion_time = "all_trials"`` cannot bring back the times a table left out. For the analysed
 metrics they define, the table's own values are taken as they are, and one line says so (a
 ``Note:`` on stderr, and in ``summary.md``), naming the plan's definitions it could not apply.
+
+The analysed metrics' blank cells, which every statistic leaves out, are counted in a line of
+their own (:func:`blank_values_line`, a ``Note:`` on stderr): a failed trial's blank time is the
+definition above, not counted there, but a successful trial's missing time, or a missing
+``mode_switches``, is no longer left out unseen.
 """
 
 from __future__ import annotations
@@ -46,11 +51,61 @@ class TableDefinitions:
         Whether a value of the table became missing (then it differs from the source).
     line
         What was applied and what is the table's own, one line (``None``: nothing to say).
+    blanks
+        The table's blank cells of the analysed metrics, left out of them, one line
+        (:func:`blank_values_line`; ``None``: none).
     """
 
     table: pd.DataFrame
     changed: bool
     line: str | None
+    blanks: str | None = None
+
+
+#: How many of a metric's trials with a blank cell its note names (the first, in the table's order).
+NAMED_BLANKS = 3
+
+#: The columns that name a trial in a note, those of them the table has.
+TRIAL_KEY = ("participant", "condition", "block", "trial")
+
+
+def blank_values_line(table: pd.DataFrame, analysed: Sequence[str],
+                      success: pd.arrays.BooleanArray | None) -> str | None:
+    """``blank cells left out: completion_time 1 of a trial not failed (P01 control block 1
+    trial 2), ...``: the analysed metrics' blank cells, which every statistic leaves out.
+
+    Not counted: a failed trial's blank ``completion_time`` (by the ``success`` column; the
+    definitions' line says what becomes of failed trials' times, so nothing is counted twice),
+    and a condition with no value of the metric at all (said as ``no values`` of the metric in
+    ``summary.md`` and ``stats.json``, a metric not measured there rather than cells left blank).
+
+    Returns
+    -------
+    str or None
+        One line, each metric with its count and its first :data:`NAMED_BLANKS` trials;
+        ``None`` when no analysed metric has a blank cell.
+    """
+    key = [c for c in TRIAL_KEY if c in table.columns]
+    failed = None if success is None else ~success.fillna(True).to_numpy(bool)
+    parts = []
+    for metric in (m for m in analysed if m in table.columns):
+        values = table[metric]
+        measured = table["condition"].isin(table.loc[values.notna(), "condition"].unique())
+        blank = (values.isna() & measured).to_numpy(bool)
+        if metric == "completion_time" and failed is not None:
+            blank = blank & ~failed
+        positions = np.flatnonzero(blank)
+        if positions.size == 0:
+            continue
+        named = "; ".join(" ".join(f"{c} {v}" if c in ("block", "trial") else str(v)
+                                   for c, v in zip(key, table[key].iloc[p], strict=True))
+                          for p in positions[:NAMED_BLANKS])
+        more = ", ..." if positions.size > NAMED_BLANKS else ""
+        which = " of a trial not failed" if metric == "completion_time" and failed is not None else ""
+        parts.append(f"{metric} {positions.size}{which} ({named}{more})")
+    if not parts:
+        return None
+    return f"blank cells left out: {', '.join(parts)}; each trial stays in its other metrics"
 
 
 def trial_success(table: pd.DataFrame) -> pd.arrays.BooleanArray | None:
@@ -85,9 +140,11 @@ def apply_plan_definitions(table: pd.DataFrame, plan: AnalysisPlan,
     Returns
     -------
     TableDefinitions
-        ``table`` unchanged (the same object) unless a failed trial's time was left out.
+        ``table`` unchanged (the same object) unless a failed trial's time was left out; its
+        ``blanks``: the blank cells of ``table`` as given (:func:`blank_values_line`).
     """
     definitions = plan.metrics
+    original = table  # its blank cells are the table's own, not the failed trials' times made blank
     success = trial_success(table)
     parts: list[str] = []
     caveat: str | None = None  # why completion_time is the table's own, where it is
@@ -118,4 +175,5 @@ def apply_plan_definitions(table: pd.DataFrame, plan: AnalysisPlan,
         parts.append(f"the table's own definitions were used for {', '.join(own)} (plan {plan.label}'s "
                      f"{names} are computed from a run folder's trials and steps)")
     parts += [caveat] if caveat else []
-    return TableDefinitions(table, changed, "; ".join(parts) if parts else None)
+    blanks = blank_values_line(original, analysed, success)
+    return TableDefinitions(table, changed, "; ".join(parts) if parts else None, blanks)
