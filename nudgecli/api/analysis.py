@@ -7,7 +7,7 @@ call through this module); an :class:`Analysis` holds what it computed and where
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -28,6 +28,10 @@ DATAFRAME_TABLE = "metrics.parquet"
 #: What an error about a metrics DataFrame's table calls it (the table is a copy the caller never named).
 FRAME_NAME = "the metrics DataFrame"
 
+#: What ``summary.md``'s source line says of a DataFrame analysed into a temporary folder (its table
+#: there is a copy removed with the :class:`Analysis`, no file the caller could open later).
+FRAME_SOURCE = "a DataFrame given to analyze"
+
 #: The columns of :attr:`Analysis.tests`, one row per metric.
 TEST_COLUMNS = ("metric", "kruskal_statistic", "kruskal_p", "p_adjust", "participant_test",
                 "participant_aggregate", "participant_statistic", "participant_p", "n_participants",
@@ -42,7 +46,8 @@ class Analysis(FolderOwner):
     path
         The folder of ``stats.json``, ``stats.csv``, ``summary.md`` (and ``metrics.csv``).
     source
-        What was analysed: the run folder or table (the table written for a DataFrame).
+        What was analysed: the run folder or table (the table written for a DataFrame; without
+        ``out=`` a temporary copy, which :meth:`summary` calls "a DataFrame given to analyze").
     plan
         The analysis plan given (``None``: the source's own, as ``nudge analyze`` chooses it).
     result
@@ -110,7 +115,8 @@ class Analysis(FolderOwner):
 
     @property
     def notes(self) -> list[str]:
-        """What was left out or changed (duplicates dropped, an undefined test), a line each."""
+        """What was left out or changed (the metric definitions, duplicates or participants dropped, an
+        undefined test), a line each; :func:`analyze` sends each to ``log=`` as :func:`note_line`."""
         return list(self.result.notes)
 
     @property
@@ -143,6 +149,19 @@ class Analysis(FolderOwner):
                 f"{str(self.path)!r})")
 
 
+def note_line(note: str) -> str:
+    """The line ``nudge`` writes on stderr for ``note``, one of a result's notes (``Note: ...``)."""
+    return f"Note: {note}"
+
+
+def log_notes(notes: Iterable[str], log: Callable[[str], None] | None) -> None:
+    """Send each of ``notes`` to ``log`` as its :func:`note_line`, the line the command prints: how
+    every API function's ``log=`` receives the notes of what it returns; nothing without ``log``."""
+    if log is not None:
+        for note in notes:
+            log(note_line(note))
+
+
 def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | AnalysisPlan | None = None,
             metrics: Sequence[str] | None = None, questionnaires: str | Path | None = None,
             bootstrap: int | None = None, out: str | Path | None = None, seed: int | None = None,
@@ -171,8 +190,9 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
     drop_duplicates
         Keep the first of repeated trial rows of a table instead of refusing them.
     progress, log
-        Called with (metrics done, metrics in all), and with the ``Warning:`` line of a stale lock
-        taken over (``nudge analyze``'s stderr); default silent.
+        Called with (metrics done, metrics in all), and with the lines ``nudge analyze`` writes on
+        stderr: the ``Warning:`` of a stale lock taken over, then a ``Note:`` line per note of
+        :attr:`Analysis.notes` (the metric definitions, participants dropped); default silent.
     force
         Write into an ``out`` that holds other files or a run (``--force``), or into a table's
         ``<table>-analysis/`` that holds another table's analysis; without it such a folder is
@@ -189,12 +209,9 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
         a folder this call made is removed again, and one given as ``out`` is left as it was
         (a DataFrame's previous table there put back byte for byte).
     """
-    import pandas as pd
-
     from nudgecli.api import arguments
     from nudgecli.outputs import check_output_folder
     from nudgecli.report.analysis import analysis_folder, left_by_a_killed_analysis
-    from nudgecli.report.analysis import analyze as analyze_source
     from nudgecli.report.plans import MIN_RESAMPLES, check_resamples
 
     metrics = arguments.texts("metrics", metrics, optional=True, empty=False)
@@ -214,15 +231,27 @@ def analyze(source: Run | str | Path | pd.DataFrame, *, plan: str | Path | Analy
                                "questionnaires": questionnaires, "seed": seed, "bootstrap": bootstrap,
                                "drop_duplicates": drop_duplicates, "progress": progress,
                                "reference": reference, "log": log}
+    analysis = _analysis_of(source, out, force, options)
+    log_notes(analysis.notes, log)
+    return analysis
+
+
+def _analysis_of(source: Run | str | Path | pd.DataFrame, out: str | Path | None, force: bool,
+                 options: dict[str, Any]) -> Analysis:
+    """:func:`analyze`'s work once its arguments are checked: ``source`` analysed by its kind."""
+    import pandas as pd
+
+    from nudgecli.report.analysis import analyze as analyze_source
+
     if isinstance(source, pd.DataFrame):
         return _analyze_frame(source, out, options)
     if isinstance(source, Run):
         result = analyze_source(source.path, out=out, **options)
-        return Analysis(result, source.path, plan, keep_alive=source if out is None else None)
+        return Analysis(result, source.path, options["plan"], keep_alive=source if out is None else None)
     if not isinstance(source, str | Path):
         raise DataError(f"analyze: source must be a Run, a run folder, a metrics table or a DataFrame, "
                         f"not {type(source).__name__}")
-    return Analysis(analyze_source(source, out=out, force=force, **options), Path(source), plan)
+    return Analysis(analyze_source(source, out=out, force=force, **options), Path(source), options["plan"])
 
 
 def _analyze_frame(frame: pd.DataFrame, out: str | Path | None, options: dict[str, Any]) -> Analysis:
@@ -258,4 +287,22 @@ def _analyze_frame(frame: pd.DataFrame, out: str | Path | None, options: dict[st
         else:
             write_bytes_atomic(table, previous)
         raise
-    return Analysis(result, table, options["plan"], temporary=temporary)
+    return Analysis(_frame_named(result, table, temporary), table, options["plan"], temporary=temporary)
+
+
+def _frame_named(result: AnalysisResult, table: Path, temporary: bool) -> AnalysisResult:
+    """``result`` of a DataFrame written to ``table``, saying what was given: its notes name
+    :data:`FRAME_NAME`, as its errors do, not the table (a copy the caller never named); and when
+    ``temporary`` (a copy removed with the :class:`Analysis`) ``summary.md``'s source is
+    :data:`FRAME_SOURCE`, in the text and the file alike, not a file gone later."""
+    import dataclasses
+
+    from nudgecli.run_folder_names import SUMMARY_MD
+    from nudgecli.store import write_text_atomic
+
+    notes = [note.replace(str(table), FRAME_NAME) for note in result.notes]
+    if not temporary:
+        return dataclasses.replace(result, notes=notes)
+    summary = result.summary.replace(f"`{DATAFRAME_TABLE}`", FRAME_SOURCE, 1)
+    write_text_atomic(result.out / SUMMARY_MD, summary)
+    return dataclasses.replace(result, notes=notes, summary=summary)

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from nudgecli.api import arguments
-from nudgecli.api.analysis import Analysis
+from nudgecli.api.analysis import Analysis, log_notes
 from nudgecli.api.run import Run
 from nudgecli.errors import ConfigError, NudgeError, did_you_mean, shell_words
 
@@ -494,7 +494,9 @@ def analyze_and_plot(run: Run | str | Path, *, plan: str | Path | None = None,
         experiment, else ``paper``).
     log
         Receives the line naming the plan chosen, before the analysis, the line naming the figures
-        of an earlier plot removed (:func:`save_figures`) and the warning of a stale lock taken over.
+        of an earlier plot removed (:func:`save_figures`), the warning of a stale lock taken over and,
+        between analysis and plot, a ``Note:`` line per note of the analysis (:attr:`Analysis.notes`),
+        as ``nudge run`` prints them.
 
     Returns
     -------
@@ -517,6 +519,7 @@ def analyze_and_plot(run: Run | str | Path, *, plan: str | Path | None = None,
     analysis_plan = load_plan(chosen)
     with run_lock(opened.path, log=log):
         result = analyze_source(opened.path, plan=chosen)
+        log_notes(result.notes, log)  # the analysis's, before the plot's lines
         written = plot_folder(opened.path, star_rule=analysis_plan.comparison_options(),
                               item_labels=analysis_plan.questionnaires.labels, log=log)
     return Analysis(result, opened.path, chosen, keep_alive=opened), written

@@ -8,7 +8,7 @@ call them through this module and print what it returns.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -128,14 +128,16 @@ class FittedPeople:
     def note_lines(self) -> list[str]:
         """One ``Note:`` line per parameter of a person that is the population's or was bounded, and
         why (``nudge fit-people`` prints them on stderr)."""
-        return [f"Note: person {row['person']} ({row['source']} participant {row['participant']}): "
-                f"{parameter}: {note}"
+        from nudgecli.api.analysis import note_line
+
+        return [note_line(f"person {row['person']} ({row['source']} participant {row['participant']}): "
+                          f"{parameter}: {note}")
                 for row, notes in zip(self.table.to_dict(orient="records"), self.notes, strict=True)
                 for parameter, note in notes.items()]
 
 
 def fit_people(sources: str | Path | Run | Sequence[str | Path | Run], *, out: str | Path | None = None,
-               force: bool = False) -> FittedPeople:
+               force: bool = False, log: Callable[[str], None] | None = None) -> FittedPeople:
     """One simulated person per participant of ``sources``, as ``nudge fit-people``.
 
     Each timing parameter is set from the participant's own habit medians by the documented
@@ -150,6 +152,9 @@ def fit_people(sources: str | Path | Run | Sequence[str | Path | Run], *, out: s
         The people file to write (CSV, read by ``--people``); ``None`` writes nothing.
     force
         Replace an existing ``out``.
+    log
+        Called with each of :meth:`FittedPeople.note_lines`, as ``nudge fit-people`` writes them on
+        stderr; default silent.
 
     Returns
     -------
@@ -176,6 +181,7 @@ def fit_people(sources: str | Path | Run | Sequence[str | Path | Run], *, out: s
     listed = sources if isinstance(sources, Sequence) and not isinstance(sources, str) else [sources]
     named: list[str | Path] = [arguments.source_path("sources", source) for source in listed]
     out, force = arguments.path("out", out, optional=True), arguments.switch("force", force)
+    log = arguments.callback("log", log)
     target = None if out is None else Path(out)
     with command_inputs():  # the sources are this call's inputs only
         if target is not None:
@@ -190,5 +196,8 @@ def fit_people(sources: str | Path | Run | Sequence[str | Path | Run], *, out: s
              "from_population": LIST_SEPARATOR.join(twin.from_population)}
             for person, twin in enumerate(twins)]
     fitted = tuple(sum(name in twin.parameters for name in TWIN_PARAMETERS) for twin in twins)
-    return FittedPeople(pd.DataFrame(rows, columns=list(PEOPLE_COLUMNS)), fitted,
-                        [] if target is None else [target], tuple(dict(twin.notes) for twin in twins))
+    people = FittedPeople(pd.DataFrame(rows, columns=list(PEOPLE_COLUMNS)), fitted,
+                          [] if target is None else [target], tuple(dict(twin.notes) for twin in twins))
+    for line in people.note_lines() if log is not None else []:
+        log(line)
+    return people

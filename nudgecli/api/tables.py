@@ -8,7 +8,7 @@ them through this module).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -180,7 +180,8 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
             metrics: Sequence[str] | None = None, match: Mapping[str, str] | Sequence[str] | None = None,
             resamples: int = defaults.COMPARE_RESAMPLES, level: float = defaults.COMPARE_LEVEL,
             seed: int = defaults.COMPARE_SEED, drop_duplicates: bool = False, out: str | Path | None = None,
-            formats: str | Sequence[str] = ("png", "pdf"), force: bool = False) -> ComparisonResult:
+            formats: str | Sequence[str] = ("png", "pdf"), force: bool = False,
+            log: Callable[[str], None] | None = None) -> ComparisonResult:
     """Simulated people beside real people, metric by metric, as ``nudge compare`` does.
 
     Parameters
@@ -203,6 +204,9 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
     out, formats, force
         Write ``compare.csv``, ``participant_medians.csv``, ``compare.json`` and the figure into
         ``out`` (checked before the bootstrap; ``force``: into a folder that is not empty).
+    log
+        Called with the ``Note:`` line of each of :attr:`ComparisonResult.notes`, as ``nudge compare``
+        writes them on stderr; default silent.
 
     Raises
     ------
@@ -210,6 +214,7 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
         ``nudge compare``'s errors, before anything is written.
     """
     from nudgecli.api import arguments
+    from nudgecli.api.analysis import log_notes
     from nudgecli.report.compare import CompareOptions, compare_sources, write_comparison
     from nudgecli.report.plans import MIN_RESAMPLES, check_resamples
 
@@ -219,7 +224,7 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
     level = arguments.real_number("level", level)
     seed = arguments.seed(seed)
     drop_duplicates = arguments.switch("drop_duplicates", drop_duplicates)
-    force = arguments.switch("force", force)
+    force, log = arguments.switch("force", force), arguments.callback("log", log)
     out = arguments.out_folder(out)
     chosen_formats = arguments.formats(formats)
     check_resamples(resamples or None, "--resamples", MIN_RESAMPLES)  # 0 asks for no intervals
@@ -247,6 +252,7 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
         if made and out is not None and Path(out).is_dir() and not any(Path(out).iterdir()):
             Path(out).rmdir()  # made by the write check only: a refused comparison leaves nothing
         raise
+    log_notes(notes, log)
     return ComparisonResult(result, notes, files)
 
 

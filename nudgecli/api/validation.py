@@ -93,7 +93,8 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
              belief_concentration: float | None = None,
              mc_queries: int = defaults.VALIDATION_MC_QUERIES, reading: str = defaults.VALIDATION_READING,
              all_readings: bool = False, out: str | Path | None = None, force: bool = False,
-             yes: bool = False, progress: Callable[[int, int], None] | None = None) -> Validation:
+             yes: bool = False, progress: Callable[[int, int], None] | None = None,
+             log: Callable[[str], None] | None = None) -> Validation:
     """Run the paper's validation of D(s), as ``nudge validate`` does.
 
     Parameters
@@ -124,6 +125,8 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         Run more queries than the size limit allows.
     progress
         ``progress(done, total)`` after each simulation.
+    log
+        Called with each of :attr:`Validation.notes` as its ``Note:`` line (``nudge validate``'s stderr).
 
     Raises
     ------
@@ -132,6 +135,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         before anything is written.
     """
     from nudgecli.api import arguments
+    from nudgecli.api.analysis import log_notes
     from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size, override_named
     from nudgecli.sim import validation
 
@@ -139,6 +143,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
                                                belief_concentration, mc_queries, reading, all_readings)
     arguments.switches(all_readings=all_readings, force=force, yes=yes)
     out, progress = arguments.out_folder(out), arguments.callback("progress", progress)
+    log = arguments.callback("log", log)
     with override_named("yes=True"):  # the refusal names this API's parameter (--yes on the command line)
         check_size(simulations * settings.states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
                    work="run {} queries (worlds x states x readings)", fix="fewer --simulations or --states")
@@ -160,6 +165,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
 
             made.files.extend(validation.save_validation(results[0], out))
             made.files.extend(plot_validation(made.summary(), out))
+    log_notes(made.notes, log)
     return made
 
 

@@ -50,8 +50,6 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
                              force=force, log=info)
     finally:
         bar.close()
-    for note in result.notes:
-        info(f"Note: {note}")
     if output_format == "json":
         echo_json(result.stats)
     elif output_format == "csv":
@@ -208,9 +206,7 @@ def compare_command(simulated: str, real: str, plan: str | None, metric_names: t
 
     result = api.compare(simulated, real, plan=plan, metrics=list(metric_names) or None, match=matches,
                          resamples=resamples, level=level, seed=seed, drop_duplicates=drop_duplicates,
-                         out=out, formats=formats, force=force)
-    for note in result.notes:
-        info(f"Note: {note}")
+                         out=out, formats=formats, force=force, log=info)
     if output_format == "json":
         echo_json(result.to_json())
     elif output_format == "csv":

@@ -21,10 +21,8 @@ def fit_people_command(sources: tuple[str, ...], out: str, force: bool) -> None:
     source lacks is left to the population's draw, and the file's from_population column says so."""
     from nudgecli.api.fitting import fit_people
 
-    people = fit_people(list(sources), out=out, force=force)
+    people = fit_people(list(sources), out=out, force=force, log=info)
     click.echo(people.text())
-    for line in people.note_lines():
-        info(line)
     info(f"People file: {Path(out)}")
 
 

@@ -180,9 +180,7 @@ def run_command(experiment: str, out: str | None, seed: int | None, participants
     run = _simulate(experiment, out, seed, participants, workers, None, resume, force, overrides,
                     plan=plan, command="run", confirm=yes, people=people)
     _print_study_summary(run)
-    result, written = api.analyze_and_plot(run, plan=plan, log=info)
-    for note in result.notes:
-        info(f"Note: {note}")
+    result, written = api.analyze_and_plot(run, plan=plan, log=info)  # its notes too, as Note: lines
     click.echo("")
     click.echo(result.table())
     click.echo("")

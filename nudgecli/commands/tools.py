@@ -141,13 +141,11 @@ def validate_command(simulations: int, min_goals: int, max_goals: int, states: i
         result = validate(simulations=simulations, min_goals=min_goals, max_goals=max_goals, states=states,
                           seed=seed, belief_concentration=belief_concentration, mc_queries=mc_queries,
                           reading=reading, all_readings=all_readings, out=out, force=force, yes=yes,
-                          progress=update)
+                          progress=update, log=info)
     finally:
         bar.close()
     runs = len(result.results)
     info(f"validation: {simulations * runs} simulations in {time.perf_counter() - start:.1f} s")
-    for note in result.notes:
-        info(f"Note: {note}")
     if output_format == "json":
         echo_json(result.to_json())
     else:
