@@ -17,7 +17,8 @@ path to a TOML file. Layout::
     completion_time = "successful_trials"         # or "all_trials" (study software)
 
     [filters]                                     # metric = inclusive maximum, a finite number;
-                                                  # larger -> missing
+                                                  # larger -> missing (not of success or wrong_goal,
+                                                  # true or false; not negative for a known metric)
     mode_switches = 10
 
     [stats]
@@ -59,7 +60,7 @@ from nudgecli.config_base import Section
 from nudgecli.config_files import format_validation_error, list_presets, read_toml, resolve_preset
 from nudgecli.errors import ConfigError, did_you_mean
 from nudgecli.report.comparison_options import ComparisonOptions
-from nudgecli.report.metric_names import METRIC_NAMES
+from nudgecli.report.metric_names import METRIC_NAMES, NON_NEGATIVE_METRICS, TRUE_FALSE_METRICS
 
 #: The most bootstrap resamples (a plan's, ``analyze --bootstrap``, ``compare --resamples``): each
 #: resample holds a row of indices per participant in memory, so more would exhaust it.
@@ -190,6 +191,20 @@ class AnalysisPlan(_Section):
     questionnaires: QuestionnaireSettings = Field(default_factory=QuestionnaireSettings)
     # the TOML file :func:`load_plan` read it from (absolute); None for a preset or a plan made in code
     _file: Path | None = PrivateAttr(default=None)
+
+    @field_validator("filters")
+    @classmethod
+    def _filters_that_can_leave_out_outliers(cls, filters: dict[str, float]) -> dict[str, float]:
+        # a maximum that can only empty a metric (or keep it whole) is a mistake, not a filter: it
+        # was applied and the analysis went on with no test of the metric
+        for name, maximum in filters.items():
+            if name in TRUE_FALSE_METRICS:
+                raise ValueError(f"{name} = {maximum:g}: {name} is true or false, so a maximum keeps every "
+                                 "value or leaves out every true one; remove the filter")
+            if name in NON_NEGATIVE_METRICS and maximum < 0:
+                raise ValueError(f"{name} = {maximum:g}: {name} is never negative, so a negative maximum "
+                                 "leaves out every value; give a maximum of 0 or more")
+        return filters
 
     def __eq__(self, other: object) -> bool:
         # a plan is its settings: two files holding the same plan are the same plan
