@@ -104,11 +104,22 @@ def whole_numbers(name: str, values: object) -> list[int]:
         raise _refuse(name, values, wanted)
     for index, value in enumerate(values):
         if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-            kind_name = type(values).__name__
-            article = "an" if kind_name[:1] in "aeiou" else "a"
-            raise _refuse(name, values, wanted, got=f"{article} {kind_name} whose item {index} is {value!r} "
-                                                    f"(a {type(value).__name__})")
+            raise _refuse_item(name, values, wanted, index)
     return [int(value) for value in values]
+
+
+def _refuse_item(name: str, values: Sequence[object], wanted: str, index: int) -> ConfigError:
+    """The error of list argument ``name`` whose item ``index`` is not what ``wanted`` holds: it
+    names that item and its type (``not a list whose item 1 is '3' (a str)``), not the list's type,
+    which is right."""
+    value = values[index]
+    return _refuse(name, values, wanted, got=f"{_a(type(values).__name__)} whose item {index} is {value!r} "
+                                             f"({_a(type(value).__name__)})")
+
+
+def _a(noun: str) -> str:
+    """``noun`` after its indefinite article: ``a list``, ``an int``."""
+    return f"{'an' if noun[:1] in 'aeiou' else 'a'} {noun}"
 
 
 def real_number(name: str, value: object, *, between: tuple[float, float] | None = None) -> float:
@@ -140,14 +151,17 @@ def texts(name: str, values: object, *, optional: bool = False, empty: bool = Tr
     Raises
     ------
     ConfigError
-        A single text (which would read as its letters), a number, an item that is no text, or an
-        empty list where ``empty`` is false.
+        A single text or bytes (which would read as its letters), a number, an item that is no text
+        (the message names the first such item), or an empty list where ``empty`` is false.
     """
     if values is None and optional:
         return None
-    if isinstance(values, str) or not isinstance(values, Sequence) \
-            or not all(isinstance(value, str) for value in values):
-        raise _refuse(name, values, "a list of texts, e.g. ['a', 'b']" + (" or None" if optional else ""))
+    wanted = "a list of texts, e.g. ['a', 'b']" + (" or None" if optional else "")
+    if isinstance(values, str | bytes) or not isinstance(values, Sequence):
+        raise _refuse(name, values, wanted)
+    for index, value in enumerate(values):
+        if not isinstance(value, str):  # the list is right: name the item that is not
+            raise _refuse_item(name, values, wanted, index)
     if not values and not empty:
         raise ConfigError(f"{name}={values!r}: an empty list names none; name at least one"
                           + (f", or leave {name}= out (None) for all" if optional else ""))

@@ -157,14 +157,15 @@ def override_texts(overrides: Overrides | None) -> tuple[str, ...]:
     Raises
     ------
     ConfigError
-        A value TOML cannot hold (``None``, an object), or overrides given as one string or as
-        anything else that is neither a mapping nor a list.
+        A value TOML cannot hold (``None``, an object), or overrides given as one string, as bytes
+        or as anything else that is neither a mapping nor a list.
     """
     if overrides is None:
         return ()
     if isinstance(overrides, Mapping):
         return tuple(f"{key}={toml_literal(value, key)}" for key, value in overrides.items())
-    if isinstance(overrides, str) or not isinstance(overrides, Sequence):  # a text is no list of texts
+    # a text (or bytes: a sequence of numbers) is no list of texts
+    if isinstance(overrides, str | bytes) or not isinstance(overrides, Sequence):
         raise ConfigError(f"overrides={overrides!r}: give a list of KEY=VALUE texts or a mapping, "
                           "e.g. {'disambiguation.window': 5}")
     return tuple(str(text) for text in overrides)
