@@ -3,17 +3,21 @@ not UTF-8 (latin-1 or Windows-1252, as a European spreadsheet saves "CSV") and n
 with a decimal comma (``0,5``, with semicolons between the columns, which
 :func:`header_delimiter` finds). The one wording of that
 advice for every reader of a user table (metrics tables, real habit logs), and the test for a
-JSON file given where a CSV is read (:func:`starts_as_json`); it sits outside ``report/`` and
-``sim/`` so that both can use it.
+JSON or TOML file given where a CSV is read (:func:`starts_as_json`, :func:`starts_as_toml`); it
+sits outside ``report/`` and ``sim/`` so that both can use it.
 """
 
 from __future__ import annotations
 
 import csv
+import json
 import math
 import re
 from collections.abc import Callable
 from pathlib import Path
+
+from nudgecli.errors import shell_words
+from nudgecli.run_folder_names import MANIFEST
 
 #: The delimiters a CSV file of a researcher's may use, in the order tried: a spreadsheet in a
 #: locale with a decimal comma writes semicolons.
@@ -80,10 +84,62 @@ def not_utf8_message(path: Path) -> str:
     return f"{path}: not UTF-8 text; {fix}"
 
 
+#: A TOML file's first line: a table header (``[study]``, ``[[conditions]]``, ``[population.x]``)
+#: or a ``key = value`` (a value starting as TOML's do: text, array, table, boolean or number).
+_TOML_HEADER = re.compile(r"\[\[?\s*[A-Za-z_][\w.\- ]*\]\]?\s*(#.*)?")
+_TOML_KEY_VALUE = re.compile(r"[A-Za-z_][\w.\-]*\s*=\s*(\"|'|\[|\{|true|false|[-+]?\d).*")
+
+
+def _first_line(path: Path) -> str:
+    """A file's first line that is neither blank nor a ``#`` comment (a BOM left out), stripped;
+    looked for in its first 4096 bytes."""
+    with path.open("rb") as file:
+        start = file.read(4096).decode("utf-8", errors="replace").lstrip("\ufeff")
+    return next((line.strip() for line in start.splitlines()
+                 if line.strip() and not line.strip().startswith("#")), "")
+
+
+def starts_as_toml(path: Path) -> bool:
+    """Whether a file is TOML (an experiment, plan or sweep file, a run's ``config.toml``): its
+    suffix ``.toml``, or a first line that is a ``[name]`` header (not a JSON array: ``[1, 2]``)
+    or a ``key = value``. No CSV log or table starts so."""
+    if path.suffix.lower() == ".toml":
+        return True
+    line = _first_line(path)
+    if _TOML_KEY_VALUE.fullmatch(line):
+        return True
+    if _TOML_HEADER.fullmatch(line) is None:
+        return False
+    try:
+        json.loads(line)
+    except ValueError:
+        return True
+    return False  # [true], a JSON array of one word
+
+
 def starts_as_json(path: Path) -> bool:
     """Whether a file's text starts as JSON does (``{`` or ``[``, as ``nudge habits --format json``
-    and a run's ``manifest.json`` do): no CSV log or table starts so, and read as CSV its lines give
-    the column messages of a log, not what the file is."""
+    and a run's ``manifest.json`` do; not a TOML file's ``[section]``: :func:`starts_as_toml`): no
+    CSV log or table starts so, and read as CSV its lines give the column messages of a log, not
+    what the file is."""
     with path.open("rb") as file:
         start = file.read(4096).lstrip(b"\xef\xbb\xbf \t\r\n")  # a BOM, then blank space
-    return start[:1] in (b"{", b"[")
+    return start[:1] in (b"{", b"[") and not starts_as_toml(path)
+
+
+def toml_source_message(path: Path, reads: str, command: list[str]) -> str:
+    """What ``nudge habits`` or ``fit-people`` (``command``: its words after ``nudge``, ``SOURCE``
+    the source's place) says of a TOML file given as its source, which says what it ``reads``: a run's
+    own ``config.toml``: give the folder; else an experiment is simulated first."""
+    said = f"{path}: a TOML file (an experiment or plan file), not a source; {reads}"
+    if (path.parent / MANIFEST).is_file():
+        return f"{said}; for the run this file belongs to, give the run folder itself: " \
+               f"{_command_of(command, str(path.parent))}"
+    return (f"{said}; to measure an experiment's people, simulate it and give the run: "
+            f"{shell_words(['nudge', 'simulate', str(path), '--out', 'RUN'])}, then "
+            f"{_command_of(command, 'RUN')}")
+
+
+def _command_of(command: list[str], source: str) -> str:
+    """``nudge`` and ``command``'s words, ``source`` in place of ``SOURCE``."""
+    return shell_words(["nudge", *(source if word == "SOURCE" else word for word in command)])

@@ -178,13 +178,9 @@ def run_folder_cells_with_experiment(folder: str | Path) -> tuple[pd.DataFrame, 
 def _not_a_run_message(folder: Path) -> str:
     """The line for a folder given as a habits source that is no run folder: a batch folder (which
     keeps no step logs) and a calibration session (physiology) are named, with what reads them."""
-    from nudgecli.runs.batch_folder import EXPERIMENT_COPY
-
     reads = "operating habits are measured on a run folder or a real log (CSV)"
     if (folder / BATCH_MANIFEST).is_file():  # its tasks/ hold each study's per-trial metrics only
-        experiment = folder / EXPERIMENT_COPY
-        given = str(experiment) if experiment.is_file() else "EXPERIMENT"
-        simulate = shell_words(["nudge", "simulate", given, "--out", "RUN"])
+        simulate = shell_words(_simulate_batch_study(folder))
         return (f"{folder}: a batch folder (nudge replicate, power or sweep), whose tasks/ keep each study's "
                 f"per-trial metrics and no step logs; {reads}: simulate one study of its experiment "
                 f"(`{simulate}`) and give RUN")
@@ -196,6 +192,32 @@ def _not_a_run_message(folder: Path) -> str:
                 f"`{shell_words(['nudge', 'fit', str(folder)])}` fits its interface model")
     return (f"{folder}: not a run folder (no manifest.json, steps/ or trials/); give a folder written by "
             "`nudge simulate`, `nudge run` or `nudge study`, or a CSV log")
+
+
+def _simulate_batch_study(folder: Path) -> list[str]:
+    """The words of ``nudge simulate`` for one study of the batch in ``folder``, from the inputs it
+    keeps (:func:`~nudgecli.runs.batch_folder.kept_inputs`): its experiment copy, its first
+    participant count and its people file's copy (``--people``: the batch's people, not the
+    population's), as the batch's resume command names them."""
+    from nudgecli.runs.batch_folder import EXPERIMENT_COPY, kept_inputs, read_manifest, recorded_people
+    from nudgecli.sim.people_file import resume_people
+
+    manifest, _ = read_manifest(folder / BATCH_MANIFEST)
+    kept = kept_inputs(folder, manifest) if manifest is not None else {}
+    # a batch of an older nudge records no inputs: its experiment copy, where there, is still its own
+    experiment = kept.get("experiment") or (folder / EXPERIMENT_COPY if (folder / EXPERIMENT_COPY).is_file()
+                                            else "EXPERIMENT")
+    words = ["nudge", "simulate", str(experiment), "--out", "RUN"]
+    points = manifest["batch"].get("points") if manifest is not None else None
+    first = points[0] if isinstance(points, list) and points and isinstance(points[0], Mapping) else {}
+    counts = first.get("participants")
+    if isinstance(counts, list) and counts:
+        words += ["--participants", str(counts[0])]
+    described, people = recorded_people(folder)
+    if described and isinstance(people, dict):
+        named = resume_people(folder, people, str(people.get("file")))
+        words += ["--people", named] if named else []
+    return words
 
 
 def habit_rate_cells(cells: pd.DataFrame, rate_hz: float) -> pd.DataFrame:

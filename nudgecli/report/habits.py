@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from nudgecli.csv_text import starts_as_json
+from nudgecli.csv_text import starts_as_json, starts_as_toml, toml_source_message
 from nudgecli.errors import DataError, did_you_mean, shell_words
 from nudgecli.reference import PACKAGED_REFERENCES, packaged_reference
 from nudgecli.report.habit_cells import (
@@ -46,6 +46,7 @@ from nudgecli.report.habit_cells import (
     run_folder_cells,
 )
 from nudgecli.report.habit_deadband import deadband_events
+from nudgecli.report.habit_figures import check_reference_habit
 from nudgecli.report.habit_logs import read_log_cells
 from nudgecli.report.habits_digits import compared_digits, fmt
 from nudgecli.run_folder_names import MANIFEST
@@ -314,6 +315,9 @@ def source_cells(source: str | Path) -> tuple[pd.DataFrame, float, str]:
         return cells, rate, "run"
     if not path.exists():
         raise DataError(f"{path}: no such file or folder; give a run folder or a real log (CSV)")
+    if path.is_file() and starts_as_toml(path):
+        raise DataError(toml_source_message(path, "habits reads a run folder or a real log's CSV (t, trial, "
+                                                  "label, x, y, theta, mode_switch)", ["habits", "SOURCE"]))
     if path.is_file() and starts_as_json(path):
         raise DataError(_json_source_message(path))
     return read_log_cells(path), HABIT_RATE_HZ, "log"
@@ -468,16 +472,8 @@ def load_reference(name_or_path: str) -> dict[str, Any]:
         suggestion = did_you_mean(unknown[0], HABIT_KEYS)
         raise DataError(f"{path}: habit {unknown[0]!r} is not one nudge measures{suggestion}; the habits are "
                         + ", ".join(HABIT_KEYS))
-    for key, entry in habits.items():
-        try:
-            float(entry["pooled"]["median"])
-            if entry["people"] is not None:  # null: a habit given pooled only
-                [float(v) for v in entry["people"][:2]]
-                if len(entry["people"]) != 2:
-                    raise ValueError
-        except (KeyError, TypeError, ValueError):
-            raise DataError(f"{path}: habit {key!r} needs pooled.median and people [min, max] (or null) "
-                            "as numbers") from None
+    for key, entry in habits.items():  # a range reversed, in ms or a percent would compare wrongly unsaid
+        check_reference_habit(str(path), key, entry, "share" if _BY_KEY[key].share else "s")
     return {"name": str(data.get("name", path.name)), **data}
 
 

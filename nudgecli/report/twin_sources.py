@@ -25,7 +25,7 @@ import pandas as pd
 
 from nudgecli.config import BehaviourSection, ExperimentConfig, InterfaceSection, PopulationSection
 from nudgecli.csv_rows import read_csv_whole_rows
-from nudgecli.csv_text import not_utf8_message, starts_as_json
+from nudgecli.csv_text import not_utf8_message, starts_as_json, starts_as_toml, toml_source_message
 from nudgecli.errors import DataError, did_you_mean
 from nudgecli.report.habit_cells import (
     NEUTRAL,
@@ -33,6 +33,7 @@ from nudgecli.report.habit_cells import (
     run_folder_cells_with_experiment,
     stops_at_waypoints,
 )
+from nudgecli.report.habit_figures import check_unit, checked_figure, figure
 from nudgecli.report.habits import (
     HABIT_KEYS,
     HABITS,
@@ -42,6 +43,7 @@ from nudgecli.report.habits import (
     source_cells,
     summarise_habits,
 )
+from nudgecli.report.tables import check_unique_columns
 from nudgecli.sim.twin_fit import PARAMETER_HABITS, HabitFigures, Mechanics, fit_twin_with_notes
 from nudgecli.sim.twins import Twin
 from nudgecli.store import RunFolder, is_run_folder
@@ -70,19 +72,12 @@ def _is_habits_table(path: Path) -> bool:
     return {"habit", "median"} <= names
 
 
-def _figure(value: object) -> float:
-    try:
-        return float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        return math.nan
-
-
 def _figures_of(people: pd.DataFrame) -> SourceHabits:
     """Per participant (in order of appearance), habit -> figures, of a per-participant summary."""
     found: SourceHabits = {}
     for row in people.itertuples(index=False):
         found.setdefault(str(row.participant), {})[str(row.habit)] = HabitFigures(
-            n=int(row.n), median=float(row.median), q25=_figure(row.q25), q75=_figure(row.q75))
+            n=int(row.n), median=float(row.median), q25=figure(row.q25), q75=figure(row.q75))
     return found
 
 
@@ -167,36 +162,12 @@ def _events_of(where: str, habit: str, row: pd.Series) -> int | None:
     count of events (negative, fractional, not a number, empty)."""
     if "n" not in row.index:
         return None
-    n = _figure(row["n"])
+    n = figure(row["n"])
     if not (math.isfinite(n) and n >= 0 and n == int(n)):
         given = str(row["n"]).strip() or "empty"
         raise DataError(f"{where}: {habit}: n {given!r} is not a number of events; give the whole number "
                         "(0 or more) `nudge habits --by participant --format csv` writes")
     return int(n)
-
-
-def _checked_figure(where: str, habit: str, name: str, given: object) -> float:
-    """A median or quartile of a habits table: a finite, non-negative number, at most 1 for a share
-    (NaN: a quartile left empty); a :class:`DataError` naming it otherwise."""
-    value = _figure(given)
-    text = str(given).strip()
-    if math.isnan(value):
-        if name == "median":
-            raise DataError(f"{where}: {habit}: the median is not a number ({text or 'empty'})")
-        if text.lower() not in ("", "nan"):
-            raise DataError(f"{where}: {habit}: {name} {text!r} is not a number; give seconds, or leave it "
-                            "empty")
-        return value
-    if math.isinf(value):
-        raise DataError(f"{where}: {habit}: the {name} {text} is infinite; give the measured "
-                        f"{'share' if HABIT_UNITS[habit] == 'share' else 'seconds'}")
-    if value < 0:
-        raise DataError(f"{where}: {habit}: the {name} {value:g} is negative; habits are durations or shares")
-    if HABIT_UNITS[habit] == "share" and value > 1:
-        hint = f" (a percent? {value:g} / 100 is {value / 100:g})" if value <= 100 else ""
-        raise DataError(f"{where}: {habit}: the {name} {value:g} is above 1, and a share is 0-1{hint}; give "
-                        "the share as a fraction")
-    return value
 
 
 def _check_row(path: Path, participant: str, habit: str, row: pd.Series) -> HabitFigures | None:
@@ -205,14 +176,14 @@ def _check_row(path: Path, participant: str, habit: str, row: pd.Series) -> Habi
     if habit not in HABIT_UNITS:
         raise DataError(f"{where}: habit {habit!r} is not one nudge measures"
                         f"{did_you_mean(habit, HABIT_KEYS)}; the habits are {', '.join(HABIT_KEYS)}")
-    if "unit" in row.index and str(row["unit"]).strip() not in ("", "nan", HABIT_UNITS[habit]):
-        raise DataError(f"{where}: {habit}: unit {str(row['unit']).strip()!r}; nudge measures it in "
-                        f"{HABIT_UNITS[habit]!r}")
+    if "unit" in row.index:
+        check_unit(where, habit, row["unit"], HABIT_UNITS[habit])
     n = _events_of(where, habit, row)
     if n == 0:
         return None
-    median = _checked_figure(where, habit, "median", row["median"])
-    q25, q75 = (_checked_figure(where, habit, column, row[column]) if column in row.index else math.nan
+    median = checked_figure(where, habit, "median", row["median"], HABIT_UNITS[habit])
+    q25, q75 = (checked_figure(where, habit, column, row[column], HABIT_UNITS[habit])
+                if column in row.index else math.nan
                 for column in ("q25", "q75"))
     if q25 > q75:  # (False where either is NaN)
         raise DataError(f"{where}: {habit}: q25 {q25:g} is above q75 {q75:g}; give the lower quartile in q25 "
@@ -246,6 +217,14 @@ def _participant_rows(path: Path, table: pd.DataFrame) -> pd.DataFrame:
     return rows
 
 
+def _header_names(path: Path) -> list[str]:
+    """A habits table's column names as its header line writes them (repeats kept), in the
+    delimiter pandas finds for the whole table."""
+    header = pd.read_csv(path, dtype=str, keep_default_na=False, sep=None, engine="python", header=None,
+                         nrows=1, encoding="utf-8-sig")
+    return [str(name) for name in header.iloc[0]] if len(header) else []
+
+
 def table_source(path: Path) -> SourceHabits:
     """The participants' habits of a ``nudge habits --by participant --format csv`` table.
 
@@ -266,6 +245,9 @@ def table_source(path: Path) -> SourceHabits:
         raise DataError(not_utf8_message(path)) from None
     except (ValueError, pd.errors.ParserError, csv.Error) as exc:
         raise DataError(f"{path}: not a habits table ({str(exc).strip()})") from None
+    # pandas renames a repeated name (median.1) and keeps a differently cased one (Median): either
+    # would leave a column read unsaid, or make a row's median two values
+    check_unique_columns([str(c).strip().lower() for c in _header_names(path)], path)
     table.columns = [str(c).strip().lower() for c in table.columns]
     missing = [c for c in TABLE_COLUMNS if c not in table.columns]
     if missing:
@@ -297,6 +279,10 @@ def _habits_and_experiment(source: str | Path) -> tuple[SourceHabits, Experiment
     """Each participant's habits of ``source`` (a run folder, a real log, or a habits table), and the
     experiment of a run folder (``None``: a log or a table), read once."""
     path = Path(source)
+    if path.is_file() and starts_as_toml(path):
+        raise DataError(toml_source_message(path, "fit-people reads a run folder, a real log's CSV or the "
+                                            "table `nudge habits --by participant --format csv` writes",
+                                            ["fit-people", "SOURCE", "--out", "people.csv"]))
     if path.is_file() and starts_as_json(path):
         raise DataError(f"{path}: a JSON file; fit-people reads the CSV table that `nudge habits --by "
                         "participant --format csv` writes (or a real log's CSV, or a run folder)")
