@@ -147,8 +147,8 @@ def test_check_folder_is_the_tables_accepts_the_same_file_by_another_name(tmp_pa
 
 def test_a_metrics_csv_left_by_an_earlier_analysis_is_not_drawn_for_the_table_named_now(tmp_path):
     """study-code's filters changed the table (metrics.csv written); the paper plan then analyses it
-    as it is (stats.json names study.csv) and leaves that metrics.csv in the folder: plotting the
-    folder draws the table stats.json names, not the earlier analysis's rows."""
+    as it is (stats.json names study.csv) and removes that metrics.csv, which is no part of its
+    analysis: plotting the folder draws the table stats.json names, not the earlier analysis's rows."""
     table = pd.read_csv(TABLE)
     table.loc[0, "mode_switches"] = 50  # over study-code's filter of at most 10 mode switches
     csv = tmp_path / "study.csv"
@@ -156,8 +156,10 @@ def test_a_metrics_csv_left_by_an_earlier_analysis_is_not_drawn_for_the_table_na
     folder = tmp_path / "study-analysis"
     assert _nudge("analyze", csv, "--plan", "study-code").exit_code == 0
     assert _metrics_table(folder) == "metrics.csv"
+    filtered = (folder / "metrics.csv").read_bytes()
     assert _nudge("analyze", csv, "--plan", "paper").exit_code == 0
-    assert _metrics_table(folder) == "../study.csv" and (folder / "metrics.csv").is_file()
+    assert _metrics_table(folder) == "../study.csv" and not (folder / "metrics.csv").exists()
+    (folder / "metrics.csv").write_bytes(filtered)  # put back by hand: still never drawn
     assert analysed_metrics_path(folder) == folder / "../study.csv"
     result = _nudge("plot", folder, "--formats", "png")
     assert result.exit_code == 0, result.output

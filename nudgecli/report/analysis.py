@@ -492,7 +492,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
 
     metrics_columns = [c for c in filtered.columns if c in NON_METRIC_COLUMNS or c in available]
     written = _write_analysis(out_dir, filtered[metrics_columns] if changed else None, stats, tidy, summary,
-                              scores)
+                              scores, inputs=(source, questionnaires))
     return AnalysisResult(out=out_dir, files=written, metrics=filtered, stats=stats, table=tidy,
                           summary=summary, questionnaires=scores, notes=notes,
                           p_thresholds=plan_p_thresholds(plan))
@@ -502,8 +502,9 @@ def _read_scores(questionnaires: str | Path | None, table: pd.DataFrame, source:
                  manifest: Mapping[str, Any] | None,
                  notes: list[str]) -> tuple[pd.DataFrame | None, list[str]]:
     """The questionnaire scores (``None`` without a questionnaire table) and their score columns,
-    checked against the trials: the same conditions (of a live study still under way, as its
-    ``manifest`` says, those answered so far, with a note), respondents among the participants."""
+    checked against the trials: conditions among the trials' (fewer, those answered, with a note
+    naming the rest; of a live study still under way, as its ``manifest`` says, those answered so
+    far), respondents among the participants."""
     if questionnaires is None:
         return None, []
     under_way = RunFolder.study_under_way(manifest)
@@ -512,13 +513,16 @@ def _read_scores(questionnaires: str | Path | None, table: pd.DataFrame, source:
     score_names = score_columns(scores)
     trial_conditions = set(table["condition"].astype(str))
     score_conditions = set(scores["condition"])
-    if under_way and score_conditions < trial_conditions:
-        notes.append(f"{questionnaires}: no answers yet in condition(s) "
-                     f"{', '.join(sorted(trial_conditions - score_conditions))} of the study under way; "
-                     "the questionnaires are analysed as far as they got")
-    elif score_conditions != trial_conditions:
-        raise DataError(f"{questionnaires}: conditions {sorted(score_conditions)} differ from those of "
-                        f"{source} {sorted(trial_conditions)}; name the conditions the same way")
+    if not score_conditions <= trial_conditions:  # a label the trials lack: named another way
+        raise DataError(f"{questionnaires}: conditions {sorted(score_conditions - trial_conditions)} are "
+                        f"not among those of {source} {sorted(trial_conditions)}; name the conditions "
+                        "the same way")
+    if score_conditions < trial_conditions:  # fewer answered: analysed as far as they go
+        unanswered = ', '.join(sorted(trial_conditions - score_conditions))
+        notes.append(f"{questionnaires}: no answers yet in condition(s) {unanswered} of the study under way; "
+                     "the questionnaires are analysed as far as they got" if under_way else
+                     f"{questionnaires}: no answers in condition(s) {unanswered}; the questionnaires "
+                     "are analysed in the conditions answered")
     check_respondents(scores, table["participant"], str(questionnaires), str(source))
     return scores, score_names
 
@@ -548,13 +552,16 @@ def _statistics(filtered: pd.DataFrame, trial_selected: Sequence[str], scores: p
 
 
 def _write_analysis(out_dir: Path, metrics: pd.DataFrame | None, stats: dict[str, Any], tidy: pd.DataFrame,
-                    summary: str, scores: pd.DataFrame | None) -> list[Path]:
+                    summary: str, scores: pd.DataFrame | None, *,
+                    inputs: Sequence[str | Path | None] = ()) -> list[Path]:
     """Write :data:`~nudgecli.report.analysis_folders.ANALYSIS_FILES` atomically into ``out_dir``
     (``metrics.csv`` when ``metrics`` is given: the table analysed differs from the source;
     ``questionnaire_scores.csv`` with ``scores``) and return them; none when one is an input of the
-    command. The old ``stats.json`` goes first, the new one comes last: a killed analysis leaves none
-    (``nudge plot`` refuses the folder, naming the command that completes it), never one beside
-    another analysis's files. An earlier killed analysis's temporaries are removed."""
+    command. The old ``stats.json`` goes first, then an earlier analysis's outputs this one does not
+    write (unless an input: one of ``inputs``, the source and questionnaires, or a file the command
+    declared), the new ``stats.json`` last: a killed analysis leaves none (``nudge plot``
+    refuses the folder, naming the command that completes it), never one beside another analysis's
+    files. An earlier killed analysis's temporaries are removed."""
     outputs = {METRICS_CSV: None if metrics is None else metrics.to_csv(index=False),
                STATS_CSV: stats_csv(tidy), SUMMARY_MD: summary,  # scores: the bytes stats.json records
                QUESTIONNAIRE_SCORES_CSV: None if scores is None else scores_csv(scores),
@@ -562,12 +569,28 @@ def _write_analysis(out_dir: Path, metrics: pd.DataFrame | None, stats: dict[str
     written = [out_dir / name for name, text in outputs.items() if text is not None]
     for path in written:
         check_not_an_input(path)  # all of them first: nothing is replaced when one is an input
-    try:  # the lock is held: no live writer owns a temporary
+    stale = [out_dir / name for name, text in outputs.items() if text is None]  # an earlier analysis's
+    stale = [path for path in stale if not _is_input(path, inputs)]
+    try:  # the lock is held: no live writer owns a temporary; stats.json before the stale outputs
         for path in [*(p for p in out_dir.glob(".*.tmp") if left_by_a_killed_analysis(out_dir)(p.name)),
-                     out_dir / STATS_JSON]:
+                     out_dir / STATS_JSON, *stale]:
             path.unlink(missing_ok=True)
     except OSError as exc:
         raise write_error(out_dir / STATS_JSON, exc) from exc
     for path in written:
         write_text_atomic(path, outputs[path.name] or "")
     return written
+
+
+def _is_input(path: Path, inputs: Sequence[str | Path | None]) -> bool:
+    """Whether ``path`` is one of ``inputs`` or of the command's declared inputs (a table analysed
+    from its own folder): an output this analysis does not write is removed only when it is not."""
+    for given in (Path(p) for p in inputs if p is not None):
+        with contextlib.suppress(OSError):
+            if given.is_file() and path.is_file() and os.path.samefile(given, path):
+                return True
+    try:
+        check_not_an_input(path)
+    except NudgeWriteError:
+        return True
+    return False
