@@ -8,6 +8,7 @@ Each test was seen failing with its fix removed (accepted, or a traceback)."""
 from __future__ import annotations
 
 import math
+import re
 import typing
 from pathlib import Path
 from typing import Any
@@ -162,6 +163,7 @@ def test_a_sweep_range_integer_refuses_text_and_numbers(tmp_path, value):
     path = tmp_path / "s.toml"
     path.write_text(sweep.replace('"inference.kappa" = { low = 0.5, high = 0.8 }',
                                   f'"study.participants" = {{ low = 1, high = 3, integer = {value} }}'))
-    said = r"integer: should be true or false \(no quotes\), e\.g\. integer = true \(got "
+    # the experiment sections' rule of values as written (config_base.Section), naming key and value
+    said = rf"parameters\.study\.participants: integer = {re.escape(value)}: give true or false \(no quotes\)"
     with pytest.raises(ConfigError, match=said):
         load_sweep(str(path))
