@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 import signal
 import tempfile
 from collections.abc import Iterator
@@ -54,3 +55,15 @@ def analysed_smoke_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     assert nudge("simulate", "smoke", "--participants", "2", "--seed", "5", "--out", run).exit_code == 0
     assert nudge("analyze", run, "--bootstrap", "100").exit_code == 0
     return run
+
+
+@pytest.fixture
+def my_study(tmp_path: Path) -> Path:
+    """experiments/custom-policy.toml renamed "my-study" (no plan of that name), with its policy."""
+    experiments = Path(__file__).resolve().parents[1] / "experiments"
+    shutil.copytree(experiments / "policies", tmp_path / "policies",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    text = (experiments / "custom-policy.toml").read_text()
+    path = tmp_path / "my-study.toml"
+    path.write_text(text.replace('name = "custom-policy"', 'name = "my-study"'))
+    return path

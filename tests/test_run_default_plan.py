@@ -4,7 +4,6 @@ plan that cannot analyse them is refused with the fix: a plan of one's own, give
 
 from __future__ import annotations
 
-import shutil
 from pathlib import Path
 
 import pytest
@@ -18,17 +17,6 @@ ROOT = Path(__file__).resolve().parents[1]
 SMALL = ("--participants", "1", "--set", "study.blocks_per_condition=1", "--set", "study.goal_counts=[3]",
          "--set", 'study.corners=["tr"]', "--set", 'study.start_modes=["x"]',
          "--set", "study.shared_layouts=1")
-
-
-@pytest.fixture
-def my_study(tmp_path: Path) -> Path:
-    """experiments/custom-policy.toml renamed "my-study" (no plan of that name), with its policy."""
-    shutil.copytree(ROOT / "experiments" / "policies", tmp_path / "policies",
-                    ignore=shutil.ignore_patterns("__pycache__"))
-    text = (ROOT / "experiments" / "custom-policy.toml").read_text()
-    path = tmp_path / "my-study.toml"
-    path.write_text(text.replace('name = "custom-policy"', 'name = "my-study"'))
-    return path
 
 
 def test_run_refuses_a_default_plan_that_cannot_analyse_the_conditions_before_simulating(

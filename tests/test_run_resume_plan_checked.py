@@ -5,7 +5,6 @@ the rest, and refuses one that cannot analyse the run's conditions as a fresh ru
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 
 import pytest
@@ -17,17 +16,6 @@ from nudgecli.errors import ConfigError
 from nudgecli.run_folder_names import MANIFEST
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-@pytest.fixture
-def my_study(tmp_path: Path) -> Path:
-    """experiments/custom-policy.toml renamed "my-study" (no plan of that name), with its policy."""
-    shutil.copytree(ROOT / "experiments" / "policies", tmp_path / "policies",
-                    ignore=shutil.ignore_patterns("__pycache__"))
-    text = (ROOT / "experiments" / "custom-policy.toml").read_text()
-    path = tmp_path / "my-study.toml"
-    path.write_text(text.replace('name = "custom-policy"', 'name = "my-study"'))
-    return path
 
 
 def _interrupted_run(folder: Path, plan: str) -> Path:
