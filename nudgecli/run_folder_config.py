@@ -19,8 +19,18 @@ from pathlib import Path
 from typing import Any
 
 from nudgecli.config import ExperimentConfig, experiment_from_toml
-from nudgecli.errors import ConfigError, NudgeError, WriteError
-from nudgecli.run_folder_names import CONFIG, MANIFEST, PLAN_COPY
+from nudgecli.errors import ConfigError, NudgeError, RunFolderError, WriteError
+from nudgecli.run_folder_names import (
+    CONFIG,
+    MANIFEST,
+    METRICS_CSV,
+    PLAN_COPY,
+    QUESTIONNAIRE_SCORES_CSV,
+    STATS_CSV,
+    STATS_JSON,
+    SUMMARY_MD,
+)
+from nudgecli.run_folder_state import only_a_start
 
 #: The manifest key of the SHA-256 of a run's copy of its plan file (:data:`PLAN_COPY`, which the
 #: manifest's ``plan`` names, relative to the run folder).
@@ -66,6 +76,17 @@ def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, An
             if old.get(key, _ABSENT) != new.get(key, _ABSENT)]
 
 
+def remove_run_analysis(folder: Path) -> None:
+    """Remove a run's analysis (``stats.json`` first: an analysis cut short is one without it) and its
+    figures: what ``--force`` replaces with the run, and what a resume under another plan analyses
+    again (:meth:`ConfigRecord.keep_plan`)."""
+    from nudgecli.run_folder_record import remove_run_figures  # the record builds on this module
+
+    for name in (STATS_JSON, METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV):
+        (folder / name).unlink(missing_ok=True)
+    remove_run_figures(folder)  # drawn under the old analysis (its plan's star rule)
+
+
 class ConfigRecord:
     """The ``config.toml`` side of a run folder (``path``)."""
 
@@ -91,6 +112,28 @@ class ConfigRecord:
             return (f"{path} held the experiment's own seed ({on_disk.experiment.seed}), not the one the "
                     f"run used ({config.experiment.seed}); rewritten with it")
         return f"{path} differed from the experiment in the manifest; rewritten from it"
+
+    def other_start_error(self, config: ExperimentConfig) -> RunFolderError | None:
+        """The refusal of a run of ``config`` into a folder holding only the start of another run (no
+        manifest; its ``config.toml`` differs): left by that run killed before its manifest, or by a
+        ``--force`` cut short after it removed the manifest of the run it replaced (``config.toml``
+        goes last), whose config.toml a resume would simulate again. ``None`` otherwise."""
+        path = self.path / CONFIG
+        if (self.path / MANIFEST).exists() or not path.is_file() or not only_a_start(self.path) or \
+                only_a_start(self.path, config.to_toml()):
+            return None
+        try:
+            differences = experiment_differences(experiment_from_toml(
+                path.read_text(encoding="utf-8"), str(path)).model_dump(mode="json"),
+                config.model_dump(mode="json"), source=CONFIG)
+        except (NudgeError, ValueError):
+            differences = []
+        shown = f": {'; '.join(differences[:3])}" if differences else ""
+        return RunFolderError(f"{self.path}: holds only the start of another run (its {CONFIG} differs"
+                              f"{shown}), killed before it wrote its manifest, or a --force that was "
+                              "replacing a run there, cut short; nothing of it was simulated: run this "
+                              "command with --force (without --resume) to start this run there, or choose "
+                              "another --out")
 
     def _edited_config_hint(self, manifest: Mapping[str, Any]) -> str:
         """``put back ...; `` when the run's ``config.toml`` no longer holds the experiment its
@@ -133,18 +176,26 @@ class ConfigRecord:
         """Record the analysis plan of a run of ``config`` in ``manifest``: ``plan`` (``--plan``), else the
         default one (:func:`~nudgecli.config_files.resolve_plan`); a preset by its name, a plan file (a
         ``.toml`` path, or a file by that name, as :func:`~nudgecli.config_files.resolve_preset` tells
-        them apart) as an exact copy in the folder (:data:`PLAN_COPY`) with its SHA-256."""
+        them apart) as an exact copy in the folder (:data:`PLAN_COPY`) with its SHA-256. A plan other
+        than the one ``manifest`` records removes the folder's analysis first (:func:`remove_run_analysis`):
+        the manifest is written later, and the old analysis must never stand under the new plan's name."""
         from nudgecli.config_files import resolve_plan
 
         plan = resolve_plan(plan, experiment=config.experiment.name, world=config.world.kind)
-        manifest.pop(PLAN_SHA256_KEY, None)
         given = Path(plan)
-        if given.suffix != ".toml" and not given.is_file():
+        preset = given.suffix != ".toml" and not given.is_file()
+        data = None if preset else given.read_bytes()
+        recorded = (manifest.get("plan"), manifest.get(PLAN_SHA256_KEY))
+        if recorded != ((plan, None) if data is None else (PLAN_COPY, hashlib.sha256(data).hexdigest())):
+            # the analysis of the plan recorded so far goes before the new plan is: a resume killed
+            # from here on leaves no analysis (analyze redoes it), never one beside another plan's name
+            remove_run_analysis(self.path)
+        manifest.pop(PLAN_SHA256_KEY, None)
+        if data is None:
             manifest["plan"] = plan
             return
         from nudgecli.store import write_bytes_atomic  # the store imports this module
 
-        data = given.read_bytes()
         write_bytes_atomic(self.path / PLAN_COPY, data)
         manifest.update({"plan": PLAN_COPY, PLAN_SHA256_KEY: hashlib.sha256(data).hexdigest()})
 

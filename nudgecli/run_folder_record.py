@@ -38,7 +38,7 @@ from nudgecli.run_folder_names import (
     part_name,
     stray_part_files,
 )
-from nudgecli.run_folder_state import only_a_start, repair_advice, simulate_again, version_difference
+from nudgecli.run_folder_state import repair_advice, simulate_again, start_advice, version_difference
 
 if TYPE_CHECKING:  # pandas loads on first use, after a batch has started its workers
     import pandas as pd
@@ -565,9 +565,8 @@ class RunRecord(LiveRecord, ConfigRecord):
             analyze_table = shell_words(["nudge", "analyze", str(folder / METRICS_CSV)])
             return (f"{folder} holds metrics but not the step logs they came from; "
                     f"analyse the table instead: `{analyze_table}`")
-        if manifest is None and only_a_start(folder):
-            return (f"{folder} holds only the start of a run killed before it wrote its manifest; start "
-                    f"it again with `{simulate_resume_command(experiment, folder)}`")
+        if manifest is None and (advice := start_advice(folder)) is not None:
+            return advice
         return (f"{folder} has no {kind} yet (no {kind}/part-*.parquet); run "
                 f"`{shell_words(['nudge', 'simulate', 'EXPERIMENT', '--out', str(folder)])}` first")
 

@@ -49,6 +49,24 @@ def only_a_start(folder: Path, config_text: str | None = None) -> bool:
                or (p.name in _EMPTIED and p.is_dir() and not any(p.iterdir())) for p in folder.iterdir())
 
 
+def start_advice(folder: Path) -> str | None:
+    """What a reader of a folder holding only the start of a run (:func:`only_a_start`) is told, else
+    ``None``: the ``nudge simulate CONFIG --out FOLDER --resume`` that starts it again, and the
+    ``nudge run ... --plan PLAN --resume`` of a run started with ``--plan`` (a start records no plan:
+    the simulate one records the default); a ``--force`` cut short leaves such a start too, its
+    config.toml perhaps the replaced run's, which that resume would simulate again."""
+    if not only_a_start(folder):
+        return None
+    from nudgecli.store import simulate_resume_command  # store builds on this module
+
+    experiment = str(folder / CONFIG) if (folder / CONFIG).is_file() else "EXPERIMENT"
+    run = simulate_resume_command(experiment, folder, command="run", plan="PLAN")
+    return (f"{folder} holds only the start of a run killed before it wrote its manifest (a start records "
+            f"no analysis plan); start it again with `{simulate_resume_command(experiment, folder)}`, or "
+            f"`{run}` for a run started with --plan PLAN; if a --force that was replacing a run there was "
+            f"cut short ({CONFIG} may still be the replaced run's), run that same --force command instead")
+
+
 def run_state(folder: Path, manifest: Mapping[str, Any]) -> str:
     """How an unfinished run stands, for a message: ``is running`` while another live process
     holds its lock (:func:`nudgecli.locks.run_lock`), ``was interrupted`` where its manifest says

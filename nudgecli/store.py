@@ -46,6 +46,7 @@ from nudgecli.outputs import check_not_an_input
 from nudgecli.parquet_reader import parquet_column_names, read_parquet
 from nudgecli.results_folders import default_run_dir as default_run_dir  # where commands import it
 from nudgecli.run_folder_calibration import calibration_dir
+from nudgecli.run_folder_config import remove_run_analysis
 from nudgecli.run_folder_names import (
     CALIBRATION_DIR,
     CONFIG,
@@ -53,18 +54,13 @@ from nudgecli.run_folder_names import (
     LAYOUTS,
     LOCK,
     MANIFEST,
-    METRICS_CSV,
     PART_KINDS,
     PARTICIPANTS,
     PEOPLE_DIR,
     PLAN_COPY,
-    QUESTIONNAIRE_SCORES_CSV,
-    STATS_CSV,
-    STATS_JSON,
-    SUMMARY_MD,
     numbered_parts,
 )
-from nudgecli.run_folder_record import RunRecord, file_sha256, part_name, readable_parquet, remove_run_figures
+from nudgecli.run_folder_record import RunRecord, file_sha256, part_name, readable_parquet
 from nudgecli.run_folder_state import (
     only_a_start,
     other_version,
@@ -491,6 +487,8 @@ class RunFolder(RunRecord):
             (resume or not (self.path / CONFIG).is_file())
         if start:
             self._remove_temporaries()
+        elif manifest is None and not force and (refusal := self.other_start_error(config)) is not None:
+            raise refusal  # another run's start, or a --force cut short: a resume would simulate that run
         held = (None if manifest is None else
                 f"{manifest.get('experiment')}, {manifest.get('status', 'unknown')}")
         mode = "new" if start else prepare_mode(self.path, held, resume, force)
@@ -532,9 +530,7 @@ class RunFolder(RunRecord):
         own people files there). The analysis and figures go first, the manifest and config.toml last:
         killed midway, it is a damaged run or a start, never an analysis without its run."""
         self._remove_temporaries()
-        for name in (STATS_JSON, METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV):
-            (self.path / name).unlink(missing_ok=True)  # stats.json first: an analysis cut short
-        remove_run_figures(self.path)  # the old run's figures would stand beside the new run's tables
+        remove_run_analysis(self.path)  # the old run's figures would stand beside the new run's tables
         for kind in PART_KINDS:
             folder = self.path / kind
             if folder.is_dir():

@@ -44,7 +44,7 @@ def test_a_run_resumed_without_plan_is_analysed_with_the_plan_its_manifest_recor
 
     def analyze(source: Path, plan: str) -> SimpleNamespace:
         analysed.append(plan)
-        return SimpleNamespace(out=source)
+        return SimpleNamespace(out=source, notes=[])
 
     monkeypatch.setattr("nudgecli.report.analysis.analyze", analyze)
     monkeypatch.setattr("nudgecli.report.plotting.plot_folder", lambda *a, **k: [])
@@ -88,7 +88,7 @@ def test_analyze_and_plot_of_a_run_killed_before_its_manifest_name_its_config(ru
     advice = {one_error_line(nudge(command, run).output) for command in ("analyze", "plot")}
     assert len(advice) == 1, advice  # plot says what analyze says
     (line,) = advice
-    command = shlex.split(line.split("start it again with `", 1)[1].rstrip("`"))
+    command = shlex.split(line.split("start it again with `", 1)[1].split("`", 1)[0])
     assert command == ["nudge", "simulate", str(run / CONFIG), "--out", str(run), "--resume"], line
     result = nudge(*command[1:])
     assert result.exit_code == 0, result.output
