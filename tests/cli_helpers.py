@@ -3,11 +3,12 @@ puts this folder on the path, as for ``live_helpers``)."""
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import hashlib
 import shutil
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 import pytest
@@ -110,3 +111,20 @@ def write_csv_rows(path: Path, rows: list[dict[str, str]]) -> Path:
         writer.writeheader()
         writer.writerows(rows)
     return path
+
+
+@contextlib.contextmanager
+def dies_at_unlink(monkeypatch: pytest.MonkeyPatch, doomed: Path) -> Iterator[None]:
+    """Within the block, a command dies (``KeyboardInterrupt``, as a kill: nothing after it runs) as
+    it removes ``doomed``; every other file is removed as usual."""
+    unlink = Path.unlink
+
+    def killed(path: Path, missing_ok: bool = False) -> None:
+        if path == doomed:
+            raise KeyboardInterrupt
+        unlink(path, missing_ok=missing_ok)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(Path, "unlink", killed)
+        yield
+

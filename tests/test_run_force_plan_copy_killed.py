@@ -10,7 +10,7 @@ import shutil
 from pathlib import Path
 
 import pytest
-from cli_helpers import nudge
+from cli_helpers import dies_at_unlink, nudge
 
 from nudgecli.run_folder_config import PLAN_SHA256_KEY
 from nudgecli.run_folder_names import CONFIG, MANIFEST, PLAN_COPY
@@ -37,15 +37,7 @@ def run_of_a_plan_file(analysed_smoke_run: Path, tmp_path: Path) -> Path:
 def test_a_force_killed_while_clearing_never_leaves_the_plan_copy_without_config(
         run_of_a_plan_file: Path, monkeypatch: pytest.MonkeyPatch, dies_at: str) -> None:
     run = run_of_a_plan_file
-    unlink = Path.unlink
-
-    def killed(path: Path, missing_ok: bool = False) -> None:
-        if path == run / dies_at:
-            raise KeyboardInterrupt  # the process dies here: nothing after it runs
-        unlink(path, missing_ok=missing_ok)
-
-    with monkeypatch.context() as patch:
-        patch.setattr(Path, "unlink", killed)
+    with dies_at_unlink(monkeypatch, run / dies_at):
         assert nudge("simulate", *SMOKE, "--force", "--out", run).exit_code == 130
     # was: plan.toml left after config.toml, the manifest gone: no start, and no run either
     assert (run / CONFIG).is_file() or not (run / PLAN_COPY).exists()

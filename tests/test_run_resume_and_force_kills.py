@@ -14,7 +14,7 @@ from types import SimpleNamespace
 
 import pandas as pd
 import pytest
-from cli_helpers import nudge, one_error_line
+from cli_helpers import dies_at_unlink, nudge, one_error_line
 
 import nudgecli.api
 from nudgecli.run_folder_names import CONFIG, LOCK, MANIFEST, METRICS_CSV, PARTICIPANTS, STATS_JSON
@@ -100,15 +100,7 @@ def test_analyze_and_plot_of_a_run_killed_before_its_manifest_name_its_config(ru
 @pytest.mark.parametrize("dies_at", [PARTICIPANTS, MANIFEST, CONFIG])
 def test_a_force_killed_while_clearing_never_leaves_the_old_analysis_without_its_run(
         run: Path, monkeypatch: pytest.MonkeyPatch, dies_at: str) -> None:
-    unlink = Path.unlink
-
-    def killed(path: Path, missing_ok: bool = False) -> None:
-        if path == run / dies_at:
-            raise KeyboardInterrupt  # the process dies here: nothing after it runs
-        unlink(path, missing_ok=missing_ok)
-
-    with monkeypatch.context() as patch:
-        patch.setattr(Path, "unlink", killed)
+    with dies_at_unlink(monkeypatch, run / dies_at):
         assert nudge("simulate", "smoke", "--seed", "9", "--force", "--out", run).exit_code == 130
     assert (run / METRICS_CSV).exists() is False and (run / STATS_JSON).exists() is False
     assert nudge("plot", run).exit_code == 1  # was: exit 0, the old run's metrics drawn
