@@ -112,3 +112,26 @@ def test_a_stats_json_written_where_the_kept_analysis_had_none_is_removed(analys
     recover_kept_analysis(run)
     assert _kept(run) == [] and file_digests(run, RECORDS[:-1]) == before
     assert not (run / "stats.json").exists()  # the folder's analysis had none: put back as it was
+
+
+def test_a_plot_killed_as_it_removes_what_it_kept_leaves_its_analysis(analysed_smoke_run, tmp_path, dead_pid,
+                                                                      monkeypatch):
+    # was: the kept stats.json went first, and the next analysis read the rest as a folder that had
+    # none, put the old analysis back and left the plot's figures beside it
+    import nudgecli.report.analysis_folders as folders
+
+    run = shutil.copytree(analysed_smoke_run, tmp_path / "run")
+
+    def killed(paths):  # the process dies as it starts removing what it kept
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as patch:
+        patch.setattr(folders, "_remove", killed)
+        with pytest.raises(KeyboardInterrupt), folders.analysis_restored_on_failure(run, run=True):
+            _replace(run / "stats.csv", "metric\nthe new analysis\n")
+            _replace(run / "stats.json", '{"metrics": []}')
+    for left in run.glob(f"*-{os.getpid()}.tmp"):  # as the killed process left them
+        left.rename(left.with_name(left.name.replace(str(os.getpid()), str(dead_pid))))
+    now = file_digests(run, RECORDS)
+    recover_kept_analysis(run)
+    assert _kept(run) == [] and not list(run.glob("*.tmp")) and file_digests(run, RECORDS) == now

@@ -225,9 +225,24 @@ def analysis_restored_on_failure(folder: Path, *, run: bool = False) -> Iterator
     except BaseException:
         with contextlib.suppress(OSError):  # as far as it goes: stats.json stays away from a mix
             _put_back(folder, names, kept)
-        raise
-    finally:
         _remove(kept.values())
+        raise
+    _finished(folder, kept)
+
+
+def _finished(folder: Path, kept: dict[str, Path]) -> None:
+    """The block succeeded: its analysis (and the figures drawn of it) stands. A marker says so
+    before the kept files go (the kept ``stats.json`` renamed to it, else an empty one), so that a
+    kill while they are removed leaves a set the next command discards (:func:`recover_kept_analysis`),
+    never one it puts back beside the figures drawn of the new analysis."""
+    done = _done_marker(folder, os.getpid())
+    with contextlib.suppress(OSError):
+        if STATS_JSON in kept:
+            os.replace(kept.pop(STATS_JSON), done)
+        else:
+            done.touch()
+        _remove(kept.values())
+        done.unlink(missing_ok=True)
 
 
 def recover_kept_analysis(folder: Path) -> None:
@@ -247,6 +262,10 @@ def recover_kept_analysis(folder: Path) -> None:
     """
     for _, kept in sorted(_kept_by_dead_processes(folder).items()):
         try:
+            if _DONE in kept:  # the plot had finished: its analysis stands, what it kept goes
+                for path in kept.values():
+                    path.unlink(missing_ok=True)
+                continue
             if MANIFEST in kept and not _only_plan_recorded(kept[MANIFEST], folder / MANIFEST):
                 kept.pop(MANIFEST).unlink()  # changed since by another command: the folder's own stays
             if not _kept_is_current(folder, kept):
@@ -260,17 +279,26 @@ def recover_kept_analysis(folder: Path) -> None:
 
 def _kept_by_dead_processes(folder: Path) -> dict[int, dict[str, Path]]:
     """The files processes no longer running kept in ``folder`` (:func:`_kept_copy`): pid -> {name
-    of the file kept: the kept file}."""
+    of the file kept: the kept file}, and :data:`_DONE`: the marker of a plot that had finished."""
     found: dict[int, dict[str, Path]] = {}
     if not folder.is_dir():
         return found
-    for name in (MANIFEST, *ANALYSIS_FILES):
-        prefix = temporary_prefix(folder / name)
-        for path in folder.glob(f"{glob.escape(prefix)}kept-*.tmp"):
-            pid = re.fullmatch(r"kept-(\d+)\.tmp", path.name[len(prefix):])
+    for name, word in [(name, "kept") for name in (MANIFEST, *ANALYSIS_FILES)] + [(_DONE, "done")]:
+        prefix = temporary_prefix(folder / (STATS_JSON if name == _DONE else name))
+        for path in folder.glob(f"{glob.escape(prefix)}{word}-*.tmp"):
+            pid = re.fullmatch(rf"{word}-(\d+)\.tmp", path.name[len(prefix):])
             if pid is not None and int(pid[1]) != os.getpid() and not pid_alive(int(pid[1])):
                 found.setdefault(int(pid[1]), {})[name] = path
     return found
+
+
+#: The key of a finished plot's marker among what a process kept (:func:`_finished`).
+_DONE = "done"
+
+
+def _done_marker(folder: Path, pid: int) -> Path:
+    """The marker of process ``pid``'s finished plot: a temporary of ``stats.json``'s (:func:`_finished`)."""
+    return folder / f"{temporary_prefix(folder / STATS_JSON)}{_DONE}-{pid}.tmp"
 
 
 def _only_plan_recorded(kept: Path, current: Path) -> bool:
