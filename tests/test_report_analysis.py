@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from cli_helpers import nudge, one_error_line
 from click.testing import CliRunner
 from run_builders import synthetic_run
 
@@ -19,6 +20,8 @@ from nudgecli.errors import ConfigError
 from nudgecli.report.analysis import analyze
 from nudgecli.report.plans import load_plan, plan_from_dict, plan_names
 from nudgecli.report.stats import ComparisonOptions
+from nudgecli.run_folder_names import CONFIG, LOCK
+from nudgecli.run_folder_state import only_a_start, start_advice
 
 DATA = Path(__file__).parent / "data"
 METRICS_CSV = DATA / "metrics_two_conditions.csv"
@@ -193,6 +196,25 @@ def test_bad_inputs_give_one_error_line_and_exit_code_1(tmp_path: Path) -> None:
         assert len(lines) == 1 and lines[0].startswith("Error: "), (name, result.stderr)
         assert message in lines[0], (name, lines[0])
         assert result.stdout == "", name
+
+
+@pytest.mark.parametrize("left", [(), (LOCK,), (LOCK, "trials/", "steps/", "participants/")])
+def test_a_start_killed_writing_its_config_gets_start_advice(tmp_path: Path, left: tuple[str, ...]) -> None:
+    # what `nudge simulate --out F` killed while writing config.toml leaves; without its empty part
+    # folders it has no run-folder marker at all
+    start = tmp_path / "run"
+    start.mkdir()
+    temporary = start / f".{CONFIG}.x1y2z3w4.tmp"
+    temporary.write_text("[experiment]\n")
+    for name in left:
+        (start / name).mkdir() if name.endswith("/") else (start / name).write_text("")
+    analyzed, plotted = nudge("analyze", start), nudge("plot", start)
+    assert analyzed.exit_code == 1 and plotted.exit_code == 1
+    # was: "neither a run folder nor a metrics table", while plot gave the start advice
+    advice = f"Error: {start_advice(start)}"
+    assert one_error_line(analyzed.output) == one_error_line(plotted.output) == advice
+    # nothing written beside it (a stale lock is released, as by plot): still a start for its resume
+    assert only_a_start(start) and temporary.is_file()
 
 
 def test_nan_values_are_null_in_stats_json(tmp_path: Path) -> None:

@@ -106,6 +106,7 @@ from nudgecli.report.tables import (
 )
 from nudgecli.run_folder_names import METRICS_CSV, QUESTIONNAIRE_SCORES_CSV, STATS_CSV, STATS_JSON, SUMMARY_MD
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, file_sha256
+from nudgecli.run_folder_state import start_advice
 from nudgecli.store import RunFolder, is_run_folder, write_error, write_text_atomic
 
 
@@ -266,6 +267,8 @@ def _load_source(source: Path, plan: AnalysisPlan,
         raise DataError(f"{source} does not exist; give a run folder or a metrics table (.csv/.parquet)")
     if source.is_dir():
         if not is_run_folder(source):
+            if (advice := start_advice(source)) is not None:  # killed as it wrote config.toml: no marker yet
+                raise RunFolderError(advice)
             raise DataError(f"{source} is neither a run folder nor a metrics table: it has no trials/ or "
                             "steps/; give a folder made by `nudge simulate` or a .csv/.parquet table")
         trials, steps_of = read_run(source, notes)
