@@ -47,7 +47,6 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -392,28 +391,28 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     # a resume with nothing left keeps the record of the run that computed the tasks
     record = BatchRecord.resumed(folder, described, executor_named, bool(runnable)) \
         if mode == "resume" else BatchRecord(folder, described, executor_named)
-    record.write()
-    started = time.perf_counter()
+    record.begin()
     try:
         executor = make_executor(size.workers, client)
-        computed = _run_graph(batch, graph, left, folder, executor, progress, prepare, log)
+        computed = _run_graph(batch, graph, left, folder, executor, progress, prepare, log, record)
+        record.ran(getattr(executor, "peak_rss_mb", None))  # on record before the tables: a kill may follow
         stats = read_analyses(folder, sorted(graph.analyses), batch.plan.label, log)  # its filters said
-        peak, wall = getattr(executor, "peak_rss_mb", None), round(time.perf_counter() - started, 3)
-        run = BatchRun(folder, mode, graph, size, stats, computed, peak)
+        run = BatchRun(folder, mode, graph, size, stats, computed, record.peak_mb)
         run.outputs = None if finish is None else finish(run)  # its tables and figures, before "complete"
     except BaseException:
         # interrupted (Ctrl-C, a failed task or write, its outputs not all written): not running, nor complete
         with contextlib.suppress(NudgeError, OSError):
             record.interrupted()
         raise
-    record.complete(computed, wall, peak)
+    record.complete()
     return run
 
 
 def _run_graph(batch: Batch, graph: Graph, left: TasksLeft, folder: Path, executor: Executor,
                progress: Callable[[int, int], None] | None, prepare: Callable[[], object] | None,
-               log: Log) -> int:
-    """Submit every unfinished task, write each result as it comes; returns the tasks computed."""
+               log: Log, batch_record: BatchRecord) -> int:
+    """Submit every unfinished task, write each result as it comes, each counted in ``batch_record``
+    (which keeps the count so far in ``batch.json``); returns the tasks this run computed."""
     run = _GraphRun(batch, graph, left, folder, executor, log)
     try:
         if prepare is not None and isinstance(executor, ProcessExecutor):  # then the command's own
@@ -422,13 +421,12 @@ def _run_graph(batch: Batch, graph: Graph, left: TasksLeft, folder: Path, execut
         run.submit_first()
         if progress:
             progress(run.done, run.total)
-        computed = 0
         while run.in_flight:
             job, result = executor.next_result()
             run.in_flight -= 1
             if run.take(job, result):
                 run.done += 1
-                computed += 1
+                batch_record.task_computed()
                 if progress:
                     progress(run.done, run.total)
         run.record.write_in_order()  # its lines came in the order the tasks finished
@@ -436,7 +434,7 @@ def _run_graph(batch: Batch, graph: Graph, left: TasksLeft, folder: Path, execut
         executor.abort()  # Ctrl-C or a failure: do not wait for the running tasks
         raise
     executor.close()
-    return computed
+    return batch_record.computed
 
 
 class _GraphRun:
