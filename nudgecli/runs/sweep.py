@@ -72,7 +72,7 @@ from nudgecli.runs.sweep_file import (  # the format, read from here too
     Values,
     morris_choice,
 )
-from nudgecli.sim.policy_registry import checked_policy_specs
+from nudgecli.sim.policy_registry import checked_policy_specs, run_conditions, unused_policy_notes
 
 #: Where the shipped example sweeps live (beside the experiment presets, in their own folder so
 #: that ``nudge presets`` does not list them as experiments).
@@ -216,7 +216,8 @@ def load_sweep(name_or_path: str) -> Sweep:
     spec = spec.model_copy(update={"plan": resolve_plan(plan, experiment=named.experiment.name,
                                                         world=named.world.kind)})
     return Sweep(source=path, spec=spec, points=points, problem=problem, samples=samples,
-                 experiment_file=resolve_preset(experiment, "experiments"), notes=design_notes(spec.design))
+                 experiment_file=resolve_preset(experiment, "experiments"),
+                 notes=(*design_notes(spec.design), *unrun_policy_notes(points)))
 
 
 def design_notes(design: Design) -> tuple[str, ...]:
@@ -229,6 +230,17 @@ def design_notes(design: Design) -> tuple[str, ...]:
     below = 1 << (n.bit_length() - 1)
     return (f"design.samples = {n}: a Sobol design is balanced only for a power of 2 base samples; use "
             f"{below} or {below * 2}",)
+
+
+def unrun_policy_notes(points: Sequence[DesignPoint]) -> tuple[str, ...]:
+    """The note ``nudge simulate`` gives on the experiment's ``[policies.NAME]`` sections that no
+    condition runs (:func:`~nudgecli.sim.policy_registry.unused_policy_notes`, its owner), once for
+    the sweep, not once a point: on the sections that no point runs (a point whose conditions a
+    parameter or the ``set`` changes may run one that others leave out)."""
+    run_somewhere = {condition for point in points for condition in run_conditions(point.config)}
+    unrun = {name: section for point in points for name, section in (point.config.policies or {}).items()
+             if name not in run_somewhere}
+    return unused_policy_notes(points[0].config.model_copy(update={"policies": unrun}))
 
 
 def point_overrides(fixed: list[str], assignment: dict[str, Any]) -> list[str]:
