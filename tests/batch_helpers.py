@@ -47,3 +47,20 @@ def an_old_batch(folder: Path, kind: str = "power") -> None:
     (folder / FIGURES_DIR / "sketch.png").write_text("mine too")
 
 
+def notes_a_sweep_tells(sweep: Path, out: Path, monkeypatch) -> tuple[str, ...]:
+    """The notes ``nudge sweep`` hands its batch to tell (the batch stopped before anything is built)."""
+    import pytest
+
+    from nudgecli.runs import batch_kinds
+
+    given: dict[str, tuple[str, ...]] = {}
+
+    def no_run(batch, *args, **kwargs):
+        given["notes"] = batch.notes
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(batch_kinds, "run_batch", no_run)
+    with pytest.raises(KeyboardInterrupt):
+        batch_kinds.sweep(str(sweep), out)
+    return given["notes"]
+

@@ -5,12 +5,11 @@ design point, and only of a section that no point runs."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 import pytest
+from batch_helpers import notes_a_sweep_tells
 from policy_helpers import QUIET_POLICY, policy_experiment
 
-from nudgecli.runs import batch_kinds
 from nudgecli.runs.sweep import load_sweep
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -34,16 +33,9 @@ def _sweep(tmp_path: Path, parameter: str) -> Path:
 
 
 def test_a_sweep_tells_the_note_once_to_its_batch(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    given: dict[str, Any] = {}
-
-    def no_run(batch: Any, *args: Any, **kwargs: Any) -> Any:
-        given["notes"] = batch.notes
-        raise KeyboardInterrupt  # stop before anything is built
-
-    monkeypatch.setattr(batch_kinds, "run_batch", no_run)
-    with pytest.raises(KeyboardInterrupt):
-        batch_kinds.sweep(str(_sweep(tmp_path, '"inference.kappa" = [0.6, 0.7]')), tmp_path / "out")
-    assert given["notes"] == (NOTE,)  # was: () (the note of no point told)
+    sweep = _sweep(tmp_path, '"inference.kappa" = [0.6, 0.7]')
+    told = notes_a_sweep_tells(sweep, tmp_path / "out", monkeypatch)
+    assert told == (NOTE,)  # was: () (the note of no point told)
 
 
 def test_a_section_some_point_runs_has_no_note(tmp_path: Path) -> None:

@@ -6,12 +6,11 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
-from typing import Any
 
 import pytest
+from batch_helpers import notes_a_sweep_tells
 
 from nudgecli.errors import ConfigError
-from nudgecli.runs import batch_kinds
 from nudgecli.runs.sweep import Design, design_notes, load_sweep
 
 SWEEP = ('experiment = "smoke"\nreplications = 1\nset = ["study.participants=2"]\n'
@@ -35,17 +34,8 @@ def test_samples_not_a_power_of_2_is_one_note_and_no_warning(tmp_path: Path) -> 
 
 
 def test_the_note_goes_to_the_batch_which_tells_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    given: dict[str, Any] = {}
-
-    def no_run(batch: Any, *args: Any, **kwargs: Any) -> Any:
-        given["notes"] = batch.notes
-        raise KeyboardInterrupt  # stop before anything is built
-
-    monkeypatch.setattr(batch_kinds, "run_batch", no_run)
-    with pytest.raises(KeyboardInterrupt):
-        batch_kinds.sweep(str(sweep_file(tmp_path, 3)), tmp_path / "out")
-    assert given["notes"] == ("design.samples = 3: a Sobol design is balanced only for a power of 2 base "
-                              "samples; use 2 or 4",)
+    assert notes_a_sweep_tells(sweep_file(tmp_path, 3), tmp_path / "out", monkeypatch) == (
+        "design.samples = 3: a Sobol design is balanced only for a power of 2 base samples; use 2 or 4",)
 
 
 def test_a_power_of_2_or_another_method_has_no_note() -> None:
