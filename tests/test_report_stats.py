@@ -405,15 +405,17 @@ def test_tidy_table_round_trips_every_number_of_the_printed_table(conditions: li
         conover_p = next(r["p"] for r in e["conover"] if (r["a"], r["b"]) == (a, b))
         stars = next(r["stars"] for r in e["stars"] if (r["a"], r["b"]) == (a, b))
         pair = next(p for p in e["ci"]["pairs"] if (p["a"], p["b"]) == (a, b))
-        symbol = "r" if len(conditions) == 2 else "W"
-        own = [format_p(conover_p), stars or "ns", format_p(e["participant_level"]["p"]),
-               f"{symbol}={format_value(e['effect_size']['value'])}",
+        if len(conditions) == 2:  # the participant-level test is the pair's
+            level_p, effect = e["participant_level"]["p"], f"r={format_value(e['effect_size']['value'])}"
+        else:  # the pair's own Wilcoxon test and rank-biserial r, not the omnibus Friedman p and W
+            level = next(r for r in e["participant_level"]["pairs"] if (r["a"], r["b"]) == (a, b))
+            size = next(r for r in e["effect_size"]["pairs"] if (r["a"], r["b"]) == (a, b))
+            level_p, effect = level["p"], f"r={format_value(size['value'])}"
+        own = [format_p(conover_p), stars or "ns", format_p(level_p), effect,
                f"{format_value(pair['difference'])} "
                f"[{format_value(pair['low'])}, {format_value(pair['high'])}]"]
-        if e["n"][a] is None or e["n"][b] is None:
-            # the pair's own statistics are n/a; with more than two conditions the participant-level
-            # test and its effect are the omnibus ones, shown as they are
-            own = ["n/a", "n/a", "n/a" if offset == 0 else own[2], "n/a" if offset == 0 else own[3], "n/a"]
+        if e["n"][a] is None or e["n"][b] is None:  # the pair's own statistics are n/a
+            own = ["n/a"] * 5
         assert row[offset + 3:] == [format_p(e["kruskal"]["p"]), *own]
         # the tidy table holds the same numbers, not only the same text
         for key, value in [("median_a", e["median"][a]), ("q1_a", e["q1"][a]), ("q3_a", e["q3"][a]),

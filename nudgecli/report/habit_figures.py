@@ -69,7 +69,8 @@ def check_unit(where: str, habit: str, given: object, unit: str) -> None:
 def check_reference_habit(where: str, habit: str, entry: object, unit: str) -> None:
     """Refuse a ``--compare`` reference's habit entry (``nudge habits --format json``'s shape) whose
     ``pooled.median`` or ``people`` range (``[min, max]``, or ``null``: given pooled only) is no
-    figure of the habit (:func:`checked_figure`), whose range is the wrong way round, or whose
+    figure of the habit (:func:`checked_figure`; NaN, a figure not measured, is read as missing),
+    whose range is the wrong way round, or whose
     ``unit`` is not the habit's own (:func:`check_unit`)."""
     shape = (f"{where}: habit {habit!r} needs pooled.median and people [min, max] (or null) as numbers, "
              "as `nudge habits --format json` writes them")
@@ -83,10 +84,11 @@ def check_reference_habit(where: str, habit: str, entry: object, unit: str) -> N
     for name, given in [("pooled median", pooled["median"]), *([] if people is None else
                                                                [("people min", people[0]),
                                                                 ("people max", people[1])])]:
-        if isinstance(given, bool) or not isinstance(given, (int, float)) or math.isnan(given):
+        if isinstance(given, bool) or not isinstance(given, (int, float)):
             raise DataError(f"{where}: {habit}: the {name} {given!r} is not a number; give it as a number, "
                             "as `nudge habits --format json` writes it")
-        checked_figure(where, habit, name, given, unit)
+        if not math.isnan(given):  # NaN: not measured (an older nudge wrote it), compared as missing
+            checked_figure(where, habit, name, given, unit)
     if people is not None and people[0] > people[1]:
         raise DataError(f"{where}: {habit}: people [{people[0]:g}, {people[1]:g}] is the wrong way round; "
                         "give the range as [min, max]")
