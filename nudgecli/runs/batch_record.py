@@ -137,9 +137,11 @@ class BatchRecord:
             self.write()
 
     def complete(self) -> None:
-        """Mark the batch ``complete``: ``finished`` now, with the values :meth:`ran` recorded where
-        this run computed tasks (or is the batch's first run); else the recorded run's stay."""
-        if self.computes:
+        """Mark the batch ``complete``: ``finished`` now, with the values :meth:`ran` recorded and the
+        wall time to now (its tables and figures included) where this run computed tasks (or is the
+        batch's first run); else the recorded run's stay."""
+        if self.computes:  # its wall time to the end, tables and figures included (as before it ran)
+            self._record_run(write=False)
             self.manifest["finished"] = utc_now()
         else:  # a resume with nothing left: the batch is complete now if it was not before
             self.manifest.setdefault("finished", utc_now())
