@@ -73,8 +73,8 @@ def test_the_broken_pipe_example_allows_an_output_that_was_all_written(name: str
 
 @pytest.mark.parametrize(("name", "figure"), [
     ("README.md", "on one core"),
-    ("README.md", "10-12 minutes on 2 cores"),
-    ("docs/development.md", "10-12 minutes on 2 cores"),
+    ("README.md", "7.5 min on 2 cores"),
+    ("docs/development.md", "7.5 min on 2 cores"),
     ("docs/people.md", "# simulate, analyse and plot"),
     ("docs/api.md", "three participants took"),
     ("docs/findings.md", "`--all-readings --seed 0` took"),
