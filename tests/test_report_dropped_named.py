@@ -94,3 +94,22 @@ def test_analyze_says_a_tables_blank_cells(tmp_path: Path) -> None:
     assert blanks == [f"{table}: blank cells left out: completion_time 1 of a trial not failed "
                       "(P1 control trial 1), mode_switches 1 (P4 disambiguation trial 2); "
                       "each trial stays in its other metrics"]
+
+
+def test_summary_md_says_a_tables_blank_cells(tmp_path: Path) -> None:
+    """The Note's line is in summary.md too, where a reader of the analysis alone meets it."""
+    table = tmp_path / "study.csv"
+    _trials_with_blanks().to_csv(table, index=False)
+    analyze(table, out=tmp_path / "out", metrics=["completion_time", "mode_switches"], bootstrap=100)
+    summary = (tmp_path / "out" / "summary.md").read_text(encoding="utf-8").splitlines()
+    assert ("- blank cells left out: completion_time 1 of a trial not failed (P1 control trial 1), "
+            "mode_switches 1 (P4 disambiguation trial 2); each trial stays in its other metrics") in summary
+    one = tmp_path / "one.csv"  # a single condition's summary (descriptives only) says it as well
+    _trials_with_blanks().query("condition == 'control'").to_csv(one, index=False)
+    analyze(one, out=tmp_path / "one", metrics=["completion_time"], bootstrap=100)
+    assert any(line.startswith("- blank cells left out: completion_time 1")
+               for line in (tmp_path / "one" / "summary.md").read_text(encoding="utf-8").splitlines())
+    plain = tmp_path / "plain.csv"  # none blank: no line
+    _trials().to_csv(plain, index=False)
+    analyze(plain, out=tmp_path / "plain", metrics=["completion_time"], bootstrap=100)
+    assert "blank cells" not in (tmp_path / "plain" / "summary.md").read_text(encoding="utf-8")

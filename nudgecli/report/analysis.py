@@ -459,11 +459,12 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     selected = _select_metrics(metrics, [*available, *score_names], plan)
     trial_selected = [m for m in selected if m in available]
     score_selected = [m for m in selected if m in score_names]
-    definitions_line = None
+    definitions_line = blanks_line = None
     if not source.is_dir():  # a run's metrics were computed with the plan's definitions already
         defined = apply_plan_definitions(table, plan, trial_selected)
         table, changed, definitions_line = defined.table, changed or defined.changed, defined.line
-        notes += [f"{source}: {line}" for line in (definitions_line, defined.blanks) if line]
+        blanks_line = defined.blanks
+        notes += [f"{source}: {line}" for line in (definitions_line, blanks_line) if line]
 
     filters = apply_plan_filters(table, plan, trial_selected, changed)
     filtered, changed = filters.table, filters.changed
@@ -489,7 +490,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     notes += _excluded_notes(tidy)
     summary = format_summary(tidy, stats["conditions"], plan, source_from_out, n_trials=len(filtered),
                              n_participants=filtered["participant"].nunique(), reference=reference,
-                             definitions=definitions_line, filters=filters.line,
+                             definitions=definitions_line, filters=filters.line, blanks=blanks_line,
                              not_applicable={e["metric"]: e.get("not_applicable_reasons") or {}
                                              for e in stats["metrics"]})
 

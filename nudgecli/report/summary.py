@@ -241,7 +241,8 @@ def format_table(table: pd.DataFrame, conditions: Sequence[str], reference: str 
 def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: AnalysisPlan, source: Path,
                    n_trials: int, n_participants: int, *, reference: str | None = None,
                    not_applicable: Mapping[str, Mapping[str, str]] | None = None,
-                   definitions: str | None = None, filters: str | None = None) -> str:
+                   definitions: str | None = None, filters: str | None = None,
+                   blanks: str | None = None) -> str:
     """``summary.md``: the settings, then per metric a line of tests and two markdown tables.
 
     ``table`` is :func:`~nudgecli.report.stats_document.stats_table`'s tidy table of ``stats.json``,
@@ -255,7 +256,9 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
     applied and which are the table's own
     (:func:`~nudgecli.report.table_definitions.apply_plan_definitions`), a line after the plan's;
     ``filters``: the values the plan's filters left out
-    (:func:`~nudgecli.report.plan_filters.apply_plan_filters`), a line after that.
+    (:func:`~nudgecli.report.plan_filters.apply_plan_filters`), a line after that; ``blanks``: a
+    table's blank cells of the analysed metrics, which every statistic leaves out
+    (:func:`~nudgecli.report.table_definitions.blank_values_line`), a line after the definitions.
     """
     settings = plan.stats
     comparison = settings.star_comparison
@@ -269,7 +272,7 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
     seed = table["ci_seed"].iloc[0] if len(table) else plan.bootstrap.seed
     if len(conditions) == 1:
         return _descriptive_summary(table, conditions, plan, source, n_trials, n_participants,
-                                    (definitions, filters))
+                                    (definitions, blanks, filters))
     resamples = table["ci_resamples"].iloc[0] if len(table) else plan.bootstrap.resamples
     display = pair_display(len(conditions), reference)
     lines = [
@@ -279,6 +282,7 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
         f"- plan: {plan.name}; conditions: {', '.join(conditions)}; {n_trials} trials of "
         f"{n_participants} participants",
         *([f"- definitions: {definitions}"] if definitions else []),
+        *([f"- {blanks}"] if blanks else []),
         *([f"- filters: {filters}"] if filters else []),
         f"- trial level: Kruskal-Wallis, then Conover's test ({settings.p_adjust} adjustment); stars "
         f"(one per threshold {thresholds}, p {comparison} threshold) from the Conover p, only when "
@@ -370,17 +374,18 @@ def _letters(pairs_of_metric: pd.DataFrame, compared: Sequence[str]) -> dict[str
 
 def _descriptive_summary(table: pd.DataFrame, conditions: Sequence[str], plan: AnalysisPlan, source: Path,
                          n_trials: int, n_participants: int,
-                         left_out: tuple[str | None, str | None] = (None, None)) -> str:
+                         left_out: tuple[str | None, str | None, str | None] = (None, None, None)) -> str:
     """``summary.md`` of a single condition: the descriptives per metric and a note (no tests);
-    ``left_out``: :func:`format_summary`'s ``definitions`` and ``filters`` lines."""
+    ``left_out``: :func:`format_summary`'s ``definitions``, ``blanks`` and ``filters`` lines."""
     (condition,) = conditions
-    definitions, filters = left_out
+    definitions, blanks, filters = left_out
     lines = [
         "# Analysis summary",
         "",
         f"- source: `{source}`",
         f"- plan: {plan.name}; condition: {condition}; {n_trials} trials of {n_participants} participants",
         *([f"- definitions: {definitions}"] if definitions else []),
+        *([f"- {blanks}"] if blanks else []),
         *([f"- filters: {filters}"] if filters else []),
         f"- note: {SINGLE_CONDITION_NOTE} (the tests compare conditions)",
         "",
