@@ -42,9 +42,10 @@ def test_a_misspelt_parameter_gets_its_did_you_mean(tmp_path):
     ("import mypol.common", "from . import common"),
     ("from common import W", "from ..common import W"),
 ])
-def test_an_absolute_import_of_a_sibling_module_is_told_its_relative_form(tmp_path, line, relative):
+@pytest.mark.parametrize("init", [True, False])  # a package with or without __init__.py
+def test_an_absolute_import_of_a_sibling_module_is_told_its_relative_form(tmp_path, line, relative, init):
     experiment = policy_experiment(tmp_path, {"mine": "mypol.quiet:Mine"}, modules={
-        "mypol/__init__.py": "", "mypol/common.py": "W = 1\n", "common.py": "W = 1\n",
+        **({"mypol/__init__.py": ""} if init else {}), "mypol/common.py": "W = 1\n", "common.py": "W = 1\n",
         "mypol/quiet.py": f"{line}\n{GOOD}"})
     out, result = _simulate(tmp_path, experiment)
     _one_error_line(result, "cannot import module 'mypol.quiet'", f"mypol/quiet.py line 1 ({line})",

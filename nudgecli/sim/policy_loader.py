@@ -101,7 +101,8 @@ def sibling_import_advice(exc: ModuleNotFoundError, folder: str) -> str:
     file and line that failed and its relative form (``from .common import W``); ``""`` for any
     other missing module."""
     missing = exc.name or ""
-    if module_file(folder, missing) is None:
+    # the folder's own module: a file, a package, or a package without __init__.py (a folder)
+    if module_file(folder, missing) is None and not Path(folder).joinpath(*missing.split(".")).is_dir():
         return ""
     root = Path(folder).resolve()
     frames = [frame for frame in traceback.extract_tb(exc.__traceback__)
