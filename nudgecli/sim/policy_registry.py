@@ -233,7 +233,7 @@ def command_limits(settings: ProtocolSettings) -> tuple[float, float]:
     The sum, not the larger of the two: a convex blend (``Assistance.convex``) stays within the
     larger, but an additive one (``Assistance.additive``, ADA's blend and hindsight among the
     built-ins) adds an assistance to the person's full command (the baselines' hindsight turns at
-    up to 2.8 rad/s, above either 1.95 or 1.5 alone).
+    up to 3.38 rad/s, 1.95 plus its far-field 0.735 of it: above either 1.95 or 1.5 alone).
     """
     return (settings.human_speed + settings.autonomy_speed,
             settings.human_turn_rate + settings.autonomy_turn_rate)
