@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 import signal
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
+from unittest import mock
 
 import pytest
 from cli_helpers import nudge
@@ -46,6 +48,16 @@ def solves(monkeypatch: pytest.MonkeyPatch) -> Iterator[list[int]]:
     monkeypatch.setattr(sim_study, "solve_layout", counting)
     yield calls
     clear_solved()
+
+
+@pytest.fixture
+def restored_environ() -> Iterator[None]:
+    """``os.environ`` as it was before the test, once it ends. A dask ``LocalCluster`` with worker
+    processes sets OMP_NUM_THREADS, OPENBLAS_NUM_THREADS, MKL_NUM_THREADS, MALLOC_TRIM_THRESHOLD_ and
+    PYTHONHASHSEED in this process's environment to pass them to its workers, and leaves them there:
+    every later test of the process (pytest -n runs many in one) and its child processes would get them."""
+    with mock.patch.dict(os.environ):
+        yield
 
 
 @pytest.fixture(scope="session")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import socket
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -41,6 +42,15 @@ ANSWERS = {
 
 #: One recorded input: ("key", "1".."4"), ("axis", pressure) or ("none", 0).
 Item = tuple[str, object]
+
+
+def free_port() -> int:
+    """A port on 127.0.0.1 that nothing listens on now (the system's pick): a test's own ``--port``,
+    since ``nudge study`` binds its port before it checks the rest, and a fixed port may be held by
+    another test running at the same time (pytest -n) or by anything else on the machine."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
 
 
 def recorded_stream(rng: np.random.Generator, n: int) -> list[Item]:

@@ -56,6 +56,7 @@ def test_the_example_runs_from_the_command_line_and_its_policy_acts(tmp_path):
     assert (mine["turn"] == "human").all()
 
 
+@pytest.mark.usefixtures("restored_environ")  # the cluster sets its workers' settings in os.environ
 def test_a_custom_policys_tables_are_identical_with_one_and_two_workers_and_dask(tmp_path):
     distributed = pytest.importorskip("dask.distributed")
     config = load_experiment(str(EXAMPLE))
@@ -63,7 +64,7 @@ def test_a_custom_policys_tables_are_identical_with_one_and_two_workers_and_dask
     run_study(config, tmp_path / "two", participants=2, workers=2)
     # worker processes of their own: the policy's module is imported there from the experiment's folder
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                  dashboard_address=":0") as cluster:
+                                  dashboard_address="127.0.0.1:0") as cluster:  # ":0": every interface
         run_study(config, tmp_path / "dask", participants=2, scheduler=cluster.scheduler_address)
     assert_same_run(tmp_path / "one", tmp_path / "two")
     assert_same_run(tmp_path / "one", tmp_path / "dask")

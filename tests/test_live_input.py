@@ -225,10 +225,11 @@ def test_condition_order_sets_the_first_block_and_keeps_the_blocks():
 
 def test_study_command_mistakes_are_one_error_line(tmp_path):
     from click.testing import CliRunner
+    from live_helpers import free_port
 
     from nudgecli.cli import main
 
-    runner = CliRunner()
+    runner, port = CliRunner(), str(free_port())  # refused after binding it: a free one
     for args, words in (
         (["--participant", "alice"], "ending in the participant's number"),
         (["--participant", "5" * 5000], "at most 32 characters"),
@@ -236,6 +237,7 @@ def test_study_command_mistakes_are_one_error_line(tmp_path):
         (["--participant", "P1", "--condition-order", "control"], "name each condition"),
         (["--participant", "P1", "--set", "calibration.rate_hz=20"], "must equal study.rate_hz"),
     ):
-        result = runner.invoke(main, ["study", "paper", "--out", str(tmp_path / "run"), *args])
+        result = runner.invoke(main, ["study", "paper", "--out", str(tmp_path / "run"), "--port", port,
+                                      *args])
         assert result.exit_code == 1 and result.output.startswith("Error: ") and words in result.output
         assert result.output.count("\n") == 1

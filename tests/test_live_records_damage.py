@@ -13,7 +13,7 @@ import pytest
 pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip install '.[study]'")
 
 from aiohttp.test_utils import TestClient, TestServer
-from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS, play_session
+from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS, free_port, play_session
 
 from nudgecli.errors import DataError, NudgeError
 from nudgecli.live.app import build_session
@@ -163,9 +163,7 @@ def test_the_study_command_stops_at_once_with_one_error_line_and_the_resume_comm
     import subprocess
     import sys
 
-    from test_live_server import _free_port
-
-    out, port = tmp_path / "live2", _free_port()
+    out, port = tmp_path / "live2", free_port()
     sets = [arg for item in (*OVERRIDES, "study.time_limit_s=1") for arg in ("--set", item)]
     process = subprocess.Popen(
         [sys.executable, "-m", "nudgecli.cli", "study", "paper", "--participant", "P02", "--port", str(port),
@@ -346,7 +344,7 @@ def test_an_experiment_of_another_world_is_refused_before_anything_is_recorded(t
 
     out = tmp_path / "live_ciaa"
     result = CliRunner().invoke(main, ["study", "ciaa-teleop", "--participant", "P01", "--out", str(out),
-                                       "--port", "18799", "--set", "model.tables=default"])
+                                       "--port", str(free_port()), "--set", "model.tables=default"])
     errors = [line for line in result.output.splitlines() if line.startswith("Error:")]
     assert result.exit_code == 1 and len(errors) == 1, result.output
     assert "runs only the grid world's experiments" in errors[0] and "ciaa" in errors[0], errors[0]

@@ -18,7 +18,7 @@ pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip instal
 
 from cli_helpers import one_error_line
 from click.testing import CliRunner
-from live_helpers import DEFAULT_TABLES, TWO_TRIALS
+from live_helpers import DEFAULT_TABLES, TWO_TRIALS, free_port
 
 from nudgecli.cli import main
 from nudgecli.config import ExperimentConfig, experiment_from_toml, load_experiment
@@ -55,9 +55,12 @@ def _fingerprint(folder: Path) -> dict[str, str]:
 
 
 def _study(out: Path, *args: str, experiment: str = CUSTOM) -> str:
-    """``nudge study EXPERIMENT --out OUT ARGS`` refused before serving: its one ``Error:`` line."""
-    result = CliRunner().invoke(main, ["study", experiment, "--out", str(out), *args,
-                                       *itertools.chain.from_iterable(("--set", o) for o in OVERRIDES)])
+    """``nudge study EXPERIMENT --out OUT ARGS`` refused before serving: its one ``Error:`` line. It binds
+    its port before the checks refuse: a free one (:func:`free_port`), not a fixed one another test may
+    hold."""
+    sets = itertools.chain.from_iterable(("--set", o) for o in OVERRIDES)
+    result = CliRunner().invoke(main, ["study", experiment, "--out", str(out), "--port", str(free_port()),
+                                       *args, *sets])
     assert result.exit_code == 1, result.output
     return one_error_line(result.output)
 
@@ -138,7 +141,7 @@ def test_another_id_of_a_recorded_index_is_told_whose_index_it_is_and_how_to_con
     _session("01", out)
     before = _fingerprint(out)
     for resume in ([], ["--resume"]):
-        line = _study(out, "--participant", "P01", "--port", "18791", *resume)
+        line = _study(out, "--participant", "P01", *resume)
         assert "index 1 belongs to participant 01, not P01" in line, line
         assert "--participant 01 --resume" in line and "add --resume" not in line, line
     assert _fingerprint(out) == before
@@ -157,7 +160,7 @@ def test_config_toml_records_the_seed_used_and_resumes_with_it(tmp_path):
     # the folder's config.toml runs the same study without --seed, and the experiment with it
     assert _session("P01", out, resume=True, experiment=str(out / "config.toml")).seed == 11
     _session("P02", out, seed=11, experiment="paper")
-    line = _study(out, "--participant", "P03", "--port", "18792", "--seed", "12", experiment="paper")
+    line = _study(out, "--participant", "P03", "--seed", "12", experiment="paper")
     assert "another experiment, --set or seed" in line, line
 
 
@@ -184,14 +187,14 @@ def test_a_session_started_with_another_order_is_continued_with_it(tmp_path):
     _session("P03", out)  # its own order
     _session("P04", out, condition_order=",".join(MIRROR))  # not P04's own order
     before = _fingerprint(out)
-    line = _study(out, "--participant", "P04", "--port", "18793")
+    line = _study(out, "--participant", "P04")
     assert "add --resume --condition-order threshold,blending,disambiguation" in line, line
     # first without a server: a wrong acceptance would fail here, not serve on the command line
     with pytest.raises(RunFolderError, match="resume with --condition-order threshold,blending,disambig"):
         _session("P04", out, resume=True)
-    line = _study(out, "--participant", "P04", "--port", "18793", "--resume")
+    line = _study(out, "--participant", "P04", "--resume")
     assert "resume with --condition-order threshold,blending,disambiguation" in line, line
-    line = _study(out, "--participant", "P03", "--port", "18793", "--resume",
+    line = _study(out, "--participant", "P03", "--resume",
                   "--condition-order", "disambiguation,blending,threshold")
     assert "resume without --condition-order" in line, line
     assert _fingerprint(out) == before

@@ -367,8 +367,10 @@ def test_baselines_tables_are_identical_with_one_and_two_workers_and_dask(tmp_pa
     run_study(config, tmp_path / "one", participants=2, workers=1)
     run_study(config, tmp_path / "two", participants=2, workers=2)
     assert_same_run(tmp_path / "one", tmp_path / "two")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=":0") as cluster:
+    # on this machine only: in-process workers over inproc:// still open their web servers on every
+    # interface, so the scheduler talks tcp on 127.0.0.1 and the dashboard listens there too
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", dashboard_address="127.0.0.1:0") as cluster:
         run_study(config, tmp_path / "dask", participants=2, scheduler=cluster.scheduler_address)
     assert_same_run(tmp_path / "one", tmp_path / "dask")
     trials = pd.read_parquet(tmp_path / "one" / "trials")

@@ -293,7 +293,8 @@ def test_cli_fit_bad_logs_exit_1_with_one_error_line(case: str, tmp_path: Path) 
     assert not (tmp_path / "p.json").exists()
 
 
-def test_cli_fit_missing_folder_is_an_error(tmp_path: Path) -> None:
+def test_cli_fit_missing_folder_is_an_error(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)  # without --out, fit checks it can write its working folder
     result = CliRunner().invoke(main, ["fit", str(tmp_path / "nobody")])
     assert result.exit_code == 1
     assert result.stderr.startswith("Error: ") and "no such folder" in result.stderr
@@ -348,13 +349,15 @@ def test_cli_fit_missing_session_falls_back_with_a_warning(tmp_path: Path) -> No
     assert profile["provenance"]["p_phm_given_phi"]["source"].startswith("default")
 
 
-def test_fitting_a_folder_of_participants_names_them(tmp_path):
+def test_fitting_a_folder_of_participants_names_them(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    participants = tmp_path / "logs"
     for name in ("p01", "p02"):
-        (tmp_path / name / "p_phi_given_a").mkdir(parents=True)
-    result = CliRunner().invoke(main, ["fit", str(tmp_path)])
+        (participants / name / "p_phi_given_a").mkdir(parents=True)
+    monkeypatch.chdir(tmp_path)  # without --out, fit checks it can write its working folder
+    result = CliRunner().invoke(main, ["fit", str(participants)])
     assert result.exit_code == 1
     assert result.output.count("Error:") == 1 and "p01, p02" in result.output
-    assert f"nudge fit {tmp_path / 'p01'}" in result.output
+    assert f"nudge fit {participants / 'p01'}" in result.output
 
 
 def test_fitting_a_run_folder_names_its_participants_calibration_folders(tmp_path: Path) -> None:

@@ -67,13 +67,14 @@ def test_design_has_the_papers_structure():
     assert starts == {"disambiguation", "control"}
 
 
+@pytest.mark.usefixtures("restored_environ")  # the cluster sets its workers' settings in os.environ
 def test_same_seed_same_tables_serial_processes_and_dask(tmp_path):
     distributed = pytest.importorskip("dask.distributed")
     config = load_experiment("smoke")
     run_study(config, tmp_path / "serial", participants=3, workers=1)
     run_study(config, tmp_path / "two", participants=3, workers=2)
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                  dashboard_address=":0") as cluster:
+                                  dashboard_address="127.0.0.1:0") as cluster:  # ":0": every interface
         run_study(config, tmp_path / "dask", participants=3, scheduler=cluster.scheduler_address)
     assert_same_run(tmp_path / "serial", tmp_path / "two")
     assert_same_run(tmp_path / "serial", tmp_path / "dask")
