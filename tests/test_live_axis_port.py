@@ -4,10 +4,9 @@ the commands that continue a session name the port its open tab reconnects on.""
 from __future__ import annotations
 
 import json
-import socket
 
 import pytest
-from live_helpers import DEFAULT_TABLES, TWO_TRIALS
+from live_helpers import DEFAULT_TABLES, TWO_TRIALS, free_port
 
 from nudgecli.command_defaults import STUDY_PORT
 from nudgecli.config import load_experiment
@@ -46,16 +45,11 @@ def test_a_blurred_page_and_a_new_trial_record_no_puff_left_from_the_axis(tmp_pa
         session.folder.release()
 
 
-def _free_port() -> int:
-    with socket.socket() as probe:
-        probe.bind(("127.0.0.1", 0))
-        return probe.getsockname()[1]
-
 
 def test_the_continue_commands_name_the_port_the_open_tab_reconnects_on(tmp_path, monkeypatch):
     import nudgecli.live.server as server
 
-    out, port, seen = tmp_path / "run", _free_port(), {}
+    out, port, seen = tmp_path / "run", free_port(), {}
 
     def killed(session, sock, **_):  # the server is killed (-9) while serving: the folder as it is then
         sock.close()

@@ -18,7 +18,7 @@ pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip instal
 from aiohttp import WSServerHandshakeError
 from aiohttp.test_utils import TestClient, TestServer
 from click.testing import CliRunner
-from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS
+from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS, free_port
 
 from nudgecli.cli import main
 from nudgecli.errors import LockError, RunFolderError
@@ -32,11 +32,6 @@ from nudgecli.store import study_resume_command as resume_command
 TOKEN = "guard-token"
 OVERRIDES = TWO_TRIALS + DEFAULT_TABLES
 
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def _to_trial(session: LiveSession) -> None:
@@ -104,7 +99,7 @@ def _start_server(out, participant: str, port: int) -> subprocess.Popen:
 
 
 def test_a_second_server_for_a_served_participant_is_refused_and_ctrl_c_says_how_to_resume(tmp_path):
-    out, port = tmp_path / "run", _free_port()
+    out, port = tmp_path / "run", free_port()
     server = _start_server(out, "P07", port)
     try:
         address = server.stdout.readline().strip()
@@ -113,7 +108,7 @@ def test_a_second_server_for_a_served_participant_is_refused_and_ctrl_c_says_how
         before = (out / "manifest.json").read_text()
         second = subprocess.run(  # a subprocess with a timeout: a server that starts would serve forever
             [sys.executable, "-m", "nudgecli.cli", "study", "paper", "--participant", "P07", "--resume",
-             "--port", str(_free_port()), "--out", str(out), *[a for i in OVERRIDES for a in ("--set", i)]],
+             "--port", str(free_port()), "--out", str(out), *[a for i in OVERRIDES for a in ("--set", i)]],
             capture_output=True, text=True, timeout=60,
         )
         assert second.returncode == 1 and second.stdout == "", (second.stdout, second.stderr)

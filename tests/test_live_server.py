@@ -7,7 +7,6 @@ import asyncio
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 
@@ -18,7 +17,15 @@ import pytest
 pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip install '.[study]'")
 
 from aiohttp.test_utils import TestClient, TestServer
-from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS, as_samples, recorded_stream, transition
+from live_helpers import (
+    ANSWERS,
+    DEFAULT_TABLES,
+    TWO_TRIALS,
+    as_samples,
+    free_port,
+    recorded_stream,
+    transition,
+)
 
 from nudgecli.live.app import build_session
 from nudgecli.live.records import LiveFolder
@@ -212,11 +219,6 @@ def test_a_crash_between_writes_loses_only_the_running_trial(tmp_path, monkeypat
         build_session("paper", "P02", out, overrides=(*TWO_TRIALS, *DEFAULT_TABLES, "study.time_limit_s=5"))
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
 
 async def _play_until_killed(port: int, process: subprocess.Popen) -> None:
     """Over the real server: finish trial 0 in real time, start trial 1, then SIGKILL the server."""
@@ -260,7 +262,7 @@ async def _play_until_killed(port: int, process: subprocess.Popen) -> None:
 
 
 def test_a_killed_session_resumes_at_the_trial_it_was_in(tmp_path):
-    out, port = tmp_path / "run", _free_port()
+    out, port = tmp_path / "run", free_port()
     sets = [arg for item in (*TWO_TRIALS, *DEFAULT_TABLES, "study.time_limit_s=2") for arg in ("--set", item)]
     command = [
         sys.executable,

@@ -62,8 +62,8 @@ def test_replicate_is_identical_with_1_and_2_workers_and_dask(tmp_path):
     distributed = pytest.importorskip("dask.distributed")
     serial = replicate("smoke", 3, tmp_path / "serial", seed=5)
     two = replicate("smoke", 3, tmp_path / "two", seed=5, workers=2)
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=":0") as cluster:
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", dashboard_address="127.0.0.1:0") as cluster:
         on_dask = replicate("smoke", 3, tmp_path / "dask", seed=5, scheduler=cluster.scheduler_address)
     assert_same_tables(serial, two)
     assert_same_tables(serial, on_dask)
@@ -221,8 +221,8 @@ def test_off_the_pool_a_lone_study_is_spread_and_every_worker_builds_its_plan(tm
     assert [e for e in events if e[0] != "submit"] == []
     monkeypatch.undo()
     distributed = pytest.importorskip("dask.distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False,
-                                  dashboard_address=":0") as cluster:
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", dashboard_address="127.0.0.1:0") as cluster:
         on_dask = replicate("smoke", 1, tmp_path / "dask", seed=5, scheduler=cluster.scheduler_address)
     assert_same_tables(serial, on_dask)
 
@@ -367,8 +367,9 @@ def test_an_oserror_in_a_task_reaches_the_command_as_itself_on_the_pool_and_on_d
     finally:
         pool.abort()
     distributed = pytest.importorskip("dask.distributed")
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
-                                  dashboard_address=":0") as cluster, distributed.Client(cluster) as client:
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
+                                  host="127.0.0.1", dashboard_address="127.0.0.1:0") as cluster, \
+            distributed.Client(cluster) as client:
         check(DaskExecutor(client))
 
 
