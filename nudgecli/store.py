@@ -235,7 +235,7 @@ def new_manifest(config: ExperimentConfig, seed: int, participants: int,
 
 def prepare_mode(path: Path, held: str | None, resume: bool, force: bool, *, kind: str = "run",
                  own_file: Callable[[str], bool] = LOCK.__eq__, can_force: bool = True,
-                 resume_first: bool = False) -> str:
+                 resume_first: bool = False, started: bool = False) -> str:
     """The rule of every command that prepares a folder to write a run or a batch into.
 
     A folder that holds a ``kind`` (``held`` describes it, e.g. ``"paper, complete"``) is refused
@@ -251,6 +251,8 @@ def prepare_mode(path: Path, held: str | None, resume: bool, force: bool, *, kin
     resume_first
         Refuse ``resume`` into a folder without a ``kind`` before looking at its contents
         (``nudge study``'s order: "nothing to resume" rather than "not empty").
+    started
+        Only the start of this same work is there (:func:`only_a_start`): the refusal offers ``--resume``.
     """
     if resume and force:  # neither may win quietly: one keeps the finished work, the other deletes it
         raise RunFolderError(f"{path}: --resume and --force contradict each other (--resume keeps the "
@@ -267,8 +269,9 @@ def prepare_mode(path: Path, held: str | None, resume: bool, force: bool, *, kin
     if resume and (resume_first or not occupied):
         raise RunFolderError(f"{path}: nothing to resume (no {kind} there); drop --resume")
     if occupied and not force:
-        raise RunFolderError(f"{path}: exists and is not empty; choose another --out"
-                             + (" or use --force" if can_force else ""))
+        refused = (f"holds only the start of this {kind} (killed before its manifest); use --resume to start "
+                   "it, or " if started else "exists and is not empty; ") + "choose another --out"
+        raise RunFolderError(f"{path}: {refused}" + (" or use --force" if can_force else ""))
     return "overwrite" if occupied else "new"
 
 
@@ -291,17 +294,18 @@ def forced_command(resume: str) -> str | None:
 
 def simulate_resume_command(experiment: str, target: str | Path, seed: int | None = None,
                             participants: int | None = None, workers: int = 1, overrides: Sequence[str] = (),
-                            command: str = "simulate", confirm: bool = False,
-                            people: str | None = None, plan: str | None = None) -> str:
+                            command: str = "simulate", confirm: bool = False, people: str | None = None,
+                            plan: str | None = None, scheduler: str | None = None) -> str:
     """The ``nudge simulate`` (or ``run``) command that resumes a study into ``target`` with the same
     choices (``--yes`` when ``confirm`` let a study above the size limit run; ``people``: the
-    ``--people`` file; ``plan``: ``nudge run``'s ``--plan``, which ``simulate`` has not)."""
+    ``--people`` file; ``plan``: ``nudge run``'s ``--plan``, which ``simulate`` has not; ``scheduler``:
+    the ``--scheduler`` typed, not one from DASK_SCHEDULER_ADDRESS, there again for the rerun)."""
     options = ["--yes"] if confirm else []
     for flag, value in (("--seed", seed), ("--participants", participants), ("--plan", plan),
-                        ("--workers", workers if workers != 1 else None), ("--people", people)):
+                        ("--workers", workers if workers != 1 else None), ("--people", people),
+                        ("--scheduler", scheduler)):
         options += [flag, str(value)] if value is not None else []
-    for override in overrides:
-        options += ["--set", override]
+    options += [word for override in overrides for word in ("--set", override)]
     return resume_command([command, experiment], target, options)
 
 
@@ -483,15 +487,15 @@ class RunFolder(RunRecord):
         self.refuse_live_sessions(manifest)  # a person's sessions: neither resumed nor replaced
         self.refuse_other_kind("run")  # a batch's: --force would leave the batch beside the run
         # killed before its manifest: start it afresh (before its config.toml: a plain rerun too)
-        start = manifest is None and not force and only_a_start(self.path, config_text) and \
-            (resume or not (self.path / CONFIG).is_file())
+        own_start = manifest is None and not force and only_a_start(self.path, config_text)
+        start = own_start and (resume or not (self.path / CONFIG).is_file())
         if start:
             self._remove_temporaries()
         elif manifest is None and not force and (refusal := self.other_start_error(config)) is not None:
             raise refusal  # another run's start, or a --force cut short: a resume would simulate that run
         held = (None if manifest is None else
                 f"{manifest.get('experiment')}, {manifest.get('status', 'unknown')}")
-        mode = "new" if start else prepare_mode(self.path, held, resume, force)
+        mode = "new" if start else prepare_mode(self.path, held, resume, force, started=own_start)
         if manifest is not None and mode == "resume":
             self.check_own_manifest(manifest)  # another run's: a resume would simulate every part again
             self.participant_count(manifest)  # a damaged count is named first: no command resumes it

@@ -107,8 +107,9 @@ def test_a_cancelled_dask_task_is_one_error_line_naming_the_loss_and_the_resume_
     assert result.exit_code == 1, result.output
     line = one_error_line(result.output.replace(f"Run folder: {out}", ""))
     assert "lost" in line and "dask" in line
-    # the resume command Ctrl-C prints (its tables are the same with or without the cluster)
-    assert line.endswith(f"resume with: nudge simulate smoke --out {out} --participants 2 --resume"), line
+    # the resume command Ctrl-C prints, on the scheduler typed (a resume without it ran locally)
+    assert line.endswith(f"resume with: nudge simulate smoke --out {out} --participants 2 "
+                         f"--scheduler {cluster.scheduler_address} --resume"), line
     assert json.loads((out / "manifest.json").read_text())["status"] == "interrupted"
 
 

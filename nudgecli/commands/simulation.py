@@ -85,9 +85,17 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
               plan: str | None = None, command: str = "simulate", confirm: bool = False,
               people: str | None = None) -> Any:
 
+    from click.core import ParameterSource
+
     from nudgecli import api
+    from nudgecli.commands.scheduler_choice import chosen_scheduler
     from nudgecli.store import default_run_dir, simulate_resume_command
 
+    ctx = click.get_current_context()
+    # the resume command names the --scheduler typed; one from DASK_SCHEDULER_ADDRESS is there again for
+    # it (as the batch commands' resume commands do), and --workers still wins over it
+    typed = scheduler if ctx.get_parameter_source("scheduler") is ParameterSource.COMMANDLINE else None
+    scheduler = chosen_scheduler(ctx, scheduler)  # --workers wins over the variable
     config = api.experiment_config(experiment, overrides)
     target = Path(out) if out else default_run_dir(config.experiment.name)
     if command == "run" and plan is None:  # the plan `run` analyses with, refused before simulating
@@ -98,13 +106,13 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
     def resume_commands(people_named: str | None, kept: str | None = None) -> list[str]:
         named, sets = (kept, ()) if kept else (experiment, overrides)  # the kept one holds the --set values
         commands = [simulate_resume_command(named, target, seed, participants, workers, sets,
-                                            confirm=confirm, people=people_named)]
+                                            confirm=confirm, people=people_named, scheduler=typed)]
         if command != "simulate":
-            commands.append(simulate_resume_command(named, target, seed, participants, workers,
-                                                    sets, command, confirm, people_named, plan))
+            commands.append(simulate_resume_command(named, target, seed, participants, workers, sets, command,
+                                                    confirm, people_named, plan, scheduler=typed))
         return commands
 
-    click.get_current_context().meta[INTERRUPT_HINT] = _interrupt_hint(target, people, resume_commands)
+    ctx.meta[INTERRUPT_HINT] = _interrupt_hint(target, people, resume_commands)
     bar, update = progress_bar("simulating")
     try:
         return api.simulate(config, out=target, seed=seed, participants=participants, workers=workers,
@@ -122,6 +130,13 @@ def _print_study_summary(run: Any) -> None:
     click.echo(run.report())
 
 
+#: ``--scheduler`` of ``nudge simulate`` and ``nudge run``: where their simulation runs.
+_scheduler_option = click.option(
+    "--scheduler", envvar="DASK_SCHEDULER_ADDRESS",
+    help="dask.distributed scheduler address (or DASK_SCHEDULER_ADDRESS, unless --workers is given); needs "
+         "nudgecli[cluster].")
+
+
 @click.command("simulate")
 @click.argument("experiment")
 @click.option("--out", type=click.Path(file_okay=False),
@@ -129,9 +144,7 @@ def _print_study_summary(run: Any) -> None:
 @click.option("--seed", type=int, help="Master seed [default: the experiment's].")
 @click.option("--participants", type=int, help="Number of participants [default: the experiment's].")
 @click.option("--workers", type=int, default=1, show_default=True, help="Local worker processes.")
-@click.option("--scheduler", envvar="DASK_SCHEDULER_ADDRESS",
-              help="dask.distributed scheduler address (or DASK_SCHEDULER_ADDRESS, unless --workers is "
-                   "given); needs nudgecli[cluster].")
+@_scheduler_option
 @click.option("--resume", is_flag=True, help="Finish an interrupted run in --out (same experiment and seed).")
 @click.option("--force", is_flag=True, help="Replace a run that already is in --out.")
 @click.option("--yes", is_flag=True, help=YES_HELP)
@@ -141,9 +154,6 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
                      workers: int, scheduler: str | None, resume: bool, force: bool, yes: bool,
                      overrides: tuple[str, ...], people: str | None) -> None:
     """Simulate a study: EXPERIMENT is a preset (`nudge presets` lists them) or a TOML file."""
-    from nudgecli.commands.scheduler_choice import chosen_scheduler
-
-    scheduler = chosen_scheduler(click.get_current_context(), scheduler)  # --workers wins over the variable
     run = _simulate(experiment, out, seed, participants, workers, scheduler, resume, force, overrides,
                     confirm=yes, people=people)
     _print_study_summary(run)
@@ -160,6 +170,7 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
 @click.option("--seed", type=int, help="Master seed [default: the experiment's].")
 @click.option("--participants", type=int, help="Number of participants [default: the experiment's].")
 @click.option("--workers", type=int, default=1, show_default=True, help="Local worker processes.")
+@_scheduler_option
 @click.option("--plan", metavar="PLAN", default=None,
               help="Analysis plan [default: the plan named like the experiment, else its world's, else "
                    "paper].")
@@ -169,15 +180,15 @@ def simulate_command(experiment: str, out: str | None, seed: int | None, partici
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE", help=SET_HELP)
 @click.option("--people", metavar="PEOPLE.csv", default=None, help=PEOPLE_HELP)
 def run_command(experiment: str, out: str | None, seed: int | None, participants: int | None, workers: int,
-                plan: str | None, resume: bool, force: bool, yes: bool, overrides: tuple[str, ...],
-                people: str | None) -> None:
+                scheduler: str | None, plan: str | None, resume: bool, force: bool, yes: bool,
+                overrides: tuple[str, ...], people: str | None) -> None:
     """Simulate, analyse and plot in one go: EXPERIMENT defaults to the paper preset."""
     from nudgecli import api
     from nudgecli.run_folder_names import FIGURES_DIR, STATS_JSON, SUMMARY_MD
 
     if plan is not None and Path(plan).suffix.lower() == ".toml":
         plan = str(Path(plan).resolve())
-    run = _simulate(experiment, out, seed, participants, workers, None, resume, force, overrides,
+    run = _simulate(experiment, out, seed, participants, workers, scheduler, resume, force, overrides,
                     plan=plan, command="run", confirm=yes, people=people)
     _print_study_summary(run)
     result, written = api.analyze_and_plot(run, plan=plan, log=info)  # its notes too, as Note: lines
