@@ -93,21 +93,25 @@ def _run(work: Callable[..., BatchResult], out: str | Path | None, label: str,
          progress: ProgressCallback | None, log: Callable[[str], None] | None, **kwargs: Any) -> Batch:
     """Run one batch kind into ``out`` (or a temporary folder, removed again when it fails), once the
     arguments the kinds share have their Python types (:mod:`nudgecli.api.arguments`)."""
+    from nudgecli.runs.dask_cluster import check_scheduler_address, scheduler_named
+    from nudgecli.runs.size import override_named
+
     out = arguments.out_folder(out)
     progress, log = arguments.callback("progress", progress), arguments.callback("log", log)
     kwargs["workers"] = arguments.whole_number("workers", kwargs["workers"])
     kwargs["seed"] = arguments.whole_number("seed", kwargs["seed"], optional=True)
-    kwargs["scheduler"] = arguments.text("scheduler", kwargs["scheduler"], optional=True)
+    with scheduler_named("scheduler="):  # an empty address is refused in this API's words, as --out ""
+        kwargs["scheduler"] = check_scheduler_address(arguments.text("scheduler", kwargs["scheduler"],
+                                                                     optional=True))
     for name in ("resume", "force", "confirm"):
         arguments.switch(name, kwargs[name])
     if "people" in kwargs:
         kwargs["people"] = arguments.people_file(kwargs["people"])
-    from nudgecli.runs.size import override_named
-
     temporary = out is None
     target = temporary_folder(label) if out is None else Path(out)
     try:
-        with override_named("confirm=True"):  # a refusal of the size guard names this API's parameter
+        # a refusal of the size guard or of the scheduler names this API's parameter
+        with override_named("confirm=True"), scheduler_named("scheduler="):
             result = work(out=target, progress=progress, log=log, **kwargs)
     except BaseException:
         remove_if_made(target, temporary)

@@ -288,11 +288,14 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
         ``Error:`` line; nothing is written then.
     """
     from nudgecli.api import arguments
+    from nudgecli.runs.dask_cluster import check_scheduler_address, scheduler_named
     from nudgecli.runs.size import override_named
     from nudgecli.runs.study import run_study
 
     options = arguments.run_options(workers=workers, seed=seed, scheduler=scheduler, people=people,
                                     progress=progress, resume=resume, force=force, confirm=confirm, log=log)
+    with scheduler_named("scheduler="):  # an empty address is refused in this API's words, as out=''
+        check_scheduler_address(options["scheduler"])
     participants = arguments.whole_number("participants", participants, optional=True)
     out, plan_text = arguments.out_folder(out), arguments.plan(plan, loaded=False)  # a preset or a file
     config = _loaded_experiment(experiment, overrides)
@@ -300,7 +303,8 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
     target = temporary_folder(config.experiment.name) if out is None else Path(out)
     made = temporary or not target.exists()
     try:
-        with override_named("confirm=True"):  # a refusal of the size guard names this API's parameter
+        # a refusal of the size guard or of the scheduler names this API's parameter
+        with override_named("confirm=True"), scheduler_named("scheduler="):
             study = run_study(config, target, participants=participants, plan=plan_text, **options)
     except BaseException:
         # a folder this call made is removed whole (a temporary one) or when still empty (--out)

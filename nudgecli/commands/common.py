@@ -13,6 +13,7 @@ import click
 
 from nudgecli.errors import ConfigError
 from nudgecli.outputs import command_inputs, declare_input
+from nudgecli.runs.dask_cluster import SCHEDULER_OPTION, scheduler_named
 from nudgecli.runs.size import YES_OPTION, override_named
 
 #: ``ctx.meta`` key of a callable returning what to tell the user after Ctrl-C (how to resume).
@@ -124,7 +125,8 @@ def declaring_inputs(command: click.Command) -> click.Command:
         if kwargs.get("out") == "":  # a path would make it the current folder, or no file at all
             raise ConfigError('--out "": an empty path; name the folder or file to write'
                               + ("" if out_required else ", or leave --out out for the default"))
-        with command_inputs(), override_named(YES_OPTION):  # the API it calls names confirm=True
+        # the API it calls names confirm=True and scheduler=
+        with command_inputs(), override_named(YES_OPTION), scheduler_named(SCHEDULER_OPTION):
             for name, label in named:
                 value = kwargs.get(str(name))
                 for path in value if isinstance(value, tuple | list) else (value,):

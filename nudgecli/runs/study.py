@@ -36,6 +36,7 @@ from nudgecli.run_folder_calibration import write_calibration_logs
 from nudgecli.run_folder_names import LAYOUTS, PARTICIPANTS
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, FILE_CHECKSUMS
 from nudgecli.run_folder_state import refuse_linked_out
+from nudgecli.runs.dask_cluster import checked_client, one_line, scheduler_label
 from nudgecli.runs.size import check_study_size
 from nudgecli.runs.solved_layouts import solve_layouts_cached
 from nudgecli.runs.study_tasks import (
@@ -181,26 +182,29 @@ def connect_scheduler(address: str) -> Any:
     The address is probed first (:func:`probe_scheduler`), so that a service that is not a
     dask scheduler is refused within :data:`SCHEDULER_TIMEOUT_S` seconds: the client alone
     waits for ever on a server that never answers, and takes a greeting from one that speaks
-    first (SSH, SMTP) as the length of a message of exabytes.
+    first (SSH, SMTP) as the length of a message of exabytes. Then the cluster is checked once
+    (:func:`~nudgecli.runs.dask_cluster.checked_client`): it has workers, and they run this nudgecli.
 
     Raises
     ------
     ConfigError
-        dask.distributed is not installed, the address is malformed, or no dask scheduler
-        answers within :data:`SCHEDULER_TIMEOUT_S` seconds.
+        dask.distributed is not installed, the address is malformed, no dask scheduler answers
+        within :data:`SCHEDULER_TIMEOUT_S` seconds, it has no workers, or they cannot run nudge.
     """
     try:
         from dask.distributed import Client
     except ImportError as exc:  # pragma: no cover - depends on the optional extra
-        raise ConfigError("--scheduler needs dask.distributed: pip install 'nudgecli[cluster]'") from exc
+        raise ConfigError(f"{scheduler_label(address)} needs dask.distributed: "
+                          "pip install 'nudgecli[cluster]'") from exc
     fix = "give the address of a running dask scheduler, e.g. tcp://host:8786"
     problem = probe_scheduler(address, SCHEDULER_TIMEOUT_S)
     if problem is not None:
-        raise ConfigError(f"--scheduler {address}: {problem}; {fix}")
+        raise ConfigError(f"{scheduler_label(address)}: {problem}; {fix}")
     try:
-        return Client(address, timeout=f"{SCHEDULER_TIMEOUT_S}s")
+        client = Client(address, timeout=f"{SCHEDULER_TIMEOUT_S}s")
     except (OSError, ValueError, TypeError) as exc:
-        raise ConfigError(f"--scheduler {address}: cannot connect ({_one_line(exc)}); {fix}") from None
+        raise ConfigError(f"{scheduler_label(address)}: cannot connect ({one_line(exc)}); {fix}") from None
+    return checked_client(client, address)  # before anything is written: no folder for a cluster that fails
 
 
 def probe_scheduler(address: str, timeout_s: float) -> str | None:
@@ -226,7 +230,7 @@ def probe_scheduler(address: str, timeout_s: float) -> str | None:
         except TimeoutError:
             return f"cannot connect (no dask scheduler answered within {timeout_s:g} s)"
         except (OSError, ValueError, TypeError) as exc:
-            return f"cannot connect ({_one_line(exc)})"
+            return f"cannot connect ({one_line(exc)})"
         except Exception:
             # e.g. a MemoryError: a greeting's bytes read as the length of a message
             return "the service there is not a dask scheduler (its answer is not dask's protocol)"
@@ -235,12 +239,6 @@ def probe_scheduler(address: str, timeout_s: float) -> str | None:
     # in a thread of its own: the caller may itself be running an event loop (a notebook)
     with ThreadPoolExecutor(max_workers=1, thread_name_prefix="nudge-probe") as pool:
         return pool.submit(run).result()
-
-
-def _one_line(exc: BaseException) -> str:
-    """An exception's message on one line (or its type's name when it has none)."""
-    text = " ".join(str(exc).split())
-    return text or type(exc).__name__
 
 
 def _dask(plan: StudyPlan, todo: list[int], client: Any) -> Iterator[ParticipantColumns]:
