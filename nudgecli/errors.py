@@ -50,6 +50,11 @@ class WorkerLostError(NudgeError):
     the command line adds how to resume (``nudgecli.cli``)."""
 
 
+class ClusterError(WorkerLostError):
+    """The dask cluster cannot run nudge's tasks (its workers lack nudgecli, or another version of
+    it): what was finished is kept, and the command line adds how to resume once it is fixed."""
+
+
 def user_error(kind: str, message: str) -> NudgeError:
     """The :class:`NudgeError` of class name ``kind`` with ``message`` (one sent from a worker by name)."""
     classes = {cls.__name__: cls for cls in (NudgeError, ConfigError, DataError, RunFolderError, WriteError,

@@ -34,12 +34,13 @@ from dataclasses import dataclass, field
 from multiprocessing.connection import Connection, wait
 from typing import Any
 
-from nudgecli.errors import (
-    NudgeError,
-    WorkerError,
-    WorkerLostError,
-    failure_from_message,
-    failure_message,
+from nudgecli.errors import NudgeError, WorkerError, WorkerLostError, failure_from_message, failure_message
+from nudgecli.runs.dask_results import (
+    ClusterWatch,
+    failed_among,
+    next_finished,
+    quiet_dask_logs,
+    watched_result,
 )
 from nudgecli.runs.here_jobs import HereThread
 from nudgecli.runs.study_tasks import die_with_parent, process_context
@@ -88,11 +89,12 @@ def run_pickled_job(path: str) -> Any:
 
 
 def dask_result(future: Any, task: str) -> Any:
-    """``future.result()`` of a dask task, a lost worker turned into one clear error.
+    """``future.result()`` of a dask task, a lost task, worker or scheduler turned into one clear error.
 
     A scheduler cancels the tasks of a worker it lost (``FutureCancelledError``, a
     ``concurrent.futures.CancelledError``) or gives up on a task whose workers kept dying
-    (``KilledWorker``, ``distributed.scheduler``); both were tracebacks.
+    (``KilledWorker``, ``distributed.scheduler``); a result whose worker died is computed again,
+    and never with no worker left: the wait is watched (:func:`~nudgecli.runs.dask_results.watched_result`).
 
     Parameters
     ----------
@@ -104,18 +106,9 @@ def dask_result(future: Any, task: str) -> Any:
     Raises
     ------
     WorkerLostError
-        The task was cancelled or its worker killed.
+        The task was cancelled or its worker killed, no worker is left, or the scheduler is lost.
     """
-    from concurrent.futures import CancelledError
-
-    from distributed import KilledWorker
-
-    try:
-        return future.result()
-    except (CancelledError, KilledWorker) as exc:
-        why = getattr(exc, "reason", None) or type(exc).__name__
-        raise WorkerLostError(f"the dask cluster lost {task} ({why}: a worker died or left, or the "
-                              "scheduler cancelled it)") from None
+    return watched_result(future, task)
 
 
 class SerialExecutor:
@@ -482,6 +475,7 @@ class DaskExecutor:
         self._everywhere: set[str] = set()
         self._jobs: dict[str, Job] = {}
         self._done = as_completed()
+        self._watch = ClusterWatch(client)
 
     def _hint(self, affinity: str) -> list[str] | None:
         if not self._workers or affinity in self._everywhere:
@@ -516,25 +510,42 @@ class DaskExecutor:
             self._everywhere.add(job.affinity)
 
     def next_result(self) -> tuple[Job, Any]:
-        future = next(self._done)
+        """The next job to finish and its result; a task marked failed, a lost worker with no
+        other left, or a lost scheduler connection is one error (:mod:`nudgecli.runs.dask_results`),
+        never a wait for ever."""
+        future = next_finished(self._done, self._watch)
         job = self._jobs.pop(future.key)
-        try:
-            result = dask_result(future, f"task {job.key}")
-        except (OSError, NudgeError):  # the command's one error line, as in this process
-            raise
-        except Exception as exc:
-            raise WorkerError(f"task {job.key} failed on the cluster: {exc!r}") from exc
+        result = self._result(future, f"task {job.key}", self._raise_failed)
         future.release()
         return job, result
 
+    def _result(self, future: Any, task: str, also: Callable[[], None] | None = None) -> Any:
+        """``future``'s result (``task`` names it); a task's own error a :class:`WorkerError`."""
+        try:
+            return watched_result(future, task, self._watch, also)
+        except (OSError, NudgeError, WorkerError):  # the command's one error line, as in this process
+            raise
+        except Exception as exc:
+            raise WorkerError(f"{task} failed on the cluster: {exc!r}") from exc
+
+    def _raise_failed(self) -> None:
+        """Raise the error of a task already marked failed (``KilledWorker``) while another's
+        result is awaited: that one may be computed again on workers that are gone."""
+        failed = failed_among(self._done)
+        if failed is not None:
+            job = self._jobs.get(failed.key)
+            self._result(failed, f"task {job.key if job else failed.key}")
+
     def close(self) -> None:
-        self._client.close()
+        with quiet_dask_logs():  # a lost scheduler's tracebacks: the command's error line says it
+            self._client.close()
 
     def abort(self) -> None:
         """Cancel what is queued or running on the cluster, then close the client."""
-        with contextlib.suppress(Exception):  # a lost scheduler must not hide the interrupt
-            self._client.cancel(list(self._done.futures))
-        self._client.close()
+        with quiet_dask_logs():
+            with contextlib.suppress(Exception):  # a lost scheduler must not hide the interrupt
+                self._client.cancel(list(self._done.futures))
+            self._client.close()
 
 
 Executor = SerialExecutor | ProcessExecutor | DaskExecutor
