@@ -39,8 +39,15 @@ def scheduler_address(client: Any) -> str:
 
 
 def scheduler_lost(client: Any) -> WorkerLostError:
-    """The error of a lost scheduler connection: it names the scheduler and what to do."""
-    return WorkerLostError(f"lost the connection to the dask scheduler at {scheduler_address(client)} "
+    """The error of a lost scheduler connection: it names the scheduler and what to do.
+
+    The client is closed here, its loggers quiet: it would otherwise keep trying to reconnect, and
+    log the traceback of that attempt when whoever holds it closes it (``runs/study.py``'s too).
+    """
+    address = scheduler_address(client)  # before the close forgets it
+    with quiet_dask_logs(), contextlib.suppress(Exception):
+        client.close()
+    return WorkerLostError(f"lost the connection to the dask scheduler at {address} "
                            "(scheduler-connection-lost); restart it, or give another --scheduler")
 
 
