@@ -11,6 +11,7 @@ from typing import Any
 
 import pytest
 from cli_helpers import nudge, one_error_line
+from dask_helpers import local_cluster
 
 import nudgecli
 from nudgecli import api
@@ -20,24 +21,18 @@ from nudgecli.runs import dask_cluster
 distributed = pytest.importorskip("dask.distributed")
 
 
-def _cluster(n_workers: int) -> Any:
-    """A cheap in-process cluster of ``n_workers`` workers (tcp, as a real scheduler's address)."""
-    return distributed.LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=False,
-                                    protocol="tcp", host="127.0.0.1", dashboard_address="127.0.0.1:0")
-
-
 @pytest.fixture
 def empty_scheduler(monkeypatch: pytest.MonkeyPatch) -> Iterator[str]:
     """The address of a scheduler without workers; the wait for one shortened from the shipped 5 s."""
     monkeypatch.setattr(dask_cluster, "WORKERS_WAIT_S", 0.2)
-    with _cluster(0) as cluster:
+    with local_cluster(0) as cluster:
         yield cluster.scheduler_address
 
 
 @pytest.fixture
 def one_worker() -> Iterator[str]:
     """The address of a scheduler with one (in-process) worker."""
-    with _cluster(1) as cluster:
+    with local_cluster(1) as cluster:
         yield cluster.scheduler_address
 
 

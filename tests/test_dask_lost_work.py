@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
+from dask_helpers import local_cluster
 
 from nudgecli.errors import ClusterError, WorkerError, WorkerLostError
 
@@ -24,8 +25,7 @@ FOREVER_S = 8.0
 @pytest.fixture()
 def cluster() -> Iterator[Any]:
     """An in-process dask cluster on TCP, one worker (its tasks see this test's monkeypatching)."""
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
-                                  host="127.0.0.1", dashboard_address=None) as local:
+    with local_cluster(1) as local:
         yield local
 
 
@@ -125,8 +125,7 @@ def test_a_lost_scheduler_is_named_with_its_address_and_its_logs_stay_quiet(capl
     # after a traceback of distributed.client
     from nudgecli.runs.executors import DaskExecutor, Job
 
-    cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
-                                       host="127.0.0.1", dashboard_address=None)
+    cluster = local_cluster(1)
     address = cluster.scheduler_address
     client = distributed.Client(address, timeout="2s")
     try:

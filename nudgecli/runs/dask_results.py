@@ -179,15 +179,25 @@ def next_finished(done: Any, watch: ClusterWatch) -> Any:
         if done.is_empty():
             raise RuntimeError("no job to wait for")
         watch.check()
-        with done.thread_condition:
-            done.thread_condition.wait(timeout=POLL_S)
+        # as_completed's own condition (not public API: a distributed without it is polled instead)
+        condition = getattr(done, "thread_condition", None)
+        if condition is None:
+            time.sleep(POLL_S)
+            continue
+        with condition:
+            condition.wait(timeout=POLL_S)
     return next(done)
 
 
 def failed_among(done: Any) -> Any | None:
     """A future of ``done`` (a ``distributed.as_completed``) finished but erred or cancelled, or None."""
-    with done.lock:
-        ready = list(done.queue.queue)
+    # as_completed's queue of finished futures (not public API: without it no failure is seen early,
+    # and the wait on the result itself still ends, through the cluster's watch)
+    lock, queue = getattr(done, "lock", None), getattr(getattr(done, "queue", None), "queue", None)
+    if lock is None or queue is None:
+        return None
+    with lock:
+        ready = list(queue)
     return next((future for future in ready if future.status in FAILED), None)
 
 
