@@ -218,3 +218,36 @@ def test_a_batch_whose_every_worker_is_lost_is_one_error_line_with_the_resume_co
     resumed = CliRunner().invoke(main, shlex.split(line.split("resume with: nudge ", 1)[1]))
     assert resumed.exit_code == 0, resumed.output
     assert json.loads((out / "batch.json").read_text())["status"] == "complete"
+
+
+def test_a_simulation_whose_every_worker_is_lost_is_one_error_line(
+        tmp_path, cluster, quick_watch, monkeypatch):
+    # a guard: simulate's own wait for its next participant (runs/study.py) is watched as the batch's
+    # is; a worker that leaves here has its tasks cancelled (one line before the watch as well), while
+    # a wait for ever needs a result lost with a killed worker process, which the batch test covers
+    import json
+
+    from cli_helpers import one_error_line
+    from click.testing import CliRunner
+
+    from nudgecli.cli import main
+    from nudgecli.runs import study as study_module
+
+    monkeypatch.setitem(_LEAVING, "cluster", cluster)
+    monkeypatch.setitem(_LEAVING, "task", study_module.simulate_on_worker)
+    monkeypatch.setattr(study_module, "simulate_on_worker", _the_last_task)
+    out = tmp_path / "run"
+    args = ["simulate", "smoke", "--participants", "3", "--seed", "4", "--out", str(out),
+            "--scheduler", cluster.scheduler_address]
+    box: dict[str, Any] = {}
+    runner = threading.Thread(target=lambda: box.update(result=CliRunner().invoke(main, args)), daemon=True)
+    runner.start()
+    runner.join(FOREVER_S)
+    assert not runner.is_alive(), f"still waiting after {FOREVER_S} s (a wait for ever)"
+    result = box["result"]
+    assert result.exit_code == 1, result.output
+    line = one_error_line("\n".join(text for text in result.output.splitlines() if text.startswith("Error:")))
+    assert ("has had no worker for 0.3 s" in line or "the dask cluster lost participant" in line) \
+        and "resume with: nudge simulate " in line, line
+    assert json.loads((out / "manifest.json").read_text())["status"] == "interrupted"
+    assert "Traceback" not in result.output

@@ -113,21 +113,21 @@ def test_a_cancelled_dask_task_is_one_error_line_naming_the_loss_and_the_resume_
     assert json.loads((out / "manifest.json").read_text())["status"] == "interrupted"
 
 
-def test_dask_result_turns_a_cancelled_future_into_a_worker_lost_error(cluster):
+def test_a_watched_result_turns_a_cancelled_future_into_a_worker_lost_error(cluster):
     from distributed import Client
 
     from nudgecli.errors import WorkerLostError
-    from nudgecli.runs.executors import dask_result
+    from nudgecli.runs.dask_results import watched_result
 
     with Client(cluster) as client:
-        assert dask_result(client.submit(sum, [1, 2]), "a sum") == 3
+        assert watched_result(client.submit(sum, [1, 2]), "a sum") == 3
         future = client.submit(__import__("time").sleep, 2, pure=False)
         client.cancel([future], reason="worker-lost")
         with pytest.raises(WorkerLostError, match=r"^the dask cluster lost task 7 \(worker-lost: "):
-            dask_result(future, "task 7")
+            watched_result(future, "task 7")
         failing = client.submit(int, "x")  # a task's own error is not a lost worker
         with pytest.raises(ValueError):
-            dask_result(failing, "task 8")
+            watched_result(failing, "task 8")
 
 
 # --- compare's conditions ------------------------------------------------------------------------

@@ -88,29 +88,6 @@ def run_pickled_job(path: str) -> Any:
     return execute(job)
 
 
-def dask_result(future: Any, task: str) -> Any:
-    """``future.result()`` of a dask task, a lost task, worker or scheduler turned into one clear error.
-
-    A scheduler cancels the tasks of a worker it lost (``FutureCancelledError``, a
-    ``concurrent.futures.CancelledError``) or gives up on a task whose workers kept dying
-    (``KilledWorker``, ``distributed.scheduler``); a result whose worker died is computed again,
-    and never with no worker left: the wait is watched (:func:`~nudgecli.runs.dask_results.watched_result`).
-
-    Parameters
-    ----------
-    future
-        A ``dask.distributed.Future``.
-    task
-        What the task computes, named in the message (e.g. ``participant 3``).
-
-    Raises
-    ------
-    WorkerLostError
-        The task was cancelled or its worker killed, no worker is left, or the scheduler is lost.
-    """
-    return watched_result(future, task)
-
-
 class SerialExecutor:
     """Runs every job in this process, jobs without affinity first."""
 

@@ -244,7 +244,7 @@ def probe_scheduler(address: str, timeout_s: float) -> str | None:
 def _dask(plan: StudyPlan, todo: list[int], client: Any) -> Iterator[ParticipantColumns]:
     from dask.distributed import as_completed as dask_completed
 
-    from nudgecli.runs.executors import dask_result
+    from nudgecli.runs.dask_results import ClusterWatch, next_finished, watched_result
 
     with client:
         shared = client.scatter(plan, broadcast=True)
@@ -252,8 +252,10 @@ def _dask(plan: StudyPlan, todo: list[int], client: Any) -> Iterator[Participant
         participant = dict(zip((future.key for future in futures), todo, strict=True))
         completed = dask_completed(futures)
         futures.clear()  # a result is released once taken (the cluster held every one till the end)
-        for future in completed:
-            yield dask_result(future, f"participant {participant[future.key]}")
+        watch = ClusterWatch(client)  # no participant finishes once every worker is gone: never wait for ever
+        while not completed.is_empty():
+            future = next_finished(completed, watch)
+            yield watched_result(future, f"participant {participant[future.key]}", watch)
 
 
 @dataclass
