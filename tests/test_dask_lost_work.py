@@ -175,6 +175,26 @@ def test_workers_that_cannot_load_nudge_are_one_error_with_the_fix_and_a_tasks_e
 _LEAVING: dict[str, Any] = {}
 
 
+def _error_line_within(args: list[str]) -> tuple[Any, str]:
+    """``nudge ARGS``' result and its one ``Error:`` line, failing the test if it still waits after
+    :data:`FOREVER_S` or exits other than 1, or prints a traceback."""
+    from cli_helpers import one_error_line
+    from click.testing import CliRunner
+
+    from nudgecli.cli import main
+
+    box: dict[str, Any] = {}
+    runner = threading.Thread(target=lambda: box.update(result=CliRunner().invoke(main, args)), daemon=True)
+    runner.start()
+    runner.join(FOREVER_S)
+    assert not runner.is_alive(), f"still waiting after {FOREVER_S} s (a wait for ever)"
+    result = box["result"]
+    assert result.exit_code == 1, result.output
+    assert "Traceback" not in result.output
+    return result, one_error_line("\n".join(text for text in result.output.splitlines()
+                                            if text.startswith("Error:")))
+
+
 def _the_last_task(*args: Any, **kwargs: Any) -> Any:
     """A batch's participant task, after which its worker, the only one, leaves for good."""
     threading.Thread(target=_LEAVING["cluster"].scale, args=(0,), daemon=True).start()
@@ -186,7 +206,6 @@ def test_a_batch_whose_every_worker_is_lost_is_one_error_line_with_the_resume_co
     # was: `nudge replicate ... --scheduler` at 0/N for ever once every worker was killed
     import json
 
-    from cli_helpers import one_error_line
     from click.testing import CliRunner
 
     from nudgecli.cli import main
@@ -198,20 +217,11 @@ def test_a_batch_whose_every_worker_is_lost_is_one_error_line_with_the_resume_co
     out = tmp_path / "batch"
     args = ["replicate", "smoke", "-R", "2", "--participants", "2", "--seed", "4", "--out", str(out),
             "--scheduler", cluster.scheduler_address]
-    box: dict[str, Any] = {}
-    runner = threading.Thread(target=lambda: box.update(result=CliRunner().invoke(main, args)), daemon=True)
-    runner.start()
-    runner.join(FOREVER_S)
-    assert not runner.is_alive(), f"still waiting after {FOREVER_S} s (a wait for ever)"
-    result = box["result"]
-    assert result.exit_code == 1, result.output
-    line = one_error_line("\n".join(text for text in result.output.splitlines()
-                                    if text.startswith("Error:")))
+    _, line = _error_line_within(args)
     assert "has had no worker for 0.3 s" in line and "start some with `dask worker" in line, line
     assert f"; {out} keeps its finished tasks; resume with: nudge replicate " in line, line
     assert line.endswith(f"--scheduler {cluster.scheduler_address} --out {out} --resume"), line
     assert json.loads((out / "batch.json").read_text())["status"] == "interrupted"
-    assert "Traceback" not in result.output
     # the resume, on a cluster with a worker again, finishes it
     monkeypatch.setattr(batch_module, "run_participant_task", _LEAVING["task"])
     cluster.scale(1)
@@ -227,10 +237,6 @@ def test_a_simulation_whose_every_worker_is_lost_is_one_error_line(
     # a wait for ever needs a result lost with a killed worker process, which the batch test covers
     import json
 
-    from cli_helpers import one_error_line
-    from click.testing import CliRunner
-
-    from nudgecli.cli import main
     from nudgecli.runs import study as study_module
 
     monkeypatch.setitem(_LEAVING, "cluster", cluster)
@@ -239,15 +245,7 @@ def test_a_simulation_whose_every_worker_is_lost_is_one_error_line(
     out = tmp_path / "run"
     args = ["simulate", "smoke", "--participants", "3", "--seed", "4", "--out", str(out),
             "--scheduler", cluster.scheduler_address]
-    box: dict[str, Any] = {}
-    runner = threading.Thread(target=lambda: box.update(result=CliRunner().invoke(main, args)), daemon=True)
-    runner.start()
-    runner.join(FOREVER_S)
-    assert not runner.is_alive(), f"still waiting after {FOREVER_S} s (a wait for ever)"
-    result = box["result"]
-    assert result.exit_code == 1, result.output
-    line = one_error_line("\n".join(text for text in result.output.splitlines() if text.startswith("Error:")))
+    _, line = _error_line_within(args)
     assert ("has had no worker for 0.3 s" in line or "the dask cluster lost participant" in line) \
         and "resume with: nudge simulate " in line, line
     assert json.loads((out / "manifest.json").read_text())["status"] == "interrupted"
-    assert "Traceback" not in result.output
