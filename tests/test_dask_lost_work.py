@@ -171,6 +171,52 @@ def test_workers_that_cannot_load_nudge_are_one_error_with_the_fix_and_a_tasks_e
         executor.abort()
 
 
+def _raises_with_a_cause() -> None:
+    try:
+        {}["k"]
+    except KeyError as exc:
+        raise ValueError("a task's own error") from exc
+
+
+def _imports_a_module_of_its_own() -> None:
+    raise ModuleNotFoundError("No module named 'nudgecli.sim.typo'", name="nudgecli.sim.typo")
+
+
+def test_a_tasks_own_error_keeps_its_cause_and_its_own_import_error_is_not_the_clusters(cluster):
+    from nudgecli.runs.dask_results import watched_result
+
+    with distributed.Client(cluster) as client:
+        with pytest.raises(ValueError, match="a task's own error") as raised:
+            watched_result(client.submit(_raises_with_a_cause, pure=False), "task 1")
+        assert isinstance(raised.value.__cause__, KeyError)  # was: None (raised from None)
+        # a policy's own typo in an import of nudgecli's modules is the task's error, not a cluster
+        # without nudgecli (was: a ClusterError telling to install nudgecli on the workers)
+        with pytest.raises(ModuleNotFoundError, match=r"nudgecli\.sim\.typo"):
+            watched_result(client.submit(_imports_a_module_of_its_own, pure=False), "task 2")
+
+
+def test_a_lost_scheduler_is_named_in_the_callers_words(cluster):
+    from nudgecli.runs.dask_cluster import scheduler_named
+    from nudgecli.runs.dask_results import scheduler_lost
+
+    client = distributed.Client(cluster)
+    with scheduler_named("scheduler="):
+        assert str(scheduler_lost(client)).endswith("restart it, or give another scheduler=")
+    client = distributed.Client(cluster)
+    assert str(scheduler_lost(client)).endswith("restart it, or give another --scheduler")
+
+
+def test_a_worker_that_left_as_it_was_asked_is_not_a_worker_without_nudge():
+    import nudgecli
+    from nudgecli.runs.dask_cluster import workers_problem
+
+    left = OSError("comm closed")
+    assert workers_problem({"tcp://a": left, "tcp://b": nudgecli.__version__}) is None
+    assert workers_problem({"tcp://a": left}) == "no worker answered: each left as it was asked"
+    assert workers_problem({"tcp://a": left, "tcp://b": "0.0.0"}) == (
+        f"1 of 1 worker(s), e.g. tcp://b: it imports nudgecli 0.0.0, not {nudgecli.__version__}")
+
+
 #: The cluster whose workers :func:`_the_last_task` sends away, and the task it runs.
 _LEAVING: dict[str, Any] = {}
 
@@ -232,9 +278,10 @@ def test_a_batch_whose_every_worker_is_lost_is_one_error_line_with_the_resume_co
 
 def test_a_simulation_whose_every_worker_is_lost_is_one_error_line(
         tmp_path, cluster, quick_watch, monkeypatch):
-    # a guard: simulate's own wait for its next participant (runs/study.py) is watched as the batch's
-    # is; a worker that leaves here has its tasks cancelled (one line before the watch as well), while
-    # a wait for ever needs a result lost with a killed worker process, which the batch test covers
+    # a guard, not of the watched wait itself: an in-process worker that leaves has its tasks cancelled
+    # ("already forgotten"), which the unwatched loop also turned into this one line; the wait for ever
+    # on a result lost with a killed worker process is the batch test's (simulate's was checked by hand
+    # with real processes). It holds simulate on a lost cluster to one line, the run interrupted.
     import json
 
     from nudgecli.runs import study as study_module

@@ -42,10 +42,24 @@ def scheduler_named(name: str) -> Iterator[None]:
             _NAMED.reset(token)
 
 
+def scheduler_option_name() -> str:
+    """The name of the scheduler's address as the front end that called spells it: ``--scheduler``
+    on the command line, ``scheduler=`` in the Python API."""
+    return _NAMED.get() or SCHEDULER_OPTION
+
+
+def install_advice() -> str:
+    """What to do about workers that cannot run this nudge: the one wording of the connection check
+    and of a worker met later (:mod:`nudgecli.runs.dask_results`)."""
+    import nudgecli
+
+    return f"install nudgecli {nudgecli.__version__}, this one, in the workers' environment and restart them"
+
+
 def scheduler_label(address: str) -> str:
     """``address`` as the front end that called names it: ``--scheduler tcp://h:8786`` (``--scheduler ""``
     when empty) on the command line, ``scheduler='tcp://h:8786'`` in the Python API."""
-    name = _NAMED.get() or SCHEDULER_OPTION
+    name = scheduler_option_name()
     if name.startswith("--"):
         return f"{name} {address}" if address.strip() else f'{name} "{address}"'
     return f"{name.rstrip('=')}={address!r}"
@@ -61,7 +75,7 @@ def check_scheduler_address(address: str | None) -> str | None:
         An empty or blank address.
     """
     if address is not None and not address.strip():
-        name = _NAMED.get() or SCHEDULER_OPTION
+        name = scheduler_option_name()
         leave_out = f"leave {name} out" if name.startswith("--") else f"leave {name.rstrip('=')}= out (None)"
         raise ConfigError(f"{scheduler_label(address)}: an empty address; give the address of a running "
                           f"dask scheduler, e.g. tcp://host:8786, or {leave_out} to run on local workers")
@@ -123,11 +137,8 @@ def check_cluster(client: Any, address: str) -> None:
         versions = client.run(worker_probe(), on_error="return")
     problem = workers_problem(versions)
     if problem is not None:
-        import nudgecli
-
         raise ConfigError(f"the workers of the dask scheduler at {address} cannot run nudge ({problem}); "
-                          f"install nudgecli {nudgecli.__version__}, this one, in the workers' environment "
-                          "and restart them")
+                          f"{install_advice()}")
 
 
 def workers_problem(versions: Mapping[str, object]) -> str | None:
@@ -135,10 +146,13 @@ def workers_problem(versions: Mapping[str, object]) -> str | None:
     or the exception it raised) from running this nudgecli, in a few words; None when nothing does."""
     import nudgecli
 
-    wrong = {worker: answer for worker, answer in versions.items() if answer != nudgecli.__version__}
+    # a worker that left between the scheduler's list and its answer (OSError: a closed comm) says
+    # nothing about the others: only the answers of the workers still there count
+    answered = {worker: answer for worker, answer in versions.items() if not isinstance(answer, OSError)}
+    wrong = {worker: answer for worker, answer in answered.items() if answer != nudgecli.__version__}
     if not wrong:
-        return None
+        return None if answered else "no worker answered: each left as it was asked"
     worker, answer = sorted(wrong.items())[0]
     said = (one_line(answer) if isinstance(answer, BaseException)
             else f"it imports nudgecli {answer}, not {nudgecli.__version__}")
-    return f"{len(wrong)} of {len(versions)} worker(s), e.g. {worker}: {said}"
+    return f"{len(wrong)} of {len(answered)} worker(s), e.g. {worker}: {said}"

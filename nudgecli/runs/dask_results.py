@@ -47,8 +47,10 @@ def scheduler_lost(client: Any) -> WorkerLostError:
     address = scheduler_address(client)  # before the close forgets it
     with quiet_dask_logs(), contextlib.suppress(Exception):
         client.close()
-    return WorkerLostError(f"lost the connection to the dask scheduler at {address} "
-                           "(scheduler-connection-lost); restart it, or give another --scheduler")
+    from nudgecli.runs.dask_cluster import scheduler_option_name
+
+    return WorkerLostError(f"lost the connection to the dask scheduler at {address} (scheduler-connection-"
+                           f"lost); restart it, or give another {scheduler_option_name()}")
 
 
 def as_nudge_error(exc: BaseException, task: str, client: Any) -> BaseException:
@@ -77,15 +79,15 @@ def as_nudge_error(exc: BaseException, task: str, client: Any) -> BaseException:
                                    "after the other; their logs say why, e.g. out of memory)")
         return WorkerLostError(f"the dask cluster lost {task} ({why}: a worker died or left, or the "
                                "scheduler cancelled it)")
-    text = " ".join(str(exc).split())
-    if "deserialization of the task graph" in text or (isinstance(exc, ModuleNotFoundError)
-                                                       and "nudgecli" in text):
-        from nudgecli import __version__
+    from nudgecli.runs.dask_cluster import install_advice, one_line
 
+    text = one_line(exc)
+    # nudgecli itself missing (not a module a task's own code imports, e.g. a policy's typo)
+    if "deserialization of the task graph" in text or (isinstance(exc, ModuleNotFoundError)
+                                                       and exc.name == "nudgecli"):
         # a worker that joined after the cluster was checked (runs/dask_cluster.py check_cluster)
         return ClusterError(f"the workers of the dask scheduler at {scheduler_address(client)} cannot run "
-                            f"{task} ({type(exc).__name__}: {text[:200]}); install nudgecli {__version__}, "
-                            "this one, in the workers' environment and restart them")
+                            f"{task} ({type(exc).__name__}: {text[:200]}); {install_advice()}")
     return exc
 
 
@@ -168,7 +170,10 @@ def watched_result(future: Any, task: str, watch: ClusterWatch | None = None,
                 if also is not None:
                     also()
     if "error" in box:
-        raise as_nudge_error(box["error"], task, client) from None
+        error = as_nudge_error(box["error"], task, client)
+        if error is box["error"]:  # the task's own error, with its cause and context as the task raised it
+            raise error
+        raise error from None
     return box["value"]
 
 
