@@ -355,7 +355,7 @@ def run_batch(batch: Batch, out: str | Path, workers: int = 1, scheduler: str | 
         check_physiology_logs(point.config)
     copies = policy_copies(batch)  # the policy code (and inputs) kept in the folder, as a run's
     refuse_linked_out(Path(out))  # a linked --out: refused before anything (its lock) is written through it
-    client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
+    client = connect_scheduler(scheduler, log) if scheduler else None  # refused before the folder exists
     folder = Path(out)
     made = not folder.exists()
     try:

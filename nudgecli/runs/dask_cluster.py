@@ -19,9 +19,10 @@ from typing import Any
 
 from nudgecli.errors import ConfigError
 
-#: Seconds a scheduler without workers is given for one to join before the command is refused:
-#: workers started with the scheduler (a script, a job array) join within a few seconds.
-WORKERS_WAIT_S = 5.0
+#: Seconds a scheduler without workers is given for one to join before the command is refused (a
+#: Note says it waits): workers started with the scheduler join within seconds, a batch system's
+#: queued jobs (dask-jobqueue) within minutes.
+WORKERS_WAIT_S = 300.0
 
 #: The command line's name of the scheduler's address, which the refusals use by default.
 SCHEDULER_OPTION = "--scheduler"
@@ -103,22 +104,23 @@ def worker_probe() -> Callable[[], str]:
     return nudgecli_version
 
 
-def checked_client(client: Any, address: str) -> Any:
+def checked_client(client: Any, address: str, log: Callable[[str], None] | None = None) -> Any:
     """``client`` (connected to ``address``), once :func:`check_cluster` found its cluster can run
     nudge; else it is closed and the refusal raised."""
     try:
-        check_cluster(client, address)
+        check_cluster(client, address, log)
     except BaseException:
         client.close()
         raise
     return client
 
 
-def check_cluster(client: Any, address: str) -> None:
+def check_cluster(client: Any, address: str, log: Callable[[str], None] | None = None) -> None:
     """Refuse the cluster of ``client`` (connected to ``address``) where it cannot run nudge.
 
     One round trip where it can (each worker's nudgecli version, :func:`worker_probe`); a scheduler
-    without workers is given :data:`WORKERS_WAIT_S` seconds for one to join.
+    without workers is given :data:`WORKERS_WAIT_S` seconds for one to join, a ``Note:`` line to
+    ``log`` saying so.
 
     Raises
     ------
@@ -128,6 +130,9 @@ def check_cluster(client: Any, address: str) -> None:
     """
     versions = client.run(worker_probe(), on_error="return")
     if not versions:
+        if log is not None:
+            log(f"Note: the dask scheduler at {address} has no workers yet; waiting up to {WORKERS_WAIT_S:g} "
+                f"s for one to join (start some with `dask worker {address}`; Ctrl-C stops)")
         try:
             client.wait_for_workers(1, timeout=WORKERS_WAIT_S)
         except TimeoutError:

@@ -176,7 +176,7 @@ def _processes(plan: StudyPlan, todo: list[int], workers: int) -> Iterator[Parti
         pool.shutdown(wait=True)
 
 
-def connect_scheduler(address: str) -> Any:
+def connect_scheduler(address: str, log: Callable[[str], None] | None = None) -> Any:
     """A ``dask.distributed.Client`` of the scheduler at ``address``.
 
     The address is probed first (:func:`probe_scheduler`), so that a service that is not a
@@ -204,7 +204,7 @@ def connect_scheduler(address: str) -> Any:
         client = Client(address, timeout=f"{SCHEDULER_TIMEOUT_S}s")
     except (OSError, ValueError, TypeError) as exc:
         raise ConfigError(f"{scheduler_label(address)}: cannot connect ({one_line(exc)}); {fix}") from None
-    return checked_client(client, address)  # before anything is written: no folder for a cluster that fails
+    return checked_client(client, address, log)  # before anything is written: no folder for a failing cluster
 
 
 def probe_scheduler(address: str, timeout_s: float) -> str | None:
@@ -403,7 +403,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
         checked_plan(plan, [config])
         RunFolder(out).check_plan_not_its_copy(plan)  # the copy the run writes, --force removes first
     refuse_linked_out(Path(out))  # a linked --out: refused before anything (its lock) is written through it
-    client = connect_scheduler(scheduler) if scheduler else None  # refused before the folder exists
+    client = connect_scheduler(scheduler, log) if scheduler else None  # refused before the folder exists
     try:
         with run_lock(out, log=log):
             return _run_locked(RunFolder(out), config, seed, n, workers, scheduler, client, resume, force,
