@@ -201,12 +201,10 @@ def remove_cached_bytecode(source: str | Path) -> None:
     """Remove the bytecode Python cached for the module file ``source``, where there is any.
 
     No cache is not an error: the file was never imported, or bytecode is not written
-    (``PYTHONDONTWRITEBYTECODE``: ``OSError`` on removal), the interpreter caches none
-    (``NotImplementedError``: no ``cache_tag``) or the path has no cache location (``ValueError``).
+    (``PYTHONDONTWRITEBYTECODE``: ``OSError`` on removal), or the interpreter caches none (its
+    ``sys.implementation.cache_tag`` is ``None``).
     """
-    try:
-        cached = importlib.util.cache_from_source(str(source))
-    except (NotImplementedError, ValueError):
+    if sys.implementation.cache_tag is None:  # an interpreter without a bytecode cache
         return
     with contextlib.suppress(OSError):
-        os.remove(cached)
+        os.remove(importlib.util.cache_from_source(str(source)))
