@@ -247,6 +247,13 @@ def _the_last_task(*args: Any, **kwargs: Any) -> Any:
     return _LEAVING["task"](*args, **kwargs)
 
 
+def _leaving_after(monkeypatch: pytest.MonkeyPatch, cluster: Any, module: Any, name: str) -> None:
+    """Make ``module.name`` (the task a command submits) :func:`_the_last_task` of ``cluster``."""
+    monkeypatch.setitem(_LEAVING, "cluster", cluster)
+    monkeypatch.setitem(_LEAVING, "task", getattr(module, name))
+    monkeypatch.setattr(module, name, _the_last_task)
+
+
 def test_a_batch_whose_every_worker_is_lost_is_one_error_line_with_the_resume_command(
         tmp_path, cluster, quick_watch, monkeypatch):
     # was: `nudge replicate ... --scheduler` at 0/N for ever once every worker was killed
@@ -257,9 +264,7 @@ def test_a_batch_whose_every_worker_is_lost_is_one_error_line_with_the_resume_co
     from nudgecli.cli import main
     from nudgecli.runs import batch as batch_module
 
-    monkeypatch.setitem(_LEAVING, "cluster", cluster)
-    monkeypatch.setitem(_LEAVING, "task", batch_module.run_participant_task)
-    monkeypatch.setattr(batch_module, "run_participant_task", _the_last_task)
+    _leaving_after(monkeypatch, cluster, batch_module, "run_participant_task")
     out = tmp_path / "batch"
     args = ["replicate", "smoke", "-R", "2", "--participants", "2", "--seed", "4", "--out", str(out),
             "--scheduler", cluster.scheduler_address]
@@ -286,9 +291,7 @@ def test_a_simulation_whose_every_worker_is_lost_is_one_error_line(
 
     from nudgecli.runs import study as study_module
 
-    monkeypatch.setitem(_LEAVING, "cluster", cluster)
-    monkeypatch.setitem(_LEAVING, "task", study_module.simulate_on_worker)
-    monkeypatch.setattr(study_module, "simulate_on_worker", _the_last_task)
+    _leaving_after(monkeypatch, cluster, study_module, "simulate_on_worker")
     out = tmp_path / "run"
     args = ["simulate", "smoke", "--participants", "3", "--seed", "4", "--out", str(out),
             "--scheduler", cluster.scheduler_address]

@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from click.testing import CliRunner
+from dask_helpers import local_cluster
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -361,16 +362,12 @@ def test_the_baselines_preset_runs_the_papers_48_layouts_under_seven_conditions(
 
 
 def test_baselines_tables_are_identical_with_one_and_two_workers_and_dask(tmp_path):
-    distributed = pytest.importorskip("dask.distributed")
     config = load_experiment("baselines", ["study.blocks_per_condition=1", "study.corners=['tr']",
                                            "study.start_modes=['x']", "study.goal_counts=[3]"])
     run_study(config, tmp_path / "one", participants=2, workers=1)
     run_study(config, tmp_path / "two", participants=2, workers=2)
     assert_same_run(tmp_path / "one", tmp_path / "two")
-    # on this machine only: in-process workers over inproc:// still open their web servers on every
-    # interface, so the scheduler talks tcp on 127.0.0.1 and the dashboard listens there too
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
-                                  host="127.0.0.1", dashboard_address="127.0.0.1:0") as cluster:
+    with local_cluster(2) as cluster:  # on this machine only (127.0.0.1)
         run_study(config, tmp_path / "dask", participants=2, scheduler=cluster.scheduler_address)
     assert_same_run(tmp_path / "one", tmp_path / "dask")
     trials = pd.read_parquet(tmp_path / "one" / "trials")

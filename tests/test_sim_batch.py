@@ -19,6 +19,7 @@ import pandas as pd
 import pytest
 import scipy.stats
 from click.testing import CliRunner
+from dask_helpers import local_cluster
 from import_guard import run_refusing
 
 from nudgecli.cli import main
@@ -59,11 +60,9 @@ def assert_same_tables(a, b) -> None:
 
 
 def test_replicate_is_identical_with_1_and_2_workers_and_dask(tmp_path):
-    distributed = pytest.importorskip("dask.distributed")
     serial = replicate("smoke", 3, tmp_path / "serial", seed=5)
     two = replicate("smoke", 3, tmp_path / "two", seed=5, workers=2)
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
-                                  host="127.0.0.1", dashboard_address="127.0.0.1:0") as cluster:
+    with local_cluster(1) as cluster:
         on_dask = replicate("smoke", 3, tmp_path / "dask", seed=5, scheduler=cluster.scheduler_address)
     assert_same_tables(serial, two)
     assert_same_tables(serial, on_dask)
@@ -220,9 +219,7 @@ def test_off_the_pool_a_lone_study_is_spread_and_every_worker_builds_its_plan(tm
     replicate("smoke", 2, tmp_path / "two-studies", seed=5)
     assert [e for e in events if e[0] != "submit"] == []
     monkeypatch.undo()
-    distributed = pytest.importorskip("dask.distributed")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, protocol="tcp",
-                                  host="127.0.0.1", dashboard_address="127.0.0.1:0") as cluster:
+    with local_cluster(2) as cluster:
         on_dask = replicate("smoke", 1, tmp_path / "dask", seed=5, scheduler=cluster.scheduler_address)
     assert_same_tables(serial, on_dask)
 
@@ -367,9 +364,7 @@ def test_an_oserror_in_a_task_reaches_the_command_as_itself_on_the_pool_and_on_d
     finally:
         pool.abort()
     distributed = pytest.importorskip("dask.distributed")
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
-                                  host="127.0.0.1", dashboard_address="127.0.0.1:0") as cluster, \
-            distributed.Client(cluster) as client:
+    with local_cluster(1) as cluster, distributed.Client(cluster) as client:
         check(DaskExecutor(client))
 
 

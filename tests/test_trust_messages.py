@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 from cli_helpers import one_error_line, wait_for
 from click.testing import CliRunner
+from dask_helpers import local_cluster
 
 from nudgecli.cli import main
 
@@ -80,9 +81,7 @@ def test_an_interrupt_before_the_first_participant_marks_the_run_interrupted(tmp
 @pytest.fixture()
 def cluster():
     """An in-process dask cluster on TCP (its tasks see this test's monkeypatching)."""
-    distributed = pytest.importorskip("dask.distributed")
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp",
-                                  dashboard_address=None) as local:
+    with local_cluster(1) as local:
         yield local
 
 
