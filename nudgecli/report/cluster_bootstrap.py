@@ -15,7 +15,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from nudgecli.report.stats import condition_positions, pairs, tidy_values
+from nudgecli.report.metric_rows import MetricRows, TidyRows, rows_for
+from nudgecli.report.stats import pairs
 
 #: Largest number of (resample x trial) cells the bootstrap holds in memory at once.
 _BOOTSTRAP_CHUNK_CELLS = 1_000_000
@@ -193,7 +194,7 @@ def _pick(values: np.ndarray, distinct: np.ndarray | None, owner_blocks: np.ndar
 def bootstrap_median_differences(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
                                  resamples: int = 2000, level: float = 0.95, seed: int = 0,
                                  participant: str = "participant", condition: str = "condition",
-                                 tidy: pd.DataFrame | None = None) -> pd.DataFrame:
+                                 tidy: TidyRows | None = None) -> pd.DataFrame:
     """Cluster-bootstrap percentile intervals of ``median(a) - median(b)`` for every pair.
 
     The medians are over trials. Each resample draws the participants (those with a value of
@@ -219,15 +220,12 @@ def bootstrap_median_differences(data: pd.DataFrame, metric: str, conditions: Se
 def median_difference_intervals(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
                                 resamples: int = 2000, level: float = 0.95, seed: int = 0,
                                 participant: str = "participant", condition: str = "condition",
-                                tidy: pd.DataFrame | None = None) -> list[dict[str, Any]]:
+                                tidy: TidyRows | None = None) -> list[dict[str, Any]]:
     """:func:`bootstrap_median_differences`' rows as plain dicts (Python floats and ints): what
     the ``stats.json`` document holds, without a table made and read back."""
-    if tidy is None:
-        tidy = tidy_values(data, metric, conditions, condition, participant)
-    codes, uniques = pd.factorize(tidy["participant"])
-    positions = condition_positions(tidy["condition"], conditions)
-    all_values = tidy["value"].to_numpy(dtype=float)
-    n_participants = len(uniques)
+    rows_read = rows_for(data, metric, conditions, condition, participant, tidy)
+    codes, n_participants = _participants_in_order(rows_read)
+    positions, all_values = rows_read.positions, rows_read.values
     rows = []
     medians: dict[str, np.ndarray] = {}
     observed: dict[str, float] = {}
@@ -257,3 +255,16 @@ def median_difference_intervals(data: pd.DataFrame, metric: str, conditions: Seq
         rows.append({"a": a, "b": b, "difference": difference, "low": low, "high": high,
                      "valid_resamples": valid})
     return rows
+
+
+def _participants_in_order(rows: MetricRows) -> tuple[np.ndarray, int]:
+    """Each row's participant as a code in order of first appearance among the rows (what
+    ``pd.factorize`` of the rows' participants gives: the bootstrap's draws name participants by
+    these codes), and how many participants there are."""
+    if rows.participant_codes is None or (rows.participant_codes < 0).any():  # categorical, missing
+        codes, uniques = pd.factorize(rows.table()["participant"])
+        return codes, len(uniques)
+    present, first, inverse = np.unique(rows.participant_codes, return_index=True, return_inverse=True)
+    rank = np.empty(present.size, dtype=np.intp)
+    rank[np.argsort(first, kind="stable")] = np.arange(present.size)
+    return rank[np.ravel(inverse)], int(present.size)

@@ -16,15 +16,9 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
+from nudgecli.report.metric_rows import MetricRows, TidyRows, rows_for, rows_of_tidy
 from nudgecli.report.rank_tests import average_ranks
-from nudgecli.report.stats import (
-    adjust_p_values,
-    compared_participants,
-    condition_positions,
-    pairs,
-    python_scalar,
-    tidy_values,
-)
+from nudgecli.report.stats import adjust_p_values, compared_participants, pairs, python_scalar
 
 # scipy.stats (about 0.5 s of CPU to import) is imported only where scipy's own function runs (an
 # unchecked scipy release, differences that are not all finite or all zero, the Friedman test):
@@ -284,16 +278,17 @@ def _normal_signed_rank_test(d: np.ndarray) -> tuple[float, float]:
 def participant_summaries(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
                           participant: str = "participant", condition: str = "condition",
                           aggregate: Literal["median", "mean"] = "median",
-                          tidy: pd.DataFrame | None = None,
+                          tidy: TidyRows | None = None,
                           roster: pd.DataFrame | None = None) -> tuple[pd.DataFrame, list[Any]]:
     """Per-participant medians (or means) per condition, complete participants only.
 
     Parameters
     ----------
     tidy
-        :func:`~nudgecli.report.stats.tidy_values` of the arguments with the participants, when
-        the caller holds it (every test of a metric reads the same rows); ``data`` is then read
-        for its participants only (:func:`~nudgecli.report.stats.compared_participants`).
+        :func:`~nudgecli.report.stats.tidy_values` of the arguments with the participants (or its
+        :class:`~nudgecli.report.metric_rows.MetricRows`), when the caller holds it (every test of
+        a metric reads the same rows); ``data`` is then read for its participants only
+        (:func:`~nudgecli.report.stats.compared_participants`).
     roster
         The table whose participants (of these conditions) are the study's, when not ``data``'s:
         the trials, for questionnaire scores a participant may not have answered at all.
@@ -306,55 +301,93 @@ def participant_summaries(data: pd.DataFrame, metric: str, conditions: Sequence[
         they miss a condition: every participant of ``data``'s rows of these conditions without
         a value in one of them (its rows there missing, or their values all blank), sorted.
     """
-    if tidy is None:
-        tidy = tidy_values(data, metric, conditions, condition, participant)
-    wide = _median_table(tidy, conditions) if aggregate == "median" else None
-    if wide is None:  # means (pandas' compensated sums), categorical participants, no rows
-        grouped = tidy.groupby(["participant", "condition"], observed=True)["value"]
-        wide = grouped.agg(aggregate).unstack("condition")
-        wide = wide.reindex(columns=list(conditions))
-    complete = wide[wide.notna().all(axis=1)]
-    # from the table's participants, not the tidy rows': one without any value of a condition
-    # has no tidy row of it, and is dropped as surely as one missing the condition's rows
-    everyone = compared_participants(data if roster is None else roster, conditions, condition, participant)
-    dropped = [python_scalar(p) for p in everyone.difference(complete.index)]
-    return complete, dropped
+    rows = rows_for(data, metric, conditions, condition, participant, tidy)
+    table, who, complete, dropped = _complete(rows, aggregate, data, roster, condition, participant)
+    wide = pd.DataFrame(table[complete], index=_labels(rows, who)[complete],
+                        columns=pd.Index(list(conditions), name="condition"))
+    return wide, dropped
+
+
+def _complete(rows: MetricRows, aggregate: str, data: pd.DataFrame, roster: pd.DataFrame | None,
+              condition: str, participant: str) -> tuple[np.ndarray, np.ndarray | pd.Index, np.ndarray, list]:
+    """:func:`_summaries` of the rows, which of them are complete (``(P,)`` bool: a value in every
+    condition) and the participants dropped (:func:`_dropped`)."""
+    table, who = _summaries(rows, aggregate)
+    complete = ~np.isnan(table).any(axis=1)
+    dropped = _dropped(rows, who, complete, data if roster is None else roster, condition, participant,
+                       roster is not None)
+    return table, who, complete, dropped
+
+
+def _summaries(rows: MetricRows, aggregate: str) -> tuple[np.ndarray, np.ndarray | pd.Index]:
+    """``(P, k)`` each participant's summary per condition (NaN where it has no value there), the
+    participants sorted, and who they are: their codes (:attr:`MetricRows.participant_codes`'),
+    or their labels where pandas grouped them (means: pandas' compensated sums; categorical
+    participants; no rows; a value -0.0)."""
+    medians = _median_array(rows) if aggregate == "median" else None
+    if medians is not None:
+        return medians
+    grouped = rows.table().groupby(["participant", "condition"], observed=True)["value"]
+    wide = grouped.agg(aggregate).unstack("condition").reindex(columns=list(rows.conditions))
+    return wide.to_numpy(dtype=float), wide.index
+
+
+def _labels(rows: MetricRows, who: np.ndarray | pd.Index) -> pd.Index:
+    """The participants ``who`` (:func:`_summaries`') as labels."""
+    if isinstance(who, pd.Index):
+        return who
+    assert rows.participant_labels is not None
+    return pd.Index(rows.participant_labels.take(who), name="participant")
+
+
+def _dropped(rows: MetricRows, who: np.ndarray | pd.Index, complete: np.ndarray, table: pd.DataFrame,
+             condition: str, participant: str, roster: bool) -> list[Any]:
+    """The participants of ``table``'s rows of the conditions that are not among the complete
+    ones (``who[complete]``), sorted as ``pd.Index.difference`` sorts them; without a roster and
+    with codes, the usual "none dropped" is found on the codes alone."""
+    everyone_codes = None if roster or isinstance(who, pd.Index) else rows.everyone()
+    if everyone_codes is not None and np.isin(everyone_codes, who[complete]).all():
+        return []
+    everyone = compared_participants(table, rows.conditions, condition, participant)
+    return [python_scalar(p) for p in everyone.difference(_labels(rows, who)[complete])]
 
 
 def _median_table(tidy: pd.DataFrame, conditions: Sequence[str]) -> pd.DataFrame | None:
     """The table ``tidy.groupby(["participant", "condition"])["value"].median().unstack()`` (columns
-    reindexed to ``conditions``) gives, from one sort instead of pandas' grouping.
+    reindexed to ``conditions``) gives (:func:`_median_array` of the rows), or None where pandas
+    groups them (categorical participants, no rows, a value -0.0)."""
+    rows = rows_of_tidy(tidy, conditions)
+    medians = _median_array(rows)
+    if medians is None:
+        return None
+    table, who = medians
+    return pd.DataFrame(table, index=_labels(rows, who), columns=pd.Index(list(conditions), name="condition"))
+
+
+def _median_array(rows: MetricRows) -> tuple[np.ndarray, np.ndarray] | None:
+    """Per-participant medians per condition from one sort, as pandas' grouping gives them.
 
     pandas' grouped median (``group_median_float64``) takes the group's middle value, or
     ``(upper + lower) / 2`` of its two middle values; here the rows are sorted by group and value
     (``np.lexsort``) and the same values are picked, and added and halved the same way: the same
-    bits. The participants are sorted as the grouping sorts them (``pd.factorize(sort=True)``;
-    missing ones left out as the grouping leaves them).
-
-    Parameters
-    ----------
-    tidy
-        :func:`~nudgecli.report.stats.tidy_values` rows with the participants.
-    conditions
-        The columns, in order.
+    bits. The participants are sorted as the grouping sorts them (their codes are those of
+    ``pd.factorize(sort=True)``).
 
     Returns
     -------
-    pd.DataFrame or None
-        ``(P, k)`` medians, index ``participant`` (sorted), columns ``condition``; NaN where a
-        participant has no value of a condition. None for categorical participants, no rows, or
-        a value -0.0 (the caller groups with pandas then).
+    (np.ndarray, np.ndarray) or None
+        ``(P, k)`` medians, NaN where a participant has no value of a condition, and the ``(P,)``
+        sorted codes of the participants with a value. None for participants without codes
+        (categorical), no rows, or a value -0.0 (the caller groups with pandas then).
     """
-    participants_column = tidy["participant"]
-    values = tidy["value"].to_numpy(dtype=float)
+    values, codes = rows.values, rows.participant_codes
     # pandas' selection may return either zero of a group holding -0.0 and 0.0: let it choose
-    if len(tidy) == 0 or isinstance(participants_column.dtype, pd.CategoricalDtype) or \
-            np.any((values == 0) & np.signbit(values)):
+    if codes is None or values.size == 0 or np.any((values == 0) & np.signbit(values)):
         return None
-    codes, participants = pd.factorize(participants_column, sort=True)
-    column = condition_positions(tidy["condition"], conditions)
-    keep = (codes >= 0) & (column >= 0)
-    keys = codes[keep] * len(conditions) + column[keep]
+    k = len(rows.conditions)
+    keep = (codes >= 0) & (rows.positions >= 0)  # a missing participant: left out, as pandas' grouping
+    who, owner = np.unique(codes[keep], return_inverse=True)
+    keys = owner * k + rows.positions[keep]
     order = np.lexsort((values[keep], keys))  # by group, then by value
     ordered, ordered_keys = values[keep][order], keys[order]
     starts = np.flatnonzero(np.r_[True, ordered_keys[1:] != ordered_keys[:-1]])
@@ -362,11 +395,10 @@ def _median_table(tidy: pd.DataFrame, conditions: Sequence[str]) -> pd.DataFrame
     lower, upper = ordered[starts + (sizes - 1) // 2], ordered[starts + sizes // 2]
     with np.errstate(invalid="ignore", over="ignore"):  # NaN and inf as pandas' (silent) median
         medians = np.where(sizes % 2 == 1, lower, (upper + lower) / 2)
-    table = np.full((len(participants), len(conditions)), np.nan)
+    table = np.full((who.size, k), np.nan)
     group_keys = ordered_keys[starts]
-    table[group_keys // len(conditions), group_keys % len(conditions)] = medians
-    return pd.DataFrame(table, index=pd.Index(participants, name="participant"),
-                        columns=pd.Index(list(conditions), name="condition"))
+    table[group_keys // k, group_keys % k] = medians
+    return table, who
 
 
 def rank_biserial(x: np.ndarray, y: np.ndarray) -> float:
@@ -410,17 +442,15 @@ def kendalls_w(friedman_statistic: float, n_participants: int, n_conditions: int
 PAIRWISE_COLUMNS = ("a", "b", "n_participants", "statistic", "p", "p_unadjusted", "rank_biserial")
 
 
-def _wilcoxon_pairs(wide: pd.DataFrame, conditions: Sequence[str], p_adjust: str) -> pd.DataFrame:
-    """:func:`pairwise_wilcoxon` on a wide table of complete participants (one column per condition)."""
-    return pd.DataFrame(_wilcoxon_pair_rows(wide, conditions, p_adjust), columns=list(PAIRWISE_COLUMNS))
-
-
-def _wilcoxon_pair_rows(wide: pd.DataFrame, conditions: Sequence[str], p_adjust: str) -> list[dict[str, Any]]:
-    """:func:`_wilcoxon_pairs`' rows as plain dicts (keys :data:`PAIRWISE_COLUMNS`, Python scalars):
+def _wilcoxon_pair_rows(columns: Sequence[np.ndarray], conditions: Sequence[str],
+                        p_adjust: str) -> list[dict[str, Any]]:
+    """:func:`pairwise_wilcoxon`'s rows as plain dicts (keys :data:`PAIRWISE_COLUMNS`, Python
+    scalars) of the complete participants' summaries, ``columns[j]`` those of ``conditions[j]``:
     what the stats document holds, without a table made and read back."""
     rows = []
+    column = dict(zip(conditions, columns, strict=True))
     for a, b in pairs(conditions):
-        x, y = wide[a].to_numpy(dtype=float), wide[b].to_numpy(dtype=float)
+        x, y = column[a], column[b]
         statistic = p = math.nan
         if x.size and not np.all(x == y):  # all differences zero: Wilcoxon is undefined
             statistic, p = signed_rank_test(x, y)
@@ -464,13 +494,14 @@ def pairwise_wilcoxon(data: pd.DataFrame, metric: str, conditions: Sequence[str]
     """
     wide, _ = participant_summaries(data, metric, conditions, participant=participant,
                                     condition=condition, aggregate=aggregate)
-    return _wilcoxon_pairs(wide, conditions, p_adjust)
+    columns = [wide[c].to_numpy(dtype=float) for c in conditions]
+    return pd.DataFrame(_wilcoxon_pair_rows(columns, conditions, p_adjust), columns=list(PAIRWISE_COLUMNS))
 
 
 def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
                            participant: str = "participant", condition: str = "condition",
                            aggregate: Literal["median", "mean"] = "median", p_adjust: str = "holm",
-                           tidy: pd.DataFrame | None = None,
+                           tidy: TidyRows | None = None,
                            roster: pd.DataFrame | None = None) -> tuple[dict[str, Any], dict[str, Any]]:
     """The paired test on per-participant summaries and its effect size.
 
@@ -489,18 +520,19 @@ def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence
         ``effect_size``: ``name, value`` (and ``a, b`` for two conditions; ``pairs``, a list of
         ``a, b, name, value``, for more).
     """
-    wide, dropped = participant_summaries(data, metric, conditions, participant=participant,
-                                          condition=condition, aggregate=aggregate, tidy=tidy,
-                                          roster=roster)
+    rows = rows_for(data, metric, conditions, condition, participant, tidy)
+    table, _, complete, dropped = _complete(rows, aggregate, data, roster, condition, participant)
+    # each condition's column of the complete participants (contiguous, as a table's column was)
+    columns = [np.ascontiguousarray(column) for column in table[complete].T]
     notes = []
     if dropped:
         notes.append(f"{len(dropped)} participant(s) without a value in every condition dropped: "
                      f"{', '.join(map(str, dropped))}")
-    n = len(wide)
+    n = int(np.count_nonzero(complete))
     statistic = p = effect = math.nan
     two = len(conditions) == 2
     if two:
-        a, b = wide[conditions[0]].to_numpy(), wide[conditions[1]].to_numpy()
+        a, b = columns
         effect = rank_biserial(a, b)
         if n == 0:
             notes.append("no participant has values in both conditions")
@@ -516,7 +548,7 @@ def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence
 
             with warnings.catch_warnings(), np.errstate(invalid="ignore", divide="ignore"):
                 warnings.simplefilter("ignore", RuntimeWarning)
-                result = scipy.stats.friedmanchisquare(*(wide[c].to_numpy() for c in conditions))
+                result = scipy.stats.friedmanchisquare(*columns)
             statistic, p = float(result.statistic), float(result.pvalue)
             if not np.isfinite(statistic):
                 notes.append("every participant ranks the conditions equally; the test is undefined")
@@ -535,7 +567,7 @@ def participant_level_test(data: pd.DataFrame, metric: str, conditions: Sequence
         return level, effect_size
     effect_size = {"name": "kendall_w", "value": effect}
     if len(conditions) > 2:
-        posthoc = _wilcoxon_pair_rows(wide, conditions, p_adjust)
+        posthoc = _wilcoxon_pair_rows(columns, conditions, p_adjust)
         level.update({
             "pairwise_test": "wilcoxon",
             "p_adjust": p_adjust,

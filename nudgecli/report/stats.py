@@ -44,6 +44,10 @@ import pandas as pd
 
 from nudgecli.model.conditions import PAPER_CONDITIONS
 from nudgecli.report.comparison_options import ComparisonOptions as ComparisonOptions  # re-exported
+from nudgecli.report.metric_rows import MetricRows, TidyRows, rows_for
+from nudgecli.report.metric_rows import compared_participants as compared_participants  # re-exported
+from nudgecli.report.metric_rows import condition_positions as condition_positions  # re-exported
+from nudgecli.report.metric_rows import tidy_values as tidy_values  # re-exported
 from nudgecli.report.p_adjust import NATIVE_ADJUSTMENTS
 from nudgecli.report.rank_tests import condition_mean_ranks, conover_exact, kruskal_exact
 
@@ -81,41 +85,6 @@ def order_conditions(values: Sequence[Any], preferred: Sequence[str] = ()) -> li
     return first + [c for c in present if c not in first]
 
 
-def _numeric(series: pd.Series) -> pd.Series:
-    """A float Series (bool -> 0/1, nullable types -> NaN for missing)."""
-    return pd.Series(series.to_numpy(dtype=float, na_value=np.nan), index=series.index)
-
-
-def tidy_values(data: pd.DataFrame, metric: str, conditions: Sequence[str], condition: str,
-                participant: str | None = None) -> pd.DataFrame:
-    """A metric's values as every test reads them: ``condition``, ``value`` (and ``participant``)
-    rows of the given conditions with a value."""
-    columns = {"condition": _condition_labels(data[condition]), "value": _numeric(data[metric])}
-    if participant is not None:
-        columns["participant"] = data[participant]
-    tidy = pd.DataFrame(columns)
-    keep = (tidy["condition"].isin(conditions) & tidy["value"].notna()).to_numpy()
-    if keep.all():  # the usual case: no copy of a large table
-        return tidy.reset_index(drop=True)
-    return tidy[keep].reset_index(drop=True)
-
-
-def _condition_labels(labels: pd.Series) -> pd.Series:
-    """The condition labels as strings (categories renamed: no string copy of a large table)."""
-    if isinstance(labels.dtype, pd.CategoricalDtype):
-        return labels.cat.rename_categories([str(c) for c in labels.cat.categories])
-    return labels.astype(str)
-
-
-def compared_participants(data: pd.DataFrame, conditions: Sequence[str], condition: str,
-                          participant: str) -> pd.Index:
-    """Every participant with a row in one of the given conditions, a value of the metric or not
-    (:func:`tidy_values` keeps only the rows with a value: a participant all of whose values of
-    a condition are missing is not in it, yet is one the participant-level test leaves out)."""
-    rows = _condition_labels(data[condition]).isin(conditions).to_numpy()
-    return pd.Index(pd.unique(data[participant][rows].dropna()))
-
-
 def pairs(conditions: Sequence[str]) -> list[tuple[str, str]]:
     """All pairs ``(a, b)`` of conditions, ``a`` before ``b`` in the given order."""
     return list(itertools.combinations(conditions, 2))
@@ -127,14 +96,15 @@ def python_scalar(value: Any) -> Any:
 
 
 def describe(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
-             condition: str = "condition", tidy: pd.DataFrame | None = None) -> pd.DataFrame:
+             condition: str = "condition", tidy: TidyRows | None = None) -> pd.DataFrame:
     """Descriptives of one metric per condition.
 
     Parameters
     ----------
     tidy
-        :func:`tidy_values` of ``data``, ``metric`` and ``conditions``, when the caller holds it
-        (every test of a metric reads the same rows: computed once); ``data`` is then not read.
+        :func:`tidy_values` of ``data``, ``metric`` and ``conditions`` (or its
+        :class:`~nudgecli.report.metric_rows.MetricRows`), when the caller holds it (every test of a
+        metric reads the same rows: made once); ``data`` is then not read.
 
     Returns
     -------
@@ -148,12 +118,13 @@ def describe(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
 
 def descriptive_columns(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
                         condition: str = "condition",
-                        tidy: pd.DataFrame | None = None) -> dict[str, np.ndarray]:
+                        tidy: TidyRows | None = None) -> dict[str, np.ndarray]:
     """:func:`describe`'s columns as arrays, without its table (the ``stats.json`` entry reads them).
 
     The values are pandas' grouped ``size``, ``mean``, ``median`` and linear ``quantile`` (0.25,
-    0.75) of the condition's values; only placing them in the conditions' order is done here
-    (one pass over each result instead of a table reindexed, filled and reset).
+    0.75) of the condition's values, bit for bit: the counts a ``bincount``, the means pandas' own
+    (grouped by the conditions' positions), the medians and quartiles picked from one sort
+    (:func:`_sorted_descriptives`).
 
     Returns
     -------
@@ -161,23 +132,63 @@ def descriptive_columns(data: pd.DataFrame, metric: str, conditions: Sequence[st
         ``n`` ``(k,)`` int64 (0 for a condition without values), ``mean, median, q1, q3`` ``(k,)``
         float64 (NaN there), the conditions in the given order.
     """
-    if tidy is None:
-        tidy = tidy_values(data, metric, conditions, condition)
-    grouped = tidy.groupby("condition", observed=True)["value"]
-    position = {c: i for i, c in enumerate(conditions)}
-    columns = {"n": np.zeros(len(conditions), dtype=np.int64),
-               **{name: np.full(len(conditions), np.nan) for name in ("mean", "median", "q1", "q3")}}
-    for name, result in (("n", grouped.size()), ("mean", grouped.mean()), ("median", grouped.median()),
-                         ("q1", grouped.quantile(0.25)), ("q3", grouped.quantile(0.75))):
-        for label, value in zip(result.index, result.to_numpy(), strict=True):
-            if label in position:
-                columns[name][position[label]] = value
+    rows = rows_for(data, metric, conditions, condition, None, tidy)
+    k = len(conditions)
+    chosen = rows.positions >= 0
+    values, positions = rows.values[chosen], rows.positions[chosen]
+    columns = {"n": np.bincount(positions, minlength=k).astype(np.int64),
+               **{name: np.full(k, np.nan) for name in ("mean", "median", "q1", "q3")}}
+    if values.size == 0:
+        return columns
+    # the means are pandas' (its grouped mean is a compensated sum in the rows' order)
+    grouped = pd.Series(values).groupby(positions)
+    results = [("mean", grouped.mean())]
+    if np.any((values == 0) & np.signbit(values)):  # which zero pandas' selection returns: its own
+        results += [("median", grouped.median()), ("q1", grouped.quantile(0.25)),
+                    ("q3", grouped.quantile(0.75))]
+    else:
+        columns.update(_sorted_descriptives(values, positions, k))
+    for name, result in results:
+        columns[name][result.index.to_numpy()] = result.to_numpy()
     return columns
+
+
+def _sorted_descriptives(values: np.ndarray, positions: np.ndarray, k: int) -> dict[str, np.ndarray]:
+    """pandas' grouped ``median`` and linear ``quantile`` (0.25, 0.75) of each condition's values,
+    from one sort: the same values picked and combined with the same operations, so the same bits.
+
+    pandas' median (``group_median_float64``) is the middle value, or ``(upper + lower) / 2`` of the
+    two middle ones; its quantile (``group_quantile``, rows sorted by group then value) takes the
+    value at ``int(q (m - 1))`` and, where ``f = q (m - 1) % 1`` is not 0, adds ``(next - value) f``.
+    A value -0.0 is left to pandas (which zero a selection returns is its own).
+
+    Returns
+    -------
+    dict
+        ``median, q1, q3`` ``(k,)`` float64, NaN for a condition without values.
+    """
+    order = np.lexsort((values, positions))  # by condition, then by value
+    ordered, groups = values[order], positions[order]
+    starts = np.flatnonzero(np.r_[True, groups[1:] != groups[:-1]])
+    sizes = np.diff(np.r_[starts, ordered.size])
+    present = groups[starts]
+    out = {name: np.full(k, np.nan) for name in ("median", "q1", "q3")}
+    lower, upper = ordered[starts + (sizes - 1) // 2], ordered[starts + sizes // 2]
+    with np.errstate(invalid="ignore", over="ignore"):  # NaN and inf as pandas' (silent) ones
+        out["median"][present] = np.where(sizes % 2 == 1, lower, (upper + lower) / 2)
+        for name, q in (("q1", 0.25), ("q3", 0.75)):
+            where = q * (sizes - 1).astype(np.float64)
+            index = starts + where.astype(np.int64)  # truncated, as pandas' cast
+            fraction = where % 1
+            value = ordered[index]
+            following = ordered[np.minimum(index + 1, ordered.size - 1)]
+            out[name][present] = np.where(fraction == 0.0, value, value + (following - value) * fraction)
+    return out
 
 
 def mean_rank_column(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
                      compared: Collection[str] | None = None, condition: str = "condition",
-                     tidy: pd.DataFrame | None = None) -> np.ndarray:
+                     tidy: TidyRows | None = None) -> np.ndarray:
     """Each condition's mean rank among the trials of the compared conditions, ranked together
     (:func:`~nudgecli.report.rank_tests.condition_mean_ranks`): the ranks Kruskal-Wallis and
     Conover's test compare.
@@ -194,7 +205,8 @@ def mean_rank_column(data: pd.DataFrame, metric: str, conditions: Sequence[str],
     np.ndarray
         ``(k,)`` float in the conditions' order, NaN for a condition not compared or without values.
     """
-    values, positions = _value_arrays(data, metric, conditions, condition, tidy)
+    rows = rows_for(data, metric, conditions, condition, None, tidy)
+    values, positions = rows.values, rows.positions
     if compared is not None:
         chosen = set(compared)
         kept = np.isin(positions, [j for j, c in enumerate(conditions) if c in chosen])
@@ -203,7 +215,7 @@ def mean_rank_column(data: pd.DataFrame, metric: str, conditions: Sequence[str],
 
 
 def kruskal_wallis(data: pd.DataFrame, metric: str, conditions: Sequence[str], *,
-                   condition: str = "condition", tidy: pd.DataFrame | None = None) -> dict[str, float]:
+                   condition: str = "condition", tidy: TidyRows | None = None) -> dict[str, float]:
     """Kruskal-Wallis H test over trials (tie-corrected, ``scipy.stats.kruskal``).
 
     Parameters
@@ -217,7 +229,8 @@ def kruskal_wallis(data: pd.DataFrame, metric: str, conditions: Sequence[str], *
         ``{"statistic": H, "p": p}``; both NaN when fewer than two conditions have values or
         all values are equal.
     """
-    values, positions = _value_arrays(data, metric, conditions, condition, tidy)
+    rows = rows_for(data, metric, conditions, condition, None, tidy)
+    values, positions = rows.values, rows.positions
     groups = [values[positions == j] for j in range(len(conditions))]
     groups = [g for g in groups if g.size]
     if len(groups) < 2 or np.unique(np.concatenate(groups)).size < 2:
@@ -229,46 +242,6 @@ def kruskal_wallis(data: pd.DataFrame, metric: str, conditions: Sequence[str], *
 
     result = scipy.stats.kruskal(*groups)
     return {"statistic": float(result.statistic), "p": float(result.pvalue)}
-
-
-def _value_arrays(data: pd.DataFrame, metric: str, conditions: Sequence[str], condition: str,
-                  tidy: pd.DataFrame | None) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`tidy_values`' ``value`` ``(n,)`` float and :func:`condition_positions` ``(n,)`` of its
-    conditions (``tidy`` when given): the tests select a condition's values by comparing integers,
-    not labels."""
-    if tidy is None:
-        tidy = tidy_values(data, metric, conditions, condition)
-    return tidy["value"].to_numpy(dtype=float), condition_positions(tidy["condition"], conditions)
-
-
-def condition_positions(labels: pd.Series, conditions: Sequence[str]) -> np.ndarray:
-    """Each row's condition as its position in ``conditions``: ``labels == conditions[j]`` is
-    ``positions == j`` (-1 where the label is none of them, or missing).
-
-    A categorical column's codes are mapped through its categories (a 3.5 M-row table's labels
-    as objects took 0.2 s to make and 1 s to sort, each time a test read them); other labels
-    are matched by equality, as ``==`` matches them.
-
-    Parameters
-    ----------
-    labels
-        ``(n,)`` condition labels (:func:`tidy_values`' ``condition``).
-    conditions
-        The conditions, in order.
-
-    Returns
-    -------
-    np.ndarray
-        ``(n,)`` intp.
-    """
-    distinct = list(dict.fromkeys(conditions))  # an index's entries are distinct
-    # a distinct condition's position in conditions, and -1 (the last entry) for none of them
-    lookup = np.array([conditions.index(c) for c in distinct] + [-1], dtype=np.intp)
-    index = pd.Index(distinct, dtype=object)
-    if isinstance(labels.dtype, pd.CategoricalDtype):  # each category matched once, then its codes
-        by_code = np.append(lookup[index.get_indexer(labels.cat.categories)], -1)  # (code -1: missing)
-        return by_code[labels.cat.codes.to_numpy()]
-    return lookup[index.get_indexer(labels)]
 
 
 def adjust_p_values(p_values: Sequence[float] | np.ndarray, method: str = "holm") -> np.ndarray:
@@ -339,7 +312,7 @@ def epsilon_squared(h_statistic: float, n_observations: int) -> float:
 
 
 def conover(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adjust: str = "holm",
-            condition: str = "condition", tidy: pd.DataFrame | None = None) -> pd.DataFrame:
+            condition: str = "condition", tidy: TidyRows | None = None) -> pd.DataFrame:
     """Conover's pairwise post-hoc test (``scikit_posthocs.posthoc_conover``).
 
     Parameters
@@ -361,16 +334,15 @@ def conover(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adj
 
 
 def conover_rows(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, p_adjust: str = "holm",
-                 condition: str = "condition", tidy: pd.DataFrame | None = None) -> list[dict[str, Any]]:
+                 condition: str = "condition", tidy: TidyRows | None = None) -> list[dict[str, Any]]:
     """:func:`conover`'s rows as plain dicts (``a, b, p, p_unadjusted``; Python floats): what the
     ``stats.json`` document holds, without a table made and read back."""
-    if tidy is None:
-        tidy = tidy_values(data, metric, conditions, condition)
-    values, positions = _value_arrays(data, metric, conditions, condition, tidy)
+    rows_read = rows_for(data, metric, conditions, condition, None, tidy)
+    values, positions = rows_read.values, rows_read.positions
     present = [c for j, c in enumerate(conditions) if (positions == j).any()]
     rows = [{"a": a, "b": b, "p": math.nan, "p_unadjusted": math.nan} for a, b in pairs(conditions)]
     if len(present) >= 2 and np.unique(values).size >= 2 and values.size > len(present):
-        groups, unadjusted = _conover_unadjusted(values, positions, conditions, tidy)
+        groups, unadjusted = _conover_unadjusted(values, positions, conditions, rows_read)
         # what posthoc_conover(p_adjust=...) does, without ranking the data a second time
         upper = np.triu_indices(len(groups), 1)
         adjusted = unadjusted.copy()
@@ -385,7 +357,7 @@ def conover_rows(data: pd.DataFrame, metric: str, conditions: Sequence[str], *, 
 
 
 def _conover_unadjusted(values: np.ndarray, positions: np.ndarray, conditions: Sequence[str],
-                        tidy: pd.DataFrame) -> tuple[list[Any], np.ndarray]:
+                        rows: MetricRows) -> tuple[list[Any], np.ndarray]:
     """The unadjusted Conover p-values of ``(n,)`` values in the groups ``(n,)`` positions of
     ``conditions`` (``scikit_posthocs.posthoc_conover`` with ``sort=False`` of the ``tidy`` rows they
     are): the groups in order of first appearance and their ``(k, k)`` matrix, evaluated on arrays
@@ -398,7 +370,7 @@ def _conover_unadjusted(values: np.ndarray, positions: np.ndarray, conditions: S
 
     # the tidy rows themselves (a categorical column stays one): a frame of the labels as strings
     # was 0.8 s and 0.3 GB more per metric of a 3.5 M-row table, for the same numbers
-    table = scikit_posthocs.posthoc_conover(tidy, val_col="value", group_col="condition", sort=False)
+    table = scikit_posthocs.posthoc_conover(rows.table(), val_col="value", group_col="condition", sort=False)
     return [str(group) for group in table.index], table.to_numpy(dtype=float)
 
 

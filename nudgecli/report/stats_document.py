@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.report.cluster_bootstrap import median_difference_intervals
+from nudgecli.report.metric_rows import MetricRows, TableKeys, metric_rows, table_keys
 from nudgecli.report.not_applicable import NO_EXCLUSIONS, entry_over_conditions, not_applicable_reasons
 from nudgecli.report.participant_tests import participant_level_test
 from nudgecli.report.stats import (
@@ -31,7 +32,6 @@ from nudgecli.report.stats import (
     pair_stars,
     python_scalar,
     star_rule,
-    tidy_values,
 )
 
 #: The settings when none are given (a frozen dataclass: one instance serves every call).
@@ -41,7 +41,7 @@ DEFAULT_OPTIONS = ComparisonOptions()
 def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
                    options: ComparisonOptions = DEFAULT_OPTIONS, *, not_applicable: Collection[str] = (),
                    participant: str = "participant", condition: str = "condition",
-                   roster: pd.DataFrame | None = None) -> dict[str, Any]:
+                   roster: pd.DataFrame | None = None, keys: TableKeys | None = None) -> dict[str, Any]:
     """All statistics of one metric: one entry of ``stats.json``'s ``metrics`` list.
 
     Parameters
@@ -62,6 +62,9 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
         The table whose participants are the study's, when not ``data``'s (questionnaire scores:
         the trials): the participant-level test names those of them it left out
         (:func:`~nudgecli.report.participant_tests.participant_summaries`).
+    keys
+        ``data``'s :class:`~nudgecli.report.metric_rows.TableKeys` of these conditions, when the
+        caller holds them (:func:`compare_conditions`: found once for all the metrics).
 
     Returns
     -------
@@ -76,7 +79,7 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
         (:func:`~nudgecli.report.not_applicable.entry_over_conditions`).
     """
     # the rows every statistic of the metric reads, made once (each test would make them again)
-    tidy = tidy_values(data, metric, conditions, condition, participant)
+    tidy = metric_rows(data, metric, conditions, condition, participant, keys=keys)
     columns = descriptive_columns(data, metric, conditions, condition=condition, tidy=tidy)
     descriptives = {column: dict(zip(conditions, map(python_scalar, values), strict=True))
                     for column, values in columns.items()}
@@ -91,7 +94,7 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
     compared = [c for c in conditions if c not in reasons]
     entry = None
     if len(compared) >= 2:  # the rows of the compared conditions: tidy_values of them
-        kept = tidy[tidy["condition"].isin(compared).to_numpy()].reset_index(drop=True)
+        kept = tidy.among(compared)
         entry = _compared_entry(data, metric, compared, {k: {c: v[c] for c in compared}
                                                          for k, v in descriptives.items()},
                                 options, many=len(compared) > 2, participant=participant, condition=condition,
@@ -101,11 +104,11 @@ def analyze_metric(data: pd.DataFrame, metric: str, conditions: Sequence[str],
 
 def _compared_entry(data: pd.DataFrame, metric: str, conditions: Sequence[str],
                     descriptives: dict[str, dict[str, Any]], options: ComparisonOptions, *, many: bool,
-                    participant: str, condition: str, tidy: pd.DataFrame,
+                    participant: str, condition: str, tidy: MetricRows,
                     roster: pd.DataFrame | None = None) -> dict[str, Any]:
     """:func:`analyze_metric`'s entry of conditions that all have values (``descriptives``: theirs;
     ``many``: with epsilon-squared, as a document of more than two conditions has; ``tidy``:
-    :func:`~nudgecli.report.stats.tidy_values` of the metric and these conditions, with the
+    :func:`~nudgecli.report.metric_rows.metric_rows` of the metric and these conditions, with the
     participants; ``roster``: :func:`analyze_metric`'s)."""
     if len(conditions) < 2:
         return _descriptive_entry(metric, descriptives, options)
@@ -188,10 +191,12 @@ def compare_conditions(data: pd.DataFrame, metrics: Sequence[str], conditions: S
         ``{"conditions": [...], "metrics": [analyze_metric(...) for each metric]}``. Values are
         plain Python (NaN stays float NaN; :func:`json_ready` turns it into ``None``).
     """
+    # each row's condition and participant as integers, found once for every metric
+    keys = table_keys(data, conditions, condition, participant)
     return {
         "conditions": list(conditions),
         "metrics": [analyze_metric(data, m, conditions, options, not_applicable=not_applicable.get(m, ()),
-                                   participant=participant, condition=condition, roster=roster)
+                                   participant=participant, condition=condition, roster=roster, keys=keys)
                     for m in metrics],
     }
 
