@@ -4,7 +4,10 @@ connects (:func:`nudgecli.runs.study.connect_scheduler`), before anything is wri
 A scheduler with no workers, or workers that cannot import this nudgecli, used to surface deep in
 the work: a traceback of ``client.scatter``, a batch waiting at 0/N for ever, a run folder left
 behind. Here they are one ``Error:`` line naming the address and the fix, for simulations and
-batches alike. A healthy cluster costs one round trip (:func:`check_cluster`).
+batches alike. A healthy cluster costs one round trip (:func:`check_cluster`); a scheduler without
+workers is asked by a task (:func:`first_worker_answer`), for which an adaptive cluster that
+scales from zero starts its first worker. Workers that join later are checked as they come
+(:class:`~nudgecli.runs.dask_results.ClusterWatch`).
 
 The scheduler's address is named as the front end that called spells it (:func:`scheduler_named`):
 ``--scheduler ADDR`` on the command line, ``scheduler='ADDR'`` in the Python API.
@@ -118,9 +121,9 @@ def checked_client(client: Any, address: str, log: Callable[[str], None] | None 
 def check_cluster(client: Any, address: str, log: Callable[[str], None] | None = None) -> None:
     """Refuse the cluster of ``client`` (connected to ``address``) where it cannot run nudge.
 
-    One round trip where it can (each worker's nudgecli version, :func:`worker_probe`); a scheduler
-    without workers is given :data:`WORKERS_WAIT_S` seconds for one to join, a ``Note:`` line to
-    ``log`` saying so.
+    One round trip where it can (each worker's nudgecli version, :func:`worker_probe`). A scheduler
+    without workers is asked by a task (:func:`first_worker_answer`), which the first worker to
+    join runs: an adaptive cluster starts workers only for submitted tasks.
 
     Raises
     ------
@@ -130,20 +133,76 @@ def check_cluster(client: Any, address: str, log: Callable[[str], None] | None =
     """
     versions = client.run(worker_probe(), on_error="return")
     if not versions:
-        if log is not None:
-            log(f"Note: the dask scheduler at {address} has no workers yet; waiting up to {WORKERS_WAIT_S:g} "
-                f"s for one to join (start some with `dask worker {address}`; Ctrl-C stops)")
-        try:
-            client.wait_for_workers(1, timeout=WORKERS_WAIT_S)
-        except TimeoutError:
-            raise ConfigError(f"the dask scheduler at {address} has no workers "
-                              f"(none joined within {WORKERS_WAIT_S:g} s); start some with "
-                              f"`dask worker {address}`, in an environment with nudgecli installed") from None
-        versions = client.run(worker_probe(), on_error="return")
+        versions = first_worker_answer(client, address, log)
     problem = workers_problem(versions)
     if problem is not None:
         raise ConfigError(f"the workers of the dask scheduler at {address} cannot run nudge ({problem}); "
                           f"{install_advice()}")
+
+
+def answer_with_address(probe: Callable[[], str]) -> Callable[[], tuple[str, object]]:
+    """A task that runs ``probe`` (:func:`worker_probe`) on the worker that takes it and returns the
+    worker's address and the probe's answer, or the exception it raised (a worker without nudgecli).
+
+    Defined inside this function, so that it travels by value, as :func:`worker_probe` does."""
+    def answered() -> tuple[str, object]:
+        from distributed import get_worker
+
+        try:
+            answer: object = probe()
+        except Exception as exc:  # the worker's problem, sent back to be named in the refusal
+            answer = exc
+        return str(get_worker().address), answer
+
+    return answered
+
+
+#: The name of the attribute of a client that holds the answer of :func:`first_worker_answer`'s task.
+FIRST_ANSWER_KEPT = "_nudge_first_worker_answer"
+
+
+def first_worker_answer(client: Any, address: str,
+                        log: Callable[[str], None] | None = None) -> dict[str, object]:
+    """The nudgecli version of the first worker the cluster of ``client`` starts (its address: the
+    version, or the exception its import raised), asked by a task of :func:`answer_with_address`.
+
+    An adaptive cluster (``cluster.adapt(minimum=0)``) starts workers only for tasks submitted, so
+    waiting for a worker before submitting anything waited for ever; a batch system's queued
+    workers join within minutes: the task is given :data:`WORKERS_WAIT_S` seconds, a ``Note:``
+    to ``log`` saying so at once and another the time it waited once a worker answered. The
+    task's result stays on the client (:data:`FIRST_ANSWER_KEPT`) for as long as it lives: an
+    adaptive cluster does not retire the one worker holding data no other can take, so the worker
+    that answered is still there when the work is submitted (dask's scatter to a cluster without
+    workers fails within 2 s).
+
+    Raises
+    ------
+    ConfigError
+        No worker ran the task within :data:`WORKERS_WAIT_S` seconds, or the task was lost.
+    """
+    import time
+
+    if log is not None:
+        log(f"Note: the dask scheduler at {address} has no workers yet; waiting up to {WORKERS_WAIT_S:g} s "
+            f"for one to join (an adaptive cluster starts one for the work submitted; else start some "
+            f"with `dask worker {address}`; Ctrl-C stops)")
+    started = time.monotonic()
+    future = client.submit(answer_with_address(worker_probe()), pure=False)
+    try:
+        worker, answer = future.result(timeout=WORKERS_WAIT_S)
+    except TimeoutError:
+        future.cancel()
+        raise ConfigError(f"the dask scheduler at {address} has no workers "
+                          f"(none joined within {WORKERS_WAIT_S:g} s); start some with "
+                          f"`dask worker {address}`, in an environment with nudgecli installed") from None
+    except Exception as exc:  # the task lost (its worker died, the scheduler went away)
+        raise ConfigError(f"the dask scheduler at {address} lost the task that asks its first worker "
+                          f"for its nudgecli version ({one_line(exc)}); start workers with `dask worker "
+                          f"{address}`, in an environment with nudgecli installed") from None
+    setattr(client, FIRST_ANSWER_KEPT, future)
+    if log is not None:
+        log(f"Note: a worker joined the dask scheduler at {address} after {time.monotonic() - started:.0f} s")
+    return {worker: answer}
 
 
 def workers_problem(versions: Mapping[str, object]) -> str | None:
