@@ -1,0 +1,164 @@
+"""The statistics of a metric, read from its rows as arrays (``nudgecli.report.metric_rows``), are
+the libraries' own numbers bit for bit: each entry of ``analyze_metric`` is computed here again,
+independently, on the raw table (pandas' grouped descriptives and per-participant medians,
+``scipy.stats`` ranks, Kruskal-Wallis, Wilcoxon and Friedman, ``scikit_posthocs.posthoc_conover``,
+and the cluster bootstrap by replicating the drawn participants' trials), on random tables with
+ties, missing values, unequal groups, signed zeros, dropped participants and constant conditions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+import scikit_posthocs
+import scipy.stats
+
+from nudgecli.report.metric_rows import metric_rows, tidy_values
+from nudgecli.report.stats import ComparisonOptions
+from nudgecli.report.stats_document import analyze_metric
+
+OPTIONS = ComparisonOptions(bootstrap_resamples=40, seed=5)
+SCENARIOS = ("ties", "gaps", "dropped", "constant", "signed_zero", "strings", "single", "categorical")
+
+
+def _table(scenario: str) -> tuple[pd.DataFrame, list[str]]:
+    """A random trial table of the scenario: ``participant, condition, value``."""
+    rng = np.random.default_rng(SCENARIOS.index(scenario))
+    k = {"gaps": 3, "constant": 3, "strings": 4}.get(scenario, 2)
+    conditions = [f"c{i}" for i in range(k)]
+    n = 24 * k
+    people = 1 if scenario == "single" else 6
+    data = pd.DataFrame({"participant": rng.integers(0, people, n),
+                         "condition": rng.choice([*conditions, "other"], n, p=[0.9 / k] * k + [0.1])})
+    data["value"] = rng.integers(0, 5, n).astype(float)  # ties
+    if scenario in ("gaps", "strings", "single", "categorical"):
+        data["value"] = rng.gamma(2.0, 3.0, n).round(1)
+        data.loc[rng.random(n) < 0.25, "value"] = np.nan
+    if scenario == "dropped":  # one participant without a value of c1, one with no row of it
+        data.loc[(data["participant"] == 1) & (data["condition"] == "c1"), "value"] = np.nan
+        data = data[~((data["participant"] == 2) & (data["condition"] == "c1"))]
+    if scenario == "constant":
+        data.loc[data["condition"] == "c2", "value"] = 7.0
+    if scenario == "signed_zero":
+        data["value"] = rng.choice([-0.0, 0.0, 1.0, -1.5], n)
+    if scenario == "strings":
+        data["participant"] = "p" + data["participant"].astype(str)
+        data = data.sample(frac=1.0, random_state=1)
+    if scenario == "categorical":
+        data["condition"] = data["condition"].astype("category")
+    return data.reset_index(drop=True), conditions
+
+
+def _same(a: object, b: object) -> bool:
+    """Equal values and types, NaN equal to NaN, floats bit for bit (signed zeros too)."""
+    if isinstance(a, float) and isinstance(b, float):
+        return (math.isnan(a) and math.isnan(b)) or (a == b and math.copysign(1, a) == math.copysign(1, b))
+    return type(a) is type(b) and a == b
+
+
+def _valued(data: pd.DataFrame, conditions: list[str]) -> pd.DataFrame:
+    rows = data[data["condition"].astype(str).isin(conditions) & data["value"].notna()]
+    return rows.assign(condition=rows["condition"].astype(str))
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_descriptives_and_mean_ranks_are_pandas_and_scipy(scenario):
+    data, conditions = _table(scenario)
+    entry = analyze_metric(data, "value", conditions, OPTIONS)
+    valued = _valued(data, conditions)
+    grouped = valued.groupby("condition")["value"]
+    for column, result in (("n", grouped.size()), ("mean", grouped.mean()), ("median", grouped.median()),
+                           ("q1", grouped.quantile(0.25)), ("q3", grouped.quantile(0.75))):
+        for c in conditions:
+            expected = result.get(c, 0 if column == "n" else math.nan)
+            assert _same(entry[column][c], expected.item() if hasattr(expected, "item") else expected), \
+                (column, c)
+    ranks = scipy.stats.rankdata(valued["value"].to_numpy())
+    for c in conditions:
+        chosen = (valued["condition"] == c).to_numpy()
+        assert _same(entry["mean_rank"][c], float(ranks[chosen].mean()) if chosen.any() else math.nan)
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_trial_level_tests_are_scipy_and_scikit_posthocs(scenario):
+    data, conditions = _table(scenario)
+    entry = analyze_metric(data, "value", conditions, OPTIONS)
+    valued = _valued(data, conditions)
+    groups = [valued.loc[valued["condition"] == c, "value"].to_numpy() for c in conditions]
+    if valued["value"].nunique() < 2:
+        assert math.isnan(entry["kruskal"]["p"])
+        return
+    expected = scipy.stats.kruskal(*groups)
+    assert _same(entry["kruskal"]["statistic"], float(expected.statistic))
+    assert _same(entry["kruskal"]["p"], float(expected.pvalue))
+    frame = valued[["value", "condition"]].reset_index(drop=True)
+    unadjusted = scikit_posthocs.posthoc_conover(frame, val_col="value", group_col="condition", sort=False)
+    adjusted = scikit_posthocs.posthoc_conover(frame, val_col="value", group_col="condition", sort=False,
+                                               p_adjust="holm")
+    for row in entry["conover"]:
+        assert _same(row["p_unadjusted"], float(unadjusted.loc[row["a"], row["b"]]))
+        assert _same(row["p"], float(adjusted.loc[row["a"], row["b"]]))
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_participant_level_test_is_scipy_on_pandas_medians(scenario):
+    data, conditions = _table(scenario)
+    level = analyze_metric(data, "value", conditions, OPTIONS)["participant_level"]
+    valued = _valued(data, conditions)
+    medians = valued.groupby(["participant", "condition"])["value"].median()
+    wide = medians.unstack().reindex(columns=conditions)
+    complete = wide.dropna()
+    rows = data[data["condition"].astype(str).isin(conditions)]
+    missing = [p for p in pd.unique(rows["participant"]) if p not in set(complete.index)]
+    assert level["dropped_participants"] == (sorted(missing) if len(complete) else missing)
+    assert level["n_participants"] == len(complete)
+    columns = [complete[c].to_numpy() for c in conditions]
+    if len(conditions) == 2 and len(complete) and not np.all(columns[0] == columns[1]):
+        expected = scipy.stats.wilcoxon(*columns)
+        assert (level["statistic"], level["p"]) == (float(expected.statistic), float(expected.pvalue))
+    elif len(conditions) > 2 and len(complete) >= 2:
+        expected = scipy.stats.friedmanchisquare(*columns)
+        assert _same(level["statistic"], float(expected.statistic))
+        assert _same(level["p"], float(expected.pvalue))
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_bootstrap_is_the_replicated_trials_medians(scenario):
+    data, conditions = _table(scenario)
+    intervals = analyze_metric(data, "value", conditions, OPTIONS)["ci"]["pairs"]
+    valued = _valued(data, conditions).reset_index(drop=True)
+    codes, people = pd.factorize(valued["participant"])  # draws name participants in order of appearance
+    draws = np.random.default_rng(OPTIONS.seed).integers(0, len(people), (OPTIONS.bootstrap_resamples,
+                                                                          len(people)))
+    by_person = [valued[codes == p] for p in range(len(people))]
+    medians = {c: [] for c in conditions}
+    for drawn in draws:
+        trials = pd.concat([by_person[p] for p in drawn])
+        for c in conditions:
+            values = trials.loc[trials["condition"] == c, "value"].to_numpy()
+            medians[c].append(np.median(values) if values.size else math.nan)
+    tail = (1.0 - OPTIONS.bootstrap_level) / 2.0
+    for row in intervals:
+        differences = np.array(medians[row["a"]]) - np.array(medians[row["b"]])
+        differences = differences[np.isfinite(differences)]
+        assert row["valid_resamples"] == differences.size
+        if differences.size:
+            low, high = np.quantile(differences, [tail, 1.0 - tail])
+            assert (row["low"], row["high"]) == (float(low), float(high))
+
+
+@pytest.mark.parametrize("scenario", SCENARIOS)
+def test_metric_rows_are_the_tidy_rows(scenario):
+    data, conditions = _table(scenario)
+    tidy = tidy_values(data, "value", conditions, "condition", "participant")
+    rows = metric_rows(data, "value", conditions, "condition", "participant")
+    assert np.array_equal(rows.values, tidy["value"].to_numpy(), equal_nan=False)
+    assert [conditions[j] for j in rows.positions] == tidy["condition"].astype(str).tolist()
+    if rows.participant_codes is not None:
+        assert list(rows.participant_labels.take(rows.participant_codes)) == tidy["participant"].tolist()
+    kept = rows.among(conditions[1:])
+    expected = tidy_values(data, "value", conditions[1:], "condition", "participant")
+    assert np.array_equal(kept.values, expected["value"].to_numpy())
+    assert [conditions[1:][j] for j in kept.positions] == expected["condition"].astype(str).tolist()
