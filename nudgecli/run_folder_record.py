@@ -380,11 +380,11 @@ class RunRecord(LiveRecord, ConfigRecord):
             raise DataError(f"{path} is not a readable Parquet file ({exc}); {again}") from None
 
     def resume_command(self, manifest: Mapping[str, Any] | None = None) -> str:
-        """The command that finishes or repairs this run (``nudge simulate ... --resume``), with
-        ``--people`` where the run simulated a people file (a resume without it is refused by the
-        people check): the copy the folder keeps, by the folder's path as given (so the command
-        works from where it is typed), else (a folder made before copies were kept) the file's
-        name the manifest records; for a policy of the calling script, the Python call instead."""
+        """The command that finishes or repairs this run (``nudge simulate ... --resume``), with ``--people``
+        where it simulated a people file (the folder's copy, by its path as given, else the file the
+        manifest names: a resume without it is refused), ``--scheduler ADDRESS`` where it ran on a dask
+        scheduler (:func:`resume_scheduler`); for a policy of the calling script, the Python call instead."""
+        from nudgecli.run_folder_state import resume_scheduler
         from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
         from nudgecli.sim.people_file import resume_people
         from nudgecli.sim.policy_files import script_resume_call
@@ -400,7 +400,8 @@ class RunRecord(LiveRecord, ConfigRecord):
         call = script_resume_call(manifest, experiment, self.path, manifest.get("seed"),
                                   manifest.get("participants"), file)
         return call or simulate_resume_command(experiment, self.path, manifest.get("seed"),
-                                               manifest.get("participants"), people=file)
+                                               manifest.get("participants"), people=file,
+                                               scheduler=resume_scheduler(manifest))
 
     def resume_experiment(self, manifest: Mapping[str, Any]) -> str | None:
         """The experiment a command that resumes this run names in place of the one typed: its

@@ -28,6 +28,22 @@ from nudgecli.run_folder_names import (
 #: The folders a run makes before its manifest, and ``--force`` empties: empty, part of a start.
 _EMPTIED = (*PART_KINDS, CALIBRATION_DIR)
 
+#: The executor a run's manifest and a batch's ``batch.json`` record for work done on a dask
+#: scheduler (:func:`nudgecli.runs.study.executor_name`), never its address: a folder shipped with
+#: a paper carries no machine's address.
+DASK_EXECUTOR = "dask"
+#: What a command that resumes such work names for its scheduler, which the person fills in.
+SCHEDULER_PLACEHOLDER = "ADDRESS"
+
+
+def resume_scheduler(manifest: Mapping[str, Any] | None) -> str | None:
+    """The ``--scheduler`` value of a command that resumes the run or batch of ``manifest`` (its
+    ``manifest.json`` or ``batch.json``): :data:`SCHEDULER_PLACEHOLDER` where its last run was on a
+    dask scheduler (a resume without ``--scheduler`` would run on local workers), else ``None``
+    (local workers, or a manifest of a nudge that recorded no executor)."""
+    on_dask = manifest is not None and manifest.get("executor") == DASK_EXECUTOR
+    return SCHEDULER_PLACEHOLDER if on_dask else None
+
 
 def only_a_start(folder: Path, config_text: str | None = None) -> bool:
     """Whether ``folder`` holds only the start of a run (of the one whose config.toml is
@@ -111,6 +127,7 @@ def rerun_command(folder: Path, manifest: Mapping[str, Any] | None, resume: str 
     words = ["nudge", "simulate", experiment, "--out", str(folder)]
     for flag, key in (("--seed", "seed"), ("--participants", "participants")):
         words += [flag, str(manifest[key])] if manifest.get(key) is not None else []
+    words += ["--scheduler", scheduler] if (scheduler := resume_scheduler(manifest)) else []
     return shell_words([*words, "--force"])
 
 

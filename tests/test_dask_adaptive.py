@@ -7,6 +7,7 @@ written, and a worker that joins later is checked before its result is taken."""
 
 from __future__ import annotations
 
+import json
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -18,6 +19,7 @@ from dask_helpers import local_cluster
 
 from nudgecli import api
 from nudgecli.errors import ClusterError, ConfigError, WorkerLostError
+from nudgecli.run_folder_names import MANIFEST
 from nudgecli.runs import dask_cluster, dask_results
 
 distributed = pytest.importorskip("dask.distributed")
@@ -46,6 +48,9 @@ def test_an_adaptive_cluster_from_zero_runs_smoke_to_the_tables_of_local_workers
     pd.testing.assert_frame_equal(on_dask.trials, local.trials)
     assert notes[0].startswith(f"Note: the dask scheduler at {from_zero} has no workers yet; waiting up to")
     assert notes[1].startswith(f"Note: a worker joined the dask scheduler at {from_zero} after ")
+    # the manifest records the executor, not the address (a resume command names ADDRESS to fill in)
+    manifest = (tmp_path / "dask" / MANIFEST).read_text(encoding="utf-8")
+    assert json.loads(manifest)["executor"] == "dask" and from_zero not in manifest
 
 
 def test_an_adaptive_cluster_from_zero_runs_a_batch(tmp_path: Path, from_zero: str) -> None:

@@ -16,6 +16,7 @@ from typing import Any
 
 from nudgecli.config_files import read_toml
 from nudgecli.errors import ConfigError, DataError, RunFolderError
+from nudgecli.run_folder_state import resume_scheduler
 from nudgecli.runs.batch_folder import BATCH_MANIFEST, PolicyCopies, kept_inputs, read_manifest
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import resume_people
@@ -37,6 +38,9 @@ def batch_resume_command(folder: Path, manifest: Mapping[str, Any], missing: str
       --participants N --plan FOLDER/plan.toml --out FOLDER --resume`` (power: its counts and
       ``--target``), with ``--people`` naming the folder's copy of its people file.
 
+    Either names ``--scheduler ADDRESS`` where the batch's last run was on a dask scheduler
+    (:func:`~nudgecli.run_folder_state.resume_scheduler`: ``batch.json`` records no address).
+
     ``None`` for a batch of an older nudge (no inputs kept: its ``--set`` values are lost), or one
     whose experiment or sweep file copy is gone, unless ``missing`` names the word that stands for
     it (:func:`resume_advice`).
@@ -51,6 +55,7 @@ def batch_resume_command(folder: Path, manifest: Mapping[str, Any], missing: str
         options = [word for key in ("replications", "seed")
                    if key in recorded and recorded[key] != written.get(key)
                    for word in (f"--{key}", str(recorded[key]))]
+        options += ["--scheduler", scheduler] if (scheduler := resume_scheduler(manifest)) else []
         return resume_command(["sweep", str(kept.get("sweep_file", missing))], folder, options)
     if kind not in ("replicate", "power") or ("experiment" not in kept and not missing):
         return None
@@ -65,6 +70,7 @@ def batch_resume_command(folder: Path, manifest: Mapping[str, Any], missing: str
     people = recorded.get(PEOPLE_KEY)
     named = resume_people(folder, people, str(people.get("file"))) if isinstance(people, dict) else None
     options += ["--people", named] if named else []
+    options += ["--scheduler", scheduler] if (scheduler := resume_scheduler(manifest)) else []
     return resume_command([str(kind), str(kept.get("experiment", missing))], folder, options)
 
 

@@ -35,7 +35,7 @@ from nudgecli.rng import check_seed
 from nudgecli.run_folder_calibration import write_calibration_logs
 from nudgecli.run_folder_names import LAYOUTS, PARTICIPANTS
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, FILE_CHECKSUMS
-from nudgecli.run_folder_state import refuse_linked_out
+from nudgecli.run_folder_state import DASK_EXECUTOR, refuse_linked_out
 from nudgecli.runs.dask_cluster import checked_client, one_line, scheduler_label
 from nudgecli.runs.size import check_study_size
 from nudgecli.runs.solved_layouts import solve_layouts_cached
@@ -566,7 +566,7 @@ def executor_name(workers: int, on_dask: bool) -> str:
     """What runs a study's or a batch's work, as its manifest records it: ``dask`` (a scheduler),
     ``serial`` (one worker: this process) or ``processes:W`` (``W`` local worker processes)."""
     if on_dask:
-        return "dask"
+        return DASK_EXECUTOR
     return "serial" if workers == 1 else f"processes:{workers}"
 
 
