@@ -293,16 +293,17 @@ def forced_command(resume: str) -> str | None:
 
 
 def simulate_resume_command(experiment: str, target: str | Path, seed: int | None = None,
-                            participants: int | None = None, workers: int = 1, overrides: Sequence[str] = (),
-                            command: str = "simulate", confirm: bool = False, people: str | None = None,
-                            plan: str | None = None, scheduler: str | None = None) -> str:
+                            participants: int | None = None, workers: int | None = None,
+                            overrides: Sequence[str] = (), command: str = "simulate", confirm: bool = False,
+                            people: str | None = None, plan: str | None = None,
+                            scheduler: str | None = None) -> str:
     """The ``nudge simulate`` (or ``run``) command that resumes a study into ``target`` with the same
-    choices (``--yes`` when ``confirm`` let a study above the size limit run; ``people``: the
-    ``--people`` file; ``plan``: ``nudge run``'s ``--plan``, which ``simulate`` has not; ``scheduler``:
-    the ``--scheduler`` typed, not one from DASK_SCHEDULER_ADDRESS, there again for the rerun)."""
+    choices (``--yes`` when ``confirm`` let a study above the size limit run; ``people``: ``--people``;
+    ``plan``: ``nudge run``'s ``--plan``; ``workers``: the ``--workers`` typed, 1 too (else the variable
+    DASK_SCHEDULER_ADDRESS would win); ``scheduler``: the ``--scheduler`` typed, not the variable's)."""
     options = ["--yes"] if confirm else []
     for flag, value in (("--seed", seed), ("--participants", participants), ("--plan", plan),
-                        ("--workers", workers if workers != 1 else None), ("--people", people),
+                        ("--workers", workers), ("--people", people),
                         ("--scheduler", scheduler)):
         options += [flag, str(value)] if value is not None else []
     options += [word for override in overrides for word in ("--set", override)]

@@ -95,6 +95,8 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
     # the resume command names the --scheduler typed; one from DASK_SCHEDULER_ADDRESS is there again for
     # it (as the batch commands' resume commands do), and --workers still wins over it
     typed = scheduler if ctx.get_parameter_source("scheduler") is ParameterSource.COMMANDLINE else None
+    # and the --workers typed, 1 too: with the variable set for the rerun, it would run on its scheduler
+    typed_workers = workers if ctx.get_parameter_source("workers") is ParameterSource.COMMANDLINE else None
     scheduler = chosen_scheduler(ctx, scheduler)  # --workers wins over the variable
     config = api.experiment_config(experiment, overrides)
     target = Path(out) if out else default_run_dir(config.experiment.name)
@@ -105,11 +107,11 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
 
     def resume_commands(people_named: str | None, kept: str | None = None) -> list[str]:
         named, sets = (kept, ()) if kept else (experiment, overrides)  # the kept one holds the --set values
-        commands = [simulate_resume_command(named, target, seed, participants, workers, sets,
+        commands = [simulate_resume_command(named, target, seed, participants, typed_workers, sets,
                                             confirm=confirm, people=people_named, scheduler=typed)]
         if command != "simulate":
-            commands.append(simulate_resume_command(named, target, seed, participants, workers, sets, command,
-                                                    confirm, people_named, plan, scheduler=typed))
+            commands.append(simulate_resume_command(named, target, seed, participants, typed_workers, sets,
+                                                    command, confirm, people_named, plan, scheduler=typed))
         return commands
 
     ctx.meta[INTERRUPT_HINT] = _interrupt_hint(target, people, resume_commands)
