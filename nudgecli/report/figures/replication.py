@@ -19,7 +19,7 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
 from nudgecli.report.figures.common import axes_or_new
-from nudgecli.report.replication import POWER_TARGET
+from nudgecli.report.replication import POWER_TARGET, _percentiles
 
 #: Colours of a replication's interval by participant-level significance.
 FOREST_COLOURS = {True: "#c0392b", False: "#7f8c8d"}
@@ -250,10 +250,38 @@ def power_figure(power: pd.DataFrame, target: float = POWER_TARGET) -> Figure:
     return fig
 
 
+def sweep_values(group: pd.DataFrame, name: str) -> pd.DataFrame:
+    """Per value of the swept parameter ``name``: the mean and the 2.5 and 97.5 percentiles of the
+    differences of medians there, over the replications and (a grid of several parameters) over
+    the other parameters' points at that value, pooled.
+
+    Returns
+    -------
+    pd.DataFrame
+        ``value, mean, low, high`` sorted by value; NaN where some replication's difference at that
+        value is undefined, as in ``points.csv`` (:mod:`nudgecli.report.replication` owns the rule:
+        a mean of the defined ones alone would stand on the replications that happened to be).
+    """
+    keys = group[name].map(lambda v: v if isinstance(v, int | float) else str(v))
+    rows = [(value, *_percentiles(values)) for value, values in group["difference"].groupby(keys, sort=True)]
+    return pd.DataFrame(rows, columns=["value", "mean", "low", "high"])
+
+
+def _mark_undefined(ax: Axes, x: np.ndarray, labels: list[str]) -> None:
+    """Open circles on the x axis at the values ``x`` whose difference is undefined, and a line
+    naming them (``labels``) in the panel: a gap in the curve alone reads as a value left out."""
+    if not len(x):
+        return
+    ax.plot(x, np.full(len(x), 0.04), ls="none", marker="o", mfc="none", mec="#7f8c8d", ms=5,
+            transform=ax.get_xaxis_transform(), clip_on=False)
+    named = ", ".join(labels) if len(labels) <= 4 else f"{len(labels)} values (open circles)"
+    ax.text(0.02, 0.97, f"undefined at {named}", transform=ax.transAxes, ha="left", va="top")
+
+
 def sweep_panel(group: pd.DataFrame, name: str, *, ax: Axes | None = None) -> Axes:
-    """One metric's difference of medians against one swept parameter: the mean over replications
-    per value with the 2.5-97.5 % band over replications (numeric parameters), or points with bars
-    (other values).
+    """One metric's difference of medians against one swept parameter (:func:`sweep_values`): the
+    mean per value with the 2.5-97.5 % band (numeric parameters), or points with bars (other
+    values); the values where the difference is undefined as open circles on the x axis, named.
 
     Parameters
     ----------
@@ -266,17 +294,16 @@ def sweep_panel(group: pd.DataFrame, name: str, *, ax: Axes | None = None) -> Ax
         Axes to draw on; default a new figure's.
     """
     ax = axes_or_new(ax, PANEL_FIGSIZE)
-    keys = group[name].map(lambda v: v if isinstance(v, int | float) else str(v))
-    stats = group.assign(_x=keys).groupby("_x")["difference"].agg(
-        mean="mean", low=lambda v: np.nanpercentile(v, 2.5) if v.notna().any() else np.nan,
-        high=lambda v: np.nanpercentile(v, 97.5) if v.notna().any() else np.nan).reset_index()
-    numeric = pd.api.types.is_numeric_dtype(stats["_x"])
-    x = stats["_x"].to_numpy() if numeric else np.arange(len(stats))
-    ax.plot(x, stats["mean"], marker="o", ms=3)
+    stats = sweep_values(group, name)
+    numeric = pd.api.types.is_numeric_dtype(stats["value"])
+    x = stats["value"].to_numpy() if numeric else np.arange(len(stats))
+    ax.plot(x, stats["mean"].astype(float), marker="o", ms=3)
     ax.fill_between(x, stats["low"].astype(float), stats["high"].astype(float), alpha=0.2)
     ax.axhline(0, color="black", lw=0.5, ls=":")
+    undefined = stats["mean"].isna().to_numpy()
+    _mark_undefined(ax, x[undefined], [f"{v:g}" if numeric else str(v) for v in stats["value"][undefined]])
     if not numeric:
-        ax.set_xticks(x, [str(v) for v in stats["_x"]], fontsize=6)
+        ax.set_xticks(x, [str(v) for v in stats["value"]], fontsize=6)
     ax.set_xlabel(name, fontsize=8)
     return ax
 
@@ -342,4 +369,4 @@ def sensitivity_figure(indices: pd.DataFrame) -> Figure:
 
 __all__ = ["FOREST_COLOURS", "forest_figure", "forest_panel", "pairs_forest_panel", "power_figure",
            "power_grid_panel", "power_panel",
-           "sensitivity_figure", "sensitivity_panel", "sweep_figure", "sweep_panel"]
+           "sensitivity_figure", "sensitivity_panel", "sweep_figure", "sweep_panel", "sweep_values"]

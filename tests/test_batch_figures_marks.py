@@ -1,0 +1,69 @@
+"""What the batch figures (``nudge replicate``, ``power``, ``sweep``) mark: a value only where it is
+defined, "undefined" / "not tested" / "n/a" written where it is not, the pair of conditions each
+difference is of, and readable text. Small synthetic tables drawn directly, artists read back."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+from matplotlib.axes import Axes
+
+from nudgecli.report.figures.replication import sweep_figure, sweep_panel
+
+NAN = math.nan
+
+
+def _sweep_rows(values: dict[float, list[float]], name: str = "study.time_limit_s",
+                **fixed: object) -> pd.DataFrame:
+    """Replication rows of one metric and pair: per swept value, each replication's difference."""
+    rows = [{"point": i, "replication": r, name: value, "metric": "completion_time", "a": "disambiguation",
+             "b": "control", "difference": difference, **fixed}
+            for i, (value, differences) in enumerate(values.items())
+            for r, difference in enumerate(differences)]
+    return pd.DataFrame(rows)
+
+
+def _mean_line(ax: Axes) -> tuple[np.ndarray, np.ndarray]:
+    line = ax.lines[0]
+    return np.asarray(line.get_xdata(), dtype=float), np.asarray(line.get_ydata(), dtype=float)
+
+
+def _texts(ax: Axes) -> list[str]:
+    return [t.get_text() for t in ax.texts]
+
+
+# --- 1: the sweep's mean only where every replication's difference is defined --------------------
+
+
+def test_the_sweep_plots_no_mean_where_a_replication_is_undefined_and_names_those_values() -> None:
+    rows = _sweep_rows({17.0: [NAN, -0.5, 0.0, NAN], 19.0: [-1.0, NAN, -0.35, -0.675],
+                        21.0: [-1.0, -0.5, 0.0, 0.5], 23.0: [1.0, 1.0, 1.0, 1.0]})
+    ax = sweep_panel(rows, "study.time_limit_s")
+    x, mean = _mean_line(ax)
+    assert list(x) == [17.0, 19.0, 21.0, 23.0]
+    assert np.isnan(mean[:2]).all()  # as points.csv: NaN, not the mean of the defined replications
+    assert mean[2:].tolist() == [-0.25, 1.0]
+    assert "undefined at 17, 19" in _texts(ax)
+    open_marks = [line for line in ax.lines if line.get_markerfacecolor() == "none"]
+    assert [list(line.get_xdata()) for line in open_marks] == [[17.0, 19.0]]
+
+
+def test_the_sweep_band_is_per_value_of_its_parameter_with_the_others_pooled() -> None:
+    # a grid of two parameters: at x = 1 the other parameter's two points, two replications each
+    rows = pd.concat([_sweep_rows({1.0: [0.0, 1.0], 2.0: [5.0, 5.0]}, "p.x", **{"p.z": 0}),
+                      _sweep_rows({1.0: [2.0, 3.0], 2.0: [5.0, 5.0]}, "p.x", **{"p.z": 1})])
+    ax = sweep_panel(rows, "p.x")
+    assert _mean_line(ax)[1].tolist() == [1.5, 5.0]
+    (band,) = ax.collections
+    vertices = band.get_paths()[0].vertices
+    at_one = sorted(set(vertices[vertices[:, 0] == 1.0, 1].round(6)))
+    assert at_one == list(np.percentile([0.0, 1.0, 2.0, 3.0], [2.5, 97.5]).round(6))
+
+
+def test_the_sweep_figure_draws_a_mean_where_every_value_is_defined() -> None:
+    rows = _sweep_rows({1.0: [0.5, 1.5], 2.0: [2.0, 4.0]}, "p.x")
+    (ax,) = sweep_figure(rows, ["p.x"]).get_axes()
+    assert _mean_line(ax)[1].tolist() == [1.0, 3.0]
+    assert not any(t.startswith("undefined") for t in _texts(ax))
