@@ -67,3 +67,35 @@ def test_the_sweep_figure_draws_a_mean_where_every_value_is_defined() -> None:
     (ax,) = sweep_figure(rows, ["p.x"]).get_axes()
     assert _mean_line(ax)[1].tolist() == [1.0, 3.0]
     assert not any(t.startswith("undefined") for t in _texts(ax))
+
+
+# --- 3: the power of one participant count -----------------------------------------------------
+
+
+def _power(counts: list[int], power: float = 0.5, **pair: object) -> pd.DataFrame:
+    rows = [{"participants": n, "metric": "completion_time", "a": "disambiguation", "b": "control",
+             "level": level, "direction": "a < b", "replications": 4, "tested": 4, "power": power,
+             "low": power - 0.3, "high": power + 0.3, **pair}
+            for n in counts for level in ("trial", "participant")]
+    return pd.DataFrame(rows)
+
+
+def test_the_power_of_one_count_is_drawn_with_error_bars_at_its_integer_tick() -> None:
+    from nudgecli.report.figures.replication import power_panel
+
+    ax = power_panel(_power([3]))
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["3"]  # not 2.80, 2.90, ... 3.20
+    low, high = ax.get_xlim()
+    assert low <= 2.5 and high >= 3.5 and high - low <= 3
+    bars = [c for c in ax.collections if c.get_segments()]
+    assert len(bars) == 2  # each level's Clopper-Pearson interval, a vertical bar
+    for bar in bars:
+        (segment,) = bar.get_segments()
+        assert sorted(segment[:, 1].round(6)) == [0.2, 0.8]
+
+
+def test_the_power_of_several_counts_has_a_tick_at_each_count() -> None:
+    from nudgecli.report.figures.replication import power_panel
+
+    ax = power_panel(_power([6, 9, 12]))
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["6", "9", "12"]

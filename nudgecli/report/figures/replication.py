@@ -25,6 +25,9 @@ from nudgecli.report.replication import POWER_TARGET, _percentiles
 FOREST_COLOURS = {True: "#c0392b", False: "#7f8c8d"}
 #: Size in inches of one panel: a panel drawn alone, and a cell of the grids of panels.
 PANEL_FIGSIZE = (3.4, 2.6)
+#: Values of a numeric axis (participant counts, a swept parameter's values) up to which each is
+#: a tick of its own; more get the usual ticks.
+MAX_VALUE_TICKS = 8
 
 
 def _grid(n: int, width: float = PANEL_FIGSIZE[0],
@@ -177,8 +180,16 @@ def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes |
         Axes to draw on; default a new figure's.
     """
     ax = axes_or_new(ax, PANEL_FIGSIZE)
-    for level, style in (("participant", "-"), ("trial", "--")):
+    counts = sorted(int(n) for n in power["participants"].unique())
+    for k, (level, style) in enumerate((("participant", "-"), ("trial", "--"))):
         group = power[power["level"] == level].sort_values("participants")
+        if len(counts) == 1:  # one count: a band of zero width would not show; the levels side by side
+            x = group["participants"].to_numpy(dtype=float) + (k - 0.5) * 0.2
+            power_ = group["power"].to_numpy(dtype=float)
+            err = np.abs(np.vstack([power_ - group["low"].to_numpy(dtype=float),
+                                    group["high"].to_numpy(dtype=float) - power_]))
+            ax.errorbar(x, power_, yerr=err, fmt="o", ms=3, capsize=3, ls="none", label=f"{level} level")
+            continue
         ax.plot(group["participants"], group["power"], style, marker="o", ms=3, label=f"{level} level")
         ax.fill_between(group["participants"], group["low"], group["high"], alpha=0.15)
     ax.axhline(target, color="black", lw=0.6, ls=":")
@@ -186,7 +197,12 @@ def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes |
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlabel("participants", fontsize=8)
     ax.set_ylabel("power", fontsize=8)
-    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    if len(counts) <= MAX_VALUE_TICKS:  # the counts tried, not fractions between them
+        ax.set_xticks(counts, [str(n) for n in counts])
+    else:
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    if len(counts) == 1:
+        ax.set_xlim(counts[0] - 1, counts[0] + 1)
     return ax
 
 
