@@ -100,22 +100,23 @@ def _run(work: Callable[..., BatchResult], out: str | Path | None, label: str,
     progress, log = arguments.callback("progress", progress), arguments.callback("log", log)
     kwargs["workers"] = arguments.whole_number("workers", kwargs["workers"])
     kwargs["seed"] = arguments.whole_number("seed", kwargs["seed"], optional=True)
-    with scheduler_named("scheduler="):  # an empty address is refused in this API's words, as --out ""
+    # a refusal of the scheduler's address names this API's parameter: an empty one (as out=''), one
+    # that does not answer, its cluster's
+    with scheduler_named("scheduler="):
         kwargs["scheduler"] = check_scheduler_address(arguments.text("scheduler", kwargs["scheduler"],
                                                                      optional=True))
-    for name in ("resume", "force", "confirm"):
-        arguments.switch(name, kwargs[name])
-    if "people" in kwargs:
-        kwargs["people"] = arguments.people_file(kwargs["people"])
-    temporary = out is None
-    target = temporary_folder(label) if out is None else Path(out)
-    try:
-        # a refusal of the size guard or of the scheduler names this API's parameter
-        with override_named("confirm=True"), scheduler_named("scheduler="):
-            result = work(out=target, progress=progress, log=log, **kwargs)
-    except BaseException:
-        remove_if_made(target, temporary)
-        raise
+        for name in ("resume", "force", "confirm"):
+            arguments.switch(name, kwargs[name])
+        if "people" in kwargs:
+            kwargs["people"] = arguments.people_file(kwargs["people"])
+        temporary = out is None
+        target = temporary_folder(label) if out is None else Path(out)
+        try:
+            with override_named("confirm=True"):  # so does a refusal of the size guard
+                result = work(out=target, progress=progress, log=log, **kwargs)
+        except BaseException:
+            remove_if_made(target, temporary)
+            raise
     return Batch(result, temporary=temporary)
 
 

@@ -294,22 +294,23 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
 
     options = arguments.run_options(workers=workers, seed=seed, scheduler=scheduler, people=people,
                                     progress=progress, resume=resume, force=force, confirm=confirm, log=log)
-    with scheduler_named("scheduler="):  # an empty address is refused in this API's words, as out=''
+    # a refusal of the scheduler's address names this API's parameter: an empty one (as out=''), one
+    # that does not answer, its cluster's
+    with scheduler_named("scheduler="):
         check_scheduler_address(options["scheduler"])
-    participants = arguments.whole_number("participants", participants, optional=True)
-    out, plan_text = arguments.out_folder(out), arguments.plan(plan, loaded=False)  # a preset or a file
-    config = _loaded_experiment(experiment, overrides)
-    temporary = out is None
-    target = temporary_folder(config.experiment.name) if out is None else Path(out)
-    made = temporary or not target.exists()
-    try:
-        # a refusal of the size guard or of the scheduler names this API's parameter
-        with override_named("confirm=True"), scheduler_named("scheduler="):
-            study = run_study(config, target, participants=participants, plan=plan_text, **options)
-    except BaseException:
-        # a folder this call made is removed whole (a temporary one) or when still empty (--out)
-        if temporary or (made and target.is_dir() and not any(target.iterdir())):
-            remove_if_made(target, True)
-        raise
+        participants = arguments.whole_number("participants", participants, optional=True)
+        out, plan_text = arguments.out_folder(out), arguments.plan(plan, loaded=False)  # a preset or a file
+        config = _loaded_experiment(experiment, overrides)
+        temporary = out is None
+        target = temporary_folder(config.experiment.name) if out is None else Path(out)
+        made = temporary or not target.exists()
+        try:
+            with override_named("confirm=True"):  # so does a refusal of the size guard
+                study = run_study(config, target, participants=participants, plan=plan_text, **options)
+        except BaseException:
+            # a folder this call made is removed whole (a temporary one) or when still empty (--out)
+            if temporary or (made and target.is_dir() and not any(target.iterdir())):
+                remove_if_made(target, True)
+            raise
     return Run(study.path, study.config, temporary=temporary, mode=study.mode, computed=study.computed,
                participant_count=study.participants, trials=study.trials)
