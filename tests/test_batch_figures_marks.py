@@ -99,3 +99,23 @@ def test_the_power_of_several_counts_has_a_tick_at_each_count() -> None:
 
     ax = power_panel(_power([6, 9, 12]))
     assert [t.get_text() for t in ax.get_xticklabels()] == ["6", "9", "12"]
+
+
+# --- 5: the pair of conditions each difference is of --------------------------------------------
+
+
+def test_the_sweep_names_the_pair_and_ticks_each_swept_value() -> None:
+    rows = _sweep_rows({17.0: [1.0, 2.0], 19.0: [1.0, 2.0], 21.0: [0.0, 0.5], 23.0: [0.0, 0.0]})
+    (ax,) = sweep_figure(rows, ["study.time_limit_s"]).get_axes()
+    assert ax.get_ylabel() == "completion_time\n(disambiguation - control)"  # not "(a - b)"
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["17", "19", "21", "23"]
+
+
+def test_the_power_titles_name_the_pair_in_the_direction_tested() -> None:
+    from nudgecli.report.figures.replication import power_figure
+
+    (ax,) = power_figure(_power([6, 9])).get_axes()
+    assert ax.get_title() == "completion_time\ndisambiguation < control"  # not "(a < b)"
+    either = _power([6, 9]).assign(direction="either")
+    (ax,) = power_figure(either).get_axes()
+    assert ax.get_title() == "completion_time\ndisambiguation - control, either direction"

@@ -166,9 +166,20 @@ def forest_figure(rows: pd.DataFrame, summary: pd.DataFrame) -> Figure:
     return fig
 
 
+def _named_direction(direction: str, a: Any, b: Any) -> str:
+    """A power test's direction with its conditions named (``a < b``: ``disambiguation < control``;
+    ``either``: ``disambiguation - control, either direction``); as given without them."""
+    if a is None or b is None:
+        return f"({direction})"
+    if direction in ("a > b", "a < b"):
+        return f"{a} {direction[2]} {b}"
+    return f"{a} - {b}, {direction} direction"
+
+
 def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes | None = None) -> Axes:
     """One metric's power against participants: participant level solid, trial level dashed,
-    with the Clopper-Pearson band, and the target line.
+    with the Clopper-Pearson band, and the target line; the title names the pair and the
+    direction tested (``completion_time``, ``disambiguation < control``).
 
     Parameters
     ----------
@@ -193,7 +204,9 @@ def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes |
         ax.plot(group["participants"], group["power"], style, marker="o", ms=3, label=f"{level} level")
         ax.fill_between(group["participants"], group["low"], group["high"], alpha=0.15)
     ax.axhline(target, color="black", lw=0.6, ls=":")
-    ax.set_title(f"{power['metric'].iloc[0]} ({power['direction'].iloc[0]})", fontsize=9)
+    first = power.iloc[0]
+    named = _named_direction(str(first["direction"]), first.get("a"), first.get("b"))
+    ax.set_title(f"{first['metric']}\n{named}", fontsize=9)
     ax.set_ylim(-0.02, 1.02)
     ax.set_xlabel("participants", fontsize=8)
     ax.set_ylabel("power", fontsize=8)
@@ -320,14 +333,16 @@ def sweep_panel(group: pd.DataFrame, name: str, *, ax: Axes | None = None) -> Ax
     _mark_undefined(ax, x[undefined], [f"{v:g}" if numeric else str(v) for v in stats["value"][undefined]])
     if not numeric:
         ax.set_xticks(x, [str(v) for v in stats["value"]], fontsize=6)
+    elif len(x) <= MAX_VALUE_TICKS:  # the values swept (a grid's), not round numbers between them
+        ax.set_xticks(x, [f"{v:g}" for v in x])
     ax.set_xlabel(name, fontsize=8)
     return ax
 
 
 def sweep_figure(rows: pd.DataFrame, parameters: Sequence[str]) -> Figure:
-    """:func:`sweep_panel` per metric and pair of conditions (rows) and swept parameter (columns)."""
+    """:func:`sweep_panel` per metric and pair of conditions (rows, the pair named: ``a - b``) and
+    swept parameter (columns)."""
     panels = _pair_groups(rows)
-    show_pair = not _one_pair_per_metric(rows)
     fig = Figure(figsize=(3.0 * len(parameters), 2.3 * len(panels)), layout="constrained")
     axes = fig.subplots(len(panels), len(parameters), squeeze=False)
     for i, (metric, a, b) in enumerate(panels):
@@ -335,8 +350,8 @@ def sweep_figure(rows: pd.DataFrame, parameters: Sequence[str]) -> Figure:
         for j, name in enumerate(parameters):
             sweep_panel(group, name, ax=axes[i][j])
             if j == 0:
-                axes[i][j].set_ylabel(f"{metric}\n({a} - {b})" if show_pair else f"{metric}\n(a - b)",
-                                      fontsize=7)
+                pair = f"{a} - {b}" if a is not None else "a - b"
+                axes[i][j].set_ylabel(f"{metric}\n({pair})", fontsize=7)
     return fig
 
 
