@@ -16,8 +16,8 @@ import scikit_posthocs
 import scipy.stats
 
 from nudgecli.report.metric_rows import metric_rows, tidy_values
-from nudgecli.report.stats import ComparisonOptions
-from nudgecli.report.stats_document import analyze_metric
+from nudgecli.report.stats import ComparisonOptions, order_conditions
+from nudgecli.report.stats_document import analyze_metric, json_ready
 
 OPTIONS = ComparisonOptions(bootstrap_resamples=40, seed=5)
 SCENARIOS = ("ties", "gaps", "dropped", "constant", "signed_zero", "strings", "single", "categorical")
@@ -162,3 +162,24 @@ def test_metric_rows_are_the_tidy_rows(scenario):
     expected = tidy_values(data, "value", conditions[1:], "condition", "participant")
     assert np.array_equal(kept.values, expected["value"].to_numpy())
     assert [conditions[1:][j] for j in kept.positions] == expected["condition"].astype(str).tolist()
+
+
+def test_order_of_string_labels_is_that_of_each_label():
+    labels = pd.Series(["blending", None, "control", "zeta", "disambiguation", "alpha", "control", None] * 5)
+    as_strings = labels.astype(str)
+    assert isinstance(as_strings.dtype, pd.StringDtype)  # the path read distinct labels only
+    expected = order_conditions(list(as_strings), ("zeta",))
+    assert order_conditions(as_strings, ("zeta",)) == expected
+    assert expected == ["disambiguation", "control", "zeta", "alpha", "blending"]
+
+
+def test_json_ready_of_plain_and_numpy_values():
+    document = {"a": [1.5, -0.0, math.nan, math.inf, -math.inf, True, 3, "x", None],
+                "b": (np.float64(math.nan), np.float64(2.5), np.int64(4), np.bool_(False)), 7: {"c": np.inf}}
+    ready = json_ready(document)
+    assert ready == {"a": [1.5, -0.0, None, None, None, True, 3, "x", None], "b": [None, 2.5, 4, False],
+                     "7": {"c": None}}
+    assert [type(v) for v in ready["a"]] == [float, float, type(None), type(None), type(None), bool, int, str,
+                                             type(None)]
+    assert [type(v) for v in ready["b"]] == [type(None), float, int, bool]
+    assert math.copysign(1, ready["a"][1]) == -1

@@ -77,6 +77,8 @@ def order_conditions(values: Sequence[Any], preferred: Sequence[str] = ()) -> li
     list[str]
         Each present condition once.
     """
+    if isinstance(values, pd.Series) and isinstance(values.dtype, pd.StringDtype):
+        values = values.unique()  # strings: each distinct one once (not a Python loop over every row)
     present = sorted({str(v) for v in values if not pd.isna(v)})
     first: list[str] = []
     for c in (*PAPER_CONDITIONS, *(str(p) for p in preferred)):

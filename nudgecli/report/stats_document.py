@@ -350,6 +350,11 @@ def stats_csv(table: pd.DataFrame) -> str:
 
 def json_ready(value: Any) -> Any:
     """A copy of ``value`` with numpy scalars made plain and NaN/inf made ``None`` (JSON null)."""
+    kind = type(value)
+    if kind is float:  # the plain types first: most of a document's values
+        return value if math.isfinite(value) else None
+    if kind is str or kind is int or kind is bool or value is None:
+        return value
     if isinstance(value, dict):
         return {str(k): json_ready(v) for k, v in value.items()}
     if isinstance(value, list | tuple):
