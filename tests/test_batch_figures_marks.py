@@ -119,3 +119,65 @@ def test_the_power_titles_name_the_pair_in_the_direction_tested() -> None:
     either = _power([6, 9]).assign(direction="either")
     (ax,) = power_figure(either).get_axes()
     assert ax.get_title() == "completion_time\ndisambiguation - control, either direction"
+
+
+# --- 4: undefined values written, never drawn as blank ----------------------------------------
+
+
+def test_sensitivity_panels_without_indices_say_why_and_show_no_value_axis() -> None:
+    from nudgecli.report.figures.replication import sensitivity_panel
+
+    indices = pd.DataFrame({"metric": "success", "a": "x", "b": "y",
+                            "parameter": ["p.x", "p.x", "p.z", "p.z"], "index": ["S1", "ST"] * 2,
+                            "value": NAN, "conf": NAN, "replications": 3})
+    ax = sensitivity_panel(indices)
+    assert _texts(ax) == ["undefined (constant output)"]
+    assert list(ax.get_yticks()) == []
+    ax = sensitivity_panel(indices.assign(replications=0))
+    assert _texts(ax)[0].startswith("undefined (no replication defined")
+
+
+def _replications(pairs: dict[tuple[str, str], list[float]]) -> pd.DataFrame:
+    return pd.DataFrame([{"metric": "assistance_engagement", "a": a, "b": b, "replication": r,
+                          "difference": d, "ci_low": d - 1, "ci_high": d + 1,
+                          "participant_significant": False}
+                         for (a, b), differences in pairs.items() for r, d in enumerate(differences)])
+
+
+def test_forest_rows_and_panels_of_pairs_not_tested_say_so() -> None:
+    from nudgecli.report.figures.replication import forest_panel, pairs_forest_panel
+
+    rows = _replications({("x", "y"): [1.0, 2.0], ("x", "z"): [NAN, NAN], ("y", "z"): [0.5, 0.5]})
+    pooled = pd.DataFrame({"metric": "assistance_engagement", "a": ["x", "x", "y"], "b": ["y", "z", "z"],
+                           "tested": [2, 0, 2], "difference": [1.5, NAN, 0.5],
+                           "difference_low": [1.0, NAN, 0.5], "difference_high": [2.0, NAN, 0.5]})
+    ax = pairs_forest_panel(rows, pooled)
+    (text,) = ax.texts
+    assert text.get_text() == "not tested" and text.get_position()[1] == 1  # in the row of x - z
+    two = rows[rows["b"] == "z"].loc[lambda t: t["a"] == "x"]
+    ax = forest_panel(two, pooled.iloc[1])
+    assert _texts(ax) == ["not tested"] and list(ax.get_xticks()) == []
+
+
+def test_power_of_a_pair_not_tested_is_written_in_its_panel_and_its_cells() -> None:
+    from nudgecli.report.figures.replication import power_grid_panel, power_panel
+
+    untested = _power([6, 9], NAN).assign(low=NAN, high=NAN, tested=0)
+    assert _texts(power_panel(untested)) == ["not tested"]
+    three = pd.concat([_power([6, 9]).assign(b="y"), untested.assign(b="z")])
+    assert _texts(power_grid_panel(three, "trial")).count("not tested") == 2
+
+
+def test_a_sweep_panel_undefined_everywhere_shows_no_value_axis() -> None:
+    ax = sweep_panel(_sweep_rows({1.0: [NAN, NAN], 2.0: [NAN, 1.0]}, "p.x"), "p.x")
+    assert "undefined at 1, 2" in _texts(ax) and list(ax.get_yticks()) == []
+
+
+def test_a_box_panel_of_conditions_all_not_applicable_shows_no_value_axis() -> None:
+    from nudgecli.report.figures.boxplots import metric_boxplot
+
+    metrics = pd.DataFrame({"condition": ["teleoperation", "control"] * 3, "completion_time": NAN})
+    entry = {"metric": "completion_time", "not_applicable": ["teleoperation", "control"]}
+    out = metric_boxplot(metrics, "completion_time", entry)
+    assert [t.get_text() for t in out.not_applicable] == ["n/a", "n/a"]
+    assert list(out.ax.get_yticks()) == []  # not -0.04 ... 0.04 s

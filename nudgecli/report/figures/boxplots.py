@@ -224,13 +224,21 @@ def metric_boxplot(metrics: pd.DataFrame, metric: str, stats_entry: Mapping[str,
             _draw_points(ax, data, out, seed)
         _label_conditions(ax, out, show_n, left_out)
         ax.set_ylabel(wrap_label(label if label is not None else spec.label))
-        if spec.integer:
-            ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+        _value_ticks(out, spec)
         ax.tick_params(axis="x", length=0)
         ax.margins(y=0.05)
         ax.autoscale_view()
         _mark(out, stats_entry, star_rule, comparisons, reference, left_out)
     return out
+
+
+def _value_ticks(out: BoxplotArtists, spec: MetricSpec) -> None:
+    """The y ticks: at whole numbers for a count; none in a panel without values (every condition
+    n/a or empty: a range around 0 would read as data)."""
+    if not any(out.n.values()):
+        out.ax.set_yticks([])
+    elif spec.integer:
+        out.ax.yaxis.set_major_locator(MaxNLocator(integer=True))
 
 
 def _mark(out: BoxplotArtists, stats_entry: Mapping[str, Any] | None, star_rule: ComparisonOptions,

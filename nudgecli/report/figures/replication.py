@@ -41,6 +41,22 @@ def _grid(n: int, width: float = PANEL_FIGSIZE[0],
     return fig, axes[:n]
 
 
+#: Colour of the words written where a panel or row has no value ("not tested", "undefined").
+NO_VALUE_COLOUR = "#7f8c8d"
+
+
+def _say_no_value(ax: Axes, words: str, x: float = 0.5, y: float = 0.5, transform: Any = None) -> None:
+    """``words`` written in the panel (axes fraction ``x``, ``y``; or at ``transform``'s ``x, y``)
+    where there is no value to draw: blank axes read as a value of 0 or as a row left out."""
+    ax.text(x, y, words, transform=ax.transAxes if transform is None else transform, ha="center",
+            va="center", fontstyle="italic", color=NO_VALUE_COLOUR)
+
+
+def _no_value_axis(ax: Axes, axis: str = "y") -> None:
+    """Hide the value axis' ticks of a panel with no value: a range around 0 would read as data."""
+    (ax.set_yticks if axis == "y" else ax.set_xticks)([])
+
+
 def _pair_groups(table: pd.DataFrame) -> list[tuple[Any, Any, Any]]:
     """The ``(metric, a, b)`` of the table's rows in order of first appearance: one panel each (a
     table without ``a``, ``b`` columns has one pair: ``(metric, None, None)``)."""
@@ -102,7 +118,16 @@ def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = No
     ax.set_xlabel(f"{pooled['a']} - {pooled['b']} (difference of medians)", fontsize=8)
     ax.set_yticks(y, [str(r) for r in group["replication"]], fontsize=6)
     ax.set_ylabel("replication", fontsize=8)
+    if not np.isfinite(group["difference"].astype(float)).any():
+        _say_no_value(ax, _missing_words(pooled))
+        _no_value_axis(ax, "x")
     return ax
+
+
+def _missing_words(pooled: pd.Series) -> str:
+    """What a pair without any difference is: "not tested" (no replication tested it: ``tested``
+    of :func:`~nudgecli.report.replication.summarise` is 0), else "undefined"."""
+    return "not tested" if "tested" in pooled and pooled["tested"] == 0 else "undefined"
 
 
 def pairs_forest_panel(group: pd.DataFrame, pooled: pd.DataFrame, *, ax: Axes | None = None) -> Axes:
@@ -130,6 +155,9 @@ def pairs_forest_panel(group: pd.DataFrame, pooled: pd.DataFrame, *, ax: Axes | 
         y = row + own["replication"].map(spread).to_numpy(dtype=float)
         _replication_intervals(ax, own, y, ms=2, lw=0.6, labelled=row == 0)
         summary = pooled[(pooled["a"] == a) & (pooled["b"] == b)]
+        if not np.isfinite(own["difference"].astype(float)).any():  # an empty row reads as a row left out
+            words = _missing_words(summary.iloc[0]) if not summary.empty else "undefined"
+            _say_no_value(ax, words, 0.5, row, ax.get_yaxis_transform())
         if not summary.empty:
             first = summary.iloc[0]
             ax.fill_betweenx([row - 0.42, row + 0.42], first["difference_low"], first["difference_high"],
@@ -208,6 +236,8 @@ def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes |
     named = _named_direction(str(first["direction"]), first.get("a"), first.get("b"))
     ax.set_title(f"{first['metric']}\n{named}", fontsize=9)
     ax.set_ylim(-0.02, 1.02)
+    if not np.isfinite(power["power"].astype(float)).any():
+        _say_no_value(ax, "not tested")  # power_table's NaN: no replication tested the pair
     ax.set_xlabel("participants", fontsize=8)
     ax.set_ylabel("power", fontsize=8)
     if len(counts) <= MAX_VALUE_TICKS:  # the counts tried, not fractions between them
@@ -250,6 +280,8 @@ def power_grid_panel(power: pd.DataFrame, level: str, target: float = POWER_TARG
             ax.text(j, i, f"{value:.2f}", ha="center", va="center", fontsize=6,
                     color="white" if value > 0.6 else "black",
                     fontweight="bold" if value >= target else "normal")
+        else:  # power_table's NaN: no replication tested the pair (a blank cell reads as left out)
+            _say_no_value(ax, "not tested", j, i, ax.transData)
     ax.set_xticks(np.arange(len(counts)), [str(int(n)) for n in counts], fontsize=7)
     directions = {(m, a, b): d for m, a, b, d in zip(rows["metric"], rows["a"], rows["b"], rows["direction"],
                                                      strict=True)}
@@ -331,6 +363,8 @@ def sweep_panel(group: pd.DataFrame, name: str, *, ax: Axes | None = None) -> Ax
     ax.axhline(0, color="black", lw=0.5, ls=":")
     undefined = stats["mean"].isna().to_numpy()
     _mark_undefined(ax, x[undefined], [f"{v:g}" if numeric else str(v) for v in stats["value"][undefined]])
+    if undefined.all():
+        _no_value_axis(ax)
     if not numeric:
         ax.set_xticks(x, [str(v) for v in stats["value"]], fontsize=6)
     elif len(x) <= MAX_VALUE_TICKS:  # the values swept (a grid's), not round numbers between them
@@ -380,6 +414,11 @@ def sensitivity_panel(indices: pd.DataFrame, *, ax: Axes | None = None, title: s
     ax.set_xticks(np.arange(len(names)) + width * (len(kinds) - 1) / 2, names, rotation=30, ha="right",
                   fontsize=6)
     ax.set_title(title or str(indices["metric"].iloc[0]), fontsize=9)
+    if not np.isfinite(group["value"].astype(float)).any():  # empty bars around 0 read as indices of 0
+        used = indices["replications"].min() if "replications" in indices else math.nan
+        _say_no_value(ax, "undefined (no replication defined\nat every point)" if used == 0
+                      else "undefined (constant output)")
+        _no_value_axis(ax)
     return ax
 
 
