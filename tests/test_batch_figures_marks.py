@@ -4,11 +4,13 @@ difference is of, and readable text. Small synthetic tables drawn directly, arti
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 
 from nudgecli.report.figures.replication import sweep_figure, sweep_panel
 
@@ -165,7 +167,7 @@ def test_power_of_a_pair_not_tested_is_written_in_its_panel_and_its_cells() -> N
     untested = _power([6, 9], NAN).assign(low=NAN, high=NAN, tested=0)
     assert _texts(power_panel(untested)) == ["not tested"]
     three = pd.concat([_power([6, 9]).assign(b="y"), untested.assign(b="z")])
-    assert _texts(power_grid_panel(three, "trial")).count("not tested") == 2
+    assert _texts(power_grid_panel(three, "trial")).count("not tested") == 1  # once across its row
 
 
 def test_a_sweep_panel_undefined_everywhere_shows_no_value_axis() -> None:
@@ -181,3 +183,58 @@ def test_a_box_panel_of_conditions_all_not_applicable_shows_no_value_axis() -> N
     out = metric_boxplot(metrics, "completion_time", entry)
     assert [t.get_text() for t in out.not_applicable] == ["n/a", "n/a"]
     assert list(out.ax.get_yticks()) == []  # not -0.04 ... 0.04 s
+
+
+# --- 7: the batch figures' text at the style's print sizes, laid out without overlaps -------------
+
+
+def _batch_figures() -> dict[str, Figure]:
+    from nudgecli.report.figures.replication import forest_figure, power_figure, sensitivity_figure
+
+    pairs = {("x", "y"): [1.0, 2.0, 0.5], ("x", "z"): [NAN, NAN, NAN], ("y", "z"): [0.5, 0.5, 1.0]}
+    rows = _replications(pairs)
+    pooled = rows.groupby(["metric", "a", "b"], sort=False)["difference"].agg(
+        difference="mean", difference_low="min", difference_high="max").reset_index().assign(tested=[3, 0, 3])
+    two = _power([6, 9, 12])
+    three = pd.concat([two.assign(b=b) for b in ("y", "z", "w", "v")]
+                      + [two.assign(metric="success", b=b) for b in ("y", "z", "w", "v")])
+    indices = pd.DataFrame({"metric": "success", "a": "x", "b": "y", "replications": 3,
+                            "parameter": ["p.x", "p.x", "p.z", "p.z"], "index": ["S1", "ST"] * 2,
+                            "value": [0.2, 0.3, 0.5, 0.6], "conf": 0.1})
+    return {"forest": forest_figure(rows, pooled),
+            "forest of two": forest_figure(rows[rows["b"] == "y"], pooled.iloc[:1]),
+            "power": power_figure(two), "power grid": power_figure(three),
+            "sweep": sweep_figure(_sweep_rows({17.0: [NAN, 1.0], 19.0: [0.5, 1.0]}), ["study.time_limit_s"]),
+            "sensitivity": sensitivity_figure(indices)}
+
+
+def test_every_batch_figure_writes_its_text_at_the_print_sizes() -> None:
+    from matplotlib.text import Text
+
+    from nudgecli.report.style import MIN_FONT_PT
+
+    for name, fig in _batch_figures().items():
+        sizes = {t.get_text(): t.get_fontsize() for t in fig.findobj(Text) if t.get_text().strip()}
+        small = {text: size for text, size in sizes.items() if size < MIN_FONT_PT}
+        assert not small, f"{name}: text under {MIN_FONT_PT} pt: {small}"
+
+
+def test_the_batch_figures_lay_out_their_labels_and_legends_apart() -> None:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from nudgecli.report.style import figure_style
+
+    drawn = _batch_figures()
+    for name in ("forest", "power", "power grid"):  # the crowded rows, and a legend of each kind
+        fig = drawn[name]
+        with figure_style():
+            renderer = FigureCanvasAgg(fig).get_renderer()
+            fig.draw(renderer)
+        for ax in fig.get_axes():
+            assert ax.get_legend() is None, f"{name}: a legend inside a panel covers its data"
+            labels = [t.get_window_extent(renderer) for t in ax.get_yticklabels() if t.get_text()]
+            for first, second in itertools.pairwise(sorted(labels, key=lambda box: box.y0)):
+                assert first.y1 <= second.y0 + 0.5, f"{name}: y labels overlap"
+            panel = ax.get_window_extent(renderer)
+            for legend in fig.legends:
+                assert not legend.get_window_extent(renderer).overlaps(panel), f"{name}: legend over a panel"

@@ -8,9 +8,10 @@ taking ``ax=None`` (a new figure's axes when ``None``) so the panels compose. Wr
 
 from __future__ import annotations
 
+import functools
 import math
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, ParamSpec, TypeVar
 
 import numpy as np
 import pandas as pd
@@ -20,6 +21,7 @@ from matplotlib.ticker import MaxNLocator
 
 from nudgecli.report.figures.common import axes_or_new
 from nudgecli.report.replication import POWER_TARGET, _percentiles
+from nudgecli.report.style import TICK_FONT_PT, figure_style
 
 #: Colours of a replication's interval by participant-level significance.
 FOREST_COLOURS = {True: "#c0392b", False: "#7f8c8d"}
@@ -28,6 +30,22 @@ PANEL_FIGSIZE = (3.4, 2.6)
 #: Values of a numeric axis (participant counts, a swept parameter's values) up to which each is
 #: a tick of its own; more get the usual ticks.
 MAX_VALUE_TICKS = 8
+#: Height in inches of a row of one pair of conditions (forest, power grid): its 8 pt label's line.
+PAIR_ROW_IN = 0.22
+
+
+_P = ParamSpec("_P")
+_R = TypeVar("_R")
+
+
+def _styled(draw: Callable[_P, _R]) -> Callable[_P, _R]:
+    """``draw`` inside :func:`~nudgecli.report.style.figure_style`: its figures, texts and ticks get
+    the toolkit's print sizes (at least ``MIN_FONT_PT``), whoever calls it."""
+    @functools.wraps(draw)
+    def styled(*args: _P.args, **kwargs: _P.kwargs) -> _R:
+        with figure_style():
+            return draw(*args, **kwargs)
+    return styled
 
 
 def _grid(n: int, width: float = PANEL_FIGSIZE[0],
@@ -55,6 +73,15 @@ def _say_no_value(ax: Axes, words: str, x: float = 0.5, y: float = 0.5, transfor
 def _no_value_axis(ax: Axes, axis: str = "y") -> None:
     """Hide the value axis' ticks of a panel with no value: a range around 0 would read as data."""
     (ax.set_yticks if axis == "y" else ax.set_xticks)([])
+
+
+def _figure_legend(fig: Figure, axes: Sequence[Axes]) -> None:
+    """The first panel's legend under the panels, in one row (inside a panel it covered data)."""
+    if not axes:
+        return
+    handles, labels = axes[0].get_legend_handles_labels()
+    if handles:
+        fig.legend(handles, labels, loc="outside lower center", ncols=len(handles))
 
 
 def _pair_groups(table: pd.DataFrame) -> list[tuple[Any, Any, Any]]:
@@ -94,6 +121,7 @@ def _replication_intervals(ax: Axes, rows: pd.DataFrame, y: np.ndarray, *, ms: f
                     label=label)
 
 
+@_styled
 def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = None) -> Axes:
     """One metric's forest plot: every replication's difference of medians with its bootstrap
     interval, coloured by participant-level significance, and the pooled mean with its range.
@@ -114,10 +142,10 @@ def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = No
     ax.axvspan(pooled["difference_low"], pooled["difference_high"], color="#3498db", alpha=0.15)
     ax.axvline(pooled["difference"], color="#2c3e50", lw=1.2)
     ax.axvline(0, color="black", lw=0.6, ls=":")
-    ax.set_title(str(pooled["metric"]), fontsize=9)
-    ax.set_xlabel(f"{pooled['a']} - {pooled['b']} (difference of medians)", fontsize=8)
-    ax.set_yticks(y, [str(r) for r in group["replication"]], fontsize=6)
-    ax.set_ylabel("replication", fontsize=8)
+    ax.set_title(str(pooled["metric"]))
+    ax.set_xlabel(f"{pooled['a']} - {pooled['b']} (difference of medians)")
+    ax.set_yticks(y, [str(r) for r in group["replication"]])
+    ax.set_ylabel("replication")
     if not np.isfinite(group["difference"].astype(float)).any():
         _say_no_value(ax, _missing_words(pooled))
         _no_value_axis(ax, "x")
@@ -130,6 +158,7 @@ def _missing_words(pooled: pd.Series) -> str:
     return "not tested" if "tested" in pooled and pooled["tested"] == 0 else "undefined"
 
 
+@_styled
 def pairs_forest_panel(group: pd.DataFrame, pooled: pd.DataFrame, *, ax: Axes | None = None) -> Axes:
     """One metric's forest plot of every pair of conditions (a study of three or more): one row per
     pair ``a - b``, in it every replication's difference of medians with its bootstrap interval
@@ -164,13 +193,14 @@ def pairs_forest_panel(group: pd.DataFrame, pooled: pd.DataFrame, *, ax: Axes | 
                              color="#3498db", alpha=0.15, linewidth=0)
             ax.plot([first["difference"]] * 2, [row - 0.42, row + 0.42], color="#2c3e50", lw=1.2)
     ax.axvline(0, color="black", lw=0.6, ls=":")
-    ax.set_yticks(np.arange(len(pairs)), [f"{a} - {b}" for a, b in pairs], fontsize=6)
+    ax.set_yticks(np.arange(len(pairs)), [f"{a} - {b}" for a, b in pairs])
     ax.set_ylim(len(pairs) - 0.5, -0.5)  # the first pair on top
-    ax.set_title(str(group["metric"].iloc[0]), fontsize=9)
-    ax.set_xlabel("a - b (difference of medians)", fontsize=8)
+    ax.set_title(str(group["metric"].iloc[0]))
+    ax.set_xlabel("a - b (difference of medians)")
     return ax
 
 
+@_styled
 def forest_figure(rows: pd.DataFrame, summary: pd.DataFrame) -> Figure:
     """The forest plots of a replication (``rows``: :func:`~nudgecli.report.replication.replication_rows`,
     ``summary``: :func:`~nudgecli.report.replication.summarise`): :func:`forest_panel` per metric
@@ -178,19 +208,18 @@ def forest_figure(rows: pd.DataFrame, summary: pd.DataFrame) -> Figure:
     if not _one_pair_per_metric(rows):
         metrics = list(dict.fromkeys(rows["metric"]))
         n_pairs = len(_pair_groups(rows)) / len(metrics)
-        height = max(2.4, n_pairs * (0.1 + 0.03 * rows["replication"].nunique()) + 1.0)
+        # a row per pair, high enough for its label (8 pt) and its replications spread over it
+        height = max(2.4, n_pairs * max(PAIR_ROW_IN, 0.1 + 0.03 * rows["replication"].nunique()) + 1.0)
         fig, axes = _grid(len(metrics), width=4.0, height=height)
         for ax, metric in zip(axes, metrics, strict=True):
             pairs_forest_panel(rows[rows["metric"] == metric], summary[summary["metric"] == metric], ax=ax)
-        if axes:
-            axes[0].legend(fontsize=6, loc="best")
+        _figure_legend(fig, axes)
         return fig
     panels = _pair_groups(rows)
     fig, axes = _grid(len(panels), height=max(2.4, 0.18 * rows["replication"].nunique() + 1.2))
     for ax, (metric, a, b) in zip(axes, panels, strict=True):
         forest_panel(_of(rows, metric, a, b), _of(summary, metric, a, b).iloc[0], ax=ax)
-    if axes:
-        axes[0].legend(fontsize=6, loc="best")
+    _figure_legend(fig, axes)
     return fig
 
 
@@ -204,6 +233,7 @@ def _named_direction(direction: str, a: Any, b: Any) -> str:
     return f"{a} - {b}, {direction} direction"
 
 
+@_styled
 def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes | None = None) -> Axes:
     """One metric's power against participants: participant level solid, trial level dashed,
     with the Clopper-Pearson band, and the target line; the title names the pair and the
@@ -234,12 +264,12 @@ def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes |
     ax.axhline(target, color="black", lw=0.6, ls=":")
     first = power.iloc[0]
     named = _named_direction(str(first["direction"]), first.get("a"), first.get("b"))
-    ax.set_title(f"{first['metric']}\n{named}", fontsize=9)
+    ax.set_title(f"{first['metric']}\n{named}")
     ax.set_ylim(-0.02, 1.02)
     if not np.isfinite(power["power"].astype(float)).any():
         _say_no_value(ax, "not tested")  # power_table's NaN: no replication tested the pair
-    ax.set_xlabel("participants", fontsize=8)
-    ax.set_ylabel("power", fontsize=8)
+    ax.set_xlabel("participants")
+    ax.set_ylabel("power")
     if len(counts) <= MAX_VALUE_TICKS:  # the counts tried, not fractions between them
         ax.set_xticks(counts, [str(n) for n in counts])
     else:
@@ -249,6 +279,7 @@ def power_panel(power: pd.DataFrame, target: float = POWER_TARGET, *, ax: Axes |
     return ax
 
 
+@_styled
 def power_grid_panel(power: pd.DataFrame, level: str, target: float = POWER_TARGET, *,
                      ax: Axes | None = None) -> Axes:
     """The power of every metric and pair at one level of test as a grid (a study of three or more
@@ -277,28 +308,30 @@ def power_grid_panel(power: pd.DataFrame, level: str, target: float = POWER_TARG
     ax.imshow(grid, cmap="Blues", vmin=0.0, vmax=1.0, aspect="auto", interpolation="nearest")
     for (i, j), value in np.ndenumerate(grid):
         if np.isfinite(value):
-            ax.text(j, i, f"{value:.2f}", ha="center", va="center", fontsize=6,
+            ax.text(j, i, f"{value:.2f}", ha="center", va="center", fontsize=TICK_FONT_PT,
                     color="white" if value > 0.6 else "black",
                     fontweight="bold" if value >= target else "normal")
-        else:  # power_table's NaN: no replication tested the pair (a blank cell reads as left out)
-            _say_no_value(ax, "not tested", j, i, ax.transData)
-    ax.set_xticks(np.arange(len(counts)), [str(int(n)) for n in counts], fontsize=7)
+        elif np.isfinite(grid[i]).any():  # power_table's NaN: no replication at this count tested the pair
+            _say_no_value(ax, "n/a", j, i, ax.transData)
+    for row in np.flatnonzero(~np.isfinite(grid).any(axis=1)):  # a blank row reads as a row left out
+        _say_no_value(ax, "not tested", (len(counts) - 1) / 2, float(row), ax.transData)
+    ax.set_xticks(np.arange(len(counts)), [str(int(n)) for n in counts])
     directions = {(m, a, b): d for m, a, b, d in zip(rows["metric"], rows["a"], rows["b"], rows["direction"],
                                                      strict=True)}
-    ax.set_yticks(np.arange(len(panels)), [f"{m}: {a} - {b} ({directions[m, a, b]})" for m, a, b in panels],
-                  fontsize=6)
-    ax.set_xlabel("participants", fontsize=8)
-    ax.set_title(f"{level} level (bold: power >= {target:g})", fontsize=9)
+    ax.set_yticks(np.arange(len(panels)), [f"{m}: {a} - {b} ({directions[m, a, b]})" for m, a, b in panels])
+    ax.set_xlabel("participants")
+    ax.set_title(f"{level} level (bold: power >= {target:g})")
     return ax
 
 
+@_styled
 def power_figure(power: pd.DataFrame, target: float = POWER_TARGET) -> Figure:
     """The power curves of :func:`~nudgecli.report.replication.power_table`'s table: :func:`power_panel`
     per metric for two conditions; for more, :func:`power_grid_panel` at each level of test (one
     row per metric and pair)."""
     if not _one_pair_per_metric(power):
         n_rows = len(_pair_groups(power))
-        fig = Figure(figsize=(8.0, max(2.6, 0.16 * n_rows + 1.0)), layout="constrained")
+        fig = Figure(figsize=(8.0, max(2.6, PAIR_ROW_IN * n_rows + 1.0)), layout="constrained")
         for ax, level in zip(fig.subplots(1, 2, sharey=True), ("participant", "trial"), strict=True):
             power_grid_panel(power, level, target, ax=ax)
         return fig
@@ -306,8 +339,7 @@ def power_figure(power: pd.DataFrame, target: float = POWER_TARGET) -> Figure:
     fig, axes = _grid(len(panels))
     for ax, (metric, a, b) in zip(axes, panels, strict=True):
         power_panel(_of(power, metric, a, b), target, ax=ax)
-    if axes:
-        axes[0].legend(fontsize=6, loc="best")
+    _figure_legend(fig, axes)
     return fig
 
 
@@ -339,6 +371,7 @@ def _mark_undefined(ax: Axes, x: np.ndarray, labels: list[str]) -> None:
     ax.text(0.02, 0.97, f"undefined at {named}", transform=ax.transAxes, ha="left", va="top")
 
 
+@_styled
 def sweep_panel(group: pd.DataFrame, name: str, *, ax: Axes | None = None) -> Axes:
     """One metric's difference of medians against one swept parameter (:func:`sweep_values`): the
     mean per value with the 2.5-97.5 % band (numeric parameters), or points with bars (other
@@ -366,13 +399,14 @@ def sweep_panel(group: pd.DataFrame, name: str, *, ax: Axes | None = None) -> Ax
     if undefined.all():
         _no_value_axis(ax)
     if not numeric:
-        ax.set_xticks(x, [str(v) for v in stats["value"]], fontsize=6)
+        ax.set_xticks(x, [str(v) for v in stats["value"]])
     elif len(x) <= MAX_VALUE_TICKS:  # the values swept (a grid's), not round numbers between them
         ax.set_xticks(x, [f"{v:g}" for v in x])
-    ax.set_xlabel(name, fontsize=8)
+    ax.set_xlabel(name)
     return ax
 
 
+@_styled
 def sweep_figure(rows: pd.DataFrame, parameters: Sequence[str]) -> Figure:
     """:func:`sweep_panel` per metric and pair of conditions (rows, the pair named: ``a - b``) and
     swept parameter (columns)."""
@@ -385,10 +419,11 @@ def sweep_figure(rows: pd.DataFrame, parameters: Sequence[str]) -> Figure:
             sweep_panel(group, name, ax=axes[i][j])
             if j == 0:
                 pair = f"{a} - {b}" if a is not None else "a - b"
-                axes[i][j].set_ylabel(f"{metric}\n({pair})", fontsize=7)
+                axes[i][j].set_ylabel(f"{metric}\n({pair})")
     return fig
 
 
+@_styled
 def sensitivity_panel(indices: pd.DataFrame, *, ax: Axes | None = None, title: str | None = None) -> Axes:
     """Bars of one metric's sensitivity indices (S1, ST, mu*, sigma) with their 95 % intervals.
 
@@ -411,9 +446,8 @@ def sensitivity_panel(indices: pd.DataFrame, *, ax: Axes | None = None, title: s
         sub = group[group["index"] == kind].set_index("parameter").reindex(names)
         conf = sub["conf"].fillna(0).to_numpy()
         ax.bar(np.arange(len(names)) + k * width, sub["value"], width, yerr=conf, label=kind, capsize=2)
-    ax.set_xticks(np.arange(len(names)) + width * (len(kinds) - 1) / 2, names, rotation=30, ha="right",
-                  fontsize=6)
-    ax.set_title(title or str(indices["metric"].iloc[0]), fontsize=9)
+    ax.set_xticks(np.arange(len(names)) + width * (len(kinds) - 1) / 2, names, rotation=30, ha="right")
+    ax.set_title(title or str(indices["metric"].iloc[0]))
     if not np.isfinite(group["value"].astype(float)).any():  # empty bars around 0 read as indices of 0
         used = indices["replications"].min() if "replications" in indices else math.nan
         _say_no_value(ax, "undefined (no replication defined\nat every point)" if used == 0
@@ -422,6 +456,7 @@ def sensitivity_panel(indices: pd.DataFrame, *, ax: Axes | None = None, title: s
     return ax
 
 
+@_styled
 def sensitivity_figure(indices: pd.DataFrame) -> Figure:
     """:func:`sensitivity_panel` per metric and pair of conditions of
     :func:`~nudgecli.report.replication.sensitivity`'s table (the pair in the title with more than
@@ -432,8 +467,7 @@ def sensitivity_figure(indices: pd.DataFrame) -> Figure:
     for ax, (metric, a, b) in zip(axes, panels, strict=True):
         sensitivity_panel(_of(indices, metric, a, b), ax=ax,
                           title=f"{metric} ({a} - {b})" if show_pair else None)
-    if axes:
-        axes[0].legend(fontsize=6)
+    _figure_legend(fig, axes)
     return fig
 
 
