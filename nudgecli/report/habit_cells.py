@@ -19,7 +19,7 @@ from nudgecli.model.world import MODE_NAMES, angle_difference
 from nudgecli.run_folder_names import BATCH_MANIFEST
 from nudgecli.sim.calibration_io import STREAM_CODES
 from nudgecli.sim.calibration_readers import holds_calibration_session
-from nudgecli.steplog import MODE_SWITCH_HUMAN, has_event
+from nudgecli.steplog import HUMAN_TURN, MODE_SWITCH_HUMAN, has_event
 from nudgecli.store import RunFolder, is_run_folder
 
 #: The rate of HABITS.md's cells (a real log is resampled to it).
@@ -45,7 +45,10 @@ LABEL_KINDS = {"": NEUTRAL, **{name: _KIND_OF_CODE.get(code, NEUTRAL) for name, 
 #: ``switch`` (a mode switch fired in the cell), ``at_waypoint`` (after this cell the robot stands
 #: at a waypoint; read at the last cell of a motion run) and ``waypoints_known`` (False where a real
 #: log names no layout, and in the grid world, which has none); optional ``switch_from`` /
-#: ``switch_to``: a switch cell's mode before and after (0 x, 1 y, 2 theta; -1 unknown).
+#: ``switch_to``: a switch cell's mode before and after (0 x, 1 y, 2 theta; -1 unknown), and
+#: optional ``person_turn``: the cell is in the person's turn (False in an autonomy turn of an
+#: assisted run, whose input and motion are not the person's; absent: every cell is the person's,
+#: as in a real log and an unassisted run).
 CELL_COLUMNS = ("participant", "trial", "kind", "moving", "switch", "at_waypoint", "waypoints_known")
 
 
@@ -65,7 +68,7 @@ def cell_runs(mask: np.ndarray, new_trial: np.ndarray) -> tuple[np.ndarray, np.n
 
 # --- sources: a run folder ---------------------------------------------------------------------
 
-_HABIT_STEP_COLUMNS = ["participant", "trial", "x", "y", "theta", "mode", "phi_m", "event"]
+_HABIT_STEP_COLUMNS = ["participant", "trial", "turn", "x", "y", "theta", "mode", "phi_m", "event"]
 _TRIAL_COLUMNS = ["participant", "trial", "layout", "final_x", "final_y", "final_theta"]
 #: Participants whose step parts a run's cells are made from at once (about 13 MB of steps each
 #: for the paper's 48 trials): few enough to bound memory, enough that each read's cost is shared.
@@ -222,10 +225,10 @@ def _simulate_batch_study(folder: Path) -> list[str]:
 
 def habit_rate_cells(cells: pd.DataFrame, rate_hz: float) -> pd.DataFrame:
     """A cell table at ``rate_hz`` read in HABITS.md's 10 Hz cells, as a real log is: each trial
-    read at ``0, 0.1, ...`` s by zero-order hold up to its end. A 10 Hz cell has the kind of the
-    cell it starts in, moves when any cell within it moved, ends at a waypoint when its last cell
-    does, and holds a switch that fired at or after its start and before the next (a cell at
-    :data:`HABIT_RATE_HZ` is returned as it is)."""
+    read at ``0, 0.1, ...`` s by zero-order hold up to its end. A 10 Hz cell has the kind (and
+    the turn) of the cell it starts in, moves when any cell within it moved, ends at a waypoint
+    when its last cell does, and holds a switch that fired at or after its start and before the
+    next (a cell at :data:`HABIT_RATE_HZ` is returned as it is)."""
     if abs(rate_hz - HABIT_RATE_HZ) <= TIME_SLACK or cells.empty:
         return cells
     new_trial = np.ones(len(cells), dtype=bool)
@@ -259,6 +262,8 @@ def habit_rate_cells(cells: pd.DataFrame, rate_hz: float) -> pd.DataFrame:
             values = cells[column].to_numpy()[held]
             values[at] = cells[column].to_numpy()[switches[inside]]
             out[column] = values
+    if "person_turn" in cells.columns:
+        out["person_turn"] = cells["person_turn"].to_numpy(dtype=bool)[lo]
     return out
 
 
@@ -297,5 +302,5 @@ def _trial_cells(run: RunFolder, steps: pd.DataFrame, trials: pd.DataFrame,
         "kind": label_kinds(steps["phi_m"], str(run.path / "steps")),
         "moving": moving, "switch": has_event(steps["event"], MODE_SWITCH_HUMAN),
         "at_waypoint": at_waypoint, "waypoints_known": waypoints is not None, "switch_from": mode,
-        "switch_to": mode_after,
+        "switch_to": mode_after, "person_turn": (steps["turn"] == HUMAN_TURN).to_numpy(dtype=bool),
     })

@@ -110,7 +110,7 @@ def _any_in(mask: np.ndarray, starts: np.ndarray, ends: np.ndarray) -> np.ndarra
 
 def _merged_blows(kind: np.ndarray, new_trial: np.ndarray, gap_cells: int) -> tuple[np.ndarray, np.ndarray]:
     """Blows: runs of non-neutral cells after filling neutral gaps of at most ``gap_cells`` cells that
-    lie between two non-neutral cells of the same trial."""
+    lie between two non-neutral cells of the same trial (``new_trial``: or of one person's turn)."""
     active = kind != NEUTRAL
     gap_starts, gap_ends = cell_runs(~active, new_trial)
     # a gap is inside a trial's input when a non-neutral cell of the same trial precedes and follows it
@@ -162,7 +162,9 @@ class _CellArrays:
     new_trial: np.ndarray  # True at a trial's first cell
     trial_id: np.ndarray  # 0, 1, ... per trial, in table order
     trial_first: np.ndarray  # each trial's first cell
-    cell_index: np.ndarray  # the cell's index within its trial
+    cell_index: np.ndarray  # the cell's index within its trial (its time from the trial's start)
+    new_turn: np.ndarray  # True at a person's turn's first cell (a trial's first, or after an autonomy turn)
+    turn_id: np.ndarray  # 0, 1, ... per person's turn, in table order
     dt: float
 
     @property
@@ -172,25 +174,39 @@ class _CellArrays:
 
 def cell_arrays(cells: pd.DataFrame, rate_hz: float) -> _CellArrays:
     """The arrays the measuring steps read, from a cell table
-    (:data:`~nudgecli.report.habit_cells.CELL_COLUMNS`)."""
+    (:data:`~nudgecli.report.habit_cells.CELL_COLUMNS`).
+
+    Only the person's cells are kept (``person_turn``): an autonomy turn's input and motion are not
+    the person's, so blows, pauses, motion runs and reactions are cut at it (a pause across it, or a
+    switch -> the autonomy's motion, is none of theirs); the first-command latency stays timed from
+    the trial's start, as HABITS.md defines it.
+    """
     n = len(cells)
     participant = cells["participant"].to_numpy()
     trial = cells["trial"].to_numpy()
-    new_trial = np.ones(n, dtype=bool)
+    starts_trial = np.ones(n, dtype=bool)
     if n:
-        new_trial[1:] = (participant[1:] != participant[:-1]) | (trial[1:] != trial[:-1])
+        starts_trial[1:] = (participant[1:] != participant[:-1]) | (trial[1:] != trial[:-1])
+    trial_of = np.cumsum(starts_trial) - 1
+    cell_index = np.arange(n) - np.flatnonzero(starts_trial)[trial_of]
+    person = cells["person_turn"].to_numpy(dtype=bool) if "person_turn" in cells else np.ones(n, dtype=bool)
+    # a person's turn starts a trial or follows an autonomy cell of the same trial
+    after_autonomy = np.concatenate(([False], ~person[:-1])) & ~starts_trial if n else starts_trial
+    keep = np.flatnonzero(person)
+    # a trial starts at its person's first cell (where the autonomy's came first too)
+    new_trial = np.diff(trial_of[keep], prepend=-1) != 0
+    new_turn = new_trial | after_autonomy[keep]
     trial_id = np.cumsum(new_trial) - 1
-    trial_first = np.flatnonzero(new_trial)
     unknown = np.full(n, -1)
     return _CellArrays(
-        participant=participant, trial=trial, kind=cells["kind"].to_numpy(dtype=np.int8),
-        moving=cells["moving"].to_numpy(dtype=bool), switch=cells["switch"].to_numpy(dtype=bool),
-        at_waypoint=cells["at_waypoint"].to_numpy(dtype=bool),
-        known=cells["waypoints_known"].to_numpy(dtype=bool),
-        came_from=cells["switch_from"].to_numpy(dtype=int) if "switch_from" in cells else unknown,
-        went_to=cells["switch_to"].to_numpy(dtype=int) if "switch_to" in cells else unknown,
-        new_trial=new_trial, trial_id=trial_id, trial_first=trial_first,
-        cell_index=np.arange(n) - trial_first[trial_id], dt=1.0 / rate_hz)
+        participant=participant[keep], trial=trial[keep], kind=cells["kind"].to_numpy(dtype=np.int8)[keep],
+        moving=cells["moving"].to_numpy(dtype=bool)[keep], switch=cells["switch"].to_numpy(dtype=bool)[keep],
+        at_waypoint=cells["at_waypoint"].to_numpy(dtype=bool)[keep],
+        known=cells["waypoints_known"].to_numpy(dtype=bool)[keep],
+        came_from=(cells["switch_from"].to_numpy(dtype=int) if "switch_from" in cells else unknown)[keep],
+        went_to=(cells["switch_to"].to_numpy(dtype=int) if "switch_to" in cells else unknown)[keep],
+        new_trial=new_trial, trial_id=trial_id, trial_first=np.flatnonzero(new_trial),
+        cell_index=cell_index[keep], new_turn=new_turn, turn_id=np.cumsum(new_turn) - 1, dt=1.0 / rate_hz)
 
 
 def _blow_events(c: _CellArrays, gap_cells: int) -> _Events:
@@ -203,9 +219,9 @@ def _blow_events(c: _CellArrays, gap_cells: int) -> _Events:
     first = command[np.unique(trial_id[command], return_index=True)[1]]
     events.append(("first_command_latency", first, c.cell_index[first] * dt))
 
-    # blows, and the pauses between consecutive blows of one trial
-    starts, ends = _merged_blows(kind, c.new_trial, gap_cells)
-    same = trial_id[starts[1:]] == trial_id[starts[:-1]]
+    # blows, and the pauses between consecutive blows of one person's turn (an autonomy turn cuts them)
+    starts, ends = _merged_blows(kind, c.new_turn, gap_cells)
+    same = c.turn_id[starts[1:]] == c.turn_id[starts[:-1]]
     pause = (starts[1:] - ends[:-1])[same] * dt
     events.append(("pause_between_blows", starts[1:][same], pause))
     events.append(("share_pauses_over_1s", starts[1:][same], np.round(pause, 6) > 1.0))
@@ -215,7 +231,7 @@ def _blow_events(c: _CellArrays, gap_cells: int) -> _Events:
     events.append(("hard_blow_whole", starts[hard_blow], duration[hard_blow]))
     events.append(("soft_blow", starts[~hard_blow], duration[~hard_blow]))
 
-    hard_starts, hard_ends = cell_runs(kind == HARD, c.new_trial)
+    hard_starts, hard_ends = cell_runs(kind == HARD, c.new_turn)
     events.append(("hard_band_per_excursion", hard_starts, (hard_ends - hard_starts) * dt))
 
     # soft blows and motion: the robot's last moving cell inside the blow
@@ -230,22 +246,22 @@ def _blow_events(c: _CellArrays, gap_cells: int) -> _Events:
     events.append(("hold_on_per_stop", starts[soft_moved][held], hold[held]))
     still = ~hard_blow & ~moved
     events.append(("soft_blow_never_moving", starts[still], duration[still]))
-    return events + deadband_events(kind, c.new_trial, starts[~hard_blow], ends[~hard_blow], dt)
+    return events + deadband_events(kind, c.new_turn, starts[~hard_blow], ends[~hard_blow], dt)
 
 
 def reaction_events(c: _CellArrays) -> _Events:
     """Reactions: a stop at a waypoint -> the next switch, and a switch -> the robot moving again."""
-    dt, n, trial_id = c.dt, c.n, c.trial_id
+    dt, n, turn_id = c.dt, c.n, c.turn_id  # a reaction within one person's turn
     # reactions: motion runs, switches
-    run_starts, run_ends = cell_runs(c.moving, c.new_trial)
+    run_starts, run_ends = cell_runs(c.moving, c.new_turn)
     switches = np.flatnonzero(c.switch)
-    # the next motion run of the same trial (n: none)
+    # the next motion run of the same turn (n: none)
     next_run = np.full(len(run_starts), n)
-    same_trial = trial_id[run_starts[1:]] == trial_id[run_starts[:-1]]
-    next_run[:-1][same_trial] = run_starts[1:][same_trial]
+    same_turn = turn_id[run_starts[1:]] == turn_id[run_starts[:-1]]
+    next_run[:-1][same_turn] = run_starts[1:][same_turn]
     stop_switch = _next_at_or_after(switches, run_ends)
     stop_ok = (c.at_waypoint[run_ends - 1] & c.known[run_ends - 1] & (stop_switch >= 0))
-    stop_ok[stop_ok] &= (trial_id[stop_switch[stop_ok]] == trial_id[run_starts[stop_ok]]) & \
+    stop_ok[stop_ok] &= (turn_id[stop_switch[stop_ok]] == turn_id[run_starts[stop_ok]]) & \
         (stop_switch[stop_ok] < next_run[stop_ok])
     events: _Events = [("reaction_stop_to_switch", run_ends[stop_ok],
                         (stop_switch[stop_ok] - run_ends[stop_ok]) * dt)]
@@ -253,7 +269,7 @@ def reaction_events(c: _CellArrays) -> _Events:
     motion_after = _next_at_or_after(run_starts, switches + 1)
     switch_after = _next_at_or_after(switches, switches + 1)
     ok = motion_after >= 0
-    ok[ok] &= trial_id[motion_after[ok]] == trial_id[switches[ok]]
+    ok[ok] &= turn_id[motion_after[ok]] == turn_id[switches[ok]]
     ok &= (switch_after < 0) | (switch_after >= motion_after)  # no switch strictly between
     events.append(("reaction_switch_to_motion", switches[ok], (motion_after[ok] - switches[ok]) * dt))
     return events
@@ -262,9 +278,9 @@ def reaction_events(c: _CellArrays) -> _Events:
 def _undone_switch_events(c: _CellArrays) -> _Events:
     """Undone switches: a -> b, then straight back b -> a with no motion between."""
     switches = np.flatnonzero(c.switch)
-    came_from, went_to, trial_id = c.came_from, c.went_to, c.trial_id
+    came_from, went_to, turn_id = c.came_from, c.went_to, c.turn_id
     first_switch, second_switch = switches[:-1], switches[1:]
-    undone = (trial_id[first_switch] == trial_id[second_switch]) & (came_from[first_switch] >= 0) & \
+    undone = (turn_id[first_switch] == turn_id[second_switch]) & (came_from[first_switch] >= 0) & \
         (went_to[second_switch] == came_from[first_switch]) & \
         ~_any_in(c.moving, first_switch + 1, second_switch)
     return [("undone_switch", first_switch[undone], (second_switch[undone] - first_switch[undone]) * c.dt)]

@@ -1,0 +1,67 @@
+"""Mends of the comparison tools (`nudge habits`, `compare`, `validate`, `fit-people`), each on the
+smallest input that shows it: synthetic step tables, hand-made files, a few tiny runs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+
+from nudgecli.report.habit_cells import _trial_cells
+from nudgecli.report.habits import measure_habits
+
+# --- habits: an autonomy turn between two blows is not the person's ------------------------------
+
+#: One grid-world trial at 10 Hz, a step per row: (turn, label, moves, event). The person blows a soft
+#: puff (moving), pauses 0.5 s, blows again, switches mode with a hard sip, waits for the handover;
+#: the autonomy moves the robot for 1 s; the person, back, waits 0.3 s and blows once more.
+_TRIAL = ([("human", "", False, "")] * 5 + [("human", "Soft Puff", True, "")] * 3
+          + [("human", "", False, "")] * 5 + [("human", "Soft Puff", True, "")] * 2
+          + [("human", "Hard Sip", False, ""), ("human", "Hard Sip", False, "mode_switch_human")]
+          + [("human", "", False, "")] * 3 + [("autonomy", "", True, "")] * 10
+          + [("human", "", False, "")] * 3 + [("human", "Soft Puff", True, "")] * 3)
+
+
+def _steps_of(trial: list[tuple[str, str, bool, str]]) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """A steps table of one trial (x grows by 1 across each moving step) and its trials row."""
+    x = np.concatenate(([0.0], np.cumsum([1.0 if moves else 0.0 for _, _, moves, _ in trial])))
+    mode = ["x"] * 16 + ["y"] * (len(trial) - 16)
+    steps = pd.DataFrame({"participant": 0, "trial": 0, "turn": [t for t, _, _, _ in trial], "x": x[:-1],
+                          "y": 0.0, "theta": 0.0, "mode": mode, "phi_m": [label for _, label, _, _ in trial],
+                          "event": [event for _, _, _, event in trial]})
+    trials = pd.DataFrame({"participant": [0], "trial": [0], "layout": [0], "final_x": [x[-1]],
+                           "final_y": [0.0], "final_theta": [0.0]})
+    return steps, trials
+
+
+def _values(events: pd.DataFrame, habit: str) -> list[float]:
+    return sorted(events.loc[events["habit"] == habit, "value"].tolist())
+
+
+def test_habits_cut_blows_pauses_and_reactions_at_an_autonomy_turn() -> None:
+    steps, trials = _steps_of(_TRIAL)
+    cells = _trial_cells(SimpleNamespace(path=Path("run")), steps, trials, None)  # type: ignore[arg-type]
+    assert cells["person_turn"].tolist() == [turn == "human" for turn, _, _, _ in _TRIAL]
+    events = measure_habits(cells)
+    # the 0.5 s pause is the person's; the 1.6 s from the switch blow's end, across the autonomy's
+    # turn, to the next blow is not (it was counted, and the autonomy's motion as their reaction)
+    assert _values(events, "pause_between_blows") == [0.5]
+    assert _values(events, "share_pauses_over_1s") == [0.0]
+    assert _values(events, "reaction_switch_to_motion") == []
+    assert _values(events, "first_command_latency") == [0.5]  # from the trial's start (HABITS.md)
+    assert _values(events, "soft_blow") == [0.3, 0.3]
+    assert _values(events, "hard_blow_whole") == [0.4]
+
+
+def test_habits_of_an_unassisted_trial_are_those_without_the_turn() -> None:
+    human = [("human", label, moves, event) for _, label, moves, event in _TRIAL]
+    steps, trials = _steps_of(human)
+    cells = _trial_cells(SimpleNamespace(path=Path("run")), steps, trials, None)  # type: ignore[arg-type]
+    with_turn = measure_habits(cells)
+    without = measure_habits(cells.drop(columns="person_turn"))
+    pd.testing.assert_frame_equal(with_turn, without)
+    # the same cells the person's own: the gap is their pause, the motion their reaction
+    assert _values(with_turn, "pause_between_blows") == [0.5, 1.6]
+    assert _values(with_turn, "reaction_switch_to_motion") == [0.4]
