@@ -88,7 +88,11 @@ def without_table_read(path: Path) -> bytes:
     """A file's bytes; ``stats.json``'s as written without its records of the table read and of
     the scores file, and without each metric's mean ranks and star rule (which came after the
     expected files: report/table_read.py, report/questionnaires.py, report/stats_document.py),
-    every other byte as it is."""
+    the comparison's without the names of each condition in either source and ``compare.json``'s
+    record of ``--match``, the plan and ``--drop-duplicates`` (which came after them too), every
+    other byte as it is."""
+    if path.name in ("compare.csv", "compare.json"):
+        return without_condition_names(path)
     if path.name != "stats.json":
         return path.read_bytes()
     stats = json.loads(path.read_text(encoding="utf-8"))
@@ -100,6 +104,20 @@ def without_table_read(path: Path) -> bytes:
     scores = (path.parent / "questionnaire_scores.csv").read_bytes()
     assert stats.pop("questionnaire_scores_checksum")["digest"] == hashlib.sha256(scores).hexdigest()
     return (json.dumps(stats, indent=2, allow_nan=False) + "\n").encode("utf-8")
+
+
+def without_condition_names(path: Path) -> bytes:
+    """``compare.csv`` or ``compare.json`` without the columns ``simulated_condition`` and
+    ``real_condition`` and the document's ``match``, ``plan`` and ``drop_duplicates``."""
+    names = ["simulated_condition", "real_condition"]
+    if path.suffix == ".csv":
+        return cells(path).drop(columns=names).to_csv(index=False).encode("utf-8")
+    document = json.loads(path.read_text(encoding="utf-8"))
+    assert document.pop("drop_duplicates") is True and document.pop("match") == {}
+    assert document.pop("plan") == {"name": "paper", "source": "paper"}
+    for row in document["comparison"]:
+        assert row.pop("real_condition") == row["condition"] == row.pop("simulated_condition")
+    return (json.dumps(document, indent=2, allow_nan=False) + "\n").encode("utf-8")
 
 
 def test_analyze_keeps_zero_padded_labels_as_written(tables: Path) -> None:

@@ -65,3 +65,39 @@ def test_habits_of_an_unassisted_trial_are_those_without_the_turn() -> None:
     # the same cells the person's own: the gap is their pause, the motion their reaction
     assert _values(with_turn, "pause_between_blows") == [0.5, 1.6]
     assert _values(with_turn, "reaction_switch_to_motion") == [0.4]
+
+
+# --- compare: a --match pair is named by both its names, and compare.json records the settings ----
+
+
+def _compare_tables(folder: Path) -> tuple[Path, Path]:
+    """A simulated table of two conditions and a real one of a third name."""
+    rng = np.random.default_rng(0)
+    simulated = pd.DataFrame([{"participant": f"p{p}", "condition": c, "trial": t,
+                               "completion_time": 20 + rng.normal()}
+                              for p in range(3) for c in ("disambiguation", "control") for t in range(3)])
+    real = pd.DataFrame([{"participant": f"r{p}", "condition": "assisted", "trial": t,
+                          "completion_time": 21 + rng.normal()} for p in range(3) for t in range(3)])
+    simulated.to_csv(folder / "sim.csv", index=False)
+    real.to_csv(folder / "real.csv", index=False)
+    return folder / "sim.csv", folder / "real.csv"
+
+
+def test_compare_names_a_matched_condition_by_both_names_and_records_its_settings(tmp_path: Path) -> None:
+    from nudgecli.report.compare import CompareOptions, compare_sources
+    from nudgecli.report.compare_figure import build_compare_figure
+    from nudgecli.report.compare_text import format_comparison
+
+    simulated, real = _compare_tables(tmp_path)
+    result = compare_sources(simulated, real, condition_map={"disambiguation": "assisted"},
+                             options=CompareOptions(resamples=0), drop_duplicates=True)
+    (row,) = result.table.to_dict("records")
+    assert (row["condition"], row["simulated_condition"], row["real_condition"]) == \
+        ("assisted", "disambiguation", "assisted")
+    document = result.to_json()
+    assert document["match"] == {"disambiguation": "assisted"}
+    assert document["plan"] == {"name": "paper", "source": "paper"}
+    assert document["drop_duplicates"] is True
+    assert "disambiguation as assisted" in format_comparison(result)
+    figure = build_compare_figure(result.trials, result.table, result.medians)
+    assert figure.axes[0].get_title(loc="left").startswith("disambiguation as assisted")

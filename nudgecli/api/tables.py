@@ -146,7 +146,7 @@ class ComparisonResult:
 
     def text(self) -> str:
         """The table ``nudge compare`` prints."""
-        from nudgecli.report.compare import format_comparison
+        from nudgecli.report.compare_text import format_comparison
 
         return format_comparison(self.comparison)
 

@@ -45,7 +45,6 @@ from nudgecli.report.plan_filters import apply_plan_filters
 from nudgecli.report.plans import AnalysisPlan, load_plan
 from nudgecli.report.stats import order_conditions
 from nudgecli.report.stats_document import json_ready
-from nudgecli.report.summary import format_p, format_value
 from nudgecli.rng import generator
 from nudgecli.store import write_text_atomic
 
@@ -56,7 +55,7 @@ _CHUNK_CELLS = 4_000_000
 
 #: Columns of :func:`compare_tables`'s result, in order.
 COMPARISON_COLUMNS = (
-    "metric", "condition",
+    "metric", "condition", "simulated_condition", "real_condition",
     "n_simulated", "n_real", "participants_simulated", "participants_real",
     "median_simulated", "q1_simulated", "q3_simulated",
     "median_real", "q1_real", "q3_real",
@@ -343,7 +342,8 @@ def _quantiles(values: np.ndarray) -> tuple[float, float, float]:
 
 
 def compare_tables(simulated: pd.DataFrame, real: pd.DataFrame, metrics: Sequence[str],
-                   conditions: Sequence[str], options: CompareOptions = CompareOptions()) -> pd.DataFrame:
+                   conditions: Sequence[str], options: CompareOptions = CompareOptions(),
+                   condition_map: Mapping[str, str] | None = None) -> pd.DataFrame:
     """The comparison of every metric and condition (see the module docstring).
 
     Parameters
@@ -353,6 +353,8 @@ def compare_tables(simulated: pd.DataFrame, real: pd.DataFrame, metrics: Sequenc
         already aligned (:func:`align_conditions`).
     metrics, conditions
         What to compare.
+    condition_map
+        The ``--match`` pairs (simulated -> real condition) the rows' ``simulated_condition`` are of.
 
     Returns
     -------
@@ -360,6 +362,7 @@ def compare_tables(simulated: pd.DataFrame, real: pd.DataFrame, metrics: Sequenc
         One row per (metric, condition), columns :data:`COMPARISON_COLUMNS`. Distances are
         ``nan`` where a source has no value.
     """
+    simulated_name = {label: key for key, label in (condition_map or {}).items()}
     people = {source: np.array(sorted(table["participant"].astype(str).unique()))
               for source, table in zip(SOURCES, (simulated, real), strict=True)}
     weights = {source: _resample_weights(people[source], options.resamples, options.seed, source)
@@ -376,7 +379,8 @@ def compare_tables(simulated: pd.DataFrame, real: pd.DataFrame, metrics: Sequenc
                 keep = np.isfinite(values)
                 owners = np.searchsorted(people[source], subset["participant"].astype(str).to_numpy()[keep])
                 data[source] = (values[keep], owners)
-            row: dict[str, object] = {"metric": metric, "condition": condition}
+            row: dict[str, object] = {"metric": metric, "condition": condition, "real_condition": condition,
+                                      "simulated_condition": simulated_name.get(condition, condition)}
             for source in SOURCES:
                 values, owners = data[source]
                 median, q1, q3 = _quantiles(values)
@@ -439,6 +443,13 @@ class Comparison:
         The bootstrap settings.
     trials
         The two aligned metrics tables (``{"simulated": ..., "real": ...}``), for the figure.
+    match
+        The ``--match`` pairs (simulated -> real condition).
+    plan
+        The analysis plan's name and where it came from (``source``: as given, or the one the
+        simulated source picked; ``None`` for a plan object).
+    drop_duplicates
+        Whether repeated trial rows were dropped (``--drop-duplicates``).
     """
 
     simulated: str
@@ -449,12 +460,16 @@ class Comparison:
     medians: pd.DataFrame
     options: CompareOptions
     trials: dict[str, pd.DataFrame] = field(default_factory=dict, repr=False, compare=False)
+    match: dict[str, str] = field(default_factory=dict)
+    plan: dict[str, str | None] = field(default_factory=dict)
+    drop_duplicates: bool = False
 
     def to_json(self) -> dict[str, object]:
         """The JSON document of ``--format json`` and ``compare.json`` (NaN as ``None``)."""
         return json_ready({
             "simulated": self.simulated, "real": self.real,
             "metrics": self.metrics, "conditions": self.conditions,
+            "match": self.match, "plan": self.plan, "drop_duplicates": self.drop_duplicates,
             "bootstrap": {"resamples": self.options.resamples, "level": self.options.level,
                           "seed": self.options.seed, "unit": "participants (cluster bootstrap)"},
             "comparison": self.table.to_dict(orient="records"),
@@ -495,7 +510,8 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
     """
     from nudgecli.report.analysis import plan_of_source
 
-    chosen = load_plan(plan_of_source(simulated) if plan is None else plan)
+    given = plan_of_source(simulated) if plan is None else plan
+    chosen = load_plan(given)
     sim_table, sim_metrics, _ = load_source(Path(simulated), chosen, min_conditions=1,
                                             drop_duplicates=drop_duplicates, notes=notes, metrics=metrics)
     real_path = Path(real)
@@ -509,10 +525,12 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
     real_table = _filtered(real_table, chosen, selected, real, notes)
     sim_table, real_table, conditions = align_conditions(sim_table, real_table, condition_map,
                                                          names=(str(simulated), str(real)), notes=notes)
-    table = compare_tables(sim_table, real_table, selected, conditions, options)
+    table = compare_tables(sim_table, real_table, selected, conditions, options, condition_map)
     medians = participant_medians(sim_table, real_table, selected)
+    source = None if isinstance(given, AnalysisPlan) else str(given)
     return Comparison(str(simulated), str(real), selected, conditions, table, medians, options,
-                      {"simulated": sim_table, "real": real_table})
+                      {"simulated": sim_table, "real": real_table}, dict(condition_map or {}),
+                      {"name": chosen.name, "source": source}, drop_duplicates)
 
 
 def _filtered(table: pd.DataFrame, plan: AnalysisPlan, compared: Sequence[str], source: str | Path,
@@ -523,6 +541,12 @@ def _filtered(table: pd.DataFrame, plan: AnalysisPlan, compared: Sequence[str], 
     if filters.line and notes is not None:
         notes.append(f"{source}: {filters.line}")
     return filters.table
+
+
+def condition_pair(simulated: str, real: str) -> str:
+    """How a compared condition is named in print and in figure titles: ``real``, or
+    ``simulated as real`` where ``--match`` paired two names (``disambiguation as control``)."""
+    return real if simulated == real else f"{simulated} as {real}"
 
 
 #: The tables :func:`write_comparison` writes (the figure is :mod:`nudgecli.report.compare_figure`'s).
@@ -545,55 +569,3 @@ def write_comparison(result: Comparison, out: str | Path) -> list[Path]:
         write_text_atomic(folder / name, text)
         written.append(folder / name)
     return written
-
-
-def _interval(value: float, low: float, high: float) -> str:
-    return f"{format_value(value)} [{format_value(low)}, {format_value(high)}]"
-
-
-def _quartiles(row: Mapping[str, object], source: str) -> str:
-    return (f"{format_value(row[f'median_{source}'])} [{format_value(row[f'q1_{source}'])}, "
-            f"{format_value(row[f'q3_{source}'])}]")
-
-
-def format_comparison(result: Comparison) -> str:
-    """Plain-text tables: the distances per metric and condition, then the participants' medians."""
-    level = f"{result.options.level:.0%}"
-    header = ["metric", "condition", "n sim/real", "sim median [q1, q3]", "real median [q1, q3]",
-              "real people", "sim inside", "KS [" + level + "]", "KS p", "Wasserstein [" + level + "]"]
-    rows = []
-    for row in result.table.to_dict(orient="records"):
-        inside = row["simulated_inside_real_range"]
-        rows.append([
-            str(row["metric"]), str(row["condition"]), f"{row['n_simulated']}/{row['n_real']}",
-            _quartiles(row, "simulated"), _quartiles(row, "real"),
-            f"{format_value(row['real_participant_min'])} to {format_value(row['real_participant_max'])}",
-            "-" if not np.isfinite(inside) else f"{inside:.0%}",
-            _interval(row["ks_statistic"], row["ks_low"], row["ks_high"]),
-            format_p(row["ks_p"]),
-            _interval(row["wasserstein"], row["wasserstein_low"], row["wasserstein_high"]),
-        ])
-    lines = [_render(header, rows), ""]
-    lines.append("Per-participant medians (sorted):")
-    medians = result.medians
-    side = []
-    for metric in result.metrics:
-        for condition in result.conditions:
-            own = medians[(medians["metric"] == metric) & (medians["condition"] == condition)]
-            cells = [", ".join(format_value(v) for v in sorted(own.loc[own["source"] == source, "median"]))
-                     or "-" for source in SOURCES]
-            side.append([metric, condition, *cells])
-    lines.append(_render(["metric", "condition", "simulated", "real"], side))
-    lines.append("")
-    lines.append(f"KS p assumes independent trials (optimistic: trials are nested in people); the intervals "
-                 f"are {level} cluster-bootstrap percentiles over participants ({result.options.resamples} "
-                 f"resamples, seed {result.options.seed}).")
-    return "\n".join(lines)
-
-
-def _render(header: list[str], rows: list[list[str]]) -> str:
-    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    lines = ["  ".join(cell.ljust(w) for cell, w in zip(header, widths, strict=True)).rstrip(),
-             "  ".join("-" * w for w in widths)]
-    lines += ["  ".join(cell.ljust(w) for cell, w in zip(row, widths, strict=True)).rstrip() for row in rows]
-    return "\n".join(lines)

@@ -21,6 +21,7 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from nudgecli.report.compare import condition_pair
 from nudgecli.report.figures.common import axes_or_new
 from nudgecli.report.figures.output import save_figure
 from nudgecli.report.style import COLUMN_WIDTH_IN, FULL_WIDTH_IN, OKABE_ITO, figure_style
@@ -113,6 +114,10 @@ def build_compare_figure(trials: dict[str, pd.DataFrame], comparison: pd.DataFra
     metrics = list(dict.fromkeys(comparison["metric"]))
     conditions = list(dict.fromkeys(comparison["condition"]))
     n_rows, n_cols = len(metrics), len(conditions)
+    # a condition --match paired is titled by both its names, even alone in the figure
+    paired = comparison.get("simulated_condition", comparison["condition"]).astype(str)
+    names = {str(c): condition_pair(s, str(c)) for c, s in zip(comparison["condition"], paired, strict=True)}
+    titles = {c: name if n_cols > 1 or name != c else "" for c, name in names.items()}
     width = COLUMN_WIDTH_IN if n_cols == 1 else FULL_WIDTH_IN
     with figure_style():
         fig = Figure(figsize=(width, 1.9 * n_rows + 0.4), layout="constrained")
@@ -121,7 +126,7 @@ def build_compare_figure(trials: dict[str, pd.DataFrame], comparison: pd.DataFra
         for i, metric in enumerate(metrics):
             for j, condition in enumerate(conditions):
                 ax = compare_panel(trials, medians, metric, condition, comparison,
-                                   title=condition if n_cols > 1 else "", ax=axes[i, j],
+                                   title=titles[str(condition)], ax=axes[i, j],
                                    two_line_title=n_cols > 2)
                 if j == 0:
                     ax.set_ylabel("share of trials")
