@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -188,7 +190,8 @@ def test_a_box_panel_of_conditions_all_not_applicable_shows_no_value_axis() -> N
 # --- 7: the batch figures' text at the style's print sizes, laid out without overlaps -------------
 
 
-def _batch_figures() -> dict[str, Figure]:
+def _batch_figures(*names: str) -> dict[str, Figure]:
+    """The batch figures of small tables, by name (``names``: only those; default all)."""
     from nudgecli.report.figures.replication import forest_figure, power_figure, sensitivity_figure
 
     pairs = {("x", "y"): [1.0, 2.0, 0.5], ("x", "z"): [NAN, NAN, NAN], ("y", "z"): [0.5, 0.5, 1.0]}
@@ -201,11 +204,14 @@ def _batch_figures() -> dict[str, Figure]:
     indices = pd.DataFrame({"metric": "success", "a": "x", "b": "y", "replications": 3,
                             "parameter": ["p.x", "p.x", "p.z", "p.z"], "index": ["S1", "ST"] * 2,
                             "value": [0.2, 0.3, 0.5, 0.6], "conf": 0.1})
-    return {"forest": forest_figure(rows, pooled),
-            "forest of two": forest_figure(rows[rows["b"] == "y"], pooled.iloc[:1]),
-            "power": power_figure(two), "power grid": power_figure(three),
-            "sweep": sweep_figure(_sweep_rows({17.0: [NAN, 1.0], 19.0: [0.5, 1.0]}), ["study.time_limit_s"]),
-            "sensitivity": sensitivity_figure(indices)}
+    builders: dict[str, Callable[[], Figure]] = {
+        "forest": lambda: forest_figure(rows, pooled),
+        "forest of two": lambda: forest_figure(rows[rows["b"] == "y"], pooled.iloc[:1]),
+        "power": lambda: power_figure(two), "power grid": lambda: power_figure(three),
+        "sweep": lambda: sweep_figure(_sweep_rows({17.0: [NAN, 1.0], 19.0: [0.5, 1.0]}),
+                                      ["study.time_limit_s"]),
+        "sensitivity": lambda: sensitivity_figure(indices)}
+    return {name: build() for name, build in builders.items() if not names or name in names}
 
 
 def test_every_batch_figure_writes_its_text_at_the_print_sizes() -> None:
@@ -224,9 +230,8 @@ def test_the_batch_figures_lay_out_their_labels_and_legends_apart() -> None:
 
     from nudgecli.report.style import figure_style
 
-    drawn = _batch_figures()
-    for name in ("forest", "power", "power grid"):  # the crowded rows, and a legend of each kind
-        fig = drawn[name]
+    # the crowded rows, and a legend of each kind
+    for name, fig in _batch_figures("forest", "power", "power grid").items():
         with figure_style():
             renderer = FigureCanvasAgg(fig).get_renderer()
             fig.draw(renderer)
@@ -238,3 +243,38 @@ def test_the_batch_figures_lay_out_their_labels_and_legends_apart() -> None:
             panel = ax.get_window_extent(renderer)
             for legend in fig.legends:
                 assert not legend.get_window_extent(renderer).overlaps(panel), f"{name}: legend over a panel"
+
+
+# --- 2: the box plots' labels say what the plan's definition measures ---------------------------
+
+
+def _trial_metrics() -> pd.DataFrame:
+    return pd.DataFrame({"participant": [1, 1, 2, 2] * 2, "condition": ["disambiguation", "control"] * 4,
+                         "success": [1.0, 0.0, 1.0, 1.0] * 2, "assistance_engagement": 0.5,
+                         "assistance_strength": 0.4, "mode_switches": [1, 2, 3, 4] * 2, "human_turns": 2,
+                         "human_effort": 0.5, "completion_time": 20.0})
+
+
+def test_the_box_plot_labels_follow_the_plans_metric_definitions() -> None:
+    from nudgecli.report.figures.boxplots import METRIC_SPECS
+    from nudgecli.report.plans import MetricDefinitions, load_plan
+    from nudgecli.report.plotting import FigureInputs, PlotPlan, draw_figures
+
+    metrics = _trial_metrics()
+    names = ["success", "assistance_engagement", "assistance_strength", "mode_switches", "human_effort"]
+    stats = {"conditions": ["disambiguation", "control"], "metrics": [{"metric": m} for m in names]}
+    study_code = load_plan("study-code").metrics
+    assert (study_code.success, study_code.engagement, study_code.strength, study_code.mode_switches) == (
+        "last_inferred_goal", "per_turn", "per_turn", "human_turn")
+
+    def labels(definitions: MetricDefinitions) -> dict[str, str]:
+        drawn = draw_figures(FigureInputs(metrics, stats), PlotPlan(Path("."), definitions=definitions))
+        return {m: " ".join(ax.get_ylabel().split()) for m, ax in zip(names, drawn["metrics"].get_axes(),
+                                                                      strict=False)}
+
+    assert labels(study_code) == {"success": "Success (1 = last inferred goal is the true goal)",
+                      "assistance_engagement": "Assistance engagement (mean % per human turn)",
+                      "assistance_strength": "Strength of assistance (mean α per human turn, 0 without)",
+                      "mode_switches": "Mode switches in human turns per trial",
+                      "human_effort": METRIC_SPECS["human_effort"].label}  # one definition in every plan
+    assert labels(load_plan("paper").metrics) == {m: METRIC_SPECS[m].label for m in names}

@@ -112,19 +112,20 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         with figure_style():
             entry = figures.stats_by_metric(inputs.stats).get(figure)
             artists = figures.metric_boxplot(inputs.metrics, figure, entry, ax=ax, conditions=conditions,
-                                             star_rule=chosen.comparison_options(), reference=reference)
+                                             star_rule=chosen.comparison_options(), reference=reference,
+                                             definitions=chosen.metrics)
         return artists.ax.figure  # type: ignore[return-value]  # a Figure: axes_or_new makes no SubFigure
     plan = PlotPlan(out_dir=folder, trial=trial_key, star_rule=chosen.comparison_options(),
-                    item_labels=chosen.questionnaires.labels, reference=reference)
+                    item_labels=chosen.questionnaires.labels, reference=reference, definitions=chosen.metrics)
     if ax is not None and figure in ("fig5", "trajectory") and inputs.path_layouts is None:
         return _trial_into(inputs, figure, trial_key, ax)
     if ax is not None:
         raise ConfigError(f"figure {figure!r} has several panels, which one axes cannot hold; to draw into "
                           f"ax give one metric's panel ({', '.join(metrics)}), fig5 or trajectory")
     if figure in ("fig3", "fig4", "metrics"):
-        names = metric_figure_groups(metrics)[figure]
-        return figures.metrics_figure(inputs.metrics, inputs.stats, names, seed=plan.seed,
-                                      star_rule=plan.star_rule, reference=reference)
+        return figures.metrics_figure(inputs.metrics, inputs.stats, metric_figure_groups(metrics)[figure],
+                                      seed=plan.seed, star_rule=plan.star_rule, reference=reference,
+                                      definitions=plan.definitions)
     drawn = draw_path_figures(inputs, plan) if inputs.path_layouts is not None else draw_figures(inputs, plan)
     if figure not in drawn:  # e.g. fig5 of a run whose layouts give no trajectory
         raise ConfigError(f"figure {figure!r}: this source's data do not give it; choose one of "
@@ -339,7 +340,7 @@ def _write_figures(folder: Path, out: str | Path | None, formats: Sequence[str],
             return plot_folder(folder, out, formats, trial,
                                star_rule=analysis_plan.comparison_options(),
                                item_labels=analysis_plan.questionnaires.labels, reference=reference,
-                               log=log)
+                               log=log, definitions=analysis_plan.metrics)
     except BaseException:
         if made and written_folder is not None and written_folder.is_dir() \
                 and not any(written_folder.iterdir()):
@@ -521,5 +522,6 @@ def analyze_and_plot(run: Run | str | Path, *, plan: str | Path | None = None,
         result = analyze_source(opened.path, plan=chosen)
         log_notes(result.notes, log)  # the analysis's, before the plot's lines
         written = plot_folder(opened.path, star_rule=analysis_plan.comparison_options(),
-                              item_labels=analysis_plan.questionnaires.labels, log=log)
+                              item_labels=analysis_plan.questionnaires.labels, log=log,
+                              definitions=analysis_plan.metrics)
     return Analysis(result, opened.path, chosen, keep_alive=opened), written

@@ -45,6 +45,7 @@ from nudgecli.report.figures.output import refuse_linked_figures
 from nudgecli.report.metrics import apply_filters
 from nudgecli.report.metrics_csv import read_metrics_csv
 from nudgecli.report.pair_display import check_reference
+from nudgecli.report.plans import MetricDefinitions
 from nudgecli.report.questionnaires import read_analysed_scores
 from nudgecli.report.run_figure_inputs import layouts_by_trial, representative_trial, run_fields
 from nudgecli.report.stats import ComparisonOptions
@@ -149,6 +150,8 @@ class PlotPlan:
     reference
         The box plots' brackets only for this condition's pairs (``--reference``); ``None``:
         every significant pair up to three conditions, letters from four.
+    definitions
+        The plan's metric definitions, which the box plots' labels name (``None``: the paper's).
     log
         Receives the line naming an earlier plot's figures removed from ``out_dir``.
     """
@@ -161,6 +164,7 @@ class PlotPlan:
     item_labels: Mapping[str, str] = field(default_factory=dict)
     reference: str | None = None
     log: Callable[[str], None] | None = None
+    definitions: MetricDefinitions | None = None
 
 
 def drawn_metrics(inputs: FigureInputs) -> list[str]:
@@ -246,7 +250,8 @@ def draw_figures(inputs: FigureInputs, plan: PlotPlan) -> dict[str, Figure]:
     out: dict[str, Figure] = {}
     for stem, names in metric_figure_groups(drawn_metrics(inputs)).items():
         out[stem] = figures.metrics_figure(inputs.metrics, inputs.stats, names, seed=plan.seed,
-                                           star_rule=plan.star_rule, reference=plan.reference)
+                                           star_rule=plan.star_rule, reference=plan.reference,
+                                           definitions=plan.definitions)
     if inputs.steps is not None and inputs.trials is not None and len(inputs.steps):
         panel = trial_panel(inputs, plan.trial)
         out["fig5"] = figures.figure_5(panel.steps, panel.true_goal, panel.n_goals, title=panel.title)
@@ -500,7 +505,8 @@ def default_out(source: str | Path) -> Path:
 def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequence[str] = ("png", "pdf"),
                 trial: TrialKey | None = None, *, star_rule: ComparisonOptions | None = None,
                 item_labels: Mapping[str, str] | None = None, reference: str | None = None,
-                log: Callable[[str], None] | None = None) -> list[Path]:
+                log: Callable[[str], None] | None = None,
+                definitions: MetricDefinitions | None = None) -> list[Path]:
     """Draw and write every figure a source's data allow; return the files written.
 
     Parameters
@@ -523,6 +529,8 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
         Compare the box plots' conditions with this one only (``--reference``).
     log
         Receives the line naming an earlier plot's figures removed (:func:`write_figures`).
+    definitions
+        The plan's metric definitions (the box plots' labels) [default: the paper's].
 
     Raises
     ------
@@ -535,7 +543,8 @@ def plot_folder(source: str | Path, out: str | Path | None = None, formats: Sequ
         check_trial(source, inputs.trials, trial, inputs.steps_missing)
     plan = PlotPlan(out_dir=Path(out) if out is not None else default_out(source), formats=tuple(formats),
                     trial=trial, star_rule=star_rule or ComparisonOptions(),
-                    item_labels=dict(item_labels or {}), reference=reference, log=log)
+                    item_labels=dict(item_labels or {}), reference=reference, log=log,
+                    definitions=definitions)
     return write_figures(inputs, plan)
 
 

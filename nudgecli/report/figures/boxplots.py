@@ -9,6 +9,7 @@ condition, and a condition a metric is not applicable to gets an "n/a" in its sl
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -40,6 +41,7 @@ from nudgecli.report.figures.comparison_marks import (
     mark_not_applicable,
 )
 from nudgecli.report.not_applicable import not_applicable_of
+from nudgecli.report.plans import MetricDefinitions
 from nudgecli.report.stats import ComparisonOptions
 from nudgecli.report.style import (
     FULL_WIDTH_IN,
@@ -48,6 +50,7 @@ from nudgecli.report.style import (
     condition_display_names,
     figure_style,
 )
+from nudgecli.report.table_definitions import PLAN_DEFINED
 from nudgecli.report.trial_steps import require_columns
 
 METRIC_FIGSIZE = (FULL_WIDTH_IN, 2.6)
@@ -100,15 +103,29 @@ METRIC_SPECS: dict[str, MetricSpec] = {
     "success": MetricSpec("success", "Success (1 = reached the true goal)"),
     "wrong_goal": MetricSpec("wrong_goal", "Wrong goal (1 = ended at another goal)"),
 }
+#: The labels of the metrics whose study-software definition (a plan's ``[metrics]``,
+#: :class:`~nudgecli.report.plans.MetricDefinitions`) measures something other than the paper's
+#: label of :data:`METRIC_SPECS` says: ``(metric, definition) -> label``.
+DEFINITION_LABELS: dict[tuple[str, str], str] = {
+    ("assistance_engagement", "per_turn"): "Assistance engagement (mean % per human turn)",
+    ("assistance_strength", "per_turn"): "Strength of assistance (mean α per human turn, 0 without)",
+    ("mode_switches", "human_turn"): "Mode switches in human turns per trial",
+    ("success", "last_inferred_goal"): "Success (1 = last inferred goal is the true goal)",
+}
 FIGURE3_METRICS = ("assistance_engagement", "assistance_strength", "human_turns")
 FIGURE4_METRICS = ("mode_switches", "human_effort", "completion_time")
 
 
-def metric_spec(metric: str) -> MetricSpec:
+def metric_spec(metric: str, definitions: MetricDefinitions | None = None) -> MetricSpec:
     """The known spec of ``metric``, else its name as the label: ``_`` as spaces and the first
-    letter capitalised, the rest as written (``tlx_NASA_raw``: Tlx NASA raw)."""
+    letter capitalised, the rest as written (``tlx_NASA_raw``: Tlx NASA raw). With the plan's
+    ``definitions``, the label of the metric as the plan defines it (:data:`DEFINITION_LABELS`)."""
     if metric in METRIC_SPECS:
-        return METRIC_SPECS[metric]
+        spec = METRIC_SPECS[metric]
+        field_name = PLAN_DEFINED.get(metric)
+        chosen = getattr(definitions, field_name) if definitions is not None and field_name else None
+        label = DEFINITION_LABELS.get((metric, str(chosen)))
+        return spec if label is None else dataclasses.replace(spec, label=label)
     label = metric.replace("_", " ")
     return MetricSpec(metric, label[:1].upper() + label[1:])
 
@@ -155,7 +172,8 @@ def metric_boxplot(metrics: pd.DataFrame, metric: str, stats_entry: Mapping[str,
                    ax: Axes | None = None, conditions: Sequence[str] | None = None, seed: int = 0,
                    show_points: bool = True, show_n: bool = True, label: str | None = None,
                    star_rule: ComparisonOptions = DEFAULT_STAR_RULE, comparisons: Comparisons = "auto",
-                   reference: str | None = None) -> BoxplotArtists:
+                   reference: str | None = None, definitions: MetricDefinitions | None = None
+                   ) -> BoxplotArtists:
     """A box plot per condition with every trial as a jittered dot and significance brackets.
 
     Boxes show the median and quartiles, whiskers reach the furthest trial within 1.5 IQR of
@@ -183,8 +201,8 @@ def metric_boxplot(metrics: pd.DataFrame, metric: str, stats_entry: Mapping[str,
         Draw every trial as a dot.
     show_n
         Add ``n = ...`` under each condition name.
-    label
-        y-axis label; default from :data:`METRIC_SPECS`.
+    label, definitions
+        y-axis label; default :func:`metric_spec`'s of the plan's metric definitions (the paper's).
     star_rule
         The plan's star rule for entries without their own stars (see
         :func:`nudgecli.report.brackets.brackets_from_stats`).
@@ -205,7 +223,7 @@ def metric_boxplot(metrics: pd.DataFrame, metric: str, stats_entry: Mapping[str,
         ``reference`` is not one of the conditions drawn.
     """
     require_columns(metrics, ["condition", metric], "metrics table")
-    spec = metric_spec(metric)
+    spec = metric_spec(metric, definitions)
     order = resolve_conditions(metrics, None, conditions)
     if len(order) == 0:
         raise DataError("metrics table: no conditions to plot")
@@ -326,7 +344,7 @@ def _label_conditions(ax: Axes, out: BoxplotArtists, show_n: bool, left_out: Seq
 def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metric_names: Sequence[str], *,
                    conditions: Sequence[str] | None = None, seed: int = 0,
                    star_rule: ComparisonOptions = DEFAULT_STAR_RULE, comparisons: Comparisons = "auto",
-                   reference: str | None = None) -> Figure:
+                   reference: str | None = None, definitions: MetricDefinitions | None = None) -> Figure:
     """One box-plot panel per metric, lettered (a), (b), ..., up to three panels per row.
 
     Parameters
@@ -347,6 +365,8 @@ def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metri
     comparisons, reference
         Which comparisons each panel marks (:func:`metric_boxplot`): by default brackets up to
         three conditions and letters from four; with ``reference`` its pairs' brackets.
+    definitions
+        The plan's metric definitions (the panels' labels; :func:`metric_spec`).
 
     Returns
     -------
@@ -377,7 +397,8 @@ def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metri
         axes = np.atleast_1d(fig.subplots(n_rows, METRIC_PANELS_PER_ROW if n_rows > 1 else n_cols)).ravel()
         for i, metric in enumerate(metric_names):
             metric_boxplot(metrics, metric, entries.get(metric), ax=axes[i], conditions=order, seed=seed,
-                           star_rule=star_rule, comparisons=comparisons, reference=reference)
+                           star_rule=star_rule, comparisons=comparisons, reference=reference,
+                           definitions=definitions)
             panel_letter(axes[i], i)
         for ax in axes[len(metric_names):]:
             ax.set_visible(False)
@@ -416,5 +437,5 @@ def figure_4(metrics: pd.DataFrame, stats: Mapping[str, Any] | None = None, *,
                           star_rule=star_rule)
 
 
-__all__ = ["FIGURE3_METRICS", "FIGURE4_METRICS", "METRIC_SPECS", "BoxplotArtists", "MetricSpec", "figure_3",
-           "figure_4", "metric_boxplot", "metric_spec", "metrics_figure"]
+__all__ = ["DEFINITION_LABELS", "FIGURE3_METRICS", "FIGURE4_METRICS", "METRIC_SPECS", "BoxplotArtists",
+           "MetricSpec", "figure_3", "figure_4", "metric_boxplot", "metric_spec", "metrics_figure"]
