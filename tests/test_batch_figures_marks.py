@@ -278,3 +278,24 @@ def test_the_box_plot_labels_follow_the_plans_metric_definitions() -> None:
                       "mode_switches": "Mode switches in human turns per trial",
                       "human_effort": METRIC_SPECS["human_effort"].label}  # one definition in every plan
     assert labels(load_plan("paper").metrics) == {m: METRIC_SPECS[m].label for m in names}
+
+
+# --- 6: the README says what the batch figures of three or more conditions draw -----------------
+
+
+def test_the_readme_describes_the_panels_of_the_batch_figures_of_three_conditions() -> None:
+    from nudgecli.report.figures.replication import forest_figure, power_figure
+
+    readme = " ".join((Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8").split())
+    assert "one panel per metric and pair" not in readme
+    assert ("Their figures draw a panel per metric; with 3+ conditions the forest has a row per pair, "
+            "power a panel per level of test, a row per metric and pair.") in readme
+    three = _replications({("x", "y"): [1.0], ("x", "z"): [2.0], ("y", "z"): [3.0]})
+    rows = pd.concat([three.assign(metric=m) for m in ("completion_time", "success")])
+    pooled = rows.assign(difference_low=rows["difference"], difference_high=rows["difference"], tested=1)
+    forest = forest_figure(rows, pooled).get_axes()
+    assert [len(ax.get_yticks()) for ax in forest] == [3, 3]  # a panel per metric, a row per pair
+    power = pd.concat([_power([6]).assign(b=b, metric=m)
+                       for m in ("completion_time", "success") for b in "yz"])
+    levels = power_figure(power).get_axes()
+    assert [len(ax.get_yticks()) for ax in levels] == [4, 4]  # a panel per level, a row per metric and pair
