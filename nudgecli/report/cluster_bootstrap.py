@@ -264,7 +264,8 @@ def _participants_in_order(rows: MetricRows) -> tuple[np.ndarray, int]:
     if rows.participant_codes is None or (rows.participant_codes < 0).any():  # categorical, missing
         codes, uniques = pd.factorize(rows.table()["participant"])
         return codes, len(uniques)
-    present, first, inverse = np.unique(rows.participant_codes, return_index=True, return_inverse=True)
-    rank = np.empty(present.size, dtype=np.intp)
-    rank[np.argsort(first, kind="stable")] = np.arange(present.size)
-    return rank[np.ravel(inverse)], int(present.size)
+    codes = rows.participant_codes
+    in_order = pd.unique(codes)  # the codes in order of first appearance (hashed: no sorted copy)
+    rank = np.zeros(int(codes.max()) + 1 if codes.size else 0, dtype=np.intp)
+    rank[in_order] = np.arange(in_order.size)
+    return rank[codes], int(in_order.size)

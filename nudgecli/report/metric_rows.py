@@ -89,7 +89,20 @@ def table_keys(data: pd.DataFrame, conditions: Sequence[str], condition: str,
             codes, labels = pd.factorize(data[participant], sort=True)
         except TypeError:  # participants that do not sort: the tests read them from the table
             codes = labels = None
-    return TableKeys(tuple(conditions), positions, codes, labels)
+    # the smallest integers that hold them: a large table's rows cost a byte or two each, not eight
+    if codes is not None and labels is not None:
+        codes = narrow_codes(codes, len(labels))
+    return TableKeys(tuple(conditions), narrow_codes(positions, len(conditions)), codes, labels)
+
+
+def narrow_codes(codes: np.ndarray, count: int) -> np.ndarray:
+    """``codes`` (``-1 .. count - 1``) in the smallest signed integer type that holds them (int8 for
+    a few conditions, int16 for up to 32,767 participants); every use of them that computes with
+    them (a key, an index) widens them first."""
+    for dtype in (np.int8, np.int16, np.int32):
+        if count <= np.iinfo(dtype).max:
+            return codes.astype(dtype, copy=False)
+    return codes
 
 
 class MetricRows:
@@ -120,13 +133,15 @@ class MetricRows:
         self.participant_codes, self.participant_labels = participant_codes, participant_labels
         self._table, self._source, self._keys = table, source, keys
 
-    def table(self) -> pd.DataFrame:
-        """:func:`tidy_values`' table of these rows, made on first use (a library's fallback reads it)."""
-        if self._table is None:
-            assert self._source is not None
-            data, metric, condition, participant = self._source
-            self._table = tidy_values(data, metric, self.conditions, condition, participant)
-        return self._table
+    def table(self, *, participants: bool = True) -> pd.DataFrame:
+        """:func:`tidy_values`' table of these rows: the one given, or made anew for a library that
+        reads a table (kept by no one: a large table's rows are not held twice), with the
+        participants or (``participants=False``) without them."""
+        if self._table is not None:
+            return self._table
+        assert self._source is not None
+        data, metric, condition, participant = self._source
+        return tidy_values(data, metric, self.conditions, condition, participant if participants else None)
 
     def everyone(self) -> np.ndarray | None:
         """The sorted codes of every participant with a row (a value or not) of these conditions in
@@ -136,7 +151,9 @@ class MetricRows:
             return None
         chosen = [keys.conditions.index(c) for c in self.conditions]
         codes = keys.participant_codes[np.isin(keys.positions, chosen)]
-        return np.unique(codes[codes >= 0])
+        assert keys.participant_labels is not None
+        # a count per participant (no sorted copy of a large table's codes)
+        return np.flatnonzero(np.bincount(codes[codes >= 0], minlength=len(keys.participant_labels)))
 
     def among(self, compared: Sequence[str]) -> MetricRows:
         """The rows of the ``compared`` conditions (a subset of :attr:`conditions`, in its order):
@@ -144,7 +161,7 @@ class MetricRows:
         remap = np.full(len(self.conditions) + 1, -1, dtype=np.intp)  # (the last: position -1)
         for j, c in enumerate(compared):
             remap[self.conditions.index(c)] = j
-        positions = remap[self.positions]
+        positions = narrow_codes(remap[self.positions], len(compared))
         kept = positions >= 0
         table = None if self._table is None else self._table[kept].reset_index(drop=True)
         codes = None if self.participant_codes is None else self.participant_codes[kept]

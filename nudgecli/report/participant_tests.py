@@ -385,11 +385,18 @@ def _median_array(rows: MetricRows) -> tuple[np.ndarray, np.ndarray] | None:
     if codes is None or values.size == 0 or np.any((values == 0) & np.signbit(values)):
         return None
     k = len(rows.conditions)
-    keep = (codes >= 0) & (rows.positions >= 0)  # a missing participant: left out, as pandas' grouping
-    who, owner = np.unique(codes[keep], return_inverse=True)
-    keys = owner * k + rows.positions[keep]
-    order = np.lexsort((values[keep], keys))  # by group, then by value
-    ordered, ordered_keys = values[keep][order], keys[order]
+    positions = rows.positions
+    keep = (codes >= 0) & (positions >= 0)  # a missing participant: left out, as pandas' grouping
+    if not keep.all():  # (the usual rows need no copy)
+        values, codes, positions = values[keep], codes[keep], positions[keep]
+    # the participants with a value, sorted, and each row's place among them (as np.unique's
+    # inverse, from a count per participant: no sorted copy of a large table's codes)
+    present = np.bincount(codes) > 0 if codes.size else np.zeros(0, dtype=bool)
+    who = np.flatnonzero(present)
+    place = np.cumsum(present) - 1
+    keys = place[codes] * k + positions
+    order = np.lexsort((values, keys))  # by group, then by value
+    ordered, ordered_keys = values[order], keys[order]
     starts = np.flatnonzero(np.r_[True, ordered_keys[1:] != ordered_keys[:-1]])
     sizes = np.diff(np.r_[starts, ordered.size])
     lower, upper = ordered[starts + (sizes - 1) // 2], ordered[starts + sizes // 2]
