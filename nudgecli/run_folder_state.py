@@ -96,6 +96,25 @@ def run_state(folder: Path, manifest: Mapping[str, Any]) -> str:
     return "is running" if held_by_another_process(folder) else "was interrupted"
 
 
+def reader_state(folder: Path, manifest: Mapping[str, Any]) -> str:
+    """:func:`run_state` for a command that reads the run (``habits``, ``compare``, ``fit-people``):
+    a run another process is writing now is refused in the words of its lock (the ``--resume`` an
+    unfinished run is told would be refused, "in use by"), the others stand as :func:`run_state` says.
+
+    Raises
+    ------
+    RunFolderError
+        The run is running: who writes it, and to wait for it to finish.
+    """
+    state = run_state(folder, manifest)
+    if state == "is running":
+        from nudgecli.locks import describe_holder, read_holder  # locks builds on store, which builds on this
+
+        holder = describe_holder(read_holder(folder / LOCK))
+        raise RunFolderError(f"{folder}: the run is running, in use by {holder}; wait for it to finish")
+    return state
+
+
 def other_version(manifest: Mapping[str, Any]) -> str | None:
     """The nudgecli version the manifest records when it is not this one (``""``: it records none),
     else ``None``. This nudge refuses to resume such a run (its settings differ: ``resume_differences``

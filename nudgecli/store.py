@@ -64,9 +64,9 @@ from nudgecli.run_folder_record import RunRecord, file_sha256, part_name, readab
 from nudgecli.run_folder_state import (
     only_a_start,
     other_version,
+    reader_state,
     refuse_links,
     repair_advice,
-    run_state,
     simulate_again,
 )
 
@@ -364,8 +364,8 @@ class RunFolder(RunRecord):
         if manifest.get("executor") == "live":
             return self._check_live(manifest)
         self.check_own_manifest(manifest)  # another run's: never advise a resume that recomputes the parts
-        participants = self.participant_count(manifest)
-        missing = self.missing_parts(participants)
+        state = reader_state(self.path, manifest)  # one being written: wait, never a resume (it is in use)
+        missing = self.missing_parts(self.participant_count(manifest))
         fix = self.resume_command(manifest)
         if missing:
             listed = "; ".join(f"participant {p}: {', '.join(parts)}"
@@ -375,7 +375,7 @@ class RunFolder(RunRecord):
                                  f"{repair_advice(self.path, manifest, fix, 'restore')}")
         if manifest.get("status") != "complete":
             finish = repair_advice(self.path, manifest, fix, "finish it")
-            raise RunFolderError(f"{self.path}: the run {run_state(self.path, manifest)} (all parts are "
+            raise RunFolderError(f"{self.path}: the run {state} (all parts are "
                                  f"there but it did not finish); {finish}")
         self.check_vouched(manifest)
         return manifest

@@ -112,5 +112,6 @@ def test_a_run_whose_lock_a_live_process_holds_is_said_running(run: Path) -> Non
     (run / MANIFEST).write_text(json.dumps({**manifest, "status": "running"}))
     with open(run / LOCK, "w") as handle:
         fcntl.flock(handle.fileno(), fcntl.LOCK_EX)  # as the writing command holds it
-        with pytest.raises(RunFolderError, match=r"the run is running \(all parts .*--resume"):
+        # its --resume would be refused ("in use by"): the reader is told to wait
+        with pytest.raises(RunFolderError, match=r"the run is running, in use by .*; wait for it to finish$"):
             RunFolder(run).check_complete()

@@ -8,6 +8,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from nudgecli.report.habit_cells import _trial_cells
 from nudgecli.report.habits import measure_habits
@@ -101,3 +102,35 @@ def test_compare_names_a_matched_condition_by_both_names_and_records_its_setting
     assert "disambiguation as assisted" in format_comparison(result)
     figure = build_compare_figure(result.trials, result.table, result.medians)
     assert figure.axes[0].get_title(loc="left").startswith("disambiguation as assisted")
+
+
+# --- a run still being written: wait for it, never the --resume its lock would refuse ------------
+
+
+@pytest.mark.parametrize("parts_missing", [True, False])
+def test_a_reader_of_a_run_being_written_is_told_to_wait(analysed_smoke_run: Path, tmp_path: Path,
+                                                         parts_missing: bool) -> None:
+    import fcntl
+    import json
+    import shutil
+
+    from nudgecli.errors import RunFolderError
+    from nudgecli.report.habit_cells import run_folder_cells
+    from nudgecli.run_folder_names import LOCK, MANIFEST
+
+    run = tmp_path / "run"
+    shutil.copytree(analysed_smoke_run, run)
+    manifest = json.loads((run / MANIFEST).read_text(encoding="utf-8"))
+    (run / MANIFEST).write_text(json.dumps({**manifest, "status": "running"}), encoding="utf-8")
+    if parts_missing:
+        (run / "steps" / "part-0001.parquet").unlink()
+    holder = {"pid": 1, "host": "here", "command": "nudge simulate smoke", "since": "now"}
+    (run / LOCK).write_text(json.dumps(holder), encoding="utf-8")
+    with open(run / LOCK, "rb") as lock:  # held as the simulating process holds it
+        fcntl.flock(lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        with pytest.raises(RunFolderError) as raised:
+            run_folder_cells(run)
+    message = str(raised.value)
+    # before: "is incomplete ... restore with `nudge simulate ... --resume`" (refused: in use by)
+    assert "the run is running, in use by `nudge simulate smoke`" in message
+    assert message.endswith("wait for it to finish") and "--resume" not in message
