@@ -274,7 +274,7 @@ def test_the_box_plot_labels_follow_the_plans_metric_definitions() -> None:
 
     assert labels(study_code) == {"success": "Success (1 = last inferred goal is the true goal)",
                       "assistance_engagement": "Assistance engagement (mean % per human turn)",
-                      "assistance_strength": "Strength of assistance (mean α per human turn, 0 without)",
+                      "assistance_strength": "Strength of assistance (mean α per human turn)",
                       "mode_switches": "Mode switches in human turns per trial",
                       "human_effort": METRIC_SPECS["human_effort"].label}  # one definition in every plan
     assert labels(load_plan("paper").metrics) == {m: METRIC_SPECS[m].label for m in names}

@@ -108,7 +108,7 @@ METRIC_SPECS: dict[str, MetricSpec] = {
 #: label of :data:`METRIC_SPECS` says: ``(metric, definition) -> label``.
 DEFINITION_LABELS: dict[tuple[str, str], str] = {
     ("assistance_engagement", "per_turn"): "Assistance engagement (mean % per human turn)",
-    ("assistance_strength", "per_turn"): "Strength of assistance (mean α per human turn, 0 without)",
+    ("assistance_strength", "per_turn"): "Strength of assistance (mean α per human turn)",
     ("mode_switches", "human_turn"): "Mode switches in human turns per trial",
     ("success", "last_inferred_goal"): "Success (1 = last inferred goal is the true goal)",
 }
