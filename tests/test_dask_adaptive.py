@@ -3,24 +3,26 @@ it starts workers only for tasks submitted, and the connection check waited for 
 submitting anything, so it refused the cluster after ``WORKERS_WAIT_S`` (300 s). The check now asks
 the first worker by a task (``runs/dask_cluster.py`` ``first_worker_answer``), which the cluster
 starts a worker for; workers of another nudgecli (or none) are still refused before anything is
-written, and a worker that joins later is checked before its result is taken."""
+written, and a worker that joins later is checked by each task it runs (``submit_checked``), so
+no result of another version's code is kept."""
 
 from __future__ import annotations
 
 import json
-import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 import pytest
+from cli_helpers import nudge, one_error_line
 from dask_helpers import local_cluster
 
+import nudgecli
 from nudgecli import api
-from nudgecli.errors import ClusterError, ConfigError, WorkerLostError
+from nudgecli.errors import ClusterError, ConfigError
 from nudgecli.run_folder_names import MANIFEST
-from nudgecli.runs import dask_cluster, dask_results
+from nudgecli.runs import dask_cluster
 
 distributed = pytest.importorskip("dask.distributed")
 
@@ -78,32 +80,36 @@ def test_the_first_worker_of_an_adaptive_cluster_is_refused_before_anything_is_w
     assert not (tmp_path / "run").exists()
 
 
-def test_a_result_of_a_worker_that_joined_with_another_nudgecli_is_not_taken(
+
+def test_a_task_on_a_worker_of_another_nudgecli_is_refused_by_the_task(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    # the connection check saw the workers there then; an adaptive cluster starts more for the work
+    # the connection check asked the workers there then; one that joins later (an adaptive
+    # cluster's, as the tasks come) is checked by each task it runs: its result never comes back
+    from nudgecli.runs.executors import DaskExecutor, Job
+
     with local_cluster(1) as cluster, distributed.Client(cluster) as client:
-        watch = dask_results.ClusterWatch(client)
+        executor, (worker,) = DaskExecutor(client), client.nthreads()
         monkeypatch.setattr(dask_cluster, "worker_probe", lambda: _another_version)  # as if it joined now
-        future = client.submit(sum, [1, 2], pure=False)
-        with pytest.raises(ClusterError, match=r"cannot run nudge \(1 of 1 worker\(s\), e\.g\. tcp://.*: it "
-                                               r"imports nudgecli 0\.0\.0-other, not .*\); install nudgecli"):
-            dask_results.watched_result(future, "task t", watch)
+        executor.submit(Job("t", sum, ([1, 2],)))
+        with pytest.raises(ClusterError) as refused:
+            executor.next_result()
+        executor.abort()
+    assert str(refused.value) == (
+        f"the workers of the dask scheduler at {cluster.scheduler_address} cannot run nudge (e.g. "
+        f"{worker}: it imports nudgecli 0.0.0-other, not {nudgecli.__version__}); "
+        f"install nudgecli {nudgecli.__version__}, this one, in the workers' environment and restart them")
 
 
-def test_a_cluster_that_never_had_a_worker_is_given_the_wait_of_the_connection_not_the_grace(
-        monkeypatch: pytest.MonkeyPatch) -> None:
-    # a cluster scaled back to zero before the work came starts a worker for it as it did for the
-    # connection check's task: a batch system's queue takes minutes, not the 60 s given to one whose
-    # workers all left
-    monkeypatch.setattr(dask_results, "NO_WORKERS_GRACE_S", 0.05)
-    monkeypatch.setattr(dask_results, "WORKERS_EVERY_S", 0.0)
-    monkeypatch.setattr(dask_cluster, "WORKERS_WAIT_S", 0.4)
-    with local_cluster(0) as cluster, distributed.Client(cluster) as client:
-        watch = dask_results.ClusterWatch(client)
-        started = time.monotonic()
-        never = r"has had no worker for 0\.4 s \(none joined since the work was submitted\); start some with"
-        with pytest.raises(WorkerLostError, match=never):
-            while True:
-                watch.check()
-                time.sleep(0.02)
-    assert time.monotonic() - started >= 0.4
+def test_a_run_whose_worker_joined_with_another_nudgecli_keeps_nothing_of_it(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    out = tmp_path / "run"
+    with local_cluster(1) as cluster:
+        monkeypatch.setattr(dask_cluster, "check_cluster", lambda *args: None)  # it joined after the check
+        monkeypatch.setattr(dask_cluster, "worker_probe", lambda: _another_version)
+        result = nudge("simulate", "smoke", "--participants", "2", "--scheduler", cluster.scheduler_address,
+                       "--out", out)
+    line = one_error_line(result.output)
+    assert result.exit_code == 1 and "cannot run nudge (e.g. tcp://" in line, line
+    assert "imports nudgecli 0.0.0-other" in line and f"--out {out}" in line and "--resume" in line, line
+    assert json.loads((out / MANIFEST).read_text(encoding="utf-8"))["status"] == "interrupted"
+    assert not list((out / "trials").glob("part-*"))

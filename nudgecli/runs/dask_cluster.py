@@ -6,8 +6,8 @@ the work: a traceback of ``client.scatter``, a batch waiting at 0/N for ever, a 
 behind. Here they are one ``Error:`` line naming the address and the fix, for simulations and
 batches alike. A healthy cluster costs one round trip (:func:`check_cluster`); a scheduler without
 workers is asked by a task (:func:`first_worker_answer`), for which an adaptive cluster that
-scales from zero starts its first worker. Workers that join later are checked as they come
-(:class:`~nudgecli.runs.dask_results.ClusterWatch`).
+scales from zero starts its first worker. Workers that join later are checked by each task they
+run (:func:`submit_checked`).
 
 The scheduler's address is named as the front end that called spells it (:func:`scheduler_named`):
 ``--scheduler ADDR`` on the command line, ``scheduler='ADDR'`` in the Python API.
@@ -20,7 +20,7 @@ from collections.abc import Callable, Iterator, Mapping
 from contextvars import ContextVar
 from typing import Any
 
-from nudgecli.errors import ConfigError
+from nudgecli.errors import ClusterError, ConfigError
 
 #: Seconds a scheduler without workers is given for one to join before the command is refused (a
 #: Note says it waits): workers started with the scheduler join within seconds, a batch system's
@@ -52,12 +52,14 @@ def scheduler_option_name() -> str:
     return _NAMED.get() or SCHEDULER_OPTION
 
 
-def install_advice() -> str:
-    """What to do about workers that cannot run this nudge: the one wording of the connection check
-    and of a worker met later (:mod:`nudgecli.runs.dask_results`)."""
+def install_advice(version: str | None = None) -> str:
+    """What to do about workers that cannot run this nudge (``version``: its nudgecli version, this
+    one's when None): the one wording of the connection check and of a worker met later
+    (:func:`run_checked`, :mod:`nudgecli.runs.dask_results`)."""
     import nudgecli
 
-    return f"install nudgecli {nudgecli.__version__}, this one, in the workers' environment and restart them"
+    version = nudgecli.__version__ if version is None else version
+    return f"install nudgecli {version}, this one, in the workers' environment and restart them"
 
 
 def scheduler_label(address: str) -> str:
@@ -105,6 +107,45 @@ def worker_probe() -> Callable[[], str]:
         return str(nudgecli.__version__)
 
     return nudgecli_version
+
+
+def submit_checked(client: Any, task: Callable[..., Any], *args: Any, **options: Any) -> Any:
+    """``client.submit(task, *args, pure=False, **options)``, run on a worker of this nudgecli version
+    only (:func:`run_checked`): how every task nudge sends a cluster is submitted. Without a ``key``
+    in ``options``, its key is named after ``task`` (the dashboard shows what runs), as dask's is."""
+    import uuid
+
+    import nudgecli
+
+    options.setdefault("key", f"{getattr(task, '__name__', 'task')}-{uuid.uuid4().hex}")
+    return client.submit(run_checked, nudgecli.__version__, task, *args, pure=False, **options)
+
+
+def run_checked(version: str, task: Callable[..., Any], *args: Any) -> Any:
+    """``task(*args)``, run on a dask worker once its nudgecli is ``version``, the client's
+    (:func:`submit_checked`).
+
+    The connection check (:func:`check_cluster`) asks the workers there then; a worker that joins
+    later (an adaptive cluster starts them as the tasks come) is checked here, by the task itself:
+    no result of another version's code comes back, and no round trip is added. A worker without
+    nudgecli cannot load this function and fails the task's deserialization
+    (:func:`nudgecli.runs.dask_results.as_nudge_error`).
+
+    Raises
+    ------
+    ClusterError
+        This worker imports another nudgecli version: the message names the scheduler, the worker,
+        both versions and the install that fixes it (in the client's words: ``version``).
+    """
+    mine = worker_probe()()
+    if mine != version:
+        from distributed import get_worker
+
+        worker = get_worker()
+        raise ClusterError(f"the workers of the dask scheduler at {worker.scheduler.address} cannot run "
+                           f"nudge (e.g. {worker.address}: it imports nudgecli {mine}, not {version}); "
+                           f"{install_advice(version)}")
+    return task(*args)
 
 
 def checked_client(client: Any, address: str, log: Callable[[str], None] | None = None) -> Any:

@@ -6,8 +6,7 @@ with no worker left, never is; a task that killed its workers one after the othe
 (``KilledWorker``) while the batch waits on another. So a result is fetched in a thread while this
 one watches the cluster every :data:`POLL_S` seconds (:class:`ClusterWatch`): a lost scheduler
 connection, no worker for :data:`NO_WORKERS_GRACE_S` seconds, or another task marked failed ends the
-wait with one :class:`~nudgecli.errors.WorkerLostError` (the command line adds the resume command),
-as does a worker that joined with another nudgecli (a :class:`~nudgecli.errors.ClusterError`).
+wait with one :class:`~nudgecli.errors.WorkerLostError` (the command line adds the resume command).
 """
 
 from __future__ import annotations
@@ -16,7 +15,7 @@ import contextlib
 import logging
 import threading
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from nudgecli.errors import ClusterError, NudgeError, WorkerLostError
@@ -93,31 +92,17 @@ def as_nudge_error(exc: BaseException, task: str, client: Any) -> BaseException:
 
 
 class ClusterWatch:
-    """Says, when asked, whether ``client``'s cluster can still finish the tasks awaited, and
-    refuses a worker that joined it with another nudgecli (or none): the connection check
-    (:func:`~nudgecli.runs.dask_cluster.check_cluster`) saw only the workers there then, and an
-    adaptive cluster starts more as the tasks come."""
+    """Says, when asked, whether ``client``'s cluster can still finish the tasks awaited."""
 
     def __init__(self, client: Any, grace_s: float | None = None) -> None:
         self._client = client
         self._grace_s = NO_WORKERS_GRACE_S if grace_s is None else grace_s
         self._asked = float("-inf")
         self._empty_since: float | None = None
-        #: the workers whose nudgecli version was found to be this one
-        self._checked: set[str] = set()
-        #: whether the cluster had a worker since the watch began: until then a cluster without one
-        #: is one starting its first (an adaptive cluster, a batch system's queue), given as long
-        #: as the connection check gives it (WORKERS_WAIT_S), not the grace of one whose workers left
-        try:
-            self._had_workers = bool(client.nthreads())
-        except Exception:
-            self._had_workers = True  # unknown: the shorter wait, as before
 
     def check(self) -> None:
         """Raise a :class:`WorkerLostError` when the scheduler connection is gone, or when the
-        scheduler has had no worker for the grace period (:data:`NO_WORKERS_GRACE_S`; a cluster
-        that had none since the watch began, :data:`~nudgecli.runs.dask_cluster.WORKERS_WAIT_S`);
-        a :class:`ClusterError` when a worker that joined cannot run this nudgecli."""
+        scheduler has had no worker for the grace period."""
         if getattr(self._client, "status", "running") != "running":
             raise scheduler_lost(self._client)
         now = time.monotonic()
@@ -131,58 +116,13 @@ class ClusterWatch:
                 raise scheduler_lost(self._client) from None
             return  # a slow answer is not a lost cluster: asked again next time
         if workers:
-            self._empty_since, self._had_workers = None, True
-            self._check_joined(workers)
+            self._empty_since = None
             return
         self._empty_since = now if self._empty_since is None else self._empty_since
-        from nudgecli.runs.dask_cluster import WORKERS_WAIT_S
-
-        address = scheduler_address(self._client)
-        if not self._had_workers and now - self._empty_since >= WORKERS_WAIT_S:
-            raise WorkerLostError(f"the dask scheduler at {address} has had no worker for "
-                                  f"{WORKERS_WAIT_S:g} s (none joined since the work was submitted); "
-                                  f"start some with `dask worker {address}`")
-        if self._had_workers and now - self._empty_since >= self._grace_s:
-            raise WorkerLostError(f"the dask scheduler at {address} has had no "
+        if now - self._empty_since >= self._grace_s:
+            raise WorkerLostError(f"the dask scheduler at {scheduler_address(self._client)} has had no "
                                   f"worker for {self._grace_s:g} s (every worker died or left); start "
-                                  f"some with `dask worker {address}`")
-
-    def check_joined(self) -> None:
-        """Check the nudgecli of the workers that joined since the last look now (:meth:`check`
-        looks every :data:`WORKERS_EVERY_S` seconds): the one that computed a result just taken may be one.
-
-        Raises
-        ------
-        ClusterError
-            A worker that joined cannot run this nudgecli.
-        """
-        try:
-            workers = self._client.nthreads()
-        except Exception:  # a slow answer or a lost scheduler: the next look says which
-            return
-        self._check_joined(workers)
-
-    def _check_joined(self, workers: Iterable[str]) -> None:
-        """Ask those of ``workers`` not checked yet which nudgecli they import; raise a
-        :class:`ClusterError` where one cannot run this one (one that left meanwhile is asked again
-        should it come back)."""
-        joined = sorted(set(workers) - self._checked)
-        if not joined:
-            return
-        from nudgecli.runs.dask_cluster import install_advice, worker_probe, workers_problem
-
-        try:
-            versions = self._client.run(worker_probe(), workers=joined, on_error="return")
-        except Exception:
-            if getattr(self._client, "status", "running") != "running":
-                raise scheduler_lost(self._client) from None
-            return  # a worker that left between the two questions: asked again next time
-        answered = {worker: answer for worker, answer in versions.items() if not isinstance(answer, OSError)}
-        problem = workers_problem(answered) if answered else None  # those that left say nothing
-        if problem is not None:
-            raise ClusterError(f"the workers of the dask scheduler at {scheduler_address(self._client)} "
-                               f"cannot run nudge ({problem}); {install_advice()}")
-        self._checked.update(worker for worker, answer in versions.items() if isinstance(answer, str))
+                                  f"some with `dask worker {scheduler_address(self._client)}`")
 
 
 def _fetch(future: Any, box: dict[str, Any]) -> None:
@@ -234,9 +174,6 @@ def watched_result(future: Any, task: str, watch: ClusterWatch | None = None,
         if error is box["error"]:  # the task's own error, with its cause and context as the task raised it
             raise error
         raise error from None
-    # the worker that computed it may have joined since the last look: its nudgecli is checked
-    # before its result is taken (a result of another version's code is never written)
-    watch.check_joined()
     return box["value"]
 
 

@@ -35,6 +35,7 @@ from multiprocessing.connection import Connection, wait
 from typing import Any
 
 from nudgecli.errors import NudgeError, WorkerError, WorkerLostError, failure_from_message, failure_message
+from nudgecli.runs.dask_cluster import submit_checked
 from nudgecli.runs.dask_results import (
     ClusterWatch,
     failed_among,
@@ -465,10 +466,10 @@ class DaskExecutor:
         client = self._client
         hint = None if job.affinity is None else self._hint(job.affinity)
         if hint is not None:
-            future = client.submit(job.func, *job.args, key=f"nudge-{job.key}",
-                                   workers=hint, allow_other_workers=True, pure=False)
+            future = submit_checked(client, job.func, *job.args, key=f"nudge-{job.key}", workers=hint,
+                                    allow_other_workers=True)
         else:  # no affinity, one every worker holds, or no worker known yet: anywhere
-            future = client.submit(job.func, *job.args, key=f"nudge-{job.key}", pure=False)
+            future = submit_checked(client, job.func, *job.args, key=f"nudge-{job.key}")
         self._jobs[future.key] = job
         self._done.add(future)
 

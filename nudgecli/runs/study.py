@@ -36,7 +36,7 @@ from nudgecli.run_folder_calibration import write_calibration_logs
 from nudgecli.run_folder_names import LAYOUTS, PARTICIPANTS
 from nudgecli.run_folder_record import CONSTANT_METRICS_KEY, FILE_CHECKSUMS
 from nudgecli.run_folder_state import DASK_EXECUTOR, refuse_linked_out
-from nudgecli.runs.dask_cluster import checked_client, one_line, scheduler_label
+from nudgecli.runs.dask_cluster import checked_client, one_line, scheduler_label, submit_checked
 from nudgecli.runs.size import check_study_size
 from nudgecli.runs.solved_layouts import solve_layouts_cached
 from nudgecli.runs.study_tasks import (
@@ -121,7 +121,7 @@ def build_plan_on(config: ExperimentConfig, seed: int, workers: int, client: Any
         return StudyPlan.build(config, seed)
     chunks = contiguous_chunks(len(build_layouts(config, seed)), workers)
     if client is not None:
-        futures = [client.submit(solve_layout_chunk, config, seed, a, b, pure=False) for a, b in chunks]
+        futures = [submit_checked(client, solve_layout_chunk, config, seed, a, b) for a, b in chunks]
         return StudyPlan.assemble(config, seed, client.gather(futures))
     with ProcessPoolExecutor(max_workers=len(chunks), mp_context=process_context(),
                              initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
@@ -248,7 +248,7 @@ def _dask(plan: StudyPlan, todo: list[int], client: Any) -> Iterator[Participant
 
     with client:
         shared = client.scatter(plan, broadcast=True)
-        futures = [client.submit(simulate_on_worker, shared, index, pure=False) for index in todo]
+        futures = [submit_checked(client, simulate_on_worker, shared, index) for index in todo]
         participant = dict(zip((future.key for future in futures), todo, strict=True))
         completed = dask_completed(futures)
         futures.clear()  # a result is released once taken (the cluster held every one till the end)
