@@ -20,7 +20,7 @@ from nudgecli.report.stats import ComparisonOptions, order_conditions
 from nudgecli.report.stats_document import analyze_metric, json_ready
 
 OPTIONS = ComparisonOptions(bootstrap_resamples=40, seed=5)
-SCENARIOS = ("ties", "gaps", "dropped", "constant", "signed_zero", "strings", "single", "categorical")
+SCENARIOS = ("ties", "gaps", "dropped", "constant", "signed_zero", "strings", "single", "categorical", "many")
 
 
 def _table(scenario: str) -> tuple[pd.DataFrame, list[str]]:
@@ -29,11 +29,12 @@ def _table(scenario: str) -> tuple[pd.DataFrame, list[str]]:
     k = {"gaps": 3, "constant": 3, "strings": 4}.get(scenario, 2)
     conditions = [f"c{i}" for i in range(k)]
     n = 24 * k
-    people = 1 if scenario == "single" else 6
+    people = {"single": 1, "many": 200}.get(scenario, 6)  # (200: participant codes of two bytes)
+    n = 2400 if scenario == "many" else n
     data = pd.DataFrame({"participant": rng.integers(0, people, n),
                          "condition": rng.choice([*conditions, "other"], n, p=[0.9 / k] * k + [0.1])})
     data["value"] = rng.integers(0, 5, n).astype(float)  # ties
-    if scenario in ("gaps", "strings", "single", "categorical"):
+    if scenario in ("gaps", "strings", "single", "categorical", "many"):
         data["value"] = rng.gamma(2.0, 3.0, n).round(1)
         data.loc[rng.random(n) < 0.25, "value"] = np.nan
     if scenario == "dropped":  # one participant without a value of c1, one with no row of it
@@ -132,13 +133,14 @@ def test_bootstrap_is_the_replicated_trials_medians(scenario):
     codes, people = pd.factorize(valued["participant"])  # draws name participants in order of appearance
     draws = np.random.default_rng(OPTIONS.seed).integers(0, len(people), (OPTIONS.bootstrap_resamples,
                                                                           len(people)))
-    by_person = [valued[codes == p] for p in range(len(people))]
+    by_person = [np.flatnonzero(codes == p) for p in range(len(people))]
+    values, labels = valued["value"].to_numpy(), valued["condition"].to_numpy()
     medians = {c: [] for c in conditions}
     for drawn in draws:
-        trials = pd.concat([by_person[p] for p in drawn])
+        trials = np.concatenate([by_person[p] for p in drawn])  # each drawn participant's trials
         for c in conditions:
-            values = trials.loc[trials["condition"] == c, "value"].to_numpy()
-            medians[c].append(np.median(values) if values.size else math.nan)
+            chosen = values[trials][labels[trials] == c]
+            medians[c].append(np.median(chosen) if chosen.size else math.nan)
     tail = (1.0 - OPTIONS.bootstrap_level) / 2.0
     for row in intervals:
         differences = np.array(medians[row["a"]]) - np.array(medians[row["b"]])
@@ -154,6 +156,8 @@ def test_metric_rows_are_the_tidy_rows(scenario):
     data, conditions = _table(scenario)
     tidy = tidy_values(data, "value", conditions, "condition", "participant")
     rows = metric_rows(data, "value", conditions, "condition", "participant")
+    if rows.participant_codes is not None:  # in the smallest type that holds them
+        assert rows.participant_codes.dtype == (np.int16 if scenario == "many" else np.int8)
     assert np.array_equal(rows.values, tidy["value"].to_numpy(), equal_nan=False)
     assert [conditions[j] for j in rows.positions] == tidy["condition"].astype(str).tolist()
     if rows.participant_codes is not None:
