@@ -345,6 +345,8 @@ def _dropped(rows: MetricRows, who: np.ndarray | pd.Index, complete: np.ndarray,
     """The participants of ``table``'s rows of the conditions that are not among the complete
     ones (``who[complete]``), sorted as ``pd.Index.difference`` sorts them; without a roster and
     with codes, the usual "none dropped" is found on the codes alone."""
+    # from the table's participants, not the rows': one without any value of a condition has no
+    # row of it, and is dropped as surely as one missing the condition's rows
     everyone_codes = None if roster or isinstance(who, pd.Index) else rows.everyone()
     if everyone_codes is not None and np.isin(everyone_codes, who[complete]).all():
         return []
