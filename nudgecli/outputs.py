@@ -19,13 +19,17 @@ Two rules every command that writes files follows:
   message for every command (:func:`check_not_a_file`).
 - **An output file that exists is replaced only with ``--force``** (:func:`check_output_file`):
   ``nudge fit --out PROFILE.json`` does not write over a profile fitted before.
+- **A command's tables and figures change together or not at all** (:func:`written_together`):
+  the tables wait in their temporaries while the figures are drawn, so a ``--force`` whose figure
+  cannot be written leaves the earlier tables beside the earlier figures.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from pathlib import Path
 
 from nudgecli.errors import DataError, RunFolderError, WriteError, shell_words
@@ -159,3 +163,27 @@ def _same_folder(a: Path, b: Path) -> bool:
         return a.resolve() == b.resolve() or (a.exists() and b.exists() and os.path.samefile(a, b))
     except OSError:
         return False
+
+
+def written_together(texts: Mapping[Path, str], beside: Callable[[], list[Path]] | None = None) -> list[Path]:
+    """Write each text file of ``texts`` (path -> UTF-8 text) to its temporary
+    (:func:`nudgecli.store.atomic_path`), call ``beside`` (what writes the other files of the same
+    output, e.g. its figures, each atomically), and only then rename the texts into place: a
+    failure anywhere (a figure path that is a folder, a full disk) leaves every text file as it was
+    and no temporary.
+
+    Returns
+    -------
+    list[Path]
+        The text files, in the order of ``texts``, then the files ``beside`` wrote.
+    """
+    from nudgecli.store import atomic_path, write_error  # the store builds on this module
+
+    for path in texts:  # found now, before any file is written or renamed
+        if Path(path).is_dir():
+            raise write_error(path, IsADirectoryError(errno.EISDIR, os.strerror(errno.EISDIR)))
+    with contextlib.ExitStack() as stack:  # closed without an error: every temporary renamed into place
+        for path, text in texts.items():
+            stack.enter_context(atomic_path(path)).write_text(text, encoding="utf-8", newline="")
+        others = beside() if beside is not None else []
+    return [*texts, *others]

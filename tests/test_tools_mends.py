@@ -134,3 +134,46 @@ def test_a_reader_of_a_run_being_written_is_told_to_wait(analysed_smoke_run: Pat
     # before: "is incomplete ... restore with `nudge simulate ... --resume`" (refused: in use by)
     assert "the run is running, in use by `nudge simulate smoke`" in message
     assert message.endswith("wait for it to finish") and "--resume" not in message
+
+
+# --- a --force that fails while writing changes no table ---------------------------------------
+
+
+def test_compare_force_whose_figure_cannot_be_written_keeps_the_earlier_tables(tmp_path: Path) -> None:
+    from nudgecli.api.tables import compare
+    from nudgecli.errors import WriteError
+
+    simulated, real = _compare_tables(tmp_path)
+    out = tmp_path / "cmp"
+    out.mkdir()
+    names = ("compare.csv", "participant_medians.csv", "compare.json")
+    before = {name: f"earlier {name}\n" for name in names}
+    for name, text in before.items():
+        (out / name).write_text(text, encoding="utf-8")
+    (out / "compare.png").mkdir()  # the figure cannot be written
+    with pytest.raises(WriteError, match=r"compare\.png"):
+        compare(simulated, real, match={"disambiguation": "assisted"}, resamples=0, out=out, formats=["png"],
+                force=True)
+    # before: the new tables were written first, beside the earlier figure
+    assert {name: (out / name).read_text(encoding="utf-8") for name in before} == before
+    assert sorted(p.name for p in out.iterdir()) == sorted([*before, "compare.png"])  # no temporary
+
+
+def test_validate_force_whose_figure_cannot_be_written_keeps_the_earlier_tables(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from nudgecli.api.validation import validate
+    from nudgecli.errors import WriteError
+
+    def unwritable(summary: object, out: Path) -> list[Path]:
+        raise WriteError(f"cannot write {out / 'validation.png'}: Is a directory")
+
+    monkeypatch.setattr("nudgecli.report.validation_figure.plot_validation", unwritable)
+    out = tmp_path / "val"
+    out.mkdir()
+    before = {name: f"earlier {name}\n" for name in ("validation.json", "validation.csv")}
+    for name, text in before.items():
+        (out / name).write_text(text, encoding="utf-8")
+    with pytest.raises(WriteError, match=r"validation\.png"):
+        validate(simulations=1, min_goals=3, max_goals=3, states=40, mc_queries=0, out=out, force=True)
+    assert {name: (out / name).read_text(encoding="utf-8") for name in before} == before
+    assert sorted(p.name for p in out.iterdir()) == sorted(before)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -246,8 +247,9 @@ def compare(simulated: Run | str | Path, real: str | Path, *, plan: str | Path |
         if out is not None:
             from nudgecli.report.compare_figure import plot_comparison
 
-            files = write_comparison(result, out)
-            files += plot_comparison(result.trials, result.table, result.medians, out, chosen_formats)
+            # the tables are renamed into place only once the figure is written too
+            files = write_comparison(result, out, partial(plot_comparison, result.trials, result.table,
+                                                          result.medians, out, chosen_formats))
     except BaseException:
         if made and out is not None and Path(out).is_dir() and not any(Path(out).iterdir()):
             Path(out).rmdir()  # made by the write check only: a refused comparison leaves nothing

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -163,8 +164,8 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         else:
             from nudgecli.report.validation_figure import plot_validation
 
-            made.files.extend(validation.save_validation(results[0], out))
-            made.files.extend(plot_validation(made.summary(), out))
+            figure = partial(plot_validation, made.summary(), out)  # written before the tables are renamed
+            made.files.extend(validation.save_validation(results[0], out, figure))
     log_notes(made.notes, log)
     return made
 

@@ -39,14 +39,13 @@ import pandas as pd
 
 from nudgecli import command_defaults as defaults
 from nudgecli.errors import DataError, did_you_mean, shell_words
-from nudgecli.outputs import check_not_a_file
+from nudgecli.outputs import check_not_a_file, written_together
 from nudgecli.report.analysis import load_source
 from nudgecli.report.plan_filters import apply_plan_filters
 from nudgecli.report.plans import AnalysisPlan, load_plan
 from nudgecli.report.stats import order_conditions
 from nudgecli.report.stats_document import json_ready
 from nudgecli.rng import generator
-from nudgecli.store import write_text_atomic
 
 #: The two sources, in display order.
 SOURCES = ("simulated", "real")
@@ -553,19 +552,17 @@ def condition_pair(simulated: str, real: str) -> str:
 COMPARISON_FILES = ("compare.csv", "participant_medians.csv", "compare.json")
 
 
-def write_comparison(result: Comparison, out: str | Path) -> list[Path]:
-    """Write ``compare.csv``, ``participant_medians.csv`` and ``compare.json`` into ``out`` (atomically)."""
+def write_comparison(result: Comparison, out: str | Path,
+                     beside: Callable[[], list[Path]] | None = None) -> list[Path]:
+    """Write ``compare.csv``, ``participant_medians.csv`` and ``compare.json`` into ``out``, renamed
+    into place together once ``beside`` (the figure's writer) has written its files too
+    (:func:`~nudgecli.outputs.written_together`): a failure leaves the earlier files as they were."""
     import json
 
     folder = Path(out)
     check_not_a_file(folder)
-    files = dict(zip(COMPARISON_FILES, (
+    return written_together(dict(zip((folder / name for name in COMPARISON_FILES), (
         result.table.to_csv(index=False),
         result.medians.to_csv(index=False),
         json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n",
-    ), strict=True))
-    written = []
-    for name, text in files.items():
-        write_text_atomic(folder / name, text)
-        written.append(folder / name)
-    return written
+    ), strict=True)), beside)

@@ -6,11 +6,11 @@ import csv
 import io
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-from nudgecli.outputs import check_not_a_file
+from nudgecli.outputs import check_not_a_file, written_together
 from nudgecli.sim.validation.runner import QUERY_COLUMNS, ValidationResult
 from nudgecli.store import check_writable, write_text_atomic
 
@@ -46,14 +46,14 @@ def prepare_out(out_dir: str | os.PathLike[str]) -> Path:
     return out
 
 
-def save_validation(result: ValidationResult, out_dir: str | os.PathLike[str]) -> list[Path]:
-    """Write ``validation.json`` and ``validation.csv`` (per query) into ``out_dir``, atomically."""
+def save_validation(result: ValidationResult, out_dir: str | os.PathLike[str],
+                    beside: Callable[[], list[Path]] | None = None) -> list[Path]:
+    """Write ``validation.json`` and ``validation.csv`` (per query) into ``out_dir``, renamed into
+    place together once ``beside`` (the figure's writer) has written its files too
+    (:func:`~nudgecli.outputs.written_together`): a failure leaves the earlier files as they were."""
     out = prepare_out(out_dir)
-    written = []
-    for name, text in (("validation.json", summary_json(result)), ("validation.csv", queries_csv(result))):
-        write_text_atomic(out / name, text)
-        written.append(out / name)
-    return written
+    return written_together({out / "validation.json": summary_json(result),
+                             out / "validation.csv": queries_csv(result)}, beside)
 
 
 def readings_summary(results: Sequence[ValidationResult]) -> list[dict[str, Any]]:
