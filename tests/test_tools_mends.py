@@ -177,3 +177,16 @@ def test_validate_force_whose_figure_cannot_be_written_keeps_the_earlier_tables(
         validate(simulations=1, min_goals=3, max_goals=3, states=40, mc_queries=0, out=out, force=True)
     assert {name: (out / name).read_text(encoding="utf-8") for name in before} == before
     assert sorted(p.name for p in out.iterdir()) == sorted(before)
+
+
+# --- docs/people.md: a log without its layout leaves one reaction parameter to the population -----
+
+
+def test_people_md_says_a_log_without_its_layout_still_fits_the_reaction_spread() -> None:
+    # the rule itself: tests/test_sim_twins.py::test_the_reaction_needs_both_reactions_and_its_spread_...
+    people = Path(__file__).resolve().parents[1] / "docs" / "people.md"
+    text = " ".join(people.read_text(encoding="utf-8").split())
+    assert "both reaction parameters" not in text  # before: both, though the spread is fitted
+    assert ("no stop -> switch in a log without its `layout` column: `event_reaction_s` then, whose rule "
+            "is both reactions' mean, while `event_reaction_log_sd` is still fitted from switch -> motion "
+            "alone") in text
