@@ -190,3 +190,28 @@ def test_people_md_says_a_log_without_its_layout_still_fits_the_reaction_spread(
     assert ("no stop -> switch in a log without its `layout` column: `event_reaction_s` then, whose rule "
             "is both reactions' mean, while `event_reaction_log_sd` is still fitted from switch -> motion "
             "alone") in text
+
+
+# --- validate: --mc-queries unused or capped is said in a note ----------------------------------
+
+
+def test_validate_notes_mc_queries_beside_all_readings(monkeypatch: pytest.MonkeyPatch) -> None:
+    from nudgecli.api.validation import validate
+
+    # the notes are on the options; the validation itself is not what is checked here
+    monkeypatch.setattr("nudgecli.sim.validation.run_all_readings", lambda settings, names, progress: [])
+    checked = validate(simulations=2, min_goals=3, max_goals=3, states=72, mc_queries=50, all_readings=True)
+    assert any(note.startswith("--mc-queries 50 is not used with --all-readings") for note in checked.notes)
+    quiet = validate(simulations=2, min_goals=3, max_goals=3, states=72, mc_queries=0, all_readings=True)
+    assert not any("--mc-queries" in note for note in quiet.notes)  # 0 (or the default): nothing to say
+
+
+def test_validate_notes_mc_queries_capped_at_the_worlds_queries() -> None:
+    from nudgecli.api.validation import validate
+
+    capped = validate(simulations=1, min_goals=2, max_goals=2, states=18, mc_queries=20)
+    ran = capped.results[0].mc_queries_run
+    assert ran < 20 and any(note.startswith(f"--mc-queries 20: the Monte-Carlo convergence study ran {ran}:")
+                            for note in capped.notes), capped.notes
+    exact = validate(simulations=1, min_goals=2, max_goals=2, states=18, mc_queries=ran)
+    assert not any("--mc-queries" in note for note in exact.notes)

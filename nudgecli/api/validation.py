@@ -114,7 +114,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         Query beliefs are Dirichlet(c); ``None``: 1, and not given. Given, it is refused with the
         two-goal reading alone, whose beliefs are split between two goals.
     mc_queries
-        Queries of the Monte-Carlo convergence study (0 skips it).
+        Queries of the Monte-Carlo convergence study (0 skips it; a note where fewer ran, or none).
     reading
         Which reading of the paper's validation paragraph.
     all_readings
@@ -137,6 +137,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
     """
     from nudgecli.api import arguments
     from nudgecli.api.analysis import log_notes
+    from nudgecli.outputs import check_output_folder
     from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size, override_named
     from nudgecli.sim import validation
 
@@ -149,14 +150,13 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         check_size(simulations * settings.states * len(names), yes, limit=MAX_QUERIES_WITHOUT_YES,
                    work="run {} queries (worlds x states x readings)", fix="fewer --simulations or --states")
     if out is not None:
-        from nudgecli.outputs import check_output_folder
-
         check_output_folder(out, force=force)
         validation.prepare_out(out)
     if all_readings:
         results = validation.run_all_readings(settings, names, progress=progress)
     else:
         results = [validation.run_validation(settings, progress=progress)]
+        notes += validation.runner.mc_queries_notes(results)  # the worlds held fewer queries than asked
     made = Validation(tuple(results), all_readings, notes=notes)
     if out is not None:
         if all_readings:
@@ -177,6 +177,7 @@ def _checked_settings(simulations: int, min_goals: int, max_goals: int, states: 
     them do not use (``None``: an option not given). Before any work."""
     from nudgecli.api import arguments
     from nudgecli.sim import validation
+    from nudgecli.sim.validation.runner import all_readings_mc_note
 
     counts = {name: arguments.whole_number(name, value) for name, value in (
         ("simulations", simulations), ("min_goals", min_goals), ("max_goals", max_goals),
@@ -192,7 +193,8 @@ def _checked_settings(simulations: int, min_goals: int, max_goals: int, states: 
     names = list(validation.READINGS) if all_readings else [reading]
     notes = [validation.settings.states_note(None if states is None else settings.states, names),
              validation.settings.concentration_note(
-                 None if belief_concentration is None else settings.belief_concentration, names)]
+                 None if belief_concentration is None else settings.belief_concentration, names),
+             all_readings_mc_note(settings.mc_queries) if all_readings else None]
     for name in names:
         replace(settings, reading=name).check()
     return settings, names, [note for note in notes if note]

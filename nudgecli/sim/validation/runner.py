@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from nudgecli import command_defaults as defaults
 from nudgecli.model.information import mutual_information
 from nudgecli.model.interface import default_distortion_table, default_mapping_table
 from nudgecli.rng import generator
@@ -77,12 +78,16 @@ class ValidationResult:
     convergence_limit
         The same measures for ``N -> infinity`` (the unweighted estimator's bias floor; the
         weighted estimator converges to the exact value).
+    mc_queries_run
+        The queries the Monte-Carlo convergence study ran: ``settings.mc_queries``, or fewer where
+        a simulation's world holds fewer queries than its share of them.
     """
 
     settings: ValidationSettings
     queries: dict[str, np.ndarray]
     convergence: list[dict[str, Any]] = field(default_factory=list)
     convergence_limit: dict[str, dict[str, Any]] = field(default_factory=dict)
+    mc_queries_run: int = 0
 
     def summary(self) -> dict[str, Any]:
         """The JSON-ready summary (only reproducible values; no timings)."""
@@ -328,8 +333,35 @@ def run_validation(settings: ValidationSettings, mapping: np.ndarray | None = No
             progress(k + 1, settings.simulations)
     queries = {name: np.concatenate([t[name] for t in tables]) for name in QUERY_COLUMNS}
     convergence, limits = aggregate_convergence(records, settings.mc_samples)
+    # a simulation's share of --mc-queries is capped at its world's queries (simulate's draw)
+    ran = sum(min(int(share), len(table["match"])) for share, table in zip(per_sim, tables, strict=True))
     return ValidationResult(settings=settings, queries=queries, convergence=convergence,
-                            convergence_limit=limits)
+                            convergence_limit=limits, mc_queries_run=ran)
+
+
+def mc_queries_notes(results: Sequence[ValidationResult]) -> list[str]:
+    """A note (without its ``Note:``) for each result whose convergence study ran fewer queries than
+    ``--mc-queries`` asked: each simulation's share is capped at its world's queries."""
+    notes = []
+    for result in results:
+        asked, ran = result.settings.mc_queries, result.mc_queries_run
+        if ran < asked:
+            fewest = int(np.bincount(result.queries["simulation"]).min())
+            notes.append(f"--mc-queries {asked}: the Monte-Carlo convergence study ran {ran}: each of the "
+                         f"{result.settings.simulations} simulation(s) draws its share of them from its own "
+                         f"world's queries ({fewest} in the smallest), no more; give more --simulations "
+                         "for more")
+    return notes
+
+
+def all_readings_mc_note(mc_queries: int) -> str | None:
+    """A note (without its ``Note:``) for ``--mc-queries`` given beside ``--all-readings``, which
+    skips the Monte-Carlo convergence study (:func:`run_all_readings`); ``None`` for 0 or the
+    default (not given)."""
+    if mc_queries in (0, defaults.VALIDATION_MC_QUERIES):
+        return None
+    return (f"--mc-queries {mc_queries} is not used with --all-readings: the Monte-Carlo convergence study "
+            "does not depend on the reading and runs only with one reading (leave out --all-readings)")
 
 
 def run_all_readings(settings: ValidationSettings, readings: Sequence[str] = tuple(READINGS),
@@ -360,5 +392,5 @@ def run_all_readings(settings: ValidationSettings, readings: Sequence[str] = tup
     return results
 
 
-__all__ = ["QUERY_COLUMNS", "ValidationResult", "query_beliefs", "run_all_readings", "run_validation",
-           "simulate"]
+__all__ = ["QUERY_COLUMNS", "ValidationResult", "all_readings_mc_note", "mc_queries_notes", "query_beliefs",
+           "run_all_readings", "run_validation", "simulate"]
