@@ -17,7 +17,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from nudgecli.errors import shell_words
-from nudgecli.run_folder_names import MANIFEST
+from nudgecli.run_folder_names import MANIFEST, PART_KINDS
 
 #: The delimiters a CSV file of a researcher's may use, in the order tried: a spreadsheet in a
 #: locale with a decimal comma writes semicolons.
@@ -70,6 +70,8 @@ def not_utf8_message(path: Path) -> str:
     path
         The file whose reading failed with a ``UnicodeDecodeError``.
     """
+    if starts_as_parquet(path):  # binary, so never UTF-8: a run's part given for a CSV
+        return parquet_message(path)
     fix = "save it as UTF-8 (a spreadsheet's \"CSV UTF-8\", an editor's encoding UTF-8)"
     try:
         with path.open("rb") as file:
@@ -82,6 +84,32 @@ def not_utf8_message(path: Path) -> str:
     except OSError:  # gone since its reading failed: say what is known
         pass
     return f"{path}: not UTF-8 text; {fix}"
+
+
+#: The 4 bytes a Parquet file starts (and ends) with.
+PARQUET_MAGIC = b"PAR1"
+
+
+def starts_as_parquet(path: Path) -> bool:
+    """Whether a file starts with Parquet's magic bytes (:data:`PARQUET_MAGIC`), whatever its name."""
+    try:
+        with path.open("rb") as file:
+            return file.read(len(PARQUET_MAGIC)) == PARQUET_MAGIC
+    except OSError:
+        return False
+
+
+def parquet_message(path: Path) -> str:
+    """The one line for a Parquet file given where CSV text is read: a run folder's part (its
+    ``steps/``, ``trials/`` or ``participants/``, or a table beside its manifest) names the run
+    folder to give instead; another says it is no CSV."""
+    said = f"{path}: a Parquet file (it starts with {PARQUET_MAGIC.decode()}), not CSV text"
+    parent = path.parent
+    run = parent.parent if parent.name in PART_KINDS and (parent.parent / MANIFEST).is_file() else \
+        parent if (parent / MANIFEST).is_file() else None
+    if run is not None:
+        return f"{said}; it is a part of the run folder {run}, which is read whole: give the run folder {run}"
+    return f"{said}; give the CSV file (or the run folder it came from)"
 
 
 #: A TOML file's first line: a table header (``[study]``, ``[[conditions]]``, ``[population.x]``)

@@ -215,3 +215,39 @@ def test_validate_notes_mc_queries_capped_at_the_worlds_queries() -> None:
                             for note in capped.notes), capped.notes
     exact = validate(simulations=1, min_goals=2, max_goals=2, states=18, mc_queries=ran)
     assert not any("--mc-queries" in note for note in exact.notes)
+
+
+# --- habits of a Parquet part or a JSON --compare does not read: the right advice ------------------
+
+
+def test_habits_of_a_run_part_names_the_run_folder(analysed_smoke_run: Path, tmp_path: Path) -> None:
+    from nudgecli.errors import DataError
+    from nudgecli.report.habits import source_cells
+
+    part = analysed_smoke_run / "steps" / "part-0000.parquet"
+    with pytest.raises(DataError) as raised:
+        source_cells(part)
+    message = str(raised.value)
+    # before: "not UTF-8 text (byte 0xe4 on line 1; ...); save it as UTF-8"
+    assert "a Parquet file" in message and "UTF-8" not in message
+    assert message.endswith(f"give the run folder {analysed_smoke_run}")
+    loose = tmp_path / "table.csv"  # a Parquet file of no run, named as a CSV
+    loose.write_bytes(part.read_bytes())
+    with pytest.raises(DataError, match=r"a Parquet file .* not CSV text; give the CSV file"):
+        source_cells(loose)
+
+
+@pytest.mark.parametrize("text", ['{"participant": "p1", "p_phi_given_a": {}, "p_phm_given_phi": {}}',
+                                  '{"habits": []}', '[{"a": 1}]', "\ufeff{}"])
+def test_habits_of_a_json_compare_does_not_read_does_not_advise_compare(tmp_path: Path, text: str) -> None:
+    from nudgecli.errors import DataError
+    from nudgecli.report.habits import source_cells
+
+    source = tmp_path / "p1.profile.json"
+    source.write_text(text, encoding="utf-8")
+    with pytest.raises(DataError) as raised:
+        source_cells(source)
+    message = str(raised.value)
+    # before: "... nudge habits SOURCE --compare p1.profile.json", which then failed "no 'habits' object"
+    assert "SOURCE --compare" not in message and "is no reference for --compare either" in message
+    assert ("a `nudge fit` profile" in message) == ("p_phm_given_phi" in text)

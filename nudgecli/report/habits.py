@@ -174,13 +174,9 @@ class _CellArrays:
 
 def cell_arrays(cells: pd.DataFrame, rate_hz: float) -> _CellArrays:
     """The arrays the measuring steps read, from a cell table
-    (:data:`~nudgecli.report.habit_cells.CELL_COLUMNS`).
-
-    Only the person's cells are kept (``person_turn``): an autonomy turn's input and motion are not
-    the person's, so blows, pauses, motion runs and reactions are cut at it (a pause across it, or a
-    switch -> the autonomy's motion, is none of theirs); the first-command latency stays timed from
-    the trial's start, as HABITS.md defines it.
-    """
+    (:data:`~nudgecli.report.habit_cells.CELL_COLUMNS`): the person's cells (``person_turn``), cut at
+    each autonomy turn (a pause across it, or the autonomy's motion, is none of theirs); the
+    first-command latency stays timed from the trial's start, as HABITS.md defines it."""
     n = len(cells)
     participant = cells["participant"].to_numpy()
     trial = cells["trial"].to_numpy()
@@ -347,6 +343,11 @@ def _json_source_message(path: Path) -> str:
     if (path.parent / MANIFEST).is_file():
         return f"{reads}; for the run this file belongs to, give the run folder itself: " \
                f"{shell_words(['nudge', 'habits', str(path.parent)])}"
+    try:  # --compare is advised only for a file it reads
+        load_reference(str(path))
+    except DataError as exc:  # a `nudge fit` profile: p(phi_m | phi_i) and no habits
+        what = "a `nudge fit` profile" if "p_phm_given_phi" in path.read_text("utf-8", "replace") else "it"
+        return f"{reads}; {what} is no reference for --compare either: {str(exc).removeprefix(f'{path}: ')}"
     return (f"{reads}; a JSON that `nudge habits --format json` wrote is read as a reference printed beside "
             f"a source: {shell_words(['nudge', 'habits', 'SOURCE', '--compare', str(path)])}")
 
