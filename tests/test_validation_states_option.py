@@ -49,6 +49,7 @@ def test_a_reading_without_the_option_it_ignores_runs_with_the_defaults(monkeypa
     ran = []
     monkeypatch.setattr("nudgecli.sim.validation.run_validation",
                         lambda settings, progress: ran.append(settings))
+    monkeypatch.setattr("nudgecli.sim.validation.runner.mc_queries_notes", lambda results: [])  # of no result
     monkeypatch.setattr("nudgecli.api.validation.Validation.text", lambda self: "")
     result = CliRunner().invoke(main, [*SMALL, "--reading", reading])
     assert result.exit_code == 0, result.output

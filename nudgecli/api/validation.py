@@ -140,6 +140,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
     from nudgecli.outputs import check_output_folder
     from nudgecli.runs.size import MAX_QUERIES_WITHOUT_YES, check_size, override_named
     from nudgecli.sim import validation
+    from nudgecli.sim.validation.runner import mc_queries_notes
 
     settings, names, notes = _checked_settings(simulations, min_goals, max_goals, states, seed,
                                                belief_concentration, mc_queries, reading, all_readings)
@@ -156,18 +157,25 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         results = validation.run_all_readings(settings, names, progress=progress)
     else:
         results = [validation.run_validation(settings, progress=progress)]
-        notes += validation.runner.mc_queries_notes(results)  # the worlds held fewer queries than asked
+        notes += mc_queries_notes(results)  # the worlds held fewer queries than --mc-queries asked
     made = Validation(tuple(results), all_readings, notes=notes)
     if out is not None:
-        if all_readings:
-            made.files.extend(validation.save_readings(results, out))
-        else:
-            from nudgecli.report.validation_figure import plot_validation
-
-            figure = partial(plot_validation, made.summary(), out)  # written before the tables are renamed
-            made.files.extend(validation.save_validation(results[0], out, figure))
+        made.files.extend(_write(made, out))
     log_notes(made.notes, log)
     return made
+
+
+def _write(made: Validation, out: str | Path) -> list[Path]:
+    """Write ``made`` into ``out``: ``readings.json`` of every reading, or one reading's
+    ``validation.json``, ``validation.csv`` and figure, the tables renamed into place only once the
+    figure is written too."""
+    from nudgecli.sim import validation
+
+    if made.all_readings:
+        return validation.save_readings(made.results, out)
+    from nudgecli.report.validation_figure import plot_validation
+
+    return validation.save_validation(made.results[0], out, partial(plot_validation, made.summary(), out))
 
 
 def _checked_settings(simulations: int, min_goals: int, max_goals: int, states: int | None, seed: int,
