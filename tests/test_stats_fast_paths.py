@@ -82,6 +82,49 @@ def test_descriptives_and_mean_ranks_are_pandas_and_scipy(scenario):
         assert _same(entry["mean_rank"][c], float(ranks[chosen].mean()) if chosen.any() else math.nan)
 
 
+ROW_ORDERS = ("own", "condition", "condition_descending", "participant", "shuffled")
+PLAN_ORDERS = (("disambiguation", "control"), ("control", "disambiguation"),
+               ("control", "disambiguation", "blending"), ("blending", "disambiguation", "control"))
+
+
+def _ordered(order: str, categories: tuple[str, ...] | None) -> pd.DataFrame:
+    """A trial table of three conditions (values of full precision) with its rows in ``order``, its
+    conditions plain labels or categorical with the given (not alphabetical) categories."""
+    rng = np.random.default_rng(11)
+    n = 900
+    data = pd.DataFrame({"participant": rng.integers(0, 12, n),
+                         "condition": rng.choice(["disambiguation", "control", "blending"], n),
+                         "value": rng.gamma(2.0, 3.0, n)})
+    if order == "condition":
+        data = data.sort_values(["condition", "participant"], kind="stable")
+    elif order == "condition_descending":
+        data = data.sort_values(["condition", "participant"], ascending=[False, True], kind="stable")
+    elif order == "participant":
+        data = data.sort_values("participant", kind="stable")
+    elif order == "shuffled":
+        data = data.sample(frac=1.0, random_state=2)
+    if categories is not None:
+        data["condition"] = pd.Categorical(data["condition"], categories=categories)
+    return data.reset_index(drop=True)
+
+
+@pytest.mark.parametrize("categories", (None, ("disambiguation", "control", "blending"),
+                                        ("control", "blending", "disambiguation")))
+@pytest.mark.parametrize("order", ROW_ORDERS)
+def test_means_are_pandas_grouping_of_the_labels_in_any_row_order(order, categories):
+    """A condition's mean is pandas' grouped mean of the labels themselves (plain labels sorted,
+    categories in their order) bit for bit, whatever the order of the rows and of the plan's
+    conditions: the grouped sum takes another path (and other last digits) when the groups come
+    in another order through the rows."""
+    data = _ordered(order, categories)
+    for conditions in PLAN_ORDERS:
+        tidy = tidy_values(data, "value", conditions, "condition")
+        expected = tidy.groupby("condition", observed=True)["value"].mean()
+        entry = analyze_metric(data, "value", list(conditions), OPTIONS)
+        for c in conditions:
+            assert _same(entry["mean"][c], float(expected[c])), (conditions, c)
+
+
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_trial_level_tests_are_scipy_and_scikit_posthocs(scenario):
     data, conditions = _table(scenario)

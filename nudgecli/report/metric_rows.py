@@ -70,18 +70,22 @@ class TableKeys:
         where they are read from a table (categorical, or not sortable).
     participant_labels
         The distinct participants, sorted.
+    group_order
+        ``(k,)`` :func:`condition_group_order` of the table's condition labels.
     """
 
     conditions: tuple[str, ...]
     positions: np.ndarray
     participant_codes: np.ndarray | None = None
     participant_labels: pd.Index | None = None
+    group_order: np.ndarray | None = None
 
 
 def table_keys(data: pd.DataFrame, conditions: Sequence[str], condition: str,
                participant: str | None = None) -> TableKeys:
     """:class:`TableKeys` of a table (one match of its labels, however many metrics read it)."""
-    positions = condition_positions(_condition_labels(data[condition]), conditions)
+    condition_labels = _condition_labels(data[condition])
+    positions = condition_positions(condition_labels, conditions)
     codes = labels = None
     if participant is not None and participant in data and \
             not isinstance(data[participant].dtype, pd.CategoricalDtype):
@@ -92,7 +96,8 @@ def table_keys(data: pd.DataFrame, conditions: Sequence[str], condition: str,
     # the smallest integers that hold them: a large table's rows cost a byte or two each, not eight
     if codes is not None and labels is not None:
         codes = narrow_codes(codes, len(labels))
-    return TableKeys(tuple(conditions), narrow_codes(positions, len(conditions)), codes, labels)
+    return TableKeys(tuple(conditions), narrow_codes(positions, len(conditions)), codes, labels,
+                     condition_group_order(condition_labels, conditions))
 
 
 def narrow_codes(codes: np.ndarray, count: int) -> np.ndarray:
@@ -123,15 +128,19 @@ class MetricRows:
         (categorical participants, or none asked for).
     participant_labels
         The table's distinct participants, sorted.
+    group_order
+        ``(k,)`` each condition's place in the order pandas groups the table's labels in
+        (:func:`condition_group_order`; the given order where None).
     """
 
     def __init__(self, values: np.ndarray, positions: np.ndarray, conditions: Sequence[str], *,
                  participant_codes: np.ndarray | None = None, participant_labels: pd.Index | None = None,
                  table: pd.DataFrame | None = None, source: tuple[Any, ...] | None = None,
-                 keys: TableKeys | None = None) -> None:
+                 keys: TableKeys | None = None, group_order: np.ndarray | None = None) -> None:
         self.values, self.positions, self.conditions = values, positions, list(conditions)
         self.participant_codes, self.participant_labels = participant_codes, participant_labels
         self._table, self._source, self._keys = table, source, keys
+        self.group_order = group_order
 
     def table(self, *, participants: bool = True) -> pd.DataFrame:
         """:func:`tidy_values`' table of these rows: the one given, or made anew for a library that
@@ -165,9 +174,12 @@ class MetricRows:
         kept = positions >= 0
         table = None if self._table is None else self._table[kept].reset_index(drop=True)
         codes = None if self.participant_codes is None else self.participant_codes[kept]
+        order = None
+        if self.group_order is not None:  # the compared conditions' places, in the same order
+            order = np.argsort(np.argsort(self.group_order[[self.conditions.index(c) for c in compared]]))
         return MetricRows(self.values[kept], positions[kept], compared, participant_codes=codes,
                           participant_labels=self.participant_labels, table=table, source=self._source,
-                          keys=self._keys)
+                          keys=self._keys, group_order=order)
 
 
 def metric_rows(data: pd.DataFrame, metric: str, conditions: Sequence[str], condition: str,
@@ -185,7 +197,7 @@ def metric_rows(data: pd.DataFrame, metric: str, conditions: Sequence[str], cond
     return MetricRows(values if everything else values[keep],
                       keys.positions if everything else keys.positions[keep], conditions,
                       participant_codes=codes, participant_labels=keys.participant_labels,
-                      source=(data, metric, condition, participant), keys=keys)
+                      source=(data, metric, condition, participant), keys=keys, group_order=keys.group_order)
 
 
 def rows_of_tidy(tidy: pd.DataFrame, conditions: Sequence[str]) -> MetricRows:
@@ -197,7 +209,8 @@ def rows_of_tidy(tidy: pd.DataFrame, conditions: Sequence[str]) -> MetricRows:
         except TypeError:
             codes = labels = None
     return MetricRows(tidy["value"].to_numpy(dtype=float), condition_positions(tidy["condition"], conditions),
-                      conditions, participant_codes=codes, participant_labels=labels, table=tidy)
+                      conditions, participant_codes=codes, participant_labels=labels, table=tidy,
+                      group_order=condition_group_order(tidy["condition"], conditions))
 
 
 #: What a test takes as the rows it reads: :func:`tidy_values`' table, or its :class:`MetricRows`.
@@ -243,3 +256,31 @@ def condition_positions(labels: pd.Series, conditions: Sequence[str]) -> np.ndar
         by_code = np.append(lookup[index.get_indexer(labels.cat.categories)], -1)  # (code -1: missing)
         return by_code[labels.cat.codes.to_numpy()]
     return lookup[index.get_indexer(labels)]
+
+
+def condition_group_order(labels: pd.Series, conditions: Sequence[str]) -> np.ndarray:
+    """Each condition's place in the order ``labels.groupby`` groups them: a categorical column's
+    categories in their order, other labels sorted as strings.
+
+    A grouped mean is a sum in the rows' order whose path (and so its last digits) depends on
+    whether the group numbers rise through the rows; grouping by these places, not by the
+    conditions' positions, gives the means of grouping the labels themselves, bit for bit.
+
+    Parameters
+    ----------
+    labels
+        ``(n,)`` condition labels (:func:`tidy_values`' ``condition``).
+    conditions
+        The conditions, in order.
+
+    Returns
+    -------
+    np.ndarray
+        ``(k,)`` intp, a permutation of ``0 .. k - 1``: the conditions' ranks in that order (a
+        condition that is not a category after the categories, in the given order).
+    """
+    if isinstance(labels.dtype, pd.CategoricalDtype):
+        places = pd.Index([str(c) for c in labels.cat.categories]).get_indexer(list(conditions))
+        places = np.where(places >= 0, places, len(labels.cat.categories) + np.arange(len(conditions)))
+        return np.argsort(np.argsort(places, kind="stable")).astype(np.intp)
+    return np.argsort(np.argsort(np.array(conditions, dtype=object), kind="stable")).astype(np.intp)

@@ -44,7 +44,7 @@ import pandas as pd
 
 from nudgecli.model.conditions import PAPER_CONDITIONS
 from nudgecli.report.comparison_options import ComparisonOptions as ComparisonOptions  # re-exported
-from nudgecli.report.metric_rows import MetricRows, TidyRows, rows_for
+from nudgecli.report.metric_rows import MetricRows, TidyRows, narrow_codes, rows_for
 from nudgecli.report.metric_rows import compared_participants as compared_participants  # re-exported
 from nudgecli.report.metric_rows import condition_positions as condition_positions  # re-exported
 from nudgecli.report.metric_rows import tidy_values as tidy_values  # re-exported
@@ -125,8 +125,8 @@ def descriptive_columns(data: pd.DataFrame, metric: str, conditions: Sequence[st
 
     The values are pandas' grouped ``size``, ``mean``, ``median`` and linear ``quantile`` (0.25,
     0.75) of the condition's values, bit for bit: the counts a ``bincount``, the means pandas' own
-    (grouped by the conditions' positions), the medians and quartiles picked from one sort
-    (:func:`_sorted_descriptives`).
+    (grouped in the order pandas groups the labels in), the medians and quartiles picked from one
+    sort (:func:`_sorted_descriptives`).
 
     Returns
     -------
@@ -144,16 +144,19 @@ def descriptive_columns(data: pd.DataFrame, metric: str, conditions: Sequence[st
                **{name: np.full(k, np.nan) for name in ("mean", "median", "q1", "q3")}}
     if values.size == 0:
         return columns
-    # the means are pandas' (its grouped mean is a compensated sum in the rows' order)
-    grouped = pd.Series(values).groupby(positions)
+    # the means are pandas' (its grouped mean is a compensated sum in the rows' order), grouped in the
+    # labels' own order (:func:`condition_group_order`): the positions' order can take another path
+    order = np.arange(k) if rows.group_order is None else rows.group_order
+    grouped = pd.Series(values).groupby(narrow_codes(order, k)[positions])
     results = [("mean", grouped.mean())]
     if np.any((values == 0) & np.signbit(values)):  # which zero pandas' selection returns: its own
         results += [("median", grouped.median()), ("q1", grouped.quantile(0.25)),
                     ("q3", grouped.quantile(0.75))]
     else:
         columns.update(_sorted_descriptives(values, positions, k))
+    position_of = np.argsort(order)  # a group's place -> its condition's position
     for name, result in results:
-        columns[name][result.index.to_numpy()] = result.to_numpy()
+        columns[name][position_of[result.index.to_numpy()]] = result.to_numpy()
     return columns
 
 
