@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from nudgecli.report.habit_cells import _trial_cells
+from nudgecli.report.habit_cells import _trial_cells, habit_rate_cells
 from nudgecli.report.habits import measure_habits
 
 # --- habits: an autonomy turn between two blows is not the person's ------------------------------
@@ -28,7 +28,8 @@ _TRIAL = ([("human", "", False, "")] * 5 + [("human", "Soft Puff", True, "")] * 
 def _steps_of(trial: list[tuple[str, str, bool, str]]) -> tuple[pd.DataFrame, pd.DataFrame]:
     """A steps table of one trial (x grows by 1 across each moving step) and its trials row."""
     x = np.concatenate(([0.0], np.cumsum([1.0 if moves else 0.0 for _, _, moves, _ in trial])))
-    mode = ["x"] * 16 + ["y"] * (len(trial) - 16)
+    switched = next(i for i, (_, _, _, event) in enumerate(trial) if event) + 1  # the mode after the switch
+    mode = ["x"] * switched + ["y"] * (len(trial) - switched)
     steps = pd.DataFrame({"participant": 0, "trial": 0, "turn": [t for t, _, _, _ in trial], "x": x[:-1],
                           "y": 0.0, "theta": 0.0, "mode": mode, "phi_m": [label for _, label, _, _ in trial],
                           "event": [event for _, _, _, event in trial]})
@@ -66,6 +67,24 @@ def test_habits_of_an_unassisted_trial_are_those_without_the_turn() -> None:
     # the same cells the person's own: the gap is their pause, the motion their reaction
     assert _values(with_turn, "pause_between_blows") == [0.5, 1.6]
     assert _values(with_turn, "reaction_switch_to_motion") == [0.4]
+
+
+def test_habits_at_20_hz_do_not_count_the_autonomys_first_motion_as_the_persons() -> None:
+    # the trial at 20 Hz, each step twice (its switch in the second), after one step of no input: the
+    # person's last step begins a 10 Hz cell whose second half is the autonomy's first (moving) step
+    doubled = [("human", "", False, "")] + [(turn, label, moves, event if half else "")
+                                            for turn, label, moves, event in _TRIAL for half in (0, 1)]
+    steps, trials = _steps_of(doubled)
+    cells = _trial_cells(SimpleNamespace(path=Path("run")), steps, trials, None)  # type: ignore[arg-type]
+    handover = doubled.index(("autonomy", "", True, ""))
+    assert handover % 2 == 1  # the autonomy's first step is the second half of a 10 Hz cell
+    tenth = habit_rate_cells(cells, 20.0)
+    last_persons = handover // 2
+    assert tenth["person_turn"].tolist()[last_persons - 1:last_persons + 2] == [True, True, False]
+    assert not tenth["moving"].iloc[last_persons]  # the person does not move in it; the autonomy does
+    assert tenth["moving"].iloc[last_persons + 1]
+    # as at 10 Hz: the autonomy's motion is no reaction of the person's to their switch
+    assert _values(measure_habits(tenth), "reaction_switch_to_motion") == []
 
 
 # --- compare: a --match pair is named by both its names, and compare.json records the settings ----

@@ -226,9 +226,10 @@ def _simulate_batch_study(folder: Path) -> list[str]:
 def habit_rate_cells(cells: pd.DataFrame, rate_hz: float) -> pd.DataFrame:
     """A cell table at ``rate_hz`` read in HABITS.md's 10 Hz cells, as a real log is: each trial
     read at ``0, 0.1, ...`` s by zero-order hold up to its end. A 10 Hz cell has the kind (and
-    the turn) of the cell it starts in, moves when any cell within it moved, ends at a waypoint
-    when its last cell does, and holds a switch that fired at or after its start and before the
-    next (a cell at :data:`HABIT_RATE_HZ` is returned as it is)."""
+    the turn) of the cell it starts in, moves when any cell within it of that turn moved (the
+    autonomy's motion is never the person's cell's), ends at a waypoint when its last cell does,
+    and holds a switch that fired at or after its start and before the next (a cell at
+    :data:`HABIT_RATE_HZ` is returned as it is)."""
     if abs(rate_hz - HABIT_RATE_HZ) <= TIME_SLACK or cells.empty:
         return cells
     new_trial = np.ones(len(cells), dtype=bool)
@@ -242,12 +243,19 @@ def habit_rate_cells(cells: pd.DataFrame, rate_hz: float) -> pd.DataFrame:
     scale = rate_hz / HABIT_RATE_HZ
     lo = firsts[trial_of] + np.floor(j * scale + TIME_SLACK).astype(int)
     hi = firsts[trial_of] + np.minimum(np.floor((j + 1) * scale + TIME_SLACK).astype(int), sizes[trial_of])
-    moved = np.concatenate(([0], np.cumsum(cells["moving"].to_numpy(dtype=int))))
+    # a cell's motion is counted from the small cells of its own turn only: the person's last cell
+    # before an autonomy turn would otherwise take the autonomy's first step of motion as theirs
+    moving = cells["moving"].to_numpy(dtype=bool)
+    turn = cells["person_turn"].to_numpy(dtype=bool) if "person_turn" in cells.columns else \
+        np.ones(len(cells), dtype=bool)
+    person = np.concatenate(([0], np.cumsum(moving & turn)))
+    autonomy = np.concatenate(([0], np.cumsum(moving & ~turn)))
+    moved = np.where(turn[lo], person[hi] > person[lo], autonomy[hi] > autonomy[lo])
     started = hi > firsts[trial_of]  # a cell of the trial has ended by the 10 Hz cell's end
     ended = np.where(started, hi - 1, lo)  # the last one that has (at 20 Hz, the second within)
     out = pd.DataFrame({
         "participant": cells["participant"].to_numpy()[lo], "trial": cells["trial"].to_numpy()[lo],
-        "kind": cells["kind"].to_numpy()[lo], "moving": moved[hi] > moved[lo],
+        "kind": cells["kind"].to_numpy()[lo], "moving": moved,
         "switch": False, "at_waypoint": cells["at_waypoint"].to_numpy()[ended] & started,
         "waypoints_known": cells["waypoints_known"].to_numpy()[lo]})
     switches = np.flatnonzero(cells["switch"].to_numpy(dtype=bool))
