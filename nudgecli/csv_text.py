@@ -58,9 +58,9 @@ def header_delimiter(header: str, fits: Callable[[set[str]], bool]) -> str:
     return ","
 
 
-def not_utf8_message(path: Path) -> str:
+def not_utf8_message(path: Path, *, reads_run_folders: bool = False) -> str:
     """The one line for a CSV file that is not UTF-8: where its first byte that is not UTF-8 is
-    (line and byte), and how to save it as UTF-8.
+    (line and byte), and how to save it as UTF-8; a Parquet file: :func:`parquet_message`.
 
     The file is read line by line from the start (only once its reading has failed): the position
     a decoder reports is within the block it was given, not within the file.
@@ -69,9 +69,12 @@ def not_utf8_message(path: Path) -> str:
     ----------
     path
         The file whose reading failed with a ``UnicodeDecodeError``.
+    reads_run_folders
+        Whether the reader also takes a run folder (``nudge habits``, ``fit-people``), which a
+        run's Parquet part is then named as a part of; the other readers take CSV files only.
     """
     if starts_as_parquet(path):  # binary, so never UTF-8: a run's part given for a CSV
-        return parquet_message(path)
+        return parquet_message(path, reads_run_folders=reads_run_folders)
     fix = "save it as UTF-8 (a spreadsheet's \"CSV UTF-8\", an editor's encoding UTF-8)"
     try:
         with path.open("rb") as file:
@@ -99,11 +102,14 @@ def starts_as_parquet(path: Path) -> bool:
         return False
 
 
-def parquet_message(path: Path) -> str:
-    """The one line for a Parquet file given where CSV text is read: a run folder's part (its
-    ``steps/``, ``trials/`` or ``participants/``, or a table beside its manifest) names the run
-    folder to give instead; another says it is no CSV."""
+def parquet_message(path: Path, *, reads_run_folders: bool = False) -> str:
+    """The one line for a Parquet file given where CSV text is read: to a reader that
+    ``reads_run_folders``, a run folder's part (its ``steps/``, ``trials/`` or ``participants/``,
+    or a table beside its manifest) names the run folder to give instead; otherwise it is no CSV,
+    and the CSV file is to be given (a reader of CSV files only would refuse the run folder)."""
     said = f"{path}: a Parquet file (it starts with {PARQUET_MAGIC.decode()}), not CSV text"
+    if not reads_run_folders:
+        return f"{said}; give the CSV file"
     parent = path.parent
     run = parent.parent if parent.name in PART_KINDS and (parent.parent / MANIFEST).is_file() else \
         parent if (parent / MANIFEST).is_file() else None

@@ -270,3 +270,19 @@ def test_habits_of_a_json_compare_does_not_read_does_not_advise_compare(tmp_path
     # before: "... nudge habits SOURCE --compare p1.profile.json", which then failed "no 'habits' object"
     assert "SOURCE --compare" not in message and "is no reference for --compare either" in message
     assert ("a `nudge fit` profile" in message) == ("p_phm_given_phi" in text)
+
+
+@pytest.mark.parametrize(("reader", "part"), [("questionnaires", "trials"), ("people", "participants")])
+def test_a_reader_of_csv_files_only_given_a_run_part_is_told_to_give_the_csv(
+        analysed_smoke_run: Path, reader: str, part: str) -> None:
+    from nudgecli.errors import DataError
+    from nudgecli.report.questionnaires import read_questionnaires
+    from nudgecli.sim.people_file import read_people
+
+    read = read_questionnaires if reader == "questionnaires" else read_people
+    path = analysed_smoke_run / part / "part-0000.parquet"
+    with pytest.raises(DataError) as raised:
+        read(path)
+    # before: "... give the run folder RUN", which these readers then refused as a folder
+    said = f"{path}: a Parquet file (it starts with PAR1), not CSV text; give the CSV file"
+    assert str(raised.value) == said

@@ -88,7 +88,7 @@ def _read_log_frame(path: Path) -> tuple[pd.DataFrame, str]:
         time_column = _log_time_column(path, pd.read_csv(path, sep=delimiter, nrows=0).columns)
         frame = read_csv_whole_rows(path, sep=delimiter, dtype=str, keep_default_na=False)
     except UnicodeDecodeError:
-        raise DataError(not_utf8_message(path)) from None
+        raise DataError(not_utf8_message(path, reads_run_folders=True)) from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise DataError(f"{path}: not a readable CSV log ({str(exc).strip()})") from None
     frame.columns = [str(c).strip() for c in frame.columns]

@@ -242,7 +242,7 @@ def table_source(path: Path) -> SourceHabits:
     try:
         table = read_csv_whole_rows(path, dtype=str, keep_default_na=False, sep=None, engine="python")
     except UnicodeDecodeError:
-        raise DataError(not_utf8_message(path)) from None
+        raise DataError(not_utf8_message(path, reads_run_folders=True)) from None
     except (ValueError, pd.errors.ParserError, csv.Error) as exc:
         raise DataError(f"{path}: not a habits table ({str(exc).strip()})") from None
     # pandas renames a repeated name (median.1) and keeps a differently cased one (Median): either
