@@ -198,6 +198,48 @@ def test_validate_force_whose_figure_cannot_be_written_keeps_the_earlier_tables(
     assert sorted(p.name for p in out.iterdir()) == sorted(before)
 
 
+def test_compare_force_with_a_table_path_that_is_a_folder_changes_no_file(tmp_path: Path) -> None:
+    from nudgecli.api.tables import compare
+    from nudgecli.errors import WriteError
+
+    simulated, real = _compare_tables(tmp_path)
+    out = tmp_path / "cmp"
+    out.mkdir()
+    (out / "compare.csv").mkdir()  # the first table cannot be written
+    before = {name: f"earlier {name}\n".encode() for name in ("participant_medians.csv", "compare.json",
+                                                              "compare.png")}
+    for name, content in before.items():
+        (out / name).write_bytes(content)
+    with pytest.raises(WriteError, match=r"compare\.csv"):
+        compare(simulated, real, match={"disambiguation": "assisted"}, resamples=0, out=out, formats=["png"],
+                force=True)
+    # without the folder check: the figure and the other two tables were replaced, then compare.csv failed
+    assert {name: (out / name).read_bytes() for name in before} == before
+    assert sorted(p.name for p in out.iterdir()) == sorted([*before, "compare.csv"])
+
+
+def test_validate_force_with_a_table_path_that_is_a_folder_changes_no_file(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from nudgecli.api.validation import validate
+    from nudgecli.errors import WriteError
+
+    def figure(summary: object, out: Path) -> list[Path]:  # as the figure's writer replaces its file
+        (out / "validation.png").write_text("new figure\n", encoding="utf-8")
+        return [out / "validation.png"]
+
+    monkeypatch.setattr("nudgecli.report.validation_figure.plot_validation", figure)
+    out = tmp_path / "val"
+    out.mkdir()
+    (out / "validation.json").mkdir()  # the table renamed last cannot be written
+    before = {name: f"earlier {name}\n" for name in ("validation.csv", "validation.png")}
+    for name, text in before.items():
+        (out / name).write_text(text, encoding="utf-8")
+    with pytest.raises(WriteError, match=r"validation\.json"):
+        validate(simulations=1, min_goals=3, max_goals=3, states=40, mc_queries=0, out=out, force=True)
+    assert {name: (out / name).read_text(encoding="utf-8") for name in before} == before
+    assert sorted(p.name for p in out.iterdir()) == sorted([*before, "validation.json"])
+
+
 # --- docs/people.md: a log without its layout leaves one reaction parameter to the population -----
 
 
