@@ -280,6 +280,31 @@ def test_the_box_plot_labels_follow_the_plans_metric_definitions() -> None:
     assert labels(load_plan("paper").metrics) == {m: METRIC_SPECS[m].label for m in names}
 
 
+def test_the_box_plot_labels_of_a_metrics_tables_analysis_name_no_plan_definition() -> None:
+    """A metrics table's analysis takes the table's own engagement, strength, mode switches and
+    success (its note says so): the labels name none of the plan's definitions of them, in the
+    figures nudge plot draws and in one metric's panel drawn by nudge.plot."""
+    from nudgecli.report.figures.boxplots import METRIC_SPECS, applied_definitions, metric_boxplot
+    from nudgecli.report.plans import load_plan
+    from nudgecli.report.plotting import FigureInputs, PlotPlan, draw_figures
+    from nudgecli.report.table_read import TABLE_READ_KEY
+
+    names = ["success", "assistance_engagement", "assistance_strength", "mode_switches"]
+    stats = {"conditions": ["disambiguation", "control"], "metrics": [{"metric": m} for m in names],
+             TABLE_READ_KEY: {"table": "m.csv", "plan": "study-code"}}
+    study_code = load_plan("study-code").metrics
+    drawn = draw_figures(FigureInputs(_trial_metrics(), stats), PlotPlan(Path("."), definitions=study_code))
+    labels = {m: " ".join(ax.get_ylabel().split()) for m, ax in zip(names, drawn["metrics"].get_axes(),
+                                                                    strict=False)}
+    assert labels == {m: METRIC_SPECS[m].label for m in names}
+    assert applied_definitions(stats, study_code) is None
+    run_stats = {k: v for k, v in stats.items() if k != TABLE_READ_KEY}  # a run's: the plan's definitions
+    assert applied_definitions(run_stats, study_code) is study_code
+    panel = metric_boxplot(_trial_metrics(), "mode_switches", None,
+                           definitions=applied_definitions(run_stats, study_code)).ax
+    assert " ".join(panel.get_ylabel().split()) == "Mode switches in human turns per trial"
+
+
 # --- 6: the README says what the batch figures of three or more conditions draw -----------------
 
 

@@ -95,7 +95,6 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         drawn_metrics,
         metric_figure_groups,
     )
-    from nudgecli.report.style import figure_style
 
     trial_key = arguments.trial(trial)
     figure = arguments.text("figure", figure)
@@ -109,12 +108,7 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
     metrics = drawn_metrics(inputs)
     _check_figure(folder, figure, trial, _figures_of(inputs, metrics), metrics)
     if figure in metrics:
-        with figure_style():
-            entry = figures.stats_by_metric(inputs.stats).get(figure)
-            artists = figures.metric_boxplot(inputs.metrics, figure, entry, ax=ax, conditions=conditions,
-                                             star_rule=chosen.comparison_options(), reference=reference,
-                                             definitions=chosen.metrics)
-        return artists.ax.figure  # type: ignore[return-value]  # a Figure: axes_or_new makes no SubFigure
+        return _metric_panel(inputs, figure, ax, conditions, chosen, reference)
     plan = PlotPlan(out_dir=folder, trial=trial_key, star_rule=chosen.comparison_options(),
                     item_labels=chosen.questionnaires.labels, reference=reference, definitions=chosen.metrics)
     if ax is not None and figure in ("fig5", "trajectory") and inputs.path_layouts is None:
@@ -131,6 +125,22 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
         raise ConfigError(f"figure {figure!r}: this source's data do not give it; choose one of "
                           f"{', '.join(drawn)}")
     return drawn[figure]
+
+
+def _metric_panel(inputs: Any, metric: str, ax: Axes | None, conditions: Sequence[str], chosen: AnalysisPlan,
+                  reference: str | None) -> Figure:
+    """One metric's box-plot panel (into ``ax``, else a new figure's), labelled by the metric
+    definitions its analysis applied (:func:`~nudgecli.report.figures.boxplots.applied_definitions`)."""
+    from nudgecli.report import figures
+    from nudgecli.report.style import figure_style
+
+    entry = figures.stats_by_metric(inputs.stats).get(metric)
+    definitions = figures.boxplots.applied_definitions(inputs.stats, chosen.metrics)
+    with figure_style():
+        artists = figures.metric_boxplot(inputs.metrics, metric, entry, ax=ax, conditions=conditions,
+                                         star_rule=chosen.comparison_options(), reference=reference,
+                                         definitions=definitions)
+    return artists.ax.figure  # type: ignore[return-value]  # a Figure: axes_or_new makes no SubFigure
 
 
 def _inputs_of(analysis: Analysis | Run | str | Path, folder: Path, figure: str,

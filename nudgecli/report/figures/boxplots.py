@@ -51,6 +51,7 @@ from nudgecli.report.style import (
     figure_style,
 )
 from nudgecli.report.table_definitions import PLAN_DEFINED
+from nudgecli.report.table_read import TABLE_READ_KEY
 from nudgecli.report.trial_steps import require_columns
 
 METRIC_FIGSIZE = (FULL_WIDTH_IN, 2.6)
@@ -128,6 +129,18 @@ def metric_spec(metric: str, definitions: MetricDefinitions | None = None) -> Me
         return spec if label is None else dataclasses.replace(spec, label=label)
     label = metric.replace("_", " ")
     return MetricSpec(metric, label[:1].upper() + label[1:])
+
+
+def applied_definitions(stats: Mapping[str, Any] | None,
+                        definitions: MetricDefinitions | None) -> MetricDefinitions | None:
+    """The metric definitions the analysis in ``stats`` applied, of the plan's ``definitions``: those
+    of a run folder's analysis; ``None`` (the paper's labels) for a metrics table's, which takes the
+    table's own values of every metric :data:`DEFINITION_LABELS` names (the analysis's note says
+    so: :func:`~nudgecli.report.table_definitions.apply_plan_definitions`), so that no label names
+    a definition that was not applied."""
+    if stats is not None and TABLE_READ_KEY in stats:
+        return None
+    return definitions
 
 
 @dataclass
@@ -366,7 +379,8 @@ def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metri
         Which comparisons each panel marks (:func:`metric_boxplot`): by default brackets up to
         three conditions and letters from four; with ``reference`` its pairs' brackets.
     definitions
-        The plan's metric definitions (the panels' labels; :func:`metric_spec`).
+        The plan's metric definitions (the panels' labels; :func:`metric_spec`), where the analysis
+        of ``stats`` applied them (:func:`applied_definitions`: not to a metrics table).
 
     Returns
     -------
@@ -384,6 +398,7 @@ def metrics_figure(metrics: pd.DataFrame, stats: Mapping[str, Any] | None, metri
         raise DataError("metrics table: no metric to plot")
     order = resolve_conditions(metrics, stats, conditions)
     entries = stats_by_metric(stats)
+    definitions = applied_definitions(stats, definitions)
     n_cols = min(len(metric_names), METRIC_PANELS_PER_ROW)
     n_rows = math.ceil(len(metric_names) / METRIC_PANELS_PER_ROW)
     positions = {c: float(i) for i, c in enumerate(order)}
@@ -438,4 +453,5 @@ def figure_4(metrics: pd.DataFrame, stats: Mapping[str, Any] | None = None, *,
 
 
 __all__ = ["DEFINITION_LABELS", "FIGURE3_METRICS", "FIGURE4_METRICS", "METRIC_SPECS", "BoxplotArtists",
-           "MetricSpec", "figure_3", "figure_4", "metric_boxplot", "metric_spec", "metrics_figure"]
+           "MetricSpec", "applied_definitions", "figure_3", "figure_4", "metric_boxplot", "metric_spec",
+           "metrics_figure"]
