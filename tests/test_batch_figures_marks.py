@@ -215,14 +215,24 @@ def _batch_figures(*names: str) -> dict[str, Figure]:
 
 
 def test_every_batch_figure_writes_its_text_at_the_print_sizes() -> None:
+    """The style's own sizes, not only text of at least 8 pt (matplotlib's default 10 pt is that):
+    tick labels and legends at the style's sizes, every other text at one of its sizes."""
     from matplotlib.text import Text
 
-    from nudgecli.report.style import MIN_FONT_PT
+    from nudgecli.report.style import BASE_FONT_PT, LABEL_FONT_PT, LEGEND_FONT_PT, MIN_FONT_PT, TICK_FONT_PT
 
+    style_sizes = {BASE_FONT_PT, LABEL_FONT_PT, LEGEND_FONT_PT, TICK_FONT_PT}
     for name, fig in _batch_figures().items():
         sizes = {t.get_text(): t.get_fontsize() for t in fig.findobj(Text) if t.get_text().strip()}
         small = {text: size for text, size in sizes.items() if size < MIN_FONT_PT}
         assert not small, f"{name}: text under {MIN_FONT_PT} pt: {small}"
+        other = {text: size for text, size in sizes.items() if size not in style_sizes}
+        assert not other, f"{name}: text at none of the style's sizes {sorted(style_sizes)}: {other}"
+        ticks = {t.get_fontsize() for ax in fig.get_axes()
+                 for t in [*ax.get_xticklabels(), *ax.get_yticklabels()] if t.get_text()}
+        assert ticks == {TICK_FONT_PT}, f"{name}: tick labels at {ticks}"
+        legends = {t.get_fontsize() for legend in fig.legends for t in legend.get_texts()}
+        assert legends <= {LEGEND_FONT_PT}, f"{name}: legend text at {legends}"
 
 
 def test_the_batch_figures_lay_out_their_labels_and_legends_apart() -> None:
