@@ -17,10 +17,11 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from nudgecli.report.cluster_bootstrap import bootstrap_median_differences, median_difference_intervals
+from nudgecli.report.metric_rows import metric_rows
 from nudgecli.report.participant_tests import (
     EXACT_MAX_N,
     SIGN_FLIP_MAX_N,
-    _median_table,
+    _median_array,
     pairwise_wilcoxon,
     participant_level_test,
     participant_summaries,
@@ -178,14 +179,14 @@ def test_importing_the_analysis_does_not_import_scipy_stats():
 
 
 def _grouped_medians(tidy: pd.DataFrame, conditions: list[str]) -> pd.DataFrame:
-    """pandas' table of per-participant medians (the computation ``_median_table`` replaces)."""
+    """pandas' table of per-participant medians (the computation ``_median_array`` replaces)."""
     grouped = tidy.groupby(["participant", "condition"], observed=True)["value"]
     return grouped.median().unstack("condition").reindex(columns=conditions)
 
 
 @pytest.mark.parametrize("participants", ["int", "str", "float", "missing"])
 @pytest.mark.parametrize("values", ["ties", "normal", "gaps", "infinite", "huge"])
-def test_median_table_is_pandas_grouped_median_bit_for_bit(participants, values):
+def test_median_array_is_pandas_grouped_median_bit_for_bit(participants, values):
     rng = np.random.default_rng(len(participants) * 7 + len(values))
     conditions = ["a", "b", "c"]
     n = 90
@@ -199,24 +200,36 @@ def test_median_table_is_pandas_grouped_median_bit_for_bit(participants, values)
                      # (x + x) / 2 of a middle value would overflow: an odd group's median is x itself
                      "huge": rng.choice([1.6e308, 1.7e308, -1.7e308], n)}[values]
     tidy = tidy_values(data, "value", conditions, "condition", "participant")
-    table = _median_table(tidy, conditions)
-    assert table is not None
+    rows = metric_rows(data, "value", conditions, "condition", "participant")
+    medians = _median_array(rows)
+    assert medians is not None
+    array, who = medians
+    table = pd.DataFrame(array, index=pd.Index(rows.participant_labels.take(who), name="participant"),
+                         columns=pd.Index(conditions, name="condition"))
     expected = _grouped_medians(tidy, conditions)
     pd.testing.assert_frame_equal(table, expected, check_exact=True)
     assert np.array_equal(np.signbit(table.to_numpy()), np.signbit(expected.to_numpy()))
+    # and what the participant-level tests read: the participants with a value in every condition
+    wide, _ = participant_summaries(data, "value", conditions)
+    complete = expected.dropna()
+    pd.testing.assert_frame_equal(wide, complete, check_exact=True)
+    assert np.array_equal(np.signbit(wide.to_numpy()), np.signbit(complete.to_numpy()))
 
 
-def test_median_table_leaves_signed_zeros_and_categorical_participants_to_pandas():
+def test_median_array_leaves_signed_zeros_and_categorical_participants_to_pandas():
     # pandas' selection returns -0.0 here, a sort would give 0.0: the table is pandas'
     values = [1.0, -0.0, -0.0, 1.0, -0.0, 0.0, -0.0]
     data = pd.DataFrame({"participant": 0, "condition": "a", "value": values})
     tidy = tidy_values(data, "value", ["a"], "condition", "participant")
-    assert _median_table(tidy, ["a"]) is None
+    assert _median_array(metric_rows(data, "value", ["a"], "condition", "participant")) is None
     wide, _ = participant_summaries(data, "value", ["a"])
     assert np.signbit(wide.iloc[0, 0]) == np.signbit(_grouped_medians(tidy, ["a"]).iloc[0, 0])
     data["participant"] = data["participant"].astype("category")
     data["value"] = np.abs(data["value"])
-    assert _median_table(tidy_values(data, "value", ["a"], "condition", "participant"), ["a"]) is None
+    assert _median_array(metric_rows(data, "value", ["a"], "condition", "participant")) is None
+    wide, _ = participant_summaries(data, "value", ["a"])
+    pd.testing.assert_frame_equal(wide, _grouped_medians(tidy_values(data, "value", ["a"], "condition",
+                                                                     "participant"), ["a"]), check_exact=True)
 
 
 def _describe_by_pandas(data: pd.DataFrame, metric: str, conditions: list[str]) -> pd.DataFrame:

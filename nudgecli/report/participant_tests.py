@@ -16,7 +16,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-from nudgecli.report.metric_rows import MetricRows, TidyRows, rows_for, rows_of_tidy
+from nudgecli.report.metric_rows import MetricRows, TidyRows, rows_for
 from nudgecli.report.rank_tests import average_ranks
 from nudgecli.report.stats import adjust_p_values, compared_participants, pairs, python_scalar
 
@@ -352,18 +352,6 @@ def _dropped(rows: MetricRows, who: np.ndarray | pd.Index, complete: np.ndarray,
         return []
     everyone = compared_participants(table, rows.conditions, condition, participant)
     return [python_scalar(p) for p in everyone.difference(_labels(rows, who)[complete])]
-
-
-def _median_table(tidy: pd.DataFrame, conditions: Sequence[str]) -> pd.DataFrame | None:
-    """The table ``tidy.groupby(["participant", "condition"])["value"].median().unstack()`` (columns
-    reindexed to ``conditions``) gives (:func:`_median_array` of the rows), or None where pandas
-    groups them (categorical participants, no rows, a value -0.0)."""
-    rows = rows_of_tidy(tidy, conditions)
-    medians = _median_array(rows)
-    if medians is None:
-        return None
-    table, who = medians
-    return pd.DataFrame(table, index=_labels(rows, who), columns=pd.Index(list(conditions), name="condition"))
 
 
 def _median_array(rows: MetricRows) -> tuple[np.ndarray, np.ndarray] | None:
