@@ -194,6 +194,39 @@ def test_bootstrap_is_the_replicated_trials_medians(scenario):
             assert (row["low"], row["high"]) == (float(low), float(high))
 
 
+@pytest.mark.parametrize("missing", [None, math.nan, pd.NA])
+def test_bootstrap_leaves_out_the_trials_without_a_participant(missing):
+    """A trial whose participant is missing (the Python API takes such a table) is drawn with no
+    one, as the participant-level test's medians leave it out; the observed difference is the
+    trial medians' difference of every trial, as the descriptives'. It raised ValueError
+    ('list' argument must have no negative elements)."""
+    data, conditions = _table("gaps")
+    data["participant"] = data["participant"].astype(object)
+    data.loc[[2, 5, 9, 30], "participant"] = missing
+    entry = analyze_metric(data, "value", conditions, OPTIONS)
+    valued = _valued(data, conditions).reset_index(drop=True)
+    known = valued[valued["participant"].notna()].reset_index(drop=True)
+    codes, people = pd.factorize(known["participant"])
+    draws = np.random.default_rng(OPTIONS.seed).integers(0, len(people), (OPTIONS.bootstrap_resamples,
+                                                                          len(people)))
+    values, labels = known["value"].to_numpy(), known["condition"].to_numpy()
+    tail = (1.0 - OPTIONS.bootstrap_level) / 2.0
+    for row in entry["ci"]["pairs"]:
+        a, b = (valued.loc[valued["condition"] == c, "value"] for c in (row["a"], row["b"]))
+        assert _same(row["difference"], float(np.median(a) - np.median(b)))
+        differences = []
+        for drawn in draws:
+            trials = np.concatenate([np.flatnonzero(codes == p) for p in drawn])
+            chosen = [values[trials][labels[trials] == c] for c in (row["a"], row["b"])]
+            if chosen[0].size and chosen[1].size:
+                differences.append(np.median(chosen[0]) - np.median(chosen[1]))
+        assert row["valid_resamples"] == len(differences)
+        expected = np.quantile(differences, [tail, 1.0 - tail])
+        assert (row["low"], row["high"]) == (float(expected[0]), float(expected[1]))
+    complete = known.groupby("participant")["condition"].nunique() == len(conditions)
+    assert entry["participant_level"]["n_participants"] == int(complete.sum())  # (likewise)
+
+
 @pytest.mark.parametrize("scenario", SCENARIOS)
 def test_metric_rows_are_the_tidy_rows(scenario):
     data, conditions = _table(scenario)

@@ -203,7 +203,10 @@ def bootstrap_median_differences(data: pd.DataFrame, metric: str, conditions: Se
     ``rng.integers(0, P, size=(resamples, P))`` (row ``r`` lists resample ``r``'s participants,
     as codes in order of first appearance in the table); each resample's median is
     ``np.median`` of its replicated trials (:func:`_weighted_medians` computes it without
-    replicating). Resamples in which a condition has no trial are left out. ``tidy``:
+    replicating). Resamples in which a condition has no trial are left out. A trial without a
+    participant (a missing participant cell) belongs to no one who could be drawn: it is in no
+    resample, as it is in no participant's median of the participant-level test, but in the
+    observed ``difference`` (the trial medians' difference, as the descriptives). ``tidy``:
     :func:`~nudgecli.report.stats.tidy_values` of the arguments with the participants, when the
     caller holds it (``data`` is then not read).
 
@@ -226,6 +229,7 @@ def median_difference_intervals(data: pd.DataFrame, metric: str, conditions: Seq
     rows_read = rows_for(data, metric, conditions, condition, participant, tidy)
     codes, n_participants = _participants_in_order(rows_read)
     positions, all_values = rows_read.positions, rows_read.values
+    drawn = codes >= 0  # a trial without a participant (code -1) is drawn with no one
     rows = []
     medians: dict[str, np.ndarray] = {}
     observed: dict[str, float] = {}
@@ -236,11 +240,12 @@ def median_difference_intervals(data: pd.DataFrame, metric: str, conditions: Seq
         weights = np.bincount(flat, minlength=resamples * n_participants).reshape(resamples, n_participants)
         for j, c in enumerate(conditions):
             mask = positions == j
+            observed[c] = float(np.median(all_values[mask])) if mask.any() else math.nan
+            mask &= drawn
             values = all_values[mask]
             owners = codes[mask]
             order = np.argsort(values)  # ties in any order: the medians are values
             medians[c] = _weighted_medians(values[order], owners[order], weights)
-            observed[c] = float(np.median(values)) if values.size else math.nan
     tail = (1.0 - level) / 2.0
     for a, b in pairs(conditions):
         low = high = difference = math.nan
@@ -260,7 +265,7 @@ def median_difference_intervals(data: pd.DataFrame, metric: str, conditions: Seq
 def _participants_in_order(rows: MetricRows) -> tuple[np.ndarray, int]:
     """Each row's participant as a code in order of first appearance among the rows (what
     ``pd.factorize`` of the rows' participants gives: the bootstrap's draws name participants by
-    these codes), and how many participants there are."""
+    these codes; -1 for a missing participant), and how many participants there are."""
     if rows.participant_codes is None or (rows.participant_codes < 0).any():  # categorical, missing
         codes, uniques = pd.factorize(rows.table()["participant"])
         return codes, len(uniques)
