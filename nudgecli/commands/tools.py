@@ -73,8 +73,13 @@ def bench_command(output_format: str, only: str, scale_participants: int, scale_
         info(warning)
     options = BenchOptions(repeats=repeats, baseline_repeats=baseline_repeats, study_repeats=study_repeats,
                            scale_participants=scale_participants, scale_studies=scale_studies)
-    if scale_workers is not None and only != "scale":
-        raise click.UsageError("--scale-workers times the scale figures: add --only scale")
+    if only != "scale":  # the scale options time only the scale figures: refused, not ignored
+        source = click.get_current_context().get_parameter_source
+        scale_options = ("scale_workers", "scale_participants", "scale_studies")
+        given = [f"--{name.replace('_', '-')}" for name in scale_options
+                 if source(name) is click.core.ParameterSource.COMMANDLINE]
+        if given:
+            raise click.UsageError(f"{given[0]} times the scale figures: add --only scale")
     counts = None if scale_workers is None else comma_integers(scale_workers, "--scale-workers", "1,2,4,8,16")
     rows = run_bench(options, figures=select_figures(only, counts), progress=info)
     if output_format == "json":
