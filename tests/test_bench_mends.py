@@ -4,13 +4,18 @@ its options and the estimate's arithmetic (nothing is timed here)."""
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 from pathlib import Path
+from typing import Any
 
 import pytest
 from click.testing import CliRunner
 
-from nudgecli.bench import targets
+from nudgecli import bench
+from nudgecli.bench import common, pipeline, scale, targets
 from nudgecli.cli import main
+from nudgecli.errors import WorkerLostError
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
@@ -29,3 +34,38 @@ def test_bench_refuses_scale_options_without_only_scale(option: list[str]) -> No
     result = CliRunner().invoke(main, ["bench", "--only", "model", *option])
     assert result.exit_code == 2  # was 0: --scale-participants and --scale-studies were ignored
     assert f"{option[0]} times the scale figures: add --only scale" in result.output
+
+
+def _killed_child(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every bench child "runs" and is killed (-9), as the kernel's out-of-memory killer does."""
+    def run(command: list[str], *, check: bool = False, **kwargs: Any) -> subprocess.CompletedProcess[str]:
+        if check:  # what subprocess.run does
+            raise subprocess.CalledProcessError(-9, command)
+        return subprocess.CompletedProcess(command, -9, "", "")
+    monkeypatch.setattr(common.subprocess, "run", run)
+
+
+def test_a_child_exiting_non_zero_is_one_error_naming_the_figure() -> None:
+    with pytest.raises(WorkerLostError, match=r"trials figure.s child process failed with exit status 3,"):
+        common.run_child([sys.executable, "-c", "import sys; sys.exit(3)"], "trials")
+
+
+@pytest.mark.parametrize("measure", [
+    lambda: common.best_child_time(["-c", "pass"], 1, "nudge --help start-up"),
+    lambda: common.run_child_script("pass", [], "paper-scale study"),
+    lambda: pipeline._time_batch(["replicate", "smoke", "-R", "1"], 1, 16, 1),
+    lambda: scale.figure_replicate_throughput(common.BenchOptions()),
+])
+def test_a_killed_child_names_the_figure_and_memory(monkeypatch: pytest.MonkeyPatch, measure: Any) -> None:
+    _killed_child(monkeypatch)  # was a RuntimeError or subprocess.CalledProcessError: a traceback
+    with pytest.raises(WorkerLostError, match=r"exit status -9 \(killed, perhaps for memory\)"):
+        measure()
+
+
+def test_bench_prints_a_killed_child_as_one_error_line(monkeypatch: pytest.MonkeyPatch) -> None:
+    _killed_child(monkeypatch)
+    monkeypatch.setattr(bench, "select_figures",
+                        lambda only, counts: [lambda options: common.run_child_script("pass", [], "study")])
+    result = CliRunner().invoke(main, ["bench", "--only", "study"])
+    assert result.exit_code == 1 and "Traceback" not in result.output
+    assert "Error: bench: the study figure's child process failed with exit status -9" in result.output

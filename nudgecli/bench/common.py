@@ -21,6 +21,7 @@ from typing import Any
 
 from nudgecli import command_defaults as defaults
 from nudgecli.cores import available_cores as available_cores  # re-exported: the benches import it from here
+from nudgecli.errors import WorkerLostError
 
 COLUMNS = ("what", "time_s", "baseline_s", "ratio", "peak_mb", "target", "ok", "note")
 BENCH_SEED = 20220214
@@ -134,16 +135,43 @@ def uncompiled_modules_warning(package: Path, environ: Mapping[str, str]) -> str
             "install does), or unset it")
 
 
-def best_child_time(arguments: list[str], repeats: int) -> float:
+def best_child_time(arguments: list[str], repeats: int, what: str) -> float:
     """The best wall time of ``repeats`` runs of a child Python with ``arguments`` (the checkout first
-    on its path); the child must succeed."""
+    on its path); the child must succeed (:func:`run_child`: the figure ``what``)."""
     best = float("inf")
     for _ in range(max(1, repeats)):
         start = time.perf_counter()
-        subprocess.run([sys.executable, *arguments], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                       env=child_environment(), check=True)
+        run_child([sys.executable, *arguments], what, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         best = min(best, time.perf_counter() - start)
     return best
+
+
+def child_failure(what: str, status: int) -> WorkerLostError:
+    """The error of a bench child that exited with ``status`` (not 0) while timing ``what``: one
+    line naming the figure and the status (a negative status is the signal that ended it)."""
+    if status == -9:
+        how = " (killed, perhaps for memory)"
+    elif status < 0:
+        how = f" (ended by signal {-status})"
+    else:
+        how = ""
+    return WorkerLostError(f"bench: the {what} figure's child process failed with exit status {status}{how}, "
+                           "so the figure was not measured; run nudge bench again (--only for fewer figures)")
+
+
+def run_child(command: list[str], what: str, **streams: Any) -> subprocess.CompletedProcess[str]:
+    """Run ``command`` (a child Python, the checkout first on its path) with ``streams`` (stdout,
+    stderr) as text; it must succeed.
+
+    Raises
+    ------
+    WorkerLostError
+        The child exited with a status other than 0 (:func:`child_failure`: the figure ``what``).
+    """
+    completed = subprocess.run(command, text=True, env=child_environment(), check=False, **streams)
+    if completed.returncode != 0:
+        raise child_failure(what, completed.returncode)
+    return completed
 
 
 def run_child_script(script: str, arguments: list[str], what: str) -> tuple[float, dict[str, Any]]:
@@ -152,15 +180,13 @@ def run_child_script(script: str, arguments: list[str], what: str) -> tuple[floa
 
     Raises
     ------
-    RuntimeError
-        The child failed (its exit status is named, with ``what`` it was).
+    WorkerLostError
+        The child failed (:func:`child_failure`: its exit status, with ``what`` it was).
     """
     start = time.perf_counter()
-    completed = subprocess.run([sys.executable, "-c", script, *arguments], stdout=subprocess.PIPE,
-                               stderr=None, text=True, env=child_environment(), check=False)
+    completed = run_child([sys.executable, "-c", script, *arguments], what, stdout=subprocess.PIPE,
+                          stderr=None)
     seconds = time.perf_counter() - start
-    if completed.returncode != 0:
-        raise RuntimeError(f"bench: the {what} subprocess failed with exit status {completed.returncode}")
     return seconds, json.loads(completed.stdout.strip().splitlines()[-1])
 
 

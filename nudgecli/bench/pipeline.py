@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from nudgecli.bench.common import BENCH_SEED, BenchOptions, Figure, available_cores, child_environment, row
+from nudgecli.bench.common import BENCH_SEED, BenchOptions, Figure, available_cores, row, run_child
 from nudgecli.bench.targets import (
     PIPELINE_EFFICIENCY_TARGET,
     PIPELINE_THROUGHPUT_TARGET_PER_HOUR,
@@ -164,8 +164,8 @@ def _time_batch(arguments: list[str], replications: int, trials: int, workers: i
         start = time.perf_counter()
         command = [sys.executable, "-m", "nudgecli.cli", *arguments, "--workers", str(workers),
                    "--seed", str(BENCH_SEED), "--out", str(folder / "batch"), "--yes"]
-        subprocess.run(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=child_environment(),
-                       check=True)
+        run_child(command, f"pipeline (nudge {' '.join(arguments)})", stdout=subprocess.DEVNULL,
+                  stderr=subprocess.DEVNULL)
         wall = time.perf_counter() - start
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         manifest = json.loads((folder / "batch" / BATCH_MANIFEST).read_text(encoding="utf-8"))

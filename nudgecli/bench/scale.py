@@ -19,8 +19,8 @@ from nudgecli.bench.common import (
     BenchOptions,
     Figure,
     available_cores,
-    child_environment,
     row,
+    run_child,
     run_child_script,
 )
 from nudgecli.bench.targets import (
@@ -206,11 +206,10 @@ def figure_replicate_throughput(options: BenchOptions) -> dict[str, Any]:
     folder = Path(tempfile.mkdtemp(prefix="nudge-bench-replicate-"))
     try:
         start = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "nudgecli.cli", "replicate", options.throughput_experiment,
-                        "-R", str(options.throughput_replications), "--workers", str(options.study_workers),
-                        "--seed", str(BENCH_SEED), "--out", str(folder / "batch"), "--yes"],
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=child_environment(),
-                       check=True)
+        run_child([sys.executable, "-m", "nudgecli.cli", "replicate", options.throughput_experiment,
+                   "-R", str(options.throughput_replications), "--workers", str(options.study_workers),
+                   "--seed", str(BENCH_SEED), "--out", str(folder / "batch"), "--yes"],
+                  "replicate throughput", stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         elapsed = time.perf_counter() - start
     finally:
         shutil.rmtree(folder, ignore_errors=True)

@@ -168,7 +168,7 @@ def figure_study(options: BenchOptions) -> dict[str, Any]:
 
 def figure_cli_startup(options: BenchOptions) -> dict[str, Any]:
     """``nudge --help`` in a fresh Python: what every command pays before it starts its work."""
-    elapsed = best_child_time(["-m", "nudgecli.cli", "--help"], options.repeats)
+    elapsed = best_child_time(["-m", "nudgecli.cli", "--help"], options.repeats, "nudge --help start-up")
     return row("nudge --help (start-up)", elapsed, None, f"<= {format_seconds(CLI_STARTUP_TARGET_S)}",
                elapsed <= CLI_STARTUP_TARGET_S,
                f"python -m nudgecli.cli --help in a child process, interpreter start-up included; "
@@ -203,7 +203,7 @@ print(json.dumps({"ready_s": ready, "workers": len(pids), "start": process_conte
 def figure_worker_ready(options: BenchOptions) -> dict[str, Any]:
     """A fresh Python importing what a study's and a batch's tasks need: a spawned worker's start-up."""
     # a start-up like `nudge --help`'s, so measured as often (a best of 3 caught load too often)
-    times = {kind: best_child_time(["-c", f"import {module}"], options.repeats)
+    times = {kind: best_child_time(["-c", f"import {module}"], options.repeats, "worker ready")
              for kind, module in WORKER_MODULES.items()}
     worst = max(times.values())
     return row("worker ready (fresh process: dask, spawn)", worst, None,
