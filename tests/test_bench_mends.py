@@ -69,3 +69,13 @@ def test_bench_prints_a_killed_child_as_one_error_line(monkeypatch: pytest.Monke
     result = CliRunner().invoke(main, ["bench", "--only", "study"])
     assert result.exit_code == 1 and "Traceback" not in result.output
     assert "Error: bench: the study figure's child process failed with exit status -9" in result.output
+
+
+def test_the_two_throughput_rows_name_the_issue_of_their_target(monkeypatch: pytest.MonkeyPatch) -> None:
+    # both time replicate paper -R 20 --workers 2, against targets ten times apart
+    monkeypatch.setattr(scale, "run_child", lambda *args, **kwargs: None)
+    scale_row = scale.figure_replicate_throughput(common.BenchOptions())
+    assert scale_row["target"] == ">= 1,000,000 trials/h (issue 23)"
+    timing = pipeline.BatchTiming(20, 8640, 20.0, 40.0, None)
+    measured = pipeline.PipelineMeasurement("paper", 2, 0.004, {20: timing}, timing)
+    assert pipeline.throughput_row(measured)["target"] == ">= 10,000,000 trials/h (issue 39)"

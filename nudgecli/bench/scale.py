@@ -217,7 +217,7 @@ def figure_replicate_throughput(options: BenchOptions) -> dict[str, Any]:
     at_target = trials / THROUGHPUT_TARGET_PER_HOUR * 3600.0
     return row(f"replicate {options.throughput_experiment} -R {options.throughput_replications}, "
                f"{options.study_workers} workers, end to end", elapsed, at_target,
-               f">= {THROUGHPUT_TARGET_PER_HOUR:,.0f} trials per hour",
+               f">= {THROUGHPUT_TARGET_PER_HOUR:,.0f} trials/h (issue 23)",
                per_hour >= THROUGHPUT_TARGET_PER_HOUR,
                f"{per_hour:,.0f} trials per hour ({trials:,} trials, every study analysed); "
                f"{available_cores()} cores; baseline = the wall time at the target rate")
