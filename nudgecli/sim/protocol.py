@@ -74,7 +74,7 @@ from nudgecli.model.world import (
 )
 from nudgecli.sim.behaviour_settings import BehaviourSettings
 from nudgecli.sim.policy_interface import QuietRun, read_only_array, read_only_view
-from nudgecli.sim.policy_registry import PolicySpec, checked_policy_specs, make_policy
+from nudgecli.sim.policy_registry import PolicySpec, checked_policy_specs, make_policy, policy_specs
 from nudgecli.sim.step_record import StepRecording, step_columns
 from nudgecli.steplog import (
     AUTONOMY_TURN,
@@ -127,7 +127,11 @@ class ProtocolSettings:
     custom_policies: tuple[PolicySpec, ...] = ()
 
     @classmethod
-    def from_config(cls, config: ExperimentConfig) -> ProtocolSettings:
+    def from_config(cls, config: ExperimentConfig, *, check_policies: bool = True) -> ProtocolSettings:
+        """The protocol's settings of ``config``; its own policies imported and checked
+        (:func:`~nudgecli.sim.policy_registry.checked_policy_specs`) when ``check_policies``. A run's
+        participant tasks pass ``False``: the run checked them once at its start, and a check per
+        participant would import an edited policy file afresh, mixing two policies in one run."""
         study, itf, inf, dis, ass = (config.study, config.interface, config.inference,
                                      config.disambiguation, config.assistance)
         dt = study.dt
@@ -170,7 +174,7 @@ class ProtocolSettings:
             mode_trigger=(config.mode_switch or section_defaults(ModeSwitchSection)).trigger,
             hindsight=hindsight_settings(config),
             hindsight_assist=(config.hindsight or section_defaults(HindsightSection)).assist,
-            custom_policies=checked_policy_specs(config),
+            custom_policies=checked_policy_specs(config) if check_policies else policy_specs(config),
         )
 
 

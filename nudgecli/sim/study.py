@@ -466,7 +466,8 @@ def simulate_participant_columns(plan: StudyPlan, participant_index: int,
     participant = study_participant(config, seed, participant_index, plan.people)
     fitted = agent_tables(config, participant, seed)
     mapping, distortion = fitted.mapping, fitted.distortion
-    settings = ProtocolSettings.from_config(config)
+    # the run checked its policies at its start: importing them again here would take an edited file
+    settings = ProtocolSettings.from_config(config, check_policies=False)
     summaries: list[dict[str, Any]] = []
     # the step log's columns are made once per participant, of all the trials' raw steps
     recordings: list[StepRecording] = []

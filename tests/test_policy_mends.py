@@ -1,0 +1,53 @@
+"""A researcher's policy in a run: the code a run starts with is the code all its participants run,
+a draw from a global random generator at import time is a warning, and a failure of the policy's
+own code names its file and line (docs/policies.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from cli_helpers import nudge
+from policy_helpers import policy_experiment
+
+#: A policy that edits its own file while the run's first trial runs, and logs which code made
+#: each of its policies (beside itself, ``ran.log``).
+SELF_EDITING = """
+import pathlib
+
+from nudgecli.sim.policy_interface import Assistance, AutonomyTurn
+
+HERE = pathlib.Path(__file__)
+VERSION = "first"
+
+
+class Mine:
+    infers = True
+    takes_turns = False
+    edited = False
+
+    def __init__(self):
+        with HERE.with_name("ran.log").open("a") as log:
+            log.write(VERSION + "\\n")
+
+    def assist(self, view):
+        if not Mine.edited:
+            Mine.edited = True
+            text = HERE.read_text()
+            HERE.write_text(text.replace('VERSION = "first"', 'VERSION = "second"  # edited in the run'))
+        return Assistance(view.u_h)
+
+    def start_turn(self, view):
+        return AutonomyTurn.stay()
+"""
+
+
+def test_a_policy_file_edited_during_a_run_leaves_the_run_on_the_code_it_started_with(tmp_path: Path) -> None:
+    experiment = policy_experiment(tmp_path / "exp", {"mine": "mymodule:Mine"},
+                                   modules={"mymodule.py": SELF_EDITING}, participants=2)
+    result = nudge("simulate", experiment, "--out", tmp_path / "run", "--workers", "1")
+    assert result.exit_code == 0, result.output
+    assert 'VERSION = "second"' in (tmp_path / "exp" / "mymodule.py").read_text()  # the file was edited
+    ran = (tmp_path / "exp" / "ran.log").read_text().split()
+    assert len(ran) >= 3 and set(ran) == {"first"}, ran  # the check's policy and both participants'
+    assert 'VERSION = "first"' in (tmp_path / "run" / "mymodule.py").read_text()  # the copy: the code run
+
