@@ -51,3 +51,33 @@ def test_a_policy_file_edited_during_a_run_leaves_the_run_on_the_code_it_started
     assert len(ran) >= 3 and set(ran) == {"first"}, ran  # the check's policy and both participants'
     assert 'VERSION = "first"' in (tmp_path / "run" / "mymodule.py").read_text()  # the copy: the code run
 
+
+#: A policy whose module draws from numpy's global generator when it is imported.
+DRAWS_ON_IMPORT = """
+import numpy as np
+
+from nudgecli.sim.policy_interface import Assistance, AutonomyTurn
+
+W = float(np.random.uniform(0.2, 0.9))
+
+
+class Mine:
+    infers = True
+    takes_turns = False
+
+    def assist(self, view):
+        return Assistance(view.u_h) if W else None
+
+    def start_turn(self, view):
+        return AutonomyTurn.stay()
+"""
+
+
+def test_a_draw_from_the_global_generator_at_import_is_the_runs_warning(tmp_path: Path) -> None:
+    experiment = policy_experiment(tmp_path / "exp", {"mine": "drawing:Mine"},
+                                   modules={"drawing.py": DRAWS_ON_IMPORT})
+    result = nudge("simulate", experiment, "--out", tmp_path / "run")
+    assert result.exit_code == 0, result.output
+    warnings = [line for line in result.output.splitlines() if line.startswith("Warning:")]
+    assert len(warnings) == 1, result.output
+    assert "condition 'mine' (policy drawing:Mine)" in warnings[0] and "view.rng" in warnings[0]

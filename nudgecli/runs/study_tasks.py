@@ -8,10 +8,7 @@ imports load neither pandas nor pyarrow: a fresh (dask or spawned) worker is rea
 
 from __future__ import annotations
 
-import hashlib
 import os
-import pickle
-import random
 import signal
 import sys
 import threading
@@ -19,9 +16,7 @@ import time
 from collections.abc import Collection
 from typing import TYPE_CHECKING
 
-import numpy as np
-
-from nudgecli.sim.policy_registry import policy_specs
+from nudgecli.sim.policy_registry import drew_when_loaded, global_rng_digest, policy_specs
 from nudgecli.sim.study import ParticipantColumns, StudyPlan, simulate_participant_columns
 from nudgecli.steplog import STEP_COLUMNS
 
@@ -106,11 +101,6 @@ def process_context() -> BaseContext:
 GLOBAL_RNG_MARK = "drew_from_global_rng"
 
 
-def _global_rng_digest() -> bytes:
-    """A digest of numpy's and Python's global random generators' states (reading them draws nothing)."""
-    return hashlib.sha256(pickle.dumps((np.random.get_state(), random.getstate()))).digest()
-
-
 def simulate_watched(plan: StudyPlan, participant_index: int,
                      step_log_columns: Collection[str] = STEP_COLUMNS) -> ParticipantColumns:
     """:func:`simulate_participant_columns`, and for an experiment with policies of its own, whether
@@ -119,12 +109,16 @@ def simulate_watched(plan: StudyPlan, participant_index: int,
     of one seed (or of ``--workers 1`` and ``2``) differ. The columns then carry
     :data:`GLOBAL_RNG_MARK` (:func:`drew_from_global_rng`); the tables are unchanged, and the
     paper's conditions (no policy of the experiment's own) are simulated as they were. A run's
-    participant and a batch's participant task (its metrics' ``step_log_columns``) are watched alike."""
-    if not policy_specs(plan.config):
+    participant and a batch's participant task (its metrics' ``step_log_columns``) are watched alike.
+    A draw made once, before any trial (at the policy module's import, or in making the policy the
+    run's check makes: :func:`~nudgecli.sim.policy_registry.drew_when_loaded`), marks them too."""
+    specs = policy_specs(plan.config)
+    if not specs:
         return simulate_participant_columns(plan, participant_index, step_log_columns)
-    before = _global_rng_digest()
+    before = global_rng_digest()
     columns = simulate_participant_columns(plan, participant_index, step_log_columns)
-    if _global_rng_digest() != before:
+    # a draw at the module's import (or in making its checked policy) was before any trial
+    if global_rng_digest() != before or any(drew_when_loaded(spec) for spec in specs):
         setattr(columns, GLOBAL_RNG_MARK, True)
     return columns
 

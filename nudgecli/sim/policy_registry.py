@@ -19,11 +19,16 @@ naming the condition and the policy.
 
 from __future__ import annotations
 
+import hashlib
 import inspect
 import math
 import numbers
+import pickle
+import random
+import sys
 from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
+from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -108,11 +113,14 @@ def load_factory(spec: PolicySpec, *, reload_changed: bool = True) -> Callable[.
     if not sep or not all(part.isidentifier() for part in (*module_name.split("."), *attribute.split("."))):
         raise PolicyError(f"{where}: the policy must be named as 'module:attribute', e.g. "
                           "'policies.threshold:ThresholdAssist'")
+    before = global_rng_digest()
     try:
         module = import_policy_module(module_name, spec.search_path, reload_changed=reload_changed)
     except POLICY_FAILURES as exc:  # a researcher's module: any failure of its import is theirs to see
         raise PolicyError(f"{where}: cannot import module {module_name!r}: {type(exc).__name__}: {exc} "
                           f"{_import_advice(module_name, attribute, spec.search_path, exc)}") from exc
+    if global_rng_digest() != before:  # its import drew (a module-level np.random.uniform)
+        _note_global_draw(spec, module)
     target: Any = module
     for part in attribute.split("."):
         if not hasattr(target, part):
@@ -124,6 +132,29 @@ def load_factory(spec: PolicySpec, *, reload_changed: bool = True) -> Callable[.
         raise PolicyError(f"{where}: {attribute!r} is not callable; name a class or a function that "
                           "returns a policy")
     return target  # type: ignore[no-any-return]
+
+
+def global_rng_digest() -> bytes:
+    """A digest of numpy's and Python's global random generators' states (reading them draws nothing)."""
+    return hashlib.sha256(pickle.dumps((np.random.get_state(), random.getstate()))).digest()
+
+
+#: (search path, factory) -> the module of a policy whose import (or the making of its checked
+#: policy) drew from a global random generator: before any trial, so no trial's watch sees it.
+_DREW_WHEN_LOADED: dict[tuple[str | None, str], ModuleType] = {}
+
+
+def _note_global_draw(spec: PolicySpec, module: ModuleType | None) -> None:
+    if module is not None:
+        _DREW_WHEN_LOADED[(spec.search_path, spec.factory)] = module
+
+
+def drew_when_loaded(spec: PolicySpec) -> bool:
+    """Whether importing ``spec``'s module (as this process has it now) or making its checked
+    policy drew from numpy's or Python's global random generator (:func:`global_rng_digest`): the
+    draw of a module's top level (``W = np.random.uniform()``) happens once, before any trial."""
+    module = _DREW_WHEN_LOADED.get((spec.search_path, spec.factory))
+    return module is not None and sys.modules.get(module.__name__) is module
 
 
 def _import_advice(module_name: str, attribute: str, folder: str | None, exc: BaseException) -> str:
@@ -159,6 +190,15 @@ def check_custom_policy(spec: PolicySpec) -> Policy:
         With one line naming the condition, the policy and what is wrong.
     """
     factory = load_factory(spec)
+    before = global_rng_digest()  # a draw made once, in making the first policy, no trial sees
+    policy = _checked_policy(factory, spec)
+    if global_rng_digest() != before:
+        _note_global_draw(spec, inspect.getmodule(factory))
+    return policy
+
+
+def _checked_policy(factory: Callable[..., Any], spec: PolicySpec) -> Policy:
+    """One policy of ``factory`` made with ``spec``'s parameters, its interface checked."""
     params = dict(spec.params)
     try:
         inspect.signature(factory).bind(**params)
