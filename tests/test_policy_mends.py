@@ -81,3 +81,55 @@ def test_a_draw_from_the_global_generator_at_import_is_the_runs_warning(tmp_path
     warnings = [line for line in result.output.splitlines() if line.startswith("Warning:")]
     assert len(warnings) == 1, result.output
     assert "condition 'mine' (policy drawing:Mine)" in warnings[0] and "view.rng" in warnings[0]
+
+
+#: A policy in a package whose assist fails an assertion at its fifth step (line 11 of its file).
+ASSERTS = """
+from nudgecli.sim.policy_interface import Assistance, AutonomyTurn
+
+
+class Mine:
+    infers = True
+    takes_turns = False
+
+    def assist(self, view):
+        assert view.step < 5
+        return Assistance(view.u_h)
+
+    def start_turn(self, view):
+        return AutonomyTurn.stay()
+"""
+
+
+def test_a_failure_in_the_policys_code_names_its_file_and_line(tmp_path: Path) -> None:
+    experiment = policy_experiment(tmp_path / "exp", {"mine": "p.assertp:Mine"},
+                                   modules={"p/assertp.py": ASSERTS})
+    result = nudge("simulate", experiment, "--out", tmp_path / "run")
+    assert result.exit_code == 1
+    assert result.output.startswith(
+        "Error: condition 'mine' (policy p.assertp:Mine): assist raised AssertionError "
+        "(p/assertp.py line 10: "
+        "assert view.step < 5); nudge --debug shows the whole traceback"), result.output
+
+
+def test_a_failure_in_making_the_policy_names_its_file_and_line(tmp_path: Path) -> None:
+    failing = ASSERTS.replace("    def assist(self, view):", "    def __init__(self):\n        1 / 0\n\n"
+                              "    def assist(self, view):")
+    experiment = policy_experiment(tmp_path / "exp", {"mine": "mymodule:Mine"},
+                                   modules={"mymodule.py": failing})
+    result = nudge("simulate", experiment, "--out", tmp_path / "run")
+    assert result.exit_code == 1
+    assert ("making the policy failed: ZeroDivisionError: division by zero (mymodule.py line 10: 1 / 0); "
+            "nudge --debug shows the whole traceback") in result.output, result.output
+
+
+def test_a_policy_module_importing_a_module_not_installed_names_the_import(tmp_path: Path) -> None:
+    module = "import math\nimport torchy_nonexist\n" + ASSERTS
+    experiment = policy_experiment(tmp_path / "exp", {"mine": "p.missingmod:Mine"},
+                                   modules={"p/missingmod.py": module})
+    result = nudge("simulate", experiment, "--out", tmp_path / "run")
+    assert result.exit_code == 1
+    assert result.output.strip() == (
+        "Error: condition 'mine' (policy p.missingmod:Mine): cannot import module 'p.missingmod': "
+        "ModuleNotFoundError: No module named 'torchy_nonexist'; p/missingmod.py line 2 imports "
+        "'torchy_nonexist', which is not installed in this Python"), result.output

@@ -26,8 +26,10 @@ import numbers
 import pickle
 import random
 import sys
+import traceback
 from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
@@ -117,8 +119,10 @@ def load_factory(spec: PolicySpec, *, reload_changed: bool = True) -> Callable[.
     try:
         module = import_policy_module(module_name, spec.search_path, reload_changed=reload_changed)
     except POLICY_FAILURES as exc:  # a researcher's module: any failure of its import is theirs to see
-        raise PolicyError(f"{where}: cannot import module {module_name!r}: {type(exc).__name__}: {exc} "
-                          f"{_import_advice(module_name, attribute, spec.search_path, exc)}") from exc
+        advice = (_missing_dependency(exc, module_name, spec.search_path)
+                  or f" {_import_advice(module_name, attribute, spec.search_path, exc)}")
+        raise PolicyError(f"{where}: cannot import module {module_name!r}: {type(exc).__name__}: {exc}"
+                          f"{advice}") from exc
     if global_rng_digest() != before:  # its import drew (a module-level np.random.uniform)
         _note_global_draw(spec, module)
     target: Any = module
@@ -155,6 +159,32 @@ def drew_when_loaded(spec: PolicySpec) -> bool:
     draw of a module's top level (``W = np.random.uniform()``) happens once, before any trial."""
     module = _DREW_WHEN_LOADED.get((spec.search_path, spec.factory))
     return module is not None and sys.modules.get(module.__name__) is module
+
+
+def _missing_dependency(exc: BaseException, module_name: str, folder: str | None) -> str:
+    """Where the policy's module imports a module that is not installed (``import torch`` without
+    torch): ``; p/mine.py line 2 imports 'torch', which is not installed in this Python``, the
+    innermost frame of the import's traceback outside nudge and Python's import machinery; ``""``
+    where the missing module is the policy's module itself, one of the folder's (or the folder's
+    private package's, a relative import), or no frame shows the import."""
+    missing = getattr(exc, "name", None) if isinstance(exc, ModuleNotFoundError) else None
+    if (missing is None or module_name == missing or module_name.startswith(missing + ".")
+            or missing.startswith("_nudge_policies_")):
+        return ""
+    if folder is not None and (module_file(folder, missing) is not None
+                               or Path(folder).joinpath(*missing.split(".")).is_dir()):
+        return ""
+    base = None if folder is None else Path(folder).resolve()
+    for frame in reversed(traceback.extract_tb(exc.__traceback__)):
+        if frame.filename.startswith("<"):  # Python's import machinery (<frozen importlib._bootstrap>)
+            continue
+        path = Path(frame.filename).resolve()
+        if path.is_relative_to(_NUDGE_CODE):
+            break
+        shown = path.relative_to(base).as_posix() if base is not None and path.is_relative_to(base) \
+            else frame.filename
+        return f"; {shown} line {frame.lineno} imports {missing!r}, which is not installed in this Python"
+    return ""
 
 
 def _import_advice(module_name: str, attribute: str, folder: str | None, exc: BaseException) -> str:
@@ -236,7 +266,7 @@ def policy_attribute(policy: Any, name: str, spec: PolicySpec) -> Any:
     try:
         return getattr(policy, name, _MISSING)
     except POLICY_FAILURES as exc:
-        raise PolicyError(f"{spec.described}: reading its {name} raised {type(exc).__name__}: {exc}") from exc
+        raise PolicyError(f"{spec.described}: reading its {name} raised {raised_text(exc, spec)}") from exc
 
 
 def _check_constant_metrics(value: Any, spec: PolicySpec) -> None:
@@ -258,7 +288,42 @@ def _make(factory: Callable[..., Any], params: Mapping[str, Any], spec: PolicySp
     try:
         return factory(**params)
     except POLICY_FAILURES as exc:
-        raise PolicyError(f"{spec.described}: making the policy failed: {type(exc).__name__}: {exc}") from exc
+        raise PolicyError(f"{spec.described}: making the policy failed: {raised_text(exc, spec)}") from exc
+
+
+#: nudge's own code: never the policy's, whatever folder holds it.
+_NUDGE_CODE = Path(__file__).resolve().parents[1]
+
+
+def raised_text(exc: BaseException, spec: PolicySpec) -> str:
+    """``exc`` of the policy's code in its error: its type, its message where it has one, and
+    where in the policy's own code it was raised (:func:`where_raised`)."""
+    message = f"{type(exc).__name__}: {exc}" if str(exc) else type(exc).__name__
+    return message + where_raised(exc, spec)
+
+
+def where_raised(exc: BaseException, spec: PolicySpec) -> str:
+    """Where in the policy's own code ``exc`` was raised: `` (p/mine.py line 6: assert view.step <
+    5); nudge --debug shows the whole traceback``, the innermost frame of its traceback in a file
+    under the experiment's folder (or the factory's module's file, one from ``sys.path``), its path
+    relative to the folder; ``""`` where no frame is the policy's (its code raised nothing itself)."""
+    folder = None if spec.search_path is None else Path(spec.search_path).resolve()
+    module = sys.modules.get(spec.factory.partition(":")[0])
+    module_path = getattr(module, "__file__", None)
+    own = None if module_path is None else Path(module_path).resolve()
+    for frame in reversed(traceback.extract_tb(exc.__traceback__)):
+        path = Path(frame.filename).resolve()
+        if path.is_relative_to(_NUDGE_CODE) or {"site-packages", "dist-packages"} & set(path.parts):
+            continue  # nudge's own code or a library's, though the folder may hold them (a venv in it)
+        if folder is not None and path.is_relative_to(folder):
+            shown = path.relative_to(folder).as_posix()
+        elif path == own:
+            shown = frame.filename
+        else:
+            continue
+        line = (frame.line or "").strip()
+        return f" ({shown} line {frame.lineno}: {line}); nudge --debug shows the whole traceback"
+    return ""
 
 
 #: A command's speed may pass its limit by this factor (a speed computed in floating point).
@@ -298,8 +363,7 @@ class CheckedPolicy:
         try:
             mode = self.inner.choose_mode(view, requested)
         except POLICY_FAILURES as exc:
-            raise PolicyError(f"{self.spec.described}: choose_mode raised "
-                              f"{type(exc).__name__}: {exc}") from exc
+            raise self._raised("choose_mode", exc) from exc
         if mode is not None and not (is_index(mode) and 0 <= int(mode) <= 2):
             self._fail(f"choose_mode returned {mode!r}; it must be 0, 1, 2 or None")
         return None if mode is None else int(mode)
@@ -308,15 +372,14 @@ class CheckedPolicy:
         try:
             answer = self.inner.assist(view)
         except POLICY_FAILURES as exc:
-            raise PolicyError(f"{self.spec.described}: assist raised {type(exc).__name__}: {exc}") from exc
+            raise self._raised("assist", exc) from exc
         return self._checked_assistance(answer, view, "assist")
 
     def _assist_quiet(self, view: StepView, steps: int) -> list[tuple[int, Assistance]]:
         try:
             runs = list(self.inner.assist_quiet(view, steps))
         except POLICY_FAILURES as exc:
-            raise PolicyError(f"{self.spec.described}: assist_quiet raised "
-                              f"{type(exc).__name__}: {exc}") from exc
+            raise self._raised("assist_quiet", exc) from exc
         checked = []
         for run in runs:
             if not (isinstance(run, tuple) and len(run) == 2 and isinstance(run[0], numbers.Integral)
@@ -366,8 +429,7 @@ class CheckedPolicy:
         try:
             plan = self.inner.start_turn(view)
         except POLICY_FAILURES as exc:
-            raise PolicyError(f"{self.spec.described}: start_turn raised "
-                              f"{type(exc).__name__}: {exc}") from exc
+            raise self._raised("start_turn", exc) from exc
         if not isinstance(plan, AutonomyTurn):
             self._fail(f"start_turn returned {type(plan).__name__}, not an AutonomyTurn")
         if plan.target is not None:
@@ -407,6 +469,10 @@ class CheckedPolicy:
                        f"[assistance] arrival_tolerance {settings.arrival_tolerance:g} of its target, so it "
                        "would run to the trial's time limit; give a target inside it, e.g. a goal's pose "
                        "(view.goal_poses)")
+
+    def _raised(self, method: str, exc: BaseException) -> PolicyError:
+        """The error of the policy's ``method`` that raised ``exc``: where in its own code."""
+        return PolicyError(f"{self.spec.described}: {method} raised {raised_text(exc, self.spec)}")
 
     def _fail(self, what: str) -> Any:
         raise PolicyError(f"{self.spec.described}: {what}")
