@@ -14,9 +14,21 @@ from nudgecli.cores import pool_workers
 from nudgecli.errors import ConfigError
 from nudgecli.runs import batch as batch_module
 from nudgecli.runs.batch_kinds import replicate
-from nudgecli.runs.size import SECONDS_FIXED, SECONDS_PER_ANALYSIS, SECONDS_PER_TRIAL, size_estimate
+from nudgecli.runs.size import (
+    SECONDS_FIXED,
+    SECONDS_PER_ANALYSIS,
+    SECONDS_PER_LAYOUT,
+    SECONDS_PER_STUDY,
+    SECONDS_PER_TASK,
+    SECONDS_PER_TRIAL,
+    size_estimate,
+    tail_seconds,
+)
 
 WORK_S = 96 * SECONDS_PER_TRIAL + 6 * SECONDS_PER_ANALYSIS  # 12 participant tasks, 96 trials, 6 analyses
+# what the workers do not share: the start, 3 plans of 8 layouts, 12 participants' own work, the tail
+FIXED_S = (SECONDS_FIXED + 3 * (SECONDS_PER_STUDY + 8 * SECONDS_PER_LAYOUT) + 12 * SECONDS_PER_TASK
+           + tail_seconds(6))
 
 
 def test_the_pool_is_no_larger_than_the_tasks() -> None:
@@ -27,10 +39,10 @@ def test_the_pool_is_no_larger_than_the_tasks() -> None:
 def test_the_estimate_counts_the_workers_that_run_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr("nudgecli.runs.size.available_cores", lambda: 4)
     within = size_estimate(3, 12, 6, 96, 3)
-    assert within.workers == 3 and within.seconds == pytest.approx(SECONDS_FIXED + WORK_S / 3)
-    assert "about 1 s on 3 worker(s) and" in within.describe()
+    assert within.workers == 3 and within.seconds == pytest.approx(FIXED_S + WORK_S / 3)
+    assert "about 3 s on 3 worker(s) and" in within.describe()
     capped = size_estimate(3, 12, 6, 96, 100_000)  # was "on 100000 worker(s)", the work divided by them
-    assert capped.workers == 12 and capped.seconds == pytest.approx(SECONDS_FIXED + WORK_S / 4)
+    assert capped.workers == 12 and capped.seconds == pytest.approx(FIXED_S + WORK_S / 4)
     assert "on 12 worker(s) sharing 4 cores" in capped.describe()  # told, not refused
 
 
@@ -39,7 +51,7 @@ def test_on_a_scheduler_the_estimate_is_one_workers_and_says_so(monkeypatch: pyt
     local = size_estimate(3, 12, 6, 96, 4)
     assert local.on(None) is local
     remote = local.on("tcp://127.0.0.1:8786")
-    assert remote.seconds == pytest.approx(SECONDS_FIXED + WORK_S) and remote.on_scheduler
+    assert remote.seconds == pytest.approx(FIXED_S + WORK_S) and remote.on_scheduler
     assert "on one worker (less on the scheduler's workers)" in remote.describe()
 
 

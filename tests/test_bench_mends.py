@@ -15,7 +15,10 @@ from click.testing import CliRunner
 from nudgecli import bench
 from nudgecli.bench import common, pipeline, scale, targets
 from nudgecli.cli import main
+from nudgecli.config import load_experiment
 from nudgecli.errors import WorkerLostError
+from nudgecli.report.plans import AnalysisPlan
+from nudgecli.runs import batch as batch_module
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
@@ -79,3 +82,39 @@ def test_the_two_throughput_rows_name_the_issue_of_their_target(monkeypatch: pyt
     timing = pipeline.BatchTiming(20, 8640, 20.0, 40.0, None)
     measured = pipeline.PipelineMeasurement("paper", 2, 0.004, {20: timing}, timing)
     assert pipeline.throughput_row(measured)["target"] == ">= 10,000,000 trials/h (issue 39)"
+
+
+#: Wall seconds measured on 2026-11-29 on the 2-core machine (quiet), and each batch's shape:
+#: (experiment, participant counts, replications, workers, kind).
+MEASURED_WALL_S = [
+    (("smoke", (2,), 4, 1, "replicate"), 2.9),  # 2.9-4.1 s; the estimate said "about 1 s"
+    (("smoke", (2,), 40, 1, "replicate"), 9.9),  # "about 5 s"
+    (("smoke", (2, 4), 3, 1, "power"), 4.1),  # 3.2-5.0 s; "about 2 s"
+    (("paper", (9,), 2, 2, "replicate"), 4.95),  # "about 2 s"
+]
+
+
+@pytest.mark.parametrize(("shape", "wall_s"), MEASURED_WALL_S)
+def test_the_size_estimate_is_within_30_percent_of_the_measured_time(
+        monkeypatch: pytest.MonkeyPatch, shape: tuple[str, tuple[int, ...], int, int, str],
+        wall_s: float) -> None:
+    monkeypatch.setattr("nudgecli.runs.size.available_cores", lambda: 2)
+    experiment, counts, replications, workers, kind = shape
+    batch = batch_module.Batch(kind, batch_module.single_point(load_experiment(experiment), counts),
+                               replications, 1, AnalysisPlan())
+    estimate = batch_module.estimate_batch(batch, workers)
+    assert estimate.seconds == pytest.approx(wall_s, rel=0.3)  # was about half
+
+
+def test_the_tail_grows_with_the_analyses_and_a_power_batchs_levels() -> None:
+    from nudgecli.runs import size
+
+    assert size.tail_seconds(4) == pytest.approx(size.TAIL_SECONDS + 4 * size.TAIL_SECONDS_PER_ANALYSIS)
+    power = size.tail_seconds(6, power_levels=2) - size.tail_seconds(6)
+    assert power == pytest.approx(size.POWER_TAIL_SECONDS + 2 * size.POWER_TAIL_SECONDS_PER_LEVEL)
+    smoke = size.size_estimate(4, 8, 4, 64, 1)  # replicate smoke -R 4: the plans and tasks count too
+    trials_and_analyses = 64 * size.SECONDS_PER_TRIAL + 4 * size.SECONDS_PER_ANALYSIS
+    assert smoke.seconds - smoke.tail_seconds > size.SECONDS_FIXED + trials_and_analyses
+    on_scheduler = size.size_estimate(3, 12, 6, 96, 2, power_levels=2).on("tcp://127.0.0.1:8786")
+    assert on_scheduler.power_levels == 2
+    assert on_scheduler.tail_seconds == pytest.approx(size.tail_seconds(6, 2))

@@ -390,10 +390,11 @@ def test_points_differing_only_in_participants_share_one_study_of_the_largest(mo
     # the size guard's estimate without the graph equals the graph's, whatever the workers
     for workers in (1, 3):
         assert estimate_batch(batch, workers) == estimate(graph, workers)
-    from nudgecli.runs.size import SECONDS_FIXED  # (the workers share the work, not the fixed cost)
+    from nudgecli.runs.size import SECONDS_PER_ANALYSIS, SECONDS_PER_TRIAL  # (the workers share these only)
 
-    assert estimate(graph, 3).seconds - SECONDS_FIXED == pytest.approx((estimate(graph, 1).seconds
-                                                                        - SECONDS_FIXED) / 3)
+    one, three = estimate(graph, 1), estimate(graph, 3)
+    shared = one.trials * SECONDS_PER_TRIAL + one.analyses * SECONDS_PER_ANALYSIS
+    assert one.seconds - three.seconds == pytest.approx(shared - shared / min(3, three.cores))
 
 
 def test_a_participant_does_not_depend_on_how_many_others_there_are():
@@ -959,13 +960,21 @@ def test_size_estimate_counts_tasks_and_trials():
     batch = batch_module.Batch("power", batch_module.single_point(config, (2, 4)), 3, 1,
                                AnalysisPlan())
     graph = batch_module.build_graph(batch)
-    size = batch_module.estimate(graph, workers=2)
+    size = batch_module.estimate_batch(batch, workers=2)
     assert (size.studies, size.participant_tasks, size.analyses, size.trials) == (3, 12, 6, 12 * 8)
-    # the work is shared by the workers, the fixed cost (start-up, figures) is not
-    from nudgecli.runs.size import SECONDS_FIXED, SECONDS_PER_ANALYSIS, SECONDS_PER_TRIAL
-    work = 96 * SECONDS_PER_TRIAL + 6 * SECONDS_PER_ANALYSIS
-    assert size.seconds == pytest.approx(SECONDS_FIXED + work / 2)
-    assert batch_module.estimate(graph, workers=1).seconds == pytest.approx(SECONDS_FIXED + work)
+    assert (size.studies, size.participant_tasks, size.analyses, size.trials) == \
+        (len(graph.studies), graph.participant_tasks, len(graph.analyses), graph.trials)
+    # the trials and analyses are shared by the workers; the start-up, the plans, the participants'
+    # own work (their parts are written by the command) and the tail (tables, power figure) are not
+    from nudgecli.runs import size as sizes
+    work = 96 * sizes.SECONDS_PER_TRIAL + 6 * sizes.SECONDS_PER_ANALYSIS
+    serial = 3 * (sizes.SECONDS_PER_STUDY + 8 * sizes.SECONDS_PER_LAYOUT) + 12 * sizes.SECONDS_PER_TASK
+    tail = (sizes.TAIL_SECONDS + 6 * sizes.TAIL_SECONDS_PER_ANALYSIS + sizes.POWER_TAIL_SECONDS
+            + 2 * sizes.POWER_TAIL_SECONDS_PER_LEVEL)  # participant counts 2 and 4
+    assert size.tail_seconds == pytest.approx(tail) and size.power_levels == 2
+    fixed = sizes.SECONDS_FIXED + serial + tail
+    assert size.seconds == pytest.approx(fixed + work / min(2, size.cores))
+    assert batch_module.estimate_batch(batch, workers=1).seconds == pytest.approx(fixed + work)
     with pytest.raises(ConfigError, match="--workers"):
         batch_module.run_batch(batch, "unused", workers=0)
 

@@ -275,7 +275,9 @@ def estimate_batch(batch: Batch, workers: int, tasks_left: int | None = None) ->
     r = batch.replications
     tasks = sum(participants.values())
     trials = sum(n * per_trial[key] for key, n in participants.items())
-    return size_estimate(r * len(participants), r * tasks, r * len(analysed), r * trials, workers, tasks_left)
+    levels = len({n for _, n in analysed}) if batch.kind == "power" else 0  # its figure's lines
+    return size_estimate(r * len(participants), r * tasks, r * len(analysed), r * trials, workers, tasks_left,
+                         power_levels=levels)
 
 
 # --- the run -----------------------------------------------------------------------------------

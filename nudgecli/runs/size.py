@@ -65,24 +65,48 @@ def override_named(name: str) -> Iterator[None]:
 
 # --- a batch's estimate (its "about ..."): the guard itself counts trials and steps ---------------
 
-#: CPU seconds per simulated trial end to end on one core -- for the size estimate's "about ..."
-#: only (the guard counts trials). Everything a study costs per trial besides its analysis and the
-#: command's fixed cost: its layouts, the trials, their metrics and the parts written. Measured with
-#: ``nudge bench --only pipeline`` on a quiet 2-core machine on 2026-11-28 (CPU seconds of the
-#: command and its workers, less the analyses): ``replicate paper -R 20 --workers 2`` 22.4 s for
-#: 8,640 trials, 2.5 ms a trial; ``power paper --participants 6,9,12,18,24 -R 50`` 138.9 s for
-#: 57,600 simulated trials, 2.2 ms a trial. The trial loop alone is 1.85 ms a trial. Was 0.0035
-#: (measured before the analyses stopped importing scipy.stats), 0.006 on 2026-11-26.
-SECONDS_PER_TRIAL = 0.0025
-#: CPU seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.043-
-#: 0.055 s on 2026-11-28, 2-core machine; 0.17 s with scipy.stats imported, 0.26 s before the array
-#: Kruskal-Wallis and Conover of :mod:`nudgecli.report.rank_tests`).
-SECONDS_PER_ANALYSIS = 0.05
-#: Wall seconds a batch command spends whatever its size, before its workers start (the interpreter
-#: and the imports, about 0.3 s) and after its last analysis (the tables and the 300 dpi figure,
-#: about 0.7 s): 2026-11-28, 2-core machine (``replicate paper -R 4``: 3.75 s, of which 1.7 s at
-#: the two rates above).
-SECONDS_FIXED = 1.0
+# The estimate's cost model, calibrated on 2026-11-29, 2-core machine (shared), from the CPU time of
+# the command and its workers (resource.getrusage(RUSAGE_CHILDREN), best of 3) and the wall time from
+# the last task's progress line to the exit (the tail), on smoke and paper:
+#   replicate smoke -R 1 --workers 1                 2.02 s CPU, tail 1.22 s (1 study, 2 tasks, 16 trials)
+#   replicate smoke -R 1 --set study.participants=20 2.47 s CPU (18 tasks, 144 trials more: 25 ms a task)
+#   replicate smoke -R 4 / -R 40                     2.26 / 7.92 s CPU, tail 1.18 / 2.9-5.0 s
+#   replicate paper -R 1 --workers 1                 2.83 s CPU, tail 1.24 s (9 tasks, 432 trials)
+#   replicate paper -R 1 --set study.participants=2  2.16 s CPU (7 tasks, 336 trials fewer: 96 ms a task)
+#   replicate paper -R 2 / -R 4 --workers 2          4.44 / 6.68 s CPU, tail 1.33 / 1.31 s
+#   power smoke --participants 2,4 / 2,3,4,5,6 -R 3  2.95 / 3.47 s CPU, tail 2.41 / 3.18 s
+# A smoke participant (8 trials) costs 25 ms and a paper one (48 trials) 96 ms: 1.8 ms a trial and
+# 11 ms a participant. A paper study costs 1.1 s more than its trials and participants (-R 2 to
+# -R 4), a smoke one about 0.05 s: its plan, which solves every layout. The estimate for
+# replicate smoke -R 4 is then 0.8 + 4 x 0.048 + 8 x 0.011 + 64 x 0.0018 + 4 x 0.025 + 1.3 +
+# 4 x 0.04 = 2.75 s (measured 2.5-4.1 s of wall time).
+
+#: Seconds a batch command spends whatever its size before its workers run trials: the interpreter,
+#: the imports and a worker's first task's loading (smoke -R 1 is 2.02 s of CPU, 1.22 s of it the tail).
+SECONDS_FIXED = 0.8
+#: Seconds of one study's plan (its layouts drawn and solved): a fixed part and a part per layout a
+#: participant runs (the trials a participant does). Every worker that runs a study's participants
+#: builds its plan, so the workers do not share it.
+SECONDS_PER_STUDY = 0.02
+SECONDS_PER_LAYOUT = 0.0035
+#: Seconds of one participant task besides its trials: its draw, calibration and metrics, and its part
+#: file, which the command's own process writes (so the workers do not share it either).
+SECONDS_PER_TASK = 0.011
+#: CPU seconds per simulated trial (the trial loop alone is 1.72 ms on 2026-11-29), shared by the
+#: workers that run at once. Was 0.0025 end to end, with the per-study and per-task costs in it.
+SECONDS_PER_TRIAL = 0.0018
+#: CPU seconds of one analysis (7 metrics, 2000 bootstrap resamples, a paper-scale study: 0.020-
+#: 0.024 s on 2026-11-29, 2-core machine; 0.043-0.055 s on 2026-11-28), shared by the workers.
+SECONDS_PER_ANALYSIS = 0.025
+#: Wall seconds after the last task (:func:`tail_seconds`): the batch's tables and its 300 dpi figure,
+#: plus each analysis's rows read and drawn (replicate smoke -R 4: 1.2-1.4 s; -R 40: 2.9 s).
+TAIL_SECONDS = 1.3
+TAIL_SECONDS_PER_ANALYSIS = 0.04
+#: A power batch's tail besides: its table's Clopper-Pearson intervals (scipy.stats imported for
+#: them, about 1.0 s) and the power figure, a line per participant count (power smoke --participants
+#: 2,4 -R 3: 2.4-3.0 s of tail; 2,3,4,5,6: 3.2 s).
+POWER_TAIL_SECONDS = 1.0
+POWER_TAIL_SECONDS_PER_LEVEL = 0.1
 #: Bytes on disk: a participant task's part file (about 7 KB of Parquet overhead and 60 bytes per
 #: trial, measured on ``smoke``) and an analysis (its JSON document, about 14 KB).
 BYTES_PER_TASK = 7_000
@@ -98,7 +122,8 @@ class SizeEstimate:
     tasks left to run (:func:`nudgecli.cores.pool_workers`); ``seconds`` shares the work among as
     many of them as there are ``cores`` to run them (:func:`nudgecli.cores.available_cores`). On a
     dask scheduler (``on_scheduler``), whose workers are counted only once it is connected, the
-    seconds are those of one worker.
+    seconds are those of one worker. ``tail_seconds``, part of ``seconds``, is the time after the
+    last task (:func:`tail_seconds`: the tables and figures), which a progress line's ETA adds.
     """
 
     studies: int
@@ -110,6 +135,8 @@ class SizeEstimate:
     workers: int
     cores: int = 1
     on_scheduler: bool = False
+    power_levels: int = 0
+    tail_seconds: float = 0.0
 
     def describe(self) -> str:
         if self.on_scheduler:
@@ -128,22 +155,41 @@ class SizeEstimate:
         if scheduler is None:
             return self
         return size_estimate(self.studies, self.participant_tasks, self.analyses, self.trials, 1,
-                             on_scheduler=True)
+                             on_scheduler=True, power_levels=self.power_levels)
 
 
 def size_estimate(studies: int, participant_tasks: int, analyses: int, trials: int,
-                  workers: int, tasks_left: int | None = None, *, on_scheduler: bool = False) -> SizeEstimate:
+                  workers: int, tasks_left: int | None = None, *, on_scheduler: bool = False,
+                  power_levels: int = 0) -> SizeEstimate:
     """A batch's :class:`SizeEstimate` from its counts (:func:`nudgecli.runs.batch.estimate_batch`)
     for ``workers`` asked for: the pool is no larger than the participant tasks it runs
     (``tasks_left`` where given: what a resumed batch can run at once, else all of them), and no
-    more of its workers run at once than there are cores (on a scheduler: one worker's time)."""
+    more of its workers run at once than there are cores (on a scheduler: one worker's time).
+    ``power_levels``: the participant counts of a power batch (0 for any other kind).
+
+    The seconds are :data:`SECONDS_FIXED`, the studies' plans and the participant tasks' own work
+    (not shared by the workers), the trials and analyses shared by the workers that run at once,
+    then the tail (:func:`tail_seconds`).
+    """
     pool = pool_workers(workers, participant_tasks if tasks_left is None else tasks_left)
     cores = available_cores()
     running = 1 if on_scheduler else min(pool, cores)
-    seconds = SECONDS_FIXED + (trials * SECONDS_PER_TRIAL + analyses * SECONDS_PER_ANALYSIS) / running
+    layouts = trials / participant_tasks if participant_tasks else 0.0  # a participant's trials
+    plans = studies * (SECONDS_PER_STUDY + layouts * SECONDS_PER_LAYOUT)
+    serial = plans + participant_tasks * SECONDS_PER_TASK
+    shared = trials * SECONDS_PER_TRIAL + analyses * SECONDS_PER_ANALYSIS
+    tail = tail_seconds(analyses, power_levels)
+    seconds = SECONDS_FIXED + serial + shared / running + tail
     size = participant_tasks * BYTES_PER_TASK + trials * BYTES_PER_TRIAL + analyses * BYTES_PER_ANALYSIS
     return SizeEstimate(studies, participant_tasks, analyses, trials, seconds, size, pool, cores,
-                        on_scheduler)
+                        on_scheduler, power_levels, tail)
+
+
+def tail_seconds(analyses: int, power_levels: int = 0) -> float:
+    """Seconds a batch command runs after its last task: its tables and figure, each analysis's rows,
+    and for a power batch (``power_levels`` participant counts, else 0) its intervals and figure."""
+    power = POWER_TAIL_SECONDS + power_levels * POWER_TAIL_SECONDS_PER_LEVEL if power_levels else 0.0
+    return TAIL_SECONDS + analyses * TAIL_SECONDS_PER_ANALYSIS + power
 
 
 def trials_per_participant(config: ExperimentConfig) -> int:
