@@ -3,6 +3,7 @@ its options and the estimate's arithmetic (nothing is timed here)."""
 
 from __future__ import annotations
 
+import io
 import re
 import subprocess
 import sys
@@ -118,3 +119,38 @@ def test_the_tail_grows_with_the_analyses_and_a_power_batchs_levels() -> None:
     on_scheduler = size.size_estimate(3, 12, 6, 96, 2, power_levels=2).on("tcp://127.0.0.1:8786")
     assert on_scheduler.power_levels == 2
     assert on_scheduler.tail_seconds == pytest.approx(size.tail_seconds(6, 2))
+
+
+def test_the_progress_eta_adds_the_tail_after_the_last_task() -> None:
+    from nudgecli.runs.progress import Progress
+
+    now = [0.0]
+    progress = Progress("replicate", stream=io.StringIO(), clock=lambda: now[0])
+    progress.line(0, 10)
+    now[0] = 5.0
+    assert progress.line(5, 10).endswith("ETA 5 s")  # no tail known: the tasks only
+    progress.tail_s = 2.0
+    assert progress.line(5, 10).endswith("ETA 7 s")
+    assert progress.line(10, 10).endswith("(100%), 2.00 tasks/s, ETA 2 s")  # was "ETA 0 s"
+
+
+class _GraphReachedError(Exception):
+    pass
+
+
+def test_a_batch_tells_its_progress_line_the_tail(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
+    from nudgecli.runs.progress import Progress
+
+    seen: list[float] = []
+
+    def run_graph(*args: Any) -> None:  # stops the batch where its tasks would start
+        seen.append(progress.tail_s)
+        raise _GraphReachedError
+
+    monkeypatch.setattr(batch_module, "_run_graph", run_graph)
+    progress = Progress("replicate", stream=io.StringIO())
+    batch = batch_module.Batch("power", batch_module.single_point(load_experiment("smoke"), (2, 4)), 3, 1,
+                               AnalysisPlan())
+    with pytest.raises(_GraphReachedError):
+        batch_module.run_batch(batch, tmp_path / "out", workers=1, progress=progress)
+    assert seen == [pytest.approx(batch_module.estimate_batch(batch, 1).tail_seconds)] and seen[0] > 0

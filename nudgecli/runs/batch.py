@@ -88,6 +88,7 @@ from nudgecli.runs.batch_tasks import (
     warn_global_rng,
 )
 from nudgecli.runs.executors import Executor, Job, ProcessExecutor, make_executor
+from nudgecli.runs.progress import Progress
 from nudgecli.runs.size import SizeEstimate, check_batch_size, size_estimate, trials_per_participant
 from nudgecli.runs.study import connect_scheduler, contiguous_chunks, executor_name, solve_layout_chunk_into
 from nudgecli.sim.people_file import People
@@ -383,6 +384,8 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
     runnable = left.at_once() if mode == "resume" else 0  # the tasks left that can run at once
     if mode == "resume" and client is None and workers > 1:  # its pool: the tasks left, not all of them
         size = estimate_batch(batch, workers, runnable)
+    if isinstance(progress, Progress):  # its ETA counts the tables and figures after the last task too
+        progress.tail_s = size.tail_seconds
     if log is not None:  # only now: a refusal is its one error line
         for line in (f"batch: {size.describe()}", *(f"Note: {note}" for note in batch.notes)):
             log(line)

@@ -17,6 +17,10 @@ class Progress:
     old line's last characters; spaces work on any terminal, where an erase code may not);
     otherwise (a log, CI) a new line is written at most every ``interval`` seconds, and always
     for the last task.
+
+    The ETA is the tasks left at the rate so far plus ``tail_s``: the seconds the command runs after
+    its last task (a batch's tables and figures), which the batch sets from its size estimate
+    (:func:`nudgecli.runs.size.tail_seconds`); 0 until then, so the ETA counts the tasks only.
     """
 
     def __init__(self, label: str, stream: TextIO | None = None, interval: float = 5.0,
@@ -30,6 +34,7 @@ class Progress:
         self.first_done: int | None = None
         self.last = -math.inf
         self.shown = 0  # the length of the line on the terminal now (to overwrite it all)
+        self.tail_s = 0.0
 
     def line(self, done: int, total: int) -> str:
         """``label: done/total tasks (pct), rate tasks/s, ETA ...`` (the rate counts this session only)."""
@@ -38,7 +43,7 @@ class Progress:
         elapsed = self.clock() - self.start
         new = done - self.first_done
         rate = new / elapsed if elapsed > 0 and new > 0 else 0.0
-        eta = format_duration((total - done) / rate) if rate > 0 else "unknown"
+        eta = format_duration((total - done) / rate + self.tail_s) if rate > 0 else "unknown"
         pct = 100.0 * done / total if total else 100.0
         return f"{self.label}: {done}/{total} tasks ({pct:.0f}%), {rate:.2f} tasks/s, ETA {eta}"
 
