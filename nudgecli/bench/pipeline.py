@@ -17,8 +17,9 @@ child, interpreter start-up included), then issue 39's power analysis (``nudge p
 --participants 6,9,12,18,24 -R 50``, about a minute and a quarter on 2 cores: under two minutes is
 its target), then the loop again, whose better time per participant
 counts (on a machine shared with other work, other processes only ever add time). The CPU seconds
-of each batch (the command and its reaped workers) give the size guard's cost per trial
-(:data:`nudgecli.runs.size.SECONDS_PER_TRIAL`) and the *CPU share* of the loop,
+of each batch (the command and its reaped workers) check the size estimate's cost model
+(:func:`nudgecli.runs.size.size_estimate`, whose constants say how they were measured) and give the
+*CPU share* of the loop,
 ``trials x loop seconds per trial / the batch's CPU seconds``: what the batch computes besides
 trials, which a machine shared with other work does not distort as it does the wall time.
 """
