@@ -4,10 +4,15 @@ own code names its file and line (docs/policies.md)."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
+import pytest
 from cli_helpers import nudge
 from policy_helpers import policy_experiment
+
+from nudgecli.errors import ConfigError
+from nudgecli.sim import policy_files
 
 #: A policy that edits its own file while the run's first trial runs, and logs which code made
 #: each of its policies (beside itself, ``ran.log``).
@@ -133,3 +138,37 @@ def test_a_policy_module_importing_a_module_not_installed_names_the_import(tmp_p
         "Error: condition 'mine' (policy p.missingmod:Mine): cannot import module 'p.missingmod': "
         "ModuleNotFoundError: No module named 'torchy_nonexist'; p/missingmod.py line 2 imports "
         "'torchy_nonexist', which is not installed in this Python"), result.output
+
+
+#: A policy in a package that imports a module of it only as it runs (inside ``assist``).
+LAZY = ASSERTS.replace("        assert view.step < 5\n", "        from .common import W\n\n"
+                       "        assert W\n")
+
+
+def test_a_module_the_policy_imports_as_it_runs_is_copied_and_hashed(tmp_path: Path) -> None:
+    experiment = policy_experiment(tmp_path / "exp", {"mine": "pk.lazy:Mine"},
+                                   modules={"pk/lazy.py": LAZY, "pk/common.py": "W = 1\n"}, participants=2)
+    result = nudge("simulate", experiment, "--out", tmp_path / "run")
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "run" / "pk" / "common.py").read_text() == "W = 1\n"
+    manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    assert set(manifest["policy_files"]) == {"pk/common.py", "pk/lazy.py"}
+    (tmp_path / "run" / "trials" / "part-0001.parquet").unlink()  # a run to resume from its own copies
+    replayed = nudge("simulate", tmp_path / "run" / "config.toml", "--out", tmp_path / "run", "--resume")
+    assert replayed.exit_code == 0, replayed.output
+    (tmp_path / "run" / "trials" / "part-0001.parquet").unlink()
+    (tmp_path / "exp" / "pk" / "common.py").write_text("W = 2\n")  # a resume would mix two policies
+    resumed = nudge("simulate", experiment, "--out", tmp_path / "run", "--resume")
+    assert resumed.exit_code == 1 and "common.py is not the policy module" in resumed.output, resumed.output
+
+
+def test_a_policy_package_of_too_many_modules_is_refused(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    for name in ("lazy", "common", "more"):
+        (tmp_path / "pk").mkdir(exist_ok=True)
+        (tmp_path / "pk" / f"{name}.py").write_text("")
+    monkeypatch.setattr(policy_files, "MAX_PACKAGE_FILES", 2)
+    with pytest.raises(ConfigError, match="holds 3 module files, more than the 2"):
+        policy_files.package_files(tmp_path.resolve(), [tmp_path / "pk" / "lazy.py"])
+    top = tmp_path / "alone.py"  # a module at the folder's top is kept alone
+    assert policy_files.package_files(tmp_path.resolve(), [top]) == [top.resolve()]

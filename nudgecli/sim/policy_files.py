@@ -4,7 +4,8 @@ experiment imported from its folder, so that the run folder is self-contained.
 A run of ``experiments/custom-policy.toml`` imports ``policies.threshold`` from
 ``experiments/policies/threshold.py`` (:mod:`nudgecli.sim.policy_loader`). The run folder ``R``
 keeps that file's bytes as ``R/policies/threshold.py`` (the same path relative to the folder) and
-its SHA-256 in the manifest (:data:`MANIFEST_KEY`). Its ``R/config.toml`` then finds the copy
+its SHA-256 in the manifest (:data:`MANIFEST_KEY`), and so every module file of the package it is
+in, imported or not (:func:`package_files`). Its ``R/config.toml`` then finds the copy
 where it finds any policy module, beside itself, so the resume command every damaged or
 interrupted run prints (``nudge simulate R/config.toml --out R ... --resume``) works from any
 folder. A resume whose modules differ from the recorded ones is refused naming the file: its
@@ -22,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import inspect
+import os
 import sys
 from collections.abc import Mapping
 from pathlib import Path
@@ -71,11 +73,8 @@ def loaded_policy_files(config: ExperimentConfig, own_folders: frozenset[str] = 
         _load(spec)
     base = Path(folder).resolve()
     files: dict[str, bytes] = {}
-    for path in imported_files(folder):
-        try:
-            relative = path.resolve().relative_to(base)
-        except ValueError:  # not under the folder: nothing the run folder could mirror
-            continue
+    for path in package_files(base, imported_files(folder)):
+        relative = path.relative_to(base)
         if relative.parts[0] in own_folders:
             top = relative.parts[0]
             raise ConfigError(f"{path}: a policy package named {top!r} would be copied into the {kind} "
@@ -83,6 +82,50 @@ def loaded_policy_files(config: ExperimentConfig, own_folders: frozenset[str] = 
                               "module) in the experiment's folder")
         files[relative.as_posix()] = path.read_bytes()
     return files
+
+
+#: The most module files the package tree of a policy may hold: a run copies and hashes them all.
+MAX_PACKAGE_FILES = 300
+
+
+def package_files(base: Path, imported: list[Path]) -> list[Path]:
+    """The module files under the folder ``base`` that a run keeps: the ``imported`` ones, and every
+    ``.py`` file of the package tree (its top package's folder, its subpackages) that holds one of
+    them, so a module the policy imports only when it runs (``from .common import W`` inside a
+    method) is copied and hashed too. A module at the folder's top is kept alone: the folder is not
+    its package (it holds the run folders, other experiments' code). Sorted, resolved.
+
+    Raises
+    ------
+    ConfigError
+        A package tree of more than :data:`MAX_PACKAGE_FILES` module files.
+    """
+    found = {path.resolve() for path in imported if path.resolve().is_relative_to(base)}
+    relatives = [path.relative_to(base).parts for path in found]
+    tops = sorted({parts[0] for parts in relatives if len(parts) > 1})  # a module at the top: no package
+    for top in tops:
+        tree = _tree_modules(base / top)
+        if len(tree) > MAX_PACKAGE_FILES:
+            raise ConfigError(f"{base / top}: the policy's package holds {len(tree)} module files, more "
+                              f"than the {MAX_PACKAGE_FILES} a run copies and hashes (every module of the "
+                              "package, so that one imported as the policy runs is kept too); keep the "
+                              "policy in a package of its own beside the experiment file")
+        found.update(tree)
+    return sorted(found)
+
+
+def _tree_modules(top: Path) -> list[Path]:
+    """The ``.py`` files of the package folder ``top`` and of its subpackages (folders named as
+    modules), without caches, hidden folders and run or batch folders (their copies of the code)."""
+    modules: list[Path] = []
+    for current, folders, names in os.walk(top):
+        here = Path(current)
+        folders[:] = sorted(name for name in folders if name.isidentifier()
+                            and not (here / name / MANIFEST).is_file()
+                            and not (here / name / BATCH_MANIFEST).is_file())
+        modules += [(here / name).resolve() for name in sorted(names)
+                    if name.endswith(".py") and name[:-3].isidentifier() and (here / name).is_file()]
+    return modules
 
 
 def _load(spec: PolicySpec) -> object:
