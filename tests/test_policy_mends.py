@@ -5,6 +5,8 @@ own code names its file and line (docs/policies.md)."""
 from __future__ import annotations
 
 import json
+import sys
+import types
 from pathlib import Path
 
 import pytest
@@ -172,3 +174,44 @@ def test_a_policy_package_of_too_many_modules_is_refused(
         policy_files.package_files(tmp_path.resolve(), [tmp_path / "pk" / "lazy.py"])
     top = tmp_path / "alone.py"  # a module at the folder's top is kept alone
     assert policy_files.package_files(tmp_path.resolve(), [top]) == [top.resolve()]
+
+
+#: A script whose policy class reads a script-level constant and a function of the script.
+SCRIPT = """
+from nudgecli.sim.policy_interface import Assistance, AutonomyTurn
+
+W = WEIGHT
+
+
+def scaled(command):
+    return tuple(W * value for value in command)
+
+
+class Mine:
+    infers = True
+    takes_turns = False
+
+    def assist(self, view):
+        return Assistance(scaled(view.u_h))
+
+    def start_turn(self, view):
+        return AutonomyTurn.stay()
+"""
+
+
+def _script_source(tmp_path: Path, name: str, weight: str, monkeypatch: pytest.MonkeyPatch) -> str | None:
+    path = tmp_path / name
+    path.write_text(SCRIPT.replace("WEIGHT", weight))
+    script = types.ModuleType("__main__")
+    script.__file__ = str(path)
+    monkeypatch.setitem(sys.modules, "__main__", script)
+    exec(compile(path.read_text(), str(path), "exec"), vars(script))  # as python SCRIPT runs it
+    return policy_files.script_policy_source(vars(script)["Mine"])
+
+
+def test_a_script_policys_recorded_source_holds_the_script_globals_it_reads(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    first = _script_source(tmp_path, "study.py", "0.3", monkeypatch)
+    assert first is not None and "W = 0.3" in first and "def scaled(command):" in first
+    assert _script_source(tmp_path, "again.py", "0.3", monkeypatch) == first  # another script, same policy
+    assert _script_source(tmp_path, "edited.py", "0.4", monkeypatch) != first  # a global edited

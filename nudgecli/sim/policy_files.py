@@ -192,7 +192,60 @@ def script_policy_source(factory: object) -> str | None:
     of: ``inspect.getsource``; for a class whose own source Python cannot find but whose methods'
     it can (a notebook's cell: Python looks for a class in its module's file, which a notebook's
     ``__main__`` lacks), its name, its methods' sources and its other attributes' values, in name
-    order; ``None`` where neither is there (a script read from stdin, code run by ``exec``)."""
+    order; ``None`` where neither is there (a script read from stdin, code run by ``exec``). Then
+    the script's globals its code reads (:func:`_script_globals_read`), where it reads any."""
+    source = _own_source(factory)
+    if source is None:
+        return None
+    read = _script_globals_read(factory)
+    return "\n".join([source, *read]) if read else source
+
+
+def _script_globals_read(factory: object) -> list[str]:
+    """The script-level names the factory's code reads (a function's, or a class's methods'), and
+    those the script's functions and classes it reads read in turn, in name order, that an edit of
+    the script could change without changing the factory's code: a constant (``W = 0.3``; None, a
+    bool, a number, a string, or a list or tuple of them) and a function or class the script
+    defines (its source). Its imports (modules, nudge's classes) are not the script's to change;
+    other objects are left out (their value shows no stable text)."""
+    script = vars(sys.modules["__main__"]) if "__main__" in sys.modules else {}
+    read: dict[str, str] = {}
+    pending, seen = [factory], {id(factory)}
+    while pending:
+        codes = [_code_of(item) for item in _callables(pending.pop())]
+        names: set[str] = set()
+        while codes:  # nested functions and comprehensions are code objects among the constants
+            code = codes.pop()
+            if code is not None:
+                names.update(code.co_names)
+                codes += [const for const in code.co_consts if inspect.iscode(const)]
+        for name in names - set(read):
+            value = script.get(name, factory)
+            if id(value) in seen:
+                continue
+            if (inspect.isfunction(value) or inspect.isclass(value)) and value.__module__ == "__main__":
+                with contextlib.suppress(OSError, TypeError):
+                    read[name] = inspect.getsource(value)
+                seen.add(id(value))
+                pending.append(value)
+            elif _plain(value):
+                read[name] = f"{name} = {value!r}"
+    return [read[name] for name in sorted(read)]
+
+
+def _callables(item: object) -> list[object]:
+    """A function, or a class's methods (static and class methods, properties' getters)."""
+    if isinstance(item, type):
+        return [getattr(value, "__func__", getattr(value, "fget", value)) for value in vars(item).values()]
+    return [item]
+
+
+def _code_of(item: object) -> Any:
+    return item.__code__ if inspect.isfunction(item) else None
+
+
+def _own_source(factory: object) -> str | None:
+    """:func:`script_policy_source` of the factory's own code."""
     try:
         return inspect.getsource(factory)  # type: ignore[arg-type]
     except (OSError, TypeError):
