@@ -164,16 +164,61 @@ def test_a_module_the_policy_imports_as_it_runs_is_copied_and_hashed(tmp_path: P
     assert resumed.exit_code == 1 and "common.py is not the policy module" in resumed.output, resumed.output
 
 
-def test_a_policy_package_of_too_many_modules_is_refused(
+def test_a_policy_importing_too_many_module_files_is_refused(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    for name in ("lazy", "common", "more"):
-        (tmp_path / "pk").mkdir(exist_ok=True)
+    (tmp_path / "pk").mkdir()
+    (tmp_path / "pk" / "lazy.py").write_text("def f():\n    from . import common, more\n")
+    for name in ("common", "more", "unused"):
         (tmp_path / "pk" / f"{name}.py").write_text("")
     monkeypatch.setattr(policy_files, "MAX_PACKAGE_FILES", 2)
-    with pytest.raises(ConfigError, match="holds 3 module files, more than the 2"):
+    with pytest.raises(ConfigError, match="more than the 2 module files"):
         policy_files.package_files(tmp_path.resolve(), [tmp_path / "pk" / "lazy.py"])
-    top = tmp_path / "alone.py"  # a module at the folder's top is kept alone
+    top = tmp_path / "alone.py"  # a module at the folder's top that imports nothing is kept alone
+    top.write_text("import json\n")
     assert policy_files.package_files(tmp_path.resolve(), [top]) == [top.resolve()]
+
+
+def _loaded(experiment: Path) -> dict[str, bytes]:
+    from nudgecli.config import load_experiment
+
+    return policy_files.loaded_policy_files(load_experiment(str(experiment)))
+
+
+def test_a_policy_module_linked_from_outside_the_folder_is_kept_by_its_path_in_the_folder(
+        tmp_path: Path) -> None:
+    shared = tmp_path / "shared" / "helpers.py"
+    shared.parent.mkdir()
+    shared.write_text("W = 1\n")
+    experiment = policy_experiment(tmp_path / "exp", {"mine": "mypol.linked:Mine"},
+                                   modules={"mypol/linked.py": LAZY.replace(".common", ".helpers")})
+    (tmp_path / "exp" / "mypol" / "helpers.py").symlink_to(Path("..", "..", "shared", "helpers.py"))
+    assert _loaded(experiment) == {"mypol/linked.py": (tmp_path / "exp" / "mypol" / "linked.py").read_bytes(),
+                                   "mypol/helpers.py": b"W = 1\n"}
+
+
+def test_only_the_modules_a_policy_imports_are_kept_not_their_folders_other_scripts(tmp_path: Path) -> None:
+    experiment = policy_experiment(tmp_path / "exp", {"mine": "pols.mine:Mine"},  # a folder, no __init__.py
+                                   modules={"pols/mine.py": LAZY, "pols/common.py": "W = 1\n",
+                                            "pols/habits_check.py": "print('a script of its own')\n",
+                                            "pols/tests/test_mine.py": "from ..mine import Mine\n"})
+    assert set(_loaded(experiment)) == {"pols/mine.py", "pols/common.py"}
+
+
+def test_a_module_at_the_folders_top_keeps_the_module_it_imports_relatively_as_it_runs(
+        tmp_path: Path) -> None:
+    experiment = policy_experiment(tmp_path / "exp", {"mine": "toppol:Mine"},
+                                   modules={"toppol.py": LAZY.replace(".common", ".tophelp"),
+                                            "tophelp.py": "W = 1\n", "other.py": "W = 3\n"},
+                                   participants=2)
+    result = nudge("simulate", experiment, "--out", tmp_path / "run")
+    assert result.exit_code == 0, result.output
+    manifest = json.loads((tmp_path / "run" / "manifest.json").read_text())
+    assert set(manifest["policy_files"]) == {"toppol.py", "tophelp.py"}
+    assert (tmp_path / "run" / "tophelp.py").read_text() == "W = 1\n"
+    (tmp_path / "run" / "trials" / "part-0001.parquet").unlink()
+    (tmp_path / "exp" / "tophelp.py").write_text("W = 2\n")  # a resume would mix two policies
+    resumed = nudge("simulate", experiment, "--out", tmp_path / "run", "--resume")
+    assert resumed.exit_code == 1 and "tophelp.py is not the policy module" in resumed.output, resumed.output
 
 
 #: A script whose policy class reads a script-level constant and a function of the script.

@@ -4,8 +4,8 @@ experiment imported from its folder, so that the run folder is self-contained.
 A run of ``experiments/custom-policy.toml`` imports ``policies.threshold`` from
 ``experiments/policies/threshold.py`` (:mod:`nudgecli.sim.policy_loader`). The run folder ``R``
 keeps that file's bytes as ``R/policies/threshold.py`` (the same path relative to the folder) and
-its SHA-256 in the manifest (:data:`MANIFEST_KEY`), and so every module file of the package it is
-in, imported or not (:func:`package_files`). Its ``R/config.toml`` then finds the copy
+its SHA-256 in the manifest (:data:`MANIFEST_KEY`), and so each module of the folder its code
+imports relatively, however late (:func:`package_files`). Its ``R/config.toml`` then finds the copy
 where it finds any policy module, beside itself, so the resume command every damaged or
 interrupted run prints (``nudge simulate R/config.toml --out R ... --resume``) works from any
 folder. A resume whose modules differ from the recorded ones is refused naming the file: its
@@ -20,6 +20,7 @@ the same way (:func:`check_same_policy_sources`).
 
 from __future__ import annotations
 
+import ast
 import contextlib
 import hashlib
 import inspect
@@ -84,48 +85,70 @@ def loaded_policy_files(config: ExperimentConfig, own_folders: frozenset[str] = 
     return files
 
 
-#: The most module files the package tree of a policy may hold: a run copies and hashes them all.
+#: The most module files of the folder a policy's modules may import: a run copies and hashes them all.
 MAX_PACKAGE_FILES = 300
 
 
 def package_files(base: Path, imported: list[Path]) -> list[Path]:
-    """The module files under the folder ``base`` that a run keeps: the ``imported`` ones, and every
-    ``.py`` file of the package tree (its top package's folder, its subpackages) that holds one of
-    them, so a module the policy imports only when it runs (``from .common import W`` inside a
-    method) is copied and hashed too. A module at the folder's top is kept alone: the folder is not
-    its package (it holds the run folders, other experiments' code). Sorted, resolved.
+    """The module files under the folder ``base`` that a run keeps: the ``imported`` ones and the
+    folder's modules their code imports relatively (``from .common import W``, ``from . import
+    common``), transitively and wherever the import is (inside a method too: it runs only as the
+    policy does), with the packages above each (their ``__init__.py``). An absolute import is
+    looked up on ``sys.path``, as the loader does (the folder is not on it), so it names no module
+    of the folder. A file is kept by its path inside the folder, a link to a file outside it too
+    (its target's bytes); a name that is no regular file is left out. Sorted.
 
     Raises
     ------
     ConfigError
-        A package tree of more than :data:`MAX_PACKAGE_FILES` module files.
+        More than :data:`MAX_PACKAGE_FILES` module files.
     """
-    found = {path.resolve() for path in imported if path.resolve().is_relative_to(base)}
-    relatives = [path.relative_to(base).parts for path in found]
-    tops = sorted({parts[0] for parts in relatives if len(parts) > 1})  # a module at the top: no package
-    for top in tops:
-        tree = _tree_modules(base / top)
-        if len(tree) > MAX_PACKAGE_FILES:
-            raise ConfigError(f"{base / top}: the policy's package holds {len(tree)} module files, more "
-                              f"than the {MAX_PACKAGE_FILES} a run copies and hashes (every module of the "
-                              "package, so that one imported as the policy runs is kept too); keep the "
-                              "policy in a package of its own beside the experiment file")
-        found.update(tree)
+    found: set[Path] = set()
+    pending = [path for path in map(_inside_folder, imported, [base] * len(imported)) if path is not None]
+    while pending:
+        path = pending.pop()
+        if path in found:
+            continue
+        found.add(path)
+        if len(found) > MAX_PACKAGE_FILES:
+            raise ConfigError(f"{base}: the policy's modules import more than the {MAX_PACKAGE_FILES} "
+                              "module files of the folder a run copies and hashes (each one imported, "
+                              "relatively, however late); keep the policy in a package of its own beside "
+                              "the experiment file")
+        pending += [module for module in _relative_imports(base, path) if module not in found]
     return sorted(found)
 
 
-def _tree_modules(top: Path) -> list[Path]:
-    """The ``.py`` files of the package folder ``top`` and of its subpackages (folders named as
-    modules), without caches, hidden folders and run or batch folders (their copies of the code)."""
-    modules: list[Path] = []
-    for current, folders, names in os.walk(top):
-        here = Path(current)
-        folders[:] = sorted(name for name in folders if name.isidentifier()
-                            and not (here / name / MANIFEST).is_file()
-                            and not (here / name / BATCH_MANIFEST).is_file())
-        modules += [(here / name).resolve() for name in sorted(names)
-                    if name.endswith(".py") and name[:-3].isidentifier() and (here / name).is_file()]
-    return modules
+def _inside_folder(path: Path, base: Path) -> Path | None:
+    """``path`` without ``..`` and with its links kept (the name the folder's tree has for it), when
+    it lies under ``base`` and is a regular file (a link's target is); else ``None``."""
+    inside = Path(os.path.abspath(path))
+    return inside if inside.is_relative_to(base) and inside.is_file() else None
+
+
+def _relative_imports(base: Path, path: Path) -> list[Path]:
+    """The files under ``base`` that the module file ``path`` of it imports relatively, as Python
+    resolves them in the folder's private package (:mod:`nudgecli.sim.policy_loader`): the named
+    module, the packages above it, and each imported name that is a module of its own."""
+    try:
+        tree = ast.parse(path.read_bytes(), str(path))
+    except (SyntaxError, ValueError, OSError):  # it would not import either: nothing it imports
+        return []
+    parts = path.relative_to(base).parts
+    package = list(parts[:-1])  # a module's package; an __init__.py's is its own folder
+    files: list[Path] = []
+    for node in ast.walk(tree):
+        if not isinstance(node, ast.ImportFrom) or node.level < 1 or node.level - 1 > len(package):
+            continue  # an absolute import (sys.path's), or one above the folder (it fails)
+        target = package[:len(package) - (node.level - 1)] + (node.module.split(".") if node.module else [])
+        names = [target[:end] for end in range(1, len(target) + 1)]
+        names += [[*target, alias.name] for alias in node.names if alias.name != "*"]
+        for name in names:
+            found = module_file(str(base), ".".join(name))
+            kept = None if found is None else _inside_folder(found, base)
+            if kept is not None:
+                files.append(kept)
+    return files
 
 
 def _load(spec: PolicySpec) -> object:
