@@ -260,3 +260,18 @@ def test_a_script_policys_recorded_source_holds_the_script_globals_it_reads(
     assert first is not None and "W = 0.3" in first and "def scaled(command):" in first
     assert _script_source(tmp_path, "again.py", "0.3", monkeypatch) == first  # another script, same policy
     assert _script_source(tmp_path, "edited.py", "0.4", monkeypatch) != first  # a global edited
+
+
+def test_a_policy_module_already_imported_is_loaded_without_reading_the_global_generators(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from nudgecli.sim import policy_registry
+
+    (tmp_path / "digested.py").write_text("class Mine:\n    pass\n")
+    spec = policy_registry.PolicySpec("mine", "digested:Mine", search_path=str(tmp_path))
+    digests: list[int] = []
+    digest = policy_registry.global_rng_digest
+    monkeypatch.setattr(policy_registry, "global_rng_digest", lambda: digests.append(1) or digest())
+    first = policy_registry.load_factory(spec, reload_changed=False)  # imported: a draw is looked for
+    assert len(digests) == 2
+    assert policy_registry.load_factory(spec, reload_changed=False) is first  # a trial's: nothing imported
+    assert len(digests) == 2
