@@ -116,7 +116,8 @@ def test_a_failure_in_the_policys_code_names_its_file_and_line(tmp_path: Path) -
     assert result.output.startswith(
         "Error: condition 'mine' (policy p.assertp:Mine): assist raised AssertionError "
         "(p/assertp.py line 10: "
-        "assert view.step < 5); nudge --debug shows the whole traceback"), result.output
+        "assert view.step < 5); nudge --debug, or the exception's __cause__ in Python, shows the whole "
+        "traceback"), result.output
 
 
 def test_a_failure_in_making_the_policy_names_its_file_and_line(tmp_path: Path) -> None:
@@ -127,7 +128,8 @@ def test_a_failure_in_making_the_policy_names_its_file_and_line(tmp_path: Path) 
     result = nudge("simulate", experiment, "--out", tmp_path / "run")
     assert result.exit_code == 1
     assert ("making the policy failed: ZeroDivisionError: division by zero (mymodule.py line 10: 1 / 0); "
-            "nudge --debug shows the whole traceback") in result.output, result.output
+            "nudge --debug, or the exception's __cause__ in Python, shows the whole traceback"
+            ) in result.output, result.output
 
 
 def test_a_policy_module_importing_a_module_not_installed_names_the_import(tmp_path: Path) -> None:
@@ -244,9 +246,10 @@ class Mine:
 """
 
 
-def _script_source(tmp_path: Path, name: str, weight: str, monkeypatch: pytest.MonkeyPatch) -> str | None:
+def _script_source(tmp_path: Path, name: str, weight: str, monkeypatch: pytest.MonkeyPatch,
+                   script_text: str = SCRIPT) -> str | None:
     path = tmp_path / name
-    path.write_text(SCRIPT.replace("WEIGHT", weight))
+    path.write_text(script_text.replace("WEIGHT", weight))
     script = types.ModuleType("__main__")
     script.__file__ = str(path)
     monkeypatch.setitem(sys.modules, "__main__", script)
@@ -275,3 +278,12 @@ def test_a_policy_module_already_imported_is_loaded_without_reading_the_global_g
     assert len(digests) == 2
     assert policy_registry.load_factory(spec, reload_changed=False) is first  # a trial's: nothing imported
     assert len(digests) == 2
+
+
+def test_a_script_global_named_like_an_attribute_the_policy_reads_is_not_recorded(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    script = SCRIPT.replace("W = WEIGHT", "W = WEIGHT\nstep = 7").replace(
+        "return Assistance(scaled(view.u_h))",
+        "return Assistance(scaled(view.u_h)) if view.step >= 0 else None")
+    source = _script_source(tmp_path, "study.py", "0.3", monkeypatch, script)
+    assert source is not None and "W = 0.3" in source and "step = 7" not in source  # view.step: not it

@@ -26,6 +26,7 @@ import hashlib
 import inspect
 import os
 import sys
+import textwrap
 from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -235,13 +236,9 @@ def _script_globals_read(factory: object) -> list[str]:
     read: dict[str, str] = {}
     pending, seen = [factory], {id(factory)}
     while pending:
-        codes = [_code_of(item) for item in _callables(pending.pop())]
         names: set[str] = set()
-        while codes:  # nested functions and comprehensions are code objects among the constants
-            code = codes.pop()
-            if code is not None:
-                names.update(code.co_names)
-                codes += [const for const in code.co_consts if inspect.iscode(const)]
+        for item in _callables(pending.pop()):
+            names |= _global_names(item)
         for name in names - set(read):
             value = script.get(name, factory)
             if id(value) in seen:
@@ -254,6 +251,24 @@ def _script_globals_read(factory: object) -> list[str]:
             elif _plain(value):
                 read[name] = f"{name} = {value!r}"
     return [read[name] for name in sorted(read)]
+
+
+def _global_names(item: object) -> set[str]:
+    """The global names the function ``item`` (its nested functions and comprehensions too) reads:
+    its code's names (``co_names``), less those its source uses only as an attribute's (``step``
+    of ``view.step``), where Python can show its source."""
+    names: set[str] = set()
+    codes = [_code_of(item)]
+    while codes:  # nested functions and comprehensions are code objects among the constants
+        code = codes.pop()
+        if code is not None:
+            names.update(code.co_names)
+            codes += [const for const in code.co_consts if inspect.iscode(const)]
+    try:
+        tree = ast.parse(textwrap.dedent(inspect.getsource(item)))  # type: ignore[arg-type]
+    except (OSError, TypeError, SyntaxError):  # no source (a lambda's line may not parse alone)
+        return names
+    return names & {node.id for node in ast.walk(tree) if isinstance(node, ast.Name)}
 
 
 def _callables(item: object) -> list[object]:

@@ -312,9 +312,10 @@ def raised_text(exc: BaseException, spec: PolicySpec) -> str:
 
 def where_raised(exc: BaseException, spec: PolicySpec) -> str:
     """Where in the policy's own code ``exc`` was raised: `` (p/mine.py line 6: assert view.step <
-    5); nudge --debug shows the whole traceback``, the innermost frame of its traceback in a file
-    under the experiment's folder (or the factory's module's file, one from ``sys.path``), its path
-    relative to the folder; ``""`` where no frame is the policy's (its code raised nothing itself)."""
+    5); nudge --debug, or the exception's __cause__ in Python, shows the whole traceback``, the
+    innermost frame of its traceback in a file under the experiment's folder (or the factory's
+    module's file, one from ``sys.path``), its path relative to the folder; ``""`` where no frame
+    is the policy's (its code raised nothing itself)."""
     folder = None if spec.search_path is None else Path(spec.search_path).resolve()
     module = sys.modules.get(spec.factory.partition(":")[0])
     module_path = getattr(module, "__file__", None)
@@ -330,7 +331,8 @@ def where_raised(exc: BaseException, spec: PolicySpec) -> str:
         else:
             continue
         line = (frame.line or "").strip()
-        return f" ({shown} line {frame.lineno}: {line}); nudge --debug shows the whole traceback"
+        return (f" ({shown} line {frame.lineno}: {line}); nudge --debug, or the exception's __cause__ in "
+                "Python, shows the whole traceback")
     return ""
 
 
