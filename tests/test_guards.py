@@ -415,7 +415,8 @@ def test_the_closed_form_size_is_the_graphs(tmp_path):
     sweep = Batch("sweep", (Point(0, {"k": 1}, smoke, (3,)), Point(1, {"k": 2}, other, (2,)),
                             Point(2, {"k": 1}, smoke, (4,))), 3, 7, AnalysisPlan())
     for batch in (power, sweep):
-        assert estimate_batch(batch, workers=2) == estimate(build_graph(batch), workers=2)
+        assert estimate_batch(batch, workers=2) == estimate(build_graph(batch), workers=2,
+                                                            power=batch.kind == "power")
     assert estimate_batch(sweep, 1).trials == 3 * (4 + 2) * trials_per_participant(smoke)
 
 

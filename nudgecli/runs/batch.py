@@ -255,10 +255,12 @@ def build_graph(batch: Batch) -> Graph:
     return Graph(studies, analyses, rows)
 
 
-def estimate(graph: Graph, workers: int) -> SizeEstimate:
-    """The size of the batch and its estimated wall time on ``workers`` and disk use."""
+def estimate(graph: Graph, workers: int, power: bool = False) -> SizeEstimate:
+    """The size of the batch and its estimated wall time on ``workers`` and disk use (``power``: a
+    power batch, whose tail draws a line per participant count analysed)."""
+    levels = len({analysis.participants for analysis in graph.analyses.values()}) if power else 0
     return size_estimate(len(graph.studies), graph.participant_tasks, len(graph.analyses), graph.trials,
-                         workers)
+                         workers, power_levels=levels)
 
 
 def estimate_batch(batch: Batch, workers: int, tasks_left: int | None = None) -> SizeEstimate:
