@@ -91,7 +91,7 @@ def without_table_read(path: Path) -> bytes:
     the comparison's without the names of each condition in either source and ``compare.json``'s
     record of ``--match``, the plan and ``--drop-duplicates`` (which came after them too), every
     other byte as it is."""
-    if path.name in ("compare.csv", "compare.json"):
+    if path.name in ("compare.csv", "participant_medians.csv", "compare.json"):
         return without_condition_names(path)
     if path.name != "stats.json":
         return path.read_bytes()
@@ -107,15 +107,16 @@ def without_table_read(path: Path) -> bytes:
 
 
 def without_condition_names(path: Path) -> bytes:
-    """``compare.csv`` or ``compare.json`` without the columns ``simulated_condition`` and
-    ``real_condition`` and the document's ``match``, ``plan`` and ``drop_duplicates``."""
+    """``compare.csv``, ``participant_medians.csv`` or ``compare.json`` without the columns
+    ``simulated_condition`` and ``real_condition`` and the document's ``match``, ``plan`` and
+    ``drop_duplicates``."""
     names = ["simulated_condition", "real_condition"]
     if path.suffix == ".csv":
         return cells(path).drop(columns=names).to_csv(index=False).encode("utf-8")
     document = json.loads(path.read_text(encoding="utf-8"))
     assert document.pop("drop_duplicates") is True and document.pop("match") == {}
     assert document.pop("plan") == {"name": "paper", "source": "paper"}
-    for row in document["comparison"]:
+    for row in document["comparison"] + document["participant_medians"]:
         assert row.pop("real_condition") == row["condition"] == row.pop("simulated_condition")
     return (json.dumps(document, indent=2, allow_nan=False) + "\n").encode("utf-8")
 

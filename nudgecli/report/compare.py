@@ -246,16 +246,28 @@ def shared_metrics(simulated_metrics: Sequence[str], real_metrics: Sequence[str]
     return common
 
 
-def participant_medians(simulated: pd.DataFrame, real: pd.DataFrame, metrics: Sequence[str]) -> pd.DataFrame:
+def participant_medians(simulated: pd.DataFrame, real: pd.DataFrame, metrics: Sequence[str],
+                        condition_map: Mapping[str, str] | None = None) -> pd.DataFrame:
     """Per-participant medians of each metric and condition, both sources in one tidy table.
+
+    Parameters
+    ----------
+    simulated, real
+        Metrics tables, conditions already aligned (:func:`align_conditions`).
+    metrics
+        What to summarise.
+    condition_map
+        The ``--match`` pairs (simulated -> real condition) the rows' ``simulated_condition`` are of.
 
     Returns
     -------
     pd.DataFrame
-        Columns ``source`` (simulated, real), ``metric``, ``condition``, ``participant``
-        (as a string), ``n`` (trials with a value) and ``median``; participants without a value
-        of the metric in a condition are left out.
+        Columns ``source`` (simulated, real), ``metric``, ``condition`` (the real table's name),
+        ``simulated_condition`` and ``real_condition`` (the compared pair, as in ``compare.csv``,
+        on the rows of both sources), ``participant`` (as a string), ``n`` (trials with a value)
+        and ``median``; participants without a value of the metric in a condition are left out.
     """
+    simulated_name = {label: key for key, label in (condition_map or {}).items()}
     frames = []
     for source, table in zip(SOURCES, (simulated, real), strict=True):
         for metric in metrics:
@@ -266,8 +278,11 @@ def participant_medians(simulated: pd.DataFrame, real: pd.DataFrame, metrics: Se
             summary = grouped.agg(n="size", median="median").reset_index()
             summary.insert(0, "metric", metric)
             summary.insert(0, "source", source)
+            summary["simulated_condition"] = [simulated_name.get(c, c) for c in summary["condition"]]
+            summary["real_condition"] = summary["condition"]
             frames.append(summary)
-    columns = ["source", "metric", "condition", "participant", "n", "median"]
+    columns = ["source", "metric", "condition", "simulated_condition", "real_condition", "participant", "n",
+               "median"]
     return pd.concat(frames, ignore_index=True)[columns] if frames else pd.DataFrame(columns=columns)
 
 
@@ -525,7 +540,7 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
     sim_table, real_table, conditions = align_conditions(sim_table, real_table, condition_map,
                                                          names=(str(simulated), str(real)), notes=notes)
     table = compare_tables(sim_table, real_table, selected, conditions, options, condition_map)
-    medians = participant_medians(sim_table, real_table, selected)
+    medians = participant_medians(sim_table, real_table, selected, condition_map)
     source = None if isinstance(given, AnalysisPlan) else str(given)
     return Comparison(str(simulated), str(real), selected, conditions, table, medians, options,
                       {"simulated": sim_table, "real": real_table}, dict(condition_map or {}),

@@ -1,0 +1,40 @@
+"""Three small mends: ``participant_medians.csv`` names each row's simulated condition, a
+one-column ``compare.png`` keeps its legend inside the figure, and a file's inconsistency that
+its ``--set`` overrides mend is taken (docs/people.md, docs/baselines.md)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from nudgecli.report.compare import CompareOptions, compare_sources, participant_medians
+
+
+def trials(prefix: str, conditions: list[str], seed: int) -> pd.DataFrame:
+    """A small metrics table: 4 participants, 4 trials each per condition."""
+    rng = np.random.default_rng(seed)
+    n = 16 * len(conditions)
+    return pd.DataFrame({"participant": [f"{prefix}{i % 4}" for i in range(n)],
+                         "condition": [c for c in conditions for _ in range(16)],
+                         "completion_time": rng.normal(20.0, 3.0, n)})
+
+
+# --- 1. participant_medians.csv names the simulated condition ------------------------------------
+
+def test_participant_medians_name_the_simulated_condition_of_a_match(tmp_path: Path) -> None:
+    simulated, real = tmp_path / "sim.csv", tmp_path / "real.csv"
+    trials("s", ["disambiguation", "none"], 1).to_csv(simulated, index=False)
+    trials("r", ["control"], 2).to_csv(real, index=False)
+    result = compare_sources(simulated, real, condition_map={"disambiguation": "control"},
+                             options=CompareOptions(resamples=0), notes=[])
+    medians = result.medians
+    assert list(medians.columns) == ["source", "metric", "condition", "simulated_condition", "real_condition",
+                                     "participant", "n", "median"]
+    assert set(medians["condition"]) == set(medians["real_condition"]) == {"control"}
+    assert set(medians["simulated_condition"]) == {"disambiguation"}  # on the real people's rows too
+    assert set(medians["source"]) == {"simulated", "real"}
+    # a condition compared under its own name is its own simulated condition
+    alone = participant_medians(trials("s", ["none"], 3), trials("r", ["none"], 4), ["completion_time"])
+    assert set(alone["simulated_condition"]) == {"none"}
