@@ -8,8 +8,10 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
-from nudgecli.report.compare import CompareOptions, compare_sources, participant_medians
+from nudgecli.report.compare import CompareOptions, compare_sources, compare_tables, participant_medians
+from nudgecli.report.compare_figure import build_compare_figure
 
 
 def trials(prefix: str, conditions: list[str], seed: int) -> pd.DataFrame:
@@ -38,3 +40,17 @@ def test_participant_medians_name_the_simulated_condition_of_a_match(tmp_path: P
     # a condition compared under its own name is its own simulated condition
     alone = participant_medians(trials("s", ["none"], 3), trials("r", ["none"], 4), ["completion_time"])
     assert set(alone["simulated_condition"]) == {"none"}
+
+
+# --- 2. a one-column compare figure keeps its legend inside ---------------------------------------
+
+@pytest.mark.parametrize("conditions", [["none"], ["none", "blending"]])
+def test_the_compare_figures_legend_lies_inside_the_figure(conditions: list[str]) -> None:
+    simulated, real = trials("s", conditions, 5), trials("r", conditions, 6)
+    comparison = compare_tables(simulated, real, ["completion_time"], conditions, CompareOptions(resamples=0))
+    figure = build_compare_figure({"simulated": simulated, "real": real}, comparison,
+                                  participant_medians(simulated, real, ["completion_time"]))
+    figure.canvas.draw()
+    legend, frame = figure.legends[0].get_window_extent(), figure.bbox
+    assert frame.x0 <= legend.x0 and legend.x1 <= frame.x1, (legend, frame)
+    assert frame.y0 <= legend.y0 and legend.y1 <= frame.y1, (legend, frame)

@@ -119,8 +119,11 @@ def build_compare_figure(trials: dict[str, pd.DataFrame], comparison: pd.DataFra
     names = {str(c): condition_pair(s, str(c)) for c, s in zip(comparison["condition"], paired, strict=True)}
     titles = {c: name if n_cols > 1 or name != c else "" for c, name in names.items()}
     width = COLUMN_WIDTH_IN if n_cols == 1 else FULL_WIDTH_IN
+    # the legend's two columns (simulated, real) are wider than one column's figure: there it
+    # takes one column of four lines, and the figure grows by the two lines more
+    legend_columns, legend_height = (2, 0.0) if n_cols > 1 else (1, 0.3)
     with figure_style():
-        fig = Figure(figsize=(width, 1.9 * n_rows + 0.4), layout="constrained")
+        fig = Figure(figsize=(width, 1.9 * n_rows + 0.4 + legend_height), layout="constrained")
         FigureCanvasAgg(fig)
         axes = np.atleast_2d(fig.subplots(n_rows, n_cols, squeeze=False))
         for i, metric in enumerate(metrics):
@@ -131,7 +134,7 @@ def build_compare_figure(trials: dict[str, pd.DataFrame], comparison: pd.DataFra
                 if j == 0:
                     ax.set_ylabel("share of trials")
         handles, labels = axes[0, 0].get_legend_handles_labels()
-        fig.legend(handles, labels, loc="outside lower center", ncol=2)
+        fig.legend(handles, labels, loc="outside lower center", ncol=legend_columns)
     return fig
 
 
