@@ -536,7 +536,8 @@ class ExperimentConfig(Section):
 
 
 def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = ()) -> ExperimentConfig:
-    """Read an experiment preset or file, check it, apply the ``--set`` overrides together, validate.
+    """Read an experiment preset or file, check it, apply the ``--set`` overrides together, validate
+    (a file refused on its own is taken when the overrides mend it; else the refusal names the file).
 
     Raises
     ------
@@ -545,12 +546,13 @@ def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = 
     """
     path = resolve_preset(name_or_path, "experiments")
     data = read_toml(path)
+    refused = None
     try:  # the file on its own, but for a condition's section that only the overrides write
         ExperimentConfig.model_validate(_with_sections_set(data, overrides))
-    except ValidationError as exc:
-        raise ConfigError(format_validation_error(exc, str(path), ExperimentConfig, data)) from None
+    except ValidationError as exc:  # refused unless the overrides mend it (--set blending.gate=gap)
+        refused = ConfigError(format_validation_error(exc, str(path), ExperimentConfig, data))
     data = dependents_off_with_their_switch(data, overrides)
-    config = validate_overridden(ExperimentConfig, data, overrides)
+    config = validate_overridden(ExperimentConfig, data, overrides, refused)
     logs_set = [text for text in overrides if parse_override(text)[0] == ["population", "physiology_logs"]]
     config.population.logs_written_in(f"--set {logs_set[-1]}" if logs_set else str(path))  # for its refusal
     if config.policies:  # a researcher's policy modules are imported from beside the experiment file

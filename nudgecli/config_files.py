@@ -184,19 +184,28 @@ def apply_override(data: dict[str, Any], path: list[str], value: Any) -> None:
     node[path[-1]] = value
 
 
-def validate_overridden(model: type[ModelT], data: dict[str, Any], overrides: Sequence[str]) -> ModelT:
+def validate_overridden(model: type[ModelT], data: dict[str, Any], overrides: Sequence[str],
+                        refused: ConfigError | None = None) -> ModelT:
     """``data`` (a file's, checked on its own) with every ``--set`` applied, then validated once.
 
     The overrides make one setup together, whatever their order (the later of two of one key wins):
     a step on the way need not be valid (``study.start_modes=["x"]`` before
     ``study.blocks_per_condition=1``, 8 trials in 3 blocks). A problem that remains names the
     overrides at fault (:func:`_at_fault`), its field and its fix, in one line.
+
+    ``refused`` is the file's refusal on its own, if it had one: the overrides may mend it (a file's
+    ``gate = "none"`` beside ``gap = 0.3`` with ``--set blending.gate=gap``), and where they do not
+    it is raised, naming the file, instead of a line naming them.
     """
+    if refused is not None and not overrides:
+        raise refused
     parsed = [(text, *parse_override(text)) for text in overrides]
     final = _overridden(data, parsed)
     try:
         return model.model_validate(final)
     except ValidationError as exc:
+        if refused is not None:
+            raise refused from None
         source = "--set " + " and ".join(_at_fault(model, data, parsed, _problem(exc)))
         raise ConfigError(format_validation_error(exc, source, model, final)) from None
 

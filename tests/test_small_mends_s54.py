@@ -10,8 +10,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from nudgecli.config import load_experiment
+from nudgecli.errors import ConfigError
 from nudgecli.report.compare import CompareOptions, compare_sources, compare_tables, participant_medians
 from nudgecli.report.compare_figure import build_compare_figure
+from tests.test_policies import POLICY_TOML
+
+BLENDING = '[blending]\ngate = "gap"\ngap = 0.4\n'
 
 
 def trials(prefix: str, conditions: list[str], seed: int) -> pd.DataFrame:
@@ -54,3 +59,24 @@ def test_the_compare_figures_legend_lies_inside_the_figure(conditions: list[str]
     legend, frame = figure.legends[0].get_window_extent(), figure.bbox
     assert frame.x0 <= legend.x0 and legend.x1 <= frame.x1, (legend, frame)
     assert frame.y0 <= legend.y0 and legend.y1 <= frame.y1, (legend, frame)
+
+
+# --- 3. --set mends a file's inconsistency -------------------------------------------------------
+
+def test_a_files_gap_without_its_gate_is_mended_by_setting_the_gate(tmp_path: Path) -> None:
+    path = tmp_path / "mine.toml"
+    path.write_text(POLICY_TOML.replace(BLENDING, '[blending]\ngate = "none"\ngap = 0.3\n'))
+    with pytest.raises(ConfigError, match=rf'^{path}: blending\.gap: 0\.3 is not used with gate = "none"'):
+        load_experiment(str(path))
+    mended = load_experiment(str(path), ["blending.gate=gap"])
+    assert mended.blending is not None and (mended.blending.gate, mended.blending.gap) == ("gap", 0.3)
+    # overrides that do not mend it: the refusal still names the file
+    with pytest.raises(ConfigError, match=rf"^{path}: blending\.gap: 0\.3 is not used"):
+        load_experiment(str(path), ["study.participants=2"])
+
+
+def test_a_fault_of_the_overrides_own_still_names_the_set(tmp_path: Path) -> None:
+    path = tmp_path / "mine.toml"
+    path.write_text(POLICY_TOML)
+    with pytest.raises(ConfigError, match=r"^--set blending\.gate=none: blending\.gap: 0\.4 is not used"):
+        load_experiment(str(path), ["blending.gate=none", "blending.gap=0.4"])
