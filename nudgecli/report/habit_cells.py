@@ -19,7 +19,7 @@ from nudgecli.model.world import MODE_NAMES, angle_difference
 from nudgecli.run_folder_names import BATCH_MANIFEST
 from nudgecli.sim.calibration_io import STREAM_CODES
 from nudgecli.sim.calibration_readers import holds_calibration_session
-from nudgecli.steplog import HUMAN_TURN, MODE_SWITCH_HUMAN, has_event
+from nudgecli.steplog import AUTONOMY_TURN, HUMAN_TURN, MODE_SWITCH_HUMAN, has_event
 from nudgecli.store import RunFolder, is_run_folder
 
 #: The rate of HABITS.md's cells (a real log is resampled to it).
@@ -31,6 +31,9 @@ TIME_SLACK = 1e-9
 WAYPOINT_TOLERANCE = 1e-3
 #: Pose changes below this (units, rad) are no motion: float noise of a written log.
 POSE_TOLERANCE = 1e-9
+
+#: The values of a real log's optional ``turn`` column, the person's first: a run folder's step turns.
+LOG_TURNS = (HUMAN_TURN, AUTONOMY_TURN)
 
 #: Cell kinds.
 NEUTRAL, DEADBAND, SOFT, HARD = 0, 1, 2, 3
@@ -48,7 +51,7 @@ LABEL_KINDS = {"": NEUTRAL, **{name: _KIND_OF_CODE.get(code, NEUTRAL) for name, 
 #: ``switch_to``: a switch cell's mode before and after (0 x, 1 y, 2 theta; -1 unknown), and
 #: optional ``person_turn``: the cell is in the person's turn (False in an autonomy turn of an
 #: assisted run, whose input and motion are not the person's; absent: every cell is the person's,
-#: as in a real log and an unassisted run).
+#: as in a real log without a ``turn`` column and an unassisted run).
 CELL_COLUMNS = ("participant", "trial", "kind", "moving", "switch", "at_waypoint", "waypoints_known")
 
 

@@ -19,6 +19,7 @@ from nudgecli.errors import DataError
 from nudgecli.model.path_world import SNAP_TOLERANCE, PathLayout, path_gaps
 from nudgecli.report.habit_cells import (
     HABIT_RATE_HZ,
+    LOG_TURNS,
     TIME_SLACK,
     label_kinds,
     on_waypoints,
@@ -55,6 +56,7 @@ class _Log:
     switch: pd.Series
     switch_to: np.ndarray
     layout: pd.Series | None  # the CIAA trial index per row, None without a layout column
+    person_turn: np.ndarray | None  # True in the person's turn per row, None without a turn column
 
     def row_name(self, i: int) -> str:
         return _row_name(self.path, i)
@@ -109,7 +111,7 @@ def _log_time_column(path: Path, header: pd.Index) -> str:
         plural = "" if len(columns) == 1 else "s"
         raise DataError(f"{path}: no {', '.join(needed)} column(s); its header holds {len(columns)} "
                         f"column{plural}, {found}; a real log needs t, trial, label, x, y, theta and "
-                        "mode_switch (participant and layout optional), separated by commas (or ;, tab "
+                        "mode_switch (participant, layout and turn optional), separated by commas (or ;, tab "
                         "or |), one row per sample or event")
     return time_column
 
@@ -142,7 +144,25 @@ def _parse_log(path: Path, frame: pd.DataFrame, time_column: str) -> _Log:
     if "layout" in frame.columns:
         layout = pd.to_numeric(frame["layout"].str.strip(), errors="coerce")
     return _Log(path=path, frame=frame, time=numbers[time_column], numbers=numbers, kinds=kinds,
-                participant=participant, trial=trial, switch=switch, switch_to=switch_to, layout=layout)
+                participant=participant, trial=trial, switch=switch, switch_to=switch_to, layout=layout,
+                person_turn=_log_turns(path, frame))
+
+
+def _log_turns(path: Path, frame: pd.DataFrame) -> np.ndarray | None:
+    """Each row's turn as True in the person's (``human``) and False in the autonomy's, from the
+    optional ``turn`` column (``None`` without it: every row is the person's); a :class:`DataError`
+    naming the first row of another value."""
+    if "turn" not in frame.columns:
+        return None
+    turn = frame["turn"].str.strip().str.lower()
+    bad = ~turn.isin(LOG_TURNS)
+    if bad.any():
+        i = int(np.flatnonzero(bad.to_numpy())[0])
+        allowed = " or ".join(LOG_TURNS)
+        raise DataError(f"{_row_name(path, i)}: turn {frame['turn'].iloc[i]!r} is not {allowed}; give each "
+                        "row whose turn it is (human: the person's input and motion; autonomy: the "
+                        "assistance's), or leave the column out for a log of an unassisted study")
+    return (turn == LOG_TURNS[0]).to_numpy(dtype=bool)
 
 
 def _log_participants(path: Path, frame: pd.DataFrame) -> pd.Series:
@@ -327,10 +347,13 @@ def _trial_cells(log: _Log, lo: int, hi: int, rate_hz: float, all_waypoints: dic
     cell_from, cell_to = np.full(reads - 1, -1), np.full(reads - 1, -1)
     cell_from[fired[inside]] = came_from[inside]
     cell_to[fired[inside]] = went_to[inside]
-    return pd.DataFrame({
+    cells = pd.DataFrame({
         "participant": participant.iloc[lo], "trial": trial.iloc[lo], "kind": log.kinds[held[:-1]],
         "moving": pose_changes(pose[:-1], pose[1:]), "switch": cell_switch, "at_waypoint": at_waypoint,
         "waypoints_known": known, "switch_from": cell_from, "switch_to": cell_to})
+    if log.person_turn is not None:  # a cell is in the turn of the row it holds, as a run folder's step
+        cells["person_turn"] = log.person_turn[held[:-1]]
+    return cells
 
 
 def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataFrame:
@@ -341,9 +364,11 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
     (the robot's pose after the row), ``mode_switch`` (non-empty and not ``0``/``false``: a mode
     switch fired at this time; a mode word, ``x``/``y``/``theta``, says where it went, which undone
     switches need); optional ``participant`` (default, and where it is blank on every row: the
-    file's name; a blank cell in a column filled elsewhere is refused) and ``layout``
+    file's name; a blank cell in a column filled elsewhere is refused), ``layout``
     (the CIAA task's trial index, whose waypoints mark the stops, the same on every row of a trial;
-    without it stops at a waypoint are not measured). Each row holds the whole state from its time
+    without it stops at a waypoint are not measured) and ``turn`` (``human`` or ``autonomy``: whose
+    turn the row is in, carried into the cells' ``person_turn`` as a run folder's; without it every
+    cell is the person's). Each row holds the whole state from its time
     on, so an event-driven log (a row per change) and a sampled one read alike. A trial starts at
     its first row; its cells are read at ``t0, t0 + 0.1, ...`` up to its last row; a switch belongs
     to the first cell read at or after it.
@@ -354,9 +379,9 @@ def read_log_cells(path: str | Path, rate_hz: float = HABIT_RATE_HZ) -> pd.DataF
         No time stamps or labels, an unknown label, a blank participant among named ones, a time
         that is not a number or goes back, a pose missing, a trial shorter than one cell, or one
         longer than :data:`MAX_TRIAL_S` or a log of more than :data:`MAX_LOG_CELLS` cells (checked
-        before any cell is built), a layout that is no trial index of the task or changes within a
-        trial, a trial that does not start at its layout's start or a pose off its path: naming the
-        file and the row.
+        before any cell is built), a turn other than ``human`` / ``autonomy``, a layout that is no
+        trial index of the task or changes within a trial, a trial that does not start at its
+        layout's start or a pose off its path: naming the file and the row.
     """
     path = Path(path)
     frame, time_column = _read_log_frame(path)

@@ -132,14 +132,18 @@ def measured_source(path: Path) -> SourceHabits:
     return _measured(path)[0]
 
 
-def _measured(path: Path) -> tuple[SourceHabits, ExperimentConfig | None]:
-    """:func:`measured_source`, and the experiment of a run folder (``None``: a real log), read once
-    with its cells."""
+def _measured(path: Path) -> tuple[SourceHabits, ExperimentConfig | None, bool]:
+    """:func:`measured_source`, the experiment of a run folder (``None``: a real log), read once with
+    its cells, and whether its robot stops at the CIAA task's waypoints
+    (:func:`~nudgecli.report.habit_cells.stops_at_waypoints` of the experiment; a real log's unless
+    its ``turn`` column marks autonomy turns: a log of an assisted study, run in the grid world)."""
     experiment = None
     if path.is_dir():  # a run folder (source_cells'): its experiment comes with its cells
         cells, rate, experiment = run_folder_cells_with_experiment(path)
+        waypoints = stops_at_waypoints(experiment)
     else:
         cells, rate, _ = source_cells(path)
+        waypoints = "person_turn" not in cells or bool(cells["person_turn"].all())
     if cells.empty:
         raise DataError(f"{path}: no participants (no trial to measure)")
     arrays = cell_arrays(cells, rate)  # once: the habits are measured and the releases read from them
@@ -154,7 +158,7 @@ def _measured(path: Path) -> tuple[SourceHabits, ExperimentConfig | None]:
         values, blow_after, releases = zip(*events, strict=True)
         found[participant][habit] = dataclasses.replace(found[participant][habit], values=values,
                                                         blow_after=blow_after, releases=releases)
-    return {participant: found[participant] for participant in participants}, experiment
+    return {participant: found[participant] for participant in participants}, experiment, waypoints
 
 
 def _events_of(where: str, habit: str, row: pd.Series) -> int | None:
@@ -275,9 +279,10 @@ def table_source(path: Path) -> SourceHabits:
     return found
 
 
-def _habits_and_experiment(source: str | Path) -> tuple[SourceHabits, ExperimentConfig | None]:
-    """Each participant's habits of ``source`` (a run folder, a real log, or a habits table), and the
-    experiment of a run folder (``None``: a log or a table), read once."""
+def _habits_and_experiment(source: str | Path) -> tuple[SourceHabits, ExperimentConfig | None, bool]:
+    """Each participant's habits of ``source`` (a run folder, a real log, or a habits table), the
+    experiment of a run folder (``None``: a log or a table), read once, and whether the source's
+    robot stops at the CIAA task's waypoints (:func:`_measured`)."""
     path = Path(source)
     if path.is_file() and starts_as_toml(path):
         raise DataError(toml_source_message(path, "fit-people reads a run folder, a real log's CSV or the "
@@ -287,7 +292,7 @@ def _habits_and_experiment(source: str | Path) -> tuple[SourceHabits, Experiment
         raise DataError(f"{path}: a JSON file; fit-people reads the CSV table that `nudge habits --by "
                         "participant --format csv` writes (or a real log's CSV, or a run folder)")
     if path.is_file() and _is_habits_table(path):
-        return table_source(path), None
+        return table_source(path), None, stops_at_waypoints(None)
     return _measured(path)
 
 
@@ -333,8 +338,8 @@ def twins_of_sources(sources: list[str | Path], population: PopulationSection | 
     twins = []
     for source in sources:
         name = Path(source).name
-        found, experiment = _habits_and_experiment(source)  # a run's experiment read once, with its cells
-        waypoints = stops_at_waypoints(experiment)  # a grid-world run's stops are not the fit's
+        # a run's experiment read once, with its cells; a grid-world source's stops are not the fit's
+        found, experiment, waypoints = _habits_and_experiment(source)
         interface, behaviour = _interface_of(experiment)
         thresholds = (interface.zero_threshold, interface.soft_threshold, interface.hard_threshold)
         key = (*thresholds, behaviour.pause_jitter)
