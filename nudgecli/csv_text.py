@@ -102,6 +102,15 @@ def starts_as_parquet(path: Path) -> bool:
         return False
 
 
+def parquet_run_folder(path: Path) -> Path | None:
+    """The run folder a Parquet file is a part of (in its ``steps/``, ``trials/`` or
+    ``participants/``, or a table beside its manifest); ``None`` where it is none's."""
+    parent = path.parent
+    if parent.name in PART_KINDS and (parent.parent / MANIFEST).is_file():
+        return parent.parent
+    return parent if (parent / MANIFEST).is_file() else None
+
+
 def parquet_message(path: Path, *, reads_run_folders: bool = False) -> str:
     """The one line for a Parquet file given where CSV text is read: to a reader that
     ``reads_run_folders``, a run folder's part (its ``steps/``, ``trials/`` or ``participants/``,
@@ -110,9 +119,7 @@ def parquet_message(path: Path, *, reads_run_folders: bool = False) -> str:
     said = f"{path}: a Parquet file (it starts with {PARQUET_MAGIC.decode()}), not CSV text"
     if not reads_run_folders:
         return f"{said}; give the CSV file"
-    parent = path.parent
-    run = parent.parent if parent.name in PART_KINDS and (parent.parent / MANIFEST).is_file() else \
-        parent if (parent / MANIFEST).is_file() else None
+    run = parquet_run_folder(path)
     if run is not None:
         return f"{said}; it is a part of the run folder {run}, which is read whole: give the run folder {run}"
     return f"{said}; give the CSV file (or the run folder it came from)"

@@ -327,4 +327,8 @@ def test_a_reader_of_csv_files_only_given_a_run_part_is_told_to_give_the_csv(
         read(path)
     # before: "... give the run folder RUN", which these readers then refused as a folder
     said = f"{path}: a Parquet file (it starts with PAR1), not CSV text; give the CSV file"
+    if reader == "people":  # a people file is never Parquet: it is made of the run (fit-people)
+        said = (f"{path}: a Parquet file (it starts with PAR1), a part of the run folder "
+                f"{analysed_smoke_run}, not a people file (CSV text that fit-people writes); make one with "
+                f"`nudge fit-people {analysed_smoke_run} --out people.csv`, then give --people people.csv")
     assert str(raised.value) == said

@@ -102,3 +102,26 @@ def test_a_log_of_an_assisted_study_leaves_the_stop_parameters_to_the_population
     (tmp_path / "human").mkdir()
     unassisted = twins_of_sources([_log_of_trial(tmp_path / "human", ["human"] * (len(_TRIAL) + 1))])[0]
     assert not any("grid-world" in note for note in unassisted.notes.values())
+
+
+# --- a Parquet file given as a people file ---------------------------------------------------------
+
+
+@pytest.mark.parametrize("in_run", [True, False])
+def test_a_parquet_people_file_names_fit_people_of_its_run(tmp_path: Path, in_run: bool) -> None:
+    from nudgecli.run_folder_names import MANIFEST
+    from nudgecli.sim.people_file import read_people
+
+    run = tmp_path / "run"
+    (run / "participants").mkdir(parents=True)
+    if in_run:
+        (run / MANIFEST).write_text("{}")
+    path = run / "participants" / "part-0000.parquet"
+    path.write_bytes(b"PAR1\x15\x04\xe4PAR1")
+    with pytest.raises(DataError) as caught:
+        read_people(path)
+    message = str(caught.value)
+    # before: "...; give the CSV file", but a people file is never Parquet and the run has no CSV of it
+    assert "give the CSV file" not in message and "not a people file" in message
+    source = str(run) if in_run else "SOURCE..."
+    assert f"`nudge fit-people {source} --out people.csv`" in message

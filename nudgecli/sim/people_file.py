@@ -26,7 +26,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from nudgecli.csv_text import decimal_comma_advice, header_delimiter, not_utf8_message
+from nudgecli.csv_text import (
+    PARQUET_MAGIC,
+    decimal_comma_advice,
+    header_delimiter,
+    not_utf8_message,
+    parquet_run_folder,
+    starts_as_parquet,
+)
 from nudgecli.errors import DataError, did_you_mean, shell_words
 from nudgecli.run_folder_names import MANIFEST, PEOPLE_DIR
 from nudgecli.sim.twins import INTEGER_PARAMETERS, TWIN_PARAMETERS, Twin, parameter_is_valid, parameter_needs
@@ -139,6 +146,19 @@ def _folder_message(path: Path) -> str:
             "fit-people SOURCE... --out people.csv`)")
 
 
+def _parquet_message(path: Path) -> str:
+    """The line for a Parquet file given as a people file (a people file is CSV text, never Parquet):
+    how to make one of the people of the run folder it is a part of (else of a source)."""
+    run = parquet_run_folder(path)
+    if run is None:
+        of, fit = "a table", "nudge fit-people SOURCE... --out people.csv"
+    else:
+        of, fit = f"a part of the run folder {run}", shell_words(["nudge", "fit-people", str(run), "--out",
+                                                                  "people.csv"])
+    return (f"{path}: a Parquet file (it starts with {PARQUET_MAGIC.decode()}), {of}, not a people file (CSV "
+            f"text that fit-people writes); make one with `{fit}`, then give --people people.csv")
+
+
 def _other_table_message(path: Path, header: Sequence[str]) -> str:
     """The line for a CSV with none of a people file's own columns (:data:`_PEOPLE_OWN_COLUMNS`):
     most likely a source of people (a real log, a habits table), which ``nudge fit-people`` makes a
@@ -165,6 +185,8 @@ def read_people(path: str | Path) -> People:
     if not path.is_file():
         raise DataError(f"{path}: no such people file; make one with `nudge fit-people SOURCE... --out "
                         f"{path.name}`")
+    if starts_as_parquet(path):  # a run's table, never a people file: the people file is made of the run
+        raise DataError(_parquet_message(path))
     data = path.read_bytes()
     try:
         text = data.decode("utf-8-sig")
