@@ -125,3 +125,26 @@ def test_a_parquet_people_file_names_fit_people_of_its_run(tmp_path: Path, in_ru
     assert "give the CSV file" not in message and "not a people file" in message
     source = str(run) if in_run else "SOURCE..."
     assert f"`nudge fit-people {source} --out people.csv`" in message
+
+
+# --- compare given a run folder as REAL ----------------------------------------------------------
+
+
+def test_compare_of_a_run_folder_as_real_names_its_metrics_table(analysed_smoke_run: Path,
+                                                                  tmp_path: Path) -> None:
+    from nudgecli.report.compare import compare_sources
+    from nudgecli.run_folder_names import MANIFEST
+
+    with pytest.raises(DataError) as caught:
+        compare_sources(analysed_smoke_run, analysed_smoke_run)
+    # before: only "REAL must be a metrics table"; `nudge analyze RUN` (no --out) writes RUN/metrics.csv
+    assert str(caught.value).endswith(f"(give {analysed_smoke_run / 'metrics.csv'})")
+    unanalysed = tmp_path / "twins"
+    unanalysed.mkdir()
+    (unanalysed / MANIFEST).write_text("{}")
+    with pytest.raises(DataError) as caught:
+        compare_sources(analysed_smoke_run, unanalysed)
+    assert str(caught.value).endswith(f"(`nudge analyze {unanalysed}` writes it, then give "
+                                      f"{unanalysed / 'metrics.csv'})")
+    with pytest.raises(DataError, match="one row per trial"):
+        compare_sources(analysed_smoke_run, tmp_path)  # a folder of no run: a table is what it needs

@@ -46,6 +46,8 @@ from nudgecli.report.plans import AnalysisPlan, load_plan
 from nudgecli.report.stats import order_conditions
 from nudgecli.report.stats_document import json_ready
 from nudgecli.rng import generator
+from nudgecli.run_folder_names import METRICS_CSV
+from nudgecli.store import is_run_folder
 
 #: The two sources, in display order.
 SOURCES = ("simulated", "real")
@@ -530,8 +532,7 @@ def compare_sources(simulated: str | Path, real: str | Path, plan: str | Path | 
                                             drop_duplicates=drop_duplicates, notes=notes, metrics=metrics)
     real_path = Path(real)
     if real_path.is_dir():
-        raise DataError(f"{real_path} is a folder; REAL must be a metrics table of real trials (.csv or "
-                        ".parquet, one row per trial with participant, condition and metric columns)")
+        raise DataError(_real_folder_message(real_path))
     real_table, real_metrics, _ = load_source(real_path, chosen, min_conditions=1,
                                               drop_duplicates=drop_duplicates, notes=notes, metrics=metrics)
     selected = shared_metrics(sim_metrics, real_metrics, metrics)
@@ -581,3 +582,14 @@ def write_comparison(result: Comparison, out: str | Path,
         result.medians.to_csv(index=False),
         json.dumps(result.to_json(), indent=2, allow_nan=False) + "\n",
     ), strict=True)), beside)
+
+
+def _real_folder_message(path: Path) -> str:
+    """The line for a folder given as REAL: a run folder's metrics table (``nudge analyze RUN``, with
+    no --out, writes it into the run folder itself) is the REAL to give; another folder is none."""
+    table = path / METRICS_CSV
+    said = f"{path} is a folder; REAL must be a metrics table of real trials (.csv or .parquet"
+    if not is_run_folder(path):
+        return f"{said}, one row per trial with participant, condition and metric columns)"
+    made = "" if table.is_file() else f"`{shell_words(['nudge', 'analyze', str(path)])}` writes it, then "
+    return f"{said}): for the run's trials give its metrics table ({made}give {table})"
