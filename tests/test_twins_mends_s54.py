@@ -148,3 +148,19 @@ def test_compare_of_a_run_folder_as_real_names_its_metrics_table(analysed_smoke_
                                       f"{unanalysed / 'metrics.csv'})")
     with pytest.raises(DataError, match="one row per trial"):
         compare_sources(analysed_smoke_run, tmp_path)  # a folder of no run: a table is what it needs
+
+
+# --- a reaction spread within one cell -----------------------------------------------------------
+
+
+def test_switch_to_motion_quartiles_in_one_cell_leave_the_spread_to_the_population() -> None:
+    from nudgecli.sim.twin_fit import HabitFigures, fit_twin_with_notes
+
+    habits = {"reaction_stop_to_switch": HabitFigures(40, 1.2, 0.9, 1.5),
+              "reaction_switch_to_motion": HabitFigures(40, 1.2, 1.2, 1.2)}
+    parameters, notes = fit_twin_with_notes(habits)
+    # before: ln(q75 / q25) = 0, a twin whose every reaction is its median, and no note
+    assert "event_reaction_log_sd" not in parameters
+    assert "not measurable" in notes["event_reaction_log_sd"]
+    spread = {**habits, "reaction_switch_to_motion": HabitFigures(40, 1.2, 1.1, 1.3)}
+    assert "event_reaction_log_sd" in fit_twin_with_notes(spread)[0]

@@ -310,8 +310,9 @@ Notes = dict[str, str]
 
 def _reaction_spread(figures: HabitFigures, offset_s: float, cell_s: float) -> tuple[float | None, str]:
     """A reaction's log-normal spread from its quartiles less its offset, ``ln(q75 / q25) / (2 z)``,
-    or None and why: too few events, or a lower quartile within a cell of the offset (a reaction
-    is at least a cell: quicker events are no reactions, and a log of them reads a spread of 1.5)."""
+    or None and why: too few events, a lower quartile within a cell of the offset (a reaction
+    is at least a cell: quicker events are no reactions, and a log of them reads a spread of 1.5),
+    or both quartiles in one cell (the spread is below what the cells resolve, not 0)."""
     if figures.n < MIN_EVENTS_FOR_QUARTILES:
         return None, f"{figures.n} event(s), fewer than the {MIN_EVENTS_FOR_QUARTILES} its quartiles need"
     lo, hi = figures.q25 - offset_s, figures.q75 - offset_s
@@ -320,6 +321,9 @@ def _reaction_spread(figures: HabitFigures, offset_s: float, cell_s: float) -> t
     if lo < cell_s - 1e-9:
         return None, (f"its lower quartile ({figures.q25:g} s) is within a cell of its offset "
                       f"({offset_s:.2f} s): no reaction's")
+    if hi - lo < 1e-9:  # a spread of 0 would make every reaction the median
+        return None, (f"its quartiles are both {figures.q25:g} s, one {cell_s:g} s cell: its spread is not "
+                      "measurable at the source's resolution")
     return math.log(hi / lo) / (2.0 * Z_QUARTILE), ""
 
 
