@@ -147,8 +147,9 @@ def plot_population_command(experiment: str, participants: int, seed: int | None
                    "nudge) or a JSON of the shape of --format json.")
 def habits_command(source: str, by: str, output_format: str, compare: str | None) -> None:
     """The operating habits of SOURCE, per participant and pooled: a run folder (nudge simulate, run or
-    study) or a real log (CSV: t, trial, label, x, y, theta, mode_switch; participant and layout
-    optional), read in 10 Hz cells as HABITS.md defines them."""
+    study) or a real log (CSV: t, trial, label, x, y, theta, mode_switch; participant, layout and turn
+    optional: turn = human or autonomy marks an assisted study's turns), read in 10 Hz cells as
+    HABITS.md defines them, the person's turns only."""
     from nudgecli import api
 
     result = api.habits(source, by=by, compare=compare)
