@@ -552,7 +552,7 @@ def load_experiment(name_or_path: str, overrides: list[str] | tuple[str, ...] = 
     except ValidationError as exc:  # refused unless the overrides mend it (--set blending.gate=gap)
         refused = ConfigError(format_validation_error(exc, str(path), ExperimentConfig, data))
     data = dependents_off_with_their_switch(data, overrides)
-    config = validate_overridden(ExperimentConfig, data, overrides, refused)
+    config = validate_overridden(ExperimentConfig, data, overrides, refused, str(path))
     logs_set = [text for text in overrides if parse_override(text)[0] == ["population", "physiology_logs"]]
     config.population.logs_written_in(f"--set {logs_set[-1]}" if logs_set else str(path))  # for its refusal
     if config.policies:  # a researcher's policy modules are imported from beside the experiment file

@@ -185,7 +185,7 @@ def apply_override(data: dict[str, Any], path: list[str], value: Any) -> None:
 
 
 def validate_overridden(model: type[ModelT], data: dict[str, Any], overrides: Sequence[str],
-                        refused: ConfigError | None = None) -> ModelT:
+                        refused: ConfigError | None = None, file_source: str = "") -> ModelT:
     """``data`` (a file's, checked on its own) with every ``--set`` applied, then validated once.
 
     The overrides make one setup together, whatever their order (the later of two of one key wins):
@@ -194,8 +194,10 @@ def validate_overridden(model: type[ModelT], data: dict[str, Any], overrides: Se
     overrides at fault (:func:`_at_fault`), its field and its fix, in one line.
 
     ``refused`` is the file's refusal on its own, if it had one: the overrides may mend it (a file's
-    ``gate = "none"`` beside ``gap = 0.3`` with ``--set blending.gate=gap``), and where they do not
-    it is raised, naming the file, instead of a line naming them.
+    ``gate = "none"`` beside ``gap = 0.3`` with ``--set blending.gate=gap``). Where a problem remains,
+    it names the overrides when it lies at a place they write (:func:`_lies_where_set`: the mend
+    taken, the override's own fault), else the file (``file_source``, its name), from the problem
+    that remains, not the file's first refusal (advice the overrides may already have followed).
     """
     if refused is not None and not overrides:
         raise refused
@@ -204,10 +206,30 @@ def validate_overridden(model: type[ModelT], data: dict[str, Any], overrides: Se
     try:
         return model.model_validate(final)
     except ValidationError as exc:
-        if refused is not None:
-            raise refused from None
-        source = "--set " + " and ".join(_at_fault(model, data, parsed, _problem(exc)))
+        if refused is not None and not _lies_where_set(exc, parsed):
+            raise ConfigError(format_validation_error(exc, file_source, model, final)) from None
+        near = [text for text, path, _ in parsed if _writes_at(path, exc)] if refused is not None else []
+        source = "--set " + " and ".join(near or _at_fault(model, data, parsed, _problem(exc)))
         raise ConfigError(format_validation_error(exc, source, model, final)) from None
+
+
+def _lies_where_set(exc: ValidationError, parsed: Sequence[Override]) -> bool:
+    """Whether the first problem of ``exc`` lies at a place an override writes (see :func:`_writes_at`)."""
+    return any(_writes_at(path, exc) for _, path, _ in parsed)
+
+
+def _writes_at(path: list[str], exc: ValidationError) -> bool:
+    """Whether an override of ``path`` writes where the first problem of ``exc`` lies: its key holds
+    the problem's place or lies in it (a section's own check: the field its message names first);
+    an experiment-wide check (no place) is where it names the key (``study.rate_hz``)."""
+    first = exc.errors()[0]
+    place = [str(part) for part in first["loc"]]
+    if not place:
+        return ".".join(path) in str(first["msg"])
+    head, sep, _ = str(first["msg"]).removeprefix("Value error, ").partition(": ")
+    if first["type"] == "value_error" and sep and " " not in head:
+        place.append(head)
+    return path[:len(place)] == place[:len(path)]
 
 
 def _overridden(data: dict[str, Any], parsed: Sequence[Override]) -> dict[str, Any]:

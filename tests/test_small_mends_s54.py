@@ -80,3 +80,22 @@ def test_a_fault_of_the_overrides_own_still_names_the_set(tmp_path: Path) -> Non
     path.write_text(POLICY_TOML)
     with pytest.raises(ConfigError, match=r"^--set blending\.gate=none: blending\.gap: 0\.4 is not used"):
         load_experiment(str(path), ["blending.gate=none", "blending.gap=0.4"])
+
+
+def test_a_mended_file_with_a_fault_of_the_overrides_own_names_the_set(tmp_path: Path) -> None:
+    path = tmp_path / "mine.toml"
+    path.write_text(POLICY_TOML.replace(BLENDING, '[blending]\ngate = "none"\ngap = 0.3\n'))
+    # the gate set mends the file; what remains is the other override's, not the file's old refusal
+    with pytest.raises(ConfigError, match=r"^--set study\.participants=0: study\.participants: ") as caught:
+        load_experiment(str(path), ["blending.gate=gap", "study.participants=0"])
+    assert "blending.gap" not in str(caught.value)
+
+
+def test_a_mended_file_with_another_fault_of_its_own_names_the_file_and_that_fault(tmp_path: Path) -> None:
+    path = tmp_path / "mine.toml"
+    path.write_text(POLICY_TOML.replace(BLENDING, '[blending]\ngate = "none"\ngap = 0.3\n')
+                    .replace("time_limit_s = 60.0", "time_limit_s = -1.0"))
+    with pytest.raises(ConfigError, match=rf"^{path}: study\.time_limit_s: ") as caught:
+        load_experiment(str(path), ["blending.gate=gap"])
+    message = str(caught.value)
+    assert "blending.gap" not in message and "more problem" not in message  # the mended one is no problem
