@@ -3,12 +3,14 @@ cell, and the advice of the people-file and compare refusals; each on a small sy
 
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
 import pytest
+from cli_helpers import write_csv_rows
 
 from nudgecli.errors import DataError
 from nudgecli.report.habit_cells import _trial_cells
@@ -16,6 +18,8 @@ from nudgecli.report.habit_logs import read_log_cells
 from nudgecli.report.habits import measure_habits
 from nudgecli.report.twin_sources import twins_of_sources
 from nudgecli.sim.twin_fit import STOP_PARAMETERS
+
+PILOT = Path(__file__).resolve().parents[1] / "experiments" / "pilots" / "pilot-1.csv"
 
 # --- a real log's turn column --------------------------------------------------------------------
 
@@ -98,10 +102,21 @@ def test_a_log_of_an_assisted_study_leaves_the_stop_parameters_to_the_population
     assisted = twins_of_sources([_log_of_trial(tmp_path)])[0]
     for name in STOP_PARAMETERS:
         assert name not in assisted.parameters
-        assert "grid-world" in assisted.notes[name]
+        assert assisted.notes[name].startswith("a log of an assisted study without its layout")
     (tmp_path / "human").mkdir()
     unassisted = twins_of_sources([_log_of_trial(tmp_path / "human", ["human"] * (len(_TRIAL) + 1))])[0]
-    assert not any("grid-world" in note for note in unassisted.notes.values())
+    assert not any("without its layout" in note for note in unassisted.notes.values())
+
+
+def test_a_log_of_an_assisted_study_with_its_layout_keeps_the_stop_parameters(tmp_path: Path) -> None:
+    # a pilot log (its layout column puts it on the CIAA task) with one autonomy turn: before, any
+    # autonomy turn made it a grid-world log, its stop parameters left to the population
+    with PILOT.open(newline="") as file:
+        rows = [{**row, "turn": "human"} for row in csv.DictReader(file) if int(row["trial"]) < 4]
+    rows[5]["turn"] = "autonomy"  # a neutral row of the first trial
+    twin = twins_of_sources([write_csv_rows(tmp_path / "assisted.csv", rows)])[0]
+    for name in STOP_PARAMETERS:
+        assert name in twin.parameters, twin.notes.get(name)
 
 
 # --- a Parquet file given as a people file ---------------------------------------------------------

@@ -44,7 +44,13 @@ from nudgecli.report.habits import (
     summarise_habits,
 )
 from nudgecli.report.tables import check_unique_columns
-from nudgecli.sim.twin_fit import PARAMETER_HABITS, HabitFigures, Mechanics, fit_twin_with_notes
+from nudgecli.sim.twin_fit import (
+    PARAMETER_HABITS,
+    STOP_PARAMETERS,
+    HabitFigures,
+    Mechanics,
+    fit_twin_with_notes,
+)
 from nudgecli.sim.twins import Twin
 from nudgecli.store import RunFolder, is_run_folder
 
@@ -136,14 +142,14 @@ def _measured(path: Path) -> tuple[SourceHabits, ExperimentConfig | None, bool]:
     """:func:`measured_source`, the experiment of a run folder (``None``: a real log), read once with
     its cells, and whether its robot stops at the CIAA task's waypoints
     (:func:`~nudgecli.report.habit_cells.stops_at_waypoints` of the experiment; a real log's unless
-    its ``turn`` column marks autonomy turns: a log of an assisted study, run in the grid world)."""
+    it is :func:`_assisted_without_layout`)."""
     experiment = None
     if path.is_dir():  # a run folder (source_cells'): its experiment comes with its cells
         cells, rate, experiment = run_folder_cells_with_experiment(path)
         waypoints = stops_at_waypoints(experiment)
     else:
         cells, rate, _ = source_cells(path)
-        waypoints = "person_turn" not in cells or bool(cells["person_turn"].all())
+        waypoints = not _assisted_without_layout(cells)
     if cells.empty:
         raise DataError(f"{path}: no participants (no trial to measure)")
     arrays = cell_arrays(cells, rate)  # once: the habits are measured and the releases read from them
@@ -159,6 +165,21 @@ def _measured(path: Path) -> tuple[SourceHabits, ExperimentConfig | None, bool]:
         found[participant][habit] = dataclasses.replace(found[participant][habit], values=values,
                                                         blow_after=blow_after, releases=releases)
     return {participant: found[participant] for participant in participants}, experiment, waypoints
+
+
+def _assisted_without_layout(cells: pd.DataFrame) -> bool:
+    """Whether a real log's ``cells`` are of an assisted study without its layout, whose stops are
+    not known to be the CIAA task's: its ``turn`` column marks autonomy turns and no ``layout``
+    column places it on the task (``waypoints_known`` False throughout). With its layout, a log of
+    an assisted study is of the CIAA task, its stops at the layout's waypoints."""
+    has_autonomy_turns = "person_turn" in cells and not bool(cells["person_turn"].all())
+    return has_autonomy_turns and not bool(cells["waypoints_known"].any())
+
+
+#: The note on each of :data:`~nudgecli.sim.twin_fit.STOP_PARAMETERS` of a log of an assisted
+#: study without its layout (the fit's own says "a grid-world run", which a log may not be).
+LOG_WITHOUT_LAYOUT_NOTE = ("a log of an assisted study without its layout: its robot's stops are not known "
+                           "to be at the CIAA task's waypoints (give the log's layout column to fit it)")
 
 
 def _events_of(where: str, habit: str, row: pd.Series) -> int | None:
@@ -347,5 +368,8 @@ def twins_of_sources(sources: list[str | Path], population: PopulationSection | 
             mechanics[key] = Mechanics(population, behaviour, thresholds=thresholds)
         for participant, habits in found.items():
             parameters, notes = fit_twin_with_notes(habits, mechanics=mechanics[key], waypoints=waypoints)
+            if experiment is None and not waypoints:  # a log, not a grid-world run folder
+                notes = {name: LOG_WITHOUT_LAYOUT_NOTE if name in STOP_PARAMETERS else note
+                         for name, note in notes.items()}
             twins.append(Twin(participant=participant, source=name, parameters=parameters, notes=notes))
     return twins
