@@ -6,10 +6,12 @@ with status 1; anything else is a bug and shows a traceback.
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import shlex
 import traceback
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Iterator, Sequence
+from contextvars import ContextVar
 from typing import Any
 
 
@@ -99,3 +101,16 @@ def shell_words(words: Sequence[str]) -> str:
     """``words`` as one command line a user can paste, each quoted for the shell where needed
     (the one quoting of every command or option a message suggests)."""
     return shlex.join(words)
+
+
+@contextlib.contextmanager
+def outermost_name(named: ContextVar[str | None], name: str) -> Iterator[None]:
+    """Within the block, ``named`` holds ``name`` unless a caller outside set it first: an option's
+    refusals name it as the outermost front end spells it (the command line calls the Python API,
+    which names ``confirm=True`` or ``scheduler=`` for its own callers)."""
+    token = named.set(name) if named.get() is None else None
+    try:
+        yield
+    finally:
+        if token is not None:
+            named.reset(token)

@@ -16,11 +16,11 @@ The scheduler's address is named as the front end that called spells it (:func:`
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Mapping
 from contextvars import ContextVar
 from typing import Any
 
-from nudgecli.errors import ClusterError, ConfigError
+from nudgecli.errors import ClusterError, ConfigError, outermost_name
 
 #: Seconds a scheduler without workers is given for one to join before the command is refused (a
 #: Note says it waits): workers started with the scheduler join within seconds, a batch system's
@@ -33,17 +33,12 @@ SCHEDULER_OPTION = "--scheduler"
 _NAMED: ContextVar[str | None] = ContextVar("scheduler_named", default=None)
 
 
-@contextlib.contextmanager
-def scheduler_named(name: str) -> Iterator[None]:
+def scheduler_named(name: str) -> contextlib.AbstractContextManager[None]:
     """Within the block, refusals of the scheduler's address name it ``name`` (the Python API's
     ``scheduler=``), unless a caller outside named it first: the command line, which calls the API,
-    names :data:`SCHEDULER_OPTION` around it, and the person at the outermost front end is told."""
-    token = _NAMED.set(name) if _NAMED.get() is None else None
-    try:
-        yield
-    finally:
-        if token is not None:
-            _NAMED.reset(token)
+    names :data:`SCHEDULER_OPTION` around it, and the person at the outermost front end is told
+    (:func:`~nudgecli.errors.outermost_name`)."""
+    return outermost_name(_NAMED, name)
 
 
 def scheduler_option_name() -> str:

@@ -16,13 +16,12 @@ refused by name before anything is cleared or written. ``plot-population`` count
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator
 from contextvars import ContextVar
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from nudgecli.cores import available_cores, pool_workers
-from nudgecli.errors import ConfigError
+from nudgecli.errors import ConfigError, outermost_name
 from nudgecli.runs.progress import format_duration
 
 if TYPE_CHECKING:  # the command line names the override (override_named) without loading the config
@@ -50,17 +49,12 @@ YES_OPTION = "--yes"
 _OVERRIDE: ContextVar[str | None] = ContextVar("size_override", default=None)
 
 
-@contextlib.contextmanager
-def override_named(name: str) -> Iterator[None]:
+def override_named(name: str) -> contextlib.AbstractContextManager[None]:
     """Within the block, the guard's refusals tell the person to pass ``name`` (the Python API's
     ``confirm=True``), unless a caller outside named one first: the command line, which calls the
-    API, names :data:`YES_OPTION` around it, and the person at the outermost front end is told."""
-    token = _OVERRIDE.set(name) if _OVERRIDE.get() is None else None
-    try:
-        yield
-    finally:
-        if token is not None:
-            _OVERRIDE.reset(token)
+    API, names :data:`YES_OPTION` around it, and the person at the outermost front end is told
+    (:func:`~nudgecli.errors.outermost_name`)."""
+    return outermost_name(_OVERRIDE, name)
 
 
 # --- a batch's estimate (its "about ..."): the guard itself counts trials and steps ---------------
