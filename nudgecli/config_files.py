@@ -195,7 +195,7 @@ def validate_overridden(model: type[ModelT], data: dict[str, Any], overrides: Se
 
     ``refused`` is the file's refusal on its own, if it had one: the overrides may mend it (a file's
     ``gate = "none"`` beside ``gap = 0.3`` with ``--set blending.gate=gap``). Where a problem remains,
-    it names the overrides when it lies at a place they write (:func:`_lies_where_set`: the mend
+    it names the overrides when it lies at a place they write (:func:`_writes_at`: the mend
     taken, the override's own fault), else the file (``file_source``, its name), from the problem
     that remains, not the file's first refusal (advice the overrides may already have followed).
     """
@@ -206,16 +206,11 @@ def validate_overridden(model: type[ModelT], data: dict[str, Any], overrides: Se
     try:
         return model.model_validate(final)
     except ValidationError as exc:
-        if refused is not None and not _lies_where_set(exc, parsed):
-            raise ConfigError(format_validation_error(exc, file_source, model, final)) from None
         near = [text for text, path, _ in parsed if _writes_at(path, exc)] if refused is not None else []
+        if refused is not None and not near:  # the problem lies where no override writes: the file's
+            raise ConfigError(format_validation_error(exc, file_source, model, final)) from None
         source = "--set " + " and ".join(near or _at_fault(model, data, parsed, _problem(exc)))
         raise ConfigError(format_validation_error(exc, source, model, final)) from None
-
-
-def _lies_where_set(exc: ValidationError, parsed: Sequence[Override]) -> bool:
-    """Whether the first problem of ``exc`` lies at a place an override writes (see :func:`_writes_at`)."""
-    return any(_writes_at(path, exc) for _, path, _ in parsed)
 
 
 def _writes_at(path: list[str], exc: ValidationError) -> bool:
