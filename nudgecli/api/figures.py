@@ -30,15 +30,19 @@ MULTI_PANEL = ("fig3", "fig4", "metrics", "questionnaires", "measures")
 
 def plan_of(source: str | Path, plan: str | Path | AnalysisPlan | None = None) -> str | Path | AnalysisPlan:
     """The plan whose star rule and labels the figures of ``source`` use: ``plan``, else the one its
-    run folder's manifest records, else the one named like its experiment, else ``paper``
+    analysis records having used (an analysis written away from its run, or under another plan:
+    :func:`nudgecli.report.recorded_plans.analysed_plan`), else the one its run folder's manifest
+    records, else the one named like its experiment, else ``paper``
     (:func:`nudgecli.config_files.resolve_plan`)."""
-    from nudgecli.report.recorded_plans import plan_of_source
+    from nudgecli.report.recorded_plans import analysed_plan, plan_of_source
 
     source = arguments.path("source", source)
     plan = arguments.plan(plan)  # a preset's name, a plan file or a loaded plan
+    if plan is not None:
+        return plan
     # a run's plan file as its kept copy, checked (an edited one, or one that does not load, refused);
     # a damaged manifest is taken as none: plotting says what is wrong
-    return plan if plan is not None else plan_of_source(source, damaged_manifest=True)
+    return analysed_plan(source) or plan_of_source(source, damaged_manifest=True)
 
 
 def _folder_of(analysis: Analysis | Run | str | Path) -> Path:
@@ -101,8 +105,9 @@ def plot(analysis: Analysis | Run | str | Path, figure: str = "fig4", *, ax: Axe
     ax = arguments.axes(ax)
     reference = arguments.text("reference", reference, optional=True)
     folder = _folder_of(analysis)
-    inputs, analysed = _inputs_of(analysis, folder, figure, trial_key)
-    chosen = load_plan(plan_of(analysed, analysis.plan if isinstance(analysis, Analysis) else None))
+    inputs = _inputs_of(analysis, folder, figure, trial_key)
+    # the analysis folder's plan, also of an Analysis written away from its run (stats.json says which)
+    chosen = load_plan(plan_of(folder, analysis.plan if isinstance(analysis, Analysis) else None))
     conditions = figures.resolve_conditions(inputs.metrics, inputs.stats)
     _check_choices(folder, inputs, conditions, trial_key, reference)
     metrics = drawn_metrics(inputs)
@@ -144,19 +149,19 @@ def _metric_panel(inputs: Any, metric: str, ax: Axes | None, conditions: Sequenc
 
 
 def _inputs_of(analysis: Analysis | Run | str | Path, folder: Path, figure: str,
-               trial: tuple[int, int] | None) -> tuple[Any, Path]:
-    """The figure inputs of ``analysis`` (its ``folder``), and the folder whose plan it uses: the
-    run of an Analysis written away from it, whose trials and steps are read; else ``folder``."""
+               trial: tuple[int, int] | None) -> Any:
+    """The figure inputs of ``analysis`` (its ``folder``), with the trials and steps of the run
+    of an Analysis written away from it."""
     from nudgecli.report.plotting import TRIAL_FIGURES, read_inputs
 
     run = _run_analysed_elsewhere(analysis)
     if run is not None:
-        return _with_run_trials(folder, run, trial), run
+        return _with_run_trials(folder, run, trial)
     inputs = read_inputs(folder, trial)
     if inputs.steps is None and inputs.steps_missing is None and \
             (figure in TRIAL_FIGURES or trial is not None):  # no run's steps: is it a run's analysis?
         _check_not_a_runs_analysis_elsewhere(folder, inputs.stats, figure)
-    return inputs, folder
+    return inputs
 
 
 def _run_analysed_elsewhere(analysis: Analysis | Run | str | Path) -> Path | None:

@@ -67,8 +67,9 @@ def analyze_command(source: str, plan: str | None, out: str | None, output_forma
               help="Analyse RUN with this plan first (writes metrics.csv and stats.json; the analysis "
                    "replaced is put back if the plot then fails), then plot "
                    "[default: plot the existing analysis, with the star rule and item labels of the plan "
-                   "recorded in the run folder, else the plan named like the run's experiment, else its "
-                   "world's (ciaa-teleop for the CIAA world), else paper].")
+                   "its stats.json names (an analysis written away from its run, or under another plan), "
+                   "else the plan recorded in the run folder, else the plan named like the run's experiment, "
+                   "else its world's (ciaa-teleop for the CIAA world), else paper].")
 @click.option("--out", type=click.Path(file_okay=False, path_type=str), default=None,
               help="Folder for the figures [default: figures/ in the run or analysis folder].")
 @click.option("--formats", default="png,pdf", show_default=True, help="Comma-separated: png, pdf, svg.")

@@ -453,7 +453,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         fix = own_plan_advice(table["condition"].astype(str).unique())
         raise exc if plan_arg is not None else ConfigError(f"{exc}; no --plan was given: {fix}") from None
     if source.is_dir():
-        record_plan(run, manifest, plan, out_dir)
+        source_record.update(record_plan(run, manifest, plan, out_dir))  # the plan, where out_dir hides it
     _check_filters(plan, available)
     scores, score_names = _read_scores(questionnaires, table, source, manifest, notes)
     selected = _select_metrics(metrics, [*available, *score_names], plan)

@@ -6,10 +6,17 @@ copy of it, checked against the SHA-256 the manifest records
 (:meth:`~nudgecli.run_folder_config.ConfigRecord.recorded_plan`); a manifest of an older nudge may
 name a plan file by its path. A recorded plan that does not load is refused in one line naming the
 manifest's ``plan`` and ``--plan``, which overrides it (:func:`recorded_plan`).
+
+An analysis says which plan made it where a reader of its folder would not find that plan anyway:
+the analysis of a run written away from it (``--out D``) or under another plan than the run's
+records it in ``stats.json``'s :data:`ANALYSIS_PLAN_KEY` (:func:`record_plan`), a table's analysis
+in its ``table_read`` record; ``nudge plot`` draws with it (:func:`analysed_plan`). A run's own
+analysis under its recorded plan records nothing (``results/paper/stats.json`` as it was).
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 from collections.abc import Mapping
 from pathlib import Path
@@ -17,9 +24,15 @@ from typing import Any
 
 from nudgecli.config_files import resolve_plan, world_kind_of
 from nudgecli.errors import ConfigError, NudgeError
+from nudgecli.report.analysis_folders import analysis_folder
 from nudgecli.report.plans import AnalysisPlan, load_plan, plan_argument
-from nudgecli.run_folder_names import MANIFEST
+from nudgecli.report.table_read import TABLE_READ_KEY, analysed_inputs, plan_seen_from_here
+from nudgecli.run_folder_names import MANIFEST, STATS_JSON
 from nudgecli.store import RunFolder
+
+#: The key of ``stats.json`` naming the plan of a run's analysis that its folder would not give
+#: (:func:`record_plan`): a preset's name, or its file as seen from the analysis folder.
+ANALYSIS_PLAN_KEY = "plan"
 
 
 def plan_of_source(source: str | Path, *, damaged_manifest: bool = False) -> str:
@@ -67,15 +80,47 @@ def recorded_plan(manifest: Mapping[str, Any] | None, run: RunFolder | None = No
 
 
 def record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan: AnalysisPlan,
-                out_dir: Path) -> None:
+                out_dir: Path) -> dict[str, Any]:
     """Record the plan in a finished run's manifest that has none, for the next analysis: only where
     this analysis writes anyway (the run folder as its output folder), and not a plan built in code,
-    which no ``--plan`` names (:func:`~nudgecli.report.plans.plan_argument`)."""
+    which no ``--plan`` names (:func:`~nudgecli.report.plans.plan_argument`).
+
+    Returns
+    -------
+    dict
+        What ``stats.json`` records of the plan: ``{}`` where :func:`plan_of_source` of ``out_dir``
+        gives ``plan`` anyway (a run analysed in its own folder under its recorded plan), else
+        :data:`ANALYSIS_PLAN_KEY`, how ``--plan`` names it as seen from ``out_dir`` (``None``:
+        built in code), for ``nudge plot OUT`` (:func:`analysed_plan`).
+    """
     named = plan_argument(plan)
     if run is not None and manifest is not None and "participants" in manifest and named is not None and \
             "plan" not in manifest and out_dir.resolve() == run.path.resolve():
         manifest["plan"] = named
         run.write_manifest(manifest)
+    found = None
+    with contextlib.suppress(NudgeError):  # a folder whose own plan does not load: say which this was
+        found = load_plan(plan_of_source(out_dir, damaged_manifest=True))
+    return {} if found == plan else {ANALYSIS_PLAN_KEY: analysed_inputs(out_dir, named, None)[0]}
 
 
-__all__ = ["plan_of_source", "record_plan", "recorded_plan"]
+def analysed_plan(source: str | Path) -> str | None:
+    """The plan the analysis of ``source`` records (a run folder or an analysis folder holding
+    ``stats.json``, or a metrics table, whose analysis is its ``<table>-analysis/``): its
+    :data:`ANALYSIS_PLAN_KEY`, else its ``table_read`` record's plan, as ``--plan`` names it from
+    here; ``None`` where it records none or one built in code (:func:`plan_of_source` then), or
+    its ``stats.json`` does not read (drawing says what is wrong)."""
+    path = Path(source)
+    folder = path if path.is_dir() else analysis_folder(path)
+    try:
+        stats = json.loads((folder / STATS_JSON).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(stats, Mapping):
+        return None
+    table_read = stats.get(TABLE_READ_KEY)
+    plan = stats.get(ANALYSIS_PLAN_KEY, table_read.get("plan") if isinstance(table_read, Mapping) else None)
+    return plan_seen_from_here(folder, plan) if isinstance(plan, str) and plan else None
+
+
+__all__ = ["ANALYSIS_PLAN_KEY", "analysed_plan", "plan_of_source", "record_plan", "recorded_plan"]

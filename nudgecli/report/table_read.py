@@ -87,6 +87,12 @@ def analysed_inputs(folder: Path, plan_label: str | None,
     return plan, None if questionnaires is None else seen(questionnaires)
 
 
+def plan_seen_from_here(folder: Path, plan: str) -> str:
+    """The plan an analysis in ``folder`` records (:func:`analysed_inputs`' ``plan``) as ``--plan``
+    names it from here: a file's path joined to ``folder`` (it has a ``/``), else a preset's name."""
+    return os.path.normpath(folder / plan) if "/" in plan else plan
+
+
 def recorded_table_read(stats: Mapping[str, Any], where: str) -> dict[str, Any] | None:
     """The ``table_read`` record of a ``stats.json`` document; ``None`` where it has none (written
     by an older nudge, or the analysis of a run folder).
@@ -122,7 +128,7 @@ def analyze_command(table: Path, folder: Path, drop_duplicates: bool,
         words += ["--out", str(folder), "--force"]
     plan = (record or {}).get("plan")
     if plan and plan != resolve_plan(None):
-        words += ["--plan", os.path.normpath(folder / plan) if "/" in plan else plan]  # a file's, or a preset
+        words += ["--plan", plan_seen_from_here(folder, plan)]
     questionnaires = (record or {}).get("questionnaires")
     if questionnaires:
         words += ["--questionnaires", os.path.normpath(folder / questionnaires)]
@@ -190,4 +196,4 @@ def check_table_is_analysed(table: Path, record: Mapping[str, Any], stats_path: 
 
 
 __all__ = ["TABLE_READ_KEY", "analysed_inputs", "analyze_again", "analyze_command", "check_table_is_analysed",
-           "recorded_table_read", "table_read_record"]
+           "plan_seen_from_here", "recorded_table_read", "table_read_record"]

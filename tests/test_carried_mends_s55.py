@@ -1,0 +1,81 @@
+"""Mends of four carried defects: ``nudge plot`` of an analysis written away from its run uses the
+plan that analysis used; a dask run's Python resume call names its scheduler; a policy module that
+raises as it is imported is named by file and line; ``nudge validate --all-readings --mc-queries
+100`` says the value is not used."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+import pytest
+from cli_helpers import nudge
+
+from nudgecli.report.plans import load_plan
+
+#: A plan file whose star rule differs from every preset's: a plot under the paper plan draws
+#: other stars and letters.
+LOOSE_PLAN = """name = "loose"
+description = "stars at p < .9/.8/.7"
+
+[stats]
+kruskal_alpha = 0.9
+star_thresholds = [0.9, 0.8, 0.7]
+"""
+
+
+def _star_rule_plotted(monkeypatch: pytest.MonkeyPatch, *args: str | Path) -> Any:
+    """``nudge plot ARGS``'s star rule, as given to the drawing (nothing drawn)."""
+    given: dict[str, Any] = {}
+
+    def plot_folder(*_: Any, **options: Any) -> list[Path]:
+        given.update(options)
+        return []
+
+    monkeypatch.setattr("nudgecli.report.plotting.plot_folder", plot_folder)
+    result = nudge("plot", *args)
+    assert result.exit_code == 0, result.output
+    return given["star_rule"]
+
+
+@pytest.fixture()
+def run_and_plan(analysed_smoke_run: Path, tmp_path: Path) -> tuple[Path, Path]:
+    """A copy of the analysed smoke run (under the paper plan, which it records), and LOOSE_PLAN's file."""
+    run = tmp_path / "run"
+    shutil.copytree(analysed_smoke_run, run, ignore=shutil.ignore_patterns("figures", ".nudge.lock"))
+    plan = tmp_path / "loose.toml"
+    plan.write_text(LOOSE_PLAN)
+    return run, plan
+
+
+def test_plot_of_an_analysis_written_away_from_its_run_uses_its_plan(
+        run_and_plan: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    run, plan = run_and_plan
+    out = tmp_path / "elsewhere"
+    assert nudge("analyze", run, "--plan", plan, "--out", out, "--bootstrap", "100").exit_code == 0
+    assert _star_rule_plotted(monkeypatch, out) == load_plan(plan).comparison_options()  # was the paper's
+    # stats.json names the plan as seen from its folder, so the two move together
+    assert json.loads((out / "stats.json").read_text())["plan"] == "../loose.toml"
+
+
+def test_a_runs_analysis_under_another_plan_than_its_own_records_it_and_only_then(
+        run_and_plan: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch) -> None:
+    run, _ = run_and_plan
+    before = (run / "stats.json").read_bytes()
+    assert nudge("analyze", run, "--bootstrap", "100").exit_code == 0  # its recorded plan, paper
+    assert (run / "stats.json").read_bytes() == before  # nothing added: results/paper stays as it is
+    assert nudge("analyze", run, "--plan", "study-code", "--bootstrap", "100").exit_code == 0
+    assert json.loads((run / "stats.json").read_text())["plan"] == "study-code"
+    assert json.loads((run / "manifest.json").read_text())["plan"] == "paper"
+    assert _star_rule_plotted(monkeypatch, run) == load_plan("study-code").comparison_options()
+
+
+def test_plot_of_a_table_analysed_with_a_plan_file_uses_that_plan(
+        run_and_plan: tuple[Path, Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    run, plan = run_and_plan
+    table = tmp_path / "study.csv"
+    shutil.copy(run / "metrics.csv", table)
+    assert nudge("analyze", table, "--plan", plan, "--bootstrap", "100").exit_code == 0
+    assert _star_rule_plotted(monkeypatch, table) == load_plan(plan).comparison_options()
