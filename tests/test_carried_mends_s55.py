@@ -79,3 +79,13 @@ def test_plot_of_a_table_analysed_with_a_plan_file_uses_that_plan(
     shutil.copy(run / "metrics.csv", table)
     assert nudge("analyze", table, "--plan", plan, "--bootstrap", "100").exit_code == 0
     assert _star_rule_plotted(monkeypatch, table) == load_plan(plan).comparison_options()
+
+
+def test_the_python_resume_call_of_a_dask_run_names_its_scheduler() -> None:
+    from nudgecli.sim.policy_files import SOURCES_KEY, script_resume_call
+
+    manifest: dict[str, Any] = {SOURCES_KEY: {"__main__:Mine": "0" * 64}, "executor": "dask"}
+    call = script_resume_call(manifest, "R/config.toml", "R", 5, 2, None)
+    assert call is not None and "out='R', seed=5, participants=2, scheduler=ADDRESS, resume=True)" in call
+    local = script_resume_call({**manifest, "executor": "processes"}, "R/config.toml", "R", 5, 2, None)
+    assert local is not None and "scheduler" not in local

@@ -315,7 +315,12 @@ def script_resume_call(manifest: Mapping[str, Any], experiment: str, folder: str
     """The Python call that resumes the run ``folder`` whose manifest records a policy of the
     calling script (``__main__:Attr`` in :data:`SOURCES_KEY`): ``nudgecli.simulate(EXPERIMENT,
     out=..., resume=True)`` run from the script that defines it, the one place that policy exists
-    (a ``nudge simulate`` command cannot import it); ``None`` for any other run."""
+    (a ``nudge simulate`` command cannot import it); ``None`` for any other run. A run whose last
+    part ran on a dask scheduler is resumed there: ``scheduler=ADDRESS`` (as the command's
+    ``--scheduler ADDRESS``, :func:`~nudgecli.run_folder_state.resume_scheduler`), for without it
+    the call would run on local workers."""
+    from nudgecli.run_folder_state import resume_scheduler  # it builds on the run folder modules
+
     sources = manifest.get(SOURCES_KEY)
     own = sorted(str(name) for name in sources if str(name).startswith("__main__:")) \
         if isinstance(sources, Mapping) else []
@@ -323,6 +328,8 @@ def script_resume_call(manifest: Mapping[str, Any], experiment: str, folder: str
         return None
     options = [f"{key}={value!r}" for key, value in (("seed", seed), ("participants", participants),
                                                      ("people", people)) if value is not None]
+    scheduler = resume_scheduler(manifest)  # a placeholder, as PLAN in other Python advice: the address
+    options += [f"scheduler={scheduler}"] if scheduler is not None else []
     arguments = ", ".join([repr(str(experiment)), f"out={str(folder)!r}", *options, "resume=True"])
     return (f"nudgecli.simulate({arguments})  # in the script that defines {', '.join(own)}: a nudge "
             "command cannot import a policy of the calling script")
