@@ -11,7 +11,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from cli_helpers import nudge
+from cli_helpers import nudge, one_error_line
+from policy_helpers import QUIET_POLICY, policy_experiment
 
 from nudgecli.report.plans import load_plan
 
@@ -89,3 +90,18 @@ def test_the_python_resume_call_of_a_dask_run_names_its_scheduler() -> None:
     assert call is not None and "out='R', seed=5, participants=2, scheduler=ADDRESS, resume=True)" in call
     local = script_resume_call({**manifest, "executor": "processes"}, "R/config.toml", "R", 5, 2, None)
     assert local is not None and "scheduler" not in local
+
+
+@pytest.mark.parametrize(("line", "error"), [
+    ("raise ValueError('x')", "ValueError: x"),
+    ("W = undefined_weight + 1", "NameError: name 'undefined_weight' is not defined"),
+])
+def test_a_policy_module_raising_as_it_is_imported_is_named_by_file_and_line(
+        tmp_path: Path, line: str, error: str) -> None:
+    experiment = policy_experiment(tmp_path / "exp", {"mine": "policies.mine:Quiet"},
+                                   modules={"policies/mine.py": f"X = 1\n{line}\n{QUIET_POLICY}"})
+    message = one_error_line(nudge("simulate", experiment, "--out", tmp_path / "run").output)
+    assert message.startswith(f"Error: condition 'mine' (policy policies.mine:Quiet): cannot import module "
+                              f"'policies.mine': {error} (policies/mine.py line 2: {line}); "), message
+    assert "looked up beside the experiment file" not in message  # it was found: it raised
+    assert not (tmp_path / "run").exists()

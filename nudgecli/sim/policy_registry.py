@@ -124,7 +124,8 @@ def load_factory(spec: PolicySpec, *, reload_changed: bool = True) -> Callable[.
     try:
         module = import_policy_module(module_name, spec.search_path, reload_changed=reload_changed)
     except POLICY_FAILURES as exc:  # a researcher's module: any failure of its import is theirs to see
-        advice = (_missing_dependency(exc, module_name, spec.search_path)
+        raised = "" if isinstance(exc, ModuleNotFoundError) else where_raised(exc, spec)  # its own code's
+        advice = (_missing_dependency(exc, module_name, spec.search_path) or raised
                   or f" {_import_advice(module_name, attribute, spec.search_path, exc)}")
         raise PolicyError(f"{where}: cannot import module {module_name!r}: {type(exc).__name__}: {exc}"
                           f"{advice}") from exc
