@@ -105,3 +105,25 @@ def test_a_policy_module_raising_as_it_is_imported_is_named_by_file_and_line(
                               f"'policies.mine': {error} (policies/mine.py line 2: {line}); "), message
     assert "looked up beside the experiment file" not in message  # it was found: it raised
     assert not (tmp_path / "run").exists()
+
+
+def test_validate_says_an_explicit_mc_queries_beside_all_readings_is_not_used(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    from nudgecli.api.validation import validate
+
+    monkeypatch.setattr("nudgecli.sim.validation.run_all_readings", lambda settings, names, progress: [])
+    given = validate(simulations=2, min_goals=3, max_goals=3, states=72, mc_queries=100, all_readings=True)
+    assert any(note.startswith("--mc-queries 100 is not used with --all-readings") for note in given.notes)
+    left_out = validate(simulations=2, min_goals=3, max_goals=3, states=72, all_readings=True)
+    assert not any("--mc-queries" in note for note in left_out.notes)
+    # the command passes on whether the option was given, not the default's value
+    passed: list[object] = []
+
+    def validated(**options: Any) -> None:
+        passed.append(options["mc_queries"])
+        raise SystemExit(0)  # the option's value is what is checked, not the validation
+
+    monkeypatch.setattr("nudgecli.api.validation.validate", validated)
+    nudge("validate", "--all-readings")
+    nudge("validate", "--all-readings", "--mc-queries", "100")
+    assert passed == [None, 100]

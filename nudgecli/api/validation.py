@@ -92,7 +92,7 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
              min_goals: int = defaults.VALIDATION_MIN_GOALS, max_goals: int = defaults.VALIDATION_MAX_GOALS,
              states: int | None = None, seed: int = defaults.VALIDATION_SEED,
              belief_concentration: float | None = None,
-             mc_queries: int = defaults.VALIDATION_MC_QUERIES, reading: str = defaults.VALIDATION_READING,
+             mc_queries: int | None = None, reading: str = defaults.VALIDATION_READING,
              all_readings: bool = False, out: str | Path | None = None, force: bool = False,
              yes: bool = False, progress: Callable[[int, int], None] | None = None,
              log: Callable[[str], None] | None = None) -> Validation:
@@ -114,7 +114,9 @@ def validate(*, simulations: int = defaults.VALIDATION_SIMULATIONS,
         Query beliefs are Dirichlet(c); ``None``: 1, and not given. Given, it is refused with the
         two-goal reading alone, whose beliefs are split between two goals.
     mc_queries
-        Queries of the Monte-Carlo convergence study (0 skips it; a note where fewer ran, or none).
+        Queries of the Monte-Carlo convergence study (0 skips it; a note where fewer ran, or none);
+        ``None``: 100, and not given. Given beside ``all_readings``, which skips the study, even as
+        100, a note says it is not used.
     reading
         Which reading of the paper's validation paragraph.
     all_readings
@@ -179,7 +181,7 @@ def _write(made: Validation, out: str | Path) -> list[Path]:
 
 
 def _checked_settings(simulations: int, min_goals: int, max_goals: int, states: int | None, seed: int,
-                      belief_concentration: float | None, mc_queries: int, reading: str,
+                      belief_concentration: float | None, mc_queries: int | None, reading: str,
                       all_readings: bool) -> tuple[ValidationSettings, list[str], list[str]]:
     """:func:`validate`'s settings checked, the readings to run and the notes on options some of
     them do not use (``None``: an option not given). Before any work."""
@@ -190,7 +192,7 @@ def _checked_settings(simulations: int, min_goals: int, max_goals: int, states: 
     counts = {name: arguments.whole_number(name, value) for name, value in (
         ("simulations", simulations), ("min_goals", min_goals), ("max_goals", max_goals),
         ("states", defaults.VALIDATION_STATES if states is None else states), ("seed", seed),
-        ("mc_queries", mc_queries))}
+        ("mc_queries", defaults.VALIDATION_MC_QUERIES if mc_queries is None else mc_queries))}
     if all_readings and reading != defaults.VALIDATION_READING:
         raise ConfigError(READINGS_EXCLUDE)
     concentration = (defaults.VALIDATION_BELIEF_CONCENTRATION if belief_concentration is None
@@ -202,7 +204,8 @@ def _checked_settings(simulations: int, min_goals: int, max_goals: int, states: 
     notes = [validation.settings.states_note(None if states is None else settings.states, names),
              validation.settings.concentration_note(
                  None if belief_concentration is None else settings.belief_concentration, names),
-             all_readings_mc_note(settings.mc_queries) if all_readings else None]
+             all_readings_mc_note(None if mc_queries is None else settings.mc_queries)
+             if all_readings else None]
     for name in names:
         replace(settings, reading=name).check()
     return settings, names, [note for note in notes if note]

@@ -114,8 +114,10 @@ def _validation_readings() -> list[str]:
               help="Query beliefs are Dirichlet(c): 1 spreads them evenly, large c makes them near uniform; "
                    "not for --reading two-goal, whose beliefs are split between two goals "
                    f"[default: {defaults.VALIDATION_BELIEF_CONCENTRATION:g}].")
-@click.option("--mc-queries", type=int, default=defaults.VALIDATION_MC_QUERIES, show_default=True,
-              help="Queries of the Monte-Carlo convergence study (0 skips it).")
+@click.option("--mc-queries", type=int, default=None,
+              help="Queries of the Monte-Carlo convergence study (0 skips it; --all-readings skips it, "
+                   "and a value given beside it is said unused) "
+                   f"[default: {defaults.VALIDATION_MC_QUERIES}].")
 @click.option("--reading", type=click.Choice(list(_validation_readings())),
               default=defaults.VALIDATION_READING,
               show_default=True,
@@ -131,8 +133,8 @@ def _validation_readings() -> list[str]:
               help="Run more queries than the size limit allows (docs/reliability.md).")
 @click.option("--force", is_flag=True, help=FORCE_HELP)
 def validate_command(simulations: int, min_goals: int, max_goals: int, states: int | None, seed: int,
-                     belief_concentration: float | None, mc_queries: int, reading: str, all_readings: bool,
-                     out: str | None, output_format: str, yes: bool, force: bool) -> None:
+                     belief_concentration: float | None, mc_queries: int | None, reading: str,
+                     all_readings: bool, out: str | None, output_format: str, yes: bool, force: bool) -> None:
     """The paper's simulation-based validation of D(s): its argmax vs a one-step ground truth."""
     import time
 

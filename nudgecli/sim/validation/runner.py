@@ -32,7 +32,6 @@ from typing import Any
 
 import numpy as np
 
-from nudgecli import command_defaults as defaults
 from nudgecli.model.information import mutual_information
 from nudgecli.model.interface import default_distortion_table, default_mapping_table
 from nudgecli.rng import generator
@@ -354,11 +353,11 @@ def mc_queries_notes(results: Sequence[ValidationResult]) -> list[str]:
     return notes
 
 
-def all_readings_mc_note(mc_queries: int) -> str | None:
+def all_readings_mc_note(mc_queries: int | None) -> str | None:
     """A note (without its ``Note:``) for ``--mc-queries`` given beside ``--all-readings``, which
-    skips the Monte-Carlo convergence study (:func:`run_all_readings`); ``None`` for 0 or the
-    default (not given)."""
-    if mc_queries in (0, defaults.VALIDATION_MC_QUERIES):
+    skips the Monte-Carlo convergence study (:func:`run_all_readings`), the default's value given
+    too; ``None`` for 0 (the study skipped, as asked) or ``None`` (not given)."""
+    if not mc_queries:
         return None
     return (f"--mc-queries {mc_queries} is not used with --all-readings: the Monte-Carlo convergence study "
             "does not depend on the reading and runs only with one reading (leave out --all-readings)")
