@@ -9,7 +9,7 @@ path to a TOML file. Layout::
     conditions = ["disambiguation", "control"]   # order after the paper's two (a pair's "a" is the earlier)
 
     [metrics]
-    include = ["assistance_engagement", ...]      # default: all known metrics
+    include = ["assistance_engagement", ...]      # default: all known metrics; each once
     engagement = "per_step"                       # or "per_turn" (study software)
     strength = "per_step"                         # or "per_turn"
     mode_switches = "any_turn"                    # or "human_turn"
@@ -131,6 +131,11 @@ class MetricDefinitions(_Section):
                                  f"known: {', '.join(METRIC_NAMES)}")
         if not names:
             raise ValueError("list at least one metric")
+        # a metric listed twice would be tested twice: stats.json would hold it twice, and replicate and
+        # power would count its replications twice (power's interval too narrow)
+        repeated = sorted({name for name in names if names.count(name) > 1}, key=names.index)
+        if repeated:
+            raise ValueError(f"{', '.join(map(repr, repeated))} listed more than once; list each metric once")
         return names
 
 
