@@ -36,3 +36,41 @@ def test_a_metric_listed_twice_in_include_is_refused_naming_the_file_and_the_met
     assert line.startswith(f"Error: {plan}: metrics.include: 'completion_time' listed more than once; "
                            "list each metric once"), line
     assert not (tmp_path / "pp-analysis").exists()
+
+
+# --- summary.md names a plan file by its file, and lists its definitions -------------------------
+
+
+def _summary_head(folder: Path) -> list[str]:
+    return [line for line in (folder / "summary.md").read_text(encoding="utf-8").splitlines()
+            if line.startswith("- plan:") or line.startswith("- definitions:")]
+
+
+def test_summary_names_a_plan_file_by_its_file_not_its_name_key(tmp_path, analysed_smoke_run):
+    """An edited copy of the paper plan was reported as "paper"; ``name = ""`` read "- plan: ;"."""
+    study_code = list_presets("analysis")["study-code"].read_text(encoding="utf-8")
+    plan = tmp_path / "plans" / "mine.toml"
+    plan.parent.mkdir()
+    plan.write_text(study_code.replace('name = "study-code"', 'name = ""'), encoding="utf-8")
+    out = tmp_path / "a"
+    result = nudge("analyze", analysed_smoke_run, "--plan", plan, "--out", out, "--bootstrap", "100")
+    assert result.exit_code == 0, result.output
+    plan_line, definitions = _summary_head(out)
+    assert plan_line.startswith("- plan: ../plans/mine.toml; conditions:"), plan_line
+    assert definitions == ("- definitions: computed from the run's trials and steps under the plan's "
+                           "assistance_engagement = 'per_turn', assistance_strength = 'per_turn', "
+                           "mode_switches = 'human_turn', success = 'last_inferred_goal', "
+                           "completion_time = 'all_trials'")
+    table = _table(tmp_path)
+    copy = _paper_copy(tmp_path / "paper-copy.toml", "star_comparison = \"<\"", "star_comparison = \"<=\"")
+    assert nudge("analyze", table, "--plan", copy).exit_code == 0
+    assert _summary_head(tmp_path / "pp-analysis")[0].startswith("- plan: ../paper-copy.toml; "), \
+        _summary_head(tmp_path / "pp-analysis")
+
+
+def test_summary_names_a_preset_by_its_name_without_definitions(tmp_path, analysed_smoke_run):
+    out = tmp_path / "a"
+    assert nudge("analyze", analysed_smoke_run, "--plan", "study-code", "--out", out,
+                 "--bootstrap", "100").exit_code == 0
+    (plan_line,) = _summary_head(out)
+    assert plan_line.startswith("- plan: study-code; conditions:"), plan_line

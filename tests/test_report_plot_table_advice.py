@@ -64,7 +64,8 @@ def test_following_the_printed_advice_restores_the_same_analysis(study, analysed
     assert result.exit_code == 0, result.output
     folder = study if "--out" in analysed_with else study / "study-analysis"
     before = plan_line(folder)
-    assert before == "- plan: study-code"
+    # a plan file is named by its file as seen from the analysis folder, a preset by its name
+    assert before == "- plan: " + ("plans/mine.toml" if "plans/mine.toml" in analysed_with else "study-code")
     edit(study / "study.csv")
 
     refused = invoke("plot", "study.csv", "--formats", "png")

@@ -50,7 +50,7 @@ from typing import Any
 
 import pandas as pd
 
-from nudgecli.errors import ConfigError, DataError, RunFolderError, did_you_mean
+from nudgecli.errors import ConfigError, DataError, RunFolderError
 from nudgecli.errors import WriteError as NudgeWriteError
 from nudgecli.locks import run_lock
 from nudgecli.model.conditions import not_applicable_metrics
@@ -66,19 +66,23 @@ from nudgecli.report.analysis_folders import (
 from nudgecli.report.checksum import CHECKSUM_KEY, metrics_checksum
 from nudgecli.report.metrics import (
     INPUT_STEP_COLUMNS,
-    METRIC_NAMES,
     METRIC_STEP_COLUMNS,
     TRIAL_COLUMNS,
     trial_metrics_by_participant,
 )
 from nudgecli.report.pair_display import check_reference
 from nudgecli.report.plan_filters import apply_plan_filters
+from nudgecli.report.plan_metrics import (
+    check_filters,
+    run_definitions_line,
+    select_metrics,
+    summary_plan_name,
+)
 from nudgecli.report.plans import (
     MIN_RESAMPLES,
     AnalysisPlan,
     check_plan_conditions,
     check_resamples,
-    left_out_metric_message,
     load_plan,
     plan_argument,
 )
@@ -196,30 +200,6 @@ def read_run(folder: str | Path, notes: list[str] | None = None
         return run.read_table("steps", columns, participants=[int(participant)])
 
     return trials, steps_of
-
-
-def _select_metrics(requested: Sequence[str] | None, available: Sequence[str],
-                    plan: AnalysisPlan) -> list[str]:
-    if not requested:
-        return list(available)
-    selected: list[str] = []
-    for name in requested:
-        if name in METRIC_NAMES and name not in available and name not in plan.metrics.include:
-            raise DataError(left_out_metric_message(plan, name))  # known, but this plan leaves it out
-        if name not in available:
-            raise DataError(f"unknown metric {name!r}{did_you_mean(name, available)}; available: "
-                            f"{', '.join(available)}")
-        if name not in selected:
-            selected.append(name)
-    return selected
-
-
-def _check_filters(plan: AnalysisPlan, available: Sequence[str]) -> None:
-    known = set(METRIC_NAMES) | set(available)
-    for name in plan.filters:
-        if name not in known:
-            raise ConfigError(f"{plan.label}: [filters] names unknown metric {name!r}"
-                              f"{did_you_mean(name, sorted(known))}")
 
 
 def comparison_options(plan: AnalysisPlan, seed: int | None = None,
@@ -454,12 +434,13 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         raise exc if plan_arg is not None else ConfigError(f"{exc}; no --plan was given: {fix}") from None
     if source.is_dir():
         source_record.update(record_plan(run, manifest, plan, out_dir))  # the plan, where out_dir hides it
-    _check_filters(plan, available)
+    check_filters(plan, available)
     scores, score_names = _read_scores(questionnaires, table, source, manifest, notes)
-    selected = _select_metrics(metrics, [*available, *score_names], plan)
+    selected = select_metrics(metrics, [*available, *score_names], plan)
     trial_selected = [m for m in selected if m in available]
     score_selected = [m for m in selected if m in score_names]
-    definitions_line = blanks_line = None
+    blanks_line = None
+    definitions_line = run_definitions_line(plan, trial_selected) if source.is_dir() else None
     if not source.is_dir():  # a run's metrics were computed with the plan's definitions already
         defined = apply_plan_definitions(table, plan, trial_selected)
         table, changed, definitions_line = defined.table, changed or defined.changed, defined.line
@@ -489,6 +470,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     tidy = stats_table(stats)
     notes += _excluded_notes(tidy)
     summary = format_summary(tidy, stats["conditions"], plan, source_from_out, n_trials=len(filtered),
+                             plan_name=summary_plan_name(plan, out_dir),
                              n_participants=filtered["participant"].nunique(), reference=reference,
                              definitions=definitions_line, filters=filters.line, blanks=blanks_line,
                              not_applicable={e["metric"]: e.get("not_applicable_reasons") or {}

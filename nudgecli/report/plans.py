@@ -218,6 +218,11 @@ class AnalysisPlan(_Section):
         return self.__dict__ == other.__dict__
 
     @property
+    def file(self) -> Path | None:
+        """The TOML file the plan was read from (absolute); ``None`` for a preset or a plan made in code."""
+        return self._file
+
+    @property
     def label(self) -> str:
         """How every message and a run's manifest name the plan: the absolute path of the file it
         was read from (its ``name`` may be a copied preset's), else its ``name`` (a preset's)."""

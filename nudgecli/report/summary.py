@@ -242,7 +242,7 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
                    n_trials: int, n_participants: int, *, reference: str | None = None,
                    not_applicable: Mapping[str, Mapping[str, str]] | None = None,
                    definitions: str | None = None, filters: str | None = None,
-                   blanks: str | None = None) -> str:
+                   blanks: str | None = None, plan_name: str | None = None) -> str:
     """``summary.md``: the settings, then per metric a line of tests and two markdown tables.
 
     ``table`` is :func:`~nudgecli.report.stats_document.stats_table`'s tidy table of ``stats.json``,
@@ -259,7 +259,12 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
     (:func:`~nudgecli.report.plan_filters.apply_plan_filters`), a line after that; ``blanks``: a
     table's blank cells of the analysed metrics, which every statistic leaves out
     (:func:`~nudgecli.report.table_definitions.blank_values_line`), a line after the definitions.
+    ``plan_name``: how the ``- plan:`` line names the plan (a plan file as seen from the folder
+    ``summary.md`` is written to: :func:`~nudgecli.report.plan_metrics.summary_plan_name`); default
+    its :attr:`~nudgecli.report.plans.AnalysisPlan.label`, a preset's name or the file's path, never
+    the file's ``name`` key, which a copied preset keeps.
     """
+    plan_name = plan.label if plan_name is None else plan_name
     settings = plan.stats
     comparison = settings.star_comparison
     thresholds = ", ".join(f"{t:g}" for t in settings.star_thresholds)
@@ -271,7 +276,7 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
     many = "pairwise_p" in table.columns  # more than two conditions: the pairs' own participant-level tests
     seed = table["ci_seed"].iloc[0] if len(table) else plan.bootstrap.seed
     if len(conditions) == 1:
-        return _descriptive_summary(table, conditions, plan, source, n_trials, n_participants,
+        return _descriptive_summary(table, conditions, plan_name, source, n_trials, n_participants,
                                     (definitions, blanks, filters))
     resamples = table["ci_resamples"].iloc[0] if len(table) else plan.bootstrap.resamples
     display = pair_display(len(conditions), reference)
@@ -279,7 +284,7 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
         "# Analysis summary",
         "",
         f"- source: `{source}`",
-        f"- plan: {plan.name}; conditions: {', '.join(conditions)}; {n_trials} trials of "
+        f"- plan: {plan_name}; conditions: {', '.join(conditions)}; {n_trials} trials of "
         f"{n_participants} participants",
         *([f"- definitions: {definitions}"] if definitions else []),
         *([f"- {blanks}"] if blanks else []),
@@ -372,18 +377,19 @@ def _letters(pairs_of_metric: pd.DataFrame, compared: Sequence[str]) -> dict[str
     return compact_letter_display(compared, different)
 
 
-def _descriptive_summary(table: pd.DataFrame, conditions: Sequence[str], plan: AnalysisPlan, source: Path,
+def _descriptive_summary(table: pd.DataFrame, conditions: Sequence[str], plan_name: str, source: Path,
                          n_trials: int, n_participants: int,
                          left_out: tuple[str | None, str | None, str | None] = (None, None, None)) -> str:
     """``summary.md`` of a single condition: the descriptives per metric and a note (no tests);
-    ``left_out``: :func:`format_summary`'s ``definitions``, ``blanks`` and ``filters`` lines."""
+    ``plan_name``: how the plan is named; ``left_out``: :func:`format_summary`'s ``definitions``,
+    ``blanks`` and ``filters`` lines."""
     (condition,) = conditions
     definitions, blanks, filters = left_out
     lines = [
         "# Analysis summary",
         "",
         f"- source: `{source}`",
-        f"- plan: {plan.name}; condition: {condition}; {n_trials} trials of {n_participants} participants",
+        f"- plan: {plan_name}; condition: {condition}; {n_trials} trials of {n_participants} participants",
         *([f"- definitions: {definitions}"] if definitions else []),
         *([f"- {blanks}"] if blanks else []),
         *([f"- filters: {filters}"] if filters else []),
