@@ -74,3 +74,37 @@ def test_summary_names_a_preset_by_its_name_without_definitions(tmp_path, analys
                  "--bootstrap", "100").exit_code == 0
     (plan_line,) = _summary_head(out)
     assert plan_line.startswith("- plan: study-code; conditions:"), plan_line
+
+
+# --- the interval's level as the plan gives it -----------------------------------------------------
+
+
+def test_the_interval_level_is_printed_as_given_not_rounded_to_whole_percent(tmp_path):
+    """[bootstrap] level = 0.975 printed "98% CI", 0.999 "100% CI"."""
+    plan = _paper_copy(tmp_path / "level.toml", "level = 0.95", "level = 0.975")
+    result = nudge("analyze", _table(tmp_path), "--plan", plan, "--bootstrap", "100")
+    assert result.exit_code == 0, result.output
+    assert "a-b [97.5% CI]" in result.output
+    summary = (tmp_path / "pp-analysis" / "summary.md").read_text(encoding="utf-8")
+    assert "- interval: 97.5% cluster bootstrap" in summary and "| 97.5% CI |" in summary
+    assert "98%" not in summary
+
+
+def test_a_comparison_prints_its_level_as_given(tmp_path):
+    import numpy as np
+    import pandas as pd
+
+    from nudgecli.report.compare import CompareOptions, compare_sources
+    from nudgecli.report.compare_text import format_comparison
+    from nudgecli.report.summary import format_level
+
+    assert [format_level(v) for v in (0.95, 0.975, 0.999, 0.9)] == ["95%", "97.5%", "99.9%", "90%"]
+    rng = np.random.default_rng(0)
+    for name, conditions, shift in (("sim", ("disambiguation", "control"), 20), ("real", ("control",), 21)):
+        rows = [{"participant": f"{name}{p}", "condition": c, "trial": t,
+                 "completion_time": shift + rng.normal()}
+                for p in range(3) for c in conditions for t in range(3)]
+        pd.DataFrame(rows).to_csv(tmp_path / f"{name}.csv", index=False)
+    result = compare_sources(tmp_path / "sim.csv", tmp_path / "real.csv",
+                             options=CompareOptions(resamples=0, level=0.999))
+    assert "KS [99.9%]" in format_comparison(result)

@@ -9,7 +9,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from nudgecli.report.compare import SOURCES, Comparison, condition_pair
-from nudgecli.report.summary import format_p, format_value
+from nudgecli.report.summary import format_level, format_p, format_value
 
 
 def _interval(value: float, low: float, high: float) -> str:
@@ -23,7 +23,7 @@ def _quartiles(row: Mapping[str, object], source: str) -> str:
 
 def format_comparison(result: Comparison) -> str:
     """Plain-text tables: the distances per metric and condition, then the participants' medians."""
-    level = f"{result.options.level:.0%}"
+    level = format_level(result.options.level)
     header = ["metric", "condition", "n sim/real", "sim median [q1, q3]", "real median [q1, q3]",
               "real people", "sim inside", "KS [" + level + "]", "KS p", "Wasserstein [" + level + "]"]
     rows = []

@@ -43,6 +43,13 @@ def format_value(value: Any) -> str:
     return f"{value:.3g}"
 
 
+def format_level(level: float) -> str:
+    """A confidence level as a percentage, exactly as the plan gives it: ``95%``, ``97.5%``,
+    ``99.9%`` (rounding to whole percent printed 0.975 as ``98%`` and 0.999 as ``100%``)."""
+    text = format(Decimal(repr(float(level))) * 100, "f")
+    return (text.rstrip("0").rstrip(".") if "." in text else text) + "%"
+
+
 #: The thresholds a p-value printed without a plan keeps its side of: the star thresholds of every
 #: shipped plan, whose Kruskal-Wallis alpha is 0.05 as well.
 P_THRESHOLDS: tuple[float, ...] = (0.05, 0.01, 0.001)
@@ -218,7 +225,7 @@ def format_table(table: pd.DataFrame, conditions: Sequence[str], reference: str 
     # two conditions: the participant-level test is the pair's own; more: the pair's Wilcoxon test
     # (as summary.md shows it), not the omnibus Friedman p and Kendall's W, which no pair owns
     participant = "participant p" if two else f"Wilcoxon p ({_p_adjust(table)})"
-    header += ["KW p", "Conover p", "stars", participant, "effect", f"a-b [{level:.0%} CI]"]
+    header += ["KW p", "Conover p", "stars", participant, "effect", f"a-b [{format_level(level)} CI]"]
     rows = []
     for r in table.to_dict("records"):
         if reference is not None and not two and not of_reference(reference, r["a"], r["b"]):
@@ -294,8 +301,8 @@ def format_summary(table: pd.DataFrame, conditions: Sequence[str], plan: Analysi
         f"Kruskal-Wallis p {comparison} {settings.kruskal_alpha:g}",
         f"- participant level: {test} on per-participant {settings.participant_aggregate}s; "
         f"effect size: {effect}",
-        f"- interval: {plan.bootstrap.level:.0%} cluster bootstrap over participants of the difference of "
-        f"trial medians ({resamples} resamples, seed {seed})",
+        f"- interval: {format_level(plan.bootstrap.level)} cluster bootstrap over participants of the "
+        f"difference of trial medians ({resamples} resamples, seed {seed})",
     ]
     if display == "letters":
         lines.append("- pairs: a compact letter display per metric (Piepho 2004): conditions that share a "
@@ -350,7 +357,7 @@ def _metric_section(metric: str, pairs_of_metric: pd.DataFrame, own: pd.DataFram
     if display == "reference" and reference is not None:
         shown = [r for r in shown if of_reference(reference, r["a"], r["b"])]
     header = ["comparison", f"Conover p ({first['p_adjust']})", "p unadjusted", "stars",
-              "difference of medians", f"{first['ci_level']:.0%} CI"]
+              "difference of medians", f"{format_level(first['ci_level'])} CI"]
     if many:
         header += [f"Wilcoxon p ({first['p_adjust']})", "effect"]
     return [*lines, "", _render(header, [_pair_cells(r, many, thresholds) for r in shown], markdown=True)]
