@@ -108,3 +108,24 @@ def test_a_comparison_prints_its_level_as_given(tmp_path):
     result = compare_sources(tmp_path / "sim.csv", tmp_path / "real.csv",
                              options=CompareOptions(resamples=0, level=0.999))
     assert "KS [99.9%]" in format_comparison(result)
+
+
+# --- completion time of successful trials under the study's success proxy ------------------------
+
+
+def test_a_trial_timed_out_is_no_completion_under_the_success_proxy():
+    """success = "last_inferred_goal" with completion_time = "successful_trials" kept the time of a
+    trial timed out (reached_goal -1, its time the limit) whose last inferred goal was the true one."""
+    import pandas as pd
+
+    from nudgecli.report.metrics import trial_metrics
+
+    trials = pd.DataFrame({
+        "participant": [0, 0], "condition": ["a", "a"], "block": [0, 0], "trial": [0, 1],
+        "true_goal": [0, 0], "reached_goal": [0, -1], "success": [True, False], "duration_s": [12.5, 22.0],
+        "human_turns": [2, 3]})
+    steps = pd.DataFrame({"participant": [0, 0], "trial": [0, 1], "step": [0, 0], "turn": ["human"] * 2,
+                          "alpha": [0.0, 0.0], "inferred_goal": [0, 0], "event": ["", ""]})
+    metrics = trial_metrics(trials, steps, success="last_inferred_goal", completion_time="successful_trials")
+    assert metrics["success"].tolist() == [True, True]  # the proxy, as the plan reports success
+    assert metrics["completion_time"].iloc[0] == 12.5 and pd.isna(metrics["completion_time"].iloc[1])

@@ -113,7 +113,8 @@ def trial_metrics(
         ``"reached_goal"`` (the trial table's verdict) or ``"last_inferred_goal"``.
     completion_time
         ``"all_trials"`` (the study software) or ``"successful_trials"`` (the paper: the time to
-        complete the task successfully; missing for the other trials, judged by ``success``).
+        complete the task successfully; missing for the other trials, judged by the trial table's
+        own verdict whichever ``success`` is: a trial timed out is no completion under the proxy either).
 
     Returns
     -------
@@ -224,7 +225,11 @@ def metrics_frame(trials: pd.DataFrame, values: Mapping[str, np.ndarray], *,
         reached = pd.array(values["last_inferred_goal"] == trials["true_goal"].to_numpy(), dtype="boolean")
     duration = pd.to_numeric(trials["duration_s"]).astype(float).to_numpy()
     if completion_time == "successful_trials":
-        duration = successful_only(duration, reached)
+        # the paper's "time taken to complete the task successfully" is judged by the trial's own
+        # verdict whichever success the plan reports: under the study's proxy a trial timed out
+        # (reached_goal -1, its time the limit) whose last inferred goal was the true one completed nothing
+        completed = pd.array(trials["success"].astype(bool).to_numpy(), dtype="boolean")
+        duration = successful_only(duration, completed)
     # built in one go (a column at a time cost a block insertion each)
     columns: dict[str, Any] = {name: trials[name].array for name in ID_COLUMNS}
     columns.update({

@@ -112,7 +112,8 @@ class MetricDefinitions(_Section):
     ``success``: ``reached_goal`` is the simulator's verdict, ``last_inferred_goal`` the study
     software's proxy (the last inferred goal is the true goal). ``completion_time``:
     ``successful_trials`` follows the paper ("total time taken to complete the task
-    successfully"; other trials have no value), ``all_trials`` the study software.
+    successfully"; other trials have no value; success judged by the simulator's verdict under
+    either ``success``, so a trial timed out is no completion), ``all_trials`` the study software.
     """
 
     include: tuple[str, ...] = METRIC_NAMES
