@@ -129,3 +129,16 @@ def test_a_trial_timed_out_is_no_completion_under_the_success_proxy():
     metrics = trial_metrics(trials, steps, success="last_inferred_goal", completion_time="successful_trials")
     assert metrics["success"].tolist() == [True, True]  # the proxy, as the plan reports success
     assert metrics["completion_time"].iloc[0] == 12.5 and pd.isna(metrics["completion_time"].iloc[1])
+
+
+# --- plot of a run analysed in its own folder under another plan -----------------------------------
+
+
+def test_plot_labels_a_copied_run_analysed_under_study_code_per_study_code(tmp_path, analysed_smoke_run):
+    """cp -r RUN RUN2; analyze RUN2 --plan study-code; plot RUN2: the success axis is study-code's."""
+    from nudgecli.api.figures import plot
+
+    copy = Path(shutil.copytree(analysed_smoke_run, tmp_path / "copy"))
+    assert nudge("analyze", copy, "--plan", "study-code", "--bootstrap", "100").exit_code == 0
+    labels = [" ".join(axes.get_ylabel().split()) for axes in plot(copy, "success").axes]
+    assert labels == ["Success (1 = last inferred goal is the true goal)"], labels
