@@ -142,3 +142,29 @@ def test_plot_labels_a_copied_run_analysed_under_study_code_per_study_code(tmp_p
     assert nudge("analyze", copy, "--plan", "study-code", "--bootstrap", "100").exit_code == 0
     labels = [" ".join(axes.get_ylabel().split()) for axes in plot(copy, "success").axes]
     assert labels == ["Success (1 = last inferred goal is the true goal)"], labels
+
+
+# --- a table under a plan whose include leaves out some of its metrics -----------------------------
+
+
+def test_a_table_analysed_under_a_plan_leaving_out_its_metrics_says_they_are_taken(tmp_path):
+    """A plan's include was ignored for a table unsaid: its numeric columns are all its metrics (the
+    paper plan, a table's default, leaves out metrics the baselines' tables hold), so a Note says so
+    where a plan is given, and --metric chooses."""
+    import re
+
+    text = re.sub(r"include = \[[^\]]*\]", 'include = ["completion_time", "success"]',
+                  PAPER.read_text(encoding="utf-8"))
+    plan = tmp_path / "two.toml"
+    plan.write_text(text, encoding="utf-8")
+    table = _table(tmp_path)
+    given = nudge("analyze", table, "--plan", plan, "--bootstrap", "100")
+    assert given.exit_code == 0, given.output
+    notes = [line for line in given.output.splitlines() if "include leaves out" in line]
+    assert len(notes) == 1, given.output
+    assert notes[0] == (f"Note: {table}: plan {plan.resolve()}'s [metrics] include leaves out mode_switches, "
+                        "which this table's analysis takes as they are (every numeric column of a table is a "
+                        "metric); choose a table's metrics with --metric NAME")
+    for args in (["--plan", plan, "--metric", "completion_time"], []):  # chosen, or no plan given: no note
+        result = nudge("analyze", table, *args, "--bootstrap", "100", "--force")
+        assert result.exit_code == 0 and "include leaves out" not in result.output, result.output

@@ -77,6 +77,7 @@ from nudgecli.report.plan_metrics import (
     run_definitions_line,
     select_metrics,
     summary_plan_name,
+    table_include_note,
 )
 from nudgecli.report.plans import (
     MIN_RESAMPLES,
@@ -438,9 +439,10 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
     scores, score_names = _read_scores(questionnaires, table, source, manifest, notes)
     selected = select_metrics(metrics, [*available, *score_names], plan)
     trial_selected = [m for m in selected if m in available]
+    if plan_arg is not None and not metrics and run is None:  # a table's columns are all its metrics
+        notes += [f"{source}: {line}" for line in [table_include_note(plan, trial_selected)] if line]
     score_selected = [m for m in selected if m in score_names]
-    blanks_line = None
-    definitions_line = run_definitions_line(plan, trial_selected) if source.is_dir() else None
+    definitions_line, blanks_line = (run_definitions_line(plan, trial_selected) if run else None), None
     if not source.is_dir():  # a run's metrics were computed with the plan's definitions already
         defined = apply_plan_definitions(table, plan, trial_selected)
         table, changed, definitions_line = defined.table, changed or defined.changed, defined.line

@@ -6,6 +6,8 @@
 - :func:`summary_plan_name`: ``summary.md``'s ``- plan:``, a preset's name or the plan's file as
   seen from the analysis folder (as its ``source`` is), never the file's ``name`` key, which a
   copied preset keeps;
+- :func:`table_include_note`: a table's columns are all analysed, those the plan's ``include``
+  leaves out too, said in a ``Note:`` where a plan was given;
 - :func:`run_definitions_line`: ``summary.md``'s ``- definitions:`` line of a run folder analysed
   under a plan file (a table's says what could be applied:
   :mod:`nudgecli.report.table_definitions`). A preset's definitions are its name's; none is
@@ -57,6 +59,20 @@ def check_filters(plan: AnalysisPlan, available: Sequence[str]) -> None:
                               f"{did_you_mean(name, sorted(known))}")
 
 
+def table_include_note(plan: AnalysisPlan, analysed: Sequence[str]) -> str | None:
+    """Why a metrics table's analysis takes known metrics ``plan``'s ``[metrics] include`` leaves
+    out: a table's numeric columns are all metrics, which ``--metric`` chooses among (the include
+    list chooses what is computed from a run folder; the paper plan, a table's default, leaves out
+    the baselines' metrics a run's ``metrics.csv`` holds). ``None`` where it leaves out none of
+    ``analysed``."""
+    left_out = [m for m in analysed if m in METRIC_NAMES and m not in plan.metrics.include]
+    if not left_out:
+        return None
+    return (f"plan {plan.label}'s [metrics] include leaves out {', '.join(left_out)}, which this table's "
+            "analysis takes as they are (every numeric column of a table is a metric); choose a "
+            "table's metrics with --metric NAME")
+
+
 def summary_plan_name(plan: AnalysisPlan, out_dir: Path) -> str:
     """How ``summary.md`` written to ``out_dir`` names ``plan``: a preset's name (or a plan built in
     code, by its ``name``), or the file it was read from as seen from ``out_dir`` (no machine's path)."""
@@ -77,4 +93,5 @@ def run_definitions_line(plan: AnalysisPlan, analysed: Sequence[str]) -> str | N
     return f"computed from the run's trials and steps under the plan's {names}"
 
 
-__all__ = ["check_filters", "run_definitions_line", "select_metrics", "summary_plan_name"]
+__all__ = ["check_filters", "run_definitions_line", "select_metrics", "summary_plan_name",
+           "table_include_note"]
