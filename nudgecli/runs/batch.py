@@ -69,6 +69,7 @@ from nudgecli.runs.batch_folder import (
     read_study_metrics,
     task_part,
 )
+from nudgecli.runs.batch_inputs import copies_record
 from nudgecli.runs.batch_record import BatchRecord
 from nudgecli.runs.batch_tasks import (
     PART_BUILDING_WORKERS,
@@ -393,7 +394,7 @@ def _run_batch_locked(batch: Batch, folder: Path, size: SizeEstimate, workers: i
             log(line)
     described = {"batch": batch.describe(), "studies": len(graph.studies),
                  "participant_tasks": graph.participant_tasks, "analyses": len(graph.analyses),
-                 "trials": graph.trials, **copies.record()}
+                 "trials": graph.trials, **copies_record(folder, copies, mode == "resume")}
     executor_named = executor_name(size.workers, client is not None)
     # a resume with nothing left keeps the record of the run that computed the tasks
     record = BatchRecord.resumed(folder, described, executor_named, bool(runnable)) \

@@ -1,0 +1,54 @@
+"""Mends of determinism and resume: a resumed sweep's ``batch.json`` records the digests of the
+inputs its folder keeps (not of the resume's own bytes), so the folder's own resume command works
+after it."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+from cli_helpers import nudge_interrupted
+
+from nudgecli.runs.batch_folder import BATCH_MANIFEST
+
+#: One point of three participants, one replication: four tasks, so three Ctrl-C'd runs each write one.
+SWEEP = ('experiment = "exp.toml"\nreplications = 1\nseed = 11\nset = ["study.participants=3"]\n'
+         '[design]\nmethod = "grid"\n[parameters]\n"inference.kappa" = [0.6]\n')
+
+
+@pytest.fixture()
+def study(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """``study/``: the sweep file ``my.toml`` and the experiment file it names (the smoke preset's
+    copy), the current folder."""
+    from nudgecli.config_files import resolve_preset
+
+    folder = tmp_path / "study"
+    folder.mkdir()
+    shutil.copy(resolve_preset("smoke", "experiments"), folder / "exp.toml")
+    (folder / "my.toml").write_text(SWEEP)
+    monkeypatch.chdir(folder)
+    return folder
+
+
+@pytest.mark.parametrize("edit", ["a comment in the experiment", "replications overridden by an equal -R"])
+def test_a_resume_with_other_bytes_records_the_kept_inputs_so_the_folder_resumes_itself(
+        study: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, edit: str) -> None:
+    out = tmp_path / "S"
+    assert nudge_interrupted(monkeypatch, "sweep", "my.toml", "--out", str(out)).exit_code == 130
+    if edit.startswith("a comment"):
+        with (study / "exp.toml").open("a") as handle:
+            handle.write("# my note\n")
+        again: tuple[str, ...] = ()
+    else:
+        (study / "my.toml").write_text(SWEEP.replace("replications = 1", "replications = 2"))
+        again = ("-R", "1")
+    resumed = nudge_interrupted(monkeypatch, "sweep", "my.toml", "--out", str(out), "--resume", *again)
+    assert resumed.exit_code == 130, resumed.output
+    recorded = json.loads((out / BATCH_MANIFEST).read_text())["inputs"]
+    held = {name: hashlib.sha256((out / name).read_bytes()).hexdigest() for name in recorded}
+    assert recorded == held
+    itself = nudge_interrupted(monkeypatch, "sweep", str(out / "sweep.toml"), "--out", str(out), "--resume")
+    assert itself.exit_code == 130, itself.output
