@@ -172,7 +172,7 @@ class StudySection(Section):
             k = len(self.conditions)
             raise ValueError(f"counterbalancing = 'williams' cannot balance {k} conditions "
                              "(one Williams square needs an even count); use 'williams-pair' (the square and "
-                             "its mirror) or list an even number of conditions")
+                             "its mirror), 'rotation' (k cyclic shifts) or list an even number of conditions")
         for g in self.goal_counts:
             if g < 2:
                 # one goal fits the goal regions; what a study of it lacks is a choice: the belief is
