@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Mapping, MutableMapping
+from collections.abc import Callable, Mapping, MutableMapping
 from pathlib import Path
 from typing import Any
 
@@ -74,6 +74,46 @@ def experiment_differences(recorded: Mapping[str, Any], current: Mapping[str, An
     return [f"{key}: {_shown(old.get(key, _ABSENT))} in {source}, {_shown(new.get(key, _ABSENT))} now"
             for key in sorted(old.keys() | new.keys())
             if old.get(key, _ABSENT) != new.get(key, _ABSENT)]
+
+
+def kept_run_people(experiment: object, people: Any, log: Callable[[str], None] | None = None) -> Any:
+    """The people a simulation of ``experiment`` takes: ``people`` (``--people``) where given; else,
+    where ``experiment`` is a run folder's ``config.toml`` (a path) whose manifest records a people
+    file, the copy the run keeps (``RUN/people/<name>``), so that simulating a run's ``config.toml``
+    gives the run's tables again, ``log`` told so in a ``Note:`` line; else none (the population's
+    people).
+
+    Raises
+    ------
+    RunFolderError
+        The run's copy of its people file is gone or was edited since: names it and the fix.
+    """
+    from nudgecli.sim.people_file import MANIFEST_KEY, copy_path
+
+    if people is not None or not isinstance(experiment, str | Path) or Path(experiment).name != CONFIG:
+        return people
+    run = Path(experiment).parent
+    try:
+        recorded = json.loads((run / MANIFEST).read_text(encoding="utf-8")).get(MANIFEST_KEY)
+    except (OSError, ValueError, AttributeError):  # no run's manifest there (or not one to read)
+        return None
+    if not isinstance(recorded, Mapping) or not isinstance(recorded.get("file"), str):
+        return None  # simulated with the population's people
+    copy = copy_path(run, dict(recorded))
+    try:
+        kept = hashlib.sha256(copy.read_bytes()).hexdigest() == recorded.get("sha256")
+    except OSError:
+        kept = False
+    if not kept:
+        raise RunFolderError(f"{copy}: the run's copy of its people file ({run / MANIFEST} {MANIFEST_KEY!r}) "
+                             "is missing or changed since the run kept it, so simulating its config.toml "
+                             f"would not give its participants; give the file it was simulated with as "
+                             f"--people {recorded['file']} (or other people as --people FILE)")
+    if log is not None:
+        log(f"Note: {experiment} is the experiment of the run folder {run}, simulated with --people "
+            f"{recorded['file']}: simulating the copy it keeps, --people {copy} (--people FILE chooses "
+            "other people)")
+    return str(copy)
 
 
 def remove_run_analysis(folder: Path) -> None:

@@ -1,6 +1,7 @@
 """Mends of determinism and resume: a resumed sweep's ``batch.json`` records the digests of the
 inputs its folder keeps (not of the resume's own bytes), so the folder's own resume command works
-after it."""
+after it; simulating a run's ``config.toml`` takes the people file the run keeps, so it gives the
+run's tables again (docs/run-folders.md)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,10 @@ import shutil
 from pathlib import Path
 
 import pytest
-from cli_helpers import nudge_interrupted
+from cli_helpers import nudge, nudge_interrupted, one_error_line
+from people_helpers import PEOPLE_BYTES
 
+import nudgecli
 from nudgecli.runs.batch_folder import BATCH_MANIFEST
 
 #: One point of three participants, one replication: four tasks, so three Ctrl-C'd runs each write one.
@@ -52,3 +55,30 @@ def test_a_resume_with_other_bytes_records_the_kept_inputs_so_the_folder_resumes
     assert recorded == held
     itself = nudge_interrupted(monkeypatch, "sweep", str(out / "sweep.toml"), "--out", str(out), "--resume")
     assert itself.exit_code == 130, itself.output
+
+
+def same(where: Path, folder: str, table: str) -> bool:
+    """Whether ``folder``'s ``table`` holds the bytes of the run's (``where/run``)."""
+    return (where / folder / table).read_bytes() == (where / "run" / table).read_bytes()
+
+
+def test_simulating_a_runs_config_takes_the_people_file_it_keeps(tmp_path: Path,
+                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    Path("twins.csv").write_bytes(PEOPLE_BYTES)
+    made = nudge("simulate", "smoke", "--participants", "1", "--people", "twins.csv", "--out", "run")
+    assert made.exit_code == 0, made.output
+    again = nudge("simulate", "run/config.toml", "--out", "again")
+    assert again.exit_code == 0, again.output
+    notes = [line for line in again.stderr.splitlines() if line.startswith("Note: run/config.toml")]
+    assert len(notes) == 1 and "--people run/people/twins.csv" in notes[0], again.stderr
+    for table in ("participants.parquet", "trials/part-0000.parquet"):
+        assert same(tmp_path, "again", table), table
+    told: list[str] = []
+    nudgecli.simulate("run/config.toml", out="api", log=told.append).close()  # the API's too
+    assert "--people run/people/twins.csv" in told[0]
+    assert same(tmp_path, "api", "participants.parquet")
+    (tmp_path / "run" / "people" / "twins.csv").unlink()  # its copy gone: refused, naming --people
+    refused = nudge("simulate", "run/config.toml", "--out", "lost")
+    assert refused.exit_code == 1 and "--people twins.csv" in one_error_line(refused.stderr), refused.output
+    assert not (tmp_path / "lost").exists()

@@ -222,13 +222,19 @@ def experiment_config(name_or_path: str | Path, overrides: Overrides | None = No
     return load_experiment(str(name_or_path), override_texts(overrides))
 
 
-def _loaded_experiment(experiment: str | Path | ExperimentConfig,
-                       overrides: Overrides | None) -> ExperimentConfig:
-    """``simulate``'s experiment: loaded with ``overrides``, or given loaded (then without them)."""
+def _loaded_experiment(experiment: str | Path | ExperimentConfig, overrides: Overrides | None,
+                       options: dict[str, Any]) -> ExperimentConfig:
+    """``simulate``'s experiment: loaded with ``overrides``, or given loaded (then without them). A
+    run folder's ``config.toml`` takes the people file the run keeps where ``options`` (``simulate``'s
+    :func:`~nudgecli.api.arguments.run_options`) give none: simulated, it gives the run's tables again
+    (:func:`~nudgecli.run_folder_config.kept_run_people`, its ``Note:`` told to their ``log``)."""
     from nudgecli.config import ExperimentConfig
+    from nudgecli.run_folder_config import kept_run_people
 
     if not isinstance(experiment, ExperimentConfig):
-        return experiment_config(experiment, overrides)
+        config = experiment_config(experiment, overrides)
+        options["people"] = kept_run_people(experiment, options["people"], options["log"])
+        return config
     if overrides:
         raise ConfigError("overrides= applies to an experiment given by name or file; give them to "
                           "nudgecli.experiment_config(name, overrides) instead")
@@ -300,7 +306,7 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
         check_scheduler_address(options["scheduler"])
         participants = arguments.whole_number("participants", participants, optional=True)
         out, plan_text = arguments.out_folder(out), arguments.plan(plan, loaded=False)  # a preset or a file
-        config = _loaded_experiment(experiment, overrides)
+        config = _loaded_experiment(experiment, overrides, options)
         temporary = out is None
         target = temporary_folder(config.experiment.name) if out is None else Path(out)
         made = temporary or not target.exists()

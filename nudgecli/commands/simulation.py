@@ -89,6 +89,7 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
 
     from nudgecli import api
     from nudgecli.commands.scheduler_choice import chosen_scheduler
+    from nudgecli.run_folder_config import kept_run_people
     from nudgecli.store import default_run_dir, simulate_resume_command
 
     ctx = click.get_current_context()
@@ -99,6 +100,7 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
     typed_workers = workers if ctx.get_parameter_source("workers") is ParameterSource.COMMANDLINE else None
     scheduler = chosen_scheduler(ctx, scheduler)  # --workers wins over the variable
     config = api.experiment_config(experiment, overrides)
+    people = kept_run_people(experiment, people, info)  # a run's config.toml: the people file it keeps
     target = Path(out) if out else default_run_dir(config.experiment.name)
     if command == "run" and plan is None:  # the plan `run` analyses with, refused before simulating
         from nudgecli.api.run_plan import check_run_plan

@@ -392,7 +392,7 @@ def run_study(config: ExperimentConfig, out: Path, seed: int | None = None, part
     n = config.study.participants if participants is None else participants
     config = with_participants(config, participants)
     check_study_size(config, n, confirm)  # trials and steps, before the folder is touched
-    # config.toml, the resolved experiment, records the seed: simulating it gives the same tables
+    # config.toml records the seed (its people: kept_run_people): simulating it gives the same tables
     config = config.model_copy(update={"experiment": config.experiment.model_copy(update={"seed": seed})})
     check_physiology_logs(config)
     people = people_of(people)  # a bad people file is refused before the folder is touched
