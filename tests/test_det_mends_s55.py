@@ -1,20 +1,25 @@
 """Mends of determinism and resume: a resumed sweep's ``batch.json`` records the digests of the
 inputs its folder keeps (not of the resume's own bytes), so the folder's own resume command works
 after it; simulating a run's ``config.toml`` takes the people file the run keeps, so it gives the
-run's tables again (docs/run-folders.md)."""
+run's tables again (docs/run-folders.md); the workers of a study's local pools (its participants',
+its layouts') ignore Ctrl-C, as the batch pool's do, so it prints no traceback of theirs."""
 
 from __future__ import annotations
 
 import hashlib
 import json
+import multiprocessing
 import shutil
+import signal
 from pathlib import Path
+from typing import Any
 
 import pytest
 from cli_helpers import nudge, nudge_interrupted, one_error_line
 from people_helpers import PEOPLE_BYTES
 
 import nudgecli
+from nudgecli.runs import study as study_runs
 from nudgecli.runs.batch_folder import BATCH_MANIFEST
 
 #: One point of three participants, one replication: four tasks, so three Ctrl-C'd runs each write one.
@@ -82,3 +87,36 @@ def test_simulating_a_runs_config_takes_the_people_file_it_keeps(tmp_path: Path,
     refused = nudge("simulate", "run/config.toml", "--out", "lost")
     assert refused.exit_code == 1 and "--people twins.csv" in one_error_line(refused.stderr), refused.output
     assert not (tmp_path / "lost").exists()
+
+
+class _PoolMadeError(Exception):
+    """Raised in place of a pool being started: its initializer is what the test wants."""
+
+
+def _sigint_ignored_after(initializer: Any, initargs: tuple[Any, ...], answer: Any) -> None:
+    """In a child process: run a pool's worker initializer, then say whether SIGINT is ignored."""
+    initializer(*initargs)
+    answer.put(signal.getsignal(signal.SIGINT) == signal.SIG_IGN)
+
+
+def test_a_studys_pool_workers_leave_ctrl_c_to_the_parent(monkeypatch: pytest.MonkeyPatch) -> None:
+    made: list[tuple[str, Any, tuple[Any, ...]]] = []
+
+    def pool(*_: Any, initializer: Any, initargs: tuple[Any, ...], **__: Any) -> None:
+        made.append((getattr(initializer, "__name__", ""), initializer, initargs))
+        raise _PoolMadeError
+
+    monkeypatch.setattr(study_runs, "ProcessPoolExecutor", pool)
+    with pytest.raises(_PoolMadeError):  # the participants' pool
+        next(study_runs._processes(None, [0, 1], 2))  # type: ignore[arg-type]
+    with pytest.raises(_PoolMadeError):  # the layouts' pool (the smoke preset's grid world)
+        study_runs.build_plan_on(nudgecli.experiment_config("smoke"), 1, 2)
+    context = multiprocessing.get_context("fork")
+    for name, initializer, initargs in made:
+        answer = context.Queue()
+        child = context.Process(target=_sigint_ignored_after, args=(initializer, initargs, answer))
+        child.start()
+        ignored = answer.get(timeout=30)
+        child.join(timeout=30)
+        assert ignored, f"{name}: a worker of this pool takes Ctrl-C (SIGINT) itself"
+    assert len(made) == 2

@@ -25,7 +25,6 @@ import contextlib
 import os
 import pickle
 import shutil
-import signal
 import tempfile
 import time
 from collections import OrderedDict, deque
@@ -44,7 +43,7 @@ from nudgecli.runs.dask_results import (
     watched_result,
 )
 from nudgecli.runs.here_jobs import HereThread
-from nudgecli.runs.study_tasks import die_with_parent, process_context
+from nudgecli.runs.study_tasks import pool_worker_started, process_context
 
 #: Plans (affinities) a worker is assumed to hold: the size of its plan cache.
 HELD_AFFINITIES = 4
@@ -128,8 +127,7 @@ def _peak_rss_kib() -> float | None:
 
 def _pool_worker(conn: Connection, parent_pid: int) -> None:
     """A pool worker: receive jobs, send back ``(status, key, result)``; exit with the parent."""
-    die_with_parent(parent_pid)
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's to handle
+    pool_worker_started(parent_pid)  # Ctrl-C is the parent's to handle
     while True:
         try:
             job = conn.recv()

@@ -42,12 +42,13 @@ from nudgecli.runs.solved_layouts import solve_layouts_cached
 from nudgecli.runs.study_tasks import (
     _init_worker,
     _run_in_worker,
-    die_with_parent,
     drew_from_global_rng,
     global_rng_warning,
+    pool_worker_started,
     process_context,
     simulate_on_worker,
     simulate_watched,
+    stop_pool,
     tune_allocator,
 )
 from nudgecli.sim.counterbalance import design_record
@@ -123,9 +124,14 @@ def build_plan_on(config: ExperimentConfig, seed: int, workers: int, client: Any
     if client is not None:
         futures = [submit_checked(client, solve_layout_chunk, config, seed, a, b) for a, b in chunks]
         return StudyPlan.assemble(config, seed, client.gather(futures))
-    with ProcessPoolExecutor(max_workers=len(chunks), mp_context=process_context(),
-                             initializer=die_with_parent, initargs=(os.getpid(),)) as pool:
+    pool = ProcessPoolExecutor(max_workers=len(chunks), mp_context=process_context(),
+                               initializer=pool_worker_started, initargs=(os.getpid(),))
+    try:
         solved = list(pool.map(_solve_chunk, [(config, seed, a, b) for a, b in chunks]))
+    except BaseException:
+        stop_pool(pool)  # Ctrl-C: its workers ignore it, and the pool's exit would wait for them
+        raise
+    pool.shutdown(wait=True)
     return StudyPlan.assemble(config, seed, solved)
 
 
@@ -164,13 +170,7 @@ def _processes(plan: StudyPlan, todo: list[int], workers: int) -> Iterator[Parti
                     pending.add(pool.submit(_run_in_worker, following))
                 yield future.result()
     except BaseException:
-        # Ctrl-C or a failure: drop the queued participants and stop the running ones now (their
-        # results would be thrown away); the pool's own exit waits for every queued task
-        processes = list((getattr(pool, "_processes", None) or {}).values())
-        pool.shutdown(wait=False, cancel_futures=True)
-        for process in processes:
-            with contextlib.suppress(OSError, ValueError, AttributeError):
-                process.terminate()
+        stop_pool(pool)  # Ctrl-C or a failure: drop the queued participants, stop the running ones
         raise
     else:
         pool.shutdown(wait=True)

@@ -8,6 +8,7 @@ imports load neither pandas nor pyarrow: a fresh (dask or spawned) worker is rea
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
@@ -21,6 +22,7 @@ from nudgecli.sim.study import ParticipantColumns, StudyPlan, simulate_participa
 from nudgecli.steplog import STEP_COLUMNS
 
 if TYPE_CHECKING:
+    from concurrent.futures import ProcessPoolExecutor
     from multiprocessing.context import BaseContext
 
     from nudgecli.config import ExperimentConfig
@@ -145,9 +147,30 @@ def simulate_on_worker(plan: StudyPlan, participant_index: int) -> ParticipantCo
     return simulate_watched(plan, participant_index)
 
 
+def pool_worker_started(parent_pid: int) -> None:
+    """Start a worker process of a local pool (the batch's, a study's participants', the layouts'):
+    Ctrl-C is left to the parent (SIGINT ignored), which stops the pool (:func:`stop_pool`) and says
+    how to resume; a worker that took it would print a ``KeyboardInterrupt`` traceback of its own
+    (``Process ForkProcess-4: ... call_queue.get`` of every idle one) before that line. And it exits
+    with the parent (:func:`die_with_parent`)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    die_with_parent(parent_pid)
+
+
+def stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Stop ``pool`` now, on Ctrl-C or a failure: drop its queued tasks and terminate its processes,
+    whose running tasks' results would be thrown away (its workers ignore Ctrl-C:
+    :func:`pool_worker_started`; the pool's own exit would wait for every queued task)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            process.terminate()
+
+
 def _init_worker(plan: StudyPlan, parent_pid: int) -> None:
     global _WORKER_PLAN
-    die_with_parent(parent_pid)
+    pool_worker_started(parent_pid)
     _WORKER_PLAN = plan
 
 
