@@ -4,6 +4,7 @@ replacing and refusing batch folders."""
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 from click.testing import CliRunner
@@ -64,3 +65,14 @@ def notes_a_sweep_tells(sweep: Path, out: Path, monkeypatch) -> tuple[str, ...]:
         batch_kinds.sweep(str(sweep), out)
     return given["notes"]
 
+
+
+def a_sweep_study(folder: Path, sweep: str) -> Path:
+    """``folder``: the sweep file ``my.toml`` (``sweep``) naming ``exp.toml`` beside it, the smoke
+    preset's copy."""
+    from nudgecli.config_files import resolve_preset
+
+    folder.mkdir()
+    shutil.copy(resolve_preset("smoke", "experiments"), folder / "exp.toml")
+    (folder / "my.toml").write_text(sweep)
+    return folder

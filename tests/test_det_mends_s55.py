@@ -9,12 +9,12 @@ from __future__ import annotations
 import hashlib
 import json
 import multiprocessing
-import shutil
 import signal
 from pathlib import Path
 from typing import Any
 
 import pytest
+from batch_helpers import a_sweep_study
 from cli_helpers import nudge, nudge_interrupted, one_error_line
 from people_helpers import PEOPLE_BYTES
 
@@ -31,12 +31,7 @@ SWEEP = ('experiment = "exp.toml"\nreplications = 1\nseed = 11\nset = ["study.pa
 def study(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """``study/``: the sweep file ``my.toml`` and the experiment file it names (the smoke preset's
     copy), the current folder."""
-    from nudgecli.config_files import resolve_preset
-
-    folder = tmp_path / "study"
-    folder.mkdir()
-    shutil.copy(resolve_preset("smoke", "experiments"), folder / "exp.toml")
-    (folder / "my.toml").write_text(SWEEP)
+    folder = a_sweep_study(tmp_path / "study", SWEEP)
     monkeypatch.chdir(folder)
     return folder
 

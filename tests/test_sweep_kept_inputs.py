@@ -13,6 +13,7 @@ import shutil
 from pathlib import Path
 
 import pytest
+from batch_helpers import a_sweep_study
 from cli_helpers import files_of, nudge, nudge_interrupted, one_error_line
 
 from nudgecli.runs.batch_folder import BATCH_MANIFEST
@@ -27,12 +28,7 @@ SWEEP = ('experiment = "exp.toml"\nreplications = 2\nseed = 3\nset = ["study.par
 def study(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """``study/``: a sweep file ``my.toml`` naming the experiment file beside it (the smoke
     preset's copy), the current folder."""
-    from nudgecli.config_files import resolve_preset
-
-    folder = tmp_path / "study"
-    folder.mkdir()
-    shutil.copy(resolve_preset("smoke", "experiments"), folder / "exp.toml")
-    (folder / "my.toml").write_text(SWEEP)
+    folder = a_sweep_study(tmp_path / "study", SWEEP)
     monkeypatch.chdir(folder)
     return folder
 
