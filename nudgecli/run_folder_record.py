@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from nudgecli.config import ExperimentConfig, experiment_from_toml
-from nudgecli.errors import DataError, NudgeError, RunFolderError, shell_words
+from nudgecli.errors import DataError, RunFolderError, shell_words
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY, compared, recordings
 from nudgecli.run_folder_config import _ABSENT, _EXPERIMENT_SEED, ConfigRecord, _shown, experiment_differences
@@ -572,29 +572,16 @@ class RunRecord(LiveRecord, ConfigRecord):
                 f"`{shell_words(['nudge', 'simulate', 'EXPERIMENT', '--out', str(folder)])}` first")
 
     def check_own_manifest(self, manifest: Mapping[str, Any]) -> None:
-        """Refuse a manifest that is another run's (copied over this one's): ``config.toml`` holds
-        another experiment or seed than it records, and no part on disk has the SHA-256 it records
-        (an edited config.toml beside matching parts is :meth:`_edited_config_hint`'s).
+        """Refuse a manifest that is another run's (copied over this one's:
+        :func:`~nudgecli.run_folder_trust.other_run_error`) or whose seed was edited away from the one
+        its experiment records (:func:`~nudgecli.run_folder_trust.edited_seed_error`).
 
         Raises
         ------
         RunFolderError
-            Names the manifest as the suspect: a resume would simulate every part again."""
-        recorded, path = manifest.get("config"), self.path / CONFIG
-        if not isinstance(recorded, Mapping) or not path.is_file():
-            return
-        try:
-            on_disk = experiment_from_toml(path.read_text(encoding="utf-8"), str(path))
-        except (NudgeError, OSError, ValueError):
-            return
-        differences = experiment_differences(recorded, on_disk.model_dump(mode="json"))
-        sums = self.recorded_checksums(manifest) if differences else {}
-        parts = [(self.part_path(kind, index), digest) for index, kinds in sums.items()
-                 for kind, digest in kinds.items() if self.part_path(kind, index).is_file()]
-        if not parts or any(file_sha256(part) == digest for part, digest in parts):
-            return
-        shown = "; ".join(differences[:3]).replace(" now", f" in {CONFIG}")
-        raise RunFolderError(f"{self.manifest_path} is not this run's: {CONFIG} differs from the experiment "
-                             f"it records ({shown}) and none of the {len(parts)} part(s) has the SHA-256 it "
-                             f"records (copied in from another run?); put back the run's own {MANIFEST} "
-                             "from a copy (a --resume would simulate every part again as the other run's)")
+            Names the manifest as the suspect: a resume would simulate every part again, or
+            participants of another seed."""
+        from nudgecli.run_folder_trust import edited_seed_error, other_run_error
+
+        if (error := other_run_error(self, manifest) or edited_seed_error(self.manifest_path, manifest)):
+            raise error

@@ -1,0 +1,113 @@
+"""Whether a run folder's manifest and ``config.toml`` agree with each other before a command is
+advised or a resume trusts them: a manifest copied in from another run, a manifest whose ``seed`` was
+edited away from the seed its own experiment records, a ``config.toml`` damaged or edited since.
+
+:class:`nudgecli.run_folder_record.RunRecord` calls these; they read and never write.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from nudgecli.config import ExperimentConfig, experiment_from_toml
+from nudgecli.errors import NudgeError, RunFolderError
+from nudgecli.run_folder_config import experiment_differences
+from nudgecli.run_folder_names import CONFIG, MANIFEST
+
+if TYPE_CHECKING:  # the record builds on this module
+    from nudgecli.run_folder_record import RunRecord
+
+
+def parsed_config(folder: Path) -> ExperimentConfig | None:
+    """The experiment in ``folder/config.toml``, or ``None`` where it is missing or does not parse."""
+    path = folder / CONFIG
+    try:
+        return experiment_from_toml(path.read_text(encoding="utf-8"), str(path))
+    except (NudgeError, OSError, ValueError):
+        return None
+
+
+def own_config(folder: Path, manifest: Mapping[str, Any]) -> Path | None:
+    """``folder/config.toml`` where a command may name it for the run: it parses and holds the
+    experiment the manifest records (a manifest of an older nudge records none: it parses); ``None``
+    where it is missing, damaged or edited (a resume naming it would fail, or be refused)."""
+    on_disk = parsed_config(folder)
+    if on_disk is None:
+        return None
+    recorded = manifest.get("config")
+    if isinstance(recorded, Mapping) and experiment_differences(recorded, on_disk.model_dump(mode="json")):
+        return None
+    return folder / CONFIG
+
+
+def advised_experiment(folder: Path, manifest: Mapping[str, Any] | None) -> str:
+    """The experiment a command advised for the run names: its ``config.toml`` (:func:`own_config`),
+    else the experiment the manifest names (a resume writes ``config.toml`` again from the manifest),
+    else ``EXPERIMENT``."""
+    if manifest is None:
+        return str(folder / CONFIG) if parsed_config(folder) is not None else "EXPERIMENT"
+    if (path := own_config(folder, manifest)) is not None:
+        return str(path)
+    return str(manifest.get("experiment") or "EXPERIMENT")
+
+
+def _own_seed(experiment: object) -> int | None:
+    """The seed of the experiment a manifest names, as it stands without ``--seed`` (``None`` where it
+    cannot be read: a file moved or gone)."""
+    from nudgecli.config import load_experiment
+
+    if not isinstance(experiment, str):
+        return None
+    try:
+        return load_experiment(experiment).experiment.seed
+    except (NudgeError, OSError, ValueError):
+        return None
+
+
+def edited_seed_error(manifest_path: Path, manifest: Mapping[str, Any]) -> RunFolderError | None:
+    """The refusal of a manifest whose ``seed`` differs from the seed its own experiment records
+    (``config.experiment.seed``): this nudge records the seed used in both, so one of them was edited,
+    and a resume would simulate the missing participants with another seed than the others.
+
+    A run made before ``config.toml`` recorded its ``--seed`` records the experiment's own seed there
+    (that of the experiment the manifest names): that run is not refused (its resume rewrites
+    ``config.toml``), nor one whose experiment can no longer be read to tell. ``None`` otherwise."""
+    recorded, seed = manifest.get("config"), manifest.get("seed")
+    if not isinstance(recorded, Mapping) or not isinstance(recorded.get("experiment"), Mapping):
+        return None
+    experiment_seed = recorded["experiment"].get("seed")
+    if not isinstance(seed, int) or not isinstance(experiment_seed, int) or seed == experiment_seed:
+        return None
+    own = _own_seed(manifest.get("experiment"))
+    if own is None or own == experiment_seed:  # a run from before config.toml recorded its --seed
+        return None
+    return RunFolderError(f"{manifest_path}: inconsistent: its seed ({seed}) is not the seed its own "
+                          f"experiment records (config.experiment.seed = {experiment_seed}; this nudge "
+                          f"records the seed used in both), so {MANIFEST} was edited; put back the run's own "
+                          f"{MANIFEST} from a copy, or set its seed back to {experiment_seed} (a --resume "
+                          f"with seed {seed} would simulate participants of two seeds in one run)")
+
+
+def other_run_error(record: RunRecord, manifest: Mapping[str, Any]) -> RunFolderError | None:
+    """The refusal of a manifest that is another run's (copied over this one's): ``config.toml`` holds
+    another experiment or seed than it records, and no part on disk has the SHA-256 it records (an
+    edited config.toml beside matching parts is ``RunRecord._edited_config_hint``'s); ``None`` otherwise."""
+    from nudgecli.run_folder_record import file_sha256
+
+    recorded = manifest.get("config")
+    on_disk = parsed_config(record.path) if isinstance(recorded, Mapping) else None
+    if on_disk is None or not isinstance(recorded, Mapping):
+        return None
+    differences = experiment_differences(recorded, on_disk.model_dump(mode="json"))
+    sums = record.recorded_checksums(manifest) if differences else {}
+    parts = [(record.part_path(kind, index), digest) for index, kinds in sums.items()
+             for kind, digest in kinds.items() if record.part_path(kind, index).is_file()]
+    if not parts or any(file_sha256(part) == digest for part, digest in parts):
+        return None
+    shown = "; ".join(differences[:3]).replace(" now", f" in {CONFIG}")
+    return RunFolderError(f"{record.manifest_path} is not this run's: {CONFIG} differs from the experiment "
+                          f"it records ({shown}) and none of the {len(parts)} part(s) has the SHA-256 it "
+                          f"records (copied in from another run?); put back the run's own {MANIFEST} "
+                          "from a copy (a --resume would simulate every part again as the other run's)")

@@ -1,0 +1,41 @@
+"""Nothing on a run's or a batch's disk is taken on trust where it decides the advice: a manifest
+whose seed was edited, a damaged config.toml, a batch.json whose plan was edited, a sweep file's
+`set` of the wrong type, a kept input damaged since it was kept, and an edited kept people file."""
+
+from __future__ import annotations
+
+import json
+import shlex
+from pathlib import Path
+
+from cli_helpers import copy_run, nudge, one_error_line
+
+
+def _drop(run: Path, participant: int, kinds: tuple[str, ...] = ("trials", "steps")) -> None:
+    for kind in kinds:
+        (run / kind / f"part-{participant:04d}.parquet").unlink()
+
+
+def _printed(command: str) -> list[str]:
+    words = shlex.split(command)
+    assert words[0] == "nudge", command
+    return words[1:]
+
+
+# --- a manifest's seed edited away from its experiment's ------------------------------------------
+
+def test_a_manifest_whose_seed_was_edited_is_refused_not_resumed(tmp_path, analysed_smoke_run):
+    run = copy_run(analysed_smoke_run, tmp_path / "run")
+    manifest = json.loads((run / "manifest.json").read_text())
+    manifest["seed"] = 4  # the run's experiment records 5, as config.toml does
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    _drop(run, 1)
+    analyzed = nudge("analyze", run)
+    assert analyzed.exit_code == 1
+    line = one_error_line(analyzed.output)
+    assert "manifest.json: inconsistent: its seed (4)" in line and "was edited" in line
+    assert "--resume" not in line.split("(a --resume")[0]
+    resumed = nudge("simulate", run / "config.toml", "--out", run, "--seed", "4", "--participants", "2",
+                    "--resume")
+    assert resumed.exit_code == 1 and "inconsistent: its seed (4)" in resumed.output
+    assert not (run / "trials" / "part-0001.parquet").exists()  # nothing of seed 4 simulated
