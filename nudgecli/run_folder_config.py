@@ -21,6 +21,7 @@ from typing import Any
 from nudgecli.config import ExperimentConfig, experiment_from_toml
 from nudgecli.errors import ConfigError, NudgeError, RunFolderError, WriteError
 from nudgecli.run_folder_names import (
+    ANALYSIS_PLAN_COPY,
     CONFIG,
     MANIFEST,
     METRICS_CSV,
@@ -122,7 +123,8 @@ def remove_run_analysis(folder: Path) -> None:
     again (:meth:`ConfigRecord.keep_plan`)."""
     from nudgecli.run_folder_record import remove_run_figures  # the record builds on this module
 
-    for name in (STATS_JSON, METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV):
+    for name in (STATS_JSON, METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV,
+                 ANALYSIS_PLAN_COPY):  # the plan an analysis under another plan kept
         (folder / name).unlink(missing_ok=True)
     remove_run_figures(folder)  # drawn under the old analysis (its plan's star rule)
 

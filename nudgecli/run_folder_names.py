@@ -58,6 +58,10 @@ STATS_JSON = "stats.json"
 STATS_CSV = "stats.csv"
 SUMMARY_MD = "summary.md"
 QUESTIONNAIRE_SCORES_CSV = "questionnaire_scores.csv"
+#: An analysis's exact copy of the plan file its ``stats.json`` records
+#: (:func:`nudgecli.report.recorded_plans.record_plan`): not :data:`PLAN_COPY`, the run's, which an
+#: analysis in the run's folder under another plan leaves as it is.
+ANALYSIS_PLAN_COPY = "analysis_plan.toml"
 #: The participants' questionnaire answers ``nudge study`` records (a record, read by ``nudge
 #: analyze --questionnaires``; never written by an analysis).
 QUESTIONNAIRES_CSV = "questionnaires.csv"

@@ -57,8 +57,9 @@ def test_plot_of_an_analysis_written_away_from_its_run_uses_its_plan(
     out = tmp_path / "elsewhere"
     assert nudge("analyze", run, "--plan", plan, "--out", out, "--bootstrap", "100").exit_code == 0
     assert _star_rule_plotted(monkeypatch, out) == load_plan(plan).comparison_options()  # was the paper's
-    # stats.json names the plan as seen from its folder, so the two move together
-    assert json.loads((out / "stats.json").read_text())["plan"] == "../loose.toml"
+    # stats.json names the analysis's own copy of the plan file, which moves with it
+    assert json.loads((out / "stats.json").read_text())["plan"] == "analysis_plan.toml"
+    assert (out / "analysis_plan.toml").read_text() == LOOSE_PLAN
 
 
 def test_a_runs_analysis_under_another_plan_than_its_own_records_it_and_only_then(

@@ -31,7 +31,8 @@ MULTI_PANEL = ("fig3", "fig4", "metrics", "questionnaires", "measures")
 def plan_of(source: str | Path, plan: str | Path | AnalysisPlan | None = None) -> str | Path | AnalysisPlan:
     """The plan whose star rule and labels the figures of ``source`` use: ``plan``, else the one its
     analysis records having used (an analysis written away from its run, or under another plan:
-    :func:`nudgecli.report.recorded_plans.analysed_plan`), else the one its run folder's manifest
+    :func:`nudgecli.report.recorded_plans.analysed_plan`: a plan file as the analysis's copy of it,
+    checked), else the one its run folder's manifest
     records, else the one named like its experiment, else ``paper``
     (:func:`nudgecli.config_files.resolve_plan`)."""
     from nudgecli.report.recorded_plans import analysed_plan, plan_of_source

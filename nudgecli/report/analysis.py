@@ -96,8 +96,8 @@ from nudgecli.report.questionnaires import (
     scores_checksum,
     scores_csv,
 )
+from nudgecli.report.recorded_plans import ANALYSIS_PLAN_COPY, record_plan, recorded_plan
 from nudgecli.report.recorded_plans import plan_of_source as plan_of_source  # its readers import it here
-from nudgecli.report.recorded_plans import record_plan, recorded_plan
 from nudgecli.report.stats import ComparisonOptions, order_conditions
 from nudgecli.report.stats_document import compare_conditions, json_ready, stats_csv, stats_table
 from nudgecli.report.summary import P_THRESHOLDS, format_summary, plan_p_thresholds
@@ -205,8 +205,7 @@ def read_run(folder: str | Path, notes: list[str] | None = None
 
 def comparison_options(plan: AnalysisPlan, seed: int | None = None,
                        bootstrap: int | None = None) -> ComparisonOptions:
-    """The statistics settings of a plan (its [stats] and [bootstrap]); ``seed`` and ``bootstrap``
-    (the number of resamples) override the plan's."""
+    """A plan's statistics settings ([stats], [bootstrap]); ``seed``, ``bootstrap`` override its."""
     options = plan.comparison_options(seed)
     return options if bootstrap is None else replace(options, bootstrap_resamples=bootstrap)
 
@@ -433,8 +432,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         from nudgecli.runs.study import own_plan_advice
         fix = own_plan_advice(table["condition"].astype(str).unique())
         raise exc if plan_arg is not None else ConfigError(f"{exc}; no --plan was given: {fix}") from None
-    if source.is_dir():
-        source_record.update(record_plan(run, manifest, plan, out_dir))  # the plan, where out_dir hides it
+    plan_kept, plan_copy = record_plan(run, manifest, plan, out_dir) if run else ({}, None)
+    source_record.update(plan_kept)  # a run's plan, where out_dir hides it (a plan file: kept there)
     check_filters(plan, available)
     scores, score_names = _read_scores(questionnaires, table, source, manifest, notes)
     selected = select_metrics(metrics, [*available, *score_names], plan)
@@ -480,7 +479,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
 
     metrics_columns = [c for c in filtered.columns if c in NON_METRIC_COLUMNS or c in available]
     written = _write_analysis(out_dir, filtered[metrics_columns] if changed else None, stats, tidy, summary,
-                              scores, inputs=(source, questionnaires))
+                              scores, plan_copy, inputs=(source, questionnaires))
     return AnalysisResult(out=out_dir, files=written, metrics=filtered, stats=stats, table=tidy,
                           summary=summary, questionnaires=scores, notes=notes,
                           p_thresholds=plan_p_thresholds(plan))
@@ -540,19 +539,20 @@ def _statistics(filtered: pd.DataFrame, trial_selected: Sequence[str], scores: p
 
 
 def _write_analysis(out_dir: Path, metrics: pd.DataFrame | None, stats: dict[str, Any], tidy: pd.DataFrame,
-                    summary: str, scores: pd.DataFrame | None, *,
+                    summary: str, scores: pd.DataFrame | None, plan_copy: str | None = None, *,
                     inputs: Sequence[str | Path | None] = ()) -> list[Path]:
     """Write :data:`~nudgecli.report.analysis_folders.ANALYSIS_FILES` atomically into ``out_dir``
     (``metrics.csv`` when ``metrics`` is given: the table analysed differs from the source;
-    ``questionnaire_scores.csv`` with ``scores``) and return them; none when one is an input of the
-    command. The old ``stats.json`` goes first, then an earlier analysis's outputs this one does not
-    write (unless an input: one of ``inputs``, the source and questionnaires, or a file the command
-    declared), the new ``stats.json`` last: a killed analysis leaves none (``nudge plot``
+    ``questionnaire_scores.csv`` with ``scores``; the plan's copy with ``plan_copy``, the plan file's
+    text: :func:`~nudgecli.report.recorded_plans.record_plan`) and return them; none when one is an
+    input of the command. The old ``stats.json`` goes first, then an earlier analysis's outputs this
+    one does not write (unless an input: one of ``inputs``, the source and questionnaires, or a file
+    the command declared), the new ``stats.json`` last: a killed analysis leaves none (``nudge plot``
     refuses the folder, naming the command that completes it), never one beside another analysis's
     files. An earlier killed analysis's temporaries are removed."""
     outputs = {METRICS_CSV: None if metrics is None else metrics.to_csv(index=False),
-               STATS_CSV: stats_csv(tidy), SUMMARY_MD: summary,  # scores: the bytes stats.json records
-               QUESTIONNAIRE_SCORES_CSV: None if scores is None else scores_csv(scores),
+               STATS_CSV: stats_csv(tidy), SUMMARY_MD: summary, ANALYSIS_PLAN_COPY: plan_copy,
+               QUESTIONNAIRE_SCORES_CSV: None if scores is None else scores_csv(scores),  # as checksummed
                STATS_JSON: json.dumps(stats, indent=2, allow_nan=False) + "\n"}
     written = [out_dir / name for name, text in outputs.items() if text is not None]
     for path in written:

@@ -34,6 +34,7 @@ from nudgecli.errors import RunFolderError, shell_words
 from nudgecli.locks import LOCK, pid_alive
 from nudgecli.report.tables import TABLE_SUFFIXES
 from nudgecli.run_folder_names import (
+    ANALYSIS_PLAN_COPY,
     MANIFEST,
     METRICS_CSV,
     QUESTIONNAIRE_SCORES_CSV,
@@ -127,7 +128,8 @@ def check_folder_is_the_tables(table: Path, folder: Path) -> None:
 
 #: The files an analysis writes into its folder, in this order: ``stats.json``, which every reader
 #: starts from, last (:func:`nudgecli.report.analysis.analyze`).
-ANALYSIS_FILES = (METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV, STATS_JSON)
+ANALYSIS_FILES = (METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV, ANALYSIS_PLAN_COPY,
+                  STATS_JSON)
 
 
 def refuse_linked_analysis(folder: Path) -> None:

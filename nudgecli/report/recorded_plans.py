@@ -11,28 +11,36 @@ An analysis says which plan made it where a reader of its folder would not find 
 the analysis of a run written away from it (``--out D``) or under another plan than the run's
 records it in ``stats.json``'s :data:`ANALYSIS_PLAN_KEY` (:func:`record_plan`), a table's analysis
 in its ``table_read`` record; ``nudge plot`` draws with it (:func:`analysed_plan`). A run's own
-analysis under its recorded plan records nothing (``results/paper/stats.json`` as it was).
+analysis under its recorded plan records nothing (``results/paper/stats.json`` as it was). A preset
+is recorded by its name; a plan file as the analysis's exact copy of it
+(:data:`~nudgecli.run_folder_names.ANALYSIS_PLAN_COPY`, written with the analysis, its SHA-256 in
+:data:`ANALYSIS_PLAN_SHA256_KEY`), as a run keeps its plan: the file given may be moved or edited
+later, and the analysis folder may be copied elsewhere; plot refuses a copy gone or edited.
 """
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import json
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from nudgecli.config_files import resolve_plan, world_kind_of
-from nudgecli.errors import ConfigError, NudgeError
+from nudgecli.errors import ConfigError, NudgeError, shell_words
 from nudgecli.report.analysis_folders import analysis_folder
 from nudgecli.report.plans import AnalysisPlan, load_plan, plan_argument
-from nudgecli.report.table_read import TABLE_READ_KEY, analysed_inputs, plan_seen_from_here
-from nudgecli.run_folder_names import MANIFEST, STATS_JSON
-from nudgecli.store import RunFolder
+from nudgecli.report.table_read import TABLE_READ_KEY, plan_seen_from_here
+from nudgecli.run_folder_names import ANALYSIS_PLAN_COPY, MANIFEST, STATS_JSON
+from nudgecli.store import RunFolder, is_run_folder
 
 #: The key of ``stats.json`` naming the plan of a run's analysis that its folder would not give
-#: (:func:`record_plan`): a preset's name, or its file as seen from the analysis folder.
+#: (:func:`record_plan`): a preset's name, or the analysis's copy of its file
+#: (:data:`~nudgecli.run_folder_names.ANALYSIS_PLAN_COPY`, as seen from the analysis folder).
 ANALYSIS_PLAN_KEY = "plan"
+#: The key of ``stats.json`` holding the SHA-256 of the analysis's copy of its plan file.
+ANALYSIS_PLAN_SHA256_KEY = "plan_sha256"
 
 
 def plan_of_source(source: str | Path, *, damaged_manifest: bool = False) -> str:
@@ -80,18 +88,20 @@ def recorded_plan(manifest: Mapping[str, Any] | None, run: RunFolder | None = No
 
 
 def record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan: AnalysisPlan,
-                out_dir: Path) -> dict[str, Any]:
+                out_dir: Path) -> tuple[dict[str, Any], str | None]:
     """Record the plan in a finished run's manifest that has none, for the next analysis: only where
     this analysis writes anyway (the run folder as its output folder), and not a plan built in code,
     which no ``--plan`` names (:func:`~nudgecli.report.plans.plan_argument`).
 
     Returns
     -------
-    dict
-        What ``stats.json`` records of the plan: ``{}`` where :func:`plan_of_source` of ``out_dir``
-        gives ``plan`` anyway (a run analysed in its own folder under its recorded plan), else
-        :data:`ANALYSIS_PLAN_KEY`, how ``--plan`` names it as seen from ``out_dir`` (``None``:
-        built in code), for ``nudge plot OUT`` (:func:`analysed_plan`).
+    tuple
+        What ``stats.json`` records of the plan, and the text of the plan file for the analysis to
+        keep beside it (:data:`~nudgecli.run_folder_names.ANALYSIS_PLAN_COPY`) or ``None``. ``{}``
+        where :func:`plan_of_source` of ``out_dir`` gives ``plan`` anyway (a run analysed in its own
+        folder under its recorded plan); else :data:`ANALYSIS_PLAN_KEY`: a preset's name (``None``:
+        built in code), or, for a plan file, the copy's name with its SHA-256
+        (:data:`ANALYSIS_PLAN_SHA256_KEY`), for ``nudge plot OUT`` (:func:`analysed_plan`).
     """
     named = plan_argument(plan)
     if run is not None and manifest is not None and "participants" in manifest and named is not None and \
@@ -101,15 +111,55 @@ def record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan: An
     found = None
     with contextlib.suppress(NudgeError):  # a folder whose own plan does not load: say which this was
         found = load_plan(plan_of_source(out_dir, damaged_manifest=True))
-    return {} if found == plan else {ANALYSIS_PLAN_KEY: analysed_inputs(out_dir, named, None)[0]}
+    if found == plan:
+        return {}, None
+    if named is None or plan.file is None:  # a preset's name, or none (built in code)
+        return {ANALYSIS_PLAN_KEY: named}, None
+    # the file as read now (plan_argument has just found it holds this plan): the copy plot reads
+    text = Path(named).read_bytes().decode("utf-8")
+    return {ANALYSIS_PLAN_KEY: ANALYSIS_PLAN_COPY,
+            ANALYSIS_PLAN_SHA256_KEY: hashlib.sha256(text.encode("utf-8")).hexdigest()}, text
+
+
+def _kept_plan_copy(folder: Path, stats: Mapping[str, Any]) -> str:
+    """The analysis's copy of its plan file in ``folder``, checked against the SHA-256 its
+    ``stats.json`` (``stats``) records.
+
+    Raises
+    ------
+    ConfigError
+        The copy is missing or was edited: one line naming it, ``stats.json``'s ``plan`` and the
+        ``nudge analyze`` command that analyses again."""
+    copy = folder / ANALYSIS_PLAN_COPY
+    try:
+        changed = hashlib.sha256(copy.read_bytes()).hexdigest() != stats[ANALYSIS_PLAN_SHA256_KEY]
+        what = "changed since the analysis kept it (its SHA-256 differs from " \
+               f"{STATS_JSON}'s {ANALYSIS_PLAN_SHA256_KEY!r})"
+    except OSError as exc:
+        changed, what = True, f"cannot be read ({exc.strerror or exc})"
+    if not changed:
+        return str(copy)
+    own = is_run_folder(folder)  # a run analysed in its own folder under another plan than its own
+    words = ["nudge", "analyze", str(folder) if own else "RUN", "--plan", "PLAN"]
+    words += [] if own else ["--out", str(folder), "--force"]
+    raise ConfigError(f"{copy}: the analysis's copy of its plan file ({folder / STATS_JSON} "
+                      f"{ANALYSIS_PLAN_KEY!r}) {what}, so its figures would not be drawn under the plan its "
+                      f"statistics were computed with; analyse again with `{shell_words(words)}` (PLAN: "
+                      f"the plan file{'' if own else ', RUN: the run analysed there'}), then plot")
 
 
 def analysed_plan(source: str | Path) -> str | None:
     """The plan the analysis of ``source`` records (a run folder or an analysis folder holding
     ``stats.json``, or a metrics table, whose analysis is its ``<table>-analysis/``): its
     :data:`ANALYSIS_PLAN_KEY`, else its ``table_read`` record's plan, as ``--plan`` names it from
-    here; ``None`` where it records none or one built in code (:func:`plan_of_source` then), or
-    its ``stats.json`` does not read (drawing says what is wrong)."""
+    here (a plan file: the analysis's copy, checked); ``None`` where it records none or one built in
+    code (:func:`plan_of_source` then), or its ``stats.json`` does not read (drawing says what is
+    wrong).
+
+    Raises
+    ------
+    ConfigError
+        The analysis's copy of its plan file is missing or was edited (:func:`_kept_plan_copy`)."""
     path = Path(source)
     folder = path if path.is_dir() else analysis_folder(path)
     try:
@@ -118,9 +168,12 @@ def analysed_plan(source: str | Path) -> str | None:
         return None
     if not isinstance(stats, Mapping):
         return None
+    if ANALYSIS_PLAN_SHA256_KEY in stats:  # a plan file, kept as the analysis's own copy
+        return _kept_plan_copy(folder, stats)
     table_read = stats.get(TABLE_READ_KEY)
     plan = stats.get(ANALYSIS_PLAN_KEY, table_read.get("plan") if isinstance(table_read, Mapping) else None)
     return plan_seen_from_here(folder, plan) if isinstance(plan, str) and plan else None
 
 
-__all__ = ["ANALYSIS_PLAN_KEY", "analysed_plan", "plan_of_source", "record_plan", "recorded_plan"]
+__all__ = ["ANALYSIS_PLAN_KEY", "ANALYSIS_PLAN_SHA256_KEY", "analysed_plan", "plan_of_source", "record_plan",
+           "recorded_plan"]

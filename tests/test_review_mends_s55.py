@@ -1,0 +1,89 @@
+"""Mends of a review of recent changes: an analysis keeps its own copy of the plan file its
+``stats.json`` records, which ``nudge plot`` draws under and checks."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+import pytest
+from cli_helpers import nudge, one_error_line
+
+from nudgecli.report.plans import load_plan
+
+#: A plan file whose star rule differs from every preset's.
+LOOSE_PLAN = """name = "loose"
+description = "stars at p < .9/.8/.7"
+
+[stats]
+kruskal_alpha = 0.9
+star_thresholds = [0.9, 0.8, 0.7]
+"""
+
+
+def _star_rule_plotted(monkeypatch: pytest.MonkeyPatch, *args: str | Path) -> Any:
+    """``nudge plot ARGS``'s star rule, as given to the drawing (nothing drawn)."""
+    given: dict[str, Any] = {}
+
+    def plot_folder(*_: Any, **options: Any) -> list[Path]:
+        given.update(options)
+        return []
+
+    monkeypatch.setattr("nudgecli.report.plotting.plot_folder", plot_folder)
+    result = nudge("plot", *args)
+    assert result.exit_code == 0, result.output
+    return given["star_rule"]
+
+
+@pytest.fixture()
+def analysed_under_a_plan_file(analysed_smoke_run: Path, tmp_path: Path) -> tuple[Path, Path, Path]:
+    """A copy of the analysed smoke run, LOOSE_PLAN's file, and the run's analysis under it in D."""
+    run = tmp_path / "run"
+    shutil.copytree(analysed_smoke_run, run, ignore=shutil.ignore_patterns("figures", ".nudge.lock"))
+    plan = tmp_path / "plans" / "loose.toml"
+    plan.parent.mkdir()
+    plan.write_text(LOOSE_PLAN)
+    out = tmp_path / "D"
+    assert nudge("analyze", run, "--plan", plan, "--out", out, "--bootstrap", "100").exit_code == 0
+    return run, plan, out
+
+
+def test_an_analysis_keeps_its_plan_file_so_moving_or_editing_the_file_changes_no_figure(
+        analysed_under_a_plan_file: tuple[Path, Path, Path], tmp_path: Path,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    _, plan, out = analysed_under_a_plan_file
+    stats = json.loads((out / "stats.json").read_text())
+    assert stats["plan"] == "analysis_plan.toml" and len(stats["plan_sha256"]) == 64
+    loose = load_plan(plan).comparison_options()
+    plan.write_text(LOOSE_PLAN.replace("0.9, 0.8, 0.7", "0.5, 0.4, 0.3"))  # edited after the analysis
+    assert _star_rule_plotted(monkeypatch, out) == loose  # drawn under the plan of its statistics
+    plan.unlink()  # moved away, and the analysis copied elsewhere: drawn as before
+    moved = tmp_path / "elsewhere" / "copy-of-D"
+    shutil.copytree(out, moved, ignore=shutil.ignore_patterns(".nudge.lock"))
+    assert _star_rule_plotted(monkeypatch, moved) == loose
+
+
+@pytest.mark.parametrize("damage", ["edited", "missing"])
+def test_plot_refuses_an_analysis_whose_plan_copy_is_edited_or_missing(
+        analysed_under_a_plan_file: tuple[Path, Path, Path], damage: str) -> None:
+    _, _, out = analysed_under_a_plan_file
+    copy = out / "analysis_plan.toml"
+    if damage == "edited":
+        copy.write_text(LOOSE_PLAN.replace("0.9, 0.8, 0.7", "0.5, 0.4, 0.3"))
+    else:
+        copy.unlink()
+    message = one_error_line(nudge("plot", out).output)
+    assert f"({out / 'stats.json'} 'plan')" in message, message
+    assert f"`nudge analyze RUN --plan PLAN --out {out} --force`" in message, message
+    assert ("changed since the analysis kept it" if damage == "edited" else "cannot be read") in message
+
+
+def test_an_analysis_recording_no_plan_removes_the_plan_copy_an_earlier_one_kept(
+        analysed_under_a_plan_file: tuple[Path, Path, Path]) -> None:
+    run, _, out = analysed_under_a_plan_file
+    again = nudge("analyze", run, "--plan", "study-code", "--out", out, "--force", "--bootstrap", "100")
+    assert again.exit_code == 0, again.output
+    assert json.loads((out / "stats.json").read_text())["plan"] == "study-code"  # a preset: by its name
+    assert not (out / "analysis_plan.toml").exists()
