@@ -87,3 +87,17 @@ def test_an_analysis_recording_no_plan_removes_the_plan_copy_an_earlier_one_kept
     assert again.exit_code == 0, again.output
     assert json.loads((out / "stats.json").read_text())["plan"] == "study-code"  # a preset: by its name
     assert not (out / "analysis_plan.toml").exists()
+
+
+def test_a_policy_module_on_sys_path_raising_as_it_is_imported_is_named_by_file_and_line(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    from policy_helpers import QUIET_POLICY, policy_experiment
+
+    ext = tmp_path / "ext"
+    ext.mkdir()
+    (ext / "extmod_s55.py").write_text(f"X = 1\nraise ValueError('x')\n{QUIET_POLICY}")
+    monkeypatch.syspath_prepend(str(ext))
+    experiment = policy_experiment(tmp_path / "pe", {"mine": "extmod_s55:Quiet"})
+    message = one_error_line(nudge("simulate", experiment, "--out", tmp_path / "run").output)
+    assert f"({ext / 'extmod_s55.py'} line 2: raise ValueError('x')); " in message, message
+    assert "looked up beside the experiment file" not in message  # it was found: it raised

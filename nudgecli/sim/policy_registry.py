@@ -19,7 +19,9 @@ naming the condition and the policy.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import importlib.util
 import inspect
 import math
 import numbers
@@ -279,8 +281,7 @@ def policy_attribute(policy: Any, name: str, spec: PolicySpec) -> Any:
 
 
 def _check_constant_metrics(value: Any, spec: PolicySpec) -> None:
-    """Refuse a ``constant_metrics`` that is not a collection of known metric names (a string
-    would be its letters)."""
+    """Refuse a ``constant_metrics`` that is not a collection of known metric names (not a string)."""
     where = f"{spec.described}: its constant_metrics"
     if isinstance(value, str):
         raise PolicyError(f"{where} {value!r} is a string; it must be a set of metric names, "
@@ -318,8 +319,11 @@ def where_raised(exc: BaseException, spec: PolicySpec) -> str:
     module's file, one from ``sys.path``), its path relative to the folder; ``""`` where no frame
     is the policy's (its code raised nothing itself)."""
     folder = None if spec.search_path is None else Path(spec.search_path).resolve()
-    module = sys.modules.get(spec.factory.partition(":")[0])
-    module_path = getattr(module, "__file__", None)
+    name = spec.factory.partition(":")[0]
+    module_path = getattr(sys.modules.get(name), "__file__", None)
+    if name not in sys.modules:  # an import that raised removed it: its file as the import finds it
+        with contextlib.suppress(Exception):  # a parent package that raises as it is imported: unnamed
+            module_path = getattr(importlib.util.find_spec(name), "origin", None)
     own = None if module_path is None else Path(module_path).resolve()
     for frame in reversed(traceback.extract_tb(exc.__traceback__)):
         path = Path(frame.filename).resolve()
@@ -468,8 +472,7 @@ class CheckedPolicy:
     def _check_reachable(self, target: tuple[float, float, float], settings: ProtocolSettings) -> None:
         """Refuse a turn's target the robot cannot arrive at: a turn ends on arrival only, so it would
         hold the robot at the wall until the trial's time limit. A custom policy runs in the grid
-        world (the path world runs its task's conditions only), whose robot keeps its radius from
-        the workspace's walls."""
+        world (the path world runs its task's conditions only): its robot keeps its radius from the walls."""
         x, y = target[0], target[1]
         nearest_x, nearest_y = clamp_position(x, y)
         if math.hypot(x - nearest_x, y - nearest_y) > settings.arrival_tolerance:
