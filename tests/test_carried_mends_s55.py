@@ -88,7 +88,7 @@ def test_the_python_resume_call_of_a_dask_run_names_its_scheduler() -> None:
 
     manifest: dict[str, Any] = {SOURCES_KEY: {"__main__:Mine": "0" * 64}, "executor": "dask"}
     call = script_resume_call(manifest, "R/config.toml", "R", 5, 2, None)
-    assert call is not None and "out='R', seed=5, participants=2, scheduler=ADDRESS, resume=True)" in call
+    assert call is not None and "out='R', seed=5, participants=2, scheduler='ADDRESS', resume=True)" in call
     local = script_resume_call({**manifest, "executor": "processes"}, "R/config.toml", "R", 5, 2, None)
     assert local is not None and "scheduler" not in local
 

@@ -316,9 +316,10 @@ def script_resume_call(manifest: Mapping[str, Any], experiment: str, folder: str
     calling script (``__main__:Attr`` in :data:`SOURCES_KEY`): ``nudgecli.simulate(EXPERIMENT,
     out=..., resume=True)`` run from the script that defines it, the one place that policy exists
     (a ``nudge simulate`` command cannot import it); ``None`` for any other run. A run whose last
-    part ran on a dask scheduler is resumed there: ``scheduler=ADDRESS`` (as the command's
-    ``--scheduler ADDRESS``, :func:`~nudgecli.run_folder_state.resume_scheduler`), for without it
-    the call would run on local workers."""
+    part ran on a dask scheduler is resumed there: ``scheduler='ADDRESS'`` (as the command's
+    ``--scheduler ADDRESS``, :func:`~nudgecli.run_folder_state.resume_scheduler`; a string, as the
+    call's other values are printed, so that the call pasted is Python), for without it the call
+    would run on local workers."""
     from nudgecli.run_folder_state import resume_scheduler  # it builds on the run folder modules
 
     sources = manifest.get(SOURCES_KEY)
@@ -329,7 +330,7 @@ def script_resume_call(manifest: Mapping[str, Any], experiment: str, folder: str
     options = [f"{key}={value!r}" for key, value in (("seed", seed), ("participants", participants),
                                                      ("people", people)) if value is not None]
     scheduler = resume_scheduler(manifest)  # a placeholder, as PLAN in other Python advice: the address
-    options += [f"scheduler={scheduler}"] if scheduler is not None else []
+    options += [f"scheduler={scheduler!r}"] if scheduler is not None else []
     arguments = ", ".join([repr(str(experiment)), f"out={str(folder)!r}", *options, "resume=True"])
     return (f"nudgecli.simulate({arguments})  # in the script that defines {', '.join(own)}: a nudge "
             "command cannot import a policy of the calling script")
