@@ -115,3 +115,36 @@ def test_a_studys_pool_workers_leave_ctrl_c_to_the_parent(monkeypatch: pytest.Mo
         child.join(timeout=30)
         assert ignored, f"{name}: a worker of this pool takes Ctrl-C (SIGINT) itself"
     assert len(made) == 2
+
+
+class _InterruptedPool:
+    """A layouts' pool whose map is interrupted by Ctrl-C: records how it was ended."""
+
+    def __init__(self, *_: Any, **__: Any) -> None:
+        self.ended: list[str] = []
+        worker = self
+
+        class _Worker:
+            def terminate(self) -> None:
+                worker.ended.append("terminate")
+
+        self._processes = {1: _Worker()}
+        _InterruptedPool.made = self
+
+    made: _InterruptedPool | None = None
+
+    def map(self, *_: Any) -> Any:
+        raise KeyboardInterrupt
+
+    def shutdown(self, wait: bool = True, **__: Any) -> None:
+        self.ended.append(f"shutdown(wait={wait})")
+
+
+def test_ctrl_c_in_the_layouts_pool_stops_it_without_waiting_for_its_chunks(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(study_runs, "ProcessPoolExecutor", _InterruptedPool)
+    with pytest.raises(KeyboardInterrupt):
+        study_runs.build_plan_on(nudgecli.experiment_config("smoke"), 1, 2)
+    pool = _InterruptedPool.made
+    # stop_pool: no join of the running chunks (its workers ignore Ctrl-C), its processes terminated
+    assert pool is not None and pool.ended == ["shutdown(wait=False)", "terminate"], pool and pool.ended
