@@ -100,7 +100,9 @@ def test_answers_that_no_file_takes_are_given_as_a_csv_line(tmp_path, monkeypatc
         raise OSError(28, "No space left on device")
 
     monkeypatch.setattr(records, "write_text_atomic", refuse)
-    with pytest.raises(Exception, match=r"add this line to .*questionnaires\.csv by hand: "
+    with pytest.raises(Exception, match=r"create .*questionnaires\.csv by hand with these two lines, "
+                                        r"the header participant,condition,block,.*,likert_q10 and then "
+                                        r"the answers "
                                         r"1,control,0,35\.0,10\.0,40\.0,20\.0,45\.0,30\.0,6,5,4,3$"):
         session.handle({"type": "questionnaire", "answers": ANSWERS}, 0.0)
     assert not os.path.exists(out / "questionnaires.csv")

@@ -10,7 +10,8 @@ from pathlib import Path
 import pytest
 
 from nudgecli.errors import RunFolderError
-from nudgecli.live.questionnaire import ROW_COLUMNS
+from nudgecli.live import records
+from nudgecli.live.questionnaire import ROW_COLUMNS, read_answers
 from nudgecli.live.record_checks import check_answered_blocks
 
 ANSWER_CELLS = [str(50 if column.startswith("tlx") else 4) for column in ROW_COLUMNS[3:]]
@@ -44,3 +45,39 @@ def test_answers_missing_from_the_file_are_refused_in_the_answers_words(tmp_path
     message = str(refused.value)
     assert "holds no answers of participant P08 to block(s) 1," in message
     assert message.endswith("restore it from a backup (a person's answers cannot be asked again)")
+
+
+# --- answers no file took: the advice to write them by hand works as given --------------------------
+
+
+def _advice_followed(folder: Path, monkeypatch) -> Path:
+    """The answers of participant 1's block 0 no file takes (the disk full), written into
+    ``questionnaires.csv`` exactly as the error's last-resort advice says."""
+    def disk_full(path: Path, text: str) -> None:
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(records, "write_text_atomic", disk_full)
+    row = {"participant": 1, "condition": "control", "block": 0,
+           **{column: float(cell) if column.startswith("tlx") else int(cell)
+              for column, cell in zip(ROW_COLUMNS[3:], ANSWER_CELLS, strict=True)}}
+    message = str(records.LiveFolder(folder)._answers_kept(1, row, OSError(28, "No space left on device")))
+    path = folder / "questionnaires.csv"
+    if "create " in message:
+        header, line = message.split("the header ")[1].split(" and then the answers ")
+        path.write_text(f"{header}\n{line}\n", encoding="utf-8")
+    else:
+        with path.open("a", encoding="utf-8") as handle:
+            handle.write(message.split("by hand: ")[1] + "\n")
+    return path
+
+
+def test_answers_given_by_hand_create_the_answers_file_that_does_not_exist_yet(tmp_path, monkeypatch):
+    path = _advice_followed(tmp_path, monkeypatch)
+    table = read_answers(path)
+    assert table[["participant", "block", "tlx_mental", "likert_q10"]].values.tolist() == [[1, 0, 50.0, 4]]
+
+
+def test_answers_given_by_hand_are_one_more_line_of_an_existing_answers_file(tmp_path, monkeypatch):
+    _answers_file(tmp_path, [("2", "0")])
+    table = read_answers(_advice_followed(tmp_path, monkeypatch))
+    assert table[["participant", "block"]].values.tolist() == [[2, 0], [1, 0]]

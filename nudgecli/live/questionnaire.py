@@ -152,6 +152,16 @@ def answers_line(row: dict[str, Any]) -> str:
     return str(pd.DataFrame([row], columns=list(ROW_COLUMNS)).to_csv(index=False, header=False)).strip()
 
 
+def answers_by_hand(path: Path, row: dict[str, Any]) -> str:
+    """How to add one block's answers to the answers file ``path`` by hand (the last resort when no
+    file could be written): the line to add, or, where ``path`` does not exist yet, both lines to
+    create it with (its header first: :func:`read_answers` refuses a file without it)."""
+    if path.is_file():
+        return f"add this line to {path} by hand: {answers_line(row)}"
+    return (f"create {path} by hand with these two lines, the header {','.join(ROW_COLUMNS)} "
+            f"and then the answers {answers_line(row)}")
+
+
 def questionnaire_form() -> dict[str, Any]:
     """What the page shows: the TLX scales (0-100) and the Likert statements (1-7)."""
     return {

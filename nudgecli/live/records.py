@@ -49,7 +49,7 @@ import pandas as pd
 from nudgecli.config import ExperimentConfig
 from nudgecli.errors import LockError, NudgeError, RunFolderError
 from nudgecli.live.calibration import CALIBRATION_FILES, check_calibration_files, write_calibration_logs
-from nudgecli.live.questionnaire import answered_blocks, answers_line, merged_answers, read_answers
+from nudgecli.live.questionnaire import answered_blocks, answers_by_hand, merged_answers, read_answers
 from nudgecli.live.record_checks import (
     CHECKSUMS,
     TRIAL_PARTS,
@@ -526,7 +526,7 @@ class LiveFolder:
             where = f"the answers of block {row['block']} are kept in {side} (the next --resume adds them)"
         except (NudgeError, OSError):  # the answers in the message: JSON, and the line to add by hand
             where = (f"the answers of block {row['block']} could not be kept in a file: {json.dumps(row)}; "
-                     f"add this line to {self.path / QUESTIONNAIRES_CSV} by hand: {answers_line(row)}")
+                     f"{answers_by_hand(self.path / QUESTIONNAIRES_CSV, row)}")
         return type(error)(f"{error}; {where}")
 
     def _take_in_unsaved_answers(self, participant: int, entry: dict[str, Any]) -> None:
