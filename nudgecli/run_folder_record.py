@@ -387,15 +387,16 @@ class RunRecord(LiveRecord, ConfigRecord):
         from nudgecli.run_folder_state import resume_scheduler
         from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
         from nudgecli.sim.people_file import resume_people
+        from nudgecli.run_folder_trust import advised_experiment
         from nudgecli.sim.policy_files import script_resume_call
         from nudgecli.store import simulate_resume_command  # store builds on this module
 
         manifest = manifest if manifest is not None else self.read_manifest()
         people = manifest.get(PEOPLE_KEY)
         file = resume_people(self.path, people, people.get("file")) if isinstance(people, dict) else None
-        # a lost config.toml: the experiment the manifest names (a resume writes config.toml again)
-        experiment = str(self.path / CONFIG) if (self.path / CONFIG).is_file() else \
-            str(manifest.get("experiment") or "EXPERIMENT")
+        # a config.toml lost, damaged or edited: the experiment the manifest names (a resume writes
+        # config.toml again from the manifest)
+        experiment = advised_experiment(self.path, manifest)
         # a policy of the calling script (__main__) exists only in that script: resumed from Python there
         call = script_resume_call(manifest, experiment, self.path, manifest.get("seed"),
                                   manifest.get("participants"), file)
@@ -408,10 +409,11 @@ class RunRecord(LiveRecord, ConfigRecord):
         ``config.toml`` where the run keeps copies of its own policy modules (the manifest's
         ``policy_files``): the resolved experiment, its ``--set`` values in it, importing the copies,
         so the command works from any folder (docs/policies.md); ``None`` otherwise."""
+        from nudgecli.run_folder_trust import own_config
         from nudgecli.sim.policy_files import MANIFEST_KEY as POLICY_FILES_KEY
 
-        kept = manifest.get(POLICY_FILES_KEY) and (self.path / CONFIG).is_file()
-        return str(self.path / CONFIG) if kept else None
+        kept = own_config(self.path, manifest) if manifest.get(POLICY_FILES_KEY) else None
+        return str(kept) if kept is not None else None
 
     def part_fix(self, manifest: Mapping[str, Any] | None, part: Path, verb: str) -> str:
         """What brings back a damaged ``part``: ``VERB with `nudge simulate ... --resume``` (where this
@@ -551,13 +553,14 @@ class RunRecord(LiveRecord, ConfigRecord):
     def no_parts_message(self, kind: str, manifest: Mapping[str, Any] | None) -> str:
         """Why the folder has no part of ``kind`` to read, and the command that writes them: a
         ``nudge study`` folder's continues a session (never a simulation: it would be refused)."""
+        from nudgecli.run_folder_trust import advised_experiment
         from nudgecli.store import simulate_resume_command  # store builds on this module
 
         folder = self.path
         if manifest is not None and manifest.get("executor") == "live":
             return (f"{folder} holds live sessions with no {kind} recorded yet; "
                     f"{self.continue_session_hint(manifest)}")
-        experiment = str(folder / CONFIG) if (folder / CONFIG).is_file() else "EXPERIMENT"  # its own settings
+        experiment = advised_experiment(folder, manifest)  # its own settings, where config.toml holds them
         if kind == "steps" and (folder / "trials").is_dir() and any((folder / "trials").glob("part-*")):
             return (f"{folder} has trials but no steps/part-*.parquet; finish the run with "
                     f"`{simulate_resume_command(experiment, folder)}`")

@@ -39,3 +39,18 @@ def test_a_manifest_whose_seed_was_edited_is_refused_not_resumed(tmp_path, analy
                     "--resume")
     assert resumed.exit_code == 1 and "inconsistent: its seed (4)" in resumed.output
     assert not (run / "trials" / "part-0001.parquet").exists()  # nothing of seed 4 simulated
+
+
+# --- a damaged config.toml is not named in the advice ----------------------------------------------
+
+def test_a_damaged_config_toml_is_not_the_experiment_advised(tmp_path, analysed_smoke_run):
+    run = copy_run(analysed_smoke_run, tmp_path / "run")
+    (run / "config.toml").write_text((analysed_smoke_run / "config.toml").read_text()[:300])  # cut off
+    _drop(run, 1, ("trials",))
+    analyzed = nudge("analyze", run)
+    assert analyzed.exit_code == 1
+    command = one_error_line(analyzed.output).split("`")[1]
+    assert command.startswith("nudge simulate smoke --out") and "config.toml" not in command
+    resumed = nudge(*_printed(command))  # it works: config.toml is written again from the manifest
+    assert resumed.exit_code == 0, resumed.output
+    assert (run / "config.toml").read_text() == (analysed_smoke_run / "config.toml").read_text()
