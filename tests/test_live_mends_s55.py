@@ -81,3 +81,18 @@ def test_answers_given_by_hand_are_one_more_line_of_an_existing_answers_file(tmp
     _answers_file(tmp_path, [("2", "0")])
     table = read_answers(_advice_followed(tmp_path, monkeypatch))
     assert table[["participant", "block"]].values.tolist() == [[2, 0], [1, 0]]
+
+
+# --- the message size limit counts bytes -----------------------------------------------------------
+
+
+def test_the_message_size_limit_counts_utf8_bytes_not_characters() -> None:
+    pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip install '.[study]'")
+    from nudgecli.live.messages import MAX_MESSAGE_BYTES
+    from nudgecli.live.server import _parse
+
+    euros = '{"type": "ping", "pad": "' + "\u20ac" * 6000 + '"}'  # 6,027 characters, 18,027 bytes
+    assert len(euros) < MAX_MESSAGE_BYTES
+    assert _parse(euros) == (None, f"message of 18027 bytes; at most {MAX_MESSAGE_BYTES}", True)
+    fits = '{"type": "ping", "pad": "' + "\u20ac" * 5000 + '"}'  # 15,027 bytes
+    assert _parse(fits) == ({"type": "ping", "pad": "\u20ac" * 5000}, None, False)

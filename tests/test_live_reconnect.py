@@ -207,8 +207,8 @@ def test_a_deeply_nested_or_huge_message_is_refused_and_the_trial_goes_on(tmp_pa
     seen = asyncio.run(_hostile_messages(session, log))
     assert seen["nested"] == "not a message: JSON nested too deeply"
     five, ten = 5 * 1024 * 1024 + 27, 10 * 1024 * 1024 + 27  # the pad and the message around it
-    assert seen[5 * 1024 * 1024] == f"message of {five} characters; at most {MAX_MESSAGE_BYTES}"
-    assert seen[10 * 1024 * 1024].startswith(f"message of {ten} characters")
+    assert seen[5 * 1024 * 1024] == f"message of {five} bytes; at most {MAX_MESSAGE_BYTES}"
+    assert seen[10 * 1024 * 1024].startswith(f"message of {ten} bytes")
     assert ten < MAX_FRAME_BYTES
     assert seen["open"] and seen["phase"] == "trial" and seen["held"] == [2]  # key 3, Soft Puff
     assert seen["steps after"] == 2  # the running trial went on stepping

@@ -326,8 +326,9 @@ async def _reply_error(ws: web.WebSocketResponse, text: str) -> None:
 def _parse(text: str) -> tuple[Any, str | None, bool]:
     """The JSON value of a message, or why it is refused, its size checked before it is parsed;
     and whether the refusal goes to the log (what no page of ours sends: too large, too deep)."""
-    if len(text) > MAX_MESSAGE_BYTES:
-        return None, f"message of {len(text)} characters; at most {MAX_MESSAGE_BYTES}", True
+    size = len(text.encode("utf-8", "surrogatepass"))  # the limit is in bytes: '€' is three of them
+    if size > MAX_MESSAGE_BYTES:
+        return None, f"message of {size} bytes; at most {MAX_MESSAGE_BYTES}", True
     try:
         return json.loads(text), None, False
     except RecursionError:  # Python's JSON reader recurses per nesting level; no message nests
