@@ -385,9 +385,9 @@ class RunRecord(LiveRecord, ConfigRecord):
         manifest names: a resume without it is refused), ``--scheduler ADDRESS`` where it ran on a dask
         scheduler (:func:`resume_scheduler`); for a policy of the calling script, the Python call instead."""
         from nudgecli.run_folder_state import resume_scheduler
+        from nudgecli.run_folder_trust import advised_experiment
         from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
         from nudgecli.sim.people_file import resume_people
-        from nudgecli.run_folder_trust import advised_experiment
         from nudgecli.sim.policy_files import script_resume_call
         from nudgecli.store import simulate_resume_command  # store builds on this module
 
