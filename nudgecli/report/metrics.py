@@ -228,7 +228,8 @@ def metrics_frame(trials: pd.DataFrame, values: Mapping[str, np.ndarray], *,
         # the paper's "time taken to complete the task successfully" is judged by the trial's own
         # verdict whichever success the plan reports: under the study's proxy a trial timed out
         # (reached_goal -1, its time the limit) whose last inferred goal was the true one completed nothing
-        completed = pd.array(trials["success"].astype(bool).to_numpy(), dtype="boolean")
+        completed = reached if success == "reached_goal" else \
+            pd.array(trials["success"].astype(bool).to_numpy(), dtype="boolean")
         duration = successful_only(duration, completed)
     # built in one go (a column at a time cost a block insertion each)
     columns: dict[str, Any] = {name: trials[name].array for name in ID_COLUMNS}
