@@ -8,6 +8,8 @@ import json
 import shlex
 from pathlib import Path
 
+import pytest
+from batch_helpers import REPLICATE, a_finished_replicate
 from cli_helpers import copy_run, nudge, one_error_line
 
 
@@ -20,6 +22,18 @@ def _printed(command: str) -> list[str]:
     words = shlex.split(command)
     assert words[0] == "nudge", command
     return words[1:]
+
+
+@pytest.fixture(scope="module")
+def finished_replicate(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """:data:`REPLICATE` finished (do not modify: tests damage a copy)."""
+    return a_finished_replicate(tmp_path_factory.mktemp("trust") / "B")
+
+
+def _batch_resume(batch: Path) -> list[str]:
+    """The command that resumes a copy of ``finished_replicate`` (as its messages print it)."""
+    return [*REPLICATE[:1], str(batch / "experiment.toml"), *REPLICATE[2:], "--out", str(batch),
+            "--plan", str(batch / "plan.toml"), "--resume"]
 
 
 # --- a manifest's seed edited away from its experiment's ------------------------------------------
@@ -54,3 +68,17 @@ def test_a_damaged_config_toml_is_not_the_experiment_advised(tmp_path, analysed_
     resumed = nudge(*_printed(command))  # it works: config.toml is written again from the manifest
     assert resumed.exit_code == 0, resumed.output
     assert (run / "config.toml").read_text() == (analysed_smoke_run / "config.toml").read_text()
+
+
+# --- batch.json's plan edited --------------------------------------------------------------------
+
+def test_a_batch_json_whose_plan_was_edited_is_named_not_resumed_in_a_loop(tmp_path, finished_replicate):
+    batch = copy_run(finished_replicate, tmp_path / "B")
+    record = json.loads((batch / "batch.json").read_text())
+    record["batch"]["plan"]["stats"]["star_thresholds"] = [0.5, 0.1, 0.01]
+    (batch / "batch.json").write_text(json.dumps(record))
+    resumed = nudge(*_batch_resume(batch))
+    assert resumed.exit_code == 1
+    line = one_error_line(resumed.output)
+    assert "batch.json: its plan differs from the plan whose SHA-256 it records" in line
+    assert "batch.json was edited" in line and "--force" in line and "--resume" not in line

@@ -14,7 +14,6 @@ a finished task. The graph and its execution are in :mod:`nudgecli.runs.batch`.
 from __future__ import annotations
 
 import contextlib
-import hashlib
 import io
 import json
 import shutil
@@ -23,14 +22,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from nudgecli.errors import ConfigError, RunFolderError
+from nudgecli.errors import RunFolderError
 from nudgecli.parquet_reader import read_parquet
 from nudgecli.recording_digests import RECORDINGS_DIFFER, RECORDINGS_KEY, compared
 from nudgecli.run_folder_names import BATCH_MANIFEST, FIGURES_DIR, LOCK, PEOPLE_DIR
 from nudgecli.run_folder_record import (
     RunRecord,
     experiment_differences,
-    file_sha256,
     json_kind,
     part_name,
 )
@@ -406,41 +404,10 @@ def batch_differences(recorded: Mapping[str, Any], current: Mapping[str, Any]) -
 
 
 def check_kept_inputs(folder: Path, recorded: object, inputs: Mapping[str, bytes]) -> None:
-    """Refuse to resume the batch in ``folder`` where the experiment or plan it keeps
-    (:data:`EXPERIMENT_COPY`, :data:`PLAN_COPY`) is not as it wrote them: a file whose SHA-256
-    differs from the one ``batch.json`` records (``recorded``, its :data:`INPUTS_KEY` entry), unless
-    only its comments or layout changed (the batch's ``inputs`` now are the recorded bytes, and the
-    file reads as the same TOML: a note of the person's own); or, where it records none (a batch of
-    an older nudge), a file of the person's own with other bytes than the batch's
-    (:func:`~nudgecli.sim.policy_files.check_copies_placeable`). Checked before the settings are
-    compared: an edited copy may be what the resume read. A missing one is no fault (the resume
-    writes it again).
+    """:func:`nudgecli.runs.batch_trust.check_kept_inputs`: the kept experiment and plan as written."""
+    from nudgecli.runs.batch_trust import check_kept_inputs as check  # which builds on this module
 
-    Raises
-    ------
-    RunFolderError
-        The first such file: names it, what is wrong and the fix.
-    """
-    from nudgecli.config_files import read_toml, toml_of_bytes
-
-    def same_settings(kept: Path, now: bytes | None, digest: object) -> bool:
-        try:
-            return now is not None and hashlib.sha256(now).hexdigest() == digest and \
-                read_toml(kept) == toml_of_bytes(now, kept)
-        except ConfigError:  # unreadable, not TOML: not the batch's
-            return False
-
-    recorded_sums = {str(k): v for k, v in recorded.items()} if isinstance(recorded, Mapping) else {}
-    for name, digest in sorted(recorded_sums.items()):
-        kept = folder / name
-        if kept.is_file() and file_sha256(kept) != digest and \
-                not same_settings(kept, inputs.get(name), digest):
-            raise RunFolderError(f"{kept}: changed since the batch wrote it (its SHA-256 differs from the "
-                                 f"one {BATCH_MANIFEST} records in {INPUTS_KEY!r}), so the batch would not "
-                                 "resume with what made its results; delete it and resume with the command "
-                                 "that started the batch (it writes the file again), or put it back from a "
-                                 "backup")
-    check_copies_placeable(inputs, folder, recorded, "batch", "input")
+    check(folder, recorded, inputs)
 
 
 def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, force: bool,
@@ -492,10 +459,12 @@ def prepare_folder(folder: Path, description: dict[str, Any], resume: bool, forc
     copies, inputs = (None, None) if old is None else (old.get(POLICY_FILES_KEY), old.get(INPUTS_KEY))
     if old is not None and mode == "resume":
         from nudgecli.runs.batch_resume import check_same_policies, refuse_another_kind, resume_advice
+        from nudgecli.runs.batch_trust import check_plan_not_edited
 
         refuse_another_kind(folder, old, description)  # first: the rest follows
         check_kept_inputs(folder, inputs, policies.inputs)  # before the settings: one may be what resumes it
         if differences := batch_differences(old["batch"], description):
+            check_plan_not_edited(folder, old, policies.inputs, differences)  # else the same advice again
             shown = "; ".join(differences[:8]) + (f"; and {len(differences) - 8} more"
                                                   if len(differences) > 8 else "")
             raise RunFolderError(f"{folder}: holds a different batch ({shown}); resume it with the same "

@@ -1,0 +1,82 @@
+"""Whether what a batch folder keeps agrees with what its ``batch.json`` records, before a resume
+trusts either: the experiment and plan it keeps (their SHA-256 in ``batch.json``'s ``inputs``), and
+``batch.json``'s own plan against the kept plan whose SHA-256 it records.
+
+:func:`nudgecli.runs.batch_folder.prepare_folder` calls these; they read and never write.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from nudgecli.errors import ConfigError, RunFolderError
+from nudgecli.run_folder_names import BATCH_MANIFEST
+from nudgecli.run_folder_record import file_sha256
+from nudgecli.runs.batch_folder import EXPERIMENT_COPY, INPUTS_KEY, PLAN_COPY  # noqa: F401 - named in docs
+from nudgecli.sim.policy_files import check_copies_placeable
+
+
+def check_kept_inputs(folder: Path, recorded: object, inputs: Mapping[str, bytes]) -> None:
+    """Refuse to resume the batch in ``folder`` where the experiment or plan it keeps
+    (:data:`EXPERIMENT_COPY`, :data:`PLAN_COPY`) is not as it wrote them: a file whose SHA-256
+    differs from the one ``batch.json`` records (``recorded``, its :data:`INPUTS_KEY` entry), unless
+    only its comments or layout changed (the batch's ``inputs`` now are the recorded bytes, and the
+    file reads as the same TOML: a note of the person's own); or, where it records none (a batch of
+    an older nudge), a file of the person's own with other bytes than the batch's
+    (:func:`~nudgecli.sim.policy_files.check_copies_placeable`). Checked before the settings are
+    compared: an edited copy may be what the resume read. A missing one is no fault (the resume
+    writes it again).
+
+    Raises
+    ------
+    RunFolderError
+        The first such file: names it, what is wrong and the fix.
+    """
+    from nudgecli.config_files import read_toml, toml_of_bytes
+
+    def same_settings(kept: Path, now: bytes | None, digest: object) -> bool:
+        try:
+            return now is not None and hashlib.sha256(now).hexdigest() == digest and \
+                read_toml(kept) == toml_of_bytes(now, kept)
+        except ConfigError:  # unreadable, not TOML: not the batch's
+            return False
+
+    recorded_sums = {str(k): v for k, v in recorded.items()} if isinstance(recorded, Mapping) else {}
+    for name, digest in sorted(recorded_sums.items()):
+        kept = folder / name
+        if kept.is_file() and file_sha256(kept) != digest and \
+                not same_settings(kept, inputs.get(name), digest):
+            raise RunFolderError(f"{kept}: changed since the batch wrote it (its SHA-256 differs from the "
+                                 f"one {BATCH_MANIFEST} records in {INPUTS_KEY!r}), so the batch would not "
+                                 "resume with what made its results; delete it and resume with the command "
+                                 "that started the batch (it writes the file again), or put it back from a "
+                                 "backup")
+    check_copies_placeable(inputs, folder, recorded, "batch", "input")
+
+
+def check_plan_not_edited(folder: Path, old: Mapping[str, Any], inputs: Mapping[str, bytes],
+                          differences: list[str]) -> None:
+    """Refuse a resume of the batch in ``folder`` (``old``: its ``batch.json``) refused for
+    ``differences`` of its plan where the plan now is the one whose SHA-256 ``batch.json`` records
+    (``inputs``: this command's, whose :data:`PLAN_COPY` is the plan as the batch keeps it): the
+    plan ``batch.json`` describes was edited, and the advised resume would be refused again.
+
+    Raises
+    ------
+    RunFolderError
+        Names ``batch.json`` as edited, and the fix (restore it, or ``--force``).
+    """
+    recorded = old.get(INPUTS_KEY)
+    digest = recorded.get(PLAN_COPY) if isinstance(recorded, Mapping) else None
+    plan = inputs.get(PLAN_COPY)
+    edited = [difference for difference in differences if difference.split(":")[0].split(".")[0] == "plan"]
+    if not edited or plan is None or hashlib.sha256(plan).hexdigest() != digest:
+        return
+    shown = "; ".join(edited[:3]).replace(" now", f" in {PLAN_COPY}")
+    raise RunFolderError(f"{folder / BATCH_MANIFEST}: its plan differs from the plan whose SHA-256 it "
+                         f"records in {INPUTS_KEY!r}, which the folder keeps as {PLAN_COPY} ({shown}), so "
+                         f"{BATCH_MANIFEST} was edited; put it back from a copy, or start the batch again "
+                         "with --force (its tasks are computed again)")
