@@ -108,8 +108,9 @@ def kept_run_people(experiment: object, people: Any, log: Callable[[str], None] 
     if not kept:
         raise RunFolderError(f"{copy}: the run's copy of its people file ({run / MANIFEST} {MANIFEST_KEY!r}) "
                              "is missing or changed since the run kept it, so simulating its config.toml "
-                             f"would not give its participants; give the file it was simulated with as "
-                             f"--people {recorded['file']} (or other people as --people FILE)")
+                             f"would not give its participants; give the file {recorded['file']} it was "
+                             f"simulated with (--people PATH/{recorded['file']}), or other people as "
+                             "--people FILE")
     if log is not None:
         log(f"Note: {experiment} is the experiment of the run folder {run}, simulated with --people "
             f"{recorded['file']}: simulating the copy it keeps, --people {copy} (--people FILE chooses "

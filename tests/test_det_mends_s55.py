@@ -80,7 +80,8 @@ def test_simulating_a_runs_config_takes_the_people_file_it_keeps(tmp_path: Path,
     assert same(tmp_path, "api", "participants.parquet")
     (tmp_path / "run" / "people" / "twins.csv").unlink()  # its copy gone: refused, naming --people
     refused = nudge("simulate", "run/config.toml", "--out", "lost")
-    assert refused.exit_code == 1 and "--people twins.csv" in one_error_line(refused.stderr), refused.output
+    assert refused.exit_code == 1, refused.output
+    assert "(--people PATH/twins.csv)" in one_error_line(refused.stderr), refused.output
     assert not (tmp_path / "lost").exists()
 
 

@@ -101,3 +101,33 @@ def test_a_policy_module_on_sys_path_raising_as_it_is_imported_is_named_by_file_
     message = one_error_line(nudge("simulate", experiment, "--out", tmp_path / "run").output)
     assert f"({ext / 'extmod_s55.py'} line 2: raise ValueError('x')); " in message, message
     assert "looked up beside the experiment file" not in message  # it was found: it raised
+
+
+class _BatchMadeError(Exception):
+    """Raised in place of a batch being run: its people are what the test wants."""
+
+
+@pytest.mark.parametrize("kind", ["replicate", "power"])
+def test_a_batch_of_a_runs_config_takes_the_people_file_it_keeps(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, kind: str) -> None:
+    from people_helpers import PEOPLE_BYTES
+
+    monkeypatch.chdir(tmp_path)
+    Path("twins.csv").write_bytes(PEOPLE_BYTES)
+    made = nudge("simulate", "smoke", "--participants", "1", "--people", "twins.csv", "--out", "run")
+    assert made.exit_code == 0, made.output
+    people: list[Any] = []
+
+    def run_batch(batch: Any, *_: Any, **__: Any) -> None:
+        people.append(batch.people)
+        raise _BatchMadeError
+
+    monkeypatch.setattr("nudgecli.runs.batch_kinds.run_batch", run_batch)
+    counts = ["--participants", "12"] if kind == "replicate" else ["--participants", "6,12"]
+    result = nudge(kind, "run/config.toml", "-R", "2", *counts, "--out", "batch")
+    assert isinstance(result.exception, _BatchMadeError), result.output
+    assert "Note: run/config.toml is the experiment of the run folder run" in result.output, result.output
+    assert people[0] is not None and people[0].name == "twins.csv", people  # was: None (the population)
+    (tmp_path / "run" / "people" / "twins.csv").unlink()  # its copy gone: names the file to give
+    message = one_error_line(nudge(kind, "run/config.toml", "-R", "2", *counts, "--out", "lost").output)
+    assert "give the file twins.csv it was simulated with (--people PATH/twins.csv)" in message, message

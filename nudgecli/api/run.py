@@ -253,7 +253,8 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
     ----------
     experiment
         A preset name (``paper``, ``smoke``, ...), an experiment TOML file, or a loaded
-        experiment (:func:`experiment_config`).
+        experiment (:func:`experiment_config`). A run's ``config.toml`` given as a file takes the people
+        file the run keeps; loaded first, it knows no file: give ``people="RUN/people/NAME.csv"``.
     participants, seed
         Override the experiment's participant count and master seed.
     workers

@@ -18,6 +18,7 @@ from nudgecli.config import ExperimentConfig
 from nudgecli.config_files import resolve_plan
 from nudgecli.errors import ConfigError, DataError
 from nudgecli.rng import check_seed
+from nudgecli.run_folder_config import kept_run_people
 from nudgecli.run_folder_names import FIGURES_DIR
 from nudgecli.runs.batch import Batch, BatchRun, Point, run_batch, single_point
 from nudgecli.runs.batch_folder import (
@@ -226,6 +227,7 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     """
     _check(replications, seed)
     config = _load(experiment, overrides, participants, "replicate")
+    people = kept_run_people(experiment, people, options.get("log"))  # a run's config.toml: its people
     check_participant_counts([config.study.participants], "12")  # as power's: one has no participant test
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name, world=config.world.kind),
                           [config])
@@ -273,6 +275,7 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     if not 0 < target < 1:
         raise ConfigError(f"--target must be strictly between 0 and 1 (a power), got {target}")
     config = _load(experiment, overrides, None, "power")
+    people = kept_run_people(experiment, people, options.get("log"))  # a run's config.toml: its people
     with_participants(config, counts[-1])  # the largest study within study.participants' bound
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name, world=config.world.kind),
                           [config])
