@@ -5,6 +5,7 @@ message size limit counts bytes."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -96,3 +97,110 @@ def test_the_message_size_limit_counts_utf8_bytes_not_characters() -> None:
     assert _parse(euros) == (None, f"message of 18027 bytes; at most {MAX_MESSAGE_BYTES}", True)
     fits = '{"type": "ping", "pad": "' + "\u20ac" * 5000 + '"}'  # 15,027 bytes
     assert _parse(fits) == ({"type": "ping", "pad": "\u20ac" * 5000}, None, False)
+
+
+# --- every bad message is answered; the page keeps its answers until the server has them -----------
+
+
+async def _replies(session, frames: list[str | bytes]) -> list[dict]:
+    """What the server answers the participant's page to each of ``frames`` (text or binary)."""
+    from aiohttp.test_utils import TestClient, TestServer
+
+    from nudgecli.live.server import SteppedClock, create_app
+
+    replies = []
+    app = create_app(session, SteppedClock(session.settings.dt), token="t")
+    async with TestClient(TestServer(app)) as client:
+        ws = await client.ws_connect("/ws?token=t", headers={"Origin": f"http://127.0.0.1:{client.server.port}"})
+        for frame in frames:
+            await (ws.send_bytes(frame) if isinstance(frame, bytes) else ws.send_str(frame))
+            await ws.send_json({"type": "ping"})
+            while (message := await ws.receive_json(timeout=10))["type"] != "pong":
+                if message["type"] not in ("state", "role"):
+                    replies.append(message)
+        await ws.close()
+    return replies
+
+
+def test_a_questionnaire_out_of_phase_and_a_binary_frame_get_an_error_reply(tmp_path: Path) -> None:
+    pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip install '.[study]'")
+    import asyncio
+    import json
+
+    from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS, play_session
+
+    from nudgecli.live.app import build_session
+
+    session = build_session("paper", "P01", tmp_path / "live", overrides=TWO_TRIALS + DEFAULT_TABLES)
+    play_session(session, lambda s: s.phase == "questionnaire")
+    answers = json.dumps({"type": "questionnaire", "answers": ANSWERS})
+    replies = asyncio.run(_replies(session, [b'{"type": "start"}', answers, answers]))
+    assert replies == [
+        {"type": "error", "message": "a message is text JSON, not a binary frame"},
+        {"type": "answers_recorded", "block": 0},  # the page forgets the answers it kept only now
+        {"type": "error", "message": "no questionnaire is due"},  # the same answers again, recorded once
+    ]
+    assert session.phase == "ready" and session.entry["questionnaire_blocks"] == [0]
+    assert session.handle(json.loads(answers), 0.0) == {"type": "error", "message": "no questionnaire is due"}
+    session.folder.release()
+
+
+#: A websocket the page opens in place of the server's: it keeps what the page sends, and the test
+#: hands the page the server's messages (``window.deliver``).
+FAKE_SOCKET = """
+window.sentMessages = [];
+window.WebSocket = class { static OPEN = 1;
+  constructor() {
+    this.readyState = 1; window.socket = this; setTimeout(() => this.onopen && this.onopen(), 0);
+  }
+  send(text) { window.sentMessages.push(JSON.parse(text)); }
+  close() {} };
+window.deliver = (message) => window.socket.onmessage({ data: JSON.stringify(message) });
+"""
+#: The participant's answers, entered in the form as a person does (each slider moved, each statement chosen).
+FILL_FORM = """() => {
+  for (const slider of document.querySelectorAll("#q-form input[type=range]")) {
+    slider.value = 40; slider.dispatchEvent(new Event("input", { bubbles: true }));
+  }
+  for (const radio of document.querySelectorAll("#q-form input[type=radio][value='5']")) radio.click();
+}"""
+
+
+def test_the_page_keeps_the_answers_it_sent_until_the_server_has_recorded_them(tmp_path: Path) -> None:
+    sync_api = pytest.importorskip("playwright.sync_api", reason="needs playwright: pip install '.[test]'")
+    from test_live_browser import CHROMIUM_ARGS, _chromium
+
+    from nudgecli.live.input import key_meanings
+    from nudgecli.live.questionnaire import questionnaire_form
+    from nudgecli.live.server import static_dir
+
+    chromium = _chromium()
+    if chromium is None and os.environ.get("NUDGE_REQUIRE_BROWSER"):
+        pytest.fail("NUDGE_REQUIRE_BROWSER is set (as in .ci/run) but no Chromium was found")
+    if chromium is None:
+        pytest.skip("no Chromium found (see tests/test_live_browser.py)")
+    state = {"type": "state", "tick": 1, "phase": "questionnaire", "participant": "P01", "trials_done": 1,
+             "trials_total": 2, "ready_for": None, "last_outcome": None, "keys": key_meanings(),
+             "questionnaire": {"block": 0, "block_number": 1, "blocks": 2, "condition": "control",
+                               **questionnaire_form()}}
+    kept = "sessionStorage.getItem('nudge-answers:tok:0')"
+    with sync_api.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, headless=True, args=CHROMIUM_ARGS)
+        page = browser.new_page()
+        page.add_init_script(FAKE_SOCKET)
+        page.route("http://study.test/**", lambda route: route.fulfill(
+            path=str(static_dir() / (route.request.url.split("/")[-1].split("?")[0] or "index.html"))))
+        page.goto("http://study.test/?token=tok")
+        page.wait_for_function("window.socket !== undefined && window.socket.onmessage !== undefined")
+        page.evaluate("(state) => { deliver({ type: 'role', role: 'controller' }); deliver(state); }", state)
+        page.evaluate(FILL_FORM)
+        # two clicks: the second, while the first answers are on their way, sends nothing
+        page.evaluate("() => { for (const n of [1, 2]) document.getElementById('q-submit').click(); }")
+        sent = page.evaluate("sentMessages.filter((m) => m.type === 'questionnaire')")
+        held = page.evaluate(kept)  # sent, not yet recorded: still kept in the tab
+        page.evaluate("deliver({ type: 'answers_recorded', block: 0 })")
+        after = page.evaluate(kept)
+        browser.close()
+    assert held is not None and '"tlx_mental":40' in held
+    assert len(sent) == 1 and sent[0]["answers"]["tlx_mental"] == 40 and sent[0]["answers"]["likert_q3"] == 5
+    assert after is None

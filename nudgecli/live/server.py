@@ -354,6 +354,9 @@ async def _websocket(request: web.Request) -> web.WebSocketResponse:
     await _send(ws, await _in_session(app, session.view))
     try:
         async for msg in ws:
+            if msg.type == WSMsgType.BINARY:  # answered as every bad message is
+                await _reply_error(ws, "a message is text JSON, not a binary frame")
+                continue
             if msg.type != WSMsgType.TEXT:
                 continue
             data, problem, worth_logging = _parse(msg.data)

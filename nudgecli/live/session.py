@@ -246,7 +246,8 @@ class LiveSession:
 
         Messages: ``{"type": "key", "key": "1", "down": true}``, ``{"type": "axis", "value": -0.2}``
         (``null``: no gamepad), ``{"type": "start"}`` (as Space), ``{"type": "skip"}`` (skip the
-        practice), ``{"type": "questionnaire", "answers": {...}}``, ``{"type": "blur"}`` (the page
+        practice), ``{"type": "questionnaire", "answers": {...}}`` (answered ``{"type":
+        "answers_recorded", "block": b}`` once written, else an error), ``{"type": "blur"}`` (the page
         lost focus: keys up), ``{"type": "ping"}``; and from the server ``{"type": "disconnect"}``
         (the last page closed: the running trial is abandoned, unrecorded, and starts again from
         its beginning on the next Space). The server passes only messages that follow the schema of
@@ -269,10 +270,8 @@ class LiveSession:
             self._start()
         elif kind == "skip" and self.phase == "ready" and self.ready_for in PRACTICE:
             self._end_practice()
-        elif kind == "questionnaire" and self.phase == "questionnaire":
-            error = self._record_questionnaire(message.get("answers") or {})
-            if error:
-                return {"type": "error", "message": error}
+        elif kind == "questionnaire":  # answered out of phase too: the page hears it was not taken
+            return self._record_questionnaire(message.get("answers") or {})
         elif kind == "blur":
             self.input.release_all()
         elif kind == "disconnect":
@@ -472,19 +471,20 @@ class LiveSession:
 
     # --- questionnaires and the end -----------------------------------------------------------
 
-    def _record_questionnaire(self, answers: dict[str, Any]) -> str | None:
-        """Validate and write one block's answers; returns an error text for the page, or ``None``."""
-        block = self._pending_questionnaire()
-        if block is None:
-            return "no questionnaire is due"
+    def _record_questionnaire(self, answers: dict[str, Any]) -> dict[str, Any]:
+        """Validate and write one block's answers; returns the reply for the page: an error, or
+        ``{"type": "answers_recorded", "block": b}`` (the page keeps the answers until then)."""
+        block = self._pending_questionnaire() if self.phase == "questionnaire" else None
+        if block is None:  # e.g. a second submit of answers already recorded
+            return {"type": "error", "message": "no questionnaire is due"}
         condition = next(spec.condition for spec in self.schedule if spec.block == block)
         row = questionnaire_row(answers)
         if isinstance(row, str):
-            return row
+            return {"type": "error", "message": row}
         row = {"participant": self.index, "condition": condition, "block": block, **row}
         self.folder.write_questionnaire(self.index, row)
         self._advance()
-        return None
+        return {"type": "answers_recorded", "block": block}
 
     def _finish(self) -> None:
         self.phase = "done"

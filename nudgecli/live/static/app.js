@@ -14,7 +14,8 @@ let ws = null;
 let state = null;
 let lastAxis = undefined;   // the axis value the server has from this page (undefined: send it anew)
 const keysDown = new Set(); // input keys the server holds down from this page, as far as it knows
-let unsent = false;       // the questionnaire's form holds answers not sent yet
+let unsent = false;       // the questionnaire's form holds answers the server has not recorded yet
+let sentBlock = null;     // the block whose answers were sent and await the server's reply
 let role = null;          // "controller" (this page drives the session), "watcher" or "monitor"
 let everConnected = false;
 let lastError = "";       // the server's last error reply (tests read it)
@@ -46,7 +47,7 @@ function connect() {
     document.getElementById("lost").classList.remove("shown");
   };
   ws.onclose = () => {
-    role = null;
+    role = null; sentBlock = null;  // answers sent and not confirmed may be sent again
     badge.textContent = "disconnected: reconnecting…"; badge.className = "offline";
     document.getElementById("lost-help").textContent = stoppedBecause ? stoppedBecause : everConnected ?
       "The connection to the study server was lost. Keep this page open: it reconnects by itself " +
@@ -66,8 +67,10 @@ function connect() {
       document.getElementById("watching").classList.toggle("shown", role === "watcher");
       document.getElementById("monitoring").classList.toggle("shown", role === "monitor");
       if (state) render(); else applyRole();
+    } else if (message.type === "answers_recorded") {
+      sentBlock = null; forgetAnswers(message.block);  // the server has them: no longer kept in the tab
     } else if (message.type === "error") {
-      lastError = message.message;
+      lastError = message.message; sentBlock = null;
       if (state && state.phase === "questionnaire") keepAnswers();  // refused: the answers are still unsent
       if (message.stopped) stoppedBecause = `${message.message}. Tell the experimenter.`;
       document.getElementById(state && state.phase === "questionnaire" ? "q-error" : "notice").textContent =
@@ -317,6 +320,7 @@ function renderQuestionnaire() {
   form.onsubmit = (e) => {
     e.preventDefault();
     if (role !== "controller") return;  // the watch-only line says where to answer
+    if (sentBlock === q.block) return;  // sent already (a second click): the server's reply is on its way
     const answers = {};
     const unset = [];
     for (const item of q.tlx) {
@@ -332,12 +336,13 @@ function renderQuestionnaire() {
       const checked = form.querySelector(`input[name="${item.name}"]:checked`);
       answers[item.name] = checked ? Number(checked.value) : null;
     }
-    if (send({ type: "questionnaire", answers: answers })) forgetAnswers(q.block);
+    // kept in the tab until the server says it recorded them (answers_recorded), not forgotten as sent
+    if (send({ type: "questionnaire", answers: answers })) sentBlock = q.block;
   };
   if (role === "controller") focusItem(0);
 }
 
-// --- answers entered and not sent survive a reload of the tab (kept per session token and block) --
+// --- answers entered and not recorded survive a reload of the tab (kept per session token and block) --
 
 function answersKey(block) { return `nudge-answers:${TOKEN}:${block}`; }
 
