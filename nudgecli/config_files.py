@@ -463,8 +463,10 @@ def list_example(value: Any, field: Any) -> str:
     fits = all(isinstance(v, str) != numbers and (not choices or v in choices) for v in named)
     if named and fits and length in (None, len(named)):
         return toml_value(named)
-    default = field.get_default() if field is not None and not field.is_required() else None
-    if default:
+    # a default_factory field's default is made by calling it (get_default() alone: PydanticUndefined)
+    default = field.get_default(call_default_factory=True, validated_data={}) \
+        if field is not None and not field.is_required() else None
+    if default and isinstance(default, list | tuple):
         return toml_value(list(default))
     return toml_value(list(choices[:2]) if choices else [0.5, 1.0] if numbers else ["a", "b"])
 

@@ -82,3 +82,30 @@ def test_a_batch_json_whose_plan_was_edited_is_named_not_resumed_in_a_loop(tmp_p
     line = one_error_line(resumed.output)
     assert "batch.json: its plan differs from the plan whose SHA-256 it records" in line
     assert "batch.json was edited" in line and "--force" in line and "--resume" not in line
+
+
+# --- a sweep file's `set` of another type -----------------------------------------------------------
+
+@pytest.mark.parametrize(("written", "got"), [("set = 3", "(got 3)"),
+                                              ('[set]\n"study.participants" = 2', "(got a table)")])
+def test_a_sweep_files_set_of_another_type_is_one_error_line(tmp_path, written, got):
+    from nudgecli.errors import ConfigError
+    from nudgecli.runs.sweep import load_sweep
+
+    sweep = tmp_path / "my.toml"
+    sweep.write_text(f'experiment = "smoke"\n{written}\n[parameters]\n"blending.gain" = [0.5, 1.0]\n')
+    with pytest.raises(ConfigError) as refused:
+        load_sweep(str(sweep))
+    assert str(refused.value) == (f'{sweep}: set: should be a list of --set values, e.g. set = '
+                                  f'["study.participants=2"] {got}')
+
+
+def test_a_list_fields_example_takes_its_default_factorys_list():
+    from pydantic import BaseModel, Field
+
+    from nudgecli.config_files import list_example
+
+    class Listed(BaseModel):
+        corners: list[str] = Field(default_factory=lambda: ["tr", "bl"])
+
+    assert list_example(3, Listed.model_fields["corners"]) == '["tr", "bl"]'

@@ -107,6 +107,12 @@ class SweepFile(_Model):
             raise ValueError("this looks like an experiment file, not a sweep file (it has an [experiment] "
                              "table); a sweep file names its experiment, e.g. experiment = \"smoke\", and "
                              "has [design] and [parameters] (docs/batches.md)")
+        if isinstance(data, dict) and not isinstance(data.get("set", []), list | str):  # a str: [str]'s
+            given = data["set"]  # a table of the --set values is spelled as they are, else an example
+            texts = [f"{key}={json.dumps(value, default=str)}" for key, value in given.items()] \
+                if isinstance(given, dict) and given else ["study.participants=2"]
+            raise ValueError(f"set: should be a list of --set values, e.g. set = {json.dumps(texts)} (got "
+                             f"{'a table' if isinstance(given, dict) else json.dumps(given, default=str)})")
         if isinstance(data, dict) and isinstance(data.get("parameters"), dict):
             data = dict(data)
             data["parameters"] = {k: parameter(k, v) for k, v in data["parameters"].items()}
