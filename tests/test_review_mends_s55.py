@@ -80,6 +80,23 @@ def test_plot_refuses_an_analysis_whose_plan_copy_is_edited_or_missing(
     assert ("changed since the analysis kept it" if damage == "edited" else "cannot be read") in message
 
 
+def test_a_tables_analysis_keeps_its_plan_file_too(
+        analysed_under_a_plan_file: tuple[Path, Path, Path], tmp_path: Path,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    run, plan, _ = analysed_under_a_plan_file
+    table = tmp_path / "study.csv"
+    shutil.copy(run / "metrics.csv", table)
+    assert nudge("analyze", table, "--plan", plan, "--bootstrap", "100").exit_code == 0
+    loose = load_plan(plan).comparison_options()
+    plan.write_text(LOOSE_PLAN.replace("0.9, 0.8, 0.7", "0.5, 0.4, 0.3"))  # edited after the analysis
+    assert _star_rule_plotted(monkeypatch, table) == loose  # was: the edited file's
+    copy = tmp_path / "study-analysis" / "analysis_plan.toml"
+    copy.write_text(plan.read_text())
+    message = one_error_line(nudge("plot", table).output)
+    assert f"({tmp_path / 'study-analysis' / 'stats.json'} 'table_read' 'plan')" in message, message
+    assert f"run `nudge analyze {table} --plan {plan}` again before plotting" in message, message
+
+
 def test_an_analysis_recording_no_plan_removes_the_plan_copy_an_earlier_one_kept(
         analysed_under_a_plan_file: tuple[Path, Path, Path]) -> None:
     run, _, out = analysed_under_a_plan_file

@@ -96,7 +96,7 @@ from nudgecli.report.questionnaires import (
     scores_checksum,
     scores_csv,
 )
-from nudgecli.report.recorded_plans import ANALYSIS_PLAN_COPY, record_plan, recorded_plan
+from nudgecli.report.recorded_plans import ANALYSIS_PLAN_COPY, kept_plan_file, record_plan, recorded_plan
 from nudgecli.report.recorded_plans import plan_of_source as plan_of_source  # its readers import it here
 from nudgecli.report.stats import ComparisonOptions, order_conditions
 from nudgecli.report.stats_document import compare_conditions, json_ready, stats_csv, stats_table
@@ -432,8 +432,8 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         from nudgecli.runs.study import own_plan_advice
         fix = own_plan_advice(table["condition"].astype(str).unique())
         raise exc if plan_arg is not None else ConfigError(f"{exc}; no --plan was given: {fix}") from None
-    plan_kept, plan_copy = record_plan(run, manifest, plan, out_dir) if run else ({}, None)
-    source_record.update(plan_kept)  # a run's plan, where out_dir hides it (a plan file: kept there)
+    plan_kept, plan_copy = record_plan(run, manifest, plan, out_dir) if run else kept_plan_file(plan)
+    source_record.update(plan_kept)  # a run's plan where out_dir hides it; a plan file's copy, kept
     check_filters(plan, available)
     scores, score_names = _read_scores(questionnaires, table, source, manifest, notes)
     selected = select_metrics(metrics, [*available, *score_names], plan)

@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import os
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -31,7 +32,7 @@ from nudgecli.config_files import resolve_plan, world_kind_of
 from nudgecli.errors import ConfigError, NudgeError, shell_words
 from nudgecli.report.analysis_folders import analysis_folder
 from nudgecli.report.plans import AnalysisPlan, load_plan, plan_argument
-from nudgecli.report.table_read import TABLE_READ_KEY, plan_seen_from_here
+from nudgecli.report.table_read import TABLE_READ_KEY, analyze_again, plan_seen_from_here, recorded_table_read
 from nudgecli.run_folder_names import ANALYSIS_PLAN_COPY, MANIFEST, STATS_JSON
 from nudgecli.store import RunFolder, is_run_folder
 
@@ -113,12 +114,22 @@ def record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan: An
         found = load_plan(plan_of_source(out_dir, damaged_manifest=True))
     if found == plan:
         return {}, None
+    digest, text = kept_plan_file(plan, named)
+    return {ANALYSIS_PLAN_KEY: named if text is None else ANALYSIS_PLAN_COPY, **digest}, text
+
+
+def kept_plan_file(plan: AnalysisPlan, named: str | None = None) -> tuple[dict[str, Any], str | None]:
+    """What ``stats.json`` records of the analysis's copy of ``plan``'s file
+    (:data:`ANALYSIS_PLAN_SHA256_KEY`: its SHA-256) and the copy's text, for a plan read from a file
+    (``named``: :func:`~nudgecli.report.plans.plan_argument`, taken when not given); ``({}, None)``
+    for a preset or a plan built in code. A table's analysis keeps one too, its ``table_read``
+    naming the file it was given (the ``--plan`` of the command that analyses it again)."""
+    named = plan_argument(plan) if named is None else named
     if named is None or plan.file is None:  # a preset's name, or none (built in code)
-        return {ANALYSIS_PLAN_KEY: named}, None
+        return {}, None
     # the file as read now (plan_argument has just found it holds this plan): the copy plot reads
     text = Path(named).read_bytes().decode("utf-8")
-    return {ANALYSIS_PLAN_KEY: ANALYSIS_PLAN_COPY,
-            ANALYSIS_PLAN_SHA256_KEY: hashlib.sha256(text.encode("utf-8")).hexdigest()}, text
+    return {ANALYSIS_PLAN_SHA256_KEY: hashlib.sha256(text.encode("utf-8")).hexdigest()}, text
 
 
 def _kept_plan_copy(folder: Path, stats: Mapping[str, Any]) -> str:
@@ -128,8 +139,8 @@ def _kept_plan_copy(folder: Path, stats: Mapping[str, Any]) -> str:
     Raises
     ------
     ConfigError
-        The copy is missing or was edited: one line naming it, ``stats.json``'s ``plan`` and the
-        ``nudge analyze`` command that analyses again."""
+        The copy is missing or was edited: one line naming it, ``stats.json``'s ``plan`` (a table's
+        analysis: its ``table_read``'s) and the ``nudge analyze`` command that analyses again."""
     copy = folder / ANALYSIS_PLAN_COPY
     try:
         changed = hashlib.sha256(copy.read_bytes()).hexdigest() != stats[ANALYSIS_PLAN_SHA256_KEY]
@@ -139,13 +150,21 @@ def _kept_plan_copy(folder: Path, stats: Mapping[str, Any]) -> str:
         changed, what = True, f"cannot be read ({exc.strerror or exc})"
     if not changed:
         return str(copy)
-    own = is_run_folder(folder)  # a run analysed in its own folder under another plan than its own
-    words = ["nudge", "analyze", str(folder) if own else "RUN", "--plan", "PLAN"]
-    words += [] if own else ["--out", str(folder), "--force"]
-    raise ConfigError(f"{copy}: the analysis's copy of its plan file ({folder / STATS_JSON} "
-                      f"{ANALYSIS_PLAN_KEY!r}) {what}, so its figures would not be drawn under the plan its "
-                      f"statistics were computed with; analyse again with `{shell_words(words)}` (PLAN: "
-                      f"the plan file{'' if own else ', RUN: the run analysed there'}), then plot")
+    read = recorded_table_read(stats, str(folder / STATS_JSON))
+    where = f"{folder / STATS_JSON} {ANALYSIS_PLAN_KEY!r}" if read is None else \
+        f"{folder / STATS_JSON} {TABLE_READ_KEY!r} {ANALYSIS_PLAN_KEY!r}"
+    if read is not None and isinstance(read.get("table"), str):  # a table's: the command it was given
+        again = analyze_again(Path(os.path.normpath(folder / read["table"])), folder, read["drop_duplicates"],
+                              read)
+    else:
+        own = is_run_folder(folder)  # a run analysed in its own folder under another plan than its own
+        words = ["nudge", "analyze", str(folder) if own else "RUN", "--plan", "PLAN"]
+        words += [] if own else ["--out", str(folder), "--force"]
+        again = (f"analyse again with `{shell_words(words)}` (PLAN: the plan file"
+                 f"{'' if own else ', RUN: the run analysed there'})")
+    raise ConfigError(f"{copy}: the analysis's copy of its plan file ({where}) {what}, so its figures "
+                      f"would not be drawn under the plan its statistics were computed with; {again} before "
+                      "plotting")
 
 
 def analysed_plan(source: str | Path) -> str | None:
@@ -175,5 +194,5 @@ def analysed_plan(source: str | Path) -> str | None:
     return plan_seen_from_here(folder, plan) if isinstance(plan, str) and plan else None
 
 
-__all__ = ["ANALYSIS_PLAN_KEY", "ANALYSIS_PLAN_SHA256_KEY", "analysed_plan", "plan_of_source", "record_plan",
-           "recorded_plan"]
+__all__ = ["ANALYSIS_PLAN_KEY", "ANALYSIS_PLAN_SHA256_KEY", "analysed_plan", "kept_plan_file",
+           "plan_of_source", "record_plan", "recorded_plan"]
