@@ -16,9 +16,12 @@ import hashlib
 import json
 from collections.abc import Callable, Mapping, MutableMapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+from pydantic import ValidationError
 
 from nudgecli.config import ExperimentConfig, experiment_from_toml
+from nudgecli.config_files import format_validation_error
 from nudgecli.errors import ConfigError, NudgeError, RunFolderError, WriteError
 from nudgecli.run_folder_names import (
     ANALYSIS_PLAN_COPY,
@@ -32,6 +35,9 @@ from nudgecli.run_folder_names import (
     SUMMARY_MD,
 )
 from nudgecli.run_folder_state import only_a_start
+
+if TYPE_CHECKING:
+    from nudgecli.store import RunFolder
 
 #: The manifest key of the SHA-256 of a run's copy of its plan file (:data:`PLAN_COPY`, which the
 #: manifest's ``plan`` names, relative to the run folder).
@@ -269,3 +275,17 @@ class ConfigRecord:
                               f"SHA-256 differs from the manifest's {PLAN_SHA256_KEY!r}); put it back from a "
                               f"backup, or give --plan PLAN, which overrides {where}")
         return str(copy)
+
+
+def run_experiment(run: RunFolder) -> ExperimentConfig:
+    """The experiment a run was made with, as its manifest records it (a run folder is read only
+    through its manifest: an edited ``config.toml`` changes nothing read); a manifest of an older
+    nudge, which records none, leaves its ``config.toml``."""
+    recorded = run.read_manifest().get("config") if run.is_run() else None
+    if not isinstance(recorded, Mapping):
+        return run.read_config()
+    try:
+        return ExperimentConfig.model_validate(recorded)
+    except ValidationError as exc:
+        where = f"{run.manifest_path} (config)"
+        raise RunFolderError(format_validation_error(exc, where, ExperimentConfig, dict(recorded))) from None

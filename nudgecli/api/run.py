@@ -70,6 +70,7 @@ class Run(FolderOwner):
         """
         from nudgecli.api import arguments
         from nudgecli.errors import RunFolderError
+        from nudgecli.run_folder_config import run_experiment
         from nudgecli.store import RunFolder
 
         folder = RunFolder(Path(arguments.path("path", path)))
@@ -77,7 +78,8 @@ class Run(FolderOwner):
             raise RunFolderError(f"{path}: not a run folder (no manifest.json); give a folder made by "
                                  "`nudge simulate`")
         manifest = folder.read_manifest()
-        return cls(path, folder.read_config(), participant_count=folder.participant_count(manifest),
+        # the experiment as the manifest records it: an edited config.toml changes nothing read
+        return cls(path, run_experiment(folder), participant_count=folder.participant_count(manifest),
                    mode="open")
 
     @property

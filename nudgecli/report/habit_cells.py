@@ -9,13 +9,12 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from pydantic import ValidationError
 
 from nudgecli.config import ExperimentConfig
-from nudgecli.config_files import format_validation_error
 from nudgecli.errors import DataError, RunFolderError, shell_words
 from nudgecli.model.interface import HARD_PUFF, HARD_SIP, PUFF_DEADBAND, SIP_DEADBAND, SOFT_PUFF, SOFT_SIP
 from nudgecli.model.world import MODE_NAMES, angle_difference
+from nudgecli.run_folder_config import run_experiment
 from nudgecli.run_folder_names import BATCH_MANIFEST
 from nudgecli.sim.calibration_io import STREAM_CODES
 from nudgecli.sim.calibration_readers import holds_calibration_session
@@ -113,20 +112,6 @@ def on_waypoints(position: np.ndarray, layouts: np.ndarray,
         gap = np.abs(position[rows, None, :] - points[None, :, :]).max(axis=2)
         at[rows] = (gap <= WAYPOINT_TOLERANCE).any(axis=1)
     return at
-
-
-def run_experiment(run: RunFolder) -> ExperimentConfig:
-    """The experiment a run was made with, as its manifest records it (a run folder is read only
-    through its manifest: an edited ``config.toml`` changes nothing read); a manifest of an older
-    nudge, which records none, leaves its ``config.toml``."""
-    recorded = run.read_manifest().get("config") if run.is_run() else None
-    if not isinstance(recorded, Mapping):
-        return run.read_config()
-    try:
-        return ExperimentConfig.model_validate(recorded)
-    except ValidationError as exc:
-        where = f"{run.manifest_path} (config)"
-        raise RunFolderError(format_validation_error(exc, where, ExperimentConfig, dict(recorded))) from None
 
 
 def stops_at_waypoints(experiment: ExperimentConfig | None) -> bool:

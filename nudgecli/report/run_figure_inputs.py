@@ -3,7 +3,7 @@ Fig. 5 and the trajectory show and its participant's steps, and a path-world run
 
 A run is read through its manifest, as every reader of a run reads it: the parts it promises
 (:meth:`~nudgecli.store.RunFolder.check_complete`, each checked against the SHA-256 it recorded)
-and the experiment it records (:func:`~nudgecli.report.habit_cells.run_experiment`), never a
+and the experiment it records (:func:`~nudgecli.run_folder_config.run_experiment`), never a
 ``config.toml`` edited since (it is not vouched for).
 """
 
@@ -16,9 +16,9 @@ import numpy as np
 import pandas as pd
 
 from nudgecli.report.figures import TrialLayout
-from nudgecli.report.habit_cells import run_experiment
 from nudgecli.report.trial_selection import choose_figure5_trial, trial_groups
 from nudgecli.report.trial_steps import TrialKey
+from nudgecli.run_folder_config import run_experiment
 from nudgecli.store import RunFolder
 
 #: The step-log columns the default rule of Fig. 5's trial reads (every participant's).

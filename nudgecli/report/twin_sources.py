@@ -27,12 +27,7 @@ from nudgecli.config import BehaviourSection, ExperimentConfig, InterfaceSection
 from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.csv_text import not_utf8_message, starts_as_json, starts_as_toml, toml_source_message
 from nudgecli.errors import DataError, did_you_mean
-from nudgecli.report.habit_cells import (
-    NEUTRAL,
-    run_experiment,
-    run_folder_cells_with_experiment,
-    stops_at_waypoints,
-)
+from nudgecli.report.habit_cells import NEUTRAL, run_folder_cells_with_experiment, stops_at_waypoints
 from nudgecli.report.habit_figures import check_unit, checked_figure, figure
 from nudgecli.report.habits import (
     HABIT_KEYS,
@@ -44,6 +39,7 @@ from nudgecli.report.habits import (
     summarise_habits,
 )
 from nudgecli.report.tables import check_unique_columns
+from nudgecli.run_folder_config import run_experiment
 from nudgecli.sim.twin_fit import (
     PARAMETER_HABITS,
     STOP_PARAMETERS,
