@@ -17,6 +17,7 @@ from pydantic import BaseModel, ValidationError
 
 from nudgecli.config_base import admits, plain
 from nudgecli.errors import ConfigError, did_you_mean, shell_words
+from nudgecli.run_folder_names import BATCH_MANIFEST, MANIFEST, PLAN_COPY
 
 #: A plan as a command holds it: a preset name, a path or a loaded plan (:func:`resolve_plan`).
 PlanT = TypeVar("PlanT")
@@ -116,12 +117,38 @@ def resolve_preset(name_or_path: str, kind: Literal["experiments", "analysis"]) 
 
 def read_toml(path: Path) -> dict[str, Any]:
     """Parse a TOML file, turning syntax errors into a ``ConfigError`` naming the file. A leading
-    UTF-8 byte order mark (which Windows editors write) is skipped, as the CSV readers skip it."""
+    UTF-8 byte order mark (which Windows editors write) is skipped, as the CSV readers skip it.
+
+    A file a run or batch folder keeps is checked against the SHA-256 its manifest records first: an
+    experiment whose policy copies changed since kept is a ``DataError``
+    (:func:`~nudgecli.sim.policy_files.changed_copy_error`), and a kept input that does not parse
+    is named as changed since the batch wrote it (its fix), not by the parse error."""
     try:
         data = path.read_bytes()
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read ({exc.strerror})") from exc
-    return toml_of_bytes(data, path)
+    beside = path.parent
+    if path.name != PLAN_COPY and ((beside / MANIFEST).is_file() or (beside / BATCH_MANIFEST).is_file()):
+        from nudgecli.sim.policy_files import changed_copy_error  # a folder's experiment: its policy copies
+
+        if (refusal := changed_copy_error(path)) is not None:  # named before they are imported
+            raise refusal
+    try:
+        return toml_of_bytes(data, path)
+    except ConfigError:
+        if (changed := _kept_input_changed(path)) is not None:  # a batch's copy damaged: its fix, not TOML's
+            raise ConfigError(changed) from None
+        raise
+
+
+def _kept_input_changed(path: Path) -> str | None:
+    """Why ``path``, an input a batch folder keeps beside its ``batch.json``, changed since the batch
+    wrote it (:func:`nudgecli.runs.batch_trust.kept_input_changed`); ``None`` where it is no such input."""
+    if not (path.parent / BATCH_MANIFEST).is_file():
+        return None
+    from nudgecli.runs.batch_trust import kept_input_changed  # the batch's record, read only here
+
+    return kept_input_changed(path)
 
 
 def toml_of_bytes(data: bytes, path: Path) -> dict[str, Any]:

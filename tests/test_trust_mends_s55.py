@@ -109,3 +109,49 @@ def test_a_list_fields_example_takes_its_default_factorys_list():
         corners: list[str] = Field(default_factory=lambda: ["tr", "bl"])
 
     assert list_example(3, Listed.model_fields["corners"]) == '["tr", "bl"]'
+
+
+# --- a damaged kept input is named as changed since kept, not by its parse or import error ---------
+
+def test_a_cut_off_kept_experiment_is_named_as_changed_not_as_invalid_toml(tmp_path, finished_replicate):
+    batch = copy_run(finished_replicate, tmp_path / "B")
+    (batch / "experiment.toml").write_bytes((finished_replicate / "experiment.toml").read_bytes()[:200])
+    resumed = nudge(*_batch_resume(batch))
+    assert resumed.exit_code == 1
+    line = one_error_line(resumed.output)
+    assert "experiment.toml: changed since the batch wrote it" in line and "invalid TOML" not in line
+
+
+def test_a_cut_off_kept_sweep_file_is_named_as_changed_not_as_invalid_toml(tmp_path):
+    import hashlib
+
+    from nudgecli.errors import ConfigError
+    from nudgecli.runs.sweep import load_sweep
+
+    written = b'experiment = "smoke"\n[parameters]\n"disambiguation.window" = [3, 5]\n'
+    (tmp_path / "batch.json").write_text(json.dumps(
+        {"batch": {"kind": "sweep"}, "inputs": {"sweep.toml": hashlib.sha256(written).hexdigest()}}))
+    (tmp_path / "sweep.toml").write_bytes(written[:30])  # cut off inside [parameters]
+    with pytest.raises(ConfigError, match=r"sweep\.toml: changed since the batch wrote it"):
+        load_sweep(str(tmp_path / "sweep.toml"))
+    (tmp_path / "sweep.toml").write_bytes(written)
+    assert load_sweep(str(tmp_path / "sweep.toml")).points  # the batch's own bytes read as before
+
+
+def test_an_emptied_kept_policy_copy_is_named_as_changed_not_by_its_import(tmp_path):
+    import hashlib
+    import shutil
+
+    experiments = Path(__file__).resolve().parents[1] / "experiments"
+    run = tmp_path / "run"
+    shutil.copytree(experiments / "policies", run / "policies", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(experiments / "custom-policy.toml", run / "config.toml")
+    module = run / "policies" / "threshold.py"
+    (run / "manifest.json").write_text(json.dumps({  # a run with a finished participant, its copy kept
+        "policy_files": {"policies/threshold.py": hashlib.sha256(module.read_bytes()).hexdigest()},
+        "checksums": {"0": {}}}))
+    module.write_text("")
+    resumed = nudge("simulate", run / "config.toml", "--out", run, "--participants", "2", "--resume")
+    assert resumed.exit_code == 1
+    line = one_error_line(resumed.output)
+    assert "policies/threshold.py: changed since the run kept it" in line and "no attribute" not in line

@@ -49,12 +49,32 @@ def check_kept_inputs(folder: Path, recorded: object, inputs: Mapping[str, bytes
         kept = folder / name
         if kept.is_file() and file_sha256(kept) != digest and \
                 not same_settings(kept, inputs.get(name), digest):
-            raise RunFolderError(f"{kept}: changed since the batch wrote it (its SHA-256 differs from the "
-                                 f"one {BATCH_MANIFEST} records in {INPUTS_KEY!r}), so the batch would not "
-                                 "resume with what made its results; delete it and resume with the command "
-                                 "that started the batch (it writes the file again), or put it back from a "
-                                 "backup")
+            raise RunFolderError(changed_input_message(kept))
     check_copies_placeable(inputs, folder, recorded, "batch", "input")
+
+
+def changed_input_message(kept: Path) -> str:
+    """Why the batch's kept input ``kept`` (its experiment, plan or sweep file) is not resumed with:
+    it changed since the batch wrote it; and the fix."""
+    return (f"{kept}: changed since the batch wrote it (its SHA-256 differs from the one {BATCH_MANIFEST} "
+            f"records in {INPUTS_KEY!r}), so the batch would not resume with what made its results; delete "
+            "it and resume with the command that started the batch (it writes the file again), or put it "
+            "back from a backup")
+
+
+def kept_input_changed(path: Path) -> str | None:
+    """:func:`changed_input_message` where ``path`` is an input a batch keeps (its folder's
+    ``batch.json`` records its SHA-256 in :data:`INPUTS_KEY`) and its bytes are not those; else
+    ``None`` (no batch there, a batch.json unreadable: its own refusal says so)."""
+    import json
+
+    try:
+        recorded = json.loads((path.parent / BATCH_MANIFEST).read_text(encoding="utf-8"))[INPUTS_KEY]
+        digest = recorded[path.name]
+        changed = isinstance(digest, str) and file_sha256(path) != digest
+    except (OSError, ValueError, LookupError, TypeError):
+        return None
+    return changed_input_message(path) if changed else None
 
 
 def check_plan_not_edited(folder: Path, old: Mapping[str, Any], inputs: Mapping[str, bytes],

@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from nudgecli.errors import ConfigError, DataError, PolicyError, RunFolderError, did_you_mean
-from nudgecli.run_folder_names import BATCH_MANIFEST, FIGURES_DIR, MANIFEST, PART_KINDS, PEOPLE_DIR
+from nudgecli.run_folder_names import BATCH_MANIFEST, CONFIG, FIGURES_DIR, MANIFEST, PART_KINDS, PEOPLE_DIR
 from nudgecli.sim.policy_loader import imported_files, module_file, remove_cached_bytecode
 from nudgecli.sim.policy_registry import PolicySpec, load_factory, policy_specs
 
@@ -454,14 +454,49 @@ def check_same_policy_files(recorded: object, files: Mapping[str, bytes], source
                     "the manifest's)")
         copy = Path(where) / name
         if _same_path(shown, copy):  # the copy itself was edited (resumed from the folder's own files)
-            fix = (f"delete it and resume with the command that started the {kind} (it imports the module "
-                   "from the experiment's own folder and writes the copy again), or copy the module back "
-                   "from the experiment's own folder")
+            fix = _changed_copy_fix(kind)
         else:
             how = "resume with the run's own config.toml" if kind == "run" else "resume"
             fix = f"put the file back as it was (copy it from the {kind}'s copy, {copy}) and {how}"
         raise DataError(f"{what}: resuming would mix two policies in one {kind}; {fix}, or start again "
                         "with --force")
+
+
+def _changed_copy_fix(kind: str) -> str:
+    """How a ``kind`` (run or batch) folder's policy copy edited since it was kept is put right."""
+    return (f"delete it and resume with the command that started the {kind} (it imports the module from "
+            "the experiment's own folder and writes the copy again), or copy the module back from the "
+            "experiment's own folder")
+
+
+def changed_copy_error(experiment: Path) -> DataError | None:
+    """The refusal of the experiment file ``experiment`` of a run's or a batch's folder (its
+    ``config.toml``; a batch's kept experiment or sweep file) whose policy copies (the manifest's
+    :data:`MANIFEST_KEY`) are not all as kept: checked before the experiment imports them, so a copy
+    emptied or cut off is named as changed with its fix, not by what importing it raises. A run
+    none of whose participants finished is left alone (it takes the code as it is now:
+    :func:`check_resumed_policies`); ``None`` where nothing differs (or nothing is recorded)."""
+    import json
+
+    folder = experiment.parent
+    run = experiment.name == CONFIG
+    kind, record = ("run", folder / MANIFEST) if run else ("batch", folder / BATCH_MANIFEST)
+    try:
+        manifest = json.loads(record.read_text(encoding="utf-8"))
+        recorded = {str(name): str(digest) for name, digest in manifest[MANIFEST_KEY].items()}
+    except (OSError, ValueError, LookupError, TypeError, AttributeError):  # none kept, or its own refusal
+        return None
+    if kind == "run" and not manifest.get("checksums"):
+        return None
+    for name, digest in sorted(recorded.items()):
+        copy = folder / name
+        with contextlib.suppress(OSError):  # a copy gone: missing_copies' refusal, where it matters
+            if hashlib.sha256(copy.read_bytes()).hexdigest() != digest:
+                return DataError(f"{copy}: changed since the {kind} kept it (its SHA-256 differs from the "
+                                 f"one {record} records in {MANIFEST_KEY!r}), so {experiment} would not "
+                                 f"import the policy the {kind} was simulated with; "
+                                 f"{_changed_copy_fix(kind)}, or start again with --force")
+    return None
 
 
 def missing_copies(recorded: object, where: str | Path) -> list[str]:
