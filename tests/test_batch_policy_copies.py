@@ -261,7 +261,8 @@ def test_recorded_people_reads_the_batch_descriptions_entry(tmp_path: Path, text
 
 
 def test_the_resume_hint_names_the_batchs_copy_of_its_people_file(tmp_path: Path) -> None:
-    (tmp_path / BATCH_MANIFEST).write_text(json.dumps({"batch": {"people": PEOPLE}}))
+    kept = {**PEOPLE, "sha256": hashlib.sha256(b"x").hexdigest()}  # the copy's bytes as kept
+    (tmp_path / BATCH_MANIFEST).write_text(json.dumps({"batch": {"people": kept}}))
     assert people_to_resume(tmp_path, "typed.csv") == "typed.csv"  # no copy written yet
     (tmp_path / "people").mkdir()
     (tmp_path / "people" / "p.csv").write_text("x")

@@ -155,3 +155,28 @@ def test_an_emptied_kept_policy_copy_is_named_as_changed_not_by_its_import(tmp_p
     assert resumed.exit_code == 1
     line = one_error_line(resumed.output)
     assert "policies/threshold.py: changed since the run kept it" in line and "no attribute" not in line
+
+
+# --- an edited kept people copy -------------------------------------------------------------------
+
+def test_an_edited_people_copy_is_not_advised_and_its_resume_says_the_copy_changed(tmp_path, monkeypatch):
+    from people_helpers import people_typed_here
+
+    here = people_typed_here(tmp_path, monkeypatch, "ppl.csv")
+    made = nudge("simulate", "smoke", "--participants", "2", "--people", "ppl.csv", "--out", "pr")
+    assert made.exit_code == 0, made.output
+    run = here / "pr"
+    with (run / "people" / "ppl.csv").open("ab") as copy:
+        copy.write(b"2,by hand,slow,2.0,\r\n")  # edited since the run kept it
+    _drop(run, 1, ("trials",))
+    analyzed = nudge("analyze", "pr")
+    command = one_error_line(analyzed.output).split("`")[1]
+    assert "--people ppl.csv " in command  # the file it was simulated with, not the edited copy
+    refused = nudge("simulate", "smoke", "--out", "pr", "--seed", "7", "--participants", "2",
+                    "--people", "pr/people/ppl.csv", "--resume")
+    line = one_error_line(refused.output)
+    assert "pr/people/ppl.csv: the copy pr keeps of its people file changed since it was kept" in line
+    assert "--people ppl.csv (the resume puts the copy back)" in line
+    resumed = nudge(*_printed(command))
+    assert resumed.exit_code == 0, resumed.output
+    assert (run / "people" / "ppl.csv").read_bytes() == (here / "ppl.csv").read_bytes()

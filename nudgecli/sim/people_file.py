@@ -271,6 +271,15 @@ def check_same_people(recorded: object, people: People | None, where: str | Path
                         f"the folder records its people file by name (its copy is {PEOPLE_DIR}/"
                         f"{recorded.get('file')}): resume with --people {recorded.get('file')}")
 
+    if recorded and now and recorded.get("file") == now["file"] and \
+            _sha256_of(copy := copy_path(where, recorded)) == now["sha256"]:  # the folder's copy, edited
+        kept = str(recorded.get("sha256"))[:12]
+        raise DataError(f"{copy}: the copy {where} keeps of its people file changed since it was kept "
+                        f"(sha256 {now['sha256'][:12]}..., the manifest's {kept}...), so it is not the "
+                        f"people the folder was simulated with: resume with the file it was "
+                        f"simulated with, --people {recorded.get('file')} (the resume puts the copy back), "
+                        "or start again with --force")
+
     def said(record: dict[str, Any] | None) -> str:
         return "the population's people (no --people)" if record is None else \
             f"--people {record.get('file')} (sha256 {str(record.get('sha256'))[:12]}...)"
@@ -288,7 +297,8 @@ def copy_path(folder: str | Path, recorded: dict[str, Any]) -> Path:
 def resume_people(folder: str | Path, recorded: object, otherwise: str | None) -> str | None:
     """The ``--people`` a command that resumes ``folder`` names: the copy the folder keeps
     (:func:`copy_path`, by ``folder`` as given, so the command works from wherever the folder's
-    path does) where it has been written, else ``otherwise``.
+    path does) where it holds the bytes the manifest records, else ``otherwise`` (a copy not written
+    yet, or edited since).
 
     The one rule of every resume command a run or batch folder is named in: the one printed for
     a damaged run and the Ctrl-C hints.
@@ -307,7 +317,18 @@ def resume_people(folder: str | Path, recorded: object, otherwise: str | None) -
     if not isinstance(recorded, dict):
         return otherwise
     copy = copy_path(folder, recorded)
-    return str(copy) if copy.is_file() else otherwise
+    # a copy edited since it was kept would be refused as other people: the file it was simulated with
+    kept = recorded.get("sha256")
+    return str(copy) if copy.is_file() and (not isinstance(kept, str) or _sha256_of(copy) == kept) \
+        else otherwise
+
+
+def _sha256_of(path: Path) -> str | None:
+    """The SHA-256 of the file ``path`` (hex), ``None`` where it cannot be read (not there)."""
+    try:
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+    except OSError:
+        return None
 
 
 def keep_copy(people: People | None, folder: str | Path) -> None:
