@@ -15,7 +15,7 @@ import pandas as pd
 
 from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.csv_text import decimal_comma_advice, header_delimiter, not_utf8_message
-from nudgecli.errors import DataError
+from nudgecli.errors import DataError, did_you_mean
 from nudgecli.model.path_world import SNAP_TOLERANCE, PathLayout, path_gaps
 from nudgecli.report.habit_cells import (
     HABIT_RATE_HZ,
@@ -29,6 +29,8 @@ from nudgecli.report.habit_cells import (
 #: The columns of a real log (CSV): required, and optional with what they give.
 LOG_REQUIRED = ("trial", "label", "x", "y", "theta", "mode_switch")
 LOG_TIME_NAMES = ("t", "time")
+#: The optional columns, matched in any case (a spreadsheet's ``Participant``).
+LOG_OPTIONAL = ("participant", "layout", "turn")
 #: The longest a trial may last (s): the CIAA task's trials stop at 50 s, so a longer one is a time
 #: stamp out of place (milliseconds, a clock's epoch), whose cells would fill the memory (1e7 s is
 #: 1e8 cells, gigabytes).
@@ -93,10 +95,31 @@ def _read_log_frame(path: Path) -> tuple[pd.DataFrame, str]:
         raise DataError(not_utf8_message(path, reads_run_folders=True)) from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
         raise DataError(f"{path}: not a readable CSV log ({str(exc).strip()})") from None
-    frame.columns = [str(c).strip() for c in frame.columns]
+    frame.columns = _log_column_names(path, [str(c).strip() for c in frame.columns])
     if frame.empty:
         raise DataError(f"{path}: no rows; a real log needs at least two samples per trial")
     return frame, time_column
+
+
+def _log_column_names(path: Path, columns: list[str]) -> list[str]:
+    """The header's ``columns`` with the optional ones in lower case; a :class:`DataError` for an
+    optional column written twice, or a column that is no log column but close to an optional one
+    (a misspelt ``turn`` would count the autonomy's motion as the person's, a misspelt ``layout``
+    leave stop -> switch unmeasured, a misspelt ``participant`` make the file one person)."""
+    known = {*LOG_REQUIRED, *LOG_TIME_NAMES}
+    for name in LOG_OPTIONAL:
+        written = [c for c in columns if c.lower() == name]
+        if len(written) > 1:
+            raise DataError(f"{path}: the column {name!r} is written {len(written)} times "
+                            f"({', '.join(repr(c) for c in written)}); keep one")
+    for column in columns:
+        if column in known or column.lower() in LOG_OPTIONAL:
+            continue
+        hint = did_you_mean(column.lower(), LOG_OPTIONAL)
+        if hint:
+            raise DataError(f"{path}: column {column!r} is not a log column{hint}; rename it (the optional "
+                            "columns are participant, layout and turn), or remove it")
+    return [c.lower() if c.lower() in LOG_OPTIONAL else c for c in columns]
 
 
 def _log_time_column(path: Path, header: pd.Index) -> str:

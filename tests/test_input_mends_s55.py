@@ -1,0 +1,66 @@
+"""Configuration and input files whose misspelt or look-alike names were read without a word, or
+refused without naming the name: a real log's optional columns (any case; a near miss refused),
+... Each test was seen failing on the code before its fix."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from cli_helpers import one_error_line
+from click.testing import CliRunner
+
+from nudgecli.cli import main
+
+PILOT = Path(__file__).resolve().parents[1] / "experiments" / "pilots" / "pilot-1.csv"
+
+
+def refused(*args: str) -> str:
+    """The one error line of ``nudge ARGS``, which must exit 1 with nothing on stdout."""
+    result = CliRunner().invoke(main, list(args))
+    assert result.exit_code == 1 and result.stdout == "", result.output
+    return one_error_line(result.stderr)
+
+
+def pilot_with_header(tmp_path: Path, old: str, new: str) -> Path:
+    """The pilot log with its header's ``old`` written ``new``."""
+    header, rest = PILOT.read_text().split("\n", 1)
+    columns = [new if c == old else c for c in header.split(",")]
+    path = tmp_path / "log.csv"
+    path.write_text(",".join(columns) + "\n" + rest)
+    return path
+
+
+# --- a real log's optional columns ---------------------------------------------------------------
+
+
+def test_a_log_s_optional_columns_are_read_in_any_case(tmp_path: Path) -> None:
+    # before: a header `Participant` made the file one participant named after the file (`log`)
+    path = pilot_with_header(tmp_path, "participant", "Participant")
+    path.write_text(path.read_text().replace("Participant,layout", "Participant,Layout"))
+    result = CliRunner().invoke(main, ["habits", str(path)])
+    expected = CliRunner().invoke(main, ["habits", str(PILOT)])
+    assert result.exit_code == 0 and expected.exit_code == 0
+    assert result.stdout.replace(str(path), "LOG") == expected.stdout.replace(str(PILOT), "LOG")
+
+
+@pytest.mark.parametrize(("old", "new"), [("layout", "layuot"), ("participant", "particpant")])
+def test_a_log_column_close_to_an_optional_one_is_refused(tmp_path: Path, old: str, new: str) -> None:
+    # before: read without it, exit 0 (no stop -> switch; the file one participant)
+    line = refused("habits", str(pilot_with_header(tmp_path, old, new)))
+    assert f"column '{new}' is not a log column (did you mean '{old}'?)" in line
+
+
+def test_a_misspelt_turn_column_is_refused(tmp_path: Path) -> None:
+    # before: every row was the person's, the autonomy's motion counted as theirs
+    path = pilot_with_header(tmp_path, "layout", "layout")
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join([lines[0] + ",trun"] + [line + ",human" for line in lines[1:]]) + "\n")
+    assert "column 'trun' is not a log column (did you mean 'turn'?)" in refused("habits", str(path))
+
+
+def test_an_optional_column_written_twice_is_refused(tmp_path: Path) -> None:
+    path = pilot_with_header(tmp_path, "layout", "layout")
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join([lines[0] + ",Layout"] + [line + ",1" for line in lines[1:]]) + "\n")
+    assert "the column 'layout' is written 2 times ('layout', 'Layout')" in refused("habits", str(path))
