@@ -47,3 +47,33 @@ def test_json_output_keeps_a_small_p_value_exactly(command: str, tmp_path: Path,
     document = json.loads(result.stdout)
     assert document == [{"metric": "completion_time", "median_conover_p": 3.2e-12,
                          "effect_size": 0.123456789012345678, "difference_low": None}]
+
+
+def _replication_row(replication: int, tested: bool) -> dict[str, Any]:
+    """A :func:`~nudgecli.report.replication.replication_rows` row of ``completion_time``,
+    ``disambiguation - control``: tested (rank_biserial computed) or not (every value NaN, named none)."""
+    nan = float("nan")
+    return {"point": 0, "replication": replication, "seed": replication, "participants": 3,
+            "metric": "completion_time", "a": "disambiguation", "b": "control",
+            "median_a": 20.0 if tested else nan, "median_b": 21.0 if tested else nan,
+            "difference": -1.0 if tested else nan, "ci_low": -2.0 if tested else nan,
+            "ci_high": 0.5 if tested else nan, "kruskal_p": 0.3 if tested else nan,
+            "conover_p": 0.3 if tested else nan, "participant_p": nan,
+            "effect_size_name": "rank_biserial" if tested else "none", "effect_size": -0.3 if tested else nan,
+            "trial_significant": False, "trial_direction": -1 if tested else 0,
+            "participant_significant": False, "participant_direction": 0}
+
+
+def _some_tested_rows() -> pd.DataFrame:
+    """Four replications of which only the second tested the pair (the others' runs ran out of time)."""
+    return pd.DataFrame([_replication_row(r, r == 1) for r in range(4)])
+
+
+def test_the_summary_names_the_effect_size_the_tested_replications_computed() -> None:
+    from nudgecli.report.replication import summarise
+
+    summary = summarise(_some_tested_rows())
+    assert summary["tested"].tolist() == [1]
+    assert summary["effect_size_name"].tolist() == ["rank_biserial"]  # was the first replication's: none
+    untested = summarise(pd.DataFrame([_replication_row(r, False) for r in range(2)]))
+    assert untested["effect_size_name"].tolist() == ["none"]

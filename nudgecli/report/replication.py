@@ -255,6 +255,14 @@ def pair_tested(rows: pd.DataFrame) -> pd.Series:
     return ~untested
 
 
+def _tested_effect_size_name(names: pd.Series) -> str:
+    """The effect size the replications that tested a pair computed: their first name other than
+    ``none`` (a replication that could not test the pair names none; the first replication's name
+    alone said ``none`` of a pair the others measured), else ``none``."""
+    named = [str(name) for name in names if isinstance(name, str) and name != "none"]
+    return named[0] if named else "none"
+
+
 def _rate(flags: pd.Series, replications: int, tested_count: int) -> float:
     """The fraction of all ``replications`` ``flags`` counts; NaN where none tested the pair."""
     return float(flags.sum()) / replications if tested_count else math.nan
@@ -296,7 +304,7 @@ def summarise(rows: pd.DataFrame) -> pd.DataFrame:
             "median_kruskal_p": float(group["kruskal_p"].astype(float).median(skipna=False)),
             "median_conover_p": float(group["conover_p"].astype(float).median(skipna=False)),
             "median_participant_p": float(group["participant_p"].astype(float).median(skipna=False)),
-            "effect_size_name": group["effect_size_name"].iloc[0],
+            "effect_size_name": _tested_effect_size_name(group["effect_size_name"]),
             "effect_size": effect, "effect_size_low": effect_low, "effect_size_high": effect_high,
             "difference": diff, "difference_low": diff_low, "difference_high": diff_high,
         })
