@@ -77,3 +77,17 @@ def test_the_summary_names_the_effect_size_the_tested_replications_computed() ->
     assert summary["effect_size_name"].tolist() == ["rank_biserial"]  # was the first replication's: none
     untested = summarise(pd.DataFrame([_replication_row(r, False) for r in range(2)]))
     assert untested["effect_size_name"].tolist() == ["none"]
+
+
+def test_a_finished_batch_resumed_says_its_tasks_are_done_not_eta_unknown() -> None:
+    import io
+
+    from nudgecli.runs.progress import Progress
+
+    now = [0.0]
+    progress = Progress("replicate", stream=io.StringIO(), clock=lambda: now[0])
+    progress.tail_s = 2.0  # the tables and figures the resume still writes
+    now[0] = 3.0
+    line = progress.line(16, 16)  # every task was done before: no rate
+    assert line == "replicate: 16/16 tasks (100%), done before, ETA 2 s"  # was "0.00 tasks/s, ETA unknown"
+    assert "unknown" not in Progress("sweep", stream=io.StringIO()).line(4, 4)  # no tail known either

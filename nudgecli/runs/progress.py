@@ -37,15 +37,22 @@ class Progress:
         self.tail_s = 0.0
 
     def line(self, done: int, total: int) -> str:
-        """``label: done/total tasks (pct), rate tasks/s, ETA ...`` (the rate counts this session only)."""
+        """``label: done/total tasks (pct), rate tasks/s, ETA ...`` (the rate counts this session only;
+        with every task done the ETA is ``tail_s``, and a batch whose tasks were all done before, a
+        finished one resumed, says ``done before`` for its rate: "ETA unknown" read as work left)."""
         if self.first_done is None:
             self.first_done = done
         elapsed = self.clock() - self.start
         new = done - self.first_done
         rate = new / elapsed if elapsed > 0 and new > 0 else 0.0
-        eta = format_duration((total - done) / rate + self.tail_s) if rate > 0 else "unknown"
         pct = 100.0 * done / total if total else 100.0
-        return f"{self.label}: {done}/{total} tasks ({pct:.0f}%), {rate:.2f} tasks/s, ETA {eta}"
+        ran = f"{rate:.2f} tasks/s"
+        if done >= total:  # only the tables and figures are left, whatever the rate (none: all done before)
+            ran = ran if new > 0 else "done before"
+            eta = format_duration(self.tail_s)
+        else:
+            eta = format_duration((total - done) / rate + self.tail_s) if rate > 0 else "unknown"
+        return f"{self.label}: {done}/{total} tasks ({pct:.0f}%), {ran}, ETA {eta}"
 
     def __call__(self, done: int, total: int) -> None:
         text = self.line(done, total)
