@@ -342,6 +342,9 @@ def format_validation_error(exc: ValidationError, source: str, model: type[BaseM
     """One readable line naming the file, the field and the fix (``data``: what was validated, for
     the "did you mean" of a misspelt entry name of a table of sections, :func:`_entry_hint`)."""
     first = exc.errors()[0]
+    if first["type"] == "missing":  # a misspelt required key: the unknown key beside it is the fix
+        first = next((e for e in exc.errors() if e["type"] == "extra_forbidden"
+                      and tuple(e["loc"])[:-1] == tuple(first["loc"])[:-1]), first)
     loc = tuple(first["loc"])
     where = ".".join(str(p) for p in loc)
     if first["type"] == "extra_forbidden":

@@ -11,6 +11,9 @@ from cli_helpers import one_error_line
 from click.testing import CliRunner
 
 from nudgecli.cli import main
+from nudgecli.config import experiment_from_toml
+from nudgecli.errors import ConfigError
+from nudgecli.runs.sweep import load_sweep
 
 PILOT = Path(__file__).resolve().parents[1] / "experiments" / "pilots" / "pilot-1.csv"
 
@@ -64,3 +67,31 @@ def test_an_optional_column_written_twice_is_refused(tmp_path: Path) -> None:
     lines = path.read_text().splitlines()
     path.write_text("\n".join([lines[0] + ",Layout"] + [line + ",1" for line in lines[1:]]) + "\n")
     assert "the column 'layout' is written 2 times ('layout', 'Layout')" in refused("habits", str(path))
+
+
+# --- a misspelt required key ---------------------------------------------------------------------
+
+SWEEP = ('experiment = "smoke"\nreplications = 1\n[design]\nmethod = "grid"\n[parameters]\n'
+         '"disambiguation.window" = [3, 5]\n')
+
+
+@pytest.mark.parametrize(("old", "new", "named"), [
+    ('experiment = "smoke"', 'experment = "smoke"', "unknown key 'experment' (did you mean 'experiment'?)"),
+    ("[parameters]", "[parameter]", "unknown key 'parameter' (did you mean 'parameters'?)")])
+def test_a_sweep_file_s_misspelt_required_key_is_named(tmp_path: Path, old: str, new: str,
+                                                       named: str) -> None:
+    # before: "experiment: Field required (and 1 more problem(s))", the key written never named
+    path = tmp_path / "s.toml"
+    path.write_text(SWEEP.replace(old, new))
+    with pytest.raises(ConfigError) as caught:
+        load_sweep(str(path))
+    assert named in str(caught.value)
+
+
+def test_an_experiment_s_misspelt_required_key_is_named() -> None:
+
+    text = (Path(__file__).resolve().parents[1] / "experiments" / "custom-policy.toml").read_text()
+    assert "\nfactory = " in text
+    with pytest.raises(ConfigError) as caught:
+        experiment_from_toml(text.replace("\nfactory = ", "\nfactry = "), "custom.toml")
+    assert "unknown key 'policies.threshold.factry' (did you mean 'factory'?)" in str(caught.value)
