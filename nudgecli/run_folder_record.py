@@ -574,17 +574,27 @@ class RunRecord(LiveRecord, ConfigRecord):
         return (f"{folder} has no {kind} yet (no {kind}/part-*.parquet); run "
                 f"`{shell_words(['nudge', 'simulate', 'EXPERIMENT', '--out', str(folder)])}` first")
 
-    def check_own_manifest(self, manifest: Mapping[str, Any]) -> None:
+    def check_own_manifest(self, manifest: Mapping[str, Any], resume_seed: int | None = None) -> None:
         """Refuse a manifest that is another run's (copied over this one's:
-        :func:`~nudgecli.run_folder_trust.other_run_error`) or whose seed was edited away from the one
-        its experiment records (:func:`~nudgecli.run_folder_trust.edited_seed_error`).
+        :func:`~nudgecli.run_folder_trust.other_run_error`), and, where its two seeds differ
+        (:func:`~nudgecli.run_folder_trust.differing_seeds`), a resume with another seed than its own
+        (``resume_seed``), or, reading (``None``), a run that needs a resume (an intact complete one reads).
 
         Raises
         ------
         RunFolderError
             Names the manifest as the suspect: a resume would simulate every part again, or
             participants of another seed."""
-        from nudgecli.run_folder_trust import edited_seed_error, other_run_error
+        from nudgecli.run_folder_trust import differing_seeds_error, other_run_error
 
-        if (error := other_run_error(self, manifest) or edited_seed_error(self.manifest_path, manifest)):
+        if (error := other_run_error(self, manifest)) is not None:
             raise error
+        if resume_seed is None and manifest.get("status") == "complete" and \
+                not self.missing_parts(self.participant_count(manifest)):
+            return
+        if resume_seed is None or resume_seed != manifest.get("seed"):
+            lead = f"{self.path} needs a resume" if resume_seed is None else \
+                f"{self.path}: cannot resume with seed {resume_seed}"
+            if (error := differing_seeds_error(self.manifest_path, manifest, self.resume_command(manifest),
+                                               lead)) is not None:
+                raise error

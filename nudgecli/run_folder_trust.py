@@ -1,6 +1,6 @@
 """Whether a run folder's manifest and ``config.toml`` agree with each other before a command is
-advised or a resume trusts them: a manifest copied in from another run, a manifest whose ``seed`` was
-edited away from the seed its own experiment records, a ``config.toml`` damaged or edited since.
+advised or a resume trusts them: a manifest copied in from another run, a manifest whose ``seed``
+differs from the seed its own experiment records, a ``config.toml`` damaged or edited since.
 
 :class:`nudgecli.run_folder_record.RunRecord` calls these; they read and never write.
 """
@@ -66,14 +66,15 @@ def _own_seed(experiment: object) -> int | None:
         return None
 
 
-def edited_seed_error(manifest_path: Path, manifest: Mapping[str, Any]) -> RunFolderError | None:
-    """The refusal of a manifest whose ``seed`` differs from the seed its own experiment records
-    (``config.experiment.seed``): this nudge records the seed used in both, so one of them was edited,
-    and a resume would simulate the missing participants with another seed than the others.
+def differing_seeds(manifest: Mapping[str, Any]) -> tuple[int, int] | None:
+    """``(seed, config.experiment.seed)`` of a manifest where the two differ, ``None`` where they agree.
 
-    A run made before ``config.toml`` recorded its ``--seed`` records the experiment's own seed there
-    (that of the experiment the manifest names): that run is not refused (its resume rewrites
-    ``config.toml``), nor one whose experiment can no longer be read to tell. ``None`` otherwise."""
+    This nudge records the seed used in both; they differ where the manifest was edited by hand, or in
+    a run of an older nudge made with ``--set experiment.seed=A --seed B`` (it recorded ``A`` in the
+    experiment, ``B`` as the seed its parts were made with). Only a resume needs the seed: the parts of
+    a complete run are vouched for by their SHA-256. A run made before ``config.toml`` recorded its
+    ``--seed`` without ``--set experiment.seed`` (its experiment holds the seed of the experiment the
+    manifest names) is not one of these, nor one whose experiment can no longer be read to tell."""
     recorded, seed = manifest.get("config"), manifest.get("seed")
     if not isinstance(recorded, Mapping) or not isinstance(recorded.get("experiment"), Mapping):
         return None
@@ -83,11 +84,23 @@ def edited_seed_error(manifest_path: Path, manifest: Mapping[str, Any]) -> RunFo
     own = _own_seed(manifest.get("experiment"))
     if own is None or own == experiment_seed:  # a run from before config.toml recorded its --seed
         return None
-    return RunFolderError(f"{manifest_path}: inconsistent: its seed ({seed}) is not the seed its own "
-                          f"experiment records (config.experiment.seed = {experiment_seed}; this nudge "
-                          f"records the seed used in both), so {MANIFEST} was edited; put back the run's own "
-                          f"{MANIFEST} from a copy, or set its seed back to {experiment_seed} (a --resume "
-                          f"with seed {seed} would simulate participants of two seeds in one run)")
+    return seed, experiment_seed
+
+
+def differing_seeds_error(manifest_path: Path, manifest: Mapping[str, Any], resume: str,
+                          lead: str) -> RunFolderError | None:
+    """The refusal to resume (or to advise a resume of) a run whose manifest's two seeds differ
+    (:func:`differing_seeds`), ``None`` where they agree. ``lead`` says what was refused; ``resume`` is
+    the run's own resume command, with the manifest's seed: the one the parts of an older nudge's run
+    were made with. Neither seed is set back (either would corrupt one of the two kinds of run)."""
+    if (seeds := differing_seeds(manifest)) is None:
+        return None
+    seed, experiment_seed = seeds
+    return RunFolderError(f"{lead}: {manifest_path} records seed {seed} but config.experiment.seed = "
+                          f"{experiment_seed} (the manifest was edited by hand, or the run was made by an "
+                          "older nudge with --set experiment.seed and --seed); nothing was resumed; put back "
+                          f"the run's own {MANIFEST} from a copy, or, for such an older run, resume with the "
+                          f"seed its parts were made with (--seed {seed}): `{resume}`")
 
 
 def other_run_error(record: RunRecord, manifest: Mapping[str, Any]) -> RunFolderError | None:

@@ -498,7 +498,7 @@ class RunFolder(RunRecord):
                 f"{manifest.get('experiment')}, {manifest.get('status', 'unknown')}")
         mode = "new" if start else prepare_mode(self.path, held, resume, force, started=own_start)
         if manifest is not None and mode == "resume":
-            self.check_own_manifest(manifest)  # another run's: a resume would simulate every part again
+            self.check_own_manifest(manifest, seed)  # another run's, or a seed other than its parts'
             self.participant_count(manifest)  # a damaged count is named first: no command resumes it
             differences = self.resume_differences(manifest, config, seed, participants)
             if differences:

@@ -1,6 +1,7 @@
 """Nothing on a run's or a batch's disk is taken on trust where it decides the advice: a manifest
-whose seed was edited, a damaged config.toml, a batch.json whose plan was edited, a sweep file's
-`set` of the wrong type, a kept input damaged since it was kept, and an edited kept people file."""
+whose seed differs from its experiment's, a damaged config.toml, a batch.json whose plan was edited,
+a sweep file's `set` of the wrong type, a kept input damaged since it was kept, and an edited kept
+people file."""
 
 from __future__ import annotations
 
@@ -36,23 +37,51 @@ def _batch_resume(batch: Path) -> list[str]:
             "--plan", str(batch / "plan.toml"), "--resume"]
 
 
-# --- a manifest's seed edited away from its experiment's ------------------------------------------
+# --- a manifest's seed differing from its experiment's ----------------------------------------------
+
+def _seeds(run: Path, seed: int | None = None, experiment_seed: int | None = None) -> Path:
+    """``run`` with its manifest's seed and its experiment's seed (manifest and config.toml) set."""
+    manifest = json.loads((run / "manifest.json").read_text())
+    if seed is not None:
+        manifest["seed"] = seed
+    if experiment_seed is not None:
+        manifest["config"]["experiment"]["seed"] = experiment_seed
+        config = (run / "config.toml").read_text()
+        (run / "config.toml").write_text(config.replace(f"seed = {manifest['seed']}\n",
+                                                        f"seed = {experiment_seed}\n", 1))
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    return run
+
 
 def test_a_manifest_whose_seed_was_edited_is_refused_not_resumed(tmp_path, analysed_smoke_run):
-    run = copy_run(analysed_smoke_run, tmp_path / "run")
-    manifest = json.loads((run / "manifest.json").read_text())
-    manifest["seed"] = 4  # the run's experiment records 5, as config.toml does
-    (run / "manifest.json").write_text(json.dumps(manifest))
+    run = _seeds(copy_run(analysed_smoke_run, tmp_path / "run"), seed=4)  # its experiment records 5
     _drop(run, 1)
     analyzed = nudge("analyze", run)
     assert analyzed.exit_code == 1
     line = one_error_line(analyzed.output)
-    assert "manifest.json: inconsistent: its seed (4)" in line and "was edited" in line
-    assert "--resume" not in line.split("(a --resume")[0]
-    resumed = nudge("simulate", run / "config.toml", "--out", run, "--seed", "4", "--participants", "2",
-                    "--resume")
-    assert resumed.exit_code == 1 and "inconsistent: its seed (4)" in resumed.output
-    assert not (run / "trials" / "part-0001.parquet").exists()  # nothing of seed 4 simulated
+    assert "needs a resume" in line and "manifest.json records seed 4 but config.experiment.seed = 5" in line
+    assert "put back the run's own manifest.json from a copy" in line and "seed back" not in line
+    resumed = nudge("simulate", run / "config.toml", "--out", run, "--participants", "2", "--resume")
+    assert resumed.exit_code == 1
+    line = one_error_line(resumed.output)
+    assert "cannot resume with seed 5" in line and "nothing was resumed" in line
+    assert not (run / "trials" / "part-0001.parquet").exists()  # nothing of another seed simulated
+
+
+def test_an_older_runs_seeds_read_and_its_printed_resume_restores_its_own_parts(tmp_path, analysed_smoke_run):
+    # an older nudge's `--set experiment.seed=3 --seed 5`: 3 in its experiment, its parts made with 5
+    run = _seeds(copy_run(analysed_smoke_run, tmp_path / "run"), experiment_seed=3)
+    analyzed = nudge("analyze", run, "--bootstrap", "100", "--out", tmp_path / "A")
+    assert analyzed.exit_code == 0, analyzed.output  # intact and complete: vouched for by its SHA-256
+    _drop(run, 1, ("trials",))
+    line = one_error_line(nudge("analyze", run).output)
+    assert "--seed 5)" in line and "older nudge with --set experiment.seed and --seed" in line
+    command = line.split("`")[1]
+    assert "--seed 5 " in command
+    resumed = nudge(*_printed(command))
+    assert resumed.exit_code == 0, resumed.output
+    part = "trials/part-0001.parquet"
+    assert (run / part).read_bytes() == (analysed_smoke_run / part).read_bytes()  # seed 5's, as before
 
 
 # --- a damaged config.toml is not named in the advice ----------------------------------------------
