@@ -95,3 +95,20 @@ def test_an_experiment_s_misspelt_required_key_is_named() -> None:
     with pytest.raises(ConfigError) as caught:
         experiment_from_toml(text.replace("\nfactory = ", "\nfactry = "), "custom.toml")
     assert "unknown key 'policies.threshold.factry' (did you mean 'factory'?)" in str(caught.value)
+
+
+# --- a sweep file's parameter tables -------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("entry", "named"), [
+    ("disambiguation.window = [3, 5]",
+     'a dotted key must be quoted, e.g. "disambiguation.window" = [3, 5]'),
+    ('"disambiguation.window" = { value = [3, 5] }', "unknown key 'value' (did you mean 'values'?)"),
+    ('"disambiguation.window" = { low = 0.5, hgh = 0.8 }', "unknown key 'hgh' (did you mean 'high'?)")])
+def test_a_parameter_s_unknown_key_is_named(tmp_path: Path, entry: str, named: str) -> None:
+    # before: "a range needs low and high ..." of each, the key written never named
+    path = tmp_path / "s.toml"
+    path.write_text(SWEEP.replace('"disambiguation.window" = [3, 5]', entry))
+    with pytest.raises(ConfigError) as caught:
+        load_sweep(str(path))
+    assert named in str(caught.value) and "a range needs" not in str(caught.value)

@@ -12,6 +12,7 @@ from pydantic import Field, ValidationError, model_validator
 
 from nudgecli.config_base import Section
 from nudgecli.config_files import as_written, format_validation_error, settable_path
+from nudgecli.errors import did_you_mean
 
 
 class _Model(Section):
@@ -189,6 +190,45 @@ def set_key(entry: str) -> str:
     return ".".join(settable_path(entry.partition("=")[0]) or [])
 
 
+#: The keys of a ``[parameters]`` entry's table: a set of values, or a range.
+PARAMETER_KEYS = ("values", "low", "high", "integer")
+
+
+def _fits(key: str, value: Any) -> bool:
+    """Whether ``value`` is of the kind the parameter table's ``key`` takes."""
+    if key == "values":
+        return isinstance(value, list)
+    if key == "integer":
+        return isinstance(value, bool)
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _refuse_unknown_keys(where: str, key: str, written: dict[str, Any]) -> None:
+    """A :class:`ValueError` for a key of a parameter's table that is none of :data:`PARAMETER_KEYS`,
+    before the table is taken for a range (which said "a range needs low and high" of ``hgh`` or
+    ``value``): a near miss with its did-you-mean, and a table of tables or lists (TOML's reading of
+    an unquoted dotted key, ``disambiguation.window = [3, 5]``) with the quotes it needs."""
+    unknown = [name for name in written if name not in PARAMETER_KEYS]
+    if not unknown:
+        return
+    known = written.keys() & set(PARAMETER_KEYS)
+    for name in unknown:
+        hint = did_you_mean(name, PARAMETER_KEYS)
+        meant = next((k for k in PARAMETER_KEYS if f"{k!r}" in hint), "")
+        if hint and (known or _fits(meant, written[name])):
+            raise ValueError(f"{where}: unknown key {name!r}{hint}; a parameter is a list of values, "
+                             "{ values = [...] } or { low = ..., high = ... }")
+    if not known and all(isinstance(value, dict | list) for value in written.values()):
+        path, value = [key, unknown[0]], written[unknown[0]]
+        while isinstance(value, dict) and value and not value.keys() & set(PARAMETER_KEYS):
+            inner = next(iter(value))
+            path, value = [*path, inner], value[inner]
+        raise ValueError(f"{where}: a table of {', '.join(repr(n) for n in unknown)}, not a parameter; a "
+                         f"dotted key must be quoted, e.g. \"{'.'.join(path)}\" = {as_written(value)}")
+    raise ValueError(f"{where}: unknown key {unknown[0]!r}; a parameter's table holds values, or low and "
+                     "high (integer optional)")
+
+
 def parameter(key: str, written: Any) -> Any:
     """One ``[parameters]`` entry as written -> a :class:`Values` or :class:`Range`.
 
@@ -209,6 +249,7 @@ def parameter(key: str, written: Any) -> Any:
     if not isinstance(written, dict):
         raise ValueError(f"{where}: give a list of values, e.g. [0.6, 0.7], or a range, e.g. "
                          f"{{ low = 0.5, high = 0.8 }} (got {as_written(written)})")
+    _refuse_unknown_keys(where, key, written)
     if "values" in written and {"low", "high", "integer"} & written.keys():
         raise ValueError(f"{where}: give either values or low and high, not both")
     if "values" in written and isinstance(written["values"], list) and not written["values"]:
