@@ -106,6 +106,32 @@ def test_an_analysis_recording_no_plan_removes_the_plan_copy_an_earlier_one_kept
     assert not (out / "analysis_plan.toml").exists()
 
 
+def test_an_analysis_again_under_its_own_kept_plan_copy_reads_it_and_keeps_it(
+        analysed_under_a_plan_file: tuple[Path, Path, Path], tmp_path: Path,
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    run, plan, out = analysed_under_a_plan_file
+    copy, kept = out / "analysis_plan.toml", (out / "analysis_plan.toml").read_bytes()
+    again = nudge("analyze", run, "--plan", copy, "--out", out, "--force", "--bootstrap", "100")
+    assert again.exit_code == 0, again.output  # was: "is this command's input (--plan) ... another --out"
+    stats = json.loads((out / "stats.json").read_text())
+    assert stats["plan"] == "analysis_plan.toml" and copy.read_bytes() == kept
+    loose = load_plan(plan).comparison_options()
+    assert _star_rule_plotted(monkeypatch, out) == loose  # its SHA-256 as recorded: the copy checks
+    # a run analysed in its own folder, then given its own copy: analyze and plot both take it
+    assert nudge("analyze", run, "--plan", plan, "--bootstrap", "100").exit_code == 0
+    own = run / "analysis_plan.toml"
+    assert _star_rule_plotted(monkeypatch, run, "--plan", own) == loose
+    again = nudge("analyze", run, "--plan", own, "--bootstrap", "100")
+    assert again.exit_code == 0, again.output
+    # a table's analysis, given its own copy
+    table = tmp_path / "study.csv"
+    shutil.copy(run / "metrics.csv", table)
+    assert nudge("analyze", table, "--plan", plan, "--bootstrap", "100").exit_code == 0
+    again = nudge("analyze", table, "--plan", tmp_path / "study-analysis" / "analysis_plan.toml",
+                  "--bootstrap", "100", "--force")
+    assert again.exit_code == 0, again.output
+
+
 def test_a_policy_module_on_sys_path_raising_as_it_is_imported_is_named_by_file_and_line(
         tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     from policy_helpers import QUIET_POLICY, policy_experiment

@@ -114,22 +114,30 @@ def record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan: An
         found = load_plan(plan_of_source(out_dir, damaged_manifest=True))
     if found == plan:
         return {}, None
-    digest, text = kept_plan_file(plan, named)
-    return {ANALYSIS_PLAN_KEY: named if text is None else ANALYSIS_PLAN_COPY, **digest}, text
+    digest, text = kept_plan_file(plan, named, out_dir)
+    return {ANALYSIS_PLAN_KEY: ANALYSIS_PLAN_COPY if digest else named, **digest}, text
 
 
-def kept_plan_file(plan: AnalysisPlan, named: str | None = None) -> tuple[dict[str, Any], str | None]:
+def kept_plan_file(plan: AnalysisPlan, named: str | None = None,
+                   out_dir: Path | None = None) -> tuple[dict[str, Any], str | None]:
     """What ``stats.json`` records of the analysis's copy of ``plan``'s file
     (:data:`ANALYSIS_PLAN_SHA256_KEY`: its SHA-256) and the copy's text, for a plan read from a file
     (``named``: :func:`~nudgecli.report.plans.plan_argument`, taken when not given); ``({}, None)``
     for a preset or a plan built in code. A table's analysis keeps one too, its ``table_read``
-    naming the file it was given (the ``--plan`` of the command that analyses it again)."""
+    naming the file it was given (the ``--plan`` of the command that analyses it again). The text
+    is ``None`` where the file is the copy in ``out_dir`` itself: its bytes are the copy's already
+    (an analysis again under its own kept copy), never rewritten from itself."""
     named = plan_argument(plan) if named is None else named
     if named is None or plan.file is None:  # a preset's name, or none (built in code)
         return {}, None
     # the file as read now (plan_argument has just found it holds this plan): the copy plot reads
-    text = Path(named).read_bytes().decode("utf-8")
-    return {ANALYSIS_PLAN_SHA256_KEY: hashlib.sha256(text.encode("utf-8")).hexdigest()}, text
+    data = Path(named).read_bytes()
+    digest = {ANALYSIS_PLAN_SHA256_KEY: hashlib.sha256(data).hexdigest()}
+    copy = None if out_dir is None else out_dir / ANALYSIS_PLAN_COPY
+    with contextlib.suppress(OSError):
+        if copy is not None and copy.is_file() and os.path.samefile(named, copy):
+            return digest, None
+    return digest, data.decode("utf-8")
 
 
 def _kept_plan_copy(folder: Path, stats: Mapping[str, Any]) -> str:
