@@ -91,3 +91,24 @@ def test_a_finished_batch_resumed_says_its_tasks_are_done_not_eta_unknown() -> N
     line = progress.line(16, 16)  # every task was done before: no rate
     assert line == "replicate: 16/16 tasks (100%), done before, ETA 2 s"  # was "0.00 tasks/s, ETA unknown"
     assert "unknown" not in Progress("sweep", stream=io.StringIO()).line(4, 4)  # no tail known either
+
+
+def _texts(ax: Any) -> list[str]:
+    """Every text drawn in a panel and its y tick labels."""
+    return [text.get_text() for text in ax.texts] + [label.get_text() for label in ax.get_yticklabels()]
+
+
+def test_a_forest_panel_without_a_pooled_mean_says_why() -> None:
+    from nudgecli.report.figures.replication import forest_panel, pairs_forest_panel
+    from nudgecli.report.replication import summarise
+
+    rows = _some_tested_rows()
+    summary = summarise(rows)
+    assert summary["difference"].isna().all()  # pooled over all four or none: no line to draw
+    ax = forest_panel(rows, summary.iloc[0])
+    assert "pooled: undefined (1 of 4 tested)" in _texts(ax)  # was nothing: no line and no word why
+    three = pd.concat([rows, rows.assign(b="teleoperation", difference=0.5)], ignore_index=True)
+    ax = pairs_forest_panel(three, summarise(three))
+    labels = [label.get_text() for label in ax.get_yticklabels()]
+    assert labels == ["disambiguation - control\npooled: undefined (1 of 4 tested)",
+                      "disambiguation - teleoperation"]

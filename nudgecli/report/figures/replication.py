@@ -63,11 +63,13 @@ def _grid(n: int, width: float = PANEL_FIGSIZE[0],
 NO_VALUE_COLOUR = "#7f8c8d"
 
 
-def _say_no_value(ax: Axes, words: str, x: float = 0.5, y: float = 0.5, transform: Any = None) -> None:
-    """``words`` written in the panel (axes fraction ``x``, ``y``; or at ``transform``'s ``x, y``)
-    where there is no value to draw: blank axes read as a value of 0 or as a row left out."""
-    ax.text(x, y, words, transform=ax.transAxes if transform is None else transform, ha="center",
-            va="center", fontstyle="italic", color=NO_VALUE_COLOUR)
+def _say_no_value(ax: Axes, words: str, x: float = 0.5, y: float = 0.5, transform: Any = None, *,
+                  ha: str = "center", va: str = "center") -> None:
+    """``words`` written in the panel (axes fraction ``x``, ``y``; or at ``transform``'s ``x, y``;
+    aligned there as ``ha``, ``va`` say) where there is no value to draw: blank axes read as a
+    value of 0 or as a row left out."""
+    ax.text(x, y, words, transform=ax.transAxes if transform is None else transform, ha=ha,
+            va=va, fontstyle="italic", color=NO_VALUE_COLOUR)
 
 
 def _no_value_axis(ax: Axes, axis: str = "y") -> None:
@@ -124,7 +126,9 @@ def _replication_intervals(ax: Axes, rows: pd.DataFrame, y: np.ndarray, *, ms: f
 @_styled
 def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = None) -> Axes:
     """One metric's forest plot: every replication's difference of medians with its bootstrap
-    interval, coloured by participant-level significance, and the pooled mean with its range.
+    interval, coloured by participant-level significance, and the pooled mean with its range; where
+    the pooled mean is undefined though some replications have a difference (a replication that
+    did not test the pair), the panel says so (``pooled: undefined (1 of 4 tested)``).
 
     Parameters
     ----------
@@ -149,6 +153,8 @@ def forest_panel(group: pd.DataFrame, pooled: pd.Series, *, ax: Axes | None = No
     if not np.isfinite(group["difference"].astype(float)).any():
         _say_no_value(ax, _missing_words(pooled))
         _no_value_axis(ax, "x")
+    elif not np.isfinite(float(pooled["difference"])):  # no line: say why, as sweep.png's "undefined at"
+        _say_no_value(ax, _pooled_undefined_words(group, pooled), 0.02, 0.97, ha="left", va="top")
     return ax
 
 
@@ -158,12 +164,25 @@ def _missing_words(pooled: pd.Series) -> str:
     return "not tested" if "tested" in pooled and pooled["tested"] == 0 else "undefined"
 
 
+def _pooled_undefined_words(group: pd.DataFrame, pooled: pd.Series) -> str:
+    """Why a pair some replications have a difference for has no pooled mean (NaN:
+    :func:`~nudgecli.report.replication.summarise` pools over all replications or none):
+    "pooled: undefined (1 of 4 tested)", or "(3 of 4 defined)" where each tested the pair."""
+    replications = len(group)
+    tested = int(pooled["tested"]) if "tested" in pooled else replications
+    if tested < replications:
+        return f"pooled: undefined ({tested} of {replications} tested)"
+    defined = int(np.isfinite(group["difference"].astype(float)).sum())
+    return f"pooled: undefined ({defined} of {replications} defined)"
+
+
 @_styled
 def pairs_forest_panel(group: pd.DataFrame, pooled: pd.DataFrame, *, ax: Axes | None = None) -> Axes:
     """One metric's forest plot of every pair of conditions (a study of three or more): one row per
     pair ``a - b``, in it every replication's difference of medians with its bootstrap interval
     (coloured by the pair's participant-level significance, replications spread over the row) and
-    the pooled mean (a dark tick) with its 2.5-97.5 % range (a band).
+    the pooled mean (a dark tick) with its 2.5-97.5 % range (a band), or in the row's label why it
+    is undefined (``a - b, pooled: undefined (1 of 4 tested)``).
 
     Parameters
     ----------
@@ -179,6 +198,7 @@ def pairs_forest_panel(group: pd.DataFrame, pooled: pd.DataFrame, *, ax: Axes | 
     replications = sorted(group["replication"].unique())
     spread = {r: (i - (len(replications) - 1) / 2) * 0.7 / max(1, len(replications))
               for i, r in enumerate(replications)}
+    labels = [f"{a} - {b}" for a, b in pairs]
     for row, (a, b) in enumerate(pairs):
         own = group[(group["a"] == a) & (group["b"] == b)]
         y = row + own["replication"].map(spread).to_numpy(dtype=float)
@@ -187,13 +207,16 @@ def pairs_forest_panel(group: pd.DataFrame, pooled: pd.DataFrame, *, ax: Axes | 
         if not np.isfinite(own["difference"].astype(float)).any():  # an empty row reads as a row left out
             words = _missing_words(summary.iloc[0]) if not summary.empty else "undefined"
             _say_no_value(ax, words, 0.5, row, ax.get_yaxis_transform())
+        elif not summary.empty and not np.isfinite(float(summary.iloc[0]["difference"])):
+            # no tick: why, in the row's label (written in the row it would cover the replications)
+            labels[row] += f"\n{_pooled_undefined_words(own, summary.iloc[0])}"
         if not summary.empty:
             first = summary.iloc[0]
             ax.fill_betweenx([row - 0.42, row + 0.42], first["difference_low"], first["difference_high"],
                              color="#3498db", alpha=0.15, linewidth=0)
             ax.plot([first["difference"]] * 2, [row - 0.42, row + 0.42], color="#2c3e50", lw=1.2)
     ax.axvline(0, color="black", lw=0.6, ls=":")
-    ax.set_yticks(np.arange(len(pairs)), [f"{a} - {b}" for a, b in pairs])
+    ax.set_yticks(np.arange(len(pairs)), labels)
     ax.set_ylim(len(pairs) - 0.5, -0.5)  # the first pair on top
     ax.set_title(str(group["metric"].iloc[0]))
     ax.set_xlabel("a - b (difference of medians)")
