@@ -112,3 +112,16 @@ def test_a_forest_panel_without_a_pooled_mean_says_why() -> None:
     labels = [label.get_text() for label in ax.get_yticklabels()]
     assert labels == ["disambiguation - control\npooled: undefined (1 of 4 tested)",
                       "disambiguation - teleoperation"]
+
+
+def test_a_swept_parameter_of_one_value_draws_its_range_as_an_error_bar() -> None:
+    from nudgecli.report.figures.replication import sweep_panel, sweep_values
+
+    group = pd.DataFrame({"inference.kappa": [0.6] * 5, "difference": [0.1, 0.2, 0.3, 0.4, 0.5]})
+    stats = sweep_values(group, "inference.kappa")
+    ax = sweep_panel(group, "inference.kappa")
+    # was a band from fill_between over one x: no width, nothing drawn
+    assert len(ax.containers) == 1
+    (segments,) = [c.get_segments() for c in ax.containers[0].lines[2]]
+    assert [segments[0][0][1], segments[0][1][1]] == pytest.approx([stats["low"][0], stats["high"][0]])
+    assert stats["high"][0] > stats["low"][0]

@@ -397,8 +397,10 @@ def _mark_undefined(ax: Axes, x: np.ndarray, labels: list[str]) -> None:
 @_styled
 def sweep_panel(group: pd.DataFrame, name: str, *, ax: Axes | None = None) -> Axes:
     """One metric's difference of medians against one swept parameter (:func:`sweep_values`): the
-    mean per value with the 2.5-97.5 % band (numeric parameters), or points with bars (other
-    values); the values where the difference is undefined as open circles on the x axis, named.
+    means per value joined by a line, with the 2.5-97.5 % band (values that are not numbers the
+    same way, each at a tick of its own in sorted order); a parameter of one value, where a band
+    would have no width, a point with that range as an error bar; the values where the difference
+    is undefined as open circles on the x axis, named.
 
     Parameters
     ----------
@@ -414,8 +416,12 @@ def sweep_panel(group: pd.DataFrame, name: str, *, ax: Axes | None = None) -> Ax
     stats = sweep_values(group, name)
     numeric = pd.api.types.is_numeric_dtype(stats["value"])
     x = stats["value"].to_numpy() if numeric else np.arange(len(stats))
-    ax.plot(x, stats["mean"].astype(float), marker="o", ms=3)
-    ax.fill_between(x, stats["low"].astype(float), stats["high"].astype(float), alpha=0.2)
+    mean, low, high = (stats[column].to_numpy(dtype=float) for column in ("mean", "low", "high"))
+    if len(x) == 1:  # one value: a band of zero width would not show, the range as an error bar
+        ax.errorbar(x, mean, yerr=np.abs(np.vstack([mean - low, high - mean])), fmt="o", ms=3, capsize=3)
+    else:
+        ax.plot(x, mean, marker="o", ms=3)
+        ax.fill_between(x, low, high, alpha=0.2)
     ax.axhline(0, color="black", lw=0.5, ls=":")
     undefined = stats["mean"].isna().to_numpy()
     _mark_undefined(ax, x[undefined], [f"{v:g}" if numeric else str(v) for v in stats["value"][undefined]])
