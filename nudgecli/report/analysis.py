@@ -432,8 +432,7 @@ def _analyze_locked(source: Path, plan_arg: str | Path | AnalysisPlan | None, ou
         from nudgecli.runs.study import own_plan_advice
         fix = own_plan_advice(table["condition"].astype(str).unique())
         raise exc if plan_arg is not None else ConfigError(f"{exc}; no --plan was given: {fix}") from None
-    plan_kept, plan_copy = record_plan(run, manifest, plan, out_dir) if run else \
-        kept_plan_file(plan, out_dir=out_dir)
+    plan_kept, plan_copy = record_plan(run, manifest, plan, out_dir) if run else kept_plan_file(plan, out_dir)
     source_record.update(plan_kept)  # a run's plan where out_dir hides it; a plan file's copy, kept
     check_filters(plan, available)
     scores, score_names = _read_scores(questionnaires, table, source, manifest, notes)

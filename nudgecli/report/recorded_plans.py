@@ -114,12 +114,12 @@ def record_plan(run: RunFolder | None, manifest: dict[str, Any] | None, plan: An
         found = load_plan(plan_of_source(out_dir, damaged_manifest=True))
     if found == plan:
         return {}, None
-    digest, text = kept_plan_file(plan, named, out_dir)
+    digest, text = kept_plan_file(plan, out_dir, named)
     return {ANALYSIS_PLAN_KEY: ANALYSIS_PLAN_COPY if digest else named, **digest}, text
 
 
-def kept_plan_file(plan: AnalysisPlan, named: str | None = None,
-                   out_dir: Path | None = None) -> tuple[dict[str, Any], str | None]:
+def kept_plan_file(plan: AnalysisPlan, out_dir: Path | None = None,
+                   named: str | None = None) -> tuple[dict[str, Any], str | None]:
     """What ``stats.json`` records of the analysis's copy of ``plan``'s file
     (:data:`ANALYSIS_PLAN_SHA256_KEY`: its SHA-256) and the copy's text, for a plan read from a file
     (``named``: :func:`~nudgecli.report.plans.plan_argument`, taken when not given); ``({}, None)``
