@@ -24,15 +24,11 @@ from nudgecli.config import ExperimentConfig, experiment_from_toml
 from nudgecli.config_files import format_validation_error
 from nudgecli.errors import ConfigError, NudgeError, RunFolderError, WriteError
 from nudgecli.run_folder_names import (
-    ANALYSIS_PLAN_COPY,
+    ANALYSIS_FILES,
     CONFIG,
     MANIFEST,
-    METRICS_CSV,
     PLAN_COPY,
-    QUESTIONNAIRE_SCORES_CSV,
-    STATS_CSV,
     STATS_JSON,
-    SUMMARY_MD,
 )
 from nudgecli.run_folder_state import only_a_start
 
@@ -130,8 +126,7 @@ def remove_run_analysis(folder: Path) -> None:
     again (:meth:`ConfigRecord.keep_plan`)."""
     from nudgecli.run_folder_record import remove_run_figures  # the record builds on this module
 
-    for name in (STATS_JSON, METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV,
-                 ANALYSIS_PLAN_COPY):  # the plan an analysis under another plan kept
+    for name in (STATS_JSON, *ANALYSIS_FILES):
         (folder / name).unlink(missing_ok=True)
     remove_run_figures(folder)  # drawn under the old analysis (its plan's star rule)
 

@@ -65,6 +65,11 @@ ANALYSIS_PLAN_COPY = "analysis_plan.toml"
 #: The participants' questionnaire answers ``nudge study`` records (a record, read by ``nudge
 #: analyze --questionnaires``; never written by an analysis).
 QUESTIONNAIRES_CSV = "questionnaires.csv"
+#: The files an analysis writes into its folder, in this order: ``stats.json``, which every reader
+#: starts from, last (:func:`nudgecli.report.analysis.analyze`); what a run's ``--force`` removes
+#: with its old analysis (:func:`nudgecli.run_folder_config.remove_run_analysis`).
+ANALYSIS_FILES = (METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV, ANALYSIS_PLAN_COPY,
+                  STATS_JSON)
 #: The folder ``nudge plot`` (and a batch) writes its figures into.
 FIGURES_DIR = "figures"
 #: The formats figures are written in (``--formats``; a run's ``figures/`` holds them).

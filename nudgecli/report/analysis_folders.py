@@ -34,13 +34,10 @@ from nudgecli.errors import RunFolderError, shell_words
 from nudgecli.locks import LOCK, pid_alive
 from nudgecli.report.tables import TABLE_SUFFIXES
 from nudgecli.run_folder_names import (
-    ANALYSIS_PLAN_COPY,
+    ANALYSIS_FILES,
     MANIFEST,
     METRICS_CSV,
-    QUESTIONNAIRE_SCORES_CSV,
-    STATS_CSV,
     STATS_JSON,
-    SUMMARY_MD,
 )
 from nudgecli.run_folder_record import file_sha256
 from nudgecli.run_folder_state import refuse_links
@@ -124,12 +121,6 @@ def check_folder_is_the_tables(table: Path, folder: Path) -> None:
     raise RunFolderError(f"{folder} holds the analysis of {other}, not of {table}; analysing {table} "
                          f"there would replace it: give {table} a folder of its own with --out (e.g. "
                          f"--out {own}), or use --force to replace that analysis")
-
-
-#: The files an analysis writes into its folder, in this order: ``stats.json``, which every reader
-#: starts from, last (:func:`nudgecli.report.analysis.analyze`).
-ANALYSIS_FILES = (METRICS_CSV, STATS_CSV, SUMMARY_MD, QUESTIONNAIRE_SCORES_CSV, ANALYSIS_PLAN_COPY,
-                  STATS_JSON)
 
 
 def refuse_linked_analysis(folder: Path) -> None:
