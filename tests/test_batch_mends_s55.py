@@ -125,3 +125,16 @@ def test_a_swept_parameter_of_one_value_draws_its_range_as_an_error_bar() -> Non
     (segments,) = [c.get_segments() for c in ax.containers[0].lines[2]]
     assert [segments[0][0][1], segments[0][1][1]] == pytest.approx([stats["low"][0], stats["high"][0]])
     assert stats["high"][0] > stats["low"][0]
+
+
+def test_the_docs_say_the_forest_plot_colours_the_participant_level_verdict() -> None:
+    from nudgecli.report.figures.replication import forest_panel
+    from nudgecli.report.replication import summarise
+
+    docs = (Path(__file__).parents[1] / "docs" / "batches.md").read_text(encoding="utf-8")
+    said = " ".join(docs.split("`figures/forest.png` shows", 1)[1].split(";", 1)[0].split())
+    # was "coloured by significance": the trial-level verdict colours nothing
+    assert "coloured by its participant-level (Wilcoxon) verdict only" in said
+    rows = pd.DataFrame([_replication_row(r, True) for r in range(2)])
+    _, labels = forest_panel(rows, summarise(rows).iloc[0]).get_legend_handles_labels()
+    assert labels == ["not significant", "significant (participant level)"]
