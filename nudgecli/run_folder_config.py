@@ -104,7 +104,7 @@ def kept_run_people(experiment: object, people: Any, log: Callable[[str], None] 
         return None  # simulated with the population's people
     copy = copy_path(run, dict(recorded))
     try:
-        kept = hashlib.sha256(copy.read_bytes()).hexdigest() == recorded.get("sha256")
+        kept = not copy_changed(copy, recorded.get("sha256"))
     except OSError:
         kept = False
     if not kept:
@@ -118,6 +118,19 @@ def kept_run_people(experiment: object, people: Any, log: Callable[[str], None] 
             f"{recorded['file']}: simulating the copy it keeps, --people {copy} (--people FILE chooses "
             "other people)")
     return str(copy)
+
+
+def copy_changed(copy: Path, recorded: object) -> bool:
+    """Whether ``copy``, a file a folder keeps beside the SHA-256 it records of it (``recorded``), changed
+    since it was kept: its SHA-256 (:func:`~nudgecli.run_folder_record.file_sha256`) is another.
+
+    Raises
+    ------
+    OSError
+        The copy cannot be read (gone, a folder): each folder names its own copy and fix."""
+    from nudgecli.run_folder_record import file_sha256  # the record builds on this module
+
+    return file_sha256(copy) != recorded
 
 
 def remove_run_analysis(folder: Path) -> None:
@@ -260,7 +273,7 @@ class ConfigRecord:
         copy = self.path / recorded
         where = f"{self.path / MANIFEST} 'plan'"
         try:
-            changed = hashlib.sha256(copy.read_bytes()).hexdigest() != manifest[PLAN_SHA256_KEY]
+            changed = copy_changed(copy, manifest[PLAN_SHA256_KEY])
         except OSError as exc:
             raise ConfigError(f"{copy}: the run's copy of its analysis plan ({where}) cannot be read "
                               f"({exc.strerror or exc}); put it back from a backup, or give --plan PLAN, "

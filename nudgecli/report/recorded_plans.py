@@ -33,6 +33,7 @@ from nudgecli.errors import ConfigError, NudgeError, shell_words
 from nudgecli.report.analysis_folders import analysis_folder
 from nudgecli.report.plans import AnalysisPlan, load_plan, plan_argument
 from nudgecli.report.table_read import TABLE_READ_KEY, analyze_again, plan_seen_from_here, recorded_table_read
+from nudgecli.run_folder_config import copy_changed
 from nudgecli.run_folder_names import ANALYSIS_PLAN_COPY, MANIFEST, STATS_JSON
 from nudgecli.store import RunFolder, is_run_folder
 
@@ -151,7 +152,7 @@ def _kept_plan_copy(folder: Path, stats: Mapping[str, Any]) -> str:
         analysis: its ``table_read``'s) and the ``nudge analyze`` command that analyses again."""
     copy = folder / ANALYSIS_PLAN_COPY
     try:
-        changed = hashlib.sha256(copy.read_bytes()).hexdigest() != stats[ANALYSIS_PLAN_SHA256_KEY]
+        changed = copy_changed(copy, stats[ANALYSIS_PLAN_SHA256_KEY])
         what = "changed since the analysis kept it (its SHA-256 differs from " \
                f"{STATS_JSON}'s {ANALYSIS_PLAN_SHA256_KEY!r})"
     except OSError as exc:
