@@ -12,7 +12,8 @@ from click.testing import CliRunner
 
 from nudgecli.cli import main
 from nudgecli.config import experiment_from_toml
-from nudgecli.errors import ConfigError
+from nudgecli.errors import ConfigError, DataError
+from nudgecli.report.questionnaires import questionnaire_scores, read_questionnaires
 from nudgecli.runs.sweep import load_sweep
 
 PILOT = Path(__file__).resolve().parents[1] / "experiments" / "pilots" / "pilot-1.csv"
@@ -112,3 +113,19 @@ def test_a_parameter_s_unknown_key_is_named(tmp_path: Path, entry: str, named: s
     with pytest.raises(ConfigError) as caught:
         load_sweep(str(path))
     assert named in str(caught.value) and "a range needs" not in str(caught.value)
+
+
+# --- a questionnaire's columns -------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("column", "named"), [
+    ("likrt_Q3", "unknown column 'likrt_Q3' (did you mean 'likert_Q3'?)"),
+    ("conditon", "unknown column 'conditon' (did you mean 'condition'?)"),
+    ("Timestamp", "unknown column 'Timestamp'; rename it or remove it")])
+def test_a_questionnaire_column_of_no_kind_is_refused(tmp_path: Path, column: str, named: str) -> None:
+    # before: dropped without a word (likrt_Q3's answers left out of the scores)
+    path = tmp_path / "q.csv"
+    path.write_text(f"participant,condition,likert_q4,{column}\n0,a,5,4\n0,b,6,3\n")
+    with pytest.raises(DataError) as caught:
+        questionnaire_scores(read_questionnaires(path), str(path))
+    assert named in str(caught.value)
