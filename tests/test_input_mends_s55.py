@@ -129,3 +129,19 @@ def test_a_questionnaire_column_of_no_kind_is_refused(tmp_path: Path, column: st
     with pytest.raises(DataError) as caught:
         questionnaire_scores(read_questionnaires(path), str(path))
     assert named in str(caught.value)
+
+
+# --- a habits table with a misspelt column -------------------------------------------------------
+
+HABITS_TABLE = ("scope,participant,habit,n,median,q25,q75,people_min,people_max\n"
+                "participant,p1,pause_between_blows,20,0.4,0.3,0.6,,\n")
+
+
+@pytest.mark.parametrize(("column", "misspelt"), [("median", "medain"), ("habit", "habbit")])
+def test_a_habits_table_s_misspelt_column_is_named(tmp_path: Path, column: str, misspelt: str) -> None:
+    # before: taken for a real log, "no t (or time), trial, label, ... column(s)"
+    path = tmp_path / "habits.csv"
+    path.write_text(HABITS_TABLE.replace(f",{column},", f",{misspelt},", 1))
+    line = refused("fit-people", str(path), "--out", str(tmp_path / "people.csv"))
+    assert f"no column {column!r} (is {misspelt!r} it, misspelt? rename it {column!r})" in line
+    assert not (tmp_path / "people.csv").exists()

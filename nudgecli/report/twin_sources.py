@@ -64,14 +64,20 @@ TABLE_SCOPES = ("participant", "pooled")
 HABIT_UNITS = {h.key: "share" if h.share else "s" for h in HABITS}
 
 
+#: The columns of ``nudge habits --by participant --format csv`` that tell a habits table from a log.
+TABLE_MARKS = ("scope", "habit", "n", "median", "q25", "q75", "people_min", "people_max")
+
+
 def _is_habits_table(path: Path) -> bool:
-    """Whether a CSV file's header is a habits table's (``habit`` and ``median`` columns), not a log's."""
+    """Whether a CSV file's header is a habits table's, not a log's: ``habit`` and ``median``
+    columns, or (one of them misspelt, which the table's reader then names) three of
+    :data:`TABLE_MARKS` and no ``label``, which every log holds."""
     try:
         header = pd.read_csv(path, nrows=0, sep=None, engine="python").columns
     except (ValueError, pd.errors.ParserError, UnicodeDecodeError, csv.Error):  # csv.Error: no delimiter
         return False
     names = {str(c).strip().lower() for c in header}
-    return {"habit", "median"} <= names
+    return {"habit", "median"} <= names or (len(names & set(TABLE_MARKS)) >= 3 and "label" not in names)
 
 
 def _figures_of(people: pd.DataFrame) -> SourceHabits:
@@ -272,8 +278,11 @@ def table_source(path: Path) -> SourceHabits:
     table.columns = [str(c).strip().lower() for c in table.columns]
     missing = [c for c in TABLE_COLUMNS if c not in table.columns]
     if missing:
-        raise DataError(f"{path}: no column {missing[0]!r}; give `nudge habits --by participant --format "
-                        "csv`")
+        others = [c for c in table.columns if c not in (*TABLE_COLUMNS, *TABLE_MARKS)]
+        close = next((f" (is {c!r} it, misspelt? rename it {missing[0]!r})" for c in others
+                      if did_you_mean(c, [missing[0]])), "")
+        raise DataError(f"{path}: no column {missing[0]!r}{close}; give `nudge habits --by participant "
+                        "--format csv`")
     if "trial" in table.columns:
         raise DataError(f"{path}: a table per trial; fit-people reads one per participant "
                         "(`nudge habits --by participant --format csv`)")
