@@ -145,6 +145,50 @@ def test_a_questionnaire_out_of_phase_and_a_binary_frame_get_an_error_reply(tmp_
     session.folder.release()
 
 
+# --- the reply that answers were recorded comes after the state of the next phase ------------
+
+
+async def _messages(session, frames: list[str]) -> list[tuple[str, str | None]]:
+    """Every message the server sends the participant's page after each of ``frames``, in order:
+    ``(type, phase)`` (the phase of a state)."""
+    from aiohttp.test_utils import TestClient, TestServer
+
+    from nudgecli.live.server import SteppedClock, create_app
+
+    seen: list[tuple[str, str | None]] = []
+    app = create_app(session, SteppedClock(session.settings.dt), token="t")
+    async with TestClient(TestServer(app)) as client:
+        ws = await client.ws_connect("/ws?token=t", headers={"Origin": f"http://127.0.0.1:{client.server.port}"})
+        while (await ws.receive_json(timeout=10))["type"] != "state":  # the role, then the state
+            pass
+        for frame in frames:
+            await ws.send_str(frame)
+            await ws.send_json({"type": "ping"})
+            while (message := await ws.receive_json(timeout=10))["type"] != "pong":
+                seen.append((message["type"], message.get("phase")))
+        await ws.close()
+    return seen
+
+
+def test_the_answers_recorded_reply_comes_after_the_state_of_the_next_phase(tmp_path: Path) -> None:
+    pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip install '.[study]'")
+    import asyncio
+    import json
+
+    from live_helpers import ANSWERS, DEFAULT_TABLES, TWO_TRIALS, play_session
+
+    from nudgecli.live.app import build_session
+
+    session = build_session("paper", "P01", tmp_path / "live", overrides=TWO_TRIALS + DEFAULT_TABLES)
+    play_session(session, lambda s: s.phase == "questionnaire")
+    seen = asyncio.run(_messages(session, [json.dumps({"type": "questionnaire", "answers": ANSWERS})]))
+    # was: answers_recorded first, and a second Submit before the state was refused as not due
+    assert seen == [("state", "ready"), ("answers_recorded", None)]
+    session.folder.release()
+
+
+# --- the page keeps answers until recorded, and forgets those recorded whose reply was lost --------
+
 #: A websocket the page opens in place of the server's: it keeps what the page sends, and the test
 #: hands the page the server's messages (``window.deliver``).
 FAKE_SOCKET = """
@@ -166,41 +210,88 @@ FILL_FORM = """() => {
 }"""
 
 
-def test_the_page_keeps_the_answers_it_sent_until_the_server_has_recorded_them(tmp_path: Path) -> None:
+@pytest.fixture(scope="module")
+def browser():
+    """A headless Chromium for the page's tests (launched once: it takes most of a second)."""
     sync_api = pytest.importorskip("playwright.sync_api", reason="needs playwright: pip install '.[test]'")
     from test_live_browser import CHROMIUM_ARGS, _chromium
-
-    from nudgecli.live.input import key_meanings
-    from nudgecli.live.questionnaire import questionnaire_form
-    from nudgecli.live.server import static_dir
 
     chromium = _chromium()
     if chromium is None and os.environ.get("NUDGE_REQUIRE_BROWSER"):
         pytest.fail("NUDGE_REQUIRE_BROWSER is set (as in .ci/run) but no Chromium was found")
     if chromium is None:
         pytest.skip("no Chromium found (see tests/test_live_browser.py)")
+    with sync_api.sync_playwright() as p:
+        launched = p.chromium.launch(executable_path=chromium, headless=True, args=CHROMIUM_ARGS)
+        yield launched
+        launched.close()
+
+
+def _study_page(browser):
+    """The study page on :data:`FAKE_SOCKET`, controlling the session, before any state."""
+    from nudgecli.live.server import static_dir
+
+    page = browser.new_page()
+    page.add_init_script(FAKE_SOCKET)
+    page.route("http://study.test/**", lambda route: route.fulfill(
+        path=str(static_dir() / (route.request.url.split("/")[-1].split("?")[0] or "index.html"))))
+    page.goto("http://study.test/?token=tok")
+    page.wait_for_function("window.socket !== undefined && window.socket.onmessage !== undefined")
+    page.evaluate("deliver({ type: 'role', role: 'controller' })")
+    return page
+
+
+def test_the_page_keeps_the_answers_it_sent_until_the_server_has_recorded_them(browser) -> None:
+    from nudgecli.live.input import key_meanings
+    from nudgecli.live.questionnaire import questionnaire_form
+
     state = {"type": "state", "tick": 1, "phase": "questionnaire", "participant": "P01", "trials_done": 1,
              "trials_total": 2, "ready_for": None, "last_outcome": None, "keys": key_meanings(),
              "questionnaire": {"block": 0, "block_number": 1, "blocks": 2, "condition": "control",
                                **questionnaire_form()}}
     kept = "sessionStorage.getItem('nudge-answers:tok:0')"
-    with sync_api.sync_playwright() as p:
-        browser = p.chromium.launch(executable_path=chromium, headless=True, args=CHROMIUM_ARGS)
-        page = browser.new_page()
-        page.add_init_script(FAKE_SOCKET)
-        page.route("http://study.test/**", lambda route: route.fulfill(
-            path=str(static_dir() / (route.request.url.split("/")[-1].split("?")[0] or "index.html"))))
-        page.goto("http://study.test/?token=tok")
-        page.wait_for_function("window.socket !== undefined && window.socket.onmessage !== undefined")
-        page.evaluate("(state) => { deliver({ type: 'role', role: 'controller' }); deliver(state); }", state)
-        page.evaluate(FILL_FORM)
-        # two clicks: the second, while the first answers are on their way, sends nothing
-        page.evaluate("() => { for (const n of [1, 2]) document.getElementById('q-submit').click(); }")
-        sent = page.evaluate("sentMessages.filter((m) => m.type === 'questionnaire')")
-        held = page.evaluate(kept)  # sent, not yet recorded: still kept in the tab
-        page.evaluate("deliver({ type: 'answers_recorded', block: 0 })")
-        after = page.evaluate(kept)
-        browser.close()
+    page = _study_page(browser)
+    page.evaluate("(state) => deliver(state)", state)
+    page.evaluate(FILL_FORM)
+    # two clicks: the second, while the first answers are on their way, sends nothing
+    page.evaluate("() => { for (const n of [1, 2]) document.getElementById('q-submit').click(); }")
+    sent = page.evaluate("sentMessages.filter((m) => m.type === 'questionnaire')")
+    held = page.evaluate(kept)  # sent, not yet recorded: still kept in the tab
+    page.evaluate("deliver({ type: 'answers_recorded', block: 0 })")
+    after = page.evaluate(kept)
+    page.close()
     assert held is not None and '"tlx_mental":40' in held
     assert len(sent) == 1 and sent[0]["answers"]["tlx_mental"] == 40 and sent[0]["answers"]["likert_q3"] == 5
     assert after is None
+
+
+
+def test_answers_kept_of_a_block_no_longer_due_are_forgotten_when_a_state_comes(browser) -> None:
+    from nudgecli.live.input import key_meanings
+    from nudgecli.live.questionnaire import questionnaire_form
+
+    def state(phase: str, block: int | None = None) -> dict:
+        due = {} if block is None else {"questionnaire": {"block": block, "block_number": block + 1,
+                                                          "blocks": 2, "condition": "control",
+                                                          **questionnaire_form()}}
+        return {"type": "state", "tick": 1, "phase": phase, "participant": "P01", "trials_done": 1,
+                "trials_total": 2, "ready_for": "evaluation", "last_outcome": None, "keys": key_meanings(),
+                **due}
+
+    kept = "() => Object.keys(sessionStorage).sort()"
+    page = _study_page(browser)
+    page.evaluate("(state) => deliver(state)", state("questionnaire", 0))
+    page.evaluate(FILL_FORM)
+    page.evaluate("() => document.getElementById('q-submit').click()")
+    page.evaluate("(state) => deliver(state)", state("welcome"))  # a resumed session: still due
+    before = page.evaluate(kept)
+    page.evaluate("(state) => deliver(state)", state("ready"))  # recorded; its reply lost
+    after = page.evaluate(kept)
+    page.evaluate("() => sessionStorage.setItem('nudge-answers:tok:0', '{\"likert_q3\": 5}')")
+    page.evaluate("(state) => deliver(state)", state("questionnaire", 1))
+    page.evaluate(FILL_FORM)
+    later = page.evaluate(kept)
+    page.close()
+    assert before == ["nudge-answers:tok:0"]
+    assert after == []  # was: kept for the tab's life
+    assert later == ["nudge-answers:tok:1"]

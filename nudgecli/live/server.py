@@ -377,10 +377,12 @@ async def _websocket(request: web.Request) -> web.WebSocketResponse:
             except Exception as exc:  # a record not written: the server stops, the page is told
                 await _fail(app, exc)
                 break
-            if reply is not None:
-                await _send(ws, reply)
+            # the state first: a page told its answers were recorded already shows the next phase
+            # (else a second Submit in between sends them again, refused as "no questionnaire is due")
             if view is not None:
                 await _broadcast(app, view)
+            if reply is not None:
+                await _send(ws, reply)
     finally:
         was_controller = sockets.controller is ws
         sockets.pages.pop(ws, None)

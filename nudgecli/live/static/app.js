@@ -61,6 +61,7 @@ function connect() {
     const message = JSON.parse(event.data);
     if (message.type === "state") {
       if (!state || state.phase !== message.phase) forgetSentInput();  // a trial's start released them
+      forgetAnswersNotDue(message);
       state = message; render();
     } else if (message.type === "role") {
       role = message.role; forgetSentInput();
@@ -363,6 +364,22 @@ function keepAnswers() {
 function forgetAnswers(block) {
   unsent = false;
   try { sessionStorage.removeItem(answersKey(block)); } catch (err) { /* nothing was kept */ }
+}
+
+// The phases a resumed session shows before the questionnaire it has due: answers kept stay kept.
+const BEFORE_DUE_ANSWERS = new Set(["welcome", "mapping", "distortion"]);
+
+// Answers kept of a block whose questionnaire is no longer due were recorded (their answers_recorded
+// lost to a reload or a reconnect): forgotten, not kept for the tab's life.
+function forgetAnswersNotDue(current) {
+  if (BEFORE_DUE_ANSWERS.has(current.phase)) return;
+  const due = current.phase === "questionnaire" && current.questionnaire ?
+    answersKey(current.questionnaire.block) : null;
+  try {
+    for (const key of Object.keys(sessionStorage)) {
+      if (key.startsWith(answersKey("")) && key !== due) sessionStorage.removeItem(key);
+    }
+  } catch (err) { /* no storage: nothing was kept */ }
 }
 
 function restoreAnswers(form, block) {
