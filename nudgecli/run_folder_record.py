@@ -595,6 +595,5 @@ class RunRecord(LiveRecord, ConfigRecord):
         if resume_seed is None or resume_seed != manifest.get("seed"):
             lead = f"{self.path} needs a resume" if resume_seed is None else \
                 f"{self.path}: cannot resume with seed {resume_seed}"
-            if (error := differing_seeds_error(self.manifest_path, manifest, self.resume_command(manifest),
-                                               lead)) is not None:
+            if (error := differing_seeds_error(self, manifest, lead)) is not None:
                 raise error

@@ -87,16 +87,17 @@ def differing_seeds(manifest: Mapping[str, Any]) -> tuple[int, int] | None:
     return seed, experiment_seed
 
 
-def differing_seeds_error(manifest_path: Path, manifest: Mapping[str, Any], resume: str,
-                          lead: str) -> RunFolderError | None:
-    """The refusal to resume (or to advise a resume of) a run whose manifest's two seeds differ
-    (:func:`differing_seeds`), ``None`` where they agree. ``lead`` says what was refused; ``resume`` is
-    the run's own resume command, with the manifest's seed: the one the parts of an older nudge's run
-    were made with. Neither seed is set back (either would corrupt one of the two kinds of run)."""
+def differing_seeds_error(record: RunRecord, manifest: Mapping[str, Any], lead: str) -> RunFolderError | None:
+    """The refusal to resume (or to advise a resume of) the run of ``record`` whose manifest's two
+    seeds differ (:func:`differing_seeds`), ``None`` where they agree. ``lead`` says what was refused;
+    the command printed is the run's own resume, with the manifest's seed: the one the parts of an
+    older nudge's run were made with. Neither seed is set back (either would corrupt one of the two
+    kinds of run)."""
     if (seeds := differing_seeds(manifest)) is None:
         return None
     seed, experiment_seed = seeds
-    return RunFolderError(f"{lead}: {manifest_path} records seed {seed} but config.experiment.seed = "
+    resume = record.resume_command(manifest)
+    return RunFolderError(f"{lead}: {record.manifest_path} records seed {seed} but config.experiment.seed = "
                           f"{experiment_seed} (the manifest was edited by hand, or the run was made by an "
                           "older nudge with --set experiment.seed and --seed); nothing was resumed; put back "
                           f"the run's own {MANIFEST} from a copy, or, for such an older run, resume with the "
