@@ -14,6 +14,7 @@ from nudgecli.cli import main
 from nudgecli.config import experiment_from_toml
 from nudgecli.errors import ConfigError, DataError
 from nudgecli.report.questionnaires import questionnaire_scores, read_questionnaires
+from nudgecli.runs.batch_kinds import power
 from nudgecli.runs.sweep import load_sweep
 
 PILOT = Path(__file__).resolve().parents[1] / "experiments" / "pilots" / "pilot-1.csv"
@@ -145,3 +146,22 @@ def test_a_habits_table_s_misspelt_column_is_named(tmp_path: Path, column: str, 
     line = refused("fit-people", str(path), "--out", str(tmp_path / "people.csv"))
     assert f"no column {column!r} (is {misspelt!r} it, misspelt? rename it {column!r})" in line
     assert not (tmp_path / "people.csv").exists()
+
+
+# --- comma-separated counts ----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("counts", "named"), [
+    ("3,,4", "'3,,4': an empty item"), ("6,9,", "'6,9,': an empty item"), ("3,3", "'3,3': 3 is given twice")])
+def test_power_s_empty_or_repeated_count_is_refused(tmp_path: Path, counts: str, named: str) -> None:
+    # before: 3,,4 ran [3, 4] and 3,3 ran [3], without a word
+    result = CliRunner().invoke(main, ["power", "smoke", "--participants", counts, "--replications", "1",
+                                       "--out", str(tmp_path / "p")])
+    assert result.exit_code == 2 and not (tmp_path / "p").exists()
+    assert named in result.stderr and "each once" in result.stderr
+
+
+def test_power_s_repeated_count_is_refused_in_python(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="3 is given twice"):
+        power("smoke", [3, 3], 1, tmp_path / "p")
+    assert not (tmp_path / "p").exists()

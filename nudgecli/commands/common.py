@@ -65,12 +65,20 @@ def _strict_scalar(value: Any) -> Any:
 
 def comma_integers(text: str, option: str, example: str) -> list[int]:
     """The integers of the comma-separated value of ``option`` (``"6,9,12"``); a click usage error
-    naming the option and ``example`` for anything else."""
+    naming the option and ``example`` for anything else, an empty item beside integers (``"3,,4"``,
+    a trailing comma) or an integer given twice (``"3,3"``), which were dropped without a word."""
+    parts = [part.strip() for part in text.split(",")]
     try:
-        return [int(part) for part in text.split(",") if part.strip()]
+        numbers = [int(part) for part in parts if part]
     except ValueError:
         raise click.BadParameter(f"{text!r}: give comma-separated integers, e.g. {example}",
                                  param_hint=option) from None
+    twice = next((n for i, n in enumerate(numbers) if n in numbers[:i]), None)
+    if ("" in parts and numbers) or twice is not None:  # none at all: the caller says what to give
+        problem = "an empty item" if "" in parts else f"{twice} is given twice"
+        raise click.BadParameter(f"{text!r}: {problem}; give comma-separated integers, each once, e.g. "
+                                 f"{example}", param_hint=option)
+    return numbers
 
 
 def info(message: str) -> None:

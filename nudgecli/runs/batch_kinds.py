@@ -271,6 +271,10 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     """
     _check(replications, seed)
     counts = sorted(set(int(n) for n in participant_counts))
+    if len(counts) < len(participant_counts):  # a count given twice was run once, without a word
+        twice = next(n for i, n in enumerate(participant_counts) if n in participant_counts[:i])
+        raise ConfigError(f"--participants: {twice} is given twice; give each count once, e.g. "
+                          "--participants 6,9,12,18,24")
     check_participant_counts(counts, "6,9,12,18,24")
     if not 0 < target < 1:
         raise ConfigError(f"--target must be strictly between 0 and 1 (a power), got {target}")
