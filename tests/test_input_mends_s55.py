@@ -16,6 +16,7 @@ from nudgecli.errors import ConfigError, DataError
 from nudgecli.report.questionnaires import questionnaire_scores, read_questionnaires
 from nudgecli.runs.batch_kinds import power
 from nudgecli.runs.sweep import load_sweep
+from nudgecli.sim.calibration_profile import fit_calibration_dir
 
 PILOT = Path(__file__).resolve().parents[1] / "experiments" / "pilots" / "pilot-1.csv"
 
@@ -165,3 +166,53 @@ def test_power_s_repeated_count_is_refused_in_python(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="3 is given twice"):
         power("smoke", [3, 3], 1, tmp_path / "p")
     assert not (tmp_path / "p").exists()
+
+
+# --- a calibration folder's look-alike names -----------------------------------------------------
+
+SHARED_CALIBRATION = Path(__file__).resolve().parents[2] / "shared" / "data" / "calibration"
+needs_shared = pytest.mark.skipif(not SHARED_CALIBRATION.is_dir(),
+                                  reason=f"the real pilot logs are not here ({SHARED_CALIBRATION})")
+
+
+def calibration_copy(tmp_path: Path, mapping_folder: str = "p_phi_given_a", distortion: bool = True) -> Path:
+    """andrewtest's calibration folder, its mapping session's folder named ``mapping_folder``."""
+    folder = tmp_path / "p1"
+    folder.mkdir()
+    source = SHARED_CALIBRATION / "andrewtest"
+    for session, name in (("p_phi_given_a", mapping_folder), ("p_phm_given_phi", "p_phm_given_phi")):
+        if session == "p_phm_given_phi" and not distortion:
+            continue
+        (folder / name).mkdir()
+        for log in (source / session).iterdir():
+            (folder / name / log.name).write_bytes(log.read_bytes())
+    return folder
+
+
+@needs_shared
+def test_a_session_folder_of_a_look_alike_name_is_refused(tmp_path: Path) -> None:
+    # before: fitted with the default p(phi_i | a) table, "no p(phi_i | a) session"
+    folder = calibration_copy(tmp_path, "p_phi_given_A")
+    line = refused("fit", str(folder), "--out", str(tmp_path / "profile.json"))
+    assert "p_phi_given_A: not read as the mapping session's 'p_phi_given_a'" in line
+    assert not (tmp_path / "profile.json").exists()
+
+
+@needs_shared
+@pytest.mark.parametrize(("names", "named"), [
+    (("distortion_prompts.CSV", "distortion_stream.CSV"), "not read as the distortion session's"),
+    (("distortion_prompts.csv", "distortion_stream.CSV"),
+     "('distortion_stream.CSV' is not read: rename it 'distortion_stream.csv')")])
+def test_a_tidy_file_of_a_look_alike_name_is_refused(tmp_path: Path, names: tuple[str, str],
+                                                     named: str) -> None:
+    # before: the default p(phi_m | phi_i) table, or the stream said missing without its look-alike
+    folder = calibration_copy(tmp_path, distortion=False)
+    for name in names:
+        (folder / name).write_text("t,command\n")
+    assert named in refused("fit", str(folder), "--out", str(tmp_path / "profile.json"))
+
+
+@needs_shared
+def test_a_real_folder_with_one_session_still_falls_back() -> None:
+    warnings = fit_calibration_dir(SHARED_CALIBRATION / "deepak").warnings
+    assert any("no p(phi_m | phi_i) session; using the default table" in w for w in warnings)

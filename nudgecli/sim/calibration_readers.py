@@ -16,7 +16,7 @@ import pandas as pd
 
 from nudgecli.csv_rows import read_csv_whole_rows
 from nudgecli.csv_text import not_utf8_message
-from nudgecli.errors import DataError, shell_words
+from nudgecli.errors import DataError, did_you_mean, shell_words
 from nudgecli.model.interface import LABELS, NO_INPUT_LABEL
 from nudgecli.run_folder_calibration import check_calibration_logs
 from nudgecli.sim.calibration_io import (
@@ -268,6 +268,28 @@ def _locate(folder: Path, names: dict[str, str], keys: tuple[str, str], subfolde
             if all((candidate / names[k]).is_file() for k in keys)]
 
 
+#: Every name a calibration folder's sessions are read under (folders and files of both formats).
+_READ_NAMES = (STUDY_MAPPING_FOLDER, STUDY_DISTORTION_FOLDER, *STUDY_FILES.values(), *TIDY_FILES.values())
+
+
+def _look_alike(folder: Path, keys: tuple[str, str], subfolder: str) -> tuple[Path, str] | None:
+    """An entry of ``folder`` (or its ``subfolder``) whose name is not read but resembles one this
+    session's folder or files take (``p_phi_given_A``, ``maping_prompts.csv``, a ``.CSV``), with
+    that name; ``None`` where there is none. Names another session reads are never look-alikes."""
+    expected = {subfolder, *(names[k] for names in (STUDY_FILES, TIDY_FILES) for k in keys)}
+    for where in (folder, folder / subfolder):
+        entries = sorted(where.iterdir()) if where.is_dir() else []
+        for entry in entries:
+            if entry.name in _READ_NAMES or entry.name.endswith(tuple(CIAA_SUBFOLDERS.values())):
+                continue
+            meant = next((name for name in _READ_NAMES if entry.name.lower() == name.lower()), None)
+            hint = did_you_mean(entry.name, _READ_NAMES)
+            meant = meant or next((name for name in _READ_NAMES if f"{name!r}" in hint), None)
+            if meant in expected:
+                return entry, meant
+    return None
+
+
 def _half_present(folder: Path, keys: tuple[str, str], subfolder: str) -> Path | None:
     """A file of the pair that exists while its partner does not (to name it in the error)."""
     for names in (STUDY_FILES, TIDY_FILES):
@@ -290,9 +312,15 @@ def _find_session(folder: Path, keys: tuple[str, str], subfolder: str, session: 
     tidy = _locate(folder, TIDY_FILES, keys, subfolder)
     if not study and not tidy:
         orphan = _half_present(folder, keys, subfolder)
+        alike = _look_alike(folder, keys, subfolder)
         if orphan is not None:
             partner = second_file if "prompt" in orphan.name else "prompts"
-            raise DataError(f"{orphan}: the {session} session's {partner} file is missing beside it")
+            named = f" ({alike[0].name!r} is not read: rename it {alike[1]!r})" if alike else ""
+            raise DataError(f"{orphan}: the {session} session's {partner} file is missing beside it{named}")
+        if alike is not None:  # else the session is left for the default table without a word
+            raise DataError(f"{alike[0]}: not read as the {session} session's {alike[1]!r}, which its name "
+                            f"resembles; rename it {alike[1]!r}, or move it away to fit without that session "
+                            "(its default table)")
         return None
     found = [(where, STUDY_FILES) for where in study] + [(where, TIDY_FILES) for where in tidy]
     if len(found) > 1:  # which one to fit is the researcher's choice, never the first match's
