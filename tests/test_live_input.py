@@ -200,7 +200,8 @@ def test_a_session_refuses_an_incomplete_questionnaire_and_records_a_complete_on
     assert session.phase == "questionnaire"
     reply = session.handle({"type": "questionnaire", "answers": {**ANSWERS, "likert_q3": None}}, 0.0)
     assert reply is not None and reply["type"] == "error" and not (tmp_path / "questionnaires.csv").exists()
-    assert session.handle({"type": "questionnaire", "answers": ANSWERS}, 0.0) is None
+    recorded = session.handle({"type": "questionnaire", "answers": ANSWERS}, 0.0)
+    assert recorded == {"type": "answers_recorded", "block": 0}
     table = read_questionnaires(tmp_path / "questionnaires.csv")
     assert list(table["participant"]) == [4] and list(table["block"]) == [0]
     assert table["condition"].iloc[0] == session.schedule[0].condition
