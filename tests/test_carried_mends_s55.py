@@ -12,33 +12,10 @@ from typing import Any
 
 import pytest
 from cli_helpers import nudge, one_error_line
+from plot_plan_helpers import LOOSE_PLAN, star_rule_plotted
 from policy_helpers import QUIET_POLICY, policy_experiment
 
 from nudgecli.report.plans import load_plan
-
-#: A plan file whose star rule differs from every preset's: a plot under the paper plan draws
-#: other stars and letters.
-LOOSE_PLAN = """name = "loose"
-description = "stars at p < .9/.8/.7"
-
-[stats]
-kruskal_alpha = 0.9
-star_thresholds = [0.9, 0.8, 0.7]
-"""
-
-
-def _star_rule_plotted(monkeypatch: pytest.MonkeyPatch, *args: str | Path) -> Any:
-    """``nudge plot ARGS``'s star rule, as given to the drawing (nothing drawn)."""
-    given: dict[str, Any] = {}
-
-    def plot_folder(*_: Any, **options: Any) -> list[Path]:
-        given.update(options)
-        return []
-
-    monkeypatch.setattr("nudgecli.report.plotting.plot_folder", plot_folder)
-    result = nudge("plot", *args)
-    assert result.exit_code == 0, result.output
-    return given["star_rule"]
 
 
 @pytest.fixture()
@@ -56,7 +33,7 @@ def test_plot_of_an_analysis_written_away_from_its_run_uses_its_plan(
     run, plan = run_and_plan
     out = tmp_path / "elsewhere"
     assert nudge("analyze", run, "--plan", plan, "--out", out, "--bootstrap", "100").exit_code == 0
-    assert _star_rule_plotted(monkeypatch, out) == load_plan(plan).comparison_options()  # was the paper's
+    assert star_rule_plotted(monkeypatch, out) == load_plan(plan).comparison_options()  # was the paper's
     # stats.json names the analysis's own copy of the plan file, which moves with it
     assert json.loads((out / "stats.json").read_text())["plan"] == "analysis_plan.toml"
     assert (out / "analysis_plan.toml").read_text() == LOOSE_PLAN
@@ -71,7 +48,7 @@ def test_a_runs_analysis_under_another_plan_than_its_own_records_it_and_only_the
     assert nudge("analyze", run, "--plan", "study-code", "--bootstrap", "100").exit_code == 0
     assert json.loads((run / "stats.json").read_text())["plan"] == "study-code"
     assert json.loads((run / "manifest.json").read_text())["plan"] == "paper"
-    assert _star_rule_plotted(monkeypatch, run) == load_plan("study-code").comparison_options()
+    assert star_rule_plotted(monkeypatch, run) == load_plan("study-code").comparison_options()
 
 
 def test_plot_of_a_table_analysed_with_a_plan_file_uses_that_plan(
@@ -80,7 +57,7 @@ def test_plot_of_a_table_analysed_with_a_plan_file_uses_that_plan(
     table = tmp_path / "study.csv"
     shutil.copy(run / "metrics.csv", table)
     assert nudge("analyze", table, "--plan", plan, "--bootstrap", "100").exit_code == 0
-    assert _star_rule_plotted(monkeypatch, table) == load_plan(plan).comparison_options()
+    assert star_rule_plotted(monkeypatch, table) == load_plan(plan).comparison_options()
 
 
 def test_the_python_resume_call_of_a_dask_run_names_its_scheduler() -> None:

@@ -102,24 +102,27 @@ def test_the_message_size_limit_counts_utf8_bytes_not_characters() -> None:
 # --- every bad message is answered; the page keeps its answers until the server has them -----------
 
 
-async def _replies(session, frames: list[str | bytes]) -> list[dict]:
-    """What the server answers the participant's page to each of ``frames`` (text or binary)."""
+async def _page_messages(session, frames: list[str | bytes]) -> list[dict]:
+    """Every message the server sends the participant's page after each of ``frames`` (text or
+    binary), in order, but the pongs that mark the end of each answer (the role and first state the
+    page gets as it connects are left out)."""
     from aiohttp.test_utils import TestClient, TestServer
 
     from nudgecli.live.server import SteppedClock, create_app
 
-    replies = []
+    seen = []
     app = create_app(session, SteppedClock(session.settings.dt), token="t")
     async with TestClient(TestServer(app)) as client:
         ws = await client.ws_connect("/ws?token=t", headers={"Origin": f"http://127.0.0.1:{client.server.port}"})
+        while (await ws.receive_json(timeout=10))["type"] != "state":  # the role, then the state
+            pass
         for frame in frames:
             await (ws.send_bytes(frame) if isinstance(frame, bytes) else ws.send_str(frame))
             await ws.send_json({"type": "ping"})
             while (message := await ws.receive_json(timeout=10))["type"] != "pong":
-                if message["type"] not in ("state", "role"):
-                    replies.append(message)
+                seen.append(message)
         await ws.close()
-    return replies
+    return seen
 
 
 def test_a_questionnaire_out_of_phase_and_a_binary_frame_get_an_error_reply(tmp_path: Path) -> None:
@@ -134,7 +137,8 @@ def test_a_questionnaire_out_of_phase_and_a_binary_frame_get_an_error_reply(tmp_
     session = build_session("paper", "P01", tmp_path / "live", overrides=TWO_TRIALS + DEFAULT_TABLES)
     play_session(session, lambda s: s.phase == "questionnaire")
     answers = json.dumps({"type": "questionnaire", "answers": ANSWERS})
-    replies = asyncio.run(_replies(session, [b'{"type": "start"}', answers, answers]))
+    messages = asyncio.run(_page_messages(session, [b'{"type": "start"}', answers, answers]))
+    replies = [message for message in messages if message["type"] not in ("state", "role")]
     assert replies == [
         {"type": "error", "message": "a message is text JSON, not a binary frame"},
         {"type": "answers_recorded", "block": 0},  # the page forgets the answers it kept only now
@@ -148,28 +152,6 @@ def test_a_questionnaire_out_of_phase_and_a_binary_frame_get_an_error_reply(tmp_
 # --- the reply that answers were recorded comes after the state of the next phase ------------
 
 
-async def _messages(session, frames: list[str]) -> list[tuple[str, str | None]]:
-    """Every message the server sends the participant's page after each of ``frames``, in order:
-    ``(type, phase)`` (the phase of a state)."""
-    from aiohttp.test_utils import TestClient, TestServer
-
-    from nudgecli.live.server import SteppedClock, create_app
-
-    seen: list[tuple[str, str | None]] = []
-    app = create_app(session, SteppedClock(session.settings.dt), token="t")
-    async with TestClient(TestServer(app)) as client:
-        ws = await client.ws_connect("/ws?token=t", headers={"Origin": f"http://127.0.0.1:{client.server.port}"})
-        while (await ws.receive_json(timeout=10))["type"] != "state":  # the role, then the state
-            pass
-        for frame in frames:
-            await ws.send_str(frame)
-            await ws.send_json({"type": "ping"})
-            while (message := await ws.receive_json(timeout=10))["type"] != "pong":
-                seen.append((message["type"], message.get("phase")))
-        await ws.close()
-    return seen
-
-
 def test_the_answers_recorded_reply_comes_after_the_state_of_the_next_phase(tmp_path: Path) -> None:
     pytest.importorskip("aiohttp", reason="the live server needs aiohttp: pip install '.[study]'")
     import asyncio
@@ -181,7 +163,9 @@ def test_the_answers_recorded_reply_comes_after_the_state_of_the_next_phase(tmp_
 
     session = build_session("paper", "P01", tmp_path / "live", overrides=TWO_TRIALS + DEFAULT_TABLES)
     play_session(session, lambda s: s.phase == "questionnaire")
-    seen = asyncio.run(_messages(session, [json.dumps({"type": "questionnaire", "answers": ANSWERS})]))
+    answers = json.dumps({"type": "questionnaire", "answers": ANSWERS})
+    messages = asyncio.run(_page_messages(session, [answers]))
+    seen = [(message["type"], message.get("phase")) for message in messages]
     # was: answers_recorded first, and a second Submit before the state was refused as not due
     assert seen == [("state", "ready"), ("answers_recorded", None)]
     session.folder.release()

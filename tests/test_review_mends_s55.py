@@ -10,31 +10,9 @@ from typing import Any
 
 import pytest
 from cli_helpers import nudge, one_error_line
+from plot_plan_helpers import LOOSE_PLAN, star_rule_plotted
 
 from nudgecli.report.plans import load_plan
-
-#: A plan file whose star rule differs from every preset's.
-LOOSE_PLAN = """name = "loose"
-description = "stars at p < .9/.8/.7"
-
-[stats]
-kruskal_alpha = 0.9
-star_thresholds = [0.9, 0.8, 0.7]
-"""
-
-
-def _star_rule_plotted(monkeypatch: pytest.MonkeyPatch, *args: str | Path) -> Any:
-    """``nudge plot ARGS``'s star rule, as given to the drawing (nothing drawn)."""
-    given: dict[str, Any] = {}
-
-    def plot_folder(*_: Any, **options: Any) -> list[Path]:
-        given.update(options)
-        return []
-
-    monkeypatch.setattr("nudgecli.report.plotting.plot_folder", plot_folder)
-    result = nudge("plot", *args)
-    assert result.exit_code == 0, result.output
-    return given["star_rule"]
 
 
 @pytest.fixture()
@@ -58,11 +36,11 @@ def test_an_analysis_keeps_its_plan_file_so_moving_or_editing_the_file_changes_n
     assert stats["plan"] == "analysis_plan.toml" and len(stats["plan_sha256"]) == 64
     loose = load_plan(plan).comparison_options()
     plan.write_text(LOOSE_PLAN.replace("0.9, 0.8, 0.7", "0.5, 0.4, 0.3"))  # edited after the analysis
-    assert _star_rule_plotted(monkeypatch, out) == loose  # drawn under the plan of its statistics
+    assert star_rule_plotted(monkeypatch, out) == loose  # drawn under the plan of its statistics
     plan.unlink()  # moved away, and the analysis copied elsewhere: drawn as before
     moved = tmp_path / "elsewhere" / "copy-of-D"
     shutil.copytree(out, moved, ignore=shutil.ignore_patterns(".nudge.lock"))
-    assert _star_rule_plotted(monkeypatch, moved) == loose
+    assert star_rule_plotted(monkeypatch, moved) == loose
 
 
 @pytest.mark.parametrize("damage", ["edited", "missing"])
@@ -89,7 +67,7 @@ def test_a_tables_analysis_keeps_its_plan_file_too(
     assert nudge("analyze", table, "--plan", plan, "--bootstrap", "100").exit_code == 0
     loose = load_plan(plan).comparison_options()
     plan.write_text(LOOSE_PLAN.replace("0.9, 0.8, 0.7", "0.5, 0.4, 0.3"))  # edited after the analysis
-    assert _star_rule_plotted(monkeypatch, table) == loose  # was: the edited file's
+    assert star_rule_plotted(monkeypatch, table) == loose  # was: the edited file's
     copy = tmp_path / "study-analysis" / "analysis_plan.toml"
     copy.write_text(plan.read_text())
     message = one_error_line(nudge("plot", table).output)
@@ -116,11 +94,11 @@ def test_an_analysis_again_under_its_own_kept_plan_copy_reads_it_and_keeps_it(
     stats = json.loads((out / "stats.json").read_text())
     assert stats["plan"] == "analysis_plan.toml" and copy.read_bytes() == kept
     loose = load_plan(plan).comparison_options()
-    assert _star_rule_plotted(monkeypatch, out) == loose  # its SHA-256 as recorded: the copy checks
+    assert star_rule_plotted(monkeypatch, out) == loose  # its SHA-256 as recorded: the copy checks
     # a run analysed in its own folder, then given its own copy: analyze and plot both take it
     assert nudge("analyze", run, "--plan", plan, "--bootstrap", "100").exit_code == 0
     own = run / "analysis_plan.toml"
-    assert _star_rule_plotted(monkeypatch, run, "--plan", own) == loose
+    assert star_rule_plotted(monkeypatch, run, "--plan", own) == loose
     again = nudge("analyze", run, "--plan", own, "--bootstrap", "100")
     assert again.exit_code == 0, again.output
     # a table's analysis, given its own copy
