@@ -577,8 +577,8 @@ class RunRecord(LiveRecord, ConfigRecord):
     def check_own_manifest(self, manifest: Mapping[str, Any], resume_seed: int | None = None) -> None:
         """Refuse a manifest that is another run's (copied over this one's:
         :func:`~nudgecli.run_folder_trust.other_run_error`), and, where its two seeds differ
-        (:func:`~nudgecli.run_folder_trust.differing_seeds`), a resume with another seed than its own
-        (``resume_seed``), or, reading (``None``), a run that needs a resume (an intact complete one reads).
+        (:func:`~nudgecli.run_folder_trust.differing_seeds`), a resume (``resume_seed``) but with its own
+        seed where its surviving parts were made with it, or, reading (``None``), a run that needs a resume.
 
         Raises
         ------
@@ -592,8 +592,7 @@ class RunRecord(LiveRecord, ConfigRecord):
         if resume_seed is None and manifest.get("status") == "complete" and \
                 not self.missing_parts(self.participant_count(manifest)):
             return
-        if resume_seed is None or resume_seed != manifest.get("seed"):
-            lead = f"{self.path} needs a resume" if resume_seed is None else \
-                f"{self.path}: cannot resume with seed {resume_seed}"
-            if (error := differing_seeds_error(self, manifest, lead)) is not None:
-                raise error
+        lead = f"{self.path} needs a resume" if resume_seed is None else \
+            f"{self.path}: cannot resume with seed {resume_seed}"
+        if (error := differing_seeds_error(self, manifest, lead, resume_seed)) is not None:
+            raise error  # a resume with the manifest's own seed too, where the parts were not made with it

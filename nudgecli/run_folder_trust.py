@@ -87,21 +87,72 @@ def differing_seeds(manifest: Mapping[str, Any]) -> tuple[int, int] | None:
     return seed, experiment_seed
 
 
-def differing_seeds_error(record: RunRecord, manifest: Mapping[str, Any], lead: str) -> RunFolderError | None:
+def _drawn_agreement(config: ExperimentConfig, index: int, row: Mapping[str, Any],
+                     seeds: tuple[int, int]) -> list[int]:
+    """Of ``seeds``, those whose draw of participant ``index`` (the population draw, no simulation)
+    agrees with ``row`` (its participants part) in a value the two seeds draw differently (a value
+    a twin or a physiology log replaced agrees with neither)."""
+    from nudgecli.rng import generator, seed_key
+    from nudgecli.sim.participants import draw_participant
+
+    drawn = [draw_participant(config.population, index, generator(seed, "participant", index, "physiology"),
+                              key=seed_key("participant", index)).to_record() for seed in seeds]
+    telling = [name for name, value in drawn[0].items() if value != drawn[1].get(name)]
+    return [seed for seed, record in zip(seeds, drawn, strict=True)
+            if any(record[name] == row.get(name) for name in telling)]
+
+
+def parts_seed(record: RunRecord, manifest: Mapping[str, Any], seeds: tuple[int, int]) -> int | None:
+    """Which of ``seeds`` the run's parts were made with, told by the first participant whose
+    participants part survives with the SHA-256 the manifest records; ``None`` where none survives,
+    or the draws of neither (or both) agree with it."""
+    import hashlib
+
+    from nudgecli.parquet_reader import read_parquet
+
+    try:
+        config = ExperimentConfig.model_validate(manifest.get("config"))
+        sums = record.recorded_checksums(manifest)
+    except (NudgeError, ValueError):
+        return None
+    for index, kinds in sorted(sums.items()):
+        try:
+            data = record.part_path("participants", index).read_bytes()
+            if hashlib.sha256(data).hexdigest() != kinds.get("participants"):
+                continue  # changed since written: it vouches for nothing
+            row = read_parquet(data).to_dict(orient="records")[0]
+        except Exception:  # gone, or unreadable (pyarrow raises several types): the next one
+            continue
+        agreeing = _drawn_agreement(config, index, row, seeds)
+        return agreeing[0] if len(agreeing) == 1 else None
+    return None
+
+
+def differing_seeds_error(record: RunRecord, manifest: Mapping[str, Any], lead: str,
+                          resume_seed: int | None = None) -> RunFolderError | None:
     """The refusal to resume (or to advise a resume of) the run of ``record`` whose manifest's two
-    seeds differ (:func:`differing_seeds`), ``None`` where they agree. ``lead`` says what was refused;
-    the command printed is the run's own resume, with the manifest's seed: the one the parts of an
-    older nudge's run were made with. Neither seed is set back (either would corrupt one of the two
-    kinds of run)."""
+    seeds differ (:func:`differing_seeds`), ``None`` where they agree, or where ``resume_seed`` is the
+    manifest's seed and the parts were made with it (:func:`parts_seed`). ``lead`` says what was
+    refused. The manifest's seed is the one an older nudge's run made its parts with; a resume with it
+    is printed only where a surviving participants part was drawn with it, as a hand-edited manifest's
+    parts were not (a resume would simulate participants of another seed beside them). Neither seed is
+    set back (either would corrupt one of the two kinds of run)."""
     if (seeds := differing_seeds(manifest)) is None:
         return None
     seed, experiment_seed = seeds
-    resume = record.resume_command(manifest)
-    return RunFolderError(f"{lead}: {record.manifest_path} records seed {seed} but config.experiment.seed = "
-                          f"{experiment_seed} (the manifest was edited by hand, or the run was made by an "
-                          "older nudge with --set experiment.seed and --seed); nothing was resumed; put back "
-                          f"the run's own {MANIFEST} from a copy, or, for such an older run, resume with the "
-                          f"seed its parts were made with (--seed {seed}): `{resume}`")
+    made = parts_seed(record, manifest, seeds)
+    if made == seed and resume_seed == seed:
+        return None
+    told = (f"{record.manifest_path} records seed {seed} but config.experiment.seed = {experiment_seed} "
+            "(the manifest was edited by hand, or the run was made by an older nudge with --set "
+            "experiment.seed and --seed); nothing was resumed; put back the run's own "
+            f"{MANIFEST} from a copy")
+    if made != seed:
+        why = "no participants part survives to tell which seed its parts were made with" if made is None \
+            else f"its participants parts were not made with seed {seed}, so no resume can finish it"
+        return RunFolderError(f"{lead}: {told} ({why})")
+    return RunFolderError(f"{lead}: {told}, or, for such an older run, resume with the seed its parts were "
+                          f"made with (--seed {seed}): `{record.resume_command(manifest)}`")
 
 
 def other_run_error(record: RunRecord, manifest: Mapping[str, Any]) -> RunFolderError | None:

@@ -1,0 +1,66 @@
+"""A manifest's seed edited by hand is told from an older nudge's run by what its parts record (the
+resume it prints runs only for the older run), and further mends of input checks."""
+
+from __future__ import annotations
+
+import json
+import shlex
+from pathlib import Path
+
+from cli_helpers import copy_run, nudge, one_error_line
+
+
+def _with_seeds(run: Path, seed: int | None = None, experiment_seed: int | None = None) -> Path:
+    manifest = json.loads((run / "manifest.json").read_text())
+    if seed is not None:
+        manifest["seed"] = seed
+    if experiment_seed is not None:
+        manifest["config"]["experiment"]["seed"] = experiment_seed
+        config = (run / "config.toml").read_text()
+        (run / "config.toml").write_text(config.replace(f"seed = {manifest['seed']}\n",
+                                                        f"seed = {experiment_seed}\n", 1))
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    return run
+
+
+def _run_printed(line: str) -> object:
+    words = shlex.split(line.split("`")[1])
+    assert words[0] == "nudge", line
+    return nudge(*words[1:])
+
+
+def test_a_hand_edited_seed_is_refused_and_prints_no_resume_that_would_run(tmp_path, analysed_smoke_run):
+    # the manifest's seed edited to 4 (its experiment and its parts say 5): the parts tell it apart
+    run = _with_seeds(copy_run(analysed_smoke_run, tmp_path / "run"), seed=4)
+    (run / "trials" / "part-0001.parquet").unlink()
+    line = one_error_line(nudge("analyze", run).output)
+    assert "needs a resume" in line and "put back the run's own manifest.json from a copy" in line
+    assert "not made with seed 4" in line and "`" not in line  # no command printed
+    resumed = nudge("simulate", run / "config.toml", "--out", run, "--seed", "4", "--participants", "2",
+                    "--resume")  # the command printed before: refused now
+    assert resumed.exit_code == 1
+    assert "cannot resume with seed 4" in one_error_line(resumed.output)
+    assert not (run / "trials" / "part-0001.parquet").exists()  # nothing of seed 4 simulated
+
+
+def test_no_surviving_participants_part_refuses_the_resume(tmp_path, analysed_smoke_run):
+    run = _with_seeds(copy_run(analysed_smoke_run, tmp_path / "run"), experiment_seed=3)
+    for index in (0, 1):
+        (run / "participants" / f"part-{index:04d}.parquet").unlink()
+    line = one_error_line(nudge("analyze", run).output)
+    assert "no participants part survives" in line and "`" not in line
+    resumed = nudge("simulate", run / "config.toml", "--out", run, "--seed", "5", "--participants", "2",
+                    "--resume")
+    assert resumed.exit_code == 1 and "cannot resume with seed 5" in one_error_line(resumed.output)
+
+
+def test_an_older_runs_printed_resume_runs_and_rebuilds_the_part(tmp_path, analysed_smoke_run):
+    # an older nudge's `--set experiment.seed=3 --seed 5`: its parts made with 5, as the manifest says
+    run = _with_seeds(copy_run(analysed_smoke_run, tmp_path / "run"), experiment_seed=3)
+    part = "trials/part-0001.parquet"
+    (run / part).unlink()
+    line = one_error_line(nudge("analyze", run).output)
+    assert "(--seed 5)" in line
+    resumed = _run_printed(line)
+    assert resumed.exit_code == 0, resumed.output  # type: ignore[attr-defined]
+    assert (run / part).read_bytes() == (analysed_smoke_run / part).read_bytes()
