@@ -5,9 +5,14 @@ from __future__ import annotations
 
 import json
 import shlex
+import shutil
 from pathlib import Path
 
+import pytest
 from cli_helpers import copy_run, nudge, one_error_line
+from click.testing import CliRunner
+
+from nudgecli.cli import main
 
 
 def _with_seeds(run: Path, seed: int | None = None, experiment_seed: int | None = None) -> Path:
@@ -64,3 +69,34 @@ def test_an_older_runs_printed_resume_runs_and_rebuilds_the_part(tmp_path, analy
     resumed = _run_printed(line)
     assert resumed.exit_code == 0, resumed.output  # type: ignore[attr-defined]
     assert (run / part).read_bytes() == (analysed_smoke_run / part).read_bytes()
+
+
+# --- nudge fit's look-alike names: a folder's name by a folder, a file's by a .csv ---------------
+
+CALIBRATION = Path("/work/shared/data/calibration")
+needs_calibration = pytest.mark.skipif(not (CALIBRATION / "andrewtest").is_dir(),
+                                       reason=f"the real pilot logs are not here ({CALIBRATION})")
+
+
+def _fit_refused(*args: str) -> str:
+    result = CliRunner().invoke(main, ["fit", *args])
+    assert result.exit_code == 1, result.output
+    return one_error_line(result.output)
+
+
+@needs_calibration
+def test_a_folder_of_session_json_files_is_told_no_session_not_to_rename_one() -> None:
+    # before: "andrewtest.p_phi_given_a.json: ... rename it 'p_phi_given_a'" (a JSON file for a folder)
+    line = _fit_refused(str(CALIBRATION / "reference"))
+    assert "no calibration session found" in line and "rename" not in line
+
+
+@needs_calibration
+def test_a_notes_file_beside_a_session_is_no_look_alike(tmp_path: Path) -> None:
+    # before: refused, "rename it 'distortion_prompts.csv'"; now the mapping session is fitted
+    folder = tmp_path / "p1"
+    shutil.copytree(CALIBRATION / "andrewtest" / "p_phi_given_a", folder / "p_phi_given_a")
+    (folder / "distortion_notes.txt").write_text("the stream was not recorded\n")
+    result = CliRunner().invoke(main, ["fit", str(folder), "--out", str(tmp_path / "profile.json")])
+    assert result.exit_code == 0, result.output
+    assert "no p(phi_m | phi_i) session; using the default table" in result.output

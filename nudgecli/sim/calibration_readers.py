@@ -272,19 +272,35 @@ def _locate(folder: Path, names: dict[str, str], keys: tuple[str, str], subfolde
 _READ_NAMES = (STUDY_MAPPING_FOLDER, STUDY_DISTORTION_FOLDER, *STUDY_FILES.values(), *TIDY_FILES.values())
 
 
+def _close_to_csv(suffix: str) -> bool:
+    """Whether a file's suffix is a close miss of ``.csv`` (``.cvs``, ``.csvv``), not another kind."""
+    from difflib import SequenceMatcher
+
+    return SequenceMatcher(None, suffix.lower(), ".csv").ratio() >= 0.75
+
+
 def _look_alike(folder: Path, keys: tuple[str, str], subfolder: str) -> tuple[Path, str] | None:
     """An entry of ``folder`` (or its ``subfolder``) whose name is not read but resembles one this
     session's folder or files take (``p_phi_given_A``, ``maping_prompts.csv``, a ``.CSV``), with
-    that name; ``None`` where there is none. Names another session reads are never look-alikes."""
+    that name; ``None`` where there is none. Names another session reads are never look-alikes, a
+    folder's name is matched only by a folder, and a file's only by a ``.csv`` file (any case): a
+    ``notes.txt`` or ``x.p_phi_given_a.json`` beside the logs is no misnamed session."""
     expected = {subfolder, *(names[k] for names in (STUDY_FILES, TIDY_FILES) for k in keys)}
+    folders = (STUDY_MAPPING_FOLDER, STUDY_DISTORTION_FOLDER)
     for where in (folder, folder / subfolder):
         entries = sorted(where.iterdir()) if where.is_dir() else []
         for entry in entries:
             if entry.name in _READ_NAMES or entry.name.endswith(tuple(CIAA_SUBFOLDERS.values())):
                 continue
-            meant = next((name for name in _READ_NAMES if entry.name.lower() == name.lower()), None)
-            hint = did_you_mean(entry.name, _READ_NAMES)
-            meant = meant or next((name for name in _READ_NAMES if f"{name!r}" in hint), None)
+            if entry.is_dir():
+                read: tuple[str, ...] = folders
+            elif entry.suffix.lower() == ".csv" or _close_to_csv(entry.suffix):
+                read = tuple(name for name in _READ_NAMES if name not in folders)
+            else:
+                continue
+            meant = next((name for name in read if entry.name.lower() == name.lower()), None)
+            hint = did_you_mean(entry.name, read)
+            meant = meant or next((name for name in read if f"{name!r}" in hint), None)
             if meant in expected:
                 return entry, meant
     return None
