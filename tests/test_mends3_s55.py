@@ -100,3 +100,42 @@ def test_a_notes_file_beside_a_session_is_no_look_alike(tmp_path: Path) -> None:
     result = CliRunner().invoke(main, ["fit", str(folder), "--out", str(tmp_path / "profile.json")])
     assert result.exit_code == 0, result.output
     assert "no p(phi_m | phi_i) session; using the default table" in result.output
+
+
+# --- a questionnaire export's harmless columns ---------------------------------------------------
+
+ANSWERS = Path(__file__).parent / "data" / "questionnaires_two_conditions.csv"
+METRICS = Path(__file__).parent / "data" / "metrics_two_conditions.csv"
+EXPORT_COLUMNS = ("Timestamp", "notes", "Response ID", "age", "gender", "order")
+
+
+def test_a_survey_exports_other_columns_are_noted_not_refused(tmp_path: Path) -> None:
+    # before: "unknown column 'Timestamp'; rename it or remove it"
+    from nudgecli.report.questionnaires import read_questionnaires
+
+    exported = read_questionnaires(ANSWERS)
+    for column in EXPORT_COLUMNS:
+        exported[column] = "x"
+    exported.to_csv(tmp_path / "export.csv", index=False)
+    runner = CliRunner()
+    plain = runner.invoke(main, ["analyze", str(METRICS), "--questionnaires", str(ANSWERS),
+                                 "--out", str(tmp_path / "plain")])
+    assert plain.exit_code == 0, plain.output
+    result = runner.invoke(main, ["analyze", str(METRICS), "--questionnaires", str(tmp_path / "export.csv"),
+                                  "--out", str(tmp_path / "export")])
+    assert result.exit_code == 0, result.output
+    notes = [line for line in result.output.splitlines() if "not read:" in line]
+    assert len(notes) == 1 and notes[0].startswith("Note:")
+    assert "not read: Timestamp, notes, Response ID, age, gender, order" in notes[0]
+    name = "questionnaire_scores.csv"
+    assert (tmp_path / "export" / name).read_bytes() == (tmp_path / "plain" / name).read_bytes()
+
+
+def test_a_near_miss_of_a_questionnaire_column_is_still_refused(tmp_path: Path) -> None:
+    from nudgecli.errors import DataError
+    from nudgecli.report.questionnaires import questionnaire_scores, read_questionnaires
+
+    path = tmp_path / "q.csv"
+    path.write_text("participant,condition,likert_q4,likrt_Q3,Timestamp\n0,a,5,4,t\n0,b,6,3,t\n")
+    with pytest.raises(DataError, match=r"unknown column 'likrt_Q3' \(did you mean 'likert_Q3'\?\)"):
+        questionnaire_scores(read_questionnaires(path), str(path), [])

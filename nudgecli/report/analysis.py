@@ -496,7 +496,7 @@ def _read_scores(questionnaires: str | Path | None, table: pd.DataFrame, source:
         return None, []
     under_way = RunFolder.study_under_way(manifest)
     read = read_run_questionnaires(questionnaires, source, table, manifest)  # its manifest, read once
-    scores = questionnaire_scores(read, str(questionnaires))
+    scores = questionnaire_scores(read, str(questionnaires), notes)  # notes the columns it does not read
     score_names = score_columns(scores)
     trial_conditions = set(table["condition"].astype(str))
     score_conditions = set(scores["condition"])

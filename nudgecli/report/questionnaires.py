@@ -32,9 +32,9 @@ for the same participant and condition (and block), repeated or conflicting, is 
 both rows. Column names are matched in any case (``Participant``, ``TLX_Mental``, ``Likert_Q3``, as
 survey exports and spreadsheets capitalise them) and the scores are named in lower case
 (``likert_q3``); a column named twice, in one case or two, is refused, naming both. A column
-named ``tlx_*`` that is none of the above is refused with the
-nearest name: a misspelt subscale would otherwise be left out of the scores unseen; so is any
-other column (``likrt_Q3``: did you mean ``likert_Q3``?), which would be dropped unseen. A
+named ``tlx_*`` that is none of the above is refused with the nearest name: a misspelt subscale
+would otherwise be left out of the scores unseen; so is a column close to a name read (``likrt_Q3``:
+did you mean ``likert_Q3``?); any other (``Timestamp``, ``notes``) is not read, a ``Note:`` names it. A
 respondent who is not a participant of the analysed run is refused by :func:`check_respondents`.
 Participant and block labels follow the tables' one rule (:mod:`nudgecli.report.tables`): kept
 as written, and matched as written, so ``07`` answers for participant ``07`` and never for ``7``.
@@ -248,12 +248,11 @@ def _check_tlx_names(table: pd.DataFrame, source: str) -> None:
                         "tlx_pair_1..tlx_pair_15 or tlx_weight_<subscale>)")
 
 
-def _check_other_names(table: pd.DataFrame, source: str) -> None:
-    """Refuse a column (in any case) that is no id, ``tlx_*`` or ``likert_*`` column, with the
-    nearest name: a misspelt ``likrt_Q3`` or ``conditon`` would be dropped unseen (names as written,
-    before :func:`_lower_case_names`); one close to none only beside score columns (a metrics table
-    given for the questionnaires holds no scores, which says more)."""
-    scored = any(str(c).lower().startswith((TLX_PREFIX, LIKERT_PREFIX)) for c in table.columns)
+def _check_other_names(table: pd.DataFrame, source: str) -> list[str]:
+    """Refuse a column (any case) that is no id, ``tlx_*`` or ``likert_*`` column but close to one (a
+    misspelt ``likrt_Q3`` would be dropped unseen), with the nearest name as written; the columns close
+    to none (``Timestamp``, ``notes``: a survey export's), not read, are returned for a note."""
+    unread = []
     for column in (str(c) for c in table.columns):
         if column.lower() in ID_COLUMNS or column.lower().startswith((TLX_PREFIX, LIKERT_PREFIX)):
             continue
@@ -261,10 +260,12 @@ def _check_other_names(table: pd.DataFrame, source: str) -> None:
         prefix = did_you_mean(f"{head.lower()}_", (TLX_PREFIX, LIKERT_PREFIX)) if underscore else ""
         meant = next((p for p in (TLX_PREFIX, LIKERT_PREFIX) if repr(p) in prefix), None)
         hint = f" (did you mean {meant + item!r}?)" if meant else did_you_mean(column.lower(), ID_COLUMNS)
-        if not hint and not scored:
+        if not hint:
+            unread.append(column)
             continue
         raise DataError(f"{source}: unknown column {column!r}{hint}; rename it or remove it (a "
                         "questionnaire's columns are participant, condition, block, tlx_* and likert_<item>)")
+    return unread
 
 
 def _pair_wins(table: pd.DataFrame, source: str) -> np.ndarray:
@@ -364,7 +365,8 @@ def _weight_wins(table: pd.DataFrame, source: str) -> np.ndarray:
     return wins
 
 
-def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table") -> pd.DataFrame:
+def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table",
+                         notes: list[str] | None = None) -> pd.DataFrame:
     """Validate a questionnaire table and compute its scores.
 
     Parameters
@@ -373,6 +375,8 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
         The table as read (see the module docstring for its columns).
     source
         Its name (file path) for error messages.
+    notes
+        Gets a note naming the columns not read (:func:`_check_other_names`), where there are any.
 
     Returns
     -------
@@ -391,7 +395,8 @@ def questionnaire_scores(table: pd.DataFrame, source: str = "questionnaire table
     if table.empty:
         raise DataError(f"{source} has no rows; it needs one row per questionnaire response")
     _check_tlx_names(table, source)
-    _check_other_names(table, source)
+    if (unread := _check_other_names(table, source)) and notes is not None:
+        notes.append(f"{source}: not read: {', '.join(unread)} (no id, tlx_* or likert_* column)")
     table = _lower_case_names(table, source)
     for column in ID_COLUMNS[:2]:
         if column not in table.columns:
