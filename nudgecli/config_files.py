@@ -119,19 +119,20 @@ def read_toml(path: Path) -> dict[str, Any]:
     """Parse a TOML file, turning syntax errors into a ``ConfigError`` naming the file. A leading
     UTF-8 byte order mark (which Windows editors write) is skipped, as the CSV readers skip it.
 
-    A file a run or batch folder keeps is checked against the SHA-256 its manifest records first: an
-    experiment whose policy copies changed since kept is a ``DataError``
-    (:func:`~nudgecli.sim.policy_files.changed_copy_error`), and a kept input that does not parse
-    is named as changed since the batch wrote it (its fix), not by the parse error."""
+    A file the command's own output folder keeps (:func:`~nudgecli.runs.batch_trust.reading_as_folder`)
+    is checked against the SHA-256 its manifest records first: an experiment whose policy copies changed
+    since kept is a ``DataError`` (:func:`~nudgecli.runs.batch_trust.own_copy_refusal`), and a kept input
+    that does not parse is named as changed since the batch wrote it (its fix), not by the parse error;
+    another folder's files, read to start a new run or batch, are read as any file."""
     try:
         data = path.read_bytes()
     except OSError as exc:
         raise ConfigError(f"{path}: cannot read ({exc.strerror})") from exc
     beside = path.parent
     if path.name != PLAN_COPY and ((beside / MANIFEST).is_file() or (beside / BATCH_MANIFEST).is_file()):
-        from nudgecli.sim.policy_files import changed_copy_error  # a folder's experiment: its policy copies
+        from nudgecli.runs.batch_trust import own_copy_refusal  # the folder's own experiment: its copies
 
-        if (refusal := changed_copy_error(path)) is not None:  # named before they are imported
+        if (refusal := own_copy_refusal(path)) is not None:  # named before they are imported
             raise refusal
     try:
         return toml_of_bytes(data, path)
@@ -146,9 +147,9 @@ def _kept_input_changed(path: Path) -> str | None:
     wrote it (:func:`nudgecli.runs.batch_trust.kept_input_changed`); ``None`` where it is no such input."""
     if not (path.parent / BATCH_MANIFEST).is_file():
         return None
-    from nudgecli.runs.batch_trust import kept_input_changed  # the batch's record, read only here
+    from nudgecli.runs.batch_trust import kept_input_changed, read_as_own  # the batch's record, read here
 
-    return kept_input_changed(path)
+    return kept_input_changed(path) if read_as_own(path) else None
 
 
 def toml_of_bytes(data: bytes, path: Path) -> dict[str, Any]:

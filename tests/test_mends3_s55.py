@@ -139,3 +139,42 @@ def test_a_near_miss_of_a_questionnaire_column_is_still_refused(tmp_path: Path) 
     path.write_text("participant,condition,likert_q4,likrt_Q3,Timestamp\n0,a,5,4,t\n0,b,6,3,t\n")
     with pytest.raises(DataError, match=r"unknown column 'likrt_Q3' \(did you mean 'likert_Q3'\?\)"):
         questionnaire_scores(read_questionnaires(path), str(path), [])
+
+
+# --- a run's kept policy copy is checked only by the run's own command ----------------------------
+
+def _run_with_kept_policy(tmp_path: Path) -> Path:
+    """A run folder (made by hand) whose experiment imports its kept copy of policies/threshold.py,
+    a finished participant recorded, and the copy's SHA-256 in its manifest."""
+    import hashlib
+
+    experiments = Path(__file__).resolve().parents[1] / "experiments"
+    run = tmp_path / "run"
+    shutil.copytree(experiments / "policies", run / "policies", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(experiments / "custom-policy.toml", run / "config.toml")
+    module = run / "policies" / "threshold.py"
+    (run / "manifest.json").write_text(json.dumps({
+        "policy_files": {"policies/threshold.py": hashlib.sha256(module.read_bytes()).hexdigest()},
+        "checksums": {"0": {}}}))
+    with module.open("a") as copy:
+        copy.write("# a comment added since the run kept it\n")
+    return run
+
+
+def test_a_runs_experiment_simulates_a_new_folder_though_its_kept_copy_changed(tmp_path):
+    # before: refused, "changed since the run kept it ... resume ... or start again with --force"
+    run = _run_with_kept_policy(tmp_path)
+    made = nudge("simulate", run / "config.toml", "--participants", "2", "--out", tmp_path / "new",
+                 "--set", "study.goal_counts=[3]", "--set", "study.corners=['tr']",
+                 "--set", "study.start_modes=['x']", "--set", "study.blocks_per_condition=1",
+                 "--set", "study.shared_layouts=1")
+    assert made.exit_code == 0, made.output
+    assert (tmp_path / "new" / "policies" / "threshold.py").read_bytes() == \
+        (run / "policies" / "threshold.py").read_bytes()  # the new run keeps the code it imported
+
+
+def test_a_runs_own_resume_still_names_its_changed_kept_copy(tmp_path):
+    run = _run_with_kept_policy(tmp_path)
+    resumed = nudge("simulate", run / "config.toml", "--out", run, "--participants", "2", "--resume")
+    assert resumed.exit_code == 1
+    assert "policies/threshold.py: changed since the run kept it" in one_error_line(resumed.output)

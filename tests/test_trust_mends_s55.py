@@ -155,13 +155,17 @@ def test_a_cut_off_kept_sweep_file_is_named_as_changed_not_as_invalid_toml(tmp_p
     import hashlib
 
     from nudgecli.errors import ConfigError
+    from nudgecli.runs.batch_trust import reading_as_folder
     from nudgecli.runs.sweep import load_sweep
 
     written = b'experiment = "smoke"\n[parameters]\n"disambiguation.window" = [3, 5]\n'
     (tmp_path / "batch.json").write_text(json.dumps(
         {"batch": {"kind": "sweep"}, "inputs": {"sweep.toml": hashlib.sha256(written).hexdigest()}}))
     (tmp_path / "sweep.toml").write_bytes(written[:30])  # cut off inside [parameters]
-    with pytest.raises(ConfigError, match=r"sweep\.toml: changed since the batch wrote it"):
+    with pytest.raises(ConfigError, match=r"sweep\.toml: changed since the batch wrote it"), \
+            reading_as_folder(tmp_path):  # read by the folder's own command (its --out)
+        load_sweep(str(tmp_path / "sweep.toml"))
+    with pytest.raises(ConfigError, match=r"sweep\.toml: invalid TOML"):  # another folder's command
         load_sweep(str(tmp_path / "sweep.toml"))
     (tmp_path / "sweep.toml").write_bytes(written)
     assert load_sweep(str(tmp_path / "sweep.toml")).points  # the batch's own bytes read as before

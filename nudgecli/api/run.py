@@ -210,22 +210,28 @@ def _toml_ready(value: object, key: str) -> Any:
                       "a list or a mapping")
 
 
-def experiment_config(name_or_path: str | Path, overrides: Overrides | None = None) -> ExperimentConfig:
+def experiment_config(name_or_path: str | Path, overrides: Overrides | None = None, *,
+                      out: str | Path | None = None) -> ExperimentConfig:
     """The experiment ``name_or_path`` (a preset such as ``paper`` or ``smoke``, or a TOML file) with
-    ``overrides`` applied, validated: what :func:`simulate` would run.
+    ``overrides`` applied, validated: what :func:`simulate` would run. With ``out``, the folder it is
+    to run in: a file that folder keeps (its own ``config.toml``, to resume it) is checked against its
+    record first (:func:`~nudgecli.runs.batch_trust.reading_as_folder`), as ``simulate`` checks it.
 
     Raises
     ------
     ConfigError
         An unknown preset, an invalid file or override (the message ``nudge`` prints).
     """
+    from nudgecli.api import arguments
     from nudgecli.config import load_experiment
+    from nudgecli.runs.batch_trust import reading_as_folder
 
-    return load_experiment(str(name_or_path), override_texts(overrides))
+    with reading_as_folder(arguments.out_folder(out)):
+        return load_experiment(str(name_or_path), override_texts(overrides))
 
 
 def _loaded_experiment(experiment: str | Path | ExperimentConfig, overrides: Overrides | None,
-                       options: dict[str, Any]) -> ExperimentConfig:
+                       options: dict[str, Any], out: str | Path | None = None) -> ExperimentConfig:
     """``simulate``'s experiment: loaded with ``overrides``, or given loaded (then without them). A
     run folder's ``config.toml`` takes the people file the run keeps where ``options`` (``simulate``'s
     :func:`~nudgecli.api.arguments.run_options`) give none: simulated, it gives the run's tables again
@@ -234,7 +240,7 @@ def _loaded_experiment(experiment: str | Path | ExperimentConfig, overrides: Ove
     from nudgecli.run_folder_config import kept_run_people
 
     if not isinstance(experiment, ExperimentConfig):
-        config = experiment_config(experiment, overrides)
+        config = experiment_config(experiment, overrides, out=out)
         options["people"] = kept_run_people(experiment, options["people"], options["log"])
         return config
     if overrides:
@@ -309,7 +315,7 @@ def simulate(experiment: str | Path | ExperimentConfig, *, participants: int | N
         check_scheduler_address(options["scheduler"])
         participants = arguments.whole_number("participants", participants, optional=True)
         out, plan_text = arguments.out_folder(out), arguments.plan(plan, loaded=False)  # a preset or a file
-        config = _loaded_experiment(experiment, overrides, options)
+        config = _loaded_experiment(experiment, overrides, options, out)  # out's own files checked as kept
         temporary = out is None
         target = temporary_folder(config.experiment.name) if out is None else Path(out)
         made = temporary or not target.exists()

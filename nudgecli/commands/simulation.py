@@ -99,7 +99,7 @@ def _simulate(experiment: str, out: str | None, seed: int | None, participants: 
     # and the --workers typed, 1 too: with the variable set for the rerun, it would run on its scheduler
     typed_workers = workers if ctx.get_parameter_source("workers") is ParameterSource.COMMANDLINE else None
     scheduler = chosen_scheduler(ctx, scheduler)  # --workers wins over the variable
-    config = api.experiment_config(experiment, overrides)
+    config = api.experiment_config(experiment, overrides, out=out)  # out's own files checked as kept
     people = kept_run_people(experiment, people, info)  # a run's config.toml: the people file it keeps
     target = Path(out) if out else default_run_dir(config.experiment.name)
     if command == "run" and plan is None:  # the plan `run` analyses with, refused before simulating

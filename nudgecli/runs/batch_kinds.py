@@ -32,6 +32,7 @@ from nudgecli.runs.batch_folder import (
     sweep_inputs,
 )
 from nudgecli.runs.batch_resume import with_resume_command
+from nudgecli.runs.batch_trust import reading_as_folder
 from nudgecli.runs.study import checked_plan, with_participants
 from nudgecli.sim.people_file import MANIFEST_KEY as PEOPLE_KEY
 from nudgecli.sim.people_file import People, check_same_people, people_of
@@ -226,7 +227,8 @@ def replicate(experiment: str, replications: int, out: str | Path, *, seed: int 
     ``options`` go to :func:`run_batch`.
     """
     _check(replications, seed)
-    config = _load(experiment, overrides, participants, "replicate")
+    with reading_as_folder(out):  # out's own kept files checked against its record, another's not
+        config = _load(experiment, overrides, participants, "replicate")
     people = kept_run_people(experiment, people, options.get("log"))  # a run's config.toml: its people
     check_participant_counts([config.study.participants], "12")  # as power's: one has no participant test
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name, world=config.world.kind),
@@ -278,7 +280,8 @@ def power(experiment: str, participant_counts: Sequence[int], replications: int,
     check_participant_counts(counts, "6,9,12,18,24")
     if not 0 < target < 1:
         raise ConfigError(f"--target must be strictly between 0 and 1 (a power), got {target}")
-    config = _load(experiment, overrides, None, "power")
+    with reading_as_folder(out):
+        config = _load(experiment, overrides, None, "power")
     people = kept_run_people(experiment, people, options.get("log"))  # a run's config.toml: its people
     with_participants(config, counts[-1])  # the largest study within study.participants' bound
     chosen = checked_plan(resolve_plan(plan, experiment=config.experiment.name, world=config.world.kind),
@@ -318,7 +321,8 @@ def sweep(sweep_file: str, out: str | Path, *, replications: int | None = None, 
     """
     from nudgecli.runs.sweep import load_sweep
 
-    loaded = load_sweep(sweep_file)
+    with reading_as_folder(out):
+        loaded = load_sweep(sweep_file)
     spec = loaded.spec
     for point in loaded.points:
         check_pairs(point.config, "sweep", f"{loaded.source}: experiment {loaded.experiment_file}")

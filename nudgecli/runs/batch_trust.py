@@ -1,6 +1,8 @@
 """Whether what a batch folder keeps agrees with what its ``batch.json`` records, before a resume
 trusts either: the experiment and plan it keeps (their SHA-256 in ``batch.json``'s ``inputs``), and
-``batch.json``'s own plan against the kept plan whose SHA-256 it records.
+``batch.json``'s own plan against the kept plan whose SHA-256 it records. A TOML file a run or batch
+folder keeps is checked so as it is read only by the command whose output folder it is
+(:func:`reading_as_folder`): another command reads it as any file, to start a new folder.
 
 :func:`nudgecli.runs.batch_folder.prepare_folder` calls these; they read and never write.
 """
@@ -8,11 +10,13 @@ trusts either: the experiment and plan it keeps (their SHA-256 in ``batch.json``
 from __future__ import annotations
 
 import hashlib
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from contextvars import ContextVar
 from pathlib import Path
 from typing import Any
 
-from nudgecli.errors import ConfigError, RunFolderError
+from nudgecli.errors import ConfigError, DataError, RunFolderError
 from nudgecli.run_folder_names import BATCH_MANIFEST
 from nudgecli.run_folder_record import file_sha256
 from nudgecli.runs.batch_folder import EXPERIMENT_COPY, INPUTS_KEY, PLAN_COPY  # noqa: F401 - named in docs
@@ -60,6 +64,38 @@ def changed_input_message(kept: Path) -> str:
             f"records in {INPUTS_KEY!r}), so the batch would not resume with what made its results; delete "
             "it and resume with the command that started the batch (it writes the file again), or put it "
             "back from a backup")
+
+
+#: The output folder of the command reading (:func:`reading_as_folder`), resolved; ``None`` outside one.
+_OWN_FOLDER: ContextVar[Path | None] = ContextVar("own_folder", default=None)
+
+
+@contextmanager
+def reading_as_folder(out: str | Path | None) -> Iterator[None]:
+    """Within it, a TOML file of the folder ``out`` (the command's ``--out``: the run or batch it
+    resumes or replaces) is read as that folder's kept input, checked against its record
+    (:func:`read_as_own`); a file of another folder, read to start a new one, as any file."""
+    token = _OWN_FOLDER.set(None if out is None else Path(out).resolve())
+    try:
+        yield
+    finally:
+        _OWN_FOLDER.reset(token)
+
+
+def read_as_own(path: Path) -> bool:
+    """Whether ``path`` is read as a file its folder keeps: the folder is the reading command's own
+    (:func:`reading_as_folder`)."""
+    own = _OWN_FOLDER.get()
+    return own is not None and path.parent.resolve() == own
+
+
+def own_copy_refusal(path: Path) -> DataError | None:
+    """:func:`~nudgecli.sim.policy_files.changed_copy_error` of the experiment file ``path`` where it
+    is read as its folder's own (:func:`read_as_own`); ``None`` for another folder's, which a new run
+    or batch takes as it is now (it imports the policy code it finds and keeps its own copies)."""
+    from nudgecli.sim.policy_files import changed_copy_error
+
+    return changed_copy_error(path) if read_as_own(path) else None
 
 
 def kept_input_changed(path: Path) -> str | None:
