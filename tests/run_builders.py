@@ -3,6 +3,7 @@ pytest puts this folder on the path, as for ``cli_helpers``)."""
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
@@ -66,3 +67,17 @@ def hard_puff_mapping(folder: Path) -> Path:
         recorder.tick(now)
     write_sessions(folder, mapping=recorder.session())
     return folder
+
+
+def with_seeds(run: Path, seed: int | None = None, experiment_seed: int | None = None) -> Path:
+    """``run`` with its manifest's seed and its experiment's seed (manifest and config.toml) set."""
+    manifest = json.loads((run / "manifest.json").read_text())
+    if seed is not None:
+        manifest["seed"] = seed
+    if experiment_seed is not None:
+        manifest["config"]["experiment"]["seed"] = experiment_seed
+        config = (run / "config.toml").read_text()
+        (run / "config.toml").write_text(config.replace(f"seed = {manifest['seed']}\n",
+                                                        f"seed = {experiment_seed}\n", 1))
+    (run / "manifest.json").write_text(json.dumps(manifest))
+    return run

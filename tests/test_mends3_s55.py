@@ -11,21 +11,9 @@ from pathlib import Path
 import pytest
 from cli_helpers import copy_run, nudge, one_error_line
 from click.testing import CliRunner
+from run_builders import with_seeds
 
 from nudgecli.cli import main
-
-
-def _with_seeds(run: Path, seed: int | None = None, experiment_seed: int | None = None) -> Path:
-    manifest = json.loads((run / "manifest.json").read_text())
-    if seed is not None:
-        manifest["seed"] = seed
-    if experiment_seed is not None:
-        manifest["config"]["experiment"]["seed"] = experiment_seed
-        config = (run / "config.toml").read_text()
-        (run / "config.toml").write_text(config.replace(f"seed = {manifest['seed']}\n",
-                                                        f"seed = {experiment_seed}\n", 1))
-    (run / "manifest.json").write_text(json.dumps(manifest))
-    return run
 
 
 def _run_printed(line: str) -> object:
@@ -36,7 +24,7 @@ def _run_printed(line: str) -> object:
 
 def test_a_hand_edited_seed_is_refused_and_prints_no_resume_that_would_run(tmp_path, analysed_smoke_run):
     # the manifest's seed edited to 4 (its experiment and its parts say 5): the parts tell it apart
-    run = _with_seeds(copy_run(analysed_smoke_run, tmp_path / "run"), seed=4)
+    run = with_seeds(copy_run(analysed_smoke_run, tmp_path / "run"), seed=4)
     (run / "trials" / "part-0001.parquet").unlink()
     line = one_error_line(nudge("analyze", run).output)
     assert "needs a resume" in line and "put back the run's own manifest.json from a copy" in line
@@ -49,7 +37,7 @@ def test_a_hand_edited_seed_is_refused_and_prints_no_resume_that_would_run(tmp_p
 
 
 def test_no_surviving_participants_part_refuses_the_resume(tmp_path, analysed_smoke_run):
-    run = _with_seeds(copy_run(analysed_smoke_run, tmp_path / "run"), experiment_seed=3)
+    run = with_seeds(copy_run(analysed_smoke_run, tmp_path / "run"), experiment_seed=3)
     for index in (0, 1):
         (run / "participants" / f"part-{index:04d}.parquet").unlink()
     line = one_error_line(nudge("analyze", run).output)
@@ -61,7 +49,7 @@ def test_no_surviving_participants_part_refuses_the_resume(tmp_path, analysed_sm
 
 def test_an_older_runs_printed_resume_runs_and_rebuilds_the_part(tmp_path, analysed_smoke_run):
     # an older nudge's `--set experiment.seed=3 --seed 5`: its parts made with 5, as the manifest says
-    run = _with_seeds(copy_run(analysed_smoke_run, tmp_path / "run"), experiment_seed=3)
+    run = with_seeds(copy_run(analysed_smoke_run, tmp_path / "run"), experiment_seed=3)
     part = "trials/part-0001.parquet"
     (run / part).unlink()
     line = one_error_line(nudge("analyze", run).output)

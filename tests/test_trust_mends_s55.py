@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 from batch_helpers import REPLICATE, a_finished_replicate
 from cli_helpers import copy_run, nudge, one_error_line
+from run_builders import with_seeds
 
 
 def _drop(run: Path, participant: int, kinds: tuple[str, ...] = ("trials", "steps")) -> None:
@@ -39,22 +40,8 @@ def _batch_resume(batch: Path) -> list[str]:
 
 # --- a manifest's seed differing from its experiment's ----------------------------------------------
 
-def _seeds(run: Path, seed: int | None = None, experiment_seed: int | None = None) -> Path:
-    """``run`` with its manifest's seed and its experiment's seed (manifest and config.toml) set."""
-    manifest = json.loads((run / "manifest.json").read_text())
-    if seed is not None:
-        manifest["seed"] = seed
-    if experiment_seed is not None:
-        manifest["config"]["experiment"]["seed"] = experiment_seed
-        config = (run / "config.toml").read_text()
-        (run / "config.toml").write_text(config.replace(f"seed = {manifest['seed']}\n",
-                                                        f"seed = {experiment_seed}\n", 1))
-    (run / "manifest.json").write_text(json.dumps(manifest))
-    return run
-
-
 def test_a_manifest_whose_seed_was_edited_is_refused_not_resumed(tmp_path, analysed_smoke_run):
-    run = _seeds(copy_run(analysed_smoke_run, tmp_path / "run"), seed=4)  # its experiment records 5
+    run = with_seeds(copy_run(analysed_smoke_run, tmp_path / "run"), seed=4)  # its experiment records 5
     _drop(run, 1)
     analyzed = nudge("analyze", run)
     assert analyzed.exit_code == 1
@@ -70,7 +57,7 @@ def test_a_manifest_whose_seed_was_edited_is_refused_not_resumed(tmp_path, analy
 
 def test_an_older_runs_seeds_read_and_its_printed_resume_restores_its_own_parts(tmp_path, analysed_smoke_run):
     # an older nudge's `--set experiment.seed=3 --seed 5`: 3 in its experiment, its parts made with 5
-    run = _seeds(copy_run(analysed_smoke_run, tmp_path / "run"), experiment_seed=3)
+    run = with_seeds(copy_run(analysed_smoke_run, tmp_path / "run"), experiment_seed=3)
     analyzed = nudge("analyze", run, "--bootstrap", "100", "--out", tmp_path / "A")
     assert analyzed.exit_code == 0, analyzed.output  # intact and complete: vouched for by its SHA-256
     _drop(run, 1, ("trials",))
