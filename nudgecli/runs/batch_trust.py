@@ -19,7 +19,12 @@ from typing import Any
 from nudgecli.errors import ConfigError, DataError, RunFolderError
 from nudgecli.run_folder_names import BATCH_MANIFEST
 from nudgecli.run_folder_record import file_sha256
-from nudgecli.runs.batch_folder import EXPERIMENT_COPY, INPUTS_KEY, PLAN_COPY  # noqa: F401 - named in docs
+from nudgecli.runs.batch_folder import (  # noqa: F401 - EXPERIMENT_COPY named in docs
+    EXPERIMENT_COPY,
+    INPUTS_KEY,
+    PLAN_COPY,
+    read_manifest,
+)
 from nudgecli.sim.policy_files import check_copies_placeable
 
 
@@ -102,13 +107,14 @@ def kept_input_changed(path: Path) -> str | None:
     """:func:`changed_input_message` where ``path`` is an input a batch keeps (its folder's
     ``batch.json`` records its SHA-256 in :data:`INPUTS_KEY`) and its bytes are not those; else
     ``None`` (no batch there, a batch.json unreadable: its own refusal says so)."""
-    import json
-
+    document, _ = read_manifest(path.parent / BATCH_MANIFEST)
+    recorded = document.get(INPUTS_KEY) if document is not None else None
+    digest = recorded.get(path.name) if isinstance(recorded, Mapping) else None
+    if not isinstance(digest, str):
+        return None
     try:
-        recorded = json.loads((path.parent / BATCH_MANIFEST).read_text(encoding="utf-8"))[INPUTS_KEY]
-        digest = recorded[path.name]
-        changed = isinstance(digest, str) and file_sha256(path) != digest
-    except (OSError, ValueError, LookupError, TypeError):
+        changed = file_sha256(path) != digest
+    except OSError:
         return None
     return changed_input_message(path) if changed else None
 
